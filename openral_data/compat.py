@@ -1,0 +1,41 @@
+"""Compatibility of scene, robot and rSkill, checked before anything runs or is written."""
+
+from __future__ import annotations
+
+from openral_data.errors import CompatibilityError
+from openral_data.producers.base import ProducerSpec
+from openral_data.schemas.robot import RobotManifest
+from openral_data.schemas.rskill import RSkillManifest
+
+
+def check_compatibility(
+    robot: RobotManifest, rskill: RSkillManifest, spec: ProducerSpec, *, rskill_source: str, scene_source: str
+) -> None:
+    """Raise CompatibilityError naming the file and field of the first mismatch."""
+    if not set(rskill.embodiment_tags) & set(robot.embodiment_tags):
+        raise CompatibilityError(
+            f"{rskill_source}: embodiment_tags: {rskill.embodiment_tags} share nothing with robot "
+            f"{robot.name!r} tags {robot.embodiment_tags}"
+        )
+    if spec.state_dim is not None and spec.state_dim != rskill.state_contract.dim:
+        raise CompatibilityError(
+            f"{rskill_source}: state_contract.dim: {rskill.state_contract.dim} but scene {scene_source} "
+            f"produces a state of {spec.state_dim}"
+        )
+    if spec.action_dim is not None and spec.action_dim != rskill.action_contract.dim:
+        raise CompatibilityError(
+            f"{rskill_source}: action_contract.dim: {rskill.action_contract.dim} but scene {scene_source} "
+            f"accepts actions of {spec.action_dim}"
+        )
+    missing = [c for c in rskill.required_cameras if c not in spec.cameras]
+    if missing:
+        raise CompatibilityError(
+            f"{rskill_source}: required_cameras: {missing} not provided by scene {scene_source} "
+            f"(it has {sorted(spec.cameras)})"
+        )
+    for name, shape in spec.cameras.items():
+        if shape.height % 2 or shape.width % 2:
+            raise CompatibilityError(
+                f"{scene_source}: scene.cameras.{name}: {shape.width}x{shape.height} — video (yuv420p) needs "
+                "even width and height"
+            )

@@ -1,0 +1,1 @@
+"""Simulated producers, one module per backend."""

@@ -1,0 +1,120 @@
+"""The `mock` scene: no physics, fully deterministic, for verifying alignment end to end.
+
+At step t of episode e the state is `[t, e, 0, ...]` (float32, contract dim) and every camera frame is a solid
+colour (R = t mod 256, G = e mod 256, B = 128), so a decoded video frame says which row it belongs to.
+The episode succeeds after `success_after` steps (an int, or a list cycled over episodes). Any action size
+is accepted. `fault` params inject contract violations at a given step so the bridge can be tested through
+the whole pipeline.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+import numpy as np
+import numpy.typing as npt
+from pydantic import Field
+
+from openral_data.errors import ConfigError
+from openral_data.producers.base import CameraShape, Observation, ProducerSpec, StepResult
+from openral_data.schemas.base import StrictModel, format_validation_error
+from openral_data.schemas.scene import SimScene
+
+FaultKind = Literal["nan_state", "float_image", "wrong_image_shape", "extra_camera", "missing_camera", "state_dim"]
+
+
+class MockFault(StrictModel):
+    kind: FaultKind
+    at_step: int = Field(default=0, ge=0)
+    episode: int = Field(default=0, ge=0)
+
+
+class MockParams(StrictModel):
+    success_after: int | list[int] = 10
+    state_dim: int | None = Field(default=None, gt=0, description="default: the rSkill state contract dim")
+    fault: MockFault | None = None
+
+
+class MockScene:
+    """Deterministic producer; see the module docstring."""
+
+    def __init__(self, scene: SimScene, state_dim: int, source: str = "scene") -> None:
+        from pydantic import ValidationError
+
+        try:
+            self.params = MockParams.model_validate(scene.scene.params)
+        except ValidationError as exc:
+            raise ConfigError(format_validation_error(f"{source}: scene.params", exc)) from None
+        if isinstance(self.params.success_after, list) and (
+            not self.params.success_after or min(self.params.success_after) < 1
+        ):
+            raise ConfigError(f"{source}: scene.params.success_after: needs positive step counts")
+        self._state_dim = self.params.state_dim or state_dim
+        self._task = scene.task.instruction
+        self._cameras = {c.name: CameraShape(c.height, c.width) for c in scene.scene.cameras}
+        self.spec = ProducerSpec(
+            state_dim=self._state_dim, action_dim=None, cameras=self._cameras, fps=scene.scene.fps,
+            can_restore_state=True,
+        )
+        self._episode = -1
+        self._t = 0
+        self._seed = 0
+
+    def _success_after(self) -> int:
+        s = self.params.success_after
+        return s if isinstance(s, int) else s[self._episode % len(s)]
+
+    def _observation(self) -> Observation:
+        t, e = self._t, self._episode
+        state = np.zeros(self._state_dim, dtype=np.float32)
+        state[0] = t
+        if self._state_dim > 1:
+            state[1] = e
+        images: dict[str, npt.NDArray[Any]] = {}
+        colour = np.array([t % 256, e % 256, 128], dtype=np.uint8)
+        for name, shape in self._cameras.items():
+            images[name] = np.broadcast_to(colour, (shape.height, shape.width, 3)).copy()
+        fault = self.params.fault
+        if fault is not None and fault.episode == e and fault.at_step == t:
+            state, images = self._inject(fault.kind, state, images)
+        return Observation(images=images, state=state, task=self._task)
+
+    @staticmethod
+    def _inject(
+        kind: str, state: npt.NDArray[Any], images: dict[str, npt.NDArray[Any]]
+    ) -> tuple[npt.NDArray[Any], dict[str, npt.NDArray[Any]]]:
+        first = next(iter(images), None)
+        if kind == "nan_state":
+            state = state.copy()
+            state[-1] = np.nan
+        elif kind == "state_dim":
+            state = np.append(state, np.float32(0))
+        elif kind == "float_image" and first is not None:
+            images[first] = images[first].astype(np.float32) / 255.0
+        elif kind == "wrong_image_shape" and first is not None:
+            images[first] = images[first][:-2]
+        elif kind == "extra_camera":
+            images["undeclared_cam"] = np.zeros((8, 8, 3), dtype=np.uint8)
+        elif kind == "missing_camera" and first is not None:
+            del images[first]
+        return state, images
+
+    def reset(self, seed: int) -> Observation:
+        self._episode += 1
+        self._seed = seed
+        self._t = 0
+        return self._observation()
+
+    def step(self, action: npt.NDArray[np.float32]) -> StepResult:
+        self._t += 1
+        success = self._t >= self._success_after()
+        return StepResult(self._observation(), reward=float(success), success=success, terminated=success)
+
+    def render(self) -> dict[str, npt.NDArray[np.uint8]]:
+        return self._observation().images
+
+    def initial_state(self) -> dict[str, Any]:
+        return {"episode": self._episode, "seed": self._seed}
+
+    def close(self) -> None:
+        pass

@@ -1,0 +1,153 @@
+"""`record`: scene + rSkill (+ robot) -> producer -> bridge -> sinks, one episode at a time."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from datetime import datetime
+from pathlib import Path
+
+from openral_data import __version__, paths, registry
+from openral_data.bridge import DatasetBridge
+from openral_data.compat import check_compatibility
+from openral_data.errors import ConfigError, OpenralError
+from openral_data.schemas.scene import SimScene, load_recordable_scene
+from openral_data.sinks.base import DatasetSchema, EpisodeRecord
+from openral_data.sinks.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
+from openral_data.sinks.lerobot_v3.video import Codec
+
+
+@dataclass(frozen=True)
+class RecordOptions:
+    scene: str = paths.DEFAULT_SCENE
+    rskill: str = "random-mock"
+    robot: str | None = None
+    n_episodes: int | None = None
+    seed: int | None = None
+    max_steps: int | None = None
+    out: Path | None = None
+    codec: Codec = "av1"
+
+
+@dataclass(frozen=True)
+class RecordSummary:
+    out: Path
+    episodes: list[EpisodeRecord]
+    frames: int
+    seconds: float
+
+    @property
+    def success_rate(self) -> float:
+        return sum(e.success for e in self.episodes) / len(self.episodes) if self.episodes else 0.0
+
+    @property
+    def fps(self) -> float:
+        return self.frames / self.seconds if self.seconds > 0 else 0.0
+
+
+ProgressFn = Callable[[EpisodeRecord | None, int], None]  # (finished episode or None, frames so far)
+
+
+def default_out(scene: SimScene, rskill_id: str) -> Path:
+    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
+    base = paths.datasets_dir() / f"{scene.scene.id}--{rskill_id}--{stamp}"
+    out, k = base, 1
+    while out.exists():
+        k += 1
+        out = base.with_name(f"{base.name}-{k}")
+    return out
+
+
+def check_out(out: Path) -> None:
+    if out.exists() and not out.is_dir():
+        raise OpenralError(f"{out}: --out exists and is not a directory")
+    if out.is_dir() and any(out.iterdir()):
+        if (out / "meta" / "info.json").exists():
+            raise OpenralError(
+                f"{out}: --out already holds a dataset; refusing to overwrite it (choose a new --out)"
+            )
+        raise OpenralError(f"{out}: --out exists, is not empty and is not a dataset; refusing to write there")
+
+
+def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSummary:
+    # 1. everything that can be wrong with the inputs is found here, before anything is written
+    scene_path = registry.resolve_scene_path(opts.scene)
+    scene = load_recordable_scene(scene_path)
+    scene_src = str(scene_path)
+    rskill, rskill_path = registry.resolve_rskill(opts.rskill)
+    rskill_src = str(rskill_path)
+    robot_id = opts.robot or scene.scene.robot
+    if robot_id is None:
+        raise ConfigError(f"{scene_src}: scene.robot: not set; pass --robot (valid: {', '.join(registry.robot_ids())})")
+    robot = registry.load_robot(robot_id)
+    make_policy = registry.policy_factory(rskill, rskill_src)
+    make_scene = registry.scene_factory(scene.scene.type, scene_src)
+    n_episodes = opts.n_episodes if opts.n_episodes is not None else scene.n_episodes
+    base_seed = opts.seed if opts.seed is not None else scene.seed
+    max_steps = opts.max_steps if opts.max_steps is not None else scene.task.max_steps
+    if n_episodes < 1:
+        raise OpenralError(f"--n-episodes must be >= 1, got {n_episodes}")
+    if max_steps < 1:
+        raise OpenralError(f"--max-steps must be >= 1, got {max_steps}")
+    if base_seed < 0:
+        raise OpenralError(f"--seed must be >= 0, got {base_seed}")
+    out = opts.out if opts.out is not None else default_out(scene, rskill.id)
+    check_out(out)
+
+    env = make_scene(scene, robot, rskill, scene_src)
+    try:
+        check_compatibility(robot, rskill, env.spec, rskill_source=rskill_src, scene_source=scene_src)
+        policy = make_policy(rskill)
+        schema = DatasetSchema(
+            fps=env.spec.fps,
+            state_names=tuple(rskill.state_contract.names),
+            action_names=tuple(rskill.action_contract.names),
+            cameras=dict(env.spec.cameras),
+            robot_type=robot.name,
+            metadata={
+                "openral_data_version": __version__,
+                "scene": {"path": scene_src, "config": scene.model_dump(mode="json")},
+                "rskill": {"path": rskill_src, "config": rskill.model_dump(mode="json")},
+                "robot": robot.name,
+            },
+        )
+        writer = LeRobotV3Writer(out, schema, WriterConfig(video=VideoSettings(codec=opts.codec)))
+        bridge = DatasetBridge(schema, [writer])
+        records: list[EpisodeRecord] = []
+        frames = 0
+        t0 = time.perf_counter()
+        try:
+            for e in range(n_episodes):
+                seed = base_seed + e
+                obs = env.reset(seed)
+                policy.reset(seed)
+                bridge.begin_episode(seed, env.initial_state())
+                success = False
+                for t in range(max_steps):
+                    action = policy.step(obs, obs.task)
+                    bridge.check_action(action)
+                    result = env.step(action)
+                    last = result.terminated or t == max_steps - 1
+                    bridge.add_step(obs, action, reward=result.reward, done=last, success=result.success)
+                    frames += 1
+                    obs = result.observation
+                    if result.terminated:
+                        success = result.success
+                        break
+                rec = bridge.end_episode(success)[0]
+                records.append(rec)
+                if progress is not None:
+                    progress(rec, frames)
+        except BaseException as exc:
+            bridge.discard_episode()
+            bridge.close()
+            if isinstance(exc, OpenralError) and records:
+                raise type(exc)(f"{exc} ({len(records)} finished episode(s) kept in {out})") from None
+            raise
+        bridge.close()
+        policy.close()
+        return RecordSummary(out=out, episodes=records, frames=frames, seconds=time.perf_counter() - t0)
+    finally:
+        env.close()
+

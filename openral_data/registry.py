@@ -1,0 +1,112 @@
+"""Registries: SCENES (scene types -> producer factories), POLICIES (policy ids -> adapters), ROBOTS
+(auto-discovered from `robots/<id>/robot.yaml`), plus resolution of scene and rSkill references."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+from openral_data import paths
+from openral_data.errors import ConfigError, OpenralError
+from openral_data.policies.base import PolicyAdapter
+from openral_data.policies.basic import RandomPolicy, ZeroPolicy
+from openral_data.producers.base import SimRollout
+from openral_data.schemas.base import load_model
+from openral_data.schemas.robot import RobotManifest
+from openral_data.schemas.rskill import RSkillManifest
+from openral_data.schemas.scene import SimScene
+
+SceneFactory = Callable[[SimScene, RobotManifest, RSkillManifest, str], SimRollout]
+PolicyFactory = Callable[[RSkillManifest], PolicyAdapter]
+
+
+def _mock_factory(scene: SimScene, robot: RobotManifest, rskill: RSkillManifest, source: str) -> SimRollout:
+    from openral_data.producers.sim.mock import MockScene
+
+    return MockScene(scene, state_dim=rskill.state_contract.dim, source=source)
+
+
+SCENES: dict[str, SceneFactory] = {"mock": _mock_factory}
+POLICIES: dict[str, PolicyFactory] = {"zero": ZeroPolicy, "random": RandomPolicy}
+
+
+def unknown(kind: str, value: str, valid: list[str]) -> OpenralError:
+    return OpenralError(f"unknown {kind} {value!r}; valid: {', '.join(sorted(valid)) or '(none)'}")
+
+
+def scene_factory(scene_type: str, source: str) -> SceneFactory:
+    if scene_type not in SCENES:
+        raise ConfigError(f"{source}: scene.type: unknown scene type {scene_type!r}; valid: {', '.join(sorted(SCENES))}")
+    return SCENES[scene_type]
+
+
+def policy_factory(rskill: RSkillManifest, source: str) -> PolicyFactory:
+    if rskill.policy not in POLICIES:
+        raise ConfigError(f"{source}: policy: unknown policy {rskill.policy!r}; valid: {', '.join(sorted(POLICIES))}")
+    return POLICIES[rskill.policy]
+
+
+# --- robots -----------------------------------------------------------------------------------------------
+
+
+def robot_ids() -> list[str]:
+    root = paths.robots_dir()
+    return sorted(p.parent.name for p in root.glob("*/robot.yaml")) if root.is_dir() else []
+
+
+def load_robot(robot_id: str) -> RobotManifest:
+    path = paths.robots_dir() / robot_id / "robot.yaml"
+    if not path.is_file():
+        raise unknown("robot", robot_id, robot_ids())
+    robot = load_model(RobotManifest, path)
+    if robot.name != robot_id:
+        raise ConfigError(f"{path}: name: {robot.name!r} must equal its folder name {robot_id!r}")
+    return robot
+
+
+# --- rSkills ----------------------------------------------------------------------------------------------
+
+
+def rskill_ids() -> list[str]:
+    root = paths.rskills_dir()
+    return sorted(p.parent.name for p in root.glob("*/rskill.yaml")) if root.is_dir() else []
+
+
+def resolve_rskill(ref: str) -> tuple[RSkillManifest, Path]:
+    """An rSkill id (folder under `rskills/`), a folder holding `rskill.yaml`, or a YAML file."""
+    candidate = Path(ref).expanduser()
+    if candidate.is_dir():
+        candidate = candidate / "rskill.yaml"
+    if not candidate.is_file():
+        by_id = paths.rskills_dir() / ref / "rskill.yaml"
+        if not by_id.is_file():
+            raise unknown("rSkill", ref, rskill_ids())
+        candidate = by_id
+    return load_model(RSkillManifest, candidate), candidate
+
+
+# --- scenes -----------------------------------------------------------------------------------------------
+
+SCENE_TIERS = ("sim", "benchmark", "deploy")
+
+
+def scene_files() -> dict[str, Path]:
+    out: dict[str, Path] = {}
+    for tier in SCENE_TIERS:
+        folder = paths.scenes_dir() / tier
+        for p in sorted(folder.glob("*.yaml")) if folder.is_dir() else []:
+            out.setdefault(p.stem, p)
+    return out
+
+
+def resolve_scene_path(ref: str) -> Path:
+    """A path to a scene YAML, or a scene file's stem under `scenes/{sim,benchmark,deploy}/`."""
+    candidate = Path(ref).expanduser()
+    if candidate.is_file():
+        return candidate
+    files = scene_files()
+    if ref in files:
+        return files[ref]
+    if candidate.suffix in (".yaml", ".yml") or "/" in ref:
+        raise ConfigError(f"{ref}: file not found")
+    raise unknown("scene", ref, list(files))

@@ -1,0 +1,124 @@
+"""Scene tiers. DeployScene (where: scene) ⊆ SimScene (+ task, seed, n_episodes) ⊆ BenchmarkScene (+ metadata).
+
+Each tier has its own strict loader. A scene never names a policy: the policy always comes from `--rskill`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import Field, model_validator
+
+from openral_data.errors import ConfigError
+from openral_data.schemas.base import StrictModel, read_yaml, validate
+
+Tier = Literal["deploy", "sim", "benchmark"]
+_POLICY_KEYS = ("vla", "policy", "rskill")
+
+
+class SceneCamera(StrictModel):
+    name: str = Field(min_length=1, pattern=r"^[A-Za-z0-9_]+$")
+    width: int = Field(gt=0)
+    height: int = Field(gt=0)
+
+
+class RenderConfig(StrictModel):
+    shadows: bool = False
+    reflections: bool = False
+
+
+class SceneSpec(StrictModel):
+    id: str = Field(min_length=1, pattern=r"^[A-Za-z0-9_\-]+$")
+    type: str = Field(min_length=1, description="a SCENES registry key: which producer builds this scene")
+    robot: str | None = None
+    fps: int = Field(default=20, gt=0, le=1000)
+    cameras: list[SceneCamera] = Field(default_factory=list)
+    render: RenderConfig = Field(default_factory=RenderConfig)
+    params: dict[str, Any] = Field(default_factory=dict)
+
+    @model_validator(mode="after")
+    def _unique_cameras(self) -> SceneSpec:
+        names = [c.name for c in self.cameras]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ValueError(f"duplicate camera names: {dup}")
+        return self
+
+
+class TaskSpec(StrictModel):
+    scene_id: str
+    instruction: str = Field(min_length=1)
+    max_steps: int = Field(default=200, gt=0)
+    params: dict[str, Any] = Field(default_factory=dict)
+
+
+class BenchmarkMetadata(StrictModel):
+    paper: str = Field(min_length=1)
+    honest_scope: str = Field(min_length=1)
+
+
+class DeployScene(StrictModel):
+    tier: Literal["deploy"]
+    scene: SceneSpec
+
+
+class SimScene(StrictModel):
+    tier: Literal["sim"]
+    scene: SceneSpec
+    task: TaskSpec
+    seed: int = Field(default=0, ge=0)
+    n_episodes: int = Field(default=1, gt=0)
+
+    @model_validator(mode="after")
+    def _task_matches_scene(self) -> SimScene:
+        if self.task.scene_id != self.scene.id:
+            raise ValueError(f"task.scene_id {self.task.scene_id!r} must equal scene.id {self.scene.id!r}")
+        return self
+
+
+class BenchmarkScene(SimScene):
+    tier: Literal["benchmark"]  # type: ignore[assignment]
+    seed: int = Field(ge=0)
+    n_episodes: int = Field(gt=0)
+    metadata: BenchmarkMetadata
+
+
+AnyScene = DeployScene | SimScene | BenchmarkScene
+_TIERS: dict[str, type[DeployScene] | type[SimScene] | type[BenchmarkScene]] = {
+    "deploy": DeployScene,
+    "sim": SimScene,
+    "benchmark": BenchmarkScene,
+}
+
+
+def _check_raw(data: Any, source: str) -> str:
+    if not isinstance(data, dict):
+        raise ConfigError(f"{source}: expected a mapping at the top level, got {type(data).__name__}")
+    for key in _POLICY_KEYS:
+        if key in data:
+            raise ConfigError(
+                f"{source}: {key}: a scene must not name a policy; the policy always comes from --rskill"
+            )
+    tier = data.get("tier")
+    if tier not in _TIERS:
+        raise ConfigError(f"{source}: tier: must be one of {sorted(_TIERS)}, got {tier!r}")
+    return str(tier)
+
+
+def load_scene(path: Path) -> AnyScene:
+    """Load a scene of whatever tier the file declares, with that tier's strict schema."""
+    data = read_yaml(path)
+    tier = _check_raw(data, str(path))
+    return validate(_TIERS[tier], data, str(path))
+
+
+def load_recordable_scene(path: Path) -> SimScene:
+    """Load a scene `record` can run: SimScene or BenchmarkScene. A DeployScene is refused with the reason."""
+    scene = load_scene(path)
+    if isinstance(scene, DeployScene):
+        raise ConfigError(
+            f"{path}: tier: deploy scenes have no task (instruction, success, episode limits), so they cannot "
+            "be recorded; use a sim or benchmark scene"
+        )
+    return scene

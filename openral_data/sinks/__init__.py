@@ -1,0 +1,1 @@
+"""Sinks: where validated frames go (LeRobot v3 now; MCAP later)."""

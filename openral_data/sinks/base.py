@@ -1,0 +1,72 @@
+"""What the bridge hands to sinks: a validated dataset schema, frames and episode records."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+from openral_data.producers.base import CameraShape
+
+
+@dataclass(frozen=True)
+class DatasetSchema:
+    """Everything a sink needs to lay out a dataset before the first frame arrives."""
+
+    fps: int
+    state_names: tuple[str, ...]
+    action_names: tuple[str, ...]
+    cameras: dict[str, CameraShape]
+    robot_type: str
+    metadata: dict[str, Any] = field(default_factory=dict)  # scene / rSkill / robot provenance
+
+    @property
+    def state_dim(self) -> int:
+        return len(self.state_names)
+
+    @property
+    def action_dim(self) -> int:
+        return len(self.action_names)
+
+
+@dataclass
+class Frame:
+    """Row t: the observation the policy saw at step t, the action it produced, and what followed."""
+
+    state: npt.NDArray[np.float32]
+    action: npt.NDArray[np.float32]
+    images: dict[str, npt.NDArray[np.uint8]]
+    task: str
+    reward: float
+    done: bool
+    success: bool
+
+
+@dataclass(frozen=True)
+class EpisodeStart:
+    seed: int
+    initial_state: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class EpisodeRecord:
+    """What a sink reports for a finished, durable episode."""
+
+    index: int
+    length: int
+    success: bool
+    seed: int
+
+
+class Sink(Protocol):
+    def begin_episode(self, start: EpisodeStart) -> None: ...
+
+    def add_frame(self, frame: Frame) -> None: ...
+
+    def end_episode(self, success: bool) -> EpisodeRecord: ...
+
+    def discard_episode(self) -> None: ...
+
+    def close(self) -> None: ...

@@ -1,0 +1,248 @@
+"""Streaming video encoding with PyAV: one encoder thread per camera, a bounded queue for backpressure.
+
+Frames go straight from the producer to the encoder (no PNG staging). Each episode is encoded into its own
+complete mp4 (so a finished episode is durable the moment its encoder is flushed); `concat_mp4` later joins
+a group of such files into one without re-encoding.
+"""
+
+from __future__ import annotations
+
+import os
+import queue
+import threading
+from dataclasses import dataclass, field
+from fractions import Fraction
+from pathlib import Path
+from typing import Any, Literal
+
+import av
+
+# SVT-AV1 prints its configuration banner to stderr on every encoder unless told otherwise (1 = errors only).
+os.environ.setdefault("SVT_LOG", "1")
+import numpy as np
+import numpy.typing as npt
+
+from openral_data.sinks.lerobot_v3.stats import ImageStatsAccumulator
+
+Codec = Literal["av1", "h264"]
+
+
+@dataclass(frozen=True)
+class VideoSettings:
+    """lerobot 0.6.1's encoder defaults: yuv420p, g=2, crf=30; SVT-AV1 preset 12, fast-decode 0."""
+
+    codec: Codec = "av1"
+    crf: int = 30
+    g: int = 2
+    preset: int | None = None
+    pix_fmt: str = "yuv420p"
+
+    @property
+    def encoder(self) -> str:
+        return {"av1": "libsvtav1", "h264": "libx264"}[self.codec]
+
+    @property
+    def effective_preset(self) -> int | str | None:
+        if self.codec == "av1":
+            return 12 if self.preset is None else self.preset
+        return self.preset
+
+    def options(self) -> dict[str, str]:
+        opts = {"g": str(self.g), "crf": str(self.crf)}
+        if self.effective_preset is not None:
+            opts["preset"] = str(self.effective_preset)
+        if self.codec == "av1":
+            opts["svtav1-params"] = "fast-decode=0"
+        return opts
+
+    def feature_info(self, height: int, width: int, fps: int) -> dict[str, Any]:
+        """The `info` block lerobot writes for a video feature."""
+        return {
+            "video.height": height,
+            "video.width": width,
+            "video.codec": self.codec,
+            "video.pix_fmt": self.pix_fmt,
+            "video.fps": fps,
+            "video.channels": 3,
+            "has_audio": False,
+            "video.g": self.g,
+            "video.crf": self.crf,
+            "video.preset": self.effective_preset,
+            "video.fast_decode": 0,
+            "video.video_backend": "pyav",
+            "video.extra_options": {},
+            "is_depth_map": False,
+        }
+
+
+@dataclass
+class EncodedEpisode:
+    path: Path
+    frames: int
+    stats: ImageStatsAccumulator
+
+
+class EncoderError(RuntimeError):
+    pass
+
+
+@dataclass
+class _Job:
+    path: Path
+    height: int
+    width: int
+    done: threading.Event = field(default_factory=threading.Event)
+    result: EncodedEpisode | None = None
+    error: BaseException | None = None
+
+
+_STOP = object()
+
+
+class EncoderWorker:
+    """A persistent thread encoding one camera. `put` blocks while the queue is full: the producer waits,
+    nothing is dropped."""
+
+    def __init__(self, name: str, settings: VideoSettings, fps: int, queue_size: int = 16) -> None:
+        self.name = name
+        self.settings = settings
+        self.fps = fps
+        self._q: queue.Queue[object] = queue.Queue(maxsize=queue_size)
+        self._job: _Job | None = None
+        self._failed: BaseException | None = None
+        self._thread = threading.Thread(target=self._run, name=f"encoder-{name}", daemon=True)
+        self._thread.start()
+
+    # -- producer side -------------------------------------------------------------------------------
+    def begin(self, path: Path, height: int, width: int) -> None:
+        self._raise_if_failed()
+        self._job = _Job(path, height, width)
+        self._q.put(self._job)
+
+    def put(self, frame: npt.NDArray[np.uint8]) -> None:
+        self._raise_if_failed()
+        self._q.put(frame)
+
+    def finish(self) -> EncodedEpisode:
+        job = self._job
+        if job is None:
+            raise EncoderError(f"{self.name}: finish() without begin()")
+        self._job = None
+        self._q.put(None)
+        job.done.wait()
+        if job.error is not None:
+            raise EncoderError(f"encoding {job.path} failed: {job.error}") from job.error
+        assert job.result is not None
+        return job.result
+
+    def abort(self) -> None:
+        """Finish the current file and delete it (the episode is discarded)."""
+        if self._job is None:
+            return
+        path = self._job.path
+        try:
+            self.finish()
+        except EncoderError:
+            pass
+        path.unlink(missing_ok=True)
+
+    def close(self) -> None:
+        self.abort()
+        self._q.put(_STOP)
+        self._thread.join()
+
+    def _raise_if_failed(self) -> None:
+        if self._failed is not None:
+            raise EncoderError(f"encoder {self.name} failed: {self._failed}") from self._failed
+
+    # -- encoder thread ------------------------------------------------------------------------------
+    def _run(self) -> None:
+        while True:
+            item = self._q.get()
+            if item is _STOP:
+                return
+            if isinstance(item, _Job):
+                self._encode_job(item)
+
+    def _encode_job(self, job: _Job) -> None:
+        stats = ImageStatsAccumulator()
+        frames = 0
+        container = None
+        try:
+            job.path.parent.mkdir(parents=True, exist_ok=True)
+            container = av.open(str(job.path), mode="w", format="mp4")
+            stream = container.add_stream(self.settings.encoder, rate=self.fps, options=self.settings.options())
+            stream.width = job.width
+            stream.height = job.height
+            stream.pix_fmt = self.settings.pix_fmt
+            stream.codec_context.time_base = Fraction(1, self.fps)
+            while True:
+                item = self._q.get()
+                if item is None:
+                    break
+                frame = item
+                assert isinstance(frame, np.ndarray)
+                stats.add(frame)
+                vf = av.VideoFrame.from_ndarray(frame, format="rgb24")
+                vf.pts = frames
+                frames += 1
+                for packet in stream.encode(vf):
+                    container.mux(packet)
+            for packet in stream.encode(None):
+                container.mux(packet)
+            container.close()
+            container = None
+            job.result = EncodedEpisode(job.path, frames, stats)
+        except BaseException as exc:  # noqa: BLE001 - reported to the producer thread
+            job.error = exc
+            self._failed = exc
+            # drain until the end-of-episode marker so the producer is never blocked forever
+            while True:
+                item = self._q.get()
+                if item is None or item is _STOP:
+                    break
+        finally:
+            if container is not None:
+                try:
+                    container.close()
+                except Exception:  # noqa: BLE001
+                    pass
+            job.done.set()
+
+
+def probe_frames(path: Path) -> int:
+    with av.open(str(path)) as c:
+        return sum(1 for p in c.demux(c.streams.video[0]) if p.size)
+
+
+def concat_mp4(sources: list[tuple[Path, int]], dest: Path, fps: int) -> None:
+    """Concatenate complete per-episode mp4s (path, n_frames) into `dest` without re-encoding.
+
+    Episode k starts at exactly (frames of episodes before it) / fps; pts are shifted by whole frames.
+    """
+    out = av.open(str(dest), mode="w", format="mp4", options={"movflags": "faststart"})
+    try:
+        out_stream = None
+        offset_frames = 0
+        for src, n_frames in sources:
+            with av.open(str(src)) as inp:
+                in_stream = inp.streams.video[0]
+                if out_stream is None:
+                    out_stream = out.add_stream_from_template(in_stream, opaque=True)
+                tb = in_stream.time_base
+                assert tb is not None
+                per_frame = Fraction(1, fps) / tb
+                if per_frame.denominator != 1:
+                    raise EncoderError(f"{src}: time base {tb} cannot express frame boundaries at {fps} fps")
+                shift = int(per_frame) * offset_frames
+                for packet in inp.demux(in_stream):
+                    if packet.dts is None:
+                        continue
+                    assert packet.pts is not None
+                    packet.pts += shift
+                    packet.dts += shift
+                    packet.stream = out_stream
+                    out.mux(packet)
+            offset_frames += n_frames
+    finally:
+        out.close()

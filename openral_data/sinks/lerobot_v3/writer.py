@@ -1,0 +1,408 @@
+"""LeRobotDataset v3 writer built on pyarrow + PyAV (not lerobot's writer).
+
+Durability: every finished episode is committed before `end_episode` returns. Its videos are complete mp4s,
+the data and episodes parquet files that hold it are rewritten atomically (temp file, fsync, rename), and
+`meta/info.json` — whose totals decide what lerobot's loader exposes — is written last. Per-episode mp4s of
+one camera are joined into size-rotated files without re-encoding when a file fills up and at `close()`;
+each step of that join leaves every episode readable.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import shutil
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from openral_data.errors import OpenralError
+from openral_data.sinks.base import DatasetSchema, EpisodeRecord, EpisodeStart, Frame
+from openral_data.sinks.lerobot_v3 import atomic, layout
+from openral_data.sinks.lerobot_v3.features import (
+    ACTION,
+    STATE,
+    build_features,
+    camera_key,
+    data_schema,
+    episodes_schema,
+)
+from openral_data.sinks.lerobot_v3.layout import FilePos
+from openral_data.sinks.lerobot_v3.stats import (
+    ImageStatsAccumulator,
+    Stats,
+    merge_numeric,
+    numeric_stats,
+    to_jsonable,
+)
+from openral_data.sinks.lerobot_v3.video import EncoderWorker, VideoSettings, concat_mp4
+
+MB = 1 << 20
+
+
+@dataclass(frozen=True)
+class WriterConfig:
+    video: VideoSettings = field(default_factory=VideoSettings)
+    data_files_size_in_mb: int = 100
+    video_files_size_in_mb: int = 200
+    chunks_size: int = layout.DEFAULT_CHUNKS_SIZE
+    durable: bool = True
+    queue_size: int = 16
+
+
+@dataclass
+class _VideoMember:
+    episode: int
+    pos: FilePos
+    frames: int
+    size: int
+
+
+@dataclass
+class _VideoGroup:
+    """Episodes of one camera that will share one mp4 (each in its own file until joined)."""
+
+    first: FilePos
+    members: list[_VideoMember] = field(default_factory=list)
+
+    @property
+    def size(self) -> int:
+        return sum(m.size for m in self.members)
+
+    def next_pos(self, chunks_size: int) -> FilePos:
+        return self.members[-1].pos.next(chunks_size) if self.members else self.first
+
+
+@dataclass
+class _EpisodeBuffer:
+    start: EpisodeStart
+    states: list[npt.NDArray[np.float32]] = field(default_factory=list)
+    actions: list[npt.NDArray[np.float32]] = field(default_factory=list)
+    rewards: list[float] = field(default_factory=list)
+    dones: list[bool] = field(default_factory=list)
+    successes: list[bool] = field(default_factory=list)
+    task_indices: list[int] = field(default_factory=list)
+
+
+class LeRobotV3Writer:
+    """A `Sink` that writes a LeRobotDataset v3 that lerobot 0.6.1 loads frame-exactly."""
+
+    def __init__(self, root: Path, schema: DatasetSchema, config: WriterConfig | None = None) -> None:
+        self.root = root
+        self.schema = schema
+        self.config = config or WriterConfig()
+        if root.exists() and (not root.is_dir() or any(root.iterdir())):
+            raise OpenralError(f"{root}: output exists and is not empty; refusing to overwrite it")
+        self._created_root = not root.exists()
+        root.mkdir(parents=True, exist_ok=True)
+        self.features = build_features(schema, self.config.video)
+        self._data_schema = data_schema(self.features)
+        self._episodes_schema = episodes_schema(self.features)
+        self._keys = {name: camera_key(name) for name in schema.cameras}
+        self._workers = {
+            name: EncoderWorker(name, self.config.video, schema.fps, self.config.queue_size)
+            for name in schema.cameras
+        }
+        self.tasks: dict[str, int] = {}
+        self._tasks_written = 0
+        self.total_frames = 0
+        self.episode_rows: list[dict[str, Any]] = []
+        self._episode_file = FilePos()
+        self._data_file = FilePos()
+        self._data_tables: list[pa.Table] = []
+        self._groups = {name: _VideoGroup(FilePos()) for name in schema.cameras}
+        self._numeric_stats: dict[str, Stats] = {}
+        self._image_stats = {name: ImageStatsAccumulator() for name in schema.cameras}
+        self._episode: _EpisodeBuffer | None = None
+        self._closed = False
+        atomic.write_bytes(
+            root / layout.OPENRAL_PATH,
+            json.dumps(
+                {"writer": "openral-data", "schema_metadata": schema.metadata, "config": self._config_json()},
+                indent=2,
+            ).encode(),
+            self.config.durable,
+        )
+
+    def _config_json(self) -> dict[str, Any]:
+        c = self.config
+        return {
+            "codec": c.video.codec,
+            "crf": c.video.crf,
+            "g": c.video.g,
+            "data_files_size_in_mb": c.data_files_size_in_mb,
+            "video_files_size_in_mb": c.video_files_size_in_mb,
+            "chunks_size": c.chunks_size,
+        }
+
+    @property
+    def total_episodes(self) -> int:
+        return len(self.episode_rows)
+
+    # -- Sink API --------------------------------------------------------------------------------------------
+    def begin_episode(self, start: EpisodeStart) -> None:
+        if self._episode is not None:
+            raise RuntimeError("begin_episode() while an episode is open")
+        self._episode = _EpisodeBuffer(start)
+        for name, worker in self._workers.items():
+            shape = self.schema.cameras[name]
+            worker.begin(self._pending_video(name), shape.height, shape.width)
+
+    def add_frame(self, frame: Frame) -> None:
+        ep = self._episode
+        if ep is None:
+            raise RuntimeError("add_frame() outside an episode")
+        for name, worker in self._workers.items():
+            worker.put(frame.images[name])  # blocks while the encoder is behind: backpressure, never a drop
+        ep.states.append(frame.state)
+        ep.actions.append(frame.action)
+        ep.rewards.append(frame.reward)
+        ep.dones.append(frame.done)
+        ep.successes.append(frame.success)
+        ep.task_indices.append(self.tasks.setdefault(frame.task, len(self.tasks)))
+
+    def discard_episode(self) -> None:
+        if self._episode is None:
+            return
+        self._episode = None
+        for worker in self._workers.values():
+            worker.abort()
+        # tasks first seen in the discarded episode must not reach tasks.parquet
+        used = {t for row in self.episode_rows for t in row["tasks"]}
+        self.tasks = {t: i for t, i in self.tasks.items() if t in used}
+
+    def end_episode(self, success: bool) -> EpisodeRecord:
+        ep = self._episode
+        if ep is None:
+            raise RuntimeError("end_episode() outside an episode")
+        n = len(ep.states)
+        if n == 0:
+            self.discard_episode()
+            raise OpenralError("an episode needs at least one frame")
+        encoded = {name: worker.finish() for name, worker in self._workers.items()}
+        self._episode = None
+        for name, enc in encoded.items():
+            if enc.frames != n:
+                raise OpenralError(f"camera {name}: encoded {enc.frames} frames for an episode of {n}")
+        index = self.total_episodes
+        row = self._base_row(index, ep, n, success)
+        table = self._episode_table(index, ep, n)
+        ep_stats = {k: numeric_stats(_column_values(table, k)) for k in table.column_names}
+        for name, enc in encoded.items():
+            self._place_video(name, index, enc.path, enc.frames, row)
+            img = enc.stats.stats()
+            ep_stats[self._keys[name]] = img
+            self._image_stats[name].merge(enc.stats)
+        for key, s in ep_stats.items():
+            for stat, value in to_jsonable(s).items():
+                row[f"stats/{key}/{stat}"] = value
+        self._append_data(table, row)
+        row["meta/episodes/chunk_index"] = self._episode_file.chunk
+        row["meta/episodes/file_index"] = self._episode_file.file
+        self.episode_rows.append(row)
+        self._write_episodes({self._episode_file})
+        for key, s in ep_stats.items():
+            if key not in self._keys.values():
+                self._numeric_stats[key] = merge_numeric(self._numeric_stats.get(key), s)
+        self.total_frames += n
+        self._commit()
+        self._maybe_rotate_episodes_file()
+        return EpisodeRecord(index=index, length=n, success=success, seed=ep.start.seed)
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            if self._episode is not None:
+                self.discard_episode()
+            for name in list(self._groups):
+                self._join_group(name)
+            if self.total_episodes:
+                self._commit()
+        finally:
+            for worker in self._workers.values():
+                worker.close()
+        if self.total_episodes == 0 and self._created_root:
+            shutil.rmtree(self.root, ignore_errors=True)
+
+    # -- episode assembly ------------------------------------------------------------------------------------
+    def _base_row(self, index: int, ep: _EpisodeBuffer, n: int, success: bool) -> dict[str, Any]:
+        inv = {i: t for t, i in self.tasks.items()}
+        return {
+            "episode_index": index,
+            "tasks": sorted({inv[i] for i in ep.task_indices}),
+            "length": n,
+            "dataset_from_index": self.total_frames,
+            "dataset_to_index": self.total_frames + n,
+            "openral.success": bool(success),
+            "openral.seed": int(ep.start.seed),
+            "openral.initial_state": json.dumps(ep.start.initial_state, sort_keys=True),
+        }
+
+    def _episode_table(self, index: int, ep: _EpisodeBuffer, n: int) -> pa.Table:
+        fps = self.schema.fps
+        frame_index = np.arange(n, dtype=np.int64)
+        cols: dict[str, pa.Array] = {
+            STATE: _fixed_list(np.stack(ep.states)),
+            ACTION: _fixed_list(np.stack(ep.actions)),
+            "next.reward": pa.array(np.asarray(ep.rewards, dtype=np.float32)),
+            "next.done": pa.array(np.asarray(ep.dones, dtype=bool)),
+            "next.success": pa.array(np.asarray(ep.successes, dtype=bool)),
+            "timestamp": pa.array((frame_index / fps).astype(np.float32)),
+            "frame_index": pa.array(frame_index),
+            "episode_index": pa.array(np.full(n, index, dtype=np.int64)),
+            "index": pa.array(self.total_frames + frame_index),
+            "task_index": pa.array(np.asarray(ep.task_indices, dtype=np.int64)),
+        }
+        return pa.table(cols, schema=self._data_schema)
+
+    # -- data parquet ----------------------------------------------------------------------------------------
+    def _append_data(self, table: pa.Table, row: dict[str, Any]) -> None:
+        path = layout.data_path(self.root, self._data_file)
+        if self._data_tables and path.exists():
+            size = path.stat().st_size
+            rows = sum(t.num_rows for t in self._data_tables)
+            if size + size / rows * table.num_rows >= self.config.data_files_size_in_mb * MB:
+                self._data_file = self._data_file.next(self.config.chunks_size)
+                self._data_tables = []
+                path = layout.data_path(self.root, self._data_file)
+        self._data_tables.append(table)
+        row["data/chunk_index"] = self._data_file.chunk
+        row["data/file_index"] = self._data_file.file
+
+        def write(tmp: Path) -> None:
+            with pq.ParquetWriter(tmp, self._data_schema, compression="snappy") as w:
+                for t in self._data_tables:  # one row group per episode, as lerobot writes
+                    w.write_table(t)
+
+        atomic.write_with(path, write, self.config.durable)
+
+    # -- videos ----------------------------------------------------------------------------------------------
+    def _pending_video(self, name: str) -> Path:
+        group = self._groups[name]
+        return atomic.tmp_name(layout.video_path(self.root, self._keys[name], group.next_pos(self.config.chunks_size)))
+
+    def _place_video(self, name: str, episode: int, tmp: Path, frames: int, row: dict[str, Any]) -> None:
+        key = self._keys[name]
+        group = self._groups[name]
+        size = tmp.stat().st_size
+        if group.members and group.size + size >= self.config.video_files_size_in_mb * MB:
+            # this episode starts a new file: join the full group first, then re-target the episode's file
+            self._join_group(name)
+            group = self._groups[name]
+        pos = group.next_pos(self.config.chunks_size)
+        final = layout.video_path(self.root, key, pos)
+        final.parent.mkdir(parents=True, exist_ok=True)
+        if self.config.durable:
+            with open(tmp, "rb+") as fh:
+                os.fsync(fh.fileno())
+        os.replace(tmp, final)
+        group.members.append(_VideoMember(episode, pos, frames, size))
+        row[f"videos/{key}/chunk_index"] = pos.chunk
+        row[f"videos/{key}/file_index"] = pos.file
+        row[f"videos/{key}/from_timestamp"] = 0.0
+        row[f"videos/{key}/to_timestamp"] = frames / self.schema.fps
+
+    def _join_group(self, name: str) -> None:
+        """Join a camera's per-episode files into the group's first file, then point the episodes at it.
+
+        Order keeps every episode readable at every instant: the first episode stays at timestamp 0 of the
+        first file, the others keep their own files until the metadata no longer names them.
+        """
+        group = self._groups[name]
+        key = self._keys[name]
+        if len(group.members) > 1:
+            dest = layout.video_path(self.root, key, group.first)
+            sources = [(layout.video_path(self.root, key, m.pos), m.frames) for m in group.members]
+            atomic.write_with(dest, lambda tmp: concat_mp4(sources, tmp, self.schema.fps), self.config.durable)
+            touched: set[FilePos] = set()
+            offset = 0
+            for m in group.members:
+                row = self.episode_rows[m.episode]
+                row[f"videos/{key}/chunk_index"] = group.first.chunk
+                row[f"videos/{key}/file_index"] = group.first.file
+                row[f"videos/{key}/from_timestamp"] = offset / self.schema.fps
+                offset += m.frames
+                row[f"videos/{key}/to_timestamp"] = offset / self.schema.fps
+                touched.add(FilePos(row["meta/episodes/chunk_index"], row["meta/episodes/file_index"]))
+            self._write_episodes(touched)
+            for m in group.members[1:]:
+                layout.video_path(self.root, key, m.pos).unlink(missing_ok=True)
+        start = group.first.next(self.config.chunks_size) if group.members else group.first
+        self._groups[name] = _VideoGroup(start)
+
+    # -- metadata --------------------------------------------------------------------------------------------
+    def _write_episodes(self, files: set[FilePos]) -> None:
+        for pos in sorted(files):
+            rows = [
+                r for r in self.episode_rows
+                if (r["meta/episodes/chunk_index"], r["meta/episodes/file_index"]) == (pos.chunk, pos.file)
+            ]
+            table = pa.Table.from_pylist(rows, schema=self._episodes_schema)
+            atomic.write_with(
+                layout.episodes_path(self.root, pos),
+                lambda tmp, t=table: pq.write_table(t, tmp, compression="snappy"),
+                self.config.durable,
+            )
+
+    def _maybe_rotate_episodes_file(self) -> None:
+        path = layout.episodes_path(self.root, self._episode_file)
+        if path.stat().st_size >= self.config.data_files_size_in_mb * MB:
+            self._episode_file = self._episode_file.next(self.config.chunks_size)
+
+    def _commit(self) -> None:
+        """tasks, stats, then info.json last: its totals are what the loader trusts."""
+        durable = self.config.durable
+        if len(self.tasks) != self._tasks_written:
+            df = pd.DataFrame({"task_index": list(self.tasks.values())}, index=pd.Index(list(self.tasks), name="task"))
+            buf = io.BytesIO()
+            df.sort_values("task_index").to_parquet(buf)
+            atomic.write_bytes(self.root / layout.TASKS_PATH, buf.getvalue(), durable)
+            self._tasks_written = len(self.tasks)
+        stats: dict[str, Any] = {}
+        for key in self.features:
+            if key in self._numeric_stats:
+                stats[key] = to_jsonable(self._numeric_stats[key])
+        for name, acc in self._image_stats.items():
+            stats[self._keys[name]] = to_jsonable(acc.stats())
+        ordered = {k: stats[k] for k in self.features if k in stats}
+        atomic.write_bytes(self.root / layout.STATS_PATH, json.dumps(ordered, indent=4).encode(), durable)
+        atomic.write_bytes(self.root / layout.INFO_PATH, json.dumps(self.info(), indent=4).encode(), durable)
+
+    def info(self) -> dict[str, Any]:
+        c = self.config
+        return {
+            "codebase_version": layout.CODEBASE_VERSION,
+            "fps": self.schema.fps,
+            "features": self.features,
+            "total_episodes": self.total_episodes,
+            "total_frames": self.total_frames,
+            "total_tasks": len(self.tasks),
+            "chunks_size": c.chunks_size,
+            "data_files_size_in_mb": c.data_files_size_in_mb,
+            "video_files_size_in_mb": c.video_files_size_in_mb,
+            "data_path": layout.DATA_PATH,
+            "video_path": layout.VIDEO_PATH if self.schema.cameras else None,
+            "robot_type": self.schema.robot_type,
+            "splits": {"train": f"0:{self.total_episodes}"},
+        }
+
+
+def _fixed_list(values: npt.NDArray[np.float32]) -> pa.FixedSizeListArray:
+    flat = pa.array(np.ascontiguousarray(values, dtype=np.float32).ravel())
+    return pa.FixedSizeListArray.from_arrays(flat, values.shape[1])
+
+
+def _column_values(table: pa.Table, key: str) -> npt.NDArray[Any]:
+    col = table.column(key).combine_chunks()
+    if pa.types.is_fixed_size_list(col.type):
+        return np.asarray(col.flatten().to_numpy(zero_copy_only=False)).reshape(len(col), col.type.list_size)
+    return np.asarray(col.to_numpy(zero_copy_only=False)).reshape(-1, 1)
