@@ -85,9 +85,7 @@ class DatasetBridge:
         for sink in self.sinks:
             sink.begin_episode(start)
 
-    def add_step(
-        self, observation: Observation, action: Any, *, reward: float, done: bool, success: bool
-    ) -> None:
+    def add_step(self, observation: Observation, action: Any, *, reward: float, done: bool, success: bool) -> None:
         """Record row t: `observation` (seen at step t), `action` (produced from it) and its outcome."""
         if not self._open:
             raise RuntimeError("add_step() outside an episode")

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import sys
-from enum import Enum
+from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
 
@@ -15,17 +15,22 @@ from rich.table import Table
 from openral_data import paths, registry
 from openral_data.errors import OpenralError
 
-app = typer.Typer(add_completion=False, no_args_is_help=True, help="Turn robot rollouts into training datasets.")
+app = typer.Typer(
+    add_completion=False,
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    help="Turn robot rollouts into training datasets.",
+)
 console = Console()
 err_console = Console(stderr=True)
 
 
-class CodecChoice(str, Enum):
+class CodecChoice(StrEnum):
     av1 = "av1"
     h264 = "h264"
 
 
-class ListWhat(str, Enum):
+class ListWhat(StrEnum):
     scenes = "scenes"
     rskills = "rskills"
     robots = "robots"
@@ -47,12 +52,23 @@ def record(
     from openral_data.record import record as run_record
 
     opts = RecordOptions(
-        scene=scene, rskill=rskill, robot=robot, n_episodes=n_episodes, seed=seed, max_steps=max_steps,
-        out=out, codec=codec.value,
+        scene=scene,
+        rskill=rskill,
+        robot=robot,
+        n_episodes=n_episodes,
+        seed=seed,
+        max_steps=max_steps,
+        out=out,
+        codec=codec.value,
     )
     with Progress(
-        TextColumn("[bold]recording"), BarColumn(), MofNCompleteColumn(), TextColumn("episodes"),
-        TextColumn("{task.fields[frames]} frames"), TimeElapsedColumn(), console=err_console,
+        TextColumn("[bold]recording"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("episodes"),
+        TextColumn("{task.fields[frames]} frames"),
+        TimeElapsedColumn(),
+        console=err_console,
         disable=not err_console.is_terminal,
     ) as bar:
         task = bar.add_task("record", total=n_episodes, frames=0)
@@ -61,14 +77,25 @@ def record(
             bar.update(task, advance=1, frames=frames)
 
         summary = run_record(opts, progress)
-    table = Table(title="recorded", show_header=False)
-    table.add_row("output", str(summary.out))
-    table.add_row("episodes", str(len(summary.episodes)))
-    table.add_row("success rate", f"{summary.success_rate:.1%}")
-    table.add_row("frames", str(summary.frames))
-    table.add_row("frames/s", f"{summary.fps:.1f}")
-    table.add_row("codec", codec.value)
-    console.print(table)
+    _print_rows(
+        "recorded",
+        [
+            ("output", str(summary.out)),
+            ("episodes", str(len(summary.episodes))),
+            ("success rate", f"{summary.success_rate:.1%}"),
+            ("frames", str(summary.frames)),
+            ("frames/s", f"{summary.fps:.1f}"),
+            ("codec", codec.value),
+        ],
+    )
+
+
+def _print_rows(title: str, rows: list[tuple[str, str]]) -> None:
+    """`key: value` lines: readable in a terminal, greppable in logs, never wrapped or truncated."""
+    width = max(len(k) for k, _ in rows)
+    console.print(title, markup=False, highlight=False)
+    for key, value in rows:
+        console.print(f"  {key:<{width}}  {value}", markup=False, highlight=False, soft_wrap=True)
 
 
 @app.command()
@@ -77,17 +104,20 @@ def info(dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset fold
     from openral_data.sinks.lerobot_v3 import summarize
 
     s = summarize(dataset)
-    table = Table(title=str(dataset), show_header=False)
-    table.add_row("episodes", str(s.episodes))
-    table.add_row("frames", str(s.frames))
-    table.add_row("fps", str(s.fps))
-    table.add_row("duration", f"{s.frames / s.fps:.1f} s")
-    table.add_row("cameras", ", ".join(s.cameras) or "-")
-    table.add_row("tasks", "; ".join(s.tasks) or "-")
-    table.add_row("robot", s.robot_type or "-")
     rate = s.success_rate
-    table.add_row("success rate", "-" if rate is None else f"{rate:.1%} ({s.successes}/{s.episodes})")
-    console.print(table)
+    _print_rows(
+        str(dataset),
+        [
+            ("episodes", str(s.episodes)),
+            ("frames", str(s.frames)),
+            ("fps", str(s.fps)),
+            ("duration", f"{s.frames / s.fps:.1f} s"),
+            ("cameras", ", ".join(s.cameras) or "-"),
+            ("tasks", "; ".join(s.tasks) or "-"),
+            ("robot", s.robot_type or "-"),
+            ("success rate", "-" if rate is None else f"{rate:.1%} ({s.successes}/{s.episodes})"),
+        ],
+    )
 
 
 @app.command("list")
@@ -115,7 +145,9 @@ def list_cmd(what: Annotated[ListWhat, typer.Argument(help="scenes, rskills or r
             try:
                 rs = load_model(RSkillManifest, paths.rskills_dir() / rid / "rskill.yaml")
                 table.add_row(
-                    rid, rs.policy, ",".join(rs.embodiment_tags),
+                    rid,
+                    rs.policy,
+                    ",".join(rs.embodiment_tags),
                     f"{rs.state_contract.dim} {rs.state_contract.representation}",
                     f"{rs.action_contract.dim} {rs.action_contract.representation}",
                     ",".join(rs.required_cameras) or "-",
@@ -129,8 +161,12 @@ def list_cmd(what: Annotated[ListWhat, typer.Argument(help="scenes, rskills or r
             try:
                 rb = registry.load_robot(rid)
                 table.add_row(
-                    rid, ",".join(rb.embodiment_tags), str(len(rb.joints)), str(rb.observation.state.dim),
-                    str(rb.action.dim), ",".join(c.name for c in rb.sensors.cameras) or "-",
+                    rid,
+                    ",".join(rb.embodiment_tags),
+                    str(len(rb.joints)),
+                    str(rb.observation.state.dim),
+                    str(rb.action.dim),
+                    ",".join(c.name for c in rb.sensors.cameras) or "-",
                 )
             except OpenralError as exc:
                 table.add_row(rid, "[red]invalid", str(exc), "", "", "")
@@ -138,25 +174,15 @@ def list_cmd(what: Annotated[ListWhat, typer.Argument(help="scenes, rskills or r
 
 
 def main() -> None:
+    """Entry point: user mistakes become one `error:` line and exit 2; usage errors are click's (exit 2)."""
     try:
-        app(standalone_mode=False)
+        app()
     except OpenralError as exc:
         err_console.print(f"error: {exc}", markup=False, highlight=False, soft_wrap=True)
         sys.exit(2)
     except KeyboardInterrupt:
         err_console.print("interrupted: finished episodes are kept", markup=False)
         sys.exit(130)
-    except typer.Exit as exc:
-        sys.exit(exc.exit_code)
-    except Exception as exc:  # click usage errors
-        import click
-
-        if isinstance(exc, click.ClickException):
-            exc.show()
-            sys.exit(exc.exit_code)
-        if isinstance(exc, click.exceptions.Abort):
-            sys.exit(130)
-        raise
 
 
 if __name__ == "__main__":

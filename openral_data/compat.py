@@ -6,10 +6,17 @@ from openral_data.errors import CompatibilityError
 from openral_data.producers.base import ProducerSpec
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
+from openral_data.sinks.lerobot_v3.video import VideoSettings
 
 
 def check_compatibility(
-    robot: RobotManifest, rskill: RSkillManifest, spec: ProducerSpec, *, rskill_source: str, scene_source: str
+    robot: RobotManifest,
+    rskill: RSkillManifest,
+    spec: ProducerSpec,
+    *,
+    rskill_source: str,
+    scene_source: str,
+    video: VideoSettings,
 ) -> None:
     """Raise CompatibilityError naming the file and field of the first mismatch."""
     if not set(rskill.embodiment_tags) & set(robot.embodiment_tags):
@@ -34,8 +41,6 @@ def check_compatibility(
             f"(it has {sorted(spec.cameras)})"
         )
     for name, shape in spec.cameras.items():
-        if shape.height % 2 or shape.width % 2:
-            raise CompatibilityError(
-                f"{scene_source}: scene.cameras.{name}: {shape.width}x{shape.height} — video (yuv420p) needs "
-                "even width and height"
-            )
+        problem = video.size_problem(shape.height, shape.width)
+        if problem:
+            raise CompatibilityError(f"{scene_source}: scene.cameras.{name}: {problem}")

@@ -64,9 +64,7 @@ def check_out(out: Path) -> None:
         raise OpenralError(f"{out}: --out exists and is not a directory")
     if out.is_dir() and any(out.iterdir()):
         if (out / "meta" / "info.json").exists():
-            raise OpenralError(
-                f"{out}: --out already holds a dataset; refusing to overwrite it (choose a new --out)"
-            )
+            raise OpenralError(f"{out}: --out already holds a dataset; refusing to overwrite it (choose a new --out)")
         raise OpenralError(f"{out}: --out exists, is not empty and is not a dataset; refusing to write there")
 
 
@@ -97,7 +95,8 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
 
     env = make_scene(scene, robot, rskill, scene_src)
     try:
-        check_compatibility(robot, rskill, env.spec, rskill_source=rskill_src, scene_source=scene_src)
+        video = VideoSettings(codec=opts.codec)
+        check_compatibility(robot, rskill, env.spec, rskill_source=rskill_src, scene_source=scene_src, video=video)
         policy = make_policy(rskill)
         schema = DatasetSchema(
             fps=env.spec.fps,
@@ -112,7 +111,7 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
                 "robot": robot.name,
             },
         )
-        writer = LeRobotV3Writer(out, schema, WriterConfig(video=VideoSettings(codec=opts.codec)))
+        writer = LeRobotV3Writer(out, schema, WriterConfig(video=video))
         bridge = DatasetBridge(schema, [writer])
         records: list[EpisodeRecord] = []
         frames = 0
@@ -150,4 +149,3 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
         return RecordSummary(out=out, episodes=records, frames=frames, seconds=time.perf_counter() - t0)
     finally:
         env.close()
-

@@ -36,7 +36,9 @@ def unknown(kind: str, value: str, valid: list[str]) -> OpenralError:
 
 def scene_factory(scene_type: str, source: str) -> SceneFactory:
     if scene_type not in SCENES:
-        raise ConfigError(f"{source}: scene.type: unknown scene type {scene_type!r}; valid: {', '.join(sorted(SCENES))}")
+        raise ConfigError(
+            f"{source}: scene.type: unknown scene type {scene_type!r}; valid: {', '.join(sorted(SCENES))}"
+        )
     return SCENES[scene_type]
 
 

@@ -3,14 +3,12 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 
 import yaml
 from pydantic import BaseModel, ConfigDict, ValidationError
 
 from openral_data.errors import ConfigError
-
-M = TypeVar("M", bound=BaseModel)
 
 
 class StrictModel(BaseModel):
@@ -54,7 +52,7 @@ def read_yaml(path: Path) -> Any:
         raise ConfigError(f"{path}{where}: invalid YAML: {problem}") from None
 
 
-def validate(model: type[M], data: Any, source: str) -> M:
+def validate[M: BaseModel](model: type[M], data: Any, source: str) -> M:
     """Validate `data` against `model`; errors name `source` and the offending field."""
     if not isinstance(data, dict):
         raise ConfigError(f"{source}: expected a mapping at the top level, got {type(data).__name__}")
@@ -64,5 +62,5 @@ def validate(model: type[M], data: Any, source: str) -> M:
         raise ConfigError(format_validation_error(source, exc)) from None
 
 
-def load_model(model: type[M], path: Path) -> M:
+def load_model[M: BaseModel](model: type[M], path: Path) -> M:
     return validate(model, read_yaml(path), str(path))

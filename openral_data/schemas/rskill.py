@@ -39,9 +39,12 @@ class Contract(StrictModel):
             bound = getattr(self, key)
             if bound is not None and len(bound) != self.dim:
                 raise ValueError(f"{key} has {len(bound)} entries but dim is {self.dim}")
-        if self.low is not None and self.high is not None:
-            if any(lo > hi for lo, hi in zip(self.low, self.high, strict=True)):
-                raise ValueError("low must be <= high in every dimension")
+        if (
+            self.low is not None
+            and self.high is not None
+            and any(lo > hi for lo, hi in zip(self.low, self.high, strict=True))
+        ):
+            raise ValueError("low must be <= high in every dimension")
         return self
 
 

@@ -97,9 +97,7 @@ def _check_raw(data: Any, source: str) -> str:
         raise ConfigError(f"{source}: expected a mapping at the top level, got {type(data).__name__}")
     for key in _POLICY_KEYS:
         if key in data:
-            raise ConfigError(
-                f"{source}: {key}: a scene must not name a policy; the policy always comes from --rskill"
-            )
+            raise ConfigError(f"{source}: {key}: a scene must not name a policy; the policy always comes from --rskill")
     tier = data.get("tier")
     if tier not in _TIERS:
         raise ConfigError(f"{source}: tier: must be one of {sorted(_TIERS)}, got {tier!r}")

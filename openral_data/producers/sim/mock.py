@@ -53,7 +53,10 @@ class MockScene:
         self._task = scene.task.instruction
         self._cameras = {c.name: CameraShape(c.height, c.width) for c in scene.scene.cameras}
         self.spec = ProducerSpec(
-            state_dim=self._state_dim, action_dim=None, cameras=self._cameras, fps=scene.scene.fps,
+            state_dim=self._state_dim,
+            action_dim=None,
+            cameras=self._cameras,
+            fps=scene.scene.fps,
             can_restore_state=True,
         )
         self._episode = -1
@@ -66,7 +69,7 @@ class MockScene:
 
     def _observation(self) -> Observation:
         t, e = self._t, self._episode
-        state = np.zeros(self._state_dim, dtype=np.float32)
+        state: npt.NDArray[Any] = np.zeros(self._state_dim, dtype=np.float32)
         state[0] = t
         if self._state_dim > 1:
             state[1] = e

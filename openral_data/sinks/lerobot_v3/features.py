@@ -83,8 +83,8 @@ def episodes_schema(features: dict[str, dict[str, Any]]) -> pa.Schema:
                 (f"videos/{key}/to_timestamp", pa.float64()),
             ]
     for key, f in features.items():
-        value: pa.DataType = pa.list_(pa.list_(pa.list_(pa.float64()))) if f["dtype"] == "video" else pa.list_(
-            pa.float64()
+        value: pa.DataType = (
+            pa.list_(pa.list_(pa.list_(pa.float64()))) if f["dtype"] == "video" else pa.list_(pa.float64())
         )
         for stat in STAT_KEYS:
             fields.append((f"stats/{key}/{stat}", pa.list_(pa.int64()) if stat == "count" else value))

@@ -7,6 +7,7 @@ a group of such files into one without re-encoding.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import queue
 import threading
@@ -46,6 +47,15 @@ class VideoSettings:
         if self.codec == "av1":
             return 12 if self.preset is None else self.preset
         return self.preset
+
+    def size_problem(self, height: int, width: int) -> str | None:
+        """Why frames of this size cannot be encoded, or None. (SVT-AV1 dies with SIGFPE below ~26 px wide.)"""
+        if height % 2 or width % 2:
+            return f"{width}x{height}: video (yuv420p) needs even width and height"
+        low = 32 if self.codec == "av1" else 16
+        if height < low or width < low:
+            return f"{width}x{height}: {self.codec} video needs at least {low}x{low} pixels"
+        return None
 
     def options(self) -> dict[str, str]:
         opts = {"g": str(self.g), "crf": str(self.crf)}
@@ -140,10 +150,8 @@ class EncoderWorker:
         if self._job is None:
             return
         path = self._job.path
-        try:
+        with contextlib.suppress(EncoderError):
             self.finish()
-        except EncoderError:
-            pass
         path.unlink(missing_ok=True)
 
     def close(self) -> None:
@@ -171,7 +179,9 @@ class EncoderWorker:
         try:
             job.path.parent.mkdir(parents=True, exist_ok=True)
             container = av.open(str(job.path), mode="w", format="mp4")
-            stream = container.add_stream(self.settings.encoder, rate=self.fps, options=self.settings.options())
+            stream: av.VideoStream = container.add_stream(  # type: ignore[assignment]
+                self.settings.encoder, rate=self.fps, options=self.settings.options()
+            )
             stream.width = job.width
             stream.height = job.height
             stream.pix_fmt = self.settings.pix_fmt
@@ -203,16 +213,17 @@ class EncoderWorker:
                     break
         finally:
             if container is not None:
-                try:
+                with contextlib.suppress(Exception):
                     container.close()
-                except Exception:  # noqa: BLE001
-                    pass
             job.done.set()
 
 
 def probe_frames(path: Path) -> int:
-    with av.open(str(path)) as c:
-        return sum(1 for p in c.demux(c.streams.video[0]) if p.size)
+    container = av.open(str(path))
+    try:
+        return sum(1 for p in container.demux(container.streams.video[0]) if p.size)
+    finally:
+        container.close()
 
 
 def concat_mp4(sources: list[tuple[Path, int]], dest: Path, fps: int) -> None:

@@ -9,17 +9,16 @@ each step of that join leaves every episode readable.
 
 from __future__ import annotations
 
-import io
 import json
 import os
 import shutil
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
@@ -98,6 +97,10 @@ class LeRobotV3Writer:
         self.root = root
         self.schema = schema
         self.config = config or WriterConfig()
+        for name, shape in schema.cameras.items():
+            problem = self.config.video.size_problem(shape.height, shape.width)
+            if problem:
+                raise OpenralError(f"camera {name}: {problem}")
         if root.exists() and (not root.is_dir() or any(root.iterdir())):
             raise OpenralError(f"{root}: output exists and is not empty; refusing to overwrite it")
         self._created_root = not root.exists()
@@ -107,8 +110,7 @@ class LeRobotV3Writer:
         self._episodes_schema = episodes_schema(self.features)
         self._keys = {name: camera_key(name) for name in schema.cameras}
         self._workers = {
-            name: EncoderWorker(name, self.config.video, schema.fps, self.config.queue_size)
-            for name in schema.cameras
+            name: EncoderWorker(name, self.config.video, schema.fps, self.config.queue_size) for name in schema.cameras
         }
         self.tasks: dict[str, int] = {}
         self._tasks_written = 0
@@ -343,15 +345,12 @@ class LeRobotV3Writer:
     def _write_episodes(self, files: set[FilePos]) -> None:
         for pos in sorted(files):
             rows = [
-                r for r in self.episode_rows
+                r
+                for r in self.episode_rows
                 if (r["meta/episodes/chunk_index"], r["meta/episodes/file_index"]) == (pos.chunk, pos.file)
             ]
             table = pa.Table.from_pylist(rows, schema=self._episodes_schema)
-            atomic.write_with(
-                layout.episodes_path(self.root, pos),
-                lambda tmp, t=table: pq.write_table(t, tmp, compression="snappy"),
-                self.config.durable,
-            )
+            atomic.write_with(layout.episodes_path(self.root, pos), _parquet_writer(table), self.config.durable)
 
     def _maybe_rotate_episodes_file(self) -> None:
         path = layout.episodes_path(self.root, self._episode_file)
@@ -362,10 +361,7 @@ class LeRobotV3Writer:
         """tasks, stats, then info.json last: its totals are what the loader trusts."""
         durable = self.config.durable
         if len(self.tasks) != self._tasks_written:
-            df = pd.DataFrame({"task_index": list(self.tasks.values())}, index=pd.Index(list(self.tasks), name="task"))
-            buf = io.BytesIO()
-            df.sort_values("task_index").to_parquet(buf)
-            atomic.write_bytes(self.root / layout.TASKS_PATH, buf.getvalue(), durable)
+            atomic.write_with(self.root / layout.TASKS_PATH, _tasks_writer(self.tasks), durable)
             self._tasks_written = len(self.tasks)
         stats: dict[str, Any] = {}
         for key in self.features:
@@ -396,9 +392,10 @@ class LeRobotV3Writer:
         }
 
 
-def _fixed_list(values: npt.NDArray[np.float32]) -> pa.FixedSizeListArray:
+def _fixed_list(values: npt.NDArray[np.float32]) -> pa.Array:
+    """(n, d) float32 -> fixed_size_list<float>[d]; d == 1 is a plain column, as lerobot types shape [1]."""
     flat = pa.array(np.ascontiguousarray(values, dtype=np.float32).ravel())
-    return pa.FixedSizeListArray.from_arrays(flat, values.shape[1])
+    return flat if values.shape[1] == 1 else pa.FixedSizeListArray.from_arrays(flat, values.shape[1])
 
 
 def _column_values(table: pa.Table, key: str) -> npt.NDArray[Any]:
@@ -406,3 +403,62 @@ def _column_values(table: pa.Table, key: str) -> npt.NDArray[Any]:
     if pa.types.is_fixed_size_list(col.type):
         return np.asarray(col.flatten().to_numpy(zero_copy_only=False)).reshape(len(col), col.type.list_size)
     return np.asarray(col.to_numpy(zero_copy_only=False)).reshape(-1, 1)
+
+
+def _parquet_writer(table: pa.Table) -> Callable[[Path], None]:
+    def write(path: Path) -> None:
+        pq.write_table(table, path, compression="snappy")
+
+    return write
+
+
+def _tasks_writer(tasks: dict[str, int]) -> Callable[[Path], None]:
+    """tasks.parquet as pandas writes it: column `task_index`, the task string as the index named `task`.
+
+    lerobot reads it with `pd.read_parquet` and looks tasks up by position, so rows are in task_index order
+    and the pandas metadata that makes `task` the index is required (without it `item["task"]` is an int).
+    """
+    ordered = sorted(tasks.items(), key=lambda kv: kv[1])
+    pandas_meta = {
+        "index_columns": ["task"],
+        "column_indexes": [
+            {
+                "name": None,
+                "field_name": None,
+                "pandas_type": "unicode",
+                "numpy_type": "object",
+                "metadata": {"encoding": "UTF-8"},
+            }
+        ],
+        "columns": [
+            {
+                "name": "task_index",
+                "field_name": "task_index",
+                "pandas_type": "int64",
+                "numpy_type": "int64",
+                "metadata": None,
+            },
+            {"name": "task", "field_name": "task", "pandas_type": "unicode", "numpy_type": "object", "metadata": None},
+        ],
+        "attributes": {},
+        "creator": {"library": "pyarrow", "version": pa.__version__},
+        "pandas_version": _pandas_version(),
+    }
+    schema = pa.schema([("task_index", pa.int64()), ("task", pa.string())]).with_metadata(
+        {b"pandas": json.dumps(pandas_meta).encode()}
+    )
+    table = pa.table({"task_index": [i for _, i in ordered], "task": [t for t, _ in ordered]}, schema=schema)
+
+    def write(path: Path) -> None:
+        pq.write_table(table, path, compression="snappy")
+
+    return write
+
+
+def _pandas_version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("pandas")
+    except PackageNotFoundError:
+        return "2.3.3"

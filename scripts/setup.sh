@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Install everything openral-data needs on a fresh machine: Python 3.12 (pyenv, via .python-version), uv,
+# the locked environment in .venv, and the Debian packages for headless rendering when missing.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+export UV_PYTHON_DOWNLOADS=never
+
+APT_PACKAGES=(libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 libosmesa6)
+missing=()
+for pkg in "${APT_PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" || missing+=("$pkg")
+done
+if ((${#missing[@]})); then
+    echo "setup: installing Debian packages: ${missing[*]}" >&2
+    SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+    $SUDO apt-get update -qq >/dev/null
+    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+PY=python
+if command -v pyenv >/dev/null 2>&1; then PY="$(pyenv which python)"; fi
+if ! "$PY" -c 'import sys; sys.exit(sys.version_info[:2] != (3, 12))'; then
+    echo "setup: Python 3.12 is required (found $("$PY" --version 2>&1)); install it with pyenv" >&2
+    exit 1
+fi
+if ! command -v uv >/dev/null 2>&1 || ! uv --version >/dev/null 2>&1; then
+    "$PY" -m pip install --quiet --disable-pip-version-check uv
+fi
+UV=("$PY" -m uv)
+"${UV[@]}" sync --frozen --quiet --python "$PY"

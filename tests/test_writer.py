@@ -1,0 +1,222 @@
+"""The LeRobot v3 writer on its own: tasks, stats, file rotation, durability after every episode."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+
+from openral_data.bridge import DatasetBridge
+from openral_data.errors import OpenralError
+from openral_data.producers.base import CameraShape, Observation
+from openral_data.sinks.base import DatasetSchema
+from openral_data.sinks.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig, summarize
+from openral_data.sinks.lerobot_v3.reader import read_episodes
+
+H, W = 128, 192
+
+
+def patterned(e: int, t: int, rng: np.random.Generator) -> np.ndarray:
+    """Top quarter: a solid colour encoding (episode, step); the rest: noise that makes files big."""
+    img = np.empty((H, W, 3), np.uint8)
+    img[: H // 4] = (t % 256, (e * 37) % 256, 200)
+    img[H // 4 :] = rng.integers(0, 256, (H - H // 4, W, 3), dtype=np.uint8)
+    return img
+
+
+def write_dataset(
+    root: Path,
+    lengths: list[int],
+    *,
+    state_dim: int = 4,
+    tasks: list[str] | None = None,
+    config: WriterConfig | None = None,
+    check_after_each: bool = False,
+) -> tuple[LeRobotV3Writer, list[np.ndarray]]:
+    schema = DatasetSchema(
+        fps=10,
+        state_names=tuple(f"s{i}" for i in range(state_dim)),
+        action_names=("a0", "a1"),
+        cameras={"cam": CameraShape(H, W)},
+        robot_type="unit",
+    )
+    writer = LeRobotV3Writer(root, schema, config)
+    bridge = DatasetBridge(schema, [writer])
+    rng = np.random.default_rng(0)
+    states: list[np.ndarray] = []
+    for e, n in enumerate(lengths):
+        bridge.begin_episode(seed=100 + e, initial_state={"e": e})
+        for t in range(n):
+            state = rng.standard_normal(state_dim).astype(np.float32)
+            state[0] = t
+            states.append(state)
+            task = tasks[e % len(tasks)] if tasks else "task"
+            obs = Observation(images={"cam": patterned(e, t, rng)}, state=state, task=task)
+            bridge.add_step(obs, np.array([e, t], np.float32), reward=0.5, done=t == n - 1, success=t == n - 1)
+        bridge.end_episode(success=e % 2 == 0)
+        if check_after_each:
+            check_loads(root, lengths[: e + 1], states, tasks)
+    bridge.close()
+    return writer, states
+
+
+def check_loads(root: Path, lengths: list[int], states: list[np.ndarray], tasks: list[str] | None = None) -> None:
+    """lerobot's loader sees exactly the finished episodes, each frame in its place."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    ds = LeRobotDataset("local/unit", root=root, video_backend="pyav")
+    assert len(ds) == sum(lengths) and ds.num_episodes == len(lengths)
+    i = 0
+    for e, n in enumerate(lengths):
+        for t in range(n):
+            item = ds[i]
+            assert (int(item["episode_index"]), int(item["frame_index"])) == (e, t)
+            np.testing.assert_array_equal(item["observation.state"].numpy(), states[i])
+            np.testing.assert_array_equal(item["action"].numpy(), [e, t])
+            top = item["observation.images.cam"].numpy()[:, 4 : H // 4 - 4].mean(axis=(1, 2)) * 255
+            assert np.abs(top - [t % 256, (e * 37) % 256, 200]).max() < 6, (e, t, top)
+            if tasks:
+                assert item["task"] == tasks[e % len(tasks)]
+            i += 1
+
+
+def test_tasks_in_order_with_pandas_index(tmp_path: Path) -> None:
+    tasks = ["stack the blocks", "open the drawer", "stack the blocks", "wipe"]
+    lengths = [3, 4, 2, 3]
+    _, states = write_dataset(tmp_path / "ds", lengths, tasks=tasks)
+    import pandas as pd
+
+    df = pd.read_parquet(tmp_path / "ds/meta/tasks.parquet")
+    assert df.index.name == "task" and list(df.index) == ["stack the blocks", "open the drawer", "wipe"]
+    assert list(df["task_index"]) == [0, 1, 2]
+    check_loads(tmp_path / "ds", lengths, states, tasks)
+    eps = pq.read_table(tmp_path / "ds/meta/episodes/chunk-000/file-000.parquet").to_pydict()
+    assert eps["tasks"] == [[t] for t in tasks]
+
+
+def test_stats_match_independent_computation(tmp_path: Path) -> None:
+    lengths = [6, 9, 4]
+    write_dataset(tmp_path / "ds", lengths)
+    root = tmp_path / "ds"
+    stats = json.loads((root / "meta/stats.json").read_text())
+    info = json.loads((root / "meta/info.json").read_text())
+    assert set(stats) == set(info["features"])  # an entry for every feature, camera included
+    data = pq.read_table(root / "data/chunk-000/file-000.parquet").to_pydict()
+    state = np.array(data["observation.state"], dtype=np.float64)
+    np.testing.assert_allclose(stats["observation.state"]["mean"], state.mean(axis=0), rtol=1e-9)
+    np.testing.assert_allclose(stats["observation.state"]["std"], state.std(axis=0), rtol=1e-6)
+    np.testing.assert_allclose(stats["observation.state"]["min"], state.min(axis=0))
+    assert stats["index"]["max"] == [sum(lengths) - 1] and stats["index"]["count"] == [sum(lengths)]
+    assert stats["next.success"]["mean"] == pytest.approx([3 / 19])
+    cam = stats["observation.images.cam"]
+    assert np.array(cam["mean"]).shape == (3, 1, 1) and cam["count"] == [sum(lengths)]
+    assert 0.0 <= cam["min"][0][0][0] <= cam["q50"][0][0][0] <= cam["max"][0][0][0] <= 1.0
+    # per-episode stats columns, episode by episode
+    eps = pq.read_table(root / "meta/episodes/chunk-000/file-000.parquet").to_pydict()
+    start = 0
+    for e, n in enumerate(lengths):
+        np.testing.assert_allclose(eps["stats/observation.state/max"][e], state[start : start + n].max(axis=0))
+        np.testing.assert_allclose(
+            eps["stats/observation.state/q50"][e], np.quantile(state[start : start + n], 0.5, axis=0)
+        )
+        start += n
+
+
+def test_loadable_after_every_episode_and_rotation(tmp_path: Path) -> None:
+    """Small rotation limits force several data and video files; after each episode the dataset loads."""
+    config = WriterConfig(data_files_size_in_mb=1, video_files_size_in_mb=1)
+    lengths = [20, 40, 35, 25, 40]
+    # 20k floats a frame (~80 KB of noise) fill a 1 MiB data file in two episodes; noise video fills 1 MiB fast
+    writer, states = write_dataset(tmp_path / "ds", lengths, state_dim=20_000, config=config, check_after_each=True)
+    root = tmp_path / "ds"
+    data_files = sorted(root.glob("data/*/*.parquet"))
+    videos = sorted(root.glob("videos/*/*/*.mp4"))
+    assert len(data_files) >= 2 and len(videos) >= 2, (data_files, videos)
+    eps = read_episodes(root).to_pydict()
+    assert len(sorted(root.glob("meta/episodes/*/*.parquet"))) >= 2  # 20k-dim stats rows rotate these too
+    assert eps["episode_index"] == list(range(len(lengths)))
+    # each video file's episodes start at 0 and follow on without gaps
+    for f in {
+        (c, i)
+        for c, i in zip(
+            eps["videos/observation.images.cam/chunk_index"],
+            eps["videos/observation.images.cam/file_index"],
+            strict=True,
+        )
+    }:
+        rows = [
+            k
+            for k in range(len(lengths))
+            if (eps["videos/observation.images.cam/chunk_index"][k], eps["videos/observation.images.cam/file_index"][k])
+            == f
+        ]
+        expect = 0.0
+        for k in rows:
+            assert eps["videos/observation.images.cam/from_timestamp"][k] == pytest.approx(expect, abs=1e-12)
+            expect += lengths[k] / 10
+            assert eps["videos/observation.images.cam/to_timestamp"][k] == pytest.approx(expect, abs=1e-12)
+    check_loads(root, lengths, states)
+    assert writer.total_frames == sum(lengths)
+    assert not list(root.rglob("*.tmp"))
+
+
+def test_backpressure_never_drops(tmp_path: Path) -> None:
+    """A one-frame queue makes the producer wait on the encoder for nearly every frame; nothing is lost."""
+    config = WriterConfig(queue_size=1, video=VideoSettings(codec="h264"))
+    lengths = [40, 25]
+    _, states = write_dataset(tmp_path / "ds", lengths, config=config)
+    check_loads(tmp_path / "ds", lengths, states)
+
+
+def test_discarded_episode_leaves_no_trace(tmp_path: Path) -> None:
+    schema = DatasetSchema(
+        fps=10, state_names=("s",), action_names=("a",), cameras={"cam": CameraShape(32, 32)}, robot_type="unit"
+    )
+    writer = LeRobotV3Writer(tmp_path / "ds", schema)
+    bridge = DatasetBridge(schema, [writer])
+    img = np.zeros((32, 32, 3), np.uint8)
+    for e, keep in enumerate([True, False, True]):
+        bridge.begin_episode(seed=e, initial_state={})
+        for _ in range(3):
+            obs = Observation(images={"cam": img}, state=np.zeros(1, np.float32), task=f"task {e}")
+            bridge.add_step(obs, np.zeros(1, np.float32), reward=0.0, done=False, success=False)
+        if keep:
+            bridge.end_episode(True)
+        else:
+            bridge.discard_episode()
+    bridge.close()
+    s = summarize(tmp_path / "ds")
+    assert (s.episodes, s.frames, s.tasks) == (2, 6, ["task 0", "task 2"])
+    eps = pq.read_table(tmp_path / "ds/meta/episodes/chunk-000/file-000.parquet").to_pydict()
+    assert eps["openral.seed"] == [0, 2] and eps["episode_index"] == [0, 1]
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    ds = LeRobotDataset("local/unit", root=tmp_path / "ds", video_backend="pyav")
+    assert len(ds) == 6 and ds[5]["task"] == "task 2" and int(ds[5]["episode_index"]) == 1
+    assert float(ds[5]["observation.state"]) == 0.0  # a 1-dim state is a scalar column, as lerobot types [1]
+
+
+@pytest.mark.parametrize(
+    ("codec", "shape", "problem"),
+    [("av1", (16, 64), "at least 32x32"), ("h264", (8, 8), "at least 16x16"), ("av1", (33, 64), "even")],
+)
+def test_refuses_frame_sizes_the_encoder_cannot_take(
+    tmp_path: Path, codec: str, shape: tuple[int, int], problem: str
+) -> None:
+    schema = DatasetSchema(
+        fps=10, state_names=("s",), action_names=("a",), cameras={"cam": CameraShape(*shape)}, robot_type="unit"
+    )
+    with pytest.raises(OpenralError, match=problem):
+        LeRobotV3Writer(tmp_path / "ds", schema, WriterConfig(video=VideoSettings(codec=codec)))  # type: ignore[arg-type]
+    assert not (tmp_path / "ds").exists()
+
+
+def test_refuses_non_empty_root(tmp_path: Path) -> None:
+    (tmp_path / "x").write_text("keep me")
+    schema = DatasetSchema(fps=10, state_names=("s",), action_names=("a",), cameras={}, robot_type="unit")
+    with pytest.raises(OpenralError, match="not empty"):
+        LeRobotV3Writer(tmp_path, schema)
+    assert (tmp_path / "x").read_text() == "keep me"
