@@ -76,7 +76,12 @@ def record(
         def progress(rec: object, frames: int) -> None:
             bar.update(task, advance=1, frames=frames)
 
-        summary = run_record(opts, progress)
+        try:
+            summary = run_record(opts, progress)
+        except KeyboardInterrupt:
+            bar.stop()
+            err_console.print("interrupted: the episode in flight was discarded, finished episodes are kept")
+            raise typer.Exit(130) from None
     _print_rows(
         "recorded",
         [
@@ -180,9 +185,6 @@ def main() -> None:
     except OpenralError as exc:
         err_console.print(f"error: {exc}", markup=False, highlight=False, soft_wrap=True)
         sys.exit(2)
-    except KeyboardInterrupt:
-        err_console.print("interrupted: finished episodes are kept", markup=False)
-        sys.exit(130)
 
 
 if __name__ == "__main__":
