@@ -78,7 +78,7 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
     robot_id = opts.robot or scene.scene.robot
     if robot_id is None:
         raise ConfigError(f"{scene_src}: scene.robot: not set; pass --robot (valid: {', '.join(registry.robot_ids())})")
-    robot = registry.load_robot(robot_id)
+    robot = registry.ROBOTS[robot_id]
     make_policy = registry.policy_factory(rskill, rskill_src)
     make_scene = registry.scene_factory(scene.scene.type, scene_src)
     n_episodes = opts.n_episodes if opts.n_episodes is not None else scene.n_episodes

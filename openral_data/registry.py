@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 
 from openral_data import paths
@@ -56,6 +56,25 @@ def robot_ids() -> list[str]:
     return sorted(p.parent.name for p in root.glob("*/robot.yaml")) if root.is_dir() else []
 
 
+class RobotRegistry(Mapping[str, RobotManifest]):
+    """ROBOTS: every `robots/<id>/robot.yaml`, discovered on each access (adding a folder adds a robot).
+
+    Looking up an unknown id raises an OpenralError that lists the valid ones.
+    """
+
+    def __getitem__(self, robot_id: str) -> RobotManifest:
+        return load_robot(robot_id)
+
+    def __contains__(self, robot_id: object) -> bool:
+        return isinstance(robot_id, str) and robot_id in robot_ids()
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(robot_ids())
+
+    def __len__(self) -> int:
+        return len(robot_ids())
+
+
 def load_robot(robot_id: str) -> RobotManifest:
     path = paths.robots_dir() / robot_id / "robot.yaml"
     if not path.is_file():
@@ -64,6 +83,9 @@ def load_robot(robot_id: str) -> RobotManifest:
     if robot.name != robot_id:
         raise ConfigError(f"{path}: name: {robot.name!r} must equal its folder name {robot_id!r}")
     return robot
+
+
+ROBOTS = RobotRegistry()
 
 
 # --- rSkills ----------------------------------------------------------------------------------------------

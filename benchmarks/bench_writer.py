@@ -1,0 +1,604 @@
+"""Writer benchmark: our LeRobotDataset v3 writer vs lerobot 0.6.1's default writer vs a bare PyAV encode.
+
+Workload W (the defaults): 10 episodes x 200 frames at 20 fps, two RGB cameras (``front``, ``wrist``) of
+256x256, ``observation.state`` float32[8], ``action`` float32[7]. Every frame is a step carrying both images.
+
+Three contestants write W in the same process, in this order for each repetition:
+
+1. **pure**: the physical limit. The frames go straight into PyAV (``libsvtav1`` g=2 crf=30 preset=12
+   fast-decode=0, or ``libx264`` g=2 crf=30), one mp4 per camera per episode, both cameras fed interleaved
+   from one Python thread. No parquet, no stats, no metadata.
+2. **ours**: ``DatasetBridge`` (contract validation) -> ``LeRobotV3Writer`` with its default config apart
+   from the codec (durable commits, per-episode stats, streaming encoder threads, mp4 joining at close).
+3. **lerobot**: ``LeRobotDataset.create(..., use_videos=True)`` + ``add_frame`` / ``save_episode`` /
+   ``finalize`` with lerobot's defaults (PNG staging, no streaming encoding, no async image writer). It is
+   given the same ``next.reward`` / ``next.done`` / ``next.success`` columns our writer always writes.
+
+The frames are rendered once, before anything is timed: a smooth textured background (a wall and a table)
+with a few moving, shaded objects whose positions depend on (episode, step, camera); the wrist camera also
+pans. That is roughly what a simulator renders: neither random noise (far harder to encode) nor flat colour
+(far easier). States and actions are deterministic float32 arrays.
+
+After each timed run (outside the timed region) the script demuxes every mp4 of our and lerobot's datasets,
+compares the video frame count of each camera with the parquet row count ("dropped frames"), and loads our
+dataset with ``LeRobotDataset`` to check ``len(ds) == episodes * frames``. It prints a table of median wall
+times, frames/s and the ratios (ours speedup over lerobot = lerobot / ours; ours vs pure encode = pure / ours,
+at most ~1), and writes everything to ``<out>/results.json``.
+
+The machine this was written for has two shared, noisy cores, so compare the ratios from one process rather
+than absolute times across runs.
+
+Run (from the repository root)::
+
+    .venv/bin/python benchmarks/bench_writer.py                           # workload W, a few minutes
+    .venv/bin/python benchmarks/bench_writer.py --episodes 2 --frames 40  # smoke run
+    .venv/bin/python benchmarks/bench_writer.py --repeats 3 --codec h264 --out benchmarks/results --keep
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import importlib
+import importlib.metadata
+import json
+import math
+import os
+import platform
+import shutil
+import statistics
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from datetime import UTC, datetime
+from fractions import Fraction
+from pathlib import Path
+from typing import Any, Literal, cast
+
+# SVT-AV1 prints a banner to stderr for every encoder it opens unless told otherwise; set it before any
+# encoder exists so all three contestants run with the same setting.
+os.environ.setdefault("SVT_LOG", "1")
+
+import av
+import numpy as np
+import numpy.typing as npt
+import pyarrow.parquet as pq
+
+Codec = Literal["av1", "h264"]
+CONTESTANTS = ("pure", "ours", "lerobot")
+IMAGE_PREFIX = "observation.images."
+ImageArray = npt.NDArray[np.uint8]
+FloatArray = npt.NDArray[np.float32]
+
+
+# -- workload ----------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Workload:
+    episodes: int = 10
+    frames: int = 200
+    cameras: tuple[str, ...] = ("front", "wrist")
+    height: int = 256
+    width: int = 256
+    state_dim: int = 8
+    action_dim: int = 7
+    fps: int = 20
+    task: str = "bench task"
+
+    @property
+    def total_frames(self) -> int:
+        return self.episodes * self.frames
+
+
+@dataclass
+class EpisodeData:
+    images: dict[str, ImageArray]  # camera -> uint8[frames, H, W, 3]
+    states: FloatArray  # float32[frames, state_dim]
+    actions: FloatArray  # float32[frames, action_dim]
+
+
+# -- frame rendering ---------------------------------------------------------------------------------------
+_PAN_MARGIN = 32  # the wrist camera pans over a background this much larger than the frame on each side
+
+
+def _box_blur(x: FloatArray, passes: int = 2) -> FloatArray:
+    """3x3 box blur (wrapping at the borders), `passes` times."""
+    for _ in range(passes):
+        acc = np.zeros_like(x)
+        for dy in (-1, 0, 1):
+            for dx in (-1, 0, 1):
+                acc += np.roll(x, (dy, dx), axis=(0, 1))
+        x = (acc / 9).astype(np.float32)
+    return x
+
+
+def _background(cam: int, wl: Workload) -> FloatArray:
+    """A wall over a table: colour gradients, wood-grain stripes, a soft checker and fine static texture."""
+    h, w = wl.height + 2 * _PAN_MARGIN, wl.width + 2 * _PAN_MARGIN
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    v = (yy / (h - 1))[..., None]
+    wall_top = np.array([200, 210, 225] if cam == 0 else [180, 190, 170], np.float32)
+    wall_bottom = np.array([150, 160, 180] if cam == 0 else [140, 150, 130], np.float32)
+    wall = wall_top * (1 - v) + wall_bottom * v
+    grain = 9 * np.sin(xx * 0.21 + 3 * np.sin(yy * 0.037)) + 6 * np.sign(np.sin(xx * 0.098) * np.sin(yy * 0.098))
+    table = np.array([140, 105, 70], np.float32) * (0.8 + 0.3 * v) + grain[..., None]
+    edge = np.clip((yy - 0.45 * h) / 3 + 0.5, 0, 1)[..., None]  # anti-aliased table edge
+    img = wall * (1 - edge) + table * edge
+    rng = np.random.default_rng(1234 + cam)
+    texture = _box_blur(rng.normal(0, 1, (h, w)).astype(np.float32)) * 9
+    out: FloatArray = (img + texture[..., None]).astype(np.float32)
+    return out
+
+
+def _blend(img: FloatArray, y0: int, x0: int, alpha: FloatArray, color: FloatArray) -> None:
+    hh, ww = alpha.shape[:2]
+    win = img[y0 : y0 + hh, x0 : x0 + ww]
+    win *= 1 - alpha
+    win += color * alpha
+
+
+def _disc(img: FloatArray, cx: float, cy: float, r: float, color: FloatArray, opacity: float = 1.0) -> None:
+    """An anti-aliased disc, shaded like a sphere lit from the top left (or a soft shadow: dark, translucent)."""
+    h, w = img.shape[:2]
+    x0, x1 = max(int(cx - r - 1), 0), min(int(cx + r + 2), w)
+    y0, y1 = max(int(cy - r - 1), 0), min(int(cy + r + 2), h)
+    if x0 >= x1 or y0 >= y1:
+        return
+    yy, xx = np.ogrid[y0:y1, x0:x1]
+    d = np.sqrt((xx - cx) ** 2 + (yy - cy) ** 2, dtype=np.float32)
+    alpha = (np.clip(r + 0.5 - d, 0, 1) * opacity)[..., None]
+    hx, hy = cx - 0.35 * r, cy - 0.35 * r
+    highlight = np.sqrt((xx - hx) ** 2 + (yy - hy) ** 2, dtype=np.float32) / (1.6 * r)
+    shade = np.clip(1.15 - 0.55 * highlight, 0.45, 1.15)[..., None]
+    _blend(img, y0, x0, alpha.astype(np.float32), (color * shade).astype(np.float32))
+
+
+def _box(img: FloatArray, x0f: float, y0f: float, x1f: float, y1f: float, color: FloatArray) -> None:
+    """An anti-aliased axis-aligned rectangle with a vertical shading ramp."""
+    h, w = img.shape[:2]
+    x0, x1 = max(int(x0f) - 1, 0), min(int(x1f) + 2, w)
+    y0, y1 = max(int(y0f) - 1, 0), min(int(y1f) + 2, h)
+    if x0 >= x1 or y0 >= y1:
+        return
+    yy, xx = np.ogrid[y0:y1, x0:x1]
+    ax = np.clip(np.minimum(xx - x0f, x1f - xx) + 0.5, 0, 1)
+    ay = np.clip(np.minimum(yy - y0f, y1f - yy) + 0.5, 0, 1)
+    alpha = (ax * ay).astype(np.float32)[..., None]
+    ramp = (0.85 + 0.3 * (yy - y0f) / max(y1f - y0f, 1)).astype(np.float32)[..., None]
+    _blend(img, y0, x0, alpha, color * ramp)
+
+
+def _render_episode(episode: int, wl: Workload, backgrounds: list[FloatArray]) -> dict[str, ImageArray]:
+    rng = np.random.default_rng(10_000 + episode)
+    colors = [rng.uniform(40, 230, 3).astype(np.float32) for _ in range(3)]
+    gripper_color = np.array([70, 70, 78], np.float32)
+    shadow = np.zeros(3, np.float32)
+    phases = rng.uniform(0, 2 * math.pi, 4)
+    light = float(rng.uniform(0.9, 1.1))
+    h, w = wl.height, wl.width
+    out: dict[str, ImageArray] = {cam: np.empty((wl.frames, h, w, 3), np.uint8) for cam in wl.cameras}
+    for t in range(wl.frames):
+        s = t / max(wl.frames - 1, 1)  # progress through the episode
+        # world state in front-camera pixels: two objects on the table, a gripper reaching for the first
+        ax = w * (0.35 + 0.15 * math.sin(2 * math.pi * s + phases[0]))
+        ay = h * (0.68 + 0.06 * math.sin(4 * math.pi * s + phases[1]))
+        bx = w * (0.7 + 0.1 * math.sin(3 * math.pi * s + phases[2]))
+        by = h * (0.8 + 0.04 * math.cos(2 * math.pi * s + phases[3]))
+        gx = w * 0.5 + (ax - w * 0.5) * min(1.0, 1.5 * s) + 8 * math.sin(12 * math.pi * s)
+        gy = h * 0.15 + (ay - 30 - h * 0.15) * min(1.0, 1.3 * s)
+        for cam_index, cam in enumerate(wl.cameras):
+            if cam_index == 0:  # static third-person view
+                img = backgrounds[cam_index][_PAN_MARGIN : _PAN_MARGIN + h, _PAN_MARGIN : _PAN_MARGIN + w].copy()
+                _disc(img, ax + 6, ay + 8, 17, shadow, 0.3)
+                _disc(img, ax, ay, 16, colors[0])
+                _box(img, bx - 14, by - 14, bx + 14, by + 14, colors[1])
+                _box(img, gx - 6, 0, gx + 6, gy, gripper_color)  # arm
+                _box(img, gx - 16, gy, gx - 10, gy + 22, colors[2])  # fingers
+                _box(img, gx + 10, gy, gx + 16, gy + 22, colors[2])
+            else:  # wrist view: pans with the gripper, sees the objects up close
+                ox = int(np.clip(_PAN_MARGIN + 0.25 * (gx - w / 2), 0, 2 * _PAN_MARGIN))
+                oy = int(np.clip(_PAN_MARGIN + 0.25 * (gy - h / 2), 0, 2 * _PAN_MARGIN))
+                img = backgrounds[cam_index][oy : oy + h, ox : ox + w].copy()
+                zoom = 1.8  # objects seen from the gripper, which sits above the frame centre
+                pax, pay = w / 2 + zoom * (ax - gx), h * 0.35 + zoom * (ay - gy)
+                pbx, pby = w / 2 + zoom * (bx - gx), h * 0.35 + zoom * (by - gy)
+                _disc(img, pax, pay, 16 * zoom, colors[0])
+                _box(img, pbx - 14 * zoom, pby - 14 * zoom, pbx + 14 * zoom, pby + 14 * zoom, colors[1])
+                _box(img, w * 0.18, h * 0.78, w * 0.3, h, colors[2])  # the fingers, fixed in this view
+                _box(img, w * 0.7, h * 0.78, w * 0.82, h, colors[2])
+            np.clip(img * light, 0, 255, out=img)
+            out[cam][t] = img.astype(np.uint8)
+    return out
+
+
+def make_data(wl: Workload) -> list[EpisodeData]:
+    backgrounds = [_background(i, wl) for i in range(len(wl.cameras))]
+    data = []
+    t = np.arange(wl.frames, dtype=np.float32)[:, None]
+    for e in range(wl.episodes):
+        states = np.sin(0.05 * t + np.arange(wl.state_dim, dtype=np.float32) + 0.3 * e).astype(np.float32)
+        actions = np.cos(0.07 * t + np.arange(wl.action_dim, dtype=np.float32) - 0.2 * e).astype(np.float32)
+        data.append(EpisodeData(_render_episode(e, wl, backgrounds), states, actions))
+    return data
+
+
+# -- contestants -------------------------------------------------------------------------------------------
+def pure_encoder(codec: Codec) -> tuple[str, dict[str, str]]:
+    if codec == "av1":
+        return "libsvtav1", {"g": "2", "crf": "30", "preset": "12", "svtav1-params": "fast-decode=0"}
+    return "libx264", {"g": "2", "crf": "30"}
+
+
+def run_pure(data: list[EpisodeData], root: Path, wl: Workload, codec: Codec) -> None:
+    """The physical limit: only the video encode, one thread, both cameras interleaved."""
+    encoder, options = pure_encoder(codec)
+    for e, ep in enumerate(data):
+        containers: dict[str, Any] = {}
+        streams: dict[str, Any] = {}
+        for cam in wl.cameras:
+            path = root / f"{IMAGE_PREFIX}{cam}" / f"episode-{e:06d}.mp4"
+            path.parent.mkdir(parents=True, exist_ok=True)
+            containers[cam] = av.open(str(path), "w")
+            stream = containers[cam].add_stream(encoder, rate=wl.fps, options=options)
+            stream.width, stream.height, stream.pix_fmt = wl.width, wl.height, "yuv420p"
+            stream.codec_context.time_base = Fraction(1, wl.fps)
+            streams[cam] = stream
+        for t in range(wl.frames):
+            for cam in wl.cameras:
+                vf = av.VideoFrame.from_ndarray(ep.images[cam][t], format="rgb24")
+                vf.pts = t
+                for packet in streams[cam].encode(vf):
+                    containers[cam].mux(packet)
+        for cam in wl.cameras:
+            for packet in streams[cam].encode(None):
+                containers[cam].mux(packet)
+            containers[cam].close()
+
+
+def run_ours(data: list[EpisodeData], root: Path, wl: Workload, codec: Codec) -> None:
+    from openral_data.bridge import DatasetBridge
+    from openral_data.producers.base import CameraShape, Observation
+    from openral_data.sinks.base import DatasetSchema
+    from openral_data.sinks.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
+
+    schema = DatasetSchema(
+        fps=wl.fps,
+        state_names=tuple(f"s{i}" for i in range(wl.state_dim)),
+        action_names=tuple(f"a{i}" for i in range(wl.action_dim)),
+        cameras={cam: CameraShape(wl.height, wl.width) for cam in wl.cameras},
+        robot_type="bench",
+    )
+    writer = LeRobotV3Writer(root, schema, WriterConfig(video=VideoSettings(codec=codec)))
+    bridge = DatasetBridge(schema, [writer])
+    last = wl.frames - 1
+    try:
+        for seed, ep in enumerate(data):
+            bridge.begin_episode(seed, {"seed": seed})
+            for t in range(wl.frames):
+                obs = Observation(
+                    images={cam: ep.images[cam][t] for cam in wl.cameras}, state=ep.states[t], task=wl.task
+                )
+                bridge.add_step(obs, ep.actions[t], reward=0.0, done=t == last, success=False)
+            bridge.end_episode(success=True)
+    finally:
+        bridge.close()
+
+
+def lerobot_features(wl: Workload) -> dict[str, dict[str, Any]]:
+    features: dict[str, dict[str, Any]] = {
+        f"{IMAGE_PREFIX}{cam}": {
+            "dtype": "video",
+            "shape": (wl.height, wl.width, 3),
+            "names": ["height", "width", "channels"],
+        }
+        for cam in wl.cameras
+    }
+    features["observation.state"] = {
+        "dtype": "float32",
+        "shape": (wl.state_dim,),
+        "names": [f"s{i}" for i in range(wl.state_dim)],
+    }
+    features["action"] = {
+        "dtype": "float32",
+        "shape": (wl.action_dim,),
+        "names": [f"a{i}" for i in range(wl.action_dim)],
+    }
+    # the outcome columns our writer always writes, so both parquet files carry the same data
+    features["next.reward"] = {"dtype": "float32", "shape": (1,), "names": None}
+    features["next.done"] = {"dtype": "bool", "shape": (1,), "names": None}
+    features["next.success"] = {"dtype": "bool", "shape": (1,), "names": None}
+    return features
+
+
+def run_lerobot(data: list[EpisodeData], root: Path, wl: Workload, codec: Codec) -> None:
+    from lerobot.configs.video import RGBEncoderConfig
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    # av1 is lerobot's default (libsvtav1, preset 12); for h264 only the codec is changed
+    rgb_encoder = None if codec == "av1" else RGBEncoderConfig(vcodec="h264")
+    ds = LeRobotDataset.create(
+        "bench/lerobot",
+        fps=wl.fps,
+        features=lerobot_features(wl),
+        root=root,
+        robot_type="bench",
+        use_videos=True,
+        rgb_encoder=rgb_encoder,
+    )
+    last = wl.frames - 1
+    reward = np.zeros(1, np.float32)
+    not_success = np.zeros(1, bool)
+    try:
+        for ep in data:
+            for t in range(wl.frames):
+                frame: dict[str, Any] = {f"{IMAGE_PREFIX}{cam}": ep.images[cam][t] for cam in wl.cameras}
+                frame["observation.state"] = ep.states[t]
+                frame["action"] = ep.actions[t]
+                frame["next.reward"] = reward
+                frame["next.done"] = np.array([t == last])
+                frame["next.success"] = not_success
+                frame["task"] = wl.task
+                ds.add_frame(frame)
+            ds.save_episode()
+    finally:
+        ds.finalize()
+
+
+RUNNERS: dict[str, Callable[[list[EpisodeData], Path, Workload, Codec], None]] = {
+    "pure": run_pure,
+    "ours": run_ours,
+    "lerobot": run_lerobot,
+}
+
+
+# -- measurement and checks --------------------------------------------------------------------------------
+@dataclass
+class RunResult:
+    wall_s: float
+    cpu_s: float  # this process and its reaped children (lerobot encodes in a process pool)
+    video_bytes: int
+    video_frames: dict[str, int] = field(default_factory=dict)  # camera key -> demuxed frames
+    parquet_rows: int | None = None
+    dropped: int | None = None
+    loaded_len: int | None = None
+
+
+def _cpu_seconds() -> float:
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
+
+
+def timed(name: str, data: list[EpisodeData], root: Path, wl: Workload, codec: Codec) -> tuple[float, float]:
+    gc.collect()
+    cpu0, t0 = _cpu_seconds(), time.perf_counter()
+    RUNNERS[name](data, root, wl, codec)
+    wall = time.perf_counter() - t0
+    return wall, _cpu_seconds() - cpu0
+
+
+def count_packets(path: Path) -> int:
+    with av.open(str(path)) as c:
+        n = sum(1 for p in c.demux(c.streams.video[0]) if p.size)
+    return n
+
+
+def video_frames(root: Path) -> dict[str, int]:
+    """Demuxed video frames per camera key, over every mp4 under ``root/videos`` (or ``root`` for pure)."""
+    base = root / "videos" if (root / "videos").is_dir() else root
+    counts: dict[str, int] = {}
+    for mp4 in sorted(base.rglob("*.mp4")):
+        key = mp4.relative_to(base).parts[0]
+        counts[key] = counts.get(key, 0) + count_packets(mp4)
+    return counts
+
+
+def parquet_rows(root: Path) -> int:
+    return sum(pq.ParquetFile(p).metadata.num_rows for p in sorted((root / "data").rglob("*.parquet")))
+
+
+def video_bytes(root: Path) -> int:
+    return sum(p.stat().st_size for p in root.rglob("*.mp4"))
+
+
+def check(name: str, root: Path, wl: Workload, result: RunResult) -> None:
+    """Count frames (and rows, and what lerobot loads) after a run; fills `result`, never timed."""
+    keys = [f"{IMAGE_PREFIX}{cam}" for cam in wl.cameras]
+    frames = video_frames(root)
+    result.video_frames = {k: frames.get(k, 0) for k in keys}
+    if name == "pure":
+        result.dropped = sum(wl.total_frames - n for n in result.video_frames.values())
+        return
+    rows = parquet_rows(root)
+    result.parquet_rows = rows
+    # a missing row is as lost as a missing video frame: count both against the frames that were written
+    result.dropped = sum(abs(rows - n) for n in result.video_frames.values()) + len(keys) * abs(wl.total_frames - rows)
+    if name == "ours":
+        from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+        ds = LeRobotDataset("bench/ours", root=root)
+        result.loaded_len = len(ds)
+        del ds
+
+
+# -- reporting ---------------------------------------------------------------------------------------------
+def machine_info() -> dict[str, Any]:
+    cpu_model = ""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu_model = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    versions: dict[str, str | None] = {}
+    for dist in ("lerobot", "av", "numpy", "pyarrow", "datasets", "torch"):
+        try:
+            versions[dist] = importlib.metadata.version(dist)
+        except importlib.metadata.PackageNotFoundError:
+            versions[dist] = None
+    return {
+        "nproc": os.cpu_count(),
+        "affinity_cpus": len(os.sched_getaffinity(0)),
+        "cpu_model": cpu_model,
+        "platform": platform.platform(),
+        "python": sys.version.split()[0],
+        "av_version": av.__version__,
+        "lerobot_version": versions["lerobot"],
+        "versions": versions,
+        "ffmpeg_libraries": {k: ".".join(map(str, v)) for k, v in av.library_versions.items()},
+        "loadavg_at_start": os.getloadavg(),
+    }
+
+
+def _fmt_ratio(x: float) -> str:
+    return f"{x:.2f}x"
+
+
+def print_table(wl: Workload, codec: Codec, results: dict[str, list[RunResult]], summary: dict[str, Any]) -> None:
+    repeats = len(results["ours"])
+    print()
+    print(
+        f"workload: {wl.episodes} episodes x {wl.frames} frames, cameras {', '.join(wl.cameras)} "
+        f"{wl.width}x{wl.height}, state f32[{wl.state_dim}], action f32[{wl.action_dim}], {wl.fps} fps, "
+        f"codec {codec}, median of {repeats}"
+    )
+    header = f"{'contestant':<10} {'wall s':>9} {'frames/s':>9} {'cpu s':>8} {'video MB':>9}  runs (wall s)"
+    print(header)
+    print("-" * len(header))
+    for name in CONTESTANTS:
+        med = summary["median_wall_s"][name]
+        runs = " ".join(f"{r.wall_s:.2f}" for r in results[name])
+        print(
+            f"{name:<10} {med:>9.2f} {summary['frames_per_s'][name]:>9.1f} "
+            f"{summary['median_cpu_s'][name]:>8.1f} {summary['video_mb'][name]:>9.2f}  {runs}"
+        )
+    ratios = summary["ratios"]
+    print()
+    print(f"ours speedup over lerobot (lerobot / ours):   {_fmt_ratio(ratios['ours_speedup_vs_lerobot'])}")
+    print(f"ours vs pure encode       (pure / ours):      {ratios['ours_vs_pure_encode']:.3f}")
+    print(f"lerobot vs pure encode    (pure / lerobot):   {ratios['lerobot_vs_pure_encode']:.3f}")
+    dropped = summary["dropped_frames"]
+    print(f"dropped frames: ours {dropped['ours']}, lerobot {dropped['lerobot']}")
+    print(f"LeRobotDataset(ours) len: {summary['ours_loaded_len']} (expected {wl.total_frames})")
+
+
+def summarize(wl: Workload, results: dict[str, list[RunResult]]) -> dict[str, Any]:
+    med = {n: statistics.median(r.wall_s for r in results[n]) for n in CONTESTANTS}
+    return {
+        "median_wall_s": med,
+        "median_cpu_s": {n: statistics.median(r.cpu_s for r in results[n]) for n in CONTESTANTS},
+        "frames_per_s": {n: wl.total_frames / med[n] for n in CONTESTANTS},
+        "video_mb": {n: statistics.median(r.video_bytes for r in results[n]) / 1e6 for n in CONTESTANTS},
+        "ratios": {
+            "ours_speedup_vs_lerobot": med["lerobot"] / med["ours"],
+            "ours_vs_pure_encode": med["pure"] / med["ours"],
+            "lerobot_vs_pure_encode": med["pure"] / med["lerobot"],
+        },
+        "dropped_frames": {n: max(r.dropped or 0 for r in results[n]) for n in CONTESTANTS},
+        "ours_loaded_len": min(r.loaded_len or 0 for r in results["ours"]),
+    }
+
+
+# -- main --------------------------------------------------------------------------------------------------
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0] if __doc__ else None)
+    p.add_argument("--episodes", type=int, default=10)
+    p.add_argument("--frames", type=int, default=200, help="frames (time steps) per episode")
+    p.add_argument("--repeats", type=int, default=1, help="repetitions of pure, ours, lerobot (median reported)")
+    p.add_argument("--codec", choices=["av1", "h264"], default="av1")
+    p.add_argument("--out", type=Path, default=Path(__file__).resolve().parent / "results", help="results.json dir")
+    p.add_argument("--tmp", type=Path, default=None, help="parent of the scratch directory (default: system temp)")
+    p.add_argument("--keep", action="store_true", help="keep the written datasets")
+    args = p.parse_args(argv)
+    for name in ("episodes", "frames", "repeats"):
+        if getattr(args, name) < 1:
+            p.error(f"--{name} must be >= 1")
+    return args
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    codec = cast(Codec, args.codec)
+    wl = Workload(episodes=args.episodes, frames=args.frames)
+    scratch = Path(tempfile.mkdtemp(prefix="openral-bench-", dir=args.tmp))
+    # No network here: nothing may try the Hub, and the datasets cache stays in the scratch directory.
+    os.environ["HF_HUB_OFFLINE"] = "1"
+    os.environ["HF_DATASETS_OFFLINE"] = "1"
+    os.environ["HF_HUB_DISABLE_TELEMETRY"] = "1"
+    os.environ["HF_LEROBOT_HOME"] = str(scratch / "hf_lerobot_home")
+    os.environ["HF_DATASETS_CACHE"] = str(scratch / "hf_datasets_cache")
+
+    # Import everything heavy (torch comes with lerobot) before any timing.
+    for module in ("lerobot.datasets.lerobot_dataset", "openral_data.bridge", "openral_data.sinks.lerobot_v3"):
+        importlib.import_module(module)
+
+    machine = machine_info()
+    print(f"scratch: {scratch}")
+    print(
+        f"machine: {machine['nproc']} cpus ({machine['cpu_model']}), python {machine['python']}, "
+        f"av {machine['av_version']}, lerobot {machine['lerobot_version']}, load {machine['loadavg_at_start']}"
+    )
+    t0 = time.perf_counter()
+    data = make_data(wl)
+    gen_s = time.perf_counter() - t0
+    mb = sum(a.nbytes for ep in data for a in ep.images.values()) / 1e6
+    print(f"rendered {wl.total_frames} steps x {len(wl.cameras)} cameras ({mb:.0f} MB) in {gen_s:.1f}s")
+
+    # warm the encoder libraries up once so no contestant pays their first-use cost
+    run_pure(
+        [EpisodeData({c: a[:4] for c, a in data[0].images.items()}, data[0].states, data[0].actions)],
+        scratch / "warmup",
+        Workload(episodes=1, frames=4),
+        codec,
+    )
+
+    results: dict[str, list[RunResult]] = {n: [] for n in CONTESTANTS}
+    try:
+        for rep in range(args.repeats):
+            for name in CONTESTANTS:
+                root = scratch / f"rep{rep}" / name
+                wall, cpu = timed(name, data, root, wl, codec)
+                result = RunResult(wall_s=wall, cpu_s=cpu, video_bytes=video_bytes(root))
+                check(name, root, wl, result)
+                results[name].append(result)
+                print(
+                    f"[{rep + 1}/{args.repeats}] {name:<8} {wall:8.2f}s  {wl.total_frames / wall:7.1f} frames/s  "
+                    f"video frames {result.video_frames} rows {result.parquet_rows} dropped {result.dropped}"
+                )
+                if not args.keep:
+                    shutil.rmtree(root, ignore_errors=True)
+    finally:
+        if not args.keep:
+            shutil.rmtree(scratch, ignore_errors=True)
+
+    summary = summarize(wl, results)
+    print_table(wl, codec, results, summary)
+    report = {
+        "created": datetime.now(UTC).isoformat(timespec="seconds"),
+        "workload": asdict(wl) | {"total_frames": wl.total_frames},
+        "codec": codec,
+        "pure_encoder": dict(zip(("encoder", "options"), pure_encoder(codec), strict=True)),
+        "repeats": args.repeats,
+        "order": list(CONTESTANTS),
+        "machine": machine,
+        "frame_generation_s": gen_s,
+        "runs": {n: [asdict(r) for r in results[n]] for n in CONTESTANTS},
+        **summary,
+        "kept_datasets": str(scratch) if args.keep else None,
+    }
+    args.out.mkdir(parents=True, exist_ok=True)
+    out = args.out / "results.json"
+    out.write_text(json.dumps(report, indent=2) + "\n")
+    print(f"results: {out}")
+    if args.keep:
+        print(f"datasets kept in {scratch}")
+
+    ok = all(summary["dropped_frames"][n] == 0 for n in CONTESTANTS) and summary["ours_loaded_len"] == wl.total_frames
+    if not ok:
+        print("FAILED: dropped frames or wrong LeRobotDataset length", file=sys.stderr)
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
