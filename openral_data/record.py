@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import signal
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -47,6 +49,35 @@ class RecordSummary:
 
 
 ProgressFn = Callable[[EpisodeRecord | None, int], None]  # (finished episode or None, frames so far)
+
+
+class _StopRequest:
+    """Ctrl-C / SIGTERM ask the recording to stop at the next step boundary, never inside a commit.
+
+    The loop then raises KeyboardInterrupt where nothing is half-written: the episode in flight is discarded
+    and every finished one stays. A second Ctrl-C interrupts at once.
+    """
+
+    def __init__(self) -> None:
+        self._requested = False
+        self._previous: dict[int, object] = {}
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                self._previous[sig] = signal.signal(sig, self._handle)
+
+    def _handle(self, signum: int, frame: object) -> None:
+        if self._requested and signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        self._requested = True
+
+    def check(self) -> None:
+        if self._requested:
+            raise KeyboardInterrupt
+
+    def restore(self) -> None:
+        for sig, handler in self._previous.items():
+            signal.signal(sig, handler)  # type: ignore[arg-type]
+        self._previous.clear()
 
 
 def default_out(scene: SimScene, rskill_id: str) -> Path:
@@ -116,14 +147,17 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
         records: list[EpisodeRecord] = []
         frames = 0
         t0 = time.perf_counter()
+        stop = _StopRequest()
         try:
             for e in range(n_episodes):
+                stop.check()
                 seed = base_seed + e
                 obs = env.reset(seed)
                 policy.reset(seed)
                 bridge.begin_episode(seed, env.initial_state())
                 success = False
                 for t in range(max_steps):
+                    stop.check()
                     action = policy.step(obs, obs.task)
                     bridge.check_action(action)
                     result = env.step(action)
@@ -139,13 +173,14 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
                 if progress is not None:
                     progress(rec, frames)
         except BaseException as exc:
-            bridge.discard_episode()
-            bridge.close()
+            bridge.close()  # discards the episode in flight; finished episodes are already durable
             if isinstance(exc, OpenralError) and records:
                 raise type(exc)(f"{exc} ({len(records)} finished episode(s) kept in {out})") from None
             raise
+        finally:
+            stop.restore()
+            policy.close()
         bridge.close()
-        policy.close()
         return RecordSummary(out=out, episodes=records, frames=frames, seconds=time.perf_counter() - t0)
     finally:
         env.close()

@@ -133,6 +133,9 @@ def test_violation_in_first_episode_leaves_nothing(tmp_path: Path, project: Path
     out = tmp_path / "o"
     _fails(["record", "--scene", str(scene), "--out", str(out)], "non-finite")
     assert not out.exists()
+    out.mkdir()  # an empty folder the user made stays, and stays empty
+    _fails(["record", "--scene", str(scene), "--out", str(out)], "non-finite")
+    assert out.is_dir() and not any(out.iterdir())
 
 
 def test_existing_output_is_never_overwritten(tmp_path: Path, project: Path) -> None:

@@ -220,3 +220,26 @@ def test_refuses_non_empty_root(tmp_path: Path) -> None:
     with pytest.raises(OpenralError, match="not empty"):
         LeRobotV3Writer(tmp_path, schema)
     assert (tmp_path / "x").read_text() == "keep me"
+
+
+def test_encoder_worker_abort_then_reuse(tmp_path: Path) -> None:
+    """An aborted episode's file is gone; the same worker then encodes the next episode completely."""
+    from openral_data.sinks.lerobot_v3.video import EncoderWorker, probe_frames
+
+    worker = EncoderWorker("cam", VideoSettings(codec="h264"), fps=10, queue_size=2)
+    frame = np.full((32, 32, 3), 90, np.uint8)
+    try:
+        worker.begin(tmp_path / "a.mp4", 32, 32)
+        for _ in range(5):
+            worker.put(frame)
+        worker.abort()
+        assert not (tmp_path / "a.mp4").exists()
+        worker.abort()  # nothing in flight: a no-op
+        worker.begin(tmp_path / "b.mp4", 32, 32)
+        for _ in range(7):
+            worker.put(frame)
+        done = worker.finish()
+        assert done.frames == 7 and probe_frames(tmp_path / "b.mp4") == 7
+        assert done.stats.stats()["mean"].ravel().tolist() == pytest.approx([90 / 255] * 3, abs=1e-9)
+    finally:
+        worker.close()

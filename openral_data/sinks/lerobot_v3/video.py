@@ -106,12 +106,15 @@ class _Job:
     error: BaseException | None = None
 
 
-_STOP = object()
+# Control markers on a worker's queue, besides jobs and frames.
+_FINISH = object()  # end of the episode: flush the encoder, close the file
+_ABORT = object()  # drop the episode: close the file, the producer deletes it
+_STOP = object()  # shut the thread down (ends a job in progress as an abort)
 
 
 class EncoderWorker:
     """A persistent thread encoding one camera. `put` blocks while the queue is full: the producer waits,
-    nothing is dropped."""
+    nothing is dropped. A job (one episode's mp4) ends only through `finish()` or `abort()`."""
 
     def __init__(self, name: str, settings: VideoSettings, fps: int, queue_size: int = 16) -> None:
         self.name = name
@@ -126,6 +129,8 @@ class EncoderWorker:
     # -- producer side -------------------------------------------------------------------------------
     def begin(self, path: Path, height: int, width: int) -> None:
         self._raise_if_failed()
+        if self._job is not None:
+            raise EncoderError(f"{self.name}: begin() while an episode is being encoded")
         self._job = _Job(path, height, width)
         self._q.put(self._job)
 
@@ -137,22 +142,24 @@ class EncoderWorker:
         job = self._job
         if job is None:
             raise EncoderError(f"{self.name}: finish() without begin()")
-        self._job = None
-        self._q.put(None)
+        self._q.put(_FINISH)
         job.done.wait()
+        self._job = None
         if job.error is not None:
             raise EncoderError(f"encoding {job.path} failed: {job.error}") from job.error
         assert job.result is not None
         return job.result
 
     def abort(self) -> None:
-        """Finish the current file and delete it (the episode is discarded)."""
-        if self._job is None:
+        """Drop the current episode: stop encoding it and delete its file."""
+        job = self._job
+        if job is None:
             return
-        path = self._job.path
-        with contextlib.suppress(EncoderError):
-            self.finish()
-        path.unlink(missing_ok=True)
+        if not job.done.is_set():
+            self._q.put(_ABORT)  # if a _FINISH got there first, the idle thread ignores this marker
+            job.done.wait()
+        self._job = None
+        job.path.unlink(missing_ok=True)
 
     def close(self) -> None:
         self.abort()
@@ -169,13 +176,16 @@ class EncoderWorker:
             item = self._q.get()
             if item is _STOP:
                 return
-            if isinstance(item, _Job):
-                self._encode_job(item)
+            if isinstance(item, _Job) and self._encode_job(item) is _STOP:
+                return
+            # stray _FINISH/_ABORT markers (from an abort racing a finish) are ignored while idle
 
-    def _encode_job(self, job: _Job) -> None:
+    def _encode_job(self, job: _Job) -> object:
+        """Encode frames until a marker ends the job; return that marker."""
         stats = ImageStatsAccumulator()
         frames = 0
         container = None
+        end: object | None = None  # the marker that ended this job, once it has arrived
         try:
             job.path.parent.mkdir(parents=True, exist_ok=True)
             container = av.open(str(job.path), mode="w", format="mp4")
@@ -188,34 +198,37 @@ class EncoderWorker:
             stream.codec_context.time_base = Fraction(1, self.fps)
             while True:
                 item = self._q.get()
-                if item is None:
+                if item is _FINISH or item is _ABORT or item is _STOP:
+                    end = item
                     break
-                frame = item
-                assert isinstance(frame, np.ndarray)
-                stats.add(frame)
-                vf = av.VideoFrame.from_ndarray(frame, format="rgb24")
+                assert isinstance(item, np.ndarray)
+                stats.add(item)
+                vf = av.VideoFrame.from_ndarray(item, format="rgb24")
                 vf.pts = frames
                 frames += 1
                 for packet in stream.encode(vf):
                     container.mux(packet)
-            for packet in stream.encode(None):
-                container.mux(packet)
+            if end is _FINISH:
+                for packet in stream.encode(None):
+                    container.mux(packet)
             container.close()
             container = None
             job.result = EncodedEpisode(job.path, frames, stats)
         except BaseException as exc:  # noqa: BLE001 - reported to the producer thread
             job.error = exc
             self._failed = exc
-            # drain until the end-of-episode marker so the producer is never blocked forever
-            while True:
+            # consume this job's frames up to its end marker so the producer is never blocked forever
+            while end is None:
                 item = self._q.get()
-                if item is None or item is _STOP:
+                if item is _FINISH or item is _ABORT or item is _STOP:
+                    end = item
                     break
         finally:
             if container is not None:
                 with contextlib.suppress(Exception):
                     container.close()
             job.done.set()
+        return end
 
 
 def probe_frames(path: Path) -> int:

@@ -190,9 +190,11 @@ class LeRobotV3Writer:
             raise OpenralError("an episode needs at least one frame")
         encoded = {name: worker.finish() for name, worker in self._workers.items()}
         self._episode = None
-        for name, enc in encoded.items():
-            if enc.frames != n:
-                raise OpenralError(f"camera {name}: encoded {enc.frames} frames for an episode of {n}")
+        short = {name: enc.frames for name, enc in encoded.items() if enc.frames != n}
+        if short:
+            for enc in encoded.values():
+                enc.path.unlink(missing_ok=True)
+            raise OpenralError(f"episode discarded: encoded frames {short} differ from its {n} rows")
         index = self.total_episodes
         row = self._base_row(index, ep, n, success)
         table = self._episode_table(index, ep, n)
@@ -232,8 +234,12 @@ class LeRobotV3Writer:
         finally:
             for worker in self._workers.values():
                 worker.close()
-        if self.total_episodes == 0 and self._created_root:
-            shutil.rmtree(self.root, ignore_errors=True)
+        if self.total_episodes == 0:  # nothing finished: leave no half-made dataset behind
+            if self._created_root:
+                shutil.rmtree(self.root, ignore_errors=True)
+            else:
+                for sub in ("meta", "data", "videos"):
+                    shutil.rmtree(self.root / sub, ignore_errors=True)
 
     # -- episode assembly ------------------------------------------------------------------------------------
     def _base_row(self, index: int, ep: _EpisodeBuffer, n: int, success: bool) -> dict[str, Any]:
