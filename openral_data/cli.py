@@ -73,8 +73,8 @@ def record(
     ) as bar:
         task = bar.add_task("record", total=n_episodes, frames=0)
 
-        def progress(rec: object, frames: int) -> None:
-            bar.update(task, advance=1, frames=frames)
+        def progress(rec: object, frames: int, total: int) -> None:
+            bar.update(task, total=total, advance=0 if rec is None else 1, frames=frames)
 
         try:
             summary = run_record(opts, progress)

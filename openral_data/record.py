@@ -14,6 +14,8 @@ from openral_data import __version__, paths, registry
 from openral_data.bridge import DatasetBridge
 from openral_data.compat import check_compatibility
 from openral_data.errors import ConfigError, OpenralError
+from openral_data.policies.base import PolicyAdapter
+from openral_data.producers.base import SimRollout
 from openral_data.schemas.scene import SimScene, load_recordable_scene
 from openral_data.sinks.base import DatasetSchema, EpisodeRecord
 from openral_data.sinks.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
@@ -48,7 +50,7 @@ class RecordSummary:
         return self.frames / self.seconds if self.seconds > 0 else 0.0
 
 
-ProgressFn = Callable[[EpisodeRecord | None, int], None]  # (finished episode or None, frames so far)
+ProgressFn = Callable[[EpisodeRecord | None, int, int], None]  # (finished episode | None at start, frames, total)
 
 
 class _StopRequest:
@@ -148,30 +150,15 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
         frames = 0
         t0 = time.perf_counter()
         stop = _StopRequest()
+        if progress is not None:
+            progress(None, 0, n_episodes)
         try:
             for e in range(n_episodes):
-                stop.check()
-                seed = base_seed + e
-                obs = env.reset(seed)
-                policy.reset(seed)
-                bridge.begin_episode(seed, env.initial_state())
-                success = False
-                for t in range(max_steps):
-                    stop.check()
-                    action = policy.step(obs, obs.task)
-                    bridge.check_action(action)
-                    result = env.step(action)
-                    last = result.terminated or t == max_steps - 1
-                    bridge.add_step(obs, action, reward=result.reward, done=last, success=result.success)
-                    frames += 1
-                    obs = result.observation
-                    if result.terminated:
-                        success = result.success
-                        break
-                rec = bridge.end_episode(success)[0]
+                rec = _record_episode(env, policy, bridge, base_seed + e, max_steps, stop)
                 records.append(rec)
+                frames += rec.length
                 if progress is not None:
-                    progress(rec, frames)
+                    progress(rec, frames, n_episodes)
         except BaseException as exc:
             bridge.close()  # discards the episode in flight; finished episodes are already durable
             if isinstance(exc, OpenralError) and records:
@@ -184,3 +171,26 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
         return RecordSummary(out=out, episodes=records, frames=frames, seconds=time.perf_counter() - t0)
     finally:
         env.close()
+
+
+def _record_episode(
+    env: SimRollout, policy: PolicyAdapter, bridge: DatasetBridge, seed: int, max_steps: int, stop: _StopRequest
+) -> EpisodeRecord:
+    """One episode: row t = (observation t, the action the policy produced from it, what followed)."""
+    stop.check()
+    obs = env.reset(seed)
+    policy.reset(seed)
+    bridge.begin_episode(seed, env.initial_state())
+    success = False
+    for t in range(max_steps):
+        stop.check()
+        action = policy.step(obs, obs.task)
+        bridge.check_action(action)  # before the producer ever sees it
+        result = env.step(action)
+        last = result.terminated or t == max_steps - 1
+        bridge.add_step(obs, action, reward=result.reward, done=last, success=result.success)
+        obs = result.observation
+        if result.terminated:
+            success = result.success
+            break
+    return bridge.end_episode(success)[0]
