@@ -208,9 +208,10 @@ class EncoderWorker:
                 frames += 1
                 for packet in stream.encode(vf):
                     container.mux(packet)
-            if end is _FINISH:
-                for packet in stream.encode(None):
-                    container.mux(packet)
+            # always drain the encoder (SVT-AV1 complains when torn down without end-of-stream); an aborted
+            # file is deleted by the producer afterwards
+            for packet in stream.encode(None):
+                container.mux(packet)
             container.close()
             container = None
             job.result = EncodedEpisode(job.path, frames, stats)
