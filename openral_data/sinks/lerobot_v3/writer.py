@@ -41,7 +41,7 @@ from openral_data.sinks.lerobot_v3.stats import (
     numeric_stats,
     to_jsonable,
 )
-from openral_data.sinks.lerobot_v3.video import EncoderWorker, VideoSettings, concat_mp4
+from openral_data.sinks.lerobot_v3.video import EncodedEpisode, EncoderWorker, VideoSettings, concat_mp4
 
 MB = 1 << 20
 
@@ -123,6 +123,7 @@ class LeRobotV3Writer:
         self._numeric_stats: dict[str, Stats] = {}
         self._image_stats = {name: ImageStatsAccumulator() for name in schema.cameras}
         self._episode: _EpisodeBuffer | None = None
+        self._batch: atomic.Batch | None = None  # set while an episode is being committed
         self._closed = False
         atomic.write_bytes(
             root / layout.OPENRAL_PATH,
@@ -195,6 +196,20 @@ class LeRobotV3Writer:
             for enc in encoded.values():
                 enc.path.unlink(missing_ok=True)
             raise OpenralError(f"episode discarded: encoded frames {short} differ from its {n} rows")
+        batch = self._batch = atomic.Batch(self.config.durable)
+        try:
+            record = self._commit_episode(ep, n, success, encoded)
+            batch.commit()
+        finally:
+            self._batch = None
+            batch.discard()
+        self._maybe_rotate_episodes_file()
+        return record
+
+    def _commit_episode(
+        self, ep: _EpisodeBuffer, n: int, success: bool, encoded: dict[str, EncodedEpisode]
+    ) -> EpisodeRecord:
+        """Place the episode's videos, then stage data, episodes metadata, tasks, stats and info.json."""
         index = self.total_episodes
         row = self._base_row(index, ep, n, success)
         table = self._episode_table(index, ep, n)
@@ -217,7 +232,6 @@ class LeRobotV3Writer:
                 self._numeric_stats[key] = merge_numeric(self._numeric_stats.get(key), s)
         self.total_frames += n
         self._commit()
-        self._maybe_rotate_episodes_file()
         return EpisodeRecord(index=index, length=n, success=success, seed=ep.start.seed)
 
     def close(self) -> None:
@@ -291,7 +305,7 @@ class LeRobotV3Writer:
                 for t in self._data_tables:  # one row group per episode, as lerobot writes
                     w.write_table(t)
 
-        atomic.write_with(path, write, self.config.durable)
+        self._write(path, write)
 
     # -- videos ----------------------------------------------------------------------------------------------
     def _pending_video(self, name: str) -> Path:
@@ -341,14 +355,21 @@ class LeRobotV3Writer:
                 offset += m.frames
                 row[f"videos/{key}/to_timestamp"] = offset / self.schema.fps
                 touched.add(FilePos(row["meta/episodes/chunk_index"], row["meta/episodes/file_index"]))
-            self._write_episodes(touched)
+            self._write_episodes(touched, immediate=True)
             for m in group.members[1:]:
                 layout.video_path(self.root, key, m.pos).unlink(missing_ok=True)
         start = group.first.next(self.config.chunks_size) if group.members else group.first
         self._groups[name] = _VideoGroup(start)
 
     # -- metadata --------------------------------------------------------------------------------------------
-    def _write_episodes(self, files: set[FilePos]) -> None:
+    def _write(self, path: Path, writer: Callable[[Path], None]) -> None:
+        """Stage into the episode's batch while one is being committed, else replace atomically now."""
+        if self._batch is not None:
+            self._batch.write_with(path, writer)
+        else:
+            atomic.write_with(path, writer, self.config.durable)
+
+    def _write_episodes(self, files: set[FilePos], immediate: bool = False) -> None:
         for pos in sorted(files):
             rows = [
                 r
@@ -356,7 +377,11 @@ class LeRobotV3Writer:
                 if (r["meta/episodes/chunk_index"], r["meta/episodes/file_index"]) == (pos.chunk, pos.file)
             ]
             table = pa.Table.from_pylist(rows, schema=self._episodes_schema)
-            atomic.write_with(layout.episodes_path(self.root, pos), _parquet_writer(table), self.config.durable)
+            path = layout.episodes_path(self.root, pos)
+            if immediate:
+                atomic.write_with(path, _parquet_writer(table), self.config.durable)
+            else:
+                self._write(path, _parquet_writer(table))
 
     def _maybe_rotate_episodes_file(self) -> None:
         path = layout.episodes_path(self.root, self._episode_file)
@@ -365,9 +390,8 @@ class LeRobotV3Writer:
 
     def _commit(self) -> None:
         """tasks, stats, then info.json last: its totals are what the loader trusts."""
-        durable = self.config.durable
         if len(self.tasks) != self._tasks_written:
-            atomic.write_with(self.root / layout.TASKS_PATH, _tasks_writer(self.tasks), durable)
+            self._write(self.root / layout.TASKS_PATH, _tasks_writer(self.tasks))
             self._tasks_written = len(self.tasks)
         stats: dict[str, Any] = {}
         for key in self.features:
@@ -376,8 +400,8 @@ class LeRobotV3Writer:
         for name, acc in self._image_stats.items():
             stats[self._keys[name]] = to_jsonable(acc.stats())
         ordered = {k: stats[k] for k in self.features if k in stats}
-        atomic.write_bytes(self.root / layout.STATS_PATH, json.dumps(ordered, indent=4).encode(), durable)
-        atomic.write_bytes(self.root / layout.INFO_PATH, json.dumps(self.info(), indent=4).encode(), durable)
+        self._write(self.root / layout.STATS_PATH, _bytes_writer(json.dumps(ordered, indent=4).encode()))
+        self._write(self.root / layout.INFO_PATH, _bytes_writer(json.dumps(self.info(), indent=4).encode()))
 
     def info(self) -> dict[str, Any]:
         c = self.config
@@ -468,3 +492,10 @@ def _pandas_version() -> str:
         return version("pandas")
     except PackageNotFoundError:
         return "2.3.3"
+
+
+def _bytes_writer(data: bytes) -> Callable[[Path], None]:
+    def write(path: Path) -> None:
+        path.write_bytes(data)
+
+    return write
