@@ -243,3 +243,37 @@ def test_encoder_worker_abort_then_reuse(tmp_path: Path) -> None:
         assert done.stats.stats()["mean"].ravel().tolist() == pytest.approx([90 / 255] * 3, abs=1e-9)
     finally:
         worker.close()
+
+
+def test_encoder_failure_discards_the_episode_cleanly(tmp_path: Path) -> None:
+    """A frame the encoder cannot take (bypassing the bridge) fails the episode; earlier ones are intact."""
+    from openral_data.sinks.base import EpisodeStart, Frame
+    from openral_data.sinks.lerobot_v3.video import EncoderError
+
+    schema = DatasetSchema(
+        fps=10,
+        state_names=("s",),
+        action_names=("a",),
+        cameras={"a": CameraShape(32, 32), "b": CameraShape(32, 32)},
+        robot_type="unit",
+    )
+    writer = LeRobotV3Writer(tmp_path / "ds", schema, WriterConfig(video=VideoSettings(codec="h264")))
+    good = np.zeros((32, 32, 3), np.uint8)
+
+    def frame(img_b: np.ndarray) -> Frame:
+        return Frame(np.zeros(1, np.float32), np.zeros(1, np.float32), {"a": good, "b": img_b}, "t", 0.0, False, False)
+
+    writer.begin_episode(EpisodeStart(0, {}))
+    for _ in range(3):
+        writer.add_frame(frame(good))
+    writer.end_episode(True)
+    writer.begin_episode(EpisodeStart(1, {}))
+    with pytest.raises(EncoderError):
+        for _ in range(3):
+            writer.add_frame(frame(np.zeros((32, 32, 3), np.float64)))
+        writer.end_episode(True)
+    writer.discard_episode()
+    writer.close()
+    assert not list((tmp_path / "ds").rglob("*.tmp"))
+    assert summarize(tmp_path / "ds").episodes == 1
+    assert len(list((tmp_path / "ds").glob("videos/*/*/*.mp4"))) == 2

@@ -146,6 +146,7 @@ class EncoderWorker:
         job.done.wait()
         self._job = None
         if job.error is not None:
+            job.path.unlink(missing_ok=True)
             raise EncoderError(f"encoding {job.path} failed: {job.error}") from job.error
         assert job.result is not None
         return job.result

@@ -189,7 +189,15 @@ class LeRobotV3Writer:
         if n == 0:
             self.discard_episode()
             raise OpenralError("an episode needs at least one frame")
-        encoded = {name: worker.finish() for name, worker in self._workers.items()}
+        encoded: dict[str, EncodedEpisode] = {}
+        try:
+            for name, worker in self._workers.items():
+                encoded[name] = worker.finish()
+        except BaseException:
+            for enc in encoded.values():
+                enc.path.unlink(missing_ok=True)
+            self.discard_episode()  # aborts the cameras not finished yet
+            raise
         self._episode = None
         short = {name: enc.frames for name, enc in encoded.items() if enc.frames != n}
         if short:
@@ -231,7 +239,7 @@ class LeRobotV3Writer:
             if key not in self._keys.values():
                 self._numeric_stats[key] = merge_numeric(self._numeric_stats.get(key), s)
         self.total_frames += n
-        self._commit()
+        self._write_meta()
         return EpisodeRecord(index=index, length=n, success=success, seed=ep.start.seed)
 
     def close(self) -> None:
@@ -244,7 +252,7 @@ class LeRobotV3Writer:
             for name in list(self._groups):
                 self._join_group(name)
             if self.total_episodes:
-                self._commit()
+                self._write_meta()
         finally:
             for worker in self._workers.values():
                 worker.close()
@@ -388,7 +396,7 @@ class LeRobotV3Writer:
         if path.stat().st_size >= self.config.data_files_size_in_mb * MB:
             self._episode_file = self._episode_file.next(self.config.chunks_size)
 
-    def _commit(self) -> None:
+    def _write_meta(self) -> None:
         """tasks, stats, then info.json last: its totals are what the loader trusts."""
         if len(self.tasks) != self._tasks_written:
             self._write(self.root / layout.TASKS_PATH, _tasks_writer(self.tasks))
