@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-import contextlib
 import os
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 
 
@@ -21,32 +20,36 @@ def tmp_name(path: Path) -> Path:
     return path.with_name(f".{path.name}.tmp")
 
 
-@contextlib.contextmanager
-def replacing(path: Path, durable: bool = True) -> Iterator[Path]:
-    """Yield a temporary path to write; on success it atomically becomes `path`."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = tmp_name(path)
-    try:
-        yield tmp
-        if durable:
-            with open(tmp, "rb+") as fh:
-                os.fsync(fh.fileno())
-        os.replace(tmp, path)
-        if durable:
-            fsync_dir(path.parent)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+def fsync_file(path: Path) -> None:
+    with open(path, "rb+") as fh:
+        os.fsync(fh.fileno())
 
 
-def write_bytes(path: Path, data: bytes, durable: bool = True) -> None:
-    with replacing(path, durable) as tmp:
-        tmp.write_bytes(data)
+def move_into_place(tmp: Path, path: Path, durable: bool = True) -> None:
+    """Atomically rename a finished temporary file over `path`."""
+    if durable:
+        fsync_file(tmp)
+    os.replace(tmp, path)
+    if durable:
+        fsync_dir(path.parent)
+
+
+def bytes_writer(data: bytes) -> Callable[[Path], None]:
+    def write(path: Path) -> None:
+        path.write_bytes(data)
+
+    return write
 
 
 def write_with(path: Path, writer: Callable[[Path], None], durable: bool = True) -> None:
-    with replacing(path, durable) as tmp:
-        writer(tmp)
+    """Write `path` through `writer(tmp)`, then atomically replace it; on error the old file stays."""
+    batch = Batch(durable)
+    batch.write_with(path, writer)
+    batch.commit()
+
+
+def write_bytes(path: Path, data: bytes, durable: bool = True) -> None:
+    write_with(path, bytes_writer(data), durable)
 
 
 class Batch:
@@ -69,8 +72,7 @@ class Batch:
         try:
             writer(tmp)
             if self.durable:
-                with open(tmp, "rb+") as fh:
-                    os.fsync(fh.fileno())
+                fsync_file(tmp)
         except BaseException:
             tmp.unlink(missing_ok=True)
             raise

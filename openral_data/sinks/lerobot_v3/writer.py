@@ -10,7 +10,6 @@ each step of that join leaves every episode readable.
 from __future__ import annotations
 
 import json
-import os
 import shutil
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -331,10 +330,7 @@ class LeRobotV3Writer:
         pos = group.next_pos(self.config.chunks_size)
         final = layout.video_path(self.root, key, pos)
         final.parent.mkdir(parents=True, exist_ok=True)
-        if self.config.durable:
-            with open(tmp, "rb+") as fh:
-                os.fsync(fh.fileno())
-        os.replace(tmp, final)
+        atomic.move_into_place(tmp, final, self.config.durable)
         group.members.append(_VideoMember(episode, pos, frames, size))
         row[f"videos/{key}/chunk_index"] = pos.chunk
         row[f"videos/{key}/file_index"] = pos.file
@@ -408,8 +404,8 @@ class LeRobotV3Writer:
         for name, acc in self._image_stats.items():
             stats[self._keys[name]] = to_jsonable(acc.stats())
         ordered = {k: stats[k] for k in self.features if k in stats}
-        self._write(self.root / layout.STATS_PATH, _bytes_writer(json.dumps(ordered, indent=4).encode()))
-        self._write(self.root / layout.INFO_PATH, _bytes_writer(json.dumps(self.info(), indent=4).encode()))
+        self._write(self.root / layout.STATS_PATH, atomic.bytes_writer(json.dumps(ordered, indent=4).encode()))
+        self._write(self.root / layout.INFO_PATH, atomic.bytes_writer(json.dumps(self.info(), indent=4).encode()))
 
     def info(self) -> dict[str, Any]:
         c = self.config
@@ -500,10 +496,3 @@ def _pandas_version() -> str:
         return version("pandas")
     except PackageNotFoundError:
         return "2.3.3"
-
-
-def _bytes_writer(data: bytes) -> Callable[[Path], None]:
-    def write(path: Path) -> None:
-        path.write_bytes(data)
-
-    return write
