@@ -12,7 +12,8 @@ Three contestants write W in the same process, in this order for each repetition
    from the codec (durable commits, per-episode stats, streaming encoder threads, mp4 joining at close).
 3. **lerobot**: ``LeRobotDataset.create(..., use_videos=True)`` + ``add_frame`` / ``save_episode`` /
    ``finalize`` with lerobot's defaults (PNG staging, no streaming encoding, no async image writer). It is
-   given the same ``next.reward`` / ``next.done`` / ``next.success`` columns our writer always writes.
+   given the same ``next.reward`` / ``next.done`` / ``next.success`` columns our writer always writes, and
+   ``video_backend="pyav"``, which only picks the read-back decoder (it skips a noisy torchcodec probe).
 
 The frames are rendered once, before anything is timed: a smooth textured background (a wall and a table)
 with a few moving, shaded objects whose positions depend on (episode, step, camera); the wrist camera also
@@ -50,6 +51,7 @@ import statistics
 import sys
 import tempfile
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from datetime import UTC, datetime
@@ -325,6 +327,7 @@ def run_lerobot(data: list[EpisodeData], root: Path, wl: Workload, codec: Codec)
         robot_type="bench",
         use_videos=True,
         rgb_encoder=rgb_encoder,
+        video_backend="pyav",  # read-back decoder only; skips the torchcodec probe (broken here, noisy)
     )
     last = wl.frames - 1
     reward = np.zeros(1, np.float32)
@@ -416,7 +419,7 @@ def check(name: str, root: Path, wl: Workload, result: RunResult) -> None:
     if name == "ours":
         from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
-        ds = LeRobotDataset("bench/ours", root=root)
+        ds = LeRobotDataset("bench/ours", root=root, video_backend="pyav")
         result.loaded_len = len(ds)
         del ds
 
@@ -526,6 +529,8 @@ def main(argv: list[str] | None = None) -> int:
     os.environ["HF_HUB_OFFLINE"] = "1"
     os.environ["HF_DATASETS_OFFLINE"] = "1"
     os.environ["HF_HUB_DISABLE_TELEMETRY"] = "1"
+    os.environ["HF_DATASETS_DISABLE_PROGRESS_BARS"] = "1"
+    warnings.filterwarnings("ignore", message="Cannot enable progress bars", category=UserWarning)
     os.environ["HF_LEROBOT_HOME"] = str(scratch / "hf_lerobot_home")
     os.environ["HF_DATASETS_CACHE"] = str(scratch / "hf_datasets_cache")
 
