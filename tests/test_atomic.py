@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -9,8 +10,11 @@ import pytest
 from openral_data.sinks.lerobot_v3 import atomic
 
 
-def _writes(text: str):  # type: ignore[no-untyped-def]
-    return lambda p: p.write_text(text)
+def _writes(text: str) -> Callable[[Path], None]:
+    def write(path: Path) -> None:
+        path.write_text(text)
+
+    return write
 
 
 def test_write_with_replaces_and_leaves_no_temp(tmp_path: Path) -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -16,8 +17,6 @@ def _fails(proc_args: list[str], pattern: str, env: dict[str, str] | None = None
     lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1, proc.stderr  # one line, no traceback
     assert lines[0].startswith("error: "), lines
-    import re
-
     assert re.search(pattern, lines[0]), lines[0]
     return lines[0]
 
