@@ -33,6 +33,7 @@ class DatasetBridge:
         self._camera_names = set(schema.cameras)
         self._episode = 0
         self._step = 0
+        self._last_time = 0.0
         self._open = False
 
     # -- validation ------------------------------------------------------------------------------------------
@@ -71,6 +72,18 @@ class DatasetBridge:
             out[name] = np.ascontiguousarray(img).copy()
         return out
 
+    def _timestamp(self, time: float | None) -> float:
+        if time is None:
+            return self._step / self.schema.fps
+        t = float(time)
+        if not np.isfinite(t) or t < 0 or t < self._last_time:
+            raise ContractViolation(
+                f"{self._where()}: time: expected a finite, non-decreasing time >= 0, got {time} "
+                f"(previous {self._last_time})"
+            )
+        self._last_time = t
+        return t
+
     def check_action(self, action: Any) -> None:
         """Validate a policy's action before it reaches the producer."""
         self._vector("action", action, self.schema.action_dim)
@@ -81,6 +94,7 @@ class DatasetBridge:
             raise RuntimeError("begin_episode() while an episode is open")
         self._open = True
         self._step = 0
+        self._last_time = 0.0
         start = EpisodeStart(seed=seed, initial_state=initial_state)
         for sink in self.sinks:
             sink.begin_episode(start)
@@ -99,6 +113,7 @@ class DatasetBridge:
             reward=float(reward),
             done=bool(done),
             success=bool(success),
+            timestamp=self._timestamp(observation.time),
         )
         if not np.isfinite(frame.reward):
             raise ContractViolation(f"{self._where()}: reward: non-finite value {reward}")

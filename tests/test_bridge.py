@@ -154,3 +154,32 @@ def test_close_discards_episode_in_flight(bridge: tuple[DatasetBridge, Recording
     add(b, obs())
     b.close()
     assert sink.discarded == 1 and sink.closed and sink.ended == []
+
+
+class _Timestamps:
+    def __init__(self) -> None:
+        self.got: list[float] = []
+
+    def begin_episode(self, start: EpisodeStart) -> None: ...
+
+    def add_frame(self, frame: Frame) -> None:
+        self.got.append(frame.timestamp)
+
+    def end_episode(self, success: bool) -> EpisodeRecord:
+        return EpisodeRecord(0, len(self.got), success, 0)
+
+    def discard_episode(self) -> None: ...
+
+    def close(self) -> None: ...
+
+
+def test_frame_timestamps_come_from_the_producer_clock() -> None:
+    sink = _Timestamps()
+    bridge = DatasetBridge(DatasetSchema(10, ("s",), ("a",), {}, "r"), [sink])
+    bridge.begin_episode(0, {})
+    a = np.zeros(1, np.float32)
+    for time in (None, 0.25, 0.25, 0.5):
+        bridge.add_step(Observation({}, np.zeros(1, np.float32), "t", time), a, reward=0, done=False, success=False)
+    assert sink.got == [0.0, 0.25, 0.25, 0.5]
+    with pytest.raises(ContractViolation, match="non-decreasing"):
+        bridge.add_step(Observation({}, np.zeros(1, np.float32), "t", 0.1), a, reward=0, done=False, success=False)

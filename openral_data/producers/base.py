@@ -28,11 +28,16 @@ class ProducerSpec:
 
 @dataclass
 class Observation:
-    """What the policy sees at one step: camera images (HWC uint8), the state vector and the task text."""
+    """What the policy sees at one step: camera images (HWC uint8), the state vector and the task text.
+
+    `time` is the producer's clock for this observation in seconds since the episode began: simulation time
+    for sim scenes, a monotonic clock for hardware. `None` means "no clock of its own" (frame index / fps).
+    """
 
     images: dict[str, npt.NDArray[Any]]
     state: npt.NDArray[Any]
     task: str
+    time: float | None = None
 
 
 @dataclass

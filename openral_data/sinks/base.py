@@ -42,6 +42,7 @@ class Frame:
     reward: float
     done: bool
     success: bool
+    timestamp: float = 0.0  # seconds since the episode began, from the producer's clock (see Observation.time)
 
 
 @dataclass(frozen=True)

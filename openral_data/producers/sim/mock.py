@@ -80,7 +80,7 @@ class MockScene:
         fault = self.params.fault
         if fault is not None and fault.episode == e and fault.at_step == t:
             state, images = self._inject(fault.kind, state, images)
-        return Observation(images=images, state=state, task=self._task)
+        return Observation(images=images, state=state, task=self._task, time=t / self.spec.fps)
 
     @staticmethod
     def _inject(
