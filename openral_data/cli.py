@@ -178,6 +178,43 @@ def list_cmd(what: Annotated[ListWhat, typer.Argument(help="scenes, rskills or r
     console.print(table)
 
 
+class StatsFormat(StrEnum):
+    table = "table"
+    json = "json"
+    csv = "csv"
+    markdown = "markdown"
+
+
+@app.command()
+def stats(
+    paths: Annotated[list[str], typer.Argument(help="datasets and/or results directories (globs allowed)")],
+    by: Annotated[str | None, typer.Option(help="group by: dataset,task,rskill,scene,robot,seed")] = None,
+    sql: Annotated[str | None, typer.Option(help="run this SQL on the views instead of the report")] = None,
+    fmt: Annotated[StatsFormat, typer.Option("--format", help="output format")] = StatsFormat.table,
+    plot: Annotated[Path | None, typer.Option(help="also write a PNG: success rates + action histograms")] = None,
+    memory_limit: Annotated[str, typer.Option(help="DuckDB memory limit")] = "1GB",
+    health: Annotated[bool, typer.Option(help="run the health checks")] = True,
+) -> None:
+    """Episodes, frames, success rates with 95 % intervals, comparisons and health, computed by DuckDB."""
+    from openral_data.metrics.command import StatsOptions, run_stats
+
+    out = run_stats(StatsOptions(paths, by, sql, fmt.value, plot, memory_limit, health))
+    print(out)
+
+
+@app.command()
+def view(
+    path: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset folder or an .mcap file")],
+    episode: Annotated[int, typer.Option(help="episode index")] = 0,
+    save: Annotated[Path | None, typer.Option(help="write this .rrd instead of opening a viewer")] = None,
+    results: Annotated[Path | None, typer.Option(help="replay/eval results directory: log divergence")] = None,
+) -> None:
+    """Show an episode in rerun: videos, named state/action series, task, success/done, replay divergence."""
+    from openral_data.viz.rerun_view import ViewOptions, run_view
+
+    console.print(run_view(ViewOptions(path, episode, save, results)), markup=False, highlight=False)
+
+
 def main() -> None:
     """Entry point: user mistakes become one `error:` line and exit 2; usage errors are click's (exit 2)."""
     try:

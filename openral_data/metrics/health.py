@@ -1,0 +1,172 @@
+"""Health checks of a LeRobot v3 dataset: missing files, zero-frame episodes, row counts against the
+episodes metadata, non-monotonic or gapped timestamps, NaN/Inf in state/action, video frame counts.
+
+Frame-level checks are one DuckDB scan over the data parquet; video frames are counted from the mp4
+packets (PyAV demux, no decoding), split into episodes by each episode's from/to timestamps.
+"""
+
+from __future__ import annotations
+
+from bisect import bisect_left
+from collections import defaultdict
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import av
+import duckdb
+
+from openral_data.metrics.sources import DatasetSource
+from openral_data.metrics.views import files_sql, ident, query
+from openral_data.sinks.lerobot_v3 import layout
+from openral_data.sinks.lerobot_v3.layout import FilePos
+
+GAP_FACTOR = 1.5  # a step longer than 1.5 frame periods is a gap
+
+
+@dataclass(frozen=True)
+class Issue:
+    dataset: str
+    episode: int | None
+    check: str
+    detail: str
+
+    def row(self) -> dict[str, Any]:
+        return {"dataset": self.dataset, "episode": self.episode, "check": self.check, "detail": self.detail}
+
+
+def check_dataset(con: duckdb.DuckDBPyConnection, ds: DatasetSource) -> list[Issue]:
+    issues: list[Issue] = []
+    meta = _episode_meta(con, ds)
+    issues += _missing_files(ds, meta)
+    issues += _frame_checks(con, ds, meta)
+    issues += _video_checks(ds, meta)
+    return sorted(issues, key=lambda i: (i.dataset, -1 if i.episode is None else i.episode, i.check))
+
+
+def _episode_meta(con: duckdb.DuckDBPyConnection, ds: DatasetSource) -> list[dict[str, Any]]:
+    wanted = ["episode_index", "length", "data/chunk_index", "data/file_index"]
+    for cam in ds.cameras:
+        wanted += [f"videos/{cam}/{k}" for k in ("chunk_index", "file_index", "from_timestamp", "to_timestamp")]
+    cols = ", ".join(ident(c) if c in ds.episode_columns else f"NULL AS {ident(c)}" for c in wanted)
+    names, rows = query(con, f"SELECT {cols} FROM read_parquet({files_sql(ds.episode_files)}) ORDER BY episode_index")
+    return [dict(zip(names, row, strict=True)) for row in rows]
+
+
+def _missing_files(ds: DatasetSource, meta: list[dict[str, Any]]) -> list[Issue]:
+    issues = []
+    if int(ds.info.get("total_tasks", 0)) and not (ds.root / layout.TASKS_PATH).is_file():
+        issues.append(Issue(ds.label, None, "missing_file", layout.TASKS_PATH))
+    reported: set[Path] = set()
+    for ep in meta:
+        paths = []
+        if ep["data/chunk_index"] is not None:
+            paths.append(layout.data_path(ds.root, FilePos(ep["data/chunk_index"], ep["data/file_index"])))
+        for cam in ds.cameras:
+            if ep[f"videos/{cam}/chunk_index"] is not None:
+                pos = FilePos(ep[f"videos/{cam}/chunk_index"], ep[f"videos/{cam}/file_index"])
+                paths.append(layout.video_path(ds.root, cam, pos))
+        for path in paths:
+            if not path.is_file():
+                detail = str(path.relative_to(ds.root))
+                if path in reported:
+                    detail += " (also)"
+                reported.add(path)
+                issues.append(Issue(ds.label, int(ep["episode_index"]), "missing_file", detail))
+    return issues
+
+
+def _frame_checks(con: duckdb.DuckDBPyConnection, ds: DatasetSource, meta: list[dict[str, Any]]) -> list[Issue]:
+    issues: list[Issue] = []
+    counted: dict[int, tuple[int, int, int, int, float | None]] = {}
+    if ds.data_files:
+        finite = [f"NOT isfinite(list_sum({ident(k)}))" for k in ds.vector_features]
+        if "next.reward" in ds.data_columns:
+            finite.append('NOT isfinite("next.reward")')
+        nonfinite = f"count(*) FILTER ({' OR '.join(finite)})" if finite else "0"
+        gap = GAP_FACTOR / ds.fps
+        order = "index" if "index" in ds.data_columns else "frame_index"
+        sql = f"""
+            SELECT episode_index, count(*) AS n,
+                   count(*) FILTER (d <= 0) AS non_monotonic,
+                   count(*) FILTER (d > {gap}) AS gaps,
+                   {nonfinite} AS non_finite,
+                   max(d) AS max_step
+            FROM (
+                SELECT *, timestamp - lag(timestamp) OVER (PARTITION BY episode_index ORDER BY {ident(order)}) AS d
+                FROM read_parquet({files_sql(ds.data_files)})
+            )
+            GROUP BY episode_index
+        """
+        for ep, n, nonmono, gaps, nonfin, max_step in query(con, sql)[1]:
+            counted[int(ep)] = (int(n), int(nonmono), int(gaps), int(nonfin), max_step)
+    known = set()
+    for ep in meta:
+        index = int(ep["episode_index"])
+        known.add(index)
+        length = ep["length"]
+        n = counted.get(index, (0, 0, 0, 0, None))[0]
+        if not length or n == 0:
+            issues.append(Issue(ds.label, index, "zero_frames", f"metadata length {length}, {n} parquet rows"))
+        elif n != length:
+            issues.append(Issue(ds.label, index, "frame_count", f"metadata length {length}, {n} parquet rows"))
+    for index, (n, nonmono, gaps, nonfin, max_step) in sorted(counted.items()):
+        if index not in known:
+            issues.append(Issue(ds.label, index, "frame_count", f"{n} parquet rows of an episode not in meta/episodes"))
+        if nonmono:
+            issues.append(Issue(ds.label, index, "timestamp_non_monotonic", f"{nonmono} step(s) not increasing"))
+        if gaps:
+            issues.append(
+                Issue(ds.label, index, "timestamp_gap", f"{gaps} step(s) > {GAP_FACTOR}/fps, longest {max_step:.4g} s")
+            )
+        if nonfin:
+            issues.append(Issue(ds.label, index, "non_finite", f"{nonfin} row(s) with NaN/Inf in state/action/reward"))
+    return issues
+
+
+def count_packets(path: Path) -> list[float]:
+    """Presentation times (s) of every video packet of the file's first video stream, without decoding."""
+    container = av.open(str(path))
+    try:
+        stream = container.streams.video[0]
+        tb = stream.time_base
+        if tb is None:
+            raise ValueError("video stream without time base")
+        return sorted(float(p.pts * tb) for p in container.demux(stream) if p.pts is not None and p.size)
+    finally:
+        container.close()
+
+
+def _video_checks(ds: DatasetSource, meta: list[dict[str, Any]]) -> list[Issue]:
+    issues: list[Issue] = []
+    half = 0.5 / ds.fps
+    for cam in ds.cameras:
+        by_file: dict[Path, list[dict[str, Any]]] = defaultdict(list)
+        for ep in meta:
+            if ep[f"videos/{cam}/chunk_index"] is None:
+                issues.append(Issue(ds.label, int(ep["episode_index"]), "video_frames", f"{cam}: no video metadata"))
+                continue
+            pos = FilePos(ep[f"videos/{cam}/chunk_index"], ep[f"videos/{cam}/file_index"])
+            by_file[layout.video_path(ds.root, cam, pos)].append(ep)
+        for path, eps in sorted(by_file.items()):
+            if not path.is_file():
+                continue  # reported as missing_file
+            try:
+                times = count_packets(path)
+            except (av.error.FFmpegError, ValueError, IndexError) as exc:
+                issues.append(Issue(ds.label, None, "video_frames", f"{path.relative_to(ds.root)}: unreadable: {exc}"))
+                continue
+            for ep in eps:
+                lo = float(ep[f"videos/{cam}/from_timestamp"]) - half
+                hi = float(ep[f"videos/{cam}/to_timestamp"]) - half
+                frames = bisect_left(times, hi) - bisect_left(times, lo)
+                if frames != ep["length"]:
+                    issues.append(
+                        Issue(
+                            ds.label,
+                            int(ep["episode_index"]),
+                            "video_frames",
+                            f"{cam}: {frames} video frame(s), {ep['length']} parquet rows",
+                        )
+                    )
+    return issues

@@ -1,0 +1,226 @@
+"""`stats`: per-dataset/per-group numbers computed by DuckDB, comparisons, results summaries, health."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import duckdb
+
+from openral_data.errors import OpenralError
+from openral_data.metrics import health, intervals
+from openral_data.metrics.results import Results
+from openral_data.metrics.sources import DatasetSource
+from openral_data.metrics.views import files_sql, ident, query
+
+BY_KEYS = ("dataset", "task", "rskill", "scene", "robot", "seed")
+
+
+@dataclass
+class Table:
+    name: str
+    columns: list[str]
+    rows: list[list[Any]] = field(default_factory=list)
+
+    def records(self) -> list[dict[str, Any]]:
+        return [dict(zip(self.columns, r, strict=True)) for r in self.rows]
+
+
+@dataclass
+class Report:
+    tables: list[Table]
+
+    def table(self, name: str) -> Table:
+        for t in self.tables:
+            if t.name == name:
+                return t
+        raise KeyError(name)
+
+
+def parse_by(value: str | None) -> list[str]:
+    if not value:
+        return ["dataset"]
+    keys = [k.strip() for k in value.split(",") if k.strip()]
+    bad = [k for k in keys if k not in BY_KEYS]
+    if bad or not keys:
+        raise OpenralError(f"--by: unknown key(s) {', '.join(bad) or '(none)'}; valid: {', '.join(BY_KEYS)}")
+    return keys
+
+
+def run_sql(con: duckdb.DuckDBPyConnection, sql: str) -> Table:
+    try:
+        columns, rows = query(con, sql)
+    except duckdb.Error as exc:
+        raise OpenralError(f"--sql: {str(exc).splitlines()[0]}") from None
+    return Table("sql", columns, [list(r) for r in rows])
+
+
+def group_table(con: duckdb.DuckDBPyConnection, by: Sequence[str]) -> Table:
+    keys = ", ".join(ident(k) for k in by)
+    sql = f"""
+        SELECT {keys}, count(*) AS episodes, sum(length)::BIGINT AS frames, sum(duration_s) AS duration_s,
+               count(success) AS known, count(*) FILTER (success) AS successes,
+               min(length) AS len_min, quantile_cont(length, 0.25) AS len_p25, median(length) AS len_median,
+               quantile_cont(length, 0.75) AS len_p75, max(length) AS len_max, avg(length) AS len_mean
+        FROM episodes GROUP BY ALL ORDER BY {keys}
+    """
+    columns, rows = query(con, sql)
+    out = Table(
+        "groups",
+        [
+            *by,
+            "episodes",
+            "frames",
+            "duration_s",
+            "successes",
+            "success_known",
+            "success_rate",
+            "ci95_low",
+            "ci95_high",
+            "len_min",
+            "len_p25",
+            "len_median",
+            "len_p75",
+            "len_max",
+            "len_mean",
+        ],
+    )
+    for row in rows:
+        rec = dict(zip(columns, row, strict=True))
+        known, k = int(rec["known"]), int(rec["successes"])
+        rate: float | None = k / known if known else None
+        ci = intervals.wilson(k, known) if known else None
+        out.rows.append(
+            [
+                *(rec[b] for b in by),
+                rec["episodes"],
+                rec["frames"],
+                rec["duration_s"],
+                k if known else None,
+                known,
+                rate,
+                None if ci is None else ci.low,
+                None if ci is None else ci.high,
+                rec["len_min"],
+                rec["len_p25"],
+                rec["len_median"],
+                rec["len_p75"],
+                rec["len_max"],
+                rec["len_mean"],
+            ]
+        )
+    return out
+
+
+def comparison_table(groups: Table, by: Sequence[str]) -> Table:
+    """Every group with known successes against the first one: difference, Newcombe 95 % CI, Fisher p."""
+    out = Table("comparison", ["reference", "group", "rate_ref", "rate", "diff", "diff_low", "diff_high", "p_fisher"])
+    recs = [r for r in groups.records() if r["success_known"]]
+    if len(recs) < 2:
+        return out
+    ref = recs[0]
+
+    def name(r: dict[str, Any]) -> str:
+        return "/".join(str(r[b]) for b in by)
+
+    k1, n1 = int(ref["successes"]), int(ref["success_known"])
+    for r in recs[1:]:
+        k2, n2 = int(r["successes"]), int(r["success_known"])
+        ci = intervals.newcombe(k2, n2, k1, n1)
+        out.rows.append(
+            [
+                name(ref),
+                name(r),
+                k1 / n1,
+                k2 / n2,
+                k2 / n2 - k1 / n1,
+                ci.low,
+                ci.high,
+                intervals.fisher_exact(k2, n2, k1, n1),
+            ]
+        )
+    return out
+
+
+def dimension_table(con: duckdb.DuckDBPyConnection, datasets: Sequence[DatasetSource]) -> Table:
+    """Per-dimension state/action summaries, one scan of each dataset's data parquet."""
+    out = Table("dimensions", ["dataset", "feature", "dim", "name", "count", "min", "max", "mean", "std"])
+    for ds in datasets:
+        feats = ds.vector_features
+        if not ds.data_files or not feats:
+            continue
+        exprs, labels = [], []
+        for key in feats:
+            for i, dim_name in enumerate(ds.dim_names(key)):
+                v = f"{ident(key)}[{i + 1}]"
+                exprs += [f"count({v})", f"min({v})", f"max({v})", f"avg({v})", f"stddev_pop({v})"]
+                labels.append((key, i, dim_name))
+        row = query(con, f"SELECT {', '.join(exprs)} FROM read_parquet({files_sql(ds.data_files)})")[1][0]
+        for j, (key, i, dim_name) in enumerate(labels):
+            out.rows.append([ds.label, key, i, dim_name, *row[5 * j : 5 * j + 5]])
+    return out
+
+
+def results_table(con: duckdb.DuckDBPyConnection) -> Table:
+    sql = """
+        WITH s AS (
+            SELECT results, avg(action_error) AS action_error_mean,
+                   quantile_cont(action_error, 0.95) AS action_error_p95,
+                   max(action_error) AS action_error_max, avg(divergence) AS divergence_mean,
+                   quantile_cont(divergence, 0.95) AS divergence_p95, max(divergence) AS divergence_max
+            FROM result_steps GROUP BY results
+        ), e AS (
+            SELECT results, any_value(kind) AS kind, any_value(dataset) AS dataset, count(*) AS episodes,
+                   sum(steps)::BIGINT AS steps,
+                   count(success_recorded) AS recorded_known, count(*) FILTER (success_recorded) AS recorded_successes,
+                   count(success_replayed) AS replayed_known, count(*) FILTER (success_replayed) AS replayed_successes,
+                   count(*) FILTER (success_recorded = success_replayed) AS outcome_agree,
+                   avg(divergence_final) AS divergence_final_mean
+            FROM results GROUP BY results
+        )
+        SELECT * FROM e LEFT JOIN s USING (results) ORDER BY results
+    """
+    cols, rows = query(con, sql)
+    out = Table("results", [*cols, "replayed_rate", "replayed_ci95_low", "replayed_ci95_high"])
+    for row in rows:
+        rec = dict(zip(cols, row, strict=True))
+        n, k = int(rec["replayed_known"]), int(rec["replayed_successes"])
+        ci = intervals.wilson(k, n) if n else None
+        out.rows.append([*row, k / n if n else None, ci.low if ci else None, ci.high if ci else None])
+    return out
+
+
+def health_table(con: duckdb.DuckDBPyConnection, datasets: Sequence[DatasetSource]) -> Table:
+    out = Table("health", ["dataset", "episode", "check", "detail"])
+    for ds in datasets:
+        out.rows += [[i.dataset, i.episode, i.check, i.detail] for i in health.check_dataset(con, ds)]
+    return out
+
+
+def build_report(
+    con: duckdb.DuckDBPyConnection,
+    datasets: Sequence[DatasetSource],
+    results: Sequence[Results],
+    by: Sequence[str],
+    check_health: bool = True,
+) -> Report:
+    tables: list[Table] = []
+    if datasets:
+        groups = group_table(con, by)
+        tables += [groups, comparison_table(groups, by), dimension_table(con, datasets)]
+    if results:
+        tables.append(results_table(con))
+    if datasets and check_health:
+        tables.append(health_table(con, datasets))
+    return Report(tables)
+
+
+def clean(value: Any) -> Any:
+    """JSON-safe scalars: NaN/Inf become None, lists stay lists."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, list | tuple):
+        return [clean(v) for v in value]
+    return value

@@ -1,0 +1,131 @@
+"""What `stats` and `view` are pointed at: LeRobot v3 datasets (ours or lerobot's) and results directories."""
+
+from __future__ import annotations
+
+import glob
+import json
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import pyarrow.parquet as pq
+
+from openral_data.errors import OpenralError
+from openral_data.metrics import results as results_layout
+from openral_data.sinks.lerobot_v3 import layout
+from openral_data.sinks.lerobot_v3.features import ACTION, STATE
+from openral_data.sinks.lerobot_v3.reader import read_info
+
+
+@dataclass(frozen=True)
+class DatasetSource:
+    """One dataset as DuckDB will read it: its files, its feature names and provenance."""
+
+    label: str
+    root: Path
+    info: dict[str, Any]
+    data_files: list[Path]
+    episode_files: list[Path]
+    episode_columns: frozenset[str]
+    data_columns: frozenset[str]
+    scene: str | None
+    rskill: str | None
+    robot: str | None
+
+    @property
+    def fps(self) -> int:
+        return int(self.info["fps"])
+
+    @property
+    def cameras(self) -> list[str]:
+        return [k for k, f in self.info["features"].items() if f.get("dtype") == "video"]
+
+    def dim_names(self, key: str) -> list[str]:
+        """Per-dimension names from info.json (list or lerobot's {"motors": [...]} form), else key_i."""
+        feature = self.info["features"].get(key)
+        if feature is None:
+            return []
+        size = int(feature["shape"][0]) if feature.get("shape") else 1
+        names = feature.get("names")
+        if isinstance(names, dict) and len(names) == 1:
+            names = next(iter(names.values()))
+        if isinstance(names, list) and len(names) == size and all(isinstance(n, str) for n in names):
+            return list(names)
+        short = "state" if key == STATE else key
+        return [f"{short}_{i}" for i in range(size)]
+
+    @property
+    def vector_features(self) -> list[str]:
+        return [k for k in (STATE, ACTION) if k in self.data_columns]
+
+
+def open_dataset(root: Path, label: str | None = None) -> DatasetSource:
+    info = read_info(root)
+    for key in ("fps", "features"):
+        if key not in info:
+            raise OpenralError(f"{root / layout.INFO_PATH}: {key}: missing")
+    episode_files = sorted((root / "meta" / "episodes").glob("chunk-*/file-*.parquet"))
+    if not episode_files:
+        raise OpenralError(f"{root}: no episodes metadata under meta/episodes/")
+    data_files = sorted((root / "data").glob("chunk-*/file-*.parquet"))
+    episode_columns = frozenset(pq.read_schema(episode_files[0]).names)
+    data_columns = frozenset(pq.read_schema(data_files[0]).names) if data_files else frozenset()
+    scene = rskill = robot = None
+    provenance = root / layout.OPENRAL_PATH
+    if provenance.is_file():
+        try:
+            meta = json.loads(provenance.read_text()).get("schema_metadata", {})
+        except json.JSONDecodeError as exc:
+            raise OpenralError(f"{provenance}: invalid JSON: {exc}") from None
+        scene = _dig(meta, "scene", "config", "scene", "id")
+        rskill = _dig(meta, "rskill", "config", "id")
+        robot = meta.get("robot") if isinstance(meta.get("robot"), str) else None
+    return DatasetSource(
+        label=label or root.name,
+        root=root,
+        info=info,
+        data_files=data_files,
+        episode_files=episode_files,
+        episode_columns=episode_columns,
+        data_columns=data_columns,
+        scene=scene,
+        rskill=rskill,
+        robot=robot or info.get("robot_type"),
+    )
+
+
+def _dig(obj: Any, *keys: str) -> str | None:
+    for key in keys:
+        if not isinstance(obj, dict):
+            return None
+        obj = obj.get(key)
+    return obj if isinstance(obj, str) else None
+
+
+def resolve(paths: list[str]) -> tuple[list[DatasetSource], list[results_layout.Results]]:
+    """Expand paths and globs into datasets and results directories; labels are made unique."""
+    datasets: list[DatasetSource] = []
+    results: list[results_layout.Results] = []
+    for arg in paths:
+        matches = sorted(glob.glob(arg)) if glob.has_magic(arg) else [arg]
+        if not matches:
+            raise OpenralError(f"{arg}: no such file or directory")
+        for match in matches:
+            path = Path(match)
+            if not path.exists():
+                raise OpenralError(f"{path}: no such file or directory")
+            if results_layout.is_results_dir(path):
+                results.append(results_layout.open_results(path))
+            elif (path / layout.INFO_PATH).is_file():
+                datasets.append(open_dataset(path))
+            else:
+                raise OpenralError(
+                    f"{path}: neither a LeRobot v3 dataset (meta/info.json) nor results ({results_layout.SUMMARY})"
+                )
+    seen: dict[str, int] = {}
+    unique = []
+    for ds in datasets:
+        n = seen.get(ds.label, 0)
+        seen[ds.label] = n + 1
+        unique.append(ds if n == 0 else replace(ds, label=f"{ds.label}#{n + 1}"))
+    return unique, results

@@ -1,0 +1,180 @@
+"""A DuckDB connection whose views read datasets and results in place (read_parquet, nothing loaded up front).
+
+Views (documented in the README):
+
+* `frames`   — every data-parquet row of every dataset, plus a `dataset` column.
+* `episodes` — one row per episode: dataset, episode_index, length, duration_s, tasks, task, success, seed,
+  scene, rskill, robot, dataset_from_index, dataset_to_index. `success` is our `openral.success` when the
+  dataset has it, else whether any frame has `next.success`, else NULL (unknown, never guessed).
+* `tasks`    — dataset, task_index, task.
+* `datasets` — one row per dataset: dataset, path, fps, robot_type, episodes, frames, scene, rskill, robot.
+* `results`  / `result_steps` — replay/eval results (see `metrics/results.py`), with `results`, `kind`
+  and `dataset` columns.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import duckdb
+
+from openral_data.metrics.results import Results
+from openral_data.metrics.sources import DatasetSource
+from openral_data.sinks.lerobot_v3 import layout
+
+DEFAULT_MEMORY_LIMIT = "1GB"
+
+
+def lit(value: object) -> str:
+    """An SQL literal for a str/int/float/None."""
+    if value is None:
+        return "NULL"
+    if isinstance(value, bool):
+        return "TRUE" if value else "FALSE"
+    if isinstance(value, int | float):
+        return repr(value)
+    return "'" + str(value).replace("'", "''") + "'"
+
+
+def ident(name: str) -> str:
+    return '"' + name.replace('"', '""') + '"'
+
+
+def files_sql(files: Sequence[Path]) -> str:
+    return "[" + ", ".join(lit(str(f)) for f in files) + "]"
+
+
+def connect(
+    datasets: Sequence[DatasetSource],
+    results: Sequence[Results] = (),
+    memory_limit: str = DEFAULT_MEMORY_LIMIT,
+) -> duckdb.DuckDBPyConnection:
+    con = duckdb.connect(":memory:")
+    con.execute(f"SET memory_limit = {lit(memory_limit)}")
+    con.execute("SET preserve_insertion_order = false")
+    _register_datasets(con, datasets)
+    _register_results(con, results, datasets)
+    return con
+
+
+def _union(parts: list[str], empty: str) -> str:
+    return "\nUNION ALL BY NAME\n".join(parts) if parts else empty
+
+
+def _register_datasets(con: duckdb.DuckDBPyConnection, datasets: Sequence[DatasetSource]) -> None:
+    frames = [
+        f"SELECT {lit(ds.label)} AS dataset, * FROM read_parquet({files_sql(ds.data_files)})"
+        for ds in datasets
+        if ds.data_files
+    ]
+    con.execute(
+        "CREATE VIEW frames AS "
+        + _union(
+            frames, "SELECT NULL::VARCHAR AS dataset, NULL::BIGINT AS episode_index, NULL::BIGINT AS index LIMIT 0"
+        )
+    )
+    con.execute("CREATE VIEW episodes AS " + _union([_episodes_sql(ds) for ds in datasets], _EMPTY_EPISODES))
+    tasks = [
+        f"SELECT {lit(ds.label)} AS dataset, task_index, task "
+        f"FROM read_parquet({lit(str(ds.root / layout.TASKS_PATH))})"
+        for ds in datasets
+        if (ds.root / layout.TASKS_PATH).is_file()
+    ]
+    con.execute(
+        "CREATE VIEW tasks AS "
+        + _union(tasks, "SELECT NULL::VARCHAR AS dataset, NULL::BIGINT AS task_index, NULL::VARCHAR AS task LIMIT 0")
+    )
+    rows = [
+        "("
+        + ", ".join(
+            lit(v)
+            for v in (
+                ds.label,
+                str(ds.root),
+                ds.fps,
+                ds.info.get("robot_type"),
+                int(ds.info.get("total_episodes", 0)),
+                int(ds.info.get("total_frames", 0)),
+                ds.scene,
+                ds.rskill,
+                ds.robot,
+            )
+        )
+        + ")"
+        for ds in datasets
+    ]
+    cols = "dataset, path, fps, robot_type, episodes, frames, scene, rskill, robot"
+    types = "VARCHAR, VARCHAR, BIGINT, VARCHAR, BIGINT, BIGINT, VARCHAR, VARCHAR, VARCHAR"
+    typed = ", ".join(
+        f"{c.strip()}::{t.strip()} AS {c.strip()}" for c, t in zip(cols.split(","), types.split(","), strict=True)
+    )
+    body = (
+        f"SELECT {typed} FROM (VALUES {', '.join(rows)}) v({cols})"
+        if rows
+        else f"SELECT {typed} FROM (SELECT {', '.join('NULL' for _ in cols.split(','))}) v({cols}) LIMIT 0"
+    )
+    con.execute("CREATE VIEW datasets AS " + body)
+
+
+_EMPTY_EPISODES = (
+    "SELECT NULL::VARCHAR AS dataset, NULL::BIGINT AS episode_index, NULL::BIGINT AS length, "
+    "NULL::DOUBLE AS duration_s, NULL::VARCHAR[] AS tasks, NULL::VARCHAR AS task, NULL::BOOLEAN AS success, "
+    "NULL::BIGINT AS seed, NULL::VARCHAR AS scene, NULL::VARCHAR AS rskill, NULL::VARCHAR AS robot LIMIT 0"
+)
+
+
+def _episodes_sql(ds: DatasetSource) -> str:
+    cols = ds.episode_columns
+    join = ""
+    if "openral.success" in cols:
+        success = 'e."openral.success"'
+    elif "next.success" in ds.data_columns:
+        success = "f.success"
+        join = (
+            f'LEFT JOIN (SELECT episode_index, bool_or("next.success") AS success '
+            f"FROM read_parquet({files_sql(ds.data_files)}) GROUP BY episode_index) f USING (episode_index)"
+        )
+    else:
+        success = "NULL::BOOLEAN"
+    seed = 'e."openral.seed"' if "openral.seed" in cols else "NULL::BIGINT"
+    tasks = "e.tasks" if "tasks" in cols else "NULL::VARCHAR[]"
+    span = (
+        "e.dataset_from_index, e.dataset_to_index"
+        if {"dataset_from_index", "dataset_to_index"} <= cols
+        else "NULL::BIGINT AS dataset_from_index, NULL::BIGINT AS dataset_to_index"
+    )
+    return (
+        f"SELECT {lit(ds.label)} AS dataset, episode_index, e.length, e.length / {ds.fps}::DOUBLE AS duration_s, "
+        f"{tasks} AS tasks, {tasks}[1] AS task, {success} AS success, {seed} AS seed, "
+        f"{lit(ds.scene)}::VARCHAR AS scene, {lit(ds.rskill)}::VARCHAR AS rskill, {lit(ds.robot)}::VARCHAR AS robot, "
+        f"{span} FROM read_parquet({files_sql(ds.episode_files)}) e {join}"
+    )
+
+
+def _register_results(
+    con: duckdb.DuckDBPyConnection, results: Sequence[Results], datasets: Sequence[DatasetSource]
+) -> None:
+    by_root = {ds.root.resolve(): ds.label for ds in datasets}
+    eps, steps = [], []
+    for r in results:
+        ref = r.summary.get("dataset")
+        dataset = by_root.get(Path(ref).resolve(), Path(ref).name) if isinstance(ref, str) else None
+        head = f"SELECT {lit(r.label)} AS results, {lit(r.summary['kind'])} AS kind, {lit(dataset)}::VARCHAR AS dataset"
+        eps.append(f"{head}, * FROM read_parquet({lit(str(r.episodes_path))})")
+        steps.append(f"{head}, * FROM read_parquet({lit(str(r.steps_path))})")
+    empty = (
+        "SELECT NULL::VARCHAR AS results, NULL::VARCHAR AS kind, NULL::VARCHAR AS dataset, "
+        "NULL::BIGINT AS episode_index LIMIT 0"
+    )
+    con.execute("CREATE VIEW results AS " + _union(eps, empty))
+    con.execute("CREATE VIEW result_steps AS " + _union(steps, empty))
+
+
+def query(con: duckdb.DuckDBPyConnection, sql: str) -> tuple[list[str], list[tuple[Any, ...]]]:
+    """Run `sql` to completion: (column names, rows)."""
+    cur = con.execute(sql)
+    rows = cur.fetchall()
+    columns = [d[0] for d in cur.description] if cur.description else []
+    return columns, rows

@@ -1,0 +1,1 @@
+"""Visualisation of episodes with rerun."""

@@ -1,0 +1,198 @@
+"""`view`: one episode of a LeRobot v3 dataset (or an MCAP file) in rerun.
+
+Cameras are logged once as `AssetVideo` (the mp4 as it is on disk) plus one `VideoFrameReference` per row at
+`from_timestamp + frame_index / fps` — v3 packs many episodes into one mp4, so the episode's offset matters —
+and nothing is decoded. State and action become one scalar series per dimension named after the contract,
+the task is a text document, reward/success/done are series with a text event at the end, and replay
+results (see `metrics/results.py`) add per-step action error and divergence.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+import rerun as rr
+
+from openral_data.errors import OpenralError
+from openral_data.metrics import results as results_layout
+from openral_data.metrics.sources import DatasetSource, open_dataset
+from openral_data.sinks.lerobot_v3 import layout
+from openral_data.sinks.lerobot_v3.features import ACTION, IMAGE_PREFIX, STATE
+from openral_data.sinks.lerobot_v3.layout import FilePos
+
+APP_ID = "openral-data"
+FRAME = "frame_index"
+TIME = "time"
+
+
+@dataclass(frozen=True)
+class ViewOptions:
+    path: Path
+    episode: int = 0
+    save: Path | None = None
+    results: Path | None = None
+
+
+def has_display() -> bool:
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+def run_view(opts: ViewOptions) -> str:
+    """Log the episode; returns a one-line description of where it went."""
+    if not opts.path.exists():
+        raise OpenralError(f"{opts.path}: no such file or directory")
+    is_mcap = opts.path.is_file() and opts.path.suffix.lower() == ".mcap"
+    if not is_mcap and not (opts.path / layout.INFO_PATH).is_file():
+        raise OpenralError(f"{opts.path}: neither a LeRobot v3 dataset (meta/info.json) nor an .mcap file")
+    save = opts.save
+    if save is None and not has_display():
+        name = opts.path.stem if is_mcap else f"{opts.path.name}-episode-{opts.episode}"
+        save = Path(f"{name}.rrd")
+    if save is not None:
+        if save.suffix != ".rrd":
+            raise OpenralError(f"{save}: --save writes an .rrd file")
+        if save.exists():
+            raise OpenralError(f"{save}: exists; refusing to overwrite it")
+    rec = rr.RecordingStream(APP_ID)
+    if save is not None:
+        save.parent.mkdir(parents=True, exist_ok=True)
+        rec.save(save)
+    else:
+        rec.spawn()
+    try:
+        if is_mcap:
+            rec.log_file_from_path(opts.path)
+            what = f"{opts.path}"
+        else:
+            ds = open_dataset(opts.path)
+            frames = log_episode(rec, ds, opts.episode, opts.results)
+            what = f"{opts.path} episode {opts.episode} ({frames} frames)"
+    finally:
+        rec.flush()
+        rec.disconnect()
+    return f"saved {what} to {save}" if save is not None else f"opened {what} in the rerun viewer"
+
+
+def _episode_row(ds: DatasetSource, episode: int) -> dict[str, Any]:
+    for f in ds.episode_files:
+        table = pq.read_table(f, filters=[("episode_index", "=", episode)])
+        if table.num_rows:
+            drop = [c for c in table.column_names if c.startswith("stats/")]
+            row: dict[str, Any] = table.drop_columns(drop).to_pylist()[0]
+            return row
+    total = ds.info.get("total_episodes", "?")
+    raise OpenralError(f"--episode: {episode} not in {ds.root} ({total} episodes)")
+
+
+def _episode_frames(ds: DatasetSource, row: dict[str, Any]) -> pa.Table:
+    path = layout.data_path(ds.root, FilePos(int(row["data/chunk_index"]), int(row["data/file_index"])))
+    if not path.is_file():
+        raise OpenralError(f"{path}: missing (data of episode {row['episode_index']})")
+    table = pq.read_table(path, filters=[("episode_index", "=", int(row["episode_index"]))])
+    if table.num_rows == 0:
+        raise OpenralError(f"{path}: no rows for episode {row['episode_index']}")
+    order = "index" if "index" in table.column_names else "frame_index"
+    return table.sort_by(order)
+
+
+def _matrix(table: pa.Table, key: str) -> np.ndarray[Any, np.dtype[np.float64]]:
+    col = table.column(key).combine_chunks()
+    if pa.types.is_list(col.type) or pa.types.is_fixed_size_list(col.type) or pa.types.is_large_list(col.type):
+        flat = np.asarray(col.flatten().to_numpy(zero_copy_only=False), dtype=np.float64)
+        return flat.reshape(len(col), -1)
+    return np.asarray(col.to_numpy(zero_copy_only=False), dtype=np.float64).reshape(-1, 1)
+
+
+def log_episode(rec: rr.RecordingStream, ds: DatasetSource, episode: int, results: Path | None = None) -> int:
+    row = _episode_row(ds, episode)
+    table = _episode_frames(ds, row)
+    n = int(table.num_rows)
+    frame_index = np.asarray(table.column("frame_index").to_numpy(), dtype=np.int64)
+    ts = np.asarray(table.column("timestamp").to_numpy(), dtype=np.float64)
+    times = [rr.TimeColumn(FRAME, sequence=frame_index), rr.TimeColumn(TIME, duration=ts)]
+
+    tasks = row.get("tasks") or []
+    rec.log("task", rr.TextDocument("\n".join(tasks) or "(no task)"), static=True)
+    for cam in ds.cameras:
+        _log_camera(rec, ds, row, cam, frame_index, times)
+    for key in (STATE, ACTION):
+        if key not in table.column_names:
+            continue
+        values = _matrix(table, key)
+        names = ds.dim_names(key)
+        base = "state" if key == STATE else "action"
+        for i in range(values.shape[1]):
+            name = names[i] if i < len(names) else f"{base}_{i}"
+            entity = f"{base}/{rr.escape_entity_path_part(name)}"
+            rec.log(entity, rr.SeriesLines(names=name), static=True)
+            rec.send_columns(entity, indexes=times, columns=rr.Scalars.columns(scalars=values[:, i]))
+    for key in ("next.reward", "next.success", "next.done"):
+        if key in table.column_names:
+            values = np.asarray(table.column(key).to_numpy(zero_copy_only=False), dtype=np.float64)
+            entity = f"outcome/{key.removeprefix('next.')}"
+            if key == "next.reward":
+                rec.log(entity, rr.SeriesLines(names="reward"), static=True)
+            else:
+                rec.log(entity, rr.SeriesPoints(names=key.removeprefix("next."), marker_sizes=4.0), static=True)
+            rec.send_columns(entity, indexes=times, columns=rr.Scalars.columns(scalars=values))
+    success = row.get("openral.success")
+    if success is None and "next.success" in table.column_names:
+        success = bool(pa.compute.any(table.column("next.success")).as_py())
+    label = "unknown" if success is None else ("success" if success else "failure")
+    rec.set_time(FRAME, sequence=int(frame_index[-1]))
+    rec.set_time(TIME, duration=float(ts[-1]))
+    rec.log("events", rr.TextLog(f"episode {episode} done: {label}", level="INFO" if success else "WARN"))
+    if results is not None:
+        _log_results(rec, results, episode, ts, frame_index)
+    return n
+
+
+def _log_camera(
+    rec: rr.RecordingStream,
+    ds: DatasetSource,
+    row: dict[str, Any],
+    cam: str,
+    frame_index: np.ndarray[Any, np.dtype[np.int64]],
+    times: list[rr.TimeColumn],
+) -> None:
+    chunk, file = row.get(f"videos/{cam}/chunk_index"), row.get(f"videos/{cam}/file_index")
+    if chunk is None or file is None:
+        raise OpenralError(
+            f"{ds.root}: meta/episodes: videos/{cam}/chunk_index: missing for episode {row['episode_index']}"
+        )
+    path = layout.video_path(ds.root, cam, FilePos(int(chunk), int(file)))
+    if not path.is_file():
+        raise OpenralError(f"{path}: missing (video of episode {row['episode_index']})")
+    entity = f"cameras/{rr.escape_entity_path_part(cam.removeprefix(IMAGE_PREFIX))}"
+    rec.log(entity, rr.AssetVideo(path=path), static=True)
+    start = float(row.get(f"videos/{cam}/from_timestamp") or 0.0)
+    nanos = np.round((start + frame_index / ds.fps) * 1e9).astype(np.int64)
+    rec.send_columns(entity, indexes=times, columns=rr.VideoFrameReference.columns_nanos(nanos))
+
+
+def _log_results(
+    rec: rr.RecordingStream,
+    root: Path,
+    episode: int,
+    ts: np.ndarray[Any, np.dtype[np.float64]],
+    frame_index: np.ndarray[Any, np.dtype[np.int64]],
+) -> None:
+    res = results_layout.open_results(root)
+    steps = pq.read_table(res.steps_path, filters=[("episode_index", "=", episode)]).sort_by("frame_index")
+    if steps.num_rows == 0:
+        raise OpenralError(f"{res.steps_path}: no steps for episode {episode}")
+    fi = np.asarray(steps.column("frame_index").to_numpy(), dtype=np.int64)
+    lookup = {int(frame_index[k]): float(ts[k]) for k in range(len(frame_index))}
+    t = np.array([lookup.get(int(f), np.nan) for f in fi])
+    ok = ~np.isnan(t)
+    idx = [rr.TimeColumn(FRAME, sequence=fi[ok]), rr.TimeColumn(TIME, duration=t[ok])]
+    for key in ("action_error", "divergence"):
+        values = np.asarray(steps.column(key).to_numpy(zero_copy_only=False), dtype=np.float64)[ok]
+        rec.log(f"replay/{key}", rr.SeriesLines(names=key), static=True)
+        rec.send_columns(f"replay/{key}", indexes=idx, columns=rr.Scalars.columns(scalars=values))
