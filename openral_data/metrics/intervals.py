@@ -30,7 +30,9 @@ def wilson(successes: int, n: int, z: float = Z95) -> Interval:
     denom = 1.0 + z2 / n
     center = (p + z2 / (2 * n)) / denom
     half = z / denom * math.sqrt(p * (1 - p) / n + z2 / (4 * n * n))
-    return Interval(max(0.0, center - half), min(1.0, center + half))
+    low = 0.0 if successes == 0 else max(0.0, center - half)  # exact at the bounds, not 1 - 1e-16
+    high = 1.0 if successes == n else min(1.0, center + half)
+    return Interval(low, high)
 
 
 def newcombe(k1: int, n1: int, k2: int, n2: int, z: float = Z95) -> Interval:

@@ -59,24 +59,63 @@ def run_view(opts: ViewOptions) -> str:
             raise OpenralError(f"{save}: --save writes an .rrd file")
         if save.exists():
             raise OpenralError(f"{save}: exists; refusing to overwrite it")
+    # everything that can be wrong with the inputs is found before anything is written
+    episode = None if is_mcap else load_episode(open_dataset(opts.path), opts.episode, opts.results)
     rec = rr.RecordingStream(APP_ID)
     if save is not None:
         save.parent.mkdir(parents=True, exist_ok=True)
         rec.save(save)
     else:
         rec.spawn()
+    ok = False
     try:
-        if is_mcap:
+        if episode is None:
             rec.log_file_from_path(opts.path)
             what = f"{opts.path}"
         else:
-            ds = open_dataset(opts.path)
-            frames = log_episode(rec, ds, opts.episode, opts.results)
-            what = f"{opts.path} episode {opts.episode} ({frames} frames)"
+            log_episode(rec, episode)
+            what = f"{opts.path} episode {opts.episode} ({episode.frames.num_rows} frames)"
+        ok = True
     finally:
         rec.flush()
         rec.disconnect()
+        if not ok and save is not None:
+            save.unlink(missing_ok=True)
     return f"saved {what} to {save}" if save is not None else f"opened {what} in the rerun viewer"
+
+
+@dataclass(frozen=True)
+class EpisodeData:
+    ds: DatasetSource
+    row: dict[str, Any]  # the episode's meta/episodes row (without stats)
+    frames: pa.Table  # its data rows, in order
+    videos: dict[str, Path]  # camera key -> mp4
+    steps: pa.Table | None  # replay/eval steps of this episode
+
+
+def load_episode(ds: DatasetSource, episode: int, results: Path | None = None) -> EpisodeData:
+    row = _episode_row(ds, episode)
+    frames = _episode_frames(ds, row)
+    videos = {cam: _video_path(ds, row, cam) for cam in ds.cameras}
+    steps = None
+    if results is not None:
+        res = results_layout.open_results(results)
+        steps = pq.read_table(res.steps_path, filters=[("episode_index", "=", episode)]).sort_by("frame_index")
+        if steps.num_rows == 0:
+            raise OpenralError(f"{res.steps_path}: no steps for episode {episode}")
+    return EpisodeData(ds, row, frames, videos, steps)
+
+
+def _video_path(ds: DatasetSource, row: dict[str, Any], cam: str) -> Path:
+    chunk, file = row.get(f"videos/{cam}/chunk_index"), row.get(f"videos/{cam}/file_index")
+    if chunk is None or file is None:
+        raise OpenralError(
+            f"{ds.root}: meta/episodes: videos/{cam}/chunk_index: missing for episode {row['episode_index']}"
+        )
+    path = layout.video_path(ds.root, cam, FilePos(int(chunk), int(file)))
+    if not path.is_file():
+        raise OpenralError(f"{path}: missing (video of episode {row['episode_index']})")
+    return path
 
 
 def _episode_row(ds: DatasetSource, episode: int) -> dict[str, Any]:
@@ -109,18 +148,17 @@ def _matrix(table: pa.Table, key: str) -> np.ndarray[Any, np.dtype[np.float64]]:
     return np.asarray(col.to_numpy(zero_copy_only=False), dtype=np.float64).reshape(-1, 1)
 
 
-def log_episode(rec: rr.RecordingStream, ds: DatasetSource, episode: int, results: Path | None = None) -> int:
-    row = _episode_row(ds, episode)
-    table = _episode_frames(ds, row)
-    n = int(table.num_rows)
+def log_episode(rec: rr.RecordingStream, data: EpisodeData) -> None:
+    ds, row, table = data.ds, data.row, data.frames
+    episode = int(row["episode_index"])
     frame_index = np.asarray(table.column("frame_index").to_numpy(), dtype=np.int64)
     ts = np.asarray(table.column("timestamp").to_numpy(), dtype=np.float64)
     times = [rr.TimeColumn(FRAME, sequence=frame_index), rr.TimeColumn(TIME, duration=ts)]
 
     tasks = row.get("tasks") or []
     rec.log("task", rr.TextDocument("\n".join(tasks) or "(no task)"), static=True)
-    for cam in ds.cameras:
-        _log_camera(rec, ds, row, cam, frame_index, times)
+    for cam, path in data.videos.items():
+        _log_camera(rec, ds, row, cam, path, frame_index, times)
     for key in (STATE, ACTION):
         if key not in table.column_names:
             continue
@@ -148,9 +186,8 @@ def log_episode(rec: rr.RecordingStream, ds: DatasetSource, episode: int, result
     rec.set_time(FRAME, sequence=int(frame_index[-1]))
     rec.set_time(TIME, duration=float(ts[-1]))
     rec.log("events", rr.TextLog(f"episode {episode} done: {label}", level="INFO" if success else "WARN"))
-    if results is not None:
-        _log_results(rec, results, episode, ts, frame_index)
-    return n
+    if data.steps is not None:
+        _log_results(rec, data.steps, ts, frame_index)
 
 
 def _log_camera(
@@ -158,17 +195,10 @@ def _log_camera(
     ds: DatasetSource,
     row: dict[str, Any],
     cam: str,
+    path: Path,
     frame_index: np.ndarray[Any, np.dtype[np.int64]],
     times: list[rr.TimeColumn],
 ) -> None:
-    chunk, file = row.get(f"videos/{cam}/chunk_index"), row.get(f"videos/{cam}/file_index")
-    if chunk is None or file is None:
-        raise OpenralError(
-            f"{ds.root}: meta/episodes: videos/{cam}/chunk_index: missing for episode {row['episode_index']}"
-        )
-    path = layout.video_path(ds.root, cam, FilePos(int(chunk), int(file)))
-    if not path.is_file():
-        raise OpenralError(f"{path}: missing (video of episode {row['episode_index']})")
     entity = f"cameras/{rr.escape_entity_path_part(cam.removeprefix(IMAGE_PREFIX))}"
     rec.log(entity, rr.AssetVideo(path=path), static=True)
     start = float(row.get(f"videos/{cam}/from_timestamp") or 0.0)
@@ -178,15 +208,10 @@ def _log_camera(
 
 def _log_results(
     rec: rr.RecordingStream,
-    root: Path,
-    episode: int,
+    steps: pa.Table,
     ts: np.ndarray[Any, np.dtype[np.float64]],
     frame_index: np.ndarray[Any, np.dtype[np.int64]],
 ) -> None:
-    res = results_layout.open_results(root)
-    steps = pq.read_table(res.steps_path, filters=[("episode_index", "=", episode)]).sort_by("frame_index")
-    if steps.num_rows == 0:
-        raise OpenralError(f"{res.steps_path}: no steps for episode {episode}")
     fi = np.asarray(steps.column("frame_index").to_numpy(), dtype=np.int64)
     lookup = {int(frame_index[k]): float(ts[k]) for k in range(len(frame_index))}
     t = np.array([lookup.get(int(f), np.nan) for f in fi])

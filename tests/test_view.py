@@ -1,0 +1,127 @@
+"""`view`: the .rrd passes `rerun rrd verify`, and reading it back shows the right entities and frame counts."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from collections import Counter
+from collections.abc import Iterator
+from pathlib import Path
+
+import pyarrow.parquet as pq
+import pytest
+from conftest import run_cli
+from metrics_helpers import A_SUCCESS_AFTER, MAX_STEPS, episodes_file, record_datasets
+from rerun.chunk import RrdReader
+from test_results import make_results
+
+from openral_data.errors import OpenralError
+from openral_data.viz.rerun_view import ViewOptions, run_view
+
+RERUN = Path(sys.executable).with_name("rerun")
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Path, Path]]:
+    base = tmp_path_factory.mktemp("view")
+    a, _ = record_datasets(base)
+    res, _ = make_results(a, base / "replay")
+    yield a, res
+
+
+def verify(rrd: Path) -> None:
+    proc = subprocess.run([str(RERUN), "rrd", "verify", str(rrd)], capture_output=True, text=True, check=False)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
+def rows_by_entity(rrd: Path) -> tuple[Counter[str], Counter[str]]:
+    temporal: Counter[str] = Counter()
+    static: Counter[str] = Counter()
+    for chunk in RrdReader(rrd).stream():
+        (static if chunk.is_static else temporal)[chunk.entity_path] += chunk.num_rows
+    return temporal, static
+
+
+def column(rrd: Path, entity: str, name: str) -> list[object]:
+    values: list[object] = []
+    for chunk in RrdReader(rrd).stream():
+        if chunk.entity_path == entity and not chunk.is_static:
+            batch = chunk.to_record_batch()
+            values += [v[0] if isinstance(v, list) else v for v in batch.column(name).to_pylist()]
+    return values
+
+
+def test_view_episode_rrd(dataset: tuple[Path, Path], tmp_path: Path) -> None:
+    a, res = dataset
+    episode = 4
+    n = min(A_SUCCESS_AFTER[episode], MAX_STEPS)
+    rrd = tmp_path / "ep.rrd"
+    proc = run_cli("view", str(a), "--episode", str(episode), "--save", str(rrd), "--results", str(res))
+    assert proc.returncode == 0, proc.stderr
+    assert f"{n} frames" in proc.stdout
+    verify(rrd)
+    temporal, static = rows_by_entity(rrd)
+    info = json.loads((a / "meta/info.json").read_text())
+    state_names = info["features"]["observation.state"]["names"]
+    action_names = info["features"]["action"]["names"]
+    expected = {f"/state/{s}" for s in state_names} | {f"/action/{s}" for s in action_names}
+    expected |= {"/cameras/front", "/cameras/wrist", "/outcome/reward", "/outcome/success", "/outcome/done"}
+    expected |= {"/replay/action_error", "/replay/divergence"}
+    assert {e: temporal[e] for e in expected} == dict.fromkeys(expected, n)
+    assert temporal["/events"] == 1
+    assert {"/task", "/cameras/front", "/cameras/wrist"} <= set(static)
+    # the video is referenced at the episode's offset inside the shared mp4, never decoded
+    eps = pq.read_table(episodes_file(a)).to_pylist()
+    start = eps[episode]["videos/observation.images.front/from_timestamp"]
+    assert start > 0
+    stamps = column(rrd, "/cameras/front", "VideoFrameReference:timestamp")
+    assert stamps == [round((start + k / 20) * 1e9) for k in range(n)]
+    state0 = column(rrd, "/state/joint1", "Scalars:scalars")
+    assert state0 == [float(k) for k in range(n)]  # the mock's state is [t, e, 0, ...]
+    state1 = column(rrd, "/state/joint2", "Scalars:scalars")
+    assert state1 == [float(episode)] * n
+
+
+def test_view_saves_when_there_is_no_display(
+    dataset: tuple[Path, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    a, _ = dataset
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.chdir(tmp_path)
+    msg = run_view(ViewOptions(a, episode=2))
+    rrd = tmp_path / f"{a.name}-episode-2.rrd"
+    assert str(rrd.name) in msg and rrd.is_file()
+    verify(rrd)
+    temporal, _ = rows_by_entity(rrd)
+    assert temporal["/action/gripper"] == min(A_SUCCESS_AFTER[2], MAX_STEPS)
+    before = rrd.read_bytes()
+    with pytest.raises(OpenralError, match="refusing to overwrite"):
+        run_view(ViewOptions(a, episode=2))
+    assert rrd.read_bytes() == before
+
+
+def test_view_errors(dataset: tuple[Path, Path], tmp_path: Path) -> None:
+    a, _ = dataset
+    proc = run_cli("view", str(a), "--episode", "99", "--save", str(tmp_path / "x.rrd"))
+    assert proc.returncode == 2 and proc.stderr.startswith("error: --episode: 99 not in"), proc.stderr
+    assert not (tmp_path / "x.rrd").exists()
+    proc = run_cli("view", str(tmp_path), "--save", str(tmp_path / "y.rrd"))
+    assert proc.returncode == 2 and "neither a LeRobot v3 dataset" in proc.stderr
+
+
+def test_lerobot_layout_view(dataset: tuple[Path, Path], tmp_path: Path) -> None:
+    """Without our episode columns the success label comes from next.success."""
+    a, _ = dataset
+    plain = tmp_path / "plain"
+    shutil.copytree(a, plain)
+    ep = episodes_file(plain)
+    t = pq.read_table(ep)
+    pq.write_table(t.drop_columns([c for c in t.column_names if c.startswith("openral.")]), ep)
+    rrd = tmp_path / "plain.rrd"
+    run_view(ViewOptions(plain, episode=2, save=rrd))
+    verify(rrd)
+    texts = column(rrd, "/events", "TextLog:text")
+    assert texts == ["episode 2 done: failure"]
