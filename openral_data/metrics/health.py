@@ -16,6 +16,7 @@ from typing import Any
 import av
 import duckdb
 
+from openral_data.metrics.scan import VectorScan, vector_scan
 from openral_data.metrics.sources import DatasetSource
 from openral_data.metrics.views import files_sql, ident, query
 from openral_data.sinks.lerobot_v3 import layout
@@ -35,11 +36,12 @@ class Issue:
         return {"dataset": self.dataset, "episode": self.episode, "check": self.check, "detail": self.detail}
 
 
-def check_dataset(con: duckdb.DuckDBPyConnection, ds: DatasetSource) -> list[Issue]:
+def check_dataset(con: duckdb.DuckDBPyConnection, ds: DatasetSource, scan: VectorScan | None = None) -> list[Issue]:
+    """All checks of one dataset; `scan` (which columns hold NaN/Inf) is computed when not given."""
     issues: list[Issue] = []
     meta = _episode_meta(con, ds)
     issues += _missing_files(ds, meta)
-    issues += _frame_checks(con, ds, meta)
+    issues += _frame_checks(con, ds, meta, scan if scan is not None else vector_scan(con, ds))
     issues += _video_checks(ds, meta)
     return sorted(issues, key=lambda i: (i.dataset, -1 if i.episode is None else i.episode, i.check))
 
@@ -76,25 +78,26 @@ def _missing_files(ds: DatasetSource, meta: list[dict[str, Any]]) -> list[Issue]
     return issues
 
 
-def _frame_checks(con: duckdb.DuckDBPyConnection, ds: DatasetSource, meta: list[dict[str, Any]]) -> list[Issue]:
+def _frame_checks(
+    con: duckdb.DuckDBPyConnection, ds: DatasetSource, meta: list[dict[str, Any]], scan: VectorScan
+) -> list[Issue]:
+    """Rows per episode, rows with NaN/Inf, and timestamp steps in row order: one scan, one window.
+
+    Only the few scalar columns the checks need go through the window (never the state/action lists), and
+    NaN/Inf are looked for only in the columns the vector scan found them in.
+    """
     issues: list[Issue] = []
     counted: dict[int, tuple[int, int, int, int, float | None]] = {}
     if ds.data_files:
-        finite = [f"NOT isfinite(list_sum({ident(k)}))" for k in ds.vector_features]
-        if "next.reward" in ds.data_columns:
-            finite.append('NOT isfinite("next.reward")')
-        nonfinite = f"count(*) FILTER ({' OR '.join(finite)})" if finite else "0"
-        gap = GAP_FACTOR / ds.fps
-        order = "index" if "index" in ds.data_columns else "frame_index"
+        src = f"read_parquet({files_sql(ds.data_files)})"
+        order = ident("index" if "index" in ds.data_columns else "frame_index")
+        bad = " OR ".join(f"NOT isfinite({e})" for e in scan.non_finite) or "FALSE"
         sql = f"""
-            SELECT episode_index, count(*) AS n,
-                   count(*) FILTER (d <= 0) AS non_monotonic,
-                   count(*) FILTER (d > {gap}) AS gaps,
-                   {nonfinite} AS non_finite,
-                   max(d) AS max_step
+            SELECT episode_index, count(*), count(*) FILTER (d <= 0), count(*) FILTER (d > {GAP_FACTOR / ds.fps}),
+                   count(*) FILTER (bad), max(d)
             FROM (
-                SELECT *, timestamp - lag(timestamp) OVER (PARTITION BY episode_index ORDER BY {ident(order)}) AS d
-                FROM read_parquet({files_sql(ds.data_files)})
+                SELECT episode_index, bad, timestamp - lag(timestamp) OVER (PARTITION BY episode_index ORDER BY o) AS d
+                FROM (SELECT episode_index, {order} AS o, timestamp, ({bad}) AS bad FROM {src})
             )
             GROUP BY episode_index
         """

@@ -12,8 +12,9 @@ import duckdb
 from openral_data.errors import OpenralError
 from openral_data.metrics import health, intervals
 from openral_data.metrics.results import Results
+from openral_data.metrics.scan import VectorScan, vector_scan
 from openral_data.metrics.sources import DatasetSource
-from openral_data.metrics.views import files_sql, ident, query
+from openral_data.metrics.views import ident, query
 
 BY_KEYS = ("dataset", "task", "rskill", "scene", "robot", "seed")
 
@@ -144,22 +145,12 @@ def comparison_table(groups: Table, by: Sequence[str]) -> Table:
     return out
 
 
-def dimension_table(con: duckdb.DuckDBPyConnection, datasets: Sequence[DatasetSource]) -> Table:
-    """Per-dimension state/action summaries, one scan of each dataset's data parquet."""
+def dimension_table(scans: dict[str, VectorScan]) -> Table:
+    """Per-dimension state/action summaries over the finite values (NaN/Inf are reported by the health checks)."""
     out = Table("dimensions", ["dataset", "feature", "dim", "name", "count", "min", "max", "mean", "std"])
-    for ds in datasets:
-        feats = ds.vector_features
-        if not ds.data_files or not feats:
-            continue
-        exprs, labels = [], []
-        for key in feats:
-            for i, dim_name in enumerate(ds.dim_names(key)):
-                v = f"{ident(key)}[{i + 1}]"
-                exprs += [f"count({v})", f"min({v})", f"max({v})", f"avg({v})", f"stddev_pop({v})"]
-                labels.append((key, i, dim_name))
-        row = query(con, f"SELECT {', '.join(exprs)} FROM read_parquet({files_sql(ds.data_files)})")[1][0]
-        for j, (key, i, dim_name) in enumerate(labels):
-            out.rows.append([ds.label, key, i, dim_name, *row[5 * j : 5 * j + 5]])
+    for label, scan in scans.items():
+        for d in scan.dims:
+            out.rows.append([label, d.feature, d.dim, d.name, d.count, d.min, d.max, d.mean, d.std])
     return out
 
 
@@ -192,10 +183,13 @@ def results_table(con: duckdb.DuckDBPyConnection) -> Table:
     return out
 
 
-def health_table(con: duckdb.DuckDBPyConnection, datasets: Sequence[DatasetSource]) -> Table:
+def health_table(
+    con: duckdb.DuckDBPyConnection, datasets: Sequence[DatasetSource], scans: dict[str, VectorScan]
+) -> Table:
     out = Table("health", ["dataset", "episode", "check", "detail"])
     for ds in datasets:
-        out.rows += [[i.dataset, i.episode, i.check, i.detail] for i in health.check_dataset(con, ds)]
+        issues = health.check_dataset(con, ds, scans.get(ds.label))
+        out.rows += [[i.dataset, i.episode, i.check, i.detail] for i in issues]
     return out
 
 
@@ -207,13 +201,14 @@ def build_report(
     check_health: bool = True,
 ) -> Report:
     tables: list[Table] = []
+    scans = {ds.label: vector_scan(con, ds) for ds in datasets}
     if datasets:
         groups = group_table(con, by)
-        tables += [groups, comparison_table(groups, by), dimension_table(con, datasets)]
+        tables += [groups, comparison_table(groups, by), dimension_table(scans)]
     if results:
         tables.append(results_table(con))
     if datasets and check_health:
-        tables.append(health_table(con, datasets))
+        tables.append(health_table(con, datasets, scans))
     return Report(tables)
 
 
