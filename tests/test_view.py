@@ -125,3 +125,26 @@ def test_lerobot_layout_view(dataset: tuple[Path, Path], tmp_path: Path) -> None
     verify(rrd)
     texts = column(rrd, "/events", "TextLog:text")
     assert texts == ["episode 2 done: failure"]
+
+
+def test_view_mcap(tmp_path: Path) -> None:
+    """MCAP goes through rerun's own MCAP loader; every message of the channel arrives."""
+    from mcap.writer import Writer
+
+    path = tmp_path / "run.mcap"
+    with path.open("wb") as f:
+        writer = Writer(f)
+        writer.start()
+        schema = json.dumps({"type": "object", "properties": {"x": {"type": "number"}}}).encode()
+        sid = writer.register_schema(name="State", encoding="jsonschema", data=schema)
+        cid = writer.register_channel(topic="/robot/state", message_encoding="json", schema_id=sid)
+        for i in range(25):
+            t = 1_000_000_000 + i * 50_000_000
+            writer.add_message(channel_id=cid, log_time=t, publish_time=t, data=json.dumps({"x": i / 10}).encode())
+        writer.finish()
+    rrd = tmp_path / "run.rrd"
+    proc = run_cli("view", str(path), "--save", str(rrd))
+    assert proc.returncode == 0, proc.stderr
+    verify(rrd)
+    temporal, _ = rows_by_entity(rrd)
+    assert temporal["/robot/state"] == 25

@@ -10,7 +10,7 @@ from pathlib import Path
 import duckdb
 
 from openral_data.errors import OpenralError
-from openral_data.metrics.report import Report
+from openral_data.metrics.report import GROUP_NUMBERS, Report
 from openral_data.metrics.sources import DatasetSource
 from openral_data.metrics.views import files_sql, query
 from openral_data.sinks.lerobot_v3.features import ACTION
@@ -51,7 +51,7 @@ def save_plot(path: Path, report: Report, con: duckdb.DuckDBPyConnection, datase
         raise OpenralError(f"{path}: --plot writes a PNG; use a .png file name")
     groups = report.table("groups")
     recs = [r for r in groups.records() if r["success_known"]]
-    keys = [c for c in groups.columns if c not in _GROUP_NUMBERS]
+    keys = [c for c in groups.columns if c not in GROUP_NUMBERS]
     hists = [(ds.label, h) for ds in datasets for h in action_histograms(con, ds)]
     ncols = 4
     hist_rows = math.ceil(len(hists) / ncols)
@@ -82,21 +82,3 @@ def save_plot(path: Path, report: Report, con: duckdb.DuckDBPyConnection, datase
         hax.set_title(f"{label}: action {name}", fontsize=9)
     fig.savefig(path, dpi=100)
     plt.close(fig)
-
-
-_GROUP_NUMBERS = {
-    "episodes",
-    "frames",
-    "duration_s",
-    "successes",
-    "success_known",
-    "success_rate",
-    "ci95_low",
-    "ci95_high",
-    "len_min",
-    "len_p25",
-    "len_median",
-    "len_p75",
-    "len_max",
-    "len_mean",
-}

@@ -17,6 +17,10 @@ from openral_data.metrics.sources import DatasetSource
 from openral_data.metrics.views import ident, query
 
 BY_KEYS = ("dataset", "task", "rskill", "scene", "robot", "seed")
+GROUP_NUMBERS = (
+    *("episodes", "frames", "duration_s", "successes", "success_known", "success_rate", "ci95_low", "ci95_high"),
+    *("len_min", "len_p25", "len_median", "len_p75", "len_max", "len_mean"),
+)
 
 
 @dataclass
@@ -68,26 +72,7 @@ def group_table(con: duckdb.DuckDBPyConnection, by: Sequence[str]) -> Table:
         FROM episodes GROUP BY ALL ORDER BY {keys}
     """
     columns, rows = query(con, sql)
-    out = Table(
-        "groups",
-        [
-            *by,
-            "episodes",
-            "frames",
-            "duration_s",
-            "successes",
-            "success_known",
-            "success_rate",
-            "ci95_low",
-            "ci95_high",
-            "len_min",
-            "len_p25",
-            "len_median",
-            "len_p75",
-            "len_max",
-            "len_mean",
-        ],
-    )
+    out = Table("groups", [*by, *GROUP_NUMBERS])
     for row in rows:
         rec = dict(zip(columns, row, strict=True))
         known, k = int(rec["known"]), int(rec["successes"])
