@@ -12,6 +12,7 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.parquet as pq
 import pytest
+from conftest import run_cli
 from metrics_helpers import copy_dataset, data_file, record_datasets, rewrite_parquet
 
 from openral_data.metrics.command import StatsOptions, run_stats
@@ -130,3 +131,14 @@ def test_video_frame_count_mismatch(healthy: Path, tmp_path: Path) -> None:
     found = _issues(ds)
     assert [(e, c) for e, c, _ in found] == [(7, "video_frames")]
     assert "observation.images.front: " in found[0][2] and "parquet rows" in found[0][2]
+
+
+def test_truncated_parquet_is_a_one_line_error(healthy: Path, tmp_path: Path) -> None:
+    ds = copy_dataset(healthy, tmp_path / "truncated")
+    path = data_file(ds)
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+    proc = run_cli("stats", str(ds))
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"error: {path}: unreadable parquet"), proc.stderr

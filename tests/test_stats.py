@@ -181,6 +181,7 @@ def test_glob_and_cli(pair: tuple[Path, Path]) -> None:
         (["{a}", "--sql", "SELECT nope FROM frames"], "--sql: Binder Error"),
         (["{a}/meta"], "neither a LeRobot v3 dataset"),
         (["{a}", "--plot", "{tmp}/x.svg"], "--plot writes a PNG"),
+        (["{a}", "--memory-limit", "lots"], "--memory-limit 'lots'"),
     ],
 )
 def test_cli_errors_are_one_line(pair: tuple[Path, Path], tmp_path: Path, args: list[str], message: str) -> None:

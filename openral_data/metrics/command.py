@@ -5,6 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+import duckdb
+
 from openral_data.errors import OpenralError
 from openral_data.metrics import report as rep
 from openral_data.metrics.render import FORMATS, render
@@ -35,7 +37,10 @@ def run_stats(opts: StatsOptions) -> str:
         if opts.plot.exists():
             raise OpenralError(f"{opts.plot}: --plot file exists; refusing to overwrite it")
     datasets, results = resolve(opts.paths)
-    con = connect(datasets, results, opts.memory_limit)
+    try:
+        con = connect(datasets, results, opts.memory_limit)
+    except duckdb.Error as exc:
+        raise OpenralError(f"--memory-limit {opts.memory_limit!r}: {_first_line(exc)}") from None
     try:
         if opts.sql is not None:
             return render([rep.run_sql(con, opts.sql)], opts.fmt)
@@ -47,5 +52,12 @@ def run_stats(opts: StatsOptions) -> str:
 
             save_plot(opts.plot, report, con, datasets)
         return render(report.tables, opts.fmt)
+    except duckdb.Error as exc:  # e.g. a truncated or corrupt parquet file: DuckDB's message names it
+        raise OpenralError(f"duckdb: {_first_line(exc)}") from None
     finally:
         con.close()
+
+
+def _first_line(exc: BaseException) -> str:
+    lines = [ln for ln in str(exc).splitlines() if ln.strip()]
+    return lines[0] if lines else type(exc).__name__

@@ -8,6 +8,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+import pyarrow as pa
 import pyarrow.parquet as pq
 
 from openral_data.errors import OpenralError
@@ -68,8 +69,8 @@ def open_dataset(root: Path, label: str | None = None) -> DatasetSource:
     if not episode_files:
         raise OpenralError(f"{root}: no episodes metadata under meta/episodes/")
     data_files = sorted((root / "data").glob("chunk-*/file-*.parquet"))
-    episode_columns = frozenset(pq.read_schema(episode_files[0]).names)
-    data_columns = frozenset(pq.read_schema(data_files[0]).names) if data_files else frozenset()
+    episode_columns = _columns(episode_files[0])
+    data_columns = _columns(data_files[0]) if data_files else frozenset()
     scene = rskill = robot = None
     provenance = root / layout.OPENRAL_PATH
     if provenance.is_file():
@@ -92,6 +93,13 @@ def open_dataset(root: Path, label: str | None = None) -> DatasetSource:
         rskill=rskill,
         robot=robot or info.get("robot_type"),
     )
+
+
+def _columns(path: Path) -> frozenset[str]:
+    try:
+        return frozenset(pq.read_schema(path).names)
+    except (OSError, pa.ArrowException) as exc:
+        raise OpenralError(f"{path}: unreadable parquet: {exc}") from None
 
 
 def _dig(obj: Any, *keys: str) -> str | None:

@@ -54,6 +54,9 @@ def connect(
     con = duckdb.connect(":memory:")
     con.execute(f"SET memory_limit = {lit(memory_limit)}")
     con.execute("SET preserve_insertion_order = false")
+    # LeRobot v3 data files hold one small row group per episode; DuckDB's prefetch of parquet ranges then
+    # reads far more bytes than the columns asked for (measured ~1.6x slower on the benchmark dataset)
+    con.execute("SET disable_parquet_prefetching = true")
     _register_datasets(con, datasets)
     _register_results(con, results, datasets)
     return con
