@@ -40,7 +40,7 @@ def run_stats(opts: StatsOptions) -> str:
     try:
         con = connect(datasets, results, opts.memory_limit)
     except duckdb.Error as exc:
-        raise OpenralError(f"--memory-limit {opts.memory_limit!r}: {_first_line(exc)}") from None
+        raise OpenralError(f"duckdb: {_first_line(exc)}") from None
     try:
         if opts.sql is not None:
             return render([rep.run_sql(con, opts.sql)], opts.fmt)

@@ -1,10 +1,12 @@
 """`view`: one episode of a LeRobot v3 dataset (or an MCAP file) in rerun.
 
-Cameras are logged once as `AssetVideo` (the mp4 as it is on disk) plus one `VideoFrameReference` per row at
-`from_timestamp + frame_index / fps` — v3 packs many episodes into one mp4, so the episode's offset matters —
-and nothing is decoded. State and action become one scalar series per dimension named after the contract,
-the task is a text document, reward/success/done are series with a text event at the end, and replay
-results (see `metrics/results.py`) add per-step action error and divergence.
+Cameras are logged once as `AssetVideo` plus one `VideoFrameReference` per row, and nothing is decoded. v3
+packs many episodes into one mp4, so the episode's packets — from `from_timestamp` to `to_timestamp` — are
+remuxed into a clip of their own (frame k at k / fps); if the episode does not start on a keyframe, the whole
+file is logged and frame k is referenced at `from_timestamp + k / fps`. State and action become one scalar
+series per dimension named after the contract, the task is a text document, reward/success/done are series
+with a text event at the end, and replay results (see `metrics/results.py`) add per-step action error and
+divergence.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from openral_data.metrics.sources import DatasetSource, open_dataset
 from openral_data.sinks.lerobot_v3 import layout
 from openral_data.sinks.lerobot_v3.features import ACTION, IMAGE_PREFIX, STATE
 from openral_data.sinks.lerobot_v3.layout import FilePos
+from openral_data.viz.clip import episode_clip
 
 APP_ID = "openral-data"
 FRAME = "frame_index"
@@ -200,9 +203,14 @@ def _log_camera(
     times: list[rr.TimeColumn],
 ) -> None:
     entity = f"cameras/{rr.escape_entity_path_part(cam.removeprefix(IMAGE_PREFIX))}"
-    rec.log(entity, rr.AssetVideo(path=path), static=True)
     start = float(row.get(f"videos/{cam}/from_timestamp") or 0.0)
-    nanos = np.round((start + frame_index / ds.fps) * 1e9).astype(np.int64)
+    end = float(row.get(f"videos/{cam}/to_timestamp") or start + len(frame_index) / ds.fps)
+    clip = episode_clip(path, start, end, ds.fps)
+    if clip.data is not None:  # only this episode's packets, remuxed: the .rrd does not carry the whole file
+        rec.log(entity, rr.AssetVideo(contents=clip.data, media_type="video/mp4"), static=True)
+    else:
+        rec.log(entity, rr.AssetVideo(path=path), static=True)
+    nanos = np.round((clip.start + frame_index / ds.fps) * 1e9).astype(np.int64)
     rec.send_columns(entity, indexes=times, columns=rr.VideoFrameReference.columns_nanos(nanos))
 
 

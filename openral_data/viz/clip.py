@@ -1,0 +1,51 @@
+"""Cut one episode out of a v3 mp4 that holds many, without re-encoding (a packet-level remux in memory).
+
+v3 writers (ours and lerobot's) encode each episode on its own and join the files, so an episode's first
+packet is a keyframe and its packets form a stream that decodes on its own. The clip starts at time 0, so
+its frame k is at k / fps. When the episode does not start on a keyframe the whole file is used instead.
+"""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass
+from fractions import Fraction
+from pathlib import Path
+
+import av
+
+
+@dataclass(frozen=True)
+class Clip:
+    data: bytes | None  # None: use the whole file at `path`
+    path: Path
+    start: float  # seconds of the episode's first frame inside `data` (0.0) or inside the whole file
+    frames: int  # packets that fall inside the episode
+
+
+def episode_clip(path: Path, from_ts: float, to_ts: float, fps: int) -> Clip:
+    half = Fraction(1, 2 * fps)
+    lo = Fraction(from_ts).limit_denominator(1_000_000) - half
+    hi = Fraction(to_ts).limit_denominator(1_000_000) - half
+    src = av.open(str(path))
+    try:
+        stream = src.streams.video[0]
+        tb = stream.time_base
+        if tb is None:
+            return Clip(None, path, from_ts, 0)
+        packets = [(p, p.pts) for p in src.demux(stream) if p.pts is not None and p.size and lo <= p.pts * tb < hi]
+        if not packets or not packets[0][0].is_keyframe:
+            return Clip(None, path, from_ts, len(packets))
+        shift = min(pts for _, pts in packets)
+        buf = io.BytesIO()
+        with av.open(buf, "w", format="mp4") as dst:
+            out = dst.add_stream_from_template(stream)
+            for p, pts in packets:
+                dts = p.dts
+                p.pts = pts - shift
+                p.dts = None if dts is None else dts - shift  # may start below 0 (B-frame delay), as in the source
+                p.stream = out
+                dst.mux(p)
+        return Clip(buf.getvalue(), path, 0.0, len(packets))
+    finally:
+        src.close()
