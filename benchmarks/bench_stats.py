@@ -13,7 +13,8 @@ Two contestants, each in its own fresh subprocess so that peak RSS (ru_maxrss) i
 * **pandas**: `pd.read_parquet` of the data and episodes files, then the same numbers with pandas/numpy
   (`np.stack` of the list columns, `groupby`, `diff`).
 
-Each contestant's time is measured inside its process after imports (the computation, reading included);
+Each contestant's wall and CPU time are measured inside its process after imports (the computation, reading
+included);
 the script checks that both computed the same numbers, prints the median over `--repeats` and the ratio,
 and writes `results.json` next to the dataset.
 
@@ -153,16 +154,22 @@ def generate(root: Path, episodes: int, rows_per_file: int, seed: int = 0) -> di
     return {"episodes": episodes, "frames": total, "data_files": file_index}
 
 
+def _cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
 # -- contestants -----------------------------------------------------------------------------------------------
 def contestant_duckdb(root: Path) -> dict[str, Any]:
     from openral_data.metrics.command import StatsOptions, run_stats
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), _cpu()
     report = json.loads(run_stats(StatsOptions([str(root)], fmt="json")))
-    seconds = time.perf_counter() - t0
+    seconds, cpu = time.perf_counter() - t0, _cpu() - c0
     g = report["groups"][0]
     return {
         "seconds": seconds,
+        "cpu_seconds": cpu,
         "groups": {k: g[k] for k in _GROUP_KEYS},
         "dims": [[d["feature"], d["name"], d["min"], d["max"], d["mean"], d["std"]] for d in report["dimensions"]],
         "health": sorted([h["episode"], h["check"]] for h in report["health"]),
@@ -174,7 +181,7 @@ def contestant_pandas(root: Path) -> dict[str, Any]:
 
     from openral_data.metrics.intervals import wilson
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), _cpu()
     info = json.loads((root / "meta/info.json").read_text())
     fps = info["fps"]
     eps = pd.read_parquet(sorted((root / "meta/episodes").glob("*/*.parquet")))
@@ -227,8 +234,8 @@ def contestant_pandas(root: Path) -> dict[str, Any]:
             health.append([int(ep), "timestamp_gap"])
         if row["non_finite"]:
             health.append([int(ep), "non_finite"])
-    seconds = time.perf_counter() - t0
-    return {"seconds": seconds, "groups": groups, "dims": dims, "health": sorted(health)}
+    seconds, cpu = time.perf_counter() - t0, _cpu() - c0
+    return {"seconds": seconds, "cpu_seconds": cpu, "groups": groups, "dims": dims, "health": sorted(health)}
 
 
 _GROUP_KEYS = ("episodes", "frames", "duration_s", "successes", "success_rate", "ci95_low", "ci95_high")
@@ -296,17 +303,21 @@ def main() -> None:
                 res = run_child(name, root)
                 runs[name].append(res)
                 print(
-                    f"  run {r + 1} {name:7s} {res['seconds']:7.2f} s  peak RSS {res['peak_rss_mb']:7.0f} MB",
+                    f"  run {r + 1} {name:7s} {res['seconds']:7.2f} s wall {res['cpu_seconds']:7.2f} s CPU"
+                    f"  peak RSS {res['peak_rss_mb']:7.0f} MB",
                     flush=True,
                 )
         problems = same_numbers(runs["duckdb"][0], runs["pandas"][0])
         med = {n: statistics.median(x["seconds"] for x in v) for n, v in runs.items()}
+        cpu = {n: statistics.median(x["cpu_seconds"] for x in v) for n, v in runs.items()}
         rss = {n: max(x["peak_rss_mb"] for x in v) for n, v in runs.items()}
         summary = {
             "dataset": shape,
             "median_seconds": med,
             "peak_rss_mb": rss,
+            "median_cpu_seconds": cpu,
             "speedup_duckdb_over_pandas": med["pandas"] / med["duckdb"],
+            "cpu_ratio_pandas_over_duckdb": cpu["pandas"] / cpu["duckdb"],
             "memory_ratio_pandas_over_duckdb": rss["pandas"] / rss["duckdb"],
             "same_numbers": not problems,
             "health_issues_found": len(runs["duckdb"][0]["health"]),
