@@ -56,25 +56,24 @@ def _episode_meta(con: duckdb.DuckDBPyConnection, ds: DatasetSource) -> list[dic
 
 
 def _missing_files(ds: DatasetSource, meta: list[dict[str, Any]]) -> list[Issue]:
+    """Every file the metadata names must exist; each episode that names a missing one is reported."""
     issues = []
     if int(ds.info.get("total_tasks", 0)) and not (ds.root / layout.TASKS_PATH).is_file():
         issues.append(Issue(ds.label, None, "missing_file", layout.TASKS_PATH))
-    reported: set[Path] = set()
+    exists: dict[str, bool] = {}
     for ep in meta:
-        paths = []
+        names = []
         if ep["data/chunk_index"] is not None:
-            paths.append(layout.data_path(ds.root, FilePos(ep["data/chunk_index"], ep["data/file_index"])))
+            names.append(layout.DATA_PATH.format(chunk_index=ep["data/chunk_index"], file_index=ep["data/file_index"]))
         for cam in ds.cameras:
             if ep[f"videos/{cam}/chunk_index"] is not None:
-                pos = FilePos(ep[f"videos/{cam}/chunk_index"], ep[f"videos/{cam}/file_index"])
-                paths.append(layout.video_path(ds.root, cam, pos))
-        for path in paths:
-            if not path.is_file():
-                detail = str(path.relative_to(ds.root))
-                if path in reported:
-                    detail += " (also)"
-                reported.add(path)
-                issues.append(Issue(ds.label, int(ep["episode_index"]), "missing_file", detail))
+                chunk, file = ep[f"videos/{cam}/chunk_index"], ep[f"videos/{cam}/file_index"]
+                names.append(layout.VIDEO_PATH.format(video_key=cam, chunk_index=chunk, file_index=file))
+        for name in names:
+            if name not in exists:
+                exists[name] = (ds.root / name).is_file()
+            if not exists[name]:
+                issues.append(Issue(ds.label, int(ep["episode_index"]), "missing_file", name))
     return issues
 
 
