@@ -103,6 +103,25 @@ def record(
     )
 
 
+@app.command()
+def convert(
+    src: Annotated[
+        Path, typer.Argument(help="a bag (.bag, .mcap, rosbag2 folder, folder of bags) or a LeRobot v3 dataset")
+    ],
+    dst: Annotated[Path, typer.Argument(help="output folder (must not exist or be empty)")],
+    mapping: Annotated[Path | None, typer.Option(help="mapping YAML: topics -> features (bags -> LeRobot)")] = None,
+    codec: Annotated[CodecChoice, typer.Option(help="video codec (bags -> LeRobot)")] = CodecChoice.av1,
+    episodes: Annotated[str | None, typer.Option(help="episodes to export, e.g. 0,3,5-7 (LeRobot -> MCAP)")] = None,
+    image_format: Annotated[
+        str, typer.Option(help="MCAP camera messages: jpeg, png or raw (LeRobot -> MCAP)")
+    ] = "jpeg",
+) -> None:
+    """Convert bags/MCAP to a LeRobot v3 dataset, or a LeRobot v3 dataset to ROS 2 MCAP bags."""
+    from openral_data.convert.cli import run_convert
+
+    run_convert(src, dst, mapping, codec.value, episodes, image_format, console, err_console)
+
+
 def _print_rows(title: str, rows: list[tuple[str, str]]) -> None:
     """`key: value` lines: readable in a terminal, greppable in logs, never wrapped or truncated."""
     width = max(len(k) for k, _ in rows)

@@ -91,6 +91,7 @@ class McapSink:
         self._created_root = not root.exists()
         root.mkdir(parents=True, exist_ok=True)
         self.episodes = 0
+        self.next_index: int | None = None  # names the next episode's bag; default: episodes written so far
         self._open = False
         self._closed = False
         self._queue: queue.Queue[object] = queue.Queue(maxsize=self.config.queue_size)
@@ -104,8 +105,12 @@ class McapSink:
         if self._open:
             raise RuntimeError("begin_episode() while an episode is open")
         self._raise_if_failed()
+        index = self.episodes if self.next_index is None else self.next_index
+        self.next_index = None
+        if episode_dir(self.root, index).exists():
+            raise OpenralError(f"{episode_dir(self.root, index)}: exists; refusing to overwrite it")
         self._open = True
-        self._put(_Begin(self.episodes, start, time.time_ns()))
+        self._put(_Begin(index, start, time.time_ns()))
 
     def add_frame(self, frame: Frame) -> None:
         if not self._open:
@@ -259,7 +264,8 @@ class _EpisodeBag:
         if self.error is not None:
             raise OpenralError(f"episode {self.index}: MCAP write failed: {self.error}") from self.error
         end = {"event": "end", "episode": self.index, "success": bool(success), "length": self.length}
-        self.writer.write(self.c_event, self.last_ns, self.factory.event(end))
+        # 1 ns after the last frame, so readers that order equal stamps arbitrarily still see it last
+        self.writer.write(self.c_event, self.last_ns + 1, self.factory.event(end))
         self.writer.close()
         self.closed = True
         if self.config.durable:
