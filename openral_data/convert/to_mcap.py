@@ -149,7 +149,8 @@ def _episode_frames(
     if table.num_rows != n:
         raise OpenralError(f"{path}: episode {e} has {table.num_rows} rows, meta/episodes says {n}")
     cols = table.to_pydict()
-    videos = {name: _decode_video(src, info, row, IMAGE_PREFIX + name, n, int(info["fps"])) for name in cameras}
+    fps = int(info["fps"])
+    videos = {name: _decode_video(src, info, row, IMAGE_PREFIX + name, n, fps) for name in cameras}
     for i in range(n):
         images = {}
         for name, it in videos.items():
@@ -166,7 +167,8 @@ def _episode_frames(
             reward=float(cols["next.reward"][i]) if "next.reward" in cols else 0.0,
             done=bool(cols["next.done"][i]) if "next.done" in cols else i == n - 1,
             success=bool(cols["next.success"][i]) if "next.success" in cols else False,
-            timestamp=float(cols["timestamp"][i]),
+            # LeRobot v3 stores frame_index / fps rounded to float32; the exact value keeps stamps on the grid
+            timestamp=int(cols["frame_index"][i]) / fps,
         )
 
 
