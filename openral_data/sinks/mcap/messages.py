@@ -109,20 +109,25 @@ class MessageFactory:
     def event(self, payload: dict[str, Any]) -> bytes:
         return self.string(json.dumps(payload, sort_keys=True))
 
-    def image(self, stamp_ns: int, camera: str, rgb: npt.NDArray[np.uint8]) -> bytes:
-        header = self._stamp_header(stamp_ns, frame_id=camera)
-        h, w = int(rgb.shape[0]), int(rgb.shape[1])
-        if self.image_format == "raw":
-            data = np.ascontiguousarray(rgb, dtype=np.uint8).reshape(-1)
-            msg = self._image(header=header, height=h, width=w, encoding="rgb8", is_bigendian=0, step=3 * w, data=data)
-            return bytes(self.store.serialize_cdr(msg, IMAGE_T))
+    def compress(self, rgb: npt.NDArray[np.uint8]) -> bytes:
+        """JPEG/PNG bytes of an HWC RGB image (thread-safe; Pillow releases the GIL while encoding)."""
         buf = io.BytesIO()
         pil = PILImage.fromarray(rgb, mode="RGB")
         if self.image_format == "jpeg":
             pil.save(buf, format="JPEG", quality=self.jpeg_quality)
         else:
             pil.save(buf, format="PNG", compress_level=1)
-        payload = np.frombuffer(buf.getbuffer(), dtype=np.uint8)
+        return buf.getvalue()
+
+    def image(self, stamp_ns: int, camera: str, rgb: npt.NDArray[np.uint8], compressed: bytes | None = None) -> bytes:
+        """The camera message; `compressed` is `compress(rgb)` when it was already computed elsewhere."""
+        header = self._stamp_header(stamp_ns, frame_id=camera)
+        h, w = int(rgb.shape[0]), int(rgb.shape[1])
+        if self.image_format == "raw":
+            data = np.ascontiguousarray(rgb, dtype=np.uint8).reshape(-1)
+            msg = self._image(header=header, height=h, width=w, encoding="rgb8", is_bigendian=0, step=3 * w, data=data)
+            return bytes(self.store.serialize_cdr(msg, IMAGE_T))
+        payload = np.frombuffer(compressed if compressed is not None else self.compress(rgb), dtype=np.uint8)
         msg = self._compressed(header=header, format=self.image_format, data=payload)
         return bytes(self.store.serialize_cdr(msg, COMPRESSED_T))
 

@@ -11,8 +11,9 @@ An episode is written into ``.partial/`` and renamed to ``episode_NNNNNN`` only 
 episode complete and the unfinished one out of sight.
 
 Frames reach a writer thread through a bounded queue: a full queue blocks the producer (backpressure), so a
-frame cannot be dropped. The writer thread encodes images (Pillow releases the GIL while encoding, so this
-overlaps with the producer), serialises CDR and writes.
+frame cannot be dropped. Each camera image is handed to a small encoder pool as the frame is queued (Pillow
+releases the GIL while encoding, so JPEG/PNG of several cameras and frames run in parallel with the producer);
+the writer thread takes the frames in order, waits for their images, serialises CDR and writes.
 
 Stamps: ``episode start wall clock (ns since the epoch, taken at begin_episode) + Frame.timestamp``. The
 relative times are the producer's clock (sim time for sim, a monotonic clock for hardware), the absolute
@@ -27,6 +28,7 @@ import queue
 import shutil
 import threading
 import time
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Final, Literal
@@ -69,6 +71,12 @@ class _Begin:
 
 
 @dataclass
+class _Queued:
+    frame: Frame
+    encoded: dict[str, Future[bytes]]  # camera -> its JPEG/PNG being encoded in the pool (empty for raw)
+
+
+@dataclass
 class _End:
     success: bool
 
@@ -97,6 +105,13 @@ class McapSink:
         self._queue: queue.Queue[object] = queue.Queue(maxsize=self.config.queue_size)
         self._results: queue.Queue[EpisodeRecord | BaseException | None] = queue.Queue()
         self._error: BaseException | None = None
+        self._factory = MessageFactory(self.config.image_format, self.config.jpeg_quality)
+        workers = min(len(schema.cameras), os.cpu_count() or 1, 4)
+        self._pool = (
+            ThreadPoolExecutor(workers, thread_name_prefix="mcap-image")
+            if workers and self.config.image_format != "raw"
+            else None
+        )
         self._thread = threading.Thread(target=self._run, name="mcap-writer", daemon=True)
         self._thread.start()
 
@@ -115,7 +130,11 @@ class McapSink:
     def add_frame(self, frame: Frame) -> None:
         if not self._open:
             raise RuntimeError("add_frame() outside an episode")
-        self._put(frame)  # blocks while the writer is behind: backpressure, never a drop
+        encoded: dict[str, Future[bytes]] = {}
+        if self._pool is not None:
+            for name, img in frame.images.items():
+                encoded[name] = self._pool.submit(self._factory.compress, img)
+        self._put(_Queued(frame, encoded))  # blocks while the writer is behind: backpressure, never a drop
 
     def end_episode(self, success: bool) -> EpisodeRecord:
         if not self._open:
@@ -144,6 +163,8 @@ class McapSink:
         if self._thread.is_alive():
             self._queue.put(_STOP)
             self._thread.join()
+        if self._pool is not None:
+            self._pool.shutdown(wait=True)
         shutil.rmtree(self.root / PARTIAL, ignore_errors=True)
         if self.episodes == 0 and self._created_root:
             shutil.rmtree(self.root, ignore_errors=True)
@@ -171,10 +192,10 @@ class McapSink:
                     return
                 if isinstance(item, _Begin):
                     episode = _EpisodeBag(self.root, self.schema, self.config, item)
-                elif isinstance(item, Frame):
+                elif isinstance(item, _Queued):
                     if episode is not None and episode.error is None:
                         try:
-                            episode.write_frame(item)
+                            episode.write_frame(item.frame, {k: f.result() for k, f in item.encoded.items()})
                         except Exception as exc:  # noqa: BLE001 - reported at end_episode
                             episode.error = exc
                 elif isinstance(item, _End):
@@ -245,7 +266,7 @@ class _EpisodeBag:
         }
         self.writer.write(self.c_event, self.base_ns, self.factory.event(start))
 
-    def write_frame(self, frame: Frame) -> None:
+    def write_frame(self, frame: Frame, encoded: dict[str, bytes]) -> None:
         ns = self.base_ns + round(frame.timestamp * 1e9)
         ns = max(ns, self.last_ns)  # the bridge guarantees non-decreasing time; rounding must not undo it
         self.last_ns = ns
@@ -255,7 +276,7 @@ class _EpisodeBag:
             w.write(self.c_task, ns, f.string(frame.task))
         w.write(self.c_state, ns, f.joint_state(ns, self.names, frame.state))
         for name, conn in self.c_cams.items():
-            w.write(conn, ns, f.image(ns, name, frame.images[name]))
+            w.write(conn, ns, f.image(ns, name, frame.images[name], encoded.get(name)))
         w.write(self.c_action, ns, f.action(frame.action))
         w.write(self.c_reward, ns, f.float32(frame.reward))
         self.length += 1
