@@ -92,6 +92,7 @@ class _Converter:
         self.tasks: list[tuple[int, str]] = []
         self.source_episode = 0
         self.segment_frames = 0
+        self.segment_start = 0
 
     # -- per source episode --------------------------------------------------------------------------------
     def new_aligner(self) -> Aligner[Any]:

@@ -141,7 +141,7 @@ class McapSink:
             raise RuntimeError("end_episode() outside an episode")
         self._open = False
         self._put(_End(success))
-        result = self._results.get()
+        result = self._wait_result()
         if isinstance(result, BaseException):
             raise result
         assert result is not None
@@ -153,7 +153,7 @@ class McapSink:
             return
         self._open = False
         self._put(_ABORT)
-        self._results.get()
+        self._wait_result()
 
     def close(self) -> None:
         if self._closed:
@@ -178,6 +178,13 @@ class McapSink:
             except queue.Full:
                 continue
 
+    def _wait_result(self) -> EpisodeRecord | BaseException | None:
+        while True:
+            try:
+                return self._results.get(timeout=0.5)
+            except queue.Empty:
+                self._raise_if_failed()
+
     def _raise_if_failed(self) -> None:
         if self._error is not None and not self._thread.is_alive():
             raise OpenralError(f"MCAP writer failed: {self._error}") from self._error
@@ -185,13 +192,18 @@ class McapSink:
     # -- writer thread ---------------------------------------------------------------------------------------
     def _run(self) -> None:
         episode: _EpisodeBag | None = None
+        failed: BaseException | None = None
         try:
             while True:
                 item = self._queue.get()
                 if item is _STOP:
                     return
                 if isinstance(item, _Begin):
-                    episode = _EpisodeBag(self.root, self.schema, self.config, item)
+                    failed = None
+                    try:
+                        episode = _EpisodeBag(self.root, self.schema, self.config, item)
+                    except Exception as exc:  # noqa: BLE001 - reported at end_episode
+                        episode, failed = None, exc
                 elif isinstance(item, _Queued):
                     if episode is not None and episode.error is None:
                         try:
@@ -199,7 +211,9 @@ class McapSink:
                         except Exception as exc:  # noqa: BLE001 - reported at end_episode
                             episode.error = exc
                 elif isinstance(item, _End):
-                    assert episode is not None
+                    if episode is None:
+                        self._results.put(OpenralError(f"{self.root}: cannot start the episode's bag: {failed}"))
+                        continue
                     try:
                         self._results.put(episode.finish(item.success))
                     except Exception as exc:  # noqa: BLE001 - handed to the producer thread
