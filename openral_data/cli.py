@@ -98,6 +98,7 @@ def record(
             ("frames", str(summary.frames)),
             ("frames/s", f"{summary.fps:.1f}"),
             ("formats", ",".join(opts.formats)),
+            *([("mcap bags", str(summary.out / "mcap"))] if "mcap" in opts.formats else []),
             ("codec", codec.value),
         ],
     )

@@ -135,8 +135,6 @@ class _Converter:
         task = self.task_at(frame.time_ns)
         if frame.samples is None or task is None:
             self.summary.unfillable_frames += 1
-            if self.open and self.segment_frames:
-                self.summary.splits += 1
             self.close_segment(False)
             return
         if self.pending is not None:
@@ -149,6 +147,8 @@ class _Converter:
         images = {name: samples[name].decode() for name in self.mapping.cameras}
         bridge = self.ensure_writer(images, samples[STATE], samples[ACTION])
         if not self.open:
+            if self.segment_frames:  # this source episode already produced an episode: a hole split it
+                self.summary.splits += 1
             bridge.begin_episode(self.source_episode, {"source_episode": self.source_episode})
             self.open = True
             self.segment_start = pending.frame.time_ns
