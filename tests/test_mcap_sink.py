@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 import pytest
 from mcap_check import check_bag
 
@@ -15,6 +16,7 @@ from openral_data.producers.base import CameraShape
 from openral_data.sinks.base import DatasetSchema, EpisodeStart, Frame
 from openral_data.sinks.mcap import McapConfig, McapSink, finished_bags
 from openral_data.sinks.mcap import writer as mcap_writer
+from openral_data.sinks.mcap.messages import MessageFactory
 
 SCHEMA = DatasetSchema(
     fps=10, state_names=("a", "b"), action_names=("x",), cameras={"cam": CameraShape(16, 16)}, robot_type="r"
@@ -29,15 +31,17 @@ def _frame(t: int) -> Frame:
     )  # fmt: skip
 
 
-def test_a_slow_writer_blocks_the_producer_and_loses_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_stalled_encoder_blocks_the_producer_and_loses_nothing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     gate = threading.Event()
-    real = mcap_writer._EpisodeBag.write_frame
+    real = MessageFactory.compress
 
-    def slow(self: mcap_writer._EpisodeBag, frame: Frame, encoded: dict[str, bytes]) -> None:
+    def stalled(self: MessageFactory, rgb: npt.NDArray[np.uint8]) -> bytes:
         gate.wait()
-        real(self, frame, encoded)
+        return real(self, rgb)
 
-    monkeypatch.setattr(mcap_writer._EpisodeBag, "write_frame", slow)
+    monkeypatch.setattr(MessageFactory, "compress", stalled)
     sink = McapSink(tmp_path / "m", SCHEMA, McapConfig(queue_size=4, image_format="png"))
     sink.begin_episode(EpisodeStart(seed=0, initial_state={}))
     added = 0
@@ -51,7 +55,7 @@ def test_a_slow_writer_blocks_the_producer_and_loses_nothing(tmp_path: Path, mon
     producer = threading.Thread(target=produce)
     producer.start()
     time.sleep(1.0)
-    assert producer.is_alive() and added <= 4 + 2  # queue (4) + the frame in the writer's hands + 1 waiting
+    assert producer.is_alive() and added == 4  # 4 frames may wait for their images; the 5th add_frame blocks
     gate.set()
     producer.join(timeout=30)
     assert added == 50

@@ -10,10 +10,9 @@ An episode is written into ``.partial/`` and renamed to ``episode_NNNNNN`` only 
 (summary + metadata.yaml) and both files were fsynced; a killed recording therefore leaves every finished
 episode complete and the unfinished one out of sight.
 
-Frames reach a writer thread through a bounded queue: a full queue blocks the producer (backpressure), so a
-frame cannot be dropped. Each camera image is handed to a small encoder pool as the frame is queued (Pillow
-releases the GIL while encoding, so JPEG/PNG of several cameras and frames run in parallel with the producer);
-the writer thread takes the frames in order, waits for their images, serialises CDR and writes.
+Each camera image goes to a small encoder pool as its frame arrives (Pillow releases the GIL while encoding,
+so JPEG/PNG of several cameras and frames run in parallel with the producer); at most `queue_size` frames
+wait for their images, beyond that `add_frame` blocks on the oldest (backpressure: nothing can be dropped).
 
 Stamps: ``episode start wall clock (ns since the epoch, taken at begin_episode) + Frame.timestamp``. The
 relative times are the producer's clock (sim time for sim, a monotonic clock for hardware), the absolute
@@ -24,10 +23,9 @@ from __future__ import annotations
 
 import contextlib
 import os
-import queue
 import shutil
-import threading
 import time
+from collections import deque
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -64,29 +62,20 @@ class McapConfig:
 
 
 @dataclass
-class _Begin:
-    index: int
-    start: EpisodeStart
-    base_ns: int
-
-
-@dataclass
-class _Queued:
+class _Pending:
     frame: Frame
     encoded: dict[str, Future[bytes]]  # camera -> its JPEG/PNG being encoded in the pool (empty for raw)
 
 
-@dataclass
-class _End:
-    success: bool
-
-
-_ABORT = object()
-_STOP = object()
-
-
 class McapSink:
-    """A `Sink` writing one rosbag2/MCAP bag per episode under `root`."""
+    """A `Sink` writing one rosbag2/MCAP bag per episode under `root`.
+
+    Pipeline: `add_frame` hands each camera image to the encoder pool and keeps the frame in a bounded list
+    of pending frames; once more than `queue_size` are pending, it writes the oldest (waiting for its
+    images if they are not encoded yet). The producer therefore waits whenever encoding falls behind:
+    there is nowhere a frame could be dropped. Serialising and writing happen in the caller's thread, in
+    frame order; only the encoding (which releases the GIL) runs in parallel.
+    """
 
     def __init__(self, root: Path, schema: DatasetSchema, config: McapConfig | None = None) -> None:
         self.root = root
@@ -94,17 +83,14 @@ class McapSink:
         self.config = config or McapConfig()
         if self.config.image_format not in m.IMAGE_FORMATS:
             raise OpenralError(f"image format {self.config.image_format!r}: expected one of {m.IMAGE_FORMATS}")
+        if self.config.queue_size < 1:
+            raise OpenralError(f"queue_size must be >= 1, got {self.config.queue_size}")
         if root.exists() and (not root.is_dir() or any(p.name != PARTIAL for p in root.iterdir())):
             raise OpenralError(f"{root}: output exists and is not empty; refusing to overwrite it")
         self._created_root = not root.exists()
         root.mkdir(parents=True, exist_ok=True)
         self.episodes = 0
         self.next_index: int | None = None  # names the next episode's bag; default: episodes written so far
-        self._open = False
-        self._closed = False
-        self._queue: queue.Queue[object] = queue.Queue(maxsize=self.config.queue_size)
-        self._results: queue.Queue[EpisodeRecord | BaseException | None] = queue.Queue()
-        self._error: BaseException | None = None
         self._factory = MessageFactory(self.config.image_format, self.config.jpeg_quality)
         workers = min(len(schema.cameras), os.cpu_count() or 1, 4)
         self._pool = (
@@ -112,143 +98,98 @@ class McapSink:
             if workers and self.config.image_format != "raw"
             else None
         )
-        self._thread = threading.Thread(target=self._run, name="mcap-writer", daemon=True)
-        self._thread.start()
+        self._episode: _EpisodeBag | None = None
+        self._pending: deque[_Pending] = deque()
+        self._closed = False
 
-    # -- Sink API (producer thread) --------------------------------------------------------------------------
+    # -- Sink API --------------------------------------------------------------------------------------------
     def begin_episode(self, start: EpisodeStart) -> None:
-        if self._open:
+        if self._episode is not None:
             raise RuntimeError("begin_episode() while an episode is open")
-        self._raise_if_failed()
         index = self.episodes if self.next_index is None else self.next_index
         self.next_index = None
         if episode_dir(self.root, index).exists():
             raise OpenralError(f"{episode_dir(self.root, index)}: exists; refusing to overwrite it")
-        self._open = True
-        self._put(_Begin(index, start, time.time_ns()))
+        try:
+            self._episode = _EpisodeBag(self.root, self.schema, self.config, index, start, time.time_ns())
+        except OSError as exc:
+            raise OpenralError(f"{self.root}: cannot start episode {index}'s bag: {exc}") from exc
 
     def add_frame(self, frame: Frame) -> None:
-        if not self._open:
+        if self._episode is None:
             raise RuntimeError("add_frame() outside an episode")
         encoded: dict[str, Future[bytes]] = {}
         if self._pool is not None:
             for name, img in frame.images.items():
                 encoded[name] = self._pool.submit(self._factory.compress, img)
-        self._put(_Queued(frame, encoded))  # blocks while the writer is behind: backpressure, never a drop
+        self._pending.append(_Pending(frame, encoded))
+        while len(self._pending) > self.config.queue_size:
+            self._write_oldest()  # waits for the oldest frame's images: backpressure, never a drop
 
     def end_episode(self, success: bool) -> EpisodeRecord:
-        if not self._open:
+        episode = self._episode
+        if episode is None:
             raise RuntimeError("end_episode() outside an episode")
-        self._open = False
-        self._put(_End(success))
-        result = self._wait_result()
-        if isinstance(result, BaseException):
-            raise result
-        assert result is not None
+        try:
+            while self._pending:
+                self._write_oldest()
+            record = episode.finish(success)
+        except BaseException:
+            self.discard_episode()
+            raise
+        self._episode = None
         self.episodes += 1
-        return result
+        return record
 
     def discard_episode(self) -> None:
-        if not self._open:
-            return
-        self._open = False
-        self._put(_ABORT)
-        self._wait_result()
+        episode, self._episode = self._episode, None
+        for pending in self._pending:
+            for future in pending.encoded.values():
+                future.cancel()
+        self._pending.clear()
+        if episode is not None:
+            episode.abort()
 
     def close(self) -> None:
         if self._closed:
             return
         self._closed = True
         self.discard_episode()
-        if self._thread.is_alive():
-            self._queue.put(_STOP)
-            self._thread.join()
         if self._pool is not None:
-            self._pool.shutdown(wait=True)
+            self._pool.shutdown(wait=True, cancel_futures=True)
         shutil.rmtree(self.root / PARTIAL, ignore_errors=True)
         if self.episodes == 0 and self._created_root:
             shutil.rmtree(self.root, ignore_errors=True)
 
-    def _put(self, item: object) -> None:
-        while True:
-            self._raise_if_failed()
-            try:
-                self._queue.put(item, timeout=0.5)
-                return
-            except queue.Full:
-                continue
-
-    def _wait_result(self) -> EpisodeRecord | BaseException | None:
-        while True:
-            try:
-                return self._results.get(timeout=0.5)
-            except queue.Empty:
-                self._raise_if_failed()
-
-    def _raise_if_failed(self) -> None:
-        if self._error is not None and not self._thread.is_alive():
-            raise OpenralError(f"MCAP writer failed: {self._error}") from self._error
-
-    # -- writer thread ---------------------------------------------------------------------------------------
-    def _run(self) -> None:
-        episode: _EpisodeBag | None = None
-        failed: BaseException | None = None
+    def _write_oldest(self) -> None:
+        assert self._episode is not None
+        pending = self._pending.popleft()
+        encoded = {name: future.result() for name, future in pending.encoded.items()}
         try:
-            while True:
-                item = self._queue.get()
-                if item is _STOP:
-                    return
-                if isinstance(item, _Begin):
-                    failed = None
-                    try:
-                        episode = _EpisodeBag(self.root, self.schema, self.config, item)
-                    except Exception as exc:  # noqa: BLE001 - reported at end_episode
-                        episode, failed = None, exc
-                elif isinstance(item, _Queued):
-                    if episode is not None and episode.error is None:
-                        try:
-                            episode.write_frame(item.frame, {k: f.result() for k, f in item.encoded.items()})
-                        except Exception as exc:  # noqa: BLE001 - reported at end_episode
-                            episode.error = exc
-                elif isinstance(item, _End):
-                    if episode is None:
-                        self._results.put(OpenralError(f"{self.root}: cannot start the episode's bag: {failed}"))
-                        continue
-                    try:
-                        self._results.put(episode.finish(item.success))
-                    except Exception as exc:  # noqa: BLE001 - handed to the producer thread
-                        episode.abort()
-                        self._results.put(exc)
-                    episode = None
-                elif item is _ABORT:
-                    if episode is not None:
-                        episode.abort()
-                    episode = None
-                    self._results.put(None)
-        except BaseException as exc:
-            self._error = exc
-            if episode is not None:
-                episode.abort()
-            raise
+            self._episode.write_frame(pending.frame, encoded)
+        except OSError as exc:
+            raise OpenralError(f"episode {self._episode.index}: MCAP write failed: {exc}") from exc
 
 
 class _EpisodeBag:
     """One episode's bag, staged under ``.partial/`` until it is complete."""
 
-    def __init__(self, root: Path, schema: DatasetSchema, config: McapConfig, begin: _Begin) -> None:
+    def __init__(
+        self, root: Path, schema: DatasetSchema, config: McapConfig, index: int, start: EpisodeStart, base_ns: int
+    ) -> None:
         self.schema = schema
         self.config = config
-        self.index = begin.index
-        self.seed = begin.start.seed
-        self.base_ns = begin.base_ns
-        self.final = episode_dir(root, begin.index)
+        self.index = index
+        self.seed = start.seed
+        self.base_ns = base_ns
+        self.final = episode_dir(root, index)
         self.staged = root / PARTIAL / self.final.name
         shutil.rmtree(self.staged, ignore_errors=True)
         self.staged.parent.mkdir(parents=True, exist_ok=True)
         self.factory = MessageFactory(config.image_format, config.jpeg_quality)
         self.writer = Writer(self.staged, version=ROSBAG2_VERSION, storage_plugin=StoragePlugin.MCAP)
-        self.writer.set_custom_data("openral.episode_index", str(begin.index))
-        self.writer.set_custom_data("openral.stamp_base_ns", str(begin.base_ns))
+        self.writer.set_custom_data("openral.episode_index", str(index))
+        self.writer.set_custom_data("openral.stamp_base_ns", str(base_ns))
         self.writer.open()
         store = self.factory.store
         add = self.writer.add_connection
@@ -263,11 +204,10 @@ class _EpisodeBag:
         }
         self.names = list(schema.state_names)
         self.length = 0
-        self.last_ns = begin.base_ns
+        self.last_ns = base_ns
         self.task: str | None = None
-        self.error: BaseException | None = None
         self.closed = False
-        start: dict[str, Any] = {
+        marker: dict[str, Any] = {
             "event": "start",
             "episode": self.index,
             "seed": self.seed,
@@ -276,9 +216,9 @@ class _EpisodeBag:
             "state_names": list(schema.state_names),
             "action_names": list(schema.action_names),
             "cameras": list(schema.cameras),
-            "initial_state": begin.start.initial_state,
+            "initial_state": start.initial_state,
         }
-        self.writer.write(self.c_event, self.base_ns, self.factory.event(start))
+        self.writer.write(self.c_event, self.base_ns, self.factory.event(marker))
 
     def write_frame(self, frame: Frame, encoded: dict[str, bytes]) -> None:
         ns = self.base_ns + round(frame.timestamp * 1e9)
@@ -296,8 +236,6 @@ class _EpisodeBag:
         self.length += 1
 
     def finish(self, success: bool) -> EpisodeRecord:
-        if self.error is not None:
-            raise OpenralError(f"episode {self.index}: MCAP write failed: {self.error}") from self.error
         end = {"event": "end", "episode": self.index, "success": bool(success), "length": self.length}
         # 1 ns after the last frame, so readers that order equal stamps arbitrarily still see it last
         self.writer.write(self.c_event, self.last_ns + 1, self.factory.event(end))
