@@ -46,10 +46,15 @@ def record(
     max_steps: Annotated[int | None, typer.Option(help="step limit per episode (default: the task's)")] = None,
     out: Annotated[Path | None, typer.Option(help="output folder (default: a new folder under datasets/)")] = None,
     codec: Annotated[CodecChoice, typer.Option(help="video codec")] = CodecChoice.av1,
+    format: Annotated[
+        str, typer.Option("--format", help="lerobot, mcap or lerobot,mcap (MCAP bags go to OUT/mcap/)")
+    ] = "lerobot",
+    image_format: Annotated[str, typer.Option(help="MCAP camera messages: jpeg, png or raw")] = "jpeg",
 ) -> None:
-    """Record episodes of SCENE driven by RSKILL into a LeRobotDataset v3."""
+    """Record episodes of SCENE driven by RSKILL into a LeRobotDataset v3 and/or ROS 2 MCAP bags."""
     from openral_data.record import RecordOptions
     from openral_data.record import record as run_record
+    from openral_data.sinks.select import parse_formats
 
     opts = RecordOptions(
         scene=scene,
@@ -60,6 +65,8 @@ def record(
         max_steps=max_steps,
         out=out,
         codec=codec.value,
+        formats=parse_formats(format),
+        image_format=image_format,
     )
     with Progress(
         TextColumn("[bold]recording"),
@@ -90,9 +97,30 @@ def record(
             ("success rate", f"{summary.success_rate:.1%}"),
             ("frames", str(summary.frames)),
             ("frames/s", f"{summary.fps:.1f}"),
+            ("formats", ",".join(opts.formats)),
+            *([("mcap bags", str(summary.out / "mcap"))] if "mcap" in opts.formats else []),
             ("codec", codec.value),
         ],
     )
+
+
+@app.command()
+def convert(
+    src: Annotated[
+        Path, typer.Argument(help="a bag (.bag, .mcap, rosbag2 folder, folder of bags) or a LeRobot v3 dataset")
+    ],
+    dst: Annotated[Path, typer.Argument(help="output folder (must not exist or be empty)")],
+    mapping: Annotated[Path | None, typer.Option(help="mapping YAML: topics -> features (bags -> LeRobot)")] = None,
+    codec: Annotated[CodecChoice, typer.Option(help="video codec (bags -> LeRobot)")] = CodecChoice.av1,
+    episodes: Annotated[str | None, typer.Option(help="episodes to export, e.g. 0,3,5-7 (LeRobot -> MCAP)")] = None,
+    image_format: Annotated[
+        str, typer.Option(help="MCAP camera messages: jpeg, png or raw (LeRobot -> MCAP)")
+    ] = "jpeg",
+) -> None:
+    """Convert bags/MCAP to a LeRobot v3 dataset, or a LeRobot v3 dataset to ROS 2 MCAP bags."""
+    from openral_data.convert.cli import run_convert
+
+    run_convert(src, dst, mapping, codec.value, episodes, image_format, console, err_console)
 
 
 def _print_rows(title: str, rows: list[tuple[str, str]]) -> None:

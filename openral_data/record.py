@@ -17,8 +17,8 @@ from openral_data.errors import ConfigError, OpenralError
 from openral_data.policies.base import PolicyAdapter
 from openral_data.producers.base import SimRollout
 from openral_data.schemas.scene import SimScene, load_recordable_scene
-from openral_data.sinks.base import DatasetSchema, EpisodeRecord
-from openral_data.sinks.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
+from openral_data.sinks.base import DatasetSchema, EpisodeRecord, Sink
+from openral_data.sinks.lerobot_v3 import VideoSettings, WriterConfig
 from openral_data.sinks.lerobot_v3.video import Codec
 
 
@@ -32,6 +32,8 @@ class RecordOptions:
     max_steps: int | None = None
     out: Path | None = None
     codec: Codec = "av1"
+    formats: tuple[str, ...] = ("lerobot",)  # any of FORMATS; see sinks.select.make_sinks for the layout
+    image_format: str = "jpeg"  # MCAP camera messages: jpeg | png | raw
 
 
 @dataclass(frozen=True)
@@ -123,6 +125,9 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
         raise OpenralError(f"--max-steps must be >= 1, got {max_steps}")
     if base_seed < 0:
         raise OpenralError(f"--seed must be >= 0, got {base_seed}")
+    from openral_data.sinks.select import check_formats, make_sinks
+
+    check_formats(opts.formats, opts.image_format)
     out = opts.out if opts.out is not None else default_out(scene, rskill.id)
     check_out(out)
 
@@ -144,8 +149,8 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
                 "robot": robot.name,
             },
         )
-        writer = LeRobotV3Writer(out, schema, WriterConfig(video=video))
-        bridge = DatasetBridge(schema, [writer])
+        sinks: list[Sink] = make_sinks(out, schema, opts.formats, WriterConfig(video=video), opts.image_format)
+        bridge = DatasetBridge(schema, sinks)
         records: list[EpisodeRecord] = []
         frames = 0
         t0 = time.perf_counter()

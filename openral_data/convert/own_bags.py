@@ -1,0 +1,51 @@
+"""The mapping `convert` uses without `--mapping` for bags that openral-data wrote itself (`record --format
+mcap` or `convert DATASET DST`): everything is described by the `/openral/episode` start marker."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from rosbags.highlevel import AnyReader
+
+from openral_data.errors import OpenralError
+from openral_data.schemas.mapping import Mapping
+from openral_data.sinks.mcap import messages as m
+
+
+def own_mapping(bag: Path) -> Mapping:
+    with AnyReader([bag]) as reader:
+        topics = {c.topic: c for c in reader.connections}
+        marker = topics.get(m.EPISODE)
+        if marker is None:
+            raise OpenralError(
+                f"{bag}: not written by openral-data (no {m.EPISODE} topic); pass --mapping mapping.yaml"
+            )
+        start = None
+        for conn, _, raw in reader.messages(connections=[marker]):
+            event = json.loads(reader.deserialize(raw, conn.msgtype).data)  # type: ignore[attr-defined]
+            if event.get("event") == "start":
+                start = event
+                break
+    if start is None:
+        raise OpenralError(f"{bag}: {m.EPISODE} has no start marker; pass --mapping mapping.yaml")
+    cameras = {}
+    for name in start["cameras"]:
+        found = [t for t in (m.camera_topic(name, "jpeg"), m.camera_topic(name, "raw")) if t in topics]
+        if not found:
+            raise OpenralError(f"{bag}: no image topic for camera {name!r}")
+        cameras[name] = found[0]
+    fps = int(start["fps"])
+    return Mapping.model_validate(
+        {
+            "fps": fps,
+            "robot_type": start.get("robot_type") or "unknown",
+            "task_topic": m.TASK,
+            "state": {"topic": m.JOINT_STATES, "field": "position", "joints": start["state_names"]},
+            "action": {"topic": m.ACTION, "field": "data", "names": start["action_names"]},
+            "cameras": cameras,
+            # every stream is stamped on the same grid: the exact sample, never a neighbour's
+            "align": {"method": "nearest", "max_staleness": 0.25 / fps},
+            "episodes": {"split": "marker", "marker_topic": m.EPISODE},
+        }
+    )

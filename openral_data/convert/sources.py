@@ -1,0 +1,89 @@
+"""Finding the bags in a `convert` source and reading vectors and images out of their messages.
+
+A source is a ROS 1 ``.bag`` file, a rosbag2 directory (``metadata.yaml`` + sqlite3 or mcap storage), a plain
+``.mcap`` file with ros2msg schemas, or a directory holding any number of those (each one a bag, in name
+order; hidden entries such as an unfinished ``.partial/`` episode are ignored).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from openral_data.errors import OpenralError
+from openral_data.schemas.mapping import VectorSource
+
+
+def is_bag(path: Path) -> bool:
+    if path.is_file():
+        return path.suffix in {".bag", ".mcap"}
+    return path.is_dir() and (path / "metadata.yaml").is_file()
+
+
+def find_bags(src: Path) -> list[Path]:
+    if not src.exists():
+        raise OpenralError(f"{src}: no such file or directory")
+    if is_bag(src):
+        return [src]
+    if src.is_dir():
+        bags = sorted(p for p in src.iterdir() if not p.name.startswith(".") and is_bag(p))
+        if bags:
+            return bags
+    raise OpenralError(
+        f"{src}: not a bag: expected a ROS 1 .bag, a plain .mcap, a rosbag2 folder (metadata.yaml) or a folder of those"
+    )
+
+
+def field_value(msg: Any, path: str, where: str) -> Any:
+    value = msg
+    for part in path.split("."):
+        if not hasattr(value, part):
+            fields = [k for k in getattr(type(value), "__dataclass_fields__", {})]
+            raise OpenralError(f"{where}: message has no field {path!r} (fields here: {', '.join(fields) or '-'})")
+        value = getattr(value, part)
+    return value
+
+
+class VectorReader:
+    """Turns one topic's messages into float32 vectors as the mapping says."""
+
+    def __init__(self, source: VectorSource, what: str) -> None:
+        self.source = source
+        self.where = f"mapping: {what} ({source.topic}.{source.field})"
+        self.dim: int | None = len(source.joints) if source.joints else None
+        self._index_cache: tuple[tuple[str, ...], list[int]] | None = None
+
+    def __call__(self, msg: Any) -> npt.NDArray[np.float32]:
+        raw = field_value(msg, self.source.field, self.where)
+        try:
+            values: npt.NDArray[np.float64] = np.asarray(raw, dtype=np.float64).reshape(-1)
+        except (TypeError, ValueError):
+            raise OpenralError(f"{self.where}: field is {type(raw).__name__}, not numbers") from None
+        if self.source.joints is not None:
+            names = tuple(str(n) for n in field_value(msg, "name", self.where))
+            if self._index_cache is None or self._index_cache[0] != names:
+                missing = [j for j in self.source.joints if j not in names]
+                if missing:
+                    raise OpenralError(f"{self.where}: joints {missing} not in the message's names {list(names)}")
+                self._index_cache = (names, [names.index(j) for j in self.source.joints])
+            idx = self._index_cache[1]
+            if len(values) < len(names):
+                raise OpenralError(f"{self.where}: {len(values)} values for {len(names)} joint names")
+            values = np.asarray(values[idx])
+        if self.dim is None:
+            self.dim = len(values)
+        elif len(values) != self.dim:
+            raise OpenralError(f"{self.where}: vector length changed from {self.dim} to {len(values)}")
+        return values.astype(np.float32)
+
+    def names(self) -> list[str]:
+        if self.source.names is not None:
+            if self.dim is not None and len(self.source.names) != self.dim:
+                raise OpenralError(f"{self.where}: names has {len(self.source.names)} entries for {self.dim} values")
+            return list(self.source.names)
+        if self.source.joints is not None:
+            return list(self.source.joints)
+        return [f"{self.source.topic.strip('/')}.{self.source.field}[{i}]" for i in range(self.dim or 0)]

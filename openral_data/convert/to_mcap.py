@@ -1,0 +1,199 @@
+"""LeRobot v3 -> ROS 2 MCAP: replay a dataset's episodes (all or selected) through our MCAP sink.
+
+Frames are read one episode at a time: the numeric columns of that episode from its data parquet, the
+images decoded with PyAV from each camera's mp4 starting at the episode's ``from_timestamp``. Works on any
+LeRobot v3 dataset (ours or lerobot's); our extra episode columns (seed, success, initial state) are kept.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import av
+import numpy as np
+import numpy.typing as npt
+import pyarrow.compute as pc
+import pyarrow.parquet as pq
+
+from openral_data.errors import OpenralError
+from openral_data.producers.base import CameraShape
+from openral_data.sinks.base import DatasetSchema, EpisodeRecord, EpisodeStart, Frame
+from openral_data.sinks.lerobot_v3 import layout
+from openral_data.sinks.lerobot_v3.reader import read_episodes, read_info, read_tasks
+from openral_data.sinks.mcap import McapConfig, McapSink
+
+ProgressFn = Callable[[int, int], None]  # (frames exported, frames in total)
+IMAGE_PREFIX = "observation.images."
+
+
+@dataclass
+class ExportSummary:
+    src: Path
+    dst: Path
+    episodes: list[EpisodeRecord] = field(default_factory=list)
+    frames: int = 0
+    seconds: float = 0.0
+    skipped_features: list[str] = field(default_factory=list)
+
+    @property
+    def fps(self) -> float:
+        return self.frames / self.seconds if self.seconds > 0 else 0.0
+
+
+def is_lerobot_dataset(path: Path) -> bool:
+    return (path / layout.INFO_PATH).is_file()
+
+
+def parse_episodes(text: str | None, total: int, where: str = "--episodes") -> list[int]:
+    """`0,3,5-7` -> [0, 3, 5, 6, 7]; None -> every episode."""
+    if text is None:
+        return list(range(total))
+    chosen: list[int] = []
+    for part in (p.strip() for p in text.split(",")):
+        try:
+            lo, _, hi = part.partition("-")
+            first, last = int(lo), int(hi) if hi else int(lo)
+        except ValueError:
+            raise OpenralError(f"{where}: {part!r} is not an episode index or a range a-b") from None
+        if first > last or first < 0 or last >= total:
+            raise OpenralError(f"{where}: {part!r} is outside the dataset's episodes 0..{total - 1}")
+        chosen.extend(range(first, last + 1))
+    if len(set(chosen)) != len(chosen):
+        raise OpenralError(f"{where}: an episode is listed twice")
+    return chosen
+
+
+def _names(feature: dict[str, Any], key: str) -> tuple[str, ...]:
+    dim = int(feature["shape"][0])
+    names = feature.get("names")
+    if isinstance(names, dict):  # lerobot sometimes nests {"motors": [...]}
+        names = next(iter(names.values()), None)
+    if isinstance(names, list) and len(names) == dim and all(isinstance(n, str) for n in names):
+        return tuple(names)
+    return tuple(f"{key}[{i}]" for i in range(dim))
+
+
+def export_mcap(
+    src: Path,
+    dst: Path,
+    *,
+    episodes: str | None = None,
+    config: McapConfig | None = None,
+    progress: ProgressFn | None = None,
+) -> ExportSummary:
+    info = read_info(src)
+    features: dict[str, Any] = info["features"]
+    for key in ("observation.state", "action"):
+        if key not in features:
+            raise OpenralError(f"{src / layout.INFO_PATH}: features: no {key!r}; cannot export")
+    cams = {k[len(IMAGE_PREFIX) :]: f for k, f in features.items() if k.startswith(IMAGE_PREFIX)}
+    not_video = [k for k, f in cams.items() if f.get("dtype") != "video"]
+    if not_video:
+        raise OpenralError(f"{src}: cameras {not_video} are not stored as video; only video datasets are supported")
+    ep_table = read_episodes(src)
+    rows = sorted(ep_table.to_pylist(), key=lambda r: int(r["episode_index"]))
+    chosen = parse_episodes(episodes, len(rows))
+    tasks = read_tasks(src) if int(info.get("total_tasks", 0)) else []
+    fps = int(info["fps"])
+    schema = DatasetSchema(
+        fps=fps,
+        state_names=_names(features["observation.state"], "observation.state"),
+        action_names=_names(features["action"], "action"),
+        cameras={n: CameraShape(int(f["shape"][0]), int(f["shape"][1])) for n, f in cams.items()},
+        robot_type=str(info.get("robot_type") or "unknown"),
+        metadata={"exported_from": str(src)},
+    )
+    known = {"observation.state", "action", "timestamp", "frame_index", "episode_index", "index", "task_index"}
+    known |= {"next.reward", "next.done", "next.success"} | {IMAGE_PREFIX + n for n in cams}
+    summary = ExportSummary(src=src, dst=dst, skipped_features=sorted(set(features) - known))
+    total = sum(int(rows[e]["length"]) for e in chosen)
+    sink = McapSink(dst, schema, config)
+    t0 = time.perf_counter()
+    try:
+        for e in chosen:
+            row = rows[e]
+            sink.next_index = e
+            sink.begin_episode(
+                EpisodeStart(
+                    seed=int(row.get("openral.seed") or 0),
+                    initial_state=json.loads(row.get("openral.initial_state") or "{}"),
+                )
+            )
+            for frame in _episode_frames(src, info, row, tasks, list(cams)):
+                sink.add_frame(frame)
+                summary.frames += 1
+                if progress is not None:
+                    progress(summary.frames, total)
+            summary.episodes.append(sink.end_episode(bool(row.get("openral.success") or False)))
+    finally:
+        sink.close()
+    summary.seconds = time.perf_counter() - t0
+    return summary
+
+
+def _episode_frames(
+    src: Path, info: dict[str, Any], row: dict[str, Any], tasks: list[str], cameras: list[str]
+) -> Iterator[Frame]:
+    e = int(row["episode_index"])
+    path = src / str(info["data_path"]).format(
+        chunk_index=int(row["data/chunk_index"]), file_index=int(row["data/file_index"])
+    )
+    table = pq.read_table(path)
+    table = table.filter(pc.equal(table.column("episode_index"), e)).sort_by("frame_index")
+    n = int(row["length"])
+    if table.num_rows != n:
+        raise OpenralError(f"{path}: episode {e} has {table.num_rows} rows, meta/episodes says {n}")
+    cols = table.to_pydict()
+    fps = int(info["fps"])
+    videos = {name: _decode_video(src, info, row, IMAGE_PREFIX + name, n, fps) for name in cameras}
+    for i in range(n):
+        images = {}
+        for name, it in videos.items():
+            img = next(it, None)
+            if img is None:
+                raise OpenralError(f"episode {e}: camera {name}: video ends before frame {i} of {n}")
+            images[name] = img
+        task_index = int(cols["task_index"][i])
+        yield Frame(
+            state=np.asarray(cols["observation.state"][i], dtype=np.float32).reshape(-1),
+            action=np.asarray(cols["action"][i], dtype=np.float32).reshape(-1),
+            images=images,
+            task=tasks[task_index] if task_index < len(tasks) else "",
+            reward=float(cols["next.reward"][i]) if "next.reward" in cols else 0.0,
+            done=bool(cols["next.done"][i]) if "next.done" in cols else i == n - 1,
+            success=bool(cols["next.success"][i]) if "next.success" in cols else False,
+            # LeRobot v3 stores frame_index / fps rounded to float32; the exact value keeps stamps on the grid
+            timestamp=int(cols["frame_index"][i]) / fps,
+        )
+
+
+def _decode_video(
+    src: Path, info: dict[str, Any], row: dict[str, Any], key: str, n: int, fps: int
+) -> Iterator[npt.NDArray[np.uint8]]:
+    """The episode's `n` frames of `key`, decoded from its mp4 starting at `from_timestamp`."""
+    path = src / str(info["video_path"]).format(
+        video_key=key,
+        chunk_index=int(row[f"videos/{key}/chunk_index"]),
+        file_index=int(row[f"videos/{key}/file_index"]),
+    )
+    start = float(row[f"videos/{key}/from_timestamp"])
+    half = 0.5 / fps
+    with av.open(str(path)) as container:
+        stream = container.streams.video[0]
+        tb = stream.time_base
+        assert tb is not None
+        if start > 0:
+            container.seek(int(start / tb), stream=stream, backward=True, any_frame=False)
+        count = 0
+        for frame in container.decode(stream):
+            if frame.pts is None or float(frame.pts * tb) < start - half:
+                continue
+            yield np.asarray(frame.to_ndarray(format="rgb24"), dtype=np.uint8)
+            count += 1
+            if count == n:
+                return

@@ -1,0 +1,112 @@
+"""`convert --mapping mapping.yaml`: which bag topics and fields become which LeRobot v3 features.
+
+```yaml
+fps: 20                       # target frame rate of the dataset
+robot_type: my_arm            # optional
+task: pick up the cube        # a fixed task text, or
+# task_topic: /task           # a std_msgs/String topic (its latest value at each frame)
+state:                        # -> observation.state
+  topic: /joint_states
+  field: position             # a field path of the message (dots for nesting)
+  joints: [j1, j2, j3]        # JointState: pick these names in this order
+action:                       # -> action
+  topic: /cmd
+  field: data
+  names: [x, y, z]            # names of the dims (default: joints, or <topic>.<field>[i])
+cameras:                      # camera name -> sensor_msgs Image or CompressedImage topic
+  front: /camera/front/image/compressed
+align:
+  method: previous            # previous | nearest sample
+  max_staleness: 0.1          # seconds; frames with a stream older than this cannot be filled
+episodes:
+  split: bag                  # bag (one per bag file) | marker (messages on marker_topic) | gap
+  marker_topic: /openral/episode
+  gap: 1.0                    # seconds without any mapped message that start a new episode
+```
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Literal
+
+from pydantic import Field, model_validator
+
+from openral_data.schemas.base import StrictModel, load_model
+
+_FIELD = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
+_CAMERA = re.compile(r"^[A-Za-z0-9_]+$")
+
+
+class VectorSource(StrictModel):
+    """A float vector read from one field of the messages on one topic."""
+
+    topic: str = Field(min_length=1)
+    field: str = "position"
+    joints: list[str] | None = None
+    names: list[str] | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> VectorSource:
+        if not _FIELD.match(self.field):
+            raise ValueError(f"field {self.field!r} is not a dotted field path")
+        for key in ("joints", "names"):
+            values = getattr(self, key)
+            if values is not None and (not values or len(set(values)) != len(values)):
+                raise ValueError(f"{key} must be a non-empty list of unique names")
+        if self.joints is not None and self.names is not None and len(self.joints) != len(self.names):
+            raise ValueError(f"names has {len(self.names)} entries but joints has {len(self.joints)}")
+        return self
+
+
+class Align(StrictModel):
+    method: Literal["previous", "nearest"] = "previous"
+    max_staleness: float = Field(default=0.1, gt=0)
+
+
+class Episodes(StrictModel):
+    split: Literal["bag", "marker", "gap"] = "bag"
+    marker_topic: str | None = None
+    gap: float | None = Field(default=None, gt=0)
+
+    @model_validator(mode="after")
+    def _check(self) -> Episodes:
+        if self.split == "marker" and not self.marker_topic:
+            raise ValueError("split: marker needs marker_topic")
+        if self.split == "gap" and self.gap is None:
+            raise ValueError("split: gap needs gap (seconds)")
+        return self
+
+
+class Mapping(StrictModel):
+    fps: int = Field(gt=0, le=1000)
+    robot_type: str = "unknown"
+    task: str | None = Field(default=None, min_length=1)
+    task_topic: str | None = None
+    state: VectorSource
+    action: VectorSource
+    cameras: dict[str, str] = Field(default_factory=dict)
+    align: Align = Field(default_factory=Align)
+    episodes: Episodes = Field(default_factory=Episodes)
+
+    @model_validator(mode="after")
+    def _check(self) -> Mapping:
+        if (self.task is None) == (self.task_topic is None):
+            raise ValueError("set exactly one of task (a fixed text) or task_topic")
+        for name in self.cameras:
+            if not _CAMERA.match(name):
+                raise ValueError(f"camera name {name!r}: letters, digits and _ only")
+        topics = [self.state.topic, self.action.topic, *self.cameras.values()]
+        if len(set(self.cameras.values())) != len(self.cameras):
+            raise ValueError("two cameras map the same topic")
+        if self.task_topic is not None and self.task_topic in topics:
+            raise ValueError(f"task_topic {self.task_topic} is also mapped as data")
+        return self
+
+    def topics(self) -> list[str]:
+        return list(dict.fromkeys([self.state.topic, self.action.topic, *self.cameras.values()]))
+
+
+def load_mapping(path: Path) -> Mapping:
+    return load_model(Mapping, path)

@@ -1,0 +1,150 @@
+"""ROS 2 messages the MCAP sink writes: standard types from rosbags' typestore, serialised as CDR.
+
+Topics of one episode bag (names are stable; `convert` and `export` rely on them):
+
+* ``/joint_states``   ``sensor_msgs/msg/JointState``: ``name`` = the state contract's names, ``position`` =
+  ``observation.state`` (float32 widened to float64, exact).
+* ``/action``         ``std_msgs/msg/Float32MultiArray``: the action vector, float32 as recorded (see README).
+* ``/camera/<name>/image/compressed`` ``sensor_msgs/msg/CompressedImage`` (format ``jpeg`` or ``png``), or
+  ``/camera/<name>/image_raw`` ``sensor_msgs/msg/Image`` (``rgb8``) with ``image_format: raw``.
+* ``/reward``         ``std_msgs/msg/Float32``: the reward that followed the action of the same stamp.
+* ``/task``           ``std_msgs/msg/String``: the task text, published on the first frame and on change.
+* ``/openral/episode`` ``std_msgs/msg/String``: JSON ``{"event": "start"|"end", ...}`` markers; the end
+  marker carries ``success`` and ``length``.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+from typing import Any, Literal
+
+import numpy as np
+import numpy.typing as npt
+from PIL import Image as PILImage
+from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys.store import Typestore
+
+ImageFormat = Literal["jpeg", "png", "raw"]
+IMAGE_FORMATS: tuple[ImageFormat, ...] = ("jpeg", "png", "raw")
+
+JOINT_STATES = "/joint_states"
+ACTION = "/action"
+REWARD = "/reward"
+TASK = "/task"
+EPISODE = "/openral/episode"
+
+JOINT_STATE_T = "sensor_msgs/msg/JointState"
+COMPRESSED_T = "sensor_msgs/msg/CompressedImage"
+IMAGE_T = "sensor_msgs/msg/Image"
+FLOAT32_ARRAY_T = "std_msgs/msg/Float32MultiArray"
+FLOAT32_T = "std_msgs/msg/Float32"
+STRING_T = "std_msgs/msg/String"
+
+_STORE: Typestore | None = None
+
+
+def typestore() -> Typestore:
+    """The ROS 2 typestore (Humble definitions: the message hashes every current distro shares)."""
+    global _STORE  # noqa: PLW0603 - built once, immutable afterwards
+    if _STORE is None:
+        _STORE = get_typestore(Stores.ROS2_HUMBLE)
+    return _STORE
+
+
+def camera_topic(name: str, fmt: ImageFormat) -> str:
+    return f"/camera/{name}/image_raw" if fmt == "raw" else f"/camera/{name}/image/compressed"
+
+
+def camera_type(fmt: ImageFormat) -> str:
+    return IMAGE_T if fmt == "raw" else COMPRESSED_T
+
+
+class MessageFactory:
+    """Builds and serialises the messages of one recording; `stamp_ns` is nanoseconds since the epoch."""
+
+    def __init__(self, image_format: ImageFormat = "jpeg", jpeg_quality: int = 90) -> None:
+        self.store = typestore()
+        self.image_format: ImageFormat = image_format
+        self.jpeg_quality = jpeg_quality
+        t = self.store.types
+        self._time = t["builtin_interfaces/msg/Time"]
+        self._header = t["std_msgs/msg/Header"]
+        self._joint_state = t[JOINT_STATE_T]
+        self._compressed = t[COMPRESSED_T]
+        self._image = t[IMAGE_T]
+        self._f32_array = t[FLOAT32_ARRAY_T]
+        self._layout = t["std_msgs/msg/MultiArrayLayout"]
+        self._dim = t["std_msgs/msg/MultiArrayDimension"]
+        self._f32 = t[FLOAT32_T]
+        self._string = t[STRING_T]
+        self._empty_f64: npt.NDArray[np.float64] = np.zeros(0, dtype=np.float64)
+
+    def _stamp_header(self, stamp_ns: int, frame_id: str = "") -> Any:
+        sec, nanosec = divmod(stamp_ns, 1_000_000_000)
+        return self._header(stamp=self._time(sec=sec, nanosec=nanosec), frame_id=frame_id)
+
+    def joint_state(self, stamp_ns: int, names: list[str], position: npt.NDArray[np.float32]) -> bytes:
+        msg = self._joint_state(
+            header=self._stamp_header(stamp_ns),
+            name=names,
+            position=np.asarray(position, dtype=np.float64),
+            velocity=self._empty_f64,
+            effort=self._empty_f64,
+        )
+        return bytes(self.store.serialize_cdr(msg, JOINT_STATE_T))
+
+    def action(self, values: npt.NDArray[np.float32]) -> bytes:
+        n = int(values.shape[0])
+        layout = self._layout(dim=[self._dim(label="action", size=n, stride=n)], data_offset=0)
+        msg = self._f32_array(layout=layout, data=np.asarray(values, dtype=np.float32))
+        return bytes(self.store.serialize_cdr(msg, FLOAT32_ARRAY_T))
+
+    def float32(self, value: float) -> bytes:
+        return bytes(self.store.serialize_cdr(self._f32(data=float(value)), FLOAT32_T))
+
+    def string(self, text: str) -> bytes:
+        return bytes(self.store.serialize_cdr(self._string(data=text), STRING_T))
+
+    def event(self, payload: dict[str, Any]) -> bytes:
+        return self.string(json.dumps(payload, sort_keys=True))
+
+    def compress(self, rgb: npt.NDArray[np.uint8]) -> bytes:
+        """JPEG/PNG bytes of an HWC RGB image (thread-safe; Pillow releases the GIL while encoding)."""
+        buf = io.BytesIO()
+        pil = PILImage.fromarray(rgb, mode="RGB")
+        if self.image_format == "jpeg":
+            pil.save(buf, format="JPEG", quality=self.jpeg_quality)
+        else:
+            pil.save(buf, format="PNG", compress_level=1)
+        return buf.getvalue()
+
+    def image(self, stamp_ns: int, camera: str, rgb: npt.NDArray[np.uint8], compressed: bytes | None = None) -> bytes:
+        """The camera message; `compressed` is `compress(rgb)` when it was already computed elsewhere."""
+        header = self._stamp_header(stamp_ns, frame_id=camera)
+        h, w = int(rgb.shape[0]), int(rgb.shape[1])
+        if self.image_format == "raw":
+            data = np.ascontiguousarray(rgb, dtype=np.uint8).reshape(-1)
+            msg = self._image(header=header, height=h, width=w, encoding="rgb8", is_bigendian=0, step=3 * w, data=data)
+            return bytes(self.store.serialize_cdr(msg, IMAGE_T))
+        payload = np.frombuffer(compressed if compressed is not None else self.compress(rgb), dtype=np.uint8)
+        msg = self._compressed(header=header, format=self.image_format, data=payload)
+        return bytes(self.store.serialize_cdr(msg, COMPRESSED_T))
+
+
+def decode_image(msg: Any, msgtype: str) -> npt.NDArray[np.uint8]:
+    """RGB uint8 HWC from a deserialised `sensor_msgs` Image or CompressedImage."""
+    if msgtype.endswith("CompressedImage"):
+        with PILImage.open(io.BytesIO(bytes(msg.data))) as im:
+            return np.asarray(im.convert("RGB"), dtype=np.uint8)
+    enc = str(msg.encoding).lower()
+    h, w, step = int(msg.height), int(msg.width), int(msg.step)
+    raw = np.asarray(msg.data, dtype=np.uint8)
+    channels = {"rgb8": 3, "bgr8": 3, "rgba8": 4, "bgra8": 4, "mono8": 1}.get(enc)
+    if channels is None:
+        raise ValueError(f"unsupported image encoding {msg.encoding!r} (rgb8, bgr8, rgba8, bgra8, mono8)")
+    rows: npt.NDArray[np.uint8] = raw.reshape(h, step)[:, : w * channels].reshape(h, w, channels)
+    if enc == "mono8":
+        return np.ascontiguousarray(np.repeat(rows, 3, axis=2))
+    rgb = rows[:, :, 2::-1] if enc.startswith("bgr") else rows[:, :, :3]
+    return np.ascontiguousarray(rgb)

@@ -1,0 +1,177 @@
+"""A synthetic multi-rate robot log, written as a real ROS 1 bag, ROS 2 bags (sqlite3, mcap) and plain MCAP.
+
+Streams (times in ms from BASE; k is the sample's index on its own topic):
+
+* /joint_states  sensor_msgs/JointState, 100 Hz, names [extra, j2, j1, j3], position [999, 2k+0.5, k, 3k]
+* /cmd           std_msgs/Float64MultiArray, 20 Hz, data [k, -k]
+* /cam/image_raw sensor_msgs/Image rgb8 32x24, every 66 ms, solid colour (20k mod 256, 50, 200)
+* /cam2/compressed sensor_msgs/CompressedImage png 32x24, 10 Hz, solid colour (20k mod 256, 100, 30)
+* /task          std_msgs/String: "stack the blocks" at 0, "unstack" at 1000
+* /diagnostics   std_msgs/String, 1 Hz: not mapped
+"""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from PIL import Image as PILImage
+from rosbags.rosbag1 import Writer as Writer1
+from rosbags.rosbag2 import StoragePlugin
+from rosbags.rosbag2 import Writer as Writer2
+from rosbags.typesys import Stores, get_typestore
+
+BASE = 1_700_000_000 * 10**9
+MS = 10**6
+H, W = 24, 32
+TASKS = [(0, "stack the blocks"), (1000, "unstack")]
+
+MAPPING: dict[str, Any] = {
+    "fps": 10,
+    "robot_type": "synthetic_arm",
+    "task_topic": "/task",
+    "state": {"topic": "/joint_states", "field": "position", "joints": ["j1", "j2", "j3"]},
+    "action": {"topic": "/cmd", "field": "data", "names": ["vx", "vy"]},
+    "cameras": {"front": "/cam/image_raw", "side": "/cam2/compressed"},
+    "align": {"method": "previous", "max_staleness": 0.1},
+}
+
+TYPES = {
+    "/joint_states": "sensor_msgs/msg/JointState",
+    "/cmd": "std_msgs/msg/Float64MultiArray",
+    "/cam/image_raw": "sensor_msgs/msg/Image",
+    "/cam2/compressed": "sensor_msgs/msg/CompressedImage",
+    "/task": "std_msgs/msg/String",
+    "/diagnostics": "std_msgs/msg/String",
+}
+
+
+def colour(topic: str, k: int) -> tuple[int, int, int]:
+    return (20 * k % 256, 50, 200) if topic == "/cam/image_raw" else (20 * k % 256, 100, 30)
+
+
+def expected(t_ms: int) -> dict[str, Any]:
+    """What frame at t_ms (grid time since BASE) must hold under `previous` alignment."""
+    k_js, k_cmd, k_cam, k_cam2 = t_ms // 10, t_ms // 50, t_ms // 66, t_ms // 100
+    return {
+        "state": [k_js, 2 * k_js + 0.5, 3 * k_js],
+        "action": [k_cmd, -k_cmd],
+        "front": colour("/cam/image_raw", k_cam),
+        "side": colour("/cam2/compressed", k_cam2),
+        "task": [text for t, text in TASKS if t <= t_ms][-1],
+    }
+
+
+def samples(duration_ms: int = 2000, offset_ms: int = 0) -> Iterator[tuple[str, int, dict[str, Any]]]:
+    """(topic, time ns, plain field values) in time order."""
+    out: list[tuple[int, int, str, dict[str, Any]]] = []
+    order = {t: i for i, t in enumerate(TYPES)}
+
+    def add(topic: str, t_ms: int, fields: dict[str, Any]) -> None:
+        out.append((t_ms, order[topic], topic, fields))
+
+    for k, t in enumerate(range(0, duration_ms, 10)):
+        pos = np.array([999.0, 2 * k + 0.5, k, 3 * k], dtype=np.float64)
+        add("/joint_states", t, {"name": ["extra", "j2", "j1", "j3"], "position": pos})
+    for k, t in enumerate(range(0, duration_ms, 50)):
+        add("/cmd", t, {"data": np.array([k, -k], dtype=np.float64)})
+    for k, t in enumerate(range(0, duration_ms, 66)):
+        img = np.empty((H, W, 3), np.uint8)
+        img[:] = colour("/cam/image_raw", k)
+        add("/cam/image_raw", t, {"rgb": img})
+    for k, t in enumerate(range(0, duration_ms, 100)):
+        img = np.empty((H, W, 3), np.uint8)
+        img[:] = colour("/cam2/compressed", k)
+        buf = io.BytesIO()
+        PILImage.fromarray(img).save(buf, format="PNG")
+        add("/cam2/compressed", t, {"png": np.frombuffer(buf.getvalue(), np.uint8)})
+    for t, text in TASKS:
+        if t < duration_ms:
+            add("/task", t, {"data": text})
+    for t in range(0, duration_ms, 1000):
+        add("/diagnostics", t, {"data": "ok"})
+    for t_ms, _, topic, fields in sorted(out, key=lambda x: (x[0], x[1])):
+        yield topic, BASE + (offset_ms + t_ms) * MS, fields
+
+
+def build(store: Any, topic: str, ns: int, f: dict[str, Any], ros1: bool) -> Any:
+    """A rosbags message object of the topic's type from the plain field values."""
+    t = store.types
+    stamp = t["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9)
+    header = (
+        t["std_msgs/msg/Header"](seq=0, stamp=stamp, frame_id="")
+        if ros1
+        else t["std_msgs/msg/Header"](stamp=stamp, frame_id="")
+    )
+    msgtype = TYPES[topic]
+    if topic == "/joint_states":
+        empty = np.zeros(0, np.float64)
+        return t[msgtype](header=header, name=f["name"], position=f["position"], velocity=empty, effort=empty)
+    if topic == "/cmd":
+        layout = t["std_msgs/msg/MultiArrayLayout"](dim=[], data_offset=0)
+        return t[msgtype](layout=layout, data=f["data"])
+    if topic == "/cam/image_raw":
+        return t[msgtype](
+            header=header, height=H, width=W, encoding="rgb8", is_bigendian=0, step=3 * W, data=f["rgb"].reshape(-1)
+        )
+    if topic == "/cam2/compressed":
+        return t[msgtype](header=header, format="png", data=f["png"])
+    return t[msgtype](data=f["data"])
+
+
+def write_ros1(path: Path, **kw: int) -> Path:
+    store = get_typestore(Stores.ROS1_NOETIC)
+    with Writer1(path) as writer:
+        conns = {topic: writer.add_connection(topic, msgtype, typestore=store) for topic, msgtype in TYPES.items()}
+        for topic, ns, f in samples(**kw):
+            writer.write(conns[topic], ns, store.serialize_ros1(build(store, topic, ns, f, True), TYPES[topic]))
+    return path
+
+
+def write_ros2(path: Path, storage: str, **kw: int) -> Path:
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
+    with Writer2(path, version=8, storage_plugin=plugin) as writer:
+        conns = {topic: writer.add_connection(topic, msgtype, typestore=store) for topic, msgtype in TYPES.items()}
+        for topic, ns, f in samples(**kw):
+            writer.write(conns[topic], ns, store.serialize_cdr(build(store, topic, ns, f, False), TYPES[topic]))
+    return path
+
+
+def write_plain_mcap(path: Path, **kw: int) -> Path:
+    """A plain .mcap with ros2msg schemas, written by the `mcap` package's ROS 2 writer (dict messages)."""
+    from mcap_ros2.writer import Writer as McapRos2Writer
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    with path.open("wb") as fh:
+        writer = McapRos2Writer(fh)
+        schemas = {
+            topic: writer.register_msgdef(msgtype, store.generate_msgdef(msgtype, ros_version=2)[0])
+            for topic, msgtype in TYPES.items()
+        }
+        for topic, ns, f in samples(**kw):
+            msg = _as_dict(build(store, topic, ns, f, False))
+            writer.write_message(topic, schemas[topic], msg, log_time=ns, publish_time=ns)
+        writer.finish()
+    return path
+
+
+def _as_dict(msg: Any) -> Any:
+    if hasattr(msg, "__dataclass_fields__"):
+        return {k: _as_dict(getattr(msg, k)) for k in msg.__dataclass_fields__ if k != "__msgtype__"}
+    if isinstance(msg, list):
+        return [_as_dict(x) for x in msg]
+    if isinstance(msg, np.ndarray):
+        return msg.tobytes() if msg.dtype == np.uint8 else msg.tolist()
+    return msg
+
+
+WRITERS: dict[str, Callable[[Path], Path]] = {
+    "ros1": lambda d: write_ros1(d / "log.bag"),
+    "ros2-sqlite3": lambda d: write_ros2(d / "log_sqlite", "sqlite3"),
+    "ros2-mcap": lambda d: write_ros2(d / "log_mcap", "mcap"),
+    "plain-mcap": lambda d: write_plain_mcap(d / "log.mcap"),
+}
