@@ -102,4 +102,5 @@ class TabletopParams(StrictModel):
     goal_min_distance: float = Field(default=0.12, ge=0)
     goal_max_distance: float = Field(default=0.22, gt=0)
     timestep: float = Field(default=0.002, gt=0, le=0.01)
-    ready_height: float = Field(default=0.25, gt=0, description="start: gripper this far above the table, down")
+    ready_xy: tuple[float, float] = (0.38, 0.0)
+    ready_height: float = Field(default=0.25, gt=0, description="start: grasp site this far above the table")

@@ -31,8 +31,14 @@ class SceneCamera(StrictModel):
 
 
 class RenderConfig(StrictModel):
+    """Offscreen rendering. Shadows, reflections and detailed robot meshes cost most of the CPU render time."""
+
     shadows: bool = False
     reflections: bool = False
+    robot_meshes: Literal["collision", "visual"] = Field(
+        default="collision",
+        description="draw the robot's collision meshes (coarse, ~6x faster on a CPU) or its detailed visual meshes",
+    )
 
 
 class SceneSpec(StrictModel):

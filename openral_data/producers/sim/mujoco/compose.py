@@ -25,6 +25,7 @@ from openral_data.schemas.mujoco import MujocoRobotWiring, TabletopParams
 from openral_data.schemas.scene import SceneCamera
 
 ROBOT = "robot/"
+SCENE_GROUP = 2  # geom group of the table, floor, cube and goal; robot MJCFs use 0 (collision) and 1 (visual)
 GRIPPER = "robot/gripper/"
 CUBE = "cube"
 GOAL = "goal"
@@ -135,8 +136,10 @@ def compose(
     world.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     world.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
     world.option.impratio = 10.0
-    world.visual.headlight.ambient = [0.35, 0.35, 0.35]
-    world.visual.headlight.diffuse = [0.4, 0.4, 0.4]
+    world.visual.headlight.ambient = [0.3, 0.3, 0.3]
+    world.visual.headlight.diffuse = [0.3, 0.3, 0.3]
+    world.visual.headlight.specular = [0.0, 0.0, 0.0]
+    world.add_material(name="matte", specular=0.05, shininess=0.1)
     world.visual.global_.offwidth = max([640, *(c.width for c in cameras)])
     world.visual.global_.offheight = max([480, *(c.height for c in cameras)])
 
@@ -185,7 +188,12 @@ def compose(
 
     # --- the table, the objects, lights -------------------------------------------------------------------
     world.worldbody.add_geom(
-        name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[3, 3, 0.1], rgba=_rgba(0.55, 0.57, 0.6)
+        name="floor",
+        type=mujoco.mjtGeom.mjGEOM_PLANE,
+        size=[3, 3, 0.1],
+        rgba=_rgba(0.55, 0.57, 0.6),
+        material="matte",
+        group=SCENE_GROUP,
     )
     tx, ty = params.table_size
     world.worldbody.add_geom(
@@ -193,7 +201,9 @@ def compose(
         type=mujoco.mjtGeom.mjGEOM_BOX,
         size=[tx / 2, ty / 2, h / 2],
         pos=[params.table_center[0], params.table_center[1], h / 2],
-        rgba=_rgba(0.78, 0.7, 0.58),
+        rgba=_rgba(0.72, 0.64, 0.52),
+        material="matte",
+        group=SCENE_GROUP,
         friction=[1.0, 0.005, 0.0001],
     )
     half = params.cube_size / 2
@@ -205,6 +215,7 @@ def compose(
         size=[half, half, half],
         mass=params.cube_mass,
         rgba=_rgba(0.85, 0.12, 0.1),
+        group=SCENE_GROUP,
         friction=[1.0, 0.01, 0.0001],
         condim=4,
     )
@@ -216,6 +227,7 @@ def compose(
             size=[params.goal_radius, 0.0005, 0],
             pos=[0, 0, 0.0006],
             rgba=_rgba(0.15, 0.75, 0.25),
+            group=SCENE_GROUP,
             contype=0,
             conaffinity=0,
         )
@@ -226,14 +238,15 @@ def compose(
             size=[params.goal_radius, params.goal_radius, PAD_HEIGHT / 2],
             pos=[0, 0, PAD_HEIGHT / 2],
             rgba=_rgba(0.15, 0.3, 0.85),
+            group=SCENE_GROUP,
             friction=[1.0, 0.005, 0.0001],
         )
     world.worldbody.add_light(
         name="sun",
         directional=True,
         dir=[-0.3, 0.2, -1.0],
-        diffuse=[0.6, 0.6, 0.6],
-        specular=[0.1, 0.1, 0.1],
+        diffuse=[0.5, 0.5, 0.5],
+        specular=[0.05, 0.05, 0.05],
         castshadow=True,
     )
 

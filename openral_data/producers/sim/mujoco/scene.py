@@ -135,7 +135,7 @@ class TabletopScene:
 
     # -- setup -----------------------------------------------------------------------------------------------
     def _ready_posture(self, home: F64) -> F64:
-        """Arm posture with the grasp site `ready_height` above the cube region's centre, pointing down.
+        """Arm posture with the grasp site at `ready_xy`, `ready_height` above the table, pointing down.
 
         The yaw about the vertical is the one the manifest's home posture has, so each arm keeps its natural
         wrist orientation. Deterministic: IK from the home posture.
@@ -153,9 +153,7 @@ class TabletopScene:
         y_axis = np.cross(z_axis, x_axis)
         quat = np.zeros(4)
         mujoco.mju_mat2Quat(quat, np.stack([x_axis, y_axis, z_axis], axis=1).reshape(-1))
-        pos = np.array(
-            [np.mean(p.cube_region.x), np.mean(p.cube_region.y), p.table_height + p.ready_height], dtype=np.float64
-        )
+        pos = np.array([*p.ready_xy, p.table_height + p.ready_height], dtype=np.float64)
         q = self.ik.solve(d, pos, quat, iterations=300, max_step=0.1, q_start=home)
         perr, rerr = self.ik.pose_error(d, q, pos, quat)
         if perr > 0.01 or rerr > 0.05:
