@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
+from typing import Literal
 
 from openral_data import paths
 from openral_data.errors import ConfigError, OpenralError
@@ -26,11 +27,11 @@ def _mock_factory(scene: SimScene, robot: RobotManifest, rskill: RSkillManifest,
     return MockScene(scene, state_dim=rskill.state_contract.dim, source=source)
 
 
-def _tabletop_factory(task: str) -> SceneFactory:
+def _tabletop_factory(task: Literal["push", "pick_place"]) -> SceneFactory:
     def make(scene: SimScene, robot: RobotManifest, rskill: RSkillManifest, source: str) -> SimRollout:
         from openral_data.producers.sim.mujoco.scene import TabletopScene
 
-        return TabletopScene(scene, robot, rskill, task, source=source, rskill_source=f"rskill {rskill.id}")  # type: ignore[arg-type]
+        return TabletopScene(scene, robot, rskill, task, source=source, rskill_source=f"rskill {rskill.id}")
 
     return make
 

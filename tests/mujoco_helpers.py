@@ -10,7 +10,7 @@ import numpy.typing as npt
 from openral_data import registry
 from openral_data.producers.sim.mujoco.scene import TabletopScene
 from openral_data.schemas.rskill import Contract, RSkillManifest
-from openral_data.schemas.scene import SceneCamera, SimScene, load_recordable_scene
+from openral_data.schemas.scene import RenderConfig, SceneCamera, SimScene, load_recordable_scene
 
 RED_MIN, OTHER_MAX = 120, 80  # a pixel of the red cube: R high, G and B low
 
@@ -19,9 +19,13 @@ OVERHEAD = SceneCamera(name="overhead", width=96, height=96, pos=(0.85, 0.0, 1.9
 WRIST = SceneCamera(name="wrist", width=64, height=64, mount="wrist")
 
 
-def shipped_scene(kind: str, cameras: list[SceneCamera] | None = None, **task: Any) -> SimScene:
+def shipped_scene(
+    kind: str, cameras: list[SceneCamera] | None = None, render: RenderConfig | None = None, **task: Any
+) -> SimScene:
     scene = load_recordable_scene(registry.resolve_scene_path(f"tabletop_{kind}"))
-    spec = scene.scene.model_copy(update={"cameras": cameras if cameras is not None else []})
+    spec = scene.scene.model_copy(
+        update={"cameras": cameras if cameras is not None else [], "render": render or scene.scene.render}
+    )
     return scene.model_copy(update={"scene": spec, "task": scene.task.model_copy(update=task)})
 
 
@@ -45,7 +49,8 @@ def make_scene(
     kind: str = "push", robot: str = "franka_panda", cameras: list[SceneCamera] | None = None, **kw: Any
 ) -> TabletopScene:
     rskill = kw.pop("rskill", None) or expert_rskill(kind)
-    return TabletopScene(shipped_scene(kind, cameras), registry.ROBOTS[robot], rskill, kind)  # type: ignore[arg-type]
+    scene = shipped_scene(kind, cameras, kw.pop("render", None))
+    return TabletopScene(scene, registry.ROBOTS[robot], rskill, kind)  # type: ignore[arg-type]
 
 
 def run_expert(scene: TabletopScene, seed: int, max_steps: int) -> tuple[bool, int]:

@@ -91,6 +91,8 @@ def test_initial_state_is_json_and_restores_the_exact_rollout() -> None:
         assert all(np.array_equal(x, y) for x, y in zip(reference, replay, strict=True))
         with pytest.raises(ConfigError, match="initial_state: format"):
             scene.reset_to({"qpos": []})
+        with pytest.raises(ConfigError, match="initial_state: task: recorded on 'push'"):
+            scene.reset_to({**saved, "task": "push"})
     finally:
         scene.close()
 
@@ -156,6 +158,28 @@ def test_cameras_show_the_scene() -> None:
         assert abs(cols.mean() - col) < 4 and abs(rows.mean() - row) < 4
     finally:
         scene.close()
+
+
+def test_shadows_and_reflections_are_off_by_default_and_on_from_the_yaml() -> None:
+    import mujoco
+
+    from openral_data.schemas.scene import RenderConfig
+
+    plain = make_scene("push", cameras=[FRONT])
+    fancy = make_scene(
+        "push", cameras=[FRONT], render=RenderConfig(shadows=True, reflections=True, robot_meshes="visual")
+    )
+    try:
+        flags = mujoco.mjtRndFlag
+        plain_r, fancy_r = plain._rig._renderers["front"], fancy._rig._renderers["front"]
+        assert not plain_r.scene.flags[flags.mjRND_SHADOW] and not plain_r.scene.flags[flags.mjRND_REFLECTION]
+        assert fancy_r.scene.flags[flags.mjRND_SHADOW] and fancy_r.scene.flags[flags.mjRND_REFLECTION]
+        a, b = plain.reset(0).images["front"], fancy.reset(0).images["front"]
+        assert np.abs(a.astype(int) - b.astype(int)).mean() > 1  # shadows and detailed meshes change the picture
+        assert red_mask(b).sum() >= 4
+    finally:
+        plain.close()
+        fancy.close()
 
 
 def test_unsupported_contracts_and_bad_wiring_are_named() -> None:

@@ -187,6 +187,10 @@ class TabletopScene:
         """Restore exactly the state `initial_state()` described (for replay); the controller restarts too."""
         if initial_state.get("format") != STATE_FORMAT:
             raise ConfigError(f"initial_state: format: expected {STATE_FORMAT}, got {initial_state.get('format')!r}")
+        if initial_state.get("task") != self.task_kind:
+            raise ConfigError(
+                f"initial_state: task: recorded on {initial_state.get('task')!r}, this scene is {self.task_kind!r}"
+            )
         d = self.data
         mujoco.mj_resetData(self.model, d)
         try:
