@@ -20,12 +20,17 @@ WRIST = SceneCamera(name="wrist", width=64, height=64, mount="wrist")
 
 
 def shipped_scene(
-    kind: str, cameras: list[SceneCamera] | None = None, render: RenderConfig | None = None, **task: Any
+    kind: str,
+    cameras: list[SceneCamera] | None = None,
+    render: RenderConfig | None = None,
+    params: dict[str, Any] | None = None,
+    **task: Any,
 ) -> SimScene:
     scene = load_recordable_scene(registry.resolve_scene_path(f"tabletop_{kind}"))
-    spec = scene.scene.model_copy(
-        update={"cameras": cameras if cameras is not None else [], "render": render or scene.scene.render}
-    )
+    update: dict[str, Any] = {"cameras": cameras if cameras is not None else [], "render": render or scene.scene.render}
+    if params is not None:
+        update["params"] = {**scene.scene.params, **params}
+    spec = scene.scene.model_copy(update=update)
     return scene.model_copy(update={"scene": spec, "task": scene.task.model_copy(update=task)})
 
 
@@ -49,7 +54,7 @@ def make_scene(
     kind: str = "push", robot: str = "franka_panda", cameras: list[SceneCamera] | None = None, **kw: Any
 ) -> TabletopScene:
     rskill = kw.pop("rskill", None) or expert_rskill(kind)
-    scene = shipped_scene(kind, cameras, kw.pop("render", None))
+    scene = shipped_scene(kind, cameras, kw.pop("render", None), kw.pop("params", None))
     return TabletopScene(scene, registry.ROBOTS[robot], rskill, kind)  # type: ignore[arg-type]
 
 

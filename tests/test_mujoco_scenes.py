@@ -44,6 +44,20 @@ def test_composition_compiles_and_sizes_come_from_the_model(robot: str) -> None:
         joint.close()
 
 
+def test_robot_base_pose_comes_from_the_scene_yaml() -> None:
+    scene = make_scene("push", params={"base_pos": [-0.05, 0.1, 0.8], "base_yaw": 0.3})
+    try:
+        scene.reset(0)
+        base = scene.model.body("robot/base").id
+        assert np.allclose(scene.data.xpos[base], [-0.05, 0.1, 0.8])
+        heading = scene.data.xmat[base].reshape(3, 3)[:, 0]
+        assert np.isclose(np.arctan2(heading[1], heading[0]), 0.3)
+        pos, _ = scene.arm.ee_pose(scene.data)
+        assert np.allclose(pos, [0.38, 0.0, 1.05], atol=0.01)  # the ready pose is still reached
+    finally:
+        scene.close()
+
+
 def _rollout(scene: object, seed: int, steps: int = 25) -> list[np.ndarray]:
     from openral_data.producers.sim.mujoco.scene import TabletopScene
 
