@@ -226,3 +226,30 @@ def test_expert_succeeds_on_a_few_seeds(kind: str) -> None:
 def test_expert_success_rate_on_franka_seeds_0_to_49(kind: str) -> None:
     results = _expert_results(kind, range(50))
     assert sum(results) / 50 >= 0.8, [s for s, ok in enumerate(results) if not ok]
+
+
+def test_headless_backends_default_egl_and_osmesa_fallback_render() -> None:
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    code = (
+        "import os\n"
+        "import openral_data.producers.sim.mujoco as m\n"
+        "from mujoco_helpers import FRONT, make_scene, red_mask\n"
+        "s = make_scene('push', cameras=[FRONT])\n"
+        "img = s.reset(3).images['front']\n"
+        "s.close()\n"
+        "print(os.environ['MUJOCO_GL'], int(red_mask(img).sum()), float(img.std()))\n"
+    )
+    tests_dir = str(Path(__file__).parent)
+    for backend in (None, "osmesa"):
+        env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM")}
+        if backend:
+            env["MUJOCO_GL"] = backend
+        env["PYTHONPATH"] = tests_dir + os.pathsep + env.get("PYTHONPATH", "")
+        proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=False)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        name, red, std = proc.stdout.split()
+        assert name == (backend or "egl") and int(red) >= 4 and float(std) > 10
