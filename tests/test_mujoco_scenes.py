@@ -23,7 +23,7 @@ def test_every_shipped_robot_is_wired() -> None:
 def test_composition_compiles_and_sizes_come_from_the_model(robot: str) -> None:
     manifest = registry.ROBOTS[robot]
     n_arm = len([j for j in manifest.joints if j.type != "gripper"])
-    scene = make_scene("push", robot)
+    scene = make_scene("push", robot, cameras=[WRIST])
     try:
         assert isinstance(scene, SimRollout)
         assert scene.spec.action_dim == 7 and scene.spec.state_dim == 8 and scene.spec.can_restore_state
@@ -35,6 +35,7 @@ def test_composition_compiles_and_sizes_come_from_the_model(robot: str) -> None:
         zaxis = scene.data.site_xmat[scene.arm.site].reshape(3, 3)[:, 2]
         assert zaxis[2] < -0.99
         assert obs.state.shape == (8,) and obs.state[7] < 0.1
+        assert obs.images["wrist"].shape == (64, 64, 3) and obs.images["wrist"].std() > 5  # the wrist mount works
     finally:
         scene.close()
     joint = make_scene("pick_place", robot, rskill=joint_rskill(n_arm))
