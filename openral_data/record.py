@@ -110,6 +110,11 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
     scene_src = str(scene_path)
     rskill, rskill_path = registry.resolve_rskill(opts.rskill)
     rskill_src = str(rskill_path)
+    if opts.robot is not None and scene.scene.fixed_robot and opts.robot != scene.scene.robot:
+        raise ConfigError(
+            f"{scene_src}: scene.fixed_robot: this scene is defined for robot {scene.scene.robot!r} only; "
+            f"--robot {opts.robot} is refused (use a free-robot scene such as scenes/sim/ to change the robot)"
+        )
     robot_id = opts.robot or scene.scene.robot
     if robot_id is None:
         raise ConfigError(f"{scene_src}: scene.robot: not set; pass --robot (valid: {', '.join(registry.robot_ids())})")

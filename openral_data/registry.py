@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
+from typing import Literal
 
 from openral_data import paths
 from openral_data.errors import ConfigError, OpenralError
@@ -26,8 +27,36 @@ def _mock_factory(scene: SimScene, robot: RobotManifest, rskill: RSkillManifest,
     return MockScene(scene, state_dim=rskill.state_contract.dim, source=source)
 
 
-SCENES: dict[str, SceneFactory] = {"mock": _mock_factory}
-POLICIES: dict[str, PolicyFactory] = {"zero": ZeroPolicy, "random": RandomPolicy}
+def _tabletop_factory(task: Literal["push", "pick_place"]) -> SceneFactory:
+    def make(scene: SimScene, robot: RobotManifest, rskill: RSkillManifest, source: str) -> SimRollout:
+        from openral_data.producers.sim.mujoco.scene import TabletopScene
+
+        return TabletopScene(scene, robot, rskill, task, source=source, rskill_source=f"rskill {rskill.id}")
+
+    return make
+
+
+def _scripted(name: str) -> PolicyFactory:
+    def make(rskill: RSkillManifest) -> PolicyAdapter:
+        from openral_data.policies import scripted
+
+        cls: type[scripted.ScriptedPush] | type[scripted.ScriptedPickPlace] = getattr(scripted, name)
+        return cls(rskill)
+
+    return make
+
+
+SCENES: dict[str, SceneFactory] = {
+    "mock": _mock_factory,
+    "tabletop_push": _tabletop_factory("push"),
+    "tabletop_pick_place": _tabletop_factory("pick_place"),
+}
+POLICIES: dict[str, PolicyFactory] = {
+    "zero": ZeroPolicy,
+    "random": RandomPolicy,
+    "scripted_push": _scripted("ScriptedPush"),
+    "scripted_pick_place": _scripted("ScriptedPickPlace"),
+}
 
 
 def unknown(kind: str, value: str, valid: list[str]) -> OpenralError:

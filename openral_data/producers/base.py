@@ -32,12 +32,16 @@ class Observation:
 
     `time` is the producer's clock for this observation in seconds since the episode began: simulation time
     for sim scenes, a monotonic clock for hardware. `None` means "no clock of its own" (frame index / fps).
+
+    `privileged` is simulator ground truth (object poses, ...) that scripted experts may read; it is never
+    recorded, and a learned policy must not rely on it.
     """
 
     images: dict[str, npt.NDArray[Any]]
     state: npt.NDArray[Any]
     task: str
     time: float | None = None
+    privileged: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass

@@ -18,20 +18,36 @@ _POLICY_KEYS = ("vla", "policy", "rskill")
 
 
 class SceneCamera(StrictModel):
+    """A camera the scene renders. Physics scenes place it: `mount: world` at `pos` looking at `lookat`
+    (metres, world frame), `mount: wrist` where the robot manifest's wrist camera is."""
+
     name: str = Field(min_length=1, pattern=r"^[A-Za-z0-9_]+$")
     width: int = Field(gt=0)
     height: int = Field(gt=0)
+    mount: Literal["world", "wrist"] = "world"
+    pos: tuple[float, float, float] | None = None
+    lookat: tuple[float, float, float] | None = None
+    fovy: float = Field(default=45.0, gt=0, lt=180)
 
 
 class RenderConfig(StrictModel):
+    """Offscreen rendering. Shadows, reflections and detailed robot meshes cost most of the CPU render time."""
+
     shadows: bool = False
     reflections: bool = False
+    robot_meshes: Literal["collision", "visual"] = Field(
+        default="collision",
+        description="draw the robot's collision meshes (coarse, ~6x faster on a CPU) or its detailed visual meshes",
+    )
 
 
 class SceneSpec(StrictModel):
     id: str = Field(min_length=1, pattern=r"^[A-Za-z0-9_\-]+$")
     type: str = Field(min_length=1, description="a SCENES registry key: which producer builds this scene")
     robot: str | None = None
+    fixed_robot: bool = Field(
+        default=False, description="the scene is defined for `robot` only: `--robot` may not replace it"
+    )
     fps: int = Field(default=20, gt=0, le=1000)
     cameras: list[SceneCamera] = Field(default_factory=list)
     render: RenderConfig = Field(default_factory=RenderConfig)

@@ -1,0 +1,15 @@
+"""Native MuJoCo scenes: manifest-driven composition (MjSpec), servo/IK control, offscreen rendering.
+
+Rendering is headless: MUJOCO_GL defaults to `egl`, falling back to `osmesa` when no EGL library is
+installed (the variable must be set before `mujoco` is first imported, so it is decided here).
+"""
+
+from __future__ import annotations
+
+import ctypes.util
+import os
+
+if "MUJOCO_GL" not in os.environ:
+    os.environ["MUJOCO_GL"] = (
+        "egl" if ctypes.util.find_library("EGL") or not ctypes.util.find_library("OSMesa") else "osmesa"
+    )

@@ -1,0 +1,27 @@
+"""Resolve asset references of manifests: `pkg://<python package>/<path>` or a path relative to the manifest.
+
+A package is located with `importlib.util.find_spec` without importing it (robosuite's wheel only lends its
+MJCF and mesh files; importing it would pull in its controllers and print warnings).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+from openral_data.errors import ConfigError
+
+
+def resolve_asset(ref: str, base_dir: Path, source: str) -> Path:
+    """The file `ref` names; ConfigError naming `source` (file: field) when it cannot be found."""
+    if ref.startswith("pkg://"):
+        package, _, rel = ref.removeprefix("pkg://").partition("/")
+        spec = importlib.util.find_spec(package) if package else None
+        if spec is None or not spec.submodule_search_locations:
+            raise ConfigError(f"{source}: python package {package!r} is not installed (needed for {ref})")
+        path = Path(next(iter(spec.submodule_search_locations))) / rel
+    else:
+        path = (base_dir / ref).resolve()
+    if not path.is_file():
+        raise ConfigError(f"{source}: {ref}: no such file ({path})")
+    return path

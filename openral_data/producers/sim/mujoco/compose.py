@@ -1,0 +1,287 @@
+"""Compose a tabletop world with `mujoco.MjSpec` from a robot manifest and a scene: no per-robot code.
+
+World frame: floor at z = 0, table top at `table_height`, robot base on the table (manifest `base_pos`
+unless the scene sets one). The arm is loaded from `assets.mjcf` under the prefix `robot/`, the gripper from
+`assets.gripper_mjcf` under `robot/gripper/` at the manifest's `attach_body`.
+
+Control (documented choice): the robot MJCF's torque motors on the arm joints are turned into position
+servos (gain kp, damping kv from the manifest, force limited to the motor's original torque range) and the
+arm's bodies get gravity compensation (`gravcomp`), so a joint-position target is held without sag and the
+whole control law runs inside MuJoCo's step (implicitfast integrator), never in Python per sub-step.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import numpy.typing as npt
+
+from openral_data.errors import ConfigError
+from openral_data.producers.sim.mujoco.tasks import PAD_HEIGHT, TaskKind
+from openral_data.schemas.mujoco import MujocoRobotWiring, TabletopParams
+from openral_data.schemas.scene import SceneCamera
+
+ROBOT = "robot/"
+SCENE_GROUP = 2  # geom group of the table, floor, cube and goal; robot MJCFs use 0 (collision) and 1 (visual)
+GRIPPER = "robot/gripper/"
+CUBE = "cube"
+GOAL = "goal"
+
+
+@dataclass(frozen=True)
+class Composed:
+    model: mujoco.MjModel
+    arm_joints: list[str]  # full (prefixed) joint names, action/state order
+    gripper_actuators: list[str]
+    gripper_joints: list[str]
+    ee_site: str
+    cameras: list[str]  # camera names in the compiled model, same order as the scene's cameras
+
+
+def _rgba(r: float, g: float, b: float, a: float = 1.0) -> list[float]:
+    return [r, g, b, a]
+
+
+def look_at_quat(pos: npt.ArrayLike, target: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """Quaternion of a MuJoCo camera at `pos` looking at `target` (camera looks along its -z, y is up)."""
+    p, t = np.asarray(pos, dtype=np.float64), np.asarray(target, dtype=np.float64)
+    forward = t - p
+    norm = float(np.linalg.norm(forward))
+    if norm < 1e-9:
+        raise ValueError("camera pos and lookat coincide")
+    forward /= norm
+    up = np.array([0.0, 0.0, 1.0])
+    if abs(float(forward @ up)) > 0.999:  # looking straight down/up: image up is world +x
+        up = np.array([1.0, 0.0, 0.0])
+    x = np.cross(forward, up)
+    x /= np.linalg.norm(x)
+    y = np.cross(-forward, x)
+    mat = np.stack([x, y, -forward], axis=1)  # columns: camera axes in world frame
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, mat.reshape(-1))
+    return quat
+
+
+def _sanitize(spec: mujoco.MjSpec) -> None:
+    """Make packaged MJCFs attachable and compilable without editing them.
+
+    * a second mesh of an already declared name is dropped (robosuite's Robotiq 2F-85 declares one twice, the
+      second naming a file the wheel does not ship; geoms resolve names to the first);
+    * meshes only visual geoms use get shell inertia (a thin visual shell has no volume; bodies carry explicit
+      inertials, so this changes no dynamics).
+    """
+    seen: set[str] = set()
+    for mesh in list(spec.meshes):
+        if mesh.name in seen:
+            mesh.delete()
+        seen.add(mesh.name)
+    collision = {g.meshname for g in spec.geoms if g.contype != 0 or g.conaffinity != 0}
+    for mesh in spec.meshes:
+        if mesh.name not in collision:
+            mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+
+
+def _servo_arm(spec: mujoco.MjSpec, wiring: MujocoRobotWiring, source: str) -> list[str]:
+    joints = [ROBOT + j for j in wiring.arm_joints]
+    motors: dict[str, mujoco.MjsActuator] = {}
+    for act in spec.actuators:
+        if act.target in joints:
+            motors[act.target] = act
+    for k, name in enumerate(joints):
+        joint = spec.joint(name)
+        if joint is None:
+            raise ConfigError(f"{source}: sim.arm_joints[{k}]: no joint {wiring.arm_joints[k]!r} in the robot MJCF")
+        joint.armature = max(joint.armature, wiring.armature)
+        act = motors.get(name)
+        if act is None:
+            act = spec.add_actuator(name=f"{name}_servo", target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        elif act.ctrllimited == mujoco.mjtLimited.mjLIMITED_TRUE:
+            act.forcerange = np.array(act.ctrlrange, dtype=np.float64)
+            act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        kp, kv = wiring.kp[k], wiring.kv[k]
+        act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+        act.gainprm = np.array([kp] + [0.0] * 9)
+        act.biastype = mujoco.mjtBias.mjBIAS_AFFINE
+        act.biasprm = np.array([0.0, -kp, -kv] + [0.0] * 7)
+        act.gear = np.array([1.0, 0, 0, 0, 0, 0])
+        if joint.limited == mujoco.mjtLimited.mjLIMITED_TRUE or (
+            joint.limited == mujoco.mjtLimited.mjLIMITED_AUTO and joint.range[0] < joint.range[1]
+        ):
+            act.ctrlrange = np.array(joint.range, dtype=np.float64)
+            act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        else:
+            act.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
+    return joints
+
+
+def compose(
+    *,
+    robot_mjcf: Path,
+    gripper_mjcf: Path,
+    wiring: MujocoRobotWiring,
+    params: TabletopParams,
+    cameras: list[SceneCamera],
+    task: TaskKind,
+    robot_source: str,
+    scene_source: str,
+) -> Composed:
+    """Build and compile the world; ConfigError (naming the manifest or scene field) on bad wiring."""
+    world = mujoco.MjSpec()
+    world.modelname = "openral_tabletop"
+    world.compiler.degree = False  # robot MJCFs declare radians; attaching keeps the host compiler settings
+    world.option.timestep = params.timestep
+    world.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    world.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    world.option.impratio = 10.0
+    world.visual.headlight.ambient = [0.3, 0.3, 0.3]
+    world.visual.headlight.diffuse = [0.3, 0.3, 0.3]
+    world.visual.headlight.specular = [0.0, 0.0, 0.0]
+    world.add_material(name="matte", specular=0.05, shininess=0.1)
+    world.visual.global_.offwidth = max([640, *(c.width for c in cameras)])
+    world.visual.global_.offheight = max([480, *(c.height for c in cameras)])
+
+    robot = mujoco.MjSpec.from_file(str(robot_mjcf))
+    gripper = mujoco.MjSpec.from_file(str(gripper_mjcf))
+    _sanitize(robot)
+    _sanitize(gripper)
+    attach = robot.body(wiring.attach_body)
+    if attach is None:
+        raise ConfigError(f"{robot_source}: sim.attach_body: no body {wiring.attach_body!r} in the robot MJCF")
+    grip_root = gripper.worldbody.first_body()
+    if grip_root is None:
+        raise ConfigError(f"{robot_source}: assets.gripper_mjcf: the gripper MJCF has no body")
+    attach.add_frame().attach_body(grip_root, "gripper/", "")
+    root = robot.body(wiring.root_body)
+    if root is None:
+        raise ConfigError(f"{robot_source}: sim.root_body: no body {wiring.root_body!r} in the robot MJCF")
+
+    h = params.table_height
+    base = (
+        params.base_pos
+        if params.base_pos is not None
+        else (
+            wiring.base_pos[0],
+            wiring.base_pos[1],
+            wiring.base_pos[2] + h,
+        )
+    )
+    yaw = params.base_yaw
+    frame = world.worldbody.add_frame(pos=list(base), quat=[np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)])
+    frame.attach_body(root, ROBOT, "")
+
+    for body in world.bodies:
+        if body.name.startswith(ROBOT):
+            body.gravcomp = 1.0
+    arm_joints = _servo_arm(world, wiring, robot_source)
+
+    g = wiring.gripper
+    for field, names in (("actuators", g.actuators), ("joints", g.joints)):
+        for k, name in enumerate(names):
+            found = world.actuator(GRIPPER + name) if field == "actuators" else world.joint(GRIPPER + name)
+            if found is None:
+                raise ConfigError(f"{robot_source}: sim.gripper.{field}[{k}]: no {name!r} in the gripper MJCF")
+    if world.site(GRIPPER + g.ee_site) is None:
+        raise ConfigError(f"{robot_source}: sim.gripper.ee_site: no site {g.ee_site!r} in the gripper MJCF")
+
+    # --- the table, the objects, lights -------------------------------------------------------------------
+    world.worldbody.add_geom(
+        name="floor",
+        type=mujoco.mjtGeom.mjGEOM_PLANE,
+        size=[3, 3, 0.1],
+        rgba=_rgba(0.55, 0.57, 0.6),
+        material="matte",
+        group=SCENE_GROUP,
+    )
+    tx, ty = params.table_size
+    world.worldbody.add_geom(
+        name="table",
+        type=mujoco.mjtGeom.mjGEOM_BOX,
+        size=[tx / 2, ty / 2, h / 2],
+        pos=[params.table_center[0], params.table_center[1], h / 2],
+        rgba=_rgba(0.72, 0.64, 0.52),
+        material="matte",
+        group=SCENE_GROUP,
+        friction=[1.0, 0.005, 0.0001],
+    )
+    half = params.cube_size / 2
+    cube = world.worldbody.add_body(name=CUBE, pos=[0.5, 0.0, h + half])
+    cube.add_freejoint(name=CUBE)
+    cube.add_geom(
+        name=CUBE,
+        type=mujoco.mjtGeom.mjGEOM_BOX,
+        size=[half, half, half],
+        mass=params.cube_mass,
+        rgba=_rgba(0.85, 0.12, 0.1),
+        group=SCENE_GROUP,
+        friction=[1.0, 0.01, 0.0001],
+        condim=4,
+    )
+    goal = world.worldbody.add_body(name=GOAL, pos=[0.5, 0.2, h], mocap=True)
+    if task == "push":  # a flat green disc, visual only
+        goal.add_geom(
+            name=GOAL,
+            type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+            size=[params.goal_radius, 0.0005, 0],
+            pos=[0, 0, 0.0006],
+            rgba=_rgba(0.15, 0.75, 0.25),
+            group=SCENE_GROUP,
+            contype=0,
+            conaffinity=0,
+        )
+    else:  # a solid blue pad the cube has to be lifted onto
+        goal.add_geom(
+            name=GOAL,
+            type=mujoco.mjtGeom.mjGEOM_BOX,
+            size=[params.goal_radius, params.goal_radius, PAD_HEIGHT / 2],
+            pos=[0, 0, PAD_HEIGHT / 2],
+            rgba=_rgba(0.15, 0.3, 0.85),
+            group=SCENE_GROUP,
+            friction=[1.0, 0.005, 0.0001],
+        )
+    world.worldbody.add_light(
+        name="sun",
+        directional=True,
+        dir=[-0.3, 0.2, -1.0],
+        diffuse=[0.5, 0.5, 0.5],
+        specular=[0.05, 0.05, 0.05],
+        castshadow=True,
+    )
+
+    # --- cameras ------------------------------------------------------------------------------------------
+    cam_names: list[str] = []
+    for k, cam in enumerate(cameras):
+        if cam.mount == "wrist":
+            wc = wiring.wrist_camera
+            if wc is None:
+                raise ConfigError(
+                    f"{scene_source}: scene.cameras[{k}].mount: robot has no wrist camera mount (sim.wrist_camera)"
+                )
+            body = world.body(ROBOT + wc.body)
+            if body is None:
+                raise ConfigError(f"{robot_source}: sim.wrist_camera.body: no body {wc.body!r}")
+            body.add_camera(name=cam.name, pos=list(wc.pos), quat=list(wc.quat), fovy=wc.fovy)
+        else:
+            if cam.pos is None or cam.lookat is None:
+                raise ConfigError(f"{scene_source}: scene.cameras[{k}]: a world camera needs pos and lookat")
+            try:
+                quat = look_at_quat(cam.pos, cam.lookat)
+            except ValueError as exc:
+                raise ConfigError(f"{scene_source}: scene.cameras[{k}]: {exc}") from None
+            world.worldbody.add_camera(name=cam.name, pos=list(cam.pos), quat=list(quat), fovy=cam.fovy)
+        cam_names.append(cam.name)
+
+    try:
+        model = world.compile()
+    except ValueError as exc:
+        raise ConfigError(f"{robot_source}: the composed MuJoCo model does not compile: {exc}") from None
+    return Composed(
+        model=model,
+        arm_joints=arm_joints,
+        gripper_actuators=[GRIPPER + a for a in g.actuators],
+        gripper_joints=[GRIPPER + j for j in g.joints],
+        ee_site=GRIPPER + g.ee_site,
+        cameras=cam_names,
+    )

@@ -1,0 +1,46 @@
+"""Offscreen cameras: one `mujoco.Renderer` per camera, shadows/reflections per the scene's render config.
+
+Sites (the grasp markers of robot MJCFs) are hidden. The robot is drawn with its collision meshes (geom group
+0) or its visual meshes (group 1) per `render.robot_meshes`; the scene's own geoms are group 2 and always drawn.
+Renderers hold GL contexts: `close()` frees them.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import numpy.typing as npt
+
+from openral_data.producers.sim.mujoco.compose import SCENE_GROUP
+from openral_data.schemas.scene import RenderConfig, SceneCamera
+
+
+class CameraRig:
+    def __init__(self, model: mujoco.MjModel, cameras: list[SceneCamera], render: RenderConfig) -> None:
+        self._option = mujoco.MjvOption()
+        self._option.sitegroup[:] = 0
+        self._option.geomgroup[:] = 0
+        self._option.geomgroup[0 if render.robot_meshes == "collision" else 1] = 1
+        self._option.geomgroup[SCENE_GROUP] = 1
+        self._renderers: dict[str, mujoco.Renderer] = {}
+        try:
+            for cam in cameras:
+                r = mujoco.Renderer(model, height=cam.height, width=cam.width)
+                r.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = render.shadows
+                r.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = render.reflections
+                self._renderers[cam.name] = r
+        except BaseException:
+            self.close()
+            raise
+
+    def render(self, data: mujoco.MjData) -> dict[str, npt.NDArray[np.uint8]]:
+        out: dict[str, npt.NDArray[np.uint8]] = {}
+        for name, r in self._renderers.items():
+            r.update_scene(data, camera=name, scene_option=self._option)
+            out[name] = r.render().copy()
+        return out
+
+    def close(self) -> None:
+        for r in self._renderers.values():
+            r.close()
+        self._renderers.clear()

@@ -1,0 +1,106 @@
+"""MuJoCo wiring of a robot manifest (`sim:` block) and the parameters of the native tabletop scenes.
+
+A robot manifest's `sim:` block says how its MJCF is driven, so no scene has per-robot Python: which MJCF
+joints form the arm (in action/state order), the servo gains the scene gives them, the home posture, where the
+gripper is attached and how its actuators map to one normalised value (0 = open, 1 = closed), which site is the
+end effector, where a wrist camera goes and the default base pose.
+"""
+
+from __future__ import annotations
+
+from pydantic import Field, model_validator
+
+from openral_data.schemas.base import StrictModel
+
+Vec3 = tuple[float, float, float]
+Quat = tuple[float, float, float, float]
+
+
+class GripperWiring(StrictModel):
+    """The manifest's `assets.gripper_mjcf` is attached at the arm's `attach_body`.
+
+    Each actuator is driven linearly from `open` to `closed` by the normalised command g in [0, 1]; the state
+    reports the mean of each joint's position mapped the same way from `joint_open` to `joint_closed`.
+    """
+
+    actuators: list[str] = Field(min_length=1)
+    open: list[float]
+    closed: list[float]
+    joints: list[str] = Field(min_length=1)
+    joint_open: list[float]
+    joint_closed: list[float]
+    ee_site: str = Field(min_length=1, description="site inside the gripper MJCF at the grasp centre")
+
+    @model_validator(mode="after")
+    def _lengths(self) -> GripperWiring:
+        if not (len(self.open) == len(self.closed) == len(self.actuators)):
+            raise ValueError("open and closed need one value per entry of actuators")
+        if not (len(self.joint_open) == len(self.joint_closed) == len(self.joints)):
+            raise ValueError("joint_open and joint_closed need one value per entry of joints")
+        return self
+
+
+class WristCamera(StrictModel):
+    body: str = Field(min_length=1, description="body of the arm (or gripper, prefixed 'gripper/') to mount on")
+    pos: Vec3 = (0.0, 0.0, 0.0)
+    quat: Quat = (1.0, 0.0, 0.0, 0.0)
+    fovy: float = Field(default=75.0, gt=0, lt=180)
+
+
+class MujocoRobotWiring(StrictModel):
+    """The `sim:` block of `robots/<id>/robot.yaml` for the MuJoCo backend (the MJCF is `assets.mjcf`)."""
+
+    root_body: str = "base"
+    arm_joints: list[str] = Field(min_length=1)
+    home: list[float]
+    kp: list[float]
+    kv: list[float]
+    armature: float = Field(default=0.1, ge=0)
+    attach_body: str = Field(min_length=1, description="arm body the gripper is attached to")
+    gripper: GripperWiring
+    wrist_camera: WristCamera | None = None
+    base_pos: Vec3 = (0.0, 0.0, 0.0)
+
+    @model_validator(mode="after")
+    def _per_joint(self) -> MujocoRobotWiring:
+        n = len(self.arm_joints)
+        for key in ("home", "kp", "kv"):
+            if len(getattr(self, key)) != n:
+                raise ValueError(f"{key} needs one value per arm joint ({n}), got {len(getattr(self, key))}")
+        if any(k <= 0 for k in self.kp) or any(k < 0 for k in self.kv):
+            raise ValueError("kp must be > 0 and kv >= 0")
+        return self
+
+
+class Region(StrictModel):
+    """An axis-aligned rectangle on the table top (world x/y, metres)."""
+
+    x: tuple[float, float]
+    y: tuple[float, float]
+
+    @model_validator(mode="after")
+    def _ordered(self) -> Region:
+        if self.x[0] > self.x[1] or self.y[0] > self.y[1]:
+            raise ValueError("ranges must be [low, high]")
+        return self
+
+
+class TabletopParams(StrictModel):
+    """`scene.params` of `tabletop_push` / `tabletop_pick_place`. The table top is at `table_height`."""
+
+    table_height: float = Field(default=0.8, gt=0)
+    table_size: tuple[float, float] = (1.2, 1.2)
+    table_center: tuple[float, float] = (0.45, 0.0)
+    base_pos: Vec3 | None = Field(default=None, description="robot base; default: manifest base_pos on the table")
+    base_yaw: float = 0.0
+    cube_size: float = Field(default=0.04, gt=0.01, lt=0.1)
+    cube_mass: float = Field(default=0.1, gt=0)
+    cube_region: Region = Region(x=(0.45, 0.6), y=(-0.15, 0.15))
+    cube_yaw: tuple[float, float] = (-0.6, 0.6)
+    goal_region: Region = Region(x=(0.4, 0.65), y=(-0.25, 0.25))
+    goal_radius: float = Field(default=0.05, gt=0)
+    goal_min_distance: float = Field(default=0.12, ge=0)
+    goal_max_distance: float = Field(default=0.22, gt=0)
+    timestep: float = Field(default=0.002, gt=0, le=0.01)
+    ready_xy: tuple[float, float] = (0.38, 0.0)
+    ready_height: float = Field(default=0.25, gt=0, description="start: grasp site this far above the table")
