@@ -125,34 +125,34 @@ def _frame_checks(
 
 
 def _tolerance(fps: int) -> float:
-    """How far a timestamp may be from frame_index / fps and still prove the step checks pass: lerobot's own
-    1e-4 s, capped at a fifth of a frame period so that two such errors can neither make a step <= 0 nor
-    stretch it past GAP_FACTOR periods."""
+    """How far an episode's timestamps may stray from an even 1/fps grid and still prove the step checks
+    pass: lerobot's own tolerance (1e-4 s), capped at a fifth of a frame period so that no step can be <= 0
+    or longer than GAP_FACTOR periods."""
     return min(TIMESTAMP_TOLERANCE_S, 0.2 / fps)
 
 
 def _regular_sql(ds: DatasetSource, order: str, bad: str) -> str:
     """Per episode: rows, rows where `bad` (NaN/Inf) holds, and whether its timestamp steps are provably regular.
 
-    An episode is regular when all its rows are in one file, in consecutive file rows with `index` (or
-    `frame_index` without it) increasing by one per row (so ordering by it is file order and has no
-    duplicates), `frame_index` = `index` - constant, and every timestamp is within `_tolerance` of
-    frame_index / fps. Then every step is one frame period ± 2 tolerances: neither <= 0 nor a gap, which is
-    exactly what the ordered check would find. Anything else (a NULL, a copied row, rows split across files,
-    a timestamp off the grid) makes the episode a suspect for the ordered check.
+    With o = `index` (or `frame_index` without it), an episode is regular when all its rows sit in one file
+    with o - file_row_number constant and max(o) - min(o) = rows - 1 (so its o values are distinct and
+    consecutive, no NULLs), and timestamp - o / fps varies by at most `_tolerance` (lerobot's rule
+    timestamp = frame_index / fps, up to the episode's offset). Then, in o order, every step is one frame
+    period +- that tolerance: neither <= 0 nor a gap, exactly what the ordered check would find. Anything
+    else (a copied row, a swapped timestamp, rows split across files, a NULL) makes it a suspect.
     """
     src = f"read_parquet({files_sql(ds.data_files)})"
-    if not {"frame_index", "timestamp"} <= ds.data_columns:
+    if "timestamp" not in ds.data_columns:
         return f"SELECT episode_index, count(*), count(*) FILTER ({bad}), FALSE FROM {src} GROUP BY episode_index"
     o = ident(order)
+    offset = f"timestamp - {o} / {ds.fps}::DOUBLE"
     return f"""
         SELECT episode_index, count(*), count(*) FILTER ({bad}),
-               count({o}) = count(*) AND count(frame_index) = count(*) AND count(timestamp) = count(*)
+               count({offset}) = count(*)
                AND min(file_index) = max(file_index)
                AND min({o} - file_row_number) = max({o} - file_row_number)
                AND max({o}) - min({o}) = count(*) - 1
-               AND min({o} - frame_index) = max({o} - frame_index)
-               AND max(abs(timestamp - frame_index / {ds.fps}::DOUBLE)) <= {_tolerance(ds.fps)!r}
+               AND max({offset}) - min({offset}) <= {_tolerance(ds.fps)!r}
         FROM {src}
         GROUP BY episode_index
     """
