@@ -1,8 +1,10 @@
 """Health checks of a LeRobot v3 dataset: missing files, zero-frame episodes, row counts against the
 episodes metadata, non-monotonic or gapped timestamps, NaN/Inf in state/action, video frame counts.
 
-Frame-level checks are one DuckDB scan over the data parquet; video frames are counted from the mp4
-packets (PyAV demux, no decoding), split into episodes by each episode's from/to timestamps.
+Frame-level checks are one grouped DuckDB scan of the data parquet's scalar columns (rows, NaN/Inf rows and
+a proof that the episode's timestamps step regularly); only the episodes it cannot prove regular go through
+the ordered window over their timestamps. Video frames are counted from the mp4 packets (PyAV demux, no
+decoding), split into episodes by each episode's from/to timestamps.
 """
 
 from __future__ import annotations

@@ -2,8 +2,8 @@
 which columns hold NaN/Inf at all (so the per-episode NaN/Inf check only looks at those).
 
 Each dimension is extracted once (a projection under the aggregate) and summarised with NaN/Inf turned into
-NULL, which every aggregate skips; `count` of the raw value next to `count` of the finite one says whether the
-dimension holds any NaN/Inf. One pass over the data files, whatever the data holds.
+NULL, which every aggregate skips; fewer finite values than rows says the dimension may hold a NaN/Inf.
+One pass over the data files, whatever the data holds.
 """
 
 from __future__ import annotations
@@ -47,10 +47,9 @@ def vector_scan(con: duckdb.DuckDBPyConnection, ds: DatasetSource) -> VectorScan
     has_reward = REWARD in ds.data_columns
     if not labels and not has_reward:
         return VectorScan([], [])
-    cols = [f"{e} AS r{j}, CASE WHEN isfinite(r{j}) THEN r{j} END AS d{j}" for j, (*_, e) in enumerate(labels)]
-    aggs = [
-        f"count(r{j}) - count(d{j}), count(d{j}), min(d{j}), max(d{j}), avg(d{j}), stddev_pop(d{j})"
-        for j in range(len(labels))
+    cols = [f"CASE WHEN isfinite({e}) THEN {e} END AS d{j}" for j, (*_, e) in enumerate(labels)]
+    aggs = ["count(*)"] + [
+        f"count(d{j}), min(d{j}), max(d{j}), avg(d{j}), stddev_pop(d{j})" for j in range(len(labels))
     ]
     if has_reward:
         cols.append(f"{ident(REWARD)} AS reward")
@@ -59,8 +58,8 @@ def vector_scan(con: duckdb.DuckDBPyConnection, ds: DatasetSource) -> VectorScan
     row = query(con, f"SELECT {', '.join(aggs)} FROM (SELECT {', '.join(cols)} FROM {src})")[1][0]
     dims, non_finite = [], []
     for j, (key, i, name, expr) in enumerate(labels):
-        bad, count, *summary = row[6 * j : 6 * j + 6]
-        if bad:
+        count, *summary = row[1 + 5 * j : 6 + 5 * j]
+        if count < row[0]:  # NaN/Inf (or NULL, which the NaN/Inf check then simply does not count)
             non_finite.append(expr)
         dims.append(DimStats(key, i, name, expr, int(count), *(None if v is None else float(v) for v in summary)))
     if has_reward and row[-1]:
