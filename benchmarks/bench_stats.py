@@ -184,8 +184,14 @@ def contestant_pandas(root: Path) -> dict[str, Any]:
     t0, c0 = time.perf_counter(), _cpu()
     info = json.loads((root / "meta/info.json").read_text())
     fps = info["fps"]
-    eps = pd.read_parquet(sorted((root / "meta/episodes").glob("*/*.parquet")))
-    data = pd.read_parquet(sorted((root / "data").glob("*/*.parquet")))
+    # only the columns the numbers need, as DuckDB reads them (pandas/pyarrow prune columns the same way)
+    eps = pd.read_parquet(
+        sorted((root / "meta/episodes").glob("*/*.parquet")), columns=["episode_index", "length", "openral.success"]
+    )
+    data = pd.read_parquet(
+        sorted((root / "data").glob("*/*.parquet")),
+        columns=["observation.state", "action", "next.reward", "timestamp", "index", "episode_index"],
+    )
     lengths = eps["length"]
     k, n = int(eps["openral.success"].sum()), len(eps)
     ci = wilson(k, n)

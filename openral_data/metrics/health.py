@@ -1,8 +1,10 @@
 """Health checks of a LeRobot v3 dataset: missing files, zero-frame episodes, row counts against the
 episodes metadata, non-monotonic or gapped timestamps, NaN/Inf in state/action, video frame counts.
 
-Frame-level checks are one DuckDB scan over the data parquet; video frames are counted from the mp4
-packets (PyAV demux, no decoding), split into episodes by each episode's from/to timestamps.
+Frame-level checks are one grouped DuckDB scan of the data parquet's scalar columns (rows, NaN/Inf rows and
+a proof that the episode's timestamps step regularly); only the episodes it cannot prove regular go through
+the ordered window over their timestamps. Video frames are counted from the mp4 packets (PyAV demux, no
+decoding), split into episodes by each episode's from/to timestamps.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from openral_data.sinks.lerobot_v3 import layout
 from openral_data.sinks.lerobot_v3.layout import FilePos
 
 GAP_FACTOR = 1.5  # a step longer than 1.5 frame periods is a gap
+TIMESTAMP_TOLERANCE_S = 1e-4  # lerobot's tolerance_s for timestamp = frame_index / fps
 
 
 @dataclass(frozen=True)
@@ -80,27 +83,24 @@ def _missing_files(ds: DatasetSource, meta: list[dict[str, Any]]) -> list[Issue]
 def _frame_checks(
     con: duckdb.DuckDBPyConnection, ds: DatasetSource, meta: list[dict[str, Any]], scan: VectorScan
 ) -> list[Issue]:
-    """Rows per episode, rows with NaN/Inf, and timestamp steps in row order: one scan, one window.
+    """Rows per episode, rows with NaN/Inf, and timestamp steps in row order.
 
-    Only the few scalar columns the checks need go through the window (never the state/action lists), and
-    NaN/Inf are looked for only in the columns the vector scan found them in.
+    The step-by-step check is a window over the episode's rows ordered by `index`; it runs only on the
+    episodes a cheap per-episode aggregate cannot prove regular (see `_regular_sql`), so a healthy dataset is
+    read in one plain grouped scan of its scalar columns. NaN/Inf rows are counted in that scan, looking only
+    at the columns the vector scan found them in (none, usually).
     """
     issues: list[Issue] = []
     counted: dict[int, tuple[int, int, int, int, float | None]] = {}
     if ds.data_files:
-        src = f"read_parquet({files_sql(ds.data_files)})"
-        order = ident("index" if "index" in ds.data_columns else "frame_index")
+        order = "index" if "index" in ds.data_columns else "frame_index"
         bad = " OR ".join(f"NOT isfinite({e})" for e in scan.non_finite) or "FALSE"
-        sql = f"""
-            SELECT episode_index, count(*), count(*) FILTER (d <= 0), count(*) FILTER (d > {GAP_FACTOR / ds.fps}),
-                   count(*) FILTER (bad), max(d)
-            FROM (
-                SELECT episode_index, bad, timestamp - lag(timestamp) OVER (PARTITION BY episode_index ORDER BY o) AS d
-                FROM (SELECT episode_index, {order} AS o, timestamp, ({bad}) AS bad FROM {src})
-            )
-            GROUP BY episode_index
-        """
-        for ep, n, nonmono, gaps, nonfin, max_step in query(con, sql)[1]:
+        suspects = set()
+        for ep, n, nonfin, regular in query(con, _regular_sql(ds, order, bad))[1]:
+            counted[int(ep)] = (int(n), 0, 0, int(nonfin), None)
+            if not regular:
+                suspects.add(int(ep))
+        for ep, n, nonmono, gaps, nonfin, max_step in _ordered_checks(con, ds, order, bad, suspects):
             counted[int(ep)] = (int(n), int(nonmono), int(gaps), int(nonfin), max_step)
     known = set()
     for ep in meta:
@@ -124,6 +124,64 @@ def _frame_checks(
         if nonfin:
             issues.append(Issue(ds.label, index, "non_finite", f"{nonfin} row(s) with NaN/Inf in state/action/reward"))
     return issues
+
+
+def _tolerance(fps: int) -> float:
+    """How far an episode's timestamps may stray from an even 1/fps grid and still prove the step checks
+    pass: lerobot's own tolerance (1e-4 s), capped at a fifth of a frame period so that no step can be <= 0
+    or longer than GAP_FACTOR periods."""
+    return min(TIMESTAMP_TOLERANCE_S, 0.2 / fps)
+
+
+def _regular_sql(ds: DatasetSource, order: str, bad: str) -> str:
+    """Per episode: rows, rows where `bad` (NaN/Inf) holds, and whether its timestamp steps are provably regular.
+
+    With o = `index` (or `frame_index` without it), an episode is regular when all its rows sit in one file
+    with o - file_row_number constant and max(o) - min(o) = rows - 1 (so its o values are distinct and
+    consecutive, no NULLs), and timestamp - o / fps varies by at most `_tolerance` (lerobot's rule
+    timestamp = frame_index / fps, up to the episode's offset). Then, in o order, every step is one frame
+    period +- that tolerance: neither <= 0 nor a gap, exactly what the ordered check would find. Anything
+    else (a copied row, a swapped timestamp, rows split across files, a NULL) makes it a suspect.
+    """
+    src = f"read_parquet({files_sql(ds.data_files)})"
+    if "timestamp" not in ds.data_columns:
+        return f"SELECT episode_index, count(*), count(*) FILTER ({bad}), FALSE FROM {src} GROUP BY episode_index"
+    o = ident(order)
+    offset = f"timestamp - {o} / {ds.fps}::DOUBLE"
+    return f"""
+        SELECT episode_index, count(*), count(*) FILTER ({bad}),
+               count({offset}) = count(*)
+               AND min(file_index) = max(file_index)
+               AND min({o} - file_row_number) = max({o} - file_row_number)
+               AND max({o}) - min({o}) = count(*) - 1
+               AND max({offset}) - min({offset}) <= {_tolerance(ds.fps)!r}
+        FROM {src}
+        GROUP BY episode_index
+    """
+
+
+def _ordered_checks(
+    con: duckdb.DuckDBPyConnection, ds: DatasetSource, order: str, bad: str, episodes: set[int]
+) -> list[tuple[Any, ...]]:
+    """Rows, non-increasing steps, gaps, NaN/Inf rows and the longest step of `episodes`, by a window over
+    their rows in `order` (only the few scalar columns, never the state/action lists)."""
+    if not episodes:
+        return []
+    src = f"read_parquet({files_sql(ds.data_files)})"
+    wanted = ", ".join(str(e) for e in sorted(episodes))
+    sql = f"""
+        SELECT episode_index, count(*), count(*) FILTER (d <= 0), count(*) FILTER (d > {GAP_FACTOR / ds.fps}),
+               count(*) FILTER (bad), max(d)
+        FROM (
+            SELECT episode_index, bad, timestamp - lag(timestamp) OVER (PARTITION BY episode_index ORDER BY o) AS d
+            FROM (
+                SELECT episode_index, {ident(order)} AS o, timestamp, ({bad}) AS bad FROM {src}
+                WHERE episode_index IN ({wanted})
+            )
+        )
+        GROUP BY episode_index
+    """
+    return query(con, sql)[1]
 
 
 def count_packets(path: Path) -> list[float]:
