@@ -84,7 +84,9 @@ def _write_outcome_bag(path: Path, duration_ms: int = 2000) -> Path:
             extra.append((BASE + ms * MS, c_reward, t["std_msgs/msg/Float32"](data=0.25 * k), "std_msgs/msg/Float32"))
         for ms, value in [(ms, v) for ms, v in ((0, False), (1500, True)) if ms < duration_ms]:
             extra.append((BASE + ms * MS, c_success, t["std_msgs/msg/Bool"](data=value), "std_msgs/msg/Bool"))
-        rows = [(ns, conns[topic], build(store, topic, ns, f, False), TYPES[topic]) for topic, ns, f in samples(duration_ms)]
+        rows = [
+            (ns, conns[topic], build(store, topic, ns, f, False), TYPES[topic]) for topic, ns, f in samples(duration_ms)
+        ]
         for ns, conn, msg, msgtype in sorted(rows + extra, key=lambda r: r[0]):
             writer.write(conn, ns, store.serialize_cdr(msg, msgtype))
     return path
