@@ -131,6 +131,10 @@ def test_success_topic_at_the_last_frame_decides_the_episode(tmp_path: Path) -> 
         ({"reward": {"topic": "/cmd"}}, "reward topic /cmd is also mapped as state/action"),
         ({"success": {"topic": "/task"}}, "success.topic /task is also the task_topic"),
         ({"align": {"clock": "wall"}}, "align.clock"),
+        (
+            {"success": {"topic": "/ep"}, "episodes": {"split": "marker", "marker_topic": "/ep"}},
+            "success.topic /ep is the marker_topic",
+        ),
     ],
 )
 def test_outcome_mapping_errors(tmp_path: Path, change: dict[str, Any], message: str) -> None:

@@ -153,6 +153,8 @@ class Mapping(StrictModel):
                 raise ValueError(f"{key} {topic} is also mapped as data")
         if self.success_topic is not None and self.success_topic == self.task_topic:
             raise ValueError(f"success.topic {self.success_topic} is also the task_topic")
+        if self.success_topic is not None and self.success_topic == self.episodes.marker_topic:
+            raise ValueError(f"success.topic {self.success_topic} is the marker_topic; use success: {{marker: true}}")
         if self.success is not None and self.success.marker and not self.episodes.marker_topic:
             raise ValueError("success: marker: true needs episodes.marker_topic")
         return self
