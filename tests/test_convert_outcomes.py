@@ -72,7 +72,9 @@ def test_log_without_outcomes_claims_none(tmp_path: Path) -> None:
 
 
 # reward: std_msgs/Float32 at 20 Hz, value 0.25 * k; success: std_msgs/Bool, False at 0 ms, True from 1500 ms
-def _write_outcome_bag(path: Path, duration_ms: int = 2000) -> Path:
+def _write_outcome_bag(
+    path: Path, duration_ms: int = 2000, success: tuple[tuple[int, bool], ...] = ((0, False), (1500, True))
+) -> Path:
     store = get_typestore(Stores.ROS2_HUMBLE)
     t = store.types
     with Writer(path, version=8, storage_plugin=StoragePlugin.MCAP) as writer:
@@ -82,7 +84,7 @@ def _write_outcome_bag(path: Path, duration_ms: int = 2000) -> Path:
         extra: list[tuple[int, Any, Any, str]] = []
         for k, ms in enumerate(range(0, duration_ms, 50)):
             extra.append((BASE + ms * MS, c_reward, t["std_msgs/msg/Float32"](data=0.25 * k), "std_msgs/msg/Float32"))
-        for ms, value in [(ms, v) for ms, v in ((0, False), (1500, True)) if ms < duration_ms]:
+        for ms, value in [(ms, v) for ms, v in success if ms < duration_ms]:
             extra.append((BASE + ms * MS, c_success, t["std_msgs/msg/Bool"](data=value), "std_msgs/msg/Bool"))
         rows = [
             (ns, conns[topic], build(store, topic, ns, f, False), TYPES[topic]) for topic, ns, f in samples(duration_ms)
@@ -121,6 +123,23 @@ def test_success_topic_at_the_last_frame_decides_the_episode(tmp_path: Path) -> 
     # the only message (False at 0 ms) is known: the episode failed, it is not unknown
     assert read_episodes(out).column("openral.success").to_pylist() == [False]
     assert "next.reward" not in _frames(out).column_names
+
+
+def test_episode_without_a_success_message_is_unknown(tmp_path: Path) -> None:
+    """Two bags, one episode each: the first says nothing on the success topic, the second says True."""
+    src = tmp_path / "logs"
+    src.mkdir()
+    _write_outcome_bag(src / "a", duration_ms=1000, success=())
+    _write_outcome_bag(src / "b", duration_ms=2000)
+    mapping = {**MAPPING, "success": {"topic": "/task_success"}}
+    out = tmp_path / "ds"
+    proc = _convert(src, out, write_yaml(tmp_path / "m.yaml", mapping))
+    assert proc.returncode == 0, proc.stderr
+    assert read_episodes(out).column("openral.success").to_pylist() == [None, True]
+    frames = _frames(out)
+    assert frames.column("next.success").to_pylist()[:10] == [False] * 10  # never carried over from elsewhere
+    row = _overview(out)
+    assert (row["episodes"], row["success_known"], row["successes"], row["success_rate"]) == (2, 1, 1, 1.0)
 
 
 @pytest.mark.parametrize(

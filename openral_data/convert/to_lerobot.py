@@ -118,7 +118,7 @@ class _Converter:
         self.source_episode += 1
         self.segment_frames = 0
         self.tasks = self.tasks[-1:]
-        self.successes = self.successes[-1:]
+        self.successes = []  # a source episode's success starts unknown: never the previous episode's verdict
 
     def collect(self, aligner: Aligner[Any]) -> None:
         st = aligner.stats

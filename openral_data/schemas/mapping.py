@@ -21,6 +21,7 @@ reward:                       # optional -> next.reward; aligned like state (a m
 success:                      # optional -> next.success and the episode's success. Without it the dataset
   topic: /task_success        #   has no next.success column and every episode's success is unknown (NULL).
   field: data                 # a bool field: a frame's next.success is the latest value at the frame time
+                              #   in its source episode (false before the first; episode: NULL if none)
   marker: false               # true: episode success from `{"event": "end", "success": ...}` markers on
                               #   episodes.marker_topic (as openral-data bags carry)
 align:
