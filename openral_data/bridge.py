@@ -121,7 +121,7 @@ class DatasetBridge:
             sink.add_frame(frame)
         self._step += 1
 
-    def end_episode(self, success: bool) -> list[EpisodeRecord]:
+    def end_episode(self, success: bool | None) -> list[EpisodeRecord]:
         if not self._open:
             raise RuntimeError("end_episode() outside an episode")
         if self._step == 0:

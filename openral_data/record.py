@@ -45,7 +45,7 @@ class RecordSummary:
 
     @property
     def success_rate(self) -> float:
-        return sum(e.success for e in self.episodes) / len(self.episodes) if self.episodes else 0.0
+        return sum(e.success is True for e in self.episodes) / len(self.episodes) if self.episodes else 0.0
 
     @property
     def fps(self) -> float:

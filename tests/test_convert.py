@@ -155,12 +155,20 @@ def test_record_mcap_then_convert_round_trip(project: Path, tmp_path: Path) -> N
     out = tmp_path / "ds"
     proc = run_cli("convert", str(rec / "mcap"), str(out), "--codec", "h264")
     assert proc.returncode == 0, proc.stderr
-    assert "skipped /reward" in proc.stdout
+    assert "mapped /reward" in proc.stdout
     seen = verify_mock_dataset(out, "pyav")
     assert seen["lengths"] == [6, 4, 8]
     from openral_data.sinks.lerobot_v3.reader import read_episodes
 
     assert read_episodes(out).column("openral.success").to_pylist() == [True, True, True]
+    # outcomes round-trip exactly: the mock's reward is 1.0 on the (successful, terminal) last step only
+    import pyarrow.parquet as pq
+
+    frames = pq.read_table(out / "data").sort_by("index")
+    last = [i == n - 1 for n in (6, 4, 8) for i in range(n)]
+    assert frames.column("next.reward").to_pylist() == [float(x) for x in last]
+    assert frames.column("next.done").to_pylist() == last
+    assert frames.column("next.success").to_pylist() == last
 
 
 def test_lerobot_to_mcap_selected_episodes(project: Path, tmp_path: Path) -> None:

@@ -9,7 +9,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from openral_data.errors import OpenralError
-from openral_data.schemas.mapping import load_mapping
+from openral_data.schemas.mapping import Mapping, load_mapping
 from openral_data.sinks.lerobot_v3.video import Codec
 from openral_data.sinks.mcap import IMAGE_FORMATS, McapConfig
 
@@ -113,6 +113,23 @@ def run_convert(
             f"{result.empty_segments} source episode(s) without a single filled frame)",
         )
     )
+    if mapping.align.clock == "header":
+        rows.append(
+            ("late messages", f"{result.late_messages} not used (stamp more than align.reorder behind the log)")
+        )
+    rows.append(("outcomes", _outcomes(mapping)))
     for topic, count in sorted(result.skipped_topics.items()):
         rows.append((f"skipped {topic}", f"{count} msgs (not in the mapping)"))
     _print_rows("converted", rows)
+
+
+def _outcomes(mapping: Mapping) -> str:
+    reward = (
+        f"reward from {mapping.reward.topic}" if mapping.reward is not None else "no reward (no next.reward column)"
+    )
+    if mapping.success is None:
+        success = "success unknown (no next.success column, episode success NULL)"
+    else:
+        parts = [p for p in (mapping.success.topic, "end markers" if mapping.success.marker else None) if p]
+        success = "success from " + " + ".join(parts)
+    return f"{reward}; {success}; done on each episode's last frame"

@@ -35,6 +35,9 @@ def own_mapping(bag: Path) -> Mapping:
         if not found:
             raise OpenralError(f"{bag}: no image topic for camera {name!r}")
         cameras[name] = found[0]
+    # bags written before the start marker said which outcomes are known always carried reward and success
+    outcomes = start.get("outcomes") or {"reward": True, "success": True}
+    has_reward = bool(outcomes.get("reward")) and m.REWARD in topics
     fps = int(start["fps"])
     return Mapping.model_validate(
         {
@@ -44,6 +47,8 @@ def own_mapping(bag: Path) -> Mapping:
             "state": {"topic": m.JOINT_STATES, "field": "position", "joints": start["state_names"]},
             "action": {"topic": m.ACTION, "field": "data", "names": start["action_names"]},
             "cameras": cameras,
+            "reward": {"topic": m.REWARD, "field": "data"} if has_reward else None,
+            "success": {"marker": True} if outcomes.get("success") else None,
             # every stream is stamped on the same grid: the exact sample, never a neighbour's
             "align": {"method": "nearest", "max_staleness": 0.25 / fps},
             "episodes": {"split": "marker", "marker_topic": m.EPISODE},

@@ -8,6 +8,7 @@ and handed to the writer's encoder queue (which blocks when the encoder is behin
 
 from __future__ import annotations
 
+import heapq
 import json
 import time
 from collections.abc import Callable, Iterator
@@ -24,7 +25,7 @@ from rosbags.typesys import Stores, get_typestore
 from openral_data import __version__
 from openral_data.bridge import DatasetBridge
 from openral_data.convert.align import AlignedFrame, Aligner
-from openral_data.convert.sources import VectorReader, find_bags
+from openral_data.convert.sources import VectorReader, field_value, find_bags
 from openral_data.errors import OpenralError
 from openral_data.producers.base import CameraShape, Observation
 from openral_data.schemas.mapping import Mapping
@@ -33,7 +34,7 @@ from openral_data.sinks.lerobot_v3 import LeRobotV3Writer, VideoSettings, Writer
 from openral_data.sinks.lerobot_v3.video import Codec
 from openral_data.sinks.mcap.messages import decode_image
 
-STATE, ACTION = "state", "action"
+STATE, ACTION, REWARD = "state", "action", "reward"
 ProgressFn = Callable[[int, int], None]  # (messages read, messages in total)
 
 
@@ -60,6 +61,7 @@ class ConvertSummary:
     unfillable_frames: int = 0
     splits: int = 0  # extra episodes started because unfillable frames interrupted a source episode
     empty_segments: int = 0  # source episodes in which no frame could be filled
+    late_messages: int = 0  # align.clock header: stamps further behind the log order than align.reorder
 
     @property
     def fps(self) -> float:
@@ -83,6 +85,9 @@ class _Converter:
         self.streams = [STATE, ACTION, *mapping.cameras]
         self.topic_stream = {mapping.state.topic: STATE, mapping.action.topic: ACTION}
         self.topic_stream.update({topic: name for name, topic in mapping.cameras.items()})
+        if mapping.reward is not None:
+            self.streams.append(REWARD)
+            self.topic_stream[mapping.reward.topic] = REWARD
         self.stream_topic = {s: t for t, s in self.topic_stream.items()}
         self.bridge: DatasetBridge | None = None
         self.writer: LeRobotV3Writer | None = None
@@ -90,6 +95,7 @@ class _Converter:
         self.open = False
         self.pending: _Pending | None = None
         self.tasks: list[tuple[int, str]] = []
+        self.successes: list[tuple[int, bool]] = []  # (time, value) on the success topic, oldest first
         self.source_episode = 0
         self.segment_frames = 0
         self.segment_start = 0
@@ -99,18 +105,20 @@ class _Converter:
         a = self.mapping.align
         return Aligner(self.streams, self.mapping.fps, a.method, a.max_staleness)
 
-    def finish_source_episode(self, aligner: Aligner[Any], success: bool) -> None:
+    def finish_source_episode(self, aligner: Aligner[Any], end_success: bool | None) -> None:
+        """End of a source episode; `end_success` is its end marker's verdict (None: no marker / unknown)."""
         if not any(aligner.stats.received.values()):
             return  # nothing mapped arrived since the last boundary (e.g. the bag ends right after an end marker)
         for frame in aligner.finish():
             self.take(frame)
-        self.close_segment(success)
+        self.close_segment(end_success, cut=False)
         if self.segment_frames == 0:
             self.summary.empty_segments += 1
         self.collect(aligner)
         self.source_episode += 1
         self.segment_frames = 0
         self.tasks = self.tasks[-1:]
+        self.successes = []  # a source episode's success starts unknown: never the previous episode's verdict
 
     def collect(self, aligner: Aligner[Any]) -> None:
         st = aligner.stats
@@ -131,15 +139,39 @@ class _Converter:
             return self.tasks[0][1]
         return None
 
+    def success_at(self, t_ns: int) -> bool | None:
+        """The success topic's latest value at `t_ns`; None before its first message."""
+        while len(self.successes) > 1 and self.successes[1][0] <= t_ns:
+            self.successes.pop(0)
+        if self.successes and self.successes[0][0] <= t_ns:
+            return self.successes[0][1]
+        return None
+
     def take(self, frame: AlignedFrame[Any]) -> None:
         task = self.task_at(frame.time_ns)
         if frame.samples is None or task is None:
             self.summary.unfillable_frames += 1
-            self.close_segment(False)
+            self.close_segment(None, cut=True)
             return
         if self.pending is not None:
-            self.emit(self.pending, done=False, success=False)
+            self.emit(self.pending, done=False, success=self.frame_success(self.pending, None))
         self.pending = _Pending(frame, task)
+
+    def frame_success(self, pending: _Pending, episode_success: bool | None) -> bool:
+        """next.success of a frame: the success topic's value, else (markers) the verdict on the last frame."""
+        if self.mapping.success_topic is not None:
+            return self.success_at(pending.frame.time_ns) is True
+        return episode_success is True
+
+    def episode_success(self, pending: _Pending, end_success: bool | None, cut: bool) -> bool | None:
+        """A segment's success: the end marker's (None if a hole cut the segment before it), else the success
+        topic's value at the last frame, else unknown."""
+        source = self.mapping.success
+        if source is None:
+            return None
+        if source.marker:
+            return None if cut else end_success
+        return self.success_at(pending.frame.time_ns)
 
     def emit(self, pending: _Pending, *, done: bool, success: bool) -> None:
         samples = pending.frame.samples
@@ -158,12 +190,16 @@ class _Converter:
             task=pending.task,
             time=(pending.frame.time_ns - self.segment_start) / 1e9,
         )
-        bridge.add_step(obs, samples[ACTION], reward=0.0, done=done, success=success)
+        # without a reward source the schema has no reward column and the writer ignores this value
+        reward = float(samples[REWARD]) if REWARD in samples else 0.0
+        bridge.add_step(obs, samples[ACTION], reward=reward, done=done, success=success)
         self.segment_frames += 1
 
-    def close_segment(self, success: bool) -> None:
+    def close_segment(self, end_success: bool | None, *, cut: bool) -> None:
+        success: bool | None = None
         if self.pending is not None:
-            self.emit(self.pending, done=True, success=success)
+            success = self.episode_success(self.pending, end_success, cut)
+            self.emit(self.pending, done=True, success=self.frame_success(self.pending, success))
             self.pending = None
         if self.open:
             assert self.bridge is not None
@@ -186,6 +222,8 @@ class _Converter:
             action_names=tuple(self.action.names()),
             cameras={name: CameraShape(int(img.shape[0]), int(img.shape[1])) for name, img in images.items()},
             robot_type=self.mapping.robot_type,
+            has_reward=self.mapping.reward is not None,
+            has_success=self.mapping.success is not None,
             metadata={
                 "openral_data_version": __version__,
                 "converted_from": str(self.summary.src),
@@ -222,7 +260,7 @@ def convert_bags(
     bags = find_bags(src)
     summary = ConvertSummary(src=src, dst=dst, bags=len(bags))
     wanted = mapping.topics()
-    extra = [t for t in (mapping.task_topic, mapping.episodes.marker_topic) if t is not None]
+    extra = [t for t in (mapping.task_topic, mapping.success_topic, mapping.episodes.marker_topic) if t is not None]
     # every mapped topic must exist in every bag: checked up front, before anything is written
     totals = 0
     for bag in bags:
@@ -270,20 +308,24 @@ def _convert_bag(bag: Path, conv: _Converter, wanted: list[str], extra: list[str
         conns: list[Connection] = [c for c in reader.connections if c.topic in wanted or c.topic in extra]
         aligner = conv.new_aligner()
         last_ns: int | None = None
-        success = False  # from an `end` marker (our bags), else unknown = False
-        for conn, ns, raw in reader.messages(connections=conns):
+        success: bool | None = None  # the latest `end` marker's verdict in this source episode
+        for conn, ns, msg in _timed_messages(reader, conns, mapping, conv.summary):
             yield None
             topic = conn.topic
             if topic == split.marker_topic:
-                event = _marker_event(reader.deserialize(raw, conn.msgtype))
+                event = _marker_event(msg.get())
                 if event.get("event") == "end":
-                    success = bool(event.get("success", False))
+                    verdict = event.get("success")
+                    success = verdict if isinstance(verdict, bool) else None
                 if split.split == "marker" and event.get("event") != "start":
                     conv.finish_source_episode(aligner, success)
-                    aligner, success = conv.new_aligner(), False
+                    aligner, success = conv.new_aligner(), None
                 continue
             if topic == mapping.task_topic:
-                conv.tasks.append((ns, str(reader.deserialize(raw, conn.msgtype).data)))  # type: ignore[attr-defined]
+                conv.tasks.append((ns, str(msg.get().data)))
+                continue
+            if topic == mapping.success_topic:
+                conv.successes.append((ns, _bool_value(msg.get(), mapping)))
                 continue
             if (
                 split.split == "gap"
@@ -292,15 +334,17 @@ def _convert_bag(bag: Path, conv: _Converter, wanted: list[str], extra: list[str
                 and ns - last_ns > split.gap * 1e9
             ):
                 conv.finish_source_episode(aligner, success)
-                aligner, success = conv.new_aligner(), False
+                aligner, success = conv.new_aligner(), None
             last_ns = ns
             stream = conv.topic_stream[topic]
             if stream == STATE:
-                payload: Any = conv.state(reader.deserialize(raw, conn.msgtype))
+                payload: Any = conv.state(msg.get())
             elif stream == ACTION:
-                payload = conv.action(reader.deserialize(raw, conn.msgtype))
+                payload = conv.action(msg.get())
+            elif stream == REWARD:
+                payload = _reward_value(msg.get(), mapping)
             else:
-                payload = _RawImage(reader, raw, conn.msgtype)
+                payload = msg  # images stay serialised until a frame uses them
             for frame in aligner.push(stream, ns, payload):
                 conv.take(frame)
         conv.finish_source_episode(aligner, success)
@@ -308,16 +352,85 @@ def _convert_bag(bag: Path, conv: _Converter, wanted: list[str], extra: list[str
         reader.close()
 
 
-@dataclass(frozen=True)
-class _RawImage:
-    """A camera message kept serialised until a frame uses it (most multi-rate samples never are)."""
+class _Message:
+    """A bag message, deserialised on first use (most multi-rate camera samples never are)."""
 
-    reader: AnyReader
-    raw: bytes
-    msgtype: str
+    __slots__ = ("_msg", "msgtype", "raw", "reader")
+
+    def __init__(self, reader: AnyReader, raw: bytes, msgtype: str) -> None:
+        self.reader, self.raw, self.msgtype = reader, raw, msgtype
+        self._msg: Any = None
+
+    def get(self) -> Any:
+        if self._msg is None:
+            self._msg = self.reader.deserialize(self.raw, self.msgtype)
+        return self._msg
 
     def decode(self) -> npt.NDArray[np.uint8]:
-        return decode_image(self.reader.deserialize(self.raw, self.msgtype), self.msgtype)
+        return decode_image(self.get(), self.msgtype)
+
+
+def _timed_messages(
+    reader: AnyReader, conns: list[Connection], mapping: Mapping, summary: ConvertSummary
+) -> Iterator[tuple[Connection, int, _Message]]:
+    """The mapped messages in the order of the clock the mapping aligns on.
+
+    `log`: bag receive time, as stored. `header`: `header.stamp` for messages that have a header (log time for
+    the others). Stamps can lag the log order (a camera stamps at exposure, the message is logged later), so
+    messages are held in a heap for `align.reorder` seconds of log time; a message whose stamp is older than one
+    already released is late: it is counted in the summary and not used (never reordered into decided frames).
+    """
+    if mapping.align.clock == "log":
+        for conn, ns, raw in reader.messages(connections=conns):
+            yield conn, ns, _Message(reader, raw, conn.msgtype)
+        return
+    window = round(mapping.align.reorder * 1e9)
+    heap: list[tuple[int, int, Connection, _Message]] = []
+    released: int | None = None
+    seq = 0
+    for conn, ns, raw in reader.messages(connections=conns):
+        msg = _Message(reader, raw, conn.msgtype)
+        stamp = _header_stamp(msg.get(), ns)
+        if released is not None and stamp < released:
+            summary.late_messages += 1
+            continue
+        heapq.heappush(heap, (stamp, seq, conn, msg))
+        seq += 1
+        while heap and heap[0][0] <= ns - window:
+            stamp, _, c, m = heapq.heappop(heap)
+            released = stamp
+            yield c, stamp, m
+    while heap:
+        stamp, _, c, m = heapq.heappop(heap)
+        yield c, stamp, m
+
+
+def _header_stamp(msg: Any, log_ns: int) -> int:
+    stamp = getattr(getattr(msg, "header", None), "stamp", None)
+    if stamp is None:
+        return log_ns
+    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+
+
+def _reward_value(msg: Any, mapping: Mapping) -> float:
+    assert mapping.reward is not None
+    where = f"mapping: reward ({mapping.reward.topic}.{mapping.reward.field})"
+    raw = field_value(msg, mapping.reward.field, where)
+    if isinstance(raw, bool) or not isinstance(raw, (int, float, np.integer, np.floating)):
+        raise OpenralError(f"{where}: field is {type(raw).__name__}, not a number")
+    value = float(raw)
+    if not np.isfinite(value):
+        raise OpenralError(f"{where}: non-finite reward {value}")
+    return value
+
+
+def _bool_value(msg: Any, mapping: Mapping) -> bool:
+    assert mapping.success is not None and mapping.success.topic is not None
+    where = f"mapping: success ({mapping.success.topic}.{mapping.success.field})"
+    raw = field_value(msg, mapping.success.field, where)
+    if not isinstance(raw, (bool, np.bool_)):
+        raise OpenralError(f"{where}: field is {type(raw).__name__}, not a bool")
+    return bool(raw)
 
 
 def _marker_event(msg: Any) -> dict[str, Any]:

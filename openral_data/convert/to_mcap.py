@@ -107,6 +107,8 @@ def export_mcap(
         cameras={n: CameraShape(int(f["shape"][0]), int(f["shape"][1])) for n, f in cams.items()},
         robot_type=str(info.get("robot_type") or "unknown"),
         metadata={"exported_from": str(src)},
+        has_reward="next.reward" in features,
+        has_success="next.success" in features,
     )
     known = {"observation.state", "action", "timestamp", "frame_index", "episode_index", "index", "task_index"}
     known |= {"next.reward", "next.done", "next.success"} | {IMAGE_PREFIX + n for n in cams}
@@ -124,16 +126,27 @@ def export_mcap(
                     initial_state=json.loads(row.get("openral.initial_state") or "{}"),
                 )
             )
+            successes: list[bool] = []
             for frame in _episode_frames(src, info, row, tasks, list(cams)):
                 sink.add_frame(frame)
+                successes.append(frame.success)
                 summary.frames += 1
                 if progress is not None:
                     progress(summary.frames, total)
-            summary.episodes.append(sink.end_episode(bool(row.get("openral.success") or False)))
+            summary.episodes.append(sink.end_episode(_episode_success(row, successes)))
     finally:
         sink.close()
     summary.seconds = time.perf_counter() - t0
     return summary
+
+
+def _episode_success(row: dict[str, Any], frames: list[bool]) -> bool | None:
+    """Our `openral.success` (NULL stays unknown); for datasets without it, whether any frame has next.success
+    (as `stats` reads them); None when the dataset has neither. The sink drops it if the schema has no success."""
+    if "openral.success" in row:
+        value = row["openral.success"]
+        return None if value is None else bool(value)
+    return any(frames)
 
 
 def _episode_frames(
@@ -164,9 +177,9 @@ def _episode_frames(
             action=np.asarray(cols["action"][i], dtype=np.float32).reshape(-1),
             images=images,
             task=tasks[task_index] if task_index < len(tasks) else "",
-            reward=float(cols["next.reward"][i]) if "next.reward" in cols else 0.0,
+            reward=float(cols["next.reward"][i]) if "next.reward" in cols else 0.0,  # ignored: schema has no reward
             done=bool(cols["next.done"][i]) if "next.done" in cols else i == n - 1,
-            success=bool(cols["next.success"][i]) if "next.success" in cols else False,
+            success=bool(cols["next.success"][i]) if "next.success" in cols else False,  # likewise
             # LeRobot v3 stores frame_index / fps rounded to float32; the exact value keeps stamps on the grid
             timestamp=int(cols["frame_index"][i]) / fps,
         )

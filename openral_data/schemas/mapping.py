@@ -15,14 +15,26 @@ action:                       # -> action
   names: [x, y, z]            # names of the dims (default: joints, or <topic>.<field>[i])
 cameras:                      # camera name -> sensor_msgs Image or CompressedImage topic
   front: /camera/front/image/compressed
+reward:                       # optional -> next.reward; aligned like state (a missing reward makes the
+  topic: /reward              #   frame unfillable). Without it the dataset has no next.reward column.
+  field: data
+success:                      # optional -> next.success and the episode's success. Without it the dataset
+  topic: /task_success        #   has no next.success column and every episode's success is unknown (NULL).
+  field: data                 # a bool field: a frame's next.success is the latest value at the frame time
+                              #   in its source episode (false before the first; episode: NULL if none)
+  marker: false               # true: episode success from `{"event": "end", "success": ...}` markers on
+                              #   episodes.marker_topic (as openral-data bags carry)
 align:
   method: previous            # previous | nearest sample
   max_staleness: 0.1          # seconds; frames with a stream older than this cannot be filled
+  clock: log                  # log (bag receive time) | header (header.stamp where the message has one)
+  reorder: 0.5                # clock: header: seconds a message's stamp may lag behind the log order
 episodes:
   split: bag                  # bag (one per bag file) | marker (messages on marker_topic) | gap
   marker_topic: /openral/episode
   gap: 1.0                    # seconds without any mapped message that start a new episode
 ```
+Episode ends always give next.done (true on the last frame of every episode).
 """
 
 from __future__ import annotations
@@ -60,9 +72,40 @@ class VectorSource(StrictModel):
         return self
 
 
+class ScalarSource(StrictModel):
+    """One number (or bool) read from one field of the messages on one topic."""
+
+    topic: str = Field(min_length=1)
+    field: str = "data"
+
+    @model_validator(mode="after")
+    def _check_field(self) -> ScalarSource:
+        if not _FIELD.match(self.field):
+            raise ValueError(f"field {self.field!r} is not a dotted field path")
+        return self
+
+
+class SuccessSource(StrictModel):
+    """Where success comes from: a topic with a bool field (per frame), end markers (per episode), or both."""
+
+    topic: str | None = Field(default=None, min_length=1)
+    field: str = "data"
+    marker: bool = False
+
+    @model_validator(mode="after")
+    def _check(self) -> SuccessSource:
+        if self.topic is None and not self.marker:
+            raise ValueError("success needs a topic, marker: true, or both")
+        if not _FIELD.match(self.field):
+            raise ValueError(f"field {self.field!r} is not a dotted field path")
+        return self
+
+
 class Align(StrictModel):
     method: Literal["previous", "nearest"] = "previous"
     max_staleness: float = Field(default=0.1, gt=0)
+    clock: Literal["log", "header"] = "log"
+    reorder: float = Field(default=0.5, ge=0)
 
 
 class Episodes(StrictModel):
@@ -87,6 +130,8 @@ class Mapping(StrictModel):
     state: VectorSource
     action: VectorSource
     cameras: dict[str, str] = Field(default_factory=dict)
+    reward: ScalarSource | None = None
+    success: SuccessSource | None = None
     align: Align = Field(default_factory=Align)
     episodes: Episodes = Field(default_factory=Episodes)
 
@@ -97,15 +142,32 @@ class Mapping(StrictModel):
         for name in self.cameras:
             if not _CAMERA.match(name):
                 raise ValueError(f"camera name {name!r}: letters, digits and _ only")
-        topics = [self.state.topic, self.action.topic, *self.cameras.values()]
+        topics = self.topics()
         if len(set(self.cameras.values())) != len(self.cameras):
             raise ValueError("two cameras map the same topic")
-        if self.task_topic is not None and self.task_topic in topics:
-            raise ValueError(f"task_topic {self.task_topic} is also mapped as data")
+        if self.reward is not None and self.reward.topic in [self.state.topic, self.action.topic]:
+            raise ValueError(f"reward topic {self.reward.topic} is also mapped as state/action")
+        if self.reward is not None and self.reward.topic in self.cameras.values():
+            raise ValueError(f"reward topic {self.reward.topic} is also mapped as a camera")
+        for key, topic in (("task_topic", self.task_topic), ("success.topic", self.success_topic)):
+            if topic is not None and topic in topics:
+                raise ValueError(f"{key} {topic} is also mapped as data")
+        if self.success_topic is not None and self.success_topic == self.task_topic:
+            raise ValueError(f"success.topic {self.success_topic} is also the task_topic")
+        if self.success_topic is not None and self.success_topic == self.episodes.marker_topic:
+            raise ValueError(f"success.topic {self.success_topic} is the marker_topic; use success: {{marker: true}}")
+        if self.success is not None and self.success.marker and not self.episodes.marker_topic:
+            raise ValueError("success: marker: true needs episodes.marker_topic")
         return self
 
+    @property
+    def success_topic(self) -> str | None:
+        return self.success.topic if self.success is not None else None
+
     def topics(self) -> list[str]:
-        return list(dict.fromkeys([self.state.topic, self.action.topic, *self.cameras.values()]))
+        """The aligned topics: every frame takes one sample of each."""
+        reward = [self.reward.topic] if self.reward is not None else []
+        return list(dict.fromkeys([self.state.topic, self.action.topic, *self.cameras.values(), *reward]))
 
 
 def load_mapping(path: Path) -> Mapping:

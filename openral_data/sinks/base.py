@@ -21,6 +21,10 @@ class DatasetSchema:
     cameras: dict[str, CameraShape]
     robot_type: str
     metadata: dict[str, Any] = field(default_factory=dict)  # scene / rSkill / robot provenance
+    # Which outcomes the source knows. A sink stores no reward / success it was not given (a converted hardware
+    # log has none): the frames' `reward` / `success` values are then ignored and episode success is unknown.
+    has_reward: bool = True
+    has_success: bool = True
 
     @property
     def state_dim(self) -> int:
@@ -57,7 +61,7 @@ class EpisodeRecord:
 
     index: int
     length: int
-    success: bool
+    success: bool | None  # None: unknown (the source says nothing about success)
     seed: int
 
 
@@ -66,7 +70,7 @@ class Sink(Protocol):
 
     def add_frame(self, frame: Frame) -> None: ...
 
-    def end_episode(self, success: bool) -> EpisodeRecord: ...
+    def end_episode(self, success: bool | None) -> EpisodeRecord: ...
 
     def discard_episode(self) -> None: ...
 

@@ -49,7 +49,9 @@ def build_features(schema: DatasetSchema, video: VideoSettings) -> dict[str, dic
         }
     features[STATE] = {"dtype": "float32", "shape": [schema.state_dim], "names": list(schema.state_names)}
     features[ACTION] = {"dtype": "float32", "shape": [schema.action_dim], "names": list(schema.action_names)}
-    features.update(OUTCOME_FEATURES)
+    # an outcome the source does not know is not a column: a constant 0 reward or False success would be a claim
+    known = {"next.reward": schema.has_reward, "next.done": True, "next.success": schema.has_success}
+    features.update({k: f for k, f in OUTCOME_FEATURES.items() if known[k]})
     features.update(DEFAULT_FEATURES)
     return features
 

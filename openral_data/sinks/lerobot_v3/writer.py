@@ -180,7 +180,7 @@ class LeRobotV3Writer:
         used = {t for row in self.episode_rows for t in row["tasks"]}
         self.tasks = {t: i for t, i in self.tasks.items() if t in used}
 
-    def end_episode(self, success: bool) -> EpisodeRecord:
+    def end_episode(self, success: bool | None) -> EpisodeRecord:
         ep = self._episode
         if ep is None:
             raise RuntimeError("end_episode() outside an episode")
@@ -214,10 +214,12 @@ class LeRobotV3Writer:
         return record
 
     def _commit_episode(
-        self, ep: _EpisodeBuffer, n: int, success: bool, encoded: dict[str, EncodedEpisode]
+        self, ep: _EpisodeBuffer, n: int, success: bool | None, encoded: dict[str, EncodedEpisode]
     ) -> EpisodeRecord:
         """Place the episode's videos, then stage data, episodes metadata, tasks, stats and info.json."""
         index = self.total_episodes
+        if not self.schema.has_success:
+            success = None  # unknown stays unknown: `openral.success` is NULL
         row = self._base_row(index, ep, n, success)
         table = self._episode_table(index, ep, n)
         ep_stats = {k: numeric_stats(_column_values(table, k)) for k in table.column_names}
@@ -263,7 +265,7 @@ class LeRobotV3Writer:
                     shutil.rmtree(self.root / sub, ignore_errors=True)
 
     # -- episode assembly ------------------------------------------------------------------------------------
-    def _base_row(self, index: int, ep: _EpisodeBuffer, n: int, success: bool) -> dict[str, Any]:
+    def _base_row(self, index: int, ep: _EpisodeBuffer, n: int, success: bool | None) -> dict[str, Any]:
         inv = {i: t for t, i in self.tasks.items()}
         return {
             "episode_index": index,
@@ -271,7 +273,7 @@ class LeRobotV3Writer:
             "length": n,
             "dataset_from_index": self.total_frames,
             "dataset_to_index": self.total_frames + n,
-            "openral.success": bool(success),
+            "openral.success": None if success is None else bool(success),
             "openral.seed": int(ep.start.seed),
             "openral.initial_state": json.dumps(ep.start.initial_state, sort_keys=True),
         }
@@ -282,15 +284,17 @@ class LeRobotV3Writer:
         cols: dict[str, pa.Array] = {
             STATE: _fixed_list(np.stack(ep.states)),
             ACTION: _fixed_list(np.stack(ep.actions)),
-            "next.reward": pa.array(np.asarray(ep.rewards, dtype=np.float32)),
             "next.done": pa.array(np.asarray(ep.dones, dtype=bool)),
-            "next.success": pa.array(np.asarray(ep.successes, dtype=bool)),
             "timestamp": pa.array((frame_index / fps).astype(np.float32)),
             "frame_index": pa.array(frame_index),
             "episode_index": pa.array(np.full(n, index, dtype=np.int64)),
             "index": pa.array(self.total_frames + frame_index),
             "task_index": pa.array(np.asarray(ep.task_indices, dtype=np.int64)),
         }
+        if self.schema.has_reward:
+            cols["next.reward"] = pa.array(np.asarray(ep.rewards, dtype=np.float32))
+        if self.schema.has_success:
+            cols["next.success"] = pa.array(np.asarray(ep.successes, dtype=bool))
         return pa.table(cols, schema=self._data_schema)
 
     # -- data parquet ----------------------------------------------------------------------------------------

@@ -7,10 +7,12 @@ Topics of one episode bag (names are stable; `convert` and `export` rely on them
 * ``/action``         ``std_msgs/msg/Float32MultiArray``: the action vector, float32 as recorded (see README).
 * ``/camera/<name>/image/compressed`` ``sensor_msgs/msg/CompressedImage`` (format ``jpeg`` or ``png``), or
   ``/camera/<name>/image_raw`` ``sensor_msgs/msg/Image`` (``rgb8``) with ``image_format: raw``.
-* ``/reward``         ``std_msgs/msg/Float32``: the reward that followed the action of the same stamp.
+* ``/reward``         ``std_msgs/msg/Float32``: the reward that followed the action of the same stamp (absent
+  when the source has no reward).
 * ``/task``           ``std_msgs/msg/String``: the task text, published on the first frame and on change.
 * ``/openral/episode`` ``std_msgs/msg/String``: JSON ``{"event": "start"|"end", ...}`` markers; the end
-  marker carries ``success`` and ``length``.
+  marker carries ``success`` (``null``: unknown) and ``length``; the start marker's ``outcomes`` says whether
+  reward and success are known.
 """
 
 from __future__ import annotations

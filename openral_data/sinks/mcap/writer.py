@@ -126,7 +126,7 @@ class McapSink:
         while len(self._pending) > self.config.queue_size:
             self._write_oldest()  # waits for the oldest frame's images: backpressure, never a drop
 
-    def end_episode(self, success: bool) -> EpisodeRecord:
+    def end_episode(self, success: bool | None) -> EpisodeRecord:
         episode = self._episode
         if episode is None:
             raise RuntimeError("end_episode() outside an episode")
@@ -197,7 +197,8 @@ class _EpisodeBag:
         self.c_task = add(m.TASK, m.STRING_T, typestore=store)
         self.c_state = add(m.JOINT_STATES, m.JOINT_STATE_T, typestore=store)
         self.c_action = add(m.ACTION, m.FLOAT32_ARRAY_T, typestore=store)
-        self.c_reward = add(m.REWARD, m.FLOAT32_T, typestore=store)
+        # an outcome the source does not know gets no topic (a converted hardware log has no reward)
+        self.c_reward = add(m.REWARD, m.FLOAT32_T, typestore=store) if schema.has_reward else None
         fmt = config.image_format
         self.c_cams: dict[str, Connection] = {
             name: add(m.camera_topic(name, fmt), m.camera_type(fmt), typestore=store) for name in schema.cameras
@@ -217,6 +218,7 @@ class _EpisodeBag:
             "action_names": list(schema.action_names),
             "cameras": list(schema.cameras),
             "initial_state": start.initial_state,
+            "outcomes": {"reward": schema.has_reward, "success": schema.has_success},
         }
         self.writer.write(self.c_event, self.base_ns, self.factory.event(marker))
 
@@ -232,11 +234,15 @@ class _EpisodeBag:
         for name, conn in self.c_cams.items():
             w.write(conn, ns, f.image(ns, name, frame.images[name], encoded.get(name)))
         w.write(self.c_action, ns, f.action(frame.action))
-        w.write(self.c_reward, ns, f.float32(frame.reward))
+        if self.c_reward is not None:
+            w.write(self.c_reward, ns, f.float32(frame.reward))
         self.length += 1
 
-    def finish(self, success: bool) -> EpisodeRecord:
-        end = {"event": "end", "episode": self.index, "success": bool(success), "length": self.length}
+    def finish(self, success: bool | None) -> EpisodeRecord:
+        if not self.schema.has_success:
+            success = None
+        known = None if success is None else bool(success)
+        end = {"event": "end", "episode": self.index, "success": known, "length": self.length}
         # 1 ns after the last frame, so readers that order equal stamps arbitrarily still see it last
         self.writer.write(self.c_event, self.last_ns + 1, self.factory.event(end))
         self.writer.close()
@@ -248,7 +254,7 @@ class _EpisodeBag:
         os.replace(self.staged, self.final)
         if self.config.durable:
             fsync_dir(self.final.parent)
-        return EpisodeRecord(index=self.index, length=self.length, success=bool(success), seed=self.seed)
+        return EpisodeRecord(index=self.index, length=self.length, success=known, seed=self.seed)
 
     def abort(self) -> None:
         if not self.closed:
