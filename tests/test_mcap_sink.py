@@ -42,7 +42,7 @@ def test_a_stalled_encoder_blocks_the_producer_and_loses_nothing(
         return real(self, rgb)
 
     monkeypatch.setattr(MessageFactory, "compress", stalled)
-    sink = McapSink(tmp_path / "m", SCHEMA, McapConfig(queue_size=4, image_format="png"))
+    sink = McapSink(tmp_path / "m", SCHEMA, McapConfig(queue_size=4, image_format="png", encoder_threads=2))
     sink.begin_episode(EpisodeStart(seed=0, initial_state={}))
     added = 0
 
@@ -67,8 +67,11 @@ def test_a_stalled_encoder_blocks_the_producer_and_loses_nothing(
     assert len(topics["/camera/cam/image/compressed"]) == 50
 
 
-def test_a_failing_write_fails_the_episode_and_leaves_no_bag(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    sink = McapSink(tmp_path / "m", SCHEMA)
+@pytest.mark.parametrize("threads", [0, 1])
+def test_a_failing_write_fails_the_episode_and_leaves_no_bag(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, threads: int
+) -> None:
+    sink = McapSink(tmp_path / "m", SCHEMA, McapConfig(encoder_threads=threads))
     sink.begin_episode(EpisodeStart(seed=0, initial_state={}))
     sink.add_frame(_frame(0))
     assert sink.end_episode(True).length == 1
@@ -78,8 +81,9 @@ def test_a_failing_write_fails_the_episode_and_leaves_no_bag(tmp_path: Path, mon
 
     monkeypatch.setattr(mcap_writer._EpisodeBag, "write_frame", broken)
     sink.begin_episode(EpisodeStart(seed=1, initial_state={}))
-    sink.add_frame(_frame(0))
     with pytest.raises(OpenralError, match="episode 1: MCAP write failed: disk full"):
+        # in the caller's thread the write happens in add_frame; with encoder threads at end_episode
+        sink.add_frame(_frame(0))
         sink.end_episode(True)
     sink.close()
     assert [p.name for p in finished_bags(tmp_path / "m")] == ["episode_000000"]

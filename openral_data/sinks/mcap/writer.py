@@ -10,9 +10,11 @@ An episode is written into ``.partial/`` and renamed to ``episode_NNNNNN`` only 
 (summary + metadata.yaml) and both files were fsynced; a killed recording therefore leaves every finished
 episode complete and the unfinished one out of sight.
 
-Each camera image goes to a small encoder pool as its frame arrives (Pillow releases the GIL while encoding,
-so JPEG/PNG of several cameras and frames run in parallel with the producer); at most `queue_size` frames
-wait for their images, beyond that `add_frame` blocks on the oldest (backpressure: nothing can be dropped).
+Camera images are compressed in the caller's thread (JPEG: ~1 ms at 256², where handing them to threads cost
+more CPU and wall time than it saved — measured against a bare rosbags writer) or, for PNG (several ms per
+image), in a small encoder pool as each frame arrives (Pillow releases the GIL while encoding); at most
+`queue_size` frames wait for their images, beyond that `add_frame` blocks on the oldest (backpressure:
+nothing can be dropped). `McapConfig.encoder_threads` overrides the choice.
 
 Stamps: ``episode start wall clock (ns since the epoch, taken at begin_episode) + Frame.timestamp``. The
 relative times are the producer's clock (sim time for sim, a monotonic clock for hardware), the absolute
@@ -59,6 +61,16 @@ class McapConfig:
     jpeg_quality: int = 90
     queue_size: int = 16
     durable: bool = True
+    # threads compressing camera images; None = automatic (PNG: one per camera up to 4, JPEG: none, i.e. in the
+    # caller's thread, which is cheaper for ~1 ms encodes than any hand-off); 0 = always in the caller's thread
+    encoder_threads: int | None = None
+
+    def threads(self, cameras: int) -> int:
+        if self.image_format == "raw":
+            return 0
+        if self.encoder_threads is not None:
+            return self.encoder_threads
+        return min(cameras, os.cpu_count() or 1, 4) if self.image_format == "png" else 0
 
 
 @dataclass
@@ -70,11 +82,12 @@ class _Pending:
 class McapSink:
     """A `Sink` writing one rosbag2/MCAP bag per episode under `root`.
 
-    Pipeline: `add_frame` hands each camera image to the encoder pool and keeps the frame in a bounded list
-    of pending frames; once more than `queue_size` are pending, it writes the oldest (waiting for its
-    images if they are not encoded yet). The producer therefore waits whenever encoding falls behind:
-    there is nowhere a frame could be dropped. Serialising and writing happen in the caller's thread, in
-    frame order; only the encoding (which releases the GIL) runs in parallel.
+    Pipeline: without encoder threads `add_frame` compresses and writes the frame before it returns. With
+    them, it hands each camera image to the pool and keeps the frame in a bounded list of pending frames;
+    once more than `queue_size` are pending, it writes the oldest (waiting for its images if they are not
+    encoded yet). Either way the producer waits whenever encoding falls behind: there is nowhere a frame
+    could be dropped. Serialising and writing happen in the caller's thread, in frame order; only the
+    encoding (which releases the GIL) may run in parallel.
     """
 
     def __init__(self, root: Path, schema: DatasetSchema, config: McapConfig | None = None) -> None:
@@ -85,6 +98,8 @@ class McapSink:
             raise OpenralError(f"image format {self.config.image_format!r}: expected one of {m.IMAGE_FORMATS}")
         if self.config.queue_size < 1:
             raise OpenralError(f"queue_size must be >= 1, got {self.config.queue_size}")
+        if self.config.encoder_threads is not None and self.config.encoder_threads < 0:
+            raise OpenralError(f"encoder_threads must be >= 0, got {self.config.encoder_threads}")
         if root.exists() and (not root.is_dir() or any(p.name != PARTIAL for p in root.iterdir())):
             raise OpenralError(f"{root}: output exists and is not empty; refusing to overwrite it")
         self._created_root = not root.exists()
@@ -92,12 +107,8 @@ class McapSink:
         self.episodes = 0
         self.next_index: int | None = None  # names the next episode's bag; default: episodes written so far
         self._factory = MessageFactory(self.config.image_format, self.config.jpeg_quality)
-        workers = min(len(schema.cameras), os.cpu_count() or 1, 4)
-        self._pool = (
-            ThreadPoolExecutor(workers, thread_name_prefix="mcap-image")
-            if workers and self.config.image_format != "raw"
-            else None
-        )
+        workers = self.config.threads(len(schema.cameras))
+        self._pool = ThreadPoolExecutor(workers, thread_name_prefix="mcap-image") if workers > 0 else None
         self._episode: _EpisodeBag | None = None
         self._pending: deque[_Pending] = deque()
         self._closed = False
@@ -123,7 +134,7 @@ class McapSink:
             for name, img in frame.images.items():
                 encoded[name] = self._pool.submit(self._factory.compress, img)
         self._pending.append(_Pending(frame, encoded))
-        while len(self._pending) > self.config.queue_size:
+        while len(self._pending) > (self.config.queue_size if self._pool is not None else 0):
             self._write_oldest()  # waits for the oldest frame's images: backpressure, never a drop
 
     def end_episode(self, success: bool | None) -> EpisodeRecord:
