@@ -127,7 +127,8 @@ class DatasetBridge:
         if self._step == 0:
             self.discard_episode()
             raise ContractViolation(f"episode {self._episode}: an episode needs at least one frame")
-        records = [sink.end_episode(success) for sink in self.sinks]
+        known = None if success is None else bool(success)  # producers may hand numpy bools
+        records = [sink.end_episode(known) for sink in self.sinks]
         self._open = False
         self._episode += 1
         return records

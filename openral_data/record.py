@@ -45,7 +45,8 @@ class RecordSummary:
 
     @property
     def success_rate(self) -> float:
-        return sum(e.success is True for e in self.episodes) / len(self.episodes) if self.episodes else 0.0
+        wins = sum(bool(e.success) for e in self.episodes if e.success is not None)
+        return wins / len(self.episodes) if self.episodes else 0.0
 
     @property
     def fps(self) -> float:

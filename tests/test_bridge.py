@@ -183,3 +183,25 @@ def test_frame_timestamps_come_from_the_producer_clock() -> None:
     assert sink.got == [0.0, 0.25, 0.25, 0.5]
     with pytest.raises(ContractViolation, match="non-decreasing"):
         bridge.add_step(Observation({}, np.zeros(1, np.float32), "t", 0.1), a, reward=0, done=False, success=False)
+
+
+class _Verdicts(_Timestamps):
+    def __init__(self) -> None:
+        super().__init__()
+        self.verdicts: list[object] = []
+
+    def end_episode(self, success: bool | None) -> EpisodeRecord:
+        self.verdicts.append(success)
+        return EpisodeRecord(0, len(self.got), success, 0)
+
+
+def test_episode_success_reaches_sinks_as_a_python_bool_or_none() -> None:
+    sink = _Verdicts()
+    bridge = DatasetBridge(DatasetSchema(10, ("s",), ("a",), {}, "r"), [sink])
+    a = np.zeros(1, np.float32)
+    for verdict in (np.True_, np.False_, None):
+        bridge.begin_episode(0, {})
+        bridge.add_step(Observation({}, np.zeros(1, np.float32), "t"), a, reward=0, done=True, success=False)
+        bridge.end_episode(verdict)  # type: ignore[arg-type]
+    assert sink.verdicts == [True, False, None]
+    assert [type(v) for v in sink.verdicts[:2]] == [bool, bool]
