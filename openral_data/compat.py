@@ -9,6 +9,22 @@ from openral_data.schemas.rskill import RSkillManifest
 from openral_data.sinks.lerobot_v3.video import VideoSettings
 
 
+def rskills_for(robot: RobotManifest) -> list[str]:
+    """Ids of the shipped rSkills whose embodiment tags overlap the robot's (unreadable manifests skipped)."""
+    from openral_data import registry
+    from openral_data.errors import OpenralError
+
+    fitting = []
+    for rskill_id in registry.rskill_ids():
+        try:
+            manifest, _ = registry.resolve_rskill(rskill_id)
+        except OpenralError:
+            continue
+        if set(manifest.embodiment_tags) & set(robot.embodiment_tags):
+            fitting.append(rskill_id)
+    return fitting
+
+
 def check_compatibility(
     robot: RobotManifest,
     rskill: RSkillManifest,
@@ -20,9 +36,11 @@ def check_compatibility(
 ) -> None:
     """Raise CompatibilityError naming the file and field of the first mismatch."""
     if not set(rskill.embodiment_tags) & set(robot.embodiment_tags):
+        fitting = rskills_for(robot)
         raise CompatibilityError(
             f"{rskill_source}: embodiment_tags: {rskill.embodiment_tags} share nothing with robot "
             f"{robot.name!r} tags {robot.embodiment_tags}"
+            + (f" (rSkills for this robot: {', '.join(fitting)})" if fitting else "")
         )
     if spec.state_dim is not None and spec.state_dim != rskill.state_contract.dim:
         raise CompatibilityError(
