@@ -203,7 +203,8 @@ def list_cmd(what: Annotated[ListWhat, typer.Argument(help="scenes, rskills or r
                 )
             except OpenralError as exc:
                 table.add_row(rid, "[red]invalid", str(exc), "", "", "")
-    console.print(table)
+    # piped or redirected: no terminal width to fit, so never cut a cell (ids, tags and paths stay greppable)
+    (console if console.is_terminal else Console(width=1000, color_system=None)).print(table)
 
 
 class StatsFormat(StrEnum):

@@ -167,5 +167,8 @@ def test_list_commands(project: Path) -> None:
     assert scenes.returncode == 0 and "mock_pick" in scenes.stdout and "benchmark" in scenes.stdout
     rskills = run_cli("list", "rskills")
     assert rskills.returncode == 0 and "random-mock" in rskills.stdout
+    # piped output is never cut to a terminal width: full ids, representations and tags
+    assert "scripted-pick-place" in rskills.stdout and "delta_eef_gripper" in rskills.stdout
     robots = run_cli("list", "robots")
     assert robots.returncode == 0 and "mock_arm" in robots.stdout
+    assert "franka_panda,single_arm,parallel_gripper" in robots.stdout
