@@ -45,7 +45,7 @@ import numpy as np
 from PIL import Image as PILImage
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_writer import EpisodeData, Workload, make_data
+from bench_writer import EpisodeData, Workload, bench_schema, feed_bridge, make_data
 
 JPEG_QUALITY = 90
 
@@ -103,25 +103,12 @@ def run_bare(data: list[EpisodeData], root: Path, wl: Workload) -> None:
         base = ns + 10**9
 
 
-def _schema(wl: Workload) -> Any:
-    from openral_data.producers.base import CameraShape
-    from openral_data.sinks.base import DatasetSchema
-
-    return DatasetSchema(
-        fps=wl.fps,
-        state_names=tuple(f"s{i}" for i in range(wl.state_dim)),
-        action_names=tuple(f"a{i}" for i in range(wl.action_dim)),
-        cameras={cam: CameraShape(wl.height, wl.width) for cam in wl.cameras},
-        robot_type="bench",
-    )
-
-
 def run_sink(data: list[EpisodeData], root: Path, wl: Workload) -> None:
     """The MCAP sink alone, fed frames directly (as the bare writer is)."""
     from openral_data.sinks.base import EpisodeStart, Frame
     from openral_data.sinks.mcap import McapSink
 
-    sink = McapSink(root, _schema(wl))
+    sink = McapSink(root, bench_schema(wl))
     last = wl.frames - 1
     try:
         for seed, ep in enumerate(data):
@@ -140,25 +127,9 @@ def run_sink(data: list[EpisodeData], root: Path, wl: Workload) -> None:
 
 def run_bridge_sink(data: list[EpisodeData], root: Path, wl: Workload) -> None:
     """What `record --format mcap` runs: DatasetBridge (contract checks, defensive copies) -> McapSink."""
-    from openral_data.bridge import DatasetBridge
-    from openral_data.producers.base import Observation
     from openral_data.sinks.mcap import McapSink
 
-    schema = _schema(wl)
-    bridge = DatasetBridge(schema, [McapSink(root, schema)])
-    last = wl.frames - 1
-    try:
-        for seed, ep in enumerate(data):
-            bridge.begin_episode(seed, {"seed": seed})
-            for k in range(wl.frames):
-                obs = Observation(
-                    images={cam: ep.images[cam][k] for cam in wl.cameras}, state=ep.states[k], task=wl.task,
-                    time=k / wl.fps,
-                )  # fmt: skip
-                bridge.add_step(obs, ep.actions[k], reward=0.0, done=k == last, success=False)
-            bridge.end_episode(success=True)
-    finally:
-        bridge.close()
+    feed_bridge([McapSink(root, bench_schema(wl))], data, wl)
 
 
 def count_messages(root: Path) -> dict[str, int]:

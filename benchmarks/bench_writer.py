@@ -258,33 +258,45 @@ def run_pure(data: list[EpisodeData], root: Path, wl: Workload, codec: Codec) ->
             containers[cam].close()
 
 
-def run_ours(data: list[EpisodeData], root: Path, wl: Workload, codec: Codec) -> None:
-    from openral_data.bridge import DatasetBridge
-    from openral_data.producers.base import CameraShape, Observation
+def bench_schema(wl: Workload) -> Any:
+    """The DatasetSchema of workload W (shared by the writer and MCAP benchmarks)."""
+    from openral_data.producers.base import CameraShape
     from openral_data.sinks.base import DatasetSchema
-    from openral_data.sinks.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
 
-    schema = DatasetSchema(
+    return DatasetSchema(
         fps=wl.fps,
         state_names=tuple(f"s{i}" for i in range(wl.state_dim)),
         action_names=tuple(f"a{i}" for i in range(wl.action_dim)),
         cameras={cam: CameraShape(wl.height, wl.width) for cam in wl.cameras},
         robot_type="bench",
     )
-    writer = LeRobotV3Writer(root, schema, WriterConfig(video=VideoSettings(codec=codec)))
-    bridge = DatasetBridge(schema, [writer])
+
+
+def feed_bridge(sinks: list[Any], data: list[EpisodeData], wl: Workload) -> None:
+    """Record workload W through DatasetBridge into `sinks` (what `record` does), closing them at the end."""
+    from openral_data.bridge import DatasetBridge
+    from openral_data.producers.base import Observation
+
+    bridge = DatasetBridge(bench_schema(wl), sinks)
     last = wl.frames - 1
     try:
         for seed, ep in enumerate(data):
             bridge.begin_episode(seed, {"seed": seed})
             for t in range(wl.frames):
                 obs = Observation(
-                    images={cam: ep.images[cam][t] for cam in wl.cameras}, state=ep.states[t], task=wl.task
-                )
+                    images={cam: ep.images[cam][t] for cam in wl.cameras}, state=ep.states[t], task=wl.task,
+                    time=t / wl.fps,
+                )  # fmt: skip
                 bridge.add_step(obs, ep.actions[t], reward=0.0, done=t == last, success=False)
             bridge.end_episode(success=True)
     finally:
         bridge.close()
+
+
+def run_ours(data: list[EpisodeData], root: Path, wl: Workload, codec: Codec) -> None:
+    from openral_data.sinks.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
+
+    feed_bridge([LeRobotV3Writer(root, bench_schema(wl), WriterConfig(video=VideoSettings(codec=codec)))], data, wl)
 
 
 def lerobot_features(wl: Workload) -> dict[str, dict[str, Any]]:
