@@ -27,4 +27,9 @@ if ! command -v uv >/dev/null 2>&1 || ! uv --version >/dev/null 2>&1; then
     "$PY" -m pip install --quiet --disable-pip-version-check uv
 fi
 UV=("$PY" -m uv)
-"${UV[@]}" sync --frozen --quiet --python "$PY"
+# Optional extras the default environment (and CI) installs; each is one [project.optional-dependencies] entry.
+# Extras that conflict with these (e.g. a separate simulator environment) are set up by their own script.
+EXTRAS=()
+extra_args=()
+for extra in "${EXTRAS[@]}"; do extra_args+=(--extra "$extra"); done
+"${UV[@]}" sync --frozen --quiet --python "$PY" "${extra_args[@]}"
