@@ -15,10 +15,11 @@ instead the 180°-rotated frames of LIBERO's own datasets. Ground truth (object 
 `Observation.privileged`, never recorded. `Observation.time` is MuJoCo time since the start of the episode's
 recorded part.
 
-Restore: `initial_state()` holds the full flattened MuJoCo state after settling plus MuJoCo's solver warm
-start (`qacc_warmstart`, which the flattened state lacks and which steers the next step's solution);
-`reset_to` resets the env, sets that state the way LIBERO applies its init states and restores the warm
-start, so the same actions reproduce the rollout exactly (tested).
+Restore: `initial_state()` holds the full flattened MuJoCo state before settling plus MuJoCo's solver warm
+start (`qacc_warmstart`, which the flattened state lacks); `reset_to` resets the env, sets that state the way
+LIBERO applies its init states, restores the warm start and settles again, so the same actions reproduce the
+rollout exactly (tested; restoring the state *after* settling instead drifted by ~2 cm within 10 steps, so
+some state that settling changes lives outside what LIBERO's flattened state holds).
 """
 
 from __future__ import annotations
@@ -139,9 +140,6 @@ class LiberoScene:
         self._raw = self.env.reset()
         if index is not None:
             self._raw = self.env.set_init_state(self.init_states[index])
-        for _ in range(self.params.settle_steps):
-            self._raw, _, _, _ = self.env.step(np.zeros(ACTION_DIM))
-        state = self.env.get_sim_state()
         self._initial = {
             "format": STATE_FORMAT,
             "kind": KIND,
@@ -149,12 +147,11 @@ class LiberoScene:
             "task": self.task_name,
             "seed": seed,
             "init_index": index,
-            "settle_steps": self.params.settle_steps,
-            "sim_state": [float(v) for v in state],
+            "sim_state": [float(v) for v in self.env.get_sim_state()],
             "qacc_warmstart": [float(v) for v in self.env.sim.data.qacc_warmstart],
+            "settle_steps": self.params.settle_steps,
         }
-        self._t0 = float(self.env.sim.data.time)
-        return self._observation()
+        return self._settle(self.params.settle_steps)
 
     def reset_to(self, initial_state: dict[str, Any]) -> Observation:
         check_envelope(initial_state, STATE_FORMAT, KIND)
@@ -165,8 +162,8 @@ class LiberoScene:
             )
         try:
             state = np.asarray(initial_state["sim_state"], dtype=np.float64)
-            seed = int(initial_state["seed"])
             warm = np.asarray(initial_state["qacc_warmstart"], dtype=np.float64)
+            seed, settle = int(initial_state["seed"]), int(initial_state["settle_steps"])
         except (KeyError, TypeError, ValueError) as exc:
             raise ConfigError(f"initial_state: does not fit LIBERO: {exc}") from None
         if state.shape != self.init_states.shape[1:]:
@@ -181,8 +178,7 @@ class LiberoScene:
         except ValueError as exc:
             raise ConfigError(f"initial_state: qacc_warmstart: does not fit this task's model: {exc}") from None
         self._initial = dict(initial_state)
-        self._t0 = float(self.env.sim.data.time)
-        return self._observation()
+        return self._settle(settle)
 
     def step(self, action: npt.NDArray[np.float32]) -> StepResult:
         self._raw, _, _, _ = self.env.step(np.asarray(action, dtype=np.float64))
@@ -208,6 +204,12 @@ class LiberoScene:
             self.env = None
 
     # -- helpers ---------------------------------------------------------------------------------------------
+    def _settle(self, steps: int) -> Observation:
+        for _ in range(steps):
+            self._raw, _, _, _ = self.env.step(np.zeros(ACTION_DIM))
+        self._t0 = float(self.env.sim.data.time)
+        return self._observation()
+
     def _observation(self) -> Observation:
         raw = self._raw
         state = np.concatenate(
