@@ -14,6 +14,7 @@ from openral_data.errors import ConfigError
 from openral_data.record import RecordOptions, record
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scene_id", ["aloha_transfer_cube", "aloha_insertion"])
 def test_states_and_rewards_equal_gym_alohas_own_env(scene_id: str) -> None:
     import gym_aloha  # noqa: F401  (registers the gymnasium ids)
@@ -70,6 +71,7 @@ def test_restore_reproduces_the_rollout_exactly() -> None:
         env.close()
 
 
+@pytest.mark.slow
 def test_record_two_episodes_open_in_lerobot(project: Path, tmp_path: Path) -> None:
     out = tmp_path / "aloha"
     scene = shipped("aloha_transfer_cube", cameras=[("top", 96, 64)])

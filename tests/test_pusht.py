@@ -79,6 +79,7 @@ def test_success_is_gym_pushts_coverage_test() -> None:
         env.close()
 
 
+@pytest.mark.slow
 def test_record_two_episodes_open_in_lerobot(project: Path, tmp_path: Path) -> None:
     out = tmp_path / "pusht"
     summary = record(RecordOptions(scene="pusht", rskill="random-pusht", n_episodes=2, max_steps=15, seed=4, out=out))
