@@ -9,7 +9,7 @@ the cube off the table; insertion: the peg touches the pin); the reward recorded
 Cameras are the scene's own (`top`, `angle`, `front_close`, `left_pillar`, `right_pillar`, `left_wrist`,
 `right_wrist`), rendered only if the YAML asks, at the YAML's size, with shadows/reflections per `render:`
 (gym-aloha's env renders three 640×480 views every step whatever is used, which is what makes it run at
-3–9 steps/s here; its task's observation hook is replaced by one without images). Ground truth (object poses,
+3–9 steps/s here; its task's observation hook is replaced by one without images). Ground truth (`object_poses`,
 reward stage) is `Observation.privileged`, never recorded. `Observation.time` is MuJoCo time.
 
 Restore: an episode's start is fully given by the sampled object poses (the arms start at gym-aloha's
@@ -111,7 +111,7 @@ class AlohaScene:
         )  # fmt: skip
         self._sim: Any = sim
         self._sample = utils.sample_insertion_pose if params.task == "insertion" else utils.sample_box_pose
-        self._n_objects = 2 if params.task == "insertion" else 1
+        self._objects = ("red_peg", "socket") if params.task == "insertion" else ("red_box",)
         self._rig = _Renderers(self.physics.model.ptr, cams, scene.scene.render)
         self.spec = ProducerSpec(
             state_dim=DIM,
@@ -138,7 +138,8 @@ class AlohaScene:
                 f"initial_state: task: recorded on {initial_state.get('task')!r}, this is {self.task_name!r}"
             )
         try:
-            poses = np.asarray(initial_state["object_poses"], dtype=np.float64).reshape(7 * self._n_objects)
+            recorded = initial_state["object_poses"]
+            poses = np.concatenate([np.asarray(recorded[n], dtype=np.float64).reshape(7) for n in self._objects])
             seed = int(initial_state["seed"])
         except (KeyError, TypeError, ValueError) as exc:
             raise ConfigError(f"initial_state: does not fit gym-aloha {self.task_name}: {exc}") from None
@@ -172,16 +173,24 @@ class AlohaScene:
             "kind": KIND,
             "task": self.task_name,
             "seed": seed,
-            "object_poses": poses.tolist(),
+            "object_poses": self._object_poses(),
             "time": float(d.time),
             "qpos": d.qpos.tolist(),
             "ctrl": d.ctrl.tolist(),
         }
         return self._observation(ts.observation)
 
+    def _object_poses(self) -> dict[str, list[float]]:
+        """Free objects' poses [x, y, z, qw, qx, qy, qz] (world); they follow the 16 arm joints in qpos."""
+        q = self.physics.data.qpos
+        return {name: [float(v) for v in q[16 + 7 * i : 23 + 7 * i]] for i, name in enumerate(self._objects)}
+
     def _observation(self, raw: dict[str, Any]) -> Observation:
-        privileged = {"object_qpos": np.array(self.physics.data.qpos[16:]), "reward_stage": self._stage,
-                      "qvel": np.asarray(raw["qvel"], dtype=np.float64)}  # fmt: skip
+        privileged = {
+            "object_poses": self._object_poses(),
+            "reward_stage": self._stage,
+            "qvel": np.asarray(raw["qvel"], dtype=np.float64),
+        }
         return Observation(
             images=self.render(),
             state=np.asarray(raw["qpos"], dtype=np.float32),

@@ -11,7 +11,7 @@ Action (7): OSC_POSE deltas [dx, dy, dz, drx, dry, drz] in [-1, 1] (scaled by ro
 orientation as an axis-angle vector (3), the two finger joint positions (2). Success: LIBERO's
 `check_success()` (the BDDL goal predicates). Cameras: robosuite's (`agentview`, `robot0_eye_in_hand`, …)
 at the YAML's sizes, turned upright (robosuite renders bottom-up); `params.image_flip: rotate180` gives
-instead the 180°-rotated frames of LIBERO's own datasets. Ground truth (object poses, joint positions) is
+instead the 180°-rotated frames of LIBERO's own datasets. Ground truth (`object_poses`, joint positions) is
 `Observation.privileged`, never recorded. `Observation.time` is MuJoCo time since the start of the episode's
 recorded part.
 
@@ -64,6 +64,18 @@ def _quat_xyzw_to_axis_angle(q: npt.NDArray[np.float64]) -> npt.NDArray[np.float
     if s < 1e-9:
         return np.zeros(3)
     return np.asarray(q[:3], dtype=np.float64) / s * (2.0 * float(np.arccos(w)))
+
+
+def _object_poses(raw: dict[str, Any]) -> dict[str, list[float]]:
+    """LIBERO's object observables as name -> [x, y, z, qw, qx, qy, qz] (world frame)."""
+    out: dict[str, list[float]] = {}
+    for key, pos in raw.items():
+        name = key.removesuffix("_pos")
+        if key == name or key.startswith("robot0_") or name.endswith("_to_robot0_eef") or f"{name}_quat" not in raw:
+            continue
+        x, y, z, w = (float(v) for v in raw[f"{name}_quat"])
+        out[name] = [*(float(v) for v in pos), w, x, y, z]
+    return out
 
 
 class LiberoScene:
@@ -151,7 +163,9 @@ class LiberoScene:
             "qacc_warmstart": [float(v) for v in self.env.sim.data.qacc_warmstart],
             "settle_steps": self.params.settle_steps,
         }
-        return self._settle(self.params.settle_steps)
+        obs = self._settle(self.params.settle_steps)
+        self._initial["object_poses"] = obs.privileged["object_poses"]  # where the recorded part starts
+        return obs
 
     def reset_to(self, initial_state: dict[str, Any]) -> Observation:
         check_envelope(initial_state, STATE_FORMAT, KIND)
@@ -220,6 +234,7 @@ class LiberoScene:
             ]
         ).astype(np.float32)
         privileged = {
+            "object_poses": _object_poses(raw),
             "joint_pos": np.asarray(raw["robot0_joint_pos"], dtype=np.float64).copy(),
             "eef_quat_xyzw": np.asarray(raw["robot0_eef_quat"], dtype=np.float64).copy(),
             "object_state": np.asarray(raw.get("object-state", np.zeros(0)), dtype=np.float64).copy(),
