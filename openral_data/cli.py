@@ -244,6 +244,25 @@ def view(
     console.print(run_view(ViewOptions(path, episode, save, results)), markup=False, highlight=False)
 
 
+@app.command()
+def replay(
+    dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (recorded by openral-data for sim modes)")],
+    episodes: Annotated[str | None, typer.Option(help="episodes to replay, e.g. 0,3,5-7 (default: all)")] = None,
+    mode: Annotated[str, typer.Option(help="actions | policy | closed-loop")] = "actions",
+    rskill: Annotated[str | None, typer.Option(help="policy to evaluate (policy, closed-loop modes)")] = None,
+    out: Annotated[
+        Path | None, typer.Option(help="results directory (default: results/<dataset>--<mode>--<time>)")
+    ] = None,
+    tolerance: Annotated[float, typer.Option(help="actions mode: max |state error| per dimension")] = 1e-4,
+) -> None:
+    """Replay recorded actions through the rebuilt scene, or evaluate a policy against recorded episodes."""
+    from openral_data.replay.cli import run_replay
+    from openral_data.replay.command import ReplayOptions
+
+    opts = ReplayOptions(dataset, episodes, mode, rskill, out, tolerance)  # type: ignore[arg-type]
+    run_replay(opts, console, err_console)
+
+
 def main() -> None:
     """Entry point: user mistakes become one `error:` line and exit 2; usage errors are click's (exit 2)."""
     try:
