@@ -21,7 +21,7 @@ pytest.importorskip(
     "libero", reason="LIBERO has its own environment: bash scripts/setup_libero.sh, then .venv-libero/bin/pytest"
 )
 
-from sim_suite_helpers import assert_same, build, lerobot_table, random_actions, roll, shipped
+from sim_suite_helpers import assert_same, build, lerobot_table, random_actions, replay_reproduces, roll, shipped
 
 from openral_data.errors import ConfigError
 from openral_data.producers.sim.libero.config import import_libero
@@ -125,3 +125,4 @@ def test_record_two_episodes_open_in_lerobot(project: Path, tmp_path: Path) -> N
     assert ds.meta.video_keys == ["observation.images.agentview", "observation.images.robot0_eye_in_hand"]
     assert ds[0]["task"] == "pick up the black bowl between the plate and the ramekin and place it on the plate"
     assert cols["observation.state"].shape == (12, 8) and not cols["next.success"].any()
+    replay_reproduces(out, tmp_path / "replay", episodes=2)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from sim_suite_helpers import assert_same, build, lerobot_table, random_actions, roll, shipped
+from sim_suite_helpers import assert_same, build, lerobot_table, random_actions, replay_reproduces, roll, shipped
 
 from openral_data.errors import ConfigError
 from openral_data.record import RecordOptions, record
@@ -100,6 +100,7 @@ def test_record_two_episodes_open_in_lerobot(project: Path, tmp_path: Path) -> N
     assert np.array_equal(cols["action"][first], np.stack(actions))
     img = ds[0]["observation.images.top"]
     assert tuple(img.shape) == (3, 96, 96)
+    replay_reproduces(out, tmp_path / "replay", episodes=2)
 
 
 def test_fixed_robot_refuses_another_robot(project: Path, tmp_path: Path) -> None:
