@@ -10,8 +10,9 @@ Action (7): OSC_POSE deltas [dx, dy, dz, drx, dry, drz] in [-1, 1] (scaled by ro
 + gripper (-1 open .. 1 close). State (8, lerobot's LIBERO layout): end-effector position (3), its
 orientation as an axis-angle vector (3), the two finger joint positions (2). Success: LIBERO's
 `check_success()` (the BDDL goal predicates). Cameras: robosuite's (`agentview`, `robot0_eye_in_hand`, …)
-at the YAML's sizes, turned upright (robosuite renders bottom-up); `params.image_flip: rotate180` gives
-instead the 180°-rotated frames of LIBERO's own datasets. Ground truth (`object_poses`, joint positions) is
+at the YAML's sizes, with shadows/reflections per `render:` (off by default), turned upright (robosuite
+renders bottom-up); `params.image_flip: rotate180` gives instead the 180°-rotated frames of LIBERO's own
+datasets. Ground truth (`object_poses`, joint positions) is
 `Observation.privileged`, never recorded. `Observation.time` is MuJoCo time since the start of the episode's
 recorded part.
 
@@ -29,6 +30,7 @@ import io
 import os
 from typing import Any, Literal
 
+import mujoco
 import numpy as np
 import numpy.typing as npt
 from pydantic import Field
@@ -126,6 +128,7 @@ class LiberoScene:
         else:
             kwargs.update(use_camera_obs=False, camera_names=[])
         self._cams = [c.name for c in cams]
+        self._render = scene.scene.render
         self.env: Any = OffScreenRenderEnv(**kwargs)
         self.spec = ProducerSpec(
             state_dim=STATE_DIM,
@@ -149,9 +152,10 @@ class LiberoScene:
     def reset(self, seed: int) -> Observation:
         index = self.init_index(seed)
         self.env.seed(seed)
-        self._raw = self.env.reset()
-        if index is not None:
-            self._raw = self.env.set_init_state(self.init_states[index])
+        self.env.reset()
+        self._render_flags()
+        start = self.init_states[index] if index is not None else self.env.get_sim_state()
+        self._raw = self.env.set_init_state(start)  # also re-renders the cameras with our render flags
         self._initial = {
             "format": STATE_FORMAT,
             "kind": KIND,
@@ -186,6 +190,7 @@ class LiberoScene:
             )
         self.env.seed(seed)
         self.env.reset()
+        self._render_flags()
         self._raw = self.env.set_init_state(state)
         try:
             self.env.sim.data.qacc_warmstart[:] = warm
@@ -218,6 +223,14 @@ class LiberoScene:
             self.env = None
 
     # -- helpers ---------------------------------------------------------------------------------------------
+    def _render_flags(self) -> None:
+        """Shadows/reflections per the YAML's `render:` (off by default: they dominate llvmpipe's render time).
+        robosuite rebuilds its render context on every (hard) reset, so this runs after each reset."""
+        context = self.env.sim._render_context_offscreen
+        if context is not None:
+            context.scn.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = self._render.shadows
+            context.scn.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = self._render.reflections
+
     def _settle(self, steps: int) -> Observation:
         for _ in range(steps):
             self._raw, _, _, _ = self.env.step(np.zeros(ACTION_DIM))
