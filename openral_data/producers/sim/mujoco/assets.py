@@ -6,6 +6,7 @@ MJCF and mesh files; importing it would pull in its controllers and print warnin
 
 from __future__ import annotations
 
+import importlib.metadata
 import importlib.util
 from pathlib import Path
 
@@ -25,3 +26,18 @@ def resolve_asset(ref: str, base_dir: Path, source: str) -> Path:
     if not path.is_file():
         raise ConfigError(f"{source}: {ref}: no such file ({path})")
     return path
+
+
+def check_robosuite_assets(source: str) -> None:
+    """The native scenes' manifests are tuned for robosuite 1.5's robot MJCFs. robosuite 1.4 (the LIBERO
+    environment's) ships different files on which the arms cannot reach the ready pose: say so in one line."""
+    try:
+        version = importlib.metadata.version("robosuite")
+    except importlib.metadata.PackageNotFoundError:
+        return  # resolve_asset names the missing package
+    major_minor = tuple(int(p) for p in version.split(".")[:2] if p.isdigit())
+    if major_minor < (1, 5):
+        raise ConfigError(
+            f"{source}: assets.mjcf: the native MuJoCo scenes need robosuite 1.5's robot models, this environment "
+            f"has robosuite {version} (LIBERO's); run them from the default environment (.venv)"
+        )

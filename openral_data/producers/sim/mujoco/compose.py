@@ -241,9 +241,14 @@ def compose(
             group=SCENE_GROUP,
             friction=[1.0, 0.005, 0.0001],
         )
+    # mujoco >= 3.8 says `type=mjLIGHT_DIRECTIONAL` (its `directional` flag is gone); 3.3 only knows the flag
+    light_type = getattr(mujoco, "mjtLightType", None)
+    directional: dict[str, object] = (
+        {"type": light_type.mjLIGHT_DIRECTIONAL} if light_type is not None else {"directional": True}
+    )
     world.worldbody.add_light(
         name="sun",
-        directional=True,
+        **directional,
         dir=[-0.3, 0.2, -1.0],
         diffuse=[0.5, 0.5, 0.5],
         specular=[0.05, 0.05, 0.05],

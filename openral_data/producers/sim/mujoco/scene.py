@@ -21,7 +21,7 @@ from pydantic import ValidationError
 from openral_data import paths
 from openral_data.errors import CompatibilityError, ConfigError
 from openral_data.producers.base import CameraShape, Observation, ProducerSpec, StepResult
-from openral_data.producers.sim.mujoco.assets import resolve_asset
+from openral_data.producers.sim.mujoco.assets import check_robosuite_assets, resolve_asset
 from openral_data.producers.sim.mujoco.compose import CUBE, GOAL, compose
 from openral_data.producers.sim.mujoco.controllers import (
     ACTION_REPRESENTATIONS,
@@ -56,6 +56,8 @@ def load_wiring(robot: RobotManifest) -> tuple[MujocoRobotWiring, Path, Path, st
         raise ConfigError(f"{source}: assets.mjcf: needed by MuJoCo scenes")
     if robot.assets.gripper_mjcf is None:
         raise ConfigError(f"{source}: assets.gripper_mjcf: needed by MuJoCo tabletop scenes")
+    if robot.assets.mjcf.startswith("pkg://robosuite/"):
+        check_robosuite_assets(source)
     arm = resolve_asset(robot.assets.mjcf, folder, f"{source}: assets.mjcf")
     grip = resolve_asset(robot.assets.gripper_mjcf, folder, f"{source}: assets.gripper_mjcf")
     return wiring, arm, grip, source
