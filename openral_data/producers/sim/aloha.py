@@ -29,9 +29,10 @@ from pydantic import Field
 from openral_data.errors import CompatibilityError, ConfigError
 from openral_data.producers.base import CameraShape, Observation, ProducerSpec, StepResult
 from openral_data.producers.sim.external import check_envelope, check_fps, named_cameras, parse_params, require
+from openral_data.producers.sim.mujoco.render import CameraRig
 from openral_data.schemas.base import StrictModel
 from openral_data.schemas.rskill import RSkillManifest
-from openral_data.schemas.scene import RenderConfig, SceneCamera, SimScene
+from openral_data.schemas.scene import SimScene
 
 KIND = "gym_aloha"
 STATE_FORMAT = 1
@@ -43,34 +44,6 @@ AlohaTask = Literal["insertion", "transfer_cube"]
 
 class AlohaParams(StrictModel):
     task: AlohaTask = Field(description="gym-aloha task")
-
-
-class _Renderers:
-    """One offscreen `mujoco.Renderer` per camera on the dm_control physics' MjModel/MjData."""
-
-    def __init__(self, model: mujoco.MjModel, cameras: list[SceneCamera], render: RenderConfig) -> None:
-        self._r: dict[str, mujoco.Renderer] = {}
-        try:
-            for cam in cameras:
-                r = mujoco.Renderer(model, height=cam.height, width=cam.width)
-                r.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = render.shadows
-                r.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = render.reflections
-                self._r[cam.name] = r
-        except BaseException:
-            self.close()
-            raise
-
-    def render(self, data: mujoco.MjData) -> dict[str, npt.NDArray[np.uint8]]:
-        out: dict[str, npt.NDArray[np.uint8]] = {}
-        for name, r in self._r.items():
-            r.update_scene(data, camera=name)
-            out[name] = r.render().copy()
-        return out
-
-    def close(self) -> None:
-        for r in self._r.values():
-            r.close()
-        self._r.clear()
 
 
 def _task_without_images(base: type[Any]) -> Any:
@@ -112,7 +85,8 @@ class AlohaScene:
         self._sim: Any = sim
         self._sample = utils.sample_insertion_pose if params.task == "insertion" else utils.sample_box_pose
         self._objects = ("red_peg", "socket") if params.task == "insertion" else ("red_box",)
-        self._rig = _Renderers(self.physics.model.ptr, cams, scene.scene.render)
+        # gym-aloha's MJCF draws its arms in geom group 1: MuJoCo's default groups, not the composed scenes'
+        self._rig = CameraRig(self.physics.model.ptr, cams, scene.scene.render, option=mujoco.MjvOption())
         self.spec = ProducerSpec(
             state_dim=DIM,
             action_dim=DIM,

@@ -16,12 +16,22 @@ from openral_data.schemas.scene import RenderConfig, SceneCamera
 
 
 class CameraRig:
-    def __init__(self, model: mujoco.MjModel, cameras: list[SceneCamera], render: RenderConfig) -> None:
-        self._option = mujoco.MjvOption()
-        self._option.sitegroup[:] = 0
-        self._option.geomgroup[:] = 0
-        self._option.geomgroup[0 if render.robot_meshes == "collision" else 1] = 1
-        self._option.geomgroup[SCENE_GROUP] = 1
+    """`option` replaces the composed scenes' geom/site groups (a simulator's own MJCF keeps MuJoCo's defaults)."""
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        cameras: list[SceneCamera],
+        render: RenderConfig,
+        option: mujoco.MjvOption | None = None,
+    ) -> None:
+        if option is None:
+            option = mujoco.MjvOption()
+            option.sitegroup[:] = 0
+            option.geomgroup[:] = 0
+            option.geomgroup[0 if render.robot_meshes == "collision" else 1] = 1
+            option.geomgroup[SCENE_GROUP] = 1
+        self._option = option
         self._renderers: dict[str, mujoco.Renderer] = {}
         try:
             for cam in cameras:
