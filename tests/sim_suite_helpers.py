@@ -91,3 +91,19 @@ def replay_reproduces(dataset: Path, out: Path, episodes: int) -> dict[str, Any]
     assert table["episode_index"] == list(range(episodes))
     assert max(table["divergence_max"]) == 0.0  # bit for bit, not merely within tolerance
     return res.summary
+
+
+def stats_per_task(dataset: Path) -> dict[str, Any]:
+    """`openral-data stats --by task` on a recorded dataset: one group, its success rate and Wilson interval,
+    no health issue."""
+    import json
+
+    from openral_data.metrics.command import StatsOptions, run_stats
+
+    report = json.loads(run_stats(StatsOptions([str(dataset)], by="task", fmt="json")))
+    assert report["health"] == []
+    (group,) = report["groups"]
+    assert group["success_known"] == group["episodes"]
+    assert 0.0 <= group["ci95_low"] <= group["success_rate"] <= group["ci95_high"] <= 1.0
+    assert group["ci95_high"] > group["ci95_low"]
+    return dict(group)

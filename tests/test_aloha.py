@@ -8,7 +8,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from sim_suite_helpers import assert_same, build, lerobot_table, random_actions, replay_reproduces, roll, shipped
+from sim_suite_helpers import (
+    assert_same,
+    build,
+    lerobot_table,
+    random_actions,
+    replay_reproduces,
+    roll,
+    shipped,
+    stats_per_task,
+)
 
 from openral_data.errors import ConfigError
 from openral_data.record import RecordOptions, record
@@ -87,3 +96,5 @@ def test_record_two_episodes_open_in_lerobot(project: Path, tmp_path: Path) -> N
     second = cols["episode_index"] == 1
     assert np.array_equal(cols["action"][second], np.stack(random_actions("random-aloha", 12, seed=3)))
     replay_reproduces(out, tmp_path / "replay", episodes=2)
+    group = stats_per_task(out)
+    assert group["task"] == ds[0]["task"] and group["episodes"] == 2 and group["successes"] == 0

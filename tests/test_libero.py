@@ -21,7 +21,16 @@ pytest.importorskip(
     "libero", reason="LIBERO has its own environment: bash scripts/setup_libero.sh, then .venv-libero/bin/pytest"
 )
 
-from sim_suite_helpers import assert_same, build, lerobot_table, random_actions, replay_reproduces, roll, shipped
+from sim_suite_helpers import (
+    assert_same,
+    build,
+    lerobot_table,
+    random_actions,
+    replay_reproduces,
+    roll,
+    shipped,
+    stats_per_task,
+)
 
 from openral_data.errors import ConfigError
 from openral_data.producers.sim.libero.config import import_libero
@@ -126,3 +135,5 @@ def test_record_two_episodes_open_in_lerobot(project: Path, tmp_path: Path) -> N
     assert ds[0]["task"] == "pick up the black bowl between the plate and the ramekin and place it on the plate"
     assert cols["observation.state"].shape == (12, 8) and not cols["next.success"].any()
     replay_reproduces(out, tmp_path / "replay", episodes=2)
+    group = stats_per_task(out)
+    assert group["task"] == ds[0]["task"] and group["episodes"] == 2 and group["successes"] == 0
