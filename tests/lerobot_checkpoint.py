@@ -72,3 +72,42 @@ def make_act_checkpoint(
     pre.save_pretrained(out)
     post.save_pretrained(out)
     return out
+
+
+def make_diffusion_checkpoint(dataset: Path, out: Path, *, drop: tuple[str, ...] = ()) -> Path:
+    """A freshly initialised, deliberately tiny diffusion policy (2 denoising steps) on the dataset's features."""
+    import torch
+    from lerobot.configs.types import FeatureType
+    from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata
+    from lerobot.policies.diffusion.configuration_diffusion import DiffusionConfig
+    from lerobot.policies.diffusion.modeling_diffusion import DiffusionPolicy
+    from lerobot.policies.factory import make_pre_post_processors
+    from lerobot.utils.feature_utils import dataset_to_policy_features
+
+    torch.manual_seed(0)
+    meta = LeRobotDatasetMetadata("local/replay", root=dataset)
+    features = dataset_to_policy_features(meta.features)
+    outputs = {k: f for k, f in features.items() if f.type is FeatureType.ACTION}
+    inputs = {k: f for k, f in features.items() if k not in outputs and k not in drop}
+    cfg = DiffusionConfig(
+        input_features=inputs,
+        output_features=outputs,
+        n_obs_steps=2,
+        horizon=8,
+        n_action_steps=4,
+        crop_shape=None,
+        down_dims=(32, 64),
+        kernel_size=3,
+        n_groups=8,
+        diffusion_step_embed_dim=32,
+        spatial_softmax_num_keypoints=8,
+        num_inference_steps=2,
+        pretrained_backbone_weights=None,
+        device="cpu",
+    )
+    policy = DiffusionPolicy(cfg)
+    pre, post = make_pre_post_processors(cfg, dataset_stats=meta.stats)
+    policy.save_pretrained(out)
+    pre.save_pretrained(out)
+    post.save_pretrained(out)
+    return out

@@ -11,7 +11,7 @@ import pyarrow.parquet as pq
 import pytest
 import yaml
 from conftest import write_yaml
-from lerobot_checkpoint import make_act_checkpoint
+from lerobot_checkpoint import make_act_checkpoint, make_diffusion_checkpoint
 from replay_helpers import project_home, record_mock, record_push
 
 from openral_data import registry
@@ -129,6 +129,34 @@ def test_nothing_is_downloaded_even_when_the_config_names_imagenet_weights(
     frame = next(RecordedDataset(mock[0]).frames(1))
     assert policy.step(Observation(frame.images, frame.state, frame.task), frame.task).shape == (7,)
     assert not (tmp_path / "torch_home").exists()
+
+
+def test_a_diffusion_checkpoint_runs_offline_or_is_refused_without_diffusers(
+    mock: tuple[Path, Path], tmp_path: Path
+) -> None:
+    import importlib.util
+
+    dataset, home = mock
+    ckpt = tmp_path / "diffusion"
+    if importlib.util.find_spec("diffusers") is None:
+        # the default environment has no diffusers: the config alone decides, the weights are never read
+        from lerobot.policies.diffusion.configuration_diffusion import DiffusionConfig
+
+        ckpt.mkdir()
+        DiffusionConfig(pretrained_backbone_weights=None)._save_pretrained(ckpt)
+        (ckpt / "model.safetensors").write_bytes(b"")
+        manifest, _ = registry.resolve_rskill(str(_act_rskill(home, str(ckpt))))
+        with pytest.raises(ConfigError, match=r"diffusion policies need the diffusers package"):
+            registry.POLICIES["lerobot"](manifest)
+        return
+    make_diffusion_checkpoint(dataset, ckpt, drop=("observation.images.wrist",))
+    manifest, _ = registry.resolve_rskill(str(_act_rskill(home, str(ckpt))))
+    policy = registry.POLICIES["lerobot"](manifest)
+    assert not isinstance(policy, ChunkingPolicy)  # its chunks are queued inside step() with the obs history
+    summary = replay(ReplayOptions(dataset, mode="policy", rskill="act-mock", episodes="0", out=tmp_path / "res"))
+    outcome = summary.episodes[0]
+    assert outcome.action_abs is not None and outcome.action_abs.shape == (outcome.steps, 7)
+    assert np.isfinite(outcome.action_abs).all() and "chunk" not in summary.summary
 
 
 @pytest.mark.slow

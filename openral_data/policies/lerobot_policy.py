@@ -13,12 +13,14 @@ The checkpoint must speak the rSkill's contract, or it is refused before anythin
 `action_contract.dim`, input `observation.state` of `state_contract.dim`, and its cameras
 (`observation.images.<name>`) exactly the rSkill's `required_cameras`. Images must arrive at the size the
 checkpoint was made for. ACT policies are chunk-aware (`predict_chunk`, `n_action_steps`); diffusion keeps its
-observation history inside `step`.
+observation history inside `step` and needs the `diffusers` package (`lerobot[diffusion]`), which the default
+environment does not install: without it a diffusion checkpoint is refused in one line.
 """
 
 from __future__ import annotations
 
 import contextlib
+import importlib.util
 import io
 from pathlib import Path
 from typing import Any
@@ -63,6 +65,11 @@ def load_config(path: Path, device: str) -> Any:
     if config.type not in SUPPORTED:
         raise ConfigError(
             f"{path / 'config.json'}: type: {config.type!r} policies are not supported ({', '.join(SUPPORTED)})"
+        )
+    if config.type == "diffusion" and importlib.util.find_spec("diffusers") is None:
+        raise ConfigError(
+            f"{path / 'config.json'}: type: diffusion policies need the diffusers package, which this environment "
+            "does not install (pip install 'lerobot[diffusion]==0.6.1')"
         )
     if hasattr(config, "pretrained_backbone_weights"):
         config.pretrained_backbone_weights = None  # never fetch ImageNet weights; the checkpoint holds its own

@@ -17,7 +17,7 @@ from openral_data.policies.base import PolicyAdapter
 from openral_data.producers.base import SimRollout
 from openral_data.replay.actions import StepHook
 from openral_data.replay.outcome import EpisodeOutcome, first_exceeding, object_error
-from openral_data.replay.policy_mode import _checked
+from openral_data.replay.policy_mode import checked_action
 from openral_data.replay.recorded import RecordedEpisode
 
 
@@ -42,7 +42,7 @@ class ClosedLoop:
         steps = 0
         for t in range(self.max_steps):
             states.append(np.asarray(obs.state, dtype=np.float64))
-            action = _checked(self.policy.step(obs, obs.task), dim, f"episode {episode.index} step {t}")
+            action = checked_action(self.policy.step(obs, obs.task), dim, f"episode {episode.index} step {t}")
             result = self.env.step(action)
             steps = t + 1
             if on_step is not None:

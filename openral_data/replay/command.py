@@ -47,7 +47,7 @@ class ReplayOptions:
     episodes: str | None = None  # "0,3,5-7"; None: all
     mode: Mode = "actions"
     rskill: str | None = None  # policy / closed-loop: an rSkill id or path; policy also `recorded[:K]`
-    out: Path | None = None  # results directory (default: results/<dataset>--<mode>--<time>)
+    out: Path | None = None  # results directory (default: datasets/<dataset>--replay-<mode>--<time>)
     tolerance: float = DEFAULT_TOLERANCE
     label: str | None = None
     max_steps: int | None = None  # closed-loop step limit (default: the recorded task's max_steps)
@@ -110,7 +110,7 @@ def _num(value: object) -> str:
 
 def default_out(dataset: Path, mode: str) -> Path:
     stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
-    base = paths.project_root() / "results" / f"{dataset.resolve().name}--{mode}--{stamp}"
+    base = paths.datasets_dir() / f"{dataset.resolve().name}--replay-{mode}--{stamp}"
     k = 1
     while (out := base if k == 1 else base.with_name(f"{base.name}-{k}")).exists():
         k += 1
@@ -181,11 +181,11 @@ def _runner(opts: ReplayOptions, dataset: RecordedDataset, extra: dict[str, Any]
         view = SceneView() if opts.record is not None or opts.mode == "closed-loop" else SceneView(cameras=())
     built = rebuild(dataset, manifest, view, rskill_src)
     rerec: Rerecorder | None = None
+    policy: PolicyAdapter | None = None
     ok = False
     try:
         if opts.mode == "actions":
             replayer = ActionReplayer(built.env, opts.tolerance)
-            policy: PolicyAdapter | None = None
         else:
             assert manifest is not None
             check_compatibility(
@@ -216,7 +216,7 @@ def _runner(opts: ReplayOptions, dataset: RecordedDataset, extra: dict[str, Any]
         try:
             if rerec is not None:
                 extra["record"] = rerec.close(ok)
-            if opts.mode != "actions" and policy is not None:
+            if policy is not None:
                 policy.close()
         finally:
             built.env.close()

@@ -29,7 +29,7 @@ class EpisodeAware(Protocol):
     def begin_episode(self, episode: RecordedEpisode) -> None: ...
 
 
-def _checked(action: Any, dim: int, where: str) -> npt.NDArray[np.float32]:
+def checked_action(action: Any, dim: int, where: str) -> npt.NDArray[np.float32]:
     arr = np.asarray(action)
     if arr.dtype != np.float32 or arr.shape != (dim,) or not np.isfinite(arr).all():
         raise ContractViolation(
@@ -52,14 +52,14 @@ def evaluate_episode(dataset: RecordedDataset, e: int, policy: PolicyAdapter) ->
         where = f"episode {e} frame {t}"
         obs = Observation(images=frame.images, state=frame.state, task=frame.task, time=frame.timestamp)
         if not chunking:
-            predicted[t] = _checked(policy.step(obs, obs.task), dim, where)
+            predicted[t] = checked_action(policy.step(obs, obs.task), dim, where)
             continue
         if not queue:
             chunk = np.asarray(policy.predict_chunk(obs, obs.task))  # type: ignore[attr-defined]
             if chunk.ndim != 2 or len(chunk) == 0:
                 raise ContractViolation(f"{where}: policy chunk: expected (k, {dim}), got shape {list(chunk.shape)}")
             steps = max(1, int(policy.n_action_steps))  # type: ignore[attr-defined]
-            queue.extend(_checked(a, dim, where) for a in chunk[:steps])
+            queue.extend(checked_action(a, dim, where) for a in chunk[:steps])
         predicted[t] = queue.popleft()
     return EpisodeOutcome(
         index=e,
