@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -30,7 +31,13 @@ def run_replay(opts: ReplayOptions, console: Console, err_console: Console) -> R
             text = f"success agrees {agree[0]}/{agree[1]}" if agree[1] else ""
             bar.update(task, total=total, completed=done, agree=text)
 
-        summary = replay(opts, progress)
+        try:
+            summary = replay(opts, progress)
+        except KeyboardInterrupt:
+            bar.stop()
+            kept = f"; finished episodes are kept in {opts.record}" if opts.record is not None else ""
+            err_console.print(f"interrupted: no results written{kept}", markup=False, highlight=False)
+            raise typer.Exit(130) from None
     rows = summary.rows()
     width = max(len(k) for k, _ in rows)
     console.print("replayed" if opts.mode == "actions" else "evaluated", markup=False, highlight=False)

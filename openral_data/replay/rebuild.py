@@ -31,9 +31,15 @@ class Rebuilt:
     robot: RobotManifest
     rskill: RSkillManifest
     source: str
+    rskill_source: str
 
 
-def rebuild(dataset: RecordedDataset, rskill: RSkillManifest | None = None, view: SceneView | None = None) -> Rebuilt:
+def rebuild(
+    dataset: RecordedDataset,
+    rskill: RSkillManifest | None = None,
+    view: SceneView | None = None,
+    rskill_source: str | None = None,
+) -> Rebuilt:
     """The recorded scene with the recorded robot, driven through `rskill`'s contract (default: the recorded one).
 
     Raises an OpenralError naming the scene type when that scene cannot restore a recorded initial state.
@@ -58,4 +64,11 @@ def rebuild(dataset: RecordedDataset, rskill: RSkillManifest | None = None, view
             f"{source}: scene.type: {scene.scene.type!r} scenes cannot restore a recorded initial state, so they "
             "cannot be replayed from the recorded start (use --mode policy, which needs no simulator)"
         )
-    return Rebuilt(env=env, scene=scene, robot=robot, rskill=manifest, source=source)
+    return Rebuilt(
+        env=env,
+        scene=scene,
+        robot=robot,
+        rskill=manifest,
+        source=source,
+        rskill_source=rskill_source or f"rSkill {manifest.id} (as recorded in {dataset.root})",
+    )

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
@@ -66,6 +67,7 @@ class RecordedDataset:
         keep = [c for c in table.column_names if not c.startswith("stats/")]
         self._rows = sorted(table.select(keep).to_pylist(), key=lambda r: int(r["episode_index"]))
         self._tasks = read_tasks(root) if int(self.info.get("total_tasks", 0)) else []
+        self._data_cache: tuple[Path, pa.Table] | None = None
 
     def __len__(self) -> int:
         return len(self._rows)
@@ -141,11 +143,7 @@ class RecordedDataset:
         path = self.root / str(self.info.get("data_path", layout.DATA_PATH)).format(
             chunk_index=int(row["data/chunk_index"]), file_index=int(row["data/file_index"])
         )
-        table = pq.read_table(
-            path,
-            columns=["episode_index", "frame_index", "task_index", STATE, ACTION],
-            filters=[("episode_index", "=", e)],
-        )
+        table = self._data(path)
         table = table.filter(pc.equal(table.column("episode_index"), e)).sort_by("frame_index")
         if table.num_rows != n:
             raise OpenralError(f"{path}: episode {e} has {table.num_rows} rows, meta/episodes says {n}")
@@ -166,6 +164,13 @@ class RecordedDataset:
             actions=actions,
             task=self._tasks[task_index] if task_index < len(self._tasks) else "",
         )
+
+    def _data(self, path: Path) -> pa.Table:
+        """The numeric columns of one data file; the last file read is kept (episodes share files, in order)."""
+        if self._data_cache is None or self._data_cache[0] != path:
+            columns = ["episode_index", "frame_index", "task_index", STATE, ACTION]
+            self._data_cache = (path, pq.read_table(path, columns=columns))
+        return self._data_cache[1]
 
     def success(self, e: int) -> bool | None:
         row = self._rows[e]

@@ -1,8 +1,10 @@
-"""`replay --mode actions`: recorded actions back through the scene rebuilt from the dataset's own record."""
+"""`replay` in the simulator: recorded actions (`--mode actions`), policies from the recorded starts (`--mode
+closed-loop`) and re-recording (`--record`), in the scene rebuilt from the dataset's own record."""
 
 from __future__ import annotations
 
 import json
+import os
 from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
@@ -10,7 +12,8 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-from conftest import run_cli
+import yaml
+from conftest import run_cli, write_yaml
 from replay_helpers import project_home, record_mock, record_push
 
 from openral_data import registry
@@ -143,3 +146,69 @@ def test_replay_rebuilds_the_recorded_scene_not_todays_yaml(mock: Path, tmp_path
     summary = replay(ReplayOptions(mock, out=tmp_path / "res"))
     assert summary.summary["reproduced"] == 3
     assert np.isclose(summary.summary["divergence_max"], 0.0)
+
+
+def _rskill_like(home: Path, source: str, **changes: object) -> Path:
+    data = yaml.safe_load((home / f"rskills/{source}/rskill.yaml").read_text())
+    data.update(changes)
+    return write_yaml(home / f"rskills/{data['id']}/rskill.yaml", data)
+
+
+def test_closed_loop_pairs_success_episode_by_episode(push: Path, tmp_path: Path) -> None:
+    home = Path(os.environ["OPENRAL_DATA_HOME"])
+    expert = replay(ReplayOptions(push, mode="closed-loop", rskill="scripted-push", out=tmp_path / "expert"))
+    assert expert.summary["paired"] == {"both": 3, "only_recorded": 0, "only_policy": 0, "neither": 0}
+    recorded = RecordedDataset(push)
+    for o in expert.episodes:  # the recorded policy from the recorded start: the same rollout
+        assert o.steps == recorded.episode(o.index).length and o.first_divergence_frame is None
+
+    zero = _rskill_like(home, "scripted-push", id="zero-push", policy="zero")
+    idle = replay(ReplayOptions(push, mode="closed-loop", rskill=str(zero), max_steps=15, out=tmp_path / "zero"))
+    assert idle.summary["paired"] == {"both": 0, "only_recorded": 3, "only_policy": 0, "neither": 0}
+    assert all(o.steps == 15 and o.success_replayed is False for o in idle.episodes)
+    res = open_results(tmp_path / "zero")
+    assert res.summary["kind"] == "eval" and res.summary["mode"] == "closed-loop"
+
+
+@pytest.mark.slow
+def test_rerecord_with_other_cameras_loads_in_lerobot_and_replays(push: Path, tmp_path: Path) -> None:
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    cams = write_yaml(
+        tmp_path / "cams.yaml",
+        {
+            "cameras": [
+                {"name": "overhead", "width": 80, "height": 64, "pos": [0.85, 0.0, 1.9], "lookat": [0.52, 0.0, 0.8]},
+                {"name": "wrist", "width": 48, "height": 48, "mount": "wrist"},
+            ]
+        },
+    )
+    out = tmp_path / "rendered"
+    summary = replay(ReplayOptions(push, out=tmp_path / "res", record=out, cameras=cams, codec="h264", episodes="0,2"))
+    assert summary.summary["record"] == {
+        "out": str(out),
+        "episodes": 2,
+        "frames": sum(o.steps for o in summary.episodes),
+    }
+
+    ds = LeRobotDataset("local/rendered", root=out, video_backend="pyav")
+    assert ds.meta.total_episodes == 2 and len(ds) == summary.summary["record"]["frames"]
+    assert ds[0]["observation.images.overhead"].shape == (3, 64, 80)
+    assert ds[0]["observation.images.wrist"].shape == (3, 48, 48)
+    assert "observation.images.front" not in ds.meta.features
+    original, rendered = RecordedDataset(push), RecordedDataset(out)
+    for new, old in ((0, 0), (1, 2)):
+        np.testing.assert_array_equal(rendered.episode(new).states, original.episode(old).states)
+        np.testing.assert_array_equal(rendered.episode(new).actions, original.episode(old).actions)
+        assert rendered.episode(new).success is True and rendered.episode(new).seed == original.episode(old).seed
+    again = replay(ReplayOptions(out, out=tmp_path / "res2"))  # the new dataset is itself replayable
+    assert again.summary["reproduced"] == 2
+
+
+def test_rerecord_refuses_an_existing_dataset(push: Path, tmp_path: Path) -> None:
+    out = tmp_path / "taken"
+    out.mkdir()
+    (out / "keep.txt").write_text("mine")
+    with pytest.raises(OpenralError, match="refusing to write there"):
+        replay(ReplayOptions(push, out=tmp_path / "res", record=out, episodes="0"))
+    assert (out / "keep.txt").read_text() == "mine" and not (tmp_path / "res").exists()
