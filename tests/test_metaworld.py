@@ -47,8 +47,8 @@ def test_every_metaworld_task_has_an_expert_class() -> None:
 
 @pytest.mark.parametrize("scene_id", TASKS[:5])
 def test_expert_solves_the_task_on_a_few_seeds(scene_id: str) -> None:
-    wins, lengths = _success_rate(scene_id, range(3))
-    assert wins == 3, (scene_id, lengths)
+    wins, lengths = _success_rate(scene_id, range(2))
+    assert wins == 2, (scene_id, lengths)
     assert max(lengths) < 500
 
 
