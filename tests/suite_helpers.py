@@ -76,3 +76,34 @@ def project_point(
     if rot[2, 1] < 0:  # camera upside down in the world
         row, col = height - 1 - row, width - 1 - col
     return int(np.rint(row)), int(np.rint(col))
+
+
+def replay_reproduces(dataset: Path, out: Path, episodes: int) -> dict[str, Any]:
+    """`openral-data replay DATASET` (actions mode, the real CLI in a subprocess) reproduces every episode bit for
+    bit (restored start and every replayed state equal the recorded ones) with the recorded outcome."""
+    import pyarrow.parquet as pq
+    from conftest import run_cli
+
+    from openral_data.metrics.results import open_results
+
+    proc = run_cli("replay", str(dataset), "--out", str(out))
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    res = open_results(out)
+    assert res.summary["kind"] == "replay" and res.summary["mode"] == "actions"
+    assert res.summary["reproduced"] == episodes and res.summary["success_agree"] == episodes
+    table = pq.read_table(res.episodes_path).to_pydict()
+    assert table["episode_index"] == list(range(episodes))
+    assert max(table["divergence_max"]) == 0.0
+    return res.summary
+
+
+def stats_groups(*datasets: Path, by: str = "task") -> list[dict[str, Any]]:
+    """`openral-data stats --by BY --format json` (the real CLI): the groups table."""
+    import json
+
+    from conftest import run_cli
+
+    proc = run_cli("stats", *map(str, datasets), "--by", by, "--format", "json", "--no-health")
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    groups: list[dict[str, Any]] = json.loads(proc.stdout)["groups"]
+    return groups

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from suite_helpers import build, project_point, rollout, small_scene_file
+from suite_helpers import build, project_point, replay_reproduces, rollout, small_scene_file, stats_groups
 
 from openral_data.errors import ConfigError
 from openral_data.policies.metaworld_expert import policy_class_name
@@ -107,6 +107,44 @@ def test_cameras_are_upright_the_puck_is_where_the_geometry_says() -> None:
                 assert not changed[r - 1 : r + 2, c - 1 : c + 2].any(), (cam, "mirrored", r, c)
     finally:
         env.close()
+
+
+def _record_bench(project: Path, tmp_path: Path, scene_id: str, n: int) -> Path:
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    scene = small_scene_file(project, scene_id, size=32)
+    out = tmp_path / scene_id
+    summary = record(RecordOptions(scene=str(scene), rskill="metaworld-expert", n_episodes=n, out=out))
+    assert summary.success_rate == 1.0
+    ds = LeRobotDataset(f"local/{scene_id}", root=out, video_backend="pyav")
+    assert len(ds) == summary.frames and ds.fps == 80 and ds.meta.robot_type == "metaworld_sawyer"
+    assert ds.meta.video_keys == ["observation.images.corner2", "observation.images.gripperPOV"]
+    assert [int(x) for x in ds.meta.episodes["openral.seed"]] == list(range(1000, 1000 + n))
+    last = ds[summary.episodes[0].length - 1]
+    assert float(last["next.success"]) == 1.0 and last["task"] == ds.meta.tasks.index[0]
+    table = ds.hf_dataset.with_format("numpy")
+    actions = np.stack(table["action"])
+    assert actions.shape[1] == 4 and np.abs(actions).max() <= 1.0 and set(np.unique(actions[:, 3])) >= {0.0, 1.0}
+    return out
+
+
+def test_benchmark_dataset_loads_in_lerobot_replays_and_stats_report_task_success(
+    project: Path, tmp_path: Path
+) -> None:
+    out = _record_bench(project, tmp_path, "metaworld_pick_place_bench", 2)
+    replay_reproduces(out, tmp_path / "replay", episodes=2)
+    (group,) = stats_groups(out)
+    assert group["task"] == "Pick and place a puck to a goal" and group["successes"] == group["episodes"] == 2
+    assert group["success_rate"] == 1.0 and 0.3 < group["ci95_low"] < 0.4 and group["ci95_high"] == 1.0  # Wilson
+
+
+@pytest.mark.slow
+def test_five_benchmark_tasks_record_expert_datasets_and_stats_report_each(project: Path, tmp_path: Path) -> None:
+    outs = [_record_bench(project, tmp_path, f"{scene_id}_bench", 3) for scene_id in TASKS[1:]]
+    groups = {g["task"]: g for g in stats_groups(*outs)}
+    assert len(groups) == 5
+    for group in groups.values():
+        assert group["episodes"] == 3 and group["success_rate"] == 1.0 and group["ci95_low"] < 1.0
 
 
 def test_scene_errors_name_the_file_and_field(project: Path, tmp_path: Path) -> None:

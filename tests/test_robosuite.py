@@ -9,7 +9,15 @@ from typing import Any
 
 import numpy as np
 import pytest
-from suite_helpers import build, project_point, rollout, shipped, small_scene_file
+from suite_helpers import (
+    build,
+    project_point,
+    replay_reproduces,
+    rollout,
+    shipped,
+    small_scene_file,
+    stats_groups,
+)
 
 from openral_data import registry
 from openral_data.errors import CompatibilityError, ConfigError
@@ -137,3 +145,23 @@ def test_recorded_lift_dataset_loads_in_lerobot_and_holds_what_was_stepped(
     assert frame.shape == (3, 48, 48) and frame.std() > 10
     initial = json.loads(ds.meta.episodes["openral.initial_state"][1])
     assert initial["seed"] == 5 and initial["env"] == "Lift" and initial["suite"] == "robosuite"
+    replay_reproduces(out, tmp_path / "replay", episodes=2)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "scene_id", ["robosuite_stack_bench", "robosuite_pick_place_can_bench", "robosuite_door_bench"]
+)
+def test_every_robosuite_benchmark_records_loads_replays_and_reports(
+    scene_id: str, project: Path, tmp_path: Path
+) -> None:
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    scene = small_scene_file(project, scene_id, size=48)
+    out = tmp_path / scene_id
+    summary = record(RecordOptions(scene=str(scene), rskill=RANDOM, n_episodes=2, max_steps=10, out=out))
+    ds = LeRobotDataset(f"local/{scene_id}", root=out, video_backend="pyav")
+    assert len(ds) == summary.frames == 20 and [int(x) for x in ds.meta.episodes["openral.seed"]] == [1000, 1001]
+    replay_reproduces(out, tmp_path / "replay", episodes=2)
+    (group,) = stats_groups(out)
+    assert group["episodes"] == 2 and group["success_known"] == 2 and group["ci95_low"] <= group["success_rate"]

@@ -22,6 +22,8 @@ state. `reset_to` repeats that reset and checks it reproduces the recorded MuJoC
 from __future__ import annotations
 
 import logging
+import random
+from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any, Literal
 
@@ -67,14 +69,17 @@ class RobosuiteParams(StrictModel):
 
 
 @contextmanager
-def _seeded_global_numpy(seed: int) -> Any:
-    """robosuite samples placements with `np.random.*`: seed it for one reset, then restore the caller's state."""
-    saved = np.random.get_state()
+def _seeded_global_numpy(seed: int) -> Iterator[None]:
+    """robosuite draws from numpy's (and Python's) global generators: seed both for one reset or construction,
+    then put back the caller's states."""
+    saved, saved_py = np.random.get_state(), random.getstate()
     np.random.seed(seed)
+    random.seed(seed)
     try:
         yield
     finally:
         np.random.set_state(saved)
+        random.setstate(saved_py)
 
 
 def _import_robosuite() -> Any:
@@ -125,20 +130,23 @@ class RobosuiteScene:
 
         rs_robot = ROBOTS[robot.name]
         config = load_composite_controller_config(controller="BASIC", robot=rs_robot)
-        self.env: Any = suite.make(
-            self.params.env,
-            robots=rs_robot,
-            controller_configs=config,
-            has_renderer=False,
-            has_offscreen_renderer=False,  # we render the named cameras ourselves (see named_cameras.py)
-            use_camera_obs=False,
-            use_object_obs=True,
-            control_freq=scene.scene.fps,
-            horizon=1_000_000,  # episode length is record's --max-steps
-            ignore_done=True,
-            hard_reset=False,  # keep one compiled model: resets only re-place objects (and stay restorable)
-            reward_shaping=False,
-        )
+        # robosuite also draws at construction (Lift's cube size, for one): a fixed seed makes the model the same
+        # in every process, so a recorded state can be reproduced by `replay` elsewhere
+        with _seeded_global_numpy(0):
+            self.env: Any = suite.make(
+                self.params.env,
+                robots=rs_robot,
+                controller_configs=config,
+                has_renderer=False,
+                has_offscreen_renderer=False,  # we render the named cameras ourselves (see named_cameras.py)
+                use_camera_obs=False,
+                use_object_obs=True,
+                control_freq=scene.scene.fps,
+                horizon=1_000_000,  # episode length is record's --max-steps
+                ignore_done=True,
+                hard_reset=False,  # keep one compiled model: resets only re-place objects (and stay restorable)
+                reward_shaping=False,
+            )
         self.env_name = self.params.env
         self._obs: dict[str, Any] = {}
         self.model = self.env.sim.model._model
