@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import logging
 import random
+import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any, Literal
@@ -82,16 +83,24 @@ def _seeded_global_numpy(seed: int) -> Iterator[None]:
         random.setstate(saved_py)
 
 
+def _quiet(record: logging.LogRecord) -> bool:
+    return record.levelno >= logging.ERROR
+
+
 def _import_robosuite() -> Any:
+    """Import robosuite without its console chatter: at import it warns about optional packages we do not use
+    (robosuite_models, mink) and per environment about controller parts the Panda lacks; errors still show."""
+    logger = logging.getLogger("robosuite_logs")
+    if _quiet not in logger.filters:
+        logger.addFilter(_quiet)
     try:
-        import robosuite  # type: ignore[import-untyped]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # SyntaxWarnings from robosuite's docstrings when compiled
+            import robosuite  # type: ignore[import-untyped]
     except ImportError:
         raise ConfigError(
             "robosuite scenes need the robosuite extra: `uv sync --extra robosuite` (robosuite 1.5.1, mujoco 3.3.0)"
         ) from None
-    from robosuite.utils.log_utils import ROBOSUITE_DEFAULT_LOGGER  # type: ignore[import-untyped]
-
-    ROBOSUITE_DEFAULT_LOGGER.setLevel(logging.WARNING)  # no INFO chatter per environment built
     return robosuite
 
 
