@@ -84,7 +84,10 @@ def test_seed_is_one_initial_state_and_reset_to_replays_bit_for_bit() -> None:
         env.reset(22)
         assert env.initial_state()["mujoco"]["body_pos"] != initial["mujoco"]["body_pos"]  # the door moved
         env.step(np.ones(7, dtype=np.float32))
-        again = rollout(env, policy, env.reset_to(initial), 30, actions=first["actions"])
+        restored = env.reset_to(initial)
+        assert list(initial["object_poses"]) == ["Door"]  # replay compares these with the restored ones
+        assert restored.privileged["object_poses"]["Door"].tolist() == initial["object_poses"]["Door"]
+        again = rollout(env, policy, restored, 30, actions=first["actions"])
         assert np.array_equal(again["states"], first["states"])
         assert again["rewards"] == first["rewards"] and again["successes"] == first["successes"]
 

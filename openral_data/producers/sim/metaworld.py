@@ -22,14 +22,14 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from pydantic import Field, ValidationError
+from pydantic import Field
 
 import openral_data.producers.sim.mujoco  # noqa: F401  (chooses a headless MUJOCO_GL before mujoco loads)
 from openral_data.errors import CompatibilityError, ConfigError
 from openral_data.producers.base import CameraShape, Observation, ProducerSpec, StepResult
 from openral_data.producers.sim import mjstate
 from openral_data.producers.sim.named_cameras import NamedCameraRig
-from openral_data.schemas.base import StrictModel, format_validation_error
+from openral_data.schemas.base import StrictModel, validate
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
@@ -69,10 +69,7 @@ class MetaWorldScene:
     def __init__(
         self, scene: SimScene, robot: RobotManifest, rskill: RSkillManifest, source: str, rskill_source: str
     ) -> None:
-        try:
-            self.params = MetaWorldParams.model_validate(scene.scene.params)
-        except ValidationError as exc:
-            raise ConfigError(format_validation_error(f"{source}: scene.params", exc)) from None
+        self.params = validate(MetaWorldParams, scene.scene.params, f"{source}: scene.params")
         if robot.name != ROBOT:
             raise ConfigError(f"{source}: scene.robot: MetaWorld tasks fix the robot to {ROBOT!r}, got {robot.name!r}")
         valid = task_names()

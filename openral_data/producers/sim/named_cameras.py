@@ -14,6 +14,7 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.errors import ConfigError
+from openral_data.producers.sim.mujoco.render import offscreen_renderer
 from openral_data.schemas.scene import RenderConfig, SceneCamera
 
 
@@ -53,10 +54,7 @@ class NamedCameraRig:
         mujoco.mj_forward(model, data)
         try:
             for cam in cameras:
-                r = mujoco.Renderer(model, height=cam.height, width=cam.width)
-                r.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = render.shadows
-                r.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = render.reflections
-                self._renderers[cam.name] = r
+                self._renderers[cam.name] = offscreen_renderer(model, cam, render)
                 self._flip[cam.name] = upside_down(model, data, cam.name)
         except BaseException:
             self.close()

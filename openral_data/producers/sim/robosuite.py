@@ -9,8 +9,9 @@ Observation state, by the rSkill state contract's representation:
 * `eef_pose_gripper` (8): end-effector [x, y, z] + quaternion [qw, qx, qy, qz] (world frame, qw >= 0) + gripper
   closure (0 open .. 1 closed, from the finger joints)
 * `joint_positions_gripper` (n + 1): arm joint positions + gripper closure
-Success is the task's own `_check_success()`; the reward is robosuite's sparse task reward. Object poses go to
-`Observation.privileged` (for scripted experts) and are never recorded. `Observation.time` is simulation time
+Success is the task's own `_check_success()`; the reward is robosuite's sparse task reward. Object observations
+and every task object's pose (`object_poses`, also in `initial_state()`, which replay compares) go to
+`Observation.privileged` and are never recorded. `Observation.time` is simulation time
 since reset. Cameras are the model's named cameras (`agentview`, `robot0_eye_in_hand`, ...), rendered upright by
 our own offscreen renderers (so resolution and shadows come from the YAML).
 
@@ -30,14 +31,14 @@ from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
-from pydantic import Field, ValidationError
+from pydantic import Field
 
 import openral_data.producers.sim.mujoco  # noqa: F401  (chooses a headless MUJOCO_GL before mujoco loads)
 from openral_data.errors import CompatibilityError, ConfigError
 from openral_data.producers.base import CameraShape, Observation, ProducerSpec, StepResult
 from openral_data.producers.sim import mjstate
 from openral_data.producers.sim.named_cameras import NamedCameraRig
-from openral_data.schemas.base import StrictModel, format_validation_error
+from openral_data.schemas.base import StrictModel, validate
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
@@ -110,10 +111,7 @@ class RobosuiteScene:
     def __init__(
         self, scene: SimScene, robot: RobotManifest, rskill: RSkillManifest, source: str, rskill_source: str
     ) -> None:
-        try:
-            self.params = RobosuiteParams.model_validate(scene.scene.params)
-        except ValidationError as exc:
-            raise ConfigError(format_validation_error(f"{source}: scene.params", exc)) from None
+        self.params = validate(RobosuiteParams, scene.scene.params, f"{source}: scene.params")
         if robot.name not in ROBOTS:
             raise ConfigError(
                 f"{source}: scene.robot: robosuite scenes support {', '.join(ROBOTS)}, got {robot.name!r}"
@@ -160,6 +158,7 @@ class RobosuiteScene:
         self._obs: dict[str, Any] = {}
         self.model = self.env.sim.model._model
         self.data = self.env.sim.data._data
+        self._objects = {o.name: self.model.body(o.root_body).id for o in self.env.model.mujoco_objects}
         with _seeded_global_numpy(0):
             self._obs = self.env.reset()
         n_arm = len(self._obs["robot0_joint_pos"])
@@ -194,6 +193,7 @@ class RobosuiteScene:
             "suite": "robosuite",
             "env": self.env_name,
             "seed": seed,
+            "object_poses": {k: v.tolist() for k, v in self._object_poses().items()},
             "mujoco": mjstate.snapshot(self.model, self.data),
         }
         return self._observation()
@@ -248,6 +248,11 @@ class RobosuiteScene:
             if m.body(m.geom_bodyid[g]).name.startswith(ROBOT_BODY_PREFIXES):
                 m.geom_group[g] = HIDDEN_ROBOT_VISUAL if m.geom_group[g] == VISUAL else ROBOT_COLLISION
 
+    def _object_poses(self) -> dict[str, npt.NDArray[np.float64]]:
+        """Each task object's root body: [x, y, z, qw, qx, qy, qz], world frame (replay compares them)."""
+        d = self.data
+        return {name: np.concatenate([d.xpos[b], d.xquat[b]]) for name, b in self._objects.items()}
+
     def _gripper(self) -> float:
         q = np.asarray(self._obs["robot0_gripper_qpos"], dtype=np.float64)
         width = float(q[0] - q[1])
@@ -270,6 +275,7 @@ class RobosuiteScene:
             if not k.startswith("robot0_") and not k.endswith("-state")
         }
         privileged["eef_pos"] = np.array(self._obs["robot0_eef_pos"], dtype=np.float64)
+        privileged["object_poses"] = self._object_poses()
         privileged["suite"] = "robosuite"
         privileged["env"] = self.env_name
         return Observation(
