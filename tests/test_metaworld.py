@@ -60,8 +60,10 @@ def test_expert_succeeds_at_least_90_percent_over_20_seeds(scene_id: str) -> Non
     assert wins >= 18, (scene_id, wins, lengths)
 
 
-def test_seed_is_one_initial_state_and_reset_to_replays_bit_for_bit() -> None:
-    env, expert = build("metaworld_pick_place", "metaworld-expert")
+@pytest.mark.parametrize("scene_id", ["metaworld_pick_place", "metaworld_drawer_open"])
+def test_seed_is_one_initial_state_and_reset_to_replays_bit_for_bit(scene_id: str) -> None:
+    """drawer-open places the drawer by editing the model; writing a state back drifts there, reproducing does not."""
+    env, expert = build(scene_id, "metaworld-expert")
     try:
         assert env.spec.can_restore_state and env.spec.fps == 80 and env.spec.state_dim == 4
         obs = env.reset(11)
@@ -78,6 +80,10 @@ def test_seed_is_one_initial_state_and_reset_to_replays_bit_for_bit() -> None:
 
         with pytest.raises(ConfigError, match="initial_state: task: recorded on 'reach-v3'"):
             env.reset_to({**initial, "task": "reach-v3"})
+        tampered = json.loads(json.dumps(initial))
+        tampered["mujoco"]["integration_state"][1] += 1e-3
+        with pytest.raises(ConfigError, match="initial_state: mujoco: MetaWorld's reset with seed 11 does not"):
+            env.reset_to(tampered)
         with pytest.raises(ConfigError, match="initial_state: rand_vec: this MetaWorld draws another placement"):
             env.reset_to({**initial, "rand_vec": [0.0] * len(initial["rand_vec"])})
     finally:
