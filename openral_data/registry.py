@@ -52,6 +52,26 @@ def _libero_factory(scene: SimScene, robot: RobotManifest, rskill: RSkillManifes
     from openral_data.producers.sim.libero.scene import LiberoScene
 
     return LiberoScene(scene, rskill, source=source, rskill_source=f"rskill {rskill.id}")
+def _suite_factory(kind: Literal["robosuite", "metaworld"]) -> SceneFactory:
+    """Benchmark-suite simulators (issue 7): imported only when a scene of theirs is built."""
+
+    def make(scene: SimScene, robot: RobotManifest, rskill: RSkillManifest, source: str) -> SimRollout:
+        rskill_source = f"rskill {rskill.id}"
+        if kind == "robosuite":
+            from openral_data.producers.sim.robosuite import RobosuiteScene
+
+            return RobosuiteScene(scene, robot, rskill, source, rskill_source)
+        from openral_data.producers.sim.metaworld import MetaWorldScene
+
+        return MetaWorldScene(scene, robot, rskill, source, rskill_source)
+
+    return make
+
+
+def _metaworld_expert(rskill: RSkillManifest) -> PolicyAdapter:
+    from openral_data.policies.metaworld_expert import MetaWorldExpert
+
+    return MetaWorldExpert(rskill)
 
 
 def _scripted(name: str) -> PolicyFactory:
@@ -77,12 +97,15 @@ SCENES: dict[str, SceneFactory] = {
     "gym_pusht": _pusht_factory,
     "gym_aloha": _aloha_factory,
     "libero": _libero_factory,
+    "robosuite": _suite_factory("robosuite"),
+    "metaworld": _suite_factory("metaworld"),
 }
 POLICIES: dict[str, PolicyFactory] = {
     "zero": ZeroPolicy,
     "random": RandomPolicy,
     "scripted_push": _scripted("ScriptedPush"),
     "scripted_pick_place": _scripted("ScriptedPickPlace"),
+    "metaworld_expert": _metaworld_expert,
     "lerobot": _lerobot,
 }
 

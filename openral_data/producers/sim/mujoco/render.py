@@ -35,10 +35,7 @@ class CameraRig:
         self._renderers: dict[str, mujoco.Renderer] = {}
         try:
             for cam in cameras:
-                r = mujoco.Renderer(model, height=cam.height, width=cam.width)
-                r.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = render.shadows
-                r.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = render.reflections
-                self._renderers[cam.name] = r
+                self._renderers[cam.name] = offscreen_renderer(model, cam, render)
         except BaseException:
             self.close()
             raise
@@ -54,3 +51,11 @@ class CameraRig:
         for r in self._renderers.values():
             r.close()
         self._renderers.clear()
+
+
+def offscreen_renderer(model: mujoco.MjModel, cam: SceneCamera, render: RenderConfig) -> mujoco.Renderer:
+    """A renderer of the camera's size with the scene's shadow/reflection choice."""
+    r = mujoco.Renderer(model, height=cam.height, width=cam.width)
+    r.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = render.shadows
+    r.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = render.reflections
+    return r

@@ -1,0 +1,287 @@
+"""`robosuite` scenes: robosuite 1.5.1 manipulation tasks (Lift, Stack, PickPlaceCan, Door, ...) as a SimRollout.
+
+The robot is fixed by the scene (robosuite's Panda for the `franka_panda` manifest) and driven by robosuite's
+OSC_POSE arm controller: the action is robosuite's own normalised 7-vector [dx, dy, dz, dax, day, daz, gripper]
+in [-1, 1] (scaled by the controller to at most 5 cm and 0.5 rad per step; gripper -1 open .. +1 closed), stored
+exactly as the policy emitted it. The control rate is the scene's `fps` (robosuite's `control_freq`).
+
+Observation state, by the rSkill state contract's representation:
+* `eef_pose_gripper` (8): end-effector [x, y, z] + quaternion [qw, qx, qy, qz] (world frame, qw >= 0) + gripper
+  closure (0 open .. 1 closed, from the finger joints)
+* `joint_positions_gripper` (n + 1): arm joint positions + gripper closure
+Success is the task's own `_check_success()`; the reward is robosuite's sparse task reward. Object observations
+and every task object's pose (`object_poses`, also in `initial_state()`, which replay compares) go to
+`Observation.privileged` and are never recorded. `Observation.time` is simulation time
+since reset. Cameras are the model's named cameras (`agentview`, `robot0_eye_in_hand`, ...), rendered upright by
+our own offscreen renderers (so resolution and shadows come from the YAML).
+
+Seeds: robosuite draws object placements and joint noise from numpy's global generator; `reset(seed)` seeds it
+for the duration of the reset only (the caller's global random state is put back), so a seed is one initial
+state. `reset_to` repeats that reset and checks it reproduces the recorded MuJoCo state (see mjstate.py).
+"""
+
+from __future__ import annotations
+
+import logging
+import random
+import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any, Literal
+
+import numpy as np
+import numpy.typing as npt
+from pydantic import Field
+
+import openral_data.producers.sim.mujoco  # noqa: F401  (chooses a headless MUJOCO_GL before mujoco loads)
+from openral_data.errors import CompatibilityError, ConfigError
+from openral_data.producers.base import CameraShape, Observation, ProducerSpec, StepResult
+from openral_data.producers.sim import mjstate
+from openral_data.producers.sim.named_cameras import NamedCameraRig
+from openral_data.schemas.base import StrictModel, validate
+from openral_data.schemas.robot import RobotManifest
+from openral_data.schemas.rskill import RSkillManifest
+from openral_data.schemas.scene import SimScene
+
+STATE_FORMAT = 1
+STATE_REPRESENTATIONS = ("eef_pose_gripper", "joint_positions_gripper")
+ACTION_REPRESENTATIONS = ("delta_eef_gripper",)
+ROBOTS = {"franka_panda": "Panda"}  # our manifest -> robosuite robot name
+GRIPPER_OPEN_WIDTH = 0.08  # Panda fingers: 2 x 4 cm
+# robosuite's geom groups: 0 collision, 1 visual, 2 controller target markers (never drawn). With
+# `render.robot_meshes: collision` (the default) the robot's visual meshes (~50 detailed meshes, ~4x slower on a
+# CPU renderer) move to group 3 and its collision geoms to group 4, which is drawn with everything's visual group.
+ROBOT_BODY_PREFIXES = ("robot0_", "gripper0_", "fixed_mount0_", "mount0_")
+VISUAL, HIDDEN_ROBOT_VISUAL, ROBOT_COLLISION = 1, 3, 4
+
+
+class RobosuiteParams(StrictModel):
+    env: Literal[
+        "Lift",
+        "Stack",
+        "PickPlaceCan",
+        "PickPlaceMilk",
+        "PickPlaceBread",
+        "PickPlaceCereal",
+        "Door",
+        "NutAssemblyRound",
+    ] = Field(description="robosuite environment name")
+    controller: Literal["OSC_POSE"] = "OSC_POSE"
+    terminate_on_success: bool = True
+
+
+@contextmanager
+def _seeded_global_numpy(seed: int) -> Iterator[None]:
+    """robosuite draws from numpy's (and Python's) global generators: seed both for one reset or construction,
+    then put back the caller's states."""
+    saved, saved_py = np.random.get_state(), random.getstate()
+    np.random.seed(seed)
+    random.seed(seed)
+    try:
+        yield
+    finally:
+        np.random.set_state(saved)
+        random.setstate(saved_py)
+
+
+def _quiet(record: logging.LogRecord) -> bool:
+    return record.levelno >= logging.ERROR
+
+
+def _import_robosuite() -> Any:
+    """Import robosuite without its console chatter: at import it warns about optional packages we do not use
+    (robosuite_models, mink) and per environment about controller parts the Panda lacks; errors still show."""
+    logger = logging.getLogger("robosuite_logs")
+    if _quiet not in logger.filters:
+        logger.addFilter(_quiet)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # SyntaxWarnings from robosuite's docstrings when compiled
+            import robosuite  # type: ignore[import-untyped]
+    except ImportError:
+        raise ConfigError(
+            "robosuite scenes need the robosuite extra: `uv sync --extra robosuite` (robosuite 1.5.1, mujoco 3.3.0)"
+        ) from None
+    return robosuite
+
+
+class RobosuiteScene:
+    """One robosuite environment, built once; `reset(seed)` per episode; `close()` frees renderers."""
+
+    def __init__(
+        self, scene: SimScene, robot: RobotManifest, rskill: RSkillManifest, source: str, rskill_source: str
+    ) -> None:
+        self.params = validate(RobosuiteParams, scene.scene.params, f"{source}: scene.params")
+        if robot.name not in ROBOTS:
+            raise ConfigError(
+                f"{source}: scene.robot: robosuite scenes support {', '.join(ROBOTS)}, got {robot.name!r}"
+            )
+        self.state_representation = rskill.state_contract.representation
+        action_rep = rskill.action_contract.representation
+        if self.state_representation not in STATE_REPRESENTATIONS:
+            raise CompatibilityError(
+                f"{rskill_source}: state_contract.representation: {self.state_representation!r} is not produced by "
+                f"robosuite scenes (they produce {', '.join(STATE_REPRESENTATIONS)})"
+            )
+        if action_rep not in ACTION_REPRESENTATIONS:
+            raise CompatibilityError(
+                f"{rskill_source}: action_contract.representation: {action_rep!r} is not accepted by robosuite "
+                f"scenes (they accept {', '.join(ACTION_REPRESENTATIONS)}: robosuite's normalised OSC_POSE action)"
+            )
+        if 500 % scene.scene.fps:
+            raise ConfigError(
+                f"{source}: scene.fps: must divide robosuite's 500 Hz physics rate, got {scene.scene.fps}"
+            )
+        suite = _import_robosuite()
+        from robosuite.controllers import load_composite_controller_config  # type: ignore[import-untyped]
+
+        rs_robot = ROBOTS[robot.name]
+        config = load_composite_controller_config(controller="BASIC", robot=rs_robot)
+        # robosuite also draws at construction (Lift's cube size, for one): a fixed seed makes the model the same
+        # in every process, so a recorded state can be reproduced by `replay` elsewhere
+        with _seeded_global_numpy(0):
+            self.env: Any = suite.make(
+                self.params.env,
+                robots=rs_robot,
+                controller_configs=config,
+                has_renderer=False,
+                has_offscreen_renderer=False,  # we render the named cameras ourselves (see named_cameras.py)
+                use_camera_obs=False,
+                use_object_obs=True,
+                control_freq=scene.scene.fps,
+                horizon=1_000_000,  # episode length is record's --max-steps
+                ignore_done=True,
+                hard_reset=False,  # keep one compiled model: resets only re-place objects (and stay restorable)
+                reward_shaping=False,
+            )
+        self.env_name = self.params.env
+        self._obs: dict[str, Any] = {}
+        self.model = self.env.sim.model._model
+        self.data = self.env.sim.data._data
+        self._objects = {o.name: self.model.body(o.root_body).id for o in self.env.model.mujoco_objects}
+        with _seeded_global_numpy(0):
+            self._obs = self.env.reset()
+        n_arm = len(self._obs["robot0_joint_pos"])
+        state_dim = 8 if self.state_representation == "eef_pose_gripper" else n_arm + 1
+        self.spec = ProducerSpec(
+            state_dim=state_dim,
+            action_dim=int(self.env.action_dim),
+            cameras={c.name: CameraShape(c.height, c.width) for c in scene.scene.cameras},
+            fps=scene.scene.fps,
+            can_restore_state=True,
+        )
+        self._task_text = scene.task.instruction
+        self._seed = 0
+        self._t0 = 0.0
+        self._initial: dict[str, Any] = {}
+        groups: tuple[int, ...] = (VISUAL,)
+        if scene.scene.render.robot_meshes == "collision":
+            self._coarse_robot()
+            groups = (VISUAL, ROBOT_COLLISION)
+        self._rig = NamedCameraRig(
+            self.model, self.data, list(scene.scene.cameras), scene.scene.render, source, geom_groups=groups
+        )
+
+    # -- SimRollout ------------------------------------------------------------------------------------------
+    def reset(self, seed: int) -> Observation:
+        self._seed = seed
+        with _seeded_global_numpy(seed):
+            self._obs = self.env.reset()
+        self._t0 = float(self.data.time)
+        self._initial = {
+            "format": STATE_FORMAT,
+            "suite": "robosuite",
+            "env": self.env_name,
+            "seed": seed,
+            "object_poses": {k: v.tolist() for k, v in self._object_poses().items()},
+            "mujoco": mjstate.snapshot(self.model, self.data),
+        }
+        return self._observation()
+
+    def reset_to(self, initial_state: dict[str, Any]) -> Observation:
+        """Repeat the recorded seed's reset and check that it lands on the recorded MuJoCo state, bit for bit.
+
+        robosuite keeps controller and observable state in Python next to MuJoCo's (refreshing its observables
+        alone changes the following steps), so a state is restored by reproducing it, not by writing it: a
+        recorded state this robosuite does not reproduce from its seed is refused.
+        """
+        if initial_state.get("format") != STATE_FORMAT or initial_state.get("suite") != "robosuite":
+            raise ConfigError(f"initial_state: format: not a robosuite state of format {STATE_FORMAT}")
+        if initial_state.get("env") != self.env_name:
+            raise ConfigError(
+                f"initial_state: env: recorded on {initial_state.get('env')!r}, this scene is {self.env_name!r}"
+            )
+        seed = int(initial_state.get("seed", 0))
+        obs = self.reset(seed)
+        if not mjstate.same_state(self._initial["mujoco"], initial_state.get("mujoco", {})):
+            raise ConfigError(
+                f"initial_state: mujoco: robosuite's reset with seed {seed} does not reproduce the recorded state "
+                "(recorded with another robosuite/mujoco version or scene?)"
+            )
+        return obs
+
+    def step(self, action: npt.NDArray[np.float32]) -> StepResult:
+        self._obs, reward, _, _ = self.env.step(np.asarray(action, dtype=np.float64))
+        success = bool(self.env._check_success())
+        return StepResult(
+            self._observation(),
+            reward=float(reward),
+            success=success,
+            terminated=success and self.params.terminate_on_success,
+        )
+
+    def render(self) -> dict[str, npt.NDArray[np.uint8]]:
+        return self._rig.render(self.data)
+
+    def initial_state(self) -> dict[str, Any]:
+        return dict(self._initial)
+
+    def close(self) -> None:
+        self._rig.close()
+        self.env.close()
+
+    # -- helpers ---------------------------------------------------------------------------------------------
+    def _coarse_robot(self) -> None:
+        """Draw the robot with its collision geoms (geom groups only affect drawing, never physics)."""
+        m = self.model
+        for g in range(m.ngeom):
+            if m.body(m.geom_bodyid[g]).name.startswith(ROBOT_BODY_PREFIXES):
+                m.geom_group[g] = HIDDEN_ROBOT_VISUAL if m.geom_group[g] == VISUAL else ROBOT_COLLISION
+
+    def _object_poses(self) -> dict[str, npt.NDArray[np.float64]]:
+        """Each task object's root body: [x, y, z, qw, qx, qy, qz], world frame (replay compares them)."""
+        d = self.data
+        return {name: np.concatenate([d.xpos[b], d.xquat[b]]) for name, b in self._objects.items()}
+
+    def _gripper(self) -> float:
+        q = np.asarray(self._obs["robot0_gripper_qpos"], dtype=np.float64)
+        width = float(q[0] - q[1])
+        return float(np.clip(1.0 - width / GRIPPER_OPEN_WIDTH, 0.0, 1.0))
+
+    def _state(self) -> npt.NDArray[np.float32]:
+        o = self._obs
+        if self.state_representation == "joint_positions_gripper":
+            joints = np.asarray(o["robot0_joint_pos"], dtype=np.float64)
+            return np.append(joints, self._gripper()).astype(np.float32)
+        x, y, z, w = (float(v) for v in o["robot0_eef_quat"])  # robosuite quaternions are xyzw
+        quat = np.array([w, x, y, z]) * (1.0 if w >= 0 else -1.0)
+        pos = np.asarray(o["robot0_eef_pos"], dtype=np.float64)
+        return np.concatenate([pos, quat, [self._gripper()]]).astype(np.float32)
+
+    def _observation(self) -> Observation:
+        privileged: dict[str, Any] = {
+            k: np.array(v, dtype=np.float64)
+            for k, v in self._obs.items()
+            if not k.startswith("robot0_") and not k.endswith("-state")
+        }
+        privileged["eef_pos"] = np.array(self._obs["robot0_eef_pos"], dtype=np.float64)
+        privileged["object_poses"] = self._object_poses()
+        privileged["suite"] = "robosuite"
+        privileged["env"] = self.env_name
+        return Observation(
+            images=self.render(),
+            state=self._state(),
+            task=self._task_text,
+            time=float(self.data.time) - self._t0,
+            privileged=privileged,
+        )
