@@ -56,7 +56,14 @@ POLICIES: dict[str, PolicyFactory] = {
     "random": RandomPolicy,
     "scripted_push": _scripted("ScriptedPush"),
     "scripted_pick_place": _scripted("ScriptedPickPlace"),
+    "sweep": lambda rskill: _sweep(rskill),  # noqa: PLW0108 - the module is imported on first use
 }
+
+
+def _sweep(rskill: RSkillManifest) -> PolicyAdapter:
+    from openral_data.policies.sweep import SweepPolicy
+
+    return SweepPolicy(rskill)
 
 
 def unknown(kind: str, value: str, valid: list[str]) -> OpenralError:
