@@ -10,15 +10,16 @@ Tick k of an episode is due at `t0 + k / fps` (monotonic clock). At each tick th
 
 A tick whose work ends after the next deadline is an **overrun**; deadlines that passed entirely are
 **missed** ticks (the loop never bursts to catch up). So `ticks == frames + missed + stale` exactly, and each
-frame says how many ticks were missed just before it. A camera sample recorded twice is counted as a
-**repeat** (the sample's age is in the row): reuse of the newest sample is visible, never silent.
+frame says how many ticks were missed and how many were stale just before it. A camera sample recorded twice
+is counted as a **repeat** (the sample's age is in the row): reuse of the newest sample is visible, never
+silent.
 
 Stored per frame (LeRobot: float32 columns; MCAP: the message stamps): `timestamp` stays frame-aligned
 (`frame_index / fps`, what lerobot expects); `openral.real_timestamp` is the monotonic time of the joint
 reading since the episode began (also `Observation.time`, the MCAP stamp); `openral.tick`,
-`openral.ticks_missed`, `openral.safety_interventions` and `openral.sample_age.<camera>`. The episode's
-report (overruns, stale and repeat counts, every safety intervention, the operator's verdict) goes to the
-episode record (`openral.episode_info` in meta/episodes).
+`openral.ticks_missed`, `openral.ticks_stale`, `openral.safety_interventions` and
+`openral.sample_age.<camera>`. The episode's report (overruns, stale and repeat counts, every safety
+intervention, the operator's verdict) goes to the episode record (`openral.episode_info` in meta/episodes).
 """
 
 from __future__ import annotations
@@ -44,13 +45,14 @@ from openral_data.sinks.base import EpisodeRecord
 REAL_TIMESTAMP = "openral.real_timestamp"
 TICK = "openral.tick"
 TICKS_MISSED = "openral.ticks_missed"
+TICKS_STALE = "openral.ticks_stale"
 SAFETY = "openral.safety_interventions"
 SAMPLE_AGE = "openral.sample_age."
 MAX_LOGGED_INTERVENTIONS = 1000  # per episode in the JSON record; the per-frame column counts all of them
 
 
 def frame_extras(cameras: list[str]) -> tuple[str, ...]:
-    return (REAL_TIMESTAMP, TICK, TICKS_MISSED, SAFETY, *(SAMPLE_AGE + c for c in cameras))
+    return (REAL_TIMESTAMP, TICK, TICKS_MISSED, TICKS_STALE, SAFETY, *(SAMPLE_AGE + c for c in cameras))
 
 
 class EpisodeEnd(StrEnum):
@@ -132,7 +134,7 @@ class FixedRateLoop:
         last_seq: dict[str, int] = {}
         pending: _Row | None = None
         verdict: Command | None = None
-        missed_before = 0
+        skipped = [0, 0]  # ticks missed / stale since the last recorded frame
         t0 = monotonic()
         k = 0
         try:
@@ -149,7 +151,9 @@ class FixedRateLoop:
                     verdict = cmd
                     rep.ticks = k  # this tick was not worked on
                     break
-                row = self._tick(k, t0, rep, last_seq, missed_before)
+                stale_before = rep.stale_ticks
+                row = self._tick(k, t0, rep, last_seq, skipped)
+                skipped[1] += rep.stale_ticks - stale_before
                 if row is not None:
                     if pending is not None:
                         self.bridge.add_step(
@@ -157,7 +161,7 @@ class FixedRateLoop:
                             success=pending.success, extras=pending.extras,
                         )  # fmt: skip
                     pending = row
-                    missed_before = 0
+                    skipped = [0, 0]
                 outcome = hal.outcome()
                 if (outcome is not None and outcome[2]) or rep.frames >= cfg.max_steps:
                     break
@@ -167,7 +171,7 @@ class FixedRateLoop:
                     rep.overruns += 1
                     late_k = max(next_k, math.floor((end - t0) / self.dt))
                     rep.missed_ticks += late_k - next_k
-                    missed_before += late_k - next_k
+                    skipped[0] += late_k - next_k
                     next_k = late_k
                 k = next_k
         except EstopLatched as exc:  # latched by someone else (another thread, the driver) mid-tick
@@ -179,7 +183,7 @@ class FixedRateLoop:
             raise
         return self._finish(verdict, pending, rep)
 
-    def _tick(self, k: int, t0: float, rep: EpisodeReport, last_seq: dict[str, int], missed_before: int) -> _Row | None:
+    def _tick(self, k: int, t0: float, rep: EpisodeReport, last_seq: dict[str, int], skipped: list[int]) -> _Row | None:
         hal, cfg = self.hal, self.config
         try:
             state = hal.read_state()
@@ -227,7 +231,8 @@ class FixedRateLoop:
         extras = {
             REAL_TIMESTAMP: state.stamp - t0,
             TICK: float(k),
-            TICKS_MISSED: float(missed_before),
+            TICKS_MISSED: float(skipped[0]),
+            TICKS_STALE: float(skipped[1]),
             SAFETY: float(len(result.interventions)),
             **{SAMPLE_AGE + n: a for n, a in ages.items()},
         }

@@ -1,0 +1,134 @@
+"""The fixed-rate loop on the UR5e MuJoCo twin: operator verdicts, timestamps, tick accounting, and a slow
+sensor + a slow policy that must show up as stale ticks, repeats and overruns — never as silent gaps."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import av
+import numpy as np
+import pytest
+from conftest import run_cli
+from hal_helpers import SlowCamera, SlowPolicy, episode_infos, frames_table, run_loop, ur5e_twin
+
+from openral_data import registry
+from openral_data.producers.hal.loop import EpisodeEnd
+from openral_data.producers.hal.operator import ScriptedOperator, parse_script
+
+
+def _sweep() -> object:
+    rskill, path = registry.resolve_rskill("sweep-ur5e")
+    return registry.policy_factory(rskill, str(path))(rskill)
+
+
+def _check_ticks(cols: dict[str, list[float]], fps: int) -> None:
+    """Within each episode: frame timestamps are frame-aligned; the tick column, the missed/stale counts and
+    the real monotonic timestamps agree with each other."""
+    eps = np.asarray(cols["episode_index"])
+    for e in np.unique(eps):
+        sel = eps == e
+        frame = np.asarray(cols["frame_index"])[sel]
+        ts = np.asarray(cols["timestamp"])[sel]
+        assert np.allclose(ts, frame / fps, atol=1e-6)
+        tick = np.asarray(cols["openral.tick"])[sel]
+        skipped = np.asarray(cols["openral.ticks_missed"])[sel] + np.asarray(cols["openral.ticks_stale"])[sel]
+        assert np.array_equal(np.diff(tick) - 1, skipped[1:]), "a gap in the ticks nobody accounted for"
+        assert skipped[0] == tick[0]
+        real = np.asarray(cols["openral.real_timestamp"])[sel]
+        assert np.all(np.diff(real) > 0)
+        # each frame's joint reading was taken at or after its tick's deadline, and before the next one
+        assert np.all(real >= tick / fps - 1e-4)
+
+
+def test_operator_verdicts_and_frame_aligned_timestamps(tmp_path: Path) -> None:
+    hal = ur5e_twin()  # the manifest's wrist camera, rendered by MuJoCo
+    op = ScriptedOperator(parse_script("success@8,discard@3,rerecord@2,failure"))
+    out = tmp_path / "ds"
+    results = run_loop(hal, _sweep(), op, out, fps=20, max_steps=10, episodes=4)  # type: ignore[arg-type]
+    assert [end for end, _ in results] == [EpisodeEnd.KEPT, EpisodeEnd.DISCARDED, EpisodeEnd.RERECORD, EpisodeEnd.KEPT]
+    assert [r.frames for _, r in results] == [8, 3, 2, 10]
+    for _, rep in results:
+        assert rep.accounted(), rep
+    cols = frames_table(out)
+    assert list(np.unique(cols["episode_index"])) == [0, 1]
+    assert sum(1 for e in cols["episode_index"] if e == 0) == 8
+    _check_ticks(cols, 20)
+    # the recorded action is what was sent: inside the joint limits, steps within the velocity limit
+    assert np.all(np.asarray(cols["openral.sample_age.wrist"]) < 0.15)
+    infos = episode_infos(out)
+    assert [i["hal"]["verdict"] for i in infos] == ["success", "failure"]
+    assert [i["hal"]["frames"] for i in infos] == [8, 10]
+    from pyarrow import parquet as pq
+
+    ep = pq.read_table(next((out / "meta" / "episodes").rglob("*.parquet"))).to_pydict()
+    assert ep["openral.success"] == [True, False]
+    done = np.asarray(cols["next.done"])
+    assert done.sum() == 2 and done[7] and done[-1]
+
+
+def test_slow_sensor_and_slow_policy_are_reported_not_hidden(tmp_path: Path) -> None:
+    hal = ur5e_twin(cameras=[])
+    slow = SlowCamera("slow", period=0.3)  # 3.3 Hz camera, 20 Hz loop, 0.1 s staleness limit
+    hal.cameras["slow"] = slow
+    policy = SlowPolicy(_sweep(), slow_steps={3, 8}, delay=0.17)  # type: ignore[arg-type]
+    out = tmp_path / "ds"
+    [(end, rep)] = run_loop(hal, policy, ScriptedOperator(), out, fps=20, max_steps=12, staleness=0.1)
+    assert end is EpisodeEnd.KEPT and rep.frames == 12
+    assert rep.accounted(), rep
+    assert rep.overruns >= 2 and rep.missed_ticks >= 4, rep  # 0.17 s of work in a 0.05 s period: >= 2 missed
+    assert rep.stale["slow"] > 0 and rep.stale_ticks == sum(rep.stale.values()), rep
+    assert rep.repeated["slow"] > 0, rep
+
+    cols = frames_table(out)
+    _check_ticks(cols, 20)
+    assert int(sum(cols["openral.ticks_missed"])) == rep.missed_ticks
+    assert int(sum(cols["openral.ticks_stale"])) == rep.stale_ticks
+    assert max(cols["openral.sample_age.slow"]) <= 0.1 + 1e-6, "a frame used a sample beyond the limit"
+    # the slow policy's ticks are the ones followed by missed ticks
+    missed_at = [i for i, m in enumerate(cols["openral.ticks_missed"]) if m > 0]
+    assert {4, 9} <= set(missed_at), missed_at
+
+    # decoded video: each recorded image is a camera sample (its grey level is the sample number); reused
+    # samples are exactly the repeats the report counted, and no sample number goes backwards
+    video = next((out / "videos").rglob("*.mp4"))
+    with av.open(str(video)) as container:
+        levels = [round(float(f.to_ndarray(format="rgb24").mean()) / 10) for f in container.decode(video=0)]
+    assert len(levels) == 12
+    assert all(b >= a for a, b in zip(levels, levels[1:], strict=False)), levels
+    assert sum(1 for a, b in zip(levels, levels[1:], strict=False) if a == b) == rep.repeated["slow"], levels
+    infos = episode_infos(out)
+    assert infos[0]["hal"]["stale"]["slow"] == rep.stale["slow"]
+
+
+def test_cli_records_through_the_twin(tmp_path: Path, project: Path) -> None:
+    out = tmp_path / "cli"
+    r = run_cli(
+        "record", "--hal", "ur5e", "--rskill", "sweep-ur5e", "--fps", "20", "--max-steps", "6",
+        "--n-episodes", "2", "--operator", "success@4,discard@2", "--codec", "h264", "--out", str(out),
+        env={"MUJOCO_GL": "egl"},
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert "2 kept, 1 discarded" in r.stdout
+    assert "overruns" in r.stdout and "safety interventions" in r.stdout
+    cols = frames_table(out)
+    assert len(cols["index"]) == 4 + 6
+    # nothing is overwritten: the same --out again is refused
+    again = run_cli("record", "--hal", "ur5e", "--rskill", "sweep-ur5e", "--out", str(out))
+    assert again.returncode == 2 and "refusing to overwrite" in again.stderr
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--hal", "nosuch", "--rskill", "sweep-ur5e"], "error: unknown robot 'nosuch'"),
+        (["--hal", "ur5e", "--rskill", "sweep-ur5e", "--mode", "real"], "hardware: robot 'ur5e' has no hardware"),
+        (["--hal", "ur5e", "--rskill", "sweep-so-arm"], "embodiment_tags"),
+        (["--hal", "ur5e", "--rskill", "sweep-ur5e", "--operator", "win@3"], "unknown verdict"),
+        (["--hal", "ur5e", "--rskill", "sweep-ur5e", "--safety", "maybe"], "--safety"),
+    ],
+)
+def test_cli_errors_are_one_line(tmp_path: Path, project: Path, args: list[str], message: str) -> None:
+    r = run_cli("record", *args, "--out", str(tmp_path / "o"), env={"MUJOCO_GL": "egl"})
+    assert r.returncode == 2, (r.stdout, r.stderr)
+    assert message in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert not (tmp_path / "o").exists()
