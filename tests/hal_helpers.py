@@ -32,10 +32,10 @@ class SlowCamera(ThreadedCamera):
     """A camera whose device needs `period` seconds per image; image k is solid grey level 10 k (mod 260),
     coarse enough that a lossy codec cannot merge neighbours."""
 
-    def __init__(self, name: str, period: float, shape: CameraShape = CameraShape(32, 32)) -> None:
+    def __init__(self, name: str, period: float, shape: CameraShape | None = None) -> None:
         self.count = 0
         self.period = period
-        super().__init__(name, shape, self._capture)
+        super().__init__(name, shape or CameraShape(32, 32), self._capture)
 
     def _capture(self) -> npt.NDArray[np.uint8]:
         time.sleep(self.period)

@@ -81,7 +81,7 @@ def test_stale_joint_state_is_detected() -> None:
     try:
         hal.read_state()  # fresh
         hal.delay = hal.max_state_age + 0.05
-        with pytest.raises(StaleState, match="joint state is .* ms old"):
+        with pytest.raises(StaleState, match=r"joint state is .* ms old"):
             hal.read_state()
     finally:
         hal.disconnect()
@@ -143,7 +143,7 @@ def test_workspace_bound_on_the_twin(twin: MujocoTwinHal) -> None:
 
 
 def test_workspace_without_kinematics_is_a_config_error() -> None:
-    with pytest.raises(ConfigError, match="safety.workspace"):
+    with pytest.raises(ConfigError, match=r"safety\.workspace"):
         _filter("clamp", Workspace(x=(0, 1), y=(0, 1), z=(0, 1)))
 
 

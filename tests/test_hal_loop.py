@@ -3,6 +3,7 @@ sensor + a slow policy that must show up as stale ticks, repeats and overruns â€
 
 from __future__ import annotations
 
+from itertools import pairwise
 from pathlib import Path
 
 import av
@@ -94,8 +95,8 @@ def test_slow_sensor_and_slow_policy_are_reported_not_hidden(tmp_path: Path) -> 
     with av.open(str(video)) as container:
         levels = [round(float(f.to_ndarray(format="rgb24").mean()) / 10) for f in container.decode(video=0)]
     assert len(levels) == 12
-    assert all(b >= a for a, b in zip(levels, levels[1:], strict=False)), levels
-    assert sum(1 for a, b in zip(levels, levels[1:], strict=False) if a == b) == rep.repeated["slow"], levels
+    assert all(b >= a for a, b in pairwise(levels)), levels
+    assert sum(1 for a, b in pairwise(levels) if a == b) == rep.repeated["slow"], levels
     infos = episode_infos(out)
     assert infos[0]["hal"]["stale"]["slow"] == rep.stale["slow"]
 
