@@ -218,6 +218,7 @@ def _run(
         has_reward=isinstance(hal, SceneHal),
         frame_extras=frame_extras(cameras),
     )
+    hal.connect()  # a robot that cannot be reached fails here, before anything is written
     sinks: list[Sink] = make_sinks(
         out, schema, opts.formats, WriterConfig(video=VideoSettings(codec=opts.codec)), opts.image_format
     )
@@ -231,7 +232,6 @@ def _run(
     loop = FixedRateLoop(hal, policy, safety, bridge, operator, LoopConfig(opts.fps, task, opts.max_steps, staleness))
     summary = HalRecordSummary(out=out, episodes=[], reports=[], discarded=0, frames=0, seconds=0.0)
     t0 = time.perf_counter()
-    hal.connect()
     try:
         rerecord = False
         while len(summary.episodes) < opts.n_episodes:
