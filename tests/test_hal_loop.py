@@ -13,8 +13,10 @@ from conftest import run_cli
 from hal_helpers import SlowCamera, SlowPolicy, episode_infos, frames_table, run_loop, ur5e_twin
 
 from openral_data import registry
+from openral_data.producers.base import Observation
 from openral_data.producers.hal.loop import EpisodeEnd
 from openral_data.producers.hal.operator import ScriptedOperator, parse_script
+from openral_data.producers.hal.safety import SafetyFilter
 
 
 def _sweep() -> object:
@@ -133,3 +135,47 @@ def test_cli_errors_are_one_line(tmp_path: Path, project: Path, args: list[str],
     assert r.returncode == 2, (r.stdout, r.stderr)
     assert message in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert not (tmp_path / "o").exists()
+
+
+class JumpPolicy:
+    """Commands the home posture with the shoulder 1 rad away: far beyond one period at the velocity limit."""
+
+    def reset(self, seed: int) -> None:
+        self.target: np.ndarray | None = None
+
+    def step(self, observation: Observation, instruction: str) -> np.ndarray:
+        if self.target is None:
+            self.target = np.asarray(observation.state, dtype=np.float32).copy()
+            self.target[0] += 1.0
+        return self.target.copy()
+
+    def close(self) -> None:
+        pass
+
+
+@pytest.mark.parametrize("mode", ["clamp", "refuse"])
+def test_safety_interventions_are_in_the_episode_record(tmp_path: Path, mode: str) -> None:
+    hal = ur5e_twin(cameras=[])
+    robot = hal.robot.model_copy(update={"safety": hal.robot.safety.model_copy(update={"mode": mode})})
+    filt = SafetyFilter(robot, fk=hal.forward_kinematics)
+    out = tmp_path / mode
+    [(_, rep)] = run_loop(hal, JumpPolicy(), ScriptedOperator(), out, fps=20, max_steps=8, safety=filt)  # type: ignore[arg-type]
+    cols = frames_table(out)
+    state = np.asarray(cols["observation.state"])
+    action = np.asarray(cols["action"])
+    per_frame = np.asarray(cols["openral.safety_interventions"])
+    assert per_frame.sum() == rep.interventions and rep.interventions >= 5
+    assert per_frame[0] == 1
+    log = episode_infos(out)[0]["hal"]["intervention_log"]
+    assert {(i["kind"], i["name"]) for i in log} == {("velocity_limit", "shoulder_pan_joint")}
+    assert all(i["commanded"] == pytest.approx(state[0, 0] + 1.0, abs=1e-4) for i in log)
+    if mode == "clamp":
+        # what was sent (and stored) never asks for more than the velocity limit allows in one period
+        step = np.abs(action[:, 0] - state[:, 0])
+        assert np.all(step <= 3.14 / 20 + 1e-4), step
+        assert state[-1, 0] > state[0, 0] + 0.2  # and the arm did move toward the target
+        assert all(i["applied"] is not None for i in log)
+    else:
+        assert rep.refused == 8 and all(i["applied"] is None for i in log)
+        assert abs(state[-1, 0] - state[0, 0]) < 0.01  # nothing was sent: the arm stayed
+        assert np.allclose(action[:, 0], state[0, 0], atol=0.01)  # the stored action is the hold it kept
