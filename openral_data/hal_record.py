@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from datetime import datetime
 from pathlib import Path
 from typing import Literal
 
@@ -20,7 +19,7 @@ from openral_data.producers.hal.loop import EpisodeEnd, EpisodeReport, FixedRate
 from openral_data.producers.hal.operator import Command, KeyboardOperator, Operator, ScriptedOperator, parse_script
 from openral_data.producers.hal.safety import SafetyFilter
 from openral_data.producers.hal.twin import MujocoTwinHal, SceneHal
-from openral_data.record import check_out
+from openral_data.record import _StopRequest, check_out, fresh_out
 from openral_data.schemas.hal import SafetyMode
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
@@ -134,16 +133,6 @@ def check_hal(hal: HalBase, robot: RobotManifest, rskill: RSkillManifest, rskill
     )
 
 
-def default_out(robot: str, rskill: str) -> Path:
-    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
-    base = paths.datasets_dir() / f"hal-{robot}--{rskill}--{stamp}"
-    out, k = base, 1
-    while out.exists():
-        k += 1
-        out = base.with_name(f"{base.name}-{k}")
-    return out
-
-
 def record_hal(opts: HalRecordOptions) -> HalRecordSummary:
     if opts.fps < 1 or opts.fps > 1000:
         raise OpenralError(f"--fps must be in 1..1000, got {opts.fps}")
@@ -162,7 +151,7 @@ def record_hal(opts: HalRecordOptions) -> HalRecordSummary:
     from openral_data.sinks.select import check_formats
 
     check_formats(opts.formats, opts.image_format)
-    out = opts.out if opts.out is not None else default_out(robot.name, rskill.id)
+    out = opts.out if opts.out is not None else fresh_out(f"hal-{robot.name}--{rskill.id}")
     check_out(out)
     operator = make_operator(opts.operator)
     try:
@@ -232,11 +221,13 @@ def _run(
     loop = FixedRateLoop(hal, policy, safety, bridge, operator, LoopConfig(opts.fps, task, opts.max_steps, staleness))
     summary = HalRecordSummary(out=out, episodes=[], reports=[], discarded=0, frames=0, seconds=0.0)
     t0 = time.perf_counter()
+    stop = _StopRequest()  # Ctrl-C / SIGTERM stop between ticks, never inside a commit
+    loop.config.check_stop = stop.check
     try:
         rerecord = False
         while len(summary.episodes) < opts.n_episodes:
             index = len(summary.episodes)
-            if not rerecord and operator.wait_start(index) is Command.QUIT:
+            if not rerecord and operator.wait_start(index, stop.check) is Command.QUIT:
                 summary.stopped_by_operator = True
                 break
             end, report, rec = loop.run_episode(index, opts.seed + index)
@@ -260,6 +251,7 @@ def _run(
             raise type(exc)(f"{exc} ({len(summary.episodes)} finished episode(s) kept in {out})") from None
         raise
     finally:
+        stop.restore()
         policy.close()
     bridge.close()
     summary.seconds = time.perf_counter() - t0

@@ -101,6 +101,7 @@ class LoopConfig:
     max_steps: int
     staleness: float  # seconds: an older camera sample makes the tick stale
     sleep: Callable[[float], None] = time.sleep
+    check_stop: Callable[[], None] | None = None  # raises (KeyboardInterrupt) to stop between ticks
 
 
 class FixedRateLoop:
@@ -143,6 +144,8 @@ class FixedRateLoop:
                 now = monotonic()
                 if deadline > now:
                     cfg.sleep(deadline - now)
+                if cfg.check_stop is not None:
+                    cfg.check_stop()
                 start = monotonic()
                 rep.max_lateness = max(rep.max_lateness, start - deadline)
                 rep.ticks = k + 1

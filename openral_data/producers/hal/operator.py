@@ -13,6 +13,7 @@ import select
 import sys
 import termios
 import tty
+from collections.abc import Callable
 from dataclasses import dataclass
 from enum import StrEnum
 from typing import Protocol
@@ -44,11 +45,16 @@ KEYS: dict[str, Command] = {
 HELP = "keys: space/enter start · s success · f failure · d discard · r re-record · q quit · x e-stop"
 
 
+def _nothing() -> None:
+    pass
+
+
 class Operator(Protocol):
     interactive: bool
 
-    def wait_start(self, episode: int) -> Command:
-        """Block until the operator starts episode `episode` (START) or quits (QUIT)."""
+    def wait_start(self, episode: int, check: Callable[[], None] = _nothing) -> Command:
+        """Block until the operator starts episode `episode` (START) or quits (QUIT); `check()` is called
+        while waiting (it raises to abandon the wait, e.g. on Ctrl-C)."""
         ...
 
     def poll(self, episode: int, frame: int) -> Command | None:
@@ -77,8 +83,9 @@ class KeyboardOperator:
         ch = os.read(self.fd, 1).decode(errors="replace").lower()
         return KEYS.get(ch)
 
-    def wait_start(self, episode: int) -> Command:
+    def wait_start(self, episode: int, check: Callable[[], None] = _nothing) -> Command:
         while True:
+            check()
             cmd = self._key(0.1)
             if cmd in (Command.START, Command.QUIT):
                 return cmd
@@ -127,7 +134,8 @@ class ScriptedOperator:
         self.verdicts = list(verdicts or [])
         self._started = -1
 
-    def wait_start(self, episode: int) -> Command:
+    def wait_start(self, episode: int, check: Callable[[], None] = _nothing) -> Command:
+        check()
         self._started += 1
         return Command.START
 
