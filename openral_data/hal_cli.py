@@ -62,7 +62,7 @@ def run_hal_record(
     if operator == "keyboard":
         err_console.print(HELP, markup=False, highlight=False)
     try:
-        s = record_hal(opts)
+        s = record_hal(opts, lambda line: err_console.print(line, markup=False, highlight=False))
     except KeyboardInterrupt:
         err_console.print("interrupted: the episode in flight was discarded, finished episodes are kept")
         raise typer.Exit(130) from None

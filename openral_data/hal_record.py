@@ -4,6 +4,7 @@ fixed-rate loop (producers/hal/loop.py) through the same bridge and sinks as `re
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -133,7 +134,10 @@ def check_hal(hal: HalBase, robot: RobotManifest, rskill: RSkillManifest, rskill
     )
 
 
-def record_hal(opts: HalRecordOptions) -> HalRecordSummary:
+Notify = Callable[[str], None]  # one line for the operator: which episode, what happened to it
+
+
+def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecordSummary:
     if opts.fps < 1 or opts.fps > 1000:
         raise OpenralError(f"--fps must be in 1..1000, got {opts.fps}")
     if opts.n_episodes < 1:
@@ -157,7 +161,7 @@ def record_hal(opts: HalRecordOptions) -> HalRecordSummary:
     try:
         hal = build_hal(opts, robot, rskill, rskill_src)
         try:
-            return _run(opts, robot, rskill, rskill_src, hal, make_policy(rskill), operator, out)
+            return _run(opts, robot, rskill, rskill_src, hal, make_policy(rskill), operator, out, notify)
         finally:
             hal.disconnect()
             if isinstance(hal, SceneHal):
@@ -175,6 +179,7 @@ def _run(
     policy: PolicyAdapter,
     operator: Operator,
     out: Path,
+    notify: Notify | None,
 ) -> HalRecordSummary:
     from openral_data.sinks.select import make_sinks
 
@@ -227,12 +232,19 @@ def _run(
         rerecord = False
         while len(summary.episodes) < opts.n_episodes:
             index = len(summary.episodes)
+            if notify is not None and operator.interactive and not rerecord:
+                notify(f"episode {index}: press space to start (q quits)")
             if not rerecord and operator.wait_start(index, stop.check) is Command.QUIT:
                 summary.stopped_by_operator = True
                 break
             end, report, rec = loop.run_episode(index, opts.seed + index)
             summary.all_reports.append(report)
             rerecord = end is EpisodeEnd.RERECORD
+            if notify is not None:
+                notify(
+                    f"episode {index}: {end.value} ({report.verdict}, {report.frames} frames, "
+                    f"{report.overruns} overruns, {report.stale_ticks} stale, {report.interventions} interventions)"
+                )
             if end is EpisodeEnd.QUIT:
                 summary.stopped_by_operator = True
                 break

@@ -110,7 +110,10 @@ class MujocoTwinHal(HalBase):
             self._rig = None
 
     def _advance(self) -> float:
-        """Step physics up to the monotonic clock; returns the time the state now corresponds to."""
+        """Step physics up to the monotonic clock; returns the time the stepped state is presented at.
+
+        That is the clock after stepping: the simulator's own compute time is not robot latency, so it does
+        not age the reading (a real bus's delay does, see `HalBase.read_state`)."""
         now = monotonic()
         behind = (now - self._t0) - self.data.time
         if behind > self.max_catch_up:  # a stalled caller: skip ahead rather than simulate a burst
@@ -119,6 +122,7 @@ class MujocoTwinHal(HalBase):
         n = int(behind / self.model.opt.timestep)
         if n > 0:
             mujoco.mj_step(self.model, self.data, nstep=n)
+            return monotonic()
         return now
 
     def _read_state(self) -> RobotState:
