@@ -92,6 +92,11 @@ def make_operator(spec: str) -> Operator:
 def build_hal(opts: HalRecordOptions, robot: RobotManifest, rskill: RSkillManifest, rskill_src: str) -> HalBase:
     """The HAL for `--mode` (and `--scene`), checked against the rSkill before anything is written."""
     robot_src = str(paths.robots_dir() / robot.name / "robot.yaml")
+    if opts.scene is None and rskill.action_contract.representation not in JOINT_REPRESENTATIONS:
+        raise CompatibilityError(
+            f"{rskill_src}: action_contract.representation: {rskill.action_contract.representation!r}; a HAL takes "
+            f"joint targets ({', '.join(JOINT_REPRESENTATIONS)})"
+        )
     if opts.mode == "real":
         if opts.scene is not None:
             raise ConfigError("--scene: only with --mode sim (a real robot has no scene to simulate)")
@@ -114,11 +119,6 @@ def build_hal(opts: HalRecordOptions, robot: RobotManifest, rskill: RSkillManife
             env.close()
             raise
         return SceneHal(robot, env, list(rskill.state_contract.names), list(rskill.action_contract.names))
-    if rskill.action_contract.representation not in JOINT_REPRESENTATIONS:
-        raise CompatibilityError(
-            f"{rskill_src}: action_contract.representation: {rskill.action_contract.representation!r}; a HAL takes "
-            f"joint targets ({', '.join(JOINT_REPRESENTATIONS)})"
-        )
     return MujocoTwinHal(robot)
 
 

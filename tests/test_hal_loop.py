@@ -110,6 +110,7 @@ def test_slow_sensor_and_slow_policy_are_reported_not_hidden(tmp_path: Path) -> 
     assert infos[0]["hal"]["stale"]["slow"] == rep.stale["slow"]
 
 
+@pytest.mark.slow  # a subprocess recording: ~5 s alone, far more on a loaded machine
 def test_cli_records_through_the_twin(tmp_path: Path, project: Path) -> None:
     out = tmp_path / "cli"
     r = run_cli(
@@ -220,6 +221,7 @@ def test_operator_estop_keeps_the_episode_and_latches(tmp_path: Path) -> None:
         hal.disconnect()
 
 
+@pytest.mark.slow  # a subprocess recording: ~5 s alone, far more on a loaded machine
 def test_ctrl_c_keeps_finished_episodes(tmp_path: Path, project: Path) -> None:
     out = tmp_path / "int"
     proc = subprocess.Popen(
