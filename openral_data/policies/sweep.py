@@ -1,4 +1,7 @@
-"""`sweep`: smooth joint-space motion around where the episode started — a policy for exercising a HAL.
+"""`sweep`: smooth joint-space motion around where the first episode started — a policy for exercising a HAL.
+
+Later episodes sweep around the same posture (no drift from episode to episode); the HAL's velocity limit
+brings the arm back to it smoothly.
 
 Action (joint targets, the rSkill's action order = state order for the first `action dim` entries):
 `start + amplitude * sin(2π t / period)` per arm joint (alternating sign), the last dimension (gripper)
@@ -37,7 +40,6 @@ class SweepPolicy:
         self._step = 0
 
     def reset(self, seed: int) -> None:
-        self._start = None
         self._step = 0
 
     def step(self, observation: Observation, instruction: str) -> npt.NDArray[np.float32]:

@@ -130,6 +130,8 @@ class FixedRateLoop:
             stale={"state": 0, **dict.fromkeys(self.cameras, 0)}, repeated=dict.fromkeys(self.cameras, 0)
         )
         initial = hal.begin_episode(seed)
+        for name in self.cameras:  # warm up (first render / device start-up) before the clock starts
+            hal.cameras[name].latest()
         self.policy.reset(seed)
         self.bridge.begin_episode(seed, initial)
         last_seq: dict[str, int] = {}
