@@ -76,12 +76,11 @@ def test_sim_scene_behind_the_hal(tmp_path: Path) -> None:
     assert (out / "videos" / "observation.images.front").is_dir()
 
 
-@pytest.fixture
-def so100_project(project: Path, tmp_path: Path) -> Path:
-    """The SO-100 manifest pointing at a calibration file like `lerobot-calibrate` writes."""
-    cal = project / "robots" / "so100_follower" / "calibration"
+def _so_project(project: Path, robot: str) -> Path:
+    """The SO manifest pointing at a calibration file like `lerobot-calibrate` writes."""
+    cal = project / "robots" / robot / "calibration"
     cal.mkdir()
-    (cal / "so100_follower.json").write_text(
+    (cal / f"{robot}.json").write_text(
         json.dumps(
             {
                 m: {"id": i + 1, "drive_mode": 0, "homing_offset": 0, "range_min": 1024, "range_max": 3072}
@@ -89,20 +88,27 @@ def so100_project(project: Path, tmp_path: Path) -> Path:
             }
         )
     )
-    path = project / "robots" / "so100_follower" / "robot.yaml"
+    path = project / "robots" / robot / "robot.yaml"
     manifest = yaml.safe_load(path.read_text())
     manifest["hardware"]["calibration_dir"] = "calibration"
     path.write_text(yaml.safe_dump(manifest, sort_keys=False))
     return project
 
 
-def test_so100_through_lerobots_driver_on_a_simulated_bus(so100_project: Path, tmp_path: Path) -> None:
+@pytest.fixture
+def so100_project(project: Path) -> Path:
+    return _so_project(project, "so100_follower")
+
+
+@pytest.mark.parametrize("robot", ["so100_follower", "so101_follower"])
+def test_so_arm_through_lerobots_driver_on_a_simulated_bus(project: Path, tmp_path: Path, robot: str) -> None:
     """SIMULATED hardware: lerobot's SOFollower + scservo SDK + pyserial talk to a pty servo simulator."""
-    out = tmp_path / "so100"
+    _so_project(project, robot)
+    out = tmp_path / robot
     with SimulatedFeetechBus(list(range(1, 7))) as bus:
         s = record_hal(
             HalRecordOptions(
-                robot="so100_follower", rskill="sweep-so-arm", mode="real", port=bus.port, fps=10,
+                robot=robot, rskill="sweep-so-arm", mode="real", port=bus.port, fps=10,
                 n_episodes=1, max_steps=15, out=out, codec="h264", operator="success",
             )
         )  # fmt: skip
