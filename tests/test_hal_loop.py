@@ -20,7 +20,7 @@ from hal_helpers import SlowCamera, SlowPolicy, episode_infos, frames_table, run
 from openral_data import registry
 from openral_data.errors import OpenralError
 from openral_data.producers.base import Observation
-from openral_data.producers.hal.base import EstopLatched, JointCommand
+from openral_data.producers.hal.base import EstopLatched, HalError, JointCommand
 from openral_data.producers.hal.loop import EpisodeEnd
 from openral_data.producers.hal.operator import ScriptedOperator, parse_script
 from openral_data.producers.hal.safety import SafetyFilter
@@ -239,3 +239,37 @@ def test_ctrl_c_keeps_finished_episodes(tmp_path: Path, project: Path) -> None:
     assert "finished episodes are kept" in err
     cols = frames_table(out)
     assert set(cols["episode_index"]) == {0} and len(cols["index"]) == 5
+
+
+def test_a_dead_camera_abandons_the_episode_with_an_error(tmp_path: Path) -> None:
+    hal = ur5e_twin(cameras=[])
+    hal.cameras["dead"] = SlowCamera("dead", period=2.0)  # its first image comes long after the abort
+    rskill, _ = registry.resolve_rskill("sweep-ur5e")
+    from openral_data.bridge import DatasetBridge
+    from openral_data.producers.hal.loop import FixedRateLoop, LoopConfig, frame_extras
+    from openral_data.sinks.base import DatasetSchema
+    from openral_data.sinks.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
+
+    schema = DatasetSchema(
+        fps=20,
+        state_names=tuple(rskill.state_contract.names),
+        action_names=tuple(rskill.action_contract.names),
+        cameras={"dead": hal.cameras["dead"].shape},
+        robot_type="ur5e",
+        frame_extras=frame_extras(["dead"]),
+    )
+    writer = LeRobotV3Writer(tmp_path / "d", schema, WriterConfig(video=VideoSettings(codec="h264")))
+    bridge = DatasetBridge(schema, [writer])
+    loop = FixedRateLoop(
+        hal, _sweep(), SafetyFilter(hal.robot, fk=hal.forward_kinematics), bridge, ScriptedOperator(),  # type: ignore[arg-type]
+        LoopConfig(20, "sweep", 10, 0.1, stale_abort=0.5),
+    )  # fmt: skip
+    hal.connect()
+    try:
+        with pytest.raises(HalError, match=r"no fresh sample from dead for 0\.5 s"):
+            loop.run_episode(0, 0)
+    finally:
+        bridge.close()
+        hal.disconnect()
+        hal.cameras["dead"].stop()
+    assert not (tmp_path / "d").exists()  # nothing half-written remains

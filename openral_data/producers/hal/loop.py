@@ -37,7 +37,7 @@ import numpy.typing as npt
 from openral_data.bridge import DatasetBridge
 from openral_data.policies.base import PolicyAdapter
 from openral_data.producers.base import Observation
-from openral_data.producers.hal.base import EstopLatched, HalBase, JointCommand, StaleState, monotonic
+from openral_data.producers.hal.base import EstopLatched, HalBase, HalError, JointCommand, StaleState, monotonic
 from openral_data.producers.hal.operator import Command, Operator, ScriptedOperator
 from openral_data.producers.hal.safety import SafetyFilter
 from openral_data.sinks.base import EpisodeRecord
@@ -102,6 +102,7 @@ class LoopConfig:
     staleness: float  # seconds: an older camera sample makes the tick stale
     sleep: Callable[[float], None] = time.sleep
     check_stop: Callable[[], None] | None = None  # raises (KeyboardInterrupt) to stop between ticks
+    stale_abort: float = 2.0  # seconds of nothing but stale ticks: a sensor is dead, the episode is abandoned
 
 
 class FixedRateLoop:
@@ -159,6 +160,12 @@ class FixedRateLoop:
                 stale_before = rep.stale_ticks
                 row = self._tick(k, t0, rep, last_seq, skipped)
                 skipped[1] += rep.stale_ticks - stale_before
+                if skipped[1] * self.dt > cfg.stale_abort:
+                    dead = sorted(n for n, c in rep.stale.items() if c)
+                    raise HalError(
+                        f"robot {hal.robot.name}: no fresh sample from {', '.join(dead)} for {cfg.stale_abort:.1f} s "
+                        f"(staleness limit {cfg.staleness:.3f} s); episode {episode} abandoned"
+                    )
                 if row is not None:
                     if pending is not None:
                         self.bridge.add_step(
