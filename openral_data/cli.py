@@ -69,6 +69,11 @@ def record(
             out, codec.value, format, image_format, operator, safety, staleness, port, console, err_console,
         )  # fmt: skip
         return
+    hal_only = {"--mode": mode != "sim", "--fps": fps != 20, "--operator": operator != "auto", "--safety": safety,
+                "--staleness": staleness, "--port": port}  # fmt: skip
+    given = [name for name, value in hal_only.items() if value]
+    if given:
+        raise OpenralError(f"{', '.join(given)}: only with --hal ROBOT_ID (a scene records at its own fps)")
     from openral_data.record import RecordOptions
     from openral_data.record import record as run_record
     from openral_data.sinks.select import parse_formats

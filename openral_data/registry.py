@@ -46,6 +46,12 @@ def _scripted(name: str) -> PolicyFactory:
     return make
 
 
+def _sweep(rskill: RSkillManifest) -> PolicyAdapter:
+    from openral_data.policies.sweep import SweepPolicy
+
+    return SweepPolicy(rskill)
+
+
 SCENES: dict[str, SceneFactory] = {
     "mock": _mock_factory,
     "tabletop_push": _tabletop_factory("push"),
@@ -56,14 +62,8 @@ POLICIES: dict[str, PolicyFactory] = {
     "random": RandomPolicy,
     "scripted_push": _scripted("ScriptedPush"),
     "scripted_pick_place": _scripted("ScriptedPickPlace"),
-    "sweep": lambda rskill: _sweep(rskill),  # noqa: PLW0108 - the module is imported on first use
+    "sweep": _sweep,
 }
-
-
-def _sweep(rskill: RSkillManifest) -> PolicyAdapter:
-    from openral_data.policies.sweep import SweepPolicy
-
-    return SweepPolicy(rskill)
 
 
 def unknown(kind: str, value: str, valid: list[str]) -> OpenralError:

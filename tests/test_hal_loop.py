@@ -145,6 +145,7 @@ def test_cli_error_is_one_line(tmp_path: Path, project: Path) -> None:
         (["--hal", "ur5e", "--rskill", "sweep-ur5e", "--safety", "maybe"], "--safety"),
         (["--hal", "ur5e", "--rskill", "sweep-ur5e", "--fps", "0"], "--fps"),
         (["--hal", "so100_follower", "--rskill", "sweep-so-arm"], "has no MuJoCo wiring"),
+        (["--mode", "real"], "--mode: only with --hal"),
     ],
 )
 def test_cli_errors_name_the_problem(tmp_path: Path, project: Path, args: list[str], message: str) -> None:
