@@ -7,7 +7,7 @@ final step is not.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -99,8 +99,31 @@ class DatasetBridge:
         for sink in self.sinks:
             sink.begin_episode(start)
 
-    def add_step(self, observation: Observation, action: Any, *, reward: float, done: bool, success: bool) -> None:
-        """Record row t: `observation` (seen at step t), `action` (produced from it) and its outcome."""
+    def _extras(self, extras: Mapping[str, float] | None) -> dict[str, float]:
+        want = self.schema.frame_extras
+        got = dict(extras or {})
+        if set(got) != set(want):
+            raise ContractViolation(f"{self._where()}: extras: expected keys {list(want)}, got {sorted(got)}")
+        out = {k: float(got[k]) for k in want}
+        bad = [k for k, v in out.items() if not np.isfinite(v)]
+        if bad:
+            raise ContractViolation(f"{self._where()}: extras: non-finite values for {bad}")
+        return out
+
+    def add_step(
+        self,
+        observation: Observation,
+        action: Any,
+        *,
+        reward: float,
+        done: bool,
+        success: bool,
+        extras: Mapping[str, float] | None = None,
+    ) -> None:
+        """Record row t: `observation` (seen at step t), `action` (produced from it) and its outcome.
+
+        `extras` carries the schema's `frame_extras` values for this row (none by default).
+        """
         if not self._open:
             raise RuntimeError("add_step() outside an episode")
         if not isinstance(observation.task, str) or not observation.task:
@@ -114,6 +137,7 @@ class DatasetBridge:
             done=bool(done),
             success=bool(success),
             timestamp=self._timestamp(observation.time),
+            extras=self._extras(extras),
         )
         if not np.isfinite(frame.reward):
             raise ContractViolation(f"{self._where()}: reward: non-finite value {reward}")
@@ -121,9 +145,15 @@ class DatasetBridge:
             sink.add_frame(frame)
         self._step += 1
 
-    def end_episode(self, success: bool | None) -> list[EpisodeRecord]:
+    def end_episode(self, success: bool | None, info: dict[str, Any] | None = None) -> list[EpisodeRecord]:
+        """Commit the episode. `info` (JSON-able) goes to sinks that store episode annotations."""
         if not self._open:
             raise RuntimeError("end_episode() outside an episode")
+        if info is not None and self._step > 0:
+            for sink in self.sinks:
+                annotate = getattr(sink, "annotate_episode", None)
+                if annotate is not None:
+                    annotate(info)
         if self._step == 0:
             self.discard_episode()
             raise ContractViolation(f"episode {self._episode}: an episode needs at least one frame")

@@ -50,8 +50,30 @@ def record(
         str, typer.Option("--format", help="lerobot, mcap or lerobot,mcap (MCAP bags go to OUT/mcap/)")
     ] = "lerobot",
     image_format: Annotated[str, typer.Option(help="MCAP camera messages: jpeg, png or raw")] = "jpeg",
+    hal: Annotated[str | None, typer.Option(help="record ROBOT_ID through its HAL at a fixed rate")] = None,
+    mode: Annotated[str, typer.Option(help="--hal: sim (MuJoCo twin, or --scene) or real (hardware)")] = "sim",
+    fps: Annotated[int, typer.Option(help="--hal: control and recording rate")] = 20,
+    operator: Annotated[
+        str, typer.Option(help="--hal: auto, keyboard, or a script like success@40,discard@10,failure")
+    ] = "auto",
+    safety: Annotated[str | None, typer.Option(help="--hal: clamp or refuse (default: the manifest's)")] = None,
+    staleness: Annotated[float | None, typer.Option(help="--hal: camera sample age limit, s (3 periods)")] = None,
+    port: Annotated[str | None, typer.Option(help="--hal --mode real: serial port (default: the manifest's)")] = None,
 ) -> None:
     """Record episodes of SCENE driven by RSKILL into a LeRobotDataset v3 and/or ROS 2 MCAP bags."""
+    if hal is not None:
+        from openral_data.hal_cli import run_hal_record
+
+        run_hal_record(
+            hal, mode, rskill, fps, scene if scene != paths.DEFAULT_SCENE else None, n_episodes, max_steps, seed,
+            out, codec.value, format, image_format, operator, safety, staleness, port, console, err_console,
+        )  # fmt: skip
+        return
+    hal_only = {"--mode": mode != "sim", "--fps": fps != 20, "--operator": operator != "auto", "--safety": safety,
+                "--staleness": staleness, "--port": port}  # fmt: skip
+    given = [name for name, value in hal_only.items() if value]
+    if given:
+        raise OpenralError(f"{', '.join(given)}: only with --hal ROBOT_ID (a scene records at its own fps)")
     from openral_data.record import RecordOptions
     from openral_data.record import record as run_record
     from openral_data.sinks.select import parse_formats

@@ -86,8 +86,13 @@ class _StopRequest:
 
 
 def default_out(scene: SimScene, rskill_id: str) -> Path:
+    return fresh_out(f"{scene.scene.id}--{rskill_id}")
+
+
+def fresh_out(prefix: str) -> Path:
+    """A folder under datasets/ named `<prefix>--<time stamp>` that does not exist yet."""
     stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
-    base = paths.datasets_dir() / f"{scene.scene.id}--{rskill_id}--{stamp}"
+    base = paths.datasets_dir() / f"{prefix}--{stamp}"
     out, k = base, 1
     while out.exists():
         k += 1

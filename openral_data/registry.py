@@ -88,6 +88,10 @@ def _lerobot(rskill: RSkillManifest) -> PolicyAdapter:
     from openral_data.policies.lerobot_policy import make_lerobot_policy
 
     return make_lerobot_policy(rskill)
+def _sweep(rskill: RSkillManifest) -> PolicyAdapter:
+    from openral_data.policies.sweep import SweepPolicy
+
+    return SweepPolicy(rskill)
 
 
 SCENES: dict[str, SceneFactory] = {
@@ -107,6 +111,7 @@ POLICIES: dict[str, PolicyFactory] = {
     "scripted_pick_place": _scripted("ScriptedPickPlace"),
     "metaworld_expert": _metaworld_expert,
     "lerobot": _lerobot,
+    "sweep": _sweep,
 }
 
 

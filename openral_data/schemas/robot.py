@@ -7,6 +7,7 @@ from typing import Literal
 from pydantic import Field, model_validator
 
 from openral_data.schemas.base import StrictModel
+from openral_data.schemas.hal import HardwareConfig, SafetyConfig
 
 JointType = Literal["revolute", "prismatic", "continuous", "gripper"]
 
@@ -77,6 +78,8 @@ class RobotManifest(StrictModel):
     action: VectorSpec
     assets: Assets = Field(default_factory=Assets)
     sim: dict[str, object] | None = None  # backend-specific wiring, validated by the backend that reads it
+    safety: SafetyConfig = Field(default_factory=SafetyConfig)  # bounds on HAL commands (producers/hal)
+    hardware: HardwareConfig | None = None  # how to reach the real robot (record --hal ID --mode real)
 
     @model_validator(mode="after")
     def _unique_names(self) -> RobotManifest:

@@ -25,6 +25,9 @@ class DatasetSchema:
     # log has none): the frames' `reward` / `success` values are then ignored and episode success is unknown.
     has_reward: bool = True
     has_success: bool = True
+    # Extra per-frame float columns (e.g. a HAL's real monotonic timestamps, overrun and safety flags); every
+    # frame must carry exactly these keys in `Frame.extras`. LeRobot v3: float32 features of shape [1].
+    frame_extras: tuple[str, ...] = ()
 
     @property
     def state_dim(self) -> int:
@@ -47,6 +50,7 @@ class Frame:
     done: bool
     success: bool
     timestamp: float = 0.0  # seconds since the episode began, from the producer's clock (see Observation.time)
+    extras: dict[str, float] = field(default_factory=dict)  # DatasetSchema.frame_extras values
 
 
 @dataclass(frozen=True)
@@ -75,3 +79,10 @@ class Sink(Protocol):
     def discard_episode(self) -> None: ...
 
     def close(self) -> None: ...
+
+
+class EpisodeAnnotations(Protocol):
+    """Optional sink capability: JSON-able facts about the episode in flight (a HAL's overruns, safety
+    interventions, operator verdict), stored with the episode's record. The bridge calls it when a sink has it."""
+
+    def annotate_episode(self, info: dict[str, Any]) -> None: ...

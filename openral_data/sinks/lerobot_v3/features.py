@@ -31,6 +31,7 @@ EPISODE_EXTRA_COLUMNS: dict[str, pa.DataType] = {
     "openral.success": pa.bool_(),
     "openral.seed": pa.int64(),
     "openral.initial_state": pa.string(),
+    "openral.episode_info": pa.string(),  # JSON from the bridge's end_episode(info=...), e.g. a HAL's record
 }
 
 
@@ -53,6 +54,8 @@ def build_features(schema: DatasetSchema, video: VideoSettings) -> dict[str, dic
     known = {"next.reward": schema.has_reward, "next.done": True, "next.success": schema.has_success}
     features.update({k: f for k, f in OUTCOME_FEATURES.items() if known[k]})
     features.update(DEFAULT_FEATURES)
+    for key in schema.frame_extras:
+        features[key] = {"dtype": "float32", "shape": [1], "names": None}
     return features
 
 

@@ -87,6 +87,8 @@ class _EpisodeBuffer:
     dones: list[bool] = field(default_factory=list)
     successes: list[bool] = field(default_factory=list)
     task_indices: list[int] = field(default_factory=list)
+    extras: dict[str, list[float]] = field(default_factory=dict)
+    info: dict[str, Any] | None = None
 
 
 class LeRobotV3Writer:
@@ -169,6 +171,14 @@ class LeRobotV3Writer:
         ep.dones.append(frame.done)
         ep.successes.append(frame.success)
         ep.task_indices.append(self.tasks.setdefault(frame.task, len(self.tasks)))
+        for key in self.schema.frame_extras:
+            ep.extras.setdefault(key, []).append(frame.extras[key])
+
+    def annotate_episode(self, info: dict[str, Any]) -> None:
+        """Store `info` (JSON) in the episode's `openral.episode_info` column of meta/episodes."""
+        if self._episode is None:
+            raise RuntimeError("annotate_episode() outside an episode")
+        self._episode.info = info
 
     def discard_episode(self) -> None:
         if self._episode is None:
@@ -276,6 +286,7 @@ class LeRobotV3Writer:
             "openral.success": None if success is None else bool(success),
             "openral.seed": int(ep.start.seed),
             "openral.initial_state": json.dumps(ep.start.initial_state, sort_keys=True),
+            "openral.episode_info": None if ep.info is None else json.dumps(ep.info, sort_keys=True),
         }
 
     def _episode_table(self, index: int, ep: _EpisodeBuffer, n: int) -> pa.Table:
@@ -295,6 +306,8 @@ class LeRobotV3Writer:
             cols["next.reward"] = pa.array(np.asarray(ep.rewards, dtype=np.float32))
         if self.schema.has_success:
             cols["next.success"] = pa.array(np.asarray(ep.successes, dtype=bool))
+        for key in self.schema.frame_extras:
+            cols[key] = pa.array(np.asarray(ep.extras.get(key, []), dtype=np.float32))
         return pa.table(cols, schema=self._data_schema)
 
     # -- data parquet ----------------------------------------------------------------------------------------

@@ -1,0 +1,214 @@
+"""The HAL protocol: a robot behind connect / read_state / send_action / estop, with typed state and actions.
+
+Every HAL shares `HalBase`, which owns the rules that must not differ between a twin and real hardware:
+connect/disconnect are idempotent; `read_state` raises `StaleState` when the reading is older than the
+manifest's `safety.max_state_age`; `estop()` latches, and until `reset_estop()` every `send_action` raises
+`EstopLatched` (nothing reaches the robot). Times are `time.monotonic()` seconds.
+"""
+
+from __future__ import annotations
+
+import time
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+import numpy.typing as npt
+
+from openral_data.errors import OpenralError
+from openral_data.producers.hal.sensors import CameraSensor
+from openral_data.schemas.robot import RobotManifest
+
+F32 = npt.NDArray[np.float32]
+
+
+class HalError(OpenralError):
+    """The robot cannot do what was asked (not connected, bus fault, bad command)."""
+
+
+class EstopLatched(HalError):
+    """An emergency stop is latched: commands are refused until `reset_estop()`."""
+
+
+class StaleState(HalError):
+    """The newest joint reading is older than the staleness limit."""
+
+
+@dataclass(frozen=True)
+class RobotState:
+    """Joint positions in the manifest's `observation.state` order, sampled at `stamp` (monotonic s)."""
+
+    positions: F32
+    stamp: float
+
+    def age(self, now: float) -> float:
+        return now - self.stamp
+
+
+@dataclass(frozen=True)
+class JointCommand:
+    """Joint position targets in the manifest's `action` order (gripper normalised as the manifest says)."""
+
+    positions: F32
+
+
+def monotonic() -> float:
+    return time.monotonic()
+
+
+@runtime_checkable
+class Hal(Protocol):
+    robot: RobotManifest
+    cameras: dict[str, CameraSensor]
+
+    @property
+    def connected(self) -> bool: ...
+
+    @property
+    def estopped(self) -> bool: ...
+
+    def connect(self) -> None: ...
+
+    def disconnect(self) -> None: ...
+
+    def read_state(self) -> RobotState: ...
+
+    def send_action(self, command: JointCommand) -> JointCommand: ...
+
+    def estop(self, reason: str) -> None: ...
+
+    def reset_estop(self) -> None: ...
+
+
+class HalBase(ABC):
+    """Connection, staleness and e-stop rules; subclasses implement the `_`-methods for one robot."""
+
+    def __init__(self, robot: RobotManifest) -> None:
+        self.robot = robot
+        self.cameras: dict[str, CameraSensor] = {}
+        self.max_state_age = robot.safety.max_state_age
+        self._connected = False
+        self._estop_reason: str | None = None
+        self.last_command: JointCommand | None = None
+
+    # -- subclass hooks --------------------------------------------------------------------------------------
+    @abstractmethod
+    def _connect(self) -> None: ...
+
+    @abstractmethod
+    def _disconnect(self) -> None: ...
+
+    @abstractmethod
+    def _read_state(self) -> RobotState: ...
+
+    @abstractmethod
+    def _send(self, command: JointCommand) -> JointCommand: ...
+
+    def _hold(self) -> None:
+        """Stop moving (called once when the e-stop latches). Default: command the current position."""
+        state = self._read_state()
+        self._send(JointCommand(state.positions[: self.action_dim].copy()))
+
+    # -- optional per-HAL information (defaults for hardware) ------------------------------------------------
+    @property
+    def state_dim(self) -> int:
+        return self.robot.observation.state.dim
+
+    @property
+    def action_dim(self) -> int:
+        return self.robot.action.dim
+
+    def begin_episode(self, seed: int) -> dict[str, Any]:
+        """Called before each episode; returns JSON-able data describing the starting state."""
+        return {"robot": self.robot.name}
+
+    def privileged(self) -> dict[str, Any]:
+        """Ground truth a simulator knows (scripted experts read it); hardware has none."""
+        return {}
+
+    def outcome(self) -> tuple[float, bool, bool] | None:
+        """(reward, success, terminated) after the last command, when the HAL knows them (a sim scene)."""
+        return None
+
+    # -- the protocol ----------------------------------------------------------------------------------------
+    @property
+    def connected(self) -> bool:
+        return self._connected
+
+    @property
+    def estopped(self) -> bool:
+        return self._estop_reason is not None
+
+    @property
+    def estop_reason(self) -> str | None:
+        return self._estop_reason
+
+    def connect(self) -> None:
+        if self._connected:
+            return
+        self._connect()
+        self._connected = True
+        for cam in self.cameras.values():
+            cam.start()
+
+    def disconnect(self) -> None:
+        if not self._connected:
+            return
+        try:
+            for cam in self.cameras.values():
+                cam.stop()
+        finally:
+            self._connected = False
+            self._disconnect()
+
+    def _require_connected(self, what: str) -> None:
+        if not self._connected:
+            raise HalError(f"robot {self.robot.name}: {what}: not connected (call connect() first)")
+
+    def read_state(self) -> RobotState:
+        self._require_connected("read_state")
+        state = self._read_state()
+        dim = self.state_dim
+        if state.positions.shape != (dim,) or state.positions.dtype != np.float32:
+            raise HalError(f"robot {self.robot.name}: read_state: expected float32[{dim}], got {state.positions.shape}")
+        age = state.age(monotonic())
+        if age > self.max_state_age:
+            raise StaleState(
+                f"robot {self.robot.name}: joint state is {age * 1000:.0f} ms old "
+                f"(limit {self.max_state_age * 1000:.0f} ms, safety.max_state_age)"
+            )
+        return state
+
+    def send_action(self, command: JointCommand) -> JointCommand:
+        """Send joint targets; returns what was actually sent. Raises EstopLatched while the e-stop is latched."""
+        self._require_connected("send_action")
+        if self._estop_reason is not None:
+            raise EstopLatched(
+                f"robot {self.robot.name}: e-stop latched ({self._estop_reason}); action refused until reset_estop()"
+            )
+        dim = self.action_dim
+        pos = command.positions
+        if pos.shape != (dim,) or not np.isfinite(pos).all():
+            raise HalError(f"robot {self.robot.name}: send_action: expected finite float32[{dim}], got {pos}")
+        sent = self._send(JointCommand(pos.astype(np.float32, copy=True)))
+        self.last_command = sent
+        return sent
+
+    def estop(self, reason: str) -> None:
+        """Latch the e-stop and hold position. Idempotent: the first reason is kept."""
+        if self._estop_reason is not None:
+            return
+        self._estop_reason = reason or "e-stop"
+        if self._connected:
+            self._hold()
+
+    def reset_estop(self) -> None:
+        self._estop_reason = None
+
+    def __enter__(self) -> HalBase:
+        self.connect()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.disconnect()

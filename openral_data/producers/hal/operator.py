@@ -1,0 +1,152 @@
+"""Operator controls for HAL recording: start an episode, stop it as success or failure, discard it,
+re-record it, quit, or trip the e-stop.
+
+`KeyboardOperator` reads single keys from a terminal (stdin in cbreak mode; no X11, unlike pynput).
+`ScriptedOperator` is the non-interactive equivalent for scripts and tests: a list of per-episode verdicts
+such as `success@40,discard@10,failure` (verdict @ frame count; no `@`: at the step limit).
+"""
+
+from __future__ import annotations
+
+import os
+import select
+import sys
+import termios
+import tty
+from collections.abc import Callable
+from dataclasses import dataclass
+from enum import StrEnum
+from typing import Protocol
+
+from openral_data.errors import OpenralError
+
+
+class Command(StrEnum):
+    START = "start"
+    SUCCESS = "success"
+    FAILURE = "failure"
+    DISCARD = "discard"
+    RERECORD = "rerecord"
+    QUIT = "quit"
+    ESTOP = "estop"
+
+
+KEYS: dict[str, Command] = {
+    " ": Command.START,
+    "\n": Command.START,
+    "\r": Command.START,
+    "s": Command.SUCCESS,
+    "f": Command.FAILURE,
+    "d": Command.DISCARD,
+    "r": Command.RERECORD,
+    "q": Command.QUIT,
+    "x": Command.ESTOP,
+}
+HELP = "keys: space/enter start · s success · f failure · d discard · r re-record · q quit · x e-stop"
+
+
+def _nothing() -> None:
+    pass
+
+
+class Operator(Protocol):
+    interactive: bool
+
+    def wait_start(self, episode: int, check: Callable[[], None] = _nothing) -> Command:
+        """Block until the operator starts episode `episode` (START) or quits (QUIT); `check()` is called
+        while waiting (it raises to abandon the wait, e.g. on Ctrl-C)."""
+        ...
+
+    def poll(self, episode: int, frame: int) -> Command | None:
+        """Non-blocking: a command given during the episode, after `frame` frames were recorded."""
+        ...
+
+    def close(self) -> None: ...
+
+
+class KeyboardOperator:
+    """Single keypresses from a terminal file descriptor (default: stdin)."""
+
+    interactive = True
+
+    def __init__(self, fd: int | None = None) -> None:
+        self.fd = sys.stdin.fileno() if fd is None else fd
+        if not os.isatty(self.fd):
+            raise OpenralError("--operator keyboard: stdin is not a terminal (use --operator auto or a script)")
+        self._saved = termios.tcgetattr(self.fd)
+        tty.setcbreak(self.fd)
+
+    def _key(self, timeout: float) -> Command | None:
+        ready, _, _ = select.select([self.fd], [], [], timeout)
+        if not ready:
+            return None
+        ch = os.read(self.fd, 1).decode(errors="replace").lower()
+        return KEYS.get(ch)
+
+    def wait_start(self, episode: int, check: Callable[[], None] = _nothing) -> Command:
+        while True:
+            check()
+            cmd = self._key(0.1)
+            if cmd in (Command.START, Command.QUIT):
+                return cmd
+
+    def poll(self, episode: int, frame: int) -> Command | None:
+        cmd = self._key(0.0)
+        return None if cmd is Command.START else cmd
+
+    def close(self) -> None:
+        termios.tcsetattr(self.fd, termios.TCSADRAIN, self._saved)
+
+
+@dataclass(frozen=True)
+class Verdict:
+    command: Command
+    at_frame: int | None  # None: when the episode reaches its step limit (or the scene ends it)
+
+
+def parse_script(text: str) -> list[Verdict]:
+    """`success@40,discard@10,failure,estop@5` -> verdicts, one per started episode, in order."""
+    out: list[Verdict] = []
+    allowed = {c.value: c for c in Command if c is not Command.START}
+    for k, item in enumerate(filter(None, (s.strip() for s in text.split(",")))):
+        name, _, at = item.partition("@")
+        if name not in allowed:
+            raise OpenralError(f"--operator: item {k} {item!r}: unknown verdict; valid: {', '.join(allowed)}")
+        frame: int | None = None
+        if at:
+            if not at.isdigit() or int(at) < 1:
+                raise OpenralError(f"--operator: item {k} {item!r}: @ needs a frame count >= 1")
+            frame = int(at)
+        out.append(Verdict(allowed[name], frame))
+    return out
+
+
+class ScriptedOperator:
+    """Episodes start at once; the k-th started episode ends with the k-th verdict (then: at the step limit).
+
+    A verdict without a frame count (and every episode after the script ran out) ends at the step limit or
+    when the scene says the task ended; `success`/`failure` then still set the outcome.
+    """
+
+    interactive = False
+
+    def __init__(self, verdicts: list[Verdict] | None = None) -> None:
+        self.verdicts = list(verdicts or [])
+        self._started = -1
+
+    def wait_start(self, episode: int, check: Callable[[], None] = _nothing) -> Command:
+        check()
+        self._started += 1
+        return Command.START
+
+    def current(self) -> Verdict | None:
+        return self.verdicts[self._started] if 0 <= self._started < len(self.verdicts) else None
+
+    def poll(self, episode: int, frame: int) -> Command | None:
+        v = self.current()
+        if v is not None and v.at_frame is not None and frame >= v.at_frame:
+            return v.command
+        return None
+
+    def close(self) -> None:
+        pass

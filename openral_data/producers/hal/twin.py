@@ -1,0 +1,233 @@
+"""HALs backed by MuJoCo: the digital twin of any robot manifest, and any sim scene behind the HAL protocol.
+
+`MujocoTwinHal` composes the manifest's arm and gripper (its `sim:` block, the same `compose` the tabletop
+scenes use, no per-robot code) on the standard table, drives it with the same position servos
+(`JointPositionController`) and runs physics in step with the monotonic clock: every read or command first
+advances the simulation to "now" (at most `max_catch_up` seconds at once), so a slow loop sees the robot keep
+moving exactly as hardware would. Cameras render on the caller's thread when sampled.
+
+`SceneHal` puts a `SimRollout` (e.g. `tabletop_push`) behind the protocol: each command advances the scene by
+one control step; reward, success and privileged ground truth are passed on for scripted experts.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from openral_data.errors import ConfigError
+from openral_data.producers.base import CameraShape, Observation, SimRollout
+from openral_data.producers.hal.base import HalBase, JointCommand, RobotState, monotonic
+from openral_data.producers.hal.sensors import Image, PolledCamera
+from openral_data.producers.sim.mujoco.compose import ROBOT, compose
+from openral_data.producers.sim.mujoco.controllers import JointPositionController
+from openral_data.producers.sim.mujoco.kinematics import F64, Arm
+from openral_data.producers.sim.mujoco.render import CameraRig
+from openral_data.producers.sim.mujoco.scene import load_wiring
+from openral_data.schemas.mujoco import TabletopParams
+from openral_data.schemas.robot import RobotManifest
+from openral_data.schemas.scene import RenderConfig, SceneCamera
+
+# where a manifest's non-wrist cameras go on the twin's table (the manifest gives sizes, not poses)
+DEFAULT_WORLD_CAMERA = {"pos": (1.3, 0.0, 1.4), "lookat": (0.4, 0.0, 0.85), "fovy": 45.0}
+
+
+def twin_cameras(robot: RobotManifest) -> list[SceneCamera]:
+    cams = []
+    for c in robot.sensors.cameras:
+        if c.mount == "wrist":
+            cams.append(SceneCamera(name=c.name, width=c.width, height=c.height, mount="wrist"))
+        else:
+            cams.append(SceneCamera(name=c.name, width=c.width, height=c.height, **DEFAULT_WORLD_CAMERA))
+    return cams
+
+
+class MujocoTwinHal(HalBase):
+    """The robot of any manifest with a `sim:` block, simulated in real time."""
+
+    def __init__(
+        self,
+        robot: RobotManifest,
+        *,
+        cameras: list[SceneCamera] | None = None,
+        render: RenderConfig | None = None,
+        max_catch_up: float = 0.5,
+    ) -> None:
+        super().__init__(robot)
+        wiring, arm_mjcf, grip_mjcf, source = load_wiring(robot)
+        self.source = source
+        self.params = TabletopParams()
+        self._camera_specs = cameras if cameras is not None else twin_cameras(robot)
+        self._render = render or RenderConfig()
+        composed = compose(
+            robot_mjcf=arm_mjcf,
+            gripper_mjcf=grip_mjcf,
+            wiring=wiring,
+            params=self.params,
+            cameras=self._camera_specs,
+            task="push",
+            robot_source=source,
+            scene_source=source,
+        )
+        self.model = composed.model
+        self.data = mujoco.MjData(self.model)
+        self._scratch = mujoco.MjData(self.model)
+        self.arm = Arm.build(composed, wiring)
+        self.controller = JointPositionController(self.arm)
+        n = self.arm.n
+        if robot.action.dim != n + 1:
+            raise ConfigError(f"{source}: action.dim: the twin takes {n} arm joint targets + gripper ({n + 1})")
+        if robot.observation.state.dim not in (n, n + 1):
+            raise ConfigError(f"{source}: observation.state.dim: the twin reports {n} joints (+ gripper)")
+        self.home = np.array(wiring.home, dtype=np.float64)
+        self.max_catch_up = max_catch_up
+        self._base_body = int(self.model.body(ROBOT + wiring.root_body).id)
+        self._rig: CameraRig | None = None
+        self._frames: dict[str, Image] = {}
+        self._frames_time = -1.0
+        self._t0 = 0.0
+        for cam in self._camera_specs:
+            self.cameras[cam.name] = PolledCamera(cam.name, CameraShape(cam.height, cam.width), self._grabber(cam.name))
+
+    # -- HalBase hooks ---------------------------------------------------------------------------------------
+    def _connect(self) -> None:
+        d, a = self.data, self.arm
+        mujoco.mj_resetData(self.model, d)
+        d.qpos[a.qpos] = self.home
+        d.qpos[a.grip_qpos] = a.grip_joint_open
+        d.ctrl[a.act] = self.home
+        d.ctrl[a.grip_act] = a.gripper_ctrl(0.0)
+        mujoco.mj_forward(self.model, d)
+        self._rig = CameraRig(self.model, self._camera_specs, self._render)
+        self._t0 = monotonic()
+
+    def _disconnect(self) -> None:
+        if self._rig is not None:
+            self._rig.close()
+            self._rig = None
+
+    def _advance(self) -> float:
+        """Step physics up to the monotonic clock; returns the time the stepped state is presented at.
+
+        That is the clock after stepping: the simulator's own compute time is not robot latency, so it does
+        not age the reading (a real bus's delay does, see `HalBase.read_state`)."""
+        now = monotonic()
+        behind = (now - self._t0) - self.data.time
+        if behind > self.max_catch_up:  # a stalled caller: skip ahead rather than simulate a burst
+            self._t0 += behind - self.max_catch_up
+            behind = self.max_catch_up
+        n = int(behind / self.model.opt.timestep)
+        if n > 0:
+            mujoco.mj_step(self.model, self.data, nstep=n)
+            return monotonic()
+        return now
+
+    def _read_state(self) -> RobotState:
+        stamp = self._advance()
+        d, a = self.data, self.arm
+        q = np.array(d.qpos[a.qpos], dtype=np.float64)
+        if self.robot.observation.state.dim == a.n + 1:
+            q = np.append(q, a.gripper_state(d))
+        return RobotState(q.astype(np.float32), stamp)
+
+    def _send(self, command: JointCommand) -> JointCommand:
+        self._advance()
+        self.controller.apply(command.positions, self.data)
+        return command
+
+    def _grabber(self, name: str) -> Callable[[], Image]:
+        return lambda: self._grab(name)
+
+    def _grab(self, name: str) -> Image:
+        if self._rig is None:
+            raise ConfigError(f"{self.source}: camera {name}: the twin is not connected")
+        if self._frames_time != self.data.time:
+            self._frames = self._rig.render(self.data)
+            self._frames_time = float(self.data.time)
+        return self._frames[name]
+
+    # -- kinematics for the safety filter --------------------------------------------------------------------
+    def base_position(self) -> F64:
+        return np.array(self.data.xpos[self._base_body], dtype=np.float64)
+
+    def forward_kinematics(self, q: F64) -> F64:
+        """End-effector site position for the arm joint targets in `q` (action order), base frame."""
+        s = self._scratch
+        s.qpos[:] = self.data.qpos
+        s.qpos[self.arm.qpos] = np.clip(q[: self.arm.n], self.arm.lower, self.arm.upper)
+        mujoco.mj_kinematics(self.model, s)
+        ee: F64 = np.array(s.site_xpos[self.arm.site], dtype=np.float64)
+        return ee - np.array(s.xpos[self._base_body], dtype=np.float64)
+
+    def begin_episode(self, seed: int) -> dict[str, Any]:
+        return {"hal": "mujoco_twin", "robot": self.robot.name, "qpos": self.data.qpos.tolist()}
+
+
+class SceneHal(HalBase):
+    """A `SimRollout` behind the HAL protocol: one `send_action` = one control step of the scene."""
+
+    def __init__(self, robot: RobotManifest, scene: SimRollout, state_names: list[str], action_names: list[str]):
+        super().__init__(robot)
+        self.scene = scene
+        self.state_names = state_names
+        self.action_names = action_names
+        self._obs: Observation | None = None
+        self._stamp = 0.0
+        self.reward = 0.0
+        self.success = False
+        self.terminated = False
+        for name, shape in scene.spec.cameras.items():
+            self.cameras[name] = PolledCamera(name, shape, self._imager(name))
+
+    @property
+    def state_dim(self) -> int:
+        return len(self.state_names)
+
+    @property
+    def action_dim(self) -> int:
+        return len(self.action_names)
+
+    def _connect(self) -> None:
+        pass
+
+    def _disconnect(self) -> None:
+        pass
+
+    def begin_episode(self, seed: int) -> dict[str, Any]:
+        self._obs = self.scene.reset(seed)
+        self._stamp = monotonic()
+        self.reward, self.success, self.terminated = 0.0, False, False
+        return self.scene.initial_state()
+
+    def _current(self) -> Observation:
+        if self._obs is None:
+            raise ConfigError("scene HAL: begin_episode() was not called")
+        return self._obs
+
+    def _imager(self, name: str) -> Callable[[], Image]:
+        return lambda: self._image(name)
+
+    def _image(self, name: str) -> Image:
+        return self._current().images[name]
+
+    def privileged(self) -> dict[str, Any]:
+        return self._current().privileged
+
+    def _read_state(self) -> RobotState:
+        return RobotState(np.asarray(self._current().state, dtype=np.float32), monotonic())
+
+    def _send(self, command: JointCommand) -> JointCommand:
+        result = self.scene.step(command.positions)
+        self._obs = result.observation
+        self._stamp = monotonic()
+        self.reward, self.success, self.terminated = result.reward, result.success, result.terminated
+        return command
+
+    def _hold(self) -> None:
+        pass  # a paused simulation does not move
+
+    def outcome(self) -> tuple[float, bool, bool] | None:
+        return self.reward, self.success, self.terminated

@@ -1,0 +1,174 @@
+"""SIMULATED Feetech serial bus for tests — no hardware involved.
+
+A pseudo-terminal whose far end speaks the Feetech SCS/STS protocol 0 (the packets lerobot's
+`FeetechMotorsBus` sends through the scservo SDK and pyserial): PING, READ, WRITE, SYNC_READ, SYNC_WRITE on a
+256-byte register file per servo (STS3215 layout: model number 777 at address 3, limits, homing offset,
+torque enable, goal/present position). Present_Position moves toward Goal_Position at `speed` steps/s
+while torque is on, so the driver sees an arm that actually follows its commands. lerobot's driver and the
+scservo SDK run unchanged against it; what it does NOT reproduce: electrical timing, baud-rate switching,
+bus noise, current/load/temperature, servo firmware behaviour beyond the registers above.
+"""
+
+from __future__ import annotations
+
+import os
+import select
+import threading
+import time
+import tty
+
+PING, READ, WRITE, SYNC_READ, SYNC_WRITE = 0x01, 0x02, 0x03, 0x82, 0x83
+BROADCAST = 0xFE
+MODEL_STS3215 = 777
+ADDR = {
+    "fw_major": 0,
+    "fw_minor": 1,
+    "model": 3,
+    "min": 9,
+    "max": 11,
+    "homing": 31,
+    "torque": 40,
+    "goal": 42,
+    "lock": 55,
+    "present": 56,
+}
+
+
+class Servo:
+    def __init__(self, sid: int, position: int, range_min: int, range_max: int, speed: float) -> None:
+        self.id = sid
+        self.regs = bytearray(256)
+        self.regs[ADDR["fw_major"]] = 3
+        self.regs[ADDR["fw_minor"]] = 10
+        self.set16("model", MODEL_STS3215)
+        self.set16("min", range_min)
+        self.set16("max", range_max)
+        self.set16("homing", 0)
+        self.set16("present", position)
+        self.set16("goal", position)
+        self.position = float(position)
+        self.speed = speed
+        self.last = time.monotonic()
+        self.writes = 0
+
+    def get16(self, name: str) -> int:
+        a = ADDR[name]
+        return self.regs[a] | (self.regs[a + 1] << 8)
+
+    def set16(self, name: str, value: int) -> None:
+        a = ADDR[name]
+        self.regs[a] = value & 0xFF
+        self.regs[a + 1] = (value >> 8) & 0xFF
+
+    def update(self) -> None:
+        now = time.monotonic()
+        dt, self.last = now - self.last, now
+        if self.regs[ADDR["torque"]]:
+            goal = self.get16("goal")
+            step = self.speed * dt
+            self.position += max(-step, min(step, goal - self.position))
+        self.set16("present", round(self.position))
+
+
+def _packet(sid: int, error: int, params: bytes) -> bytes:
+    body = bytes([sid, len(params) + 2, error, *params])
+    return b"\xff\xff" + body + bytes([~sum(body) & 0xFF])
+
+
+class SimulatedFeetechBus:
+    """Serves servos `ids` on a pty; `port` is the path the driver opens."""
+
+    def __init__(self, ids: list[int], *, position: int = 2048, range_min: int = 1024, range_max: int = 3072,
+                 speed: float = 3000.0) -> None:  # fmt: skip
+        self.servos = {i: Servo(i, position, range_min, range_max, speed) for i in ids}
+        self._master, slave = os.openpty()
+        tty.setraw(slave)
+        self.port = os.ttyname(slave)
+        self._slave = slave
+        self._stop = threading.Event()
+        self._buf = bytearray()
+        self.packets = 0
+        self._thread = threading.Thread(target=self._run, name="feetech-sim", daemon=True)
+        self._thread.start()
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=5)
+        os.close(self._master)
+        os.close(self._slave)
+
+    def __enter__(self) -> SimulatedFeetechBus:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            ready, _, _ = select.select([self._master], [], [], 0.05)
+            if not ready:
+                continue
+            try:
+                self._buf += os.read(self._master, 4096)
+            except OSError:
+                return
+            self._parse()
+
+    def _parse(self) -> None:
+        buf = self._buf
+        while True:
+            start = buf.find(b"\xff\xff")
+            if start < 0:
+                buf.clear()
+                return
+            del buf[:start]
+            if len(buf) < 4:
+                return
+            length = buf[3]
+            total = 4 + length
+            if len(buf) < total:
+                return
+            pkt = bytes(buf[:total])
+            del buf[:total]
+            if (~sum(pkt[2:-1]) & 0xFF) != pkt[-1]:
+                continue  # corrupt: a real servo stays silent
+            self.packets += 1
+            self._handle(pkt[2], pkt[4], pkt[5:-1])
+
+    def _reply(self, data: bytes) -> None:
+        os.write(self._master, data)
+
+    def _handle(self, sid: int, inst: int, params: bytes) -> None:
+        for s in self.servos.values():
+            s.update()
+        if inst == SYNC_WRITE:
+            addr, n = params[0], params[1]
+            for k in range(2, len(params), n + 1):
+                servo = self.servos.get(params[k])
+                if servo is not None:
+                    servo.regs[addr : addr + n] = params[k + 1 : k + 1 + n]
+                    servo.writes += 1
+            return
+        if inst == SYNC_READ:
+            addr, n = params[0], params[1]
+            self._reply(
+                b"".join(
+                    _packet(i, 0, bytes(self.servos[i].regs[addr : addr + n])) for i in params[2:] if i in self.servos
+                )
+            )
+            return
+        servo = self.servos.get(sid)
+        if servo is None:
+            return  # nobody answers
+        if inst == PING:
+            self._reply(_packet(sid, 0, b""))
+        elif inst == READ:
+            addr, n = params[0], params[1]
+            self._reply(_packet(sid, 0, bytes(servo.regs[addr : addr + n])))
+        elif inst == WRITE:
+            addr = params[0]
+            servo.regs[addr : addr + len(params) - 1] = params[1:]
+            if addr <= ADDR["present"] < addr + len(params) - 1:
+                servo.position = float(servo.get16("present"))
+            servo.writes += 1
+            self._reply(_packet(sid, 0, b""))

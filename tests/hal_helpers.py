@@ -1,0 +1,117 @@
+"""Helpers for the HAL tests: the UR5e twin, a real slow camera, a slow policy, and the loop on real sinks."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pyarrow.parquet as pq
+
+from openral_data import registry
+from openral_data.bridge import DatasetBridge
+from openral_data.policies.base import PolicyAdapter
+from openral_data.producers.base import CameraShape, Observation
+from openral_data.producers.hal.loop import EpisodeEnd, EpisodeReport, FixedRateLoop, LoopConfig, frame_extras
+from openral_data.producers.hal.operator import Operator
+from openral_data.producers.hal.safety import SafetyFilter
+from openral_data.producers.hal.sensors import ThreadedCamera
+from openral_data.producers.hal.twin import MujocoTwinHal
+from openral_data.sinks.base import DatasetSchema
+from openral_data.sinks.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
+
+
+def ur5e_twin(**kwargs: Any) -> MujocoTwinHal:
+    return MujocoTwinHal(registry.ROBOTS["ur5e"], **kwargs)
+
+
+class SlowCamera(ThreadedCamera):
+    """A camera whose device needs `period` seconds per image; image k is solid grey level 10 k (mod 260),
+    coarse enough that a lossy codec cannot merge neighbours."""
+
+    def __init__(self, name: str, period: float, shape: CameraShape | None = None) -> None:
+        self.count = 0
+        self.period = period
+        super().__init__(name, shape or CameraShape(32, 32), self._capture)
+
+    def _capture(self) -> npt.NDArray[np.uint8]:
+        time.sleep(self.period)
+        img = np.full((self.shape.height, self.shape.width, 3), 10 * (self.count % 26), dtype=np.uint8)
+        self.count += 1
+        return img
+
+
+class SlowPolicy:
+    """Wraps a policy; the steps listed in `slow_steps` take `delay` seconds (a heavy model's hiccups)."""
+
+    def __init__(self, inner: PolicyAdapter, slow_steps: set[int], delay: float) -> None:
+        self.inner = inner
+        self.slow_steps = slow_steps
+        self.delay = delay
+        self.calls = 0
+
+    def reset(self, seed: int) -> None:
+        self.inner.reset(seed)
+
+    def step(self, observation: Observation, instruction: str) -> npt.NDArray[np.float32]:
+        if self.calls in self.slow_steps:
+            time.sleep(self.delay)
+        self.calls += 1
+        return self.inner.step(observation, instruction)
+
+    def close(self) -> None:
+        self.inner.close()
+
+
+def run_loop(
+    hal: MujocoTwinHal,
+    policy: PolicyAdapter,
+    operator: Operator,
+    out: Path,
+    *,
+    fps: int = 20,
+    max_steps: int = 20,
+    staleness: float = 0.15,
+    episodes: int = 1,
+    safety: SafetyFilter | None = None,
+) -> list[tuple[EpisodeEnd, EpisodeReport]]:
+    """Record `episodes` attempts through the loop into a LeRobot v3 dataset at `out` (h264 for speed)."""
+    rskill, _ = registry.resolve_rskill("sweep-ur5e")
+    cams = list(hal.cameras)
+    schema = DatasetSchema(
+        fps=fps,
+        state_names=tuple(rskill.state_contract.names),
+        action_names=tuple(rskill.action_contract.names),
+        cameras={n: hal.cameras[n].shape for n in cams},
+        robot_type="ur5e",
+        has_reward=False,
+        frame_extras=frame_extras(cams),
+    )
+    bridge = DatasetBridge(schema, [LeRobotV3Writer(out, schema, WriterConfig(video=VideoSettings(codec="h264")))])
+    filt = safety or SafetyFilter(hal.robot, fk=hal.forward_kinematics)
+    loop = FixedRateLoop(hal, policy, filt, bridge, operator, LoopConfig(fps, "sweep", max_steps, staleness))
+    results = []
+    hal.connect()
+    try:
+        for e in range(episodes):
+            operator.wait_start(e)
+            end, rep, _ = loop.run_episode(e, e)
+            results.append((end, rep))
+    finally:
+        bridge.close()
+        hal.disconnect()
+    return results
+
+
+def frames_table(root: Path) -> dict[str, list[Any]]:
+    files = sorted((root / "data").rglob("*.parquet"))
+    return pq.read_table(files[0]).to_pydict() if len(files) == 1 else {}
+
+
+def episode_infos(root: Path) -> list[dict[str, Any]]:
+    files = sorted((root / "meta" / "episodes").rglob("*.parquet"))
+    rows = pq.read_table(files[0]).to_pydict()
+    return [json.loads(s) for s in rows["openral.episode_info"]]
