@@ -52,6 +52,8 @@ def _libero_factory(scene: SimScene, robot: RobotManifest, rskill: RSkillManifes
     from openral_data.producers.sim.libero.scene import LiberoScene
 
     return LiberoScene(scene, rskill, source=source, rskill_source=f"rskill {rskill.id}")
+
+
 def _suite_factory(kind: Literal["robosuite", "metaworld"]) -> SceneFactory:
     """Benchmark-suite simulators (issue 7): imported only when a scene of theirs is built."""
 
@@ -88,6 +90,8 @@ def _lerobot(rskill: RSkillManifest) -> PolicyAdapter:
     from openral_data.policies.lerobot_policy import make_lerobot_policy
 
     return make_lerobot_policy(rskill)
+
+
 def _sweep(rskill: RSkillManifest) -> PolicyAdapter:
     from openral_data.policies.sweep import SweepPolicy
 

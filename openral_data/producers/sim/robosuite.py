@@ -97,7 +97,7 @@ def _import_robosuite() -> Any:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # SyntaxWarnings from robosuite's docstrings when compiled
-            import robosuite  # type: ignore[import-untyped]
+            import robosuite
     except ImportError:
         raise ConfigError(
             "robosuite scenes need the robosuite extra: `uv sync --extra robosuite` (robosuite 1.5.1, mujoco 3.3.0)"
@@ -133,7 +133,7 @@ class RobosuiteScene:
                 f"{source}: scene.fps: must divide robosuite's 500 Hz physics rate, got {scene.scene.fps}"
             )
         suite = _import_robosuite()
-        from robosuite.controllers import load_composite_controller_config  # type: ignore[import-untyped]
+        from robosuite.controllers import load_composite_controller_config
 
         rs_robot = ROBOTS[robot.name]
         config = load_composite_controller_config(controller="BASIC", robot=rs_robot)
