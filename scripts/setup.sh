@@ -4,6 +4,9 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export UV_PYTHON_DOWNLOADS=never
+# Compile site-packages to bytecode at install time: with PYTHONDONTWRITEBYTECODE set (as on CI machines) every
+# test subprocess would otherwise recompile lerobot/robosuite/torch sources on import.
+export UV_COMPILE_BYTECODE=1
 
 APT_PACKAGES=(libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 libosmesa6)
 missing=()
