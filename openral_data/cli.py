@@ -244,6 +244,20 @@ def view(
     console.print(run_view(ViewOptions(path, episode, save, results)), markup=False, highlight=False)
 
 
+@app.command()
+def doctor(
+    dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset folder (ours or lerobot's)")],
+    repair: Annotated[bool, typer.Option("--repair", help="fix what is safely fixable (originals are kept)")] = False,
+) -> None:
+    """Check a dataset against lerobot 0.6.1's format rules, one line per finding; exit 1 on errors."""
+    from openral_data.doctor.command import run_doctor
+
+    text, code = run_doctor(dataset, repair)
+    console.print(text, markup=False, highlight=False, soft_wrap=True)
+    if code:
+        raise typer.Exit(code)
+
+
 def main() -> None:
     """Entry point: user mistakes become one `error:` line and exit 2; usage errors are click's (exit 2)."""
     try:
