@@ -38,6 +38,7 @@ class ListWhat(StrEnum):
 
 @app.command()
 def record(
+    ctx: typer.Context,
     scene: Annotated[str, typer.Option(help="scene YAML path or scene id under scenes/")] = paths.DEFAULT_SCENE,
     rskill: Annotated[str, typer.Option(help="rSkill id under rskills/, or a path to rskill.yaml")] = "random-mock",
     robot: Annotated[str | None, typer.Option(help="robot id (default: the scene's robot)")] = None,
@@ -50,6 +51,9 @@ def record(
         str, typer.Option("--format", help="lerobot, mcap or lerobot,mcap (MCAP bags go to OUT/mcap/)")
     ] = "lerobot",
     image_format: Annotated[str, typer.Option(help="MCAP camera messages: jpeg, png or raw")] = "jpeg",
+    resume: Annotated[
+        bool, typer.Option("--resume", help="continue the recording in --out (its settings; --n-episodes = total)")
+    ] = False,
 ) -> None:
     """Record episodes of SCENE driven by RSKILL into a LeRobotDataset v3 and/or ROS 2 MCAP bags."""
     from openral_data.record import RecordOptions
@@ -67,6 +71,12 @@ def record(
         codec=codec.value,
         formats=parse_formats(format),
         image_format=image_format,
+        resume=resume,
+        explicit=frozenset(
+            {"format": "formats"}.get(name, name)
+            for name in ctx.params
+            if getattr(ctx.get_parameter_source(name), "name", "") == "COMMANDLINE"
+        ),
     )
     with Progress(
         TextColumn("[bold]recording"),
@@ -93,13 +103,15 @@ def record(
         "recorded",
         [
             ("output", str(summary.out)),
+            *([("resumed at", f"episode {summary.resumed_at}")] if resume else []),
+            *[("recovered", line) for line in summary.recovered],
             ("episodes", str(len(summary.episodes))),
             ("success rate", f"{summary.success_rate:.1%}"),
             ("frames", str(summary.frames)),
             ("frames/s", f"{summary.fps:.1f}"),
-            ("formats", ",".join(opts.formats)),
-            *([("mcap bags", str(summary.out / "mcap"))] if "mcap" in opts.formats else []),
-            ("codec", codec.value),
+            ("formats", ",".join(summary.formats)),
+            *([("mcap bags", str(summary.out / "mcap"))] if "mcap" in summary.formats else []),
+            ("codec", summary.codec),
         ],
     )
 

@@ -264,12 +264,11 @@ class LeRobotV3Writer:
         row["meta/episodes/chunk_index"] = self._episode_file.chunk
         row["meta/episodes/file_index"] = self._episode_file.file
         self.episode_rows.append(row)
-        self._write_episodes({self._episode_file})
         for key, s in ep_stats.items():
             if key not in self._keys.values():
                 self._numeric_stats[key] = merge_numeric(self._numeric_stats.get(key), s)
         self.total_frames += n
-        self._write_meta()
+        self._write_meta(episodes_file=self._episode_file)
         return EpisodeRecord(index=index, length=n, success=success, seed=ep.start.seed)
 
     def close(self) -> None:
@@ -426,8 +425,12 @@ class LeRobotV3Writer:
         if path.stat().st_size >= self.config.data_files_size_in_mb * MB:
             self._episode_file = self._episode_file.next(self.config.chunks_size)
 
-    def _write_meta(self) -> None:
-        """tasks, stats, then info.json last: its totals are what the loader trusts."""
+    def _write_meta(self, episodes_file: FilePos | None = None) -> None:
+        """tasks, stats, the episodes file, then info.json last: its totals are what the loader trusts.
+
+        The episodes file lands right before info.json: lerobot lists every row of meta/episodes, so the new
+        row would show (uncounted) in the moment between those two renames, and only then.
+        """
         if len(self.tasks) != self._tasks_written:
             self._write(self.root / layout.TASKS_PATH, tasks_writer(self.tasks))
             self._tasks_written = len(self.tasks)
@@ -441,6 +444,8 @@ class LeRobotV3Writer:
         hist = {name: {"hist": acc.hist.tolist(), "frames": acc.frames} for name, acc in self._image_stats.items()}
         self._write(self.root / layout.IMAGE_HIST_PATH, atomic.bytes_writer(json.dumps(hist).encode()))
         self._write(self.root / layout.STATS_PATH, atomic.bytes_writer(json.dumps(ordered, indent=4).encode()))
+        if episodes_file is not None:
+            self._write_episodes({episodes_file})
         self._write(self.root / layout.INFO_PATH, atomic.bytes_writer(json.dumps(self.info(), indent=4).encode()))
 
     def info(self) -> dict[str, Any]:
