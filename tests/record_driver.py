@@ -41,13 +41,18 @@ def main() -> None:
         if rec is not None:
             print(f"finished {rec.index}", flush=True)
 
-    opts = RecordOptions(
-        scene=args["scene"],
-        out=Path(args["out"]),
-        n_episodes=args["n"],
-        codec=args.get("codec", "h264"),
-        formats=tuple(args.get("formats", ["lerobot"])),
-    )
+    if args.get("resume"):  # like `record --resume --out OUT --n-episodes N`
+        opts = RecordOptions(
+            out=Path(args["out"]), n_episodes=args["n"], resume=True, explicit=frozenset({"n_episodes"})
+        )
+    else:
+        opts = RecordOptions(
+            scene=args["scene"],
+            out=Path(args["out"]),
+            n_episodes=args["n"],
+            codec=args.get("codec", "h264"),
+            formats=tuple(args.get("formats", ["lerobot"])),
+        )
     record(opts, progress)
 
 

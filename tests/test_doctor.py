@@ -248,3 +248,24 @@ def test_cli_exit_codes_and_lines(healthy: Path, tmp_path: Path) -> None:
     assert fixed.stdout.strip().endswith(": healthy")
     missing = run_cli("doctor", str(tmp_path / "nope"))
     assert missing.returncode == 1 and "not a folder" in missing.stdout
+
+
+@pytest.mark.slow
+def test_lerobot_written_dataset_is_healthy_and_repairs(tmp_path: Path) -> None:
+    from test_stats_lerobot import write_lerobot_dataset
+
+    root = tmp_path / "lerobot"
+    write_lerobot_dataset(root, with_success=True)
+    assert check(root) == []
+    tasks_without_pandas_index(root)
+    episodes_reversed(root)
+    assert {"tasks.pandas_index", "episodes.order"} <= {f.code for f in check(root)}
+    assert repair(root).remaining == []
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    ds = LeRobotDataset("local/repaired", root=root, video_backend="pyav")
+    for i in range(len(ds)):
+        item = ds[i]
+        e, t = int(item["episode_index"]), int(item["frame_index"])
+        assert item["task"] == "push the block" and item["observation.state"].tolist()[:2] == [t, e]
+        assert abs(float(item["observation.images.cam"].mean()) * 255 - 10 * t) < 4

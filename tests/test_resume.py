@@ -112,6 +112,19 @@ def test_resume_continues_both_formats_exactly(tmp_path: Path, home: Path) -> No
     assert again.episodes == [] and again.resumed_at == 4
 
 
+def test_resume_mcap_only(tmp_path: Path, home: Path) -> None:
+    out = tmp_path / "bags"
+    record(RecordOptions(scene=str(home / "scene.yaml"), out=out, n_episodes=1, formats=("mcap",)))
+    (out / "mcap/.partial/episode_000001").mkdir(parents=True)  # a bag in flight when it was killed
+    summary = record(RecordOptions(out=out, resume=True, n_episodes=3, explicit=frozenset({"n_episodes"})))
+    assert summary.resumed_at == 1 and [e.index for e in summary.episodes] == [1, 2]
+    bags = finished_bags(out / "mcap")
+    assert [b.name for b in bags] == ["episode_000000", "episode_000001", "episode_000002"]
+    assert not (out / "mcap/.partial").exists() and not (out / "meta").exists()
+    with pytest.raises(ConfigError, match="formats: the dataset was recorded with mcap"):
+        record(RecordOptions(out=out, resume=True, formats=("lerobot",), explicit=frozenset({"formats"})))
+
+
 def _edit(path: Path, fn: Callable[[dict[str, Any]], object]) -> None:
     data = yaml.safe_load(path.read_text())
     fn(data)
