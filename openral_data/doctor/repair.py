@@ -163,12 +163,12 @@ def _video_times(ds: Dataset, found: dict[str, Finding], q: Quarantine) -> list[
 
 
 # -- frame table -----------------------------------------------------------------------------------------------
-def _rewrite_data(ds: Dataset, q: Quarantine, fn: Callable[[pa.Table, int], pa.Table]) -> None:
-    """Apply `fn(table, first_row_position)` to every data file, in path order, keeping the originals."""
+def _rewrite_data(ds: Dataset, q: Quarantine, fn: Callable[[pa.Table, int, Path], pa.Table]) -> None:
+    """Apply `fn(table, first_row_position, path)` to every data file in path order, keeping the originals."""
     start = 0
     for path in ds.data_files:
         table = pq.read_table(path)
-        new = fn(table, start)
+        new = fn(table, start, path)
         start += new.num_rows
         if new.equals(table):
             continue
@@ -180,7 +180,7 @@ def _data_columns(ds: Dataset, found: dict[str, Finding], q: Quarantine) -> list
     if "data.extra_column" not in found:
         return []
     keep = set(ds.features)
-    _rewrite_data(ds, q, lambda t, _: t.select([c for c in t.column_names if c in keep]))
+    _rewrite_data(ds, q, lambda t, _start, _path: t.select([c for c in t.column_names if c in keep]))
     return ["data: columns not declared in info.json moved out (the original files are in the quarantine)"]
 
 
@@ -190,7 +190,7 @@ def _data_rows(ds: Dataset, found: dict[str, Finding], q: Quarantine) -> list[st
         return []
     fps = ds.fps
 
-    def fix(t: pa.Table, start: int) -> pa.Table:
+    def fix(t: pa.Table, start: int, _path: Path) -> pa.Table:
         if "data.order" in wanted:
             t = t.sort_by([("episode_index", "ascending"), ("frame_index", "ascending")])
         cols = {name: t[name] for name in t.column_names}
@@ -221,15 +221,15 @@ def _totals(ds: Dataset, found: dict[str, Finding], q: Quarantine) -> list[str]:
     actions: list[str] = []
     if complete < len(idx):
         tables, rows = _read_episode_files(ds)
-        q.keep_rows(ds.root / "meta/episodes/removed.parquet", pa.Table.from_pylist(rows[complete:]))
+        q.keep_rows(ds.root / "meta/episodes/set-aside", pa.Table.from_pylist(rows[complete:]))
         _write_episode_files(ds, tables, rows[:complete], q)
         actions.append(f"meta/episodes: {len(idx) - complete} incomplete episode row(s) set aside")
     if len(ep) and ep.max(initial=-1) >= complete:
 
-        def drop(t: pa.Table, _: int) -> pa.Table:
+        def drop(t: pa.Table, _start: int, path: Path) -> pa.Table:
             beyond = pc.greater_equal(t["episode_index"], complete)
             if pc.any(beyond).as_py():
-                q.keep_rows(ds.root / "data/removed.parquet", t.filter(beyond))
+                q.keep_rows(path, t.filter(beyond))
             return t.filter(pc.invert(beyond))
 
         _rewrite_data(ds, q, drop)

@@ -46,15 +46,21 @@ class Quarantine:
         return dest
 
     def keep_rows(self, path: Path, rows: pa.Table) -> Path:
-        dest = self.dir / f"{path.relative_to(self.root)}.removed-rows.parquet"
+        base = self.dir / f"{path.relative_to(self.root)}.removed-rows"
+        dest, k = base.with_name(base.name + ".parquet"), 1
+        while dest.exists():  # never overwrite rows set aside earlier in this recovery
+            k += 1
+            dest = base.with_name(f"{base.name}-{k}.parquet")
         dest.parent.mkdir(parents=True, exist_ok=True)
         pq.write_table(rows, dest)
         return dest
 
     def keep_copy(self, path: Path) -> Path:
+        """Keep the original of a file about to be replaced (the first copy wins: it is the original)."""
         dest = self.dir / path.relative_to(self.root)
-        dest.parent.mkdir(parents=True, exist_ok=True)
-        shutil.copy2(path, dest)
+        if not dest.exists():
+            dest.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(path, dest)
         return dest
 
 
