@@ -38,6 +38,7 @@ class ListWhat(StrEnum):
 
 @app.command()
 def record(
+    ctx: typer.Context,
     scene: Annotated[str, typer.Option(help="scene YAML path or scene id under scenes/")] = paths.DEFAULT_SCENE,
     rskill: Annotated[str, typer.Option(help="rSkill id under rskills/, or a path to rskill.yaml")] = "random-mock",
     robot: Annotated[str | None, typer.Option(help="robot id (default: the scene's robot)")] = None,
@@ -59,10 +60,16 @@ def record(
     safety: Annotated[str | None, typer.Option(help="--hal: clamp or refuse (default: the manifest's)")] = None,
     staleness: Annotated[float | None, typer.Option(help="--hal: camera sample age limit, s (3 periods)")] = None,
     port: Annotated[str | None, typer.Option(help="--hal --mode real: serial port (default: the manifest's)")] = None,
+    resume: Annotated[
+        bool, typer.Option("--resume", help="continue the recording in --out (its settings; --n-episodes = total)")
+    ] = False,
 ) -> None:
     """Record episodes of SCENE driven by RSKILL into a LeRobotDataset v3 and/or ROS 2 MCAP bags."""
     if hal is not None:
         from openral_data.hal_cli import run_hal_record
+
+        if resume:
+            raise OpenralError("--resume: not available with --hal (a HAL recording starts a new dataset)")
 
         run_hal_record(
             hal, mode, rskill, fps, scene if scene != paths.DEFAULT_SCENE else None, n_episodes, max_steps, seed,
@@ -89,6 +96,12 @@ def record(
         codec=codec.value,
         formats=parse_formats(format),
         image_format=image_format,
+        resume=resume,
+        explicit=frozenset(
+            {"format": "formats"}.get(name, name)
+            for name in ctx.params
+            if getattr(ctx.get_parameter_source(name), "name", "") == "COMMANDLINE"
+        ),
     )
     with Progress(
         TextColumn("[bold]recording"),
@@ -115,13 +128,15 @@ def record(
         "recorded",
         [
             ("output", str(summary.out)),
+            *([("resumed at", f"episode {summary.resumed_at}")] if resume else []),
+            *[("recovered", line) for line in summary.recovered],
             ("episodes", str(len(summary.episodes))),
             ("success rate", f"{summary.success_rate:.1%}"),
             ("frames", str(summary.frames)),
             ("frames/s", f"{summary.fps:.1f}"),
-            ("formats", ",".join(opts.formats)),
-            *([("mcap bags", str(summary.out / "mcap"))] if "mcap" in opts.formats else []),
-            ("codec", codec.value),
+            ("formats", ",".join(summary.formats)),
+            *([("mcap bags", str(summary.out / "mcap"))] if "mcap" in summary.formats else []),
+            ("codec", summary.codec),
         ],
     )
 
@@ -301,6 +316,20 @@ def replay(
         formats=parse_formats(format),
     )
     run_replay(opts, console, err_console)
+
+
+@app.command()
+def doctor(
+    dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset folder (ours or lerobot's)")],
+    repair: Annotated[bool, typer.Option("--repair", help="fix what is safely fixable (originals are kept)")] = False,
+) -> None:
+    """Check a dataset against lerobot 0.6.1's format rules, one line per finding; exit 1 on errors."""
+    from openral_data.doctor.command import run_doctor
+
+    text, code = run_doctor(dataset, repair)
+    console.print(text, markup=False, highlight=False, soft_wrap=True)
+    if code:
+        raise typer.Exit(code)
 
 
 def main() -> None:
