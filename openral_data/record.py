@@ -20,6 +20,7 @@ from openral_data.schemas.scene import SimScene, load_recordable_scene
 from openral_data.sinks.base import DatasetSchema, EpisodeRecord, Sink
 from openral_data.sinks.lerobot_v3 import VideoSettings, WriterConfig
 from openral_data.sinks.lerobot_v3.video import Codec
+from openral_data.sinks.mcap import McapSink
 
 
 @dataclass(frozen=True)
@@ -34,6 +35,7 @@ class RecordOptions:
     codec: Codec = "av1"
     formats: tuple[str, ...] = ("lerobot",)  # any of FORMATS; see sinks.select.make_sinks for the layout
     image_format: str = "jpeg"  # MCAP camera messages: jpeg | png | raw
+    first_episode: int = 0  # MCAP bags are numbered from here (a `--workers` share; see openral_data/parallel)
 
 
 @dataclass(frozen=True)
@@ -156,6 +158,9 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
             },
         )
         sinks: list[Sink] = make_sinks(out, schema, opts.formats, WriterConfig(video=video), opts.image_format)
+        for sink in sinks:
+            if isinstance(sink, McapSink):
+                sink.index_offset = opts.first_episode
         bridge = DatasetBridge(schema, sinks)
         records: list[EpisodeRecord] = []
         frames = 0
