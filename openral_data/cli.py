@@ -50,6 +50,10 @@ def record(
         str, typer.Option("--format", help="lerobot, mcap or lerobot,mcap (MCAP bags go to OUT/mcap/)")
     ] = "lerobot",
     image_format: Annotated[str, typer.Option(help="MCAP camera messages: jpeg, png or raw")] = "jpeg",
+    workers: Annotated[int, typer.Option(help="record in N processes, merged by seed (openral_data/parallel)")] = 1,
+    executor: Annotated[str, typer.Option(help="local (processes on this machine) or ray")] = "local",
+    address: Annotated[str | None, typer.Option(help="Ray cluster address (--executor ray)")] = None,
+    threads_per_worker: Annotated[int | None, typer.Option(help="renderer threads per worker (LP_NUM_THREADS)")] = None,
 ) -> None:
     """Record episodes of SCENE driven by RSKILL into a LeRobotDataset v3 and/or ROS 2 MCAP bags."""
     from openral_data.record import RecordOptions
@@ -68,6 +72,11 @@ def record(
         formats=parse_formats(format),
         image_format=image_format,
     )
+    if workers != 1 or executor != "local":
+        from openral_data.parallel.cli import run_parallel_cli
+
+        run_parallel_cli(opts, workers, executor, address, threads_per_worker, console)
+        return
     with Progress(
         TextColumn("[bold]recording"),
         BarColumn(),
@@ -242,6 +251,15 @@ def view(
     from openral_data.viz.rerun_view import ViewOptions, run_view
 
     console.print(run_view(ViewOptions(path, episode, save, results)), markup=False, highlight=False)
+
+
+def _add_subcommands() -> None:
+    from openral_data.edit.cli import episodes_app
+
+    app.add_typer(episodes_app, name="episodes")
+
+
+_add_subcommands()
 
 
 def main() -> None:
