@@ -24,12 +24,12 @@ from openral_data.record import RecordOptions, record
 LENGTHS = [5, 9, 3, 7]
 
 
-def _record(project: Path, out: Path, seed: int, n: int, **scene_over: object) -> Path:
+def _record(project: Path, out: Path, seed: int, n: int, codec: str = "h264", **scene_over: object) -> Path:
     scene = write_yaml(
         project / "scenes/sim/mock_edit.yaml",
         mock_scene(scene_id="mock_edit", success_after=LENGTHS, n_episodes=n, seeded=True, **scene_over),
     )
-    record(RecordOptions(scene=str(scene), rskill="random-mock", out=out, codec="h264", seed=seed, n_episodes=n))
+    record(RecordOptions(scene=str(scene), rskill="random-mock", out=out, codec=codec, seed=seed, n_episodes=n))  # type: ignore[arg-type]
     return out
 
 
@@ -173,3 +173,13 @@ def test_delete_in_place_replaces_the_input(two: tuple[Path, Path]) -> None:
     ops.delete(a, "0", None, in_place=True)
     assert episode_seeds(a) == [1, 2, 3]
     assert not [p for p in a.parent.iterdir() if p.name.startswith(".")]
+
+
+def test_av1_episodes_are_cut_by_remux(project: Path, tmp_path: Path) -> None:
+    """AV1 (the default codec) has no encoder in PyAV's build: cutting must be a pure packet remux."""
+    src = _record(project, tmp_path / "av1", 0, 3, codec="av1")
+    out = ops.delete(src, "1", tmp_path / "out").out
+    key = "observation.images.front"
+    packets = _packets(src, key)
+    assert _packets(out, key) == packets[:5] + packets[5 + 9 :]
+    assert verify_seeded_dataset(out)["seeds"] == [0, 2]

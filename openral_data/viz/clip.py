@@ -39,7 +39,8 @@ def episode_clip(path: Path, from_ts: float, to_ts: float, fps: int) -> Clip:
         shift = min(pts for _, pts in packets)
         buf = io.BytesIO()
         with av.open(buf, "w", format="mp4") as dst:
-            out = dst.add_stream_from_template(stream)
+            # opaque: remux only, no codec context (PyAV has no AV1 encoder matching the libdav1d decoder)
+            out = dst.add_stream_from_template(stream, opaque=True)
             for p, pts in packets:
                 dts = p.dts
                 p.pts = pts - shift
