@@ -51,6 +51,8 @@ def run_ray(jobs: list[WorkerJob], address: str | None = None) -> list[WorkerRes
         }
         if address is None:
             kwargs["num_cpus"] = max(len(jobs), os.cpu_count() or 1)
+            # a busy machine can take longer than Ray's default 10 s for the local raylet to register
+            os.environ.setdefault("RAY_raylet_start_wait_time_s", "120")
         try:
             ray.init(address=address, **kwargs)
         except (ConnectionError, RuntimeError) as exc:
