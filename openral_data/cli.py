@@ -56,7 +56,7 @@ def record(
     threads_per_worker: Annotated[int | None, typer.Option(help="renderer threads per worker (LP_NUM_THREADS)")] = None,
 ) -> None:
     """Record episodes of SCENE driven by RSKILL into a LeRobotDataset v3 and/or ROS 2 MCAP bags."""
-    from openral_data.record import RecordOptions
+    from openral_data.record import RecordOptions, RecordSummary
     from openral_data.record import record as run_record
     from openral_data.sinks.select import parse_formats
 
@@ -72,11 +72,7 @@ def record(
         formats=parse_formats(format),
         image_format=image_format,
     )
-    if workers != 1 or executor != "local":
-        from openral_data.parallel.cli import run_parallel_cli
-
-        run_parallel_cli(opts, workers, executor, address, threads_per_worker, console)
-        return
+    parallel = workers != 1 or executor != "local"
     with Progress(
         TextColumn("[bold]recording"),
         BarColumn(),
@@ -93,7 +89,12 @@ def record(
             bar.update(task, total=total, advance=0 if rec is None else 1, frames=frames)
 
         try:
-            summary = run_record(opts, progress)
+            if parallel:
+                from openral_data.parallel.run import record_parallel
+
+                summary: RecordSummary = record_parallel(opts, workers, executor, address, threads_per_worker)
+            else:
+                summary = run_record(opts, progress)
         except KeyboardInterrupt:
             bar.stop()
             err_console.print("interrupted: the episode in flight was discarded, finished episodes are kept")
@@ -109,6 +110,7 @@ def record(
             ("formats", ",".join(opts.formats)),
             *([("mcap bags", str(summary.out / "mcap"))] if "mcap" in opts.formats else []),
             ("codec", codec.value),
+            *([("workers", f"{workers} ({executor})")] if parallel else []),
         ],
     )
 
