@@ -183,3 +183,11 @@ def test_av1_episodes_are_cut_by_remux(project: Path, tmp_path: Path) -> None:
     packets = _packets(src, key)
     assert _packets(out, key) == packets[:5] + packets[5 + 9 :]
     assert verify_seeded_dataset(out)["seeds"] == [0, 2]
+
+
+def test_delete_in_place_refuses_what_it_would_drop(two: tuple[Path, Path]) -> None:
+    a, _ = two
+    (a / "mcap").mkdir()
+    with pytest.raises(OpenralError, match="--in-place: mcap would not be carried over"):
+        ops.delete(a, "0", None, in_place=True)
+    assert episode_seeds(a) == [0, 1, 2, 3]

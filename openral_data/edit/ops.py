@@ -22,6 +22,7 @@ from openral_data.edit.source import SourceDataset
 from openral_data.errors import OpenralError
 from openral_data.sinks.lerobot_v3.atomic import fsync_dir, fsync_file
 
+_DATASET_ENTRIES = {"meta", "data", "videos", ".openral"}
 Selection = list[tuple[SourceDataset, int]]  # (source, episode index in it), in output order
 
 
@@ -150,6 +151,12 @@ def delete(dataset: Path, episodes: str, out: Path | None, in_place: bool = Fals
         raise OpenralError("--out: give either --out DIR or --in-place")
     if out is not None:
         return write_selection(keep, out, "delete")
+    foreign = sorted(p.name for p in dataset.iterdir() if p.name not in _DATASET_ENTRIES)
+    if foreign:
+        raise OpenralError(
+            f"{dataset}: --in-place: {', '.join(foreign)} would not be carried over (editing writes meta/, data/ "
+            "and videos/ only); use --out"
+        )
     new = dataset.parent / f".{dataset.name}.edited-{os.getpid()}"
     old = dataset.parent / f".{dataset.name}.replaced-{os.getpid()}"
     result = write_selection(keep, new, "delete")
