@@ -51,12 +51,7 @@ def run_ray(jobs: list[WorkerJob], address: str | None = None) -> list[WorkerRes
         }
         if address is None:
             kwargs["num_cpus"] = max(len(jobs), os.cpu_count() or 1)
-            # a busy machine can take longer than Ray's default 10 s for the local raylet to register
-            os.environ.setdefault("RAY_raylet_start_wait_time_s", "120")
-        try:
-            ray.init(address=address, **kwargs)
-        except (ConnectionError, RuntimeError) as exc:
-            raise OpenralError(f"--address {address}: cannot connect to a Ray cluster: {exc}") from None
+        _init_ray(ray, address, kwargs)
         started = True
     try:
         remote = ray.remote(num_cpus=1, max_retries=0)(run_worker)
@@ -75,6 +70,22 @@ def run_ray(jobs: list[WorkerJob], address: str | None = None) -> list[WorkerRes
     finally:
         if started:
             ray.shutdown()
+
+
+def _init_ray(ray: Any, address: str | None, kwargs: dict[str, Any]) -> None:
+    """Connect to `address`, or start a local instance. On a loaded machine Ray's local start can give up
+    (its raylet waits a fixed 15 s for the agent's port file, ray-project/ray#65983): retry that twice."""
+    attempts = 1 if address is not None else 3
+    for attempt in range(1, attempts + 1):
+        try:
+            ray.init(address=address, **kwargs)
+            return
+        except Exception as exc:  # noqa: BLE001 - Ray reports a failed start as a bare Exception
+            ray.shutdown()
+            if address is not None:
+                raise OpenralError(f"--address {address}: cannot connect to a Ray cluster: {exc}") from None
+            if attempt == attempts or "timed out during startup" not in str(exc):
+                raise OpenralError(f"--executor ray: could not start a local Ray instance: {exc}") from None
 
 
 def run_jobs(jobs: list[WorkerJob], executor: str = "local", address: str | None = None) -> list[WorkerResult]:
