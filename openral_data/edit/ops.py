@@ -16,9 +16,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from openral_data.convert.to_mcap import parse_episodes
 from openral_data.edit.assemble import EpisodeAssembler
 from openral_data.edit.source import SourceDataset
+from openral_data.episode_spec import parse_episodes
 from openral_data.errors import OpenralError
 from openral_data.sinks.lerobot_v3.atomic import fsync_dir, fsync_file
 
