@@ -52,7 +52,7 @@ GAP_FACTOR = 1.5
 def generate(root: Path, episodes: int, rows_per_file: int, seed: int = 0) -> dict[str, int]:
     from openral_data.sinks.lerobot_v3 import layout
     from openral_data.sinks.lerobot_v3.features import DEFAULT_FEATURES, OUTCOME_FEATURES
-    from openral_data.sinks.lerobot_v3.writer import _tasks_writer
+    from openral_data.sinks.lerobot_v3.writer import tasks_writer
 
     rng = np.random.default_rng(seed)
     lengths = rng.integers(600, 1201, size=episodes)
@@ -66,7 +66,7 @@ def generate(root: Path, episodes: int, rows_per_file: int, seed: int = 0) -> di
     tasks = ["pick the cube", "place the cube", "open the drawer"]
     (root / "meta/episodes/chunk-000").mkdir(parents=True)
     (root / "data/chunk-000").mkdir(parents=True)
-    _tasks_writer({t: i for i, t in enumerate(tasks)})(root / layout.TASKS_PATH)
+    tasks_writer({t: i for i, t in enumerate(tasks)})(root / layout.TASKS_PATH)
     ep_rows: list[dict[str, Any]] = []
     pending: list[pa.Table] = []
     pending_rows = 0

@@ -27,11 +27,11 @@ def _describe(x: object) -> str:
 class DatasetBridge:
     """Validates frames against `schema` and fans them out to every sink."""
 
-    def __init__(self, schema: DatasetSchema, sinks: Sequence[Sink]) -> None:
+    def __init__(self, schema: DatasetSchema, sinks: Sequence[Sink], first_episode: int = 0) -> None:
         self.schema = schema
         self.sinks = list(sinks)
         self._camera_names = set(schema.cameras)
-        self._episode = 0
+        self._episode = first_episode  # a resumed recording continues the numbering
         self._step = 0
         self._last_time = 0.0
         self._open = False

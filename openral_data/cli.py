@@ -38,6 +38,7 @@ class ListWhat(StrEnum):
 
 @app.command()
 def record(
+    ctx: typer.Context,
     scene: Annotated[str, typer.Option(help="scene YAML path or scene id under scenes/")] = paths.DEFAULT_SCENE,
     rskill: Annotated[str, typer.Option(help="rSkill id under rskills/, or a path to rskill.yaml")] = "random-mock",
     robot: Annotated[str | None, typer.Option(help="robot id (default: the scene's robot)")] = None,
@@ -50,6 +51,9 @@ def record(
         str, typer.Option("--format", help="lerobot, mcap or lerobot,mcap (MCAP bags go to OUT/mcap/)")
     ] = "lerobot",
     image_format: Annotated[str, typer.Option(help="MCAP camera messages: jpeg, png or raw")] = "jpeg",
+    resume: Annotated[
+        bool, typer.Option("--resume", help="continue the recording in --out (its settings; --n-episodes = total)")
+    ] = False,
     workers: Annotated[int, typer.Option(help="record in N processes, merged by seed (openral_data/parallel)")] = 1,
     executor: Annotated[str, typer.Option(help="local (processes on this machine) or ray")] = "local",
     address: Annotated[str | None, typer.Option(help="Ray cluster address (--executor ray)")] = None,
@@ -71,6 +75,12 @@ def record(
         codec=codec.value,
         formats=parse_formats(format),
         image_format=image_format,
+        resume=resume,
+        explicit=frozenset(
+            {"format": "formats"}.get(name, name)
+            for name in ctx.params
+            if getattr(ctx.get_parameter_source(name), "name", "") == "COMMANDLINE"
+        ),
     )
     parallel = workers != 1 or executor != "local"
     with Progress(
@@ -103,13 +113,15 @@ def record(
         "recorded",
         [
             ("output", str(summary.out)),
+            *([("resumed at", f"episode {summary.resumed_at}")] if resume else []),
+            *[("recovered", line) for line in summary.recovered],
             ("episodes", str(len(summary.episodes))),
             ("success rate", f"{summary.success_rate:.1%}"),
             ("frames", str(summary.frames)),
             ("frames/s", f"{summary.fps:.1f}"),
-            ("formats", ",".join(opts.formats)),
-            *([("mcap bags", str(summary.out / "mcap"))] if "mcap" in opts.formats else []),
-            ("codec", codec.value),
+            ("formats", ",".join(summary.formats)),
+            *([("mcap bags", str(summary.out / "mcap"))] if "mcap" in summary.formats else []),
+            ("codec", summary.codec),
             *([("workers", f"{workers} ({executor})")] if parallel else []),
         ],
     )
@@ -253,6 +265,20 @@ def view(
     from openral_data.viz.rerun_view import ViewOptions, run_view
 
     console.print(run_view(ViewOptions(path, episode, save, results)), markup=False, highlight=False)
+
+
+@app.command()
+def doctor(
+    dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset folder (ours or lerobot's)")],
+    repair: Annotated[bool, typer.Option("--repair", help="fix what is safely fixable (originals are kept)")] = False,
+) -> None:
+    """Check a dataset against lerobot 0.6.1's format rules, one line per finding; exit 1 on errors."""
+    from openral_data.doctor.command import run_doctor
+
+    text, code = run_doctor(dataset, repair)
+    console.print(text, markup=False, highlight=False, soft_wrap=True)
+    if code:
+        raise typer.Exit(code)
 
 
 def _add_subcommands() -> None:

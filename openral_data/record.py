@@ -35,6 +35,8 @@ class RecordOptions:
     codec: Codec = "av1"
     formats: tuple[str, ...] = ("lerobot",)  # any of FORMATS; see sinks.select.make_sinks for the layout
     image_format: str = "jpeg"  # MCAP camera messages: jpeg | png | raw
+    resume: bool = False  # continue the recording in `out` with its own settings (see openral_data.resume)
+    explicit: frozenset[str] = frozenset()  # options the user gave (with resume: they must match the recording)
     first_episode: int = 0  # MCAP bags are numbered from here (a `--workers` share; see openral_data/parallel)
 
 
@@ -44,6 +46,10 @@ class RecordSummary:
     episodes: list[EpisodeRecord]
     frames: int
     seconds: float
+    resumed_at: int = 0  # episodes the dataset already held when this run started (--resume)
+    recovered: tuple[str, ...] = ()  # what recovery did before resuming
+    codec: str = ""  # the settings used (with --resume: the recording's own)
+    formats: tuple[str, ...] = ()
 
     @property
     def success_rate(self) -> float:
@@ -101,12 +107,18 @@ def check_out(out: Path) -> None:
     if out.exists() and not out.is_dir():
         raise OpenralError(f"{out}: --out exists and is not a directory")
     if out.is_dir() and any(out.iterdir()):
-        if (out / "meta" / "info.json").exists():
-            raise OpenralError(f"{out}: --out already holds a dataset; refusing to overwrite it (choose a new --out)")
+        if (out / "meta" / "info.json").exists() or (out / ".openral" / "record.json").exists():
+            raise OpenralError(
+                f"{out}: --out already holds a dataset; refusing to overwrite it (choose a new --out, or --resume)"
+            )
         raise OpenralError(f"{out}: --out exists, is not empty and is not a dataset; refusing to write there")
 
 
 def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSummary:
+    from openral_data import resume
+
+    if opts.resume:
+        opts = resume.continue_options(opts, opts.explicit)
     # 1. everything that can be wrong with the inputs is found here, before anything is written
     scene_path = registry.resolve_scene_path(opts.scene)
     scene = load_recordable_scene(scene_path)
@@ -137,7 +149,19 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
 
     check_formats(opts.formats, opts.image_format)
     out = opts.out if opts.out is not None else default_out(scene, rskill.id)
-    check_out(out)
+    if not opts.resume:
+        check_out(out)
+    kept = {
+        "scene": str(scene_path.resolve()),
+        "rskill": str(rskill_path.resolve()),
+        "robot": opts.robot,
+        "seed": base_seed,
+        "max_steps": max_steps,
+        "codec": opts.codec,
+        "formats": list(opts.formats),
+        "image_format": opts.image_format,
+        "n_episodes": n_episodes,
+    }
 
     env = make_scene(scene, robot, rskill, scene_src)
     try:
@@ -157,34 +181,53 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
                 "robot": robot.name,
             },
         )
-        sinks: list[Sink] = make_sinks(out, schema, opts.formats, WriterConfig(video=video), opts.image_format)
-        for sink in sinks:
-            if isinstance(sink, McapSink):
-                sink.index_offset = opts.first_episode
-        bridge = DatasetBridge(schema, sinks)
+        output = resume.open_output(out, opts, schema, kept)
         records: list[EpisodeRecord] = []
-        frames = 0
-        t0 = time.perf_counter()
-        stop = _StopRequest()
-        if progress is not None:
-            progress(None, 0, n_episodes)
         try:
-            for e in range(n_episodes):
-                rec = _record_episode(env, policy, bridge, base_seed + e, max_steps, stop)
-                records.append(rec)
-                frames += rec.length
-                if progress is not None:
-                    progress(rec, frames, n_episodes)
-        except BaseException as exc:
-            bridge.close()  # discards the episode in flight; finished episodes are already durable
-            if isinstance(exc, OpenralError) and records:
-                raise type(exc)(f"{exc} ({len(records)} finished episode(s) kept in {out})") from None
-            raise
+            first = output.first_episode
+            sinks: list[Sink] = make_sinks(
+                out, schema, opts.formats, WriterConfig(video=video), opts.image_format, resume=opts.resume
+            )
+            for sink in sinks:
+                if isinstance(sink, McapSink):
+                    sink.index_offset = opts.first_episode
+            bridge = DatasetBridge(schema, sinks, first_episode=first)
+            start_at = getattr(env, "start_at", None)  # producers that number their episodes (the mock)
+            if callable(start_at):
+                start_at(first)
+            frames = 0
+            t0 = time.perf_counter()
+            stop = _StopRequest()
+            if progress is not None:
+                progress(None, 0, max(0, n_episodes - first))
+            try:
+                for e in range(first, n_episodes):
+                    rec = _record_episode(env, policy, bridge, base_seed + e, max_steps, stop)
+                    records.append(rec)
+                    frames += rec.length
+                    if progress is not None:
+                        progress(rec, frames, max(0, n_episodes - first))
+            except BaseException as exc:
+                bridge.close()  # discards the episode in flight; finished episodes are already durable
+                if isinstance(exc, OpenralError) and first + len(records):
+                    raise type(exc)(f"{exc} ({first + len(records)} finished episode(s) kept in {out})") from None
+                raise
+            finally:
+                stop.restore()
+                policy.close()
+            bridge.close()
         finally:
-            stop.restore()
-            policy.close()
-        bridge.close()
-        return RecordSummary(out=out, episodes=records, frames=frames, seconds=time.perf_counter() - t0)
+            resume.close_output(out, output, len(records))
+        return RecordSummary(
+            out=out,
+            episodes=records,
+            frames=frames,
+            seconds=time.perf_counter() - t0,
+            resumed_at=first,
+            recovered=tuple(output.actions),
+            codec=opts.codec,
+            formats=opts.formats,
+        )
     finally:
         env.close()
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from pathlib import Path
 
@@ -55,3 +56,26 @@ def test_batch_discard_removes_staged_files(tmp_path: Path) -> None:
     batch.write_with(tmp_path / "info.json", _writes("staged"))
     batch.discard()
     assert (tmp_path / "info.json").read_text() == "committed" and not list(tmp_path.rglob("*.tmp"))
+
+
+def test_journal_replays_an_interrupted_commit(tmp_path: Path) -> None:
+    journal = tmp_path / ".openral" / "journal.json"
+    (tmp_path / "info.json").write_text("old")
+    batch = atomic.Batch(journal=journal)
+    batch.write_with(tmp_path / "data.parquet", _writes("d"))
+    batch.write_with(tmp_path / "info.json", _writes("new"))
+    assert batch.write_journal()
+    os.replace(tmp_path / ".data.parquet.tmp", tmp_path / "data.parquet")  # killed after the first rename
+    assert (tmp_path / "info.json").read_text() == "old"
+    assert atomic.replay_journal(journal) == 1
+    assert (tmp_path / "info.json").read_text() == "new" and (tmp_path / "data.parquet").read_text() == "d"
+    assert not journal.exists() and not list(tmp_path.rglob("*.tmp"))
+    assert atomic.replay_journal(journal) == 0
+
+
+def test_committed_journal_batch_leaves_no_journal(tmp_path: Path) -> None:
+    journal = tmp_path / "journal.json"
+    batch = atomic.Batch(journal=journal)
+    batch.write_with(tmp_path / "a", _writes("a"))
+    batch.commit()
+    assert (tmp_path / "a").read_text() == "a" and not journal.exists()

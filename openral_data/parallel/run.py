@@ -44,6 +44,8 @@ def record_parallel(
     threads: int | None = None,
 ) -> ParallelSummary:
     check_formats(opts.formats, opts.image_format)
+    if opts.resume:
+        raise OpenralError("--resume: continue a recording with one process (no --workers/--executor)")
     if opts.out is None:
         scene = load_recordable_scene(registry.resolve_scene_path(opts.scene))
         opts = dataclasses.replace(opts, out=default_out(scene, registry.resolve_rskill(opts.rskill)[0].id))
@@ -65,6 +67,8 @@ def record_parallel(
         episodes=episodes,
         frames=sum(e.length for e in episodes),
         seconds=time.perf_counter() - t0,
+        codec=opts.codec,
+        formats=opts.formats,
         finish_order=tuple(r.worker for r in results),
         workers=len(jobs),
     )

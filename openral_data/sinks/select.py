@@ -42,16 +42,24 @@ def check_formats(formats: tuple[str, ...], image_format: str = "jpeg") -> None:
 
 
 def make_sinks(
-    out: Path, schema: DatasetSchema, formats: tuple[str, ...], writer: WriterConfig, image_format: str = "jpeg"
+    out: Path,
+    schema: DatasetSchema,
+    formats: tuple[str, ...],
+    writer: WriterConfig,
+    image_format: str = "jpeg",
+    *,
+    resume: bool = False,
 ) -> list[Sink]:
+    """The sinks in commit order: MCAP before LeRobot, so a kill between the two commits of one episode
+    leaves an extra bag (one folder `record --resume` sets aside), never an extra LeRobot episode."""
     check_formats(formats, image_format)
     sinks: list[Sink] = []
     try:
-        if "lerobot" in formats:
-            sinks.append(LeRobotV3Writer(out, schema, writer))
+        if "lerobot" in formats:  # created first: it refuses a non-empty OUT before anything lands there
+            sinks.append(LeRobotV3Writer(out, schema, writer, resume=resume))
         if "mcap" in formats:
             config = McapConfig(image_format=cast(ImageFormat, image_format))
-            sinks.append(McapSink(out / MCAP_SUBDIR, schema, config))
+            sinks.insert(0, McapSink(out / MCAP_SUBDIR, schema, config, resume=resume))
     except BaseException:
         for sink in sinks:
             sink.close()

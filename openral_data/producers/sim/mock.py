@@ -111,6 +111,10 @@ class MockScene:
             del images[first]
         return state, images
 
+    def start_at(self, episode: int) -> None:
+        """Continue the episode numbering (`record --resume`): the next `reset` is episode `episode`."""
+        self._episode = episode - 1
+
     def reset(self, seed: int) -> Observation:
         self._episode = seed if self.params.seeded else self._episode + 1
         self._seed = seed

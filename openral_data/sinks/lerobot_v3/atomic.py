@@ -1,7 +1,13 @@
-"""Atomic file replacement: write beside the target, flush to disk, then rename over it."""
+"""Atomic file replacement: write beside the target, flush to disk, then rename over it.
+
+A `Batch` with a journal makes a group of replacements all-or-nothing across a crash: every file is staged
+and fsynced first, then the journal (the list of renames) is made durable, then the renames run and the
+journal is removed. A process killed during the renames leaves the journal; `replay_journal` finishes them.
+"""
 
 from __future__ import annotations
 
+import json
 import os
 from collections.abc import Callable
 from pathlib import Path
@@ -60,8 +66,9 @@ class Batch:
     the others count (info.json) is written last and lands last.
     """
 
-    def __init__(self, durable: bool = True) -> None:
+    def __init__(self, durable: bool = True, journal: Path | None = None) -> None:
         self.durable = durable
+        self.journal = journal
         self._staged: list[tuple[Path, Path]] = []
 
     def write_with(self, path: Path, writer: Callable[[Path], None]) -> None:
@@ -79,14 +86,52 @@ class Batch:
         self._staged.append((tmp, path))
 
     def commit(self) -> None:
-        for tmp, path in self._staged:
-            os.replace(tmp, path)
-        if self.durable:
-            for parent in dict.fromkeys(path.parent for _, path in self._staged):
-                fsync_dir(parent)
+        journaled = self.write_journal()
+        _rename_all(self._staged, self.durable)
+        if journaled and self.journal is not None:
+            self.journal.unlink()
+            if self.durable:
+                fsync_dir(self.journal.parent)
         self._staged.clear()
+
+    def write_journal(self) -> bool:
+        """Make the list of pending renames durable (the commit point); False when there is no journal."""
+        if self.journal is None or not self._staged:
+            return False
+        here = self.journal.parent  # paths relative to the journal: a moved dataset still replays
+        renames = [[os.path.relpath(tmp, here), os.path.relpath(path, here)] for tmp, path in self._staged]
+        write_bytes(self.journal, json.dumps({"renames": renames}).encode(), self.durable)
+        return True
 
     def discard(self) -> None:
         for tmp, _ in self._staged:
             tmp.unlink(missing_ok=True)
         self._staged.clear()
+
+
+def _rename_all(renames: list[tuple[Path, Path]], durable: bool) -> None:
+    for tmp, path in renames:
+        os.replace(tmp, path)
+    if durable:
+        for parent in dict.fromkeys(path.parent for _, path in renames):
+            fsync_dir(parent)
+
+
+def replay_journal(journal: Path, durable: bool = True) -> int:
+    """Finish the renames of a batch whose commit was interrupted; returns how many files it moved.
+
+    Renames already done have no temporary file left and are skipped, so replaying twice is harmless.
+    """
+    if not journal.is_file():
+        return 0
+    try:
+        here = journal.parent
+        renames = [(here / a, here / b) for a, b in json.loads(journal.read_text())["renames"]]
+    except (ValueError, KeyError, TypeError) as exc:  # a torn journal cannot exist: it lands by rename
+        raise ValueError(f"{journal}: unreadable commit journal: {exc}") from None
+    pending = [(tmp, path) for tmp, path in renames if tmp.exists()]
+    _rename_all(pending, durable)
+    journal.unlink()
+    if durable:
+        fsync_dir(journal.parent)
+    return len(pending)

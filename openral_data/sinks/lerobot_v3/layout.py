@@ -13,6 +13,13 @@ INFO_PATH = "meta/info.json"
 STATS_PATH = "meta/stats.json"
 TASKS_PATH = "meta/tasks.parquet"
 OPENRAL_PATH = "meta/openral.json"
+# openral-data's own bookkeeping, invisible to lerobot's loader (it only reads meta/, data/ and videos/)
+STATE_DIR = ".openral"
+LOCK_PATH = ".openral/lock"  # one writer at a time (fcntl lock)
+JOURNAL_PATH = ".openral/journal.json"  # renames of an episode commit in progress
+IMAGE_HIST_PATH = ".openral/image_hist.json"  # dataset-level camera histograms, so a resume keeps exact stats
+RECORD_PATH = ".openral/record.json"  # the settings of `record`, so --resume continues with the same ones
+QUARANTINE_DIR = ".openral/quarantine"  # what recovery or repair took out of the dataset, kept, never deleted
 DEFAULT_CHUNKS_SIZE = 1000
 
 

@@ -2,7 +2,10 @@
 
 Durability: every finished episode is committed before `end_episode` returns. Its videos are complete mp4s,
 the data and episodes parquet files that hold it are rewritten atomically (temp file, fsync, rename), and
-`meta/info.json` — whose totals decide what lerobot's loader exposes — is written last. Per-episode mp4s of
+`meta/info.json` — whose totals decide what lerobot's loader exposes — is written last. Those renames are
+journaled (``.openral/journal.json``), so a crash in the middle of them is finished by `recovery.recover`
+(which `record --resume` and `doctor --repair` run) and lerobot meanwhile sees the previous episode count.
+`resume=True` continues an existing dataset of the same format (see `restore`). Per-episode mp4s of
 one camera are joined into size-rotated files without re-encoding when a file fills up and at `close()`;
 each step of that join leaves every episode readable.
 """
@@ -33,6 +36,8 @@ from openral_data.sinks.lerobot_v3.features import (
     episodes_schema,
 )
 from openral_data.sinks.lerobot_v3.layout import FilePos
+from openral_data.sinks.lerobot_v3.reader import read_info
+from openral_data.sinks.lerobot_v3.restore import check_same_format, restore
 from openral_data.sinks.lerobot_v3.stats import (
     ImageStatsAccumulator,
     Stats,
@@ -92,7 +97,9 @@ class _EpisodeBuffer:
 class LeRobotV3Writer:
     """A `Sink` that writes a LeRobotDataset v3 that lerobot 0.6.1 loads frame-exactly."""
 
-    def __init__(self, root: Path, schema: DatasetSchema, config: WriterConfig | None = None) -> None:
+    def __init__(
+        self, root: Path, schema: DatasetSchema, config: WriterConfig | None = None, *, resume: bool = False
+    ) -> None:
         self.root = root
         self.schema = schema
         self.config = config or WriterConfig()
@@ -100,7 +107,7 @@ class LeRobotV3Writer:
             problem = self.config.video.size_problem(shape.height, shape.width)
             if problem:
                 raise OpenralError(f"camera {name}: {problem}")
-        if root.exists() and (not root.is_dir() or any(root.iterdir())):
+        if not resume and root.exists() and (not root.is_dir() or any(_dataset_entries(root))):
             raise OpenralError(f"{root}: output exists and is not empty; refusing to overwrite it")
         self._created_root = not root.exists()
         root.mkdir(parents=True, exist_ok=True)
@@ -124,6 +131,9 @@ class LeRobotV3Writer:
         self._episode: _EpisodeBuffer | None = None
         self._batch: atomic.Batch | None = None  # set while an episode is being committed
         self._closed = False
+        if resume and (root / layout.INFO_PATH).is_file():
+            self._restore()
+            return
         atomic.write_bytes(
             root / layout.OPENRAL_PATH,
             json.dumps(
@@ -132,6 +142,25 @@ class LeRobotV3Writer:
             ).encode(),
             self.config.durable,
         )
+
+    def _restore(self) -> None:
+        """Continue a recovered dataset: same format, numbering, open files and running statistics."""
+        info = read_info(self.root)
+        check_same_format(self.root, info, self.schema.fps, self.features)
+        limit = self.config.video_files_size_in_mb * MB
+        state = restore(self.root, self._data_schema, self._keys, self.config.chunks_size, limit)
+        self.tasks = dict(state.tasks)
+        self._tasks_written = len(self.tasks)
+        self.episode_rows = state.rows
+        self.total_frames = state.total_frames
+        self._episode_file = state.episode_file
+        self._data_file = state.data_file
+        self._data_tables = state.data_tables
+        for name, tail in state.videos.items():
+            members = [_VideoMember(ep, pos, frames, size) for ep, pos, frames, size in tail.members]
+            self._groups[name] = _VideoGroup(tail.first, members)
+        self._numeric_stats = state.numeric_stats
+        self._image_stats = state.image_stats
 
     def _config_json(self) -> dict[str, Any]:
         c = self.config
@@ -203,7 +232,7 @@ class LeRobotV3Writer:
             for enc in encoded.values():
                 enc.path.unlink(missing_ok=True)
             raise OpenralError(f"episode discarded: encoded frames {short} differ from its {n} rows")
-        batch = self._batch = atomic.Batch(self.config.durable)
+        batch = self._batch = atomic.Batch(self.config.durable, journal=self.root / layout.JOURNAL_PATH)
         try:
             record = self._commit_episode(ep, n, success, encoded)
             batch.commit()
@@ -235,12 +264,11 @@ class LeRobotV3Writer:
         row["meta/episodes/chunk_index"] = self._episode_file.chunk
         row["meta/episodes/file_index"] = self._episode_file.file
         self.episode_rows.append(row)
-        self._write_episodes({self._episode_file})
         for key, s in ep_stats.items():
             if key not in self._keys.values():
                 self._numeric_stats[key] = merge_numeric(self._numeric_stats.get(key), s)
         self.total_frames += n
-        self._write_meta()
+        self._write_meta(episodes_file=self._episode_file)
         return EpisodeRecord(index=index, length=n, success=success, seed=ep.start.seed)
 
     def close(self) -> None:
@@ -263,6 +291,7 @@ class LeRobotV3Writer:
             else:
                 for sub in ("meta", "data", "videos"):
                     shutil.rmtree(self.root / sub, ignore_errors=True)
+                (self.root / layout.IMAGE_HIST_PATH).unlink(missing_ok=True)
 
     # -- episode assembly ------------------------------------------------------------------------------------
     def _base_row(self, index: int, ep: _EpisodeBuffer, n: int, success: bool | None) -> dict[str, Any]:
@@ -396,10 +425,14 @@ class LeRobotV3Writer:
         if path.stat().st_size >= self.config.data_files_size_in_mb * MB:
             self._episode_file = self._episode_file.next(self.config.chunks_size)
 
-    def _write_meta(self) -> None:
-        """tasks, stats, then info.json last: its totals are what the loader trusts."""
+    def _write_meta(self, episodes_file: FilePos | None = None) -> None:
+        """tasks, stats, the episodes file, then info.json last: its totals are what the loader trusts.
+
+        The episodes file lands right before info.json: lerobot lists every row of meta/episodes, so the new
+        row would show (uncounted) in the moment between those two renames, and only then.
+        """
         if len(self.tasks) != self._tasks_written:
-            self._write(self.root / layout.TASKS_PATH, _tasks_writer(self.tasks))
+            self._write(self.root / layout.TASKS_PATH, tasks_writer(self.tasks))
             self._tasks_written = len(self.tasks)
         stats: dict[str, Any] = {}
         for key in self.features:
@@ -408,7 +441,11 @@ class LeRobotV3Writer:
         for name, acc in self._image_stats.items():
             stats[self._keys[name]] = to_jsonable(acc.stats())
         ordered = {k: stats[k] for k in self.features if k in stats}
+        hist = {name: {"hist": acc.hist.tolist(), "frames": acc.frames} for name, acc in self._image_stats.items()}
+        self._write(self.root / layout.IMAGE_HIST_PATH, atomic.bytes_writer(json.dumps(hist).encode()))
         self._write(self.root / layout.STATS_PATH, atomic.bytes_writer(json.dumps(ordered, indent=4).encode()))
+        if episodes_file is not None:
+            self._write_episodes({episodes_file})
         self._write(self.root / layout.INFO_PATH, atomic.bytes_writer(json.dumps(self.info(), indent=4).encode()))
 
     def info(self) -> dict[str, Any]:
@@ -428,6 +465,11 @@ class LeRobotV3Writer:
             "robot_type": self.schema.robot_type,
             "splits": {"train": f"0:{self.total_episodes}"},
         }
+
+
+def _dataset_entries(root: Path) -> list[Path]:
+    """What is in `root` besides openral-data's own bookkeeping folder (the lock of the recording taking it)."""
+    return [p for p in root.iterdir() if p.name != layout.STATE_DIR]
 
 
 def _fixed_list(values: npt.NDArray[np.float32]) -> pa.Array:
@@ -450,7 +492,7 @@ def _parquet_writer(table: pa.Table) -> Callable[[Path], None]:
     return write
 
 
-def _tasks_writer(tasks: dict[str, int]) -> Callable[[Path], None]:
+def tasks_writer(tasks: dict[str, int]) -> Callable[[Path], None]:
     """tasks.parquet as pandas writes it: column `task_index`, the task string as the index named `task`.
 
     lerobot reads it with `pd.read_parquet` and looks tasks up by position, so rows are in task_index order

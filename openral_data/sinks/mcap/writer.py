@@ -90,7 +90,9 @@ class McapSink:
     encoding (which releases the GIL) may run in parallel.
     """
 
-    def __init__(self, root: Path, schema: DatasetSchema, config: McapConfig | None = None) -> None:
+    def __init__(
+        self, root: Path, schema: DatasetSchema, config: McapConfig | None = None, *, resume: bool = False
+    ) -> None:
         self.root = root
         self.schema = schema
         self.config = config or McapConfig()
@@ -100,11 +102,12 @@ class McapSink:
             raise OpenralError(f"queue_size must be >= 1, got {self.config.queue_size}")
         if self.config.encoder_threads is not None and self.config.encoder_threads < 0:
             raise OpenralError(f"encoder_threads must be >= 0, got {self.config.encoder_threads}")
-        if root.exists() and (not root.is_dir() or any(p.name != PARTIAL for p in root.iterdir())):
+        if not resume and root.exists() and (not root.is_dir() or any(p.name != PARTIAL for p in root.iterdir())):
             raise OpenralError(f"{root}: output exists and is not empty; refusing to overwrite it")
         self._created_root = not root.exists()
         root.mkdir(parents=True, exist_ok=True)
-        self.episodes = 0
+        # resume: continue after the finished bags (numbered 0..n-1; record --resume checked that)
+        self.episodes = len(finished_bags(root)) if resume else 0
         self.next_index: int | None = None  # names the next episode's bag; default: episodes written so far
         self.index_offset = 0  # added to the default name (a parallel worker writes its share under final numbers)
         self._factory = MessageFactory(self.config.image_format, self.config.jpeg_quality)

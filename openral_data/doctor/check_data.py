@@ -1,0 +1,130 @@
+"""The frame table (data/*/*.parquet) against lerobot 0.6.1's rules (lerobot-v3-format.md §4, §10):
+declared columns only, rows in index order with index == row position, per-episode frame_index 0..n-1 and
+timestamp == frame_index / fps within the loader's 1e-4 s."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import numpy.typing as npt
+
+from openral_data.doctor.findings import Finding, error
+from openral_data.doctor.inspect import Dataset
+
+TOLERANCE_S = 1e-4
+
+
+def check_columns(ds: Dataset) -> list[Finding]:
+    out: list[Finding] = []
+    declared = ds.column_features
+    for path, schema in zip(ds.data_files, ds.data_schemas, strict=True):
+        extra = [c for c in schema.names if c not in ds.features]
+        if extra:
+            out.append(
+                error(
+                    "data.extra_column",
+                    ds.rel(path),
+                    f"column(s) not declared in info.json: {', '.join(extra)} (lerobot fails to load)",
+                    repairable=True,
+                )
+            )
+        missing = [c for c in declared if c not in schema.names]
+        if missing:
+            out.append(
+                error(
+                    "data.missing_column",
+                    ds.rel(path),
+                    f"declared feature(s) missing: {', '.join(missing)} (lerobot silently returns None)",
+                )
+            )
+    return out
+
+
+def _col(ds: Dataset, name: str) -> npt.NDArray[np.int64] | None:
+    if ds.data is None or name not in ds.data.column_names:
+        return None
+    return np.asarray(ds.data[name].to_numpy(zero_copy_only=False))
+
+
+def check_rows(ds: Dataset) -> list[Finding]:
+    if ds.data is None:
+        total = ds.total("total_frames")
+        if total > 0 and not ds.data_files:
+            return [error("data.missing", "data", f"no data parquet while total_frames is {total}")]
+        return []
+    where = "data"
+    ep, fi, index = _col(ds, "episode_index"), _col(ds, "frame_index"), _col(ds, "index")
+    if ep is None or fi is None or index is None:
+        return []  # reported as missing columns
+    out: list[Finding] = []
+    n = len(ep)
+    key = ep * (int(fi.max(initial=0)) + 1) + fi
+    if n and (np.diff(key) <= 0).any():
+        out.append(
+            error(
+                "data.order",
+                where,
+                "rows are not sorted by episode and frame (lerobot reads row i as item i)",
+                repairable=True,
+            )
+        )
+        return out
+    if not np.array_equal(index, np.arange(n)):
+        bad = int(np.flatnonzero(index != np.arange(n))[0])
+        out.append(
+            error(
+                "data.index",
+                where,
+                f"index != row position from row {bad} (got {int(index[bad])}; lerobot's delta windows break)",
+                repairable=True,
+            )
+        )
+    starts = np.flatnonzero(np.concatenate([[True], ep[1:] != ep[:-1]]))
+    bounds = np.append(starts, n)
+    broken = [int(ep[a]) for a, b in itertools.pairwise(bounds) if (fi[a:b] != np.arange(b - a)).any()]
+    if broken:
+        out.append(error("data.frame_index", where, f"frame_index is not 0..n-1 in episode(s) {broken[:5]}"))
+    ts = _col(ds, "timestamp")
+    if ts is not None:
+        off = np.abs(ts.astype(np.float64) - fi / ds.fps)
+        if n and off.max() > TOLERANCE_S:
+            bad = int(np.argmax(off))
+            out.append(
+                error(
+                    "data.timestamp",
+                    where,
+                    f"timestamp != frame_index / fps (row {bad}: {float(ts[bad]):.6f} s, expected "
+                    f"{fi[bad] / ds.fps:.6f} s; lerobot's video decoding fails beyond 1e-4 s)",
+                    repairable=True,
+                )
+            )
+    task = _col(ds, "task_index")
+    if task is not None and ds.tasks is not None and n and (task.max() >= ds.tasks.num_rows or task.min() < 0):
+        out.append(error("data.task_index", where, f"task_index outside 0..{ds.tasks.num_rows - 1}"))
+    return out
+
+
+def check_episode_rows(ds: Dataset) -> list[Finding]:
+    """Each episodes-metadata row must match its frames: count and position in the frame table."""
+    if ds.data is None or ds.episodes is None or "length" not in ds.episodes.column_names:
+        return []
+    ep = _col(ds, "episode_index")
+    if ep is None:
+        return []
+    counts = np.bincount(ep[ep >= 0]) if len(ep) else np.zeros(0, dtype=np.int64)
+    out: list[Finding] = []
+    idx = [int(i) for i in ds.episodes["episode_index"].to_pylist()]
+    lengths = [int(x) for x in ds.episodes["length"].to_pylist()]
+    wrong = [e for e, n in zip(idx, lengths, strict=True) if (counts[e] if 0 <= e < len(counts) else 0) != n]
+    limit = min(len(idx), ds.total("total_episodes"))
+    wrong_committed = [e for e in wrong if e < limit]
+    if wrong_committed:
+        out.append(
+            error(
+                "data.episode_rows",
+                "data",
+                f"frame rows differ from the episodes' length in episode(s) {wrong_committed[:5]}",
+            )
+        )
+    return out

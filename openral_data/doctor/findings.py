@@ -1,0 +1,30 @@
+"""What `doctor` reports: one finding per problem, with a severity, the file it is about and whether
+`doctor --repair` can fix it safely."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+Severity = Literal["error", "warning"]
+
+
+@dataclass(frozen=True)
+class Finding:
+    severity: Severity
+    code: str  # stable identifier, e.g. "tasks.order"; tests and scripts match on it
+    where: str  # file relative to the dataset root, or "dataset"
+    message: str
+    repairable: bool = False
+
+    def line(self) -> str:
+        tag = " [repairable]" if self.repairable else ""
+        return f"{self.severity:<7} {self.where}: {self.message}{tag}"
+
+
+def error(code: str, where: str, message: str, repairable: bool = False) -> Finding:
+    return Finding("error", code, where, message, repairable)
+
+
+def warning(code: str, where: str, message: str, repairable: bool = False) -> Finding:
+    return Finding("warning", code, where, message, repairable)

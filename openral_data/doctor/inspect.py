@@ -1,0 +1,134 @@
+"""Read a LeRobot v3 dataset (ours or lerobot's) the way lerobot 0.6.1's loader sees it, without lerobot.
+
+Files are taken in the loader's order (sorted paths); the frame table is read only for the scalar columns
+the checks need, so a large dataset costs one column scan.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from openral_data.doctor.findings import Finding, error
+from openral_data.sinks.lerobot_v3 import layout
+
+DEFAULT_FEATURES = ("timestamp", "frame_index", "episode_index", "index", "task_index")
+DATA_SCAN_COLUMNS = ("index", "episode_index", "frame_index", "timestamp", "task_index")
+
+
+@dataclass
+class Dataset:
+    root: Path
+    info: dict[str, Any]
+    fps: int
+    features: dict[str, dict[str, Any]]
+    episode_files: list[Path]
+    episodes: pa.Table | None  # every meta/episodes file concatenated in path order, stats columns dropped
+    episode_file_rows: list[int]
+    data_files: list[Path]
+    data_schemas: list[pa.Schema]
+    data: pa.Table | None  # DATA_SCAN_COLUMNS present in every file, concatenated in path order
+    data_file_rows: list[int]
+    tasks: pa.Table | None = None
+    tasks_pandas: dict[str, Any] | None = None
+    problems: list[Finding] = field(default_factory=list)  # unreadable files found while loading
+
+    @property
+    def video_keys(self) -> list[str]:
+        return [k for k, f in self.features.items() if f.get("dtype") == "video"]
+
+    @property
+    def column_features(self) -> list[str]:
+        return [k for k, f in self.features.items() if f.get("dtype") != "video"]
+
+    def rel(self, path: Path) -> str:
+        return str(path.relative_to(self.root))
+
+    def total(self, key: str) -> int:
+        return int(self.info.get(key, 0) or 0)
+
+
+def load(root: Path) -> tuple[Dataset | None, list[Finding]]:
+    """The dataset, or None with the findings that make every further check meaningless."""
+    path = root / layout.INFO_PATH
+    if not root.is_dir():
+        return None, [error("dataset.missing", str(root), "not a folder")]
+    if not path.is_file():
+        return None, [error("info.missing", layout.INFO_PATH, "missing: lerobot falls back to a Hub download")]
+    try:
+        info = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        return None, [error("info.json", layout.INFO_PATH, f"invalid JSON: {exc}")]
+    if not isinstance(info, dict):
+        return None, [error("info.json", layout.INFO_PATH, "not a JSON object")]
+    missing = [k for k in ("codebase_version", "fps", "features") if k not in info]
+    if missing:
+        return None, [error("info.required", layout.INFO_PATH, f"required key(s) missing: {', '.join(missing)}")]
+    fps = info["fps"]
+    if not isinstance(fps, int) or isinstance(fps, bool) or fps <= 0:
+        return None, [error("info.fps", layout.INFO_PATH, f"fps must be an integer > 0, got {fps!r}")]
+    features = info["features"]
+    if not isinstance(features, dict) or not all(isinstance(f, dict) for f in features.values()):
+        return None, [error("info.features", layout.INFO_PATH, "features must map names to objects")]
+    ds = Dataset(root, info, fps, features, [], None, [], [], [], None, [])
+    _load_tasks(ds)
+    _load_episodes(ds)
+    _load_data(ds)
+    return ds, []
+
+
+def _load_tasks(ds: Dataset) -> None:
+    path = ds.root / layout.TASKS_PATH
+    if not path.is_file():
+        return
+    try:
+        ds.tasks = pq.read_table(path)
+    except (pa.ArrowException, OSError) as exc:
+        ds.problems.append(error("tasks.unreadable", layout.TASKS_PATH, f"unreadable parquet: {exc}"))
+        return
+    raw = (ds.tasks.schema.metadata or {}).get(b"pandas")
+    ds.tasks_pandas = json.loads(raw) if raw else None
+
+
+def _load_episodes(ds: Dataset) -> None:
+    ds.episode_files = sorted((ds.root / "meta" / "episodes").glob("*/*.parquet"))
+    tables = []
+    for path in ds.episode_files:
+        try:
+            t = pq.read_table(path)
+        except (pa.ArrowException, OSError) as exc:
+            ds.problems.append(error("episodes.unreadable", ds.rel(path), f"unreadable parquet: {exc}"))
+            return
+        tables.append(t.select([c for c in t.column_names if not c.startswith("stats/")]))
+        ds.episode_file_rows.append(t.num_rows)
+    if tables:
+        ds.episodes = pa.concat_tables(tables, promote_options="permissive")
+
+
+def _load_data(ds: Dataset) -> None:
+    ds.data_files = sorted((ds.root / "data").glob("*/*.parquet"))
+    tables = []
+    for path in ds.data_files:
+        try:
+            schema = pq.read_schema(path)
+            cols = [c for c in DATA_SCAN_COLUMNS if c in schema.names]
+            t = pq.read_table(path, columns=cols)
+        except (pa.ArrowException, OSError) as exc:
+            ds.problems.append(error("data.unreadable", ds.rel(path), f"unreadable parquet: {exc}"))
+            return
+        ds.data_schemas.append(schema)
+        ds.data_file_rows.append(t.num_rows)
+        tables.append(t)
+    common = [c for c in DATA_SCAN_COLUMNS if all(c in t.column_names for t in tables)]
+    if tables:
+        ds.data = pa.concat_tables([t.select(common).cast(_scan_schema(t.select(common))) for t in tables])
+
+
+def _scan_schema(t: pa.Table) -> pa.Schema:
+    types = {"timestamp": pa.float64()}
+    return pa.schema([(c, types.get(c, pa.int64())) for c in t.column_names])

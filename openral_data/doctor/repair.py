@@ -1,0 +1,266 @@
+"""`doctor --repair`: fix what can be fixed without guessing, under the dataset's writer lock.
+
+Every rewrite is atomic (temp file, fsync, rename) and keeps the file it replaces — and any rows or files it
+takes out — under ``.openral/quarantine/<time>/``: a repair never loses data. What it cannot fix safely
+(missing columns or files, broken frame numbering, videos with missing frames) is reported, not touched.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.compute as pc
+import pyarrow.parquet as pq
+
+from openral_data.dataset_lock import DatasetLock
+from openral_data.doctor.check import check
+from openral_data.doctor.check_video import placements
+from openral_data.doctor.findings import Finding
+from openral_data.doctor.inspect import Dataset, load
+from openral_data.metrics.health import count_packets
+from openral_data.sinks.lerobot_v3 import atomic, layout
+from openral_data.sinks.lerobot_v3.layout import FilePos
+from openral_data.sinks.lerobot_v3.recovery import Quarantine, staged_files
+from openral_data.sinks.lerobot_v3.writer import tasks_writer
+
+Rows = list[dict[str, Any]]
+
+
+@dataclass(frozen=True)
+class RepairResult:
+    actions: list[str]  # what was done, one line each
+    remaining: list[Finding]  # what the final check still finds
+    quarantine: Path | None  # where replaced files and removed rows were kept (None: nothing was)
+
+
+def repair(root: Path) -> RepairResult:
+    with DatasetLock(root, "openral-data doctor --repair"):
+        q = Quarantine(root)
+        actions = _writer_leftovers(root, q)
+        for step in (_tasks, _episode_order, _data_columns, _data_rows, _totals, _index_range, _video_times):
+            findings = {f.code: f for f in check(root, lock_held_by_us=True) if f.repairable}
+            ds, _ = load(root)
+            if ds is not None:
+                actions += step(ds, findings, q)
+        ds, _ = load(root)
+        if ds is not None:
+            actions += _orphans(ds, {f.code: f for f in check(root, lock_held_by_us=True)}, q)
+        remaining = check(root, lock_held_by_us=True)
+    return RepairResult(actions, remaining, q.dir if q.dir.exists() else None)
+
+
+def _writer_leftovers(root: Path, q: Quarantine) -> list[str]:
+    out: list[str] = []
+    moved = atomic.replay_journal(root / layout.JOURNAL_PATH)
+    if moved:
+        out.append(f"finished an interrupted episode commit ({moved} file(s) renamed into place)")
+    staged = list(staged_files(root))
+    for path in staged:
+        q.move(path)
+    if staged:
+        out.append(f"moved {len(staged)} temporary file(s) of an unfinished write to the quarantine")
+    return out
+
+
+# -- tasks ------------------------------------------------------------------------------------------------------
+def _tasks(ds: Dataset, found: dict[str, Finding], q: Quarantine) -> list[str]:
+    if ("tasks.pandas_index" not in found and "tasks.order" not in found) or ds.tasks is None:
+        return []
+    path = ds.root / layout.TASKS_PATH
+    names, indices = ds.tasks["task"].to_pylist(), ds.tasks["task_index"].to_pylist()
+    tasks = {str(t): int(i) for t, i in zip(names, indices, strict=True)}
+    q.keep_copy(path)
+    atomic.write_with(path, tasks_writer(tasks))
+    return [f"{layout.TASKS_PATH}: rewritten in task_index order with the task as the pandas index"]
+
+
+# -- episodes table --------------------------------------------------------------------------------------------
+def _read_episode_files(ds: Dataset) -> tuple[list[pa.Table], Rows]:
+    tables = [pq.read_table(p) for p in ds.episode_files]
+    rows: Rows = []
+    for t in tables:
+        rows += t.to_pylist()
+    return tables, rows
+
+
+def _write_episode_files(ds: Dataset, tables: list[pa.Table], rows: Rows, q: Quarantine) -> None:
+    """Write `rows` back into the same files with the same row counts (fewer rows: trailing files emptied)."""
+    start = 0
+    for path, old in zip(ds.episode_files, tables, strict=True):
+        part = rows[start : start + old.num_rows]
+        start += old.num_rows
+        q.keep_copy(path)
+        if not part:
+            path.unlink()
+            continue
+        pos = FilePos(int(path.parent.name[6:]), int(path.stem[5:]))
+        for r in part:
+            if "meta/episodes/chunk_index" in r:
+                r["meta/episodes/chunk_index"], r["meta/episodes/file_index"] = pos.chunk, pos.file
+        table = pa.Table.from_pylist(part, schema=old.schema)
+        atomic.write_with(path, _parquet(table))
+
+
+def _episode_order(ds: Dataset, found: dict[str, Finding], q: Quarantine) -> list[str]:
+    if "episodes.order" not in found:
+        return []
+    tables, rows = _read_episode_files(ds)
+    rows.sort(key=lambda r: int(r["episode_index"]))
+    _write_episode_files(ds, tables, rows, q)
+    return ["meta/episodes: rows put back in episode order"]
+
+
+def _index_range(ds: Dataset, found: dict[str, Finding], q: Quarantine) -> list[str]:
+    if "episodes.index_range" not in found:
+        return []
+    tables, rows = _read_episode_files(ds)
+    start = 0
+    for r in rows:
+        r["dataset_from_index"], r["dataset_to_index"] = start, start + int(r["length"])
+        start += int(r["length"])
+    _write_episode_files(ds, tables, rows, q)
+    return ["meta/episodes: dataset_from_index / dataset_to_index recomputed from the lengths"]
+
+
+def _video_times(ds: Dataset, found: dict[str, Finding], q: Quarantine) -> list[str]:
+    """Files whose packets are regular and add up to their episodes get from/to_timestamp recomputed."""
+    codes = {"video.timestamps", "video.frames", "video.to_timestamp"}
+    if not codes & set(found) or ds.episodes is None:
+        return []
+    tables, rows = _read_episode_files(ds)
+    fixed: list[str] = []
+    for key in ds.video_keys:
+        for path, eps in placements(ds, key).items():
+            if not path.is_file():
+                continue
+            times = count_packets(path)
+            if len(times) != sum(p.length for p in eps):
+                continue
+            if any(abs(t - k / ds.fps) > 1e-4 for k, t in enumerate(times)):
+                continue
+            offset = 0
+            changed = False
+            for p in eps:
+                r = rows[p.episode]
+                want = (offset / ds.fps, (offset + p.length) / ds.fps)
+                have = (r[f"videos/{key}/from_timestamp"], r[f"videos/{key}/to_timestamp"])
+                if have != want:
+                    r[f"videos/{key}/from_timestamp"], r[f"videos/{key}/to_timestamp"] = want
+                    changed = True
+                offset += p.length
+            if changed:
+                fixed.append(ds.rel(path))
+    if fixed:
+        _write_episode_files(ds, tables, rows, q)
+        return [f"meta/episodes: from/to_timestamp recomputed from the frames of {', '.join(fixed[:3])}"]
+    return []
+
+
+# -- frame table -----------------------------------------------------------------------------------------------
+def _rewrite_data(ds: Dataset, q: Quarantine, fn: Callable[[pa.Table, int], pa.Table]) -> None:
+    """Apply `fn(table, first_row_position)` to every data file, in path order, keeping the originals."""
+    start = 0
+    for path in ds.data_files:
+        table = pq.read_table(path)
+        new = fn(table, start)
+        start += new.num_rows
+        if new.equals(table):
+            continue
+        q.keep_copy(path)
+        atomic.write_with(path, _parquet(new))
+
+
+def _data_columns(ds: Dataset, found: dict[str, Finding], q: Quarantine) -> list[str]:
+    if "data.extra_column" not in found:
+        return []
+    keep = set(ds.features)
+    _rewrite_data(ds, q, lambda t, _: t.select([c for c in t.column_names if c in keep]))
+    return ["data: columns not declared in info.json moved out (the original files are in the quarantine)"]
+
+
+def _data_rows(ds: Dataset, found: dict[str, Finding], q: Quarantine) -> list[str]:
+    wanted = {"data.order", "data.index", "data.timestamp"} & set(found)
+    if not wanted:
+        return []
+    fps = ds.fps
+
+    def fix(t: pa.Table, start: int) -> pa.Table:
+        if "data.order" in wanted:
+            t = t.sort_by([("episode_index", "ascending"), ("frame_index", "ascending")])
+        cols = {name: t[name] for name in t.column_names}
+        if "index" in cols:
+            cols["index"] = pa.chunked_array([pa.array(np.arange(start, start + t.num_rows), cols["index"].type)])
+        if "data.timestamp" in wanted and "timestamp" in cols and "frame_index" in cols:
+            fi = np.asarray(t["frame_index"].to_numpy(), dtype=np.float64)
+            cols["timestamp"] = pa.chunked_array([pa.array(fi / fps, pa.float64()).cast(cols["timestamp"].type)])
+        return pa.Table.from_pydict(cols, schema=t.schema)
+
+    _rewrite_data(ds, q, fix)
+    return [f"data: {', '.join(sorted(wanted))} repaired (rows sorted by episode/frame, index = row position)"]
+
+
+def _totals(ds: Dataset, found: dict[str, Finding], q: Quarantine) -> list[str]:
+    """Make info.json count the complete episodes the files hold; rows of an incomplete one are set aside."""
+    if "info.totals" not in found or ds.episodes is None or ds.data is None:
+        return []
+    ep = np.asarray(ds.data["episode_index"].to_numpy(zero_copy_only=False))
+    counts = np.bincount(ep[ep >= 0]) if len(ep) else np.zeros(0, dtype=np.int64)
+    idx = [int(i) for i in ds.episodes["episode_index"].to_pylist()]
+    lengths = [int(x) for x in ds.episodes["length"].to_pylist()]
+    complete = 0
+    for pos, (e, n) in enumerate(zip(idx, lengths, strict=True)):
+        if e != pos or e >= len(counts) or counts[e] != n:
+            break
+        complete += 1
+    actions: list[str] = []
+    if complete < len(idx):
+        tables, rows = _read_episode_files(ds)
+        q.keep_rows(ds.root / "meta/episodes/removed.parquet", pa.Table.from_pylist(rows[complete:]))
+        _write_episode_files(ds, tables, rows[:complete], q)
+        actions.append(f"meta/episodes: {len(idx) - complete} incomplete episode row(s) set aside")
+    if len(ep) and ep.max(initial=-1) >= complete:
+
+        def drop(t: pa.Table, _: int) -> pa.Table:
+            beyond = pc.greater_equal(t["episode_index"], complete)
+            if pc.any(beyond).as_py():
+                q.keep_rows(ds.root / "data/removed.parquet", t.filter(beyond))
+            return t.filter(pc.invert(beyond))
+
+        _rewrite_data(ds, q, drop)
+        actions.append(f"data: frame rows of episodes >= {complete} set aside")
+    info = dict(ds.info)
+    frames = sum(lengths[:complete])
+    before = (info.get("total_episodes"), info.get("total_frames"), info.get("total_tasks"))
+    info["total_episodes"], info["total_frames"] = complete, frames
+    info["total_tasks"] = ds.tasks.num_rows if ds.tasks is not None else 0
+    if "splits" in info:
+        info["splits"] = {"train": f"0:{complete}"}
+    q.keep_copy(ds.root / layout.INFO_PATH)
+    atomic.write_bytes(ds.root / layout.INFO_PATH, json.dumps(info, indent=4).encode())
+    after = (complete, frames, info["total_tasks"])
+    actions.append(f"{layout.INFO_PATH}: totals (episodes, frames, tasks) {before} -> {after}")
+    return actions
+
+
+def _orphans(ds: Dataset, found: dict[str, Finding], q: Quarantine) -> list[str]:
+    if "video.orphan" not in found:
+        return []
+    from openral_data.doctor.check_video import orphan_videos
+
+    orphans = orphan_videos(ds)
+    for path in orphans:
+        q.move(path)
+    return [f"videos: {len(orphans)} mp4 file(s) no episode refers to moved to the quarantine"]
+
+
+def _parquet(table: pa.Table) -> Callable[[Path], None]:
+    def write(path: Path) -> None:
+        pq.write_table(table, path, compression="snappy")
+
+    return write
