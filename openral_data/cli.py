@@ -281,6 +281,43 @@ def doctor(
         raise typer.Exit(code)
 
 
+@app.command()
+def replay(
+    dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (recorded by openral-data for sim modes)")],
+    episodes: Annotated[str | None, typer.Option(help="episodes to replay, e.g. 0,3,5-7 (default: all)")] = None,
+    mode: Annotated[str, typer.Option(help="actions | policy | closed-loop")] = "actions",
+    rskill: Annotated[str | None, typer.Option(help="policy / closed-loop: rSkill id or path; recorded[:K]")] = None,
+    out: Annotated[Path | None, typer.Option(help="results folder (default: a new folder under datasets/)")] = None,
+    tolerance: Annotated[float, typer.Option(help="max |state error| per dimension that still reproduces")] = 1e-4,
+    max_steps: Annotated[int | None, typer.Option(help="closed-loop step limit (default: the task's)")] = None,
+    record: Annotated[Path | None, typer.Option(help="also write the replayed rollouts as a new dataset")] = None,
+    cameras: Annotated[Path | None, typer.Option(help="with --record: YAML of cameras replacing the recorded")] = None,
+    codec: Annotated[CodecChoice, typer.Option(help="video codec of --record")] = CodecChoice.av1,
+    format: Annotated[str, typer.Option("--format", help="--record formats: lerobot, mcap or both")] = "lerobot",
+    label: Annotated[str | None, typer.Option(help="label of the results in stats")] = None,
+) -> None:
+    """Replay recorded actions through the rebuilt scene, or evaluate a policy against recorded episodes."""
+    from openral_data.replay.cli import run_replay
+    from openral_data.replay.command import ReplayOptions
+    from openral_data.sinks.select import parse_formats
+
+    opts = ReplayOptions(
+        dataset=dataset,
+        episodes=episodes,
+        mode=mode,  # type: ignore[arg-type]  # checked by replay()
+        rskill=rskill,
+        out=out,
+        tolerance=tolerance,
+        label=label,
+        max_steps=max_steps,
+        record=record,
+        cameras=cameras,
+        codec=codec.value,
+        formats=parse_formats(format),
+    )
+    run_replay(opts, console, err_console)
+
+
 def _add_subcommands() -> None:
     from openral_data.edit.cli import episodes_app
 

@@ -46,6 +46,12 @@ def _scripted(name: str) -> PolicyFactory:
     return make
 
 
+def _lerobot(rskill: RSkillManifest) -> PolicyAdapter:
+    from openral_data.policies.lerobot_policy import make_lerobot_policy
+
+    return make_lerobot_policy(rskill)
+
+
 SCENES: dict[str, SceneFactory] = {
     "mock": _mock_factory,
     "tabletop_push": _tabletop_factory("push"),
@@ -56,6 +62,7 @@ POLICIES: dict[str, PolicyFactory] = {
     "random": RandomPolicy,
     "scripted_push": _scripted("ScriptedPush"),
     "scripted_pick_place": _scripted("ScriptedPickPlace"),
+    "lerobot": _lerobot,
 }
 
 
@@ -135,7 +142,16 @@ def resolve_rskill(ref: str) -> tuple[RSkillManifest, Path]:
         if not by_id.is_file():
             raise unknown("rSkill", ref, rskill_ids())
         candidate = by_id
-    return load_model(RSkillManifest, candidate), candidate
+    return _anchor_checkpoint(load_model(RSkillManifest, candidate), candidate), candidate
+
+
+def _anchor_checkpoint(rskill: RSkillManifest, path: Path) -> RSkillManifest:
+    """A relative `policy_extras.checkpoint` is relative to the manifest's folder (not the working directory)."""
+    value = rskill.policy_extras.get("checkpoint")
+    if not isinstance(value, str) or not value or Path(value).expanduser().is_absolute():
+        return rskill
+    extras = {**rskill.policy_extras, "checkpoint": str((path.parent / value).resolve())}
+    return rskill.model_copy(update={"policy_extras": extras})
 
 
 # --- scenes -----------------------------------------------------------------------------------------------

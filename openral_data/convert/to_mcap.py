@@ -109,7 +109,7 @@ def export_mcap(
                 )
             )
             successes: list[bool] = []
-            for frame in _episode_frames(src, info, row, tasks, list(cams)):
+            for frame in episode_frames(src, info, row, tasks, list(cams)):
                 sink.add_frame(frame)
                 successes.append(frame.success)
                 summary.frames += 1
@@ -131,7 +131,7 @@ def _episode_success(row: dict[str, Any], frames: list[bool]) -> bool | None:
     return any(frames)
 
 
-def _episode_frames(
+def episode_frames(
     src: Path, info: dict[str, Any], row: dict[str, Any], tasks: list[str], cameras: list[str]
 ) -> Iterator[Frame]:
     e = int(row["episode_index"])

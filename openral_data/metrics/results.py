@@ -11,6 +11,15 @@ A results directory holds three files:
 `action_error` is the Euclidean norm of (replayed action - recorded action) at that step; `divergence` is the
 Euclidean norm of (replayed state - recorded state) after that step. Write results only through
 `write_results`, so the files always match these schemas.
+
+Optional columns (`EPISODE_OPTIONAL`, `STEP_OPTIONAL`) carry the per-dimension detail replay computes; a writer
+that does not have them leaves them out and they are stored as NULL, and readers never require them:
+* episodes: `state_max_abs` (per state dimension, max |replayed - recorded| over the episode),
+  `first_divergence_frame` (first frame whose max-abs state error exceeds the tolerance, NULL if none),
+  `object_error_initial` (largest object position error, metres, right after restoring the initial state),
+  `action_mse` / `action_mae` (per action dimension, over the compared steps);
+* steps: `max_abs_error` (max over dimensions of the compared vector: state in replay, action in eval),
+  `state_abs_error` / `action_abs_error` (per dimension |replayed - recorded|).
 """
 
 from __future__ import annotations
@@ -45,12 +54,28 @@ EPISODE_SCHEMA = pa.schema(
         ("divergence_final", pa.float64()),
     ]
 )
+EPISODE_OPTIONAL = pa.schema(
+    [
+        ("state_max_abs", pa.list_(pa.float64())),
+        ("first_divergence_frame", pa.int64()),
+        ("object_error_initial", pa.float64()),
+        ("action_mse", pa.list_(pa.float64())),
+        ("action_mae", pa.list_(pa.float64())),
+    ]
+)
 STEP_SCHEMA = pa.schema(
     [
         pa.field("episode_index", pa.int64(), nullable=False),
         pa.field("frame_index", pa.int64(), nullable=False),
         ("action_error", pa.float64()),
         ("divergence", pa.float64()),
+    ]
+)
+STEP_OPTIONAL = pa.schema(
+    [
+        ("max_abs_error", pa.float64()),
+        ("state_abs_error", pa.list_(pa.float64())),
+        ("action_abs_error", pa.list_(pa.float64())),
     ]
 )
 
@@ -80,8 +105,8 @@ def write_results(root: Path, summary: dict[str, Any], episodes: pa.Table, steps
     if summary.get("kind") not in KINDS:
         raise OpenralError(f"{root / SUMMARY}: kind: must be one of {', '.join(KINDS)}")
     full = {"format": FORMAT, **summary}
-    ep = _conform(episodes, EPISODE_SCHEMA, root / EPISODES)
-    st = _conform(steps, STEP_SCHEMA, root / STEPS)
+    ep = _conform(episodes, EPISODE_SCHEMA, root / EPISODES, EPISODE_OPTIONAL)
+    st = _conform(steps, STEP_SCHEMA, root / STEPS, STEP_OPTIONAL)
     root.mkdir(parents=True, exist_ok=True)
     atomic.write_with(root / EPISODES, lambda p: pq.write_table(ep, p))
     atomic.write_with(root / STEPS, lambda p: pq.write_table(st, p))
@@ -89,13 +114,18 @@ def write_results(root: Path, summary: dict[str, Any], episodes: pa.Table, steps
     return Results(root, full)
 
 
-def _conform(table: pa.Table, schema: pa.Schema, path: Path) -> pa.Table:
+def _conform(table: pa.Table, schema: pa.Schema, path: Path, optional: pa.Schema | None = None) -> pa.Table:
+    optional = optional if optional is not None else pa.schema([])
     missing = [f.name for f in schema if f.name not in table.column_names]
-    extra = [c for c in table.column_names if c not in schema.names]
+    extra = [c for c in table.column_names if c not in schema.names and c not in optional.names]
     if missing or extra:
         raise OpenralError(f"{path}: columns: missing {missing or '-'}, unexpected {extra or '-'}")
+    for f in optional:
+        if f.name not in table.column_names:
+            table = table.append_column(f.name, pa.nulls(table.num_rows, f.type))
+    full = pa.schema([*schema, *optional])
     try:
-        return table.select(schema.names).cast(schema)
+        return table.select(full.names).cast(full)
     except (pa.ArrowInvalid, pa.ArrowTypeError, ValueError) as exc:
         raise OpenralError(f"{path}: {exc}") from None
 

@@ -19,3 +19,17 @@ class PolicyAdapter(Protocol):
     def step(self, observation: Observation, instruction: str) -> npt.NDArray[np.float32]: ...
 
     def close(self) -> None: ...
+
+
+@runtime_checkable
+class ChunkingPolicy(PolicyAdapter, Protocol):
+    """A policy that predicts a chunk of future actions from one observation (ACT, diffusion, ...).
+
+    `predict_chunk` returns float32 (k, action_dim): the actions for this step and the k-1 steps after it.
+    `n_action_steps` of them are executed before the policy is queried again (`step` does that queueing
+    itself in closed loop); offline evaluation compares each executed action with the recorded one.
+    """
+
+    n_action_steps: int
+
+    def predict_chunk(self, observation: Observation, instruction: str) -> npt.NDArray[np.float32]: ...

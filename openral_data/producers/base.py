@@ -57,6 +57,10 @@ class StepResult:
 class SimRollout(Protocol):
     """A simulated scene. `reset(seed)` starts an episode; `step(action)` advances it by one control step.
 
+    Replay reads simulator ground truth from `Observation.privileged["object_poses"]` when a scene provides it:
+    a dict of object name -> [x, y, z, qw, qx, qy, qz] (world frame), compared with the recorded initial
+    state's `object_poses` of the same form.
+
     Arrays returned in observations belong to the caller (a producer must not write into them later).
     """
 
@@ -70,6 +74,14 @@ class SimRollout(Protocol):
 
     def initial_state(self) -> dict[str, Any]:
         """JSON-serialisable data that restores the state `reset` produced (for replay)."""
+        ...
+
+    def reset_to(self, initial_state: dict[str, Any]) -> Observation:
+        """Start an episode from exactly the state `initial_state()` described when it was recorded (replay).
+
+        Valid only when `spec.can_restore_state`; a scene that cannot restore a state keeps it False and raises
+        an OpenralError here. From the restored state, the same actions must give the same rollout.
+        """
         ...
 
     def close(self) -> None: ...

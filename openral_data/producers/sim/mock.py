@@ -135,5 +135,18 @@ class MockScene:
     def initial_state(self) -> dict[str, Any]:
         return {"episode": self._episode, "seed": self._seed}
 
+    def reset_to(self, initial_state: dict[str, Any]) -> Observation:
+        """Restart episode `initial_state["episode"]` at step 0 (the mock's whole state is (episode, step))."""
+        try:
+            episode, seed = int(initial_state["episode"]), int(initial_state["seed"])
+        except (KeyError, TypeError, ValueError):
+            raise ConfigError(
+                f"initial_state: expected {{'episode': int, 'seed': int}} from a mock recording, got {initial_state}"
+            ) from None
+        if episode < 0:
+            raise ConfigError(f"initial_state: episode: must be >= 0, got {episode}")
+        self._episode, self._seed, self._t = episode, seed, 0
+        return self._observation()
+
     def close(self) -> None:
         pass

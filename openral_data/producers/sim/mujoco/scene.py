@@ -248,6 +248,7 @@ class TabletopScene:
             "mocap_quat": d.mocap_quat.tolist(),
             "cube_pose": d.qpos[c : c + 7].tolist(),
             "goal_pos": d.mocap_pos[self._goal_mocap].tolist(),
+            "object_poses": {"cube": d.qpos[c : c + 7].tolist()},
         }
 
     def _state(self) -> npt.NDArray[np.float32]:
@@ -275,6 +276,7 @@ class TabletopScene:
             "cube_size": self.params.cube_size,
             "goal_radius": self.params.goal_radius,
             "task": self.task_kind,
+            "object_poses": {"cube": d.qpos[c : c + 7].copy()},  # the generic hook replay compares
         }
         return Observation(
             images=self.render(), state=self._state(), task=self._task_text, time=float(d.time), privileged=privileged

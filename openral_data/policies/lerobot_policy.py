@@ -1,0 +1,177 @@
+"""`policy: lerobot`: a lerobot 0.6.1 ACT or diffusion policy from a LOCAL checkpoint directory, on CPU (torch).
+
+The rSkill manifest names the checkpoint in `policy_extras.checkpoint` (a directory as `lerobot-train` writes
+under `checkpoints/<step>/pretrained_model/` or `save_pretrained` makes: `config.json`, `model.safetensors`,
+`policy_preprocessor.json` / `policy_postprocessor.json` with their normaliser state); a relative path is
+relative to the manifest's folder. Optional `policy_extras.device` (default `cpu`).
+
+Nothing is downloaded: the checkpoint is read with `local_files_only`, and the torchvision backbone weights a
+config may name (`pretrained_backbone_weights`, ImageNet by default in ACT) are switched off before the model is
+built, since the checkpoint's own weights replace them anyway.
+
+The checkpoint must speak the rSkill's contract, or it is refused before anything runs: output `action` of
+`action_contract.dim`, input `observation.state` of `state_contract.dim`, and its cameras
+(`observation.images.<name>`) exactly the rSkill's `required_cameras`. Images must arrive at the size the
+checkpoint was made for. ACT policies are chunk-aware (`predict_chunk`, `n_action_steps`); diffusion keeps its
+observation history inside `step` and needs the `diffusers` package (`lerobot[diffusion]`), which the default
+environment does not install: without it a diffusion checkpoint is refused in one line.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib.util
+import io
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from openral_data.errors import CompatibilityError, ConfigError, ContractViolation
+from openral_data.producers.base import Observation
+from openral_data.schemas.rskill import RSkillManifest
+
+SUPPORTED = ("act", "diffusion")
+IMAGE_PREFIX = "observation.images."
+STATE, ACTION = "observation.state", "action"
+
+
+def checkpoint_dir(rskill: RSkillManifest) -> Path:
+    value = rskill.policy_extras.get("checkpoint")
+    if not isinstance(value, str) or not value:
+        raise ConfigError(
+            f"rskill {rskill.id}: policy_extras.checkpoint: a local lerobot checkpoint directory is required"
+        )
+    path = Path(value).expanduser()
+    if not (path / "config.json").is_file() or not (path / "model.safetensors").is_file():
+        raise ConfigError(
+            f"rskill {rskill.id}: policy_extras.checkpoint: {path} is not a lerobot checkpoint directory "
+            "(needs config.json and model.safetensors)"
+        )
+    return path
+
+
+def load_config(path: Path, device: str) -> Any:
+    """The checkpoint's policy config, made safe to instantiate offline on `device`."""
+    import lerobot.policies.act.configuration_act
+    import lerobot.policies.diffusion.configuration_diffusion  # noqa: F401 - registers the config types
+    from lerobot.configs.policies import PreTrainedConfig
+
+    try:
+        config = PreTrainedConfig.from_pretrained(str(path), local_files_only=True)
+    except Exception as exc:  # noqa: BLE001 - draccus/json errors of a foreign file: report them in one line
+        raise ConfigError(f"{path / 'config.json'}: not a lerobot policy config: {exc}") from None
+    if config.type not in SUPPORTED:
+        raise ConfigError(
+            f"{path / 'config.json'}: type: {config.type!r} policies are not supported ({', '.join(SUPPORTED)})"
+        )
+    if config.type == "diffusion" and importlib.util.find_spec("diffusers") is None:
+        raise ConfigError(
+            f"{path / 'config.json'}: type: diffusion policies need the diffusers package, which this environment "
+            "does not install (pip install 'lerobot[diffusion]==0.6.1')"
+        )
+    if hasattr(config, "pretrained_backbone_weights"):
+        config.pretrained_backbone_weights = None  # never fetch ImageNet weights; the checkpoint holds its own
+    config.device = device
+    return config
+
+
+def check_features(config: Any, rskill: RSkillManifest, path: Path) -> None:
+    """Refuse a checkpoint whose input/output features do not match the rSkill's contract (one line)."""
+    where = f"{path}: config.json"
+    out = config.output_features.get(ACTION)
+    if out is None or tuple(out.shape) != (rskill.action_contract.dim,):
+        have = None if out is None else list(out.shape)
+        raise CompatibilityError(
+            f"{where}: output_features.action: shape {have} does not match rskill {rskill.id} "
+            f"action_contract.dim {rskill.action_contract.dim}"
+        )
+    inputs = dict(config.input_features)
+    state = inputs.pop(STATE, None)
+    if state is None or tuple(state.shape) != (rskill.state_contract.dim,):
+        have = None if state is None else list(state.shape)
+        raise CompatibilityError(
+            f"{where}: input_features.observation.state: shape {have} does not match rskill {rskill.id} "
+            f"state_contract.dim {rskill.state_contract.dim}"
+        )
+    cameras = sorted(k[len(IMAGE_PREFIX) :] for k in inputs if k.startswith(IMAGE_PREFIX))
+    if cameras != sorted(rskill.required_cameras):
+        raise CompatibilityError(
+            f"{where}: input_features: cameras {cameras} but rskill {rskill.id} required_cameras are "
+            f"{sorted(rskill.required_cameras)}"
+        )
+    other = sorted(k for k in inputs if not k.startswith(IMAGE_PREFIX))
+    if other:
+        raise CompatibilityError(f"{where}: input_features: {other} are not part of rskill {rskill.id}'s contract")
+
+
+class LerobotPolicy:
+    """PolicyAdapter over a lerobot policy + its saved pre/post-processors (normalisation)."""
+
+    def __init__(self, rskill: RSkillManifest) -> None:
+        import torch
+        from lerobot.policies.factory import get_policy_class, make_pre_post_processors
+
+        path = checkpoint_dir(rskill)
+        device = str(rskill.policy_extras.get("device", "cpu"))
+        config = load_config(path, device)
+        check_features(config, rskill, path)
+        self._torch = torch
+        self.config = config
+        self._dim = rskill.action_contract.dim
+        self._images = {key: tuple(f.shape) for key, f in config.image_features.items()}
+        with contextlib.redirect_stdout(io.StringIO()):  # lerobot prints "Loading weights from local directory"
+            self.policy = get_policy_class(config.type).from_pretrained(str(path), config=config, local_files_only=True)
+        self.pre, self.post = make_pre_post_processors(
+            config, pretrained_path=str(path), preprocessor_overrides={"device_processor": {"device": device}}
+        )
+        self.policy.eval()
+
+    def reset(self, seed: int) -> None:
+        self._torch.manual_seed(seed)
+        self.policy.reset()
+
+    def _batch(self, obs: Observation, instruction: str) -> dict[str, Any]:
+        torch = self._torch
+        batch: dict[str, Any] = {STATE: torch.from_numpy(np.asarray(obs.state, dtype=np.float32)).unsqueeze(0)}
+        for key, (c, h, w) in self._images.items():
+            name = key[len(IMAGE_PREFIX) :]
+            img = obs.images.get(name)
+            if img is None or img.shape != (h, w, c):
+                have = None if img is None else list(img.shape)
+                raise ContractViolation(
+                    f"camera {name}: the checkpoint expects images of {[h, w, c]} (HWC), got {have}"
+                )
+            batch[key] = torch.from_numpy(np.ascontiguousarray(img)).permute(2, 0, 1).float().div(255.0).unsqueeze(0)
+        batch["task"] = [instruction]
+        return self.pre(batch)  # type: ignore[no-any-return]
+
+    def step(self, observation: Observation, instruction: str) -> npt.NDArray[np.float32]:
+        with self._torch.inference_mode():
+            action = self.post(self.policy.select_action(self._batch(observation, instruction)))
+        return np.asarray(action.reshape(-1, self._dim)[0].cpu().numpy(), dtype=np.float32)
+
+    def close(self) -> None:
+        pass
+
+
+class LerobotChunkPolicy(LerobotPolicy):
+    """ACT without temporal ensembling: one query predicts `chunk_size` actions, `n_action_steps` are executed."""
+
+    def __init__(self, rskill: RSkillManifest) -> None:
+        super().__init__(rskill)
+        self.n_action_steps = int(self.config.n_action_steps)
+
+    def predict_chunk(self, observation: Observation, instruction: str) -> npt.NDArray[np.float32]:
+        with self._torch.inference_mode():
+            chunk = self.post(self.policy.predict_action_chunk(self._batch(observation, instruction)))
+        return np.asarray(chunk.reshape(-1, self._dim).cpu().numpy(), dtype=np.float32)
+
+
+def make_lerobot_policy(rskill: RSkillManifest) -> LerobotPolicy:
+    path = checkpoint_dir(rskill)
+    config = load_config(path, "cpu")
+    if config.type == "act" and getattr(config, "temporal_ensemble_coeff", None) is None:
+        return LerobotChunkPolicy(rskill)
+    return LerobotPolicy(rskill)

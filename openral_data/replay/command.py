@@ -1,0 +1,307 @@
+"""`replay`: options, the run over the selected episodes, the results directory and the summary.
+
+`replay(opts, progress) -> ReplaySummary` is the Python entry point (the CLI is a thin wrapper around it).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from openral_data import paths, registry
+from openral_data.compat import check_compatibility
+from openral_data.errors import CompatibilityError, OpenralError
+from openral_data.metrics.results import is_results_dir, write_results
+from openral_data.policies.base import ChunkingPolicy, PolicyAdapter
+from openral_data.replay import recorded_policy
+from openral_data.replay.actions import DEFAULT_TOLERANCE, ActionReplayer
+from openral_data.replay.closed_loop import ClosedLoop
+from openral_data.replay.outcome import EpisodeOutcome
+from openral_data.replay.policy_mode import evaluate_episode
+from openral_data.replay.rebuild import SceneView, rebuild
+from openral_data.replay.recorded import RecordedDataset
+from openral_data.replay.rerecord import Rerecorder, load_view
+from openral_data.replay.tables import episodes_table, steps_table
+from openral_data.schemas.rskill import RSkillManifest
+from openral_data.sinks.lerobot_v3 import VideoSettings
+from openral_data.sinks.lerobot_v3.video import Codec
+
+Mode = Literal["actions", "policy", "closed-loop"]
+MODES: tuple[Mode, ...] = ("actions", "policy", "closed-loop")
+KIND = {"actions": "replay", "policy": "eval", "closed-loop": "eval"}
+
+ProgressFn = Callable[[EpisodeOutcome | None, int, int], None]  # (finished episode | None at start, done, total)
+EpisodeRunner = Callable[[int], EpisodeOutcome]
+
+
+@dataclass(frozen=True)
+class ReplayOptions:
+    dataset: Path
+    episodes: str | None = None  # "0,3,5-7"; None: all
+    mode: Mode = "actions"
+    rskill: str | None = None  # policy / closed-loop: an rSkill id or path; policy also `recorded[:K]`
+    out: Path | None = None  # results directory (default: datasets/<dataset>--replay-<mode>--<time>)
+    tolerance: float = DEFAULT_TOLERANCE
+    label: str | None = None
+    max_steps: int | None = None  # closed-loop step limit (default: the recorded task's max_steps)
+    record: Path | None = None  # actions / closed-loop: also write the rollouts as a new dataset here
+    cameras: Path | None = None  # with record: YAML of cameras (+ render) replacing the recorded ones
+    codec: Codec = "av1"
+    formats: tuple[str, ...] = ("lerobot",)
+
+
+@dataclass
+class ReplaySummary:
+    out: Path
+    mode: Mode
+    dataset: Path
+    episodes: list[EpisodeOutcome]
+    seconds: float
+    summary: dict[str, Any] = field(default_factory=dict)  # what summary.json holds
+
+    def rows(self) -> list[tuple[str, str]]:
+        """`key: value` lines for the CLI."""
+        s, n = self.summary, len(self.episodes)
+        rows = [("results", str(self.out)), ("mode", self.mode), ("episodes", str(n))]
+        if self.mode != "policy":
+            rows.append(("success recorded", f"{s['success_recorded']}/{n}"))
+            rows.append(("success replayed", f"{s['success_replayed']}/{n}"))
+            rows.append(("success agrees", f"{s['success_agree']}/{s['success_known']} episodes"))
+        if self.mode == "actions":
+            rows.append(("reproduced", f"{s['reproduced']}/{n} episodes (tolerance {s['tolerance']:g})"))
+            rows.append(("divergence max", _num(s.get("divergence_max"))))
+            diverged = s.get("diverged_episodes") or {}
+            if diverged:
+                rows.append(("diverged", ", ".join(f"ep {k} at frame {v}" for k, v in diverged.items())))
+        if self.mode == "closed-loop":
+            p = s["paired"]
+            rows.append(
+                (
+                    "paired",
+                    f"both {p['both']}, only recorded {p['only_recorded']}, only policy {p['only_policy']}, "
+                    f"neither {p['neither']}",
+                )
+            )
+        if self.mode == "policy":
+            rows.append(("steps compared", str(s["steps"])))
+            rows.append(("action MSE", _num(s.get("action_mse_mean"))))
+            rows.append(("action MAE", _num(s.get("action_mae_mean"))))
+            worst = s.get("action_mae_worst")
+            if worst:
+                rows.append(("worst dimension", f"{worst[0]} (MAE {worst[1]:.3g})"))
+            if s.get("chunk"):
+                rows.append(("chunks", f"executes {s['chunk']['n_action_steps']} action(s) per query"))
+        if s.get("record"):
+            rows.append(("re-recorded", f"{s['record']['out']} ({s['record']['frames']} frames)"))
+        rows.append(("seconds", f"{self.seconds:.1f}"))
+        return rows
+
+
+def _num(value: object) -> str:
+    return "-" if value is None else f"{float(value):.3g}"  # type: ignore[arg-type]
+
+
+def default_out(dataset: Path, mode: str) -> Path:
+    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
+    base = paths.datasets_dir() / f"{dataset.resolve().name}--replay-{mode}--{stamp}"
+    k = 1
+    while (out := base if k == 1 else base.with_name(f"{base.name}-{k}")).exists():
+        k += 1
+    return out
+
+
+def _check(opts: ReplayOptions) -> None:
+    if opts.mode not in MODES:
+        raise OpenralError(f"--mode: {opts.mode!r} is not one of {', '.join(MODES)}")
+    if opts.mode != "actions" and opts.rskill is None:
+        raise OpenralError(f"--mode {opts.mode} needs --rskill (the policy to evaluate)")
+    if opts.mode == "actions" and opts.rskill is not None:
+        raise OpenralError("--rskill: --mode actions replays the recorded actions; it takes no policy")
+    if opts.mode == "closed-loop" and recorded_policy.parse(opts.rskill or "") is not None:
+        raise OpenralError("--rskill recorded: in closed loop that is --mode actions")
+    if opts.mode == "policy" and opts.record is not None:
+        raise OpenralError("--record: --mode policy runs no simulator, so there is no rollout to record")
+    if opts.cameras is not None and opts.record is None:
+        raise OpenralError("--cameras: only used with --record (the replay itself renders nothing)")
+    if not np.isfinite(opts.tolerance) or opts.tolerance < 0:
+        raise OpenralError(f"--tolerance must be a finite number >= 0, got {opts.tolerance}")
+    if opts.max_steps is not None and opts.max_steps < 1:
+        raise OpenralError(f"--max-steps must be >= 1, got {opts.max_steps}")
+    if opts.out is not None and (is_results_dir(opts.out) or (opts.out.is_dir() and any(opts.out.iterdir()))):
+        raise OpenralError(f"{opts.out}: --out exists and is not empty; refusing to overwrite it (choose a new --out)")
+
+
+def replay(opts: ReplayOptions, progress: ProgressFn | None = None) -> ReplaySummary:
+    """Replay or evaluate the selected episodes of `opts.dataset` and write the results directory."""
+    _check(opts)
+    dataset = RecordedDataset(opts.dataset)
+    chosen = dataset.select(opts.episodes)
+    out = opts.out if opts.out is not None else default_out(opts.dataset, opts.mode)
+    t0 = time.perf_counter()
+    outcomes: list[EpisodeOutcome] = []
+    extra: dict[str, Any] = {}
+    with _runner(opts, dataset, extra) as run:
+        if progress is not None:
+            progress(None, 0, len(chosen))
+        for e in chosen:
+            outcomes.append(run(e))
+            if progress is not None:
+                progress(outcomes[-1], len(outcomes), len(chosen))
+    seconds = time.perf_counter() - t0
+    summary = {**_summary(opts, dataset, outcomes, seconds), **extra}
+    write_results(out, summary, episodes_table(outcomes), steps_table(outcomes))
+    return ReplaySummary(
+        out=out, mode=opts.mode, dataset=opts.dataset, episodes=outcomes, seconds=seconds, summary=summary
+    )
+
+
+@contextmanager
+def _runner(opts: ReplayOptions, dataset: RecordedDataset, extra: dict[str, Any]) -> Iterator[EpisodeRunner]:
+    """A function replaying one episode in the chosen mode; everything it opened is closed on exit."""
+    if opts.mode == "policy":
+        offline = _policy_for_dataset(opts.rskill or "", dataset)
+        if isinstance(offline, ChunkingPolicy):
+            extra["chunk"] = {"n_action_steps": int(offline.n_action_steps)}
+        try:
+            yield lambda e: evaluate_episode(dataset, e, offline)
+        finally:
+            offline.close()
+        return
+    manifest, rskill_src = (None, None) if opts.mode == "actions" else _resolve(opts.rskill or "")
+    if opts.cameras is not None:
+        view = load_view(opts.cameras)
+    else:
+        view = SceneView() if opts.record is not None or opts.mode == "closed-loop" else SceneView(cameras=())
+    built = rebuild(dataset, manifest, view, rskill_src)
+    rerec: Rerecorder | None = None
+    policy: PolicyAdapter | None = None
+    ok = False
+    try:
+        if opts.mode == "actions":
+            replayer = ActionReplayer(built.env, opts.tolerance)
+        else:
+            assert manifest is not None
+            check_compatibility(
+                built.robot,
+                manifest,
+                built.env.spec,
+                rskill_source=str(rskill_src),
+                scene_source=built.source,
+                video=VideoSettings(codec=opts.codec),
+            )
+            policy = registry.policy_factory(manifest, str(rskill_src))(manifest)
+            max_steps = opts.max_steps if opts.max_steps is not None else built.scene.task.max_steps
+            loop = ClosedLoop(built.env, policy, max_steps, opts.tolerance)
+        if opts.record is not None:
+            rerec = Rerecorder(opts.record, built, dataset.root, opts.mode, opts.codec, opts.formats)
+
+        def run(e: int) -> EpisodeOutcome:
+            episode = dataset.episode(e)
+            hook = rerec.begin(episode.seed) if rerec is not None else None
+            outcome = replayer.replay(episode, hook) if opts.mode == "actions" else loop.run(episode, hook)
+            if rerec is not None:
+                rerec.end()
+            return outcome
+
+        yield run
+        ok = True
+    finally:
+        try:
+            if rerec is not None:
+                extra["record"] = rerec.close(ok)
+            if policy is not None:
+                policy.close()
+        finally:
+            built.env.close()
+
+
+def _resolve(ref: str) -> tuple[RSkillManifest, str]:
+    manifest, path = registry.resolve_rskill(ref)
+    return manifest, str(path)
+
+
+def _policy_for_dataset(ref: str, dataset: RecordedDataset) -> PolicyAdapter:
+    """`recorded[:K]`, or the rSkill's policy after checking its contract against what the dataset holds."""
+    chunk = recorded_policy.parse(ref)
+    if chunk is not None:
+        return recorded_policy.RecordedActions(chunk)
+    manifest, src = _resolve(ref)
+    features = dataset.info["features"]
+    for side, key, contract in (
+        ("state_contract", "observation.state", manifest.state_contract),
+        ("action_contract", "action", manifest.action_contract),
+    ):
+        have = int(features[key]["shape"][0])
+        if have != contract.dim:
+            raise CompatibilityError(
+                f"{src}: {side}.dim: {contract.dim} but dataset {dataset.root} records {key} of {have} dims"
+            )
+    missing = [c for c in manifest.required_cameras if c not in dataset.cameras]
+    if missing:
+        raise CompatibilityError(
+            f"{src}: required_cameras: {missing} not in dataset {dataset.root} (it has {dataset.cameras})"
+        )
+    return registry.policy_factory(manifest, src)(manifest)
+
+
+def _summary(
+    opts: ReplayOptions, dataset: RecordedDataset, outcomes: list[EpisodeOutcome], seconds: float
+) -> dict[str, Any]:
+    known = [o for o in outcomes if o.success_agrees is not None]
+    features = dataset.info["features"]
+    s: dict[str, Any] = {
+        "kind": KIND[opts.mode],
+        "mode": opts.mode,
+        "dataset": str(opts.dataset.resolve()),
+        "label": opts.label or f"{opts.dataset.resolve().name} {opts.mode}",
+        "rskill": opts.rskill,
+        "episodes": [o.index for o in outcomes],
+        "seconds": seconds,
+        "success_recorded": sum(o.success_recorded is True for o in outcomes),
+        "success_replayed": sum(o.success_replayed is True for o in outcomes),
+        "success_known": len(known),
+        "success_agree": sum(bool(o.success_agrees) for o in known),
+    }
+    if opts.mode != "policy":
+        divs = [float(o.divergence.max()) for o in outcomes if o.divergence is not None and o.divergence.size]
+        s.update(
+            {
+                "tolerance": opts.tolerance,
+                "tolerance_meaning": "max |replayed - recorded| over state dimensions at any compared frame",
+                "reproduced": sum(o.first_divergence_frame is None and o.success_agrees is not False for o in outcomes),
+                "divergence_max": max(divs) if divs else None,
+                "diverged_episodes": {
+                    str(o.index): o.first_divergence_frame for o in outcomes if o.first_divergence_frame is not None
+                },
+                "state_names": list(features["observation.state"].get("names") or []),
+            }
+        )
+    if opts.mode == "closed-loop":
+        pairs = [(o.success_recorded is True, o.success_replayed is True) for o in outcomes]
+        s["paired"] = {
+            "both": pairs.count((True, True)),
+            "only_recorded": pairs.count((True, False)),
+            "only_policy": pairs.count((False, True)),
+            "neither": pairs.count((False, False)),
+        }
+    if opts.mode == "policy":
+        errors = [o.action_abs for o in outcomes if o.action_abs is not None and o.action_abs.size]
+        names = list(features["action"].get("names") or [])
+        s["steps"] = int(sum(len(a) for a in errors))
+        s["action_names"] = names
+        if errors:
+            stacked = np.concatenate(errors)
+            mse, mae = (stacked**2).mean(axis=0), stacked.mean(axis=0)
+            keys = names if len(names) == len(mae) else [f"action_{i}" for i in range(len(mae))]
+            s["action_mse"] = dict(zip(keys, mse.tolist(), strict=True))
+            s["action_mae"] = dict(zip(keys, mae.tolist(), strict=True))
+            s["action_mse_mean"], s["action_mae_mean"] = float(mse.mean()), float(mae.mean())
+            s["action_mae_worst"] = [keys[int(mae.argmax())], float(mae.max())]
+    return s

@@ -1,0 +1,73 @@
+"""What one replayed/evaluated episode yields, and the error statistics shared by every mode."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+F64 = npt.NDArray[np.float64]
+
+
+@dataclass
+class EpisodeOutcome:
+    """One episode of any mode. Per-step arrays are aligned with `frames` (the dataset's frame indices).
+
+    `state_abs` (frames x state dims) is |replayed state - recorded state| (actions mode; closed-loop has none,
+    the rollouts differ by design); `action_abs` (frames x action dims) is |policy action - recorded action|
+    (policy mode). `steps` is how many actions were applied or compared.
+    """
+
+    index: int
+    steps: int
+    success_recorded: bool | None
+    success_replayed: bool | None
+    frames: npt.NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    state_abs: F64 | None = None
+    action_abs: F64 | None = None
+    first_divergence_frame: int | None = None
+    object_error_initial: float | None = None
+
+    @property
+    def divergence(self) -> F64 | None:
+        """Per frame: Euclidean norm of the state error."""
+        return None if self.state_abs is None else np.sqrt((self.state_abs**2).sum(axis=1))
+
+    @property
+    def action_error(self) -> F64 | None:
+        """Per compared step: Euclidean norm of the action error."""
+        return None if self.action_abs is None else np.sqrt((self.action_abs**2).sum(axis=1))
+
+    @property
+    def success_agrees(self) -> bool | None:
+        if self.success_recorded is None or self.success_replayed is None:
+            return None
+        return self.success_recorded == self.success_replayed
+
+
+def first_exceeding(abs_error: F64, tolerance: float) -> int | None:
+    """Row of the first frame whose max-abs error is above `tolerance`, or None."""
+    if abs_error.size == 0:
+        return None
+    over = np.flatnonzero(abs_error.max(axis=1) > tolerance)
+    return int(over[0]) if over.size else None
+
+
+def object_error(recorded: object, privileged: dict[str, object]) -> float | None:
+    """Largest position error between the recorded `object_poses` and the replayed ones, if both exist."""
+    replayed = privileged.get("object_poses")
+    if not isinstance(recorded, dict) or not isinstance(replayed, dict):
+        return None
+    common = [name for name in recorded if name in replayed]
+    if not common:
+        return None
+    errors = [
+        float(
+            np.linalg.norm(
+                np.asarray(replayed[n], dtype=np.float64)[:3] - np.asarray(recorded[n], dtype=np.float64)[:3]
+            )
+        )
+        for n in common
+    ]
+    return max(errors)

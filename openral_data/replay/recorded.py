@@ -1,0 +1,189 @@
+"""What a dataset recorded, as replay needs it: provenance (scene, rSkill, robot), per-episode seed, initial
+state and success, the state/action rows of an episode, and (for policy mode) its decoded frames.
+
+Works on any LeRobot v3 dataset for what the frame table holds; the scene and initial states exist only in
+datasets openral-data recorded (`meta/openral.json`, `openral.*` episode columns).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pyarrow as pa
+import pyarrow.compute as pc
+import pyarrow.parquet as pq
+
+from openral_data.convert.to_mcap import IMAGE_PREFIX, parse_episodes
+from openral_data.convert.to_mcap import episode_frames as decode_episode_frames
+from openral_data.errors import ConfigError, OpenralError
+from openral_data.schemas.base import validate
+from openral_data.schemas.rskill import RSkillManifest
+from openral_data.schemas.scene import BenchmarkScene, SimScene
+from openral_data.sinks.base import Frame
+from openral_data.sinks.lerobot_v3 import layout
+from openral_data.sinks.lerobot_v3.reader import read_episodes, read_info, read_tasks
+
+F32 = npt.NDArray[np.float32]
+STATE, ACTION = "observation.state", "action"
+
+
+@dataclass(frozen=True)
+class RecordedEpisode:
+    """One episode's numeric rows (frame t: the state seen and the action taken) and how it started/ended."""
+
+    index: int
+    seed: int | None
+    initial_state: dict[str, Any] | None
+    success: bool | None  # None: the dataset does not know
+    states: F32  # (length, state_dim)
+    actions: F32  # (length, action_dim)
+    task: str
+
+    @property
+    def length(self) -> int:
+        return int(self.actions.shape[0])
+
+
+class RecordedDataset:
+    """A LeRobot v3 dataset opened for replay (nothing is loaded until asked for)."""
+
+    def __init__(self, root: Path) -> None:
+        self.root = root
+        self.info = read_info(root)
+        features = self.info.get("features", {})
+        for key in (STATE, ACTION):
+            if key not in features:
+                raise OpenralError(f"{root / layout.INFO_PATH}: features: no {key!r}; nothing to replay")
+        self.fps = int(self.info["fps"])
+        self.cameras = [k[len(IMAGE_PREFIX) :] for k in features if k.startswith(IMAGE_PREFIX)]
+        table = read_episodes(root)
+        keep = [c for c in table.column_names if not c.startswith("stats/")]
+        self._rows = sorted(table.select(keep).to_pylist(), key=lambda r: int(r["episode_index"]))
+        self._tasks = read_tasks(root) if int(self.info.get("total_tasks", 0)) else []
+        self._data_cache: tuple[Path, pa.Table] | None = None
+
+    def __len__(self) -> int:
+        return len(self._rows)
+
+    def select(self, spec: str | None) -> list[int]:
+        """`--episodes 0,3,5-7` -> episode indices (all when None)."""
+        return parse_episodes(spec, len(self._rows))
+
+    # -- provenance --------------------------------------------------------------------------------------------
+    @cached_property
+    def provenance(self) -> dict[str, Any] | None:
+        path = self.root / layout.OPENRAL_PATH
+        if not path.is_file():
+            return None
+        try:
+            meta = json.loads(path.read_text()).get("schema_metadata", {})
+        except json.JSONDecodeError as exc:
+            raise OpenralError(f"{path}: invalid JSON: {exc}") from None
+        return meta if isinstance(meta, dict) else None
+
+    def _provenance(self, key: str) -> Any:
+        meta = self.provenance
+        where = self.root / layout.OPENRAL_PATH
+        if meta is None:
+            raise OpenralError(
+                f"{self.root}: no {layout.OPENRAL_PATH}: the dataset was not recorded by openral-data, so its scene "
+                "cannot be rebuilt (use --mode policy, which needs no simulator)"
+            )
+        if key not in meta:
+            raise OpenralError(f"{where}: schema_metadata.{key}: missing (not a recording of a scene)")
+        return meta[key]
+
+    def scene(self) -> SimScene:
+        """The scene exactly as it was recorded (the YAML file may have changed since)."""
+        entry = self._provenance("scene")
+        config = entry.get("config") if isinstance(entry, dict) else None
+        source = f"{self.root / layout.OPENRAL_PATH}: schema_metadata.scene.config"
+        if not isinstance(config, dict):
+            raise OpenralError(f"{source}: missing")
+        model: type[SimScene] = BenchmarkScene if config.get("tier") == "benchmark" else SimScene
+        try:
+            return validate(model, config, source)
+        except ConfigError as exc:
+            raise ConfigError(f"{exc} (recorded by an incompatible openral-data version?)") from None
+
+    def scene_source(self) -> str:
+        entry = self._provenance("scene")
+        path = entry.get("path") if isinstance(entry, dict) else None
+        return f"{path} (as recorded in {self.root})" if path else str(self.root / layout.OPENRAL_PATH)
+
+    def rskill(self) -> RSkillManifest:
+        entry = self._provenance("rskill")
+        config = entry.get("config") if isinstance(entry, dict) else None
+        source = f"{self.root / layout.OPENRAL_PATH}: schema_metadata.rskill.config"
+        if not isinstance(config, dict):
+            raise OpenralError(f"{source}: missing")
+        return validate(RSkillManifest, config, source)
+
+    def robot(self) -> str:
+        robot = self._provenance("robot")
+        if not isinstance(robot, str):
+            raise OpenralError(f"{self.root / layout.OPENRAL_PATH}: schema_metadata.robot: missing")
+        return robot
+
+    # -- episodes ------------------------------------------------------------------------------------------------
+    def row(self, e: int) -> dict[str, Any]:
+        row: dict[str, Any] = self._rows[e]
+        return row
+
+    def episode(self, e: int) -> RecordedEpisode:
+        row = self._rows[e]
+        n = int(row["length"])
+        path = self.root / str(self.info.get("data_path", layout.DATA_PATH)).format(
+            chunk_index=int(row["data/chunk_index"]), file_index=int(row["data/file_index"])
+        )
+        table = self._data(path)
+        table = table.filter(pc.equal(table.column("episode_index"), e)).sort_by("frame_index")
+        if table.num_rows != n:
+            raise OpenralError(f"{path}: episode {e} has {table.num_rows} rows, meta/episodes says {n}")
+        states = _matrix(table.column(STATE), n)
+        actions = _matrix(table.column(ACTION), n)
+        raw_state = row.get("openral.initial_state")
+        try:
+            initial = json.loads(raw_state) if raw_state else None
+        except json.JSONDecodeError as exc:
+            raise OpenralError(f"{self.root}: meta/episodes: openral.initial_state of episode {e}: {exc}") from None
+        task_index = int(table.column("task_index")[0].as_py()) if n else 0
+        return RecordedEpisode(
+            index=e,
+            seed=None if row.get("openral.seed") is None else int(row["openral.seed"]),
+            initial_state=initial if isinstance(initial, dict) and initial else None,
+            success=self.success(e),
+            states=states,
+            actions=actions,
+            task=self._tasks[task_index] if task_index < len(self._tasks) else "",
+        )
+
+    def _data(self, path: Path) -> pa.Table:
+        """The numeric columns of one data file; the last file read is kept (episodes share files, in order)."""
+        if self._data_cache is None or self._data_cache[0] != path:
+            columns = ["episode_index", "frame_index", "task_index", STATE, ACTION]
+            self._data_cache = (path, pq.read_table(path, columns=columns))
+        return self._data_cache[1]
+
+    def success(self, e: int) -> bool | None:
+        row = self._rows[e]
+        if "openral.success" not in row:
+            return None
+        value = row["openral.success"]
+        return None if value is None else bool(value)
+
+    def frames(self, e: int) -> Iterator[Frame]:
+        """Episode `e` frame by frame with its camera images decoded (PyAV), as the policy saw them."""
+        return decode_episode_frames(self.root, self.info, self._rows[e], self._tasks, self.cameras)
+
+
+def _matrix(column: Any, n: int) -> F32:
+    flat = np.asarray(column.combine_chunks().flatten().to_numpy(zero_copy_only=False), dtype=np.float32)
+    return flat.reshape(n, -1) if n else flat.reshape(0, 0)

@@ -1,0 +1,108 @@
+"""`--record OUT`: write the replayed (or closed-loop) rollouts as a new dataset through the normal bridge and
+sinks, e.g. with other cameras or resolutions (`--cameras FILE`), the "states to observations" use case.
+
+`--cameras FILE` is YAML: `cameras:` a list in the scene schema (name, width, height, mount, pos, lookat, fovy)
+and optionally `render:` (shadows, reflections, robot_meshes). It replaces the recorded cameras; physics does
+not depend on cameras, so the replay is the same.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from pydantic import Field
+
+from openral_data import __version__
+from openral_data.bridge import DatasetBridge
+from openral_data.producers.base import Observation, StepResult
+from openral_data.record import check_out
+from openral_data.replay.actions import StepHook
+from openral_data.replay.rebuild import Rebuilt, SceneView
+from openral_data.schemas.base import StrictModel, load_model
+from openral_data.schemas.scene import RenderConfig, SceneCamera
+from openral_data.sinks.base import DatasetSchema, EpisodeRecord, Sink
+from openral_data.sinks.lerobot_v3 import VideoSettings, WriterConfig
+from openral_data.sinks.lerobot_v3.video import Codec
+from openral_data.sinks.select import check_formats, make_sinks
+
+
+class CameraFile(StrictModel):
+    cameras: list[SceneCamera] = Field(min_length=1)
+    render: RenderConfig | None = None
+
+
+def load_view(path: Path) -> SceneView:
+    view = load_model(CameraFile, path)
+    return SceneView(cameras=tuple(view.cameras), render=view.render)
+
+
+class Rerecorder:
+    """One bridge for the whole replay; `hook()` feeds it the steps of the episode in flight."""
+
+    def __init__(
+        self,
+        out: Path,
+        built: Rebuilt,
+        dataset_root: Path,
+        mode: str,
+        codec: Codec = "av1",
+        formats: tuple[str, ...] = ("lerobot",),
+        image_format: str = "jpeg",
+    ) -> None:
+        check_formats(formats, image_format)
+        check_out(out)
+        video = VideoSettings(codec=codec)
+        spec = built.env.spec
+        for name, shape in spec.cameras.items():
+            problem = video.size_problem(shape.height, shape.width)
+            if problem:
+                from openral_data.errors import CompatibilityError
+
+                raise CompatibilityError(f"--cameras: {name}: {problem}")
+        schema = DatasetSchema(
+            fps=spec.fps,
+            state_names=tuple(built.rskill.state_contract.names),
+            action_names=tuple(built.rskill.action_contract.names),
+            cameras=dict(spec.cameras),
+            robot_type=built.robot.name,
+            metadata={
+                "openral_data_version": __version__,
+                "scene": {"path": built.source, "config": built.scene.model_dump(mode="json")},
+                "rskill": {"path": built.rskill_source, "config": built.rskill.model_dump(mode="json")},
+                "robot": built.robot.name,
+                "replayed_from": {"dataset": str(dataset_root.resolve()), "mode": mode},
+            },
+        )
+        self.out = out
+        self.env = built.env
+        sinks: list[Sink] = make_sinks(out, schema, formats, WriterConfig(video=video), image_format)
+        self.bridge = DatasetBridge(schema, sinks)
+        self.records: list[EpisodeRecord] = []
+        self._success = False
+
+    def begin(self, seed: int | None) -> StepHook:
+        """Start an episode (after `reset_to`, which happens inside the replayer: the hook's first call opens it)."""
+        self._pending_seed = 0 if seed is None else seed
+        self._opened = False
+        return self._step
+
+    def _step(self, obs: Observation, action: npt.NDArray[np.float32], result: StepResult, done: bool) -> None:
+        if not self._opened:
+            self.bridge.begin_episode(self._pending_seed, self.env.initial_state())
+            self._opened = True
+        self.bridge.add_step(obs, action, reward=result.reward, done=done, success=bool(result.success))
+        self._success = bool(result.success) if result.terminated else False
+
+    def end(self) -> None:
+        if self._opened:
+            self.records.extend(self.bridge.end_episode(self._success)[:1])
+            self._opened = False
+
+    def close(self, ok: bool) -> dict[str, Any]:
+        if not ok:
+            self.bridge.discard_episode()
+        self.bridge.close()
+        return {"out": str(self.out), "episodes": len(self.records), "frames": sum(r.length for r in self.records)}

@@ -1,0 +1,113 @@
+"""Make a lerobot 0.6.1 ACT checkpoint locally from a dataset we recorded: the features and normalisation stats
+come from the dataset (as lerobot-train does), optionally a few real training steps, then `save_pretrained` of
+the policy and its pre/post-processors. Nothing is downloaded (no pretrained backbone)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+
+def make_act_checkpoint(
+    dataset: Path,
+    out: Path,
+    *,
+    train_steps: int = 0,
+    chunk_size: int = 10,
+    n_action_steps: int = 4,
+    drop: tuple[str, ...] = (),
+    **config: Any,
+) -> Path:
+    """`drop`: dataset features the policy does not take as input (e.g. a camera its rSkill does not require)."""
+    import torch
+    from lerobot.configs.types import FeatureType
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset, LeRobotDatasetMetadata
+    from lerobot.policies.act.configuration_act import ACTConfig
+    from lerobot.policies.act.modeling_act import ACTPolicy
+    from lerobot.policies.factory import make_pre_post_processors
+    from lerobot.utils.feature_utils import dataset_to_policy_features
+
+    torch.manual_seed(0)
+    meta = LeRobotDatasetMetadata("local/replay", root=dataset)
+    features = dataset_to_policy_features(meta.features)
+    outputs = {k: f for k, f in features.items() if f.type is FeatureType.ACTION}
+    inputs = {k: f for k, f in features.items() if k not in outputs and k not in drop}
+    cfg = ACTConfig(
+        input_features=inputs,
+        output_features=outputs,
+        chunk_size=chunk_size,
+        n_action_steps=n_action_steps,
+        dim_model=64,
+        n_heads=2,
+        dim_feedforward=128,
+        n_encoder_layers=1,
+        n_decoder_layers=1,
+        n_vae_encoder_layers=1,
+        latent_dim=8,
+        pretrained_backbone_weights=None,
+        device="cpu",
+        **config,
+    )
+    policy = ACTPolicy(cfg)
+    pre, post = make_pre_post_processors(cfg, dataset_stats=meta.stats)
+    if train_steps:
+        ds = LeRobotDataset(
+            "local/replay",
+            root=dataset,
+            video_backend="pyav",
+            delta_timestamps={"action": [i / meta.fps for i in range(chunk_size)]},
+        )
+        loader = torch.utils.data.DataLoader(ds, batch_size=8, shuffle=True, num_workers=0)
+        optimizer = torch.optim.AdamW(policy.parameters(), lr=1e-4)
+        policy.train()
+        batches = iter(loader)
+        for _ in range(train_steps):
+            batch = pre(next(batches))
+            loss, _ = policy.forward(batch)
+            optimizer.zero_grad()
+            loss.backward()
+            optimizer.step()
+        policy.eval()
+    policy.save_pretrained(out)
+    pre.save_pretrained(out)
+    post.save_pretrained(out)
+    return out
+
+
+def make_diffusion_checkpoint(dataset: Path, out: Path, *, drop: tuple[str, ...] = ()) -> Path:
+    """A freshly initialised, deliberately tiny diffusion policy (2 denoising steps) on the dataset's features."""
+    import torch
+    from lerobot.configs.types import FeatureType
+    from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata
+    from lerobot.policies.diffusion.configuration_diffusion import DiffusionConfig
+    from lerobot.policies.diffusion.modeling_diffusion import DiffusionPolicy
+    from lerobot.policies.factory import make_pre_post_processors
+    from lerobot.utils.feature_utils import dataset_to_policy_features
+
+    torch.manual_seed(0)
+    meta = LeRobotDatasetMetadata("local/replay", root=dataset)
+    features = dataset_to_policy_features(meta.features)
+    outputs = {k: f for k, f in features.items() if f.type is FeatureType.ACTION}
+    inputs = {k: f for k, f in features.items() if k not in outputs and k not in drop}
+    cfg = DiffusionConfig(
+        input_features=inputs,
+        output_features=outputs,
+        n_obs_steps=2,
+        horizon=8,
+        n_action_steps=4,
+        crop_shape=None,
+        down_dims=(32, 64),
+        kernel_size=3,
+        n_groups=8,
+        diffusion_step_embed_dim=32,
+        spatial_softmax_num_keypoints=8,
+        num_inference_steps=2,
+        pretrained_backbone_weights=None,
+        device="cpu",
+    )
+    policy = DiffusionPolicy(cfg)
+    pre, post = make_pre_post_processors(cfg, dataset_stats=meta.stats)
+    policy.save_pretrained(out)
+    pre.save_pretrained(out)
+    post.save_pretrained(out)
+    return out
