@@ -320,8 +320,10 @@ def replay(
 
 def _add_subcommands() -> None:
     from openral_data.edit.cli import episodes_app
+    from openral_data.pipeline.cli import pipeline_app
 
     app.add_typer(episodes_app, name="episodes")
+    app.add_typer(pipeline_app, name="pipeline")
 
 
 _add_subcommands()
