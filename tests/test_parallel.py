@@ -11,6 +11,7 @@ from conftest import mock_scene, run_cli, write_yaml
 from rosbags.highlevel import AnyReader
 from seeded_check import episode_seeds, verify_seeded_dataset
 
+from openral_data.doctor import check
 from openral_data.errors import OpenralError
 from openral_data.parallel.run import record_parallel
 from openral_data.record import RecordOptions, record
@@ -58,6 +59,9 @@ def test_workers_order_episodes_by_seed_not_by_finish(project: Path, tmp_path: P
     assert single.frames == summary.frames
     assert _table(out, "data") == _table(tmp_path / "one", "data")
     assert _table(out, "meta/episodes") == _table(tmp_path / "one", "meta/episodes")
+    # camera stats too: the workers' pixel histograms are summed, not approximated
+    assert (out / "meta/stats.json").read_text() == (tmp_path / "one" / "meta/stats.json").read_text()
+    assert check(out) == []
     seen = verify_seeded_dataset(out)
     assert seen["lengths"] == LENGTHS
 

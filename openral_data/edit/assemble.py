@@ -5,10 +5,12 @@ info.json), so the result follows every rule the writer follows. Video is never 
 packets are cut out of the source mp4 (`viz.clip.episode_clip`) and handed to the writer as the episode's own
 file, which the writer joins into size-rotated files by remuxing, as it does while recording.
 
-Statistics: numeric features are recomputed exactly from the rows. Camera statistics come from the source's
-per-episode statistics; the dataset level merges them as lerobot's aggregation does (exact min, max, mean and
-std; quantiles are frame-weighted means of the episodes' quantiles), because the pixel histograms they were
-computed from are not stored.
+Statistics: numeric features are recomputed exactly from the rows. Camera statistics per episode are the
+source's. At dataset level they are exact when the caller passes the pixel histograms of exactly the episodes
+written (`record --workers` sums its workers' `.openral/image_hist.json`); otherwise (a subset of a dataset)
+they are merged from the per-episode statistics as lerobot's aggregation does (exact min, max, mean and std;
+quantiles are frame-weighted means of the episodes' quantiles), and no histogram file is left behind, so
+`record --resume` refuses to continue such a dataset rather than continue wrong statistics.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from openral_data.edit.source import EpisodeData
+from openral_data.errors import OpenralError
 from openral_data.sinks.base import DatasetSchema, EpisodeRecord, EpisodeStart
 from openral_data.sinks.lerobot_v3 import atomic, layout
 from openral_data.sinks.lerobot_v3.stats import ImageStatsAccumulator, Stats, merge_numeric
@@ -50,12 +53,34 @@ class MergedImageStats(ImageStatsAccumulator):
 class EpisodeAssembler(LeRobotV3Writer):
     """A LeRobot v3 writer fed with whole episodes (`add`) instead of frames."""
 
-    def __init__(self, root: Path, schema: DatasetSchema, config: WriterConfig, provenance: dict[str, Any]) -> None:
+    def __init__(
+        self,
+        root: Path,
+        schema: DatasetSchema,
+        config: WriterConfig,
+        provenance: dict[str, Any],
+        image_hist: dict[str, ImageStatsAccumulator] | None = None,
+    ) -> None:
         super().__init__(root, schema, config)
         self._image_stats = {name: MergedImageStats() for name in schema.cameras}
+        self._exact_hist = image_hist
         meta = json.loads((root / layout.OPENRAL_PATH).read_text())
         meta["edit"] = provenance
         atomic.write_bytes(root / layout.OPENRAL_PATH, json.dumps(meta, indent=2).encode(), config.durable)
+
+    def close(self) -> None:
+        exact = self._exact_hist
+        try:
+            if exact is not None and self.total_episodes and not self._closed:
+                frames = {name: acc.frames for name, acc in self._image_stats.items()}
+                if {name: acc.frames for name, acc in exact.items()} != frames:
+                    raise OpenralError(f"{self.root}: camera histograms do not cover exactly the episodes written")
+                self._image_stats = dict(exact)  # the final metadata write uses the exact histograms
+        finally:
+            super().close()
+        if exact is None:
+            # summaries cannot continue a histogram: leave none, so a resume refuses instead of going wrong
+            (self.root / layout.IMAGE_HIST_PATH).unlink(missing_ok=True)
 
     def add(self, episode: EpisodeData) -> EpisodeRecord:
         buf = _EpisodeBuffer(EpisodeStart(episode.seed, episode.initial_state))

@@ -21,6 +21,7 @@ from openral_data.edit.source import SourceDataset
 from openral_data.episode_spec import parse_episodes
 from openral_data.errors import OpenralError
 from openral_data.sinks.lerobot_v3.atomic import fsync_dir, fsync_file
+from openral_data.sinks.lerobot_v3.stats import ImageStatsAccumulator
 
 _DATASET_ENTRIES = {"meta", "data", "videos", ".openral"}
 Selection = list[tuple[SourceDataset, int]]  # (source, episode index in it), in output order
@@ -73,6 +74,7 @@ def write_selection(
     op: str,
     on_episode: Callable[[int], None] | None = None,
     before_publish: Callable[[Path], None] | None = None,
+    image_hist: dict[str, ImageStatsAccumulator] | None = None,
 ) -> EditResult:
     """Write the selected episodes, in order, as a new dataset at `out` (atomically).
 
@@ -97,7 +99,7 @@ def write_selection(
     }
     staging = staging_dir(out)
     try:
-        writer = EpisodeAssembler(staging, first.schema, first.writer_config(), provenance)
+        writer = EpisodeAssembler(staging, first.schema, first.writer_config(), provenance, image_hist)
         try:
             for k, (src, e) in enumerate(selection):
                 writer.add(src.episode(e))
@@ -195,4 +197,20 @@ def merge(datasets: Sequence[Path], out: Path, order: str = "input") -> EditResu
         selection.sort(key=lambda se: se[0].seed(se[1]))  # stable: equal seeds keep input order
     elif order != "input":
         raise OpenralError(f"--order: {order!r} is not one of input, seed")
-    return write_selection(selection, out, "merge")
+    return write_selection(selection, out, "merge", image_hist=summed_histograms(sources))
+
+
+def summed_histograms(sources: Sequence[SourceDataset]) -> dict[str, ImageStatsAccumulator] | None:
+    """Camera histograms of whole datasets, summed (exact stats for their concatenation); None if one lacks them."""
+    total: dict[str, ImageStatsAccumulator] | None = None
+    for src in sources:
+        hist = src.image_hist()
+        if hist is None or hist.keys() != set(src.camera_names()):
+            return None
+        if src.total != src.episodes.num_rows:  # the histograms may include rows beyond info's total
+            return None
+        if total is None:
+            total = {name: ImageStatsAccumulator() for name in hist}
+        for name, acc in hist.items():
+            total[name].merge(acc)
+    return total

@@ -24,7 +24,7 @@ from openral_data.sinks.base import DatasetSchema
 from openral_data.sinks.lerobot_v3 import layout
 from openral_data.sinks.lerobot_v3.features import ACTION, IMAGE_PREFIX, STATE, build_features
 from openral_data.sinks.lerobot_v3.reader import read_episodes, read_info, read_tasks
-from openral_data.sinks.lerobot_v3.stats import STAT_KEYS, Stats
+from openral_data.sinks.lerobot_v3.stats import STAT_KEYS, ImageStatsAccumulator, Stats
 from openral_data.sinks.lerobot_v3.video import VideoSettings
 from openral_data.sinks.lerobot_v3.writer import WriterConfig
 from openral_data.viz.clip import episode_clip
@@ -136,6 +136,23 @@ class SourceDataset:
         for key in self.features.keys() | rebuilt.keys():
             if self.features.get(key) != rebuilt.get(key):
                 raise OpenralError(f"{where}.{key}: not a feature layout openral-data writes; cannot edit this dataset")
+
+    def image_hist(self) -> dict[str, ImageStatsAccumulator] | None:
+        """The writer's dataset-level camera histograms (`.openral/image_hist.json`), if it left them."""
+        path = self.root / layout.IMAGE_HIST_PATH
+        try:
+            saved = json.loads(path.read_text())
+        except (FileNotFoundError, json.JSONDecodeError):
+            return None
+        out: dict[str, ImageStatsAccumulator] = {}
+        for name in self.camera_names():
+            if name not in saved:
+                return None
+            acc = ImageStatsAccumulator()
+            acc.hist = np.asarray(saved[name]["hist"], dtype=np.int64).reshape(3, 256)
+            acc.frames = int(saved[name]["frames"])
+            out[name] = acc
+        return out
 
     def writer_config(self) -> WriterConfig:
         i = self.info

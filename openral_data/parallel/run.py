@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from openral_data import registry
-from openral_data.edit.ops import check_new_output, publish, staging_dir, write_selection
+from openral_data.edit.ops import check_new_output, publish, staging_dir, summed_histograms, write_selection
 from openral_data.edit.source import SourceDataset
 from openral_data.errors import OpenralError
 from openral_data.parallel.executors import run_jobs
@@ -98,7 +98,10 @@ def _assemble(results: list[WorkerResult], workdir: Path, out: Path, formats: tu
         sources = [SourceDataset(d) for d in worker_dirs]
         selection = [(s, e) for s in sources for e in range(s.total)]
         selection.sort(key=lambda se: se[0].seed(se[1]))
-        write_selection(selection, out, "record --workers", before_publish=add_bags)
+        hist = summed_histograms(sources)
+        if hist is None:
+            raise OpenralError(f"{workdir}: a worker left no camera histograms (.openral/image_hist.json)")
+        write_selection(selection, out, "record --workers", before_publish=add_bags, image_hist=hist)
     else:
         staging = staging_dir(out)
         try:
