@@ -17,6 +17,7 @@ import pytest
 from conftest import mock_scene, run_cli, write_yaml
 from seeded_check import episode_seeds, verify_seeded_dataset
 
+from openral_data.dataset_lock import DatasetLock
 from openral_data.doctor import check
 from openral_data.edit import ops
 from openral_data.errors import OpenralError
@@ -190,3 +191,10 @@ def test_delete_in_place_refuses_what_it_would_drop(two: tuple[Path, Path]) -> N
     with pytest.raises(OpenralError, match="--in-place: mcap would not be carried over"):
         ops.delete(a, "0", None, in_place=True)
     assert episode_seeds(a) == [0, 1, 2, 3]
+
+
+def test_a_dataset_being_recorded_is_not_edited(two: tuple[Path, Path], tmp_path: Path) -> None:
+    a, _ = two
+    with DatasetLock(a, "record"), pytest.raises(OpenralError, match="a writer is recording into this dataset"):
+        ops.split(a, "0", tmp_path / "x")
+    assert not (tmp_path / "x").exists()

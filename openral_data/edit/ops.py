@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from openral_data.dataset_lock import DatasetLock
 from openral_data.edit.assemble import EpisodeAssembler
 from openral_data.edit.source import SourceDataset
 from openral_data.episode_spec import parse_episodes
@@ -161,7 +162,8 @@ def delete(dataset: Path, episodes: str, out: Path | None, in_place: bool = Fals
         )
     new = dataset.parent / f".{dataset.name}.edited-{os.getpid()}"
     old = dataset.parent / f".{dataset.name}.replaced-{os.getpid()}"
-    result = write_selection(keep, new, "delete")
+    with DatasetLock(dataset, "episodes delete --in-place"):  # no recording may start on it meanwhile
+        result = write_selection(keep, new, "delete")
     os.replace(dataset, old)  # the input stays whole (under `old`) until the new dataset took its name
     os.replace(new, dataset)
     fsync_dir(dataset.parent)

@@ -18,6 +18,7 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
+from openral_data.dataset_lock import holder
 from openral_data.errors import OpenralError
 from openral_data.producers.base import CameraShape
 from openral_data.sinks.base import DatasetSchema
@@ -55,6 +56,11 @@ class SourceDataset:
         self.root = root
         if not root.is_dir():
             raise OpenralError(f"{root}: no such dataset folder")
+        busy = holder(root)
+        if busy is not None:
+            raise OpenralError(f"{root}: a writer is recording into this dataset ({busy}); edit it once it is done")
+        if (root / layout.JOURNAL_PATH).is_file():
+            raise OpenralError(f"{root}: an episode commit was interrupted; run `openral-data doctor --repair` first")
         self.info = read_info(root)
         self.fps = int(self.info["fps"])
         self.features: dict[str, dict[str, Any]] = self.info["features"]
