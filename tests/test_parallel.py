@@ -64,6 +64,10 @@ def test_workers_order_episodes_by_seed_not_by_finish(project: Path, tmp_path: P
     assert check(out) == []
     seen = verify_seeded_dataset(out)
     assert seen["lengths"] == LENGTHS
+    # the merged dataset carries the recording's settings: --resume continues it with the next seed
+    resumed = record(RecordOptions(out=out, resume=True, n_episodes=7, explicit=frozenset({"n_episodes"})))
+    assert [e.seed for e in resumed.episodes] == [6]
+    assert episode_seeds(out) == [0, 1, 2, 3, 4, 5, 6] and check(out) == []
 
 
 def test_workers_cli_and_errors(project: Path, tmp_path: Path) -> None:

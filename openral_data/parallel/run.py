@@ -10,6 +10,7 @@ content does not depend on which worker finished first.
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 import shutil
 import time
@@ -26,6 +27,7 @@ from openral_data.parallel.worker import WorkerResult
 from openral_data.record import RecordOptions, RecordSummary, check_out, default_out
 from openral_data.schemas.scene import load_recordable_scene
 from openral_data.sinks.base import EpisodeRecord
+from openral_data.sinks.lerobot_v3 import layout
 from openral_data.sinks.mcap import finished_bags
 from openral_data.sinks.select import MCAP_SUBDIR, check_formats
 
@@ -81,6 +83,7 @@ def _assemble(results: list[WorkerResult], workdir: Path, out: Path, formats: tu
     worker_dirs = [workdir / f"worker-{w:03d}" for w in folders]
 
     def add_bags(staging: Path) -> None:
+        _keep_settings(worker_dirs[0], staging, len(episodes))
         if "mcap" not in formats:
             return
         dest = staging / MCAP_SUBDIR
@@ -112,3 +115,15 @@ def _assemble(results: list[WorkerResult], workdir: Path, out: Path, formats: tu
             shutil.rmtree(staging, ignore_errors=True)
             raise
     return episodes
+
+
+def _keep_settings(first_worker: Path, staging: Path, total: int) -> None:
+    """`record --resume` continues the merged dataset: worker 0's settings (its seed is the first) for all."""
+    path = first_worker / layout.RECORD_PATH
+    if not path.is_file():
+        return
+    settings = json.loads(path.read_text())
+    settings["options"]["n_episodes"] = total
+    dest = staging / layout.RECORD_PATH
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    dest.write_text(json.dumps(settings, indent=2))
