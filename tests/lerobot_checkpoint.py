@@ -8,6 +8,19 @@ from pathlib import Path
 from typing import Any
 
 
+def _features(dataset: Path, drop: tuple[str, ...]) -> tuple[Any, dict[str, Any], dict[str, Any]]:
+    """The dataset's metadata and its policy input / output features, as lerobot-train derives them."""
+    from lerobot.configs.types import FeatureType
+    from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata
+    from lerobot.utils.feature_utils import dataset_to_policy_features
+
+    meta = LeRobotDatasetMetadata("local/replay", root=dataset)
+    features = dataset_to_policy_features(meta.features)
+    outputs = {k: f for k, f in features.items() if f.type is FeatureType.ACTION}
+    inputs = {k: f for k, f in features.items() if k not in outputs and k not in drop}
+    return meta, inputs, outputs
+
+
 def make_act_checkpoint(
     dataset: Path,
     out: Path,
@@ -20,18 +33,13 @@ def make_act_checkpoint(
 ) -> Path:
     """`drop`: dataset features the policy does not take as input (e.g. a camera its rSkill does not require)."""
     import torch
-    from lerobot.configs.types import FeatureType
-    from lerobot.datasets.lerobot_dataset import LeRobotDataset, LeRobotDatasetMetadata
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
     from lerobot.policies.act.configuration_act import ACTConfig
     from lerobot.policies.act.modeling_act import ACTPolicy
     from lerobot.policies.factory import make_pre_post_processors
-    from lerobot.utils.feature_utils import dataset_to_policy_features
 
     torch.manual_seed(0)
-    meta = LeRobotDatasetMetadata("local/replay", root=dataset)
-    features = dataset_to_policy_features(meta.features)
-    outputs = {k: f for k, f in features.items() if f.type is FeatureType.ACTION}
-    inputs = {k: f for k, f in features.items() if k not in outputs and k not in drop}
+    meta, inputs, outputs = _features(dataset, drop)
     cfg = ACTConfig(
         input_features=inputs,
         output_features=outputs,
@@ -77,18 +85,12 @@ def make_act_checkpoint(
 def make_diffusion_checkpoint(dataset: Path, out: Path, *, drop: tuple[str, ...] = ()) -> Path:
     """A freshly initialised, deliberately tiny diffusion policy (2 denoising steps) on the dataset's features."""
     import torch
-    from lerobot.configs.types import FeatureType
-    from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata
     from lerobot.policies.diffusion.configuration_diffusion import DiffusionConfig
     from lerobot.policies.diffusion.modeling_diffusion import DiffusionPolicy
     from lerobot.policies.factory import make_pre_post_processors
-    from lerobot.utils.feature_utils import dataset_to_policy_features
 
     torch.manual_seed(0)
-    meta = LeRobotDatasetMetadata("local/replay", root=dataset)
-    features = dataset_to_policy_features(meta.features)
-    outputs = {k: f for k, f in features.items() if f.type is FeatureType.ACTION}
-    inputs = {k: f for k, f in features.items() if k not in outputs and k not in drop}
+    meta, inputs, outputs = _features(dataset, drop)
     cfg = DiffusionConfig(
         input_features=inputs,
         output_features=outputs,

@@ -30,7 +30,7 @@ def _rskill(project: Path, name: str, **changes: object) -> Path:
 def test_unknown_ids_list_the_valid_ones(project: Path, tmp_path: Path) -> None:
     out = str(tmp_path / "o")
     _fails(["record", "--scene", "nope", "--out", out], r"unknown scene 'nope'; valid: .*mock_pick")
-    _fails(["record", "--rskill", "nope", "--out", out], r"unknown rSkill 'nope'; valid: random-mock, .*zero-mock")
+    _fails(["record", "--rskill", "nope", "--out", out], r"unknown rSkill 'nope'; valid: .*random-mock, .*zero-mock")
     _fails(["record", "--robot", "nope", "--out", out], r"unknown robot 'nope'; valid: .*mock_arm")
     _fails(["record", "--scene", str(tmp_path / "missing.yaml"), "--out", out], r"missing\.yaml: file not found")
     scene = mock_scene()
@@ -43,7 +43,7 @@ def test_unknown_ids_list_the_valid_ones(project: Path, tmp_path: Path) -> None:
     _rskill(project, "bad-policy", policy="telepathy")
     _fails(
         ["record", "--rskill", "bad-policy", "--out", out],
-        r"bad-policy/rskill\.yaml: policy: unknown policy 'telepathy'; valid: random, .*zero",
+        r"bad-policy/rskill\.yaml: policy: unknown policy 'telepathy'; valid: .*random, .*zero",
     )
     assert not Path(out).exists()
 

@@ -164,7 +164,7 @@ def test_act_trained_on_a_push_recording_runs_closed_loop_in_mujoco(tmp_path: Pa
     """Train ACT for a few real steps on a recorded tabletop_push dataset, then evaluate it offline and in the sim."""
     with project_home(tmp_path) as home:
         push = record_push(home, tmp_path / "push", n_episodes=2, seed=7).out
-        ckpt = make_act_checkpoint(push, home / "rskills/lerobot-act-push/checkpoint", train_steps=4)
+        ckpt = make_act_checkpoint(push, home / "rskills/lerobot-act-push/checkpoint", train_steps=2)
         offline = replay(ReplayOptions(push, mode="policy", rskill="lerobot-act-push", out=tmp_path / "offline"))
         assert offline.summary["steps"] == sum(o.steps for o in offline.episodes) > 0
         assert len(offline.summary["action_mse"]) == 7 and offline.summary["chunk"] == {"n_action_steps": 4}

@@ -17,6 +17,7 @@ from pydantic import Field
 
 from openral_data import __version__
 from openral_data.bridge import DatasetBridge
+from openral_data.errors import CompatibilityError
 from openral_data.producers.base import Observation, StepResult
 from openral_data.record import check_out
 from openral_data.replay.actions import StepHook
@@ -59,8 +60,6 @@ class Rerecorder:
         for name, shape in spec.cameras.items():
             problem = video.size_problem(shape.height, shape.width)
             if problem:
-                from openral_data.errors import CompatibilityError
-
                 raise CompatibilityError(f"--cameras: {name}: {problem}")
         schema = DatasetSchema(
             fps=spec.fps,
@@ -82,16 +81,19 @@ class Rerecorder:
         self.bridge = DatasetBridge(schema, sinks)
         self.records: list[EpisodeRecord] = []
         self._success = False
+        self._seed = 0
+        self._opened = False
 
     def begin(self, seed: int | None) -> StepHook:
-        """Start an episode (after `reset_to`, which happens inside the replayer: the hook's first call opens it)."""
-        self._pending_seed = 0 if seed is None else seed
+        """The hook for the next episode. The replayer restores the start itself, so the first step opens the
+        episode in the bridge (with the initial state the scene then reports)."""
+        self._seed = 0 if seed is None else seed
         self._opened = False
         return self._step
 
     def _step(self, obs: Observation, action: npt.NDArray[np.float32], result: StepResult, done: bool) -> None:
         if not self._opened:
-            self.bridge.begin_episode(self._pending_seed, self.env.initial_state())
+            self.bridge.begin_episode(self._seed, self.env.initial_state())
             self._opened = True
         self.bridge.add_step(obs, action, reward=result.reward, done=done, success=bool(result.success))
         self._success = bool(result.success) if result.terminated else False
