@@ -63,13 +63,17 @@ def record(
     resume: Annotated[
         bool, typer.Option("--resume", help="continue the recording in --out (its settings; --n-episodes = total)")
     ] = False,
+    workers: Annotated[int, typer.Option(help="record in N processes, merged by seed (openral_data/parallel)")] = 1,
+    executor: Annotated[str, typer.Option(help="local (processes on this machine) or ray")] = "local",
+    address: Annotated[str | None, typer.Option(help="Ray cluster address (--executor ray)")] = None,
+    threads_per_worker: Annotated[int | None, typer.Option(help="renderer threads per worker (LP_NUM_THREADS)")] = None,
 ) -> None:
     """Record episodes of SCENE driven by RSKILL into a LeRobotDataset v3 and/or ROS 2 MCAP bags."""
     if hal is not None:
         from openral_data.hal_cli import run_hal_record
 
-        if resume:
-            raise OpenralError("--resume: not available with --hal (a HAL recording starts a new dataset)")
+        if resume or workers != 1:
+            raise OpenralError("--resume/--workers: not available with --hal (one robot, one new dataset)")
 
         run_hal_record(
             hal, mode, rskill, fps, scene if scene != paths.DEFAULT_SCENE else None, n_episodes, max_steps, seed,
@@ -81,7 +85,7 @@ def record(
     given = [name for name, value in hal_only.items() if value]
     if given:
         raise OpenralError(f"{', '.join(given)}: only with --hal ROBOT_ID (a scene records at its own fps)")
-    from openral_data.record import RecordOptions
+    from openral_data.record import RecordOptions, RecordSummary
     from openral_data.record import record as run_record
     from openral_data.sinks.select import parse_formats
 
@@ -103,6 +107,7 @@ def record(
             if getattr(ctx.get_parameter_source(name), "name", "") == "COMMANDLINE"
         ),
     )
+    parallel = workers != 1 or executor != "local"
     with Progress(
         TextColumn("[bold]recording"),
         BarColumn(),
@@ -119,7 +124,12 @@ def record(
             bar.update(task, total=total, advance=0 if rec is None else 1, frames=frames)
 
         try:
-            summary = run_record(opts, progress)
+            if parallel:
+                from openral_data.parallel.run import record_parallel
+
+                summary: RecordSummary = record_parallel(opts, workers, executor, address, threads_per_worker)
+            else:
+                summary = run_record(opts, progress)
         except KeyboardInterrupt:
             bar.stop()
             err_console.print("interrupted: the episode in flight was discarded, finished episodes are kept")
@@ -137,6 +147,7 @@ def record(
             ("formats", ",".join(summary.formats)),
             *([("mcap bags", str(summary.out / "mcap"))] if "mcap" in summary.formats else []),
             ("codec", summary.codec),
+            *([("workers", f"{workers} ({executor})")] if parallel else []),
         ],
     )
 
@@ -330,6 +341,17 @@ def doctor(
     console.print(text, markup=False, highlight=False, soft_wrap=True)
     if code:
         raise typer.Exit(code)
+
+
+def _add_subcommands() -> None:
+    from openral_data.edit.cli import episodes_app
+    from openral_data.pipeline.cli import pipeline_app
+
+    app.add_typer(episodes_app, name="episodes")
+    app.add_typer(pipeline_app, name="pipeline")
+
+
+_add_subcommands()
 
 
 def main() -> None:

@@ -20,6 +20,7 @@ from openral_data.schemas.scene import SimScene, load_recordable_scene
 from openral_data.sinks.base import DatasetSchema, EpisodeRecord, Sink
 from openral_data.sinks.lerobot_v3 import VideoSettings, WriterConfig
 from openral_data.sinks.lerobot_v3.video import Codec
+from openral_data.sinks.mcap import McapSink
 
 
 @dataclass(frozen=True)
@@ -36,6 +37,7 @@ class RecordOptions:
     image_format: str = "jpeg"  # MCAP camera messages: jpeg | png | raw
     resume: bool = False  # continue the recording in `out` with its own settings (see openral_data.resume)
     explicit: frozenset[str] = frozenset()  # options the user gave (with resume: they must match the recording)
+    first_episode: int = 0  # MCAP bags are numbered from here (a `--workers` share; see openral_data/parallel)
 
 
 @dataclass(frozen=True)
@@ -191,6 +193,9 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
             sinks: list[Sink] = make_sinks(
                 out, schema, opts.formats, WriterConfig(video=video), opts.image_format, resume=opts.resume
             )
+            for sink in sinks:
+                if isinstance(sink, McapSink):
+                    sink.index_offset = opts.first_episode
             bridge = DatasetBridge(schema, sinks, first_episode=first)
             start_at = getattr(env, "start_at", None)  # producers that number their episodes (the mock)
             if callable(start_at):

@@ -20,6 +20,7 @@ import numpy.typing as npt
 import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
+from openral_data.episode_spec import parse_episodes
 from openral_data.errors import OpenralError
 from openral_data.producers.base import CameraShape
 from openral_data.sinks.base import DatasetSchema, EpisodeRecord, EpisodeStart, Frame
@@ -47,25 +48,6 @@ class ExportSummary:
 
 def is_lerobot_dataset(path: Path) -> bool:
     return (path / layout.INFO_PATH).is_file()
-
-
-def parse_episodes(text: str | None, total: int, where: str = "--episodes") -> list[int]:
-    """`0,3,5-7` -> [0, 3, 5, 6, 7]; None -> every episode."""
-    if text is None:
-        return list(range(total))
-    chosen: list[int] = []
-    for part in (p.strip() for p in text.split(",")):
-        try:
-            lo, _, hi = part.partition("-")
-            first, last = int(lo), int(hi) if hi else int(lo)
-        except ValueError:
-            raise OpenralError(f"{where}: {part!r} is not an episode index or a range a-b") from None
-        if first > last or first < 0 or last >= total:
-            raise OpenralError(f"{where}: {part!r} is outside the dataset's episodes 0..{total - 1}")
-        chosen.extend(range(first, last + 1))
-    if len(set(chosen)) != len(chosen):
-        raise OpenralError(f"{where}: an episode is listed twice")
-    return chosen
 
 
 def _names(feature: dict[str, Any], key: str) -> tuple[str, ...]:

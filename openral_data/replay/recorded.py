@@ -20,8 +20,9 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
-from openral_data.convert.to_mcap import IMAGE_PREFIX, parse_episodes
+from openral_data.convert.to_mcap import IMAGE_PREFIX
 from openral_data.convert.to_mcap import episode_frames as decode_episode_frames
+from openral_data.episode_spec import parse_episodes
 from openral_data.errors import ConfigError, OpenralError
 from openral_data.schemas.base import validate
 from openral_data.schemas.rskill import RSkillManifest

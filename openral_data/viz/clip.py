@@ -8,6 +8,7 @@ its frame k is at k / fps. When the episode does not start on a keyframe the who
 from __future__ import annotations
 
 import io
+import math
 from dataclasses import dataclass
 from fractions import Fraction
 from pathlib import Path
@@ -33,13 +34,21 @@ def episode_clip(path: Path, from_ts: float, to_ts: float, fps: int) -> Clip:
         tb = stream.time_base
         if tb is None:
             return Clip(None, path, from_ts, 0)
-        packets = [(p, p.pts) for p in src.demux(stream) if p.pts is not None and p.size and lo <= p.pts * tb < hi]
+        if lo > 0:  # start at the keyframe at or before the episode instead of reading the file from its start
+            src.seek(max(0, math.floor(lo / tb)), stream=stream, backward=True, any_frame=False)
+        packets = []
+        for p in src.demux(stream):
+            if p.dts is not None and p.dts * tb >= hi:
+                break  # decode order: every later packet shows at or after `hi` too
+            if p.pts is not None and p.size and lo <= p.pts * tb < hi:
+                packets.append((p, p.pts))
         if not packets or not packets[0][0].is_keyframe:
             return Clip(None, path, from_ts, len(packets))
         shift = min(pts for _, pts in packets)
         buf = io.BytesIO()
         with av.open(buf, "w", format="mp4") as dst:
-            out = dst.add_stream_from_template(stream)
+            # opaque: remux only, no codec context (PyAV has no AV1 encoder matching the libdav1d decoder)
+            out = dst.add_stream_from_template(stream, opaque=True)
             for p, pts in packets:
                 dts = p.dts
                 p.pts = pts - shift

@@ -3,12 +3,15 @@
 At step t of episode e the state is `[t, e, 0, ...]` (float32, contract dim) and every camera frame is a solid
 colour (R = t mod 256, G = e mod 256, B = 128), so a decoded video frame says which row it belongs to.
 The episode succeeds after `success_after` steps (an int, or a list cycled over episodes). Any action size
-is accepted. `fault` params inject contract violations at a given step so the bridge can be tested through
-the whole pipeline.
+is accepted. With `seeded: true` the episode number e is the reset seed instead of a count of resets, so
+an episode looks the same whichever process records it (parallel recording). `step_sleep` (seconds, an int/float
+or a list cycled over episodes like `success_after`) makes stepping slow on purpose. `fault` params inject
+contract violations at a given step so the bridge can be tested through the whole pipeline.
 """
 
 from __future__ import annotations
 
+import time
 from typing import Any, Literal
 
 import numpy as np
@@ -33,6 +36,8 @@ class MockParams(StrictModel):
     success_after: int | list[int] = 10
     state_dim: int | None = Field(default=None, gt=0, description="default: the rSkill state contract dim")
     fault: MockFault | None = None
+    seeded: bool = False
+    step_sleep: float | list[float] = Field(default=0.0)
 
 
 class MockScene:
@@ -66,6 +71,10 @@ class MockScene:
     def _success_after(self) -> int:
         s = self.params.success_after
         return s if isinstance(s, int) else s[self._episode % len(s)]
+
+    def _step_sleep(self) -> float:
+        s = self.params.step_sleep
+        return float(s) if not isinstance(s, list) else float(s[self._episode % len(s)]) if s else 0.0
 
     def _observation(self) -> Observation:
         t, e = self._t, self._episode
@@ -107,13 +116,16 @@ class MockScene:
         self._episode = episode - 1
 
     def reset(self, seed: int) -> Observation:
-        self._episode += 1
+        self._episode = seed if self.params.seeded else self._episode + 1
         self._seed = seed
         self._t = 0
         return self._observation()
 
     def step(self, action: npt.NDArray[np.float32]) -> StepResult:
         self._t += 1
+        pause = self._step_sleep()
+        if pause > 0:
+            time.sleep(pause)
         success = self._t >= self._success_after()
         return StepResult(self._observation(), reward=float(success), success=success, terminated=success)
 

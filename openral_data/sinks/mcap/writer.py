@@ -109,6 +109,7 @@ class McapSink:
         # resume: continue after the finished bags (numbered 0..n-1; record --resume checked that)
         self.episodes = len(finished_bags(root)) if resume else 0
         self.next_index: int | None = None  # names the next episode's bag; default: episodes written so far
+        self.index_offset = 0  # added to the default name (a parallel worker writes its share under final numbers)
         self._factory = MessageFactory(self.config.image_format, self.config.jpeg_quality)
         workers = self.config.threads(len(schema.cameras))
         self._pool = ThreadPoolExecutor(workers, thread_name_prefix="mcap-image") if workers > 0 else None
@@ -120,7 +121,7 @@ class McapSink:
     def begin_episode(self, start: EpisodeStart) -> None:
         if self._episode is not None:
             raise RuntimeError("begin_episode() while an episode is open")
-        index = self.episodes if self.next_index is None else self.next_index
+        index = self.episodes + self.index_offset if self.next_index is None else self.next_index
         self.next_index = None
         if episode_dir(self.root, index).exists():
             raise OpenralError(f"{episode_dir(self.root, index)}: exists; refusing to overwrite it")

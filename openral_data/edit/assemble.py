@@ -1,0 +1,112 @@
+"""Write episodes taken from existing datasets into a new one through our LeRobot v3 writer.
+
+Each episode goes through the writer's normal commit (data rows re-indexed, episodes metadata, tasks, stats,
+info.json), so the result follows every rule the writer follows. Video is never re-encoded: the episode's
+packets are cut out of the source mp4 (`viz.clip.episode_clip`) and handed to the writer as the episode's own
+file, which the writer joins into size-rotated files by remuxing, as it does while recording.
+
+Statistics: numeric features are recomputed exactly from the rows. Camera statistics per episode are the
+source's. At dataset level they are exact when the caller passes the pixel histograms of exactly the episodes
+written (`record --workers` sums its workers' `.openral/image_hist.json`); otherwise (a subset of a dataset)
+they are merged from the per-episode statistics as lerobot's aggregation does (exact min, max, mean and std;
+quantiles are frame-weighted means of the episodes' quantiles), and no histogram file is left behind, so
+`record --resume` refuses to continue such a dataset rather than continue wrong statistics.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+from openral_data.edit.source import EpisodeData
+from openral_data.errors import OpenralError
+from openral_data.sinks.base import DatasetSchema, EpisodeRecord, EpisodeStart
+from openral_data.sinks.lerobot_v3 import atomic, layout
+from openral_data.sinks.lerobot_v3.stats import ImageStatsAccumulator, Stats, merge_numeric
+from openral_data.sinks.lerobot_v3.video import EncodedEpisode
+from openral_data.sinks.lerobot_v3.writer import LeRobotV3Writer, WriterConfig, _EpisodeBuffer
+
+
+class MergedImageStats(ImageStatsAccumulator):
+    """Image statistics known only as per-episode summaries, merged count-weighted."""
+
+    def __init__(self, stats: Stats | None = None) -> None:
+        super().__init__()
+        self._stats = stats
+
+    def add(self, frame: Any) -> None:
+        raise TypeError("MergedImageStats holds summaries, not frames")
+
+    def merge(self, other: ImageStatsAccumulator) -> None:
+        if not isinstance(other, MergedImageStats) or other._stats is None:
+            raise TypeError("only summaries can be merged into MergedImageStats")
+        self._stats = merge_numeric(self._stats, other._stats)
+        self.frames += int(other._stats["count"][0])
+
+    def stats(self) -> Stats:
+        if self._stats is None:
+            raise ValueError("no episode statistics merged")
+        return self._stats
+
+
+class EpisodeAssembler(LeRobotV3Writer):
+    """A LeRobot v3 writer fed with whole episodes (`add`) instead of frames."""
+
+    def __init__(
+        self,
+        root: Path,
+        schema: DatasetSchema,
+        config: WriterConfig,
+        provenance: dict[str, Any],
+        image_hist: dict[str, ImageStatsAccumulator] | None = None,
+    ) -> None:
+        super().__init__(root, schema, config)
+        self._image_stats = {name: MergedImageStats() for name in schema.cameras}
+        self._exact_hist = image_hist
+        meta = json.loads((root / layout.OPENRAL_PATH).read_text())
+        meta["edit"] = provenance
+        atomic.write_bytes(root / layout.OPENRAL_PATH, json.dumps(meta, indent=2).encode(), config.durable)
+
+    def close(self) -> None:
+        exact = self._exact_hist
+        try:
+            if exact is not None and self.total_episodes and not self._closed:
+                frames = {name: acc.frames for name, acc in self._image_stats.items()}
+                if {name: acc.frames for name, acc in exact.items()} != frames:
+                    raise OpenralError(f"{self.root}: camera histograms do not cover exactly the episodes written")
+                self._image_stats = dict(exact)  # the final metadata write uses the exact histograms
+        finally:
+            super().close()
+        if exact is None:
+            # summaries cannot continue a histogram: leave none, so a resume refuses instead of going wrong
+            (self.root / layout.IMAGE_HIST_PATH).unlink(missing_ok=True)
+
+    def add(self, episode: EpisodeData) -> EpisodeRecord:
+        buf = _EpisodeBuffer(EpisodeStart(episode.seed, episode.initial_state))
+        buf.states = list(episode.states)
+        buf.actions = list(episode.actions)
+        buf.rewards = list(episode.rewards)
+        buf.dones = list(episode.dones)
+        buf.successes = list(episode.successes)
+        buf.task_indices = [self.tasks.setdefault(t, len(self.tasks)) for t in episode.tasks]
+        encoded: dict[str, EncodedEpisode] = {}
+        try:
+            for name in self.schema.cameras:
+                path = self._pending_video(name)
+                path.parent.mkdir(parents=True, exist_ok=True)
+                path.write_bytes(episode.videos[name])
+                encoded[name] = EncodedEpisode(path, episode.length, MergedImageStats(episode.image_stats[name]))
+            batch = self._batch = atomic.Batch(self.config.durable)
+            try:
+                record = self._commit_episode(buf, episode.length, episode.success, encoded)
+                batch.commit()
+            finally:
+                self._batch = None
+                batch.discard()
+        except BaseException:
+            for enc in encoded.values():
+                enc.path.unlink(missing_ok=True)
+            raise
+        self._maybe_rotate_episodes_file()
+        return record

@@ -1,0 +1,60 @@
+"""`openral-data episodes delete|split|merge`: thin typer wrappers over `edit.ops`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+
+from openral_data.edit.ops import EditResult
+
+episodes_app = typer.Typer(
+    no_args_is_help=True,
+    help="Delete, split and merge episodes of LeRobot v3 datasets (written to a new dataset, re-indexed).",
+)
+_console = Console()
+
+
+def _report(op: str, results: list[EditResult]) -> None:
+    for r in results:
+        _console.print(f"{op}: {r.out}  episodes {r.episodes}  frames {r.frames}", markup=False, highlight=False)
+
+
+@episodes_app.command("delete")
+def delete_cmd(
+    dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset written by openral-data")],
+    episodes: Annotated[str, typer.Option(help="episodes to delete, e.g. 0,3,5-7")],
+    out: Annotated[Path | None, typer.Option(help="new dataset folder (must not exist or be empty)")] = None,
+    in_place: Annotated[bool, typer.Option(help="replace DATASET itself (swapped in once complete)")] = False,
+) -> None:
+    """Write DATASET without the listed episodes."""
+    from openral_data.edit.ops import delete
+
+    _report("deleted", [delete(dataset, episodes, out, in_place)])
+
+
+@episodes_app.command("split")
+def split_cmd(
+    dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset written by openral-data")],
+    episodes: Annotated[str, typer.Option(help="episodes for --out, in this order, e.g. 0-9 or 4,2")],
+    out: Annotated[Path, typer.Option(help="dataset of the listed episodes")],
+    rest: Annotated[Path | None, typer.Option(help="dataset of all the other episodes")] = None,
+) -> None:
+    """Split DATASET: the listed episodes go to --out, the others (optionally) to --rest."""
+    from openral_data.edit.ops import split
+
+    _report("split", split(dataset, episodes, out, rest))
+
+
+@episodes_app.command("merge")
+def merge_cmd(
+    datasets: Annotated[list[Path], typer.Argument(help="datasets with the same features")],
+    out: Annotated[Path, typer.Option(help="merged dataset folder (must not exist or be empty)")],
+    order: Annotated[str, typer.Option(help="input (datasets in the order given) or seed")] = "input",
+) -> None:
+    """Concatenate datasets with identical features into one (mismatches are refused, naming the field)."""
+    from openral_data.edit.ops import merge
+
+    _report("merged", [merge(datasets, out, order)])

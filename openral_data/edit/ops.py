@@ -1,0 +1,218 @@
+"""Episode editing: delete, split and merge LeRobot v3 datasets written by openral-data.
+
+Every operation writes a new dataset (episodes re-indexed 0..n-1 in the order chosen, data `index`, episodes
+metadata offsets, tasks, stats, video files and timestamps, info totals, `meta/openral.json` with an `edit`
+block naming the sources) into a hidden sibling folder, fsyncs it and renames it to the output: the output
+appears complete or not at all, and an existing output is refused before any work. Inputs are only read,
+unless `delete --in-place` asks for the input to be replaced (the old folder is kept until the swap is done).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from openral_data.dataset_lock import DatasetLock
+from openral_data.edit.assemble import EpisodeAssembler
+from openral_data.edit.source import SourceDataset
+from openral_data.episode_spec import parse_episodes
+from openral_data.errors import OpenralError
+from openral_data.sinks.lerobot_v3.atomic import fsync_dir, fsync_file
+from openral_data.sinks.lerobot_v3.stats import ImageStatsAccumulator
+
+_DATASET_ENTRIES = {"meta", "data", "videos", ".openral"}
+Selection = list[tuple[SourceDataset, int]]  # (source, episode index in it), in output order
+
+
+@dataclass(frozen=True)
+class EditResult:
+    out: Path
+    episodes: int
+    frames: int
+
+
+def check_new_output(out: Path) -> None:
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise OpenralError(f"{out}: output exists and is not empty; refusing to overwrite it")
+
+
+def check_compatible(first: SourceDataset, other: SourceDataset) -> None:
+    """Refuse datasets that cannot share one episode table, naming the first field that differs."""
+    where = f"{other.root}/meta/info.json"
+    if other.fps != first.fps:
+        raise OpenralError(f"{where}: fps: {other.fps} differs from {first.root}'s {first.fps}")
+    if other.info.get("robot_type") != first.info.get("robot_type"):
+        raise OpenralError(
+            f"{where}: robot_type: {other.info.get('robot_type')!r} differs from "
+            f"{first.root}'s {first.info.get('robot_type')!r}"
+        )
+    field = _first_difference(first.features, other.features, "features")
+    if field is not None:
+        raise OpenralError(f"{where}: {field}: differs from {first.root}")
+
+
+def _first_difference(a: Any, b: Any, path: str) -> str | None:
+    if isinstance(a, dict) and isinstance(b, dict):
+        for key in list(a) + [k for k in b if k not in a]:
+            if key not in a or key not in b:
+                return f"{path}.{key} (present in only one dataset)"
+            found = _first_difference(a[key], b[key], f"{path}.{key}")
+            if found is not None:
+                return found
+        return None
+    if a != b:
+        return f"{path} ({b!r} vs {a!r})"
+    return None
+
+
+def write_selection(
+    selection: Selection,
+    out: Path,
+    op: str,
+    on_episode: Callable[[int], None] | None = None,
+    before_publish: Callable[[Path], None] | None = None,
+    image_hist: dict[str, ImageStatsAccumulator] | None = None,
+) -> EditResult:
+    """Write the selected episodes, in order, as a new dataset at `out` (atomically).
+
+    `before_publish(staging)` may add files beside the dataset (e.g. `mcap/`) before the whole folder appears.
+    """
+    if not selection:
+        raise OpenralError(f"{out}: no episodes selected; a dataset needs at least one")
+    first = selection[0][0]
+    for src, _ in selection:
+        if src is not first:
+            check_compatible(first, src)
+    check_new_output(out)
+    sources: dict[Path, list[int]] = {}
+    for src, e in selection:
+        sources.setdefault(src.root, []).append(e)
+    provenance = {
+        "op": op,
+        "sources": [
+            {"path": str(root.resolve()), "episodes": eps, "schema_metadata": _meta_of(selection, root)}
+            for root, eps in sources.items()
+        ],
+    }
+    staging = staging_dir(out)
+    try:
+        writer = EpisodeAssembler(staging, first.schema, first.writer_config(), provenance, image_hist)
+        try:
+            for k, (src, e) in enumerate(selection):
+                writer.add(src.episode(e))
+                if on_episode is not None:
+                    on_episode(k)
+        finally:
+            writer.close()
+        frames = writer.total_frames
+        if before_publish is not None:
+            before_publish(staging)
+        publish(staging, out)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    return EditResult(out, len(selection), frames)
+
+
+def _meta_of(selection: Selection, root: Path) -> dict[str, Any]:
+    src = next(s for s, _ in selection if s.root == root)
+    return dict(src.openral.get("schema_metadata") or {})
+
+
+def staging_dir(out: Path) -> Path:
+    out.parent.mkdir(parents=True, exist_ok=True)
+    staging = out.parent / f".{out.name}.partial-{os.getpid()}"
+    shutil.rmtree(staging, ignore_errors=True)
+    return staging
+
+
+def publish(staging: Path, out: Path) -> None:
+    """fsync every file of `staging`, then rename it to `out` (an empty `out` folder is replaced)."""
+    for dirpath, _, files in os.walk(staging):
+        for name in files:
+            fsync_file(Path(dirpath) / name)
+        fsync_dir(Path(dirpath))
+    check_new_output(out)
+    if out.is_dir():
+        out.rmdir()
+    os.replace(staging, out)
+    fsync_dir(out.parent)
+
+
+# -- the three operations ------------------------------------------------------------------------------------
+def delete(dataset: Path, episodes: str, out: Path | None, in_place: bool = False) -> EditResult:
+    src = SourceDataset(dataset)
+    drop = set(parse_episodes(episodes, src.total))
+    keep = [(src, e) for e in range(src.total) if e not in drop]
+    if not keep:
+        raise OpenralError(f"--episodes: {episodes} would delete every episode of {dataset}")
+    if in_place == (out is not None):
+        raise OpenralError("--out: give either --out DIR or --in-place")
+    if out is not None:
+        return write_selection(keep, out, "delete")
+    foreign = sorted(p.name for p in dataset.iterdir() if p.name not in _DATASET_ENTRIES)
+    if foreign:
+        raise OpenralError(
+            f"{dataset}: --in-place: {', '.join(foreign)} would not be carried over (editing writes meta/, data/ "
+            "and videos/ only); use --out"
+        )
+    new = dataset.parent / f".{dataset.name}.edited-{os.getpid()}"
+    old = dataset.parent / f".{dataset.name}.replaced-{os.getpid()}"
+    with DatasetLock(dataset, "episodes delete --in-place"):  # no recording may start on it meanwhile
+        result = write_selection(keep, new, "delete")
+    os.replace(dataset, old)  # the input stays whole (under `old`) until the new dataset took its name
+    os.replace(new, dataset)
+    fsync_dir(dataset.parent)
+    shutil.rmtree(old)
+    return EditResult(dataset, result.episodes, result.frames)
+
+
+def split(dataset: Path, episodes: str, out: Path, rest: Path | None = None) -> list[EditResult]:
+    """`out` gets the listed episodes (in the order listed); `rest`, if given, gets the others in order."""
+    src = SourceDataset(dataset)
+    chosen = parse_episodes(episodes, src.total)
+    others = [e for e in range(src.total) if e not in set(chosen)]
+    check_new_output(out)
+    if rest is not None:
+        check_new_output(rest)
+        if not others:
+            raise OpenralError(f"--rest: {episodes} selects every episode; nothing is left for {rest}")
+    results = [write_selection([(src, e) for e in chosen], out, "split")]
+    if rest is not None:
+        results.append(write_selection([(src, e) for e in others], rest, "split"))
+    return results
+
+
+def merge(datasets: Sequence[Path], out: Path, order: str = "input") -> EditResult:
+    """Concatenate datasets (same features); `order="seed"` sorts all episodes by their recording seed."""
+    if not datasets:
+        raise OpenralError("merge: give at least one dataset")
+    sources = [SourceDataset(p) for p in datasets]
+    for other in sources[1:]:
+        check_compatible(sources[0], other)
+    selection: Selection = [(s, e) for s in sources for e in range(s.total)]
+    if order == "seed":
+        selection.sort(key=lambda se: se[0].seed(se[1]))  # stable: equal seeds keep input order
+    elif order != "input":
+        raise OpenralError(f"--order: {order!r} is not one of input, seed")
+    return write_selection(selection, out, "merge", image_hist=summed_histograms(sources))
+
+
+def summed_histograms(sources: Sequence[SourceDataset]) -> dict[str, ImageStatsAccumulator] | None:
+    """Camera histograms of whole datasets, summed (exact stats for their concatenation); None if one lacks them."""
+    total: dict[str, ImageStatsAccumulator] | None = None
+    for src in sources:
+        hist = src.image_hist()
+        if hist is None or hist.keys() != set(src.camera_names()):
+            return None
+        if src.total != src.episodes.num_rows:  # the histograms may include rows beyond info's total
+            return None
+        if total is None:
+            total = {name: ImageStatsAccumulator() for name in hist}
+        for name, acc in hist.items():
+            total[name].merge(acc)
+    return total

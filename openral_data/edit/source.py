@@ -1,0 +1,257 @@
+"""A dataset written by openral-data, opened for editing: its schema, tasks and episodes, read lazily.
+
+Editing rebuilds a dataset through our own writer, so a source must be one our writer can reproduce: its
+`info.json` features must equal what `build_features` makes from the schema read back here (state/action
+names, cameras, outcomes, video settings), and its episodes must carry our `openral.*` columns.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pyarrow as pa
+import pyarrow.compute as pc
+import pyarrow.parquet as pq
+
+from openral_data.dataset_lock import holder
+from openral_data.errors import OpenralError
+from openral_data.producers.base import CameraShape
+from openral_data.sinks.base import DatasetSchema
+from openral_data.sinks.lerobot_v3 import layout
+from openral_data.sinks.lerobot_v3.features import ACTION, IMAGE_PREFIX, STATE, build_features
+from openral_data.sinks.lerobot_v3.reader import read_episodes, read_info, read_tasks
+from openral_data.sinks.lerobot_v3.stats import STAT_KEYS, ImageStatsAccumulator, Stats
+from openral_data.sinks.lerobot_v3.video import VideoSettings
+from openral_data.sinks.lerobot_v3.writer import WriterConfig
+from openral_data.viz.clip import episode_clip
+
+
+@dataclass(frozen=True)
+class EpisodeData:
+    """One source episode, ready to be written again under a new index."""
+
+    source: Path
+    index: int  # in the source
+    length: int
+    states: npt.NDArray[np.float32]
+    actions: npt.NDArray[np.float32]
+    rewards: list[float]
+    dones: list[bool]
+    successes: list[bool]
+    tasks: list[str]  # per frame
+    seed: int
+    success: bool | None
+    initial_state: dict[str, Any]
+    videos: dict[str, bytes]  # camera name -> a complete mp4 of exactly `length` frames starting at pts 0
+    image_stats: dict[str, Stats]  # camera name -> the episode's statistics from the source metadata
+
+
+class SourceDataset:
+    def __init__(self, root: Path) -> None:
+        self.root = root
+        if not root.is_dir():
+            raise OpenralError(f"{root}: no such dataset folder")
+        busy = holder(root)
+        if busy is not None:
+            raise OpenralError(f"{root}: a writer is recording into this dataset ({busy}); edit it once it is done")
+        if (root / layout.JOURNAL_PATH).is_file():
+            raise OpenralError(f"{root}: an episode commit was interrupted; run `openral-data doctor --repair` first")
+        self.info = read_info(root)
+        self.fps = int(self.info["fps"])
+        self.features: dict[str, dict[str, Any]] = self.info["features"]
+        self.episodes = read_episodes(root)
+        info_total = int(self.info.get("total_episodes", 0))
+        self.total = min(info_total, self.episodes.num_rows)  # the loader exposes no more than info's total
+        missing = [
+            c
+            for c in ("openral.seed", "openral.success", "openral.initial_state")
+            if c not in self.episodes.column_names
+        ]
+        if missing:
+            raise OpenralError(
+                f"{root}: meta/episodes: no {missing[0]} column; editing needs a dataset written by openral-data"
+            )
+        self.task_names = read_tasks(root) if self.info.get("total_tasks") else []
+        self.openral = self._openral_json()
+        self.video = self._video_settings()
+        self.schema = self._schema()
+        self._check_reproducible()
+        self._rows = self.episodes.to_pylist()
+        order = [int(r["episode_index"]) for r in self._rows]
+        if order[: self.total] != list(range(self.total)):
+            raise OpenralError(f"{root}: meta/episodes: rows are not episodes 0..{self.total - 1} in order")
+        self._data_cache: tuple[Path, pa.Table] | None = None
+
+    # -- what the dataset is ---------------------------------------------------------------------------------
+    def _openral_json(self) -> dict[str, Any]:
+        path = self.root / layout.OPENRAL_PATH
+        try:
+            data: dict[str, Any] = json.loads(path.read_text())
+        except FileNotFoundError:
+            return {}
+        except json.JSONDecodeError as exc:
+            raise OpenralError(f"{path}: invalid JSON: {exc}") from None
+        return data
+
+    def camera_names(self) -> list[str]:
+        return [k[len(IMAGE_PREFIX) :] for k, f in self.features.items() if f.get("dtype") == "video"]
+
+    def _video_settings(self) -> VideoSettings:
+        infos = [f.get("info") or {} for f in self.features.values() if f.get("dtype") == "video"]
+        if not infos:
+            return VideoSettings()
+        i = infos[0]
+        codec = i.get("video.codec")
+        if codec not in ("av1", "h264"):
+            raise OpenralError(f"{self.root}/meta/info.json: video.codec: {codec!r} is not av1 or h264")
+        return VideoSettings(
+            codec=codec, crf=int(i.get("video.crf", 30)), g=int(i.get("video.g", 2)), preset=i.get("video.preset")
+        )
+
+    def _schema(self) -> DatasetSchema:
+        where = f"{self.root}/meta/info.json: features"
+        try:
+            state, action = self.features[STATE], self.features[ACTION]
+        except KeyError as exc:
+            raise OpenralError(f"{where}.{exc.args[0]}: missing") from None
+        cameras = {
+            name: CameraShape(
+                int(self.features[IMAGE_PREFIX + name]["shape"][0]), int(self.features[IMAGE_PREFIX + name]["shape"][1])
+            )
+            for name in self.camera_names()
+        }
+        return DatasetSchema(
+            fps=self.fps,
+            state_names=tuple(state.get("names") or ()),
+            action_names=tuple(action.get("names") or ()),
+            cameras=cameras,
+            robot_type=str(self.info.get("robot_type")),
+            metadata=dict(self.openral.get("schema_metadata") or {}),
+            has_reward="next.reward" in self.features,
+            has_success="next.success" in self.features,
+        )
+
+    def _check_reproducible(self) -> None:
+        rebuilt = build_features(self.schema, self.video)
+        where = f"{self.root}/meta/info.json: features"
+        for key in self.features.keys() | rebuilt.keys():
+            if self.features.get(key) != rebuilt.get(key):
+                raise OpenralError(f"{where}.{key}: not a feature layout openral-data writes; cannot edit this dataset")
+
+    def image_hist(self) -> dict[str, ImageStatsAccumulator] | None:
+        """The writer's dataset-level camera histograms (`.openral/image_hist.json`), if it left them."""
+        path = self.root / layout.IMAGE_HIST_PATH
+        try:
+            saved = json.loads(path.read_text())
+        except (FileNotFoundError, json.JSONDecodeError):
+            return None
+        out: dict[str, ImageStatsAccumulator] = {}
+        for name in self.camera_names():
+            if name not in saved:
+                return None
+            acc = ImageStatsAccumulator()
+            acc.hist = np.asarray(saved[name]["hist"], dtype=np.int64).reshape(3, 256)
+            acc.frames = int(saved[name]["frames"])
+            out[name] = acc
+        return out
+
+    def writer_config(self) -> WriterConfig:
+        i = self.info
+        return WriterConfig(
+            video=self.video,
+            data_files_size_in_mb=int(i.get("data_files_size_in_mb", 100)),
+            video_files_size_in_mb=int(i.get("video_files_size_in_mb", 200)),
+            chunks_size=int(i.get("chunks_size", layout.DEFAULT_CHUNKS_SIZE)),
+            durable=False,
+        )
+
+    # -- episodes --------------------------------------------------------------------------------------------
+    def seed(self, index: int) -> int:
+        return int(self._rows[index]["openral.seed"])
+
+    def episode(self, index: int) -> EpisodeData:
+        if not 0 <= index < self.total:
+            raise OpenralError(f"{self.root}: episode {index} is outside 0..{self.total - 1}")
+        row = self._rows[index]
+        n = int(row["length"])
+        data = self._episode_rows(row)
+        if data.num_rows != n:
+            raise OpenralError(f"{self.root}: episode {index}: {data.num_rows} data rows, meta/episodes says {n}")
+        task_idx = data.column("task_index").to_numpy()
+        try:
+            tasks = [self.task_names[int(i)] for i in task_idx]
+        except IndexError:
+            raise OpenralError(f"{self.root}: episode {index}: task_index outside meta/tasks.parquet") from None
+        videos: dict[str, bytes] = {}
+        image_stats: dict[str, Stats] = {}
+        for name in self.camera_names():
+            videos[name] = self._clip(index, row, name, n)
+            key = IMAGE_PREFIX + name
+            image_stats[name] = {
+                s: np.asarray(row[f"stats/{key}/{s}"], dtype=np.int64 if s == "count" else np.float64)
+                for s in STAT_KEYS
+            }
+        initial = row["openral.initial_state"]
+        return EpisodeData(
+            source=self.root,
+            index=index,
+            length=n,
+            states=_matrix(data.column(STATE)),
+            actions=_matrix(data.column(ACTION)),
+            rewards=_list(data, "next.reward", 0.0),
+            dones=_list(data, "next.done", False),
+            successes=_list(data, "next.success", False),
+            tasks=tasks,
+            seed=int(row["openral.seed"]),
+            success=row["openral.success"],
+            initial_state=json.loads(initial) if initial else {},
+            videos=videos,
+            image_stats=image_stats,
+        )
+
+    def _episode_rows(self, row: dict[str, Any]) -> pa.Table:
+        path = layout.data_path(self.root, layout.FilePos(int(row["data/chunk_index"]), int(row["data/file_index"])))
+        if self._data_cache is None or self._data_cache[0] != path:
+            try:
+                self._data_cache = (path, pq.read_table(path))
+            except FileNotFoundError:
+                raise OpenralError(f"{path}: data file named by meta/episodes is missing") from None
+        table = self._data_cache[1]
+        rows = table.filter(pc.equal(table.column("episode_index"), int(row["episode_index"])))
+        return rows.sort_by("frame_index")
+
+    def _clip(self, index: int, row: dict[str, Any], name: str, n: int) -> bytes:
+        key = IMAGE_PREFIX + name
+        pos = layout.FilePos(int(row[f"videos/{key}/chunk_index"]), int(row[f"videos/{key}/file_index"]))
+        path = layout.video_path(self.root, key, pos)
+        if not path.is_file():
+            raise OpenralError(f"{path}: video file named by meta/episodes (episode {index}) is missing")
+        start = float(row[f"videos/{key}/from_timestamp"])
+        clip = episode_clip(path, start, start + n / self.fps, self.fps)
+        if clip.data is None:
+            raise OpenralError(
+                f"{path}: episode {index} does not start on a keyframe; cannot cut it without re-encoding"
+            )
+        if clip.frames != n:
+            raise OpenralError(f"{path}: episode {index} has {clip.frames} video frames, meta/episodes says {n}")
+        return clip.data
+
+
+def _matrix(col: pa.ChunkedArray) -> npt.NDArray[np.float32]:
+    arr = col.combine_chunks()
+    if pa.types.is_fixed_size_list(arr.type) or pa.types.is_list(arr.type):
+        flat = np.asarray(arr.flatten().to_numpy(zero_copy_only=False), dtype=np.float32)
+        return flat.reshape(len(arr), -1)
+    return np.asarray(arr.to_numpy(zero_copy_only=False), dtype=np.float32).reshape(-1, 1)
+
+
+def _list[T](table: pa.Table, key: str, default: T) -> list[T]:
+    if key not in table.column_names:
+        return [default] * table.num_rows
+    values: list[T] = table.column(key).to_pylist()
+    return values

@@ -1,0 +1,1 @@
+"""`openral-data pipeline run FILE.yaml`: declarative, resumable campaigns (record, merge, replay, stats, export)."""

@@ -1,0 +1,141 @@
+"""The pipeline YAML, validated by pydantic: named steps whose outputs later steps address by name.
+
+```yaml
+name: push_campaign            # the run folder is runs/<name> (or --workdir)
+steps:
+  - id: rec                    # outputs: rec/<scene>--<rskill>[--<robot>], one dataset per combination
+    record: {scenes: [tabletop_push], rskills: [scripted-push], seeds: {start: 0, count: 5}, codec: h264}
+  - id: all
+    merge: {inputs: [rec], order: seed}
+  - id: rep
+    replay: {dataset: all}
+  - id: report
+    stats: {inputs: [rec, rep]}
+  - id: bags
+    export: {dataset: all, episodes: "0-1"}
+```
+A reference is a step id (every output of that step) or `step/item` (one output).
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Literal
+
+from pydantic import Field, model_validator
+
+from openral_data.errors import ConfigError
+from openral_data.schemas.base import StrictModel, load_model
+
+Format = Literal["lerobot", "mcap"]
+_ID = re.compile(r"^[a-z0-9][a-z0-9_-]*$")
+
+
+class Seeds(StrictModel):
+    start: int = Field(default=0, ge=0)
+    count: int = Field(ge=1)
+
+
+class RecordStep(StrictModel):
+    scenes: list[str] = Field(min_length=1)
+    rskills: list[str] = Field(min_length=1)
+    robots: list[str] | None = None  # None: each scene's own robot
+    seeds: Seeds
+    max_steps: int | None = Field(default=None, ge=1)
+    codec: Literal["av1", "h264"] = "av1"
+    formats: list[Format] = Field(default_factory=lambda: list[Format](["lerobot"]), min_length=1)
+    image_format: Literal["jpeg", "png", "raw"] = "jpeg"
+    workers: int = Field(default=1, ge=1)
+    executor: Literal["local", "ray"] = "local"
+
+
+class MergeStep(StrictModel):
+    inputs: list[str] = Field(min_length=1)
+    order: Literal["input", "seed"] = "input"
+
+
+class ReplayStep(StrictModel):
+    dataset: str
+    mode: Literal["actions"] = "actions"
+    episodes: str | None = None
+    tolerance: float | None = Field(default=None, gt=0)
+
+
+class StatsStep(StrictModel):
+    inputs: list[str] = Field(min_length=1)
+    by: str | None = None
+
+
+class ExportStep(StrictModel):
+    dataset: str
+    to: Literal["mcap"] = "mcap"
+    episodes: str | None = None
+    image_format: Literal["jpeg", "png", "raw"] = "jpeg"
+
+
+KINDS = ("record", "merge", "replay", "stats", "export")
+# what a step's outputs are, for checking references
+PRODUCES = {"record": "dataset", "merge": "dataset", "replay": "results", "stats": "report", "export": "bags"}
+
+
+class Step(StrictModel):
+    id: str
+    record: RecordStep | None = None
+    merge: MergeStep | None = None
+    replay: ReplayStep | None = None
+    stats: StatsStep | None = None
+    export: ExportStep | None = None
+
+    @model_validator(mode="after")
+    def _one_kind(self) -> Step:
+        if not _ID.match(self.id):
+            raise ValueError(f"id {self.id!r}: use lower-case letters, digits, '_' and '-'")
+        given = [k for k in KINDS if getattr(self, k) is not None]
+        if len(given) != 1:
+            raise ValueError(f"step {self.id!r}: give exactly one of {', '.join(KINDS)} (got {given or 'none'})")
+        return self
+
+    @property
+    def kind(self) -> str:
+        return next(k for k in KINDS if getattr(self, k) is not None)
+
+    def references(self) -> list[tuple[str, str, tuple[str, ...]]]:
+        """(field, reference, kinds of output it may name) for every input of this step."""
+        if self.merge is not None:
+            return [(f"merge.inputs[{i}]", r, ("dataset",)) for i, r in enumerate(self.merge.inputs)]
+        if self.replay is not None:
+            return [("replay.dataset", self.replay.dataset, ("dataset",))]
+        if self.stats is not None:
+            return [(f"stats.inputs[{i}]", r, ("dataset", "results")) for i, r in enumerate(self.stats.inputs)]
+        if self.export is not None:
+            return [("export.dataset", self.export.dataset, ("dataset",))]
+        return []
+
+
+class Pipeline(StrictModel):
+    name: str
+    description: str | None = None
+    steps: list[Step] = Field(min_length=1)
+
+
+def load_pipeline(path: Path) -> Pipeline:
+    pipeline = load_model(Pipeline, path)
+    if not _ID.match(pipeline.name):
+        raise ConfigError(f"{path}: name: {pipeline.name!r}: use lower-case letters, digits, '_' and '-'")
+    seen: dict[str, str] = {}
+    for i, step in enumerate(pipeline.steps):
+        if step.id in seen:
+            raise ConfigError(f"{path}: steps[{i}].id: {step.id!r} is used by an earlier step")
+        for field, ref, kinds in step.references():
+            target = ref.split("/", 1)[0]
+            if target not in seen:
+                valid = ", ".join(seen) or "none"
+                raise ConfigError(f"{path}: steps[{i}].{field}: {ref!r} is not an earlier step (earlier: {valid})")
+            if PRODUCES[seen[target]] not in kinds:
+                raise ConfigError(
+                    f"{path}: steps[{i}].{field}: {ref!r} is a {seen[target]} step; expected a step producing "
+                    f"{' or '.join(kinds)}"
+                )
+        seen[step.id] = step.kind
+    return pipeline

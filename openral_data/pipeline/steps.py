@@ -1,0 +1,117 @@
+"""What each step kind does with its resolved inputs; every function yields (item name, item summary)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+from openral_data.errors import OpenralError
+from openral_data.pipeline.schema import ExportStep, MergeStep, RecordStep, StatsStep, Step
+
+# (item name, run(item path) -> summary); the runner skips items already marked done
+ItemJob = tuple[str, Callable[[Path], dict[str, Any]]]
+Resolve = Callable[[str], list[tuple[str, Path]]]  # reference -> [(item name, path)]
+
+
+def jobs_for(step: Step, resolve: Resolve) -> Iterator[ItemJob]:
+    if step.record is not None:
+        yield from _record_jobs(step.record)
+    elif step.merge is not None:
+        yield _merge_job(step.merge, resolve)
+    elif step.replay is not None:
+        from openral_data.pipeline.replay_step import replay_jobs
+
+        yield from replay_jobs(step.replay, resolve)
+    elif step.stats is not None:
+        yield _stats_job(step.stats, resolve)
+    elif step.export is not None:
+        yield from _export_jobs(step.export, resolve)
+
+
+def _record_jobs(spec: RecordStep) -> Iterator[ItemJob]:
+    robots: list[str | None] = list(spec.robots) if spec.robots else [None]
+    for scene in spec.scenes:
+        for rskill in spec.rskills:
+            for robot in robots:
+                name = f"{Path(scene).stem}--{Path(rskill).name}" + (f"--{robot}" if robot else "")
+                yield name, _record_one(spec, scene, rskill, robot)
+
+
+def _record_one(spec: RecordStep, scene: str, rskill: str, robot: str | None) -> Callable[[Path], dict[str, Any]]:
+    def run(out: Path) -> dict[str, Any]:
+        from openral_data.record import RecordOptions, RecordSummary, record
+
+        opts = RecordOptions(
+            scene=scene,
+            rskill=rskill,
+            robot=robot,
+            n_episodes=spec.seeds.count,
+            seed=spec.seeds.start,
+            max_steps=spec.max_steps,
+            out=out,
+            codec=spec.codec,
+            formats=tuple(spec.formats),
+            image_format=spec.image_format,
+        )
+        summary: RecordSummary
+        if spec.workers > 1 or spec.executor != "local":
+            from openral_data.parallel.run import record_parallel
+
+            summary = record_parallel(opts, spec.workers, spec.executor)
+        else:
+            summary = record(opts)
+        return {
+            "episodes": len(summary.episodes),
+            "frames": summary.frames,
+            "success_rate": round(summary.success_rate, 4),
+            "seeds": [e.seed for e in summary.episodes],
+        }
+
+    return run
+
+
+def _merge_job(spec: MergeStep, resolve: Resolve) -> ItemJob:
+    sources = [path for ref in spec.inputs for _, path in resolve(ref)]
+
+    def run(out: Path) -> dict[str, Any]:
+        from openral_data.edit.ops import merge
+
+        result = merge(sources, out, spec.order)
+        return {"episodes": result.episodes, "frames": result.frames, "sources": [str(p) for p in sources]}
+
+    return "dataset", run
+
+
+def _stats_job(spec: StatsStep, resolve: Resolve) -> ItemJob:
+    paths = [str(path) for ref in spec.inputs for _, path in resolve(ref)]
+
+    def run(out: Path) -> dict[str, Any]:
+        import json
+
+        from openral_data.metrics.command import StatsOptions, run_stats
+
+        text = run_stats(StatsOptions(paths, spec.by, None, "json"))
+        out.mkdir(parents=True)
+        (out / "stats.json").write_text(text)
+        (out / "stats.md").write_text(run_stats(StatsOptions(paths, spec.by, None, "markdown")))
+        tables = json.loads(text)
+        groups = tables.get("groups", []) if isinstance(tables, dict) else []
+        return {"inputs": paths, "groups": groups}
+
+    return "report", run
+
+
+def _export_jobs(spec: ExportStep, resolve: Resolve) -> Iterator[ItemJob]:
+    for name, src in resolve(spec.dataset):
+
+        def run(out: Path, src: Path = src) -> dict[str, Any]:
+            from openral_data.convert.to_mcap import export_mcap
+            from openral_data.sinks.mcap import McapConfig
+
+            if spec.to != "mcap":
+                raise OpenralError(f"export.to: {spec.to!r} is not supported")
+            summary = export_mcap(src, out, episodes=spec.episodes, config=McapConfig(image_format=spec.image_format))
+            return {"source": str(src), "episodes": len(summary.episodes), "frames": summary.frames}
+
+        yield name, run
