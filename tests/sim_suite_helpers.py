@@ -74,25 +74,6 @@ def lerobot_table(root: Path) -> tuple[Any, dict[str, Any]]:
     return ds, cols
 
 
-def replay_reproduces(dataset: Path, out: Path, episodes: int) -> dict[str, Any]:
-    """`openral-data replay DATASET` (actions mode, the real CLI in a subprocess) reproduces every episode:
-    the restored start and every replayed state equal the recorded ones, and the outcome agrees."""
-    import pyarrow.parquet as pq
-    from conftest import run_cli
-
-    from openral_data.metrics.results import open_results
-
-    proc = run_cli("replay", str(dataset), "--out", str(out))
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    res = open_results(out)
-    assert res.summary["kind"] == "replay" and res.summary["mode"] == "actions"
-    assert res.summary["reproduced"] == episodes and res.summary["success_agree"] == episodes
-    table = pq.read_table(res.episodes_path).to_pydict()
-    assert table["episode_index"] == list(range(episodes))
-    assert max(table["divergence_max"]) == 0.0  # bit for bit, not merely within tolerance
-    return res.summary
-
-
 def stats_per_task(dataset: Path) -> dict[str, Any]:
     """`openral-data stats --by task` on a recorded dataset: one group, its success rate and Wilson interval,
     no health issue."""

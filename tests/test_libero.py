@@ -26,11 +26,11 @@ from sim_suite_helpers import (
     build,
     lerobot_table,
     random_actions,
-    replay_reproduces,
     roll,
     shipped,
     stats_per_task,
 )
+from suite_helpers import replay_reproduces
 
 from openral_data.errors import ConfigError
 from openral_data.producers.sim.libero.config import import_libero
