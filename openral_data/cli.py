@@ -132,7 +132,15 @@ def record(
                 summary = run_record(opts, progress)
         except KeyboardInterrupt:
             bar.stop()
-            err_console.print("interrupted: the episode in flight was discarded, finished episodes are kept")
+            if parallel:  # the workers' shares are merged only at the end: nothing reaches --out
+                from openral_data.parallel.run import find_workers_dir, kept_note, kept_worker_episodes
+
+                target = find_workers_dir(opts.out)
+                kept = kept_worker_episodes(target) if target is not None else 0
+                detail = kept_note(target, kept) if target is not None and kept else "nothing was written to --out"
+                err_console.print(f"interrupted: {detail}", soft_wrap=True, markup=False, highlight=False)
+            else:
+                err_console.print("interrupted: the episode in flight was discarded, finished episodes are kept")
             raise typer.Exit(130) from None
     _print_rows(
         "recorded",

@@ -103,3 +103,46 @@ def test_ray_executor_on_a_local_instance(project: Path, tmp_path: Path) -> None
     import ray
 
     assert not ray.is_initialized()  # the instance this command started is shut down again
+
+
+@pytest.mark.slow
+def test_interrupted_workers_keep_their_finished_episodes(project: Path, tmp_path: Path) -> None:
+    """Ctrl-C during `record --workers 2`: nothing reaches --out, the running worker is stopped at a step
+    boundary (not waited for), and every episode a worker finished stays in its own valid dataset."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    # worker 0 (seeds 0-2) is quick; worker 1 (seeds 3-5) sleeps 0.5 s per step (> 10 s for its share)
+    scene = _scene(project, step_sleep=[0.0, 0.0, 0.0, 0.5, 0.5, 0.5])
+    out = tmp_path / "par"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "openral_data.cli", "record", "--scene", str(scene), "--rskill", "random-mock",
+         "--out", str(out), "--codec", "h264", "--workers", "2"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=dict(os.environ),
+    )  # fmt: skip
+    deadline = time.monotonic() + 240
+    while time.monotonic() < deadline:
+        infos = list(tmp_path.glob(".par.workers-*/worker-000/meta/info.json"))
+        if infos and json.loads(infos[0].read_text())["total_episodes"] == 3:
+            break
+        time.sleep(0.05)
+    else:
+        proc.kill()
+        pytest.fail("worker 0 did not finish its share in time")
+    proc.send_signal(signal.SIGINT)  # the parent only: it must stop worker 1 itself
+    t0 = time.monotonic()
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert time.monotonic() - t0 < 8, "the parent waited for worker 1's whole share"
+    assert "Traceback" not in err and "finished episode(s) are kept in" in err, err
+    assert not out.exists()
+    (workdir,) = tmp_path.glob(".par.workers-*")
+    kept = {w.name: json.loads((w / "meta/info.json").read_text())["total_episodes"] for w in workdir.iterdir()}
+    assert kept["worker-000"] == 3 and kept.get("worker-001", 0) < 3
+    assert f"the workers' {sum(kept.values())} finished" in err
+    for name in kept:
+        assert check(workdir / name) == [], name
+        assert episode_seeds(workdir / name) == ([0, 1, 2] if name == "worker-000" else [3, 4, 5][: kept[name]])

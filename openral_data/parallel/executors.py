@@ -5,14 +5,16 @@ Both return results in the order the workers finished; the caller orders episode
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
+import signal
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from typing import Any
 
 from openral_data.errors import OpenralError
 from openral_data.parallel.plan import WorkerJob
-from openral_data.parallel.worker import WorkerResult, run_worker
+from openral_data.parallel.worker import WorkerResult, init_local_worker, run_worker
 
 EXECUTORS = ("local", "ray")
 # environment a worker needs to find the same manifests and render the same way
@@ -22,18 +24,32 @@ _FORWARDED_ENV = ("OPENRAL_DATA_HOME", "MUJOCO_GL", "PYOPENGL_PLATFORM", "HF_HOM
 def run_local(jobs: list[WorkerJob]) -> list[WorkerResult]:
     ctx = multiprocessing.get_context("spawn")
     finished: list[WorkerResult] = []
-    with ProcessPoolExecutor(max_workers=len(jobs), mp_context=ctx) as pool:
+    with ProcessPoolExecutor(max_workers=len(jobs), mp_context=ctx, initializer=init_local_worker) as pool:
         pending = {pool.submit(run_worker, job) for job in jobs}
-        while pending:
-            done, pending = wait(pending, return_when=FIRST_COMPLETED)
-            for fut in done:
-                exc = fut.exception()
-                if exc is not None:
-                    for other in pending:
-                        other.cancel()
-                    raise exc
-            finished += sorted((f.result() for f in done), key=lambda r: r.finished_at)
+        try:
+            while pending:
+                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for fut in done:
+                    exc = fut.exception()
+                    if exc is not None:
+                        raise exc
+                finished += sorted((f.result() for f in done), key=lambda r: r.finished_at)
+        except BaseException:
+            # a failed worker or Ctrl-C: stop the others the way Ctrl-C stops `record` (the episode in flight is
+            # discarded, finished ones stay durable in each worker's dataset) instead of waiting for their shares
+            for fut in pending:
+                fut.cancel()
+            _interrupt(pool)
+            raise
     return finished
+
+
+def _interrupt(pool: ProcessPoolExecutor) -> None:
+    processes: dict[int, Any] = getattr(pool, "_processes", None) or {}
+    for proc in list(processes.values()):
+        if proc.is_alive() and proc.pid is not None:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(proc.pid, signal.SIGTERM)  # a second SIGINT would not wait for a commit
 
 
 def run_ray(jobs: list[WorkerJob], address: str | None = None) -> list[WorkerResult]:

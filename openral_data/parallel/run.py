@@ -17,7 +17,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from openral_data import registry
+from openral_data import paths, registry
 from openral_data.edit.ops import check_new_output, publish, staging_dir, summed_histograms, write_selection
 from openral_data.edit.source import SourceDataset
 from openral_data.errors import OpenralError
@@ -55,15 +55,22 @@ def record_parallel(
     assert out is not None
     check_out(out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    workdir = out.parent / f".{out.name}.workers-{os.getpid()}"
+    workdir = workers_dir(out)
     shutil.rmtree(workdir, ignore_errors=True)
     jobs = plan(opts, workers, workdir, threads)
     t0 = time.perf_counter()
     try:
         results = run_jobs(jobs, executor, address)
         episodes = _assemble(results, workdir, out, opts.formats)
-    finally:
-        shutil.rmtree(workdir, ignore_errors=True)
+    except BaseException as exc:
+        # lose nothing: what the workers finished stays in their own (complete, durable) datasets
+        kept = kept_worker_episodes(workdir)
+        if not kept:
+            shutil.rmtree(workdir, ignore_errors=True)
+        elif isinstance(exc, OpenralError):
+            raise type(exc)(f"{exc} ({kept_note(workdir, kept)})") from None
+        raise
+    shutil.rmtree(workdir, ignore_errors=True)
     return ParallelSummary(
         out=out,
         episodes=episodes,
@@ -73,6 +80,37 @@ def record_parallel(
         formats=opts.formats,
         finish_order=tuple(r.worker for r in results),
         workers=len(jobs),
+    )
+
+
+def workers_dir(out: Path) -> Path:
+    """Where this process's workers record their shares (one dataset per worker) before the merge into `out`."""
+    return out.parent / f".{out.name}.workers-{os.getpid()}"
+
+
+def find_workers_dir(out: Path | None) -> Path | None:
+    """This process's workers folder for `out` (None: the default output under datasets/), if it exists."""
+    if out is not None:
+        return workers_dir(out) if workers_dir(out).is_dir() else None
+    found = sorted(paths.datasets_dir().glob(f".*.workers-{os.getpid()}"))
+    return found[0] if found else None
+
+
+def kept_worker_episodes(workdir: Path) -> int:
+    """Finished episodes the workers' datasets under `workdir` hold (0 when there are none)."""
+    total = 0
+    for info in sorted(workdir.glob(f"worker-*/{layout.INFO_PATH}")):
+        try:
+            total += int(json.loads(info.read_text())["total_episodes"])
+        except (OSError, ValueError, KeyError, TypeError):
+            continue
+    return total
+
+
+def kept_note(workdir: Path, kept: int) -> str:
+    return (
+        f"nothing was written to --out; the workers' {kept} finished episode(s) are kept in {workdir}/worker-*/ "
+        "(one LeRobot v3 dataset each; `openral-data episodes merge` joins them)"
     )
 
 
