@@ -6,14 +6,19 @@ reset when they end; reset time and 10 warm-up steps are not counted). A step is
 which includes rendering the cameras into the observation. Nothing is written (no encoder, no sink): this is the
 producer's own speed.
 
-Usage: `.venv/bin/python benchmarks/scene_speed.py [--scenes a,b] [--steps 200]`. Prints one Markdown row per
-scene. Other simulators add an entry to SCENES (scene id -> rSkill id, install extra).
+Usage: `.venv/bin/python benchmarks/scene_speed.py [--scenes a,b] [--steps 200]` (default: every scene of the
+default environment); LIBERO from its own environment: `.venv-libero/bin/python benchmarks/scene_speed.py
+--scenes libero_spatial,libero_object,libero_goal,libero_10`. Prints one Markdown row per scene. Other simulators
+add an entry to SCENES (scene id -> rSkill id, install extra).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import time
+
+os.environ.setdefault("MUJOCO_GL", "egl")
 
 from openral_data import registry
 from openral_data.schemas.rskill import Contract
@@ -29,7 +34,16 @@ SCENES: dict[str, tuple[str, str]] = {
     "robosuite_pick_place_can": ("robosuite-panda-random", "robosuite"),
     "robosuite_door": ("robosuite-panda-random", "robosuite"),
     "metaworld_pick_place": ("metaworld-expert", "metaworld"),
+    "pusht": ("random-pusht", "pusht"),
+    "aloha_transfer_cube": ("random-aloha", "aloha"),
+    "aloha_insertion": ("random-aloha", "aloha"),
+    # LIBERO lives in its own environment: `.venv-libero/bin/python benchmarks/scene_speed.py --scenes libero_...`
+    "libero_spatial": ("random-libero", "libero"),
+    "libero_object": ("random-libero", "libero"),
+    "libero_goal": ("random-libero", "libero"),
+    "libero_10": ("random-libero", "libero"),
 }
+DEFAULT = [scene for scene, (_, extra) in SCENES.items() if extra != "libero"]
 
 
 def steps_per_second(scene: SimScene, rskill_id: str, steps: int, cameras: bool) -> float:
@@ -87,7 +101,7 @@ def row(scene_id: str, steps: int) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--scenes", default=",".join(SCENES))
+    parser.add_argument("--scenes", default=",".join(DEFAULT))
     parser.add_argument("--steps", type=int, default=200)
     args = parser.parse_args()
     print("| scene | type | robot | cameras (YAML) | action space (rSkill contract) | fps | steps/s, no cameras | "
