@@ -7,6 +7,10 @@ torque enable, goal/present position). Present_Position moves toward Goal_Positi
 while torque is on, so the driver sees an arm that actually follows its commands. lerobot's driver and the
 scservo SDK run unchanged against it; what it does NOT reproduce: electrical timing, baud-rate switching,
 bus noise, current/load/temperature, servo firmware behaviour beyond the registers above.
+
+A servo answers within microseconds; this simulator is a Python thread that a loaded 2-core CI machine can hold
+off for longer than the SDK's packet timeouts (≈ 34–50 ms). While a bus is open, the SDK's timeout check gets
+`TIMEOUT_SLACK_MS` of extra patience, so a late simulated reply is not taken for a missing servo.
 """
 
 from __future__ import annotations
@@ -16,7 +20,11 @@ import select
 import threading
 import time
 import tty
+from typing import Any
 
+from scservo_sdk.port_handler import PortHandler
+
+TIMEOUT_SLACK_MS = 1000.0
 PING, READ, WRITE, SYNC_READ, SYNC_WRITE = 0x01, 0x02, 0x03, 0x82, 0x83
 BROADCAST = 0xFE
 MODEL_STS3215 = 777
@@ -89,9 +97,12 @@ class SimulatedFeetechBus:
         self._buf = bytearray()
         self.packets = 0
         self._thread = threading.Thread(target=self._run, name="feetech-sim", daemon=True)
+        self._original_timeout_check = PortHandler.isPacketTimeout
+        PortHandler.isPacketTimeout = _patient_is_packet_timeout  # type: ignore[method-assign]
         self._thread.start()
 
     def close(self) -> None:
+        PortHandler.isPacketTimeout = self._original_timeout_check  # type: ignore[method-assign]
         self._stop.set()
         self._thread.join(timeout=5)
         os.close(self._master)
@@ -172,3 +183,11 @@ class SimulatedFeetechBus:
                 servo.position = float(servo.get16("present"))
             servo.writes += 1
             self._reply(_packet(sid, 0, b""))
+
+
+def _patient_is_packet_timeout(self: Any) -> bool:
+    """The SDK's own check (port_handler.PortHandler.isPacketTimeout) with TIMEOUT_SLACK_MS more patience."""
+    if self.getTimeSinceStart() > self.packet_timeout + TIMEOUT_SLACK_MS:
+        self.packet_timeout = 0
+        return True
+    return False
