@@ -42,8 +42,9 @@ def test_sigkill_keeps_finished_episodes_readable(tmp_path: Path, project: Path,
     assert len(lengths) >= 2 and set(lengths) == {60}
     partial = out / "mcap" / ".partial"
     assert not partial.exists() or all(not (p / "metadata.yaml").exists() for p in partial.iterdir())
-    # the LeRobot side of the same pass keeps its finished episodes too
-    assert set(verify_mock_dataset(out, "pyav")["lengths"]) == {60}
+    # the LeRobot side of the same pass keeps its finished episodes too (a kill between the writer's last two
+    # renames leaves one meta/episodes row beyond info.json's total: lerobot loads only the counted ones)
+    assert set(verify_mock_dataset(out, "pyav", uncounted_rows_ok=True)["lengths"]) == {60}
     # and the killed recording's bags convert (the unfinished one is ignored)
     proc2 = run_cli("convert", str(out / "mcap"), str(tmp_path / "ds"), "--codec", "h264")
     assert proc2.returncode == 0, proc2.stderr
