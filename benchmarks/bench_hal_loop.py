@@ -28,16 +28,15 @@ import tempfile
 import time
 from pathlib import Path
 
-from openral_data import registry
-from openral_data.bridge import DatasetBridge
-from openral_data.producers.base import Observation
+from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
 from openral_data.producers.hal.base import JointCommand
-from openral_data.producers.hal.loop import FixedRateLoop, LoopConfig, frame_extras
 from openral_data.producers.hal.operator import ScriptedOperator
 from openral_data.producers.hal.safety import SafetyFilter
 from openral_data.producers.hal.twin import MujocoTwinHal
-from openral_data.sinks.base import DatasetSchema
-from openral_data.sinks.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
+from openral_data.record import registry
+from openral_data.record.bridge import DatasetBridge
+from openral_data.record.hal_loop import FixedRateLoop, LoopConfig, frame_extras
+from openral_data.types import DatasetSchema, Observation
 
 
 def bare(hal: MujocoTwinHal, frames: int) -> float:

@@ -105,8 +105,8 @@ def run_bare(data: list[EpisodeData], root: Path, wl: Workload) -> None:
 
 def run_sink(data: list[EpisodeData], root: Path, wl: Workload) -> None:
     """The MCAP sink alone, fed frames directly (as the bare writer is)."""
-    from openral_data.sinks.base import EpisodeStart, Frame
-    from openral_data.sinks.mcap import McapSink
+    from openral_data.formats.mcap import McapSink
+    from openral_data.types import EpisodeStart, Frame
 
     sink = McapSink(root, bench_schema(wl))
     last = wl.frames - 1
@@ -127,7 +127,7 @@ def run_sink(data: list[EpisodeData], root: Path, wl: Workload) -> None:
 
 def run_bridge_sink(data: list[EpisodeData], root: Path, wl: Workload) -> None:
     """What `record --format mcap` runs: DatasetBridge (contract checks, defensive copies) -> McapSink."""
-    from openral_data.sinks.mcap import McapSink
+    from openral_data.formats.mcap import McapSink
 
     feed_bridge([McapSink(root, bench_schema(wl))], data, wl)
 
@@ -163,10 +163,10 @@ def main(argv: list[str] | None = None) -> int:
     wl = Workload(episodes=args.episodes, frames=args.frames)
     scratch = Path(tempfile.mkdtemp(prefix="openral-bench-mcap-"))
     import openral_data.convert.to_lerobot
-    import openral_data.sinks.mcap  # noqa: F401
+    import openral_data.formats.mcap  # noqa: F401
     from openral_data.convert.own_bags import own_mapping
     from openral_data.convert.to_lerobot import convert_bags
-    from openral_data.sinks.mcap import finished_bags
+    from openral_data.formats.mcap import finished_bags
 
     t0 = time.perf_counter()
     data = make_data(wl)

@@ -6,7 +6,7 @@ contestants run in one process, alternating, `--repeats` times each; the ratio u
 
 1. **baseline**: build the scene (compile + renderers), then for every episode `reset(seed)` and step the
    expert until success or `max_steps`; every observation renders both cameras. Nothing is written.
-2. **record**: `openral_data.record.record` on the same scene YAML, rSkill and seeds: the same scene
+2. **record**: `openral_data.record.sim.record` on the same scene YAML, rSkill and seeds: the same scene
    construction, stepping and rendering, plus contract checks in the bridge, encoding (default AV1 or
    `--codec h264`) in the writer's encoder threads, parquet, stats and durable per-episode commits.
 
@@ -36,9 +36,9 @@ import yaml
 os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
 
-from openral_data import registry
 from openral_data.producers.sim.mujoco.scene import TabletopScene
-from openral_data.record import RecordOptions, record
+from openral_data.record import registry
+from openral_data.record.sim import RecordOptions, record
 from openral_data.schemas.scene import load_recordable_scene
 
 RSKILL = "scripted-push"

@@ -50,9 +50,9 @@ GAP_FACTOR = 1.5
 
 # -- dataset generation ----------------------------------------------------------------------------------------
 def generate(root: Path, episodes: int, rows_per_file: int, seed: int = 0) -> dict[str, int]:
-    from openral_data.sinks.lerobot_v3 import layout
-    from openral_data.sinks.lerobot_v3.features import DEFAULT_FEATURES, OUTCOME_FEATURES
-    from openral_data.sinks.lerobot_v3.writer import tasks_writer
+    from openral_data.formats.lerobot_v3 import layout
+    from openral_data.formats.lerobot_v3.features import DEFAULT_FEATURES, OUTCOME_FEATURES
+    from openral_data.formats.lerobot_v3.writer import tasks_writer
 
     rng = np.random.default_rng(seed)
     lengths = rng.integers(600, 1201, size=episodes)

@@ -260,8 +260,7 @@ def run_pure(data: list[EpisodeData], root: Path, wl: Workload, codec: Codec) ->
 
 def bench_schema(wl: Workload) -> Any:
     """The DatasetSchema of workload W (shared by the writer and MCAP benchmarks)."""
-    from openral_data.producers.base import CameraShape
-    from openral_data.sinks.base import DatasetSchema
+    from openral_data.types import CameraShape, DatasetSchema
 
     return DatasetSchema(
         fps=wl.fps,
@@ -274,8 +273,8 @@ def bench_schema(wl: Workload) -> Any:
 
 def feed_bridge(sinks: list[Any], data: list[EpisodeData], wl: Workload) -> None:
     """Record workload W through DatasetBridge into `sinks` (what `record` does), closing them at the end."""
-    from openral_data.bridge import DatasetBridge
-    from openral_data.producers.base import Observation
+    from openral_data.record.bridge import DatasetBridge
+    from openral_data.types import Observation
 
     bridge = DatasetBridge(bench_schema(wl), sinks)
     last = wl.frames - 1
@@ -294,7 +293,7 @@ def feed_bridge(sinks: list[Any], data: list[EpisodeData], wl: Workload) -> None
 
 
 def run_ours(data: list[EpisodeData], root: Path, wl: Workload, codec: Codec) -> None:
-    from openral_data.sinks.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
+    from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
 
     feed_bridge([LeRobotV3Writer(root, bench_schema(wl), WriterConfig(video=VideoSettings(codec=codec)))], data, wl)
 
@@ -547,7 +546,7 @@ def main(argv: list[str] | None = None) -> int:
     os.environ["HF_DATASETS_CACHE"] = str(scratch / "hf_datasets_cache")
 
     # Import everything heavy (torch comes with lerobot) before any timing.
-    for module in ("lerobot.datasets.lerobot_dataset", "openral_data.bridge", "openral_data.sinks.lerobot_v3"):
+    for module in ("lerobot.datasets.lerobot_dataset", "openral_data.record.bridge", "openral_data.formats.lerobot_v3"):
         importlib.import_module(module)
 
     machine = machine_info()

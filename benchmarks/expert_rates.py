@@ -9,8 +9,8 @@ from __future__ import annotations
 import argparse
 import time
 
-from openral_data import registry
 from openral_data.producers.sim.mujoco.scene import TabletopScene
+from openral_data.record import registry
 from openral_data.schemas.scene import load_recordable_scene
 
 TASKS = {"push": "scripted-push", "pick_place": "scripted-pick-place"}

@@ -7,4 +7,5 @@ export MUJOCO_GL="${MUJOCO_GL:-egl}"
 .venv/bin/ruff check openral_data tests benchmarks
 .venv/bin/ruff format --check openral_data tests benchmarks
 .venv/bin/mypy
+.venv/bin/lint-imports
 .venv/bin/pytest "$@"

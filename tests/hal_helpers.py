@@ -11,17 +11,16 @@ import numpy as np
 import numpy.typing as npt
 import pyarrow.parquet as pq
 
-from openral_data import registry
-from openral_data.bridge import DatasetBridge
+from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
 from openral_data.policies.base import PolicyAdapter
-from openral_data.producers.base import CameraShape, Observation
-from openral_data.producers.hal.loop import EpisodeEnd, EpisodeReport, FixedRateLoop, LoopConfig, frame_extras
 from openral_data.producers.hal.operator import Operator
 from openral_data.producers.hal.safety import SafetyFilter
 from openral_data.producers.hal.sensors import ThreadedCamera
 from openral_data.producers.hal.twin import MujocoTwinHal
-from openral_data.sinks.base import DatasetSchema
-from openral_data.sinks.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
+from openral_data.record import registry
+from openral_data.record.bridge import DatasetBridge
+from openral_data.record.hal_loop import EpisodeEnd, EpisodeReport, FixedRateLoop, LoopConfig, frame_extras
+from openral_data.types import CameraShape, DatasetSchema, Observation
 
 
 def ur5e_twin(**kwargs: Any) -> MujocoTwinHal:

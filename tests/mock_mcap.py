@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 from mcap_check import check_bag
 
-from openral_data.sinks.mcap import finished_bags
-from openral_data.sinks.mcap.messages import decode_image
+from openral_data.formats.mcap import finished_bags
+from openral_data.formats.mcap.messages import decode_image
 
 COLOUR_TOL = 4.0
 

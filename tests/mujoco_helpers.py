@@ -8,10 +8,10 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-from openral_data import registry
 from openral_data.errors import ConfigError
 from openral_data.producers.sim.mujoco.assets import check_robosuite_assets
 from openral_data.producers.sim.mujoco.scene import TabletopScene
+from openral_data.record import registry
 from openral_data.schemas.rskill import Contract, RSkillManifest
 from openral_data.schemas.scene import RenderConfig, SceneCamera, SimScene, load_recordable_scene
 

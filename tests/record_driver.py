@@ -14,8 +14,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from openral_data.record import RecordOptions, record
-from openral_data.sinks.base import EpisodeRecord
+from openral_data.record.sim import RecordOptions, record
+from openral_data.types import EpisodeRecord
 
 
 def _die_at_rename(name: str, nth: int) -> None:

@@ -9,9 +9,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from openral_data import registry
-from openral_data.producers.base import SimRollout
+from openral_data.record import registry
 from openral_data.schemas.scene import SceneCamera, SimScene, load_recordable_scene
+from openral_data.types import SimRollout
 
 
 def shipped(scene_id: str, cameras: list[tuple[str, int, int]] | None = None, **params: Any) -> SimScene:

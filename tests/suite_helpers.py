@@ -11,9 +11,9 @@ import numpy.typing as npt
 import yaml
 from conftest import write_yaml
 
-from openral_data import registry
-from openral_data.producers.base import Observation, SimRollout
+from openral_data.record import registry
 from openral_data.schemas.scene import SceneCamera, SimScene, load_recordable_scene
+from openral_data.types import Observation, SimRollout
 
 
 def shipped(scene_id: str, cameras: list[tuple[str, int]] | None = None) -> SimScene:
@@ -84,7 +84,7 @@ def replay_reproduces(dataset: Path, out: Path, episodes: int) -> dict[str, Any]
     import pyarrow.parquet as pq
     from conftest import run_cli
 
-    from openral_data.metrics.results import open_results
+    from openral_data.formats.results import open_results
 
     proc = run_cli("replay", str(dataset), "--out", str(out))
     assert proc.returncode == 0, proc.stderr[-3000:]

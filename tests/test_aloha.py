@@ -20,7 +20,7 @@ from sim_suite_helpers import (
 from suite_helpers import replay_reproduces
 
 from openral_data.errors import ConfigError
-from openral_data.record import RecordOptions, record
+from openral_data.record.sim import RecordOptions, record
 
 
 @pytest.mark.slow

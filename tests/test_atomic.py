@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from openral_data.sinks.lerobot_v3 import atomic
+from openral_data.formats import atomic
 
 
 def _writes(text: str) -> Callable[[Path], None]:

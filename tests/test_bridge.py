@@ -7,10 +7,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from openral_data.bridge import DatasetBridge
 from openral_data.errors import ContractViolation
-from openral_data.producers.base import CameraShape, Observation
-from openral_data.sinks.base import DatasetSchema, EpisodeRecord, EpisodeStart, Frame
+from openral_data.record.bridge import DatasetBridge
+from openral_data.types import CameraShape, DatasetSchema, EpisodeRecord, EpisodeStart, Frame, Observation
 
 SCHEMA = DatasetSchema(
     fps=10,

@@ -13,7 +13,7 @@ from conftest import mock_scene, run_cli, write_yaml
 from lerobot_check import verify_mock_dataset
 from mock_mcap import verify_mock_bags
 
-from openral_data.record import RecordOptions, record
+from openral_data.record.sim import RecordOptions, record
 
 COLOUR_TOL = 4.0
 
@@ -158,7 +158,7 @@ def test_record_mcap_then_convert_round_trip(project: Path, tmp_path: Path) -> N
     assert "mapped /reward" in proc.stdout
     seen = verify_mock_dataset(out, "pyav")
     assert seen["lengths"] == [6, 4, 8]
-    from openral_data.sinks.lerobot_v3.reader import read_episodes
+    from openral_data.formats.lerobot_v3.reader import read_episodes
 
     assert read_episodes(out).column("openral.success").to_pylist() == [True, True, True]
     # outcomes round-trip exactly: the mock's reward is 1.0 on the (successful, terminal) last step only
@@ -198,7 +198,7 @@ def _check_exported(root: Path, episode: int) -> None:
     states = topics["/joint_states"]
     for t, (_, js) in enumerate(states):
         assert js.position[0] == t and js.position[1] == episode
-    from openral_data.sinks.mcap.messages import decode_image
+    from openral_data.formats.mcap.messages import decode_image
 
     for t, (_, msg) in enumerate(topics["/camera/front/image/compressed"]):
         rgb = decode_image(msg, "sensor_msgs/msg/CompressedImage").reshape(-1, 3).mean(axis=0)

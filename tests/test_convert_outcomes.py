@@ -18,8 +18,8 @@ from conftest import mock_scene, run_cli, write_yaml
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
-from openral_data.record import RecordOptions, record
-from openral_data.sinks.lerobot_v3.reader import read_episodes
+from openral_data.formats.lerobot_v3.reader import read_episodes
+from openral_data.record.sim import RecordOptions, record
 
 OUTCOMES = ("next.reward", "next.done", "next.success")
 

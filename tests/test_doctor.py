@@ -17,9 +17,10 @@ import pytest
 from conftest import REPO, mock_scene, run_cli, write_yaml
 from lerobot_check import verify_mock_dataset
 
-from openral_data.dataset_lock import DatasetBusy, DatasetLock
 from openral_data.doctor import check, repair
-from openral_data.sinks.lerobot_v3 import atomic, layout
+from openral_data.formats import atomic
+from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.lock import DatasetBusy, DatasetLock
 
 LENGTHS = [5, 7, 4]
 FRONT = "videos/observation.images.front/chunk-000/file-000.mp4"

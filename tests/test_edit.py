@@ -17,11 +17,11 @@ import pytest
 from conftest import mock_scene, run_cli, write_yaml
 from seeded_check import episode_seeds, verify_seeded_dataset
 
-from openral_data.dataset_lock import DatasetLock
 from openral_data.doctor import check
 from openral_data.edit import ops
 from openral_data.errors import OpenralError
-from openral_data.record import RecordOptions, record
+from openral_data.formats.lerobot_v3.lock import DatasetLock
+from openral_data.record.sim import RecordOptions, record
 
 LENGTHS = [5, 9, 3, 7]
 

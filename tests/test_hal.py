@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 from hal_helpers import ur5e_twin
 
-from openral_data import registry
 from openral_data.errors import ConfigError, OpenralError
 from openral_data.producers.hal.base import EstopLatched, HalError, JointCommand, RobotState, StaleState
 from openral_data.producers.hal.operator import Command, KeyboardOperator, ScriptedOperator, parse_script
 from openral_data.producers.hal.safety import SafetyFilter
 from openral_data.producers.hal.twin import MujocoTwinHal
+from openral_data.record import registry
 from openral_data.schemas.hal import SafetyConfig, Workspace
 
 

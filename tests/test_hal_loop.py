@@ -17,13 +17,13 @@ import pytest
 from conftest import run_cli
 from hal_helpers import SlowCamera, SlowPolicy, episode_infos, frames_table, run_loop, ur5e_twin
 
-from openral_data import registry
 from openral_data.errors import OpenralError
-from openral_data.producers.base import Observation
 from openral_data.producers.hal.base import EstopLatched, HalError, JointCommand
-from openral_data.producers.hal.loop import EpisodeEnd
 from openral_data.producers.hal.operator import ScriptedOperator, parse_script
 from openral_data.producers.hal.safety import SafetyFilter
+from openral_data.record import registry
+from openral_data.record.hal_loop import EpisodeEnd
+from openral_data.types import Observation
 
 
 def _sweep() -> object:
@@ -152,7 +152,7 @@ def test_cli_errors_name_the_problem(tmp_path: Path, project: Path, args: list[s
     """In-process through the typer app (the entry point's one-line printing is covered above)."""
     from typer.testing import CliRunner
 
-    from openral_data.cli import app
+    from openral_data.cli.app import app
 
     result = CliRunner().invoke(app, ["record", *args, "--out", str(tmp_path / "o")])
     assert isinstance(result.exception, OpenralError), result.output
@@ -246,10 +246,10 @@ def test_a_dead_camera_abandons_the_episode_with_an_error(tmp_path: Path) -> Non
     hal = ur5e_twin(cameras=[])
     hal.cameras["dead"] = SlowCamera("dead", period=2.0)  # its first image comes long after the abort
     rskill, _ = registry.resolve_rskill("sweep-ur5e")
-    from openral_data.bridge import DatasetBridge
-    from openral_data.producers.hal.loop import FixedRateLoop, LoopConfig, frame_extras
-    from openral_data.sinks.base import DatasetSchema
-    from openral_data.sinks.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
+    from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
+    from openral_data.record.bridge import DatasetBridge
+    from openral_data.record.hal_loop import FixedRateLoop, LoopConfig, frame_extras
+    from openral_data.types import DatasetSchema
 
     schema = DatasetSchema(
         fps=20,

@@ -14,9 +14,9 @@ from hal_helpers import episode_infos, frames_table
 from mcap_check import check_bag
 
 from openral_data.errors import ConfigError
-from openral_data.hal_record import HalRecordOptions, record_hal
 from openral_data.producers.hal.base import HalError
 from openral_data.producers.hal.so100 import MOTORS
+from openral_data.record.hal import HalRecordOptions, record_hal
 
 pytestmark = pytest.mark.slow
 

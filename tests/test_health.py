@@ -15,8 +15,8 @@ import pytest
 from conftest import run_cli
 from metrics_helpers import copy_dataset, data_file, record_datasets, rewrite_parquet
 
+from openral_data.formats.lerobot_v3.video import count_packets
 from openral_data.metrics.command import StatsOptions, run_stats
-from openral_data.metrics.health import count_packets
 
 
 @pytest.fixture(scope="module")

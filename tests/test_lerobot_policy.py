@@ -14,13 +14,13 @@ from conftest import write_yaml
 from lerobot_checkpoint import make_act_checkpoint, make_diffusion_checkpoint
 from replay_helpers import project_home, record_mock, record_push
 
-from openral_data import registry
 from openral_data.errors import CompatibilityError, ConfigError
-from openral_data.metrics.results import open_results
+from openral_data.formats.results import open_results
 from openral_data.policies.base import ChunkingPolicy
-from openral_data.producers.base import Observation
+from openral_data.record import registry
 from openral_data.replay import ReplayOptions, replay
 from openral_data.replay.recorded import RecordedDataset
+from openral_data.types import Observation
 
 
 @pytest.fixture(scope="module")

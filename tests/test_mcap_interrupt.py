@@ -15,7 +15,7 @@ from conftest import mock_scene, run_cli, write_yaml
 from lerobot_check import verify_mock_dataset
 from mock_mcap import verify_mock_bags
 
-from openral_data.sinks.mcap import finished_bags
+from openral_data.formats.mcap import finished_bags
 
 
 @pytest.mark.slow

@@ -12,11 +12,10 @@ import pytest
 from mcap_check import check_bag
 
 from openral_data.errors import OpenralError
-from openral_data.producers.base import CameraShape
-from openral_data.sinks.base import DatasetSchema, EpisodeStart, Frame
-from openral_data.sinks.mcap import McapConfig, McapSink, finished_bags
-from openral_data.sinks.mcap import writer as mcap_writer
-from openral_data.sinks.mcap.messages import MessageFactory
+from openral_data.formats.mcap import McapConfig, McapSink, finished_bags
+from openral_data.formats.mcap import writer as mcap_writer
+from openral_data.formats.mcap.messages import MessageFactory
+from openral_data.types import CameraShape, DatasetSchema, EpisodeStart, Frame
 
 SCHEMA = DatasetSchema(
     fps=10, state_names=("a", "b"), action_names=("x",), cameras={"cam": CameraShape(16, 16)}, robot_type="r"

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from mujoco_helpers import FRONT, OVERHEAD, WRIST, joint_rskill, make_scene, project, red_mask, run_expert
 
-from openral_data import registry
 from openral_data.errors import CompatibilityError, ConfigError
-from openral_data.producers.base import SimRollout
+from openral_data.record import registry
+from openral_data.types import SimRollout
 
 # robots with MuJoCo wiring (hardware-only manifests such as so100_follower have no `sim:` block)
 SHIPPED = [r for r in registry.robot_ids() if r != "mock_arm" and registry.ROBOTS[r].sim is not None]

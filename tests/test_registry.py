@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 from conftest import REPO
 
-from openral_data import registry
 from openral_data.errors import ConfigError, OpenralError
+from openral_data.record import registry
 
 
 def test_robots_are_discovered_from_folders(project: Path) -> None:

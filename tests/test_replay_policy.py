@@ -14,10 +14,10 @@ from conftest import write_yaml
 from replay_helpers import project_home, record_mock
 
 from openral_data.errors import CompatibilityError
-from openral_data.metrics.results import open_results
+from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.results import open_results
 from openral_data.replay import ReplayOptions, replay
 from openral_data.replay.recorded import RecordedDataset
-from openral_data.sinks.lerobot_v3 import layout
 
 
 @pytest.fixture(scope="module")
@@ -98,7 +98,7 @@ class _FrameReader:
         pass
 
     def step(self, observation: object, instruction: str) -> np.ndarray:
-        from openral_data.producers.base import Observation
+        from openral_data.types import Observation
 
         assert isinstance(observation, Observation) and instruction == "pick up the mock cube"
         colour = observation.images["front"].reshape(-1, 3).mean(axis=0)

@@ -16,11 +16,11 @@ import yaml
 from conftest import run_cli, write_yaml
 from replay_helpers import project_home, record_mock, record_push
 
-from openral_data import registry
 from openral_data.errors import OpenralError
+from openral_data.formats.results import open_results
 from openral_data.metrics.command import StatsOptions, run_stats
-from openral_data.metrics.results import open_results
 from openral_data.producers.sim.mock import MockScene
+from openral_data.record import registry
 from openral_data.replay import ReplayOptions, replay
 from openral_data.replay.actions import DEFAULT_TOLERANCE, ActionReplayer
 from openral_data.replay.rebuild import SceneView, rebuild
@@ -100,7 +100,7 @@ def test_mock_scene_restores_its_state_and_cli_prints_a_summary(mock: Path, tmp_
 
 def _main(capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, *args: str) -> tuple[int, str]:
     """The real entry point (`cli.main`) in-process: exit status and stderr."""
-    from openral_data import cli
+    from openral_data.cli import app as cli
 
     monkeypatch.setattr("sys.argv", ["openral-data", *args])
     with pytest.raises(SystemExit) as exit_info:

@@ -13,8 +13,8 @@ import pytest
 from metrics_helpers import data_file, episodes_file, record_datasets
 
 from openral_data.errors import OpenralError
+from openral_data.formats import results as layout
 from openral_data.metrics import intervals
-from openral_data.metrics import results as layout
 from openral_data.metrics.command import StatsOptions, run_stats
 
 

@@ -21,12 +21,12 @@ from conftest import REPO, mock_scene, run_cli, write_yaml
 from lerobot_check import verify_mock_dataset
 from mcap_check import check_bag
 
-from openral_data.dataset_lock import DatasetBusy, DatasetLock
 from openral_data.doctor import check
 from openral_data.errors import ConfigError, OpenralError
-from openral_data.record import RecordOptions, record
-from openral_data.sinks.lerobot_v3 import layout
-from openral_data.sinks.mcap.writer import finished_bags
+from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.lock import DatasetBusy, DatasetLock
+from openral_data.formats.mcap.writer import finished_bags
+from openral_data.record.sim import RecordOptions, record
 
 LENGTHS = [5, 7, 4]  # the mock succeeds after these many steps, cycled over episodes
 DRIVER = Path(__file__).with_name("record_driver.py")

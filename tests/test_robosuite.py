@@ -19,11 +19,11 @@ from suite_helpers import (
     stats_groups,
 )
 
-from openral_data import registry
 from openral_data.errors import CompatibilityError, ConfigError
-from openral_data.producers.base import SimRollout
-from openral_data.record import RecordOptions, record
+from openral_data.record import registry
+from openral_data.record.sim import RecordOptions, record
 from openral_data.schemas.rskill import Contract, RSkillManifest
+from openral_data.types import SimRollout
 
 pytest.importorskip("robosuite")
 

@@ -19,8 +19,8 @@ from conftest import mock_scene, write_yaml
 from lerobot_check import verify_mock_dataset
 
 from openral_data.doctor import check
-from openral_data.sinks.lerobot_v3 import layout
-from openral_data.sinks.mcap.writer import finished_bags
+from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.mcap.writer import finished_bags
 
 DRIVER = Path(__file__).with_name("record_driver.py")
 LENGTHS = [5, 7, 4]

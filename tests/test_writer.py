@@ -9,12 +9,11 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
-from openral_data.bridge import DatasetBridge
 from openral_data.errors import OpenralError
-from openral_data.producers.base import CameraShape, Observation
-from openral_data.sinks.base import DatasetSchema
-from openral_data.sinks.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig, summarize
-from openral_data.sinks.lerobot_v3.reader import read_episodes
+from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig, summarize
+from openral_data.formats.lerobot_v3.reader import read_episodes
+from openral_data.record.bridge import DatasetBridge
+from openral_data.types import CameraShape, DatasetSchema, Observation
 
 H, W = 128, 192
 
@@ -224,7 +223,7 @@ def test_refuses_non_empty_root(tmp_path: Path) -> None:
 
 def test_encoder_worker_abort_then_reuse(tmp_path: Path) -> None:
     """An aborted episode's file is gone; the same worker then encodes the next episode completely."""
-    from openral_data.sinks.lerobot_v3.video import EncoderWorker, probe_frames
+    from openral_data.formats.lerobot_v3.video import EncoderWorker, probe_frames
 
     worker = EncoderWorker("cam", VideoSettings(codec="h264"), fps=10, queue_size=2)
     frame = np.full((32, 32, 3), 90, np.uint8)
@@ -247,8 +246,8 @@ def test_encoder_worker_abort_then_reuse(tmp_path: Path) -> None:
 
 def test_encoder_failure_discards_the_episode_cleanly(tmp_path: Path) -> None:
     """A frame the encoder cannot take (bypassing the bridge) fails the episode; earlier ones are intact."""
-    from openral_data.sinks.base import EpisodeStart, Frame
-    from openral_data.sinks.lerobot_v3.video import EncoderError
+    from openral_data.formats.lerobot_v3.video import EncoderError
+    from openral_data.types import EpisodeStart, Frame
 
     schema = DatasetSchema(
         fps=10,

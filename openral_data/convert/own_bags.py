@@ -9,8 +9,8 @@ from pathlib import Path
 from rosbags.highlevel import AnyReader
 
 from openral_data.errors import OpenralError
+from openral_data.formats.mcap import messages as m
 from openral_data.schemas.mapping import Mapping
-from openral_data.sinks.mcap import messages as m
 
 
 def own_mapping(bag: Path) -> Mapping:

@@ -23,16 +23,15 @@ from rosbags.interfaces import Connection
 from rosbags.typesys import Stores, get_typestore
 
 from openral_data import __version__
-from openral_data.bridge import DatasetBridge
 from openral_data.convert.align import AlignedFrame, Aligner
 from openral_data.convert.sources import VectorReader, field_value, find_bags
 from openral_data.errors import OpenralError
-from openral_data.producers.base import CameraShape, Observation
+from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
+from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.formats.mcap.messages import decode_image
+from openral_data.record.bridge import DatasetBridge
 from openral_data.schemas.mapping import Mapping
-from openral_data.sinks.base import DatasetSchema, EpisodeRecord
-from openral_data.sinks.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
-from openral_data.sinks.lerobot_v3.video import Codec
-from openral_data.sinks.mcap.messages import decode_image
+from openral_data.types import CameraShape, DatasetSchema, EpisodeRecord, Observation
 
 STATE, ACTION, REWARD = "state", "action", "reward"
 ProgressFn = Callable[[int, int], None]  # (messages read, messages in total)

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from openral_data.dataset_lock import holder
 from openral_data.doctor import check_data, check_meta, check_video
 from openral_data.doctor.findings import Finding, error, warning
 from openral_data.doctor.inspect import Dataset, load
-from openral_data.sinks.lerobot_v3 import layout
-from openral_data.sinks.lerobot_v3.recovery import staged_files
+from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.lock import holder
+from openral_data.formats.lerobot_v3.recovery import staged_files
 
 
 def check(root: Path, *, lock_held_by_us: bool = False) -> list[Finding]:

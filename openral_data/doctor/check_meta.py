@@ -10,7 +10,7 @@ import numpy as np
 
 from openral_data.doctor.findings import Finding, error, warning
 from openral_data.doctor.inspect import DEFAULT_FEATURES, Dataset
-from openral_data.sinks.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3 import layout
 
 INFO = layout.INFO_PATH
 TASKS = layout.TASKS_PATH

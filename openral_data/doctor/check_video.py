@@ -14,9 +14,9 @@ import av
 
 from openral_data.doctor.findings import Finding, error, warning
 from openral_data.doctor.inspect import Dataset
-from openral_data.metrics.health import count_packets
-from openral_data.sinks.lerobot_v3 import layout
-from openral_data.sinks.lerobot_v3.layout import FilePos
+from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.layout import FilePos
+from openral_data.formats.lerobot_v3.video import count_packets
 
 TOLERANCE_S = 1e-4
 

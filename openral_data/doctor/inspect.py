@@ -15,7 +15,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from openral_data.doctor.findings import Finding, error
-from openral_data.sinks.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3 import layout
 
 DEFAULT_FEATURES = ("timestamp", "frame_index", "episode_index", "index", "task_index")
 DATA_SCAN_COLUMNS = ("index", "episode_index", "frame_index", "timestamp", "task_index")

@@ -18,16 +18,17 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
-from openral_data.dataset_lock import DatasetLock
 from openral_data.doctor.check import check
 from openral_data.doctor.check_video import placements
 from openral_data.doctor.findings import Finding
 from openral_data.doctor.inspect import Dataset, load
-from openral_data.metrics.health import count_packets
-from openral_data.sinks.lerobot_v3 import atomic, layout
-from openral_data.sinks.lerobot_v3.layout import FilePos
-from openral_data.sinks.lerobot_v3.recovery import Quarantine, staged_files
-from openral_data.sinks.lerobot_v3.writer import tasks_writer
+from openral_data.formats import atomic
+from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.layout import FilePos
+from openral_data.formats.lerobot_v3.lock import DatasetLock
+from openral_data.formats.lerobot_v3.recovery import Quarantine, staged_files
+from openral_data.formats.lerobot_v3.video import count_packets
+from openral_data.formats.lerobot_v3.writer import tasks_writer
 
 Rows = list[dict[str, Any]]
 

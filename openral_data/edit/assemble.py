@@ -21,11 +21,12 @@ from typing import Any
 
 from openral_data.edit.source import EpisodeData
 from openral_data.errors import OpenralError
-from openral_data.sinks.base import DatasetSchema, EpisodeRecord, EpisodeStart
-from openral_data.sinks.lerobot_v3 import atomic, layout
-from openral_data.sinks.lerobot_v3.stats import ImageStatsAccumulator, Stats, merge_numeric
-from openral_data.sinks.lerobot_v3.video import EncodedEpisode
-from openral_data.sinks.lerobot_v3.writer import LeRobotV3Writer, WriterConfig, _EpisodeBuffer
+from openral_data.formats import atomic
+from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator, Stats, merge_numeric
+from openral_data.formats.lerobot_v3.video import EncodedEpisode
+from openral_data.formats.lerobot_v3.writer import LeRobotV3Writer, WriterConfig, _EpisodeBuffer
+from openral_data.types import DatasetSchema, EpisodeRecord, EpisodeStart
 
 
 class MergedImageStats(ImageStatsAccumulator):

@@ -16,13 +16,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from openral_data.dataset_lock import DatasetLock
 from openral_data.edit.assemble import EpisodeAssembler
 from openral_data.edit.source import SourceDataset
-from openral_data.episode_spec import parse_episodes
+from openral_data.episodes import parse_episodes
 from openral_data.errors import OpenralError
-from openral_data.sinks.lerobot_v3.atomic import fsync_dir, fsync_file
-from openral_data.sinks.lerobot_v3.stats import ImageStatsAccumulator
+from openral_data.formats.atomic import fsync_dir, fsync_file
+from openral_data.formats.lerobot_v3.lock import DatasetLock
+from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
 
 _DATASET_ENTRIES = {"meta", "data", "videos", ".openral"}
 Selection = list[tuple[SourceDataset, int]]  # (source, episode index in it), in output order

@@ -18,17 +18,16 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
-from openral_data.dataset_lock import holder
 from openral_data.errors import OpenralError
-from openral_data.producers.base import CameraShape
-from openral_data.sinks.base import DatasetSchema
-from openral_data.sinks.lerobot_v3 import layout
-from openral_data.sinks.lerobot_v3.features import ACTION, IMAGE_PREFIX, STATE, build_features
-from openral_data.sinks.lerobot_v3.reader import read_episodes, read_info, read_tasks
-from openral_data.sinks.lerobot_v3.stats import STAT_KEYS, ImageStatsAccumulator, Stats
-from openral_data.sinks.lerobot_v3.video import VideoSettings
-from openral_data.sinks.lerobot_v3.writer import WriterConfig
-from openral_data.viz.clip import episode_clip
+from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.clip import episode_clip
+from openral_data.formats.lerobot_v3.features import ACTION, IMAGE_PREFIX, STATE, build_features
+from openral_data.formats.lerobot_v3.lock import holder
+from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_tasks
+from openral_data.formats.lerobot_v3.stats import STAT_KEYS, ImageStatsAccumulator, Stats
+from openral_data.formats.lerobot_v3.video import VideoSettings
+from openral_data.formats.lerobot_v3.writer import WriterConfig
+from openral_data.types import CameraShape, DatasetSchema
 
 
 @dataclass(frozen=True)

@@ -18,11 +18,12 @@ from typing import Any
 import av
 import duckdb
 
+from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.layout import FilePos
+from openral_data.formats.lerobot_v3.video import count_packets
 from openral_data.metrics.scan import VectorScan, vector_scan
 from openral_data.metrics.sources import DatasetSource
 from openral_data.metrics.views import files_sql, ident, query
-from openral_data.sinks.lerobot_v3 import layout
-from openral_data.sinks.lerobot_v3.layout import FilePos
 
 GAP_FACTOR = 1.5  # a step longer than 1.5 frame periods is a gap
 TIMESTAMP_TOLERANCE_S = 1e-4  # lerobot's tolerance_s for timestamp = frame_index / fps
@@ -182,19 +183,6 @@ def _ordered_checks(
         GROUP BY episode_index
     """
     return query(con, sql)[1]
-
-
-def count_packets(path: Path) -> list[float]:
-    """Presentation times (s) of every video packet of the file's first video stream, without decoding."""
-    container = av.open(str(path))
-    try:
-        stream = container.streams.video[0]
-        tb = stream.time_base
-        if tb is None:
-            raise ValueError("video stream without time base")
-        return sorted(float(p.pts * tb) for p in container.demux(stream) if p.pts is not None and p.size)
-    finally:
-        container.close()
 
 
 def _video_checks(ds: DatasetSource, meta: list[dict[str, Any]]) -> list[Issue]:

@@ -10,10 +10,10 @@ from pathlib import Path
 import duckdb
 
 from openral_data.errors import OpenralError
+from openral_data.formats.lerobot_v3.features import ACTION
 from openral_data.metrics.report import GROUP_NUMBERS, Report
 from openral_data.metrics.sources import DatasetSource
 from openral_data.metrics.views import files_sql, query
-from openral_data.sinks.lerobot_v3.features import ACTION
 
 BINS = 40
 

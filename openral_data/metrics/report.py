@@ -10,8 +10,8 @@ from typing import Any
 import duckdb
 
 from openral_data.errors import OpenralError
+from openral_data.formats.results import Results
 from openral_data.metrics import health, intervals
-from openral_data.metrics.results import Results
 from openral_data.metrics.scan import VectorScan, vector_scan
 from openral_data.metrics.sources import DatasetSource
 from openral_data.metrics.views import ident, query

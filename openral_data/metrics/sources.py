@@ -12,10 +12,10 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from openral_data.errors import OpenralError
-from openral_data.metrics import results as results_layout
-from openral_data.sinks.lerobot_v3 import layout
-from openral_data.sinks.lerobot_v3.features import ACTION, STATE
-from openral_data.sinks.lerobot_v3.reader import read_info
+from openral_data.formats import results as results_layout
+from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.features import ACTION, STATE
+from openral_data.formats.lerobot_v3.reader import read_info
 
 
 @dataclass(frozen=True)

@@ -21,9 +21,9 @@ from typing import Any
 import duckdb
 
 from openral_data.errors import OpenralError
-from openral_data.metrics.results import Results
+from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.results import Results
 from openral_data.metrics.sources import DatasetSource
-from openral_data.sinks.lerobot_v3 import layout
 
 DEFAULT_MEMORY_LIMIT = "1GB"
 

@@ -11,10 +11,10 @@ from typing import Any
 
 from openral_data import paths
 from openral_data.errors import ConfigError, OpenralError
+from openral_data.formats.atomic import write_bytes
 from openral_data.pipeline.schema import Pipeline, load_pipeline
 from openral_data.pipeline.state import StepState
 from openral_data.pipeline.steps import Resolve, jobs_for
-from openral_data.sinks.lerobot_v3.atomic import write_bytes
 
 Log = Callable[[str], None]
 

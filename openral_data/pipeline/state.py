@@ -20,8 +20,8 @@ from pathlib import Path
 from typing import Any
 
 from openral_data.errors import ConfigError
+from openral_data.formats.atomic import fsync_dir, fsync_file, write_bytes
 from openral_data.pipeline.schema import Step
-from openral_data.sinks.lerobot_v3.atomic import fsync_dir, fsync_file, write_bytes
 
 
 def config_hash(step: Step) -> str:

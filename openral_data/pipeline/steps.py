@@ -40,7 +40,7 @@ def _record_jobs(spec: RecordStep) -> Iterator[ItemJob]:
 
 def _record_one(spec: RecordStep, scene: str, rskill: str, robot: str | None) -> Callable[[Path], dict[str, Any]]:
     def run(out: Path) -> dict[str, Any]:
-        from openral_data.record import RecordOptions, RecordSummary, record
+        from openral_data.record.sim import RecordOptions, RecordSummary, record
 
         opts = RecordOptions(
             scene=scene,
@@ -56,7 +56,7 @@ def _record_one(spec: RecordStep, scene: str, rskill: str, robot: str | None) ->
         )
         summary: RecordSummary
         if spec.workers > 1 or spec.executor != "local":
-            from openral_data.parallel.run import record_parallel
+            from openral_data.record.parallel.run import record_parallel
 
             summary = record_parallel(opts, spec.workers, spec.executor)
         else:
@@ -107,7 +107,7 @@ def _export_jobs(spec: ExportStep, resolve: Resolve) -> Iterator[ItemJob]:
 
         def run(out: Path, src: Path = src) -> dict[str, Any]:
             from openral_data.convert.to_mcap import export_mcap
-            from openral_data.sinks.mcap import McapConfig
+            from openral_data.formats.mcap import McapConfig
 
             if spec.to != "mcap":
                 raise OpenralError(f"export.to: {spec.to!r} is not supported")

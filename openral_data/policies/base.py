@@ -7,7 +7,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 import numpy.typing as npt
 
-from openral_data.producers.base import Observation
+from openral_data.types import Observation
 
 
 @runtime_checkable

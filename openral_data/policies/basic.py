@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from openral_data.producers.base import Observation
 from openral_data.schemas.rskill import RSkillManifest
+from openral_data.types import Observation
 
 
 class ZeroPolicy:

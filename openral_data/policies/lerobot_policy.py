@@ -29,8 +29,8 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.errors import CompatibilityError, ConfigError, ContractViolation
-from openral_data.producers.base import Observation
 from openral_data.schemas.rskill import RSkillManifest
+from openral_data.types import Observation
 
 SUPPORTED = ("act", "diffusion")
 IMAGE_PREFIX = "observation.images."

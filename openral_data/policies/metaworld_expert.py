@@ -15,8 +15,8 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.errors import ConfigError
-from openral_data.producers.base import Observation
 from openral_data.schemas.rskill import RSkillManifest
+from openral_data.types import Observation
 
 _POLICY_NAME_EXCEPTIONS = {"peg-insert-side-v3": "SawyerPegInsertionSideV3Policy"}
 

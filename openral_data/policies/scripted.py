@@ -14,8 +14,8 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.errors import ConfigError
-from openral_data.producers.base import Observation
 from openral_data.schemas.rskill import RSkillManifest
+from openral_data.types import Observation
 
 F64 = npt.NDArray[np.float64]
 TRAVEL = 0.1  # travel height of the grasp site above the table

@@ -1,5 +1,1 @@
-"""Producers: simulated scenes (`sim/`) and hardware HALs (`hal/`) that emit observations."""
-
-from openral_data.producers.base import CameraShape, Observation, ProducerSpec, SimRollout, StepResult
-
-__all__ = ["CameraShape", "Observation", "ProducerSpec", "SimRollout", "StepResult"]
+"""Producers: simulated scenes (`sim/`) and hardware HAL drivers (`hal/`) that emit observations."""

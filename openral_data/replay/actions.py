@@ -16,9 +16,9 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.errors import OpenralError
-from openral_data.producers.base import Observation, SimRollout, StepResult
 from openral_data.replay.outcome import EpisodeOutcome, first_exceeding, object_error
 from openral_data.replay.recorded import RecordedEpisode
+from openral_data.types import Observation, SimRollout, StepResult
 
 DEFAULT_TOLERANCE = 1e-4  # max |replayed - recorded| per state dimension (state units: rad, m, normalised)
 

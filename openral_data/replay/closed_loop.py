@@ -14,11 +14,11 @@ import numpy as np
 
 from openral_data.errors import OpenralError
 from openral_data.policies.base import PolicyAdapter
-from openral_data.producers.base import SimRollout
 from openral_data.replay.actions import StepHook
 from openral_data.replay.outcome import EpisodeOutcome, first_exceeding, object_error
 from openral_data.replay.policy_mode import checked_action
 from openral_data.replay.recorded import RecordedEpisode
+from openral_data.types import SimRollout
 
 
 @dataclass(frozen=True)

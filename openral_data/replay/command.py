@@ -15,11 +15,14 @@ from typing import Any, Literal
 
 import numpy as np
 
-from openral_data import paths, registry
-from openral_data.compat import check_compatibility
+from openral_data import paths
 from openral_data.errors import CompatibilityError, OpenralError
-from openral_data.metrics.results import is_results_dir, write_results
+from openral_data.formats.lerobot_v3 import VideoSettings
+from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.formats.results import is_results_dir, write_results
 from openral_data.policies.base import ChunkingPolicy, PolicyAdapter
+from openral_data.record import registry
+from openral_data.record.compat import check_compatibility
 from openral_data.replay import recorded_policy
 from openral_data.replay.actions import DEFAULT_TOLERANCE, ActionReplayer
 from openral_data.replay.closed_loop import ClosedLoop
@@ -30,8 +33,6 @@ from openral_data.replay.recorded import RecordedDataset
 from openral_data.replay.rerecord import Rerecorder, load_view
 from openral_data.replay.tables import episodes_table, steps_table
 from openral_data.schemas.rskill import RSkillManifest
-from openral_data.sinks.lerobot_v3 import VideoSettings
-from openral_data.sinks.lerobot_v3.video import Codec
 
 Mode = Literal["actions", "policy", "closed-loop"]
 MODES: tuple[Mode, ...] = ("actions", "policy", "closed-loop")

@@ -17,9 +17,9 @@ import numpy.typing as npt
 
 from openral_data.errors import ContractViolation
 from openral_data.policies.base import ChunkingPolicy, PolicyAdapter
-from openral_data.producers.base import Observation
 from openral_data.replay.outcome import EpisodeOutcome
 from openral_data.replay.recorded import RecordedDataset, RecordedEpisode
+from openral_data.types import Observation
 
 
 @runtime_checkable

@@ -7,13 +7,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from openral_data import registry
 from openral_data.errors import OpenralError
-from openral_data.producers.base import SimRollout
+from openral_data.record import registry
 from openral_data.replay.recorded import RecordedDataset
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import RenderConfig, SceneCamera, SimScene
+from openral_data.types import SimRollout
 
 
 @dataclass(frozen=True)

@@ -20,16 +20,16 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
-from openral_data.convert.to_mcap import IMAGE_PREFIX
-from openral_data.convert.to_mcap import episode_frames as decode_episode_frames
-from openral_data.episode_spec import parse_episodes
+from openral_data.episodes import parse_episodes
 from openral_data.errors import ConfigError, OpenralError
+from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX
+from openral_data.formats.lerobot_v3.frames import episode_frames as decode_episode_frames
+from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_tasks
 from openral_data.schemas.base import validate
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import BenchmarkScene, SimScene
-from openral_data.sinks.base import Frame
-from openral_data.sinks.lerobot_v3 import layout
-from openral_data.sinks.lerobot_v3.reader import read_episodes, read_info, read_tasks
+from openral_data.types import Frame
 
 F32 = npt.NDArray[np.float32]
 STATE, ACTION = "observation.state", "action"

@@ -11,8 +11,8 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.errors import OpenralError
-from openral_data.producers.base import Observation
 from openral_data.replay.recorded import RecordedEpisode
+from openral_data.types import Observation
 
 PREFIX = "recorded"
 

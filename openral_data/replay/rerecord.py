@@ -16,18 +16,17 @@ import numpy.typing as npt
 from pydantic import Field
 
 from openral_data import __version__
-from openral_data.bridge import DatasetBridge
 from openral_data.errors import CompatibilityError
-from openral_data.producers.base import Observation, StepResult
-from openral_data.record import check_out
+from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
+from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.record.bridge import DatasetBridge
+from openral_data.record.sim import check_out
+from openral_data.record.sinks import check_formats, make_sinks
 from openral_data.replay.actions import StepHook
 from openral_data.replay.rebuild import Rebuilt, SceneView
 from openral_data.schemas.base import StrictModel, load_model
 from openral_data.schemas.scene import RenderConfig, SceneCamera
-from openral_data.sinks.base import DatasetSchema, EpisodeRecord, Sink
-from openral_data.sinks.lerobot_v3 import VideoSettings, WriterConfig
-from openral_data.sinks.lerobot_v3.video import Codec
-from openral_data.sinks.select import check_formats, make_sinks
+from openral_data.types import DatasetSchema, EpisodeRecord, Observation, Sink, StepResult
 
 
 class CameraFile(StrictModel):

@@ -67,12 +67,12 @@ def steps_table(outcomes: Sequence[EpisodeOutcome]) -> pa.Table:
 
 
 def _episode_schema() -> pa.Schema:
-    from openral_data.metrics.results import EPISODE_OPTIONAL, EPISODE_SCHEMA
+    from openral_data.formats.results import EPISODE_OPTIONAL, EPISODE_SCHEMA
 
     return pa.schema([*EPISODE_SCHEMA, *EPISODE_OPTIONAL])
 
 
 def _step_schema() -> pa.Schema:
-    from openral_data.metrics.results import STEP_OPTIONAL, STEP_SCHEMA
+    from openral_data.formats.results import STEP_OPTIONAL, STEP_SCHEMA
 
     return pa.schema([*STEP_SCHEMA, *STEP_OPTIONAL])

@@ -22,12 +22,12 @@ import pyarrow.parquet as pq
 import rerun as rr
 
 from openral_data.errors import OpenralError
-from openral_data.metrics import results as results_layout
+from openral_data.formats import results as results_layout
+from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.clip import episode_clip
+from openral_data.formats.lerobot_v3.features import ACTION, IMAGE_PREFIX, STATE
+from openral_data.formats.lerobot_v3.layout import FilePos
 from openral_data.metrics.sources import DatasetSource, open_dataset
-from openral_data.sinks.lerobot_v3 import layout
-from openral_data.sinks.lerobot_v3.features import ACTION, IMAGE_PREFIX, STATE
-from openral_data.sinks.lerobot_v3.layout import FilePos
-from openral_data.viz.clip import episode_clip
 
 APP_ID = "openral-data"
 FRAME = "frame_index"

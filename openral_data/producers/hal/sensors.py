@@ -17,7 +17,7 @@ from typing import Protocol
 import numpy as np
 import numpy.typing as npt
 
-from openral_data.producers.base import CameraShape
+from openral_data.types import CameraShape
 
 Image = npt.NDArray[np.uint8]
 

@@ -19,7 +19,6 @@ import mujoco
 import numpy as np
 
 from openral_data.errors import ConfigError
-from openral_data.producers.base import CameraShape, Observation, SimRollout
 from openral_data.producers.hal.base import HalBase, JointCommand, RobotState, monotonic
 from openral_data.producers.hal.sensors import Image, PolledCamera
 from openral_data.producers.sim.mujoco.compose import ROBOT, compose
@@ -30,6 +29,7 @@ from openral_data.producers.sim.mujoco.scene import load_wiring
 from openral_data.schemas.mujoco import TabletopParams
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.scene import RenderConfig, SceneCamera
+from openral_data.types import CameraShape, Observation, SimRollout
 
 # where a manifest's non-wrist cameras go on the twin's table (the manifest gives sizes, not poses)
 DEFAULT_WORLD_CAMERA = {"pos": (1.3, 0.0, 1.4), "lookat": (0.4, 0.0, 0.85), "fovy": 45.0}

@@ -19,9 +19,9 @@ import numpy.typing as npt
 from pydantic import Field
 
 from openral_data.errors import ConfigError
-from openral_data.producers.base import CameraShape, Observation, ProducerSpec, StepResult
 from openral_data.schemas.base import StrictModel, format_validation_error
 from openral_data.schemas.scene import SimScene
+from openral_data.types import CameraShape, Observation, ProducerSpec, StepResult
 
 FaultKind = Literal["nan_state", "float_image", "wrong_image_shape", "extra_camera", "missing_camera", "state_dim"]
 

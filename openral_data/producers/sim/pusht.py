@@ -20,11 +20,11 @@ import numpy.typing as npt
 from pydantic import Field
 
 from openral_data.errors import CompatibilityError, ConfigError
-from openral_data.producers.base import CameraShape, Observation, ProducerSpec, StepResult
 from openral_data.producers.sim.external import check_envelope, check_fps, named_cameras, parse_params, require
 from openral_data.schemas.base import StrictModel
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
+from openral_data.types import CameraShape, Observation, ProducerSpec, StepResult
 
 KIND = "gym_pusht"
 STATE_FORMAT = 1

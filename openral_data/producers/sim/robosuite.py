@@ -35,13 +35,13 @@ from pydantic import Field
 
 import openral_data.producers.sim.mujoco  # noqa: F401  (chooses a headless MUJOCO_GL before mujoco loads)
 from openral_data.errors import CompatibilityError, ConfigError
-from openral_data.producers.base import CameraShape, Observation, ProducerSpec, StepResult
 from openral_data.producers.sim import mjstate
 from openral_data.producers.sim.named_cameras import NamedCameraRig
 from openral_data.schemas.base import StrictModel, validate
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
+from openral_data.types import CameraShape, Observation, ProducerSpec, StepResult
 
 STATE_FORMAT = 1
 STATE_REPRESENTATIONS = ("eef_pose_gripper", "joint_positions_gripper")

@@ -22,7 +22,7 @@ from types import ModuleType
 import yaml
 
 from openral_data.errors import ConfigError
-from openral_data.sinks.lerobot_v3.atomic import write_bytes
+from openral_data.formats.atomic import write_bytes
 
 INSTALL = "bash scripts/setup_libero.sh, then run openral-data from .venv-libero (see README: LIBERO)"
 

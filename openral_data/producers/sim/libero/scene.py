@@ -36,12 +36,12 @@ import numpy.typing as npt
 from pydantic import Field
 
 from openral_data.errors import CompatibilityError, ConfigError
-from openral_data.producers.base import CameraShape, Observation, ProducerSpec, StepResult
 from openral_data.producers.sim.external import check_envelope, check_fps, named_cameras, parse_params
 from openral_data.producers.sim.libero.config import import_libero
 from openral_data.schemas.base import StrictModel
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
+from openral_data.types import CameraShape, Observation, ProducerSpec, StepResult
 
 KIND = "libero"
 STATE_FORMAT = 1

@@ -20,7 +20,6 @@ from pydantic import ValidationError
 
 from openral_data import paths
 from openral_data.errors import CompatibilityError, ConfigError
-from openral_data.producers.base import CameraShape, Observation, ProducerSpec, StepResult
 from openral_data.producers.sim.mujoco.assets import check_robosuite_assets, resolve_asset
 from openral_data.producers.sim.mujoco.compose import CUBE, GOAL, compose
 from openral_data.producers.sim.mujoco.controllers import (
@@ -37,6 +36,7 @@ from openral_data.schemas.mujoco import MujocoRobotWiring, TabletopParams
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
+from openral_data.types import CameraShape, Observation, ProducerSpec, StepResult
 
 STATE_REPRESENTATIONS = ("joint_positions_gripper", "joint_positions", "eef_pose_gripper")
 STATE_FORMAT = 1

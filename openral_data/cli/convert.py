@@ -1,0 +1,135 @@
+"""The `convert` command's front end: picks the direction from SRC, shows progress, prints the summary."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import cast
+
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from openral_data.errors import OpenralError
+from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.formats.mcap import IMAGE_FORMATS, McapConfig
+from openral_data.schemas.mapping import Mapping, load_mapping
+
+
+def _check_dst(dst: Path) -> None:
+    if dst.exists() and (not dst.is_dir() or any(dst.iterdir())):
+        raise OpenralError(f"{dst}: DST exists and is not empty; refusing to overwrite it")
+
+
+def _bar(console: Console, what: str, unit: str) -> Progress:
+    return Progress(
+        TextColumn(f"[bold]{what}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn(unit),
+        TimeElapsedColumn(),
+        console=console,
+        disable=not console.is_terminal,
+    )
+
+
+def run_convert(
+    src: Path,
+    dst: Path,
+    mapping_path: Path | None,
+    codec: str,
+    episodes: str | None,
+    image_format: str,
+    out: Console,
+    err: Console,
+) -> None:
+    from openral_data.cli.app import _print_rows
+    from openral_data.convert.to_mcap import export_mcap, is_lerobot_dataset
+
+    if not src.exists():
+        raise OpenralError(f"{src}: no such file or directory")
+    _check_dst(dst)
+    if is_lerobot_dataset(src):
+        if mapping_path is not None:
+            raise OpenralError(f"{src}: is a LeRobot dataset (exported to MCAP); --mapping applies to bags only")
+        if image_format not in IMAGE_FORMATS:
+            raise OpenralError(f"--image-format: {image_format!r} is not one of {', '.join(IMAGE_FORMATS)}")
+        config = McapConfig(image_format=image_format)
+        with _bar(err, "exporting", "frames") as bar:
+            task = bar.add_task("export", total=None)
+            summary = export_mcap(
+                src, dst, episodes=episodes, config=config, progress=lambda d, t: bar.update(task, completed=d, total=t)
+            )
+        _print_rows(
+            "exported",
+            [
+                ("source", str(src)),
+                ("output", f"{dst} (one rosbag2/MCAP bag per episode)"),
+                ("episodes", ", ".join(str(e.index) for e in summary.episodes)),
+                ("frames", str(summary.frames)),
+                ("frames/s", f"{summary.fps:.1f}"),
+                ("not exported", ", ".join(summary.skipped_features) or "-"),
+            ],
+        )
+        return
+    if episodes is not None:
+        raise OpenralError("--episodes selects episodes of a LeRobot dataset; SRC is a bag")
+    from openral_data.convert.own_bags import own_mapping
+    from openral_data.convert.sources import find_bags
+    from openral_data.convert.to_lerobot import convert_bags
+
+    bags = find_bags(src)
+    mapping = load_mapping(mapping_path) if mapping_path is not None else own_mapping(bags[0])
+    with _bar(err, "converting", "messages") as bar:
+        task = bar.add_task("convert", total=None)
+        result = convert_bags(
+            src,
+            dst,
+            mapping,
+            codec=cast(Codec, codec),
+            progress=lambda d, t: bar.update(task, completed=d, total=t),
+        )
+    rows = [
+        ("source", f"{src} ({result.bags} bag(s))"),
+        ("output", str(dst)),
+        ("episodes", str(len(result.episodes))),
+        (
+            "frames",
+            f"{result.frames} at {mapping.fps} fps ({mapping.align.method}, max staleness "
+            f"{mapping.align.max_staleness:g} s)",
+        ),
+        ("frames/s", f"{result.fps:.1f}"),
+    ]
+    for topic, rep in result.topics.items():
+        rows.append(
+            (
+                f"mapped {topic}",
+                f"{rep.msgtype}: {rep.messages} msgs, {rep.used} used, {rep.unused} unused (superseded or outside "
+                f"every frame), {rep.unfillable_frames} frames unfillable",
+            )
+        )
+    rows.append(
+        (
+            "unfillable frames",
+            f"{result.unfillable_frames} skipped, never zero-filled ({result.splits} episode split(s) at gaps, "
+            f"{result.empty_segments} source episode(s) without a single filled frame)",
+        )
+    )
+    if mapping.align.clock == "header":
+        rows.append(
+            ("late messages", f"{result.late_messages} not used (stamp more than align.reorder behind the log)")
+        )
+    rows.append(("outcomes", _outcomes(mapping)))
+    for topic, count in sorted(result.skipped_topics.items()):
+        rows.append((f"skipped {topic}", f"{count} msgs (not in the mapping)"))
+    _print_rows("converted", rows)
+
+
+def _outcomes(mapping: Mapping) -> str:
+    reward = (
+        f"reward from {mapping.reward.topic}" if mapping.reward is not None else "no reward (no next.reward column)"
+    )
+    if mapping.success is None:
+        success = "success unknown (no next.success column, episode success NULL)"
+    else:
+        parts = [p for p in (mapping.success.topic, "end markers" if mapping.success.marker else None) if p]
+        success = "success from " + " + ".join(parts)
+    return f"{reward}; {success}; done on each episode's last frame"

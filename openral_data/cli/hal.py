@@ -1,0 +1,87 @@
+"""`record --hal`: option parsing and the printed summary (the work is in hal_record.py)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import cast
+
+import typer
+from rich.console import Console
+
+from openral_data.errors import OpenralError
+from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.producers.hal.operator import HELP
+from openral_data.record.hal import HalRecordOptions, Mode, record_hal
+from openral_data.schemas.hal import SafetyMode
+
+
+def run_hal_record(
+    robot: str,
+    mode: str,
+    rskill: str,
+    fps: int,
+    scene: str | None,
+    n_episodes: int | None,
+    max_steps: int | None,
+    seed: int | None,
+    out: Path | None,
+    codec: str,
+    formats: str,
+    image_format: str,
+    operator: str,
+    safety: str | None,
+    staleness: float | None,
+    port: str | None,
+    console: Console,
+    err_console: Console,
+) -> None:
+    from openral_data.record.sinks import parse_formats
+
+    if mode not in ("sim", "real"):
+        raise OpenralError(f"--mode: {mode!r}; valid: sim, real")
+    if safety is not None and safety not in ("clamp", "refuse"):
+        raise OpenralError(f"--safety: {safety!r}; valid: clamp, refuse")
+    opts = HalRecordOptions(
+        robot=robot,
+        rskill=rskill,
+        mode=cast(Mode, mode),
+        fps=fps,
+        scene=scene,
+        n_episodes=n_episodes if n_episodes is not None else 1,
+        max_steps=max_steps if max_steps is not None else 200,
+        seed=seed if seed is not None else 0,
+        out=out,
+        codec=cast(Codec, codec),
+        formats=parse_formats(formats),
+        image_format=image_format,
+        operator=operator,
+        safety=cast(SafetyMode | None, safety),
+        staleness=staleness,
+        port=port,
+    )
+    if operator == "keyboard":
+        err_console.print(HELP, markup=False, highlight=False)
+    try:
+        s = record_hal(opts, lambda line: err_console.print(line, markup=False, highlight=False))
+    except KeyboardInterrupt:
+        err_console.print("interrupted: the episode in flight was discarded, finished episodes are kept")
+        raise typer.Exit(130) from None
+    rows = [
+        ("output", str(s.out)),
+        ("episodes", f"{len(s.episodes)} kept, {s.discarded} discarded"),
+        ("frames", str(s.frames)),
+        ("fps", str(fps)),
+        ("overruns", f"{s.overruns} ({s.missed_ticks} ticks missed)"),
+        ("stale ticks", str(s.stale_ticks)),
+        ("repeated samples", str(sum(sum(r.repeated.values()) for r in s.all_reports))),
+        ("safety interventions", str(s.interventions)),
+        ("verdicts", ", ".join(r.verdict for r in s.reports) or "-"),
+    ]
+    if s.estop is not None:
+        rows.append(("e-stop", s.estop))
+    width = max(len(k) for k, _ in rows)
+    console.print("recorded (hal)", markup=False, highlight=False)
+    for key, value in rows:
+        console.print(f"  {key:<{width}}  {value}", markup=False, highlight=False, soft_wrap=True)
+    if s.estop is not None:
+        raise typer.Exit(1)

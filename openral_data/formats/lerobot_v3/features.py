@@ -1,0 +1,98 @@
+"""The info.json `features` block and the matching Arrow schemas for data and episodes parquet."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pyarrow as pa
+
+from openral_data.formats.lerobot_v3.stats import STAT_KEYS
+from openral_data.formats.lerobot_v3.video import VideoSettings
+from openral_data.types import DatasetSchema
+
+IMAGE_PREFIX = "observation.images."
+STATE = "observation.state"
+ACTION = "action"
+DEFAULT_FEATURES: dict[str, dict[str, Any]] = {
+    "timestamp": {"dtype": "float32", "shape": [1], "names": None},
+    "frame_index": {"dtype": "int64", "shape": [1], "names": None},
+    "episode_index": {"dtype": "int64", "shape": [1], "names": None},
+    "index": {"dtype": "int64", "shape": [1], "names": None},
+    "task_index": {"dtype": "int64", "shape": [1], "names": None},
+}
+# Outcome columns, per frame: what happened after the action in this row was taken.
+OUTCOME_FEATURES: dict[str, dict[str, Any]] = {
+    "next.reward": {"dtype": "float32", "shape": [1], "names": None},
+    "next.done": {"dtype": "bool", "shape": [1], "names": None},
+    "next.success": {"dtype": "bool", "shape": [1], "names": None},
+}
+# Our per-episode columns in meta/episodes (lerobot's loader keeps unknown episode columns untouched).
+EPISODE_EXTRA_COLUMNS: dict[str, pa.DataType] = {
+    "openral.success": pa.bool_(),
+    "openral.seed": pa.int64(),
+    "openral.initial_state": pa.string(),
+    "openral.episode_info": pa.string(),  # JSON from the bridge's end_episode(info=...), e.g. a HAL's record
+}
+
+
+def camera_key(name: str) -> str:
+    return IMAGE_PREFIX + name
+
+
+def build_features(schema: DatasetSchema, video: VideoSettings) -> dict[str, dict[str, Any]]:
+    features: dict[str, dict[str, Any]] = {}
+    for name, shape in schema.cameras.items():
+        features[camera_key(name)] = {
+            "dtype": "video",
+            "shape": [shape.height, shape.width, 3],
+            "names": ["height", "width", "channels"],
+            "info": video.feature_info(shape.height, shape.width, schema.fps),
+        }
+    features[STATE] = {"dtype": "float32", "shape": [schema.state_dim], "names": list(schema.state_names)}
+    features[ACTION] = {"dtype": "float32", "shape": [schema.action_dim], "names": list(schema.action_names)}
+    # an outcome the source does not know is not a column: a constant 0 reward or False success would be a claim
+    known = {"next.reward": schema.has_reward, "next.done": True, "next.success": schema.has_success}
+    features.update({k: f for k, f in OUTCOME_FEATURES.items() if known[k]})
+    features.update(DEFAULT_FEATURES)
+    for key in schema.frame_extras:
+        features[key] = {"dtype": "float32", "shape": [1], "names": None}
+    return features
+
+
+def _arrow_type(feature: dict[str, Any]) -> pa.DataType:
+    base = {"float32": pa.float32(), "int64": pa.int64(), "bool": pa.bool_()}[feature["dtype"]]
+    shape = feature["shape"]
+    return base if shape == [1] else pa.list_(base, shape[0])
+
+
+def data_schema(features: dict[str, dict[str, Any]]) -> pa.Schema:
+    return pa.schema([(k, _arrow_type(f)) for k, f in features.items() if f["dtype"] != "video"])
+
+
+def episodes_schema(features: dict[str, dict[str, Any]]) -> pa.Schema:
+    fields: list[tuple[str, pa.DataType]] = [
+        ("episode_index", pa.int64()),
+        ("tasks", pa.list_(pa.string())),
+        ("length", pa.int64()),
+        ("data/chunk_index", pa.int64()),
+        ("data/file_index", pa.int64()),
+        ("dataset_from_index", pa.int64()),
+        ("dataset_to_index", pa.int64()),
+    ]
+    for key, f in features.items():
+        if f["dtype"] == "video":
+            fields += [
+                (f"videos/{key}/chunk_index", pa.int64()),
+                (f"videos/{key}/file_index", pa.int64()),
+                (f"videos/{key}/from_timestamp", pa.float64()),
+                (f"videos/{key}/to_timestamp", pa.float64()),
+            ]
+    for key, f in features.items():
+        value: pa.DataType = (
+            pa.list_(pa.list_(pa.list_(pa.float64()))) if f["dtype"] == "video" else pa.list_(pa.float64())
+        )
+        for stat in STAT_KEYS:
+            fields.append((f"stats/{key}/{stat}", pa.list_(pa.int64()) if stat == "count" else value))
+    fields += [("meta/episodes/chunk_index", pa.int64()), ("meta/episodes/file_index", pa.int64())]
+    fields += list(EPISODE_EXTRA_COLUMNS.items())
+    return pa.schema(fields)

@@ -1,0 +1,81 @@
+"""An episode's frames read back from a LeRobot v3 dataset: numeric columns from its data parquet, images decoded
+with PyAV from each camera's mp4 starting at the episode's ``from_timestamp``. Works on any LeRobot v3 dataset."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import av
+import numpy as np
+import numpy.typing as npt
+import pyarrow.compute as pc
+import pyarrow.parquet as pq
+
+from openral_data.errors import OpenralError
+from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX
+from openral_data.types import Frame
+
+
+def episode_frames(
+    src: Path, info: dict[str, Any], row: dict[str, Any], tasks: list[str], cameras: list[str]
+) -> Iterator[Frame]:
+    e = int(row["episode_index"])
+    path = src / str(info["data_path"]).format(
+        chunk_index=int(row["data/chunk_index"]), file_index=int(row["data/file_index"])
+    )
+    table = pq.read_table(path)
+    table = table.filter(pc.equal(table.column("episode_index"), e)).sort_by("frame_index")
+    n = int(row["length"])
+    if table.num_rows != n:
+        raise OpenralError(f"{path}: episode {e} has {table.num_rows} rows, meta/episodes says {n}")
+    cols = table.to_pydict()
+    fps = int(info["fps"])
+    videos = {name: _decode_video(src, info, row, IMAGE_PREFIX + name, n, fps) for name in cameras}
+    for i in range(n):
+        images = {}
+        for name, it in videos.items():
+            img = next(it, None)
+            if img is None:
+                raise OpenralError(f"episode {e}: camera {name}: video ends before frame {i} of {n}")
+            images[name] = img
+        task_index = int(cols["task_index"][i])
+        yield Frame(
+            state=np.asarray(cols["observation.state"][i], dtype=np.float32).reshape(-1),
+            action=np.asarray(cols["action"][i], dtype=np.float32).reshape(-1),
+            images=images,
+            task=tasks[task_index] if task_index < len(tasks) else "",
+            reward=float(cols["next.reward"][i]) if "next.reward" in cols else 0.0,  # ignored: schema has no reward
+            done=bool(cols["next.done"][i]) if "next.done" in cols else i == n - 1,
+            success=bool(cols["next.success"][i]) if "next.success" in cols else False,  # likewise
+            # LeRobot v3 stores frame_index / fps rounded to float32; the exact value keeps stamps on the grid
+            timestamp=int(cols["frame_index"][i]) / fps,
+        )
+
+
+def _decode_video(
+    src: Path, info: dict[str, Any], row: dict[str, Any], key: str, n: int, fps: int
+) -> Iterator[npt.NDArray[np.uint8]]:
+    """The episode's `n` frames of `key`, decoded from its mp4 starting at `from_timestamp`."""
+    path = src / str(info["video_path"]).format(
+        video_key=key,
+        chunk_index=int(row[f"videos/{key}/chunk_index"]),
+        file_index=int(row[f"videos/{key}/file_index"]),
+    )
+    start = float(row[f"videos/{key}/from_timestamp"])
+    half = 0.5 / fps
+    with av.open(str(path)) as container:
+        stream = container.streams.video[0]
+        tb = stream.time_base
+        assert tb is not None
+        if start > 0:
+            container.seek(int(start / tb), stream=stream, backward=True, any_frame=False)
+        count = 0
+        for frame in container.decode(stream):
+            if frame.pts is None or float(frame.pts * tb) < start - half:
+                continue
+            yield np.asarray(frame.to_ndarray(format="rgb24"), dtype=np.uint8)
+            count += 1
+            if count == n:
+                return

@@ -1,0 +1,86 @@
+"""One writer per dataset: an exclusive fcntl lock on ``DATASET/.openral/lock``.
+
+flock locks belong to the open file, so the kernel drops them when the holder dies, SIGKILL included: a lock
+file left behind by a killed recording is stale by construction and the next writer simply takes it. The
+file names its holder (pid, command, start time) for the refusal message.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import os
+from datetime import UTC, datetime
+from pathlib import Path
+from types import TracebackType
+
+from openral_data.errors import OpenralError
+from openral_data.formats.lerobot_v3 import layout
+
+
+class DatasetBusy(OpenralError):
+    """Another live process is writing the dataset."""
+
+
+class DatasetLock:
+    def __init__(self, root: Path, purpose: str) -> None:
+        self.root = root
+        self.path = root / layout.LOCK_PATH
+        self.purpose = purpose
+        self._fd: int | None = None
+
+    def acquire(self) -> DatasetLock:
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        while True:
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                holder = os.pread(fd, 200, 0).decode(errors="replace").strip() or "unknown process"
+                os.close(fd)
+                raise DatasetBusy(
+                    f"{self.root}: another writer holds this dataset ({holder}); wait for it or stop it"
+                ) from None
+            # the previous holder may have removed the file between our open and our lock: lock the live one
+            try:
+                same = os.path.samestat(os.fstat(fd), os.stat(self.path))
+            except FileNotFoundError:
+                same = False
+            if not same:
+                os.close(fd)
+                continue
+            os.ftruncate(fd, 0)
+            stamp = datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
+            os.pwrite(fd, f"pid {os.getpid()}, {self.purpose}, since {stamp}\n".encode(), 0)
+            self._fd = fd
+            return self
+
+    def release(self) -> None:
+        if self._fd is None:
+            return
+        self.path.unlink(missing_ok=True)  # while still holding it (a waiter re-checks the inode)
+        os.close(self._fd)
+        self._fd = None
+
+    def __enter__(self) -> DatasetLock:
+        return self.acquire()
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.release()
+
+
+def holder(root: Path) -> str | None:
+    """Who holds the dataset's lock right now, or None when nobody does (a stale file is nobody)."""
+    path = root / layout.LOCK_PATH
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except FileNotFoundError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return os.pread(fd, 200, 0).decode(errors="replace").strip() or "unknown process"
+    finally:
+        os.close(fd)
+    return None

@@ -1,0 +1,75 @@
+"""Read back what a LeRobot v3 dataset holds (ours or lerobot's) without lerobot: info, tasks, episodes."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from openral_data.errors import OpenralError
+from openral_data.formats.lerobot_v3 import layout
+
+
+@dataclass(frozen=True)
+class DatasetSummary:
+    root: Path
+    fps: int
+    episodes: int
+    frames: int
+    tasks: list[str]
+    cameras: list[str]
+    successes: int | None  # None when the dataset records no per-episode success
+    robot_type: str | None
+
+    @property
+    def success_rate(self) -> float | None:
+        if self.successes is None or self.episodes == 0:
+            return None
+        return self.successes / self.episodes
+
+
+def read_info(root: Path) -> dict[str, Any]:
+    path = root / layout.INFO_PATH
+    try:
+        info: dict[str, Any] = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise OpenralError(f"{root}: not a LeRobot v3 dataset (no {layout.INFO_PATH})") from None
+    except json.JSONDecodeError as exc:
+        raise OpenralError(f"{path}: invalid JSON: {exc}") from None
+    return info
+
+
+def read_episodes(root: Path) -> pa.Table:
+    files = sorted((root / "meta" / "episodes").glob("*/*.parquet"))
+    if not files:
+        raise OpenralError(f"{root}: no episodes metadata under meta/episodes/")
+    tables = [pq.read_table(f) for f in files]
+    return pa.concat_tables(tables, promote_options="default")
+
+
+def read_tasks(root: Path) -> list[str]:
+    table = pq.read_table(root / layout.TASKS_PATH)
+    rows = sorted(zip(table.column("task_index").to_pylist(), table.column("task").to_pylist(), strict=True))
+    return [task for _, task in rows]
+
+
+def summarize(root: Path) -> DatasetSummary:
+    info = read_info(root)
+    episodes = read_episodes(root)
+    successes = None
+    if "openral.success" in episodes.column_names:
+        successes = sum(bool(v) for v in episodes.column("openral.success").to_pylist())
+    return DatasetSummary(
+        root=root,
+        fps=int(info["fps"]),
+        episodes=int(info.get("total_episodes", 0)),
+        frames=int(info.get("total_frames", 0)),
+        tasks=read_tasks(root) if info.get("total_tasks") else [],
+        cameras=[k for k, f in info["features"].items() if f.get("dtype") == "video"],
+        successes=successes,
+        robot_type=info.get("robot_type"),
+    )

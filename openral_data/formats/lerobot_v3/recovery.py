@@ -1,0 +1,166 @@
+"""Bring a dataset back to its last committed episode after a crash, losing nothing that was committed.
+
+`meta/info.json` is the commit record: its totals say which episodes exist. After a SIGKILL the dataset may
+hold, beside them:
+
+* a commit journal (killed during an episode's renames): the renames are finished, the episode is kept;
+* staged temporary files (``.NAME.tmp``: the episode in flight, or a commit that never reached its journal);
+* rows beyond the totals (datasets written before the journal existed, or by other tools);
+* video files no episode row names (an episode's mp4 placed before its commit, or per-episode files left
+  after a join).
+
+Nothing is deleted: what recovery takes out goes to ``.openral/quarantine/<time>/`` with its relative path.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from collections.abc import Iterator
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import pyarrow as pa
+import pyarrow.compute as pc
+import pyarrow.parquet as pq
+
+from openral_data.formats import atomic
+from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.reader import read_info
+
+DATASET_DIRS = ("meta", "data", "videos")
+
+
+class Quarantine:
+    """One recovery's folder under .openral/quarantine/, created on first use."""
+
+    def __init__(self, root: Path) -> None:
+        self.root = root
+        stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%S.%fZ")
+        self.dir = root / layout.QUARANTINE_DIR / stamp
+
+    def move(self, path: Path) -> Path:
+        dest = self.dir / path.relative_to(self.root)
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        os.replace(path, dest)
+        return dest
+
+    def keep_rows(self, path: Path, rows: pa.Table) -> Path:
+        base = self.dir / f"{path.relative_to(self.root)}.removed-rows"
+        dest, k = base.with_name(base.name + ".parquet"), 1
+        while dest.exists():  # never overwrite rows set aside earlier in this recovery
+            k += 1
+            dest = base.with_name(f"{base.name}-{k}.parquet")
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        pq.write_table(rows, dest)
+        return dest
+
+    def keep_copy(self, path: Path) -> Path:
+        """Keep the original of a file about to be replaced (the first copy wins: it is the original)."""
+        dest = self.dir / path.relative_to(self.root)
+        if not dest.exists():
+            dest.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(path, dest)
+        return dest
+
+
+def staged_files(root: Path) -> Iterator[Path]:
+    """Temporary files of unfinished writes (atomic.tmp_name: ``.NAME.tmp``) inside the dataset folders."""
+    for sub in DATASET_DIRS:
+        base = root / sub
+        if base.is_dir():
+            yield from sorted(p for p in base.rglob(".*.tmp") if p.is_file())
+
+
+def video_files(root: Path) -> list[Path]:
+    return sorted((root / "videos").glob("*/chunk-*/file-*.mp4"))
+
+
+def referenced_videos(root: Path, rows: list[dict[str, Any]], info: dict[str, Any]) -> set[Path]:
+    keys = [k for k, f in info.get("features", {}).items() if f.get("dtype") == "video"]
+    out: set[Path] = set()
+    for row in rows:
+        for key in keys:
+            chunk, file = row.get(f"videos/{key}/chunk_index"), row.get(f"videos/{key}/file_index")
+            if chunk is not None and file is not None:
+                out.add(layout.video_path(root, key, layout.FilePos(int(chunk), int(file))))
+    return out
+
+
+def recover(root: Path, durable: bool = True) -> list[str]:
+    """Finish or undo whatever a killed writer left; returns one line per action taken (empty: was clean)."""
+    actions: list[str] = []
+    moved = atomic.replay_journal(root / layout.JOURNAL_PATH, durable)
+    if moved:
+        actions.append(f"finished an interrupted episode commit ({moved} file(s) renamed into place)")
+    quarantine = Quarantine(root)
+    staged = list(staged_files(root))
+    for path in staged:
+        quarantine.move(path)
+    if staged:
+        actions.append(f"moved {len(staged)} staged file(s) of an unfinished episode to {quarantine.dir}")
+    if not (root / layout.INFO_PATH).is_file():
+        leftovers = [p for sub in DATASET_DIRS if (root / sub).is_dir() for p in (root / sub).rglob("*") if p.is_file()]
+        for path in leftovers:
+            quarantine.move(path)
+        for sub in DATASET_DIRS:
+            shutil.rmtree(root / sub, ignore_errors=True)
+        if leftovers:
+            actions.append(f"no committed episode: moved {len(leftovers)} file(s) to {quarantine.dir}")
+        return actions
+    info = read_info(root)
+    actions += trim_to_totals(root, info, quarantine, durable)
+    rows = episode_rows(root)
+    keep = referenced_videos(root, rows, info)
+    orphans = [p for p in video_files(root) if p not in keep]
+    for path in orphans:
+        quarantine.move(path)
+    if orphans:
+        actions.append(f"moved {len(orphans)} video file(s) no episode refers to to {quarantine.dir}")
+    return actions
+
+
+def episode_rows(root: Path) -> list[dict[str, Any]]:
+    rows: list[dict[str, Any]] = []
+    for path in sorted((root / "meta" / "episodes").glob("*/*.parquet")):
+        rows += pq.read_table(path).to_pylist()
+    return rows
+
+
+def trim_to_totals(root: Path, info: dict[str, Any], quarantine: Quarantine, durable: bool = True) -> list[str]:
+    """Take out rows beyond info.json's totals (episodes, frames, tasks); they are kept in the quarantine."""
+    episodes = int(info.get("total_episodes", 0))
+    frames = int(info.get("total_frames", 0))
+    tasks = int(info.get("total_tasks", 0))
+    actions: list[str] = []
+    for path in sorted((root / "meta" / "episodes").glob("*/*.parquet")):
+        actions += _drop_rows(root, path, pc.field("episode_index") >= episodes, quarantine, durable)
+    for path in sorted((root / "data").glob("*/*.parquet")):
+        beyond = (pc.field("index") >= frames) | (pc.field("episode_index") >= episodes)
+        actions += _drop_rows(root, path, beyond, quarantine, durable)
+    tasks_path = root / layout.TASKS_PATH
+    if tasks_path.is_file():
+        actions += _drop_rows(root, tasks_path, pc.field("task_index") >= tasks, quarantine, durable)
+    return actions
+
+
+def _drop_rows(root: Path, path: Path, beyond: pc.Expression, quarantine: Quarantine, durable: bool) -> list[str]:
+    table = pq.read_table(path)
+    extra = table.filter(beyond)
+    if extra.num_rows == 0:
+        return []
+    quarantine.keep_rows(path, extra)
+    kept = table.filter(~beyond)
+    rel = path.relative_to(root)
+    if kept.num_rows == 0 and path.name != "tasks.parquet":
+        path.unlink()
+        if durable:
+            atomic.fsync_dir(path.parent)
+        return [f"{rel}: only uncommitted rows ({extra.num_rows}); moved them to {quarantine.dir}"]
+
+    def write(tmp: Path) -> None:
+        pq.write_table(kept, tmp, compression="snappy")
+
+    atomic.write_with(path, write, durable)
+    return [f"{rel}: {extra.num_rows} row(s) beyond info.json's totals moved to {quarantine.dir}"]

@@ -1,0 +1,154 @@
+"""What a resumed writer needs from the dataset it continues: counters, rows, open files, running stats.
+
+The dataset must be recovered first (`recovery.recover`): then every episode row, data row and video file
+on disk is committed, and the state rebuilt here is exactly what the writer held after its last episode.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from openral_data.errors import OpenralError
+from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.layout import FilePos
+from openral_data.formats.lerobot_v3.reader import read_info
+from openral_data.formats.lerobot_v3.recovery import episode_rows
+from openral_data.formats.lerobot_v3.stats import STAT_KEYS, ImageStatsAccumulator, Stats, merge_numeric
+from openral_data.formats.lerobot_v3.video import probe_frames
+
+
+@dataclass
+class VideoTail:
+    """A camera's last group: episodes still in their own files (joined later), or where the next file goes."""
+
+    first: FilePos
+    members: list[tuple[int, FilePos, int, int]] = field(default_factory=list)  # episode, file, frames, bytes
+
+
+@dataclass
+class Restored:
+    tasks: dict[str, int]
+    rows: list[dict[str, Any]]
+    total_frames: int
+    episode_file: FilePos
+    data_file: FilePos
+    data_tables: list[pa.Table]
+    videos: dict[str, VideoTail]  # camera name -> tail
+    numeric_stats: dict[str, Stats]
+    image_stats: dict[str, ImageStatsAccumulator]
+
+
+def check_same_format(root: Path, info: dict[str, Any], fps: int, features: dict[str, dict[str, Any]]) -> None:
+    """Refuse to continue a dataset whose fps, cameras, contracts or codec differ, naming the first field."""
+    where = root / layout.INFO_PATH
+    if int(info.get("fps", 0)) != fps:
+        raise OpenralError(f"{where}: fps: the dataset has {info.get('fps')}, this recording {fps}")
+    old = info.get("features", {})
+    for key in sorted(set(old) | set(features)):
+        if key not in old:
+            raise OpenralError(f"{where}: features.{key}: not in the dataset, but this recording has it")
+        if key not in features:
+            raise OpenralError(f"{where}: features.{key}: in the dataset, but this recording does not have it")
+        for part in ("dtype", "shape", "names"):
+            if old[key].get(part) != features[key].get(part):
+                raise OpenralError(
+                    f"{where}: features.{key}.{part}: the dataset has {old[key].get(part)}, "
+                    f"this recording {features[key].get(part)}"
+                )
+        a, b = old[key].get("info") or {}, features[key].get("info") or {}
+        for part in sorted(set(a) | set(b)):
+            if a.get(part) != b.get(part):
+                raise OpenralError(
+                    f"{where}: features.{key}.info.{part}: the dataset has {a.get(part)}, this recording {b.get(part)}"
+                )
+
+
+def restore(
+    root: Path, data_schema: pa.Schema, camera_keys: dict[str, str], chunks_size: int, size_limit: int
+) -> Restored:
+    info = read_info(root)
+    rows = episode_rows(root)
+    if [int(r["episode_index"]) for r in rows] != list(range(int(info.get("total_episodes", 0)))):
+        raise OpenralError(f"{root}: episode rows do not match info.json; run `openral-data doctor --repair` first")
+    tasks: dict[str, int] = {}
+    if rows:
+        table = pq.read_table(root / layout.TASKS_PATH)
+        names, indices = table["task"].to_pylist(), table["task_index"].to_pylist()
+        tasks = {str(t): int(i) for t, i in zip(names, indices, strict=True)}
+    episode_file = max((_pos(r, "meta/episodes") for r in rows), default=FilePos())
+    data_file = max((_pos(r, "data") for r in rows), default=FilePos())
+    data_tables: list[pa.Table] = []
+    path = layout.data_path(root, data_file)
+    if rows and path.is_file():
+        pf = pq.ParquetFile(path)
+        data_tables = [pf.read_row_group(i).cast(data_schema) for i in range(pf.num_row_groups)]
+    numeric: dict[str, Stats] = {}
+    for row in rows:
+        for key in data_schema.names:
+            s = {stat: np.asarray(row[f"stats/{key}/{stat}"]) for stat in STAT_KEYS}
+            numeric[key] = merge_numeric(numeric.get(key), s)
+    return Restored(
+        tasks=tasks,
+        rows=rows,
+        total_frames=sum(int(r["length"]) for r in rows),
+        episode_file=episode_file,
+        data_file=data_file,
+        data_tables=data_tables,
+        videos={name: _video_tail(root, key, rows, chunks_size, size_limit) for name, key in camera_keys.items()},
+        numeric_stats=numeric,
+        image_stats=_image_stats(root, list(camera_keys), bool(rows)),
+    )
+
+
+def _video_tail(root: Path, key: str, rows: list[dict[str, Any]], chunks_size: int, size_limit: int) -> VideoTail:
+    """The trailing episodes that sit alone in consecutive files (a group not yet joined) become the group."""
+
+    def pos(r: dict[str, Any]) -> FilePos:
+        return _pos(r, f"videos/{key}")
+
+    users: dict[FilePos, int] = {}
+    for r in rows:
+        users[pos(r)] = users.get(pos(r), 0) + 1
+    files = (root / "videos" / key).glob("chunk-*/file-*.mp4")
+    on_disk = [FilePos(int(p.parent.name[6:]), int(p.stem[5:])) for p in files]
+    last = max([*users, *on_disk], default=None)
+    members: list[tuple[int, FilePos, int, int]] = []
+    for r in reversed(rows):
+        p = pos(r)
+        alone = users[p] == 1 and float(r[f"videos/{key}/from_timestamp"]) == 0.0
+        follows = not members or p.next(chunks_size) == members[0][1]
+        path = layout.video_path(root, key, p)
+        if not (alone and follows and path.is_file() and probe_frames(path) == int(r["length"])):
+            break
+        members.insert(0, (int(r["episode_index"]), p, int(r["length"]), path.stat().st_size))
+    if members and sum(m[3] for m in members) < size_limit:
+        return VideoTail(first=members[0][1], members=members)
+    return VideoTail(first=last.next(chunks_size) if last is not None else FilePos())
+
+
+def _pos(row: dict[str, Any], prefix: str) -> FilePos:
+    return FilePos(int(row[f"{prefix}/chunk_index"]), int(row[f"{prefix}/file_index"]))
+
+
+def _image_stats(root: Path, names: list[str], has_rows: bool) -> dict[str, ImageStatsAccumulator]:
+    accs = {name: ImageStatsAccumulator() for name in names}
+    if not names or not has_rows:
+        return accs
+    path = root / layout.IMAGE_HIST_PATH
+    try:
+        saved = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise OpenralError(f"{path}: missing: cannot continue this dataset's camera statistics exactly") from None
+    for name, acc in accs.items():
+        if name not in saved:
+            raise OpenralError(f"{path}: {name}: no histogram for this camera")
+        acc.hist = np.asarray(saved[name]["hist"], dtype=np.int64).reshape(3, 256)
+        acc.frames = int(saved[name]["frames"])
+    return accs

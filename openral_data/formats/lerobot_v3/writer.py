@@ -1,0 +1,558 @@
+"""LeRobotDataset v3 writer built on pyarrow + PyAV (not lerobot's writer).
+
+Durability: every finished episode is committed before `end_episode` returns. Its videos are complete mp4s,
+the data and episodes parquet files that hold it are rewritten atomically (temp file, fsync, rename), and
+`meta/info.json` — whose totals decide what lerobot's loader exposes — is written last. Those renames are
+journaled (``.openral/journal.json``), so a crash in the middle of them is finished by `recovery.recover`
+(which `record --resume` and `doctor --repair` run) and lerobot meanwhile sees the previous episode count.
+`resume=True` continues an existing dataset of the same format (see `restore`). Per-episode mp4s of
+one camera are joined into size-rotated files without re-encoding when a file fills up and at `close()`;
+each step of that join leaves every episode readable.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from openral_data.errors import OpenralError
+from openral_data.formats import atomic
+from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.features import (
+    ACTION,
+    STATE,
+    build_features,
+    camera_key,
+    data_schema,
+    episodes_schema,
+)
+from openral_data.formats.lerobot_v3.layout import FilePos
+from openral_data.formats.lerobot_v3.reader import read_info
+from openral_data.formats.lerobot_v3.restore import check_same_format, restore
+from openral_data.formats.lerobot_v3.stats import (
+    ImageStatsAccumulator,
+    Stats,
+    merge_numeric,
+    numeric_stats,
+    to_jsonable,
+)
+from openral_data.formats.lerobot_v3.video import EncodedEpisode, EncoderWorker, VideoSettings, concat_mp4
+from openral_data.types import DatasetSchema, EpisodeRecord, EpisodeStart, Frame
+
+MB = 1 << 20
+
+
+@dataclass(frozen=True)
+class WriterConfig:
+    video: VideoSettings = field(default_factory=VideoSettings)
+    data_files_size_in_mb: int = 100
+    video_files_size_in_mb: int = 200
+    chunks_size: int = layout.DEFAULT_CHUNKS_SIZE
+    durable: bool = True
+    queue_size: int = 16
+
+
+@dataclass
+class _VideoMember:
+    episode: int
+    pos: FilePos
+    frames: int
+    size: int
+
+
+@dataclass
+class _VideoGroup:
+    """Episodes of one camera that will share one mp4 (each in its own file until joined)."""
+
+    first: FilePos
+    members: list[_VideoMember] = field(default_factory=list)
+
+    @property
+    def size(self) -> int:
+        return sum(m.size for m in self.members)
+
+    def next_pos(self, chunks_size: int) -> FilePos:
+        return self.members[-1].pos.next(chunks_size) if self.members else self.first
+
+
+@dataclass
+class _EpisodeBuffer:
+    start: EpisodeStart
+    states: list[npt.NDArray[np.float32]] = field(default_factory=list)
+    actions: list[npt.NDArray[np.float32]] = field(default_factory=list)
+    rewards: list[float] = field(default_factory=list)
+    dones: list[bool] = field(default_factory=list)
+    successes: list[bool] = field(default_factory=list)
+    task_indices: list[int] = field(default_factory=list)
+    extras: dict[str, list[float]] = field(default_factory=dict)
+    info: dict[str, Any] | None = None
+
+
+class LeRobotV3Writer:
+    """A `Sink` that writes a LeRobotDataset v3 that lerobot 0.6.1 loads frame-exactly."""
+
+    def __init__(
+        self, root: Path, schema: DatasetSchema, config: WriterConfig | None = None, *, resume: bool = False
+    ) -> None:
+        self.root = root
+        self.schema = schema
+        self.config = config or WriterConfig()
+        for name, shape in schema.cameras.items():
+            problem = self.config.video.size_problem(shape.height, shape.width)
+            if problem:
+                raise OpenralError(f"camera {name}: {problem}")
+        if not resume and root.exists() and (not root.is_dir() or any(_dataset_entries(root))):
+            raise OpenralError(f"{root}: output exists and is not empty; refusing to overwrite it")
+        self._created_root = not root.exists()
+        root.mkdir(parents=True, exist_ok=True)
+        self.features = build_features(schema, self.config.video)
+        self._data_schema = data_schema(self.features)
+        self._episodes_schema = episodes_schema(self.features)
+        self._keys = {name: camera_key(name) for name in schema.cameras}
+        self._workers = {
+            name: EncoderWorker(name, self.config.video, schema.fps, self.config.queue_size) for name in schema.cameras
+        }
+        self.tasks: dict[str, int] = {}
+        self._tasks_written = 0
+        self.total_frames = 0
+        self.episode_rows: list[dict[str, Any]] = []
+        self._episode_file = FilePos()
+        self._data_file = FilePos()
+        self._data_tables: list[pa.Table] = []
+        self._groups = {name: _VideoGroup(FilePos()) for name in schema.cameras}
+        self._numeric_stats: dict[str, Stats] = {}
+        self._image_stats = {name: ImageStatsAccumulator() for name in schema.cameras}
+        self._episode: _EpisodeBuffer | None = None
+        self._batch: atomic.Batch | None = None  # set while an episode is being committed
+        self._closed = False
+        if resume and (root / layout.INFO_PATH).is_file():
+            self._restore()
+            return
+        atomic.write_bytes(
+            root / layout.OPENRAL_PATH,
+            json.dumps(
+                {"writer": "openral-data", "schema_metadata": schema.metadata, "config": self._config_json()},
+                indent=2,
+            ).encode(),
+            self.config.durable,
+        )
+
+    def _restore(self) -> None:
+        """Continue a recovered dataset: same format, numbering, open files and running statistics."""
+        info = read_info(self.root)
+        check_same_format(self.root, info, self.schema.fps, self.features)
+        limit = self.config.video_files_size_in_mb * MB
+        state = restore(self.root, self._data_schema, self._keys, self.config.chunks_size, limit)
+        self.tasks = dict(state.tasks)
+        self._tasks_written = len(self.tasks)
+        self.episode_rows = state.rows
+        self.total_frames = state.total_frames
+        self._episode_file = state.episode_file
+        self._data_file = state.data_file
+        self._data_tables = state.data_tables
+        for name, tail in state.videos.items():
+            members = [_VideoMember(ep, pos, frames, size) for ep, pos, frames, size in tail.members]
+            self._groups[name] = _VideoGroup(tail.first, members)
+        self._numeric_stats = state.numeric_stats
+        self._image_stats = state.image_stats
+
+    def _config_json(self) -> dict[str, Any]:
+        c = self.config
+        return {
+            "codec": c.video.codec,
+            "crf": c.video.crf,
+            "g": c.video.g,
+            "data_files_size_in_mb": c.data_files_size_in_mb,
+            "video_files_size_in_mb": c.video_files_size_in_mb,
+            "chunks_size": c.chunks_size,
+        }
+
+    @property
+    def total_episodes(self) -> int:
+        return len(self.episode_rows)
+
+    # -- Sink API --------------------------------------------------------------------------------------------
+    def begin_episode(self, start: EpisodeStart) -> None:
+        if self._episode is not None:
+            raise RuntimeError("begin_episode() while an episode is open")
+        self._episode = _EpisodeBuffer(start)
+        for name, worker in self._workers.items():
+            shape = self.schema.cameras[name]
+            worker.begin(self._pending_video(name), shape.height, shape.width)
+
+    def add_frame(self, frame: Frame) -> None:
+        ep = self._episode
+        if ep is None:
+            raise RuntimeError("add_frame() outside an episode")
+        for name, worker in self._workers.items():
+            worker.put(frame.images[name])  # blocks while the encoder is behind: backpressure, never a drop
+        ep.states.append(frame.state)
+        ep.actions.append(frame.action)
+        ep.rewards.append(frame.reward)
+        ep.dones.append(frame.done)
+        ep.successes.append(frame.success)
+        ep.task_indices.append(self.tasks.setdefault(frame.task, len(self.tasks)))
+        for key in self.schema.frame_extras:
+            ep.extras.setdefault(key, []).append(frame.extras[key])
+
+    def annotate_episode(self, info: dict[str, Any]) -> None:
+        """Store `info` (JSON) in the episode's `openral.episode_info` column of meta/episodes."""
+        if self._episode is None:
+            raise RuntimeError("annotate_episode() outside an episode")
+        self._episode.info = info
+
+    def discard_episode(self) -> None:
+        if self._episode is None:
+            return
+        self._episode = None
+        for worker in self._workers.values():
+            worker.abort()
+        # tasks first seen in the discarded episode must not reach tasks.parquet
+        used = {t for row in self.episode_rows for t in row["tasks"]}
+        self.tasks = {t: i for t, i in self.tasks.items() if t in used}
+
+    def end_episode(self, success: bool | None) -> EpisodeRecord:
+        ep = self._episode
+        if ep is None:
+            raise RuntimeError("end_episode() outside an episode")
+        n = len(ep.states)
+        if n == 0:
+            self.discard_episode()
+            raise OpenralError("an episode needs at least one frame")
+        encoded: dict[str, EncodedEpisode] = {}
+        try:
+            for name, worker in self._workers.items():
+                encoded[name] = worker.finish()
+        except BaseException:
+            for enc in encoded.values():
+                enc.path.unlink(missing_ok=True)
+            self.discard_episode()  # aborts the cameras not finished yet
+            raise
+        self._episode = None
+        short = {name: enc.frames for name, enc in encoded.items() if enc.frames != n}
+        if short:
+            for enc in encoded.values():
+                enc.path.unlink(missing_ok=True)
+            raise OpenralError(f"episode discarded: encoded frames {short} differ from its {n} rows")
+        batch = self._batch = atomic.Batch(self.config.durable, journal=self.root / layout.JOURNAL_PATH)
+        try:
+            record = self._commit_episode(ep, n, success, encoded)
+            batch.commit()
+        finally:
+            self._batch = None
+            batch.discard()
+        self._maybe_rotate_episodes_file()
+        return record
+
+    def _commit_episode(
+        self, ep: _EpisodeBuffer, n: int, success: bool | None, encoded: dict[str, EncodedEpisode]
+    ) -> EpisodeRecord:
+        """Place the episode's videos, then stage data, episodes metadata, tasks, stats and info.json."""
+        index = self.total_episodes
+        if not self.schema.has_success:
+            success = None  # unknown stays unknown: `openral.success` is NULL
+        row = self._base_row(index, ep, n, success)
+        table = self._episode_table(index, ep, n)
+        ep_stats = {k: numeric_stats(_column_values(table, k)) for k in table.column_names}
+        for name, enc in encoded.items():
+            self._place_video(name, index, enc.path, enc.frames, row)
+            img = enc.stats.stats()
+            ep_stats[self._keys[name]] = img
+            self._image_stats[name].merge(enc.stats)
+        for key, s in ep_stats.items():
+            for stat, value in to_jsonable(s).items():
+                row[f"stats/{key}/{stat}"] = value
+        self._append_data(table, row)
+        row["meta/episodes/chunk_index"] = self._episode_file.chunk
+        row["meta/episodes/file_index"] = self._episode_file.file
+        self.episode_rows.append(row)
+        for key, s in ep_stats.items():
+            if key not in self._keys.values():
+                self._numeric_stats[key] = merge_numeric(self._numeric_stats.get(key), s)
+        self.total_frames += n
+        self._write_meta(episodes_file=self._episode_file)
+        return EpisodeRecord(index=index, length=n, success=success, seed=ep.start.seed)
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            if self._episode is not None:
+                self.discard_episode()
+            for name in list(self._groups):
+                self._join_group(name)
+            if self.total_episodes:
+                self._write_meta()
+        finally:
+            for worker in self._workers.values():
+                worker.close()
+        if self.total_episodes == 0:  # nothing finished: leave no half-made dataset behind
+            if self._created_root:
+                shutil.rmtree(self.root, ignore_errors=True)
+            else:
+                for sub in ("meta", "data", "videos"):
+                    shutil.rmtree(self.root / sub, ignore_errors=True)
+                (self.root / layout.IMAGE_HIST_PATH).unlink(missing_ok=True)
+
+    # -- episode assembly ------------------------------------------------------------------------------------
+    def _base_row(self, index: int, ep: _EpisodeBuffer, n: int, success: bool | None) -> dict[str, Any]:
+        inv = {i: t for t, i in self.tasks.items()}
+        return {
+            "episode_index": index,
+            "tasks": sorted({inv[i] for i in ep.task_indices}),
+            "length": n,
+            "dataset_from_index": self.total_frames,
+            "dataset_to_index": self.total_frames + n,
+            "openral.success": None if success is None else bool(success),
+            "openral.seed": int(ep.start.seed),
+            "openral.initial_state": json.dumps(ep.start.initial_state, sort_keys=True),
+            "openral.episode_info": None if ep.info is None else json.dumps(ep.info, sort_keys=True),
+        }
+
+    def _episode_table(self, index: int, ep: _EpisodeBuffer, n: int) -> pa.Table:
+        fps = self.schema.fps
+        frame_index = np.arange(n, dtype=np.int64)
+        cols: dict[str, pa.Array] = {
+            STATE: _fixed_list(np.stack(ep.states)),
+            ACTION: _fixed_list(np.stack(ep.actions)),
+            "next.done": pa.array(np.asarray(ep.dones, dtype=bool)),
+            "timestamp": pa.array((frame_index / fps).astype(np.float32)),
+            "frame_index": pa.array(frame_index),
+            "episode_index": pa.array(np.full(n, index, dtype=np.int64)),
+            "index": pa.array(self.total_frames + frame_index),
+            "task_index": pa.array(np.asarray(ep.task_indices, dtype=np.int64)),
+        }
+        if self.schema.has_reward:
+            cols["next.reward"] = pa.array(np.asarray(ep.rewards, dtype=np.float32))
+        if self.schema.has_success:
+            cols["next.success"] = pa.array(np.asarray(ep.successes, dtype=bool))
+        for key in self.schema.frame_extras:
+            cols[key] = pa.array(np.asarray(ep.extras.get(key, []), dtype=np.float32))
+        return pa.table(cols, schema=self._data_schema)
+
+    # -- data parquet ----------------------------------------------------------------------------------------
+    def _append_data(self, table: pa.Table, row: dict[str, Any]) -> None:
+        path = layout.data_path(self.root, self._data_file)
+        if self._data_tables and path.exists():
+            size = path.stat().st_size
+            rows = sum(t.num_rows for t in self._data_tables)
+            if size + size / rows * table.num_rows >= self.config.data_files_size_in_mb * MB:
+                self._data_file = self._data_file.next(self.config.chunks_size)
+                self._data_tables = []
+                path = layout.data_path(self.root, self._data_file)
+        self._data_tables.append(table)
+        row["data/chunk_index"] = self._data_file.chunk
+        row["data/file_index"] = self._data_file.file
+
+        def write(tmp: Path) -> None:
+            with pq.ParquetWriter(tmp, self._data_schema, compression="snappy") as w:
+                for t in self._data_tables:  # one row group per episode, as lerobot writes
+                    w.write_table(t)
+
+        self._write(path, write)
+
+    # -- videos ----------------------------------------------------------------------------------------------
+    def _pending_video(self, name: str) -> Path:
+        group = self._groups[name]
+        return atomic.tmp_name(layout.video_path(self.root, self._keys[name], group.next_pos(self.config.chunks_size)))
+
+    def _place_video(self, name: str, episode: int, tmp: Path, frames: int, row: dict[str, Any]) -> None:
+        key = self._keys[name]
+        group = self._groups[name]
+        size = tmp.stat().st_size
+        if group.members and group.size + size >= self.config.video_files_size_in_mb * MB:
+            # this episode starts a new file: join the full group first, then re-target the episode's file
+            self._join_group(name)
+            group = self._groups[name]
+        pos = group.next_pos(self.config.chunks_size)
+        final = layout.video_path(self.root, key, pos)
+        final.parent.mkdir(parents=True, exist_ok=True)
+        atomic.move_into_place(tmp, final, self.config.durable)
+        group.members.append(_VideoMember(episode, pos, frames, size))
+        row[f"videos/{key}/chunk_index"] = pos.chunk
+        row[f"videos/{key}/file_index"] = pos.file
+        row[f"videos/{key}/from_timestamp"] = 0.0
+        row[f"videos/{key}/to_timestamp"] = frames / self.schema.fps
+
+    def _join_group(self, name: str) -> None:
+        """Join a camera's per-episode files into the group's first file, then point the episodes at it.
+
+        Order keeps every episode readable at every instant: the first episode stays at timestamp 0 of the
+        first file, the others keep their own files until the metadata no longer names them.
+        """
+        group = self._groups[name]
+        key = self._keys[name]
+        if len(group.members) > 1:
+            dest = layout.video_path(self.root, key, group.first)
+            sources = [(layout.video_path(self.root, key, m.pos), m.frames) for m in group.members]
+            atomic.write_with(dest, lambda tmp: concat_mp4(sources, tmp, self.schema.fps), self.config.durable)
+            touched: set[FilePos] = set()
+            offset = 0
+            for m in group.members:
+                row = self.episode_rows[m.episode]
+                row[f"videos/{key}/chunk_index"] = group.first.chunk
+                row[f"videos/{key}/file_index"] = group.first.file
+                row[f"videos/{key}/from_timestamp"] = offset / self.schema.fps
+                offset += m.frames
+                row[f"videos/{key}/to_timestamp"] = offset / self.schema.fps
+                touched.add(FilePos(row["meta/episodes/chunk_index"], row["meta/episodes/file_index"]))
+            self._write_episodes(touched, immediate=True)
+            for m in group.members[1:]:
+                layout.video_path(self.root, key, m.pos).unlink(missing_ok=True)
+        start = group.first.next(self.config.chunks_size) if group.members else group.first
+        self._groups[name] = _VideoGroup(start)
+
+    # -- metadata --------------------------------------------------------------------------------------------
+    def _write(self, path: Path, writer: Callable[[Path], None]) -> None:
+        """Stage into the episode's batch while one is being committed, else replace atomically now."""
+        if self._batch is not None:
+            self._batch.write_with(path, writer)
+        else:
+            atomic.write_with(path, writer, self.config.durable)
+
+    def _write_episodes(self, files: set[FilePos], immediate: bool = False) -> None:
+        for pos in sorted(files):
+            rows = [
+                r
+                for r in self.episode_rows
+                if (r["meta/episodes/chunk_index"], r["meta/episodes/file_index"]) == (pos.chunk, pos.file)
+            ]
+            table = pa.Table.from_pylist(rows, schema=self._episodes_schema)
+            path = layout.episodes_path(self.root, pos)
+            if immediate:
+                atomic.write_with(path, _parquet_writer(table), self.config.durable)
+            else:
+                self._write(path, _parquet_writer(table))
+
+    def _maybe_rotate_episodes_file(self) -> None:
+        path = layout.episodes_path(self.root, self._episode_file)
+        if path.stat().st_size >= self.config.data_files_size_in_mb * MB:
+            self._episode_file = self._episode_file.next(self.config.chunks_size)
+
+    def _write_meta(self, episodes_file: FilePos | None = None) -> None:
+        """tasks, stats, the episodes file, then info.json last: its totals are what the loader trusts.
+
+        The episodes file lands right before info.json: lerobot lists every row of meta/episodes, so the new
+        row would show (uncounted) in the moment between those two renames, and only then.
+        """
+        if len(self.tasks) != self._tasks_written:
+            self._write(self.root / layout.TASKS_PATH, tasks_writer(self.tasks))
+            self._tasks_written = len(self.tasks)
+        stats: dict[str, Any] = {}
+        for key in self.features:
+            if key in self._numeric_stats:
+                stats[key] = to_jsonable(self._numeric_stats[key])
+        for name, acc in self._image_stats.items():
+            stats[self._keys[name]] = to_jsonable(acc.stats())
+        ordered = {k: stats[k] for k in self.features if k in stats}
+        hist = {name: {"hist": acc.hist.tolist(), "frames": acc.frames} for name, acc in self._image_stats.items()}
+        self._write(self.root / layout.IMAGE_HIST_PATH, atomic.bytes_writer(json.dumps(hist).encode()))
+        self._write(self.root / layout.STATS_PATH, atomic.bytes_writer(json.dumps(ordered, indent=4).encode()))
+        if episodes_file is not None:
+            self._write_episodes({episodes_file})
+        self._write(self.root / layout.INFO_PATH, atomic.bytes_writer(json.dumps(self.info(), indent=4).encode()))
+
+    def info(self) -> dict[str, Any]:
+        c = self.config
+        return {
+            "codebase_version": layout.CODEBASE_VERSION,
+            "fps": self.schema.fps,
+            "features": self.features,
+            "total_episodes": self.total_episodes,
+            "total_frames": self.total_frames,
+            "total_tasks": len(self.tasks),
+            "chunks_size": c.chunks_size,
+            "data_files_size_in_mb": c.data_files_size_in_mb,
+            "video_files_size_in_mb": c.video_files_size_in_mb,
+            "data_path": layout.DATA_PATH,
+            "video_path": layout.VIDEO_PATH if self.schema.cameras else None,
+            "robot_type": self.schema.robot_type,
+            "splits": {"train": f"0:{self.total_episodes}"},
+        }
+
+
+def _dataset_entries(root: Path) -> list[Path]:
+    """What is in `root` besides openral-data's own bookkeeping folder (the lock of the recording taking it)."""
+    return [p for p in root.iterdir() if p.name != layout.STATE_DIR]
+
+
+def _fixed_list(values: npt.NDArray[np.float32]) -> pa.Array:
+    """(n, d) float32 -> fixed_size_list<float>[d]; d == 1 is a plain column, as lerobot types shape [1]."""
+    flat = pa.array(np.ascontiguousarray(values, dtype=np.float32).ravel())
+    return flat if values.shape[1] == 1 else pa.FixedSizeListArray.from_arrays(flat, values.shape[1])
+
+
+def _column_values(table: pa.Table, key: str) -> npt.NDArray[Any]:
+    col = table.column(key).combine_chunks()
+    if pa.types.is_fixed_size_list(col.type):
+        return np.asarray(col.flatten().to_numpy(zero_copy_only=False)).reshape(len(col), col.type.list_size)
+    return np.asarray(col.to_numpy(zero_copy_only=False)).reshape(-1, 1)
+
+
+def _parquet_writer(table: pa.Table) -> Callable[[Path], None]:
+    def write(path: Path) -> None:
+        pq.write_table(table, path, compression="snappy")
+
+    return write
+
+
+def tasks_writer(tasks: dict[str, int]) -> Callable[[Path], None]:
+    """tasks.parquet as pandas writes it: column `task_index`, the task string as the index named `task`.
+
+    lerobot reads it with `pd.read_parquet` and looks tasks up by position, so rows are in task_index order
+    and the pandas metadata that makes `task` the index is required (without it `item["task"]` is an int).
+    """
+    ordered = sorted(tasks.items(), key=lambda kv: kv[1])
+    pandas_meta = {
+        "index_columns": ["task"],
+        "column_indexes": [
+            {
+                "name": None,
+                "field_name": None,
+                "pandas_type": "unicode",
+                "numpy_type": "object",
+                "metadata": {"encoding": "UTF-8"},
+            }
+        ],
+        "columns": [
+            {
+                "name": "task_index",
+                "field_name": "task_index",
+                "pandas_type": "int64",
+                "numpy_type": "int64",
+                "metadata": None,
+            },
+            {"name": "task", "field_name": "task", "pandas_type": "unicode", "numpy_type": "object", "metadata": None},
+        ],
+        "attributes": {},
+        "creator": {"library": "pyarrow", "version": pa.__version__},
+        "pandas_version": _pandas_version(),
+    }
+    schema = pa.schema([("task_index", pa.int64()), ("task", pa.string())]).with_metadata(
+        {b"pandas": json.dumps(pandas_meta).encode()}
+    )
+    table = pa.table({"task_index": [i for _, i in ordered], "task": [t for t, _ in ordered]}, schema=schema)
+
+    def write(path: Path) -> None:
+        pq.write_table(table, path, compression="snappy")
+
+    return write
+
+
+def _pandas_version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("pandas")
+    except PackageNotFoundError:
+        return "2.3.3"

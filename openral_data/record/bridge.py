@@ -1,0 +1,181 @@
+"""The dataset bridge: enforces the rSkill contract on every frame and assembles episodes for the sinks.
+
+Pairing: row t holds the observation the policy saw at step t and the action it produced from it, plus what
+followed that action (reward, done, success). The initial observation is a row; the observation after the
+final step is not.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from openral_data.errors import ContractViolation
+from openral_data.types import DatasetSchema, EpisodeRecord, EpisodeStart, Frame, Observation, Sink
+
+
+def _describe(x: object) -> str:
+    if isinstance(x, np.ndarray):
+        return f"{x.dtype}{list(x.shape)}"
+    return type(x).__name__
+
+
+class DatasetBridge:
+    """Validates frames against `schema` and fans them out to every sink."""
+
+    def __init__(self, schema: DatasetSchema, sinks: Sequence[Sink], first_episode: int = 0) -> None:
+        self.schema = schema
+        self.sinks = list(sinks)
+        self._camera_names = set(schema.cameras)
+        self._episode = first_episode  # a resumed recording continues the numbering
+        self._step = 0
+        self._last_time = 0.0
+        self._open = False
+
+    # -- validation ------------------------------------------------------------------------------------------
+    def _where(self) -> str:
+        return f"episode {self._episode} step {self._step}"
+
+    def _vector(self, what: str, value: Any, dim: int) -> npt.NDArray[np.float32]:
+        if not isinstance(value, np.ndarray):
+            raise ContractViolation(f"{self._where()}: {what}: expected a float32 numpy array, got {_describe(value)}")
+        if value.dtype != np.float32 or value.shape != (dim,):
+            raise ContractViolation(f"{self._where()}: {what}: expected float32[{dim}], got {_describe(value)}")
+        if not np.isfinite(value).all():
+            bad = [int(i) for i in np.flatnonzero(~np.isfinite(value))[:5]]
+            raise ContractViolation(f"{self._where()}: {what}: non-finite values at dims {bad}")
+        return value.copy()
+
+    def _images(self, images: Any) -> dict[str, npt.NDArray[np.uint8]]:
+        if not isinstance(images, dict):
+            raise ContractViolation(f"{self._where()}: images: expected a dict of camera name -> array")
+        names = set(images)
+        if names != self._camera_names:
+            missing, extra = sorted(self._camera_names - names), sorted(names - self._camera_names)
+            raise ContractViolation(
+                f"{self._where()}: images: cameras must be exactly {sorted(self._camera_names)}"
+                + (f"; missing {missing}" if missing else "")
+                + (f"; undeclared {extra}" if extra else "")
+            )
+        out: dict[str, npt.NDArray[np.uint8]] = {}
+        for name, img in images.items():
+            shape = self.schema.cameras[name]
+            want = (shape.height, shape.width, 3)
+            if not isinstance(img, np.ndarray) or img.dtype != np.uint8 or img.shape != want:
+                raise ContractViolation(
+                    f"{self._where()}: images.{name}: expected uint8{list(want)} (HWC), got {_describe(img)}"
+                )
+            out[name] = np.ascontiguousarray(img).copy()
+        return out
+
+    def _timestamp(self, time: float | None) -> float:
+        if time is None:
+            return self._step / self.schema.fps
+        t = float(time)
+        if not np.isfinite(t) or t < 0 or t < self._last_time:
+            raise ContractViolation(
+                f"{self._where()}: time: expected a finite, non-decreasing time >= 0, got {time} "
+                f"(previous {self._last_time})"
+            )
+        self._last_time = t
+        return t
+
+    def check_action(self, action: Any) -> None:
+        """Validate a policy's action before it reaches the producer."""
+        self._vector("action", action, self.schema.action_dim)
+
+    # -- episode lifecycle -----------------------------------------------------------------------------------
+    def begin_episode(self, seed: int, initial_state: dict[str, Any]) -> None:
+        if self._open:
+            raise RuntimeError("begin_episode() while an episode is open")
+        self._open = True
+        self._step = 0
+        self._last_time = 0.0
+        start = EpisodeStart(seed=seed, initial_state=initial_state)
+        for sink in self.sinks:
+            sink.begin_episode(start)
+
+    def _extras(self, extras: Mapping[str, float] | None) -> dict[str, float]:
+        want = self.schema.frame_extras
+        got = dict(extras or {})
+        if set(got) != set(want):
+            raise ContractViolation(f"{self._where()}: extras: expected keys {list(want)}, got {sorted(got)}")
+        out = {k: float(got[k]) for k in want}
+        bad = [k for k, v in out.items() if not np.isfinite(v)]
+        if bad:
+            raise ContractViolation(f"{self._where()}: extras: non-finite values for {bad}")
+        return out
+
+    def add_step(
+        self,
+        observation: Observation,
+        action: Any,
+        *,
+        reward: float,
+        done: bool,
+        success: bool,
+        extras: Mapping[str, float] | None = None,
+    ) -> None:
+        """Record row t: `observation` (seen at step t), `action` (produced from it) and its outcome.
+
+        `extras` carries the schema's `frame_extras` values for this row (none by default).
+        """
+        if not self._open:
+            raise RuntimeError("add_step() outside an episode")
+        if not isinstance(observation.task, str) or not observation.task:
+            raise ContractViolation(f"{self._where()}: task: expected a non-empty string")
+        frame = Frame(
+            state=self._vector("observation.state", observation.state, self.schema.state_dim),
+            action=self._vector("action", action, self.schema.action_dim),
+            images=self._images(observation.images),
+            task=observation.task,
+            reward=float(reward),
+            done=bool(done),
+            success=bool(success),
+            timestamp=self._timestamp(observation.time),
+            extras=self._extras(extras),
+        )
+        if not np.isfinite(frame.reward):
+            raise ContractViolation(f"{self._where()}: reward: non-finite value {reward}")
+        for sink in self.sinks:
+            sink.add_frame(frame)
+        self._step += 1
+
+    def end_episode(self, success: bool | None, info: dict[str, Any] | None = None) -> list[EpisodeRecord]:
+        """Commit the episode. `info` (JSON-able) goes to sinks that store episode annotations."""
+        if not self._open:
+            raise RuntimeError("end_episode() outside an episode")
+        if info is not None and self._step > 0:
+            for sink in self.sinks:
+                annotate = getattr(sink, "annotate_episode", None)
+                if annotate is not None:
+                    annotate(info)
+        if self._step == 0:
+            self.discard_episode()
+            raise ContractViolation(f"episode {self._episode}: an episode needs at least one frame")
+        known = None if success is None else bool(success)  # producers may hand numpy bools
+        records = [sink.end_episode(known) for sink in self.sinks]
+        self._open = False
+        self._episode += 1
+        return records
+
+    def discard_episode(self) -> None:
+        if not self._open:
+            return
+        self._open = False
+        for sink in self.sinks:
+            sink.discard_episode()
+
+    def close(self) -> None:
+        self.discard_episode()
+        errors = []
+        for sink in self.sinks:
+            try:
+                sink.close()
+            except Exception as exc:  # noqa: BLE001 - close every sink, then report
+                errors.append(exc)
+        if errors:
+            raise errors[0]

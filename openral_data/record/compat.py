@@ -1,0 +1,64 @@
+"""Compatibility of scene, robot and rSkill, checked before anything runs or is written."""
+
+from __future__ import annotations
+
+from openral_data.errors import CompatibilityError
+from openral_data.formats.lerobot_v3.video import VideoSettings
+from openral_data.schemas.robot import RobotManifest
+from openral_data.schemas.rskill import RSkillManifest
+from openral_data.types import ProducerSpec
+
+
+def rskills_for(robot: RobotManifest) -> list[str]:
+    """Ids of the shipped rSkills whose embodiment tags overlap the robot's (unreadable manifests skipped)."""
+    from openral_data.errors import OpenralError
+    from openral_data.record import registry
+
+    fitting = []
+    for rskill_id in registry.rskill_ids():
+        try:
+            manifest, _ = registry.resolve_rskill(rskill_id)
+        except OpenralError:
+            continue
+        if set(manifest.embodiment_tags) & set(robot.embodiment_tags):
+            fitting.append(rskill_id)
+    return fitting
+
+
+def check_compatibility(
+    robot: RobotManifest,
+    rskill: RSkillManifest,
+    spec: ProducerSpec,
+    *,
+    rskill_source: str,
+    scene_source: str,
+    video: VideoSettings,
+) -> None:
+    """Raise CompatibilityError naming the file and field of the first mismatch."""
+    if not set(rskill.embodiment_tags) & set(robot.embodiment_tags):
+        fitting = rskills_for(robot)
+        raise CompatibilityError(
+            f"{rskill_source}: embodiment_tags: {rskill.embodiment_tags} share nothing with robot "
+            f"{robot.name!r} tags {robot.embodiment_tags}"
+            + (f" (rSkills for this robot: {', '.join(fitting)})" if fitting else "")
+        )
+    if spec.state_dim is not None and spec.state_dim != rskill.state_contract.dim:
+        raise CompatibilityError(
+            f"{rskill_source}: state_contract.dim: {rskill.state_contract.dim} but scene {scene_source} "
+            f"produces a state of {spec.state_dim}"
+        )
+    if spec.action_dim is not None and spec.action_dim != rskill.action_contract.dim:
+        raise CompatibilityError(
+            f"{rskill_source}: action_contract.dim: {rskill.action_contract.dim} but scene {scene_source} "
+            f"accepts actions of {spec.action_dim}"
+        )
+    missing = [c for c in rskill.required_cameras if c not in spec.cameras]
+    if missing:
+        raise CompatibilityError(
+            f"{rskill_source}: required_cameras: {missing} not provided by scene {scene_source} "
+            f"(it has {sorted(spec.cameras)})"
+        )
+    for name, shape in spec.cameras.items():
+        problem = video.size_problem(shape.height, shape.width)
+        if problem:
+            raise CompatibilityError(f"{scene_source}: scene.cameras.{name}: {problem}")

@@ -1,0 +1,270 @@
+"""`record --hal ROBOT`: a robot behind a HAL (its MuJoCo twin, a sim scene, or the real one) recorded by the
+fixed-rate loop (producers/hal/loop.py) through the same bridge and sinks as `record`."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+from openral_data import __version__, paths
+from openral_data.errors import CompatibilityError, ConfigError, OpenralError
+from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
+from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.policies.base import PolicyAdapter
+from openral_data.producers.hal.base import HalBase
+from openral_data.producers.hal.operator import Command, KeyboardOperator, Operator, ScriptedOperator, parse_script
+from openral_data.producers.hal.safety import SafetyFilter
+from openral_data.producers.hal.twin import MujocoTwinHal, SceneHal
+from openral_data.record import registry
+from openral_data.record.bridge import DatasetBridge
+from openral_data.record.compat import check_compatibility
+from openral_data.record.hal_loop import EpisodeEnd, EpisodeReport, FixedRateLoop, LoopConfig, frame_extras
+from openral_data.record.sim import _StopRequest, check_out, fresh_out
+from openral_data.schemas.hal import SafetyMode
+from openral_data.schemas.robot import RobotManifest
+from openral_data.schemas.rskill import RSkillManifest
+from openral_data.types import DatasetSchema, EpisodeRecord, ProducerSpec, Sink
+
+Mode = Literal["sim", "real"]
+JOINT_REPRESENTATIONS = ("joint_positions_gripper", "joint_positions")
+
+
+@dataclass(frozen=True)
+class HalRecordOptions:
+    robot: str
+    rskill: str
+    mode: Mode = "sim"
+    fps: int = 20
+    scene: str | None = None  # sim mode: drive this sim scene through the HAL instead of the bare twin
+    n_episodes: int = 1
+    max_steps: int = 200
+    seed: int = 0
+    out: Path | None = None
+    codec: Codec = "av1"
+    formats: tuple[str, ...] = ("lerobot",)
+    image_format: str = "jpeg"
+    operator: str = "auto"  # auto | keyboard | a script such as "success@40,discard@10"
+    safety: SafetyMode | None = None  # default: the manifest's safety.mode
+    staleness: float | None = None  # camera sample age limit (s); default: 3 periods
+    port: str | None = None  # real mode: override the manifest's hardware.port
+
+
+@dataclass
+class HalRecordSummary:
+    out: Path
+    episodes: list[EpisodeRecord]
+    reports: list[EpisodeReport]  # kept episodes, same order
+    discarded: int
+    frames: int
+    seconds: float
+    estop: str | None = None
+    stopped_by_operator: bool = False
+    all_reports: list[EpisodeReport] = field(default_factory=list)  # discarded attempts too
+
+    @property
+    def overruns(self) -> int:
+        return sum(r.overruns for r in self.all_reports)
+
+    @property
+    def missed_ticks(self) -> int:
+        return sum(r.missed_ticks for r in self.all_reports)
+
+    @property
+    def stale_ticks(self) -> int:
+        return sum(r.stale_ticks for r in self.all_reports)
+
+    @property
+    def interventions(self) -> int:
+        return sum(r.interventions for r in self.all_reports)
+
+
+def make_operator(spec: str) -> Operator:
+    if spec == "keyboard":
+        return KeyboardOperator()
+    if spec == "auto":
+        return ScriptedOperator()
+    return ScriptedOperator(parse_script(spec))
+
+
+def build_hal(opts: HalRecordOptions, robot: RobotManifest, rskill: RSkillManifest, rskill_src: str) -> HalBase:
+    """The HAL for `--mode` (and `--scene`), checked against the rSkill before anything is written."""
+    robot_src = str(paths.robots_dir() / robot.name / "robot.yaml")
+    if opts.scene is None and rskill.action_contract.representation not in JOINT_REPRESENTATIONS:
+        raise CompatibilityError(
+            f"{rskill_src}: action_contract.representation: {rskill.action_contract.representation!r}; a HAL takes "
+            f"joint targets ({', '.join(JOINT_REPRESENTATIONS)})"
+        )
+    if opts.mode == "real":
+        if opts.scene is not None:
+            raise ConfigError("--scene: only with --mode sim (a real robot has no scene to simulate)")
+        from openral_data.producers.hal.so100 import make_hardware_hal
+
+        return make_hardware_hal(robot, robot_src, port=opts.port)
+    if opts.scene is not None:
+        from openral_data.schemas.scene import load_recordable_scene
+
+        scene_path = registry.resolve_scene_path(opts.scene)
+        scene = load_recordable_scene(scene_path)
+        if scene.scene.fps != opts.fps:
+            raise ConfigError(f"{scene_path}: scene.fps: {scene.scene.fps} but --fps is {opts.fps}; make them equal")
+        env = registry.scene_factory(scene.scene.type, str(scene_path))(scene, robot, rskill, str(scene_path))
+        try:
+            check_compatibility(
+                robot, rskill, env.spec, rskill_source=rskill_src, scene_source=str(scene_path), video=VideoSettings()
+            )
+        except BaseException:
+            env.close()
+            raise
+        return SceneHal(robot, env, list(rskill.state_contract.names), list(rskill.action_contract.names))
+    return MujocoTwinHal(robot)
+
+
+def check_hal(hal: HalBase, robot: RobotManifest, rskill: RSkillManifest, rskill_src: str, codec: Codec) -> None:
+    spec = ProducerSpec(
+        state_dim=hal.state_dim,
+        action_dim=hal.action_dim,
+        cameras={n: c.shape for n, c in hal.cameras.items()},
+        fps=1,
+    )
+    check_compatibility(
+        robot, rskill, spec, rskill_source=rskill_src, scene_source=f"robot {robot.name}", video=VideoSettings(codec)
+    )
+
+
+Notify = Callable[[str], None]  # one line for the operator: which episode, what happened to it
+
+
+def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecordSummary:
+    if opts.fps < 1 or opts.fps > 1000:
+        raise OpenralError(f"--fps must be in 1..1000, got {opts.fps}")
+    if opts.n_episodes < 1:
+        raise OpenralError(f"--n-episodes must be >= 1, got {opts.n_episodes}")
+    if opts.max_steps < 1:
+        raise OpenralError(f"--max-steps must be >= 1, got {opts.max_steps}")
+    if opts.staleness is not None and opts.staleness <= 0:
+        raise OpenralError(f"--staleness must be > 0, got {opts.staleness}")
+    if opts.mode not in ("sim", "real"):
+        raise OpenralError(f"--mode: {opts.mode!r}; valid: sim, real")
+    robot = registry.ROBOTS[opts.robot]
+    rskill, rskill_path = registry.resolve_rskill(opts.rskill)
+    rskill_src = str(rskill_path)
+    make_policy = registry.policy_factory(rskill, rskill_src)
+    from openral_data.record.sinks import check_formats
+
+    check_formats(opts.formats, opts.image_format)
+    out = opts.out if opts.out is not None else fresh_out(f"hal-{robot.name}--{rskill.id}")
+    check_out(out)
+    operator = make_operator(opts.operator)
+    try:
+        hal = build_hal(opts, robot, rskill, rskill_src)
+        try:
+            return _run(opts, robot, rskill, rskill_src, hal, make_policy(rskill), operator, out, notify)
+        finally:
+            hal.disconnect()
+            if isinstance(hal, SceneHal):
+                hal.scene.close()
+    finally:
+        operator.close()
+
+
+def _run(
+    opts: HalRecordOptions,
+    robot: RobotManifest,
+    rskill: RSkillManifest,
+    rskill_src: str,
+    hal: HalBase,
+    policy: PolicyAdapter,
+    operator: Operator,
+    out: Path,
+    notify: Notify | None,
+) -> HalRecordSummary:
+    from openral_data.record.sinks import make_sinks
+
+    check_hal(hal, robot, rskill, rskill_src, opts.codec)
+    fk = hal.forward_kinematics if isinstance(hal, MujocoTwinHal) else None
+    names = list(rskill.action_contract.names) if isinstance(hal, SceneHal) else None
+    state_names = list(rskill.state_contract.names) if isinstance(hal, SceneHal) else None
+    safety = SafetyFilter(
+        robot,
+        mode=opts.safety,
+        fk=fk,
+        names=names,
+        state_names=state_names,
+        source=str(paths.robots_dir() / robot.name / "robot.yaml"),
+    )
+    cameras = list(hal.cameras)
+    schema = DatasetSchema(
+        fps=opts.fps,
+        state_names=tuple(rskill.state_contract.names),
+        action_names=tuple(rskill.action_contract.names),
+        cameras={n: hal.cameras[n].shape for n in cameras},
+        robot_type=robot.name,
+        metadata={
+            "openral_data_version": __version__,
+            "hal": {"robot": robot.name, "mode": opts.mode, "kind": type(hal).__name__, "scene": opts.scene},
+            "rskill": {"path": rskill_src, "config": rskill.model_dump(mode="json")},
+            "robot": robot.name,
+            "safety": {"mode": safety.mode, "config": robot.safety.model_dump(mode="json")},
+        },
+        has_reward=isinstance(hal, SceneHal),
+        frame_extras=frame_extras(cameras),
+    )
+    hal.connect()  # a robot that cannot be reached fails here, before anything is written
+    sinks: list[Sink] = make_sinks(
+        out, schema, opts.formats, WriterConfig(video=VideoSettings(codec=opts.codec)), opts.image_format
+    )
+    bridge = DatasetBridge(schema, sinks)
+    task = rskill.description or rskill.id
+    if isinstance(hal, SceneHal):
+        from openral_data.schemas.scene import load_recordable_scene
+
+        task = load_recordable_scene(registry.resolve_scene_path(opts.scene or "")).task.instruction
+    staleness = opts.staleness if opts.staleness is not None else 3.0 / opts.fps
+    loop = FixedRateLoop(hal, policy, safety, bridge, operator, LoopConfig(opts.fps, task, opts.max_steps, staleness))
+    summary = HalRecordSummary(out=out, episodes=[], reports=[], discarded=0, frames=0, seconds=0.0)
+    t0 = time.perf_counter()
+    stop = _StopRequest()  # Ctrl-C / SIGTERM stop between ticks, never inside a commit
+    loop.config.check_stop = stop.check
+    try:
+        rerecord = False
+        while len(summary.episodes) < opts.n_episodes:
+            index = len(summary.episodes)
+            if notify is not None and operator.interactive and not rerecord:
+                notify(f"episode {index}: press space to start (q quits)")
+            if not rerecord and operator.wait_start(index, stop.check) is Command.QUIT:
+                summary.stopped_by_operator = True
+                break
+            end, report, rec = loop.run_episode(index, opts.seed + index)
+            summary.all_reports.append(report)
+            rerecord = end is EpisodeEnd.RERECORD
+            if notify is not None:
+                notify(
+                    f"episode {index}: {end.value} ({report.verdict}, {report.frames} frames, "
+                    f"{report.overruns} overruns, {report.stale_ticks} stale, {report.interventions} interventions)"
+                )
+            if end is EpisodeEnd.QUIT:
+                summary.stopped_by_operator = True
+                break
+            if rec is None:
+                summary.discarded += 1
+                continue
+            summary.episodes.append(rec)
+            summary.reports.append(report)
+            summary.frames += rec.length
+            if report.estop is not None:
+                summary.estop = report.estop
+                break
+    except BaseException as exc:
+        bridge.close()
+        if isinstance(exc, OpenralError) and summary.episodes:
+            raise type(exc)(f"{exc} ({len(summary.episodes)} finished episode(s) kept in {out})") from None
+        raise
+    finally:
+        stop.restore()
+        policy.close()
+    bridge.close()
+    summary.seconds = time.perf_counter() - t0
+    return summary

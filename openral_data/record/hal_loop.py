@@ -1,0 +1,295 @@
+"""The fixed-rate recording loop: HAL -> policy -> safety -> HAL, every tick recorded or accounted for.
+
+Tick k of an episode is due at `t0 + k / fps` (monotonic clock). At each tick the loop reads the joint state
+(`StaleState` if too old), takes each camera's newest sample and its age, and then either
+
+* records a frame: the policy's action passes the safety filter and is sent (or refused and held), and the
+  row stores the action that was actually commanded; or
+* skips the tick as **stale** when the joint state or a camera sample is older than the staleness limit (the
+  policy never acts on stale data; nothing is sent; the tick is counted per sensor).
+
+A tick whose work ends after the next deadline is an **overrun**; deadlines that passed entirely are
+**missed** ticks (the loop never bursts to catch up). So `ticks == frames + missed + stale` exactly, and each
+frame says how many ticks were missed and how many were stale just before it. A camera sample recorded twice
+is counted as a **repeat** (the sample's age is in the row): reuse of the newest sample is visible, never
+silent.
+
+Stored per frame (LeRobot: float32 columns; MCAP: the message stamps): `timestamp` stays frame-aligned
+(`frame_index / fps`, what lerobot expects); `openral.real_timestamp` is the monotonic time of the joint
+reading since the episode began (also `Observation.time`, the MCAP stamp); `openral.tick`,
+`openral.ticks_missed`, `openral.ticks_stale`, `openral.safety_interventions` and
+`openral.sample_age.<camera>`. The episode's report (overruns, stale and repeat counts, every safety
+intervention, the operator's verdict) goes to the episode record (`openral.episode_info` in meta/episodes).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from enum import StrEnum
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from openral_data.policies.base import PolicyAdapter
+from openral_data.producers.hal.base import EstopLatched, HalBase, HalError, JointCommand, StaleState, monotonic
+from openral_data.producers.hal.operator import Command, Operator, ScriptedOperator
+from openral_data.producers.hal.safety import SafetyFilter
+from openral_data.record.bridge import DatasetBridge
+from openral_data.types import EpisodeRecord, Observation
+
+REAL_TIMESTAMP = "openral.real_timestamp"
+TICK = "openral.tick"
+TICKS_MISSED = "openral.ticks_missed"
+TICKS_STALE = "openral.ticks_stale"
+SAFETY = "openral.safety_interventions"
+SAMPLE_AGE = "openral.sample_age."
+MAX_LOGGED_INTERVENTIONS = 1000  # per episode in the JSON record; the per-frame column counts all of them
+
+
+def frame_extras(cameras: list[str]) -> tuple[str, ...]:
+    return (REAL_TIMESTAMP, TICK, TICKS_MISSED, TICKS_STALE, SAFETY, *(SAMPLE_AGE + c for c in cameras))
+
+
+class EpisodeEnd(StrEnum):
+    KEPT = "kept"
+    DISCARDED = "discarded"
+    RERECORD = "rerecord"
+    QUIT = "quit"  # quit before anything was recorded in this episode (the episode in flight is discarded)
+
+
+@dataclass
+class EpisodeReport:
+    ticks: int = 0
+    frames: int = 0
+    overruns: int = 0
+    missed_ticks: int = 0
+    stale_ticks: int = 0
+    stale: dict[str, int] = field(default_factory=dict)  # sensor ("state" or a camera) -> ticks skipped
+    repeated: dict[str, int] = field(default_factory=dict)  # camera -> frames that reused a recorded sample
+    interventions: int = 0
+    refused: int = 0
+    intervention_log: list[dict[str, Any]] = field(default_factory=list)
+    max_lateness: float = 0.0  # seconds past its deadline the latest tick started
+    verdict: str = ""
+    estop: str | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        return asdict(self)
+
+    def accounted(self) -> bool:
+        return self.ticks == self.frames + self.missed_ticks + self.stale_ticks
+
+
+@dataclass
+class _Row:
+    obs: Observation
+    action: npt.NDArray[np.float32]
+    reward: float
+    success: bool
+    extras: dict[str, float]
+
+
+@dataclass
+class LoopConfig:
+    fps: int
+    task: str
+    max_steps: int
+    staleness: float  # seconds: an older camera sample makes the tick stale
+    sleep: Callable[[float], None] = time.sleep
+    check_stop: Callable[[], None] | None = None  # raises (KeyboardInterrupt) to stop between ticks
+    stale_abort: float = 2.0  # seconds of nothing but stale ticks: a sensor is dead, the episode is abandoned
+
+
+class FixedRateLoop:
+    def __init__(
+        self,
+        hal: HalBase,
+        policy: PolicyAdapter,
+        safety: SafetyFilter,
+        bridge: DatasetBridge,
+        operator: Operator,
+        config: LoopConfig,
+    ) -> None:
+        self.hal = hal
+        self.policy = policy
+        self.safety = safety
+        self.bridge = bridge
+        self.operator = operator
+        self.config = config
+        self.dt = 1.0 / config.fps
+        self.cameras = list(bridge.schema.cameras)
+
+    def run_episode(self, episode: int, seed: int) -> tuple[EpisodeEnd, EpisodeReport, EpisodeRecord | None]:
+        """Record one episode (the operator has started it). The HAL stays connected afterwards."""
+        cfg, hal = self.config, self.hal
+        rep = EpisodeReport(
+            stale={"state": 0, **dict.fromkeys(self.cameras, 0)}, repeated=dict.fromkeys(self.cameras, 0)
+        )
+        initial = hal.begin_episode(seed)
+        for name in self.cameras:  # warm up (first render / device start-up) before the clock starts
+            hal.cameras[name].latest()
+        self.policy.reset(seed)
+        self.bridge.begin_episode(seed, initial)
+        last_seq: dict[str, int] = {}
+        pending: _Row | None = None
+        verdict: Command | None = None
+        skipped = [0, 0]  # ticks missed / stale since the last recorded frame
+        t0 = monotonic()
+        k = 0
+        try:
+            while True:
+                deadline = t0 + k * self.dt
+                now = monotonic()
+                if deadline > now:
+                    cfg.sleep(deadline - now)
+                if cfg.check_stop is not None:
+                    cfg.check_stop()
+                start = monotonic()
+                rep.max_lateness = max(rep.max_lateness, start - deadline)
+                rep.ticks = k + 1
+                cmd = self.operator.poll(episode, rep.frames)
+                if cmd is not None:
+                    verdict = cmd
+                    rep.ticks = k  # this tick was not worked on
+                    break
+                stale_before = rep.stale_ticks
+                row = self._tick(k, t0, rep, last_seq, skipped)
+                skipped[1] += rep.stale_ticks - stale_before
+                if skipped[1] * self.dt > cfg.stale_abort:
+                    dead = sorted(n for n, c in rep.stale.items() if c)
+                    raise HalError(
+                        f"robot {hal.robot.name}: no fresh sample from {', '.join(dead)} for {cfg.stale_abort:.1f} s "
+                        f"(staleness limit {cfg.staleness:.3f} s); episode {episode} abandoned"
+                    )
+                if row is not None:
+                    if pending is not None:
+                        self.bridge.add_step(
+                            pending.obs, pending.action, reward=pending.reward, done=False,
+                            success=pending.success, extras=pending.extras,
+                        )  # fmt: skip
+                    pending = row
+                    skipped = [0, 0]
+                outcome = hal.outcome()
+                if (outcome is not None and outcome[2]) or rep.frames >= cfg.max_steps:
+                    break
+                end = monotonic()
+                next_k = k + 1
+                if end > t0 + next_k * self.dt:
+                    rep.overruns += 1
+                    late_k = max(next_k, math.floor((end - t0) / self.dt))
+                    rep.missed_ticks += late_k - next_k
+                    skipped[0] += late_k - next_k
+                    next_k = late_k
+                k = next_k
+        except EstopLatched as exc:  # latched by someone else (another thread, the driver) mid-tick
+            verdict = Command.ESTOP
+            rep.estop = str(exc)
+            rep.ticks = k  # the aborted tick recorded nothing
+        except BaseException:
+            self.bridge.discard_episode()
+            raise
+        return self._finish(verdict, pending, rep)
+
+    def _tick(self, k: int, t0: float, rep: EpisodeReport, last_seq: dict[str, int], skipped: list[int]) -> _Row | None:
+        hal, cfg = self.hal, self.config
+        try:
+            state = hal.read_state()
+        except StaleState:
+            rep.stale["state"] += 1
+            rep.stale_ticks += 1
+            return None
+        now = monotonic()
+        images: dict[str, npt.NDArray[np.uint8]] = {}
+        ages: dict[str, float] = {}
+        stale = []
+        seqs: dict[str, int] = {}
+        for name in self.cameras:
+            sample = hal.cameras[name].latest()
+            if sample is None or now - sample.stamp > cfg.staleness:
+                stale.append(name)
+                continue
+            images[name] = sample.image
+            ages[name] = max(0.0, now - sample.stamp)
+            seqs[name] = sample.seq
+        if stale:
+            for name in stale:
+                rep.stale[name] += 1
+            rep.stale_ticks += 1
+            return None
+        for name, seq in seqs.items():
+            if last_seq.get(name) == seq:
+                rep.repeated[name] += 1
+            last_seq[name] = seq
+        obs = Observation(images, state.positions, cfg.task, time=state.stamp - t0, privileged=hal.privileged())
+        action = self.policy.step(obs, cfg.task)
+        self.bridge.check_action(action)
+        result = self.safety.apply(action, state.positions, self.dt)
+        for item in result.interventions:
+            if len(rep.intervention_log) < MAX_LOGGED_INTERVENTIONS:
+                rep.intervention_log.append({"frame": rep.frames, "tick": k, **item.to_json()})
+        rep.interventions += len(result.interventions)
+        if result.applied is None:
+            rep.refused += 1
+            sent = self._held(state.positions, action)
+        else:
+            sent = hal.send_action(JointCommand(result.applied)).positions
+        outcome = hal.outcome()
+        reward, success = (outcome[0], outcome[1]) if outcome is not None else (0.0, False)
+        extras = {
+            REAL_TIMESTAMP: state.stamp - t0,
+            TICK: float(k),
+            TICKS_MISSED: float(skipped[0]),
+            TICKS_STALE: float(skipped[1]),
+            SAFETY: float(len(result.interventions)),
+            **{SAMPLE_AGE + n: a for n, a in ages.items()},
+        }
+        rep.frames += 1
+        return _Row(obs, np.asarray(sent, dtype=np.float32).copy(), reward, success, extras)
+
+    def _held(self, state: npt.NDArray[np.float32], action: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
+        """What the robot keeps doing when a command is refused: its last command (else its current position)."""
+        last = self.hal.last_command
+        if last is not None:
+            return last.positions
+        cur = self.safety.current(state)
+        return np.where(np.isnan(cur), action, cur).astype(np.float32)
+
+    def _finish(
+        self, verdict: Command | None, pending: _Row | None, rep: EpisodeReport
+    ) -> tuple[EpisodeEnd, EpisodeReport, EpisodeRecord | None]:
+        if verdict is None and isinstance(self.operator, ScriptedOperator):
+            planned = self.operator.current()
+            if planned is not None and planned.at_frame is None:
+                verdict = planned.command
+        if verdict in (Command.DISCARD, Command.RERECORD, Command.QUIT) or pending is None:
+            self.bridge.discard_episode()
+            rep.verdict = (verdict or Command.DISCARD).value if pending is not None else "empty"
+            end = {Command.RERECORD: EpisodeEnd.RERECORD, Command.QUIT: EpisodeEnd.QUIT}.get(
+                verdict or Command.DISCARD, EpisodeEnd.DISCARDED
+            )
+            return end, rep, None
+        if verdict is Command.ESTOP:
+            if not self.hal.estopped:
+                self.hal.estop("operator e-stop")
+            rep.estop = rep.estop or self.hal.estop_reason
+        outcome = self.hal.outcome()
+        success: bool | None
+        if verdict is Command.SUCCESS:
+            success = True
+        elif verdict in (Command.FAILURE, Command.ESTOP):
+            success = False
+        elif outcome is not None:
+            success = bool(outcome[1])
+        else:
+            success = None  # ran to the step limit and nobody said how it went
+        rep.verdict = verdict.value if verdict is not None else ("scene" if outcome is not None else "step_limit")
+        self.bridge.add_step(
+            pending.obs, pending.action, reward=pending.reward, done=True,
+            success=bool(success) if success is not None else pending.success, extras=pending.extras,
+        )  # fmt: skip
+        record = self.bridge.end_episode(success, info={"hal": rep.to_json()})[0]
+        return EpisodeEnd.KEPT, rep, record

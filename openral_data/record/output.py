@@ -1,0 +1,178 @@
+"""`record --resume`: continue a recording with the settings it started with, after any crash.
+
+A recording keeps its settings in ``OUT/.openral/record.json`` (scene, rSkill, robot, seed, step limit,
+codec, formats, image format, the requested episode count and the dataset schema). `--resume` takes them
+from there; an option given again must match, except `--n-episodes` (the total wanted). Under the dataset's
+writer lock it then recovers each sink (`recovery.recover` for LeRobot, the staging folder for MCAP) and, if a
+kill fell between the sinks' commits of one episode, sets aside the sink that got one episode further (the
+MCAP sink commits first, and a bag is one folder to move).
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from openral_data.errors import ConfigError, OpenralError
+from openral_data.formats import atomic
+from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.lock import DatasetLock
+from openral_data.formats.lerobot_v3.reader import read_info
+from openral_data.formats.lerobot_v3.recovery import Quarantine, recover
+from openral_data.formats.mcap.writer import PARTIAL, finished_bags
+from openral_data.types import DatasetSchema
+
+if TYPE_CHECKING:
+    from openral_data.record.sim import RecordOptions
+
+MCAP_SUBDIR = "mcap"  # sinks.select.MCAP_SUBDIR (not imported: select imports the sinks, which is heavier)
+# RecordOptions fields kept for a resume, with the CLI option that sets each (for the refusal message)
+KEPT = {
+    "scene": "--scene",
+    "rskill": "--rskill",
+    "robot": "--robot",
+    "seed": "--seed",
+    "max_steps": "--max-steps",
+    "codec": "--codec",
+    "formats": "--format",
+    "image_format": "--image-format",
+}
+
+
+@dataclass(frozen=True)
+class Output:
+    """The locked output of a recording: where the next episode's number starts."""
+
+    lock: DatasetLock
+    first_episode: int
+    fresh: bool  # a new recording (not --resume)
+    created: bool  # this recording created the folder (a fresh start that finishes nothing removes it again)
+    actions: list[str]  # what recovery did
+
+
+def settings_path(out: Path) -> Path:
+    return out / layout.RECORD_PATH
+
+
+def continue_options(opts: RecordOptions, explicit: frozenset[str]) -> RecordOptions:
+    """The options of the recording in `opts.out`, with `--n-episodes` from `opts` when given."""
+    if opts.out is None:
+        raise OpenralError("--resume needs --out: the dataset folder to continue")
+    path = settings_path(opts.out)
+    try:
+        saved: dict[str, Any] = json.loads(path.read_text())["options"]
+    except FileNotFoundError:
+        raise OpenralError(f"{opts.out}: nothing to resume (no {layout.RECORD_PATH})") from None
+    except (json.JSONDecodeError, KeyError, TypeError) as exc:
+        raise OpenralError(f"{path}: unreadable recording settings: {exc}") from None
+    changes: dict[str, Any] = {}
+    for name, flag in KEPT.items():
+        stored = saved.get(name)
+        if name == "formats":
+            stored = tuple(stored or ())
+        given = getattr(opts, name)
+        if name in explicit and _normal(name, given) != _normal(name, stored):
+            shown = ",".join(given) if name == "formats" else given
+            raise ConfigError(
+                f"{path}: {name}: the dataset was recorded with {_show(stored)}; {flag} {shown} differs "
+                "(leave the option out to continue with the recorded one)"
+            )
+        changes[name] = stored
+    if "n_episodes" not in explicit:
+        changes["n_episodes"] = saved.get("n_episodes")
+    return replace(opts, **changes)
+
+
+def _normal(name: str, value: Any) -> Any:
+    """Compare scene/rSkill references by the file they resolve to."""
+    if value is None:
+        return None
+    if name == "scene":
+        from openral_data.record.registry import resolve_scene_path
+
+        return str(resolve_scene_path(str(value)).resolve())
+    if name == "rskill":
+        from openral_data.record.registry import resolve_rskill
+
+        return str(resolve_rskill(str(value))[1].resolve())
+    return value
+
+
+def _show(value: Any) -> str:
+    return ",".join(value) if isinstance(value, tuple) else str(value)
+
+
+def schema_json(schema: DatasetSchema) -> dict[str, Any]:
+    return {
+        "fps": schema.fps,
+        "cameras": {name: [c.height, c.width] for name, c in schema.cameras.items()},
+        "state contract": list(schema.state_names),
+        "action contract": list(schema.action_names),
+        "outcomes": {"reward": schema.has_reward, "success": schema.has_success},
+    }
+
+
+def open_output(out: Path, opts: RecordOptions, schema: DatasetSchema, resolved: dict[str, Any]) -> Output:
+    """Lock `out`; fresh: store the settings; resume: check the schema, recover, count finished episodes."""
+    created = not out.exists()
+    lock = DatasetLock(out, f"openral-data record{' --resume' if opts.resume else ''}").acquire()
+    try:
+        if not opts.resume:
+            doc = {"options": resolved, "schema": schema_json(schema)}
+            atomic.write_bytes(settings_path(out), json.dumps(doc, indent=2).encode())
+            return Output(lock, 0, True, created, [])
+        _check_schema(out, schema)
+        actions, done = _recover(out, opts.formats)
+        return Output(lock, done, False, created, actions)
+    except BaseException:
+        lock.release()
+        raise
+
+
+def close_output(out: Path, output: Output, finished: int) -> None:
+    """Release the lock; a fresh recording that finished nothing leaves no folder behind."""
+    output.lock.release()
+    if output.fresh and finished == 0 and all(p.name == layout.STATE_DIR for p in out.iterdir()):
+        shutil.rmtree(out / layout.STATE_DIR, ignore_errors=True)
+        if output.created:
+            out.rmdir()
+
+
+def _check_schema(out: Path, schema: DatasetSchema) -> None:
+    path = settings_path(out)
+    saved = json.loads(path.read_text()).get("schema", {})
+    now = schema_json(schema)
+    for field, value in now.items():
+        if saved.get(field) != value:
+            raise ConfigError(f"{path}: {field}: the dataset has {saved.get(field)}, this recording {value}")
+
+
+def _recover(out: Path, formats: tuple[str, ...]) -> tuple[list[str], int]:
+    actions: list[str] = []
+    counts: dict[str, int] = {}
+    if "lerobot" in formats:
+        actions += recover(out)
+        counts["lerobot"] = int(read_info(out).get("total_episodes", 0)) if (out / layout.INFO_PATH).is_file() else 0
+    bags = out / MCAP_SUBDIR
+    if "mcap" in formats:
+        shutil.rmtree(bags / PARTIAL, ignore_errors=True)
+        found = finished_bags(bags) if bags.is_dir() else []
+        names = [p.name for p in found]
+        expected = [f"episode_{i:06d}" for i in range(len(found))]
+        if names != expected:
+            raise OpenralError(f"{bags}: episode bags are not numbered 0..{len(found) - 1}; cannot continue")
+        counts["mcap"] = len(found)
+    done = min(counts.values(), default=0)
+    if counts.get("mcap", 0) > done:
+        q = Quarantine(out)
+        for bag in finished_bags(bags)[done:]:
+            q.move(bag)
+        actions.append(f"{MCAP_SUBDIR}: bag(s) from episode {done} on set aside (LeRobot never committed them)")
+    if counts.get("lerobot", done) > done:
+        raise OpenralError(
+            f"{out}: the LeRobot dataset holds {counts['lerobot']} episodes, the MCAP bags {done}; cannot continue"
+        )
+    return actions, done

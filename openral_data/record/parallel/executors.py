@@ -1,0 +1,114 @@
+"""Run worker jobs: local processes (`spawn`, so no simulator or GL state is inherited) or a Ray cluster.
+
+Both return results in the order the workers finished; the caller orders episodes by seed, never by that.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import os
+import signal
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from typing import Any
+
+from openral_data.errors import OpenralError
+from openral_data.record.parallel.plan import WorkerJob
+from openral_data.record.parallel.worker import WorkerResult, init_local_worker, run_worker
+
+EXECUTORS = ("local", "ray")
+# environment a worker needs to find the same manifests and render the same way
+_FORWARDED_ENV = ("OPENRAL_DATA_HOME", "MUJOCO_GL", "PYOPENGL_PLATFORM", "HF_HOME", "HF_HUB_OFFLINE", "SVT_LOG")
+
+
+def run_local(jobs: list[WorkerJob]) -> list[WorkerResult]:
+    ctx = multiprocessing.get_context("spawn")
+    finished: list[WorkerResult] = []
+    with ProcessPoolExecutor(max_workers=len(jobs), mp_context=ctx, initializer=init_local_worker) as pool:
+        pending = {pool.submit(run_worker, job) for job in jobs}
+        try:
+            while pending:
+                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for fut in done:
+                    exc = fut.exception()
+                    if exc is not None:
+                        raise exc
+                finished += sorted((f.result() for f in done), key=lambda r: r.finished_at)
+        except BaseException:
+            # a failed worker or Ctrl-C: stop the others the way Ctrl-C stops `record` (the episode in flight is
+            # discarded, finished ones stay durable in each worker's dataset) instead of waiting for their shares
+            for fut in pending:
+                fut.cancel()
+            _interrupt(pool)
+            raise
+    return finished
+
+
+def _interrupt(pool: ProcessPoolExecutor) -> None:
+    processes: dict[int, Any] = getattr(pool, "_processes", None) or {}
+    for proc in list(processes.values()):
+        if proc.is_alive() and proc.pid is not None:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(proc.pid, signal.SIGTERM)  # a second SIGINT would not wait for a commit
+
+
+def run_ray(jobs: list[WorkerJob], address: str | None = None) -> list[WorkerResult]:
+    try:
+        import ray
+    except ImportError:
+        raise OpenralError("--executor ray: Ray is not installed (install the `ray` extra)") from None
+    started = False
+    if not ray.is_initialized():
+        env = {k: os.environ[k] for k in _FORWARDED_ENV if k in os.environ}
+        kwargs: dict[str, Any] = {
+            "include_dashboard": False,
+            "log_to_driver": False,
+            "runtime_env": {"env_vars": env},
+        }
+        if address is None:
+            kwargs["num_cpus"] = max(len(jobs), os.cpu_count() or 1)
+        _init_ray(ray, address, kwargs)
+        started = True
+    try:
+        remote = ray.remote(num_cpus=1, max_retries=0)(run_worker)
+        refs = [remote.remote(job) for job in jobs]
+        finished: list[WorkerResult] = []
+        while refs:
+            ready, refs = ray.wait(refs, num_returns=1)
+            try:
+                finished.append(ray.get(ready[0]))
+            except ray.exceptions.RayTaskError as exc:
+                cause = getattr(exc, "cause", None)  # the worker's own exception
+                if isinstance(cause, OpenralError):
+                    raise OpenralError(str(cause)) from None
+                raise
+        return finished
+    finally:
+        if started:
+            ray.shutdown()
+
+
+def _init_ray(ray: Any, address: str | None, kwargs: dict[str, Any]) -> None:
+    """Connect to `address`, or start a local instance. On a loaded machine Ray's local start can give up
+    (its raylet waits a fixed 15 s for the agent's port file, ray-project/ray#65983): retry that twice."""
+    attempts = 1 if address is not None else 3
+    for attempt in range(1, attempts + 1):
+        try:
+            ray.init(address=address, **kwargs)
+            return
+        except Exception as exc:  # noqa: BLE001 - Ray reports a failed start as a bare Exception
+            ray.shutdown()
+            if address is not None:
+                raise OpenralError(f"--address {address}: cannot connect to a Ray cluster: {exc}") from None
+            if attempt == attempts or "timed out during startup" not in str(exc):
+                raise OpenralError(f"--executor ray: could not start a local Ray instance: {exc}") from None
+
+
+def run_jobs(jobs: list[WorkerJob], executor: str = "local", address: str | None = None) -> list[WorkerResult]:
+    if executor == "local":
+        if address is not None:
+            raise OpenralError("--address: only with --executor ray")
+        return run_local(jobs)
+    if executor == "ray":
+        return run_ray(jobs, address)
+    raise OpenralError(f"--executor: {executor!r} is not one of {', '.join(EXECUTORS)}")

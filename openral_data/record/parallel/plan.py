@@ -1,0 +1,49 @@
+"""Which seeds each worker records: contiguous blocks, so a worker's share is one plain `record` run."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from pathlib import Path
+
+from openral_data.errors import OpenralError
+from openral_data.record import registry
+from openral_data.record.sim import RecordOptions
+from openral_data.schemas.scene import load_recordable_scene
+
+
+@dataclass(frozen=True)
+class WorkerJob:
+    worker: int
+    opts: RecordOptions  # out = the worker's own folder; seed/n_episodes/first_episode = its share
+    threads: int | None = None  # per-process thread budget for the renderer (LP_NUM_THREADS), None: leave as is
+
+
+def resolve_counts(opts: RecordOptions) -> tuple[int, int]:
+    """(n_episodes, first seed) as `record` will resolve them from the options and the scene."""
+    scene = load_recordable_scene(registry.resolve_scene_path(opts.scene))
+    n = opts.n_episodes if opts.n_episodes is not None else scene.n_episodes
+    seed = opts.seed if opts.seed is not None else scene.seed
+    if n < 1:
+        raise OpenralError(f"--n-episodes must be >= 1, got {n}")
+    if seed < 0:
+        raise OpenralError(f"--seed must be >= 0, got {seed}")
+    return n, seed
+
+
+def plan(opts: RecordOptions, workers: int, workdir: Path, threads: int | None = None) -> list[WorkerJob]:
+    """Split episodes 0..n-1 (seeds seed..seed+n-1) into at most `workers` contiguous, near-equal blocks."""
+    if workers < 1:
+        raise OpenralError(f"--workers must be >= 1, got {workers}")
+    n, seed = resolve_counts(opts)
+    workers = min(workers, n)
+    jobs: list[WorkerJob] = []
+    start = 0
+    for w in range(workers):
+        count = n // workers + (1 if w < n % workers else 0)
+        share = dataclasses.replace(
+            opts, out=workdir / f"worker-{w:03d}", seed=seed + start, n_episodes=count, first_episode=start
+        )
+        jobs.append(WorkerJob(w, share, threads))
+        start += count
+    return jobs

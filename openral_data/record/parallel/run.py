@@ -1,0 +1,168 @@
+"""`record --workers N`: plan seed blocks, run them (local processes or Ray), merge into one dataset by seed.
+
+Every worker records its share into its own folder under a hidden sibling of `--out` (``.OUT.workers-PID``).
+The LeRobot datasets are then merged episode by episode in seed order (`edit.ops.write_selection`: rows
+re-indexed, packets remuxed, no re-encode); MCAP bags were already named with their final episode numbers by
+the workers and are moved under ``mcap/``. The output folder appears complete (rename) or not at all, and its
+content does not depend on which worker finished first.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import shutil
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from openral_data import paths
+from openral_data.edit.ops import check_new_output, publish, staging_dir, summed_histograms, write_selection
+from openral_data.edit.source import SourceDataset
+from openral_data.errors import OpenralError
+from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.mcap import finished_bags
+from openral_data.record import registry
+from openral_data.record.parallel.executors import run_jobs
+from openral_data.record.parallel.plan import plan
+from openral_data.record.parallel.worker import WorkerResult
+from openral_data.record.sim import RecordOptions, RecordSummary, check_out, default_out
+from openral_data.record.sinks import MCAP_SUBDIR, check_formats
+from openral_data.schemas.scene import load_recordable_scene
+from openral_data.types import EpisodeRecord
+
+
+@dataclass(frozen=True)
+class ParallelSummary(RecordSummary):
+    finish_order: tuple[int, ...] = ()  # worker ids in the order they finished (for reports and tests)
+    workers: int = 1
+
+
+def record_parallel(
+    opts: RecordOptions,
+    workers: int,
+    executor: str = "local",
+    address: str | None = None,
+    threads: int | None = None,
+) -> ParallelSummary:
+    check_formats(opts.formats, opts.image_format)
+    if opts.resume:
+        raise OpenralError("--resume: continue a recording with one process (no --workers/--executor)")
+    if opts.out is None:
+        scene = load_recordable_scene(registry.resolve_scene_path(opts.scene))
+        opts = dataclasses.replace(opts, out=default_out(scene, registry.resolve_rskill(opts.rskill)[0].id))
+    out = opts.out
+    assert out is not None
+    check_out(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    workdir = workers_dir(out)
+    shutil.rmtree(workdir, ignore_errors=True)
+    jobs = plan(opts, workers, workdir, threads)
+    t0 = time.perf_counter()
+    try:
+        results = run_jobs(jobs, executor, address)
+        episodes = _assemble(results, workdir, out, opts.formats)
+    except BaseException as exc:
+        # lose nothing: what the workers finished stays in their own (complete, durable) datasets
+        kept = kept_worker_episodes(workdir)
+        if not kept:
+            shutil.rmtree(workdir, ignore_errors=True)
+        elif isinstance(exc, OpenralError):
+            raise type(exc)(f"{exc} ({kept_note(workdir, kept)})") from None
+        raise
+    shutil.rmtree(workdir, ignore_errors=True)
+    return ParallelSummary(
+        out=out,
+        episodes=episodes,
+        frames=sum(e.length for e in episodes),
+        seconds=time.perf_counter() - t0,
+        codec=opts.codec,
+        formats=opts.formats,
+        finish_order=tuple(r.worker for r in results),
+        workers=len(jobs),
+    )
+
+
+def workers_dir(out: Path) -> Path:
+    """Where this process's workers record their shares (one dataset per worker) before the merge into `out`."""
+    return out.parent / f".{out.name}.workers-{os.getpid()}"
+
+
+def find_workers_dir(out: Path | None) -> Path | None:
+    """This process's workers folder for `out` (None: the default output under datasets/), if it exists."""
+    if out is not None:
+        return workers_dir(out) if workers_dir(out).is_dir() else None
+    found = sorted(paths.datasets_dir().glob(f".*.workers-{os.getpid()}"))
+    return found[0] if found else None
+
+
+def kept_worker_episodes(workdir: Path) -> int:
+    """Finished episodes the workers' datasets under `workdir` hold (0 when there are none)."""
+    total = 0
+    for info in sorted(workdir.glob(f"worker-*/{layout.INFO_PATH}")):
+        try:
+            total += int(json.loads(info.read_text())["total_episodes"])
+        except (OSError, ValueError, KeyError, TypeError):
+            continue
+    return total
+
+
+def kept_note(workdir: Path, kept: int) -> str:
+    return (
+        f"nothing was written to --out; the workers' {kept} finished episode(s) are kept in {workdir}/worker-*/ "
+        "(one LeRobot v3 dataset each; `openral-data episodes merge` joins them)"
+    )
+
+
+def _assemble(results: list[WorkerResult], workdir: Path, out: Path, formats: tuple[str, ...]) -> list[EpisodeRecord]:
+    by_seed = sorted((e for r in results for e in r.episodes), key=lambda e: e.seed)
+    episodes = [EpisodeRecord(k, e.length, e.success, e.seed) for k, e in enumerate(by_seed)]
+    folders = [r.worker for r in sorted(results, key=lambda r: r.worker)]
+    worker_dirs = [workdir / f"worker-{w:03d}" for w in folders]
+
+    def add_bags(staging: Path) -> None:
+        _keep_settings(worker_dirs[0], staging, len(episodes))
+        if "mcap" not in formats:
+            return
+        dest = staging / MCAP_SUBDIR
+        dest.mkdir(parents=True, exist_ok=True)
+        for wdir in worker_dirs:
+            for bag in finished_bags(wdir / MCAP_SUBDIR):
+                if (dest / bag.name).exists():
+                    raise OpenralError(f"{bag}: two workers wrote episode bag {bag.name}")
+                os.replace(bag, dest / bag.name)
+        names = [b.name for b in finished_bags(dest)]
+        if names != [f"episode_{k:06d}" for k in range(len(episodes))]:
+            raise OpenralError(f"{out}: worker bags {names} are not episodes 0..{len(episodes) - 1}")
+
+    if "lerobot" in formats:
+        sources = [SourceDataset(d) for d in worker_dirs]
+        selection = [(s, e) for s in sources for e in range(s.total)]
+        selection.sort(key=lambda se: se[0].seed(se[1]))
+        hist = summed_histograms(sources)
+        if hist is None:
+            raise OpenralError(f"{workdir}: a worker left no camera histograms (.openral/image_hist.json)")
+        write_selection(selection, out, "record --workers", before_publish=add_bags, image_hist=hist)
+    else:
+        staging = staging_dir(out)
+        try:
+            add_bags(staging)
+            check_new_output(out)
+            publish(staging, out)
+        except BaseException:
+            shutil.rmtree(staging, ignore_errors=True)
+            raise
+    return episodes
+
+
+def _keep_settings(first_worker: Path, staging: Path, total: int) -> None:
+    """`record --resume` continues the merged dataset: worker 0's settings (its seed is the first) for all."""
+    path = first_worker / layout.RECORD_PATH
+    if not path.is_file():
+        return
+    settings = json.loads(path.read_text())
+    settings["options"]["n_episodes"] = total
+    dest = staging / layout.RECORD_PATH
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    dest.write_text(json.dumps(settings, indent=2))

@@ -1,1 +1,0 @@
-"""Sinks: where validated frames go (LeRobot v3 now; MCAP later)."""

@@ -1,0 +1,168 @@
+"""The shared data types and protocols every layer speaks.
+
+Producers emit `Observation`s and `StepResult`s (`SimRollout`, `ProducerSpec`); the dataset bridge turns them into
+`Frame`s under a `DatasetSchema`; sinks (`Sink`) take frames and report `EpisodeRecord`s.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+import numpy.typing as npt
+
+
+@dataclass(frozen=True)
+class CameraShape:
+    height: int
+    width: int
+
+
+@dataclass(frozen=True)
+class ProducerSpec:
+    """What a producer emits and accepts. `None` dims mean "any" (the mock accepts any action size)."""
+
+    state_dim: int | None
+    action_dim: int | None
+    cameras: dict[str, CameraShape]
+    fps: int
+    can_restore_state: bool = False
+
+
+@dataclass
+class Observation:
+    """What the policy sees at one step: camera images (HWC uint8), the state vector and the task text.
+
+    `time` is the producer's clock for this observation in seconds since the episode began: simulation time
+    for sim scenes, a monotonic clock for hardware. `None` means "no clock of its own" (frame index / fps).
+
+    `privileged` is simulator ground truth (object poses, ...) that scripted experts may read; it is never
+    recorded, and a learned policy must not rely on it.
+    """
+
+    images: dict[str, npt.NDArray[Any]]
+    state: npt.NDArray[Any]
+    task: str
+    time: float | None = None
+    privileged: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class StepResult:
+    observation: Observation
+    reward: float
+    success: bool
+    terminated: bool
+    info: dict[str, Any] = field(default_factory=dict)
+
+
+@runtime_checkable
+class SimRollout(Protocol):
+    """A simulated scene. `reset(seed)` starts an episode; `step(action)` advances it by one control step.
+
+    Replay reads simulator ground truth from `Observation.privileged["object_poses"]` when a scene provides it:
+    a dict of object name -> [x, y, z, qw, qx, qy, qz] (world frame), compared with the recorded initial
+    state's `object_poses` of the same form.
+
+    Arrays returned in observations belong to the caller (a producer must not write into them later).
+    """
+
+    spec: ProducerSpec
+
+    def reset(self, seed: int) -> Observation: ...
+
+    def step(self, action: npt.NDArray[np.float32]) -> StepResult: ...
+
+    def render(self) -> dict[str, npt.NDArray[np.uint8]]: ...
+
+    def initial_state(self) -> dict[str, Any]:
+        """JSON-serialisable data that restores the state `reset` produced (for replay)."""
+        ...
+
+    def reset_to(self, initial_state: dict[str, Any]) -> Observation:
+        """Start an episode from exactly the state `initial_state()` described when it was recorded (replay).
+
+        Valid only when `spec.can_restore_state`; a scene that cannot restore a state keeps it False and raises
+        an OpenralError here. From the restored state, the same actions must give the same rollout.
+        """
+        ...
+
+    def close(self) -> None: ...
+
+
+@dataclass(frozen=True)
+class DatasetSchema:
+    """Everything a sink needs to lay out a dataset before the first frame arrives."""
+
+    fps: int
+    state_names: tuple[str, ...]
+    action_names: tuple[str, ...]
+    cameras: dict[str, CameraShape]
+    robot_type: str
+    metadata: dict[str, Any] = field(default_factory=dict)  # scene / rSkill / robot provenance
+    # Which outcomes the source knows. A sink stores no reward / success it was not given (a converted hardware
+    # log has none): the frames' `reward` / `success` values are then ignored and episode success is unknown.
+    has_reward: bool = True
+    has_success: bool = True
+    # Extra per-frame float columns (e.g. a HAL's real monotonic timestamps, overrun and safety flags); every
+    # frame must carry exactly these keys in `Frame.extras`. LeRobot v3: float32 features of shape [1].
+    frame_extras: tuple[str, ...] = ()
+
+    @property
+    def state_dim(self) -> int:
+        return len(self.state_names)
+
+    @property
+    def action_dim(self) -> int:
+        return len(self.action_names)
+
+
+@dataclass
+class Frame:
+    """Row t: the observation the policy saw at step t, the action it produced, and what followed."""
+
+    state: npt.NDArray[np.float32]
+    action: npt.NDArray[np.float32]
+    images: dict[str, npt.NDArray[np.uint8]]
+    task: str
+    reward: float
+    done: bool
+    success: bool
+    timestamp: float = 0.0  # seconds since the episode began, from the producer's clock (see Observation.time)
+    extras: dict[str, float] = field(default_factory=dict)  # DatasetSchema.frame_extras values
+
+
+@dataclass(frozen=True)
+class EpisodeStart:
+    seed: int
+    initial_state: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class EpisodeRecord:
+    """What a sink reports for a finished, durable episode."""
+
+    index: int
+    length: int
+    success: bool | None  # None: unknown (the source says nothing about success)
+    seed: int
+
+
+class Sink(Protocol):
+    def begin_episode(self, start: EpisodeStart) -> None: ...
+
+    def add_frame(self, frame: Frame) -> None: ...
+
+    def end_episode(self, success: bool | None) -> EpisodeRecord: ...
+
+    def discard_episode(self) -> None: ...
+
+    def close(self) -> None: ...
+
+
+class EpisodeAnnotations(Protocol):
+    """Optional sink capability: JSON-able facts about the episode in flight (a HAL's overruns, safety
+    interventions, operator verdict), stored with the episode's record. The bridge calls it when a sink has it."""
+
+    def annotate_episode(self, info: dict[str, Any]) -> None: ...
