@@ -1,1 +1,137 @@
+"""openral-data: robot rollouts -> datasets people train on (LeRobot v3, ROS 2 MCAP).
+
+The Python API (docs/python-api.md); the `openral-data` command line wraps the same functions:
+
+- recording: `record(RecordOptions(...)) -> RecordSummary`
+- replay: `replay(ReplayOptions(...)) -> ReplaySummary`
+- conversion: `convert_bags(...) -> ConvertSummary` (bags -> LeRobot v3), `export_mcap(...) -> ExportSummary`
+- checking: `check(root) -> list[Finding]`, `repair(root) -> RepairResult`
+- reading: `summarize(root) -> DatasetSummary`, `stats_query(paths, sql) -> Table` (DuckDB over the stats views)
+- the schemas (`RobotManifest`, `RSkillManifest`, `SimScene`, `BenchmarkScene`, `load_scene`), the shared types
+  (`Observation`, `Frame`, `DatasetSchema`, `EpisodeRecord`, `SimRollout`, `Sink`, ...) and errors (`OpenralError`).
+
+Names load on first use, so `import openral_data` stays cheap and importing one submodule never pulls in the
+simulators behind another.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
 __version__ = "0.1.0"
+
+# public name -> the module that defines it
+_API: dict[str, str] = {
+    "record": "openral_data.record.sim",
+    "RecordOptions": "openral_data.record.sim",
+    "RecordSummary": "openral_data.record.sim",
+    "replay": "openral_data.replay",
+    "ReplayOptions": "openral_data.replay",
+    "ReplaySummary": "openral_data.replay",
+    "convert_bags": "openral_data.convert",
+    "ConvertSummary": "openral_data.convert",
+    "export_mcap": "openral_data.convert",
+    "ExportSummary": "openral_data.convert",
+    "check": "openral_data.doctor",
+    "repair": "openral_data.doctor",
+    "Finding": "openral_data.doctor",
+    "RepairResult": "openral_data.doctor",
+    "summarize": "openral_data.formats.lerobot_v3",
+    "DatasetSummary": "openral_data.formats.lerobot_v3",
+    "stats_query": "openral_data.metrics.query",
+    "Table": "openral_data.metrics.report",
+    "RobotManifest": "openral_data.schemas",
+    "RSkillManifest": "openral_data.schemas",
+    "SimScene": "openral_data.schemas",
+    "BenchmarkScene": "openral_data.schemas",
+    "load_scene": "openral_data.schemas",
+    "CameraShape": "openral_data.types",
+    "DatasetSchema": "openral_data.types",
+    "EpisodeRecord": "openral_data.types",
+    "Frame": "openral_data.types",
+    "Observation": "openral_data.types",
+    "ProducerSpec": "openral_data.types",
+    "SimRollout": "openral_data.types",
+    "Sink": "openral_data.types",
+    "StepResult": "openral_data.types",
+    "OpenralError": "openral_data.errors",
+    "ConfigError": "openral_data.errors",
+    "ContractViolation": "openral_data.errors",
+    "CompatibilityError": "openral_data.errors",
+}
+
+__all__ = [
+    "BenchmarkScene",
+    "CameraShape",
+    "CompatibilityError",
+    "ConfigError",
+    "ContractViolation",
+    "ConvertSummary",
+    "DatasetSchema",
+    "DatasetSummary",
+    "EpisodeRecord",
+    "ExportSummary",
+    "Finding",
+    "Frame",
+    "Observation",
+    "OpenralError",
+    "ProducerSpec",
+    "RSkillManifest",
+    "RecordOptions",
+    "RecordSummary",
+    "RepairResult",
+    "ReplayOptions",
+    "ReplaySummary",
+    "RobotManifest",
+    "SimRollout",
+    "SimScene",
+    "Sink",
+    "StepResult",
+    "Table",
+    "__version__",
+    "check",
+    "convert_bags",
+    "export_mcap",
+    "load_scene",
+    "record",
+    "repair",
+    "replay",
+    "stats_query",
+    "summarize",
+]
+
+if TYPE_CHECKING:
+    from openral_data.convert import ConvertSummary, ExportSummary, convert_bags, export_mcap
+    from openral_data.doctor import Finding, RepairResult, check, repair
+    from openral_data.errors import CompatibilityError, ConfigError, ContractViolation, OpenralError
+    from openral_data.formats.lerobot_v3 import DatasetSummary, summarize
+    from openral_data.metrics.query import stats_query
+    from openral_data.metrics.report import Table
+    from openral_data.record.sim import RecordOptions, RecordSummary, record
+    from openral_data.replay import ReplayOptions, ReplaySummary, replay
+    from openral_data.schemas import BenchmarkScene, RobotManifest, RSkillManifest, SimScene, load_scene
+    from openral_data.types import (
+        CameraShape,
+        DatasetSchema,
+        EpisodeRecord,
+        Frame,
+        Observation,
+        ProducerSpec,
+        SimRollout,
+        Sink,
+        StepResult,
+    )
+
+
+def __getattr__(name: str) -> Any:
+    module = _API.get(name)
+    if module is None:
+        raise AttributeError(f"module 'openral_data' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

@@ -1,5 +1,5 @@
-"""The `openral-data` command line: the only package that imports typer and rich."""
+"""The `openral-data` command line: the only package that imports typer and rich. Entry point: `main`."""
 
-from openral_data.cli.app import app, main
+from openral_data.cli.app import main
 
-__all__ = ["app", "main"]
+__all__ = ["main"]
