@@ -24,7 +24,13 @@ def test_import_is_cheap() -> None:
     """`import openral_data` loads no submodule until a name is used (simulators stay unloaded)."""
     code = "import sys, openral_data; print(sorted(m for m in sys.modules if m.startswith('openral_data.')))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
-    assert out.strip() == "[]"
+    assert out.strip() == "['openral_data.version']"
+
+
+def test_version_is_the_package_metadata() -> None:
+    import tomllib
+
+    assert openral_data.__version__ == tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["version"]
 
 
 def test_docs_example_records_and_reads_back(tmp_path: Path) -> None:

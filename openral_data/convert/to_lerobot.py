@@ -22,7 +22,6 @@ from rosbags.highlevel import AnyReader, AnyReaderError
 from rosbags.interfaces import Connection
 from rosbags.typesys import Stores, get_typestore
 
-from openral_data import __version__
 from openral_data.convert.align import AlignedFrame, Aligner
 from openral_data.convert.sources import VectorReader, field_value, find_bags
 from openral_data.errors import OpenralError
@@ -32,6 +31,7 @@ from openral_data.formats.mcap.messages import decode_image
 from openral_data.record.bridge import DatasetBridge
 from openral_data.schemas.mapping import Mapping
 from openral_data.types import CameraShape, DatasetSchema, EpisodeRecord, Observation
+from openral_data.version import __version__
 
 STATE, ACTION, REWARD = "state", "action", "reward"
 ProgressFn = Callable[[int, int], None]  # (messages read, messages in total)

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
-from openral_data import __version__, paths
+from openral_data import paths
 from openral_data.errors import CompatibilityError, ConfigError, OpenralError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
 from openral_data.formats.lerobot_v3.video import Codec
@@ -27,6 +27,7 @@ from openral_data.schemas.hal import SafetyMode
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.types import DatasetSchema, EpisodeRecord, ProducerSpec, Sink
+from openral_data.version import __version__
 
 Mode = Literal["sim", "real"]
 JOINT_REPRESENTATIONS = ("joint_positions_gripper", "joint_positions")

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
 
-from openral_data import __version__, paths
+from openral_data import paths
 from openral_data.errors import ConfigError, OpenralError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
 from openral_data.formats.lerobot_v3.video import Codec
@@ -21,6 +21,7 @@ from openral_data.record.bridge import DatasetBridge
 from openral_data.record.compat import check_compatibility
 from openral_data.schemas.scene import SimScene, load_recordable_scene
 from openral_data.types import DatasetSchema, EpisodeRecord, SimRollout, Sink
+from openral_data.version import __version__
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,6 @@ import numpy as np
 import numpy.typing as npt
 from pydantic import Field
 
-from openral_data import __version__
 from openral_data.errors import CompatibilityError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
 from openral_data.formats.lerobot_v3.video import Codec
@@ -27,6 +26,7 @@ from openral_data.replay.rebuild import Rebuilt, SceneView
 from openral_data.schemas.base import StrictModel, load_model
 from openral_data.schemas.scene import RenderConfig, SceneCamera
 from openral_data.types import DatasetSchema, EpisodeRecord, Observation, Sink, StepResult
+from openral_data.version import __version__
 
 
 class CameraFile(StrictModel):
