@@ -8,7 +8,10 @@ from pathlib import Path
 
 import pytest
 import yaml
-from conftest import REPO, mock_scene, run_cli, write_yaml
+
+from tests.support.cli import run_cli
+from tests.support.home import REPO
+from tests.support.scenes import mock_scene, write_yaml
 
 
 def _fails(proc_args: list[str], pattern: str, env: dict[str, str] | None = None) -> str:
@@ -123,7 +126,7 @@ def test_contract_violation_mid_run_keeps_finished_episodes(
     assert (info["total_episodes"], info["total_frames"]) == (1, 4)
     # nothing of the failed episode is left behind
     assert not list(out.rglob("*.tmp"))
-    from lerobot_check import verify_mock_dataset
+    from tests.support.lerobot import verify_mock_dataset
 
     assert verify_mock_dataset(out, "pyav")["lengths"] == [4]
 

@@ -9,10 +9,12 @@ from typing import Any
 
 import numpy as np
 import pyarrow.parquet as pq
-from bag_fixtures import MS, TYPES, build, samples
-from conftest import run_cli, write_yaml
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
+
+from tests.support.bags import MS, TYPES, build, samples
+from tests.support.cli import run_cli
+from tests.support.scenes import write_yaml
 
 LATENCY_MS = {"/joint_states": 35, "/cam/image_raw": 45}  # log time - header stamp; /cmd has no header
 MAPPING: dict[str, Any] = {

@@ -8,12 +8,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from bag_fixtures import MAPPING, WRITERS, expected, write_ros2
-from conftest import mock_scene, run_cli, write_yaml
-from lerobot_check import verify_mock_dataset
-from mock_mcap import verify_mock_bags
 
 from openral_data.record.sim import RecordOptions, record
+from tests.support.bags import MAPPING, WRITERS, expected, write_ros2
+from tests.support.cli import run_cli
+from tests.support.lerobot import verify_mock_dataset
+from tests.support.mock_mcap import verify_mock_bags
+from tests.support.scenes import mock_scene, write_yaml
 
 COLOUR_TOL = 4.0
 
@@ -55,9 +56,10 @@ def test_bag_to_lerobot_matches_source_messages(tmp_path: Path, kind: str) -> No
 def test_split_on_time_gaps_and_nearest(tmp_path: Path) -> None:
     """Two recordings 5 s apart in one bag become two episodes; `nearest` may take the later sample."""
     bag = tmp_path / "two"
-    from bag_fixtures import TYPES, build, samples
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_typestore
+
+    from tests.support.bags import TYPES, build, samples
 
     store = get_typestore(Stores.ROS2_HUMBLE)
     with Writer(bag, version=8, storage_plugin=StoragePlugin.MCAP) as writer:
@@ -83,9 +85,10 @@ def test_split_on_time_gaps_and_nearest(tmp_path: Path) -> None:
 def test_unfillable_frames_are_reported_not_zero_filled(tmp_path: Path) -> None:
     """A camera that stops for 0.5 s: those frames are skipped (the episode splits), never zero-filled."""
     bag = tmp_path / "holes"
-    from bag_fixtures import TYPES, build, samples
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_typestore
+
+    from tests.support.bags import TYPES, build, samples
 
     store = get_typestore(Stores.ROS2_HUMBLE)
     with Writer(bag, version=8, storage_plugin=StoragePlugin.SQLITE3) as writer:
@@ -190,7 +193,7 @@ def test_lerobot_to_mcap_selected_episodes(project: Path, tmp_path: Path) -> Non
 
 
 def _check_exported(root: Path, episode: int) -> None:
-    from mcap_check import check_bag
+    from tests.support.mcap import check_bag
 
     topics = check_bag(root / "episode_000000")
     start = json.loads(topics["/openral/episode"][0][1].data)

@@ -13,13 +13,14 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
-from bag_fixtures import BASE, MAPPING, MS, TYPES, build, samples, write_ros2
-from conftest import mock_scene, run_cli, write_yaml
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
 from openral_data.formats.lerobot_v3.reader import read_episodes
 from openral_data.record.sim import RecordOptions, record
+from tests.support.bags import BASE, MAPPING, MS, TYPES, build, samples, write_ros2
+from tests.support.cli import run_cli
+from tests.support.scenes import mock_scene, write_yaml
 
 OUTCOMES = ("next.reward", "next.done", "next.success")
 
@@ -219,7 +220,7 @@ def test_unknown_outcomes_stay_unknown_through_mcap(tmp_path: Path) -> None:
     assert _convert(bag, ds, mapping).returncode == 0
     proc = run_cli("convert", str(ds), str(bags), "--image-format", "png")
     assert proc.returncode == 0, proc.stderr
-    from mcap_check import check_bag
+    from tests.support.mcap import check_bag
 
     topics = check_bag(bags / "episode_000000")
     assert "/reward" not in topics

@@ -14,13 +14,16 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.parquet as pq
 import pytest
-from conftest import REPO, mock_scene, run_cli, write_yaml
-from lerobot_check import verify_mock_dataset
 
 from openral_data.doctor import check, repair
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.lock import DatasetBusy, DatasetLock
+from tests.support.cli import run_cli
+from tests.support.home import isolated_home
+from tests.support.lerobot import verify_mock_dataset
+from tests.support.lerobot_written import write_lerobot_dataset
+from tests.support.scenes import mock_scene, write_yaml
 
 LENGTHS = [5, 7, 4]
 FRONT = "videos/observation.images.front/chunk-000/file-000.mp4"
@@ -31,14 +34,10 @@ EPISODES = "meta/episodes/chunk-000/file-000.parquet"
 @pytest.fixture(scope="module")
 def healthy(tmp_path_factory: pytest.TempPathFactory) -> Path:
     base = tmp_path_factory.mktemp("doctor")
-    home = base / "project"
-    for sub in ("robots", "rskills", "scenes"):
-        shutil.copytree(REPO / sub, home / sub)
     scene = write_yaml(base / "scene.yaml", mock_scene(success_after=LENGTHS, n_episodes=3))
     out = base / "ds"
-    done = run_cli(
-        "record", "--scene", str(scene), "--out", str(out), "--codec", "h264", env={"OPENRAL_DATA_HOME": str(home)}
-    )
+    with isolated_home(base):
+        done = run_cli("record", "--scene", str(scene), "--out", str(out), "--codec", "h264")
     assert done.returncode == 0, done.stderr
     return out
 
@@ -253,8 +252,6 @@ def test_cli_exit_codes_and_lines(healthy: Path, tmp_path: Path) -> None:
 
 @pytest.mark.slow
 def test_lerobot_written_dataset_is_healthy_and_repairs(tmp_path: Path) -> None:
-    from test_stats_lerobot import write_lerobot_dataset
-
     root = tmp_path / "lerobot"
     write_lerobot_dataset(root, with_success=True)
     assert check(root) == []

@@ -14,14 +14,15 @@ import av
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-from conftest import mock_scene, run_cli, write_yaml
-from seeded_check import episode_seeds, verify_seeded_dataset
 
 from openral_data.doctor import check
 from openral_data.edit import ops
 from openral_data.errors import OpenralError
 from openral_data.formats.lerobot_v3.lock import DatasetLock
 from openral_data.record.sim import RecordOptions, record
+from tests.support.cli import run_cli
+from tests.support.scenes import mock_scene, write_yaml
+from tests.support.seeded import episode_seeds, verify_seeded_dataset
 
 LENGTHS = [5, 9, 3, 7]
 

@@ -12,11 +12,11 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.parquet as pq
 import pytest
-from conftest import run_cli
-from metrics_helpers import copy_dataset, data_file, record_datasets, rewrite_parquet
 
 from openral_data.formats.lerobot_v3.video import count_packets
 from openral_data.metrics.command import StatsOptions, run_stats
+from tests.support.cli import run_cli
+from tests.support.metrics import copy_dataset, data_file, record_datasets, rewrite_parquet
 
 
 @pytest.fixture(scope="module")

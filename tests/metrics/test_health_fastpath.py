@@ -11,12 +11,12 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
-from metrics_helpers import copy_dataset, data_file, record_datasets, rewrite_parquet
 
 from openral_data.metrics import health
 from openral_data.metrics.command import StatsOptions, run_stats
 from openral_data.metrics.sources import open_dataset
 from openral_data.metrics.views import connect, query
+from tests.support.metrics import copy_dataset, data_file, record_datasets, rewrite_parquet
 
 
 @pytest.fixture(scope="module")

@@ -13,8 +13,13 @@ import numpy as np
 import pyarrow.compute as pc
 import pyarrow.parquet as pq
 import pytest
-from conftest import run_cli
-from metrics_helpers import (
+from scipy.stats import fisher_exact as scipy_fisher
+
+from openral_data.errors import OpenralError
+from openral_data.metrics import intervals
+from openral_data.metrics.command import StatsOptions, run_stats
+from tests.support.cli import run_cli
+from tests.support.metrics import (
     A_SUCCESS_AFTER,
     B_SUCCESS_AFTER,
     MAX_STEPS,
@@ -24,11 +29,6 @@ from metrics_helpers import (
     record_datasets,
     rewrite_parquet,
 )
-from scipy.stats import fisher_exact as scipy_fisher
-
-from openral_data.errors import OpenralError
-from openral_data.metrics import intervals
-from openral_data.metrics.command import StatsOptions, run_stats
 
 
 @pytest.fixture(scope="module")

@@ -8,11 +8,12 @@ import shlex
 from collections.abc import Iterator
 
 import pytest
-from conftest import REPO, run_cli
-from metrics_helpers import A_SUCCESS_AFTER, B_SUCCESS_AFTER, MAX_STEPS, record_datasets
-from test_results import make_results
 
 from openral_data.metrics.command import StatsOptions, run_stats
+from tests.support.cli import run_cli
+from tests.support.home import REPO
+from tests.support.metrics import A_SUCCESS_AFTER, B_SUCCESS_AFTER, MAX_STEPS, record_datasets
+from tests.support.results import make_results
 
 
 def readme_examples() -> list[list[str]]:

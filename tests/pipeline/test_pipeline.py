@@ -12,11 +12,13 @@ from pathlib import Path
 
 import pyarrow.parquet as pq
 import pytest
-from conftest import REPO, run_cli, write_yaml
 
 from openral_data.errors import ConfigError
 from openral_data.pipeline.runner import run_pipeline
 from openral_data.pipeline.schema import load_pipeline
+from tests.support.cli import run_cli
+from tests.support.home import REPO
+from tests.support.scenes import write_yaml
 
 MOCK = REPO / "pipelines" / "mock_campaign.yaml"
 STEPS = ["rec", "all", "replayed", "metrics", "bags"]

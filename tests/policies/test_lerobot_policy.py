@@ -10,9 +10,6 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 import yaml
-from conftest import write_yaml
-from lerobot_checkpoint import make_act_checkpoint, make_diffusion_checkpoint
-from replay_helpers import project_home, record_mock, record_push
 
 from openral_data.errors import CompatibilityError, ConfigError
 from openral_data.formats.results import open_results
@@ -21,13 +18,17 @@ from openral_data.record import registry
 from openral_data.replay import ReplayOptions, replay
 from openral_data.replay.recorded import RecordedDataset
 from openral_data.types import Observation
+from tests.support.checkpoint import make_act_checkpoint, make_diffusion_checkpoint
+from tests.support.home import isolated_home
+from tests.support.replay import record_mock, record_push
+from tests.support.scenes import write_yaml
 
 
 @pytest.fixture(scope="module")
 def mock(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Path, Path]]:
     """A mock dataset (front 64x48 + wrist 32x32, 8-dim state, 7-dim action) and its project home."""
     base = tmp_path_factory.mktemp("mock")
-    with project_home(base) as home:
+    with isolated_home(base) as home:
         yield record_mock(home, base / "mock").out, home
 
 
@@ -162,7 +163,7 @@ def test_a_diffusion_checkpoint_runs_offline_or_is_refused_without_diffusers(
 @pytest.mark.slow
 def test_act_trained_on_a_push_recording_runs_closed_loop_in_mujoco(tmp_path: Path) -> None:
     """Train ACT for a few real steps on a recorded tabletop_push dataset, then evaluate it offline and in the sim."""
-    with project_home(tmp_path) as home:
+    with isolated_home(tmp_path) as home:
         push = record_push(home, tmp_path / "push", n_episodes=2, seed=7).out
         ckpt = make_act_checkpoint(push, home / "rskills/lerobot-act-push/checkpoint", train_steps=2)
         offline = replay(ReplayOptions(push, mode="policy", rskill="lerobot-act-push", out=tmp_path / "offline"))

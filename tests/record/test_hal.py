@@ -9,14 +9,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from feetech_bus import SimulatedFeetechBus
-from hal_helpers import episode_infos, frames_table
-from mcap_check import check_bag
 
 from openral_data.errors import ConfigError
 from openral_data.producers.hal.base import HalError
 from openral_data.producers.hal.so100 import MOTORS
 from openral_data.record.hal import HalRecordOptions, record_hal
+from tests.support.feetech_bus import SimulatedFeetechBus
+from tests.support.hal import episode_infos, frames_table
+from tests.support.mcap import check_bag
 
 pytestmark = pytest.mark.slow
 

@@ -14,8 +14,6 @@ from pathlib import Path
 import av
 import numpy as np
 import pytest
-from conftest import run_cli
-from hal_helpers import SlowCamera, SlowPolicy, episode_infos, frames_table, run_loop, ur5e_twin
 
 from openral_data.errors import OpenralError
 from openral_data.producers.hal.base import EstopLatched, HalError, JointCommand
@@ -24,6 +22,8 @@ from openral_data.producers.hal.safety import SafetyFilter
 from openral_data.record import registry
 from openral_data.record.hal_loop import EpisodeEnd
 from openral_data.types import Observation
+from tests.support.cli import run_cli
+from tests.support.hal import SlowCamera, SlowPolicy, episode_infos, frames_table, run_loop, ur5e_twin
 
 
 def _sweep() -> object:

@@ -11,8 +11,9 @@ import time
 from pathlib import Path
 
 import pytest
-from conftest import mock_scene, write_yaml
-from lerobot_check import verify_mock_dataset
+
+from tests.support.lerobot import verify_mock_dataset
+from tests.support.scenes import mock_scene, write_yaml
 
 
 @pytest.mark.slow

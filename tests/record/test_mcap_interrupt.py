@@ -11,11 +11,12 @@ import time
 from pathlib import Path
 
 import pytest
-from conftest import mock_scene, run_cli, write_yaml
-from lerobot_check import verify_mock_dataset
-from mock_mcap import verify_mock_bags
 
 from openral_data.formats.mcap import finished_bags
+from tests.support.cli import run_cli
+from tests.support.lerobot import verify_mock_dataset
+from tests.support.mock_mcap import verify_mock_bags
+from tests.support.scenes import mock_scene, write_yaml
 
 
 @pytest.mark.slow

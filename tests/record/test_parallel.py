@@ -7,14 +7,15 @@ from pathlib import Path
 
 import pyarrow.parquet as pq
 import pytest
-from conftest import mock_scene, run_cli, write_yaml
 from rosbags.highlevel import AnyReader
-from seeded_check import episode_seeds, verify_seeded_dataset
 
 from openral_data.doctor import check
 from openral_data.errors import OpenralError
 from openral_data.record.parallel.run import record_parallel
 from openral_data.record.sim import RecordOptions, record
+from tests.support.cli import run_cli
+from tests.support.scenes import mock_scene, write_yaml
+from tests.support.seeded import episode_seeds, verify_seeded_dataset
 
 LENGTHS = [5, 9, 3, 7, 4, 6]
 

@@ -11,10 +11,12 @@ from pathlib import Path
 import av
 import pyarrow.parquet as pq
 import pytest
-from conftest import mock_scene, run_cli, write_yaml
-from lerobot_check import verify_mock_dataset
 
 from openral_data.record.sim import RecordOptions, record
+from tests.support.cli import run_cli
+from tests.support.home import REPO
+from tests.support.lerobot import verify_mock_dataset
+from tests.support.scenes import mock_scene, write_yaml
 
 LENGTHS = [5, 9, 3, 7]
 
@@ -78,9 +80,13 @@ def test_torchcodec_backend_decodes_the_same_frames(project: Path, tmp_path: Pat
         [sys.executable, "-c", "import torchcodec.decoders"], env=env, capture_output=True, check=False
     )
     assert probe.returncode == 0, probe.stderr.decode()[-2000:]
-    script = Path(__file__).parent / "lerobot_check.py"
     proc = subprocess.run(
-        [sys.executable, str(script), str(out), "torchcodec"], env=env, capture_output=True, text=True, check=False
+        [sys.executable, "-m", "tests.support.lerobot", str(out), "torchcodec"],
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+        check=False,
     )
     assert proc.returncode == 0, proc.stderr[-3000:]
     result = json.loads(proc.stdout.strip().splitlines()[-1])

@@ -6,10 +6,10 @@ import shutil
 from pathlib import Path
 
 import pytest
-from conftest import REPO
 
 from openral_data.errors import ConfigError, OpenralError
 from openral_data.record import registry
+from tests.support.home import REPO
 
 
 def test_robots_are_discovered_from_folders(project: Path) -> None:

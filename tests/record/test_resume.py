@@ -17,9 +17,6 @@ from typing import Any
 import pyarrow.parquet as pq
 import pytest
 import yaml
-from conftest import REPO, mock_scene, run_cli, write_yaml
-from lerobot_check import verify_mock_dataset
-from mcap_check import check_bag
 
 from openral_data.doctor import check
 from openral_data.errors import ConfigError, OpenralError
@@ -27,9 +24,14 @@ from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.lock import DatasetBusy, DatasetLock
 from openral_data.formats.mcap.writer import finished_bags
 from openral_data.record.sim import RecordOptions, record
+from tests.support.cli import run_cli
+from tests.support.home import REPO, isolated_home
+from tests.support.lerobot import verify_mock_dataset
+from tests.support.mcap import check_bag
+from tests.support.scenes import mock_scene, write_yaml
 
 LENGTHS = [5, 7, 4]  # the mock succeeds after these many steps, cycled over episodes
-DRIVER = Path(__file__).with_name("record_driver.py")
+DRIVER = [sys.executable, "-m", "tests.support.record_driver"]  # run from REPO
 
 
 def expected(n: int) -> list[int]:
@@ -37,9 +39,9 @@ def expected(n: int) -> list[int]:
 
 
 def drive(args: dict[str, object]) -> tuple[int, list[int]]:
-    """Run record_driver.py; return its exit status and the episodes record reported finished."""
+    """Run tests/support/record_driver.py; return its exit status and the episodes record reported finished."""
     proc = subprocess.run(
-        [sys.executable, str(DRIVER), json.dumps(args)], capture_output=True, text=True, timeout=600, check=False
+        [*DRIVER, json.dumps(args)], cwd=REPO, capture_output=True, text=True, timeout=600, check=False
     )
     done = [int(line.split()[1]) for line in proc.stdout.splitlines() if line.startswith("finished ")]
     return proc.returncode, done
@@ -66,12 +68,8 @@ def scene(tmp_path: Path, project: Path) -> Path:
 @pytest.fixture(scope="module")
 def home(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
     """A project home of this module's own (its rSkill files get edited), set as OPENRAL_DATA_HOME."""
-    root = tmp_path_factory.mktemp("resume_home")
-    for sub in ("robots", "rskills", "scenes"):
-        shutil.copytree(REPO / sub, root / sub)
-    write_yaml(root / "scene.yaml", mock_scene(success_after=LENGTHS, n_episodes=2))
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("OPENRAL_DATA_HOME", str(root))
+    with isolated_home(tmp_path_factory.mktemp("resume_home")) as root:
+        write_yaml(root / "scene.yaml", mock_scene(success_after=LENGTHS, n_episodes=2))
         yield root
 
 
@@ -199,7 +197,8 @@ def test_a_live_recording_holds_the_lock_and_a_killed_ones_is_stale(tmp_path: Pa
     long = write_yaml(tmp_path / "long.yaml", mock_scene(success_after=10, max_steps=10, n_episodes=1000))
     out = tmp_path / "ds"
     proc = subprocess.Popen(
-        [sys.executable, str(DRIVER), json.dumps({"scene": str(long), "out": str(out), "n": 1000})],
+        [*DRIVER, json.dumps({"scene": str(long), "out": str(out), "n": 1000})],
+        cwd=REPO,
         stdout=subprocess.PIPE,
         text=True,
     )

@@ -15,14 +15,15 @@ import time
 from pathlib import Path
 
 import pytest
-from conftest import mock_scene, write_yaml
-from lerobot_check import verify_mock_dataset
 
 from openral_data.doctor import check
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.mcap.writer import finished_bags
+from tests.support.home import REPO
+from tests.support.lerobot import verify_mock_dataset
+from tests.support.scenes import mock_scene, write_yaml
 
-DRIVER = Path(__file__).with_name("record_driver.py")
+DRIVER = [sys.executable, "-m", "tests.support.record_driver"]  # run from REPO
 LENGTHS = [5, 7, 4]
 KILLS = 10
 ENDLESS = 100_000  # episodes asked of each killed run: it never finishes before its kill
@@ -33,9 +34,9 @@ def expected(n: int) -> list[int]:
 
 
 def run_and_kill(args: dict[str, object], rng: random.Random, after_report: bool) -> list[int]:
-    """Start record_driver.py and SIGKILL it: after_report -> a random 0-1.5 s after its first reported episode,
-    else a random 0.2-5 s after launch. Returns the episodes it reported finished."""
-    proc = subprocess.Popen([sys.executable, str(DRIVER), json.dumps(args)], stdout=subprocess.PIPE, text=True)
+    """Start the record driver (tests/support) and SIGKILL it: after_report -> a random 0-1.5 s after its first
+    reported episode, else a random 0.2-5 s after launch. Returns the episodes it reported finished."""
+    proc = subprocess.Popen([*DRIVER, json.dumps(args)], cwd=REPO, stdout=subprocess.PIPE, text=True)
     lines: list[str] = []
     first = threading.Event()
 
@@ -91,7 +92,8 @@ def test_sigkill_at_random_moments_then_resume(tmp_path: Path, project: Path) ->
     assert len(reported) >= KILLS // 2, reported
     total = len(reported) + 3
     final = subprocess.run(
-        [sys.executable, str(DRIVER), json.dumps({"out": str(out), "n": total, "resume": True})],
+        [*DRIVER, json.dumps({"out": str(out), "n": total, "resume": True})],
+        cwd=REPO,
         capture_output=True,
         text=True,
         timeout=600,

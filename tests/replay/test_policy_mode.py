@@ -10,21 +10,22 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 import yaml
-from conftest import write_yaml
-from replay_helpers import project_home, record_mock
 
 from openral_data.errors import CompatibilityError
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.results import open_results
 from openral_data.replay import ReplayOptions, replay
 from openral_data.replay.recorded import RecordedDataset
+from tests.support.home import isolated_home
+from tests.support.replay import record_mock
+from tests.support.scenes import write_yaml
 
 
 @pytest.fixture(scope="module")
 def mock(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Path, Path]]:
     """A mock dataset (random actions, two cameras) and its project home."""
     base = tmp_path_factory.mktemp("mock")
-    with project_home(base) as home:
+    with isolated_home(base) as home:
         yield record_mock(home, base / "mock").out, home
 
 

@@ -13,8 +13,6 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 import yaml
-from conftest import run_cli, write_yaml
-from replay_helpers import project_home, record_mock, record_push
 
 from openral_data.errors import OpenralError
 from openral_data.formats.results import open_results
@@ -25,13 +23,17 @@ from openral_data.replay import ReplayOptions, replay
 from openral_data.replay.actions import DEFAULT_TOLERANCE, ActionReplayer
 from openral_data.replay.rebuild import SceneView, rebuild
 from openral_data.replay.recorded import RecordedDataset
+from tests.support.cli import run_cli
+from tests.support.home import isolated_home
+from tests.support.replay import record_mock, record_push
+from tests.support.scenes import write_yaml
 
 
 @pytest.fixture(scope="module")
 def push(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
     """3 scripted-expert tabletop_push episodes (real MuJoCo, 64x64 front camera, h264)."""
     base = tmp_path_factory.mktemp("push")
-    with project_home(base) as home:
+    with isolated_home(base) as home:
         summary = record_push(home, base / "push", n_episodes=3, seed=3)
         assert summary.success_rate == 1.0
         yield summary.out
@@ -40,7 +42,7 @@ def push(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
 @pytest.fixture(scope="module")
 def mock(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
     base = tmp_path_factory.mktemp("mock")
-    with project_home(base) as home:
+    with isolated_home(base) as home:
         yield record_mock(home, base / "mock").out
 
 

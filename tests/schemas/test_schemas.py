@@ -5,7 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from conftest import REPO, mock_scene, write_yaml
 
 from openral_data.errors import ConfigError
 from openral_data.schemas import (
@@ -18,6 +17,8 @@ from openral_data.schemas import (
     load_recordable_scene,
     load_scene,
 )
+from tests.support.home import REPO
+from tests.support.scenes import mock_scene, write_yaml
 
 
 def test_shipped_manifests_load() -> None:

@@ -1,7 +1,7 @@
 """Open a dataset with lerobot 0.6.1's own loader and check every frame against what the mock produced.
 
-Usable in-process (`verify_mock_dataset`) and as a script (`python lerobot_check.py ROOT BACKEND`), so the
-torchcodec backend can be exercised in a subprocess whose LD_LIBRARY_PATH exposes PyAV's FFmpeg.
+Usable in-process (`verify_mock_dataset`) and as a script (`python -m tests.support.lerobot ROOT BACKEND`, run from
+the repo root), so the torchcodec backend can be exercised in a subprocess whose LD_LIBRARY_PATH exposes PyAV's FFmpeg.
 """
 
 from __future__ import annotations

@@ -2,15 +2,15 @@
 
 from __future__ import annotations
 
-import os
 import shutil
 from pathlib import Path
 
 import pyarrow as pa
 import pyarrow.parquet as pq
-from conftest import REPO, mock_scene, write_yaml
 
 from openral_data.record.sim import RecordOptions, record
+from tests.support.home import isolated_home
+from tests.support.scenes import mock_scene, write_yaml
 
 # episode lengths; with max_steps=10 an episode whose success_after exceeds 10 fails at step 10
 A_SUCCESS_AFTER = [3, 5, 20, 4, 6, 30, 2, 7]  # 6/8 succeed
@@ -20,12 +20,7 @@ MAX_STEPS = 10
 
 def record_datasets(base: Path) -> tuple[Path, Path]:
     """Two real recordings through record(): A = random-mock on scene mock_a, B = zero-mock on mock_b."""
-    home = base / "project"
-    for sub in ("robots", "rskills", "scenes"):
-        shutil.copytree(REPO / sub, home / sub)
-    old = os.environ.get("OPENRAL_DATA_HOME")
-    os.environ["OPENRAL_DATA_HOME"] = str(home)
-    try:
+    with isolated_home(base) as home:
         out = []
         for name, rskill, lengths, cams in (
             ("mock_a", "random-mock", A_SUCCESS_AFTER, [("front", 64, 48), ("wrist", 32, 32)]),
@@ -45,11 +40,6 @@ def record_datasets(base: Path) -> tuple[Path, Path]:
             record(RecordOptions(scene=str(scene), rskill=rskill, out=root, codec="h264"))
             out.append(root)
         return out[0], out[1]
-    finally:
-        if old is None:
-            os.environ.pop("OPENRAL_DATA_HOME", None)
-        else:
-            os.environ["OPENRAL_DATA_HOME"] = old
 
 
 def copy_dataset(src: Path, dst: Path) -> Path:

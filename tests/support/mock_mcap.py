@@ -6,10 +6,10 @@ import json
 from pathlib import Path
 
 import numpy as np
-from mcap_check import check_bag
 
 from openral_data.formats.mcap import finished_bags
 from openral_data.formats.mcap.messages import decode_image
+from tests.support.mcap import check_bag
 
 COLOUR_TOL = 4.0
 

@@ -1,7 +1,7 @@
 """Run `record` in this process and print `finished N` the moment record reports episode N finished (the
 callback the CLI's progress bar advances on), so a test that kills this process knows what was reported.
 
-`python record_driver.py '{"scene": ..., "out": ..., "n": 4, "die_at_rename": ["info.json", 3]}'`: with
+`python -m tests.support.record_driver '{"scene": ..., "out": ..., "n": 4, "die_at_rename": ["info.json", 3]}'`: with
 `die_at_rename`, the process exits abruptly (os._exit, no cleanup — as SIGKILL) instead of doing the k-th
 rename onto a file of that name, to land a crash at one exact point of an episode's commit.
 """

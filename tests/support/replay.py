@@ -2,36 +2,14 @@
 
 from __future__ import annotations
 
-import os
-import shutil
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 import yaml
-from conftest import REPO, mock_scene, write_yaml
 
 from openral_data.record.sim import RecordOptions, RecordSummary, record
+from tests.support.scenes import mock_scene, write_yaml
 
 SMALL_FRONT = {"name": "front", "width": 64, "height": 64, "pos": [1.2, 0.0, 1.3], "lookat": [0.42, 0.0, 0.85]}
-
-
-@contextmanager
-def project_home(base: Path) -> Iterator[Path]:
-    """A copy of the repo's manifests as OPENRAL_DATA_HOME for the duration (module-scoped fixtures use it)."""
-    home = base / "project"
-    if not home.exists():
-        for sub in ("robots", "rskills", "scenes"):
-            shutil.copytree(REPO / sub, home / sub)
-    old = os.environ.get("OPENRAL_DATA_HOME")
-    os.environ["OPENRAL_DATA_HOME"] = str(home)
-    try:
-        yield home
-    finally:
-        if old is None:
-            os.environ.pop("OPENRAL_DATA_HOME", None)
-        else:
-            os.environ["OPENRAL_DATA_HOME"] = old
 
 
 def small_push_scene(home: Path, **task: object) -> Path:

@@ -12,7 +12,8 @@ from typing import Any
 
 import numpy as np
 import pyarrow.parquet as pq
-from lerobot_check import COLOUR_TOL
+
+from tests.support.lerobot import COLOUR_TOL
 
 
 def episode_seeds(root: Path) -> list[int]:

@@ -5,8 +5,6 @@ from __future__ import annotations
 import io
 import json
 import shutil
-import subprocess
-import sys
 from collections import Counter
 from collections.abc import Iterator
 from pathlib import Path
@@ -14,15 +12,14 @@ from pathlib import Path
 import av
 import pyarrow.parquet as pq
 import pytest
-from conftest import run_cli
-from metrics_helpers import A_SUCCESS_AFTER, MAX_STEPS, episodes_file, record_datasets
 from rerun.chunk import RrdReader
-from test_results import make_results
 
 from openral_data.errors import OpenralError
 from openral_data.viz.rerun_view import ViewOptions, run_view
-
-RERUN = Path(sys.executable).with_name("rerun")
+from tests.support.cli import run_cli
+from tests.support.metrics import A_SUCCESS_AFTER, MAX_STEPS, episodes_file, record_datasets
+from tests.support.results import make_results
+from tests.support.rrd import verify
 
 
 @pytest.fixture(scope="module")
@@ -31,11 +28,6 @@ def dataset(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Path, Pa
     a, _ = record_datasets(base)
     res, _ = make_results(a, base / "replay")
     yield a, res
-
-
-def verify(rrd: Path) -> None:
-    proc = subprocess.run([str(RERUN), "rrd", "verify", str(rrd)], capture_output=True, text=True, check=False)
-    assert proc.returncode == 0, proc.stdout + proc.stderr
 
 
 def rows_by_entity(rrd: Path) -> tuple[Counter[str], Counter[str]]:

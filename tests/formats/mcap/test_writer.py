@@ -9,13 +9,13 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 import pytest
-from mcap_check import check_bag
 
 from openral_data.errors import OpenralError
 from openral_data.formats.mcap import McapConfig, McapSink, finished_bags
 from openral_data.formats.mcap import writer as mcap_writer
 from openral_data.formats.mcap.messages import MessageFactory
 from openral_data.types import CameraShape, DatasetSchema, EpisodeStart, Frame
+from tests.support.mcap import check_bag
 
 SCHEMA = DatasetSchema(
     fps=10, state_names=("a", "b"), action_names=("x",), cameras={"cam": CameraShape(16, 16)}, robot_type="r"

@@ -7,7 +7,6 @@ import time
 
 import numpy as np
 import pytest
-from hal_helpers import ur5e_twin
 
 from openral_data.errors import ConfigError, OpenralError
 from openral_data.producers.hal.base import EstopLatched, HalError, JointCommand, RobotState, StaleState
@@ -16,6 +15,7 @@ from openral_data.producers.hal.safety import SafetyFilter
 from openral_data.producers.hal.twin import MujocoTwinHal
 from openral_data.record import registry
 from openral_data.schemas.hal import SafetyConfig, Workspace
+from tests.support.hal import ur5e_twin
 
 
 @pytest.fixture(scope="module")

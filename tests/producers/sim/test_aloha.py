@@ -8,19 +8,19 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from sim_suite_helpers import (
+
+from openral_data.errors import ConfigError
+from openral_data.record.sim import RecordOptions, record
+from tests.support.suites import (
     assert_same,
     build,
     lerobot_table,
     random_actions,
+    replay_reproduces,
     roll,
     shipped,
     stats_per_task,
 )
-from suite_helpers import replay_reproduces
-
-from openral_data.errors import ConfigError
-from openral_data.record.sim import RecordOptions, record
 
 
 @pytest.mark.slow

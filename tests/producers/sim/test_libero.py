@@ -21,22 +21,21 @@ pytest.importorskip(
     "libero", reason="LIBERO has its own environment: bash scripts/setup_libero.sh, then .venv-libero/bin/pytest"
 )
 
-from sim_suite_helpers import (
+from openral_data.errors import ConfigError
+from openral_data.producers.sim.libero.config import import_libero
+from openral_data.record.sim import RecordOptions, record
+from tests.support.home import REPO
+from tests.support.suites import (
     assert_same,
     build,
     lerobot_table,
     random_actions,
+    replay_reproduces,
     roll,
     shipped,
     stats_per_task,
 )
-from suite_helpers import replay_reproduces
 
-from openral_data.errors import ConfigError
-from openral_data.producers.sim.libero.config import import_libero
-from openral_data.record.sim import RecordOptions, record
-
-REPO = Path(__file__).resolve().parent.parent
 SUITES = ["spatial", "object", "goal", "10"]
 
 

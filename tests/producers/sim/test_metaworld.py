@@ -8,12 +8,19 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-from suite_helpers import build, project_point, replay_reproduces, rollout, small_scene_file, stats_groups
 
 from openral_data.errors import ConfigError
 from openral_data.policies.metaworld_expert import policy_class_name
 from openral_data.producers.sim.metaworld import task_names
 from openral_data.record.sim import RecordOptions, record
+from tests.support.suites import (
+    env_and_policy,
+    project_point,
+    replay_reproduces,
+    rollout,
+    small_scene_file,
+    stats_groups,
+)
 
 pytest.importorskip("metaworld")
 
@@ -23,7 +30,7 @@ TASKS = ["metaworld_pick_place", "metaworld_door_open", "metaworld_drawer_open",
 
 
 def _success_rate(scene_id: str, seeds: range) -> tuple[int, list[int]]:
-    env, expert = build(scene_id, "metaworld-expert")
+    env, expert = env_and_policy(scene_id, "metaworld-expert")
     wins, lengths = 0, []
     try:
         for seed in seeds:
@@ -63,7 +70,7 @@ def test_expert_succeeds_at_least_90_percent_over_20_seeds(scene_id: str) -> Non
 @pytest.mark.parametrize("scene_id", ["metaworld_pick_place", "metaworld_drawer_open"])
 def test_seed_is_one_initial_state_and_reset_to_replays_bit_for_bit(scene_id: str) -> None:
     """drawer-open places the drawer by editing the model; writing a state back drifts there, reproducing does not."""
-    env, expert = build(scene_id, "metaworld-expert")
+    env, expert = env_and_policy(scene_id, "metaworld-expert")
     try:
         assert env.spec.can_restore_state and env.spec.fps == 80 and env.spec.state_dim == 4
         obs = env.reset(11)
@@ -95,7 +102,9 @@ def test_cameras_are_upright_the_puck_is_where_the_geometry_says() -> None:
     the invisible goal) is: the pixels that change must be at the puck's projections into an upright image, not at
     the mirrored ones."""
     size = 96
-    env, _ = build("metaworld_pick_place", "metaworld-expert", cameras=[("corner2", size), ("corner", size)])
+    env, _ = env_and_policy(
+        "metaworld_pick_place", "metaworld-expert", cameras=[("corner2", size, size), ("corner", size, size)]
+    )
     try:
         u = env.u  # type: ignore[attr-defined]
         seen = []

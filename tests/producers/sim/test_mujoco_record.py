@@ -9,11 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from conftest import run_cli, write_yaml
-from mujoco_helpers import expert_rskill, red_mask, shipped_scene
 
 from openral_data.record import registry
 from openral_data.record.sim import RecordOptions, record
+from tests.support.cli import run_cli
+from tests.support.mujoco import expert_rskill, red_mask, shipped_scene
+from tests.support.scenes import write_yaml
 
 
 def _small_scene(project: Path, kind: str, size: int = 64, **scene_over: object) -> Path:

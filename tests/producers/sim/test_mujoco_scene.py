@@ -6,11 +6,12 @@ import json
 
 import numpy as np
 import pytest
-from mujoco_helpers import FRONT, OVERHEAD, WRIST, joint_rskill, make_scene, project, red_mask, run_expert
 
 from openral_data.errors import CompatibilityError, ConfigError
 from openral_data.record import registry
 from openral_data.types import SimRollout
+from tests.support.home import REPO
+from tests.support.mujoco import FRONT, OVERHEAD, WRIST, joint_rskill, make_scene, project, red_mask, run_expert
 
 # robots with MuJoCo wiring (hardware-only manifests such as so100_follower have no `sim:` block)
 SHIPPED = [r for r in registry.robot_ids() if r != "mock_arm" and registry.ROBOTS[r].sim is not None]
@@ -234,23 +235,21 @@ def test_headless_backends_default_egl_and_osmesa_fallback_render() -> None:
     import os
     import subprocess
     import sys
-    from pathlib import Path
 
     code = (
         "import os\n"
         "import openral_data.producers.sim.mujoco as m\n"
-        "from mujoco_helpers import FRONT, make_scene, red_mask\n"
+        "from tests.support.mujoco import FRONT, make_scene, red_mask\n"
         "s = make_scene('push', cameras=[FRONT])\n"
         "img = s.reset(3).images['front']\n"
         "s.close()\n"
         "print(os.environ['MUJOCO_GL'], int(red_mask(img).sum()), float(img.std()))\n"
     )
-    tests_dir = str(Path(__file__).parent)
     for backend in (None, "osmesa"):
         env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM")}
         if backend:
             env["MUJOCO_GL"] = backend
-        env["PYTHONPATH"] = tests_dir + os.pathsep + env.get("PYTHONPATH", "")
+        env["PYTHONPATH"] = str(REPO) + os.pathsep + env.get("PYTHONPATH", "")
         proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=False)
         assert proc.returncode == 0, proc.stderr[-2000:]
         name, red, std = proc.stdout.split()

@@ -7,19 +7,19 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from sim_suite_helpers import (
+
+from openral_data.errors import ConfigError
+from openral_data.record.sim import RecordOptions, record
+from tests.support.suites import (
     assert_same,
     build,
     lerobot_table,
     random_actions,
+    replay_reproduces,
     roll,
     shipped,
     stats_per_task,
 )
-from suite_helpers import replay_reproduces
-
-from openral_data.errors import ConfigError
-from openral_data.record.sim import RecordOptions, record
 
 
 def test_camera_and_size_come_from_the_yaml_and_the_view_shows_the_scene() -> None:

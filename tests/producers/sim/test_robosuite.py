@@ -9,8 +9,14 @@ from typing import Any
 
 import numpy as np
 import pytest
-from suite_helpers import (
-    build,
+
+from openral_data.errors import CompatibilityError, ConfigError
+from openral_data.record import registry
+from openral_data.record.sim import RecordOptions, record
+from openral_data.schemas.rskill import Contract, RSkillManifest
+from openral_data.types import SimRollout
+from tests.support.suites import (
+    env_and_policy,
     project_point,
     replay_reproduces,
     rollout,
@@ -18,12 +24,6 @@ from suite_helpers import (
     small_scene_file,
     stats_groups,
 )
-
-from openral_data.errors import CompatibilityError, ConfigError
-from openral_data.record import registry
-from openral_data.record.sim import RecordOptions, record
-from openral_data.schemas.rskill import Contract, RSkillManifest
-from openral_data.types import SimRollout
 
 pytest.importorskip("robosuite")
 
@@ -34,7 +34,9 @@ SIZE = 96
 @pytest.fixture(scope="module")
 def lift() -> Iterator[tuple[SimRollout, Any]]:
     """One Lift scene (agentview 96², eye-in-hand 64²) shared by the tests that only reset and step it."""
-    env, policy = build("robosuite_lift", RANDOM, cameras=[("agentview", SIZE), ("robot0_eye_in_hand", 64)])
+    env, policy = env_and_policy(
+        "robosuite_lift", RANDOM, cameras=[("agentview", SIZE, SIZE), ("robot0_eye_in_hand", 64, 64)]
+    )
     yield env, policy
     env.close()
 
@@ -59,7 +61,7 @@ def test_scene_speaks_the_rskill_contract_and_refuses_what_it_cannot(lift: tuple
     result = env.step(np.zeros(7, dtype=np.float32))
     assert result.observation.time == pytest.approx(0.05) and result.success is False
 
-    scene = shipped("robosuite_lift")
+    scene = shipped("robosuite_lift", cameras=[])
     robot = registry.ROBOTS["franka_panda"]
     joints = registry.SCENES["robosuite"](scene, robot, _joint_rskill(), "lift.yaml")
     try:
@@ -75,7 +77,7 @@ def test_scene_speaks_the_rskill_contract_and_refuses_what_it_cannot(lift: tuple
 
 def test_seed_is_one_initial_state_and_reset_to_replays_bit_for_bit() -> None:
     """Door places the door by editing the model (body_pos), not a joint: the snapshot must carry it."""
-    env, policy = build("robosuite_door", RANDOM)
+    env, policy = env_and_policy("robosuite_door", RANDOM)
     try:
         obs = env.reset(21)
         policy.reset(21)

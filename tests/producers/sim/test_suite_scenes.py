@@ -9,12 +9,13 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from conftest import REPO, run_cli
 
 from openral_data.errors import ConfigError
 from openral_data.record import registry
 from openral_data.record.sim import RecordOptions, record
 from openral_data.schemas.scene import BenchmarkScene, load_recordable_scene
+from tests.support.cli import run_cli
+from tests.support.home import REPO
 
 SIM = ["pusht", "aloha_transfer_cube", "aloha_insertion", "libero_spatial", "libero_object", "libero_goal", "libero_10"]
 RSKILL = {"gym_pusht": "random-pusht", "gym_aloha": "random-aloha", "libero": "random-libero"}
