@@ -9,6 +9,7 @@ from __future__ import annotations
 import hashlib
 import json
 from pathlib import Path
+from typing import Any
 
 import av
 import numpy as np
@@ -27,7 +28,7 @@ from tests.support.seeded import episode_seeds, verify_seeded_dataset
 LENGTHS = [5, 9, 3, 7]
 
 
-def _record(project: Path, out: Path, seed: int, n: int, codec: str = "h264", **scene_over: object) -> Path:
+def _record(project: Path, out: Path, seed: int, n: int, codec: str = "h264", **scene_over: Any) -> Path:
     scene = write_yaml(
         project / "scenes/sim/mock_edit.yaml",
         mock_scene(scene_id="mock_edit", success_after=LENGTHS, n_episodes=n, seeded=True, **scene_over),

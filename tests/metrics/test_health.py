@@ -121,7 +121,7 @@ def test_video_frame_count_mismatch(healthy: Path, tmp_path: Path) -> None:
         stream_in = src.streams.video[0]
         stream_out = dst.add_stream_from_template(stream_in)
         packets = [p for p in src.demux(stream_in) if p.dts is not None]
-        last = max(p.pts for p in packets)
+        last = max(p.pts for p in packets)  # type: ignore[type-var]
         for p in packets:
             if p.pts != last:
                 p.stream = stream_out

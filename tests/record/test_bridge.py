@@ -26,7 +26,7 @@ class RecordingSink:
     def __init__(self) -> None:
         self.frames: list[Frame] = []
         self.starts: list[EpisodeStart] = []
-        self.ended: list[bool] = []
+        self.ended: list[bool | None] = []
         self.discarded = 0
         self.closed = False
 
@@ -36,7 +36,7 @@ class RecordingSink:
     def add_frame(self, frame: Frame) -> None:
         self.frames.append(frame)
 
-    def end_episode(self, success: bool) -> EpisodeRecord:
+    def end_episode(self, success: bool | None) -> EpisodeRecord:
         self.ended.append(success)
         return EpisodeRecord(len(self.ended) - 1, len(self.frames), success, self.starts[-1].seed)
 
@@ -164,7 +164,7 @@ class _Timestamps:
     def add_frame(self, frame: Frame) -> None:
         self.got.append(frame.timestamp)
 
-    def end_episode(self, success: bool) -> EpisodeRecord:
+    def end_episode(self, success: bool | None) -> EpisodeRecord:
         return EpisodeRecord(0, len(self.got), success, 0)
 
     def discard_episode(self) -> None: ...

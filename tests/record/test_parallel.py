@@ -34,7 +34,7 @@ def _bag_episodes(mcap_root: Path) -> list[tuple[str, int, int]]:
         with AnyReader([bag]) as reader:
             conns = [c for c in reader.connections if c.topic == "/openral/episode"]
             first = next(iter(reader.messages(connections=conns)))
-            marker = json.loads(reader.deserialize(first[2], first[0].msgtype).data)
+            marker = json.loads(reader.deserialize(first[2], first[0].msgtype).data)  # type: ignore[attr-defined]
         out.append((bag.name, int(marker["episode"]), int(marker["seed"])))
     return out
 

@@ -7,6 +7,7 @@ import os
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import av
 import pyarrow.parquet as pq
@@ -21,7 +22,7 @@ from tests.support.scenes import mock_scene, write_yaml
 LENGTHS = [5, 9, 3, 7]
 
 
-def _record(project: Path, tmp_path: Path, codec: str, **scene_over: object) -> Path:
+def _record(project: Path, tmp_path: Path, codec: str, **scene_over: Any) -> Path:
     scene = write_yaml(
         project / "scenes/sim/mock_test.yaml", mock_scene(success_after=LENGTHS, n_episodes=4, **scene_over)
     )

@@ -93,7 +93,7 @@ class _FrameReader:
 
     def __init__(self, actions: np.ndarray) -> None:
         self.actions = actions
-        self.seen: list[tuple[int, int]] = []
+        self.seen: list[tuple[int, float, float]] = []
 
     def reset(self, seed: int) -> None:
         pass

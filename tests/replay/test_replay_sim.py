@@ -101,12 +101,12 @@ def test_mock_scene_restores_its_state_and_cli_prints_a_summary(mock: Path, tmp_
 
 
 def _main(capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, *args: str) -> tuple[int, str]:
-    """The real entry point (`cli.main`) in-process: exit status and stderr."""
-    from openral_data.cli import app as cli
+    """The real entry point (`openral_data.cli.main`) in-process: exit status and stderr."""
+    from openral_data.cli import main
 
     monkeypatch.setattr("sys.argv", ["openral-data", *args])
     with pytest.raises(SystemExit) as exit_info:
-        cli.main()
+        main()
     return int(exit_info.value.code or 0), capsys.readouterr().err
 
 

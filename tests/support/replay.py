@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import yaml
@@ -27,7 +28,7 @@ def record_push(home: Path, out: Path, n_episodes: int = 3, seed: int = 0) -> Re
     )
 
 
-def record_mock(home: Path, out: Path, success_after: list[int] | int = (4, 6, 9), max_steps: int = 8) -> RecordSummary:
+def record_mock(home: Path, out: Path, success_after: Sequence[int] = (4, 6, 9), max_steps: int = 8) -> RecordSummary:
     scene = write_yaml(
         home / "scenes/sim/mock_replay.yaml",
         mock_scene(scene_id="mock_replay", success_after=list(success_after), max_steps=max_steps, n_episodes=3),

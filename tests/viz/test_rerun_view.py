@@ -86,7 +86,7 @@ def test_view_episode_rrd(dataset: tuple[Path, Path], tmp_path: Path) -> None:
     whole = (a / "videos/observation.images.front/chunk-000/file-000.mp4").stat().st_size
     clip = asset_video(rrd, "/cameras/front")
     assert len(clip) < whole / 3
-    with av.open(io.BytesIO(clip)) as container:  # the mock paints frame t of episode e as (t, e, 128)
+    with av.open(io.BytesIO(clip), "r") as container:  # the mock paints frame t of episode e as (t, e, 128)
         colours = [f.to_ndarray(format="rgb24").reshape(-1, 3).mean(axis=0) for f in container.decode(video=0)]
     assert len(colours) == n
     for t, c in enumerate(colours):

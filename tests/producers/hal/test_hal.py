@@ -109,7 +109,7 @@ def test_joint_and_velocity_limits_clamp_and_are_reported() -> None:
     assert [(i.kind, i.name, i.commanded) for i in res.interventions] == [("velocity_limit", "shoulder_pan_joint", 1.0)]
 
     res = f.apply(state.copy(), state, dt=0.05)
-    assert res.interventions == [] and np.array_equal(res.applied, state)
+    assert res.interventions == [] and np.array_equal(res.applied, state)  # type: ignore[arg-type]
 
 
 def test_refuse_mode_sends_nothing() -> None:
