@@ -19,6 +19,9 @@ from openral_data.pipeline.schema import load_pipeline
 from tests.support.cli import run_cli
 from tests.support.home import REPO
 from tests.support.scenes import write_yaml
+from tests.support.timing import TIMED
+
+pytestmark = TIMED
 
 MOCK = REPO / "pipelines" / "mock_campaign.yaml"
 STEPS = ["rec", "all", "replayed", "metrics", "bags"]

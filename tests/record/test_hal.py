@@ -17,8 +17,9 @@ from openral_data.record.hal import HalRecordOptions, record_hal
 from tests.support.feetech_bus import SimulatedFeetechBus
 from tests.support.hal import episode_infos, frames_table
 from tests.support.mcap import check_bag
+from tests.support.timing import TIMED
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, TIMED]
 
 
 def test_twin_recording_loads_in_lerobot_and_mcap_keeps_real_stamps(tmp_path: Path) -> None:

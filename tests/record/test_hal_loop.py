@@ -24,6 +24,9 @@ from openral_data.record.hal_loop import EpisodeEnd
 from openral_data.types import Observation
 from tests.support.cli import run_cli
 from tests.support.hal import SlowCamera, SlowPolicy, episode_infos, frames_table, run_loop, ur5e_twin
+from tests.support.timing import TIMED
+
+pytestmark = TIMED
 
 
 def _sweep() -> object:

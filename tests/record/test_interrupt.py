@@ -14,6 +14,9 @@ import pytest
 
 from tests.support.lerobot import verify_mock_dataset
 from tests.support.scenes import mock_scene, write_yaml
+from tests.support.timing import TIMED
+
+pytestmark = TIMED
 
 
 @pytest.mark.slow

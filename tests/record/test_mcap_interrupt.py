@@ -17,6 +17,9 @@ from tests.support.cli import run_cli
 from tests.support.lerobot import verify_mock_dataset
 from tests.support.mock_mcap import verify_mock_bags
 from tests.support.scenes import mock_scene, write_yaml
+from tests.support.timing import TIMED
+
+pytestmark = TIMED
 
 
 @pytest.mark.slow

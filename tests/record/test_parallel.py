@@ -16,6 +16,9 @@ from openral_data.record.sim import RecordOptions, record
 from tests.support.cli import run_cli
 from tests.support.scenes import mock_scene, write_yaml
 from tests.support.seeded import episode_seeds, verify_seeded_dataset
+from tests.support.timing import TIMED
+
+pytestmark = TIMED
 
 LENGTHS = [5, 9, 3, 7, 4, 6]
 

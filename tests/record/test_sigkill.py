@@ -22,6 +22,9 @@ from openral_data.formats.mcap.writer import finished_bags
 from tests.support.home import REPO
 from tests.support.lerobot import verify_mock_dataset
 from tests.support.scenes import mock_scene, write_yaml
+from tests.support.timing import TIMED
+
+pytestmark = TIMED
 
 DRIVER = [sys.executable, "-m", "tests.support.record_driver"]  # run from REPO
 LENGTHS = [5, 7, 4]

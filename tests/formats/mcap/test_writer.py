@@ -16,6 +16,9 @@ from openral_data.formats.mcap import writer as mcap_writer
 from openral_data.formats.mcap.messages import MessageFactory
 from openral_data.types import CameraShape, DatasetSchema, EpisodeStart, Frame
 from tests.support.mcap import check_bag
+from tests.support.timing import TIMED
+
+pytestmark = TIMED
 
 SCHEMA = DatasetSchema(
     fps=10, state_names=("a", "b"), action_names=("x",), cameras={"cam": CameraShape(16, 16)}, robot_type="r"
