@@ -1,19 +1,15 @@
-"""Shared fixtures: an isolated project root (robots/, rskills/, scenes/), offline HF caches, helpers."""
+"""Shared fixtures: an isolated project home (robots/, rskills/, scenes/, datasets/) and offline HF caches.
+Helpers live in tests/support/."""
 
 from __future__ import annotations
 
 import os
-import shutil
-import subprocess
-import sys
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 import pytest
-import yaml
 
-REPO = Path(__file__).resolve().parent.parent
+from tests.support.home import isolated_home
 
 
 @pytest.fixture(autouse=True, scope="session")
@@ -31,57 +27,8 @@ def _offline_hf(tmp_path_factory: pytest.TempPathFactory) -> Iterator[None]:
 
 
 @pytest.fixture
-def project(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    """A copy of the repo's manifests in tmp, used as OPENRAL_DATA_HOME, so tests can add broken files."""
-    root = tmp_path / "project"
-    for sub in ("robots", "rskills", "scenes"):
-        shutil.copytree(REPO / sub, root / sub)
-    (root / "datasets").mkdir()
-    monkeypatch.setenv("OPENRAL_DATA_HOME", str(root))
-    return root
-
-
-def write_yaml(path: Path, data: Any) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(yaml.safe_dump(data, sort_keys=False))
-    return path
-
-
-def mock_scene(
-    *,
-    scene_id: str = "mock_test",
-    cameras: list[tuple[str, int, int]] | None = None,
-    success_after: int | list[int] = 5,
-    max_steps: int = 50,
-    n_episodes: int = 3,
-    fps: int = 20,
-    **params: Any,
-) -> dict[str, Any]:
-    cams = cameras if cameras is not None else [("front", 64, 48), ("wrist", 32, 32)]
-    return {
-        "tier": "sim",
-        "scene": {
-            "id": scene_id,
-            "type": "mock",
-            "robot": "mock_arm",
-            "fps": fps,
-            "cameras": [{"name": n, "width": w, "height": h} for n, w, h in cams],
-            "params": {"success_after": success_after, **params},
-        },
-        "task": {"scene_id": scene_id, "instruction": "pick up the mock cube", "max_steps": max_steps},
-        "seed": 0,
-        "n_episodes": n_episodes,
-    }
-
-
-def run_cli(*args: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
-    """Run the real `openral-data` entry point in a subprocess."""
-    full_env = {**os.environ, **(env or {})}
-    return subprocess.run(
-        [sys.executable, "-m", "openral_data.cli", *args],
-        capture_output=True,
-        text=True,
-        env=full_env,
-        timeout=600,
-        check=False,
-    )
+def project(tmp_path: Path) -> Iterator[Path]:
+    """A copy of the repo's manifests in tmp, used as OPENRAL_DATA_HOME, so tests can add broken files
+    (module-scoped fixtures enter `isolated_home` themselves)."""
+    with isolated_home(tmp_path) as home:
+        yield home

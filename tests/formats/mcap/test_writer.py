@@ -1,0 +1,109 @@
+"""The MCAP sink on its own: backpressure instead of drops, failures surface, nothing half-written is visible."""
+
+from __future__ import annotations
+
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+import pytest
+
+from openral_data.errors import OpenralError
+from openral_data.formats.mcap import McapConfig, McapSink, finished_bags
+from openral_data.formats.mcap import writer as mcap_writer
+from openral_data.formats.mcap.messages import MessageFactory
+from openral_data.types import CameraShape, DatasetSchema, EpisodeStart, Frame
+from tests.support.mcap import check_bag
+from tests.support.timing import TIMED
+
+pytestmark = TIMED
+
+SCHEMA = DatasetSchema(
+    fps=10, state_names=("a", "b"), action_names=("x",), cameras={"cam": CameraShape(16, 16)}, robot_type="r"
+)
+
+
+def _frame(t: int) -> Frame:
+    img = np.full((16, 16, 3), t, np.uint8)
+    return Frame(
+        state=np.array([t, 0], np.float32), action=np.array([t], np.float32), images={"cam": img},
+        task="t", reward=0.0, done=False, success=False, timestamp=t / 10,
+    )  # fmt: skip
+
+
+def test_a_stalled_encoder_blocks_the_producer_and_loses_nothing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    gate = threading.Event()
+    real = MessageFactory.compress
+
+    def stalled(self: MessageFactory, rgb: npt.NDArray[np.uint8]) -> bytes:
+        gate.wait()
+        return real(self, rgb)
+
+    monkeypatch.setattr(MessageFactory, "compress", stalled)
+    sink = McapSink(tmp_path / "m", SCHEMA, McapConfig(queue_size=4, image_format="png", encoder_threads=2))
+    sink.begin_episode(EpisodeStart(seed=0, initial_state={}))
+    added = 0
+
+    def produce() -> None:
+        nonlocal added
+        for t in range(50):
+            sink.add_frame(_frame(t))
+            added += 1
+
+    producer = threading.Thread(target=produce)
+    producer.start()
+    time.sleep(1.0)
+    assert producer.is_alive() and added == 4  # 4 frames may wait for their images; the 5th add_frame blocks
+    gate.set()
+    producer.join(timeout=30)
+    assert added == 50
+    record = sink.end_episode(True)
+    sink.close()
+    assert record.length == 50
+    topics = check_bag(finished_bags(tmp_path / "m")[0])
+    assert [int(js.position[0]) for _, js in topics["/joint_states"]] == list(range(50))
+    assert len(topics["/camera/cam/image/compressed"]) == 50
+
+
+@pytest.mark.parametrize("threads", [0, 1])
+def test_a_failing_write_fails_the_episode_and_leaves_no_bag(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, threads: int
+) -> None:
+    sink = McapSink(tmp_path / "m", SCHEMA, McapConfig(encoder_threads=threads))
+    sink.begin_episode(EpisodeStart(seed=0, initial_state={}))
+    sink.add_frame(_frame(0))
+    assert sink.end_episode(True).length == 1
+
+    def broken(self: mcap_writer._EpisodeBag, frame: Frame, encoded: dict[str, bytes]) -> None:
+        raise OSError("disk full")
+
+    monkeypatch.setattr(mcap_writer._EpisodeBag, "write_frame", broken)
+    sink.begin_episode(EpisodeStart(seed=1, initial_state={}))
+    with pytest.raises(OpenralError, match="episode 1: MCAP write failed: disk full"):
+        # in the caller's thread the write happens in add_frame; with encoder threads at end_episode
+        sink.add_frame(_frame(0))
+        sink.end_episode(True)
+    sink.close()
+    assert [p.name for p in finished_bags(tmp_path / "m")] == ["episode_000000"]
+    assert not (tmp_path / "m" / ".partial").exists()
+
+
+def test_refuses_to_write_into_a_non_empty_folder(tmp_path: Path) -> None:
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "notes.txt").write_text("keep")
+    with pytest.raises(OpenralError, match="output exists and is not empty"):
+        McapSink(tmp_path / "m", SCHEMA)
+    assert (tmp_path / "m" / "notes.txt").read_text() == "keep"
+
+
+def test_discarded_episode_leaves_nothing(tmp_path: Path) -> None:
+    sink = McapSink(tmp_path / "m", SCHEMA)
+    sink.begin_episode(EpisodeStart(seed=0, initial_state={}))
+    sink.add_frame(_frame(0))
+    sink.discard_episode()
+    sink.close()
+    assert not (tmp_path / "m").exists()  # no finished episode: the folder it created is gone

@@ -1,0 +1,60 @@
+"""`stats` and `view` on datasets written by lerobot 0.6.1 itself (no openral columns), and the benchmark's
+DuckDB/pandas agreement on a generated dataset with NaNs and timestamp gaps."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from rerun.chunk import RrdReader
+
+from openral_data.metrics.command import StatsOptions, run_stats
+from openral_data.viz.rerun_view import ViewOptions, run_view
+from tests.support.home import REPO
+from tests.support.lerobot_written import LENGTHS, write_lerobot_dataset
+from tests.support.rrd import verify
+
+
+@pytest.mark.slow
+def test_lerobot_written_datasets(tmp_path: Path) -> None:
+    with_success, without = tmp_path / "lr_success", tmp_path / "lr_plain"
+    write_lerobot_dataset(with_success, True)
+    write_lerobot_dataset(without, False)
+    report = json.loads(run_stats(StatsOptions([str(with_success), str(without)], fmt="json")))
+    groups = {g["dataset"]: g for g in report["groups"]}
+    g = groups["lr_success"]
+    assert (g["episodes"], g["frames"], g["successes"], g["success_known"]) == (3, sum(LENGTHS), 2, 3)
+    g = groups["lr_plain"]
+    assert (g["episodes"], g["frames"], g["successes"], g["success_known"]) == (3, sum(LENGTHS), None, 0)
+    assert report["comparison"] == []  # nothing to compare against an unknown success rate
+    names = [d["name"] for d in report["dimensions"] if d["dataset"] == "lr_plain"]
+    assert names == ["x", "y", "z", "vx", "vy"]
+    assert report["health"] == []  # lerobot's mp4s hold exactly one frame per row, at the right offsets
+
+    rrd = tmp_path / "lr.rrd"
+    run_view(ViewOptions(with_success, episode=1, save=rrd))
+    verify(rrd)
+    rows: dict[str, int] = {}
+    for chunk in RrdReader(rrd).stream():
+        if not chunk.is_static:
+            rows[chunk.entity_path] = rows.get(chunk.entity_path, 0) + chunk.num_rows
+    assert rows["/cameras/cam"] == rows["/state/x"] == rows["/action/vy"] == LENGTHS[1]
+
+
+@pytest.mark.slow
+def test_benchmark_contestants_agree() -> None:
+    """bench_stats.py exits 1 when DuckDB and pandas disagree on any number; speed is not asserted here."""
+    proc = subprocess.run(
+        [sys.executable, str(REPO / "benchmarks/bench_stats.py"), "--episodes", "40", "--repeats", "1"],
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=600,
+    )
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    summary = json.loads(proc.stdout[proc.stdout.index("\n{") :])
+    assert summary["same_numbers"] and summary["dataset"]["episodes"] == 40
+    assert summary["health_issues_found"] > 0

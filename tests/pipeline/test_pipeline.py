@@ -1,0 +1,147 @@
+"""`pipeline run`: the shipped mock campaign end to end, killed mid-run and resumed; YAML errors are one line."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pyarrow.parquet as pq
+import pytest
+
+from openral_data.errors import ConfigError
+from openral_data.pipeline.runner import run_pipeline
+from openral_data.pipeline.schema import load_pipeline
+from tests.support.cli import run_cli
+from tests.support.home import REPO
+from tests.support.scenes import write_yaml
+from tests.support.timing import TIMED
+
+pytestmark = TIMED
+
+MOCK = REPO / "pipelines" / "mock_campaign.yaml"
+STEPS = ["rec", "all", "replayed", "metrics", "bags"]
+
+
+def _report(workdir: Path) -> dict[str, object]:
+    data: dict[str, object] = json.loads((workdir / "report.json").read_text())
+    return data
+
+
+def _statuses(workdir: Path) -> list[tuple[str, str]]:
+    return [(s["step"], s["status"]) for s in _report(workdir)["steps"]]  # type: ignore[attr-defined]
+
+
+def test_every_shipped_pipeline_validates() -> None:
+    files = sorted((REPO / "pipelines").glob("*.yaml"))
+    assert MOCK in files and len(files) >= 2
+    for f in files:
+        load_pipeline(f)
+
+
+def test_mock_campaign_end_to_end_killed_and_resumed(project: Path, tmp_path: Path) -> None:
+    workdir = tmp_path / "run"
+    cmd = [sys.executable, "-m", "openral_data.cli", "pipeline", "run", str(MOCK), "--workdir", str(workdir)]
+    # 1. SIGKILL the run once the record step is marked complete and the merge step is under way
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=os.environ.copy())
+    deadline = time.monotonic() + 300
+    while not (workdir / "rec" / ".done.json").exists():
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    rec_marker = (workdir / "rec" / ".done.json").read_bytes()
+    assert not (workdir / "report.json").exists()
+
+    # 2. resume: the record step is skipped (its outputs untouched), everything after it runs
+    res = run_cli("pipeline", "run", str(MOCK), "--workdir", str(workdir))
+    assert res.returncode == 0, res.stderr
+    assert _statuses(workdir) == [("rec", "skipped")] + [(s, "ran") for s in STEPS[1:]]
+    assert (workdir / "rec" / ".done.json").read_bytes() == rec_marker
+    assert "rec (record): done earlier, skipped" in res.stderr
+
+    # outputs addressed by name: two recorded datasets, their merge, replay results, stats, bags
+    recs = sorted(p.name for p in (workdir / "rec").iterdir() if not p.name.startswith("."))
+    assert recs == ["mock_pick--random-mock", "mock_pick--zero-mock"]
+    merged = workdir / "all" / "dataset"
+    info = json.loads((merged / "meta" / "info.json").read_text())
+    assert (info["total_episodes"], info["total_frames"]) == (4, 48)
+    replayed = workdir / "replayed"
+    for name in recs:
+        summary = json.loads((replayed / name / "summary.json").read_text())
+        assert summary["reproduced"] == 2, summary
+        assert pq.read_table(replayed / name / "episodes.parquet").num_rows == 2
+    stats = json.loads((workdir / "metrics" / "report" / "stats.json").read_text())
+    assert {g["rskill"] for g in stats["groups"]} == {"random-mock", "zero-mock"}
+    assert sorted(p.name for p in (workdir / "bags" / "dataset").glob("episode_*")) == [
+        "episode_000000",
+        "episode_000001",
+    ]
+
+    # 3. a complete run is skipped as a whole; a changed step is refused, not silently redone
+    res = run_cli("pipeline", "run", str(MOCK), "--workdir", str(workdir))
+    assert res.returncode == 0 and _statuses(workdir) == [(s, "skipped") for s in STEPS]
+    changed = tmp_path / "changed.yaml"
+    changed.write_text(MOCK.read_text().replace("count: 2", "count: 3"))
+    res = run_cli("pipeline", "run", str(changed), "--workdir", str(workdir))
+    assert res.returncode == 2 and res.stderr.startswith("error: step rec: its configuration changed")
+
+
+def test_an_unmarked_item_is_redone(project: Path, tmp_path: Path) -> None:
+    spec = write_yaml(
+        tmp_path / "p.yaml",
+        {
+            "name": "small",
+            "steps": [
+                {"id": "rec", "record": {"scenes": ["mock_pick"], "rskills": ["zero-mock", "random-mock"],
+                                         "seeds": {"count": 1}, "max_steps": 3, "codec": "h264"}},
+            ],
+        },
+    )  # fmt: skip
+    workdir = tmp_path / "run"
+    run_pipeline(spec, workdir)
+    # as if killed while writing the second item: its marker and the step marker are missing, the folder is junk
+    (workdir / "rec" / ".done.json").unlink()
+    (workdir / "rec" / ".mock_pick--random-mock.done").unlink()
+    (workdir / "rec" / "mock_pick--random-mock" / "junk").write_text("half written")
+    first = (workdir / "rec" / "mock_pick--zero-mock" / "meta" / "info.json").stat().st_mtime_ns
+    lines: list[str] = []
+    report = run_pipeline(spec, workdir, log=lines.append)
+    assert "rec/mock_pick--zero-mock: done earlier, skipped" in lines
+    assert "rec/mock_pick--random-mock: running" in lines
+    assert not (workdir / "rec" / "mock_pick--random-mock" / "junk").exists()
+    assert (workdir / "rec" / "mock_pick--zero-mock" / "meta" / "info.json").stat().st_mtime_ns == first
+    assert report.steps[0]["summary"]["mock_pick--random-mock"]["episodes"] == 1
+
+
+@pytest.mark.parametrize(
+    ("steps", "message"),
+    [
+        ([{"id": "a", "merge": {"inputs": ["rec"]}}], r"steps\[0\]\.merge\.inputs\[0\]: 'rec' is not an earlier step"),
+        ([{"id": "a", "stats": {"inputs": ["x"]}, "merge": {"inputs": ["x"]}}], "give exactly one of"),
+        ([{"id": "a", "record": {"scenes": ["mock_pick"], "rskills": ["zero-mock"], "seeds": {"count": 1},
+                                 "colour": "red"}}], r"steps\[0\]\.record\.colour: unknown key"),
+        ([{"id": "r", "record": {"scenes": ["mock_pick"], "rskills": ["zero-mock"], "seeds": {"count": 1}}},
+          {"id": "s", "stats": {"inputs": ["r"]}}, {"id": "x", "replay": {"dataset": "s"}}],
+         r"steps\[2\]\.replay\.dataset: 's' is a stats step"),
+        ([{"id": "r", "record": {"scenes": ["mock_pick"], "rskills": ["zero-mock"], "seeds": {"count": 0}}}],
+         r"steps\[0\]\.record\.seeds\.count"),
+    ],
+)  # fmt: skip
+def test_pipeline_yaml_errors_name_file_and_field(tmp_path: Path, steps: list[object], message: str) -> None:
+    spec = write_yaml(tmp_path / "bad.yaml", {"name": "bad", "steps": steps})
+    with pytest.raises(ConfigError, match=message) as err:
+        load_pipeline(spec)
+    assert str(err.value).startswith(str(spec)) and "\n" not in str(err.value)
+
+
+def test_pipeline_cli_error_is_one_line(tmp_path: Path) -> None:
+    spec = write_yaml(tmp_path / "bad.yaml", {"name": "bad", "steps": [{"id": "a", "merge": {"inputs": ["nope"]}}]})
+    res = run_cli("pipeline", "run", str(spec), "--workdir", str(tmp_path / "w"))
+    assert res.returncode == 2 and res.stderr.count("\n") == 1 and "'nope' is not an earlier step" in res.stderr
+    assert not (tmp_path / "w").exists()

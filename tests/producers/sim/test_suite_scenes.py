@@ -1,0 +1,74 @@
+"""Benchmark-suite scenes part B (gym-pusht, gym-aloha, LIBERO) as a whole: shipped YAMLs, fixed robots, the
+LIBERO extra's conflicts and its refusal outside its own environment."""
+
+from __future__ import annotations
+
+import importlib.util
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from openral_data.errors import ConfigError
+from openral_data.record import registry
+from openral_data.record.sim import RecordOptions, record
+from openral_data.schemas.scene import BenchmarkScene, load_recordable_scene
+from tests.support.cli import run_cli
+from tests.support.home import REPO
+
+SIM = ["pusht", "aloha_transfer_cube", "aloha_insertion", "libero_spatial", "libero_object", "libero_goal", "libero_10"]
+RSKILL = {"gym_pusht": "random-pusht", "gym_aloha": "random-aloha", "libero": "random-libero"}
+
+
+@pytest.mark.parametrize("scene_id", SIM)
+def test_shipped_scenes_are_fixed_robot_with_a_benchmark_twin(scene_id: str) -> None:
+    sim = load_recordable_scene(registry.resolve_scene_path(scene_id))
+    bench = load_recordable_scene(registry.resolve_scene_path(f"{scene_id}_bench"))
+    assert isinstance(bench, BenchmarkScene) and not isinstance(sim, BenchmarkScene)
+    for scene in (sim, bench):
+        assert scene.scene.type in RSKILL and scene.scene.fixed_robot and scene.scene.robot in registry.ROBOTS
+        assert scene.scene.type in registry.SCENES
+    assert bench.scene.params == sim.scene.params and bench.task.instruction == sim.task.instruction
+    assert "random policy" in bench.metadata.honest_scope and bench.n_episodes == 50
+    rskill = registry.resolve_rskill(RSKILL[sim.scene.type])[0]
+    robot = registry.ROBOTS[sim.scene.robot or ""]
+    assert set(rskill.embodiment_tags) & set(robot.embodiment_tags)
+    assert rskill.state_contract.names == (robot.observation.state.names or [])
+    assert rskill.action_contract.names == (robot.action.names or [])
+
+
+def test_fixed_robot_is_refused_before_anything_is_written(project: Path, tmp_path: Path) -> None:
+    for scene_id in ("aloha_insertion", "libero_goal"):
+        with pytest.raises(ConfigError, match=r"scene\.fixed_robot"):
+            record(RecordOptions(scene=scene_id, rskill="random-aloha", robot="franka_panda", out=tmp_path / "x"))
+    assert not (tmp_path / "x").exists()
+
+
+@pytest.mark.skipif(importlib.util.find_spec("libero") is not None, reason="LIBERO is installed in this environment")
+def test_libero_outside_its_environment_is_one_line_naming_the_extra(project: Path, tmp_path: Path) -> None:
+    proc = run_cli("record", "--scene", "libero_spatial", "--rskill", "random-libero", "--out", str(tmp_path / "o"))
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    line = proc.stderr.strip().splitlines()[-1]
+    assert "scene.type: libero needs the 'libero' extra" in line and "setup_libero.sh" in line
+    assert not (tmp_path / "o").exists()
+
+
+def test_resolver_refuses_libero_next_to_robosuite_or_metaworld() -> None:
+    uv = shutil.which("uv")
+    if uv is None or subprocess.run([uv, "--version"], capture_output=True, check=False, timeout=60).returncode:
+        pytest.skip("uv is not on PATH")
+    for other in ("robosuite", "metaworld"):
+        proc = subprocess.run(
+            [uv, "sync", "--frozen", "--dry-run", "--extra", "libero", "--extra", other],
+            cwd=REPO,
+            capture_output=True,
+            text=True,
+            timeout=120,
+            check=False,
+        )
+        message = " ".join(proc.stderr.split())  # uv wraps long lines
+        assert (
+            proc.returncode != 0
+            and f"Extras `libero` and `{other}` are incompatible with the declared conflicts" in message
+        )

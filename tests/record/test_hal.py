@@ -1,0 +1,149 @@
+"""`record --hal` end to end (slow): the UR5e twin into LeRobot v3 + MCAP loaded by lerobot 0.6.1 and rosbags,
+a sim scene behind the HAL, and the SO-100 adapter — lerobot's real driver — on a SIMULATED Feetech bus."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from openral_data.errors import ConfigError
+from openral_data.producers.hal.base import HalError
+from openral_data.producers.hal.so100 import MOTORS
+from openral_data.record.hal import HalRecordOptions, record_hal
+from tests.support.feetech_bus import SimulatedFeetechBus
+from tests.support.hal import episode_infos, frames_table
+from tests.support.mcap import check_bag
+from tests.support.timing import TIMED
+
+pytestmark = [pytest.mark.slow, TIMED]
+
+
+def test_twin_recording_loads_in_lerobot_and_mcap_keeps_real_stamps(tmp_path: Path) -> None:
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    out = tmp_path / "ds"
+    s = record_hal(
+        HalRecordOptions(
+            robot="ur5e", rskill="sweep-ur5e", fps=20, n_episodes=2, max_steps=15, out=out,
+            codec="h264", formats=("lerobot", "mcap"), operator="success,failure@9",
+        )
+    )  # fmt: skip
+    assert [r.length for r in s.episodes] == [15, 9] and [r.success for r in s.episodes] == [True, False]
+    assert all(r.accounted() for r in s.all_reports)
+    ds = LeRobotDataset("local/hal", root=out, video_backend="pyav")
+    assert len(ds) == 24 and ds.fps == 20
+    real = []
+    for i in range(len(ds)):
+        item = ds[i]
+        t = int(item["frame_index"])
+        assert abs(float(item["timestamp"]) - t / 20) < 1e-6  # frame-aligned, as lerobot expects
+        assert item["observation.images.wrist"].shape == (3, 128, 128)
+        real.append(float(item["openral.real_timestamp"]))
+        assert float(item["openral.real_timestamp"]) >= float(item["openral.tick"]) / 20 - 1e-4
+    infos = [json.loads(x)["hal"] for x in ds.meta.episodes["openral.episode_info"]]
+    assert [i["verdict"] for i in infos] == ["success", "failure"]
+
+    # the MCAP bags carry the real monotonic stamps (episode start + real_timestamp), not frame-aligned ones
+    cols = frames_table(out)
+    for e in (0, 1):
+        bag = out / "mcap" / f"episode_{e:06d}"
+        msgs = check_bag(bag)
+        joint = next(v for topic, v in msgs.items() if "joint" in topic)
+        stamps = np.array([ns for ns, _ in joint], dtype=np.int64)
+        rel = (stamps - stamps[0]) / 1e9
+        mine = np.array(
+            [r for r, ep in zip(cols["openral.real_timestamp"], cols["episode_index"], strict=True) if ep == e]
+        )
+        assert np.allclose(rel, mine - mine[0], atol=1e-5)
+        assert not np.allclose(rel, np.arange(len(rel)) / 20, atol=1e-4), "MCAP stamps must be the real ones"
+
+
+def test_sim_scene_behind_the_hal(tmp_path: Path) -> None:
+    out = tmp_path / "scene"
+    s = record_hal(
+        HalRecordOptions(
+            robot="franka_panda", rskill="scripted-push", scene="tabletop_push", fps=20, n_episodes=1,
+            max_steps=30, out=out, codec="h264",
+        )
+    )  # fmt: skip
+    assert s.episodes[0].length <= 30 and s.all_reports[0].accounted()
+    cols = frames_table(out)
+    assert "next.reward" in cols and len(cols["observation.state"][0]) == 8
+    assert "openral.real_timestamp" in cols and all(a == 0 for a in cols["openral.sample_age.front"])
+    assert (out / "videos" / "observation.images.front").is_dir()
+
+
+def _so_project(project: Path, robot: str) -> Path:
+    """The SO manifest pointing at a calibration file like `lerobot-calibrate` writes."""
+    cal = project / "robots" / robot / "calibration"
+    cal.mkdir()
+    (cal / f"{robot}.json").write_text(
+        json.dumps(
+            {
+                m: {"id": i + 1, "drive_mode": 0, "homing_offset": 0, "range_min": 1024, "range_max": 3072}
+                for i, m in enumerate(MOTORS)
+            }
+        )
+    )
+    path = project / "robots" / robot / "robot.yaml"
+    manifest = yaml.safe_load(path.read_text())
+    manifest["hardware"]["calibration_dir"] = "calibration"
+    path.write_text(yaml.safe_dump(manifest, sort_keys=False))
+    return project
+
+
+@pytest.fixture
+def so100_project(project: Path) -> Path:
+    return _so_project(project, "so100_follower")
+
+
+@pytest.mark.parametrize("robot", ["so100_follower", "so101_follower"])
+def test_so_arm_through_lerobots_driver_on_a_simulated_bus(project: Path, tmp_path: Path, robot: str) -> None:
+    """SIMULATED hardware: lerobot's SOFollower + scservo SDK + pyserial talk to a pty servo simulator."""
+    _so_project(project, robot)
+    out = tmp_path / robot
+    with SimulatedFeetechBus(list(range(1, 7))) as bus:
+        s = record_hal(
+            HalRecordOptions(
+                robot=robot, rskill="sweep-so-arm", mode="real", port=bus.port, fps=10,
+                n_episodes=1, max_steps=15, out=out, codec="h264", operator="success",
+            )
+        )  # fmt: skip
+        goal_writes = {i: sv.writes for i, sv in bus.servos.items()}
+        present = {i: sv.get16("present") for i, sv in bus.servos.items()}
+    assert s.episodes[0].length == 15 and s.episodes[0].success is True
+    assert all(n >= 15 for n in goal_writes.values()), goal_writes  # every frame's command reached every servo
+    cols = frames_table(out)
+    state = np.array(cols["observation.state"])
+    action = np.array(cols["action"])
+    assert state.shape == (15, 6)
+    assert np.allclose(state[0], [0, 0, 0, 0, 0, 50], atol=0.2)  # the calibrated middle, gripper half open
+    # the servos follow: each reading is close to the previous frame's command
+    assert np.abs(state[1:, :5] - action[:-1, :5]).max() < 3.0
+    assert present[1] != 2048  # the simulated shoulder_pan moved away from the middle
+    assert episode_infos(out)[0]["hal"]["verdict"] == "success"
+
+
+def test_so100_refuses_to_run_uncalibrated(so100_project: Path, tmp_path: Path) -> None:
+    differs = r"hardware\.calibration_dir: the motors' calibration differs"
+    with (
+        SimulatedFeetechBus(list(range(1, 7)), range_min=900) as bus,  # the motors disagree with the file
+        pytest.raises(HalError, match=differs),
+    ):
+        record_hal(
+            HalRecordOptions(
+                robot="so100_follower", rskill="sweep-so-arm", mode="real", port=bus.port, out=tmp_path / "a"
+            )
+        )
+    (so100_project / "robots" / "so100_follower" / "calibration" / "so100_follower.json").unlink()
+    with pytest.raises(ConfigError, match=r"no calibration .*lerobot-calibrate"):
+        record_hal(
+            HalRecordOptions(
+                robot="so100_follower", rskill="sweep-so-arm", mode="real", port="/dev/null", out=tmp_path / "b"
+            )
+        )
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()

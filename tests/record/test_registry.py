@@ -1,0 +1,39 @@
+"""Registries: SCENES, POLICIES and the auto-discovered ROBOTS; references by id or path."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+from openral_data.errors import ConfigError, OpenralError
+from openral_data.record import registry
+from tests.support.home import REPO
+
+
+def test_robots_are_discovered_from_folders(project: Path) -> None:
+    shipped = list(registry.ROBOTS)
+    assert "mock_arm" in shipped and "mock_arm" in registry.ROBOTS and shipped == sorted(shipped)
+    shutil.copytree(project / "robots/mock_arm", project / "robots/mock_arm_b")
+    text = (project / "robots/mock_arm_b/robot.yaml").read_text().replace("name: mock_arm", "name: mock_arm_b")
+    (project / "robots/mock_arm_b/robot.yaml").write_text(text)
+    assert list(registry.ROBOTS) == sorted([*shipped, "mock_arm_b"]) and len(registry.ROBOTS) == len(shipped) + 1
+    assert registry.ROBOTS["mock_arm_b"].name == "mock_arm_b"
+    with pytest.raises(OpenralError, match=r"unknown robot 'nope'; valid: .*mock_arm, mock_arm_b"):
+        registry.ROBOTS["nope"]
+
+
+def test_robot_name_must_match_folder(project: Path) -> None:
+    shutil.copytree(project / "robots/mock_arm", project / "robots/renamed")
+    with pytest.raises(ConfigError, match=r"renamed/robot\.yaml: name: 'mock_arm' must equal its folder name"):
+        registry.ROBOTS["renamed"]
+
+
+def test_references_by_id_and_path(project: Path) -> None:
+    rs, path = registry.resolve_rskill("zero-mock")
+    assert rs.policy == "zero" and path == project / "rskills/zero-mock/rskill.yaml"
+    assert registry.resolve_rskill(str(REPO / "rskills/random-mock"))[0].policy == "random"
+    assert registry.resolve_scene_path("mock_pick") == project / "scenes/sim/mock_pick.yaml"
+    assert registry.resolve_scene_path("mock_workcell") == project / "scenes/deploy/mock_workcell.yaml"
+    assert set(registry.SCENES) >= {"mock"} and set(registry.POLICIES) >= {"zero", "random"}
