@@ -10,7 +10,8 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 from conftest import REPO, mock_scene, write_yaml
 
-from openral_data.record.sim import RecordOptions, record
+from openral_data.record.options import RecordOptions
+from openral_data.record.sim import record
 
 # episode lengths; with max_steps=10 an episode whose success_after exceeds 10 fails at step 10
 A_SUCCESS_AFTER = [3, 5, 20, 4, 6, 30, 2, 7]  # 6/8 succeed

@@ -20,7 +20,8 @@ from sim_suite_helpers import (
 from suite_helpers import replay_reproduces
 
 from openral_data.errors import ConfigError
-from openral_data.record.sim import RecordOptions, record
+from openral_data.record.options import RecordOptions
+from openral_data.record.sim import record
 
 
 @pytest.mark.slow

@@ -19,7 +19,8 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
 from openral_data.formats.lerobot_v3.reader import read_episodes
-from openral_data.record.sim import RecordOptions, record
+from openral_data.record.options import RecordOptions
+from openral_data.record.sim import record
 
 OUTCOMES = ("next.reward", "next.done", "next.success")
 

@@ -21,7 +21,8 @@ from openral_data.doctor import check
 from openral_data.edit import ops
 from openral_data.errors import OpenralError
 from openral_data.formats.lerobot_v3.lock import DatasetLock
-from openral_data.record.sim import RecordOptions, record
+from openral_data.record.options import RecordOptions
+from openral_data.record.sim import record
 
 LENGTHS = [5, 9, 3, 7]
 

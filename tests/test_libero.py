@@ -34,7 +34,8 @@ from suite_helpers import replay_reproduces
 
 from openral_data.errors import ConfigError
 from openral_data.producers.sim.libero.config import import_libero
-from openral_data.record.sim import RecordOptions, record
+from openral_data.record.options import RecordOptions
+from openral_data.record.sim import record
 
 REPO = Path(__file__).resolve().parent.parent
 SUITES = ["spatial", "object", "goal", "10"]

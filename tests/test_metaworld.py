@@ -13,7 +13,8 @@ from suite_helpers import build, project_point, replay_reproduces, rollout, smal
 from openral_data.errors import ConfigError
 from openral_data.policies.metaworld_expert import policy_class_name
 from openral_data.producers.sim.metaworld import task_names
-from openral_data.record.sim import RecordOptions, record
+from openral_data.record.options import RecordOptions
+from openral_data.record.sim import record
 
 pytest.importorskip("metaworld")
 

@@ -13,7 +13,8 @@ from conftest import run_cli, write_yaml
 from mujoco_helpers import expert_rskill, red_mask, shipped_scene
 
 from openral_data.record import registry
-from openral_data.record.sim import RecordOptions, record
+from openral_data.record.options import RecordOptions
+from openral_data.record.sim import record
 
 
 def _small_scene(project: Path, kind: str, size: int = 64, **scene_over: object) -> Path:

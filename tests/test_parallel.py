@@ -13,8 +13,9 @@ from seeded_check import episode_seeds, verify_seeded_dataset
 
 from openral_data.doctor import check
 from openral_data.errors import OpenralError
+from openral_data.record.options import RecordOptions
 from openral_data.record.parallel.run import record_parallel
-from openral_data.record.sim import RecordOptions, record
+from openral_data.record.sim import record
 
 LENGTHS = [5, 9, 3, 7, 4, 6]
 

@@ -19,7 +19,8 @@ from sim_suite_helpers import (
 from suite_helpers import replay_reproduces
 
 from openral_data.errors import ConfigError
-from openral_data.record.sim import RecordOptions, record
+from openral_data.record.options import RecordOptions
+from openral_data.record.sim import record
 
 
 def test_camera_and_size_come_from_the_yaml_and_the_view_shows_the_scene() -> None:

@@ -9,7 +9,8 @@ from conftest import mock_scene, run_cli, write_yaml
 from lerobot_check import verify_mock_dataset
 from mock_mcap import verify_mock_bags
 
-from openral_data.record.sim import RecordOptions, record
+from openral_data.record.options import RecordOptions
+from openral_data.record.sim import record
 
 LENGTHS = [5, 9, 3]
 

@@ -26,7 +26,8 @@ from openral_data.errors import ConfigError, OpenralError
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.lock import DatasetBusy, DatasetLock
 from openral_data.formats.mcap.writer import finished_bags
-from openral_data.record.sim import RecordOptions, record
+from openral_data.record.options import RecordOptions
+from openral_data.record.sim import record
 
 LENGTHS = [5, 7, 4]  # the mock succeeds after these many steps, cycled over episodes
 DRIVER = Path(__file__).with_name("record_driver.py")

@@ -13,7 +13,8 @@ from conftest import REPO, run_cli
 
 from openral_data.errors import ConfigError
 from openral_data.record import registry
-from openral_data.record.sim import RecordOptions, record
+from openral_data.record.options import RecordOptions
+from openral_data.record.sim import record
 from openral_data.schemas.scene import BenchmarkScene, load_recordable_scene
 
 SIM = ["pusht", "aloha_transfer_cube", "aloha_insertion", "libero_spatial", "libero_object", "libero_goal", "libero_10"]

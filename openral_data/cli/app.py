@@ -86,7 +86,7 @@ def record(
     given = [name for name, value in hal_only.items() if value]
     if given:
         raise OpenralError(f"{', '.join(given)}: only with --hal ROBOT_ID (a scene records at its own fps)")
-    from openral_data.record.sim import RecordOptions, RecordSummary
+    from openral_data.record.options import RecordOptions, RecordSummary
     from openral_data.record.sim import record as run_record
     from openral_data.record.sinks import parse_formats
 
