@@ -100,7 +100,7 @@ def test_mock_scene_restores_its_state_and_cli_prints_a_summary(mock: Path, tmp_
 
 def _main(capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, *args: str) -> tuple[int, str]:
     """The real entry point (`cli.main`) in-process: exit status and stderr."""
-    from openral_data.cli import app as cli
+    from openral_data import cli
 
     monkeypatch.setattr("sys.argv", ["openral-data", *args])
     with pytest.raises(SystemExit) as exit_info:
