@@ -3,16 +3,17 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, cast
+from typing import TYPE_CHECKING, Annotated, cast
 
 import typer
 
 from openral_data.cli.choices import CodecChoice
 from openral_data.cli.terminal import print_rows, progress_bar
 from openral_data.errors import OpenralError
-from openral_data.formats.lerobot_v3.video import Codec
-from openral_data.formats.mcap import IMAGE_FORMATS, McapConfig
-from openral_data.schemas.mapping import Mapping, load_mapping
+
+if TYPE_CHECKING:
+    from openral_data.formats.lerobot_v3.video import Codec
+    from openral_data.schemas.mapping import Mapping
 
 
 def _check_dst(dst: Path) -> None:
@@ -40,6 +41,8 @@ def _convert(
     src: Path, dst: Path, mapping_path: Path | None, codec: str, episodes: str | None, image_format: str
 ) -> None:
     from openral_data.convert.to_mcap import export_mcap, is_lerobot_dataset
+    from openral_data.formats.mcap import IMAGE_FORMATS, McapConfig
+    from openral_data.schemas.mapping import load_mapping
 
     if not src.exists():
         raise OpenralError(f"{src}: no such file or directory")
@@ -81,7 +84,7 @@ def _convert(
             src,
             dst,
             mapping,
-            codec=cast(Codec, codec),
+            codec=cast("Codec", codec),
             progress=lambda d, t: bar.update(task, completed=d, total=t),
         )
     rows = [

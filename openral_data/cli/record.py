@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -11,7 +11,9 @@ from openral_data import paths
 from openral_data.cli.choices import CodecChoice
 from openral_data.cli.terminal import INTERRUPTED_RECORDING, err_console, print_rows, progress_bar
 from openral_data.errors import OpenralError
-from openral_data.record.options import RecordOptions, RecordSummary
+
+if TYPE_CHECKING:
+    from openral_data.record.options import RecordSummary
 
 
 def record(
@@ -62,6 +64,7 @@ def record(
     given = [name for name, value in hal_only.items() if value]
     if given:
         raise OpenralError(f"{', '.join(given)}: only with --hal ROBOT_ID (a scene records at its own fps)")
+    from openral_data.record.options import RecordOptions
     from openral_data.record.sim import record as run_record
     from openral_data.record.sinks import parse_formats
 
