@@ -9,6 +9,7 @@ import duckdb
 
 from openral_data.errors import OpenralError
 from openral_data.metrics import report as rep
+from openral_data.metrics.plot import check_plot_path, save_plot
 from openral_data.metrics.render import DATA_FORMATS, FORMATS, render
 from openral_data.metrics.sources import resolve
 from openral_data.metrics.views import DEFAULT_MEMORY_LIMIT, connect
@@ -33,17 +34,14 @@ def run_stats(opts: StatsOptions) -> str:
 
 
 def stats_tables(opts: StatsOptions) -> list[rep.Table]:
-    """The query result or the report's tables; every input and option error is raised before DuckDB runs."""
+    """The query result (`--sql`) or the report's tables."""
     if opts.fmt not in FORMATS:
         raise OpenralError(f"--format: {opts.fmt!r}; valid: {', '.join(FORMATS)}")
     if not opts.paths:
         raise OpenralError("stats: give at least one dataset or results directory")
     by = rep.parse_by(opts.by)
     if opts.plot is not None:
-        if opts.plot.suffix.lower() != ".png":
-            raise OpenralError(f"{opts.plot}: --plot writes a PNG; use a .png file name")
-        if opts.plot.exists():
-            raise OpenralError(f"{opts.plot}: --plot file exists; refusing to overwrite it")
+        check_plot_path(opts.plot)
     datasets, results = resolve(opts.paths)
     try:
         con = connect(datasets, results, opts.memory_limit)
@@ -56,8 +54,6 @@ def stats_tables(opts: StatsOptions) -> list[rep.Table]:
         if opts.plot is not None:
             if not datasets:
                 raise OpenralError("--plot needs at least one dataset")
-            from openral_data.metrics.plot import save_plot
-
             save_plot(opts.plot, report, con, datasets)
         return list(report.tables)
     except duckdb.Error as exc:  # e.g. a truncated or corrupt parquet file: DuckDB's message names it
