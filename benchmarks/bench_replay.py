@@ -38,7 +38,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
 
 from openral_data.record import registry
-from openral_data.record.sim import RecordOptions, record
+from openral_data.record.options import RecordOptions
+from openral_data.record.sim import record
 from openral_data.replay import ReplayOptions, replay
 from openral_data.replay.recorded import RecordedDataset
 

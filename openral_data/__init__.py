@@ -24,8 +24,8 @@ from openral_data.version import __version__
 # public name -> the module that defines it
 _API: dict[str, str] = {
     "record": "openral_data.record.sim",
-    "RecordOptions": "openral_data.record.sim",
-    "RecordSummary": "openral_data.record.sim",
+    "RecordOptions": "openral_data.record.options",
+    "RecordSummary": "openral_data.record.options",
     "replay": "openral_data.replay",
     "ReplayOptions": "openral_data.replay",
     "ReplaySummary": "openral_data.replay",
@@ -108,7 +108,8 @@ if TYPE_CHECKING:
     from openral_data.formats.lerobot_v3 import DatasetSummary, summarize
     from openral_data.metrics.query import stats_query
     from openral_data.metrics.report import Table
-    from openral_data.record.sim import RecordOptions, RecordSummary, record
+    from openral_data.record.options import RecordOptions, RecordSummary
+    from openral_data.record.sim import record
     from openral_data.replay import ReplayOptions, ReplaySummary, replay
     from openral_data.schemas import BenchmarkScene, RobotManifest, RSkillManifest, SimScene, load_scene
     from openral_data.types import (

@@ -1,17 +1,19 @@
-"""The `convert` command's front end: picks the direction from SRC, shows progress, prints the summary."""
+"""`openral-data convert`: picks the direction from SRC, shows progress, prints the summary."""
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import cast
+from typing import TYPE_CHECKING, Annotated, cast
 
-from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+import typer
 
+from openral_data.cli.choices import CodecChoice
+from openral_data.cli.terminal import print_rows, progress_bar
 from openral_data.errors import OpenralError
-from openral_data.formats.lerobot_v3.video import Codec
-from openral_data.formats.mcap import IMAGE_FORMATS, McapConfig
-from openral_data.schemas.mapping import Mapping, load_mapping
+
+if TYPE_CHECKING:
+    from openral_data.formats.lerobot_v3.video import Codec
+    from openral_data.schemas.mapping import Mapping
 
 
 def _check_dst(dst: Path) -> None:
@@ -19,30 +21,28 @@ def _check_dst(dst: Path) -> None:
         raise OpenralError(f"{dst}: DST exists and is not empty; refusing to overwrite it")
 
 
-def _bar(console: Console, what: str, unit: str) -> Progress:
-    return Progress(
-        TextColumn(f"[bold]{what}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TextColumn(unit),
-        TimeElapsedColumn(),
-        console=console,
-        disable=not console.is_terminal,
-    )
-
-
-def run_convert(
-    src: Path,
-    dst: Path,
-    mapping_path: Path | None,
-    codec: str,
-    episodes: str | None,
-    image_format: str,
-    out: Console,
-    err: Console,
+def convert(
+    src: Annotated[
+        Path, typer.Argument(help="a bag (.bag, .mcap, rosbag2 folder, folder of bags) or a LeRobot v3 dataset")
+    ],
+    dst: Annotated[Path, typer.Argument(help="output folder (must not exist or be empty)")],
+    mapping: Annotated[Path | None, typer.Option(help="mapping YAML: topics -> features (bags -> LeRobot)")] = None,
+    codec: Annotated[CodecChoice, typer.Option(help="video codec (bags -> LeRobot)")] = CodecChoice.av1,
+    episodes: Annotated[str | None, typer.Option(help="episodes to export, e.g. 0,3,5-7 (LeRobot -> MCAP)")] = None,
+    image_format: Annotated[
+        str, typer.Option(help="MCAP camera messages: jpeg, png or raw (LeRobot -> MCAP)")
+    ] = "jpeg",
 ) -> None:
-    from openral_data.cli.app import _print_rows
+    """Convert bags/MCAP to a LeRobot v3 dataset, or a LeRobot v3 dataset to ROS 2 MCAP bags."""
+    _convert(src, dst, mapping, codec.value, episodes, image_format)
+
+
+def _convert(
+    src: Path, dst: Path, mapping_path: Path | None, codec: str, episodes: str | None, image_format: str
+) -> None:
     from openral_data.convert.to_mcap import export_mcap, is_lerobot_dataset
+    from openral_data.formats.mcap import IMAGE_FORMATS, McapConfig
+    from openral_data.schemas.mapping import load_mapping
 
     if not src.exists():
         raise OpenralError(f"{src}: no such file or directory")
@@ -53,12 +53,12 @@ def run_convert(
         if image_format not in IMAGE_FORMATS:
             raise OpenralError(f"--image-format: {image_format!r} is not one of {', '.join(IMAGE_FORMATS)}")
         config = McapConfig(image_format=image_format)
-        with _bar(err, "exporting", "frames") as bar:
+        with progress_bar("exporting", "frames") as bar:
             task = bar.add_task("export", total=None)
             summary = export_mcap(
                 src, dst, episodes=episodes, config=config, progress=lambda d, t: bar.update(task, completed=d, total=t)
             )
-        _print_rows(
+        print_rows(
             "exported",
             [
                 ("source", str(src)),
@@ -78,13 +78,13 @@ def run_convert(
 
     bags = find_bags(src)
     mapping = load_mapping(mapping_path) if mapping_path is not None else own_mapping(bags[0])
-    with _bar(err, "converting", "messages") as bar:
+    with progress_bar("converting", "messages") as bar:
         task = bar.add_task("convert", total=None)
         result = convert_bags(
             src,
             dst,
             mapping,
-            codec=cast(Codec, codec),
+            codec=cast("Codec", codec),
             progress=lambda d, t: bar.update(task, completed=d, total=t),
         )
     rows = [
@@ -120,7 +120,7 @@ def run_convert(
     rows.append(("outcomes", _outcomes(mapping)))
     for topic, count in sorted(result.skipped_topics.items()):
         rows.append((f"skipped {topic}", f"{count} msgs (not in the mapping)"))
-    _print_rows("converted", rows)
+    print_rows("converted", rows)
 
 
 def _outcomes(mapping: Mapping) -> str:

@@ -6,20 +6,19 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.console import Console
 
+from openral_data.cli.terminal import print_line
 from openral_data.edit.ops import EditResult
 
 episodes_app = typer.Typer(
     no_args_is_help=True,
     help="Delete, split and merge episodes of LeRobot v3 datasets (written to a new dataset, re-indexed).",
 )
-_console = Console()
 
 
 def _report(op: str, results: list[EditResult]) -> None:
     for r in results:
-        _console.print(f"{op}: {r.out}  episodes {r.episodes}  frames {r.frames}", markup=False, highlight=False)
+        print_line(f"{op}: {r.out}  episodes {r.episodes}  frames {r.frames}")
 
 
 @episodes_app.command("delete")

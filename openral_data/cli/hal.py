@@ -1,4 +1,4 @@
-"""`record --hal`: option parsing and the printed summary (the work is in hal_record.py)."""
+"""`record --hal`: option parsing and the printed summary (the work is in openral_data/record/hal.py)."""
 
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ from pathlib import Path
 from typing import cast
 
 import typer
-from rich.console import Console
 
+from openral_data.cli.terminal import INTERRUPTED_RECORDING, err_console, print_line, print_rows
 from openral_data.errors import OpenralError
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.producers.hal.operator import HELP
@@ -32,8 +32,6 @@ def run_hal_record(
     safety: str | None,
     staleness: float | None,
     port: str | None,
-    console: Console,
-    err_console: Console,
 ) -> None:
     from openral_data.record.sinks import parse_formats
 
@@ -60,11 +58,11 @@ def run_hal_record(
         port=port,
     )
     if operator == "keyboard":
-        err_console.print(HELP, markup=False, highlight=False)
+        print_line(HELP, err=True)
     try:
-        s = record_hal(opts, lambda line: err_console.print(line, markup=False, highlight=False))
+        s = record_hal(opts, lambda line: print_line(line, err=True))
     except KeyboardInterrupt:
-        err_console.print("interrupted: the episode in flight was discarded, finished episodes are kept")
+        err_console.print(INTERRUPTED_RECORDING)
         raise typer.Exit(130) from None
     rows = [
         ("output", str(s.out)),
@@ -79,9 +77,6 @@ def run_hal_record(
     ]
     if s.estop is not None:
         rows.append(("e-stop", s.estop))
-    width = max(len(k) for k, _ in rows)
-    console.print("recorded (hal)", markup=False, highlight=False)
-    for key, value in rows:
-        console.print(f"  {key:<{width}}  {value}", markup=False, highlight=False, soft_wrap=True)
+    print_rows("recorded (hal)", rows)
     if s.estop is not None:
         raise typer.Exit(1)

@@ -6,11 +6,10 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
-from rich.console import Console
+
+from openral_data.cli.terminal import console, print_line
 
 pipeline_app = typer.Typer(no_args_is_help=True, help="Run declarative, resumable campaigns (pipelines/*.yaml).")
-_console = Console()
-_err = Console(stderr=True)
 
 
 def _figures(summary: dict[str, Any]) -> str:
@@ -32,9 +31,9 @@ def run_cmd(
     """Run the steps of SPEC in order; steps completed by an earlier run with the same config are skipped."""
     from openral_data.pipeline.runner import run_pipeline
 
-    report = run_pipeline(spec, workdir, log=lambda line: _err.print(line, markup=False, highlight=False))
-    _console.print(f"pipeline {report.name}: {report.workdir}", markup=False, highlight=False)
+    report = run_pipeline(spec, workdir, log=lambda line: print_line(line, err=True))
+    print_line(f"pipeline {report.name}: {report.workdir}")
     for step in report.steps:
         line = f"  {step['step']:<12} {step['kind']:<7} {step['status']:<8} {step['seconds']:>7.1f} s  "
-        _console.print(line + _figures(step["summary"]), markup=False, highlight=False, soft_wrap=True)
-    _console.print(f"  report: {report.workdir / 'report.json'}", markup=False, highlight=False)
+        console.print(line + _figures(step["summary"]), markup=False, highlight=False, soft_wrap=True)
+    print_line(f"  report: {report.workdir / 'report.json'}")

@@ -1,26 +1,61 @@
-"""The `openral-data replay` command body: progress bar and readable summary around `replay()`."""
+"""`openral-data replay`: options -> `replay()`, progress bar, readable summary."""
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated
+
 import typer
-from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from openral_data.replay.command import ReplayOptions, ReplaySummary, replay
-from openral_data.replay.outcome import EpisodeOutcome
+from openral_data.cli.choices import CodecChoice
+from openral_data.cli.terminal import err_console, print_rows, progress_bar
+
+if TYPE_CHECKING:
+    from openral_data.replay.command import ReplayOptions, ReplaySummary
+    from openral_data.replay.outcome import EpisodeOutcome
 
 
-def run_replay(opts: ReplayOptions, console: Console, err_console: Console) -> ReplaySummary:
-    with Progress(
-        TextColumn(f"[bold]replay ({opts.mode})"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TextColumn("episodes"),
-        TextColumn("{task.fields[agree]}"),
-        TimeElapsedColumn(),
-        console=err_console,
-        disable=not err_console.is_terminal,
-    ) as bar:
+def replay(
+    dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (recorded by openral-data for sim modes)")],
+    episodes: Annotated[str | None, typer.Option(help="episodes to replay, e.g. 0,3,5-7 (default: all)")] = None,
+    mode: Annotated[str, typer.Option(help="actions | policy | closed-loop")] = "actions",
+    rskill: Annotated[str | None, typer.Option(help="policy / closed-loop: rSkill id or path; recorded[:K]")] = None,
+    out: Annotated[Path | None, typer.Option(help="results folder (default: a new folder under datasets/)")] = None,
+    tolerance: Annotated[float, typer.Option(help="max |state error| per dimension that still reproduces")] = 1e-4,
+    max_steps: Annotated[int | None, typer.Option(help="closed-loop step limit (default: the task's)")] = None,
+    record: Annotated[Path | None, typer.Option(help="also write the replayed rollouts as a new dataset")] = None,
+    cameras: Annotated[Path | None, typer.Option(help="with --record: YAML of cameras replacing the recorded")] = None,
+    codec: Annotated[CodecChoice, typer.Option(help="video codec of --record")] = CodecChoice.av1,
+    format: Annotated[str, typer.Option("--format", help="--record formats: lerobot, mcap or both")] = "lerobot",
+    label: Annotated[str | None, typer.Option(help="label of the results in stats")] = None,
+) -> None:
+    """Replay recorded actions through the rebuilt scene, or evaluate a policy against recorded episodes."""
+    from openral_data.record.sinks import parse_formats
+    from openral_data.replay.command import ReplayOptions
+
+    opts = ReplayOptions(
+        dataset=dataset,
+        episodes=episodes,
+        mode=mode,  # type: ignore[arg-type]  # checked by replay()
+        rskill=rskill,
+        out=out,
+        tolerance=tolerance,
+        label=label,
+        max_steps=max_steps,
+        record=record,
+        cameras=cameras,
+        codec=codec.value,
+        formats=parse_formats(format),
+    )
+    summary = _run(opts)
+    print_rows("replayed" if opts.mode == "actions" else "evaluated", summary.rows())
+
+
+def _run(opts: ReplayOptions) -> ReplaySummary:
+    """`replay()` under a progress bar; Ctrl-C prints what was kept and exits 130."""
+    from openral_data.replay.command import replay as run
+
+    with progress_bar(f"replay ({opts.mode})", "episodes", "{task.fields[agree]}") as bar:
         task = bar.add_task("replay", total=None, agree="")
         agree = [0, 0]
 
@@ -32,15 +67,9 @@ def run_replay(opts: ReplayOptions, console: Console, err_console: Console) -> R
             bar.update(task, total=total, completed=done, agree=text)
 
         try:
-            summary = replay(opts, progress)
+            return run(opts, progress)
         except KeyboardInterrupt:
             bar.stop()
             kept = f"; finished episodes are kept in {opts.record}" if opts.record is not None else ""
             err_console.print(f"interrupted: no results written{kept}", markup=False, highlight=False)
             raise typer.Exit(130) from None
-    rows = summary.rows()
-    width = max(len(k) for k, _ in rows)
-    console.print("replayed" if opts.mode == "actions" else "evaluated", markup=False, highlight=False)
-    for key, value in rows:
-        console.print(f"  {key:<{width}}  {value}", markup=False, highlight=False, soft_wrap=True)
-    return summary

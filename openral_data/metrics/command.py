@@ -9,7 +9,8 @@ import duckdb
 
 from openral_data.errors import OpenralError
 from openral_data.metrics import report as rep
-from openral_data.metrics.render import FORMATS, render
+from openral_data.metrics.plot import check_plot_path, save_plot
+from openral_data.metrics.render import DATA_FORMATS, FORMATS, render
 from openral_data.metrics.sources import resolve
 from openral_data.metrics.views import DEFAULT_MEMORY_LIMIT, connect
 
@@ -19,23 +20,28 @@ class StatsOptions:
     paths: list[str]
     by: str | None = None
     sql: str | None = None
-    fmt: str = "table"
+    fmt: str = "json"  # the command line defaults to its terminal table (cli/stats.py)
     plot: Path | None = None
     memory_limit: str = DEFAULT_MEMORY_LIMIT
     health: bool = True
 
 
 def run_stats(opts: StatsOptions) -> str:
+    """The tables as JSON, CSV or Markdown (`--format table` is the command line's: openral_data/cli/stats.py)."""
+    if opts.fmt not in DATA_FORMATS and opts.fmt in FORMATS:
+        raise ValueError(f"run_stats: --format {opts.fmt} is drawn by the command line (cli.stats.stats_text)")
+    return render(stats_tables(opts), opts.fmt)
+
+
+def stats_tables(opts: StatsOptions) -> list[rep.Table]:
+    """The query result (`--sql`) or the report's tables."""
     if opts.fmt not in FORMATS:
         raise OpenralError(f"--format: {opts.fmt!r}; valid: {', '.join(FORMATS)}")
     if not opts.paths:
         raise OpenralError("stats: give at least one dataset or results directory")
     by = rep.parse_by(opts.by)
     if opts.plot is not None:
-        if opts.plot.suffix.lower() != ".png":
-            raise OpenralError(f"{opts.plot}: --plot writes a PNG; use a .png file name")
-        if opts.plot.exists():
-            raise OpenralError(f"{opts.plot}: --plot file exists; refusing to overwrite it")
+        check_plot_path(opts.plot)
     datasets, results = resolve(opts.paths)
     try:
         con = connect(datasets, results, opts.memory_limit)
@@ -43,15 +49,13 @@ def run_stats(opts: StatsOptions) -> str:
         raise OpenralError(f"duckdb: {_first_line(exc)}") from None
     try:
         if opts.sql is not None:
-            return render([rep.run_sql(con, opts.sql)], opts.fmt)
+            return [rep.run_sql(con, opts.sql)]
         report = rep.build_report(con, datasets, results, by, check_health=opts.health)
         if opts.plot is not None:
             if not datasets:
                 raise OpenralError("--plot needs at least one dataset")
-            from openral_data.metrics.plot import save_plot
-
             save_plot(opts.plot, report, con, datasets)
-        return render(report.tables, opts.fmt)
+        return list(report.tables)
     except duckdb.Error as exc:  # e.g. a truncated or corrupt parquet file: DuckDB's message names it
         raise OpenralError(f"duckdb: {_first_line(exc)}") from None
     finally:

@@ -41,14 +41,20 @@ def action_histograms(con: duckdb.DuckDBPyConnection, ds: DatasetSource) -> list
     return [(names[d - 1], *hist[d]) for d in sorted(hist)]
 
 
+def check_plot_path(path: Path) -> None:
+    """`--plot` writes a new PNG: refuse another suffix or an existing file before any work is done."""
+    if path.suffix.lower() != ".png":
+        raise OpenralError(f"{path}: --plot writes a PNG; use a .png file name")
+    if path.exists():
+        raise OpenralError(f"{path}: --plot file exists; refusing to overwrite it")
+
+
 def save_plot(path: Path, report: Report, con: duckdb.DuckDBPyConnection, datasets: Sequence[DatasetSource]) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    if path.suffix.lower() != ".png":
-        raise OpenralError(f"{path}: --plot writes a PNG; use a .png file name")
     groups = report.table("groups")
     recs = [r for r in groups.records() if r["success_known"]]
     keys = [c for c in groups.columns if c not in GROUP_NUMBERS]

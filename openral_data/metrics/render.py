@@ -1,4 +1,5 @@
-"""Render report tables as a terminal table, JSON, CSV or Markdown."""
+"""Render report tables as JSON, CSV or Markdown (the terminal table is drawn by the command line:
+openral_data/cli/stats.py)."""
 
 from __future__ import annotations
 
@@ -9,12 +10,10 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
-from rich.console import Console
-from rich.table import Table as RichTable
-
 from openral_data.metrics.report import Table, clean
 
-FORMATS = ("table", "json", "csv", "markdown")
+DATA_FORMATS = ("json", "csv", "markdown")  # what `render` writes
+FORMATS = ("table", *DATA_FORMATS)  # `stats --format`
 
 
 def cell(value: Any) -> str:
@@ -55,18 +54,4 @@ def render(tables: Sequence[Table], fmt: str) -> str:
                 lines.append("| " + " | ".join(["(none)"] + ["" for _ in t.columns[1:]]) + " |")
             parts.append("\n".join(lines))
         return "\n\n".join(parts)
-    if fmt == "table":
-        console = Console(file=io.StringIO(), width=200, force_terminal=False, color_system=None)
-        for t in tables:
-            rich = RichTable(title=t.name, title_justify="left")
-            for c in t.columns:
-                rich.add_column(c, overflow="fold")
-            for r in t.rows:
-                rich.add_row(*(cell(v) for v in r))
-            if not t.rows:
-                rich.add_row("(none)", *("" for _ in t.columns[1:]))
-            console.print(rich)
-        out = console.file
-        assert isinstance(out, io.StringIO)
-        return out.getvalue().rstrip("\n")
     raise ValueError(f"unknown format {fmt}")

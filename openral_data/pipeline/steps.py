@@ -40,7 +40,8 @@ def _record_jobs(spec: RecordStep) -> Iterator[ItemJob]:
 
 def _record_one(spec: RecordStep, scene: str, rskill: str, robot: str | None) -> Callable[[Path], dict[str, Any]]:
     def run(out: Path) -> dict[str, Any]:
-        from openral_data.record.sim import RecordOptions, RecordSummary, record
+        from openral_data.record.options import RecordOptions, RecordSummary
+        from openral_data.record.sim import record
 
         opts = RecordOptions(
             scene=scene,

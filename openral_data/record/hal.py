@@ -22,7 +22,8 @@ from openral_data.record import registry
 from openral_data.record.bridge import DatasetBridge
 from openral_data.record.compat import check_compatibility
 from openral_data.record.hal_loop import EpisodeEnd, EpisodeReport, FixedRateLoop, LoopConfig, frame_extras
-from openral_data.record.sim import _StopRequest, check_out, fresh_out
+from openral_data.record.options import check_out, fresh_out
+from openral_data.record.session import episode_loop
 from openral_data.schemas.hal import SafetyMode
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
@@ -227,9 +228,9 @@ def _run(
     loop = FixedRateLoop(hal, policy, safety, bridge, operator, LoopConfig(opts.fps, task, opts.max_steps, staleness))
     summary = HalRecordSummary(out=out, episodes=[], reports=[], discarded=0, frames=0, seconds=0.0)
     t0 = time.perf_counter()
-    stop = _StopRequest()  # Ctrl-C / SIGTERM stop between ticks, never inside a commit
-    loop.config.check_stop = stop.check
-    try:
+    # Ctrl-C / SIGTERM stop between ticks, never inside a commit
+    with episode_loop(bridge, policy, out, lambda: len(summary.episodes)) as stop:
+        loop.config.check_stop = stop.check
         rerecord = False
         while len(summary.episodes) < opts.n_episodes:
             index = len(summary.episodes)
@@ -258,14 +259,5 @@ def _run(
             if report.estop is not None:
                 summary.estop = report.estop
                 break
-    except BaseException as exc:
-        bridge.close()
-        if isinstance(exc, OpenralError) and summary.episodes:
-            raise type(exc)(f"{exc} ({len(summary.episodes)} finished episode(s) kept in {out})") from None
-        raise
-    finally:
-        stop.restore()
-        policy.close()
-    bridge.close()
     summary.seconds = time.perf_counter() - t0
     return summary

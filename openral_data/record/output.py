@@ -14,7 +14,7 @@ import json
 import shutil
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from openral_data.errors import ConfigError, OpenralError
 from openral_data.formats import atomic
@@ -23,10 +23,8 @@ from openral_data.formats.lerobot_v3.lock import DatasetLock
 from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.recovery import Quarantine, recover
 from openral_data.formats.mcap.writer import PARTIAL, finished_bags
+from openral_data.record.options import RecordOptions
 from openral_data.types import DatasetSchema
-
-if TYPE_CHECKING:
-    from openral_data.record.sim import RecordOptions
 
 MCAP_SUBDIR = "mcap"  # sinks.select.MCAP_SUBDIR (not imported: select imports the sinks, which is heavier)
 # RecordOptions fields kept for a resume, with the CLI option that sets each (for the refusal message)

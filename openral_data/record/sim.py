@@ -2,129 +2,25 @@
 
 from __future__ import annotations
 
-import signal
-import threading
 import time
-from collections.abc import Callable
-from dataclasses import dataclass
-from datetime import datetime
-from pathlib import Path
 
-from openral_data import paths
 from openral_data.errors import ConfigError, OpenralError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
-from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.mcap import McapSink
 from openral_data.policies.base import PolicyAdapter
-from openral_data.record import registry
+from openral_data.record import output, registry
 from openral_data.record.bridge import DatasetBridge
 from openral_data.record.compat import check_compatibility
-from openral_data.schemas.scene import SimScene, load_recordable_scene
+from openral_data.record.options import ProgressFn, RecordOptions, RecordSummary, check_out, default_out
+from openral_data.record.session import StopRequest, episode_loop
+from openral_data.schemas.scene import load_recordable_scene
 from openral_data.types import DatasetSchema, EpisodeRecord, SimRollout, Sink
 from openral_data.version import __version__
 
 
-@dataclass(frozen=True)
-class RecordOptions:
-    scene: str = paths.DEFAULT_SCENE
-    rskill: str = "random-mock"
-    robot: str | None = None
-    n_episodes: int | None = None
-    seed: int | None = None
-    max_steps: int | None = None
-    out: Path | None = None
-    codec: Codec = "av1"
-    formats: tuple[str, ...] = ("lerobot",)  # any of FORMATS; see sinks.select.make_sinks for the layout
-    image_format: str = "jpeg"  # MCAP camera messages: jpeg | png | raw
-    resume: bool = False  # continue the recording in `out` with its own settings (see openral_data.record.output)
-    explicit: frozenset[str] = frozenset()  # options the user gave (with resume: they must match the recording)
-    first_episode: int = 0  # MCAP bags are numbered from here (a `--workers` share; see openral_data/parallel)
-
-
-@dataclass(frozen=True)
-class RecordSummary:
-    out: Path
-    episodes: list[EpisodeRecord]
-    frames: int
-    seconds: float
-    resumed_at: int = 0  # episodes the dataset already held when this run started (--resume)
-    recovered: tuple[str, ...] = ()  # what recovery did before resuming
-    codec: str = ""  # the settings used (with --resume: the recording's own)
-    formats: tuple[str, ...] = ()
-
-    @property
-    def success_rate(self) -> float:
-        wins = sum(bool(e.success) for e in self.episodes if e.success is not None)
-        return wins / len(self.episodes) if self.episodes else 0.0
-
-    @property
-    def fps(self) -> float:
-        return self.frames / self.seconds if self.seconds > 0 else 0.0
-
-
-ProgressFn = Callable[[EpisodeRecord | None, int, int], None]  # (finished episode | None at start, frames, total)
-
-
-class _StopRequest:
-    """Ctrl-C / SIGTERM ask the recording to stop at the next step boundary, never inside a commit.
-
-    The loop then raises KeyboardInterrupt where nothing is half-written: the episode in flight is discarded
-    and every finished one stays. A second Ctrl-C interrupts at once.
-    """
-
-    def __init__(self) -> None:
-        self._requested = False
-        self._previous: dict[int, object] = {}
-        if threading.current_thread() is threading.main_thread():
-            for sig in (signal.SIGINT, signal.SIGTERM):
-                self._previous[sig] = signal.signal(sig, self._handle)
-
-    def _handle(self, signum: int, frame: object) -> None:
-        if self._requested and signum == signal.SIGINT:
-            raise KeyboardInterrupt
-        self._requested = True
-
-    def check(self) -> None:
-        if self._requested:
-            raise KeyboardInterrupt
-
-    def restore(self) -> None:
-        for sig, handler in self._previous.items():
-            signal.signal(sig, handler)  # type: ignore[arg-type]
-        self._previous.clear()
-
-
-def default_out(scene: SimScene, rskill_id: str) -> Path:
-    return fresh_out(f"{scene.scene.id}--{rskill_id}")
-
-
-def fresh_out(prefix: str) -> Path:
-    """A folder under datasets/ named `<prefix>--<time stamp>` that does not exist yet."""
-    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
-    base = paths.datasets_dir() / f"{prefix}--{stamp}"
-    out, k = base, 1
-    while out.exists():
-        k += 1
-        out = base.with_name(f"{base.name}-{k}")
-    return out
-
-
-def check_out(out: Path) -> None:
-    if out.exists() and not out.is_dir():
-        raise OpenralError(f"{out}: --out exists and is not a directory")
-    if out.is_dir() and any(out.iterdir()):
-        if (out / "meta" / "info.json").exists() or (out / ".openral" / "record.json").exists():
-            raise OpenralError(
-                f"{out}: --out already holds a dataset; refusing to overwrite it (choose a new --out, or --resume)"
-            )
-        raise OpenralError(f"{out}: --out exists, is not empty and is not a dataset; refusing to write there")
-
-
 def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSummary:
-    from openral_data.record import output as resume
-
     if opts.resume:
-        opts = resume.continue_options(opts, opts.explicit)
+        opts = output.continue_options(opts, opts.explicit)
     # 1. everything that can be wrong with the inputs is found here, before anything is written
     scene_path = registry.resolve_scene_path(opts.scene)
     scene = load_recordable_scene(scene_path)
@@ -187,10 +83,10 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
                 "robot": robot.name,
             },
         )
-        output = resume.open_output(out, opts, schema, kept)
+        opened = output.open_output(out, opts, schema, kept)
         records: list[EpisodeRecord] = []
         try:
-            first = output.first_episode
+            first = opened.first_episode
             sinks: list[Sink] = make_sinks(
                 out, schema, opts.formats, WriterConfig(video=video), opts.image_format, resume=opts.resume
             )
@@ -203,34 +99,24 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
                 start_at(first)
             frames = 0
             t0 = time.perf_counter()
-            stop = _StopRequest()
-            if progress is not None:
-                progress(None, 0, max(0, n_episodes - first))
-            try:
+            with episode_loop(bridge, policy, out, lambda: first + len(records)) as stop:
+                if progress is not None:
+                    progress(None, 0, max(0, n_episodes - first))
                 for e in range(first, n_episodes):
                     rec = _record_episode(env, policy, bridge, base_seed + e, max_steps, stop)
                     records.append(rec)
                     frames += rec.length
                     if progress is not None:
                         progress(rec, frames, max(0, n_episodes - first))
-            except BaseException as exc:
-                bridge.close()  # discards the episode in flight; finished episodes are already durable
-                if isinstance(exc, OpenralError) and first + len(records):
-                    raise type(exc)(f"{exc} ({first + len(records)} finished episode(s) kept in {out})") from None
-                raise
-            finally:
-                stop.restore()
-                policy.close()
-            bridge.close()
         finally:
-            resume.close_output(out, output, len(records))
+            output.close_output(out, opened, len(records))
         return RecordSummary(
             out=out,
             episodes=records,
             frames=frames,
             seconds=time.perf_counter() - t0,
             resumed_at=first,
-            recovered=tuple(output.actions),
+            recovered=tuple(opened.actions),
             codec=opts.codec,
             formats=opts.formats,
         )
@@ -239,7 +125,7 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
 
 
 def _record_episode(
-    env: SimRollout, policy: PolicyAdapter, bridge: DatasetBridge, seed: int, max_steps: int, stop: _StopRequest
+    env: SimRollout, policy: PolicyAdapter, bridge: DatasetBridge, seed: int, max_steps: int, stop: StopRequest
 ) -> EpisodeRecord:
     """One episode: row t = (observation t, the action the policy produced from it, what followed)."""
     stop.check()

@@ -9,7 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from openral_data.record.sim import RecordOptions, record
+from openral_data.record.options import RecordOptions
+from openral_data.record.sim import record
 from tests.support.bags import MAPPING, WRITERS, expected, write_ros2
 from tests.support.cli import run_cli
 from tests.support.lerobot import verify_mock_dataset

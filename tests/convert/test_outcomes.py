@@ -17,7 +17,8 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
 from openral_data.formats.lerobot_v3.reader import read_episodes
-from openral_data.record.sim import RecordOptions, record
+from openral_data.record.options import RecordOptions
+from openral_data.record.sim import record
 from tests.support.bags import BASE, MAPPING, MS, TYPES, build, samples, write_ros2
 from tests.support.cli import run_cli
 from tests.support.scenes import mock_scene, write_yaml

@@ -20,7 +20,8 @@ from openral_data.doctor import check
 from openral_data.edit import ops
 from openral_data.errors import OpenralError
 from openral_data.formats.lerobot_v3.lock import DatasetLock
-from openral_data.record.sim import RecordOptions, record
+from openral_data.record.options import RecordOptions
+from openral_data.record.sim import record
 from tests.support.cli import run_cli
 from tests.support.scenes import mock_scene, write_yaml
 from tests.support.seeded import episode_seeds, verify_seeded_dataset

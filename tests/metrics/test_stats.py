@@ -15,6 +15,7 @@ import pyarrow.parquet as pq
 import pytest
 from scipy.stats import fisher_exact as scipy_fisher
 
+from openral_data.cli.stats import stats_text
 from openral_data.errors import OpenralError
 from openral_data.metrics import intervals
 from openral_data.metrics.command import StatsOptions, run_stats
@@ -160,7 +161,7 @@ def test_formats(pair: tuple[Path, Path]) -> None:
     ]
     md = run_stats(StatsOptions(paths, fmt="markdown"))
     assert "### groups" in md and f"| {a.name} | {len(A_SUCCESS_AFTER)} |" in md
-    table = run_stats(StatsOptions(paths, fmt="table"))
+    table = stats_text(StatsOptions(paths, fmt="table"))
     assert "groups" in table and "health" in table and "(none)" in table  # healthy datasets
     full_csv = run_stats(StatsOptions(paths, fmt="csv"))
     assert full_csv.startswith("# groups\n")

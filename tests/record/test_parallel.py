@@ -11,8 +11,9 @@ from rosbags.highlevel import AnyReader
 
 from openral_data.doctor import check
 from openral_data.errors import OpenralError
+from openral_data.record.options import RecordOptions
 from openral_data.record.parallel.run import record_parallel
-from openral_data.record.sim import RecordOptions, record
+from openral_data.record.sim import record
 from tests.support.cli import run_cli
 from tests.support.scenes import mock_scene, write_yaml
 from tests.support.seeded import episode_seeds, verify_seeded_dataset

@@ -13,7 +13,8 @@ import av
 import pyarrow.parquet as pq
 import pytest
 
-from openral_data.record.sim import RecordOptions, record
+from openral_data.record.options import RecordOptions
+from openral_data.record.sim import record
 from tests.support.cli import run_cli
 from tests.support.home import REPO
 from tests.support.lerobot import verify_mock_dataset

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from openral_data.record.sim import RecordOptions, record
+from openral_data.record.options import RecordOptions
+from openral_data.record.sim import record
 from tests.support.cli import run_cli
 from tests.support.lerobot import verify_mock_dataset
 from tests.support.mock_mcap import verify_mock_bags

@@ -23,7 +23,8 @@ from openral_data.errors import ConfigError, OpenralError
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.lock import DatasetBusy, DatasetLock
 from openral_data.formats.mcap.writer import finished_bags
-from openral_data.record.sim import RecordOptions, record
+from openral_data.record.options import RecordOptions
+from openral_data.record.sim import record
 from tests.support.cli import run_cli
 from tests.support.home import REPO, isolated_home
 from tests.support.lerobot import verify_mock_dataset

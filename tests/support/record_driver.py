@@ -14,7 +14,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from openral_data.record.sim import RecordOptions, record
+from openral_data.record.options import RecordOptions
+from openral_data.record.sim import record
 from openral_data.types import EpisodeRecord
 
 

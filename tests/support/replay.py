@@ -7,7 +7,8 @@ from pathlib import Path
 
 import yaml
 
-from openral_data.record.sim import RecordOptions, RecordSummary, record
+from openral_data.record.options import RecordOptions, RecordSummary
+from openral_data.record.sim import record
 from tests.support.scenes import mock_scene, write_yaml
 
 SMALL_FRONT = {"name": "front", "width": 64, "height": 64, "pos": [1.2, 0.0, 1.3], "lookat": [0.42, 0.0, 0.85]}

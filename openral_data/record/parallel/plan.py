@@ -8,7 +8,7 @@ from pathlib import Path
 
 from openral_data.errors import OpenralError
 from openral_data.record import registry
-from openral_data.record.sim import RecordOptions
+from openral_data.record.options import RecordOptions
 from openral_data.schemas.scene import load_recordable_scene
 
 

@@ -24,10 +24,10 @@ from openral_data.errors import OpenralError
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.mcap import finished_bags
 from openral_data.record import registry
+from openral_data.record.options import RecordOptions, RecordSummary, check_out, default_out
 from openral_data.record.parallel.executors import run_jobs
 from openral_data.record.parallel.plan import plan
 from openral_data.record.parallel.worker import WorkerResult
-from openral_data.record.sim import RecordOptions, RecordSummary, check_out, default_out
 from openral_data.record.sinks import MCAP_SUBDIR, check_formats
 from openral_data.schemas.scene import load_recordable_scene
 from openral_data.types import EpisodeRecord

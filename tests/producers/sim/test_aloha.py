@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from openral_data.errors import ConfigError
-from openral_data.record.sim import RecordOptions, record
+from openral_data.record.options import RecordOptions
+from openral_data.record.sim import record
 from tests.support.suites import (
     assert_same,
     build,

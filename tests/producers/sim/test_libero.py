@@ -23,7 +23,8 @@ pytest.importorskip(
 
 from openral_data.errors import ConfigError
 from openral_data.producers.sim.libero.config import import_libero
-from openral_data.record.sim import RecordOptions, record
+from openral_data.record.options import RecordOptions
+from openral_data.record.sim import record
 from tests.support.home import REPO
 from tests.support.suites import (
     assert_same,

@@ -12,7 +12,8 @@ import pytest
 from openral_data.errors import ConfigError
 from openral_data.policies.metaworld_expert import policy_class_name
 from openral_data.producers.sim.metaworld import task_names
-from openral_data.record.sim import RecordOptions, record
+from openral_data.record.options import RecordOptions
+from openral_data.record.sim import record
 from tests.support.suites import (
     env_and_policy,
     project_point,

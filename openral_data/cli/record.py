@@ -1,0 +1,138 @@
+"""`openral-data record`: options -> `record()` (or `record --hal`, or `--workers`), progress bar, summary."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated
+
+import typer
+
+from openral_data import paths
+from openral_data.cli.choices import CodecChoice
+from openral_data.cli.terminal import INTERRUPTED_RECORDING, err_console, print_rows, progress_bar
+from openral_data.errors import OpenralError
+
+if TYPE_CHECKING:
+    from openral_data.record.options import RecordSummary
+
+
+def record(
+    ctx: typer.Context,
+    scene: Annotated[str, typer.Option(help="scene YAML path or scene id under scenes/")] = paths.DEFAULT_SCENE,
+    rskill: Annotated[str, typer.Option(help="rSkill id under rskills/, or a path to rskill.yaml")] = "random-mock",
+    robot: Annotated[str | None, typer.Option(help="robot id (default: the scene's robot)")] = None,
+    n_episodes: Annotated[int | None, typer.Option(help="episodes to record (default: the scene's)")] = None,
+    seed: Annotated[int | None, typer.Option(help="seed of the first episode; episode k uses seed+k")] = None,
+    max_steps: Annotated[int | None, typer.Option(help="step limit per episode (default: the task's)")] = None,
+    out: Annotated[Path | None, typer.Option(help="output folder (default: a new folder under datasets/)")] = None,
+    codec: Annotated[CodecChoice, typer.Option(help="video codec")] = CodecChoice.av1,
+    format: Annotated[
+        str, typer.Option("--format", help="lerobot, mcap or lerobot,mcap (MCAP bags go to OUT/mcap/)")
+    ] = "lerobot",
+    image_format: Annotated[str, typer.Option(help="MCAP camera messages: jpeg, png or raw")] = "jpeg",
+    hal: Annotated[str | None, typer.Option(help="record ROBOT_ID through its HAL at a fixed rate")] = None,
+    mode: Annotated[str, typer.Option(help="--hal: sim (MuJoCo twin, or --scene) or real (hardware)")] = "sim",
+    fps: Annotated[int, typer.Option(help="--hal: control and recording rate")] = 20,
+    operator: Annotated[
+        str, typer.Option(help="--hal: auto, keyboard, or a script like success@40,discard@10,failure")
+    ] = "auto",
+    safety: Annotated[str | None, typer.Option(help="--hal: clamp or refuse (default: the manifest's)")] = None,
+    staleness: Annotated[float | None, typer.Option(help="--hal: camera sample age limit, s (3 periods)")] = None,
+    port: Annotated[str | None, typer.Option(help="--hal --mode real: serial port (default: the manifest's)")] = None,
+    resume: Annotated[
+        bool, typer.Option("--resume", help="continue the recording in --out (its settings; --n-episodes = total)")
+    ] = False,
+    workers: Annotated[int, typer.Option(help="record in N processes, merged by seed (openral_data/parallel)")] = 1,
+    executor: Annotated[str, typer.Option(help="local (processes on this machine) or ray")] = "local",
+    address: Annotated[str | None, typer.Option(help="Ray cluster address (--executor ray)")] = None,
+    threads_per_worker: Annotated[int | None, typer.Option(help="renderer threads per worker (LP_NUM_THREADS)")] = None,
+) -> None:
+    """Record episodes of SCENE driven by RSKILL into a LeRobotDataset v3 and/or ROS 2 MCAP bags."""
+    if hal is not None:
+        from openral_data.cli.hal import run_hal_record
+
+        if resume or workers != 1:
+            raise OpenralError("--resume/--workers: not available with --hal (one robot, one new dataset)")
+
+        run_hal_record(
+            hal, mode, rskill, fps, scene if scene != paths.DEFAULT_SCENE else None, n_episodes, max_steps, seed,
+            out, codec.value, format, image_format, operator, safety, staleness, port,
+        )  # fmt: skip
+        return
+    hal_only = {"--mode": mode != "sim", "--fps": fps != 20, "--operator": operator != "auto", "--safety": safety,
+                "--staleness": staleness, "--port": port}  # fmt: skip
+    given = [name for name, value in hal_only.items() if value]
+    if given:
+        raise OpenralError(f"{', '.join(given)}: only with --hal ROBOT_ID (a scene records at its own fps)")
+    from openral_data.record.options import RecordOptions
+    from openral_data.record.sim import record as run_record
+    from openral_data.record.sinks import parse_formats
+
+    opts = RecordOptions(
+        scene=scene,
+        rskill=rskill,
+        robot=robot,
+        n_episodes=n_episodes,
+        seed=seed,
+        max_steps=max_steps,
+        out=out,
+        codec=codec.value,
+        formats=parse_formats(format),
+        image_format=image_format,
+        resume=resume,
+        explicit=frozenset(
+            {"format": "formats"}.get(name, name)
+            for name in ctx.params
+            if getattr(ctx.get_parameter_source(name), "name", "") == "COMMANDLINE"
+        ),
+    )
+    parallel = workers != 1 or executor != "local"
+    with progress_bar("recording", "episodes", "{task.fields[frames]} frames") as bar:
+        task = bar.add_task("record", total=n_episodes, frames=0)
+
+        def progress(rec: object, frames: int, total: int) -> None:
+            bar.update(task, total=total, advance=0 if rec is None else 1, frames=frames)
+
+        try:
+            if parallel:
+                from openral_data.record.parallel.run import record_parallel
+
+                summary: RecordSummary = record_parallel(opts, workers, executor, address, threads_per_worker)
+            else:
+                summary = run_record(opts, progress)
+        except KeyboardInterrupt:
+            bar.stop()
+            _interrupted(opts.out, parallel)
+            raise typer.Exit(130) from None
+    _print_summary(summary, resume, f"{workers} ({executor})" if parallel else None)
+
+
+def _interrupted(out: Path | None, parallel: bool) -> None:
+    if parallel:  # the workers' shares are merged only at the end: nothing reaches --out
+        from openral_data.record.parallel.run import find_workers_dir, kept_note, kept_worker_episodes
+
+        target = find_workers_dir(out)
+        kept = kept_worker_episodes(target) if target is not None else 0
+        detail = kept_note(target, kept) if target is not None and kept else "nothing was written to --out"
+        err_console.print(f"interrupted: {detail}", soft_wrap=True, markup=False, highlight=False)
+    else:
+        err_console.print(INTERRUPTED_RECORDING)
+
+
+def _print_summary(summary: RecordSummary, resume: bool, workers: str | None) -> None:
+    print_rows(
+        "recorded",
+        [
+            ("output", str(summary.out)),
+            *([("resumed at", f"episode {summary.resumed_at}")] if resume else []),
+            *[("recovered", line) for line in summary.recovered],
+            ("episodes", str(len(summary.episodes))),
+            ("success rate", f"{summary.success_rate:.1%}"),
+            ("frames", str(summary.frames)),
+            ("frames/s", f"{summary.fps:.1f}"),
+            ("formats", ",".join(summary.formats)),
+            *([("mcap bags", str(summary.out / "mcap"))] if "mcap" in summary.formats else []),
+            ("codec", summary.codec),
+            *([("workers", workers)] if workers is not None else []),
+        ],
+    )

@@ -1,0 +1,67 @@
+"""`openral-data stats`: the report of openral_data.metrics, printed as a terminal table, JSON, CSV or Markdown."""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Sequence
+from enum import StrEnum
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated
+
+import typer
+from rich.console import Console
+from rich.table import Table as RichTable
+
+if TYPE_CHECKING:
+    from openral_data.metrics.command import StatsOptions
+    from openral_data.metrics.report import Table
+
+
+class StatsFormat(StrEnum):
+    table = "table"
+    json = "json"
+    csv = "csv"
+    markdown = "markdown"
+
+
+def stats(
+    paths: Annotated[list[str], typer.Argument(help="datasets and/or results directories (globs allowed)")],
+    by: Annotated[str | None, typer.Option(help="group by: dataset,task,rskill,scene,robot,seed")] = None,
+    sql: Annotated[str | None, typer.Option(help="run this SQL on the views instead of the report")] = None,
+    fmt: Annotated[StatsFormat, typer.Option("--format", help="output format")] = StatsFormat.table,
+    plot: Annotated[Path | None, typer.Option(help="also write a PNG: success rates + action histograms")] = None,
+    memory_limit: Annotated[str, typer.Option(help="DuckDB memory limit")] = "1GB",
+    health: Annotated[bool, typer.Option(help="run the health checks")] = True,
+) -> None:
+    """Episodes, frames, success rates with 95 % intervals, comparisons and health, computed by DuckDB."""
+    from openral_data.metrics.command import StatsOptions
+
+    print(stats_text(StatsOptions(paths, by, sql, fmt.value, plot, memory_limit, health)))
+
+
+def stats_text(opts: StatsOptions) -> str:
+    """What `stats` prints: the tables in `opts.fmt`."""
+    from openral_data.metrics.command import stats_tables
+    from openral_data.metrics.render import render
+
+    tables = stats_tables(opts)
+    return render_table(tables) if opts.fmt == "table" else render(tables, opts.fmt)
+
+
+def render_table(tables: Sequence[Table]) -> str:
+    """The tables as boxed text, 200 columns wide, long cells folded (never cut)."""
+    from openral_data.metrics.render import cell
+
+    console = Console(file=io.StringIO(), width=200, force_terminal=False, color_system=None)
+    for t in tables:
+        rich = RichTable(title=t.name, title_justify="left")
+        for c in t.columns:
+            rich.add_column(c, overflow="fold")
+        for r in t.rows:
+            rich.add_row(*(cell(v) for v in r))
+        if not t.rows:
+            rich.add_row("(none)", *("" for _ in t.columns[1:]))
+        console.print(rich)
+    out = console.file
+    assert isinstance(out, io.StringIO)
+    return out.getvalue().rstrip("\n")

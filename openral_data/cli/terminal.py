@@ -1,0 +1,41 @@
+"""What every command prints with: the two consoles, the progress bar and the `key: value` summary rows."""
+
+from __future__ import annotations
+
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+console = Console()
+err_console = Console(stderr=True)
+# what a Ctrl-C during `record` leaves (sim and --hal alike; see openral_data/record/session.py)
+INTERRUPTED_RECORDING = "interrupted: the episode in flight was discarded, finished episodes are kept"
+
+
+def progress_bar(what: str, unit: str, *fields: str) -> Progress:
+    """`what [bar] done/total unit fields... elapsed` on stderr; silent when stderr is not a terminal.
+
+    `what` is rich markup (shown bold); each of `fields` is a column template such as "{task.fields[frames]}".
+    """
+    return Progress(
+        TextColumn(f"[bold]{what}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn(unit),
+        *(TextColumn(f) for f in fields),
+        TimeElapsedColumn(),
+        console=err_console,
+        disable=not err_console.is_terminal,
+    )
+
+
+def print_rows(title: str, rows: list[tuple[str, str]]) -> None:
+    """`key: value` lines: readable in a terminal, greppable in logs, never wrapped or truncated."""
+    width = max(len(k) for k, _ in rows)
+    console.print(title, markup=False, highlight=False)
+    for key, value in rows:
+        console.print(f"  {key:<{width}}  {value}", markup=False, highlight=False, soft_wrap=True)
+
+
+def print_line(text: str, *, err: bool = False) -> None:
+    """One line exactly as given (no markup, no highlighting)."""
+    (err_console if err else console).print(text, markup=False, highlight=False)

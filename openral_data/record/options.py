@@ -1,0 +1,81 @@
+"""What a `record` run is asked to do and what it did: its options, its summary and its output folder."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from datetime import datetime
+from pathlib import Path
+
+from openral_data import paths
+from openral_data.errors import OpenralError
+from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.schemas.scene import SimScene
+from openral_data.types import EpisodeRecord
+
+
+@dataclass(frozen=True)
+class RecordOptions:
+    scene: str = paths.DEFAULT_SCENE
+    rskill: str = "random-mock"
+    robot: str | None = None
+    n_episodes: int | None = None
+    seed: int | None = None
+    max_steps: int | None = None
+    out: Path | None = None
+    codec: Codec = "av1"
+    formats: tuple[str, ...] = ("lerobot",)  # any of FORMATS; see sinks.select.make_sinks for the layout
+    image_format: str = "jpeg"  # MCAP camera messages: jpeg | png | raw
+    resume: bool = False  # continue the recording in `out` with its own settings (see openral_data.record.output)
+    explicit: frozenset[str] = frozenset()  # options the user gave (with resume: they must match the recording)
+    first_episode: int = 0  # MCAP bags are numbered from here (a `--workers` share; see openral_data/parallel)
+
+
+@dataclass(frozen=True)
+class RecordSummary:
+    out: Path
+    episodes: list[EpisodeRecord]
+    frames: int
+    seconds: float
+    resumed_at: int = 0  # episodes the dataset already held when this run started (--resume)
+    recovered: tuple[str, ...] = ()  # what recovery did before resuming
+    codec: str = ""  # the settings used (with --resume: the recording's own)
+    formats: tuple[str, ...] = ()
+
+    @property
+    def success_rate(self) -> float:
+        wins = sum(bool(e.success) for e in self.episodes if e.success is not None)
+        return wins / len(self.episodes) if self.episodes else 0.0
+
+    @property
+    def fps(self) -> float:
+        return self.frames / self.seconds if self.seconds > 0 else 0.0
+
+
+ProgressFn = Callable[[EpisodeRecord | None, int, int], None]  # (finished episode | None at start, frames, total)
+
+
+def default_out(scene: SimScene, rskill_id: str) -> Path:
+    return fresh_out(f"{scene.scene.id}--{rskill_id}")
+
+
+def fresh_out(prefix: str) -> Path:
+    """A folder under datasets/ named `<prefix>--<time stamp>` that does not exist yet."""
+    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
+    base = paths.datasets_dir() / f"{prefix}--{stamp}"
+    out, k = base, 1
+    while out.exists():
+        k += 1
+        out = base.with_name(f"{base.name}-{k}")
+    return out
+
+
+def check_out(out: Path) -> None:
+    if out.exists() and not out.is_dir():
+        raise OpenralError(f"{out}: --out exists and is not a directory")
+    if out.is_dir() and any(out.iterdir()):
+        if (out / "meta" / "info.json").exists() or (out / ".openral" / "record.json").exists():
+            raise OpenralError(
+                f"{out}: --out already holds a dataset; refusing to overwrite it (choose a new --out, or --resume)"
+            )
+        raise OpenralError(f"{out}: --out exists, is not empty and is not a dataset; refusing to write there")
