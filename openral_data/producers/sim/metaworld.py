@@ -26,8 +26,9 @@ import numpy.typing as npt
 from pydantic import Field
 
 import openral_data.producers.sim.mujoco  # noqa: F401  (chooses a headless MUJOCO_GL before mujoco loads)
-from openral_data.errors import CompatibilityError, ConfigError
+from openral_data.errors import ConfigError
 from openral_data.producers.sim import mjstate
+from openral_data.producers.sim.contract import Side, check_representation
 from openral_data.producers.sim.named_cameras import NamedCameraRig
 from openral_data.schemas.base import StrictModel, validate
 from openral_data.schemas.robot import RobotManifest
@@ -78,12 +79,19 @@ class MetaWorldScene:
             raise ConfigError(
                 f"{source}: scene.params.task: unknown MetaWorld task {self.params.task!r}; valid: {', '.join(valid)}"
             )
-        for side, contract in (("state_contract", rskill.state_contract), ("action_contract", rskill.action_contract)):
-            if contract.representation not in REPRESENTATIONS:
-                raise CompatibilityError(
-                    f"{rskill_source}: {side}.representation: {contract.representation!r} is not spoken by MetaWorld "
-                    "scenes (state: generic [hand x, y, z, gripper]; action: generic [dx, dy, dz, grab])"
-                )
+        contracts: tuple[tuple[Side, str], ...] = (
+            ("state", rskill.state_contract.representation),
+            ("action", rskill.action_contract.representation),
+        )
+        for side, rep in contracts:
+            check_representation(
+                rskill_source,
+                side,
+                rep,
+                REPRESENTATIONS,
+                f"{rep!r} is not spoken by MetaWorld scenes "
+                "(state: generic [hand x, y, z, gripper]; action: generic [dx, dy, dz, grab])",
+            )
         import gymnasium as gym
 
         with warnings.catch_warnings():

@@ -34,8 +34,9 @@ import numpy.typing as npt
 from pydantic import Field
 
 import openral_data.producers.sim.mujoco  # noqa: F401  (chooses a headless MUJOCO_GL before mujoco loads)
-from openral_data.errors import CompatibilityError, ConfigError
+from openral_data.errors import ConfigError
 from openral_data.producers.sim import mjstate
+from openral_data.producers.sim.contract import check_representations
 from openral_data.producers.sim.named_cameras import NamedCameraRig
 from openral_data.schemas.base import StrictModel, validate
 from openral_data.schemas.robot import RobotManifest
@@ -117,17 +118,14 @@ class RobosuiteScene:
                 f"{source}: scene.robot: robosuite scenes support {', '.join(ROBOTS)}, got {robot.name!r}"
             )
         self.state_representation = rskill.state_contract.representation
-        action_rep = rskill.action_contract.representation
-        if self.state_representation not in STATE_REPRESENTATIONS:
-            raise CompatibilityError(
-                f"{rskill_source}: state_contract.representation: {self.state_representation!r} is not produced by "
-                f"robosuite scenes (they produce {', '.join(STATE_REPRESENTATIONS)})"
-            )
-        if action_rep not in ACTION_REPRESENTATIONS:
-            raise CompatibilityError(
-                f"{rskill_source}: action_contract.representation: {action_rep!r} is not accepted by robosuite "
-                f"scenes (they accept {', '.join(ACTION_REPRESENTATIONS)}: robosuite's normalised OSC_POSE action)"
-            )
+        check_representations(
+            rskill,
+            rskill_source,
+            "robosuite scenes",
+            STATE_REPRESENTATIONS,
+            ACTION_REPRESENTATIONS,
+            accepted_note=": robosuite's normalised OSC_POSE action",
+        )
         if 500 % scene.scene.fps:
             raise ConfigError(
                 f"{source}: scene.fps: must divide robosuite's 500 Hz physics rate, got {scene.scene.fps}"

@@ -36,6 +36,7 @@ import numpy.typing as npt
 from pydantic import Field
 
 from openral_data.errors import CompatibilityError, ConfigError
+from openral_data.producers.sim.contract import check_representation
 from openral_data.producers.sim.external import check_envelope, check_fps, named_cameras, parse_params
 from openral_data.producers.sim.libero.config import import_libero
 from openral_data.schemas.base import StrictModel
@@ -91,11 +92,14 @@ class LiberoScene:
                 f"and takes OSC_POSE actions of {ACTION_DIM}, "
                 f"got {rskill.state_contract.dim}/{rskill.action_contract.dim}"
             )
-        if rskill.action_contract.representation not in ("delta_eef_gripper", "generic"):
-            raise CompatibilityError(
-                f"{rskill_source}: action_contract.representation: LIBERO takes OSC_POSE deltas + gripper "
-                f"(delta_eef_gripper), got {rskill.action_contract.representation!r}"
-            )
+        action_rep = rskill.action_contract.representation
+        check_representation(
+            rskill_source,
+            "action",
+            action_rep,
+            ("delta_eef_gripper", "generic"),
+            f"LIBERO takes OSC_POSE deltas + gripper (delta_eef_gripper), got {action_rep!r}",
+        )
         ll, _ = import_libero(source)
         with contextlib.redirect_stdout(io.StringIO()):
             from libero.libero import benchmark

@@ -19,7 +19,8 @@ import numpy.typing as npt
 from pydantic import ValidationError
 
 from openral_data import paths
-from openral_data.errors import CompatibilityError, ConfigError
+from openral_data.errors import ConfigError
+from openral_data.producers.sim.contract import check_representations
 from openral_data.producers.sim.mujoco.assets import check_robosuite_assets, resolve_asset
 from openral_data.producers.sim.mujoco.compose import CUBE, GOAL, compose
 from openral_data.producers.sim.mujoco.controllers import (
@@ -82,16 +83,9 @@ class TabletopScene:
         self.task_kind: TaskKind = task
         self.state_representation = rskill.state_contract.representation
         action_rep = rskill.action_contract.representation
-        if self.state_representation not in STATE_REPRESENTATIONS:
-            raise CompatibilityError(
-                f"{rskill_source}: state_contract.representation: {self.state_representation!r} is not produced by "
-                f"MuJoCo tabletop scenes (they produce {', '.join(STATE_REPRESENTATIONS)})"
-            )
-        if action_rep not in ACTION_REPRESENTATIONS:
-            raise CompatibilityError(
-                f"{rskill_source}: action_contract.representation: {action_rep!r} is not accepted by MuJoCo "
-                f"tabletop scenes (they accept {', '.join(ACTION_REPRESENTATIONS)})"
-            )
+        check_representations(
+            rskill, rskill_source, "MuJoCo tabletop scenes", STATE_REPRESENTATIONS, ACTION_REPRESENTATIONS
+        )
         wiring, arm_mjcf, grip_mjcf, robot_source = load_wiring(robot)
         self._robot_source = robot_source
         self.composed = compose(
