@@ -29,7 +29,7 @@ import openral_data.producers.sim.mujoco  # noqa: F401  (chooses a headless MUJO
 from openral_data.errors import ConfigError
 from openral_data.producers.sim import mjstate
 from openral_data.producers.sim.contract import Side, check_representation
-from openral_data.producers.sim.named_cameras import NamedCameraRig
+from openral_data.producers.sim.named_cameras import named_camera_rig
 from openral_data.schemas.base import StrictModel, validate
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
@@ -126,7 +126,7 @@ class MetaWorldScene:
         self._raw: npt.NDArray[np.float64] = np.zeros(39)
         self._t0 = 0.0
         self._initial: dict[str, Any] = {}
-        self._rig = NamedCameraRig(self.model, self.data, list(scene.scene.cameras), scene.scene.render, source)
+        self._rig = named_camera_rig(self.model, self.data, list(scene.scene.cameras), scene.scene.render, source)
 
     # -- SimRollout ------------------------------------------------------------------------------------------
     def reset(self, seed: int) -> Observation:

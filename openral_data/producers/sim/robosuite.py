@@ -37,7 +37,7 @@ import openral_data.producers.sim.mujoco  # noqa: F401  (chooses a headless MUJO
 from openral_data.errors import ConfigError
 from openral_data.producers.sim import mjstate
 from openral_data.producers.sim.contract import check_representations
-from openral_data.producers.sim.named_cameras import NamedCameraRig
+from openral_data.producers.sim.named_cameras import named_camera_rig
 from openral_data.schemas.base import StrictModel, validate
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
@@ -176,7 +176,7 @@ class RobosuiteScene:
         if scene.scene.render.robot_meshes == "collision":
             self._coarse_robot()
             groups = (VISUAL, ROBOT_COLLISION)
-        self._rig = NamedCameraRig(
+        self._rig = named_camera_rig(
             self.model, self.data, list(scene.scene.cameras), scene.scene.render, source, geom_groups=groups
         )
 
