@@ -30,6 +30,7 @@ from openral_data.errors import ConfigError
 from openral_data.producers.sim import mjstate
 from openral_data.producers.sim.contract import Side, check_representation
 from openral_data.producers.sim.named_cameras import named_camera_rig
+from openral_data.producers.sim.rig_scene import RigScene
 from openral_data.schemas.base import StrictModel, validate
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
@@ -65,7 +66,7 @@ def task_names() -> list[str]:
     return sorted(ALL_V3_ENVIRONMENTS)
 
 
-class MetaWorldScene:
+class MetaWorldScene(RigScene):
     """One MetaWorld task, built once through `gymnasium.make`; `reset(seed)` per episode."""
 
     def __init__(
@@ -125,8 +126,8 @@ class MetaWorldScene:
         self._task_text = scene.task.instruction
         self._raw: npt.NDArray[np.float64] = np.zeros(39)
         self._t0 = 0.0
-        self._initial: dict[str, Any] = {}
-        self._rig = named_camera_rig(self.model, self.data, list(scene.scene.cameras), scene.scene.render, source)
+        self.initial = {}
+        self.rig = named_camera_rig(self.model, self.data, list(scene.scene.cameras), scene.scene.render, source)
 
     # -- SimRollout ------------------------------------------------------------------------------------------
     def reset(self, seed: int) -> Observation:
@@ -139,7 +140,7 @@ class MetaWorldScene:
             raw, _ = self.env.reset()
         self._raw = np.asarray(raw, dtype=np.float64)
         self._t0 = float(self.data.time)
-        self._initial = {
+        self.initial = {
             "format": STATE_FORMAT,
             "suite": "metaworld",
             "task": self.params.task,
@@ -165,12 +166,12 @@ class MetaWorldScene:
         seed = int(initial_state.get("seed", 0))
         obs = self.reset(seed)
         recorded = np.asarray(initial_state.get("rand_vec", []), dtype=np.float64)
-        if not np.array_equal(recorded, np.asarray(self._initial["rand_vec"])):
+        if not np.array_equal(recorded, np.asarray(self.initial["rand_vec"])):
             raise ConfigError(
                 f"initial_state: rand_vec: this MetaWorld draws another placement for seed {seed} "
                 "(recorded with a different MetaWorld version?)"
             )
-        if not mjstate.same_state(self._initial["mujoco"], initial_state.get("mujoco", {})):
+        if not mjstate.same_state(self.initial["mujoco"], initial_state.get("mujoco", {})):
             raise ConfigError(
                 f"initial_state: mujoco: MetaWorld's reset with seed {seed} does not reproduce the recorded state"
             )
@@ -182,16 +183,6 @@ class MetaWorldScene:
         success = bool(info.get("success", 0.0))
         done = (success and self.params.terminate_on_success) or bool(truncated)
         return StepResult(self._observation(), reward=float(reward), success=success, terminated=done)
-
-    def render(self) -> dict[str, npt.NDArray[np.uint8]]:
-        return self._rig.render(self.data)
-
-    def initial_state(self) -> dict[str, Any]:
-        return dict(self._initial)
-
-    def close(self) -> None:
-        self._rig.close()
-        self.env.close()
 
     # -- helpers ---------------------------------------------------------------------------------------------
     def _state(self) -> npt.NDArray[np.float32]:

@@ -38,6 +38,7 @@ from openral_data.errors import ConfigError
 from openral_data.producers.sim import mjstate
 from openral_data.producers.sim.contract import check_representations
 from openral_data.producers.sim.named_cameras import named_camera_rig
+from openral_data.producers.sim.rig_scene import RigScene
 from openral_data.schemas.base import StrictModel, validate
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
@@ -106,7 +107,7 @@ def _import_robosuite() -> Any:
     return robosuite
 
 
-class RobosuiteScene:
+class RobosuiteScene(RigScene):
     """One robosuite environment, built once; `reset(seed)` per episode; `close()` frees renderers."""
 
     def __init__(
@@ -171,12 +172,12 @@ class RobosuiteScene:
         self._task_text = scene.task.instruction
         self._seed = 0
         self._t0 = 0.0
-        self._initial: dict[str, Any] = {}
+        self.initial = {}
         groups: tuple[int, ...] = (VISUAL,)
         if scene.scene.render.robot_meshes == "collision":
             self._coarse_robot()
             groups = (VISUAL, ROBOT_COLLISION)
-        self._rig = named_camera_rig(
+        self.rig = named_camera_rig(
             self.model, self.data, list(scene.scene.cameras), scene.scene.render, source, geom_groups=groups
         )
 
@@ -186,7 +187,7 @@ class RobosuiteScene:
         with _seeded_global_numpy(seed):
             self._obs = self.env.reset()
         self._t0 = float(self.data.time)
-        self._initial = {
+        self.initial = {
             "format": STATE_FORMAT,
             "suite": "robosuite",
             "env": self.env_name,
@@ -211,7 +212,7 @@ class RobosuiteScene:
             )
         seed = int(initial_state.get("seed", 0))
         obs = self.reset(seed)
-        if not mjstate.same_state(self._initial["mujoco"], initial_state.get("mujoco", {})):
+        if not mjstate.same_state(self.initial["mujoco"], initial_state.get("mujoco", {})):
             raise ConfigError(
                 f"initial_state: mujoco: robosuite's reset with seed {seed} does not reproduce the recorded state "
                 "(recorded with another robosuite/mujoco version or scene?)"
@@ -227,16 +228,6 @@ class RobosuiteScene:
             success=success,
             terminated=success and self.params.terminate_on_success,
         )
-
-    def render(self) -> dict[str, npt.NDArray[np.uint8]]:
-        return self._rig.render(self.data)
-
-    def initial_state(self) -> dict[str, Any]:
-        return dict(self._initial)
-
-    def close(self) -> None:
-        self._rig.close()
-        self.env.close()
 
     # -- helpers ---------------------------------------------------------------------------------------------
     def _coarse_robot(self) -> None:

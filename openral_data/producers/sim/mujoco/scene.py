@@ -32,6 +32,7 @@ from openral_data.producers.sim.mujoco.controllers import (
 from openral_data.producers.sim.mujoco.kinematics import F64, Arm, IKSolver
 from openral_data.producers.sim.mujoco.render import CameraRig
 from openral_data.producers.sim.mujoco.tasks import TaskKind, is_success, sample_placement
+from openral_data.producers.sim.rig_scene import RigScene
 from openral_data.schemas.base import format_validation_error
 from openral_data.schemas.mujoco import MujocoRobotWiring, TabletopParams
 from openral_data.schemas.robot import RobotManifest
@@ -64,7 +65,7 @@ def load_wiring(robot: RobotManifest) -> tuple[MujocoRobotWiring, Path, Path, st
     return wiring, arm, grip, source
 
 
-class TabletopScene:
+class TabletopScene(RigScene):
     """A physics scene; one instance records many episodes (`reset(seed)` each), `close()` frees renderers."""
 
     def __init__(
@@ -125,9 +126,9 @@ class TabletopScene:
             fps=scene.scene.fps,
             can_restore_state=True,
         )
-        self._rig = CameraRig(self.model, list(scene.scene.cameras), scene.scene.render)
+        self.rig = CameraRig(self.model, list(scene.scene.cameras), scene.scene.render)
         self._seed = 0
-        self._initial: dict[str, Any] = {}
+        self.initial = {}
 
     # -- setup -----------------------------------------------------------------------------------------------
     def _ready_posture(self, home: F64) -> F64:
@@ -175,7 +176,7 @@ class TabletopScene:
         d.mocap_pos[self._goal_mocap] = placement.goal_pos
         d.mocap_quat[self._goal_mocap] = [1.0, 0.0, 0.0, 0.0]
         mujoco.mj_forward(self.model, d)
-        self._initial = self._snapshot()
+        self.initial = self._snapshot()
         self.controller.reset(d)
         return self._observation()
 
@@ -199,7 +200,7 @@ class TabletopScene:
         d.time = float(initial_state.get("time", 0.0))
         self._seed = int(initial_state.get("seed", 0))
         mujoco.mj_forward(self.model, d)
-        self._initial = self._snapshot()
+        self.initial = self._snapshot()
         self.controller.reset(d)
         return self._observation()
 
@@ -208,15 +209,6 @@ class TabletopScene:
         mujoco.mj_step(self.model, self.data, nstep=self.n_substeps)
         success = self.success()
         return StepResult(self._observation(), reward=float(success), success=success, terminated=success)
-
-    def render(self) -> dict[str, npt.NDArray[np.uint8]]:
-        return self._rig.render(self.data)
-
-    def initial_state(self) -> dict[str, Any]:
-        return dict(self._initial)
-
-    def close(self) -> None:
-        self._rig.close()
 
     # -- helpers ---------------------------------------------------------------------------------------------
     def success(self) -> bool:
