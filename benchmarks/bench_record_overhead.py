@@ -34,6 +34,7 @@ import yaml
 os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
 
+from rollouts import roll_out
 from timing import Stopwatch, Timing, alternate, medians
 
 from openral_data.producers.sim.mujoco.scene import TabletopScene
@@ -60,19 +61,7 @@ def baseline(scene_path: Path, episodes: int) -> Timing:
         rskill = registry.resolve_rskill(RSKILL)[0]
         scene = TabletopScene(cfg, registry.ROBOTS[cfg.scene.robot or "franka_panda"], rskill, "push")
         policy = registry.POLICIES[rskill.policy](rskill)
-        frames = 0
-        try:
-            for seed in range(episodes):
-                obs = scene.reset(seed)
-                policy.reset(seed)
-                for _ in range(cfg.task.max_steps):
-                    frames += 1
-                    result = scene.step(policy.step(obs, obs.task))
-                    obs = result.observation
-                    if result.terminated:
-                        break
-        finally:
-            scene.close()
+        _, frames = roll_out(scene, policy, range(episodes), cfg.task.max_steps)
     return sw.timing(frames)
 
 

@@ -27,12 +27,14 @@ import numpy.typing as npt
 from pydantic import Field
 
 from openral_data.errors import CompatibilityError, ConfigError
-from openral_data.producers.sim.external import check_envelope, check_fps, named_cameras, parse_params, require
+from openral_data.producers.sim.contract import scene_spec
+from openral_data.producers.sim.external import check_envelope, check_fps, named_cameras, require
 from openral_data.producers.sim.mujoco.render import CameraRig
+from openral_data.producers.sim.params import parse_params
 from openral_data.schemas.base import StrictModel
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
-from openral_data.types import CameraShape, Observation, ProducerSpec, StepResult
+from openral_data.types import Observation, StepResult
 
 KIND = "gym_aloha"
 STATE_FORMAT = 1
@@ -87,13 +89,7 @@ class AlohaScene:
         self._objects = ("red_peg", "socket") if params.task == "insertion" else ("red_box",)
         # gym-aloha's MJCF draws its arms in geom group 1: MuJoCo's default groups, not the composed scenes'
         self._rig = CameraRig(self.physics.model.ptr, cams, scene.scene.render, option=mujoco.MjvOption())
-        self.spec = ProducerSpec(
-            state_dim=DIM,
-            action_dim=DIM,
-            cameras={c.name: CameraShape(c.height, c.width) for c in cams},
-            fps=FPS,
-            can_restore_state=True,
-        )
+        self.spec = scene_spec(DIM, DIM, cams, FPS)
         self._text = scene.task.instruction
         self._seed = 0
         self._initial: dict[str, Any] = {}

@@ -1,5 +1,5 @@
 """Helpers shared by adapters over external simulators (gym-aloha, gym-pusht, LIBERO): optional imports,
-strict scene params, the simulator's own cameras, its fixed control rate, and the initial-state envelope."""
+the simulator's own cameras, its fixed control rate, and the initial-state envelope."""
 
 from __future__ import annotations
 
@@ -8,10 +8,7 @@ from collections.abc import Sequence
 from types import ModuleType
 from typing import Any
 
-from pydantic import BaseModel, ValidationError
-
 from openral_data.errors import ConfigError
-from openral_data.schemas.base import format_validation_error
 from openral_data.schemas.scene import SceneCamera, SimScene
 
 
@@ -24,13 +21,6 @@ def require(module: str, extra: str, source: str, install: str | None = None) ->
         raise ConfigError(
             f"{source}: scene.type: needs the {extra!r} extra ({exc.name or module} missing): {how}"
         ) from None
-
-
-def parse_params[M: BaseModel](model: type[M], scene: SimScene, source: str) -> M:
-    try:
-        return model.model_validate(scene.scene.params)
-    except ValidationError as exc:
-        raise ConfigError(format_validation_error(f"{source}: scene.params", exc)) from None
 
 
 def named_cameras(

@@ -28,14 +28,15 @@ from pydantic import Field
 import openral_data.producers.sim.mujoco  # noqa: F401  (chooses a headless MUJOCO_GL before mujoco loads)
 from openral_data.errors import ConfigError
 from openral_data.producers.sim import mjstate
-from openral_data.producers.sim.contract import Side, check_representation
+from openral_data.producers.sim.contract import Side, check_representation, scene_spec
 from openral_data.producers.sim.named_cameras import named_camera_rig
+from openral_data.producers.sim.params import parse_params
 from openral_data.producers.sim.rig_scene import RigScene
-from openral_data.schemas.base import StrictModel, validate
+from openral_data.schemas.base import StrictModel
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
-from openral_data.types import CameraShape, Observation, ProducerSpec, StepResult
+from openral_data.types import Observation, StepResult
 
 STATE_FORMAT = 1
 ROBOT = "metaworld_sawyer"
@@ -72,7 +73,7 @@ class MetaWorldScene(RigScene):
     def __init__(
         self, scene: SimScene, robot: RobotManifest, rskill: RSkillManifest, source: str, rskill_source: str
     ) -> None:
-        self.params = validate(MetaWorldParams, scene.scene.params, f"{source}: scene.params")
+        self.params = parse_params(MetaWorldParams, scene, source)
         if robot.name != ROBOT:
             raise ConfigError(f"{source}: scene.robot: MetaWorld tasks fix the robot to {ROBOT!r}, got {robot.name!r}")
         valid = task_names()
@@ -116,16 +117,9 @@ class MetaWorldScene(RigScene):
             raise ConfigError(
                 f"{source}: scene.fps: MetaWorld steps at {rate:g} Hz (timestep x frame skip); set fps: {rate:g}"
             )
-        self.spec = ProducerSpec(
-            state_dim=STATE_DIM,
-            action_dim=ACTION_DIM,
-            cameras={c.name: CameraShape(c.height, c.width) for c in scene.scene.cameras},
-            fps=scene.scene.fps,
-            can_restore_state=True,
-        )
-        self._task_text = scene.task.instruction
+        self.spec = scene_spec(STATE_DIM, ACTION_DIM, scene.scene.cameras, scene.scene.fps)
+        self.task_text = scene.task.instruction
         self._raw: npt.NDArray[np.float64] = np.zeros(39)
-        self._t0 = 0.0
         self.initial = {}
         self.rig = named_camera_rig(self.model, self.data, list(scene.scene.cameras), scene.scene.render, source)
 
@@ -139,7 +133,7 @@ class MetaWorldScene(RigScene):
             warnings.simplefilter("ignore")
             raw, _ = self.env.reset()
         self._raw = np.asarray(raw, dtype=np.float64)
-        self._t0 = float(self.data.time)
+        self.t0 = float(self.data.time)
         self.initial = {
             "format": STATE_FORMAT,
             "suite": "metaworld",
@@ -190,10 +184,4 @@ class MetaWorldScene(RigScene):
 
     def _observation(self) -> Observation:
         privileged = {"suite": "metaworld", "task": self.params.task, "metaworld_obs": self._raw.copy()}
-        return Observation(
-            images=self.render(),
-            state=self._state(),
-            task=self._task_text,
-            time=float(self.data.time) - self._t0,
-            privileged=privileged,
-        )
+        return self.observe(self._state(), privileged)

@@ -1,5 +1,5 @@
-"""The `render` / `initial_state` / `close` part of a SimRollout that is the same in every MuJoCo scene drawn
-through a CameraRig (tabletop, robosuite, MetaWorld)."""
+"""The part of a SimRollout that is the same in every MuJoCo scene drawn through a CameraRig (tabletop,
+robosuite, MetaWorld): `render`, `initial_state`, `close`, and assembling an Observation."""
 
 from __future__ import annotations
 
@@ -10,16 +10,31 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.producers.sim.mujoco.render import CameraRig
+from openral_data.types import Observation
 
 
 class RigScene:
-    """Subclasses set `rig` (their cameras), `data` (the MuJoCo state drawn) and `initial` (this episode's
-    start, as `initial_state()` hands it out); one wrapping a simulator environment sets `env`, closed last."""
+    """Subclasses set `rig` (their cameras), `data` (the MuJoCo state drawn), `initial` (this episode's start,
+    as `initial_state()` hands it out) and `task_text`; `t0` is the simulation time the episode began at (where
+    the simulator's clock does not restart with the episode); one wrapping a simulator environment sets `env`,
+    closed last."""
 
     rig: CameraRig
     data: mujoco.MjData
     initial: dict[str, Any]
+    task_text: str
+    t0: float = 0.0
     env: Any = None
+
+    def observe(self, state: npt.NDArray[np.float32], privileged: dict[str, Any]) -> Observation:
+        """The current frames, `state`, the task text and the time since the episode began."""
+        return Observation(
+            images=self.render(),
+            state=state,
+            task=self.task_text,
+            time=float(self.data.time) - self.t0,
+            privileged=privileged,
+        )
 
     def render(self) -> dict[str, npt.NDArray[np.uint8]]:
         return self.rig.render(self.data)

@@ -36,14 +36,15 @@ from pydantic import Field
 import openral_data.producers.sim.mujoco  # noqa: F401  (chooses a headless MUJOCO_GL before mujoco loads)
 from openral_data.errors import ConfigError
 from openral_data.producers.sim import mjstate
-from openral_data.producers.sim.contract import check_representations
+from openral_data.producers.sim.contract import check_representations, scene_spec
 from openral_data.producers.sim.named_cameras import named_camera_rig
+from openral_data.producers.sim.params import parse_params
 from openral_data.producers.sim.rig_scene import RigScene
-from openral_data.schemas.base import StrictModel, validate
+from openral_data.schemas.base import StrictModel
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
-from openral_data.types import CameraShape, Observation, ProducerSpec, StepResult
+from openral_data.types import Observation, StepResult
 
 STATE_FORMAT = 1
 STATE_REPRESENTATIONS = ("eef_pose_gripper", "joint_positions_gripper")
@@ -113,7 +114,7 @@ class RobosuiteScene(RigScene):
     def __init__(
         self, scene: SimScene, robot: RobotManifest, rskill: RSkillManifest, source: str, rskill_source: str
     ) -> None:
-        self.params = validate(RobosuiteParams, scene.scene.params, f"{source}: scene.params")
+        self.params = parse_params(RobosuiteParams, scene, source)
         if robot.name not in ROBOTS:
             raise ConfigError(
                 f"{source}: scene.robot: robosuite scenes support {', '.join(ROBOTS)}, got {robot.name!r}"
@@ -162,16 +163,9 @@ class RobosuiteScene(RigScene):
             self._obs = self.env.reset()
         n_arm = len(self._obs["robot0_joint_pos"])
         state_dim = 8 if self.state_representation == "eef_pose_gripper" else n_arm + 1
-        self.spec = ProducerSpec(
-            state_dim=state_dim,
-            action_dim=int(self.env.action_dim),
-            cameras={c.name: CameraShape(c.height, c.width) for c in scene.scene.cameras},
-            fps=scene.scene.fps,
-            can_restore_state=True,
-        )
-        self._task_text = scene.task.instruction
+        self.spec = scene_spec(state_dim, int(self.env.action_dim), scene.scene.cameras, scene.scene.fps)
+        self.task_text = scene.task.instruction
         self._seed = 0
-        self._t0 = 0.0
         self.initial = {}
         groups: tuple[int, ...] = (VISUAL,)
         if scene.scene.render.robot_meshes == "collision":
@@ -186,7 +180,7 @@ class RobosuiteScene(RigScene):
         self._seed = seed
         with _seeded_global_numpy(seed):
             self._obs = self.env.reset()
-        self._t0 = float(self.data.time)
+        self.t0 = float(self.data.time)
         self.initial = {
             "format": STATE_FORMAT,
             "suite": "robosuite",
@@ -267,10 +261,4 @@ class RobosuiteScene(RigScene):
         privileged["object_poses"] = self._object_poses()
         privileged["suite"] = "robosuite"
         privileged["env"] = self.env_name
-        return Observation(
-            images=self.render(),
-            state=self._state(),
-            task=self._task_text,
-            time=float(self.data.time) - self._t0,
-            privileged=privileged,
-        )
+        return self.observe(self._state(), privileged)

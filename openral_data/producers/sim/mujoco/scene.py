@@ -20,7 +20,7 @@ from pydantic import ValidationError
 
 from openral_data import paths
 from openral_data.errors import ConfigError
-from openral_data.producers.sim.contract import check_representations
+from openral_data.producers.sim.contract import check_representations, scene_spec
 from openral_data.producers.sim.mujoco.assets import check_robosuite_assets, resolve_asset
 from openral_data.producers.sim.mujoco.compose import CUBE, GOAL, compose
 from openral_data.producers.sim.mujoco.controllers import (
@@ -32,13 +32,14 @@ from openral_data.producers.sim.mujoco.controllers import (
 from openral_data.producers.sim.mujoco.kinematics import F64, Arm, IKSolver
 from openral_data.producers.sim.mujoco.render import CameraRig
 from openral_data.producers.sim.mujoco.tasks import TaskKind, is_success, sample_placement
+from openral_data.producers.sim.params import parse_params
 from openral_data.producers.sim.rig_scene import RigScene
 from openral_data.schemas.base import format_validation_error
 from openral_data.schemas.mujoco import MujocoRobotWiring, TabletopParams
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
-from openral_data.types import CameraShape, Observation, ProducerSpec, StepResult
+from openral_data.types import Observation, StepResult
 
 STATE_REPRESENTATIONS = ("joint_positions_gripper", "joint_positions", "eef_pose_gripper")
 STATE_FORMAT = 1
@@ -77,10 +78,7 @@ class TabletopScene(RigScene):
         source: str = "scene",
         rskill_source: str = "rskill",
     ) -> None:
-        try:
-            self.params = TabletopParams.model_validate(scene.scene.params)
-        except ValidationError as exc:
-            raise ConfigError(format_validation_error(f"{source}: scene.params", exc)) from None
+        self.params = parse_params(TabletopParams, scene, source)
         self.task_kind: TaskKind = task
         self.state_representation = rskill.state_contract.representation
         action_rep = rskill.action_contract.representation
@@ -118,14 +116,8 @@ class TabletopScene(RigScene):
         state_dim = {"joint_positions_gripper": n + 1, "joint_positions": n, "eef_pose_gripper": 8}[
             self.state_representation
         ]
-        self._task_text = scene.task.instruction
-        self.spec = ProducerSpec(
-            state_dim=state_dim,
-            action_dim=self.controller.action_dim,
-            cameras={c.name: CameraShape(c.height, c.width) for c in scene.scene.cameras},
-            fps=scene.scene.fps,
-            can_restore_state=True,
-        )
+        self.task_text = scene.task.instruction
+        self.spec = scene_spec(state_dim, self.controller.action_dim, scene.scene.cameras, scene.scene.fps)
         self.rig = CameraRig(self.model, list(scene.scene.cameras), scene.scene.render)
         self._seed = 0
         self.initial = {}
@@ -166,10 +158,7 @@ class TabletopScene(RigScene):
         placement = sample_placement(self.task_kind, self.params, np.random.default_rng(seed))
         d, a = self.data, self.arm
         mujoco.mj_resetData(self.model, d)
-        d.qpos[a.qpos] = self.ready_q
-        d.qpos[a.grip_qpos] = a.grip_joint_open
-        d.ctrl[a.act] = self.ready_q
-        d.ctrl[a.grip_act] = a.gripper_ctrl(0.0)
+        a.hold(d, self.ready_q)
         c = self._cube_qpos
         d.qpos[c : c + 3] = placement.cube_pos
         d.qpos[c + 3 : c + 7] = [np.cos(placement.cube_yaw / 2), 0.0, 0.0, np.sin(placement.cube_yaw / 2)]
@@ -266,6 +255,4 @@ class TabletopScene(RigScene):
             "task": self.task_kind,
             "object_poses": {"cube": d.qpos[c : c + 7].copy()},  # the generic hook replay compares
         }
-        return Observation(
-            images=self.render(), state=self._state(), task=self._task_text, time=float(d.time), privileged=privileged
-        )
+        return self.observe(self._state(), privileged)
