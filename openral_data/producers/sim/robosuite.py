@@ -37,9 +37,9 @@ import openral_data.producers.sim.mujoco  # noqa: F401  (chooses a headless MUJO
 from openral_data.errors import ConfigError
 from openral_data.producers.sim import mjstate
 from openral_data.producers.sim.contract import check_representations, scene_spec
+from openral_data.producers.sim.mujoco.rig_scene import RigScene
 from openral_data.producers.sim.named_cameras import named_camera_rig
 from openral_data.producers.sim.params import parse_params
-from openral_data.producers.sim.rig_scene import RigScene
 from openral_data.schemas.base import StrictModel
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest

@@ -31,9 +31,9 @@ from openral_data.producers.sim.mujoco.controllers import (
 )
 from openral_data.producers.sim.mujoco.kinematics import F64, Arm, IKSolver
 from openral_data.producers.sim.mujoco.render import CameraRig
+from openral_data.producers.sim.mujoco.rig_scene import RigScene
 from openral_data.producers.sim.mujoco.tasks import TaskKind, is_success, sample_placement
 from openral_data.producers.sim.params import parse_params
-from openral_data.producers.sim.rig_scene import RigScene
 from openral_data.schemas.base import format_validation_error
 from openral_data.schemas.mujoco import MujocoRobotWiring, TabletopParams
 from openral_data.schemas.robot import RobotManifest
