@@ -35,7 +35,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
 
 from rollouts import roll_out
-from timing import Stopwatch, Timing, alternate, medians
+from timing import Stopwatch, Timing, alternate, overhead_table, run_line
 
 from openral_data.producers.sim.mujoco.scene import TabletopScene
 from openral_data.record import registry
@@ -89,14 +89,10 @@ def main() -> None:
         recorded(scene_path, 1, args.codec, folder / "ds")
 
         def on_run(k: int, base: Timing, rec: Timing) -> None:
-            (tb, cb, fb), (tr, cr, fr) = base, rec
+            fb, fr = base[2], rec[2]
             if fb != fr:
                 raise SystemExit(f"baseline stepped {fb} frames but record wrote {fr}: not the same episodes")
-            print(
-                f"run {k + 1}: baseline {tb:.1f} s wall / {cb:.1f} s CPU, record {tr:.1f} s / {cr:.1f} s, "
-                f"{fr} frames, overhead {tr / tb - 1:+.1%} wall / {cr / cb - 1:+.1%} CPU",
-                flush=True,
-            )
+            print(run_line(k, base, rec, "record", "frames", 1), flush=True)
 
         base, rec = alternate(
             args.repeats,
@@ -104,15 +100,12 @@ def main() -> None:
             lambda: recorded(scene_path, args.episodes, args.codec, folder / "ds"),
             on_run,
         )
-        (b, bc), (r, rc) = medians(base), medians(rec)
         fr = rec[-1][2]
         print(
             f"\ntabletop_push, 2 cameras {args.size}x{args.size}, {args.episodes} episodes, {fr} frames, "
             f"codec {args.codec}, median of {args.repeats}:"
         )
-        print("| | baseline (step + render) | record | overhead |\n|---|---|---|---|")
-        print(f"| wall | {b:.1f} s | {r:.1f} s | {r / b - 1:+.1%} |")
-        print(f"| CPU (all threads) | {bc:.1f} s | {rc:.1f} s | {rc / bc - 1:+.1%} |")
+        print(overhead_table("| | baseline (step + render) | record | overhead |", "CPU (all threads)", base, rec, 1))
 
 
 if __name__ == "__main__":

@@ -35,7 +35,7 @@ import yaml
 os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
 
-from timing import Stopwatch, Timing, alternate, medians
+from timing import Stopwatch, Timing, alternate, overhead_table, run_line
 
 from openral_data.record import registry
 from openral_data.record.sim import RecordOptions, record
@@ -105,24 +105,18 @@ def main() -> None:
         replayed(dataset, folder / "res")
 
         def on_run(k: int, base: Timing, rep: Timing) -> None:
-            (tb, cb, sb), (tr, cr, sr) = base, rep
+            sb, sr = base[2], rep[2]
             if sb != sr:
                 raise SystemExit(f"baseline stepped {sb} steps but replay {sr}: not the same workload")
-            print(
-                f"run {k + 1}: baseline {tb:.2f} s wall / {cb:.2f} s CPU, replay {tr:.2f} s / {cr:.2f} s, "
-                f"{sr} steps, overhead {tr / tb - 1:+.1%} wall / {cr / cb - 1:+.1%} CPU",
-                flush=True,
-            )
+            print(run_line(k, base, rep, "replay", "steps", 2), flush=True)
 
         base, rep = alternate(
             args.repeats, lambda: baseline(config, episodes), lambda: replayed(dataset, folder / "res"), on_run
         )
-        (b, bc), (r, rc) = medians(base), medians(rep)
         sr = rep[-1][2]
         print(f"\ntabletop_push, {args.episodes} episodes, {sr} steps, median of {args.repeats}:")
-        print("| | baseline (reset_to + step) | replay --mode actions | overhead |\n|---|---|---|---|")
-        print(f"| wall | {b:.2f} s | {r:.2f} s | {r / b - 1:+.1%} |")
-        print(f"| CPU | {bc:.2f} s | {rc:.2f} s | {rc / bc - 1:+.1%} |")
+        header = "| | baseline (reset_to + step) | replay --mode actions | overhead |"
+        print(overhead_table(header, "CPU", base, rep, 2))
 
 
 if __name__ == "__main__":

@@ -1,5 +1,6 @@
 """Timing shared by the overhead benchmarks (bench_replay.py, bench_record_overhead.py): a stopwatch over wall
-and process CPU time, and the alternating baseline-vs-contestant loop whose medians give the overhead."""
+and process CPU time, the alternating baseline-vs-contestant loop whose medians give the overhead, and the
+lines they print (`digits` decimals of seconds)."""
 
 from __future__ import annotations
 
@@ -49,3 +50,23 @@ def alternate(
 def medians(runs: list[Timing]) -> tuple[float, float]:
     """Median wall and median CPU seconds of the runs."""
     return statistics.median(t[0] for t in runs), statistics.median(t[1] for t in runs)
+
+
+def run_line(k: int, base: Timing, other: Timing, name: str, unit: str, digits: int) -> str:
+    """One pair of runs: both times, the contestant's work done and its overhead."""
+    (tb, cb, _), (tr, cr, n) = base, other
+    return (
+        f"run {k + 1}: baseline {tb:.{digits}f} s wall / {cb:.{digits}f} s CPU, "
+        f"{name} {tr:.{digits}f} s / {cr:.{digits}f} s, "
+        f"{n} {unit}, overhead {tr / tb - 1:+.1%} wall / {cr / cb - 1:+.1%} CPU"
+    )
+
+
+def overhead_table(header: str, cpu_label: str, base: list[Timing], other: list[Timing], digits: int) -> str:
+    """The Markdown table of median wall and CPU times and the overhead; `header` names the columns."""
+    (b, bc), (r, rc) = medians(base), medians(other)
+    return (
+        f"{header}\n|---|---|---|---|\n"
+        f"| wall | {b:.{digits}f} s | {r:.{digits}f} s | {r / b - 1:+.1%} |\n"
+        f"| {cpu_label} | {bc:.{digits}f} s | {rc:.{digits}f} s | {rc / bc - 1:+.1%} |"
+    )
