@@ -1,5 +1,5 @@
 """The part of a SimRollout that is the same in every MuJoCo scene drawn through a CameraRig (tabletop,
-robosuite, MetaWorld): `render`, `initial_state`, `close`, and assembling an Observation."""
+robosuite, MetaWorld, gym-aloha): `render`, `initial_state`, `close`, and assembling an Observation."""
 
 from __future__ import annotations
 
