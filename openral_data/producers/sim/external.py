@@ -29,19 +29,30 @@ def named_cameras(
     """The YAML's cameras, each one the simulator defines by name (it places them; `pos`/`lookat`/`mount` are
     refused so nobody believes they moved a camera)."""
     cams = list(scene.scene.cameras)
-    for i, cam in enumerate(cams):
-        where = f"{source}: scene.cameras[{i}]"
-        if cam.name not in available:
-            raise ConfigError(
-                f"{where}.name: {cam.name!r} is not a camera of this simulator; valid: {', '.join(available)}"
-            )
-        if cam.pos is not None or cam.lookat is not None or cam.mount != "world":
-            raise ConfigError(f"{where}: {cam.name!r} is placed by the simulator; remove pos/lookat/mount")
+    check_cameras(cams, available, source)
     if max_count is not None and len(cams) > max_count:
         raise ConfigError(
             f"{source}: scene.cameras: this simulator renders at most {max_count} view(s), got {len(cams)}"
         )
     return cams
+
+
+def check_cameras(
+    cameras: Sequence[SceneCamera],
+    available: Sequence[str],
+    source: str,
+    unknown: str = "{where}.name: {name!r} is not a camera of this simulator; valid: {valid}",
+    placed: str = "{where}: {name!r} is placed by the simulator; remove pos/lookat/mount",
+) -> None:
+    """Each camera must be one of `available` and carry no placement; the refusals are the `unknown` / `placed`
+    templates (fields `where`, `name`, `valid`)."""
+    valid = ", ".join(available)
+    for i, cam in enumerate(cameras):
+        where = f"{source}: scene.cameras[{i}]"
+        if cam.name not in available:
+            raise ConfigError(unknown.format(where=where, name=cam.name, valid=valid))
+        if cam.pos is not None or cam.lookat is not None or cam.mount != "world":
+            raise ConfigError(placed.format(where=where, name=cam.name, valid=valid))
 
 
 def check_fps(scene: SimScene, fps: int, source: str) -> None:

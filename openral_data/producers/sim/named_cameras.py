@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import mujoco
 
-from openral_data.errors import ConfigError
+from openral_data.producers.sim.external import check_cameras
 from openral_data.producers.sim.mujoco.render import CameraRig
 from openral_data.schemas.scene import RenderConfig, SceneCamera
 
@@ -29,13 +29,13 @@ def named_camera_rig(
     geom_groups: tuple[int, ...] | None = None,
 ) -> CameraRig:
     """A CameraRig over the model's own cameras, sites hidden, upside-down cameras flipped; `close()` frees it."""
-    valid = camera_names(model)
-    for k, cam in enumerate(cameras):
-        where = f"{source}: scene.cameras[{k}]"
-        if cam.name not in valid:
-            raise ConfigError(f"{where}.name: no camera {cam.name!r} in this simulator; valid: {', '.join(valid)}")
-        if cam.pos is not None or cam.lookat is not None or cam.mount != "world":
-            raise ConfigError(f"{where}: pos/lookat/mount place cameras in composed scenes; here name a model camera")
+    check_cameras(
+        cameras,
+        camera_names(model),
+        source,
+        unknown="{where}.name: no camera {name!r} in this simulator; valid: {valid}",
+        placed="{where}: pos/lookat/mount place cameras in composed scenes; here name a model camera",
+    )
     option = mujoco.MjvOption()
     option.sitegroup[:] = 0
     if geom_groups is not None:  # else MuJoCo's default (groups 0-2 drawn)
