@@ -28,7 +28,8 @@ from pydantic import Field
 
 from openral_data.errors import CompatibilityError, ConfigError
 from openral_data.producers.sim.contract import scene_spec
-from openral_data.producers.sim.external import check_envelope, check_fps, named_cameras, require
+from openral_data.producers.sim.external import check_fps, named_cameras, require
+from openral_data.producers.sim.initial_state import check_envelope, check_recorded_on
 from openral_data.producers.sim.mujoco.render import CameraRig
 from openral_data.producers.sim.mujoco.rig_scene import RigScene
 from openral_data.producers.sim.params import parse_params
@@ -105,10 +106,7 @@ class AlohaScene(RigScene):
 
     def reset_to(self, initial_state: dict[str, Any]) -> Observation:
         check_envelope(initial_state, STATE_FORMAT, KIND)
-        if initial_state.get("task") != self.task_name:
-            raise ConfigError(
-                f"initial_state: task: recorded on {initial_state.get('task')!r}, this is {self.task_name!r}"
-            )
+        check_recorded_on(initial_state, "task", self.task_name, this="this is")
         try:
             recorded = initial_state["object_poses"]
             poses = np.concatenate([np.asarray(recorded[n], dtype=np.float64).reshape(7) for n in self._objects])

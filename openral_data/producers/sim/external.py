@@ -1,12 +1,11 @@
 """Helpers shared by adapters over external simulators (gym-aloha, gym-pusht, LIBERO): optional imports,
-the simulator's own cameras, its fixed control rate, and the initial-state envelope."""
+the simulator's own cameras and its fixed control rate."""
 
 from __future__ import annotations
 
 import importlib
 from collections.abc import Sequence
 from types import ModuleType
-from typing import Any
 
 from openral_data.errors import ConfigError
 from openral_data.schemas.scene import SceneCamera, SimScene
@@ -60,11 +59,3 @@ def check_fps(scene: SimScene, fps: int, source: str) -> None:
         raise ConfigError(
             f"{source}: scene.fps: this simulator steps at {fps} Hz (control rate), got {scene.scene.fps}"
         )
-
-
-def check_envelope(state: dict[str, Any], fmt: int, kind: str) -> None:
-    """`initial_state` must come from the same kind of scene and format this adapter writes."""
-    if state.get("format") != fmt:
-        raise ConfigError(f"initial_state: format: expected {fmt}, got {state.get('format')!r}")
-    if state.get("kind") != kind:
-        raise ConfigError(f"initial_state: kind: recorded on {state.get('kind')!r}, this scene is {kind!r}")

@@ -29,6 +29,7 @@ import openral_data.producers.sim.mujoco  # noqa: F401  (chooses a headless MUJO
 from openral_data.errors import ConfigError
 from openral_data.producers.sim import mjstate
 from openral_data.producers.sim.contract import Side, check_representation, scene_spec
+from openral_data.producers.sim.initial_state import check_recorded_on
 from openral_data.producers.sim.mujoco.rig_scene import RigScene
 from openral_data.producers.sim.named_cameras import named_camera_rig
 from openral_data.producers.sim.params import parse_params
@@ -153,10 +154,7 @@ class MetaWorldScene(RigScene):
         """
         if initial_state.get("format") != STATE_FORMAT or initial_state.get("suite") != "metaworld":
             raise ConfigError(f"initial_state: format: not a MetaWorld state of format {STATE_FORMAT}")
-        if initial_state.get("task") != self.params.task:
-            raise ConfigError(
-                f"initial_state: task: recorded on {initial_state.get('task')!r}, this scene is {self.params.task!r}"
-            )
+        check_recorded_on(initial_state, "task", self.params.task)
         seed = int(initial_state.get("seed", 0))
         obs = self.reset(seed)
         recorded = np.asarray(initial_state.get("rand_vec", []), dtype=np.float64)

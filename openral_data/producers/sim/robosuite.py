@@ -37,6 +37,7 @@ import openral_data.producers.sim.mujoco  # noqa: F401  (chooses a headless MUJO
 from openral_data.errors import ConfigError
 from openral_data.producers.sim import mjstate
 from openral_data.producers.sim.contract import check_representations, scene_spec
+from openral_data.producers.sim.initial_state import check_recorded_on
 from openral_data.producers.sim.mujoco.rig_scene import RigScene
 from openral_data.producers.sim.named_cameras import named_camera_rig
 from openral_data.producers.sim.params import parse_params
@@ -200,10 +201,7 @@ class RobosuiteScene(RigScene):
         """
         if initial_state.get("format") != STATE_FORMAT or initial_state.get("suite") != "robosuite":
             raise ConfigError(f"initial_state: format: not a robosuite state of format {STATE_FORMAT}")
-        if initial_state.get("env") != self.env_name:
-            raise ConfigError(
-                f"initial_state: env: recorded on {initial_state.get('env')!r}, this scene is {self.env_name!r}"
-            )
+        check_recorded_on(initial_state, "env", self.env_name)
         seed = int(initial_state.get("seed", 0))
         obs = self.reset(seed)
         if not mjstate.same_state(self.initial["mujoco"], initial_state.get("mujoco", {})):

@@ -37,7 +37,8 @@ from pydantic import Field
 
 from openral_data.errors import CompatibilityError, ConfigError
 from openral_data.producers.sim.contract import check_representation, scene_spec
-from openral_data.producers.sim.external import check_envelope, check_fps, named_cameras
+from openral_data.producers.sim.external import check_fps, named_cameras
+from openral_data.producers.sim.initial_state import check_envelope
 from openral_data.producers.sim.libero.config import import_libero
 from openral_data.producers.sim.params import parse_params
 from openral_data.schemas.base import StrictModel

@@ -21,6 +21,7 @@ from pydantic import ValidationError
 from openral_data import paths
 from openral_data.errors import ConfigError
 from openral_data.producers.sim.contract import check_representations, scene_spec
+from openral_data.producers.sim.initial_state import check_format, check_recorded_on
 from openral_data.producers.sim.mujoco.assets import check_robosuite_assets, resolve_asset
 from openral_data.producers.sim.mujoco.compose import CUBE, GOAL, compose
 from openral_data.producers.sim.mujoco.controllers import (
@@ -171,12 +172,8 @@ class TabletopScene(RigScene):
 
     def reset_to(self, initial_state: dict[str, Any]) -> Observation:
         """Restore exactly the state `initial_state()` described (for replay); the controller restarts too."""
-        if initial_state.get("format") != STATE_FORMAT:
-            raise ConfigError(f"initial_state: format: expected {STATE_FORMAT}, got {initial_state.get('format')!r}")
-        if initial_state.get("task") != self.task_kind:
-            raise ConfigError(
-                f"initial_state: task: recorded on {initial_state.get('task')!r}, this scene is {self.task_kind!r}"
-            )
+        check_format(initial_state, STATE_FORMAT)
+        check_recorded_on(initial_state, "task", self.task_kind)
         d = self.data
         mujoco.mj_resetData(self.model, d)
         try:
