@@ -165,10 +165,7 @@ class TabletopScene(RigScene):
         d.qpos[c + 3 : c + 7] = [np.cos(placement.cube_yaw / 2), 0.0, 0.0, np.sin(placement.cube_yaw / 2)]
         d.mocap_pos[self._goal_mocap] = placement.goal_pos
         d.mocap_quat[self._goal_mocap] = [1.0, 0.0, 0.0, 0.0]
-        mujoco.mj_forward(self.model, d)
-        self.initial = self._snapshot()
-        self.controller.reset(d)
-        return self._observation()
+        return self._begin()
 
     def reset_to(self, initial_state: dict[str, Any]) -> Observation:
         """Restore exactly the state `initial_state()` described (for replay); the controller restarts too."""
@@ -185,10 +182,7 @@ class TabletopScene(RigScene):
             raise ConfigError(f"initial_state: does not fit this scene's model: {exc}") from None
         d.time = float(initial_state.get("time", 0.0))
         self._seed = int(initial_state.get("seed", 0))
-        mujoco.mj_forward(self.model, d)
-        self.initial = self._snapshot()
-        self.controller.reset(d)
-        return self._observation()
+        return self._begin()
 
     def step(self, action: npt.NDArray[np.float32]) -> StepResult:
         self.controller.apply(action, self.data)
@@ -197,6 +191,14 @@ class TabletopScene(RigScene):
         return StepResult(self._observation(), reward=float(success), success=success, terminated=success)
 
     # -- helpers ---------------------------------------------------------------------------------------------
+    def _begin(self) -> Observation:
+        """The episode starts from the state just written into `data`: derived quantities, the snapshot
+        `initial_state()` returns, a restarted controller, and the first observation."""
+        mujoco.mj_forward(self.model, self.data)
+        self.initial = self._snapshot()
+        self.controller.reset(self.data)
+        return self._observation()
+
     def success(self) -> bool:
         return is_success(self.task_kind, self.params, self.cube_pos(), self.goal_pos())
 
