@@ -26,15 +26,16 @@ from __future__ import annotations
 import argparse
 import os
 import shutil
-import statistics
 import tempfile
-import time
 from pathlib import Path
 
 import yaml
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
+
+from rollouts import roll_out
+from timing import Stopwatch, Timing, alternate, overhead_table, run_line
 
 from openral_data.producers.sim.mujoco.scene import TabletopScene
 from openral_data.record import registry
@@ -55,38 +56,23 @@ def bench_scene(folder: Path, size: int) -> Path:
     return path
 
 
-Timing = tuple[float, float, int]  # wall seconds, CPU seconds of the whole process (all threads), frames
-
-
 def baseline(scene_path: Path, episodes: int) -> Timing:
-    t0, c0 = time.perf_counter(), time.process_time()
-    cfg = load_recordable_scene(scene_path)
-    rskill = registry.resolve_rskill(RSKILL)[0]
-    scene = TabletopScene(cfg, registry.ROBOTS[cfg.scene.robot or "franka_panda"], rskill, "push")
-    policy = registry.POLICIES[rskill.policy](rskill)
-    frames = 0
-    try:
-        for seed in range(episodes):
-            obs = scene.reset(seed)
-            policy.reset(seed)
-            for _ in range(cfg.task.max_steps):
-                frames += 1
-                result = scene.step(policy.step(obs, obs.task))
-                obs = result.observation
-                if result.terminated:
-                    break
-    finally:
-        scene.close()
-    return time.perf_counter() - t0, time.process_time() - c0, frames
+    with Stopwatch() as sw:
+        cfg = load_recordable_scene(scene_path)
+        rskill = registry.resolve_rskill(RSKILL)[0]
+        scene = TabletopScene(cfg, registry.ROBOTS[cfg.scene.robot or "franka_panda"], rskill, "push")
+        policy = registry.POLICIES[rskill.policy](rskill)
+        _, frames = roll_out(scene, policy, range(episodes), cfg.task.max_steps)
+    return sw.timing(frames)
 
 
 def recorded(scene_path: Path, episodes: int, codec: str, out: Path) -> Timing:
     shutil.rmtree(out, ignore_errors=True)
-    t0, c0 = time.perf_counter(), time.process_time()
-    summary = record(
-        RecordOptions(scene=str(scene_path), rskill=RSKILL, n_episodes=episodes, seed=0, out=out, codec=codec)  # type: ignore[arg-type]
-    )
-    return time.perf_counter() - t0, time.process_time() - c0, summary.frames
+    with Stopwatch() as sw:
+        summary = record(
+            RecordOptions(scene=str(scene_path), rskill=RSKILL, n_episodes=episodes, seed=0, out=out, codec=codec)  # type: ignore[arg-type]
+        )
+    return sw.timing(summary.frames)
 
 
 def main() -> None:
@@ -102,28 +88,25 @@ def main() -> None:
         # warm-up, untimed: first imports of the writer's modules (pyarrow, PyAV, ...) and GL/driver setup
         baseline(scene_path, 1)
         recorded(scene_path, 1, args.codec, folder / "ds")
-        base: list[Timing] = []
-        rec: list[Timing] = []
-        for k in range(args.repeats):
-            base.append(baseline(scene_path, args.episodes))
-            rec.append(recorded(scene_path, args.episodes, args.codec, folder / "ds"))
-            (tb, cb, fb), (tr, cr, fr) = base[-1], rec[-1]
+
+        def on_run(k: int, base: Timing, rec: Timing) -> None:
+            fb, fr = base[2], rec[2]
             if fb != fr:
                 raise SystemExit(f"baseline stepped {fb} frames but record wrote {fr}: not the same episodes")
-            print(
-                f"run {k + 1}: baseline {tb:.1f} s wall / {cb:.1f} s CPU, record {tr:.1f} s / {cr:.1f} s, "
-                f"{fr} frames, overhead {tr / tb - 1:+.1%} wall / {cr / cb - 1:+.1%} CPU",
-                flush=True,
-            )
-        b, r = (statistics.median(t[0] for t in x) for x in (base, rec))
-        bc, rc = (statistics.median(t[1] for t in x) for x in (base, rec))
+            print(run_line(k, base, rec, "record", "frames", 1), flush=True)
+
+        base, rec = alternate(
+            args.repeats,
+            lambda: baseline(scene_path, args.episodes),
+            lambda: recorded(scene_path, args.episodes, args.codec, folder / "ds"),
+            on_run,
+        )
+        fr = rec[-1][2]
         print(
             f"\ntabletop_push, 2 cameras {args.size}x{args.size}, {args.episodes} episodes, {fr} frames, "
             f"codec {args.codec}, median of {args.repeats}:"
         )
-        print("| | baseline (step + render) | record | overhead |\n|---|---|---|---|")
-        print(f"| wall | {b:.1f} s | {r:.1f} s | {r / b - 1:+.1%} |")
-        print(f"| CPU (all threads) | {bc:.1f} s | {rc:.1f} s | {rc / bc - 1:+.1%} |")
+        print(overhead_table("| | baseline (step + render) | record | overhead |", "CPU (all threads)", base, rec, 1))
 
 
 if __name__ == "__main__":

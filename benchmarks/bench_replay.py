@@ -26,9 +26,7 @@ from __future__ import annotations
 import argparse
 import os
 import shutil
-import statistics
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
@@ -37,13 +35,13 @@ import yaml
 os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
 
+from timing import Stopwatch, Timing, alternate, overhead_table, run_line
+
 from openral_data.record import registry
 from openral_data.record.options import RecordOptions
 from openral_data.record.sim import record
 from openral_data.replay import ReplayOptions, replay
 from openral_data.replay.recorded import RecordedDataset
-
-Timing = tuple[float, float, int]  # wall seconds, CPU seconds of the process, steps
 
 
 def make_dataset(folder: Path, episodes: int) -> Path:
@@ -71,29 +69,28 @@ def load_workload(dataset: Path) -> tuple[object, list[tuple[dict[str, object], 
 
 def baseline(config: object, episodes: list[tuple[dict[str, object], np.ndarray]]) -> Timing:
     scene, robot, rskill = config  # type: ignore[misc]
-    t0, c0 = time.perf_counter(), time.process_time()
-    env = registry.SCENES[scene.scene.type](scene, registry.ROBOTS[robot], rskill, "baseline")
-    steps = 0
-    try:
-        for initial, actions in episodes:
-            env.reset_to(initial)
-            for action in actions:
-                steps += 1
-                if env.step(action).terminated:
-                    break
-    finally:
-        env.close()
-    return time.perf_counter() - t0, time.process_time() - c0, steps
+    with Stopwatch() as sw:
+        env = registry.SCENES[scene.scene.type](scene, registry.ROBOTS[robot], rskill, "baseline")
+        steps = 0
+        try:
+            for initial, actions in episodes:
+                env.reset_to(initial)
+                for action in actions:
+                    steps += 1
+                    if env.step(action).terminated:
+                        break
+        finally:
+            env.close()
+    return sw.timing(steps)
 
 
 def replayed(dataset: Path, out: Path) -> Timing:
     shutil.rmtree(out, ignore_errors=True)
-    t0, c0 = time.perf_counter(), time.process_time()
-    summary = replay(ReplayOptions(dataset, out=out))
-    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    with Stopwatch() as sw:
+        summary = replay(ReplayOptions(dataset, out=out))
     if summary.summary["reproduced"] != len(summary.episodes):
         raise SystemExit(f"replay did not reproduce every episode: {summary.summary}")
-    return wall, cpu, sum(o.steps for o in summary.episodes)
+    return sw.timing(sum(o.steps for o in summary.episodes))
 
 
 def main() -> None:
@@ -107,25 +104,20 @@ def main() -> None:
         config, episodes = load_workload(dataset)
         baseline(config, episodes[:1])  # warm-up: imports, first compile
         replayed(dataset, folder / "res")
-        base: list[Timing] = []
-        rep: list[Timing] = []
-        for k in range(args.repeats):
-            base.append(baseline(config, episodes))
-            rep.append(replayed(dataset, folder / "res"))
-            (tb, cb, sb), (tr, cr, sr) = base[-1], rep[-1]
+
+        def on_run(k: int, base: Timing, rep: Timing) -> None:
+            sb, sr = base[2], rep[2]
             if sb != sr:
                 raise SystemExit(f"baseline stepped {sb} steps but replay {sr}: not the same workload")
-            print(
-                f"run {k + 1}: baseline {tb:.2f} s wall / {cb:.2f} s CPU, replay {tr:.2f} s / {cr:.2f} s, "
-                f"{sr} steps, overhead {tr / tb - 1:+.1%} wall / {cr / cb - 1:+.1%} CPU",
-                flush=True,
-            )
-        b, r = (statistics.median(t[0] for t in x) for x in (base, rep))
-        bc, rc = (statistics.median(t[1] for t in x) for x in (base, rep))
+            print(run_line(k, base, rep, "replay", "steps", 2), flush=True)
+
+        base, rep = alternate(
+            args.repeats, lambda: baseline(config, episodes), lambda: replayed(dataset, folder / "res"), on_run
+        )
+        sr = rep[-1][2]
         print(f"\ntabletop_push, {args.episodes} episodes, {sr} steps, median of {args.repeats}:")
-        print("| | baseline (reset_to + step) | replay --mode actions | overhead |\n|---|---|---|---|")
-        print(f"| wall | {b:.2f} s | {r:.2f} s | {r / b - 1:+.1%} |")
-        print(f"| CPU | {bc:.2f} s | {rc:.2f} s | {rc / bc - 1:+.1%} |")
+        header = "| | baseline (reset_to + step) | replay --mode actions | overhead |"
+        print(overhead_table(header, "CPU", base, rep, 2))
 
 
 if __name__ == "__main__":

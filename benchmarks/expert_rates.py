@@ -9,6 +9,8 @@ from __future__ import annotations
 import argparse
 import time
 
+from rollouts import roll_out
+
 from openral_data.producers.sim.mujoco.scene import TabletopScene
 from openral_data.record import registry
 from openral_data.schemas.scene import load_recordable_scene
@@ -22,20 +24,7 @@ def rate(robot: str, task: str, seeds: int) -> tuple[int, float]:
     rskill = registry.resolve_rskill(TASKS[task])[0]
     scene = TabletopScene(scene_cfg, registry.ROBOTS[robot], rskill, task)  # type: ignore[arg-type]
     policy = registry.POLICIES[rskill.policy](rskill)
-    ok, steps = 0, 0
-    try:
-        for seed in range(seeds):
-            obs = scene.reset(seed)
-            policy.reset(seed)
-            for _ in range(scene_cfg.task.max_steps):
-                result = scene.step(policy.step(obs, obs.task))
-                obs = result.observation
-                steps += 1
-                if result.terminated:
-                    ok += result.success
-                    break
-    finally:
-        scene.close()
+    ok, steps = roll_out(scene, policy, range(seeds), scene_cfg.task.max_steps)
     return ok, steps / seeds
 
 

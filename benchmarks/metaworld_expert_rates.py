@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import argparse
 
+from rollouts import roll_out
+
 from openral_data.record import registry
 from openral_data.schemas.scene import load_recordable_scene
 
@@ -22,20 +24,7 @@ def rate(task: str, first: int, seeds: int) -> tuple[int, float]:
     rskill = registry.resolve_rskill("metaworld-expert")[0]
     env = registry.SCENES["metaworld"](scene, registry.ROBOTS["metaworld_sawyer"], rskill, task)
     policy = registry.POLICIES[rskill.policy](rskill)
-    wins, steps = 0, 0
-    try:
-        for seed in range(first, first + seeds):
-            obs = env.reset(seed)
-            policy.reset(seed)
-            for _ in range(500):
-                result = env.step(policy.step(obs, obs.task))
-                obs = result.observation
-                steps += 1
-                if result.terminated:
-                    wins += result.success
-                    break
-    finally:
-        env.close()
+    wins, steps = roll_out(env, policy, range(first, first + seeds), 500)
     return wins, steps / seeds
 
 

@@ -54,11 +54,13 @@ class _Expert:
         pass
 
     @staticmethod
-    def _truth(observation: Observation) -> dict[str, Any]:
+    def _truth(observation: Observation) -> tuple[dict[str, Any], F64, F64, F64, float, float]:
+        """The scene's ground truth: the privileged dict, end-effector, cube and goal positions, the table height
+        and half the cube's size."""
         p = observation.privileged
         if "cube_pos" not in p:
             raise ConfigError("scripted experts need a MuJoCo tabletop scene (no ground truth in the observation)")
-        return p
+        return p, p["ee_pos"], p["cube_pos"], p["goal_pos"], float(p["table_height"]), float(p["cube_size"]) / 2
 
     def _move(self, ee: F64, target: F64, max_step: float | None = None) -> F64:
         step = self.max_step if max_step is None else max_step
@@ -76,9 +78,7 @@ class ScriptedPush(_Expert):
     whenever the cube drifts off the pushing line."""
 
     def step(self, observation: Observation, instruction: str) -> npt.NDArray[np.float32]:
-        p = self._truth(observation)
-        ee, cube, goal = p["ee_pos"], p["cube_pos"], p["goal_pos"]
-        h, half = float(p["table_height"]), float(p["cube_size"]) / 2
+        _, ee, cube, goal, h, half = self._truth(observation)
         to_goal = goal[:2] - cube[:2]
         dist = float(np.linalg.norm(to_goal))
         direction = to_goal / dist if dist > 1e-6 else np.array([1.0, 0.0])
@@ -112,9 +112,7 @@ class ScriptedPickPlace(_Expert):
     """Above the cube (yaw aligned) -> down -> close -> lift -> above the pad -> down -> open -> rise."""
 
     def step(self, observation: Observation, instruction: str) -> npt.NDArray[np.float32]:
-        p = self._truth(observation)
-        ee, cube, goal = p["ee_pos"], p["cube_pos"], p["goal_pos"]
-        h, half = float(p["table_height"]), float(p["cube_size"]) / 2
+        p, ee, cube, goal, h, half = self._truth(observation)
         yaw_err = _wrap_quarter(_yaw_of(p["cube_quat"]) - _yaw_of(p["ee_quat"]))
         dyaw = float(np.clip(0.5 * yaw_err, -0.1, 0.1))
         carry_z = h + 0.15

@@ -11,14 +11,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
-from openral_data.errors import OpenralError
 from openral_data.policies.base import PolicyAdapter
-from openral_data.replay.actions import StepHook
-from openral_data.replay.outcome import EpisodeOutcome, first_exceeding, object_error
+from openral_data.replay.drive import StepHook, drive, restore
+from openral_data.replay.outcome import EpisodeOutcome, outcome
 from openral_data.replay.policy_mode import checked_action
 from openral_data.replay.recorded import RecordedEpisode
-from openral_data.types import SimRollout
+from openral_data.types import Observation, SimRollout
 
 
 @dataclass(frozen=True)
@@ -29,37 +29,12 @@ class ClosedLoop:
     tolerance: float
 
     def run(self, episode: RecordedEpisode, on_step: StepHook | None = None) -> EpisodeOutcome:
-        if episode.initial_state is None:
-            raise OpenralError(
-                f"episode {episode.index}: meta/episodes: openral.initial_state: not recorded, cannot restore its start"
-            )
-        obs = self.env.reset_to(episode.initial_state)
-        obj_err = object_error(episode.initial_state.get("object_poses"), obs.privileged)
+        obs, obj_err = restore(self.env, episode)
         self.policy.reset(episode.seed or 0)
         dim = episode.actions.shape[1]
-        states = []
-        success = False
-        steps = 0
-        for t in range(self.max_steps):
-            states.append(np.asarray(obs.state, dtype=np.float64))
-            action = checked_action(self.policy.step(obs, obs.task), dim, f"episode {episode.index} step {t}")
-            result = self.env.step(action)
-            steps = t + 1
-            if on_step is not None:
-                on_step(obs, action, result, result.terminated or t == self.max_steps - 1)
-            obs = result.observation
-            if result.terminated:
-                success = bool(result.success)
-                break
-        m = min(len(states), episode.length)
-        state_abs = np.abs(np.array(states[:m]) - episode.states[:m].astype(np.float64))
-        return EpisodeOutcome(
-            index=episode.index,
-            steps=steps,
-            success_recorded=episode.success,
-            success_replayed=success,
-            frames=np.arange(m, dtype=np.int64),
-            state_abs=state_abs,
-            first_divergence_frame=first_exceeding(state_abs, self.tolerance),
-            object_error_initial=obj_err,
-        )
+
+        def act(t: int, obs: Observation) -> npt.NDArray[np.float32]:
+            return checked_action(self.policy.step(obs, obs.task), dim, f"episode {episode.index} step {t}")
+
+        run = drive(self.env, obs, self.max_steps, act, on_step)
+        return outcome(episode, run.states, run.success, obj_err, self.tolerance)

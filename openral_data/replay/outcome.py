@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
+
+from openral_data.replay.recorded import RecordedEpisode
 
 F64 = npt.NDArray[np.float64]
 
@@ -44,6 +47,31 @@ class EpisodeOutcome:
         if self.success_recorded is None or self.success_replayed is None:
             return None
         return self.success_recorded == self.success_replayed
+
+
+def outcome(
+    episode: RecordedEpisode,
+    states: Sequence[F64],
+    success: bool,
+    object_error_initial: float | None,
+    tolerance: float,
+) -> EpisodeOutcome:
+    """The outcome of a scene run from `episode`'s start: `states` are the states the applied actions were taken
+    from (one per step), compared with the recorded ones while both exist."""
+    m = min(len(states), episode.length)
+    recorded = episode.states[:m].astype(np.float64)
+    replayed = np.array(states[:m], dtype=np.float64) if m else np.zeros_like(recorded)
+    state_abs = np.abs(replayed - recorded)
+    return EpisodeOutcome(
+        index=episode.index,
+        steps=len(states),
+        success_recorded=episode.success,
+        success_replayed=success,
+        frames=np.arange(m, dtype=np.int64),
+        state_abs=state_abs,
+        first_divergence_frame=first_exceeding(state_abs, tolerance),
+        object_error_initial=object_error_initial,
+    )
 
 
 def first_exceeding(abs_error: F64, tolerance: float) -> int | None:

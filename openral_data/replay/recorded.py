@@ -101,13 +101,18 @@ class RecordedDataset:
             raise OpenralError(f"{where}: schema_metadata.{key}: missing (not a recording of a scene)")
         return meta[key]
 
-    def scene(self) -> SimScene:
-        """The scene exactly as it was recorded (the YAML file may have changed since)."""
-        entry = self._provenance("scene")
+    def _recorded_config(self, key: str) -> tuple[dict[str, Any], str]:
+        """The `config` mapping recorded under `schema_metadata.<key>`, and where it is (for error messages)."""
+        entry = self._provenance(key)
         config = entry.get("config") if isinstance(entry, dict) else None
-        source = f"{self.root / layout.OPENRAL_PATH}: schema_metadata.scene.config"
+        source = f"{self.root / layout.OPENRAL_PATH}: schema_metadata.{key}.config"
         if not isinstance(config, dict):
             raise OpenralError(f"{source}: missing")
+        return config, source
+
+    def scene(self) -> SimScene:
+        """The scene exactly as it was recorded (the YAML file may have changed since)."""
+        config, source = self._recorded_config("scene")
         model: type[SimScene] = BenchmarkScene if config.get("tier") == "benchmark" else SimScene
         try:
             return validate(model, config, source)
@@ -120,11 +125,7 @@ class RecordedDataset:
         return f"{path} (as recorded in {self.root})" if path else str(self.root / layout.OPENRAL_PATH)
 
     def rskill(self) -> RSkillManifest:
-        entry = self._provenance("rskill")
-        config = entry.get("config") if isinstance(entry, dict) else None
-        source = f"{self.root / layout.OPENRAL_PATH}: schema_metadata.rskill.config"
-        if not isinstance(config, dict):
-            raise OpenralError(f"{source}: missing")
+        config, source = self._recorded_config("rskill")
         return validate(RSkillManifest, config, source)
 
     def robot(self) -> str:

@@ -21,7 +21,7 @@ from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.record.bridge import DatasetBridge
 from openral_data.record.options import check_out
 from openral_data.record.sinks import check_formats, make_sinks
-from openral_data.replay.actions import StepHook
+from openral_data.replay.drive import StepHook
 from openral_data.replay.rebuild import Rebuilt, SceneView
 from openral_data.schemas.base import StrictModel, load_model
 from openral_data.schemas.scene import RenderConfig, SceneCamera

@@ -1,4 +1,4 @@
-"""Episode outcomes -> the results layout of `metrics/results.py` (episodes.parquet + steps.parquet)."""
+"""Episode outcomes -> the results layout of `formats/results.py` (episodes.parquet + steps.parquet)."""
 
 from __future__ import annotations
 

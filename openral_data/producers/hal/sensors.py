@@ -2,7 +2,8 @@
 
 Sensors run at their own rate. `PolledCamera` captures when asked (a twin renders on the loop's thread);
 `ThreadedCamera` captures on its own thread as fast as its source allows and keeps only the newest sample, so
-a slow camera never stalls the control loop — the loop sees how old the sample is and decides (see loop.py).
+a slow camera never stalls the control loop — the loop sees how old the sample is and decides (see
+record/hal_loop.py).
 Every sample carries a sequence number, so a reused sample is visible, never a silent duplicate.
 """
 

@@ -96,10 +96,7 @@ class MujocoTwinHal(HalBase):
     def _connect(self) -> None:
         d, a = self.data, self.arm
         mujoco.mj_resetData(self.model, d)
-        d.qpos[a.qpos] = self.home
-        d.qpos[a.grip_qpos] = a.grip_joint_open
-        d.ctrl[a.act] = self.home
-        d.ctrl[a.grip_act] = a.gripper_ctrl(0.0)
+        a.hold(d, self.home)
         mujoco.mj_forward(self.model, d)
         self._rig = CameraRig(self.model, self._camera_specs, self._render)
         self._t0 = monotonic()

@@ -27,12 +27,16 @@ import numpy.typing as npt
 from pydantic import Field
 
 from openral_data.errors import CompatibilityError, ConfigError
-from openral_data.producers.sim.external import check_envelope, check_fps, named_cameras, parse_params, require
+from openral_data.producers.sim.contract import scene_spec
+from openral_data.producers.sim.external import check_fps, named_cameras, require
+from openral_data.producers.sim.initial_state import check_envelope, check_recorded_on
 from openral_data.producers.sim.mujoco.render import CameraRig
+from openral_data.producers.sim.mujoco.rig_scene import RigScene
+from openral_data.producers.sim.params import parse_params
 from openral_data.schemas.base import StrictModel
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
-from openral_data.types import CameraShape, Observation, ProducerSpec, StepResult
+from openral_data.types import Observation, StepResult
 
 KIND = "gym_aloha"
 STATE_FORMAT = 1
@@ -56,7 +60,7 @@ def _task_without_images(base: type[Any]) -> Any:
     return Task()
 
 
-class AlohaScene:
+class AlohaScene(RigScene):
     def __init__(self, scene: SimScene, rskill: RSkillManifest, source: str = "scene", rskill_source: str = "rskill"):
         params = parse_params(AlohaParams, scene, source)
         check_fps(scene, FPS, source)
@@ -86,17 +90,12 @@ class AlohaScene:
         self._sample = utils.sample_insertion_pose if params.task == "insertion" else utils.sample_box_pose
         self._objects = ("red_peg", "socket") if params.task == "insertion" else ("red_box",)
         # gym-aloha's MJCF draws its arms in geom group 1: MuJoCo's default groups, not the composed scenes'
-        self._rig = CameraRig(self.physics.model.ptr, cams, scene.scene.render, option=mujoco.MjvOption())
-        self.spec = ProducerSpec(
-            state_dim=DIM,
-            action_dim=DIM,
-            cameras={c.name: CameraShape(c.height, c.width) for c in cams},
-            fps=FPS,
-            can_restore_state=True,
-        )
-        self._text = scene.task.instruction
+        self.data = self.physics.data.ptr  # the same MjData for the scene's life (resets are in place)
+        self.rig = CameraRig(self.physics.model.ptr, cams, scene.scene.render, option=mujoco.MjvOption())
+        self.spec = scene_spec(DIM, DIM, cams, FPS)
+        self.task_text = scene.task.instruction
         self._seed = 0
-        self._initial: dict[str, Any] = {}
+        self.initial = {}
         self._stage = 0
 
     # -- SimRollout ------------------------------------------------------------------------------------------
@@ -107,10 +106,7 @@ class AlohaScene:
 
     def reset_to(self, initial_state: dict[str, Any]) -> Observation:
         check_envelope(initial_state, STATE_FORMAT, KIND)
-        if initial_state.get("task") != self.task_name:
-            raise ConfigError(
-                f"initial_state: task: recorded on {initial_state.get('task')!r}, this is {self.task_name!r}"
-            )
+        check_recorded_on(initial_state, "task", self.task_name, this="this is")
         try:
             recorded = initial_state["object_poses"]
             poses = np.concatenate([np.asarray(recorded[n], dtype=np.float64).reshape(7) for n in self._objects])
@@ -126,15 +122,6 @@ class AlohaScene:
         return StepResult(self._observation(ts.observation), reward=float(self._stage), success=success,
                           terminated=success)  # fmt: skip
 
-    def render(self) -> dict[str, npt.NDArray[np.uint8]]:
-        return self._rig.render(self.physics.data.ptr)
-
-    def initial_state(self) -> dict[str, Any]:
-        return dict(self._initial)
-
-    def close(self) -> None:
-        self._rig.close()
-
     # -- helpers ---------------------------------------------------------------------------------------------
     def _reset_with(self, seed: int, poses: npt.NDArray[np.float64]) -> Observation:
         self._seed = seed
@@ -142,7 +129,7 @@ class AlohaScene:
         ts = self._env.reset()
         self._stage = 0
         d = self.physics.data
-        self._initial = {
+        self.initial = {
             "format": STATE_FORMAT,
             "kind": KIND,
             "task": self.task_name,
@@ -165,10 +152,4 @@ class AlohaScene:
             "reward_stage": self._stage,
             "qvel": np.asarray(raw["qvel"], dtype=np.float64),
         }
-        return Observation(
-            images=self.render(),
-            state=np.asarray(raw["qpos"], dtype=np.float32),
-            task=self._text,
-            time=float(self.physics.data.time),
-            privileged=privileged,
-        )
+        return self.observe(np.asarray(raw["qpos"], dtype=np.float32), privileged)

@@ -1,17 +1,13 @@
 """Helpers shared by adapters over external simulators (gym-aloha, gym-pusht, LIBERO): optional imports,
-strict scene params, the simulator's own cameras, its fixed control rate, and the initial-state envelope."""
+the simulator's own cameras and its fixed control rate."""
 
 from __future__ import annotations
 
 import importlib
 from collections.abc import Sequence
 from types import ModuleType
-from typing import Any
-
-from pydantic import BaseModel, ValidationError
 
 from openral_data.errors import ConfigError
-from openral_data.schemas.base import format_validation_error
 from openral_data.schemas.scene import SceneCamera, SimScene
 
 
@@ -26,27 +22,13 @@ def require(module: str, extra: str, source: str, install: str | None = None) ->
         ) from None
 
 
-def parse_params[M: BaseModel](model: type[M], scene: SimScene, source: str) -> M:
-    try:
-        return model.model_validate(scene.scene.params)
-    except ValidationError as exc:
-        raise ConfigError(format_validation_error(f"{source}: scene.params", exc)) from None
-
-
 def named_cameras(
     scene: SimScene, available: Sequence[str], source: str, *, max_count: int | None = None
 ) -> list[SceneCamera]:
     """The YAML's cameras, each one the simulator defines by name (it places them; `pos`/`lookat`/`mount` are
     refused so nobody believes they moved a camera)."""
     cams = list(scene.scene.cameras)
-    for i, cam in enumerate(cams):
-        where = f"{source}: scene.cameras[{i}]"
-        if cam.name not in available:
-            raise ConfigError(
-                f"{where}.name: {cam.name!r} is not a camera of this simulator; valid: {', '.join(available)}"
-            )
-        if cam.pos is not None or cam.lookat is not None or cam.mount != "world":
-            raise ConfigError(f"{where}: {cam.name!r} is placed by the simulator; remove pos/lookat/mount")
+    check_cameras(cams, available, source)
     if max_count is not None and len(cams) > max_count:
         raise ConfigError(
             f"{source}: scene.cameras: this simulator renders at most {max_count} view(s), got {len(cams)}"
@@ -54,16 +36,26 @@ def named_cameras(
     return cams
 
 
+def check_cameras(
+    cameras: Sequence[SceneCamera],
+    available: Sequence[str],
+    source: str,
+    unknown: str = "{where}.name: {name!r} is not a camera of this simulator; valid: {valid}",
+    placed: str = "{where}: {name!r} is placed by the simulator; remove pos/lookat/mount",
+) -> None:
+    """Each camera must be one of `available` and carry no placement; the refusals are the `unknown` / `placed`
+    templates (fields `where`, `name`, `valid`)."""
+    valid = ", ".join(available)
+    for i, cam in enumerate(cameras):
+        where = f"{source}: scene.cameras[{i}]"
+        if cam.name not in available:
+            raise ConfigError(unknown.format(where=where, name=cam.name, valid=valid))
+        if cam.pos is not None or cam.lookat is not None or cam.mount != "world":
+            raise ConfigError(placed.format(where=where, name=cam.name, valid=valid))
+
+
 def check_fps(scene: SimScene, fps: int, source: str) -> None:
     if scene.scene.fps != fps:
         raise ConfigError(
             f"{source}: scene.fps: this simulator steps at {fps} Hz (control rate), got {scene.scene.fps}"
         )
-
-
-def check_envelope(state: dict[str, Any], fmt: int, kind: str) -> None:
-    """`initial_state` must come from the same kind of scene and format this adapter writes."""
-    if state.get("format") != fmt:
-        raise ConfigError(f"initial_state: format: expected {fmt}, got {state.get('format')!r}")
-    if state.get("kind") != kind:
-        raise ConfigError(f"initial_state: kind: recorded on {state.get('kind')!r}, this scene is {kind!r}")

@@ -26,14 +26,18 @@ import numpy.typing as npt
 from pydantic import Field
 
 import openral_data.producers.sim.mujoco  # noqa: F401  (chooses a headless MUJOCO_GL before mujoco loads)
-from openral_data.errors import CompatibilityError, ConfigError
+from openral_data.errors import ConfigError
 from openral_data.producers.sim import mjstate
-from openral_data.producers.sim.named_cameras import NamedCameraRig
-from openral_data.schemas.base import StrictModel, validate
+from openral_data.producers.sim.contract import Side, check_representation, scene_spec
+from openral_data.producers.sim.initial_state import check_recorded_on
+from openral_data.producers.sim.mujoco.rig_scene import RigScene
+from openral_data.producers.sim.named_cameras import named_camera_rig
+from openral_data.producers.sim.params import parse_params
+from openral_data.schemas.base import StrictModel
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
-from openral_data.types import CameraShape, Observation, ProducerSpec, StepResult
+from openral_data.types import Observation, StepResult
 
 STATE_FORMAT = 1
 ROBOT = "metaworld_sawyer"
@@ -64,13 +68,13 @@ def task_names() -> list[str]:
     return sorted(ALL_V3_ENVIRONMENTS)
 
 
-class MetaWorldScene:
+class MetaWorldScene(RigScene):
     """One MetaWorld task, built once through `gymnasium.make`; `reset(seed)` per episode."""
 
     def __init__(
         self, scene: SimScene, robot: RobotManifest, rskill: RSkillManifest, source: str, rskill_source: str
     ) -> None:
-        self.params = validate(MetaWorldParams, scene.scene.params, f"{source}: scene.params")
+        self.params = parse_params(MetaWorldParams, scene, source)
         if robot.name != ROBOT:
             raise ConfigError(f"{source}: scene.robot: MetaWorld tasks fix the robot to {ROBOT!r}, got {robot.name!r}")
         valid = task_names()
@@ -78,12 +82,19 @@ class MetaWorldScene:
             raise ConfigError(
                 f"{source}: scene.params.task: unknown MetaWorld task {self.params.task!r}; valid: {', '.join(valid)}"
             )
-        for side, contract in (("state_contract", rskill.state_contract), ("action_contract", rskill.action_contract)):
-            if contract.representation not in REPRESENTATIONS:
-                raise CompatibilityError(
-                    f"{rskill_source}: {side}.representation: {contract.representation!r} is not spoken by MetaWorld "
-                    "scenes (state: generic [hand x, y, z, gripper]; action: generic [dx, dy, dz, grab])"
-                )
+        contracts: tuple[tuple[Side, str], ...] = (
+            ("state", rskill.state_contract.representation),
+            ("action", rskill.action_contract.representation),
+        )
+        for side, rep in contracts:
+            check_representation(
+                rskill_source,
+                side,
+                rep,
+                REPRESENTATIONS,
+                f"{rep!r} is not spoken by MetaWorld scenes "
+                "(state: generic [hand x, y, z, gripper]; action: generic [dx, dy, dz, grab])",
+            )
         import gymnasium as gym
 
         with warnings.catch_warnings():
@@ -107,18 +118,11 @@ class MetaWorldScene:
             raise ConfigError(
                 f"{source}: scene.fps: MetaWorld steps at {rate:g} Hz (timestep x frame skip); set fps: {rate:g}"
             )
-        self.spec = ProducerSpec(
-            state_dim=STATE_DIM,
-            action_dim=ACTION_DIM,
-            cameras={c.name: CameraShape(c.height, c.width) for c in scene.scene.cameras},
-            fps=scene.scene.fps,
-            can_restore_state=True,
-        )
-        self._task_text = scene.task.instruction
+        self.spec = scene_spec(STATE_DIM, ACTION_DIM, scene.scene.cameras, scene.scene.fps)
+        self.task_text = scene.task.instruction
         self._raw: npt.NDArray[np.float64] = np.zeros(39)
-        self._t0 = 0.0
-        self._initial: dict[str, Any] = {}
-        self._rig = NamedCameraRig(self.model, self.data, list(scene.scene.cameras), scene.scene.render, source)
+        self.initial = {}
+        self.rig = named_camera_rig(self.model, self.data, list(scene.scene.cameras), scene.scene.render, source)
 
     # -- SimRollout ------------------------------------------------------------------------------------------
     def reset(self, seed: int) -> Observation:
@@ -130,8 +134,8 @@ class MetaWorldScene:
             warnings.simplefilter("ignore")
             raw, _ = self.env.reset()
         self._raw = np.asarray(raw, dtype=np.float64)
-        self._t0 = float(self.data.time)
-        self._initial = {
+        self.t0 = float(self.data.time)
+        self.initial = {
             "format": STATE_FORMAT,
             "suite": "metaworld",
             "task": self.params.task,
@@ -150,19 +154,16 @@ class MetaWorldScene:
         """
         if initial_state.get("format") != STATE_FORMAT or initial_state.get("suite") != "metaworld":
             raise ConfigError(f"initial_state: format: not a MetaWorld state of format {STATE_FORMAT}")
-        if initial_state.get("task") != self.params.task:
-            raise ConfigError(
-                f"initial_state: task: recorded on {initial_state.get('task')!r}, this scene is {self.params.task!r}"
-            )
+        check_recorded_on(initial_state, "task", self.params.task)
         seed = int(initial_state.get("seed", 0))
         obs = self.reset(seed)
         recorded = np.asarray(initial_state.get("rand_vec", []), dtype=np.float64)
-        if not np.array_equal(recorded, np.asarray(self._initial["rand_vec"])):
+        if not np.array_equal(recorded, np.asarray(self.initial["rand_vec"])):
             raise ConfigError(
                 f"initial_state: rand_vec: this MetaWorld draws another placement for seed {seed} "
                 "(recorded with a different MetaWorld version?)"
             )
-        if not mjstate.same_state(self._initial["mujoco"], initial_state.get("mujoco", {})):
+        if not mjstate.same_state(self.initial["mujoco"], initial_state.get("mujoco", {})):
             raise ConfigError(
                 f"initial_state: mujoco: MetaWorld's reset with seed {seed} does not reproduce the recorded state"
             )
@@ -175,26 +176,10 @@ class MetaWorldScene:
         done = (success and self.params.terminate_on_success) or bool(truncated)
         return StepResult(self._observation(), reward=float(reward), success=success, terminated=done)
 
-    def render(self) -> dict[str, npt.NDArray[np.uint8]]:
-        return self._rig.render(self.data)
-
-    def initial_state(self) -> dict[str, Any]:
-        return dict(self._initial)
-
-    def close(self) -> None:
-        self._rig.close()
-        self.env.close()
-
     # -- helpers ---------------------------------------------------------------------------------------------
     def _state(self) -> npt.NDArray[np.float32]:
         return self._raw[:STATE_DIM].astype(np.float32)
 
     def _observation(self) -> Observation:
         privileged = {"suite": "metaworld", "task": self.params.task, "metaworld_obs": self._raw.copy()}
-        return Observation(
-            images=self.render(),
-            state=self._state(),
-            task=self._task_text,
-            time=float(self.data.time) - self._t0,
-            privileged=privileged,
-        )
+        return self.observe(self._state(), privileged)

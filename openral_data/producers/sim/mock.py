@@ -19,9 +19,11 @@ import numpy.typing as npt
 from pydantic import Field
 
 from openral_data.errors import ConfigError
-from openral_data.schemas.base import StrictModel, format_validation_error
+from openral_data.producers.sim.contract import scene_spec
+from openral_data.producers.sim.params import parse_params
+from openral_data.schemas.base import StrictModel
 from openral_data.schemas.scene import SimScene
-from openral_data.types import CameraShape, Observation, ProducerSpec, StepResult
+from openral_data.types import Observation, StepResult
 
 FaultKind = Literal["nan_state", "float_image", "wrong_image_shape", "extra_camera", "missing_camera", "state_dim"]
 
@@ -44,26 +46,14 @@ class MockScene:
     """Deterministic producer; see the module docstring."""
 
     def __init__(self, scene: SimScene, state_dim: int, source: str = "scene") -> None:
-        from pydantic import ValidationError
-
-        try:
-            self.params = MockParams.model_validate(scene.scene.params)
-        except ValidationError as exc:
-            raise ConfigError(format_validation_error(f"{source}: scene.params", exc)) from None
+        self.params = parse_params(MockParams, scene, source)
         if isinstance(self.params.success_after, list) and (
             not self.params.success_after or min(self.params.success_after) < 1
         ):
             raise ConfigError(f"{source}: scene.params.success_after: needs positive step counts")
         self._state_dim = self.params.state_dim or state_dim
         self._task = scene.task.instruction
-        self._cameras = {c.name: CameraShape(c.height, c.width) for c in scene.scene.cameras}
-        self.spec = ProducerSpec(
-            state_dim=self._state_dim,
-            action_dim=None,
-            cameras=self._cameras,
-            fps=scene.scene.fps,
-            can_restore_state=True,
-        )
+        self.spec = scene_spec(self._state_dim, None, scene.scene.cameras, scene.scene.fps)
         self._episode = -1
         self._t = 0
         self._seed = 0
@@ -84,7 +74,7 @@ class MockScene:
             state[1] = e
         images: dict[str, npt.NDArray[Any]] = {}
         colour = np.array([t % 256, e % 256, 128], dtype=np.uint8)
-        for name, shape in self._cameras.items():
+        for name, shape in self.spec.cameras.items():
             images[name] = np.broadcast_to(colour, (shape.height, shape.width, 3)).copy()
         fault = self.params.fault
         if fault is not None and fault.episode == e and fault.at_step == t:

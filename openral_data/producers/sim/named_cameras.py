@@ -4,17 +4,15 @@ The scene YAML names the model's cameras and picks each one's resolution; `pos`/
 for composed scenes and is refused here. Frames come out upright: MuJoCo renders in the camera's own frame,
 and a camera whose "up" axis points below the horizon (MetaWorld's `corner2`, for one) is turned 180 degrees.
 Shadows and reflections follow the YAML's `render:` block (off by default: they dominate CPU render time); the
-adapter says which geom groups are drawn.
+adapter says which geom groups are drawn. The renderers are mujoco/render.py's CameraRig.
 """
 
 from __future__ import annotations
 
 import mujoco
-import numpy as np
-import numpy.typing as npt
 
-from openral_data.errors import ConfigError
-from openral_data.producers.sim.mujoco.render import offscreen_renderer
+from openral_data.producers.sim.external import check_cameras
+from openral_data.producers.sim.mujoco.render import CameraRig
 from openral_data.schemas.scene import RenderConfig, SceneCamera
 
 
@@ -22,56 +20,31 @@ def camera_names(model: mujoco.MjModel) -> list[str]:
     return [model.camera(i).name for i in range(model.ncam)]
 
 
-class NamedCameraRig:
-    """One `mujoco.Renderer` per camera; `close()` frees their GL contexts."""
-
-    def __init__(
-        self,
-        model: mujoco.MjModel,
-        data: mujoco.MjData,
-        cameras: list[SceneCamera],
-        render: RenderConfig,
-        source: str,
-        geom_groups: tuple[int, ...] | None = None,
-    ) -> None:
-        valid = camera_names(model)
-        for k, cam in enumerate(cameras):
-            where = f"{source}: scene.cameras[{k}]"
-            if cam.name not in valid:
-                raise ConfigError(f"{where}.name: no camera {cam.name!r} in this simulator; valid: {', '.join(valid)}")
-            if cam.pos is not None or cam.lookat is not None or cam.mount != "world":
-                raise ConfigError(
-                    f"{where}: pos/lookat/mount place cameras in composed scenes; here name a model camera"
-                )
-        self._option = mujoco.MjvOption()
-        self._option.sitegroup[:] = 0
-        if geom_groups is not None:  # else MuJoCo's default (groups 0-2 drawn)
-            self._option.geomgroup[:] = 0
-            for g in geom_groups:
-                self._option.geomgroup[g] = 1
-        self._renderers: dict[str, mujoco.Renderer] = {}
-        self._flip: dict[str, bool] = {}
-        mujoco.mj_forward(model, data)
-        try:
-            for cam in cameras:
-                self._renderers[cam.name] = offscreen_renderer(model, cam, render)
-                self._flip[cam.name] = upside_down(model, data, cam.name)
-        except BaseException:
-            self.close()
-            raise
-
-    def render(self, data: mujoco.MjData) -> dict[str, npt.NDArray[np.uint8]]:
-        out: dict[str, npt.NDArray[np.uint8]] = {}
-        for name, r in self._renderers.items():
-            r.update_scene(data, camera=name, scene_option=self._option)
-            img = r.render()
-            out[name] = np.ascontiguousarray(img[::-1, ::-1]) if self._flip[name] else img.copy()
-        return out
-
-    def close(self) -> None:
-        for r in self._renderers.values():
-            r.close()
-        self._renderers.clear()
+def named_camera_rig(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    cameras: list[SceneCamera],
+    render: RenderConfig,
+    source: str,
+    geom_groups: tuple[int, ...] | None = None,
+) -> CameraRig:
+    """A CameraRig over the model's own cameras, sites hidden, upside-down cameras flipped; `close()` frees it."""
+    check_cameras(
+        cameras,
+        camera_names(model),
+        source,
+        unknown="{where}.name: no camera {name!r} in this simulator; valid: {valid}",
+        placed="{where}: pos/lookat/mount place cameras in composed scenes; here name a model camera",
+    )
+    option = mujoco.MjvOption()
+    option.sitegroup[:] = 0
+    if geom_groups is not None:  # else MuJoCo's default (groups 0-2 drawn)
+        option.geomgroup[:] = 0
+        for g in geom_groups:
+            option.geomgroup[g] = 1
+    mujoco.mj_forward(model, data)
+    flipped = [cam.name for cam in cameras if upside_down(model, data, cam.name)]
+    return CameraRig(model, cameras, render, option=option, flipped=flipped)
 
 
 def upside_down(model: mujoco.MjModel, data: mujoco.MjData, name: str) -> bool:

@@ -20,11 +20,14 @@ import numpy.typing as npt
 from pydantic import Field
 
 from openral_data.errors import CompatibilityError, ConfigError
-from openral_data.producers.sim.external import check_envelope, check_fps, named_cameras, parse_params, require
+from openral_data.producers.sim.contract import scene_spec
+from openral_data.producers.sim.external import check_fps, named_cameras, require
+from openral_data.producers.sim.initial_state import check_envelope
+from openral_data.producers.sim.params import parse_params
 from openral_data.schemas.base import StrictModel
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
-from openral_data.types import CameraShape, Observation, ProducerSpec, StepResult
+from openral_data.types import Observation, StepResult
 
 KIND = "gym_pusht"
 STATE_FORMAT = 1
@@ -58,13 +61,7 @@ class PushTScene:
             observation_width=width,
             observation_height=height,
         )
-        self.spec = ProducerSpec(
-            state_dim=2,
-            action_dim=2,
-            cameras={c.name: CameraShape(c.height, c.width) for c in cams},
-            fps=FPS,
-            can_restore_state=True,
-        )
+        self.spec = scene_spec(2, 2, cams, FPS)
         self._task = scene.task.instruction
         self._seed = 0
         self._t = 0

@@ -34,14 +34,18 @@ import numpy.typing as npt
 from pydantic import Field
 
 import openral_data.producers.sim.mujoco  # noqa: F401  (chooses a headless MUJOCO_GL before mujoco loads)
-from openral_data.errors import CompatibilityError, ConfigError
+from openral_data.errors import ConfigError
 from openral_data.producers.sim import mjstate
-from openral_data.producers.sim.named_cameras import NamedCameraRig
-from openral_data.schemas.base import StrictModel, validate
+from openral_data.producers.sim.contract import check_representations, scene_spec
+from openral_data.producers.sim.initial_state import check_recorded_on
+from openral_data.producers.sim.mujoco.rig_scene import RigScene
+from openral_data.producers.sim.named_cameras import named_camera_rig
+from openral_data.producers.sim.params import parse_params
+from openral_data.schemas.base import StrictModel
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
-from openral_data.types import CameraShape, Observation, ProducerSpec, StepResult
+from openral_data.types import Observation, StepResult
 
 STATE_FORMAT = 1
 STATE_REPRESENTATIONS = ("eef_pose_gripper", "joint_positions_gripper")
@@ -105,29 +109,26 @@ def _import_robosuite() -> Any:
     return robosuite
 
 
-class RobosuiteScene:
+class RobosuiteScene(RigScene):
     """One robosuite environment, built once; `reset(seed)` per episode; `close()` frees renderers."""
 
     def __init__(
         self, scene: SimScene, robot: RobotManifest, rskill: RSkillManifest, source: str, rskill_source: str
     ) -> None:
-        self.params = validate(RobosuiteParams, scene.scene.params, f"{source}: scene.params")
+        self.params = parse_params(RobosuiteParams, scene, source)
         if robot.name not in ROBOTS:
             raise ConfigError(
                 f"{source}: scene.robot: robosuite scenes support {', '.join(ROBOTS)}, got {robot.name!r}"
             )
         self.state_representation = rskill.state_contract.representation
-        action_rep = rskill.action_contract.representation
-        if self.state_representation not in STATE_REPRESENTATIONS:
-            raise CompatibilityError(
-                f"{rskill_source}: state_contract.representation: {self.state_representation!r} is not produced by "
-                f"robosuite scenes (they produce {', '.join(STATE_REPRESENTATIONS)})"
-            )
-        if action_rep not in ACTION_REPRESENTATIONS:
-            raise CompatibilityError(
-                f"{rskill_source}: action_contract.representation: {action_rep!r} is not accepted by robosuite "
-                f"scenes (they accept {', '.join(ACTION_REPRESENTATIONS)}: robosuite's normalised OSC_POSE action)"
-            )
+        check_representations(
+            rskill,
+            rskill_source,
+            "robosuite scenes",
+            STATE_REPRESENTATIONS,
+            ACTION_REPRESENTATIONS,
+            accepted_note=": robosuite's normalised OSC_POSE action",
+        )
         if 500 % scene.scene.fps:
             raise ConfigError(
                 f"{source}: scene.fps: must divide robosuite's 500 Hz physics rate, got {scene.scene.fps}"
@@ -163,22 +164,15 @@ class RobosuiteScene:
             self._obs = self.env.reset()
         n_arm = len(self._obs["robot0_joint_pos"])
         state_dim = 8 if self.state_representation == "eef_pose_gripper" else n_arm + 1
-        self.spec = ProducerSpec(
-            state_dim=state_dim,
-            action_dim=int(self.env.action_dim),
-            cameras={c.name: CameraShape(c.height, c.width) for c in scene.scene.cameras},
-            fps=scene.scene.fps,
-            can_restore_state=True,
-        )
-        self._task_text = scene.task.instruction
+        self.spec = scene_spec(state_dim, int(self.env.action_dim), scene.scene.cameras, scene.scene.fps)
+        self.task_text = scene.task.instruction
         self._seed = 0
-        self._t0 = 0.0
-        self._initial: dict[str, Any] = {}
+        self.initial = {}
         groups: tuple[int, ...] = (VISUAL,)
         if scene.scene.render.robot_meshes == "collision":
             self._coarse_robot()
             groups = (VISUAL, ROBOT_COLLISION)
-        self._rig = NamedCameraRig(
+        self.rig = named_camera_rig(
             self.model, self.data, list(scene.scene.cameras), scene.scene.render, source, geom_groups=groups
         )
 
@@ -187,8 +181,8 @@ class RobosuiteScene:
         self._seed = seed
         with _seeded_global_numpy(seed):
             self._obs = self.env.reset()
-        self._t0 = float(self.data.time)
-        self._initial = {
+        self.t0 = float(self.data.time)
+        self.initial = {
             "format": STATE_FORMAT,
             "suite": "robosuite",
             "env": self.env_name,
@@ -207,13 +201,10 @@ class RobosuiteScene:
         """
         if initial_state.get("format") != STATE_FORMAT or initial_state.get("suite") != "robosuite":
             raise ConfigError(f"initial_state: format: not a robosuite state of format {STATE_FORMAT}")
-        if initial_state.get("env") != self.env_name:
-            raise ConfigError(
-                f"initial_state: env: recorded on {initial_state.get('env')!r}, this scene is {self.env_name!r}"
-            )
+        check_recorded_on(initial_state, "env", self.env_name)
         seed = int(initial_state.get("seed", 0))
         obs = self.reset(seed)
-        if not mjstate.same_state(self._initial["mujoco"], initial_state.get("mujoco", {})):
+        if not mjstate.same_state(self.initial["mujoco"], initial_state.get("mujoco", {})):
             raise ConfigError(
                 f"initial_state: mujoco: robosuite's reset with seed {seed} does not reproduce the recorded state "
                 "(recorded with another robosuite/mujoco version or scene?)"
@@ -229,16 +220,6 @@ class RobosuiteScene:
             success=success,
             terminated=success and self.params.terminate_on_success,
         )
-
-    def render(self) -> dict[str, npt.NDArray[np.uint8]]:
-        return self._rig.render(self.data)
-
-    def initial_state(self) -> dict[str, Any]:
-        return dict(self._initial)
-
-    def close(self) -> None:
-        self._rig.close()
-        self.env.close()
 
     # -- helpers ---------------------------------------------------------------------------------------------
     def _coarse_robot(self) -> None:
@@ -278,10 +259,4 @@ class RobosuiteScene:
         privileged["object_poses"] = self._object_poses()
         privileged["suite"] = "robosuite"
         privileged["env"] = self.env_name
-        return Observation(
-            images=self.render(),
-            state=self._state(),
-            task=self._task_text,
-            time=float(self.data.time) - self._t0,
-            privileged=privileged,
-        )
+        return self.observe(self._state(), privileged)

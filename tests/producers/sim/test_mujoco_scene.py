@@ -188,7 +188,7 @@ def test_shadows_and_reflections_are_off_by_default_and_on_from_the_yaml() -> No
     )
     try:
         flags = mujoco.mjtRndFlag
-        plain_r, fancy_r = plain._rig._renderers["front"], fancy._rig._renderers["front"]
+        plain_r, fancy_r = plain.rig._renderers["front"], fancy.rig._renderers["front"]
         assert not plain_r.scene.flags[flags.mjRND_SHADOW] and not plain_r.scene.flags[flags.mjRND_REFLECTION]
         assert fancy_r.scene.flags[flags.mjRND_SHADOW] and fancy_r.scene.flags[flags.mjRND_REFLECTION]
         a, b = plain.reset(0).images["front"], fancy.reset(0).images["front"]

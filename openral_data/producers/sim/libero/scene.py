@@ -36,12 +36,15 @@ import numpy.typing as npt
 from pydantic import Field
 
 from openral_data.errors import CompatibilityError, ConfigError
-from openral_data.producers.sim.external import check_envelope, check_fps, named_cameras, parse_params
+from openral_data.producers.sim.contract import check_representation, scene_spec
+from openral_data.producers.sim.external import check_fps, named_cameras
+from openral_data.producers.sim.initial_state import check_envelope
 from openral_data.producers.sim.libero.config import import_libero
+from openral_data.producers.sim.params import parse_params
 from openral_data.schemas.base import StrictModel
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
-from openral_data.types import CameraShape, Observation, ProducerSpec, StepResult
+from openral_data.types import Observation, StepResult
 
 KIND = "libero"
 STATE_FORMAT = 1
@@ -91,11 +94,14 @@ class LiberoScene:
                 f"and takes OSC_POSE actions of {ACTION_DIM}, "
                 f"got {rskill.state_contract.dim}/{rskill.action_contract.dim}"
             )
-        if rskill.action_contract.representation not in ("delta_eef_gripper", "generic"):
-            raise CompatibilityError(
-                f"{rskill_source}: action_contract.representation: LIBERO takes OSC_POSE deltas + gripper "
-                f"(delta_eef_gripper), got {rskill.action_contract.representation!r}"
-            )
+        action_rep = rskill.action_contract.representation
+        check_representation(
+            rskill_source,
+            "action",
+            action_rep,
+            ("delta_eef_gripper", "generic"),
+            f"LIBERO takes OSC_POSE deltas + gripper (delta_eef_gripper), got {action_rep!r}",
+        )
         ll, _ = import_libero(source)
         with contextlib.redirect_stdout(io.StringIO()):
             from libero.libero import benchmark
@@ -130,13 +136,7 @@ class LiberoScene:
         self._cams = [c.name for c in cams]
         self._render = scene.scene.render
         self.env: Any = OffScreenRenderEnv(**kwargs)
-        self.spec = ProducerSpec(
-            state_dim=STATE_DIM,
-            action_dim=ACTION_DIM,
-            cameras={c.name: CameraShape(c.height, c.width) for c in cams},
-            fps=FPS,
-            can_restore_state=True,
-        )
+        self.spec = scene_spec(STATE_DIM, ACTION_DIM, cams, FPS)
         self._initial: dict[str, Any] = {}
         self._t0 = 0.0
         self._raw: dict[str, Any] = {}

@@ -1,4 +1,5 @@
-"""Native MuJoCo scenes: manifest-driven composition (MjSpec), servo/IK control, offscreen rendering.
+"""Native MuJoCo scenes: manifest-driven composition (MjSpec), servo/IK control, offscreen rendering, and the
+SimRollout part every MuJoCo-rendered scene shares (rig_scene.py).
 
 Rendering is headless: MUJOCO_GL defaults to `egl`, falling back to `osmesa` when no EGL library is
 installed (the variable must be set before `mujoco` is first imported, so it is decided here).

@@ -73,6 +73,13 @@ class Arm:
     def n(self) -> int:
         return len(self.qpos)
 
+    def hold(self, data: mujoco.MjData, q: F64) -> None:
+        """Put the arm at posture `q` with the gripper open, its actuators commanded to stay there."""
+        data.qpos[self.qpos] = q
+        data.qpos[self.grip_qpos] = self.grip_joint_open
+        data.ctrl[self.act] = q
+        data.ctrl[self.grip_act] = self.gripper_ctrl(0.0)
+
     def gripper_ctrl(self, g: float) -> F64:
         """Actuator controls for the normalised gripper command g (0 = open, 1 = closed)."""
         c = float(np.clip(g, 0.0, 1.0))

@@ -2,10 +2,13 @@
 
 Sites (the grasp markers of robot MJCFs) are hidden. The robot is drawn with its collision meshes (geom group
 0) or its visual meshes (group 1) per `render.robot_meshes`; the scene's own geoms are group 2 and always drawn.
+A simulator's own cameras are rendered by the same rig (named_cameras.py builds it with their flips).
 Renderers hold GL contexts: `close()` frees them.
 """
 
 from __future__ import annotations
+
+from collections.abc import Collection
 
 import mujoco
 import numpy as np
@@ -16,7 +19,8 @@ from openral_data.schemas.scene import RenderConfig, SceneCamera
 
 
 class CameraRig:
-    """`option` replaces the composed scenes' geom/site groups (a simulator's own MJCF keeps MuJoCo's defaults)."""
+    """`option` replaces the composed scenes' geom/site groups (a simulator's own MJCF keeps MuJoCo's defaults);
+    the cameras named in `flipped` are turned 180 degrees (so that frames come out upright)."""
 
     def __init__(
         self,
@@ -24,6 +28,7 @@ class CameraRig:
         cameras: list[SceneCamera],
         render: RenderConfig,
         option: mujoco.MjvOption | None = None,
+        flipped: Collection[str] = (),
     ) -> None:
         if option is None:
             option = mujoco.MjvOption()
@@ -32,6 +37,7 @@ class CameraRig:
             option.geomgroup[0 if render.robot_meshes == "collision" else 1] = 1
             option.geomgroup[SCENE_GROUP] = 1
         self._option = option
+        self._flipped = frozenset(flipped)
         self._renderers: dict[str, mujoco.Renderer] = {}
         try:
             for cam in cameras:
@@ -44,7 +50,8 @@ class CameraRig:
         out: dict[str, npt.NDArray[np.uint8]] = {}
         for name, r in self._renderers.items():
             r.update_scene(data, camera=name, scene_option=self._option)
-            out[name] = r.render().copy()
+            img = r.render()
+            out[name] = np.ascontiguousarray(img[::-1, ::-1]) if name in self._flipped else img.copy()
         return out
 
     def close(self) -> None:

@@ -19,7 +19,9 @@ import numpy.typing as npt
 from pydantic import ValidationError
 
 from openral_data import paths
-from openral_data.errors import CompatibilityError, ConfigError
+from openral_data.errors import ConfigError
+from openral_data.producers.sim.contract import check_representations, scene_spec
+from openral_data.producers.sim.initial_state import check_format, check_recorded_on
 from openral_data.producers.sim.mujoco.assets import check_robosuite_assets, resolve_asset
 from openral_data.producers.sim.mujoco.compose import CUBE, GOAL, compose
 from openral_data.producers.sim.mujoco.controllers import (
@@ -30,13 +32,15 @@ from openral_data.producers.sim.mujoco.controllers import (
 )
 from openral_data.producers.sim.mujoco.kinematics import F64, Arm, IKSolver
 from openral_data.producers.sim.mujoco.render import CameraRig
+from openral_data.producers.sim.mujoco.rig_scene import RigScene
 from openral_data.producers.sim.mujoco.tasks import TaskKind, is_success, sample_placement
+from openral_data.producers.sim.params import parse_params
 from openral_data.schemas.base import format_validation_error
 from openral_data.schemas.mujoco import MujocoRobotWiring, TabletopParams
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
-from openral_data.types import CameraShape, Observation, ProducerSpec, StepResult
+from openral_data.types import Observation, StepResult
 
 STATE_REPRESENTATIONS = ("joint_positions_gripper", "joint_positions", "eef_pose_gripper")
 STATE_FORMAT = 1
@@ -63,7 +67,7 @@ def load_wiring(robot: RobotManifest) -> tuple[MujocoRobotWiring, Path, Path, st
     return wiring, arm, grip, source
 
 
-class TabletopScene:
+class TabletopScene(RigScene):
     """A physics scene; one instance records many episodes (`reset(seed)` each), `close()` frees renderers."""
 
     def __init__(
@@ -75,23 +79,13 @@ class TabletopScene:
         source: str = "scene",
         rskill_source: str = "rskill",
     ) -> None:
-        try:
-            self.params = TabletopParams.model_validate(scene.scene.params)
-        except ValidationError as exc:
-            raise ConfigError(format_validation_error(f"{source}: scene.params", exc)) from None
+        self.params = parse_params(TabletopParams, scene, source)
         self.task_kind: TaskKind = task
         self.state_representation = rskill.state_contract.representation
         action_rep = rskill.action_contract.representation
-        if self.state_representation not in STATE_REPRESENTATIONS:
-            raise CompatibilityError(
-                f"{rskill_source}: state_contract.representation: {self.state_representation!r} is not produced by "
-                f"MuJoCo tabletop scenes (they produce {', '.join(STATE_REPRESENTATIONS)})"
-            )
-        if action_rep not in ACTION_REPRESENTATIONS:
-            raise CompatibilityError(
-                f"{rskill_source}: action_contract.representation: {action_rep!r} is not accepted by MuJoCo "
-                f"tabletop scenes (they accept {', '.join(ACTION_REPRESENTATIONS)})"
-            )
+        check_representations(
+            rskill, rskill_source, "MuJoCo tabletop scenes", STATE_REPRESENTATIONS, ACTION_REPRESENTATIONS
+        )
         wiring, arm_mjcf, grip_mjcf, robot_source = load_wiring(robot)
         self._robot_source = robot_source
         self.composed = compose(
@@ -123,17 +117,11 @@ class TabletopScene:
         state_dim = {"joint_positions_gripper": n + 1, "joint_positions": n, "eef_pose_gripper": 8}[
             self.state_representation
         ]
-        self._task_text = scene.task.instruction
-        self.spec = ProducerSpec(
-            state_dim=state_dim,
-            action_dim=self.controller.action_dim,
-            cameras={c.name: CameraShape(c.height, c.width) for c in scene.scene.cameras},
-            fps=scene.scene.fps,
-            can_restore_state=True,
-        )
-        self._rig = CameraRig(self.model, list(scene.scene.cameras), scene.scene.render)
+        self.task_text = scene.task.instruction
+        self.spec = scene_spec(state_dim, self.controller.action_dim, scene.scene.cameras, scene.scene.fps)
+        self.rig = CameraRig(self.model, list(scene.scene.cameras), scene.scene.render)
         self._seed = 0
-        self._initial: dict[str, Any] = {}
+        self.initial = {}
 
     # -- setup -----------------------------------------------------------------------------------------------
     def _ready_posture(self, home: F64) -> F64:
@@ -171,28 +159,18 @@ class TabletopScene:
         placement = sample_placement(self.task_kind, self.params, np.random.default_rng(seed))
         d, a = self.data, self.arm
         mujoco.mj_resetData(self.model, d)
-        d.qpos[a.qpos] = self.ready_q
-        d.qpos[a.grip_qpos] = a.grip_joint_open
-        d.ctrl[a.act] = self.ready_q
-        d.ctrl[a.grip_act] = a.gripper_ctrl(0.0)
+        a.hold(d, self.ready_q)
         c = self._cube_qpos
         d.qpos[c : c + 3] = placement.cube_pos
         d.qpos[c + 3 : c + 7] = [np.cos(placement.cube_yaw / 2), 0.0, 0.0, np.sin(placement.cube_yaw / 2)]
         d.mocap_pos[self._goal_mocap] = placement.goal_pos
         d.mocap_quat[self._goal_mocap] = [1.0, 0.0, 0.0, 0.0]
-        mujoco.mj_forward(self.model, d)
-        self._initial = self._snapshot()
-        self.controller.reset(d)
-        return self._observation()
+        return self._begin()
 
     def reset_to(self, initial_state: dict[str, Any]) -> Observation:
         """Restore exactly the state `initial_state()` described (for replay); the controller restarts too."""
-        if initial_state.get("format") != STATE_FORMAT:
-            raise ConfigError(f"initial_state: format: expected {STATE_FORMAT}, got {initial_state.get('format')!r}")
-        if initial_state.get("task") != self.task_kind:
-            raise ConfigError(
-                f"initial_state: task: recorded on {initial_state.get('task')!r}, this scene is {self.task_kind!r}"
-            )
+        check_format(initial_state, STATE_FORMAT)
+        check_recorded_on(initial_state, "task", self.task_kind)
         d = self.data
         mujoco.mj_resetData(self.model, d)
         try:
@@ -204,10 +182,7 @@ class TabletopScene:
             raise ConfigError(f"initial_state: does not fit this scene's model: {exc}") from None
         d.time = float(initial_state.get("time", 0.0))
         self._seed = int(initial_state.get("seed", 0))
-        mujoco.mj_forward(self.model, d)
-        self._initial = self._snapshot()
-        self.controller.reset(d)
-        return self._observation()
+        return self._begin()
 
     def step(self, action: npt.NDArray[np.float32]) -> StepResult:
         self.controller.apply(action, self.data)
@@ -215,16 +190,15 @@ class TabletopScene:
         success = self.success()
         return StepResult(self._observation(), reward=float(success), success=success, terminated=success)
 
-    def render(self) -> dict[str, npt.NDArray[np.uint8]]:
-        return self._rig.render(self.data)
-
-    def initial_state(self) -> dict[str, Any]:
-        return dict(self._initial)
-
-    def close(self) -> None:
-        self._rig.close()
-
     # -- helpers ---------------------------------------------------------------------------------------------
+    def _begin(self) -> Observation:
+        """The episode starts from the state just written into `data`: derived quantities, the snapshot
+        `initial_state()` returns, a restarted controller, and the first observation."""
+        mujoco.mj_forward(self.model, self.data)
+        self.initial = self._snapshot()
+        self.controller.reset(self.data)
+        return self._observation()
+
     def success(self) -> bool:
         return is_success(self.task_kind, self.params, self.cube_pos(), self.goal_pos())
 
@@ -280,6 +254,4 @@ class TabletopScene:
             "task": self.task_kind,
             "object_poses": {"cube": d.qpos[c : c + 7].copy()},  # the generic hook replay compares
         }
-        return Observation(
-            images=self.render(), state=self._state(), task=self._task_text, time=float(d.time), privileged=privileged
-        )
+        return self.observe(self._state(), privileged)
