@@ -31,11 +31,12 @@ def progress_bar(what: str, unit: str, *fields: str) -> Progress:
 def print_rows(title: str, rows: list[tuple[str, str]]) -> None:
     """`key: value` lines: readable in a terminal, greppable in logs, never wrapped or truncated."""
     width = max(len(k) for k, _ in rows)
-    console.print(title, markup=False, highlight=False)
+    console.print(title, markup=False, highlight=False, soft_wrap=True)
     for key, value in rows:
         console.print(f"  {key:<{width}}  {value}", markup=False, highlight=False, soft_wrap=True)
 
 
 def print_line(text: str, *, err: bool = False) -> None:
-    """One line exactly as given (no markup, no highlighting)."""
-    (err_console if err else console).print(text, markup=False, highlight=False)
+    """One line exactly as given: no markup, no highlighting, never wrapped at the terminal width (a long dataset
+    path piped to a log or a test must not split the line)."""
+    (err_console if err else console).print(text, markup=False, highlight=False, soft_wrap=True)
