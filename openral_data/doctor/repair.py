@@ -26,7 +26,7 @@ from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.layout import FilePos
 from openral_data.formats.lerobot_v3.lock import DatasetLock
-from openral_data.formats.lerobot_v3.recovery import Quarantine, staged_files
+from openral_data.formats.lerobot_v3.recovery import Quarantine, finish_interrupted_commit, quarantine_staged
 from openral_data.formats.lerobot_v3.video import count_packets
 from openral_data.formats.lerobot_v3.writer import tasks_writer
 
@@ -57,15 +57,10 @@ def repair(root: Path) -> RepairResult:
 
 
 def _writer_leftovers(root: Path, q: Quarantine) -> list[str]:
-    out: list[str] = []
-    moved = atomic.replay_journal(root / layout.JOURNAL_PATH)
-    if moved:
-        out.append(f"finished an interrupted episode commit ({moved} file(s) renamed into place)")
-    staged = list(staged_files(root))
-    for path in staged:
-        q.move(path)
+    out = finish_interrupted_commit(root)
+    staged = quarantine_staged(root, q)
     if staged:
-        out.append(f"moved {len(staged)} temporary file(s) of an unfinished write to the quarantine")
+        out.append(f"moved {staged} temporary file(s) of an unfinished write to the quarantine")
     return out
 
 

@@ -88,18 +88,27 @@ def referenced_videos(root: Path, rows: list[dict[str, Any]], info: dict[str, An
     return out
 
 
-def recover(root: Path, durable: bool = True) -> list[str]:
-    """Finish or undo whatever a killed writer left; returns one line per action taken (empty: was clean)."""
-    actions: list[str] = []
+def finish_interrupted_commit(root: Path, durable: bool = True) -> list[str]:
+    """Replay the commit journal of an episode commit killed during its renames (one line if it did)."""
     moved = atomic.replay_journal(root / layout.JOURNAL_PATH, durable)
-    if moved:
-        actions.append(f"finished an interrupted episode commit ({moved} file(s) renamed into place)")
-    quarantine = Quarantine(root)
+    return [f"finished an interrupted episode commit ({moved} file(s) renamed into place)"] if moved else []
+
+
+def quarantine_staged(root: Path, quarantine: Quarantine) -> int:
+    """Move the temporary files of unfinished writes to the quarantine; returns how many there were."""
     staged = list(staged_files(root))
     for path in staged:
         quarantine.move(path)
+    return len(staged)
+
+
+def recover(root: Path, durable: bool = True) -> list[str]:
+    """Finish or undo whatever a killed writer left; returns one line per action taken (empty: was clean)."""
+    actions = finish_interrupted_commit(root, durable)
+    quarantine = Quarantine(root)
+    staged = quarantine_staged(root, quarantine)
     if staged:
-        actions.append(f"moved {len(staged)} staged file(s) of an unfinished episode to {quarantine.dir}")
+        actions.append(f"moved {staged} staged file(s) of an unfinished episode to {quarantine.dir}")
     if not (root / layout.INFO_PATH).is_file():
         leftovers = [p for sub in DATASET_DIRS if (root / sub).is_dir() for p in (root / sub).rglob("*") if p.is_file()]
         for path in leftovers:
