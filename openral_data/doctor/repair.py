@@ -100,7 +100,7 @@ def _write_episode_files(ds: Dataset, tables: list[pa.Table], rows: Rows, q: Qua
             if "meta/episodes/chunk_index" in r:
                 r["meta/episodes/chunk_index"], r["meta/episodes/file_index"] = pos.chunk, pos.file
         table = pa.Table.from_pylist(part, schema=old.schema)
-        atomic.write_with(path, _parquet(table))
+        atomic.write_with(path, atomic.parquet_writer(table))
 
 
 def _episode_order(ds: Dataset, found: dict[str, Finding], q: Quarantine) -> list[str]:
@@ -169,7 +169,7 @@ def _rewrite_data(ds: Dataset, q: Quarantine, fn: Callable[[pa.Table, int, Path]
         if new.equals(table):
             continue
         q.keep_copy(path)
-        atomic.write_with(path, _parquet(new))
+        atomic.write_with(path, atomic.parquet_writer(new))
 
 
 def _data_columns(ds: Dataset, found: dict[str, Finding], q: Quarantine) -> list[str]:
@@ -253,10 +253,3 @@ def _orphans(ds: Dataset, found: dict[str, Finding], q: Quarantine) -> list[str]
     for path in orphans:
         q.move(path)
     return [f"videos: {len(orphans)} mp4 file(s) no episode refers to moved to the quarantine"]
-
-
-def _parquet(table: pa.Table) -> Callable[[Path], None]:
-    def write(path: Path) -> None:
-        pq.write_table(table, path, compression="snappy")
-
-    return write

@@ -153,10 +153,7 @@ class SourceDataset:
         for name in self.camera_names():
             if name not in saved:
                 return None
-            acc = ImageStatsAccumulator()
-            acc.hist = np.asarray(saved[name]["hist"], dtype=np.int64).reshape(3, 256)
-            acc.frames = int(saved[name]["frames"])
-            out[name] = acc
+            out[name] = ImageStatsAccumulator.from_json(saved[name])
         return out
 
     def writer_config(self) -> WriterConfig:

@@ -167,9 +167,5 @@ def _drop_rows(root: Path, path: Path, beyond: pc.Expression, quarantine: Quaran
         if durable:
             atomic.fsync_dir(path.parent)
         return [f"{rel}: only uncommitted rows ({extra.num_rows}); moved them to {quarantine.dir}"]
-
-    def write(tmp: Path) -> None:
-        pq.write_table(kept, tmp, compression="snappy")
-
-    atomic.write_with(path, write, durable)
+    atomic.write_with(path, atomic.parquet_writer(kept), durable)
     return [f"{rel}: {extra.num_rows} row(s) beyond info.json's totals moved to {quarantine.dir}"]

@@ -464,9 +464,9 @@ class LeRobotV3Writer:
             table = pa.Table.from_pylist(rows, schema=self._episodes_schema)
             path = layout.episodes_path(self.root, pos)
             if immediate:
-                atomic.write_with(path, _parquet_writer(table), self.config.durable)
+                atomic.write_with(path, atomic.parquet_writer(table), self.config.durable)
             else:
-                self._write(path, _parquet_writer(table))
+                self._write(path, atomic.parquet_writer(table))
 
     def _maybe_rotate_episodes_file(self) -> None:
         path = layout.episodes_path(self.root, self._episode_file)
@@ -489,7 +489,7 @@ class LeRobotV3Writer:
         for name, acc in self.image_stats.items():
             stats[self._keys[name]] = to_jsonable(acc.stats())
         ordered = {k: stats[k] for k in self.features if k in stats}
-        hist = {name: {"hist": acc.hist.tolist(), "frames": acc.frames} for name, acc in self.image_stats.items()}
+        hist = {name: acc.to_json() for name, acc in self.image_stats.items()}
         self._write(self.root / layout.IMAGE_HIST_PATH, atomic.bytes_writer(json.dumps(hist).encode()))
         self._write(self.root / layout.STATS_PATH, atomic.bytes_writer(json.dumps(ordered, indent=4).encode()))
         if episodes_file is not None:
@@ -533,13 +533,6 @@ def _column_values(table: pa.Table, key: str) -> npt.NDArray[Any]:
     return np.asarray(col.to_numpy(zero_copy_only=False)).reshape(-1, 1)
 
 
-def _parquet_writer(table: pa.Table) -> Callable[[Path], None]:
-    def write(path: Path) -> None:
-        pq.write_table(table, path, compression="snappy")
-
-    return write
-
-
 def tasks_writer(tasks: dict[str, int]) -> Callable[[Path], None]:
     """tasks.parquet as pandas writes it: column `task_index`, the task string as the index named `task`.
 
@@ -576,11 +569,7 @@ def tasks_writer(tasks: dict[str, int]) -> Callable[[Path], None]:
         {b"pandas": json.dumps(pandas_meta).encode()}
     )
     table = pa.table({"task_index": [i for _, i in ordered], "task": [t for t, _ in ordered]}, schema=schema)
-
-    def write(path: Path) -> None:
-        pq.write_table(table, path, compression="snappy")
-
-    return write
+    return atomic.parquet_writer(table)
 
 
 def _pandas_version() -> str:
