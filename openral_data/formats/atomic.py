@@ -34,6 +34,14 @@ def fsync_file(path: Path) -> None:
         os.fsync(fh.fileno())
 
 
+def fsync_tree(root: Path) -> None:
+    """fsync every file and folder below `root` (and `root` itself), e.g. before renaming it into place."""
+    for dirpath, _, files in os.walk(root):
+        for name in files:
+            fsync_file(Path(dirpath) / name)
+        fsync_dir(Path(dirpath))
+
+
 def move_into_place(tmp: Path, path: Path, durable: bool = True) -> None:
     """Atomically rename a finished temporary file over `path`."""
     if durable:

@@ -42,7 +42,7 @@ def read_info(root: Path) -> dict[str, Any]:
 
 
 def read_episodes(root: Path) -> pa.Table:
-    files = sorted((root / "meta" / "episodes").glob("*/*.parquet"))
+    files = layout.episodes_files(root)
     if not files:
         raise OpenralError(f"{root}: no episodes metadata under meta/episodes/")
     tables = [pq.read_table(f) for f in files]

@@ -132,7 +132,7 @@ def recover(root: Path, durable: bool = True) -> list[str]:
 
 def episode_rows(root: Path) -> list[dict[str, Any]]:
     rows: list[dict[str, Any]] = []
-    for path in sorted((root / "meta" / "episodes").glob("*/*.parquet")):
+    for path in layout.episodes_files(root):
         rows += pq.read_table(path).to_pylist()
     return rows
 
@@ -143,9 +143,9 @@ def trim_to_totals(root: Path, info: dict[str, Any], quarantine: Quarantine, dur
     frames = int(info.get("total_frames", 0))
     tasks = int(info.get("total_tasks", 0))
     actions: list[str] = []
-    for path in sorted((root / "meta" / "episodes").glob("*/*.parquet")):
+    for path in layout.episodes_files(root):
         actions += _drop_rows(root, path, pc.field("episode_index") >= episodes, quarantine, durable)
-    for path in sorted((root / "data").glob("*/*.parquet")):
+    for path in layout.data_files(root):
         beyond = (pc.field("index") >= frames) | (pc.field("episode_index") >= episodes)
         actions += _drop_rows(root, path, beyond, quarantine, durable)
     tasks_path = root / layout.TASKS_PATH
