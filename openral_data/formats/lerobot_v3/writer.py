@@ -5,7 +5,8 @@ the data and episodes parquet files that hold it are rewritten atomically (temp 
 `meta/info.json` — whose totals decide what lerobot's loader exposes — is written last. Those renames are
 journaled (``.openral/journal.json``), so a crash in the middle of them is finished by `recovery.recover`
 (which `record --resume` and `doctor --repair` run) and lerobot meanwhile sees the previous episode count.
-`resume=True` continues an existing dataset of the same format (see `restore`). Per-episode mp4s of
+`commit_episode` commits an episode made elsewhere (frame columns and mp4s ready, as `edit` assembles them)
+the same way. `resume=True` continues an existing dataset of the same format (see `restore`). Per-episode mp4s of
 one camera are joined into size-rotated files without re-encoding when a file fills up and at `close()`;
 each step of that join leaves every episode readable.
 """
