@@ -30,25 +30,25 @@ from openral_data.types import DatasetSchema, EpisodeRecord, EpisodeStart
 
 
 class MergedImageStats(ImageStatsAccumulator):
-    """Image statistics known only as per-episode summaries, merged count-weighted."""
+    """Image statistics known only as per-episode summaries, merged count-weighted (`summary`)."""
 
-    def __init__(self, stats: Stats | None = None) -> None:
+    def __init__(self, summary: Stats | None = None) -> None:
         super().__init__()
-        self._stats = stats
+        self.summary = summary
 
     def add(self, frame: Any) -> None:
         raise TypeError("MergedImageStats holds summaries, not frames")
 
     def merge(self, other: ImageStatsAccumulator) -> None:
-        if not isinstance(other, MergedImageStats) or other._stats is None:
+        if not isinstance(other, MergedImageStats) or other.summary is None:
             raise TypeError("only summaries can be merged into MergedImageStats")
-        self._stats = merge_numeric(self._stats, other._stats)
-        self.frames += int(other._stats["count"][0])
+        self.summary = merge_numeric(self.summary, other.summary)
+        self.frames += int(other.summary["count"][0])
 
     def stats(self) -> Stats:
-        if self._stats is None:
+        if self.summary is None:
             raise ValueError("no episode statistics merged")
-        return self._stats
+        return self.summary
 
 
 class EpisodeAssembler:
