@@ -96,7 +96,7 @@ def _load_tasks(ds: Dataset) -> None:
 
 
 def _load_episodes(ds: Dataset) -> None:
-    ds.episode_files = sorted((ds.root / "meta" / "episodes").glob("*/*.parquet"))
+    ds.episode_files = layout.episodes_files(ds.root)
     tables = []
     for path in ds.episode_files:
         try:
@@ -111,7 +111,7 @@ def _load_episodes(ds: Dataset) -> None:
 
 
 def _load_data(ds: Dataset) -> None:
-    ds.data_files = sorted((ds.root / "data").glob("*/*.parquet"))
+    ds.data_files = layout.data_files(ds.root)
     tables = []
     for path in ds.data_files:
         try:

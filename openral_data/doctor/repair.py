@@ -26,7 +26,7 @@ from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.layout import FilePos
 from openral_data.formats.lerobot_v3.lock import DatasetLock
-from openral_data.formats.lerobot_v3.recovery import Quarantine, staged_files
+from openral_data.formats.lerobot_v3.recovery import Quarantine, finish_interrupted_commit, quarantine_staged
 from openral_data.formats.lerobot_v3.video import count_packets
 from openral_data.formats.lerobot_v3.writer import tasks_writer
 
@@ -57,15 +57,10 @@ def repair(root: Path) -> RepairResult:
 
 
 def _writer_leftovers(root: Path, q: Quarantine) -> list[str]:
-    out: list[str] = []
-    moved = atomic.replay_journal(root / layout.JOURNAL_PATH)
-    if moved:
-        out.append(f"finished an interrupted episode commit ({moved} file(s) renamed into place)")
-    staged = list(staged_files(root))
-    for path in staged:
-        q.move(path)
+    out = finish_interrupted_commit(root)
+    staged = quarantine_staged(root, q)
     if staged:
-        out.append(f"moved {len(staged)} temporary file(s) of an unfinished write to the quarantine")
+        out.append(f"moved {staged} temporary file(s) of an unfinished write to the quarantine")
     return out
 
 
@@ -105,7 +100,7 @@ def _write_episode_files(ds: Dataset, tables: list[pa.Table], rows: Rows, q: Qua
             if "meta/episodes/chunk_index" in r:
                 r["meta/episodes/chunk_index"], r["meta/episodes/file_index"] = pos.chunk, pos.file
         table = pa.Table.from_pylist(part, schema=old.schema)
-        atomic.write_with(path, _parquet(table))
+        atomic.write_with(path, atomic.parquet_writer(table))
 
 
 def _episode_order(ds: Dataset, found: dict[str, Finding], q: Quarantine) -> list[str]:
@@ -174,7 +169,7 @@ def _rewrite_data(ds: Dataset, q: Quarantine, fn: Callable[[pa.Table, int, Path]
         if new.equals(table):
             continue
         q.keep_copy(path)
-        atomic.write_with(path, _parquet(new))
+        atomic.write_with(path, atomic.parquet_writer(new))
 
 
 def _data_columns(ds: Dataset, found: dict[str, Finding], q: Quarantine) -> list[str]:
@@ -258,10 +253,3 @@ def _orphans(ds: Dataset, found: dict[str, Finding], q: Quarantine) -> list[str]
     for path in orphans:
         q.move(path)
     return [f"videos: {len(orphans)} mp4 file(s) no episode refers to moved to the quarantine"]
-
-
-def _parquet(table: pa.Table) -> Callable[[Path], None]:
-    def write(path: Path) -> None:
-        pq.write_table(table, path, compression="snappy")
-
-    return write

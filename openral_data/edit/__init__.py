@@ -1,1 +1,9 @@
-"""Episode editing: delete, split and merge LeRobot v3 datasets (see ops.py)."""
+"""Episode editing of LeRobot v3 datasets: `delete`, `split` and `merge` (see ops.py), each returning `EditResult`s.
+
+Every edit writes a complete new dataset atomically through our LeRobot v3 writer (`assemble`), reading its
+episodes from the sources without re-encoding video (`source`).
+"""
+
+from openral_data.edit.ops import EditResult, delete, merge, split
+
+__all__ = ["EditResult", "delete", "merge", "split"]

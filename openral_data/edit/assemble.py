@@ -2,8 +2,8 @@
 
 Each episode goes through the writer's normal commit (data rows re-indexed, episodes metadata, tasks, stats,
 info.json), so the result follows every rule the writer follows. Video is never re-encoded: the episode's
-packets are cut out of the source mp4 (`viz.clip.episode_clip`) and handed to the writer as the episode's own
-file, which the writer joins into size-rotated files by remuxing, as it does while recording.
+packets are cut out of the source mp4 (`formats.lerobot_v3.clip.episode_clip`) and handed to the writer as the
+episode's own file, which the writer joins into size-rotated files by remuxing, as it does while recording.
 
 Statistics: numeric features are recomputed exactly from the rows. Camera statistics per episode are the
 source's. At dataset level they are exact when the caller passes the pixel histograms of exactly the episodes
@@ -25,34 +25,34 @@ from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator, Stats, merge_numeric
 from openral_data.formats.lerobot_v3.video import EncodedEpisode
-from openral_data.formats.lerobot_v3.writer import LeRobotV3Writer, WriterConfig, _EpisodeBuffer
+from openral_data.formats.lerobot_v3.writer import EpisodeBuffer, LeRobotV3Writer, WriterConfig
 from openral_data.types import DatasetSchema, EpisodeRecord, EpisodeStart
 
 
 class MergedImageStats(ImageStatsAccumulator):
-    """Image statistics known only as per-episode summaries, merged count-weighted."""
+    """Image statistics known only as per-episode summaries, merged count-weighted (`summary`)."""
 
-    def __init__(self, stats: Stats | None = None) -> None:
+    def __init__(self, summary: Stats | None = None) -> None:
         super().__init__()
-        self._stats = stats
+        self.summary = summary
 
     def add(self, frame: Any) -> None:
         raise TypeError("MergedImageStats holds summaries, not frames")
 
     def merge(self, other: ImageStatsAccumulator) -> None:
-        if not isinstance(other, MergedImageStats) or other._stats is None:
+        if not isinstance(other, MergedImageStats) or other.summary is None:
             raise TypeError("only summaries can be merged into MergedImageStats")
-        self._stats = merge_numeric(self._stats, other._stats)
-        self.frames += int(other._stats["count"][0])
+        self.summary = merge_numeric(self.summary, other.summary)
+        self.frames += int(other.summary["count"][0])
 
     def stats(self) -> Stats:
-        if self._stats is None:
+        if self.summary is None:
             raise ValueError("no episode statistics merged")
-        return self._stats
+        return self.summary
 
 
-class EpisodeAssembler(LeRobotV3Writer):
-    """A LeRobot v3 writer fed with whole episodes (`add`) instead of frames."""
+class EpisodeAssembler:
+    """A new LeRobot v3 dataset fed with whole episodes (`add`) instead of frames, through our writer."""
 
     def __init__(
         self,
@@ -62,52 +62,57 @@ class EpisodeAssembler(LeRobotV3Writer):
         provenance: dict[str, Any],
         image_hist: dict[str, ImageStatsAccumulator] | None = None,
     ) -> None:
-        super().__init__(root, schema, config)
-        self._image_stats = {name: MergedImageStats() for name in schema.cameras}
+        merged: dict[str, ImageStatsAccumulator] = {name: MergedImageStats() for name in schema.cameras}
+        self.writer = LeRobotV3Writer(root, schema, config, image_stats=merged)
+        self.root = root
+        self.schema = schema
         self._exact_hist = image_hist
         meta = json.loads((root / layout.OPENRAL_PATH).read_text())
         meta["edit"] = provenance
         atomic.write_bytes(root / layout.OPENRAL_PATH, json.dumps(meta, indent=2).encode(), config.durable)
 
+    @property
+    def total_episodes(self) -> int:
+        return self.writer.total_episodes
+
+    @property
+    def total_frames(self) -> int:
+        return self.writer.total_frames
+
     def close(self) -> None:
-        exact = self._exact_hist
+        writer, exact = self.writer, self._exact_hist
         try:
-            if exact is not None and self.total_episodes and not self._closed:
-                frames = {name: acc.frames for name, acc in self._image_stats.items()}
+            if exact is not None and writer.total_episodes and not writer.closed:
+                frames = {name: acc.frames for name, acc in writer.image_stats.items()}
                 if {name: acc.frames for name, acc in exact.items()} != frames:
                     raise OpenralError(f"{self.root}: camera histograms do not cover exactly the episodes written")
-                self._image_stats = dict(exact)  # the final metadata write uses the exact histograms
+                writer.image_stats = dict(exact)  # the final metadata write uses the exact histograms
         finally:
-            super().close()
+            writer.close()
         if exact is None:
             # summaries cannot continue a histogram: leave none, so a resume refuses instead of going wrong
             (self.root / layout.IMAGE_HIST_PATH).unlink(missing_ok=True)
 
     def add(self, episode: EpisodeData) -> EpisodeRecord:
-        buf = _EpisodeBuffer(EpisodeStart(episode.seed, episode.initial_state))
-        buf.states = list(episode.states)
-        buf.actions = list(episode.actions)
-        buf.rewards = list(episode.rewards)
-        buf.dones = list(episode.dones)
-        buf.successes = list(episode.successes)
-        buf.task_indices = [self.tasks.setdefault(t, len(self.tasks)) for t in episode.tasks]
+        writer = self.writer
+        buf = EpisodeBuffer(
+            EpisodeStart(episode.seed, episode.initial_state),
+            states=list(episode.states),
+            actions=list(episode.actions),
+            rewards=list(episode.rewards),
+            dones=list(episode.dones),
+            successes=list(episode.successes),
+            task_indices=[writer.tasks.setdefault(t, len(writer.tasks)) for t in episode.tasks],
+        )
         encoded: dict[str, EncodedEpisode] = {}
         try:
             for name in self.schema.cameras:
-                path = self._pending_video(name)
+                path = writer.pending_video(name)
                 path.parent.mkdir(parents=True, exist_ok=True)
                 path.write_bytes(episode.videos[name])
                 encoded[name] = EncodedEpisode(path, episode.length, MergedImageStats(episode.image_stats[name]))
-            batch = self._batch = atomic.Batch(self.config.durable)
-            try:
-                record = self._commit_episode(buf, episode.length, episode.success, encoded)
-                batch.commit()
-            finally:
-                self._batch = None
-                batch.discard()
+            return writer.commit_episode(buf, episode.success, encoded, journal=False)
         except BaseException:
             for enc in encoded.values():
                 enc.path.unlink(missing_ok=True)
             raise
-        self._maybe_rotate_episodes_file()
-        return record

@@ -20,7 +20,7 @@ from openral_data.edit.assemble import EpisodeAssembler
 from openral_data.edit.source import SourceDataset
 from openral_data.episodes import parse_episodes
 from openral_data.errors import OpenralError
-from openral_data.formats.atomic import fsync_dir, fsync_file
+from openral_data.formats.atomic import fsync_dir, fsync_tree
 from openral_data.formats.lerobot_v3.lock import DatasetLock
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
 
@@ -132,10 +132,7 @@ def staging_dir(out: Path) -> Path:
 
 def publish(staging: Path, out: Path) -> None:
     """fsync every file of `staging`, then rename it to `out` (an empty `out` folder is replaced)."""
-    for dirpath, _, files in os.walk(staging):
-        for name in files:
-            fsync_file(Path(dirpath) / name)
-        fsync_dir(Path(dirpath))
+    fsync_tree(staging)
     check_new_output(out)
     if out.is_dir():
         out.rmdir()

@@ -19,6 +19,7 @@ import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from openral_data.errors import OpenralError
+from openral_data.formats.jsonfile import read_json
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.clip import episode_clip
 from openral_data.formats.lerobot_v3.features import ACTION, IMAGE_PREFIX, STATE, build_features
@@ -90,11 +91,9 @@ class SourceDataset:
     def _openral_json(self) -> dict[str, Any]:
         path = self.root / layout.OPENRAL_PATH
         try:
-            data: dict[str, Any] = json.loads(path.read_text())
+            data: dict[str, Any] = read_json(path)
         except FileNotFoundError:
             return {}
-        except json.JSONDecodeError as exc:
-            raise OpenralError(f"{path}: invalid JSON: {exc}") from None
         return data
 
     def camera_names(self) -> list[str]:
@@ -153,10 +152,7 @@ class SourceDataset:
         for name in self.camera_names():
             if name not in saved:
                 return None
-            acc = ImageStatsAccumulator()
-            acc.hist = np.asarray(saved[name]["hist"], dtype=np.int64).reshape(3, 256)
-            acc.frames = int(saved[name]["frames"])
-            out[name] = acc
+            out[name] = ImageStatsAccumulator.from_json(saved[name])
         return out
 
     def writer_config(self) -> WriterConfig:

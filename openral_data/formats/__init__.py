@@ -1,2 +1,13 @@
-"""On-disk formats: LeRobot v3 (`lerobot_v3`), ROS 2 MCAP (`mcap`), the replay/stats results layout (`results`)
-and crash-safe file writes (`atomic`). Formats import only the shared types, errors and schemas below them."""
+"""On-disk formats, each a subpackage or module whose face names its reader and writer API.
+
+* `lerobot_v3`: LeRobotDataset v3 (read its metadata and frames back; write it episode by episode, crash-safe);
+* `mcap`: ROS 2 MCAP, one rosbag2 bag per episode (write the bags; list the finished ones, decode images);
+* `results`: the replay / evaluation results layout (`write_results` / `open_results`);
+* `atomic`: crash-safe file writes (temp file, fsync, rename; journaled batches);
+* `jsonfile`: reading their JSON files with one error message.
+
+Formats import only the shared types, errors and schemas below them. The subpackages are not imported here
+(`from openral_data.formats import lerobot_v3`), so using one never loads the others' libraries.
+"""
+
+__all__ = ["atomic", "jsonfile", "lerobot_v3", "mcap", "results"]

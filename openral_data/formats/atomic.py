@@ -12,6 +12,9 @@ import os
 from collections.abc import Callable
 from pathlib import Path
 
+import pyarrow as pa
+import pyarrow.parquet as pq
+
 
 def fsync_dir(path: Path) -> None:
     fd = os.open(path, os.O_RDONLY)
@@ -31,6 +34,14 @@ def fsync_file(path: Path) -> None:
         os.fsync(fh.fileno())
 
 
+def fsync_tree(root: Path) -> None:
+    """fsync every file and folder below `root` (and `root` itself), e.g. before renaming it into place."""
+    for dirpath, _, files in os.walk(root):
+        for name in files:
+            fsync_file(Path(dirpath) / name)
+        fsync_dir(Path(dirpath))
+
+
 def move_into_place(tmp: Path, path: Path, durable: bool = True) -> None:
     """Atomically rename a finished temporary file over `path`."""
     if durable:
@@ -43,6 +54,15 @@ def move_into_place(tmp: Path, path: Path, durable: bool = True) -> None:
 def bytes_writer(data: bytes) -> Callable[[Path], None]:
     def write(path: Path) -> None:
         path.write_bytes(data)
+
+    return write
+
+
+def parquet_writer(table: pa.Table) -> Callable[[Path], None]:
+    """A `writer` for `write_with` and `Batch.write_with`: `table` as one snappy-compressed parquet file."""
+
+    def write(path: Path) -> None:
+        pq.write_table(table, path, compression="snappy")
 
     return write
 

@@ -34,6 +34,7 @@ import pyarrow.parquet as pq
 
 from openral_data.errors import OpenralError
 from openral_data.formats import atomic
+from openral_data.formats.jsonfile import read_json
 
 FORMAT = "openral-results/1"
 SUMMARY = "summary.json"
@@ -138,11 +139,9 @@ def open_results(root: Path) -> Results:
     """Open and validate a results directory; every problem names the file and the field."""
     path = root / SUMMARY
     try:
-        summary = json.loads(path.read_text())
+        summary = read_json(path)
     except FileNotFoundError:
         raise OpenralError(f"{root}: not a results directory (no {SUMMARY})") from None
-    except json.JSONDecodeError as exc:
-        raise OpenralError(f"{path}: invalid JSON: {exc}") from None
     if not isinstance(summary, dict):
         raise OpenralError(f"{path}: expected a JSON object")
     if summary.get("format") != FORMAT:

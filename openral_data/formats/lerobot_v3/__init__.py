@@ -1,7 +1,36 @@
-"""LeRobotDataset v3: writer (pyarrow + PyAV) and a light reader."""
+"""LeRobotDataset v3, the layout lerobot 0.6.1 loads, read and written without lerobot (pyarrow + PyAV).
 
-from openral_data.formats.lerobot_v3.reader import DatasetSummary, summarize
+Reading: `read_info`, `read_tasks` and `read_episodes` give a dataset's metadata, `summarize` a
+`DatasetSummary`; `episode_frames` reads an episode's frames back (images decoded) and `episode_clip` cuts an
+episode's packets out of a shared mp4 without re-encoding.
+
+Writing: `LeRobotV3Writer` (a `Sink`, configured by `WriterConfig` and `VideoSettings`) commits one episode at a
+time, crash-safe; `commit_episode` takes an `EpisodeBuffer` whose videos are already made. `DatasetLock` keeps
+one writer per dataset (`holder` names it) and `recover` brings a killed writer's dataset back to its last
+committed episode. Paths and chunk/file numbering are in `layout`.
+"""
+
+from openral_data.formats.lerobot_v3.clip import episode_clip
+from openral_data.formats.lerobot_v3.frames import episode_frames
+from openral_data.formats.lerobot_v3.lock import DatasetLock, holder
+from openral_data.formats.lerobot_v3.reader import DatasetSummary, read_episodes, read_info, read_tasks, summarize
+from openral_data.formats.lerobot_v3.recovery import recover
 from openral_data.formats.lerobot_v3.video import VideoSettings
-from openral_data.formats.lerobot_v3.writer import LeRobotV3Writer, WriterConfig
+from openral_data.formats.lerobot_v3.writer import EpisodeBuffer, LeRobotV3Writer, WriterConfig
 
-__all__ = ["DatasetSummary", "LeRobotV3Writer", "VideoSettings", "WriterConfig", "summarize"]
+__all__ = [
+    "DatasetLock",
+    "DatasetSummary",
+    "EpisodeBuffer",
+    "LeRobotV3Writer",
+    "VideoSettings",
+    "WriterConfig",
+    "episode_clip",
+    "episode_frames",
+    "holder",
+    "read_episodes",
+    "read_info",
+    "read_tasks",
+    "recover",
+    "summarize",
+]

@@ -46,3 +46,13 @@ def video_path(root: Path, key: str, pos: FilePos) -> Path:
 
 def episodes_path(root: Path, pos: FilePos) -> Path:
     return root / EPISODES_PATH.format(chunk_index=pos.chunk, file_index=pos.file)
+
+
+def data_files(root: Path) -> list[Path]:
+    """The frame tables (data/*/*.parquet) on disk, in chunk/file order."""
+    return sorted((root / "data").glob("*/*.parquet"))
+
+
+def episodes_files(root: Path) -> list[Path]:
+    """The episodes metadata tables (meta/episodes/*/*.parquet) on disk, in chunk/file order."""
+    return sorted((root / "meta" / "episodes").glob("*/*.parquet"))

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -11,6 +10,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from openral_data.errors import OpenralError
+from openral_data.formats.jsonfile import read_json
 from openral_data.formats.lerobot_v3 import layout
 
 
@@ -35,16 +35,14 @@ class DatasetSummary:
 def read_info(root: Path) -> dict[str, Any]:
     path = root / layout.INFO_PATH
     try:
-        info: dict[str, Any] = json.loads(path.read_text())
+        info: dict[str, Any] = read_json(path)
     except FileNotFoundError:
         raise OpenralError(f"{root}: not a LeRobot v3 dataset (no {layout.INFO_PATH})") from None
-    except json.JSONDecodeError as exc:
-        raise OpenralError(f"{path}: invalid JSON: {exc}") from None
     return info
 
 
 def read_episodes(root: Path) -> pa.Table:
-    files = sorted((root / "meta" / "episodes").glob("*/*.parquet"))
+    files = layout.episodes_files(root)
     if not files:
         raise OpenralError(f"{root}: no episodes metadata under meta/episodes/")
     tables = [pq.read_table(f) for f in files]

@@ -88,18 +88,27 @@ def referenced_videos(root: Path, rows: list[dict[str, Any]], info: dict[str, An
     return out
 
 
-def recover(root: Path, durable: bool = True) -> list[str]:
-    """Finish or undo whatever a killed writer left; returns one line per action taken (empty: was clean)."""
-    actions: list[str] = []
+def finish_interrupted_commit(root: Path, durable: bool = True) -> list[str]:
+    """Replay the commit journal of an episode commit killed during its renames (one line if it did)."""
     moved = atomic.replay_journal(root / layout.JOURNAL_PATH, durable)
-    if moved:
-        actions.append(f"finished an interrupted episode commit ({moved} file(s) renamed into place)")
-    quarantine = Quarantine(root)
+    return [f"finished an interrupted episode commit ({moved} file(s) renamed into place)"] if moved else []
+
+
+def quarantine_staged(root: Path, quarantine: Quarantine) -> int:
+    """Move the temporary files of unfinished writes to the quarantine; returns how many there were."""
     staged = list(staged_files(root))
     for path in staged:
         quarantine.move(path)
+    return len(staged)
+
+
+def recover(root: Path, durable: bool = True) -> list[str]:
+    """Finish or undo whatever a killed writer left; returns one line per action taken (empty: was clean)."""
+    actions = finish_interrupted_commit(root, durable)
+    quarantine = Quarantine(root)
+    staged = quarantine_staged(root, quarantine)
     if staged:
-        actions.append(f"moved {len(staged)} staged file(s) of an unfinished episode to {quarantine.dir}")
+        actions.append(f"moved {staged} staged file(s) of an unfinished episode to {quarantine.dir}")
     if not (root / layout.INFO_PATH).is_file():
         leftovers = [p for sub in DATASET_DIRS if (root / sub).is_dir() for p in (root / sub).rglob("*") if p.is_file()]
         for path in leftovers:
@@ -123,7 +132,7 @@ def recover(root: Path, durable: bool = True) -> list[str]:
 
 def episode_rows(root: Path) -> list[dict[str, Any]]:
     rows: list[dict[str, Any]] = []
-    for path in sorted((root / "meta" / "episodes").glob("*/*.parquet")):
+    for path in layout.episodes_files(root):
         rows += pq.read_table(path).to_pylist()
     return rows
 
@@ -134,9 +143,9 @@ def trim_to_totals(root: Path, info: dict[str, Any], quarantine: Quarantine, dur
     frames = int(info.get("total_frames", 0))
     tasks = int(info.get("total_tasks", 0))
     actions: list[str] = []
-    for path in sorted((root / "meta" / "episodes").glob("*/*.parquet")):
+    for path in layout.episodes_files(root):
         actions += _drop_rows(root, path, pc.field("episode_index") >= episodes, quarantine, durable)
-    for path in sorted((root / "data").glob("*/*.parquet")):
+    for path in layout.data_files(root):
         beyond = (pc.field("index") >= frames) | (pc.field("episode_index") >= episodes)
         actions += _drop_rows(root, path, beyond, quarantine, durable)
     tasks_path = root / layout.TASKS_PATH
@@ -158,9 +167,5 @@ def _drop_rows(root: Path, path: Path, beyond: pc.Expression, quarantine: Quaran
         if durable:
             atomic.fsync_dir(path.parent)
         return [f"{rel}: only uncommitted rows ({extra.num_rows}); moved them to {quarantine.dir}"]
-
-    def write(tmp: Path) -> None:
-        pq.write_table(kept, tmp, compression="snappy")
-
-    atomic.write_with(path, write, durable)
+    atomic.write_with(path, atomic.parquet_writer(kept), durable)
     return [f"{rel}: {extra.num_rows} row(s) beyond info.json's totals moved to {quarantine.dir}"]

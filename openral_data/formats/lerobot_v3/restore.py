@@ -138,17 +138,16 @@ def _pos(row: dict[str, Any], prefix: str) -> FilePos:
 
 
 def _image_stats(root: Path, names: list[str], has_rows: bool) -> dict[str, ImageStatsAccumulator]:
-    accs = {name: ImageStatsAccumulator() for name in names}
     if not names or not has_rows:
-        return accs
+        return {name: ImageStatsAccumulator() for name in names}
     path = root / layout.IMAGE_HIST_PATH
     try:
         saved = json.loads(path.read_text())
     except FileNotFoundError:
         raise OpenralError(f"{path}: missing: cannot continue this dataset's camera statistics exactly") from None
-    for name, acc in accs.items():
+    accs: dict[str, ImageStatsAccumulator] = {}
+    for name in names:
         if name not in saved:
             raise OpenralError(f"{path}: {name}: no histogram for this camera")
-        acc.hist = np.asarray(saved[name]["hist"], dtype=np.int64).reshape(3, 256)
-        acc.frames = int(saved[name]["frames"])
+        accs[name] = ImageStatsAccumulator.from_json(saved[name])
     return accs

@@ -8,7 +8,7 @@ dataset statistics — quantiles included — are exact for the sampled pixels, 
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Self
 
 import numpy as np
 import numpy.typing as npt
@@ -72,6 +72,17 @@ class ImageStatsAccumulator:
     def merge(self, other: ImageStatsAccumulator) -> None:
         self.hist += other.hist
         self.frames += other.frames
+
+    def to_json(self) -> dict[str, Any]:
+        """The histograms as `.openral/image_hist.json` keeps them for one camera (`from_json` reads them back)."""
+        return {"hist": self.hist.tolist(), "frames": self.frames}
+
+    @classmethod
+    def from_json(cls, saved: dict[str, Any]) -> Self:
+        acc = cls()
+        acc.hist = np.asarray(saved["hist"], dtype=np.int64).reshape(3, 256)
+        acc.frames = int(saved["frames"])
+        return acc
 
     def stats(self) -> Stats:
         levels = np.arange(256, dtype=np.float64) / 255.0

@@ -112,6 +112,11 @@ _ABORT = object()  # drop the episode: close the file, the producer deletes it
 _STOP = object()  # shut the thread down (ends a job in progress as an abort)
 
 
+def _ends_job(item: object) -> bool:
+    """Whether a queue item is a marker that ends the job in progress (a frame does not)."""
+    return item is _FINISH or item is _ABORT or item is _STOP
+
+
 class EncoderWorker:
     """A persistent thread encoding one camera. `put` blocks while the queue is full: the producer waits,
     nothing is dropped. A job (one episode's mp4) ends only through `finish()` or `abort()`."""
@@ -197,11 +202,7 @@ class EncoderWorker:
             stream.height = job.height
             stream.pix_fmt = self.settings.pix_fmt
             stream.codec_context.time_base = Fraction(1, self.fps)
-            while True:
-                item = self._q.get()
-                if item is _FINISH or item is _ABORT or item is _STOP:
-                    end = item
-                    break
+            while not _ends_job(item := self._q.get()):
                 assert isinstance(item, np.ndarray)
                 stats.add(item)
                 vf = av.VideoFrame.from_ndarray(item, format="rgb24")
@@ -209,6 +210,7 @@ class EncoderWorker:
                 frames += 1
                 for packet in stream.encode(vf):
                     container.mux(packet)
+            end = item
             # always drain the encoder (SVT-AV1 complains when torn down without end-of-stream); an aborted
             # file is deleted by the producer afterwards
             for packet in stream.encode(None):
@@ -221,10 +223,8 @@ class EncoderWorker:
             self._failed = exc
             # consume this job's frames up to its end marker so the producer is never blocked forever
             while end is None:
-                item = self._q.get()
-                if item is _FINISH or item is _ABORT or item is _STOP:
+                if _ends_job(item := self._q.get()):
                     end = item
-                    break
         finally:
             if container is not None:
                 with contextlib.suppress(Exception):

@@ -5,7 +5,8 @@ the data and episodes parquet files that hold it are rewritten atomically (temp 
 `meta/info.json` — whose totals decide what lerobot's loader exposes — is written last. Those renames are
 journaled (``.openral/journal.json``), so a crash in the middle of them is finished by `recovery.recover`
 (which `record --resume` and `doctor --repair` run) and lerobot meanwhile sees the previous episode count.
-`resume=True` continues an existing dataset of the same format (see `restore`). Per-episode mp4s of
+`commit_episode` commits an episode made elsewhere (frame columns and mp4s ready, as `edit` assembles them)
+the same way. `resume=True` continues an existing dataset of the same format (see `restore`). Per-episode mp4s of
 one camera are joined into size-rotated files without re-encoding when a file fills up and at `close()`;
 each step of that join leaves every episode readable.
 """
@@ -85,7 +86,9 @@ class _VideoGroup:
 
 
 @dataclass
-class _EpisodeBuffer:
+class EpisodeBuffer:
+    """One episode's frame columns (one entry per frame) and what its meta/episodes row needs besides them."""
+
     start: EpisodeStart
     states: list[npt.NDArray[np.float32]] = field(default_factory=list)
     actions: list[npt.NDArray[np.float32]] = field(default_factory=list)
@@ -101,8 +104,16 @@ class LeRobotV3Writer:
     """A `Sink` that writes a LeRobotDataset v3 that lerobot 0.6.1 loads frame-exactly."""
 
     def __init__(
-        self, root: Path, schema: DatasetSchema, config: WriterConfig | None = None, *, resume: bool = False
+        self,
+        root: Path,
+        schema: DatasetSchema,
+        config: WriterConfig | None = None,
+        *,
+        resume: bool = False,
+        image_stats: dict[str, ImageStatsAccumulator] | None = None,
     ) -> None:
+        """`image_stats`: the per-camera accumulators of the dataset's image statistics (default: empty
+        histograms); `image_stats` may also be replaced before `close()`, whose metadata write uses it."""
         self.root = root
         self.schema = schema
         self.config = config or WriterConfig()
@@ -130,8 +141,10 @@ class LeRobotV3Writer:
         self._data_tables: list[pa.Table] = []
         self._groups = {name: _VideoGroup(FilePos()) for name in schema.cameras}
         self._numeric_stats: dict[str, Stats] = {}
-        self._image_stats = {name: ImageStatsAccumulator() for name in schema.cameras}
-        self._episode: _EpisodeBuffer | None = None
+        self.image_stats = (
+            dict(image_stats) if image_stats is not None else {n: ImageStatsAccumulator() for n in schema.cameras}
+        )
+        self._episode: EpisodeBuffer | None = None
         self._batch: atomic.Batch | None = None  # set while an episode is being committed
         self._closed = False
         if resume and (root / layout.INFO_PATH).is_file():
@@ -163,7 +176,7 @@ class LeRobotV3Writer:
             members = [_VideoMember(ep, pos, frames, size) for ep, pos, frames, size in tail.members]
             self._groups[name] = _VideoGroup(tail.first, members)
         self._numeric_stats = state.numeric_stats
-        self._image_stats = state.image_stats
+        self.image_stats = state.image_stats
 
     def _config_json(self) -> dict[str, Any]:
         c = self.config
@@ -180,14 +193,18 @@ class LeRobotV3Writer:
     def total_episodes(self) -> int:
         return len(self.episode_rows)
 
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
     # -- Sink API --------------------------------------------------------------------------------------------
     def begin_episode(self, start: EpisodeStart) -> None:
         if self._episode is not None:
             raise RuntimeError("begin_episode() while an episode is open")
-        self._episode = _EpisodeBuffer(start)
+        self._episode = EpisodeBuffer(start)
         for name, worker in self._workers.items():
             shape = self.schema.cameras[name]
-            worker.begin(self._pending_video(name), shape.height, shape.width)
+            worker.begin(self.pending_video(name), shape.height, shape.width)
 
     def add_frame(self, frame: Frame) -> None:
         ep = self._episode
@@ -243,9 +260,26 @@ class LeRobotV3Writer:
             for enc in encoded.values():
                 enc.path.unlink(missing_ok=True)
             raise OpenralError(f"episode discarded: encoded frames {short} differ from its {n} rows")
-        batch = self._batch = atomic.Batch(self.config.durable, journal=self.root / layout.JOURNAL_PATH)
+        return self.commit_episode(ep, success, encoded)
+
+    def commit_episode(
+        self,
+        ep: EpisodeBuffer,
+        success: bool | None,
+        encoded: dict[str, EncodedEpisode],
+        *,
+        journal: bool = True,
+    ) -> EpisodeRecord:
+        """Commit an episode whose frame columns and encoded videos are already built, as `end_episode` does.
+
+        Each `encoded[camera]` is an mp4 at `pending_video(camera)` of exactly the episode's frames, with its
+        image statistics; the task indices are those of `tasks`. `journal=False` commits without the commit
+        journal (for a dataset nobody sees before it is complete).
+        """
+        path = self.root / layout.JOURNAL_PATH if journal else None
+        batch = self._batch = atomic.Batch(self.config.durable, journal=path)
         try:
-            record = self._commit_episode(ep, n, success, encoded)
+            record = self._commit_episode(ep, len(ep.states), success, encoded)
             batch.commit()
         finally:
             self._batch = None
@@ -254,7 +288,7 @@ class LeRobotV3Writer:
         return record
 
     def _commit_episode(
-        self, ep: _EpisodeBuffer, n: int, success: bool | None, encoded: dict[str, EncodedEpisode]
+        self, ep: EpisodeBuffer, n: int, success: bool | None, encoded: dict[str, EncodedEpisode]
     ) -> EpisodeRecord:
         """Place the episode's videos, then stage data, episodes metadata, tasks, stats and info.json."""
         index = self.total_episodes
@@ -267,7 +301,7 @@ class LeRobotV3Writer:
             self._place_video(name, index, enc.path, enc.frames, row)
             img = enc.stats.stats()
             ep_stats[self._keys[name]] = img
-            self._image_stats[name].merge(enc.stats)
+            self.image_stats[name].merge(enc.stats)
         for key, s in ep_stats.items():
             for stat, value in to_jsonable(s).items():
                 row[f"stats/{key}/{stat}"] = value
@@ -305,7 +339,7 @@ class LeRobotV3Writer:
                 (self.root / layout.IMAGE_HIST_PATH).unlink(missing_ok=True)
 
     # -- episode assembly ------------------------------------------------------------------------------------
-    def _base_row(self, index: int, ep: _EpisodeBuffer, n: int, success: bool | None) -> dict[str, Any]:
+    def _base_row(self, index: int, ep: EpisodeBuffer, n: int, success: bool | None) -> dict[str, Any]:
         inv = {i: t for t, i in self.tasks.items()}
         return {
             "episode_index": index,
@@ -319,7 +353,7 @@ class LeRobotV3Writer:
             "openral.episode_info": None if ep.info is None else json.dumps(ep.info, sort_keys=True),
         }
 
-    def _episode_table(self, index: int, ep: _EpisodeBuffer, n: int) -> pa.Table:
+    def _episode_table(self, index: int, ep: EpisodeBuffer, n: int) -> pa.Table:
         fps = self.schema.fps
         frame_index = np.arange(n, dtype=np.int64)
         cols: dict[str, pa.Array] = {
@@ -362,7 +396,8 @@ class LeRobotV3Writer:
         self._write(path, write)
 
     # -- videos ----------------------------------------------------------------------------------------------
-    def _pending_video(self, name: str) -> Path:
+    def pending_video(self, name: str) -> Path:
+        """Where camera `name`'s mp4 of the next episode is made; committing the episode moves it into place."""
         group = self._groups[name]
         return atomic.tmp_name(layout.video_path(self.root, self._keys[name], group.next_pos(self.config.chunks_size)))
 
@@ -430,9 +465,9 @@ class LeRobotV3Writer:
             table = pa.Table.from_pylist(rows, schema=self._episodes_schema)
             path = layout.episodes_path(self.root, pos)
             if immediate:
-                atomic.write_with(path, _parquet_writer(table), self.config.durable)
+                atomic.write_with(path, atomic.parquet_writer(table), self.config.durable)
             else:
-                self._write(path, _parquet_writer(table))
+                self._write(path, atomic.parquet_writer(table))
 
     def _maybe_rotate_episodes_file(self) -> None:
         path = layout.episodes_path(self.root, self._episode_file)
@@ -452,10 +487,10 @@ class LeRobotV3Writer:
         for key in self.features:
             if key in self._numeric_stats:
                 stats[key] = to_jsonable(self._numeric_stats[key])
-        for name, acc in self._image_stats.items():
+        for name, acc in self.image_stats.items():
             stats[self._keys[name]] = to_jsonable(acc.stats())
         ordered = {k: stats[k] for k in self.features if k in stats}
-        hist = {name: {"hist": acc.hist.tolist(), "frames": acc.frames} for name, acc in self._image_stats.items()}
+        hist = {name: acc.to_json() for name, acc in self.image_stats.items()}
         self._write(self.root / layout.IMAGE_HIST_PATH, atomic.bytes_writer(json.dumps(hist).encode()))
         self._write(self.root / layout.STATS_PATH, atomic.bytes_writer(json.dumps(ordered, indent=4).encode()))
         if episodes_file is not None:
@@ -499,13 +534,6 @@ def _column_values(table: pa.Table, key: str) -> npt.NDArray[Any]:
     return np.asarray(col.to_numpy(zero_copy_only=False)).reshape(-1, 1)
 
 
-def _parquet_writer(table: pa.Table) -> Callable[[Path], None]:
-    def write(path: Path) -> None:
-        pq.write_table(table, path, compression="snappy")
-
-    return write
-
-
 def tasks_writer(tasks: dict[str, int]) -> Callable[[Path], None]:
     """tasks.parquet as pandas writes it: column `task_index`, the task string as the index named `task`.
 
@@ -542,11 +570,7 @@ def tasks_writer(tasks: dict[str, int]) -> Callable[[Path], None]:
         {b"pandas": json.dumps(pandas_meta).encode()}
     )
     table = pa.table({"task_index": [i for _, i in ordered], "task": [t for t, _ in ordered]}, schema=schema)
-
-    def write(path: Path) -> None:
-        pq.write_table(table, path, compression="snappy")
-
-    return write
+    return atomic.parquet_writer(table)
 
 
 def _pandas_version() -> str:
