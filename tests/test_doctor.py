@@ -18,9 +18,10 @@ from conftest import REPO, mock_scene, run_cli, write_yaml
 from lerobot_check import verify_mock_dataset
 
 from openral_data.doctor import check, repair
+from openral_data.errors import DatasetBusy
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
-from openral_data.formats.lerobot_v3.lock import DatasetBusy, DatasetLock
+from openral_data.formats.lerobot_v3.lock import DatasetLock
 
 LENGTHS = [5, 7, 4]
 FRONT = "videos/observation.images.front/chunk-000/file-000.mp4"

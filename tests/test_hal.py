@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from hal_helpers import ur5e_twin
 
-from openral_data.errors import ConfigError, OpenralError
-from openral_data.producers.hal.base import EstopLatched, HalError, JointCommand, RobotState, StaleState
+from openral_data.errors import ConfigError, EstopLatched, HalError, OpenralError, StaleState
+from openral_data.producers.hal.base import JointCommand, RobotState
 from openral_data.producers.hal.operator import Command, KeyboardOperator, ScriptedOperator, parse_script
 from openral_data.producers.hal.safety import SafetyFilter
 from openral_data.producers.hal.twin import MujocoTwinHal

@@ -17,8 +17,8 @@ import pytest
 from conftest import run_cli
 from hal_helpers import SlowCamera, SlowPolicy, episode_infos, frames_table, run_loop, ur5e_twin
 
-from openral_data.errors import OpenralError
-from openral_data.producers.hal.base import EstopLatched, HalError, JointCommand
+from openral_data.errors import EstopLatched, HalError, OpenralError
+from openral_data.producers.hal.base import JointCommand
 from openral_data.producers.hal.operator import ScriptedOperator, parse_script
 from openral_data.producers.hal.safety import SafetyFilter
 from openral_data.record import registry

@@ -13,8 +13,7 @@ from feetech_bus import SimulatedFeetechBus
 from hal_helpers import episode_infos, frames_table
 from mcap_check import check_bag
 
-from openral_data.errors import ConfigError
-from openral_data.producers.hal.base import HalError
+from openral_data.errors import ConfigError, HalError
 from openral_data.producers.hal.so100 import MOTORS
 from openral_data.record.hal import HalRecordOptions, record_hal
 

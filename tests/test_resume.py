@@ -22,9 +22,9 @@ from lerobot_check import verify_mock_dataset
 from mcap_check import check_bag
 
 from openral_data.doctor import check
-from openral_data.errors import ConfigError, OpenralError
+from openral_data.errors import ConfigError, DatasetBusy, OpenralError
 from openral_data.formats.lerobot_v3 import layout
-from openral_data.formats.lerobot_v3.lock import DatasetBusy, DatasetLock
+from openral_data.formats.lerobot_v3.lock import DatasetLock
 from openral_data.formats.mcap.writer import finished_bags
 from openral_data.record.sim import RecordOptions, record
 

@@ -246,7 +246,7 @@ def test_encoder_worker_abort_then_reuse(tmp_path: Path) -> None:
 
 def test_encoder_failure_discards_the_episode_cleanly(tmp_path: Path) -> None:
     """A frame the encoder cannot take (bypassing the bridge) fails the episode; earlier ones are intact."""
-    from openral_data.formats.lerobot_v3.video import EncoderError
+    from openral_data.errors import EncoderError
     from openral_data.types import EpisodeStart, Frame
 
     schema = DatasetSchema(

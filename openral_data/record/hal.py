@@ -260,7 +260,7 @@ def _run(
     except BaseException as exc:
         bridge.close()
         if isinstance(exc, OpenralError) and summary.episodes:
-            raise type(exc)(f"{exc} ({len(summary.episodes)} finished episode(s) kept in {out})") from None
+            raise exc.amended(f"{exc} ({len(summary.episodes)} finished episode(s) kept in {out})") from None
         raise
     finally:
         stop.restore()

@@ -34,8 +34,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from openral_data.errors import EstopLatched, HalError, StaleState
 from openral_data.policies.base import PolicyAdapter
-from openral_data.producers.hal.base import EstopLatched, HalBase, HalError, JointCommand, StaleState, monotonic
+from openral_data.producers.hal.base import HalBase, JointCommand, monotonic
 from openral_data.producers.hal.operator import Command, Operator, ScriptedOperator
 from openral_data.producers.hal.safety import SafetyFilter
 from openral_data.record.bridge import DatasetBridge

@@ -215,7 +215,7 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
             except BaseException as exc:
                 bridge.close()  # discards the episode in flight; finished episodes are already durable
                 if isinstance(exc, OpenralError) and first + len(records):
-                    raise type(exc)(f"{exc} ({first + len(records)} finished episode(s) kept in {out})") from None
+                    raise exc.amended(f"{exc} ({first + len(records)} finished episode(s) kept in {out})") from None
                 raise
             finally:
                 stop.restore()

@@ -16,23 +16,11 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 import numpy.typing as npt
 
-from openral_data.errors import OpenralError
+from openral_data.errors import EstopLatched, HalError, StaleState
 from openral_data.producers.hal.sensors import CameraSensor
 from openral_data.schemas.robot import RobotManifest
 
 F32 = npt.NDArray[np.float32]
-
-
-class HalError(OpenralError):
-    """The robot cannot do what was asked (not connected, bus fault, bad command)."""
-
-
-class EstopLatched(HalError):
-    """An emergency stop is latched: commands are refused until `reset_estop()`."""
-
-
-class StaleState(HalError):
-    """The newest joint reading is older than the staleness limit."""
 
 
 @dataclass(frozen=True)

@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from openral_data.errors import ConfigError
-from openral_data.producers.hal.base import HalBase, HalError, JointCommand, RobotState, monotonic
+from openral_data.errors import ConfigError, HalError
+from openral_data.producers.hal.base import HalBase, JointCommand, RobotState, monotonic
 from openral_data.schemas.hal import HardwareConfig
 from openral_data.schemas.robot import RobotManifest
 

@@ -69,7 +69,7 @@ def record_parallel(
         if not kept:
             shutil.rmtree(workdir, ignore_errors=True)
         elif isinstance(exc, OpenralError):
-            raise type(exc)(f"{exc} ({kept_note(workdir, kept)})") from None
+            raise exc.amended(f"{exc} ({kept_note(workdir, kept)})") from None
         raise
     shutil.rmtree(workdir, ignore_errors=True)
     return ParallelSummary(
