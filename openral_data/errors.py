@@ -122,8 +122,11 @@ class DatasetBusy(DatasetError):
 
     default_code = "dataset.busy"
 
-    def __init__(self, root: Path, holder: str) -> None:
-        super().__init__(f"{root}: another writer holds this dataset ({holder}); wait for it or stop it")
+    def __init__(self, root: Path, holder: str, *, to_edit: bool = False) -> None:
+        if to_edit:
+            super().__init__(f"{root}: a writer is recording into this dataset ({holder}); edit it once it is done")
+        else:
+            super().__init__(f"{root}: another writer holds this dataset ({holder}); wait for it or stop it")
         self.root = root
         self.holder = holder
 

@@ -13,7 +13,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from openral_data import paths
-from openral_data.errors import OpenralError
+from openral_data.errors import OpenralError, UsageError
 from openral_data.record import registry
 
 app = typer.Typer(
@@ -74,7 +74,7 @@ def record(
         from openral_data.cli.hal import run_hal_record
 
         if resume or workers != 1:
-            raise OpenralError("--resume/--workers: not available with --hal (one robot, one new dataset)")
+            raise UsageError("--resume/--workers: not available with --hal (one robot, one new dataset)")
 
         run_hal_record(
             hal, mode, rskill, fps, scene if scene != paths.DEFAULT_SCENE else None, n_episodes, max_steps, seed,
@@ -85,7 +85,7 @@ def record(
                 "--staleness": staleness, "--port": port}  # fmt: skip
     given = [name for name, value in hal_only.items() if value]
     if given:
-        raise OpenralError(f"{', '.join(given)}: only with --hal ROBOT_ID (a scene records at its own fps)")
+        raise UsageError(f"{', '.join(given)}: only with --hal ROBOT_ID (a scene records at its own fps)")
     from openral_data.record.sim import RecordOptions, RecordSummary
     from openral_data.record.sim import record as run_record
     from openral_data.record.sinks import parse_formats

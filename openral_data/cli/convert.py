@@ -8,7 +8,7 @@ from typing import cast
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from openral_data.errors import OpenralError
+from openral_data.errors import NotFound, OutputExists, UsageError
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.mcap import IMAGE_FORMATS, McapConfig
 from openral_data.schemas.mapping import Mapping, load_mapping
@@ -16,7 +16,7 @@ from openral_data.schemas.mapping import Mapping, load_mapping
 
 def _check_dst(dst: Path) -> None:
     if dst.exists() and (not dst.is_dir() or any(dst.iterdir())):
-        raise OpenralError(f"{dst}: DST exists and is not empty; refusing to overwrite it")
+        raise OutputExists(f"{dst}: DST exists and is not empty; refusing to overwrite it")
 
 
 def _bar(console: Console, what: str, unit: str) -> Progress:
@@ -45,13 +45,13 @@ def run_convert(
     from openral_data.convert.to_mcap import export_mcap, is_lerobot_dataset
 
     if not src.exists():
-        raise OpenralError(f"{src}: no such file or directory")
+        raise NotFound(f"{src}: no such file or directory")
     _check_dst(dst)
     if is_lerobot_dataset(src):
         if mapping_path is not None:
-            raise OpenralError(f"{src}: is a LeRobot dataset (exported to MCAP); --mapping applies to bags only")
+            raise UsageError(f"{src}: is a LeRobot dataset (exported to MCAP); --mapping applies to bags only")
         if image_format not in IMAGE_FORMATS:
-            raise OpenralError(f"--image-format: {image_format!r} is not one of {', '.join(IMAGE_FORMATS)}")
+            raise UsageError(f"--image-format: {image_format!r} is not one of {', '.join(IMAGE_FORMATS)}")
         config = McapConfig(image_format=image_format)
         with _bar(err, "exporting", "frames") as bar:
             task = bar.add_task("export", total=None)
@@ -71,7 +71,7 @@ def run_convert(
         )
         return
     if episodes is not None:
-        raise OpenralError("--episodes selects episodes of a LeRobot dataset; SRC is a bag")
+        raise UsageError("--episodes selects episodes of a LeRobot dataset; SRC is a bag")
     from openral_data.convert.own_bags import own_mapping
     from openral_data.convert.sources import find_bags
     from openral_data.convert.to_lerobot import convert_bags

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import duckdb
 
-from openral_data.errors import OpenralError
+from openral_data.errors import OutputExists, QueryError, UsageError
 from openral_data.metrics import report as rep
 from openral_data.metrics.render import FORMATS, render
 from openral_data.metrics.sources import resolve
@@ -27,33 +27,33 @@ class StatsOptions:
 
 def run_stats(opts: StatsOptions) -> str:
     if opts.fmt not in FORMATS:
-        raise OpenralError(f"--format: {opts.fmt!r}; valid: {', '.join(FORMATS)}")
+        raise UsageError(f"--format: {opts.fmt!r}; valid: {', '.join(FORMATS)}")
     if not opts.paths:
-        raise OpenralError("stats: give at least one dataset or results directory")
+        raise UsageError("stats: give at least one dataset or results directory")
     by = rep.parse_by(opts.by)
     if opts.plot is not None:
         if opts.plot.suffix.lower() != ".png":
-            raise OpenralError(f"{opts.plot}: --plot writes a PNG; use a .png file name")
+            raise UsageError(f"{opts.plot}: --plot writes a PNG; use a .png file name")
         if opts.plot.exists():
-            raise OpenralError(f"{opts.plot}: --plot file exists; refusing to overwrite it")
+            raise OutputExists(f"{opts.plot}: --plot file exists; refusing to overwrite it")
     datasets, results = resolve(opts.paths)
     try:
         con = connect(datasets, results, opts.memory_limit)
     except duckdb.Error as exc:
-        raise OpenralError(f"duckdb: {_first_line(exc)}") from None
+        raise QueryError(f"duckdb: {_first_line(exc)}") from None
     try:
         if opts.sql is not None:
             return render([rep.run_sql(con, opts.sql)], opts.fmt)
         report = rep.build_report(con, datasets, results, by, check_health=opts.health)
         if opts.plot is not None:
             if not datasets:
-                raise OpenralError("--plot needs at least one dataset")
+                raise UsageError("--plot needs at least one dataset")
             from openral_data.metrics.plot import save_plot
 
             save_plot(opts.plot, report, con, datasets)
         return render(report.tables, opts.fmt)
     except duckdb.Error as exc:  # e.g. a truncated or corrupt parquet file: DuckDB's message names it
-        raise OpenralError(f"duckdb: {_first_line(exc)}") from None
+        raise QueryError(f"duckdb: {_first_line(exc)}") from None
     finally:
         con.close()
 

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import duckdb
 
-from openral_data.errors import OpenralError
+from openral_data.errors import UsageError
 from openral_data.formats.lerobot_v3.features import ACTION
 from openral_data.metrics.report import GROUP_NUMBERS, Report
 from openral_data.metrics.sources import DatasetSource
@@ -48,7 +48,7 @@ def save_plot(path: Path, report: Report, con: duckdb.DuckDBPyConnection, datase
     import matplotlib.pyplot as plt
 
     if path.suffix.lower() != ".png":
-        raise OpenralError(f"{path}: --plot writes a PNG; use a .png file name")
+        raise UsageError(f"{path}: --plot writes a PNG; use a .png file name")
     groups = report.table("groups")
     recs = [r for r in groups.records() if r["success_known"]]
     keys = [c for c in groups.columns if c not in GROUP_NUMBERS]

@@ -11,7 +11,7 @@ from datetime import datetime
 from pathlib import Path
 
 from openral_data import __version__, paths
-from openral_data.errors import ConfigError, OpenralError
+from openral_data.errors import ConfigError, OpenralError, OutputExists, UsageError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.mcap import McapSink
@@ -110,13 +110,13 @@ def fresh_out(prefix: str) -> Path:
 
 def check_out(out: Path) -> None:
     if out.exists() and not out.is_dir():
-        raise OpenralError(f"{out}: --out exists and is not a directory")
+        raise OutputExists(f"{out}: --out exists and is not a directory")
     if out.is_dir() and any(out.iterdir()):
         if (out / "meta" / "info.json").exists() or (out / ".openral" / "record.json").exists():
-            raise OpenralError(
+            raise OutputExists(
                 f"{out}: --out already holds a dataset; refusing to overwrite it (choose a new --out, or --resume)"
             )
-        raise OpenralError(f"{out}: --out exists, is not empty and is not a dataset; refusing to write there")
+        raise OutputExists(f"{out}: --out exists, is not empty and is not a dataset; refusing to write there")
 
 
 def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSummary:
@@ -145,11 +145,11 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
     base_seed = opts.seed if opts.seed is not None else scene.seed
     max_steps = opts.max_steps if opts.max_steps is not None else scene.task.max_steps
     if n_episodes < 1:
-        raise OpenralError(f"--n-episodes must be >= 1, got {n_episodes}")
+        raise UsageError(f"--n-episodes must be >= 1, got {n_episodes}")
     if max_steps < 1:
-        raise OpenralError(f"--max-steps must be >= 1, got {max_steps}")
+        raise UsageError(f"--max-steps must be >= 1, got {max_steps}")
     if base_seed < 0:
-        raise OpenralError(f"--seed must be >= 0, got {base_seed}")
+        raise UsageError(f"--seed must be >= 0, got {base_seed}")
     from openral_data.record.sinks import check_formats, make_sinks
 
     check_formats(opts.formats, opts.image_format)

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from openral_data.errors import OpenralError
+from openral_data.errors import ReplayError
 from openral_data.replay.outcome import EpisodeOutcome, first_exceeding, object_error
 from openral_data.replay.recorded import RecordedEpisode
 from openral_data.types import Observation, SimRollout, StepResult
@@ -36,7 +36,7 @@ class ActionReplayer:
     def replay(self, episode: RecordedEpisode, on_step: StepHook | None = None) -> EpisodeOutcome:
         """Replay one episode. `on_step` sees every step as `record` does, e.g. to re-record it."""
         if episode.initial_state is None:
-            raise OpenralError(
+            raise ReplayError(
                 f"episode {episode.index}: meta/episodes: openral.initial_state: not recorded, cannot restore its start"
             )
         n = episode.length
@@ -45,7 +45,7 @@ class ActionReplayer:
         obs = self.env.reset_to(episode.initial_state)
         obj_err = object_error(episode.initial_state.get("object_poses"), obs.privileged)
         if obs.state.shape != episode.states.shape[1:]:
-            raise OpenralError(
+            raise ReplayError(
                 f"episode {episode.index}: the rebuilt scene produces a state of {obs.state.shape[0]} dims, the "
                 f"dataset recorded {episode.states.shape[1]}"
             )

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from openral_data.errors import OpenralError
+from openral_data.errors import ReplayError
 from openral_data.policies.base import PolicyAdapter
 from openral_data.replay.actions import StepHook
 from openral_data.replay.outcome import EpisodeOutcome, first_exceeding, object_error
@@ -30,7 +30,7 @@ class ClosedLoop:
 
     def run(self, episode: RecordedEpisode, on_step: StepHook | None = None) -> EpisodeOutcome:
         if episode.initial_state is None:
-            raise OpenralError(
+            raise ReplayError(
                 f"episode {episode.index}: meta/episodes: openral.initial_state: not recorded, cannot restore its start"
             )
         obs = self.env.reset_to(episode.initial_state)
