@@ -7,34 +7,44 @@ CLI is a bug. Messages are for people and may be reworded; `code` is for program
 Each class has a default `code`; a raise site may pass a finer ``code=`` that extends it (``"dataset"`` ->
 ``"dataset.missing"``). A subclass's code extends its parent's when the parent is not `OpenralError` itself.
 
-CODES (class default first, then the finer codes raise sites use):
+CODES (the class default, then the finer codes raise sites pass; docs/errors.md has the same table):
 
-========================  ==========================================================================
-code                      meaning
-========================  ==========================================================================
-error                     base class only; never raised bare
-usage                     a command-line option has a bad value or does not combine with another
-config                    a manifest, scene, mapping or pipeline file is invalid (names file and field)
-compat                    scene, robot, rSkill (or a dataset) do not fit together; raised before running
-contract                  a frame broke the rSkill's state/action contract or the declared cameras
-missing                   an input path does not exist
-output.exists             the output path already holds something; nothing is overwritten
-dataset                   a dataset on disk is unusable: ``dataset.invalid`` (malformed or not a dataset),
-                          ``dataset.missing`` (a file it names is gone), ``dataset.mismatch`` (does not
-                          match what is being appended/merged), ``dataset.interrupted`` (run doctor --repair)
-dataset.busy              another live process holds the dataset's writer lock
-episodes                  an episode selection is wrong: ``episodes.syntax``, ``episodes.range``,
-                          ``episodes.duplicate``, ``episodes.empty`` (selects none / every episode)
-bag                       a ROS bag cannot be converted: ``bag.invalid``, ``bag.topic``, ``bag.field``
-results                   a results directory is malformed (``results.invalid``)
-query                     DuckDB rejected a query or a setting
-replay                    a dataset cannot be replayed (no initial state, no scene, ...)
-executor                  a parallel executor (Ray, worker processes) is unavailable or failed
-write                     writing an output failed part-way
-hal                       the robot cannot do what was asked (not connected, bus fault, bad command)
-hal.estop                 an emergency stop is latched
-hal.stale                 the newest joint reading is older than the staleness limit
-========================  ==========================================================================
+====================  ================================================================================
+code                  meaning
+====================  ================================================================================
+error                 the base class only; never raised bare
+usage                 a command-line option has a bad value or does not combine with another
+config                a manifest, scene, mapping or pipeline file is invalid (names file and field)
+compat                scene, robot, rSkill (or a dataset) do not fit together; raised before running
+contract              a frame broke the rSkill's state/action contract or the declared cameras
+missing               an input path does not exist
+output.exists         the output path already holds something; nothing is overwritten
+dataset               a dataset on disk is unusable:
+dataset.invalid         malformed, or not a dataset at all
+dataset.incomplete      a file its metadata names is gone
+dataset.mismatch        it does not match what is appended to or merged with it
+dataset.unsupported     valid, but not a layout this command handles (not written by openral-data, ...)
+dataset.interrupted     a commit was interrupted; run ``openral-data doctor --repair``
+dataset.busy          another live process holds the dataset's writer lock (`DatasetBusy`)
+episodes              an episode selection is wrong:
+episodes.syntax         not an index or a range a-b
+episodes.range          outside the dataset's episodes
+episodes.duplicate      an episode is listed twice
+episodes.empty          the result would hold no episode
+bag                   a ROS bag cannot be converted:
+bag.invalid             unreadable, or not a bag of the expected kind
+bag.topic               a mapped topic is not in the bag
+bag.field               a mapped message field is missing or has the wrong type or length
+bag.empty               no frame could be filled; nothing was written
+results               a results directory (policy evaluation output) is malformed
+query                 DuckDB rejected a query or a setting
+replay                a dataset cannot be replayed (no initial state, no scene to rebuild, ...)
+executor              a parallel recording's executor is unavailable or a worker failed
+write                 writing an output failed part-way
+hal                   the robot cannot do what was asked (not connected, bus fault, bad command)
+hal.estop             an emergency stop is latched (`EstopLatched`)
+hal.stale             the newest joint reading is older than the staleness limit (`StaleState`)
+====================  ================================================================================
 
 `EncoderError` is internal (a `RuntimeError`, not user-facing): a video encoder failed.
 """
