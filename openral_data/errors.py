@@ -41,7 +41,13 @@ query                 DuckDB rejected a query or a setting
 replay                a dataset cannot be replayed (no initial state, no scene to rebuild, ...)
 executor              a parallel recording's executor is unavailable or a worker failed
 write                 writing an output failed part-way
-hal                   the robot cannot do what was asked (not connected, bus fault, bad command)
+hal                   the robot cannot do what was asked:
+hal.disconnected        used before connect()
+hal.connect             cannot connect to the hardware (port, bus)
+hal.calibration         the motors' calibration differs from the calibration file
+hal.state               the driver returned a state of the wrong shape
+hal.command             an action of the wrong shape or with non-finite values
+hal.camera              a camera delivered no fresh sample for too long; the episode is abandoned
 hal.estop             an emergency stop is latched (`EstopLatched`)
 hal.stale             the newest joint reading is older than the staleness limit (`StaleState`)
 ====================  ================================================================================

@@ -164,7 +164,8 @@ class FixedRateLoop:
                     dead = sorted(n for n, c in rep.stale.items() if c)
                     raise HalError(
                         f"robot {hal.robot.name}: no fresh sample from {', '.join(dead)} for {cfg.stale_abort:.1f} s "
-                        f"(staleness limit {cfg.staleness:.3f} s); episode {episode} abandoned"
+                        f"(staleness limit {cfg.staleness:.3f} s); episode {episode} abandoned",
+                        code="hal.camera",
                     )
                 if row is not None:
                     if pending is not None:

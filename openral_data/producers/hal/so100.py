@@ -73,12 +73,15 @@ class So100Hal(HalBase):
         try:
             self.driver.connect(calibrate=False)
         except (OSError, ConnectionError, RuntimeError) as exc:
-            raise HalError(f"{self.source}: hardware.port: cannot connect to {self.hardware.port}: {exc}") from None
+            raise HalError(
+                f"{self.source}: hardware.port: cannot connect to {self.hardware.port}: {exc}", code="hal.connect"
+            ) from None
         if not self.driver.is_calibrated:
             self.driver.disconnect()
             raise HalError(
                 f"{self.source}: hardware.calibration_dir: the motors' calibration differs from {path} "
-                "(recalibrate with lerobot-calibrate, or point calibration_dir at this arm's file)"
+                "(recalibrate with lerobot-calibrate, or point calibration_dir at this arm's file)",
+                code="hal.calibration",
             )
 
     def _disconnect(self) -> None:
