@@ -19,6 +19,7 @@ from sim_suite_helpers import (
 )
 from suite_helpers import replay_reproduces
 
+# ConfigError raises are matched by message on purpose: the file and field it names are the point
 from openral_data.errors import ConfigError
 from openral_data.record.sim import RecordOptions, record
 

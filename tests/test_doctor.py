@@ -233,8 +233,9 @@ def test_repair_refuses_while_a_writer_holds_the_lock(healthy: Path, tmp_path: P
     root = shutil.copytree(healthy, tmp_path / "ds")
     with DatasetLock(root, "a test writer"):
         assert "writer.active" in {f.code for f in check(root)}
-        with pytest.raises(DatasetBusy, match="a test writer"):
+        with pytest.raises(DatasetBusy) as excinfo:
             repair(root)
+        assert excinfo.value.code == "dataset.busy" and "a test writer" in excinfo.value.holder
     assert check(root) == []
 
 

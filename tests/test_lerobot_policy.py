@@ -14,6 +14,7 @@ from conftest import write_yaml
 from lerobot_checkpoint import make_act_checkpoint, make_diffusion_checkpoint
 from replay_helpers import project_home, record_mock, record_push
 
+# CompatibilityError and ConfigError raises are matched by message on purpose: the file and field it names are the point
 from openral_data.errors import CompatibilityError, ConfigError
 from openral_data.formats.results import open_results
 from openral_data.policies.base import ChunkingPolicy

@@ -10,6 +10,7 @@ import pyarrow.parquet as pq
 import pytest
 from suite_helpers import build, project_point, replay_reproduces, rollout, small_scene_file, stats_groups
 
+# ConfigError raises are matched by message on purpose: the file and field it names are the point
 from openral_data.errors import ConfigError
 from openral_data.policies.metaworld_expert import policy_class_name
 from openral_data.producers.sim.metaworld import task_names

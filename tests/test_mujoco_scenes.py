@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from mujoco_helpers import FRONT, OVERHEAD, WRIST, joint_rskill, make_scene, project, red_mask, run_expert
 
+# CompatibilityError and ConfigError raises are matched by message on purpose: the file and field it names are the point
 from openral_data.errors import CompatibilityError, ConfigError
 from openral_data.record import registry
 from openral_data.types import SimRollout

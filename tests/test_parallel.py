@@ -12,7 +12,7 @@ from rosbags.highlevel import AnyReader
 from seeded_check import episode_seeds, verify_seeded_dataset
 
 from openral_data.doctor import check
-from openral_data.errors import OpenralError
+from openral_data.errors import OutputExists, UsageError
 from openral_data.record.parallel.run import record_parallel
 from openral_data.record.sim import RecordOptions, record
 
@@ -81,12 +81,16 @@ def test_workers_cli_and_errors(project: Path, tmp_path: Path) -> None:
     assert "2 (local)" in res.stdout
     assert [b for b, _, _ in _bag_episodes(out / "mcap")] == [f"episode_{k:06d}" for k in range(6)]
     assert not (out / "meta").exists()
-    with pytest.raises(OpenralError, match="--workers must be >= 1"):
+    # usage errors share one code; the option named in the wording tells them apart, so it is matched too
+    with pytest.raises(UsageError, match="--workers must be >= 1") as excinfo:
         record_parallel(RecordOptions(scene=str(scene), out=tmp_path / "x"), workers=0)
-    with pytest.raises(OpenralError, match="--executor"):
+    assert excinfo.value.code == "usage"
+    with pytest.raises(UsageError, match="--executor") as excinfo:
         record_parallel(RecordOptions(scene=str(scene), out=tmp_path / "y"), workers=2, executor="dask")
-    with pytest.raises(OpenralError, match="refusing"):
+    assert excinfo.value.code == "usage"
+    with pytest.raises(OutputExists) as excinfo:
         record_parallel(RecordOptions(scene=str(scene), out=out / "mcap"), workers=2)
+    assert excinfo.value.code == "output.exists"
 
 
 @pytest.mark.slow

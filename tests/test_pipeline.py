@@ -14,6 +14,7 @@ import pyarrow.parquet as pq
 import pytest
 from conftest import REPO, run_cli, write_yaml
 
+# ConfigError raises are matched by message on purpose: the file and field it names are the point
 from openral_data.errors import ConfigError
 from openral_data.pipeline.runner import run_pipeline
 from openral_data.pipeline.schema import load_pipeline

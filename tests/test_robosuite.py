@@ -19,6 +19,7 @@ from suite_helpers import (
     stats_groups,
 )
 
+# CompatibilityError and ConfigError raises are matched by message on purpose: the file and field it names are the point
 from openral_data.errors import CompatibilityError, ConfigError
 from openral_data.record import registry
 from openral_data.record.sim import RecordOptions, record

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 from conftest import REPO, run_cli
 
+# ConfigError raises are matched by message on purpose: the file and field it names are the point
 from openral_data.errors import ConfigError
 from openral_data.record import registry
 from openral_data.record.sim import RecordOptions, record
