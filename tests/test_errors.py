@@ -78,6 +78,36 @@ def test_no_module_raises_the_bare_base_class() -> None:
     assert bare == []
 
 
+def test_every_raise_site_code_extends_its_class_code() -> None:
+    classes = {cls.__name__: cls for cls in _subclasses(OpenralError)}
+    wrong, seen = [], 0
+    for path, module in _modules():
+        for node in ast.walk(module):
+            if not (isinstance(node, ast.Call) and _base_name(node.func) in classes):
+                continue
+            for kw in node.keywords:
+                if kw.arg == "code":
+                    seen += 1
+                    prefix = classes[str(_base_name(node.func))].default_code + "."
+                    if not (isinstance(kw.value, ast.Constant) and str(kw.value.value).startswith(prefix)):
+                        wrong.append(f"{path.relative_to(PACKAGE)}:{node.lineno}")
+    assert seen and wrong == []
+
+
+def test_docs_list_every_code() -> None:
+    docs = (PACKAGE.parent / "docs" / "errors.md").read_text()
+    codes = {cls.default_code for cls in _subclasses(OpenralError)}
+    for _, module in _modules():
+        codes |= {
+            str(kw.value.value)
+            for node in ast.walk(module)
+            if isinstance(node, ast.Call)
+            for kw in node.keywords
+            if kw.arg == "code" and isinstance(kw.value, ast.Constant)
+        }
+    assert sorted(code for code in codes if f"| `{code}` |" not in docs) == []
+
+
 def test_a_finer_code_extends_the_class_code() -> None:
     assert DatasetError("x").code == "dataset"
     assert DatasetError("x", code="dataset.invalid").code == "dataset.invalid"
