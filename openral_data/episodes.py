@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from openral_data.errors import OpenralError
+from openral_data.errors import EpisodeSelectionError
 
 
 def parse_episodes(text: str | None, total: int, where: str = "--episodes") -> list[int]:
@@ -15,10 +15,14 @@ def parse_episodes(text: str | None, total: int, where: str = "--episodes") -> l
             lo, _, hi = part.partition("-")
             first, last = int(lo), int(hi) if hi else int(lo)
         except ValueError:
-            raise OpenralError(f"{where}: {part!r} is not an episode index or a range a-b") from None
+            raise EpisodeSelectionError(
+                f"{where}: {part!r} is not an episode index or a range a-b", code="episodes.syntax"
+            ) from None
         if first > last or first < 0 or last >= total:
-            raise OpenralError(f"{where}: {part!r} is outside the dataset's episodes 0..{total - 1}")
+            raise EpisodeSelectionError(
+                f"{where}: {part!r} is outside the dataset's episodes 0..{total - 1}", code="episodes.range"
+            )
         chosen.extend(range(first, last + 1))
     if len(set(chosen)) != len(chosen):
-        raise OpenralError(f"{where}: an episode is listed twice")
+        raise EpisodeSelectionError(f"{where}: an episode is listed twice", code="episodes.duplicate")
     return chosen

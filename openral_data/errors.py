@@ -1,19 +1,211 @@
-"""Errors a user can cause. The CLI prints them as one line and exits non-zero; anything else is a bug."""
+"""Every exception openral-data defines, each user-facing one with a stable `code`.
+
+A user-facing error is an `OpenralError`: the CLI prints it as one line, ``error: <message>``, and exits 2; the
+message names the file (or option) and the field first (``<file>: <field>: <what>``). Anything else escaping the
+CLI is a bug. Messages are for people and may be reworded; `code` is for programs and tests and does not change.
+
+Each class has a default `code`; a raise site may pass a finer ``code=`` that extends it (``"dataset"`` ->
+``"dataset.missing"``). A subclass's code extends its parent's when the parent is not `OpenralError` itself.
+
+CODES (the class default, then the finer codes raise sites pass; docs/errors.md has the same table):
+
+====================  ================================================================================
+code                  meaning
+====================  ================================================================================
+error                 the base class only; never raised bare
+usage                 a command-line option has a bad value or does not combine with another
+config                a manifest, scene, mapping or pipeline file is invalid (names file and field)
+compat                scene, robot, rSkill (or a dataset) do not fit together; raised before running
+contract              a frame broke the rSkill's state/action contract or the declared cameras
+missing               an input path does not exist
+output.exists         the output path already holds something; nothing is overwritten
+dataset               a dataset on disk is unusable:
+dataset.invalid         malformed, or not a dataset at all
+dataset.incomplete      a file its metadata names is gone
+dataset.mismatch        it does not match what is appended to or merged with it
+dataset.unsupported     valid, but not a layout this command handles (not written by openral-data, ...)
+dataset.interrupted     a commit was interrupted; run ``openral-data doctor --repair``
+dataset.busy          another live process holds the dataset's writer lock (`DatasetBusy`)
+episodes              an episode selection is wrong:
+episodes.syntax         not an index or a range a-b
+episodes.range          outside the dataset's episodes
+episodes.duplicate      an episode is listed twice
+episodes.empty          the result would hold no episode
+bag                   a ROS bag cannot be converted:
+bag.invalid             unreadable, or not a bag of the expected kind
+bag.topic               a mapped topic is not in the bag
+bag.field               a mapped message field is missing or has the wrong type or length
+bag.empty               no frame could be filled; nothing was written
+results               a results directory (policy evaluation output) is malformed
+query                 DuckDB rejected a query or a setting
+replay                a dataset cannot be replayed (no initial state, no scene to rebuild, ...)
+executor              a parallel recording's executor is unavailable or a worker failed
+write                 writing an output failed part-way
+hal                   the robot cannot do what was asked:
+hal.disconnected        used before connect()
+hal.connect             cannot connect to the hardware (port, bus)
+hal.calibration         the motors' calibration differs from the calibration file
+hal.state               the driver returned a state of the wrong shape
+hal.command             an action of the wrong shape or with non-finite values
+hal.camera              a camera delivered no fresh sample for too long; the episode is abandoned
+hal.estop             an emergency stop is latched (`EstopLatched`)
+hal.stale             the newest joint reading is older than the staleness limit (`StaleState`)
+====================  ================================================================================
+
+`EncoderError` is internal (a `RuntimeError`, not user-facing): a video encoder failed.
+"""
 
 from __future__ import annotations
+
+import copy
+from pathlib import Path
+from typing import Any, ClassVar, Self
+
+
+def _rebuild(cls: type[OpenralError], args: tuple[Any, ...]) -> OpenralError:
+    err = cls.__new__(cls)
+    err.args = args
+    return err
 
 
 class OpenralError(Exception):
     """A user-facing error: bad input, an incompatible combination, an unusable output path."""
 
+    default_code: ClassVar[str] = "error"
+
+    def __init__(self, message: str, *, code: str | None = None) -> None:
+        super().__init__(message)
+        cls_code = type(self).default_code
+        if code is not None and not code.startswith(cls_code + "."):
+            raise ValueError(f"{type(self).__name__}: code {code!r} does not extend {cls_code!r}")
+        self.code: str = code or cls_code
+
+    def amended(self, message: str) -> Self:
+        """The same error (class, code, facts) with a reworded message, e.g. with a note appended."""
+        err = copy.copy(self)
+        err.args = (message,)
+        return err
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        # pickled across worker processes: keep class, message, code and any typed facts without re-running __init__
+        return (_rebuild, (type(self), self.args), self.__dict__)
+
+
+class UsageError(OpenralError):
+    """A command-line option has a bad value, or two options do not combine."""
+
+    default_code = "usage"
+
 
 class ConfigError(OpenralError):
     """A manifest or scene file is invalid. The message names the file and the field."""
+
+    default_code = "config"
+
+
+class CompatibilityError(OpenralError):
+    """Scene, robot and rSkill do not fit together; raised before the first episode."""
+
+    default_code = "compat"
 
 
 class ContractViolation(OpenralError):
     """A frame did not satisfy the rSkill's state/action contract or the declared cameras."""
 
+    default_code = "contract"
 
-class CompatibilityError(OpenralError):
-    """Scene, robot and rSkill do not fit together; raised before the first episode."""
+
+class NotFound(OpenralError):
+    """An input path given on the command line does not exist."""
+
+    default_code = "missing"
+
+
+class OutputExists(OpenralError):
+    """The output path already holds something; openral-data never overwrites it."""
+
+    default_code = "output.exists"
+
+
+class DatasetError(OpenralError):
+    """A dataset on disk cannot be used as it is: malformed, incomplete, or not matching what is asked of it."""
+
+    default_code = "dataset"
+
+
+class DatasetBusy(DatasetError):
+    """Another live process is writing the dataset (it holds ``DATASET/.openral/lock``)."""
+
+    default_code = "dataset.busy"
+
+    def __init__(self, root: Path, holder: str, *, to_edit: bool = False) -> None:
+        if to_edit:
+            super().__init__(f"{root}: a writer is recording into this dataset ({holder}); edit it once it is done")
+        else:
+            super().__init__(f"{root}: another writer holds this dataset ({holder}); wait for it or stop it")
+        self.root = root
+        self.holder = holder
+
+
+class EpisodeSelectionError(OpenralError):
+    """An episode selection (``--episodes 0,3-5``) is malformed, out of range, or selects nothing usable."""
+
+    default_code = "episodes"
+
+
+class BagError(OpenralError):
+    """A ROS bag cannot be read or does not carry what the mapping asks for."""
+
+    default_code = "bag"
+
+
+class ResultsError(OpenralError):
+    """A results directory (policy-evaluation output) is malformed."""
+
+    default_code = "results"
+
+
+class QueryError(OpenralError):
+    """DuckDB rejected a query (``--sql``, ``--by``) or a setting (``--memory-limit``)."""
+
+    default_code = "query"
+
+
+class ReplayError(OpenralError):
+    """A dataset cannot be replayed: no recorded initial state, no scene to rebuild, a policy ran out of actions."""
+
+    default_code = "replay"
+
+
+class ExecutorError(OpenralError):
+    """A parallel recording's executor is unavailable or a worker failed."""
+
+    default_code = "executor"
+
+
+class WriteError(OpenralError):
+    """Writing an output failed part-way (the episode in flight is discarded)."""
+
+    default_code = "write"
+
+
+class HalError(OpenralError):
+    """The robot cannot do what was asked (not connected, bus fault, bad command)."""
+
+    default_code = "hal"
+
+
+class EstopLatched(HalError):
+    """An emergency stop is latched: commands are refused until `reset_estop()`."""
+
+    default_code = "hal.estop"
+
+
+class StaleState(HalError):
+    """The newest joint reading is older than the staleness limit."""
+
+    default_code = "hal.stale"
+
+
+class EncoderError(RuntimeError):
+    """Internal: a video encoder failed or was misused. Not user-facing (a bug or a broken codec install)."""

@@ -9,7 +9,7 @@ import typer
 
 from openral_data.cli.choices import CodecChoice
 from openral_data.cli.terminal import print_rows, progress_bar
-from openral_data.errors import OpenralError
+from openral_data.errors import NotFound, OutputExists, UsageError
 
 if TYPE_CHECKING:
     from openral_data.formats.lerobot_v3.video import Codec
@@ -18,7 +18,7 @@ if TYPE_CHECKING:
 
 def _check_dst(dst: Path) -> None:
     if dst.exists() and (not dst.is_dir() or any(dst.iterdir())):
-        raise OpenralError(f"{dst}: DST exists and is not empty; refusing to overwrite it")
+        raise OutputExists(f"{dst}: DST exists and is not empty; refusing to overwrite it")
 
 
 def convert(
@@ -45,13 +45,13 @@ def _convert(
     from openral_data.schemas.mapping import load_mapping
 
     if not src.exists():
-        raise OpenralError(f"{src}: no such file or directory")
+        raise NotFound(f"{src}: no such file or directory")
     _check_dst(dst)
     if is_lerobot_dataset(src):
         if mapping_path is not None:
-            raise OpenralError(f"{src}: is a LeRobot dataset (exported to MCAP); --mapping applies to bags only")
+            raise UsageError(f"{src}: is a LeRobot dataset (exported to MCAP); --mapping applies to bags only")
         if image_format not in IMAGE_FORMATS:
-            raise OpenralError(f"--image-format: {image_format!r} is not one of {', '.join(IMAGE_FORMATS)}")
+            raise UsageError(f"--image-format: {image_format!r} is not one of {', '.join(IMAGE_FORMATS)}")
         config = McapConfig(image_format=image_format)
         with progress_bar("exporting", "frames") as bar:
             task = bar.add_task("export", total=None)
@@ -71,7 +71,7 @@ def _convert(
         )
         return
     if episodes is not None:
-        raise OpenralError("--episodes selects episodes of a LeRobot dataset; SRC is a bag")
+        raise UsageError("--episodes selects episodes of a LeRobot dataset; SRC is a bag")
     from openral_data.convert.own_bags import own_mapping
     from openral_data.convert.sources import find_bags
     from openral_data.convert.to_lerobot import convert_bags

@@ -8,7 +8,7 @@ from typing import cast
 import typer
 
 from openral_data.cli.terminal import INTERRUPTED_RECORDING, err_console, print_line, print_rows
-from openral_data.errors import OpenralError
+from openral_data.errors import UsageError
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.producers.hal.operator import HELP
 from openral_data.record.hal import HalRecordOptions, Mode, record_hal
@@ -36,9 +36,9 @@ def run_hal_record(
     from openral_data.record.sinks import parse_formats
 
     if mode not in ("sim", "real"):
-        raise OpenralError(f"--mode: {mode!r}; valid: sim, real")
+        raise UsageError(f"--mode: {mode!r}; valid: sim, real")
     if safety is not None and safety not in ("clamp", "refuse"):
-        raise OpenralError(f"--safety: {safety!r}; valid: clamp, refuse")
+        raise UsageError(f"--safety: {safety!r}; valid: clamp, refuse")
     opts = HalRecordOptions(
         robot=robot,
         rskill=rskill,

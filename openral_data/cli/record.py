@@ -10,7 +10,7 @@ import typer
 from openral_data import paths
 from openral_data.cli.choices import CodecChoice
 from openral_data.cli.terminal import INTERRUPTED_RECORDING, err_console, print_rows, progress_bar
-from openral_data.errors import OpenralError
+from openral_data.errors import UsageError
 
 if TYPE_CHECKING:
     from openral_data.record.options import RecordSummary
@@ -52,7 +52,7 @@ def record(
         from openral_data.cli.hal import run_hal_record
 
         if resume or workers != 1:
-            raise OpenralError("--resume/--workers: not available with --hal (one robot, one new dataset)")
+            raise UsageError("--resume/--workers: not available with --hal (one robot, one new dataset)")
 
         run_hal_record(
             hal, mode, rskill, fps, scene if scene != paths.DEFAULT_SCENE else None, n_episodes, max_steps, seed,
@@ -63,7 +63,7 @@ def record(
                 "--staleness": staleness, "--port": port}  # fmt: skip
     given = [name for name, value in hal_only.items() if value]
     if given:
-        raise OpenralError(f"{', '.join(given)}: only with --hal ROBOT_ID (a scene records at its own fps)")
+        raise UsageError(f"{', '.join(given)}: only with --hal ROBOT_ID (a scene records at its own fps)")
     from openral_data.record.options import RecordOptions
     from openral_data.record.sim import record as run_record
     from openral_data.record.sinks import parse_formats

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from rosbags.highlevel import AnyReader
 
-from openral_data.errors import OpenralError
+from openral_data.errors import BagError
 from openral_data.formats.mcap import messages as m
 from openral_data.schemas.mapping import Mapping
 
@@ -18,8 +18,9 @@ def own_mapping(bag: Path) -> Mapping:
         topics = {c.topic: c for c in reader.connections}
         marker = topics.get(m.EPISODE)
         if marker is None:
-            raise OpenralError(
-                f"{bag}: not written by openral-data (no {m.EPISODE} topic); pass --mapping mapping.yaml"
+            raise BagError(
+                f"{bag}: not written by openral-data (no {m.EPISODE} topic); pass --mapping mapping.yaml",
+                code="bag.invalid",
             )
         start = None
         for conn, _, raw in reader.messages(connections=[marker]):
@@ -28,12 +29,12 @@ def own_mapping(bag: Path) -> Mapping:
                 start = event
                 break
     if start is None:
-        raise OpenralError(f"{bag}: {m.EPISODE} has no start marker; pass --mapping mapping.yaml")
+        raise BagError(f"{bag}: {m.EPISODE} has no start marker; pass --mapping mapping.yaml", code="bag.invalid")
     cameras = {}
     for name in start["cameras"]:
         found = [t for t in (m.camera_topic(name, "jpeg"), m.camera_topic(name, "raw")) if t in topics]
         if not found:
-            raise OpenralError(f"{bag}: no image topic for camera {name!r}")
+            raise BagError(f"{bag}: no image topic for camera {name!r}", code="bag.topic")
         cameras[name] = found[0]
     # bags written before the start marker said which outcomes are known always carried reward and success
     outcomes = start.get("outcomes") or {"reward": True, "success": True}

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from openral_data.errors import OpenralError
+from openral_data.errors import BagError, NotFound
 from openral_data.schemas.mapping import VectorSource
 
 
@@ -25,15 +25,17 @@ def is_bag(path: Path) -> bool:
 
 def find_bags(src: Path) -> list[Path]:
     if not src.exists():
-        raise OpenralError(f"{src}: no such file or directory")
+        raise NotFound(f"{src}: no such file or directory")
     if is_bag(src):
         return [src]
     if src.is_dir():
         bags = sorted(p for p in src.iterdir() if not p.name.startswith(".") and is_bag(p))
         if bags:
             return bags
-    raise OpenralError(
-        f"{src}: not a bag: expected a ROS 1 .bag, a plain .mcap, a rosbag2 folder (metadata.yaml) or a folder of those"
+    raise BagError(
+        f"{src}: not a bag: expected a ROS 1 .bag, a plain .mcap, a rosbag2 folder (metadata.yaml) "
+        "or a folder of those",
+        code="bag.invalid",
     )
 
 
@@ -42,7 +44,9 @@ def field_value(msg: Any, path: str, where: str) -> Any:
     for part in path.split("."):
         if not hasattr(value, part):
             fields = [k for k in getattr(type(value), "__dataclass_fields__", {})]
-            raise OpenralError(f"{where}: message has no field {path!r} (fields here: {', '.join(fields) or '-'})")
+            raise BagError(
+                f"{where}: message has no field {path!r} (fields here: {', '.join(fields) or '-'})", code="bag.field"
+            )
         value = getattr(value, part)
     return value
 
@@ -61,28 +65,32 @@ class VectorReader:
         try:
             values: npt.NDArray[np.float64] = np.asarray(raw, dtype=np.float64).reshape(-1)
         except (TypeError, ValueError):
-            raise OpenralError(f"{self.where}: field is {type(raw).__name__}, not numbers") from None
+            raise BagError(f"{self.where}: field is {type(raw).__name__}, not numbers", code="bag.field") from None
         if self.source.joints is not None:
             names = tuple(str(n) for n in field_value(msg, "name", self.where))
             if self._index_cache is None or self._index_cache[0] != names:
                 missing = [j for j in self.source.joints if j not in names]
                 if missing:
-                    raise OpenralError(f"{self.where}: joints {missing} not in the message's names {list(names)}")
+                    raise BagError(
+                        f"{self.where}: joints {missing} not in the message's names {list(names)}", code="bag.field"
+                    )
                 self._index_cache = (names, [names.index(j) for j in self.source.joints])
             idx = self._index_cache[1]
             if len(values) < len(names):
-                raise OpenralError(f"{self.where}: {len(values)} values for {len(names)} joint names")
+                raise BagError(f"{self.where}: {len(values)} values for {len(names)} joint names", code="bag.field")
             values = np.asarray(values[idx])
         if self.dim is None:
             self.dim = len(values)
         elif len(values) != self.dim:
-            raise OpenralError(f"{self.where}: vector length changed from {self.dim} to {len(values)}")
+            raise BagError(f"{self.where}: vector length changed from {self.dim} to {len(values)}", code="bag.field")
         return values.astype(np.float32)
 
     def names(self) -> list[str]:
         if self.source.names is not None:
             if self.dim is not None and len(self.source.names) != self.dim:
-                raise OpenralError(f"{self.where}: names has {len(self.source.names)} entries for {self.dim} values")
+                raise BagError(
+                    f"{self.where}: names has {len(self.source.names)} entries for {self.dim} values", code="bag.field"
+                )
             return list(self.source.names)
         if self.source.joints is not None:
             return list(self.source.joints)

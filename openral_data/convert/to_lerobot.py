@@ -24,7 +24,7 @@ from rosbags.typesys import Stores, get_typestore
 
 from openral_data.convert.align import AlignedFrame, Aligner
 from openral_data.convert.sources import VectorReader, field_value, find_bags
-from openral_data.errors import OpenralError
+from openral_data.errors import BagError
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.mcap.messages import decode_image
@@ -244,7 +244,7 @@ def _open_reader(bag: Path) -> AnyReader:
     try:
         reader.open()
     except (AnyReaderError, OSError, ValueError) as exc:
-        raise OpenralError(f"{bag}: cannot read bag: {exc}") from None
+        raise BagError(f"{bag}: cannot read bag: {exc}", code="bag.invalid") from None
     return reader
 
 
@@ -268,8 +268,10 @@ def convert_bags(
             present = {c.topic: c.msgtype for c in reader.connections}
             missing = [t for t in wanted + extra if t not in present]
             if missing:
-                raise OpenralError(
-                    f"{bag}: mapped topic(s) {', '.join(missing)} not in the bag (topics: {', '.join(sorted(present))})"
+                raise BagError(
+                    f"{bag}: mapped topic(s) {', '.join(missing)} not in the bag "
+                    f"(topics: {', '.join(sorted(present))})",
+                    code="bag.topic",
                 )
             for c in reader.connections:
                 if c.topic in wanted or c.topic in extra:
@@ -295,7 +297,9 @@ def convert_bags(
         conv.close()
     summary.seconds = time.perf_counter() - t0
     if not summary.episodes:
-        raise OpenralError(f"{src}: no frame could be filled; nothing was written (see the mapping's align settings)")
+        raise BagError(
+            f"{src}: no frame could be filled; nothing was written (see the mapping's align settings)", code="bag.empty"
+        )
     return summary
 
 
@@ -416,10 +420,10 @@ def _reward_value(msg: Any, mapping: Mapping) -> float:
     where = f"mapping: reward ({mapping.reward.topic}.{mapping.reward.field})"
     raw = field_value(msg, mapping.reward.field, where)
     if isinstance(raw, bool) or not isinstance(raw, (int, float, np.integer, np.floating)):
-        raise OpenralError(f"{where}: field is {type(raw).__name__}, not a number")
+        raise BagError(f"{where}: field is {type(raw).__name__}, not a number", code="bag.field")
     value = float(raw)
     if not np.isfinite(value):
-        raise OpenralError(f"{where}: non-finite reward {value}")
+        raise BagError(f"{where}: non-finite reward {value}", code="bag.field")
     return value
 
 
@@ -428,7 +432,7 @@ def _bool_value(msg: Any, mapping: Mapping) -> bool:
     where = f"mapping: success ({mapping.success.topic}.{mapping.success.field})"
     raw = field_value(msg, mapping.success.field, where)
     if not isinstance(raw, (bool, np.bool_)):
-        raise OpenralError(f"{where}: field is {type(raw).__name__}, not a bool")
+        raise BagError(f"{where}: field is {type(raw).__name__}, not a bool", code="bag.field")
     return bool(raw)
 
 

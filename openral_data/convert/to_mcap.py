@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from openral_data.episodes import parse_episodes
-from openral_data.errors import OpenralError
+from openral_data.errors import DatasetError
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX
 from openral_data.formats.lerobot_v3.frames import episode_frames
@@ -66,11 +66,14 @@ def export_mcap(
     features: dict[str, Any] = info["features"]
     for key in ("observation.state", "action"):
         if key not in features:
-            raise OpenralError(f"{src / layout.INFO_PATH}: features: no {key!r}; cannot export")
+            raise DatasetError(f"{src / layout.INFO_PATH}: features: no {key!r}; cannot export", code="dataset.invalid")
     cams = {k[len(IMAGE_PREFIX) :]: f for k, f in features.items() if k.startswith(IMAGE_PREFIX)}
     not_video = [k for k, f in cams.items() if f.get("dtype") != "video"]
     if not_video:
-        raise OpenralError(f"{src}: cameras {not_video} are not stored as video; only video datasets are supported")
+        raise DatasetError(
+            f"{src}: cameras {not_video} are not stored as video; only video datasets are supported",
+            code="dataset.unsupported",
+        )
     ep_table = read_episodes(src)
     rows = sorted(ep_table.to_pylist(), key=lambda r: int(r["episode_index"]))
     chosen = parse_episodes(episodes, len(rows))

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from openral_data.edit.source import EpisodeData
-from openral_data.errors import OpenralError
+from openral_data.errors import DatasetError
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator, Stats, merge_numeric
@@ -85,7 +85,10 @@ class EpisodeAssembler:
             if exact is not None and writer.total_episodes and not writer.closed:
                 frames = {name: acc.frames for name, acc in writer.image_stats.items()}
                 if {name: acc.frames for name, acc in exact.items()} != frames:
-                    raise OpenralError(f"{self.root}: camera histograms do not cover exactly the episodes written")
+                    raise DatasetError(
+                        f"{self.root}: camera histograms do not cover exactly the episodes written",
+                        code="dataset.invalid",
+                    )
                 writer.image_stats = dict(exact)  # the final metadata write uses the exact histograms
         finally:
             writer.close()

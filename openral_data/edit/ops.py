@@ -19,7 +19,7 @@ from typing import Any
 from openral_data.edit.assemble import EpisodeAssembler
 from openral_data.edit.source import SourceDataset
 from openral_data.episodes import parse_episodes
-from openral_data.errors import OpenralError
+from openral_data.errors import DatasetError, EpisodeSelectionError, OutputExists, UsageError
 from openral_data.formats.atomic import fsync_dir, fsync_tree
 from openral_data.formats.lerobot_v3.lock import DatasetLock
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
@@ -37,22 +37,25 @@ class EditResult:
 
 def check_new_output(out: Path) -> None:
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
-        raise OpenralError(f"{out}: output exists and is not empty; refusing to overwrite it")
+        raise OutputExists(f"{out}: output exists and is not empty; refusing to overwrite it")
 
 
 def check_compatible(first: SourceDataset, other: SourceDataset) -> None:
     """Refuse datasets that cannot share one episode table, naming the first field that differs."""
     where = f"{other.root}/meta/info.json"
     if other.fps != first.fps:
-        raise OpenralError(f"{where}: fps: {other.fps} differs from {first.root}'s {first.fps}")
+        raise DatasetError(
+            f"{where}: fps: {other.fps} differs from {first.root}'s {first.fps}", code="dataset.mismatch"
+        )
     if other.info.get("robot_type") != first.info.get("robot_type"):
-        raise OpenralError(
+        raise DatasetError(
             f"{where}: robot_type: {other.info.get('robot_type')!r} differs from "
-            f"{first.root}'s {first.info.get('robot_type')!r}"
+            f"{first.root}'s {first.info.get('robot_type')!r}",
+            code="dataset.mismatch",
         )
     field = _first_difference(first.features, other.features, "features")
     if field is not None:
-        raise OpenralError(f"{where}: {field}: differs from {first.root}")
+        raise DatasetError(f"{where}: {field}: differs from {first.root}", code="dataset.mismatch")
 
 
 def _first_difference(a: Any, b: Any, path: str) -> str | None:
@@ -82,7 +85,7 @@ def write_selection(
     `before_publish(staging)` may add files beside the dataset (e.g. `mcap/`) before the whole folder appears.
     """
     if not selection:
-        raise OpenralError(f"{out}: no episodes selected; a dataset needs at least one")
+        raise EpisodeSelectionError(f"{out}: no episodes selected; a dataset needs at least one", code="episodes.empty")
     first = selection[0][0]
     for src, _ in selection:
         if src is not first:
@@ -146,14 +149,16 @@ def delete(dataset: Path, episodes: str, out: Path | None, in_place: bool = Fals
     drop = set(parse_episodes(episodes, src.total))
     keep = [(src, e) for e in range(src.total) if e not in drop]
     if not keep:
-        raise OpenralError(f"--episodes: {episodes} would delete every episode of {dataset}")
+        raise EpisodeSelectionError(
+            f"--episodes: {episodes} would delete every episode of {dataset}", code="episodes.empty"
+        )
     if in_place == (out is not None):
-        raise OpenralError("--out: give either --out DIR or --in-place")
+        raise UsageError("--out: give either --out DIR or --in-place")
     if out is not None:
         return write_selection(keep, out, "delete")
     foreign = sorted(p.name for p in dataset.iterdir() if p.name not in _DATASET_ENTRIES)
     if foreign:
-        raise OpenralError(
+        raise UsageError(
             f"{dataset}: --in-place: {', '.join(foreign)} would not be carried over (editing writes meta/, data/ "
             "and videos/ only); use --out"
         )
@@ -177,7 +182,9 @@ def split(dataset: Path, episodes: str, out: Path, rest: Path | None = None) -> 
     if rest is not None:
         check_new_output(rest)
         if not others:
-            raise OpenralError(f"--rest: {episodes} selects every episode; nothing is left for {rest}")
+            raise EpisodeSelectionError(
+                f"--rest: {episodes} selects every episode; nothing is left for {rest}", code="episodes.empty"
+            )
     results = [write_selection([(src, e) for e in chosen], out, "split")]
     if rest is not None:
         results.append(write_selection([(src, e) for e in others], rest, "split"))
@@ -187,7 +194,7 @@ def split(dataset: Path, episodes: str, out: Path, rest: Path | None = None) -> 
 def merge(datasets: Sequence[Path], out: Path, order: str = "input") -> EditResult:
     """Concatenate datasets (same features); `order="seed"` sorts all episodes by their recording seed."""
     if not datasets:
-        raise OpenralError("merge: give at least one dataset")
+        raise UsageError("merge: give at least one dataset")
     sources = [SourceDataset(p) for p in datasets]
     for other in sources[1:]:
         check_compatible(sources[0], other)
@@ -195,7 +202,7 @@ def merge(datasets: Sequence[Path], out: Path, order: str = "input") -> EditResu
     if order == "seed":
         selection.sort(key=lambda se: se[0].seed(se[1]))  # stable: equal seeds keep input order
     elif order != "input":
-        raise OpenralError(f"--order: {order!r} is not one of input, seed")
+        raise UsageError(f"--order: {order!r} is not one of input, seed")
     return write_selection(selection, out, "merge", image_hist=summed_histograms(sources))
 
 

@@ -18,7 +18,7 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
-from openral_data.errors import OpenralError
+from openral_data.errors import DatasetBusy, DatasetError, EpisodeSelectionError, NotFound
 from openral_data.formats.jsonfile import read_json
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.clip import episode_clip
@@ -55,12 +55,15 @@ class SourceDataset:
     def __init__(self, root: Path) -> None:
         self.root = root
         if not root.is_dir():
-            raise OpenralError(f"{root}: no such dataset folder")
+            raise NotFound(f"{root}: no such dataset folder")
         busy = holder(root)
         if busy is not None:
-            raise OpenralError(f"{root}: a writer is recording into this dataset ({busy}); edit it once it is done")
+            raise DatasetBusy(root, busy, to_edit=True)
         if (root / layout.JOURNAL_PATH).is_file():
-            raise OpenralError(f"{root}: an episode commit was interrupted; run `openral-data doctor --repair` first")
+            raise DatasetError(
+                f"{root}: an episode commit was interrupted; run `openral-data doctor --repair` first",
+                code="dataset.interrupted",
+            )
         self.info = read_info(root)
         self.fps = int(self.info["fps"])
         self.features: dict[str, dict[str, Any]] = self.info["features"]
@@ -73,8 +76,9 @@ class SourceDataset:
             if c not in self.episodes.column_names
         ]
         if missing:
-            raise OpenralError(
-                f"{root}: meta/episodes: no {missing[0]} column; editing needs a dataset written by openral-data"
+            raise DatasetError(
+                f"{root}: meta/episodes: no {missing[0]} column; editing needs a dataset written by openral-data",
+                code="dataset.unsupported",
             )
         self.task_names = read_tasks(root) if self.info.get("total_tasks") else []
         self.openral = self._openral_json()
@@ -84,7 +88,9 @@ class SourceDataset:
         self._rows = self.episodes.to_pylist()
         order = [int(r["episode_index"]) for r in self._rows]
         if order[: self.total] != list(range(self.total)):
-            raise OpenralError(f"{root}: meta/episodes: rows are not episodes 0..{self.total - 1} in order")
+            raise DatasetError(
+                f"{root}: meta/episodes: rows are not episodes 0..{self.total - 1} in order", code="dataset.invalid"
+            )
         self._data_cache: tuple[Path, pa.Table] | None = None
 
     # -- what the dataset is ---------------------------------------------------------------------------------
@@ -106,7 +112,9 @@ class SourceDataset:
         i = infos[0]
         codec = i.get("video.codec")
         if codec not in ("av1", "h264"):
-            raise OpenralError(f"{self.root}/meta/info.json: video.codec: {codec!r} is not av1 or h264")
+            raise DatasetError(
+                f"{self.root}/meta/info.json: video.codec: {codec!r} is not av1 or h264", code="dataset.unsupported"
+            )
         return VideoSettings(
             codec=codec, crf=int(i.get("video.crf", 30)), g=int(i.get("video.g", 2)), preset=i.get("video.preset")
         )
@@ -116,7 +124,7 @@ class SourceDataset:
         try:
             state, action = self.features[STATE], self.features[ACTION]
         except KeyError as exc:
-            raise OpenralError(f"{where}.{exc.args[0]}: missing") from None
+            raise DatasetError(f"{where}.{exc.args[0]}: missing", code="dataset.invalid") from None
         cameras = {
             name: CameraShape(
                 int(self.features[IMAGE_PREFIX + name]["shape"][0]), int(self.features[IMAGE_PREFIX + name]["shape"][1])
@@ -139,7 +147,10 @@ class SourceDataset:
         where = f"{self.root}/meta/info.json: features"
         for key in self.features.keys() | rebuilt.keys():
             if self.features.get(key) != rebuilt.get(key):
-                raise OpenralError(f"{where}.{key}: not a feature layout openral-data writes; cannot edit this dataset")
+                raise DatasetError(
+                    f"{where}.{key}: not a feature layout openral-data writes; cannot edit this dataset",
+                    code="dataset.unsupported",
+                )
 
     def image_hist(self) -> dict[str, ImageStatsAccumulator] | None:
         """The writer's dataset-level camera histograms (`.openral/image_hist.json`), if it left them."""
@@ -171,17 +182,24 @@ class SourceDataset:
 
     def episode(self, index: int) -> EpisodeData:
         if not 0 <= index < self.total:
-            raise OpenralError(f"{self.root}: episode {index} is outside 0..{self.total - 1}")
+            raise EpisodeSelectionError(
+                f"{self.root}: episode {index} is outside 0..{self.total - 1}", code="episodes.range"
+            )
         row = self._rows[index]
         n = int(row["length"])
         data = self._episode_rows(row)
         if data.num_rows != n:
-            raise OpenralError(f"{self.root}: episode {index}: {data.num_rows} data rows, meta/episodes says {n}")
+            raise DatasetError(
+                f"{self.root}: episode {index}: {data.num_rows} data rows, meta/episodes says {n}",
+                code="dataset.invalid",
+            )
         task_idx = data.column("task_index").to_numpy()
         try:
             tasks = [self.task_names[int(i)] for i in task_idx]
         except IndexError:
-            raise OpenralError(f"{self.root}: episode {index}: task_index outside meta/tasks.parquet") from None
+            raise DatasetError(
+                f"{self.root}: episode {index}: task_index outside meta/tasks.parquet", code="dataset.invalid"
+            ) from None
         videos: dict[str, bytes] = {}
         image_stats: dict[str, Stats] = {}
         for name in self.camera_names():
@@ -215,7 +233,9 @@ class SourceDataset:
             try:
                 self._data_cache = (path, pq.read_table(path))
             except FileNotFoundError:
-                raise OpenralError(f"{path}: data file named by meta/episodes is missing") from None
+                raise DatasetError(
+                    f"{path}: data file named by meta/episodes is missing", code="dataset.incomplete"
+                ) from None
         table = self._data_cache[1]
         rows = table.filter(pc.equal(table.column("episode_index"), int(row["episode_index"])))
         return rows.sort_by("frame_index")
@@ -225,15 +245,21 @@ class SourceDataset:
         pos = layout.FilePos(int(row[f"videos/{key}/chunk_index"]), int(row[f"videos/{key}/file_index"]))
         path = layout.video_path(self.root, key, pos)
         if not path.is_file():
-            raise OpenralError(f"{path}: video file named by meta/episodes (episode {index}) is missing")
+            raise DatasetError(
+                f"{path}: video file named by meta/episodes (episode {index}) is missing", code="dataset.incomplete"
+            )
         start = float(row[f"videos/{key}/from_timestamp"])
         clip = episode_clip(path, start, start + n / self.fps, self.fps)
         if clip.data is None:
-            raise OpenralError(
-                f"{path}: episode {index} does not start on a keyframe; cannot cut it without re-encoding"
+            raise DatasetError(
+                f"{path}: episode {index} does not start on a keyframe; cannot cut it without re-encoding",
+                code="dataset.unsupported",
             )
         if clip.frames != n:
-            raise OpenralError(f"{path}: episode {index} has {clip.frames} video frames, meta/episodes says {n}")
+            raise DatasetError(
+                f"{path}: episode {index} has {clip.frames} video frames, meta/episodes says {n}",
+                code="dataset.invalid",
+            )
         return clip.data
 
 

@@ -6,7 +6,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from openral_data.errors import OpenralError
+from openral_data.errors import DatasetError
 
 
 def read_json(path: Path) -> Any:
@@ -15,4 +15,4 @@ def read_json(path: Path) -> Any:
     try:
         return json.loads(path.read_text())
     except json.JSONDecodeError as exc:
-        raise OpenralError(f"{path}: invalid JSON: {exc}") from None
+        raise DatasetError(f"{path}: invalid JSON: {exc}", code="dataset.invalid") from None

@@ -32,7 +32,7 @@ from typing import Any
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from openral_data.errors import OpenralError
+from openral_data.errors import OutputExists, ResultsError
 from openral_data.formats import atomic
 from openral_data.formats.jsonfile import read_json
 
@@ -102,9 +102,9 @@ class Results:
 def write_results(root: Path, summary: dict[str, Any], episodes: pa.Table, steps: pa.Table) -> Results:
     """Write a results directory atomically file by file (summary.json last); refuses to overwrite one."""
     if (root / SUMMARY).exists():
-        raise OpenralError(f"{root}: already holds results; refusing to overwrite them")
+        raise OutputExists(f"{root}: already holds results; refusing to overwrite them")
     if summary.get("kind") not in KINDS:
-        raise OpenralError(f"{root / SUMMARY}: kind: must be one of {', '.join(KINDS)}")
+        raise ResultsError(f"{root / SUMMARY}: kind: must be one of {', '.join(KINDS)}")
     full = {"format": FORMAT, **summary}
     ep = _conform(episodes, EPISODE_SCHEMA, root / EPISODES, EPISODE_OPTIONAL)
     st = _conform(steps, STEP_SCHEMA, root / STEPS, STEP_OPTIONAL)
@@ -120,7 +120,7 @@ def _conform(table: pa.Table, schema: pa.Schema, path: Path, optional: pa.Schema
     missing = [f.name for f in schema if f.name not in table.column_names]
     extra = [c for c in table.column_names if c not in schema.names and c not in optional.names]
     if missing or extra:
-        raise OpenralError(f"{path}: columns: missing {missing or '-'}, unexpected {extra or '-'}")
+        raise ResultsError(f"{path}: columns: missing {missing or '-'}, unexpected {extra or '-'}")
     for f in optional:
         if f.name not in table.column_names:
             table = table.append_column(f.name, pa.nulls(table.num_rows, f.type))
@@ -128,7 +128,7 @@ def _conform(table: pa.Table, schema: pa.Schema, path: Path, optional: pa.Schema
     try:
         return table.select(full.names).cast(full)
     except (pa.ArrowInvalid, pa.ArrowTypeError, ValueError) as exc:
-        raise OpenralError(f"{path}: {exc}") from None
+        raise ResultsError(f"{path}: {exc}") from None
 
 
 def is_results_dir(path: Path) -> bool:
@@ -141,21 +141,21 @@ def open_results(root: Path) -> Results:
     try:
         summary = read_json(path)
     except FileNotFoundError:
-        raise OpenralError(f"{root}: not a results directory (no {SUMMARY})") from None
+        raise ResultsError(f"{root}: not a results directory (no {SUMMARY})") from None
     if not isinstance(summary, dict):
-        raise OpenralError(f"{path}: expected a JSON object")
+        raise ResultsError(f"{path}: expected a JSON object")
     if summary.get("format") != FORMAT:
-        raise OpenralError(f"{path}: format: expected {FORMAT!r}, got {summary.get('format')!r}")
+        raise ResultsError(f"{path}: format: expected {FORMAT!r}, got {summary.get('format')!r}")
     if summary.get("kind") not in KINDS:
-        raise OpenralError(f"{path}: kind: must be one of {', '.join(KINDS)}")
+        raise ResultsError(f"{path}: kind: must be one of {', '.join(KINDS)}")
     for name, schema in ((EPISODES, EPISODE_SCHEMA), (STEPS, STEP_SCHEMA)):
         file = root / name
         if not file.is_file():
-            raise OpenralError(f"{file}: missing")
+            raise ResultsError(f"{file}: missing")
         have = pq.read_schema(file)
         for f in schema:
             if f.name not in have.names:
-                raise OpenralError(f"{file}: {f.name}: missing column")
+                raise ResultsError(f"{file}: {f.name}: missing column")
             if not have.field(f.name).type.equals(f.type):
-                raise OpenralError(f"{file}: {f.name}: type {have.field(f.name).type}, expected {f.type}")
+                raise ResultsError(f"{file}: {f.name}: type {have.field(f.name).type}, expected {f.type}")
     return Results(root, summary)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import duckdb
 
-from openral_data.errors import OpenralError
+from openral_data.errors import QueryError, UsageError
 from openral_data.metrics import report as rep
 from openral_data.metrics.plot import check_plot_path, save_plot
 from openral_data.metrics.render import DATA_FORMATS, FORMATS, render
@@ -36,9 +36,9 @@ def run_stats(opts: StatsOptions) -> str:
 def stats_tables(opts: StatsOptions) -> list[rep.Table]:
     """The query result (`--sql`) or the report's tables."""
     if opts.fmt not in FORMATS:
-        raise OpenralError(f"--format: {opts.fmt!r}; valid: {', '.join(FORMATS)}")
+        raise UsageError(f"--format: {opts.fmt!r}; valid: {', '.join(FORMATS)}")
     if not opts.paths:
-        raise OpenralError("stats: give at least one dataset or results directory")
+        raise UsageError("stats: give at least one dataset or results directory")
     by = rep.parse_by(opts.by)
     if opts.plot is not None:
         check_plot_path(opts.plot)
@@ -46,18 +46,18 @@ def stats_tables(opts: StatsOptions) -> list[rep.Table]:
     try:
         con = connect(datasets, results, opts.memory_limit)
     except duckdb.Error as exc:
-        raise OpenralError(f"duckdb: {_first_line(exc)}") from None
+        raise QueryError(f"duckdb: {_first_line(exc)}") from None
     try:
         if opts.sql is not None:
             return [rep.run_sql(con, opts.sql)]
         report = rep.build_report(con, datasets, results, by, check_health=opts.health)
         if opts.plot is not None:
             if not datasets:
-                raise OpenralError("--plot needs at least one dataset")
+                raise UsageError("--plot needs at least one dataset")
             save_plot(opts.plot, report, con, datasets)
         return list(report.tables)
     except duckdb.Error as exc:  # e.g. a truncated or corrupt parquet file: DuckDB's message names it
-        raise OpenralError(f"duckdb: {_first_line(exc)}") from None
+        raise QueryError(f"duckdb: {_first_line(exc)}") from None
     finally:
         con.close()
 

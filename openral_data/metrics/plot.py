@@ -9,7 +9,7 @@ from pathlib import Path
 
 import duckdb
 
-from openral_data.errors import OpenralError
+from openral_data.errors import OutputExists, UsageError
 from openral_data.formats.lerobot_v3.features import ACTION
 from openral_data.metrics.report import GROUP_NUMBERS, Report
 from openral_data.metrics.sources import DatasetSource
@@ -44,9 +44,9 @@ def action_histograms(con: duckdb.DuckDBPyConnection, ds: DatasetSource) -> list
 def check_plot_path(path: Path) -> None:
     """`--plot` writes a new PNG: refuse another suffix or an existing file before any work is done."""
     if path.suffix.lower() != ".png":
-        raise OpenralError(f"{path}: --plot writes a PNG; use a .png file name")
+        raise UsageError(f"{path}: --plot writes a PNG; use a .png file name")
     if path.exists():
-        raise OpenralError(f"{path}: --plot file exists; refusing to overwrite it")
+        raise OutputExists(f"{path}: --plot file exists; refusing to overwrite it")
 
 
 def save_plot(path: Path, report: Report, con: duckdb.DuckDBPyConnection, datasets: Sequence[DatasetSource]) -> None:

@@ -9,7 +9,7 @@ from typing import Any
 
 import duckdb
 
-from openral_data.errors import OpenralError
+from openral_data.errors import QueryError, UsageError
 from openral_data.formats.results import Results
 from openral_data.metrics import health, intervals
 from openral_data.metrics.scan import VectorScan, vector_scan
@@ -50,7 +50,7 @@ def parse_by(value: str | None) -> list[str]:
     keys = [k.strip() for k in value.split(",") if k.strip()]
     bad = [k for k in keys if k not in BY_KEYS]
     if bad or not keys:
-        raise OpenralError(f"--by: unknown key(s) {', '.join(bad) or '(none)'}; valid: {', '.join(BY_KEYS)}")
+        raise UsageError(f"--by: unknown key(s) {', '.join(bad) or '(none)'}; valid: {', '.join(BY_KEYS)}")
     return keys
 
 
@@ -58,7 +58,7 @@ def run_sql(con: duckdb.DuckDBPyConnection, sql: str) -> Table:
     try:
         columns, rows = query(con, sql)
     except duckdb.Error as exc:
-        raise OpenralError(f"--sql: {str(exc).splitlines()[0]}") from None
+        raise QueryError(f"--sql: {str(exc).splitlines()[0]}") from None
     return Table("sql", columns, [list(r) for r in rows])
 
 

@@ -11,7 +11,7 @@ from typing import Any
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from openral_data.errors import OpenralError
+from openral_data.errors import DatasetError, NotFound
 from openral_data.formats import results as results_layout
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.features import ACTION, STATE
@@ -64,10 +64,10 @@ def open_dataset(root: Path, label: str | None = None) -> DatasetSource:
     info = read_info(root)
     for key in ("fps", "features"):
         if key not in info:
-            raise OpenralError(f"{root / layout.INFO_PATH}: {key}: missing")
+            raise DatasetError(f"{root / layout.INFO_PATH}: {key}: missing", code="dataset.invalid")
     episode_files = sorted((root / "meta" / "episodes").glob("chunk-*/file-*.parquet"))
     if not episode_files:
-        raise OpenralError(f"{root}: no episodes metadata under meta/episodes/")
+        raise DatasetError(f"{root}: no episodes metadata under meta/episodes/", code="dataset.invalid")
     data_files = sorted((root / "data").glob("chunk-*/file-*.parquet"))
     episode_columns = _columns(episode_files[0])
     data_columns = _columns(data_files[0]) if data_files else frozenset()
@@ -77,7 +77,7 @@ def open_dataset(root: Path, label: str | None = None) -> DatasetSource:
         try:
             meta = json.loads(provenance.read_text()).get("schema_metadata", {})
         except json.JSONDecodeError as exc:
-            raise OpenralError(f"{provenance}: invalid JSON: {exc}") from None
+            raise DatasetError(f"{provenance}: invalid JSON: {exc}", code="dataset.invalid") from None
         scene = _dig(meta, "scene", "config", "scene", "id")
         rskill = _dig(meta, "rskill", "config", "id")
         robot = meta.get("robot") if isinstance(meta.get("robot"), str) else None
@@ -99,7 +99,7 @@ def _columns(path: Path) -> frozenset[str]:
     try:
         return frozenset(pq.read_schema(path).names)
     except (OSError, pa.ArrowException) as exc:
-        raise OpenralError(f"{path}: unreadable parquet: {exc}") from None
+        raise DatasetError(f"{path}: unreadable parquet: {exc}", code="dataset.invalid") from None
 
 
 def _dig(obj: Any, *keys: str) -> str | None:
@@ -117,18 +117,19 @@ def resolve(paths: list[str]) -> tuple[list[DatasetSource], list[results_layout.
     for arg in paths:
         matches = sorted(glob.glob(arg)) if glob.has_magic(arg) else [arg]
         if not matches:
-            raise OpenralError(f"{arg}: no such file or directory")
+            raise NotFound(f"{arg}: no such file or directory")
         for match in matches:
             path = Path(match)
             if not path.exists():
-                raise OpenralError(f"{path}: no such file or directory")
+                raise NotFound(f"{path}: no such file or directory")
             if results_layout.is_results_dir(path):
                 results.append(results_layout.open_results(path))
             elif (path / layout.INFO_PATH).is_file():
                 datasets.append(open_dataset(path))
             else:
-                raise OpenralError(
-                    f"{path}: neither a LeRobot v3 dataset (meta/info.json) nor results ({results_layout.SUMMARY})"
+                raise DatasetError(
+                    f"{path}: neither a LeRobot v3 dataset (meta/info.json) nor results ({results_layout.SUMMARY})",
+                    code="dataset.invalid",
                 )
     seen: dict[str, int] = {}
     unique = []

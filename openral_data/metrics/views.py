@@ -20,7 +20,7 @@ from typing import Any
 
 import duckdb
 
-from openral_data.errors import OpenralError
+from openral_data.errors import QueryError
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.results import Results
 from openral_data.metrics.sources import DatasetSource
@@ -57,7 +57,7 @@ def connect(
         con.execute(f"SET memory_limit = {lit(memory_limit)}")
     except duckdb.Error as exc:
         con.close()
-        raise OpenralError(f"--memory-limit {memory_limit!r}: {str(exc).splitlines()[0]}") from None
+        raise QueryError(f"--memory-limit {memory_limit!r}: {str(exc).splitlines()[0]}") from None
     con.execute("SET preserve_insertion_order = false")
     # LeRobot v3 data files hold one small row group per episode; DuckDB's prefetch of parquet ranges then
     # reads far more bytes than the columns asked for (measured ~1.6x slower on the benchmark dataset)

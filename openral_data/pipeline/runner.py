@@ -100,7 +100,7 @@ def _run_step(
             try:
                 summaries[name] = run(path)
             except OpenralError as exc:
-                raise type(exc)(f"pipeline step {step.id}/{name}: {exc}") from None
+                raise exc.amended(f"pipeline step {step.id}/{name}: {exc}") from None
             state.finish_item(name, summaries[name])
         items[name] = str(state.item(name))
     body = state.finish(items, summaries, time.perf_counter() - started)

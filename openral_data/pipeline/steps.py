@@ -6,7 +6,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
-from openral_data.errors import OpenralError
+from openral_data.errors import ConfigError
 from openral_data.pipeline.schema import ExportStep, MergeStep, RecordStep, StatsStep, Step
 
 # (item name, run(item path) -> summary); the runner skips items already marked done
@@ -111,7 +111,7 @@ def _export_jobs(spec: ExportStep, resolve: Resolve) -> Iterator[ItemJob]:
             from openral_data.formats.mcap import McapConfig
 
             if spec.to != "mcap":
-                raise OpenralError(f"export.to: {spec.to!r} is not supported")
+                raise ConfigError(f"export.to: {spec.to!r} is not supported")
             summary = export_mcap(src, out, episodes=spec.episodes, config=McapConfig(image_format=spec.image_format))
             return {"source": str(src), "episodes": len(summary.episodes), "frames": summary.frames}
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from openral_data.errors import CompatibilityError
+from openral_data.errors import CompatibilityError, OpenralError
 from openral_data.formats.lerobot_v3.video import VideoSettings
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
@@ -11,7 +11,6 @@ from openral_data.types import ProducerSpec
 
 def rskills_for(robot: RobotManifest) -> list[str]:
     """Ids of the shipped rSkills whose embodiment tags overlap the robot's (unreadable manifests skipped)."""
-    from openral_data.errors import OpenralError
     from openral_data.record import registry
 
     fitting = []

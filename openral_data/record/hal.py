@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Literal
 
 from openral_data import paths
-from openral_data.errors import CompatibilityError, ConfigError, OpenralError
+from openral_data.errors import CompatibilityError, ConfigError, UsageError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.policies.base import PolicyAdapter
@@ -141,15 +141,15 @@ Notify = Callable[[str], None]  # one line for the operator: which episode, what
 
 def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecordSummary:
     if opts.fps < 1 or opts.fps > 1000:
-        raise OpenralError(f"--fps must be in 1..1000, got {opts.fps}")
+        raise UsageError(f"--fps must be in 1..1000, got {opts.fps}")
     if opts.n_episodes < 1:
-        raise OpenralError(f"--n-episodes must be >= 1, got {opts.n_episodes}")
+        raise UsageError(f"--n-episodes must be >= 1, got {opts.n_episodes}")
     if opts.max_steps < 1:
-        raise OpenralError(f"--max-steps must be >= 1, got {opts.max_steps}")
+        raise UsageError(f"--max-steps must be >= 1, got {opts.max_steps}")
     if opts.staleness is not None and opts.staleness <= 0:
-        raise OpenralError(f"--staleness must be > 0, got {opts.staleness}")
+        raise UsageError(f"--staleness must be > 0, got {opts.staleness}")
     if opts.mode not in ("sim", "real"):
-        raise OpenralError(f"--mode: {opts.mode!r}; valid: sim, real")
+        raise UsageError(f"--mode: {opts.mode!r}; valid: sim, real")
     robot = registry.ROBOTS[opts.robot]
     rskill, rskill_path = registry.resolve_rskill(opts.rskill)
     rskill_src = str(rskill_path)

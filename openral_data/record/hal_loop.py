@@ -34,8 +34,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from openral_data.errors import EstopLatched, HalError, StaleState
 from openral_data.policies.base import PolicyAdapter
-from openral_data.producers.hal.base import EstopLatched, HalBase, HalError, JointCommand, StaleState, monotonic
+from openral_data.producers.hal.base import HalBase, JointCommand, monotonic
 from openral_data.producers.hal.operator import Command, Operator, ScriptedOperator
 from openral_data.producers.hal.safety import SafetyFilter
 from openral_data.record.bridge import DatasetBridge
@@ -163,7 +164,8 @@ class FixedRateLoop:
                     dead = sorted(n for n, c in rep.stale.items() if c)
                     raise HalError(
                         f"robot {hal.robot.name}: no fresh sample from {', '.join(dead)} for {cfg.stale_abort:.1f} s "
-                        f"(staleness limit {cfg.staleness:.3f} s); episode {episode} abandoned"
+                        f"(staleness limit {cfg.staleness:.3f} s); episode {episode} abandoned",
+                        code="hal.camera",
                     )
                 if row is not None:
                     if pending is not None:

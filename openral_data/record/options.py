@@ -8,7 +8,7 @@ from datetime import datetime
 from pathlib import Path
 
 from openral_data import paths
-from openral_data.errors import OpenralError
+from openral_data.errors import OutputExists
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.schemas.scene import SimScene
 from openral_data.types import EpisodeRecord
@@ -72,10 +72,10 @@ def fresh_out(prefix: str) -> Path:
 
 def check_out(out: Path) -> None:
     if out.exists() and not out.is_dir():
-        raise OpenralError(f"{out}: --out exists and is not a directory")
+        raise OutputExists(f"{out}: --out exists and is not a directory")
     if out.is_dir() and any(out.iterdir()):
         if (out / "meta" / "info.json").exists() or (out / ".openral" / "record.json").exists():
-            raise OpenralError(
+            raise OutputExists(
                 f"{out}: --out already holds a dataset; refusing to overwrite it (choose a new --out, or --resume)"
             )
-        raise OpenralError(f"{out}: --out exists, is not empty and is not a dataset; refusing to write there")
+        raise OutputExists(f"{out}: --out exists, is not empty and is not a dataset; refusing to write there")

@@ -16,7 +16,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from openral_data.errors import ConfigError, OpenralError
+from openral_data.errors import ConfigError, DatasetError, UsageError
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.lock import DatasetLock
@@ -58,14 +58,14 @@ def settings_path(out: Path) -> Path:
 def continue_options(opts: RecordOptions, explicit: frozenset[str]) -> RecordOptions:
     """The options of the recording in `opts.out`, with `--n-episodes` from `opts` when given."""
     if opts.out is None:
-        raise OpenralError("--resume needs --out: the dataset folder to continue")
+        raise UsageError("--resume needs --out: the dataset folder to continue")
     path = settings_path(opts.out)
     try:
         saved: dict[str, Any] = json.loads(path.read_text())["options"]
     except FileNotFoundError:
-        raise OpenralError(f"{opts.out}: nothing to resume (no {layout.RECORD_PATH})") from None
+        raise DatasetError(f"{opts.out}: nothing to resume (no {layout.RECORD_PATH})", code="dataset.invalid") from None
     except (json.JSONDecodeError, KeyError, TypeError) as exc:
-        raise OpenralError(f"{path}: unreadable recording settings: {exc}") from None
+        raise DatasetError(f"{path}: unreadable recording settings: {exc}", code="dataset.invalid") from None
     changes: dict[str, Any] = {}
     for name, flag in KEPT.items():
         stored = saved.get(name)
@@ -161,7 +161,9 @@ def _recover(out: Path, formats: tuple[str, ...]) -> tuple[list[str], int]:
         names = [p.name for p in found]
         expected = [f"episode_{i:06d}" for i in range(len(found))]
         if names != expected:
-            raise OpenralError(f"{bags}: episode bags are not numbered 0..{len(found) - 1}; cannot continue")
+            raise DatasetError(
+                f"{bags}: episode bags are not numbered 0..{len(found) - 1}; cannot continue", code="dataset.invalid"
+            )
         counts["mcap"] = len(found)
     done = min(counts.values(), default=0)
     if counts.get("mcap", 0) > done:
@@ -170,7 +172,8 @@ def _recover(out: Path, formats: tuple[str, ...]) -> tuple[list[str], int]:
             q.move(bag)
         actions.append(f"{MCAP_SUBDIR}: bag(s) from episode {done} on set aside (LeRobot never committed them)")
     if counts.get("lerobot", done) > done:
-        raise OpenralError(
-            f"{out}: the LeRobot dataset holds {counts['lerobot']} episodes, the MCAP bags {done}; cannot continue"
+        raise DatasetError(
+            f"{out}: the LeRobot dataset holds {counts['lerobot']} episodes, the MCAP bags {done}; cannot continue",
+            code="dataset.mismatch",
         )
     return actions, done

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Literal
 
 from openral_data import paths
-from openral_data.errors import ConfigError, OpenralError
+from openral_data.errors import ConfigError, OpenralError, UsageError
 from openral_data.policies.base import PolicyAdapter
 from openral_data.policies.basic import RandomPolicy, ZeroPolicy
 from openral_data.schemas.base import load_model
@@ -120,7 +120,7 @@ POLICIES: dict[str, PolicyFactory] = {
 
 
 def unknown(kind: str, value: str, valid: list[str]) -> OpenralError:
-    return OpenralError(f"unknown {kind} {value!r}; valid: {', '.join(sorted(valid)) or '(none)'}")
+    return UsageError(f"unknown {kind} {value!r}; valid: {', '.join(sorted(valid)) or '(none)'}")
 
 
 def scene_factory(scene_type: str, source: str) -> SceneFactory:

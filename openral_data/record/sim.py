@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 
-from openral_data.errors import ConfigError, OpenralError
+from openral_data.errors import ConfigError, UsageError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
 from openral_data.formats.mcap import McapSink
 from openral_data.policies.base import PolicyAdapter
@@ -42,11 +42,11 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
     base_seed = opts.seed if opts.seed is not None else scene.seed
     max_steps = opts.max_steps if opts.max_steps is not None else scene.task.max_steps
     if n_episodes < 1:
-        raise OpenralError(f"--n-episodes must be >= 1, got {n_episodes}")
+        raise UsageError(f"--n-episodes must be >= 1, got {n_episodes}")
     if max_steps < 1:
-        raise OpenralError(f"--max-steps must be >= 1, got {max_steps}")
+        raise UsageError(f"--max-steps must be >= 1, got {max_steps}")
     if base_seed < 0:
-        raise OpenralError(f"--seed must be >= 0, got {base_seed}")
+        raise UsageError(f"--seed must be >= 0, got {base_seed}")
     from openral_data.record.sinks import check_formats, make_sinks
 
     check_formats(opts.formats, opts.image_format)

@@ -13,7 +13,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import cast
 
-from openral_data.errors import OpenralError
+from openral_data.errors import UsageError
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, WriterConfig
 from openral_data.formats.mcap import IMAGE_FORMATS, ImageFormat, McapConfig, McapSink
 from openral_data.types import DatasetSchema, Sink
@@ -31,14 +31,14 @@ def parse_formats(text: str) -> tuple[str, ...]:
 
 def check_formats(formats: tuple[str, ...], image_format: str = "jpeg") -> None:
     if not formats:
-        raise OpenralError(f"--format: choose at least one of {', '.join(FORMATS)}")
+        raise UsageError(f"--format: choose at least one of {', '.join(FORMATS)}")
     unknown = [f for f in formats if f not in FORMATS]
     if unknown:
-        raise OpenralError(f"--format: unknown format(s) {', '.join(unknown)} (valid: {', '.join(FORMATS)})")
+        raise UsageError(f"--format: unknown format(s) {', '.join(unknown)} (valid: {', '.join(FORMATS)})")
     if len(set(formats)) != len(formats):
-        raise OpenralError(f"--format: a format is listed twice in {','.join(formats)}")
+        raise UsageError(f"--format: a format is listed twice in {','.join(formats)}")
     if image_format not in IMAGE_FORMATS:
-        raise OpenralError(f"--image-format: {image_format!r} is not one of {', '.join(IMAGE_FORMATS)}")
+        raise UsageError(f"--image-format: {image_format!r} is not one of {', '.join(IMAGE_FORMATS)}")
 
 
 def make_sinks(

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from openral_data.errors import OpenralError
+from openral_data.errors import ReplayError
 from openral_data.replay.drive import StepHook, drive, restore
 from openral_data.replay.outcome import EpisodeOutcome, outcome
 from openral_data.replay.recorded import RecordedEpisode
@@ -31,7 +31,7 @@ class ActionReplayer:
         """Replay one episode. `on_step` sees every step as `record` does, e.g. to re-record it."""
         obs, obj_err = restore(self.env, episode)
         if obs.state.shape != episode.states.shape[1:]:
-            raise OpenralError(
+            raise ReplayError(
                 f"episode {episode.index}: the rebuilt scene produces a state of {obs.state.shape[0]} dims, the "
                 f"dataset recorded {episode.states.shape[1]}"
             )

@@ -16,7 +16,7 @@ from typing import Any, Literal
 import numpy as np
 
 from openral_data import paths
-from openral_data.errors import CompatibilityError, OpenralError
+from openral_data.errors import CompatibilityError, OutputExists, UsageError
 from openral_data.formats.lerobot_v3 import VideoSettings
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.results import is_results_dir, write_results
@@ -120,23 +120,23 @@ def default_out(dataset: Path, mode: str) -> Path:
 
 def _check(opts: ReplayOptions) -> None:
     if opts.mode not in MODES:
-        raise OpenralError(f"--mode: {opts.mode!r} is not one of {', '.join(MODES)}")
+        raise UsageError(f"--mode: {opts.mode!r} is not one of {', '.join(MODES)}")
     if opts.mode != "actions" and opts.rskill is None:
-        raise OpenralError(f"--mode {opts.mode} needs --rskill (the policy to evaluate)")
+        raise UsageError(f"--mode {opts.mode} needs --rskill (the policy to evaluate)")
     if opts.mode == "actions" and opts.rskill is not None:
-        raise OpenralError("--rskill: --mode actions replays the recorded actions; it takes no policy")
+        raise UsageError("--rskill: --mode actions replays the recorded actions; it takes no policy")
     if opts.mode == "closed-loop" and recorded_policy.parse(opts.rskill or "") is not None:
-        raise OpenralError("--rskill recorded: in closed loop that is --mode actions")
+        raise UsageError("--rskill recorded: in closed loop that is --mode actions")
     if opts.mode == "policy" and opts.record is not None:
-        raise OpenralError("--record: --mode policy runs no simulator, so there is no rollout to record")
+        raise UsageError("--record: --mode policy runs no simulator, so there is no rollout to record")
     if opts.cameras is not None and opts.record is None:
-        raise OpenralError("--cameras: only used with --record (the replay itself renders nothing)")
+        raise UsageError("--cameras: only used with --record (the replay itself renders nothing)")
     if not np.isfinite(opts.tolerance) or opts.tolerance < 0:
-        raise OpenralError(f"--tolerance must be a finite number >= 0, got {opts.tolerance}")
+        raise UsageError(f"--tolerance must be a finite number >= 0, got {opts.tolerance}")
     if opts.max_steps is not None and opts.max_steps < 1:
-        raise OpenralError(f"--max-steps must be >= 1, got {opts.max_steps}")
+        raise UsageError(f"--max-steps must be >= 1, got {opts.max_steps}")
     if opts.out is not None and (is_results_dir(opts.out) or (opts.out.is_dir() and any(opts.out.iterdir()))):
-        raise OpenralError(f"{opts.out}: --out exists and is not empty; refusing to overwrite it (choose a new --out)")
+        raise OutputExists(f"{opts.out}: --out exists and is not empty; refusing to overwrite it (choose a new --out)")
 
 
 def replay(opts: ReplayOptions, progress: ProgressFn | None = None) -> ReplaySummary:

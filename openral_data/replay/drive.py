@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from openral_data.errors import OpenralError
+from openral_data.errors import ReplayError
 from openral_data.replay.outcome import F64, object_error
 from openral_data.replay.recorded import RecordedEpisode
 from openral_data.types import Observation, SimRollout, StepResult
@@ -33,7 +33,7 @@ def restore(env: SimRollout, episode: RecordedEpisode) -> tuple[Observation, flo
     """Put `env` in the episode's recorded initial state: the first observation and the largest object position
     error right after the restore (None when either side has no object poses)."""
     if episode.initial_state is None:
-        raise OpenralError(
+        raise ReplayError(
             f"episode {episode.index}: meta/episodes: openral.initial_state: not recorded, cannot restore its start"
         )
     obs = env.reset_to(episode.initial_state)

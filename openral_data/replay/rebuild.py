@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from openral_data.errors import OpenralError
+from openral_data.errors import ReplayError
 from openral_data.record import registry
 from openral_data.replay.recorded import RecordedDataset
 from openral_data.schemas.robot import RobotManifest
@@ -60,7 +60,7 @@ def rebuild(
     env = factory(scene, robot, manifest, source)
     if not env.spec.can_restore_state:
         env.close()
-        raise OpenralError(
+        raise ReplayError(
             f"{source}: scene.type: {scene.scene.type!r} scenes cannot restore a recorded initial state, so they "
             "cannot be replayed from the recorded start (use --mode policy, which needs no simulator)"
         )

@@ -21,7 +21,7 @@ import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from openral_data.episodes import parse_episodes
-from openral_data.errors import ConfigError, OpenralError
+from openral_data.errors import ConfigError, DatasetError, ReplayError
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX
 from openral_data.formats.lerobot_v3.frames import episode_frames as decode_episode_frames
@@ -61,7 +61,7 @@ class RecordedDataset:
         features = self.info.get("features", {})
         for key in (STATE, ACTION):
             if key not in features:
-                raise OpenralError(f"{root / layout.INFO_PATH}: features: no {key!r}; nothing to replay")
+                raise ReplayError(f"{root / layout.INFO_PATH}: features: no {key!r}; nothing to replay")
         self.fps = int(self.info["fps"])
         self.cameras = [k[len(IMAGE_PREFIX) :] for k in features if k.startswith(IMAGE_PREFIX)]
         table = read_episodes(root)
@@ -86,19 +86,19 @@ class RecordedDataset:
         try:
             meta = json.loads(path.read_text()).get("schema_metadata", {})
         except json.JSONDecodeError as exc:
-            raise OpenralError(f"{path}: invalid JSON: {exc}") from None
+            raise DatasetError(f"{path}: invalid JSON: {exc}", code="dataset.invalid") from None
         return meta if isinstance(meta, dict) else None
 
     def _provenance(self, key: str) -> Any:
         meta = self.provenance
         where = self.root / layout.OPENRAL_PATH
         if meta is None:
-            raise OpenralError(
+            raise ReplayError(
                 f"{self.root}: no {layout.OPENRAL_PATH}: the dataset was not recorded by openral-data, so its scene "
                 "cannot be rebuilt (use --mode policy, which needs no simulator)"
             )
         if key not in meta:
-            raise OpenralError(f"{where}: schema_metadata.{key}: missing (not a recording of a scene)")
+            raise ReplayError(f"{where}: schema_metadata.{key}: missing (not a recording of a scene)")
         return meta[key]
 
     def _recorded_config(self, key: str) -> tuple[dict[str, Any], str]:
@@ -107,7 +107,7 @@ class RecordedDataset:
         config = entry.get("config") if isinstance(entry, dict) else None
         source = f"{self.root / layout.OPENRAL_PATH}: schema_metadata.{key}.config"
         if not isinstance(config, dict):
-            raise OpenralError(f"{source}: missing")
+            raise ReplayError(f"{source}: missing")
         return config, source
 
     def scene(self) -> SimScene:
@@ -131,7 +131,7 @@ class RecordedDataset:
     def robot(self) -> str:
         robot = self._provenance("robot")
         if not isinstance(robot, str):
-            raise OpenralError(f"{self.root / layout.OPENRAL_PATH}: schema_metadata.robot: missing")
+            raise ReplayError(f"{self.root / layout.OPENRAL_PATH}: schema_metadata.robot: missing")
         return robot
 
     # -- episodes ------------------------------------------------------------------------------------------------
@@ -148,14 +148,16 @@ class RecordedDataset:
         table = self._data(path)
         table = table.filter(pc.equal(table.column("episode_index"), e)).sort_by("frame_index")
         if table.num_rows != n:
-            raise OpenralError(f"{path}: episode {e} has {table.num_rows} rows, meta/episodes says {n}")
+            raise DatasetError(
+                f"{path}: episode {e} has {table.num_rows} rows, meta/episodes says {n}", code="dataset.invalid"
+            )
         states = _matrix(table.column(STATE), n)
         actions = _matrix(table.column(ACTION), n)
         raw_state = row.get("openral.initial_state")
         try:
             initial = json.loads(raw_state) if raw_state else None
         except json.JSONDecodeError as exc:
-            raise OpenralError(f"{self.root}: meta/episodes: openral.initial_state of episode {e}: {exc}") from None
+            raise ReplayError(f"{self.root}: meta/episodes: openral.initial_state of episode {e}: {exc}") from None
         task_index = int(table.column("task_index")[0].as_py()) if n else 0
         return RecordedEpisode(
             index=e,

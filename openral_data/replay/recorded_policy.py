@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from openral_data.errors import OpenralError
+from openral_data.errors import ReplayError, UsageError
 from openral_data.replay.recorded import RecordedEpisode
 from openral_data.types import Observation
 
@@ -25,9 +25,9 @@ def parse(ref: str) -> int | None:
     try:
         k = int(chunk) if chunk else 1
     except ValueError:
-        raise OpenralError(f"--rskill {ref}: expected recorded or recorded:K with K a whole number") from None
+        raise UsageError(f"--rskill {ref}: expected recorded or recorded:K with K a whole number") from None
     if k < 1:
-        raise OpenralError(f"--rskill {ref}: K must be >= 1")
+        raise UsageError(f"--rskill {ref}: K must be >= 1")
     return k
 
 
@@ -56,7 +56,7 @@ class RecordedActions:
     def _next(self, k: int) -> npt.NDArray[np.float32]:
         chunk = self._actions[self._t : self._t + k]
         if not len(chunk):
-            raise OpenralError(f"recorded policy: asked for an action after the episode's {len(self._actions)}")
+            raise ReplayError(f"recorded policy: asked for an action after the episode's {len(self._actions)}")
         self._t += len(chunk)
         return np.array(chunk, dtype=np.float32)
 

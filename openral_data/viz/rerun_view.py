@@ -21,7 +21,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import rerun as rr
 
-from openral_data.errors import OpenralError
+from openral_data.errors import DatasetError, EpisodeSelectionError, NotFound, OutputExists, ResultsError, UsageError
 from openral_data.formats import results as results_layout
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.clip import episode_clip
@@ -49,19 +49,21 @@ def has_display() -> bool:
 def run_view(opts: ViewOptions) -> str:
     """Log the episode; returns a one-line description of where it went."""
     if not opts.path.exists():
-        raise OpenralError(f"{opts.path}: no such file or directory")
+        raise NotFound(f"{opts.path}: no such file or directory")
     is_mcap = opts.path.is_file() and opts.path.suffix.lower() == ".mcap"
     if not is_mcap and not (opts.path / layout.INFO_PATH).is_file():
-        raise OpenralError(f"{opts.path}: neither a LeRobot v3 dataset (meta/info.json) nor an .mcap file")
+        raise DatasetError(
+            f"{opts.path}: neither a LeRobot v3 dataset (meta/info.json) nor an .mcap file", code="dataset.invalid"
+        )
     save = opts.save
     if save is None and not has_display():
         name = opts.path.stem if is_mcap else f"{opts.path.name}-episode-{opts.episode}"
         save = Path(f"{name}.rrd")
     if save is not None:
         if save.suffix != ".rrd":
-            raise OpenralError(f"{save}: --save writes an .rrd file")
+            raise UsageError(f"{save}: --save writes an .rrd file")
         if save.exists():
-            raise OpenralError(f"{save}: exists; refusing to overwrite it")
+            raise OutputExists(f"{save}: exists; refusing to overwrite it")
     # everything that can be wrong with the inputs is found before anything is written
     episode = None if is_mcap else load_episode(open_dataset(opts.path), opts.episode, opts.results)
     rec = rr.RecordingStream(APP_ID)
@@ -105,19 +107,20 @@ def load_episode(ds: DatasetSource, episode: int, results: Path | None = None) -
         res = results_layout.open_results(results)
         steps = pq.read_table(res.steps_path, filters=[("episode_index", "=", episode)]).sort_by("frame_index")
         if steps.num_rows == 0:
-            raise OpenralError(f"{res.steps_path}: no steps for episode {episode}")
+            raise ResultsError(f"{res.steps_path}: no steps for episode {episode}")
     return EpisodeData(ds, row, frames, videos, steps)
 
 
 def _video_path(ds: DatasetSource, row: dict[str, Any], cam: str) -> Path:
     chunk, file = row.get(f"videos/{cam}/chunk_index"), row.get(f"videos/{cam}/file_index")
     if chunk is None or file is None:
-        raise OpenralError(
-            f"{ds.root}: meta/episodes: videos/{cam}/chunk_index: missing for episode {row['episode_index']}"
+        raise DatasetError(
+            f"{ds.root}: meta/episodes: videos/{cam}/chunk_index: missing for episode {row['episode_index']}",
+            code="dataset.invalid",
         )
     path = layout.video_path(ds.root, cam, FilePos(int(chunk), int(file)))
     if not path.is_file():
-        raise OpenralError(f"{path}: missing (video of episode {row['episode_index']})")
+        raise DatasetError(f"{path}: missing (video of episode {row['episode_index']})", code="dataset.incomplete")
     return path
 
 
@@ -129,16 +132,16 @@ def _episode_row(ds: DatasetSource, episode: int) -> dict[str, Any]:
             row: dict[str, Any] = table.drop_columns(drop).to_pylist()[0]
             return row
     total = ds.info.get("total_episodes", "?")
-    raise OpenralError(f"--episode: {episode} not in {ds.root} ({total} episodes)")
+    raise EpisodeSelectionError(f"--episode: {episode} not in {ds.root} ({total} episodes)", code="episodes.range")
 
 
 def _episode_frames(ds: DatasetSource, row: dict[str, Any]) -> pa.Table:
     path = layout.data_path(ds.root, FilePos(int(row["data/chunk_index"]), int(row["data/file_index"])))
     if not path.is_file():
-        raise OpenralError(f"{path}: missing (data of episode {row['episode_index']})")
+        raise DatasetError(f"{path}: missing (data of episode {row['episode_index']})", code="dataset.incomplete")
     table = pq.read_table(path, filters=[("episode_index", "=", int(row["episode_index"]))])
     if table.num_rows == 0:
-        raise OpenralError(f"{path}: no rows for episode {row['episode_index']}")
+        raise DatasetError(f"{path}: no rows for episode {row['episode_index']}", code="dataset.invalid")
     order = "index" if "index" in table.column_names else "frame_index"
     return table.sort_by(order)
 

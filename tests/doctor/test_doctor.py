@@ -16,9 +16,10 @@ import pyarrow.parquet as pq
 import pytest
 
 from openral_data.doctor import check, repair
+from openral_data.errors import DatasetBusy
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
-from openral_data.formats.lerobot_v3.lock import DatasetBusy, DatasetLock
+from openral_data.formats.lerobot_v3.lock import DatasetLock
 from tests.support.cli import run_cli
 from tests.support.home import isolated_home
 from tests.support.lerobot import verify_mock_dataset
@@ -231,8 +232,9 @@ def test_repair_refuses_while_a_writer_holds_the_lock(healthy: Path, tmp_path: P
     root = shutil.copytree(healthy, tmp_path / "ds")
     with DatasetLock(root, "a test writer"):
         assert "writer.active" in {f.code for f in check(root)}
-        with pytest.raises(DatasetBusy, match="a test writer"):
+        with pytest.raises(DatasetBusy) as excinfo:
             repair(root)
+        assert excinfo.value.code == "dataset.busy" and "a test writer" in excinfo.value.holder
     assert check(root) == []
 
 

@@ -18,7 +18,7 @@ import pytest
 
 from openral_data.doctor import check
 from openral_data.edit import ops
-from openral_data.errors import OpenralError
+from openral_data.errors import DatasetBusy, EpisodeSelectionError, OutputExists, UsageError
 from openral_data.formats.lerobot_v3.lock import DatasetLock
 from openral_data.record.options import RecordOptions
 from openral_data.record.sim import record
@@ -159,14 +159,17 @@ def test_merge_refuses_other_features_naming_the_field(project: Path, tmp_path: 
 
 def test_edit_errors_are_one_line_and_write_nothing(two: tuple[Path, Path], tmp_path: Path) -> None:
     a, _ = two
-    with pytest.raises(OpenralError, match=r"--episodes: '9' is outside"):
+    with pytest.raises(EpisodeSelectionError) as excinfo:
         ops.delete(a, "9", tmp_path / "x")
-    with pytest.raises(OpenralError, match="every episode"):
+    assert excinfo.value.code == "episodes.range" and str(excinfo.value).startswith("--episodes: '9'")
+    with pytest.raises(EpisodeSelectionError) as excinfo:
         ops.delete(a, "0-3", tmp_path / "x")
+    assert excinfo.value.code == "episodes.empty"
     (tmp_path / "taken").mkdir()
     (tmp_path / "taken" / "keep.txt").write_text("mine")
-    with pytest.raises(OpenralError, match="refusing to overwrite"):
+    with pytest.raises(OutputExists) as excinfo:
         ops.split(a, "0", tmp_path / "taken")
+    assert excinfo.value.code == "output.exists"
     assert (tmp_path / "taken" / "keep.txt").read_text() == "mine"
     assert not (tmp_path / "x").exists()
 
@@ -191,13 +194,16 @@ def test_av1_episodes_are_cut_by_remux(project: Path, tmp_path: Path) -> None:
 def test_delete_in_place_refuses_what_it_would_drop(two: tuple[Path, Path]) -> None:
     a, _ = two
     (a / "mcap").mkdir()
-    with pytest.raises(OpenralError, match="--in-place: mcap would not be carried over"):
+    # which usage mistake, and what would be dropped (mcap), is only in the wording
+    with pytest.raises(UsageError, match="--in-place: mcap would not be carried over") as excinfo:
         ops.delete(a, "0", None, in_place=True)
+    assert excinfo.value.code == "usage"
     assert episode_seeds(a) == [0, 1, 2, 3]
 
 
 def test_a_dataset_being_recorded_is_not_edited(two: tuple[Path, Path], tmp_path: Path) -> None:
     a, _ = two
-    with DatasetLock(a, "record"), pytest.raises(OpenralError, match="a writer is recording into this dataset"):
+    with DatasetLock(a, "record"), pytest.raises(DatasetBusy) as excinfo:
         ops.split(a, "0", tmp_path / "x")
+    assert excinfo.value.code == "dataset.busy" and "record" in excinfo.value.holder
     assert not (tmp_path / "x").exists()

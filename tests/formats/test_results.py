@@ -11,7 +11,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from openral_data.errors import OpenralError
+from openral_data.errors import OutputExists, ResultsError
 from openral_data.formats import results as layout
 from openral_data.metrics import intervals
 from openral_data.metrics.command import StatsOptions, run_stats
@@ -64,22 +64,27 @@ def test_results_only(recorded: tuple[Path, Path, dict[str, np.ndarray]]) -> Non
 
 def test_layout_is_validated(recorded: tuple[Path, Path, dict[str, np.ndarray]], tmp_path: Path) -> None:
     _, res, _ = recorded
-    with pytest.raises(OpenralError, match="already holds results"):
+    with pytest.raises(OutputExists) as excinfo:
         layout.write_results(res, {"kind": "replay"}, pa.table({}), pa.table({}))
-    with pytest.raises(OpenralError, match=r"episodes.parquet: columns: missing"):
+    assert excinfo.value.code == "output.exists"
+    # malformed results share one code; the file and field each message names are matched
+    with pytest.raises(ResultsError, match=r"episodes.parquet: columns: missing") as excinfo:
         layout.write_results(tmp_path / "r", {"kind": "eval"}, pa.table({"episode_index": [0]}), pa.table({}))
+    assert excinfo.value.code == "results"
     assert not (tmp_path / "r").exists()
     broken = tmp_path / "broken"
     broken.mkdir()
     for name in (layout.EPISODES, layout.STEPS):
         (broken / name).write_bytes((res / name).read_bytes())
     (broken / layout.SUMMARY).write_text(json.dumps({"format": layout.FORMAT, "kind": "dance"}))
-    with pytest.raises(OpenralError, match=r"summary.json: kind: must be one of"):
+    with pytest.raises(ResultsError, match=r"summary.json: kind: must be one of") as excinfo:
         layout.open_results(broken)
+    assert excinfo.value.code == "results"
     (broken / layout.SUMMARY).write_text(json.dumps({"format": layout.FORMAT, "kind": "eval"}))
     steps = pq.read_table(res / layout.STEPS)
     pq.write_table(
         steps.set_column(2, "action_error", steps.column("action_error").cast(pa.float32())), broken / layout.STEPS
     )
-    with pytest.raises(OpenralError, match=r"steps.parquet: action_error: type float"):
+    with pytest.raises(ResultsError, match=r"steps.parquet: action_error: type float") as excinfo:
         layout.open_results(broken)
+    assert excinfo.value.code == "results"

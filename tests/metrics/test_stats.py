@@ -16,7 +16,7 @@ import pytest
 from scipy.stats import fisher_exact as scipy_fisher
 
 from openral_data.cli.stats import stats_text
-from openral_data.errors import OpenralError
+from openral_data.errors import OutputExists
 from openral_data.metrics import intervals
 from openral_data.metrics.command import StatsOptions, run_stats
 from tests.support.cli import run_cli
@@ -199,6 +199,7 @@ def test_plot_png(pair: tuple[Path, Path], tmp_path: Path) -> None:
     run_stats(StatsOptions([str(a), str(b)], plot=png))
     data = png.read_bytes()
     assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000
-    with pytest.raises(OpenralError, match="refusing to overwrite"):
+    with pytest.raises(OutputExists) as excinfo:
         run_stats(StatsOptions([str(a)], plot=png))
+    assert excinfo.value.code == "output.exists"
     assert png.read_bytes() == data

@@ -11,6 +11,7 @@ import pyarrow.parquet as pq
 import pytest
 import yaml
 
+# CompatibilityError and ConfigError raises are matched by message on purpose: the file and field it names are the point
 from openral_data.errors import CompatibilityError, ConfigError
 from openral_data.formats.results import open_results
 from openral_data.policies.base import ChunkingPolicy

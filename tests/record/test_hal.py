@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 import yaml
 
-from openral_data.errors import ConfigError
-from openral_data.producers.hal.base import HalError
+# ConfigError raises are matched by message on purpose: the file and field it names are the point
+from openral_data.errors import ConfigError, HalError
 from openral_data.producers.hal.so100 import MOTORS
 from openral_data.record.hal import HalRecordOptions, record_hal
 from tests.support.feetech_bus import SimulatedFeetechBus
@@ -132,13 +132,14 @@ def test_so100_refuses_to_run_uncalibrated(so100_project: Path, tmp_path: Path) 
     differs = r"hardware\.calibration_dir: the motors' calibration differs"
     with (
         SimulatedFeetechBus(list(range(1, 7)), range_min=900) as bus,  # the motors disagree with the file
-        pytest.raises(HalError, match=differs),
+        pytest.raises(HalError, match=differs) as excinfo,  # the field named (calibration_dir) is matched too
     ):
         record_hal(
             HalRecordOptions(
                 robot="so100_follower", rskill="sweep-so-arm", mode="real", port=bus.port, out=tmp_path / "a"
             )
         )
+    assert excinfo.value.code == "hal.calibration"
     (so100_project / "robots" / "so100_follower" / "calibration" / "so100_follower.json").unlink()
     with pytest.raises(ConfigError, match=r"no calibration .*lerobot-calibrate"):
         record_hal(

@@ -15,8 +15,8 @@ import av
 import numpy as np
 import pytest
 
-from openral_data.errors import OpenralError
-from openral_data.producers.hal.base import EstopLatched, HalError, JointCommand
+from openral_data.errors import EstopLatched, HalError, OpenralError
+from openral_data.producers.hal.base import JointCommand
 from openral_data.producers.hal.operator import ScriptedOperator, parse_script
 from openral_data.producers.hal.safety import SafetyFilter
 from openral_data.record import registry
@@ -219,8 +219,9 @@ def test_operator_estop_keeps_the_episode_and_latches(tmp_path: Path) -> None:
     assert pq.read_table(next((out / "meta" / "episodes").rglob("*.parquet")))["openral.success"].to_pylist() == [False]
     hal.connect()
     try:
-        with pytest.raises(EstopLatched):
+        with pytest.raises(EstopLatched) as excinfo:
             hal.send_action(JointCommand(hal.read_state().positions))
+        assert excinfo.value.code == "hal.estop"
     finally:
         hal.disconnect()
 
@@ -270,8 +271,10 @@ def test_a_dead_camera_abandons_the_episode_with_an_error(tmp_path: Path) -> Non
     )  # fmt: skip
     hal.connect()
     try:
-        with pytest.raises(HalError, match=r"no fresh sample from dead for 0\.5 s"):
+        # the code says a camera went stale; which camera and after how long is the wording's job
+        with pytest.raises(HalError, match=r"no fresh sample from dead for 0\.5 s") as excinfo:
             loop.run_episode(0, 0)
+        assert excinfo.value.code == "hal.camera"
     finally:
         bridge.close()
         hal.disconnect()

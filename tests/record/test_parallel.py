@@ -10,7 +10,7 @@ import pytest
 from rosbags.highlevel import AnyReader
 
 from openral_data.doctor import check
-from openral_data.errors import OpenralError
+from openral_data.errors import OutputExists, UsageError
 from openral_data.record.options import RecordOptions
 from openral_data.record.parallel.run import record_parallel
 from openral_data.record.sim import record
@@ -86,12 +86,16 @@ def test_workers_cli_and_errors(project: Path, tmp_path: Path) -> None:
     assert "2 (local)" in res.stdout
     assert [b for b, _, _ in _bag_episodes(out / "mcap")] == [f"episode_{k:06d}" for k in range(6)]
     assert not (out / "meta").exists()
-    with pytest.raises(OpenralError, match="--workers must be >= 1"):
+    # usage errors share one code; the option named in the wording tells them apart, so it is matched too
+    with pytest.raises(UsageError, match="--workers must be >= 1") as excinfo:
         record_parallel(RecordOptions(scene=str(scene), out=tmp_path / "x"), workers=0)
-    with pytest.raises(OpenralError, match="--executor"):
+    assert excinfo.value.code == "usage"
+    with pytest.raises(UsageError, match="--executor") as excinfo:
         record_parallel(RecordOptions(scene=str(scene), out=tmp_path / "y"), workers=2, executor="dask")
-    with pytest.raises(OpenralError, match="refusing"):
+    assert excinfo.value.code == "usage"
+    with pytest.raises(OutputExists) as excinfo:
         record_parallel(RecordOptions(scene=str(scene), out=out / "mcap"), workers=2)
+    assert excinfo.value.code == "output.exists"
 
 
 @pytest.mark.slow

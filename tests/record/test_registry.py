@@ -7,7 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from openral_data.errors import ConfigError, OpenralError
+# ConfigError raises are matched by message on purpose: the file and field it names are the point
+from openral_data.errors import ConfigError, UsageError
 from openral_data.record import registry
 from tests.support.home import REPO
 
@@ -20,8 +21,10 @@ def test_robots_are_discovered_from_folders(project: Path) -> None:
     (project / "robots/mock_arm_b/robot.yaml").write_text(text)
     assert list(registry.ROBOTS) == sorted([*shipped, "mock_arm_b"]) and len(registry.ROBOTS) == len(shipped) + 1
     assert registry.ROBOTS["mock_arm_b"].name == "mock_arm_b"
-    with pytest.raises(OpenralError, match=r"unknown robot 'nope'; valid: .*mock_arm, mock_arm_b"):
+    # the listed valid choices are the point of this message, so the wording is matched besides the code
+    with pytest.raises(UsageError, match=r"unknown robot 'nope'; valid: .*mock_arm, mock_arm_b") as excinfo:
         registry.ROBOTS["nope"]
+    assert excinfo.value.code == "usage"
 
 
 def test_robot_name_must_match_folder(project: Path) -> None:

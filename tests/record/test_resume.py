@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 import shutil
 import signal
 import subprocess
@@ -19,9 +20,11 @@ import pytest
 import yaml
 
 from openral_data.doctor import check
-from openral_data.errors import ConfigError, OpenralError
+
+# ConfigError raises are matched by message on purpose: the file and field it names are the point
+from openral_data.errors import ConfigError, DatasetBusy, DatasetError, OutputExists
 from openral_data.formats.lerobot_v3 import layout
-from openral_data.formats.lerobot_v3.lock import DatasetBusy, DatasetLock
+from openral_data.formats.lerobot_v3.lock import DatasetLock
 from openral_data.formats.mcap.writer import finished_bags
 from openral_data.record.options import RecordOptions
 from openral_data.record.sim import record
@@ -176,20 +179,22 @@ def test_cli_mismatch_is_one_line_and_fresh_record_into_a_dataset_is_refused(
     lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
     assert proc.returncode == 2 and len(lines) == 1, proc.stderr
     assert lines[0].startswith("error: ") and "codec: the dataset was recorded with h264" in lines[0]
-    with pytest.raises(OpenralError, match="or --resume"):
+    with pytest.raises(OutputExists, match="or --resume") as excinfo:  # the hint to resume is the point of the wording
         record(RecordOptions(scene=str(home / "scene.yaml"), out=out))
+    assert excinfo.value.code == "output.exists"
     empty = tmp_path / "empty"
     empty.mkdir()
-    with pytest.raises(OpenralError, match="nothing to resume"):
+    with pytest.raises(DatasetError, match="nothing to resume") as excinfo:  # dataset.invalid has many causes
         record(RecordOptions(out=empty, resume=True))
+    assert excinfo.value.code == "dataset.invalid"
 
 
 def test_lock_refuses_a_second_writer(tmp_path: Path, one_episode: Path) -> None:
     out = shutil.copytree(one_episode, tmp_path / "ds")
     opts = RecordOptions(out=out, resume=True, n_episodes=2, explicit=frozenset({"n_episodes"}))
-    busy = r"another writer holds this dataset \(pid \d+, another recording"
-    with DatasetLock(out, "another recording"), pytest.raises(DatasetBusy, match=busy):
+    with DatasetLock(out, "another recording"), pytest.raises(DatasetBusy) as excinfo:
         record(opts)
+    assert excinfo.value.code == "dataset.busy" and re.match(r"pid \d+, another recording", excinfo.value.holder)
     assert record(opts).resumed_at == 1
 
 

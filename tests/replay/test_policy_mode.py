@@ -11,7 +11,8 @@ import pyarrow.parquet as pq
 import pytest
 import yaml
 
-from openral_data.errors import CompatibilityError
+# CompatibilityError raises are matched by message on purpose: the file and field it names are the point
+from openral_data.errors import CompatibilityError, ReplayError
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.results import open_results
 from openral_data.replay import ReplayOptions, replay
@@ -75,8 +76,9 @@ def test_policy_mode_needs_no_simulator_or_provenance(mock: tuple[Path, Path], t
     (copy / layout.OPENRAL_PATH).unlink()
     summary = replay(ReplayOptions(copy, mode="policy", rskill="recorded:2", out=tmp_path / "res"))
     assert summary.summary["action_mae_mean"] == 0.0
-    with pytest.raises(Exception, match="not recorded by openral-data"):
+    with pytest.raises(ReplayError, match="not recorded by openral-data") as excinfo:  # why: only the wording says
         replay(ReplayOptions(copy, out=tmp_path / "res2"))
+    assert excinfo.value.code == "replay"
 
 
 def test_a_policy_whose_contract_does_not_fit_the_dataset_is_refused(mock: tuple[Path, Path], tmp_path: Path) -> None:

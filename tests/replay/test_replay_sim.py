@@ -14,7 +14,7 @@ import pyarrow.parquet as pq
 import pytest
 import yaml
 
-from openral_data.errors import OpenralError
+from openral_data.errors import OutputExists, ReplayError
 from openral_data.formats.results import open_results
 from openral_data.metrics.command import StatsOptions, run_stats
 from openral_data.producers.sim.mock import MockScene
@@ -135,8 +135,12 @@ def test_a_scene_that_cannot_restore_is_refused_by_type(
             self.spec = replace(self.spec, can_restore_state=False)
 
     monkeypatch.setitem(registry.SCENES, "mock", lambda scene, robot, rskill, src: NoRestore(scene, 8, src))
-    with pytest.raises(OpenralError, match=r"scene.type: 'mock' scenes cannot restore a recorded initial state"):
+    # the code says "cannot replay"; the field and scene type named in the wording are the point, matched too
+    with pytest.raises(
+        ReplayError, match=r"scene.type: 'mock' scenes cannot restore a recorded initial state"
+    ) as excinfo:
         replay(ReplayOptions(mock, out=tmp_path / "res"))
+    assert excinfo.value.code == "replay"
     assert not (tmp_path / "res").exists()
 
 
@@ -211,6 +215,7 @@ def test_rerecord_refuses_an_existing_dataset(push: Path, tmp_path: Path) -> Non
     out = tmp_path / "taken"
     out.mkdir()
     (out / "keep.txt").write_text("mine")
-    with pytest.raises(OpenralError, match="refusing to write there"):
+    with pytest.raises(OutputExists) as excinfo:
         replay(ReplayOptions(push, out=tmp_path / "res", record=out, episodes="0"))
+    assert excinfo.value.code == "output.exists"
     assert (out / "keep.txt").read_text() == "mine" and not (tmp_path / "res").exists()

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import pytest
 
+# ConfigError raises are matched by message on purpose: the file and field it names are the point
 from openral_data.errors import ConfigError
 from openral_data.schemas import (
     BenchmarkScene,

@@ -14,7 +14,7 @@ import pyarrow.parquet as pq
 import pytest
 from rerun.chunk import RrdReader
 
-from openral_data.errors import OpenralError
+from openral_data.errors import OutputExists
 from openral_data.viz.rerun_view import ViewOptions, run_view
 from tests.support.cli import run_cli
 from tests.support.metrics import A_SUCCESS_AFTER, MAX_STEPS, episodes_file, record_datasets
@@ -111,8 +111,9 @@ def test_view_saves_when_there_is_no_display(
     temporal, _ = rows_by_entity(rrd)
     assert temporal["/action/gripper"] == min(A_SUCCESS_AFTER[2], MAX_STEPS)
     before = rrd.read_bytes()
-    with pytest.raises(OpenralError, match="refusing to overwrite"):
+    with pytest.raises(OutputExists) as excinfo:
         run_view(ViewOptions(a, episode=2))
+    assert excinfo.value.code == "output.exists"
     assert rrd.read_bytes() == before
 
 

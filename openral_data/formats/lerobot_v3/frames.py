@@ -13,7 +13,7 @@ import numpy.typing as npt
 import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
-from openral_data.errors import OpenralError
+from openral_data.errors import DatasetError
 from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX
 from openral_data.types import Frame
 
@@ -29,7 +29,9 @@ def episode_frames(
     table = table.filter(pc.equal(table.column("episode_index"), e)).sort_by("frame_index")
     n = int(row["length"])
     if table.num_rows != n:
-        raise OpenralError(f"{path}: episode {e} has {table.num_rows} rows, meta/episodes says {n}")
+        raise DatasetError(
+            f"{path}: episode {e} has {table.num_rows} rows, meta/episodes says {n}", code="dataset.invalid"
+        )
     cols = table.to_pydict()
     fps = int(info["fps"])
     videos = {name: _decode_video(src, info, row, IMAGE_PREFIX + name, n, fps) for name in cameras}
@@ -38,7 +40,9 @@ def episode_frames(
         for name, it in videos.items():
             img = next(it, None)
             if img is None:
-                raise OpenralError(f"episode {e}: camera {name}: video ends before frame {i} of {n}")
+                raise DatasetError(
+                    f"episode {e}: camera {name}: video ends before frame {i} of {n}", code="dataset.invalid"
+                )
             images[name] = img
         task_index = int(cols["task_index"][i])
         yield Frame(

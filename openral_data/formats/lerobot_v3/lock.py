@@ -13,12 +13,8 @@ from datetime import UTC, datetime
 from pathlib import Path
 from types import TracebackType
 
-from openral_data.errors import OpenralError
+from openral_data.errors import DatasetBusy
 from openral_data.formats.lerobot_v3 import layout
-
-
-class DatasetBusy(OpenralError):
-    """Another live process is writing the dataset."""
 
 
 class DatasetLock:
@@ -37,9 +33,7 @@ class DatasetLock:
             except BlockingIOError:
                 holder = os.pread(fd, 200, 0).decode(errors="replace").strip() or "unknown process"
                 os.close(fd)
-                raise DatasetBusy(
-                    f"{self.root}: another writer holds this dataset ({holder}); wait for it or stop it"
-                ) from None
+                raise DatasetBusy(self.root, holder) from None
             # the previous holder may have removed the file between our open and our lock: lock the live one
             try:
                 same = os.path.samestat(os.fstat(fd), os.stat(self.path))

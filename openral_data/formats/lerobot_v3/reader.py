@@ -9,7 +9,7 @@ from typing import Any
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from openral_data.errors import OpenralError
+from openral_data.errors import DatasetError
 from openral_data.formats.jsonfile import read_json
 from openral_data.formats.lerobot_v3 import layout
 
@@ -37,14 +37,16 @@ def read_info(root: Path) -> dict[str, Any]:
     try:
         info: dict[str, Any] = read_json(path)
     except FileNotFoundError:
-        raise OpenralError(f"{root}: not a LeRobot v3 dataset (no {layout.INFO_PATH})") from None
+        raise DatasetError(
+            f"{root}: not a LeRobot v3 dataset (no {layout.INFO_PATH})", code="dataset.invalid"
+        ) from None
     return info
 
 
 def read_episodes(root: Path) -> pa.Table:
     files = layout.episodes_files(root)
     if not files:
-        raise OpenralError(f"{root}: no episodes metadata under meta/episodes/")
+        raise DatasetError(f"{root}: no episodes metadata under meta/episodes/", code="dataset.invalid")
     tables = [pq.read_table(f) for f in files]
     return pa.concat_tables(tables, promote_options="default")
 

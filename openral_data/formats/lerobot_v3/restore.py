@@ -15,7 +15,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from openral_data.errors import OpenralError
+from openral_data.errors import DatasetError
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.layout import FilePos
 from openral_data.formats.lerobot_v3.reader import read_info
@@ -49,24 +49,32 @@ def check_same_format(root: Path, info: dict[str, Any], fps: int, features: dict
     """Refuse to continue a dataset whose fps, cameras, contracts or codec differ, naming the first field."""
     where = root / layout.INFO_PATH
     if int(info.get("fps", 0)) != fps:
-        raise OpenralError(f"{where}: fps: the dataset has {info.get('fps')}, this recording {fps}")
+        raise DatasetError(
+            f"{where}: fps: the dataset has {info.get('fps')}, this recording {fps}", code="dataset.mismatch"
+        )
     old = info.get("features", {})
     for key in sorted(set(old) | set(features)):
         if key not in old:
-            raise OpenralError(f"{where}: features.{key}: not in the dataset, but this recording has it")
+            raise DatasetError(
+                f"{where}: features.{key}: not in the dataset, but this recording has it", code="dataset.mismatch"
+            )
         if key not in features:
-            raise OpenralError(f"{where}: features.{key}: in the dataset, but this recording does not have it")
+            raise DatasetError(
+                f"{where}: features.{key}: in the dataset, but this recording does not have it", code="dataset.mismatch"
+            )
         for part in ("dtype", "shape", "names"):
             if old[key].get(part) != features[key].get(part):
-                raise OpenralError(
+                raise DatasetError(
                     f"{where}: features.{key}.{part}: the dataset has {old[key].get(part)}, "
-                    f"this recording {features[key].get(part)}"
+                    f"this recording {features[key].get(part)}",
+                    code="dataset.mismatch",
                 )
         a, b = old[key].get("info") or {}, features[key].get("info") or {}
         for part in sorted(set(a) | set(b)):
             if a.get(part) != b.get(part):
-                raise OpenralError(
-                    f"{where}: features.{key}.info.{part}: the dataset has {a.get(part)}, this recording {b.get(part)}"
+                raise DatasetError(
+                    f"{where}: features.{key}.info.{part}: the dataset has {a.get(part)}, this recording {b.get(part)}",
+                    code="dataset.mismatch",
                 )
 
 
@@ -76,7 +84,10 @@ def restore(
     info = read_info(root)
     rows = episode_rows(root)
     if [int(r["episode_index"]) for r in rows] != list(range(int(info.get("total_episodes", 0)))):
-        raise OpenralError(f"{root}: episode rows do not match info.json; run `openral-data doctor --repair` first")
+        raise DatasetError(
+            f"{root}: episode rows do not match info.json; run `openral-data doctor --repair` first",
+            code="dataset.interrupted",
+        )
     tasks: dict[str, int] = {}
     if rows:
         table = pq.read_table(root / layout.TASKS_PATH)
@@ -144,10 +155,12 @@ def _image_stats(root: Path, names: list[str], has_rows: bool) -> dict[str, Imag
     try:
         saved = json.loads(path.read_text())
     except FileNotFoundError:
-        raise OpenralError(f"{path}: missing: cannot continue this dataset's camera statistics exactly") from None
+        raise DatasetError(
+            f"{path}: missing: cannot continue this dataset's camera statistics exactly", code="dataset.incomplete"
+        ) from None
     accs: dict[str, ImageStatsAccumulator] = {}
     for name in names:
         if name not in saved:
-            raise OpenralError(f"{path}: {name}: no histogram for this camera")
+            raise DatasetError(f"{path}: {name}: no histogram for this camera", code="dataset.incomplete")
         accs[name] = ImageStatsAccumulator.from_json(saved[name])
     return accs

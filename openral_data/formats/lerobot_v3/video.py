@@ -23,6 +23,7 @@ os.environ.setdefault("SVT_LOG", "1")
 import numpy as np
 import numpy.typing as npt
 
+from openral_data.errors import EncoderError
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
 
 Codec = Literal["av1", "h264"]
@@ -90,10 +91,6 @@ class EncodedEpisode:
     path: Path
     frames: int
     stats: ImageStatsAccumulator
-
-
-class EncoderError(RuntimeError):
-    pass
 
 
 @dataclass

@@ -25,7 +25,7 @@ import numpy.typing as npt
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from openral_data.errors import OpenralError
+from openral_data.errors import CompatibilityError, ContractViolation, OutputExists, WriteError
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.features import (
@@ -120,9 +120,9 @@ class LeRobotV3Writer:
         for name, shape in schema.cameras.items():
             problem = self.config.video.size_problem(shape.height, shape.width)
             if problem:
-                raise OpenralError(f"camera {name}: {problem}")
+                raise CompatibilityError(f"camera {name}: {problem}")
         if not resume and root.exists() and (not root.is_dir() or any(_dataset_entries(root))):
-            raise OpenralError(f"{root}: output exists and is not empty; refusing to overwrite it")
+            raise OutputExists(f"{root}: output exists and is not empty; refusing to overwrite it")
         self._created_root = not root.exists()
         root.mkdir(parents=True, exist_ok=True)
         self.features = build_features(schema, self.config.video)
@@ -244,7 +244,7 @@ class LeRobotV3Writer:
         n = len(ep.states)
         if n == 0:
             self.discard_episode()
-            raise OpenralError("an episode needs at least one frame")
+            raise ContractViolation("an episode needs at least one frame")
         encoded: dict[str, EncodedEpisode] = {}
         try:
             for name, worker in self._workers.items():
@@ -259,7 +259,7 @@ class LeRobotV3Writer:
         if short:
             for enc in encoded.values():
                 enc.path.unlink(missing_ok=True)
-            raise OpenralError(f"episode discarded: encoded frames {short} differ from its {n} rows")
+            raise WriteError(f"episode discarded: encoded frames {short} differ from its {n} rows")
         return self.commit_episode(ep, success, encoded)
 
     def commit_episode(

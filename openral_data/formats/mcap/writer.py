@@ -36,7 +36,7 @@ from typing import Any, Final, Literal
 from rosbags.interfaces import Connection
 from rosbags.rosbag2 import StoragePlugin, Writer
 
-from openral_data.errors import OpenralError
+from openral_data.errors import OutputExists, UsageError, WriteError
 from openral_data.formats.atomic import fsync_dir, fsync_file
 from openral_data.formats.mcap import messages as m
 from openral_data.formats.mcap.messages import ImageFormat, MessageFactory
@@ -97,13 +97,13 @@ class McapSink:
         self.schema = schema
         self.config = config or McapConfig()
         if self.config.image_format not in m.IMAGE_FORMATS:
-            raise OpenralError(f"image format {self.config.image_format!r}: expected one of {m.IMAGE_FORMATS}")
+            raise UsageError(f"image format {self.config.image_format!r}: expected one of {m.IMAGE_FORMATS}")
         if self.config.queue_size < 1:
-            raise OpenralError(f"queue_size must be >= 1, got {self.config.queue_size}")
+            raise UsageError(f"queue_size must be >= 1, got {self.config.queue_size}")
         if self.config.encoder_threads is not None and self.config.encoder_threads < 0:
-            raise OpenralError(f"encoder_threads must be >= 0, got {self.config.encoder_threads}")
+            raise UsageError(f"encoder_threads must be >= 0, got {self.config.encoder_threads}")
         if not resume and root.exists() and (not root.is_dir() or any(p.name != PARTIAL for p in root.iterdir())):
-            raise OpenralError(f"{root}: output exists and is not empty; refusing to overwrite it")
+            raise OutputExists(f"{root}: output exists and is not empty; refusing to overwrite it")
         self._created_root = not root.exists()
         root.mkdir(parents=True, exist_ok=True)
         # resume: continue after the finished bags (numbered 0..n-1; record --resume checked that)
@@ -124,11 +124,11 @@ class McapSink:
         index = self.episodes + self.index_offset if self.next_index is None else self.next_index
         self.next_index = None
         if episode_dir(self.root, index).exists():
-            raise OpenralError(f"{episode_dir(self.root, index)}: exists; refusing to overwrite it")
+            raise OutputExists(f"{episode_dir(self.root, index)}: exists; refusing to overwrite it")
         try:
             self._episode = _EpisodeBag(self.root, self.schema, self.config, index, start, time.time_ns())
         except OSError as exc:
-            raise OpenralError(f"{self.root}: cannot start episode {index}'s bag: {exc}") from exc
+            raise WriteError(f"{self.root}: cannot start episode {index}'s bag: {exc}") from exc
 
     def add_frame(self, frame: Frame) -> None:
         if self._episode is None:
@@ -183,7 +183,7 @@ class McapSink:
         try:
             self._episode.write_frame(pending.frame, encoded)
         except OSError as exc:
-            raise OpenralError(f"episode {self._episode.index}: MCAP write failed: {exc}") from exc
+            raise WriteError(f"episode {self._episode.index}: MCAP write failed: {exc}") from exc
 
 
 class _EpisodeBag:

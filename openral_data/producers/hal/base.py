@@ -16,23 +16,11 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 import numpy.typing as npt
 
-from openral_data.errors import OpenralError
+from openral_data.errors import EstopLatched, HalError, StaleState
 from openral_data.producers.hal.sensors import CameraSensor
 from openral_data.schemas.robot import RobotManifest
 
 F32 = npt.NDArray[np.float32]
-
-
-class HalError(OpenralError):
-    """The robot cannot do what was asked (not connected, bus fault, bad command)."""
-
-
-class EstopLatched(HalError):
-    """An emergency stop is latched: commands are refused until `reset_estop()`."""
-
-
-class StaleState(HalError):
-    """The newest joint reading is older than the staleness limit."""
 
 
 @dataclass(frozen=True)
@@ -164,14 +152,19 @@ class HalBase(ABC):
 
     def _require_connected(self, what: str) -> None:
         if not self._connected:
-            raise HalError(f"robot {self.robot.name}: {what}: not connected (call connect() first)")
+            raise HalError(
+                f"robot {self.robot.name}: {what}: not connected (call connect() first)", code="hal.disconnected"
+            )
 
     def read_state(self) -> RobotState:
         self._require_connected("read_state")
         state = self._read_state()
         dim = self.state_dim
         if state.positions.shape != (dim,) or state.positions.dtype != np.float32:
-            raise HalError(f"robot {self.robot.name}: read_state: expected float32[{dim}], got {state.positions.shape}")
+            raise HalError(
+                f"robot {self.robot.name}: read_state: expected float32[{dim}], got {state.positions.shape}",
+                code="hal.state",
+            )
         age = state.age(monotonic())
         if age > self.max_state_age:
             raise StaleState(
@@ -190,7 +183,9 @@ class HalBase(ABC):
         dim = self.action_dim
         pos = command.positions
         if pos.shape != (dim,) or not np.isfinite(pos).all():
-            raise HalError(f"robot {self.robot.name}: send_action: expected finite float32[{dim}], got {pos}")
+            raise HalError(
+                f"robot {self.robot.name}: send_action: expected finite float32[{dim}], got {pos}", code="hal.command"
+            )
         sent = self._send(JointCommand(pos.astype(np.float32, copy=True)))
         self.last_command = sent
         return sent

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import Protocol
 
-from openral_data.errors import OpenralError
+from openral_data.errors import UsageError
 
 
 class Command(StrEnum):
@@ -72,7 +72,7 @@ class KeyboardOperator:
     def __init__(self, fd: int | None = None) -> None:
         self.fd = sys.stdin.fileno() if fd is None else fd
         if not os.isatty(self.fd):
-            raise OpenralError("--operator keyboard: stdin is not a terminal (use --operator auto or a script)")
+            raise UsageError("--operator keyboard: stdin is not a terminal (use --operator auto or a script)")
         self._saved = termios.tcgetattr(self.fd)
         tty.setcbreak(self.fd)
 
@@ -111,11 +111,11 @@ def parse_script(text: str) -> list[Verdict]:
     for k, item in enumerate(filter(None, (s.strip() for s in text.split(",")))):
         name, _, at = item.partition("@")
         if name not in allowed:
-            raise OpenralError(f"--operator: item {k} {item!r}: unknown verdict; valid: {', '.join(allowed)}")
+            raise UsageError(f"--operator: item {k} {item!r}: unknown verdict; valid: {', '.join(allowed)}")
         frame: int | None = None
         if at:
             if not at.isdigit() or int(at) < 1:
-                raise OpenralError(f"--operator: item {k} {item!r}: @ needs a frame count >= 1")
+                raise UsageError(f"--operator: item {k} {item!r}: @ needs a frame count >= 1")
             frame = int(at)
         out.append(Verdict(allowed[name], frame))
     return out

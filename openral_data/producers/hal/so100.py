@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from openral_data.errors import ConfigError
-from openral_data.producers.hal.base import HalBase, HalError, JointCommand, RobotState, monotonic
+from openral_data.errors import ConfigError, HalError
+from openral_data.producers.hal.base import HalBase, JointCommand, RobotState, monotonic
 from openral_data.schemas.hal import HardwareConfig
 from openral_data.schemas.robot import RobotManifest
 
@@ -73,12 +73,15 @@ class So100Hal(HalBase):
         try:
             self.driver.connect(calibrate=False)
         except (OSError, ConnectionError, RuntimeError) as exc:
-            raise HalError(f"{self.source}: hardware.port: cannot connect to {self.hardware.port}: {exc}") from None
+            raise HalError(
+                f"{self.source}: hardware.port: cannot connect to {self.hardware.port}: {exc}", code="hal.connect"
+            ) from None
         if not self.driver.is_calibrated:
             self.driver.disconnect()
             raise HalError(
                 f"{self.source}: hardware.calibration_dir: the motors' calibration differs from {path} "
-                "(recalibrate with lerobot-calibrate, or point calibration_dir at this arm's file)"
+                "(recalibrate with lerobot-calibrate, or point calibration_dir at this arm's file)",
+                code="hal.calibration",
             )
 
     def _disconnect(self) -> None:

@@ -12,7 +12,7 @@ import signal
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from typing import Any
 
-from openral_data.errors import OpenralError
+from openral_data.errors import ExecutorError, OpenralError, UsageError
 from openral_data.record.parallel.plan import WorkerJob
 from openral_data.record.parallel.worker import WorkerResult, init_local_worker, run_worker
 
@@ -56,7 +56,7 @@ def run_ray(jobs: list[WorkerJob], address: str | None = None) -> list[WorkerRes
     try:
         import ray
     except ImportError:
-        raise OpenralError("--executor ray: Ray is not installed (install the `ray` extra)") from None
+        raise ExecutorError("--executor ray: Ray is not installed (install the `ray` extra)") from None
     started = False
     if not ray.is_initialized():
         env = {k: os.environ[k] for k in _FORWARDED_ENV if k in os.environ}
@@ -80,7 +80,7 @@ def run_ray(jobs: list[WorkerJob], address: str | None = None) -> list[WorkerRes
             except ray.exceptions.RayTaskError as exc:
                 cause = getattr(exc, "cause", None)  # the worker's own exception
                 if isinstance(cause, OpenralError):
-                    raise OpenralError(str(cause)) from None
+                    raise cause.amended(str(cause)) from None
                 raise
         return finished
     finally:
@@ -99,16 +99,16 @@ def _init_ray(ray: Any, address: str | None, kwargs: dict[str, Any]) -> None:
         except Exception as exc:  # noqa: BLE001 - Ray reports a failed start as a bare Exception
             ray.shutdown()
             if address is not None:
-                raise OpenralError(f"--address {address}: cannot connect to a Ray cluster: {exc}") from None
+                raise ExecutorError(f"--address {address}: cannot connect to a Ray cluster: {exc}") from None
             if attempt == attempts or "timed out during startup" not in str(exc):
-                raise OpenralError(f"--executor ray: could not start a local Ray instance: {exc}") from None
+                raise ExecutorError(f"--executor ray: could not start a local Ray instance: {exc}") from None
 
 
 def run_jobs(jobs: list[WorkerJob], executor: str = "local", address: str | None = None) -> list[WorkerResult]:
     if executor == "local":
         if address is not None:
-            raise OpenralError("--address: only with --executor ray")
+            raise UsageError("--address: only with --executor ray")
         return run_local(jobs)
     if executor == "ray":
         return run_ray(jobs, address)
-    raise OpenralError(f"--executor: {executor!r} is not one of {', '.join(EXECUTORS)}")
+    raise UsageError(f"--executor: {executor!r} is not one of {', '.join(EXECUTORS)}")

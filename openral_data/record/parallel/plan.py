@@ -6,7 +6,7 @@ import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
-from openral_data.errors import OpenralError
+from openral_data.errors import UsageError
 from openral_data.record import registry
 from openral_data.record.options import RecordOptions
 from openral_data.schemas.scene import load_recordable_scene
@@ -25,16 +25,16 @@ def resolve_counts(opts: RecordOptions) -> tuple[int, int]:
     n = opts.n_episodes if opts.n_episodes is not None else scene.n_episodes
     seed = opts.seed if opts.seed is not None else scene.seed
     if n < 1:
-        raise OpenralError(f"--n-episodes must be >= 1, got {n}")
+        raise UsageError(f"--n-episodes must be >= 1, got {n}")
     if seed < 0:
-        raise OpenralError(f"--seed must be >= 0, got {seed}")
+        raise UsageError(f"--seed must be >= 0, got {seed}")
     return n, seed
 
 
 def plan(opts: RecordOptions, workers: int, workdir: Path, threads: int | None = None) -> list[WorkerJob]:
     """Split episodes 0..n-1 (seeds seed..seed+n-1) into at most `workers` contiguous, near-equal blocks."""
     if workers < 1:
-        raise OpenralError(f"--workers must be >= 1, got {workers}")
+        raise UsageError(f"--workers must be >= 1, got {workers}")
     n, seed = resolve_counts(opts)
     workers = min(workers, n)
     jobs: list[WorkerJob] = []

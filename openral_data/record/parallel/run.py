@@ -20,7 +20,7 @@ from pathlib import Path
 from openral_data import paths
 from openral_data.edit.ops import check_new_output, publish, staging_dir, summed_histograms, write_selection
 from openral_data.edit.source import SourceDataset
-from openral_data.errors import OpenralError
+from openral_data.errors import ExecutorError, OpenralError, UsageError
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.mcap import finished_bags
 from openral_data.record import registry
@@ -48,7 +48,7 @@ def record_parallel(
 ) -> ParallelSummary:
     check_formats(opts.formats, opts.image_format)
     if opts.resume:
-        raise OpenralError("--resume: continue a recording with one process (no --workers/--executor)")
+        raise UsageError("--resume: continue a recording with one process (no --workers/--executor)")
     if opts.out is None:
         scene = load_recordable_scene(registry.resolve_scene_path(opts.scene))
         opts = dataclasses.replace(opts, out=default_out(scene, registry.resolve_rskill(opts.rskill)[0].id))
@@ -69,7 +69,7 @@ def record_parallel(
         if not kept:
             shutil.rmtree(workdir, ignore_errors=True)
         elif isinstance(exc, OpenralError):
-            raise type(exc)(f"{exc} ({kept_note(workdir, kept)})") from None
+            raise exc.amended(f"{exc} ({kept_note(workdir, kept)})") from None
         raise
     shutil.rmtree(workdir, ignore_errors=True)
     return ParallelSummary(
@@ -130,11 +130,11 @@ def _assemble(results: list[WorkerResult], workdir: Path, out: Path, formats: tu
         for wdir in worker_dirs:
             for bag in finished_bags(wdir / MCAP_SUBDIR):
                 if (dest / bag.name).exists():
-                    raise OpenralError(f"{bag}: two workers wrote episode bag {bag.name}")
+                    raise ExecutorError(f"{bag}: two workers wrote episode bag {bag.name}")
                 os.replace(bag, dest / bag.name)
         names = [b.name for b in finished_bags(dest)]
         if names != [f"episode_{k:06d}" for k in range(len(episodes))]:
-            raise OpenralError(f"{out}: worker bags {names} are not episodes 0..{len(episodes) - 1}")
+            raise ExecutorError(f"{out}: worker bags {names} are not episodes 0..{len(episodes) - 1}")
 
     if "lerobot" in formats:
         sources = [SourceDataset(d) for d in worker_dirs]
@@ -142,7 +142,7 @@ def _assemble(results: list[WorkerResult], workdir: Path, out: Path, formats: tu
         selection.sort(key=lambda se: se[0].seed(se[1]))
         hist = summed_histograms(sources)
         if hist is None:
-            raise OpenralError(f"{workdir}: a worker left no camera histograms (.openral/image_hist.json)")
+            raise ExecutorError(f"{workdir}: a worker left no camera histograms (.openral/image_hist.json)")
         write_selection(selection, out, "record --workers", before_publish=add_bags, image_hist=hist)
     else:
         staging = staging_dir(out)

@@ -9,7 +9,7 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
-from openral_data.errors import OpenralError
+from openral_data.errors import CompatibilityError, OutputExists
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig, summarize
 from openral_data.formats.lerobot_v3.reader import read_episodes
 from openral_data.record.bridge import DatasetBridge
@@ -208,16 +208,19 @@ def test_refuses_frame_sizes_the_encoder_cannot_take(
     schema = DatasetSchema(
         fps=10, state_names=("s",), action_names=("a",), cameras={"cam": CameraShape(*shape)}, robot_type="unit"
     )
-    with pytest.raises(OpenralError, match=problem):
+    # the code says "incompatible"; which size limit was hit is only in the wording, so it is matched too
+    with pytest.raises(CompatibilityError, match=problem) as excinfo:
         LeRobotV3Writer(tmp_path / "ds", schema, WriterConfig(video=VideoSettings(codec=codec)))  # type: ignore[arg-type]
+    assert excinfo.value.code == "compat"
     assert not (tmp_path / "ds").exists()
 
 
 def test_refuses_non_empty_root(tmp_path: Path) -> None:
     (tmp_path / "x").write_text("keep me")
     schema = DatasetSchema(fps=10, state_names=("s",), action_names=("a",), cameras={}, robot_type="unit")
-    with pytest.raises(OpenralError, match="not empty"):
+    with pytest.raises(OutputExists) as excinfo:
         LeRobotV3Writer(tmp_path, schema)
+    assert excinfo.value.code == "output.exists"
     assert (tmp_path / "x").read_text() == "keep me"
 
 
@@ -246,7 +249,7 @@ def test_encoder_worker_abort_then_reuse(tmp_path: Path) -> None:
 
 def test_encoder_failure_discards_the_episode_cleanly(tmp_path: Path) -> None:
     """A frame the encoder cannot take (bypassing the bridge) fails the episode; earlier ones are intact."""
-    from openral_data.formats.lerobot_v3.video import EncoderError
+    from openral_data.errors import EncoderError
     from openral_data.types import EpisodeStart, Frame
 
     schema = DatasetSchema(

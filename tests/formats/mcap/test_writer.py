@@ -10,7 +10,7 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-from openral_data.errors import OpenralError
+from openral_data.errors import OutputExists, WriteError
 from openral_data.formats.mcap import McapConfig, McapSink, finished_bags
 from openral_data.formats.mcap import writer as mcap_writer
 from openral_data.formats.mcap.messages import MessageFactory
@@ -83,10 +83,12 @@ def test_a_failing_write_fails_the_episode_and_leaves_no_bag(
 
     monkeypatch.setattr(mcap_writer._EpisodeBag, "write_frame", broken)
     sink.begin_episode(EpisodeStart(seed=1, initial_state={}))
-    with pytest.raises(OpenralError, match="episode 1: MCAP write failed: disk full"):
+    # the code says the write failed; the wording carries the episode and the cause (disk full), matched too
+    with pytest.raises(WriteError, match="episode 1: MCAP write failed: disk full") as excinfo:
         # in the caller's thread the write happens in add_frame; with encoder threads at end_episode
         sink.add_frame(_frame(0))
         sink.end_episode(True)
+    assert excinfo.value.code == "write"
     sink.close()
     assert [p.name for p in finished_bags(tmp_path / "m")] == ["episode_000000"]
     assert not (tmp_path / "m" / ".partial").exists()
@@ -95,8 +97,9 @@ def test_a_failing_write_fails_the_episode_and_leaves_no_bag(
 def test_refuses_to_write_into_a_non_empty_folder(tmp_path: Path) -> None:
     (tmp_path / "m").mkdir()
     (tmp_path / "m" / "notes.txt").write_text("keep")
-    with pytest.raises(OpenralError, match="output exists and is not empty"):
+    with pytest.raises(OutputExists) as excinfo:
         McapSink(tmp_path / "m", SCHEMA)
+    assert excinfo.value.code == "output.exists"
     assert (tmp_path / "m" / "notes.txt").read_text() == "keep"
 
 

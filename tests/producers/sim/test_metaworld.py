@@ -9,6 +9,7 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
+# ConfigError raises are matched by message on purpose: the file and field it names are the point
 from openral_data.errors import ConfigError
 from openral_data.policies.metaworld_expert import policy_class_name
 from openral_data.producers.sim.metaworld import task_names

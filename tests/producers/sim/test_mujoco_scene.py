@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pytest
 
+# CompatibilityError and ConfigError raises are matched by message on purpose: the file and field it names are the point
 from openral_data.errors import CompatibilityError, ConfigError
 from openral_data.record import registry
 from openral_data.types import SimRollout
