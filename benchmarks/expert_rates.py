@@ -1,4 +1,4 @@
-"""Success rates of the scripted experts on every shipped robot: regenerates the README's table.
+"""Success rates of the scripted experts on every shipped robot (the expert table in benchmarks/README.md).
 
 Runs each (robot, task) on seeds 0..N-1 (default 50) without cameras (physics does not depend on them) and
 prints a Markdown table. Usage: `.venv/bin/python benchmarks/expert_rates.py [--seeds 50] [--robots a,b]`.

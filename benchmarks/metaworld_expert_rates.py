@@ -1,4 +1,4 @@
-"""Success of the metaworld-expert rSkill per MetaWorld task: regenerates the README's expert table.
+"""Success of the metaworld-expert rSkill per MetaWorld task (the MetaWorld expert table in benchmarks/README.md).
 
 Each task runs seeds S..S+N-1 (default 1000..1019, the benchmark YAMLs' first 20 seeds) without cameras (physics
 does not depend on them), up to MetaWorld's 500 steps. Usage:

@@ -1,4 +1,4 @@
-"""Steps per second of every registered scene, with and without its cameras: regenerates the README's Scenes table.
+"""Steps per second of every registered scene, with and without its cameras (benchmarks/README.md: scene speeds).
 
 For each scene YAML in SCENES below (one per scene type / task family), the scene is built twice — with the
 cameras its YAML declares and with none — and driven by the listed rSkill for `--steps` control steps (episodes

@@ -1,6 +1,6 @@
 """A DuckDB connection whose views read datasets and results in place (read_parquet, nothing loaded up front).
 
-Views (documented in the README):
+Views (documented in docs/stats.md):
 
 * `frames`   — every data-parquet row of every dataset, plus a `dataset` column.
 * `episodes` — one row per episode: dataset, episode_index, length, duration_s, tasks, task, success, seed,

@@ -59,7 +59,7 @@ def episode_loop(
         bridge.close()
         kept = finished()
         if isinstance(exc, OpenralError) and kept:
-            raise type(exc)(f"{exc} ({kept} finished episode(s) kept in {out})") from None
+            raise exc.amended(f"{exc} ({kept} finished episode(s) kept in {out})") from None
         raise
     finally:
         stop.restore()

@@ -4,7 +4,7 @@ Topics of one episode bag (names are stable; `convert` and `export` rely on them
 
 * ``/joint_states``   ``sensor_msgs/msg/JointState``: ``name`` = the state contract's names, ``position`` =
   ``observation.state`` (float32 widened to float64, exact).
-* ``/action``         ``std_msgs/msg/Float32MultiArray``: the action vector, float32 as recorded (see README).
+* ``/action``         ``std_msgs/msg/Float32MultiArray``: the action vector, float32 as recorded (see docs/convert.md).
 * ``/camera/<name>/image/compressed`` ``sensor_msgs/msg/CompressedImage`` (format ``jpeg`` or ``png``), or
   ``/camera/<name>/image_raw`` ``sensor_msgs/msg/Image`` (``rgb8``) with ``image_format: raw``.
 * ``/reward``         ``std_msgs/msg/Float32``: the reward that followed the action of the same stamp (absent
