@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib.util
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -57,9 +58,11 @@ def test_libero_outside_its_environment_is_one_line_naming_the_extra(project: Pa
 
 
 def test_resolver_refuses_libero_next_to_robosuite_or_metaworld() -> None:
-    uv = shutil.which("uv")
+    # scripts/setup.sh installs uv into the interpreter .venv was made from (pyenv's), not necessarily onto PATH
+    base_uv = Path(sys.base_prefix) / "bin" / "uv"
+    uv = shutil.which("uv") or (str(base_uv) if base_uv.is_file() else None)
     if uv is None or subprocess.run([uv, "--version"], capture_output=True, check=False, timeout=60).returncode:
-        pytest.skip("uv is not on PATH")
+        pytest.skip("uv is neither on PATH nor beside the base interpreter")
     for other in ("robosuite", "metaworld"):
         proc = subprocess.run(
             [uv, "sync", "--frozen", "--dry-run", "--extra", "libero", "--extra", other],
