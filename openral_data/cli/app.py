@@ -9,7 +9,7 @@ import typer
 from openral_data.cli import convert, inspect, record, replay, stats
 from openral_data.cli.edit import episodes_app
 from openral_data.cli.pipeline import pipeline_app
-from openral_data.cli.terminal import err_console
+from openral_data.cli.terminal import print_line
 from openral_data.errors import OpenralError
 
 app = typer.Typer(
@@ -35,5 +35,5 @@ def main() -> None:
     try:
         app()
     except OpenralError as exc:
-        err_console.print(f"error: {exc}", markup=False, highlight=False, soft_wrap=True)
+        print_line(f"error: {exc}", err=True)
         sys.exit(2)

@@ -7,7 +7,7 @@ from typing import cast
 
 import typer
 
-from openral_data.cli.terminal import INTERRUPTED_RECORDING, err_console, print_line, print_rows
+from openral_data.cli.terminal import INTERRUPTED_RECORDING, print_line, print_rows
 from openral_data.errors import UsageError
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.producers.hal.operator import HELP
@@ -62,7 +62,7 @@ def run_hal_record(
     try:
         s = record_hal(opts, lambda line: print_line(line, err=True))
     except KeyboardInterrupt:
-        err_console.print(INTERRUPTED_RECORDING)
+        print_line(INTERRUPTED_RECORDING, err=True)
         raise typer.Exit(130) from None
     rows = [
         ("output", str(s.out)),

@@ -129,6 +129,6 @@ def doctor(
     from openral_data.doctor.command import run_doctor
 
     text, code = run_doctor(dataset, repair)
-    console.print(text, markup=False, highlight=False, soft_wrap=True)
+    print_line(text)
     if code:
         raise typer.Exit(code)

@@ -7,7 +7,7 @@ from typing import Annotated, Any
 
 import typer
 
-from openral_data.cli.terminal import console, print_line
+from openral_data.cli.terminal import print_line
 
 pipeline_app = typer.Typer(no_args_is_help=True, help="Run declarative, resumable campaigns (pipelines/*.yaml).")
 
@@ -35,5 +35,5 @@ def run_cmd(
     print_line(f"pipeline {report.name}: {report.workdir}")
     for step in report.steps:
         line = f"  {step['step']:<12} {step['kind']:<7} {step['status']:<8} {step['seconds']:>7.1f} s  "
-        console.print(line + _figures(step["summary"]), markup=False, highlight=False, soft_wrap=True)
+        print_line(line + _figures(step["summary"]))
     print_line(f"  report: {report.workdir / 'report.json'}")

@@ -9,7 +9,7 @@ import typer
 
 from openral_data import paths
 from openral_data.cli.choices import CodecChoice
-from openral_data.cli.terminal import INTERRUPTED_RECORDING, err_console, print_rows, progress_bar
+from openral_data.cli.terminal import INTERRUPTED_RECORDING, print_line, print_rows, progress_bar
 from openral_data.errors import UsageError
 
 if TYPE_CHECKING:
@@ -114,9 +114,9 @@ def _interrupted(out: Path | None, parallel: bool) -> None:
         target = find_workers_dir(out)
         kept = kept_worker_episodes(target) if target is not None else 0
         detail = kept_note(target, kept) if target is not None and kept else "nothing was written to --out"
-        err_console.print(f"interrupted: {detail}", soft_wrap=True, markup=False, highlight=False)
+        print_line(f"interrupted: {detail}", err=True)
     else:
-        err_console.print(INTERRUPTED_RECORDING)
+        print_line(INTERRUPTED_RECORDING, err=True)
 
 
 def _print_summary(summary: RecordSummary, resume: bool, workers: str | None) -> None:

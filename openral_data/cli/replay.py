@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from openral_data.cli.choices import CodecChoice
-from openral_data.cli.terminal import err_console, print_rows, progress_bar
+from openral_data.cli.terminal import print_line, print_rows, progress_bar
 
 if TYPE_CHECKING:
     from openral_data.replay.command import ReplayOptions, ReplaySummary
@@ -71,5 +71,5 @@ def _run(opts: ReplayOptions) -> ReplaySummary:
         except KeyboardInterrupt:
             bar.stop()
             kept = f"; finished episodes are kept in {opts.record}" if opts.record is not None else ""
-            err_console.print(f"interrupted: no results written{kept}", markup=False, highlight=False)
+            print_line(f"interrupted: no results written{kept}", err=True)
             raise typer.Exit(130) from None
