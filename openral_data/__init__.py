@@ -39,7 +39,7 @@ _API: dict[str, str] = {
     "RepairResult": "openral_data.doctor",
     "summarize": "openral_data.formats.lerobot_v3",
     "DatasetSummary": "openral_data.formats.lerobot_v3",
-    "stats_query": "openral_data.metrics.query",
+    "stats_query": "openral_data.metrics.command",
     "Table": "openral_data.metrics.report",
     "RobotManifest": "openral_data.schemas",
     "RSkillManifest": "openral_data.schemas",
@@ -106,7 +106,7 @@ if TYPE_CHECKING:
     from openral_data.doctor import Finding, RepairResult, check, repair
     from openral_data.errors import CompatibilityError, ConfigError, ContractViolation, OpenralError
     from openral_data.formats.lerobot_v3 import DatasetSummary, summarize
-    from openral_data.metrics.query import stats_query
+    from openral_data.metrics.command import stats_query
     from openral_data.metrics.report import Table
     from openral_data.record.options import RecordOptions, RecordSummary
     from openral_data.record.sim import record

@@ -19,12 +19,11 @@ import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from openral_data.errors import DatasetBusy, DatasetError, EpisodeSelectionError, NotFound
-from openral_data.formats.jsonfile import read_json
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.clip import episode_clip
 from openral_data.formats.lerobot_v3.features import ACTION, IMAGE_PREFIX, STATE, build_features
 from openral_data.formats.lerobot_v3.lock import holder
-from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_tasks
+from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_openral, read_tasks
 from openral_data.formats.lerobot_v3.stats import STAT_KEYS, ImageStatsAccumulator, Stats
 from openral_data.formats.lerobot_v3.video import VideoSettings
 from openral_data.formats.lerobot_v3.writer import WriterConfig
@@ -95,12 +94,7 @@ class SourceDataset:
 
     # -- what the dataset is ---------------------------------------------------------------------------------
     def _openral_json(self) -> dict[str, Any]:
-        path = self.root / layout.OPENRAL_PATH
-        try:
-            data: dict[str, Any] = read_json(path)
-        except FileNotFoundError:
-            return {}
-        return data
+        return read_openral(self.root) or {}
 
     def camera_names(self) -> list[str]:
         return [k[len(IMAGE_PREFIX) :] for k, f in self.features.items() if f.get("dtype") == "video"]

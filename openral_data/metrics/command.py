@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -10,7 +11,7 @@ import duckdb
 from openral_data.errors import QueryError, UsageError
 from openral_data.metrics import report as rep
 from openral_data.metrics.plot import check_plot_path, save_plot
-from openral_data.metrics.render import DATA_FORMATS, FORMATS, render
+from openral_data.metrics.render import FORMATS, render
 from openral_data.metrics.sources import resolve
 from openral_data.metrics.views import DEFAULT_MEMORY_LIMIT, connect
 
@@ -28,9 +29,14 @@ class StatsOptions:
 
 def run_stats(opts: StatsOptions) -> str:
     """The tables as JSON, CSV or Markdown (`--format table` is the command line's: openral_data/cli/stats.py)."""
-    if opts.fmt not in DATA_FORMATS and opts.fmt in FORMATS:
-        raise ValueError(f"run_stats: --format {opts.fmt} is drawn by the command line (cli.stats.stats_text)")
+    if opts.fmt == "table":
+        raise ValueError("run_stats: --format table is drawn by the command line (cli.stats.stats_text)")
     return render(stats_tables(opts), opts.fmt)
+
+
+def stats_query(paths: Sequence[str | Path], sql: str, memory_limit: str = DEFAULT_MEMORY_LIMIT) -> rep.Table:
+    """`stats --sql` from Python: `sql` over the views of `paths` (datasets, results dirs or globs), as a table."""
+    return stats_tables(StatsOptions([str(p) for p in paths], sql=sql, memory_limit=memory_limit))[0]
 
 
 def stats_tables(opts: StatsOptions) -> list[rep.Table]:

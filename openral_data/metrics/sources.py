@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import glob
-import json
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -15,7 +14,7 @@ from openral_data.errors import DatasetError, NotFound
 from openral_data.formats import results as results_layout
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.features import ACTION, STATE
-from openral_data.formats.lerobot_v3.reader import read_info
+from openral_data.formats.lerobot_v3.reader import read_info, read_openral
 
 
 @dataclass(frozen=True)
@@ -72,12 +71,9 @@ def open_dataset(root: Path, label: str | None = None) -> DatasetSource:
     episode_columns = _columns(episode_files[0])
     data_columns = _columns(data_files[0]) if data_files else frozenset()
     scene = rskill = robot = None
-    provenance = root / layout.OPENRAL_PATH
-    if provenance.is_file():
-        try:
-            meta = json.loads(provenance.read_text()).get("schema_metadata", {})
-        except json.JSONDecodeError as exc:
-            raise DatasetError(f"{provenance}: invalid JSON: {exc}", code="dataset.invalid") from None
+    provenance = read_openral(root)
+    if provenance is not None:
+        meta = provenance.get("schema_metadata", {})
         scene = _dig(meta, "scene", "config", "scene", "id")
         rskill = _dig(meta, "rskill", "config", "id")
         robot = meta.get("robot") if isinstance(meta.get("robot"), str) else None

@@ -14,13 +14,12 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import shutil
 from pathlib import Path
 from typing import Any
 
 from openral_data.errors import ConfigError
-from openral_data.formats.atomic import fsync_dir, fsync_file, write_bytes
+from openral_data.formats.atomic import fsync_dir, fsync_file, fsync_tree, write_bytes
 from openral_data.pipeline.schema import Step
 
 
@@ -33,10 +32,7 @@ def make_durable(path: Path) -> None:
         fsync_file(path)
         fsync_dir(path.parent)
         return
-    for dirpath, _, files in os.walk(path):
-        for name in files:
-            fsync_file(Path(dirpath) / name)
-        fsync_dir(Path(dirpath))
+    fsync_tree(path)
     fsync_dir(path.parent)
 
 

@@ -25,7 +25,7 @@ from openral_data.errors import ConfigError, DatasetError, ReplayError
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX
 from openral_data.formats.lerobot_v3.frames import episode_frames as decode_episode_frames
-from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_tasks
+from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_openral, read_tasks
 from openral_data.schemas.base import validate
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import BenchmarkScene, SimScene
@@ -80,13 +80,10 @@ class RecordedDataset:
     # -- provenance --------------------------------------------------------------------------------------------
     @cached_property
     def provenance(self) -> dict[str, Any] | None:
-        path = self.root / layout.OPENRAL_PATH
-        if not path.is_file():
+        openral = read_openral(self.root)
+        if openral is None:
             return None
-        try:
-            meta = json.loads(path.read_text()).get("schema_metadata", {})
-        except json.JSONDecodeError as exc:
-            raise DatasetError(f"{path}: invalid JSON: {exc}", code="dataset.invalid") from None
+        meta = openral.get("schema_metadata", {})
         return meta if isinstance(meta, dict) else None
 
     def _provenance(self, key: str) -> Any:

@@ -43,6 +43,16 @@ def read_info(root: Path) -> dict[str, Any]:
     return info
 
 
+def read_openral(root: Path) -> dict[str, Any] | None:
+    """`meta/openral.json`, our provenance (writer, schema_metadata, config); None for a dataset without it
+    (written by lerobot, or converted)."""
+    try:
+        data: dict[str, Any] = read_json(root / layout.OPENRAL_PATH)
+    except FileNotFoundError:
+        return None
+    return data
+
+
 def read_episodes(root: Path) -> pa.Table:
     files = layout.episodes_files(root)
     if not files:
