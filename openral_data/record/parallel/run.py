@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from openral_data import paths
-from openral_data.edit.ops import check_new_output, publish, staging_dir, summed_histograms, write_selection
+from openral_data.edit.ops import publish, staging_dir, summed_histograms, write_selection
 from openral_data.edit.source import SourceDataset
 from openral_data.errors import ExecutorError, OpenralError, UsageError
 from openral_data.formats.lerobot_v3 import layout
@@ -148,8 +148,7 @@ def _assemble(results: list[WorkerResult], workdir: Path, out: Path, formats: tu
         staging = staging_dir(out)
         try:
             add_bags(staging)
-            check_new_output(out)
-            publish(staging, out)
+            publish(staging, out)  # refuses an `out` that filled up meanwhile
         except BaseException:
             shutil.rmtree(staging, ignore_errors=True)
             raise
