@@ -25,6 +25,7 @@ dataset.incomplete      a file its metadata names is gone
 dataset.mismatch        it does not match what is appended to or merged with it
 dataset.unsupported     valid, but not a layout this command handles (not written by openral-data, ...)
 dataset.interrupted     a commit was interrupted; run ``openral-data doctor --repair``
+dataset.unsafe          a path from a file's contents leads outside its root; a control file is not a regular file
 dataset.busy          another live process holds the dataset's writer lock (`DatasetBusy`)
 episodes              an episode selection is wrong:
 episodes.syntax         not an index or a range a-b

@@ -1,9 +1,13 @@
-"""Where the project's manifests live: `robots/`, `rskills/`, `scenes/`, and the default `datasets/` root."""
+"""Where the project's manifests live (`robots/`, `rskills/`, `scenes/`, the default `datasets/` root), and the
+one rule for a path that comes out of a file's contents: it stays inside its root (`contained`, `safe_name`).
+"""
 
 from __future__ import annotations
 
 import os
 from pathlib import Path
+
+from openral_data.errors import DatasetError
 
 
 def project_root() -> Path:
@@ -31,3 +35,33 @@ def datasets_dir() -> Path:
 
 
 DEFAULT_SCENE = "mock_pick"
+
+
+def contained(root: Path, relative: str | os.PathLike[str], source: str) -> Path:
+    """`root / relative`, refused unless it stays inside `root`.
+
+    `relative` comes from untrusted file contents (a journal entry, a path template, a feature key, an id used
+    as a folder name); `source` names where (``"<file>: <field>"``) for the one-line refusal. Absolute paths,
+    any ``..`` component, NUL bytes and symlinks (anywhere on the way) that lead out are refused, before
+    anything touches the filesystem beyond resolving the path.
+    """
+    text = os.fspath(relative)
+    if "\x00" in text:
+        raise DatasetError(f"{source}: path {text!r} holds a NUL byte", code="dataset.unsafe")
+    rel = Path(text)
+    if rel.is_absolute():
+        raise DatasetError(f"{source}: path {text!r} is absolute; it must stay inside {root}", code="dataset.unsafe")
+    path = root / rel
+    if ".." in rel.parts or not path.resolve().is_relative_to(root.resolve()):
+        raise DatasetError(f"{source}: path {text!r} leads outside {root}", code="dataset.unsafe")
+    return path
+
+
+def safe_name(name: object, source: str) -> str:
+    """`name` if it can be one path component (a feature key, a robot id, a step id), else a one-line refusal.
+
+    A component is a non-empty string without ``/``, ``\\`` or NUL, and not ``.`` or ``..``.
+    """
+    if not isinstance(name, str) or not name or name in (".", "..") or any(c in name for c in "/\\\x00"):
+        raise DatasetError(f"{source}: {name!r} cannot be a file or folder name", code="dataset.unsafe")
+    return name

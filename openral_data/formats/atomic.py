@@ -7,13 +7,67 @@ journal is removed. A process killed during the renames leaves the journal; `rep
 
 from __future__ import annotations
 
+import errno
 import json
 import os
+import stat
 from collections.abc import Callable
 from pathlib import Path
 
 import pyarrow as pa
 import pyarrow.parquet as pq
+
+from openral_data.errors import DatasetError
+
+CONTROL_FLAGS = os.O_NOFOLLOW | os.O_NONBLOCK | os.O_CLOEXEC
+
+
+def open_control(path: Path, flags: int = os.O_RDONLY, mode: int = 0o644) -> int:
+    """Open one of our control files (lock, journal, settings, markers) as a file descriptor, safely.
+
+    A dataset is untrusted: the file must be a regular file, not a symlink (``O_NOFOLLOW``), not a FIFO or a
+    device (opened ``O_NONBLOCK``, then checked), or the open is refused with one line. A missing file raises
+    `FileNotFoundError` as `os.open` does (pass ``os.O_CREAT`` to create it).
+    """
+    try:
+        fd = os.open(path, flags | CONTROL_FLAGS, mode)
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise DatasetError(f"{path}: is a symbolic link; refusing to follow it", code="dataset.unsafe") from None
+        raise
+    if not stat.S_ISREG(os.fstat(fd).st_mode):
+        os.close(fd)
+        raise DatasetError(f"{path}: not a regular file; refusing to use it", code="dataset.unsafe")
+    return fd
+
+
+def read_control(path: Path, limit: int = 1 << 24) -> bytes:
+    """The bytes of a control file opened with `open_control` (at most `limit`; larger is refused)."""
+    fd = open_control(path)
+    try:
+        if os.fstat(fd).st_size > limit:
+            raise DatasetError(f"{path}: larger than {limit} bytes; not one of ours", code="dataset.invalid")
+        chunks = []
+        while chunk := os.read(fd, 1 << 16):
+            chunks.append(chunk)
+        return b"".join(chunks)
+    finally:
+        os.close(fd)
+
+
+def state_dir(root: Path) -> Path:
+    """``root/.openral``, created if missing; refused when it is a symlink or not a folder."""
+    path = root / ".openral"
+    try:
+        st = os.lstat(path)
+    except FileNotFoundError:
+        path.mkdir(parents=True, exist_ok=True)
+        return state_dir(root)
+    if not stat.S_ISDIR(st.st_mode):
+        raise DatasetError(
+            f"{path}: not a real folder (a symbolic link or a file); refusing to use it", code="dataset.unsafe"
+        )
+    return path
 
 
 def fsync_dir(path: Path) -> None:
