@@ -124,11 +124,14 @@ def view(
 def doctor(
     dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset folder (ours or lerobot's)")],
     repair: Annotated[bool, typer.Option("--repair", help="fix what is safely fixable (originals are kept)")] = False,
+    deep: Annotated[
+        bool, typer.Option("--deep", help="also decode every frame and compare it with the stored image statistics")
+    ] = False,
 ) -> None:
     """Check a dataset against lerobot 0.6.1's format rules, one line per finding; exit 1 on errors."""
     from openral_data.doctor.command import run_doctor
 
-    text, code = run_doctor(dataset, repair)
+    text, code = run_doctor(dataset, repair, deep)
     print_line(text)
     if code:
         raise typer.Exit(code)

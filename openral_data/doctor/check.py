@@ -2,38 +2,60 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 from openral_data.doctor import check_data, check_meta, check_video
+from openral_data.doctor.check_deep import check_deep
+from openral_data.doctor.check_digests import check_digests
 from openral_data.doctor.findings import Finding, error, warning
-from openral_data.doctor.inspect import Dataset, load
+from openral_data.doctor.inspect import DAMAGE, Dataset, load
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.lock import holder
 from openral_data.formats.lerobot_v3.recovery import staged_files
 
+Check = Callable[[Dataset], list[Finding]]
 
-def check(root: Path, *, lock_held_by_us: bool = False) -> list[Finding]:
-    """Every finding for the dataset at `root` (ours or lerobot's); an empty list means healthy."""
+
+def check(root: Path, *, lock_held_by_us: bool = False, deep: bool = False) -> list[Finding]:
+    """Every finding for the dataset at `root` (ours or lerobot's); an empty list means healthy.
+
+    Never raises on a damaged dataset: a file that cannot be read, or a check that fails on what it read,
+    becomes an error finding. `deep` also decodes every video frame (`check_deep`)."""
     findings = leftovers(root, lock_held_by_us)
     ds, fatal = load(root)
     if ds is None:
         return findings + fatal
-    return findings + check_dataset(ds)
+    return findings + check_dataset(ds, deep=deep)
 
 
-def check_dataset(ds: Dataset) -> list[Finding]:
+def _run(step: Check, ds: Dataset) -> list[Finding]:
+    try:
+        return step(ds)
+    except DAMAGE as exc:
+        name = step.__name__.removeprefix("check_")
+        return [error("check.failed", "dataset", f"the {name} check cannot read the dataset: {exc!r}")]
+
+
+def check_dataset(ds: Dataset, *, deep: bool = False) -> list[Finding]:
     out = list(ds.problems)
-    out += check_meta.check_info(ds)
-    out += check_meta.check_tasks(ds)
-    out += check_meta.check_episodes(ds)
-    out += check_data.check_columns(ds)
-    out += check_data.check_rows(ds)
-    out += check_meta.check_totals(ds)
-    out += check_data.check_episode_rows(ds)
+    for step in (
+        check_meta.check_info,
+        check_meta.check_tasks,
+        check_meta.check_episodes,
+        check_data.check_columns,
+        check_data.check_rows,
+        check_meta.check_totals,
+        check_data.check_episode_rows,
+    ):
+        out += _run(step, ds)
     if not any(f.code == "episodes.order" for f in out):
-        out += check_video.check_videos(ds)
-        out += check_video.check_orphans(ds)
-    out += check_meta.check_stats(ds)
+        out += _run(check_video.check_videos, ds)
+        out += _run(check_video.check_orphans, ds)
+        if deep:
+            out += _run(check_deep, ds)
+    out += _run(check_meta.check_stats, ds)
+    out += _run(check_digests, ds)
     return out
 
 

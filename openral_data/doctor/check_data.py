@@ -4,8 +4,6 @@ timestamp == frame_index / fps within the loader's 1e-4 s."""
 
 from __future__ import annotations
 
-import itertools
-
 import numpy as np
 import numpy.typing as npt
 
@@ -47,6 +45,21 @@ def _col(ds: Dataset, name: str) -> npt.NDArray[np.int64] | None:
     return np.asarray(ds.data[name].to_numpy(zero_copy_only=False))
 
 
+def _frame_numbering(ep: npt.NDArray[np.int64], fi: npt.NDArray[np.int64]) -> tuple[list[int], bool]:
+    """(episodes whose frame_index values are not 0..n-1 in any order, whether rows are out of order).
+
+    Comparisons only (no arithmetic on the values), so a flipped high bit cannot overflow anything."""
+    order = np.lexsort((fi, ep))
+    se, sf = ep[order], fi[order]
+    n = len(se)
+    starts = np.flatnonzero(np.concatenate([[True], se[1:] != se[:-1]])) if n else np.zeros(0, dtype=np.int64)
+    first = np.repeat(starts, np.diff(np.append(starts, n)))
+    bad = sf != np.arange(n) - first
+    broken = sorted({int(e) for e in se[bad]})
+    unsorted = bool(n > 1 and ((ep[1:] < ep[:-1]) | ((ep[1:] == ep[:-1]) & (fi[1:] <= fi[:-1]))).any())
+    return broken, unsorted
+
+
 def check_rows(ds: Dataset) -> list[Finding]:
     if ds.data is None:
         total = ds.total("total_frames")
@@ -59,8 +72,11 @@ def check_rows(ds: Dataset) -> list[Finding]:
         return []  # reported as missing columns
     out: list[Finding] = []
     n = len(ep)
-    key = ep * (int(fi.max(initial=0)) + 1) + fi
-    if n and (np.diff(key) <= 0).any():
+    broken, unsorted = _frame_numbering(ep, fi)
+    if broken:
+        out.append(error("data.frame_index", where, f"frame_index is not 0..n-1 in episode(s) {broken[:5]}"))
+        return out
+    if unsorted:
         out.append(
             error(
                 "data.order",
@@ -80,16 +96,11 @@ def check_rows(ds: Dataset) -> list[Finding]:
                 repairable=True,
             )
         )
-    starts = np.flatnonzero(np.concatenate([[True], ep[1:] != ep[:-1]]))
-    bounds = np.append(starts, n)
-    broken = [int(ep[a]) for a, b in itertools.pairwise(bounds) if (fi[a:b] != np.arange(b - a)).any()]
-    if broken:
-        out.append(error("data.frame_index", where, f"frame_index is not 0..n-1 in episode(s) {broken[:5]}"))
     ts = _col(ds, "timestamp")
     if ts is not None:
         off = np.abs(ts.astype(np.float64) - fi / ds.fps)
-        if n and off.max() > TOLERANCE_S:
-            bad = int(np.argmax(off))
+        if n and not (off <= TOLERANCE_S).all():
+            bad = int(np.argmax(np.where(np.isnan(off), np.inf, off)))
             out.append(
                 error(
                     "data.timestamp",
@@ -106,17 +117,21 @@ def check_rows(ds: Dataset) -> list[Finding]:
 
 
 def check_episode_rows(ds: Dataset) -> list[Finding]:
-    """Each episodes-metadata row must match its frames: count and position in the frame table."""
+    """Each episodes-metadata row must match its frames: count, and position in the frame table (its rows are
+    index dataset_from_index .. dataset_to_index - 1, each episode starting where the previous one ended)."""
     if ds.data is None or ds.episodes is None or "length" not in ds.episodes.column_names:
         return []
-    ep = _col(ds, "episode_index")
+    ep, index = _col(ds, "episode_index"), _col(ds, "index")
     if ep is None:
         return []
-    counts = np.bincount(ep[ep >= 0]) if len(ep) else np.zeros(0, dtype=np.int64)
+    values, counts = np.unique(ep, return_counts=True)
+    count = {int(e): int(c) for e, c in zip(values, counts, strict=True)}
+    order = np.argsort(ep, kind="stable")
+    firsts = np.searchsorted(ep[order], values)
     out: list[Finding] = []
     idx = [int(i) for i in ds.episodes["episode_index"].to_pylist()]
     lengths = [int(x) for x in ds.episodes["length"].to_pylist()]
-    wrong = [e for e, n in zip(idx, lengths, strict=True) if (counts[e] if 0 <= e < len(counts) else 0) != n]
+    wrong = [e for e, n in zip(idx, lengths, strict=True) if count.get(e, 0) != n]
     limit = min(len(idx), ds.total("total_episodes"))
     wrong_committed = [e for e in wrong if e < limit]
     if wrong_committed:
@@ -125,6 +140,28 @@ def check_episode_rows(ds: Dataset) -> list[Finding]:
                 "data.episode_rows",
                 "data",
                 f"frame rows differ from the episodes' length in episode(s) {wrong_committed[:5]}",
+            )
+        )
+    names = ds.episodes.column_names
+    if index is None or "dataset_from_index" not in names or "dataset_to_index" not in names:
+        return out
+    lo = [int(x) for x in ds.episodes["dataset_from_index"].to_pylist()]
+    hi = [int(x) for x in ds.episodes["dataset_to_index"].to_pylist()]
+    off: list[int] = []
+    previous_end = 0
+    where = {int(e): int(f) for e, f in zip(values, firsts, strict=True)}
+    for e, a, b in list(zip(idx, lo, hi, strict=True))[:limit]:
+        rows = index[order[where.get(e, 0) : where.get(e, 0) + count.get(e, 0)]]
+        if a != previous_end or not np.array_equal(rows, np.arange(a, a + len(rows))) or a + len(rows) != b:
+            off.append(e)
+        previous_end = b
+    if off:
+        out.append(
+            error(
+                "data.episode_range",
+                "data",
+                f"rows of episode(s) {off[:5]} are not index dataset_from_index..dataset_to_index - 1 following "
+                "the previous episode (a dropped or moved row)",
             )
         )
     return out

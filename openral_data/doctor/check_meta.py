@@ -74,6 +74,16 @@ def check_tasks(ds: Dataset) -> list[Finding]:
                 repairable=True,
             )
         )
+    strings = ds.tasks["task"].to_pylist()
+    repeated = sorted({str(t) for t in strings if strings.count(t) > 1})
+    if repeated:
+        out.append(
+            error(
+                "tasks.duplicate",
+                TASKS,
+                f"task string(s) listed more than once: {repeated[:3]} (lerobot maps each task to one index)",
+            )
+        )
     order = [int(i) for i in ds.tasks["task_index"].to_pylist()]
     if order != list(range(len(order))):
         fixable = sorted(order) == list(range(len(order)))

@@ -102,10 +102,32 @@ def _check_file(ds: Dataset, path: Path, eps: list[Placement]) -> list[Finding]:
         )
     late = [p.episode for p in eps if p.to_ts is None or abs(p.to_ts - (p.from_ts + p.length / ds.fps)) > TOLERANCE_S]
     if late and not short and not off:
-        out.append(
-            warning("video.to_timestamp", rel, f"to_timestamp != from + length/fps in episode(s) {late[:5]}", True)
-        )
+        message = f"to_timestamp != from + length/fps in episode(s) {late[:5]} (rows and length disagree)"
+        out.append(error("video.to_timestamp", rel, message, True))
+    out += _check_ranges(ds, rel, eps, len(times))
     return out
+
+
+def _check_ranges(ds: Dataset, rel: str, eps: list[Placement], packets: int) -> list[Finding]:
+    """The episodes of one file, in episode order, tile it: each starts where the previous one ends (the first
+    at 0), none overlaps another, and no frame is left that no episode shows."""
+    end = 0.0
+    for p in eps:
+        if abs(p.from_ts - end) > TOLERANCE_S:
+            what = "overlaps or precedes" if p.from_ts < end else "leaves a gap after"
+            return [
+                error(
+                    "video.ranges",
+                    rel,
+                    f"episode {p.episode} starts at {p.from_ts:.4f} s: it {what} the previous episode's range "
+                    f"(ends at {end:.4f} s); episode ranges must be disjoint, in order and contiguous",
+                )
+            ]
+        end = p.from_ts + p.length / ds.fps
+    covered = sum(p.length for p in eps)
+    if packets > covered:
+        return [error("video.ranges", rel, f"{packets - covered} frame(s) belong to no episode's range")]
+    return []
 
 
 def orphan_videos(ds: Dataset) -> list[Path]:

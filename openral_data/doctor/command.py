@@ -1,4 +1,5 @@
-"""`openral-data doctor DATASET [--repair]`: the report text and the exit status (1 while errors remain)."""
+"""`openral-data doctor DATASET [--repair] [--deep]`: the report text and the exit status (1 while errors
+remain)."""
 
 from __future__ import annotations
 
@@ -9,16 +10,17 @@ from openral_data.doctor.findings import Finding
 from openral_data.doctor.repair import repair
 
 
-def run_doctor(root: Path, fix: bool) -> tuple[str, int]:
+def run_doctor(root: Path, fix: bool, deep: bool = False) -> tuple[str, int]:
     lines: list[str] = []
     if fix:
         result = repair(root)
-        lines += [f"repaired {a}" for a in result.actions] or ["nothing to repair"]
+        lines += [f"refused  {r}" for r in result.refused]
+        lines += [f"repaired {a}" for a in result.actions] or ([] if result.refused else ["nothing to repair"])
         if result.quarantine is not None:
             lines.append(f"kept     replaced files and removed rows under {result.quarantine}")
-        findings = result.remaining
+        findings = check(root, deep=True) if deep else result.remaining
     else:
-        findings = check(root)
+        findings = check(root, deep=deep)
     lines.append(_summary(root, findings, after_repair=fix))
     lines += [f.line() for f in findings]
     return "\n".join(lines), 1 if any(f.severity == "error" for f in findings) else 0

@@ -11,14 +11,32 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import av
 import pyarrow as pa
 import pyarrow.parquet as pq
 
 from openral_data.doctor.findings import Finding, error
+from openral_data.errors import OpenralError
 from openral_data.formats.lerobot_v3 import layout
 
 DEFAULT_FEATURES = ("timestamp", "frame_index", "episode_index", "index", "task_index")
 DATA_SCAN_COLUMNS = ("index", "episode_index", "frame_index", "timestamp", "task_index")
+TOTALS = ("total_episodes", "total_frames", "total_tasks")
+# what reading a damaged parquet file raises (pyarrow's errors are ArrowException, ValueError or OSError)
+READ_ERRORS = (pa.ArrowException, OSError, ValueError, TypeError, KeyError, IndexError)
+# what a check meets in a damaged file it did not expect (wrong types, absurd values, undecodable media)
+DAMAGE = (
+    ValueError,
+    TypeError,
+    KeyError,
+    IndexError,
+    ArithmeticError,
+    MemoryError,
+    OSError,
+    pa.ArrowException,
+    av.error.FFmpegError,
+    OpenralError,
+)
 
 
 @dataclass
@@ -54,7 +72,8 @@ class Dataset:
 
 
 def load(root: Path) -> tuple[Dataset | None, list[Finding]]:
-    """The dataset, or None with the findings that make every further check meaningless."""
+    """The dataset, or None with the findings that make every further check meaningless. Never raises on a
+    damaged file: what cannot be read becomes a finding."""
     path = root / layout.INFO_PATH
     if not root.is_dir():
         return None, [error("dataset.missing", str(root), "not a folder")]
@@ -62,7 +81,7 @@ def load(root: Path) -> tuple[Dataset | None, list[Finding]]:
         return None, [error("info.missing", layout.INFO_PATH, "missing: lerobot falls back to a Hub download")]
     try:
         info = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+    except (ValueError, OSError) as exc:  # JSONDecodeError and UnicodeDecodeError are ValueErrors
         return None, [error("info.json", layout.INFO_PATH, f"invalid JSON: {exc}")]
     if not isinstance(info, dict):
         return None, [error("info.json", layout.INFO_PATH, "not a JSON object")]
@@ -75,6 +94,10 @@ def load(root: Path) -> tuple[Dataset | None, list[Finding]]:
     features = info["features"]
     if not isinstance(features, dict) or not all(isinstance(f, dict) for f in features.values()):
         return None, [error("info.features", layout.INFO_PATH, "features must map names to objects")]
+    for key in TOTALS:
+        value = info.get(key, 0)
+        if not isinstance(value, int) or isinstance(value, bool) or value < 0:
+            return None, [error("info.types", layout.INFO_PATH, f"{key} must be an integer >= 0, got {value!r}")]
     ds = Dataset(root, info, fps, features, [], None, [], [], [], None, [])
     _load_tasks(ds)
     _load_episodes(ds)
@@ -82,17 +105,27 @@ def load(root: Path) -> tuple[Dataset | None, list[Finding]]:
     return ds, []
 
 
+def read_parquet(path: Path, columns: list[str] | None = None) -> pa.Table:
+    """A parquet file with its page checksums verified (a flipped byte in a page is an error, not a value)."""
+    return pq.read_table(path, columns=columns, page_checksum_verification=True)
+
+
+def _unreadable(ds: Dataset, code: str, path: Path, exc: BaseException) -> None:
+    ds.problems.append(error(code, ds.rel(path), f"unreadable parquet: {exc}"))
+
+
 def _load_tasks(ds: Dataset) -> None:
     path = ds.root / layout.TASKS_PATH
     if not path.is_file():
         return
     try:
-        ds.tasks = pq.read_table(path)
-    except (pa.ArrowException, OSError) as exc:
-        ds.problems.append(error("tasks.unreadable", layout.TASKS_PATH, f"unreadable parquet: {exc}"))
+        tasks = read_parquet(path)
+        raw = (tasks.schema.metadata or {}).get(b"pandas")
+        pandas = json.loads(raw) if raw else None
+    except READ_ERRORS as exc:
+        _unreadable(ds, "tasks.unreadable", path, exc)
         return
-    raw = (ds.tasks.schema.metadata or {}).get(b"pandas")
-    ds.tasks_pandas = json.loads(raw) if raw else None
+    ds.tasks, ds.tasks_pandas = tasks, pandas if isinstance(pandas, dict) else None
 
 
 def _load_episodes(ds: Dataset) -> None:
@@ -100,33 +133,44 @@ def _load_episodes(ds: Dataset) -> None:
     tables = []
     for path in ds.episode_files:
         try:
-            t = pq.read_table(path)
-        except (pa.ArrowException, OSError) as exc:
-            ds.problems.append(error("episodes.unreadable", ds.rel(path), f"unreadable parquet: {exc}"))
+            t = read_parquet(path)
+        except READ_ERRORS as exc:
+            _unreadable(ds, "episodes.unreadable", path, exc)
             return
         tables.append(t.select([c for c in t.column_names if not c.startswith("stats/")]))
         ds.episode_file_rows.append(t.num_rows)
-    if tables:
+    if not tables:
+        return
+    try:
         ds.episodes = pa.concat_tables(tables, promote_options="permissive")
+    except READ_ERRORS as exc:
+        ds.problems.append(error("episodes.unreadable", "meta/episodes", f"files do not share one schema: {exc}"))
 
 
 def _load_data(ds: Dataset) -> None:
+    """The scan columns of every data file; every page of every column is read once to verify its checksum."""
     ds.data_files = layout.data_files(ds.root)
     tables = []
     for path in ds.data_files:
         try:
-            schema = pq.read_schema(path)
+            pf = pq.ParquetFile(path, page_checksum_verification=True)
+            schema = pf.schema_arrow
             cols = [c for c in DATA_SCAN_COLUMNS if c in schema.names]
-            t = pq.read_table(path, columns=cols)
-        except (pa.ArrowException, OSError) as exc:
-            ds.problems.append(error("data.unreadable", ds.rel(path), f"unreadable parquet: {exc}"))
+            groups = [pf.read_row_group(i).select(cols) for i in range(pf.num_row_groups)]
+            t = pa.concat_tables(groups) if groups else schema.empty_table().select(cols)
+        except READ_ERRORS as exc:
+            _unreadable(ds, "data.unreadable", path, exc)
             return
         ds.data_schemas.append(schema)
         ds.data_file_rows.append(t.num_rows)
         tables.append(t)
     common = [c for c in DATA_SCAN_COLUMNS if all(c in t.column_names for t in tables)]
-    if tables:
+    if not tables:
+        return
+    try:
         ds.data = pa.concat_tables([t.select(common).cast(_scan_schema(t.select(common))) for t in tables])
+    except READ_ERRORS as exc:
+        ds.problems.append(error("data.types", "data", f"index/frame columns of unexpected types: {exc}"))
 
 
 def _scan_schema(t: pa.Table) -> pa.Schema:

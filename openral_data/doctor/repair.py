@@ -7,9 +7,10 @@ takes out — under ``.openral/quarantine/<time>/``: a repair never loses data. 
 
 from __future__ import annotations
 
+import contextlib
 import json
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -21,9 +22,10 @@ import pyarrow.parquet as pq
 from openral_data.doctor.check import check
 from openral_data.doctor.check_video import placements
 from openral_data.doctor.findings import Finding
-from openral_data.doctor.inspect import Dataset, load
+from openral_data.doctor.inspect import DAMAGE, Dataset, load
+from openral_data.errors import DatasetError
 from openral_data.formats import atomic
-from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3 import digests, layout
 from openral_data.formats.lerobot_v3.layout import FilePos
 from openral_data.formats.lerobot_v3.lock import DatasetLock
 from openral_data.formats.lerobot_v3.recovery import Quarantine, finish_interrupted_commit, quarantine_staged
@@ -38,22 +40,67 @@ class RepairResult:
     actions: list[str]  # what was done, one line each
     remaining: list[Finding]  # what the final check still finds
     quarantine: Path | None  # where replaced files and removed rows were kept (None: nothing was)
+    refused: list[str] = field(default_factory=list)  # why nothing (more) was repaired, one line each
+
+
+# a dataset with one of these is not rewritten: a repair must not act on what it cannot read
+UNREADABLE = {
+    "data.unreadable",
+    "episodes.unreadable",
+    "tasks.unreadable",
+    "data.types",
+    "check.failed",
+    "data.frame_index",
+    "info.json",
+    "info.required",
+    "info.fps",
+    "info.features",
+    "info.types",
+}
 
 
 def repair(root: Path) -> RepairResult:
+    """Fix what is safely fixable; a dataset with files it cannot read is left as it is (`refused` says why)."""
     with DatasetLock(root, "openral-data doctor --repair"):
         q = Quarantine(root)
         actions = _writer_leftovers(root, q)
-        for step in (_tasks, _episode_order, _data_columns, _data_rows, _totals, _index_range, _video_times):
+        refused = _refusals(check(root, lock_held_by_us=True))
+        steps = (_tasks, _episode_order, _data_columns, _data_rows, _totals, _index_range, _video_times)
+        for step in steps if not refused else ():
             findings = {f.code: f for f in check(root, lock_held_by_us=True) if f.repairable}
             ds, _ = load(root)
-            if ds is not None:
+            if ds is None:
+                break
+            try:
                 actions += step(ds, findings, q)
+            except DAMAGE as exc:
+                refused.append(f"stopped before {step.__name__.strip('_')}: cannot read the dataset: {exc!r}")
+                break
         ds, _ = load(root)
-        if ds is not None:
+        if ds is not None and not refused:
             actions += _orphans(ds, {f.code: f for f in check(root, lock_held_by_us=True)}, q)
+        _follow_digests(root, q)
         remaining = check(root, lock_held_by_us=True)
-    return RepairResult(actions, remaining, q.dir if q.dir.exists() else None)
+    return RepairResult(actions, remaining, q.dir if q.dir.exists() else None, refused)
+
+
+def _refusals(findings: list[Finding]) -> list[str]:
+    """One line per finding that makes rewriting the dataset unsafe (the files it names cannot be read)."""
+    return [
+        f"nothing rewritten: {f.where} cannot be read safely ({f.message}); restore it first"
+        for f in findings
+        if f.code in UNREADABLE
+    ]
+
+
+def _follow_digests(root: Path, q: Quarantine) -> None:
+    """The files this repair rewrote or took out (their originals are in the quarantine) get their digests
+    updated: repair vouches for what it wrote. A changed file it did not touch keeps its finding."""
+    if not q.dir.is_dir():
+        return
+    touched = [root / p.relative_to(q.dir) for p in q.dir.rglob("*") if p.is_file() and ".removed-rows" not in p.name]
+    with contextlib.suppress(DatasetError):  # an unusable digests file stays reported by check as it is
+        digests.refresh(root, touched)
 
 
 def _writer_leftovers(root: Path, q: Quarantine) -> list[str]:

@@ -116,7 +116,7 @@ def parquet_writer(table: pa.Table) -> Callable[[Path], None]:
     """A `writer` for `write_with` and `Batch.write_with`: `table` as one snappy-compressed parquet file."""
 
     def write(path: Path) -> None:
-        pq.write_table(table, path, compression="snappy")
+        pq.write_table(table, path, compression="snappy", write_page_checksum=True)
 
     return write
 

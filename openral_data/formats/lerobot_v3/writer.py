@@ -27,7 +27,7 @@ import pyarrow.parquet as pq
 
 from openral_data.errors import CompatibilityError, ContractViolation, OutputExists, WriteError
 from openral_data.formats import atomic
-from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3 import digests, layout
 from openral_data.formats.lerobot_v3.features import (
     ACTION,
     STATE,
@@ -389,7 +389,7 @@ class LeRobotV3Writer:
         row["data/file_index"] = self._data_file.file
 
         def write(tmp: Path) -> None:
-            with pq.ParquetWriter(tmp, self._data_schema, compression="snappy") as w:
+            with pq.ParquetWriter(tmp, self._data_schema, compression="snappy", write_page_checksum=True) as w:
                 for t in self._data_tables:  # one row group per episode, as lerobot writes
                     w.write_table(t)
 
@@ -495,7 +495,9 @@ class LeRobotV3Writer:
         self._write(self.root / layout.STATS_PATH, atomic.bytes_writer(json.dumps(ordered, indent=4).encode()))
         if episodes_file is not None:
             self._write_episodes({episodes_file})
-        self._write(self.root / layout.INFO_PATH, atomic.bytes_writer(json.dumps(self.info(), indent=4).encode()))
+        info = json.dumps(self.info(), indent=4).encode()
+        self._write(self.root / digests.DIGESTS_PATH, digests.writer(self.root, {layout.INFO_PATH: info}))
+        self._write(self.root / layout.INFO_PATH, atomic.bytes_writer(info))
 
     def info(self) -> dict[str, Any]:
         c = self.config

@@ -1,0 +1,78 @@
+"""`doctor --deep`: decode every episode's frames of every camera and compare their per-channel mean with the
+per-episode image statistics the writer stored (meta/episodes `stats/<camera>/mean`). A swapped or shifted video
+range shows another episode's frames, whose mean differs; lossy coding moves a mean by a few levels at most."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import av
+import numpy as np
+
+from openral_data.doctor.check_video import Placement, placements
+from openral_data.doctor.findings import Finding, error
+from openral_data.doctor.inspect import Dataset, read_parquet
+from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
+
+TOLERANCE = 0.02  # of the [0, 1] range, ~5 of 255 levels: well above what encoding changes in a mean
+
+
+def stored_means(ds: Dataset, key: str) -> dict[int, np.ndarray[Any, Any]]:
+    """episode index -> the stored per-channel mean of camera `key` (episodes without one are left out)."""
+    col = f"stats/{key}/mean"
+    out: dict[int, np.ndarray[Any, Any]] = {}
+    for path in ds.episode_files:
+        t = read_parquet(path)
+        if col not in t.column_names or "episode_index" not in t.column_names:
+            continue
+        for e, mean in zip(t["episode_index"].to_pylist(), t[col].to_pylist(), strict=True):
+            if mean is not None:
+                out[int(e)] = np.asarray(mean, dtype=np.float64).ravel()
+    return out
+
+
+def decoded_means(path: Path, eps: list[Placement], fps: int) -> dict[int, np.ndarray[Any, Any]]:
+    """episode -> per-channel mean of its decoded frames (sampled as the writer samples them)."""
+    half = 0.5 / fps
+    accs = {p.episode: ImageStatsAccumulator() for p in eps}
+    with av.open(str(path)) as container:
+        for frame in container.decode(video=0):
+            t = frame.time
+            if t is None:
+                continue
+            for p in eps:
+                if p.from_ts - half <= t < p.from_ts + p.length / fps - half:
+                    accs[p.episode].add(np.asarray(frame.to_ndarray(format="rgb24"), dtype=np.uint8))
+                    break
+    return {e: acc.stats()["mean"].ravel() for e, acc in accs.items() if acc.frames}
+
+
+def check_deep(ds: Dataset) -> list[Finding]:
+    if ds.episodes is None:
+        return []
+    out: list[Finding] = []
+    for key in ds.video_keys:
+        want = stored_means(ds, key)
+        if not want:
+            continue
+        for path, eps in sorted(placements(ds, key).items()):
+            if not path.is_file():
+                continue  # reported as video.missing
+            got = decoded_means(path, eps, ds.fps)
+            bad = [
+                p.episode
+                for p in eps
+                if p.episode in want
+                and (p.episode not in got or np.abs(got[p.episode] - want[p.episode]).max() > TOLERANCE)
+            ]
+            if bad:
+                out.append(
+                    error(
+                        "video.content",
+                        ds.rel(path),
+                        f"decoded frames of episode(s) {bad[:5]} do not match their stored image statistics "
+                        f"(mean per channel off by more than {TOLERANCE}): the range shows other frames",
+                    )
+                )
+    return out
