@@ -51,6 +51,7 @@ UNREADABLE = {
     "data.types",
     "check.failed",
     "data.frame_index",
+    "video.unreadable",
     "info.json",
     "info.required",
     "info.fps",
