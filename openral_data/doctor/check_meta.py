@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import re
+from collections import Counter
 
 import numpy as np
 
@@ -74,8 +75,7 @@ def check_tasks(ds: Dataset) -> list[Finding]:
                 repairable=True,
             )
         )
-    strings = ds.tasks["task"].to_pylist()
-    repeated = sorted({str(t) for t in strings if strings.count(t) > 1})
+    repeated = sorted(str(t) for t, n in Counter(ds.tasks["task"].to_pylist()).items() if n > 1)
     if repeated:
         out.append(
             error(
