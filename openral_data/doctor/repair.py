@@ -75,7 +75,7 @@ def repair(root: Path) -> RepairResult:
             try:
                 actions += step(ds, findings, q)
             except DAMAGE as exc:
-                refused.append(f"stopped before {step.__name__.strip('_')}: cannot read the dataset: {exc!r}")
+                refused.append(f"stopped in {step.__name__.strip('_')}: cannot read the dataset: {exc!r}")
                 break
         ds, _ = load(root)
         if ds is not None and not refused:
