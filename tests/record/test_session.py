@@ -124,9 +124,7 @@ def files_of(out: Path) -> tuple[tuple[str, int], ...]:
     )
 
 
-@pytest.mark.parametrize(
-    "name", ["lerobot", pytest.param("mcap", marks=pytest.mark.slow), pytest.param("both", marks=pytest.mark.slow)]
-)
+@pytest.mark.parametrize("name", ["lerobot", "mcap", pytest.param("both", marks=pytest.mark.slow)])
 def test_every_failing_write_of_the_last_episode_and_close(tmp_path: Path, home: Path, name: str) -> None:
     formats = FORMATS[name]
     first = tmp_path / "first"  # episode 0, committed; each case continues it with episode 1
