@@ -42,6 +42,7 @@ query                 DuckDB rejected a query or a setting
 replay                a dataset cannot be replayed (no initial state, no scene to rebuild, ...)
 executor              a parallel recording's executor is unavailable or a worker failed
 write                 writing an output failed part-way
+write.disk              the disk refused a write: full, failing, read-only or over quota (`DiskError`)
 hal                   the robot cannot do what was asked:
 hal.disconnected        used before connect()
 hal.connect             cannot connect to the hardware (port, bus)
@@ -59,6 +60,8 @@ hal.stale             the newest joint reading is older than the staleness limit
 from __future__ import annotations
 
 import copy
+import errno as _errno
+import os
 from pathlib import Path
 from typing import Any, ClassVar, Self
 
@@ -188,6 +191,45 @@ class WriteError(OpenralError):
     """Writing an output failed part-way (the episode in flight is discarded)."""
 
     default_code = "write"
+
+
+DISK_ERRNOS = frozenset({_errno.ENOSPC, _errno.EIO, _errno.EROFS, _errno.EDQUOT})
+
+
+def disk_errno(exc: BaseException | None) -> int | None:
+    """The errno of the disk problem behind `exc` (an OSError in it or its cause/context chain), else None."""
+    seen: set[int] = set()
+    while exc is not None and id(exc) not in seen:
+        seen.add(id(exc))
+        if isinstance(exc, DiskError):
+            return exc.errno
+        if isinstance(exc, OSError) and exc.errno in DISK_ERRNOS:
+            return exc.errno
+        exc = exc.__cause__ or exc.__context__
+    return None
+
+
+class DiskError(WriteError):
+    """The disk refused a write (ENOSPC, EIO, EROFS, EDQUOT) while `doing` something to the output at `path`.
+
+    `committed`: the write failed after the commit point of an episode (its journal was durable), so the next
+    `record --resume` or `doctor --repair` finishes that episode's commit instead of dropping it.
+    """
+
+    default_code = "write.disk"
+
+    def __init__(self, path: Path, errno: int, doing: str, *, committed: bool = False) -> None:
+        super().__init__(f"{path}: {disk_problem(errno)} while {doing}")
+        self.path = path
+        self.errno = errno
+        self.doing = doing
+        self.committed = committed
+
+
+def disk_problem(errno: int) -> str:
+    """The errno's strerror as a phrase: 28 -> 'no space left on device'."""
+    text = os.strerror(errno)
+    return text[:1].lower() + text[1:]
 
 
 class HalError(OpenralError):

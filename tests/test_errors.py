@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import ast
 import builtins
+import errno
 import pickle
 import re
 from pathlib import Path
@@ -126,3 +127,28 @@ def test_amended_and_pickled_errors_keep_class_code_and_facts() -> None:
     for err in (busy, DatasetError("m", code="dataset.mismatch"), errors.StaleState("s")):
         back = pickle.loads(pickle.dumps(err))
         assert (type(back), back.code, str(back), back.__dict__) == (type(err), err.code, str(err), err.__dict__)
+
+
+@pytest.mark.parametrize(
+    ("code", "phrase"),
+    [
+        (errno.ENOSPC, "no space left on device"),
+        (errno.EIO, "input/output error"),
+        (errno.EROFS, "read-only file system"),
+        (errno.EDQUOT, "disk quota exceeded"),
+    ],
+)
+def test_disk_errors_name_the_problem_and_are_found_behind_other_errors(code: int, phrase: str) -> None:
+    err = errors.DiskError(Path("/d"), code, "committing episode 3", committed=True)
+    assert str(err) == f"/d: {phrase} while committing episode 3"
+    assert err.code == "write.disk" and isinstance(err, errors.WriteError)
+    back = pickle.loads(pickle.dumps(err))
+    assert (type(back), str(back), back.__dict__) == (type(err), str(err), err.__dict__)
+    try:
+        try:
+            raise OSError(code, "x")
+        except OSError as exc:
+            raise RuntimeError("encoder failed") from exc
+    except RuntimeError as wrapped:
+        assert errors.disk_errno(wrapped) == code
+    assert errors.disk_errno(OSError(errno.EACCES, "x")) is None and errors.disk_errno(ValueError()) is None

@@ -122,10 +122,13 @@ def parquet_writer(table: pa.Table) -> Callable[[Path], None]:
 
 
 def write_with(path: Path, writer: Callable[[Path], None], durable: bool = True) -> None:
-    """Write `path` through `writer(tmp)`, then atomically replace it; on error the old file stays."""
+    """Write `path` through `writer(tmp)`, then atomically replace it; on error the old file stays (and no tmp)."""
     batch = Batch(durable)
     batch.write_with(path, writer)
-    batch.commit()
+    try:
+        batch.commit()
+    finally:
+        batch.discard()
 
 
 def write_bytes(path: Path, data: bytes, durable: bool = True) -> None:

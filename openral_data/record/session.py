@@ -3,13 +3,14 @@ interrupted or failed loop leaves behind (the episode in flight discarded, every
 
 from __future__ import annotations
 
+import contextlib
 import signal
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from openral_data.errors import OpenralError
+from openral_data.errors import DiskError, OpenralError, disk_errno
 from openral_data.policies.base import PolicyAdapter
 from openral_data.record.bridge import DatasetBridge
 
@@ -50,18 +51,51 @@ def episode_loop(
     """Run an episode loop under a StopRequest; close the bridge and the policy however it ends.
 
     On an error the bridge is closed first (discarding the episode in flight; finished episodes are already
-    durable), and an OpenralError names the `finished()` episodes kept in `out`.
+    durable); an error while closing after that is not reported over the first one. An OpenralError names the
+    `finished()` episodes kept in `out`; a disk problem (`DiskError`, or an OSError with ENOSPC, EIO, EROFS or
+    EDQUOT) ends the run with one line naming it and the episodes kept.
     """
     stop = StopRequest()
     try:
-        yield stop
-    except BaseException as exc:
-        bridge.close()
-        kept = finished()
-        if isinstance(exc, OpenralError) and kept:
-            raise exc.amended(f"{exc} ({kept} finished episode(s) kept in {out})") from None
-        raise
+        try:
+            yield stop
+        except BaseException as exc:
+            with contextlib.suppress(Exception):  # the disk that failed the loop usually fails closing too
+                bridge.close()
+            explained = ended_by(exc, out, finished())
+            if explained is None:
+                raise
+            raise explained from exc
     finally:
         stop.restore()
         policy.close()
-    bridge.close()
+    try:
+        bridge.close()
+    except Exception as exc:
+        explained = ended_by(exc, out, finished())
+        if explained is None:
+            raise
+        raise explained from exc
+
+
+def ended_by(exc: BaseException, out: Path, kept: int) -> OpenralError | None:
+    """The one-line error that ends a recording on `exc`, naming the episodes kept; None: re-raise `exc`."""
+    problem = disk_errno(exc)
+    if problem is not None:
+        committed = isinstance(exc, DiskError) and exc.committed
+        doing = exc.doing if isinstance(exc, DiskError) else f"recording episode {kept}"
+        err = DiskError(out, problem, doing, committed=committed)
+        if committed:  # the journal is durable: recovery finishes this episode's commit
+            note = f"{_episodes(kept + 1)} kept (free space, then record --resume finishes episode {kept}'s commit)"
+        else:
+            note = f"{_episodes(kept)} kept (free space, then record --resume)"
+        return err.amended(f"{err}; {note}")
+    if isinstance(exc, OpenralError) and kept:
+        return exc.amended(f"{exc} ({kept} finished episode(s) kept in {out})")
+    return None
+
+
+def _episodes(n: int) -> str:
+    if n == 0:
+        return "no episode is"
+    return "episode 0 is" if n == 1 else f"episodes 0-{n - 1} are"

@@ -12,7 +12,7 @@ from openral_data.record import output, registry
 from openral_data.record.bridge import DatasetBridge
 from openral_data.record.compat import check_compatibility
 from openral_data.record.options import ProgressFn, RecordOptions, RecordSummary, check_out, default_out
-from openral_data.record.session import StopRequest, episode_loop
+from openral_data.record.session import StopRequest, ended_by, episode_loop
 from openral_data.schemas.scene import load_recordable_scene
 from openral_data.types import DatasetSchema, EpisodeRecord, SimRollout, Sink
 from openral_data.version import __version__
@@ -87,9 +87,15 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
         records: list[EpisodeRecord] = []
         try:
             first = opened.first_episode
-            sinks: list[Sink] = make_sinks(
-                out, schema, opts.formats, WriterConfig(video=video), opts.image_format, resume=opts.resume
-            )
+            try:
+                sinks: list[Sink] = make_sinks(
+                    out, schema, opts.formats, WriterConfig(video=video), opts.image_format, resume=opts.resume
+                )
+            except OSError as exc:
+                explained = ended_by(exc, out, first)
+                if explained is None:
+                    raise
+                raise explained from exc
             for sink in sinks:
                 if isinstance(sink, McapSink):
                     sink.index_offset = opts.first_episode

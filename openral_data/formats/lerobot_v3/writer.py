@@ -13,6 +13,7 @@ each step of that join leaves every episode readable.
 
 from __future__ import annotations
 
+import copy
 import json
 import shutil
 from collections.abc import Callable
@@ -25,7 +26,15 @@ import numpy.typing as npt
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from openral_data.errors import CompatibilityError, ContractViolation, OutputExists, WriteError
+from openral_data.errors import (
+    DISK_ERRNOS,
+    CompatibilityError,
+    ContractViolation,
+    DiskError,
+    OutputExists,
+    WriteError,
+    disk_errno,
+)
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import digests, layout
 from openral_data.formats.lerobot_v3.features import (
@@ -83,6 +92,22 @@ class _VideoGroup:
 
     def next_pos(self, chunks_size: int) -> FilePos:
         return self.members[-1].pos.next(chunks_size) if self.members else self.first
+
+
+@dataclass
+class _State:
+    """What an episode's commit advances; restored when the commit fails before its commit point."""
+
+    tasks: dict[str, int]
+    tasks_written: int
+    total_frames: int
+    episode_rows: list[dict[str, Any]]
+    episode_file: FilePos
+    data_file: FilePos
+    data_tables: list[pa.Table]
+    groups: dict[str, _VideoGroup]
+    numeric_stats: dict[str, Stats]
+    image_stats: dict[str, ImageStatsAccumulator]
 
 
 @dataclass
@@ -147,6 +172,7 @@ class LeRobotV3Writer:
         self._episode: EpisodeBuffer | None = None
         self._batch: atomic.Batch | None = None  # set while an episode is being committed
         self._closed = False
+        self._failed = False  # a write failed: nothing more is written (see `commit_episode`)
         if resume and (root / layout.INFO_PATH).is_file():
             self._restore()
             return
@@ -249,10 +275,14 @@ class LeRobotV3Writer:
         try:
             for name, worker in self._workers.items():
                 encoded[name] = worker.finish()
-        except BaseException:
+        except BaseException as exc:
             for enc in encoded.values():
                 enc.path.unlink(missing_ok=True)
             self.discard_episode()  # aborts the cameras not finished yet
+            problem = disk_errno(exc)
+            if problem is not None:
+                self._failed = True
+                raise DiskError(self.root, problem, f"encoding episode {self.total_episodes}'s videos") from exc
             raise
         self._episode = None
         short = {name: enc.frames for name, enc in encoded.items() if enc.frames != n}
@@ -276,16 +306,95 @@ class LeRobotV3Writer:
         image statistics; the task indices are those of `tasks`. `journal=False` commits without the commit
         journal (for a dataset nobody sees before it is complete).
         """
+        index = self.total_episodes
+        if self._failed:
+            for enc in encoded.values():
+                enc.path.unlink(missing_ok=True)
+            raise WriteError(f"{self.root}: an earlier write failed; episode {index} is not committed")
         path = self.root / layout.JOURNAL_PATH if journal else None
         batch = self._batch = atomic.Batch(self.config.durable, journal=path)
+        saved: _State | None = None
         try:
+            self._rotate_videos(encoded)
+            saved = self._state()
             record = self._commit_episode(ep, len(ep.states), success, encoded)
             batch.commit()
-        finally:
+        except OSError as exc:
             self._batch = None
-            batch.discard()
+            committed = self._fail(batch, saved, encoded, path, index)
+            raise _write_error(self.root, exc, f"committing episode {index}", committed) from exc
+        except BaseException:
+            self._batch = None
+            self._fail(batch, saved, encoded, path, index)
+            raise
+        self._batch = None
+        batch.discard()
         self._maybe_rotate_episodes_file()
         return record
+
+    def _fail(
+        self,
+        batch: atomic.Batch,
+        saved: _State | None,
+        encoded: dict[str, EncodedEpisode],
+        journal: Path | None,
+        index: int,
+    ) -> bool:
+        """After an episode commit failed: mark the writer failed (`close()` then writes nothing more).
+
+        Before the commit point (no durable journal) the episode is undone: staged files and its placed videos
+        are removed and the writer state is what it was before the episode. After it (a durable journal names
+        the renames, or info.json already counts the episode) the staged files stay for `recovery.recover` to
+        finish the commit. Returns whether the episode is committed (now or by that recovery).
+        """
+        self._failed = True
+        if (journal is not None and journal.is_file()) or self._on_disk_episodes() > index:
+            return True
+        batch.discard()
+        for name, enc in encoded.items():
+            enc.path.unlink(missing_ok=True)
+            if saved is not None:  # a video placed by this commit: no committed row names it
+                group = saved.groups[name]
+                layout.video_path(self.root, self._keys[name], group.next_pos(self.config.chunks_size)).unlink(
+                    missing_ok=True
+                )
+        if saved is not None:
+            self._set_state(saved)
+        return False
+
+    def _on_disk_episodes(self) -> int:
+        """info.json's episode count as it is on disk now (it lands last: counted means fully renamed)."""
+        try:
+            return int(read_info(self.root).get("total_episodes", 0))
+        except Exception:  # noqa: BLE001 - unreadable or missing: nothing beyond what we know is counted
+            return -1
+
+    def _state(self) -> _State:
+        return _State(
+            tasks=dict(self.tasks),
+            tasks_written=self._tasks_written,
+            total_frames=self.total_frames,
+            episode_rows=list(self.episode_rows),
+            episode_file=self._episode_file,
+            data_file=self._data_file,
+            data_tables=list(self._data_tables),
+            groups={n: _VideoGroup(g.first, list(g.members)) for n, g in self._groups.items()},
+            numeric_stats=dict(self._numeric_stats),
+            image_stats=copy.deepcopy(self.image_stats),
+        )
+
+    def _set_state(self, s: _State) -> None:
+        used = {t for row in s.episode_rows for t in row["tasks"]}
+        self.tasks = {t: i for t, i in s.tasks.items() if t in used}
+        self._tasks_written = s.tasks_written
+        self.total_frames = s.total_frames
+        self.episode_rows = s.episode_rows
+        self._episode_file = s.episode_file
+        self._data_file = s.data_file
+        self._data_tables = s.data_tables
+        self._groups = s.groups
+        self._numeric_stats = s.numeric_stats
+        self.image_stats = s.image_stats
 
     def _commit_episode(
         self, ep: EpisodeBuffer, n: int, success: bool | None, encoded: dict[str, EncodedEpisode]
@@ -323,20 +432,33 @@ class LeRobotV3Writer:
         try:
             if self._episode is not None:
                 self.discard_episode()
-            for name in list(self._groups):
-                self._join_group(name)
-            if self.total_episodes:
-                self._write_meta()
+            if not self._failed:  # after a failed write the committed dataset stays exactly as it is
+                self._finish()
         finally:
             for worker in self._workers.values():
                 worker.close()
-        if self.total_episodes == 0:  # nothing finished: leave no half-made dataset behind
+        if self.total_episodes == 0 and not self._failed:  # nothing finished: leave no half-made dataset behind
             if self._created_root:
                 shutil.rmtree(self.root, ignore_errors=True)
             else:
                 for sub in ("meta", "data", "videos"):
                     shutil.rmtree(self.root / sub, ignore_errors=True)
                 (self.root / layout.IMAGE_HIST_PATH).unlink(missing_ok=True)
+
+    def _finish(self) -> None:
+        """Join each camera's per-episode files and rewrite the metadata; a disk error stops it (every step of
+        a join leaves each episode readable) and leaves the rest as it is."""
+        doing = "finishing the dataset"
+        try:
+            for name in list(self._groups):
+                doing = f"joining the videos of camera {name}"
+                self._join_group(name)
+            if self.total_episodes:
+                doing = "writing the dataset's metadata"
+                self._write_meta()
+        except OSError as exc:
+            self._failed = True
+            raise _write_error(self.root, exc, doing) from exc
 
     # -- episode assembly ------------------------------------------------------------------------------------
     def _base_row(self, index: int, ep: EpisodeBuffer, n: int, success: bool | None) -> dict[str, Any]:
@@ -405,10 +527,6 @@ class LeRobotV3Writer:
         key = self._keys[name]
         group = self._groups[name]
         size = tmp.stat().st_size
-        if group.members and group.size + size >= self.config.video_files_size_in_mb * MB:
-            # this episode starts a new file: join the full group first, then re-target the episode's file
-            self._join_group(name)
-            group = self._groups[name]
         pos = group.next_pos(self.config.chunks_size)
         final = layout.video_path(self.root, key, pos)
         final.parent.mkdir(parents=True, exist_ok=True)
@@ -418,6 +536,14 @@ class LeRobotV3Writer:
         row[f"videos/{key}/file_index"] = pos.file
         row[f"videos/{key}/from_timestamp"] = 0.0
         row[f"videos/{key}/to_timestamp"] = frames / self.schema.fps
+
+    def _rotate_videos(self, encoded: dict[str, EncodedEpisode]) -> None:
+        """A camera whose file would outgrow its size limit with this episode: join its full group first (the
+        episode then starts the next file). Done before the episode's commit: the join is a commit of its own."""
+        for name, enc in encoded.items():
+            group = self._groups[name]
+            if group.members and group.size + enc.path.stat().st_size >= self.config.video_files_size_in_mb * MB:
+                self._join_group(name)
 
     def _join_group(self, name: str) -> None:
         """Join a camera's per-episode files into the group's first file, then point the episodes at it.
@@ -516,6 +642,13 @@ class LeRobotV3Writer:
             "robot_type": self.schema.robot_type,
             "splits": {"train": f"0:{self.total_episodes}"},
         }
+
+
+def _write_error(root: Path, exc: OSError, doing: str, committed: bool = False) -> WriteError:
+    """One line for a failed write: a `DiskError` for a disk problem, else a `WriteError` naming the OS error."""
+    if exc.errno in DISK_ERRNOS:
+        return DiskError(root, exc.errno, doing, committed=committed)
+    return WriteError(f"{root}: {exc.strerror or exc} while {doing}")
 
 
 def _dataset_entries(root: Path) -> list[Path]:

@@ -36,7 +36,7 @@ from typing import Any, Final, Literal
 from rosbags.interfaces import Connection
 from rosbags.rosbag2 import StoragePlugin, Writer
 
-from openral_data.errors import OutputExists, UsageError, WriteError
+from openral_data.errors import DISK_ERRNOS, DiskError, OutputExists, UsageError, WriteError
 from openral_data.formats.atomic import fsync_dir, fsync_file
 from openral_data.formats.mcap import messages as m
 from openral_data.formats.mcap.messages import ImageFormat, MessageFactory
@@ -128,6 +128,8 @@ class McapSink:
         try:
             self._episode = _EpisodeBag(self.root, self.schema, self.config, index, start, time.time_ns())
         except OSError as exc:
+            if exc.errno in DISK_ERRNOS:
+                raise DiskError(self.root, exc.errno, f"starting episode {index}'s bag") from exc
             raise WriteError(f"{self.root}: cannot start episode {index}'s bag: {exc}") from exc
 
     def add_frame(self, frame: Frame) -> None:
@@ -149,6 +151,11 @@ class McapSink:
             while self._pending:
                 self._write_oldest()
             record = episode.finish(success)
+        except OSError as exc:  # closing, syncing or renaming the bag
+            self.discard_episode()
+            done = episode.final.is_dir()  # renamed into place: the bag is complete (only a folder sync failed)
+            self.episodes += done
+            raise _write_error(self.root, exc, episode.index, "finishing", committed=done) from exc
         except BaseException:
             self.discard_episode()
             raise
@@ -183,7 +190,14 @@ class McapSink:
         try:
             self._episode.write_frame(pending.frame, encoded)
         except OSError as exc:
-            raise WriteError(f"episode {self._episode.index}: MCAP write failed: {exc}") from exc
+            raise _write_error(self.root, exc, self._episode.index, "writing") from exc
+
+
+def _write_error(root: Path, exc: OSError, index: int, doing: str, committed: bool = False) -> WriteError:
+    """One line for a failed write: a `DiskError` for a disk problem, else the MCAP write error with the cause."""
+    if exc.errno in DISK_ERRNOS:
+        return DiskError(root, exc.errno, f"{doing} episode {index}'s bag", committed=committed)
+    return WriteError(f"{root}: episode {index}: MCAP write failed: {exc}")
 
 
 class _EpisodeBag:

@@ -9,11 +9,12 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
-from openral_data.errors import CompatibilityError, OutputExists
+from openral_data.errors import CompatibilityError, DiskError, OutputExists
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig, summarize
 from openral_data.formats.lerobot_v3.reader import read_episodes
 from openral_data.record.bridge import DatasetBridge
 from openral_data.types import CameraShape, DatasetSchema, Observation
+from tests.support.faults import Faults, inject
 
 H, W = 128, 192
 
@@ -279,3 +280,43 @@ def test_encoder_failure_discards_the_episode_cleanly(tmp_path: Path) -> None:
     assert not list((tmp_path / "ds").rglob("*.tmp"))
     assert summarize(tmp_path / "ds").episodes == 1
     assert len(list((tmp_path / "ds").glob("videos/*/*/*.mp4"))) == 2
+
+
+def test_a_failed_commit_restores_the_writer_and_close_writes_nothing(tmp_path: Path) -> None:
+    """A full disk while the second episode is staged (before its journal): the writer is as before it, close()
+    changes no file, and lerobot loads the first episode as committed."""
+    root = tmp_path / "ds"
+    schema = DatasetSchema(
+        fps=10, state_names=("s0", "s1"), action_names=("a0", "a1"), cameras={"cam": CameraShape(H, W)}, robot_type="u"
+    )
+    writer = LeRobotV3Writer(root, schema, WriterConfig(video=VideoSettings(codec="h264")))
+    bridge = DatasetBridge(schema, [writer])
+    rng = np.random.default_rng(0)
+    states = [np.array([t, 0], np.float32) for t in range(3)]
+
+    def episode(e: int, task: str) -> None:
+        bridge.begin_episode(seed=e, initial_state={})
+        for t in range(3):
+            obs = Observation(images={"cam": patterned(e, t, rng)}, state=np.array([t, e], np.float32), task=task)
+            bridge.add_step(obs, np.array([e, t], np.float32), reward=0.0, done=t == 2, success=t == 2)
+        bridge.end_episode(success=True)
+
+    def files() -> dict[str, bytes]:
+        return {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
+
+    episode(0, "first")
+    before = (writer.total_episodes, writer.total_frames, dict(writer.tasks), writer.image_stats["cam"].to_json())
+    on_disk = files()
+    faults = Faults(fail_at=4, armed=True)  # the new task's tasks.parquet is staged by then
+    with inject(faults), pytest.raises(DiskError) as excinfo:
+        episode(1, "second")
+    assert not excinfo.value.committed and excinfo.value.doing == "committing episode 1"
+    assert (
+        writer.total_episodes,
+        writer.total_frames,
+        dict(writer.tasks),
+        writer.image_stats["cam"].to_json(),
+    ) == before
+    bridge.close()
+    assert files() == on_disk  # the placed mp4 and every staged file removed; no metadata rewritten at close
+    check_loads(root, [3], states)

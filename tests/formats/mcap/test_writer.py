@@ -10,11 +10,12 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-from openral_data.errors import OutputExists, WriteError
+from openral_data.errors import DiskError, OutputExists, WriteError
 from openral_data.formats.mcap import McapConfig, McapSink, finished_bags
 from openral_data.formats.mcap import writer as mcap_writer
 from openral_data.formats.mcap.messages import MessageFactory
 from openral_data.types import CameraShape, DatasetSchema, EpisodeStart, Frame
+from tests.support.faults import Faults, inject
 from tests.support.mcap import check_bag
 from tests.support.timing import TIMED
 
@@ -92,6 +93,38 @@ def test_a_failing_write_fails_the_episode_and_leaves_no_bag(
     sink.close()
     assert [p.name for p in finished_bags(tmp_path / "m")] == ["episode_000000"]
     assert not (tmp_path / "m" / ".partial").exists()
+
+
+def _episode(sink: McapSink, seed: int, faults: Faults | None = None) -> None:
+    sink.begin_episode(EpisodeStart(seed=seed, initial_state={}))
+    if faults is not None:
+        faults.armed = True
+    for t in range(3):
+        sink.add_frame(_frame(t))
+    sink.end_episode(True)
+
+
+def test_a_full_disk_at_any_call_of_an_episode_fails_it_cleanly(tmp_path: Path) -> None:
+    counted = Faults()
+    with inject(counted):
+        _episode(McapSink(tmp_path / "count", SCHEMA), 0, counted)
+    assert {"bag message", "bag close", "fsync", "replace episode_000000"} <= set(counted.calls)
+    for n in range(1, len(counted.calls) + 1):
+        root = tmp_path / f"m{n}"
+        sink = McapSink(root, SCHEMA)
+        _episode(sink, 0)
+        kept = {p: p.read_bytes() for p in sorted((root / "episode_000000").iterdir())}
+        faults = Faults(fail_at=n)
+        with inject(faults):  # the disk stays full, for close() too
+            with pytest.raises(DiskError) as excinfo:
+                _episode(sink, 1, faults)
+            sink.close()  # after the failure: no second error
+        assert excinfo.value.code == "write.disk"
+        assert str(excinfo.value).startswith(f"{root}: no space left on device while ")
+        assert {p: p.read_bytes() for p in sorted((root / "episode_000000").iterdir())} == kept
+        assert not (root / ".partial").exists()
+        # a complete second bag only when the failure came after its rename (a folder sync)
+        assert [p.name for p in finished_bags(root)] in (["episode_000000"], ["episode_000000", "episode_000001"])
 
 
 def test_refuses_to_write_into_a_non_empty_folder(tmp_path: Path) -> None:
