@@ -115,8 +115,9 @@ def writer(root: Path, extra: dict[str, bytes]) -> Callable[[Path], None]:
     return write
 
 
-def refresh(root: Path, changed_paths: Iterable[Path]) -> None:
-    """After `doctor --repair` rewrote or removed `changed_paths`: their entries follow them; the others stay."""
+def refresh(root: Path, changed_paths: Iterable[Path], durable: bool = True) -> None:
+    """After a write outside a commit batch (`doctor --repair`, a writer's video join) rewrote or removed
+    `changed_paths`: their entries follow them; the others stay."""
     stored = read(root)
     if stored is None:
         return
@@ -128,7 +129,7 @@ def refresh(root: Path, changed_paths: Iterable[Path]) -> None:
         elif rel in stored or rel in ours:
             st = path.stat()
             stored[rel] = {"sha256": sha256_file(path), "size": st.st_size, "ino": st.st_ino}
-    atomic.write_bytes(root / DIGESTS_PATH, json.dumps(dict(sorted(stored.items())), indent=1).encode())
+    atomic.write_bytes(root / DIGESTS_PATH, json.dumps(dict(sorted(stored.items())), indent=1).encode(), durable)
 
 
 def changed(root: Path, stored: Digests) -> list[tuple[str, str]]:

@@ -570,6 +570,9 @@ class LeRobotV3Writer:
             self._write_episodes(touched, immediate=True)
             for m in group.members[1:]:
                 layout.video_path(self.root, key, m.pos).unlink(missing_ok=True)
+            # the join replaced files outside a commit batch: their digests follow at once
+            changed = [dest, *(layout.episodes_path(self.root, pos) for pos in touched)]
+            digests.refresh(self.root, changed + [p for p, _ in sources[1:]], self.config.durable)
         start = group.first.next(self.config.chunks_size) if group.members else group.first
         self._groups[name] = _VideoGroup(start)
 

@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import errno
 import json
+import os
 from pathlib import Path
 
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
+from openral_data.doctor import check
 from openral_data.errors import CompatibilityError, DiskError, OutputExists
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig, summarize
 from openral_data.formats.lerobot_v3.reader import read_episodes
@@ -320,3 +323,40 @@ def test_a_failed_commit_restores_the_writer_and_close_writes_nothing(tmp_path: 
     bridge.close()
     assert files() == on_disk  # the placed mp4 and every staged file removed; no metadata rewritten at close
     check_loads(root, [3], states)
+
+
+class _FailAt(Faults):
+    """Fails the first call whose label starts with `prefix` (once armed)."""
+
+    def __init__(self, prefix: str) -> None:
+        super().__init__(armed=True, persist=False)
+        self.prefix = prefix
+
+    def check(self, label: str) -> None:
+        self.calls.append(label)
+        if self.fail_at is None and label.startswith(self.prefix):
+            self.fail_at = len(self.calls)
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), label)
+
+
+def test_a_video_join_keeps_the_digests_true_when_the_metadata_write_after_it_fails(tmp_path: Path) -> None:
+    """close() joins the camera's per-episode files outside a commit batch; a full disk right after the join
+    (at the metadata write) must not leave digests that call the joined files changed."""
+    root = tmp_path / "ds"
+    schema = DatasetSchema(
+        fps=10, state_names=("s0", "s1"), action_names=("a0", "a1"), cameras={"cam": CameraShape(H, W)}, robot_type="u"
+    )
+    writer = LeRobotV3Writer(root, schema, WriterConfig(video=VideoSettings(codec="h264")))
+    bridge = DatasetBridge(schema, [writer])
+    rng = np.random.default_rng(0)
+    for e in range(2):
+        bridge.begin_episode(seed=e, initial_state={})
+        for t in range(3):
+            obs = Observation(images={"cam": patterned(e, t, rng)}, state=np.array([t, e], np.float32), task="t")
+            bridge.add_step(obs, np.array([e, t], np.float32), reward=0.0, done=t == 2, success=t == 2)
+        bridge.end_episode(success=True)
+    faults = _FailAt("write .image_hist.json")
+    with inject(faults), pytest.raises(DiskError):
+        bridge.close()
+    assert any(c.startswith("join ") for c in faults.calls)  # the join happened before the failing write
+    assert [f.code for f in check(root)] == []
