@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import subprocess
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -47,11 +48,11 @@ def case(recorded: Path, tmp_path: Path) -> tuple[Path, Path]:
     return root, canary
 
 
-def _refused(done: object, code_hint: str = "") -> None:
+def _refused(done: subprocess.CompletedProcess[str], hint: str = "") -> None:
     assert done.returncode == 2, (done.stdout, done.stderr)
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: "), lines
-    assert code_hint in lines[0]
+    assert hint in lines[0]
 
 
 def _untouched(canary: Path) -> None:
