@@ -26,6 +26,7 @@ dataset.mismatch        it does not match what is appended to or merged with it
 dataset.unsupported     valid, but not a layout this command handles (not written by openral-data, ...)
 dataset.interrupted     a commit was interrupted; run ``openral-data doctor --repair``
 dataset.unsafe          a path from a file's contents leads outside its root; a control file is not a regular file
+dataset.readonly        the dataset cannot be written (read-only file system or no permission); reading works
 dataset.busy          another live process holds the dataset's writer lock (`DatasetBusy`)
 episodes              an episode selection is wrong:
 episodes.syntax         not an index or a range a-b

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-from openral_data.doctor import check_data, check_meta, check_video
+from openral_data.doctor import check_data, check_meta, check_paths, check_video
 from openral_data.doctor.check_deep import check_deep
 from openral_data.doctor.check_digests import check_digests
 from openral_data.doctor.findings import Finding, error, warning
@@ -22,11 +22,14 @@ def check(root: Path, *, lock_held_by_us: bool = False, deep: bool = False) -> l
 
     Never raises on a damaged dataset: a file that cannot be read, or a check that fails on what it read,
     becomes an error finding. `deep` also decodes every video frame (`check_deep`)."""
-    findings = leftovers(root, lock_held_by_us)
+    findings = leftovers(root, lock_held_by_us) + check_paths.check_controls(root)
     ds, fatal = load(root)
     if ds is None:
         return findings + fatal
-    return findings + check_dataset(ds, deep=deep)
+    unsafe = _run(check_paths.check_dataset_paths, ds)
+    if any(f.code in check_paths.BLOCKING for f in unsafe):
+        return findings + ds.problems + unsafe  # the other checks would build paths from those values
+    return findings + unsafe + check_dataset(ds, deep=deep)
 
 
 def _run(step: Check, ds: Dataset) -> list[Finding]:
@@ -60,20 +63,12 @@ def check_dataset(ds: Dataset, *, deep: bool = False) -> list[Finding]:
 
 
 def leftovers(root: Path, lock_held_by_us: bool = False) -> list[Finding]:
-    """Traces of a writer: a live one (everything may still change), or a killed one (journal, temp files)."""
+    """Traces of a writer: a live one (everything may still change), or a killed one (temp files; the journal
+    is `check_paths.check_controls`'s, which checks it is safe to replay)."""
     out: list[Finding] = []
     who = None if lock_held_by_us else holder(root)
     if who is not None:
         out.append(warning("writer.active", layout.LOCK_PATH, f"a writer is working on this dataset now ({who})"))
-    if (root / layout.JOURNAL_PATH).is_file():
-        out.append(
-            error(
-                "writer.journal",
-                layout.JOURNAL_PATH,
-                "an episode commit was interrupted (a killed writer); lerobot still sees the previous episodes",
-                repairable=True,
-            )
-        )
     staged = list(staged_files(root)) if who is None else []
     if staged:
         names = ", ".join(str(p.relative_to(root)) for p in staged[:3])

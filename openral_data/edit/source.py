@@ -19,6 +19,7 @@ import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from openral_data.errors import DatasetBusy, DatasetError, EpisodeSelectionError, NotFound
+from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.clip import episode_clip
 from openral_data.formats.lerobot_v3.features import ACTION, IMAGE_PREFIX, STATE, build_features
@@ -150,8 +151,10 @@ class SourceDataset:
         """The writer's dataset-level camera histograms (`.openral/image_hist.json`), if it left them."""
         path = self.root / layout.IMAGE_HIST_PATH
         try:
-            saved = json.loads(path.read_text())
-        except (FileNotFoundError, json.JSONDecodeError):
+            saved = json.loads(atomic.read_control(path))  # a control file: no symlink, no FIFO
+        except (FileNotFoundError, ValueError, UnicodeDecodeError):
+            return None
+        if not isinstance(saved, dict):
             return None
         out: dict[str, ImageStatsAccumulator] = {}
         for name in self.camera_names():

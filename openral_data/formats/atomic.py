@@ -18,6 +18,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from openral_data.errors import DatasetError
+from openral_data.paths import contained
 
 CONTROL_FLAGS = os.O_NOFOLLOW | os.O_NONBLOCK | os.O_CLOEXEC
 
@@ -153,6 +154,7 @@ class Batch:
             raise ValueError(f"{path} is already staged in this batch")
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = tmp_name(path)
+        _clear_stale(tmp)
         try:
             writer(tmp)
             if self.durable:
@@ -176,7 +178,8 @@ class Batch:
         if self.journal is None or not self._staged:
             return False
         here = self.journal.parent  # paths relative to the journal: a moved dataset still replays
-        renames = [[os.path.relpath(tmp, here), os.path.relpath(path, here)] for tmp, path in self._staged]
+        renames = [(os.path.relpath(tmp, here), os.path.relpath(path, here)) for tmp, path in self._staged]
+        check_renames(self.journal, renames)  # what a replay would refuse is never written
         write_bytes(self.journal, json.dumps({"renames": renames}).encode(), self.durable)
         return True
 
@@ -184,6 +187,17 @@ class Batch:
         for tmp, _ in self._staged:
             tmp.unlink(missing_ok=True)
         self._staged.clear()
+
+
+def _clear_stale(tmp: Path) -> None:
+    """Remove a leftover staged file before writing it anew: a planted symlink there is never written through."""
+    try:
+        st = os.lstat(tmp)
+    except FileNotFoundError:
+        return
+    if stat.S_ISDIR(st.st_mode):
+        raise DatasetError(f"{tmp}: a folder where a staged file goes; refusing to use it", code="dataset.unsafe")
+    tmp.unlink()
 
 
 def _rename_all(renames: list[tuple[Path, Path]], durable: bool) -> None:
@@ -194,19 +208,62 @@ def _rename_all(renames: list[tuple[Path, Path]], durable: bool) -> None:
             fsync_dir(parent)
 
 
+JOURNAL_AREAS = ("meta", "data", "videos", ".openral")  # where a journaled rename may land, below the root
+
+
+def journal_renames(journal: Path) -> list[tuple[Path, Path]]:
+    """The (staged file, destination) pairs of a commit journal, each checked before anything moves.
+
+    The journal is untrusted (a dataset can be crafted): it is read with `read_control` (no symlink, no FIFO);
+    every entry, relative to the journal's folder, must resolve inside the dataset root (the folder holding
+    ``.openral``) under meta/, data/, videos/ or .openral/, and its staged file must be ``tmp_name`` of its
+    destination. Anything else is refused in one line (``dataset.unsafe``).
+    """
+    try:
+        data = json.loads(read_control(journal))
+        entries = data["renames"]
+        if not isinstance(entries, list) or not all(
+            isinstance(e, list) and len(e) == 2 and all(isinstance(p, str) for p in e) for e in entries
+        ):
+            raise TypeError("renames must be a list of [staged file, destination] pairs")
+        pairs = [(str(a), str(b)) for a, b in entries]
+    except (ValueError, KeyError, TypeError) as exc:  # a torn journal cannot exist: it lands by rename
+        raise DatasetError(f"{journal}: unreadable commit journal: {exc}", code="dataset.invalid") from None
+    return check_renames(journal, pairs)
+
+
+def check_renames(journal: Path, pairs: list[tuple[str, str]]) -> list[tuple[Path, Path]]:
+    """`pairs` (relative to the journal's folder) as paths, refused unless each stays inside the dataset."""
+    here = journal.parent
+    root = here.parent
+    out: list[tuple[Path, Path]] = []
+    for i, (a, b) in enumerate(pairs):
+        source = f"{journal}: renames[{i}]"
+        dest = contained(root, os.path.relpath(here / b, root), source)
+        tmp = contained(root, os.path.relpath(here / a, root), source)
+        rel = dest.relative_to(root)
+        if len(rel.parts) < 2 or rel.parts[0] not in JOURNAL_AREAS:
+            raise DatasetError(
+                f"{source}: {b!r} is not inside {', '.join(JOURNAL_AREAS)} of {root}", code="dataset.unsafe"
+            )
+        if tmp != tmp_name(dest):
+            raise DatasetError(f"{source}: {a!r} is not the staged file of {b!r}", code="dataset.unsafe")
+        out.append((tmp, dest))
+    return out
+
+
 def replay_journal(journal: Path, durable: bool = True) -> int:
     """Finish the renames of a batch whose commit was interrupted; returns how many files it moved.
 
-    Renames already done have no temporary file left and are skipped, so replaying twice is harmless.
+    Renames already done have no temporary file left and are skipped, so replaying twice is harmless. Every
+    entry is checked (`journal_renames`) before the first rename.
     """
-    if not journal.is_file():
-        return 0
     try:
-        here = journal.parent
-        renames = [(here / a, here / b) for a, b in json.loads(journal.read_text())["renames"]]
-    except (ValueError, KeyError, TypeError) as exc:  # a torn journal cannot exist: it lands by rename
-        raise ValueError(f"{journal}: unreadable commit journal: {exc}") from None
-    pending = [(tmp, path) for tmp, path in renames if tmp.exists()]
+        os.lstat(journal)
+    except FileNotFoundError:
+        return 0
+    renames = journal_renames(journal)
+    pending = [(tmp, path) for tmp, path in renames if os.path.lexists(tmp)]
     _rename_all(pending, durable)
     journal.unlink()
     if durable:

@@ -195,7 +195,7 @@ def _video_checks(ds: DatasetSource, meta: list[dict[str, Any]]) -> list[Issue]:
                 issues.append(Issue(ds.label, int(ep["episode_index"]), "video_frames", f"{cam}: no video metadata"))
                 continue
             pos = FilePos(ep[f"videos/{cam}/chunk_index"], ep[f"videos/{cam}/file_index"])
-            by_file[layout.video_path(ds.root, cam, pos)].append(ep)
+            by_file[layout.template_path(ds.root, ds.info, "video_path", pos, video_key=cam)].append(ep)
         for path, eps in sorted(by_file.items()):
             if not path.is_file():
                 continue  # reported as missing_file

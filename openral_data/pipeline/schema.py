@@ -23,9 +23,10 @@ import re
 from pathlib import Path
 from typing import Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
-from openral_data.errors import ConfigError
+from openral_data.errors import ConfigError, DatasetError
+from openral_data.paths import safe_name
 from openral_data.schemas.base import StrictModel, load_model
 
 Format = Literal["lerobot", "mcap"]
@@ -48,6 +49,37 @@ class RecordStep(StrictModel):
     image_format: Literal["jpeg", "png", "raw"] = "jpeg"
     workers: int = Field(default=1, ge=1)
     executor: Literal["local", "ray"] = "local"
+
+    @field_validator("robots")
+    @classmethod
+    def _robot_ids(cls, robots: list[str] | None) -> list[str] | None:
+        for i, robot in enumerate(robots or []):  # a robot id becomes part of an output folder's name
+            _one_component(robot, f"[{i}]")
+        return robots
+
+    def items(self) -> list[tuple[str, str, str, str | None]]:
+        """(output folder name, scene, rSkill, robot) for every combination this step records."""
+        robots: list[str | None] = list(self.robots) if self.robots else [None]
+        return [
+            (f"{Path(scene).stem}--{Path(rskill).name}" + (f"--{robot}" if robot else ""), scene, rskill, robot)
+            for scene in self.scenes
+            for rskill in self.rskills
+            for robot in robots
+        ]
+
+    @model_validator(mode="after")
+    def _item_names(self) -> RecordStep:
+        for name, *_ in self.items():
+            _one_component(name, "output folder")
+        return self
+
+
+def _one_component(name: str, what: str) -> None:
+    """`safe_name` as a pydantic validation error (the loader names the file and the field)."""
+    try:
+        safe_name(name, what)
+    except DatasetError as exc:
+        raise ValueError(str(exc)) from None
 
 
 class MergeStep(StrictModel):

@@ -19,7 +19,8 @@ from pathlib import Path
 from typing import Any
 
 from openral_data.errors import ConfigError
-from openral_data.formats.atomic import fsync_dir, fsync_file, fsync_tree, write_bytes
+from openral_data.formats.atomic import fsync_dir, fsync_file, fsync_tree, read_control, write_bytes
+from openral_data.paths import contained, safe_name
 from openral_data.pipeline.schema import Step
 
 
@@ -36,44 +37,68 @@ def make_durable(path: Path) -> None:
     fsync_dir(path.parent)
 
 
+def read_marker(path: Path) -> dict[str, Any] | None:
+    """A marker's JSON object (None when there is none), read as a control file (`atomic.read_control`: no
+    symlink, no FIFO); anything else there is refused in one line."""
+    try:
+        raw = read_control(path)
+    except FileNotFoundError:
+        return None
+    try:
+        data = json.loads(raw)
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{path}: not a pipeline marker (invalid JSON: {exc}); delete it to redo the step") from None
+    if not isinstance(data, dict):
+        raise ConfigError(f"{path}: not a pipeline marker (not a JSON object); delete it to redo the step")
+    return data
+
+
 class StepState:
+    """One step's folder ``<workdir>/<step id>``; every path below it is checked to stay inside `workdir`."""
+
     def __init__(self, workdir: Path, step: Step) -> None:
         self.step = step
-        self.dir = workdir / step.id
+        self.workdir = workdir
+        self.dir = contained(workdir, step.id, f"{workdir}: step {step.id}")
         self.marker = self.dir / ".done.json"
         self.hash = config_hash(step)
 
     def completed(self) -> dict[str, Any] | None:
         """The step marker if the step finished with this same configuration; an error if it changed."""
-        if not self.marker.exists():
+        done = read_marker(self.marker)
+        if done is None:
             return None
-        done: dict[str, Any] = json.loads(self.marker.read_text())
         if done.get("config") != self.hash:
             raise ConfigError(
                 f"step {self.step.id}: its configuration changed since it completed in {self.dir}; "
                 f"delete that folder to run it again"
             )
+        outputs = done.get("outputs")
+        if not isinstance(outputs, dict):
+            raise ConfigError(f"{self.marker}: outputs: not a mapping; delete it to redo the step")
+        done["outputs"] = {name: str(self.item(name)) for name in outputs}  # where they are now, checked
         return done
 
-    def item(self, name: str) -> Path:
-        return self.dir / name
+    def item(self, name: object) -> Path:
+        source = f"{self.marker}: output {name!r}"
+        return contained(self.workdir, Path(self.step.id) / safe_name(name, source), source)
 
     def item_done(self, name: str) -> dict[str, Any] | None:
-        path = self.dir / f".{name}.done"
-        if not path.exists():
-            return None
-        data: dict[str, Any] = json.loads(path.read_text())
-        return data if data.get("config") == self.hash else None
+        data = read_marker(self.dir / f".{safe_name(name, str(self.dir))}.done")
+        return data if data is not None and data.get("config") == self.hash else None
 
     def start_item(self, name: str) -> Path:
         """A clean place for an item that has no marker (a half-written one from a killed run is removed)."""
         path = self.item(name)
-        if path.is_dir():
-            shutil.rmtree(path)
-        elif path.exists():
+        if path.is_symlink() or (path.exists() and not path.is_dir()):
             path.unlink()
+        elif path.is_dir():
+            shutil.rmtree(path)
         for staging in self.dir.glob(f".{name}.*-*"):  # a killed merge's `.partial-PID` / `.workers-PID` folder
-            shutil.rmtree(staging, ignore_errors=True)
+            if staging.is_symlink() or not staging.is_dir():
+                staging.unlink()
+            else:
+                shutil.rmtree(staging, ignore_errors=True)
         self.dir.mkdir(parents=True, exist_ok=True)
         return path
 

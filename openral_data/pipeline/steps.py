@@ -30,12 +30,8 @@ def jobs_for(step: Step, resolve: Resolve) -> Iterator[ItemJob]:
 
 
 def _record_jobs(spec: RecordStep) -> Iterator[ItemJob]:
-    robots: list[str | None] = list(spec.robots) if spec.robots else [None]
-    for scene in spec.scenes:
-        for rskill in spec.rskills:
-            for robot in robots:
-                name = f"{Path(scene).stem}--{Path(rskill).name}" + (f"--{robot}" if robot else "")
-                yield name, _record_one(spec, scene, rskill, robot)
+    for name, scene, rskill, robot in spec.items():
+        yield name, _record_one(spec, scene, rskill, robot)
 
 
 def _record_one(spec: RecordStep, scene: str, rskill: str, robot: str | None) -> Callable[[Path], dict[str, Any]]:

@@ -139,9 +139,8 @@ class RecordedDataset:
     def episode(self, e: int) -> RecordedEpisode:
         row = self._rows[e]
         n = int(row["length"])
-        path = self.root / str(self.info.get("data_path", layout.DATA_PATH)).format(
-            chunk_index=int(row["data/chunk_index"]), file_index=int(row["data/file_index"])
-        )
+        pos = layout.FilePos(row["data/chunk_index"], row["data/file_index"])
+        path = layout.template_path(self.root, self.info, "data_path", pos)
         table = self._data(path)
         table = table.filter(pc.equal(table.column("episode_index"), e)).sort_by("frame_index")
         if table.num_rows != n:

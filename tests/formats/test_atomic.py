@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import json
 import os
 from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 
+from openral_data.errors import DatasetError
 from openral_data.formats import atomic
 
 
@@ -60,22 +62,105 @@ def test_batch_discard_removes_staged_files(tmp_path: Path) -> None:
 
 def test_journal_replays_an_interrupted_commit(tmp_path: Path) -> None:
     journal = tmp_path / ".openral" / "journal.json"
-    (tmp_path / "info.json").write_text("old")
+    info, data = tmp_path / "meta" / "info.json", tmp_path / "data" / "data.parquet"
+    info.parent.mkdir()
+    info.write_text("old")
     batch = atomic.Batch(journal=journal)
-    batch.write_with(tmp_path / "data.parquet", _writes("d"))
-    batch.write_with(tmp_path / "info.json", _writes("new"))
+    batch.write_with(data, _writes("d"))
+    batch.write_with(info, _writes("new"))
     assert batch.write_journal()
-    os.replace(tmp_path / ".data.parquet.tmp", tmp_path / "data.parquet")  # killed after the first rename
-    assert (tmp_path / "info.json").read_text() == "old"
+    os.replace(atomic.tmp_name(data), data)  # killed after the first rename
+    assert info.read_text() == "old"
     assert atomic.replay_journal(journal) == 1
-    assert (tmp_path / "info.json").read_text() == "new" and (tmp_path / "data.parquet").read_text() == "d"
+    assert info.read_text() == "new" and data.read_text() == "d"
     assert not journal.exists() and not list(tmp_path.rglob("*.tmp"))
     assert atomic.replay_journal(journal) == 0
 
 
 def test_committed_journal_batch_leaves_no_journal(tmp_path: Path) -> None:
-    journal = tmp_path / "journal.json"
+    journal = tmp_path / ".openral" / "journal.json"
     batch = atomic.Batch(journal=journal)
-    batch.write_with(tmp_path / "a", _writes("a"))
+    batch.write_with(tmp_path / "meta" / "a", _writes("a"))
     batch.commit()
-    assert (tmp_path / "a").read_text() == "a" and not journal.exists()
+    assert (tmp_path / "meta" / "a").read_text() == "a" and not journal.exists()
+
+
+def _crafted(root: Path, renames: object) -> Path:
+    journal = root / ".openral" / "journal.json"
+    journal.parent.mkdir(parents=True, exist_ok=True)
+    journal.write_text(json.dumps({"renames": renames}))
+    return journal
+
+
+@pytest.mark.parametrize(
+    "renames",
+    [
+        pytest.param([["../../outside/canary.txt", "../../outside/moved.txt"]], id="both-outside"),
+        pytest.param([["../data/.f.tmp", "../data/f"], ["../../outside/canary.txt", "../meta/x"]], id="late-entry"),
+        pytest.param([["../meta/.x.tmp", "/abs/x"]], id="absolute"),
+        pytest.param([["../.x.tmp", "../x"]], id="root-level"),
+        pytest.param([["../data/other.tmp", "../data/f"]], id="not-its-staged-file"),
+        pytest.param([["../data/.f.tmp", "../data/link/f"]], id="through-symlink"),
+    ],
+)
+def test_crafted_journal_is_refused_before_any_rename(tmp_path: Path, renames: object) -> None:
+    root, outside = tmp_path / "ds", tmp_path / "outside"
+    outside.mkdir()
+    canary = outside / "canary.txt"
+    canary.write_bytes(b"canary\x00bytes")
+    (root / "data").mkdir(parents=True)
+    (root / "meta").mkdir()
+    (root / "data" / ".f.tmp").write_text("staged")
+    (root / "data" / "link").symlink_to(outside)
+    journal = _crafted(root, renames)
+    with pytest.raises(DatasetError) as err:
+        atomic.replay_journal(journal)
+    assert err.value.code == "dataset.unsafe"
+    assert canary.read_bytes() == b"canary\x00bytes" and sorted(p.name for p in outside.iterdir()) == ["canary.txt"]
+    assert (root / "data" / ".f.tmp").read_text() == "staged" and not (root / "data" / "f").exists()
+    assert journal.exists()  # left for a person to look at
+
+
+@pytest.mark.parametrize("body", ['{"renames": [["a"]]}', "[1]", '{"renames": "x"}', "not json", ""])
+def test_garbage_journal_is_one_line(tmp_path: Path, body: str) -> None:
+    journal = tmp_path / ".openral" / "journal.json"
+    journal.parent.mkdir()
+    journal.write_text(body)
+    with pytest.raises(DatasetError) as err:
+        atomic.replay_journal(journal)
+    assert err.value.code == "dataset.invalid" and "\n" not in str(err.value)
+
+
+def test_symlinked_or_fifo_journal_is_refused(tmp_path: Path) -> None:
+    outside = tmp_path / "outside.json"
+    outside.write_text(json.dumps({"renames": []}))
+    journal = tmp_path / "ds" / ".openral" / "journal.json"
+    journal.parent.mkdir(parents=True)
+    journal.symlink_to(outside)
+    with pytest.raises(DatasetError) as err:
+        atomic.replay_journal(journal)
+    assert err.value.code == "dataset.unsafe" and outside.exists()
+    journal.unlink()
+    os.mkfifo(journal)
+    with pytest.raises(DatasetError) as err:  # O_NONBLOCK: no writer on the FIFO never blocks us
+        atomic.replay_journal(journal)
+    assert err.value.code == "dataset.unsafe"
+
+
+def test_batch_never_writes_through_a_planted_staged_symlink(tmp_path: Path) -> None:
+    canary = tmp_path / "canary.txt"
+    canary.write_text("canary")
+    target = tmp_path / "ds" / "meta" / "info.json"
+    target.parent.mkdir(parents=True)
+    atomic.tmp_name(target).symlink_to(canary)
+    atomic.write_with(target, _writes("info"))
+    assert canary.read_text() == "canary" and target.read_text() == "info" and not target.is_symlink()
+
+
+def test_batch_refuses_to_journal_a_file_outside_the_dataset(tmp_path: Path) -> None:
+    batch = atomic.Batch(journal=tmp_path / "ds" / ".openral" / "journal.json")
+    batch.write_with(tmp_path / "elsewhere.txt", _writes("x"))
+    with pytest.raises(DatasetError) as err:
+        batch.commit()
+    assert err.value.code == "dataset.unsafe" and not (tmp_path / "elsewhere.txt").exists()
+    batch.discard()

@@ -7,14 +7,14 @@ import subprocess
 import sys
 
 
-def run_cli(*args: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
-    """Run the real `openral-data` entry point in a subprocess."""
+def run_cli(*args: str, env: dict[str, str] | None = None, timeout: float = 600) -> subprocess.CompletedProcess[str]:
+    """Run the real `openral-data` entry point in a subprocess (killed, and the test failed, after `timeout` s)."""
     full_env = {**os.environ, **(env or {})}
     return subprocess.run(
         [sys.executable, "-m", "openral_data.cli", *args],
         capture_output=True,
         text=True,
         env=full_env,
-        timeout=600,
+        timeout=timeout,
         check=False,
     )

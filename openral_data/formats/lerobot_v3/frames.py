@@ -14,6 +14,7 @@ import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from openral_data.errors import DatasetError
+from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX
 from openral_data.types import Frame
 
@@ -22,9 +23,7 @@ def episode_frames(
     src: Path, info: dict[str, Any], row: dict[str, Any], tasks: list[str], cameras: list[str]
 ) -> Iterator[Frame]:
     e = int(row["episode_index"])
-    path = src / str(info["data_path"]).format(
-        chunk_index=int(row["data/chunk_index"]), file_index=int(row["data/file_index"])
-    )
+    path = layout.template_path(src, info, "data_path", layout.FilePos(row["data/chunk_index"], row["data/file_index"]))
     table = pq.read_table(path)
     table = table.filter(pc.equal(table.column("episode_index"), e)).sort_by("frame_index")
     n = int(row["length"])
@@ -62,11 +61,8 @@ def _decode_video(
     src: Path, info: dict[str, Any], row: dict[str, Any], key: str, n: int, fps: int
 ) -> Iterator[npt.NDArray[np.uint8]]:
     """The episode's `n` frames of `key`, decoded from its mp4 starting at `from_timestamp`."""
-    path = src / str(info["video_path"]).format(
-        video_key=key,
-        chunk_index=int(row[f"videos/{key}/chunk_index"]),
-        file_index=int(row[f"videos/{key}/file_index"]),
-    )
+    pos = layout.FilePos(row[f"videos/{key}/chunk_index"], row[f"videos/{key}/file_index"])
+    path = layout.template_path(src, info, "video_path", pos, video_key=key)
     start = float(row[f"videos/{key}/from_timestamp"])
     half = 0.5 / fps
     with av.open(str(path)) as container:

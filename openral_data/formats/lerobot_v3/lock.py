@@ -2,19 +2,24 @@
 
 flock locks belong to the open file, so the kernel drops them when the holder dies, SIGKILL included: a lock
 file left behind by a killed recording is stale by construction and the next writer simply takes it. The
-file names its holder (pid, command, start time) for the refusal message.
+file names its holder (pid, command, start time) for the refusal message. The lock file and ``.openral`` are
+opened as control files (`atomic.open_control`, `atomic.state_dir`): a symlink, FIFO or device there is refused.
 """
 
 from __future__ import annotations
 
+import errno
 import fcntl
 import os
 from datetime import UTC, datetime
 from pathlib import Path
 from types import TracebackType
 
-from openral_data.errors import DatasetBusy
+from openral_data.errors import DatasetBusy, DatasetError
+from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
+
+READONLY = (errno.EROFS, errno.EACCES, errno.EPERM)
 
 
 class DatasetLock:
@@ -25,9 +30,20 @@ class DatasetLock:
         self._fd: int | None = None
 
     def acquire(self) -> DatasetLock:
-        self.path.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            return self._acquire()
+        except OSError as exc:
+            if exc.errno in READONLY:
+                raise DatasetError(
+                    f"{self.root}: cannot be written ({exc.strerror}); commands that only read it still work",
+                    code="dataset.readonly",
+                ) from None
+            raise
+
+    def _acquire(self) -> DatasetLock:
+        atomic.state_dir(self.root)
         while True:
-            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            fd = atomic.open_control(self.path, os.O_RDWR | os.O_CREAT, 0o644)
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
@@ -36,7 +52,7 @@ class DatasetLock:
                 raise DatasetBusy(self.root, holder) from None
             # the previous holder may have removed the file between our open and our lock: lock the live one
             try:
-                same = os.path.samestat(os.fstat(fd), os.stat(self.path))
+                same = os.path.samestat(os.fstat(fd), os.lstat(self.path))
             except FileNotFoundError:
                 same = False
             if not same:
@@ -65,11 +81,15 @@ class DatasetLock:
 
 
 def holder(root: Path) -> str | None:
-    """Who holds the dataset's lock right now, or None when nobody does (a stale file is nobody)."""
+    """Who holds the dataset's lock right now, or None when nobody does (a stale file is nobody).
+
+    A lock file that is not a regular file (a symlink, a FIFO) is nobody's: no writer of ours can hold it
+    (`DatasetLock` refuses it); `doctor` reports it as ``control.unsafe``. An unreadable one is nobody's too.
+    """
     path = root / layout.LOCK_PATH
     try:
-        fd = os.open(path, os.O_RDONLY)
-    except FileNotFoundError:
+        fd = atomic.open_control(path)
+    except (DatasetError, OSError):  # missing, unreadable, or not a regular file: no writer of ours holds it
         return None
     try:
         fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)

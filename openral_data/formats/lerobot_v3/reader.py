@@ -12,6 +12,7 @@ import pyarrow.parquet as pq
 from openral_data.errors import DatasetError
 from openral_data.formats.jsonfile import read_json
 from openral_data.formats.lerobot_v3 import layout
+from openral_data.paths import safe_name
 
 
 @dataclass(frozen=True)
@@ -33,6 +34,7 @@ class DatasetSummary:
 
 
 def read_info(root: Path) -> dict[str, Any]:
+    """`meta/info.json`, checked for what would make a path out of it leave the dataset (`check_paths`)."""
     path = root / layout.INFO_PATH
     try:
         info: dict[str, Any] = read_json(path)
@@ -40,7 +42,33 @@ def read_info(root: Path) -> dict[str, Any]:
         raise DatasetError(
             f"{root}: not a LeRobot v3 dataset (no {layout.INFO_PATH})", code="dataset.invalid"
         ) from None
+    check_paths(root, info)
     return info
+
+
+def check_paths(root: Path, info: Any) -> None:
+    """Refuse, in one line, an info.json whose features or path templates would lead outside `root`.
+
+    info.json is untrusted: a video feature key becomes a folder (``videos/{key}/``) and the ``data_path`` /
+    ``video_path`` templates become file paths, so each key must be one path component (`safe_name`) and
+    each template must format to a path inside the dataset (`layout.template_path`).
+    """
+    source = f"{root / layout.INFO_PATH}"
+    if not isinstance(info, dict):
+        raise DatasetError(f"{source}: not a JSON object", code="dataset.invalid")
+    features = info.get("features", {})
+    if not isinstance(features, dict) or not all(isinstance(f, dict) for f in features.values()):
+        raise DatasetError(f"{source}: features: must map names to objects", code="dataset.invalid")
+    for key in video_keys(info):
+        safe_name(key, f"{source}: features")
+    for field in layout.TEMPLATES:
+        if info.get(field) is not None:
+            layout.template_path(root, info, field, layout.FilePos(), video_key="key")
+
+
+def video_keys(info: dict[str, Any]) -> list[str]:
+    """The features info.json stores as videos (each one a folder under ``videos/``)."""
+    return [k for k, f in info.get("features", {}).items() if isinstance(f, dict) and f.get("dtype") == "video"]
 
 
 def read_openral(root: Path) -> dict[str, Any] | None:

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import stat
 from collections.abc import Iterator
 from datetime import UTC, datetime
 from pathlib import Path
@@ -25,9 +26,11 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
+from openral_data.errors import DatasetError
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.reader import read_info
+from openral_data.paths import contained
 
 DATASET_DIRS = ("meta", "data", "videos")
 
@@ -40,28 +43,36 @@ class Quarantine:
         stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%S.%fZ")
         self.dir = root / layout.QUARANTINE_DIR / stamp
 
-    def move(self, path: Path) -> Path:
-        dest = self.dir / path.relative_to(self.root)
+    def _dest(self, rel: str) -> Path:
+        """Where `rel` goes; `.openral` and the quarantine folders must be real folders inside the dataset."""
+        atomic.state_dir(self.root)
+        base = self.root / layout.QUARANTINE_DIR
+        for folder in (base, self.dir):
+            if os.path.lexists(folder) and (folder.is_symlink() or not folder.is_dir()):
+                raise DatasetError(f"{folder}: not a real folder; refusing to use it", code="dataset.unsafe")
+        dest = contained(self.root, os.path.relpath(self.dir / rel, self.root), str(self.dir))
         dest.parent.mkdir(parents=True, exist_ok=True)
+        return contained(self.root, os.path.relpath(dest, self.root), str(self.dir))
+
+    def move(self, path: Path) -> Path:
+        dest = self._dest(str(path.relative_to(self.root)))
         os.replace(path, dest)
         return dest
 
     def keep_rows(self, path: Path, rows: pa.Table) -> Path:
-        base = self.dir / f"{path.relative_to(self.root)}.removed-rows"
+        base = self._dest(f"{path.relative_to(self.root)}.removed-rows")
         dest, k = base.with_name(base.name + ".parquet"), 1
-        while dest.exists():  # never overwrite rows set aside earlier in this recovery
+        while os.path.lexists(dest):  # never overwrite rows set aside earlier in this recovery
             k += 1
             dest = base.with_name(f"{base.name}-{k}.parquet")
-        dest.parent.mkdir(parents=True, exist_ok=True)
         pq.write_table(rows, dest)
         return dest
 
     def keep_copy(self, path: Path) -> Path:
         """Keep the original of a file about to be replaced (the first copy wins: it is the original)."""
-        dest = self.dir / path.relative_to(self.root)
-        if not dest.exists():
-            dest.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(path, dest)
+        dest = self._dest(str(path.relative_to(self.root)))
+        if not os.path.lexists(dest):
+            shutil.copy2(path, dest, follow_symlinks=False)
         return dest
 
 
@@ -70,7 +81,18 @@ def staged_files(root: Path) -> Iterator[Path]:
     for sub in DATASET_DIRS:
         base = root / sub
         if base.is_dir():
-            yield from sorted(p for p in base.rglob(".*.tmp") if p.is_file())
+            yield from sorted(p for p in _walk(base) if p.name.startswith(".") and p.name.endswith(".tmp"))
+
+
+def _walk(base: Path) -> Iterator[Path]:
+    """Every regular file below `base`, never following a symlink (to a folder or a file) out of it."""
+    if base.is_symlink():
+        return
+    for dirpath, _, files in os.walk(base, followlinks=False):
+        for name in files:
+            path = Path(dirpath) / name
+            if stat.S_ISREG(os.lstat(path).st_mode):
+                yield path
 
 
 def video_files(root: Path) -> list[Path]:
@@ -110,7 +132,7 @@ def recover(root: Path, durable: bool = True) -> list[str]:
     if staged:
         actions.append(f"moved {staged} staged file(s) of an unfinished episode to {quarantine.dir}")
     if not (root / layout.INFO_PATH).is_file():
-        leftovers = [p for sub in DATASET_DIRS if (root / sub).is_dir() for p in (root / sub).rglob("*") if p.is_file()]
+        leftovers = [p for sub in DATASET_DIRS for p in _walk(root / sub)]
         for path in leftovers:
             quarantine.move(path)
         for sub in DATASET_DIRS:

@@ -16,6 +16,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from openral_data.errors import DatasetError
+from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.layout import FilePos
 from openral_data.formats.lerobot_v3.reader import read_info
@@ -153,11 +154,15 @@ def _image_stats(root: Path, names: list[str], has_rows: bool) -> dict[str, Imag
         return {name: ImageStatsAccumulator() for name in names}
     path = root / layout.IMAGE_HIST_PATH
     try:
-        saved = json.loads(path.read_text())
+        saved = json.loads(atomic.read_control(path))  # a control file: no symlink, no FIFO
     except FileNotFoundError:
         raise DatasetError(
             f"{path}: missing: cannot continue this dataset's camera statistics exactly", code="dataset.incomplete"
         ) from None
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise DatasetError(f"{path}: invalid JSON: {exc}", code="dataset.invalid") from None
+    if not isinstance(saved, dict):
+        raise DatasetError(f"{path}: not a JSON object", code="dataset.invalid")
     accs: dict[str, ImageStatsAccumulator] = {}
     for name in names:
         if name not in saved:

@@ -1,0 +1,70 @@
+"""A pipeline's run folder: markers are untrusted control files and nothing derived from them leaves --workdir."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import pytest
+
+from openral_data.errors import ConfigError, DatasetError
+from openral_data.pipeline.schema import Step
+from openral_data.pipeline.state import StepState
+
+STEP = Step.model_validate({"id": "all", "merge": {"inputs": ["rec"]}})
+
+
+def _marker(workdir: Path, body: object) -> StepState:
+    state = StepState(workdir, STEP)
+    state.dir.mkdir(parents=True)
+    state.marker.write_text(json.dumps(body))
+    return state
+
+
+def test_marker_output_names_stay_inside_the_workdir(tmp_path: Path) -> None:
+    state = _marker(tmp_path / "run", {"config": StepState(tmp_path, STEP).hash, "outputs": {"../../x": "/x"}})
+    with pytest.raises(DatasetError) as err:
+        state.completed()
+    assert err.value.code == "dataset.unsafe"
+
+
+def test_marker_outputs_point_where_the_items_are(tmp_path: Path) -> None:
+    state = _marker(tmp_path / "run", {"config": StepState(tmp_path, STEP).hash, "outputs": {"dataset": "/etc"}})
+    done = state.completed()
+    assert done is not None and done["outputs"] == {"dataset": str(tmp_path / "run" / "all" / "dataset")}
+
+
+@pytest.mark.parametrize("body", [b"\xff\xfe", b"[1, 2]", b"{", b""])
+def test_garbage_marker_is_one_line(tmp_path: Path, body: bytes) -> None:
+    state = StepState(tmp_path, STEP)
+    state.dir.mkdir()
+    (state.dir / ".dataset.done").write_bytes(body)
+    with pytest.raises(ConfigError) as err:
+        state.item_done("dataset")
+    assert "\n" not in str(err.value) and ".dataset.done" in str(err.value)
+
+
+def test_symlinked_or_fifo_marker_is_refused(tmp_path: Path) -> None:
+    outside = tmp_path / "outside.json"
+    outside.write_text(json.dumps({"config": StepState(tmp_path, STEP).hash, "outputs": {}}))
+    state = StepState(tmp_path / "run", STEP)
+    state.dir.mkdir(parents=True)
+    state.marker.symlink_to(outside)
+    with pytest.raises(DatasetError):
+        state.completed()
+    state.marker.unlink()
+    os.mkfifo(state.marker)
+    with pytest.raises(DatasetError):
+        state.completed()
+
+
+def test_step_folder_symlinked_outside_is_refused(tmp_path: Path) -> None:
+    elsewhere = tmp_path / "elsewhere"
+    (elsewhere / "dataset").mkdir(parents=True)
+    (elsewhere / "dataset" / "keep").write_text("keep")
+    (tmp_path / "run").mkdir()
+    (tmp_path / "run" / "all").symlink_to(elsewhere, target_is_directory=True)
+    with pytest.raises(DatasetError):
+        StepState(tmp_path / "run", STEP).start_item("dataset")
+    assert (elsewhere / "dataset" / "keep").read_text() == "keep"
