@@ -10,7 +10,6 @@ unless `delete --in-place` asks for the input to be replaced (the old folder is 
 from __future__ import annotations
 
 import os
-import shutil
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,7 +19,6 @@ from openral_data.edit.assemble import EpisodeAssembler
 from openral_data.edit.source import SourceDataset
 from openral_data.episodes import parse_episodes
 from openral_data.errors import DatasetError, EpisodeSelectionError, UsageError
-from openral_data.formats.atomic import fsync_dir
 from openral_data.formats.lerobot_v3.lock import DatasetLock
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
 from openral_data.formats.staging import Staging, check_new_output
@@ -143,14 +141,11 @@ def delete(dataset: Path, episodes: str, out: Path | None, in_place: bool = Fals
             f"{dataset}: --in-place: {', '.join(foreign)} would not be carried over (editing writes meta/, data/ "
             "and videos/ only); use --out"
         )
-    new = dataset.parent / f".{dataset.name}.edited-{os.getpid()}"
     old = dataset.parent / f".{dataset.name}.replaced-{os.getpid()}"
-    with DatasetLock(dataset, "episodes delete --in-place"):  # no recording may start on it meanwhile
+    staged = Staging(dataset, "openral-data episodes delete --in-place")
+    with DatasetLock(dataset, "episodes delete --in-place"), staged as new:  # no recording may start meanwhile
         result = write_selection(keep, new, "delete")
-    os.replace(dataset, old)  # the input stays whole (under `old`) until the new dataset took its name
-    os.replace(new, dataset)
-    fsync_dir(dataset.parent)
-    shutil.rmtree(old)
+        staged.replace_existing(old)  # the input stays whole (under `old`) until the new dataset took its name
     return EditResult(dataset, result.episodes, result.frames)
 
 

@@ -93,6 +93,18 @@ class Staging:
         self._close()
         fsync_dir(self.out.parent)
 
+    def replace_existing(self, aside: Path) -> None:
+        """fsync, move the existing `out` to `aside`, rename the staging folder to `out`, then remove `aside`.
+
+        Killed between the two renames, the old `out` is whole under `aside` (a name `clean_orphans` never takes).
+        """
+        fsync_tree(self.path)
+        os.replace(self.out, aside)
+        os.replace(self.path, self.out)
+        self._close()
+        fsync_dir(self.out.parent)
+        shutil.rmtree(aside)
+
     def discard(self) -> None:
         shutil.rmtree(self.path, ignore_errors=True)
         self._close()

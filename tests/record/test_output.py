@@ -18,16 +18,12 @@ import pytest
 
 from openral_data.formats.lerobot_v3 import layout
 from tests.support.cli import run_cli
+from tests.support.interrupt import snapshot
 from tests.support.lerobot import verify_mock_dataset
 from tests.support.scenes import mock_scene, write_yaml
 from tests.support.timing import TIMED
 
 pytestmark = TIMED
-
-
-def _snapshot(root: Path) -> dict[str, bytes | None]:
-    """Every path below `root` with its bytes (None for a folder)."""
-    return {str(p.relative_to(root)): (None if p.is_dir() else p.read_bytes()) for p in sorted(root.rglob("*"))}
 
 
 def _wait_for_lock(proc: subprocess.Popen[str], out: Path) -> None:
@@ -63,13 +59,13 @@ def test_second_writer_started_while_the_first_builds_exits_2_and_changes_nothin
     try:
         _wait_for_lock(first, out)
         first.send_signal(signal.SIGSTOP)  # held between taking the lock and finishing: the race window, fixed
-        before = _snapshot(out)
+        before = snapshot(out)
         second = run_cli(*common, "--seed", "7", "--workers", str(workers))
         assert second.returncode == 2, second.stderr
         line = second.stderr.strip().splitlines()
         assert len(line) == 1 and line[0].startswith("error: "), second.stderr
         assert f"pid {first.pid}," in line[0] and "another writer holds this dataset" in line[0]
-        assert _snapshot(out) == before  # the loser changed nothing
+        assert snapshot(out) == before  # the loser changed nothing
     finally:
         first.send_signal(signal.SIGCONT)
     _, err = first.communicate(timeout=300)
@@ -106,13 +102,13 @@ def test_fresh_record_into_existing_output_is_refused_untouched(tmp_path: Path, 
     else:
         out.mkdir()
         (out / "notes.txt").write_text("mine")
-    before = _snapshot(out)
+    before = snapshot(out)
     stamps = {p: p.stat().st_mtime_ns for p in [out, *out.rglob("*")]}
     proc = run_cli(*args, "--seed", "9")
     assert proc.returncode == 2, proc.stderr
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(f"error: {out}: --out "), proc.stderr
-    assert _snapshot(out) == before
+    assert snapshot(out) == before
     assert {p: p.stat().st_mtime_ns for p in [out, *out.rglob("*")]} == stamps  # not even the lock was taken
 
 
@@ -152,7 +148,7 @@ def test_read_only_parent_and_dataset_give_one_line(tmp_path: Path, project: Pat
     ro = tmp_path / "ro"
     _mount_ro(read_only, ro)
     assert os.statvfs(ro).f_flag & os.ST_RDONLY
-    before = _snapshot(ro)
+    before = snapshot(ro)
     cases = [
         ["record", "--scene", str(scene), "--out", str(ro / "new"), "--codec", "h264"],
         ["record", "--resume", "--out", str(ro / "ds"), "--n-episodes", "2"],
@@ -163,4 +159,4 @@ def test_read_only_parent_and_dataset_give_one_line(tmp_path: Path, project: Pat
         lines = proc.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith("error: "), proc.stderr
         assert "Read-only file system" in lines[0] and "Traceback" not in proc.stderr
-    assert _snapshot(ro) == before
+    assert snapshot(ro) == before
