@@ -24,7 +24,7 @@ from collections.abc import Callable
 from datetime import UTC, datetime
 from pathlib import Path
 
-from openral_data.errors import DatasetError, OutputExists
+from openral_data.errors import DatasetError, OutputExists, WriteError
 from openral_data.formats.atomic import fsync_dir, fsync_tree, open_control
 
 MARKER_SUFFIX = ".owner"
@@ -38,6 +38,11 @@ def staging_name(out: Path) -> Path:
 
 def marker_of(folder: Path) -> Path:
     return folder.with_name(folder.name + MARKER_SUFFIX)
+
+
+def unwritable(out: Path, exc: OSError) -> WriteError:
+    """The one-line error for an output that cannot be created (read-only file system, permissions, full disk)."""
+    return WriteError(f"{out}: cannot write the output here: {exc.strerror or exc}")
 
 
 def check_new_output(out: Path, what: str = "output") -> None:
@@ -58,6 +63,13 @@ class Staging:
 
     def open(self) -> Path:
         """Clean orphans beside `out`, then take the locked marker and create the staging folder; returns it."""
+        try:
+            return self._open()
+        except OSError as exc:
+            self.discard()
+            raise unwritable(self.out, exc) from None
+
+    def _open(self) -> Path:
         self.out.parent.mkdir(parents=True, exist_ok=True)
         clean_orphans(self.out.parent)
         marker = marker_of(self.path)

@@ -17,14 +17,14 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from openral_data.errors import ConfigError, DatasetBusy, DatasetError, UsageError, WriteError
+from openral_data.errors import ConfigError, DatasetBusy, DatasetError, UsageError
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.lock import DatasetLock, holder
 from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.recovery import Quarantine, recover
 from openral_data.formats.mcap.writer import PARTIAL, finished_bags
-from openral_data.formats.staging import clean_orphans
+from openral_data.formats.staging import clean_orphans, unwritable
 from openral_data.record.options import RecordOptions, check_out
 from openral_data.types import DatasetSchema
 
@@ -80,7 +80,7 @@ def claim(out: Path, purpose: str, resume: bool) -> Claim:
         lock = DatasetLock(out, purpose).acquire()
     except OSError as exc:
         Claim(out, DatasetLock(out, purpose), created).release()
-        raise WriteError(f"{out}: cannot write the output here: {exc.strerror or exc}") from None
+        raise unwritable(out, exc) from None
     taken = Claim(out, lock, created)
     try:
         if not resume:

@@ -1,6 +1,6 @@
 """A killed `convert` (bags -> LeRobot with several bags, LeRobot -> MCAP) leaves nothing under DST — no dataset
 that loads, no bags — and the next run into the same parent is not refused, removes the dead run's staging
-folder and finishes with no hidden leftovers."""
+folder and finishes with no hidden leftovers. A DST that cannot be written is one line, not a traceback."""
 
 from __future__ import annotations
 
@@ -11,7 +11,8 @@ import pytest
 from openral_data.formats.mcap.writer import finished_bags
 from tests.support.bags import MAPPING, write_ros1
 from tests.support.cli import run_cli
-from tests.support.interrupt import hidden_leftovers, kill_when_staged
+from tests.support.interrupt import hidden_leftovers, kill_when_staged, snapshot
+from tests.support.readonly import read_only_view
 from tests.support.scenes import write_yaml
 from tests.support.timing import TIMED
 
@@ -63,3 +64,14 @@ def test_killed_lerobot_to_mcap_leaves_no_bags_and_rerun_succeeds(tmp_path: Path
     assert proc.returncode == 0, proc.stderr
     assert [b.name for b in finished_bags(out)] == [f"episode_{i:06d}" for i in range(BAGS)]
     assert hidden_leftovers(tmp_path) == []
+
+
+def test_read_only_destination_is_one_line(tmp_path: Path, sources: tuple[Path, Path]) -> None:
+    bags, mapping = sources
+    (tmp_path / "src").mkdir()
+    with read_only_view(tmp_path / "src", tmp_path / "ro") as ro:
+        proc = run_cli("convert", str(bags), str(ro / "ds"), "--mapping", str(mapping), "--codec", "h264")
+        assert proc.returncode == 2, proc.stderr
+        lines = proc.stderr.strip().splitlines()
+        assert lines == [f"error: {ro / 'ds'}: cannot write the output here: Read-only file system"], proc.stderr
+        assert snapshot(ro) == {}

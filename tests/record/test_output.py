@@ -5,12 +5,10 @@ without being touched; a read-only place gives one line. The real CLI, the mock 
 from __future__ import annotations
 
 import json
-import os
 import signal
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import pyarrow.parquet as pq
@@ -20,6 +18,7 @@ from openral_data.formats.lerobot_v3 import layout
 from tests.support.cli import run_cli
 from tests.support.interrupt import snapshot
 from tests.support.lerobot import verify_mock_dataset
+from tests.support.readonly import read_only_view
 from tests.support.scenes import mock_scene, write_yaml
 from tests.support.timing import TIMED
 
@@ -123,40 +122,20 @@ def test_stale_lock_of_a_killed_first_run_does_not_block(tmp_path: Path, project
     verify_mock_dataset(out)
 
 
-@pytest.fixture
-def read_only(tmp_path: Path) -> Iterator[Path]:
-    """A read-only bind mount of a folder (root ignores permission bits, so chmod would prove nothing)."""
-    src, ro = tmp_path / "src", tmp_path / "ro"
-    src.mkdir()
-    ro.mkdir()
-    yield src  # filled by the test, then mounted
-    subprocess.run(["umount", str(ro)], check=False, capture_output=True)
-
-
-def _mount_ro(src: Path, ro: Path) -> None:
-    for cmd in (["mount", "--bind", str(src), str(ro)], ["mount", "-o", "remount,ro,bind", str(ro)]):
-        done = subprocess.run(cmd, capture_output=True, text=True, check=False)
-        if done.returncode != 0:
-            subprocess.run(["umount", str(ro)], check=False, capture_output=True)
-            pytest.skip(f"cannot make a read-only bind mount here: {done.stderr.strip()}")
-
-
-def test_read_only_parent_and_dataset_give_one_line(tmp_path: Path, project: Path, read_only: Path) -> None:
+def test_read_only_parent_and_dataset_give_one_line(tmp_path: Path, project: Path) -> None:
     scene = write_yaml(tmp_path / "scene.yaml", mock_scene(success_after=3, n_episodes=1))
-    ds = read_only / "ds"
-    assert run_cli("record", "--scene", str(scene), "--out", str(ds), "--codec", "h264").returncode == 0
-    ro = tmp_path / "ro"
-    _mount_ro(read_only, ro)
-    assert os.statvfs(ro).f_flag & os.ST_RDONLY
-    before = snapshot(ro)
-    cases = [
-        ["record", "--scene", str(scene), "--out", str(ro / "new"), "--codec", "h264"],
-        ["record", "--resume", "--out", str(ro / "ds"), "--n-episodes", "2"],
-    ]
-    for args in cases:
-        proc = run_cli(*args)
-        assert proc.returncode == 2, proc.stderr
-        lines = proc.stderr.strip().splitlines()
-        assert len(lines) == 1 and lines[0].startswith("error: "), proc.stderr
-        assert "Read-only file system" in lines[0] and "Traceback" not in proc.stderr
-    assert snapshot(ro) == before
+    src = tmp_path / "src"
+    assert run_cli("record", "--scene", str(scene), "--out", str(src / "ds"), "--codec", "h264").returncode == 0
+    with read_only_view(src, tmp_path / "ro") as ro:
+        before = snapshot(ro)
+        cases = [
+            ["record", "--scene", str(scene), "--out", str(ro / "new"), "--codec", "h264"],
+            ["record", "--resume", "--out", str(ro / "ds"), "--n-episodes", "2"],
+        ]
+        for args in cases:
+            proc = run_cli(*args)
+            assert proc.returncode == 2, proc.stderr
+            lines = proc.stderr.strip().splitlines()
+            assert len(lines) == 1 and lines[0].startswith("error: "), proc.stderr
+            assert "cannot write the output here: Read-only file system" in lines[0]
+        assert snapshot(ro) == before

@@ -21,6 +21,7 @@ from openral_data import paths
 from openral_data.edit.ops import summed_histograms, write_selection
 from openral_data.edit.source import SourceDataset
 from openral_data.errors import ExecutorError, OpenralError, UsageError
+from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.mcap import finished_bags
 from openral_data.formats.staging import Staging
@@ -171,7 +172,7 @@ def _keep_settings(first_worker: Path, staging: Path, total: int) -> None:
     path = first_worker / layout.RECORD_PATH
     if not path.is_file():
         return
-    settings = json.loads(path.read_text())
+    settings = json.loads(atomic.read_control(path))
     settings["options"]["n_episodes"] = total
     dest = staging / layout.RECORD_PATH
     dest.parent.mkdir(parents=True, exist_ok=True)
