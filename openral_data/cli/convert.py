@@ -9,16 +9,11 @@ import typer
 
 from openral_data.cli.choices import CodecChoice
 from openral_data.cli.terminal import print_rows, progress_bar
-from openral_data.errors import NotFound, OutputExists, UsageError
+from openral_data.errors import NotFound, UsageError
 
 if TYPE_CHECKING:
     from openral_data.formats.lerobot_v3.video import Codec
     from openral_data.schemas.mapping import Mapping
-
-
-def _check_dst(dst: Path) -> None:
-    if dst.exists() and (not dst.is_dir() or any(dst.iterdir())):
-        raise OutputExists(f"{dst}: DST exists and is not empty; refusing to overwrite it")
 
 
 def convert(
@@ -42,11 +37,12 @@ def _convert(
 ) -> None:
     from openral_data.convert.to_mcap import export_mcap, is_lerobot_dataset
     from openral_data.formats.mcap import IMAGE_FORMATS, McapConfig
+    from openral_data.formats.staging import check_new_output
     from openral_data.schemas.mapping import load_mapping
 
     if not src.exists():
         raise NotFound(f"{src}: no such file or directory")
-    _check_dst(dst)
+    check_new_output(dst, "DST")
     if is_lerobot_dataset(src):
         if mapping_path is not None:
             raise UsageError(f"{src}: is a LeRobot dataset (exported to MCAP); --mapping applies to bags only")

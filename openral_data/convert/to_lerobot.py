@@ -1,5 +1,7 @@
 """Bags -> LeRobot v3: stream each bag once, align the mapped topics to the target fps, write episodes with
-our LeRobotV3Writer (through the DatasetBridge, so the contract checks of `record` apply).
+our LeRobotV3Writer (through the DatasetBridge, so the contract checks of `record` apply). The dataset is
+built in a hidden staging folder beside DST and renamed to DST at the end (`formats.staging`): a killed
+convert leaves no partial dataset under DST, and the next run removes the dead run's staging folder.
 
 Memory stays bounded: messages are read one at a time in time order, state/action are reduced to small
 vectors on arrival, images stay serialised until the aligner picks them for a frame and are then decoded
@@ -28,6 +30,7 @@ from openral_data.errors import BagError
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.mcap.messages import decode_image
+from openral_data.formats.staging import Staging, check_new_output
 from openral_data.record.bridge import DatasetBridge
 from openral_data.schemas.mapping import Mapping
 from openral_data.types import CameraShape, DatasetSchema, EpisodeRecord, Observation
@@ -282,24 +285,29 @@ def convert_bags(
                 summary.topics.setdefault(t, TopicReport(t, present[t]))
         finally:
             reader.close()
-    conv = _Converter(mapping, dst, codec, summary)
-    t0 = time.perf_counter()
-    done = 0
-    try:
-        for bag in bags:
-            for _ in _convert_bag(bag, conv, wanted, extra):
-                done += 1
-                if progress is not None and done % 64 == 0:
-                    progress(done, totals)
-        if progress is not None:
-            progress(totals, totals)
-    finally:
-        conv.close()
-    summary.seconds = time.perf_counter() - t0
-    if not summary.episodes:
-        raise BagError(
-            f"{src}: no frame could be filled; nothing was written (see the mapping's align settings)", code="bag.empty"
-        )
+    check_new_output(dst, "DST")
+    staged = Staging(dst, "openral-data convert")  # DST appears complete or not at all
+    with staged as staging:
+        conv = _Converter(mapping, staging, codec, summary)
+        t0 = time.perf_counter()
+        done = 0
+        try:
+            for bag in bags:
+                for _ in _convert_bag(bag, conv, wanted, extra):
+                    done += 1
+                    if progress is not None and done % 64 == 0:
+                        progress(done, totals)
+            if progress is not None:
+                progress(totals, totals)
+        finally:
+            conv.close()
+        summary.seconds = time.perf_counter() - t0
+        if not summary.episodes:
+            raise BagError(
+                f"{src}: no frame could be filled; nothing was written (see the mapping's align settings)",
+                code="bag.empty",
+            )
+        staged.publish("DST")
     return summary
 
 

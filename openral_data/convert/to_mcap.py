@@ -3,6 +3,7 @@
 Frames are read one episode at a time: the numeric columns of that episode from its data parquet, the
 images decoded with PyAV from each camera's mp4 starting at the episode's ``from_timestamp``. Works on any
 LeRobot v3 dataset (ours or lerobot's); our extra episode columns (seed, success, initial state) are kept.
+The bags are written into a hidden staging folder beside DST, renamed to DST once every bag is finished.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX
 from openral_data.formats.lerobot_v3.frames import episode_frames
 from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_tasks
 from openral_data.formats.mcap import McapConfig, McapSink
+from openral_data.formats.staging import Staging, check_new_output
 from openral_data.types import CameraShape, DatasetSchema, EpisodeRecord, EpisodeStart
 
 ProgressFn = Callable[[int, int], None]  # (frames exported, frames in total)
@@ -93,29 +95,33 @@ def export_mcap(
     known |= {"next.reward", "next.done", "next.success"} | {IMAGE_PREFIX + n for n in cams}
     summary = ExportSummary(src=src, dst=dst, skipped_features=sorted(set(features) - known))
     total = sum(int(rows[e]["length"]) for e in chosen)
-    sink = McapSink(dst, schema, config)
-    t0 = time.perf_counter()
-    try:
-        for e in chosen:
-            row = rows[e]
-            sink.next_index = e
-            sink.begin_episode(
-                EpisodeStart(
-                    seed=int(row.get("openral.seed") or 0),
-                    initial_state=json.loads(row.get("openral.initial_state") or "{}"),
+    check_new_output(dst, "DST")
+    staged = Staging(dst, "openral-data convert")  # DST appears with every bag or not at all
+    with staged as staging:
+        sink = McapSink(staging, schema, config)
+        t0 = time.perf_counter()
+        try:
+            for e in chosen:
+                row = rows[e]
+                sink.next_index = e
+                sink.begin_episode(
+                    EpisodeStart(
+                        seed=int(row.get("openral.seed") or 0),
+                        initial_state=json.loads(row.get("openral.initial_state") or "{}"),
+                    )
                 )
-            )
-            successes: list[bool] = []
-            for frame in episode_frames(src, info, row, tasks, list(cams)):
-                sink.add_frame(frame)
-                successes.append(frame.success)
-                summary.frames += 1
-                if progress is not None:
-                    progress(summary.frames, total)
-            summary.episodes.append(sink.end_episode(_episode_success(row, successes)))
-    finally:
-        sink.close()
-    summary.seconds = time.perf_counter() - t0
+                successes: list[bool] = []
+                for frame in episode_frames(src, info, row, tasks, list(cams)):
+                    sink.add_frame(frame)
+                    successes.append(frame.success)
+                    summary.frames += 1
+                    if progress is not None:
+                        progress(summary.frames, total)
+                summary.episodes.append(sink.end_episode(_episode_success(row, successes)))
+        finally:
+            sink.close()
+        summary.seconds = time.perf_counter() - t0
+        staged.publish("DST")
     return summary
 
 

@@ -10,7 +10,6 @@ unless `delete --in-place` asks for the input to be replaced (the old folder is 
 from __future__ import annotations
 
 import os
-import shutil
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,10 +18,10 @@ from typing import Any
 from openral_data.edit.assemble import EpisodeAssembler
 from openral_data.edit.source import SourceDataset
 from openral_data.episodes import parse_episodes
-from openral_data.errors import DatasetError, EpisodeSelectionError, OutputExists, UsageError
-from openral_data.formats.atomic import fsync_dir, fsync_tree
+from openral_data.errors import DatasetError, EpisodeSelectionError, UsageError
 from openral_data.formats.lerobot_v3.lock import DatasetLock
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
+from openral_data.formats.staging import Staging, check_new_output
 
 _DATASET_ENTRIES = {"meta", "data", "videos", ".openral"}
 Selection = list[tuple[SourceDataset, int]]  # (source, episode index in it), in output order
@@ -33,11 +32,6 @@ class EditResult:
     out: Path
     episodes: int
     frames: int
-
-
-def check_new_output(out: Path) -> None:
-    if out.exists() and (not out.is_dir() or any(out.iterdir())):
-        raise OutputExists(f"{out}: output exists and is not empty; refusing to overwrite it")
 
 
 def check_compatible(first: SourceDataset, other: SourceDataset) -> None:
@@ -79,10 +73,14 @@ def write_selection(
     on_episode: Callable[[int], None] | None = None,
     before_publish: Callable[[Path], None] | None = None,
     image_hist: dict[str, ImageStatsAccumulator] | None = None,
+    before_rename: Callable[[], None] | None = None,
+    out_checked: bool = False,
 ) -> EditResult:
-    """Write the selected episodes, in order, as a new dataset at `out` (atomically).
+    """Write the selected episodes, in order, as a new dataset at `out` (atomically, through `staging.Staging`).
 
-    `before_publish(staging)` may add files beside the dataset (e.g. `mcap/`) before the whole folder appears.
+    `before_publish(staging)` may add files beside the dataset (e.g. `mcap/`) before the whole folder appears;
+    `before_rename()` runs right before the rename (`record --workers` lets go of its lock on `out` there);
+    `out_checked`: the caller checked `out` itself and holds it (its lock file is in it until `before_rename`).
     """
     if not selection:
         raise EpisodeSelectionError(f"{out}: no episodes selected; a dataset needs at least one", code="episodes.empty")
@@ -90,7 +88,8 @@ def write_selection(
     for src, _ in selection:
         if src is not first:
             check_compatible(first, src)
-    check_new_output(out)
+    if not out_checked:
+        check_new_output(out)
     sources: dict[Path, list[int]] = {}
     for src, e in selection:
         sources.setdefault(src.root, []).append(e)
@@ -101,8 +100,8 @@ def write_selection(
             for root, eps in sources.items()
         ],
     }
-    staging = staging_dir(out)
-    try:
+    staged = Staging(out, f"openral-data {op}")
+    with staged as staging:
         writer = EpisodeAssembler(staging, first.schema, first.writer_config(), provenance, image_hist)
         try:
             for k, (src, e) in enumerate(selection):
@@ -114,33 +113,13 @@ def write_selection(
         frames = writer.total_frames
         if before_publish is not None:
             before_publish(staging)
-        publish(staging, out)
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise
+        staged.publish(before_rename=before_rename)
     return EditResult(out, len(selection), frames)
 
 
 def _meta_of(selection: Selection, root: Path) -> dict[str, Any]:
     src = next(s for s, _ in selection if s.root == root)
     return dict(src.openral.get("schema_metadata") or {})
-
-
-def staging_dir(out: Path) -> Path:
-    out.parent.mkdir(parents=True, exist_ok=True)
-    staging = out.parent / f".{out.name}.partial-{os.getpid()}"
-    shutil.rmtree(staging, ignore_errors=True)
-    return staging
-
-
-def publish(staging: Path, out: Path) -> None:
-    """fsync every file of `staging`, then rename it to `out` (an empty `out` folder is replaced)."""
-    fsync_tree(staging)
-    check_new_output(out)
-    if out.is_dir():
-        out.rmdir()
-    os.replace(staging, out)
-    fsync_dir(out.parent)
 
 
 # -- the three operations ------------------------------------------------------------------------------------
@@ -162,14 +141,11 @@ def delete(dataset: Path, episodes: str, out: Path | None, in_place: bool = Fals
             f"{dataset}: --in-place: {', '.join(foreign)} would not be carried over (editing writes meta/, data/ "
             "and videos/ only); use --out"
         )
-    new = dataset.parent / f".{dataset.name}.edited-{os.getpid()}"
     old = dataset.parent / f".{dataset.name}.replaced-{os.getpid()}"
-    with DatasetLock(dataset, "episodes delete --in-place"):  # no recording may start on it meanwhile
+    staged = Staging(dataset, "openral-data episodes delete --in-place")
+    with DatasetLock(dataset, "episodes delete --in-place"), staged as new:  # no recording may start meanwhile
         result = write_selection(keep, new, "delete")
-    os.replace(dataset, old)  # the input stays whole (under `old`) until the new dataset took its name
-    os.replace(new, dataset)
-    fsync_dir(dataset.parent)
-    shutil.rmtree(old)
+        staged.replace_existing(old)  # the input stays whole (under `old`) until the new dataset took its name
     return EditResult(dataset, result.episodes, result.frames)
 
 

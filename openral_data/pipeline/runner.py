@@ -12,6 +12,7 @@ from typing import Any
 from openral_data import paths
 from openral_data.errors import ConfigError, OpenralError
 from openral_data.formats.atomic import write_bytes
+from openral_data.formats.staging import Staging
 from openral_data.pipeline.schema import Pipeline, load_pipeline
 from openral_data.pipeline.state import StepState
 from openral_data.pipeline.steps import Resolve, jobs_for
@@ -97,10 +98,13 @@ def _run_step(
             if log:
                 log(f"{step.id}/{name}: running")
             path = state.start_item(name)
-            try:
-                summaries[name] = run(path)
-            except OpenralError as exc:
-                raise exc.amended(f"pipeline step {step.id}/{name}: {exc}") from None
+            staged = Staging(path, f"openral-data pipeline {step.id}/{name}", create=False)
+            with staged as staging:  # the item appears under its name complete, or not at all
+                try:
+                    summaries[name] = run(staging)
+                except OpenralError as exc:
+                    raise exc.amended(f"pipeline step {step.id}/{name}: {exc}") from None
+                staged.publish(f"pipeline output {step.id}/{name}")
             state.finish_item(name, summaries[name])
         items[name] = str(state.item(name))
     body = state.finish(items, summaries, time.perf_counter() - started)

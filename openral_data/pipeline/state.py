@@ -1,13 +1,15 @@
 """The run folder of a pipeline and its completion markers.
 
 ```
-<workdir>/<step>/<item>/        an output (dataset, results, bags) or <step>/<file> (a report)
+<workdir>/<step>/<item>/        an output (dataset, results, bags, a report folder), built as
+                                <step>/.<item>.partial-PID and renamed into place when complete
 <workdir>/<step>/.<item>.done   item marker, written after the item's files are fsynced
 <workdir>/<step>/.done.json     step marker: the step's config hash, outputs and summary (written last)
 <workdir>/report.json           the final report of the last run
 ```
 A marker is written only after the output it vouches for is durable, so a killed run resumes by skipping
-what is marked and redoing the rest (an unmarked, half-written item is removed first).
+what is marked and redoing the rest (an unmarked item is removed first; a killed item never got its name,
+and its staging folder is removed as an orphan).
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from typing import Any
 
 from openral_data.errors import ConfigError
 from openral_data.formats.atomic import fsync_dir, fsync_file, fsync_tree, read_control, write_bytes
+from openral_data.formats.staging import clean_orphans
 from openral_data.paths import contained, safe_name
 from openral_data.pipeline.schema import Step
 
@@ -94,12 +97,13 @@ class StepState:
             path.unlink()
         elif path.is_dir():
             shutil.rmtree(path)
-        for staging in self.dir.glob(f".{name}.*-*"):  # a killed merge's `.partial-PID` / `.workers-PID` folder
-            if staging.is_symlink() or not staging.is_dir():
-                staging.unlink()
+        for workers in self.dir.glob(f"..{name}.partial-*.workers-*"):  # a killed `record --workers` item's shares
+            if workers.is_symlink() or not workers.is_dir():
+                workers.unlink()
             else:
-                shutil.rmtree(staging, ignore_errors=True)
+                shutil.rmtree(workers, ignore_errors=True)
         self.dir.mkdir(parents=True, exist_ok=True)
+        clean_orphans(self.dir)  # the staging folder of a killed run (`formats.staging`)
         return path
 
     def finish_item(self, name: str, summary: dict[str, Any]) -> None:

@@ -22,7 +22,8 @@ from openral_data.record import registry
 from openral_data.record.bridge import DatasetBridge
 from openral_data.record.compat import check_compatibility
 from openral_data.record.hal_loop import EpisodeEnd, EpisodeReport, FixedRateLoop, LoopConfig, frame_extras
-from openral_data.record.options import check_out, fresh_out
+from openral_data.record.options import fresh_out
+from openral_data.record.output import claim
 from openral_data.record.session import episode_loop
 from openral_data.schemas.hal import SafetyMode
 from openral_data.schemas.robot import RobotManifest
@@ -158,18 +159,21 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
 
     check_formats(opts.formats, opts.image_format)
     out = opts.out if opts.out is not None else fresh_out(f"hal-{robot.name}--{rskill.id}")
-    check_out(out)
-    operator = make_operator(opts.operator)
+    held = claim(out, "openral-data record --hal", resume=False)  # one writer, before any byte goes into `out`
     try:
-        hal = build_hal(opts, robot, rskill, rskill_src)
+        operator = make_operator(opts.operator)
         try:
-            return _run(opts, robot, rskill, rskill_src, hal, make_policy(rskill), operator, out, notify)
+            hal = build_hal(opts, robot, rskill, rskill_src)
+            try:
+                return _run(opts, robot, rskill, rskill_src, hal, make_policy(rskill), operator, out, notify)
+            finally:
+                hal.disconnect()
+                if isinstance(hal, SceneHal):
+                    hal.scene.close()
         finally:
-            hal.disconnect()
-            if isinstance(hal, SceneHal):
-                hal.scene.close()
+            operator.close()
     finally:
-        operator.close()
+        held.release()  # what was recorded stays; empty folders the claim made go
 
 
 def _run(

@@ -71,11 +71,19 @@ def fresh_out(prefix: str) -> Path:
 
 
 def check_out(out: Path) -> None:
-    if out.exists() and not out.is_dir():
+    """Refuse an `--out` that holds anything but (at most) a writer lock file: a recording starts a new folder."""
+    if out.is_symlink() or (out.exists() and not out.is_dir()):
         raise OutputExists(f"{out}: --out exists and is not a directory")
-    if out.is_dir() and any(out.iterdir()):
+    if out.is_dir() and not all(_lock_only(p) for p in out.iterdir()):
         if (out / "meta" / "info.json").exists() or (out / ".openral" / "record.json").exists():
             raise OutputExists(
                 f"{out}: --out already holds a dataset; refusing to overwrite it (choose a new --out, or --resume)"
             )
         raise OutputExists(f"{out}: --out exists, is not empty and is not a dataset; refusing to write there")
+
+
+def _lock_only(entry: Path) -> bool:
+    """`entry` is a real `.openral/` folder holding nothing but the writer lock (a live or a killed writer's)."""
+    if entry.name != ".openral" or entry.is_symlink() or not entry.is_dir():
+        return False
+    return all(p.name == "lock" for p in entry.iterdir())

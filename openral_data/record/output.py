@@ -10,20 +10,22 @@ MCAP sink commits first, and a bag is one folder to move).
 
 from __future__ import annotations
 
+import contextlib
 import json
 import shutil
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from openral_data.errors import ConfigError, DatasetError, UsageError
+from openral_data.errors import ConfigError, DatasetBusy, DatasetError, UsageError
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
-from openral_data.formats.lerobot_v3.lock import DatasetLock
+from openral_data.formats.lerobot_v3.lock import DatasetLock, holder
 from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.recovery import Quarantine, recover
 from openral_data.formats.mcap.writer import PARTIAL, finished_bags
-from openral_data.record.options import RecordOptions
+from openral_data.formats.staging import clean_orphans, unwritable
+from openral_data.record.options import RecordOptions, check_out
 from openral_data.types import DatasetSchema
 
 MCAP_SUBDIR = "mcap"  # sinks.select.MCAP_SUBDIR (not imported: select imports the sinks, which is heavier)
@@ -41,13 +43,62 @@ KEPT = {
 
 
 @dataclass(frozen=True)
+class Claim:
+    """The writer lock on a recording's `--out`, taken before anything is written there."""
+
+    out: Path
+    lock: DatasetLock
+    created: bool  # the folder did not exist: a run that records nothing removes it again
+
+    def release(self, finished: int = 0) -> None:
+        """Release the lock; a claim that recorded nothing leaves the folder as it found it."""
+        self.lock.release()
+        if finished:
+            return
+        state = self.out / layout.STATE_DIR
+        with contextlib.suppress(OSError):  # what cannot be removed (a read-only parent) was never created
+            if state.is_dir() and not state.is_symlink() and not any(state.iterdir()):
+                state.rmdir()
+            if self.created and self.out.is_dir() and not any(self.out.iterdir()):
+                self.out.rmdir()
+
+
+def claim(out: Path, purpose: str, resume: bool) -> Claim:
+    """Take `out`'s writer lock before any byte goes into it, and decide under it whether the run may write.
+
+    A loser of a race exits with `DatasetBusy` naming the holder and changes nothing. A fresh recording refuses
+    a folder that already holds a dataset or anything else (`OutputExists`) before touching it, and again under
+    the lock (a writer that finished in between). Orphaned staging folders of killed runs beside `out` go.
+    """
+    if not resume:
+        busy = holder(out) if out.is_dir() else None
+        if busy is not None:
+            raise DatasetBusy(out, busy)
+        check_out(out)
+    created = not out.exists()
+    try:
+        lock = DatasetLock(out, purpose).acquire()
+    except OSError as exc:
+        Claim(out, DatasetLock(out, purpose), created).release()
+        raise unwritable(out, exc) from None
+    taken = Claim(out, lock, created)
+    try:
+        if not resume:
+            check_out(out)  # again, under the lock: nothing may have appeared meanwhile
+        clean_orphans(out.parent)
+    except BaseException:
+        taken.release()
+        raise
+    return taken
+
+
+@dataclass(frozen=True)
 class Output:
     """The locked output of a recording: where the next episode's number starts."""
 
-    lock: DatasetLock
+    claim: Claim
     first_episode: int
     fresh: bool  # a new recording (not --resume)
-    created: bool  # this recording created the folder (a fresh start that finishes nothing removes it again)
     actions: list[str]  # what recovery did
 
 
@@ -60,12 +111,9 @@ def continue_options(opts: RecordOptions, explicit: frozenset[str]) -> RecordOpt
     if opts.out is None:
         raise UsageError("--resume needs --out: the dataset folder to continue")
     path = settings_path(opts.out)
-    try:
-        saved: dict[str, Any] = json.loads(path.read_text())["options"]
-    except FileNotFoundError:
-        raise DatasetError(f"{opts.out}: nothing to resume (no {layout.RECORD_PATH})", code="dataset.invalid") from None
-    except (json.JSONDecodeError, KeyError, TypeError) as exc:
-        raise DatasetError(f"{path}: unreadable recording settings: {exc}", code="dataset.invalid") from None
+    saved = _settings(opts.out).get("options")
+    if not isinstance(saved, dict):
+        raise DatasetError(f"{path}: options: missing or not a mapping", code="dataset.invalid")
     changes: dict[str, Any] = {}
     for name, flag in KEPT.items():
         stored = saved.get(name)
@@ -82,6 +130,22 @@ def continue_options(opts: RecordOptions, explicit: frozenset[str]) -> RecordOpt
     if "n_episodes" not in explicit:
         changes["n_episodes"] = saved.get("n_episodes")
     return replace(opts, **changes)
+
+
+def _settings(out: Path) -> dict[str, Any]:
+    """``OUT/.openral/record.json``, read as one of our control files (no symlink, no FIFO, bounded)."""
+    path = settings_path(out)
+    try:
+        doc = json.loads(atomic.read_control(path))
+    except FileNotFoundError:
+        raise DatasetError(f"{out}: nothing to resume (no {layout.RECORD_PATH})", code="dataset.invalid") from None
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise DatasetError(f"{path}: unreadable recording settings: {exc}", code="dataset.invalid") from None
+    except OSError as exc:
+        raise DatasetError(f"{path}: cannot read: {exc.strerror or exc}", code="dataset.invalid") from None
+    if not isinstance(doc, dict):
+        raise DatasetError(f"{path}: not a JSON object", code="dataset.invalid")
+    return doc
 
 
 def _normal(name: str, value: Any) -> Any:
@@ -113,35 +177,36 @@ def schema_json(schema: DatasetSchema) -> dict[str, Any]:
     }
 
 
-def open_output(out: Path, opts: RecordOptions, schema: DatasetSchema, resolved: dict[str, Any]) -> Output:
-    """Lock `out`; fresh: store the settings; resume: check the schema, recover, count finished episodes."""
-    created = not out.exists()
-    lock = DatasetLock(out, f"openral-data record{' --resume' if opts.resume else ''}").acquire()
-    try:
-        if not opts.resume:
-            doc = {"options": resolved, "schema": schema_json(schema)}
-            atomic.write_bytes(settings_path(out), json.dumps(doc, indent=2).encode())
-            return Output(lock, 0, True, created, [])
-        _check_schema(out, schema)
-        actions, done = _recover(out, opts.formats)
-        return Output(lock, done, False, created, actions)
-    except BaseException:
-        lock.release()
-        raise
+def open_output(claimed: Claim, opts: RecordOptions, schema: DatasetSchema, resolved: dict[str, Any]) -> Output:
+    """Under the claim's lock: fresh: store the settings; resume: check the schema, recover, count episodes."""
+    out = claimed.out
+    if not opts.resume:
+        doc = {"options": resolved, "schema": schema_json(schema)}
+        atomic.write_bytes(settings_path(out), json.dumps(doc, indent=2).encode())
+        return Output(claimed, 0, True, [])
+    _check_schema(out, schema)
+    actions, done = _recover(out, opts.formats)
+    return Output(claimed, done, False, actions)
 
 
 def close_output(out: Path, output: Output, finished: int) -> None:
     """Release the lock; a fresh recording that finished nothing leaves no folder behind."""
-    output.lock.release()
-    if output.fresh and finished == 0 and all(p.name == layout.STATE_DIR for p in out.iterdir()):
-        shutil.rmtree(out / layout.STATE_DIR, ignore_errors=True)
-        if output.created:
-            out.rmdir()
+    nothing = output.fresh and finished == 0 and all(p.name == layout.STATE_DIR for p in out.iterdir())
+    if nothing:  # what this run put into `.openral/` goes; the lock file goes with the lock
+        for entry in (out / layout.STATE_DIR).iterdir():
+            if entry.name != Path(layout.LOCK_PATH).name:
+                if entry.is_dir() and not entry.is_symlink():
+                    shutil.rmtree(entry)
+                else:
+                    entry.unlink()
+    output.claim.release(0 if nothing else 1)
 
 
 def _check_schema(out: Path, schema: DatasetSchema) -> None:
     path = settings_path(out)
-    saved = json.loads(path.read_text()).get("schema", {})
+    saved = _settings(out).get("schema")
+    if not isinstance(saved, dict):
+        raise DatasetError(f"{path}: schema: missing or not a mapping", code="dataset.invalid")
     now = schema_json(schema)
     for field, value in now.items():
         if saved.get(field) != value:

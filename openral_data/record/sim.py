@@ -11,7 +11,7 @@ from openral_data.policies.base import PolicyAdapter
 from openral_data.record import output, registry
 from openral_data.record.bridge import DatasetBridge
 from openral_data.record.compat import check_compatibility
-from openral_data.record.options import ProgressFn, RecordOptions, RecordSummary, check_out, default_out
+from openral_data.record.options import ProgressFn, RecordOptions, RecordSummary, default_out
 from openral_data.record.session import StopRequest, ended_by, episode_loop
 from openral_data.schemas.scene import load_recordable_scene
 from openral_data.types import DatasetSchema, EpisodeRecord, SimRollout, Sink
@@ -19,8 +19,20 @@ from openral_data.version import __version__
 
 
 def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSummary:
+    """Record; the writer lock on `--out` is taken before anything is written there (see `output.claim`)."""
     if opts.resume:
-        opts = output.continue_options(opts, opts.explicit)
+        if opts.out is None:
+            raise UsageError("--resume needs --out: the dataset folder to continue")
+        held = output.claim(opts.out, "openral-data record --resume", resume=True)
+        try:
+            return _record(output.continue_options(opts, opts.explicit), progress, held)
+        except BaseException:
+            held.release()  # (a no-op when the run released it; only empty folders it made go)
+            raise
+    return _record(opts, progress, None)
+
+
+def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim | None) -> RecordSummary:
     # 1. everything that can be wrong with the inputs is found here, before anything is written
     scene_path = registry.resolve_scene_path(opts.scene)
     scene = load_recordable_scene(scene_path)
@@ -51,8 +63,6 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
 
     check_formats(opts.formats, opts.image_format)
     out = opts.out if opts.out is not None else default_out(scene, rskill.id)
-    if not opts.resume:
-        check_out(out)
     kept = {
         "scene": str(scene_path.resolve()),
         "rskill": str(rskill_path.resolve()),
@@ -64,28 +74,31 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
         "image_format": opts.image_format,
         "n_episodes": n_episodes,
     }
-
-    env = make_scene(scene, robot, rskill, scene_src)
+    # 2. one writer: the lock on `out` is taken before the scene is built and before any byte goes into `out`
+    if held is None:
+        held = output.claim(out, "openral-data record", resume=False)
+    opened: output.Output | None = None
+    records: list[EpisodeRecord] = []
     try:
-        video = VideoSettings(codec=opts.codec)
-        check_compatibility(robot, rskill, env.spec, rskill_source=rskill_src, scene_source=scene_src, video=video)
-        policy = make_policy(rskill)
-        schema = DatasetSchema(
-            fps=env.spec.fps,
-            state_names=tuple(rskill.state_contract.names),
-            action_names=tuple(rskill.action_contract.names),
-            cameras=dict(env.spec.cameras),
-            robot_type=robot.name,
-            metadata={
-                "openral_data_version": __version__,
-                "scene": {"path": scene_src, "config": scene.model_dump(mode="json")},
-                "rskill": {"path": rskill_src, "config": rskill.model_dump(mode="json")},
-                "robot": robot.name,
-            },
-        )
-        opened = output.open_output(out, opts, schema, kept)
-        records: list[EpisodeRecord] = []
+        env = make_scene(scene, robot, rskill, scene_src)
         try:
+            video = VideoSettings(codec=opts.codec)
+            check_compatibility(robot, rskill, env.spec, rskill_source=rskill_src, scene_source=scene_src, video=video)
+            policy = make_policy(rskill)
+            schema = DatasetSchema(
+                fps=env.spec.fps,
+                state_names=tuple(rskill.state_contract.names),
+                action_names=tuple(rskill.action_contract.names),
+                cameras=dict(env.spec.cameras),
+                robot_type=robot.name,
+                metadata={
+                    "openral_data_version": __version__,
+                    "scene": {"path": scene_src, "config": scene.model_dump(mode="json")},
+                    "rskill": {"path": rskill_src, "config": rskill.model_dump(mode="json")},
+                    "robot": robot.name,
+                },
+            )
+            opened = output.open_output(held, opts, schema, kept)
             first = opened.first_episode
             try:
                 sinks: list[Sink] = make_sinks(
@@ -115,19 +128,23 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
                     if progress is not None:
                         progress(rec, frames, max(0, n_episodes - first))
         finally:
-            output.close_output(out, opened, len(records))
-        return RecordSummary(
-            out=out,
-            episodes=records,
-            frames=frames,
-            seconds=time.perf_counter() - t0,
-            resumed_at=first,
-            recovered=tuple(opened.actions),
-            codec=opts.codec,
-            formats=opts.formats,
-        )
+            env.close()
     finally:
-        env.close()
+        if opened is not None:
+            output.close_output(out, opened, len(records))
+        else:  # stopped before the settings were written: `out` is left as the claim found it
+            held.release()
+    assert opened is not None
+    return RecordSummary(
+        out=out,
+        episodes=records,
+        frames=frames,
+        seconds=time.perf_counter() - t0,
+        resumed_at=first,
+        recovered=tuple(opened.actions),
+        codec=opts.codec,
+        formats=opts.formats,
+    )
 
 
 def _record_episode(

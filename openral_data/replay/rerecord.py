@@ -4,6 +4,9 @@ sinks, e.g. with other cameras or resolutions (`--cameras FILE`), the "states to
 `--cameras FILE` is YAML: `cameras:` a list in the scene schema (name, width, height, mount, pos, lookat, fovy)
 and optionally `render:` (shadows, reflections, robot_meshes). It replaces the recorded cameras; physics does
 not depend on cameras, so the replay is the same.
+
+OUT is written in a hidden staging folder beside it (`formats.staging`) and renamed into place when the replay
+ends normally; a failed or killed replay leaves nothing under OUT.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from pydantic import Field
 from openral_data.errors import CompatibilityError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
 from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.formats.staging import Staging
 from openral_data.record.bridge import DatasetBridge
 from openral_data.record.options import check_out
 from openral_data.record.sinks import check_formats, make_sinks
@@ -76,7 +80,13 @@ class Rerecorder:
         )
         self.out = out
         self.env = built.env
-        sinks: list[Sink] = make_sinks(out, schema, formats, WriterConfig(video=video), image_format)
+        self._staged = Staging(out, "openral-data replay --record")  # OUT appears complete or not at all
+        staging = self._staged.open()
+        try:
+            sinks: list[Sink] = make_sinks(staging, schema, formats, WriterConfig(video=video), image_format)
+        except BaseException:
+            self._staged.discard()
+            raise
         self.bridge = DatasetBridge(schema, sinks)
         self.records: list[EpisodeRecord] = []
         self._success = False
@@ -103,7 +113,13 @@ class Rerecorder:
             self._opened = False
 
     def close(self, ok: bool) -> dict[str, Any]:
-        if not ok:
-            self.bridge.discard_episode()
-        self.bridge.close()
+        """Close the sinks; a replay that ended normally publishes OUT, one that failed leaves nothing there."""
+        try:
+            if not ok:
+                self.bridge.discard_episode()
+            self.bridge.close()
+            if ok:
+                self._staged.publish("--record")
+        finally:
+            self._staged.discard()  # (nothing left to remove once published)
         return {"out": str(self.out), "episodes": len(self.records), "frames": sum(r.length for r in self.records)}

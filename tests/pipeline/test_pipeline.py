@@ -47,17 +47,19 @@ def test_every_shipped_pipeline_validates() -> None:
 def test_mock_campaign_end_to_end_killed_and_resumed(project: Path, tmp_path: Path) -> None:
     workdir = tmp_path / "run"
     cmd = [sys.executable, "-m", "openral_data.cli", "pipeline", "run", str(MOCK), "--workdir", str(workdir)]
-    # 1. SIGKILL the run once the record step is marked complete and the merge step is under way
+    # 1. SIGKILL the run once the record step is marked complete and the merge step is under way (its output
+    #    is being built in a hidden staging folder: nothing appears under the output's name)
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=os.environ.copy())
     deadline = time.monotonic() + 300
-    while not (workdir / "rec" / ".done.json").exists():
+    while not list((workdir / "all").glob(".dataset.partial-*/**/*.parquet")):
         assert proc.poll() is None, proc.communicate()
         assert time.monotonic() < deadline
-        time.sleep(0.05)
+        time.sleep(0.005)
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
     rec_marker = (workdir / "rec" / ".done.json").read_bytes()
     assert not (workdir / "report.json").exists()
+    assert not (workdir / "all" / "dataset").exists()
 
     # 2. resume: the record step is skipped (its outputs untouched), everything after it runs
     res = run_cli("pipeline", "run", str(MOCK), "--workdir", str(workdir))
@@ -65,6 +67,11 @@ def test_mock_campaign_end_to_end_killed_and_resumed(project: Path, tmp_path: Pa
     assert _statuses(workdir) == [("rec", "skipped")] + [(s, "ran") for s in STEPS[1:]]
     assert (workdir / "rec" / ".done.json").read_bytes() == rec_marker
     assert "rec (record): done earlier, skipped" in res.stderr
+
+    # no staging folder of the killed run is left: only the completion markers are hidden
+    for step in STEPS:
+        hidden = [p.name for p in (workdir / step).iterdir() if p.name.startswith(".")]
+        assert all(h == ".done.json" or h.endswith(".done") for h in hidden), (step, hidden)
 
     # outputs addressed by name: two recorded datasets, their merge, replay results, stats, bags
     recs = sorted(p.name for p in (workdir / "rec").iterdir() if not p.name.startswith("."))

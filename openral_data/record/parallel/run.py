@@ -18,13 +18,16 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from openral_data import paths
-from openral_data.edit.ops import publish, staging_dir, summed_histograms, write_selection
+from openral_data.edit.ops import summed_histograms, write_selection
 from openral_data.edit.source import SourceDataset
 from openral_data.errors import ExecutorError, OpenralError, UsageError
+from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.mcap import finished_bags
+from openral_data.formats.staging import Staging
 from openral_data.record import registry
-from openral_data.record.options import RecordOptions, RecordSummary, check_out, default_out
+from openral_data.record.options import RecordOptions, RecordSummary, default_out
+from openral_data.record.output import Claim, claim
 from openral_data.record.parallel.executors import run_jobs
 from openral_data.record.parallel.plan import plan
 from openral_data.record.parallel.worker import WorkerResult
@@ -54,16 +57,17 @@ def record_parallel(
         opts = dataclasses.replace(opts, out=default_out(scene, registry.resolve_rskill(opts.rskill)[0].id))
     out = opts.out
     assert out is not None
-    check_out(out)
     out.parent.mkdir(parents=True, exist_ok=True)
+    held = claim(out, "openral-data record --workers", resume=False)  # before anything goes into `out`
     workdir = workers_dir(out)
     shutil.rmtree(workdir, ignore_errors=True)
-    jobs = plan(opts, workers, workdir, threads)
     t0 = time.perf_counter()
     try:
+        jobs = plan(opts, workers, workdir, threads)
         results = run_jobs(jobs, executor, address)
-        episodes = _assemble(results, workdir, out, opts.formats)
+        episodes = _assemble(results, workdir, held, opts.formats)
     except BaseException as exc:
+        held.release()  # (a no-op once `_assemble` let go of it for the rename)
         # lose nothing: what the workers finished stays in their own (complete, durable) datasets
         kept = kept_worker_episodes(workdir)
         if not kept:
@@ -115,7 +119,10 @@ def kept_note(workdir: Path, kept: int) -> str:
     )
 
 
-def _assemble(results: list[WorkerResult], workdir: Path, out: Path, formats: tuple[str, ...]) -> list[EpisodeRecord]:
+def _assemble(results: list[WorkerResult], workdir: Path, held: Claim, formats: tuple[str, ...]) -> list[EpisodeRecord]:
+    """Merge the workers' shares into a staging folder and rename it over `held.out`, whose lock is let go of
+    right before the rename (the staged dataset carries no lock file into place)."""
+    out = held.out
     by_seed = sorted((e for r in results for e in r.episodes), key=lambda e: e.seed)
     episodes = [EpisodeRecord(k, e.length, e.success, e.seed) for k, e in enumerate(by_seed)]
     folders = [r.worker for r in sorted(results, key=lambda r: r.worker)]
@@ -143,15 +150,20 @@ def _assemble(results: list[WorkerResult], workdir: Path, out: Path, formats: tu
         hist = summed_histograms(sources)
         if hist is None:
             raise ExecutorError(f"{workdir}: a worker left no camera histograms (.openral/image_hist.json)")
-        write_selection(selection, out, "record --workers", before_publish=add_bags, image_hist=hist)
+        write_selection(
+            selection,
+            out,
+            "record --workers",
+            before_publish=add_bags,
+            image_hist=hist,
+            before_rename=held.release,
+            out_checked=True,
+        )
     else:
-        staging = staging_dir(out)
-        try:
+        staged = Staging(out, "openral-data record --workers")
+        with staged as staging:
             add_bags(staging)
-            publish(staging, out)  # refuses an `out` that filled up meanwhile
-        except BaseException:
-            shutil.rmtree(staging, ignore_errors=True)
-            raise
+            staged.publish(before_rename=held.release)  # refuses an `out` that filled up meanwhile
     return episodes
 
 
@@ -160,7 +172,7 @@ def _keep_settings(first_worker: Path, staging: Path, total: int) -> None:
     path = first_worker / layout.RECORD_PATH
     if not path.is_file():
         return
-    settings = json.loads(path.read_text())
+    settings = json.loads(atomic.read_control(path))
     settings["options"]["n_episodes"] = total
     dest = staging / layout.RECORD_PATH
     dest.parent.mkdir(parents=True, exist_ok=True)

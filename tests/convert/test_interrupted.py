@@ -1,0 +1,77 @@
+"""A killed `convert` (bags -> LeRobot with several bags, LeRobot -> MCAP) leaves nothing under DST — no dataset
+that loads, no bags — and the next run into the same parent is not refused, removes the dead run's staging
+folder and finishes with no hidden leftovers. A DST that cannot be written is one line, not a traceback."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from openral_data.formats.mcap.writer import finished_bags
+from tests.support.bags import MAPPING, write_ros1
+from tests.support.cli import run_cli
+from tests.support.interrupt import hidden_leftovers, kill_when_staged, snapshot
+from tests.support.readonly import read_only_view
+from tests.support.scenes import write_yaml
+from tests.support.timing import TIMED
+
+pytestmark = [TIMED, pytest.mark.slow]
+BAGS = 4
+
+
+@pytest.fixture(scope="module")
+def sources(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """A folder of several ROS 1 bags (one episode each) and its mapping."""
+    root = tmp_path_factory.mktemp("bags")
+    (root / "bags").mkdir()
+    for i in range(BAGS):
+        write_ros1(root / "bags" / f"run{i}.bag", duration_ms=4000, offset_ms=i * 60_000)
+    return root / "bags", write_yaml(root / "mapping.yaml", MAPPING)
+
+
+def _loads(root: Path) -> int:
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    return int(LeRobotDataset("local/check", root=root, video_backend="pyav").meta.total_episodes)
+
+
+def test_killed_bags_to_lerobot_leaves_no_dataset_and_rerun_succeeds(
+    tmp_path: Path, sources: tuple[Path, Path]
+) -> None:
+    bags, mapping = sources
+    out = tmp_path / "ds"
+    args = ["convert", str(bags), str(out), "--mapping", str(mapping), "--codec", "h264"]
+    killed = kill_when_staged(args, out, "data/*/*.parquet")  # at least one episode committed
+    assert not out.exists()
+    assert hidden_leftovers(tmp_path) == [f".ds.partial-{killed.pid}", f".ds.partial-{killed.pid}.owner"]
+    proc = run_cli(*args)
+    assert proc.returncode == 0, proc.stderr
+    assert _loads(out) == BAGS
+    assert hidden_leftovers(tmp_path) == []
+
+
+def test_killed_lerobot_to_mcap_leaves_no_bags_and_rerun_succeeds(tmp_path: Path, sources: tuple[Path, Path]) -> None:
+    bags, mapping = sources
+    dataset = tmp_path / "src"
+    made = run_cli("convert", str(bags), str(dataset), "--mapping", str(mapping), "--codec", "h264")
+    assert made.returncode == 0, made.stderr
+    out = tmp_path / "bags_out"
+    killed = kill_when_staged(["convert", str(dataset), str(out)], out, "episode_000000")  # the first bag finished
+    assert not out.exists()
+    assert f".bags_out.partial-{killed.pid}" in hidden_leftovers(tmp_path)
+    proc = run_cli("convert", str(dataset), str(out))
+    assert proc.returncode == 0, proc.stderr
+    assert [b.name for b in finished_bags(out)] == [f"episode_{i:06d}" for i in range(BAGS)]
+    assert hidden_leftovers(tmp_path) == []
+
+
+def test_read_only_destination_is_one_line(tmp_path: Path, sources: tuple[Path, Path]) -> None:
+    bags, mapping = sources
+    (tmp_path / "src").mkdir()
+    with read_only_view(tmp_path / "src", tmp_path / "ro") as ro:
+        proc = run_cli("convert", str(bags), str(ro / "ds"), "--mapping", str(mapping), "--codec", "h264")
+        assert proc.returncode == 2, proc.stderr
+        lines = proc.stderr.strip().splitlines()
+        assert lines == [f"error: {ro / 'ds'}: cannot write the output here: Read-only file system"], proc.stderr
+        assert snapshot(ro) == {}

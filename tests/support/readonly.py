@@ -1,0 +1,27 @@
+"""A read-only view of a folder for tests: a read-only bind mount (CI runs as root, which ignores permission
+bits, so chmod would prove nothing). Skips the test with the reason when mounting is impossible here."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import pytest
+
+
+@contextmanager
+def read_only_view(src: Path, at: Path) -> Iterator[Path]:
+    """`src`, mounted read-only at `at` (created) for the duration."""
+    at.mkdir(parents=True, exist_ok=True)
+    try:
+        for cmd in (["mount", "--bind", str(src), str(at)], ["mount", "-o", "remount,ro,bind", str(at)]):
+            done = subprocess.run(cmd, capture_output=True, text=True, check=False)
+            if done.returncode != 0:
+                pytest.skip(f"cannot make a read-only bind mount here: {done.stderr.strip()}")
+        assert os.statvfs(at).f_flag & os.ST_RDONLY
+        yield at
+    finally:
+        subprocess.run(["umount", str(at)], check=False, capture_output=True)
