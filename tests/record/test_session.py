@@ -233,7 +233,7 @@ def small_disk(tmp_path: Path) -> Iterator[Path]:
 def test_a_full_tmpfs(small_disk: Path, home: Path) -> None:
     filler = small_disk / "filler"
     st = os.statvfs(small_disk)
-    filler.write_bytes(b"\0" * (st.f_bavail * st.f_frsize - 160 * 1024))  # leave room for a few episodes
+    filler.write_bytes(b"\0" * (st.f_bavail * st.f_frsize - 400 * 1024))  # leave room for a few episodes
     out = small_disk / "ds"
     scene = home / "scene_long.yaml"
     write_yaml(scene, mock_scene(cameras=[("front", 64, 48)], success_after=[30, 20, 40], n_episodes=12, max_steps=60))

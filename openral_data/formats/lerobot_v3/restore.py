@@ -137,7 +137,9 @@ def _video_tail(root: Path, key: str, rows: list[dict[str, Any]], chunks_size: i
         alone = users[p] == 1 and float(r[f"videos/{key}/from_timestamp"]) == 0.0
         follows = not members or p.next(chunks_size) == members[0][1]
         path = layout.video_path(root, key, p)
-        if not (alone and follows and path.is_file() and probe_frames(path) == int(r["length"])):
+        # `>=`: a join cut short by a disk error wrote the group into its first file before the metadata named
+        # it; that file starts with its own episode, and joining the group again takes only those frames
+        if not (alone and follows and path.is_file() and probe_frames(path) >= int(r["length"])):
             break
         members.insert(0, (int(r["episode_index"]), p, int(r["length"]), path.stat().st_size))
     if members and sum(m[3] for m in members) < size_limit:

@@ -241,7 +241,9 @@ def probe_frames(path: Path) -> int:
 def concat_mp4(sources: list[tuple[Path, int]], dest: Path, fps: int) -> None:
     """Concatenate complete per-episode mp4s (path, n_frames) into `dest` without re-encoding.
 
-    Episode k starts at exactly (frames of episodes before it) / fps; pts are shifted by whole frames.
+    Episode k starts at exactly (frames of episodes before it) / fps; pts are shifted by whole frames. Only each
+    source's first `n_frames` packets are taken: a group's first file may already hold the join of a previous
+    attempt that a disk error or a kill cut short before the metadata named it (its own episode comes first).
     """
     out = av.open(str(dest), mode="w", format="mp4", options={"movflags": "faststart"})
     try:
@@ -258,9 +260,13 @@ def concat_mp4(sources: list[tuple[Path, int]], dest: Path, fps: int) -> None:
                 if per_frame.denominator != 1:
                     raise EncoderError(f"{src}: time base {tb} cannot express frame boundaries at {fps} fps")
                 shift = int(per_frame) * offset_frames
+                taken = 0
                 for packet in inp.demux(in_stream):
                     if packet.dts is None:
                         continue
+                    if taken == n_frames:  # a first file already joined once (a join cut short) holds more
+                        break
+                    taken += 1
                     assert packet.pts is not None
                     packet.pts += shift
                     packet.dts += shift
