@@ -5,6 +5,7 @@ one rule for a path that comes out of a file's contents: it stays inside its roo
 from __future__ import annotations
 
 import os
+import stat
 from pathlib import Path
 
 from openral_data.errors import DatasetError
@@ -65,3 +66,15 @@ def safe_name(name: object, source: str) -> str:
     if not isinstance(name, str) or not name or name in (".", "..") or any(c in name for c in "/\\\x00"):
         raise DatasetError(f"{source}: {name!r} cannot be a file or folder name", code="dataset.unsafe")
     return name
+
+
+def regular_file(path: Path) -> Path:
+    """`path` if it is a regular file (symlinks followed); a FIFO or a device would block the reader for ever.
+
+    For files a reader opens by name (parquet, mp4). A missing file raises `FileNotFoundError` as `os.stat`.
+    """
+    if not stat.S_ISREG(os.stat(path).st_mode):
+        raise DatasetError(
+            f"{path}: not a regular file (a FIFO, device or folder); refusing to read it", code="dataset.unsafe"
+        )
+    return path

@@ -66,3 +66,15 @@ def test_state_dir_refuses_a_symlink(tmp_path: Path) -> None:
     with pytest.raises(DatasetError):
         atomic.state_dir(root)
     assert atomic.state_dir(tmp_path / "fresh").is_dir()
+
+
+def test_regular_file_refuses_a_fifo_and_a_folder(tmp_path: Path) -> None:
+    from openral_data.paths import regular_file
+
+    os.mkfifo(tmp_path / "fifo")
+    for path in (tmp_path / "fifo", tmp_path):
+        with pytest.raises(DatasetError) as err:
+            regular_file(path)
+        assert err.value.code == "dataset.unsafe"
+    (tmp_path / "f").write_bytes(b"")
+    assert regular_file(tmp_path / "f") == tmp_path / "f"

@@ -14,6 +14,7 @@ from openral_data.doctor.check_video import Placement, placements
 from openral_data.doctor.findings import Finding, error
 from openral_data.doctor.inspect import Dataset, read_parquet
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
+from openral_data.paths import regular_file
 
 TOLERANCE = 0.02  # of the [0, 1] range, ~5 of 255 levels: well above what encoding changes in a mean
 
@@ -36,7 +37,7 @@ def decoded_means(path: Path, eps: list[Placement], fps: int) -> dict[int, np.nd
     """episode -> per-channel mean of its decoded frames (sampled as the writer samples them)."""
     half = 0.5 / fps
     accs = {p.episode: ImageStatsAccumulator() for p in eps}
-    with av.open(str(path)) as container:
+    with av.open(str(regular_file(path))) as container:
         for frame in container.decode(video=0):
             t = frame.time
             if t is None:

@@ -18,12 +18,13 @@ import pyarrow.parquet as pq
 from openral_data.doctor.findings import Finding, error
 from openral_data.errors import OpenralError
 from openral_data.formats.lerobot_v3 import layout
+from openral_data.paths import regular_file
 
 DEFAULT_FEATURES = ("timestamp", "frame_index", "episode_index", "index", "task_index")
 DATA_SCAN_COLUMNS = ("index", "episode_index", "frame_index", "timestamp", "task_index")
 TOTALS = ("total_episodes", "total_frames", "total_tasks")
 # what reading a damaged parquet file raises (pyarrow's errors are ArrowException, ValueError or OSError)
-READ_ERRORS = (pa.ArrowException, OSError, ValueError, TypeError, KeyError, IndexError)
+READ_ERRORS = (pa.ArrowException, OSError, ValueError, TypeError, KeyError, IndexError, OpenralError)
 # what a check meets in a damaged file it did not expect (wrong types, absurd values, undecodable media)
 DAMAGE = (
     ValueError,
@@ -107,7 +108,7 @@ def load(root: Path) -> tuple[Dataset | None, list[Finding]]:
 
 def read_parquet(path: Path, columns: list[str] | None = None) -> pa.Table:
     """A parquet file with its page checksums verified (a flipped byte in a page is an error, not a value)."""
-    return pq.read_table(path, columns=columns, page_checksum_verification=True)
+    return pq.read_table(regular_file(path), columns=columns, page_checksum_verification=True)
 
 
 def _unreadable(ds: Dataset, code: str, path: Path, exc: BaseException) -> None:
@@ -153,7 +154,7 @@ def _load_data(ds: Dataset) -> None:
     tables = []
     for path in ds.data_files:
         try:
-            pf = pq.ParquetFile(path, page_checksum_verification=True)
+            pf = pq.ParquetFile(regular_file(path), page_checksum_verification=True)
             schema = pf.schema_arrow
             cols = [c for c in DATA_SCAN_COLUMNS if c in schema.names]
             groups = [pf.read_row_group(i).select(cols) for i in range(pf.num_row_groups)]

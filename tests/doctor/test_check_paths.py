@@ -90,3 +90,21 @@ def test_nonstandard_template_is_an_error(ds: Path) -> None:
     info["data_path"] = "data/{chunk_index}/{file_index}.parquet"
     (ds / layout.INFO_PATH).write_text(json.dumps(info))
     assert "info.template" in _codes(ds)
+
+
+@pytest.mark.parametrize(
+    ("rel", "code"),
+    [
+        ("data/chunk-000/file-000.parquet", "data.unreadable"),
+        (EPISODES, "episodes.unreadable"),
+        ("videos/observation.images.front/chunk-000/file-000.mp4", "video.missing"),  # not a regular file
+    ],
+)
+def test_a_fifo_in_place_of_a_dataset_file_is_a_finding_not_a_hang(ds: Path, rel: str, code: str) -> None:
+    """pyarrow and FFmpeg open files by name and would wait on a FIFO for ever; doctor reports it instead."""
+    (ds / rel).unlink()
+    os.mkfifo(ds / rel)
+    done = run_cli("doctor", str(ds), "--deep", timeout=60)
+    assert done.returncode == 1, done.stderr
+    assert "Traceback" not in done.stderr
+    assert code in _codes(ds)

@@ -25,6 +25,7 @@ import numpy.typing as npt
 
 from openral_data.errors import EncoderError
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
+from openral_data.paths import regular_file
 
 Codec = Literal["av1", "h264"]
 
@@ -231,7 +232,7 @@ class EncoderWorker:
 
 
 def probe_frames(path: Path) -> int:
-    container = av.open(str(path))
+    container = av.open(str(regular_file(path)))
     try:
         return sum(1 for p in container.demux(container.streams.video[0]) if p.size)
     finally:
@@ -279,7 +280,7 @@ def concat_mp4(sources: list[tuple[Path, int]], dest: Path, fps: int) -> None:
 
 def count_packets(path: Path) -> list[float]:
     """Presentation times (s) of every video packet of the file's first video stream, without decoding."""
-    container = av.open(str(path))
+    container = av.open(str(regular_file(path)))
     try:
         stream = container.streams.video[0]
         tb = stream.time_base
