@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Annotated, cast
 
 import typer
 
+from openral_data import paths
 from openral_data.cli.choices import CodecChoice
 from openral_data.cli.terminal import print_rows, progress_bar
 from openral_data.errors import NotFound, OutputExists, UsageError
@@ -17,6 +18,7 @@ if TYPE_CHECKING:
 
 
 def _check_dst(dst: Path) -> None:
+    paths.check_creatable(dst, "DST")
     if dst.exists() and (not dst.is_dir() or any(dst.iterdir())):
         raise OutputExists(f"{dst}: DST exists and is not empty; refusing to overwrite it")
 

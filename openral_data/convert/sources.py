@@ -12,6 +12,8 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from rosbags.highlevel import AnyReader, AnyReaderError
+from rosbags.typesys import Stores, get_typestore
 
 from openral_data.errors import BagError, NotFound
 from openral_data.schemas.mapping import VectorSource
@@ -37,6 +39,21 @@ def find_bags(src: Path) -> list[Path]:
         "or a folder of those",
         code="bag.invalid",
     )
+
+
+# what a damaged bag raises while it is opened or read (UnicodeDecodeError is a ValueError)
+BAG_READ_ERRORS = (AnyReaderError, OSError, ValueError, KeyError, EOFError)
+
+
+def open_reader(bag: Path) -> AnyReader:
+    """The bag opened for reading; an empty, truncated or garbage bag raises a `BagError` naming it."""
+    store = get_typestore(Stores.ROS1_NOETIC if bag.suffix == ".bag" else Stores.ROS2_HUMBLE)
+    reader = AnyReader([bag], default_typestore=store)
+    try:
+        reader.open()
+    except BAG_READ_ERRORS as exc:
+        raise BagError(f"{bag}: cannot read bag: {exc}", code="bag.invalid") from None
+    return reader
 
 
 def field_value(msg: Any, path: str, where: str) -> Any:

@@ -18,12 +18,11 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from rosbags.highlevel import AnyReader, AnyReaderError
+from rosbags.highlevel import AnyReader
 from rosbags.interfaces import Connection
-from rosbags.typesys import Stores, get_typestore
 
 from openral_data.convert.align import AlignedFrame, Aligner
-from openral_data.convert.sources import VectorReader, field_value, find_bags
+from openral_data.convert.sources import VectorReader, field_value, find_bags, open_reader
 from openral_data.errors import BagError
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
 from openral_data.formats.lerobot_v3.video import Codec
@@ -238,16 +237,6 @@ class _Converter:
             self.bridge.close()
 
 
-def _open_reader(bag: Path) -> AnyReader:
-    store = get_typestore(Stores.ROS1_NOETIC if bag.suffix == ".bag" else Stores.ROS2_HUMBLE)
-    reader = AnyReader([bag], default_typestore=store)
-    try:
-        reader.open()
-    except (AnyReaderError, OSError, ValueError) as exc:
-        raise BagError(f"{bag}: cannot read bag: {exc}", code="bag.invalid") from None
-    return reader
-
-
 def convert_bags(
     src: Path,
     dst: Path,
@@ -263,7 +252,7 @@ def convert_bags(
     # every mapped topic must exist in every bag: checked up front, before anything is written
     totals = 0
     for bag in bags:
-        reader = _open_reader(bag)
+        reader = open_reader(bag)
         try:
             present = {c.topic: c.msgtype for c in reader.connections}
             missing = [t for t in wanted + extra if t not in present]
@@ -306,7 +295,7 @@ def convert_bags(
 def _convert_bag(bag: Path, conv: _Converter, wanted: list[str], extra: list[str]) -> Iterator[None]:
     mapping = conv.mapping
     split = mapping.episodes
-    reader = _open_reader(bag)
+    reader = open_reader(bag)
     try:
         conns: list[Connection] = [c for c in reader.connections if c.topic in wanted or c.topic in extra]
         aligner = conv.new_aligner()

@@ -14,6 +14,10 @@ from openral_data.errors import ConfigError
 from openral_data.schemas.base import StrictModel, read_yaml, validate
 
 Tier = Literal["deploy", "sim", "benchmark"]
+# the largest camera side we render or record: checked when the file is loaded, before any frame is allocated
+MAX_CAMERA_SIDE = 4096
+# episode k of a recording uses seed + k; every simulator we drive takes a uint32 seed (numpy's legacy seeding)
+MAX_SEED = 2**32 - 1
 _POLICY_KEYS = ("vla", "policy", "rskill")
 
 
@@ -22,8 +26,8 @@ class SceneCamera(StrictModel):
     (metres, world frame), `mount: wrist` where the robot manifest's wrist camera is."""
 
     name: str = Field(min_length=1, pattern=r"^[A-Za-z0-9_]+$")
-    width: int = Field(gt=0)
-    height: int = Field(gt=0)
+    width: int = Field(gt=0, le=MAX_CAMERA_SIDE)
+    height: int = Field(gt=0, le=MAX_CAMERA_SIDE)
     mount: Literal["world", "wrist"] = "world"
     pos: tuple[float, float, float] | None = None
     lookat: tuple[float, float, float] | None = None
@@ -83,7 +87,7 @@ class SimScene(StrictModel):
     tier: Literal["sim"]
     scene: SceneSpec
     task: TaskSpec
-    seed: int = Field(default=0, ge=0)
+    seed: int = Field(default=0, ge=0, le=MAX_SEED)
     n_episodes: int = Field(default=1, gt=0)
 
     @model_validator(mode="after")
@@ -95,7 +99,7 @@ class SimScene(StrictModel):
 
 class BenchmarkScene(SimScene):
     tier: Literal["benchmark"]  # type: ignore[assignment]
-    seed: int = Field(ge=0)
+    seed: int = Field(ge=0, le=MAX_SEED)
     n_episodes: int = Field(gt=0)
     metadata: BenchmarkMetadata
 

@@ -1,0 +1,38 @@
+"""The parquet files of a dataset or results folder, read with the one error message every reader gives: a
+missing, empty, truncated or garbage file is an `OpenralError` naming it, never a pyarrow traceback."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from openral_data.errors import DatasetError
+
+
+def _refused(path: Path, exc: Exception) -> DatasetError:
+    if isinstance(exc, FileNotFoundError):
+        return DatasetError(f"{path}: missing", code="dataset.incomplete")
+    if isinstance(exc, IsADirectoryError):
+        return DatasetError(f"{path}: is a directory, expected a parquet file", code="dataset.invalid")
+    reason = (str(exc).splitlines() or [type(exc).__name__])[0]
+    reason = reason.split(f"'{path}': ", 1)[-1]  # pyarrow repeats the path
+    return DatasetError(f"{path}: not a readable parquet file: {reason}", code="dataset.invalid")
+
+
+def read_table(path: Path, **kwargs: Any) -> pa.Table:
+    """`pq.read_table(path, **kwargs)`; an unreadable file raises a `DatasetError` naming it."""
+    try:
+        return pq.read_table(path, **kwargs)
+    except (pa.ArrowException, OSError) as exc:
+        raise _refused(path, exc) from None
+
+
+def read_schema(path: Path) -> pa.Schema:
+    """`pq.read_schema(path)`; an unreadable file raises a `DatasetError` naming it."""
+    try:
+        return pq.read_schema(path)
+    except (pa.ArrowException, OSError) as exc:
+        raise _refused(path, exc) from None
