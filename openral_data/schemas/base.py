@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -34,10 +35,17 @@ class _UniqueKeyLoader(yaml.SafeLoader):
         return super().construct_mapping(node, deep=deep)
 
 
+_PLAIN_KEY = re.compile(r"[A-Za-z0-9_\-/]+")
+
+
 def _loc(loc: tuple[int | str, ...]) -> str:
     out = ""
     for part in loc:
-        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+        if isinstance(part, int):
+            out += f"[{part}]"
+            continue
+        key = part if _PLAIN_KEY.fullmatch(part) else repr(part)  # a key with dots, spaces or newlines, quoted
+        out += f".{key}" if out else key
     return out or "<root>"
 
 
@@ -48,7 +56,7 @@ def format_validation_error(source: str, err: ValidationError) -> str:
         msg = e["msg"]
         if e["type"] == "extra_forbidden":
             msg = "unknown key"
-        parts.append(f"{_loc(tuple(e['loc']))}: {msg}")
+        parts.append(f"{_loc(tuple(e['loc']))}: {' '.join(str(msg).split())}")
     return f"{source}: " + "; ".join(parts)
 
 
