@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from openral_data.convert.sources import BAG_READ_ERRORS, open_reader
+from openral_data.convert.sources import BAG_READ_ERRORS, deserialize, open_reader, read_messages
 from openral_data.errors import BagError
 from openral_data.formats.mcap import messages as m
 from openral_data.schemas.mapping import Mapping
@@ -24,8 +24,8 @@ def own_mapping(bag: Path) -> Mapping:
                 code="bag.invalid",
             )
         start = None
-        for conn, _, raw in reader.messages(connections=[marker]):
-            event = json.loads(reader.deserialize(raw, conn.msgtype).data)  # type: ignore[attr-defined]
+        for conn, _, raw in read_messages(reader, bag, [marker]):
+            event = json.loads(deserialize(reader, bag, raw, conn.msgtype).data)
             if isinstance(event, dict) and event.get("event") == "start":
                 start = event
                 break

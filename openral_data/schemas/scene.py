@@ -16,6 +16,7 @@ from openral_data.schemas.base import StrictModel, read_yaml, validate
 Tier = Literal["deploy", "sim", "benchmark"]
 # the largest camera side we render or record: checked when the file is loaded, before any frame is allocated
 MAX_CAMERA_SIDE = 4096
+MAX_FRAME_PIXELS = 4 * MAX_CAMERA_SIDE**2  # all cameras of one step together (~200 MB of RGB)
 # episode k of a recording uses seed + k; every simulator we drive takes a uint32 seed (numpy's legacy seeding)
 MAX_SEED = 2**32 - 1
 _POLICY_KEYS = ("vla", "policy", "rskill")
@@ -63,6 +64,9 @@ class SceneSpec(StrictModel):
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
             raise ValueError(f"duplicate camera names: {dup}")
+        pixels = sum(c.width * c.height for c in self.cameras)
+        if pixels > MAX_FRAME_PIXELS:
+            raise ValueError(f"cameras: {pixels} pixels per step in all; at most {MAX_FRAME_PIXELS}")
         return self
 
 

@@ -214,6 +214,12 @@ FIELDS: list[tuple[str, str, Any, str]] = [
     ("scene", "scene.cameras[0].width", 100000, r"scene\.cameras\[0\]\.width"),
     ("scene", "scene.cameras[0]", {"name": "front", "width": 100000, "height": 100000}, r"scene\.cameras\[0\]"),
     ("scene", "scene.cameras[0].height", -48, r"scene\.cameras\[0\]\.height"),
+    (
+        "scene",
+        "scene.cameras",
+        [{"name": f"c{i}", "width": 4096, "height": 4096} for i in range(5)],
+        r"pixels per step",
+    ),
     ("scene", "scene.cameras[0].width", "64px", r"scene\.cameras\[0\]\.width"),
     ("scene", "scene.cameras[0].width", 64.5, r"scene\.cameras\[0\]\.width"),
     ("scene", "scene.cameras[0].name", "../front", r"scene\.cameras\[0\]\.name"),
@@ -289,6 +295,7 @@ FIELDS: list[tuple[str, str, Any, str]] = [
     ("pipeline", "steps[0].id", "../rec", r"steps\[0\]"),
     ("pipeline", "steps[0].record.seeds.count", 0, r"steps\[0\]\.record\.seeds\.count"),
     ("pipeline", "steps[0].record.seeds.start", -1, r"steps\[0\]\.record\.seeds\.start"),
+    ("pipeline", "steps[0].record.seeds.start", 2**70, r"steps\[0\]\.record\.seeds.*uint32"),
     ("pipeline", "steps[0].record.scenes", "mock_pick", r"steps\[0\]\.record\.scenes"),
     ("pipeline", "steps[0].record.workers", 0, r"steps\[0\]\.record\.workers"),
     ("pipeline", "steps[0].record.codec", "mpeg2", r"steps\[0\]\.record\.codec"),
@@ -792,9 +799,16 @@ def _bag_case(id: str, make: Callable[[Workspace], Path], names: str, mapping: b
     def build(w: Workspace) -> list[str]:
         src = make(w)
         extra = ["--mapping", str(w.yaml("m.yaml", MAPPING))] if mapping else []
-        return ["convert", str(src), str(w.root / "o"), *extra]
+        return ["convert", str(src), str(w.root / "o"), "--codec", "h264", *extra]
 
     case(id, build, names, ("o",))
+
+
+def _flip_bag(w: Workspace, at: float) -> Path:
+    data = bytearray(w.bag.read_bytes())
+    for k in range(64):  # a run of flipped bytes inside the message data
+        data[int(len(data) * at) + k] ^= 0x5A
+    return w.write("flip.mcap", bytes(data))
 
 
 def _cut_bag(w: Workspace, keep: float) -> Path:
@@ -821,3 +835,5 @@ for _with in (True, False):
     )
     _bag_case(f"bag-folder-without-bags{_m}", lambda w: w.write("plain/readme.txt", "hi").parent, r"plain", _with)
     _bag_case(f"bag-mcap-is-a-folder{_m}", lambda w: w.path("d.mcap/x").parent, r"d\.mcap", _with)
+    _bag_case(f"bag-mcap-flipped-20{_m}", lambda w: _flip_bag(w, 0.2), r"flip\.mcap", _with)
+    _bag_case(f"bag-mcap-flipped-80{_m}", lambda w: _flip_bag(w, 0.8), r"flip\.mcap", _with)

@@ -35,3 +35,24 @@ def test_malformed_input_is_one_line(
     for rel in c.new:
         assert not (root / rel).exists(), f"{rel} was written"
     assert snapshot(tmp_path) == before
+
+
+@pytest.mark.parametrize("what", ["scenes", "rskills", "robots"])
+def test_list_shows_broken_manifests_as_invalid(what: str, project: Path) -> None:
+    """`list` is the one command that reads every manifest: a broken one is a row marked invalid, not a crash."""
+    broken = {
+        "scenes": project / "scenes/sim/zz_broken.yaml",
+        "rskills": project / "rskills/zz-broken/rskill.yaml",
+        "robots": project / "robots/zz_broken/robot.yaml",
+    }[what]
+    broken.parent.mkdir(parents=True, exist_ok=True)
+    broken.write_bytes(b"id: \xff\xfe\n")
+    folder = {
+        "scenes": project / "scenes/sim/zz_folder.yaml",
+        "rskills": project / "rskills/zz-folder/rskill.yaml",
+        "robots": project / "robots/zz_folder/robot.yaml",
+    }[what]
+    folder.mkdir(parents=True)
+    run = run_inproc("list", what)
+    assert run.returncode == 0 and "Traceback" not in run.stderr, run.stderr
+    assert "zz_broken" in run.stdout.replace("-", "_") and "invalid" in run.stdout
