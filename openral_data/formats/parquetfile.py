@@ -19,20 +19,26 @@ def _refused(path: Path, exc: Exception) -> DatasetError:
         return DatasetError(f"{path}: is a directory, expected a parquet file", code="dataset.invalid")
     reason = (str(exc).splitlines() or [type(exc).__name__])[0]
     reason = reason.split(f"'{path}': ", 1)[-1]  # pyarrow repeats the path
-    return DatasetError(f"{path}: not a readable parquet file: {reason}", code="dataset.invalid")
+    return DatasetError(f"{path}: unreadable parquet: {reason}", code="dataset.invalid")
 
 
 def read_table(path: Path, **kwargs: Any) -> pa.Table:
-    """`pq.read_table(path, **kwargs)`; an unreadable file raises a `DatasetError` naming it."""
+    """`pq.read_table(path, **kwargs)`, fully validated (offsets, UTF-8 of every string), so later conversions
+    cannot fail on damaged values; an unreadable file raises a `DatasetError` naming it."""
     try:
-        return pq.read_table(path, **kwargs)
-    except (pa.ArrowException, OSError) as exc:
+        table = pq.read_table(path, **kwargs)
+        table.validate(full=True)
+        _ = table.column_names  # a column name that is not UTF-8 fails here, not in a later reader
+    except (pa.ArrowException, OSError, UnicodeDecodeError) as exc:
         raise _refused(path, exc) from None
+    return table
 
 
 def read_schema(path: Path) -> pa.Schema:
     """`pq.read_schema(path)`; an unreadable file raises a `DatasetError` naming it."""
     try:
-        return pq.read_schema(path)
-    except (pa.ArrowException, OSError) as exc:
+        schema = pq.read_schema(path)
+        _ = schema.names
+    except (pa.ArrowException, OSError, UnicodeDecodeError) as exc:
         raise _refused(path, exc) from None
+    return schema
