@@ -25,6 +25,8 @@ def _refused(path: Path, exc: Exception) -> DatasetError:
 def read_table(path: Path, **kwargs: Any) -> pa.Table:
     """`pq.read_table(path, **kwargs)`, fully validated (offsets, UTF-8 of every string), so later conversions
     cannot fail on damaged values; an unreadable file raises a `DatasetError` naming it."""
+    if path.is_dir():  # pyarrow would read a folder as a (possibly empty) partitioned dataset
+        raise _refused(path, IsADirectoryError())
     try:
         table = pq.read_table(path, **kwargs)
         table.validate(full=True)
@@ -36,6 +38,8 @@ def read_table(path: Path, **kwargs: Any) -> pa.Table:
 
 def read_schema(path: Path) -> pa.Schema:
     """`pq.read_schema(path)`; an unreadable file raises a `DatasetError` naming it."""
+    if path.is_dir():
+        raise _refused(path, IsADirectoryError())
     try:
         schema = pq.read_schema(path)
         _ = schema.names

@@ -376,15 +376,18 @@ DAMAGE: dict[str, tuple[Callable[[Workspace, Path], object], str]] = {
     "episodes-garbage": (lambda w, d: (d / EPISODES).write_bytes(b"PAR1 not really PAR1"), r"meta/episodes/"),
     "episodes-empty": (lambda w, d: (d / EPISODES).write_bytes(b""), r"meta/episodes/"),
     "episodes-truncated": (lambda w, d: _cut(d / EPISODES, 0.5), r"meta/episodes/"),
+    "episodes-folder": (lambda w, d: _to_folder(d / EPISODES), r"meta/episodes/"),
     "tasks-garbage": (lambda w, d: (d / "meta/tasks.parquet").write_bytes(b"\x00" * 64), r"tasks\.parquet"),
     "tasks-missing": (lambda w, d: (d / "meta/tasks.parquet").unlink(), r"tasks\.parquet"),
     "data-garbage": (lambda w, d: (d / DATA).write_bytes(b"garbage" * 10), r"data/chunk-000/file-000\.parquet"),
     "data-empty": (lambda w, d: (d / DATA).write_bytes(b""), r"data/chunk-000/file-000\.parquet"),
     "data-truncated": (lambda w, d: _cut(d / DATA, 0.6), r"data/chunk-000/file-000\.parquet"),
     "data-missing": (lambda w, d: (d / DATA).unlink(), r"data/chunk-000/file-000\.parquet"),
+    "data-folder": (lambda w, d: _to_folder(d / DATA), r"data/chunk-000/file-000\.parquet"),
     "video-empty": (lambda w, d: (d / VIDEO).write_bytes(b""), r"observation\.images\.front"),
     "video-truncated": (lambda w, d: _cut(d / VIDEO, 0.3), r"observation\.images\.front"),
     "video-missing": (lambda w, d: (d / VIDEO).unlink(), r"observation\.images\.front"),
+    "video-folder": (lambda w, d: _to_folder(d / VIDEO), r"observation\.images\.front"),
     "video-garbage": (
         lambda w, d: (d / VIDEO).write_bytes(b"\x00\x00\x00\x18ftypgarbage" * 50),
         r"observation\.images",
@@ -447,6 +450,8 @@ UNREAD = {
 MASKED = {
     f"merge-{d}"
     for d in (
+        "data-folder",
+        "video-folder",
         "data-garbage",
         "data-empty",
         "data-truncated",
