@@ -22,5 +22,14 @@ def corpus_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope="session")
+def corpus_results(tmp_path_factory: pytest.TempPathFactory, corpus_dataset: Path) -> Path:
+    base = tmp_path_factory.mktemp("corpus_results")
+    with isolated_home(base):
+        run = run_inproc("replay", str(corpus_dataset), "--out", str(base / "res"))
+    assert run.returncode == 0, run.stderr
+    return base / "res"
+
+
+@pytest.fixture(scope="session")
 def corpus_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return write_plain_mcap(tmp_path_factory.mktemp("corpus_bag") / "log.mcap", duration_ms=400)

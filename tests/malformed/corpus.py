@@ -483,6 +483,54 @@ for _reader, _reads in READS.items():
 
 
 # ---------------------------------------------------------------------------------------------------------------
+# Damaged replay results, read by stats and view --results
+
+
+def _summary(r: Path, **changes: Any) -> None:
+    import json
+
+    summary = json.loads((r / "summary.json").read_text())
+    summary.update(changes)
+    (r / "summary.json").write_text(json.dumps(summary))
+
+
+RESULTS_DAMAGE: dict[str, tuple[Callable[[Path], object], str]] = {
+    "summary-not-utf8": (lambda r: (r / "summary.json").write_bytes(b'{"kind": "\xff"}'), r"summary\.json"),
+    "summary-invalid-json": (lambda r: (r / "summary.json").write_text("{"), r"summary\.json"),
+    "summary-list": (lambda r: (r / "summary.json").write_text("[]"), r"summary\.json"),
+    "summary-format": (lambda r: _summary(r, format="other/9"), r"summary\.json: format"),
+    "summary-kind": (lambda r: _summary(r, kind=["replay"]), r"summary\.json: kind"),
+    "episodes-garbage": (lambda r: (r / "episodes.parquet").write_bytes(b"PAR1xxxxPAR1"), r"episodes\.parquet"),
+    "episodes-empty": (lambda r: (r / "episodes.parquet").write_bytes(b""), r"episodes\.parquet"),
+    "episodes-missing": (lambda r: (r / "episodes.parquet").unlink(), r"episodes\.parquet"),
+    "steps-garbage": (lambda r: (r / "steps.parquet").write_bytes(b"\x00" * 99), r"steps\.parquet"),
+    "steps-truncated": (lambda r: _cut(r / "steps.parquet", 0.5), r"steps\.parquet"),
+    "steps-folder": (lambda r: _to_folder(r / "steps.parquet"), r"steps\.parquet"),
+}
+RESULTS_READERS: dict[str, tuple[Callable[[Workspace, Path], list[str]], tuple[str, ...]]] = {
+    "stats": (lambda w, r: ["stats", str(r), "--format", "json"], ()),
+    "view": (lambda w, r: ["view", str(w.ds()), "--results", str(r), "--save", str(w.root / "v.rrd")], ("v.rrd",)),
+}
+
+
+def _results_case(reader: str, damage: str) -> None:
+    argv, new = RESULTS_READERS[reader]
+    hurt, names = RESULTS_DAMAGE[damage]
+
+    def build(w: Workspace) -> list[str]:
+        r = w.res()
+        hurt(r)
+        return argv(w, r)
+
+    case(f"{reader}-results-{damage}", build, names, new)
+
+
+for _reader in RESULTS_READERS:
+    for _damage in RESULTS_DAMAGE:
+        _results_case(_reader, _damage)
+
+
+# ---------------------------------------------------------------------------------------------------------------
 # Options: episode selections, numbers, names
 
 

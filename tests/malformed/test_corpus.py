@@ -19,11 +19,11 @@ def test_the_corpus_is_large_enough() -> None:
 
 @pytest.mark.parametrize("c", CASES, ids=[c.id for c in CASES])
 def test_malformed_input_is_one_line(
-    c: Case, tmp_path: Path, project: Path, corpus_dataset: Path, corpus_bag: Path
+    c: Case, tmp_path: Path, project: Path, corpus_dataset: Path, corpus_bag: Path, corpus_results: Path
 ) -> None:
     root = tmp_path / "w"
     root.mkdir()
-    args = c.build(Workspace(root, project, corpus_dataset, corpus_bag))
+    args = c.build(Workspace(root, project, corpus_dataset, corpus_bag, corpus_results))
     before = snapshot(tmp_path)
     run = run_inproc(*args)
     assert "Traceback" not in run.stderr, run.stderr

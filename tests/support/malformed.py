@@ -25,12 +25,19 @@ def snapshot(root: Path) -> dict[str, bytes | None]:
 @dataclass(frozen=True)
 class Workspace:
     """`root`: the case's folder; `home`: its project (robots/, rskills/, scenes/); `dataset`: a small recorded
-    dataset to copy; `bag`: a small valid plain MCAP bag to copy or cut."""
+    dataset to copy; `bag`: a small valid plain MCAP bag to copy or cut; `results`: the dataset's replay results."""
 
     root: Path
     home: Path
     dataset: Path
     bag: Path
+    results: Path
+
+    def res(self, name: str = "res") -> Path:
+        """A fresh copy of the replay results under root."""
+        dst = self.root / name
+        shutil.copytree(self.results, dst)
+        return dst
 
     def ds(self, name: str = "ds") -> Path:
         """A fresh copy of the recorded dataset under root."""
