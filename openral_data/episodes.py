@@ -2,22 +2,26 @@
 
 from __future__ import annotations
 
+import re
+
 from openral_data.errors import EpisodeSelectionError
+
+_PART = re.compile(r"([0-9]{1,18})(?:-([0-9]{1,18}))?")  # ASCII digits only: no `1_0`, no other scripts' digits
 
 
 def parse_episodes(text: str | None, total: int, where: str = "--episodes") -> list[int]:
-    """`0,3,5-7` -> [0, 3, 5, 6, 7]; None -> every episode."""
+    """`0,3,5-7` -> [0, 3, 5, 6, 7]; None -> every episode. An open range (`1-`, `-3`) is an error."""
     if text is None:
         return list(range(total))
     chosen: list[int] = []
     for part in (p.strip() for p in text.split(",")):
-        try:
-            lo, _, hi = part.partition("-")
-            first, last = int(lo), int(hi) if hi else int(lo)
-        except ValueError:
+        match = _PART.fullmatch(part)
+        if match is None:
             raise EpisodeSelectionError(
                 f"{where}: {part!r} is not an episode index or a range a-b", code="episodes.syntax"
-            ) from None
+            )
+        first = int(match[1])
+        last = int(match[2]) if match[2] is not None else first
         if first > last or first < 0 or last >= total:
             raise EpisodeSelectionError(
                 f"{where}: {part!r} is outside the dataset's episodes 0..{total - 1}", code="episodes.range"

@@ -1,5 +1,6 @@
 """Where the project's manifests live (`robots/`, `rskills/`, `scenes/`, the default `datasets/` root), and the
-one rule for a path that comes out of a file's contents: it stays inside its root (`contained`, `safe_name`).
+one rule for a path that comes out of a file's contents: it stays inside its root (`contained`, `safe_name`);
+an output folder given on the command line must be creatable (`check_creatable`).
 """
 
 from __future__ import annotations
@@ -8,7 +9,7 @@ import os
 import stat
 from pathlib import Path
 
-from openral_data.errors import DatasetError
+from openral_data.errors import DatasetError, UsageError
 
 
 def project_root() -> Path:
@@ -78,3 +79,15 @@ def regular_file(path: Path) -> Path:
             f"{path}: not a regular file (a FIFO, device or folder); refusing to read it", code="dataset.unsafe"
         )
     return path
+
+
+def check_creatable(out: Path, source: str, *, folder: bool = True) -> None:
+    """Refuse, before anything is written, an output that cannot be made because a file stands where one of its
+    parent folders would be (`--out notes.txt/new`), or (`folder`) because `out` itself is a file."""
+    if folder and (out.exists() or out.is_symlink()) and not out.is_dir():
+        raise UsageError(f"{out}: {source} exists and is not a directory")
+    for parent in out.parents:
+        if parent.exists() or parent.is_symlink():
+            if not parent.is_dir():
+                raise UsageError(f"{out}: {source}: cannot create it, {parent} is a file, not a folder")
+            return

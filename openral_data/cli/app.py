@@ -34,6 +34,6 @@ def main() -> None:
     """Entry point: user mistakes become one `error:` line and exit 2; usage errors are click's (exit 2)."""
     try:
         app()
-    except OpenralError as exc:
-        print_line(f"error: {exc}", err=True)
+    except OpenralError as exc:  # one line, even if a value quoted from a file held a line break
+        print_line("error: " + " ".join(str(exc).splitlines()), err=True)
         sys.exit(2)

@@ -7,6 +7,7 @@ from typing import Annotated
 
 import typer
 
+from openral_data import paths
 from openral_data.cli.terminal import print_line
 from openral_data.edit.ops import EditResult
 
@@ -31,6 +32,8 @@ def delete_cmd(
     """Write DATASET without the listed episodes."""
     from openral_data.edit.ops import delete
 
+    if out is not None:
+        paths.check_creatable(out, "--out")
     _report("deleted", [delete(dataset, episodes, out, in_place)])
 
 
@@ -44,6 +47,9 @@ def split_cmd(
     """Split DATASET: the listed episodes go to --out, the others (optionally) to --rest."""
     from openral_data.edit.ops import split
 
+    paths.check_creatable(out, "--out")
+    if rest is not None:
+        paths.check_creatable(rest, "--rest")
     _report("split", split(dataset, episodes, out, rest))
 
 
@@ -56,4 +62,5 @@ def merge_cmd(
     """Concatenate datasets with identical features into one (mismatches are refused, naming the field)."""
     from openral_data.edit.ops import merge
 
+    paths.check_creatable(out, "--out")
     _report("merged", [merge(datasets, out, order)])

@@ -118,6 +118,8 @@ def view(
     """Show an episode in rerun: videos, named state/action series, task, success/done, replay divergence."""
     from openral_data.viz.rerun_view import ViewOptions, run_view
 
+    if save is not None:
+        paths.check_creatable(save, "--save", folder=False)
     print_line(run_view(ViewOptions(path, episode, save, results)))
 
 

@@ -7,6 +7,7 @@ from typing import Annotated, Any
 
 import typer
 
+from openral_data import paths
 from openral_data.cli.terminal import print_line
 
 pipeline_app = typer.Typer(no_args_is_help=True, help="Run declarative, resumable campaigns (pipelines/*.yaml).")
@@ -31,6 +32,8 @@ def run_cmd(
     """Run the steps of SPEC in order; steps completed by an earlier run with the same config are skipped."""
     from openral_data.pipeline.runner import run_pipeline
 
+    if workdir is not None:
+        paths.check_creatable(workdir, "--workdir")
     report = run_pipeline(spec, workdir, log=lambda line: print_line(line, err=True))
     print_line(f"pipeline {report.name}: {report.workdir}")
     for step in report.steps:

@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from openral_data import paths
 from openral_data.cli.choices import CodecChoice
 from openral_data.cli.terminal import print_line, print_rows, progress_bar
 
@@ -32,6 +33,10 @@ def replay(
     """Replay recorded actions through the rebuilt scene, or evaluate a policy against recorded episodes."""
     from openral_data.record.sinks import parse_formats
     from openral_data.replay.command import ReplayOptions
+
+    for option, path in (("--out", out), ("--record", record)):
+        if path is not None:
+            paths.check_creatable(path, option)
 
     opts = ReplayOptions(
         dataset=dataset,

@@ -35,7 +35,10 @@ def stats(
 ) -> None:
     """Episodes, frames, success rates with 95 % intervals, comparisons and health, computed by DuckDB."""
     from openral_data.metrics.command import StatsOptions
+    from openral_data.paths import check_creatable
 
+    if plot is not None:
+        check_creatable(plot, "--plot", folder=False)
     print(stats_text(StatsOptions(paths, by, sql, fmt.value, plot, memory_limit, health)))
 
 

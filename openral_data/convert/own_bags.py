@@ -5,16 +5,17 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
-from rosbags.highlevel import AnyReader
-
+from openral_data.convert.sources import BAG_READ_ERRORS, deserialize, open_reader, read_messages
 from openral_data.errors import BagError
 from openral_data.formats.mcap import messages as m
 from openral_data.schemas.mapping import Mapping
 
 
 def own_mapping(bag: Path) -> Mapping:
-    with AnyReader([bag]) as reader:
+    reader = open_reader(bag)
+    try:
         topics = {c.topic: c for c in reader.connections}
         marker = topics.get(m.EPISODE)
         if marker is None:
@@ -23,13 +24,25 @@ def own_mapping(bag: Path) -> Mapping:
                 code="bag.invalid",
             )
         start = None
-        for conn, _, raw in reader.messages(connections=[marker]):
-            event = json.loads(reader.deserialize(raw, conn.msgtype).data)  # type: ignore[attr-defined]
-            if event.get("event") == "start":
+        for conn, _, raw in read_messages(reader, bag, [marker]):
+            event = json.loads(deserialize(reader, bag, raw, conn.msgtype).data)
+            if isinstance(event, dict) and event.get("event") == "start":
                 start = event
                 break
+    except (*BAG_READ_ERRORS, AttributeError) as exc:
+        raise BagError(f"{bag}: cannot read bag: {exc}", code="bag.invalid") from None
+    finally:
+        reader.close()
     if start is None:
         raise BagError(f"{bag}: {m.EPISODE} has no start marker; pass --mapping mapping.yaml", code="bag.invalid")
+    try:
+        return _from_start(bag, start, set(topics))
+    except (KeyError, TypeError, ValueError, ZeroDivisionError) as exc:  # pydantic's ValidationError is a ValueError
+        reason = f"missing {exc}" if isinstance(exc, KeyError) else str(exc).splitlines()[0]
+        raise BagError(f"{bag}: {m.EPISODE} start marker: {reason}", code="bag.invalid") from None
+
+
+def _from_start(bag: Path, start: dict[str, Any], topics: set[str]) -> Mapping:
     cameras = {}
     for name in start["cameras"]:
         found = [t for t in (m.camera_topic(name, "jpeg"), m.camera_topic(name, "raw")) if t in topics]

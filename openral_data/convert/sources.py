@@ -7,11 +7,19 @@ order; hidden entries such as an unfinished ``.partial/`` episode are ignored).
 
 from __future__ import annotations
 
+import struct
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from rosbags.highlevel import AnyReader, AnyReaderError
+from rosbags.interfaces import Connection
+from rosbags.rosbag1 import ReaderError as Ros1ReaderError
+from rosbags.rosbag2 import ReaderError as Ros2ReaderError
+from rosbags.serde import SerdeError
+from rosbags.typesys import Stores, get_typestore
 
 from openral_data.errors import BagError, NotFound
 from openral_data.schemas.mapping import VectorSource
@@ -37,6 +45,52 @@ def find_bags(src: Path) -> list[Path]:
         "or a folder of those",
         code="bag.invalid",
     )
+
+
+# what a damaged bag raises while it is opened or read (UnicodeDecodeError is a ValueError)
+BAG_READ_ERRORS = (
+    AnyReaderError,
+    Ros1ReaderError,
+    Ros2ReaderError,
+    SerdeError,
+    OSError,
+    ValueError,
+    KeyError,
+    EOFError,
+)
+
+
+def open_reader(bag: Path) -> AnyReader:
+    """The bag opened for reading; an empty, truncated or garbage bag raises a `BagError` naming it."""
+    store = get_typestore(Stores.ROS1_NOETIC if bag.suffix == ".bag" else Stores.ROS2_HUMBLE)
+    reader = AnyReader([bag], default_typestore=store)
+    try:
+        reader.open()
+    except BAG_READ_ERRORS as exc:
+        raise BagError(f"{bag}: cannot read bag: {exc}", code="bag.invalid") from None
+    return reader
+
+
+def read_messages(reader: AnyReader, bag: Path, conns: list[Connection]) -> Iterator[tuple[Connection, int, bytes]]:
+    """`reader.messages(connections=conns)`; a chunk that cannot be read (bad checksum, cut short) raises a
+    `BagError` naming the bag."""
+    it = reader.messages(connections=conns)
+    while True:
+        try:
+            item = next(it)
+        except StopIteration:
+            return
+        except BAG_READ_ERRORS as exc:
+            raise BagError(f"{bag}: cannot read bag: {exc}", code="bag.invalid") from None
+        yield item
+
+
+def deserialize(reader: AnyReader, bag: Path, raw: bytes, msgtype: str) -> Any:
+    """One message decoded; bytes that do not decode as `msgtype` raise a `BagError` naming the bag."""
+    try:
+        return reader.deserialize(raw, msgtype)
+    except (*BAG_READ_ERRORS, struct.error, IndexError, TypeError) as exc:
+        raise BagError(f"{bag}: a {msgtype} message does not decode: {exc}", code="bag.invalid") from None
 
 
 def field_value(msg: Any, path: str, where: str) -> Any:

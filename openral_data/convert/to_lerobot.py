@@ -20,12 +20,18 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from rosbags.highlevel import AnyReader, AnyReaderError
+from rosbags.highlevel import AnyReader
 from rosbags.interfaces import Connection
-from rosbags.typesys import Stores, get_typestore
 
 from openral_data.convert.align import AlignedFrame, Aligner
-from openral_data.convert.sources import VectorReader, field_value, find_bags
+from openral_data.convert.sources import (
+    VectorReader,
+    deserialize,
+    field_value,
+    find_bags,
+    open_reader,
+    read_messages,
+)
 from openral_data.errors import BagError
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
 from openral_data.formats.lerobot_v3.video import Codec
@@ -241,16 +247,6 @@ class _Converter:
             self.bridge.close()
 
 
-def _open_reader(bag: Path) -> AnyReader:
-    store = get_typestore(Stores.ROS1_NOETIC if bag.suffix == ".bag" else Stores.ROS2_HUMBLE)
-    reader = AnyReader([bag], default_typestore=store)
-    try:
-        reader.open()
-    except (AnyReaderError, OSError, ValueError) as exc:
-        raise BagError(f"{bag}: cannot read bag: {exc}", code="bag.invalid") from None
-    return reader
-
-
 def convert_bags(
     src: Path,
     dst: Path,
@@ -266,7 +262,7 @@ def convert_bags(
     # every mapped topic must exist in every bag: checked up front, before anything is written
     totals = 0
     for bag in bags:
-        reader = _open_reader(bag)
+        reader = open_reader(bag)
         try:
             present = {c.topic: c.msgtype for c in reader.connections}
             missing = [t for t in wanted + extra if t not in present]
@@ -314,13 +310,13 @@ def convert_bags(
 def _convert_bag(bag: Path, conv: _Converter, wanted: list[str], extra: list[str]) -> Iterator[None]:
     mapping = conv.mapping
     split = mapping.episodes
-    reader = _open_reader(bag)
+    reader = open_reader(bag)
     try:
         conns: list[Connection] = [c for c in reader.connections if c.topic in wanted or c.topic in extra]
         aligner = conv.new_aligner()
         last_ns: int | None = None
         success: bool | None = None  # the latest `end` marker's verdict in this source episode
-        for conn, ns, msg in _timed_messages(reader, conns, mapping, conv.summary):
+        for conn, ns, msg in _timed_messages(reader, bag, conns, mapping, conv.summary):
             yield None
             topic = conn.topic
             if topic == split.marker_topic:
@@ -366,15 +362,15 @@ def _convert_bag(bag: Path, conv: _Converter, wanted: list[str], extra: list[str
 class _Message:
     """A bag message, deserialised on first use (most multi-rate camera samples never are)."""
 
-    __slots__ = ("_msg", "msgtype", "raw", "reader")
+    __slots__ = ("_msg", "bag", "msgtype", "raw", "reader")
 
-    def __init__(self, reader: AnyReader, raw: bytes, msgtype: str) -> None:
-        self.reader, self.raw, self.msgtype = reader, raw, msgtype
+    def __init__(self, reader: AnyReader, bag: Path, raw: bytes, msgtype: str) -> None:
+        self.reader, self.bag, self.raw, self.msgtype = reader, bag, raw, msgtype
         self._msg: Any = None
 
     def get(self) -> Any:
         if self._msg is None:
-            self._msg = self.reader.deserialize(self.raw, self.msgtype)
+            self._msg = deserialize(self.reader, self.bag, self.raw, self.msgtype)
         return self._msg
 
     def decode(self) -> npt.NDArray[np.uint8]:
@@ -382,7 +378,7 @@ class _Message:
 
 
 def _timed_messages(
-    reader: AnyReader, conns: list[Connection], mapping: Mapping, summary: ConvertSummary
+    reader: AnyReader, bag: Path, conns: list[Connection], mapping: Mapping, summary: ConvertSummary
 ) -> Iterator[tuple[Connection, int, _Message]]:
     """The mapped messages in the order of the clock the mapping aligns on.
 
@@ -392,15 +388,15 @@ def _timed_messages(
     already released is late: it is counted in the summary and not used (never reordered into decided frames).
     """
     if mapping.align.clock == "log":
-        for conn, ns, raw in reader.messages(connections=conns):
-            yield conn, ns, _Message(reader, raw, conn.msgtype)
+        for conn, ns, raw in read_messages(reader, bag, conns):
+            yield conn, ns, _Message(reader, bag, raw, conn.msgtype)
         return
     window = round(mapping.align.reorder * 1e9)
     heap: list[tuple[int, int, Connection, _Message]] = []
     released: int | None = None
     seq = 0
-    for conn, ns, raw in reader.messages(connections=conns):
-        msg = _Message(reader, raw, conn.msgtype)
+    for conn, ns, raw in read_messages(reader, bag, conns):
+        msg = _Message(reader, bag, raw, conn.msgtype)
         stamp = _header_stamp(msg.get(), ns)
         if released is not None and stamp < released:
             summary.late_messages += 1

@@ -16,7 +16,6 @@ import numpy as np
 import numpy.typing as npt
 import pyarrow as pa
 import pyarrow.compute as pc
-import pyarrow.parquet as pq
 
 from openral_data.errors import DatasetBusy, DatasetError, EpisodeSelectionError, NotFound
 from openral_data.formats import atomic
@@ -28,6 +27,7 @@ from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, rea
 from openral_data.formats.lerobot_v3.stats import STAT_KEYS, ImageStatsAccumulator, Stats
 from openral_data.formats.lerobot_v3.video import VideoSettings
 from openral_data.formats.lerobot_v3.writer import WriterConfig
+from openral_data.formats.parquetfile import read_table
 from openral_data.types import CameraShape, DatasetSchema
 
 
@@ -227,12 +227,7 @@ class SourceDataset:
     def _episode_rows(self, row: dict[str, Any]) -> pa.Table:
         path = layout.data_path(self.root, layout.FilePos(int(row["data/chunk_index"]), int(row["data/file_index"])))
         if self._data_cache is None or self._data_cache[0] != path:
-            try:
-                self._data_cache = (path, pq.read_table(path))
-            except FileNotFoundError:
-                raise DatasetError(
-                    f"{path}: data file named by meta/episodes is missing", code="dataset.incomplete"
-                ) from None
+            self._data_cache = (path, read_table(path))
         table = self._data_cache[1]
         rows = table.filter(pc.equal(table.column("episode_index"), int(row["episode_index"])))
         return rows.sort_by("frame_index")

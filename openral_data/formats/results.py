@@ -35,6 +35,7 @@ import pyarrow.parquet as pq
 from openral_data.errors import OutputExists, ResultsError
 from openral_data.formats import atomic
 from openral_data.formats.jsonfile import read_json
+from openral_data.formats.parquetfile import read_schema
 
 FORMAT = "openral-results/1"
 SUMMARY = "summary.json"
@@ -152,7 +153,7 @@ def open_results(root: Path) -> Results:
         file = root / name
         if not file.is_file():
             raise ResultsError(f"{file}: missing")
-        have = pq.read_schema(file)
+        have = read_schema(file)
         for f in schema:
             if f.name not in have.names:
                 raise ResultsError(f"{file}: {f.name}: missing column")

@@ -26,6 +26,7 @@ from pathlib import Path
 
 from openral_data.errors import DatasetError, OutputExists, WriteError
 from openral_data.formats.atomic import fsync_dir, fsync_tree, open_control
+from openral_data.paths import check_creatable
 
 MARKER_SUFFIX = ".owner"
 _PATTERN = re.compile(r"^\..+\.partial-(\d+)$")
@@ -46,7 +47,8 @@ def unwritable(out: Path, exc: OSError) -> WriteError:
 
 
 def check_new_output(out: Path, what: str = "output") -> None:
-    """Refuse an `out` that holds anything (an empty folder is taken over)."""
+    """Refuse an `out` that holds anything (an empty folder is taken over) or that cannot be created."""
+    check_creatable(out, what, folder=False)
     if out.is_symlink() or (out.exists() and (not out.is_dir() or any(out.iterdir()))):
         raise OutputExists(f"{out}: {what} exists and is not empty; refusing to overwrite it")
 

@@ -7,14 +7,12 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-import pyarrow as pa
-import pyarrow.parquet as pq
-
 from openral_data.errors import DatasetError, NotFound
 from openral_data.formats import results as results_layout
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.features import ACTION, STATE
 from openral_data.formats.lerobot_v3.reader import read_info, read_openral
+from openral_data.formats.parquetfile import read_schema
 
 
 @dataclass(frozen=True)
@@ -92,10 +90,7 @@ def open_dataset(root: Path, label: str | None = None) -> DatasetSource:
 
 
 def _columns(path: Path) -> frozenset[str]:
-    try:
-        return frozenset(pq.read_schema(path).names)
-    except (OSError, pa.ArrowException) as exc:
-        raise DatasetError(f"{path}: unreadable parquet: {exc}", code="dataset.invalid") from None
+    return frozenset(read_schema(path).names)
 
 
 def _dig(obj: Any, *keys: str) -> str | None:

@@ -28,6 +28,7 @@ from pydantic import Field, field_validator, model_validator
 from openral_data.errors import ConfigError, DatasetError
 from openral_data.paths import safe_name
 from openral_data.schemas.base import StrictModel, load_model
+from openral_data.schemas.scene import MAX_SEED
 
 Format = Literal["lerobot", "mcap"]
 _ID = re.compile(r"^[a-z0-9][a-z0-9_-]*$")
@@ -36,6 +37,12 @@ _ID = re.compile(r"^[a-z0-9][a-z0-9_-]*$")
 class Seeds(StrictModel):
     start: int = Field(default=0, ge=0)
     count: int = Field(ge=1)
+
+    @model_validator(mode="after")
+    def _fit(self) -> Seeds:
+        if self.start + self.count - 1 > MAX_SEED:
+            raise ValueError(f"seeds {self.start}..{self.start + self.count - 1} exceed {MAX_SEED} (a uint32)")
+        return self
 
 
 class RecordStep(StrictModel):

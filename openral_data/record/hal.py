@@ -3,6 +3,7 @@ fixed-rate loop (producers/hal/loop.py) through the same bridge and sinks as `re
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -22,7 +23,7 @@ from openral_data.record import registry
 from openral_data.record.bridge import DatasetBridge
 from openral_data.record.compat import check_compatibility
 from openral_data.record.hal_loop import EpisodeEnd, EpisodeReport, FixedRateLoop, LoopConfig, frame_extras
-from openral_data.record.options import fresh_out
+from openral_data.record.options import check_run_numbers, fresh_out
 from openral_data.record.output import claim
 from openral_data.record.session import episode_loop
 from openral_data.schemas.hal import SafetyMode
@@ -143,12 +144,9 @@ Notify = Callable[[str], None]  # one line for the operator: which episode, what
 def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecordSummary:
     if opts.fps < 1 or opts.fps > 1000:
         raise UsageError(f"--fps must be in 1..1000, got {opts.fps}")
-    if opts.n_episodes < 1:
-        raise UsageError(f"--n-episodes must be >= 1, got {opts.n_episodes}")
-    if opts.max_steps < 1:
-        raise UsageError(f"--max-steps must be >= 1, got {opts.max_steps}")
-    if opts.staleness is not None and opts.staleness <= 0:
-        raise UsageError(f"--staleness must be > 0, got {opts.staleness}")
+    check_run_numbers(opts.n_episodes, opts.max_steps, opts.seed)
+    if opts.staleness is not None and not 0 < opts.staleness < math.inf:
+        raise UsageError(f"--staleness must be > 0 and finite, got {opts.staleness}")
     if opts.mode not in ("sim", "real"):
         raise UsageError(f"--mode: {opts.mode!r}; valid: sim, real")
     robot = registry.ROBOTS[opts.robot]

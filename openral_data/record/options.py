@@ -8,9 +8,9 @@ from datetime import datetime
 from pathlib import Path
 
 from openral_data import paths
-from openral_data.errors import OutputExists
+from openral_data.errors import OutputExists, UsageError
 from openral_data.formats.lerobot_v3.video import Codec
-from openral_data.schemas.scene import SimScene
+from openral_data.schemas.scene import MAX_SEED, SimScene
 from openral_data.types import EpisodeRecord
 
 
@@ -55,6 +55,21 @@ class RecordSummary:
 ProgressFn = Callable[[EpisodeRecord | None, int, int], None]  # (finished episode | None at start, frames, total)
 
 
+def check_run_numbers(n_episodes: int, max_steps: int, seed: int) -> None:
+    """The counts of a recording, before anything is built: at least one episode and one step, and seeds
+    seed..seed+n_episodes-1 that every simulator accepts (0..MAX_SEED)."""
+    if n_episodes < 1:
+        raise UsageError(f"--n-episodes must be >= 1, got {n_episodes}")
+    if max_steps < 1:
+        raise UsageError(f"--max-steps must be >= 1, got {max_steps}")
+    if seed < 0:
+        raise UsageError(f"--seed must be >= 0, got {seed}")
+    if seed + n_episodes - 1 > MAX_SEED:
+        raise UsageError(
+            f"--seed/--n-episodes: episode seeds {seed}..{seed + n_episodes - 1} exceed {MAX_SEED} (a uint32)"
+        )
+
+
 def default_out(scene: SimScene, rskill_id: str) -> Path:
     return fresh_out(f"{scene.scene.id}--{rskill_id}")
 
@@ -72,6 +87,7 @@ def fresh_out(prefix: str) -> Path:
 
 def check_out(out: Path) -> None:
     """Refuse an `--out` that holds anything but (at most) a writer lock file: a recording starts a new folder."""
+    paths.check_creatable(out, "--out")
     if out.is_symlink() or (out.exists() and not out.is_dir()):
         raise OutputExists(f"{out}: --out exists and is not a directory")
     if out.is_dir() and not all(_lock_only(p) for p in out.iterdir()):

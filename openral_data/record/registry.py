@@ -166,7 +166,7 @@ class RobotRegistry(Mapping[str, RobotManifest]):
 
 def load_robot(robot_id: str) -> RobotManifest:
     path = paths.robots_dir() / robot_id / "robot.yaml"
-    if not path.is_file():
+    if not path.exists():  # a folder or a broken file in its place is reported by the loader, naming it
         raise unknown("robot", robot_id, robot_ids())
     robot = load_model(RobotManifest, path)
     if robot.name != robot_id:

@@ -11,7 +11,7 @@ from openral_data.policies.base import PolicyAdapter
 from openral_data.record import output, registry
 from openral_data.record.bridge import DatasetBridge
 from openral_data.record.compat import check_compatibility
-from openral_data.record.options import ProgressFn, RecordOptions, RecordSummary, default_out
+from openral_data.record.options import ProgressFn, RecordOptions, RecordSummary, check_run_numbers, default_out
 from openral_data.record.session import StopRequest, ended_by, episode_loop
 from openral_data.schemas.scene import load_recordable_scene
 from openral_data.types import DatasetSchema, EpisodeRecord, SimRollout, Sink
@@ -53,12 +53,7 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
     n_episodes = opts.n_episodes if opts.n_episodes is not None else scene.n_episodes
     base_seed = opts.seed if opts.seed is not None else scene.seed
     max_steps = opts.max_steps if opts.max_steps is not None else scene.task.max_steps
-    if n_episodes < 1:
-        raise UsageError(f"--n-episodes must be >= 1, got {n_episodes}")
-    if max_steps < 1:
-        raise UsageError(f"--max-steps must be >= 1, got {max_steps}")
-    if base_seed < 0:
-        raise UsageError(f"--seed must be >= 0, got {base_seed}")
+    check_run_numbers(n_episodes, max_steps, base_seed)
     from openral_data.record.sinks import check_formats, make_sinks
 
     check_formats(opts.formats, opts.image_format)

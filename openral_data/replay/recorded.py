@@ -18,7 +18,6 @@ import numpy as np
 import numpy.typing as npt
 import pyarrow as pa
 import pyarrow.compute as pc
-import pyarrow.parquet as pq
 
 from openral_data.episodes import parse_episodes
 from openral_data.errors import ConfigError, DatasetError, ReplayError
@@ -26,6 +25,7 @@ from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX
 from openral_data.formats.lerobot_v3.frames import episode_frames as decode_episode_frames
 from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_openral, read_tasks
+from openral_data.formats.parquetfile import read_table
 from openral_data.schemas.base import validate
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import BenchmarkScene, SimScene
@@ -169,7 +169,7 @@ class RecordedDataset:
         """The numeric columns of one data file; the last file read is kept (episodes share files, in order)."""
         if self._data_cache is None or self._data_cache[0] != path:
             columns = ["episode_index", "frame_index", "task_index", STATE, ACTION]
-            self._data_cache = (path, pq.read_table(path, columns=columns))
+            self._data_cache = (path, read_table(path, columns=columns))
         return self._data_cache[1]
 
     def success(self, e: int) -> bool | None:

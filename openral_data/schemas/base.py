@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -12,15 +13,39 @@ from openral_data.errors import ConfigError
 
 
 class StrictModel(BaseModel):
-    """Every schema rejects unknown keys and is immutable once loaded."""
+    """Every schema rejects unknown keys and non-finite floats (`.nan`, `.inf`) and is immutable once loaded."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """`yaml.SafeLoader` that refuses a mapping with the same key twice (PyYAML would keep the last silently)."""
+
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
+        seen: set[Any] = set()
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=deep)
+            try:
+                duplicate = key in seen
+                seen.add(key)
+            except TypeError:  # an unhashable key: the base class reports it
+                break
+            if duplicate:
+                raise yaml.constructor.ConstructorError(None, None, f"duplicate key {key!r}", key_node.start_mark)
+        return super().construct_mapping(node, deep=deep)
+
+
+_PLAIN_KEY = re.compile(r"[A-Za-z0-9_\-/]+")
 
 
 def _loc(loc: tuple[int | str, ...]) -> str:
     out = ""
     for part in loc:
-        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+        if isinstance(part, int):
+            out += f"[{part}]"
+            continue
+        key = part if _PLAIN_KEY.fullmatch(part) else repr(part)  # a key with dots, spaces or newlines, quoted
+        out += f".{key}" if out else key
     return out or "<root>"
 
 
@@ -31,25 +56,37 @@ def format_validation_error(source: str, err: ValidationError) -> str:
         msg = e["msg"]
         if e["type"] == "extra_forbidden":
             msg = "unknown key"
-        parts.append(f"{_loc(tuple(e['loc']))}: {msg}")
+        parts.append(f"{_loc(tuple(e['loc']))}: {' '.join(str(msg).split())}")
     return f"{source}: " + "; ".join(parts)
 
 
 def read_yaml(path: Path) -> Any:
-    """Parse a YAML file, raising ConfigError (naming the file) for a missing file or bad syntax."""
+    """Parse a YAML file, raising ConfigError (naming the file) for a missing or unreadable file, text that is
+    not UTF-8, bad syntax, a key given twice or nesting too deep to load."""
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise ConfigError(f"{path}: file not found") from None
     except IsADirectoryError:
         raise ConfigError(f"{path}: is a directory, expected a YAML file") from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{path}: not UTF-8 text (byte {exc.start})") from None
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    return parse_yaml(text, str(path))
+
+
+def parse_yaml(text: str, source: str) -> Any:
+    """`text` parsed as YAML (no duplicate keys); errors name `source` and the line."""
     try:
-        return yaml.safe_load(text)
+        return yaml.load(text, Loader=_UniqueKeyLoader)  # a SafeLoader subclass
+    except RecursionError:
+        raise ConfigError(f"{source}: invalid YAML: nested too deeply") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" (line {mark.line + 1})" if mark is not None else ""
         problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-        raise ConfigError(f"{path}{where}: invalid YAML: {problem}") from None
+        raise ConfigError(f"{source}{where}: invalid YAML: {problem}") from None
 
 
 def validate[M: BaseModel](model: type[M], data: Any, source: str) -> M:
@@ -60,6 +97,8 @@ def validate[M: BaseModel](model: type[M], data: Any, source: str) -> M:
         return model.model_validate(data)
     except ValidationError as exc:
         raise ConfigError(format_validation_error(source, exc)) from None
+    except RecursionError:  # a self-referencing YAML alias (`&a [*a]`)
+        raise ConfigError(f"{source}: nested too deeply (a self-referencing alias?)") from None
 
 
 def load_model[M: BaseModel](model: type[M], path: Path) -> M:

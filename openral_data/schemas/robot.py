@@ -8,6 +8,7 @@ from pydantic import Field, model_validator
 
 from openral_data.schemas.base import StrictModel
 from openral_data.schemas.hal import HardwareConfig, SafetyConfig
+from openral_data.schemas.scene import MAX_CAMERA_SIDE
 
 JointType = Literal["revolute", "prismatic", "continuous", "gripper"]
 
@@ -34,8 +35,8 @@ class EndEffector(StrictModel):
 
 class CameraSensor(StrictModel):
     name: str = Field(min_length=1, pattern=r"^[A-Za-z0-9_]+$")
-    width: int = Field(gt=0)
-    height: int = Field(gt=0)
+    width: int = Field(gt=0, le=MAX_CAMERA_SIDE)
+    height: int = Field(gt=0, le=MAX_CAMERA_SIDE)
     mount: Literal["world", "wrist", "head", "base"] = "world"
 
 

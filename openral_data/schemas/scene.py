@@ -14,6 +14,11 @@ from openral_data.errors import ConfigError
 from openral_data.schemas.base import StrictModel, read_yaml, validate
 
 Tier = Literal["deploy", "sim", "benchmark"]
+# the largest camera side we render or record: checked when the file is loaded, before any frame is allocated
+MAX_CAMERA_SIDE = 4096
+MAX_FRAME_PIXELS = 4 * MAX_CAMERA_SIDE**2  # all cameras of one step together (~200 MB of RGB)
+# episode k of a recording uses seed + k; every simulator we drive takes a uint32 seed (numpy's legacy seeding)
+MAX_SEED = 2**32 - 1
 _POLICY_KEYS = ("vla", "policy", "rskill")
 
 
@@ -22,8 +27,8 @@ class SceneCamera(StrictModel):
     (metres, world frame), `mount: wrist` where the robot manifest's wrist camera is."""
 
     name: str = Field(min_length=1, pattern=r"^[A-Za-z0-9_]+$")
-    width: int = Field(gt=0)
-    height: int = Field(gt=0)
+    width: int = Field(gt=0, le=MAX_CAMERA_SIDE)
+    height: int = Field(gt=0, le=MAX_CAMERA_SIDE)
     mount: Literal["world", "wrist"] = "world"
     pos: tuple[float, float, float] | None = None
     lookat: tuple[float, float, float] | None = None
@@ -59,6 +64,9 @@ class SceneSpec(StrictModel):
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
             raise ValueError(f"duplicate camera names: {dup}")
+        pixels = sum(c.width * c.height for c in self.cameras)
+        if pixels > MAX_FRAME_PIXELS:
+            raise ValueError(f"cameras: {pixels} pixels per step in all; at most {MAX_FRAME_PIXELS}")
         return self
 
 
@@ -83,7 +91,7 @@ class SimScene(StrictModel):
     tier: Literal["sim"]
     scene: SceneSpec
     task: TaskSpec
-    seed: int = Field(default=0, ge=0)
+    seed: int = Field(default=0, ge=0, le=MAX_SEED)
     n_episodes: int = Field(default=1, gt=0)
 
     @model_validator(mode="after")
@@ -95,7 +103,7 @@ class SimScene(StrictModel):
 
 class BenchmarkScene(SimScene):
     tier: Literal["benchmark"]  # type: ignore[assignment]
-    seed: int = Field(ge=0)
+    seed: int = Field(ge=0, le=MAX_SEED)
     n_episodes: int = Field(gt=0)
     metadata: BenchmarkMetadata
 

@@ -18,7 +18,6 @@ from typing import Any
 
 import numpy as np
 import pyarrow as pa
-import pyarrow.parquet as pq
 import rerun as rr
 
 from openral_data.errors import DatasetError, EpisodeSelectionError, NotFound, OutputExists, ResultsError, UsageError
@@ -27,6 +26,7 @@ from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.clip import episode_clip
 from openral_data.formats.lerobot_v3.features import ACTION, IMAGE_PREFIX, STATE
 from openral_data.formats.lerobot_v3.layout import FilePos
+from openral_data.formats.parquetfile import read_table
 from openral_data.metrics.sources import DatasetSource, open_dataset
 
 APP_ID = "openral-data"
@@ -105,7 +105,7 @@ def load_episode(ds: DatasetSource, episode: int, results: Path | None = None) -
     steps = None
     if results is not None:
         res = results_layout.open_results(results)
-        steps = pq.read_table(res.steps_path, filters=[("episode_index", "=", episode)]).sort_by("frame_index")
+        steps = read_table(res.steps_path, filters=[("episode_index", "=", episode)]).sort_by("frame_index")
         if steps.num_rows == 0:
             raise ResultsError(f"{res.steps_path}: no steps for episode {episode}")
     return EpisodeData(ds, row, frames, videos, steps)
@@ -126,7 +126,7 @@ def _video_path(ds: DatasetSource, row: dict[str, Any], cam: str) -> Path:
 
 def _episode_row(ds: DatasetSource, episode: int) -> dict[str, Any]:
     for f in ds.episode_files:
-        table = pq.read_table(f, filters=[("episode_index", "=", episode)])
+        table = read_table(f, filters=[("episode_index", "=", episode)])
         if table.num_rows:
             drop = [c for c in table.column_names if c.startswith("stats/")]
             row: dict[str, Any] = table.drop_columns(drop).to_pylist()[0]
@@ -139,7 +139,7 @@ def _episode_frames(ds: DatasetSource, row: dict[str, Any]) -> pa.Table:
     path = layout.data_path(ds.root, FilePos(int(row["data/chunk_index"]), int(row["data/file_index"])))
     if not path.is_file():
         raise DatasetError(f"{path}: missing (data of episode {row['episode_index']})", code="dataset.incomplete")
-    table = pq.read_table(path, filters=[("episode_index", "=", int(row["episode_index"]))])
+    table = read_table(path, filters=[("episode_index", "=", int(row["episode_index"]))])
     if table.num_rows == 0:
         raise DatasetError(f"{path}: no rows for episode {row['episode_index']}", code="dataset.invalid")
     order = "index" if "index" in table.column_names else "frame_index"

@@ -15,6 +15,8 @@ from pathlib import Path
 
 import av
 
+from openral_data.errors import DatasetError
+
 
 @dataclass(frozen=True)
 class Clip:
@@ -25,11 +27,23 @@ class Clip:
 
 
 def episode_clip(path: Path, from_ts: float, to_ts: float, fps: int) -> Clip:
+    """The packets of the episode in [from_ts, to_ts) of the mp4 at `path`; a missing, empty, truncated or
+    garbage file raises a `DatasetError` naming it."""
+    try:
+        return _clip(path, from_ts, to_ts, fps)
+    except (av.error.FFmpegError, OSError) as exc:
+        reason = getattr(exc, "strerror", None) or type(exc).__name__
+        raise DatasetError(f"{path}: cannot read video: {reason}", code="dataset.invalid") from None
+
+
+def _clip(path: Path, from_ts: float, to_ts: float, fps: int) -> Clip:
     half = Fraction(1, 2 * fps)
     lo = Fraction(from_ts).limit_denominator(1_000_000) - half
     hi = Fraction(to_ts).limit_denominator(1_000_000) - half
     src = av.open(str(path))
     try:
+        if not src.streams.video:
+            raise DatasetError(f"{path}: holds no video stream", code="dataset.invalid")
         stream = src.streams.video[0]
         tb = stream.time_base
         if tb is None:

@@ -10,12 +10,13 @@ from typing import Any
 import av
 import numpy as np
 import numpy.typing as npt
+import pyarrow as pa
 import pyarrow.compute as pc
-import pyarrow.parquet as pq
 
 from openral_data.errors import DatasetError
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX
+from openral_data.formats.parquetfile import read_table
 from openral_data.types import Frame
 
 
@@ -24,8 +25,11 @@ def episode_frames(
 ) -> Iterator[Frame]:
     e = int(row["episode_index"])
     path = layout.template_path(src, info, "data_path", layout.FilePos(row["data/chunk_index"], row["data/file_index"]))
-    table = pq.read_table(path)
-    table = table.filter(pc.equal(table.column("episode_index"), e)).sort_by("frame_index")
+    table = read_table(path)
+    try:
+        table = table.filter(pc.equal(table.column("episode_index"), e)).sort_by("frame_index")
+    except (KeyError, pa.ArrowException) as exc:
+        raise DatasetError(f"{path}: episode_index/frame_index: {exc}", code="dataset.invalid") from None
     n = int(row["length"])
     if table.num_rows != n:
         raise DatasetError(
@@ -64,8 +68,18 @@ def _decode_video(
     pos = layout.FilePos(row[f"videos/{key}/chunk_index"], row[f"videos/{key}/file_index"])
     path = layout.template_path(src, info, "video_path", pos, video_key=key)
     start = float(row[f"videos/{key}/from_timestamp"])
+    try:
+        yield from _decode(path, start, n, fps)
+    except (av.error.FFmpegError, OSError) as exc:  # missing, empty, truncated or not a video
+        reason = getattr(exc, "strerror", None) or type(exc).__name__
+        raise DatasetError(f"{path}: cannot decode video: {reason}", code="dataset.invalid") from None
+
+
+def _decode(path: Path, start: float, n: int, fps: int) -> Iterator[npt.NDArray[np.uint8]]:
     half = 0.5 / fps
     with av.open(str(path)) as container:
+        if not container.streams.video:
+            raise DatasetError(f"{path}: holds no video stream", code="dataset.invalid")
         stream = container.streams.video[0]
         tb = stream.time_base
         assert tb is not None
@@ -79,3 +93,4 @@ def _decode_video(
             count += 1
             if count == n:
                 return
+    raise DatasetError(f"{path}: video ends after {count} of the episode's {n} frames", code="dataset.invalid")

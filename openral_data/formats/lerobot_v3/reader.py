@@ -7,11 +7,12 @@ from pathlib import Path
 from typing import Any
 
 import pyarrow as pa
-import pyarrow.parquet as pq
 
 from openral_data.errors import DatasetError
 from openral_data.formats.jsonfile import read_json
 from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.info import check_info
+from openral_data.formats.parquetfile import read_table
 from openral_data.paths import safe_name
 
 
@@ -42,7 +43,7 @@ def read_info(root: Path) -> dict[str, Any]:
         raise DatasetError(
             f"{root}: not a LeRobot v3 dataset (no {layout.INFO_PATH})", code="dataset.invalid"
         ) from None
-    check_paths(root, info)
+    check_paths(root, check_info(info, path))
     return info
 
 
@@ -78,6 +79,10 @@ def read_openral(root: Path) -> dict[str, Any] | None:
         data: dict[str, Any] = read_json(root / layout.OPENRAL_PATH)
     except FileNotFoundError:
         return None
+    if not isinstance(data, dict):
+        raise DatasetError(
+            f"{root / layout.OPENRAL_PATH}: expected a JSON object, got {type(data).__name__}", code="dataset.invalid"
+        )
     return data
 
 
@@ -85,14 +90,25 @@ def read_episodes(root: Path) -> pa.Table:
     files = layout.episodes_files(root)
     if not files:
         raise DatasetError(f"{root}: no episodes metadata under meta/episodes/", code="dataset.invalid")
-    tables = [pq.read_table(f) for f in files]
-    return pa.concat_tables(tables, promote_options="default")
+    tables = [read_table(f) for f in files]
+    try:
+        return pa.concat_tables(tables, promote_options="default")
+    except pa.ArrowException as exc:
+        raise DatasetError(
+            f"{root}: meta/episodes/: files do not fit together: {exc}", code="dataset.invalid"
+        ) from None
 
 
 def read_tasks(root: Path) -> list[str]:
-    table = pq.read_table(root / layout.TASKS_PATH)
-    rows = sorted(zip(table.column("task_index").to_pylist(), table.column("task").to_pylist(), strict=True))
-    return [task for _, task in rows]
+    path = root / layout.TASKS_PATH
+    table = read_table(path)
+    try:
+        rows = sorted(zip(table.column("task_index").to_pylist(), table.column("task").to_pylist(), strict=True))
+    except KeyError as exc:
+        raise DatasetError(f"{path}: no column {exc}", code="dataset.invalid") from None
+    except TypeError:  # None or mixed values in task_index
+        raise DatasetError(f"{path}: task_index: not all integers", code="dataset.invalid") from None
+    return [str(task) for _, task in rows]
 
 
 def summarize(root: Path) -> DatasetSummary:
@@ -103,9 +119,9 @@ def summarize(root: Path) -> DatasetSummary:
         successes = sum(bool(v) for v in episodes.column("openral.success").to_pylist())
     return DatasetSummary(
         root=root,
-        fps=int(info["fps"]),
-        episodes=int(info.get("total_episodes", 0)),
-        frames=int(info.get("total_frames", 0)),
+        fps=info["fps"],
+        episodes=info.get("total_episodes", 0),
+        frames=info.get("total_frames", 0),
         tasks=read_tasks(root) if info.get("total_tasks") else [],
         cameras=[k for k, f in info["features"].items() if f.get("dtype") == "video"],
         successes=successes,

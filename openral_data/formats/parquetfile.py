@@ -1,0 +1,48 @@
+"""The parquet files of a dataset or results folder, read with the one error message every reader gives: a
+missing, empty, truncated or garbage file is an `OpenralError` naming it, never a pyarrow traceback."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from openral_data.errors import DatasetError
+
+
+def _refused(path: Path, exc: Exception) -> DatasetError:
+    if isinstance(exc, FileNotFoundError):
+        return DatasetError(f"{path}: missing", code="dataset.incomplete")
+    if isinstance(exc, IsADirectoryError):
+        return DatasetError(f"{path}: is a directory, expected a parquet file", code="dataset.invalid")
+    reason = (str(exc).splitlines() or [type(exc).__name__])[0]
+    reason = reason.split(f"'{path}': ", 1)[-1]  # pyarrow repeats the path
+    return DatasetError(f"{path}: unreadable parquet: {reason}", code="dataset.invalid")
+
+
+def read_table(path: Path, **kwargs: Any) -> pa.Table:
+    """`pq.read_table(path, **kwargs)`, fully validated (offsets, UTF-8 of every string), so later conversions
+    cannot fail on damaged values; an unreadable file raises a `DatasetError` naming it."""
+    if path.is_dir():  # pyarrow would read a folder as a (possibly empty) partitioned dataset
+        raise _refused(path, IsADirectoryError())
+    try:
+        table = pq.read_table(path, **kwargs)
+        table.validate(full=True)
+        _ = table.column_names  # a column name that is not UTF-8 fails here, not in a later reader
+    except (pa.ArrowException, OSError, UnicodeDecodeError) as exc:
+        raise _refused(path, exc) from None
+    return table
+
+
+def read_schema(path: Path) -> pa.Schema:
+    """`pq.read_schema(path)`; an unreadable file raises a `DatasetError` naming it."""
+    if path.is_dir():
+        raise _refused(path, IsADirectoryError())
+    try:
+        schema = pq.read_schema(path)
+        _ = schema.names
+    except (pa.ArrowException, OSError, UnicodeDecodeError) as exc:
+        raise _refused(path, exc) from None
+    return schema
