@@ -23,7 +23,7 @@ from openral_data.doctor.check import check
 from openral_data.doctor.check_video import placements
 from openral_data.doctor.findings import Finding
 from openral_data.doctor.inspect import DAMAGE, Dataset, load
-from openral_data.errors import DatasetError
+from openral_data.errors import DatasetError, NotFound
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import digests, layout
 from openral_data.formats.lerobot_v3.layout import FilePos
@@ -62,6 +62,8 @@ UNREADABLE = {
 
 def repair(root: Path) -> RepairResult:
     """Fix what is safely fixable; a dataset with files it cannot read is left as it is (`refused` says why)."""
+    if not root.is_dir():  # nothing to repair, and nothing (not even the lock) may be created there
+        raise NotFound(f"{root}: not a dataset folder")
     with DatasetLock(root, "openral-data doctor --repair"):
         q = Quarantine(root)
         actions = _writer_leftovers(root, q)

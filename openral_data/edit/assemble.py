@@ -15,6 +15,7 @@ quantiles are frame-weighted means of the episodes' quantiles), and no histogram
 
 from __future__ import annotations
 
+import contextlib
 import json
 from pathlib import Path
 from typing import Any
@@ -95,6 +96,12 @@ class EpisodeAssembler:
         if exact is None:
             # summaries cannot continue a histogram: leave none, so a resume refuses instead of going wrong
             (self.root / layout.IMAGE_HIST_PATH).unlink(missing_ok=True)
+
+    def abort(self) -> None:
+        """Stop after a failed copy: release the writer's encoders without checking or finishing anything (the
+        output is being thrown away; a second error from it must not replace the one that stopped the copy)."""
+        with contextlib.suppress(Exception):
+            self.writer.close()
 
     def add(self, episode: EpisodeData) -> EpisodeRecord:
         writer = self.writer

@@ -108,8 +108,10 @@ def write_selection(
                 writer.add(src.episode(e))
                 if on_episode is not None:
                     on_episode(k)
-        finally:
-            writer.close()
+        except BaseException:
+            writer.abort()  # the staging folder is discarded: the error that stopped the copy is the one to report
+            raise
+        writer.close()
         frames = writer.total_frames
         if before_publish is not None:
             before_publish(staging)

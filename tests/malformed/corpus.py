@@ -448,24 +448,6 @@ UNREAD = {
     "view-tasks-garbage",
     "view-tasks-missing",
 }
-# merge: a damaged data or video file of an input is reported as "camera histograms do not cover exactly the
-# episodes written" (EpisodeAssembler.close() in the merge's `finally` replaces the reader's error); left out
-# until the edit staging code keeps the first error
-MASKED = {
-    f"merge-{d}"
-    for d in (
-        "data-folder",
-        "video-folder",
-        "data-garbage",
-        "data-empty",
-        "data-truncated",
-        "data-missing",
-        "video-empty",
-        "video-truncated",
-        "video-missing",
-        "video-garbage",
-    )
-}
 
 
 def _damage_case(reader: str, damage: str) -> None:
@@ -482,7 +464,7 @@ def _damage_case(reader: str, damage: str) -> None:
 
 for _reader, _reads in READS.items():
     for _damage in DAMAGE:
-        if _damage.split("-")[0] in _reads and f"{_reader}-{_damage}" not in UNREAD | MASKED:
+        if _damage.split("-")[0] in _reads and f"{_reader}-{_damage}" not in UNREAD:
             _damage_case(_reader, _damage)
 
 
@@ -894,3 +876,16 @@ for _with in (True, False):
     _bag_case(f"bag-mcap-is-a-folder{_m}", lambda w: w.path("d.mcap/x").parent, r"d\.mcap", _with)
     _bag_case(f"bag-mcap-flipped-20{_m}", lambda w: _flip_bag(w, 0.2), r"flip\.mcap", _with)
     _bag_case(f"bag-mcap-flipped-80{_m}", lambda w: _flip_bag(w, 0.8), r"flip\.mcap", _with)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# doctor --repair on something that is not a dataset folder: one line, and no lock (not even .openral/) is created
+
+
+def _repair_file(w: Workspace) -> list[str]:
+    w.write("notes.txt", "not a dataset")
+    return ["doctor", str(w.root / "notes.txt"), "--repair"]
+
+
+_argv_case("doctor-repair-file", _repair_file, r"notes\.txt")
+_argv_case("doctor-repair-missing", lambda w: ["doctor", str(w.root / "gone"), "--repair"], r"gone", ("gone",))
