@@ -15,21 +15,14 @@ import pytest
 from openral_data.doctor import check
 from openral_data.formats.lerobot_v3 import layout
 from tests.support.cli import run_cli
-from tests.support.home import isolated_home
-from tests.support.scenes import mock_scene, write_yaml
+from tests.support.recorded import record_mock_cli
 
 EPISODES = "meta/episodes/chunk-000/file-000.parquet"
 
 
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    base = tmp_path_factory.mktemp("check_paths")
-    scene = write_yaml(base / "scene.yaml", mock_scene(success_after=[3, 4], n_episodes=2))
-    out = base / "ds"
-    with isolated_home(base):
-        done = run_cli("record", "--scene", str(scene), "--out", str(out), "--codec", "h264")
-    assert done.returncode == 0, done.stderr
-    return out
+    return record_mock_cli(tmp_path_factory.mktemp("check_paths"), [3, 4])
 
 
 @pytest.fixture

@@ -20,8 +20,7 @@ from openral_data.formats.lerobot_v3 import digests, layout
 from openral_data.formats.lerobot_v3.clip import episode_clip
 from openral_data.formats.lerobot_v3.video import concat_mp4
 from tests.support.cli import run_cli
-from tests.support.home import isolated_home
-from tests.support.scenes import mock_scene, write_yaml
+from tests.support.recorded import record_mock_cli
 
 # episodes 0 and 9 have the same length; their frames differ by 9 levels of green (the mock's G = episode)
 LENGTHS = [4, 5, 5, 5, 5, 5, 5, 5, 5, 4]
@@ -34,13 +33,7 @@ EPISODES = "meta/episodes/chunk-000/file-000.parquet"
 
 @pytest.fixture(scope="module")
 def fresh(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    base = tmp_path_factory.mktemp("corruption")
-    scene = write_yaml(base / "scene.yaml", mock_scene(success_after=LENGTHS, n_episodes=len(LENGTHS), fps=FPS))
-    out = base / "ds"
-    with isolated_home(base):
-        done = run_cli("record", "--scene", str(scene), "--out", str(out), "--codec", "h264")
-    assert done.returncode == 0, done.stderr
-    return out
+    return record_mock_cli(tmp_path_factory.mktemp("corruption"), LENGTHS, fps=FPS)
 
 
 def _info(root: Path, **changes: object) -> None:

@@ -21,10 +21,9 @@ from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import digests, layout
 from openral_data.formats.lerobot_v3.lock import DatasetLock
 from tests.support.cli import run_cli
-from tests.support.home import isolated_home
 from tests.support.lerobot import verify_mock_dataset
 from tests.support.lerobot_written import write_lerobot_dataset
-from tests.support.scenes import mock_scene, write_yaml
+from tests.support.recorded import record_mock_cli
 
 LENGTHS = [5, 7, 4]
 FRONT = "videos/observation.images.front/chunk-000/file-000.mp4"
@@ -34,13 +33,7 @@ EPISODES = "meta/episodes/chunk-000/file-000.parquet"
 
 @pytest.fixture(scope="module")
 def healthy(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    base = tmp_path_factory.mktemp("doctor")
-    scene = write_yaml(base / "scene.yaml", mock_scene(success_after=LENGTHS, n_episodes=3))
-    out = base / "ds"
-    with isolated_home(base):
-        done = run_cli("record", "--scene", str(scene), "--out", str(out), "--codec", "h264")
-    assert done.returncode == 0, done.stderr
-    return out
+    return record_mock_cli(tmp_path_factory.mktemp("doctor"), LENGTHS)
 
 
 def _table(root: Path, rel: str) -> pa.Table:

@@ -285,24 +285,34 @@ def test_encoder_failure_discards_the_episode_cleanly(tmp_path: Path) -> None:
     assert len(list((tmp_path / "ds").glob("videos/*/*/*.mp4"))) == 2
 
 
-def test_a_failed_commit_restores_the_writer_and_close_writes_nothing(tmp_path: Path) -> None:
-    """A full disk while the second episode is staged (before its journal): the writer is as before it, close()
-    changes no file, and lerobot loads the first episode as committed."""
-    root = tmp_path / "ds"
+def _three_frame_writer(root: Path) -> tuple[LeRobotV3Writer, DatasetBridge]:
+    """A writer of one small h264 camera behind a bridge (for the disk-error tests)."""
     schema = DatasetSchema(
         fps=10, state_names=("s0", "s1"), action_names=("a0", "a1"), cameras={"cam": CameraShape(H, W)}, robot_type="u"
     )
     writer = LeRobotV3Writer(root, schema, WriterConfig(video=VideoSettings(codec="h264")))
-    bridge = DatasetBridge(schema, [writer])
+    return writer, DatasetBridge(schema, [writer])
+
+
+def _three_frame_episode(bridge: DatasetBridge, e: int, task: str, rng: np.random.Generator) -> None:
+    """Episode `e`: three frames, state (t, e), action (e, t), success at the last frame."""
+    bridge.begin_episode(seed=e, initial_state={})
+    for t in range(3):
+        obs = Observation(images={"cam": patterned(e, t, rng)}, state=np.array([t, e], np.float32), task=task)
+        bridge.add_step(obs, np.array([e, t], np.float32), reward=0.0, done=t == 2, success=t == 2)
+    bridge.end_episode(success=True)
+
+
+def test_a_failed_commit_restores_the_writer_and_close_writes_nothing(tmp_path: Path) -> None:
+    """A full disk while the second episode is staged (before its journal): the writer is as before it, close()
+    changes no file, and lerobot loads the first episode as committed."""
+    root = tmp_path / "ds"
+    writer, bridge = _three_frame_writer(root)
     rng = np.random.default_rng(0)
     states = [np.array([t, 0], np.float32) for t in range(3)]
 
     def episode(e: int, task: str) -> None:
-        bridge.begin_episode(seed=e, initial_state={})
-        for t in range(3):
-            obs = Observation(images={"cam": patterned(e, t, rng)}, state=np.array([t, e], np.float32), task=task)
-            bridge.add_step(obs, np.array([e, t], np.float32), reward=0.0, done=t == 2, success=t == 2)
-        bridge.end_episode(success=True)
+        _three_frame_episode(bridge, e, task, rng)
 
     def files() -> dict[str, bytes]:
         return {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
@@ -343,18 +353,10 @@ def test_a_video_join_keeps_the_digests_true_when_the_metadata_write_after_it_fa
     """close() joins the camera's per-episode files outside a commit batch; a full disk right after the join
     (at the metadata write) must not leave digests that call the joined files changed."""
     root = tmp_path / "ds"
-    schema = DatasetSchema(
-        fps=10, state_names=("s0", "s1"), action_names=("a0", "a1"), cameras={"cam": CameraShape(H, W)}, robot_type="u"
-    )
-    writer = LeRobotV3Writer(root, schema, WriterConfig(video=VideoSettings(codec="h264")))
-    bridge = DatasetBridge(schema, [writer])
+    _, bridge = _three_frame_writer(root)
     rng = np.random.default_rng(0)
     for e in range(2):
-        bridge.begin_episode(seed=e, initial_state={})
-        for t in range(3):
-            obs = Observation(images={"cam": patterned(e, t, rng)}, state=np.array([t, e], np.float32), task="t")
-            bridge.add_step(obs, np.array([e, t], np.float32), reward=0.0, done=t == 2, success=t == 2)
-        bridge.end_episode(success=True)
+        _three_frame_episode(bridge, e, "t", rng)
     faults = _FailAt("write .image_hist.json")
     with inject(faults), pytest.raises(DiskError):
         bridge.close()
