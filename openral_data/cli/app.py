@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from typing import Annotated
 
 import typer
 
@@ -11,6 +12,7 @@ from openral_data.cli.edit import episodes_app
 from openral_data.cli.pipeline import pipeline_app
 from openral_data.cli.terminal import print_line
 from openral_data.errors import OpenralError
+from openral_data.version import __version__
 
 app = typer.Typer(
     add_completion=False,
@@ -18,6 +20,24 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     help="Turn robot rollouts into training datasets.",
 )
+
+
+def _show_version(value: bool) -> None:
+    if value:
+        print_line(f"openral-data {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: Annotated[
+        bool,
+        typer.Option("--version", help="Print the version and exit.", is_eager=True, callback=_show_version),
+    ] = False,
+) -> None:
+    """Turn robot rollouts into training datasets."""
+
+
 app.command()(record.record)
 app.command()(convert.convert)
 app.command()(inspect.info)
@@ -31,9 +51,22 @@ app.add_typer(pipeline_app, name="pipeline")
 
 
 def main() -> None:
-    """Entry point: user mistakes become one `error:` line and exit 2; usage errors are click's (exit 2)."""
+    """Entry point: a user mistake, ours or the argument parser's (an unknown option, a value not among the
+    choices, a missing argument), becomes one `error:` line and exit 2."""
     try:
-        app()
+        code = app(standalone_mode=False)
     except OpenralError as exc:  # one line, even if a value quoted from a file held a line break
-        print_line("error: " + " ".join(str(exc).splitlines()), err=True)
-        sys.exit(2)
+        _fail(str(exc))
+    except typer.Abort:  # Ctrl-C at a prompt
+        sys.exit(130)
+    except typer.TyperException as exc:  # the parser's own errors (click's UsageError family)
+        message = getattr(exc, "format_message", exc.__str__)()
+        if not message.strip():  # no arguments at all: the help was printed, as for --help
+            sys.exit(2)
+        _fail(message)
+    sys.exit(code if isinstance(code, int) else 0)
+
+
+def _fail(message: str) -> None:
+    print_line("error: " + " ".join(message.splitlines()), err=True)
+    sys.exit(2)

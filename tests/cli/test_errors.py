@@ -175,3 +175,28 @@ def test_list_commands(project: Path) -> None:
     robots = run_cli("list", "robots")
     assert robots.returncode == 0 and "mock_arm" in robots.stdout
     assert "franka_panda,single_arm,parallel_gripper" in robots.stdout
+
+
+@pytest.mark.parametrize(
+    ("args", "pattern"),
+    [
+        (["record", "--codec", "vp9"], r"'--codec'.*'vp9' is not one of 'av1', 'h264'"),
+        (["record", "--bogus"], r"No such option: --bogus"),
+        (["recrd"], r"No such command 'recrd'\. Did you mean 'record'\?"),
+        (["info"], r"Missing argument 'dataset'"),
+        (["stats", "--format", "xml", "x"], r"'--format'"),
+        (["record", "--n-episodes", "many"], r"'--n-episodes'.*valid integer"),
+    ],
+)
+def test_the_argument_parsers_own_errors_are_one_line(args: list[str], pattern: str) -> None:
+    """typer/click's usage errors (unknown option or command, a value not among the choices, a missing
+    argument) end like ours: one `error:` line naming the option, exit 2 — not a boxed usage message."""
+    _fails(args, pattern)
+
+
+def test_version_prints_the_package_metadata_version() -> None:
+    from importlib.metadata import version
+
+    done = run_cli("--version")
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == f"openral-data {version('openral-data')}"
