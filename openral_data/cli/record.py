@@ -19,7 +19,10 @@ if TYPE_CHECKING:
 def record(
     ctx: typer.Context,
     scene: Annotated[str, typer.Option(help="scene YAML path or scene id under scenes/")] = paths.DEFAULT_SCENE,
-    rskill: Annotated[str, typer.Option(help="rSkill id under rskills/, or a path to rskill.yaml")] = "random-mock",
+    rskill: Annotated[
+        str | None,
+        typer.Option(help="rSkill id under rskills/, or a path to rskill.yaml (default: the scene's default_rskill)"),
+    ] = None,
     robot: Annotated[str | None, typer.Option(help="robot id (default: the scene's robot)")] = None,
     n_episodes: Annotated[int | None, typer.Option(help="episodes to record (default: the scene's)")] = None,
     seed: Annotated[int | None, typer.Option(help="seed of the first episode; episode k uses seed+k")] = None,
@@ -50,13 +53,14 @@ def record(
     """Record episodes of SCENE driven by RSKILL into a LeRobotDataset v3 and/or ROS 2 MCAP bags."""
     if hal is not None:
         from openral_data.cli.hal import run_hal_record
+        from openral_data.record.options import DEFAULT_RSKILL
 
         if resume or workers != 1:
             raise UsageError("--resume/--workers: not available with --hal (one robot, one new dataset)")
 
         run_hal_record(
-            hal, mode, rskill, fps, scene if scene != paths.DEFAULT_SCENE else None, n_episodes, max_steps, seed,
-            out, codec.value, format, image_format, operator, safety, staleness, port,
+            hal, mode, rskill or DEFAULT_RSKILL, fps, scene if scene != paths.DEFAULT_SCENE else None, n_episodes,
+            max_steps, seed, out, codec.value, format, image_format, operator, safety, staleness, port,
         )  # fmt: skip
         return
     hal_only = {"--mode": mode != "sim", "--fps": fps != 20, "--operator": operator != "auto", "--safety": safety,

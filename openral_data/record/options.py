@@ -17,7 +17,7 @@ from openral_data.types import EpisodeRecord
 @dataclass(frozen=True)
 class RecordOptions:
     scene: str = paths.DEFAULT_SCENE
-    rskill: str = "random-mock"
+    rskill: str | None = None  # None: the scene's default_rskill (`rskill_ref`)
     robot: str | None = None
     n_episodes: int | None = None
     seed: int | None = None
@@ -68,6 +68,14 @@ def check_run_numbers(n_episodes: int, max_steps: int, seed: int) -> None:
         raise UsageError(
             f"--seed/--n-episodes: episode seeds {seed}..{seed + n_episodes - 1} exceed {MAX_SEED} (a uint32)"
         )
+
+
+DEFAULT_RSKILL = "random-mock"  # for a scene that suggests none
+
+
+def rskill_ref(given: str | None, scene: SimScene) -> str:
+    """The rSkill a recording uses: `--rskill`, else the scene's `default_rskill`, else `DEFAULT_RSKILL`."""
+    return given or scene.scene.default_rskill or DEFAULT_RSKILL
 
 
 def default_out(scene: SimScene, rskill_id: str) -> Path:

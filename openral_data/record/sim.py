@@ -11,7 +11,14 @@ from openral_data.policies.base import PolicyAdapter
 from openral_data.record import output, registry
 from openral_data.record.bridge import DatasetBridge
 from openral_data.record.compat import check_compatibility
-from openral_data.record.options import ProgressFn, RecordOptions, RecordSummary, check_run_numbers, default_out
+from openral_data.record.options import (
+    ProgressFn,
+    RecordOptions,
+    RecordSummary,
+    check_run_numbers,
+    default_out,
+    rskill_ref,
+)
 from openral_data.record.session import StopRequest, ended_by, episode_loop
 from openral_data.schemas.scene import load_recordable_scene
 from openral_data.types import DatasetSchema, EpisodeRecord, SimRollout, Sink
@@ -37,7 +44,7 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
     scene_path = registry.resolve_scene_path(opts.scene)
     scene = load_recordable_scene(scene_path)
     scene_src = str(scene_path)
-    rskill, rskill_path = registry.resolve_rskill(opts.rskill)
+    rskill, rskill_path = registry.resolve_rskill(rskill_ref(opts.rskill, scene))
     rskill_src = str(rskill_path)
     if opts.robot is not None and scene.scene.fixed_robot and opts.robot != scene.scene.robot:
         raise ConfigError(

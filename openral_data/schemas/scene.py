@@ -1,6 +1,7 @@
 """Scene tiers. DeployScene (where: scene) ⊆ SimScene (+ task, seed, n_episodes) ⊆ BenchmarkScene (+ metadata).
 
-Each tier has its own strict loader. A scene never names a policy: the policy always comes from `--rskill`.
+Each tier has its own strict loader. A scene never binds a policy: it may suggest the rSkill `record` uses when
+no `--rskill` is given (`scene.default_rskill`), and `--rskill` always wins.
 """
 
 from __future__ import annotations
@@ -50,6 +51,9 @@ class SceneSpec(StrictModel):
     id: str = Field(min_length=1, pattern=r"^[A-Za-z0-9_\-]+$")
     type: str = Field(min_length=1, description="a SCENES registry key: which producer builds this scene")
     robot: str | None = None
+    default_rskill: str | None = Field(
+        default=None, min_length=1, description="the rSkill `record` uses when --rskill is not given (an id or path)"
+    )
     fixed_robot: bool = Field(
         default=False, description="the scene is defined for `robot` only: `--robot` may not replace it"
     )
@@ -121,7 +125,10 @@ def _check_raw(data: Any, source: str) -> str:
         raise ConfigError(f"{source}: expected a mapping at the top level, got {type(data).__name__}")
     for key in _POLICY_KEYS:
         if key in data:
-            raise ConfigError(f"{source}: {key}: a scene must not name a policy; the policy always comes from --rskill")
+            raise ConfigError(
+                f"{source}: {key}: a scene must not name a policy; the policy comes from --rskill "
+                "(a scene may suggest one: scene.default_rskill)"
+            )
     tier = data.get("tier")
     if tier not in _TIERS:
         raise ConfigError(f"{source}: tier: must be one of {sorted(_TIERS)}, got {tier!r}")

@@ -80,7 +80,7 @@ def test_incompatibilities_fail_before_the_first_episode(project: Path, tmp_path
     _fails(
         ["record", "--rskill", "wrong-tags", "--out", str(out)],
         r"wrong-tags/rskill\.yaml: embodiment_tags: \['humanoid'\] share nothing with robot 'mock_arm' tags "
-        r"\['mock', 'single_arm'\] \(rSkills for this robot: .*random-mock.*zero-mock",
+        r"\['mock', 'single_arm'\] \(rSkills that fit: .*random-mock.*zero-mock",
     )
     _rskill(project, "needs-cam", required_cameras=["front", "thermal"])
     _fails(["record", "--rskill", "needs-cam", "--out", str(out)], r"required_cameras: \['thermal'\] not provided")

@@ -40,3 +40,15 @@ def test_references_by_id_and_path(project: Path) -> None:
     assert registry.resolve_scene_path("mock_pick") == project / "scenes/sim/mock_pick.yaml"
     assert registry.resolve_scene_path("mock_workcell") == project / "scenes/deploy/mock_workcell.yaml"
     assert set(registry.SCENES) >= {"mock"} and set(registry.POLICIES) >= {"zero", "random"}
+
+
+@pytest.mark.parametrize("path", sorted((REPO / "scenes").glob("[sb]*/*.yaml")), ids=lambda p: p.stem)
+def test_every_shipped_scene_names_a_default_rskill_for_its_robot(path: Path) -> None:
+    """`record --scene ID` without --rskill uses the scene's default_rskill: it must exist and fit the robot."""
+    from openral_data.schemas.scene import load_recordable_scene
+
+    scene = load_recordable_scene(path)
+    assert scene.scene.default_rskill is not None, path
+    rskill, _ = registry.resolve_rskill(scene.scene.default_rskill)
+    robot = registry.ROBOTS[scene.scene.robot or ""]
+    assert set(rskill.embodiment_tags) & set(robot.embodiment_tags), (path, rskill.id, robot.name)

@@ -26,7 +26,7 @@ from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.mcap import finished_bags
 from openral_data.formats.staging import Staging
 from openral_data.record import registry
-from openral_data.record.options import RecordOptions, RecordSummary, default_out
+from openral_data.record.options import RecordOptions, RecordSummary, default_out, rskill_ref
 from openral_data.record.output import Claim, claim
 from openral_data.record.parallel.executors import run_jobs
 from openral_data.record.parallel.plan import plan
@@ -54,7 +54,8 @@ def record_parallel(
         raise UsageError("--resume: continue a recording with one process (no --workers/--executor)")
     if opts.out is None:
         scene = load_recordable_scene(registry.resolve_scene_path(opts.scene))
-        opts = dataclasses.replace(opts, out=default_out(scene, registry.resolve_rskill(opts.rskill)[0].id))
+        rskill = registry.resolve_rskill(rskill_ref(opts.rskill, scene))[0]
+        opts = dataclasses.replace(opts, out=default_out(scene, rskill.id))
     out = opts.out
     assert out is not None
     out.parent.mkdir(parents=True, exist_ok=True)

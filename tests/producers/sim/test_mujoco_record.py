@@ -138,3 +138,18 @@ def test_recorded_pick_place_dataset_loads_with_a_gripper_that_matters(project: 
     actions, states = np.stack(table["action"]), np.stack(table["observation.state"])
     assert set(np.unique(actions[:, 6]).tolist()) == {0.0, 1.0}  # the gripper opened and closed
     assert states[:, 7].max() > 0.3 and states[:, 7].min() < 0.05  # fingers closed on the cube (not fully)
+
+
+def test_a_scene_without_rskill_records_with_its_default_and_a_misfit_lists_what_fits(tmp_path: Path) -> None:
+    """`record --scene tabletop_push` needs no --rskill (the scene suggests scripted-push); a pairing that does not
+    fit is refused with the rSkills that do."""
+    out = tmp_path / "o"
+    done = run_cli("record", "--scene", "tabletop_push", "--n-episodes", "1", "--max-steps", "4", "--codec", "h264",
+                   "--out", str(out))  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    saved = json.loads((out / ".openral" / "record.json").read_text())["options"]
+    assert Path(saved["rskill"]).parent.name == "scripted-push"
+    refused = run_cli("record", "--scene", "tabletop_push", "--rskill", "random-mock", "--out", str(tmp_path / "x"))
+    assert refused.returncode == 2
+    assert re.search(r"embodiment_tags: .*\(rSkills that fit: .*scripted-pick-place, scripted-push\)", refused.stderr)
+    assert not (tmp_path / "x").exists()
