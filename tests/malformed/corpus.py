@@ -568,6 +568,10 @@ def _record(*extra: str) -> Callable[[Workspace], list[str]]:
     return lambda w: ["record", "--max-steps", "3", "--out", str(w.root / "o"), *extra]
 
 
+def _hal(*extra: str) -> Callable[[Workspace], list[str]]:
+    return lambda w: ["record", "--hal", "mock_arm", *extra, "--out", str(w.root / "o")]
+
+
 def _replay(*extra: str) -> Callable[[Workspace], list[str]]:
     return lambda w: ["replay", str(w.ds()), "--out", str(w.root / "res"), *extra]
 
@@ -603,49 +607,49 @@ OPTIONS: list[tuple[str, Callable[[Workspace], list[str]], str, tuple[str, ...]]
     ("hal-robot-unknown", lambda w: ["record", "--hal", "r2d2", "--out", str(w.root / "o")], r"r2d2", ("o",)),
     (
         "hal-fps-zero",
-        lambda w: ["record", "--hal", "mock_arm", "--fps", "0", "--out", str(w.root / "o")],
+        _hal("--fps", "0"),
         r"--fps",
         ("o",),
     ),
     (
         "hal-fps-huge",
-        lambda w: ["record", "--hal", "mock_arm", "--fps", str(10**6), "--out", str(w.root / "o")],
+        _hal("--fps", str(10**6)),
         r"--fps",
         ("o",),
     ),
     (
         "hal-mode-unknown",
-        lambda w: ["record", "--hal", "mock_arm", "--mode", "dream", "--out", str(w.root / "o")],
+        _hal("--mode", "dream"),
         r"--mode",
         ("o",),
     ),
     (
         "hal-safety-unknown",
-        lambda w: ["record", "--hal", "mock_arm", "--safety", "yolo", "--out", str(w.root / "o")],
+        _hal("--safety", "yolo"),
         r"--safety",
         ("o",),
     ),
     (
         "hal-staleness-nan",
-        lambda w: ["record", "--hal", "mock_arm", "--staleness", "nan", "--out", str(w.root / "o")],
+        _hal("--staleness", "nan"),
         r"--staleness",
         ("o",),
     ),
     (
         "hal-staleness-negative",
-        lambda w: ["record", "--hal", "mock_arm", "--staleness", "-1", "--out", str(w.root / "o")],
+        _hal("--staleness", "-1"),
         r"--staleness",
         ("o",),
     ),
     (
         "hal-seed-2**70",
-        lambda w: ["record", "--hal", "mock_arm", "--seed", str(2**70), "--out", str(w.root / "o")],
+        _hal("--seed", str(2**70)),
         r"--seed",
         ("o",),
     ),
     (
         "hal-with-resume",
-        lambda w: ["record", "--hal", "mock_arm", "--resume", "--out", str(w.root / "o")],
+        _hal("--resume"),
         r"--resume",
         ("o",),
     ),
