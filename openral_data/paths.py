@@ -1,6 +1,6 @@
-"""Where the project's manifests live (`robots/`, `rskills/`, `scenes/`, the default `datasets/` root), and the
-one rule for a path that comes out of a file's contents: it stays inside its root (`contained`, `safe_name`);
-an output folder given on the command line must be creatable (`check_creatable`).
+"""The one rule for a path that comes out of a file's contents: it stays inside its root (`contained`,
+`safe_name`, `regular_file`); an output folder given on the command line must be creatable (`check_creatable`).
+Where manifests and outputs live is `openral_data.manifests`.
 """
 
 from __future__ import annotations
@@ -10,33 +10,6 @@ import stat
 from pathlib import Path
 
 from openral_data.errors import DatasetError, UsageError
-
-
-def project_root() -> Path:
-    """`$OPENRAL_DATA_HOME` if set, else the checkout this package was installed from (editable install)."""
-    env = os.environ.get("OPENRAL_DATA_HOME")
-    if env:
-        return Path(env).expanduser().resolve()
-    return Path(__file__).resolve().parent.parent
-
-
-def robots_dir() -> Path:
-    return project_root() / "robots"
-
-
-def rskills_dir() -> Path:
-    return project_root() / "rskills"
-
-
-def scenes_dir() -> Path:
-    return project_root() / "scenes"
-
-
-def datasets_dir() -> Path:
-    return project_root() / "datasets"
-
-
-DEFAULT_SCENE = "mock_pick"
 
 
 def contained(root: Path, relative: str | os.PathLike[str], source: str) -> Path:

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import os
 import sys
-from typing import Annotated
+from pathlib import Path
+from typing import Annotated, Any, cast
 
 import typer
 
@@ -11,7 +13,8 @@ from openral_data.cli import convert, inspect, record, replay, stats
 from openral_data.cli.edit import episodes_app
 from openral_data.cli.pipeline import pipeline_app
 from openral_data.cli.terminal import print_line
-from openral_data.errors import OpenralError
+from openral_data.errors import OpenralError, UsageError
+from openral_data.manifests import ENV_DIRS, Kind
 from openral_data.version import __version__
 
 app = typer.Typer(
@@ -28,14 +31,36 @@ def _show_version(value: bool) -> None:
         raise typer.Exit()
 
 
+def _dir_option(kind: Kind) -> Any:
+    return typer.Option(
+        f"--{kind}-dir",
+        help=f"also look for {kind} here, ahead of the project, user and built-in ones (sets ${ENV_DIRS[kind]})",
+        metavar="DIR",
+    )
+
+
 @app.callback()
 def _root(
     version: Annotated[
         bool,
         typer.Option("--version", help="Print the version and exit.", is_eager=True, callback=_show_version),
     ] = False,
+    scenes_dir: Annotated[Path | None, _dir_option("scenes")] = None,
+    rskills_dir: Annotated[Path | None, _dir_option("rskills")] = None,
+    robots_dir: Annotated[Path | None, _dir_option("robots")] = None,
 ) -> None:
     """Turn robot rollouts into training datasets."""
+    for kind, folder in (("scenes", scenes_dir), ("rskills", rskills_dir), ("robots", robots_dir)):
+        if folder is not None:
+            add_search_dir(cast(Kind, kind), folder)
+
+
+def add_search_dir(kind: Kind, folder: Path) -> None:
+    """Put `folder` at the top of the `kind` search path, through the environment (parallel workers inherit it)."""
+    if not folder.is_dir():
+        raise UsageError(f"--{kind}-dir: {folder} is not a folder")
+    env = ENV_DIRS[kind]
+    os.environ[env] = os.pathsep.join(p for p in (os.environ.get(env, ""), str(folder.resolve())) if p)
 
 
 app.command()(record.record)

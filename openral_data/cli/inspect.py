@@ -4,22 +4,28 @@ from __future__ import annotations
 
 from enum import StrEnum
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 from openral_data import paths
+from openral_data.cli.jsonout import print_json
 from openral_data.cli.terminal import console, print_line, print_rows
-from openral_data.errors import OpenralError
-from openral_data.record import registry
+
+if TYPE_CHECKING:
+    from openral_data.record.catalog import Item
 
 
 class ListWhat(StrEnum):
+    all = "all"
     scenes = "scenes"
     rskills = "rskills"
     robots = "robots"
+    types = "types"
+    policies = "policies"
 
 
 def info(dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset folder")]) -> None:
@@ -43,70 +49,78 @@ def info(dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset fold
     )
 
 
-def list_cmd(what: Annotated[ListWhat, typer.Argument(help="scenes, rskills or robots")] = ListWhat.scenes) -> None:
-    """List the scenes, rSkills or robots this checkout knows."""
-    table = {ListWhat.scenes: _scenes, ListWhat.rskills: _rskills, ListWhat.robots: _robots}[what]()
+def list_cmd(
+    what: Annotated[ListWhat, typer.Argument(help="what to list (default: everything)")] = ListWhat.all,
+    as_json: Annotated[bool, typer.Option("--json", help="print one JSON document instead of tables")] = False,
+) -> None:
+    """List the scenes, rSkills, robots, scene types and policies this installation knows, and where each comes
+    from (built-in, plug-in, user, project, --*-dir); a broken plug-in is reported on one line, never fatal."""
+    from openral_data.record.catalog import SECTIONS, catalog
+
+    sections = SECTIONS if what is ListWhat.all else (_SECTION[what],)
+    cat = catalog(sections)
+    for problem in cat.plugin_problems:
+        print_line("warning: " + problem.line(), err=True)
+    if as_json:
+        print_json({"command": "list", **cat.to_json()})
+        return
     # piped or redirected: no terminal width to fit, so never cut a cell (ids, tags and paths stay greppable)
-    (console if console.is_terminal else Console(width=1000, color_system=None)).print(table)
+    out = console if console.is_terminal else Console(width=1000, color_system=None)
+    for name, items in cat.sections.items():
+        out.print(_table(name, items))
 
 
-def _scenes() -> Table:
-    from openral_data.schemas.scene import load_scene
+_SECTION = {
+    ListWhat.scenes: "scenes",
+    ListWhat.rskills: "rskills",
+    ListWhat.robots: "robots",
+    ListWhat.types: "scene_types",
+    ListWhat.policies: "policies",
+}
+# each section's columns after the id: (title, the fields shown in it, space-separated)
+_COLUMNS: dict[str, tuple[tuple[str, str], ...]] = {
+    "scenes": (("tier", "tier"), ("type", "type"), ("robot", "robot"), ("default rSkill", "default_rskill")),
+    "rskills": (
+        ("policy", "policy"),
+        ("embodiment", "embodiment_tags"),
+        ("state", "state_dim state_representation"),
+        ("action", "action_dim action_representation"),
+        ("cameras", "cameras"),
+    ),
+    "robots": (
+        ("embodiment", "embodiment_tags"),
+        ("joints", "joints"),
+        ("state", "state_dim"),
+        ("action", "action_dim"),
+        ("cameras", "cameras"),
+    ),
+    "scene_types": (),
+    "policies": (),
+}
 
-    table = Table()
-    for col in ("id", "tier", "type", "robot", "path"):
+
+def _table(name: str, items: list[Item]) -> Table:
+    columns = _COLUMNS[name]
+    with_path = name in ("scenes", "rskills", "robots")
+    table = Table(title=name.replace("_", " "), title_justify="left")
+    for col in ("id", *(c for c, _ in columns), "from", *(("path",) if with_path else ())):
         table.add_column(col)
-    for sid, path in registry.scene_files().items():
-        try:
-            sc = load_scene(path)
-            table.add_row(sid, sc.tier, sc.scene.type, sc.scene.robot or "-", str(path))
-        except OpenralError as exc:
-            table.add_row(sid, "[red]invalid", str(exc), "", str(path))
-    table.add_row("", "", f"types: {', '.join(sorted(registry.SCENES))}", "", "")
+    for it in items:
+        origin = it.origin + (f" (overrides {', '.join(it.overrides)})" if it.overrides else "")
+        if it.error is not None:
+            cells = ["[red]invalid: " + escape(it.error), *("" for _ in columns[1:])] if columns else []
+        else:
+            cells = [" ".join(_cell(it.fields.get(key)) for key in keys.split()) for _, keys in columns]
+        table.add_row(escape(it.id), *cells, escape(origin), *((escape(it.path or ""),) if with_path else ()))
     return table
 
 
-def _rskills() -> Table:
-    from openral_data.schemas.base import load_model
-    from openral_data.schemas.rskill import RSkillManifest
-
-    table = Table()
-    for col in ("id", "policy", "embodiment", "state", "action", "cameras"):
-        table.add_column(col)
-    for rid in registry.rskill_ids():
-        try:
-            rs = load_model(RSkillManifest, paths.rskills_dir() / rid / "rskill.yaml")
-            table.add_row(
-                rid,
-                rs.policy,
-                ",".join(rs.embodiment_tags),
-                f"{rs.state_contract.dim} {rs.state_contract.representation}",
-                f"{rs.action_contract.dim} {rs.action_contract.representation}",
-                ",".join(rs.required_cameras) or "-",
-            )
-        except OpenralError as exc:
-            table.add_row(rid, "[red]invalid", str(exc), "", "", "")
-    return table
-
-
-def _robots() -> Table:
-    table = Table()
-    for col in ("id", "embodiment", "joints", "state", "action", "cameras"):
-        table.add_column(col)
-    for rid in registry.robot_ids():
-        try:
-            rb = registry.load_robot(rid)
-            table.add_row(
-                rid,
-                ",".join(rb.embodiment_tags),
-                str(len(rb.joints)),
-                str(rb.observation.state.dim),
-                str(rb.action.dim),
-                ",".join(c.name for c in rb.sensors.cameras) or "-",
-            )
-        except OpenralError as exc:
-            table.add_row(rid, "[red]invalid", str(exc), "", "", "")
-    return table
+def _cell(value: object) -> str:
+    if value is None:
+        return "-"
+    if isinstance(value, list):
+        return ",".join(str(v) for v in value) or "-"
+    return escape(str(value))
 
 
 def view(

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from openral_data import paths
+from openral_data import manifests
 from openral_data.cli.choices import CodecChoice
 from openral_data.cli.terminal import INTERRUPTED_RECORDING, print_line, print_rows, progress_bar
 from openral_data.errors import UsageError
@@ -18,7 +18,7 @@ if TYPE_CHECKING:
 
 def record(
     ctx: typer.Context,
-    scene: Annotated[str, typer.Option(help="scene YAML path or scene id under scenes/")] = paths.DEFAULT_SCENE,
+    scene: Annotated[str, typer.Option(help="scene YAML path or scene id under scenes/")] = manifests.DEFAULT_SCENE,
     rskill: Annotated[
         str | None,
         typer.Option(help="rSkill id under rskills/, or a path to rskill.yaml (default: the scene's default_rskill)"),
@@ -59,7 +59,7 @@ def record(
             raise UsageError("--resume/--workers: not available with --hal (one robot, one new dataset)")
 
         run_hal_record(
-            hal, mode, rskill or DEFAULT_RSKILL, fps, scene if scene != paths.DEFAULT_SCENE else None, n_episodes,
+            hal, mode, rskill or DEFAULT_RSKILL, fps, scene if scene != manifests.DEFAULT_SCENE else None, n_episodes,
             max_steps, seed, out, codec.value, format, image_format, operator, safety, staleness, port,
         )  # fmt: skip
         return

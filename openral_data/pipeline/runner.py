@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from openral_data import paths
+from openral_data import manifests
 from openral_data.errors import ConfigError, OpenralError
 from openral_data.formats.atomic import write_bytes
 from openral_data.formats.staging import Staging
@@ -37,7 +37,7 @@ class PipelineReport:
 
 
 def default_workdir(pipeline: Pipeline) -> Path:
-    return paths.project_root() / "runs" / pipeline.name
+    return manifests.project_dir() / "runs" / pipeline.name
 
 
 def run_pipeline(spec_path: Path, workdir: Path | None = None, log: Log | None = None) -> PipelineReport:

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
-from openral_data import paths
+from openral_data import manifests
 from openral_data.errors import CompatibilityError, ConfigError, UsageError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
 from openral_data.formats.lerobot_v3.video import Codec
@@ -95,7 +95,7 @@ def make_operator(spec: str) -> Operator:
 
 def build_hal(opts: HalRecordOptions, robot: RobotManifest, rskill: RSkillManifest, rskill_src: str) -> HalBase:
     """The HAL for `--mode` (and `--scene`), checked against the rSkill before anything is written."""
-    robot_src = str(paths.robots_dir() / robot.name / "robot.yaml")
+    robot_src = str(manifests.robot_file(robot.name))
     if opts.scene is None and rskill.action_contract.representation not in JOINT_REPRESENTATIONS:
         raise CompatibilityError(
             f"{rskill_src}: action_contract.representation: {rskill.action_contract.representation!r}; a HAL takes "
@@ -197,7 +197,7 @@ def _run(
         fk=fk,
         names=names,
         state_names=state_names,
-        source=str(paths.robots_dir() / robot.name / "robot.yaml"),
+        source=str(manifests.robot_file(robot.name)),
     )
     cameras = list(hal.cameras)
     schema = DatasetSchema(

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
 
-from openral_data import paths
+from openral_data import manifests, paths
 from openral_data.errors import OutputExists, UsageError
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.schemas.scene import MAX_SEED, SimScene
@@ -16,7 +16,7 @@ from openral_data.types import EpisodeRecord
 
 @dataclass(frozen=True)
 class RecordOptions:
-    scene: str = paths.DEFAULT_SCENE
+    scene: str = manifests.DEFAULT_SCENE
     rskill: str | None = None  # None: the scene's default_rskill (`rskill_ref`)
     robot: str | None = None
     n_episodes: int | None = None
@@ -85,7 +85,7 @@ def default_out(scene: SimScene, rskill_id: str) -> Path:
 def fresh_out(prefix: str) -> Path:
     """A folder under datasets/ named `<prefix>--<time stamp>` that does not exist yet."""
     stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
-    base = paths.datasets_dir() / f"{prefix}--{stamp}"
+    base = manifests.datasets_dir() / f"{prefix}--{stamp}"
     out, k = base, 1
     while out.exists():
         k += 1

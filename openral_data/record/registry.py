@@ -1,13 +1,14 @@
-"""Registries: SCENES (scene types -> producer factories), POLICIES (policy ids -> adapters), ROBOTS
-(auto-discovered from `robots/<id>/robot.yaml`), plus resolution of scene and rSkill references."""
+"""Registries: SCENES (scene types -> producer factories), POLICIES (policy ids -> adapters), both open to
+plug-ins (`@SCENES.register("id")`, entry points `openral_data.scenes` / `openral_data.policies`); ROBOTS
+(`robots/<id>/robot.yaml` on the manifest search path); and resolution of scene and rSkill references."""
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
-from typing import Literal
+from typing import Literal, cast
 
-from openral_data import paths
+from openral_data import manifests
 from openral_data.errors import ConfigError, OpenralError, UsageError
 from openral_data.policies.base import PolicyAdapter
 from openral_data.policies.basic import RandomPolicy, ZeroPolicy
@@ -98,25 +99,93 @@ def _sweep(rskill: RSkillManifest) -> PolicyAdapter:
     return SweepPolicy(rskill)
 
 
-SCENES: dict[str, SceneFactory] = {
-    "mock": _mock_factory,
-    "tabletop_push": _tabletop_factory("push"),
-    "tabletop_pick_place": _tabletop_factory("pick_place"),
-    "gym_pusht": _pusht_factory,
-    "gym_aloha": _aloha_factory,
-    "libero": _libero_factory,
-    "robosuite": _suite_factory("robosuite"),
-    "metaworld": _suite_factory("metaworld"),
-}
-POLICIES: dict[str, PolicyFactory] = {
-    "zero": ZeroPolicy,
-    "random": RandomPolicy,
-    "scripted_push": _scripted("ScriptedPush"),
-    "scripted_pick_place": _scripted("ScriptedPickPlace"),
-    "metaworld_expert": _metaworld_expert,
-    "lerobot": _lerobot,
-    "sweep": _sweep,
-}
+class Registry[F: Callable[..., object]](Mapping[str, F]):
+    """Ids -> factories: the built-ins, then what `@REGISTRY.register("id")` adds, then the installed plug-ins'
+    entry points of `group` (loaded on first lookup; one that fails is recorded as a plug-in problem, never
+    raised, and never hides a built-in)."""
+
+    def __init__(self, kind: str, group: str, builtins: dict[str, F]) -> None:
+        self.kind = kind
+        self.group = group
+        self._items = dict(builtins)
+        self._origins = dict.fromkeys(builtins, "built-in")
+        self._loaded = False
+
+    def register(self, ident: str) -> Callable[[F], F]:
+        """Decorator: `@SCENES.register("my_scene")` over a factory adds it under `ident` (a later one wins)."""
+
+        def add(factory: F) -> F:
+            self._items[ident] = factory
+            self._origins[ident] = _caller_origin(factory)
+            return factory
+
+        return add
+
+    def origin(self, ident: str) -> str:
+        """`built-in`, `plug-in <dist>` or the module that registered `ident`."""
+        self._load()
+        return self._origins[ident]
+
+    def _load(self) -> None:
+        if self._loaded:
+            return
+        self._loaded = True
+        for name, dist, factory in manifests.plugin_objects(self.group):
+            problem = None
+            if not callable(factory):
+                problem = f"names a {type(factory).__name__}, not a factory"
+            elif self._origins.get(name) == "built-in":
+                problem = f"{self.kind} {name!r} is built in; the plug-in's is ignored"
+            if problem:
+                manifests.record_problem(manifests.PluginProblem(self.group, name, dist, problem))
+                continue
+            self._items[name] = cast(F, factory)
+            self._origins[name] = f"plug-in {dist}"
+
+    def __getitem__(self, ident: str) -> F:
+        self._load()
+        return self._items[ident]
+
+    def __iter__(self) -> Iterator[str]:
+        self._load()
+        return iter(sorted(self._items))
+
+    def __len__(self) -> int:
+        self._load()
+        return len(self._items)
+
+
+def _caller_origin(factory: object) -> str:
+    return f"registered by {getattr(factory, '__module__', '?')}"
+
+
+SCENES: Registry[SceneFactory] = Registry(
+    "scene type",
+    "openral_data.scenes",
+    {
+        "mock": _mock_factory,
+        "tabletop_push": _tabletop_factory("push"),
+        "tabletop_pick_place": _tabletop_factory("pick_place"),
+        "gym_pusht": _pusht_factory,
+        "gym_aloha": _aloha_factory,
+        "libero": _libero_factory,
+        "robosuite": _suite_factory("robosuite"),
+        "metaworld": _suite_factory("metaworld"),
+    },
+)
+POLICIES: Registry[PolicyFactory] = Registry(
+    "policy",
+    "openral_data.policies",
+    {
+        "zero": ZeroPolicy,
+        "random": RandomPolicy,
+        "scripted_push": _scripted("ScriptedPush"),
+        "scripted_pick_place": _scripted("ScriptedPickPlace"),
+        "metaworld_expert": _metaworld_expert,
+        "lerobot": _lerobot,
+        "sweep": _sweep,
+    },
+)
 
 
 def unknown(kind: str, value: str, valid: list[str]) -> OpenralError:
@@ -141,14 +210,12 @@ def policy_factory(rskill: RSkillManifest, source: str) -> PolicyFactory:
 
 
 def robot_ids() -> list[str]:
-    root = paths.robots_dir()
-    return sorted(p.parent.name for p in root.glob("*/robot.yaml")) if root.is_dir() else []
+    return manifests.ids("robots")
 
 
 class RobotRegistry(Mapping[str, RobotManifest]):
-    """ROBOTS: every `robots/<id>/robot.yaml`, discovered on each access (adding a folder adds a robot).
-
-    Looking up an unknown id raises an OpenralError that lists the valid ones.
+    """ROBOTS: every `robots/<id>/robot.yaml` on the search path (`openral_data.manifests`), looked up on each
+    access (adding a folder adds a robot). Looking up an unknown id raises an OpenralError listing the valid ones.
     """
 
     def __getitem__(self, robot_id: str) -> RobotManifest:
@@ -165,8 +232,8 @@ class RobotRegistry(Mapping[str, RobotManifest]):
 
 
 def load_robot(robot_id: str) -> RobotManifest:
-    path = paths.robots_dir() / robot_id / "robot.yaml"
-    if not path.exists():  # a folder or a broken file in its place is reported by the loader, naming it
+    path = manifests.find("robots", robot_id)
+    if path is None:
         raise unknown("robot", robot_id, robot_ids())
     robot = load_model(RobotManifest, path)
     if robot.name != robot_id:
@@ -181,18 +248,17 @@ ROBOTS = RobotRegistry()
 
 
 def rskill_ids() -> list[str]:
-    root = paths.rskills_dir()
-    return sorted(p.parent.name for p in root.glob("*/rskill.yaml")) if root.is_dir() else []
+    return manifests.ids("rskills")
 
 
 def resolve_rskill(ref: str) -> tuple[RSkillManifest, Path]:
-    """An rSkill id (folder under `rskills/`), a folder holding `rskill.yaml`, or a YAML file."""
+    """An rSkill id (on the search path), a folder holding `rskill.yaml`, or a YAML file."""
     candidate = Path(ref).expanduser()
     if candidate.is_dir():
         candidate = candidate / "rskill.yaml"
     if not candidate.is_file():
-        by_id = paths.rskills_dir() / ref / "rskill.yaml"
-        if not by_id.is_file():
+        by_id = manifests.find("rskills", ref)
+        if by_id is None:
             raise unknown("rSkill", ref, rskill_ids())
         candidate = by_id
     return _anchor_checkpoint(load_model(RSkillManifest, candidate), candidate), candidate
@@ -209,20 +275,13 @@ def _anchor_checkpoint(rskill: RSkillManifest, path: Path) -> RSkillManifest:
 
 # --- scenes -----------------------------------------------------------------------------------------------
 
-SCENE_TIERS = ("sim", "benchmark", "deploy")
-
 
 def scene_files() -> dict[str, Path]:
-    out: dict[str, Path] = {}
-    for tier in SCENE_TIERS:
-        folder = paths.scenes_dir() / tier
-        for p in sorted(folder.glob("*.yaml")) if folder.is_dir() else []:
-            out.setdefault(p.stem, p)
-    return out
+    return {ident: entry.path for ident, entry in manifests.entries("scenes").items()}
 
 
 def resolve_scene_path(ref: str) -> Path:
-    """A path to a scene YAML, or a scene file's stem under `scenes/{sim,benchmark,deploy}/`."""
+    """A path to a scene YAML, or a scene id (a scene file's stem) on the search path."""
     candidate = Path(ref).expanduser()
     if candidate.is_file():
         return candidate

@@ -15,7 +15,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from openral_data import paths
+from openral_data import manifests
 from openral_data.errors import CompatibilityError, OutputExists, UsageError
 from openral_data.formats.lerobot_v3 import VideoSettings
 from openral_data.formats.lerobot_v3.video import Codec
@@ -111,7 +111,7 @@ def _num(value: object) -> str:
 
 def default_out(dataset: Path, mode: str) -> Path:
     stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
-    base = paths.datasets_dir() / f"{dataset.resolve().name}--replay-{mode}--{stamp}"
+    base = manifests.datasets_dir() / f"{dataset.resolve().name}--replay-{mode}--{stamp}"
     k = 1
     while (out := base if k == 1 else base.with_name(f"{base.name}-{k}")).exists():
         k += 1

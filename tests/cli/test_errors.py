@@ -10,7 +10,7 @@ import pytest
 import yaml
 
 from tests.support.cli import run_cli
-from tests.support.home import REPO
+from tests.support.home import BUILTIN
 from tests.support.scenes import mock_scene, write_yaml
 
 
@@ -25,7 +25,7 @@ def _fails(proc_args: list[str], pattern: str, env: dict[str, str] | None = None
 
 
 def _rskill(project: Path, name: str, **changes: object) -> Path:
-    data = yaml.safe_load((REPO / "rskills/random-mock/rskill.yaml").read_text())
+    data = yaml.safe_load((BUILTIN / "rskills/random-mock/rskill.yaml").read_text())
     data.update(changes, id=name)
     return write_yaml(project / "rskills" / name / "rskill.yaml", data)
 
@@ -58,7 +58,7 @@ def test_schema_errors_name_file_and_field(project: Path, tmp_path: Path) -> Non
     path = write_yaml(tmp_path / "s.yaml", scene)
     _fails(["record", "--scene", str(path), "--out", out], r"s\.yaml: scene\.cameras\[0\]\.widht: unknown key")
     _fails(
-        ["record", "--scene", str(REPO / "scenes/deploy/mock_workcell.yaml"), "--out", out],
+        ["record", "--scene", str(BUILTIN / "scenes/deploy/mock_workcell.yaml"), "--out", out],
         "deploy scenes have no task",
     )
     vla = {**mock_scene(), "vla": {"checkpoint": "x"}}

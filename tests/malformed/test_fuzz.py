@@ -31,7 +31,7 @@ from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import load_scene
 from tests.support.bags import MAPPING
-from tests.support.home import REPO
+from tests.support.home import BUILTIN, REPO
 from tests.support.scenes import mock_scene
 
 FUZZ = settings(
@@ -91,16 +91,16 @@ def mutated(draw: st.DrawFn, base: Any) -> Any:
     return doc
 
 
-def _doc(rel: str) -> Any:
-    return yaml.safe_load((REPO / rel).read_text())
+def _doc(path: Path) -> Any:
+    return yaml.safe_load(path.read_text())
 
 
-PIPELINE = _doc("pipelines/mock_campaign.yaml")
+PIPELINE = _doc(REPO / "pipelines/mock_campaign.yaml")
 CAMERAS = {"cameras": [{"name": "front", "width": 64, "height": 48}], "render": {"shadows": False}}
 LOADERS: dict[str, tuple[Callable[[Path], object], Any]] = {
     "scene": (load_scene, mock_scene()),
-    "rskill": (lambda p: load_model(RSkillManifest, p), _doc("rskills/random-mock/rskill.yaml")),
-    "robot": (lambda p: load_model(RobotManifest, p), _doc("robots/mock_arm/robot.yaml")),
+    "rskill": (lambda p: load_model(RSkillManifest, p), _doc(BUILTIN / "rskills/random-mock/rskill.yaml")),
+    "robot": (lambda p: load_model(RobotManifest, p), _doc(BUILTIN / "robots/mock_arm/robot.yaml")),
     "mapping": (load_mapping, MAPPING),
     "pipeline": (load_pipeline, PIPELINE),
     "cameras": (load_view, CAMERAS),

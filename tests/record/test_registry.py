@@ -10,7 +10,7 @@ import pytest
 # ConfigError raises are matched by message on purpose: the file and field it names are the point
 from openral_data.errors import ConfigError, UsageError
 from openral_data.record import registry
-from tests.support.home import REPO
+from tests.support.home import BUILTIN
 
 
 def test_robots_are_discovered_from_folders(project: Path) -> None:
@@ -36,13 +36,13 @@ def test_robot_name_must_match_folder(project: Path) -> None:
 def test_references_by_id_and_path(project: Path) -> None:
     rs, path = registry.resolve_rskill("zero-mock")
     assert rs.policy == "zero" and path == project / "rskills/zero-mock/rskill.yaml"
-    assert registry.resolve_rskill(str(REPO / "rskills/random-mock"))[0].policy == "random"
+    assert registry.resolve_rskill(str(BUILTIN / "rskills/random-mock"))[0].policy == "random"
     assert registry.resolve_scene_path("mock_pick") == project / "scenes/sim/mock_pick.yaml"
     assert registry.resolve_scene_path("mock_workcell") == project / "scenes/deploy/mock_workcell.yaml"
     assert set(registry.SCENES) >= {"mock"} and set(registry.POLICIES) >= {"zero", "random"}
 
 
-@pytest.mark.parametrize("path", sorted((REPO / "scenes").glob("[sb]*/*.yaml")), ids=lambda p: p.stem)
+@pytest.mark.parametrize("path", sorted((BUILTIN / "scenes").glob("[sb]*/*.yaml")), ids=lambda p: p.stem)
 def test_every_shipped_scene_names_a_default_rskill_for_its_robot(path: Path) -> None:
     """`record --scene ID` without --rskill uses the scene's default_rskill: it must exist and fit the robot."""
     from openral_data.schemas.scene import load_recordable_scene

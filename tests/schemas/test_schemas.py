@@ -18,21 +18,21 @@ from openral_data.schemas import (
     load_recordable_scene,
     load_scene,
 )
-from tests.support.home import REPO
+from tests.support.home import BUILTIN
 from tests.support.scenes import mock_scene, write_yaml
 
 
 def test_shipped_manifests_load() -> None:
-    for path in sorted((REPO / "robots").glob("*/robot.yaml")):
+    for path in sorted((BUILTIN / "robots").glob("*/robot.yaml")):
         assert load_model(RobotManifest, path).name == path.parent.name
-    for path in sorted((REPO / "rskills").glob("*/rskill.yaml")):
+    for path in sorted((BUILTIN / "rskills").glob("*/rskill.yaml")):
         assert load_model(RSkillManifest, path).id == path.parent.name
-    tiers = {p.parent.name: type(load_scene(p)) for p in (REPO / "scenes").glob("*/*.yaml")}
+    tiers = {p.parent.name: type(load_scene(p)) for p in (BUILTIN / "scenes").glob("*/*.yaml")}
     assert tiers == {"sim": SimScene, "benchmark": BenchmarkScene, "deploy": DeployScene}
 
 
 def _robot(tmp_path: Path, **changes: object) -> Path:
-    data = dict(__import__("yaml").safe_load((REPO / "robots/mock_arm/robot.yaml").read_text()))
+    data = dict(__import__("yaml").safe_load((BUILTIN / "robots/mock_arm/robot.yaml").read_text()))
     data.update(changes)
     return write_yaml(tmp_path / "robot.yaml", data)
 
@@ -53,7 +53,7 @@ def test_nested_field_error_is_located(tmp_path: Path) -> None:
 
 
 def test_contract_names_must_match_dim(tmp_path: Path) -> None:
-    data = __import__("yaml").safe_load((REPO / "rskills/zero-mock/rskill.yaml").read_text())
+    data = __import__("yaml").safe_load((BUILTIN / "rskills/zero-mock/rskill.yaml").read_text())
     data["action_contract"]["names"] = ["a", "b"]
     path = write_yaml(tmp_path / "rskill.yaml", data)
     with pytest.raises(ConfigError, match=r"rskill\.yaml: action_contract: .*names has 2 entries but dim is 7"):
@@ -112,5 +112,5 @@ def test_tiers_are_strict(tmp_path: Path) -> None:
 
 def test_record_refuses_deploy_scene_with_reason() -> None:
     with pytest.raises(ConfigError, match="deploy scenes have no task"):
-        load_recordable_scene(REPO / "scenes/deploy/mock_workcell.yaml")
-    assert isinstance(load_recordable_scene(REPO / "scenes/benchmark/mock_pick_bench.yaml"), BenchmarkScene)
+        load_recordable_scene(BUILTIN / "scenes/deploy/mock_workcell.yaml")
+    assert isinstance(load_recordable_scene(BUILTIN / "scenes/benchmark/mock_pick_bench.yaml"), BenchmarkScene)

@@ -10,7 +10,7 @@ from typing import Any
 
 import yaml
 
-from tests.support.home import REPO
+from tests.support.home import BUILTIN
 
 
 def snapshot(root: Path) -> dict[str, bytes | None]:
@@ -62,5 +62,5 @@ class Workspace:
         return self.write(rel, yaml.safe_dump(data, sort_keys=False))
 
     def repo_yaml(self, rel: str) -> Any:
-        """A manifest of the repository, parsed (to change one field of it)."""
-        return yaml.safe_load((REPO / rel).read_text())
+        """A built-in manifest (`rel` under openral_data/builtin/), parsed (to change one field of it)."""
+        return yaml.safe_load((BUILTIN / rel).read_text())

@@ -12,13 +12,23 @@ import signal
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from typing import Any
 
+from openral_data import manifests
 from openral_data.errors import ExecutorError, OpenralError, UsageError
 from openral_data.record.parallel.plan import WorkerJob
 from openral_data.record.parallel.worker import WorkerResult, init_local_worker, run_worker
 
 EXECUTORS = ("local", "ray")
 # environment a worker needs to find the same manifests and render the same way
-_FORWARDED_ENV = ("OPENRAL_DATA_HOME", "MUJOCO_GL", "PYOPENGL_PLATFORM", "HF_HOME", "HF_HUB_OFFLINE", "SVT_LOG")
+_FORWARDED_ENV = (
+    *manifests.ENV_DIRS.values(),
+    "OPENRAL_DATA_CONFIG",
+    "XDG_CONFIG_HOME",
+    "MUJOCO_GL",
+    "PYOPENGL_PLATFORM",
+    "HF_HOME",
+    "HF_HUB_OFFLINE",
+    "SVT_LOG",
+)
 
 
 def run_local(jobs: list[WorkerJob]) -> list[WorkerResult]:
@@ -60,6 +70,7 @@ def run_ray(jobs: list[WorkerJob], address: str | None = None) -> list[WorkerRes
     started = False
     if not ray.is_initialized():
         env = {k: os.environ[k] for k in _FORWARDED_ENV if k in os.environ}
+        env["OPENRAL_DATA_HOME"] = str(manifests.project_dir())  # a Ray worker runs in a folder of Ray's own
         kwargs: dict[str, Any] = {
             "include_dashboard": False,
             "log_to_driver": False,

@@ -17,7 +17,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from openral_data import paths
+from openral_data import manifests
 from openral_data.edit.ops import summed_histograms, write_selection
 from openral_data.edit.source import SourceDataset
 from openral_data.errors import ExecutorError, OpenralError, UsageError
@@ -98,7 +98,7 @@ def find_workers_dir(out: Path | None) -> Path | None:
     """This process's workers folder for `out` (None: the default output under datasets/), if it exists."""
     if out is not None:
         return workers_dir(out) if workers_dir(out).is_dir() else None
-    found = sorted(paths.datasets_dir().glob(f".*.workers-{os.getpid()}"))
+    found = sorted(manifests.datasets_dir().glob(f".*.workers-{os.getpid()}"))
     return found[0] if found else None
 
 

@@ -25,7 +25,7 @@ from openral_data.errors import ConfigError
 from openral_data.producers.sim.libero.config import import_libero
 from openral_data.record.options import RecordOptions
 from openral_data.record.sim import record
-from tests.support.home import REPO
+from tests.support.home import BUILTIN
 from tests.support.suites import (
     assert_same,
     build,
@@ -84,7 +84,7 @@ def test_shipped_scenes_carry_the_suites_instruction(suite: str) -> None:
     bench = benchmark.get_benchmark_dict()[f"libero_{suite}"]()
     assert bench.get_num_tasks() == 10
     for tier, name in (("sim", f"libero_{suite}"), ("benchmark", f"libero_{suite}_bench")):
-        data = yaml.safe_load((REPO / f"scenes/{tier}/{name}.yaml").read_text())
+        data = yaml.safe_load((BUILTIN / f"scenes/{tier}/{name}.yaml").read_text())
         task = bench.get_task(data["scene"]["params"]["task"])
         assert data["task"]["instruction"] == task.language
         assert len(bench.get_task_init_states(data["scene"]["params"]["task"])) == 50

@@ -18,7 +18,7 @@ import numpy as np
 import numpy.typing as npt
 from pydantic import ValidationError
 
-from openral_data import paths
+from openral_data import manifests
 from openral_data.errors import ConfigError
 from openral_data.producers.sim.contract import check_representations, scene_spec
 from openral_data.producers.sim.initial_state import check_format, check_recorded_on
@@ -48,8 +48,8 @@ STATE_FORMAT = 1
 
 def load_wiring(robot: RobotManifest) -> tuple[MujocoRobotWiring, Path, Path, str]:
     """The robot's MuJoCo wiring and its MJCF files; ConfigError naming the manifest field otherwise."""
-    folder = paths.robots_dir() / robot.name
-    source = str(folder / "robot.yaml")
+    manifest = manifests.robot_file(robot.name)
+    folder, source = manifest.parent, str(manifest)
     if robot.sim is None:
         raise ConfigError(f"{source}: sim: robot {robot.name!r} has no MuJoCo wiring (sim block)")
     try:

@@ -1,0 +1,137 @@
+"""What this installation knows: every scene, rSkill and robot on the manifest search path (where each comes
+from, what it overrides, whether it loads), the registered scene types and policies, and broken plug-ins.
+
+`openral-data list` prints it as tables or as one JSON document (`Catalog.to_json`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from functools import partial
+
+from openral_data import manifests
+from openral_data.errors import OpenralError
+from openral_data.record import registry
+from openral_data.schemas.base import load_model
+from openral_data.schemas.rskill import RSkillManifest
+from openral_data.schemas.scene import load_scene
+
+__all__ = ["SECTIONS", "Catalog", "Item", "catalog"]
+
+SECTIONS = ("scenes", "rskills", "robots", "scene_types", "policies")
+
+
+@dataclass(frozen=True)
+class Item:
+    """One entry. `fields` are the kind's own columns (empty when `error` says why it does not load)."""
+
+    id: str
+    origin: str
+    path: str | None = None
+    overrides: tuple[str, ...] = ()
+    fields: dict[str, object] = field(default_factory=dict)
+    error: str | None = None
+
+
+@dataclass(frozen=True)
+class Catalog:
+    sections: dict[str, list[Item]]
+    plugin_problems: list[manifests.PluginProblem]
+
+    def to_json(self) -> dict[str, object]:
+        """Sections by name, each a list of `{id, origin, path, overrides, error, <fields>}`, and the problems."""
+        doc: dict[str, object] = {}
+        for name, items in self.sections.items():
+            doc[name] = [
+                {
+                    "id": it.id,
+                    "origin": it.origin,
+                    "path": it.path,
+                    "overrides": list(it.overrides),
+                    "error": it.error,
+                    **it.fields,
+                }
+                for it in items
+            ]
+        doc["plugin_problems"] = [asdict(p) for p in self.plugin_problems]
+        return doc
+
+
+def catalog(sections: tuple[str, ...] = SECTIONS) -> Catalog:
+    builders: dict[str, Callable[[], list[Item]]] = {
+        "scenes": _scenes,
+        "rskills": _rskills,
+        "robots": _robots,
+        "scene_types": partial(_factories, registry.SCENES),
+        "policies": partial(_factories, registry.POLICIES),
+    }
+    built = {name: builders[name]() for name in sections}
+    return Catalog(built, manifests.plugin_problems())
+
+
+def _entry_item(entry: manifests.Entry, fields: dict[str, object] | None, error: str | None) -> Item:
+    return Item(entry.id, entry.origin, str(entry.path), entry.overrides, fields or {}, error)
+
+
+def _scenes() -> list[Item]:
+    out = []
+    for entry in manifests.entries("scenes").values():
+        try:
+            sc = load_scene(entry.path)
+        except OpenralError as exc:
+            out.append(_entry_item(entry, None, str(exc)))
+            continue
+        spec = sc.scene
+        fields: dict[str, object] = {
+            "tier": sc.tier,
+            "type": spec.type,
+            "robot": spec.robot,
+            "default_rskill": spec.default_rskill,
+        }
+        out.append(_entry_item(entry, fields, None))
+    return out
+
+
+def _rskills() -> list[Item]:
+    out = []
+    for entry in manifests.entries("rskills").values():
+        try:
+            rs = load_model(RSkillManifest, entry.path)
+        except OpenralError as exc:
+            out.append(_entry_item(entry, None, str(exc)))
+            continue
+        fields: dict[str, object] = {
+            "policy": rs.policy,
+            "embodiment_tags": list(rs.embodiment_tags),
+            "state_dim": rs.state_contract.dim,
+            "state_representation": rs.state_contract.representation,
+            "action_dim": rs.action_contract.dim,
+            "action_representation": rs.action_contract.representation,
+            "cameras": list(rs.required_cameras),
+        }
+        out.append(_entry_item(entry, fields, None))
+    return out
+
+
+def _robots() -> list[Item]:
+    out = []
+    for entry in manifests.entries("robots").values():
+        try:
+            rb = registry.load_robot(entry.id)
+        except OpenralError as exc:
+            out.append(_entry_item(entry, None, str(exc)))
+            continue
+        fields: dict[str, object] = {
+            "embodiment_tags": list(rb.embodiment_tags),
+            "joints": len(rb.joints),
+            "state_dim": rb.observation.state.dim,
+            "action_dim": rb.action.dim,
+            "cameras": [c.name for c in rb.sensors.cameras],
+        }
+        out.append(_entry_item(entry, fields, None))
+    return out
+
+
+def _factories(reg: registry.Registry[registry.SceneFactory] | registry.Registry[registry.PolicyFactory]) -> list[Item]:
+    return [Item(ident, reg.origin(ident)) for ident in reg]
