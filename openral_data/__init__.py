@@ -7,6 +7,8 @@ The Python API (docs/python-api.md); the `openral-data` command line wraps the s
 - conversion: `convert_bags(...) -> ConvertSummary` (bags -> LeRobot v3), `export_mcap(...) -> ExportSummary`
 - checking: `check(root) -> list[Finding]`, `repair(root) -> RepairResult`
 - reading: `summarize(root) -> DatasetSummary`, `stats_query(paths, sql) -> Table` (DuckDB over the stats views)
+- extending: `SCENES` and `POLICIES` (`@SCENES.register("id")` over a factory; plug-ins also use entry points),
+  `ROBOTS` (every robot manifest on the search path; docs/plugins.md)
 - the schemas (`RobotManifest`, `RSkillManifest`, `SimScene`, `BenchmarkScene`, `load_scene`), the shared types
   (`Observation`, `Frame`, `DatasetSchema`, `EpisodeRecord`, `SimRollout`, `Sink`, ...) and errors (`OpenralError`).
 
@@ -24,6 +26,9 @@ from openral_data.version import __version__
 # public name -> the module that defines it
 _API: dict[str, str] = {
     "record": "openral_data.record.sim",
+    "SCENES": "openral_data.record.registry",
+    "POLICIES": "openral_data.record.registry",
+    "ROBOTS": "openral_data.record.registry",
     "RecordOptions": "openral_data.record.options",
     "RecordSummary": "openral_data.record.options",
     "replay": "openral_data.replay",
@@ -62,6 +67,9 @@ _API: dict[str, str] = {
 }
 
 __all__ = [
+    "POLICIES",
+    "ROBOTS",
+    "SCENES",
     "BenchmarkScene",
     "CameraShape",
     "CompatibilityError",
@@ -109,6 +117,7 @@ if TYPE_CHECKING:
     from openral_data.metrics.command import stats_query
     from openral_data.metrics.report import Table
     from openral_data.record.options import RecordOptions, RecordSummary
+    from openral_data.record.registry import POLICIES, ROBOTS, SCENES
     from openral_data.record.sim import record
     from openral_data.replay import ReplayOptions, ReplaySummary, replay
     from openral_data.schemas import BenchmarkScene, RobotManifest, RSkillManifest, SimScene, load_scene

@@ -17,7 +17,7 @@ from openral_data.schemas.base import load_model
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import load_scene
 
-__all__ = ["SECTIONS", "Catalog", "Item", "catalog"]
+__all__ = ["SECTIONS", "Catalog", "Item", "catalog", "plugin_problems"]
 
 SECTIONS = ("scenes", "rskills", "robots", "scene_types", "policies")
 
@@ -67,7 +67,13 @@ def catalog(sections: tuple[str, ...] = SECTIONS) -> Catalog:
         "policies": partial(_factories, registry.POLICIES),
     }
     built = {name: builders[name]() for name in sections}
-    return Catalog(built, manifests.plugin_problems())
+    return Catalog(built, plugin_problems())
+
+
+def plugin_problems() -> list[manifests.PluginProblem]:
+    """Every broken plug-in: all entry-point groups are loaded first (the registries load theirs lazily)."""
+    len(registry.SCENES), len(registry.POLICIES)
+    return manifests.plugin_problems()
 
 
 def _entry_item(entry: manifests.Entry, fields: dict[str, object] | None, error: str | None) -> Item:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
+from types import ModuleType
 from typing import Literal, cast
 
 from openral_data import manifests
@@ -131,6 +132,8 @@ class Registry[F: Callable[..., object]](Mapping[str, F]):
             return
         self._loaded = True
         for name, dist, factory in manifests.plugin_objects(self.group):
+            if isinstance(factory, ModuleType):  # a module: importing it ran its @register decorators
+                continue
             problem = None
             if not callable(factory):
                 problem = f"names a {type(factory).__name__}, not a factory"

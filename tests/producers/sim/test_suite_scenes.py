@@ -4,9 +4,7 @@ LIBERO extra's conflicts and its refusal outside its own environment."""
 from __future__ import annotations
 
 import importlib.util
-import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -19,6 +17,7 @@ from openral_data.record.sim import record
 from openral_data.schemas.scene import BenchmarkScene, load_recordable_scene
 from tests.support.cli import run_cli
 from tests.support.home import REPO
+from tests.support.uv import uv
 
 SIM = ["pusht", "aloha_transfer_cube", "aloha_insertion", "libero_spatial", "libero_object", "libero_goal", "libero_10"]
 RSKILL = {"gym_pusht": "random-pusht", "gym_aloha": "random-aloha", "libero": "random-libero"}
@@ -58,14 +57,9 @@ def test_libero_outside_its_environment_is_one_line_naming_the_extra(project: Pa
 
 
 def test_resolver_refuses_libero_next_to_robosuite_or_metaworld() -> None:
-    # scripts/setup.sh installs uv into the interpreter .venv was made from (pyenv's), not necessarily onto PATH
-    base_uv = Path(sys.base_prefix) / "bin" / "uv"
-    uv = shutil.which("uv") or (str(base_uv) if base_uv.is_file() else None)
-    if uv is None or subprocess.run([uv, "--version"], capture_output=True, check=False, timeout=60).returncode:
-        pytest.skip("uv is neither on PATH nor beside the base interpreter")
     for other in ("robosuite", "metaworld"):
         proc = subprocess.run(
-            [uv, "sync", "--frozen", "--dry-run", "--extra", "libero", "--extra", other],
+            [uv(), "sync", "--frozen", "--dry-run", "--extra", "libero", "--extra", other],
             cwd=REPO,
             capture_output=True,
             text=True,

@@ -1,0 +1,1 @@
+raise ImportError("the vendor SDK this plug-in needs is not installed")
