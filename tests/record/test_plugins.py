@@ -14,6 +14,8 @@ import numpy as np
 import pytest
 
 from openral_data import POLICIES, SCENES
+from openral_data.policies.base import PolicyAdapter
+from openral_data.policies.basic import ZeroPolicy
 from openral_data.record import registry
 from openral_data.schemas.rskill import RSkillManifest
 from tests.support.cli import run_cli
@@ -104,8 +106,8 @@ print(json.dumps({
 
 def test_decorator_registers_into_the_registry() -> None:
     @POLICIES.register("test_zero_plugin")
-    def factory(rskill: RSkillManifest) -> object:
-        return rskill
+    def factory(rskill: RSkillManifest) -> PolicyAdapter:
+        return ZeroPolicy(rskill)
 
     assert POLICIES["test_zero_plugin"] is factory and "test_zero_plugin" in list(POLICIES)
     assert POLICIES.origin("test_zero_plugin") == f"registered by {__name__}"
