@@ -11,6 +11,7 @@ from rich.console import Console
 from rich.table import Table
 
 from openral_data import paths
+from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import console, print_line, print_rows
 from openral_data.errors import OpenralError
 from openral_data.record import registry
@@ -22,11 +23,14 @@ class ListWhat(StrEnum):
     robots = "robots"
 
 
-def info(dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset folder")]) -> None:
+def info(dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset folder")], json: JsonFlag = False) -> None:
     """Print a dataset's summary: episodes, frames, tasks, cameras, success rate."""
     from openral_data.formats.lerobot_v3 import summarize
 
     s = summarize(dataset)
+    if json:
+        print_json("info", s.to_json())
+        return
     rate = s.success_rate
     print_rows(
         str(dataset),
@@ -129,11 +133,15 @@ def doctor(
     deep: Annotated[
         bool, typer.Option("--deep", help="also decode every frame and compare it with the stored image statistics")
     ] = False,
+    json: JsonFlag = False,
 ) -> None:
     """Check a dataset against lerobot 0.6.1's format rules, one line per finding; exit 1 on errors."""
-    from openral_data.doctor.command import run_doctor
+    from openral_data.doctor.command import doctor_report
 
-    text, code = run_doctor(dataset, repair, deep)
-    print_line(text)
-    if code:
-        raise typer.Exit(code)
+    report = doctor_report(dataset, repair, deep)
+    if json:
+        print_json("doctor", report.to_json())
+    else:
+        print_line(report.text())
+    if report.exit_code:
+        raise typer.Exit(report.exit_code)
