@@ -262,3 +262,14 @@ def test_an_error_prints_no_json(args: list[str], tmp_path: Path, project: Path)
     lines = done.stderr.splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: "), done.stderr
     assert not (tmp_path / "o").exists() and not (tmp_path / "dst").exists()
+
+
+def test_every_exit_status_the_cli_uses_is_documented() -> None:
+    """The exit-code table lists each literal status `cli/` exits with (typer.Exit(N), sys.exit(N))."""
+    text = DOC.read_text()
+    table = text[text.index("<!-- exit-codes -->") :]
+    documented = {int(m) for m in re.findall(r"^\| (\d+)", table, flags=re.M)}
+    used = {0}  # a command that returns
+    for path in (REPO / "openral_data" / "cli").glob("*.py"):
+        used |= {int(m) for m in re.findall(r"(?:Exit|sys\.exit)\((\d+)\)", path.read_text())}
+    assert used == documented, (sorted(used), sorted(documented))
