@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Annotated, cast
 import typer
 
 from openral_data.cli.choices import CodecChoice
+from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import print_rows, progress_bar
 from openral_data.errors import NotFound, UsageError
 
@@ -27,13 +28,14 @@ def convert(
     image_format: Annotated[
         str, typer.Option(help="MCAP camera messages: jpeg, png or raw (LeRobot -> MCAP)")
     ] = "jpeg",
+    json: JsonFlag = False,
 ) -> None:
     """Convert bags/MCAP to a LeRobot v3 dataset, or a LeRobot v3 dataset to ROS 2 MCAP bags."""
-    _convert(src, dst, mapping, codec.value, episodes, image_format)
+    _convert(src, dst, mapping, codec.value, episodes, image_format, json)
 
 
 def _convert(
-    src: Path, dst: Path, mapping_path: Path | None, codec: str, episodes: str | None, image_format: str
+    src: Path, dst: Path, mapping_path: Path | None, codec: str, episodes: str | None, image_format: str, json: bool
 ) -> None:
     from openral_data.convert.to_mcap import export_mcap, is_lerobot_dataset
     from openral_data.formats.mcap import IMAGE_FORMATS, McapConfig
@@ -54,6 +56,9 @@ def _convert(
             summary = export_mcap(
                 src, dst, episodes=episodes, config=config, progress=lambda d, t: bar.update(task, completed=d, total=t)
             )
+        if json:
+            print_json("convert", summary.to_json())
+            return
         print_rows(
             "exported",
             [
@@ -83,6 +88,9 @@ def _convert(
             codec=cast("Codec", codec),
             progress=lambda d, t: bar.update(task, completed=d, total=t),
         )
+    if json:
+        print_json("convert", result.to_json(mapping))
+        return
     rows = [
         ("source", f"{src} ({result.bags} bag(s))"),
         ("output", str(dst)),

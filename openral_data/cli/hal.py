@@ -7,11 +7,12 @@ from typing import cast
 
 import typer
 
+from openral_data.cli.jsonout import print_json
 from openral_data.cli.terminal import INTERRUPTED_RECORDING, print_line, print_rows
 from openral_data.errors import UsageError
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.producers.hal.operator import HELP
-from openral_data.record.hal import HalRecordOptions, Mode, record_hal
+from openral_data.record.hal import HalRecordOptions, HalRecordSummary, Mode, record_hal
 from openral_data.schemas.hal import SafetyMode
 
 
@@ -32,6 +33,7 @@ def run_hal_record(
     safety: str | None,
     staleness: float | None,
     port: str | None,
+    json: bool = False,
 ) -> None:
     from openral_data.record.sinks import parse_formats
 
@@ -64,6 +66,15 @@ def run_hal_record(
     except KeyboardInterrupt:
         print_line(INTERRUPTED_RECORDING, err=True)
         raise typer.Exit(130) from None
+    if json:
+        print_json("record", {"hal": robot, "mode": mode, "fps": fps, **s.to_json()})
+    else:
+        _print_summary(s, fps)
+    if s.estop is not None:
+        raise typer.Exit(1)
+
+
+def _print_summary(s: HalRecordSummary, fps: int) -> None:
     rows = [
         ("output", str(s.out)),
         ("episodes", f"{len(s.episodes)} kept, {s.discarded} discarded"),
@@ -71,12 +82,10 @@ def run_hal_record(
         ("fps", str(fps)),
         ("overruns", f"{s.overruns} ({s.missed_ticks} ticks missed)"),
         ("stale ticks", str(s.stale_ticks)),
-        ("repeated samples", str(sum(sum(r.repeated.values()) for r in s.all_reports))),
+        ("repeated samples", str(s.repeated_samples)),
         ("safety interventions", str(s.interventions)),
         ("verdicts", ", ".join(r.verdict for r in s.reports) or "-"),
     ]
     if s.estop is not None:
         rows.append(("e-stop", s.estop))
     print_rows("recorded (hal)", rows)
-    if s.estop is not None:
-        raise typer.Exit(1)

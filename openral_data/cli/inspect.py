@@ -1,4 +1,4 @@
-"""`openral-data info | list | view | doctor`: look at datasets and at what this checkout knows."""
+"""`openral-data info | list | view | doctor`: look at datasets and at what this installation knows."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from openral_data import paths
-from openral_data.cli.jsonout import print_json
+from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import console, print_line, print_rows
 
 if TYPE_CHECKING:
@@ -28,11 +28,14 @@ class ListWhat(StrEnum):
     policies = "policies"
 
 
-def info(dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset folder")]) -> None:
+def info(dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset folder")], json: JsonFlag = False) -> None:
     """Print a dataset's summary: episodes, frames, tasks, cameras, success rate."""
     from openral_data.formats.lerobot_v3 import summarize
 
     s = summarize(dataset)
+    if json:
+        print_json("info", s.to_json())
+        return
     rate = s.success_rate
     print_rows(
         str(dataset),
@@ -51,7 +54,7 @@ def info(dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset fold
 
 def list_cmd(
     what: Annotated[ListWhat, typer.Argument(help="what to list (default: everything)")] = ListWhat.all,
-    as_json: Annotated[bool, typer.Option("--json", help="print one JSON document instead of tables")] = False,
+    json: JsonFlag = False,
 ) -> None:
     """List the scenes, rSkills, robots, scene types and policies this installation knows, and where each comes
     from (built-in, plug-in, user, project, --*-dir); a broken plug-in is reported on one line, never fatal."""
@@ -61,8 +64,8 @@ def list_cmd(
     cat = catalog(sections)
     for problem in cat.plugin_problems:
         print_line("warning: " + problem.line(), err=True)
-    if as_json:
-        print_json({"command": "list", **cat.to_json()})
+    if json:
+        print_json("list", cat.to_json())
         return
     # piped or redirected: no terminal width to fit, so never cut a cell (ids, tags and paths stay greppable)
     out = console if console.is_terminal else Console(width=1000, color_system=None)
@@ -77,30 +80,21 @@ _SECTION = {
     ListWhat.types: "scene_types",
     ListWhat.policies: "policies",
 }
-# each section's columns after the id: (title, the fields shown in it, space-separated)
-_COLUMNS: dict[str, tuple[tuple[str, str], ...]] = {
-    "scenes": (("tier", "tier"), ("type", "type"), ("robot", "robot"), ("default rSkill", "default_rskill")),
-    "rskills": (
-        ("policy", "policy"),
-        ("embodiment", "embodiment_tags"),
-        ("state", "state_dim state_representation"),
-        ("action", "action_dim action_representation"),
-        ("cameras", "cameras"),
-    ),
-    "robots": (
-        ("embodiment", "embodiment_tags"),
-        ("joints", "joints"),
-        ("state", "state_dim"),
-        ("action", "action_dim"),
-        ("cameras", "cameras"),
-    ),
-    "scene_types": (),
-    "policies": (),
+# columns whose title is not the field's name (several fields may share a column, space-separated)
+_TITLES = {
+    "default_rskill": "default rSkill",
+    "embodiment_tags": "embodiment",
+    "state_dim": "state",
+    "action_dim": "action",
 }
+_JOINED = {"state_dim": "state_representation", "action_dim": "action_representation"}
 
 
 def _table(name: str, items: list[Item]) -> Table:
-    columns = _COLUMNS[name]
+    from openral_data.record.catalog import FIELDS
+
+    joined = set(_JOINED.values())
+    columns = [(_TITLES.get(key, key), key) for key in FIELDS[name] if key not in joined]
     with_path = name in ("scenes", "rskills", "robots")
     table = Table(title=name.replace("_", " "), title_justify="left")
     for col in ("id", *(c for c, _ in columns), "from", *(("path",) if with_path else ())):
@@ -110,7 +104,7 @@ def _table(name: str, items: list[Item]) -> Table:
         if it.error is not None:
             cells = ["[red]invalid: " + escape(it.error), *("" for _ in columns[1:])] if columns else []
         else:
-            cells = [" ".join(_cell(it.fields.get(key)) for key in keys.split()) for _, keys in columns]
+            cells = [" ".join(_cell(it.fields.get(k)) for k in (key, _JOINED.get(key)) if k) for _, key in columns]
         table.add_row(escape(it.id), *cells, escape(origin), *((escape(it.path or ""),) if with_path else ()))
     return table
 
@@ -143,11 +137,18 @@ def doctor(
     deep: Annotated[
         bool, typer.Option("--deep", help="also decode every frame and compare it with the stored image statistics")
     ] = False,
+    json: JsonFlag = False,
 ) -> None:
     """Check a dataset against lerobot 0.6.1's format rules, one line per finding; exit 1 on errors."""
-    from openral_data.doctor.command import run_doctor
+    from openral_data.doctor.command import doctor_report
+    from openral_data.record.catalog import plugin_problems
 
-    text, code = run_doctor(dataset, repair, deep)
-    print_line(text)
-    if code:
-        raise typer.Exit(code)
+    for problem in plugin_problems():  # a broken plug-in is worth knowing about whatever is checked
+        print_line("warning: " + problem.line(), err=True)
+    report = doctor_report(dataset, repair, deep)
+    if json:
+        print_json("doctor", report.to_json())
+    else:
+        print_line(report.text())
+    if report.exit_code:
+        raise typer.Exit(report.exit_code)

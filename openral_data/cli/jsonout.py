@@ -1,15 +1,44 @@
-"""`--json`: one JSON document on stdout (progress and logs stay on stderr)."""
+"""`--json`: one JSON document on stdout, the same shape for every command (docs/scripting.md)."""
 
 from __future__ import annotations
 
 import json
+import math
 import sys
 from collections.abc import Mapping
+from pathlib import Path
+from typing import Annotated
+
+import typer
 
 from openral_data.version import __version__
 
 
-def print_json(doc: Mapping[str, object]) -> None:
-    """`doc` with the package `version` after its `command`, indented, UTF-8, as the only thing on stdout."""
-    out = {"command": doc.get("command"), "version": __version__, **{k: v for k, v in doc.items() if k != "command"}}
-    sys.stdout.write(json.dumps(out, indent=2, ensure_ascii=False) + "\n")
+def print_json(command: str, doc: Mapping[str, object]) -> None:
+    """Write `{"command": command, "version": <package version>, **doc}` to stdout as ONE line of JSON.
+
+    Keys keep the order given (`command`, `version`, then the command's fields as docs/scripting.md lists them);
+    non-ASCII stays as is (UTF-8); a path becomes its string; a non-finite float becomes null (JSON has no NaN).
+    Nothing else may be written to stdout by a `--json` run: progress and messages go to stderr.
+    """
+    full = {"command": command, "version": __version__, **doc}
+    text = json.dumps(_plain(full), ensure_ascii=False, allow_nan=False)
+    sys.stdout.write(text + "\n")
+    sys.stdout.flush()
+
+
+def _plain(value: object) -> object:
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, Path):
+        return str(value)
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    return value
+
+
+JsonFlag = Annotated[
+    bool, typer.Option("--json", help="print one JSON document on stdout instead (fields: docs/scripting.md)")
+]

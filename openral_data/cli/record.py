@@ -9,6 +9,7 @@ import typer
 
 from openral_data import manifests
 from openral_data.cli.choices import CodecChoice
+from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import INTERRUPTED_RECORDING, print_line, print_rows, progress_bar
 from openral_data.errors import UsageError
 
@@ -49,6 +50,7 @@ def record(
     executor: Annotated[str, typer.Option(help="local (processes on this machine) or ray")] = "local",
     address: Annotated[str | None, typer.Option(help="Ray cluster address (--executor ray)")] = None,
     threads_per_worker: Annotated[int | None, typer.Option(help="renderer threads per worker (LP_NUM_THREADS)")] = None,
+    json: JsonFlag = False,
 ) -> None:
     """Record episodes of SCENE driven by RSKILL into a LeRobotDataset v3 and/or ROS 2 MCAP bags."""
     if hal is not None:
@@ -60,7 +62,7 @@ def record(
 
         run_hal_record(
             hal, mode, rskill or DEFAULT_RSKILL, fps, scene if scene != manifests.DEFAULT_SCENE else None, n_episodes,
-            max_steps, seed, out, codec.value, format, image_format, operator, safety, staleness, port,
+            max_steps, seed, out, codec.value, format, image_format, operator, safety, staleness, port, json,
         )  # fmt: skip
         return
     hal_only = {"--mode": mode != "sim", "--fps": fps != 20, "--operator": operator != "auto", "--safety": safety,
@@ -108,7 +110,10 @@ def record(
             bar.stop()
             _interrupted(opts.out, parallel)
             raise typer.Exit(130) from None
-    _print_summary(summary, resume, f"{workers} ({executor})" if parallel else None)
+    if json:
+        print_json("record", {**summary.to_json(), "workers": workers, "executor": executor if parallel else None})
+    else:
+        _print_summary(summary, resume, f"{workers} ({executor})" if parallel else None)
 
 
 def _interrupted(out: Path | None, parallel: bool) -> None:

@@ -9,6 +9,7 @@ import typer
 
 from openral_data import paths
 from openral_data.cli.choices import CodecChoice
+from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import print_line, print_rows, progress_bar
 
 if TYPE_CHECKING:
@@ -29,6 +30,7 @@ def replay(
     codec: Annotated[CodecChoice, typer.Option(help="video codec of --record")] = CodecChoice.av1,
     format: Annotated[str, typer.Option("--format", help="--record formats: lerobot, mcap or both")] = "lerobot",
     label: Annotated[str | None, typer.Option(help="label of the results in stats")] = None,
+    json: JsonFlag = False,
 ) -> None:
     """Replay recorded actions through the rebuilt scene, or evaluate a policy against recorded episodes."""
     from openral_data.record.sinks import parse_formats
@@ -53,6 +55,9 @@ def replay(
         formats=parse_formats(format),
     )
     summary = _run(opts)
+    if json:
+        print_json("replay", summary.to_json())
+        return
     print_rows("replayed" if opts.mode == "actions" else "evaluated", summary.rows())
 
 

@@ -14,7 +14,7 @@ import heapq
 import json
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -74,6 +74,34 @@ class ConvertSummary:
     @property
     def fps(self) -> float:
         return self.frames / self.seconds if self.seconds > 0 else 0.0
+
+    def to_json(self, mapping: Mapping) -> dict[str, object]:
+        """The fields of `convert --json` for bags -> LeRobot (made with `mapping`), in docs/scripting.md's
+        order."""
+        return {
+            "direction": "bags-to-lerobot",
+            "source": str(self.src),
+            "out": str(self.dst),
+            "bags": self.bags,
+            "episodes": len(self.episodes),
+            "frames": self.frames,
+            "fps": mapping.fps,
+            "seconds": self.seconds,
+            "frames_per_s": self.fps,
+            "align_method": mapping.align.method,
+            "align_clock": mapping.align.clock,
+            "max_staleness_s": mapping.align.max_staleness,
+            "topics": {t: asdict(r) for t, r in self.topics.items()},
+            "unfillable_frames": self.unfillable_frames,
+            "splits": self.splits,
+            "empty_segments": self.empty_segments,
+            "late_messages": self.late_messages if mapping.align.clock == "header" else None,
+            "reward_topic": mapping.reward.topic if mapping.reward is not None else None,
+            "success_topic": mapping.success.topic if mapping.success is not None else None,
+            "success_markers": mapping.success is not None and mapping.success.marker,
+            "skipped_topics": dict(sorted(self.skipped_topics.items())),
+            "episode_list": [asdict(e) for e in self.episodes],
+        }
 
 
 @dataclass

@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -40,6 +40,20 @@ class ExportSummary:
     @property
     def fps(self) -> float:
         return self.frames / self.seconds if self.seconds > 0 else 0.0
+
+    def to_json(self) -> dict[str, object]:
+        """The fields of `convert --json` for LeRobot -> MCAP, in docs/scripting.md's order."""
+        return {
+            "direction": "lerobot-to-mcap",
+            "source": str(self.src),
+            "out": str(self.dst),
+            "episodes": len(self.episodes),
+            "frames": self.frames,
+            "seconds": self.seconds,
+            "frames_per_s": self.fps,
+            "not_exported": list(self.skipped_features),
+            "episode_list": [asdict(e) for e in self.episodes],
+        }
 
 
 def is_lerobot_dataset(path: Path) -> bool:

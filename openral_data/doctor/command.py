@@ -1,8 +1,9 @@
-"""`openral-data doctor DATASET [--repair] [--deep]`: the report text and the exit status (1 while errors
-remain)."""
+"""`openral-data doctor DATASET [--repair] [--deep]`: the report (as text or as `--json`'s fields) and the exit
+status (1 while errors remain)."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from openral_data.doctor.check import check
@@ -10,20 +11,60 @@ from openral_data.doctor.findings import Finding
 from openral_data.doctor.repair import repair
 
 
+@dataclass(frozen=True)
+class DoctorReport:
+    root: Path
+    findings: list[Finding]  # what the final check finds (after --repair: what is left)
+    repair: bool = False  # --repair was asked for
+    repaired: list[str] = field(default_factory=list)  # what --repair did, one line each
+    refused: list[str] = field(default_factory=list)  # why --repair did nothing (more), one line each
+    quarantine: Path | None = None  # where --repair kept the files and rows it replaced
+
+    @property
+    def exit_code(self) -> int:
+        return 1 if any(f.severity == "error" for f in self.findings) else 0
+
+    def text(self) -> str:
+        lines: list[str] = []
+        if self.repair:
+            lines += [f"refused  {r}" for r in self.refused]
+            lines += [f"repaired {a}" for a in self.repaired] or ([] if self.refused else ["nothing to repair"])
+            if self.quarantine is not None:
+                lines.append(f"kept     replaced files and removed rows under {self.quarantine}")
+        lines.append(_summary(self.root, self.findings, after_repair=self.repair))
+        lines += [f.line() for f in self.findings]
+        return "\n".join(lines)
+
+    def to_json(self) -> dict[str, object]:
+        """The fields of `doctor --json`, in docs/scripting.md's order."""
+        errors = sum(f.severity == "error" for f in self.findings)
+        return {
+            "path": str(self.root),
+            "healthy": not self.findings,
+            "errors": errors,
+            "warnings": len(self.findings) - errors,
+            "findings": [f.to_json() for f in self.findings],
+            "repair": self.repair,
+            "repaired": list(self.repaired),
+            "refused": list(self.refused),
+            "quarantine": None if self.quarantine is None else str(self.quarantine),
+            "exit_code": self.exit_code,
+        }
+
+
+def doctor_report(root: Path, fix: bool, deep: bool = False) -> DoctorReport:
+    """Check `root` (after repairing it, with `fix`); `deep` also decodes every frame."""
+    if not fix:
+        return DoctorReport(root, check(root, deep=deep))
+    result = repair(root)
+    findings = check(root, deep=True) if deep else result.remaining
+    return DoctorReport(root, findings, True, list(result.actions), list(result.refused), result.quarantine)
+
+
 def run_doctor(root: Path, fix: bool, deep: bool = False) -> tuple[str, int]:
-    lines: list[str] = []
-    if fix:
-        result = repair(root)
-        lines += [f"refused  {r}" for r in result.refused]
-        lines += [f"repaired {a}" for a in result.actions] or ([] if result.refused else ["nothing to repair"])
-        if result.quarantine is not None:
-            lines.append(f"kept     replaced files and removed rows under {result.quarantine}")
-        findings = check(root, deep=True) if deep else result.remaining
-    else:
-        findings = check(root, deep=deep)
-    lines.append(_summary(root, findings, after_repair=fix))
-    lines += [f.line() for f in findings]
-    return "\n".join(lines), 1 if any(f.severity == "error" for f in findings) else 0
+    """The report's text and the exit status."""
+    report = doctor_report(root, fix, deep)
+    return report.text(), report.exit_code
 
 
 def _summary(root: Path, findings: list[Finding], after_repair: bool) -> str:

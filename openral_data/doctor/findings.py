@@ -21,6 +21,16 @@ class Finding:
         tag = " [repairable]" if self.repairable else ""
         return f"{self.severity:<7} {self.where}: {self.message}{tag}"
 
+    def to_json(self) -> dict[str, object]:
+        """One element of `doctor --json`'s `findings`."""
+        return {
+            "code": self.code,
+            "severity": self.severity,
+            "where": self.where,
+            "message": self.message,
+            "repairable": self.repairable,
+        }
+
 
 def error(code: str, where: str, message: str, repairable: bool = False) -> Finding:
     return Finding("error", code, where, message, repairable)

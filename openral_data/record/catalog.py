@@ -17,9 +17,25 @@ from openral_data.schemas.base import load_model
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import load_scene
 
-__all__ = ["SECTIONS", "Catalog", "Item", "catalog", "plugin_problems"]
+__all__ = ["FIELDS", "SECTIONS", "Catalog", "Item", "catalog", "plugin_problems"]
 
 SECTIONS = ("scenes", "rskills", "robots", "scene_types", "policies")
+# each section's own fields, in order (docs/scripting.md); `null` where an entry does not load
+FIELDS: dict[str, tuple[str, ...]] = {
+    "scenes": ("tier", "type", "robot", "default_rskill"),
+    "rskills": (
+        "policy",
+        "embodiment_tags",
+        "state_dim",
+        "state_representation",
+        "action_dim",
+        "action_representation",
+        "cameras",
+    ),
+    "robots": ("embodiment_tags", "joints", "state_dim", "action_dim", "cameras"),
+    "scene_types": (),
+    "policies": (),
+}
 
 
 @dataclass(frozen=True)
@@ -40,17 +56,19 @@ class Catalog:
     plugin_problems: list[manifests.PluginProblem]
 
     def to_json(self) -> dict[str, object]:
-        """Sections by name, each a list of `{id, origin, path, overrides, error, <fields>}`, and the problems."""
+        """Every section by name (null when not built), each a list of `{id, origin, path, overrides, error,
+        <FIELDS>}`, then the plug-in problems."""
         doc: dict[str, object] = {}
-        for name, items in self.sections.items():
-            doc[name] = [
+        for name in SECTIONS:
+            items = self.sections.get(name)
+            doc[name] = None if items is None else [
                 {
                     "id": it.id,
                     "origin": it.origin,
                     "path": it.path,
                     "overrides": list(it.overrides),
                     "error": it.error,
-                    **it.fields,
+                    **{key: it.fields.get(key) for key in FIELDS[name]},
                 }
                 for it in items
             ]

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Literal
 
@@ -83,6 +83,30 @@ class HalRecordSummary:
     @property
     def interventions(self) -> int:
         return sum(r.interventions for r in self.all_reports)
+
+    @property
+    def repeated_samples(self) -> int:
+        return sum(sum(r.repeated.values()) for r in self.all_reports)
+
+    def to_json(self) -> dict[str, object]:
+        """The fields of `record --hal --json` (less the CLI's `fps`), in docs/scripting.md's order."""
+        return {
+            "out": str(self.out),
+            "episodes": len(self.episodes),
+            "discarded": self.discarded,
+            "frames": self.frames,
+            "successes": sum(e.success is True for e in self.episodes),
+            "seconds": self.seconds,
+            "overruns": self.overruns,
+            "missed_ticks": self.missed_ticks,
+            "stale_ticks": self.stale_ticks,
+            "repeated_samples": self.repeated_samples,
+            "safety_interventions": self.interventions,
+            "verdicts": [r.verdict for r in self.reports],
+            "estop": self.estop,
+            "stopped_by_operator": self.stopped_by_operator,
+            "episode_list": [asdict(e) for e in self.episodes],
+        }
 
 
 def make_operator(spec: str) -> Operator:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from datetime import datetime
 from pathlib import Path
 
@@ -50,6 +50,24 @@ class RecordSummary:
     @property
     def fps(self) -> float:
         return self.frames / self.seconds if self.seconds > 0 else 0.0
+
+    def to_json(self) -> dict[str, object]:
+        """The fields of `record --json` (less the CLI's `workers`), in docs/scripting.md's order."""
+        return {
+            "out": str(self.out),
+            "episodes": len(self.episodes),
+            "frames": self.frames,
+            "successes": sum(e.success is True for e in self.episodes),
+            "success_rate": self.success_rate,
+            "seconds": self.seconds,
+            "frames_per_s": self.fps,
+            "resumed_at": self.resumed_at,
+            "recovered": list(self.recovered),
+            "codec": self.codec,
+            "formats": list(self.formats),
+            "mcap_dir": str(self.out / "mcap") if "mcap" in self.formats else None,
+            "episode_list": [asdict(e) for e in self.episodes],
+        }
 
 
 ProgressFn = Callable[[EpisodeRecord | None, int, int], None]  # (finished episode | None at start, frames, total)

@@ -104,6 +104,50 @@ class ReplaySummary:
         rows.append(("seconds", f"{self.seconds:.1f}"))
         return rows
 
+    def to_json(self) -> dict[str, object]:
+        """The fields of `replay --json`, in docs/scripting.md's order; a field another mode fills is null."""
+        s, sim, actions, policy = self.summary, self.mode != "policy", self.mode == "actions", self.mode == "policy"
+        worst = s.get("action_mae_worst")
+        return {
+            "results": str(self.out),
+            "mode": self.mode,
+            "dataset": str(self.dataset),
+            "rskill": s["rskill"],
+            "label": s["label"],
+            "episodes": len(self.episodes),
+            "seconds": self.seconds,
+            "success_recorded": s["success_recorded"],
+            "success_replayed": s["success_replayed"] if sim else None,
+            "success_known": s["success_known"] if sim else None,
+            "success_agree": s["success_agree"] if sim else None,
+            "tolerance": s["tolerance"] if sim else None,
+            "reproduced": s["reproduced"] if actions else None,
+            "divergence_max": s["divergence_max"] if actions else None,
+            "diverged_episodes": s["diverged_episodes"] if actions else None,
+            "paired": s.get("paired"),
+            "steps_compared": s["steps"] if policy else None,
+            "action_mse_mean": s.get("action_mse_mean"),
+            "action_mae_mean": s.get("action_mae_mean"),
+            "action_mae_worst": None if not worst else {"name": worst[0], "mae": worst[1]},
+            "chunk_n_action_steps": s["chunk"]["n_action_steps"] if s.get("chunk") else None,
+            "rerecorded": s["record"]["out"] if s.get("record") else None,
+            "rerecorded_frames": s["record"]["frames"] if s.get("record") else None,
+            "episode_list": [_episode_json(o) for o in self.episodes],
+        }
+
+
+def _episode_json(o: EpisodeOutcome) -> dict[str, object]:
+    div = o.divergence
+    return {
+        "index": o.index,
+        "steps": o.steps,
+        "success_recorded": o.success_recorded,
+        "success_replayed": o.success_replayed,
+        "success_agrees": o.success_agrees,
+        "first_divergence_frame": o.first_divergence_frame,
+        "divergence_max": float(div.max()) if div is not None and div.size else None,
+    }
+
 
 def _num(value: object) -> str:
     return "-" if value is None else f"{float(value):.3g}"  # type: ignore[arg-type]

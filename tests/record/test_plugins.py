@@ -18,6 +18,7 @@ from openral_data.policies.base import PolicyAdapter
 from openral_data.policies.basic import ZeroPolicy
 from openral_data.record import registry
 from openral_data.schemas.rskill import RSkillManifest
+from tests.cli.test_json import check_object
 from tests.support.cli import run_cli
 from tests.support.home import REPO
 from tests.support.uv import uv
@@ -62,6 +63,9 @@ def test_list_shows_plugin_entries_and_reports_broken_ones(site: Path, tmp_path:
         ("openral_data.policies", "random"),
     }
     assert all(p["dist"] == BROKEN for p in problems.values())
+    for item in doc["plugin_problems"]:
+        check_object(item, "list plugin_problems")
+    check_object(by["scenes"]["slider_reach"], "list item", "list scenes")
     assert "vendor SDK" in problems[("openral_data.scenes", "kaboom")]["error"]
     assert "built in" in problems[("openral_data.policies", "random")]["error"]
     # one stderr line per broken entry point, and nothing else there

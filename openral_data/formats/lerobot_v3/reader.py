@@ -33,6 +33,22 @@ class DatasetSummary:
             return None
         return self.successes / self.episodes
 
+    def to_json(self) -> dict[str, object]:
+        """The fields of `info --json`, in docs/scripting.md's order."""
+        return {
+            "path": str(self.root),
+            "episodes": self.episodes,
+            "frames": self.frames,
+            "fps": self.fps,
+            "duration_s": self.frames / self.fps,
+            "cameras": list(self.cameras),
+            "tasks": list(self.tasks),
+            "robot_type": self.robot_type,
+            "success_known": self.successes is not None,
+            "successes": self.successes,
+            "success_rate": self.success_rate,
+        }
+
 
 def read_info(root: Path) -> dict[str, Any]:
     """`meta/info.json`, checked for what would make a path out of it leave the dataset (`check_paths`)."""
