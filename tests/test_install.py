@@ -1,0 +1,112 @@
+"""A normal install records: the wheel built from pyproject.toml, installed with the locked dependencies into a
+fresh virtual environment outside the repository, run from an empty folder (no checkout, no OPENRAL_DATA_HOME),
+finds its built-in scenes, rSkills and robots and records into ./datasets there."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from openral_data.version import __version__
+from tests.support.home import REPO
+from tests.support.uv import uv
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def venv(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A fresh environment holding the wheel and the lock's dependencies (no dev group, no extras)."""
+    base = tmp_path_factory.mktemp("install")
+    env = {k: v for k, v in os.environ.items() if k not in ("VIRTUAL_ENV", "UV_COMPILE_BYTECODE", "PYTHONPATH")}
+    env["UV_PYTHON_DOWNLOADS"] = "never"
+
+    def run(*args: str, cwd: Path = REPO) -> None:
+        subprocess.run([uv(), *args], cwd=cwd, env=env, check=True, timeout=1200)
+
+    run("build", "--wheel", "--quiet", "--out-dir", str(base / "dist"))
+    run("export", "--frozen", "--no-dev", "--no-emit-project", "--no-hashes", "--quiet", "-o", str(base / "req.txt"))
+    python = Path(sys.base_prefix) / "bin" / "python3.12"
+    run("venv", "--quiet", "--python", str(python), str(base / "venv"))
+    (wheel,) = (base / "dist").glob("openral_data-*.whl")
+    run("pip", "install", "--quiet", "--python", str(base / "venv/bin/python"), "-r", str(base / "req.txt"), str(wheel))
+    return base / "venv"
+
+
+def _clean_env(tmp: Path) -> dict[str, str]:
+    drop = ("PYTHONPATH", "OPENRAL_DATA_HOME", "VIRTUAL_ENV", "OPENRAL_SCENES_DIR", "OPENRAL_RSKILLS_DIR")
+    env = {k: v for k, v in os.environ.items() if k not in (*drop, "OPENRAL_ROBOTS_DIR", "OPENRAL_DATA_CONFIG")}
+    env["XDG_CONFIG_HOME"] = str(tmp / "config")  # no user manifests either
+    env.setdefault("MUJOCO_GL", "egl")
+    return env
+
+
+def _run(venv: Path, cwd: Path, *args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [str(venv / "bin/openral-data"), *args],
+        cwd=cwd,
+        env=_clean_env(cwd),
+        capture_output=True,
+        text=True,
+        timeout=900,
+        check=False,
+    )
+
+
+def test_the_wheel_holds_the_package_only(venv: Path) -> None:
+    site = next((venv / "lib").glob("python3.12/site-packages"))
+    assert (site / "openral_data/builtin/scenes/sim/tabletop_push.yaml").is_file()
+    assert (site / "openral_data/py.typed").is_file()
+    (record,) = site.glob("openral_data-*.dist-info/RECORD")
+    tops = {line.split("/", 1)[0] for line in record.read_text().splitlines() if "/" in line.split(",", 1)[0]}
+    # no `tests` package (or anything else) beside ours; `..` is the bin/openral-data script
+    assert tops == {"openral_data", record.parent.name, ".."}
+
+
+def test_installed_lists_its_builtins_and_records_into_cwd(venv: Path, tmp_path: Path) -> None:
+    work = tmp_path / "empty"
+    work.mkdir()
+    version = _run(venv, work, "--version")
+    assert version.returncode == 0 and version.stdout.strip() == f"openral-data {__version__}"
+
+    listed = _run(venv, work, "list", "--json")
+    assert listed.returncode == 0, listed.stderr
+    doc = json.loads(listed.stdout)
+    site = str(next((venv / "lib").glob("python3.12/site-packages")))
+    for section, expected in (
+        ("scenes", {"mock_pick", "tabletop_push", "robosuite_lift"}),
+        ("rskills", {"random-mock", "scripted-push"}),
+        ("robots", {"mock_arm", "franka_panda"}),
+    ):
+        items = {it["id"]: it for it in doc[section]}
+        assert expected <= set(items), section
+        assert all(it["origin"] == "built-in" and it["path"].startswith(site) for it in items.values())
+        assert all(it["error"] is None for it in items.values()), section
+    assert doc["plugin_problems"] == []
+
+    for scene in ("mock_pick", "tabletop_push"):
+        done = _run(venv, work, "record", "--scene", scene, "--n-episodes", "1", "--json")
+        assert done.returncode == 0, done.stderr
+        out = Path(json.loads(done.stdout)["out"])
+        assert out.parent == work / "datasets" and out.name.startswith(f"{scene}--"), out
+        loaded = subprocess.run(
+            [str(venv / "bin/python"), "-c", _LOAD, str(out)], capture_output=True, text=True, timeout=600, check=False
+        )
+        assert loaded.returncode == 0, loaded.stderr
+        assert json.loads(loaded.stdout.splitlines()[-1]) == {"episodes": 1, "robot_type": _ROBOT[scene]}
+    assert not (REPO / "datasets" / out.name).exists()
+
+
+_ROBOT = {"mock_pick": "mock_arm", "tabletop_push": "franka_panda"}
+_LOAD = """
+import json, sys
+from lerobot.datasets.lerobot_dataset import LeRobotDataset
+ds = LeRobotDataset("local/installed", root=sys.argv[1], video_backend="pyav")
+ds[0]
+print(json.dumps({"episodes": ds.meta.total_episodes, "robot_type": ds.meta.robot_type}))
+"""
