@@ -13,7 +13,7 @@ Three contestants write W in the same process, in this order for each repetition
 3. **lerobot**: ``LeRobotDataset.create(..., use_videos=True)`` + ``add_frame`` / ``save_episode`` /
    ``finalize`` with lerobot's defaults (PNG staging, no streaming encoding, no async image writer). It is
    given the same ``next.reward`` / ``next.done`` / ``next.success`` columns our writer always writes, and
-   ``video_backend="pyav"``, which only picks the read-back decoder (it skips a noisy torchcodec probe).
+   ``video_backend="pyav"``, which only picks the read-back decoder (the one we use; torchcodec is not installed).
 
 The frames are rendered once, before anything is timed: a smooth textured background (a wall and a table)
 with a few moving, shaded objects whose positions depend on (episode, step, camera); the wrist camera also
@@ -338,7 +338,7 @@ def run_lerobot(data: list[EpisodeData], root: Path, wl: Workload, codec: Codec)
         robot_type="bench",
         use_videos=True,
         rgb_encoder=rgb_encoder,
-        video_backend="pyav",  # read-back decoder only; skips the torchcodec probe (broken here, noisy)
+        video_backend="pyav",  # read-back decoder only (torchcodec is not installed: docs/recording.md)
     )
     last = wl.frames - 1
     reward = np.zeros(1, np.float32)

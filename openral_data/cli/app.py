@@ -11,6 +11,7 @@ import typer
 
 from openral_data.cli import convert, inspect, record, replay, stats
 from openral_data.cli.edit import episodes_app
+from openral_data.cli.help import plain_flags
 from openral_data.cli.pipeline import pipeline_app
 from openral_data.cli.terminal import print_line
 from openral_data.errors import OpenralError, UsageError
@@ -73,6 +74,7 @@ app.command()(replay.replay)
 app.command()(inspect.doctor)
 app.add_typer(episodes_app, name="episodes")
 app.add_typer(pipeline_app, name="pipeline")
+plain_flags(app)  # after every command and sub-app: their --help shows no <bool> for flags
 
 
 def main() -> None:

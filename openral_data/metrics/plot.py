@@ -1,11 +1,14 @@
-"""`stats --plot`: one PNG with success rates and 95 % Wilson intervals per group and per-dimension action
-histograms (counts computed by DuckDB; matplotlib only draws)."""
+"""`stats --plot`: one PNG with success rates and 95 % Wilson intervals per group and, per action dimension, a
+histogram with one series per group (the report's `--by` groups; per dataset by default). Counts are computed by
+DuckDB; matplotlib only draws. A dimension that holds one value is drawn as that value on a narrow axis."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import duckdb
 
@@ -13,32 +16,90 @@ from openral_data.errors import OutputExists, UsageError
 from openral_data.formats.lerobot_v3.features import ACTION
 from openral_data.metrics.report import GROUP_NUMBERS, Report
 from openral_data.metrics.sources import DatasetSource
-from openral_data.metrics.views import files_sql, query
+from openral_data.metrics.views import files_sql, ident, lit, query
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 BINS = 40
+NCOLS = 4
 
 
-def action_histograms(con: duckdb.DuckDBPyConnection, ds: DatasetSource) -> list[tuple[str, float, float, list[int]]]:
-    """(name, low, high, counts of BINS equal bins) per action dimension, NaN/Inf left out."""
-    names = ds.dim_names(ACTION)
-    if not ds.data_files or ACTION not in ds.data_columns or not names:
-        return []
-    src = f"read_parquet({files_sql(ds.data_files)})"
-    dims = len(names)
-    sql = f"""
-        WITH v AS (
-            SELECT d, action[d] AS x FROM (SELECT action FROM {src}), range(1, {dims + 1}) r(d)
-            WHERE isfinite(action[d])
-        ), b AS (SELECT d, min(x) AS lo, max(x) AS hi FROM v GROUP BY d)
-        SELECT d, lo, hi, least({BINS - 1}, floor((x - lo) / greatest(hi - lo, 1e-12) * {BINS}))::INT AS bin,
-               count(*) AS n
-        FROM v JOIN b USING (d) GROUP BY ALL ORDER BY d, bin
-    """
-    hist: dict[int, tuple[float, float, list[int]]] = {}
-    for d, lo, hi, b, n in query(con, sql)[1]:
-        entry = hist.setdefault(int(d), (float(lo), float(hi), [0] * BINS))
-        entry[2][int(b)] += int(n)
-    return [(names[d - 1], *hist[d]) for d in sorted(hist)]
+@dataclass
+class Histogram:
+    """One action dimension (by name, pooled over the datasets that have it): its finite range and, per group,
+    the counts in BINS equal bins over [low, high] (all in bin 0 when the dimension is constant)."""
+
+    name: str
+    low: float
+    high: float
+    series: dict[str, list[int]] = field(default_factory=dict)
+
+    @property
+    def constant(self) -> bool:
+        return self.high == self.low
+
+    @property
+    def edges(self) -> list[float]:
+        return [self.low + (self.high - self.low) * b / BINS for b in range(BINS + 1)]
+
+
+def group_keys(report: Report) -> list[str]:
+    """The `--by` keys the report was grouped by (its groups table's key columns)."""
+    return [c for c in report.table("groups").columns if c not in GROUP_NUMBERS]
+
+
+def group_label(values: Sequence[Any]) -> str:
+    return "/".join(str(v) for v in values)
+
+
+def action_histograms(
+    con: duckdb.DuckDBPyConnection, datasets: Sequence[DatasetSource], keys: Sequence[str]
+) -> list[Histogram]:
+    """Per action dimension name (first-seen order), counts per group of `keys` (columns of the `episodes`
+    view, joined to each frame by its episode); NaN/Inf left out. Bins are shared by all groups of a dimension."""
+    sources = [ds for ds in datasets if ds.data_files and ACTION in ds.data_columns and ds.dim_names(ACTION)]
+    hists: dict[str, Histogram] = {}
+    for ds in sources:  # first pass: each dimension's range over every dataset that has it
+        for d, lo, hi in query(con, f"SELECT d, min(x), max(x) FROM ({_values_sql(ds)}) GROUP BY d ORDER BY d")[1]:
+            name = ds.dim_names(ACTION)[int(d) - 1]
+            h = hists.setdefault(name, Histogram(name, float(lo), float(hi)))
+            h.low, h.high = min(h.low, float(lo)), max(h.high, float(hi))
+    for ds in sources:  # second pass: counts per group and bin, on the shared bins
+        names = ds.dim_names(ACTION)
+        limits = ", ".join(
+            f"({d}, {lit(hists[n].low)}::DOUBLE, {lit(hists[n].high)}::DOUBLE)"
+            for d, n in enumerate(names, start=1)
+            if n in hists
+        )
+        if not limits:
+            continue
+        cols = ", ".join(f"e.{ident(k)}" for k in keys)
+        sql = f"""
+            SELECT {cols}, v.d,
+                   least({BINS - 1}, greatest(0, floor((v.x - l.lo) / greatest(l.hi - l.lo, 1e-300) * {BINS})))::INT,
+                   count(*)
+            FROM ({_values_sql(ds)}) v
+            JOIN (VALUES {limits}) l(d, lo, hi) USING (d)
+            JOIN (SELECT * FROM episodes WHERE dataset = {lit(ds.label)}) e USING (episode_index)
+            GROUP BY ALL
+        """
+        for *group, d, b, n in query(con, sql)[1]:
+            counts = hists[names[int(d) - 1]].series.setdefault(group_label(group), [0] * BINS)
+            counts[int(b)] += int(n)
+    for h in hists.values():  # groups in label order, as the success-rate bars
+        h.series = dict(sorted(h.series.items()))
+    return list(hists.values())
+
+
+def _values_sql(ds: DatasetSource) -> str:
+    """(episode_index, d, x): every finite action value of `ds`, d 1-based."""
+    dims = len(ds.dim_names(ACTION))
+    return (
+        f"SELECT episode_index, d, action[d] AS x FROM (SELECT episode_index, action "
+        f"FROM read_parquet({files_sql(ds.data_files)})), range(1, {dims + 1}) r(d) WHERE isfinite(action[d])"
+    )
 
 
 def check_plot_path(path: Path) -> None:
@@ -50,22 +111,34 @@ def check_plot_path(path: Path) -> None:
 
 
 def save_plot(path: Path, report: Report, con: duckdb.DuckDBPyConnection, datasets: Sequence[DatasetSource]) -> None:
+    import matplotlib.pyplot as plt
+
+    fig = plot_figure(report, action_histograms(con, datasets, group_keys(report)))
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def plot_figure(report: Report, hists: Sequence[Histogram]) -> Figure:
+    """The figure `--plot` saves: success rates per group on top, then one panel per action dimension."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    groups = report.table("groups")
-    recs = [r for r in groups.records() if r["success_known"]]
-    keys = [c for c in groups.columns if c not in GROUP_NUMBERS]
-    hists = [(ds.label, h) for ds in datasets for h in action_histograms(con, ds)]
-    ncols = 4
-    hist_rows = math.ceil(len(hists) / ncols)
-    fig = plt.figure(figsize=(4 * ncols, 3.2 * (1 + hist_rows)), layout="constrained")
-    grid = fig.add_gridspec(1 + hist_rows, ncols)
-    ax = fig.add_subplot(grid[0, :])
+    hist_rows = math.ceil(len(hists) / NCOLS)
+    fig = plt.figure(figsize=(4 * NCOLS, 3.2 * (1 + hist_rows)), layout="constrained")
+    grid = fig.add_gridspec(1 + hist_rows, NCOLS)
+    _draw_rates(fig.add_subplot(grid[0, :]), report)
+    for i, h in enumerate(hists):
+        _draw_histogram(fig.add_subplot(grid[1 + i // NCOLS, i % NCOLS]), h)
+    return fig
+
+
+def _draw_rates(ax: Axes, report: Report) -> None:
+    keys = group_keys(report)
+    recs = [r for r in report.table("groups").records() if r["success_known"]]
     if recs:
-        labels = ["/".join(str(r[k]) for k in keys) for r in recs]
+        labels = [group_label([r[k] for k in keys]) for r in recs]
         rates = [r["success_rate"] for r in recs]
         lows = [r["success_rate"] - r["ci95_low"] for r in recs]
         highs = [r["ci95_high"] - r["success_rate"] for r in recs]
@@ -81,10 +154,25 @@ def save_plot(path: Path, report: Report, con: duckdb.DuckDBPyConnection, datase
     ax.set_ylim(0, 1)
     ax.set_ylabel("success rate (95 % Wilson CI)")
     ax.set_title("success rate per " + ", ".join(keys))
-    for i, (label, (name, lo, hi, counts)) in enumerate(hists):
-        hax = fig.add_subplot(grid[1 + i // ncols, i % ncols])
-        width = (hi - lo) / BINS if hi > lo else 1.0
-        hax.bar([lo + (b + 0.5) * width for b in range(BINS)], counts, width=width, color="#dd8452")
-        hax.set_title(f"{label}: action {name}", fontsize=9)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+
+
+def _draw_histogram(ax: Axes, h: Histogram) -> None:
+    """One series per group: step outlines on shared bins (filled when alone); a constant dimension is one bar
+    per group at its value, on an axis of ±5 % of the value (±0.05 around 0), labelled constant."""
+    n = len(h.series)
+    if h.constant:
+        half = max(abs(h.low) * 0.05, 0.05)
+        width = half / max(n, 1)
+        for j, (label, counts) in enumerate(h.series.items()):
+            ax.bar(h.low - half / 2 + (j + 0.5) * width, sum(counts), width=width * 0.9, label=label)
+        ax.set_xlim(h.low - half, h.low + half)
+        ax.set_xticks([h.low], [f"{h.low:g}"])
+        ax.set_title(f"action {h.name}: constant {h.low:g}", fontsize=9)
+    else:
+        for label, counts in h.series.items():
+            ax.stairs(counts, h.edges, label=label, fill=n == 1, alpha=0.8 if n == 1 else 1.0, linewidth=1.2)
+        ax.set_xlim(h.low, h.high)
+        ax.set_title(f"action {h.name}", fontsize=9)
+    ax.set_ylabel("frames", fontsize=8)
+    if n > 1:
+        ax.legend(fontsize=7)

@@ -1,7 +1,7 @@
 """Open a dataset with lerobot 0.6.1's own loader and check every frame against what the mock produced.
 
-Usable in-process (`verify_mock_dataset`) and as a script (`python -m tests.support.lerobot ROOT BACKEND`, run from
-the repo root), so the torchcodec backend can be exercised in a subprocess whose LD_LIBRARY_PATH exposes PyAV's FFmpeg.
+Usable in-process (`verify_mock_dataset`) and as a script (`python -m tests.support.lerobot ROOT [BACKEND]`, run from
+the repo root; without BACKEND lerobot picks its default), so a test can read what a fresh interpreter prints on a load.
 """
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ import numpy as np
 COLOUR_TOL = 4.0  # codec tolerance, in 0..255 levels, on a frame's mean colour
 
 
-def verify_mock_dataset(root: Path, backend: str | None = None, uncounted_rows_ok: bool = False) -> dict[str, Any]:
-    """Assert frame-exact alignment of a mock-scene dataset; return what was seen.
+def verify_mock_dataset(root: Path, backend: str | None = "pyav", uncounted_rows_ok: bool = False) -> dict[str, Any]:
+    """Assert frame-exact alignment of a mock-scene dataset; return what was seen. `backend=None`: lerobot's default.
 
     `uncounted_rows_ok`: meta/episodes may hold rows beyond info.json's total (a writer killed between its
     last two renames); only the counted episodes are checked.

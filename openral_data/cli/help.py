@@ -1,0 +1,45 @@
+"""`--help` tables: a boolean flag shows no value type (typer's rich help prints `<bool>` for every flag, `--help`
+included, although a flag takes no value). `plain_flags(app)` applies this to every command and sub-app."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import typer
+from typer.core import TyperCommand, TyperGroup, TyperOption
+from typer.models import DefaultPlaceholder
+
+
+def _without_flag_metavar(params: list[Any]) -> list[Any]:
+    """`params`, each boolean flag given an empty metavar (what the help's type column shows for it)."""
+    for param in params:
+        if isinstance(param, TyperOption) and param.is_bool_flag and param.metavar is None:
+            param.metavar = ""
+    return params
+
+
+class PlainFlagsCommand(TyperCommand):
+    """A command whose help shows no `<bool>` for its flags."""
+
+    def get_params(self, ctx: Any) -> list[Any]:
+        return _without_flag_metavar(super().get_params(ctx))
+
+
+class PlainFlagsGroup(TyperGroup):
+    """A command group whose help shows no `<bool>` for its flags."""
+
+    def get_params(self, ctx: Any) -> list[Any]:
+        return _without_flag_metavar(super().get_params(ctx))
+
+
+def plain_flags(app: typer.Typer) -> None:
+    """Build `app`, its commands and its sub-apps (recursively) with the classes above; call it once every command
+    is registered. A command or group that names its own class keeps it."""
+    if isinstance(app.info.cls, DefaultPlaceholder) or app.info.cls in (None, TyperGroup):
+        app.info.cls = PlainFlagsGroup
+    for command in app.registered_commands:
+        if command.cls in (None, TyperCommand):  # typer records its default class, not None
+            command.cls = PlainFlagsCommand
+    for group in app.registered_groups:
+        if group.typer_instance is not None:
+            plain_flags(group.typer_instance)
