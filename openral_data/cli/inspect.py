@@ -70,6 +70,7 @@ def list_cmd(
     # piped or redirected: no terminal width to fit, so never cut a cell (ids, tags and paths stay greppable)
     out = console if console.is_terminal else Console(width=1000, color_system=None)
     for name, items in cat.sections.items():
+        out.print(name.replace("_", " "), style="bold", markup=False, highlight=False)  # unpadded, unlike a title
         out.print(_table(name, items))
 
 
@@ -96,7 +97,7 @@ def _table(name: str, items: list[Item]) -> Table:
     joined = set(_JOINED.values())
     columns = [(_TITLES.get(key, key), key) for key in FIELDS[name] if key not in joined]
     with_path = name in ("scenes", "rskills", "robots")
-    table = Table(title=name.replace("_", " "), title_justify="left")
+    table = Table()
     for col in ("id", *(c for c, _ in columns), "from", *(("path",) if with_path else ())):
         table.add_column(col)
     for it in items:

@@ -61,17 +61,21 @@ class Catalog:
         doc: dict[str, object] = {}
         for name in SECTIONS:
             items = self.sections.get(name)
-            doc[name] = None if items is None else [
-                {
-                    "id": it.id,
-                    "origin": it.origin,
-                    "path": it.path,
-                    "overrides": list(it.overrides),
-                    "error": it.error,
-                    **{key: it.fields.get(key) for key in FIELDS[name]},
-                }
-                for it in items
-            ]
+            doc[name] = (
+                None
+                if items is None
+                else [
+                    {
+                        "id": it.id,
+                        "origin": it.origin,
+                        "path": it.path,
+                        "overrides": list(it.overrides),
+                        "error": it.error,
+                        **{key: it.fields.get(key) for key in FIELDS[name]},
+                    }
+                    for it in items
+                ]
+            )
         doc["plugin_problems"] = [asdict(p) for p in self.plugin_problems]
         return doc
 

@@ -68,6 +68,7 @@ def test_list_shows_plugin_entries_and_reports_broken_ones(site: Path, tmp_path:
     check_object(by["scenes"]["slider_reach"], "list item", "list scenes")
     assert "vendor SDK" in problems[("openral_data.scenes", "kaboom")]["error"]
     assert "built in" in problems[("openral_data.policies", "random")]["error"]
+    assert "is not a folder" in problems[("openral_data.robots", "broken_robots")]["error"]
     # one stderr line per broken entry point, and nothing else there
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 3 and all(line.startswith("warning: plug-in ") for line in lines)
