@@ -132,8 +132,10 @@ def _record_bench(project: Path, tmp_path: Path, scene_id: str, n: int) -> Path:
 
     scene = small_scene_file(project, scene_id, size=32)
     out = tmp_path / scene_id
-    summary = record(RecordOptions(scene=str(scene), rskill="metaworld-expert", n_episodes=n, out=out))
+    summary = record(RecordOptions(scene=str(scene), n_episodes=n, out=out))  # the scene's default_rskill
     assert summary.success_rate == 1.0
+    used = json.loads((out / ".openral/record.json").read_text())["options"]["rskill"]
+    assert used.endswith("/metaworld-expert/rskill.yaml")
     ds = LeRobotDataset(f"local/{scene_id}", root=out, video_backend="pyav")
     assert len(ds) == summary.frames and ds.fps == 80 and ds.meta.robot_type == "metaworld_sawyer"
     assert ds.meta.video_keys == ["observation.images.corner2", "observation.images.gripperPOV"]

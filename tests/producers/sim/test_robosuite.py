@@ -165,7 +165,11 @@ def test_every_robosuite_benchmark_records_loads_replays_and_reports(
 
     scene = small_scene_file(project, scene_id, size=48)
     out = tmp_path / scene_id
-    summary = record(RecordOptions(scene=str(scene), rskill=RANDOM, n_episodes=2, max_steps=10, out=out))
+    # no rskill: the scene's default_rskill (robosuite-panda-random), as `record --scene ID` without --rskill
+    summary = record(RecordOptions(scene=str(scene), n_episodes=2, max_steps=10, out=out))
+    assert json.loads((out / ".openral/record.json").read_text())["options"]["rskill"].endswith(
+        f"/{RANDOM}/rskill.yaml"
+    )
     ds = LeRobotDataset(f"local/{scene_id}", root=out, video_backend="pyav")
     assert len(ds) == summary.frames == 20 and [int(x) for x in ds.meta.episodes["openral.seed"]] == [1000, 1001]
     replay_reproduces(out, tmp_path / "replay", episodes=2)
