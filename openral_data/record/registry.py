@@ -4,7 +4,7 @@ plug-ins (`@SCENES.register("id")`, entry points `openral_data.scenes` / `openra
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, MutableMapping
 from pathlib import Path
 from types import ModuleType
 from typing import Literal, cast
@@ -100,14 +100,15 @@ def _sweep(rskill: RSkillManifest) -> PolicyAdapter:
     return SweepPolicy(rskill)
 
 
-class Registry[F: Callable[..., object]](Mapping[str, F]):
-    """Ids -> factories: the built-ins, then what `@REGISTRY.register("id")` adds, then the installed plug-ins'
-    entry points of `group` (loaded on first lookup; one that fails is recorded as a plug-in problem, never
-    raised, and never hides a built-in)."""
+class Registry[F: Callable[..., object]](MutableMapping[str, F]):
+    """Ids -> factories: the built-ins, then what `@REGISTRY.register("id")` (or `REGISTRY[id] = factory`) adds,
+    then the installed plug-ins' entry points of `group` (loaded on first lookup; one that fails is recorded as a
+    plug-in problem, never raised, and never replaces a built-in)."""
 
     def __init__(self, kind: str, group: str, builtins: dict[str, F]) -> None:
         self.kind = kind
         self.group = group
+        self._builtins = dict(builtins)
         self._items = dict(builtins)
         self._origins = dict.fromkeys(builtins, "built-in")
         self._loaded = False
@@ -116,16 +117,24 @@ class Registry[F: Callable[..., object]](Mapping[str, F]):
         """Decorator: `@SCENES.register("my_scene")` over a factory adds it under `ident` (a later one wins)."""
 
         def add(factory: F) -> F:
-            self._items[ident] = factory
-            self._origins[ident] = _caller_origin(factory)
+            self[ident] = factory
             return factory
 
         return add
 
     def origin(self, ident: str) -> str:
-        """`built-in`, `plug-in <dist>` or the module that registered `ident`."""
+        """`built-in`, `plug-in <dist>` or `registered by <module>` (the module that defined the factory)."""
         self._load()
         return self._origins[ident]
+
+    def __setitem__(self, ident: str, factory: F) -> None:
+        self._items[ident] = factory
+        builtin = self._builtins.get(ident) is factory
+        self._origins[ident] = "built-in" if builtin else f"registered by {getattr(factory, '__module__', '?')}"
+
+    def __delitem__(self, ident: str) -> None:
+        del self._items[ident]
+        del self._origins[ident]
 
     def _load(self) -> None:
         if self._loaded:
@@ -156,10 +165,6 @@ class Registry[F: Callable[..., object]](Mapping[str, F]):
     def __len__(self) -> int:
         self._load()
         return len(self._items)
-
-
-def _caller_origin(factory: object) -> str:
-    return f"registered by {getattr(factory, '__module__', '?')}"
 
 
 SCENES: Registry[SceneFactory] = Registry(
