@@ -161,6 +161,21 @@ class Sink(Protocol):
     def close(self) -> None: ...
 
 
+class FrameObserver(Protocol):
+    """Watches a recording without being part of it (a debug video, a live view): it is shown every validated
+    frame after the sinks took it, with the episode's number; it never changes what is recorded. `end_episode`
+    gets the committed episode's record, or None when the episode was discarded (Ctrl-C, a contract violation).
+    An observer that cannot keep up drops what it shows, never holds a frame back."""
+
+    def begin_episode(self, index: int, start: EpisodeStart) -> None: ...
+
+    def add_frame(self, frame: Frame) -> None: ...
+
+    def end_episode(self, record: EpisodeRecord | None) -> None: ...
+
+    def close(self) -> None: ...
+
+
 class EpisodeAnnotations(Protocol):
     """Optional sink capability: JSON-able facts about the episode in flight (a HAL's overruns, safety
     interventions, operator verdict), stored with the episode's record. The bridge calls it when a sink has it."""

@@ -14,7 +14,7 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.errors import ContractViolation
-from openral_data.types import DatasetSchema, EpisodeRecord, EpisodeStart, Frame, Observation, Sink
+from openral_data.types import DatasetSchema, EpisodeRecord, EpisodeStart, Frame, FrameObserver, Observation, Sink
 
 
 def _describe(x: object) -> str:
@@ -24,11 +24,18 @@ def _describe(x: object) -> str:
 
 
 class DatasetBridge:
-    """Validates frames against `schema` and fans them out to every sink."""
+    """Validates frames against `schema` and fans them out to every sink, then to every observer."""
 
-    def __init__(self, schema: DatasetSchema, sinks: Sequence[Sink], first_episode: int = 0) -> None:
+    def __init__(
+        self,
+        schema: DatasetSchema,
+        sinks: Sequence[Sink],
+        first_episode: int = 0,
+        observers: Sequence[FrameObserver] = (),
+    ) -> None:
         self.schema = schema
         self.sinks = list(sinks)
+        self.observers = list(observers)
         self._camera_names = set(schema.cameras)
         self._episode = first_episode  # a resumed recording continues the numbering
         self._step = 0
@@ -97,6 +104,8 @@ class DatasetBridge:
         start = EpisodeStart(seed=seed, initial_state=initial_state)
         for sink in self.sinks:
             sink.begin_episode(start)
+        for observer in self.observers:
+            observer.begin_episode(self._episode, start)
 
     def _extras(self, extras: Mapping[str, float] | None) -> dict[str, float]:
         want = self.schema.frame_extras
@@ -142,6 +151,8 @@ class DatasetBridge:
             raise ContractViolation(f"{self._where()}: reward: non-finite value {reward}")
         for sink in self.sinks:
             sink.add_frame(frame)
+        for observer in self.observers:
+            observer.add_frame(frame)
         self._step += 1
 
     def end_episode(self, success: bool | None, info: dict[str, Any] | None = None) -> list[EpisodeRecord]:
@@ -160,6 +171,8 @@ class DatasetBridge:
         records = [sink.end_episode(known) for sink in self.sinks]
         self._open = False
         self._episode += 1
+        for observer in self.observers:
+            observer.end_episode(records[0])
         return records
 
     def discard_episode(self) -> None:
@@ -168,11 +181,14 @@ class DatasetBridge:
         self._open = False
         for sink in self.sinks:
             sink.discard_episode()
+        for observer in self.observers:
+            observer.end_episode(None)
 
     def close(self) -> None:
         self.discard_episode()
         errors = []
-        for sink in self.sinks:
+        closers: list[Sink | FrameObserver] = [*self.sinks, *self.observers]
+        for sink in closers:
             try:
                 sink.close()
             except Exception as exc:  # noqa: BLE001 - close every sink, then report

@@ -205,3 +205,40 @@ def test_episode_success_reaches_sinks_as_a_python_bool_or_none() -> None:
         bridge.end_episode(verdict)  # type: ignore[arg-type]
     assert sink.verdicts == [True, False, None]
     assert [type(v) for v in sink.verdicts[:2]] == [bool, bool]
+
+
+class Watcher:
+    """A FrameObserver that keeps the calls it gets, in order."""
+
+    def __init__(self) -> None:
+        self.calls: list[tuple[str, object]] = []
+
+    def begin_episode(self, index: int, start: EpisodeStart) -> None:
+        self.calls.append(("begin", (index, start.seed)))
+
+    def add_frame(self, frame: Frame) -> None:
+        self.calls.append(("frame", frame.reward))
+
+    def end_episode(self, record: EpisodeRecord | None) -> None:
+        self.calls.append(("end", None if record is None else record.length))
+
+    def close(self) -> None:
+        self.calls.append(("close", None))
+
+
+def test_observers_see_validated_frames_after_the_sinks_and_each_outcome() -> None:
+    sink, watcher = RecordingSink(), Watcher()
+    b = DatasetBridge(SCHEMA, [sink], first_episode=4, observers=[watcher])
+    b.begin_episode(seed=9, initial_state={})
+    b.add_step(obs(), ACTION, reward=0.5, done=True, success=True)
+    b.end_episode(True)
+    b.begin_episode(seed=10, initial_state={})
+    with pytest.raises(ContractViolation):  # a bad frame reaches neither the sinks nor the observers
+        b.add_step(obs(state=np.zeros(2, np.float32)), ACTION, reward=1.0, done=False, success=False)
+    b.add_step(obs(), ACTION, reward=2.0, done=False, success=False)
+    b.close()  # the episode in flight is discarded: the observer hears None
+    assert watcher.calls == [
+        ("begin", (4, 9)), ("frame", 0.5), ("end", 1),
+        ("begin", (5, 10)), ("frame", 2.0), ("end", None), ("close", None),
+    ]  # fmt: skip
+    assert len(sink.frames) == 2 and sink.closed
