@@ -51,8 +51,16 @@ def record(
     address: Annotated[str | None, typer.Option(help="Ray cluster address (--executor ray)")] = None,
     threads_per_worker: Annotated[int | None, typer.Option(help="renderer threads per worker (LP_NUM_THREADS)")] = None,
     json: JsonFlag = False,
+    save_video: Annotated[
+        bool, typer.Option("--save-video", help="write a debug mp4 per episode to OUT.debug/ (cameras + a strip)")
+    ] = False,
+    save_video_dir: Annotated[
+        Path | None, typer.Option(help="write the --save-video mp4s to this folder instead (implies --save-video)")
+    ] = None,
 ) -> None:
     """Record episodes of SCENE driven by RSKILL into a LeRobotDataset v3 and/or ROS 2 MCAP bags."""
+    if hal is not None and (save_video or save_video_dir is not None):
+        raise UsageError("--save-video/--save-video-dir: not available with --hal (a scene recording only)")
     if hal is not None:
         from openral_data.cli.hal import run_hal_record
         from openral_data.record.options import DEFAULT_RSKILL
@@ -91,6 +99,8 @@ def record(
             for name in ctx.params
             if getattr(ctx.get_parameter_source(name), "name", "") == "COMMANDLINE"
         ),
+        save_video=save_video,
+        save_video_dir=save_video_dir,
     )
     parallel = workers != 1 or executor != "local"
     with progress_bar("recording", "episodes", "{task.fields[frames]} frames") as bar:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import time
 
 from openral_data.errors import ConfigError, UsageError
@@ -11,6 +12,7 @@ from openral_data.policies.base import PolicyAdapter
 from openral_data.record import output, registry
 from openral_data.record.bridge import DatasetBridge
 from openral_data.record.compat import check_compatibility
+from openral_data.record.observers import check_observers, make_observers
 from openral_data.record.options import (
     ProgressFn,
     RecordOptions,
@@ -65,6 +67,7 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
 
     check_formats(opts.formats, opts.image_format)
     out = opts.out if opts.out is not None else default_out(scene, rskill.id)
+    check_observers(opts, out)
     kept = {
         "scene": str(scene_path.resolve()),
         "rskill": str(rskill_path.resolve()),
@@ -102,19 +105,22 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
             )
             opened = output.open_output(held, opts, schema, kept)
             first = opened.first_episode
+            observers = make_observers(opts, out, schema)
             try:
                 sinks: list[Sink] = make_sinks(
                     out, schema, opts.formats, WriterConfig(video=video), opts.image_format, resume=opts.resume
                 )
-            except OSError as exc:
-                explained = ended_by(exc, out, first)
+            except BaseException as exc:
+                with contextlib.suppress(Exception):  # closes the observers (no sink yet); the error is `exc`
+                    DatasetBridge(schema, [], observers=observers).close()
+                explained = ended_by(exc, out, first) if isinstance(exc, OSError) else None
                 if explained is None:
                     raise
                 raise explained from exc
             for sink in sinks:
                 if isinstance(sink, McapSink):
                     sink.index_offset = opts.first_episode
-            bridge = DatasetBridge(schema, sinks, first_episode=first)
+            bridge = DatasetBridge(schema, sinks, first_episode=first, observers=observers)
             start_at = getattr(env, "start_at", None)  # producers that number their episodes (the mock)
             if callable(start_at):
                 start_at(first)
