@@ -153,5 +153,6 @@ def _print_summary(summary: RecordSummary, resume: bool, workers: str | None) ->
             *([("mcap bags", str(summary.out / "mcap"))] if "mcap" in summary.formats else []),
             ("codec", summary.codec),
             *([("workers", workers)] if workers is not None else []),
+            *([("debug videos", str(summary.debug_videos))] if summary.debug_videos is not None else []),
         ],
     )

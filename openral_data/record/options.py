@@ -43,6 +43,7 @@ class RecordSummary:
     recovered: tuple[str, ...] = ()  # what recovery did before resuming
     codec: str = ""  # the settings used (with --resume: the recording's own)
     formats: tuple[str, ...] = ()
+    debug_videos: Path | None = None  # where --save-video wrote (not in to_json)
 
     @property
     def success_rate(self) -> float:

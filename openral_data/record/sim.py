@@ -67,7 +67,7 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
 
     check_formats(opts.formats, opts.image_format)
     out = opts.out if opts.out is not None else default_out(scene, rskill.id)
-    check_observers(opts, out)
+    debug_videos = check_observers(opts, out)
     kept = {
         "scene": str(scene_path.resolve()),
         "rskill": str(rskill_path.resolve()),
@@ -152,6 +152,7 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
         recovered=tuple(opened.actions),
         codec=opts.codec,
         formats=opts.formats,
+        debug_videos=debug_videos,
     )
 
 

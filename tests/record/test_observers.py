@@ -49,6 +49,7 @@ def test_one_video_per_episode_beside_an_unchanged_dataset(tmp_path: Path, proje
     done = _record(scene, out, "--save-video")
     assert done.returncode == 0, done.stderr
     folder = tmp_path / "ds.debug"
+    assert "debug videos" in done.stdout  # the summary says where they went
     assert existing_videos(folder) == [0, 1, 2] and leftovers(folder) == []
     for episode, length in enumerate(LENGTHS):
         check_mock_video(folder / f"episode_{episode:06d}.mp4", episode, length)
