@@ -51,8 +51,18 @@ def record(
     address: Annotated[str | None, typer.Option(help="Ray cluster address (--executor ray)")] = None,
     threads_per_worker: Annotated[int | None, typer.Option(help="renderer threads per worker (LP_NUM_THREADS)")] = None,
     json: JsonFlag = False,
+    view: Annotated[
+        bool, typer.Option("--view", help="show the run live in rerun: a viewer, or a served stream when headless")
+    ] = False,
+    view_port: Annotated[int, typer.Option(help="--view: port of the spawned viewer or the served stream")] = 9876,
+    view_address: Annotated[
+        str | None, typer.Option(help="--view: send to this running viewer instead (rerun+http://HOST:PORT/proxy)")
+    ] = None,
 ) -> None:
     """Record episodes of SCENE driven by RSKILL into a LeRobotDataset v3 and/or ROS 2 MCAP bags."""
+    view_given = view or view_port != 9876 or view_address is not None
+    if view_given and (not view or hal is not None or workers != 1 or executor != "local"):
+        raise UsageError("--view, --view-port, --view-address: need --view, and not with --hal or --workers")
     if hal is not None:
         from openral_data.cli.hal import run_hal_record
         from openral_data.record.options import DEFAULT_RSKILL
@@ -91,6 +101,9 @@ def record(
             for name in ctx.params
             if getattr(ctx.get_parameter_source(name), "name", "") == "COMMANDLINE"
         ),
+        view=view,
+        view_port=view_port,
+        view_address=view_address,
     )
     parallel = workers != 1 or executor != "local"
     with progress_bar("recording", "episodes", "{task.fields[frames]} frames") as bar:

@@ -29,6 +29,9 @@ class RecordOptions:
     resume: bool = False  # continue the recording in `out` with its own settings (see openral_data.record.output)
     explicit: frozenset[str] = frozenset()  # options the user gave (with resume: they must match the recording)
     first_episode: int = 0  # MCAP bags are numbered from here (a `--workers` share; see openral_data/parallel)
+    view: bool = False  # --view: show the run live in rerun (openral_data/viz/live.py); never changes the dataset
+    view_port: int = 9876  # --view: the port a spawned viewer or the served stream listens on
+    view_address: str | None = None  # --view: send to this running viewer/server instead (rerun+http://.../proxy)
 
 
 @dataclass(frozen=True)

@@ -11,6 +11,7 @@ from openral_data.policies.base import PolicyAdapter
 from openral_data.record import output, registry
 from openral_data.record.bridge import DatasetBridge
 from openral_data.record.compat import check_compatibility
+from openral_data.record.observers import check_observers, make_observers
 from openral_data.record.options import (
     ProgressFn,
     RecordOptions,
@@ -64,6 +65,7 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
     from openral_data.record.sinks import check_formats, make_sinks
 
     check_formats(opts.formats, opts.image_format)
+    check_observers(opts)
     out = opts.out if opts.out is not None else default_out(scene, rskill.id)
     kept = {
         "scene": str(scene_path.resolve()),
@@ -114,7 +116,7 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
             for sink in sinks:
                 if isinstance(sink, McapSink):
                     sink.index_offset = opts.first_episode
-            bridge = DatasetBridge(schema, sinks, first_episode=first)
+            bridge = DatasetBridge(schema, sinks, first_episode=first, observers=make_observers(opts, out, schema))
             start_at = getattr(env, "start_at", None)  # producers that number their episodes (the mock)
             if callable(start_at):
                 start_at(first)
