@@ -31,6 +31,9 @@ from tests.support.lerobot import verify_mock_dataset
 from tests.support.rrd import RERUN
 from tests.support.scenes import mock_scene, write_yaml
 
+# a client stopped with Ctrl-C leaves an .rrd without the footer; RrdReader reads it by scanning
+pytestmark = pytest.mark.filterwarnings("ignore:RRD file has no footer")
+
 LENGTHS = [4, 6]
 SCHEMA = DatasetSchema(
     fps=20,
@@ -207,3 +210,36 @@ def test_open_live_view_refuses_a_bad_address() -> None:
     with pytest.raises(UsageError) as err:
         open_live_view(SCHEMA, address="rerun+http://127.0.0.1:9/nope")
     assert err.value.code == "usage"
+
+
+def test_view_address_sends_to_a_running_viewer(tmp_path: Path) -> None:
+    port = free_port()
+    got = tmp_path / "server.rrd"
+    server = subprocess.Popen(
+        [str(RERUN), "--save", str(got), "--port", str(port)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+    )
+    try:
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:  # until it listens
+            with socket.socket() as s:
+                if s.connect_ex(("127.0.0.1", port)) == 0:
+                    break
+            time.sleep(0.05)
+        err = io.StringIO()
+        view = open_live_view(SCHEMA, address=f"rerun+http://127.0.0.1:{port}/proxy", err=err)
+        view.begin_episode(3, EpisodeStart(seed=3, initial_state={}))
+        for t in range(5):
+            view.add_frame(frame(t))
+        view.end_episode(EpisodeRecord(index=3, length=5, success=True, seed=3))
+        view.begin_episode(4, EpisodeStart(seed=4, initial_state={}))
+        view.add_frame(frame(0))
+        view.end_episode(None)  # discarded (Ctrl-C): the view says so
+        view.close()
+        assert err.getvalue().splitlines()[-1] == "view: 6 frames shown, 0 dropped (the viewer lagged)"
+        settled(got)
+    finally:
+        server.send_signal(signal.SIGINT)
+        server.wait(30)
+    received = {rid.rsplit("-", 1)[1]: v for rid, v in entities(got).items()}
+    assert {k: v[0]["/cameras/front"] for k, v in received.items()} == {"3": 5, "4": 1}
+    assert received["3"][0]["/events"] == received["4"][0]["/events"] == 1

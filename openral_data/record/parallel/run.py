@@ -52,6 +52,8 @@ def record_parallel(
     check_formats(opts.formats, opts.image_format)
     if opts.resume:
         raise UsageError("--resume: continue a recording with one process (no --workers/--executor)")
+    if opts.view:
+        raise UsageError("--view: watch a recording made by one process (no --workers/--executor)")
     if opts.out is None:
         scene = load_recordable_scene(registry.resolve_scene_path(opts.scene))
         rskill = registry.resolve_rskill(rskill_ref(opts.rskill, scene))[0]
