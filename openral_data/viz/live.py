@@ -84,10 +84,11 @@ def check_address(address: str) -> None:
 
 
 def check_view_options(port: int, address: str | None) -> None:
-    """`--view-address` is a proxy URL, else `--view-port` is free (a spawned viewer or the server listens there)."""
+    """`--view-address` is a proxy URL; a port to serve on is free (a viewer spawned on a busy port is the running
+    viewer there, reused, so a display is not checked)."""
     if address is not None:
         check_address(address)
-    else:
+    elif not has_display():
         check_port(port)
 
 
