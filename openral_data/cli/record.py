@@ -57,10 +57,20 @@ def record(
     save_video_dir: Annotated[
         Path | None, typer.Option(help="write the --save-video mp4s to this folder instead (implies --save-video)")
     ] = None,
+    view: Annotated[
+        bool, typer.Option("--view", help="show the run live in rerun: a viewer, or a served stream when headless")
+    ] = False,
+    view_port: Annotated[int, typer.Option(help="--view: port of the spawned viewer or the served stream")] = 9876,
+    view_address: Annotated[
+        str | None, typer.Option(help="--view: send to this running viewer instead (rerun+http://HOST:PORT/proxy)")
+    ] = None,
 ) -> None:
     """Record episodes of SCENE driven by RSKILL into a LeRobotDataset v3 and/or ROS 2 MCAP bags."""
     if hal is not None and (save_video or save_video_dir is not None):
         raise UsageError("--save-video/--save-video-dir: not available with --hal (a scene recording only)")
+    view_given = view or view_port != 9876 or view_address is not None
+    if view_given and (not view or hal is not None or workers != 1 or executor != "local"):
+        raise UsageError("--view, --view-port, --view-address: need --view, and not with --hal or --workers")
     if hal is not None:
         from openral_data.cli.hal import run_hal_record
         from openral_data.record.options import DEFAULT_RSKILL
@@ -101,6 +111,9 @@ def record(
         ),
         save_video=save_video,
         save_video_dir=save_video_dir,
+        view=view,
+        view_port=view_port,
+        view_address=view_address,
     )
     parallel = workers != 1 or executor != "local"
     with progress_bar("recording", "episodes", "{task.fields[frames]} frames") as bar:

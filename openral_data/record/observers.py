@@ -1,4 +1,5 @@
-"""The frame observers of a `record` run (`--save-video`), built from its options by one function."""
+"""The frame observers of a `record` run: what watches it without being part of it (`--save-video`, `--view`),
+checked and built from its options here."""
 
 from __future__ import annotations
 
@@ -13,23 +14,31 @@ DEBUG_SUFFIX = ".debug"  # `--save-video` without a folder: `<out>.debug/`, besi
 
 
 def make_observers(opts: RecordOptions, out: Path, schema: DatasetSchema) -> list[FrameObserver]:
-    """The observers `opts` asks for, for a recording into `out` (the bridge closes them)."""
+    """The observers `opts` asks for, for a recording into `out`, in the order the bridge shows them each frame
+    (the bridge closes them). `check_observers` has refused what cannot work."""
     observers: list[FrameObserver] = []
-    videos = check_observers(opts, out)
+    videos = video_folder(opts, out)
     if videos is not None:
         from openral_data.viz.debug_video import DebugVideo
 
         observers.append(DebugVideo(videos, schema))
+    if opts.view:
+        from openral_data.viz.live import open_live_view
+
+        observers.append(open_live_view(schema, port=opts.view_port, address=opts.view_address))
     return observers
 
 
 def check_observers(opts: RecordOptions, out: Path) -> Path | None:
-    """Refuse, before anything is written, observer options that cannot work; return the `--save-video` folder
-    (None: no debug video). It is `--save-video-dir`, else `<out>.debug/`; never inside the dataset (its readers
-    must see it unchanged). A fresh recording refuses a folder that already holds debug videos."""
-    if not opts.save_video and opts.save_video_dir is None:
+    """Refuse, before anything is written, observer options that cannot work (a busy `--view-port`, a debug video
+    folder inside the dataset or already holding videos); return the `--save-video` folder (None: no video)."""
+    if opts.view:
+        from openral_data.viz.live import check_view_options
+
+        check_view_options(opts.view_port, opts.view_address)
+    folder = video_folder(opts, out)
+    if folder is None:
         return None
-    folder = opts.save_video_dir if opts.save_video_dir is not None else out.with_name(out.name + DEBUG_SUFFIX)
     source = "--save-video-dir" if opts.save_video_dir is not None else "--save-video"
     check_creatable(folder, source)
     if folder.resolve().is_relative_to(out.resolve()):
@@ -42,3 +51,10 @@ def check_observers(opts: RecordOptions, out: Path) -> Path | None:
                 f"{folder}: {source}: already holds debug videos; refusing to overwrite them (choose another folder)"
             )
     return folder
+
+
+def video_folder(opts: RecordOptions, out: Path) -> Path | None:
+    """Where `--save-video` writes: `--save-video-dir`, else `<out>.debug/`; None without either option."""
+    if not opts.save_video and opts.save_video_dir is None:
+        return None
+    return opts.save_video_dir if opts.save_video_dir is not None else out.with_name(out.name + DEBUG_SUFFIX)

@@ -31,6 +31,9 @@ class RecordOptions:
     first_episode: int = 0  # MCAP bags are numbered from here (a `--workers` share; see openral_data/parallel)
     save_video: bool = False  # a debug mp4 per episode in `<out>.debug/` (openral_data/viz/debug_video.py)
     save_video_dir: Path | None = None  # ... in this folder instead (implies save_video)
+    view: bool = False  # --view: show the run live in rerun (openral_data/viz/live.py); never changes the dataset
+    view_port: int = 9876  # --view: the port a spawned viewer or the served stream listens on
+    view_address: str | None = None  # --view: send to this running viewer/server instead (rerun+http://.../proxy)
 
 
 @dataclass(frozen=True)

@@ -24,14 +24,23 @@ from openral_data.errors import DatasetError, EpisodeSelectionError, NotFound, O
 from openral_data.formats import results as results_layout
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.clip import episode_clip
-from openral_data.formats.lerobot_v3.features import ACTION, IMAGE_PREFIX, STATE
+from openral_data.formats.lerobot_v3.features import ACTION, STATE
 from openral_data.formats.lerobot_v3.layout import FilePos
 from openral_data.formats.parquetfile import read_table
 from openral_data.metrics.sources import DatasetSource, open_dataset
-
-APP_ID = "openral-data"
-FRAME = "frame_index"
-TIME = "time"
+from openral_data.viz.entities import (
+    APP_ID,
+    FRAME,
+    OUTCOMES,
+    TASK,
+    TIME,
+    camera_entity,
+    log_episode_end,
+    log_outcome_style,
+    log_series_styles,
+    outcome_entity,
+    series_entities,
+)
 
 
 @dataclass(frozen=True)
@@ -162,36 +171,28 @@ def log_episode(rec: rr.RecordingStream, data: EpisodeData) -> None:
     times = [rr.TimeColumn(FRAME, sequence=frame_index), rr.TimeColumn(TIME, duration=ts)]
 
     tasks = row.get("tasks") or []
-    rec.log("task", rr.TextDocument("\n".join(tasks) or "(no task)"), static=True)
+    rec.log(TASK, rr.TextDocument("\n".join(tasks) or "(no task)"), static=True)
     for cam, path in data.videos.items():
         _log_camera(rec, ds, row, cam, path, frame_index, times)
     for key in (STATE, ACTION):
         if key not in table.column_names:
             continue
         values = _matrix(table, key)
-        names = ds.dim_names(key)
-        base = "state" if key == STATE else "action"
-        for i in range(values.shape[1]):
-            name = names[i] if i < len(names) else f"{base}_{i}"
-            entity = f"{base}/{rr.escape_entity_path_part(name)}"
-            rec.log(entity, rr.SeriesLines(names=name), static=True)
+        series = series_entities("state" if key == STATE else "action", ds.dim_names(key), values.shape[1])
+        log_series_styles(rec, series)
+        for i, (entity, _) in enumerate(series):
             rec.send_columns(entity, indexes=times, columns=rr.Scalars.columns(scalars=values[:, i]))
-    for key in ("next.reward", "next.success", "next.done"):
-        if key in table.column_names:
-            values = np.asarray(table.column(key).to_numpy(zero_copy_only=False), dtype=np.float64)
-            entity = f"outcome/{key.removeprefix('next.')}"
-            if key == "next.reward":
-                rec.log(entity, rr.SeriesLines(names="reward"), static=True)
-            else:
-                rec.log(entity, rr.SeriesPoints(names=key.removeprefix("next."), marker_sizes=4.0), static=True)
-            rec.send_columns(entity, indexes=times, columns=rr.Scalars.columns(scalars=values))
+    for name in OUTCOMES:
+        if f"next.{name}" in table.column_names:
+            values = np.asarray(table.column(f"next.{name}").to_numpy(zero_copy_only=False), dtype=np.float64)
+            log_outcome_style(rec, name)
+            rec.send_columns(outcome_entity(name), indexes=times, columns=rr.Scalars.columns(scalars=values))
     success = row.get("openral.success")
     if success is None and "next.success" in table.column_names:
         success = bool(pa.compute.any(table.column("next.success")).as_py())
-    label = "unknown" if success is None else ("success" if success else "failure")
     rec.set_time(FRAME, sequence=int(frame_index[-1]))
     rec.set_time(TIME, duration=float(ts[-1]))
-    rec.log("events", rr.TextLog(f"episode {episode} done: {label}", level="INFO" if success else "WARN"))
+    log_episode_end(rec, episode, success)
     if data.steps is not None:
         _log_results(rec, data.steps, ts, frame_index)
 
@@ -205,7 +206,7 @@ def _log_camera(
     frame_index: np.ndarray[Any, np.dtype[np.int64]],
     times: list[rr.TimeColumn],
 ) -> None:
-    entity = f"cameras/{rr.escape_entity_path_part(cam.removeprefix(IMAGE_PREFIX))}"
+    entity = camera_entity(cam)
     start = float(row.get(f"videos/{cam}/from_timestamp") or 0.0)
     end = float(row.get(f"videos/{cam}/to_timestamp") or start + len(frame_index) / ds.fps)
     clip = episode_clip(path, start, end, ds.fps)

@@ -153,3 +153,11 @@ def test_interrupted_workers_keep_their_finished_episodes(project: Path, tmp_pat
     for name in kept:
         assert check(workdir / name) == [], name
         assert episode_seeds(workdir / name) == ([0, 1, 2] if name == "worker-000" else [3, 4, 5][: kept[name]])
+
+
+def test_view_is_refused_with_workers(tmp_path: Path) -> None:
+    """A live view watches one process; several workers would each try to serve on the same port."""
+    with pytest.raises(UsageError) as err:
+        record_parallel(RecordOptions(out=tmp_path / "ds", view=True), 2)
+    assert "--view" in str(err.value) and err.value.code == "usage"
+    assert not (tmp_path / "ds").exists()

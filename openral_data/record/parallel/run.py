@@ -54,6 +54,8 @@ def record_parallel(
         raise UsageError("--resume: continue a recording with one process (no --workers/--executor)")
     if opts.save_video or opts.save_video_dir is not None:
         raise UsageError("--save-video: record with one process (no --workers/--executor) to get debug videos")
+    if opts.view:
+        raise UsageError("--view: watch a recording made by one process (no --workers/--executor)")
     if opts.out is None:
         scene = load_recordable_scene(registry.resolve_scene_path(opts.scene))
         rskill = registry.resolve_rskill(rskill_ref(opts.rskill, scene))[0]
