@@ -29,6 +29,9 @@ class RecordOptions:
     resume: bool = False  # continue the recording in `out` with its own settings (see openral_data.record.output)
     explicit: frozenset[str] = frozenset()  # options the user gave (with resume: they must match the recording)
     first_episode: int = 0  # MCAP bags are numbered from here (a `--workers` share; see openral_data/parallel)
+    task: str | None = None  # a task of a suite scene (`--task`; see openral_data.record.tasks); None: the YAML's
+    instruction: str | None = None  # recorded for every frame and given to the policy (`--instruction`)
+    device: str | None = None  # a neural policy's torch device (`--device`; wins over the rSkill's)
 
 
 @dataclass(frozen=True)
