@@ -14,6 +14,7 @@ from rich.table import Table
 from openral_data import paths
 from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import console, print_line, print_rows
+from openral_data.errors import UsageError
 
 if TYPE_CHECKING:
     from openral_data.record.catalog import Item
@@ -26,6 +27,7 @@ class ListWhat(StrEnum):
     robots = "robots"
     types = "types"
     policies = "policies"
+    tasks = "tasks"
 
 
 def info(dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset folder")], json: JsonFlag = False) -> None:
@@ -54,10 +56,17 @@ def info(dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset fold
 
 def list_cmd(
     what: Annotated[ListWhat, typer.Argument(help="what to list (default: everything)")] = ListWhat.all,
+    scene: Annotated[str | None, typer.Argument(help="list tasks: the scene (id or YAML path)")] = None,
     json: JsonFlag = False,
 ) -> None:
     """List the scenes, rSkills, robots, scene types and policies this installation knows, and where each comes
-    from (built-in, plug-in, user, project, --*-dir); a broken plug-in is reported on one line, never fatal."""
+    from (built-in, plug-in, user, project, --*-dir); a broken plug-in is reported on one line, never fatal.
+    `list tasks SCENE` lists the tasks of a suite scene (`record --task`)."""
+    if what is ListWhat.tasks:
+        _list_tasks(scene, json)
+        return
+    if scene is not None:
+        raise UsageError(f"list {what.value}: takes no SCENE (only `list tasks SCENE` does)")
     from openral_data.record.catalog import SECTIONS, catalog
 
     sections = SECTIONS if what is ListWhat.all else (_SECTION[what],)
@@ -72,6 +81,24 @@ def list_cmd(
     for name, items in cat.sections.items():
         out.print(name.replace("_", " "), style="bold", markup=False, highlight=False)  # unpadded, unlike a title
         out.print(_table(name, items))
+
+
+def _list_tasks(scene_ref: str | None, json: bool) -> None:
+    from openral_data.record.tasks import tasks_of
+
+    if scene_ref is None:
+        raise UsageError("list tasks: needs SCENE (a scene id or YAML path), e.g. `list tasks metaworld_push`")
+    scene, found = tasks_of(scene_ref)
+    if json:
+        items = [{"id": t.id, "instruction": t.instruction, "aliases": list(t.aliases)} for t in found]
+        print_json("list", {"scene": scene.scene.id, "tasks": items})
+        return
+    table = Table(title=f"tasks of {escape(scene.scene.id)} ({escape(scene.scene.type)})")
+    for col in ("id", "also", "instruction"):
+        table.add_column(col)
+    for t in found:
+        table.add_row(escape(t.id), escape(",".join(t.aliases)), escape(t.instruction))
+    (console if console.is_terminal else Console(width=1000, color_system=None)).print(table)
 
 
 _SECTION = {

@@ -64,6 +64,14 @@ def record(
     view_address: Annotated[
         str | None, typer.Option(help="--view: send to this running viewer instead (rerun+http://HOST:PORT/proxy)")
     ] = None,
+    suite_task: Annotated[
+        str | None,
+        typer.Option("--task", help="a task of a suite scene, e.g. pick-place-v3 or libero_spatial/3 (list tasks)"),
+    ] = None,
+    instruction: Annotated[str | None, typer.Option(help="the language instruction of every frame")] = None,
+    device: Annotated[
+        str | None, typer.Option(help="neural policies: cpu, cuda, cuda:N, mps or auto (default: the rSkill's)")
+    ] = None,
 ) -> None:
     """Record episodes of SCENE driven by RSKILL into a LeRobotDataset v3 and/or ROS 2 MCAP bags."""
     if hal is not None and (save_video or save_video_dir is not None):
@@ -77,6 +85,8 @@ def record(
 
         if resume or workers != 1:
             raise UsageError("--resume/--workers: not available with --hal (one robot, one new dataset)")
+        if suite_task is not None or instruction is not None or device is not None:
+            raise UsageError("--task/--instruction/--device: not available with --hal (the rSkill's own are used)")
 
         run_hal_record(
             hal, mode, rskill or DEFAULT_RSKILL, fps, scene if scene != manifests.DEFAULT_SCENE else None, n_episodes,
@@ -105,7 +115,7 @@ def record(
         image_format=image_format,
         resume=resume,
         explicit=frozenset(
-            {"format": "formats"}.get(name, name)
+            {"format": "formats", "suite_task": "task"}.get(name, name)
             for name in ctx.params
             if getattr(ctx.get_parameter_source(name), "name", "") == "COMMANDLINE"
         ),
@@ -114,6 +124,9 @@ def record(
         view=view,
         view_port=view_port,
         view_address=view_address,
+        task=suite_task,
+        instruction=instruction,
+        device=device,
     )
     parallel = workers != 1 or executor != "local"
     with progress_bar("recording", "episodes", "{task.fields[frames]} frames") as bar:

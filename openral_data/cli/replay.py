@@ -31,6 +31,12 @@ def replay(
     format: Annotated[str, typer.Option("--format", help="--record formats: lerobot, mcap or both")] = "lerobot",
     label: Annotated[str | None, typer.Option(help="label of the results in stats")] = None,
     json: JsonFlag = False,
+    instruction: Annotated[
+        str | None, typer.Option(help="closed-loop: the policy's instruction instead of the scene's")
+    ] = None,
+    device: Annotated[
+        str | None, typer.Option(help="policy / closed-loop: cpu, cuda, cuda:N, mps or auto (neural policies)")
+    ] = None,
 ) -> None:
     """Replay recorded actions through the rebuilt scene, or evaluate a policy against recorded episodes."""
     from openral_data.record.sinks import parse_formats
@@ -53,6 +59,8 @@ def replay(
         cameras=cameras,
         codec=codec.value,
         formats=parse_formats(format),
+        instruction=instruction,
+        device=device,
     )
     summary = _run(opts)
     if json:

@@ -3,7 +3,7 @@
 ```yaml
 name: push_campaign            # the run folder is runs/<name> (or --workdir)
 steps:
-  - id: rec                    # outputs: rec/<scene>--<rskill>[--<robot>], one dataset per combination
+  - id: rec                    # outputs: rec/<scene>--<rskill>[--<robot>][--<task>], one dataset per combination
     record: {scenes: [tabletop_push], rskills: [scripted-push], seeds: {start: 0, count: 5}, codec: h264}
   - id: all
     merge: {inputs: [rec], order: seed}
@@ -56,6 +56,9 @@ class RecordStep(StrictModel):
     image_format: Literal["jpeg", "png", "raw"] = "jpeg"
     workers: int = Field(default=1, ge=1)
     executor: Literal["local", "ray"] = "local"
+    tasks: list[str] | None = Field(default=None, min_length=1)  # `--task` ids swept per scene; None: the YAML's
+    instruction: str | None = Field(default=None, min_length=1)  # `--instruction` of every recording
+    device: str | None = None  # `--device` of a neural policy
 
     @field_validator("robots")
     @classmethod
@@ -64,12 +67,23 @@ class RecordStep(StrictModel):
             _one_component(robot, f"[{i}]")
         return robots
 
-    def items(self) -> list[tuple[str, str, str, str | None]]:
-        """(output folder name, scene, rSkill, robot) for every combination this step records."""
+    def items(self) -> list[tuple[str, str, str, str | None, str | None]]:
+        """(output folder name, scene, rSkill, robot, task) for every combination this step records; a task's
+        `/` (LIBERO's `suite/index`) is a `-` in the folder name."""
         robots: list[str | None] = list(self.robots) if self.robots else [None]
+        tasks: list[str | None] = list(self.tasks) if self.tasks else [None]
         return [
-            (f"{Path(scene).stem}--{Path(rskill).name}" + (f"--{robot}" if robot else ""), scene, rskill, robot)
+            (
+                f"{Path(scene).stem}--{Path(rskill).name}"
+                + (f"--{robot}" if robot else "")
+                + (f"--{task.replace('/', '-')}" if task else ""),
+                scene,
+                rskill,
+                robot,
+                task,
+            )
             for scene in self.scenes
+            for task in tasks
             for rskill in self.rskills
             for robot in robots
         ]

@@ -30,11 +30,13 @@ def jobs_for(step: Step, resolve: Resolve) -> Iterator[ItemJob]:
 
 
 def _record_jobs(spec: RecordStep) -> Iterator[ItemJob]:
-    for name, scene, rskill, robot in spec.items():
-        yield name, _record_one(spec, scene, rskill, robot)
+    for name, scene, rskill, robot, task in spec.items():
+        yield name, _record_one(spec, scene, rskill, robot, task)
 
 
-def _record_one(spec: RecordStep, scene: str, rskill: str, robot: str | None) -> Callable[[Path], dict[str, Any]]:
+def _record_one(
+    spec: RecordStep, scene: str, rskill: str, robot: str | None, task: str | None
+) -> Callable[[Path], dict[str, Any]]:
     def run(out: Path) -> dict[str, Any]:
         from openral_data.record.options import RecordOptions, RecordSummary
         from openral_data.record.sim import record
@@ -50,6 +52,9 @@ def _record_one(spec: RecordStep, scene: str, rskill: str, robot: str | None) ->
             codec=spec.codec,
             formats=tuple(spec.formats),
             image_format=spec.image_format,
+            task=task,
+            instruction=spec.instruction,
+            device=spec.device,
         )
         summary: RecordSummary
         if spec.workers > 1 or spec.executor != "local":

@@ -3,7 +3,8 @@
 The rSkill manifest names the checkpoint in `policy_extras.checkpoint` (a directory as `lerobot-train` writes
 under `checkpoints/<step>/pretrained_model/` or `save_pretrained` makes: `config.json`, `model.safetensors`,
 `policy_preprocessor.json` / `policy_postprocessor.json` with their normaliser state); a relative path is
-relative to the manifest's folder. Optional `policy_extras.device` (default `cpu`).
+relative to the manifest's folder. Optional `policy_extras.device` (default `cpu`; `cuda[:N]`, `mps` or `auto`, see
+openral_data.policies.device; `record --device` replaces it).
 
 Nothing is downloaded: the checkpoint is read with `local_files_only`, and the torchvision backbone weights a
 config may name (`pretrained_backbone_weights`, ImageNet by default in ACT) are switched off before the model is
@@ -29,6 +30,7 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.errors import CompatibilityError, ConfigError, ContractViolation
+from openral_data.policies.device import resolve_device
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.types import Observation
 
@@ -114,7 +116,10 @@ class LerobotPolicy:
         from lerobot.policies.factory import get_policy_class, make_pre_post_processors
 
         path = checkpoint_dir(rskill)
-        device = str(rskill.policy_extras.get("device", "cpu"))
+        device = resolve_device(
+            str(rskill.policy_extras.get("device", "cpu")), f"rskill {rskill.id}: policy_extras.device"
+        )
+        self.device = device  # what a recording notes as the device used
         config = load_config(path, device)
         check_features(config, rskill, path)
         self._torch = torch

@@ -34,6 +34,9 @@ class RecordOptions:
     view: bool = False  # --view: show the run live in rerun (openral_data/viz/live.py); never changes the dataset
     view_port: int = 9876  # --view: the port a spawned viewer or the served stream listens on
     view_address: str | None = None  # --view: send to this running viewer/server instead (rerun+http://.../proxy)
+    task: str | None = None  # a task of a suite scene (`--task`; see openral_data.record.tasks); None: the YAML's
+    instruction: str | None = None  # recorded for every frame and given to the policy (`--instruction`)
+    device: str | None = None  # a neural policy's torch device (`--device`; wins over the rSkill's)
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,8 @@ from openral_data.errors import ConfigError, UsageError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
 from openral_data.formats.mcap import McapSink
 from openral_data.policies.base import PolicyAdapter
-from openral_data.record import output, registry
+from openral_data.policies.device import resolve_device, with_device
+from openral_data.record import output, registry, tasks
 from openral_data.record.bridge import DatasetBridge
 from openral_data.record.compat import check_compatibility
 from openral_data.record.observers import check_observers, make_observers
@@ -46,6 +47,11 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
     scene_path = registry.resolve_scene_path(opts.scene)
     scene = load_recordable_scene(scene_path)
     scene_src = str(scene_path)
+    task_id = None
+    if opts.task is not None:
+        scene, task_id = tasks.choose_task(scene, opts.task, scene_src)
+    tasks.check_instruction(opts.instruction)
+    device = resolve_device(opts.device) if opts.device is not None else None
     rskill, rskill_path = registry.resolve_rskill(rskill_ref(opts.rskill, scene))
     rskill_src = str(rskill_path)
     if opts.robot is not None and scene.scene.fixed_robot and opts.robot != scene.scene.robot:
@@ -78,6 +84,8 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
         "formats": list(opts.formats),
         "image_format": opts.image_format,
         "n_episodes": n_episodes,
+        "task": task_id,
+        "instruction": opts.instruction,
     }
     # 2. one writer: the lock on `out` is taken before the scene is built and before any byte goes into `out`
     if held is None:
@@ -89,7 +97,8 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
         try:
             video = VideoSettings(codec=opts.codec)
             check_compatibility(robot, rskill, env.spec, rskill_source=rskill_src, scene_source=scene_src, video=video)
-            policy = make_policy(rskill)
+            policy = make_policy(with_device(rskill, device))
+            kept["device"] = getattr(policy, "device", None)  # the device a neural policy runs on; None: no network
             schema = DatasetSchema(
                 fps=env.spec.fps,
                 state_names=tuple(rskill.state_contract.names),
@@ -130,7 +139,7 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
                 if progress is not None:
                     progress(None, 0, max(0, n_episodes - first))
                 for e in range(first, n_episodes):
-                    rec = _record_episode(env, policy, bridge, base_seed + e, max_steps, stop)
+                    rec = _record_episode(env, policy, bridge, base_seed + e, max_steps, stop, opts.instruction)
                     records.append(rec)
                     frames += rec.length
                     if progress is not None:
@@ -157,11 +166,18 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
 
 
 def _record_episode(
-    env: SimRollout, policy: PolicyAdapter, bridge: DatasetBridge, seed: int, max_steps: int, stop: StopRequest
+    env: SimRollout,
+    policy: PolicyAdapter,
+    bridge: DatasetBridge,
+    seed: int,
+    max_steps: int,
+    stop: StopRequest,
+    instruction: str | None = None,
 ) -> EpisodeRecord:
-    """One episode: row t = (observation t, the action the policy produced from it, what followed)."""
+    """One episode: row t = (observation t, the action the policy produced from it, what followed); with an
+    `instruction` (`--instruction`) that is every observation's task, for the policy and in the dataset."""
     stop.check()
-    obs = env.reset(seed)
+    obs = tasks.instructed(env.reset(seed), instruction)
     policy.reset(seed)
     bridge.begin_episode(seed, env.initial_state())
     success = False
@@ -172,7 +188,7 @@ def _record_episode(
         result = env.step(action)
         last = result.terminated or t == max_steps - 1
         bridge.add_step(obs, action, reward=result.reward, done=last, success=result.success)
-        obs = result.observation
+        obs = tasks.instructed(result.observation, instruction)
         if result.terminated:
             success = result.success
             break

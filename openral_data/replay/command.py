@@ -21,8 +21,10 @@ from openral_data.formats.lerobot_v3 import VideoSettings
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.results import is_results_dir, write_results
 from openral_data.policies.base import ChunkingPolicy, PolicyAdapter
+from openral_data.policies.device import resolve_device, with_device
 from openral_data.record import registry
 from openral_data.record.compat import check_compatibility
+from openral_data.record.tasks import check_instruction
 from openral_data.replay import recorded_policy
 from openral_data.replay.actions import DEFAULT_TOLERANCE, ActionReplayer
 from openral_data.replay.closed_loop import ClosedLoop
@@ -56,6 +58,10 @@ class ReplayOptions:
     cameras: Path | None = None  # with record: YAML of cameras (+ render) replacing the recorded ones
     codec: Codec = "av1"
     formats: tuple[str, ...] = ("lerobot",)
+    instruction: str | None = (
+        None  # closed-loop: the policy's instruction (and a --record's task) instead of the scene's
+    )
+    device: str | None = None  # policy / closed-loop: a neural policy's torch device (wins over the rSkill's)
 
 
 @dataclass
@@ -175,6 +181,11 @@ def _check(opts: ReplayOptions) -> None:
         raise UsageError("--record: --mode policy runs no simulator, so there is no rollout to record")
     if opts.cameras is not None and opts.record is None:
         raise UsageError("--cameras: only used with --record (the replay itself renders nothing)")
+    if opts.instruction is not None and opts.mode != "closed-loop":
+        raise UsageError("--instruction: only with --mode closed-loop (the other modes use the recorded frames' task)")
+    check_instruction(opts.instruction)
+    if opts.device is not None and opts.mode == "actions":
+        raise UsageError("--device: --mode actions runs no policy")
     if not np.isfinite(opts.tolerance) or opts.tolerance < 0:
         raise UsageError(f"--tolerance must be a finite number >= 0, got {opts.tolerance}")
     if opts.max_steps is not None and opts.max_steps < 1:
@@ -211,7 +222,7 @@ def replay(opts: ReplayOptions, progress: ProgressFn | None = None) -> ReplaySum
 def _runner(opts: ReplayOptions, dataset: RecordedDataset, extra: dict[str, Any]) -> Iterator[EpisodeRunner]:
     """A function replaying one episode in the chosen mode; everything it opened is closed on exit."""
     if opts.mode == "policy":
-        offline = _policy_for_dataset(opts.rskill or "", dataset)
+        offline = _policy_for_dataset(opts.rskill or "", dataset, opts.device)
         if isinstance(offline, ChunkingPolicy):
             extra["chunk"] = {"n_action_steps": int(offline.n_action_steps)}
         try:
@@ -241,9 +252,10 @@ def _runner(opts: ReplayOptions, dataset: RecordedDataset, extra: dict[str, Any]
                 scene_source=built.source,
                 video=VideoSettings(codec=opts.codec),
             )
-            policy = registry.policy_factory(manifest, str(rskill_src))(manifest)
+            device = resolve_device(opts.device) if opts.device is not None else None
+            policy = registry.policy_factory(manifest, str(rskill_src))(with_device(manifest, device))
             max_steps = opts.max_steps if opts.max_steps is not None else built.scene.task.max_steps
-            loop = ClosedLoop(built.env, policy, max_steps, opts.tolerance)
+            loop = ClosedLoop(built.env, policy, max_steps, opts.tolerance, opts.instruction)
         if opts.record is not None:
             rerec = Rerecorder(opts.record, built, dataset.root, opts.mode, opts.codec, opts.formats)
 
@@ -272,12 +284,13 @@ def _resolve(ref: str) -> tuple[RSkillManifest, str]:
     return manifest, str(path)
 
 
-def _policy_for_dataset(ref: str, dataset: RecordedDataset) -> PolicyAdapter:
+def _policy_for_dataset(ref: str, dataset: RecordedDataset, device: str | None) -> PolicyAdapter:
     """`recorded[:K]`, or the rSkill's policy after checking its contract against what the dataset holds."""
     chunk = recorded_policy.parse(ref)
     if chunk is not None:
         return recorded_policy.RecordedActions(chunk)
     manifest, src = _resolve(ref)
+    manifest = with_device(manifest, resolve_device(device) if device is not None else None)
     features = dataset.info["features"]
     for side, key, contract in (
         ("state_contract", "observation.state", manifest.state_contract),

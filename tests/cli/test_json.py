@@ -29,6 +29,7 @@ MAX_STEPS = 6
 TABLES = {
     "common", "info", "doctor", "record", "record --hal", "convert bags-to-lerobot", "convert lerobot-to-mcap",
     "replay", "list", "list item", "list scenes", "list rskills", "list robots", "list plugin_problems",
+    "list tasks", "list tasks item",
 }  # fmt: skip
 
 
@@ -317,3 +318,18 @@ def test_list_one_section_an_override_and_a_broken_manifest(tmp_path: Path) -> N
     assert item["origin"] == "project" and item["overrides"] == ["built-in"]
     assert item["path"] == str(tmp_path / "rskills/random-mock/rskill.yaml")
     assert item["error"] is not None and "policy" in item["error"] and item["policy"] is None
+
+
+def test_list_tasks() -> None:
+    """`list tasks SCENE --json`: its own document (robosuite's tasks are declared without importing robosuite)."""
+    done = run_cli("list", "tasks", "robosuite_lift", "--json")
+    assert done.returncode == 0, done.stderr
+    doc = parse(done.stdout, "list tasks")
+    assert doc["command"] == "list" and doc["scene"] == "robosuite_lift"
+    for item in doc["tasks"]:
+        check_object(item, "list tasks item")
+    assert [t["id"] for t in doc["tasks"]][:2] == ["Lift", "Stack"]
+    assert doc["tasks"][0]["instruction"] == "lift the red cube off the table"
+    refused = run_cli("list", "tasks", "pusht", "--json")
+    assert refused.returncode == 2 and refused.stdout == ""
+    assert "scene.type: 'gym_pusht' scenes have no tasks" in refused.stderr

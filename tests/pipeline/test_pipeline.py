@@ -158,3 +158,39 @@ def test_pipeline_cli_error_is_one_line(tmp_path: Path) -> None:
     res = run_cli("pipeline", "run", str(spec), "--workdir", str(tmp_path / "w"))
     assert res.returncode == 2 and res.stderr.count("\n") == 1 and "'nope' is not an earlier step" in res.stderr
     assert not (tmp_path / "w").exists()
+
+
+def test_record_step_sweeps_tasks_with_an_instruction_and_device(project: Path, tmp_path: Path) -> None:
+    """`tasks:` sweeps `record --task` per scene (one dataset per task, `/` -> `-` in its name); `instruction` and
+    `device` reach every recording."""
+    pytest.importorskip("robosuite")
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    from openral_data.replay.recorded import RecordedDataset
+
+    spec = write_yaml(
+        tmp_path / "p.yaml",
+        {
+            "name": "tasks",
+            "steps": [
+                {"id": "rec", "record": {"scenes": ["robosuite_lift"], "rskills": ["robosuite-panda-random"],
+                                         "tasks": ["Lift", "Stack"], "seeds": {"count": 1}, "max_steps": 2,
+                                         "codec": "h264", "instruction": "move a little", "device": "auto"}},
+            ],
+        },
+    )  # fmt: skip
+    step = load_pipeline(spec).steps[0].record
+    assert step is not None
+    names = [name for name, *_ in step.items()]
+    assert names == ["robosuite_lift--robosuite-panda-random--Lift", "robosuite_lift--robosuite-panda-random--Stack"]
+    libero = step.model_copy(update={"tasks": ["libero_spatial/3"]})
+    assert libero.items()[0][0] == "robosuite_lift--robosuite-panda-random--libero_spatial-3"
+    workdir = tmp_path / "run"
+    run_pipeline(spec, workdir)
+    for name, env in zip(names, ("Lift", "Stack"), strict=True):
+        out = workdir / "rec" / name
+        options = json.loads((out / ".openral/record.json").read_text())["options"]
+        assert options["task"] == env and options["instruction"] == "move a little"
+        ds = LeRobotDataset("local/x", root=out, video_backend="pyav")
+        assert RecordedDataset(out).scene().scene.params["env"] == env
+        assert ds[0]["task"] == "move a little"

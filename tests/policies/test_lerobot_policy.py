@@ -20,6 +20,7 @@ from openral_data.replay import ReplayOptions, replay
 from openral_data.replay.recorded import RecordedDataset
 from openral_data.types import Observation
 from tests.support.checkpoint import make_act_checkpoint, make_diffusion_checkpoint
+from tests.support.cli import run_cli
 from tests.support.home import isolated_home
 from tests.support.replay import record_mock, record_push
 from tests.support.scenes import write_yaml
@@ -83,6 +84,27 @@ def test_relative_checkpoint_is_relative_to_the_manifest(mock: tuple[Path, Path]
     (path.parent / "weights").unlink()
     with pytest.raises(ConfigError, match=r"policy_extras.checkpoint: .*weights is not a lerobot checkpoint"):
         registry.POLICIES["lerobot"](registry.resolve_rskill("act-mock")[0])
+
+
+def test_record_passes_device_through_and_the_cli_wins_over_the_rskill(
+    mock: tuple[Path, Path], checkpoint: Path, tmp_path: Path
+) -> None:
+    """An rSkill asking for a device this machine lacks is one line; `record --device cpu` runs it on the CPU (the
+    CLI wins) and record.json notes the device used."""
+    _, home = mock
+    path = _act_rskill(home, str(checkpoint))
+    data = yaml.safe_load(path.read_text())
+    write_yaml(path, {**data, "policy_extras": {**data["policy_extras"], "device": "cuda:7"}})
+    scene = home / "scenes/sim/mock_replay.yaml"
+    args = ["record", "--scene", str(scene), "--rskill", "act-mock", "--n-episodes", "1", "--max-steps", "3"]
+    refused = run_cli(*args, "--out", str(tmp_path / "no"))
+    assert refused.returncode == 2 and not (tmp_path / "no").exists()
+    assert refused.stderr.strip().startswith("error: rskill act-mock: policy_extras.device: cuda:7: torch sees ")
+    out = tmp_path / "cpu"
+    done = run_cli(*args, "--out", str(out), "--codec", "h264", "--device", "cpu")
+    assert done.returncode == 0, done.stderr
+    assert json.loads((out / ".openral/record.json").read_text())["options"]["device"] == "cpu"
+    assert pq.read_metadata(sorted((out / "data").rglob("*.parquet"))[0]).num_rows == 3
 
 
 @pytest.mark.parametrize(

@@ -33,6 +33,7 @@ from openral_data.producers.sim.initial_state import check_envelope, check_recor
 from openral_data.producers.sim.mujoco.render import CameraRig
 from openral_data.producers.sim.mujoco.rig_scene import RigScene
 from openral_data.producers.sim.params import parse_params
+from openral_data.producers.sim.tasks import SuiteTask
 from openral_data.schemas.base import StrictModel
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
@@ -44,6 +45,18 @@ FPS = 50  # gym-aloha's DT = 0.02 s
 DIM = 14
 CAMERAS = ("top", "angle", "front_close", "left_pillar", "right_pillar", "left_wrist", "right_wrist")
 AlohaTask = Literal["insertion", "transfer_cube"]
+
+
+# the shipped scenes' instructions (gym-aloha has no language of its own)
+INSTRUCTIONS: dict[AlohaTask, str] = {
+    "insertion": "Pick up the peg and the socket, one in each arm, and insert the peg into the socket.",
+    "transfer_cube": "Pick up the red cube with the right arm and hand it over to the left arm.",
+}
+
+
+def suite_tasks(scene: SimScene, source: str) -> list[SuiteTask]:
+    """gym-aloha's two tasks (`--task insertion`, `--task transfer_cube`)."""
+    return [SuiteTask(name, text, {"task": name}) for name, text in INSTRUCTIONS.items()]
 
 
 class AlohaParams(StrictModel):

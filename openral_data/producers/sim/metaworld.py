@@ -18,7 +18,10 @@ steps (TimeLimit): the scene then reports it terminated. Cameras: the model's na
 
 from __future__ import annotations
 
+import importlib.util
+import json
 import warnings
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -33,6 +36,7 @@ from openral_data.producers.sim.initial_state import check_recorded_on
 from openral_data.producers.sim.mujoco.rig_scene import RigScene
 from openral_data.producers.sim.named_cameras import named_camera_rig
 from openral_data.producers.sim.params import parse_params
+from openral_data.producers.sim.tasks import SuiteTask
 from openral_data.schemas.base import StrictModel
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
@@ -66,6 +70,30 @@ def task_names() -> list[str]:
     from metaworld.env_dict import ALL_V3_ENVIRONMENTS
 
     return sorted(ALL_V3_ENVIRONMENTS)
+
+
+def task_instructions() -> dict[str, str]:
+    """lerobot 0.6.1's MetaWorld task descriptions (`lerobot/envs/metaworld_config.json`; the shipped scenes' own
+    instructions): read from the file, since importing `lerobot.envs.metaworld` would build its environments."""
+    spec = importlib.util.find_spec("lerobot")
+    if spec is None or not spec.submodule_search_locations:
+        return {}
+    path = Path(next(iter(spec.submodule_search_locations))) / "envs" / "metaworld_config.json"
+    try:
+        found = json.loads(path.read_text()).get("TASK_DESCRIPTIONS", {})
+    except (OSError, ValueError):
+        return {}
+    return {str(k): str(v) for k, v in found.items()} if isinstance(found, dict) else {}
+
+
+def suite_tasks(scene: SimScene, source: str) -> list[SuiteTask]:
+    """Every MetaWorld v3 task of this wheel (`--task pick-place-v3`), with lerobot's description as its
+    instruction (the task's own name, spelt out, where lerobot has none)."""
+    described = task_instructions()
+    return [
+        SuiteTask(name, described.get(name) or name.removesuffix("-v3").replace("-", " "), {"task": name})
+        for name in task_names()
+    ]
 
 
 class MetaWorldScene(RigScene):

@@ -41,6 +41,7 @@ from openral_data.producers.sim.initial_state import check_recorded_on
 from openral_data.producers.sim.mujoco.rig_scene import RigScene
 from openral_data.producers.sim.named_cameras import named_camera_rig
 from openral_data.producers.sim.params import parse_params
+from openral_data.producers.sim.tasks import SuiteTask
 from openral_data.schemas.base import StrictModel
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
@@ -59,17 +60,29 @@ ROBOT_BODY_PREFIXES = ("robot0_", "gripper0_", "fixed_mount0_", "mount0_")
 VISUAL, HIDDEN_ROBOT_VISUAL, ROBOT_COLLISION = 1, 3, 4
 
 
+RobosuiteEnv = Literal[
+    "Lift", "Stack", "PickPlaceCan", "PickPlaceMilk", "PickPlaceBread", "PickPlaceCereal", "Door", "NutAssemblyRound"
+]
+# robosuite has no language: each environment's instruction (the shipped scenes' where they have one)
+INSTRUCTIONS: dict[RobosuiteEnv, str] = {
+    "Lift": "lift the red cube off the table",
+    "Stack": "stack the red cube on the green cube",
+    "PickPlaceCan": "pick the can and place it in its bin",
+    "PickPlaceMilk": "pick the milk carton and place it in its bin",
+    "PickPlaceBread": "pick the bread and place it in its bin",
+    "PickPlaceCereal": "pick the cereal box and place it in its bin",
+    "Door": "open the door",
+    "NutAssemblyRound": "fit the round nut onto the round peg",
+}
+
+
+def suite_tasks(scene: SimScene, source: str) -> list[SuiteTask]:
+    """The robosuite environments this adapter drives (`--task Stack`); robot and controller stay the scene's."""
+    return [SuiteTask(name, text, {"env": name}) for name, text in INSTRUCTIONS.items()]
+
+
 class RobosuiteParams(StrictModel):
-    env: Literal[
-        "Lift",
-        "Stack",
-        "PickPlaceCan",
-        "PickPlaceMilk",
-        "PickPlaceBread",
-        "PickPlaceCereal",
-        "Door",
-        "NutAssemblyRound",
-    ] = Field(description="robosuite environment name")
+    env: RobosuiteEnv = Field(description="robosuite environment name")
     controller: Literal["OSC_POSE"] = "OSC_POSE"
     terminate_on_success: bool = True
 

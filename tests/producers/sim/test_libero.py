@@ -6,6 +6,7 @@ exact restore, record -> lerobot 0.6.1.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import subprocess
@@ -137,3 +138,40 @@ def test_record_two_episodes_open_in_lerobot(project: Path, tmp_path: Path) -> N
     replay_reproduces(out, tmp_path / "replay", episodes=2)
     group = stats_per_task(out)
     assert group["task"] == ds[0]["task"] and group["episodes"] == 2 and group["successes"] == 0
+
+
+def test_task_records_another_task_of_the_suite(project: Path, tmp_path: Path) -> None:
+    """`record --task libero_spatial/3` on the spatial scene (task 0) records task 3: LIBERO's language for it is
+    every frame's task, its baked initial states are used, the stored scene names it; `--task 3` is the same task."""
+    import_libero("test")  # configured first: a bare `import libero.libero` prompts
+    from libero.libero import benchmark
+
+    from openral_data.record.tasks import tasks_of
+    from openral_data.replay.recorded import RecordedDataset
+
+    path = project / "scenes/sim/libero_small.yaml"
+    path.write_text(json.dumps(_small().model_dump(mode="json")))
+    language = benchmark.get_benchmark_dict()["libero_spatial"]().get_task(3).language
+    assert language != _small().task.instruction
+    out = tmp_path / "task3"
+    opts = RecordOptions(scene=str(path), rskill="random-libero", n_episodes=1, max_steps=4, seed=1, out=out)
+    summary = record(dataclasses.replace(opts, task="libero_spatial/3"))
+    assert summary.frames == 4
+    ds, _ = lerobot_table(out)
+    assert [ds[i]["task"] for i in range(len(ds))] == [language] * 4
+    recorded = RecordedDataset(out)
+    initial = recorded.episode(0).initial_state or {}
+    assert initial["suite"] == "libero_spatial" and initial["init_index"] == 0
+    assert initial["task"] == benchmark.get_benchmark_dict()["libero_spatial"]().get_task(3).name
+    assert recorded.scene().scene.params["task"] == 3 and recorded.scene().task.instruction == language
+    assert json.loads((out / ".openral/record.json").read_text())["options"]["task"] == "libero_spatial/3"
+    replay_reproduces(out, tmp_path / "replay", episodes=1)  # the stored scene rebuilds task 3
+
+    _, tasks = tasks_of(str(path))
+    assert len(tasks) == 40 and tasks[0].id == "libero_spatial/0" and tasks[3].aliases == ("3",)
+    assert {t.id: t.instruction for t in tasks}["libero_spatial/3"] == language
+    out2 = tmp_path / "bare"
+    record(dataclasses.replace(opts, task="3", out=out2, instruction="do task three"))
+    ds2, _ = lerobot_table(out2)
+    assert ds2[0]["task"] == "do task three"  # --instruction wins over LIBERO's own language
+    assert RecordedDataset(out2).scene().scene.params["task"] == 3

@@ -185,3 +185,41 @@ def test_scene_errors_name_the_file_and_field(project: Path, tmp_path: Path) -> 
     with pytest.raises(ConfigError, match=r"scene\.fixed_robot: this scene is defined for robot 'metaworld_sawyer'"):
         record(RecordOptions(scene="metaworld_pick_place_bench", rskill="metaworld-expert", robot="sawyer", out=out))
     assert not out.exists()
+
+
+def test_task_records_another_metaworld_task(project: Path, tmp_path: Path) -> None:
+    """`record --scene metaworld_push --task pick-place-v3`: the task string, the placement and the expert's
+    actions are pick-place's; the stored scene config (what a replay rebuilds) names it; an unknown id is one line."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    from openral_data.replay.recorded import RecordedDataset
+    from tests.support.cli import run_cli
+
+    scene = small_scene_file(project, "metaworld_push", size=32)
+    runs: dict[str, Path] = {}
+    for name, extra in (("push", []), ("pick", ["--task", "pick-place-v3"])):
+        out = runs[name] = tmp_path / name
+        args = ["--n-episodes", "1", "--max-steps", "6", "--seed", "3", "--codec", "h264", *extra]
+        done = run_cli("record", "--scene", str(scene), "--out", str(out), *args)
+        assert done.returncode == 0, done.stderr
+    tasks = {
+        name: LeRobotDataset(f"local/{name}", root=out, video_backend="pyav")[0]["task"] for name, out in runs.items()
+    }
+    assert tasks == {"push": "Push the puck to a goal", "pick": "Pick and place a puck to a goal"}
+    episodes = {name: RecordedDataset(out).episode(0) for name, out in runs.items()}
+    push, pick = episodes["push"], episodes["pick"]
+    assert (push.initial_state or {})["task"] == "push-v3" and (pick.initial_state or {})["task"] == "pick-place-v3"
+    assert (push.initial_state or {})["rand_vec"] != (pick.initial_state or {})["rand_vec"]  # another placement
+    assert not np.array_equal(push.actions, pick.actions)  # the pick-place expert drove it
+    options = json.loads((runs["pick"] / ".openral/record.json").read_text())["options"]
+    assert options["task"] == "pick-place-v3" and options["instruction"] is None
+    scene_config = RecordedDataset(runs["pick"]).scene()
+    assert scene_config.scene.params["task"] == "pick-place-v3"
+    assert scene_config.task.instruction == "Pick and place a puck to a goal"
+
+    bad = run_cli("record", "--scene", str(scene), "--out", str(tmp_path / "bad"), "--task", "pick-plaice-v3")
+    assert bad.returncode == 2 and not (tmp_path / "bad").exists()
+    line = bad.stderr.strip()
+    assert "\n" not in line
+    assert line.startswith("error: --task: unknown task 'pick-plaice-v3' of scene metaworld_push; valid: assembly-v3, ")
+    assert line.endswith(f"... ({len(task_names())} in all: openral-data list tasks metaworld_push)")

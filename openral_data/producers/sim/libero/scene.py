@@ -41,6 +41,7 @@ from openral_data.producers.sim.external import check_fps, named_cameras
 from openral_data.producers.sim.initial_state import check_envelope
 from openral_data.producers.sim.libero.config import import_libero
 from openral_data.producers.sim.params import parse_params
+from openral_data.producers.sim.tasks import SuiteTask
 from openral_data.schemas.base import StrictModel
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
@@ -54,6 +55,25 @@ ACTION_DIM = 7
 SUITES = ("libero_spatial", "libero_object", "libero_goal", "libero_10")
 CAMERAS = ("agentview", "robot0_eye_in_hand", "frontview", "birdview", "sideview")
 Suite = Literal["libero_spatial", "libero_object", "libero_goal", "libero_10"]
+
+
+def suite_tasks(scene: SimScene, source: str) -> list[SuiteTask]:
+    """Every task of the four suites, `<suite>/<index>` (`--task libero_spatial/3`), with LIBERO's instruction;
+    the scene's own suite first (a bare index, `--task 3`, names a task of that suite)."""
+    import_libero(source)
+    with contextlib.redirect_stdout(io.StringIO()):
+        from libero.libero import benchmark
+
+        suites = benchmark.get_benchmark_dict()
+    own = scene.scene.params.get("suite")
+    tasks: list[SuiteTask] = []
+    for name in sorted(SUITES, key=lambda s: s != own):
+        suite = suites[name]()
+        for i in range(suite.get_num_tasks()):
+            alias = (str(i),) if name == own else ()
+            language = str(suite.get_task(i).language)
+            tasks.append(SuiteTask(f"{name}/{i}", language, {"suite": name, "task": i}, alias))
+    return tasks
 
 
 class LiberoParams(StrictModel):
