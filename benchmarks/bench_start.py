@@ -56,7 +56,8 @@ def setup(home: Path, base: Path) -> Path:
 
 
 def one_start(scene: Path, out: Path, sequential: bool) -> dict[str, float]:
-    env = {**os.environ, SEQUENTIAL_ENV: "1" if sequential else "0", "PYTHONPATH": str(REPO)}
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}  # bytecode cached, as for a user
+    env.update({SEQUENTIAL_ENV: "1" if sequential else "0", "PYTHONPATH": str(REPO)})
     args = ["-v", "--log-format", "json", "record", "--scene", str(scene), "--rskill", RSKILL]
     args += ["--n-episodes", "1", "--max-steps", "1", "--codec", "h264", "--out", str(out)]
     t0 = time.perf_counter()
