@@ -12,6 +12,8 @@ import typer
 from openral_data.cli import convert, inspect, record, replay, stats
 from openral_data.cli.edit import episodes_app
 from openral_data.cli.help import plain_flags
+from openral_data.cli.logs import LogFormat
+from openral_data.cli.logs import configure as configure_logs
 from openral_data.cli.pipeline import pipeline_app
 from openral_data.cli.terminal import print_line
 from openral_data.errors import OpenralError, UsageError
@@ -49,8 +51,18 @@ def _root(
     scenes_dir: Annotated[Path | None, _dir_option("scenes")] = None,
     rskills_dir: Annotated[Path | None, _dir_option("rskills")] = None,
     robots_dir: Annotated[Path | None, _dir_option("robots")] = None,
+    verbose: Annotated[
+        int, typer.Option("--verbose", "-v", count=True, help="log to stderr: -v INFO (timings), -vv DEBUG")
+    ] = 0,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="only warnings and errors; no progress bar")] = False,
+    log_format: Annotated[
+        LogFormat, typer.Option(help="text (rich on a terminal) or json (one object per line; docs/cli.md)")
+    ] = LogFormat.text,
 ) -> None:
     """Turn robot rollouts into training datasets."""
+    if verbose and quiet:
+        raise UsageError("-v/--verbose and -q/--quiet: choose one")
+    configure_logs(verbose, quiet, log_format)
     for kind, folder in (("scenes", scenes_dir), ("rskills", rskills_dir), ("robots", robots_dir)):
         if folder is not None:
             add_search_dir(cast(Kind, kind), folder)

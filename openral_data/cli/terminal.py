@@ -9,10 +9,11 @@ console = Console()
 err_console = Console(stderr=True)
 # what a Ctrl-C during `record` leaves (sim and --hal alike; see openral_data/record/session.py)
 INTERRUPTED_RECORDING = "interrupted: the episode in flight was discarded, finished episodes are kept"
+quiet = False  # `-q`: no progress bar (set by the root callback, see openral_data/cli/logs.py)
 
 
 def progress_bar(what: str, unit: str, *fields: str) -> Progress:
-    """`what [bar] done/total unit fields... elapsed` on stderr; silent when stderr is not a terminal.
+    """`what [bar] done/total unit fields... elapsed` on stderr; silent when stderr is not a terminal or with `-q`.
 
     `what` is rich markup (shown bold); each of `fields` is a column template such as "{task.fields[frames]}".
     """
@@ -24,7 +25,7 @@ def progress_bar(what: str, unit: str, *fields: str) -> Progress:
         *(TextColumn(f) for f in fields),
         TimeElapsedColumn(),
         console=err_console,
-        disable=not err_console.is_terminal,
+        disable=quiet or not err_console.is_terminal,
     )
 
 

@@ -25,6 +25,7 @@ from openral_data.record.compat import check_compatibility
 from openral_data.record.hal_loop import EpisodeEnd, EpisodeReport, FixedRateLoop, LoopConfig, frame_extras
 from openral_data.record.options import check_run_numbers, fresh_out
 from openral_data.record.output import claim
+from openral_data.record.runlog import log_episode, log_totals
 from openral_data.record.session import episode_loop
 from openral_data.schemas.hal import SafetyMode
 from openral_data.schemas.robot import RobotManifest
@@ -265,6 +266,7 @@ def _run(
             if not rerecord and operator.wait_start(index, stop.check) is Command.QUIT:
                 summary.stopped_by_operator = True
                 break
+            t_episode = time.perf_counter()
             end, report, rec = loop.run_episode(index, opts.seed + index)
             summary.all_reports.append(report)
             rerecord = end is EpisodeEnd.RERECORD
@@ -280,10 +282,12 @@ def _run(
                 summary.discarded += 1
                 continue
             summary.episodes.append(rec)
+            log_episode(rec, time.perf_counter() - t_episode)
             summary.reports.append(report)
             summary.frames += rec.length
             if report.estop is not None:
                 summary.estop = report.estop
                 break
     summary.seconds = time.perf_counter() - t0
+    log_totals(out, len(summary.episodes), summary.frames, summary.seconds)
     return summary

@@ -22,7 +22,9 @@ from openral_data.record.options import (
     default_out,
     rskill_ref,
 )
+from openral_data.record.runlog import log_episode, log_totals
 from openral_data.record.session import StopRequest, ended_by, episode_loop
+from openral_data.record.start import start
 from openral_data.schemas.scene import load_recordable_scene
 from openral_data.types import DatasetSchema, EpisodeRecord, SimRollout, Sink
 from openral_data.version import __version__
@@ -93,11 +95,18 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
     opened: output.Output | None = None
     records: list[EpisodeRecord] = []
     try:
-        env = make_scene(scene, robot, rskill, scene_src)
+        video = VideoSettings(codec=opts.codec)
+        started = start(
+            lambda: make_scene(scene, robot, rskill, scene_src),
+            lambda env: check_compatibility(
+                robot, rskill, env.spec, rskill_source=rskill_src, scene_source=scene_src, video=video
+            ),
+            lambda: make_policy(with_device(rskill, device)),
+            lambda env: env.close(),
+            lambda policy: policy.close(),
+        )
+        env, policy = started.scene, started.policy
         try:
-            video = VideoSettings(codec=opts.codec)
-            check_compatibility(robot, rskill, env.spec, rskill_source=rskill_src, scene_source=scene_src, video=video)
-            policy = make_policy(with_device(rskill, device))
             kept["device"] = getattr(policy, "device", None)  # the device a neural policy runs on; None: no network
             schema = DatasetSchema(
                 fps=env.spec.fps,
@@ -139,7 +148,9 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
                 if progress is not None:
                     progress(None, 0, max(0, n_episodes - first))
                 for e in range(first, n_episodes):
+                    t_episode = time.perf_counter()
                     rec = _record_episode(env, policy, bridge, base_seed + e, max_steps, stop, opts.instruction)
+                    log_episode(rec, time.perf_counter() - t_episode)
                     records.append(rec)
                     frames += rec.length
                     if progress is not None:
@@ -152,11 +163,13 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
         else:  # stopped before the settings were written: `out` is left as the claim found it
             held.release()
     assert opened is not None
+    seconds = time.perf_counter() - t0
+    log_totals(out, len(records), frames, seconds)
     return RecordSummary(
         out=out,
         episodes=records,
         frames=frames,
-        seconds=time.perf_counter() - t0,
+        seconds=seconds,
         resumed_at=first,
         recovered=tuple(opened.actions),
         codec=opts.codec,

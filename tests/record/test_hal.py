@@ -4,6 +4,7 @@ a sim scene behind the HAL, and the SO-100 adapter — lerobot's real driver —
 from __future__ import annotations
 
 import json
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -22,17 +23,24 @@ from tests.support.timing import TIMED
 pytestmark = [pytest.mark.slow, TIMED]
 
 
-def test_twin_recording_loads_in_lerobot_and_mcap_keeps_real_stamps(tmp_path: Path) -> None:
+def test_twin_recording_loads_in_lerobot_and_mcap_keeps_real_stamps(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
     out = tmp_path / "ds"
-    s = record_hal(
-        HalRecordOptions(
-            robot="ur5e", rskill="sweep-ur5e", fps=20, n_episodes=2, max_steps=15, out=out,
-            codec="h264", formats=("lerobot", "mcap"), operator="success,failure@9",
-        )
-    )  # fmt: skip
+    with caplog.at_level(logging.INFO, logger="openral_data"):
+        s = record_hal(
+            HalRecordOptions(
+                robot="ur5e", rskill="sweep-ur5e", fps=20, n_episodes=2, max_steps=15, out=out,
+                codec="h264", formats=("lerobot", "mcap"), operator="success,failure@9",
+            )
+        )  # fmt: skip
     assert [r.length for r in s.episodes] == [15, 9] and [r.success for r in s.episodes] == [True, False]
+    logged = [(r.__dict__["length"], r.__dict__["outcome"]) for r in caplog.records if hasattr(r, "outcome")]
+    assert logged == [(15, "success"), (9, "failure")]  # -v's episode lines, as for a scene
+    [totals] = [r.__dict__ for r in caplog.records if hasattr(r, "saved")]
+    assert (totals["saved"], totals["frames"]) == (2, 24)
     assert all(r.accounted() for r in s.all_reports)
     ds = LeRobotDataset("local/hal", root=out, video_backend="pyav")
     assert len(ds) == 24 and ds.fps == 20

@@ -11,6 +11,7 @@ import contextlib
 import os
 import queue
 import threading
+import time
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path
@@ -126,6 +127,8 @@ class EncoderWorker:
         self._q: queue.Queue[object] = queue.Queue(maxsize=queue_size)
         self._job: _Job | None = None
         self._failed: BaseException | None = None
+        self.waited = 0.0  # this episode: seconds `put` waited on a full queue (the encoder was behind) ...
+        self.waits = 0  # ... and how many frames had to wait
         self._thread = threading.Thread(target=self._run, name=f"encoder-{name}", daemon=True)
         self._thread.start()
 
@@ -135,11 +138,19 @@ class EncoderWorker:
         if self._job is not None:
             raise EncoderError(f"{self.name}: begin() while an episode is being encoded")
         self._job = _Job(path, height, width)
+        self.waited, self.waits = 0.0, 0
         self._q.put(self._job)
 
     def put(self, frame: npt.NDArray[np.uint8]) -> None:
+        """Queue a frame; while the queue is full, wait (counted in `waited` seconds and `waits` frames)."""
         self._raise_if_failed()
-        self._q.put(frame)
+        try:
+            self._q.put_nowait(frame)
+        except queue.Full:
+            t0 = time.perf_counter()
+            self._q.put(frame)
+            self.waited += time.perf_counter() - t0
+            self.waits += 1
 
     def finish(self) -> EncodedEpisode:
         job = self._job

@@ -15,7 +15,9 @@ from __future__ import annotations
 
 import copy
 import json
+import logging
 import shutil
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -59,6 +61,7 @@ from openral_data.formats.lerobot_v3.video import EncodedEpisode, EncoderWorker,
 from openral_data.types import DatasetSchema, EpisodeRecord, EpisodeStart, Frame
 
 MB = 1 << 20
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -272,6 +275,7 @@ class LeRobotV3Writer:
             self.discard_episode()
             raise ContractViolation("an episode needs at least one frame")
         encoded: dict[str, EncodedEpisode] = {}
+        t0 = time.perf_counter()
         try:
             for name, worker in self._workers.items():
                 encoded[name] = worker.finish()
@@ -290,7 +294,41 @@ class LeRobotV3Writer:
             for enc in encoded.values():
                 enc.path.unlink(missing_ok=True)
             raise WriteError(f"episode discarded: encoded frames {short} differ from its {n} rows")
-        return self.commit_episode(ep, success, encoded)
+        t1 = time.perf_counter()
+        record = self.commit_episode(ep, success, encoded)
+        self._log_commit(record.index, (t1 - t0) * 1000, (time.perf_counter() - t1) * 1000)
+        return record
+
+    def _log_commit(self, index: int, flush_ms: float, commit_ms: float) -> None:
+        """INFO: the episode's commit time and how long its frames waited on full encoder queues (all cameras);
+        DEBUG: the waits per camera."""
+        waited = {name: round(w.waited * 1000, 1) for name, w in self._workers.items()}
+        waits = sum(w.waits for w in self._workers.values())
+        log.info(
+            "episode %d committed in %.0f ms (encoders flushed in %.0f ms; frames waited %.0f ms on full encoder "
+            "queues, %d times)",
+            index,
+            flush_ms + commit_ms,
+            flush_ms,
+            sum(waited.values()),
+            waits,
+            extra={
+                "episode": index,
+                "flush_ms": round(flush_ms, 1),
+                "commit_ms": round(commit_ms, 1),
+                "encoder_wait_ms": round(sum(waited.values()), 1),
+                "encoder_waits": waits,
+            },
+        )
+        for name, w in self._workers.items():
+            log.debug(
+                "episode %d camera %s: waited %.1f ms on a full encoder queue, %d times",
+                index,
+                name,
+                waited[name],
+                w.waits,
+                extra={"episode": index, "camera": name, "encoder_wait_ms": waited[name], "encoder_waits": w.waits},
+            )
 
     def commit_episode(
         self,

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import errno
 import json
+import logging
 import os
 from pathlib import Path
 
@@ -166,12 +167,21 @@ def test_loadable_after_every_episode_and_rotation(tmp_path: Path) -> None:
     assert not list(root.rglob("*.tmp"))
 
 
-def test_backpressure_never_drops(tmp_path: Path) -> None:
-    """A one-frame queue makes the producer wait on the encoder for nearly every frame; nothing is lost."""
+def test_backpressure_never_drops(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    """A one-frame queue makes the producer wait on the encoder for nearly every frame; nothing is lost, and each
+    episode's commit line (INFO) reports the waits and its commit time."""
     config = WriterConfig(queue_size=1, video=VideoSettings(codec="h264"))
     lengths = [40, 25]
-    _, states = write_dataset(tmp_path / "ds", lengths, config=config)
+    with caplog.at_level(logging.DEBUG, logger="openral_data"):
+        _, states = write_dataset(tmp_path / "ds", lengths, config=config)
     check_loads(tmp_path / "ds", lengths, states)
+    commits = [r.__dict__ for r in caplog.records if hasattr(r, "commit_ms")]
+    assert [c["episode"] for c in commits] == [0, 1] and all(c["commit_ms"] > 0 for c in commits)
+    assert all(0 < c["encoder_waits"] <= n and c["encoder_wait_ms"] > 0 for c, n in zip(commits, lengths, strict=True))
+    cameras = [r.__dict__ for r in caplog.records if r.levelno == logging.DEBUG and hasattr(r, "camera")]
+    assert [(c["episode"], c["camera"], c["encoder_waits"]) for c in cameras] == [
+        (c["episode"], "cam", c["encoder_waits"]) for c in commits
+    ]  # one camera: its waits are the episode's
 
 
 def test_discarded_episode_leaves_no_trace(tmp_path: Path) -> None:
