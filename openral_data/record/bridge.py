@@ -40,6 +40,7 @@ class DatasetBridge:
         self._episode = first_episode  # a resumed recording continues the numbering
         self._step = 0
         self._last_time = 0.0
+        self._seed = 0
         self._open = False
 
     # -- validation ------------------------------------------------------------------------------------------
@@ -95,12 +96,19 @@ class DatasetBridge:
         self._vector("action", action, self.schema.action_dim)
 
     # -- episode lifecycle -----------------------------------------------------------------------------------
-    def begin_episode(self, seed: int, initial_state: dict[str, Any]) -> None:
+    def begin_episode(self, seed: int, initial_state: dict[str, Any], index: int | None = None) -> None:
+        """Open the next episode; `index` numbers it instead (only without sinks, whose numbering is their own:
+        a replay watched by observers shows each replayed episode under its recorded number)."""
         if self._open:
             raise RuntimeError("begin_episode() while an episode is open")
+        if index is not None:
+            if self.sinks:
+                raise RuntimeError("begin_episode(index=...) on a bridge with sinks")
+            self._episode = index
         self._open = True
         self._step = 0
         self._last_time = 0.0
+        self._seed = seed
         start = EpisodeStart(seed=seed, initial_state=initial_state)
         for sink in self.sinks:
             sink.begin_episode(start)
@@ -169,10 +177,12 @@ class DatasetBridge:
             raise ContractViolation(f"episode {self._episode}: an episode needs at least one frame")
         known = None if success is None else bool(success)  # producers may hand numpy bools
         records = [sink.end_episode(known) for sink in self.sinks]
+        # without sinks (a run only watched, e.g. `replay --mode closed-loop --save-video`) the episode is complete
+        shown = records[0] if records else EpisodeRecord(self._episode, self._step, known, self._seed)
         self._open = False
         self._episode += 1
         for observer in self.observers:
-            observer.end_episode(records[0])
+            observer.end_episode(shown)
         return records
 
     def discard_episode(self) -> None:

@@ -1,21 +1,36 @@
-"""The frame observers of a `record` run: what watches it without being part of it (`--save-video`, `--view`),
-checked and built from its options here."""
+"""The frame observers of a run: what watches it without being part of it (`--save-video`, `--view`), checked and
+built from its options here, for `record` and for `replay --mode closed-loop` alike."""
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Protocol
 
 from openral_data.errors import OutputExists, UsageError
 from openral_data.paths import check_creatable
-from openral_data.record.options import RecordOptions
 from openral_data.types import DatasetSchema, FrameObserver
 
-DEBUG_SUFFIX = ".debug"  # `--save-video` without a folder: `<out>.debug/`, beside the dataset
+DEBUG_SUFFIX = ".debug"  # `--save-video` without a folder: `<out>.debug/`, beside the dataset (or results)
 
 
-def make_observers(opts: RecordOptions, out: Path, schema: DatasetSchema) -> list[FrameObserver]:
-    """The observers `opts` asks for, for a recording into `out`, in the order the bridge shows them each frame
-    (the bridge closes them). `check_observers` has refused what cannot work."""
+class ObserverOptions(Protocol):
+    """The options observers are built from (`RecordOptions`, `ReplayOptions` have them)."""
+
+    @property
+    def save_video(self) -> bool: ...
+    @property
+    def save_video_dir(self) -> Path | None: ...
+    @property
+    def view(self) -> bool: ...
+    @property
+    def view_port(self) -> int: ...
+    @property
+    def view_address(self) -> str | None: ...
+
+
+def make_observers(opts: ObserverOptions, out: Path, schema: DatasetSchema) -> list[FrameObserver]:
+    """The observers `opts` asks for, for a run writing `out` (the dataset, or a replay's results), in the order
+    the bridge shows them each frame (the bridge closes them). `check_observers` has refused what cannot work."""
     observers: list[FrameObserver] = []
     videos = video_folder(opts, out)
     if videos is not None:
@@ -29,9 +44,10 @@ def make_observers(opts: RecordOptions, out: Path, schema: DatasetSchema) -> lis
     return observers
 
 
-def check_observers(opts: RecordOptions, out: Path) -> Path | None:
+def check_observers(opts: ObserverOptions, out: Path, resume: bool = False, what: str = "the dataset") -> Path | None:
     """Refuse, before anything is written, observer options that cannot work (a busy `--view-port`, a debug video
-    folder inside the dataset or already holding videos); return the `--save-video` folder (None: no video)."""
+    folder inside `out` or already holding videos, unless `resume` continues them); return the `--save-video`
+    folder (None: no video)."""
     if opts.view:
         from openral_data.viz.live import check_view_options
 
@@ -42,8 +58,8 @@ def check_observers(opts: RecordOptions, out: Path) -> Path | None:
     source = "--save-video-dir" if opts.save_video_dir is not None else "--save-video"
     check_creatable(folder, source)
     if folder.resolve().is_relative_to(out.resolve()):
-        raise UsageError(f"{folder}: {source}: inside the dataset {out}; choose a folder outside it")
-    if not opts.resume:
+        raise UsageError(f"{folder}: {source}: inside {what} {out}; choose a folder outside it")
+    if not resume:
         from openral_data.viz.debug_video import existing_videos
 
         if existing_videos(folder):
@@ -53,7 +69,7 @@ def check_observers(opts: RecordOptions, out: Path) -> Path | None:
     return folder
 
 
-def video_folder(opts: RecordOptions, out: Path) -> Path | None:
+def video_folder(opts: ObserverOptions, out: Path) -> Path | None:
     """Where `--save-video` writes: `--save-video-dir`, else `<out>.debug/`; None without either option."""
     if not opts.save_video and opts.save_video_dir is None:
         return None

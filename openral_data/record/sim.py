@@ -75,7 +75,7 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
 
     check_formats(opts.formats, opts.image_format)
     out = opts.out if opts.out is not None else default_out(scene, rskill.id)
-    debug_videos = check_observers(opts, out)
+    debug_videos = check_observers(opts, out, resume=opts.resume)
     kept = {
         "scene": str(scene_path.resolve()),
         "rskill": str(rskill_path.resolve()),

@@ -242,3 +242,27 @@ def test_observers_see_validated_frames_after_the_sinks_and_each_outcome() -> No
         ("begin", (5, 10)), ("frame", 2.0), ("end", None), ("close", None),
     ]  # fmt: skip
     assert len(sink.frames) == 2 and sink.closed
+
+
+def test_a_bridge_without_sinks_shows_observers_complete_episodes_under_the_given_numbers() -> None:
+    seen: list[EpisodeRecord | None] = []
+
+    class Keeper(Watcher):
+        def end_episode(self, record: EpisodeRecord | None) -> None:
+            seen.append(record)  # the whole record
+
+    watcher = Keeper()
+    b = DatasetBridge(SCHEMA, [], observers=[watcher])
+    b.begin_episode(seed=3, initial_state={}, index=2)  # a replay of recorded episode 2
+    b.add_step(obs(), ACTION, reward=0.0, done=False, success=False)
+    b.add_step(obs(), ACTION, reward=1.0, done=True, success=True)
+    assert b.end_episode(True) == []  # nothing was written
+    with pytest.raises(ContractViolation):  # still validated as a recording is
+        b.begin_episode(seed=4, initial_state={}, index=5)
+        b.add_step(obs(task=""), ACTION, reward=0.0, done=False, success=False)
+    b.close()
+    assert seen == [EpisodeRecord(index=2, length=2, success=True, seed=3), None]
+    assert watcher.calls[0] == ("begin", (2, 3)) and ("begin", (5, 4)) in watcher.calls
+
+    with pytest.raises(RuntimeError, match="bridge with sinks"):  # sinks number their episodes themselves
+        DatasetBridge(SCHEMA, [RecordingSink()]).begin_episode(seed=0, initial_state={}, index=3)

@@ -11,7 +11,6 @@ import socket
 import subprocess
 import threading
 import time
-from collections import Counter
 from dataclasses import replace
 from pathlib import Path
 
@@ -19,7 +18,6 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 import rerun as rr
-from rerun.chunk import RrdReader
 
 from openral_data.errors import UsageError
 from openral_data.record.options import RecordOptions
@@ -28,6 +26,7 @@ from openral_data.types import CameraShape, DatasetSchema, EpisodeRecord, Episod
 from openral_data.viz.live import LiveView, open_live_view
 from tests.support.cli import run_cli
 from tests.support.lerobot import verify_mock_dataset
+from tests.support.live import entities, free_port, settled
 from tests.support.rrd import RERUN
 from tests.support.scenes import mock_scene, write_yaml
 
@@ -44,12 +43,6 @@ SCHEMA = DatasetSchema(
 )
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 def frame(t: int) -> Frame:
     return Frame(
         state=np.array([t, 0], np.float32),
@@ -61,35 +54,6 @@ def frame(t: int) -> Frame:
         success=False,
         timestamp=t / 20,
     )
-
-
-def settled(path: Path, quiet: float = 1.5, limit: float = 30) -> None:
-    """Wait until `path` stopped growing for `quiet` seconds."""
-    size, since, deadline = -1, time.monotonic(), time.monotonic() + limit
-    while time.monotonic() < deadline:
-        now = path.stat().st_size
-        if now != size:
-            size, since = now, time.monotonic()
-        elif time.monotonic() - since >= quiet:
-            return
-        time.sleep(0.1)
-    raise AssertionError(f"{path} kept growing for {limit} s")
-
-
-def entities(rrd: Path) -> dict[str, tuple[Counter[str], set[str]]]:
-    """recording id -> (temporal rows per entity, static entities)."""
-    reader = RrdReader(rrd)
-    out: dict[str, tuple[Counter[str], set[str]]] = {}
-    for store in reader.recordings():
-        temporal: Counter[str] = Counter()
-        static: set[str] = set()
-        for chunk in reader.stream(store=store):
-            if chunk.is_static:
-                static.add(chunk.entity_path)
-            else:
-                temporal[chunk.entity_path] += chunk.num_rows
-        out[store.recording_id] = (temporal, static)
-    return out
 
 
 def test_a_blocked_viewer_never_holds_the_recording_back(tmp_path: Path) -> None:

@@ -1,0 +1,45 @@
+"""Watching a served `--view` stream in tests: a free port, a client's .rrd settling, the entities it received."""
+
+from __future__ import annotations
+
+import socket
+import time
+from collections import Counter
+from pathlib import Path
+
+from rerun.chunk import RrdReader
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def settled(path: Path, quiet: float = 1.5, limit: float = 30) -> None:
+    """Wait until `path` stopped growing for `quiet` seconds."""
+    size, since, deadline = -1, time.monotonic(), time.monotonic() + limit
+    while time.monotonic() < deadline:
+        now = path.stat().st_size
+        if now != size:
+            size, since = now, time.monotonic()
+        elif time.monotonic() - since >= quiet:
+            return
+        time.sleep(0.1)
+    raise AssertionError(f"{path} kept growing for {limit} s")
+
+
+def entities(rrd: Path) -> dict[str, tuple[Counter[str], set[str]]]:
+    """recording id -> (temporal rows per entity, static entities)."""
+    reader = RrdReader(rrd)
+    out: dict[str, tuple[Counter[str], set[str]]] = {}
+    for store in reader.recordings():
+        temporal: Counter[str] = Counter()
+        static: set[str] = set()
+        for chunk in reader.stream(store=store):
+            if chunk.is_static:
+                static.add(chunk.entity_path)
+            else:
+                temporal[chunk.entity_path] += chunk.num_rows
+        out[store.recording_id] = (temporal, static)
+    return out
