@@ -37,6 +37,19 @@ def replay(
     device: Annotated[
         str | None, typer.Option(help="policy / closed-loop: cpu, cuda, cuda:N, mps or auto (neural policies)")
     ] = None,
+    save_video: Annotated[
+        bool, typer.Option("--save-video", help="closed-loop: a debug mp4 per episode in RESULTS.debug/")
+    ] = False,
+    save_video_dir: Annotated[
+        Path | None, typer.Option(help="write the --save-video mp4s to this folder instead (implies --save-video)")
+    ] = None,
+    view: Annotated[
+        bool, typer.Option("--view", help="closed-loop: show the run live in rerun (a viewer, or a served stream)")
+    ] = False,
+    view_port: Annotated[int, typer.Option(help="--view: port of the spawned viewer or the served stream")] = 9876,
+    view_address: Annotated[
+        str | None, typer.Option(help="--view: send to this running viewer instead (rerun+http://HOST:PORT/proxy)")
+    ] = None,
 ) -> None:
     """Replay recorded actions through the rebuilt scene, or evaluate a policy against recorded episodes."""
     from openral_data.record.sinks import parse_formats
@@ -61,6 +74,11 @@ def replay(
         formats=parse_formats(format),
         instruction=instruction,
         device=device,
+        save_video=save_video,
+        save_video_dir=save_video_dir,
+        view=view,
+        view_port=view_port,
+        view_address=view_address,
     )
     summary = _run(opts)
     if json:

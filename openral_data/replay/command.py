@@ -24,6 +24,7 @@ from openral_data.policies.base import ChunkingPolicy, PolicyAdapter
 from openral_data.policies.device import resolve_device, with_device
 from openral_data.record import registry
 from openral_data.record.compat import check_compatibility
+from openral_data.record.observers import check_observers, make_observers
 from openral_data.record.tasks import check_instruction
 from openral_data.replay import recorded_policy
 from openral_data.replay.actions import DEFAULT_TOLERANCE, ActionReplayer
@@ -62,6 +63,11 @@ class ReplayOptions:
         None  # closed-loop: the policy's instruction (and a --record's task) instead of the scene's
     )
     device: str | None = None  # policy / closed-loop: a neural policy's torch device (wins over the rSkill's)
+    save_video: bool = False  # closed-loop: a debug mp4 per episode in `<results>.debug/` (viz/debug_video.py)
+    save_video_dir: Path | None = None  # closed-loop: ... in this folder instead (implies save_video)
+    view: bool = False  # closed-loop: show the run live in rerun (viz/live.py)
+    view_port: int = 9876  # --view: the port a spawned viewer or the served stream listens on
+    view_address: str | None = None  # --view: send to this running viewer/server instead
 
 
 @dataclass
@@ -107,6 +113,8 @@ class ReplaySummary:
                 rows.append(("chunks", f"executes {s['chunk']['n_action_steps']} action(s) per query"))
         if s.get("record"):
             rows.append(("re-recorded", f"{s['record']['out']} ({s['record']['frames']} frames)"))
+        if s.get("debug_videos"):
+            rows.append(("debug videos", s["debug_videos"]))
         rows.append(("seconds", f"{self.seconds:.1f}"))
         return rows
 
@@ -186,6 +194,10 @@ def _check(opts: ReplayOptions) -> None:
     check_instruction(opts.instruction)
     if opts.device is not None and opts.mode == "actions":
         raise UsageError("--device: --mode actions runs no policy")
+    if opts.mode != "closed-loop" and (watched(opts) or opts.view_port != 9876 or opts.view_address is not None):
+        raise UsageError(
+            f"--save-video, --view: only with --mode closed-loop (--mode {opts.mode} renders no scene to show)"
+        )
     if not np.isfinite(opts.tolerance) or opts.tolerance < 0:
         raise UsageError(f"--tolerance must be a finite number >= 0, got {opts.tolerance}")
     if opts.max_steps is not None and opts.max_steps < 1:
@@ -194,16 +206,22 @@ def _check(opts: ReplayOptions) -> None:
         raise OutputExists(f"{opts.out}: --out exists and is not empty; refusing to overwrite it (choose a new --out)")
 
 
+def watched(opts: ReplayOptions) -> bool:
+    """Whether `--save-video` / `--view` watch the run."""
+    return opts.save_video or opts.save_video_dir is not None or opts.view
+
+
 def replay(opts: ReplayOptions, progress: ProgressFn | None = None) -> ReplaySummary:
     """Replay or evaluate the selected episodes of `opts.dataset` and write the results directory."""
     _check(opts)
     dataset = RecordedDataset(opts.dataset)
     chosen = dataset.select(opts.episodes)
     out = opts.out if opts.out is not None else default_out(opts.dataset, opts.mode)
+    videos = check_observers(opts, out, what="the results")  # `--save-video`: `<results>.debug/`
     t0 = time.perf_counter()
     outcomes: list[EpisodeOutcome] = []
-    extra: dict[str, Any] = {}
-    with _runner(opts, dataset, extra) as run:
+    extra: dict[str, Any] = {} if videos is None else {"debug_videos": str(videos)}
+    with _runner(opts, dataset, out, extra) as run:
         if progress is not None:
             progress(None, 0, len(chosen))
         for e in chosen:
@@ -219,8 +237,9 @@ def replay(opts: ReplayOptions, progress: ProgressFn | None = None) -> ReplaySum
 
 
 @contextmanager
-def _runner(opts: ReplayOptions, dataset: RecordedDataset, extra: dict[str, Any]) -> Iterator[EpisodeRunner]:
-    """A function replaying one episode in the chosen mode; everything it opened is closed on exit."""
+def _runner(opts: ReplayOptions, dataset: RecordedDataset, out: Path, extra: dict[str, Any]) -> Iterator[EpisodeRunner]:
+    """A function replaying one episode in the chosen mode (results in `out`); everything it opened is closed on
+    exit."""
     if opts.mode == "policy":
         offline = _policy_for_dataset(opts.rskill or "", dataset, opts.device)
         if isinstance(offline, ChunkingPolicy):
@@ -256,12 +275,20 @@ def _runner(opts: ReplayOptions, dataset: RecordedDataset, extra: dict[str, Any]
             policy = registry.policy_factory(manifest, str(rskill_src))(with_device(manifest, device))
             max_steps = opts.max_steps if opts.max_steps is not None else built.scene.task.max_steps
             loop = ClosedLoop(built.env, policy, max_steps, opts.tolerance, opts.instruction)
-        if opts.record is not None:
-            rerec = Rerecorder(opts.record, built, dataset.root, opts.mode, opts.codec, opts.formats)
+        if opts.record is not None or watched(opts):
+            rerec = Rerecorder(
+                opts.record,
+                built,
+                dataset.root,
+                opts.mode,
+                opts.codec,
+                opts.formats,
+                observe=lambda schema: make_observers(opts, out, schema),
+            )
 
         def run(e: int) -> EpisodeOutcome:
             episode = dataset.episode(e)
-            hook = rerec.begin(episode.seed) if rerec is not None else None
+            hook = rerec.begin(episode.seed, episode.index) if rerec is not None else None
             outcome = replayer.replay(episode, hook) if opts.mode == "actions" else loop.run(episode, hook)
             if rerec is not None:
                 rerec.end()
@@ -271,8 +298,8 @@ def _runner(opts: ReplayOptions, dataset: RecordedDataset, extra: dict[str, Any]
         ok = True
     finally:
         try:
-            if rerec is not None:
-                extra["record"] = rerec.close(ok)
+            if rerec is not None and (rerecorded := rerec.close(ok)) is not None:
+                extra["record"] = rerecorded
             if policy is not None:
                 policy.close()
         finally:
