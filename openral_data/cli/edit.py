@@ -1,4 +1,4 @@
-"""`openral-data episodes delete|split|merge`: thin typer wrappers over `edit.ops`."""
+"""`openral-data episodes delete|filter|split|merge`: thin typer wrappers over `edit.ops` and `edit.select`."""
 
 from __future__ import annotations
 
@@ -10,10 +10,11 @@ import typer
 from openral_data import paths
 from openral_data.cli.terminal import print_line
 from openral_data.edit.ops import EditResult
+from openral_data.errors import UsageError
 
 episodes_app = typer.Typer(
     no_args_is_help=True,
-    help="Delete, split and merge episodes of LeRobot v3 datasets (written to a new dataset, re-indexed).",
+    help="Delete, filter, split and merge episodes of LeRobot v3 datasets (written to a new dataset, re-indexed).",
 )
 
 
@@ -37,16 +38,55 @@ def delete_cmd(
     _report("deleted", [delete(dataset, episodes, out, in_place)])
 
 
+@episodes_app.command("filter")
+def filter_cmd(
+    dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset written by openral-data")],
+    where: Annotated[
+        str,
+        typer.Option(help='DuckDB predicate over the episodes view, e.g. "success AND length > 40"'),
+    ],
+    out: Annotated[Path | None, typer.Option(help="new dataset folder (must not exist or be empty)")] = None,
+    in_place: Annotated[bool, typer.Option(help="replace DATASET itself (swapped in once complete)")] = False,
+) -> None:
+    """Write DATASET with only the episodes for which --where holds (columns as in `stats --sql`'s episodes)."""
+    from openral_data.edit.select import filter_episodes
+
+    if out is not None:
+        paths.check_creatable(out, "--out")
+    _report("filtered", [filter_episodes(dataset, where, out, in_place)])
+
+
 @episodes_app.command("split")
 def split_cmd(
     dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset written by openral-data")],
-    episodes: Annotated[str, typer.Option(help="episodes for --out, in this order, e.g. 0-9 or 4,2")],
-    out: Annotated[Path, typer.Option(help="dataset of the listed episodes")],
+    episodes: Annotated[str | None, typer.Option(help="episodes for --out, in this order, e.g. 0-9 or 4,2")] = None,
+    out: Annotated[Path | None, typer.Option(help="dataset of the listed episodes")] = None,
     rest: Annotated[Path | None, typer.Option(help="dataset of all the other episodes")] = None,
+    fractions: Annotated[
+        str | None, typer.Option(help="instead of --episodes: a random partition, e.g. 0.8,0.1,0.1")
+    ] = None,
+    names: Annotated[str | None, typer.Option(help="with --fractions: part names (default train,val,test)")] = None,
+    seed: Annotated[int | None, typer.Option(help="with --fractions: the shuffle's seed (default 0)")] = None,
+    out_dir: Annotated[Path | None, typer.Option(help="with --fractions: parts are written to OUT_DIR/NAME")] = None,
 ) -> None:
-    """Split DATASET: the listed episodes go to --out, the others (optionally) to --rest."""
+    """Split DATASET: the listed episodes go to --out, the others (optionally) to --rest; or, with --fractions,
+    a seeded random partition into OUT_DIR/NAME datasets."""
+    if fractions is not None:
+        from openral_data.edit.select import split_fractions
+
+        if episodes is not None or out is not None or rest is not None:
+            raise UsageError("--fractions: give --out-dir, not --episodes/--out/--rest")
+        if out_dir is None:
+            raise UsageError("--out-dir: --fractions needs --out-dir DIR")
+        paths.check_creatable(out_dir, "--out-dir")
+        _report("split", split_fractions(dataset, fractions, out_dir, names, 0 if seed is None else seed))
+        return
     from openral_data.edit.ops import split
 
+    if names is not None or out_dir is not None or seed is not None:
+        raise UsageError("--fractions: --names, --seed and --out-dir go with --fractions")
+    if episodes is None or out is None:
+        raise UsageError("--episodes: give --episodes LIST --out DIR, or --fractions F,F,… --out-dir DIR")
     paths.check_creatable(out, "--out")
     if rest is not None:
         paths.check_creatable(rest, "--rest")

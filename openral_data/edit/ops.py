@@ -133,10 +133,15 @@ def delete(dataset: Path, episodes: str, out: Path | None, in_place: bool = Fals
         raise EpisodeSelectionError(
             f"--episodes: {episodes} would delete every episode of {dataset}", code="episodes.empty"
         )
+    return write_edit(keep, dataset, out, in_place, "delete")
+
+
+def write_edit(keep: Selection, dataset: Path, out: Path | None, in_place: bool, op: str) -> EditResult:
+    """Write `keep` (episodes of `dataset`) to `out`, or (`in_place`) as `dataset` itself, swapped in once complete."""
     if in_place == (out is not None):
         raise UsageError("--out: give either --out DIR or --in-place")
     if out is not None:
-        return write_selection(keep, out, "delete")
+        return write_selection(keep, out, op)
     foreign = sorted(p.name for p in dataset.iterdir() if p.name not in _DATASET_ENTRIES)
     if foreign:
         raise UsageError(
@@ -144,9 +149,9 @@ def delete(dataset: Path, episodes: str, out: Path | None, in_place: bool = Fals
             "and videos/ only); use --out"
         )
     old = dataset.parent / f".{dataset.name}.replaced-{os.getpid()}"
-    staged = Staging(dataset, "openral-data episodes delete --in-place")
-    with DatasetLock(dataset, "episodes delete --in-place"), staged as new:  # no recording may start meanwhile
-        result = write_selection(keep, new, "delete")
+    staged = Staging(dataset, f"openral-data episodes {op} --in-place")
+    with DatasetLock(dataset, f"episodes {op} --in-place"), staged as new:  # no recording may start meanwhile
+        result = write_selection(keep, new, op)
         staged.replace_existing(old)  # the input stays whole (under `old`) until the new dataset took its name
     return EditResult(dataset, result.episodes, result.frames)
 
