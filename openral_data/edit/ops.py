@@ -124,7 +124,7 @@ def _meta_of(selection: Selection, root: Path) -> dict[str, Any]:
     return dict(src.openral.get("schema_metadata") or {})
 
 
-# -- the three operations ------------------------------------------------------------------------------------
+# -- the operations by index ------------------------------------------------------------------------------------
 def delete(dataset: Path, episodes: str, out: Path | None, in_place: bool = False) -> EditResult:
     src = SourceDataset(dataset)
     drop = set(parse_episodes(episodes, src.total))
