@@ -765,6 +765,33 @@ OPTIONS: list[tuple[str, Callable[[Workspace], list[str]], str, tuple[str, ...]]
         r"nothing\.yaml",
         ("wd",),
     ),
+    (
+        "filter-where-bad-sql",
+        lambda w: ["episodes", "filter", str(w.ds()), "--where", "success AND", "--out", str(w.root / "f")],
+        r"--where",
+        ("f",),
+    ),
+    (
+        "filter-where-two-statements",
+        lambda w: ["episodes", "filter", str(w.ds()), "--where", "1); SELECT (1", "--out", str(w.root / "f")],
+        r"--where",
+        ("f",),
+    ),
+    (
+        "split-fractions-not-one",
+        lambda w: ["episodes", "split", str(w.ds()), "--fractions", "0.5,0.4", "--out-dir", str(w.root / "p")],
+        r"--fractions",
+        ("p",),
+    ),
+    (
+        "split-fractions-unsafe-name",
+        lambda w: [
+            *("episodes", "split", str(w.ds()), "--fractions", "0.5,0.5", "--names", "a,..", "--out-dir"),
+            str(w.root / "p"),
+        ],
+        r"--names",
+        ("p",),
+    ),
     ("info-path-is-a-file", lambda w: ["info", str(w.write("afile", "x"))], r"afile", ()),
     ("info-path-missing", lambda w: ["info", str(w.root / "nothing")], r"nothing", ()),
 ]
@@ -786,6 +813,11 @@ OUTPUTS: dict[str, tuple[Callable[[Workspace, str], list[str]], str]] = {
         "--rest",
     ),
     "merge": (lambda w, o: ["episodes", "merge", str(w.ds()), str(w.ds("ds2")), "--out", o], "--out"),
+    "filter": (lambda w, o: ["episodes", "filter", str(w.ds()), "--where", "true", "--out", o], "--out"),
+    "split-fractions": (
+        lambda w, o: ["episodes", "split", str(w.ds()), "--fractions", "0.5,0.5", "--out-dir", o],
+        "--out-dir",
+    ),
     "replay-out": (lambda w, o: ["replay", str(w.ds()), "--out", o], "--out"),
     "replay-record": (lambda w, o: ["replay", str(w.ds()), "--out", str(w.root / "res"), "--record", o], "--record"),
     "pipeline-workdir": (
@@ -813,7 +845,8 @@ def _output_case(cmd: str, kind: str) -> None:
 
 for _cmd in OUTPUTS:
     for _kind in ("is-a-file", "below-a-file", "not-empty"):
-        if (_cmd, _kind) != ("pipeline-workdir", "not-empty"):  # a pipeline resumes in its existing workdir
+        # a pipeline resumes in its existing workdir; split --fractions writes new parts into an existing --out-dir
+        if (_cmd, _kind) not in (("pipeline-workdir", "not-empty"), ("split-fractions", "not-empty")):
             _output_case(_cmd, _kind)
 
 SAVES: list[tuple[str, Callable[[Workspace], list[str]], str]] = [
