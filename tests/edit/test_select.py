@@ -17,7 +17,8 @@ import pytest
 
 from openral_data.doctor import check
 from openral_data.edit import select
-from openral_data.errors import EpisodeSelectionError, QueryError, UsageError
+from openral_data.errors import DatasetBusy, EpisodeSelectionError, QueryError, UsageError
+from openral_data.formats.lerobot_v3.lock import DatasetLock
 from openral_data.record.options import RecordOptions
 from openral_data.record.sim import record
 from tests.support.cli import run_cli
@@ -136,6 +137,20 @@ def test_filter_needs_out_or_in_place(ds: Path, tmp_path: Path) -> None:
         select.filter_episodes(ds, "success", None)
     with pytest.raises(UsageError, match="--out"):
         select.filter_episodes(ds, "success", tmp_path / "x", in_place=True)
+
+
+def test_a_dataset_being_recorded_is_neither_filtered_nor_split(ds: Path, tmp_path: Path) -> None:
+    before = _digest(ds)
+    with DatasetLock(ds, "record"):
+        for edit in (
+            lambda: select.filter_episodes(ds, "success", None, in_place=True),
+            lambda: select.filter_episodes(ds, "success", tmp_path / "x"),
+            lambda: select.split_fractions(ds, "0.5,0.5", tmp_path / "x"),
+        ):
+            with pytest.raises(DatasetBusy) as excinfo:
+                edit()
+            assert excinfo.value.code == "dataset.busy" and "record" in excinfo.value.holder
+    assert not (tmp_path / "x").exists() and _digest(ds) == before
 
 
 # -- split --fractions ---------------------------------------------------------------------------------------
