@@ -91,8 +91,8 @@ def record(
 
         run_hal_record(
             hal, mode, rskill or DEFAULT_RSKILL, fps, scene if scene != manifests.DEFAULT_SCENE else None, n_episodes,
-            max_steps, seed, out, codec.value, format, image_format, mcap_compression, operator, safety, staleness, port,
-            json,
+            max_steps, seed, out, codec.value, format, image_format, mcap_compression, operator, safety, staleness,
+            port, json,
         )  # fmt: skip
         return
     hal_only = {"--mode": mode != "sim", "--fps": fps != 20, "--operator": operator != "auto", "--safety": safety,

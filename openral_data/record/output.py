@@ -1,8 +1,8 @@
 """`record --resume`: continue a recording with the settings it started with, after any crash.
 
 A recording keeps its settings in ``OUT/.openral/record.json`` (scene, rSkill, robot, seed, step limit,
-codec, formats, image format, MCAP chunk compression, task, instruction, the requested episode count and the dataset schema; the device
-a neural policy ran on is noted too, but a resume may run on another). `--resume` takes them
+codec, formats, image format, MCAP chunk compression, task, instruction, the requested episode count and the
+dataset schema; the device a neural policy ran on is noted too, but a resume may run on another). `--resume` takes them
 from there; an option given again must match, except `--n-episodes` (the total wanted). Under the dataset's
 writer lock it then recovers each sink (`recovery.recover` for LeRobot, the staging folder for MCAP) and, if a
 kill fell between the sinks' commits of one episode, sets aside the sink that got one episode further (the

@@ -85,7 +85,8 @@ def run_view(opts: ViewOptions) -> str:
         rec.spawn()
     ok = False
     try:
-        if mcap is not None:
+        if episode is None:
+            assert mcap is not None  # no episode is loaded only for an MCAP file
             rec.log_file_from_path(mcap)
             what = f"{opts.path}"
         else:

@@ -11,6 +11,7 @@ from openral_data.record.options import RecordOptions
 from openral_data.record.sim import record
 from tests.support.cli import run_cli
 from tests.support.lerobot import verify_mock_dataset
+from tests.support.mcap import chunk_compressions
 from tests.support.mock_mcap import verify_mock_bags
 from tests.support.scenes import mock_scene, write_yaml
 
@@ -58,17 +59,6 @@ def test_bad_format_is_one_line_error(project: Path, tmp_path: Path, args: list[
     assert len(proc.stderr.strip().splitlines()) == 1 and not out.exists()
 
 
-def _chunk_compressions(bag: Path) -> set[str]:
-    """The compression of every chunk of `bag`'s .mcap, read from its summary's chunk indexes."""
-    from mcap.reader import make_reader
-
-    (path,) = bag.glob("*.mcap")
-    with path.open("rb") as fh:
-        summary = make_reader(fh).get_summary()
-    assert summary is not None and summary.chunk_indexes
-    return {index.compression for index in summary.chunk_indexes}
-
-
 def _messages(root: Path) -> list[list[tuple[str, int, bytes]]]:
     """Each bag's (topic, ns after the bag's first message, raw CDR) in log order; the wall-clock stamp of a
     message header (bytes 4..12 of its CDR, after the encapsulation) is zeroed: it is the recording's clock."""
@@ -105,7 +95,7 @@ def test_mcap_chunks_are_zstd_by_default_and_hold_the_same_messages(project: Pat
     expected = {"default": {"zstd"}, "lz4": {"lz4"}, "none": {""}}
     for name, out in outs.items():
         for bag in finished_bags(out / "mcap"):
-            assert _chunk_compressions(bag) == expected[name]
+            assert chunk_compressions(bag) == expected[name]
             info = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
             # storage-level compression, as rosbag2's MCAP plugin writes it: no file/message compression declared
             assert (info["compression_format"], info["compression_mode"]) == ("", "")

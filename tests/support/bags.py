@@ -123,7 +123,9 @@ def build(store: Any, topic: str, ns: int, f: dict[str, Any], ros1: bool, flaw: 
     if topic == "/cam/image_raw" and flaw in ("16UC1", "32FC1"):
         depth = np.full((H, W), 1500, np.uint16) if flaw == "16UC1" else np.full((H, W), 1.5, np.float32)
         data = np.frombuffer(depth.tobytes(), np.uint8)
-        return t[msgtype](header=header, height=H, width=W, encoding=flaw, is_bigendian=0, step=W * depth.itemsize, data=data)
+        return t[msgtype](
+            header=header, height=H, width=W, encoding=flaw, is_bigendian=0, step=W * depth.itemsize, data=data
+        )
     if topic == "/cam/image_raw":
         return t[msgtype](
             header=header, height=H, width=W, encoding="rgb8", is_bigendian=0, step=3 * W, data=f["rgb"].reshape(-1)

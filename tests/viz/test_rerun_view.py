@@ -188,7 +188,6 @@ def test_view_rosbag2_folder_without_one_mcap(tmp_path: Path) -> None:
     proc = run_cli("view", str(bag), "--save", str(rrd))
     assert proc.returncode == 2
     assert proc.stderr.strip() == (
-        f"error: {bag}: a rosbag2 folder: view needs exactly one .mcap file in it (found: none); "
-        "pass the .mcap to show"
+        f"error: {bag}: a rosbag2 folder: view needs exactly one .mcap file in it (found: none); pass the .mcap to show"
     ), proc.stderr
     assert not rrd.exists()
