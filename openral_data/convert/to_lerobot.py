@@ -27,7 +27,7 @@ from openral_data.convert.align import AlignedFrame, Aligner
 from openral_data.convert.sources import (
     VectorReader,
     check_camera,
-    check_encoding,
+    check_image,
     deserialize,
     field_value,
     find_bags,
@@ -422,8 +422,7 @@ class _Message:
 
     def decode(self) -> npt.NDArray[np.uint8]:
         msg = self.get()
-        if self.msgtype.endswith("/Image"):  # a topic may change encoding after the first message was checked
-            check_encoding(str(msg.encoding), f"{self.bag}: {self.topic}")
+        check_image(msg, self.msgtype, f"{self.bag}: {self.topic}")  # the first message was checked, not every one
         return decode_image(msg, self.msgtype)
 
 

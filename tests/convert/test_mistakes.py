@@ -51,6 +51,15 @@ def test_depth_image_mapped_as_a_camera(tmp_path: Path, kind: str, encoding: Fla
     ), line
 
 
+@pytest.mark.parametrize("kind", ["ros1", "plain-mcap"])
+def test_compressed_depth_mapped_as_a_camera(tmp_path: Path, kind: str) -> None:
+    line = _refused(tmp_path, kind, "compressedDepth", {})
+    assert line.endswith(
+        "mapping: cameras.side (/cam2/compressed): a CompressedImage of format '16UC1; compressedDepth png' is a "
+        "depth image; depth is not yet supported as an RGB camera (leave the topic out of cameras)"
+    ), line
+
+
 @pytest.mark.parametrize("kind", list(WRITE))
 def test_all_zero_header_stamps_with_clock_header(tmp_path: Path, kind: str) -> None:
     line = _refused(tmp_path, kind, "zero-stamps", {"align": {**MAPPING["align"], "clock": "header"}})

@@ -10,7 +10,8 @@ Streams (times in ms from BASE; k is the sample's index on its own topic):
 * /diagnostics   std_msgs/String, 1 Hz: not mapped
 
 The writers' `Flaw` (default: none) plants a mistake a real driver makes: header stamps left at zero, or
-/cam/image_raw carrying depth (16UC1 millimetres or 32FC1 metres) instead of rgb8.
+/cam/image_raw carrying depth (16UC1 millimetres or 32FC1 metres) instead of rgb8, or /cam2/compressed in
+image_transport's compressed depth format.
 """
 
 from __future__ import annotations
@@ -52,7 +53,7 @@ TYPES = {
 }
 
 
-Flaw = Literal["none", "zero-stamps", "16UC1", "32FC1"]
+Flaw = Literal["none", "zero-stamps", "16UC1", "32FC1", "compressedDepth"]
 
 
 def colour(topic: str, k: int) -> tuple[int, int, int]:
@@ -130,6 +131,8 @@ def build(store: Any, topic: str, ns: int, f: dict[str, Any], ros1: bool, flaw: 
         return t[msgtype](
             header=header, height=H, width=W, encoding="rgb8", is_bigendian=0, step=3 * W, data=f["rgb"].reshape(-1)
         )
+    if topic == "/cam2/compressed" and flaw == "compressedDepth":  # image_transport's compressed depth (PNG)
+        return t[msgtype](header=header, format="16UC1; compressedDepth png", data=f["png"])
     if topic == "/cam2/compressed":
         return t[msgtype](header=header, format="png", data=f["png"])
     return t[msgtype](data=f["data"])
