@@ -37,6 +37,7 @@ bag                   a ROS bag cannot be converted:
 bag.invalid             unreadable, or not a bag of the expected kind
 bag.topic               a mapped topic is not in the bag
 bag.field               a mapped message field is missing or has the wrong type or length
+bag.type                a mapped topic's message type or image encoding cannot serve its role
 bag.empty               no frame could be filled; nothing was written
 results               a results directory (policy evaluation output) is malformed
 query                 DuckDB rejected a query or a setting

@@ -28,17 +28,27 @@ def convert(
     image_format: Annotated[
         str, typer.Option(help="MCAP camera messages: jpeg, png or raw (LeRobot -> MCAP)")
     ] = "jpeg",
+    mcap_compression: Annotated[
+        str, typer.Option(help="MCAP chunk compression: zstd, lz4 or none (LeRobot -> MCAP)")
+    ] = "zstd",
     json: JsonFlag = False,
 ) -> None:
     """Convert bags/MCAP to a LeRobot v3 dataset, or a LeRobot v3 dataset to ROS 2 MCAP bags."""
-    _convert(src, dst, mapping, codec.value, episodes, image_format, json)
+    _convert(src, dst, mapping, codec.value, episodes, image_format, mcap_compression, json)
 
 
 def _convert(
-    src: Path, dst: Path, mapping_path: Path | None, codec: str, episodes: str | None, image_format: str, json: bool
+    src: Path,
+    dst: Path,
+    mapping_path: Path | None,
+    codec: str,
+    episodes: str | None,
+    image_format: str,
+    mcap_compression: str,
+    json: bool,
 ) -> None:
     from openral_data.convert.to_mcap import export_mcap, is_lerobot_dataset
-    from openral_data.formats.mcap import IMAGE_FORMATS, McapConfig
+    from openral_data.formats.mcap import IMAGE_FORMATS, McapCompression, McapConfig, check_compression
     from openral_data.formats.staging import check_new_output
     from openral_data.schemas.mapping import load_mapping
 
@@ -50,7 +60,8 @@ def _convert(
             raise UsageError(f"{src}: is a LeRobot dataset (exported to MCAP); --mapping applies to bags only")
         if image_format not in IMAGE_FORMATS:
             raise UsageError(f"--image-format: {image_format!r} is not one of {', '.join(IMAGE_FORMATS)}")
-        config = McapConfig(image_format=image_format)
+        check_compression(mcap_compression)
+        config = McapConfig(image_format=image_format, compression=cast(McapCompression, mcap_compression))
         with progress_bar("exporting", "frames") as bar:
             task = bar.add_task("export", total=None)
             summary = export_mcap(

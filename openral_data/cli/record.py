@@ -34,6 +34,7 @@ def record(
         str, typer.Option("--format", help="lerobot, mcap or lerobot,mcap (MCAP bags go to OUT/mcap/)")
     ] = "lerobot",
     image_format: Annotated[str, typer.Option(help="MCAP camera messages: jpeg, png or raw")] = "jpeg",
+    mcap_compression: Annotated[str, typer.Option(help="MCAP chunk compression: zstd, lz4 or none")] = "zstd",
     hal: Annotated[str | None, typer.Option(help="record ROBOT_ID through its HAL at a fixed rate")] = None,
     mode: Annotated[str, typer.Option(help="--hal: sim (MuJoCo twin, or --scene) or real (hardware)")] = "sim",
     fps: Annotated[int, typer.Option(help="--hal: control and recording rate")] = 20,
@@ -90,7 +91,8 @@ def record(
 
         run_hal_record(
             hal, mode, rskill or DEFAULT_RSKILL, fps, scene if scene != manifests.DEFAULT_SCENE else None, n_episodes,
-            max_steps, seed, out, codec.value, format, image_format, operator, safety, staleness, port, json,
+            max_steps, seed, out, codec.value, format, image_format, mcap_compression, operator, safety, staleness,
+            port, json,
         )  # fmt: skip
         return
     hal_only = {"--mode": mode != "sim", "--fps": fps != 20, "--operator": operator != "auto", "--safety": safety,
@@ -113,6 +115,7 @@ def record(
         codec=codec.value,
         formats=parse_formats(format),
         image_format=image_format,
+        mcap_compression=mcap_compression,
         resume=resume,
         explicit=frozenset(
             {"format": "formats", "suite_task": "task"}.get(name, name)

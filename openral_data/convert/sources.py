@@ -10,7 +10,7 @@ from __future__ import annotations
 import struct
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 import numpy.typing as npt
@@ -22,6 +22,7 @@ from rosbags.serde import SerdeError
 from rosbags.typesys import Stores, get_typestore
 
 from openral_data.errors import BagError, NotFound
+from openral_data.formats.mcap.messages import DEPTH_ENCODINGS, RGB_ENCODINGS
 from openral_data.schemas.mapping import VectorSource
 
 
@@ -91,6 +92,49 @@ def deserialize(reader: AnyReader, bag: Path, raw: bytes, msgtype: str) -> Any:
         return reader.deserialize(raw, msgtype)
     except (*BAG_READ_ERRORS, struct.error, IndexError, TypeError) as exc:
         raise BagError(f"{bag}: a {msgtype} message does not decode: {exc}", code="bag.invalid") from None
+
+
+IMAGE_TYPES = ("sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage")
+
+
+def check_camera(reader: AnyReader, bag: Path, name: str, conn: Connection) -> None:
+    """Before anything is written: camera `name`'s topic carries RGB images. A non-image topic, or images in a
+    depth or otherwise unsupported encoding (read from its first message), raise one `BagError` line."""
+    where = f"{bag}: mapping: cameras.{name} ({conn.topic})"
+    if conn.msgtype not in IMAGE_TYPES:
+        raise BagError(
+            f"{where}: the topic carries {conn.msgtype}, not images (a camera needs {' or '.join(IMAGE_TYPES)})",
+            code="bag.type",
+        )
+    for c, _, raw in read_messages(reader, bag, [conn]):
+        check_image(deserialize(reader, bag, raw, c.msgtype), c.msgtype, where)
+        return
+
+
+def check_image(msg: Any, msgtype: str, where: str) -> None:
+    """An image message `decode_image` can turn into RGB: a raw image's encoding, or a compressed image that is
+    not a depth image (``format: "16UC1; compressedDepth png"``); else a one-line `BagError`."""
+    if msgtype.endswith("/CompressedImage"):
+        fmt = str(msg.format)
+        if "compresseddepth" in fmt.lower() or fmt.split(";", maxsplit=1)[0].strip().lower() in DEPTH_ENCODINGS:
+            _depth(f"a CompressedImage of format {fmt!r}", where)
+        return
+    encoding = str(msg.encoding)
+    if encoding.lower() in DEPTH_ENCODINGS:
+        _depth(encoding, where)
+    if encoding.lower() not in RGB_ENCODINGS:
+        raise BagError(
+            f"{where}: unsupported image encoding {encoding!r} (a camera needs {', '.join(RGB_ENCODINGS)})",
+            code="bag.type",
+        )
+
+
+def _depth(what: str, where: str) -> NoReturn:
+    raise BagError(
+        f"{where}: {what} is a depth image; depth is not yet supported as an RGB camera "
+        "(leave the topic out of cameras)",
+        code="bag.type",
+    )
 
 
 def field_value(msg: Any, path: str, where: str) -> Any:

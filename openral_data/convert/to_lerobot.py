@@ -26,6 +26,8 @@ from rosbags.interfaces import Connection
 from openral_data.convert.align import AlignedFrame, Aligner
 from openral_data.convert.sources import (
     VectorReader,
+    check_camera,
+    check_image,
     deserialize,
     field_value,
     find_bags,
@@ -70,6 +72,8 @@ class ConvertSummary:
     splits: int = 0  # extra episodes started because unfillable frames interrupted a source episode
     empty_segments: int = 0  # source episodes in which no frame could be filled
     late_messages: int = 0  # align.clock header: stamps further behind the log order than align.reorder
+    header_stamps: dict[str, int] = field(default_factory=dict)  # align.clock header: topic -> stamped messages
+    zero_stamps: dict[str, int] = field(default_factory=dict)  # ... of them with header.stamp 0
 
     @property
     def fps(self) -> float:
@@ -307,6 +311,8 @@ def convert_bags(
                     summary.skipped_topics[c.topic] = summary.skipped_topics.get(c.topic, 0) + c.msgcount
             for t in wanted:
                 summary.topics.setdefault(t, TopicReport(t, present[t]))
+            for name, topic in mapping.cameras.items():
+                check_camera(reader, bag, name, next(c for c in reader.connections if c.topic == topic))
         finally:
             reader.close()
     check_new_output(dst, "DST")
@@ -326,6 +332,7 @@ def convert_bags(
         finally:
             conv.close()
         summary.seconds = time.perf_counter() - t0
+        _check_stamps(src, summary)
         if not summary.episodes:
             raise BagError(
                 f"{src}: no frame could be filled; nothing was written (see the mapping's align settings)",
@@ -333,6 +340,18 @@ def convert_bags(
             )
         staged.publish("DST")
     return summary
+
+
+def _check_stamps(src: Path, summary: ConvertSummary) -> None:
+    """`align.clock: header` on a topic whose header stamps are all zero (a driver that never sets them) puts
+    every message at the epoch: one line naming the topic, before anything is published."""
+    zero = [t for t, n in summary.header_stamps.items() if n and summary.zero_stamps.get(t, 0) == n]
+    if zero:
+        raise BagError(
+            f"{src}: {zero[0]}: header stamps are all zero, so align.clock: header cannot place its messages; "
+            "nothing was written (set align.clock: log in the mapping to align on receive time)",
+            code="bag.empty",
+        )
 
 
 def _convert_bag(bag: Path, conv: _Converter, wanted: list[str], extra: list[str]) -> Iterator[None]:
@@ -390,10 +409,10 @@ def _convert_bag(bag: Path, conv: _Converter, wanted: list[str], extra: list[str
 class _Message:
     """A bag message, deserialised on first use (most multi-rate camera samples never are)."""
 
-    __slots__ = ("_msg", "bag", "msgtype", "raw", "reader")
+    __slots__ = ("_msg", "bag", "msgtype", "raw", "reader", "topic")
 
-    def __init__(self, reader: AnyReader, bag: Path, raw: bytes, msgtype: str) -> None:
-        self.reader, self.bag, self.raw, self.msgtype = reader, bag, raw, msgtype
+    def __init__(self, reader: AnyReader, bag: Path, raw: bytes, conn: Connection) -> None:
+        self.reader, self.bag, self.raw, self.msgtype, self.topic = reader, bag, raw, conn.msgtype, conn.topic
         self._msg: Any = None
 
     def get(self) -> Any:
@@ -402,7 +421,9 @@ class _Message:
         return self._msg
 
     def decode(self) -> npt.NDArray[np.uint8]:
-        return decode_image(self.get(), self.msgtype)
+        msg = self.get()
+        check_image(msg, self.msgtype, f"{self.bag}: {self.topic}")  # the first message was checked, not every one
+        return decode_image(msg, self.msgtype)
 
 
 def _timed_messages(
@@ -417,15 +438,15 @@ def _timed_messages(
     """
     if mapping.align.clock == "log":
         for conn, ns, raw in read_messages(reader, bag, conns):
-            yield conn, ns, _Message(reader, bag, raw, conn.msgtype)
+            yield conn, ns, _Message(reader, bag, raw, conn)
         return
     window = round(mapping.align.reorder * 1e9)
     heap: list[tuple[int, int, Connection, _Message]] = []
     released: int | None = None
     seq = 0
     for conn, ns, raw in read_messages(reader, bag, conns):
-        msg = _Message(reader, bag, raw, conn.msgtype)
-        stamp = _header_stamp(msg.get(), ns)
+        msg = _Message(reader, bag, raw, conn)
+        stamp = _header_stamp(msg.get(), ns, conn.topic, summary)
         if released is not None and stamp < released:
             summary.late_messages += 1
             continue
@@ -440,11 +461,15 @@ def _timed_messages(
         yield c, stamp, m
 
 
-def _header_stamp(msg: Any, log_ns: int) -> int:
+def _header_stamp(msg: Any, log_ns: int, topic: str, summary: ConvertSummary) -> int:
+    """`header.stamp` in ns (log time for a message without a header), counted per topic in `summary`."""
     stamp = getattr(getattr(msg, "header", None), "stamp", None)
     if stamp is None:
         return log_ns
-    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+    ns = int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+    summary.header_stamps[topic] = summary.header_stamps.get(topic, 0) + 1
+    summary.zero_stamps[topic] = summary.zero_stamps.get(topic, 0) + (ns == 0)
+    return ns
 
 
 def _reward_value(msg: Any, mapping: Mapping) -> float:

@@ -51,6 +51,7 @@ class HalRecordOptions:
     codec: Codec = "av1"
     formats: tuple[str, ...] = ("lerobot",)
     image_format: str = "jpeg"
+    mcap_compression: str = "zstd"
     operator: str = "auto"  # auto | keyboard | a script such as "success@40,discard@10"
     safety: SafetyMode | None = None  # default: the manifest's safety.mode
     staleness: float | None = None  # camera sample age limit (s); default: 3 periods
@@ -180,7 +181,7 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
     make_policy = registry.policy_factory(rskill, rskill_src)
     from openral_data.record.sinks import check_formats
 
-    check_formats(opts.formats, opts.image_format)
+    check_formats(opts.formats, opts.image_format, opts.mcap_compression)
     out = opts.out if opts.out is not None else fresh_out(f"hal-{robot.name}--{rskill.id}")
     held = claim(out, "openral-data record --hal", resume=False)  # one writer, before any byte goes into `out`
     try:
@@ -243,7 +244,12 @@ def _run(
     )
     hal.connect()  # a robot that cannot be reached fails here, before anything is written
     sinks: list[Sink] = make_sinks(
-        out, schema, opts.formats, WriterConfig(video=VideoSettings(codec=opts.codec)), opts.image_format
+        out,
+        schema,
+        opts.formats,
+        WriterConfig(video=VideoSettings(codec=opts.codec)),
+        opts.image_format,
+        mcap_compression=opts.mcap_compression,
     )
     bridge = DatasetBridge(schema, sinks)
     task = rskill.description or rskill.id

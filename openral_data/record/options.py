@@ -26,6 +26,7 @@ class RecordOptions:
     codec: Codec = "av1"
     formats: tuple[str, ...] = ("lerobot",)  # any of FORMATS; see sinks.select.make_sinks for the layout
     image_format: str = "jpeg"  # MCAP camera messages: jpeg | png | raw
+    mcap_compression: str = "zstd"  # MCAP chunks: zstd | lz4 | none
     resume: bool = False  # continue the recording in `out` with its own settings (see openral_data.record.output)
     explicit: frozenset[str] = frozenset()  # options the user gave (with resume: they must match the recording)
     first_episode: int = 0  # MCAP bags are numbered from here (a `--workers` share; see openral_data/parallel)

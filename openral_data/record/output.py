@@ -1,8 +1,8 @@
 """`record --resume`: continue a recording with the settings it started with, after any crash.
 
 A recording keeps its settings in ``OUT/.openral/record.json`` (scene, rSkill, robot, seed, step limit,
-codec, formats, image format, task, instruction, the requested episode count and the dataset schema; the device
-a neural policy ran on is noted too, but a resume may run on another). `--resume` takes them
+codec, formats, image format, MCAP chunk compression, task, instruction, the requested episode count and the
+dataset schema; the device a neural policy ran on is noted too, but a resume may run on another). `--resume` takes them
 from there; an option given again must match, except `--n-episodes` (the total wanted). Under the dataset's
 writer lock it then recovers each sink (`recovery.recover` for LeRobot, the staging folder for MCAP) and, if a
 kill fell between the sinks' commits of one episode, sets aside the sink that got one episode further (the
@@ -40,6 +40,7 @@ KEPT = {
     "codec": "--codec",
     "formats": "--format",
     "image_format": "--image-format",
+    "mcap_compression": "--mcap-compression",
     "task": "--task",
     "instruction": "--instruction",
 }
@@ -122,6 +123,8 @@ def continue_options(opts: RecordOptions, explicit: frozenset[str]) -> RecordOpt
         stored = saved.get(name)
         if name == "formats":
             stored = tuple(stored or ())
+        if name == "mcap_compression":
+            stored = stored or "none"  # recorded before chunks were compressed
         given = getattr(opts, name)
         if name in explicit and _normal(name, given) != _normal(name, stored):
             shown = ",".join(given) if name == "formats" else given

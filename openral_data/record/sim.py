@@ -73,7 +73,7 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
     check_run_numbers(n_episodes, max_steps, base_seed)
     from openral_data.record.sinks import check_formats, make_sinks
 
-    check_formats(opts.formats, opts.image_format)
+    check_formats(opts.formats, opts.image_format, opts.mcap_compression)
     out = opts.out if opts.out is not None else default_out(scene, rskill.id)
     debug_videos = check_observers(opts, out, resume=opts.resume)
     kept = {
@@ -85,6 +85,7 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
         "codec": opts.codec,
         "formats": list(opts.formats),
         "image_format": opts.image_format,
+        "mcap_compression": opts.mcap_compression,
         "n_episodes": n_episodes,
         "task": task_id,
         "instruction": opts.instruction,
@@ -126,7 +127,13 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
             observers = make_observers(opts, out, schema)
             try:
                 sinks: list[Sink] = make_sinks(
-                    out, schema, opts.formats, WriterConfig(video=video), opts.image_format, resume=opts.resume
+                    out,
+                    schema,
+                    opts.formats,
+                    WriterConfig(video=video),
+                    opts.image_format,
+                    resume=opts.resume,
+                    mcap_compression=opts.mcap_compression,
                 )
             except BaseException as exc:
                 with contextlib.suppress(Exception):  # closes the observers (no sink yet); the error is `exc`

@@ -15,7 +15,14 @@ from typing import cast
 
 from openral_data.errors import UsageError
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, WriterConfig
-from openral_data.formats.mcap import IMAGE_FORMATS, ImageFormat, McapConfig, McapSink
+from openral_data.formats.mcap import (
+    IMAGE_FORMATS,
+    ImageFormat,
+    McapCompression,
+    McapConfig,
+    McapSink,
+    check_compression,
+)
 from openral_data.types import DatasetSchema, Sink
 
 FORMATS = ("lerobot", "mcap")
@@ -29,7 +36,7 @@ def parse_formats(text: str) -> tuple[str, ...]:
     return names
 
 
-def check_formats(formats: tuple[str, ...], image_format: str = "jpeg") -> None:
+def check_formats(formats: tuple[str, ...], image_format: str = "jpeg", mcap_compression: str = "zstd") -> None:
     if not formats:
         raise UsageError(f"--format: choose at least one of {', '.join(FORMATS)}")
     unknown = [f for f in formats if f not in FORMATS]
@@ -39,6 +46,7 @@ def check_formats(formats: tuple[str, ...], image_format: str = "jpeg") -> None:
         raise UsageError(f"--format: a format is listed twice in {','.join(formats)}")
     if image_format not in IMAGE_FORMATS:
         raise UsageError(f"--image-format: {image_format!r} is not one of {', '.join(IMAGE_FORMATS)}")
+    check_compression(mcap_compression)
 
 
 def make_sinks(
@@ -49,16 +57,19 @@ def make_sinks(
     image_format: str = "jpeg",
     *,
     resume: bool = False,
+    mcap_compression: str = "zstd",
 ) -> list[Sink]:
     """The sinks in commit order: MCAP before LeRobot, so a kill between the two commits of one episode
     leaves an extra bag (one folder `record --resume` sets aside), never an extra LeRobot episode."""
-    check_formats(formats, image_format)
+    check_formats(formats, image_format, mcap_compression)
     sinks: list[Sink] = []
     try:
         if "lerobot" in formats:  # created first: it refuses a non-empty OUT before anything lands there
             sinks.append(LeRobotV3Writer(out, schema, writer, resume=resume))
         if "mcap" in formats:
-            config = McapConfig(image_format=cast(ImageFormat, image_format))
+            config = McapConfig(
+                image_format=cast(ImageFormat, image_format), compression=cast(McapCompression, mcap_compression)
+            )
             sinks.insert(0, McapSink(out / MCAP_SUBDIR, schema, config, resume=resume))
     except BaseException:
         for sink in sinks:

@@ -1,4 +1,4 @@
-"""`view`: one episode of a LeRobot v3 dataset (or an MCAP file) in rerun.
+"""`view`: one episode of a LeRobot v3 dataset (or an MCAP file, or a rosbag2 folder holding one) in rerun.
 
 Cameras are logged once as `AssetVideo` plus one `VideoFrameReference` per row, and nothing is decoded. v3
 packs many episodes into one mp4, so the episode's packets — from `from_timestamp` to `to_timestamp` — are
@@ -59,10 +59,12 @@ def run_view(opts: ViewOptions) -> str:
     """Log the episode; returns a one-line description of where it went."""
     if not opts.path.exists():
         raise NotFound(f"{opts.path}: no such file or directory")
-    is_mcap = opts.path.is_file() and opts.path.suffix.lower() == ".mcap"
-    if not is_mcap and not (opts.path / layout.INFO_PATH).is_file():
+    mcap = None if (opts.path / layout.INFO_PATH).is_file() else mcap_file(opts.path)
+    is_mcap = mcap is not None
+    if mcap is None and not (opts.path / layout.INFO_PATH).is_file():
         raise DatasetError(
-            f"{opts.path}: neither a LeRobot v3 dataset (meta/info.json) nor an .mcap file", code="dataset.invalid"
+            f"{opts.path}: neither a LeRobot v3 dataset (meta/info.json), an .mcap file nor a rosbag2 folder",
+            code="dataset.invalid",
         )
     save = opts.save
     if save is None and not has_display():
@@ -84,7 +86,8 @@ def run_view(opts: ViewOptions) -> str:
     ok = False
     try:
         if episode is None:
-            rec.log_file_from_path(opts.path)
+            assert mcap is not None  # no episode is loaded only for an MCAP file
+            rec.log_file_from_path(mcap)
             what = f"{opts.path}"
         else:
             log_episode(rec, episode)
@@ -96,6 +99,24 @@ def run_view(opts: ViewOptions) -> str:
         if not ok and save is not None:
             save.unlink(missing_ok=True)
     return f"saved {what} to {save}" if save is not None else f"opened {what} in the rerun viewer"
+
+
+def mcap_file(path: Path) -> Path | None:
+    """The MCAP file `view` shows for `path`: an ``.mcap`` file itself, or the one ``.mcap`` of a rosbag2 folder
+    (``metadata.yaml`` beside it, as `record --format mcap` and ``ros2 bag record`` write); None otherwise."""
+    if path.is_file():
+        return path if path.suffix.lower() == ".mcap" else None
+    if not (path / "metadata.yaml").is_file():
+        return None
+    found = sorted(p for p in path.iterdir() if p.suffix.lower() == ".mcap" and p.is_file() and not p.is_symlink())
+    if len(found) != 1:
+        held = ", ".join(p.name for p in found) or "none"
+        raise DatasetError(
+            f"{path}: a rosbag2 folder: view needs exactly one .mcap file in it (found: {held}); "
+            "pass the .mcap to show",
+            code="dataset.invalid",
+        )
+    return found[0]
 
 
 @dataclass(frozen=True)

@@ -9,11 +9,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from openral_data.formats.mcap import finished_bags
 from openral_data.record.options import RecordOptions
 from openral_data.record.sim import record
 from tests.support.bags import MAPPING, WRITERS, expected, write_ros2
 from tests.support.cli import run_cli
 from tests.support.lerobot import verify_mock_dataset
+from tests.support.mcap import chunk_compressions
 from tests.support.mock_mcap import verify_mock_bags
 from tests.support.scenes import mock_scene, write_yaml
 
@@ -218,3 +220,9 @@ def test_export_all_matches_verify_mock_bags(project: Path, tmp_path: Path) -> N
     assert proc.returncode == 0, proc.stderr
     assert "not exported" in proc.stdout
     assert verify_mock_bags(out, image_format="raw", tolerance=COLOUR_TOL) == [3, 4]  # h264-decoded pixels
+    assert [chunk_compressions(b) for b in finished_bags(out)] == [{"zstd"}, {"zstd"}]  # the default
+    plain = tmp_path / "plain"
+    proc = run_cli("convert", str(ds), str(plain), "--image-format", "raw", "--mcap-compression", "none")
+    assert proc.returncode == 0, proc.stderr
+    assert verify_mock_bags(plain, image_format="raw", tolerance=COLOUR_TOL) == [3, 4]
+    assert [chunk_compressions(b) for b in finished_bags(plain)] == [{""}, {""}]

@@ -31,7 +31,7 @@ from openral_data.record.sim import record
 from tests.support.cli import run_cli
 from tests.support.home import REPO, isolated_home
 from tests.support.lerobot import verify_mock_dataset
-from tests.support.mcap import check_bag
+from tests.support.mcap import check_bag, chunk_compressions
 from tests.support.scenes import mock_scene, write_yaml
 
 LENGTHS = [5, 7, 4]  # the mock succeeds after these many steps, cycled over episodes
@@ -125,6 +125,23 @@ def test_resume_mcap_only(tmp_path: Path, home: Path) -> None:
     assert not (out / "mcap/.partial").exists() and not (out / "meta").exists()
     with pytest.raises(ConfigError, match="formats: the dataset was recorded with mcap"):
         record(RecordOptions(out=out, resume=True, formats=("lerobot",), explicit=frozenset({"formats"})))
+
+
+def test_resume_keeps_the_mcap_compression(tmp_path: Path, home: Path) -> None:
+    out = tmp_path / "bags"
+    scene = str(home / "scene.yaml")
+    record(RecordOptions(scene=scene, out=out, n_episodes=1, formats=("mcap",), mcap_compression="lz4"))
+    record(RecordOptions(out=out, resume=True, n_episodes=2, explicit=frozenset({"n_episodes"})))
+    assert [chunk_compressions(b) for b in finished_bags(out / "mcap")] == [{"lz4"}, {"lz4"}]
+    with pytest.raises(ConfigError, match="mcap_compression: the dataset was recorded with lz4; --mcap-compression"):
+        record(RecordOptions(out=out, resume=True, mcap_compression="zstd", explicit=frozenset({"mcap_compression"})))
+    # a recording made before chunks were compressed continues uncompressed
+    settings = out / ".openral" / "record.json"
+    doc = json.loads(settings.read_text())
+    del doc["options"]["mcap_compression"]
+    settings.write_text(json.dumps(doc))
+    record(RecordOptions(out=out, resume=True, n_episodes=3, explicit=frozenset({"n_episodes"})))
+    assert chunk_compressions(finished_bags(out / "mcap")[2]) == {""}
 
 
 def _edit(path: Path, fn: Callable[[dict[str, Any]], object]) -> None:

@@ -8,6 +8,10 @@ Streams (times in ms from BASE; k is the sample's index on its own topic):
 * /cam2/compressed sensor_msgs/CompressedImage png 32x24, 10 Hz, solid colour (20k mod 256, 100, 30)
 * /task          std_msgs/String: "stack the blocks" at 0, "unstack" at 1000
 * /diagnostics   std_msgs/String, 1 Hz: not mapped
+
+The writers' `Flaw` (default: none) plants a mistake a real driver makes: header stamps left at zero, or
+/cam/image_raw carrying depth (16UC1 millimetres or 32FC1 metres) instead of rgb8, or /cam2/compressed in
+image_transport's compressed depth format.
 """
 
 from __future__ import annotations
@@ -15,7 +19,7 @@ from __future__ import annotations
 import io
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from PIL import Image as PILImage
@@ -47,6 +51,9 @@ TYPES = {
     "/task": "std_msgs/msg/String",
     "/diagnostics": "std_msgs/msg/String",
 }
+
+
+Flaw = Literal["none", "zero-stamps", "16UC1", "32FC1", "compressedDepth"]
 
 
 def colour(topic: str, k: int) -> tuple[int, int, int]:
@@ -97,10 +104,11 @@ def samples(duration_ms: int = 2000, offset_ms: int = 0) -> Iterator[tuple[str, 
         yield topic, BASE + (offset_ms + t_ms) * MS, fields
 
 
-def build(store: Any, topic: str, ns: int, f: dict[str, Any], ros1: bool) -> Any:
+def build(store: Any, topic: str, ns: int, f: dict[str, Any], ros1: bool, flaw: Flaw = "none") -> Any:
     """A rosbags message object of the topic's type from the plain field values."""
     t = store.types
-    stamp = t["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9)
+    stamped = 0 if flaw == "zero-stamps" else ns
+    stamp = t["builtin_interfaces/msg/Time"](sec=stamped // 10**9, nanosec=stamped % 10**9)
     header = (
         t["std_msgs/msg/Header"](seq=0, stamp=stamp, frame_id="")
         if ros1
@@ -113,35 +121,43 @@ def build(store: Any, topic: str, ns: int, f: dict[str, Any], ros1: bool) -> Any
     if topic == "/cmd":
         layout = t["std_msgs/msg/MultiArrayLayout"](dim=[], data_offset=0)
         return t[msgtype](layout=layout, data=f["data"])
+    if topic == "/cam/image_raw" and flaw in ("16UC1", "32FC1"):
+        depth = np.full((H, W), 1500, np.uint16) if flaw == "16UC1" else np.full((H, W), 1.5, np.float32)
+        data = np.frombuffer(depth.tobytes(), np.uint8)
+        return t[msgtype](
+            header=header, height=H, width=W, encoding=flaw, is_bigendian=0, step=W * depth.itemsize, data=data
+        )
     if topic == "/cam/image_raw":
         return t[msgtype](
             header=header, height=H, width=W, encoding="rgb8", is_bigendian=0, step=3 * W, data=f["rgb"].reshape(-1)
         )
+    if topic == "/cam2/compressed" and flaw == "compressedDepth":  # image_transport's compressed depth (PNG)
+        return t[msgtype](header=header, format="16UC1; compressedDepth png", data=f["png"])
     if topic == "/cam2/compressed":
         return t[msgtype](header=header, format="png", data=f["png"])
     return t[msgtype](data=f["data"])
 
 
-def write_ros1(path: Path, **kw: int) -> Path:
+def write_ros1(path: Path, flaw: Flaw = "none", **kw: int) -> Path:
     store = get_typestore(Stores.ROS1_NOETIC)
     with Writer1(path) as writer:
         conns = {topic: writer.add_connection(topic, msgtype, typestore=store) for topic, msgtype in TYPES.items()}
         for topic, ns, f in samples(**kw):
-            writer.write(conns[topic], ns, store.serialize_ros1(build(store, topic, ns, f, True), TYPES[topic]))
+            writer.write(conns[topic], ns, store.serialize_ros1(build(store, topic, ns, f, True, flaw), TYPES[topic]))
     return path
 
 
-def write_ros2(path: Path, storage: str, **kw: int) -> Path:
+def write_ros2(path: Path, storage: str, flaw: Flaw = "none", **kw: int) -> Path:
     store = get_typestore(Stores.ROS2_HUMBLE)
     plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
     with Writer2(path, version=8, storage_plugin=plugin) as writer:
         conns = {topic: writer.add_connection(topic, msgtype, typestore=store) for topic, msgtype in TYPES.items()}
         for topic, ns, f in samples(**kw):
-            writer.write(conns[topic], ns, store.serialize_cdr(build(store, topic, ns, f, False), TYPES[topic]))
+            writer.write(conns[topic], ns, store.serialize_cdr(build(store, topic, ns, f, False, flaw), TYPES[topic]))
     return path
 
 
-def write_plain_mcap(path: Path, **kw: int) -> Path:
+def write_plain_mcap(path: Path, flaw: Flaw = "none", **kw: int) -> Path:
     """A plain .mcap with ros2msg schemas, written by the `mcap` package's ROS 2 writer (dict messages)."""
     from mcap_ros2.writer import Writer as McapRos2Writer
 
@@ -153,7 +169,7 @@ def write_plain_mcap(path: Path, **kw: int) -> Path:
             for topic, msgtype in TYPES.items()
         }
         for topic, ns, f in samples(**kw):
-            msg = _as_dict(build(store, topic, ns, f, False))
+            msg = _as_dict(build(store, topic, ns, f, False, flaw))
             writer.write_message(topic, schemas[topic], msg, log_time=ns, publish_time=ns)
         writer.finish()
     return path

@@ -49,6 +49,15 @@ def check_bag(bag: Path) -> dict[str, list[tuple[int, Any]]]:
     return out
 
 
+def chunk_compressions(bag: Path) -> set[str]:
+    """The compression of every chunk of `bag`'s .mcap (a rosbag2 dir), read from its summary's chunk indexes."""
+    (path,) = bag.glob("*.mcap")
+    with path.open("rb") as fh:
+        summary = make_reader(fh).get_summary()
+    assert summary is not None and summary.chunk_indexes
+    return {index.compression for index in summary.chunk_indexes}
+
+
 def assert_rerun_ok(report: str, path: Path) -> None:
     """`rerun mcap check` prints one row per topic/timeline: status `ok` and no issues (`—`) on every row."""
     lines = report.splitlines()

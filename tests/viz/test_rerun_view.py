@@ -162,3 +162,32 @@ def test_view_mcap(tmp_path: Path) -> None:
     verify(rrd)
     temporal, _ = rows_by_entity(rrd)
     assert temporal["/robot/state"] == 25
+
+
+def test_view_rosbag2_folder(tmp_path: Path) -> None:
+    """A rosbag2 folder (metadata.yaml + one .mcap, as rosbags writes it) is viewed as the .mcap inside."""
+    from tests.support.bags import write_ros2
+
+    bag = write_ros2(tmp_path / "bag", "mcap", duration_ms=300)
+    (inner,) = bag.glob("*.mcap")
+    by_folder, by_file = tmp_path / "folder.rrd", tmp_path / "file.rrd"
+    proc = run_cli("view", str(bag), "--save", str(by_folder))
+    assert proc.returncode == 0, proc.stderr
+    assert run_cli("view", str(inner), "--save", str(by_file)).returncode == 0
+    verify(by_folder)
+    temporal, _ = rows_by_entity(by_folder)
+    assert temporal == rows_by_entity(by_file)[0]
+    assert temporal["/joint_states"] == 30  # 100 Hz for 300 ms: every message arrived
+
+
+def test_view_rosbag2_folder_without_one_mcap(tmp_path: Path) -> None:
+    from tests.support.bags import write_ros2
+
+    bag = write_ros2(tmp_path / "bag", "sqlite3", duration_ms=100)
+    rrd = tmp_path / "x.rrd"
+    proc = run_cli("view", str(bag), "--save", str(rrd))
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == (
+        f"error: {bag}: a rosbag2 folder: view needs exactly one .mcap file in it (found: none); pass the .mcap to show"
+    ), proc.stderr
+    assert not rrd.exists()

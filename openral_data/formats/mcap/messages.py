@@ -134,6 +134,11 @@ class MessageFactory:
         return bytes(self.store.serialize_cdr(msg, COMPRESSED_T))
 
 
+# sensor_msgs/Image encodings `decode_image` turns into RGB (channels each), and the depth encodings it does not
+RGB_ENCODINGS: dict[str, int] = {"rgb8": 3, "bgr8": 3, "rgba8": 4, "bgra8": 4, "mono8": 1}
+DEPTH_ENCODINGS = ("16uc1", "32fc1", "mono16")
+
+
 def decode_image(msg: Any, msgtype: str) -> npt.NDArray[np.uint8]:
     """RGB uint8 HWC from a deserialised `sensor_msgs` Image or CompressedImage."""
     if msgtype.endswith("CompressedImage"):
@@ -142,9 +147,9 @@ def decode_image(msg: Any, msgtype: str) -> npt.NDArray[np.uint8]:
     enc = str(msg.encoding).lower()
     h, w, step = int(msg.height), int(msg.width), int(msg.step)
     raw = np.asarray(msg.data, dtype=np.uint8)
-    channels = {"rgb8": 3, "bgr8": 3, "rgba8": 4, "bgra8": 4, "mono8": 1}.get(enc)
+    channels = RGB_ENCODINGS.get(enc)
     if channels is None:
-        raise ValueError(f"unsupported image encoding {msg.encoding!r} (rgb8, bgr8, rgba8, bgra8, mono8)")
+        raise ValueError(f"unsupported image encoding {msg.encoding!r} ({', '.join(RGB_ENCODINGS)})")
     rows: npt.NDArray[np.uint8] = raw.reshape(h, step)[:, : w * channels].reshape(h, w, channels)
     if enc == "mono8":
         return np.ascontiguousarray(np.repeat(rows, 3, axis=2))

@@ -16,6 +16,11 @@ image), in a small encoder pool as each frame arrives (Pillow releases the GIL w
 `queue_size` frames wait for their images, beyond that `add_frame` blocks on the oldest (backpressure:
 nothing can be dropped). `McapConfig.encoder_threads` overrides the choice.
 
+Chunks are compressed as rosbag2 does by default for MCAP (`McapConfig.compression`, `record/convert
+--mcap-compression`): zstd, else lz4 or none. This is storage-level compression (each MCAP chunk is compressed
+inside the file), so ``metadata.yaml`` keeps ``compression_format: ''`` / ``compression_mode: ''`` exactly as
+rosbag2's MCAP plugin writes it, and every MCAP reader opens the bag as it is.
+
 Stamps: ``episode start wall clock (ns since the epoch, taken at begin_episode) + Frame.timestamp``. The
 relative times are the producer's clock (sim time for sim, a monotonic clock for hardware), the absolute
 base puts the bag at the moment it was recorded so tools show real dates and episodes never overlap.
@@ -33,8 +38,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Final, Literal
 
+from lz4.frame import compress as lz4_compress  # type: ignore[import-untyped]
 from rosbags.interfaces import Connection
-from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
+from rosbags.rosbag2.storage_mcap import McapWriter
 
 from openral_data.errors import DISK_ERRNOS, DiskError, OutputExists, UsageError, WriteError
 from openral_data.formats.atomic import fsync_dir, fsync_file
@@ -44,6 +51,8 @@ from openral_data.types import DatasetSchema, EpisodeRecord, EpisodeStart, Frame
 
 PARTIAL = ".partial"
 ROSBAG2_VERSION: Final[Literal[8]] = 8  # Humble/Iron readers accept 8; Jazzy reads 8 and 9
+McapCompression = Literal["zstd", "lz4", "none"]
+MCAP_COMPRESSIONS: tuple[McapCompression, ...] = ("zstd", "lz4", "none")
 
 
 def episode_dir(root: Path, index: int) -> Path:
@@ -64,6 +73,7 @@ class McapConfig:
     # threads compressing camera images; None = automatic (PNG: one per camera up to 4, JPEG: none, i.e. in the
     # caller's thread, which is cheaper for ~1 ms encodes than any hand-off); 0 = always in the caller's thread
     encoder_threads: int | None = None
+    compression: McapCompression = "zstd"  # of the MCAP chunks (storage-level, as rosbag2 writes them)
 
     def threads(self, cameras: int) -> int:
         if self.image_format == "raw":
@@ -102,6 +112,7 @@ class McapSink:
             raise UsageError(f"queue_size must be >= 1, got {self.config.queue_size}")
         if self.config.encoder_threads is not None and self.config.encoder_threads < 0:
             raise UsageError(f"encoder_threads must be >= 0, got {self.config.encoder_threads}")
+        check_compression(self.config.compression)
         if not resume and root.exists() and (not root.is_dir() or any(p.name != PARTIAL for p in root.iterdir())):
             raise OutputExists(f"{root}: output exists and is not empty; refusing to overwrite it")
         self._created_root = not root.exists()
@@ -193,6 +204,23 @@ class McapSink:
             raise _write_error(self.root, exc, self._episode.index, "writing") from exc
 
 
+def check_compression(name: str) -> None:
+    if name not in MCAP_COMPRESSIONS:
+        raise UsageError(f"--mcap-compression: {name!r} is not one of {', '.join(MCAP_COMPRESSIONS)}")
+
+
+def _compressed_chunks(writer: Writer, compression: McapCompression) -> None:
+    """Compress `writer`'s MCAP chunks: zstd through rosbags' own storage compression; lz4 (which rosbags reads
+    but does not write) by giving its MCAP storage the LZ4 frame compressor the MCAP spec names ``lz4``.
+    Called after `open()`, before the first chunk is closed."""
+    if compression != "lz4":
+        return
+    storage = writer.storage
+    assert isinstance(storage, McapWriter)
+    storage.compression = "lz4"
+    storage.compressor = lz4_compress
+
+
 def _write_error(root: Path, exc: OSError, index: int, doing: str, committed: bool = False) -> WriteError:
     """One line for a failed write: a `DiskError` for a disk problem, else the MCAP write error with the cause."""
     if exc.errno in DISK_ERRNOS:
@@ -219,7 +247,10 @@ class _EpisodeBag:
         self.writer = Writer(self.staged, version=ROSBAG2_VERSION, storage_plugin=StoragePlugin.MCAP)
         self.writer.set_custom_data("openral.episode_index", str(index))
         self.writer.set_custom_data("openral.stamp_base_ns", str(base_ns))
+        if config.compression == "zstd":
+            self.writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
         self.writer.open()
+        _compressed_chunks(self.writer, config.compression)
         store = self.factory.store
         add = self.writer.add_connection
         self.c_event = add(m.EPISODE, m.STRING_T, typestore=store)

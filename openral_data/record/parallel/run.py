@@ -49,7 +49,7 @@ def record_parallel(
     address: str | None = None,
     threads: int | None = None,
 ) -> ParallelSummary:
-    check_formats(opts.formats, opts.image_format)
+    check_formats(opts.formats, opts.image_format, opts.mcap_compression)
     if opts.resume:
         raise UsageError("--resume: continue a recording with one process (no --workers/--executor)")
     if opts.save_video or opts.save_video_dir is not None:
