@@ -10,6 +10,7 @@ import typer
 from openral_data import paths
 from openral_data.cli.terminal import print_line
 from openral_data.edit.ops import EditResult
+from openral_data.formats.repo_id import resolve_dataset
 
 episodes_app = typer.Typer(
     no_args_is_help=True,
@@ -24,7 +25,7 @@ def _report(op: str, results: list[EditResult]) -> None:
 
 @episodes_app.command("delete")
 def delete_cmd(
-    dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset written by openral-data")],
+    dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (ours or lerobot's)")],
     episodes: Annotated[str, typer.Option(help="episodes to delete, e.g. 0,3,5-7")],
     out: Annotated[Path | None, typer.Option(help="new dataset folder (must not exist or be empty)")] = None,
     in_place: Annotated[bool, typer.Option(help="replace DATASET itself (swapped in once complete)")] = False,
@@ -34,12 +35,12 @@ def delete_cmd(
 
     if out is not None:
         paths.check_creatable(out, "--out")
-    _report("deleted", [delete(dataset, episodes, out, in_place)])
+    _report("deleted", [delete(resolve_dataset(dataset), episodes, out, in_place)])
 
 
 @episodes_app.command("split")
 def split_cmd(
-    dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset written by openral-data")],
+    dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (ours or lerobot's)")],
     episodes: Annotated[str, typer.Option(help="episodes for --out, in this order, e.g. 0-9 or 4,2")],
     out: Annotated[Path, typer.Option(help="dataset of the listed episodes")],
     rest: Annotated[Path | None, typer.Option(help="dataset of all the other episodes")] = None,
@@ -50,7 +51,7 @@ def split_cmd(
     paths.check_creatable(out, "--out")
     if rest is not None:
         paths.check_creatable(rest, "--rest")
-    _report("split", split(dataset, episodes, out, rest))
+    _report("split", split(resolve_dataset(dataset), episodes, out, rest))
 
 
 @episodes_app.command("merge")
@@ -63,4 +64,4 @@ def merge_cmd(
     from openral_data.edit.ops import merge
 
     paths.check_creatable(out, "--out")
-    _report("merged", [merge(datasets, out, order)])
+    _report("merged", [merge([resolve_dataset(d) for d in datasets], out, order)])
