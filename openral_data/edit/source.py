@@ -92,7 +92,11 @@ class SourceDataset:
         return read_openral(self.root) or {}
 
     def camera_names(self) -> list[str]:
-        return [k[len(IMAGE_PREFIX) :] for k, f in self.features.items() if f.get("dtype") == "video"]
+        return [
+            k[len(IMAGE_PREFIX) :]
+            for k, f in self.features.items()
+            if f.get("dtype") == "video" and k.startswith(IMAGE_PREFIX)  # any other video key is refused below
+        ]
 
     def _video_settings(self) -> VideoSettings:
         infos = [f.get("info") or {} for f in self.features.values() if f.get("dtype") == "video"]
