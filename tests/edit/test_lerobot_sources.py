@@ -117,6 +117,13 @@ def test_merge_by_seed_needs_recorded_seeds(tmp_path: Path) -> None:
     assert res.stderr.startswith(f"error: {a}: meta/episodes: openral.seed: no such column"), res.stderr
     assert "--order input" in res.stderr
     assert not out.exists()
+    edited = tmp_path / "edited"  # an edit of it has the column, but no seed in it
+    ops.delete(a, "0", edited)
+    res = run_cli("episodes", "merge", str(edited), "--order", "seed", "--out", str(out))
+    assert res.returncode == 2 and res.stderr.count("\n") == 1, res.stderr
+    assert res.stderr.startswith(f"error: {edited}: meta/episodes: openral.seed: episode 0 has none"), res.stderr
+    assert not out.exists()
+    assert run_cli("episodes", "merge", str(edited), "--order", "input", "--out", str(out)).returncode == 0
 
 
 def test_merge_of_ours_and_lerobots_names_the_differing_field(project: Path, tmp_path: Path) -> None:
