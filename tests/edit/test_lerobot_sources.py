@@ -137,3 +137,14 @@ def test_merge_of_ours_and_lerobots_names_the_differing_field(project: Path, tmp
     assert res.returncode == 2
     assert res.stderr.count("\n") == 1 and res.stderr.startswith(f"error: {theirs}/meta/info.json: "), res.stderr
     assert not out.exists()
+
+
+def test_a_feature_the_writer_cannot_reproduce_is_refused_naming_it(tmp_path: Path) -> None:
+    src = tmp_path / "with_image"
+    write_lerobot_dataset(src, with_success=False, image_camera=True)
+    before = _digest(src)
+    out = tmp_path / "out"
+    res = run_cli("episodes", "delete", str(src), "--episodes", "0", "--out", str(out))
+    assert res.returncode == 2 and res.stderr.count("\n") == 1, res.stderr
+    assert res.stderr.startswith(f"error: {src}/meta/info.json: features.observation.images.still: "), res.stderr
+    assert not out.exists() and _digest(src) == before

@@ -10,7 +10,8 @@ LENGTHS = [6, 9, 4]
 SUCCEEDED = [True, False, True]
 
 
-def write_lerobot_dataset(root: Path, with_success: bool) -> None:
+def write_lerobot_dataset(root: Path, with_success: bool, *, image_camera: bool = False) -> None:
+    """`image_camera`: also a `dtype: image` camera `observation.images.still` (PNG frames in the data parquet)."""
     from lerobot.configs.video import RGBEncoderConfig
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
@@ -21,6 +22,12 @@ def write_lerobot_dataset(root: Path, with_success: bool) -> None:
     }
     if with_success:
         features["next.success"] = {"dtype": "bool", "shape": (1,), "names": None}
+    if image_camera:
+        features["observation.images.still"] = {
+            "dtype": "image",
+            "shape": (16, 16, 3),
+            "names": ["height", "width", "channels"],
+        }
     ds = LeRobotDataset.create(
         "test/lerobot",
         fps=10,
@@ -40,6 +47,8 @@ def write_lerobot_dataset(root: Path, with_success: bool) -> None:
                     "action": np.array([0.1 * t, -0.1 * t], dtype=np.float32),
                     "task": "push the block",
                 }
+                if image_camera:
+                    frame["observation.images.still"] = np.full((16, 16, 3), 20 * t + e, dtype=np.uint8)
                 if with_success:
                     frame["next.success"] = np.array([ok and t == n - 1])
                 ds.add_frame(frame)
