@@ -115,6 +115,7 @@ class EpisodeAssembler:
             dones=list(episode.dones),
             successes=list(episode.successes),
             task_indices=[writer.tasks.setdefault(t, len(writer.tasks)) for t in episode.tasks],
+            columns=dict(episode.columns),
         )
         encoded: dict[str, EncodedEpisode] = {}
         try:

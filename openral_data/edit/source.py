@@ -3,7 +3,8 @@
 Editing rebuilds a dataset through our own writer, so a source must have columns our writer can reproduce:
 its `info.json` features must be what `build_features` makes from the schema read back here (state/action
 names, video cameras, outcomes), except that a camera's `info` block is kept as the source wrote it and
-`next.done` may be absent; the output keeps the source's features verbatim. The dataset need not be ours: our
+`next.done` may be absent; any other numeric feature of one axis (`observation.environment_state`) is carried
+as its stored column (`carried`). The output keeps the source's features verbatim. The dataset need not be ours: our
 `openral.*` episode columns are carried when present and never required. Without them an episode's seed is
 unknown (`None`), its initial state empty, and its success read by the rule `metrics` uses: `openral.success`,
 else whether any frame has `next.success`, else unknown.
@@ -25,7 +26,7 @@ from openral_data.errors import DatasetBusy, DatasetError, EpisodeSelectionError
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.clip import episode_clip
-from openral_data.formats.lerobot_v3.features import ACTION, IMAGE_PREFIX, STATE, build_features
+from openral_data.formats.lerobot_v3.features import ACTION, IMAGE_PREFIX, STATE, build_features, data_schema
 from openral_data.formats.lerobot_v3.lock import holder
 from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_openral, read_tasks
 from openral_data.formats.lerobot_v3.stats import STAT_KEYS, ImageStatsAccumulator, Stats
@@ -53,6 +54,7 @@ class EpisodeData:
     initial_state: dict[str, Any]
     videos: dict[str, bytes]  # camera name -> a complete mp4 of exactly `length` frames starting at pts 0
     image_stats: dict[str, Stats]  # camera name -> the episode's statistics from the source metadata
+    columns: dict[str, pa.Array]  # carried features (`SourceDataset.carried`), as stored
 
 
 class SourceDataset:
@@ -79,6 +81,7 @@ class SourceDataset:
         self.video = self._video_settings()
         self.schema = self._schema()
         self._check_reproducible()
+        self._types = data_schema(self.features)
         self._rows = self.episodes.to_pylist()
         order = [int(r["episode_index"]) for r in self._rows]
         if order[: self.total] != list(range(self.total)):
@@ -140,7 +143,8 @@ class SourceDataset:
         if "next.done" not in self.features:
             del rebuilt["next.done"]
         where = f"{self.root}/meta/info.json: features"
-        for key in self.features.keys() | rebuilt.keys():
+        self.carried = [k for k, f in self.features.items() if k not in rebuilt and _carriable(f)]
+        for key in self.features.keys() - set(self.carried) | rebuilt.keys():
             ours, theirs = dict(rebuilt.get(key) or {}), dict(self.features.get(key) or {})
             if ours.get("dtype") == "video" and theirs.get("dtype") == "video":
                 ours.pop("info", None)  # the encoder settings are the source's; packets are copied, not encoded
@@ -241,6 +245,7 @@ class SourceDataset:
             initial_state=json.loads(initial) if initial else {},
             videos=videos,
             image_stats=image_stats,
+            columns={key: data.column(key).combine_chunks().cast(self._types.field(key).type) for key in self.carried},
         )
 
     def _success(self, row: dict[str, Any], successes: list[bool]) -> bool | None:
@@ -278,6 +283,18 @@ class SourceDataset:
                 code="dataset.invalid",
             )
         return clip.data
+
+
+def _carriable(feature: dict[str, Any]) -> bool:
+    """A numeric per-frame feature (float32, int64 or bool, one axis) that editing copies as it is."""
+    shape = feature.get("shape")
+    return (
+        feature.get("dtype") in ("float32", "int64", "bool")
+        and isinstance(shape, list)
+        and len(shape) == 1
+        and isinstance(shape[0], int)
+        and shape[0] >= 1
+    )
 
 
 def _matrix(col: pa.ChunkedArray) -> npt.NDArray[np.float32]:

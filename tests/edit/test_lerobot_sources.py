@@ -44,6 +44,9 @@ def _episodes(root: Path) -> list[list[Frame]]:
                 "cam": item["observation.images.cam"].numpy(),
                 "task": item["task"],
                 "success": bool(item["next.success"]) if "next.success" in item else None,
+                "env": item["observation.environment_state"].numpy().tolist()
+                if "observation.environment_state" in item
+                else None,
             }
         )
     return out
@@ -60,10 +63,10 @@ def _healthy(root: Path) -> None:
     assert check(root, deep=True) == []  # doctor: healthy, every frame decodes
 
 
-@pytest.fixture(params=[True, False], ids=["next.success", "no-success"])
+@pytest.fixture(params=[True, False], ids=["next.success", "no-success+environment_state"])
 def source(request: pytest.FixtureRequest, tmp_path: Path) -> Path:
     root = tmp_path / "lerobot"
-    write_lerobot_dataset(root, with_success=request.param)
+    write_lerobot_dataset(root, with_success=request.param, environment_state=not request.param)
     return root
 
 
@@ -74,6 +77,8 @@ def test_delete_and_split_of_a_lerobot_dataset(source: Path, tmp_path: Path) -> 
     res = run_cli("episodes", "delete", str(source), "--episodes", "1", "--out", str(tmp_path / "del"))
     assert res.returncode == 0, res.stderr
     ops.split(source, "2,0", tmp_path / "part", rest=tmp_path / "rest")
+    has_env = "observation.environment_state" in json.loads((source / "meta/info.json").read_text())["features"]
+    assert all((f["env"] is not None) == has_env for e in src for f in e)
     for out, order in ((tmp_path / "del", [0, 2]), (tmp_path / "part", [2, 0]), (tmp_path / "rest", [1])):
         _healthy(out)
         got = _episodes(out)

@@ -126,6 +126,9 @@ class EpisodeBuffer:
     task_indices: list[int] = field(default_factory=list)
     extras: dict[str, list[float]] = field(default_factory=dict)
     info: dict[str, Any] | None = None
+    # whole columns of features the writer does not build itself (only with the writer's `features`; editing
+    # carries e.g. `observation.environment_state` this way), each of the feature's Arrow type
+    columns: dict[str, pa.Array] = field(default_factory=dict)
 
 
 class LeRobotV3Writer:
@@ -537,6 +540,7 @@ class LeRobotV3Writer:
             cols["next.success"] = pa.array(np.asarray(ep.successes, dtype=bool))
         for key in self.schema.frame_extras:
             cols[key] = pa.array(np.asarray(ep.extras.get(key, []), dtype=np.float32))
+        cols.update(ep.columns)
         return pa.table(cols, schema=self._data_schema)
 
     # -- data parquet ----------------------------------------------------------------------------------------
