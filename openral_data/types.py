@@ -135,7 +135,7 @@ class Frame:
 
 @dataclass(frozen=True)
 class EpisodeStart:
-    seed: int
+    seed: int | None  # None: not known (an edited episode of a dataset that did not record its seed)
     initial_state: dict[str, Any]
 
 
@@ -146,7 +146,7 @@ class EpisodeRecord:
     index: int
     length: int
     success: bool | None  # None: unknown (the source says nothing about success)
-    seed: int
+    seed: int | None  # None: unknown (see EpisodeStart)
 
 
 class Sink(Protocol):

@@ -11,6 +11,7 @@ from openral_data.cli.choices import CodecChoice
 from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import print_rows, progress_bar
 from openral_data.errors import NotFound, UsageError
+from openral_data.formats.repo_id import resolve_dataset
 
 if TYPE_CHECKING:
     from openral_data.formats.lerobot_v3.video import Codec
@@ -52,6 +53,7 @@ def _convert(
     from openral_data.formats.staging import check_new_output
     from openral_data.schemas.mapping import load_mapping
 
+    src = resolve_dataset(src)
     if not src.exists():
         raise NotFound(f"{src}: no such file or directory")
     check_new_output(dst, "DST")

@@ -11,6 +11,7 @@ from openral_data import paths
 from openral_data.cli.terminal import print_line
 from openral_data.edit.ops import EditResult
 from openral_data.errors import UsageError
+from openral_data.formats.repo_id import resolve_dataset
 
 episodes_app = typer.Typer(
     no_args_is_help=True,
@@ -25,7 +26,7 @@ def _report(op: str, results: list[EditResult]) -> None:
 
 @episodes_app.command("delete")
 def delete_cmd(
-    dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset written by openral-data")],
+    dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (ours or lerobot's)")],
     episodes: Annotated[str, typer.Option(help="episodes to delete, e.g. 0,3,5-7")],
     out: Annotated[Path | None, typer.Option(help="new dataset folder (must not exist or be empty)")] = None,
     in_place: Annotated[bool, typer.Option(help="replace DATASET itself (swapped in once complete)")] = False,
@@ -35,12 +36,12 @@ def delete_cmd(
 
     if out is not None:
         paths.check_creatable(out, "--out")
-    _report("deleted", [delete(dataset, episodes, out, in_place)])
+    _report("deleted", [delete(resolve_dataset(dataset), episodes, out, in_place)])
 
 
 @episodes_app.command("filter")
 def filter_cmd(
-    dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset written by openral-data")],
+    dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (ours or lerobot's)")],
     where: Annotated[
         str,
         typer.Option(help='DuckDB predicate over the episodes view, e.g. "success AND length > 40"'),
@@ -53,12 +54,12 @@ def filter_cmd(
 
     if out is not None:
         paths.check_creatable(out, "--out")
-    _report("filtered", [filter_episodes(dataset, where, out, in_place)])
+    _report("filtered", [filter_episodes(resolve_dataset(dataset), where, out, in_place)])
 
 
 @episodes_app.command("split")
 def split_cmd(
-    dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset written by openral-data")],
+    dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (ours or lerobot's)")],
     episodes: Annotated[str | None, typer.Option(help="episodes for --out, in this order, e.g. 0-9 or 4,2")] = None,
     out: Annotated[Path | None, typer.Option(help="dataset of the listed episodes")] = None,
     rest: Annotated[Path | None, typer.Option(help="dataset of all the other episodes")] = None,
@@ -79,7 +80,8 @@ def split_cmd(
         if out_dir is None:
             raise UsageError("--out-dir: --fractions needs --out-dir DIR")
         paths.check_creatable(out_dir, "--out-dir")
-        _report("split", split_fractions(dataset, fractions, out_dir, names, 0 if seed is None else seed))
+        parts = split_fractions(resolve_dataset(dataset), fractions, out_dir, names, 0 if seed is None else seed)
+        _report("split", parts)
         return
     from openral_data.edit.ops import split
 
@@ -90,7 +92,7 @@ def split_cmd(
     paths.check_creatable(out, "--out")
     if rest is not None:
         paths.check_creatable(rest, "--rest")
-    _report("split", split(dataset, episodes, out, rest))
+    _report("split", split(resolve_dataset(dataset), episodes, out, rest))
 
 
 @episodes_app.command("merge")
@@ -103,4 +105,4 @@ def merge_cmd(
     from openral_data.edit.ops import merge
 
     paths.check_creatable(out, "--out")
-    _report("merged", [merge(datasets, out, order)])
+    _report("merged", [merge([resolve_dataset(d) for d in datasets], out, order)])

@@ -15,6 +15,7 @@ from openral_data import paths
 from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import console, print_line, print_rows
 from openral_data.errors import UsageError
+from openral_data.formats.repo_id import resolve_dataset
 
 if TYPE_CHECKING:
     from openral_data.record.catalog import Item
@@ -34,6 +35,7 @@ def info(dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset fold
     """Print a dataset's summary: episodes, frames, tasks, cameras, success rate."""
     from openral_data.formats.lerobot_v3 import summarize
 
+    dataset = resolve_dataset(dataset)
     s = summarize(dataset)
     if json:
         print_json("info", s.to_json())
@@ -154,6 +156,7 @@ def view(
     """Show an episode in rerun: videos, named state/action series, task, success/done, replay divergence."""
     from openral_data.viz.rerun_view import ViewOptions, run_view
 
+    path = resolve_dataset(path)
     if save is not None:
         paths.check_creatable(save, "--save", folder=False)
     print_line(run_view(ViewOptions(path, episode, save, results)))
@@ -173,7 +176,7 @@ def doctor(
 
     for problem in plugin_problems():  # a broken plug-in is worth knowing about whatever is checked
         print_line("warning: " + problem.line(), err=True)
-    report = doctor_report(dataset, repair, deep)
+    report = doctor_report(resolve_dataset(dataset), repair, deep)
     if json:
         print_json("doctor", report.to_json())
     else:

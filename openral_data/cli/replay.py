@@ -11,6 +11,7 @@ from openral_data import paths
 from openral_data.cli.choices import CodecChoice
 from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import print_line, print_rows, progress_bar
+from openral_data.formats.repo_id import resolve_dataset
 
 if TYPE_CHECKING:
     from openral_data.replay.command import ReplayOptions, ReplaySummary
@@ -60,7 +61,7 @@ def replay(
             paths.check_creatable(path, option)
 
     opts = ReplayOptions(
-        dataset=dataset,
+        dataset=resolve_dataset(dataset),
         episodes=episodes,
         mode=mode,  # type: ignore[arg-type]  # checked by replay()
         rskill=rskill,

@@ -12,6 +12,8 @@ import typer
 from rich.console import Console
 from rich.table import Table as RichTable
 
+from openral_data.formats.repo_id import resolve_dataset
+
 if TYPE_CHECKING:
     from openral_data.metrics.command import StatsOptions
     from openral_data.metrics.report import Table
@@ -39,6 +41,7 @@ def stats(
 
     if plot is not None:
         check_creatable(plot, "--plot", folder=False)
+    paths = [str(resolve_dataset(p)) for p in paths]  # a repo id is its cached folder; globs stay globs
     print(stats_text(StatsOptions(paths, by, sql, fmt.value, plot, memory_limit, health)))
 
 

@@ -62,9 +62,11 @@ class EpisodeAssembler:
         config: WriterConfig,
         provenance: dict[str, Any],
         image_hist: dict[str, ImageStatsAccumulator] | None = None,
+        features: dict[str, dict[str, Any]] | None = None,
     ) -> None:
+        """`features`: the source's info.json features, written verbatim (see `LeRobotV3Writer`)."""
         merged: dict[str, ImageStatsAccumulator] = {name: MergedImageStats() for name in schema.cameras}
-        self.writer = LeRobotV3Writer(root, schema, config, image_stats=merged)
+        self.writer = LeRobotV3Writer(root, schema, config, image_stats=merged, features=features)
         self.root = root
         self.schema = schema
         self._exact_hist = image_hist
@@ -113,6 +115,7 @@ class EpisodeAssembler:
             dones=list(episode.dones),
             successes=list(episode.successes),
             task_indices=[writer.tasks.setdefault(t, len(writer.tasks)) for t in episode.tasks],
+            columns=dict(episode.columns),
         )
         encoded: dict[str, EncodedEpisode] = {}
         try:

@@ -1,4 +1,4 @@
-"""Episode editing: delete, split and merge LeRobot v3 datasets written by openral-data.
+"""Episode editing: delete, split and merge LeRobot v3 datasets (ours or lerobot's, see `edit.source`).
 
 Every operation writes a new dataset (episodes re-indexed 0..n-1 in the order chosen, data `index`, episodes
 metadata offsets, tasks, stats, video files and timestamps, info totals, `meta/openral.json` with an `edit`
@@ -102,7 +102,9 @@ def write_selection(
     }
     staged = Staging(out, f"openral-data {op}")
     with staged as staging:
-        writer = EpisodeAssembler(staging, first.schema, first.writer_config(), provenance, image_hist)
+        writer = EpisodeAssembler(
+            staging, first.schema, first.writer_config(), provenance, image_hist, features=first.features
+        )
         try:
             for k, (src, e) in enumerate(selection):
                 writer.add(src.episode(e))

@@ -1,8 +1,13 @@
-"""A dataset written by openral-data, opened for editing: its schema, tasks and episodes, read lazily.
+"""A LeRobot v3 dataset opened for editing: its schema, tasks and episodes, read lazily.
 
-Editing rebuilds a dataset through our own writer, so a source must be one our writer can reproduce: its
-`info.json` features must equal what `build_features` makes from the schema read back here (state/action
-names, cameras, outcomes, video settings), and its episodes must carry our `openral.*` columns.
+Editing rebuilds a dataset through our own writer, so a source must have columns our writer can reproduce:
+its `info.json` features must be what `build_features` makes from the schema read back here (state/action
+names, video cameras, outcomes), except that a camera's `info` block is kept as the source wrote it and
+`next.done` may be absent; any other numeric feature of one axis (`observation.environment_state`) is carried
+as its stored column (`carried`). The output keeps the source's features verbatim. The dataset need not be ours: our
+`openral.*` episode columns are carried when present and never required. Without them an episode's seed is
+unknown (`None`), its initial state empty, and its success read by the rule `metrics` uses: `openral.success`,
+else whether any frame has `next.success`, else unknown.
 """
 
 from __future__ import annotations
@@ -21,7 +26,7 @@ from openral_data.errors import DatasetBusy, DatasetError, EpisodeSelectionError
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.clip import episode_clip
-from openral_data.formats.lerobot_v3.features import ACTION, IMAGE_PREFIX, STATE, build_features
+from openral_data.formats.lerobot_v3.features import ACTION, IMAGE_PREFIX, STATE, build_features, data_schema
 from openral_data.formats.lerobot_v3.lock import holder
 from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_openral, read_tasks
 from openral_data.formats.lerobot_v3.stats import STAT_KEYS, ImageStatsAccumulator, Stats
@@ -44,11 +49,12 @@ class EpisodeData:
     dones: list[bool]
     successes: list[bool]
     tasks: list[str]  # per frame
-    seed: int
+    seed: int | None  # None: the source did not record it
     success: bool | None
     initial_state: dict[str, Any]
     videos: dict[str, bytes]  # camera name -> a complete mp4 of exactly `length` frames starting at pts 0
     image_stats: dict[str, Stats]  # camera name -> the episode's statistics from the source metadata
+    columns: dict[str, pa.Array]  # carried features (`SourceDataset.carried`), as stored
 
 
 class SourceDataset:
@@ -70,21 +76,12 @@ class SourceDataset:
         self.episodes = read_episodes(root)
         info_total = int(self.info.get("total_episodes", 0))
         self.total = min(info_total, self.episodes.num_rows)  # the loader exposes no more than info's total
-        missing = [
-            c
-            for c in ("openral.seed", "openral.success", "openral.initial_state")
-            if c not in self.episodes.column_names
-        ]
-        if missing:
-            raise DatasetError(
-                f"{root}: meta/episodes: no {missing[0]} column; editing needs a dataset written by openral-data",
-                code="dataset.unsupported",
-            )
         self.task_names = read_tasks(root) if self.info.get("total_tasks") else []
         self.openral = self._openral_json()
         self.video = self._video_settings()
         self.schema = self._schema()
         self._check_reproducible()
+        self._types = data_schema(self.features)
         self._rows = self.episodes.to_pylist()
         order = [int(r["episode_index"]) for r in self._rows]
         if order[: self.total] != list(range(self.total)):
@@ -98,7 +95,11 @@ class SourceDataset:
         return read_openral(self.root) or {}
 
     def camera_names(self) -> list[str]:
-        return [k[len(IMAGE_PREFIX) :] for k, f in self.features.items() if f.get("dtype") == "video"]
+        return [
+            k[len(IMAGE_PREFIX) :]
+            for k, f in self.features.items()
+            if f.get("dtype") == "video" and k.startswith(IMAGE_PREFIX)  # any other video key is refused below
+        ]
 
     def _video_settings(self) -> VideoSettings:
         infos = [f.get("info") or {} for f in self.features.values() if f.get("dtype") == "video"]
@@ -139,9 +140,16 @@ class SourceDataset:
 
     def _check_reproducible(self) -> None:
         rebuilt = build_features(self.schema, self.video)
+        if "next.done" not in self.features:
+            del rebuilt["next.done"]
         where = f"{self.root}/meta/info.json: features"
-        for key in self.features.keys() | rebuilt.keys():
-            if self.features.get(key) != rebuilt.get(key):
+        self.carried = [k for k, f in self.features.items() if k not in rebuilt and _carriable(f)]
+        for key in self.features.keys() - set(self.carried) | rebuilt.keys():
+            ours, theirs = dict(rebuilt.get(key) or {}), dict(self.features.get(key) or {})
+            if ours.get("dtype") == "video" and theirs.get("dtype") == "video":
+                ours.pop("info", None)  # the encoder settings are the source's; packets are copied, not encoded
+                theirs.pop("info", None)
+            if key not in rebuilt or key not in self.features or ours != theirs:
                 raise DatasetError(
                     f"{where}.{key}: not a feature layout openral-data writes; cannot edit this dataset",
                     code="dataset.unsupported",
@@ -175,7 +183,20 @@ class SourceDataset:
 
     # -- episodes --------------------------------------------------------------------------------------------
     def seed(self, index: int) -> int:
-        return int(self._rows[index]["openral.seed"])
+        """The episode's recording seed; refused in one line when the dataset did not record it."""
+        value = self._rows[index].get("openral.seed")
+        if value is None:
+            raise DatasetError(
+                f"{self.root}: meta/episodes: openral.seed: "
+                + (
+                    "no such column"
+                    if "openral.seed" not in self.episodes.column_names
+                    else f"episode {index} has none"
+                )
+                + "; its recording seed is unknown (use --order input)",
+                code="dataset.unsupported",
+            )
+        return int(value)
 
     def episode(self, index: int) -> EpisodeData:
         if not 0 <= index < self.total:
@@ -206,7 +227,9 @@ class SourceDataset:
                 s: np.asarray(row[f"stats/{key}/{s}"], dtype=np.int64 if s == "count" else np.float64)
                 for s in STAT_KEYS
             }
-        initial = row["openral.initial_state"]
+        initial = row.get("openral.initial_state")
+        successes = _list(data, "next.success", False)
+        seed = row.get("openral.seed")
         return EpisodeData(
             source=self.root,
             index=index,
@@ -215,14 +238,21 @@ class SourceDataset:
             actions=_matrix(data.column(ACTION)),
             rewards=_list(data, "next.reward", 0.0),
             dones=_list(data, "next.done", False),
-            successes=_list(data, "next.success", False),
+            successes=successes,
             tasks=tasks,
-            seed=int(row["openral.seed"]),
-            success=row["openral.success"],
+            seed=None if seed is None else int(seed),
+            success=self._success(row, successes),
             initial_state=json.loads(initial) if initial else {},
             videos=videos,
             image_stats=image_stats,
+            columns={key: data.column(key).combine_chunks().cast(self._types.field(key).type) for key in self.carried},
         )
+
+    def _success(self, row: dict[str, Any], successes: list[bool]) -> bool | None:
+        if "openral.success" in self.episodes.column_names:
+            value = row["openral.success"]
+            return None if value is None else bool(value)
+        return any(successes) if self.schema.has_success else None
 
     def _episode_rows(self, row: dict[str, Any]) -> pa.Table:
         path = layout.data_path(self.root, layout.FilePos(int(row["data/chunk_index"]), int(row["data/file_index"])))
@@ -253,6 +283,18 @@ class SourceDataset:
                 code="dataset.invalid",
             )
         return clip.data
+
+
+def _carriable(feature: dict[str, Any]) -> bool:
+    """A numeric per-frame feature (float32, int64 or bool, one axis) that editing copies as it is."""
+    shape = feature.get("shape")
+    return (
+        feature.get("dtype") in ("float32", "int64", "bool")
+        and isinstance(shape, list)
+        and len(shape) == 1
+        and isinstance(shape[0], int)
+        and shape[0] >= 1
+    )
 
 
 def _matrix(col: pa.ChunkedArray) -> npt.NDArray[np.float32]:

@@ -10,7 +10,11 @@ LENGTHS = [6, 9, 4]
 SUCCEEDED = [True, False, True]
 
 
-def write_lerobot_dataset(root: Path, with_success: bool) -> None:
+def write_lerobot_dataset(
+    root: Path, with_success: bool, *, image_camera: bool = False, environment_state: bool = False
+) -> None:
+    """`image_camera`: also a `dtype: image` camera `observation.images.still` (PNG frames in the data parquet);
+    `environment_state`: also `observation.environment_state` (float32 [4]: episode, frame, a ramp, a constant)."""
     from lerobot.configs.video import RGBEncoderConfig
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
@@ -21,6 +25,14 @@ def write_lerobot_dataset(root: Path, with_success: bool) -> None:
     }
     if with_success:
         features["next.success"] = {"dtype": "bool", "shape": (1,), "names": None}
+    if environment_state:
+        features["observation.environment_state"] = {"dtype": "float32", "shape": (4,), "names": None}
+    if image_camera:
+        features["observation.images.still"] = {
+            "dtype": "image",
+            "shape": (16, 16, 3),
+            "names": ["height", "width", "channels"],
+        }
     ds = LeRobotDataset.create(
         "test/lerobot",
         fps=10,
@@ -40,6 +52,10 @@ def write_lerobot_dataset(root: Path, with_success: bool) -> None:
                     "action": np.array([0.1 * t, -0.1 * t], dtype=np.float32),
                     "task": "push the block",
                 }
+                if environment_state:
+                    frame["observation.environment_state"] = np.array([e, t, 0.25 * t, -1.0], dtype=np.float32)
+                if image_camera:
+                    frame["observation.images.still"] = np.full((16, 16, 3), 20 * t + e, dtype=np.uint8)
                 if with_success:
                     frame["next.success"] = np.array([ok and t == n - 1])
                 ds.add_frame(frame)

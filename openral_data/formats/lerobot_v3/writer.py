@@ -126,6 +126,9 @@ class EpisodeBuffer:
     task_indices: list[int] = field(default_factory=list)
     extras: dict[str, list[float]] = field(default_factory=dict)
     info: dict[str, Any] | None = None
+    # whole columns of features the writer does not build itself (only with the writer's `features`; editing
+    # carries e.g. `observation.environment_state` this way), each of the feature's Arrow type
+    columns: dict[str, pa.Array] = field(default_factory=dict)
 
 
 class LeRobotV3Writer:
@@ -139,9 +142,13 @@ class LeRobotV3Writer:
         *,
         resume: bool = False,
         image_stats: dict[str, ImageStatsAccumulator] | None = None,
+        features: dict[str, dict[str, Any]] | None = None,
     ) -> None:
         """`image_stats`: the per-camera accumulators of the dataset's image statistics (default: empty
-        histograms); `image_stats` may also be replaced before `close()`, whose metadata write uses it."""
+        histograms); `image_stats` may also be replaced before `close()`, whose metadata write uses it.
+        `features`: the info.json features to write instead of the ones built from `schema` (editing keeps a
+        source's own layout): the same columns, camera `info` blocks as the source wrote them, and `next.done`
+        only if the source has it (the caller checks this, see `edit.source`)."""
         self.root = root
         self.schema = schema
         self.config = config or WriterConfig()
@@ -153,7 +160,7 @@ class LeRobotV3Writer:
             raise OutputExists(f"{root}: output exists and is not empty; refusing to overwrite it")
         self._created_root = not root.exists()
         root.mkdir(parents=True, exist_ok=True)
-        self.features = build_features(schema, self.config.video)
+        self.features = features if features is not None else build_features(schema, self.config.video)
         self._data_schema = data_schema(self.features)
         self._episodes_schema = episodes_schema(self.features)
         self._keys = {name: camera_key(name) for name in schema.cameras}
@@ -508,7 +515,7 @@ class LeRobotV3Writer:
             "dataset_from_index": self.total_frames,
             "dataset_to_index": self.total_frames + n,
             "openral.success": None if success is None else bool(success),
-            "openral.seed": int(ep.start.seed),
+            "openral.seed": None if ep.start.seed is None else int(ep.start.seed),
             "openral.initial_state": json.dumps(ep.start.initial_state, sort_keys=True),
             "openral.episode_info": None if ep.info is None else json.dumps(ep.info, sort_keys=True),
         }
@@ -519,19 +526,21 @@ class LeRobotV3Writer:
         cols: dict[str, pa.Array] = {
             STATE: _fixed_list(np.stack(ep.states)),
             ACTION: _fixed_list(np.stack(ep.actions)),
-            "next.done": pa.array(np.asarray(ep.dones, dtype=bool)),
             "timestamp": pa.array((frame_index / fps).astype(np.float32)),
             "frame_index": pa.array(frame_index),
             "episode_index": pa.array(np.full(n, index, dtype=np.int64)),
             "index": pa.array(self.total_frames + frame_index),
             "task_index": pa.array(np.asarray(ep.task_indices, dtype=np.int64)),
         }
+        if "next.done" in self.features:
+            cols["next.done"] = pa.array(np.asarray(ep.dones, dtype=bool))
         if self.schema.has_reward:
             cols["next.reward"] = pa.array(np.asarray(ep.rewards, dtype=np.float32))
         if self.schema.has_success:
             cols["next.success"] = pa.array(np.asarray(ep.successes, dtype=bool))
         for key in self.schema.frame_extras:
             cols[key] = pa.array(np.asarray(ep.extras.get(key, []), dtype=np.float32))
+        cols.update(ep.columns)
         return pa.table(cols, schema=self._data_schema)
 
     # -- data parquet ----------------------------------------------------------------------------------------

@@ -128,7 +128,8 @@ def _assemble(results: list[WorkerResult], workdir: Path, held: Claim, formats: 
     """Merge the workers' shares into a staging folder and rename it over `held.out`, whose lock is let go of
     right before the rename (the staged dataset carries no lock file into place)."""
     out = held.out
-    by_seed = sorted((e for r in results for e in r.episodes), key=lambda e: e.seed)
+    # a recorded episode always carries its seed (only an edited one may not know it)
+    by_seed = sorted((e for r in results for e in r.episodes), key=lambda e: e.seed or 0)
     episodes = [EpisodeRecord(k, e.length, e.success, e.seed) for k, e in enumerate(by_seed)]
     folders = [r.worker for r in sorted(results, key=lambda r: r.worker)]
     worker_dirs = [workdir / f"worker-{w:03d}" for w in folders]

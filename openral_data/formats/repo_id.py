@@ -1,0 +1,45 @@
+"""A Hub `repo_id` (`lerobot/pusht`) given where a dataset folder is expected, resolved offline.
+
+`resolve_dataset(arg)`: an argument that names an existing path is that path (a local folder named like a repo
+id wins over the cache); one that does not but looks like `owner/name` is `HF_LEROBOT_HOME/owner/name`, exactly
+where `LeRobotDataset(repo_id)` looks (lerobot 0.6.1's own constant, so its environment rules apply); when that
+folder is missing too, one line says where it looked and how to download it. Nothing here touches the network.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from openral_data.errors import NotFound, UsageError
+
+# Hub repo ids: one owner and one name of letters, digits, `-`, `_` and `.` (neither starting with `.` or `-`)
+_REPO_ID = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*/[A-Za-z0-9_][A-Za-z0-9_.-]*")
+
+
+def looks_like_repo_id(arg: str) -> bool:
+    return _REPO_ID.fullmatch(arg) is not None and ".." not in arg
+
+
+def lerobot_home() -> Path:
+    """lerobot's `HF_LEROBOT_HOME` (its default under `HF_HOME`, or the `HF_LEROBOT_HOME` variable)."""
+    try:
+        from lerobot.utils.constants import HF_LEROBOT_HOME
+    except ValueError as exc:  # lerobot refuses the deprecated LEROBOT_HOME variable at import
+        raise UsageError(f"LEROBOT_HOME: {str(exc).splitlines()[0]}") from None
+    return Path(HF_LEROBOT_HOME)
+
+
+def resolve_dataset(arg: str | Path) -> Path:
+    """The dataset folder `arg` names: an existing path as it is, else a repo id's folder in lerobot's cache."""
+    path = Path(arg)
+    text = str(arg)
+    if path.exists() or path.is_symlink() or not looks_like_repo_id(text):
+        return path
+    cached = lerobot_home() / text
+    if not cached.is_dir():
+        raise NotFound(
+            f"{text}: no such folder, and not in the local cache (looked in {cached}); download it with "
+            f"`huggingface-cli download --repo-type dataset {text} --local-dir {cached}`"
+        )
+    return cached

@@ -1,0 +1,155 @@
+"""Editing datasets lerobot 0.6.1 wrote itself (no `openral.*` columns): delete, split and merge give datasets
+that `doctor` finds healthy and lerobot loads with exactly the source's frames; the sources stay byte-unchanged."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+
+from openral_data.doctor import check
+from openral_data.edit import ops
+from tests.support.cli import run_cli
+from tests.support.lerobot_written import LENGTHS, SUCCEEDED, write_lerobot_dataset
+
+Frame = dict[str, Any]
+
+
+def _digest(root: Path) -> dict[str, str]:
+    return {
+        str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest() for p in root.rglob("*") if p.is_file()
+    }
+
+
+def _episodes(root: Path) -> list[list[Frame]]:
+    """Every frame lerobot loads, grouped by episode: values (state, action, pixels, task, success) and indices."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    ds = LeRobotDataset("local/check", root=root, video_backend="pyav")
+    out: list[list[Frame]] = [[] for _ in range(ds.meta.total_episodes)]
+    for i in range(len(ds)):
+        item = ds[i]
+        assert int(item["index"]) == i
+        e, t = int(item["episode_index"]), int(item["frame_index"])
+        assert len(out[e]) == t and abs(float(item["timestamp"]) - t / ds.fps) < 1e-6
+        out[e].append(
+            {
+                "state": item["observation.state"].numpy().tolist(),
+                "action": item["action"].numpy().tolist(),
+                "cam": item["observation.images.cam"].numpy(),
+                "task": item["task"],
+                "success": bool(item["next.success"]) if "next.success" in item else None,
+                "env": item["observation.environment_state"].numpy().tolist()
+                if "observation.environment_state" in item
+                else None,
+            }
+        )
+    return out
+
+
+def _same(got: list[Frame], want: list[Frame]) -> None:
+    assert len(got) == len(want)
+    for g, w in zip(got, want, strict=True):
+        assert {k: v for k, v in g.items() if k != "cam"} == {k: v for k, v in w.items() if k != "cam"}
+        assert np.array_equal(g["cam"], w["cam"])  # packets copied: the decoded pixels are the source's
+
+
+def _healthy(root: Path) -> None:
+    assert check(root, deep=True) == []  # doctor: healthy, every frame decodes
+
+
+@pytest.fixture(params=[True, False], ids=["next.success", "no-success+environment_state"])
+def source(request: pytest.FixtureRequest, tmp_path: Path) -> Path:
+    root = tmp_path / "lerobot"
+    write_lerobot_dataset(root, with_success=request.param, environment_state=not request.param)
+    return root
+
+
+def test_delete_and_split_of_a_lerobot_dataset(source: Path, tmp_path: Path) -> None:
+    before = _digest(source)
+    src = _episodes(source)
+    assert [len(e) for e in src] == LENGTHS
+    res = run_cli("episodes", "delete", str(source), "--episodes", "1", "--out", str(tmp_path / "del"))
+    assert res.returncode == 0, res.stderr
+    ops.split(source, "2,0", tmp_path / "part", rest=tmp_path / "rest")
+    has_env = "observation.environment_state" in json.loads((source / "meta/info.json").read_text())["features"]
+    assert all((f["env"] is not None) == has_env for e in src for f in e)
+    for out, order in ((tmp_path / "del", [0, 2]), (tmp_path / "part", [2, 0]), (tmp_path / "rest", [1])):
+        _healthy(out)
+        got = _episodes(out)
+        assert len(got) == len(order)
+        for k, e in enumerate(order):
+            _same(got[k], src[e])
+        rows = pq.read_table(out / "meta/episodes").to_pylist()
+        with_success = "next.success" in json.loads((source / "meta/info.json").read_text())["features"]
+        assert [r["openral.success"] for r in rows] == [SUCCEEDED[e] if with_success else None for e in order]
+        assert [r["openral.seed"] for r in rows] == [None] * len(order)  # unknown stays unknown
+        info = json.loads((out / "meta/info.json").read_text())
+        assert info["features"] == json.loads((source / "meta/info.json").read_text())["features"]
+        assert info["total_episodes"] == len(order) and info["total_frames"] == sum(LENGTHS[e] for e in order)
+    assert _digest(source) == before
+
+
+def test_merge_two_lerobot_datasets(tmp_path: Path) -> None:
+    a, b = tmp_path / "a", tmp_path / "b"
+    write_lerobot_dataset(a, with_success=True)
+    write_lerobot_dataset(b, with_success=True)
+    before = _digest(a), _digest(b)
+    out = tmp_path / "merged"
+    res = run_cli("episodes", "merge", str(a), str(b), "--out", str(out))
+    assert res.returncode == 0, res.stderr
+    _healthy(out)
+    src = _episodes(a) + _episodes(b)
+    got = _episodes(out)
+    assert len(got) == 2 * len(LENGTHS)
+    for g, w in zip(got, src, strict=True):
+        _same(g, w)
+    assert (_digest(a), _digest(b)) == before
+
+
+def test_merge_by_seed_needs_recorded_seeds(tmp_path: Path) -> None:
+    a = tmp_path / "a"
+    write_lerobot_dataset(a, with_success=False)
+    out = tmp_path / "merged"
+    res = run_cli("episodes", "merge", str(a), "--order", "seed", "--out", str(out))
+    assert res.returncode == 2
+    assert res.stderr.count("\n") == 1, res.stderr
+    assert res.stderr.startswith(f"error: {a}: meta/episodes: openral.seed: no such column"), res.stderr
+    assert "--order input" in res.stderr
+    assert not out.exists()
+    edited = tmp_path / "edited"  # an edit of it has the column, but no seed in it
+    ops.delete(a, "0", edited)
+    res = run_cli("episodes", "merge", str(edited), "--order", "seed", "--out", str(out))
+    assert res.returncode == 2 and res.stderr.count("\n") == 1, res.stderr
+    assert res.stderr.startswith(f"error: {edited}: meta/episodes: openral.seed: episode 0 has none"), res.stderr
+    assert not out.exists()
+    assert run_cli("episodes", "merge", str(edited), "--order", "input", "--out", str(out)).returncode == 0
+
+
+def test_merge_of_ours_and_lerobots_names_the_differing_field(project: Path, tmp_path: Path) -> None:
+    from tests.edit.test_edit import _record
+
+    ours = _record(project, tmp_path / "ours", 0, 1)
+    theirs = tmp_path / "theirs"
+    write_lerobot_dataset(theirs, with_success=True)
+    out = tmp_path / "merged"
+    res = run_cli("episodes", "merge", str(ours), str(theirs), "--out", str(out))
+    assert res.returncode == 2
+    assert res.stderr.count("\n") == 1 and res.stderr.startswith(f"error: {theirs}/meta/info.json: "), res.stderr
+    assert not out.exists()
+
+
+def test_a_feature_the_writer_cannot_reproduce_is_refused_naming_it(tmp_path: Path) -> None:
+    src = tmp_path / "with_image"
+    write_lerobot_dataset(src, with_success=False, image_camera=True)
+    before = _digest(src)
+    out = tmp_path / "out"
+    res = run_cli("episodes", "delete", str(src), "--episodes", "0", "--out", str(out))
+    assert res.returncode == 2 and res.stderr.count("\n") == 1, res.stderr
+    assert res.stderr.startswith(f"error: {src}/meta/info.json: features.observation.images.still: "), res.stderr
+    assert not out.exists() and _digest(src) == before
