@@ -108,6 +108,8 @@ class DatasetSchema:
     # Extra per-frame float columns (e.g. a HAL's real monotonic timestamps, overrun and safety flags); every
     # frame must carry exactly these keys in `Frame.extras`. LeRobot v3: float32 features of shape [1].
     frame_extras: tuple[str, ...] = ()
+    # lerobot's `observation.environment_state` (e.g. object poses), per-dimension names; empty: the source has none
+    environment_state_names: tuple[str, ...] = ()
 
     @property
     def state_dim(self) -> int:
@@ -131,6 +133,7 @@ class Frame:
     success: bool
     timestamp: float = 0.0  # seconds since the episode began, from the producer's clock (see Observation.time)
     extras: dict[str, float] = field(default_factory=dict)  # DatasetSchema.frame_extras values
+    environment_state: npt.NDArray[np.float32] | None = None  # when DatasetSchema.environment_state_names is set
 
 
 @dataclass(frozen=True)

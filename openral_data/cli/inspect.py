@@ -18,6 +18,7 @@ from openral_data.errors import UsageError
 from openral_data.formats.repo_id import resolve_dataset
 
 if TYPE_CHECKING:
+    from openral_data.formats.lerobot_v3 import DatasetSummary
     from openral_data.record.catalog import Item
 
 
@@ -40,7 +41,6 @@ def info(dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset fold
     if json:
         print_json("info", s.to_json())
         return
-    rate = s.success_rate
     print_rows(
         str(dataset),
         [
@@ -51,9 +51,17 @@ def info(dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset fold
             ("cameras", ", ".join(s.cameras) or "-"),
             ("tasks", "; ".join(s.tasks) or "-"),
             ("robot", s.robot_type or "-"),
-            ("success rate", "-" if rate is None else f"{rate:.1%} ({s.successes}/{s.episodes})"),
+            ("success rate", _success_cell(s)),
         ],
     )
+
+
+def _success_cell(s: DatasetSummary) -> str:
+    """`50.0% (1/2)` over the episodes whose success is known (and how many are not), `-` when none is."""
+    if s.success_rate is None:
+        return "-"
+    unknown = s.episodes - s.success_known
+    return f"{s.success_rate:.1%} ({s.successes}/{s.success_known}" + (f", {unknown} unknown)" if unknown else ")")
 
 
 def list_cmd(

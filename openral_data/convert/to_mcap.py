@@ -20,7 +20,9 @@ from openral_data.errors import DatasetError
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX
 from openral_data.formats.lerobot_v3.frames import episode_frames
+from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE
 from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_tasks
+from openral_data.formats.lerobot_v3.success import episode_successes
 from openral_data.formats.mcap import McapConfig, McapSink
 from openral_data.formats.staging import Staging, check_new_output
 from openral_data.types import CameraShape, DatasetSchema, EpisodeRecord, EpisodeStart
@@ -84,15 +86,15 @@ def export_mcap(
         if key not in features:
             raise DatasetError(f"{src / layout.INFO_PATH}: features: no {key!r}; cannot export", code="dataset.invalid")
     cams = {k[len(IMAGE_PREFIX) :]: f for k, f in features.items() if k.startswith(IMAGE_PREFIX)}
-    not_video = [k for k, f in cams.items() if f.get("dtype") != "video"]
-    if not_video:
+    odd = [k for k, f in cams.items() if f.get("dtype") not in ("video", "image")]
+    if odd:
         raise DatasetError(
-            f"{src}: cameras {not_video} are not stored as video; only video datasets are supported",
-            code="dataset.unsupported",
+            f"{src}: cameras {odd} are neither videos nor images; cannot export them", code="dataset.unsupported"
         )
     ep_table = read_episodes(src)
     rows = sorted(ep_table.to_pylist(), key=lambda r: int(r["episode_index"]))
     chosen = parse_episodes(episodes, len(rows))
+    successes = episode_successes(src, ep_table)  # the sink drops them if the schema has no success
     tasks = read_tasks(src) if int(info.get("total_tasks", 0)) else []
     fps = int(info["fps"])
     schema = DatasetSchema(
@@ -104,9 +106,12 @@ def export_mcap(
         metadata={"exported_from": str(src)},
         has_reward="next.reward" in features,
         has_success="next.success" in features,
+        environment_state_names=(
+            _names(features[ENVIRONMENT_STATE], ENVIRONMENT_STATE) if ENVIRONMENT_STATE in features else ()
+        ),
     )
     known = {"observation.state", "action", "timestamp", "frame_index", "episode_index", "index", "task_index"}
-    known |= {"next.reward", "next.done", "next.success"} | {IMAGE_PREFIX + n for n in cams}
+    known |= {"next.reward", "next.done", "next.success", ENVIRONMENT_STATE} | {IMAGE_PREFIX + n for n in cams}
     summary = ExportSummary(src=src, dst=dst, skipped_features=sorted(set(features) - known))
     total = sum(int(rows[e]["length"]) for e in chosen)
     check_new_output(dst, "DST")
@@ -124,25 +129,14 @@ def export_mcap(
                         initial_state=json.loads(row.get("openral.initial_state") or "{}"),
                     )
                 )
-                successes: list[bool] = []
                 for frame in episode_frames(src, info, row, tasks, list(cams)):
                     sink.add_frame(frame)
-                    successes.append(frame.success)
                     summary.frames += 1
                     if progress is not None:
                         progress(summary.frames, total)
-                summary.episodes.append(sink.end_episode(_episode_success(row, successes)))
+                summary.episodes.append(sink.end_episode(successes.get(int(row["episode_index"]))))
         finally:
             sink.close()
         summary.seconds = time.perf_counter() - t0
         staged.publish("DST")
     return summary
-
-
-def _episode_success(row: dict[str, Any], frames: list[bool]) -> bool | None:
-    """Our `openral.success` (NULL stays unknown); for datasets without it, whether any frame has next.success
-    (as `stats` reads them); None when the dataset has neither. The sink drops it if the schema has no success."""
-    if "openral.success" in row:
-        value = row["openral.success"]
-        return None if value is None else bool(value)
-    return any(frames)

@@ -4,8 +4,9 @@ Views (documented in docs/stats.md):
 
 * `frames`   — every data-parquet row of every dataset, plus a `dataset` column.
 * `episodes` — one row per episode: dataset, episode_index, length, duration_s, tasks, task, success, seed,
-  scene, rskill, robot, dataset_from_index, dataset_to_index. `success` is our `openral.success` when the
-  dataset has it, else whether any frame has `next.success`, else NULL (unknown, never guessed).
+  scene, rskill, robot, dataset_from_index, dataset_to_index. `success` follows the one rule of
+  `formats.lerobot_v3.success`: our `openral.success` when it holds a value, else whether any frame of the
+  episode has `next.success`, else NULL (unknown, never guessed).
 * `tasks`    — dataset, task_index, task.
 * `datasets` — one row per dataset: dataset, path, fps, robot_type, episodes, frames, scene, rskill, robot.
 * `results`  / `result_steps` — replay/eval results (see `metrics/results.py`), with `results`, `kind`
@@ -19,9 +20,12 @@ from pathlib import Path
 from typing import Any
 
 import duckdb
+import pyarrow as pa
 
 from openral_data.errors import QueryError
 from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.success import EPISODE_SUCCESS, episode_successes
+from openral_data.formats.parquetfile import read_table
 from openral_data.formats.results import Results
 from openral_data.metrics.sources import DatasetSource
 
@@ -86,7 +90,11 @@ def _register_datasets(con: duckdb.DuckDBPyConnection, datasets: Sequence[Datase
             frames, "SELECT NULL::VARCHAR AS dataset, NULL::BIGINT AS episode_index, NULL::BIGINT AS index LIMIT 0"
         )
     )
-    con.execute("CREATE VIEW episodes AS " + _union([_episodes_sql(ds) for ds in datasets], _EMPTY_EPISODES))
+    parts = []
+    for i, ds in enumerate(datasets):
+        con.register(f"success_{i}", _success_table(ds))
+        parts.append(_episodes_sql(ds, f"success_{i}"))
+    con.execute("CREATE VIEW episodes AS " + _union(parts, _EMPTY_EPISODES))
     tasks = [
         f"SELECT {lit(ds.label)} AS dataset, task_index, task "
         f"FROM read_parquet({lit(str(ds.root / layout.TASKS_PATH))})"
@@ -136,19 +144,20 @@ _EMPTY_EPISODES = (
 )
 
 
-def _episodes_sql(ds: DatasetSource) -> str:
+def _success_table(ds: DatasetSource) -> pa.Table:
+    """episode_index -> success by the one rule (`formats.lerobot_v3.success`), NULL where unknown."""
+    cols = ["episode_index"] + [c for c in (EPISODE_SUCCESS,) if c in ds.episode_columns]
+    episodes = pa.concat_tables([read_table(f, columns=cols) for f in ds.episode_files], promote_options="default")
+    found = episode_successes(ds.root, episodes)
+    return pa.table(
+        {"episode_index": pa.array(list(found), pa.int64()), "success": pa.array(list(found.values()), pa.bool_())}
+    )
+
+
+def _episodes_sql(ds: DatasetSource, success_view: str) -> str:
     cols = ds.episode_columns
-    join = ""
-    if "openral.success" in cols:
-        success = 'e."openral.success"'
-    elif "next.success" in ds.data_columns:
-        success = "f.success"
-        join = (
-            f'LEFT JOIN (SELECT episode_index, bool_or("next.success") AS success '
-            f"FROM read_parquet({files_sql(ds.data_files)}) GROUP BY episode_index) f USING (episode_index)"
-        )
-    else:
-        success = "NULL::BOOLEAN"
+    join = f"LEFT JOIN {success_view} s USING (episode_index)"
+    success = "s.success"
     seed = 'e."openral.seed"' if "openral.seed" in cols else "NULL::BIGINT"
     tasks = "e.tasks" if "tasks" in cols else "NULL::VARCHAR[]"
     span = (

@@ -3,8 +3,9 @@
 Cameras are logged once as `AssetVideo` plus one `VideoFrameReference` per row, and nothing is decoded. v3
 packs many episodes into one mp4, so the episode's packets — from `from_timestamp` to `to_timestamp` — are
 remuxed into a clip of their own (frame k at k / fps); if the episode does not start on a keyframe, the whole
-file is logged and frame k is referenced at `from_timestamp + k / fps`. State and action become one scalar
-series per dimension named after the contract, the task is a text document, reward/success/done are series
+file is logged and frame k is referenced at `from_timestamp + k / fps`; a `dtype: image` camera logs each frame's
+embedded PNG/JPEG. State, action and `observation.environment_state` become one scalar series per dimension
+named after the contract (or info.json's names), the task is a text document, reward/success/done are series
 with a text event at the end, and replay results (see `metrics/results.py`) add per-step action error and
 divergence.
 """
@@ -25,7 +26,9 @@ from openral_data.formats import results as results_layout
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.clip import episode_clip
 from openral_data.formats.lerobot_v3.features import ACTION, STATE
+from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE, image_bytes, image_keys, media_type
 from openral_data.formats.lerobot_v3.layout import FilePos
+from openral_data.formats.lerobot_v3.success import EPISODE_SUCCESS, episode_successes
 from openral_data.formats.parquetfile import read_table
 from openral_data.metrics.sources import DatasetSource, open_dataset
 from openral_data.viz.entities import (
@@ -195,11 +198,14 @@ def log_episode(rec: rr.RecordingStream, data: EpisodeData) -> None:
     rec.log(TASK, rr.TextDocument("\n".join(tasks) or "(no task)"), static=True)
     for cam, path in data.videos.items():
         _log_camera(rec, ds, row, cam, path, frame_index, times)
-    for key in (STATE, ACTION):
+    for key in image_keys(ds.info):
+        if key in table.column_names:
+            _log_images(rec, table, key, frame_index, ts)
+    for key, base in ((STATE, "state"), (ACTION, "action"), (ENVIRONMENT_STATE, "environment_state")):
         if key not in table.column_names:
             continue
         values = _matrix(table, key)
-        series = series_entities("state" if key == STATE else "action", ds.dim_names(key), values.shape[1])
+        series = series_entities(base, ds.dim_names(key), values.shape[1])
         log_series_styles(rec, series)
         for i, (entity, _) in enumerate(series):
             rec.send_columns(entity, indexes=times, columns=rr.Scalars.columns(scalars=values[:, i]))
@@ -208,14 +214,33 @@ def log_episode(rec: rr.RecordingStream, data: EpisodeData) -> None:
             values = np.asarray(table.column(f"next.{name}").to_numpy(zero_copy_only=False), dtype=np.float64)
             log_outcome_style(rec, name)
             rec.send_columns(outcome_entity(name), indexes=times, columns=rr.Scalars.columns(scalars=values))
-    success = row.get("openral.success")
-    if success is None and "next.success" in table.column_names:
-        success = bool(pa.compute.any(table.column("next.success")).as_py())
+    success = episode_successes(ds.root, pa.Table.from_pylist([_success_fields(row)])).get(episode)
     rec.set_time(FRAME, sequence=int(frame_index[-1]))
     rec.set_time(TIME, duration=float(ts[-1]))
     log_episode_end(rec, episode, success)
     if data.steps is not None:
         _log_results(rec, data.steps, ts, frame_index)
+
+
+def _log_images(
+    rec: rr.RecordingStream,
+    table: pa.Table,
+    key: str,
+    frame_index: np.ndarray[Any, np.dtype[np.int64]],
+    ts: np.ndarray[Any, np.dtype[np.float64]],
+) -> None:
+    """A `dtype: image` camera: each frame's embedded PNG/JPEG logged as it is (rerun decodes it)."""
+    entity = camera_entity(key)
+    for k, cell in enumerate(table.column(key).to_pylist()):
+        data = image_bytes(cell, f"{key}: frame {int(frame_index[k])}")
+        rec.set_time(FRAME, sequence=int(frame_index[k]))
+        rec.set_time(TIME, duration=float(ts[k]))
+        rec.log(entity, rr.EncodedImage(contents=data, media_type=media_type(data)))
+
+
+def _success_fields(row: dict[str, Any]) -> dict[str, Any]:
+    """The columns of the episode's row that the success rule reads."""
+    return {k: row[k] for k in ("episode_index", EPISODE_SUCCESS) if k in row}
 
 
 def _log_camera(

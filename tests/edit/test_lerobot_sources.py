@@ -151,5 +151,5 @@ def test_a_feature_the_writer_cannot_reproduce_is_refused_naming_it(tmp_path: Pa
     out = tmp_path / "out"
     res = run_cli("episodes", "delete", str(src), "--episodes", "0", "--out", str(out))
     assert res.returncode == 2 and res.stderr.count("\n") == 1, res.stderr
-    assert res.stderr.startswith(f"error: {src}/meta/info.json: features.observation.images.still: "), res.stderr
+    assert res.stderr.startswith(f"error: {src}/meta/info.json: features.observation.images.wrist: "), res.stderr
     assert not out.exists() and _digest(src) == before

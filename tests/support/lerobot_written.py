@@ -1,4 +1,6 @@
-"""A small dataset written by lerobot 0.6.1 itself (no openral columns): three episodes, one camera."""
+"""A small dataset written by lerobot 0.6.1 itself (no openral columns): three episodes, one video camera; on
+request also a `dtype: image` camera (`IMAGE_CAMERA`, pixels `image_pixels(e, t)`) and an
+`observation.environment_state` (`ENV_NAMES`, values `env_state(e, t)`)."""
 
 from __future__ import annotations
 
@@ -8,13 +10,27 @@ import numpy as np
 
 LENGTHS = [6, 9, 4]
 SUCCEEDED = [True, False, True]
+IMAGE_CAMERA = "observation.images.wrist"
+IMAGE_SHAPE = (24, 20, 3)
+ENV_STATE = "observation.environment_state"
+ENV_NAMES = ["block_x", "block_y", "block_angle", "goal_dist"]
+
+
+def image_pixels(e: int, t: int) -> np.ndarray:
+    """A frame of the image camera: a smooth gradient, different per episode and frame (checkable after JPEG)."""
+    h, w, _ = IMAGE_SHAPE
+    y, x = np.mgrid[0:h, 0:w]
+    img = np.stack([x * 8 + t * 4, y * 6 + e * 30, np.full_like(x, 40 + 10 * t)], axis=-1)  # smooth, below 256
+    return img.astype(np.uint8)
+
+
+def env_state(e: int, t: int) -> np.ndarray:
+    return np.array([0.25 * t, -0.5 * e, 0.125 * (t + e), 1.0 / (t + 1)], dtype=np.float32)
 
 
 def write_lerobot_dataset(
     root: Path, with_success: bool, *, image_camera: bool = False, environment_state: bool = False
 ) -> None:
-    """`image_camera`: also a `dtype: image` camera `observation.images.still` (PNG frames in the data parquet);
-    `environment_state`: also `observation.environment_state` (float32 [4]: episode, frame, a ramp, a constant)."""
     from lerobot.configs.video import RGBEncoderConfig
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
@@ -23,16 +39,12 @@ def write_lerobot_dataset(
         "observation.state": {"dtype": "float32", "shape": (3,), "names": ["x", "y", "z"]},
         "action": {"dtype": "float32", "shape": (2,), "names": ["vx", "vy"]},
     }
+    if image_camera:
+        features[IMAGE_CAMERA] = {"dtype": "image", "shape": IMAGE_SHAPE, "names": ["height", "width", "channels"]}
+    if environment_state:
+        features[ENV_STATE] = {"dtype": "float32", "shape": (len(ENV_NAMES),), "names": ENV_NAMES}
     if with_success:
         features["next.success"] = {"dtype": "bool", "shape": (1,), "names": None}
-    if environment_state:
-        features["observation.environment_state"] = {"dtype": "float32", "shape": (4,), "names": None}
-    if image_camera:
-        features["observation.images.still"] = {
-            "dtype": "image",
-            "shape": (16, 16, 3),
-            "names": ["height", "width", "channels"],
-        }
     ds = LeRobotDataset.create(
         "test/lerobot",
         fps=10,
@@ -52,10 +64,10 @@ def write_lerobot_dataset(
                     "action": np.array([0.1 * t, -0.1 * t], dtype=np.float32),
                     "task": "push the block",
                 }
-                if environment_state:
-                    frame["observation.environment_state"] = np.array([e, t, 0.25 * t, -1.0], dtype=np.float32)
                 if image_camera:
-                    frame["observation.images.still"] = np.full((16, 16, 3), 20 * t + e, dtype=np.uint8)
+                    frame[IMAGE_CAMERA] = image_pixels(e, t)
+                if environment_state:
+                    frame[ENV_STATE] = env_state(e, t)
                 if with_success:
                     frame["next.success"] = np.array([ok and t == n - 1])
                 ds.add_frame(frame)

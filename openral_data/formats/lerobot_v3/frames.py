@@ -1,5 +1,6 @@
 """An episode's frames read back from a LeRobot v3 dataset: numeric columns from its data parquet, images decoded
-with PyAV from each camera's mp4 starting at the episode's ``from_timestamp``. Works on any LeRobot v3 dataset."""
+with PyAV from each camera's mp4 starting at the episode's ``from_timestamp`` (a `dtype: image` camera: from the
+PNG/JPEG embedded in the parquet). Works on any LeRobot v3 dataset."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ import pyarrow.compute as pc
 from openral_data.errors import DatasetError
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX
+from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE, decode_image, image_keys
 from openral_data.formats.parquetfile import read_table
 from openral_data.types import Frame
 
@@ -37,9 +39,17 @@ def episode_frames(
         )
     cols = table.to_pydict()
     fps = int(info["fps"])
-    videos = {name: _decode_video(src, info, row, IMAGE_PREFIX + name, n, fps) for name in cameras}
+    stored = set(image_keys(info))  # pictures in the parquet; every other camera is a video
+    videos = {
+        name: _decode_video(src, info, row, IMAGE_PREFIX + name, n, fps)
+        for name in cameras
+        if IMAGE_PREFIX + name not in stored
+    }
+    pictures = {name: cols[IMAGE_PREFIX + name] for name in cameras if IMAGE_PREFIX + name in stored}
     for i in range(n):
-        images = {}
+        images = {
+            name: decode_image(cells[i], f"{path}: {IMAGE_PREFIX + name}: row {i}") for name, cells in pictures.items()
+        }
         for name, it in videos.items():
             img = next(it, None)
             if img is None:
@@ -47,6 +57,7 @@ def episode_frames(
                     f"episode {e}: camera {name}: video ends before frame {i} of {n}", code="dataset.invalid"
                 )
             images[name] = img
+        images = {name: images[name] for name in cameras}  # in the caller's camera order
         task_index = int(cols["task_index"][i])
         yield Frame(
             state=np.asarray(cols["observation.state"][i], dtype=np.float32).reshape(-1),
@@ -58,6 +69,11 @@ def episode_frames(
             success=bool(cols["next.success"][i]) if "next.success" in cols else False,  # likewise
             # LeRobot v3 stores frame_index / fps rounded to float32; the exact value keeps stamps on the grid
             timestamp=int(cols["frame_index"][i]) / fps,
+            environment_state=(
+                np.asarray(cols[ENVIRONMENT_STATE][i], dtype=np.float32).reshape(-1)
+                if ENVIRONMENT_STATE in cols
+                else None
+            ),
         )
 
 

@@ -12,6 +12,7 @@ from openral_data.errors import DatasetError
 from openral_data.formats.jsonfile import read_json
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.info import check_info
+from openral_data.formats.lerobot_v3.success import count_successes, episode_successes
 from openral_data.formats.parquetfile import read_table
 from openral_data.paths import safe_name
 
@@ -24,14 +25,15 @@ class DatasetSummary:
     frames: int
     tasks: list[str]
     cameras: list[str]
-    successes: int | None  # None when the dataset records no per-episode success
+    successes: int | None  # None when no episode's success is known (see `success.episode_successes`)
     robot_type: str | None
+    success_known: int = 0  # episodes whose success is known (the rate's denominator)
 
     @property
     def success_rate(self) -> float | None:
-        if self.successes is None or self.episodes == 0:
+        if self.successes is None or self.success_known == 0:
             return None
-        return self.successes / self.episodes
+        return self.successes / self.success_known
 
     def to_json(self) -> dict[str, object]:
         """The fields of `info --json`, in docs/scripting.md's order."""
@@ -44,7 +46,7 @@ class DatasetSummary:
             "cameras": list(self.cameras),
             "tasks": list(self.tasks),
             "robot_type": self.robot_type,
-            "success_known": self.successes is not None,
+            "success_known": self.successes is not None and self.success_known > 0,
             "successes": self.successes,
             "success_rate": self.success_rate,
         }
@@ -130,16 +132,15 @@ def read_tasks(root: Path) -> list[str]:
 def summarize(root: Path) -> DatasetSummary:
     info = read_info(root)
     episodes = read_episodes(root)
-    successes = None
-    if "openral.success" in episodes.column_names:
-        successes = sum(bool(v) for v in episodes.column("openral.success").to_pylist())
+    successes, known = count_successes(episode_successes(root, episodes))
     return DatasetSummary(
         root=root,
         fps=info["fps"],
         episodes=info.get("total_episodes", 0),
         frames=info.get("total_frames", 0),
         tasks=read_tasks(root) if info.get("total_tasks") else [],
-        cameras=[k for k, f in info["features"].items() if f.get("dtype") == "video"],
-        successes=successes,
+        cameras=[k for k, f in info["features"].items() if f.get("dtype") in ("video", "image")],
+        successes=successes if known else None,
         robot_type=info.get("robot_type"),
+        success_known=known,
     )

@@ -32,6 +32,7 @@ IMAGE_FORMATS: tuple[ImageFormat, ...] = ("jpeg", "png", "raw")
 
 JOINT_STATES = "/joint_states"
 ACTION = "/action"
+ENVIRONMENT_STATE = "/environment_state"  # lerobot's observation.environment_state, when the source has one
 REWARD = "/reward"
 TASK = "/task"
 EPISODE = "/openral/episode"
@@ -96,9 +97,10 @@ class MessageFactory:
         )
         return bytes(self.store.serialize_cdr(msg, JOINT_STATE_T))
 
-    def action(self, values: npt.NDArray[np.float32]) -> bytes:
+    def action(self, values: npt.NDArray[np.float32], label: str = "action") -> bytes:
+        """A Float32MultiArray of one dimension named `label` (the action, or the environment state)."""
         n = int(values.shape[0])
-        layout = self._layout(dim=[self._dim(label="action", size=n, stride=n)], data_offset=0)
+        layout = self._layout(dim=[self._dim(label=label, size=n, stride=n)], data_offset=0)
         msg = self._f32_array(layout=layout, data=np.asarray(values, dtype=np.float32))
         return bytes(self.store.serialize_cdr(msg, FLOAT32_ARRAY_T))
 

@@ -259,6 +259,8 @@ class _EpisodeBag:
         self.c_action = add(m.ACTION, m.FLOAT32_ARRAY_T, typestore=store)
         # an outcome the source does not know gets no topic (a converted hardware log has no reward)
         self.c_reward = add(m.REWARD, m.FLOAT32_T, typestore=store) if schema.has_reward else None
+        env = schema.environment_state_names
+        self.c_env = add(m.ENVIRONMENT_STATE, m.FLOAT32_ARRAY_T, typestore=store) if env else None
         fmt = config.image_format
         self.c_cams: dict[str, Connection] = {
             name: add(m.camera_topic(name, fmt), m.camera_type(fmt), typestore=store) for name in schema.cameras
@@ -277,6 +279,7 @@ class _EpisodeBag:
             "state_names": list(schema.state_names),
             "action_names": list(schema.action_names),
             "cameras": list(schema.cameras),
+            "environment_state_names": list(schema.environment_state_names),
             "initial_state": start.initial_state,
             "outcomes": {"reward": schema.has_reward, "success": schema.has_success},
         }
@@ -296,6 +299,10 @@ class _EpisodeBag:
         w.write(self.c_action, ns, f.action(frame.action))
         if self.c_reward is not None:
             w.write(self.c_reward, ns, f.float32(frame.reward))
+        if self.c_env is not None:
+            if frame.environment_state is None:
+                raise ValueError("frame has no environment_state, the schema names one")  # our bug, not the input
+            w.write(self.c_env, ns, f.action(frame.environment_state, label="environment_state"))
         self.length += 1
 
     def finish(self, success: bool | None) -> EpisodeRecord:

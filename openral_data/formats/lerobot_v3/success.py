@@ -1,0 +1,56 @@
+"""Whether each episode of a LeRobot v3 dataset (ours or lerobot's) succeeded: the one rule `info`, `stats`, `view`
+and `convert` share.
+
+A dataset with our `openral.success` episode column is read from it (NULL: unknown, e.g. a converted bag that
+said nothing; its frames' `next.success` are then placeholders, not evidence). Without it, when the frames carry
+lerobot's per-frame `next.success`, an episode succeeded if any of its frames says so (lerobot's own convention:
+its eval counts an episode as a success when the environment reported success at any step, and its sim datasets,
+e.g. `lerobot/pusht`, set `next.success` on the frames where the goal is reached). Else unknown (None), never
+False.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pyarrow as pa
+import pyarrow.compute as pc
+
+from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.parquetfile import read_schema, read_table
+
+EPISODE_SUCCESS = "openral.success"
+FRAME_SUCCESS = "next.success"
+
+
+def episode_successes(root: Path, episodes: pa.Table) -> dict[int, bool | None]:
+    """Success of every episode in `episodes` (meta/episodes rows), by episode_index; None where unknown."""
+    ids = [int(e) for e in episodes.column("episode_index").to_pylist()]
+    if EPISODE_SUCCESS in episodes.column_names:  # ours: a NULL is an episode whose source said nothing
+        ours = episodes.column(EPISODE_SUCCESS).to_pylist()
+        return {e: None if v is None else bool(v) for e, v in zip(ids, ours, strict=True)}
+    frames = _frame_successes(root)
+    return {e: frames.get(e) for e in ids}
+
+
+def _frame_successes(root: Path) -> dict[int, bool]:
+    """Per episode_index, whether any of its frames has `next.success` (episodes without frames are absent)."""
+    found: dict[int, bool] = {}
+    for path in layout.data_files(root):
+        if FRAME_SUCCESS not in read_schema(path).names:
+            continue
+        table = read_table(path, columns=["episode_index", FRAME_SUCCESS])
+        column = table.column(FRAME_SUCCESS)
+        if pa.types.is_list(column.type) or pa.types.is_fixed_size_list(column.type):  # shape (1,) kept as a list
+            column = pc.list_flatten(column)
+        flags = pc.fill_null(pc.cast(column, pa.bool_()), False)
+        grouped = pa.table({"e": table.column("episode_index"), "s": flags}).group_by("e").aggregate([("s", "any")])
+        for e, v in zip(grouped.column("e").to_pylist(), grouped.column("s_any").to_pylist(), strict=True):
+            found[int(e)] = found.get(int(e), False) or bool(v)
+    return found
+
+
+def count_successes(successes: dict[int, bool | None]) -> tuple[int, int]:
+    """(successes, episodes whose success is known)."""
+    known = [v for v in successes.values() if v is not None]
+    return sum(known), len(known)
