@@ -6,7 +6,6 @@ from __future__ import annotations
 import re
 import signal
 import subprocess
-import time
 from dataclasses import replace
 from pathlib import Path
 
@@ -17,9 +16,8 @@ from openral_data.replay import ReplayOptions, replay
 from openral_data.replay.outcome import EpisodeOutcome
 from tests.support.cli import run_cli
 from tests.support.debug_video import check_mock_video, leftovers
-from tests.support.live import entities, free_port, settled
+from tests.support.live import connect_client, entities, free_port, settled
 from tests.support.replay import record_mock
-from tests.support.rrd import RERUN
 
 pytestmark = pytest.mark.filterwarnings("ignore:RRD file has no footer")
 
@@ -77,17 +75,7 @@ def test_closed_loop_view_serves_a_stream_a_client_receives(
         if outcome is None or client:
             return
         # after the first episode: a client connects to the served stream and saves what it receives
-        client.append(
-            subprocess.Popen(
-                [str(RERUN), "--connect", url, "--save", str(got), "--port", "0"],
-                stdout=subprocess.DEVNULL,
-                stderr=subprocess.DEVNULL,
-            )
-        )
-        deadline = time.monotonic() + 30
-        while not (got.exists() and got.stat().st_size > 1000) and time.monotonic() < deadline:
-            time.sleep(0.05)
-        assert got.exists() and got.stat().st_size > 1000, "the rerun client received nothing"
+        client.append(connect_client(url, got))
 
     opts = ReplayOptions(
         dataset, mode="closed-loop", rskill="random-mock", episodes="0,1", out=tmp_path / "res", view=True

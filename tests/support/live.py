@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import socket
+import subprocess
 import time
 from collections import Counter
 from pathlib import Path
 
 from rerun.chunk import RrdReader
+
+from tests.support.rrd import RERUN
 
 
 def free_port() -> int:
@@ -43,3 +46,18 @@ def entities(rrd: Path) -> dict[str, tuple[Counter[str], set[str]]]:
                 temporal[chunk.entity_path] += chunk.num_rows
         out[store.recording_id] = (temporal, static)
     return out
+
+
+def connect_client(url: str, got: Path) -> subprocess.Popen[bytes]:
+    """A rerun client connected to the served stream at `url`, saving what it receives to `got`; returned once data
+    arrived (then it is connected: the server buffers what came before)."""
+    client = subprocess.Popen(
+        [str(RERUN), "--connect", url, "--save", str(got), "--port", "0"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    deadline = time.monotonic() + 30
+    while not (got.exists() and got.stat().st_size > 1000) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert got.exists() and got.stat().st_size > 1000, "the rerun client received nothing"
+    return client

@@ -26,7 +26,7 @@ from openral_data.types import CameraShape, DatasetSchema, EpisodeRecord, Episod
 from openral_data.viz.live import LiveView, open_live_view
 from tests.support.cli import run_cli
 from tests.support.lerobot import verify_mock_dataset
-from tests.support.live import entities, free_port, settled
+from tests.support.live import connect_client, entities, free_port, settled
 from tests.support.rrd import RERUN
 from tests.support.scenes import mock_scene, write_yaml
 
@@ -98,17 +98,7 @@ def test_record_view_serves_a_stream_a_client_receives(
         if rec is None or client:
             return
         # after the first episode: a client connects to the served stream and saves what it receives
-        client.append(
-            subprocess.Popen(
-                [str(RERUN), "--connect", url, "--save", str(got), "--port", "0"],
-                stdout=subprocess.DEVNULL,
-                stderr=subprocess.DEVNULL,
-            )
-        )
-        deadline = time.monotonic() + 30
-        while not (got.exists() and got.stat().st_size > 1000) and time.monotonic() < deadline:
-            time.sleep(0.05)  # data arrived: it is connected (the server buffers what came before)
-        assert got.exists() and got.stat().st_size > 1000, "the rerun client received nothing"
+        client.append(connect_client(url, got))
 
     base = RecordOptions(scene=str(scene), rskill="random-mock", codec="h264")
     viewed = record(replace(base, out=tmp_path / "viewed", view=True, view_port=port), progress)
