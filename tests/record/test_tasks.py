@@ -7,8 +7,6 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import numpy as np
-import numpy.typing as npt
 import pytest
 
 from openral_data.errors import UsageError
@@ -16,9 +14,8 @@ from openral_data.record import registry
 from openral_data.record.options import RecordOptions
 from openral_data.record.sim import record
 from openral_data.record.tasks import SCENE_TASKS, choose_task, tasks_of
-from openral_data.schemas.rskill import RSkillManifest
-from openral_data.types import Observation
 from tests.support.cli import run_cli
+from tests.support.policies import listening
 from tests.support.scenes import mock_scene, write_yaml
 
 INSTRUCTION = "wave at the camera, then pick up the cube"
@@ -61,21 +58,7 @@ def test_instruction_is_every_frames_task_in_lerobot_and_a_resume_setting(projec
 def test_the_policy_is_given_the_instruction(project: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     seen: list[str] = []
 
-    class Listener:
-        def __init__(self, rskill: RSkillManifest) -> None:
-            self.dim = rskill.action_contract.dim
-
-        def reset(self, seed: int) -> None:
-            pass
-
-        def step(self, observation: Observation, instruction: str) -> npt.NDArray[np.float32]:
-            seen.append(instruction)
-            return np.zeros(self.dim, dtype=np.float32)
-
-        def close(self) -> None:
-            pass
-
-    monkeypatch.setitem(registry.POLICIES, "zero", Listener)
+    monkeypatch.setitem(registry.POLICIES, "zero", listening(seen))
     scene = write_yaml(project / "scene.yaml", mock_scene(success_after=3, n_episodes=1, max_steps=6))
     record(RecordOptions(scene=str(scene), rskill="zero-mock", out=tmp_path / "a", codec="h264"))
     assert seen == ["pick up the mock cube"] * 3  # the YAML's, without --instruction

@@ -6,15 +6,12 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-import numpy as np
-import numpy.typing as npt
 import pytest
 
 from openral_data.errors import UsageError
 from openral_data.record import registry
 from openral_data.replay import ReplayOptions, replay
-from openral_data.schemas.rskill import RSkillManifest
-from openral_data.types import Observation
+from tests.support.policies import listening
 from tests.support.replay import record_mock
 
 
@@ -26,21 +23,7 @@ def test_closed_loop_gives_the_policy_the_instruction_and_records_it(
     dataset = record_mock(project, tmp_path / "mock").out
     seen: list[str] = []
 
-    class Listener:
-        def __init__(self, rskill: RSkillManifest) -> None:
-            self.dim = rskill.action_contract.dim
-
-        def reset(self, seed: int) -> None:
-            pass
-
-        def step(self, observation: Observation, instruction: str) -> npt.NDArray[np.float32]:
-            seen.append(instruction)
-            return np.zeros(self.dim, dtype=np.float32)
-
-        def close(self) -> None:
-            pass
-
-    monkeypatch.setitem(registry.POLICIES, "zero", Listener)
+    monkeypatch.setitem(registry.POLICIES, "zero", listening(seen))
     again = tmp_path / "again"
     opts = ReplayOptions(dataset, mode="closed-loop", rskill="zero-mock", out=tmp_path / "res", episodes="0")
     replay(dataclasses.replace(opts, instruction="wave", record=again, codec="h264"))
