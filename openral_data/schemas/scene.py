@@ -130,7 +130,7 @@ def _check_raw(data: Any, source: str) -> str:
                 "(a scene may suggest one: scene.default_rskill)"
             )
     tier = data.get("tier")
-    if tier not in _TIERS:
+    if not isinstance(tier, str) or tier not in _TIERS:  # (a list or a mapping is not hashable)
         raise ConfigError(f"{source}: tier: must be one of {sorted(_TIERS)}, got {tier!r}")
     return str(tier)
 

@@ -114,3 +114,9 @@ def test_record_refuses_deploy_scene_with_reason() -> None:
     with pytest.raises(ConfigError, match="deploy scenes have no task"):
         load_recordable_scene(BUILTIN / "scenes/deploy/mock_workcell.yaml")
     assert isinstance(load_recordable_scene(BUILTIN / "scenes/benchmark/mock_pick_bench.yaml"), BenchmarkScene)
+
+
+@pytest.mark.parametrize("tier", [[], {"a": 1}, None, 3])
+def test_a_tier_that_is_not_a_string_is_one_line(tmp_path: Path, tier: object) -> None:
+    with pytest.raises(ConfigError, match="tier: must be one of"):
+        load_scene(write_yaml(tmp_path / "s.yaml", {**mock_scene(), "tier": tier}))

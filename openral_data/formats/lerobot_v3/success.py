@@ -16,6 +16,7 @@ from pathlib import Path
 import pyarrow as pa
 import pyarrow.compute as pc
 
+from openral_data.errors import DatasetError
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.parquetfile import read_schema, read_table
 
@@ -24,13 +25,23 @@ FRAME_SUCCESS = "next.success"
 
 
 def episode_successes(root: Path, episodes: pa.Table) -> dict[int, bool | None]:
-    """Success of every episode in `episodes` (meta/episodes rows), by episode_index; None where unknown."""
-    ids = [int(e) for e in episodes.column("episode_index").to_pylist()]
+    """Success of every episode in `episodes` (meta/episodes rows), by episode_index; None where unknown.
+    A table without integer episode indices is a `DatasetError` naming meta/episodes (untrusted input)."""
+    ids = _indices(episodes, root / "meta" / "episodes")
     if EPISODE_SUCCESS in episodes.column_names:  # ours: a NULL is an episode whose source said nothing
         ours = episodes.column(EPISODE_SUCCESS).to_pylist()
         return {e: None if v is None else bool(v) for e, v in zip(ids, ours, strict=True)}
     frames = _frame_successes(root)
     return {e: frames.get(e) for e in ids}
+
+
+def _indices(table: pa.Table, source: Path) -> list[int]:
+    if "episode_index" not in table.column_names:
+        raise DatasetError(f"{source}: no column 'episode_index'", code="dataset.invalid")
+    values = table.column("episode_index").to_pylist()
+    if not all(isinstance(v, int) and not isinstance(v, bool) for v in values):
+        raise DatasetError(f"{source}: episode_index: not all integers", code="dataset.invalid")
+    return [int(v) for v in values]
 
 
 def _frame_successes(root: Path) -> dict[int, bool]:
@@ -40,13 +51,18 @@ def _frame_successes(root: Path) -> dict[int, bool]:
         if FRAME_SUCCESS not in read_schema(path).names:
             continue
         table = read_table(path, columns=["episode_index", FRAME_SUCCESS])
+        ids = _indices(table, path)
         column = table.column(FRAME_SUCCESS)
-        if pa.types.is_list(column.type) or pa.types.is_fixed_size_list(column.type):  # shape (1,) kept as a list
-            column = pc.list_flatten(column)
-        flags = pc.fill_null(pc.cast(column, pa.bool_()), False)
-        grouped = pa.table({"e": table.column("episode_index"), "s": flags}).group_by("e").aggregate([("s", "any")])
-        for e, v in zip(grouped.column("e").to_pylist(), grouped.column("s_any").to_pylist(), strict=True):
-            found[int(e)] = found.get(int(e), False) or bool(v)
+        try:
+            if pa.types.is_list(column.type) or pa.types.is_fixed_size_list(column.type):  # shape (1,) as a list
+                column = pc.list_flatten(column)
+            flags = pc.fill_null(pc.cast(column, pa.bool_()), False).to_pylist()
+        except pa.ArrowException as exc:
+            raise DatasetError(f"{path}: {FRAME_SUCCESS}: not booleans ({exc})", code="dataset.invalid") from None
+        if len(flags) != len(ids):
+            raise DatasetError(f"{path}: {FRAME_SUCCESS}: not one value per frame", code="dataset.invalid")
+        for e, v in zip(ids, flags, strict=True):
+            found[e] = found.get(e, False) or bool(v)
     return found
 
 

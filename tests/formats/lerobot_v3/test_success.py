@@ -82,3 +82,15 @@ def test_converted_without_success_is_unknown(tmp_path: Path) -> None:
     assert proc.returncode == 0, proc.stderr
     line = _agree(out, [None], tmp_path)
     assert line.split()[-1] == "-" and "0.0%" not in line
+
+
+def test_an_episodes_table_without_integer_indices_is_one_line(tmp_path: Path) -> None:
+    import pyarrow as pa
+
+    from openral_data.errors import DatasetError
+    from openral_data.formats.lerobot_v3.success import episode_successes
+
+    for table in (pa.table({"length": [3]}), pa.table({"episode_index": [None]}), pa.table({"episode_index": ["0"]})):
+        with pytest.raises(DatasetError) as err:
+            episode_successes(tmp_path, table)
+        assert err.value.code == "dataset.invalid" and "episode_index" in str(err.value)
