@@ -44,8 +44,10 @@ def test_sigkill_keeps_finished_episodes_readable(tmp_path: Path, project: Path,
     assert proc.returncode == -signal.SIGKILL
     lengths = verify_mock_bags(out / "mcap")  # rosbags + mcap (CRC) + rerun mcap check on every finished bag
     assert len(lengths) >= 2 and set(lengths) == {60}
+    # at most the episode in flight is left staged; it may even be a closed bag (metadata.yaml written) when the kill
+    # landed between rosbags' close and the rename, but it is never counted above nor converted below
     partial = out / "mcap" / ".partial"
-    assert not partial.exists() or all(not (p / "metadata.yaml").exists() for p in partial.iterdir())
+    assert not partial.exists() or len(list(partial.iterdir())) <= 1
     # the LeRobot side of the same pass keeps its finished episodes too (a kill between the writer's last two
     # renames leaves one meta/episodes row beyond info.json's total: lerobot loads only the counted ones)
     assert set(verify_mock_dataset(out, "pyav", uncounted_rows_ok=True)["lengths"]) == {60}
