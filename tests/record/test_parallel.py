@@ -124,8 +124,9 @@ def test_interrupted_workers_keep_their_finished_episodes(project: Path, tmp_pat
     import sys
     import time
 
-    # worker 0 (seeds 0-2) is quick; worker 1 (seeds 3-5) sleeps 1 s per step (17 s for its share)
-    scene = _scene(project, step_sleep=[0.0, 0.0, 0.0, 1.0, 1.0, 1.0])
+    # worker 0 (seeds 0-2) is quick; worker 1 (seeds 3-5) sleeps 4 s per step (68 s for its share: a loaded
+    # machine must not let it finish before worker 0 did; it is stopped at its next step boundary anyway)
+    scene = _scene(project, step_sleep=[0.0, 0.0, 0.0, 4.0, 4.0, 4.0])
     out = tmp_path / "par"
     proc = subprocess.Popen(
         [sys.executable, "-m", "openral_data.cli", "record", "--scene", str(scene), "--rskill", "random-mock",

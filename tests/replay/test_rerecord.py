@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import re
-import signal
 import subprocess
 from dataclasses import replace
 from pathlib import Path
@@ -16,7 +15,7 @@ from openral_data.replay import ReplayOptions, replay
 from openral_data.replay.outcome import EpisodeOutcome
 from tests.support.cli import run_cli
 from tests.support.debug_video import check_mock_video, leftovers
-from tests.support.live import connect_client, entities, free_port, settled
+from tests.support.live import connect_client, entities, free_port, settled, stop_rerun
 from tests.support.replay import record_mock
 
 pytestmark = pytest.mark.filterwarnings("ignore:RRD file has no footer")
@@ -83,8 +82,7 @@ def test_closed_loop_view_serves_a_stream_a_client_receives(
     summary = replay(replace(opts, view_port=port), progress)
     assert client
     settled(got)
-    client[0].send_signal(signal.SIGINT)
-    assert client[0].wait(30) in (0, 130)
+    stop_rerun(client[0])
     lines = capsys.readouterr().err.splitlines()
     assert f"view: {url}" in lines
     shown = [m for line in lines if (m := re.fullmatch(r"view: (\d+) frames shown, (\d+) dropped.*", line))]

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import signal
 import socket
 import subprocess
 import time
+import warnings
 from collections import Counter
 from pathlib import Path
 
@@ -34,7 +36,9 @@ def settled(path: Path, quiet: float = 1.5, limit: float = 30) -> None:
 
 def entities(rrd: Path) -> dict[str, tuple[Counter[str], set[str]]]:
     """recording id -> (temporal rows per entity, static entities)."""
-    reader = RrdReader(rrd)
+    with warnings.catch_warnings():  # a killed rerun (`stop_rerun`) leaves no footer: read by a whole-file scan
+        warnings.filterwarnings("ignore", "RRD file has no footer")
+        reader = RrdReader(rrd)
     out: dict[str, tuple[Counter[str], set[str]]] = {}
     for store in reader.recordings():
         temporal: Counter[str] = Counter()
@@ -61,3 +65,15 @@ def connect_client(url: str, got: Path) -> subprocess.Popen[bytes]:
         time.sleep(0.05)
     assert got.exists() and got.stat().st_size > 1000, "the rerun client received nothing"
     return client
+
+
+def stop_rerun(proc: subprocess.Popen[bytes], grace: float = 60) -> None:
+    """Stop a rerun process that saves to an .rrd once what it received has `settled`: Ctrl-C, and if a loaded
+    machine keeps it from exiting within `grace` seconds, SIGKILL. Either way the file holds every message that
+    arrived (a killed rerun only leaves out the footer; `entities` reads such a file by a whole-file scan)."""
+    proc.send_signal(signal.SIGINT)
+    try:
+        proc.wait(grace)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import io
 import re
-import signal
 import socket
 import subprocess
 import threading
@@ -26,7 +25,7 @@ from openral_data.types import CameraShape, DatasetSchema, EpisodeRecord, Episod
 from openral_data.viz.live import LiveView, open_live_view
 from tests.support.cli import run_cli
 from tests.support.lerobot import verify_mock_dataset
-from tests.support.live import connect_client, entities, free_port, settled
+from tests.support.live import connect_client, entities, free_port, settled, stop_rerun
 from tests.support.rrd import RERUN
 from tests.support.scenes import mock_scene, write_yaml
 
@@ -104,8 +103,7 @@ def test_record_view_serves_a_stream_a_client_receives(
     viewed = record(replace(base, out=tmp_path / "viewed", view=True, view_port=port), progress)
     assert client
     settled(got)  # the served stream lasts as long as this process: the client is stopped once all arrived
-    client[0].send_signal(signal.SIGINT)
-    assert client[0].wait(30) in (0, 130)  # (130: stopped by the signal, the file is complete)
+    stop_rerun(client[0])
     lines = capsys.readouterr().err.splitlines()
     assert f"view: {url}" in lines
     shown = [m for line in lines if (m := re.fullmatch(r"view: (\d+) frames shown, (\d+) dropped.*", line))]
@@ -192,8 +190,7 @@ def test_view_address_sends_to_a_running_viewer(tmp_path: Path) -> None:
         assert err.getvalue().splitlines()[-1] == "view: 6 frames shown, 0 dropped (the viewer lagged)"
         settled(got)
     finally:
-        server.send_signal(signal.SIGINT)
-        server.wait(30)
+        stop_rerun(server)
     received = {rid.rsplit("-", 1)[1]: v for rid, v in entities(got).items()}
     assert {k: v[0]["/cameras/front"] for k, v in received.items()} == {"3": 5, "4": 1}
     assert received["3"][0]["/events"] == received["4"][0]["/events"] == 1
