@@ -25,6 +25,7 @@ from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX
 from openral_data.formats.lerobot_v3.frames import episode_frames as decode_episode_frames
 from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_openral, read_tasks
+from openral_data.formats.lerobot_v3.success import episode_successes
 from openral_data.formats.parquetfile import read_table
 from openral_data.schemas.base import validate
 from openral_data.schemas.rskill import RSkillManifest
@@ -66,7 +67,8 @@ class RecordedDataset:
         self.cameras = [k[len(IMAGE_PREFIX) :] for k in features if k.startswith(IMAGE_PREFIX)]
         table = read_episodes(root)
         keep = [c for c in table.column_names if not c.startswith("stats/")]
-        self._rows = sorted(table.select(keep).to_pylist(), key=lambda r: int(r["episode_index"]))
+        self._episodes = table.select(keep)
+        self._rows = sorted(self._episodes.to_pylist(), key=lambda r: int(r["episode_index"]))
         self._tasks = read_tasks(root) if int(self.info.get("total_tasks", 0)) else []
         self._data_cache: tuple[Path, pa.Table] | None = None
 
@@ -172,12 +174,13 @@ class RecordedDataset:
             self._data_cache = (path, read_table(path, columns=columns))
         return self._data_cache[1]
 
+    @cached_property
+    def _successes(self) -> dict[int, bool | None]:
+        return episode_successes(self.root, self._episodes)
+
     def success(self, e: int) -> bool | None:
-        row = self._rows[e]
-        if "openral.success" not in row:
-            return None
-        value = row["openral.success"]
-        return None if value is None else bool(value)
+        """By the one rule (`formats.lerobot_v3.success`): openral.success, else any next.success, else None."""
+        return self._successes.get(e)
 
     def frames(self, e: int) -> Iterator[Frame]:
         """Episode `e` frame by frame with its camera images decoded (PyAV), as the policy saw them."""

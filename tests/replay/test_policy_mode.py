@@ -124,3 +124,49 @@ def test_decoded_frames_state_and_actions_are_aligned(mock: tuple[Path, Path]) -
     for t, red, green in policy.seen:  # the decoded image is this row's, within the codec's colour tolerance
         assert abs(red - t) <= 4 and abs(green - 2) <= 4, (t, red, green)
     assert outcome.action_abs is not None and outcome.action_abs.max() == 0.0
+
+
+class _Watcher:
+    """Answers with the recorded action and keeps the observations it was given."""
+
+    def __init__(self, actions: np.ndarray) -> None:
+        self.actions = actions
+        self.seen: list[object] = []
+
+    def reset(self, seed: int) -> None:
+        pass
+
+    def step(self, observation: object, instruction: str) -> np.ndarray:
+        self.seen.append(observation)
+        return np.asarray(self.actions[len(self.seen) - 1], dtype=np.float32)
+
+    def close(self) -> None:
+        pass
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("with_success", [True, False])
+def test_a_dataset_lerobot_wrote_is_evaluated(tmp_path: Path, with_success: bool) -> None:
+    """No openral.* columns, a video and a `dtype: image` camera, environment state: every frame reaches the policy
+    (the image camera's PNG pixels exactly), and the recorded success is the one rule's (any next.success)."""
+    from openral_data.replay.policy_mode import evaluate_episode
+    from openral_data.types import Observation
+    from tests.support.lerobot_written import LENGTHS, SUCCEEDED, image_pixels, write_lerobot_dataset
+
+    root = tmp_path / "lerobot"
+    write_lerobot_dataset(root, with_success, image_camera=True, environment_state=True)
+    summary = replay(ReplayOptions(root, mode="policy", rskill="recorded:2", out=tmp_path / "res"))
+    assert summary.summary["steps"] == sum(LENGTHS) and summary.summary["action_mae_mean"] == 0.0
+    expected = SUCCEEDED if with_success else [None] * len(LENGTHS)
+    assert [o.success_recorded for o in summary.episodes] == expected
+
+    dataset = RecordedDataset(root)
+    assert sorted(dataset.cameras) == ["cam", "wrist"]
+    episode = dataset.episode(1)
+    policy = _Watcher(episode.actions)
+    evaluate_episode(dataset, 1, policy)
+    assert len(policy.seen) == LENGTHS[1]
+    for t, obs in enumerate(policy.seen):
+        assert isinstance(obs, Observation)
+        np.testing.assert_array_equal(obs.images["wrist"], image_pixels(1, t))
+        np.testing.assert_array_equal(obs.state, episode.states[t])
