@@ -54,6 +54,7 @@ class RecordStep(StrictModel):
     codec: Literal["av1", "h264"] = "av1"
     formats: list[Format] = Field(default_factory=lambda: list[Format](["lerobot"]), min_length=1)
     image_format: Literal["jpeg", "png", "raw"] = "jpeg"
+    mcap_compression: Literal["zstd", "lz4", "none"] = "zstd"  # `--mcap-compression` of formats: [mcap]
     workers: int = Field(default=1, ge=1)
     executor: Literal["local", "ray"] = "local"
     tasks: list[str] | None = Field(default=None, min_length=1)  # `--task` ids swept per scene; None: the YAML's
@@ -125,6 +126,7 @@ class ExportStep(StrictModel):
     to: Literal["mcap"] = "mcap"
     episodes: str | None = None
     image_format: Literal["jpeg", "png", "raw"] = "jpeg"
+    mcap_compression: Literal["zstd", "lz4", "none"] = "zstd"  # of the bags' chunks (`convert --mcap-compression`)
 
 
 KINDS = ("record", "merge", "replay", "stats", "export")

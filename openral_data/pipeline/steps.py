@@ -52,6 +52,7 @@ def _record_one(
             codec=spec.codec,
             formats=tuple(spec.formats),
             image_format=spec.image_format,
+            mcap_compression=spec.mcap_compression,
             task=task,
             instruction=spec.instruction,
             device=spec.device,
@@ -113,7 +114,12 @@ def _export_jobs(spec: ExportStep, resolve: Resolve) -> Iterator[ItemJob]:
 
             if spec.to != "mcap":
                 raise ConfigError(f"export.to: {spec.to!r} is not supported")
-            summary = export_mcap(src, out, episodes=spec.episodes, config=McapConfig(image_format=spec.image_format))
+            summary = export_mcap(
+                src,
+                out,
+                episodes=spec.episodes,
+                config=McapConfig(image_format=spec.image_format, compression=spec.mcap_compression),
+            )
             return {"source": str(src), "episodes": len(summary.episodes), "frames": summary.frames}
 
         yield name, run

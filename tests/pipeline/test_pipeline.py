@@ -194,3 +194,31 @@ def test_record_step_sweeps_tasks_with_an_instruction_and_device(project: Path, 
         ds = LeRobotDataset("local/x", root=out, video_backend="pyav")
         assert RecordedDataset(out).scene().scene.params["env"] == env
         assert ds[0]["task"] == "move a little"
+
+
+def test_mcap_compression_reaches_recorded_and_exported_bags(project: Path, tmp_path: Path) -> None:
+    """`mcap_compression:` of a record step (formats: [mcap]) and of an export step set the bags' chunk compression,
+    as `--mcap-compression` does; the default is zstd."""
+    from tests.support.mcap import check_bag, chunk_compressions
+
+    spec = write_yaml(
+        tmp_path / "p.yaml",
+        {
+            "name": "compression",
+            "steps": [
+                {"id": "rec", "record": {"scenes": ["mock_pick"], "rskills": ["random-mock"], "seeds": {"count": 1},
+                                         "max_steps": 4, "codec": "h264", "formats": ["lerobot", "mcap"],
+                                         "mcap_compression": "lz4"}},
+                {"id": "plain", "export": {"dataset": "rec", "mcap_compression": "none"}},
+                {"id": "packed", "export": {"dataset": "rec"}},
+            ],
+        },
+    )  # fmt: skip
+    workdir = tmp_path / "run"
+    run_pipeline(spec, workdir)
+    item = "mock_pick--random-mock"
+    for bags, expected in ((workdir / "rec" / item / "mcap", "lz4"), (workdir / "plain" / item, ""),
+                           (workdir / "packed" / item, "zstd")):  # fmt: skip
+        (bag,) = sorted(p for p in bags.iterdir() if p.is_dir())
+        assert chunk_compressions(bag) == {expected}, bag
+        assert check_bag(bag)
