@@ -57,9 +57,10 @@ def info(dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset fold
 
 
 def _success_cell(s: DatasetSummary) -> str:
-    """`50.0% (1/2)` over the episodes whose success is known (and how many are not), `-` when none is."""
+    """`50.0% (1/2)` over the episodes whose success is known (and how many are not), `unknown (N episodes)` when
+    none is (never 0 %)."""
     if s.success_rate is None:
-        return "-"
+        return f"unknown ({s.episodes} episode{'' if s.episodes == 1 else 's'})"
     unknown = s.episodes - s.success_known
     return f"{s.success_rate:.1%} ({s.successes}/{s.success_known}" + (f", {unknown} unknown)" if unknown else ")")
 

@@ -40,6 +40,6 @@ def resolve_dataset(arg: str | Path) -> Path:
     if not cached.is_dir():
         raise NotFound(
             f"{text}: no such folder, and not in the local cache (looked in {cached}); download it with "
-            f"`huggingface-cli download --repo-type dataset {text} --local-dir {cached}`"
+            f"`hf download --repo-type dataset {text} --local-dir {cached}`"
         )
     return cached

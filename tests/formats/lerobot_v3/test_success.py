@@ -69,7 +69,7 @@ def test_lerobot_written(tmp_path: Path, with_success: bool) -> None:
     root = tmp_path / "lr"
     write_lerobot_dataset(root, with_success)
     line = _agree(root, list(SUCCEEDED) if with_success else [None] * len(SUCCEEDED), tmp_path)
-    assert ("66.7% (2/3)" in line) if with_success else (line.split()[-1] == "-")
+    assert ("66.7% (2/3)" in line) if with_success else (line.split(None, 2)[-1] == "unknown (3 episodes)")
 
 
 @pytest.mark.slow
@@ -81,7 +81,7 @@ def test_converted_without_success_is_unknown(tmp_path: Path) -> None:
     )
     assert proc.returncode == 0, proc.stderr
     line = _agree(out, [None], tmp_path)
-    assert line.split()[-1] == "-" and "0.0%" not in line
+    assert line.split(None, 2)[-1] == "unknown (1 episode)" and "0.0%" not in line
 
 
 def test_an_episodes_table_without_integer_indices_is_one_line(tmp_path: Path) -> None:
