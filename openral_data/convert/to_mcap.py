@@ -18,7 +18,7 @@ from typing import Any
 from openral_data.episodes import parse_episodes
 from openral_data.errors import DatasetError
 from openral_data.formats.lerobot_v3 import layout
-from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX
+from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX, camera_keys, dim_names
 from openral_data.formats.lerobot_v3.frames import episode_frames
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE
 from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_tasks
@@ -62,16 +62,6 @@ def is_lerobot_dataset(path: Path) -> bool:
     return (path / layout.INFO_PATH).is_file()
 
 
-def _names(feature: dict[str, Any], key: str) -> tuple[str, ...]:
-    dim = int(feature["shape"][0])
-    names = feature.get("names")
-    if isinstance(names, dict):  # lerobot sometimes nests {"motors": [...]}
-        names = next(iter(names.values()), None)
-    if isinstance(names, list) and len(names) == dim and all(isinstance(n, str) for n in names):
-        return tuple(names)
-    return tuple(f"{key}[{i}]" for i in range(dim))
-
-
 def export_mcap(
     src: Path,
     dst: Path,
@@ -85,12 +75,13 @@ def export_mcap(
     for key in ("observation.state", "action"):
         if key not in features:
             raise DatasetError(f"{src / layout.INFO_PATH}: features: no {key!r}; cannot export", code="dataset.invalid")
-    cams = {k[len(IMAGE_PREFIX) :]: f for k, f in features.items() if k.startswith(IMAGE_PREFIX)}
-    odd = [k for k, f in cams.items() if f.get("dtype") not in ("video", "image")]
+    keys = camera_keys(features)  # every video or image feature, under its camera name
+    odd = [k for k, f in features.items() if k.startswith(IMAGE_PREFIX) and k not in keys.values()]
     if odd:
         raise DatasetError(
             f"{src}: cameras {odd} are neither videos nor images; cannot export them", code="dataset.unsupported"
         )
+    cams = {name: features[key] for name, key in keys.items()}
     ep_table = read_episodes(src)
     rows = sorted(ep_table.to_pylist(), key=lambda r: int(r["episode_index"]))
     chosen = parse_episodes(episodes, len(rows))
@@ -99,19 +90,19 @@ def export_mcap(
     fps = int(info["fps"])
     schema = DatasetSchema(
         fps=fps,
-        state_names=_names(features["observation.state"], "observation.state"),
-        action_names=_names(features["action"], "action"),
+        state_names=tuple(dim_names(features["observation.state"], "observation.state")),
+        action_names=tuple(dim_names(features["action"], "action")),
         cameras={n: CameraShape(int(f["shape"][0]), int(f["shape"][1])) for n, f in cams.items()},
         robot_type=str(info.get("robot_type") or "unknown"),
         metadata={"exported_from": str(src)},
         has_reward="next.reward" in features,
         has_success="next.success" in features,
         environment_state_names=(
-            _names(features[ENVIRONMENT_STATE], ENVIRONMENT_STATE) if ENVIRONMENT_STATE in features else ()
+            tuple(dim_names(features[ENVIRONMENT_STATE], ENVIRONMENT_STATE)) if ENVIRONMENT_STATE in features else ()
         ),
     )
     known = {"observation.state", "action", "timestamp", "frame_index", "episode_index", "index", "task_index"}
-    known |= {"next.reward", "next.done", "next.success", ENVIRONMENT_STATE} | {IMAGE_PREFIX + n for n in cams}
+    known |= {"next.reward", "next.done", "next.success", ENVIRONMENT_STATE} | set(keys.values())
     summary = ExportSummary(src=src, dst=dst, skipped_features=sorted(set(features) - known))
     total = sum(int(rows[e]["length"]) for e in chosen)
     check_new_output(dst, "DST")

@@ -10,7 +10,7 @@ from typing import Any
 from openral_data.errors import DatasetError, NotFound
 from openral_data.formats import results as results_layout
 from openral_data.formats.lerobot_v3 import layout
-from openral_data.formats.lerobot_v3.features import ACTION, STATE
+from openral_data.formats.lerobot_v3.features import ACTION, STATE, dim_names
 from openral_data.formats.lerobot_v3.reader import read_info, read_openral
 from openral_data.formats.parquetfile import read_schema
 
@@ -39,18 +39,11 @@ class DatasetSource:
         return [k for k, f in self.info["features"].items() if f.get("dtype") == "video"]
 
     def dim_names(self, key: str) -> list[str]:
-        """Per-dimension names from info.json (list or lerobot's {"motors": [...]} form), else key_i."""
+        """Per-dimension names from info.json (`features.dim_names`), else `<short key>_<i>` (state_0...)."""
         feature = self.info["features"].get(key)
         if feature is None:
             return []
-        size = int(feature["shape"][0]) if feature.get("shape") else 1
-        names = feature.get("names")
-        if isinstance(names, dict) and len(names) == 1:
-            names = next(iter(names.values()))
-        if isinstance(names, list) and len(names) == size and all(isinstance(n, str) for n in names):
-            return list(names)
-        short = "state" if key == STATE else key
-        return [f"{short}_{i}" for i in range(size)]
+        return dim_names(feature, "state" if key == STATE else key)
 
     @property
     def vector_features(self) -> list[str]:

@@ -18,6 +18,7 @@ import numpy as np
 from openral_data import manifests
 from openral_data.errors import CompatibilityError, OutputExists, UsageError
 from openral_data.formats.lerobot_v3 import VideoSettings
+from openral_data.formats.lerobot_v3.features import dim_names
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.results import is_results_dir, write_results
 from openral_data.policies.base import ChunkingPolicy, PolicyAdapter
@@ -365,7 +366,7 @@ def _summary(
                 "diverged_episodes": {
                     str(o.index): o.first_divergence_frame for o in outcomes if o.first_divergence_frame is not None
                 },
-                "state_names": list(features["observation.state"].get("names") or []),
+                "state_names": dim_names(features["observation.state"], "state"),
             }
         )
     if opts.mode == "closed-loop":
@@ -378,7 +379,7 @@ def _summary(
         }
     if opts.mode == "policy":
         errors = [o.action_abs for o in outcomes if o.action_abs is not None and o.action_abs.size]
-        names = list(features["action"].get("names") or [])
+        names = dim_names(features["action"], "action")
         s["steps"] = int(sum(len(a) for a in errors))
         s["action_names"] = names
         if errors:

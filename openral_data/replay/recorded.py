@@ -22,7 +22,7 @@ import pyarrow.compute as pc
 from openral_data.episodes import parse_episodes
 from openral_data.errors import ConfigError, DatasetError, ReplayError
 from openral_data.formats.lerobot_v3 import layout
-from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX
+from openral_data.formats.lerobot_v3.features import camera_keys
 from openral_data.formats.lerobot_v3.frames import episode_frames as decode_episode_frames
 from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_openral, read_tasks
 from openral_data.formats.lerobot_v3.success import episode_successes
@@ -64,7 +64,7 @@ class RecordedDataset:
             if key not in features:
                 raise ReplayError(f"{root / layout.INFO_PATH}: features: no {key!r}; nothing to replay")
         self.fps = int(self.info["fps"])
-        self.cameras = [k[len(IMAGE_PREFIX) :] for k in features if k.startswith(IMAGE_PREFIX)]
+        self.cameras = list(camera_keys(features))  # names; `observation.image` (lerobot/pusht) is `image`
         table = read_episodes(root)
         keep = [c for c in table.column_names if not c.startswith("stats/")]
         self._episodes = table.select(keep)

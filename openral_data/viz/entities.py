@@ -12,7 +12,7 @@ from collections.abc import Sequence
 
 import rerun as rr
 
-from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX
+from openral_data.formats.lerobot_v3.features import camera_name
 
 APP_ID = "openral-data"
 FRAME = "frame_index"
@@ -23,8 +23,9 @@ OUTCOMES = ("reward", "success", "done")  # `next.<name>` in a dataset
 
 
 def camera_entity(camera: str) -> str:
-    """`cameras/<name>`, for a dataset key (`observation.images.<name>`) or a producer's camera name."""
-    return f"cameras/{rr.escape_entity_path_part(camera.removeprefix(IMAGE_PREFIX))}"
+    """`cameras/<name>`, for a dataset key (`features.camera_name`: `observation.images.<name>` or lerobot's
+    `observation.image`) or a producer's camera name."""
+    return f"cameras/{rr.escape_entity_path_part(camera_name(camera))}"
 
 
 def series_entities(base: str, names: Sequence[str], dim: int) -> list[tuple[str, str]]:

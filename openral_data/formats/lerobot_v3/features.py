@@ -39,6 +39,42 @@ def camera_key(name: str) -> str:
     return IMAGE_PREFIX + name
 
 
+def camera_name(key: str) -> str:
+    """`observation.images.<name>` -> name; another key -> the part after `observation.`, dots as `_`."""
+    if key.startswith(IMAGE_PREFIX):
+        return key[len(IMAGE_PREFIX) :]
+    return key.removeprefix("observation.").replace(".", "_")
+
+
+def camera_keys(features: dict[str, Any]) -> dict[str, str]:
+    """Camera name -> feature key for every `video` or `image` feature, in info.json order (lerobot's
+    `camera_keys`). A name is the key after `observation.images.`, or for other keys (`observation.image` of
+    lerobot/pusht, `observation.images_depth`...) the key after `observation.` with dots as `_`; a name two keys
+    would share keeps the first and the other is named by its whole key, dots as `_`."""
+    out: dict[str, str] = {}
+    for key, feature in features.items():
+        if not isinstance(feature, dict) or feature.get("dtype") not in ("video", "image"):
+            continue
+        name = camera_name(key)
+        if name in out:
+            name = key.replace(".", "_")
+        out[name] = key
+    return out
+
+
+def dim_names(feature: dict[str, Any], key: str) -> list[str]:
+    """Per-dimension names of a one-axis feature: its `names` list, or the list inside lerobot's one-entry
+    `{"motors": [...]}` form, when it names every dimension; else `<key>_<i>`."""
+    shape = feature.get("shape")
+    size = int(shape[0]) if isinstance(shape, list | tuple) and shape else 1
+    names = feature.get("names")
+    if isinstance(names, dict) and len(names) == 1:
+        names = next(iter(names.values()))
+    if isinstance(names, list) and len(names) == size and all(isinstance(n, str) for n in names):
+        return list(names)
+    return [f"{key}_{i}" for i in range(size)]
+
+
 def build_features(schema: DatasetSchema, video: VideoSettings) -> dict[str, dict[str, Any]]:
     features: dict[str, dict[str, Any]] = {}
     for name, shape in schema.cameras.items():

@@ -16,7 +16,7 @@ import pyarrow.compute as pc
 
 from openral_data.errors import DatasetError
 from openral_data.formats.lerobot_v3 import layout
-from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX
+from openral_data.formats.lerobot_v3.features import camera_key, camera_keys
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE, decode_image, image_keys
 from openral_data.formats.parquetfile import read_table
 from openral_data.types import Frame
@@ -25,6 +25,7 @@ from openral_data.types import Frame
 def episode_frames(
     src: Path, info: dict[str, Any], row: dict[str, Any], tasks: list[str], cameras: list[str]
 ) -> Iterator[Frame]:
+    """Episode `row` frame by frame; `cameras` are camera names (`features.camera_keys`), in the order wanted."""
     e = int(row["episode_index"])
     path = layout.template_path(src, info, "data_path", layout.FilePos(row["data/chunk_index"], row["data/file_index"]))
     table = read_table(path)
@@ -40,16 +41,12 @@ def episode_frames(
     cols = table.to_pydict()
     fps = int(info["fps"])
     stored = set(image_keys(info))  # pictures in the parquet; every other camera is a video
-    videos = {
-        name: _decode_video(src, info, row, IMAGE_PREFIX + name, n, fps)
-        for name in cameras
-        if IMAGE_PREFIX + name not in stored
-    }
-    pictures = {name: cols[IMAGE_PREFIX + name] for name in cameras if IMAGE_PREFIX + name in stored}
+    keys = camera_keys(info["features"])
+    key = {name: keys.get(name, camera_key(name)) for name in cameras}
+    videos = {name: _decode_video(src, info, row, key[name], n, fps) for name in cameras if key[name] not in stored}
+    pictures = {name: cols[key[name]] for name in cameras if key[name] in stored}
     for i in range(n):
-        images = {
-            name: decode_image(cells[i], f"{path}: {IMAGE_PREFIX + name}: row {i}") for name, cells in pictures.items()
-        }
+        images = {name: decode_image(cells[i], f"{path}: {key[name]}: row {i}") for name, cells in pictures.items()}
         for name, it in videos.items():
             img = next(it, None)
             if img is None:
