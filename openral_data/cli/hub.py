@@ -42,4 +42,4 @@ def push(
         print_line(plan.text())
         return
     result = upload(plan)
-    print_line(f"pushed {len(plan.files) + 1} files to {repo_id} (tag {result.tag}): {result.url}")
+    print_line(f"pushed {len(plan.files)} files + the card to {repo_id} (tag {result.tag}): {result.url}")

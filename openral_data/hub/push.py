@@ -60,7 +60,7 @@ class PushPlan:
         size = sum((self.root / rel).stat().st_size for rel in self.files)
         where = f"{self.opts.repo_id}" + (f" (branch {self.opts.revision})" if self.opts.revision else "")
         lines = [
-            f"would push {self.root} to the dataset repo {where}: {len(self.files) + 1} files, {size} bytes + card"
+            f"would push {self.root} to the dataset repo {where}: {len(self.files)} files ({size} bytes) + the card"
         ]
         lines += [f"  {rel}" for rel in self.files]
         lines += [f"  {CARD_PATH} (generated, below)", "", self.card.rstrip("\n")]
@@ -119,9 +119,10 @@ def upload(plan: PushPlan) -> PushResult:
     except OfflineModeIsEnabled:
         raise HubError(f"{repo}: HF_HUB_OFFLINE is set; unset it to push", code="hub.network") from None
     except HfHubHTTPError as exc:
-        status = exc.response.status_code if exc.response is not None else None
-        code = "hub.auth" if status in (401, 403) else "hub.refused"
-        raise HubError(f"{repo}: the Hub refused the push: {_first_line(exc)}", code=code) from None
+        message = f"{repo}: the Hub refused the push: {_first_line(exc)}"
+        if exc.response is not None and exc.response.status_code in (401, 403):
+            raise HubError(message, code="hub.auth") from None
+        raise HubError(message, code="hub.refused") from None
     except (httpx.HTTPError, ConnectionError, TimeoutError) as exc:
         raise HubError(f"{repo}: cannot reach the Hub: {_first_line(exc)}", code="hub.network") from None
     return PushResult(url=str(getattr(info, "commit_url", "")), files=len(plan.files) + 1, tag=layout.CODEBASE_VERSION)

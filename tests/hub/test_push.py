@@ -4,6 +4,7 @@ card arrive in one commit, then the `v3.0` tag; a missing token, offline mode or
 
 from __future__ import annotations
 
+import re
 import shutil
 from pathlib import Path
 
@@ -13,6 +14,7 @@ from openral_data.errors import HubError, OpenralError
 from openral_data.formats.lerobot_v3.lock import DatasetLock
 from openral_data.hub import CardOptions, PushOptions, dataset_card, plan_push, select_files, upload
 from tests.support.cli import run_cli
+from tests.support.home import REPO
 from tests.support.hub_endpoint import local_hub
 from tests.support.recorded import record_mock_cli
 
@@ -93,7 +95,7 @@ def test_dry_run_prints_the_plan_and_sends_nothing(ds: Path) -> None:
     lines = done.stdout.splitlines()
     files = select_files(ds)
     size = sum((ds / f).stat().st_size for f in files)
-    assert lines[0] == f"would push {ds} to the dataset repo me/mock: {len(files) + 1} files, {size} bytes + card"
+    assert lines[0] == f"would push {ds} to the dataset repo me/mock: {len(files)} files ({size} bytes) + the card"
     assert lines[1 : len(files) + 2] == [*(f"  {f}" for f in files), "  README.md (generated, below)"]
     assert "\n".join(lines[len(files) + 3 :]) + "\n" == dataset_card(ds, CardOptions("me/mock"))
 
@@ -106,7 +108,9 @@ def test_push_to_a_local_hub(ds: Path, revision: str | None) -> None:
         done = run_cli(*args, env=_env(endpoint))
     assert done.returncode == 0, done.stderr
     rev = revision or "main"
-    assert done.stdout.startswith(f"pushed {len(select_files(ds, include_mcap=True)) + 1} files to me/mock (tag v3.0)")
+    assert done.stdout.startswith(
+        f"pushed {len(select_files(ds, include_mcap=True))} files + the card to me/mock (tag v3.0)"
+    )
     assert received.tokens == {"Bearer hf_test_token"}
     assert [(r["name"], r["organization"], r["type"], r.get("visibility")) for r in received.repos] == [
         ("mock", "me", "dataset", "private")
@@ -162,4 +166,24 @@ def test_hub_refusal_is_one_error(ds: Path, monkeypatch: pytest.MonkeyPatch, sta
             upload(plan)
     assert err.value.code == code
     assert str(err.value).startswith("me/mock: the Hub refused the push: ") and "\n" not in str(err.value)
+    assert received.commits == []
+
+
+def test_docs_example_is_the_real_output(recorded: Path, tmp_path: Path) -> None:
+    """docs/hub.md's `--dry-run` example, up to its elision, is what the command prints for the same recording
+    (the byte count aside: video encoders may differ by a few bytes)."""
+    text = (REPO / "docs" / "hub.md").read_text()
+    block = text.split("<!-- dry-run:begin -->\n```\n", 1)[1].split("```\n<!-- dry-run:end -->", 1)[0]
+    command, *shown = block.splitlines()
+    assert shown[-1] == "…"
+    shutil.copytree(recorded, tmp_path / "datasets" / "pick")
+    with local_hub() as (endpoint, received):
+        done = run_cli(*command.removeprefix("$ openral-data ").split(), env=_env(endpoint), cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    real = done.stdout.splitlines()[: len(shown) - 1]
+
+    def bytes_aside(line: str) -> str:
+        return re.sub(r"\(\d+ bytes\)", "(N bytes)", line)
+
+    assert [bytes_aside(line) for line in real] == [bytes_aside(line) for line in shown[:-1]]
     assert received.commits == []
