@@ -119,15 +119,17 @@ def upload(plan: PushPlan) -> PushResult:
     except OfflineModeIsEnabled:
         raise HubError(f"{repo}: HF_HUB_OFFLINE is set; unset it to push", code="hub.network") from None
     except HfHubHTTPError as exc:
-        message = f"{repo}: the Hub refused the push: {_first_line(exc)}"
+        message = f"{repo}: the Hub refused the push: {_one_line(exc)}"
         if exc.response is not None and exc.response.status_code in (401, 403):
             raise HubError(message, code="hub.auth") from None
         raise HubError(message, code="hub.refused") from None
     except (httpx.HTTPError, ConnectionError, TimeoutError) as exc:
-        raise HubError(f"{repo}: cannot reach the Hub: {_first_line(exc)}", code="hub.network") from None
+        raise HubError(f"{repo}: cannot reach the Hub: {_one_line(exc)}", code="hub.network") from None
+    except ValueError as exc:  # huggingface_hub's own refusals: the card's metadata (validated by the Hub), a repo id
+        raise HubError(f"{repo}: the Hub refused the push: {_one_line(exc)}", code="hub.refused") from None
     return PushResult(url=str(getattr(info, "commit_url", "")), files=len(plan.files) + 1, tag=layout.CODEBASE_VERSION)
 
 
-def _first_line(exc: BaseException) -> str:
-    text = str(exc).strip()
-    return text.splitlines()[0] if text else type(exc).__name__
+def _one_line(exc: BaseException) -> str:
+    """The client's message on one line (it may list the Hub's reasons on several)."""
+    return " ".join(str(exc).split()) or type(exc).__name__

@@ -151,8 +151,17 @@ def test_unreachable_hub_is_one_line(ds: Path) -> None:
     assert line.startswith("error: me/mock: cannot reach the Hub: ")
 
 
-@pytest.mark.parametrize(("status", "code"), [(401, "hub.auth"), (403, "hub.auth"), (400, "hub.refused")])
-def test_hub_refusal_is_one_error(ds: Path, monkeypatch: pytest.MonkeyPatch, status: int, code: str) -> None:
+@pytest.mark.parametrize(
+    ("refuse", "code"),
+    [
+        ({"repos": 401}, "hub.auth"),
+        ({"repos": 403}, "hub.auth"),
+        ({"repos": 400}, "hub.refused"),
+        ({"validate-yaml": 400}, "hub.refused"),  # the card's metadata refused (e.g. an unknown --license)
+        ({"commit": 403}, "hub.auth"),
+    ],
+)
+def test_hub_refusal_is_one_error(ds: Path, monkeypatch: pytest.MonkeyPatch, refuse: dict[str, int], code: str) -> None:
     """In process, to read the error code: huggingface_hub's endpoint and offline switch are its import-time
     constants, set here as HF_ENDPOINT and HF_HUB_OFFLINE=0 would set them."""
     from huggingface_hub import constants
@@ -160,12 +169,13 @@ def test_hub_refusal_is_one_error(ds: Path, monkeypatch: pytest.MonkeyPatch, sta
     plan = plan_push(ds, PushOptions("me/mock"))
     monkeypatch.setenv("HF_TOKEN", "hf_test_token")
     monkeypatch.setattr(constants, "HF_HUB_OFFLINE", False)
-    with local_hub(status) as (endpoint, received):
+    with local_hub(refuse) as (endpoint, received):
         monkeypatch.setattr(constants, "ENDPOINT", endpoint)
         with pytest.raises(HubError) as err:
             upload(plan)
     assert err.value.code == code
     assert str(err.value).startswith("me/mock: the Hub refused the push: ") and "\n" not in str(err.value)
+    assert "refused here" in str(err.value)  # the Hub's own reason is kept
     assert received.commits == []
 
 

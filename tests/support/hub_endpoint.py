@@ -29,7 +29,7 @@ class Received:
 
 class _Handler(BaseHTTPRequestHandler):
     received: Received
-    status: int  # 200: answer as the Hub does on success; else every POST gets this error status
+    refuse: dict[str, int]  # endpoint ("create", "validate-yaml", "commit", ...) -> the error status it answers
 
     def log_message(self, format: str, *args: Any) -> None:  # quiet
         pass
@@ -55,9 +55,11 @@ class _Handler(BaseHTTPRequestHandler):
     def do_POST(self) -> None:
         self.received.tokens.add(self.headers.get("Authorization", ""))
         body = self._body()
-        if self.status != 200:
-            return self._reply({"error": f"refused with {self.status}"}, self.status)
         parts = self.path.split("?")[0].strip("/").split("/")
+        endpoint = parts[1] if len(parts) < 6 else parts[4]  # repos/create -> "repos"; datasets/o/n/commit -> "commit"
+        if endpoint in self.refuse:
+            error = {"error": "refused here", "errors": [{"message": "refused here"}]}
+            return self._reply(error, self.refuse[endpoint])
         host = f"http://{self.headers['Host']}"
         if parts == ["api", "repos", "create"]:
             payload = json.loads(body)
@@ -91,11 +93,12 @@ class _Handler(BaseHTTPRequestHandler):
 
 
 @contextmanager
-def local_hub(status: int = 200) -> Iterator[tuple[str, Received]]:
+def local_hub(refuse: dict[str, int] | None = None) -> Iterator[tuple[str, Received]]:
     """Serve on 127.0.0.1 (a free port) while inside; yields the endpoint URL (for ``HF_ENDPOINT``) and what
-    arrived. A `status` other than 200 is the answer to every POST (a Hub refusing the request)."""
+    arrived. `refuse` makes endpoints answer with an error status (``{"repos": 401}``: creating the repo;
+    ``"validate-yaml"``, ``"preupload"``, ``"commit"``, ``"tag"``, ``"branch"``), as the Hub does when it refuses."""
     received = Received()
-    handler = type("Handler", (_Handler,), {"received": received, "status": status})
+    handler = type("Handler", (_Handler,), {"received": received, "refuse": refuse or {}})
     server = ThreadingHTTPServer(("127.0.0.1", 0), handler)
     thread = threading.Thread(target=server.serve_forever, daemon=True)
     thread.start()
