@@ -163,3 +163,22 @@ def test_unknown_success_is_unknown_never_zero(theirs: dict[bool, Path]) -> None
     summary = _section(dataset_card(theirs[False], CardOptions("me/theirs")), "Summary")
     assert "| success | unknown (no episode records its outcome) |" in summary
     assert "0.0 %" not in summary
+
+
+def _stats_row(root: Path) -> dict[str, object]:
+    from openral_data.cli.stats import stats_text
+    from openral_data.metrics.command import StatsOptions
+
+    [row] = json.loads(stats_text(StatsOptions([str(root)], None, None, "json", None, "1GB", False)))["groups"]
+    assert isinstance(row, dict)
+    return row
+
+
+def test_success_agrees_with_stats(mock: Path, theirs: dict[bool, Path]) -> None:
+    """The card's count and interval are `stats`'s (same rule, same Wilson interval), to the card's precision."""
+    for root in (mock, theirs[True]):
+        row = _stats_row(root)
+        k, n = int(str(row["successes"])), int(str(row["success_known"]))
+        low, high = (100 * float(str(row[c])) for c in ("ci95_low", "ci95_high"))
+        expected = f"{k}/{n} episodes ({100 * k / n:.1f} %, 95 % Wilson interval {low:.1f} % to {high:.1f} %)"
+        assert f"| success | {expected} |" in _section(dataset_card(root, CardOptions("me/x")), "Summary")
