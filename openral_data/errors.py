@@ -41,6 +41,10 @@ bag.type                a mapped topic's message type or image encoding cannot s
 bag.empty               no frame could be filled; nothing was written
 results               a results directory (policy evaluation output) is malformed
 query                 DuckDB rejected a query or a setting
+hub                   the Hugging Face Hub did not take a push:
+hub.auth                no token, or the Hub refused it (401/403)
+hub.network             the Hub could not be reached (no network, offline mode, a timeout)
+hub.refused             the Hub answered with an error (an invalid repo id, a rejected commit, ...)
 replay                a dataset cannot be replayed (no initial state, no scene to rebuild, ...)
 executor              a parallel recording's executor is unavailable or a worker failed
 write                 writing an output failed part-way
@@ -144,9 +148,9 @@ class DatasetBusy(DatasetError):
 
     default_code = "dataset.busy"
 
-    def __init__(self, root: Path, holder: str, *, to_edit: bool = False) -> None:
-        if to_edit:
-            super().__init__(f"{root}: a writer is recording into this dataset ({holder}); edit it once it is done")
+    def __init__(self, root: Path, holder: str, *, to_edit: bool = False, verb: str = "edit") -> None:
+        if to_edit:  # the dataset is read, not written: `verb` it once the writer is done
+            super().__init__(f"{root}: a writer is recording into this dataset ({holder}); {verb} it once it is done")
         else:
             super().__init__(f"{root}: another writer holds this dataset ({holder}); wait for it or stop it")
         self.root = root
@@ -175,6 +179,12 @@ class QueryError(OpenralError):
     """DuckDB rejected a query (``--sql``, ``--by``) or a setting (``--memory-limit``)."""
 
     default_code = "query"
+
+
+class HubError(OpenralError):
+    """The Hugging Face Hub did not take a push: no token, no network, or an error answer (`code` says which)."""
+
+    default_code = "hub"
 
 
 class ReplayError(OpenralError):

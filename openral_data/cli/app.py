@@ -9,7 +9,7 @@ from typing import Annotated, Any, cast
 
 import typer
 
-from openral_data.cli import convert, inspect, record, replay, stats
+from openral_data.cli import convert, hub, inspect, record, replay, stats
 from openral_data.cli.edit import episodes_app
 from openral_data.cli.help import plain_flags
 from openral_data.cli.logs import LogFormat
@@ -84,6 +84,7 @@ app.command()(stats.stats)
 app.command()(inspect.view)
 app.command()(replay.replay)
 app.command()(inspect.doctor)
+app.command()(hub.push)
 app.add_typer(episodes_app, name="episodes")
 app.add_typer(pipeline_app, name="pipeline")
 plain_flags(app)  # after every command and sub-app: their --help shows no <bool> for flags

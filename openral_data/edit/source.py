@@ -22,12 +22,12 @@ import numpy.typing as npt
 import pyarrow as pa
 import pyarrow.compute as pc
 
-from openral_data.errors import DatasetBusy, DatasetError, EpisodeSelectionError, NotFound
+from openral_data.errors import DatasetError, EpisodeSelectionError, NotFound
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.clip import episode_clip
 from openral_data.formats.lerobot_v3.features import ACTION, IMAGE_PREFIX, STATE, build_features, data_schema
-from openral_data.formats.lerobot_v3.lock import holder
+from openral_data.formats.lerobot_v3.lock import check_settled
 from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_openral, read_tasks
 from openral_data.formats.lerobot_v3.stats import STAT_KEYS, ImageStatsAccumulator, Stats
 from openral_data.formats.lerobot_v3.video import VideoSettings
@@ -62,14 +62,7 @@ class SourceDataset:
         self.root = root
         if not root.is_dir():
             raise NotFound(f"{root}: no such dataset folder")
-        busy = holder(root)
-        if busy is not None:
-            raise DatasetBusy(root, busy, to_edit=True)
-        if (root / layout.JOURNAL_PATH).is_file():
-            raise DatasetError(
-                f"{root}: an episode commit was interrupted; run `openral-data doctor --repair` first",
-                code="dataset.interrupted",
-            )
+        check_settled(root, "edit")
         self.info = read_info(root)
         self.fps = int(self.info["fps"])
         self.features: dict[str, dict[str, Any]] = self.info["features"]

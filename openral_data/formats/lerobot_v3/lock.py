@@ -98,3 +98,16 @@ def holder(root: Path) -> str | None:
     finally:
         os.close(fd)
     return None
+
+
+def check_settled(root: Path, verb: str) -> None:
+    """Refuse, in one line, to `verb` (read and use) `root` while a writer holds it (``dataset.busy``) or while an
+    episode commit is unfinished (its journal is there: ``dataset.interrupted``, `doctor --repair` finishes it)."""
+    busy = holder(root)
+    if busy is not None:
+        raise DatasetBusy(root, busy, to_edit=True, verb=verb)
+    if os.path.lexists(root / layout.JOURNAL_PATH):
+        raise DatasetError(
+            f"{root}: an episode commit was interrupted; run `openral-data doctor --repair` first",
+            code="dataset.interrupted",
+        )

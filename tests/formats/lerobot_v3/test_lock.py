@@ -12,7 +12,7 @@ import pytest
 from openral_data.errors import DatasetError
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
-from openral_data.formats.lerobot_v3.lock import DatasetLock, holder
+from openral_data.formats.lerobot_v3.lock import DatasetLock, check_settled, holder
 
 
 def test_lock_refuses_a_symlink_and_leaves_its_target(tmp_path: Path) -> None:
@@ -55,3 +55,18 @@ def test_unwritable_dataset_is_one_line(tmp_path: Path, monkeypatch: pytest.Monk
         DatasetLock(tmp_path, "test").acquire()
     assert err.value.code == "dataset.readonly" and "\n" not in str(err.value)
     assert holder(tmp_path) is None  # a reader does not need the lock
+
+
+def test_check_settled_refuses_a_held_or_interrupted_dataset(tmp_path: Path) -> None:
+    root = tmp_path / "ds"
+    (root / ".openral").mkdir(parents=True)
+    check_settled(root, "push")  # nobody writes, nothing interrupted: no error
+    with DatasetLock(root, "record --out ds"), pytest.raises(DatasetError) as err:
+        check_settled(root, "push")
+    assert err.value.code == "dataset.busy"
+    assert str(err.value).endswith("; push it once it is done") and "record --out ds" in str(err.value)
+    check_settled(root, "push")  # released
+    (root / layout.JOURNAL_PATH).symlink_to(tmp_path / "nowhere")  # even a dangling link: a commit was under way
+    with pytest.raises(DatasetError) as err:
+        check_settled(root, "edit")
+    assert err.value.code == "dataset.interrupted" and "doctor --repair" in str(err.value)

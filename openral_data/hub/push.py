@@ -1,0 +1,135 @@
+"""`openral-data push DATASET REPO_ID`: upload a LeRobot v3 dataset to the Hugging Face Hub with a generated card.
+
+`plan_push` does everything that needs no network: it refuses a dataset a writer holds or whose commit was
+interrupted, one `doctor` finds errors in (unless `force`), selects the files (`select_files`) and writes the
+card (`dataset_card`); the plan's `operations` are exactly the `CommitOperationAdd`s the commit sends.
+`upload` sends them the way lerobot's `LeRobotDataset.push_to_hub` does: create the dataset repo (``exist_ok``),
+the branch if one is named, one commit with the files and README.md, then the codebase-version tag (``v3.0``)
+on that revision. The token is huggingface_hub's own (``HF_TOKEN``, else the cached `hf auth login`); a missing
+token, no network or an error answer from the Hub is one `HubError` line, not a traceback.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from dataclasses import dataclass
+from pathlib import Path
+
+import httpx
+from huggingface_hub import CommitOperationAdd, HfApi, get_token
+from huggingface_hub.errors import HfHubHTTPError, OfflineModeIsEnabled, RevisionNotFoundError
+
+from openral_data.doctor import check
+from openral_data.errors import DatasetError, HubError, NotFound, UsageError
+from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.lock import check_settled
+from openral_data.formats.repo_id import looks_like_repo_id
+from openral_data.hub._card import CardOptions, dataset_card
+from openral_data.hub._files import select_files
+
+CARD_PATH = "README.md"
+
+
+@dataclass(frozen=True)
+class PushOptions:
+    repo_id: str
+    private: bool | None = None  # None: the Hub's (or the organisation's) default
+    revision: str | None = None  # a branch, created from main when missing; None: main
+    include_mcap: bool = False
+    include_state: bool = False
+    force: bool = False  # push even when doctor finds errors
+    license: str = "apache-2.0"
+    citation: str | None = None
+
+
+@dataclass(frozen=True)
+class PushPlan:
+    root: Path
+    opts: PushOptions
+    files: list[str]  # dataset-relative paths, sorted; README.md is the card, not one of them
+    card: str
+
+    @property
+    def operations(self) -> list[CommitOperationAdd]:
+        """The commit's operations: every selected file from disk, then README.md (the card)."""
+        ops = [CommitOperationAdd(path_in_repo=rel, path_or_fileobj=str(self.root / rel)) for rel in self.files]
+        return [*ops, CommitOperationAdd(path_in_repo=CARD_PATH, path_or_fileobj=self.card.encode())]
+
+    def text(self) -> str:
+        """What `push --dry-run` prints: the target, the files (with sizes) and the card."""
+        size = sum((self.root / rel).stat().st_size for rel in self.files)
+        where = f"{self.opts.repo_id}" + (f" (branch {self.opts.revision})" if self.opts.revision else "")
+        lines = [
+            f"would push {self.root} to the dataset repo {where}: {len(self.files)} files ({size} bytes) + the card"
+        ]
+        lines += [f"  {rel}" for rel in self.files]
+        lines += [f"  {CARD_PATH} (generated, below)", "", self.card.rstrip("\n")]
+        return "\n".join(lines)
+
+
+@dataclass(frozen=True)
+class PushResult:
+    url: str  # the commit's URL on the Hub
+    files: int
+    tag: str
+
+
+def plan_push(root: Path, opts: PushOptions) -> PushPlan:
+    """Check `root` and prepare its push, without touching the network."""
+    if not looks_like_repo_id(opts.repo_id):
+        raise UsageError(f"REPO_ID: {opts.repo_id!r} is not a Hub repo id (owner/name)")
+    if not root.is_dir():
+        raise NotFound(f"{root}: no such dataset folder")
+    check_settled(root, "push")
+    errors = [f for f in check(root) if f.severity == "error"]
+    if errors and not opts.force:
+        raise DatasetError(
+            f"{root}: doctor finds {len(errors)} error(s) (first: {errors[0].line()}); see `openral-data doctor "
+            f"{root}`, or push anyway with --force",
+            code="dataset.invalid",
+        )
+    files = select_files(root, include_mcap=opts.include_mcap, include_state=opts.include_state)
+    card = dataset_card(root, CardOptions(opts.repo_id, opts.license, opts.citation))
+    return PushPlan(root, opts, files, card)
+
+
+def upload(plan: PushPlan) -> PushResult:
+    """Send `plan` to the Hub (see the module docstring); every Hub or network failure is one `HubError`."""
+    if get_token() is None:
+        raise HubError(
+            "no Hugging Face token: set HF_TOKEN or run `hf auth login` (a token with write access)", code="hub.auth"
+        )
+    opts = plan.opts
+    api = HfApi()
+    repo = opts.repo_id
+    try:
+        api.create_repo(repo, repo_type="dataset", private=opts.private, exist_ok=True)
+        if opts.revision:
+            api.create_branch(repo, branch=opts.revision, repo_type="dataset", exist_ok=True)
+        info = api.create_commit(
+            repo,
+            plan.operations,
+            commit_message=f"Upload {plan.root.name} with openral-data",
+            repo_type="dataset",
+            revision=opts.revision,
+        )
+        with contextlib.suppress(RevisionNotFoundError):
+            api.delete_tag(repo, tag=layout.CODEBASE_VERSION, repo_type="dataset")
+        api.create_tag(repo, tag=layout.CODEBASE_VERSION, revision=opts.revision, repo_type="dataset")
+    except OfflineModeIsEnabled:
+        raise HubError(f"{repo}: HF_HUB_OFFLINE is set; unset it to push", code="hub.network") from None
+    except HfHubHTTPError as exc:
+        message = f"{repo}: the Hub refused the push: {_one_line(exc)}"
+        if exc.response is not None and exc.response.status_code in (401, 403):
+            raise HubError(message, code="hub.auth") from None
+        raise HubError(message, code="hub.refused") from None
+    except (httpx.HTTPError, ConnectionError, TimeoutError) as exc:
+        raise HubError(f"{repo}: cannot reach the Hub: {_one_line(exc)}", code="hub.network") from None
+    except ValueError as exc:  # huggingface_hub's own refusals: the card's metadata (validated by the Hub), a repo id
+        raise HubError(f"{repo}: the Hub refused the push: {_one_line(exc)}", code="hub.refused") from None
+    return PushResult(url=str(getattr(info, "commit_url", "")), files=len(plan.files) + 1, tag=layout.CODEBASE_VERSION)
+
+
+def _one_line(exc: BaseException) -> str:
+    """The client's message on one line (it may list the Hub's reasons on several)."""
+    return " ".join(str(exc).split()) or type(exc).__name__
