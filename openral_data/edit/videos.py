@@ -154,6 +154,9 @@ def reencode(
     _check_out(out, in_place)
     settings = settings_for(codec)
     target = None if size is None else parse_size(size)
+    problem = None if target is None else settings.size_problem(target.height, target.width)
+    if problem:
+        raise UsageError(f"--size: {problem}")
     src = SourceDataset(dataset)
     keys = choose_cameras(src.features, cameras, "video", dataset)
     names = [k[len(IMAGE_PREFIX) :] for k in keys]
@@ -161,7 +164,7 @@ def reencode(
     for name, shape in shapes.items():
         problem = settings.size_problem(shape.height, shape.width)
         if problem:
-            raise UsageError(f"{'--size' if target else '--codec'}: camera {name}: {problem}")
+            raise UsageError(f"--codec: camera {name}: {problem}")
     features = dict(src.features)
     for name, shape in shapes.items():
         features[IMAGE_PREFIX + name] = _video_feature(features[IMAGE_PREFIX + name], shape, settings, src.fps)
