@@ -32,6 +32,7 @@ from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX
 from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
 from openral_data.formats.lerobot_v3.video import Codec, VideoSettings
+from openral_data.formats.staging import check_new_output
 from openral_data.types import CameraShape
 
 _SIZE = re.compile(r"([0-9]{1,5})x([0-9]{1,5})")
@@ -137,8 +138,11 @@ class _Recoder:
 
 
 def _check_out(out: Path | None, in_place: bool) -> None:
+    """Refuse the output before any decoding (`write_edit` checks it again when it starts writing)."""
     if in_place == (out is not None):
         raise UsageError("--out: give either --out DIR or --in-place")
+    if out is not None:
+        check_new_output(out)
 
 
 def reencode(
