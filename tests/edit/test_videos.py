@@ -104,7 +104,7 @@ def test_reencode_one_camera_resized_to_av1(project: Path, tmp_path: Path) -> No
     _same_except(got, want, {FRONT})
     for g, w in zip(got, want, strict=True):
         assert g[FRONT].shape == (32, 48, 3)
-        assert _mean_abs_error(g[FRONT], _resized(w[FRONT], 48, 32)) < 6.0
+        assert _mean_abs_error(g[FRONT], _resized(w[FRONT], 48, 32)) < 4.0
     # the camera statistics follow the new pixels: per episode and for the dataset (exact histograms kept)
     starts = np.cumsum([0, *[int(f) for f in (5, 9, 3, 7)]])
     for e, mean in enumerate(_episode_means(out, FRONT)):
@@ -137,7 +137,7 @@ def test_reencode_in_place_and_a_busy_dataset_is_refused(project: Path, tmp_path
     _same_except(got, want, {FRONT, WRIST})
     for g, w in zip(got, want, strict=True):
         for k in (FRONT, WRIST):
-            assert _mean_abs_error(g[k], w[k]) < 4.0
+            assert _mean_abs_error(g[k], w[k]) < 3.0
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # the old folder and staging are gone
 
 
@@ -154,7 +154,7 @@ def test_reencode_a_lerobot_dataset(tmp_path: Path) -> None:
     want, got = _frames(src), _frames(out)
     _same_except(got, want, {CAM})
     for g, w in zip(got, want, strict=True):
-        assert _mean_abs_error(g[CAM], w[CAM]) < 4.0
+        assert _mean_abs_error(g[CAM], w[CAM]) < 3.0
 
 
 def test_image_feature_becomes_a_video_camera(tmp_path: Path) -> None:
