@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -39,12 +39,14 @@ class EditResult:
 @dataclass(frozen=True)
 class Transform:
     """A change of layout the output gets instead of the source's (e.g. `edit.videos`): its schema, info.json
-    features and writer settings, and `episode`, applied to each episode on its way to the writer."""
+    features and writer settings, `episode`, applied to each episode on its way to the writer, and `details`, what
+    the change was, added to the `edit` block of `meta/openral.json`."""
 
     schema: DatasetSchema
     features: dict[str, dict[str, Any]]
     config: WriterConfig
     episode: Callable[[EpisodeData], EpisodeData]
+    details: dict[str, Any] = field(default_factory=dict)
 
 
 def check_compatible(first: SourceDataset, other: SourceDataset) -> None:
@@ -115,6 +117,8 @@ def write_selection(
             for root, eps in sources.items()
         ],
     }
+    if transform is not None:
+        provenance.update(transform.details)
     staged = Staging(out, f"openral-data {op}")
     with staged as staging:
         if transform is None:

@@ -178,7 +178,9 @@ def reencode(
     hist = _histograms(src, names)
     recoder = _Recoder(src, shapes, settings, hist, target)
     try:
-        transform = Transform(schema, features, config, recoder.episode)
+        resized = None if target is None else f"{target.width}x{target.height}"
+        details = {"codec": settings.codec, "size": resized, "cameras": keys}
+        transform = Transform(schema, features, config, recoder.episode, details)
         keep = [(src, e) for e in range(src.total)]
         return write_edit(keep, dataset, out, in_place, "reencode", image_hist=hist, transform=transform)
     finally:
@@ -219,7 +221,7 @@ def encode_images(
     hist = _histograms(src, list(shapes))
     recoder = _Recoder(src, shapes, settings, hist)
     try:
-        transform = Transform(schema, features, config, recoder.episode)
+        transform = Transform(schema, features, config, recoder.episode, {"codec": settings.codec, "cameras": keys})
         keep = [(src, e) for e in range(src.total)]
         return write_edit(keep, dataset, out, in_place, "encode-images", image_hist=hist, transform=transform)
     finally:

@@ -94,6 +94,14 @@ def test_reencode_one_camera_resized_to_av1(project: Path, tmp_path: Path) -> No
     assert front["shape"] == [32, 48, 3]
     assert front["info"]["video.codec"] == "av1" and front["info"]["video.preset"] == 12
     assert (front["info"]["video.width"], front["info"]["video.height"]) == (48, 32)
+    edit = json.loads((out / "meta/openral.json").read_text())["edit"]
+    assert {k: edit[k] for k in ("op", "codec", "size", "cameras")} == {
+        "op": "reencode",
+        "codec": "av1",
+        "size": "48x32",
+        "cameras": [FRONT],
+    }
+    assert [s["path"] for s in edit["sources"]] == [str(src.resolve())]
     assert _feature(out, WRIST) == _feature(src, WRIST)  # not chosen: untouched, packets copied
     assert _packets(out, WRIST) == _packets(src, WRIST)
     with av.open(str(next((out / "videos" / FRONT).rglob("*.mp4")))) as c:
@@ -176,6 +184,8 @@ def test_image_feature_becomes_a_video_camera(tmp_path: Path) -> None:
         "shape": [h, w, 3],
         "info": {**cam["info"], "video.height": h, "video.width": w},
     }
+    edit = json.loads((out / "meta/openral.json").read_text())["edit"]
+    assert (edit["op"], edit["codec"], edit["cameras"]) == ("encode-images", "h264", [IMAGE_CAMERA])
     assert IMAGE_CAMERA not in pq.read_schema(next((out / "data").rglob("*.parquet"))).names
     assert (out / "videos" / IMAGE_CAMERA / "chunk-000/file-000.mp4").is_file()
     rows = pq.read_table(out / "meta/episodes").to_pylist()
