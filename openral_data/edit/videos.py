@@ -27,11 +27,12 @@ from typing import Any, get_args
 from openral_data.edit.ops import EditResult, Transform, summed_histograms, write_edit
 from openral_data.edit.recode import CameraEncoders, Pixels, clip_frames, image_frames
 from openral_data.edit.source import EpisodeData, SourceDataset
-from openral_data.errors import UsageError
+from openral_data.errors import DatasetError, UsageError
 from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX
 from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
 from openral_data.formats.lerobot_v3.video import Codec, VideoSettings
+from openral_data.formats.lerobot_v3.writer import WriterConfig
 from openral_data.formats.staging import check_new_output
 from openral_data.types import CameraShape
 
@@ -162,29 +163,12 @@ def reencode(
     if problem:
         raise UsageError(f"--size: {problem}")
     src = SourceDataset(dataset)
-    keys = choose_cameras(src.features, cameras, "video", dataset)
-    names = [k[len(IMAGE_PREFIX) :] for k in keys]
+    names = [k[len(IMAGE_PREFIX) :] for k in choose_cameras(src.features, cameras, "video", dataset)]
     shapes = {name: target or src.schema.cameras[name] for name in names}
-    for name, shape in shapes.items():
-        problem = settings.size_problem(shape.height, shape.width)
-        if problem:
-            raise UsageError(f"--codec: camera {name}: {problem}")
-    features = dict(src.features)
-    for name, shape in shapes.items():
-        features[IMAGE_PREFIX + name] = _video_feature(features[IMAGE_PREFIX + name], shape, settings, src.fps)
     every = set(names) == set(src.camera_names())
     config = replace(src.writer_config(), video=settings if every else src.video)
-    schema = replace(src.schema, cameras={**src.schema.cameras, **shapes})
-    hist = _histograms(src, names)
-    recoder = _Recoder(src, shapes, settings, hist, target)
-    try:
-        resized = None if target is None else f"{target.width}x{target.height}"
-        details = {"codec": settings.codec, "size": resized, "cameras": keys}
-        transform = Transform(schema, features, config, recoder.episode, details)
-        keep = [(src, e) for e in range(src.total)]
-        return write_edit(keep, dataset, out, in_place, "reencode", image_hist=hist, transform=transform)
-    finally:
-        recoder.encoders.close()
+    resized = None if target is None else f"{target.width}x{target.height}"
+    return _recode(src, shapes, settings, config, "reencode", {"size": resized}, out, in_place, target)
 
 
 def encode_images(
@@ -204,11 +188,32 @@ def encode_images(
     shapes: dict[str, CameraShape] = {}
     for key in keys:
         shape = src.features[key].get("shape")
-        if not (
-            isinstance(shape, list) and len(shape) == 3 and shape[2] == 3 and all(isinstance(v, int) for v in shape)
-        ):
-            raise UsageError(f"--camera: {key}: shape {shape!r} is not [height, width, 3]")
+        if not (isinstance(shape, list) and len(shape) == 3 and shape[2] == 3 and all(_positive(v) for v in shape)):
+            raise DatasetError(
+                f"{dataset}/meta/info.json: features.{key}.shape: {shape!r} is not [height, width, 3]",
+                code="dataset.invalid",
+            )
         shapes[key[len(IMAGE_PREFIX) :]] = CameraShape(height=shape[0], width=shape[1])
+    config = replace(src.writer_config(), video=src.video if src.camera_names() else settings)
+    return _recode(src, shapes, settings, config, "encode-images", {}, out, in_place)
+
+
+def _positive(value: object) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 1
+
+
+def _recode(
+    src: SourceDataset,
+    shapes: dict[str, CameraShape],
+    settings: VideoSettings,
+    config: WriterConfig,
+    op: str,
+    details: dict[str, Any],
+    out: Path | None,
+    in_place: bool,
+    size: CameraShape | None = None,
+) -> EditResult:
+    """Write `src` with the cameras `shapes` names encoded with `settings` (at those sizes), through `write_edit`."""
     for name, shape in shapes.items():
         problem = settings.size_problem(shape.height, shape.width)
         if problem:
@@ -216,13 +221,13 @@ def encode_images(
     features = dict(src.features)
     for name, shape in shapes.items():
         features[IMAGE_PREFIX + name] = _video_feature(features[IMAGE_PREFIX + name], shape, settings, src.fps)
-    config = replace(src.writer_config(), video=src.video if src.camera_names() else settings)
     schema = replace(src.schema, cameras={**src.schema.cameras, **shapes})
     hist = _histograms(src, list(shapes))
-    recoder = _Recoder(src, shapes, settings, hist)
+    details = {"codec": settings.codec, **details, "cameras": [IMAGE_PREFIX + name for name in shapes]}
+    recoder = _Recoder(src, shapes, settings, hist, size)
     try:
-        transform = Transform(schema, features, config, recoder.episode, {"codec": settings.codec, "cameras": keys})
+        transform = Transform(schema, features, config, recoder.episode, details)
         keep = [(src, e) for e in range(src.total)]
-        return write_edit(keep, dataset, out, in_place, "encode-images", image_hist=hist, transform=transform)
+        return write_edit(keep, src.root, out, in_place, op, image_hist=hist, transform=transform)
     finally:
         recoder.encoders.close()
