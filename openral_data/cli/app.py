@@ -16,6 +16,7 @@ from openral_data.cli.logs import LogFormat
 from openral_data.cli.logs import configure as configure_logs
 from openral_data.cli.pipeline import pipeline_app
 from openral_data.cli.terminal import print_line
+from openral_data.cli.videos import videos_app
 from openral_data.errors import OpenralError, UsageError
 from openral_data.manifests import ENV_DIRS, Kind
 from openral_data.version import __version__
@@ -87,6 +88,7 @@ app.command()(inspect.doctor)
 app.command()(hub.push)
 app.add_typer(episodes_app, name="episodes")
 app.add_typer(pipeline_app, name="pipeline")
+app.add_typer(videos_app, name="videos")
 plain_flags(app)  # after every command and sub-app: their --help shows no <bool> for flags
 
 

@@ -1,11 +1,12 @@
 """Episode editing of LeRobot v3 datasets: `delete`, `split` and `merge` (see ops.py), `filter_episodes` and
-`split_fractions` (see select.py), each returning `EditResult`s.
+`split_fractions` (see select.py), `reencode` and `encode_images` (see videos.py), each returning `EditResult`s.
 
 Every edit writes a complete new dataset atomically through our LeRobot v3 writer (`assemble`), reading its
-episodes from the sources without re-encoding video (`source`).
+episodes from the sources without re-encoding video (`source`), except the cameras `videos` is asked to encode.
 """
 
 from openral_data.edit.ops import EditResult, delete, merge, split
 from openral_data.edit.select import filter_episodes, split_fractions
+from openral_data.edit.videos import encode_images, reencode
 
-__all__ = ["EditResult", "delete", "filter_episodes", "merge", "split", "split_fractions"]
+__all__ = ["EditResult", "delete", "encode_images", "filter_episodes", "merge", "reencode", "split", "split_fractions"]

@@ -11,17 +11,19 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from openral_data.edit.assemble import EpisodeAssembler
-from openral_data.edit.source import SourceDataset
+from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.episodes import parse_episodes
 from openral_data.errors import DatasetError, EpisodeSelectionError, UsageError
 from openral_data.formats.lerobot_v3.lock import DatasetLock
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
+from openral_data.formats.lerobot_v3.writer import WriterConfig
 from openral_data.formats.staging import Staging, check_new_output
+from openral_data.types import DatasetSchema
 
 _DATASET_ENTRIES = {"meta", "data", "videos", ".openral"}
 Selection = list[tuple[SourceDataset, int]]  # (source, episode index in it), in output order
@@ -32,6 +34,19 @@ class EditResult:
     out: Path
     episodes: int
     frames: int
+
+
+@dataclass(frozen=True)
+class Transform:
+    """A change of layout the output gets instead of the source's (e.g. `edit.videos`): its schema, info.json
+    features and writer settings, `episode`, applied to each episode on its way to the writer, and `details`, what
+    the change was, added to the `edit` block of `meta/openral.json`."""
+
+    schema: DatasetSchema
+    features: dict[str, dict[str, Any]]
+    config: WriterConfig
+    episode: Callable[[EpisodeData], EpisodeData]
+    details: dict[str, Any] = field(default_factory=dict)
 
 
 def check_compatible(first: SourceDataset, other: SourceDataset) -> None:
@@ -75,12 +90,14 @@ def write_selection(
     image_hist: dict[str, ImageStatsAccumulator] | None = None,
     before_rename: Callable[[], None] | None = None,
     out_checked: bool = False,
+    transform: Transform | None = None,
 ) -> EditResult:
     """Write the selected episodes, in order, as a new dataset at `out` (atomically, through `staging.Staging`).
 
     `before_publish(staging)` may add files beside the dataset (e.g. `mcap/`) before the whole folder appears;
     `before_rename()` runs right before the rename (`record --workers` lets go of its lock on `out` there);
-    `out_checked`: the caller checked `out` itself and holds it (its lock file is in it until `before_rename`).
+    `out_checked`: the caller checked `out` itself and holds it (its lock file is in it until `before_rename`);
+    `transform`: the output's layout and a change made to every episode (default: the source's, unchanged).
     """
     if not selection:
         raise EpisodeSelectionError(f"{out}: no episodes selected; a dataset needs at least one", code="episodes.empty")
@@ -100,14 +117,22 @@ def write_selection(
             for root, eps in sources.items()
         ],
     }
+    if transform is not None:
+        provenance.update(transform.details)
     staged = Staging(out, f"openral-data {op}")
     with staged as staging:
-        writer = EpisodeAssembler(
-            staging, first.schema, first.writer_config(), provenance, image_hist, features=first.features
-        )
+        if transform is None:
+            writer = EpisodeAssembler(
+                staging, first.schema, first.writer_config(), provenance, image_hist, features=first.features
+            )
+        else:
+            writer = EpisodeAssembler(
+                staging, transform.schema, transform.config, provenance, image_hist, features=transform.features
+            )
         try:
             for k, (src, e) in enumerate(selection):
-                writer.add(src.episode(e))
+                episode = src.episode(e)
+                writer.add(episode if transform is None else transform.episode(episode))
                 if on_episode is not None:
                     on_episode(k)
         except BaseException:
@@ -138,12 +163,21 @@ def delete(dataset: Path, episodes: str, out: Path | None, in_place: bool = Fals
     return write_edit(keep, dataset, out, in_place, "delete")
 
 
-def write_edit(keep: Selection, dataset: Path, out: Path | None, in_place: bool, op: str) -> EditResult:
-    """Write `keep` (episodes of `dataset`) to `out`, or (`in_place`) as `dataset` itself, swapped in once complete."""
+def write_edit(
+    keep: Selection,
+    dataset: Path,
+    out: Path | None,
+    in_place: bool,
+    op: str,
+    image_hist: dict[str, ImageStatsAccumulator] | None = None,
+    transform: Transform | None = None,
+) -> EditResult:
+    """Write `keep` (episodes of `dataset`) to `out`, or (`in_place`) as `dataset` itself, swapped in once complete
+    (`image_hist`, `transform`: as `write_selection` takes them)."""
     if in_place == (out is not None):
         raise UsageError("--out: give either --out DIR or --in-place")
     if out is not None:
-        return write_selection(keep, out, op)
+        return write_selection(keep, out, op, image_hist=image_hist, transform=transform)
     foreign = sorted(p.name for p in dataset.iterdir() if p.name not in _DATASET_ENTRIES)
     if foreign:
         raise UsageError(
@@ -153,7 +187,7 @@ def write_edit(keep: Selection, dataset: Path, out: Path | None, in_place: bool,
     old = dataset.parent / f".{dataset.name}.replaced-{os.getpid()}"
     staged = Staging(dataset, f"openral-data episodes {op} --in-place")
     with DatasetLock(dataset, f"episodes {op} --in-place"), staged as new:  # no recording may start meanwhile
-        result = write_selection(keep, new, op)
+        result = write_selection(keep, new, op, image_hist=image_hist, transform=transform)
         staged.replace_existing(old)  # the input stays whole (under `old`) until the new dataset took its name
     return EditResult(dataset, result.episodes, result.frames)
 

@@ -7,12 +7,14 @@ names, video cameras, outcomes), except that a camera's `info` block is kept as 
 as its stored column (`carried`). The output keeps the source's features verbatim. The dataset need not be ours: our
 `openral.*` episode columns are carried when present and never required. Without them an episode's seed is
 unknown (`None`), its initial state empty, and its success read by the rule `metrics` uses: `openral.success`,
-else whether any frame has `next.success`, else unknown.
+else whether any frame has `next.success`, else unknown. `dtype: image` features named in `images` (an operation
+that turns them into something else, `edit.videos`) are carried as their stored column instead of refused.
 """
 
 from __future__ import annotations
 
 import json
+from collections.abc import Collection
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -58,8 +60,9 @@ class EpisodeData:
 
 
 class SourceDataset:
-    def __init__(self, root: Path) -> None:
+    def __init__(self, root: Path, *, images: Collection[str] = ()) -> None:
         self.root = root
+        self.images = set(images)  # image features carried as stored (the caller converts them)
         if not root.is_dir():
             raise NotFound(f"{root}: no such dataset folder")
         check_settled(root, "edit")
@@ -74,7 +77,7 @@ class SourceDataset:
         self.video = self._video_settings()
         self.schema = self._schema()
         self._check_reproducible()
-        self._types = data_schema(self.features)
+        self._types = data_schema({k: f for k, f in self.features.items() if k not in self.images})
         self._rows = self.episodes.to_pylist()
         order = [int(r["episode_index"]) for r in self._rows]
         if order[: self.total] != list(range(self.total)):
@@ -136,7 +139,9 @@ class SourceDataset:
         if "next.done" not in self.features:
             del rebuilt["next.done"]
         where = f"{self.root}/meta/info.json: features"
-        self.carried = [k for k, f in self.features.items() if k not in rebuilt and _carriable(f)]
+        self.carried = [
+            k for k, f in self.features.items() if k not in rebuilt and (_carriable(f) or self._taken_image(k, f))
+        ]
         for key in self.features.keys() - set(self.carried) | rebuilt.keys():
             ours, theirs = dict(rebuilt.get(key) or {}), dict(self.features.get(key) or {})
             if ours.get("dtype") == "video" and theirs.get("dtype") == "video":
@@ -147,6 +152,9 @@ class SourceDataset:
                     f"{where}.{key}: not a feature layout openral-data writes; cannot edit this dataset",
                     code="dataset.unsupported",
                 )
+
+    def _taken_image(self, key: str, feature: dict[str, Any]) -> bool:
+        return key in self.images and feature.get("dtype") == "image"
 
     def image_hist(self) -> dict[str, ImageStatsAccumulator] | None:
         """The writer's dataset-level camera histograms (`.openral/image_hist.json`), if it left them."""
@@ -238,8 +246,12 @@ class SourceDataset:
             initial_state=json.loads(initial) if initial else {},
             videos=videos,
             image_stats=image_stats,
-            columns={key: data.column(key).combine_chunks().cast(self._types.field(key).type) for key in self.carried},
+            columns={key: self._stored(data, key) for key in self.carried},
         )
+
+    def _stored(self, data: pa.Table, key: str) -> pa.Array:
+        column = data.column(key).combine_chunks()
+        return column if key in self.images else column.cast(self._types.field(key).type)
 
     def _success(self, row: dict[str, Any], successes: list[bool]) -> bool | None:
         if "openral.success" in self.episodes.column_names:

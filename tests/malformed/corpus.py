@@ -423,6 +423,7 @@ READERS: dict[str, tuple[Callable[[Workspace, Path], list[str]], tuple[str, ...]
     ),
     "merge": (lambda w, d: ["episodes", "merge", str(w.ds("good")), str(d), "--out", str(w.root / "m")], ("m",)),
     "view": (lambda w, d: ["view", str(d), "--save", str(w.root / "v.rrd")], ("v.rrd",)),
+    "reencode": (lambda w, d: ["videos", "reencode", str(d), "--codec", "h264", "--out", str(w.root / "v")], ("v",)),
 }
 
 # which files each command reads (a damage elsewhere is not its business)
@@ -435,6 +436,7 @@ READS: dict[str, set[str]] = {
     "split": {"info", "episodes", "tasks", "data", "video", "openral"},
     "merge": {"info", "episodes", "tasks", "data", "video", "openral"},
     "view": {"info", "episodes", "tasks", "data", "video"},
+    "reencode": {"info", "episodes", "tasks", "data", "video", "openral"},
 }
 
 
@@ -576,7 +578,26 @@ def _replay(*extra: str) -> Callable[[Workspace], list[str]]:
     return lambda w: ["replay", str(w.ds()), "--out", str(w.root / "res"), *extra]
 
 
+def _videos(cmd: str, *extra: str) -> Callable[[Workspace], list[str]]:
+    return lambda w: ["videos", cmd, str(w.ds()), *extra, "--out", str(w.root / "v")]
+
+
 OPTIONS: list[tuple[str, Callable[[Workspace], list[str]], str, tuple[str, ...]]] = [
+    ("videos-codec-unknown", _videos("reencode", "--codec", "vp9"), r"--codec", ("v",)),
+    ("videos-size-not-wxh", _videos("reencode", "--codec", "av1", "--size", "64"), r"--size", ("v",)),
+    ("videos-size-too-small", _videos("reencode", "--codec", "av1", "--size", "16x16"), r"--size", ("v",)),
+    ("videos-size-odd", _videos("reencode", "--codec", "h264", "--size", "33x32"), r"--size", ("v",)),
+    ("videos-camera-unknown", _videos("reencode", "--codec", "av1", "--camera", "nope"), r"--camera", ("v",)),
+    (
+        "videos-camera-not-video",
+        _videos("reencode", "--codec", "av1", "--camera", "observation.state"),
+        r"--camera: observation\.state",
+        ("v",),
+    ),
+    ("videos-out-and-in-place", _videos("reencode", "--codec", "av1", "--in-place"), r"--out", ("v",)),
+    ("encode-images-codec-unknown", _videos("encode-images", "--codec", "mpeg2"), r"--codec", ("v",)),
+    ("encode-images-camera-not-image", _videos("encode-images", "--camera", "front"), r"--camera", ("v",)),
+    ("encode-images-no-image-camera", _videos("encode-images"), r"ds: has no image cameras", ("v",)),
     ("record-seed-2**70", _record("--seed", str(2**70)), r"--seed", ("o",)),
     ("record-seed-negative", _record("--seed", "-1"), r"--seed", ("o",)),
     ("record-seed-past-uint32", _record("--seed", str(2**32 - 1), "--n-episodes", "2"), r"--seed", ("o",)),
@@ -818,6 +839,8 @@ OUTPUTS: dict[str, tuple[Callable[[Workspace, str], list[str]], str]] = {
         lambda w, o: ["episodes", "split", str(w.ds()), "--fractions", "0.5,0.5", "--out-dir", o],
         "--out-dir",
     ),
+    "videos-reencode": (lambda w, o: ["videos", "reencode", str(w.ds()), "--codec", "h264", "--out", o], "--out"),
+    "videos-encode-images": (lambda w, o: ["videos", "encode-images", str(w.ds()), "--out", o], "--out"),
     "replay-out": (lambda w, o: ["replay", str(w.ds()), "--out", o], "--out"),
     "replay-record": (lambda w, o: ["replay", str(w.ds()), "--out", str(w.root / "res"), "--record", o], "--record"),
     "pipeline-workdir": (

@@ -1,0 +1,60 @@
+"""`openral-data videos reencode|encode-images`: thin typer wrappers over `edit.videos`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from openral_data import paths
+from openral_data.cli.choices import CodecChoice
+from openral_data.cli.terminal import print_line
+from openral_data.edit.ops import EditResult
+from openral_data.formats.repo_id import resolve_dataset
+
+videos_app = typer.Typer(
+    no_args_is_help=True,
+    help="Re-encode a dataset's video cameras, or turn its image features into videos (written to a new dataset).",
+)
+
+_CAMERA_HELP = "a camera to encode (feature key or the name after observation.images.); repeat; default: all"
+
+
+def _report(op: str, r: EditResult) -> None:
+    print_line(f"{op}: {r.out}  episodes {r.episodes}  frames {r.frames}")
+
+
+@videos_app.command("reencode")
+def reencode_cmd(
+    dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (ours or lerobot's)")],
+    codec: Annotated[CodecChoice, typer.Option(help="video codec of the cameras encoded")],
+    size: Annotated[str | None, typer.Option(help="resize the cameras encoded to WIDTHxHEIGHT, e.g. 320x240")] = None,
+    camera: Annotated[list[str] | None, typer.Option(help=_CAMERA_HELP)] = None,
+    out: Annotated[Path | None, typer.Option(help="new dataset folder (must not exist or be empty)")] = None,
+    in_place: Annotated[bool, typer.Option(help="replace DATASET itself (swapped in once complete)")] = False,
+) -> None:
+    """Decode DATASET's video cameras and encode them again with --codec (resized to --size); the cameras not
+    chosen are copied packet for packet."""
+    from openral_data.edit.videos import reencode
+
+    if out is not None:
+        paths.check_creatable(out, "--out")
+    _report("reencoded", reencode(resolve_dataset(dataset), codec.value, size, camera or (), out, in_place))
+
+
+@videos_app.command("encode-images")
+def encode_images_cmd(
+    dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset with dtype: image features")],
+    camera: Annotated[list[str] | None, typer.Option(help=_CAMERA_HELP)] = None,
+    codec: Annotated[CodecChoice, typer.Option(help="video codec")] = CodecChoice.av1,
+    out: Annotated[Path | None, typer.Option(help="new dataset folder (must not exist or be empty)")] = None,
+    in_place: Annotated[bool, typer.Option(help="replace DATASET itself (swapped in once complete)")] = False,
+) -> None:
+    """Turn DATASET's image features (pictures stored in the data parquet) into video cameras: their column is
+    dropped and their frames are encoded into videos/KEY/."""
+    from openral_data.edit.videos import encode_images
+
+    if out is not None:
+        paths.check_creatable(out, "--out")
+    _report("encoded", encode_images(resolve_dataset(dataset), camera or (), codec.value, out, in_place))

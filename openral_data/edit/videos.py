@@ -1,0 +1,233 @@
+"""`videos reencode` and `videos encode-images`: a dataset's cameras decoded and encoded again, written as a new
+dataset (or in place) through the editing path (`ops.write_edit`: atomic, lock-aware, episodes re-indexed as
+they are).
+
+- `reencode`: the chosen video cameras (all by default) are decoded and encoded again with `codec` (lerobot
+  0.6.1's encoder settings, `VideoSettings`), resized to `size` if given; their feature `shape` and `info`
+  block follow. The other cameras' packets are copied (the edit path's clip), not decoded.
+- `encode_images`: the chosen `dtype: image` features (all by default) become `dtype: video` cameras with the
+  feature and `info` block lerobot's `LeRobotDataset.create(use_videos=True)` writes; their parquet column is
+  dropped and their frames are encoded into `videos/KEY/chunk-*/file-*.mp4`.
+
+Camera statistics of a camera encoded here are recomputed, per episode and for the dataset, from the frames
+handed to the encoder (the decoded source frames, resized; or the decoded images), as the writer does while
+recording: the old ones describe other pixels (a resize; or a codec change, which is lossy). The dataset-level
+ones are exact (histograms) when the source kept its writer histograms for the untouched cameras, else merged
+from the episodes' statistics (`assemble`). Everything else (rows, tasks, success, other cameras) is the source's.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterator, Sequence
+from dataclasses import replace
+from pathlib import Path
+from typing import Any, get_args
+
+from openral_data.edit.ops import EditResult, Transform, summed_histograms, write_edit
+from openral_data.edit.recode import CameraEncoders, Pixels, clip_frames, image_frames
+from openral_data.edit.source import EpisodeData, SourceDataset
+from openral_data.errors import DatasetError, UsageError
+from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX
+from openral_data.formats.lerobot_v3.reader import read_info
+from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
+from openral_data.formats.lerobot_v3.video import Codec, VideoSettings
+from openral_data.formats.lerobot_v3.writer import WriterConfig
+from openral_data.formats.staging import check_new_output
+from openral_data.types import CameraShape
+
+_SIZE = re.compile(r"([0-9]{1,5})x([0-9]{1,5})")
+VIDEO_NAMES = ["height", "width", "channels"]
+
+
+def parse_size(text: str) -> CameraShape:
+    """`--size WIDTHxHEIGHT` (e.g. 640x480)."""
+    m = _SIZE.fullmatch(text.strip())
+    if m is None:
+        raise UsageError(f"--size: {text!r} is not WIDTHxHEIGHT, e.g. 640x480")
+    return CameraShape(height=int(m.group(2)), width=int(m.group(1)))
+
+
+def settings_for(codec: str) -> VideoSettings:
+    if codec not in get_args(Codec):
+        raise UsageError(f"--codec: {codec!r} is not one of {', '.join(get_args(Codec))}")
+    return VideoSettings(codec=codec)  # type: ignore[arg-type]  # checked just above
+
+
+def choose_cameras(features: dict[str, dict[str, Any]], cameras: Sequence[str], dtype: str, dataset: Path) -> list[str]:
+    """The feature keys of the `dtype` cameras named by `--camera` (a key or the name after `observation.images.`),
+    or all of them when none is named."""
+    if not cameras:
+        keys = [k for k, f in features.items() if f.get("dtype") == dtype]
+        if not keys:
+            raise UsageError(f"{dataset}: has no {dtype} cameras (features of dtype {dtype})")
+    else:
+        keys = []
+        for name in cameras:
+            key = name if name in features else IMAGE_PREFIX + name
+            if key not in features:
+                known = ", ".join(k for k, f in features.items() if f.get("dtype") == dtype) or "none"
+                raise UsageError(f"--camera: {name!r} is not a feature of {dataset} ({dtype} cameras: {known})")
+            found = features[key].get("dtype")
+            if found != dtype:
+                raise UsageError(f"--camera: {key} is a {found} feature, not a {dtype} camera")
+            if key not in keys:
+                keys.append(key)
+    for key in keys:
+        if not key.startswith(IMAGE_PREFIX):
+            raise UsageError(f"--camera: {key}: only cameras named {IMAGE_PREFIX}NAME can be (re-)encoded")
+    return keys
+
+
+def _video_feature(old: dict[str, Any], shape: CameraShape, settings: VideoSettings, fps: int) -> dict[str, Any]:
+    info = old.get("info") if old.get("dtype") == "video" else None
+    return {
+        "dtype": "video",
+        "shape": [shape.height, shape.width, 3],
+        "names": old.get("names") or VIDEO_NAMES,
+        # keys the source added to a video's info (e.g. intrinsics) stay; the encoding's own keys are new
+        "info": {**(info if isinstance(info, dict) else {}), **settings.feature_info(shape.height, shape.width, fps)},
+    }
+
+
+def _histograms(src: SourceDataset, encoded: Sequence[str]) -> dict[str, ImageStatsAccumulator] | None:
+    """The output's dataset-level histograms, when exact ones are possible: the source's for the cameras copied,
+    fresh ones (filled as episodes are encoded) for the cameras encoded here."""
+    kept = [name for name in src.camera_names() if name not in encoded]
+    base = summed_histograms([src]) if kept else {}
+    if base is None:
+        return None
+    hist = {name: base[name] for name in kept}
+    hist.update({name: ImageStatsAccumulator() for name in encoded})
+    return hist
+
+
+class _Recoder:
+    """The per-episode step of both operations: encode the chosen cameras, keep the rest of the episode."""
+
+    def __init__(
+        self,
+        src: SourceDataset,
+        shapes: dict[str, CameraShape],
+        settings: VideoSettings,
+        hist: dict[str, ImageStatsAccumulator] | None,
+        size: CameraShape | None = None,
+    ) -> None:
+        self.src, self.shapes, self.hist, self.size = src, shapes, hist, size
+        self.encoders = CameraEncoders(shapes, settings, src.fps)
+
+    def episode(self, ep: EpisodeData) -> EpisodeData:
+        where = f"{self.src.root}: episode {ep.index}"
+        columns = dict(ep.columns)
+        frames = {name: self._frames(ep, columns, name, where) for name in self.shapes}
+        encoded = self.encoders.encode(frames, ep.length, where)
+        if self.hist is not None:
+            for name, enc in encoded.items():
+                self.hist[name].merge(enc.stats)
+        return replace(
+            ep,
+            videos={**ep.videos, **{name: enc.data for name, enc in encoded.items()}},
+            image_stats={**ep.image_stats, **{name: enc.stats.stats() for name, enc in encoded.items()}},
+            columns=columns,
+        )
+
+    def _frames(self, ep: EpisodeData, columns: dict[str, Any], name: str, where: str) -> Iterator[Pixels]:
+        key = IMAGE_PREFIX + name
+        if key in columns:  # an image feature becoming a video: its column goes
+            return image_frames(columns.pop(key), f"{where}: {key}")
+        return clip_frames(ep.videos[name], f"{where}: {key}", self.size)
+
+
+def _check_out(out: Path | None, in_place: bool) -> None:
+    """Refuse the output before any decoding (`write_edit` checks it again when it starts writing)."""
+    if in_place == (out is not None):
+        raise UsageError("--out: give either --out DIR or --in-place")
+    if out is not None:
+        check_new_output(out)
+
+
+def reencode(
+    dataset: Path,
+    codec: str,
+    size: str | None = None,
+    cameras: Sequence[str] = (),
+    out: Path | None = None,
+    in_place: bool = False,
+) -> EditResult:
+    """Decode and encode again the chosen video cameras of `dataset` (all by default) with `codec`, resized to
+    `size` (WIDTHxHEIGHT) if given; the other cameras' packets are copied."""
+    _check_out(out, in_place)
+    settings = settings_for(codec)
+    target = None if size is None else parse_size(size)
+    problem = None if target is None else settings.size_problem(target.height, target.width)
+    if problem:
+        raise UsageError(f"--size: {problem}")
+    src = SourceDataset(dataset)
+    names = [k[len(IMAGE_PREFIX) :] for k in choose_cameras(src.features, cameras, "video", dataset)]
+    shapes = {name: target or src.schema.cameras[name] for name in names}
+    every = set(names) == set(src.camera_names())
+    config = replace(src.writer_config(), video=settings if every else src.video)
+    resized = None if target is None else f"{target.width}x{target.height}"
+    return _recode(src, shapes, settings, config, "reencode", {"size": resized}, out, in_place, target)
+
+
+def encode_images(
+    dataset: Path,
+    cameras: Sequence[str] = (),
+    codec: str = "av1",
+    out: Path | None = None,
+    in_place: bool = False,
+) -> EditResult:
+    """Turn the chosen `dtype: image` features of `dataset` (all by default) into video cameras encoded with
+    `codec`; every other column and camera is the source's."""
+    _check_out(out, in_place)
+    settings = settings_for(codec)
+    # (a missing folder is SourceDataset's to report)
+    keys = choose_cameras(read_info(dataset)["features"], cameras, "image", dataset) if dataset.is_dir() else []
+    src = SourceDataset(dataset, images=keys)  # refuses what it cannot edit (a busy dataset, image cameras left)
+    shapes: dict[str, CameraShape] = {}
+    for key in keys:
+        shape = src.features[key].get("shape")
+        if not (isinstance(shape, list) and len(shape) == 3 and shape[2] == 3 and all(_positive(v) for v in shape)):
+            raise DatasetError(
+                f"{dataset}/meta/info.json: features.{key}.shape: {shape!r} is not [height, width, 3]",
+                code="dataset.invalid",
+            )
+        shapes[key[len(IMAGE_PREFIX) :]] = CameraShape(height=shape[0], width=shape[1])
+    config = replace(src.writer_config(), video=src.video if src.camera_names() else settings)
+    return _recode(src, shapes, settings, config, "encode-images", {}, out, in_place)
+
+
+def _positive(value: object) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 1
+
+
+def _recode(
+    src: SourceDataset,
+    shapes: dict[str, CameraShape],
+    settings: VideoSettings,
+    config: WriterConfig,
+    op: str,
+    details: dict[str, Any],
+    out: Path | None,
+    in_place: bool,
+    size: CameraShape | None = None,
+) -> EditResult:
+    """Write `src` with the cameras `shapes` names encoded with `settings` (at those sizes), through `write_edit`."""
+    for name, shape in shapes.items():
+        problem = settings.size_problem(shape.height, shape.width)
+        if problem:
+            raise UsageError(f"--codec: camera {name}: {problem}")
+    features = dict(src.features)
+    for name, shape in shapes.items():
+        features[IMAGE_PREFIX + name] = _video_feature(features[IMAGE_PREFIX + name], shape, settings, src.fps)
+    schema = replace(src.schema, cameras={**src.schema.cameras, **shapes})
+    hist = _histograms(src, list(shapes))
+    details = {"codec": settings.codec, **details, "cameras": [IMAGE_PREFIX + name for name in shapes]}
+    recoder = _Recoder(src, shapes, settings, hist, size)
+    try:
+        transform = Transform(schema, features, config, recoder.episode, details)
+        keep = [(src, e) for e in range(src.total)]
+        return write_edit(keep, src.root, out, in_place, op, image_hist=hist, transform=transform)
+    finally:
+        recoder.encoders.close()
