@@ -10,9 +10,12 @@ import json
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+import pyarrow.parquet as pq
 import pytest
 
 from openral_data.doctor import check
+from openral_data.formats.lerobot_v3.reader import read_episodes
 from tests.support import layout_bags as lb
 from tests.support.cli import run_cli
 from tests.support.scenes import write_yaml
@@ -66,6 +69,26 @@ SPLIT: dict[str, Any] = {
 }
 
 
+# JointState and Float64MultiArray parts in one vector: the arm's measured velocity + the gripper's command
+MIXED: dict[str, Any] = {
+    **SPLIT,
+    "action": {
+        "parts": [
+            {"topic": "/arm/joint_states", "field": "velocity", "joints": ["j1", "j2", "j3"],
+             "names": ["dq1", "dq2", "dq3"]},
+            {"topic": "/gripper/cmd", "field": "data", "names": ["grip"]},
+        ]
+    },
+}  # fmt: skip
+NAMES = {
+    "split": (
+        ["j1", "j2", "j3", "finger"],
+        ["arm/cmd.data[0]", "arm/cmd.data[1]", "arm/cmd.data[2]", "grip"],  # a part without names: as before
+    ),
+    "mixed": (["j1", "j2", "j3", "finger"], ["dq1", "dq2", "dq3", "grip"]),
+}
+
+
 def _convert(tmp_path: Path, bag: Path, mapping: dict[str, Any]) -> dict[str, Any]:
     out = tmp_path / "ds"
     proc = run_cli("convert", str(bag), str(out), "--mapping", str(write_yaml(tmp_path / "m.yaml", mapping)),
@@ -93,7 +116,8 @@ def _check_against_source(root: Path, samples: list[lb.Sample], mapping: dict[st
         ns = t0 + (starts[int(item["episode_index"])] + int(item["frame_index"])) * PERIOD_NS
         for key, feature in (("state", "observation.state"), ("action", "action")):
             want = [v for part in _parts(mapping[key]) for v in lb.part_values(samples, part, ns)]
-            assert item[feature].numpy().tolist() == want, (key, i, ns)
+            got = np.atleast_1d(item[feature].numpy()).tolist()  # lerobot gives a width-1 vector as a scalar
+            assert got == want, (key, i, ns)
     assert check(root) == []  # doctor: healthy
     return len(ds)
 
@@ -119,21 +143,19 @@ def test_franka_joint_states_in_several_roles(tmp_path: Path, mapping: dict[str,
 
 
 @pytest.mark.parametrize("kind", list(lb.WRITERS))
-def test_arm_and_gripper_topics_concatenated(tmp_path: Path, kind: str) -> None:
+@pytest.mark.parametrize("layout", list(NAMES))
+def test_arm_and_gripper_topics_concatenated(tmp_path: Path, kind: str, layout: str) -> None:
     samples = lb.split()
     bag = lb.WRITERS[kind](tmp_path, samples)
-    doc = _convert(tmp_path, bag, SPLIT)
-    assert _check_against_source(tmp_path / "ds", samples, SPLIT, [0]) == 10
-    assert _names(tmp_path / "ds") == (
-        ["j1", "j2", "j3", "finger"],
-        ["arm/cmd.data[0]", "arm/cmd.data[1]", "arm/cmd.data[2]", "grip"],  # a part without names: as before
+    mapping = SPLIT if layout == "split" else MIXED
+    doc = _convert(tmp_path, bag, mapping)
+    assert _check_against_source(tmp_path / "ds", samples, mapping, [0]) == 10
+    assert _names(tmp_path / "ds") == NAMES[layout]
+    counts = {"/arm/joint_states": 50, "/gripper/joint_states": 31, "/arm/cmd": 20, "/gripper/cmd": 10}
+    assert {t: r["messages"] for t, r in doc["topics"].items()} == {t: counts[t] for t in doc["topics"]}
+    assert list(doc["topics"]) == list(
+        dict.fromkeys(p["topic"] for k in ("state", "action") for p in _parts(mapping[k]))
     )
-    assert {t: r["messages"] for t, r in doc["topics"].items()} == {
-        "/arm/joint_states": 50,
-        "/gripper/joint_states": 31,
-        "/arm/cmd": 20,
-        "/gripper/cmd": 10,
-    }
 
 
 def test_each_part_aligns_on_its_own(tmp_path: Path) -> None:
@@ -156,3 +178,47 @@ def test_each_part_aligns_on_its_own(tmp_path: Path) -> None:
     }
     assert [e["length"] for e in doc["episode_list"]] == [5, 2]
     assert _check_against_source(tmp_path / "ds", samples, SPLIT, [0, 8]) == 7
+
+
+STATUS = "robot_msgs/msg/Status"
+
+
+def _status_bag(path: Path) -> list[lb.Sample]:
+    """A robot's own status message (a custom type, its definition in the bag) carrying everything at 50 Hz."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    store.register(get_types_from_msg("float64[] position\nfloat64[] velocity\nfloat64 reward\nbool success\n", STATUS))
+    samples = [
+        lb.Sample("/status", lb.BASE + k * 20 * lb.MS, {"position": [k * 0.5, -k * 1.0], "velocity": [k + 0.25],
+                                                         "reward": k * 0.125, "success": k >= 30})
+        for k in range(50)
+    ]  # fmt: skip
+    with Writer(path, version=8, storage_plugin=StoragePlugin.MCAP) as writer:
+        conn = writer.add_connection("/status", STATUS, typestore=store)
+        for s in samples:
+            msg = store.types[STATUS](**{k: np.asarray(v) if isinstance(v, list) else v for k, v in s.fields.items()})
+            writer.write(conn, s.ns, store.serialize_cdr(msg, STATUS))
+    return samples
+
+
+def test_every_role_from_one_status_topic(tmp_path: Path) -> None:
+    """state, action, reward and success all read their own field of one topic's messages."""
+    samples = _status_bag(tmp_path / "status")
+    mapping = {
+        "fps": FPS,
+        "task": "pick",
+        "state": {"topic": "/status", "field": "position", "names": ["x", "y"]},
+        "action": {"topic": "/status", "field": "velocity", "names": ["v"]},
+        "reward": {"topic": "/status", "field": "reward"},
+        "success": {"topic": "/status", "field": "success"},
+    }
+    doc = _convert(tmp_path, tmp_path / "status", mapping)
+    assert doc["topics"]["/status"]["messages"] == 50 and doc["reward_topic"] == doc["success_topic"] == "/status"
+    assert _check_against_source(tmp_path / "ds", samples, mapping, [0]) == 10
+    frames = pq.read_table(tmp_path / "ds" / "data").sort_by("index")
+    at = [lb.latest(samples, "/status", lb.BASE + i * PERIOD_NS).fields for i in range(10)]
+    assert frames.column("next.reward").to_pylist() == [f["reward"] for f in at]
+    assert frames.column("next.success").to_pylist() == [f["success"] for f in at] == [False] * 6 + [True] * 4
+    assert read_episodes(tmp_path / "ds").column("openral.success").to_pylist() == [True]
