@@ -92,7 +92,7 @@ class Vector(StrictModel):
     vectors are concatenated in the listed order (each aligned on its own)."""
 
     topic: str | None = Field(default=None, min_length=1)
-    field: str = "position"
+    field: str | None = None  # the single-source form's field; default "position"
     joints: list[str] | None = None
     names: list[str] | None = None
     parts: list[VectorSource] | None = None
@@ -102,9 +102,9 @@ class Vector(StrictModel):
         if self.parts is None:
             if self.topic is None:
                 raise ValueError("needs topic (one source) or parts (several, concatenated in order)")
-            _check_names(self.field, self.joints, self.names)
+            _check_names(self.field or "position", self.joints, self.names)
             return self
-        beside = [k for k in ("topic", "field", "joints", "names") if k in self.model_fields_set]
+        beside = [k for k in ("topic", "field", "joints", "names") if getattr(self, k) is not None]
         if beside:
             raise ValueError(f"{', '.join(beside)} beside parts: give each part its own topic, field, joints, names")
         if not self.parts:
@@ -126,7 +126,7 @@ class Vector(StrictModel):
         if self.parts is not None:
             return list(self.parts)
         assert self.topic is not None
-        return [VectorSource(topic=self.topic, field=self.field, joints=self.joints, names=self.names)]
+        return [VectorSource(topic=self.topic, field=self.field or "position", joints=self.joints, names=self.names)]
 
     def labels(self) -> list[str]:
         """Where each part is in the mapping, for messages: `parts[i]`, or "" for the single-source form."""
