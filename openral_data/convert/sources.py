@@ -23,7 +23,7 @@ from rosbags.typesys import Stores, get_typestore
 
 from openral_data.errors import BagError, NotFound
 from openral_data.formats.mcap.messages import DEPTH_ENCODINGS, RGB_ENCODINGS
-from openral_data.schemas.mapping import VectorSource
+from openral_data.schemas.mapping import Vector, VectorSource
 
 
 def is_bag(path: Path) -> bool:
@@ -150,46 +150,75 @@ def field_value(msg: Any, path: str, where: str) -> Any:
 
 
 class VectorReader:
-    """Turns one topic's messages into float32 vectors as the mapping says."""
+    """Turns one topic's messages into float32 vectors as one part of a mapped state or action says.
 
-    def __init__(self, source: VectorSource, what: str) -> None:
+    `label` is where the part is in the mapping (`state`, `action.parts[1]`); errors name the bag, the label, the
+    topic and the field. The width is fixed by the first message (or by `joints`): a later message of another
+    width is an error, never padded or cut."""
+
+    def __init__(self, source: VectorSource, label: str) -> None:
         self.source = source
-        self.where = f"mapping: {what} ({source.topic}.{source.field})"
+        self.label = f"mapping: {label} ({source.topic}.{source.field})"
         self.dim: int | None = len(source.joints) if source.joints else None
         self._index_cache: tuple[tuple[str, ...], list[int]] | None = None
 
-    def __call__(self, msg: Any) -> npt.NDArray[np.float32]:
-        raw = field_value(msg, self.source.field, self.where)
+    def __call__(self, msg: Any, bag: Path) -> npt.NDArray[np.float32]:
+        where = f"{bag}: {self.label}"
+        raw = field_value(msg, self.source.field, where)
         try:
             values: npt.NDArray[np.float64] = np.asarray(raw, dtype=np.float64).reshape(-1)
         except (TypeError, ValueError):
-            raise BagError(f"{self.where}: field is {type(raw).__name__}, not numbers", code="bag.field") from None
+            kind = getattr(raw, "__msgtype__", None)
+            what = f"a {kind} message" if isinstance(kind, str) else type(raw).__name__
+            raise BagError(f"{where}: field is {what}, not numbers", code="bag.field") from None
         if self.source.joints is not None:
-            names = tuple(str(n) for n in field_value(msg, "name", self.where))
+            names = tuple(str(n) for n in field_value(msg, "name", where))
             if self._index_cache is None or self._index_cache[0] != names:
                 missing = [j for j in self.source.joints if j not in names]
                 if missing:
                     raise BagError(
-                        f"{self.where}: joints {missing} not in the message's names {list(names)}", code="bag.field"
+                        f"{where}: joints {missing} not in the message's names {list(names)}", code="bag.field"
                     )
                 self._index_cache = (names, [names.index(j) for j in self.source.joints])
             idx = self._index_cache[1]
             if len(values) < len(names):
-                raise BagError(f"{self.where}: {len(values)} values for {len(names)} joint names", code="bag.field")
+                raise BagError(f"{where}: {len(values)} values for {len(names)} joint names", code="bag.field")
             values = np.asarray(values[idx])
         if self.dim is None:
+            if not len(values):
+                raise BagError(f"{where}: the field is empty (no values to map)", code="bag.field")
+            if self.source.names is not None and len(self.source.names) != len(values):
+                raise BagError(
+                    f"{where}: names has {len(self.source.names)} entries for {len(values)} values", code="bag.field"
+                )
             self.dim = len(values)
         elif len(values) != self.dim:
-            raise BagError(f"{self.where}: vector length changed from {self.dim} to {len(values)}", code="bag.field")
+            raise BagError(f"{where}: vector length changed from {self.dim} to {len(values)}", code="bag.field")
         return values.astype(np.float32)
 
     def names(self) -> list[str]:
-        if self.source.names is not None:
-            if self.dim is not None and len(self.source.names) != self.dim:
-                raise BagError(
-                    f"{self.where}: names has {len(self.source.names)} entries for {self.dim} values", code="bag.field"
-                )
-            return list(self.source.names)
-        if self.source.joints is not None:
-            return list(self.source.joints)
+        """The part's dimension names: `names`, else `joints`, else `<topic>.<field>[i]`."""
+        fixed = self.source.fixed_names()
+        if fixed is not None:
+            return list(fixed)
         return [f"{self.source.topic.strip('/')}.{self.source.field}[{i}]" for i in range(self.dim or 0)]
+
+
+class VectorParts:
+    """A mapped state or action: its parts' readers, in order; the vector is their concatenation."""
+
+    def __init__(self, role: str, vector: Vector) -> None:
+        self.role = role
+        pairs = zip(vector.sources(), vector.labels(), strict=True)
+        self.readers = [VectorReader(part, f"{role}.{label}" if label else role) for part, label in pairs]
+
+    def names(self) -> list[str]:
+        """Every dimension's name, in order (the parts' names concatenated); a name given twice is an error."""
+        out: list[str] = []
+        for reader in self.readers:
+            for name in reader.names():
+                if name in out:
+                    raise BagError(f"{reader.label}: dimension name {name!r} is used twice in {self.role}",
+                                   code="bag.field")  # fmt: skip
+                out.append(name)
+        return out

@@ -25,6 +25,7 @@ from rosbags.interfaces import Connection
 
 from openral_data.convert.align import AlignedFrame, Aligner
 from openral_data.convert.sources import (
+    VectorParts,
     VectorReader,
     check_camera,
     check_image,
@@ -120,15 +121,24 @@ class _Converter:
         self.dst = dst
         self.codec: Codec = codec
         self.summary = summary
-        self.state = VectorReader(mapping.state, "state")
-        self.action = VectorReader(mapping.action, "action")
-        self.streams = [STATE, ACTION, *mapping.cameras]
-        self.topic_stream = {mapping.state.topic: STATE, mapping.action.topic: ACTION}
-        self.topic_stream.update({topic: name for name, topic in mapping.cameras.items()})
+        self.state = VectorParts(STATE, mapping.state)
+        self.action = VectorParts(ACTION, mapping.action)
+        # one aligned stream per vector part, camera and reward; a topic may feed several streams (state and
+        # action from one JointState, each its own field): its messages are pushed to each of them
+        self.vector_streams: dict[str, list[str]] = {}  # role -> its parts' streams, in order
+        self.readers: dict[str, VectorReader] = {}  # vector stream -> its part's reader
+        self.topic_streams: dict[str, list[str]] = {}
+        for role, parts in ((STATE, self.state), (ACTION, self.action)):
+            for i, reader in enumerate(parts.readers):
+                stream = f"{role}.{i}"
+                self.vector_streams.setdefault(role, []).append(stream)
+                self.readers[stream] = reader
+                self.topic_streams.setdefault(reader.source.topic, []).append(stream)
+        for name, topic in mapping.cameras.items():
+            self.topic_streams.setdefault(topic, []).append(name)
         if mapping.reward is not None:
-            self.streams.append(REWARD)
-            self.topic_stream[mapping.reward.topic] = REWARD
-        self.stream_topic = {s: t for t, s in self.topic_stream.items()}
+            self.topic_streams.setdefault(mapping.reward.topic, []).append(REWARD)
+        self.streams = [s for streams in self.topic_streams.values() for s in streams]
         self.bridge: DatasetBridge | None = None
         self.writer: LeRobotV3Writer | None = None
         self.camera_shapes: dict[str, CameraShape] = {}
@@ -161,9 +171,12 @@ class _Converter:
         self.successes = []  # a source episode's success starts unknown: never the previous episode's verdict
 
     def collect(self, aligner: Aligner[Any]) -> None:
+        """Add a source episode's alignment stats to the per-topic report. The streams of one topic see the same
+        samples at the same times under the same rule, so its first stream's stats are the topic's."""
         st = aligner.stats
-        for s in self.streams:
-            rep = self.summary.topics[self.stream_topic[s]]
+        for topic, streams in self.topic_streams.items():
+            s = streams[0]
+            rep = self.summary.topics[topic]
             rep.messages += st.received.get(s, 0)
             rep.unused += st.unused.get(s, 0)
             rep.used += st.received.get(s, 0) - st.unused.get(s, 0)
@@ -213,11 +226,17 @@ class _Converter:
             return None if cut else end_success
         return self.success_at(pending.frame.time_ns)
 
+    def vector(self, samples: dict[str, Any], role: str) -> npt.NDArray[np.float32]:
+        """The role's vector of a frame: its parts' samples concatenated in the mapping's order."""
+        parts = [samples[s] for s in self.vector_streams[role]]
+        return parts[0] if len(parts) == 1 else np.concatenate(parts)
+
     def emit(self, pending: _Pending, *, done: bool, success: bool) -> None:
         samples = pending.frame.samples
         assert samples is not None
         images = {name: samples[name].decode() for name in self.mapping.cameras}
-        bridge = self.ensure_writer(images, samples[STATE], samples[ACTION])
+        state, action = self.vector(samples, STATE), self.vector(samples, ACTION)
+        bridge = self.ensure_writer(images)
         if not self.open:
             if self.segment_frames:  # this source episode already produced an episode: a hole split it
                 self.summary.splits += 1
@@ -226,13 +245,13 @@ class _Converter:
             self.segment_start = pending.frame.time_ns
         obs = Observation(
             images=images,
-            state=samples[STATE],
+            state=state,
             task=pending.task,
             time=(pending.frame.time_ns - self.segment_start) / 1e9,
         )
         # without a reward source the schema has no reward column and the writer ignores this value
         reward = float(samples[REWARD]) if REWARD in samples else 0.0
-        bridge.add_step(obs, samples[ACTION], reward=reward, done=done, success=success)
+        bridge.add_step(obs, action, reward=reward, done=done, success=success)
         self.segment_frames += 1
 
     def close_segment(self, end_success: bool | None, *, cut: bool) -> None:
@@ -248,12 +267,7 @@ class _Converter:
             self.summary.frames += records[0].length
             self.open = False
 
-    def ensure_writer(
-        self,
-        images: dict[str, npt.NDArray[np.uint8]],
-        state: npt.NDArray[np.float32],
-        action: npt.NDArray[np.float32],
-    ) -> DatasetBridge:
+    def ensure_writer(self, images: dict[str, npt.NDArray[np.uint8]]) -> DatasetBridge:
         if self.bridge is not None:
             return self.bridge
         schema = DatasetSchema(
@@ -379,8 +393,9 @@ def _convert_bag(bag: Path, conv: _Converter, wanted: list[str], extra: list[str
                 conv.tasks.append((ns, str(msg.get().data)))
                 continue
             if topic == mapping.success_topic:
-                conv.successes.append((ns, _bool_value(msg.get(), mapping)))
-                continue
+                conv.successes.append((ns, _bool_value(msg.get(), mapping, bag)))
+                if topic not in conv.topic_streams:
+                    continue  # else the same messages also carry aligned fields (reward, state, ...)
             if (
                 split.split == "gap"
                 and last_ns is not None
@@ -390,17 +405,16 @@ def _convert_bag(bag: Path, conv: _Converter, wanted: list[str], extra: list[str
                 conv.finish_source_episode(aligner, success)
                 aligner, success = conv.new_aligner(), None
             last_ns = ns
-            stream = conv.topic_stream[topic]
-            if stream == STATE:
-                payload: Any = conv.state(msg.get())
-            elif stream == ACTION:
-                payload = conv.action(msg.get())
-            elif stream == REWARD:
-                payload = _reward_value(msg.get(), mapping)
-            else:
-                payload = msg  # images stay serialised until a frame uses them
-            for frame in aligner.push(stream, ns, payload):
-                conv.take(frame)
+            for stream in conv.topic_streams[topic]:
+                part = conv.readers.get(stream)
+                if part is not None:
+                    payload: Any = part(msg.get(), bag)
+                elif stream == REWARD:
+                    payload = _reward_value(msg.get(), mapping, bag)
+                else:
+                    payload = msg  # images stay serialised until a frame uses them
+                for frame in aligner.push(stream, ns, payload):
+                    conv.take(frame)
         conv.finish_source_episode(aligner, success)
     finally:
         reader.close()
@@ -472,9 +486,9 @@ def _header_stamp(msg: Any, log_ns: int, topic: str, summary: ConvertSummary) ->
     return ns
 
 
-def _reward_value(msg: Any, mapping: Mapping) -> float:
+def _reward_value(msg: Any, mapping: Mapping, bag: Path) -> float:
     assert mapping.reward is not None
-    where = f"mapping: reward ({mapping.reward.topic}.{mapping.reward.field})"
+    where = f"{bag}: mapping: reward ({mapping.reward.topic}.{mapping.reward.field})"
     raw = field_value(msg, mapping.reward.field, where)
     if isinstance(raw, bool) or not isinstance(raw, (int, float, np.integer, np.floating)):
         raise BagError(f"{where}: field is {type(raw).__name__}, not a number", code="bag.field")
@@ -484,9 +498,9 @@ def _reward_value(msg: Any, mapping: Mapping) -> float:
     return value
 
 
-def _bool_value(msg: Any, mapping: Mapping) -> bool:
+def _bool_value(msg: Any, mapping: Mapping, bag: Path) -> bool:
     assert mapping.success is not None and mapping.success.topic is not None
-    where = f"mapping: success ({mapping.success.topic}.{mapping.success.field})"
+    where = f"{bag}: mapping: success ({mapping.success.topic}.{mapping.success.field})"
     raw = field_value(msg, mapping.success.field, where)
     if not isinstance(raw, (bool, np.bool_)):
         raise BagError(f"{where}: field is {type(raw).__name__}, not a bool", code="bag.field")

@@ -13,6 +13,14 @@ action:                       # -> action
   topic: /cmd
   field: data
   names: [x, y, z]            # names of the dims (default: joints, or <topic>.<field>[i])
+# state / action may instead be `parts`: several sources concatenated in this order, each aligned on its own
+# (a frame is fillable only if every part is), each with its own names (default as above, per part):
+# state:
+#   parts:
+#     - {topic: /arm/joint_states, field: position, joints: [j1, j2, j3]}
+#     - {topic: /gripper/joint_states, field: position, names: [finger]}
+# Roles may share a topic (state = position, action = velocity of one JointState; reward and success other
+# fields of it): each reads its own field of the same messages. A camera topic is only a camera.
 cameras:                      # camera name -> sensor_msgs Image or CompressedImage topic
   front: /camera/front/image/compressed
 reward:                       # optional -> next.reward; aligned like state (a missing reward makes the
@@ -51,8 +59,18 @@ _FIELD = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
 _CAMERA = re.compile(r"^[A-Za-z0-9_]+$")
 
 
+def _check_names(field: str, joints: list[str] | None, names: list[str] | None) -> None:
+    if not _FIELD.match(field):
+        raise ValueError(f"field {field!r} is not a dotted field path")
+    for key, values in (("joints", joints), ("names", names)):
+        if values is not None and (not values or len(set(values)) != len(values)):
+            raise ValueError(f"{key} must be a non-empty list of unique names")
+    if joints is not None and names is not None and len(joints) != len(names):
+        raise ValueError(f"names has {len(names)} entries but joints has {len(joints)}")
+
+
 class VectorSource(StrictModel):
-    """A float vector read from one field of the messages on one topic."""
+    """A float vector read from one field of the messages on one topic (one part of a state or action)."""
 
     topic: str = Field(min_length=1)
     field: str = "position"
@@ -61,15 +79,58 @@ class VectorSource(StrictModel):
 
     @model_validator(mode="after")
     def _check(self) -> VectorSource:
-        if not _FIELD.match(self.field):
-            raise ValueError(f"field {self.field!r} is not a dotted field path")
-        for key in ("joints", "names"):
-            values = getattr(self, key)
-            if values is not None and (not values or len(set(values)) != len(values)):
-                raise ValueError(f"{key} must be a non-empty list of unique names")
-        if self.joints is not None and self.names is not None and len(self.joints) != len(self.names):
-            raise ValueError(f"names has {len(self.names)} entries but joints has {len(self.joints)}")
+        _check_names(self.field, self.joints, self.names)
         return self
+
+    def fixed_names(self) -> list[str] | None:
+        """The dimension names the mapping fixes (names, else joints); None: named after the topic and field."""
+        return self.names if self.names is not None else self.joints
+
+
+class Vector(StrictModel):
+    """state / action: one source (`topic`, `field`, `joints`, `names`), or `parts`: several sources whose
+    vectors are concatenated in the listed order (each aligned on its own)."""
+
+    topic: str | None = Field(default=None, min_length=1)
+    field: str | None = None  # the single-source form's field; default "position"
+    joints: list[str] | None = None
+    names: list[str] | None = None
+    parts: list[VectorSource] | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> Vector:
+        if self.parts is None:
+            if self.topic is None:
+                raise ValueError("needs topic (one source) or parts (several, concatenated in order)")
+            _check_names(self.field or "position", self.joints, self.names)
+            return self
+        beside = [k for k in ("topic", "field", "joints", "names") if getattr(self, k) is not None]
+        if beside:
+            raise ValueError(f"{', '.join(beside)} beside parts: give each part its own topic, field, joints, names")
+        if not self.parts:
+            raise ValueError("parts must be a non-empty list")
+        seen: dict[str, int] = {}
+        for i, part in enumerate(self.parts):
+            # a part without names is named <topic>.<field>[k]: two such parts of one topic and field collide
+            for name in part.fixed_names() or [f"{part.topic}.{part.field}"]:
+                if name in seen:
+                    raise ValueError(
+                        f"parts[{seen[name]}] and parts[{i}] both name a dimension {name!r} (give each part "
+                        "its own names)"
+                    )
+                seen[name] = i
+        return self
+
+    def sources(self) -> list[VectorSource]:
+        """The parts in order (one for the single-source form)."""
+        if self.parts is not None:
+            return list(self.parts)
+        assert self.topic is not None
+        return [VectorSource(topic=self.topic, field=self.field or "position", joints=self.joints, names=self.names)]
+
+    def labels(self) -> list[str]:
+        """Where each part is in the mapping, for messages: `parts[i]`, or "" for the single-source form."""
+        return [f"parts[{i}]" for i in range(len(self.parts))] if self.parts is not None else [""]
 
 
 class ScalarSource(StrictModel):
@@ -127,8 +188,8 @@ class Mapping(StrictModel):
     robot_type: str = "unknown"
     task: str | None = Field(default=None, min_length=1)
     task_topic: str | None = None
-    state: VectorSource
-    action: VectorSource
+    state: Vector
+    action: Vector
     cameras: dict[str, str] = Field(default_factory=dict)
     reward: ScalarSource | None = None
     success: SuccessSource | None = None
@@ -145,13 +206,15 @@ class Mapping(StrictModel):
         topics = self.topics()
         if len(set(self.cameras.values())) != len(self.cameras):
             raise ValueError("two cameras map the same topic")
-        if self.reward is not None and self.reward.topic in [self.state.topic, self.action.topic]:
-            raise ValueError(f"reward topic {self.reward.topic} is also mapped as state/action")
-        if self.reward is not None and self.reward.topic in self.cameras.values():
-            raise ValueError(f"reward topic {self.reward.topic} is also mapped as a camera")
-        for key, topic in (("task_topic", self.task_topic), ("success.topic", self.success_topic)):
-            if topic is not None and topic in topics:
-                raise ValueError(f"{key} {topic} is also mapped as data")
+        cameras = set(self.cameras.values())
+        for key, topic in (
+            ("reward topic", self.reward.topic if self.reward is not None else None),
+            ("success.topic", self.success_topic),
+        ):
+            if topic is not None and topic in cameras:
+                raise ValueError(f"{key} {topic} is also mapped as a camera")
+        if self.task_topic is not None and self.task_topic in topics:
+            raise ValueError(f"task_topic {self.task_topic} is also mapped as data")
         if self.success_topic is not None and self.success_topic == self.task_topic:
             raise ValueError(f"success.topic {self.success_topic} is also the task_topic")
         if self.success_topic is not None and self.success_topic == self.episodes.marker_topic:
@@ -164,10 +227,16 @@ class Mapping(StrictModel):
     def success_topic(self) -> str | None:
         return self.success.topic if self.success is not None else None
 
+    def vector_sources(self) -> list[tuple[str, VectorSource]]:
+        """(`state` or `action`, part) for every part of both, in order."""
+        return [(role, s) for role, v in (("state", self.state), ("action", self.action)) for s in v.sources()]
+
     def topics(self) -> list[str]:
-        """The aligned topics: every frame takes one sample of each."""
+        """The aligned topics: every frame takes one sample of each. Roles may share a topic (state = position,
+        action = velocity of one JointState topic): each reads its own field of the same messages."""
         reward = [self.reward.topic] if self.reward is not None else []
-        return list(dict.fromkeys([self.state.topic, self.action.topic, *self.cameras.values(), *reward]))
+        vectors = [s.topic for _, s in self.vector_sources()]
+        return list(dict.fromkeys([*vectors, *self.cameras.values(), *reward]))
 
 
 def load_mapping(path: Path) -> Mapping:

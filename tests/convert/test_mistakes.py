@@ -8,6 +8,7 @@ from typing import Any
 
 import pytest
 
+from tests.support import layout_bags as lb
 from tests.support.bags import MAPPING, Flaw, write_plain_mcap, write_ros1, write_ros2
 from tests.support.cli import run_cli
 from tests.support.scenes import write_yaml
@@ -21,8 +22,12 @@ WRITE = {
 
 
 def _refused(tmp_path: Path, kind: str, flaw: Flaw, change: dict[str, Any]) -> str:
-    bag = WRITE[kind](tmp_path, flaw)
-    mapping = write_yaml(tmp_path / "m.yaml", {**MAPPING, **change})
+    return _refuses(tmp_path, WRITE[kind](tmp_path, flaw), {**MAPPING, **change})
+
+
+def _refuses(tmp_path: Path, bag: Path, doc: dict[str, Any]) -> str:
+    """The one `error:` line (naming `bag`) of a convert that exits 2 and leaves nothing behind."""
+    mapping = write_yaml(tmp_path / "m.yaml", doc)
     out = tmp_path / "ds"
     proc = run_cli("convert", str(bag), str(out), "--mapping", str(mapping), "--codec", "h264")
     assert proc.returncode == 2, proc.stdout + proc.stderr
@@ -74,3 +79,51 @@ def test_zero_stamps_convert_on_the_log_clock(tmp_path: Path) -> None:
     proc = run_cli("convert", str(bag), str(tmp_path / "ds"), "--mapping", str(mapping), "--codec", "h264")
     assert proc.returncode == 0, proc.stderr
     assert (tmp_path / "ds" / "meta" / "info.json").is_file()
+
+
+def _split(change: dict[str, Any]) -> dict[str, Any]:
+    """The arm + gripper mapping of test_layouts with state part 1 changed."""
+    arm = {"topic": "/arm/joint_states", "field": "position", "joints": ["j1", "j2", "j3"]}
+    return {
+        "fps": 10,
+        "task": "pick",
+        "state": {"parts": [arm, {"topic": "/gripper/joint_states", "field": "position", **change}]},
+        "action": {"parts": [{"topic": "/arm/cmd", "field": "data"}, {"topic": "/gripper/cmd", "field": "data"}]},
+    }
+
+
+@pytest.mark.parametrize("kind", list(lb.WRITERS))
+def test_part_width_changing_mid_bag(tmp_path: Path, kind: str) -> None:
+    """A driver that adds a value to /gripper/cmd after 0.5 s: never padded or cut, one line naming the part."""
+    bag = lb.WRITERS[kind](tmp_path, lb.split(gripper_cmd_width=lambda k: 1 if k < 5 else 2))
+    line = _refuses(tmp_path, bag, _split({}))
+    assert line.endswith("mapping: action.parts[1] (/gripper/cmd.data): vector length changed from 1 to 2"), line
+
+
+@pytest.mark.parametrize(
+    ("change", "cause"),
+    [
+        ({"topic": "/gripper/nope"}, "mapped topic(s) /gripper/nope not in the bag (topics: /arm/cmd, "),
+        ({"field": "name"}, "mapping: state.parts[1] (/gripper/joint_states.name): field is list, not numbers"),
+        (
+            {"field": "header"},
+            "mapping: state.parts[1] (/gripper/joint_states.header): field is a std_msgs/msg/Header message, not "
+            "numbers",
+        ),
+        ({"joints": ["thumb"]}, "state.parts[1] (/gripper/joint_states.position): joints ['thumb'] not in the "),
+        ({"names": ["a", "b"]}, "state.parts[1] (/gripper/joint_states.position): names has 2 entries for 1 values"),
+    ],
+)
+def test_part_mistakes_name_the_part(tmp_path: Path, change: dict[str, Any], cause: str) -> None:
+    line = _refuses(tmp_path, lb.write_plain_mcap(tmp_path / "log.mcap", lb.split(400)), _split(change))
+    assert cause in line, line
+
+
+def test_empty_field_of_a_part(tmp_path: Path) -> None:
+    """A driver that leaves JointState.effort empty: one line, not a zero-width part."""
+    samples = [lb.Sample(s.topic, s.ns, {**s.fields, "effort": s.fields["effort"][:0]}) if "name" in s.fields
+               else s for s in lb.split(400)]  # fmt: skip
+    line = _refuses(tmp_path, lb.write_ros2(tmp_path / "b", samples), _split({"field": "effort"}))
+    assert line.endswith(
+        "mapping: state.parts[1] (/gripper/joint_states.effort): the field is empty (no values to map)"
+    )

@@ -149,7 +149,8 @@ def test_episode_without_a_success_message_is_unknown(tmp_path: Path) -> None:
     [
         ({"success": {"field": "data"}}, "success needs a topic, marker: true, or both"),
         ({"success": {"marker": True}}, "marker: true needs episodes.marker_topic"),
-        ({"reward": {"topic": "/cmd"}}, "reward topic /cmd is also mapped as state/action"),
+        # roles may share a topic, each reading its own field: this one is not a number
+        ({"reward": {"topic": "/cmd"}}, "b: mapping: reward (/cmd.data): field is ndarray, not a number"),
         ({"success": {"topic": "/task"}}, "success.topic /task is also the task_topic"),
         ({"align": {"clock": "wall"}}, "align.clock"),
         (

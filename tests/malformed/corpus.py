@@ -292,6 +292,17 @@ FIELDS: list[tuple[str, str, Any, str]] = [
     ("mapping", "reward", "x", r"reward"),
     ("mapping", "success", {}, r"success"),
     ("mapping", "action", ..., r"action"),
+    ("mapping", "state", {"parts": []}, r"state.*parts must be a non-empty list"),
+    ("mapping", "state", {"parts": {"topic": "/joint_states"}}, r"state\.parts"),
+    ("mapping", "state", {"topic": "/joint_states", "parts": [{"topic": "/cmd"}]}, r"state.*topic beside parts"),
+    ("mapping", "action", {"parts": [{"field": "data"}]}, r"action\.parts\[0\]\.topic"),
+    ("mapping", "action", {"parts": [{"topic": "/cmd", "field": "a..b"}]}, r"action\.parts\[0\]"),
+    (
+        "mapping",
+        "state",
+        {"parts": [{"topic": "/joint_states", "joints": ["j1"]}, {"topic": "/joint_states", "joints": ["j1"]}]},
+        r"state.*parts\[0\] and parts\[1\] both name a dimension 'j1'",
+    ),
     ("pipeline", "steps", {"rec": 1}, r"steps"),
     ("pipeline", "steps", [], r"steps"),
     ("pipeline", "name", "../escape", r"name"),
@@ -949,3 +960,31 @@ def _repair_file(w: Workspace) -> list[str]:
 
 _argv_case("doctor-repair-file", _repair_file, r"notes\.txt")
 _argv_case("doctor-repair-missing", lambda w: ["doctor", str(w.root / "gone"), "--repair"], r"gone", ("gone",))
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# convert: a part of a state or action that the bag cannot give (one line naming the bag, the part, its topic)
+
+
+def _parts_case(id: str, part: dict[str, Any], names: str) -> None:
+    def build(w: Workspace) -> list[str]:
+        state = {"parts": [MAPPING["state"], part]}
+        mapping = w.yaml("m.yaml", {**MAPPING, "state": state})
+        return ["convert", str(w.bag), str(w.root / "o"), "--codec", "h264", "--mapping", str(mapping)]
+
+    case(id, build, names, ("o",))
+
+
+_parts_case(
+    "mapping-part-missing-topic", {"topic": "/gripper"}, r"log\.mcap: mapped topic\(s\) /gripper not in the bag"
+)
+_parts_case(
+    "mapping-part-not-numbers",
+    {"topic": "/joint_states", "field": "name", "names": ["n"]},
+    r"log\.mcap: mapping: state\.parts\[1\] \(/joint_states\.name\): field is list, not numbers",
+)
+_parts_case(
+    "mapping-part-empty-field",
+    {"topic": "/joint_states", "field": "velocity", "names": ["v"]},
+    r"log\.mcap: mapping: state\.parts\[1\] \(/joint_states\.velocity\): the field is empty",
+)
