@@ -116,6 +116,7 @@ class EpisodeAssembler:
             successes=list(episode.successes),
             task_indices=[writer.tasks.setdefault(t, len(writer.tasks)) for t in episode.tasks],
             columns=dict(episode.columns),
+            column_stats=dict(episode.column_stats),
         )
         encoded: dict[str, EncodedEpisode] = {}
         try:

@@ -3,11 +3,12 @@
 Editing rebuilds a dataset through our own writer, so a source must have columns our writer can reproduce:
 its `info.json` features must be what `build_features` makes from the schema read back here (state/action
 names, video cameras, outcomes), except that a camera's `info` block is kept as the source wrote it and
-`next.done` may be absent; any other numeric feature of one axis (`observation.environment_state`) is carried
-as its stored column (`carried`). The output keeps the source's features verbatim. The dataset need not be ours: our
-`openral.*` episode columns are carried when present and never required. Without them an episode's seed is
-unknown (`None`), its initial state empty, and its success read by the rule `metrics` uses: `openral.success`,
-else whether any frame has `next.success`, else unknown.
+`next.done` may be absent; any other numeric feature of one axis (`observation.environment_state`) and any
+`dtype: image` camera is carried as its stored column (`carried`; an image's `{bytes, path}` cells unchanged,
+its per-episode statistics taken from meta/episodes, as a video camera's are). The output keeps the source's
+features verbatim. The dataset need not be ours: our `openral.*` episode columns are carried when present and
+never required. Without them an episode's seed is unknown (`None`), its initial state empty, and its success
+read by the rule `metrics` uses: `openral.success`, else whether any frame has `next.success`, else unknown.
 """
 
 from __future__ import annotations
@@ -55,6 +56,7 @@ class EpisodeData:
     videos: dict[str, bytes]  # camera name -> a complete mp4 of exactly `length` frames starting at pts 0
     image_stats: dict[str, Stats]  # camera name -> the episode's statistics from the source metadata
     columns: dict[str, pa.Array]  # carried features (`SourceDataset.carried`), as stored
+    column_stats: dict[str, Stats]  # carried image features -> the episode's statistics from the source metadata
 
 
 class SourceDataset:
@@ -222,11 +224,7 @@ class SourceDataset:
         image_stats: dict[str, Stats] = {}
         for name in self.camera_names():
             videos[name] = self._clip(index, row, name, n)
-            key = IMAGE_PREFIX + name
-            image_stats[name] = {
-                s: np.asarray(row[f"stats/{key}/{s}"], dtype=np.int64 if s == "count" else np.float64)
-                for s in STAT_KEYS
-            }
+            image_stats[name] = self._stats(row, IMAGE_PREFIX + name)
         initial = row.get("openral.initial_state")
         successes = _list(data, "next.success", False)
         seed = row.get("openral.seed")
@@ -246,7 +244,21 @@ class SourceDataset:
             videos=videos,
             image_stats=image_stats,
             columns={key: data.column(key).combine_chunks().cast(self._types.field(key).type) for key in self.carried},
+            column_stats={key: self._stats(row, key) for key in self.carried if self.features[key]["dtype"] == "image"},
         )
+
+    def _stats(self, row: dict[str, Any], key: str) -> Stats:
+        """A feature's statistics for one episode as meta/episodes has them."""
+        try:
+            return {
+                s: np.asarray(row[f"stats/{key}/{s}"], dtype=np.int64 if s == "count" else np.float64)
+                for s in STAT_KEYS
+            }
+        except (KeyError, TypeError, ValueError):
+            raise DatasetError(
+                f"{self.root}: meta/episodes: stats/{key}: missing or not numbers (episode {row['episode_index']})",
+                code="dataset.invalid",
+            ) from None
 
     def _success(self, row: dict[str, Any], successes: list[bool]) -> bool | None:
         if "openral.success" in self.episodes.column_names:
@@ -286,8 +298,16 @@ class SourceDataset:
 
 
 def _carriable(feature: dict[str, Any]) -> bool:
-    """A numeric per-frame feature (float32, int64 or bool, one axis) that editing copies as it is."""
+    """A numeric per-frame feature (float32, int64 or bool, one axis) or an image (height, width, 3) that editing
+    copies as it is."""
     shape = feature.get("shape")
+    if feature.get("dtype") == "image":
+        return (
+            isinstance(shape, list)
+            and len(shape) == 3
+            and all(isinstance(d, int) and d >= 1 for d in shape)
+            and shape[2] == 3
+        )
     return (
         feature.get("dtype") in ("float32", "int64", "bool")
         and isinstance(shape, list)

@@ -1,5 +1,6 @@
-"""Editing datasets lerobot 0.6.1 wrote itself (no `openral.*` columns): delete, split and merge give datasets
-that `doctor` finds healthy and lerobot loads with exactly the source's frames; the sources stay byte-unchanged."""
+"""Editing datasets lerobot 0.6.1 wrote itself (no `openral.*` columns, a video and a `dtype: image` camera):
+delete, split and merge give datasets that `doctor` finds healthy and lerobot loads with exactly the source's
+frames (decoded pixels of both cameras included); the sources stay byte-unchanged."""
 
 from __future__ import annotations
 
@@ -13,9 +14,9 @@ import pyarrow.parquet as pq
 import pytest
 
 from openral_data.doctor import check
-from openral_data.edit import ops
+from openral_data.edit import ops, select
 from tests.support.cli import run_cli
-from tests.support.lerobot_written import LENGTHS, SUCCEEDED, write_lerobot_dataset
+from tests.support.lerobot_written import IMAGE_CAMERA, LENGTHS, SUCCEEDED, write_lerobot_dataset
 
 Frame = dict[str, Any]
 
@@ -42,6 +43,7 @@ def _episodes(root: Path) -> list[list[Frame]]:
                 "state": item["observation.state"].numpy().tolist(),
                 "action": item["action"].numpy().tolist(),
                 "cam": item["observation.images.cam"].numpy(),
+                "wrist": item[IMAGE_CAMERA].numpy() if IMAGE_CAMERA in item else None,
                 "task": item["task"],
                 "success": bool(item["next.success"]) if "next.success" in item else None,
                 "env": item["observation.environment_state"].numpy().tolist()
@@ -55,8 +57,11 @@ def _episodes(root: Path) -> list[list[Frame]]:
 def _same(got: list[Frame], want: list[Frame]) -> None:
     assert len(got) == len(want)
     for g, w in zip(got, want, strict=True):
-        assert {k: v for k, v in g.items() if k != "cam"} == {k: v for k, v in w.items() if k != "cam"}
+        pictures = ("cam", "wrist")
+        assert {k: v for k, v in g.items() if k not in pictures} == {k: v for k, v in w.items() if k not in pictures}
         assert np.array_equal(g["cam"], w["cam"])  # packets copied: the decoded pixels are the source's
+        assert (g["wrist"] is None) == (w["wrist"] is None)
+        assert g["wrist"] is None or np.array_equal(g["wrist"], w["wrist"])  # image bytes carried unchanged
 
 
 def _healthy(root: Path) -> None:
@@ -66,7 +71,7 @@ def _healthy(root: Path) -> None:
 @pytest.fixture(params=[True, False], ids=["next.success", "no-success+environment_state"])
 def source(request: pytest.FixtureRequest, tmp_path: Path) -> Path:
     root = tmp_path / "lerobot"
-    write_lerobot_dataset(root, with_success=request.param, environment_state=not request.param)
+    write_lerobot_dataset(root, with_success=request.param, image_camera=True, environment_state=not request.param)
     return root
 
 
@@ -77,9 +82,19 @@ def test_delete_and_split_of_a_lerobot_dataset(source: Path, tmp_path: Path) -> 
     res = run_cli("episodes", "delete", str(source), "--episodes", "1", "--out", str(tmp_path / "del"))
     assert res.returncode == 0, res.stderr
     ops.split(source, "2,0", tmp_path / "part", rest=tmp_path / "rest")
+    res = run_cli("episodes", "filter", str(source), "--where", "length >= 6", "--out", str(tmp_path / "long"))
+    assert res.returncode == 0, res.stderr
+    parts = select.split_fractions(source, "0.67,0.33", tmp_path / "parts", names="a,b", seed=1)
+    fractions = [(r.out, select.partition(len(LENGTHS), [0.67, 0.33], 1)[k]) for k, r in enumerate(parts)]
     has_env = "observation.environment_state" in json.loads((source / "meta/info.json").read_text())["features"]
-    assert all((f["env"] is not None) == has_env for e in src for f in e)
-    for out, order in ((tmp_path / "del", [0, 2]), (tmp_path / "part", [2, 0]), (tmp_path / "rest", [1])):
+    assert all((f["env"] is not None) == has_env and f["wrist"] is not None for e in src for f in e)
+    outs = [
+        (tmp_path / "del", [0, 2]),
+        (tmp_path / "part", [2, 0]),
+        (tmp_path / "rest", [1]),
+        (tmp_path / "long", [0, 1]),
+    ]
+    for out, order in outs + fractions:
         _healthy(out)
         got = _episodes(out)
         assert len(got) == len(order)
@@ -92,13 +107,39 @@ def test_delete_and_split_of_a_lerobot_dataset(source: Path, tmp_path: Path) -> 
         info = json.loads((out / "meta/info.json").read_text())
         assert info["features"] == json.loads((source / "meta/info.json").read_text())["features"]
         assert info["total_episodes"] == len(order) and info["total_frames"] == sum(LENGTHS[e] for e in order)
+        _same_image_cells(out, source, order)
+        _image_stats_carried(out, source, order)
     assert _digest(source) == before
+
+
+def _image_cells(root: Path) -> list[dict[str, Any]]:
+    table = pq.read_table(root / "data").sort_by("index")
+    return table.column(IMAGE_CAMERA).to_pylist()
+
+
+def _same_image_cells(out: Path, source: Path, order: list[int]) -> None:
+    """The image column is carried as stored: every cell's bytes (and path) are the source's, in episode order."""
+    cells = _image_cells(source)
+    starts = [sum(LENGTHS[:e]) for e in range(len(LENGTHS))]
+    want = [c for e in order for c in cells[starts[e] : starts[e] + LENGTHS[e]]]
+    assert _image_cells(out) == want
+
+
+def _image_stats_carried(out: Path, source: Path, order: list[int]) -> None:
+    """Per-episode image statistics are the source's; the dataset's merge them (count = frames written)."""
+    key = f"stats/{IMAGE_CAMERA}/mean"
+    src_rows = pq.read_table(source / "meta/episodes").to_pylist()
+    out_rows = pq.read_table(out / "meta/episodes").to_pylist()
+    assert [r[key] for r in out_rows] == [src_rows[e][key] for e in order]
+    stats = json.loads((out / "meta/stats.json").read_text())[IMAGE_CAMERA]
+    assert stats["count"] == [sum(LENGTHS[e] for e in order)]
+    assert np.asarray(stats["mean"]).shape == (3, 1, 1)
 
 
 def test_merge_two_lerobot_datasets(tmp_path: Path) -> None:
     a, b = tmp_path / "a", tmp_path / "b"
-    write_lerobot_dataset(a, with_success=True)
-    write_lerobot_dataset(b, with_success=True)
+    write_lerobot_dataset(a, with_success=True, image_camera=True)
+    write_lerobot_dataset(b, with_success=True, image_camera=True)
     before = _digest(a), _digest(b)
     out = tmp_path / "merged"
     res = run_cli("episodes", "merge", str(a), str(b), "--out", str(out))
@@ -146,7 +187,10 @@ def test_merge_of_ours_and_lerobots_names_the_differing_field(project: Path, tmp
 
 def test_a_feature_the_writer_cannot_reproduce_is_refused_naming_it(tmp_path: Path) -> None:
     src = tmp_path / "with_image"
-    write_lerobot_dataset(src, with_success=False, image_camera=True)
+    write_lerobot_dataset(src, with_success=False)
+    info = json.loads((src / "meta/info.json").read_text())
+    info["features"]["observation.images.wrist"] = {"dtype": "image", "shape": [24, 20], "names": None}  # no channels
+    (src / "meta/info.json").write_text(json.dumps(info, indent=4))
     before = _digest(src)
     out = tmp_path / "out"
     res = run_cli("episodes", "delete", str(src), "--episodes", "0", "--out", str(out))

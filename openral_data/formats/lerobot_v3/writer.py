@@ -129,6 +129,9 @@ class EpisodeBuffer:
     # whole columns of features the writer does not build itself (only with the writer's `features`; editing
     # carries e.g. `observation.environment_state` this way), each of the feature's Arrow type
     columns: dict[str, pa.Array] = field(default_factory=dict)
+    # the episode statistics of those columns that are not numbers (a `dtype: image` feature's, as its source
+    # has them): used instead of statistics computed from the column, and merged into the dataset's
+    column_stats: dict[str, Stats] = field(default_factory=dict)
 
 
 class LeRobotV3Writer:
@@ -450,7 +453,10 @@ class LeRobotV3Writer:
             success = None  # unknown stays unknown: `openral.success` is NULL
         row = self._base_row(index, ep, n, success)
         table = self._episode_table(index, ep, n)
-        ep_stats = {k: numeric_stats(_column_values(table, k)) for k in table.column_names}
+        ep_stats = {
+            k: ep.column_stats[k] if k in ep.column_stats else numeric_stats(_column_values(table, k))
+            for k in table.column_names
+        }
         for name, enc in encoded.items():
             self._place_video(name, index, enc.path, enc.frames, row)
             img = enc.stats.stats()
