@@ -15,6 +15,7 @@ from openral_data.cli.help import plain_flags
 from openral_data.cli.logs import LogFormat
 from openral_data.cli.logs import configure as configure_logs
 from openral_data.cli.pipeline import pipeline_app
+from openral_data.cli.tasks import tasks_app
 from openral_data.cli.terminal import print_line
 from openral_data.errors import OpenralError, UsageError
 from openral_data.manifests import ENV_DIRS, Kind
@@ -86,6 +87,7 @@ app.command()(replay.replay)
 app.command()(inspect.doctor)
 app.add_typer(episodes_app, name="episodes")
 app.add_typer(pipeline_app, name="pipeline")
+app.add_typer(tasks_app, name="tasks")
 plain_flags(app)  # after every command and sub-app: their --help shows no <bool> for flags
 
 

@@ -16,15 +16,17 @@ from pathlib import Path
 from typing import Any
 
 from openral_data.edit.assemble import EpisodeAssembler
-from openral_data.edit.source import SourceDataset
+from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.episodes import parse_episodes
 from openral_data.errors import DatasetError, EpisodeSelectionError, UsageError
 from openral_data.formats.lerobot_v3.lock import DatasetLock
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
 from openral_data.formats.staging import Staging, check_new_output
+from openral_data.types import DatasetSchema
 
 _DATASET_ENTRIES = {"meta", "data", "videos", ".openral"}
 Selection = list[tuple[SourceDataset, int]]  # (source, episode index in it), in output order
+Transform = Callable[[EpisodeData], EpisodeData]  # an episode as read -> as written
 
 
 @dataclass(frozen=True)
@@ -32,6 +34,22 @@ class EditResult:
     out: Path
     episodes: int
     frames: int
+
+
+@dataclass(frozen=True)
+class Rewrite:
+    """How an edit changes what it copies, beyond choosing episodes (`tasks`, `features remove`, `stats
+    recompute`): `transform` rewrites each episode read from a source before it is written; `schema` and
+    `features` replace the first source's (a feature removed: both name the same columns and cameras);
+    `image_hist` are exact dataset-level camera histograms of the episodes written and `column_hist` the same
+    for carried `dtype: image` features (both may be filled by `transform` as it goes: they are read at the end).
+    """
+
+    transform: Transform | None = None
+    schema: DatasetSchema | None = None
+    features: dict[str, dict[str, Any]] | None = None
+    image_hist: dict[str, ImageStatsAccumulator] | None = None
+    column_hist: dict[str, ImageStatsAccumulator] | None = None
 
 
 def check_compatible(first: SourceDataset, other: SourceDataset) -> None:
@@ -75,12 +93,15 @@ def write_selection(
     image_hist: dict[str, ImageStatsAccumulator] | None = None,
     before_rename: Callable[[], None] | None = None,
     out_checked: bool = False,
+    rewrite: Rewrite | None = None,
 ) -> EditResult:
     """Write the selected episodes, in order, as a new dataset at `out` (atomically, through `staging.Staging`).
 
     `before_publish(staging)` may add files beside the dataset (e.g. `mcap/`) before the whole folder appears;
     `before_rename()` runs right before the rename (`record --workers` lets go of its lock on `out` there);
     `out_checked`: the caller checked `out` itself and holds it (its lock file is in it until `before_rename`).
+    `rewrite`: what the edit changes in the episodes besides their selection (its `image_hist` replaces the
+    argument's).
     """
     if not selection:
         raise EpisodeSelectionError(f"{out}: no episodes selected; a dataset needs at least one", code="episodes.empty")
@@ -100,14 +121,22 @@ def write_selection(
             for root, eps in sources.items()
         ],
     }
+    change = rewrite or Rewrite()
     staged = Staging(out, f"openral-data {op}")
     with staged as staging:
         writer = EpisodeAssembler(
-            staging, first.schema, first.writer_config(), provenance, image_hist, features=first.features
+            staging,
+            change.schema or first.schema,
+            first.writer_config(),
+            provenance,
+            change.image_hist if rewrite is not None else image_hist,
+            features=change.features or first.features,
+            column_hist=change.column_hist,
         )
         try:
             for k, (src, e) in enumerate(selection):
-                writer.add(src.episode(e))
+                episode = src.episode(e)
+                writer.add(episode if change.transform is None else change.transform(episode))
                 if on_episode is not None:
                     on_episode(k)
         except BaseException:
@@ -138,12 +167,14 @@ def delete(dataset: Path, episodes: str, out: Path | None, in_place: bool = Fals
     return write_edit(keep, dataset, out, in_place, "delete")
 
 
-def write_edit(keep: Selection, dataset: Path, out: Path | None, in_place: bool, op: str) -> EditResult:
+def write_edit(
+    keep: Selection, dataset: Path, out: Path | None, in_place: bool, op: str, rewrite: Rewrite | None = None
+) -> EditResult:
     """Write `keep` (episodes of `dataset`) to `out`, or (`in_place`) as `dataset` itself, swapped in once complete."""
     if in_place == (out is not None):
         raise UsageError("--out: give either --out DIR or --in-place")
     if out is not None:
-        return write_selection(keep, out, op)
+        return write_selection(keep, out, op, rewrite=rewrite)
     foreign = sorted(p.name for p in dataset.iterdir() if p.name not in _DATASET_ENTRIES)
     if foreign:
         raise UsageError(
@@ -153,7 +184,7 @@ def write_edit(keep: Selection, dataset: Path, out: Path | None, in_place: bool,
     old = dataset.parent / f".{dataset.name}.replaced-{os.getpid()}"
     staged = Staging(dataset, f"openral-data episodes {op} --in-place")
     with DatasetLock(dataset, f"episodes {op} --in-place"), staged as new:  # no recording may start meanwhile
-        result = write_selection(keep, new, op)
+        result = write_selection(keep, new, op, rewrite=rewrite)
         staged.replace_existing(old)  # the input stays whole (under `old`) until the new dataset took its name
     return EditResult(dataset, result.episodes, result.frames)
 

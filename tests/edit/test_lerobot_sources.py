@@ -4,7 +4,6 @@ frames (decoded pixels of both cameras included); the sources stay byte-unchange
 
 from __future__ import annotations
 
-import hashlib
 import json
 from pathlib import Path
 from typing import Any
@@ -16,52 +15,15 @@ import pytest
 from openral_data.doctor import check
 from openral_data.edit import ops, select
 from tests.support.cli import run_cli
-from tests.support.lerobot_written import IMAGE_CAMERA, LENGTHS, SUCCEEDED, write_lerobot_dataset
-
-Frame = dict[str, Any]
-
-
-def _digest(root: Path) -> dict[str, str]:
-    return {
-        str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest() for p in root.rglob("*") if p.is_file()
-    }
-
-
-def _episodes(root: Path) -> list[list[Frame]]:
-    """Every frame lerobot loads, grouped by episode: values (state, action, pixels, task, success) and indices."""
-    from lerobot.datasets.lerobot_dataset import LeRobotDataset
-
-    ds = LeRobotDataset("local/check", root=root, video_backend="pyav")
-    out: list[list[Frame]] = [[] for _ in range(ds.meta.total_episodes)]
-    for i in range(len(ds)):
-        item = ds[i]
-        assert int(item["index"]) == i
-        e, t = int(item["episode_index"]), int(item["frame_index"])
-        assert len(out[e]) == t and abs(float(item["timestamp"]) - t / ds.fps) < 1e-6
-        out[e].append(
-            {
-                "state": item["observation.state"].numpy().tolist(),
-                "action": item["action"].numpy().tolist(),
-                "cam": item["observation.images.cam"].numpy(),
-                "wrist": item[IMAGE_CAMERA].numpy() if IMAGE_CAMERA in item else None,
-                "task": item["task"],
-                "success": bool(item["next.success"]) if "next.success" in item else None,
-                "env": item["observation.environment_state"].numpy().tolist()
-                if "observation.environment_state" in item
-                else None,
-            }
-        )
-    return out
-
-
-def _same(got: list[Frame], want: list[Frame]) -> None:
-    assert len(got) == len(want)
-    for g, w in zip(got, want, strict=True):
-        pictures = ("cam", "wrist")
-        assert {k: v for k, v in g.items() if k not in pictures} == {k: v for k, v in w.items() if k not in pictures}
-        assert np.array_equal(g["cam"], w["cam"])  # packets copied: the decoded pixels are the source's
-        assert (g["wrist"] is None) == (w["wrist"] is None)
-        assert g["wrist"] is None or np.array_equal(g["wrist"], w["wrist"])  # image bytes carried unchanged
+from tests.support.lerobot_written import (
+    IMAGE_CAMERA,
+    LENGTHS,
+    SUCCEEDED,
+    digest,
+    loaded_episodes,
+    same_frames,
+    write_lerobot_dataset,
+)
 
 
 def _healthy(root: Path) -> None:
@@ -76,8 +38,8 @@ def source(request: pytest.FixtureRequest, tmp_path: Path) -> Path:
 
 
 def test_delete_and_split_of_a_lerobot_dataset(source: Path, tmp_path: Path) -> None:
-    before = _digest(source)
-    src = _episodes(source)
+    before = digest(source)
+    src = loaded_episodes(source)
     assert [len(e) for e in src] == LENGTHS
     res = run_cli("episodes", "delete", str(source), "--episodes", "1", "--out", str(tmp_path / "del"))
     assert res.returncode == 0, res.stderr
@@ -96,10 +58,10 @@ def test_delete_and_split_of_a_lerobot_dataset(source: Path, tmp_path: Path) -> 
     ]
     for out, order in outs + fractions:
         _healthy(out)
-        got = _episodes(out)
+        got = loaded_episodes(out)
         assert len(got) == len(order)
         for k, e in enumerate(order):
-            _same(got[k], src[e])
+            same_frames(got[k], src[e])
         rows = pq.read_table(out / "meta/episodes").to_pylist()
         with_success = "next.success" in json.loads((source / "meta/info.json").read_text())["features"]
         assert [r["openral.success"] for r in rows] == [SUCCEEDED[e] if with_success else None for e in order]
@@ -109,7 +71,7 @@ def test_delete_and_split_of_a_lerobot_dataset(source: Path, tmp_path: Path) -> 
         assert info["total_episodes"] == len(order) and info["total_frames"] == sum(LENGTHS[e] for e in order)
         _same_image_cells(out, source, order)
         _image_stats_carried(out, source, order)
-    assert _digest(source) == before
+    assert digest(source) == before
 
 
 def _image_cells(root: Path) -> list[dict[str, Any]]:
@@ -140,17 +102,17 @@ def test_merge_two_lerobot_datasets(tmp_path: Path) -> None:
     a, b = tmp_path / "a", tmp_path / "b"
     write_lerobot_dataset(a, with_success=True, image_camera=True)
     write_lerobot_dataset(b, with_success=True, image_camera=True)
-    before = _digest(a), _digest(b)
+    before = digest(a), digest(b)
     out = tmp_path / "merged"
     res = run_cli("episodes", "merge", str(a), str(b), "--out", str(out))
     assert res.returncode == 0, res.stderr
     _healthy(out)
-    src = _episodes(a) + _episodes(b)
-    got = _episodes(out)
+    src = loaded_episodes(a) + loaded_episodes(b)
+    got = loaded_episodes(out)
     assert len(got) == 2 * len(LENGTHS)
     for g, w in zip(got, src, strict=True):
-        _same(g, w)
-    assert (_digest(a), _digest(b)) == before
+        same_frames(g, w)
+    assert (digest(a), digest(b)) == before
 
 
 def test_merge_by_seed_needs_recorded_seeds(tmp_path: Path) -> None:
@@ -191,9 +153,9 @@ def test_a_feature_the_writer_cannot_reproduce_is_refused_naming_it(tmp_path: Pa
     info = json.loads((src / "meta/info.json").read_text())
     info["features"]["observation.images.wrist"] = {"dtype": "image", "shape": [24, 20], "names": None}  # no channels
     (src / "meta/info.json").write_text(json.dumps(info, indent=4))
-    before = _digest(src)
+    before = digest(src)
     out = tmp_path / "out"
     res = run_cli("episodes", "delete", str(src), "--episodes", "0", "--out", str(out))
     assert res.returncode == 2 and res.stderr.count("\n") == 1, res.stderr
     assert res.stderr.startswith(f"error: {src}/meta/info.json: features.observation.images.wrist: "), res.stderr
-    assert not out.exists() and _digest(src) == before
+    assert not out.exists() and digest(src) == before

@@ -551,6 +551,10 @@ SELECTORS: dict[str, tuple[Callable[[Workspace, str], list[str]], tuple[str, ...
         lambda w, sel: ["episodes", "split", str(w.ds()), "--episodes", sel, "--out", str(w.root / "a")],
         ("a",),
     ),
+    "tasks-set": (
+        lambda w, sel: ["tasks", "set", str(w.ds()), "--episodes", sel, "--task", "x", "--out", str(w.root / "t")],
+        ("t",),
+    ),
 }
 
 
@@ -791,6 +795,24 @@ OPTIONS: list[tuple[str, Callable[[Workspace], list[str]], str, tuple[str, ...]]
         ],
         r"--names",
         ("p",),
+    ),
+    (
+        "tasks-rename-unknown-task",
+        lambda w: ["tasks", "rename", str(w.ds()), "--from", "no such task", "--to", "x", "--out", str(w.root / "t")],
+        r"--from: .* has no task 'no such task'",
+        ("t",),
+    ),
+    (
+        "tasks-rename-empty-text",
+        lambda w: ["tasks", "rename", str(w.ds()), "--from", "pick up the mock cube", "--to", " ", "--in-place"],
+        r"--to: empty task text",
+        (),
+    ),
+    (
+        "tasks-set-empty-text",
+        lambda w: ["tasks", "set", str(w.ds()), "--episodes", "0", "--task", "", "--out", str(w.root / "t")],
+        r"--task: empty task text",
+        ("t",),
     ),
     ("info-path-is-a-file", lambda w: ["info", str(w.write("afile", "x"))], r"afile", ()),
     ("info-path-missing", lambda w: ["info", str(w.root / "nothing")], r"nothing", ()),

@@ -182,6 +182,8 @@ class LeRobotV3Writer:
         self.image_stats = (
             dict(image_stats) if image_stats is not None else {n: ImageStatsAccumulator() for n in schema.cameras}
         )
+        # dataset-level statistics written instead of the merged ones (editing's exact `dtype: image` histograms)
+        self.stats_override: dict[str, Stats] = {}
         self._episode: EpisodeBuffer | None = None
         self._batch: atomic.Batch | None = None  # set while an episode is being committed
         self._closed = False
@@ -671,6 +673,7 @@ class LeRobotV3Writer:
                 stats[key] = to_jsonable(self._numeric_stats[key])
         for name, acc in self.image_stats.items():
             stats[self._keys[name]] = to_jsonable(acc.stats())
+        stats.update({key: to_jsonable(s) for key, s in self.stats_override.items()})
         ordered = {k: stats[k] for k in self.features if k in stats}
         hist = {name: acc.to_json() for name, acc in self.image_stats.items()}
         self._write(self.root / layout.IMAGE_HIST_PATH, atomic.bytes_writer(json.dumps(hist).encode()))
