@@ -11,6 +11,7 @@ import typer
 
 from openral_data.cli import convert, inspect, record, replay, stats
 from openral_data.cli.edit import episodes_app
+from openral_data.cli.features import features_app
 from openral_data.cli.help import plain_flags
 from openral_data.cli.logs import LogFormat
 from openral_data.cli.logs import configure as configure_logs
@@ -88,6 +89,7 @@ app.command()(inspect.doctor)
 app.add_typer(episodes_app, name="episodes")
 app.add_typer(pipeline_app, name="pipeline")
 app.add_typer(tasks_app, name="tasks")
+app.add_typer(features_app, name="features")
 plain_flags(app)  # after every command and sub-app: their --help shows no <bool> for flags
 
 

@@ -814,6 +814,24 @@ OPTIONS: list[tuple[str, Callable[[Workspace], list[str]], str, tuple[str, ...]]
         r"--task: empty task text",
         ("t",),
     ),
+    (
+        "features-remove-unknown",
+        lambda w: ["features", "remove", str(w.ds()), "--feature", "observation.nope", "--out", str(w.root / "f")],
+        r"--feature: .* has no feature 'observation\.nope'",
+        ("f",),
+    ),
+    (
+        "features-remove-required",
+        lambda w: ["features", "remove", str(w.ds()), "--feature", "frame_index", "--in-place"],
+        r"--feature: frame_index is a column every LeRobot v3 dataset has",
+        (),
+    ),
+    (
+        "features-remove-state",
+        lambda w: ["features", "remove", str(w.ds()), "--feature", "observation.state", "--out", str(w.root / "f")],
+        r"--feature: observation\.state cannot be removed",
+        ("f",),
+    ),
     ("info-path-is-a-file", lambda w: ["info", str(w.write("afile", "x"))], r"afile", ()),
     ("info-path-missing", lambda w: ["info", str(w.root / "nothing")], r"nothing", ()),
 ]
