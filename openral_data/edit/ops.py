@@ -175,7 +175,8 @@ def write_edit(
         raise UsageError("--out: give either --out DIR or --in-place")
     if out is not None:
         return write_selection(keep, out, op, rewrite=rewrite)
-    foreign = sorted(p.name for p in dataset.iterdir() if p.name not in _DATASET_ENTRIES)
+    # lerobot leaves empty `images/<key>/` folders behind once its PNGs are embedded: nothing is lost without them
+    foreign = sorted(p.name for p in dataset.iterdir() if p.name not in _DATASET_ENTRIES and not _empty_folder(p))
     if foreign:
         raise UsageError(
             f"{dataset}: --in-place: {', '.join(foreign)} would not be carried over (editing writes meta/, data/ "
@@ -187,6 +188,13 @@ def write_edit(
         result = write_selection(keep, new, op, rewrite=rewrite)
         staged.replace_existing(old)  # the input stays whole (under `old`) until the new dataset took its name
     return EditResult(dataset, result.episodes, result.frames)
+
+
+def _empty_folder(path: Path) -> bool:
+    """A real folder holding nothing but (real) empty folders."""
+    if path.is_symlink() or not path.is_dir():
+        return False
+    return all(_empty_folder(p) for p in path.iterdir())
 
 
 def split(dataset: Path, episodes: str, out: Path, rest: Path | None = None) -> list[EditResult]:

@@ -832,6 +832,13 @@ OPTIONS: list[tuple[str, Callable[[Workspace], list[str]], str, tuple[str, ...]]
         r"--feature: observation\.state cannot be removed",
         ("f",),
     ),
+    ("stats-recompute-no-output", lambda w: ["stats", "recompute", str(w.ds())], r"--out: give either", ()),
+    (
+        "stats-recompute-missing",
+        lambda w: ["stats", "recompute", str(w.root / "gone"), "--out", str(w.root / "s")],
+        r"gone",
+        ("s", "gone"),
+    ),
     ("info-path-is-a-file", lambda w: ["info", str(w.write("afile", "x"))], r"afile", ()),
     ("info-path-missing", lambda w: ["info", str(w.root / "nothing")], r"nothing", ()),
 ]
