@@ -25,6 +25,7 @@ from openral_data.formats.staging import Staging, check_new_output
 from openral_data.types import DatasetSchema
 
 _DATASET_ENTRIES = {"meta", "data", "videos", ".openral"}
+_LEROBOT_IMAGES = "images"  # lerobot's staging folder for `dtype: image` PNGs, left empty once they are embedded
 Selection = list[tuple[SourceDataset, int]]  # (source, episode index in it), in output order
 Transform = Callable[[EpisodeData], EpisodeData]  # an episode as read -> as written
 
@@ -175,8 +176,12 @@ def write_edit(
         raise UsageError("--out: give either --out DIR or --in-place")
     if out is not None:
         return write_selection(keep, out, op, rewrite=rewrite)
-    # lerobot leaves empty `images/<key>/` folders behind once its PNGs are embedded: nothing is lost without them
-    foreign = sorted(p.name for p in dataset.iterdir() if p.name not in _DATASET_ENTRIES and not _empty_folder(p))
+    # lerobot leaves empty `images/<key>/` folders behind: nothing is lost without them
+    foreign = sorted(
+        p.name
+        for p in dataset.iterdir()
+        if p.name not in _DATASET_ENTRIES and not (p.name == _LEROBOT_IMAGES and _empty_folder(p))
+    )
     if foreign:
         raise UsageError(
             f"{dataset}: --in-place: {', '.join(foreign)} would not be carried over (editing writes meta/, data/ "
