@@ -19,6 +19,7 @@ from openral_data.doctor import check
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator, numeric_stats, to_jsonable
 from tests.support.cli import run_cli
 from tests.support.lerobot_written import (
+    ENV_STATE,
     IMAGE_CAMERA,
     LENGTHS,
     VIDEO_CAMERA,
@@ -52,9 +53,11 @@ def _episode_stats(root: Path, key: str) -> list[dict[str, Any]]:
     ]
 
 
-def _close(got: dict[str, Any], want: dict[str, Any]) -> None:
+def _close(got: dict[str, Any], want: dict[str, Any], rtol: float = 1e-7) -> None:
     for s, v in got.items():
-        np.testing.assert_allclose(np.asarray(v, dtype=float), np.asarray(want[s], dtype=float), atol=1e-9, err_msg=s)
+        np.testing.assert_allclose(
+            np.asarray(v, dtype=float), np.asarray(want[s], dtype=float), rtol=rtol, atol=1e-9, err_msg=s
+        )
 
 
 def _hist(frames: list[np.ndarray]) -> ImageStatsAccumulator:
@@ -64,9 +67,10 @@ def _hist(frames: list[np.ndarray]) -> ImageStatsAccumulator:
     return acc
 
 
-def test_recompute_a_tampered_lerobot_dataset(tmp_path: Path) -> None:
+@pytest.mark.parametrize("with_success", [True, False], ids=["next.success", "no-success+environment_state"])
+def test_recompute_a_tampered_lerobot_dataset(tmp_path: Path, with_success: bool) -> None:
     clean = tmp_path / "clean"
-    write_lerobot_dataset(clean, with_success=True, image_camera=True)
+    write_lerobot_dataset(clean, with_success=with_success, image_camera=True, environment_state=not with_success)
     src = shutil.copytree(clean, tmp_path / "tampered")
     _tamper(src)
     before = digest(src)
@@ -82,11 +86,11 @@ def test_recompute_a_tampered_lerobot_dataset(tmp_path: Path) -> None:
 
     # numeric features: lerobot's own min/max/mean/std/count of the clean recording, and our writer's quantiles
     rows = pq.read_table(out / "data").sort_by("index")
-    for key in ("observation.state", "action"):
+    for key in ("observation.state", "action") if with_success else ("observation.state", "action", ENV_STATE):
         values = np.asarray(rows.column(key).to_pylist(), dtype=np.float32)
         starts = np.cumsum([0, *LENGTHS])
         for e, (got, theirs) in enumerate(zip(_episode_stats(out, key), _episode_stats(clean, key), strict=True)):
-            _close({s: got[s] for s in ("min", "max", "mean", "std", "count")}, theirs)
+            _close({s: got[s] for s in ("min", "max", "mean", "std", "count")}, theirs, rtol=1e-6)  # theirs: float32
             _close(got, to_jsonable(numeric_stats(values[starts[e] : starts[e + 1]])))
         _close({s: stats[key][s] for s in ("min", "max", "mean", "std", "count")}, numeric_stats(values))
 

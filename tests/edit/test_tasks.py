@@ -24,7 +24,7 @@ from tests.support.seeded import verify_seeded_dataset
 @pytest.fixture(scope="module")
 def source(tmp_path_factory: pytest.TempPathFactory) -> Path:
     root = tmp_path_factory.mktemp("tasks") / "lerobot"
-    write_lerobot_dataset(root, with_success=True, image_camera=True)
+    write_lerobot_dataset(root, with_success=False, image_camera=True, environment_state=True)
     return root
 
 
