@@ -423,6 +423,7 @@ READERS: dict[str, tuple[Callable[[Workspace, Path], list[str]], tuple[str, ...]
     ),
     "merge": (lambda w, d: ["episodes", "merge", str(w.ds("good")), str(d), "--out", str(w.root / "m")], ("m",)),
     "view": (lambda w, d: ["view", str(d), "--save", str(w.root / "v.rrd")], ("v.rrd",)),
+    "recompute": (lambda w, d: ["stats", "recompute", str(d), "--out", str(w.root / "r")], ("r",)),
 }
 
 # which files each command reads (a damage elsewhere is not its business)
@@ -435,6 +436,7 @@ READS: dict[str, set[str]] = {
     "split": {"info", "episodes", "tasks", "data", "video", "openral"},
     "merge": {"info", "episodes", "tasks", "data", "video", "openral"},
     "view": {"info", "episodes", "tasks", "data", "video"},
+    "recompute": {"info", "episodes", "tasks", "data", "video", "openral"},
 }
 
 
