@@ -188,8 +188,9 @@ def write_edit(
             "and videos/ only); use --out"
         )
     old = dataset.parent / f".{dataset.name}.replaced-{os.getpid()}"
-    staged = Staging(dataset, f"openral-data episodes {op} --in-place")
-    with DatasetLock(dataset, f"episodes {op} --in-place"), staged as new:  # no recording may start meanwhile
+    command = f"episodes {op}" if op in ("delete", "filter") else op  # `tasks rename`, `stats recompute`, …
+    staged = Staging(dataset, f"openral-data {command} --in-place")
+    with DatasetLock(dataset, f"{command} --in-place"), staged as new:  # no recording may start meanwhile
         result = write_selection(keep, new, op, rewrite=rewrite)
         staged.replace_existing(old)  # the input stays whole (under `old`) until the new dataset took its name
     return EditResult(dataset, result.episodes, result.frames)
