@@ -30,3 +30,19 @@ def parse_episodes(text: str | None, total: int, where: str = "--episodes") -> l
     if len(set(chosen)) != len(chosen):
         raise EpisodeSelectionError(f"{where}: an episode is listed twice", code="episodes.duplicate")
     return chosen
+
+
+def format_episodes(indices: list[int]) -> str:
+    """Ascending indices as `parse_episodes` reads them, runs of three or more as ranges: [0, 1, 2, 5] -> "0-2,5"."""
+    parts: list[str] = []
+    k = 0
+    while k < len(indices):
+        j = k
+        while j + 1 < len(indices) and indices[j + 1] == indices[j] + 1:
+            j += 1
+        if j - k >= 2:
+            parts.append(f"{indices[k]}-{indices[j]}")
+        else:
+            parts.extend(str(i) for i in indices[k : j + 1])
+        k = j + 1
+    return ",".join(parts)

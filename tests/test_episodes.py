@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from openral_data.episodes import parse_episodes
+from openral_data.episodes import format_episodes, parse_episodes
 from openral_data.errors import EpisodeSelectionError
 
 
@@ -35,3 +35,13 @@ def test_bad_selections(text: str, code: str) -> None:
     with pytest.raises(EpisodeSelectionError) as err:
         parse_episodes(text, 10)
     assert err.value.code == code and str(err.value).startswith("--episodes: ")
+
+
+@pytest.mark.parametrize(
+    ("indices", "text"),
+    [([], ""), ([3], "3"), ([0, 1], "0,1"), ([0, 1, 2, 5], "0-2,5"), ([1, 3, 4, 5, 6, 9, 10], "1,3-6,9,10")],
+)
+def test_format_episodes_is_read_back_by_parse_episodes(indices: list[int], text: str) -> None:
+    assert format_episodes(indices) == text
+    if indices:
+        assert parse_episodes(text, 20) == indices

@@ -11,10 +11,12 @@ import typer
 
 from openral_data.cli import convert, hub, inspect, record, replay, stats
 from openral_data.cli.edit import episodes_app
+from openral_data.cli.features import features_app
 from openral_data.cli.help import plain_flags
 from openral_data.cli.logs import LogFormat
 from openral_data.cli.logs import configure as configure_logs
 from openral_data.cli.pipeline import pipeline_app
+from openral_data.cli.tasks import tasks_app
 from openral_data.cli.terminal import print_line
 from openral_data.cli.videos import videos_app
 from openral_data.errors import OpenralError, UsageError
@@ -81,7 +83,7 @@ app.command()(record.record)
 app.command()(convert.convert)
 app.command()(inspect.info)
 app.command("list")(inspect.list_cmd)
-app.command()(stats.stats)
+app.add_typer(stats.stats_app, name="stats")
 app.command()(inspect.view)
 app.command()(replay.replay)
 app.command()(inspect.doctor)
@@ -89,6 +91,8 @@ app.command()(hub.push)
 app.add_typer(episodes_app, name="episodes")
 app.add_typer(pipeline_app, name="pipeline")
 app.add_typer(videos_app, name="videos")
+app.add_typer(tasks_app, name="tasks")
+app.add_typer(features_app, name="features")
 plain_flags(app)  # after every command and sub-app: their --help shows no <bool> for flags
 
 

@@ -19,7 +19,7 @@ episodes_app = typer.Typer(
 )
 
 
-def _report(op: str, results: list[EditResult]) -> None:
+def report(op: str, results: list[EditResult]) -> None:
     for r in results:
         print_line(f"{op}: {r.out}  episodes {r.episodes}  frames {r.frames}")
 
@@ -36,7 +36,7 @@ def delete_cmd(
 
     if out is not None:
         paths.check_creatable(out, "--out")
-    _report("deleted", [delete(resolve_dataset(dataset), episodes, out, in_place)])
+    report("deleted", [delete(resolve_dataset(dataset), episodes, out, in_place)])
 
 
 @episodes_app.command("filter")
@@ -54,7 +54,7 @@ def filter_cmd(
 
     if out is not None:
         paths.check_creatable(out, "--out")
-    _report("filtered", [filter_episodes(resolve_dataset(dataset), where, out, in_place)])
+    report("filtered", [filter_episodes(resolve_dataset(dataset), where, out, in_place)])
 
 
 @episodes_app.command("split")
@@ -81,7 +81,7 @@ def split_cmd(
             raise UsageError("--out-dir: --fractions needs --out-dir DIR")
         paths.check_creatable(out_dir, "--out-dir")
         parts = split_fractions(resolve_dataset(dataset), fractions, out_dir, names, 0 if seed is None else seed)
-        _report("split", parts)
+        report("split", parts)
         return
     from openral_data.edit.ops import split
 
@@ -92,7 +92,7 @@ def split_cmd(
     paths.check_creatable(out, "--out")
     if rest is not None:
         paths.check_creatable(rest, "--rest")
-    _report("split", split(resolve_dataset(dataset), episodes, out, rest))
+    report("split", split(resolve_dataset(dataset), episodes, out, rest))
 
 
 @episodes_app.command("merge")
@@ -105,4 +105,4 @@ def merge_cmd(
     from openral_data.edit.ops import merge
 
     paths.check_creatable(out, "--out")
-    _report("merged", [merge([resolve_dataset(d) for d in datasets], out, order)])
+    report("merged", [merge([resolve_dataset(d) for d in datasets], out, order)])

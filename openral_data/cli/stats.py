@@ -12,6 +12,9 @@ import typer
 from rich.console import Console
 from rich.table import Table as RichTable
 
+from openral_data import paths as paths_
+from openral_data.cli.defaultgroup import DefaultCommandGroup
+from openral_data.cli.edit import report
 from openral_data.formats.repo_id import resolve_dataset
 
 if TYPE_CHECKING:
@@ -26,6 +29,16 @@ class StatsFormat(StrEnum):
     markdown = "markdown"
 
 
+stats_app = typer.Typer(
+    cls=DefaultCommandGroup,
+    no_args_is_help=True,
+    help="Statistics of datasets and results: `stats PATH…` (the same as `stats report PATH…`) prints the report "
+    "of episodes, frames and success rates computed by DuckDB; `stats recompute DATASET` rewrites a dataset's "
+    "feature statistics. A dataset folder named `report` or `recompute` is given as `./report`, `./recompute`.",
+)
+
+
+@stats_app.command("report")
 def stats(
     paths: Annotated[list[str], typer.Argument(help="datasets and/or results directories (globs allowed)")],
     by: Annotated[str | None, typer.Option(help="group by: dataset,task,rskill,scene,robot,seed")] = None,
@@ -35,7 +48,11 @@ def stats(
     memory_limit: Annotated[str, typer.Option(help="DuckDB memory limit")] = "1GB",
     health: Annotated[bool, typer.Option(help="run the health checks")] = True,
 ) -> None:
-    """Episodes, frames, success rates with 95 % intervals, comparisons and health, computed by DuckDB."""
+    """Episodes, frames, success rates with 95 % intervals, comparisons and health, computed by DuckDB.
+
+    `stats PATH…` is `stats report PATH…`. `stats recompute DATASET` rewrites a dataset's statistics.
+
+    A dataset folder named `report` or `recompute` is given as `./report`, `./recompute`."""
     from openral_data.metrics.command import StatsOptions
     from openral_data.paths import check_creatable
 
@@ -43,6 +60,20 @@ def stats(
         check_creatable(plot, "--plot", folder=False)
     paths = [str(resolve_dataset(p)) for p in paths]  # a repo id is its cached folder; globs stay globs
     print(stats_text(StatsOptions(paths, by, sql, fmt.value, plot, memory_limit, health)))
+
+
+@stats_app.command("recompute")
+def recompute_cmd(
+    dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (ours or lerobot's)")],
+    out: Annotated[Path | None, typer.Option(help="new dataset folder (must not exist or be empty)")] = None,
+    in_place: Annotated[bool, typer.Option(help="replace DATASET itself (swapped in once complete)")] = False,
+) -> None:
+    """Write DATASET with every feature's statistics recomputed (numbers from rows, cameras from decoded pixels)."""
+    from openral_data.edit.stats import recompute
+
+    if out is not None:
+        paths_.check_creatable(out, "--out")
+    report("recomputed", [recompute(resolve_dataset(dataset), out, in_place)])
 
 
 def stats_text(opts: StatsOptions) -> str:

@@ -1,5 +1,7 @@
 """Episode editing of LeRobot v3 datasets: `delete`, `split` and `merge` (see ops.py), `filter_episodes` and
-`split_fractions` (see select.py), `reencode` and `encode_images` (see videos.py), each returning `EditResult`s.
+`split_fractions` (see select.py), `reencode` and `encode_images` (see videos.py), each returning `EditResult`s;
+`tasks.rename`/`tasks.set_task`, `features.remove` and `stats.recompute` change what is copied (through
+`ops.Rewrite`), as `videos` does.
 
 Every edit writes a complete new dataset atomically through our LeRobot v3 writer (`assemble`), reading its
 episodes from the sources without re-encoding video (`source`), except the cameras `videos` is asked to encode.

@@ -63,13 +63,17 @@ class EpisodeAssembler:
         provenance: dict[str, Any],
         image_hist: dict[str, ImageStatsAccumulator] | None = None,
         features: dict[str, dict[str, Any]] | None = None,
+        column_hist: dict[str, ImageStatsAccumulator] | None = None,
     ) -> None:
-        """`features`: the source's info.json features, written verbatim (see `LeRobotV3Writer`)."""
+        """`features`: the source's info.json features, written verbatim (see `LeRobotV3Writer`).
+        `column_hist`: exact histograms of carried `dtype: image` features over the episodes written, read at
+        `close()` for the dataset's statistics (else they are merged from the episodes' statistics)."""
         merged: dict[str, ImageStatsAccumulator] = {name: MergedImageStats() for name in schema.cameras}
         self.writer = LeRobotV3Writer(root, schema, config, image_stats=merged, features=features)
         self.root = root
         self.schema = schema
         self._exact_hist = image_hist
+        self._column_hist = column_hist
         meta = json.loads((root / layout.OPENRAL_PATH).read_text())
         meta["edit"] = provenance
         atomic.write_bytes(root / layout.OPENRAL_PATH, json.dumps(meta, indent=2).encode(), config.durable)
@@ -93,6 +97,8 @@ class EpisodeAssembler:
                         code="dataset.invalid",
                     )
                 writer.image_stats = dict(exact)  # the final metadata write uses the exact histograms
+            if self._column_hist is not None and writer.total_episodes and not writer.closed:
+                writer.stats_override = {key: acc.stats() for key, acc in self._column_hist.items()}
         finally:
             writer.close()
         if exact is None:
@@ -116,6 +122,7 @@ class EpisodeAssembler:
             successes=list(episode.successes),
             task_indices=[writer.tasks.setdefault(t, len(writer.tasks)) for t in episode.tasks],
             columns=dict(episode.columns),
+            column_stats=dict(episode.column_stats),
         )
         encoded: dict[str, EncodedEpisode] = {}
         try:

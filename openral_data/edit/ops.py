@@ -26,7 +26,9 @@ from openral_data.formats.staging import Staging, check_new_output
 from openral_data.types import DatasetSchema
 
 _DATASET_ENTRIES = {"meta", "data", "videos", ".openral"}
+_LEROBOT_IMAGES = "images"  # lerobot's staging folder for `dtype: image` PNGs, left empty once they are embedded
 Selection = list[tuple[SourceDataset, int]]  # (source, episode index in it), in output order
+Transform = Callable[[EpisodeData], EpisodeData]  # an episode as read -> as written
 
 
 @dataclass(frozen=True)
@@ -37,15 +39,22 @@ class EditResult:
 
 
 @dataclass(frozen=True)
-class Transform:
-    """A change of layout the output gets instead of the source's (e.g. `edit.videos`): its schema, info.json
-    features and writer settings, `episode`, applied to each episode on its way to the writer, and `details`, what
-    the change was, added to the `edit` block of `meta/openral.json`."""
+class Rewrite:
+    """How an edit changes what it copies, beyond choosing episodes (`tasks`, `features remove`, `stats
+    recompute`, `videos`): `transform` rewrites each episode read from a source before it is written; `schema`,
+    `features` and `config` (writer settings) replace the first source's (a feature removed: schema and features
+    name the same columns and cameras); `image_hist` are exact dataset-level camera histograms of the episodes
+    written and `column_hist` the same for carried `dtype: image` features (both may be filled by `transform` as
+    it goes: they are read at the end); `details`, what the change was, join the `edit` block of
+    `meta/openral.json`.
+    """
 
-    schema: DatasetSchema
-    features: dict[str, dict[str, Any]]
-    config: WriterConfig
-    episode: Callable[[EpisodeData], EpisodeData]
+    transform: Transform | None = None
+    schema: DatasetSchema | None = None
+    features: dict[str, dict[str, Any]] | None = None
+    config: WriterConfig | None = None
+    image_hist: dict[str, ImageStatsAccumulator] | None = None
+    column_hist: dict[str, ImageStatsAccumulator] | None = None
     details: dict[str, Any] = field(default_factory=dict)
 
 
@@ -90,14 +99,15 @@ def write_selection(
     image_hist: dict[str, ImageStatsAccumulator] | None = None,
     before_rename: Callable[[], None] | None = None,
     out_checked: bool = False,
-    transform: Transform | None = None,
+    rewrite: Rewrite | None = None,
 ) -> EditResult:
     """Write the selected episodes, in order, as a new dataset at `out` (atomically, through `staging.Staging`).
 
     `before_publish(staging)` may add files beside the dataset (e.g. `mcap/`) before the whole folder appears;
     `before_rename()` runs right before the rename (`record --workers` lets go of its lock on `out` there);
-    `out_checked`: the caller checked `out` itself and holds it (its lock file is in it until `before_rename`);
-    `transform`: the output's layout and a change made to every episode (default: the source's, unchanged).
+    `out_checked`: the caller checked `out` itself and holds it (its lock file is in it until `before_rename`).
+    `rewrite`: what the edit changes in the episodes besides their selection (its `image_hist` replaces the
+    argument's).
     """
     if not selection:
         raise EpisodeSelectionError(f"{out}: no episodes selected; a dataset needs at least one", code="episodes.empty")
@@ -117,22 +127,23 @@ def write_selection(
             for root, eps in sources.items()
         ],
     }
-    if transform is not None:
-        provenance.update(transform.details)
+    change = rewrite or Rewrite()
+    provenance.update(change.details)
     staged = Staging(out, f"openral-data {op}")
     with staged as staging:
-        if transform is None:
-            writer = EpisodeAssembler(
-                staging, first.schema, first.writer_config(), provenance, image_hist, features=first.features
-            )
-        else:
-            writer = EpisodeAssembler(
-                staging, transform.schema, transform.config, provenance, image_hist, features=transform.features
-            )
+        writer = EpisodeAssembler(
+            staging,
+            change.schema or first.schema,
+            change.config or first.writer_config(),
+            provenance,
+            change.image_hist if rewrite is not None else image_hist,
+            features=change.features or first.features,
+            column_hist=change.column_hist,
+        )
         try:
             for k, (src, e) in enumerate(selection):
                 episode = src.episode(e)
-                writer.add(episode if transform is None else transform.episode(episode))
+                writer.add(episode if change.transform is None else change.transform(episode))
                 if on_episode is not None:
                     on_episode(k)
         except BaseException:
@@ -164,32 +175,38 @@ def delete(dataset: Path, episodes: str, out: Path | None, in_place: bool = Fals
 
 
 def write_edit(
-    keep: Selection,
-    dataset: Path,
-    out: Path | None,
-    in_place: bool,
-    op: str,
-    image_hist: dict[str, ImageStatsAccumulator] | None = None,
-    transform: Transform | None = None,
+    keep: Selection, dataset: Path, out: Path | None, in_place: bool, op: str, rewrite: Rewrite | None = None
 ) -> EditResult:
-    """Write `keep` (episodes of `dataset`) to `out`, or (`in_place`) as `dataset` itself, swapped in once complete
-    (`image_hist`, `transform`: as `write_selection` takes them)."""
+    """Write `keep` (episodes of `dataset`) to `out`, or (`in_place`) as `dataset` itself, swapped in once complete."""
     if in_place == (out is not None):
         raise UsageError("--out: give either --out DIR or --in-place")
     if out is not None:
-        return write_selection(keep, out, op, image_hist=image_hist, transform=transform)
-    foreign = sorted(p.name for p in dataset.iterdir() if p.name not in _DATASET_ENTRIES)
+        return write_selection(keep, out, op, rewrite=rewrite)
+    # lerobot leaves empty `images/<key>/` folders behind: nothing is lost without them
+    foreign = sorted(
+        p.name
+        for p in dataset.iterdir()
+        if p.name not in _DATASET_ENTRIES and not (p.name == _LEROBOT_IMAGES and _empty_folder(p))
+    )
     if foreign:
         raise UsageError(
             f"{dataset}: --in-place: {', '.join(foreign)} would not be carried over (editing writes meta/, data/ "
             "and videos/ only); use --out"
         )
     old = dataset.parent / f".{dataset.name}.replaced-{os.getpid()}"
-    staged = Staging(dataset, f"openral-data episodes {op} --in-place")
-    with DatasetLock(dataset, f"episodes {op} --in-place"), staged as new:  # no recording may start meanwhile
-        result = write_selection(keep, new, op, image_hist=image_hist, transform=transform)
+    command = f"episodes {op}" if op in ("delete", "filter") else op  # `tasks rename`, `stats recompute`, …
+    staged = Staging(dataset, f"openral-data {command} --in-place")
+    with DatasetLock(dataset, f"{command} --in-place"), staged as new:  # no recording may start meanwhile
+        result = write_selection(keep, new, op, rewrite=rewrite)
         staged.replace_existing(old)  # the input stays whole (under `old`) until the new dataset took its name
     return EditResult(dataset, result.episodes, result.frames)
+
+
+def _empty_folder(path: Path) -> bool:
+    """A real folder holding nothing but (real) empty folders."""
+    if path.is_symlink() or not path.is_dir():
+        return False
+    return all(_empty_folder(p) for p in path.iterdir())
 
 
 def split(dataset: Path, episodes: str, out: Path, rest: Path | None = None) -> list[EditResult]:

@@ -3,18 +3,17 @@
 Editing rebuilds a dataset through our own writer, so a source must have columns our writer can reproduce:
 its `info.json` features must be what `build_features` makes from the schema read back here (state/action
 names, video cameras, outcomes), except that a camera's `info` block is kept as the source wrote it and
-`next.done` may be absent; any other numeric feature of one axis (`observation.environment_state`) is carried
-as its stored column (`carried`). The output keeps the source's features verbatim. The dataset need not be ours: our
-`openral.*` episode columns are carried when present and never required. Without them an episode's seed is
-unknown (`None`), its initial state empty, and its success read by the rule `metrics` uses: `openral.success`,
-else whether any frame has `next.success`, else unknown. `dtype: image` features named in `images` (an operation
-that turns them into something else, `edit.videos`) are carried as their stored column instead of refused.
+`next.done` may be absent; any other numeric feature of one axis (`observation.environment_state`) and any
+`dtype: image` camera is carried as its stored column (`carried`; an image's `{bytes, path}` cells unchanged,
+its per-episode statistics taken from meta/episodes, as a video camera's are). The output keeps the source's
+features verbatim. The dataset need not be ours: our `openral.*` episode columns are carried when present and
+never required. Without them an episode's seed is unknown (`None`), its initial state empty, and its success
+read by the rule `metrics` uses: `openral.success`, else whether any frame has `next.success`, else unknown.
 """
 
 from __future__ import annotations
 
 import json
-from collections.abc import Collection
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -57,12 +56,12 @@ class EpisodeData:
     videos: dict[str, bytes]  # camera name -> a complete mp4 of exactly `length` frames starting at pts 0
     image_stats: dict[str, Stats]  # camera name -> the episode's statistics from the source metadata
     columns: dict[str, pa.Array]  # carried features (`SourceDataset.carried`), as stored
+    column_stats: dict[str, Stats]  # carried image features -> the episode's statistics from the source metadata
 
 
 class SourceDataset:
-    def __init__(self, root: Path, *, images: Collection[str] = ()) -> None:
+    def __init__(self, root: Path) -> None:
         self.root = root
-        self.images = set(images)  # image features carried as stored (the caller converts them)
         if not root.is_dir():
             raise NotFound(f"{root}: no such dataset folder")
         check_settled(root, "edit")
@@ -77,7 +76,7 @@ class SourceDataset:
         self.video = self._video_settings()
         self.schema = self._schema()
         self._check_reproducible()
-        self._types = data_schema({k: f for k, f in self.features.items() if k not in self.images})
+        self._types = data_schema(self.features)
         self._rows = self.episodes.to_pylist()
         order = [int(r["episode_index"]) for r in self._rows]
         if order[: self.total] != list(range(self.total)):
@@ -139,9 +138,7 @@ class SourceDataset:
         if "next.done" not in self.features:
             del rebuilt["next.done"]
         where = f"{self.root}/meta/info.json: features"
-        self.carried = [
-            k for k, f in self.features.items() if k not in rebuilt and (_carriable(f) or self._taken_image(k, f))
-        ]
+        self.carried = [k for k, f in self.features.items() if k not in rebuilt and _carriable(f)]
         for key in self.features.keys() - set(self.carried) | rebuilt.keys():
             ours, theirs = dict(rebuilt.get(key) or {}), dict(self.features.get(key) or {})
             if ours.get("dtype") == "video" and theirs.get("dtype") == "video":
@@ -152,9 +149,6 @@ class SourceDataset:
                     f"{where}.{key}: not a feature layout openral-data writes; cannot edit this dataset",
                     code="dataset.unsupported",
                 )
-
-    def _taken_image(self, key: str, feature: dict[str, Any]) -> bool:
-        return key in self.images and feature.get("dtype") == "image"
 
     def image_hist(self) -> dict[str, ImageStatsAccumulator] | None:
         """The writer's dataset-level camera histograms (`.openral/image_hist.json`), if it left them."""
@@ -223,11 +217,7 @@ class SourceDataset:
         image_stats: dict[str, Stats] = {}
         for name in self.camera_names():
             videos[name] = self._clip(index, row, name, n)
-            key = IMAGE_PREFIX + name
-            image_stats[name] = {
-                s: np.asarray(row[f"stats/{key}/{s}"], dtype=np.int64 if s == "count" else np.float64)
-                for s in STAT_KEYS
-            }
+            image_stats[name] = self._stats(row, IMAGE_PREFIX + name)
         initial = row.get("openral.initial_state")
         successes = _list(data, "next.success", False)
         seed = row.get("openral.seed")
@@ -246,12 +236,22 @@ class SourceDataset:
             initial_state=json.loads(initial) if initial else {},
             videos=videos,
             image_stats=image_stats,
-            columns={key: self._stored(data, key) for key in self.carried},
+            columns={key: data.column(key).combine_chunks().cast(self._types.field(key).type) for key in self.carried},
+            column_stats={key: self._stats(row, key) for key in self.carried if self.features[key]["dtype"] == "image"},
         )
 
-    def _stored(self, data: pa.Table, key: str) -> pa.Array:
-        column = data.column(key).combine_chunks()
-        return column if key in self.images else column.cast(self._types.field(key).type)
+    def _stats(self, row: dict[str, Any], key: str) -> Stats:
+        """A feature's statistics for one episode as meta/episodes has them."""
+        try:
+            return {
+                s: np.asarray(row[f"stats/{key}/{s}"], dtype=np.int64 if s == "count" else np.float64)
+                for s in STAT_KEYS
+            }
+        except (KeyError, TypeError, ValueError):
+            raise DatasetError(
+                f"{self.root}: meta/episodes: stats/{key}: missing or not numbers (episode {row['episode_index']})",
+                code="dataset.invalid",
+            ) from None
 
     def _success(self, row: dict[str, Any], successes: list[bool]) -> bool | None:
         if "openral.success" in self.episodes.column_names:
@@ -291,8 +291,16 @@ class SourceDataset:
 
 
 def _carriable(feature: dict[str, Any]) -> bool:
-    """A numeric per-frame feature (float32, int64 or bool, one axis) that editing copies as it is."""
+    """A numeric per-frame feature (float32, int64 or bool, one axis) or an image (height, width, 3) that editing
+    copies as it is."""
     shape = feature.get("shape")
+    if feature.get("dtype") == "image":
+        return (
+            isinstance(shape, list)
+            and len(shape) == 3
+            and all(isinstance(d, int) and d >= 1 for d in shape)
+            and shape[2] == 3
+        )
     return (
         feature.get("dtype") in ("float32", "int64", "bool")
         and isinstance(shape, list)

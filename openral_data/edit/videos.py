@@ -24,7 +24,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any, get_args
 
-from openral_data.edit.ops import EditResult, Transform, summed_histograms, write_edit
+from openral_data.edit.ops import EditResult, Rewrite, summed_histograms, write_edit
 from openral_data.edit.recode import CameraEncoders, Pixels, clip_frames, image_frames
 from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.errors import DatasetError, UsageError
@@ -184,7 +184,7 @@ def encode_images(
     settings = settings_for(codec)
     # (a missing folder is SourceDataset's to report)
     keys = choose_cameras(read_info(dataset)["features"], cameras, "image", dataset) if dataset.is_dir() else []
-    src = SourceDataset(dataset, images=keys)  # refuses what it cannot edit (a busy dataset, image cameras left)
+    src = SourceDataset(dataset)  # refuses what it cannot edit (a busy or interrupted dataset, a foreign layout)
     shapes: dict[str, CameraShape] = {}
     for key in keys:
         shape = src.features[key].get("shape")
@@ -226,8 +226,8 @@ def _recode(
     details = {"codec": settings.codec, **details, "cameras": [IMAGE_PREFIX + name for name in shapes]}
     recoder = _Recoder(src, shapes, settings, hist, size)
     try:
-        transform = Transform(schema, features, config, recoder.episode, details)
+        rewrite = Rewrite(recoder.episode, schema, features, config, image_hist=hist, details=details)
         keep = [(src, e) for e in range(src.total)]
-        return write_edit(keep, src.root, out, in_place, op, image_hist=hist, transform=transform)
+        return write_edit(keep, src.root, out, in_place, op, rewrite)
     finally:
         recoder.encoders.close()

@@ -1,9 +1,9 @@
-"""Editing datasets lerobot 0.6.1 wrote itself (no `openral.*` columns): delete, split and merge give datasets
-that `doctor` finds healthy and lerobot loads with exactly the source's frames; the sources stay byte-unchanged."""
+"""Editing datasets lerobot 0.6.1 wrote itself (no `openral.*` columns, a video and a `dtype: image` camera):
+delete, split and merge give datasets that `doctor` finds healthy and lerobot loads with exactly the source's
+frames (decoded pixels of both cameras included); the sources stay byte-unchanged."""
 
 from __future__ import annotations
 
-import hashlib
 import json
 from pathlib import Path
 from typing import Any
@@ -13,50 +13,17 @@ import pyarrow.parquet as pq
 import pytest
 
 from openral_data.doctor import check
-from openral_data.edit import ops
+from openral_data.edit import ops, select
 from tests.support.cli import run_cli
-from tests.support.lerobot_written import LENGTHS, SUCCEEDED, write_lerobot_dataset
-
-Frame = dict[str, Any]
-
-
-def _digest(root: Path) -> dict[str, str]:
-    return {
-        str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest() for p in root.rglob("*") if p.is_file()
-    }
-
-
-def _episodes(root: Path) -> list[list[Frame]]:
-    """Every frame lerobot loads, grouped by episode: values (state, action, pixels, task, success) and indices."""
-    from lerobot.datasets.lerobot_dataset import LeRobotDataset
-
-    ds = LeRobotDataset("local/check", root=root, video_backend="pyav")
-    out: list[list[Frame]] = [[] for _ in range(ds.meta.total_episodes)]
-    for i in range(len(ds)):
-        item = ds[i]
-        assert int(item["index"]) == i
-        e, t = int(item["episode_index"]), int(item["frame_index"])
-        assert len(out[e]) == t and abs(float(item["timestamp"]) - t / ds.fps) < 1e-6
-        out[e].append(
-            {
-                "state": item["observation.state"].numpy().tolist(),
-                "action": item["action"].numpy().tolist(),
-                "cam": item["observation.images.cam"].numpy(),
-                "task": item["task"],
-                "success": bool(item["next.success"]) if "next.success" in item else None,
-                "env": item["observation.environment_state"].numpy().tolist()
-                if "observation.environment_state" in item
-                else None,
-            }
-        )
-    return out
-
-
-def _same(got: list[Frame], want: list[Frame]) -> None:
-    assert len(got) == len(want)
-    for g, w in zip(got, want, strict=True):
-        assert {k: v for k, v in g.items() if k != "cam"} == {k: v for k, v in w.items() if k != "cam"}
-        assert np.array_equal(g["cam"], w["cam"])  # packets copied: the decoded pixels are the source's
+from tests.support.lerobot_written import (
+    IMAGE_CAMERA,
+    LENGTHS,
+    SUCCEEDED,
+    digest,
+    loaded_episodes,
+    same_frames,
+    write_lerobot_dataset,
+)
 
 
 def _healthy(root: Path) -> None:
@@ -66,25 +33,35 @@ def _healthy(root: Path) -> None:
 @pytest.fixture(params=[True, False], ids=["next.success", "no-success+environment_state"])
 def source(request: pytest.FixtureRequest, tmp_path: Path) -> Path:
     root = tmp_path / "lerobot"
-    write_lerobot_dataset(root, with_success=request.param, environment_state=not request.param)
+    write_lerobot_dataset(root, with_success=request.param, image_camera=True, environment_state=not request.param)
     return root
 
 
 def test_delete_and_split_of_a_lerobot_dataset(source: Path, tmp_path: Path) -> None:
-    before = _digest(source)
-    src = _episodes(source)
+    before = digest(source)
+    src = loaded_episodes(source)
     assert [len(e) for e in src] == LENGTHS
     res = run_cli("episodes", "delete", str(source), "--episodes", "1", "--out", str(tmp_path / "del"))
     assert res.returncode == 0, res.stderr
     ops.split(source, "2,0", tmp_path / "part", rest=tmp_path / "rest")
+    res = run_cli("episodes", "filter", str(source), "--where", "length >= 6", "--out", str(tmp_path / "long"))
+    assert res.returncode == 0, res.stderr
+    parts = select.split_fractions(source, "0.67,0.33", tmp_path / "parts", names="a,b", seed=1)
+    fractions = [(r.out, select.partition(len(LENGTHS), [0.67, 0.33], 1)[k]) for k, r in enumerate(parts)]
     has_env = "observation.environment_state" in json.loads((source / "meta/info.json").read_text())["features"]
-    assert all((f["env"] is not None) == has_env for e in src for f in e)
-    for out, order in ((tmp_path / "del", [0, 2]), (tmp_path / "part", [2, 0]), (tmp_path / "rest", [1])):
+    assert all((f["env"] is not None) == has_env and f["wrist"] is not None for e in src for f in e)
+    outs = [
+        (tmp_path / "del", [0, 2]),
+        (tmp_path / "part", [2, 0]),
+        (tmp_path / "rest", [1]),
+        (tmp_path / "long", [0, 1]),
+    ]
+    for out, order in outs + fractions:
         _healthy(out)
-        got = _episodes(out)
+        got = loaded_episodes(out)
         assert len(got) == len(order)
         for k, e in enumerate(order):
-            _same(got[k], src[e])
+            same_frames(got[k], src[e])
         rows = pq.read_table(out / "meta/episodes").to_pylist()
         with_success = "next.success" in json.loads((source / "meta/info.json").read_text())["features"]
         assert [r["openral.success"] for r in rows] == [SUCCEEDED[e] if with_success else None for e in order]
@@ -92,24 +69,50 @@ def test_delete_and_split_of_a_lerobot_dataset(source: Path, tmp_path: Path) -> 
         info = json.loads((out / "meta/info.json").read_text())
         assert info["features"] == json.loads((source / "meta/info.json").read_text())["features"]
         assert info["total_episodes"] == len(order) and info["total_frames"] == sum(LENGTHS[e] for e in order)
-    assert _digest(source) == before
+        _same_image_cells(out, source, order)
+        _image_stats_carried(out, source, order)
+    assert digest(source) == before
+
+
+def _image_cells(root: Path) -> list[dict[str, Any]]:
+    table = pq.read_table(root / "data").sort_by("index")
+    return table.column(IMAGE_CAMERA).to_pylist()
+
+
+def _same_image_cells(out: Path, source: Path, order: list[int]) -> None:
+    """The image column is carried as stored: every cell's bytes (and path) are the source's, in episode order."""
+    cells = _image_cells(source)
+    starts = [sum(LENGTHS[:e]) for e in range(len(LENGTHS))]
+    want = [c for e in order for c in cells[starts[e] : starts[e] + LENGTHS[e]]]
+    assert _image_cells(out) == want
+
+
+def _image_stats_carried(out: Path, source: Path, order: list[int]) -> None:
+    """Per-episode image statistics are the source's; the dataset's merge them (count = frames written)."""
+    key = f"stats/{IMAGE_CAMERA}/mean"
+    src_rows = pq.read_table(source / "meta/episodes").to_pylist()
+    out_rows = pq.read_table(out / "meta/episodes").to_pylist()
+    assert [r[key] for r in out_rows] == [src_rows[e][key] for e in order]
+    stats = json.loads((out / "meta/stats.json").read_text())[IMAGE_CAMERA]
+    assert stats["count"] == [sum(LENGTHS[e] for e in order)]
+    assert np.asarray(stats["mean"]).shape == (3, 1, 1)
 
 
 def test_merge_two_lerobot_datasets(tmp_path: Path) -> None:
     a, b = tmp_path / "a", tmp_path / "b"
-    write_lerobot_dataset(a, with_success=True)
-    write_lerobot_dataset(b, with_success=True)
-    before = _digest(a), _digest(b)
+    write_lerobot_dataset(a, with_success=True, image_camera=True)
+    write_lerobot_dataset(b, with_success=True, image_camera=True)
+    before = digest(a), digest(b)
     out = tmp_path / "merged"
     res = run_cli("episodes", "merge", str(a), str(b), "--out", str(out))
     assert res.returncode == 0, res.stderr
     _healthy(out)
-    src = _episodes(a) + _episodes(b)
-    got = _episodes(out)
+    src = loaded_episodes(a) + loaded_episodes(b)
+    got = loaded_episodes(out)
     assert len(got) == 2 * len(LENGTHS)
     for g, w in zip(got, src, strict=True):
-        _same(g, w)
-    assert (_digest(a), _digest(b)) == before
+        same_frames(g, w)
+    assert (digest(a), digest(b)) == before
 
 
 def test_merge_by_seed_needs_recorded_seeds(tmp_path: Path) -> None:
@@ -146,10 +149,13 @@ def test_merge_of_ours_and_lerobots_names_the_differing_field(project: Path, tmp
 
 def test_a_feature_the_writer_cannot_reproduce_is_refused_naming_it(tmp_path: Path) -> None:
     src = tmp_path / "with_image"
-    write_lerobot_dataset(src, with_success=False, image_camera=True)
-    before = _digest(src)
+    write_lerobot_dataset(src, with_success=False)
+    info = json.loads((src / "meta/info.json").read_text())
+    info["features"]["observation.images.wrist"] = {"dtype": "image", "shape": [24, 20], "names": None}  # no channels
+    (src / "meta/info.json").write_text(json.dumps(info, indent=4))
+    before = digest(src)
     out = tmp_path / "out"
     res = run_cli("episodes", "delete", str(src), "--episodes", "0", "--out", str(out))
     assert res.returncode == 2 and res.stderr.count("\n") == 1, res.stderr
     assert res.stderr.startswith(f"error: {src}/meta/info.json: features.observation.images.wrist: "), res.stderr
-    assert not out.exists() and _digest(src) == before
+    assert not out.exists() and digest(src) == before

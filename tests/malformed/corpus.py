@@ -435,6 +435,7 @@ READERS: dict[str, tuple[Callable[[Workspace, Path], list[str]], tuple[str, ...]
     "merge": (lambda w, d: ["episodes", "merge", str(w.ds("good")), str(d), "--out", str(w.root / "m")], ("m",)),
     "view": (lambda w, d: ["view", str(d), "--save", str(w.root / "v.rrd")], ("v.rrd",)),
     "reencode": (lambda w, d: ["videos", "reencode", str(d), "--codec", "h264", "--out", str(w.root / "v")], ("v",)),
+    "recompute": (lambda w, d: ["stats", "recompute", str(d), "--out", str(w.root / "r")], ("r",)),
 }
 
 # which files each command reads (a damage elsewhere is not its business)
@@ -448,6 +449,7 @@ READS: dict[str, set[str]] = {
     "merge": {"info", "episodes", "tasks", "data", "video", "openral"},
     "view": {"info", "episodes", "tasks", "data", "video"},
     "reencode": {"info", "episodes", "tasks", "data", "video", "openral"},
+    "recompute": {"info", "episodes", "tasks", "data", "video", "openral"},
 }
 
 
@@ -563,6 +565,10 @@ SELECTORS: dict[str, tuple[Callable[[Workspace, str], list[str]], tuple[str, ...
     "split": (
         lambda w, sel: ["episodes", "split", str(w.ds()), "--episodes", sel, "--out", str(w.root / "a")],
         ("a",),
+    ),
+    "tasks-set": (
+        lambda w, sel: ["tasks", "set", str(w.ds()), "--episodes", sel, "--task", "x", "--out", str(w.root / "t")],
+        ("t",),
     ),
 }
 
@@ -823,6 +829,49 @@ OPTIONS: list[tuple[str, Callable[[Workspace], list[str]], str, tuple[str, ...]]
         ],
         r"--names",
         ("p",),
+    ),
+    (
+        "tasks-rename-unknown-task",
+        lambda w: ["tasks", "rename", str(w.ds()), "--from", "no such task", "--to", "x", "--out", str(w.root / "t")],
+        r"--from: .* has no task 'no such task'",
+        ("t",),
+    ),
+    (
+        "tasks-rename-empty-text",
+        lambda w: ["tasks", "rename", str(w.ds()), "--from", "pick up the mock cube", "--to", " ", "--in-place"],
+        r"--to: empty task text",
+        (),
+    ),
+    (
+        "tasks-set-empty-text",
+        lambda w: ["tasks", "set", str(w.ds()), "--episodes", "0", "--task", "", "--out", str(w.root / "t")],
+        r"--task: empty task text",
+        ("t",),
+    ),
+    (
+        "features-remove-unknown",
+        lambda w: ["features", "remove", str(w.ds()), "--feature", "observation.nope", "--out", str(w.root / "f")],
+        r"--feature: .* has no feature 'observation\.nope'",
+        ("f",),
+    ),
+    (
+        "features-remove-required",
+        lambda w: ["features", "remove", str(w.ds()), "--feature", "frame_index", "--in-place"],
+        r"--feature: frame_index is a column every LeRobot v3 dataset has",
+        (),
+    ),
+    (
+        "features-remove-state",
+        lambda w: ["features", "remove", str(w.ds()), "--feature", "observation.state", "--out", str(w.root / "f")],
+        r"--feature: observation\.state cannot be removed",
+        ("f",),
+    ),
+    ("stats-recompute-no-output", lambda w: ["stats", "recompute", str(w.ds())], r"--out: give either", ()),
+    (
+        "stats-recompute-missing",
+        lambda w: ["stats", "recompute", str(w.root / "gone"), "--out", str(w.root / "s")],
+        r"gone",
+        ("s", "gone"),
     ),
     ("info-path-is-a-file", lambda w: ["info", str(w.write("afile", "x"))], r"afile", ()),
     ("info-path-missing", lambda w: ["info", str(w.root / "nothing")], r"nothing", ()),

@@ -1,19 +1,24 @@
 """A small dataset written by lerobot 0.6.1 itself (no openral columns): three episodes, one video camera; on
 request also a `dtype: image` camera (`IMAGE_CAMERA`, pixels `image_pixels(e, t)`) and an
-`observation.environment_state` (`ENV_NAMES`, values `env_state(e, t)`)."""
+`observation.environment_state` (`ENV_NAMES`, values `env_state(e, t)`). `loaded_episodes` reads any dataset
+back through lerobot's loader for comparisons (`same_frames`), `digest` fingerprints its files."""
 
 from __future__ import annotations
 
+import hashlib
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 LENGTHS = [6, 9, 4]
 SUCCEEDED = [True, False, True]
+VIDEO_CAMERA = "observation.images.cam"
 IMAGE_CAMERA = "observation.images.wrist"
 IMAGE_SHAPE = (24, 20, 3)
 ENV_STATE = "observation.environment_state"
 ENV_NAMES = ["block_x", "block_y", "block_angle", "goal_dist"]
+Frame = dict[str, Any]
 
 
 def image_pixels(e: int, t: int) -> np.ndarray:
@@ -74,3 +79,48 @@ def write_lerobot_dataset(
             ds.save_episode()
     finally:
         ds.finalize()
+
+
+def digest(root: Path) -> dict[str, str]:
+    """Every file under `root` -> its sha256 (a source must be byte-unchanged by an edit)."""
+    return {
+        str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest() for p in root.rglob("*") if p.is_file()
+    }
+
+
+def loaded_episodes(root: Path) -> list[list[Frame]]:
+    """Every frame lerobot loads, grouped by episode: values (state, action, pixels, task, success) and indices."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    ds = LeRobotDataset("local/check", root=root, video_backend="pyav")
+    out: list[list[Frame]] = [[] for _ in range(ds.meta.total_episodes)]
+    for i in range(len(ds)):
+        item = ds[i]
+        assert int(item["index"]) == i
+        e, t = int(item["episode_index"]), int(item["frame_index"])
+        assert len(out[e]) == t and abs(float(item["timestamp"]) - t / ds.fps) < 1e-6
+        out[e].append(
+            {
+                "state": item["observation.state"].numpy().tolist(),
+                "action": item["action"].numpy().tolist(),
+                "cam": item[VIDEO_CAMERA].numpy() if VIDEO_CAMERA in item else None,
+                "wrist": item[IMAGE_CAMERA].numpy() if IMAGE_CAMERA in item else None,
+                "task": item["task"],
+                "success": bool(item["next.success"]) if "next.success" in item else None,
+                "env": item["observation.environment_state"].numpy().tolist()
+                if "observation.environment_state" in item
+                else None,
+            }
+        )
+    return out
+
+
+def same_frames(got: list[Frame], want: list[Frame]) -> None:
+    """Two episodes as `loaded_episodes` gives them hold the same frames (pixels equal, not just close)."""
+    assert len(got) == len(want)
+    for g, w in zip(got, want, strict=True):
+        pictures = ("cam", "wrist")
+        assert {k: v for k, v in g.items() if k not in pictures} == {k: v for k, v in w.items() if k not in pictures}
+        for key in pictures:  # video packets and image bytes copied: the decoded pixels are the source's
+            assert (g[key] is None) == (w[key] is None), key
+            assert g[key] is None or np.array_equal(g[key], w[key]), key

@@ -95,7 +95,14 @@ def build_features(schema: DatasetSchema, video: VideoSettings) -> dict[str, dic
     return features
 
 
+# a `dtype: image` frame in the data parquet: the Hugging Face `Image` struct (lerobot embeds the PNG bytes)
+IMAGE_STRUCT = pa.struct([("bytes", pa.binary()), ("path", pa.string())])
+PICTURE_DTYPES = ("video", "image")  # features whose statistics are per channel, shape (3, 1, 1)
+
+
 def _arrow_type(feature: dict[str, Any]) -> pa.DataType:
+    if feature["dtype"] == "image":
+        return IMAGE_STRUCT
     base = {"float32": pa.float32(), "int64": pa.int64(), "bool": pa.bool_()}[feature["dtype"]]
     shape = feature["shape"]
     return base if shape == [1] else pa.list_(base, shape[0])
@@ -125,7 +132,7 @@ def episodes_schema(features: dict[str, dict[str, Any]]) -> pa.Schema:
             ]
     for key, f in features.items():
         value: pa.DataType = (
-            pa.list_(pa.list_(pa.list_(pa.float64()))) if f["dtype"] == "video" else pa.list_(pa.float64())
+            pa.list_(pa.list_(pa.list_(pa.float64()))) if f["dtype"] in PICTURE_DTYPES else pa.list_(pa.float64())
         )
         for stat in STAT_KEYS:
             fields.append((f"stats/{key}/{stat}", pa.list_(pa.int64()) if stat == "count" else value))

@@ -129,6 +129,9 @@ class EpisodeBuffer:
     # whole columns of features the writer does not build itself (only with the writer's `features`; editing
     # carries e.g. `observation.environment_state` this way), each of the feature's Arrow type
     columns: dict[str, pa.Array] = field(default_factory=dict)
+    # the episode statistics of those columns that are not numbers (a `dtype: image` feature's, as its source
+    # has them): used instead of statistics computed from the column, and merged into the dataset's
+    column_stats: dict[str, Stats] = field(default_factory=dict)
 
 
 class LeRobotV3Writer:
@@ -179,6 +182,8 @@ class LeRobotV3Writer:
         self.image_stats = (
             dict(image_stats) if image_stats is not None else {n: ImageStatsAccumulator() for n in schema.cameras}
         )
+        # dataset-level statistics written instead of the merged ones (editing's exact `dtype: image` histograms)
+        self.stats_override: dict[str, Stats] = {}
         self._episode: EpisodeBuffer | None = None
         self._batch: atomic.Batch | None = None  # set while an episode is being committed
         self._closed = False
@@ -450,7 +455,10 @@ class LeRobotV3Writer:
             success = None  # unknown stays unknown: `openral.success` is NULL
         row = self._base_row(index, ep, n, success)
         table = self._episode_table(index, ep, n)
-        ep_stats = {k: numeric_stats(_column_values(table, k)) for k in table.column_names}
+        ep_stats = {
+            k: ep.column_stats[k] if k in ep.column_stats else numeric_stats(_column_values(table, k))
+            for k in table.column_names
+        }
         for name, enc in encoded.items():
             self._place_video(name, index, enc.path, enc.frames, row)
             img = enc.stats.stats()
@@ -665,6 +673,7 @@ class LeRobotV3Writer:
                 stats[key] = to_jsonable(self._numeric_stats[key])
         for name, acc in self.image_stats.items():
             stats[self._keys[name]] = to_jsonable(acc.stats())
+        stats.update({key: to_jsonable(s) for key, s in self.stats_override.items()})
         ordered = {k: stats[k] for k in self.features if k in stats}
         hist = {name: acc.to_json() for name, acc in self.image_stats.items()}
         self._write(self.root / layout.IMAGE_HIST_PATH, atomic.bytes_writer(json.dumps(hist).encode()))

@@ -1,0 +1,71 @@
+"""`stats recompute`: rewrite a dataset with every feature's statistics computed again from its content.
+
+Numeric features: from the rows, per episode and merged per dataset, as our writer does while recording (the
+writer recomputes them on every copy). Cameras: from decoded pixels with the writer's method
+(`ImageStatsAccumulator`: per-channel histograms of every frame, spatially strided to <= 64 px a side), a video
+camera's frames decoded from its mp4 (the packets themselves are copied, never re-encoded), a `dtype: image`
+camera's from its embedded PNG/JPEG. Dataset-level camera statistics come from the summed histograms, so they are
+exact (quantiles included), and `.openral/image_hist.json` is written again. Nothing else changes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+from collections.abc import Iterator
+from pathlib import Path
+
+import av
+import numpy as np
+import numpy.typing as npt
+
+from openral_data.edit.ops import EditResult, Rewrite, write_edit
+from openral_data.edit.source import EpisodeData, SourceDataset
+from openral_data.errors import DatasetError
+from openral_data.formats.lerobot_v3.images import decode_image
+from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
+
+
+def recompute(dataset: Path, out: Path | None, in_place: bool = False) -> EditResult:
+    """Write `dataset` with recomputed statistics to `out` (or in place)."""
+    src = SourceDataset(dataset)
+    pictures = [k for k in src.carried if src.features[k].get("dtype") == "image"]
+    video_hist = {name: ImageStatsAccumulator() for name in src.camera_names()}
+    image_hist = {key: ImageStatsAccumulator() for key in pictures}
+
+    def restated(ep: EpisodeData) -> EpisodeData:
+        image_stats = {}
+        for name, mp4 in ep.videos.items():
+            acc = _histogram(_decoded(mp4, f"{src.root}: camera {name}: episode {ep.index}"), ep.length)
+            video_hist[name].merge(acc)
+            image_stats[name] = acc.stats()
+        column_stats = {}
+        for key in pictures:
+            where = f"{src.root}: {key}: episode {ep.index}"
+            cells = ep.columns[key].to_pylist()
+            acc = _histogram((decode_image(c, f"{where}: frame {i}") for i, c in enumerate(cells)), ep.length)
+            image_hist[key].merge(acc)
+            column_stats[key] = acc.stats()
+        return dataclasses.replace(ep, image_stats=image_stats, column_stats=column_stats)
+
+    rewrite = Rewrite(transform=restated, image_hist=video_hist, column_hist=image_hist)
+    return write_edit([(src, e) for e in range(src.total)], dataset, out, in_place, "stats recompute", rewrite)
+
+
+def _histogram(frames: Iterator[npt.NDArray[np.uint8]], n: int) -> ImageStatsAccumulator:
+    acc = ImageStatsAccumulator()
+    for frame in frames:
+        acc.add(frame)
+    if acc.frames != n:  # the source checks its clips' frame counts; a short image column cannot occur either
+        raise DatasetError(f"{acc.frames} frames decoded, the episode has {n}", code="dataset.invalid")
+    return acc
+
+
+def _decoded(mp4: bytes, where: str) -> Iterator[npt.NDArray[np.uint8]]:
+    """Every frame of a whole mp4 (an episode's clip), as RGB arrays."""
+    try:
+        with av.open(io.BytesIO(mp4), mode="r") as container:
+            for frame in container.decode(container.streams.video[0]):
+                yield np.asarray(frame.to_ndarray(format="rgb24"), dtype=np.uint8)
+    except (av.error.FFmpegError, IndexError) as exc:
+        raise DatasetError(f"{where}: cannot decode video: {type(exc).__name__}", code="dataset.invalid") from None
