@@ -1,7 +1,8 @@
 """LeRobot v3 -> ROS 2 MCAP: replay a dataset's episodes (all or selected) through our MCAP sink.
 
 Frames are read one episode at a time: the numeric columns of that episode from its data parquet, the
-images decoded with PyAV from each camera's mp4 starting at the episode's ``from_timestamp``. Works on any
+images decoded with PyAV from each camera's mp4 starting at the episode's ``from_timestamp``; depth videos
+(``is_depth_map``) are not exported (listed as not exported). Works on any
 LeRobot v3 dataset (ours or lerobot's); our extra episode columns (seed, success, initial state) are kept.
 The bags are written into a hidden staging folder beside DST, renamed to DST once every bag is finished.
 """
@@ -85,7 +86,12 @@ def export_mcap(
     for key in ("observation.state", "action"):
         if key not in features:
             raise DatasetError(f"{src / layout.INFO_PATH}: features: no {key!r}; cannot export", code="dataset.invalid")
-    cams = {k[len(IMAGE_PREFIX) :]: f for k, f in features.items() if k.startswith(IMAGE_PREFIX)}
+    # depth videos (`is_depth_map`) are not exported: they are listed under "not exported"
+    cams = {
+        k[len(IMAGE_PREFIX) :]: f
+        for k, f in features.items()
+        if k.startswith(IMAGE_PREFIX) and not (f.get("info") or {}).get("is_depth_map")
+    }
     odd = [k for k, f in cams.items() if f.get("dtype") not in ("video", "image")]
     if odd:
         raise DatasetError(

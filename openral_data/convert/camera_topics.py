@@ -1,0 +1,102 @@
+"""Depth image and CameraInfo topics of a bag: what `depth_cameras` and `camera_info` in a mapping read.
+
+A depth camera's topic carries `sensor_msgs/Image` in ``16UC1`` (millimetres, RealSense and most drivers) or
+``32FC1`` (metres); its frames go to the writer as (H, W) uint16 mm / float32 m. image_transport's
+``compressedDepth`` (a CompressedImage) is refused in one line: map the raw topic instead.
+A `CameraInfo` topic gives the camera's intrinsics, from its first message (of the first bag).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from rosbags.highlevel import AnyReader
+from rosbags.interfaces import Connection
+
+from openral_data.convert.sources import deserialize, read_messages
+from openral_data.errors import BagError
+from openral_data.formats.lerobot_v3.depth import DepthUnit
+
+DEPTH_UNITS: dict[str, DepthUnit] = {"16uc1": "mm", "32fc1": "m"}
+_DTYPES: dict[str, np.dtype[Any]] = {"mm": np.dtype("<u2"), "m": np.dtype("<f4")}
+IMAGE = "sensor_msgs/msg/Image"
+CAMERA_INFO = "sensor_msgs/msg/CameraInfo"
+
+
+def _first(reader: AnyReader, bag: Path, conn: Connection, where: str) -> Any:
+    for c, _, raw in read_messages(reader, bag, [conn]):
+        return deserialize(reader, bag, raw, c.msgtype)
+    raise BagError(f"{where}: the topic has no messages", code="bag.empty")
+
+
+def check_depth_camera(reader: AnyReader, bag: Path, name: str, conn: Connection) -> DepthUnit:
+    """Before anything is written: the depth camera's topic carries 16UC1 or 32FC1 images; their unit."""
+    where = f"{bag}: mapping: depth_cameras.{name} ({conn.topic})"
+    if conn.msgtype.endswith("/CompressedImage"):
+        raise BagError(
+            f"{where}: a CompressedImage (compressedDepth) depth topic is not supported; map the raw "
+            "16UC1/32FC1 sensor_msgs/Image topic",
+            code="bag.type",
+        )
+    if conn.msgtype != IMAGE:
+        raise BagError(f"{where}: the topic carries {conn.msgtype}, not {IMAGE}", code="bag.type")
+    encoding = str(_first(reader, bag, conn, where).encoding)
+    unit = DEPTH_UNITS.get(encoding.lower())
+    if unit is None:
+        raise BagError(
+            f"{where}: encoding {encoding!r} is not a depth encoding (a depth camera needs 16UC1 or 32FC1)",
+            code="bag.type",
+        )
+    return unit
+
+
+def decode_depth(msg: Any, unit: DepthUnit, where: str) -> npt.NDArray[Any]:
+    """(H, W) uint16 millimetres or float32 metres (native byte order) from a 16UC1 / 32FC1 Image."""
+    encoding = str(msg.encoding)
+    if DEPTH_UNITS.get(encoding.lower()) != unit:
+        raise BagError(f"{where}: encoding changed to {encoding!r} mid-stream", code="bag.field")
+    dtype = _DTYPES[unit].newbyteorder(">" if msg.is_bigendian else "<")
+    h, w, step = int(msg.height), int(msg.width), int(msg.step)
+    raw = np.asarray(msg.data, dtype=np.uint8)
+    if step < w * dtype.itemsize or raw.size < h * step:
+        raise BagError(f"{where}: {w}x{h} {encoding} image with step {step} has {raw.size} bytes", code="bag.field")
+    rows = raw[: h * step].reshape(h, step)[:, : w * dtype.itemsize]
+    out: npt.NDArray[Any] = np.ascontiguousarray(rows).view(dtype).reshape(h, w)
+    return out.astype(_DTYPES[unit].newbyteorder("="))
+
+
+def read_camera_info(reader: AnyReader, bag: Path, name: str, conn: Connection) -> dict[str, Any]:
+    """The intrinsics of the topic's first CameraInfo message, as the feature's `info.camera_info` keeps them
+    (ROS field names in ROS 2 spelling: k, d, r, p)."""
+    where = f"{bag}: mapping: camera_info.{name} ({conn.topic})"
+    if conn.msgtype != CAMERA_INFO:
+        raise BagError(f"{where}: the topic carries {conn.msgtype}, not {CAMERA_INFO}", code="bag.type")
+    msg = _first(reader, bag, conn, where)
+
+    def floats(field: str) -> list[float]:
+        value = getattr(msg, field, None)
+        value = getattr(msg, field.upper()) if value is None else value  # ROS 1 spells them D, K, R, P
+        return [float(v) for v in value]
+
+    return {
+        "frame_id": str(msg.header.frame_id),
+        "width": int(msg.width),
+        "height": int(msg.height),
+        "distortion_model": str(msg.distortion_model),
+        "k": floats("k"),
+        "d": floats("d"),
+        "r": floats("r"),
+        "p": floats("p"),
+    }
+
+
+def check_info_size(info: dict[str, Any], height: int, width: int, where: str) -> None:
+    """A CameraInfo that names another image size than the camera's images: one line."""
+    if (info["width"], info["height"]) != (width, height):
+        raise BagError(
+            f"{where}: CameraInfo is {info['width']}x{info['height']} but the camera's images are {width}x{height}",
+            code="bag.field",
+        )

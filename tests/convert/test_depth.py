@@ -1,0 +1,217 @@
+"""`convert` with depth cameras (16UC1 millimetres, 32FC1 metres) and CameraInfo topics: lerobot 0.6.1 loads the
+depth videos within one quantization step of the source messages, invalid pixels load as depth_min / depth_max,
+the intrinsics are the CameraInfo's; doctor --deep is healthy; view and LeRobot -> MCAP handle depth features."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from tests.support.bags import (
+    DEPTH_MAPPING,
+    camera_info,
+    depth_mm,
+    expected,
+    write_plain_mcap,
+    write_ros1,
+    write_ros2,
+)
+from tests.support.cli import run_cli
+from tests.support.scenes import write_yaml
+from tests.viz.test_rerun_view import column
+
+DEPTH_MIN, DEPTH_MAX, SHIFT = 0.01, 10.0, 3.5  # lerobot's DepthEncoderConfig defaults (metres)
+WRITE = {
+    "ros1": lambda d: write_ros1(d / "log.bag", depth=True),
+    "ros2-mcap": lambda d: write_ros2(d / "log_mcap", "mcap", depth=True),
+    "plain-mcap": lambda d: write_plain_mcap(d / "log.mcap", depth=True),
+}
+
+
+def step_mm(depth_mm: np.ndarray[Any, Any], use_log: bool = True) -> np.ndarray[Any, Any]:
+    """One quantization step (mm) at each source depth: the code spacing of the 12-bit log (or linear) map."""
+    if not use_log:
+        return np.full(depth_mm.shape, (DEPTH_MAX - DEPTH_MIN) * 1000 / 4095)
+    delta = (math.log(DEPTH_MAX + SHIFT) - math.log(DEPTH_MIN + SHIFT)) / 4095
+    return (depth_mm + SHIFT * 1000) * (math.exp(delta) - 1)
+
+
+def check_depth(got_mm: np.ndarray[Any, Any], src_mm: np.ndarray[Any, Any], where: object) -> None:
+    """Every pixel within one step (+ the loader's 1 mm rounding); invalid / out-of-range ones clipped."""
+    low, high = src_mm < DEPTH_MIN * 1000, src_mm > DEPTH_MAX * 1000
+    low |= np.isnan(src_mm)  # NaN (no return) and -inf load as depth_min, +inf as depth_max
+    assert (got_mm[low] == DEPTH_MIN * 1000).all(), where
+    assert (got_mm[high] == DEPTH_MAX * 1000).all(), where
+    ok = ~(low | high)
+    err = np.abs(got_mm[ok] - src_mm[ok])
+    assert (err <= step_mm(src_mm[ok]) + 0.5).all(), (where, float((err - step_mm(src_mm[ok])).max()))
+
+
+def _convert(tmp_path: Path, bag: Path, mapping: dict[str, Any]) -> Path:
+    out = tmp_path / "ds"
+    proc = run_cli(
+        "convert", str(bag), str(out), "--mapping", str(write_yaml(tmp_path / "m.yaml", mapping)), "--codec", "h264"
+    )
+    assert proc.returncode == 0, proc.stderr
+    return out
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", list(WRITE))
+def test_depth_cameras_load_in_lerobot_within_one_step(tmp_path: Path, kind: str) -> None:
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    out = _convert(tmp_path, WRITE[kind](tmp_path), DEPTH_MAPPING)
+    ds = LeRobotDataset("local/check", root=out, video_backend="pyav")
+    assert sorted(ds.meta.depth_keys) == ["observation.images.depth", "observation.images.depth32"]
+    feats = ds.meta.features
+    for key, unit in (("observation.images.depth", "mm"), ("observation.images.depth32", "m")):
+        info = feats[key]["info"]
+        assert feats[key]["shape"] == [48, 64, 1]
+        assert info["is_depth_map"] is True and info["depth_unit"] == unit
+        assert (info["video.codec"], info["video.pix_fmt"], info["video.channels"]) == ("hevc", "gray12le", 1)
+        assert (info["video.depth_min"], info["video.depth_max"], info["video.shift"]) == (DEPTH_MIN, DEPTH_MAX, SHIFT)
+        assert info["video.use_log"] is True
+    # intrinsics: the CameraInfo messages', for a depth and a colour camera; none where no topic was mapped
+    assert feats["observation.images.depth"]["info"]["camera_info"] == camera_info("/camera/depth/camera_info")
+    assert feats["observation.images.front"]["info"]["camera_info"] == camera_info("/cam/camera_info")
+    assert "camera_info" not in feats["observation.images.depth32"]["info"]
+    assert len(ds) == 20
+    sources_mm, sources_m = [], []
+    for i in range(len(ds)):
+        item = ds[i]
+        want = expected(int(item["frame_index"]) * 100)
+        sources_mm.append(want["depth"])
+        sources_m.append(want["depth32"])
+        got = item["observation.images.depth"].numpy()[0]  # lerobot returns (1, H, W) float millimetres
+        check_depth(got, want["depth"].astype(np.float64), ("16UC1", i))
+        got32 = item["observation.images.depth32"].numpy()[0]
+        check_depth(got32, want["depth32"].astype(np.float64) * 1000, ("32FC1", i))
+    # stats: of the source frames, in depth_unit, over finite pixels, shape (1, 1, 1)
+    stats = json.loads((out / "meta/stats.json").read_text())
+    for key, frames in (("observation.images.depth", sources_mm), ("observation.images.depth32", sources_m)):
+        px = np.stack(frames).astype(np.float64)
+        px = px[np.isfinite(px)]
+        s = stats[key]
+        assert s["count"] == [20]
+        assert np.asarray(s["mean"]).shape == (1, 1, 1)
+        assert s["min"][0][0][0] == pytest.approx(px.min()) and s["max"][0][0][0] == pytest.approx(px.max())
+        assert s["mean"][0][0][0] == pytest.approx(px.mean()) and s["std"][0][0][0] == pytest.approx(px.std())
+        bin_width = 1.0 if key.endswith("depth") else 0.001
+        for q, v in (("q01", 0.01), ("q50", 0.5), ("q99", 0.99)):
+            assert abs(s[q][0][0][0] - np.quantile(px, v)) <= bin_width, (key, q)
+    proc = run_cli("doctor", str(out), "--deep")
+    assert proc.returncode == 0 and "healthy" in proc.stdout, proc.stdout + proc.stderr
+
+
+def test_linear_quantization_setting(tmp_path: Path) -> None:
+    """`depth: {use_log: false, depth_max: 5}`: lerobot reads the settings back from info and decodes with them."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    mapping = dict(DEPTH_MAPPING, depth={"use_log": False, "depth_max": 5.0}, camera_info={})
+    mapping["depth_cameras"] = {"depth": "/camera/depth/image_rect_raw"}
+    out = _convert(tmp_path, write_ros2(tmp_path / "b", "mcap", depth=True, duration_ms=500), mapping)
+    ds = LeRobotDataset("local/check", root=out, video_backend="pyav")
+    info = ds.meta.features["observation.images.depth"]["info"]
+    assert (info["video.use_log"], info["video.depth_max"]) == (False, 5.0)
+    step = (5.0 - DEPTH_MIN) * 1000 / 4095
+    for i in range(len(ds)):
+        item = ds[i]
+        src = expected(int(item["frame_index"]) * 100)["depth"].astype(np.float64)
+        got = item["observation.images.depth"].numpy()[0]
+        ok = (src >= DEPTH_MIN * 1000) & (src <= 5000)
+        assert (np.abs(got[ok] - src[ok]) <= step + 0.5).all()
+        assert (got[src > 5000] == 5000).all() and (got[src < 10] == 10).all()
+
+
+def _refused(tmp_path: Path, mapping: dict[str, Any], bag: Path | None = None) -> str:
+    bag = bag or write_ros2(tmp_path / "b", "mcap", depth=True, duration_ms=300)
+    out = tmp_path / "ds"
+    proc = run_cli("convert", str(bag), str(out), "--mapping", str(write_yaml(tmp_path / "m.yaml", mapping)))
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), proc.stderr
+    assert not out.exists()
+    return lines[0]
+
+
+def test_camera_info_of_another_size_is_one_line(tmp_path: Path) -> None:
+    mapping = dict(DEPTH_MAPPING, camera_info={"front": "/camera/depth/camera_info"})
+    line = _refused(tmp_path, mapping)
+    assert line.endswith(
+        "mapping: camera_info.front (/camera/depth/camera_info): CameraInfo is 64x48 but the camera's images are 32x24"
+    ), line
+
+
+def test_depth_camera_on_a_colour_topic_is_one_line(tmp_path: Path) -> None:
+    line = _refused(
+        tmp_path,
+        dict(
+            DEPTH_MAPPING, cameras={"side": "/cam2/compressed"}, depth_cameras={"d": "/cam/image_raw"}, camera_info={}
+        ),
+    )
+    assert line.endswith(
+        "mapping: depth_cameras.d (/cam/image_raw): encoding 'rgb8' is not a depth encoding "
+        "(a depth camera needs 16UC1 or 32FC1)"
+    ), line
+
+
+def test_compressed_depth_as_a_depth_camera_is_one_line(tmp_path: Path) -> None:
+    line = _refused(
+        tmp_path,
+        dict(
+            DEPTH_MAPPING, cameras={"front": "/cam/image_raw"}, depth_cameras={"d": "/cam2/compressed"}, camera_info={}
+        ),
+    )
+    assert line.endswith(
+        "mapping: depth_cameras.d (/cam2/compressed): a CompressedImage (compressedDepth) depth topic is not "
+        "supported; map the raw 16UC1/32FC1 sensor_msgs/Image topic"
+    ), line
+
+
+def test_camera_info_topic_of_another_type_is_one_line(tmp_path: Path) -> None:
+    line = _refused(tmp_path, dict(DEPTH_MAPPING, camera_info={"depth": "/task"}))
+    assert line.endswith(
+        "mapping: camera_info.depth (/task): the topic carries std_msgs/msg/String, not sensor_msgs/msg/CameraInfo"
+    ), line
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"camera_info": {"nope": "/cam/camera_info"}}, "camera_info.nope: no camera or depth camera of that name"),
+        ({"depth_cameras": {"front": "/camera/depth32/image"}}, "'front' is in both cameras and depth_cameras"),
+        ({"depth": {"depth_min": 2.0, "depth_max": 1.0}}, "depth_max (1.0) must be above depth_min (2.0)"),
+        ({"depth": {"shift": -1.0}}, "use_log needs depth_min + shift > 0"),
+        ({"depth_cameras": {"d": "/cam/image_raw"}}, "two cameras map the same topic"),
+    ],
+)
+def test_mapping_mistakes(tmp_path: Path, change: dict[str, Any], message: str) -> None:
+    bag = write_ros2(tmp_path / "b", "mcap", depth=True, duration_ms=100)
+    line = _refused(tmp_path, {**DEPTH_MAPPING, **change}, bag)
+    assert message in line, line
+
+
+def test_view_and_export_of_a_depth_dataset(tmp_path: Path) -> None:
+    """`view --save` logs the depth camera (one DepthImage per frame, in mm, as lerobot loads it); LeRobot -> MCAP
+    exports the colour cameras and says the depth feature is not exported."""
+    mapping = dict(DEPTH_MAPPING, depth_cameras={"depth": "/camera/depth/image_rect_raw"})
+    out = _convert(tmp_path, write_ros2(tmp_path / "b", "mcap", depth=True, duration_ms=500), mapping)
+    rrd = tmp_path / "v.rrd"
+    proc = run_cli("view", str(out), "--save", str(rrd))
+    assert proc.returncode == 0, proc.stderr
+    buffers = column(rrd, "/cameras/depth", "DepthImage:buffer")
+    assert len(buffers) == 5
+    for k, buf in enumerate(buffers):  # frame k at 100 ms: the 16UC1 message k * 100 // 66
+        got = np.asarray(buf, dtype=np.uint8).view(np.uint16).reshape(48, 64)
+        check_depth(got.astype(np.float64), depth_mm(k * 100 // 66).astype(np.float64), ("view", k))
+    mc = tmp_path / "mc"
+    proc = run_cli("convert", str(out), str(mc), "--json")
+    assert proc.returncode == 0, proc.stderr
+    doc = json.loads(proc.stdout)
+    assert doc["not_exported"] == ["observation.images.depth"] and doc["frames"] == 5, doc
