@@ -72,7 +72,7 @@ def test_depth_cameras_load_in_lerobot_within_one_step(tmp_path: Path, kind: str
     feats = ds.meta.features
     for key, unit in (("observation.images.depth", "mm"), ("observation.images.depth32", "m")):
         info = feats[key]["info"]
-        assert feats[key]["shape"] == [48, 64, 1]
+        assert tuple(feats[key]["shape"]) == (48, 64, 1)
         assert info["is_depth_map"] is True and info["depth_unit"] == unit
         assert (info["video.codec"], info["video.pix_fmt"], info["video.channels"]) == ("hevc", "gray12le", 1)
         assert (info["video.depth_min"], info["video.depth_max"], info["video.shift"]) == (DEPTH_MIN, DEPTH_MAX, SHIFT)
