@@ -4,10 +4,10 @@ Cameras are logged once as `AssetVideo` plus one `VideoFrameReference` per row, 
 packs many episodes into one mp4, so the episode's packets — from `from_timestamp` to `to_timestamp` — are
 remuxed into a clip of their own (frame k at k / fps); if the episode does not start on a keyframe, the whole
 file is logged and frame k is referenced at `from_timestamp + k / fps`; a `dtype: image` camera logs each frame's
-embedded PNG/JPEG; a depth video (`is_depth_map`) is decoded into one `DepthImage` (millimetres) per row. State, action and `observation.environment_state` become one scalar series per dimension
-named after the contract (or info.json's names), the task is a text document, reward/success/done are series
-with a text event at the end, and replay results (see `metrics/results.py`) add per-step action error and
-divergence.
+embedded PNG/JPEG; a depth video (`is_depth_map`) is decoded into one `DepthImage` (millimetres) per row.
+State, action and `observation.environment_state` become one scalar series per dimension named after the
+contract (or info.json's names), the task is a text document, reward/success/done are series with a text event
+at the end, and replay results (see `metrics/results.py`) add per-step action error and divergence.
 """
 
 from __future__ import annotations
