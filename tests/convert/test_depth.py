@@ -215,3 +215,29 @@ def test_view_and_export_of_a_depth_dataset(tmp_path: Path) -> None:
     assert proc.returncode == 0, proc.stderr
     doc = json.loads(proc.stdout)
     assert doc["not_exported"] == ["observation.images.depth"] and doc["frames"] == 5, doc
+
+
+def test_lerobot_written_depth_dataset(tmp_path: Path) -> None:
+    """A depth video written by lerobot 0.6.1 itself: doctor --deep healthy; `view` shows the depth lerobot's loader
+    returns (±1 mm rounding); LeRobot -> MCAP names it not exported."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    from tests.support.lerobot_written import DEPTH_CAMERA, LENGTHS, write_lerobot_dataset
+
+    root = tmp_path / "lr"
+    write_lerobot_dataset(root, False, depth_camera=True)
+    proc = run_cli("doctor", str(root), "--deep")
+    assert proc.returncode == 0 and "healthy" in proc.stdout, proc.stdout + proc.stderr
+    rrd = tmp_path / "v.rrd"
+    proc = run_cli("view", str(root), "--episode", "1", "--save", str(rrd))
+    assert proc.returncode == 0, proc.stderr
+    buffers = column(rrd, "/cameras/depth", "DepthImage:buffer")
+    assert len(buffers) == LENGTHS[1]
+    ds = LeRobotDataset("local/check", root=root, video_backend="pyav")
+    for t, buf in enumerate(buffers):
+        got = np.asarray(buf, dtype=np.uint8).view(np.uint16).reshape(32, 48).astype(np.int64)
+        want = ds[LENGTHS[0] + t][DEPTH_CAMERA].numpy()[0].astype(np.int64)
+        assert np.abs(got - want).max() <= 1, t
+    proc = run_cli("convert", str(root), str(tmp_path / "mc"), "--json")
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads(proc.stdout)["not_exported"] == [DEPTH_CAMERA]
