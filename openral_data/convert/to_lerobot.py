@@ -473,7 +473,7 @@ class _Message:
         return decode_image(msg, self.msgtype)
 
     def decode_depth(self, unit: DepthUnit) -> npt.NDArray[Any]:
-        return decode_depth(self.get(), unit, f"{self.bag}: {self.topic}")
+        return decode_depth(self.get(), self.msgtype, unit, f"{self.bag}: {self.topic}")
 
 
 def _timed_messages(

@@ -15,7 +15,8 @@ action:                       # -> action
   names: [x, y, z]            # names of the dims (default: joints, or <topic>.<field>[i])
 cameras:                      # camera name -> sensor_msgs Image or CompressedImage topic
   front: /camera/front/image/compressed
-depth_cameras:                # camera name -> sensor_msgs Image topic in 16UC1 (millimetres) or 32FC1 (metres)
+depth_cameras:                # camera name -> sensor_msgs Image topic in 16UC1 (millimetres) or 32FC1 (metres),
+                              #   or a CompressedImage in image_transport's compressedDepth png
   front_depth: /camera/depth/image_rect_raw   # -> observation.images.front_depth, a lerobot depth video
 depth:                        # optional: lerobot's DepthEncoderConfig quantizer (these are its defaults): depth
   depth_min: 0.01             #   in metres is mapped to 12-bit codes, log-spaced (use_log) or linear between

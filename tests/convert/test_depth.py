@@ -15,6 +15,7 @@ import pytest
 from tests.support.bags import (
     DEPTH_MAPPING,
     camera_info,
+    compressed_depth,
     depth_mm,
     expected,
     write_plain_mcap,
@@ -161,16 +162,12 @@ def test_depth_camera_on_a_colour_topic_is_one_line(tmp_path: Path) -> None:
     ), line
 
 
-def test_compressed_depth_as_a_depth_camera_is_one_line(tmp_path: Path) -> None:
-    line = _refused(
-        tmp_path,
-        dict(
-            DEPTH_MAPPING, cameras={"front": "/cam/image_raw"}, depth_cameras={"d": "/cam2/compressed"}, camera_info={}
-        ),
-    )
+def test_compressed_depth_of_another_format_is_one_line(tmp_path: Path) -> None:
+    mapping = dict(DEPTH_MAPPING, cameras={"front": "/cam/image_raw"}, depth_cameras={"d": "/cam2/compressed"})
+    line = _refused(tmp_path, dict(mapping, camera_info={}))
     assert line.endswith(
-        "mapping: depth_cameras.d (/cam2/compressed): a CompressedImage (compressedDepth) depth topic is not "
-        "supported; map the raw 16UC1/32FC1 sensor_msgs/Image topic"
+        "mapping: depth_cameras.d (/cam2/compressed): CompressedImage format 'png' is not supported for depth "
+        "(a depth camera needs a 16UC1/32FC1 Image, or compressedDepth png)"
     ), line
 
 
@@ -241,3 +238,26 @@ def test_lerobot_written_depth_dataset(tmp_path: Path) -> None:
     proc = run_cli("convert", str(root), str(tmp_path / "mc"), "--json")
     assert proc.returncode == 0, proc.stderr
     assert json.loads(proc.stdout)["not_exported"] == [DEPTH_CAMERA]
+
+
+def test_compressed_depth_topics(tmp_path: Path) -> None:
+    """image_transport's compressedDepth (16UC1 PNG; 32FC1 as quantized inverse depth) as depth cameras: lerobot
+    loads them within one step of what the messages decode to."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    mapping = dict(
+        DEPTH_MAPPING,
+        depth_cameras={"cd": "/camera/depth/compressedDepth", "cd32": "/camera/depth32/compressedDepth"},
+        camera_info={},
+    )
+    out = _convert(tmp_path, write_plain_mcap(tmp_path / "b.mcap", depth=True, duration_ms=600), mapping)
+    ds = LeRobotDataset("local/check", root=out, video_backend="pyav")
+    info = ds.meta.features
+    assert info["observation.images.cd"]["info"]["depth_unit"] == "mm"
+    assert info["observation.images.cd32"]["info"]["depth_unit"] == "m"
+    for i in range(len(ds)):
+        item = ds[i]
+        want = expected(int(item["frame_index"]) * 100)
+        check_depth(item["observation.images.cd"].numpy()[0], want["depth"].astype(np.float64), ("cd", i))
+        src32 = compressed_depth(want["depth32"])[1].astype(np.float64) * 1000
+        check_depth(item["observation.images.cd32"].numpy()[0], src32, ("cd32", i))

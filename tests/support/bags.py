@@ -15,6 +15,8 @@ With `depth=True` (RealSense-like depth, `DEPTH_MAPPING`), also:
   0 (no return) and 12000 (beyond depth_max) pixels
 * /camera/depth32/image         sensor_msgs/Image 32FC1 64x48, 10 Hz: `depth_m(k)` metres, with NaN, +inf, -inf
 * /camera/depth/camera_info, /cam/camera_info  sensor_msgs/CameraInfo, 1 Hz: `camera_info(...)` (64x48, 32x24)
+* /camera/depth/compressedDepth, /camera/depth32/compressedDepth  sensor_msgs/CompressedImage: the same frames
+  in image_transport's compressedDepth PNG (`compressed_depth`: 16UC1 as is, 32FC1 as quantized inverse depth)
 
 The writers' `Flaw` (default: none) plants a mistake a real driver makes: header stamps left at zero, or
 /cam/image_raw carrying depth (16UC1 millimetres or 32FC1 metres) instead of rgb8, or /cam2/compressed in
@@ -25,6 +27,7 @@ from __future__ import annotations
 
 import dataclasses
 import io
+import struct
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any, Literal
@@ -66,7 +69,12 @@ DEPTH_TYPES = {
     "/camera/depth32/image": "sensor_msgs/msg/Image",
     "/camera/depth/camera_info": "sensor_msgs/msg/CameraInfo",
     "/cam/camera_info": "sensor_msgs/msg/CameraInfo",
+    "/camera/depth/compressedDepth": "sensor_msgs/msg/CompressedImage",
+    "/camera/depth32/compressedDepth": "sensor_msgs/msg/CompressedImage",
 }
+# image_transport's compressedDepth defaults for 32FC1: depth_quantization 100, depth_max 10 m
+QUANT_A = 100.0 * (100.0 + 1.0)
+QUANT_B = 1.0 - QUANT_A / 10.0
 DH, DW = 48, 64
 DEPTH_MAPPING: dict[str, Any] = {
     **MAPPING,
@@ -108,6 +116,25 @@ def camera_info(topic: str) -> dict[str, Any]:
         "r": [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
         "p": [f, 0.0, w / 2 - 0.5, 0.0, 0.0, f + 1.5, h / 2 - 0.5, 0.0, 0.0, 0.0, 1.0, 0.0],
     }
+
+
+def compressed_depth(d: np.ndarray[Any, Any]) -> tuple[bytes, np.ndarray[Any, Any]]:
+    """image_transport's compressedDepth PNG of a 16UC1 / 32FC1 frame (ConfigHeader + 16-bit PNG), and the depth
+    it decodes to (32FC1: inverse depth quantized to uint16, 0 for invalid -> NaN)."""
+    if d.dtype == np.uint16:
+        png, decoded = d, d
+    else:
+        ok = np.isfinite(d) & (d > 0) & (d < 10.0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = np.where(ok, QUANT_A / d + QUANT_B, 0.0)
+        png = np.rint(inv).astype(np.uint16)
+        with np.errstate(divide="ignore"):
+            decoded = (np.float32(QUANT_A) / (png.astype(np.float32) - np.float32(QUANT_B))).astype(np.float32)
+        decoded[png == 0] = np.nan
+    buf = io.BytesIO()
+    PILImage.fromarray(png).save(buf, format="PNG")
+    header = struct.pack("<iff", 0 if d.dtype == np.uint16 else 1, QUANT_A, QUANT_B)
+    return header + buf.getvalue(), decoded
 
 
 Flaw = Literal["none", "zero-stamps", "16UC1", "32FC1", "compressedDepth"]
@@ -164,8 +191,10 @@ def samples(
     if depth:
         for k, t in enumerate(range(0, duration_ms, 66)):
             add("/camera/depth/image_rect_raw", t, {"depth": depth_mm(k)})
+            add("/camera/depth/compressedDepth", t, {"depth": depth_mm(k)})
         for k, t in enumerate(range(0, duration_ms, 100)):
             add("/camera/depth32/image", t, {"depth": depth_m(k)})
+            add("/camera/depth32/compressedDepth", t, {"depth": depth_m(k)})
         for t in range(0, duration_ms, 1000):
             add("/camera/depth/camera_info", t, camera_info("/camera/depth/camera_info"))
             add("/cam/camera_info", t, camera_info("/cam/camera_info"))
@@ -192,6 +221,10 @@ def build(store: Any, topic: str, ns: int, f: dict[str, Any], ros1: bool, flaw: 
             header=hdr, height=f["height"], width=f["width"], distortion_model=f["distortion_model"],
             binning_x=0, binning_y=0, roi=roi, **info,
         )  # fmt: skip
+    if topic.endswith("/compressedDepth"):
+        encoding = "16UC1" if f["depth"].dtype == np.uint16 else "32FC1"
+        payload = np.frombuffer(compressed_depth(f["depth"])[0], np.uint8)
+        return t[msgtype](header=header, format=f"{encoding}; compressedDepth png", data=payload)
     if topic in DEPTH_TYPES:
         d = f["depth"]
         encoding = "16UC1" if d.dtype == np.uint16 else "32FC1"
