@@ -261,3 +261,24 @@ def test_compressed_depth_topics(tmp_path: Path) -> None:
         check_depth(item["observation.images.cd"].numpy()[0], want["depth"].astype(np.float64), ("cd", i))
         src32 = compressed_depth(want["depth32"])[1].astype(np.float64) * 1000
         check_depth(item["observation.images.cd32"].numpy()[0], src32, ("cd32", i))
+
+
+def test_two_episodes_share_one_depth_video(tmp_path: Path) -> None:
+    """Two bags -> two episodes whose depth videos are joined into one mp4 without re-encoding; lerobot decodes
+    the second episode's depth from the joined file within one step."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    src = tmp_path / "bags"
+    src.mkdir()
+    write_ros2(src / "a", "mcap", depth=True, duration_ms=700)
+    write_ros2(src / "b", "mcap", depth=True, duration_ms=900)
+    mapping = dict(DEPTH_MAPPING, depth_cameras={"depth": "/camera/depth/image_rect_raw"}, camera_info={})
+    out = _convert(tmp_path, src, mapping)
+    ds = LeRobotDataset("local/check", root=out, video_backend="pyav")
+    assert [int(n) for n in ds.meta.episodes["length"]] == [7, 9]
+    assert float(ds.meta.episodes["videos/observation.images.depth/from_timestamp"][1]) == pytest.approx(0.7)
+    assert len(list((out / "videos/observation.images.depth").rglob("*.mp4"))) == 1
+    for i in range(len(ds)):
+        item = ds[i]
+        want = expected(int(item["frame_index"]) * 100)["depth"].astype(np.float64)
+        check_depth(item["observation.images.depth"].numpy()[0], want, ("two", i))

@@ -25,7 +25,7 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.errors import EncoderError
-from openral_data.formats.lerobot_v3.depth import DepthStatsAccumulator, DepthStream
+from openral_data.formats.lerobot_v3.depth import CameraStats, DepthStatsAccumulator, DepthStream
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
 from openral_data.paths import regular_file
 
@@ -93,7 +93,7 @@ class VideoSettings:
 class EncodedEpisode:
     path: Path
     frames: int
-    stats: ImageStatsAccumulator | DepthStatsAccumulator
+    stats: CameraStats
 
 
 @dataclass
