@@ -194,11 +194,15 @@ def test_mapping_mistakes(tmp_path: Path, change: dict[str, Any], message: str) 
     assert message in line, line
 
 
-def test_view_and_export_of_a_depth_dataset(tmp_path: Path) -> None:
-    """`view --save` logs the depth camera (one DepthImage per frame, in mm, as lerobot loads it); LeRobot -> MCAP
-    exports the colour cameras and says the depth feature is not exported."""
-    mapping = dict(DEPTH_MAPPING, depth_cameras={"depth": "/camera/depth/image_rect_raw"})
-    out = _convert(tmp_path, write_ros2(tmp_path / "b", "mcap", depth=True, duration_ms=500), mapping)
+def test_view_export_and_round_trip_of_a_depth_dataset(tmp_path: Path) -> None:
+    """`view --save` logs each depth camera as one DepthImage per frame (mm, as lerobot loads it). LeRobot -> MCAP
+    writes each depth camera as a 16UC1 Image topic (what lerobot loads, in mm) and the intrinsics as CameraInfo
+    topics; converting that MCAP back (no mapping) gives depth features that load exactly as the first dataset's,
+    with the same quantizer and intrinsics (a 32FC1 camera comes back in mm)."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+    from rosbags.highlevel import AnyReader
+
+    out = _convert(tmp_path, write_ros2(tmp_path / "b", "mcap", depth=True, duration_ms=500), DEPTH_MAPPING)
     rrd = tmp_path / "v.rrd"
     proc = run_cli("view", str(out), "--save", str(rrd))
     assert proc.returncode == 0, proc.stderr
@@ -207,16 +211,46 @@ def test_view_and_export_of_a_depth_dataset(tmp_path: Path) -> None:
     for k, buf in enumerate(buffers):  # frame k at 100 ms: the 16UC1 message k * 100 // 66
         got = np.asarray(buf, dtype=np.uint8).view(np.uint16).reshape(48, 64)
         check_depth(got.astype(np.float64), depth_mm(k * 100 // 66).astype(np.float64), ("view", k))
+    ds = LeRobotDataset("local/check", root=out, video_backend="pyav")
+    loaded = {
+        cam: [ds[i][f"observation.images.{cam}"].numpy()[0] for i in range(len(ds))] for cam in ("depth", "depth32")
+    }
     mc = tmp_path / "mc"
     proc = run_cli("convert", str(out), str(mc), "--json")
     assert proc.returncode == 0, proc.stderr
-    doc = json.loads(proc.stdout)
-    assert doc["not_exported"] == ["observation.images.depth"] and doc["frames"] == 5, doc
+    assert json.loads(proc.stdout)["not_exported"] == []
+    with AnyReader([mc / "episode_000000"]) as reader:
+        by_topic = {c.topic: c for c in reader.connections}
+        for cam in ("depth", "depth32"):
+            conn = by_topic[f"/camera/{cam}/depth/image_raw"]
+            msgs: list[Any] = [reader.deserialize(raw, conn.msgtype) for _, _, raw in reader.messages([conn])]
+            assert [(x.encoding, x.height, x.width) for x in msgs] == [("16UC1", 48, 64)] * 5
+            for msg, want in zip(msgs, loaded[cam], strict=True):
+                got = np.frombuffer(bytes(msg.data), "<u2").reshape(48, 64).astype(np.float64)
+                assert np.abs(got - want).max() <= 1, cam
+        for cam, topic in (("depth", "/camera/depth/camera_info"), ("front", "/cam/camera_info")):
+            conn = by_topic[f"/camera/{cam}/camera_info"]
+            infos: list[Any] = [reader.deserialize(raw, conn.msgtype) for _, _, raw in reader.messages([conn])]
+            (msg,) = infos
+            want = camera_info(topic)
+            assert (msg.header.frame_id, msg.width, msg.height) == (want["frame_id"], want["width"], want["height"])
+            assert msg.k.tolist() == want["k"] and msg.d.tolist() == want["d"] and msg.p.tolist() == want["p"]
+    back = tmp_path / "back"
+    proc = run_cli("convert", str(mc), str(back), "--codec", "h264")
+    assert proc.returncode == 0, proc.stderr
+    ds2 = LeRobotDataset("local/back", root=back, video_backend="pyav")
+    f1, f2 = ds.meta.features, ds2.meta.features
+    assert f2["observation.images.depth"]["info"] == f1["observation.images.depth"]["info"]
+    assert f2["observation.images.front"]["info"]["camera_info"] == camera_info("/cam/camera_info")
+    assert f2["observation.images.depth32"]["info"]["depth_unit"] == "mm"
+    for i in range(len(ds2)):
+        for cam in ("depth", "depth32"):
+            assert np.array_equal(ds2[i][f"observation.images.{cam}"].numpy()[0], loaded[cam][i]), (cam, i)
 
 
 def test_lerobot_written_depth_dataset(tmp_path: Path) -> None:
     """A depth video written by lerobot 0.6.1 itself: doctor --deep healthy; `view` shows the depth lerobot's loader
-    returns (±1 mm rounding); LeRobot -> MCAP names it not exported."""
+    returns (±1 mm rounding); LeRobot -> MCAP exports it as a 16UC1 topic."""
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
     from tests.support.lerobot_written import DEPTH_CAMERA, LENGTHS, write_lerobot_dataset
@@ -237,7 +271,11 @@ def test_lerobot_written_depth_dataset(tmp_path: Path) -> None:
         assert np.abs(got - want).max() <= 1, t
     proc = run_cli("convert", str(root), str(tmp_path / "mc"), "--json")
     assert proc.returncode == 0, proc.stderr
-    assert json.loads(proc.stdout)["not_exported"] == [DEPTH_CAMERA]
+    assert json.loads(proc.stdout)["not_exported"] == []
+    from rosbags.highlevel import AnyReader
+
+    with AnyReader([tmp_path / "mc/episode_000001"]) as reader:
+        assert {c.topic: c.msgcount for c in reader.connections}["/camera/depth/depth/image_raw"] == LENGTHS[1]
 
 
 def test_compressed_depth_topics(tmp_path: Path) -> None:
