@@ -23,6 +23,7 @@ from tests.support.bags import (
     write_ros2,
 )
 from tests.support.cli import run_cli
+from tests.support.mcap import check_bag
 from tests.support.scenes import write_yaml
 from tests.viz.test_rerun_view import column
 
@@ -200,7 +201,6 @@ def test_view_export_and_round_trip_of_a_depth_dataset(tmp_path: Path) -> None:
     topics; converting that MCAP back (no mapping) gives depth features that load exactly as the first dataset's,
     with the same quantizer and intrinsics (a 32FC1 camera comes back in mm)."""
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
-    from rosbags.highlevel import AnyReader
 
     out = _convert(tmp_path, write_ros2(tmp_path / "b", "mcap", depth=True, duration_ms=500), DEPTH_MAPPING)
     rrd = tmp_path / "v.rrd"
@@ -219,22 +219,18 @@ def test_view_export_and_round_trip_of_a_depth_dataset(tmp_path: Path) -> None:
     proc = run_cli("convert", str(out), str(mc), "--json")
     assert proc.returncode == 0, proc.stderr
     assert json.loads(proc.stdout)["not_exported"] == []
-    with AnyReader([mc / "episode_000000"]) as reader:
-        by_topic = {c.topic: c for c in reader.connections}
-        for cam in ("depth", "depth32"):
-            conn = by_topic[f"/camera/{cam}/depth/image_raw"]
-            msgs: list[Any] = [reader.deserialize(raw, conn.msgtype) for _, _, raw in reader.messages([conn])]
-            assert [(x.encoding, x.height, x.width) for x in msgs] == [("16UC1", 48, 64)] * 5
-            for msg, want in zip(msgs, loaded[cam], strict=True):
-                got = np.frombuffer(bytes(msg.data), "<u2").reshape(48, 64).astype(np.float64)
-                assert np.abs(got - want).max() <= 1, cam
-        for cam, topic in (("depth", "/camera/depth/camera_info"), ("front", "/cam/camera_info")):
-            conn = by_topic[f"/camera/{cam}/camera_info"]
-            infos: list[Any] = [reader.deserialize(raw, conn.msgtype) for _, _, raw in reader.messages([conn])]
-            (msg,) = infos
-            want = camera_info(topic)
-            assert (msg.header.frame_id, msg.width, msg.height) == (want["frame_id"], want["width"], want["height"])
-            assert msg.k.tolist() == want["k"] and msg.d.tolist() == want["d"] and msg.p.tolist() == want["p"]
+    topics = check_bag(mc / "episode_000000")  # rosbags, mcap CRCs and `rerun mcap check` accept the bag
+    for cam in ("depth", "depth32"):
+        msgs = [msg for _, msg in topics[f"/camera/{cam}/depth/image_raw"]]
+        assert [(x.encoding, x.height, x.width) for x in msgs] == [("16UC1", 48, 64)] * 5
+        for msg, want in zip(msgs, loaded[cam], strict=True):
+            got = np.frombuffer(bytes(msg.data), "<u2").reshape(48, 64).astype(np.float64)
+            assert np.abs(got - want).max() <= 1, cam
+    for cam, topic in (("depth", "/camera/depth/camera_info"), ("front", "/cam/camera_info")):
+        ((_, msg),) = topics[f"/camera/{cam}/camera_info"]
+        want = camera_info(topic)
+        assert (msg.header.frame_id, msg.width, msg.height) == (want["frame_id"], want["width"], want["height"])
+        assert msg.k.tolist() == want["k"] and msg.d.tolist() == want["d"] and msg.p.tolist() == want["p"]
     back = tmp_path / "back"
     proc = run_cli("convert", str(mc), str(back), "--codec", "h264")
     assert proc.returncode == 0, proc.stderr
