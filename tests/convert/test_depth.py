@@ -10,6 +10,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
 import pytest
 
 from tests.support.bags import (
@@ -316,3 +318,16 @@ def test_two_episodes_share_one_depth_video(tmp_path: Path) -> None:
         item = ds[i]
         want = expected(int(item["frame_index"]) * 100)["depth"].astype(np.float64)
         check_depth(item["observation.images.depth"].numpy()[0], want, ("two", i))
+    # doctor --deep compares each episode's decoded depth with its stored mean: moved by 500 mm, episode 1 is caught
+    from openral_data.doctor import check
+
+    assert check(out, deep=True) == []
+    path = next((out / "meta/episodes").rglob("*.parquet"))
+    table = pq.read_table(path)
+    col = "stats/observation.images.depth/mean"
+    means = table[col].to_pylist()
+    means[1] = [[[means[1][0][0][0] + 500.0]]]
+    table = table.set_column(table.schema.get_field_index(col), col, pa.array(means, type=table.schema.field(col).type))
+    pq.write_table(table, path)
+    content = [f for f in check(out, deep=True) if f.code == "video.content"]
+    assert len(content) == 1 and "episode(s) [1]" in content[0].message, content
