@@ -7,7 +7,7 @@ Producers emit `Observation`s and `StepResult`s (`SimRollout`, `ProducerSpec`); 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Protocol, runtime_checkable
+from typing import Any, Literal, Protocol, runtime_checkable
 
 import numpy as np
 import numpy.typing as npt
@@ -17,6 +17,10 @@ import numpy.typing as npt
 class CameraShape:
     height: int
     width: int
+    # a depth camera: its frames are (H, W) depth maps, uint16 millimetres ("mm") or float32 metres ("m")
+    depth_unit: Literal["mm", "m"] | None = None
+    # extra entries of the camera feature's `info` (e.g. `camera_info`: intrinsics from a CameraInfo topic)
+    info: dict[str, Any] = field(default_factory=dict, compare=False, hash=False)
 
 
 @dataclass(frozen=True)
@@ -126,7 +130,7 @@ class Frame:
 
     state: npt.NDArray[np.float32]
     action: npt.NDArray[np.float32]
-    images: dict[str, npt.NDArray[np.uint8]]
+    images: dict[str, npt.NDArray[Any]]  # uint8 (H, W, 3); a depth camera's (H, W) uint16 mm / float32 m
     task: str
     reward: float
     done: bool

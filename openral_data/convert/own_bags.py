@@ -49,6 +49,13 @@ def _from_start(bag: Path, start: dict[str, Any], topics: set[str]) -> Mapping:
         if not found:
             raise BagError(f"{bag}: no image topic for camera {name!r}", code="bag.topic")
         cameras[name] = found[0]
+    depth = start.get("depth_cameras") or {}
+    if not isinstance(depth, dict):
+        raise TypeError("depth_cameras: not a mapping of camera name -> quantizer settings")
+    for name in depth:
+        if m.depth_topic(name) not in topics:
+            raise BagError(f"{bag}: no depth topic for depth camera {name!r}", code="bag.topic")
+    infos = {name: m.camera_info_topic(name) for name in [*cameras, *depth] if m.camera_info_topic(name) in topics}
     # bags written before the start marker said which outcomes are known always carried reward and success
     outcomes = start.get("outcomes") or {"reward": True, "success": True}
     has_reward = bool(outcomes.get("reward")) and m.REWARD in topics
@@ -61,6 +68,10 @@ def _from_start(bag: Path, start: dict[str, Any], topics: set[str]) -> Mapping:
             "state": {"topic": m.JOINT_STATES, "field": "position", "joints": start["state_names"]},
             "action": {"topic": m.ACTION, "field": "data", "names": start["action_names"]},
             "cameras": cameras,
+            "depth_cameras": {name: m.depth_topic(name) for name in depth},
+            # one quantizer for all depth cameras, as in lerobot: the first one's
+            "depth": next(iter(depth.values()), None) or {},
+            "camera_info": infos,
             "reward": {"topic": m.REWARD, "field": "data"} if has_reward else None,
             "success": {"marker": True} if outcomes.get("success") else None,
             # every stream is stamped on the same grid: the exact sample, never a neighbour's

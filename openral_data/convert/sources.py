@@ -131,8 +131,8 @@ def check_image(msg: Any, msgtype: str, where: str) -> None:
 
 def _depth(what: str, where: str) -> NoReturn:
     raise BagError(
-        f"{where}: {what} is a depth image; depth is not yet supported as an RGB camera "
-        "(leave the topic out of cameras)",
+        f"{where}: {what} is a depth image, not an RGB camera "
+        "(map a 16UC1/32FC1 depth topic under depth_cameras instead)",
         code="bag.type",
     )
 

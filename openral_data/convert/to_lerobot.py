@@ -24,6 +24,7 @@ from rosbags.highlevel import AnyReader
 from rosbags.interfaces import Connection
 
 from openral_data.convert.align import AlignedFrame, Aligner
+from openral_data.convert.camera_topics import check_depth_camera, check_info_size, decode_depth, read_camera_info
 from openral_data.convert.sources import (
     VectorParts,
     VectorReader,
@@ -37,6 +38,7 @@ from openral_data.convert.sources import (
 )
 from openral_data.errors import BagError
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
+from openral_data.formats.lerobot_v3.depth import DepthSettings, DepthUnit
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.mcap.messages import decode_image
 from openral_data.formats.staging import Staging, check_new_output
@@ -115,12 +117,23 @@ class _Pending:
     task: str
 
 
+@dataclass
+class _CameraTopics:
+    """What the bags said about the cameras before conversion: depth units and CameraInfo intrinsics."""
+
+    depth_units: dict[str, DepthUnit] = field(default_factory=dict)  # depth camera -> unit of its frames
+    info: dict[str, dict[str, Any]] = field(default_factory=dict)  # camera -> intrinsics (camera_topics)
+
+
 class _Converter:
-    def __init__(self, mapping: Mapping, dst: Path, codec: Codec, summary: ConvertSummary) -> None:
+    def __init__(
+        self, mapping: Mapping, dst: Path, codec: Codec, summary: ConvertSummary, cameras: _CameraTopics
+    ) -> None:
         self.mapping = mapping
         self.dst = dst
         self.codec: Codec = codec
         self.summary = summary
+        self.cameras = cameras
         self.state = VectorParts(STATE, mapping.state)
         self.action = VectorParts(ACTION, mapping.action)
         # one aligned stream per vector part, camera and reward; a topic may feed several streams (state and
@@ -134,7 +147,7 @@ class _Converter:
                 self.vector_streams.setdefault(role, []).append(stream)
                 self.readers[stream] = reader
                 self.topic_streams.setdefault(reader.source.topic, []).append(stream)
-        for name, topic in mapping.cameras.items():
+        for name, topic in mapping.image_topics().items():
             self.topic_streams.setdefault(topic, []).append(name)
         if mapping.reward is not None:
             self.topic_streams.setdefault(mapping.reward.topic, []).append(REWARD)
@@ -234,7 +247,9 @@ class _Converter:
     def emit(self, pending: _Pending, *, done: bool, success: bool) -> None:
         samples = pending.frame.samples
         assert samples is not None
-        images = {name: samples[name].decode() for name in self.mapping.cameras}
+        images: dict[str, npt.NDArray[Any]] = {name: samples[name].decode() for name in self.mapping.cameras}
+        for name, unit in self.cameras.depth_units.items():
+            images[name] = samples[name].decode_depth(unit)
         state, action = self.vector(samples, STATE), self.vector(samples, ACTION)
         bridge = self.ensure_writer(images)
         if not self.open:
@@ -267,14 +282,23 @@ class _Converter:
             self.summary.frames += records[0].length
             self.open = False
 
-    def ensure_writer(self, images: dict[str, npt.NDArray[np.uint8]]) -> DatasetBridge:
+    def camera_shape(self, name: str, img: npt.NDArray[Any]) -> CameraShape:
+        h, w = int(img.shape[0]), int(img.shape[1])
+        info = self.cameras.info.get(name)
+        if info is None:
+            return CameraShape(h, w, self.cameras.depth_units.get(name))
+        topic = self.mapping.camera_info[name]
+        check_info_size(info, h, w, f"{self.summary.src}: mapping: camera_info.{name} ({topic})")
+        return CameraShape(h, w, self.cameras.depth_units.get(name), {"camera_info": info})
+
+    def ensure_writer(self, images: dict[str, npt.NDArray[Any]]) -> DatasetBridge:
         if self.bridge is not None:
             return self.bridge
         schema = DatasetSchema(
             fps=self.mapping.fps,
             state_names=tuple(self.state.names()),
             action_names=tuple(self.action.names()),
-            cameras={name: CameraShape(int(img.shape[0]), int(img.shape[1])) for name, img in images.items()},
+            cameras={name: self.camera_shape(name, img) for name, img in images.items()},
             robot_type=self.mapping.robot_type,
             has_reward=self.mapping.reward is not None,
             has_success=self.mapping.success is not None,
@@ -284,7 +308,10 @@ class _Converter:
                 "mapping": self.mapping.model_dump(mode="json"),
             },
         )
-        self.writer = LeRobotV3Writer(self.dst, schema, WriterConfig(video=VideoSettings(codec=self.codec)))
+        depth = DepthSettings(**self.mapping.depth.model_dump())
+        self.writer = LeRobotV3Writer(
+            self.dst, schema, WriterConfig(video=VideoSettings(codec=self.codec), depth=depth)
+        )
         self.bridge = DatasetBridge(schema, [self.writer])
         return self.bridge
 
@@ -305,13 +332,15 @@ def convert_bags(
     summary = ConvertSummary(src=src, dst=dst, bags=len(bags))
     wanted = mapping.topics()
     extra = [t for t in (mapping.task_topic, mapping.success_topic, mapping.episodes.marker_topic) if t is not None]
+    info_topics = list(mapping.camera_info.values())  # read up front (first message), not aligned
+    cameras = _CameraTopics()
     # every mapped topic must exist in every bag: checked up front, before anything is written
     totals = 0
     for bag in bags:
         reader = open_reader(bag)
         try:
             present = {c.topic: c.msgtype for c in reader.connections}
-            missing = [t for t in wanted + extra if t not in present]
+            missing = [t for t in wanted + extra + info_topics if t not in present]
             if missing:
                 raise BagError(
                     f"{bag}: mapped topic(s) {', '.join(missing)} not in the bag "
@@ -321,18 +350,22 @@ def convert_bags(
             for c in reader.connections:
                 if c.topic in wanted or c.topic in extra:
                     totals += c.msgcount
-                else:
+                elif c.topic not in info_topics:
                     summary.skipped_topics[c.topic] = summary.skipped_topics.get(c.topic, 0) + c.msgcount
             for t in wanted:
                 summary.topics.setdefault(t, TopicReport(t, present[t]))
+            conn = {c.topic: c for c in reader.connections}
             for name, topic in mapping.cameras.items():
-                check_camera(reader, bag, name, next(c for c in reader.connections if c.topic == topic))
+                check_camera(reader, bag, name, conn[topic])
+            _check_depth_cameras(reader, bag, mapping, conn, cameras)
+            for name, topic in mapping.camera_info.items():
+                cameras.info.setdefault(name, read_camera_info(reader, bag, name, conn[topic]))
         finally:
             reader.close()
     check_new_output(dst, "DST")
     staged = Staging(dst, "openral-data convert")  # DST appears complete or not at all
     with staged as staging:
-        conv = _Converter(mapping, staging, codec, summary)
+        conv = _Converter(mapping, staging, codec, summary, cameras)
         t0 = time.perf_counter()
         done = 0
         try:
@@ -354,6 +387,20 @@ def convert_bags(
             )
         staged.publish("DST")
     return summary
+
+
+def _check_depth_cameras(
+    reader: AnyReader, bag: Path, mapping: Mapping, conn: dict[str, Connection], cameras: _CameraTopics
+) -> None:
+    """Each depth camera carries 16UC1 or 32FC1, the same in every bag."""
+    for name, topic in mapping.depth_cameras.items():
+        unit = check_depth_camera(reader, bag, name, conn[topic])
+        if cameras.depth_units.setdefault(name, unit) != unit:
+            raise BagError(
+                f"{bag}: mapping: depth_cameras.{name} ({topic}): depth in {unit} here, "
+                f"in {cameras.depth_units[name]} in an earlier bag",
+                code="bag.type",
+            )
 
 
 def _check_stamps(src: Path, summary: ConvertSummary) -> None:
@@ -438,6 +485,9 @@ class _Message:
         msg = self.get()
         check_image(msg, self.msgtype, f"{self.bag}: {self.topic}")  # the first message was checked, not every one
         return decode_image(msg, self.msgtype)
+
+    def decode_depth(self, unit: DepthUnit) -> npt.NDArray[Any]:
+        return decode_depth(self.get(), self.msgtype, unit, f"{self.bag}: {self.topic}")
 
 
 def _timed_messages(

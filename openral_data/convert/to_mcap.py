@@ -1,7 +1,9 @@
 """LeRobot v3 -> ROS 2 MCAP: replay a dataset's episodes (all or selected) through our MCAP sink.
 
 Frames are read one episode at a time: the numeric columns of that episode from its data parquet, the
-images decoded with PyAV from each camera's mp4 starting at the episode's ``from_timestamp``. Works on any
+images decoded with PyAV from each camera's mp4 starting at the episode's ``from_timestamp``; a depth video
+(``is_depth_map``) becomes a 16UC1 Image topic (millimetres, as lerobot's loader returns them) and a camera's
+``info.camera_info`` a CameraInfo topic. Works on any
 LeRobot v3 dataset (ours or lerobot's); our extra episode columns (seed, success, initial state) are kept.
 The bags are written into a hidden staging folder beside DST, renamed to DST once every bag is finished.
 """
@@ -13,7 +15,7 @@ import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from openral_data.episodes import parse_episodes
 from openral_data.errors import DatasetError
@@ -28,6 +30,7 @@ from openral_data.formats.staging import Staging, check_new_output
 from openral_data.types import CameraShape, DatasetSchema, EpisodeRecord, EpisodeStart
 
 ProgressFn = Callable[[int, int], None]  # (frames exported, frames in total)
+_QUANTIZER = ("video.depth_min", "video.depth_max", "video.shift", "video.use_log")
 
 
 @dataclass
@@ -62,6 +65,15 @@ def is_lerobot_dataset(path: Path) -> bool:
     return (path / layout.INFO_PATH).is_file()
 
 
+def _camera_shape(feature: dict[str, Any]) -> CameraShape:
+    """A camera of the dataset as the MCAP sink takes it: a depth video (`is_depth_map`) as 16UC1 millimetres
+    with its quantizer settings, and the intrinsics (`info.camera_info`) when the feature has them."""
+    info = feature.get("info") or {}
+    keep = {k: v for k, v in info.items() if k == "camera_info" or (info.get("is_depth_map") and k in _QUANTIZER)}
+    depth_unit: Literal["mm"] | None = "mm" if info.get("is_depth_map") else None
+    return CameraShape(int(feature["shape"][0]), int(feature["shape"][1]), depth_unit, keep)
+
+
 def export_mcap(
     src: Path,
     dst: Path,
@@ -92,7 +104,7 @@ def export_mcap(
         fps=fps,
         state_names=tuple(dim_names(features["observation.state"], "observation.state")),
         action_names=tuple(dim_names(features["action"], "action")),
-        cameras={n: CameraShape(int(f["shape"][0]), int(f["shape"][1])) for n, f in cams.items()},
+        cameras={n: _camera_shape(f) for n, f in cams.items()},
         robot_type=str(info.get("robot_type") or "unknown"),
         metadata={"exported_from": str(src)},
         has_reward="next.reward" in features,

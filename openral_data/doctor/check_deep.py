@@ -1,6 +1,8 @@
 """`doctor --deep`: decode every episode's frames of every camera and compare their per-channel mean with the
 per-episode image statistics the writer stored (meta/episodes `stats/<camera>/mean`). A swapped or shifted video
-range shows another episode's frames, whose mean differs; lossy coding moves a mean by a few levels at most."""
+range shows another episode's frames, whose mean differs; lossy coding moves a mean by a few levels at most.
+A depth video (`is_depth_map`) is compared in its `depth_unit`, decoded as lerobot's loader does, within 2% of
+its quantizer's range (invalid source pixels, left out of the stats, load as depth_min / depth_max)."""
 
 from __future__ import annotations
 
@@ -13,6 +15,7 @@ import numpy as np
 from openral_data.doctor.check_video import Placement, placements
 from openral_data.doctor.findings import Finding, error
 from openral_data.doctor.inspect import Dataset, read_parquet
+from openral_data.formats.lerobot_v3.depth import MM_PER_METRE, DepthSettings, decode_codes
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
 from openral_data.paths import regular_file
 
@@ -31,6 +34,30 @@ def stored_means(ds: Dataset, key: str) -> dict[int, np.ndarray[Any, Any]]:
             if mean is not None:
                 out[int(e)] = np.asarray(mean, dtype=np.float64).ravel()
     return out
+
+
+def _depth(info: dict[str, Any]) -> tuple[DepthSettings, float] | None:
+    """A depth feature's quantizer and the factor from metres to its `depth_unit`; None for a colour video."""
+    if not info.get("is_depth_map"):
+        return None
+    return DepthSettings.from_info(info), (1.0 if info.get("depth_unit") == "m" else MM_PER_METRE)
+
+
+def decoded_depth_means(
+    path: Path, eps: list[Placement], fps: int, depth: tuple[DepthSettings, float]
+) -> dict[int, np.ndarray[Any, Any]]:
+    """episode -> mean depth of its decoded frames, in the feature's depth_unit."""
+    half = 0.5 / fps
+    sums: dict[int, list[float]] = {p.episode: [] for p in eps}
+    settings, unit = depth
+    with av.open(str(regular_file(path))) as container:
+        for frame in container.decode(video=0):
+            t = frame.time
+            for p in eps:
+                if t is not None and p.from_ts - half <= t < p.from_ts + p.length / fps - half:
+                    sums[p.episode].append(float(settings.dequantize(decode_codes(frame)).mean()) * unit)
+                    break
+    return {e: np.array([np.mean(v)]) for e, v in sums.items() if v}
 
 
 def decoded_means(path: Path, eps: list[Placement], fps: int) -> dict[int, np.ndarray[Any, Any]]:
@@ -57,15 +84,16 @@ def check_deep(ds: Dataset) -> list[Finding]:
         want = stored_means(ds, key)
         if not want:
             continue
+        depth = _depth(ds.features[key].get("info") or {})
+        tol = TOLERANCE if depth is None else TOLERANCE * (depth[0].depth_max - depth[0].depth_min) * depth[1]
         for path, eps in sorted(placements(ds, key).items()):
             if not path.is_file():
                 continue  # reported as video.missing
-            got = decoded_means(path, eps, ds.fps)
+            got = decoded_means(path, eps, ds.fps) if depth is None else decoded_depth_means(path, eps, ds.fps, depth)
             bad = [
                 p.episode
                 for p in eps
-                if p.episode in want
-                and (p.episode not in got or np.abs(got[p.episode] - want[p.episode]).max() > TOLERANCE)
+                if p.episode in want and (p.episode not in got or np.abs(got[p.episode] - want[p.episode]).max() > tol)
             ]
             if bad:
                 out.append(
@@ -73,7 +101,7 @@ def check_deep(ds: Dataset) -> list[Finding]:
                         "video.content",
                         ds.rel(path),
                         f"decoded frames of episode(s) {bad[:5]} do not match their stored image statistics "
-                        f"(mean per channel off by more than {TOLERANCE}): the range shows other frames",
+                        f"(mean per channel off by more than {tol:g}): the range shows other frames",
                     )
                 )
     return out

@@ -80,6 +80,7 @@ class CameraEncoders:
             out: dict[str, Encoded] = {}
             for name, worker in self._workers.items():
                 enc = worker.finish()
+                assert isinstance(enc.stats, ImageStatsAccumulator)  # colour workers (editing refuses depth)
                 out[name] = Encoded(enc.path.read_bytes(), enc.stats)
                 enc.path.unlink()
             return out

@@ -57,7 +57,7 @@ class DatasetBridge:
             raise ContractViolation(f"{self._where()}: {what}: non-finite values at dims {bad}")
         return value.copy()
 
-    def _images(self, images: Any) -> dict[str, npt.NDArray[np.uint8]]:
+    def _images(self, images: Any) -> dict[str, npt.NDArray[Any]]:
         if not isinstance(images, dict):
             raise ContractViolation(f"{self._where()}: images: expected a dict of camera name -> array")
         names = set(images)
@@ -68,13 +68,16 @@ class DatasetBridge:
                 + (f"; missing {missing}" if missing else "")
                 + (f"; undeclared {extra}" if extra else "")
             )
-        out: dict[str, npt.NDArray[np.uint8]] = {}
+        out: dict[str, npt.NDArray[Any]] = {}
         for name, img in images.items():
             shape = self.schema.cameras[name]
-            want = (shape.height, shape.width, 3)
-            if not isinstance(img, np.ndarray) or img.dtype != np.uint8 or img.shape != want:
+            # a depth camera: (H, W) uint16 millimetres or float32 metres
+            dtype = {None: np.uint8, "mm": np.uint16, "m": np.float32}[shape.depth_unit]
+            want = (shape.height, shape.width, 3) if shape.depth_unit is None else (shape.height, shape.width)
+            if not isinstance(img, np.ndarray) or img.dtype != dtype or img.shape != want:
                 raise ContractViolation(
-                    f"{self._where()}: images.{name}: expected uint8{list(want)} (HWC), got {_describe(img)}"
+                    f"{self._where()}: images.{name}: expected {np.dtype(dtype).name}{list(want)}"
+                    f"{' (HWC)' if shape.depth_unit is None else ' (depth)'}, got {_describe(img)}"
                 )
             out[name] = np.ascontiguousarray(img).copy()
         return out

@@ -23,6 +23,16 @@ action:                       # -> action
 # fields of it): each reads its own field of the same messages. A camera topic is only a camera.
 cameras:                      # camera name -> sensor_msgs Image or CompressedImage topic
   front: /camera/front/image/compressed
+depth_cameras:                # camera name -> sensor_msgs Image topic in 16UC1 (millimetres) or 32FC1 (metres),
+                              #   or a CompressedImage in image_transport's compressedDepth png
+  front_depth: /camera/depth/image_rect_raw   # -> observation.images.front_depth, a lerobot depth video
+depth:                        # optional: lerobot's DepthEncoderConfig quantizer (these are its defaults): depth
+  depth_min: 0.01             #   in metres is mapped to 12-bit codes, log-spaced (use_log) or linear between
+  depth_max: 10.0             #   depth_min and depth_max; pixels outside (a 16UC1 0, a 32FC1 NaN/inf) load as
+  shift: 3.5                  #   depth_min or depth_max
+  use_log: true
+camera_info:                  # optional: camera name (colour or depth) -> sensor_msgs CameraInfo topic; its first
+  front_depth: /camera/depth/camera_info   # message's intrinsics go in the feature's info.camera_info
 reward:                       # optional -> next.reward; aligned like state (a missing reward makes the
   topic: /reward              #   frame unfillable). Without it the dataset has no next.reward column.
   field: data
@@ -162,6 +172,23 @@ class SuccessSource(StrictModel):
         return self
 
 
+class DepthQuantization(StrictModel):
+    """lerobot 0.6.1's `DepthEncoderConfig` quantizer settings (metres)."""
+
+    depth_min: float = Field(default=0.01, ge=0, allow_inf_nan=False)
+    depth_max: float = Field(default=10.0, gt=0, allow_inf_nan=False)
+    shift: float = Field(default=3.5, allow_inf_nan=False)
+    use_log: bool = True
+
+    @model_validator(mode="after")
+    def _check(self) -> DepthQuantization:
+        if self.depth_max <= self.depth_min:
+            raise ValueError(f"depth_max ({self.depth_max}) must be above depth_min ({self.depth_min})")
+        if self.use_log and self.depth_min + self.shift <= 0:
+            raise ValueError("use_log needs depth_min + shift > 0")
+        return self
+
+
 class Align(StrictModel):
     method: Literal["previous", "nearest"] = "previous"
     max_staleness: float = Field(default=0.1, gt=0)
@@ -191,6 +218,9 @@ class Mapping(StrictModel):
     state: Vector
     action: Vector
     cameras: dict[str, str] = Field(default_factory=dict)
+    depth_cameras: dict[str, str] = Field(default_factory=dict)
+    depth: DepthQuantization = Field(default_factory=DepthQuantization)
+    camera_info: dict[str, str] = Field(default_factory=dict)
     reward: ScalarSource | None = None
     success: SuccessSource | None = None
     align: Align = Field(default_factory=Align)
@@ -200,13 +230,21 @@ class Mapping(StrictModel):
     def _check(self) -> Mapping:
         if (self.task is None) == (self.task_topic is None):
             raise ValueError("set exactly one of task (a fixed text) or task_topic")
-        for name in self.cameras:
+        for name in [*self.cameras, *self.depth_cameras]:
             if not _CAMERA.match(name):
                 raise ValueError(f"camera name {name!r}: letters, digits and _ only")
+            if name in self.cameras and name in self.depth_cameras:
+                raise ValueError(f"camera name {name!r} is in both cameras and depth_cameras")
         topics = self.topics()
-        if len(set(self.cameras.values())) != len(self.cameras):
+        images = self.image_topics()
+        if len(set(images.values())) != len(images):
             raise ValueError("two cameras map the same topic")
-        cameras = set(self.cameras.values())
+        cameras = set(images.values())
+        for name, info_topic in self.camera_info.items():
+            if name not in images:
+                raise ValueError(f"camera_info.{name}: no camera or depth camera of that name")
+            if info_topic in topics:
+                raise ValueError(f"camera_info.{name}: {info_topic} is also mapped as data")
         for key, topic in (
             ("reward topic", self.reward.topic if self.reward is not None else None),
             ("success.topic", self.success_topic),
@@ -231,12 +269,16 @@ class Mapping(StrictModel):
         """(`state` or `action`, part) for every part of both, in order."""
         return [(role, s) for role, v in (("state", self.state), ("action", self.action)) for s in v.sources()]
 
+    def image_topics(self) -> dict[str, str]:
+        """camera name -> topic, colour cameras then depth cameras."""
+        return {**self.cameras, **self.depth_cameras}
+
     def topics(self) -> list[str]:
         """The aligned topics: every frame takes one sample of each. Roles may share a topic (state = position,
         action = velocity of one JointState topic): each reads its own field of the same messages."""
         reward = [self.reward.topic] if self.reward is not None else []
         vectors = [s.topic for _, s in self.vector_sources()]
-        return list(dict.fromkeys([*vectors, *self.cameras.values(), *reward]))
+        return list(dict.fromkeys([*vectors, *self.image_topics().values(), *reward]))
 
 
 def load_mapping(path: Path) -> Mapping:

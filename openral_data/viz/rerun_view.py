@@ -4,10 +4,10 @@ Cameras are logged once as `AssetVideo` plus one `VideoFrameReference` per row, 
 packs many episodes into one mp4, so the episode's packets — from `from_timestamp` to `to_timestamp` — are
 remuxed into a clip of their own (frame k at k / fps); if the episode does not start on a keyframe, the whole
 file is logged and frame k is referenced at `from_timestamp + k / fps`; a `dtype: image` camera logs each frame's
-embedded PNG/JPEG. State, action and `observation.environment_state` become one scalar series per dimension
-named after the contract (or info.json's names), the task is a text document, reward/success/done are series
-with a text event at the end, and replay results (see `metrics/results.py`) add per-step action error and
-divergence.
+embedded PNG/JPEG; a depth video (`is_depth_map`) is decoded into one `DepthImage` (millimetres) per row.
+State, action and `observation.environment_state` become one scalar series per dimension named after the
+contract (or info.json's names), the task is a text document, reward/success/done are series with a text event
+at the end, and replay results (see `metrics/results.py`) add per-step action error and divergence.
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ from openral_data.formats import results as results_layout
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.clip import episode_clip
 from openral_data.formats.lerobot_v3.features import ACTION, STATE
+from openral_data.formats.lerobot_v3.frames import decode_episode_video, depth_settings
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE, image_bytes, image_keys, media_type
 from openral_data.formats.lerobot_v3.layout import FilePos
 from openral_data.formats.lerobot_v3.success import EPISODE_SUCCESS, episode_successes
@@ -243,6 +244,22 @@ def _success_fields(row: dict[str, Any]) -> dict[str, Any]:
     return {k: row[k] for k in ("episode_index", EPISODE_SUCCESS) if k in row}
 
 
+def _log_depth(
+    rec: rr.RecordingStream,
+    ds: DatasetSource,
+    row: dict[str, Any],
+    cam: str,
+    frame_index: np.ndarray[Any, np.dtype[np.int64]],
+) -> None:
+    """A depth video (`is_depth_map`): decoded and dequantized as lerobot's loader does, one DepthImage per row
+    (millimetres; rerun's video player does not show 12-bit depth)."""
+    entity = camera_entity(cam)
+    for k, mm in enumerate(decode_episode_video(ds.root, ds.info, row, cam)):
+        rec.set_time(FRAME, sequence=int(frame_index[k]))
+        rec.set_time(TIME, duration=float(frame_index[k]) / ds.fps)
+        rec.log(entity, rr.DepthImage(mm, meter=1000.0))
+
+
 def _log_camera(
     rec: rr.RecordingStream,
     ds: DatasetSource,
@@ -253,6 +270,9 @@ def _log_camera(
     times: list[rr.TimeColumn],
 ) -> None:
     entity = camera_entity(cam)
+    if depth_settings(ds.info, cam) is not None:
+        _log_depth(rec, ds, row, cam, frame_index)
+        return
     start = float(row.get(f"videos/{cam}/from_timestamp") or 0.0)
     end = float(row.get(f"videos/{cam}/to_timestamp") or start + len(frame_index) / ds.fps)
     clip = episode_clip(path, start, end, ds.fps)

@@ -51,8 +51,8 @@ def test_camera_on_a_non_image_topic(tmp_path: Path, kind: str) -> None:
 def test_depth_image_mapped_as_a_camera(tmp_path: Path, kind: str, encoding: Flaw) -> None:
     line = _refused(tmp_path, kind, encoding, {})
     assert line.endswith(
-        f"mapping: cameras.front (/cam/image_raw): {encoding} is a depth image; depth is not yet supported as an "
-        "RGB camera (leave the topic out of cameras)"
+        f"mapping: cameras.front (/cam/image_raw): {encoding} is a depth image, not an RGB camera "
+        "(map a 16UC1/32FC1 depth topic under depth_cameras instead)"
     ), line
 
 
@@ -61,7 +61,7 @@ def test_compressed_depth_mapped_as_a_camera(tmp_path: Path, kind: str) -> None:
     line = _refused(tmp_path, kind, "compressedDepth", {})
     assert line.endswith(
         "mapping: cameras.side (/cam2/compressed): a CompressedImage of format '16UC1; compressedDepth png' is a "
-        "depth image; depth is not yet supported as an RGB camera (leave the topic out of cameras)"
+        "depth image, not an RGB camera (map a 16UC1/32FC1 depth topic under depth_cameras instead)"
     ), line
 
 

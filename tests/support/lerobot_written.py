@@ -1,7 +1,8 @@
 """A small dataset written by lerobot 0.6.1 itself (no openral columns): three episodes, one video camera; on
 request also a `dtype: image` camera (`IMAGE_CAMERA`, pixels `image_pixels(e, t)`) and an
-`observation.environment_state` (`ENV_NAMES`, values `env_state(e, t)`). `loaded_episodes` reads any dataset
-back through lerobot's loader for comparisons (`same_frames`), `digest` fingerprints its files."""
+`observation.environment_state` (`ENV_NAMES`, values `env_state(e, t)`) and a depth video camera (`DEPTH_CAMERA`,
+uint16 millimetres `depth_pixels(e, t)`, lerobot's default `DepthEncoderConfig`). `loaded_episodes` reads any
+dataset back through lerobot's loader for comparisons (`same_frames`), `digest` fingerprints its files."""
 
 from __future__ import annotations
 
@@ -19,6 +20,17 @@ IMAGE_SHAPE = (24, 20, 3)
 ENV_STATE = "observation.environment_state"
 ENV_NAMES = ["block_x", "block_y", "block_angle", "goal_dist"]
 Frame = dict[str, Any]
+DEPTH_CAMERA = "observation.images.depth"
+DEPTH_SHAPE = (32, 48, 1)
+
+
+def depth_pixels(e: int, t: int) -> np.ndarray:
+    """A depth frame (mm): a ramp from 300 mm, different per episode and frame, with a 0 (no return) corner."""
+    h, w, _ = DEPTH_SHAPE
+    y, x = np.mgrid[0:h, 0:w]
+    d = (300 + 40 * x + 25 * y + 200 * e + 30 * t).astype(np.uint16)
+    d[:2, :2] = 0
+    return d[..., None]
 
 
 def image_pixels(e: int, t: int) -> np.ndarray:
@@ -34,7 +46,12 @@ def env_state(e: int, t: int) -> np.ndarray:
 
 
 def write_lerobot_dataset(
-    root: Path, with_success: bool, *, image_camera: bool = False, environment_state: bool = False
+    root: Path,
+    with_success: bool,
+    *,
+    image_camera: bool = False,
+    environment_state: bool = False,
+    depth_camera: bool = False,
 ) -> None:
     from lerobot.configs.video import RGBEncoderConfig
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
@@ -48,6 +65,13 @@ def write_lerobot_dataset(
         features[IMAGE_CAMERA] = {"dtype": "image", "shape": IMAGE_SHAPE, "names": ["height", "width", "channels"]}
     if environment_state:
         features[ENV_STATE] = {"dtype": "float32", "shape": (len(ENV_NAMES),), "names": ENV_NAMES}
+    if depth_camera:
+        features[DEPTH_CAMERA] = {
+            "dtype": "video",
+            "shape": DEPTH_SHAPE,
+            "names": ["height", "width", "channels"],
+            "info": {"is_depth_map": True},
+        }
     if with_success:
         features["next.success"] = {"dtype": "bool", "shape": (1,), "names": None}
     ds = LeRobotDataset.create(
@@ -73,6 +97,8 @@ def write_lerobot_dataset(
                     frame[IMAGE_CAMERA] = image_pixels(e, t)
                 if environment_state:
                     frame[ENV_STATE] = env_state(e, t)
+                if depth_camera:
+                    frame[DEPTH_CAMERA] = depth_pixels(e, t)
                 if with_success:
                     frame["next.success"] = np.array([ok and t == n - 1])
                 ds.add_frame(frame)

@@ -6,6 +6,7 @@ from typing import Any
 
 import pyarrow as pa
 
+from openral_data.formats.lerobot_v3.depth import DepthSettings
 from openral_data.formats.lerobot_v3.stats import STAT_KEYS
 from openral_data.formats.lerobot_v3.video import VideoSettings
 from openral_data.types import DatasetSchema
@@ -75,14 +76,21 @@ def dim_names(feature: dict[str, Any], key: str) -> list[str]:
     return [f"{key}_{i}" for i in range(size)]
 
 
-def build_features(schema: DatasetSchema, video: VideoSettings) -> dict[str, dict[str, Any]]:
+def build_features(
+    schema: DatasetSchema, video: VideoSettings, depth: DepthSettings | None = None
+) -> dict[str, dict[str, Any]]:
     features: dict[str, dict[str, Any]] = {}
     for name, shape in schema.cameras.items():
+        info = (
+            video.feature_info(shape.height, shape.width, schema.fps)
+            if shape.depth_unit is None
+            else (depth or DepthSettings()).feature_info(shape.height, shape.width, schema.fps, shape.depth_unit)
+        )
         features[camera_key(name)] = {
             "dtype": "video",
-            "shape": [shape.height, shape.width, 3],
+            "shape": [shape.height, shape.width, 3 if shape.depth_unit is None else 1],
             "names": ["height", "width", "channels"],
-            "info": video.feature_info(shape.height, shape.width, schema.fps),
+            "info": {**info, **shape.info},
         }
     features[STATE] = {"dtype": "float32", "shape": [schema.state_dim], "names": list(schema.state_names)}
     features[ACTION] = {"dtype": "float32", "shape": [schema.action_dim], "names": list(schema.action_names)}

@@ -1,6 +1,7 @@
 """An episode's frames read back from a LeRobot v3 dataset: numeric columns from its data parquet, images decoded
 with PyAV from each camera's mp4 starting at the episode's ``from_timestamp`` (a `dtype: image` camera: from the
-PNG/JPEG embedded in the parquet). Works on any LeRobot v3 dataset."""
+PNG/JPEG embedded in the parquet; a depth video, `is_depth_map`: as (H, W) uint16 millimetres, the way lerobot's
+loader dequantizes it). Works on any LeRobot v3 dataset."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ import pyarrow.compute as pc
 
 from openral_data.errors import DatasetError
 from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.depth import DepthSettings, decode_codes
 from openral_data.formats.lerobot_v3.features import camera_key, camera_keys
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE, decode_image, image_keys
 from openral_data.formats.parquetfile import read_table
@@ -74,21 +76,34 @@ def episode_frames(
         )
 
 
+def depth_settings(info: dict[str, Any], key: str) -> DepthSettings | None:
+    """The quantizer of feature `key` if it is a depth video (`is_depth_map` in its info), else None."""
+    feature_info = info["features"].get(key, {}).get("info") or {}
+    return DepthSettings.from_info(feature_info) if feature_info.get("is_depth_map") else None
+
+
 def _decode_video(
     src: Path, info: dict[str, Any], row: dict[str, Any], key: str, n: int, fps: int
-) -> Iterator[npt.NDArray[np.uint8]]:
+) -> Iterator[npt.NDArray[Any]]:
     """The episode's `n` frames of `key`, decoded from its mp4 starting at `from_timestamp`."""
     pos = layout.FilePos(row[f"videos/{key}/chunk_index"], row[f"videos/{key}/file_index"])
     path = layout.template_path(src, info, "video_path", pos, video_key=key)
     start = float(row[f"videos/{key}/from_timestamp"])
     try:
-        yield from _decode(path, start, n, fps)
+        yield from _decode(path, start, n, fps, depth_settings(info, key))
     except (av.error.FFmpegError, OSError) as exc:  # missing, empty, truncated or not a video
         reason = getattr(exc, "strerror", None) or type(exc).__name__
         raise DatasetError(f"{path}: cannot decode video: {reason}", code="dataset.invalid") from None
 
 
-def _decode(path: Path, start: float, n: int, fps: int) -> Iterator[npt.NDArray[np.uint8]]:
+def decode_episode_video(src: Path, info: dict[str, Any], row: dict[str, Any], key: str) -> Iterator[npt.NDArray[Any]]:
+    """The frames of video feature `key` in the episode of meta/episodes `row` (RGB, or depth in mm)."""
+    yield from _decode_video(src, info, row, key, int(row["length"]), int(info["fps"]))
+
+
+def _decode(
+    path: Path, start: float, n: int, fps: int, depth: DepthSettings | None = None
+) -> Iterator[npt.NDArray[Any]]:
     half = 0.5 / fps
     with av.open(str(path)) as container:
         if not container.streams.video:
@@ -102,7 +117,10 @@ def _decode(path: Path, start: float, n: int, fps: int) -> Iterator[npt.NDArray[
         for frame in container.decode(stream):
             if frame.pts is None or float(frame.pts * tb) < start - half:
                 continue
-            yield np.asarray(frame.to_ndarray(format="rgb24"), dtype=np.uint8)
+            if depth is not None:
+                yield depth.to_millimetres(decode_codes(frame))
+            else:
+                yield np.asarray(frame.to_ndarray(format="rgb24"), dtype=np.uint8)
             count += 1
             if count == n:
                 return

@@ -18,10 +18,11 @@ import pyarrow.parquet as pq
 from openral_data.errors import DatasetError
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.depth import CameraStats, camera_stats_from_json
 from openral_data.formats.lerobot_v3.layout import FilePos
 from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.recovery import episode_rows
-from openral_data.formats.lerobot_v3.stats import STAT_KEYS, ImageStatsAccumulator, Stats, merge_numeric
+from openral_data.formats.lerobot_v3.stats import STAT_KEYS, Stats, merge_numeric
 from openral_data.formats.lerobot_v3.video import probe_frames
 
 
@@ -43,7 +44,7 @@ class Restored:
     data_tables: list[pa.Table]
     videos: dict[str, VideoTail]  # camera name -> tail
     numeric_stats: dict[str, Stats]
-    image_stats: dict[str, ImageStatsAccumulator]
+    image_stats: dict[str, CameraStats]  # empty before the first episode: the writer keeps its fresh ones
 
 
 def check_same_format(root: Path, info: dict[str, Any], fps: int, features: dict[str, dict[str, Any]]) -> None:
@@ -151,9 +152,9 @@ def _pos(row: dict[str, Any], prefix: str) -> FilePos:
     return FilePos(int(row[f"{prefix}/chunk_index"]), int(row[f"{prefix}/file_index"]))
 
 
-def _image_stats(root: Path, names: list[str], has_rows: bool) -> dict[str, ImageStatsAccumulator]:
+def _image_stats(root: Path, names: list[str], has_rows: bool) -> dict[str, CameraStats]:
     if not names or not has_rows:
-        return {name: ImageStatsAccumulator() for name in names}
+        return {}
     path = root / layout.IMAGE_HIST_PATH
     try:
         saved = json.loads(atomic.read_control(path))  # a control file: no symlink, no FIFO
@@ -165,9 +166,9 @@ def _image_stats(root: Path, names: list[str], has_rows: bool) -> dict[str, Imag
         raise DatasetError(f"{path}: invalid JSON: {exc}", code="dataset.invalid") from None
     if not isinstance(saved, dict):
         raise DatasetError(f"{path}: not a JSON object", code="dataset.invalid")
-    accs: dict[str, ImageStatsAccumulator] = {}
+    accs: dict[str, CameraStats] = {}
     for name in names:
         if name not in saved:
             raise DatasetError(f"{path}: {name}: no histogram for this camera", code="dataset.incomplete")
-        accs[name] = ImageStatsAccumulator.from_json(saved[name])
+        accs[name] = camera_stats_from_json(saved[name])
     return accs

@@ -16,7 +16,7 @@ import numpy.typing as npt
 QUANTILES = {"q01": 0.01, "q10": 0.10, "q50": 0.50, "q90": 0.90, "q99": 0.99}
 STAT_KEYS = ("min", "max", "mean", "std", "count", *QUANTILES)
 Stats = dict[str, npt.NDArray[Any]]
-_IMAGE_SIDE = 64
+IMAGE_SIDE = 64
 
 
 def numeric_stats(values: npt.NDArray[Any]) -> Stats:
@@ -64,7 +64,7 @@ class ImageStatsAccumulator:
 
     def add(self, frame: npt.NDArray[np.uint8]) -> None:
         h, w = frame.shape[:2]
-        step = max(1, -(-max(h, w) // _IMAGE_SIDE))
+        step = max(1, -(-max(h, w) // IMAGE_SIDE))
         px = frame[::step, ::step, :3].reshape(-1, 3).astype(np.int64) + self._offsets
         self.hist += np.bincount(px.ravel(), minlength=768).reshape(3, 256)
         self.frames += 1

@@ -25,6 +25,7 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.errors import EncoderError
+from openral_data.formats.lerobot_v3.depth import CameraStats, DepthStatsAccumulator, DepthStream
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
 from openral_data.paths import regular_file
 
@@ -92,7 +93,7 @@ class VideoSettings:
 class EncodedEpisode:
     path: Path
     frames: int
-    stats: ImageStatsAccumulator
+    stats: CameraStats
 
 
 @dataclass
@@ -118,11 +119,15 @@ def _ends_job(item: object) -> bool:
 
 class EncoderWorker:
     """A persistent thread encoding one camera. `put` blocks while the queue is full: the producer waits,
-    nothing is dropped. A job (one episode's mp4) ends only through `finish()` or `abort()`."""
+    nothing is dropped. A job (one episode's mp4) ends only through `finish()` or `abort()`. With `depth`, frames
+    are depth maps, quantized and encoded as lerobot's depth videos (`depth.py`) instead of RGB with `settings`."""
 
-    def __init__(self, name: str, settings: VideoSettings, fps: int, queue_size: int = 16) -> None:
+    def __init__(
+        self, name: str, settings: VideoSettings, fps: int, queue_size: int = 16, depth: DepthStream | None = None
+    ) -> None:
         self.name = name
         self.settings = settings
+        self.depth = depth
         self.fps = fps
         self._q: queue.Queue[object] = queue.Queue(maxsize=queue_size)
         self._job: _Job | None = None
@@ -141,7 +146,7 @@ class EncoderWorker:
         self.waited, self.waits = 0.0, 0
         self._q.put(self._job)
 
-    def put(self, frame: npt.NDArray[np.uint8]) -> None:
+    def put(self, frame: npt.NDArray[Any]) -> None:
         """Queue a frame; while the queue is full, wait (counted in `waited` seconds and `waits` frames)."""
         self._raise_if_failed()
         try:
@@ -197,7 +202,13 @@ class EncoderWorker:
 
     def _encode_job(self, job: _Job) -> object:
         """Encode frames until a marker ends the job; return that marker."""
-        stats = ImageStatsAccumulator()
+        depth = self.depth
+        stats = ImageStatsAccumulator() if depth is None else DepthStatsAccumulator(depth.unit)
+        encoder, options, pix_fmt = (
+            (self.settings.encoder, self.settings.options(), self.settings.pix_fmt)
+            if depth is None
+            else (depth.settings.encoder, depth.settings.options(), depth.settings.pix_fmt)
+        )
         frames = 0
         container = None
         end: object | None = None  # the marker that ended this job, once it has arrived
@@ -205,16 +216,16 @@ class EncoderWorker:
             job.path.parent.mkdir(parents=True, exist_ok=True)
             container = av.open(str(job.path), mode="w", format="mp4")
             stream: av.VideoStream = container.add_stream(  # type: ignore[assignment]
-                self.settings.encoder, rate=self.fps, options=self.settings.options()
+                encoder, rate=self.fps, options=options
             )
             stream.width = job.width
             stream.height = job.height
-            stream.pix_fmt = self.settings.pix_fmt
+            stream.pix_fmt = pix_fmt
             stream.codec_context.time_base = Fraction(1, self.fps)
             while not _ends_job(item := self._q.get()):
                 assert isinstance(item, np.ndarray)
                 stats.add(item)
-                vf = av.VideoFrame.from_ndarray(item, format="rgb24")
+                vf = av.VideoFrame.from_ndarray(item, format="rgb24") if depth is None else depth.frame(item)
                 vf.pts = frames
                 frames += 1
                 for packet in stream.encode(vf):

@@ -19,6 +19,7 @@ import logging
 import shutil
 import time
 from collections.abc import Callable
+from collections.abc import Mapping as MappingOf
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -39,6 +40,13 @@ from openral_data.errors import (
 )
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import digests, layout
+from openral_data.formats.lerobot_v3.depth import (
+    CameraStats,
+    DepthSettings,
+    DepthStream,
+    camera_stats,
+    merge_camera_stats,
+)
 from openral_data.formats.lerobot_v3.features import (
     ACTION,
     STATE,
@@ -51,7 +59,6 @@ from openral_data.formats.lerobot_v3.layout import FilePos
 from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.restore import check_same_format, restore
 from openral_data.formats.lerobot_v3.stats import (
-    ImageStatsAccumulator,
     Stats,
     merge_numeric,
     numeric_stats,
@@ -67,6 +74,7 @@ log = logging.getLogger(__name__)
 @dataclass(frozen=True)
 class WriterConfig:
     video: VideoSettings = field(default_factory=VideoSettings)
+    depth: DepthSettings = field(default_factory=DepthSettings)  # the quantizer of depth cameras (lerobot's)
     data_files_size_in_mb: int = 100
     video_files_size_in_mb: int = 200
     chunks_size: int = layout.DEFAULT_CHUNKS_SIZE
@@ -110,7 +118,7 @@ class _State:
     data_tables: list[pa.Table]
     groups: dict[str, _VideoGroup]
     numeric_stats: dict[str, Stats]
-    image_stats: dict[str, ImageStatsAccumulator]
+    image_stats: dict[str, CameraStats]
 
 
 @dataclass
@@ -144,7 +152,7 @@ class LeRobotV3Writer:
         config: WriterConfig | None = None,
         *,
         resume: bool = False,
-        image_stats: dict[str, ImageStatsAccumulator] | None = None,
+        image_stats: MappingOf[str, CameraStats] | None = None,
         features: dict[str, dict[str, Any]] | None = None,
     ) -> None:
         """`image_stats`: the per-camera accumulators of the dataset's image statistics (default: empty
@@ -156,19 +164,32 @@ class LeRobotV3Writer:
         self.schema = schema
         self.config = config or WriterConfig()
         for name, shape in schema.cameras.items():
-            problem = self.config.video.size_problem(shape.height, shape.width)
+            problem = (
+                self.config.video.size_problem(shape.height, shape.width)
+                if shape.depth_unit is None
+                else self.config.depth.size_problem(shape.height, shape.width)
+            )
             if problem:
                 raise CompatibilityError(f"camera {name}: {problem}")
         if not resume and root.exists() and (not root.is_dir() or any(_dataset_entries(root))):
             raise OutputExists(f"{root}: output exists and is not empty; refusing to overwrite it")
         self._created_root = not root.exists()
         root.mkdir(parents=True, exist_ok=True)
-        self.features = features if features is not None else build_features(schema, self.config.video)
+        self.features = (
+            features if features is not None else build_features(schema, self.config.video, self.config.depth)
+        )
         self._data_schema = data_schema(self.features)
         self._episodes_schema = episodes_schema(self.features)
         self._keys = {name: camera_key(name) for name in schema.cameras}
         self._workers = {
-            name: EncoderWorker(name, self.config.video, schema.fps, self.config.queue_size) for name in schema.cameras
+            name: EncoderWorker(
+                name,
+                self.config.video,
+                schema.fps,
+                self.config.queue_size,
+                None if shape.depth_unit is None else DepthStream(self.config.depth, shape.depth_unit),
+            )
+            for name, shape in schema.cameras.items()
         }
         self.tasks: dict[str, int] = {}
         self._tasks_written = 0
@@ -179,8 +200,10 @@ class LeRobotV3Writer:
         self._data_tables: list[pa.Table] = []
         self._groups = {name: _VideoGroup(FilePos()) for name in schema.cameras}
         self._numeric_stats: dict[str, Stats] = {}
-        self.image_stats = (
-            dict(image_stats) if image_stats is not None else {n: ImageStatsAccumulator() for n in schema.cameras}
+        self.image_stats: dict[str, CameraStats] = (
+            dict(image_stats)
+            if image_stats is not None
+            else {n: camera_stats(shape.depth_unit) for n, shape in schema.cameras.items()}
         )
         # dataset-level statistics written instead of the merged ones (editing's exact `dtype: image` histograms)
         self.stats_override: dict[str, Stats] = {}
@@ -217,7 +240,7 @@ class LeRobotV3Writer:
             members = [_VideoMember(ep, pos, frames, size) for ep, pos, frames, size in tail.members]
             self._groups[name] = _VideoGroup(tail.first, members)
         self._numeric_stats = state.numeric_stats
-        self.image_stats = state.image_stats
+        self.image_stats.update(state.image_stats)
 
     def _config_json(self) -> dict[str, Any]:
         c = self.config
@@ -463,7 +486,7 @@ class LeRobotV3Writer:
             self._place_video(name, index, enc.path, enc.frames, row)
             img = enc.stats.stats()
             ep_stats[self._keys[name]] = img
-            self.image_stats[name].merge(enc.stats)
+            merge_camera_stats(self.image_stats[name], enc.stats)
         for key, s in ep_stats.items():
             for stat, value in to_jsonable(s).items():
                 row[f"stats/{key}/{stat}"] = value

@@ -40,6 +40,7 @@ EPISODE = "/openral/episode"
 JOINT_STATE_T = "sensor_msgs/msg/JointState"
 COMPRESSED_T = "sensor_msgs/msg/CompressedImage"
 IMAGE_T = "sensor_msgs/msg/Image"
+CAMERA_INFO_T = "sensor_msgs/msg/CameraInfo"
 FLOAT32_ARRAY_T = "std_msgs/msg/Float32MultiArray"
 FLOAT32_T = "std_msgs/msg/Float32"
 STRING_T = "std_msgs/msg/String"
@@ -59,6 +60,15 @@ def camera_topic(name: str, fmt: ImageFormat) -> str:
     return f"/camera/{name}/image_raw" if fmt == "raw" else f"/camera/{name}/image/compressed"
 
 
+def depth_topic(name: str) -> str:
+    """A depth camera's topic: 16UC1 millimetres, whatever the colour cameras' image format."""
+    return f"/camera/{name}/depth/image_raw"
+
+
+def camera_info_topic(name: str) -> str:
+    return f"/camera/{name}/camera_info"
+
+
 def camera_type(fmt: ImageFormat) -> str:
     return IMAGE_T if fmt == "raw" else COMPRESSED_T
 
@@ -76,6 +86,8 @@ class MessageFactory:
         self._joint_state = t[JOINT_STATE_T]
         self._compressed = t[COMPRESSED_T]
         self._image = t[IMAGE_T]
+        self._camera_info = t[CAMERA_INFO_T]
+        self._roi = t["sensor_msgs/msg/RegionOfInterest"]
         self._f32_array = t[FLOAT32_ARRAY_T]
         self._layout = t["std_msgs/msg/MultiArrayLayout"]
         self._dim = t["std_msgs/msg/MultiArrayDimension"]
@@ -122,6 +134,32 @@ class MessageFactory:
         else:
             pil.save(buf, format="PNG", compress_level=1)
         return buf.getvalue()
+
+    def camera_info(self, stamp_ns: int, info: dict[str, Any]) -> bytes:
+        """A CameraInfo from a camera feature's `info.camera_info` (frame_id, width, height, distortion_model, k, d,
+        r, p), as `convert` reads it from a bag."""
+        msg = self._camera_info(
+            header=self._stamp_header(stamp_ns, frame_id=str(info["frame_id"])),
+            height=int(info["height"]),
+            width=int(info["width"]),
+            distortion_model=str(info["distortion_model"]),
+            d=np.asarray(info["d"], dtype=np.float64),
+            k=np.asarray(info["k"], dtype=np.float64),
+            r=np.asarray(info["r"], dtype=np.float64),
+            p=np.asarray(info["p"], dtype=np.float64),
+            binning_x=0,
+            binning_y=0,
+            roi=self._roi(x_offset=0, y_offset=0, height=0, width=0, do_rectify=False),
+        )
+        return bytes(self.store.serialize_cdr(msg, CAMERA_INFO_T))
+
+    def depth_image(self, stamp_ns: int, camera: str, mm: npt.NDArray[np.uint16]) -> bytes:
+        """A 16UC1 Image (millimetres, little-endian) of an (H, W) uint16 depth map."""
+        h, w = int(mm.shape[0]), int(mm.shape[1])
+        data = np.ascontiguousarray(mm, dtype="<u2").view(np.uint8).reshape(-1)
+        header = self._stamp_header(stamp_ns, frame_id=camera)
+        msg = self._image(header=header, height=h, width=w, encoding="16UC1", is_bigendian=0, step=2 * w, data=data)
+        return bytes(self.store.serialize_cdr(msg, IMAGE_T))
 
     def image(self, stamp_ns: int, camera: str, rgb: npt.NDArray[np.uint8], compressed: bytes | None = None) -> bytes:
         """The camera message; `compressed` is `compress(rgb)` when it was already computed elsewhere."""

@@ -149,7 +149,8 @@ class McapSink:
         encoded: dict[str, Future[bytes]] = {}
         if self._pool is not None:
             for name, img in frame.images.items():
-                encoded[name] = self._pool.submit(self._factory.compress, img)
+                if self.schema.cameras[name].depth_unit is None:  # depth goes out raw (16UC1)
+                    encoded[name] = self._pool.submit(self._factory.compress, img)
         self._pending.append(_Pending(frame, encoded))
         while len(self._pending) > (self.config.queue_size if self._pool is not None else 0):
             self._write_oldest()  # waits for the oldest frame's images: backpressure, never a drop
@@ -262,8 +263,18 @@ class _EpisodeBag:
         env = schema.environment_state_names
         self.c_env = add(m.ENVIRONMENT_STATE, m.FLOAT32_ARRAY_T, typestore=store) if env else None
         fmt = config.image_format
+        self.depth = [name for name, shape in schema.cameras.items() if shape.depth_unit is not None]
+        intrinsics = {
+            name: shape.info["camera_info"] for name, shape in schema.cameras.items() if "camera_info" in shape.info
+        }
+        c_info = {name: add(m.camera_info_topic(name), m.CAMERA_INFO_T, typestore=store) for name in intrinsics}
         self.c_cams: dict[str, Connection] = {
-            name: add(m.camera_topic(name, fmt), m.camera_type(fmt), typestore=store) for name in schema.cameras
+            name: (
+                add(m.depth_topic(name), m.IMAGE_T, typestore=store)
+                if name in self.depth
+                else add(m.camera_topic(name, fmt), m.camera_type(fmt), typestore=store)
+            )
+            for name in schema.cameras
         }
         self.names = list(schema.state_names)
         self.length = 0
@@ -278,12 +289,16 @@ class _EpisodeBag:
             "robot_type": schema.robot_type,
             "state_names": list(schema.state_names),
             "action_names": list(schema.action_names),
-            "cameras": list(schema.cameras),
+            "cameras": [name for name in schema.cameras if name not in self.depth],
+            # 16UC1 millimetres on depth_topic(name); each with the lerobot quantizer it came from (video.depth_*)
+            "depth_cameras": {name: _quantizer(schema.cameras[name].info) for name in self.depth},
             "environment_state_names": list(schema.environment_state_names),
             "initial_state": start.initial_state,
             "outcomes": {"reward": schema.has_reward, "success": schema.has_success},
         }
         self.writer.write(self.c_event, self.base_ns, self.factory.event(marker))
+        for name, conn in c_info.items():  # a camera's intrinsics: once, at the start
+            self.writer.write(conn, self.base_ns, self.factory.camera_info(self.base_ns, intrinsics[name]))
 
     def write_frame(self, frame: Frame, encoded: dict[str, bytes]) -> None:
         ns = self.base_ns + round(frame.timestamp * 1e9)
@@ -295,7 +310,10 @@ class _EpisodeBag:
             w.write(self.c_task, ns, f.string(frame.task))
         w.write(self.c_state, ns, f.joint_state(ns, self.names, frame.state))
         for name, conn in self.c_cams.items():
-            w.write(conn, ns, f.image(ns, name, frame.images[name], encoded.get(name)))
+            if name in self.depth:
+                w.write(conn, ns, f.depth_image(ns, name, frame.images[name]))
+            else:
+                w.write(conn, ns, f.image(ns, name, frame.images[name], encoded.get(name)))
         w.write(self.c_action, ns, f.action(frame.action))
         if self.c_reward is not None:
             w.write(self.c_reward, ns, f.float32(frame.reward))
@@ -329,3 +347,9 @@ class _EpisodeBag:
             with contextlib.suppress(Exception):  # the staged bag is deleted anyway
                 self.writer.close()
         shutil.rmtree(self.staged, ignore_errors=True)
+
+
+def _quantizer(info: dict[str, Any]) -> dict[str, Any]:
+    """A depth camera's lerobot quantizer settings from its feature info (`video.depth_min` ... -> `depth_min`)."""
+    names = ("depth_min", "depth_max", "shift", "use_log")
+    return {n: info[f"video.{n}"] for n in names if f"video.{n}" in info}
