@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping
 from typing import Any
 
 import pyarrow as pa
@@ -62,6 +63,13 @@ def camera_keys(features: dict[str, Any]) -> dict[str, str]:
     return out
 
 
+def writer_camera_keys(names: Iterable[str], features: dict[str, Any] | None = None) -> dict[str, str]:
+    """Camera name -> feature key for the cameras `names` of a dataset written with `features`: the key
+    `camera_keys(features)` gives the name (a source's own key, e.g. `observation.image`), else `camera_key(name)`."""
+    known = camera_keys(features) if features else {}
+    return {name: known.get(name, camera_key(name)) for name in names}
+
+
 def dim_names(feature: dict[str, Any], key: str) -> list[str]:
     """Per-dimension names of a one-axis feature: its `names` list, or the list inside lerobot's one-entry
     `{"motors": [...]}` form, when it names every dimension; else `<key>_<i>`."""
@@ -75,10 +83,14 @@ def dim_names(feature: dict[str, Any], key: str) -> list[str]:
     return [f"{key}_{i}" for i in range(size)]
 
 
-def build_features(schema: DatasetSchema, video: VideoSettings) -> dict[str, dict[str, Any]]:
+def build_features(
+    schema: DatasetSchema, video: VideoSettings, keys: Mapping[str, str] | None = None
+) -> dict[str, dict[str, Any]]:
+    """The features our writer writes for `schema`; a camera's key is `keys[name]` if given (`writer_camera_keys`),
+    else `camera_key(name)`."""
     features: dict[str, dict[str, Any]] = {}
     for name, shape in schema.cameras.items():
-        features[camera_key(name)] = {
+        features[(keys or {}).get(name) or camera_key(name)] = {
             "dtype": "video",
             "shape": [shape.height, shape.width, 3],
             "names": ["height", "width", "channels"],
