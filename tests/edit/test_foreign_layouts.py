@@ -183,3 +183,11 @@ def test_videos_encode_images_of_a_pusht_like_image_camera(tmp_path: Path) -> No
     for g, w in zip(_checked(out, source, features), _loaded(source), strict=True):
         _same(g, w, exact=False)
     assert digest(source) == before
+
+
+def test_videos_camera_names_the_cameras_it_knows(pusht: Path, tmp_path: Path) -> None:
+    out = tmp_path / "x"
+    res = run_cli("videos", "reencode", str(pusht), "--codec", "h264", "--camera", "top", "--out", str(out))
+    assert res.returncode == 2 and res.stderr.count("\n") == 1, res.stderr
+    assert res.stderr == f"error: --camera: 'top' is not a feature of {pusht} (video cameras: {CAMERA_KEY})\n"
+    assert not out.exists()
