@@ -18,7 +18,9 @@ videos_app = typer.Typer(
     help="Re-encode a dataset's video cameras, or turn its image features into videos (written to a new dataset).",
 )
 
-_CAMERA_HELP = "a camera to encode (feature key or the name after observation.images.); repeat; default: all"
+_CAMERA_HELP = (
+    "a camera to encode (feature key, or camera name: wrist for observation.images.wrist); repeat; default all"
+)
 
 
 def _report(op: str, r: EditResult) -> None:

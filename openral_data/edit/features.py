@@ -17,7 +17,7 @@ from pathlib import Path
 from openral_data.edit.ops import EditResult, Rewrite, summed_histograms, write_edit
 from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.errors import UsageError
-from openral_data.formats.lerobot_v3.features import ACTION, DEFAULT_FEATURES, IMAGE_PREFIX, STATE
+from openral_data.formats.lerobot_v3.features import ACTION, DEFAULT_FEATURES, STATE
 
 
 def remove(dataset: Path, keys: Sequence[str], out: Path | None, in_place: bool = False) -> EditResult:
@@ -25,7 +25,7 @@ def remove(dataset: Path, keys: Sequence[str], out: Path | None, in_place: bool 
     src = SourceDataset(dataset)
     drop = _checked(src, keys)
     features = {k: f for k, f in src.features.items() if k not in drop}
-    cameras = {name: shape for name, shape in src.schema.cameras.items() if IMAGE_PREFIX + name not in drop}
+    cameras = {name: shape for name, shape in src.schema.cameras.items() if src.camera_key[name] not in drop}
     schema = dataclasses.replace(
         src.schema, cameras=cameras, has_reward="next.reward" in features, has_success="next.success" in features
     )

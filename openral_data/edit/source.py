@@ -2,13 +2,16 @@
 
 Editing rebuilds a dataset through our own writer, so a source must have columns our writer can reproduce:
 its `info.json` features must be what `build_features` makes from the schema read back here (state/action
-names, video cameras, outcomes), except that a camera's `info` block is kept as the source wrote it and
-`next.done` may be absent; any other numeric feature of one axis (`observation.environment_state`) and any
-`dtype: image` camera is carried as its stored column (`carried`; an image's `{bytes, path}` cells unchanged,
-its per-episode statistics taken from meta/episodes, as a video camera's are). The output keeps the source's
-features verbatim. The dataset need not be ours: our `openral.*` episode columns are carried when present and
-never required. Without them an episode's seed is unknown (`None`), its initial state empty, and its success
-read by the rule `metrics` uses: `openral.success`, else whether any frame has `next.success`, else unknown.
+dtype, shape and dimension names, video cameras under the source's own keys, outcomes), except that a camera's
+`info` block is kept as the source wrote it, state/action names may be lerobot's `{"motors": [...]}` form
+(compared by `dim_names`) and `next.done` may be absent; any other numeric feature of one axis
+(`observation.environment_state`) and any `dtype: image` camera is carried as its stored column (`carried`; an
+image's `{bytes, path}` cells unchanged, its per-episode statistics taken from meta/episodes, as a video
+camera's are). A camera is named as `features.camera_keys` names it (lerobot/pusht's `observation.image` is
+`image`) and written under its own key. The output keeps the source's features verbatim. The dataset need not
+be ours: our `openral.*` episode columns are carried when present and never required. Without them an
+episode's seed is unknown (`None`), its initial state empty, and its success read by the rule `metrics` uses:
+`openral.success`, else whether any frame has `next.success`, else unknown.
 """
 
 from __future__ import annotations
@@ -27,7 +30,14 @@ from openral_data.errors import DatasetError, EpisodeSelectionError, NotFound
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.clip import episode_clip
-from openral_data.formats.lerobot_v3.features import ACTION, IMAGE_PREFIX, STATE, build_features, data_schema
+from openral_data.formats.lerobot_v3.features import (
+    ACTION,
+    STATE,
+    build_features,
+    camera_keys,
+    data_schema,
+    dim_names,
+)
 from openral_data.formats.lerobot_v3.lock import check_settled
 from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_openral, read_tasks
 from openral_data.formats.lerobot_v3.stats import STAT_KEYS, ImageStatsAccumulator, Stats
@@ -73,6 +83,9 @@ class SourceDataset:
         self.total = min(info_total, self.episodes.num_rows)  # the loader exposes no more than info's total
         self.task_names = read_tasks(root) if self.info.get("total_tasks") else []
         self.openral = self._openral_json()
+        # camera name -> key of every video camera (`features.camera_keys`: lerobot/pusht's `observation.image`
+        # is `image`); a `dtype: image` camera is a carried column
+        self.camera_key = {n: k for n, k in camera_keys(self.features).items() if self.features[k]["dtype"] == "video"}
         self.video = self._video_settings()
         self.schema = self._schema()
         self._check_reproducible()
@@ -90,11 +103,7 @@ class SourceDataset:
         return read_openral(self.root) or {}
 
     def camera_names(self) -> list[str]:
-        return [
-            k[len(IMAGE_PREFIX) :]
-            for k, f in self.features.items()
-            if f.get("dtype") == "video" and k.startswith(IMAGE_PREFIX)  # any other video key is refused below
-        ]
+        return list(self.camera_key)
 
     def _video_settings(self) -> VideoSettings:
         infos = [f.get("info") or {} for f in self.features.values() if f.get("dtype") == "video"]
@@ -117,15 +126,13 @@ class SourceDataset:
         except KeyError as exc:
             raise DatasetError(f"{where}.{exc.args[0]}: missing", code="dataset.invalid") from None
         cameras = {
-            name: CameraShape(
-                int(self.features[IMAGE_PREFIX + name]["shape"][0]), int(self.features[IMAGE_PREFIX + name]["shape"][1])
-            )
-            for name in self.camera_names()
+            name: CameraShape(int(self.features[key]["shape"][0]), int(self.features[key]["shape"][1]))
+            for name, key in self.camera_key.items()
         }
         return DatasetSchema(
             fps=self.fps,
-            state_names=tuple(state.get("names") or ()),
-            action_names=tuple(action.get("names") or ()),
+            state_names=tuple(dim_names(state, STATE)),
+            action_names=tuple(dim_names(action, ACTION)),
             cameras=cameras,
             robot_type=str(self.info.get("robot_type")),
             metadata=dict(self.openral.get("schema_metadata") or {}),
@@ -134,7 +141,7 @@ class SourceDataset:
         )
 
     def _check_reproducible(self) -> None:
-        rebuilt = build_features(self.schema, self.video)
+        rebuilt = build_features(self.schema, self.video, keys=self.camera_key)
         if "next.done" not in self.features:
             del rebuilt["next.done"]
         where = f"{self.root}/meta/info.json: features"
@@ -144,6 +151,8 @@ class SourceDataset:
             if ours.get("dtype") == "video" and theirs.get("dtype") == "video":
                 ours.pop("info", None)  # the encoder settings are the source's; packets are copied, not encoded
                 theirs.pop("info", None)
+            if key in (STATE, ACTION):  # names as a list or lerobot's `{"motors": [...]}`: kept verbatim
+                ours["names"], theirs["names"] = dim_names(ours, key), dim_names(theirs, key)
             if key not in rebuilt or key not in self.features or ours != theirs:
                 raise DatasetError(
                     f"{where}.{key}: not a feature layout openral-data writes; cannot edit this dataset",
@@ -217,7 +226,7 @@ class SourceDataset:
         image_stats: dict[str, Stats] = {}
         for name in self.camera_names():
             videos[name] = self._clip(index, row, name, n)
-            image_stats[name] = self._stats(row, IMAGE_PREFIX + name)
+            image_stats[name] = self._stats(row, self.camera_key[name])
         initial = row.get("openral.initial_state")
         successes = _list(data, "next.success", False)
         seed = row.get("openral.seed")
@@ -268,7 +277,7 @@ class SourceDataset:
         return rows.sort_by("frame_index")
 
     def _clip(self, index: int, row: dict[str, Any], name: str, n: int) -> bytes:
-        key = IMAGE_PREFIX + name
+        key = self.camera_key[name]
         pos = layout.FilePos(int(row[f"videos/{key}/chunk_index"]), int(row[f"videos/{key}/file_index"]))
         path = layout.video_path(self.root, key, pos)
         if not path.is_file():

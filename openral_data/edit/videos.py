@@ -28,7 +28,7 @@ from openral_data.edit.ops import EditResult, Rewrite, summed_histograms, write_
 from openral_data.edit.recode import CameraEncoders, Pixels, clip_frames, image_frames
 from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.errors import DatasetError, UsageError
-from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX
+from openral_data.formats.lerobot_v3.features import camera_keys
 from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
 from openral_data.formats.lerobot_v3.video import Codec, VideoSettings
@@ -54,29 +54,30 @@ def settings_for(codec: str) -> VideoSettings:
     return VideoSettings(codec=codec)  # type: ignore[arg-type]  # checked just above
 
 
-def choose_cameras(features: dict[str, dict[str, Any]], cameras: Sequence[str], dtype: str, dataset: Path) -> list[str]:
-    """The feature keys of the `dtype` cameras named by `--camera` (a key or the name after `observation.images.`),
-    or all of them when none is named."""
+def choose_cameras(
+    features: dict[str, dict[str, Any]], cameras: Sequence[str], dtype: str, dataset: Path
+) -> dict[str, str]:
+    """The `dtype` cameras named by `--camera` (a feature key, or a camera name as `features.camera_keys` names it:
+    `wrist` for `observation.images.wrist`, `image` for lerobot/pusht's `observation.image`), or all of them when
+    none is named: camera name -> feature key."""
+    names = camera_keys(features)
+    every = {name: key for name, key in names.items() if features[key].get("dtype") == dtype}
     if not cameras:
-        keys = [k for k, f in features.items() if f.get("dtype") == dtype]
-        if not keys:
+        if not every:
             raise UsageError(f"{dataset}: has no {dtype} cameras (features of dtype {dtype})")
-    else:
-        keys = []
-        for name in cameras:
-            key = name if name in features else IMAGE_PREFIX + name
-            if key not in features:
-                known = ", ".join(k for k, f in features.items() if f.get("dtype") == dtype) or "none"
-                raise UsageError(f"--camera: {name!r} is not a feature of {dataset} ({dtype} cameras: {known})")
-            found = features[key].get("dtype")
-            if found != dtype:
-                raise UsageError(f"--camera: {key} is a {found} feature, not a {dtype} camera")
-            if key not in keys:
-                keys.append(key)
-    for key in keys:
-        if not key.startswith(IMAGE_PREFIX):
-            raise UsageError(f"--camera: {key}: only cameras named {IMAGE_PREFIX}NAME can be (re-)encoded")
-    return keys
+        return every
+    name_of = {key: name for name, key in names.items()}
+    chosen: dict[str, str] = {}
+    for given in cameras:
+        key = given if given in features else names.get(given)
+        if key is None:
+            known = ", ".join(every.values()) or "none"
+            raise UsageError(f"--camera: {given!r} is not a feature of {dataset} ({dtype} cameras: {known})")
+        found = features[key].get("dtype")
+        if found != dtype:
+            raise UsageError(f"--camera: {key} is a {found} feature, not a {dtype} camera")
+        chosen[name_of[key]] = key
+    return chosen
 
 
 def _video_feature(old: dict[str, Any], shape: CameraShape, settings: VideoSettings, fps: int) -> dict[str, Any]:
@@ -114,6 +115,7 @@ class _Recoder:
         size: CameraShape | None = None,
     ) -> None:
         self.src, self.shapes, self.hist, self.size = src, shapes, hist, size
+        self.keys = camera_keys(src.features)
         self.encoders = CameraEncoders(shapes, settings, src.fps)
 
     def episode(self, ep: EpisodeData) -> EpisodeData:
@@ -132,7 +134,7 @@ class _Recoder:
         )
 
     def _frames(self, ep: EpisodeData, columns: dict[str, Any], name: str, where: str) -> Iterator[Pixels]:
-        key = IMAGE_PREFIX + name
+        key = self.keys[name]
         if key in columns:  # an image feature becoming a video: its column goes
             return image_frames(columns.pop(key), f"{where}: {key}")
         return clip_frames(ep.videos[name], f"{where}: {key}", self.size)
@@ -163,7 +165,7 @@ def reencode(
     if problem:
         raise UsageError(f"--size: {problem}")
     src = SourceDataset(dataset)
-    names = [k[len(IMAGE_PREFIX) :] for k in choose_cameras(src.features, cameras, "video", dataset)]
+    names = list(choose_cameras(src.features, cameras, "video", dataset))
     shapes = {name: target or src.schema.cameras[name] for name in names}
     every = set(names) == set(src.camera_names())
     config = replace(src.writer_config(), video=settings if every else src.video)
@@ -183,17 +185,17 @@ def encode_images(
     _check_out(out, in_place)
     settings = settings_for(codec)
     # (a missing folder is SourceDataset's to report)
-    keys = choose_cameras(read_info(dataset)["features"], cameras, "image", dataset) if dataset.is_dir() else []
+    keys = choose_cameras(read_info(dataset)["features"], cameras, "image", dataset) if dataset.is_dir() else {}
     src = SourceDataset(dataset)  # refuses what it cannot edit (a busy or interrupted dataset, a foreign layout)
     shapes: dict[str, CameraShape] = {}
-    for key in keys:
+    for name, key in keys.items():
         shape = src.features[key].get("shape")
         if not (isinstance(shape, list) and len(shape) == 3 and shape[2] == 3 and all(_positive(v) for v in shape)):
             raise DatasetError(
                 f"{dataset}/meta/info.json: features.{key}.shape: {shape!r} is not [height, width, 3]",
                 code="dataset.invalid",
             )
-        shapes[key[len(IMAGE_PREFIX) :]] = CameraShape(height=shape[0], width=shape[1])
+        shapes[name] = CameraShape(height=shape[0], width=shape[1])
     config = replace(src.writer_config(), video=src.video if src.camera_names() else settings)
     return _recode(src, shapes, settings, config, "encode-images", {}, out, in_place)
 
@@ -219,11 +221,12 @@ def _recode(
         if problem:
             raise UsageError(f"--codec: camera {name}: {problem}")
     features = dict(src.features)
+    keys = camera_keys(features)  # the output keeps each camera's key, so its name too
     for name, shape in shapes.items():
-        features[IMAGE_PREFIX + name] = _video_feature(features[IMAGE_PREFIX + name], shape, settings, src.fps)
+        features[keys[name]] = _video_feature(features[keys[name]], shape, settings, src.fps)
     schema = replace(src.schema, cameras={**src.schema.cameras, **shapes})
     hist = _histograms(src, list(shapes))
-    details = {"codec": settings.codec, **details, "cameras": [IMAGE_PREFIX + name for name in shapes]}
+    details = {"codec": settings.codec, **details, "cameras": [keys[name] for name in shapes]}
     recoder = _Recoder(src, shapes, settings, hist, size)
     try:
         rewrite = Rewrite(recoder.episode, schema, features, config, image_hist=hist, details=details)

@@ -19,12 +19,13 @@ def grey(t: int) -> int:
     return 20 * t
 
 
-def write_pusht_like(root: Path) -> None:
+def write_pusht_like(root: Path, *, camera_dtype: str = "video") -> None:
+    """`camera_dtype="image"`: the camera is a `dtype: image` feature (PNG cells in the data parquet)."""
     from lerobot.configs.video import RGBEncoderConfig
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
     features: dict[str, dict[str, object]] = {
-        CAMERA_KEY: {"dtype": "video", "shape": (32, 32, 3), "names": ["height", "width", "channels"]},
+        CAMERA_KEY: {"dtype": camera_dtype, "shape": (32, 32, 3), "names": ["height", "width", "channels"]},
         "observation.state": {"dtype": "float32", "shape": (2,), "names": {"motors": NAMES}},
         "action": {"dtype": "float32", "shape": (2,), "names": {"motors": NAMES}},
         "next.reward": {"dtype": "float32", "shape": (1,), "names": None},

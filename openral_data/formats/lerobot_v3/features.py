@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping
 from typing import Any
 
 import pyarrow as pa
@@ -63,6 +64,13 @@ def camera_keys(features: dict[str, Any]) -> dict[str, str]:
     return out
 
 
+def writer_camera_keys(names: Iterable[str], features: dict[str, Any] | None = None) -> dict[str, str]:
+    """Camera name -> feature key for the cameras `names` of a dataset written with `features`: the key
+    `camera_keys(features)` gives the name (a source's own key, e.g. `observation.image`), else `camera_key(name)`."""
+    known = camera_keys(features) if features else {}
+    return {name: known.get(name, camera_key(name)) for name in names}
+
+
 def dim_names(feature: dict[str, Any], key: str) -> list[str]:
     """Per-dimension names of a one-axis feature: its `names` list, or the list inside lerobot's one-entry
     `{"motors": [...]}` form, when it names every dimension; else `<key>_<i>`."""
@@ -77,8 +85,13 @@ def dim_names(feature: dict[str, Any], key: str) -> list[str]:
 
 
 def build_features(
-    schema: DatasetSchema, video: VideoSettings, depth: DepthSettings | None = None
+    schema: DatasetSchema,
+    video: VideoSettings,
+    depth: DepthSettings | None = None,
+    keys: Mapping[str, str] | None = None,
 ) -> dict[str, dict[str, Any]]:
+    """The features our writer writes for `schema`; a camera's key is `keys[name]` if given (`writer_camera_keys`),
+    else `camera_key(name)`; a depth camera's info is `depth`'s (lerobot's defaults if None)."""
     features: dict[str, dict[str, Any]] = {}
     for name, shape in schema.cameras.items():
         info = (
@@ -86,7 +99,7 @@ def build_features(
             if shape.depth_unit is None
             else (depth or DepthSettings()).feature_info(shape.height, shape.width, schema.fps, shape.depth_unit)
         )
-        features[camera_key(name)] = {
+        features[(keys or {}).get(name) or camera_key(name)] = {
             "dtype": "video",
             "shape": [shape.height, shape.width, 3 if shape.depth_unit is None else 1],
             "names": ["height", "width", "channels"],

@@ -51,9 +51,9 @@ from openral_data.formats.lerobot_v3.features import (
     ACTION,
     STATE,
     build_features,
-    camera_key,
     data_schema,
     episodes_schema,
+    writer_camera_keys,
 )
 from openral_data.formats.lerobot_v3.layout import FilePos
 from openral_data.formats.lerobot_v3.reader import read_info
@@ -159,7 +159,9 @@ class LeRobotV3Writer:
         histograms); `image_stats` may also be replaced before `close()`, whose metadata write uses it.
         `features`: the info.json features to write instead of the ones built from `schema` (editing keeps a
         source's own layout): the same columns, camera `info` blocks as the source wrote them, and `next.done`
-        only if the source has it (the caller checks this, see `edit.source`)."""
+        only if the source has it (the caller checks this, see `edit.source`). A camera's video files, episode
+        columns and statistics use its key in `features` (`features.writer_camera_keys`: a source's
+        `observation.image` stays), else `observation.images.<name>`."""
         self.root = root
         self.schema = schema
         self.config = config or WriterConfig()
@@ -175,12 +177,15 @@ class LeRobotV3Writer:
             raise OutputExists(f"{root}: output exists and is not empty; refusing to overwrite it")
         self._created_root = not root.exists()
         root.mkdir(parents=True, exist_ok=True)
+        # a camera's files and columns are named by its key in `features` (a source's `observation.image`)
+        self._keys = writer_camera_keys(schema.cameras, features)
         self.features = (
-            features if features is not None else build_features(schema, self.config.video, self.config.depth)
+            features
+            if features is not None
+            else build_features(schema, self.config.video, self.config.depth, self._keys)
         )
         self._data_schema = data_schema(self.features)
         self._episodes_schema = episodes_schema(self.features)
-        self._keys = {name: camera_key(name) for name in schema.cameras}
         self._workers = {
             name: EncoderWorker(
                 name,

@@ -14,8 +14,10 @@ import pytest
 from PIL import Image
 from rerun.chunk import RrdReader
 
-from openral_data.formats.lerobot_v3.features import camera_keys, dim_names
+from openral_data.formats.lerobot_v3.features import build_features, camera_keys, dim_names, writer_camera_keys
+from openral_data.formats.lerobot_v3.video import VideoSettings
 from openral_data.replay import ReplayOptions, replay
+from openral_data.types import CameraShape, DatasetSchema
 from openral_data.viz.rerun_view import ViewOptions, run_view
 from tests.support.cli import run_cli
 from tests.support.mcap import check_bag
@@ -47,6 +49,20 @@ def test_camera_keys_and_dim_names() -> None:
     assert dim_names({"shape": [2], "names": ["a", "b"]}, "k") == ["a", "b"]
     assert dim_names({"shape": [3], "names": ["a", "b"]}, "k") == ["k_0", "k_1", "k_2"]  # names every dim or none
     assert dim_names({"shape": [2], "names": None}, "state") == ["state_0", "state_1"]
+
+
+def test_the_writer_keeps_a_sources_camera_key() -> None:
+    features = {CAMERA_KEY: {"dtype": "video"}, "observation.images.top": {"dtype": "video"}}
+    assert writer_camera_keys(["image", "top", "side"], features) == {
+        "image": CAMERA_KEY,
+        "top": "observation.images.top",
+        "side": "observation.images.side",  # not in the features: our own layout
+    }
+    assert writer_camera_keys(["image"]) == {"image": "observation.images.image"}  # recording: our layout
+    schema = DatasetSchema(10, ("x", "y"), ("x", "y"), {"image": CameraShape(32, 32)}, "2d pointer")
+    built = build_features(schema, VideoSettings(), keys=writer_camera_keys(schema.cameras, features))
+    assert built[CAMERA_KEY]["dtype"] == "video" and "observation.images.image" not in built
+    assert "observation.images.image" in build_features(schema, VideoSettings())
 
 
 @pytest.mark.slow
