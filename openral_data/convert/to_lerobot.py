@@ -45,7 +45,7 @@ from openral_data.schemas.mapping import Mapping
 from openral_data.types import CameraShape, DatasetSchema, EpisodeRecord, Observation
 from openral_data.version import __version__
 
-STATE, ACTION, REWARD = "state", "action", "reward"
+STATE, ACTION, ENV, REWARD = "state", "action", "environment_state", "reward"
 ProgressFn = Callable[[int, int], None]  # (messages read, messages in total)
 
 
@@ -121,14 +121,14 @@ class _Converter:
         self.dst = dst
         self.codec: Codec = codec
         self.summary = summary
-        self.state = VectorParts(STATE, mapping.state)
-        self.action = VectorParts(ACTION, mapping.action)
+        # state, action and (when mapped) environment_state, each its parts' readers
+        self.vectors = {role: VectorParts(role, vector) for role, vector in mapping.vectors()}
         # one aligned stream per vector part, camera and reward; a topic may feed several streams (state and
         # action from one JointState, each its own field): its messages are pushed to each of them
         self.vector_streams: dict[str, list[str]] = {}  # role -> its parts' streams, in order
         self.readers: dict[str, VectorReader] = {}  # vector stream -> its part's reader
         self.topic_streams: dict[str, list[str]] = {}
-        for role, parts in ((STATE, self.state), (ACTION, self.action)):
+        for role, parts in self.vectors.items():
             for i, reader in enumerate(parts.readers):
                 stream = f"{role}.{i}"
                 self.vector_streams.setdefault(role, []).append(stream)
@@ -236,6 +236,7 @@ class _Converter:
         assert samples is not None
         images = {name: samples[name].decode() for name in self.mapping.cameras}
         state, action = self.vector(samples, STATE), self.vector(samples, ACTION)
+        env = self.vector(samples, ENV) if ENV in self.vectors else None
         bridge = self.ensure_writer(images)
         if not self.open:
             if self.segment_frames:  # this source episode already produced an episode: a hole split it
@@ -248,6 +249,7 @@ class _Converter:
             state=state,
             task=pending.task,
             time=(pending.frame.time_ns - self.segment_start) / 1e9,
+            environment_state=env,
         )
         # without a reward source the schema has no reward column and the writer ignores this value
         reward = float(samples[REWARD]) if REWARD in samples else 0.0
@@ -272,8 +274,9 @@ class _Converter:
             return self.bridge
         schema = DatasetSchema(
             fps=self.mapping.fps,
-            state_names=tuple(self.state.names()),
-            action_names=tuple(self.action.names()),
+            state_names=tuple(self.vectors[STATE].names()),
+            action_names=tuple(self.vectors[ACTION].names()),
+            environment_state_names=tuple(self.vectors[ENV].names()) if ENV in self.vectors else (),
             cameras={name: CameraShape(int(img.shape[0]), int(img.shape[1])) for name, img in images.items()},
             robot_type=self.mapping.robot_type,
             has_reward=self.mapping.reward is not None,
