@@ -43,6 +43,9 @@ class Observation:
 
     `privileged` is simulator ground truth (object poses, ...) that scripted experts may read; it is never
     recorded, and a learned policy must not rely on it.
+
+    `environment_state` is lerobot's `observation.environment_state` (non-robot state the policy may see, e.g.
+    object poses): required exactly when the dataset schema names one (`DatasetSchema.environment_state_names`).
     """
 
     images: dict[str, npt.NDArray[Any]]
@@ -50,6 +53,7 @@ class Observation:
     task: str
     time: float | None = None
     privileged: dict[str, Any] = field(default_factory=dict)
+    environment_state: npt.NDArray[Any] | None = None
 
 
 @dataclass

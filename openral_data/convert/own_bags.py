@@ -60,6 +60,8 @@ def _from_start(bag: Path, start: dict[str, Any], topics: set[str]) -> Mapping:
     outcomes = start.get("outcomes") or {"reward": True, "success": True}
     has_reward = bool(outcomes.get("reward")) and m.REWARD in topics
     fps = int(start["fps"])
+    # bags written before the start marker named it, or of a source without one, have no environment state
+    env_names = start.get("environment_state_names") or None
     return Mapping.model_validate(
         {
             "fps": fps,
@@ -67,6 +69,9 @@ def _from_start(bag: Path, start: dict[str, Any], topics: set[str]) -> Mapping:
             "task_topic": m.TASK,
             "state": {"topic": m.JOINT_STATES, "field": "position", "joints": start["state_names"]},
             "action": {"topic": m.ACTION, "field": "data", "names": start["action_names"]},
+            "environment_state": {"topic": m.ENVIRONMENT_STATE, "field": "data", "names": env_names}
+            if env_names
+            else None,
             "cameras": cameras,
             "depth_cameras": {name: m.depth_topic(name) for name in depth},
             # one quantizer for all depth cameras, as in lerobot: the first one's

@@ -47,7 +47,7 @@ from openral_data.schemas.mapping import Mapping
 from openral_data.types import CameraShape, DatasetSchema, EpisodeRecord, Observation
 from openral_data.version import __version__
 
-STATE, ACTION, REWARD = "state", "action", "reward"
+STATE, ACTION, ENV, REWARD = "state", "action", "environment_state", "reward"
 ProgressFn = Callable[[int, int], None]  # (messages read, messages in total)
 
 
@@ -134,14 +134,14 @@ class _Converter:
         self.codec: Codec = codec
         self.summary = summary
         self.cameras = cameras
-        self.state = VectorParts(STATE, mapping.state)
-        self.action = VectorParts(ACTION, mapping.action)
+        # state, action and (when mapped) environment_state, each its parts' readers
+        self.vectors = {role: VectorParts(role, vector) for role, vector in mapping.vectors()}
         # one aligned stream per vector part, camera and reward; a topic may feed several streams (state and
         # action from one JointState, each its own field): its messages are pushed to each of them
         self.vector_streams: dict[str, list[str]] = {}  # role -> its parts' streams, in order
         self.readers: dict[str, VectorReader] = {}  # vector stream -> its part's reader
         self.topic_streams: dict[str, list[str]] = {}
-        for role, parts in ((STATE, self.state), (ACTION, self.action)):
+        for role, parts in self.vectors.items():
             for i, reader in enumerate(parts.readers):
                 stream = f"{role}.{i}"
                 self.vector_streams.setdefault(role, []).append(stream)
@@ -251,6 +251,7 @@ class _Converter:
         for name, unit in self.cameras.depth_units.items():
             images[name] = samples[name].decode_depth(unit)
         state, action = self.vector(samples, STATE), self.vector(samples, ACTION)
+        env = self.vector(samples, ENV) if ENV in self.vectors else None
         bridge = self.ensure_writer(images)
         if not self.open:
             if self.segment_frames:  # this source episode already produced an episode: a hole split it
@@ -263,6 +264,7 @@ class _Converter:
             state=state,
             task=pending.task,
             time=(pending.frame.time_ns - self.segment_start) / 1e9,
+            environment_state=env,
         )
         # without a reward source the schema has no reward column and the writer ignores this value
         reward = float(samples[REWARD]) if REWARD in samples else 0.0
@@ -296,8 +298,9 @@ class _Converter:
             return self.bridge
         schema = DatasetSchema(
             fps=self.mapping.fps,
-            state_names=tuple(self.state.names()),
-            action_names=tuple(self.action.names()),
+            state_names=tuple(self.vectors[STATE].names()),
+            action_names=tuple(self.vectors[ACTION].names()),
+            environment_state_names=tuple(self.vectors[ENV].names()) if ENV in self.vectors else (),
             cameras={name: self.camera_shape(name, img) for name, img in images.items()},
             robot_type=self.mapping.robot_type,
             has_reward=self.mapping.reward is not None,

@@ -123,7 +123,8 @@ def _frame_checks(
                 Issue(ds.label, index, "timestamp_gap", f"{gaps} step(s) > {GAP_FACTOR}/fps, longest {max_step:.4g} s")
             )
         if nonfin:
-            issues.append(Issue(ds.label, index, "non_finite", f"{nonfin} row(s) with NaN/Inf in state/action/reward"))
+            what = "state/action/environment_state/reward"
+            issues.append(Issue(ds.label, index, "non_finite", f"{nonfin} row(s) with NaN/Inf in {what}"))
     return issues
 
 

@@ -131,7 +131,8 @@ def comparison_table(groups: Table, by: Sequence[str]) -> Table:
 
 
 def dimension_table(scans: dict[str, VectorScan]) -> Table:
-    """Per-dimension state/action summaries over the finite values (NaN/Inf are reported by the health checks)."""
+    """Per-dimension state/action/environment-state summaries over the finite values (NaN/Inf are reported by the
+    health checks)."""
     out = Table("dimensions", ["dataset", "feature", "dim", "name", "count", "min", "max", "mean", "std"])
     for label, scan in scans.items():
         for d in scan.dims:

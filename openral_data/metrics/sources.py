@@ -11,6 +11,7 @@ from openral_data.errors import DatasetError, NotFound
 from openral_data.formats import results as results_layout
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.features import ACTION, STATE, dim_names
+from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE
 from openral_data.formats.lerobot_v3.reader import read_info, read_openral
 from openral_data.formats.parquetfile import read_schema
 
@@ -47,7 +48,8 @@ class DatasetSource:
 
     @property
     def vector_features(self) -> list[str]:
-        return [k for k in (STATE, ACTION) if k in self.data_columns]
+        """The per-dimension vectors: state, action and lerobot's environment state, those the data has."""
+        return [k for k in (STATE, ACTION, ENVIRONMENT_STATE) if k in self.data_columns]
 
 
 def open_dataset(root: Path, label: str | None = None) -> DatasetSource:

@@ -82,6 +82,18 @@ class DatasetBridge:
             out[name] = np.ascontiguousarray(img).copy()
         return out
 
+    def _environment_state(self, value: Any) -> npt.NDArray[np.float32] | None:
+        """The observation's environment state: a float32 vector of the schema's width, or absent when the schema
+        names none (a frame without one, or with one the schema does not declare, breaks the contract)."""
+        names = self.schema.environment_state_names
+        if not names:
+            if value is not None:
+                raise ContractViolation(
+                    f"{self._where()}: observation.environment_state: the dataset schema declares none"
+                )
+            return None
+        return self._vector("observation.environment_state", value, len(names))
+
     def _timestamp(self, time: float | None) -> float:
         if time is None:
             return self._step / self.schema.fps
@@ -157,6 +169,7 @@ class DatasetBridge:
             success=bool(success),
             timestamp=self._timestamp(observation.time),
             extras=self._extras(extras),
+            environment_state=self._environment_state(observation.environment_state),
         )
         if not np.isfinite(frame.reward):
             raise ContractViolation(f"{self._where()}: reward: non-finite value {reward}")

@@ -19,6 +19,10 @@ action:                       # -> action
 #   parts:
 #     - {topic: /arm/joint_states, field: position, joints: [j1, j2, j3]}
 #     - {topic: /gripper/joint_states, field: position, names: [finger]}
+environment_state:            # optional -> observation.environment_state (non-robot state such as object
+  topic: /object/pose         #   poses), in the form of state / action (one source or `parts`); aligned
+  field: data                 #   like state (a frame is fillable only if it is). Without it: no such column.
+  names: [x, y, z]
 # Roles may share a topic (state = position, action = velocity of one JointState; reward and success other
 # fields of it): each reads its own field of the same messages. A camera topic is only a camera.
 cameras:                      # camera name -> sensor_msgs Image or CompressedImage topic
@@ -98,8 +102,8 @@ class VectorSource(StrictModel):
 
 
 class Vector(StrictModel):
-    """state / action: one source (`topic`, `field`, `joints`, `names`), or `parts`: several sources whose
-    vectors are concatenated in the listed order (each aligned on its own)."""
+    """state / action / environment_state: one source (`topic`, `field`, `joints`, `names`), or `parts`: several
+    sources whose vectors are concatenated in the listed order (each aligned on its own)."""
 
     topic: str | None = Field(default=None, min_length=1)
     field: str | None = None  # the single-source form's field; default "position"
@@ -217,6 +221,7 @@ class Mapping(StrictModel):
     task_topic: str | None = None
     state: Vector
     action: Vector
+    environment_state: Vector | None = None
     cameras: dict[str, str] = Field(default_factory=dict)
     depth_cameras: dict[str, str] = Field(default_factory=dict)
     depth: DepthQuantization = Field(default_factory=DepthQuantization)
@@ -265,9 +270,14 @@ class Mapping(StrictModel):
     def success_topic(self) -> str | None:
         return self.success.topic if self.success is not None else None
 
+    def vectors(self) -> list[tuple[str, Vector]]:
+        """(role, vector) for `state`, `action` and, when mapped, `environment_state`, in that order."""
+        roles = [("state", self.state), ("action", self.action)]
+        return roles + ([("environment_state", self.environment_state)] if self.environment_state else [])
+
     def vector_sources(self) -> list[tuple[str, VectorSource]]:
-        """(`state` or `action`, part) for every part of both, in order."""
-        return [(role, s) for role, v in (("state", self.state), ("action", self.action)) for s in v.sources()]
+        """(role, part) for every part of every vector role (`vectors`), in order."""
+        return [(role, s) for role, v in self.vectors() for s in v.sources()]
 
     def image_topics(self) -> dict[str, str]:
         """camera name -> topic, colour cameras then depth cameras."""

@@ -14,7 +14,7 @@ from rerun.chunk import RrdReader
 from openral_data.metrics.command import StatsOptions, run_stats
 from openral_data.viz.rerun_view import ViewOptions, run_view
 from tests.support.home import REPO
-from tests.support.lerobot_written import LENGTHS, write_lerobot_dataset
+from tests.support.lerobot_written import ENV_NAMES, LENGTHS, env_state, write_lerobot_dataset
 from tests.support.rrd import verify
 
 
@@ -42,6 +42,22 @@ def test_lerobot_written_datasets(tmp_path: Path) -> None:
         if not chunk.is_static:
             rows[chunk.entity_path] = rows.get(chunk.entity_path, 0) + chunk.num_rows
     assert rows["/cameras/cam"] == rows["/state/x"] == rows["/action/vy"] == LENGTHS[1]
+
+
+@pytest.mark.slow
+def test_environment_state_dimensions(tmp_path: Path) -> None:
+    """lerobot's `observation.environment_state` gets a row per dimension, by name, after state and action."""
+    root = tmp_path / "lr_env"
+    write_lerobot_dataset(root, False, environment_state=True)
+    report = json.loads(run_stats(StatsOptions([str(root)], fmt="json")))
+    env = [d for d in report["dimensions"] if d["feature"] == "observation.environment_state"]
+    assert [d["name"] for d in report["dimensions"]] == ["x", "y", "z", "vx", "vy", *ENV_NAMES]
+    values = [env_state(e, t).astype(float) for e, n in enumerate(LENGTHS) for t in range(n)]
+    for i, d in enumerate(env):
+        column = [v[i] for v in values]
+        assert (d["dim"], d["count"], d["min"], d["max"]) == (i, sum(LENGTHS), min(column), max(column))
+        assert d["mean"] == pytest.approx(sum(column) / len(column))
+    assert report["health"] == []
 
 
 @pytest.mark.slow

@@ -67,3 +67,22 @@ def test_vector_mistakes_are_one_line(tmp_path: Path, state: dict[str, Any], mes
 def test_a_camera_topic_stays_a_camera(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="reward topic /cam/image_raw is also mapped as a camera"):
         _load(tmp_path, reward={"topic": "/cam/image_raw", "field": "height"})
+
+
+def test_environment_state_is_an_optional_vector_role(tmp_path: Path) -> None:
+    """`environment_state` takes the form of state / action; its parts are aligned topics after theirs."""
+    assert _load(tmp_path).environment_state is None and [r for r, _ in _load(tmp_path).vectors()] == [
+        "state",
+        "action",
+    ]
+    pose = {"topic": "/object/pose", "field": "data", "names": ["x", "y"]}
+    m = _load(tmp_path, environment_state={"parts": [pose, GRIPPER]})
+    assert [r for r, _ in m.vectors()] == ["state", "action", "environment_state"]
+    assert [(r, s.topic) for r, s in m.vector_sources()][-2:] == [
+        ("environment_state", "/object/pose"),
+        ("environment_state", "/gripper/joint_states"),
+    ]
+    assert "/object/pose" in m.topics()
+    with pytest.raises(ConfigError) as excinfo:
+        _load(tmp_path, environment_state={"topic": "/x", "parts": [pose]})
+    assert "environment_state: Value error, topic beside parts" in str(excinfo.value)

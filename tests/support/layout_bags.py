@@ -6,6 +6,8 @@
 * `split`: arm and gripper on separate JointState topics at their own rates (`/arm/joint_states` 50 Hz, names
   [j3, j1, j2]; `/gripper/joint_states` 30 Hz, [finger]) and their commands as `Float64MultiArray`
   (`/arm/cmd` 20 Hz, 3 values; `/gripper/cmd` 10 Hz, 1 value).
+* `object_poses`: a tracked object's pose (x, y, yaw) as a `Float64MultiArray` on `/object/pose` at 25 Hz (what a
+  mapping's `environment_state` reads).
 
 Every value is a function of the topic, the sample's index k and the dimension, distinct everywhere, so a
 frame that took the wrong sample, the wrong field or the wrong joint cannot match.
@@ -79,6 +81,10 @@ def split(duration_ms: int = 1000, gripper_cmd_width: Callable[[int], int] = lam
         *_arrays("/arm/cmd", lambda k: 3, 50, duration_ms, 4.0),
         *_arrays("/gripper/cmd", gripper_cmd_width, 100, duration_ms, 5.0),
     ]
+
+
+def object_poses(duration_ms: int = 1000) -> list[Sample]:
+    return _arrays("/object/pose", lambda k: 3, 40, duration_ms, 6.0)
 
 
 def _types(samples: list[Sample]) -> dict[str, str]:

@@ -8,6 +8,7 @@ from typing import Any
 import pyarrow as pa
 
 from openral_data.formats.lerobot_v3.depth import DepthSettings
+from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE
 from openral_data.formats.lerobot_v3.stats import STAT_KEYS
 from openral_data.formats.lerobot_v3.video import VideoSettings
 from openral_data.types import DatasetSchema
@@ -106,6 +107,9 @@ def build_features(
             "info": {**info, **shape.info},
         }
     features[STATE] = {"dtype": "float32", "shape": [schema.state_dim], "names": list(schema.state_names)}
+    env = schema.environment_state_names
+    if env:  # only a source that has one: a recording without it gets no column
+        features[ENVIRONMENT_STATE] = {"dtype": "float32", "shape": [len(env)], "names": list(env)}
     features[ACTION] = {"dtype": "float32", "shape": [schema.action_dim], "names": list(schema.action_names)}
     # an outcome the source does not know is not a column: a constant 0 reward or False success would be a claim
     known = {"next.reward": schema.has_reward, "next.done": True, "next.success": schema.has_success}

@@ -55,6 +55,7 @@ from openral_data.formats.lerobot_v3.features import (
     episodes_schema,
     writer_camera_keys,
 )
+from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE
 from openral_data.formats.lerobot_v3.layout import FilePos
 from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.restore import check_same_format, restore
@@ -133,6 +134,7 @@ class EpisodeBuffer:
     successes: list[bool] = field(default_factory=list)
     task_indices: list[int] = field(default_factory=list)
     extras: dict[str, list[float]] = field(default_factory=dict)
+    environment_states: list[npt.NDArray[np.float32]] = field(default_factory=list)  # with environment_state_names
     info: dict[str, Any] | None = None
     # whole columns of features the writer does not build itself (only with the writer's `features`; editing
     # carries e.g. `observation.environment_state` this way), each of the feature's Arrow type
@@ -279,6 +281,10 @@ class LeRobotV3Writer:
         ep = self._episode
         if ep is None:
             raise RuntimeError("add_frame() outside an episode")
+        width, env = len(self.schema.environment_state_names), frame.environment_state
+        if width and (env is None or env.shape != (width,)):  # the bridge checks this; a direct caller may not
+            got = "none" if env is None else f"shape {list(env.shape)}"
+            raise ContractViolation(f"observation.environment_state: expected float32[{width}], got {got}")
         for name, worker in self._workers.items():
             worker.put(frame.images[name])  # blocks while the encoder is behind: backpressure, never a drop
         ep.states.append(frame.state)
@@ -289,6 +295,8 @@ class LeRobotV3Writer:
         ep.task_indices.append(self.tasks.setdefault(frame.task, len(self.tasks)))
         for key in self.schema.frame_extras:
             ep.extras.setdefault(key, []).append(frame.extras[key])
+        if width and env is not None:
+            ep.environment_states.append(env)
 
     def annotate_episode(self, info: dict[str, Any]) -> None:
         """Store `info` (JSON) in the episode's `openral.episode_info` column of meta/episodes."""
@@ -576,6 +584,8 @@ class LeRobotV3Writer:
             cols["next.success"] = pa.array(np.asarray(ep.successes, dtype=bool))
         for key in self.schema.frame_extras:
             cols[key] = pa.array(np.asarray(ep.extras.get(key, []), dtype=np.float32))
+        if self.schema.environment_state_names:
+            cols[ENVIRONMENT_STATE] = _fixed_list(np.stack(ep.environment_states))
         cols.update(ep.columns)
         return pa.table(cols, schema=self._data_schema)
 

@@ -13,11 +13,12 @@ import pyarrow.parquet as pq
 import pytest
 
 from openral_data.doctor import check
-from openral_data.errors import CompatibilityError, DiskError, OutputExists
+from openral_data.errors import CompatibilityError, ContractViolation, DiskError, OutputExists
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig, summarize
+from openral_data.formats.lerobot_v3.features import build_features
 from openral_data.formats.lerobot_v3.reader import read_episodes
 from openral_data.record.bridge import DatasetBridge
-from openral_data.types import CameraShape, DatasetSchema, Observation
+from openral_data.types import CameraShape, DatasetSchema, EpisodeStart, Frame, Observation
 from tests.support.faults import Faults, inject
 
 H, W = 128, 192
@@ -372,3 +373,75 @@ def test_a_video_join_keeps_the_digests_true_when_the_metadata_write_after_it_fa
         bridge.close()
     assert any(c.startswith("join ") for c in faults.calls)  # the join happened before the failing write
     assert [f.code for f in check(root)] == []
+
+
+ENV_NAMES = ("block_x", "block_y", "block_angle")
+
+
+def _env(e: int, t: int) -> np.ndarray:
+    return np.array([0.5 * t, -1.25 * e, 0.125 * (t + e)], np.float32)
+
+
+def test_environment_state_is_a_feature_with_stats(tmp_path: Path) -> None:
+    """A schema naming an environment state: `observation.environment_state` (float32, its names) holds every
+    frame's vector as lerobot loads it, with dataset and per-episode statistics like the state's."""
+    root = tmp_path / "ds"
+    cams = {"cam": CameraShape(H, W)}
+    schema = DatasetSchema(fps=10, state_names=("s0", "s1"), action_names=("a0", "a1"), cameras=cams, robot_type="u",
+                           environment_state_names=ENV_NAMES)  # fmt: skip
+    writer = LeRobotV3Writer(root, schema, WriterConfig(video=VideoSettings(codec="h264")))
+    bridge = DatasetBridge(schema, [writer])
+    rng = np.random.default_rng(0)
+    lengths = [3, 5]
+    for e, n in enumerate(lengths):
+        bridge.begin_episode(seed=e, initial_state={})
+        for t in range(n):
+            obs = Observation(images={"cam": patterned(e, t, rng)}, state=np.array([t, e], np.float32), task="t",
+                              environment_state=_env(e, t))  # fmt: skip
+            bridge.add_step(obs, np.array([e, t], np.float32), reward=0.0, done=t == n - 1, success=False)
+        bridge.end_episode(success=False)
+    bridge.close()
+    key = "observation.environment_state"
+    info = json.loads((root / "meta/info.json").read_text())
+    assert info["features"][key] == {"dtype": "float32", "shape": [3], "names": list(ENV_NAMES)}
+    want = np.stack([_env(e, t) for e, n in enumerate(lengths) for t in range(n)]).astype(np.float64)
+    stats = json.loads((root / "meta/stats.json").read_text())[key]
+    np.testing.assert_allclose(stats["mean"], want.mean(axis=0), rtol=1e-9)
+    np.testing.assert_allclose(stats["min"], want.min(axis=0))
+    np.testing.assert_allclose(stats["max"], want.max(axis=0))
+    assert stats["count"] == [sum(lengths)]
+    eps = read_episodes(root).to_pydict()
+    np.testing.assert_allclose(eps[f"stats/{key}/max"][1], want[3:].max(axis=0))
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    ds = LeRobotDataset("local/unit", root=root, video_backend="pyav")
+    got = [ds[i][key].numpy().tolist() for i in range(len(ds))]
+    assert got == want.tolist()
+    assert check(root) == []
+
+
+def test_environment_state_is_required_exactly_when_the_schema_names_one(tmp_path: Path) -> None:
+    """Like a wrong-size state: a frame without the environment state the schema names, of another width, or
+    with one the schema does not name is a contract violation (bridge and writer); nothing of it is written."""
+    with_env = DatasetSchema(fps=10, state_names=("s0",), action_names=("a0",), cameras={}, robot_type="u",
+                             environment_state_names=ENV_NAMES)  # fmt: skip
+    without = DatasetSchema(fps=10, state_names=("s0",), action_names=("a0",), cameras={}, robot_type="u")
+    cases = [(with_env, None), (with_env, np.zeros(2, np.float32)), (with_env, np.zeros(3)), (without, _env(0, 0))]
+    for i, (schema, env) in enumerate(cases):
+        writer = LeRobotV3Writer(tmp_path / f"ds{i}", schema)
+        bridge = DatasetBridge(schema, [writer])
+        bridge.begin_episode(seed=0, initial_state={})
+        obs = Observation(images={}, state=np.zeros(1, np.float32), task="t", environment_state=env)
+        with pytest.raises(ContractViolation, match=r"observation\.environment_state") as err:
+            bridge.add_step(obs, np.zeros(1, np.float32), reward=0.0, done=True, success=False)
+        assert err.value.code == "contract"
+        bridge.close()
+        assert not (tmp_path / f"ds{i}").exists()  # nothing was committed
+    writer = LeRobotV3Writer(tmp_path / "direct", with_env)  # a caller that bypasses the bridge
+    writer.begin_episode(EpisodeStart(seed=0, initial_state={}))
+    frame = Frame(np.zeros(1, np.float32), np.zeros(1, np.float32), {}, "t", 0.0, True, False)
+    with pytest.raises(ContractViolation, match=r"expected float32\[3\], got none"):
+        writer.add_frame(frame)
+    writer.close()
+    # a schema without one writes no column (every recording path that never sets it)
+    assert "observation.environment_state" not in build_features(without, VideoSettings())
