@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import shutil
 import subprocess
-import sys
 from collections import Counter
 from pathlib import Path
 from typing import Any
@@ -13,12 +11,12 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 from rosbags.highlevel import AnyReader
 
+from tests.support.rrd import RERUN
+
 
 def rerun_cli() -> str:
-    exe = Path(sys.executable).with_name("rerun")
-    found = str(exe) if exe.exists() else shutil.which("rerun")
-    assert found, "the rerun CLI (rerun-sdk) is not installed"
-    return found
+    assert RERUN.is_file(), "the rerun CLI (rerun-sdk) is not installed"
+    return str(RERUN)
 
 
 def check_bag(bag: Path) -> dict[str, list[tuple[int, Any]]]:
