@@ -4,12 +4,22 @@ Helpers live in tests/support/."""
 from __future__ import annotations
 
 import os
+import signal
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
 from tests.support.home import isolated_home
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """Tests send Ctrl-C (SIGINT) to the processes they start and expect them to stop as at a terminal. A harness
+    that starts pytest in the background of a non-interactive shell (`.ci/run &`) leaves SIGINT ignored, and an
+    ignored signal stays ignored in every child (Python then installs no KeyboardInterrupt handler): restore the
+    default here, in the controller and in each xdist worker, so children start with it."""
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture(autouse=True, scope="session")
