@@ -174,12 +174,19 @@ def delete(dataset: Path, episodes: str, out: Path | None, in_place: bool = Fals
     return write_edit(keep, dataset, out, in_place, "delete")
 
 
+def check_edit_output(out: Path | None, in_place: bool) -> None:
+    """Refuse an edit's output before any work: exactly one of `--out DIR` (new or empty) and `--in-place`."""
+    if in_place == (out is not None):
+        raise UsageError("--out: give either --out DIR or --in-place")
+    if out is not None:
+        check_new_output(out)
+
+
 def write_edit(
     keep: Selection, dataset: Path, out: Path | None, in_place: bool, op: str, rewrite: Rewrite | None = None
 ) -> EditResult:
     """Write `keep` (episodes of `dataset`) to `out`, or (`in_place`) as `dataset` itself, swapped in once complete."""
-    if in_place == (out is not None):
-        raise UsageError("--out: give either --out DIR or --in-place")
+    check_edit_output(out, in_place)
     if out is not None:
         return write_selection(keep, out, op, rewrite=rewrite)
     # lerobot leaves empty `images/<key>/` folders behind: nothing is lost without them

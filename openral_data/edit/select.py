@@ -17,7 +17,7 @@ from pathlib import Path
 import duckdb
 import numpy as np
 
-from openral_data.edit.ops import EditResult, write_edit, write_selection
+from openral_data.edit.ops import EditResult, check_edit_output, write_edit, write_selection
 from openral_data.edit.source import SourceDataset
 from openral_data.errors import EpisodeSelectionError, QueryError, UsageError
 from openral_data.formats.staging import check_new_output
@@ -32,10 +32,7 @@ _VIEW = "openral_filter_episodes"
 def filter_episodes(dataset: Path, where: str, out: Path | None, in_place: bool = False) -> EditResult:
     """Write the episodes of `dataset` for which the SQL predicate `where` holds (in their order)."""
     src = SourceDataset(dataset)  # refuses a busy, interrupted or foreign dataset before any query
-    if in_place == (out is not None):
-        raise UsageError("--out: give either --out DIR or --in-place")
-    if out is not None:
-        check_new_output(out)
+    check_edit_output(out, in_place)
     chosen = matching_episodes(dataset, where)
     keep = [(src, e) for e in chosen if e < src.total]
     if not keep:

@@ -24,7 +24,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any, get_args
 
-from openral_data.edit.ops import EditResult, Rewrite, summed_histograms, write_edit
+from openral_data.edit.ops import EditResult, Rewrite, check_edit_output, summed_histograms, write_edit
 from openral_data.edit.recode import CameraEncoders, Pixels, clip_frames, image_frames
 from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.errors import DatasetError, UsageError
@@ -33,7 +33,6 @@ from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
 from openral_data.formats.lerobot_v3.video import Codec, VideoSettings
 from openral_data.formats.lerobot_v3.writer import WriterConfig
-from openral_data.formats.staging import check_new_output
 from openral_data.types import CameraShape
 
 _SIZE = re.compile(r"([0-9]{1,5})x([0-9]{1,5})")
@@ -140,14 +139,6 @@ class _Recoder:
         return clip_frames(ep.videos[name], f"{where}: {key}", self.size)
 
 
-def _check_out(out: Path | None, in_place: bool) -> None:
-    """Refuse the output before any decoding (`write_edit` checks it again when it starts writing)."""
-    if in_place == (out is not None):
-        raise UsageError("--out: give either --out DIR or --in-place")
-    if out is not None:
-        check_new_output(out)
-
-
 def reencode(
     dataset: Path,
     codec: str,
@@ -158,7 +149,7 @@ def reencode(
 ) -> EditResult:
     """Decode and encode again the chosen video cameras of `dataset` (all by default) with `codec`, resized to
     `size` (WIDTHxHEIGHT) if given; the other cameras' packets are copied."""
-    _check_out(out, in_place)
+    check_edit_output(out, in_place)  # before any decoding
     settings = settings_for(codec)
     target = None if size is None else parse_size(size)
     problem = None if target is None else settings.size_problem(target.height, target.width)
@@ -182,7 +173,7 @@ def encode_images(
 ) -> EditResult:
     """Turn the chosen `dtype: image` features of `dataset` (all by default) into video cameras encoded with
     `codec`; every other column and camera is the source's."""
-    _check_out(out, in_place)
+    check_edit_output(out, in_place)  # before any decoding
     settings = settings_for(codec)
     # (a missing folder is SourceDataset's to report)
     keys = choose_cameras(read_info(dataset)["features"], cameras, "image", dataset) if dataset.is_dir() else {}
