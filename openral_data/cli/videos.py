@@ -9,8 +9,7 @@ import typer
 
 from openral_data import paths
 from openral_data.cli.choices import CodecChoice
-from openral_data.cli.terminal import print_line
-from openral_data.edit.ops import EditResult
+from openral_data.cli.edit import report
 from openral_data.formats.repo_id import resolve_dataset
 
 videos_app = typer.Typer(
@@ -21,10 +20,6 @@ videos_app = typer.Typer(
 _CAMERA_HELP = (
     "a camera to encode (feature key, or camera name: wrist for observation.images.wrist); repeat; default all"
 )
-
-
-def _report(op: str, r: EditResult) -> None:
-    print_line(f"{op}: {r.out}  episodes {r.episodes}  frames {r.frames}")
 
 
 @videos_app.command("reencode")
@@ -42,7 +37,7 @@ def reencode_cmd(
 
     if out is not None:
         paths.check_creatable(out, "--out")
-    _report("reencoded", reencode(resolve_dataset(dataset), codec.value, size, camera or (), out, in_place))
+    report("reencoded", [reencode(resolve_dataset(dataset), codec.value, size, camera or (), out, in_place)])
 
 
 @videos_app.command("encode-images")
@@ -59,4 +54,4 @@ def encode_images_cmd(
 
     if out is not None:
         paths.check_creatable(out, "--out")
-    _report("encoded", encode_images(resolve_dataset(dataset), camera or (), codec.value, out, in_place))
+    report("encoded", [encode_images(resolve_dataset(dataset), camera or (), codec.value, out, in_place)])
