@@ -47,6 +47,13 @@ def stats(
     plot: Annotated[Path | None, typer.Option(help="also write a PNG: success rates + action histograms")] = None,
     memory_limit: Annotated[str, typer.Option(help="DuckDB memory limit")] = "1GB",
     health: Annotated[bool, typer.Option(help="run the health checks")] = True,
+    trust_episode_stats: Annotated[
+        bool,
+        typer.Option(help="summarise a dataset without our digests (e.g. lerobot's) from its per-episode stats"),
+    ] = False,
+    full_scan: Annotated[
+        bool, typer.Option(help="summarise the frames even where verified per-episode stats could stand for them")
+    ] = False,
 ) -> None:
     """Episodes, frames, success rates with 95 % intervals, comparisons and health, computed by DuckDB.
 
@@ -59,7 +66,8 @@ def stats(
     if plot is not None:
         check_creatable(plot, "--plot", folder=False)
     paths = [str(resolve_dataset(p)) for p in paths]  # a repo id is its cached folder; globs stay globs
-    print(stats_text(StatsOptions(paths, by, sql, fmt.value, plot, memory_limit, health)))
+    opts = StatsOptions(paths, by, sql, fmt.value, plot, memory_limit, health, trust_episode_stats, full_scan)
+    print(stats_text(opts))
 
 
 @stats_app.command("recompute")

@@ -25,6 +25,8 @@ class StatsOptions:
     plot: Path | None = None
     memory_limit: str = DEFAULT_MEMORY_LIMIT
     health: bool = True
+    trust_episode_stats: bool = False  # use a foreign dataset's unverified per-episode stats (docs/stats.md)
+    full_scan: bool = False  # summarise the frames even when verified per-episode stats could stand for them
 
 
 def run_stats(opts: StatsOptions) -> str:
@@ -56,7 +58,15 @@ def stats_tables(opts: StatsOptions) -> list[rep.Table]:
     try:
         if opts.sql is not None:
             return [rep.run_sql(con, opts.sql)]
-        report = rep.build_report(con, datasets, results, by, check_health=opts.health)
+        report = rep.build_report(
+            con,
+            datasets,
+            results,
+            by,
+            check_health=opts.health,
+            trust_episode_stats=opts.trust_episode_stats,
+            full_scan=opts.full_scan,
+        )
         if opts.plot is not None:
             if not datasets:
                 raise UsageError("--plot needs at least one dataset")

@@ -12,7 +12,8 @@ import duckdb
 from openral_data.errors import QueryError, UsageError
 from openral_data.formats.results import Results
 from openral_data.metrics import health, intervals
-from openral_data.metrics.scan import VectorScan, vector_scan
+from openral_data.metrics.episode_stats import Source, summarise
+from openral_data.metrics.scan import VectorScan
 from openral_data.metrics.sources import DatasetSource
 from openral_data.metrics.views import ident, query
 
@@ -140,6 +141,14 @@ def dimension_table(scans: dict[str, VectorScan]) -> Table:
     return out
 
 
+def sources_table(sources: Sequence[Source]) -> Table:
+    """Per dataset: whether its dimension summaries were pooled from verified episode statistics or scanned,
+    how they were verified, or why the scan ran."""
+    out = Table("sources", ["dataset", "dimensions", "verified_by", "note"])
+    out.rows = [[s.dataset, s.dimensions, s.verified_by, s.note] for s in sources]
+    return out
+
+
 def results_table(con: duckdb.DuckDBPyConnection) -> Table:
     sql = """
         WITH s AS (
@@ -185,12 +194,21 @@ def build_report(
     results: Sequence[Results],
     by: Sequence[str],
     check_health: bool = True,
+    *,
+    trust_episode_stats: bool = False,
+    full_scan: bool = False,
 ) -> Report:
+    """The report's tables. Dimension summaries come from verified per-episode statistics when the dataset has
+    them (`episode_stats.summarise`), else from one frame scan; `sources` says which, per dataset."""
     tables: list[Table] = []
-    scans = {ds.label: vector_scan(con, ds) for ds in datasets}
+    scans: dict[str, VectorScan] = {}
+    sources = []
+    for ds in datasets:
+        scans[ds.label], source = summarise(con, ds, trust=trust_episode_stats, full_scan=full_scan)
+        sources.append(source)
     if datasets:
         groups = group_table(con, by)
-        tables += [groups, comparison_table(groups, by), dimension_table(scans)]
+        tables += [groups, comparison_table(groups, by), dimension_table(scans), sources_table(sources)]
     if results:
         tables.append(results_table(con))
     if datasets and check_health:

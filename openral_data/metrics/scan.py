@@ -37,13 +37,19 @@ class VectorScan:
     non_finite: list[str]  # SQL expressions (dimensions, reward) holding at least one NaN/Inf
 
 
+def dimension_labels(ds: DatasetSource) -> list[tuple[str, int, str, str]]:
+    """(feature, 0-based dim, name, SQL expression) of every summarised dimension, in report order."""
+    return [
+        (key, i, name, f"{ident(key)}[{i + 1}]")
+        for key in ds.vector_features
+        for i, name in enumerate(ds.dim_names(key))
+    ]
+
+
 def vector_scan(con: duckdb.DuckDBPyConnection, ds: DatasetSource) -> VectorScan:
     if not ds.data_files:
         return VectorScan([], [])
-    labels: list[tuple[str, int, str, str]] = []
-    for key in ds.vector_features:
-        for i, name in enumerate(ds.dim_names(key)):
-            labels.append((key, i, name, f"{ident(key)}[{i + 1}]"))
+    labels = dimension_labels(ds)
     has_reward = REWARD in ds.data_columns
     if not labels and not has_reward:
         return VectorScan([], [])
