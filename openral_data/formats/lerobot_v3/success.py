@@ -45,24 +45,30 @@ def _indices(table: pa.Table, source: Path) -> list[int]:
 
 
 def _frame_successes(root: Path) -> dict[int, bool]:
-    """Per episode_index, whether any of its frames has `next.success` (episodes without frames are absent)."""
+    """Per episode_index, whether any of its frames has `next.success` (episodes without frames are absent).
+    Aggregated per episode in Arrow, one data file at a time: no per-frame value becomes a Python object."""
     found: dict[int, bool] = {}
     for path in layout.data_files(root):
         if FRAME_SUCCESS not in read_schema(path).names:
             continue
         table = read_table(path, columns=["episode_index", FRAME_SUCCESS])
-        ids = _indices(table, path)
+        if "episode_index" not in table.column_names:
+            raise DatasetError(f"{path}: no column 'episode_index'", code="dataset.invalid")
+        ids = table.column("episode_index")
+        if not pa.types.is_integer(ids.type) or ids.null_count:
+            raise DatasetError(f"{path}: episode_index: not all integers", code="dataset.invalid")
         column = table.column(FRAME_SUCCESS)
         try:
             if pa.types.is_list(column.type) or pa.types.is_fixed_size_list(column.type):  # shape (1,) as a list
                 column = pc.list_flatten(column)
-            flags = pc.fill_null(pc.cast(column, pa.bool_()), False).to_pylist()
+            flags = pc.fill_null(pc.cast(column, pa.bool_()), False)
         except pa.ArrowException as exc:
             raise DatasetError(f"{path}: {FRAME_SUCCESS}: not booleans ({exc})", code="dataset.invalid") from None
         if len(flags) != len(ids):
             raise DatasetError(f"{path}: {FRAME_SUCCESS}: not one value per frame", code="dataset.invalid")
-        for e, v in zip(ids, flags, strict=True):
-            found[e] = found.get(e, False) or bool(v)
+        per_episode = pa.table({"e": ids, "s": flags}).group_by("e").aggregate([("s", "any")])
+        for e, v in zip(per_episode.column("e").to_pylist(), per_episode.column("s_any").to_pylist(), strict=True):
+            found[int(e)] = found.get(int(e), False) or bool(v)
     return found
 
 

@@ -94,3 +94,39 @@ def test_an_episodes_table_without_integer_indices_is_one_line(tmp_path: Path) -
         with pytest.raises(DatasetError) as err:
             episode_successes(tmp_path, table)
         assert err.value.code == "dataset.invalid" and "episode_index" in str(err.value)
+
+
+def test_frame_successes_are_aggregated_per_episode_across_files(tmp_path: Path) -> None:
+    """lerobot's rule over several data files: an episode split across two files succeeded if any of its frames
+    did, in either file; `next.success` as shape-(1,) lists and NULLs (no success) are read alike."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from openral_data.errors import DatasetError
+    from openral_data.formats.lerobot_v3.success import episode_successes
+
+    (tmp_path / "data/chunk-000").mkdir(parents=True)
+    frames = pa.list_(pa.bool_())
+    pq.write_table(
+        pa.table(
+            {
+                "episode_index": [0, 0, 1, 1, 2],
+                "next.success": pa.array([[False], [True], [False], [None], [False]], frames),
+            }
+        ),
+        tmp_path / "data/chunk-000/file-000.parquet",
+    )
+    pq.write_table(
+        pa.table({"episode_index": [2, 2, 3], "next.success": pa.array([[False], [True], [False]], frames)}),
+        tmp_path / "data/chunk-000/file-001.parquet",
+    )
+    episodes = pa.table({"episode_index": [0, 1, 2, 3, 4]})
+    assert episode_successes(tmp_path, episodes) == {0: True, 1: False, 2: True, 3: False, 4: None}
+
+    pq.write_table(
+        pa.table({"episode_index": [4.0], "next.success": pa.array([[True]], frames)}),
+        tmp_path / "data/chunk-000/file-002.parquet",
+    )
+    with pytest.raises(DatasetError) as err:
+        episode_successes(tmp_path, episodes)
+    assert err.value.code == "dataset.invalid" and str(err.value).endswith("episode_index: not all integers")
