@@ -4,10 +4,10 @@ back to the scan and the report says why.
 
 Tolerances: the pooled and the scanned numbers are both sums over the same float32 values carried out in float64
 (numpy's per-episode mean/std and pairwise pooling against DuckDB's aggregates), so they differ by rounding
-only: min, max and count are compared exactly; means to 1e-9 of the dimension's largest magnitude (a sum of n
-terms in float64 is within n·2⁻⁵³ of exact: 1e-9 leaves a margin of 100x even for 10⁶ frames), variances to
-1e-9 of its square. lerobot computes its episode stats in float32 (the std as E[x²] − E[x]²): for its datasets
-the same comparison holds to 1e-6 (float32's 6e-8 epsilon, a few roundings).
+only: min, max and count are compared exactly; means to 1e-9 of the dimension's largest magnitude (the rounding
+error of a float64 sum of n terms is at worst n·2⁻⁵³ of that magnitude, 1e-10 at 10⁶ frames, far more than these
+recordings have), variances to 1e-9 of its square. lerobot computes its episode stats in float32 (the std as
+E[x²] − E[x]²): for its datasets the same comparison holds to 1e-6 (float32's 6e-8 epsilon, a few roundings).
 """
 
 from __future__ import annotations
@@ -152,6 +152,13 @@ def test_lerobot_written_dataset_needs_trust(tmp_path: Path) -> None:
     assert _source(trusted, "lr")["verified_by"] == "--trust-episode-stats"
     assert_same_dimensions(trusted, scanned, 1e-6)
     assert trusted["health"] == scanned["health"] == []
+    for flags, source in (
+        (["--trust-episode-stats"], "episode_stats"),
+        (["--trust-episode-stats", "--full-scan"], "frame_scan"),
+    ):
+        proc = run_cli("stats", str(root), *flags, "--no-health", "--format", "json")
+        assert proc.returncode == 0, proc.stderr
+        assert json.loads(proc.stdout)["sources"][0]["dimensions"] == source
 
     # with trust, the cheap checks still hold: lengths that do not add up to the data rows are refused
     ep = episodes_file(root)
