@@ -46,7 +46,7 @@ POOLED = ("min", "max", "mean", "std", "count")
 
 
 @dataclass(frozen=True)
-class Source:
+class DimensionSource:
     """Where a dataset's dimension summaries came from, and why."""
 
     dataset: str
@@ -61,7 +61,7 @@ class _Unusable(Exception):
 
 def summarise(
     con: duckdb.DuckDBPyConnection, ds: DatasetSource, *, trust: bool = False, full_scan: bool = False
-) -> tuple[VectorScan, Source]:
+) -> tuple[VectorScan, DimensionSource]:
     """The dataset's dimension summaries, from its verified episode statistics when possible, else by the scan."""
     if full_scan:
         reason = "--full-scan"
@@ -77,8 +77,8 @@ def summarise(
             how = "sha256 of meta/episodes and data file sizes match .openral/digests.json"
             if verified_by == BY_TRUST:
                 how = "trusted without digests; count, length and row checks passed"
-            return scan, Source(ds.label, EPISODE_STATS, verified_by, how)
-    return vector_scan(con, ds), Source(ds.label, FRAME_SCAN, None, reason)
+            return scan, DimensionSource(ds.label, EPISODE_STATS, verified_by, how)
+    return vector_scan(con, ds), DimensionSource(ds.label, FRAME_SCAN, None, reason)
 
 
 def _verify(ds: DatasetSource, trust: bool) -> str:

@@ -12,7 +12,7 @@ import duckdb
 from openral_data.errors import QueryError, UsageError
 from openral_data.formats.results import Results
 from openral_data.metrics import health, intervals
-from openral_data.metrics.episode_stats import Source, summarise
+from openral_data.metrics.episode_stats import DimensionSource, summarise
 from openral_data.metrics.scan import VectorScan
 from openral_data.metrics.sources import DatasetSource
 from openral_data.metrics.views import ident, query
@@ -141,7 +141,7 @@ def dimension_table(scans: dict[str, VectorScan]) -> Table:
     return out
 
 
-def sources_table(sources: Sequence[Source]) -> Table:
+def sources_table(sources: Sequence[DimensionSource]) -> Table:
     """Per dataset: whether its dimension summaries were pooled from verified episode statistics or scanned,
     how they were verified, or why the scan ran."""
     out = Table("sources", ["dataset", "dimensions", "verified_by", "note"])
