@@ -55,10 +55,6 @@ class DimensionSource:
     note: str
 
 
-class _Unusable(Exception):
-    """The episode statistics cannot stand for the frames; the message says why."""
-
-
 def summarise(
     con: duckdb.DuckDBPyConnection, ds: DatasetSource, *, trust: bool = False, full_scan: bool = False
 ) -> tuple[VectorScan, DimensionSource]:
@@ -68,95 +64,98 @@ def summarise(
     elif not ds.data_files:
         reason = "no data files"
     else:
-        try:
-            verified_by = _verify(ds, trust)
-            scan = pooled_scan(con, ds)
-        except _Unusable as exc:
-            reason = str(exc)
-        else:
+        verified_by, reason = _verify(ds, trust)
+        pooled = pooled_scan(con, ds) if verified_by else reason
+        if isinstance(pooled, VectorScan):
             how = "sha256 of meta/episodes and data file sizes match .openral/digests.json"
             if verified_by == BY_TRUST:
                 how = "trusted without digests; count, length and row checks passed"
-            return scan, DimensionSource(ds.label, EPISODE_STATS, verified_by, how)
+            return pooled, DimensionSource(ds.label, EPISODE_STATS, verified_by, how)
+        reason = pooled
     return vector_scan(con, ds), DimensionSource(ds.label, FRAME_SCAN, None, reason)
 
 
-def _verify(ds: DatasetSource, trust: bool) -> str:
-    """BY_DIGESTS when our digests vouch for the episodes tables and data files, BY_TRUST for a foreign dataset
-    with `trust`; else _Unusable with the reason."""
+def _verify(ds: DatasetSource, trust: bool) -> tuple[str | None, str]:
+    """(BY_DIGESTS, "") when our digests vouch for the episodes tables and data files, (BY_TRUST, "") for a foreign
+    dataset with `trust`; else (None, the reason)."""
     try:
         stored = digests.read(ds.root)
     except DatasetError as exc:
-        raise _Unusable(f"digests unreadable: {exc}") from None
+        return None, f"digests unreadable: {exc}"
     if stored is None:
         if trust:
-            return BY_TRUST
-        raise _Unusable(
-            f"no {digests.DIGESTS_PATH} (not written by openral-data): --trust-episode-stats uses its stats"
-        )
+            return BY_TRUST, ""
+        return None, f"no {digests.DIGESTS_PATH} (not written by openral-data): --trust-episode-stats uses its stats"
     for path in ds.episode_files:
         rel = str(path.relative_to(ds.root))
         entry = stored.get(rel)
         if entry is None:
-            raise _Unusable(f"digest mismatch: {rel}: not in {digests.DIGESTS_PATH}")
+            return None, f"digest mismatch: {rel}: not in {digests.DIGESTS_PATH}"
         if digests.sha256_file(path) != entry["sha256"]:
-            raise _Unusable(f"digest mismatch: {rel}: sha256 differs from {digests.DIGESTS_PATH}")
+            return None, f"digest mismatch: {rel}: sha256 differs from {digests.DIGESTS_PATH}"
     on_disk = {str(p.relative_to(ds.root)): p for p in ds.data_files}
     recorded = {rel for rel in stored if rel.startswith("data/")}
     if set(on_disk) != recorded:
         extra = sorted(set(on_disk) ^ recorded)
-        raise _Unusable(f"digest mismatch: data files differ from {digests.DIGESTS_PATH}: {', '.join(extra[:3])}")
+        return None, f"digest mismatch: data files differ from {digests.DIGESTS_PATH}: {', '.join(extra[:3])}"
     for rel, path in on_disk.items():
         if path.stat().st_size != stored[rel]["size"]:
-            raise _Unusable(f"digest mismatch: {rel}: size differs from {digests.DIGESTS_PATH}")
-    return BY_DIGESTS
+            return None, f"digest mismatch: {rel}: size differs from {digests.DIGESTS_PATH}"
+    return BY_DIGESTS, ""
 
 
-def pooled_scan(con: duckdb.DuckDBPyConnection, ds: DatasetSource) -> VectorScan:
-    """What `vector_scan` finds, pooled from the episodes tables (after the consistency checks)."""
+def pooled_scan(con: duckdb.DuckDBPyConnection, ds: DatasetSource) -> VectorScan | str:
+    """What `vector_scan` finds, pooled from the episodes tables; or why their statistics cannot stand for the
+    frames (a consistency check failed)."""
     labels = dimension_labels(ds)
     features = list(dict.fromkeys(key for key, *_ in labels))
-    reward = [REWARD] if REWARD in ds.data_columns else []
-    wanted = ["length"] + [f"stats/{k}/{s}" for k in features for s in POOLED]
-    missing = [c for c in wanted if c not in ds.episode_columns]
+    widths: dict[str, int | None] = {"length": None}
+    for key in features:
+        dims_of_key = sum(1 for k, *_ in labels if k == key)
+        widths.update({f"stats/{key}/{s}": 1 if s == "count" else dims_of_key for s in POOLED})
+    missing = [c for c in widths if c not in ds.episode_columns]
     if missing:
-        raise _Unusable(f"no per-episode stats: meta/episodes has no column {missing[0]!r}")
-    extra = [f"stats/{REWARD}/{s}" for s in ("min", "max")] if reward else []
-    extra = extra if all(c in ds.episode_columns for c in extra) else []
+        return f"no per-episode stats: meta/episodes has no column {missing[0]!r}"
+    reward = [f"stats/{REWARD}/{s}" for s in ("min", "max")] if REWARD in ds.data_columns else []
+    reward_known = bool(reward) and all(c in ds.episode_columns for c in reward)
+    if reward_known:
+        widths.update(dict.fromkeys(reward, 1))
     try:
         table = pa.concat_tables(
-            [read_table(f, columns=wanted + extra) for f in ds.episode_files], promote_options="default"
+            [read_table(f, columns=list(widths)) for f in ds.episode_files], promote_options="default"
         )
     except (DatasetError, pa.ArrowException) as exc:
-        raise _Unusable(f"episode stats unreadable: {str(exc).splitlines()[0]}") from None
-    lengths = _vectors(table, "length", None)
+        return f"episode stats unreadable: {str(exc).splitlines()[0]}"
+    arrays: dict[str, npt.NDArray[np.float64]] = {}
+    for column, width in widths.items():
+        array = _matrix(table, column, width)
+        if isinstance(array, str):
+            return array
+        arrays[column] = array
+    lengths = arrays["length"][:, 0]
     rows = int(query(con, f"SELECT sum(num_rows) FROM parquet_file_metadata({files_sql(ds.data_files)})")[1][0][0])
     if int(lengths.sum()) != rows:
-        raise _Unusable(f"episode lengths add up to {int(lengths.sum())} frames, the data files hold {rows} rows")
-    keep = lengths[:, 0] > 0  # an episode without frames has nothing to pool (reported by the health checks)
+        return f"episode lengths add up to {int(lengths.sum())} frames, the data files hold {rows} rows"
+    keep = lengths > 0  # an episode without frames has nothing to pool (reported by the health checks)
     dims: list[DimStats] = []
     for key in features:
-        names = [(i, name, expr) for k, i, name, expr in labels if k == key]
-        d = len(names)
-        count = _vectors(table, f"stats/{key}/count", 1)[keep, 0]
-        if not np.array_equal(count, lengths[keep, 0]):
-            raise _Unusable(f"stats/{key}/count differs from the episode length")
-        mn, mx, mean, std = (_vectors(table, f"stats/{key}/{s}", d)[keep] for s in ("min", "max", "mean", "std"))
+        count = arrays[f"stats/{key}/count"][keep, 0]
+        if not np.array_equal(count, lengths[keep]):
+            return f"stats/{key}/count differs from the episode length"
+        mn, mx, mean, std = (arrays[f"stats/{key}/{s}"][keep] for s in ("min", "max", "mean", "std"))
         if not all(np.isfinite(a).all() for a in (mn, mx, mean, std)):
-            raise _Unusable(f"per-episode stats of {key} hold NaN/Inf (frames with NaN/Inf: the scan skips them)")
+            return f"per-episode stats of {key} hold NaN/Inf (frames with NaN/Inf: the scan skips them)"
         if (mn > mx).any() or (std < 0).any():
-            raise _Unusable(f"per-episode stats of {key} are inconsistent (min > max or std < 0)")
+            return f"per-episode stats of {key} are inconsistent (min > max or std < 0)"
         total, mu, sigma = _pool(count, mean, std)
         low, high = mn.min(axis=0), mx.max(axis=0)
-        for j, (i, name, expr) in enumerate(names):
+        for j, (i, name, expr) in enumerate((i, n, e) for k, i, n, e in labels if k == key):
             dims.append(
                 DimStats(key, i, name, expr, total, float(low[j]), float(high[j]), float(mu[j]), float(sigma[j]))
             )
-    non_finite = []
-    if reward:
-        finite = bool(extra) and all(np.isfinite(_vectors(table, c, 1)[keep]).all() for c in extra)
-        if not finite:  # unknown: the health checks look at the reward column itself
-            non_finite.append(ident(REWARD))
+    finite_reward = reward_known and all(np.isfinite(arrays[c][keep]).all() for c in reward)
+    # finite minima and maxima prove every reward finite; else the health checks look at the column itself
+    non_finite = [ident(REWARD)] if reward and not finite_reward else []
     return VectorScan(dims, non_finite)
 
 
@@ -172,19 +171,20 @@ def _pool(
     return int(total), mu, np.sqrt(var)
 
 
-def _vectors(table: pa.Table, column: str, width: int | None) -> npt.NDArray[np.float64]:
-    """One episodes-table column as an (episodes, width) array; a scalar column (width None) as (episodes, 1)."""
+def _matrix(table: pa.Table, column: str, width: int | None) -> npt.NDArray[np.float64] | str:
+    """One numeric episodes-table column as an (episodes, width) array (a scalar column, width None, as
+    (episodes, 1)); or what is wrong with it."""
     col = table.column(column)
     if col.null_count:
-        raise _Unusable(f"{column}: empty for some episode")
+        return f"{column}: empty for some episode"
     if width is None:
-        return np.asarray(col.to_numpy(), dtype=np.float64).reshape(-1, 1)
-    if not (pa.types.is_list(col.type) or pa.types.is_large_list(col.type) or pa.types.is_fixed_size_list(col.type)):
-        raise _Unusable(f"{column}: not a list column ({col.type})")
-    sizes = pc.list_value_length(col).to_numpy(zero_copy_only=False)
-    if (sizes != width).any():
-        raise _Unusable(f"{column}: not {width} value(s) per episode")
-    values = pc.list_flatten(col)
-    if values.null_count:
-        raise _Unusable(f"{column}: empty values")
+        values, width = col, 1
+    else:
+        if not (pa.types.is_list(col.type) or pa.types.is_fixed_size_list(col.type)):
+            return f"{column}: not a list column ({col.type})"
+        if (pc.list_value_length(col).to_numpy(zero_copy_only=False) != width).any():
+            return f"{column}: not {width} value(s) per episode"
+        values = pc.list_flatten(col)
+    if values.null_count or not (pa.types.is_integer(values.type) or pa.types.is_floating(values.type)):
+        return f"{column}: not numbers ({values.type})"
     return np.asarray(values.to_numpy(zero_copy_only=False), dtype=np.float64).reshape(-1, width)

@@ -167,3 +167,22 @@ def test_lerobot_written_dataset_needs_trust(tmp_path: Path) -> None:
     rewrite_parquet(ep, table.set_column(i, "length", pc.add(table.column("length"), 1)))
     note = _source(_report([root], trust_episode_stats=True, health=False), "lr")["note"]
     assert note.startswith("episode lengths add up to ") and note.endswith("the data files hold 19 rows")
+
+
+def test_malformed_episode_stats_fall_back_to_the_scan(pair: tuple[Path, Path], tmp_path: Path) -> None:
+    """Stats columns of the wrong type or width (untrusted input) are a reason to scan, never a traceback."""
+    a, _ = pair
+    odd = copy_dataset(a, tmp_path / a.name)
+    path = episodes_file(odd)
+    table = pq.read_table(path)
+    i = table.column_names.index("stats/action/std")
+    rewrite_parquet(path, table.set_column(i, "stats/action/std", pa.array(["x"] * table.num_rows)))
+    digests.refresh(odd, [path])
+    note = _source(_report([odd], health=False), a.name)["note"]
+    assert note == "stats/action/std: not a list column (string)"
+    table = table.set_column(i, "stats/action/std", pa.array([[0.0]] * table.num_rows, pa.list_(pa.float64())))
+    rewrite_parquet(path, table)
+    digests.refresh(odd, [path])
+    dims = len(pq.read_table(episodes_file(a)).column("stats/action/std")[0])
+    note = _source(_report([odd], health=False), a.name)["note"]
+    assert note == f"stats/action/std: not {dims} value(s) per episode"
