@@ -5,8 +5,8 @@ For each size a LeRobot v3 dataset is generated (parquet only, the layout our wr
 tasks, episodes metadata with `openral.success`/`openral.seed` and per-episode `stats/<feature>/{min,max,mean,std,
 count}` computed from the generated frames, `.openral/digests.json` as our writer leaves it; data files rotated
 every `--rows-per-file` rows, written with pyarrow in row groups of `--row-group` rows: big, yet several per
-file for DuckDB's threads): episodes of 600–1200 frames at 20 fps, state float32[8], action float32[7],
-next.reward/done/success, a few timestamp gaps.
+file for DuckDB's threads; `--row-group 0` writes one per episode, as our writer and lerobot's do): episodes of
+600–1200 frames at 20 fps, state float32[8], action float32[7], next.reward/done/success, a few timestamp gaps.
 
 Three contestants, each in its own fresh subprocess so that its peak RSS (VmHWM) is its own, each timed inside
 its process after its imports (reading included):
@@ -135,12 +135,13 @@ def generate(root: Path, frames: int, rows_per_file: int, row_group: int, seed: 
                 "task_index": pa.array((episode % len(TASKS)).astype(np.int64)),
             }
         )
-        pq.write_table(
-            table,
-            root / f"data/chunk-000/file-{file_index:03d}.parquet",
-            row_group_size=row_group,
-            compression="snappy",
-        )
+        path = root / f"data/chunk-000/file-{file_index:03d}.parquet"
+        if row_group:
+            pq.write_table(table, path, row_group_size=row_group, compression="snappy")
+        else:  # one row group per episode, as our writer and lerobot's write
+            with pq.ParquetWriter(path, table.schema, compression="snappy") as w:
+                for start, n in zip(starts, lengths, strict=True):
+                    w.write_table(table.slice(int(start), int(n)))
         block: dict[str, list[Any]] = {
             "episode_index": list(range(first, last)),
             "tasks": [[TASKS[e % len(TASKS)]] for e in range(first, last)],
@@ -414,7 +415,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--health", action="store_true", help="add the frame-level health checks")
     parser.add_argument("--rows-per-file", type=int, default=5_000_000)
-    parser.add_argument("--row-group", type=int, default=262_144)
+    parser.add_argument("--row-group", type=int, default=262_144, help="rows per row group; 0: one per episode")
     parser.add_argument("--pandas-max-frames", type=int, default=2_000_000)
     parser.add_argument("--tmp", type=Path, default=None, help="where to generate (default: the system's temp)")
     parser.add_argument("--keep", action="store_true", help="keep the generated datasets")
