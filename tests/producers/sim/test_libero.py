@@ -252,6 +252,19 @@ def test_bddl_and_init_state_files_are_checked(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match=rf"^{scene.parent / 'goal.bddl'}: :goal:"):
         _build_file(scene)
 
+    # the packaged form: a file a package ships, e.g. LIBERO's own; `list tasks` / `--task` see the BDDL's one task
+    from openral_data.record.tasks import tasks_of
+
+    packaged = _bddl_scene(
+        tmp_path / "pkg", bddl="pkg://libero/libero/bddl_files/libero_goal/put_the_bowl_on_the_plate.bddl"
+    )
+    with pytest.raises(ConfigError, match=r"task.instruction: the BDDL's language .* is 'put the bowl on the plate'"):
+        _build_file(packaged)
+    _, (task,) = tasks_of(str(packaged))
+    assert (task.id, task.instruction, task.params) == ("put_the_bowl_on_the_plate", "put the bowl on the plate", {})
+    _, (own,) = tasks_of(str(_bddl_scene(tmp_path / "own")))
+    assert (own.id, own.instruction) == ("bowl_on_plate", LANGUAGE)
+
     bddl_root = Path(import_libero("t")[0].get_libero_path("bddl_files"))
     shipped_files = sorted(bddl_root.glob("*/*.bddl"))
     assert len(shipped_files) > 100
