@@ -42,7 +42,7 @@ from typing import Any, Literal
 import mujoco
 import numpy as np
 import numpy.typing as npt
-from pydantic import Field, model_validator
+from pydantic import Field, ValidationInfo, field_validator
 
 from openral_data.errors import CompatibilityError, ConfigError
 from openral_data.paths import safe_name
@@ -103,6 +103,7 @@ class LiberoParams(StrictModel):
     bddl: str | None = Field(
         default=None,
         min_length=1,
+        validate_default=True,
         description="a BDDL file instead of a suite task: relative to the scene file (inside its folder) or "
         "pkg://<python package>/<path>",
     )
@@ -118,17 +119,31 @@ class LiberoParams(StrictModel):
     settle_steps: int = Field(default=10, ge=0, description="zero actions after the initial state, not recorded")
     image_flip: Literal["upright", "rotate180"] = "upright"
 
-    @model_validator(mode="after")
-    def _one_task(self) -> LiberoParams:
-        if self.bddl is not None and (self.suite is not None or self.task is not None):
-            raise ValueError("bddl replaces suite and task: give a BDDL file or a suite task, not both")
-        if self.bddl is None and (self.suite is None or self.task is None):
-            raise ValueError("needs suite and task (a packaged task) or bddl (a BDDL file)")
-        if self.bddl is None and (self.init_states is not None or self.init_state_index is not None):
-            raise ValueError("init_states and init_state_index go with bddl (a suite task has its own init states)")
-        if self.init_state_index is not None and self.init_states is None:
-            raise ValueError("init_state_index needs init_states")
-        return self
+    @field_validator("bddl")
+    @classmethod
+    def _bddl_or_suite_task(cls, bddl: str | None, info: ValidationInfo) -> str | None:
+        if "suite" not in info.data or "task" not in info.data:
+            return bddl  # (suite or task is invalid: that is the error)
+        named = info.data["suite"] is not None or info.data["task"] is not None
+        if bddl is not None and named:
+            raise ValueError("replaces suite and task: name a BDDL file or a suite task, not both")
+        if bddl is None and (info.data["suite"] is None or info.data["task"] is None):
+            raise ValueError("missing: name a suite task (suite and task) or a BDDL file (bddl)")
+        return bddl
+
+    @field_validator("init_states")
+    @classmethod
+    def _with_bddl(cls, init_states: str | None, info: ValidationInfo) -> str | None:
+        if init_states is not None and info.data.get("bddl", "") is None:
+            raise ValueError("goes with bddl (a suite task has its own init states)")
+        return init_states
+
+    @field_validator("init_state_index")
+    @classmethod
+    def _with_init_states(cls, index: int | None, info: ValidationInfo) -> int | None:
+        if index is not None and info.data.get("init_states", "") is None:
+            raise ValueError("needs init_states")
+        return index
 
 
 def _quat_xyzw_to_axis_angle(q: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
