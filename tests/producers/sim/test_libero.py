@@ -1,7 +1,8 @@
 """LIBERO adapter (runs in .venv-libero: `bash scripts/setup_libero.sh`; `.ci/run` runs this file there).
 
 Offline and prompt-free first import, the suites' instructions and baked initial states, upright cameras,
-exact restore, record -> lerobot 0.6.1.
+exact restore, record -> lerobot 0.6.1; custom scenes from a BDDL file (tests/fixtures/libero/), with and without
+init states.
 """
 
 from __future__ import annotations
@@ -9,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -22,11 +24,12 @@ pytest.importorskip(
     "libero", reason="LIBERO has its own environment: bash scripts/setup_libero.sh, then .venv-libero/bin/pytest"
 )
 
-from openral_data.errors import ConfigError
+from openral_data.errors import ConfigError, DatasetError
+from openral_data.producers.sim.libero.bddl import load_init_states, read_bddl
 from openral_data.producers.sim.libero.config import import_libero
 from openral_data.record.options import RecordOptions
 from openral_data.record.sim import record
-from tests.support.home import BUILTIN
+from tests.support.home import BUILTIN, REPO
 from tests.support.suites import (
     assert_same,
     build,
@@ -39,6 +42,8 @@ from tests.support.suites import (
 )
 
 SUITES = ["spatial", "object", "goal", "10"]
+FIXTURE = REPO / "tests/fixtures/libero"
+LANGUAGE = "put the black bowl on the plate"  # bowl_on_plate.bddl's :language (LIBERO's parser lowercases it)
 
 
 def _small(suite: str = "spatial", size: int = 64, settle: int = 2, **params: Any) -> Any:
@@ -175,3 +180,200 @@ def test_task_records_another_task_of_the_suite(project: Path, tmp_path: Path) -
     ds2, _ = lerobot_table(out2)
     assert ds2[0]["task"] == "do task three"  # --instruction wins over LIBERO's own language
     assert RecordedDataset(out2).scene().scene.params["task"] == 3
+
+
+# -- custom scenes from a BDDL file ------------------------------------------------------------------------------
+
+
+def _bddl_scene(folder: Path, **params: Any) -> Path:
+    """The fixture scene (YAML + BDDL) copied into `folder`, its params updated (None removes one)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    shutil.copy(FIXTURE / "bowl_on_plate.bddl", folder)
+    data = yaml.safe_load((FIXTURE / "bowl_on_plate.yaml").read_text())
+    data["scene"]["params"].update(params)
+    data["scene"]["params"] = {k: v for k, v in data["scene"]["params"].items() if v is not None}
+    path = folder / "bowl_on_plate.yaml"
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    return path
+
+
+def _build_file(path: Path) -> Any:
+    """The scene of a YAML file, built as `record` builds it (the file's path is the source)."""
+    from openral_data.record import registry
+    from openral_data.schemas.scene import load_recordable_scene
+
+    scene = load_recordable_scene(path)
+    rskill = registry.resolve_rskill("random-libero")[0]
+    return registry.SCENES["libero"](scene, registry.ROBOTS["libero_panda"], rskill, str(path))
+
+
+def _bad_bddl(folder: Path, name: str, old: str, new: str) -> Path:
+    text = (FIXTURE / "bowl_on_plate.bddl").read_text()
+    assert old in text
+    path = folder / name
+    path.write_text(text.replace(old, new))
+    return path
+
+
+def test_bddl_and_init_state_files_are_checked(tmp_path: Path) -> None:
+    """Refusals are one line naming the file and field, before LIBERO builds anything; every BDDL file LIBERO
+    ships passes the same checks and LIBERO's own init states load without unpickling code."""
+    import_libero("t")
+    from libero.libero import benchmark
+
+    with pytest.raises(ConfigError, match=r"scene.params: bddl: Value error, replaces suite and task"):
+        _build_file(_bddl_scene(tmp_path / "both", suite="libero_goal", task=0))
+    with pytest.raises(ConfigError, match=r"scene.params: init_state_index: Value error, needs init_states$"):
+        _build_file(_bddl_scene(tmp_path / "index", init_state_index=0))
+    with pytest.raises(ConfigError, match=r"scene.params: bddl: Value error, missing: name a suite task"):
+        _build_file(_bddl_scene(tmp_path / "neither", bddl=None))
+    suite_states = _bddl_scene(tmp_path / "suite_states", bddl=None, suite="libero_goal", task=0, init_states="s.npy")
+    with pytest.raises(ConfigError, match=r"scene.params: init_states: Value error, goes with bddl"):
+        _build_file(suite_states)
+    missing = _bddl_scene(tmp_path / "missing", bddl="nowhere.bddl")
+    with pytest.raises(ConfigError, match=rf"^{missing}: scene.params.bddl: no such file .*nowhere.bddl"):
+        _build_file(missing)
+    with pytest.raises(DatasetError, match=r"scene.params.bddl: path '../bowl_on_plate.bddl' leads outside") as err:
+        _build_file(_bddl_scene(tmp_path / "out" / "inner", bddl="../bowl_on_plate.bddl"))
+    assert err.value.code == "dataset.unsafe"
+    wrong = _bddl_scene(tmp_path / "wrong")
+    wrong.write_text(wrong.read_text().replace(LANGUAGE, "put the plate on the bowl"))
+    with pytest.raises(ConfigError, match=r"task.instruction: the BDDL's language \(bowl_on_plate.bddl\) is"):
+        _build_file(wrong)
+    cases = {
+        "unclosed.bddl": ("(And (On akita_black_bowl_1 plate_1))", "(And (On akita_black_bowl_1 plate_1)", "parser"),
+        "object.bddl": ("plate_1 - plate", "plate_1 - flying_saucer", "unknown LIBERO object categories"),
+        "goal.bddl": ("(On akita_black_bowl_1 plate_1)", "(Onto akita_black_bowl_1 plate_1)", "predicates"),
+        "name.bddl": ("(On akita_black_bowl_1 plate_1)", "(On akita_black_bowl_1 plate_2)", "undeclared"),
+        "problem.bddl": ("LIBERO_Tabletop_Manipulation", "Kitchen_Sink", "not a LIBERO problem"),
+    }
+    for name, (old, new, what) in cases.items():
+        bad = _bad_bddl(tmp_path, name, old, new)
+        with pytest.raises(ConfigError, match=rf"^{bad}: .*{what}"):
+            read_bddl(bad)
+    # through the scene: a bad BDDL is refused before LIBERO's env is built, naming the file
+    scene = _bddl_scene(tmp_path / "bad", bddl="goal.bddl")
+    shutil.copy(tmp_path / "goal.bddl", scene.parent)
+    with pytest.raises(ConfigError, match=rf"^{scene.parent / 'goal.bddl'}: :goal:"):
+        _build_file(scene)
+
+    # the packaged form: a file a package ships, e.g. LIBERO's own; `list tasks` / `--task` see the BDDL's one task
+    from openral_data.record.tasks import tasks_of
+
+    packaged = _bddl_scene(
+        tmp_path / "pkg", bddl="pkg://libero/libero/bddl_files/libero_goal/put_the_bowl_on_the_plate.bddl"
+    )
+    with pytest.raises(ConfigError, match=r"task.instruction: the BDDL's language .* is 'put the bowl on the plate'"):
+        _build_file(packaged)
+    _, (task,) = tasks_of(str(packaged))
+    assert (task.id, task.instruction, task.params) == ("put_the_bowl_on_the_plate", "put the bowl on the plate", {})
+    _, (own,) = tasks_of(str(_bddl_scene(tmp_path / "own")))
+    assert (own.id, own.instruction) == ("bowl_on_plate", LANGUAGE)
+
+    bddl_root = Path(import_libero("t")[0].get_libero_path("bddl_files"))
+    shipped_files = sorted(bddl_root.glob("*/*.bddl"))
+    assert len(shipped_files) > 100
+    for path in shipped_files:
+        assert read_bddl(path).language
+    goal = benchmark.get_benchmark_dict()["libero_goal"]()
+    init_root = Path(import_libero("t")[0].get_libero_path("init_states"))
+    for i in (0, 9):
+        task = goal.get_task(i)
+        states = load_init_states(init_root / task.problem_folder / task.init_states_file)
+        assert np.array_equal(states, goal.get_task_init_states(i))
+    import torch
+
+    torch.save({"code": ConfigError("x")}, tmp_path / "pickled.pruned_init")  # a pickle of a class: refused
+    with pytest.raises(ConfigError, match=r"pickled.pruned_init: not an init-states file"):
+        load_init_states(tmp_path / "pickled.pruned_init")
+    np.save(tmp_path / "objects.npy", np.array([{"a": 1}], dtype=object))  # a .npy holding pickles: refused
+    with pytest.raises(ConfigError, match=r"objects.npy: not an init-states file"):
+        load_init_states(tmp_path / "objects.npy")
+    np.save(tmp_path / "flat.npy", np.zeros(45))
+    with pytest.raises(ConfigError, match=r"flat.npy: init states must be a non-empty finite 2-D array"):
+        load_init_states(tmp_path / "flat.npy")
+
+
+@pytest.mark.slow
+def test_bddl_scene_seeds_place_reproducibly_and_records_and_replays(project: Path, tmp_path: Path) -> None:
+    """Without init states the episode's seed drives LIBERO's placement: one seed is one start (in one env and
+    in a fresh one), two seeds differ. `record` on the YAML gives a dataset lerobot loads with the BDDL's language;
+    the replay rebuilds the BDDL from the recording, even with the file gone."""
+    path = _bddl_scene(project / "scenes/custom")
+    env = _build_file(path)
+    try:
+        first = env.reset(1)
+        state = env.initial_state()
+        assert state["init_index"] is None and state["suite"] is None and state["task"] == "bowl_on_plate"
+        assert state["bddl"] == (FIXTURE / "bowl_on_plate.bddl").read_text()
+        assert first.task == LANGUAGE and set(first.privileged["object_poses"]) == {"akita_black_bowl_1", "plate_1"}
+        other = env.reset(2)
+        again = env.reset(1)
+        assert env.initial_state()["sim_state"] == state["sim_state"]
+        assert again.privileged["object_poses"] == first.privileged["object_poses"]
+        moved = [
+            np.linalg.norm(
+                np.subtract(first.privileged["object_poses"][k][:2], other.privileged["object_poses"][k][:2])
+            )
+            for k in ("akita_black_bowl_1", "plate_1")
+        ]
+        assert min(moved) > 1e-3  # another seed, another placement inside the BDDL's regions
+    finally:
+        env.close()
+
+    out = tmp_path / "bddl"
+    summary = record(RecordOptions(scene=str(path), n_episodes=2, max_steps=5, seed=1, out=out))
+    assert summary.frames == 10
+    ds, cols = lerobot_table(out)
+    assert len(ds) == 10 and ds.fps == 20 and ds.meta.robot_type == "libero_panda"
+    assert [ds[i]["task"] for i in range(len(ds))] == [LANGUAGE] * 10
+    assert cols["observation.state"].shape == (10, 8) and not cols["next.success"].any()
+    from openral_data.replay.recorded import RecordedDataset
+
+    initial = RecordedDataset(out).episode(0).initial_state or {}
+    assert initial["sim_state"] == state["sim_state"]  # episode 0 is seed 1: the start seen above
+    (path.parent / "bowl_on_plate.bddl").write_text("(not a BDDL any more")
+    replay_reproduces(out, tmp_path / "replay", episodes=2)
+
+
+@pytest.mark.slow
+def test_bddl_scene_with_init_states_records_libero_success(project: Path, tmp_path: Path) -> None:
+    """An init-states file (LIBERO's format: a torch-saved array) whose row 1 has the bowl resting on the plate:
+    LIBERO's (On bowl plate) predicate reports success at the first step, which ends the recorded episode; seeds
+    pick rows as for a suite unless init_state_index fixes one; the replay agrees."""
+    import torch
+
+    path = _bddl_scene(project / "scenes/custom")
+    env = _build_file(path)
+    try:
+        env.reset(1)
+        start = np.asarray(env.initial_state()["sim_state"])
+        sim = env.env.sim
+        bowl = 1 + sim.model.get_joint_qpos_addr("akita_black_bowl_1_joint0")[0]  # (time, qpos..., qvel...)
+        plate = 1 + sim.model.get_joint_qpos_addr("plate_1_joint0")[0]
+        on_plate = start.copy()
+        on_plate[bowl : bowl + 2] = start[plate : plate + 2]
+        on_plate[bowl + 2] = start[plate + 2] + 0.03
+    finally:
+        env.close()
+    torch.save(np.stack([start, on_plate]), path.parent / "bowl_on_plate.pruned_init")
+
+    by_seed = _build_file(_bddl_scene(path.parent, init_states="bowl_on_plate.pruned_init"))
+    try:
+        assert [by_seed.init_index(s) for s in (0, 1, 2, 3)] == [None, 0, 1, 0]
+        by_seed.reset(2)
+        assert by_seed.initial_state()["sim_state"] == on_plate.tolist()
+    finally:
+        by_seed.close()
+    fixed = _bddl_scene(path.parent, init_states="bowl_on_plate.pruned_init", init_state_index=1, settle_steps=10)
+    out = tmp_path / "success"
+    summary = record(RecordOptions(scene=str(fixed), n_episodes=2, max_steps=5, seed=1, out=out))
+    assert summary.frames == 2 and all(e.success for e in summary.episodes)  # success at the first step ends each
+    ds, cols = lerobot_table(out)
+    assert cols["next.success"].tolist() == [True, True] and ds[0]["task"] == LANGUAGE
+    group = stats_per_task(out)
+    assert group["successes"] == 2
+    replay_reproduces(out, tmp_path / "replay", episodes=2)
+    bad_index = _bddl_scene(path.parent, init_states="bowl_on_plate.pruned_init", init_state_index=2)
+    with pytest.raises(ConfigError, match=r"scene.params.init_state_index: bowl_on_plate.pruned_init has states 0..1"):
+        _build_file(bad_index)
