@@ -32,6 +32,9 @@ class ProducerSpec:
     cameras: dict[str, CameraShape]
     fps: int
     can_restore_state: bool = False
+    # per-dimension names of `Observation.environment_state` (lerobot's `observation.environment_state`) when the
+    # producer fills it; empty: its observations carry none
+    environment_state_names: tuple[str, ...] = ()
 
 
 @dataclass
@@ -82,7 +85,9 @@ class SimRollout(Protocol):
 
     def step(self, action: npt.NDArray[np.float32]) -> StepResult: ...
 
-    def render(self) -> dict[str, npt.NDArray[np.uint8]]: ...
+    def render(self) -> dict[str, npt.NDArray[Any]]:
+        """The current frame of every camera in `spec.cameras` (uint8 HWC; a depth camera's as its CameraShape)."""
+        ...
 
     def initial_state(self) -> dict[str, Any]:
         """JSON-serialisable data that restores the state `reset` produced (for replay)."""

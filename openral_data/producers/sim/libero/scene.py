@@ -156,7 +156,7 @@ class LiberoScene:
         self._cams = [c.name for c in cams]
         self._render = scene.scene.render
         self.env: Any = OffScreenRenderEnv(**kwargs)
-        self.spec = scene_spec(STATE_DIM, ACTION_DIM, cams, FPS)
+        self.spec = scene_spec(STATE_DIM, ACTION_DIM, cams, FPS, source=source)
         self._initial: dict[str, Any] = {}
         self._t0 = 0.0
         self._raw: dict[str, Any] = {}
