@@ -4,7 +4,8 @@ Sites (the grasp markers of robot MJCFs) are hidden. The robot is drawn with its
 0) or its visual meshes (group 1) per `render.robot_meshes`; the scene's own geoms are group 2 and always drawn.
 A simulator's own cameras are rendered by the same rig (named_cameras.py builds it with their flips).
 A camera with `depth: true` also gives its depth map, `<name>_depth`: float32 metres along the optical axis
-(MuJoCo's `enable_depth_rendering`, the same scene update as its colour frame; nothing hit: the far plane).
+(MuJoCo's `enable_depth_rendering`, the same scene update as its colour frame); where nothing is hit (the far
+plane) it is +inf, REP 118's "no return" (a lerobot depth video loads it as its `depth_max`).
 `shapes()` is every stream's CameraShape with the camera's geometry (camera_geometry.py) in its info.
 Renderers hold GL contexts: `close()` frees them.
 """
@@ -22,6 +23,8 @@ from openral_data.producers.sim.mujoco.camera_geometry import camera_geometry
 from openral_data.producers.sim.mujoco.compose import SCENE_GROUP
 from openral_data.schemas.scene import RenderConfig, SceneCamera, depth_camera_name
 from openral_data.types import CameraShape
+
+FAR_PLANE_FRACTION = 0.999  # depth at the far plane (within float32 rounding) is "nothing hit"
 
 
 class CameraRig:
@@ -44,6 +47,7 @@ class CameraRig:
             option.geomgroup[SCENE_GROUP] = 1
         self._option = option
         self._flipped = frozenset(flipped)
+        self._far = FAR_PLANE_FRACTION * float(model.vis.map.zfar * model.stat.extent)
         self._depth = {cam.name: depth_camera_name(cam.name) for cam in cameras if cam.depth}
         self._shapes: dict[str, CameraShape] = {}
         for cam in cameras:
@@ -79,7 +83,9 @@ class CameraRig:
             if depth is not None:
                 r.enable_depth_rendering()
                 try:
-                    out[depth] = self._upright(name, r.render())
+                    metres = self._upright(name, r.render())
+                    metres[metres >= self._far] = np.inf
+                    out[depth] = metres
                 finally:
                     r.disable_depth_rendering()
         return out
