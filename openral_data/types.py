@@ -39,7 +39,8 @@ class ProducerSpec:
 
 @dataclass
 class Observation:
-    """What the policy sees at one step: camera images (HWC uint8), the state vector and the task text.
+    """What the policy sees at one step: camera images (HWC uint8; a depth camera's (H, W) float32 metres or
+    uint16 millimetres, per its CameraShape), the state vector and the task text.
 
     `time` is the producer's clock for this observation in seconds since the episode began: simulation time
     for sim scenes, a monotonic clock for hardware. `None` means "no clock of its own" (frame index / fps).

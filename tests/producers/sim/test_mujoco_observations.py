@@ -30,6 +30,7 @@ from tests.support.cli import run_cli
 from tests.support.home import isolated_home
 from tests.support.mcap import check_bag
 from tests.support.mujoco import expert_rskill, make_scene, red_mask
+from tests.support.rrd import verify
 from tests.support.scenes import mock_scene, write_yaml
 
 SEED, STEPS, SIZE = 3, 12, 128
@@ -246,6 +247,9 @@ def test_doctor_stats_and_replay_handle_depth_and_environment_state(recorded: Re
     stats = run_cli("stats", str(recorded.out), "--format", "json")
     assert stats.returncode == 0, stats.stderr
     assert "cube.qz" in stats.stdout
+    view = run_cli("view", str(recorded.out), "--save", str(tmp_path / "ep.rrd"))
+    assert view.returncode == 0, view.stderr
+    verify(tmp_path / "ep.rrd")
     # actions replay reproduces the episode; re-recorded, it has the same depth cameras and object poses
     replay = run_cli(
         "replay", str(recorded.out), "--out", str(tmp_path / "r"), "--record", str(tmp_path / "again"), "--json"
