@@ -32,11 +32,15 @@ class ProducerSpec:
     cameras: dict[str, CameraShape]
     fps: int
     can_restore_state: bool = False
+    # per-dimension names of `Observation.environment_state` (lerobot's `observation.environment_state`) when the
+    # producer fills it; empty: its observations carry none
+    environment_state_names: tuple[str, ...] = ()
 
 
 @dataclass
 class Observation:
-    """What the policy sees at one step: camera images (HWC uint8), the state vector and the task text.
+    """What the policy sees at one step: camera images (HWC uint8; a depth camera's (H, W) float32 metres or
+    uint16 millimetres, per its CameraShape), the state vector and the task text.
 
     `time` is the producer's clock for this observation in seconds since the episode began: simulation time
     for sim scenes, a monotonic clock for hardware. `None` means "no clock of its own" (frame index / fps).
@@ -82,7 +86,9 @@ class SimRollout(Protocol):
 
     def step(self, action: npt.NDArray[np.float32]) -> StepResult: ...
 
-    def render(self) -> dict[str, npt.NDArray[np.uint8]]: ...
+    def render(self) -> dict[str, npt.NDArray[Any]]:
+        """The current frame of every camera in `spec.cameras` (uint8 HWC; a depth camera's as its CameraShape)."""
+        ...
 
     def initial_state(self) -> dict[str, Any]:
         """JSON-serialisable data that restores the state `reset` produced (for replay)."""

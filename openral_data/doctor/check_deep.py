@@ -2,7 +2,8 @@
 per-episode image statistics the writer stored (meta/episodes `stats/<camera>/mean`). A swapped or shifted video
 range shows another episode's frames, whose mean differs; lossy coding moves a mean by a few levels at most.
 A depth video (`is_depth_map`) is compared in its `depth_unit`, decoded as lerobot's loader does, within 2% of
-its quantizer's range (invalid source pixels, left out of the stats, load as depth_min / depth_max)."""
+its quantizer's range (invalid source pixels, left out of the stats, load as depth_min / depth_max; pixels at
+the top code — a "too far" +inf, e.g. a simulated camera's sky — are left out of the decoded mean too)."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ import numpy as np
 from openral_data.doctor.check_video import Placement, placements
 from openral_data.doctor.findings import Finding, error
 from openral_data.doctor.inspect import Dataset, read_parquet
-from openral_data.formats.lerobot_v3.depth import MM_PER_METRE, DepthSettings, decode_codes
+from openral_data.formats.lerobot_v3.depth import MM_PER_METRE, QMAX, DepthSettings, decode_codes
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
 from openral_data.paths import regular_file
 
@@ -46,7 +47,8 @@ def _depth(info: dict[str, Any]) -> tuple[DepthSettings, float] | None:
 def decoded_depth_means(
     path: Path, eps: list[Placement], fps: int, depth: tuple[DepthSettings, float]
 ) -> dict[int, np.ndarray[Any, Any]]:
-    """episode -> mean depth of its decoded frames, in the feature's depth_unit."""
+    """episode -> mean depth of its decoded frames, in the feature's depth_unit, over the pixels below the top
+    code: those load as depth_max whether the source said "too far" (+inf, left out of the stats) or was beyond it."""
     half = 0.5 / fps
     sums: dict[int, list[float]] = {p.episode: [] for p in eps}
     settings, unit = depth
@@ -55,7 +57,10 @@ def decoded_depth_means(
             t = frame.time
             for p in eps:
                 if t is not None and p.from_ts - half <= t < p.from_ts + p.length / fps - half:
-                    sums[p.episode].append(float(settings.dequantize(decode_codes(frame)).mean()) * unit)
+                    codes = decode_codes(frame)
+                    inside = codes[codes < QMAX]
+                    if inside.size:
+                        sums[p.episode].append(float(settings.dequantize(inside).mean()) * unit)
                     break
     return {e: np.array([np.mean(v)]) for e, v in sums.items() if v}
 

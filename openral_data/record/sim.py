@@ -109,12 +109,18 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
         env, policy = started.scene, started.policy
         try:
             kept["device"] = getattr(policy, "device", None)  # the device a neural policy runs on; None: no network
+            if scene.scene.observations.environment_state and not env.spec.environment_state_names:
+                raise ConfigError(
+                    f"{scene_src}: scene.observations.environment_state: scene type {scene.scene.type!r} "
+                    "reports no object poses"
+                )
             schema = DatasetSchema(
                 fps=env.spec.fps,
                 state_names=tuple(rskill.state_contract.names),
                 action_names=tuple(rskill.action_contract.names),
                 cameras=dict(env.spec.cameras),
                 robot_type=robot.name,
+                environment_state_names=env.spec.environment_state_names,
                 metadata={
                     "openral_data_version": __version__,
                     "scene": {"path": scene_src, "config": scene.model_dump(mode="json")},

@@ -81,6 +81,7 @@ class Rerecorder:
             action_names=tuple(built.rskill.action_contract.names),
             cameras=dict(spec.cameras),
             robot_type=built.robot.name,
+            environment_state_names=spec.environment_state_names,
             metadata={
                 "openral_data_version": __version__,
                 "scene": {"path": built.source, "config": built.scene.model_dump(mode="json")},

@@ -15,6 +15,7 @@ Representation = Literal[
     "eef_pose",
     "delta_eef_gripper",
     "eef_pose_gripper",
+    "eef_pose_gripper_width",
     "generic",
 ]
 

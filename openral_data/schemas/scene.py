@@ -34,6 +34,26 @@ class SceneCamera(StrictModel):
     pos: tuple[float, float, float] | None = None
     lookat: tuple[float, float, float] | None = None
     fovy: float = Field(default=45.0, gt=0, lt=180)
+    depth: bool = Field(
+        default=False,
+        description="also record this camera's depth (metres, float32) as the depth camera `<name>_depth` "
+        "(scenes whose producer renders depth: the MuJoCo scenes)",
+    )
+
+
+def depth_camera_name(camera: str) -> str:
+    """The name of camera `camera`'s depth stream (`front` -> `front_depth`, `observation.images.front_depth`)."""
+    return f"{camera}_depth"
+
+
+class ObservationsConfig(StrictModel):
+    """What a scene's observations carry besides the robot state and the camera frames."""
+
+    environment_state: bool = Field(
+        default=False,
+        description="record `observation.environment_state`: every movable object's pose per frame "
+        "(`<object>.x, .y, .z, .qw, .qx, .qy, .qz`, world frame; scenes that report object poses)",
+    )
 
 
 class RenderConfig(StrictModel):
@@ -60,15 +80,16 @@ class SceneSpec(StrictModel):
     fps: int = Field(default=20, gt=0, le=1000)
     cameras: list[SceneCamera] = Field(default_factory=list)
     render: RenderConfig = Field(default_factory=RenderConfig)
+    observations: ObservationsConfig = Field(default_factory=ObservationsConfig)
     params: dict[str, Any] = Field(default_factory=dict)
 
     @model_validator(mode="after")
     def _unique_cameras(self) -> SceneSpec:
-        names = [c.name for c in self.cameras]
+        names = [c.name for c in self.cameras] + [depth_camera_name(c.name) for c in self.cameras if c.depth]
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
-            raise ValueError(f"duplicate camera names: {dup}")
-        pixels = sum(c.width * c.height for c in self.cameras)
+            raise ValueError(f"duplicate camera names (a depth camera is named <camera>_depth): {dup}")
+        pixels = sum(c.width * c.height * (2 if c.depth else 1) for c in self.cameras)
         if pixels > MAX_FRAME_PIXELS:
             raise ValueError(f"cameras: {pixels} pixels per step in all; at most {MAX_FRAME_PIXELS}")
         return self

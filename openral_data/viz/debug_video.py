@@ -6,7 +6,8 @@ and encoding run in one background thread fed through a bounded queue; when the 
 recording waits (a debug video is a file the user asked for: no frame of it is dropped). An episode is
 encoded into a hidden `.episode_NNNNNN.mp4.partial` and renamed to `episode_NNNNNN.mp4` once the bridge
 reports it committed; a discarded episode's partial file is deleted. h264 (libx264, else libopenh264),
-yuv420p, even dimensions; text in Pillow's built-in bitmap font.
+yuv420p, even dimensions; text in Pillow's built-in bitmap font. A depth camera is drawn grey (near = bright),
+scaled per frame between its nearest and farthest finite pixel; pixels without depth are black.
 """
 
 from __future__ import annotations
@@ -90,6 +91,21 @@ class Layout:
         return Layout(tuple(placed), common, width, _even(common + strip), line_h, per_line, action_lines)
 
 
+FARTHEST_GREY = 32  # the farthest valid depth: darker than every other, brighter than "no depth"
+
+
+def depth_grey(depth: npt.NDArray[np.generic]) -> npt.NDArray[np.uint8]:
+    """An (H, W) depth map as an RGB picture: nearest white, farthest dark grey (32), invalid (non-finite, 0) black."""
+    d = np.asarray(depth, dtype=np.float64)
+    valid = np.isfinite(d) & (d > 0)
+    grey = np.zeros(d.shape, dtype=np.uint8)
+    if valid.any():
+        lo, hi = float(d[valid].min()), float(d[valid].max())
+        scale = (255.0 - FARTHEST_GREY) / (hi - lo) if hi > lo else 0.0
+        grey[valid] = np.rint(255.0 - (d[valid] - lo) * scale).astype(np.uint8)
+    return np.repeat(grey[:, :, None], 3, axis=2)
+
+
 def _even(n: int) -> int:
     return n + (n % 2)
 
@@ -119,6 +135,8 @@ class Compositor:
         canvas = np.zeros((lay.height, lay.width, 3), dtype=np.uint8)
         for name, x, scaled in lay.cameras:
             img = frame.images[name]
+            if img.ndim == 2:
+                img = depth_grey(img)
             if img.shape[0] != lay.camera_height or img.shape[1] != scaled:
                 resized = Image.fromarray(img).resize((scaled, lay.camera_height), Image.Resampling.NEAREST)
                 img = np.asarray(resized)

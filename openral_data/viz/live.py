@@ -205,7 +205,9 @@ class LiveView:
         rec.set_time(FRAME, sequence=step)
         rec.set_time(TIME, duration=frame.timestamp)
         for cam, image in frame.images.items():
-            rec.log(camera_entity(cam), rr.Image(image))
+            unit = self.schema.cameras[cam].depth_unit
+            shown = rr.Image(image) if unit is None else rr.DepthImage(image, meter=1.0 if unit == "m" else 1000.0)
+            rec.log(camera_entity(cam), shown)
         schema = self.schema
         for base, values, names in (
             ("state", frame.state, schema.state_names),

@@ -90,3 +90,29 @@ def test_an_existing_video_is_never_replaced(tmp_path: Path) -> None:
     assert canary.read_bytes() == b"not ours"
     assert (tmp_path / "episode_000002.mp4").read_bytes() == b"appeared meanwhile"
     assert leftovers(tmp_path) == []
+
+
+def test_a_depth_camera_is_drawn_grey_near_bright_and_no_return_black() -> None:
+    from openral_data.viz.debug_video import Compositor
+
+    schema = DatasetSchema(
+        fps=10,
+        state_names=("s0",),
+        action_names=("a0",),
+        cameras={"front_depth": CameraShape(height=32, width=32, depth_unit="m")},
+        robot_type="test",
+    )
+    depth = np.full((32, 32), 2.0, dtype=np.float32)
+    depth[:8] = 0.5  # near: white
+    depth[-8:] = np.inf  # nothing hit: black
+    frame = Frame(
+        state=np.zeros(1, dtype=np.float32),
+        action=np.zeros(1, dtype=np.float32),
+        images={"front_depth": depth},
+        task="t",
+        reward=0.0,
+        done=False,
+        success=False,
+    )
+    canvas = Compositor(schema).draw(0, 0, frame)
+    assert (canvas[:8, :32] == 255).all() and (canvas[8:24, :32] == 32).all() and (canvas[24:32, :32] == 0).all()

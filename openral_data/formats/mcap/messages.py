@@ -7,6 +7,11 @@ Topics of one episode bag (names are stable; `convert` and `export` rely on them
 * ``/action``         ``std_msgs/msg/Float32MultiArray``: the action vector, float32 as recorded (see docs/convert.md).
 * ``/camera/<name>/image/compressed`` ``sensor_msgs/msg/CompressedImage`` (format ``jpeg`` or ``png``), or
   ``/camera/<name>/image_raw`` ``sensor_msgs/msg/Image`` (``rgb8``) with ``image_format: raw``.
+* ``/camera/<name>/depth/image_raw`` ``sensor_msgs/msg/Image`` of a depth camera: ``16UC1`` millimetres or
+  ``32FC1`` metres, the unit its frames came in (a simulated depth camera: 32FC1).
+* ``/camera/<name>/camera_info`` ``sensor_msgs/msg/CameraInfo``, once at the start, for a camera whose feature
+  info has ``camera_info``; ``/tf_static`` ``tf2_msgs/msg/TFMessage``, once at the start: the pose of every camera
+  whose info has ``extrinsics`` (its optical frame ``<name>`` in its ``parent_frame``).
 * ``/reward``         ``std_msgs/msg/Float32``: the reward that followed the action of the same stamp (absent
   when the source has no reward).
 * ``/task``           ``std_msgs/msg/String``: the task text, published on the first frame and on change.
@@ -41,6 +46,8 @@ JOINT_STATE_T = "sensor_msgs/msg/JointState"
 COMPRESSED_T = "sensor_msgs/msg/CompressedImage"
 IMAGE_T = "sensor_msgs/msg/Image"
 CAMERA_INFO_T = "sensor_msgs/msg/CameraInfo"
+TF_T = "tf2_msgs/msg/TFMessage"
+TF_STATIC = "/tf_static"
 FLOAT32_ARRAY_T = "std_msgs/msg/Float32MultiArray"
 FLOAT32_T = "std_msgs/msg/Float32"
 STRING_T = "std_msgs/msg/String"
@@ -87,6 +94,11 @@ class MessageFactory:
         self._compressed = t[COMPRESSED_T]
         self._image = t[IMAGE_T]
         self._camera_info = t[CAMERA_INFO_T]
+        self._tf = t[TF_T]
+        self._transform_stamped = t["geometry_msgs/msg/TransformStamped"]
+        self._transform = t["geometry_msgs/msg/Transform"]
+        self._vector3 = t["geometry_msgs/msg/Vector3"]
+        self._quaternion = t["geometry_msgs/msg/Quaternion"]
         self._roi = t["sensor_msgs/msg/RegionOfInterest"]
         self._f32_array = t[FLOAT32_ARRAY_T]
         self._layout = t["std_msgs/msg/MultiArrayLayout"]
@@ -153,13 +165,32 @@ class MessageFactory:
         )
         return bytes(self.store.serialize_cdr(msg, CAMERA_INFO_T))
 
-    def depth_image(self, stamp_ns: int, camera: str, mm: npt.NDArray[np.uint16]) -> bytes:
-        """A 16UC1 Image (millimetres, little-endian) of an (H, W) uint16 depth map."""
-        h, w = int(mm.shape[0]), int(mm.shape[1])
-        data = np.ascontiguousarray(mm, dtype="<u2").view(np.uint8).reshape(-1)
+    def depth_image(self, stamp_ns: int, camera: str, depth: npt.NDArray[Any]) -> bytes:
+        """An Image of an (H, W) depth map, little-endian: uint16 millimetres as 16UC1, float32 metres as 32FC1."""
+        h, w = int(depth.shape[0]), int(depth.shape[1])
+        metres = depth.dtype == np.float32
+        data = np.ascontiguousarray(depth, dtype="<f4" if metres else "<u2").view(np.uint8).reshape(-1)
         header = self._stamp_header(stamp_ns, frame_id=camera)
-        msg = self._image(header=header, height=h, width=w, encoding="16UC1", is_bigendian=0, step=2 * w, data=data)
+        encoding, size = ("32FC1", 4) if metres else ("16UC1", 2)
+        msg = self._image(header=header, height=h, width=w, encoding=encoding, is_bigendian=0, step=size * w, data=data)
         return bytes(self.store.serialize_cdr(msg, IMAGE_T))
+
+    def transforms(self, stamp_ns: int, poses: dict[str, dict[str, Any]]) -> bytes:
+        """A TFMessage: frame `child` -> its `extrinsics` (parent_frame, position, quaternion [qw, qx, qy, qz])."""
+        stamped = []
+        for child, pose in poses.items():
+            qw, qx, qy, qz = (float(v) for v in pose["quaternion"])
+            x, y, z = (float(v) for v in pose["position"])
+            stamped.append(
+                self._transform_stamped(
+                    header=self._stamp_header(stamp_ns, frame_id=str(pose["parent_frame"])),
+                    child_frame_id=child,
+                    transform=self._transform(
+                        translation=self._vector3(x=x, y=y, z=z), rotation=self._quaternion(x=qx, y=qy, z=qz, w=qw)
+                    ),
+                )
+            )
+        return bytes(self.store.serialize_cdr(self._tf(transforms=stamped), TF_T))
 
     def image(self, stamp_ns: int, camera: str, rgb: npt.NDArray[np.uint8], compressed: bytes | None = None) -> bytes:
         """The camera message; `compressed` is `compress(rgb)` when it was already computed elsewhere."""

@@ -268,6 +268,8 @@ class _EpisodeBag:
             name: shape.info["camera_info"] for name, shape in schema.cameras.items() if "camera_info" in shape.info
         }
         c_info = {name: add(m.camera_info_topic(name), m.CAMERA_INFO_T, typestore=store) for name in intrinsics}
+        poses = {name: shape.info["extrinsics"] for name, shape in schema.cameras.items() if "extrinsics" in shape.info}
+        c_tf = add(m.TF_STATIC, m.TF_T, typestore=store) if poses else None
         self.c_cams: dict[str, Connection] = {
             name: (
                 add(m.depth_topic(name), m.IMAGE_T, typestore=store)
@@ -290,7 +292,7 @@ class _EpisodeBag:
             "state_names": list(schema.state_names),
             "action_names": list(schema.action_names),
             "cameras": [name for name in schema.cameras if name not in self.depth],
-            # 16UC1 millimetres on depth_topic(name); each with the lerobot quantizer it came from (video.depth_*)
+            # 16UC1 millimetres or 32FC1 metres on depth_topic(name); each with its lerobot quantizer (video.depth_*)
             "depth_cameras": {name: _quantizer(schema.cameras[name].info) for name in self.depth},
             "environment_state_names": list(schema.environment_state_names),
             "initial_state": start.initial_state,
@@ -299,6 +301,8 @@ class _EpisodeBag:
         self.writer.write(self.c_event, self.base_ns, self.factory.event(marker))
         for name, conn in c_info.items():  # a camera's intrinsics: once, at the start
             self.writer.write(conn, self.base_ns, self.factory.camera_info(self.base_ns, intrinsics[name]))
+        if c_tf is not None:  # where each camera is: once, at the start
+            self.writer.write(c_tf, self.base_ns, self.factory.transforms(self.base_ns, poses))
 
     def write_frame(self, frame: Frame, encoded: dict[str, bytes]) -> None:
         ns = self.base_ns + round(frame.timestamp * 1e9)

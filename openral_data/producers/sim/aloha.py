@@ -105,7 +105,11 @@ class AlohaScene(RigScene):
         # gym-aloha's MJCF draws its arms in geom group 1: MuJoCo's default groups, not the composed scenes'
         self.data = self.physics.data.ptr  # the same MjData for the scene's life (resets are in place)
         self.rig = CameraRig(self.physics.model.ptr, cams, scene.scene.render, option=mujoco.MjvOption())
-        self.spec = scene_spec(DIM, DIM, cams, FPS)
+        if scene.scene.observations.environment_state:
+            self.environment_objects = self._objects
+        self.spec = scene_spec(
+            DIM, DIM, cams, FPS, shapes=self.rig.shapes(), environment_objects=self.environment_objects
+        )
         self.task_text = scene.task.instruction
         self._seed = 0
         self.initial = {}

@@ -1,13 +1,20 @@
 """What a simulated scene promises: its ProducerSpec (every simulated scene can restore a recorded initial state),
 and the rSkill contract checks it makes: is the skill's state/action representation one the scene
-produces/accepts? One refusal shape, `<rskill>: <side>_contract.representation: <why>`, for all of them."""
+produces/accepts? One refusal shape, `<rskill>: <side>_contract.representation: <why>`, for all of them.
+
+`observation.environment_state` of a simulated scene (`scene.observations.environment_state`) is its objects'
+poses: per object `<object>.x, .y, .z, .qw, .qx, .qy, .qz` (world frame), in the order the scene names them,
+from `Observation.privileged["object_poses"]` (`object_pose_names` / `object_pose_vector`)."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
-from typing import Literal
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any, Literal
 
-from openral_data.errors import CompatibilityError
+import numpy as np
+import numpy.typing as npt
+
+from openral_data.errors import CompatibilityError, ConfigError
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SceneCamera
 from openral_data.types import CameraShape, ProducerSpec
@@ -15,15 +22,50 @@ from openral_data.types import CameraShape, ProducerSpec
 Side = Literal["state", "action"]
 
 
-def scene_spec(state_dim: int | None, action_dim: int | None, cameras: Iterable[SceneCamera], fps: int) -> ProducerSpec:
-    """The spec of a simulated scene rendering `cameras` at their YAML sizes; `None` dims mean "any"."""
+POSE_FIELDS = ("x", "y", "z", "qw", "qx", "qy", "qz")
+
+
+def scene_spec(
+    state_dim: int | None,
+    action_dim: int | None,
+    cameras: Iterable[SceneCamera],
+    fps: int,
+    *,
+    shapes: Mapping[str, CameraShape] | None = None,
+    environment_objects: Sequence[str] = (),
+    source: str = "scene",
+) -> ProducerSpec:
+    """The spec of a simulated scene rendering `cameras` at their YAML sizes; `None` dims mean "any".
+
+    `shapes`: every stream the scene renders with its geometry (`CameraRig.shapes()`, depth streams included);
+    without them the scene renders colour only and a camera asking for depth is refused. `environment_objects`:
+    the objects whose poses `observation.environment_state` carries (empty: none)."""
+    cams = list(cameras)
+    if shapes is None:
+        for i, c in enumerate(cams):
+            if c.depth:
+                raise ConfigError(f"{source}: scene.cameras[{i}].depth: this scene type renders no depth")
+        shapes = {c.name: CameraShape(c.height, c.width) for c in cams}
     return ProducerSpec(
         state_dim=state_dim,
         action_dim=action_dim,
-        cameras={c.name: CameraShape(c.height, c.width) for c in cameras},
+        cameras=dict(shapes),
         fps=fps,
         can_restore_state=True,
+        environment_state_names=object_pose_names(environment_objects),
     )
+
+
+def object_pose_names(objects: Iterable[str]) -> tuple[str, ...]:
+    """`observation.environment_state`'s names for the poses of `objects`: `<object>.x` ... `<object>.qz`."""
+    return tuple(f"{o}.{f}" for o in objects for f in POSE_FIELDS)
+
+
+def object_pose_vector(poses: Mapping[str, Any], objects: Sequence[str]) -> npt.NDArray[np.float32]:
+    """`observation.environment_state` from `privileged["object_poses"]` ({object: [x, y, z, qw, qx, qy, qz]})."""
+    if not objects:
+        return np.zeros(0, dtype=np.float32)
+    return np.concatenate([np.asarray(poses[o], dtype=np.float32).reshape(7) for o in objects])
 
 
 def check_representation(rskill_source: str, side: Side, representation: str, valid: Sequence[str], why: str) -> None:

@@ -146,11 +146,11 @@ class MetaWorldScene(RigScene):
             raise ConfigError(
                 f"{source}: scene.fps: MetaWorld steps at {rate:g} Hz (timestep x frame skip); set fps: {rate:g}"
             )
-        self.spec = scene_spec(STATE_DIM, ACTION_DIM, scene.scene.cameras, scene.scene.fps)
         self.task_text = scene.task.instruction
         self._raw: npt.NDArray[np.float64] = np.zeros(39)
         self.initial = {}
         self.rig = named_camera_rig(self.model, self.data, list(scene.scene.cameras), scene.scene.render, source)
+        self.spec = scene_spec(STATE_DIM, ACTION_DIM, scene.scene.cameras, scene.scene.fps, shapes=self.rig.shapes())
 
     # -- SimRollout ------------------------------------------------------------------------------------------
     def reset(self, seed: int) -> Observation:

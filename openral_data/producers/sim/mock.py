@@ -53,7 +53,7 @@ class MockScene:
             raise ConfigError(f"{source}: scene.params.success_after: needs positive step counts")
         self._state_dim = self.params.state_dim or state_dim
         self._task = scene.task.instruction
-        self.spec = scene_spec(self._state_dim, None, scene.scene.cameras, scene.scene.fps)
+        self.spec = scene_spec(self._state_dim, None, scene.scene.cameras, scene.scene.fps, source=source)
         self._episode = -1
         self._t = 0
         self._seed = 0

@@ -61,7 +61,7 @@ class PushTScene:
             observation_width=width,
             observation_height=height,
         )
-        self.spec = scene_spec(2, 2, cams, FPS)
+        self.spec = scene_spec(2, 2, cams, FPS, source=source)
         self._task = scene.task.instruction
         self._seed = 0
         self._t = 0

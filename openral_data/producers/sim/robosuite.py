@@ -177,7 +177,6 @@ class RobosuiteScene(RigScene):
             self._obs = self.env.reset()
         n_arm = len(self._obs["robot0_joint_pos"])
         state_dim = 8 if self.state_representation == "eef_pose_gripper" else n_arm + 1
-        self.spec = scene_spec(state_dim, int(self.env.action_dim), scene.scene.cameras, scene.scene.fps)
         self.task_text = scene.task.instruction
         self._seed = 0
         self.initial = {}
@@ -187,6 +186,16 @@ class RobosuiteScene(RigScene):
             groups = (VISUAL, ROBOT_COLLISION)
         self.rig = named_camera_rig(
             self.model, self.data, list(scene.scene.cameras), scene.scene.render, source, geom_groups=groups
+        )
+        if scene.scene.observations.environment_state:
+            self.environment_objects = tuple(self._objects)
+        self.spec = scene_spec(
+            state_dim,
+            int(self.env.action_dim),
+            scene.scene.cameras,
+            scene.scene.fps,
+            shapes=self.rig.shapes(),
+            environment_objects=self.environment_objects,
         )
 
     # -- SimRollout ------------------------------------------------------------------------------------------

@@ -175,3 +175,32 @@ def test_every_robosuite_benchmark_records_loads_replays_and_reports(
     replay_reproduces(out, tmp_path / "replay", episodes=2)
     (group,) = stats_groups(out)
     assert group["episodes"] == 2 and group["success_known"] == 2 and group["ci95_low"] <= group["success_rate"]
+
+
+@pytest.mark.slow
+def test_named_camera_depth_geometry_and_object_poses() -> None:
+    """A model's own camera gets depth and its geometry through the same rig as the composed scenes; the task
+    objects' poses are `observation.environment_state`."""
+    from openral_data.producers.sim.mujoco.camera_geometry import project
+    from openral_data.schemas.scene import ObservationsConfig, SceneCamera
+    from tests.support.mujoco import red_mask
+    from tests.support.suites import build
+
+    scene = shipped("robosuite_lift")
+    cams = [SceneCamera(name="agentview", width=SIZE, height=SIZE, depth=True)]
+    update = {"cameras": cams, "observations": ObservationsConfig(environment_state=True)}
+    env = build(scene.model_copy(update={"scene": scene.scene.model_copy(update=update)}), RANDOM)
+    try:
+        assert env.spec.cameras["agentview_depth"].depth_unit == "m"
+        assert env.spec.environment_state_names == tuple(f"cube.{k}" for k in ("x", "y", "z", "qw", "qx", "qy", "qz"))
+        obs = env.reset(1)
+        cube = np.asarray(obs.privileged["object_poses"]["cube"], dtype=np.float32)
+        assert obs.environment_state is not None and np.array_equal(obs.environment_state, cube)
+        depth = obs.images["agentview_depth"]
+        assert depth.dtype == np.float32 and depth.shape == (SIZE, SIZE)
+        u, v = project(env.spec.cameras["agentview"].info, cube[:3])
+        rows, cols = np.nonzero(red_mask(obs.images["agentview"]))
+        assert rows.size >= 5 and abs(cols.mean() - u) < 2.0 and abs(rows.mean() - v) < 2.0, (u, v)
+        assert 0.3 < float(depth[round(v), round(u)]) < 1.5
+    finally:
+        env.close()

@@ -216,7 +216,7 @@ class LiberoScene:
         except BaseException:
             self.close()
             raise
-        self.spec = scene_spec(STATE_DIM, ACTION_DIM, cams, FPS)
+        self.spec = scene_spec(STATE_DIM, ACTION_DIM, cams, FPS, source=source)
         self._initial: dict[str, Any] = {}
         self._t0 = 0.0
         self._raw: dict[str, Any] = {}

@@ -3,19 +3,28 @@
 Sites (the grasp markers of robot MJCFs) are hidden. The robot is drawn with its collision meshes (geom group
 0) or its visual meshes (group 1) per `render.robot_meshes`; the scene's own geoms are group 2 and always drawn.
 A simulator's own cameras are rendered by the same rig (named_cameras.py builds it with their flips).
+A camera with `depth: true` also gives its depth map, `<name>_depth`: float32 metres along the optical axis
+(MuJoCo's `enable_depth_rendering`, the same scene update as its colour frame); where nothing is hit (the far
+plane) it is +inf, REP 118's "no return" (a lerobot depth video loads it as its `depth_max`).
+`shapes()` is every stream's CameraShape with the camera's geometry (camera_geometry.py) in its info.
 Renderers hold GL contexts: `close()` frees them.
 """
 
 from __future__ import annotations
 
 from collections.abc import Collection
+from typing import Any
 
 import mujoco
 import numpy as np
 import numpy.typing as npt
 
+from openral_data.producers.sim.mujoco.camera_geometry import camera_geometry
 from openral_data.producers.sim.mujoco.compose import SCENE_GROUP
-from openral_data.schemas.scene import RenderConfig, SceneCamera
+from openral_data.schemas.scene import RenderConfig, SceneCamera, depth_camera_name
+from openral_data.types import CameraShape
+
+FAR_PLANE_FRACTION = 0.999  # depth at the far plane (within float32 rounding) is "nothing hit"
 
 
 class CameraRig:
@@ -38,6 +47,20 @@ class CameraRig:
             option.geomgroup[SCENE_GROUP] = 1
         self._option = option
         self._flipped = frozenset(flipped)
+        self._far = FAR_PLANE_FRACTION * float(model.vis.map.zfar * model.stat.extent)
+        self._depth = {cam.name: depth_camera_name(cam.name) for cam in cameras if cam.depth}
+        self._shapes: dict[str, CameraShape] = {}
+        for cam in cameras:
+            flip = cam.name in self._flipped
+            self._shapes[cam.name] = CameraShape(
+                cam.height,
+                cam.width,
+                info=camera_geometry(model, cam.name, cam.width, cam.height, cam.name, flip) or {},
+            )
+            if cam.depth:
+                depth = self._depth[cam.name]
+                geometry = camera_geometry(model, cam.name, cam.width, cam.height, depth, flip)
+                self._shapes[depth] = CameraShape(cam.height, cam.width, depth_unit="m", info=geometry or {})
         self._renderers: dict[str, mujoco.Renderer] = {}
         try:
             for cam in cameras:
@@ -46,13 +69,29 @@ class CameraRig:
             self.close()
             raise
 
-    def render(self, data: mujoco.MjData) -> dict[str, npt.NDArray[np.uint8]]:
-        out: dict[str, npt.NDArray[np.uint8]] = {}
+    def shapes(self) -> dict[str, CameraShape]:
+        """Every stream the rig renders (a camera, then its depth map if asked), with its geometry in `info`."""
+        return dict(self._shapes)
+
+    def render(self, data: mujoco.MjData) -> dict[str, npt.NDArray[Any]]:
+        """Colour frames (uint8 HWC); a depth stream's entry is float32 (H, W) metres (see `shapes()`)."""
+        out: dict[str, npt.NDArray[Any]] = {}
         for name, r in self._renderers.items():
             r.update_scene(data, camera=name, scene_option=self._option)
-            img = r.render()
-            out[name] = np.ascontiguousarray(img[::-1, ::-1]) if name in self._flipped else img.copy()
+            out[name] = self._upright(name, r.render())
+            depth = self._depth.get(name)
+            if depth is not None:
+                r.enable_depth_rendering()
+                try:
+                    metres = self._upright(name, r.render())
+                    metres[metres >= self._far] = np.inf
+                    out[depth] = metres
+                finally:
+                    r.disable_depth_rendering()
         return out
+
+    def _upright(self, name: str, img: npt.NDArray[Any]) -> npt.NDArray[Any]:
+        return np.ascontiguousarray(img[::-1, ::-1]) if name in self._flipped else img.copy()
 
     def close(self) -> None:
         for r in self._renderers.values():

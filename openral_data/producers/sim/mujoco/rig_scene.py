@@ -9,6 +9,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
+from openral_data.producers.sim.contract import object_pose_vector
 from openral_data.producers.sim.mujoco.render import CameraRig
 from openral_data.types import Observation
 
@@ -25,18 +26,21 @@ class RigScene:
     task_text: str
     t0: float = 0.0
     env: Any = None
+    environment_objects: tuple[str, ...] = ()
 
     def observe(self, state: npt.NDArray[np.float32], privileged: dict[str, Any]) -> Observation:
         """The current frames, `state`, the task text and the time since the episode began."""
+        objects = self.environment_objects
         return Observation(
             images=self.render(),
             state=state,
             task=self.task_text,
             time=float(self.data.time) - self.t0,
             privileged=privileged,
+            environment_state=object_pose_vector(privileged["object_poses"], objects) if objects else None,
         )
 
-    def render(self) -> dict[str, npt.NDArray[np.uint8]]:
+    def render(self) -> dict[str, npt.NDArray[Any]]:
         return self.rig.render(self.data)
 
     def initial_state(self) -> dict[str, Any]:

@@ -4,8 +4,11 @@ Observation state, by the rSkill state contract's representation:
 * `joint_positions_gripper`: arm joint positions (manifest order) + gripper opening state (0 open .. 1 closed)
 * `joint_positions`: arm joint positions only
 * `eef_pose_gripper`: end-effector site [x, y, z, qw, qx, qy, qz] (world frame, qw >= 0) + gripper state
+* `eef_pose_gripper_width`: the same pose + the gripper's width in metres (the gap between the finger pads,
+  finger_gap.py)
 Actions: see controllers.py. `Observation.time` is simulation time since reset; `Observation.privileged`
-holds ground truth (cube, goal, end effector) for scripted experts and is never recorded.
+holds ground truth (cube, goal, end effector) for scripted experts and is never recorded; with
+`scene.observations.environment_state` the objects' poses are recorded as `observation.environment_state`.
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ from openral_data.producers.sim.mujoco.controllers import (
     EefDeltaController,
     JointPositionController,
 )
+from openral_data.producers.sim.mujoco.finger_gap import FingerGap
 from openral_data.producers.sim.mujoco.kinematics import F64, Arm, IKSolver
 from openral_data.producers.sim.mujoco.render import CameraRig
 from openral_data.producers.sim.mujoco.rig_scene import RigScene
@@ -42,7 +46,7 @@ from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
 from openral_data.types import Observation, StepResult
 
-STATE_REPRESENTATIONS = ("joint_positions_gripper", "joint_positions", "eef_pose_gripper")
+STATE_REPRESENTATIONS = ("joint_positions_gripper", "joint_positions", "eef_pose_gripper", "eef_pose_gripper_width")
 STATE_FORMAT = 1
 
 
@@ -114,12 +118,26 @@ class TabletopScene(RigScene):
             # the grasp site may go down to 5 mm above the table, never into it
             self.controller = EefDeltaController(self.arm, self.ik, min_height=self.params.table_height + 0.005)
         n = self.arm.n
-        state_dim = {"joint_positions_gripper": n + 1, "joint_positions": n, "eef_pose_gripper": 8}[
-            self.state_representation
-        ]
+        state_dim = {"joint_positions_gripper": n + 1, "joint_positions": n}.get(self.state_representation, 8)
+        self.finger_gap: FingerGap | None = None
+        if self.state_representation == "eef_pose_gripper_width":
+            self.arm.hold(self.data, self.ready_q)
+            mujoco.mj_forward(self.model, self.data)
+            self.finger_gap = FingerGap(
+                self.model, self.data, self.composed.gripper_joints, self.arm.site, robot_source
+            )
         self.task_text = scene.task.instruction
-        self.spec = scene_spec(state_dim, self.controller.action_dim, scene.scene.cameras, scene.scene.fps)
+        if scene.scene.observations.environment_state:
+            self.environment_objects = self.object_names()
         self.rig = CameraRig(self.model, list(scene.scene.cameras), scene.scene.render)
+        self.spec = scene_spec(
+            state_dim,
+            self.controller.action_dim,
+            scene.scene.cameras,
+            scene.scene.fps,
+            shapes=self.rig.shapes(),
+            environment_objects=self.environment_objects,
+        )
         self._seed = 0
         self.initial = {}
 
@@ -199,6 +217,10 @@ class TabletopScene(RigScene):
         self.controller.reset(self.data)
         return self._observation()
 
+    def object_names(self) -> tuple[str, ...]:
+        """The movable objects, in the order `observation.environment_state` lists them (`object_poses` keys)."""
+        return (CUBE,)
+
     def success(self) -> bool:
         return is_success(self.task_kind, self.params, self.cube_pos(), self.goal_pos())
 
@@ -235,7 +257,8 @@ class TabletopScene(RigScene):
         if self.state_representation == "joint_positions_gripper":
             return np.append(d.qpos[a.qpos], grip).astype(np.float32)
         pos, quat = a.ee_pose(d)
-        return np.concatenate([pos, quat, [grip]]).astype(np.float32)
+        last = grip if self.finger_gap is None else self.finger_gap.width(d)
+        return np.concatenate([pos, quat, [last]]).astype(np.float32)
 
     def _observation(self) -> Observation:
         d = self.data
