@@ -31,9 +31,8 @@ def rate(robot: str, task: str, seeds: int) -> tuple[int, float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--seeds", type=int, default=50)
-    parser.add_argument(
-        "--robots", default=",".join(r for r in registry.robot_ids() if registry.ROBOTS[r].sim is not None)
-    )
+    tabletop = [r for r in registry.robot_ids() if (sim := registry.ROBOTS[r].sim) and sim.get("tabletop") is not False]
+    parser.add_argument("--robots", default=",".join(tabletop))
     args = parser.parse_args()
     print(f"| robot | gripper | push (seeds 0-{args.seeds - 1}) | pick-place (seeds 0-{args.seeds - 1}) |")
     print("|---|---|---|---|")

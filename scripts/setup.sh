@@ -32,7 +32,7 @@ fi
 UV=("$PY" -m uv)
 # Optional extras the default environment (and CI) installs; each is one [project.optional-dependencies] entry.
 # Extras that conflict with these (e.g. a separate simulator environment) are set up by their own script.
-EXTRAS=(robosuite metaworld aloha pusht feetech ray)
+EXTRAS=(robosuite metaworld aloha pusht feetech so_arm ray)
 extra_args=()
 for extra in "${EXTRAS[@]}"; do extra_args+=(--extra "$extra"); done
 "${UV[@]}" sync --frozen --quiet --python "$PY" "${extra_args[@]}"

@@ -130,7 +130,8 @@ class FixedRateLoop:
         rep = EpisodeReport(
             stale={"state": 0, **dict.fromkeys(self.cameras, 0)}, repeated=dict.fromkeys(self.cameras, 0)
         )
-        initial = hal.begin_episode(seed)
+        # where the robot starts (manifest units): replay puts the MuJoCo twin there (producers/sim/mujoco/twin.py)
+        initial = {**hal.begin_episode(seed), "state": hal.read_state().positions.tolist()}
         for name in self.cameras:  # warm up (first render / device start-up) before the clock starts
             hal.cameras[name].latest()
         self.policy.reset(seed)

@@ -38,6 +38,12 @@ def _tabletop_factory(task: Literal["push", "pick_place"]) -> SceneFactory:
     return make
 
 
+def _twin_factory(scene: SimScene, robot: RobotManifest, rskill: RSkillManifest, source: str) -> SimRollout:
+    from openral_data.producers.sim.mujoco.twin import TwinScene
+
+    return TwinScene(scene, robot, rskill, source)
+
+
 def _pusht_factory(scene: SimScene, robot: RobotManifest, rskill: RSkillManifest, source: str) -> SimRollout:
     from openral_data.producers.sim.pusht import PushTScene
 
@@ -174,6 +180,7 @@ SCENES: Registry[SceneFactory] = Registry(
         "mock": _mock_factory,
         "tabletop_push": _tabletop_factory("push"),
         "tabletop_pick_place": _tabletop_factory("pick_place"),
+        "mujoco_twin": _twin_factory,
         "gym_pusht": _pusht_factory,
         "gym_aloha": _aloha_factory,
         "libero": _libero_factory,

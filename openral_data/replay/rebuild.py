@@ -1,6 +1,8 @@
 """Rebuild the recorded scene: the scene config, robot and rSkill stored in the dataset, never today's YAML.
 
-Any registered scene type works (`registry.SCENES`); the only requirement is `spec.can_restore_state`.
+Any registered scene type works (`registry.SCENES`); the only requirement is `spec.can_restore_state`. A
+`record --hal` recording of a robot (the real one or its twin, no scene) is rebuilt as that robot's MuJoCo twin
+(`mujoco_twin`, producers/sim/mujoco/twin.py) at the dataset's fps, starting where the robot started.
 """
 
 from __future__ import annotations
@@ -12,7 +14,7 @@ from openral_data.record import registry
 from openral_data.replay.recorded import RecordedDataset
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
-from openral_data.schemas.scene import RenderConfig, SceneCamera, SimScene
+from openral_data.schemas.scene import RenderConfig, SceneCamera, SceneSpec, SimScene, TaskSpec
 from openral_data.types import SimRollout
 
 
@@ -44,7 +46,7 @@ def rebuild(
 
     Raises an OpenralError naming the scene type when that scene cannot restore a recorded initial state.
     """
-    scene = dataset.scene()
+    scene = _twin_scene(dataset) if dataset.hal_recording() else dataset.scene()
     view = view or SceneView()
     update: dict[str, object] = {}
     if view.cameras is not None:
@@ -53,7 +55,8 @@ def rebuild(
         update["render"] = view.render
     if update:
         scene = scene.model_copy(update={"scene": scene.scene.model_copy(update=update)})
-    source = dataset.scene_source()
+    source = f"{dataset.root} (the MuJoCo twin of a robot recording)" if dataset.hal_recording() else None
+    source = source or dataset.scene_source()
     robot = registry.ROBOTS[dataset.robot()]
     manifest = rskill if rskill is not None else dataset.rskill()
     factory = registry.scene_factory(scene.scene.type, source)
@@ -72,3 +75,18 @@ def rebuild(
         source=source,
         rskill_source=rskill_source or f"rSkill {manifest.id} (as recorded in {dataset.root})",
     )
+
+
+def _twin_scene(dataset: RecordedDataset) -> SimScene:
+    """The scene a robot recording replays in: the robot's twin at the recorded fps, with the twin's default
+    cameras for the manifest's (the real cameras' poses are not known)."""
+    from openral_data.producers.hal.twin import twin_cameras
+
+    robot = registry.ROBOTS[dataset.robot()]
+    spec = SceneSpec(
+        id="mujoco_twin", type="mujoco_twin", robot=robot.name, fps=dataset.fps, cameras=twin_cameras(robot)
+    )
+    rskill = dataset.rskill()
+    longest = max((int(dataset.row(e)["length"]) for e in range(len(dataset))), default=1)
+    task = TaskSpec(scene_id=spec.id, instruction=rskill.description or rskill.id, max_steps=max(1, longest))
+    return SimScene(tier="sim", scene=spec, task=task)

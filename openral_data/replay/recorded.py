@@ -109,6 +109,14 @@ class RecordedDataset:
             raise ReplayError(f"{source}: missing")
         return config, source
 
+    def hal_recording(self) -> bool:
+        """Whether `record --hal` recorded it from a robot (its twin or the real one), not from a scene."""
+        meta = self.provenance
+        if meta is None or "scene" in meta:
+            return False
+        hal = meta.get("hal")
+        return isinstance(hal, dict) and hal.get("scene") is None
+
     def scene(self) -> SimScene:
         """The scene exactly as it was recorded (the YAML file may have changed since)."""
         config, source = self._recorded_config("scene")

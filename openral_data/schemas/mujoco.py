@@ -2,11 +2,14 @@
 
 A robot manifest's `sim:` block says how its MJCF is driven, so no scene has per-robot Python: which MJCF
 joints form the arm (in action/state order), the servo gains the scene gives them, the home posture, where the
-gripper is attached and how its actuators map to one normalised value (0 = open, 1 = closed), which site is the
-end effector, where a wrist camera goes and the default base pose.
+gripper is attached (or that the arm MJCF carries it) and how its actuators map to one normalised value
+(0 = open, 1 = closed), which site is the end effector, where a wrist camera goes, the default base pose, and
+the units the manifest's joints speak (`units`: the twin HAL converts at its boundary).
 """
 
 from __future__ import annotations
+
+from typing import Literal
 
 from pydantic import Field, model_validator
 
@@ -17,7 +20,8 @@ Quat = tuple[float, float, float, float]
 
 
 class GripperWiring(StrictModel):
-    """The manifest's `assets.gripper_mjcf` is attached at the arm's `attach_body`.
+    """The manifest's `assets.gripper_mjcf` is attached at the arm's `attach_body`; without a gripper MJCF the
+    names below are inside the arm MJCF (an arm with an integrated jaw, e.g. the SO-100/SO-101).
 
     Each actuator is driven linearly from `open` to `closed` by the normalised command g in [0, 1]; the state
     reports the mean of each joint's position mapped the same way from `joint_open` to `joint_closed`.
@@ -29,7 +33,7 @@ class GripperWiring(StrictModel):
     joints: list[str] = Field(min_length=1)
     joint_open: list[float]
     joint_closed: list[float]
-    ee_site: str = Field(min_length=1, description="site inside the gripper MJCF at the grasp centre")
+    ee_site: str = Field(min_length=1, description="site at the grasp centre (gripper MJCF, else arm MJCF)")
 
     @model_validator(mode="after")
     def _lengths(self) -> GripperWiring:
@@ -47,6 +51,26 @@ class WristCamera(StrictModel):
     fovy: float = Field(default=75.0, gt=0, lt=180)
 
 
+class ManifestUnits(StrictModel):
+    """The units of the manifest's joints (its `joints:` limits, state and action) against the MJCF's.
+
+    The twin HAL converts at its boundary, so the manifest's safety limits and the recorded data stay in the
+    real robot's units: arm joints `degrees` -> radians (the same zero: a manifest whose zero differs from the
+    MJCF's needs an MJCF that matches it), the gripper value `gripper_open` .. `gripper_closed` linearly onto the
+    normalised 0 (open) .. 1 (closed) of `gripper`. The defaults are the MJCF's own units.
+    """
+
+    joints: Literal["radians", "degrees"] = "radians"
+    gripper_open: float = 0.0
+    gripper_closed: float = 1.0
+
+    @model_validator(mode="after")
+    def _distinct(self) -> ManifestUnits:
+        if self.gripper_open == self.gripper_closed:
+            raise ValueError("gripper_open and gripper_closed must differ")
+        return self
+
+
 class MujocoRobotWiring(StrictModel):
     """The `sim:` block of `robots/<id>/robot.yaml` for the MuJoCo backend (the MJCF is `assets.mjcf`)."""
 
@@ -56,10 +80,16 @@ class MujocoRobotWiring(StrictModel):
     kp: list[float]
     kv: list[float]
     armature: float = Field(default=0.1, ge=0)
-    attach_body: str = Field(min_length=1, description="arm body the gripper is attached to")
+    attach_body: str | None = Field(
+        default=None, min_length=1, description="arm body the gripper MJCF is attached to (needed with one)"
+    )
     gripper: GripperWiring
     wrist_camera: WristCamera | None = None
     base_pos: Vec3 = (0.0, 0.0, 0.0)
+    units: ManifestUnits = Field(default_factory=ManifestUnits)
+    tabletop: bool = Field(
+        default=True, description="false: a twin only (record --hal); the tabletop scenes' workspace is out of reach"
+    )
 
     @model_validator(mode="after")
     def _per_joint(self) -> MujocoRobotWiring:

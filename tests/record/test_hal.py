@@ -1,5 +1,6 @@
 """`record --hal` end to end (slow): the UR5e twin into LeRobot v3 + MCAP loaded by lerobot 0.6.1 and rosbags,
-a sim scene behind the HAL, and the SO-100 adapter — lerobot's real driver — on a SIMULATED Feetech bus."""
+a sim scene behind the HAL, the SO-100 adapter — lerobot's real driver — on a SIMULATED Feetech bus, the SO arms'
+MuJoCo twin, and a real-arm (simulated bus) recording replayed on that twin."""
 
 from __future__ import annotations
 
@@ -15,6 +16,11 @@ import yaml
 from openral_data.errors import ConfigError, HalError
 from openral_data.producers.hal.so100 import MOTORS
 from openral_data.record.hal import HalRecordOptions, record_hal
+from openral_data.replay.actions import ActionReplayer
+from openral_data.replay.rebuild import SceneView, rebuild
+from openral_data.replay.recorded import RecordedDataset
+from openral_data.types import Observation, StepResult
+from tests.support.cli import run_cli
 from tests.support.feetech_bus import SimulatedFeetechBus
 from tests.support.hal import episode_infos, frames_table
 from tests.support.mcap import check_bag
@@ -156,3 +162,73 @@ def test_so100_refuses_to_run_uncalibrated(so100_project: Path, tmp_path: Path) 
             )
         )
     assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
+
+
+@pytest.mark.parametrize("robot", ["so100_follower", "so101_follower"])
+def test_so_arm_twin_records_what_the_real_arm_would(tmp_path: Path, robot: str) -> None:
+    """`record --hal so100_follower --mode sim`: the same rSkill and loop as the real arm, in the real arm's units."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    out = tmp_path / robot
+    s = record_hal(
+        HalRecordOptions(
+            robot=robot, rskill="sweep-so-arm", fps=10, n_episodes=1, max_steps=15, out=out, codec="h264",
+            operator="success",
+        )
+    )  # fmt: skip
+    assert s.episodes[0].length == 15 and s.episodes[0].success is True
+    ds = LeRobotDataset("local/so-twin", root=out, video_backend="pyav")
+    assert len(ds) == 15 and ds.meta.robot_type == robot
+    state = np.stack([ds[i]["observation.state"].numpy() for i in range(15)])
+    action = np.stack([ds[i]["action"].numpy() for i in range(15)])
+    # the twin starts at the MJCF zero = the middle of the calibrated range (0 degrees), jaw open (100)
+    assert np.allclose(state[0], [0, 0, 0, 0, 0, 100], atol=0.5)
+    assert 5.0 < np.abs(action[:, :5]).max() <= 10.0 + 1e-3  # the sweep's amplitude, in degrees
+    assert np.abs(state[1:, :5] - action[:-1, :5]).max() < 3.0  # the servos follow, as the real ones do
+    assert 15.0 < state[-1, 5] < 70.0  # the jaw followed the 20..60 gripper sweep from open
+    info = json.loads(ds.meta.episodes["openral.initial_state"][0])
+    assert info["hal"] == "mujoco_twin" and info["state"] == pytest.approx(state[0].tolist(), abs=0.5)
+
+
+def test_real_arm_recording_replays_on_the_twin(project: Path, tmp_path: Path) -> None:
+    """A recording of the real arm (SIMULATED bus) replays on the MuJoCo twin: the twin follows its joint targets."""
+    _so_project(project, "so100_follower")
+    out = tmp_path / "real"
+    with SimulatedFeetechBus(list(range(1, 7))) as bus:
+        record_hal(
+            HalRecordOptions(
+                robot="so100_follower", rskill="sweep-so-arm", mode="real", port=bus.port, fps=10,
+                n_episodes=1, max_steps=20, out=out, codec="h264", operator="success",
+            )
+        )  # fmt: skip
+    dataset = RecordedDataset(out)
+    assert dataset.hal_recording()
+    episode = dataset.episode(0)
+    assert episode.initial_state is not None
+    assert episode.initial_state["state"] == pytest.approx(episode.states[0].tolist(), abs=0.5)
+    built = rebuild(dataset, view=SceneView(cameras=()))
+    after: list[np.ndarray] = []
+
+    def seen(obs: Observation, action: np.ndarray, result: StepResult, done: bool) -> None:
+        after.append(np.asarray(result.observation.state))
+
+    try:
+        assert built.scene.scene.type == "mujoco_twin" and built.scene.scene.fps == 10
+        replayed = ActionReplayer(built.env, tolerance=5.0).replay(episode, seen)
+    finally:
+        built.env.close()
+    assert replayed.steps == 20 and len(after) == 20
+    follow = np.abs(np.array(after)[:, :5] - episode.actions[:, :5])
+    assert follow.max() < 2.0, follow.max()  # degrees: each target reached within the 0.1 s step
+    # and close to what the real arm did: within 5 (degrees; gripper units, its jaw servo is slower)
+    assert replayed.first_divergence_frame is None
+    assert replayed.state_abs is not None and replayed.state_abs[:, :5].max() < 2.0
+    assert replayed.state_abs[1:, :5].max() > 0  # a simulation, not a copy of the recording
+
+    res = tmp_path / "res"
+    r = run_cli("replay", str(out), "--tolerance", "5", "--out", str(res), "--json")
+    assert r.returncode == 0, r.stderr
+    summary = json.loads(r.stdout)
+    assert summary["mode"] == "actions" and summary["episodes"] == 1 and summary["diverged_episodes"] == {}
+    assert 0 < summary["divergence_max"] < 10.0
+    assert summary["success_recorded"] == 1 and summary["success_replayed"] == 0  # the twin has no task

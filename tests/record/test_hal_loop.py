@@ -147,7 +147,7 @@ def test_cli_error_is_one_line(tmp_path: Path, project: Path) -> None:
         (["--hal", "ur5e", "--rskill", "sweep-ur5e", "--operator", "win@3"], "unknown verdict"),
         (["--hal", "ur5e", "--rskill", "sweep-ur5e", "--safety", "maybe"], "--safety"),
         (["--hal", "ur5e", "--rskill", "sweep-ur5e", "--fps", "0"], "--fps"),
-        (["--hal", "so100_follower", "--rskill", "sweep-so-arm"], "has no MuJoCo wiring"),
+        (["--hal", "aloha", "--rskill", "sweep-ur5e"], "has no MuJoCo wiring"),  # the SO arms have a twin now
         (["--mode", "real"], "--mode: only with --hal"),
     ],
 )

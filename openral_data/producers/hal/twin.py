@@ -1,10 +1,11 @@
 """HALs backed by MuJoCo: the digital twin of any robot manifest, and any sim scene behind the HAL protocol.
 
 `MujocoTwinHal` composes the manifest's arm and gripper (its `sim:` block, the same `compose` the tabletop
-scenes use, no per-robot code) on the standard table, drives it with the same position servos
-(`JointPositionController`) and runs physics in step with the monotonic clock: every read or command first
-advances the simulation to "now" (at most `max_catch_up` seconds at once), so a slow loop sees the robot keep
-moving exactly as hardware would. Cameras render on the caller's thread when sampled.
+scenes use, no per-robot code: `producers/sim/mujoco/twin.py`'s `Twin`) on the standard table, drives it with
+the same position servos (`JointPositionController`) in the manifest's units (`sim.units`: e.g. the SO arm's
+degrees and 0..100 gripper, converted at this boundary) and runs physics in step with the monotonic clock:
+every read or command first advances the simulation to "now" (at most `max_catch_up` seconds at once), so a
+slow loop sees the robot keep moving exactly as hardware would. Cameras render on the caller's thread when sampled.
 
 `SceneHal` puts a `SimRollout` (e.g. `tabletop_push`) behind the protocol: each command advances the scene by
 one control step; reward, success and privileged ground truth are passed on for scripted experts.
@@ -21,12 +22,9 @@ import numpy as np
 from openral_data.errors import ConfigError
 from openral_data.producers.hal.base import HalBase, JointCommand, RobotState, monotonic
 from openral_data.producers.hal.sensors import Image, PolledCamera
-from openral_data.producers.sim.mujoco.compose import ROBOT, compose
-from openral_data.producers.sim.mujoco.controllers import JointPositionController
-from openral_data.producers.sim.mujoco.kinematics import F64, Arm
+from openral_data.producers.sim.mujoco.kinematics import F64
 from openral_data.producers.sim.mujoco.render import CameraRig
-from openral_data.producers.sim.mujoco.scene import load_wiring
-from openral_data.schemas.mujoco import TabletopParams
+from openral_data.producers.sim.mujoco.twin import Twin
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.scene import RenderConfig, SceneCamera
 from openral_data.types import CameraShape, Observation, SimRollout
@@ -46,7 +44,7 @@ def twin_cameras(robot: RobotManifest) -> list[SceneCamera]:
 
 
 class MujocoTwinHal(HalBase):
-    """The robot of any manifest with a `sim:` block, simulated in real time."""
+    """The robot of any manifest with a `sim:` block, simulated in real time, in the manifest's units."""
 
     def __init__(
         self,
@@ -57,34 +55,17 @@ class MujocoTwinHal(HalBase):
         max_catch_up: float = 0.5,
     ) -> None:
         super().__init__(robot)
-        wiring, arm_mjcf, grip_mjcf, source = load_wiring(robot)
-        self.source = source
-        self.params = TabletopParams()
         self._camera_specs = cameras if cameras is not None else twin_cameras(robot)
         self._render = render or RenderConfig()
-        composed = compose(
-            robot_mjcf=arm_mjcf,
-            gripper_mjcf=grip_mjcf,
-            wiring=wiring,
-            params=self.params,
-            cameras=self._camera_specs,
-            task="push",
-            robot_source=source,
-            scene_source=source,
-        )
-        self.model = composed.model
+        self.twin = Twin(robot, self._camera_specs)
+        self.source = self.twin.source
+        self.params = self.twin.params
+        self.model = self.twin.model
         self.data = mujoco.MjData(self.model)
         self._scratch = mujoco.MjData(self.model)
-        self.arm = Arm.build(composed, wiring)
-        self.controller = JointPositionController(self.arm)
-        n = self.arm.n
-        if robot.action.dim != n + 1:
-            raise ConfigError(f"{source}: action.dim: the twin takes {n} arm joint targets + gripper ({n + 1})")
-        if robot.observation.state.dim not in (n, n + 1):
-            raise ConfigError(f"{source}: observation.state.dim: the twin reports {n} joints (+ gripper)")
-        self.home = np.array(wiring.home, dtype=np.float64)
+        self.arm = self.twin.arm
+        self.home = self.twin.home  # MJCF units (sim.home)
         self.max_catch_up = max_catch_up
-        self._base_body = int(self.model.body(ROBOT + wiring.root_body).id)
         self._rig: CameraRig | None = None
         self._frames: dict[str, Image] = {}
         self._frames_time = -1.0
@@ -94,10 +75,7 @@ class MujocoTwinHal(HalBase):
 
     # -- HalBase hooks ---------------------------------------------------------------------------------------
     def _connect(self) -> None:
-        d, a = self.data, self.arm
-        mujoco.mj_resetData(self.model, d)
-        a.hold(d, self.home)
-        mujoco.mj_forward(self.model, d)
+        self.twin.hold_home(self.data)
         self._rig = CameraRig(self.model, self._camera_specs, self._render)
         self._t0 = monotonic()
 
@@ -124,15 +102,11 @@ class MujocoTwinHal(HalBase):
 
     def _read_state(self) -> RobotState:
         stamp = self._advance()
-        d, a = self.data, self.arm
-        q = np.array(d.qpos[a.qpos], dtype=np.float64)
-        if self.robot.observation.state.dim == a.n + 1:
-            q = np.append(q, a.gripper_state(d))
-        return RobotState(q.astype(np.float32), stamp)
+        return RobotState(self.twin.state(self.data), stamp)
 
     def _send(self, command: JointCommand) -> JointCommand:
         self._advance()
-        self.controller.apply(command.positions, self.data)
+        self.twin.command(self.data, command.positions)
         return command
 
     def _grabber(self, name: str) -> Callable[[], Image]:
@@ -148,16 +122,12 @@ class MujocoTwinHal(HalBase):
 
     # -- kinematics for the safety filter --------------------------------------------------------------------
     def base_position(self) -> F64:
-        return np.array(self.data.xpos[self._base_body], dtype=np.float64)
+        return np.array(self.data.xpos[self.twin.base_body], dtype=np.float64)
 
     def forward_kinematics(self, q: F64) -> F64:
-        """End-effector site position for the arm joint targets in `q` (action order), base frame."""
-        s = self._scratch
-        s.qpos[:] = self.data.qpos
-        s.qpos[self.arm.qpos] = np.clip(q[: self.arm.n], self.arm.lower, self.arm.upper)
-        mujoco.mj_kinematics(self.model, s)
-        ee: F64 = np.array(s.site_xpos[self.arm.site], dtype=np.float64)
-        return ee - np.array(s.xpos[self._base_body], dtype=np.float64)
+        """End-effector site position for the arm joint targets in `q` (action order, manifest units), base
+        frame."""
+        return self.twin.forward_kinematics(self.data, self._scratch, q)
 
     def begin_episode(self, seed: int) -> dict[str, Any]:
         return {"hal": "mujoco_twin", "robot": self.robot.name, "qpos": self.data.qpos.tolist()}

@@ -2,10 +2,13 @@
 
 World frame: floor at z = 0, table top at `table_height`, robot base on the table (manifest `base_pos`
 unless the scene sets one). The arm is loaded from `assets.mjcf` under the prefix `robot/`, the gripper from
-`assets.gripper_mjcf` under `robot/gripper/` at the manifest's `attach_body`.
+`assets.gripper_mjcf` under `robot/gripper/` at the manifest's `attach_body`; an arm MJCF with an integrated
+gripper (no `assets.gripper_mjcf`, e.g. the SO-100/SO-101 jaw) names its gripper joints, actuators and grasp
+site under `robot/`.
 
 Control (documented choice): the robot MJCF's torque motors on the arm joints are turned into position
-servos (gain kp, damping kv from the manifest, force limited to the motor's original torque range) and the
+servos (gain kp, damping kv from the manifest, force limited to the motor's original torque range; an MJCF
+that already drives a joint with a position servo keeps that servo's force range) and the
 arm's bodies get gravity compensation (`gravcomp`), so a joint-position target is held without sag and the
 whole control law runs inside MuJoCo's step (implicitfast integrator), never in Python per sub-step.
 """
@@ -71,8 +74,13 @@ def _sanitize(spec: mujoco.MjSpec) -> None:
     * a second mesh of an already declared name is dropped (robosuite's Robotiq 2F-85 declares one twice, the
       second naming a file the wheel does not ship; geoms resolve names to the first);
     * meshes only visual geoms use get shell inertia (a thin visual shell has no volume; bodies carry explicit
-      inertials, so this changes no dynamics).
+      inertials, so this changes no dynamics);
+    * a mesh declared without a name gets the one MuJoCo would give it (its file's stem), so attaching under a
+      prefix renames it along with the geoms that use it (the SO-101 MJCF declares its meshes so).
     """
+    for mesh in spec.meshes:
+        if not mesh.name and mesh.file:
+            mesh.name = Path(mesh.file).stem
     seen: set[str] = set()
     for mesh in list(spec.meshes):
         if mesh.name in seen:
@@ -98,7 +106,8 @@ def _servo_arm(spec: mujoco.MjSpec, wiring: MujocoRobotWiring, source: str) -> l
         act = motors.get(name)
         if act is None:
             act = spec.add_actuator(name=f"{name}_servo", target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
-        elif act.ctrllimited == mujoco.mjtLimited.mjLIMITED_TRUE:
+        elif act.ctrllimited == mujoco.mjtLimited.mjLIMITED_TRUE and act.biastype == mujoco.mjtBias.mjBIAS_NONE:
+            # a torque motor: its control range is a torque range (a position servo's is a joint range)
             act.forcerange = np.array(act.ctrlrange, dtype=np.float64)
             act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
         kp, kv = wiring.kp[k], wiring.kv[k]
@@ -117,10 +126,29 @@ def _servo_arm(spec: mujoco.MjSpec, wiring: MujocoRobotWiring, source: str) -> l
     return joints
 
 
+def _attach_gripper(robot: mujoco.MjSpec, gripper_mjcf: Path | None, wiring: MujocoRobotWiring, source: str) -> str:
+    """Attach the gripper MJCF at `sim.attach_body`; the prefix its names get in the world (`robot/` alone for
+    an arm MJCF with an integrated gripper)."""
+    if gripper_mjcf is None:
+        return ROBOT
+    if wiring.attach_body is None:
+        raise ConfigError(f"{source}: sim.attach_body: needed to attach assets.gripper_mjcf")
+    gripper = mujoco.MjSpec.from_file(str(gripper_mjcf))
+    _sanitize(gripper)
+    attach = robot.body(wiring.attach_body)
+    if attach is None:
+        raise ConfigError(f"{source}: sim.attach_body: no body {wiring.attach_body!r} in the robot MJCF")
+    grip_root = gripper.worldbody.first_body()
+    if grip_root is None:
+        raise ConfigError(f"{source}: assets.gripper_mjcf: the gripper MJCF has no body")
+    attach.add_frame().attach_body(grip_root, "gripper/", "")
+    return GRIPPER
+
+
 def compose(
     *,
     robot_mjcf: Path,
-    gripper_mjcf: Path,
+    gripper_mjcf: Path | None,
     wiring: MujocoRobotWiring,
     params: TabletopParams,
     cameras: list[SceneCamera],
@@ -144,16 +172,8 @@ def compose(
     world.visual.global_.offheight = max([480, *(c.height for c in cameras)])
 
     robot = mujoco.MjSpec.from_file(str(robot_mjcf))
-    gripper = mujoco.MjSpec.from_file(str(gripper_mjcf))
     _sanitize(robot)
-    _sanitize(gripper)
-    attach = robot.body(wiring.attach_body)
-    if attach is None:
-        raise ConfigError(f"{robot_source}: sim.attach_body: no body {wiring.attach_body!r} in the robot MJCF")
-    grip_root = gripper.worldbody.first_body()
-    if grip_root is None:
-        raise ConfigError(f"{robot_source}: assets.gripper_mjcf: the gripper MJCF has no body")
-    attach.add_frame().attach_body(grip_root, "gripper/", "")
+    grip_prefix = _attach_gripper(robot, gripper_mjcf, wiring, robot_source)
     root = robot.body(wiring.root_body)
     if root is None:
         raise ConfigError(f"{robot_source}: sim.root_body: no body {wiring.root_body!r} in the robot MJCF")
@@ -178,13 +198,14 @@ def compose(
     arm_joints = _servo_arm(world, wiring, robot_source)
 
     g = wiring.gripper
+    where = "the gripper MJCF" if gripper_mjcf is not None else "the robot MJCF"
     for field, names in (("actuators", g.actuators), ("joints", g.joints)):
         for k, name in enumerate(names):
-            found = world.actuator(GRIPPER + name) if field == "actuators" else world.joint(GRIPPER + name)
+            found = world.actuator(grip_prefix + name) if field == "actuators" else world.joint(grip_prefix + name)
             if found is None:
-                raise ConfigError(f"{robot_source}: sim.gripper.{field}[{k}]: no {name!r} in the gripper MJCF")
-    if world.site(GRIPPER + g.ee_site) is None:
-        raise ConfigError(f"{robot_source}: sim.gripper.ee_site: no site {g.ee_site!r} in the gripper MJCF")
+                raise ConfigError(f"{robot_source}: sim.gripper.{field}[{k}]: no {name!r} in {where}")
+    if world.site(grip_prefix + g.ee_site) is None:
+        raise ConfigError(f"{robot_source}: sim.gripper.ee_site: no site {g.ee_site!r} in {where}")
 
     # --- the table, the objects, lights -------------------------------------------------------------------
     world.worldbody.add_geom(
@@ -285,8 +306,8 @@ def compose(
     return Composed(
         model=model,
         arm_joints=arm_joints,
-        gripper_actuators=[GRIPPER + a for a in g.actuators],
-        gripper_joints=[GRIPPER + j for j in g.joints],
-        ee_site=GRIPPER + g.ee_site,
+        gripper_actuators=[grip_prefix + a for a in g.actuators],
+        gripper_joints=[grip_prefix + j for j in g.joints],
+        ee_site=grip_prefix + g.ee_site,
         cameras=cam_names,
     )

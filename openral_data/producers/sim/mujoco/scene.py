@@ -50,8 +50,9 @@ STATE_REPRESENTATIONS = ("joint_positions_gripper", "joint_positions", "eef_pose
 STATE_FORMAT = 1
 
 
-def load_wiring(robot: RobotManifest) -> tuple[MujocoRobotWiring, Path, Path, str]:
-    """The robot's MuJoCo wiring and its MJCF files; ConfigError naming the manifest field otherwise."""
+def load_wiring(robot: RobotManifest) -> tuple[MujocoRobotWiring, Path, Path | None, str]:
+    """The robot's MuJoCo wiring and its MJCF files (no gripper MJCF: the arm's has its gripper); ConfigError
+    naming the manifest field otherwise."""
     manifest = manifests.robot_file(robot.name)
     folder, source = manifest.parent, str(manifest)
     if robot.sim is None:
@@ -62,12 +63,12 @@ def load_wiring(robot: RobotManifest) -> tuple[MujocoRobotWiring, Path, Path, st
         raise ConfigError(format_validation_error(f"{source}: sim", exc)) from None
     if robot.assets.mjcf is None:
         raise ConfigError(f"{source}: assets.mjcf: needed by MuJoCo scenes")
-    if robot.assets.gripper_mjcf is None:
-        raise ConfigError(f"{source}: assets.gripper_mjcf: needed by MuJoCo tabletop scenes")
     if robot.assets.mjcf.startswith("pkg://robosuite/"):
         check_robosuite_assets(source)
     arm = resolve_asset(robot.assets.mjcf, folder, f"{source}: assets.mjcf")
-    grip = resolve_asset(robot.assets.gripper_mjcf, folder, f"{source}: assets.gripper_mjcf")
+    grip = None
+    if robot.assets.gripper_mjcf is not None:
+        grip = resolve_asset(robot.assets.gripper_mjcf, folder, f"{source}: assets.gripper_mjcf")
     return wiring, arm, grip, source
 
 
@@ -91,6 +92,11 @@ class TabletopScene(RigScene):
             rskill, rskill_source, "MuJoCo tabletop scenes", STATE_REPRESENTATIONS, ACTION_REPRESENTATIONS
         )
         wiring, arm_mjcf, grip_mjcf, robot_source = load_wiring(robot)
+        if not wiring.tabletop:
+            raise ConfigError(
+                f"{robot_source}: sim.tabletop: robot {robot.name!r} is a twin only (record --hal {robot.name}); "
+                "the tabletop scenes' workspace is out of its reach"
+            )
         self._robot_source = robot_source
         self.composed = compose(
             robot_mjcf=arm_mjcf,
