@@ -68,7 +68,6 @@ class MujocoTwinHal(HalBase):
             wiring=wiring,
             params=self.params,
             cameras=self._camera_specs,
-            task="push",
             robot_source=source,
             scene_source=source,
         )

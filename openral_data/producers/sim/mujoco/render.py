@@ -14,7 +14,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from openral_data.producers.sim.mujoco.compose import SCENE_GROUP
+from openral_data.producers.sim.mujoco.objects import SCENE_GROUP
 from openral_data.schemas.scene import RenderConfig, SceneCamera
 
 
