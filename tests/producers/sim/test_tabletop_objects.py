@@ -349,3 +349,45 @@ def test_the_documented_example_scene_builds_and_resets(tmp_path: Any) -> None:
         assert obs.images["front"].shape == (256, 256, 3)
     finally:
         scene.close()
+
+
+def test_a_top_down_gripper_closes_on_the_handle_and_pulls_the_drawer_open() -> None:
+    """Not an expert (another task's): straight scripted moves show the handle is graspable and the slide sane."""
+    drawer = {"name": "drawer", "kind": "drawer", "size": [0.3, 0.25, 0.12], "pose": {"x": 0.68, "y": 0.0}}
+    scene = layout_scene(
+        {"objects": [drawer], "success": {"kind": "drawer_opened", "object": "drawer", "distance": 0.12}}
+    )
+    try:
+        obs = scene.reset(0)
+        handle = obs.privileged["objects"]["drawer"]["handle_pos"]
+
+        def go(target: np.ndarray, grip: float) -> None:
+            nonlocal obs
+            for _ in range(80):
+                delta = target - obs.privileged["ee_pos"]
+                if np.linalg.norm(delta) < 0.004:
+                    return
+                delta *= min(1.0, 0.02 / np.linalg.norm(delta))
+                obs = scene.step(np.array([*delta, 0, 0, 0, grip], dtype=np.float32)).observation
+            raise AssertionError(f"did not reach {target}: {obs.privileged['ee_pos']}")
+
+        go(np.array([handle[0], handle[1], 1.0]), 0.0)  # above the bar, fingers open across y
+        go(handle + np.array([0, 0, 0.01]), 0.0)  # down around it: nothing of the hand touches the cabinet
+        m, d = scene.model, scene.data
+        cabinet = int(m.body("drawer").id)
+        touching = {
+            (m.geom(c.geom1).name, m.geom(c.geom2).name)
+            for c in d.contact[: d.ncon]
+            if cabinet in (m.geom_bodyid[c.geom1], m.geom_bodyid[c.geom2])
+        }
+        assert not touching, touching
+        for _ in range(10):
+            obs = scene.step(np.array([0, 0, 0, 0, 0, 0, 1], dtype=np.float32)).observation
+        assert 0.5 < obs.privileged["gripper"] < 0.95  # closed on the bar, not on nothing
+        success = False
+        for _ in range(30):
+            result = scene.step(np.array([-0.01, 0, 0, 0, 0, 0, 1], dtype=np.float32))
+            success = success or result.success
+        assert success and result.observation.privileged["objects"]["drawer"]["opening"] > 0.12
+    finally:
+        scene.close()

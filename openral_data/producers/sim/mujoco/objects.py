@@ -5,9 +5,10 @@ Each object is one body named after it, its origin at its geometric centre (a me
 * a fixture (`movable: false`, `visual: true`, drawers): a mocap body, moved per episode without recompiling;
   a visual marker's geoms collide with nothing;
 * a drawer: the mocap cabinet (bottom, top, side and back walls) with a child body `<name>/drawer` (box, front
-  panel, a handle bar on two posts, site `<name>/handle` at the bar's centre) on a slide joint named after the
-  object, opening toward the cabinet's local -x (toward the robot at yaw 0), 0..`max_opening` metres.
-  The cabinet's walls and the drawer are parent and child, so they never collide (the joint limits the slide).
+  panel, an upright handle bar 5 cm in front of the panel on two posts, site `<name>/handle` at the bar's
+  centre) on a slide joint named after the object, opening toward the cabinet's local -x (toward the robot at
+  yaw 0), 0..`max_opening` metres.
+  The cabinet's walls and the drawer never collide (an explicit exclude; the joint limits the slide).
 All scene geoms are in geom group SCENE_GROUP.
 """
 
@@ -26,7 +27,7 @@ MOVABLE_FRICTION = (1.0, 0.01, 0.0001)
 FIXTURE_FRICTION = (1.0, 0.005, 0.0001)
 WALL = 0.01  # drawer cabinet wall thickness
 HANDLE_RADIUS = 0.008
-HANDLE_OFFSET = 0.035  # bar axis in front of the drawer's front panel
+HANDLE_OFFSET = 0.05  # bar axis in front of the drawer's front panel
 DRAWER_DAMPING = 2.0
 DRAWER_FRICTIONLOSS = 0.2
 GEOM = mujoco.mjtGeom
@@ -86,6 +87,8 @@ def add_objects(world: mujoco.MjSpec, objects: Sequence[TabletopObject], source:
             body.add_freejoint(name=obj.name)
         if isinstance(obj, DrawerObject):
             _drawer(body, obj)
+            # a mocap cabinet counts as part of the world, so parent-child filtering would not apply
+            world.add_exclude(bodyname1=obj.name, bodyname2=f"{obj.name}/drawer")
             continue
         friction = obj.friction or (MOVABLE_FRICTION if obj.is_movable else FIXTURE_FRICTION)
         geom: dict[str, object] = {
@@ -166,26 +169,26 @@ def _drawer(cabinet: mujoco.MjsBody, obj: DrawerObject) -> None:
             group=SCENE_GROUP,
             friction=list(FIXTURE_FRICTION),
         )
-    # the handle: a bar along y in front of the panel, held by two posts; gripper fingers close around the bar
+    # the handle: an upright bar in front of the panel on two posts; a top-down gripper's fingers close around it
+    # (across y), the posts passing between them, and its hand stays clear of the panel
     bar_x = x0 - t - HANDLE_OFFSET
-    half_len = min(0.06, 0.3 * w)
+    half_len = min(0.04, 0.3 * h)
     metal = rgba(0.75, 0.75, 0.78)
     grip: dict[str, object] = {"rgba": metal, "group": SCENE_GROUP, "friction": [1.5, 0.02, 0.0001], "condim": 4}
     drawer.add_geom(
         name=f"{name}/handle",
         type=GEOM.mjGEOM_CAPSULE,
-        fromto=[bar_x, -half_len, 0, bar_x, half_len, 0],
+        fromto=[bar_x, 0, -half_len, bar_x, 0, half_len],
         size=[HANDLE_RADIUS, 0, 0],
         mass=0.1 * obj.mass,
         **grip,
     )
-    for side, y in (("l", 0.8 * half_len), ("r", -0.8 * half_len)):
-        post = (HANDLE_OFFSET / 2, 0.005, 0.005)
+    for side, z in (("top", half_len), ("bottom", -half_len)):
         drawer.add_geom(
             name=f"{name}/post_{side}",
             type=GEOM.mjGEOM_BOX,
-            size=list(post),
-            pos=[x0 - t - HANDLE_OFFSET / 2, y, 0],
+            size=[HANDLE_OFFSET / 2, 0.004, 0.004],
+            pos=[x0 - t - HANDLE_OFFSET / 2, 0, z],
             mass=0.05 * obj.mass,
             **grip,
         )
