@@ -22,7 +22,8 @@ rejection sampling with at most `MAX_TRIES` tries per object, and a layout that 
 ConfigError.
 
 `clutter: {n_objects, seed, kinds, size, region, gap}` adds `n_objects` movable objects named `clutter_0`, ...:
-`seed` fixes which (kind, size, colour: the model), the episode seed where (their placement).
+`seed` fixes which (kind, size, colour: the model), the episode seed where (their placement). `kinds` may name
+meshes (MESHES short names), which keep their own size.
 
 `success:` one criterion (`kind` picks it) from this vocabulary, nested with `all` / `any`:
 * `in_region` {object, region, resting: true, tolerance}: the object's centre (x, y) is inside `region` (an
@@ -57,6 +58,7 @@ CLUTTER_PREFIX = "clutter_"
 MAX_TRIES = 200  # placement tries per object before a layout is refused
 MAX_OBJECTS = 64
 DEFAULT_TOLERANCE = 0.01
+CLUTTER_KINDS = ("box", "sphere", "cylinder")
 
 # short mesh names: the object meshes robosuite 1.5's wheel carries (metres, upright)
 MESHES = {
@@ -234,7 +236,11 @@ class XYRegion(StrictModel):
 class Clutter(StrictModel):
     n_objects: int = Field(ge=1, le=MAX_OBJECTS)
     seed: int = Field(default=0, ge=0, le=2**32 - 1)
-    kinds: tuple[Literal["box", "sphere", "cylinder"], ...] = Field(default=("box", "cylinder", "sphere"), min_length=1)
+    kinds: tuple[str, ...] = Field(
+        default=("box", "cylinder", "sphere"),
+        min_length=1,
+        description="box, sphere, cylinder and MESHES short names (a mesh keeps its own size)",
+    )
     size: Range = Field(default=(0.03, 0.05), description="characteristic size: box side, 2 x radius, ...")
     region: XYRegion | None = Field(default=None, description="where they go; default the workspace")
     gap: float = Field(default=0.01, ge=0, le=0.2, description="minimum gap between footprints at reset")
@@ -242,6 +248,9 @@ class Clutter(StrictModel):
 
     @model_validator(mode="after")
     def _check(self) -> Clutter:
+        unknown = [k for k in self.kinds if k not in CLUTTER_KINDS and k not in MESHES]
+        if unknown:
+            raise ValueError(f"kinds: {unknown} are not among {[*CLUTTER_KINDS, *sorted(MESHES)]}")
         _ordered(self.size, "size")
         if not 0.01 <= self.size[0] <= self.size[1] <= 0.3:
             raise ValueError("size: within 0.01..0.3 m")

@@ -110,6 +110,10 @@ def test_a_layout_with_every_kind_loads_and_derives_its_roles() -> None:
         ),
         ({"objects": [CUBE], "success": {"kind": "all", "of": []}}, r"success\.all\.of: List should have at least 1"),
         ({"objects": [CUBE], "roles": {"object": "ball"}}, r"roles\.object: no object 'ball'"),
+        (
+            {"clutter": {"n_objects": 2, "kinds": ["box", "teapot"]}},
+            r"clutter: Value error, kinds: \['teapot'\] are not",
+        ),
         ({"clutter": {"n_objects": 0}}, r"clutter\.n_objects: Input should be greater than or equal to 1"),
         (
             {"objects": [{"name": "d", "kind": "drawer", "movable": True, "pose": {"x": 0.5, "y": 0}}]},

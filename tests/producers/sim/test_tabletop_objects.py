@@ -391,3 +391,26 @@ def test_a_top_down_gripper_closes_on_the_handle_and_pulls_the_drawer_open() -> 
         assert success and result.observation.privileged["objects"]["drawer"]["opening"] > 0.12
     finally:
         scene.close()
+
+
+def test_mesh_clutter_is_placed_apart_and_stays_on_the_table() -> None:
+    params = {
+        **CLUTTER,
+        "objects": [],
+        "success": {"kind": "lifted", "object": "clutter_0", "height": 0.05},
+        "clutter": {"n_objects": 5, "seed": 1, "kinds": ["can", "milk", "bread", "box"]},
+    }
+    scene = layout_scene(params)
+    try:
+        kinds = [o.kind for o in scene.objects]
+        assert "mesh" in kinds and len(kinds) == 5
+        for seed in (0, 1):
+            obs = scene.reset(seed)
+            assert _min_object_distance(scene) > 0.005
+            start = {k: v.copy() for k, v in obs.privileged["object_poses"].items()}
+            for _ in range(10):
+                obs = scene.step(ZERO).observation
+            for name, pose in obs.privileged["object_poses"].items():
+                assert np.linalg.norm(pose[:3] - start[name][:3]) < 0.005, name  # resting, not falling or sliding
+    finally:
+        scene.close()

@@ -22,9 +22,11 @@ from openral_data.errors import ConfigError
 from openral_data.schemas.tabletop import (
     CLUTTER_PREFIX,
     MAX_TRIES,
+    MESHES,
     BoxObject,
     CylinderObject,
     Layout,
+    MeshObject,
     Pose,
     SphereObject,
     TabletopObject,
@@ -89,7 +91,9 @@ def expand_clutter(layout: Layout, area: XYRegion | Workspace) -> list[TabletopO
             "rgba": (*colour, 1.0),
             "pose": Pose(x=region.x, y=region.y, yaw=(-np.pi, np.pi)),
         }
-        if kind == "box":
+        if kind in MESHES:
+            objects.append(MeshObject(kind="mesh", mesh=kind, **common))
+        elif kind == "box":
             objects.append(BoxObject(kind="box", size=(s, s, s), **common))
         elif kind == "sphere":
             objects.append(SphereObject(kind="sphere", size=(s / 2,), **common))
