@@ -166,6 +166,21 @@ def test_each_success_criterion_is_true_and_false_on_real_states() -> None:
         assert not _holds(scene, on_block)
         _set_free(scene, "cube", [block[0] - 0.1, block[1], h + 0.02])
         assert not _holds(scene, on_block)
+        # the support's footprint turns with it: a corner point in and out as the block turns 45 degrees
+        corner = [block[0] + 0.035, block[1] + 0.035, top + 0.02]
+        side = [block[0] + 0.05, block[1], top + 0.02]
+        _set_free(scene, "cube", corner)
+        assert _holds(scene, on_block)
+        _set_free(scene, "cube", side)
+        assert not _holds(scene, on_block)
+        mocap = scene._mocap["block"]
+        scene.data.mocap_quat[mocap] = [np.cos(np.pi / 8), 0, 0, np.sin(np.pi / 8)]
+        _set_free(scene, "cube", corner)
+        assert not _holds(scene, on_block)
+        _set_free(scene, "cube", side)
+        assert _holds(scene, on_block)
+        scene.data.mocap_quat[mocap] = [1, 0, 0, 0]
+        _set_free(scene, "cube", [block[0] - 0.1, block[1], h + 0.02])  # back on the table beside the block
         # the drawer: closed, a little open, open past the distance; success() is the YAML's criterion
         q = scene._drawers["drawer"][0]
         assert not _holds(scene, opened) and not scene.success()
@@ -414,3 +429,37 @@ def test_mesh_clutter_is_placed_apart_and_stays_on_the_table() -> None:
                 assert np.linalg.norm(pose[:3] - start[name][:3]) < 0.005, name  # resting, not falling or sliding
     finally:
         scene.close()
+
+
+def test_a_clutter_scene_records_and_replays_with_every_object_restored(tmp_path: Any) -> None:
+    """record (scripted pick-place on a `tabletop` scene with clutter) -> replay: every episode reproduced, every
+    object's initial pose restored exactly (replay's object error over all of `object_poses`)."""
+    import yaml
+
+    from openral_data.record.options import RecordOptions
+    from openral_data.record.sim import record
+    from openral_data.replay import ReplayOptions, replay
+    from openral_data.replay.recorded import RecordedDataset
+    from tests.support.home import isolated_home
+    from tests.support.replay import SMALL_FRONT
+
+    with isolated_home(tmp_path) as home:
+        data = yaml.safe_load((home / "scenes/sim/tabletop_pick_place.yaml").read_text())
+        data["scene"]["id"] = data["task"]["scene_id"] = "clutter_pick"
+        data["scene"]["type"] = "tabletop"
+        data["scene"]["cameras"] = [SMALL_FRONT]
+        data["scene"]["params"]["clutter"] = {"n_objects": 3, "seed": 2, "region": {"x": [0.3, 0.7], "y": [-0.4, 0.4]}}
+        path = write_yaml(home / "scenes/sim/clutter_pick.yaml", data)
+        summary = record(
+            RecordOptions(scene=str(path), rskill="scripted-pick-place", n_episodes=2, seed=1, out=tmp_path / "d")
+        )
+        assert summary.success_rate == 1.0
+        recorded = RecordedDataset(summary.out)
+        start = recorded.episode(0).initial_state
+        assert start["task"] == "clutter_pick"
+        assert set(start["object_poses"]) == {"cube", "clutter_0", "clutter_1", "clutter_2"}
+        result = replay(ReplayOptions(summary.out, out=tmp_path / "res"))
+    assert result.summary["reproduced"] == 2 and result.summary["success_agree"] == 2
+    for o in result.episodes:
+        assert o.object_error_initial is not None and o.object_error_initial < 1e-9
+        assert o.first_divergence_frame is None
