@@ -456,7 +456,7 @@ def test_a_clutter_scene_records_and_replays_with_every_object_restored(tmp_path
         assert summary.success_rate == 1.0
         recorded = RecordedDataset(summary.out)
         start = recorded.episode(0).initial_state
-        assert start["task"] == "clutter_pick"
+        assert start is not None and start["task"] == "clutter_pick"
         assert set(start["object_poses"]) == {"cube", "clutter_0", "clutter_1", "clutter_2"}
         result = replay(ReplayOptions(summary.out, out=tmp_path / "res"))
     assert result.summary["reproduced"] == 2 and result.summary["success_agree"] == 2
