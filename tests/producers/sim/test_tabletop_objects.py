@@ -236,6 +236,12 @@ def test_mesh_object_loads_and_rests_on_the_table() -> None:
                 "rgba": [0.95, 0.9, 0.2, 1],
                 "pose": {"x": 0.6, "y": 0.2},
             },
+            {  # a MetaWorld mesh (the metaworld extra is part of the default environment)
+                "name": "stick",
+                "kind": "mesh",
+                "mesh": "pkg://metaworld/assets/objects/meshes/stick/stick.stl",
+                "pose": {"x": 0.35, "y": -0.25},
+            },
         ],
         "success": {"kind": "lifted", "object": "can", "height": 0.05},
     }
@@ -245,6 +251,7 @@ def test_mesh_object_loads_and_rests_on_the_table() -> None:
         can = obs.privileged["objects"]["can"]
         assert can["kind"] == "mesh" and 0.04 < can["size"][0] < 0.08 and 0.07 < can["size"][2] < 0.14
         start = np.array(can["pos"])
+        stick = obs.privileged["objects"]["stick"]
         for _ in range(20):
             obs = scene.step(ZERO).observation
         pose = obs.privileged["object_poses"]["can"]
@@ -252,6 +259,8 @@ def test_mesh_object_loads_and_rests_on_the_table() -> None:
         zaxis = np.zeros(9)
         mujoco.mju_quat2Mat(zaxis, pose[3:])
         assert zaxis[8] > 0.999  # upright
+        assert np.allclose(stick["size"], [0.1, 0.04, 0.04], atol=0.002)  # MetaWorld's stick lies along x
+        assert stick["pos"][2] - stick["bottom"] == pytest.approx(0.8)  # placed on the table top
         lemon = obs.privileged["object_poses"]["lemon"]
         assert lemon[2] > 0.8 and not scene.success()
         assert obs.privileged["roles"] == {"object": "can"} and obs.privileged["task"] == "tabletop_push"
