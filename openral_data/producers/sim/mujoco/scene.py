@@ -134,7 +134,6 @@ class TabletopScene(RigScene):
         self.extents = extents(self.model, self.objects)
         self.roles = derived_roles(self.params)
         self._gap = self.params.clutter.gap if self.params.clutter is not None else DEFAULT_GAP
-        self._kinds = {o.name: o for o in self.objects}
         m = self.model
         self._body = {o.name: int(m.body(o.name).id) for o in self.objects}
         self._free = {o.name: int(m.joint(o.name).qposadr[0]) for o in self.objects if o.is_movable}
@@ -148,6 +147,7 @@ class TabletopScene(RigScene):
             for o in self.objects
             if isinstance(o, DrawerObject)
         }
+        # a layout that cannot be placed is refused now, not at some episode's reset
         place(
             self.objects,
             self.extents,
