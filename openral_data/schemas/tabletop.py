@@ -58,6 +58,7 @@ CLUTTER_PREFIX = "clutter_"
 MAX_TRIES = 200  # placement tries per object before a layout is refused
 MAX_OBJECTS = 64
 DEFAULT_TOLERANCE = 0.01
+EPS = 1e-9  # slack of the containment checks (a table edge computed as 0.45 - 0.6 is -0.1499999...)
 CLUTTER_KINDS = ("box", "sphere", "cylinder")
 
 # short mesh names: the object meshes robosuite 1.5's wheel carries (metres, upright)
@@ -370,14 +371,14 @@ def check_layout(layout: Layout, table: XYRegion, source: str) -> None:
         for axis in ("x", "y"):
             lo, hi = getattr(ws, axis)
             tlo, thi = getattr(table, axis)
-            if lo < tlo or hi > thi:
+            if lo < tlo - EPS or hi > thi + EPS:
                 raise ConfigError(f"{source}.workspace.{axis}: {_r(lo, hi)} leaves the table top {_r(tlo, thi)}")
     area = ws if ws is not None else table
     for k, obj in enumerate(layout.objects):
         for axis in ("x", "y"):
             lo, hi = bounds(getattr(obj.pose, axis))
             alo, ahi = getattr(area, axis)
-            if lo < alo or hi > ahi:
+            if lo < alo - EPS or hi > ahi + EPS:
                 what = "workspace" if ws is not None else "table top"
                 raise ConfigError(
                     f"{source}.objects[{k}].pose.{axis}: {_r(lo, hi)} is not inside the {what} {_r(alo, ahi)}"
@@ -386,7 +387,7 @@ def check_layout(layout: Layout, table: XYRegion, source: str) -> None:
         for axis in ("x", "y"):
             lo, hi = getattr(layout.clutter.region, axis)
             alo, ahi = getattr(area, axis)
-            if lo < alo or hi > ahi:
+            if lo < alo - EPS or hi > ahi + EPS:
                 raise ConfigError(f"{source}.clutter.region.{axis}: {_r(lo, hi)} is not inside {_r(alo, ahi)}")
 
     def known(name: str, where: str) -> None:

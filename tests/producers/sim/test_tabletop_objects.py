@@ -472,3 +472,35 @@ def test_a_clutter_scene_records_and_replays_with_every_object_restored(tmp_path
     for o in result.episodes:
         assert o.object_error_initial is not None and o.object_error_initial < 1e-9
         assert o.first_divergence_frame is None
+
+
+def test_objects_are_never_placed_into_the_robot_base() -> None:
+    params = {
+        "objects": [],
+        "clutter": {
+            "n_objects": 6,
+            "seed": 0,
+            "size": [0.03, 0.04],
+            "region": {"x": [-0.15, 0.25], "y": [-0.25, 0.25]},
+        },
+    }
+    scene = layout_scene(params)
+    try:
+        base = scene.data.xpos[scene.model.body("robot/base").id][:2].copy()
+        geoms = _object_geoms(scene)
+        for seed in range(5):
+            obs = scene.reset(seed)
+            for name, info in obs.privileged["objects"].items():
+                assert np.linalg.norm(info["pos"][:2] - base) >= 0.15 + info["radius"], (seed, name)
+            robot_contacts = [
+                (c.geom1, c.geom2)
+                for c in scene.data.contact[: scene.data.ncon]
+                if (c.geom1 in geoms or c.geom2 in geoms)
+                and any(
+                    scene.model.body(int(scene.model.geom_bodyid[g])).name.startswith("robot/")
+                    for g in (c.geom1, c.geom2)
+                )
+            ]
+            assert not robot_contacts, seed
+    finally:
+        scene.close()

@@ -5,8 +5,9 @@ Placement draws, per object in declaration order (then the clutter), from `numpy
 `x`, `y`, `yaw` for each of them given as a range (a fixed number draws nothing), or, with `near`, a bearing and
 a distance from the named object, then `yaw`. A candidate is kept when it lies in its `x`/`y` bounds and its
 footprint circle (around the body origin, covering the object at any yaw) stays `gap` clear of every collidable
-object placed before it; otherwise it is drawn again, at most `MAX_TRIES` times (ConfigError after that).
-An object rests on the table top: its lowest point (upright) at the table's height.
+object placed before it and of the robot's base (ROBOT_CLEARANCE around its axis); otherwise it is drawn again,
+at most `MAX_TRIES` times (ConfigError after that). An object rests on the table top: its lowest point (upright)
+at the table's height.
 """
 
 from __future__ import annotations
@@ -47,6 +48,7 @@ PALETTE = (
     (0.4, 0.25, 0.1),
 )
 DEFAULT_GAP = 0.01
+ROBOT_CLEARANCE = 0.15  # radius around the robot base's axis that no collidable object is placed in
 
 
 @dataclass(frozen=True)
@@ -156,10 +158,12 @@ def place(
     rng: np.random.Generator,
     gap: float,
     source: str,
+    keep_clear: Sequence[tuple[F64, float]] = (),
 ) -> dict[str, Placed]:
-    """Every object's reset pose; a pure function of the generator's state (see the module docstring)."""
+    """Every object's reset pose; a pure function of the generator's state (see the module docstring).
+    `keep_clear`: (x/y centre, radius) discs no collidable object may overlap (the robot's base)."""
     placed: dict[str, Placed] = {}
-    solid: list[tuple[F64, float]] = []  # footprint centre, radius of collidable objects placed so far
+    solid: list[tuple[F64, float]] = list(keep_clear)  # footprints of what is already on the table
     for obj in objects:
         e, pose = ext[obj.name], obj.pose
         (xlo, xhi), (ylo, yhi) = bounds(pose.x), bounds(pose.y)

@@ -39,7 +39,7 @@ from openral_data.errors import ConfigError
 from openral_data.producers.sim.contract import check_representations, scene_spec
 from openral_data.producers.sim.initial_state import check_format, check_recorded_on
 from openral_data.producers.sim.mujoco.assets import check_robosuite_assets, resolve_asset
-from openral_data.producers.sim.mujoco.compose import compose
+from openral_data.producers.sim.mujoco.compose import ROBOT, compose
 from openral_data.producers.sim.mujoco.controllers import (
     ACTION_REPRESENTATIONS,
     Controller,
@@ -47,7 +47,16 @@ from openral_data.producers.sim.mujoco.controllers import (
     JointPositionController,
 )
 from openral_data.producers.sim.mujoco.kinematics import F64, Arm, IKSolver
-from openral_data.producers.sim.mujoco.layout import DEFAULT_GAP, Extent, expand_clutter, extents, place, yaw_quat
+from openral_data.producers.sim.mujoco.layout import (
+    DEFAULT_GAP,
+    ROBOT_CLEARANCE,
+    Extent,
+    Placed,
+    expand_clutter,
+    extents,
+    place,
+    yaw_quat,
+)
 from openral_data.producers.sim.mujoco.render import CameraRig
 from openral_data.producers.sim.mujoco.rig_scene import RigScene
 from openral_data.producers.sim.mujoco.success import holds
@@ -147,15 +156,11 @@ class TabletopScene(RigScene):
             for o in self.objects
             if isinstance(o, DrawerObject)
         }
-        # a layout that cannot be placed is refused now, not at some episode's reset
-        place(
-            self.objects,
-            self.extents,
-            self.params.table_height,
-            np.random.default_rng(0),
-            self._gap,
-            self._params_source,
-        )
+        base = mujoco.MjData(self.model)
+        mujoco.mj_kinematics(self.model, base)
+        base_xy = np.array(base.xpos[self.model.body(ROBOT + wiring.root_body).id][:2], dtype=np.float64)
+        self._keep_clear = [(base_xy, ROBOT_CLEARANCE)]
+        self._place(0)  # a layout that cannot be placed is refused now, not at some episode's reset
         self.n_substeps = max(1, round(1.0 / (scene.scene.fps * self.params.timestep)))
         self.ready_q = self._ready_posture(np.array(wiring.home))
         self.controller: Controller
@@ -207,14 +212,7 @@ class TabletopScene(RigScene):
     # -- SimRollout ------------------------------------------------------------------------------------------
     def reset(self, seed: int) -> Observation:
         self._seed = seed
-        placed = place(
-            self.objects,
-            self.extents,
-            self.params.table_height,
-            np.random.default_rng(seed),
-            self._gap,
-            self._params_source,
-        )
+        placed = self._place(seed)
         d, a = self.data, self.arm
         mujoco.mj_resetData(self.model, d)
         a.hold(d, self.ready_q)
@@ -285,6 +283,11 @@ class TabletopScene(RigScene):
         return float(self.data.qpos[self._drawers[name][0]])
 
     # -- helpers ---------------------------------------------------------------------------------------------
+    def _place(self, seed: int) -> dict[str, Placed]:
+        rng = np.random.default_rng(seed)
+        p = self.params
+        return place(self.objects, self.extents, p.table_height, rng, self._gap, self._params_source, self._keep_clear)
+
     def cube_pos(self) -> F64:
         """The role `object`'s position (the cube of the push and pick-place scenes)."""
         return self.pos(self.roles["object"])
