@@ -114,7 +114,8 @@ def test_clutter_is_reproducible_per_seed_and_never_overlaps_at_reset() -> None:
 def test_clutter_that_cannot_fit_is_refused_before_episode_zero() -> None:
     crowded = {**CLUTTER, "clutter": {"n_objects": 30, "size": [0.08, 0.1], "region": {"x": [0.4, 0.5], "y": [0, 0.1]}}}
     with pytest.raises(
-        ConfigError, match=r"test\.yaml: scene\.params: cannot place 'clutter_\d+' clear of the objects"
+        ConfigError,
+        match=r"test\.yaml: scene\.params: cannot place 'clutter_\d+' clear of the robot base and the objects",
     ):
         layout_scene(crowded)
 
@@ -339,6 +340,9 @@ def test_a_mesh_path_leading_out_of_its_package_is_refused() -> None:
     with pytest.raises(DatasetError, match=r"test\.yaml: scene\.params\.objects\[0\]\.mesh: .*leads outside") as info:
         layout_scene({"objects": [escape]})
     assert info.value.code == "dataset.unsafe"
+    not_a_mesh = {**escape, "mesh": "pkg://robosuite/__init__.py"}
+    with pytest.raises(ConfigError, match=r"objects\[0\]\.mesh: pkg://robosuite/__init__\.py: not a mesh file"):
+        layout_scene({"objects": [not_a_mesh]})
 
 
 def test_the_documented_example_scene_builds_and_resets(tmp_path: Any) -> None:

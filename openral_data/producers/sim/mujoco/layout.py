@@ -182,7 +182,8 @@ def place(
                 break
         else:
             raise ConfigError(
-                f"{source}: cannot place {obj.name!r} clear of the objects placed before it in {MAX_TRIES} tries "
+                f"{source}: cannot place {obj.name!r} clear of the robot base and the objects placed before it in "
+                f"{MAX_TRIES} tries "
                 "(widen its pose range or the clutter region, or use fewer or smaller objects)"
             )
         placed[obj.name] = Placed(np.array([xy[0], xy[1], table_height + e.bottom]), yaw)

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import mujoco
 
+from openral_data.errors import ConfigError
 from openral_data.producers.sim.mujoco.assets import resolve_asset
 from openral_data.schemas.tabletop import MESHES, DrawerObject, MeshObject, TabletopObject
 
@@ -31,6 +32,7 @@ HANDLE_OFFSET = 0.05  # bar axis in front of the drawer's front panel
 DRAWER_DAMPING = 2.0
 DRAWER_FRICTIONLOSS = 0.2
 GEOM = mujoco.mjtGeom
+MESH_SUFFIXES = (".stl", ".obj", ".msh")
 Vec3 = tuple[float, float, float]
 
 
@@ -114,9 +116,20 @@ def add_objects(world: mujoco.MjSpec, objects: Sequence[TabletopObject], source:
 
 
 def mesh_file(obj: MeshObject, source: str) -> Path:
-    """The mesh file a short name or `pkg://` reference names, inside its package (ConfigError otherwise)."""
+    """The mesh file a short name or `pkg://` reference names, inside its package, that MuJoCo can load
+    (ConfigError otherwise; a path leading out of the package: DatasetError `dataset.unsafe`)."""
     ref = MESHES.get(obj.mesh, obj.mesh)
-    return resolve_asset(ref, Path("."), source)
+    path = resolve_asset(ref, Path("."), source)
+    if path.suffix.lower() not in MESH_SUFFIXES:
+        raise ConfigError(f"{source}: {ref}: not a mesh file (MuJoCo loads {', '.join(MESH_SUFFIXES)})")
+    probe = mujoco.MjSpec()
+    probe.add_mesh(name="probe", file=str(path))
+    probe.worldbody.add_geom(type=GEOM.mjGEOM_MESH, meshname="probe")
+    try:
+        probe.compile()
+    except ValueError as exc:
+        raise ConfigError(f"{source}: {ref}: MuJoCo cannot load this mesh: {' '.join(str(exc).split())}") from None
+    return path
 
 
 def _drawer(cabinet: mujoco.MjsBody, obj: DrawerObject) -> None:
