@@ -29,7 +29,9 @@ def _mock_factory(scene: SimScene, robot: RobotManifest, rskill: RSkillManifest,
     return MockScene(scene, state_dim=rskill.state_contract.dim, source=source)
 
 
-def _tabletop_factory(task: Literal["push", "pick_place"]) -> SceneFactory:
+def _tabletop_factory(task: str | None) -> SceneFactory:
+    """`tabletop` (the task label from `params.task` or the scene id) and the push / pick-place types."""
+
     def make(scene: SimScene, robot: RobotManifest, rskill: RSkillManifest, source: str) -> SimRollout:
         from openral_data.producers.sim.mujoco.scene import TabletopScene
 
@@ -178,6 +180,7 @@ SCENES: Registry[SceneFactory] = Registry(
     "openral_data.scenes",
     {
         "mock": _mock_factory,
+        "tabletop": _tabletop_factory(None),
         "tabletop_push": _tabletop_factory("push"),
         "tabletop_pick_place": _tabletop_factory("pick_place"),
         "mujoco_twin": _twin_factory,

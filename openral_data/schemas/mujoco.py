@@ -14,6 +14,7 @@ from typing import Literal
 from pydantic import Field, model_validator
 
 from openral_data.schemas.base import StrictModel
+from openral_data.schemas.tabletop import Layout, XYRegion
 
 Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
@@ -102,35 +103,26 @@ class MujocoRobotWiring(StrictModel):
         return self
 
 
-class Region(StrictModel):
-    """An axis-aligned rectangle on the table top (world x/y, metres)."""
+class TabletopParams(Layout):
+    """`scene.params` of the native tabletop scenes: the table and robot placement here, the objects, workspace,
+    clutter, success and roles from `Layout` (schemas/tabletop.py). The table top is at `table_height`."""
 
-    x: tuple[float, float]
-    y: tuple[float, float]
-
-    @model_validator(mode="after")
-    def _ordered(self) -> Region:
-        if self.x[0] > self.x[1] or self.y[0] > self.y[1]:
-            raise ValueError("ranges must be [low, high]")
-        return self
-
-
-class TabletopParams(StrictModel):
-    """`scene.params` of `tabletop_push` / `tabletop_pick_place`. The table top is at `table_height`."""
-
+    task: str | None = Field(
+        default=None,
+        pattern=r"^[A-Za-z0-9_\-]+$",
+        description="the task's label (scene type `tabletop`; default the scene id): recorded in the initial state",
+    )
     table_height: float = Field(default=0.8, gt=0)
     table_size: tuple[float, float] = (1.2, 1.2)
     table_center: tuple[float, float] = (0.45, 0.0)
     base_pos: Vec3 | None = Field(default=None, description="robot base; default: manifest base_pos on the table")
     base_yaw: float = 0.0
-    cube_size: float = Field(default=0.04, gt=0.01, lt=0.1)
-    cube_mass: float = Field(default=0.1, gt=0)
-    cube_region: Region = Region(x=(0.45, 0.6), y=(-0.15, 0.15))
-    cube_yaw: tuple[float, float] = (-0.6, 0.6)
-    goal_region: Region = Region(x=(0.4, 0.65), y=(-0.25, 0.25))
-    goal_radius: float = Field(default=0.05, gt=0)
-    goal_min_distance: float = Field(default=0.12, ge=0)
-    goal_max_distance: float = Field(default=0.22, gt=0)
     timestep: float = Field(default=0.002, gt=0, le=0.01)
     ready_xy: tuple[float, float] = (0.38, 0.0)
     ready_height: float = Field(default=0.25, gt=0, description="start: grasp site this far above the table")
+
+    @property
+    def table_top(self) -> XYRegion:
+        """The table top's x/y extent (world frame)."""
+        (cx, cy), (sx, sy) = self.table_center, self.table_size
+        return XYRegion(x=(cx - sx / 2, cx + sx / 2), y=(cy - sy / 2, cy + sy / 2))

@@ -66,6 +66,17 @@ def make_scene(
     return TabletopScene(scene, registry.ROBOTS[robot], rskill, kind)  # type: ignore[arg-type]
 
 
+def layout_scene(
+    params: dict[str, Any], robot: str = "franka_panda", cameras: list[SceneCamera] | None = None
+) -> TabletopScene:
+    """A `type: tabletop` scene (the shipped push scene's robot placement, cameras as given) with `params` as its
+    objects, workspace, clutter and success; driven by the scripted-push rSkill's contracts."""
+    base = shipped_scene("push", cameras)
+    spec = base.scene.model_copy(update={"type": "tabletop", "params": params})
+    scene = base.model_copy(update={"scene": spec})
+    return registry.SCENES["tabletop"](scene, registry.ROBOTS[robot], expert_rskill("push"), "test.yaml")  # type: ignore[return-value]
+
+
 def run_expert(scene: TabletopScene, seed: int, max_steps: int) -> tuple[bool, int]:
     policy = registry.POLICIES[f"scripted_{scene.task_kind}"](expert_rskill(scene.task_kind))
     obs = scene.reset(seed)

@@ -1,4 +1,5 @@
-"""Resolve asset references of manifests: `pkg://<python package>/<path>` or a path relative to the manifest.
+"""Resolve asset references of manifests: `pkg://<python package>/<path>` (a file inside that package: a path
+leading out of it is refused, DatasetError `dataset.unsafe`) or a path relative to the manifest.
 
 A package is located with `importlib.util.find_spec` without importing it (robosuite's wheel only lends its
 MJCF and mesh files; importing it would pull in its controllers and print warnings).
@@ -11,6 +12,7 @@ import importlib.util
 from pathlib import Path
 
 from openral_data.errors import ConfigError
+from openral_data.paths import contained
 
 
 def resolve_asset(ref: str, base_dir: Path, source: str) -> Path:
@@ -20,7 +22,7 @@ def resolve_asset(ref: str, base_dir: Path, source: str) -> Path:
         spec = importlib.util.find_spec(package) if package else None
         if spec is None or not spec.submodule_search_locations:
             raise ConfigError(f"{source}: python package {package!r} is not installed (needed for {ref})")
-        path = Path(next(iter(spec.submodule_search_locations))) / rel
+        path = contained(Path(next(iter(spec.submodule_search_locations))), rel, f"{source}: {ref}")
     else:
         path = (base_dir / ref).resolve()
     if not path.is_file():

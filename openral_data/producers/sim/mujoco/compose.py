@@ -11,10 +11,13 @@ servos (gain kp, damping kv from the manifest, force limited to the motor's orig
 that already drives a joint with a position servo keeps that servo's force range) and the
 arm's bodies get gravity compensation (`gravcomp`), so a joint-position target is held without sag and the
 whole control law runs inside MuJoCo's step (implicitfast integrator), never in Python per sub-step.
+
+The table, its light and the scene's objects are objects.py's; their placement per episode is layout.py's.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -23,15 +26,13 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.errors import ConfigError
-from openral_data.producers.sim.mujoco.tasks import PAD_HEIGHT, TaskKind
+from openral_data.producers.sim.mujoco.objects import add_objects, add_table
 from openral_data.schemas.mujoco import MujocoRobotWiring, TabletopParams
 from openral_data.schemas.scene import SceneCamera
+from openral_data.schemas.tabletop import TabletopObject
 
 ROBOT = "robot/"
-SCENE_GROUP = 2  # geom group of the table, floor, cube and goal; robot MJCFs use 0 (collision) and 1 (visual)
 GRIPPER = "robot/gripper/"
-CUBE = "cube"
-GOAL = "goal"
 
 
 @dataclass(frozen=True)
@@ -42,10 +43,6 @@ class Composed:
     gripper_joints: list[str]
     ee_site: str
     cameras: list[str]  # camera names in the compiled model, same order as the scene's cameras
-
-
-def _rgba(r: float, g: float, b: float, a: float = 1.0) -> list[float]:
-    return [r, g, b, a]
 
 
 def look_at_quat(pos: npt.ArrayLike, target: npt.ArrayLike) -> npt.NDArray[np.float64]:
@@ -152,11 +149,12 @@ def compose(
     wiring: MujocoRobotWiring,
     params: TabletopParams,
     cameras: list[SceneCamera],
-    task: TaskKind,
     robot_source: str,
     scene_source: str,
+    objects: Sequence[TabletopObject] = (),
 ) -> Composed:
-    """Build and compile the world; ConfigError (naming the manifest or scene field) on bad wiring."""
+    """Build and compile the world with `objects` on the table (none: an empty table); ConfigError (naming the
+    manifest or scene field) on bad wiring."""
     world = mujoco.MjSpec()
     world.modelname = "openral_tabletop"
     world.compiler.degree = False  # robot MJCFs declare radians; attaching keeps the host compiler settings
@@ -167,7 +165,6 @@ def compose(
     world.visual.headlight.ambient = [0.3, 0.3, 0.3]
     world.visual.headlight.diffuse = [0.3, 0.3, 0.3]
     world.visual.headlight.specular = [0.0, 0.0, 0.0]
-    world.add_material(name="matte", specular=0.05, shininess=0.1)
     world.visual.global_.offwidth = max([640, *(c.width for c in cameras)])
     world.visual.global_.offheight = max([480, *(c.height for c in cameras)])
 
@@ -207,74 +204,9 @@ def compose(
     if world.site(grip_prefix + g.ee_site) is None:
         raise ConfigError(f"{robot_source}: sim.gripper.ee_site: no site {g.ee_site!r} in {where}")
 
-    # --- the table, the objects, lights -------------------------------------------------------------------
-    world.worldbody.add_geom(
-        name="floor",
-        type=mujoco.mjtGeom.mjGEOM_PLANE,
-        size=[3, 3, 0.1],
-        rgba=_rgba(0.55, 0.57, 0.6),
-        material="matte",
-        group=SCENE_GROUP,
-    )
-    tx, ty = params.table_size
-    world.worldbody.add_geom(
-        name="table",
-        type=mujoco.mjtGeom.mjGEOM_BOX,
-        size=[tx / 2, ty / 2, h / 2],
-        pos=[params.table_center[0], params.table_center[1], h / 2],
-        rgba=_rgba(0.72, 0.64, 0.52),
-        material="matte",
-        group=SCENE_GROUP,
-        friction=[1.0, 0.005, 0.0001],
-    )
-    half = params.cube_size / 2
-    cube = world.worldbody.add_body(name=CUBE, pos=[0.5, 0.0, h + half])
-    cube.add_freejoint(name=CUBE)
-    cube.add_geom(
-        name=CUBE,
-        type=mujoco.mjtGeom.mjGEOM_BOX,
-        size=[half, half, half],
-        mass=params.cube_mass,
-        rgba=_rgba(0.85, 0.12, 0.1),
-        group=SCENE_GROUP,
-        friction=[1.0, 0.01, 0.0001],
-        condim=4,
-    )
-    goal = world.worldbody.add_body(name=GOAL, pos=[0.5, 0.2, h], mocap=True)
-    if task == "push":  # a flat green disc, visual only
-        goal.add_geom(
-            name=GOAL,
-            type=mujoco.mjtGeom.mjGEOM_CYLINDER,
-            size=[params.goal_radius, 0.0005, 0],
-            pos=[0, 0, 0.0006],
-            rgba=_rgba(0.15, 0.75, 0.25),
-            group=SCENE_GROUP,
-            contype=0,
-            conaffinity=0,
-        )
-    else:  # a solid blue pad the cube has to be lifted onto
-        goal.add_geom(
-            name=GOAL,
-            type=mujoco.mjtGeom.mjGEOM_BOX,
-            size=[params.goal_radius, params.goal_radius, PAD_HEIGHT / 2],
-            pos=[0, 0, PAD_HEIGHT / 2],
-            rgba=_rgba(0.15, 0.3, 0.85),
-            group=SCENE_GROUP,
-            friction=[1.0, 0.005, 0.0001],
-        )
-    # mujoco >= 3.8 says `type=mjLIGHT_DIRECTIONAL` (its `directional` flag is gone); 3.3 only knows the flag
-    light_type = getattr(mujoco, "mjtLightType", None)
-    directional: dict[str, object] = (
-        {"type": light_type.mjLIGHT_DIRECTIONAL} if light_type is not None else {"directional": True}
-    )
-    world.worldbody.add_light(
-        name="sun",
-        **directional,
-        dir=[-0.3, 0.2, -1.0],
-        diffuse=[0.5, 0.5, 0.5],
-        specular=[0.05, 0.05, 0.05],
-        castshadow=True,
-    )
+    # --- the table, the objects, lights (objects.py) ----------------------------------------------------------
+    add_table(world, h, params.table_size, params.table_center)
+    add_objects(world, objects, f"{scene_source}: scene.params.objects")
 
     # --- cameras ------------------------------------------------------------------------------------------
     cam_names: list[str] = []

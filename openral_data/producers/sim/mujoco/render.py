@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.producers.sim.mujoco.camera_geometry import camera_geometry
-from openral_data.producers.sim.mujoco.compose import SCENE_GROUP
+from openral_data.producers.sim.mujoco.objects import SCENE_GROUP
 from openral_data.schemas.scene import RenderConfig, SceneCamera, depth_camera_name
 from openral_data.types import CameraShape
 

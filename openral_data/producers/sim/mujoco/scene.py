@@ -1,4 +1,5 @@
-"""`tabletop_push` / `tabletop_pick_place`: any manifest arm on a table with a cube, as a SimRollout.
+"""The native tabletop scenes (`tabletop`, `tabletop_push`, `tabletop_pick_place`): any manifest arm on a table
+with the objects and success criterion the scene YAML declares (schemas/tabletop.py), as a SimRollout.
 
 Observation state, by the rSkill state contract's representation:
 * `joint_positions_gripper`: arm joint positions (manifest order) + gripper opening state (0 open .. 1 closed)
@@ -6,9 +7,25 @@ Observation state, by the rSkill state contract's representation:
 * `eef_pose_gripper`: end-effector site [x, y, z, qw, qx, qy, qz] (world frame, qw >= 0) + gripper state
 * `eef_pose_gripper_width`: the same pose + the gripper's width in metres (the gap between the finger pads,
   finger_gap.py)
-Actions: see controllers.py. `Observation.time` is simulation time since reset; `Observation.privileged`
-holds ground truth (cube, goal, end effector) for scripted experts and is never recorded; with
-`scene.observations.environment_state` the objects' poses are recorded as `observation.environment_state`.
+Actions: see controllers.py. `Observation.time` is simulation time since reset. With
+`scene.observations.environment_state` the objects' poses (`object_poses` below) are recorded as
+`observation.environment_state`.
+
+`Observation.privileged` (ground truth for scripted experts and replay; never recorded), world frame, metres,
+quaternions [qw, qx, qy, qz]:
+* `object_poses`: {name: [x, y, z, qw, qx, qy, qz]} of every movable object (free joint; a drawer: its sliding
+  body), the form replay compares with the initial state's `object_poses`;
+* `objects`: {name: {...}} for every object: `kind`, `movable`, `visual`, `pos`, `quat` (body origin), `size`
+  (bounding-box extents in its own frame, x/y/z), `bottom` (origin height above its lowest point), `top_z`
+  (world height of its top), `radius` (footprint radius around the origin); a drawer also `opening` (metres
+  pulled out), `max_opening`, `handle_pos` (centre of the handle bar) and `open_dir` (unit vector it slides out
+  along);
+* `roles`: {role: object name}, e.g. `object`, `goal`, `support`, `drawer` (declared or derived from the
+  success criterion: schemas/tabletop.py); `success`: the criterion as a dict (None: no criterion);
+  `workspace`: {x, y, z} ranges (z in world heights); `table_height`;
+* the end effector: `ee_pos`, `ee_quat`, `gripper` (0 open .. 1 closed); `task`: the task label;
+* the role `object` as `cube_pos`, `cube_quat`, `cube_size` (its height) and the role `goal` as `goal_pos`,
+  `goal_radius` (its footprint half-size), the keys the `scripted-push` / `scripted-pick-place` experts read.
 """
 
 from __future__ import annotations
@@ -26,7 +43,7 @@ from openral_data.errors import ConfigError
 from openral_data.producers.sim.contract import check_representations, scene_spec
 from openral_data.producers.sim.initial_state import check_format, check_recorded_on
 from openral_data.producers.sim.mujoco.assets import check_robosuite_assets, resolve_asset
-from openral_data.producers.sim.mujoco.compose import CUBE, GOAL, compose
+from openral_data.producers.sim.mujoco.compose import ROBOT, compose
 from openral_data.producers.sim.mujoco.controllers import (
     ACTION_REPRESENTATIONS,
     Controller,
@@ -35,15 +52,26 @@ from openral_data.producers.sim.mujoco.controllers import (
 )
 from openral_data.producers.sim.mujoco.finger_gap import FingerGap
 from openral_data.producers.sim.mujoco.kinematics import F64, Arm, IKSolver
+from openral_data.producers.sim.mujoco.layout import (
+    DEFAULT_GAP,
+    ROBOT_CLEARANCE,
+    Extent,
+    Placed,
+    expand_clutter,
+    extents,
+    place,
+    yaw_quat,
+)
 from openral_data.producers.sim.mujoco.render import CameraRig
 from openral_data.producers.sim.mujoco.rig_scene import RigScene
-from openral_data.producers.sim.mujoco.tasks import TaskKind, is_success, sample_placement
+from openral_data.producers.sim.mujoco.success import holds
 from openral_data.producers.sim.params import parse_params
 from openral_data.schemas.base import format_validation_error
 from openral_data.schemas.mujoco import MujocoRobotWiring, TabletopParams
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
+from openral_data.schemas.tabletop import DrawerObject, check_layout, derived_roles
 from openral_data.types import Observation, StepResult
 
 STATE_REPRESENTATIONS = ("joint_positions_gripper", "joint_positions", "eef_pose_gripper", "eef_pose_gripper_width")
@@ -73,19 +101,29 @@ def load_wiring(robot: RobotManifest) -> tuple[MujocoRobotWiring, Path, Path | N
 
 
 class TabletopScene(RigScene):
-    """A physics scene; one instance records many episodes (`reset(seed)` each), `close()` frees renderers."""
+    """A physics scene; one instance records many episodes (`reset(seed)` each), `close()` frees renderers.
+
+    `task` is the task's label (`push`, `pick_place` for the scene types of those names; None for type
+    `tabletop`: `params.task` or the scene id): recorded in the initial state, checked when one is restored."""
 
     def __init__(
         self,
         scene: SimScene,
         robot: RobotManifest,
         rskill: RSkillManifest,
-        task: TaskKind,
+        task: str | None,
         source: str = "scene",
         rskill_source: str = "rskill",
     ) -> None:
         self.params = parse_params(TabletopParams, scene, source)
-        self.task_kind: TaskKind = task
+        self._params_source = f"{source}: scene.params"
+        check_layout(self.params, self.params.table_top, self._params_source)
+        if task is not None and self.params.task not in (None, task):
+            raise ConfigError(
+                f"{self._params_source}.task: scene type {scene.scene.type!r} is the task {task!r}, "
+                f"not {self.params.task!r}"
+            )
+        self.task_kind: str = task or self.params.task or scene.scene.id
         self.state_representation = rskill.state_contract.representation
         action_rep = rskill.action_contract.representation
         check_representations(
@@ -98,23 +136,42 @@ class TabletopScene(RigScene):
                 "the tabletop scenes' workspace is out of its reach"
             )
         self._robot_source = robot_source
+        self.objects = expand_clutter(self.params, self.params.workspace or self.params.table_top)
         self.composed = compose(
             robot_mjcf=arm_mjcf,
             gripper_mjcf=grip_mjcf,
             wiring=wiring,
             params=self.params,
             cameras=list(scene.scene.cameras),
-            task=task,
             robot_source=robot_source,
             scene_source=source,
+            objects=self.objects,
         )
         self.model = self.composed.model
         self.data = mujoco.MjData(self.model)
         self.arm = Arm.build(self.composed, wiring)
         self.ik = IKSolver(self.arm, rest=np.array(wiring.home))
-        self._cube_qpos = int(self.model.joint(CUBE).qposadr[0])
-        self._cube_body = int(self.model.body(CUBE).id)
-        self._goal_mocap = int(self.model.body_mocapid[self.model.body(GOAL).id])
+        self.extents = extents(self.model, self.objects)
+        self.roles = derived_roles(self.params)
+        self._gap = self.params.clutter.gap if self.params.clutter is not None else DEFAULT_GAP
+        m = self.model
+        self._body = {o.name: int(m.body(o.name).id) for o in self.objects}
+        self._free = {o.name: int(m.joint(o.name).qposadr[0]) for o in self.objects if o.is_movable}
+        self._mocap = {o.name: int(m.body_mocapid[self._body[o.name]]) for o in self.objects if not o.is_movable}
+        self._drawers = {
+            o.name: (
+                int(m.joint(o.name).qposadr[0]),
+                int(m.body(f"{o.name}/drawer").id),
+                int(m.site(f"{o.name}/handle").id),
+            )
+            for o in self.objects
+            if isinstance(o, DrawerObject)
+        }
+        base = mujoco.MjData(self.model)
+        mujoco.mj_kinematics(self.model, base)
+        base_xy = np.array(base.xpos[self.model.body(ROBOT + wiring.root_body).id][:2], dtype=np.float64)
+        self._keep_clear = [(base_xy, ROBOT_CLEARANCE)]
+        self._place(0)  # a layout that cannot be placed is refused now, not at some episode's reset
         self.n_substeps = max(1, round(1.0 / (scene.scene.fps * self.params.timestep)))
         self.ready_q = self._ready_posture(np.array(wiring.home))
         self.controller: Controller
@@ -180,15 +237,18 @@ class TabletopScene(RigScene):
     # -- SimRollout ------------------------------------------------------------------------------------------
     def reset(self, seed: int) -> Observation:
         self._seed = seed
-        placement = sample_placement(self.task_kind, self.params, np.random.default_rng(seed))
+        placed = self._place(seed)
         d, a = self.data, self.arm
         mujoco.mj_resetData(self.model, d)
         a.hold(d, self.ready_q)
-        c = self._cube_qpos
-        d.qpos[c : c + 3] = placement.cube_pos
-        d.qpos[c + 3 : c + 7] = [np.cos(placement.cube_yaw / 2), 0.0, 0.0, np.sin(placement.cube_yaw / 2)]
-        d.mocap_pos[self._goal_mocap] = placement.goal_pos
-        d.mocap_quat[self._goal_mocap] = [1.0, 0.0, 0.0, 0.0]
+        for name, p in placed.items():
+            if name in self._free:
+                c = self._free[name]
+                d.qpos[c : c + 3] = p.pos
+                d.qpos[c + 3 : c + 7] = yaw_quat(p.yaw)
+            else:
+                d.mocap_pos[self._mocap[name]] = p.pos
+                d.mocap_quat[self._mocap[name]] = yaw_quat(p.yaw)
         return self._begin()
 
     def reset_to(self, initial_state: dict[str, Any]) -> Observation:
@@ -225,21 +285,102 @@ class TabletopScene(RigScene):
 
     def object_names(self) -> tuple[str, ...]:
         """The movable objects, in the order `observation.environment_state` lists them (`object_poses` keys)."""
-        return (CUBE,)
+        return (*self._free, *self._drawers)
 
     def success(self) -> bool:
-        return is_success(self.task_kind, self.params, self.cube_pos(), self.goal_pos())
+        return self.params.success is not None and holds(self.params.success, self)
+
+    # -- the WorldView success.py reads ----------------------------------------------------------------------
+    @property
+    def table_height(self) -> float:
+        return self.params.table_height
+
+    def pos(self, name: str) -> F64:
+        if name in self._mocap:
+            return np.array(self.data.mocap_pos[self._mocap[name]], dtype=np.float64)
+        return np.array(self.data.xpos[self._body[name]], dtype=np.float64)
+
+    def quat(self, name: str) -> F64:
+        if name in self._mocap:
+            return np.array(self.data.mocap_quat[self._mocap[name]], dtype=np.float64)
+        return np.array(self.data.xquat[self._body[name]], dtype=np.float64)
+
+    def extent(self, name: str) -> Extent:
+        return self.extents[name]
+
+    def opening(self, name: str) -> float:
+        return float(self.data.qpos[self._drawers[name][0]])
+
+    # -- helpers ---------------------------------------------------------------------------------------------
+    def _place(self, seed: int) -> dict[str, Placed]:
+        rng = np.random.default_rng(seed)
+        p = self.params
+        return place(self.objects, self.extents, p.table_height, rng, self._gap, self._params_source, self._keep_clear)
 
     def cube_pos(self) -> F64:
-        return np.array(self.data.xpos[self._cube_body], dtype=np.float64)
+        """The role `object`'s position (the cube of the push and pick-place scenes)."""
+        return self.pos(self.roles["object"])
 
     def goal_pos(self) -> F64:
-        return np.array(self.data.mocap_pos[self._goal_mocap], dtype=np.float64)
+        return self.pos(self.roles["goal"])
+
+    def object_poses(self) -> dict[str, F64]:
+        """[x, y, z, qw, qx, qy, qz] of every movable object (free joint; a drawer's sliding body)."""
+        d = self.data
+        out: dict[str, F64] = {}
+        for name, c in self._free.items():
+            out[name] = np.array(d.qpos[c : c + 7], dtype=np.float64)
+        for name, (_, body, _) in self._drawers.items():
+            out[name] = np.concatenate([d.xpos[body], d.xquat[body]]).astype(np.float64)
+        return out
+
+    def _object_info(self) -> dict[str, dict[str, Any]]:
+        d = self.data
+        out: dict[str, dict[str, Any]] = {}
+        for obj in self.objects:
+            e, pos = self.extents[obj.name], self.pos(obj.name)
+            info: dict[str, Any] = {
+                "kind": obj.kind,
+                "movable": obj.is_movable,
+                "visual": obj.visual,
+                "pos": pos,
+                "quat": self.quat(obj.name),
+                "size": e.size,
+                "bottom": e.bottom,
+                "top_z": float(pos[2] + e.hi[2]),
+                "radius": e.radius,
+            }
+            if isinstance(obj, DrawerObject):
+                qadr, _, site = self._drawers[obj.name]
+                rot = np.zeros(9)
+                mujoco.mju_quat2Mat(rot, info["quat"])
+                info.update(
+                    opening=float(d.qpos[qadr]),
+                    max_opening=obj.opening_limit,
+                    handle_pos=np.array(d.site_xpos[site], dtype=np.float64),
+                    open_dir=rot.reshape(3, 3) @ np.array([-1.0, 0.0, 0.0]),
+                )
+            out[obj.name] = info
+        return out
+
+    def _legacy(self) -> dict[str, Any]:
+        """The keys the push and pick-place experts read, from the roles `object` and `goal`."""
+        out: dict[str, Any] = {}
+        target, goal = self.roles.get("object"), self.roles.get("goal")
+        if target is not None:
+            out["cube_pos"] = self.pos(target)
+            c = self._free.get(target)
+            out["cube_quat"] = self.data.qpos[c + 3 : c + 7].copy() if c is not None else self.quat(target)
+            out["cube_size"] = float(self.extents[target].size[2])
+        if goal is not None:
+            e = self.extents[goal]
+            out["goal_pos"] = self.pos(goal)
+            out["goal_radius"] = float(e.hi[0]) if e.round else float(max(e.hi[0], e.hi[1]))
+        return out
 
     def _snapshot(self) -> dict[str, Any]:
         d = self.data
-        c = self._cube_qpos
-        return {
+        state: dict[str, Any] = {
             "format": STATE_FORMAT,
             "seed": self._seed,
             "task": self.task_kind,
@@ -250,10 +391,15 @@ class TabletopScene(RigScene):
             "ctrl": d.ctrl.tolist(),
             "mocap_pos": d.mocap_pos.tolist(),
             "mocap_quat": d.mocap_quat.tolist(),
-            "cube_pose": d.qpos[c : c + 7].tolist(),
-            "goal_pos": d.mocap_pos[self._goal_mocap].tolist(),
-            "object_poses": {"cube": d.qpos[c : c + 7].tolist()},
+            "object_poses": {k: v.tolist() for k, v in self.object_poses().items()},
         }
+        target, goal = self.roles.get("object"), self.roles.get("goal")
+        if target in self._free:
+            c = self._free[target]
+            state["cube_pose"] = d.qpos[c : c + 7].tolist()
+        if goal is not None:
+            state["goal_pos"] = self.pos(goal).tolist()
+        return state
 
     def _state(self) -> npt.NDArray[np.float32]:
         d, a = self.data, self.arm
@@ -267,20 +413,21 @@ class TabletopScene(RigScene):
         return np.concatenate([pos, quat, [last]]).astype(np.float32)
 
     def _observation(self) -> Observation:
-        d = self.data
+        d, p = self.data, self.params
         pos, quat = self.arm.ee_pose(d)
-        c = self._cube_qpos
+        ws = p.workspace or p.table_top
+        z = p.workspace.z if p.workspace is not None else (0.0, 0.5)
         privileged: dict[str, Any] = {
-            "cube_pos": self.cube_pos(),
-            "cube_quat": d.qpos[c + 3 : c + 7].copy(),
-            "goal_pos": self.goal_pos(),
+            **self._legacy(),
             "ee_pos": pos,
             "ee_quat": quat,
             "gripper": self.arm.gripper_state(d),
-            "table_height": self.params.table_height,
-            "cube_size": self.params.cube_size,
-            "goal_radius": self.params.goal_radius,
+            "table_height": p.table_height,
             "task": self.task_kind,
-            "object_poses": {"cube": d.qpos[c : c + 7].copy()},  # the generic hook replay compares
+            "object_poses": self.object_poses(),  # the generic hook replay compares
+            "objects": self._object_info(),
+            "roles": dict(self.roles),
+            "success": p.success.model_dump() if p.success is not None else None,
+            "workspace": {"x": ws.x, "y": ws.y, "z": (p.table_height + z[0], p.table_height + z[1])},
         }
         return self.observe(self._state(), privileged)

@@ -49,7 +49,6 @@ class Twin:
             wiring=wiring,
             params=self.params,
             cameras=cameras,
-            task="push",
             robot_source=source,
             scene_source=source,
         )
