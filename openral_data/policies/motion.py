@@ -137,11 +137,13 @@ class Mover:
         z = t.table + TRAVEL if steps_so_far > 6 else t.ee[2]
         return action(self.delta(t.ee, np.array([*t.ee[:2], z])), 0.0, OPEN)
 
-    def pull(self, t: Truth, direction: F64, step: float = 0.01) -> Action:
-        """Drag what the closed hand holds along `direction` (horizontal), `step` metres per control step."""
+    def pull(self, t: Truth, direction: F64, z: float, step: float = 0.01) -> Action:
+        """Drag what the closed hand holds along `direction` (horizontal) at hand height `z`, `step` metres per
+        control step."""
         flat = np.array([direction[0], direction[1], 0.0])
         target = t.ee + flat / max(float(np.linalg.norm(flat)), 1e-9) * step
-        return action(self.delta(t.ee, target, step), 0.0, CLOSED)
+        target[2] = z
+        return action(self.delta(t.ee, target, 1.5 * step), 0.0, CLOSED)
 
 
 def _turn(yaw_err: float) -> float:

@@ -169,7 +169,7 @@ class ScriptedOpenDrawer(_Expert):
             if np.linalg.norm(t.ee[:2] - handle[:2]) > 0.03:
                 self._goto(4)  # slipped off
                 return action(np.zeros(3), 0.0, 0.0)
-            return m.pull(t, np.asarray(info["open_dir"], dtype=np.float64))
+            return m.pull(t, np.asarray(info["open_dir"], dtype=np.float64), float(handle[2]) + 0.01)
         else:  # open and rise before another try
             done = t.ee[2] > above - 0.02
             act = action(m.delta(t.ee, np.array([*t.ee[:2], above])), 0.0, 0.0)
