@@ -1,35 +1,25 @@
-"""Scripted experts for the MuJoCo tabletop scenes: `scripted-push` and `scripted-pick-place`.
+"""Scripted experts for the MuJoCo tabletop scenes: `scripted-push`, `scripted-pick-place` (also stack and
+place-on: an object onto a support), `scripted-pick` (pick an object, e.g. out of clutter, and lift it) and
+`scripted-open-drawer`.
 
-They read the simulator's ground truth (`Observation.privileged`: cube, goal and end-effector poses) and emit
-`delta_eef_gripper` actions [dx, dy, dz, drx, dry, drz, gripper] in the world frame; the scene's IK
-controller (MuJoCo Jacobians) turns them into joint targets, so the same expert drives every arm.
-Tunables come from the rSkill's `policy_extras` (`max_step`, `gain`).
+They read the simulator's ground truth (`Observation.privileged`: object poses and sizes, roles, end-effector
+pose) and emit `delta_eef_gripper` actions [dx, dy, dz, drx, dry, drz, gripper] in the world frame; the scene's
+IK controller (MuJoCo Jacobians) turns them into joint targets, so the same expert drives every arm. Which object
+is which comes from `privileged["roles"]` (`object`, `support`/`goal`, `drawer`: derived from the scene's
+success criterion or declared in its YAML). The moves are the primitives of policies/motion.py. Tunables come
+from the rSkill's `policy_extras` (`max_step`, `gain`).
 """
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
-import numpy.typing as npt
 
 from openral_data.errors import ConfigError
+from openral_data.policies.motion import CARRY, TRAVEL, Action, Mover, Truth, action, wrap, yaw_of
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.types import Observation
 
-F64 = npt.NDArray[np.float64]
-TRAVEL = 0.1  # travel height of the grasp site above the table
-
-
-def _yaw_of(quat: F64) -> float:
-    """Heading of the frame's x axis projected on the table."""
-    w, x, y, z = (float(v) for v in quat)
-    return float(np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)))
-
-
-def _wrap_quarter(angle: float) -> float:
-    """An angle modulo 90 degrees, in [-45, 45) degrees: a cube looks the same every quarter turn."""
-    return float((angle + np.pi / 4) % (np.pi / 2) - np.pi / 4)
+QUARTER, HALF = np.pi / 2, np.pi  # a box looks the same every quarter turn; a handle every half turn
 
 
 class _Expert:
@@ -41,8 +31,10 @@ class _Expert:
                 f"got {c.representation} of dim {c.dim}"
             )
         extras = rskill.policy_extras
-        self.max_step = float(extras.get("max_step", 0.02))  # type: ignore[arg-type]
-        self.gain = float(extras.get("gain", 1.0))  # type: ignore[arg-type]
+        self.mover = Mover(
+            max_step=float(extras.get("max_step", 0.02)),  # type: ignore[arg-type]
+            gain=float(extras.get("gain", 1.0)),  # type: ignore[arg-type]
+        )
         self.phase = 0
         self.counter = 0
 
@@ -53,32 +45,20 @@ class _Expert:
     def close(self) -> None:
         pass
 
-    @staticmethod
-    def _truth(observation: Observation) -> tuple[dict[str, Any], F64, F64, F64, float, float]:
-        """The scene's ground truth: the privileged dict, end-effector, cube and goal positions, the table height
-        and half the cube's size."""
-        p = observation.privileged
-        if "cube_pos" not in p:
-            raise ConfigError("scripted experts need a MuJoCo tabletop scene (no ground truth in the observation)")
-        return p, p["ee_pos"], p["cube_pos"], p["goal_pos"], float(p["table_height"]), float(p["cube_size"]) / 2
-
-    def _move(self, ee: F64, target: F64, max_step: float | None = None) -> F64:
-        step = self.max_step if max_step is None else max_step
-        delta = self.gain * (target - ee)
-        norm = float(np.linalg.norm(delta))
-        return delta if norm <= step else delta * (step / norm)
-
-    @staticmethod
-    def _action(dpos: F64, dyaw: float, gripper: float) -> npt.NDArray[np.float32]:
-        return np.array([*dpos, 0.0, 0.0, dyaw, gripper], dtype=np.float32)
+    def _goto(self, phase: int) -> None:
+        self.phase, self.counter = phase, 0
 
 
 class ScriptedPush(_Expert):
-    """Go behind the cube (seen from the goal), lower the closed gripper, push along cube -> goal; re-approach
-    whenever the cube drifts off the pushing line."""
+    """Go behind the object (seen from the goal), lower the closed gripper, push along object -> goal;
+    re-approach whenever the object drifts off the pushing line."""
 
-    def step(self, observation: Observation, instruction: str) -> npt.NDArray[np.float32]:
-        _, ee, cube, goal, h, half = self._truth(observation)
+    def step(self, observation: Observation, instruction: str) -> Action:
+        t = Truth.of(observation)
+        name = t.role("object")
+        cube, goal, h, ee = t.pos(name), t.pos(t.role("goal")), t.table, t.ee
+        half = float(t.info(name)["size"][2]) / 2
+        move = self.mover.delta
         to_goal = goal[:2] - cube[:2]
         dist = float(np.linalg.norm(to_goal))
         direction = to_goal / dist if dist > 1e-6 else np.array([1.0, 0.0])
@@ -93,69 +73,109 @@ class ScriptedPush(_Expert):
                 target = np.array([*ee[:2], h + TRAVEL])
             if np.linalg.norm(ee[:2] - behind) < 0.01:
                 self.phase = 1
-            return self._action(self._move(ee, target), 0.0, 1.0)
+            return action(move(ee, target), 0.0, 1.0)
         if self.phase == 1:  # lower behind the cube
             target = np.array([*behind, push_z])
             if abs(ee[2] - push_z) < 0.01:
                 self.phase = 2
-            return self._action(self._move(ee, target), 0.0, 1.0)
+            return action(move(ee, target), 0.0, 1.0)
         # push: advance along the line through the cube toward the goal, correcting sideways drift
         if abs(lateral) > 0.02 or along > -half + 0.005:
             self.phase = 0
-            return self._action(self._move(ee, np.array([*ee[:2], h + TRAVEL])), 0.0, 1.0)
+            return action(move(ee, np.array([*ee[:2], h + TRAVEL])), 0.0, 1.0)
         aim = cube[:2] - direction * (half + 0.01) + direction * min(dist, 0.02)
         target = np.array([*aim, push_z])
-        return self._action(self._move(ee, target, 0.012), 0.0, 1.0)
+        return action(move(ee, target, 0.012), 0.0, 1.0)
 
 
 class ScriptedPickPlace(_Expert):
-    """Above the cube (yaw aligned) -> down -> close -> lift -> above the pad -> down -> open -> rise."""
+    """Above the object (yaw aligned) -> down -> close -> lift -> over the support -> down -> open -> rise.
 
-    def step(self, observation: Observation, instruction: str) -> npt.NDArray[np.float32]:
-        p, ee, cube, goal, h, half = self._truth(observation)
-        yaw_err = _wrap_quarter(_yaw_of(p["cube_quat"]) - _yaw_of(p["ee_quat"]))
-        dyaw = float(np.clip(0.5 * yaw_err, -0.1, 0.1))
-        carry_z = h + 0.15
-        place_z = h + 0.02 + half + 0.012  # pad top + cube half + a little drop
-        if self.phase == 0:  # above the cube, open, aligned
-            target = np.array([*cube[:2], h + TRAVEL])
-            if np.linalg.norm(ee[:2] - cube[:2]) < 0.008 and abs(yaw_err) < 0.04 and abs(ee[2] - target[2]) < 0.03:
-                self.phase = 1
-            return self._action(self._move(ee, target), dyaw, 0.0)
-        if self.phase == 1:  # descend around the cube
-            target = np.array([*cube[:2], h + half])
-            if abs(ee[2] - target[2]) < 0.006:
-                self.phase, self.counter = 2, 0
-            return self._action(self._move(ee, target), dyaw, 0.0)
-        if self.phase == 2:  # close
+    The object is the role `object`, the support the role `support` (else `goal`): the pick-place pad, the
+    lower cube of a stack, the plate of a place-on. `place = False` (ScriptedPick) stops after the lift."""
+
+    place = True
+
+    def step(self, observation: Observation, instruction: str) -> Action:
+        t = Truth.of(observation)
+        m, name = self.mover, t.role("object")
+        obj, rest = t.pos(name), t.rest_z(name)
+        yaw_err = t.yaw_error(name, QUARTER)
+        carry_z = t.table + CARRY
+        dropped = obj[2] < rest + 0.02
+        if self.place:
+            support = self._support(t)
+            top = float(t.info(support)["top_z"])
+            carry_z = max(carry_z, top + 2 * float(t.info(name)["bottom"]) + 0.04)
+        if self.phase == 0:  # above the object, open, aligned
+            act, done = m.approach(t, obj[:2], t.table + TRAVEL, yaw_err)
+        elif self.phase == 1:  # descend around it
+            act, done = m.descend(t, obj[:2], rest, yaw_err)
+        elif self.phase == 2:  # close
+            act, done = m.grasp(self.counter)
             self.counter += 1
-            if self.counter >= 8:
-                self.phase = 3
-            return self._action(np.zeros(3), 0.0, 1.0)
-        if self.phase == 3:  # lift; the cube must come along
-            target = np.array([*ee[:2], carry_z])
-            if ee[2] > h + 0.08 and cube[2] < h + half + 0.02:
-                self.phase = 0  # dropped it: start over
-                return self._action(np.zeros(3), 0.0, 0.0)
-            if ee[2] > carry_z - 0.02:
-                self.phase = 4
-            return self._action(self._move(ee, target), 0.0, 1.0)
-        if self.phase == 4:  # carry over the pad
-            target = np.array([*goal[:2], carry_z])
-            if cube[2] < h + half + 0.02:
-                self.phase = 0
-                return self._action(np.zeros(3), 0.0, 0.0)
-            if np.linalg.norm(cube[:2] - goal[:2]) < 0.01:
-                self.phase = 5
-            offset = ee[:2] - cube[:2]  # keep the cube (not the hand) centred over the pad
-            return self._action(self._move(ee, np.array([*(goal[:2] + offset), carry_z])), 0.0, 1.0)
-        if self.phase == 5:  # lower onto the pad
-            offset = ee[:2] - cube[:2]
-            target = np.array([*(goal[:2] + offset), place_z])
-            if abs(ee[2] - place_z) < 0.006:
-                self.phase, self.counter = 6, 0
-            return self._action(self._move(ee, target, 0.012), 0.0, 1.0)
-        # release and rise
-        self.counter += 1
-        target = np.array([*ee[:2], h + TRAVEL if self.counter > 6 else ee[2]])
-        return self._action(self._move(ee, target), 0.0, 0.0)
+        elif self.phase == 3:  # lift; the object must come along
+            if t.ee[2] > t.table + 0.08 and dropped:
+                self._goto(0)  # dropped it: start over
+                return action(np.zeros(3), 0.0, 0.0)
+            act, done = m.lift(t, carry_z)
+            done = done and self.place
+        elif self.phase == 4:  # carry over the support
+            if dropped:
+                self._goto(0)
+                return action(np.zeros(3), 0.0, 0.0)
+            act, done = m.carry(t, name, t.pos(support)[:2], carry_z)
+        elif self.phase == 5:  # lower onto the support (origin at support top + its bottom, a little drop)
+            place_z = top + float(t.info(name)["bottom"]) + 0.012 + (t.ee[2] - obj[2])
+            act, done = m.place(t, name, t.pos(support)[:2], place_z)
+        else:  # release and rise
+            self.counter += 1
+            return m.release(t, self.counter)
+        if done:
+            self._goto(self.phase + 1)
+        return act
+
+    @staticmethod
+    def _support(t: Truth) -> str:
+        roles = t.privileged.get("roles") or {}
+        return t.role("support") if "support" in roles else t.role("goal")
+
+
+class ScriptedPick(ScriptedPickPlace):
+    """Pick the role `object` (e.g. the named target among clutter) and lift it to the carry height."""
+
+    place = False
+
+
+class ScriptedOpenDrawer(_Expert):
+    """Above the handle of the role `drawer` (fingers across the handle) -> down around the bar -> close -> pull
+    along the drawer's opening direction; if the hand slips off the handle: open, rise and start over."""
+
+    def step(self, observation: Observation, instruction: str) -> Action:
+        t = Truth.of(observation)
+        m, info = self.mover, t.info(t.role("drawer"))
+        handle = np.asarray(info["handle_pos"], dtype=np.float64)
+        above = max(handle[2] + 0.08, t.table + TRAVEL)
+        # fingers close across the bar, parallel to the panel: the hand's x axis (yaw) along the cabinet's y axis
+        yaw_err = wrap(yaw_of(np.asarray(info["quat"])) + np.pi / 2 - yaw_of(t.ee_quat), HALF)
+        if self.phase == 0:  # above the handle, open, aligned with the cabinet
+            act, done = m.approach(t, handle[:2], above, yaw_err, tol=0.006)
+        elif self.phase == 1:  # down around the bar
+            act, done = m.descend(t, handle[:2], float(handle[2]) + 0.01, yaw_err)
+        elif self.phase == 2:  # close on it
+            act, done = m.grasp(self.counter)
+            self.counter += 1
+        elif self.phase == 3:  # pull it out
+            if np.linalg.norm(t.ee[:2] - handle[:2]) > 0.03:
+                self._goto(4)  # slipped off
+                return action(np.zeros(3), 0.0, 0.0)
+            return m.pull(t, np.asarray(info["open_dir"], dtype=np.float64), float(handle[2]) + 0.01)
+        else:  # open and rise before another try
+            done = t.ee[2] > above - 0.02
+            act = action(m.delta(t.ee, np.array([*t.ee[:2], above])), 0.0, 0.0)
+            if done:
+                self._goto(0)
+            return act
+        if done:
+            self._goto(self.phase + 1)
+        return act

@@ -90,7 +90,7 @@ def _scripted(name: str) -> PolicyFactory:
     def make(rskill: RSkillManifest) -> PolicyAdapter:
         from openral_data.policies import scripted
 
-        cls: type[scripted.ScriptedPush] | type[scripted.ScriptedPickPlace] = getattr(scripted, name)
+        cls: PolicyFactory = getattr(scripted, name)
         return cls(rskill)
 
     return make
@@ -199,6 +199,8 @@ POLICIES: Registry[PolicyFactory] = Registry(
         "random": RandomPolicy,
         "scripted_push": _scripted("ScriptedPush"),
         "scripted_pick_place": _scripted("ScriptedPickPlace"),
+        "scripted_pick": _scripted("ScriptedPick"),
+        "scripted_open_drawer": _scripted("ScriptedOpenDrawer"),
         "metaworld_expert": _metaworld_expert,
         "lerobot": _lerobot,
         "sweep": _sweep,
