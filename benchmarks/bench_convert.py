@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import cProfile
 import json
+import os
 import pstats
 import shutil
 import statistics
@@ -40,6 +41,10 @@ from bench_writer import Workload, make_data, run_ours
 
 
 def main(argv: list[str] | None = None) -> int:
+    # bytecode caching on, as on a user's machine: with PYTHONDONTWRITEBYTECODE (set in some sandboxes) every
+    # spawned worker would compile its imports from source again (bench_workers.py does the same)
+    os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+    sys.dont_write_bytecode = False
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--episodes", type=int, default=10)
     p.add_argument("--frames", type=int, default=200)

@@ -1,7 +1,7 @@
 """`convert SRC_DIR DST --workers N [--executor local|ray]`: a folder of bags converted in N processes.
 
 The bags (in `find_bags`' order, the order a one-process convert reads them) are split into at most N contiguous
-blocks; each worker converts its block with `convert_bags` into its own dataset under a hidden sibling of DST
+blocks; each worker (convert/worker.py) converts its block with `convert_bags` into its own dataset under a hidden sibling of DST
 (``.DST.workers-PID``, as `record --workers`), on the executors `record --workers` uses. The blocks are then
 merged in bag order with the merge `record --workers` and `episodes merge` use (`edit.ops.write_selection`: rows
 re-indexed, videos remuxed, no re-encode; camera statistics from the summed histograms, so exact), each
@@ -14,16 +14,13 @@ text in one process (`task_topic`); the first bag of a block has no previous bag
 from __future__ import annotations
 
 import dataclasses
-import os
 import shutil
-import signal
-import threading
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 from openral_data.convert.sources import find_bags
-from openral_data.convert.to_lerobot import ConvertSummary, ProgressFn, TopicReport, check_outcome, convert_bags
+from openral_data.convert.to_lerobot import ConvertSummary, ProgressFn, TopicReport, check_outcome
+from openral_data.convert.worker import ConvertJob, ConvertResult, init_convert_worker, run_convert_job
 from openral_data.edit.ops import Rewrite, summed_histograms, write_selection
 from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.errors import ExecutorError, UsageError
@@ -33,52 +30,6 @@ from openral_data.record.parallel.executors import check_executor, run_on
 from openral_data.record.parallel.run import workers_dir
 from openral_data.schemas.mapping import Mapping
 from openral_data.types import EpisodeRecord
-
-
-@dataclass(frozen=True)
-class ConvertJob:
-    worker: int
-    src: Path  # the source as the user named it (recorded in the dataset's metadata)
-    bags: list[Path]  # this worker's block, in bag order
-    dst: Path  # the worker's own dataset
-    mapping: Mapping
-    codec: Codec
-
-
-@dataclass(frozen=True)
-class ConvertResult:
-    worker: int
-    summary: ConvertSummary
-    finished_at: float
-    pid: int
-
-
-_running = threading.Event()
-_stop_requested = threading.Event()
-
-
-def init_convert_worker() -> None:
-    """Process-pool initializer: Ctrl-C is the parent's; the parent's SIGTERM (another worker failed) stops a
-    running conversion (its staging folder is discarded) and an idle worker just remembers it."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, _on_sigterm)
-
-
-def _on_sigterm(signum: int, frame: object) -> None:
-    _stop_requested.set()
-    if _running.is_set():
-        raise KeyboardInterrupt
-
-
-def run_convert_job(job: ConvertJob) -> ConvertResult:
-    if _stop_requested.is_set():
-        raise KeyboardInterrupt
-    _running.set()
-    try:
-        summary = convert_bags(job.src, job.dst, job.mapping, codec=job.codec, bags=job.bags, checks=False)
-    finally:
-        _running.clear()
-    return ConvertResult(job.worker, summary, time.time(), os.getpid())
 
 
 def plan_blocks(bags: list[Path], workers: int) -> list[list[Path]]:
