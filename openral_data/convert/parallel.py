@@ -5,7 +5,8 @@ blocks; each worker (convert/worker.py) converts its block with `convert_bags` i
 hidden sibling of DST (``.DST.workers-PID``, as `record --workers`), on the executors `record --workers` uses.
 The blocks are then merged in bag order with the merge `record --workers` and `episodes merge` use
 (`edit.ops.write_selection`: rows re-indexed, videos remuxed, no re-encode; camera statistics from the summed
-histograms, so exact), each episode's `source_episode` (its seed) renumbered as one process numbers it. DST appears complete or not at all.
+histograms, so exact), each episode's `source_episode` (its seed) renumbered as one process numbers it.
+DST appears complete or not at all.
 
 One difference from one process: a bag's frames before its first task message take the previous bag's last task
 text in one process (`task_topic`); the first bag of a block has no previous bag, so those frames are unfillable.
