@@ -20,7 +20,14 @@ import time
 from pathlib import Path
 
 from openral_data.convert.sources import find_bags
-from openral_data.convert.to_lerobot import ConvertSummary, ProgressFn, TopicReport, check_outcome
+from openral_data.convert.to_lerobot import (
+    CameraTopics,
+    ConvertSummary,
+    ProgressFn,
+    TopicReport,
+    check_bags,
+    check_outcome,
+)
 from openral_data.convert.worker import ConvertJob, ConvertResult, init_convert_worker, run_convert_job
 from openral_data.edit.ops import Rewrite, summed_histograms, write_selection
 from openral_data.edit.source import EpisodeData, SourceDataset
@@ -62,12 +69,17 @@ def convert_parallel(
     check_executor(executor, address)
     bags = find_bags(src)
     blocks = plan_blocks(bags, workers)
+    cameras = CameraTopics()
+    check_bags(bags, mapping, ConvertSummary(src=src, dst=dst), cameras)  # every bag, before any work starts
     check_new_output(dst, "DST")
     dst.parent.mkdir(parents=True, exist_ok=True)
     workdir = workers_dir(dst)
     shutil.rmtree(workdir, ignore_errors=True)
     t0 = time.perf_counter()
-    jobs = [ConvertJob(w, src, block, workdir / f"worker-{w:03d}", mapping, codec) for w, block in enumerate(blocks)]
+    jobs = [
+        ConvertJob(w, src, block, workdir / f"worker-{w:03d}", mapping, codec, cameras)
+        for w, block in enumerate(blocks)
+    ]
     try:
         workdir.mkdir()
         results = sorted(run_on(jobs, run_convert_job, executor, address, init_convert_worker), key=lambda r: r.worker)

@@ -142,7 +142,7 @@ class _Step:
 
 
 @dataclass
-class _CameraTopics:
+class CameraTopics:
     """What the bags said about the cameras before conversion: depth units and CameraInfo intrinsics."""
 
     depth_units: dict[str, DepthUnit] = field(default_factory=dict)  # depth camera -> unit of its frames
@@ -151,7 +151,7 @@ class _CameraTopics:
 
 class _Converter:
     def __init__(
-        self, mapping: Mapping, dst: Path, codec: Codec, summary: ConvertSummary, cameras: _CameraTopics
+        self, mapping: Mapping, dst: Path, codec: Codec, summary: ConvertSummary, cameras: CameraTopics
     ) -> None:
         self.mapping = mapping
         self.dst = dst
@@ -384,17 +384,19 @@ def convert_bags(
     progress: ProgressFn | None = None,
     bags: list[Path] | None = None,
     checks: bool = True,
+    cameras: CameraTopics | None = None,
 ) -> ConvertSummary:
     """Convert the bags of `src` (or `bags`, a block of them: `src` then only names the source) into a new
     LeRobot v3 dataset at `dst`. `checks=False` (a block of `convert --workers`): a block without a single filled
     frame publishes nothing and returns its summary, and the header-stamp check is left to the caller, which
-    makes both over all the blocks."""
+    makes both over all the blocks. `cameras`: what `check_bags` found over all the bags (a block then takes the
+    first bag's camera intrinsics, as one process does)."""
     bags = find_bags(src) if bags is None else bags
     summary = ConvertSummary(src=src, dst=dst, bags=len(bags))
     wanted = mapping.topics()
     extra = [t for t in (mapping.task_topic, mapping.success_topic, mapping.episodes.marker_topic) if t is not None]
-    cameras = _CameraTopics()
-    totals = _check_bags(bags, mapping, summary, cameras)
+    cameras = CameraTopics() if cameras is None else cameras
+    totals = check_bags(bags, mapping, summary, cameras)
     check_new_output(dst, "DST")
     staged = Staging(dst, "openral-data convert")  # DST appears complete or not at all
     with staged as staging:
@@ -420,7 +422,7 @@ def convert_bags(
     return summary
 
 
-def _check_bags(bags: list[Path], mapping: Mapping, summary: ConvertSummary, cameras: _CameraTopics) -> int:
+def check_bags(bags: list[Path], mapping: Mapping, summary: ConvertSummary, cameras: CameraTopics) -> int:
     """Every mapped topic exists in every bag, with the cameras' types: checked up front, before anything is
     written. Fills the summary's topic reports and skipped topics, and `cameras`; returns the mapped messages."""
     wanted = mapping.topics()
@@ -467,7 +469,7 @@ def check_outcome(summary: ConvertSummary) -> None:
 
 
 def _check_depth_cameras(
-    reader: AnyReader, bag: Path, mapping: Mapping, conn: dict[str, Connection], cameras: _CameraTopics
+    reader: AnyReader, bag: Path, mapping: Mapping, conn: dict[str, Connection], cameras: CameraTopics
 ) -> None:
     """Each depth camera carries 16UC1 or 32FC1, the same in every bag."""
     for name, topic in mapping.depth_cameras.items():

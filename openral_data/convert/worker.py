@@ -13,7 +13,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from openral_data.convert.to_lerobot import ConvertSummary, convert_bags
+from openral_data.convert.to_lerobot import CameraTopics, ConvertSummary, convert_bags
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.schemas.mapping import Mapping
 
@@ -26,6 +26,7 @@ class ConvertJob:
     dst: Path  # the worker's own dataset
     mapping: Mapping
     codec: Codec
+    cameras: CameraTopics  # depth units and intrinsics, as found over all the bags
 
 
 @dataclass(frozen=True)
@@ -58,7 +59,9 @@ def run_convert_job(job: ConvertJob) -> ConvertResult:
         raise KeyboardInterrupt
     _running.set()
     try:
-        summary = convert_bags(job.src, job.dst, job.mapping, codec=job.codec, bags=job.bags, checks=False)
+        summary = convert_bags(
+            job.src, job.dst, job.mapping, codec=job.codec, bags=job.bags, checks=False, cameras=job.cameras
+        )
     finally:
         _running.clear()
     return ConvertResult(job.worker, summary, time.time(), os.getpid())

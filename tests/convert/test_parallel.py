@@ -17,6 +17,8 @@ from openral_data.errors import UsageError
 from openral_data.formats.mcap import finished_bags
 from openral_data.record.options import RecordOptions
 from openral_data.record.sim import record
+from openral_data.schemas.mapping import load_mapping
+from tests.support import layout_bags as lb
 from tests.support.cli import run_cli
 from tests.support.lerobot import verify_mock_dataset
 from tests.support.scenes import mock_scene, write_yaml
@@ -96,17 +98,51 @@ def test_ray_executor_equals_one_process(bags: Path, tmp_path: Path) -> None:
     _assert_same(tmp_path / "seq", tmp_path / "ray")
 
 
-def test_failed_worker_leaves_nothing(bags: Path, tmp_path: Path) -> None:
-    """A bag that breaks one worker: one-line error, exit 2, nothing under DST, no workers' folder left."""
-    broken = finished_bags(bags)[-1]
-    for mcap in broken.glob("*.mcap"):
-        mcap.write_bytes(mcap.read_bytes()[:200])  # truncated
+SPLIT_MAPPING = {
+    "fps": 10,
+    "task": "pick",
+    "state": {
+        "parts": [
+            {"topic": "/arm/joint_states", "field": "position", "joints": ["j1", "j2", "j3"]},
+            {"topic": "/gripper/joint_states", "field": "position"},
+        ]
+    },
+    "action": {"parts": [{"topic": "/arm/cmd", "field": "data"}, {"topic": "/gripper/cmd", "field": "data"}]},
+}
+
+
+def _layout_bags(root: Path, broken: bool) -> Path:
+    """Three camera-less rosbag2 bags; with `broken`, the last one's /gripper/cmd widens after 0.5 s, which only
+    its conversion finds (the up-front checks read each topic's first message)."""
+    root.mkdir()
+    for name in ("a", "b", "c"):
+        width = (lambda k: 1 if k < 5 else 2) if broken and name == "c" else (lambda k: 1)
+        lb.write_ros2(root / name, lb.split(gripper_cmd_width=width))
+    return root
+
+
+def test_failed_worker_leaves_nothing(tmp_path: Path) -> None:
+    """A bag that breaks one worker mid-conversion: one-line error, exit 2, nothing under DST, no workers' folder."""
+    src = _layout_bags(tmp_path / "bags", broken=True)
+    mapping = write_yaml(tmp_path / "m.yaml", SPLIT_MAPPING)
     dst = tmp_path / "out"
-    proc = run_cli("convert", str(bags), str(dst), "--codec", "h264", "--workers", "2")
+    proc = run_cli("convert", str(src), str(dst), "--mapping", str(mapping), "--workers", "2")
     assert proc.returncode == 2, proc.stderr
-    assert proc.stderr.startswith("error: ") and len(proc.stderr.strip().splitlines()) == 1
-    assert not dst.exists()
-    assert not [p.name for p in tmp_path.iterdir() if ".workers-" in p.name or p.name.startswith(".out")]
+    line = proc.stderr.strip()
+    assert len(line.splitlines()) == 1 and line.startswith(f"error: {src / 'c'}"), line
+    assert line.endswith("mapping: action.parts[1] (/gripper/cmd.data): vector length changed from 1 to 2"), line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bags", "m.yaml"]
+
+
+def test_camera_less_bags_in_parallel(tmp_path: Path) -> None:
+    """Bags without cameras merge too (no camera statistics to sum); the frames equal one process's."""
+    src = _layout_bags(tmp_path / "bags", broken=False)
+    mapping = load_mapping(write_yaml(tmp_path / "m.yaml", SPLIT_MAPPING))
+    seq = convert_bags(src, tmp_path / "seq", mapping)
+    par = convert_parallel(src, tmp_path / "par", mapping, 2)
+    assert par.frames == seq.frames > 0 and len(par.episodes) == len(seq.episodes) == 3
+    assert _frames(tmp_path / "par") == _frames(tmp_path / "seq")
+    assert _episodes(tmp_path / "par") == _episodes(tmp_path / "seq")
 
 
 @pytest.mark.parametrize(
