@@ -8,8 +8,8 @@ The blocks are then merged in bag order with the merge `record --workers` and `e
 histograms, so exact), each episode's `source_episode` (its seed) renumbered as one process numbers it.
 DST appears complete or not at all.
 
-One difference from one process: a bag's frames before its first task message take the previous bag's last task
-text in one process (`task_topic`); the first bag of a block has no previous bag, so those frames are unfillable.
+With a `task_topic`, one process carries a bag's last task message into the next bag's first frames: each block
+starts with the last task message of the bags before it (read from their task topic up front), so it does too.
 """
 
 from __future__ import annotations
@@ -27,6 +27,7 @@ from openral_data.convert.to_lerobot import (
     TopicReport,
     check_bags,
     check_outcome,
+    last_task,
 )
 from openral_data.convert.worker import ConvertJob, ConvertResult, init_convert_worker, run_convert_job
 from openral_data.edit.ops import Rewrite, summed_histograms, write_selection
@@ -54,6 +55,20 @@ def plan_blocks(bags: list[Path], workers: int) -> list[list[Path]]:
     return blocks
 
 
+def carried_tasks(blocks: list[list[Path]], mapping: Mapping) -> list[tuple[int, str] | None]:
+    """The task each block starts with: the last task message of the bags before it, as one process carries it
+    from bag to bag (only with a `task_topic`; reads that topic of every bag but the last block's)."""
+    carry: tuple[int, str] | None = None
+    carried: list[tuple[int, str] | None] = []
+    for block in blocks:
+        carried.append(carry)
+        if block is blocks[-1] or mapping.task_topic is None or mapping.task is not None:
+            continue
+        for bag in block:
+            carry = last_task(bag, mapping) or carry
+    return carried
+
+
 def convert_parallel(
     src: Path,
     dst: Path,
@@ -77,8 +92,8 @@ def convert_parallel(
     shutil.rmtree(workdir, ignore_errors=True)
     t0 = time.perf_counter()
     jobs = [
-        ConvertJob(w, src, block, workdir / f"worker-{w:03d}", mapping, codec, cameras)
-        for w, block in enumerate(blocks)
+        ConvertJob(w, src, block, workdir / f"worker-{w:03d}", mapping, codec, cameras, carry)
+        for w, (block, carry) in enumerate(zip(blocks, carried_tasks(blocks, mapping), strict=True))
     ]
     try:
         workdir.mkdir()

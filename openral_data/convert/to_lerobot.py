@@ -385,12 +385,14 @@ def convert_bags(
     bags: list[Path] | None = None,
     checks: bool = True,
     cameras: CameraTopics | None = None,
+    carried_task: tuple[int, str] | None = None,
 ) -> ConvertSummary:
     """Convert the bags of `src` (or `bags`, a block of them: `src` then only names the source) into a new
     LeRobot v3 dataset at `dst`. `checks=False` (a block of `convert --workers`): a block without a single filled
     frame publishes nothing and returns its summary, and the header-stamp check is left to the caller, which
     makes both over all the blocks. `cameras`: what `check_bags` found over all the bags (a block then takes the
-    first bag's camera intrinsics, as one process does)."""
+    first bag's camera intrinsics, as one process does). `carried_task`: the (time, text) a block's first bag
+    starts with, as one process carries the previous bag's last task message into the next bag (`last_task`)."""
     bags = find_bags(src) if bags is None else bags
     summary = ConvertSummary(src=src, dst=dst, bags=len(bags))
     wanted = mapping.topics()
@@ -401,6 +403,8 @@ def convert_bags(
     staged = Staging(dst, "openral-data convert")  # DST appears complete or not at all
     with staged as staging:
         conv = _Converter(mapping, staging, codec, summary, cameras)
+        if carried_task is not None:
+            conv.tasks = [carried_task]
         t0 = time.perf_counter()
         done = 0
         try:
@@ -456,6 +460,23 @@ def check_bags(bags: list[Path], mapping: Mapping, summary: ConvertSummary, came
         finally:
             reader.close()
     return totals
+
+
+def last_task(bag: Path, mapping: Mapping) -> tuple[int, str] | None:
+    """The bag's last message on the mapping's `task_topic` as (time, text): what one process carries into the
+    next bag's frames until that bag's own first task message. None: no task topic, or no message on it."""
+    if mapping.task is not None or mapping.task_topic is None:
+        return None
+    reader = open_reader(bag)
+    try:
+        conns = [c for c in reader.connections if c.topic == mapping.task_topic]
+        last: tuple[int, str] | None = None
+        for conn, ns, raw in read_messages(reader, bag, conns):
+            # a String has no header: its time is its log time with either align.clock, and log order is its order
+            last = (ns, str(deserialize(reader, bag, raw, conn.msgtype).data))
+        return last
+    finally:
+        reader.close()
 
 
 def check_outcome(summary: ConvertSummary) -> None:

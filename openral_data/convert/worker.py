@@ -27,6 +27,7 @@ class ConvertJob:
     mapping: Mapping
     codec: Codec
     cameras: CameraTopics  # depth units and intrinsics, as found over all the bags
+    carried_task: tuple[int, str] | None  # the task text the block's first bag starts with (one process's carry)
 
 
 @dataclass(frozen=True)
@@ -60,7 +61,14 @@ def run_convert_job(job: ConvertJob) -> ConvertResult:
     _running.set()
     try:
         summary = convert_bags(
-            job.src, job.dst, job.mapping, codec=job.codec, bags=job.bags, checks=False, cameras=job.cameras
+            job.src,
+            job.dst,
+            job.mapping,
+            codec=job.codec,
+            bags=job.bags,
+            checks=False,
+            cameras=job.cameras,
+            carried_task=job.carried_task,
         )
     finally:
         _running.clear()

@@ -145,6 +145,33 @@ def test_camera_less_bags_in_parallel(tmp_path: Path) -> None:
     assert _episodes(tmp_path / "par") == _episodes(tmp_path / "seq")
 
 
+@pytest.mark.parametrize("workers", [2, 3])
+def test_task_text_carries_across_blocks(tmp_path: Path, workers: int) -> None:
+    """One process carries a bag's last task message into the next bag; each block starts with that carry too."""
+    src = tmp_path / "bags"
+    src.mkdir()
+    # every bag has the topic (mapped topics must exist), but b and c only late: their first frames take the
+    # previous bag's last task
+    tasks = {"a": [(0, "pick red")], "b": [(900, "pick blue")], "c": [(500, "place")]}  # ms into each bag
+    for name, messages in tasks.items():
+        task = [lb.Sample("/task", lb.BASE + ms * lb.MS, {"data": text}) for ms, text in messages]
+        lb.write_ros2(src / name, lb.split() + task)
+    mapping = load_mapping(write_yaml(tmp_path / "m.yaml", {**SPLIT_MAPPING, "task": None, "task_topic": "/task"}))
+    seq = convert_bags(src, tmp_path / "seq", mapping)
+    par = convert_parallel(src, tmp_path / "par", mapping, workers)
+    assert seq.unfillable_frames == par.unfillable_frames and par.frames == seq.frames
+    # b's first frames took a's task; c's took b's only from the carried message's time on (the bags share a
+    # clock base, so b's message at 0.9 s is later than c's first frames, which are unfillable until c's own)
+    assert [e.length for e in seq.episodes] == [10, 10, 5] and seq.unfillable_frames == 5
+    assert _frames(tmp_path / "par") == _frames(tmp_path / "seq")
+    read = pq.read_table(tmp_path / "par" / "meta" / "tasks.parquet").to_pydict()
+    assert sorted(str(v) for col in read.values() for v in col if isinstance(v, str)) == [
+        "pick blue",
+        "pick red",
+        "place",
+    ]
+
+
 @pytest.mark.parametrize(
     ("args", "message"),
     [
