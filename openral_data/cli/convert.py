@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, cast
 
@@ -32,10 +33,28 @@ def convert(
     mcap_compression: Annotated[
         str, typer.Option(help="MCAP chunk compression: zstd, lz4 or none (LeRobot -> MCAP)")
     ] = "zstd",
+    workers: Annotated[
+        int, typer.Option(help="convert a folder of bags in N processes, merged in bag order (bags -> LeRobot)")
+    ] = 1,
+    executor: Annotated[str, typer.Option(help="local (processes on this machine) or ray (with --workers)")] = "local",
+    address: Annotated[str | None, typer.Option(help="Ray cluster address (--executor ray)")] = None,
     json: JsonFlag = False,
 ) -> None:
     """Convert bags/MCAP to a LeRobot v3 dataset, or a LeRobot v3 dataset to ROS 2 MCAP bags."""
-    _convert(src, dst, mapping, codec.value, episodes, image_format, mcap_compression, json)
+    from openral_data.record.parallel.executors import check_executor
+
+    if workers < 1:
+        raise UsageError(f"--workers must be >= 1, got {workers}")
+    check_executor(executor, address)
+    parallel = Parallel(workers, executor, address) if workers != 1 or executor != "local" else None
+    _convert(src, dst, mapping, codec.value, episodes, image_format, mcap_compression, json, parallel)
+
+
+@dataclass(frozen=True)
+class Parallel:
+    workers: int
+    executor: str
+    address: str | None
 
 
 def _convert(
@@ -47,6 +66,7 @@ def _convert(
     image_format: str,
     mcap_compression: str,
     json: bool,
+    parallel: Parallel | None = None,
 ) -> None:
     from openral_data.convert.to_mcap import export_mcap, is_lerobot_dataset
     from openral_data.formats.mcap import IMAGE_FORMATS, McapCompression, McapConfig, check_compression
@@ -58,6 +78,8 @@ def _convert(
         raise NotFound(f"{src}: no such file or directory")
     check_new_output(dst, "DST")
     if is_lerobot_dataset(src):
+        if parallel is not None:
+            raise UsageError(f"{src}: is a LeRobot dataset (exported to MCAP); --workers/--executor apply to bags only")
         if mapping_path is not None:
             raise UsageError(f"{src}: is a LeRobot dataset (exported to MCAP); --mapping applies to bags only")
         if image_format not in IMAGE_FORMATS:
@@ -92,20 +114,38 @@ def _convert(
 
     bags = find_bags(src)
     mapping = load_mapping(mapping_path) if mapping_path is not None else own_mapping(bags[0])
-    with progress_bar("converting", "messages") as bar:
+    with progress_bar("converting", "messages" if parallel is None else "merged") as bar:
         task = bar.add_task("convert", total=None)
-        result = convert_bags(
-            src,
-            dst,
-            mapping,
-            codec=cast("Codec", codec),
-            progress=lambda d, t: bar.update(task, completed=d, total=t),
-        )
+        if parallel is None:
+            result = convert_bags(
+                src,
+                dst,
+                mapping,
+                codec=cast("Codec", codec),
+                progress=lambda d, t: bar.update(task, completed=d, total=t),
+            )
+        else:
+            from openral_data.convert.parallel import convert_parallel
+
+            result = convert_parallel(
+                src,
+                dst,
+                mapping,
+                parallel.workers,
+                executor=parallel.executor,
+                address=parallel.address,
+                codec=cast("Codec", codec),
+                progress=lambda d, t: bar.update(task, completed=d, total=t),
+            )
     if json:
-        print_json("convert", result.to_json(mapping))
+        if parallel is None:
+            print_json("convert", result.to_json(mapping))
+        else:
+            print_json("convert", result.to_json(mapping, parallel.workers, parallel.executor))
         return
     rows = [
         ("source", f"{src} ({result.bags} bag(s))"),
+        *([("workers", f"{parallel.workers} ({parallel.executor})")] if parallel is not None else []),
         ("output", str(dst)),
         ("episodes", str(len(result.episodes))),
         (

@@ -4,8 +4,13 @@ built in a hidden staging folder beside DST and renamed to DST at the end (`form
 convert leaves no partial dataset under DST, and the next run removes the dead run's staging folder.
 
 Memory stays bounded: messages are read one at a time in time order, state/action are reduced to small
-vectors on arrival, images stay serialised until the aligner picks them for a frame and are then decoded
-and handed to the writer's encoder queue (which blocks when the encoder is behind).
+vectors on arrival, images stay serialised until the aligner picks them for a frame. A frame's images are then
+deserialised and decoded in a small thread pool (Pillow and PyAV release the GIL, so decoding overlaps reading,
+aligning and the writer's encoders) while the frames are handed to the writer strictly in order; at most
+`DECODE_AHEAD` decoded frames wait, and the writer's encoder queue blocks when the encoder is behind.
+
+`convert --workers N` (convert/parallel.py) runs `convert_bags` on blocks of bags (`bags=`, `checks=False`)
+and merges the blocks in bag order.
 """
 
 from __future__ import annotations
@@ -13,7 +18,9 @@ from __future__ import annotations
 import heapq
 import json
 import time
+from collections import deque
 from collections.abc import Callable, Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -49,6 +56,8 @@ from openral_data.version import __version__
 
 STATE, ACTION, ENV, REWARD = "state", "action", "environment_state", "reward"
 ProgressFn = Callable[[int, int], None]  # (messages read, messages in total)
+DECODE_THREADS = 2  # image decoding threads (JPEG/PNG via Pillow, raw via numpy)
+DECODE_AHEAD = 8  # frames decoded ahead of the writer, at most (memory bound)
 
 
 @dataclass
@@ -77,14 +86,15 @@ class ConvertSummary:
     late_messages: int = 0  # align.clock header: stamps further behind the log order than align.reorder
     header_stamps: dict[str, int] = field(default_factory=dict)  # align.clock header: topic -> stamped messages
     zero_stamps: dict[str, int] = field(default_factory=dict)  # ... of them with header.stamp 0
+    source_episodes: int = 0  # source episodes seen (boundaries by the mapping's episodes.split)
 
     @property
     def fps(self) -> float:
         return self.frames / self.seconds if self.seconds > 0 else 0.0
 
-    def to_json(self, mapping: Mapping) -> dict[str, object]:
-        """The fields of `convert --json` for bags -> LeRobot (made with `mapping`), in docs/scripting.md's
-        order."""
+    def to_json(self, mapping: Mapping, workers: int = 1, executor: str | None = None) -> dict[str, object]:
+        """The fields of `convert --json` for bags -> LeRobot (made with `mapping`; `executor` None: one
+        process), in docs/scripting.md's order."""
         return {
             "direction": "bags-to-lerobot",
             "source": str(self.src),
@@ -95,6 +105,8 @@ class ConvertSummary:
             "fps": mapping.fps,
             "seconds": self.seconds,
             "frames_per_s": self.fps,
+            "workers": workers,
+            "executor": executor,
             "align_method": mapping.align.method,
             "align_clock": mapping.align.clock,
             "max_staleness_s": mapping.align.max_staleness,
@@ -118,7 +130,19 @@ class _Pending:
 
 
 @dataclass
-class _CameraTopics:
+class _Step:
+    """A frame on its way to the writer: its images being decoded, the rest ready."""
+
+    images: Future[dict[str, npt.NDArray[Any]]]
+    obs: Observation
+    action: npt.NDArray[np.float32]
+    reward: float
+    done: bool
+    success: bool
+
+
+@dataclass
+class CameraTopics:
     """What the bags said about the cameras before conversion: depth units and CameraInfo intrinsics."""
 
     depth_units: dict[str, DepthUnit] = field(default_factory=dict)  # depth camera -> unit of its frames
@@ -127,7 +151,7 @@ class _CameraTopics:
 
 class _Converter:
     def __init__(
-        self, mapping: Mapping, dst: Path, codec: Codec, summary: ConvertSummary, cameras: _CameraTopics
+        self, mapping: Mapping, dst: Path, codec: Codec, summary: ConvertSummary, cameras: CameraTopics
     ) -> None:
         self.mapping = mapping
         self.dst = dst
@@ -162,6 +186,8 @@ class _Converter:
         self.source_episode = 0
         self.segment_frames = 0
         self.segment_start = 0
+        self.decoder = ThreadPoolExecutor(DECODE_THREADS, thread_name_prefix="convert-decode")
+        self.steps: deque[_Step] = deque()  # frames whose images are being decoded, in frame order
 
     # -- per source episode --------------------------------------------------------------------------------
     def new_aligner(self) -> Aligner[Any]:
@@ -179,6 +205,7 @@ class _Converter:
             self.summary.empty_segments += 1
         self.collect(aligner)
         self.source_episode += 1
+        self.summary.source_episodes = self.source_episode
         self.segment_frames = 0
         self.tasks = self.tasks[-1:]
         self.successes = []  # a source episode's success starts unknown: never the previous episode's verdict
@@ -244,15 +271,20 @@ class _Converter:
         parts = [samples[s] for s in self.vector_streams[role]]
         return parts[0] if len(parts) == 1 else np.concatenate(parts)
 
-    def emit(self, pending: _Pending, *, done: bool, success: bool) -> None:
-        samples = pending.frame.samples
-        assert samples is not None
+    def decode(self, samples: dict[str, Any]) -> dict[str, npt.NDArray[Any]]:
+        """A frame's images (runs in a decoder thread)."""
         images: dict[str, npt.NDArray[Any]] = {name: samples[name].decode() for name in self.mapping.cameras}
         for name, unit in self.cameras.depth_units.items():
             images[name] = samples[name].decode_depth(unit)
+        return images
+
+    def emit(self, pending: _Pending, *, done: bool, success: bool) -> None:
+        samples = pending.frame.samples
+        assert samples is not None
         state, action = self.vector(samples, STATE), self.vector(samples, ACTION)
         env = self.vector(samples, ENV) if ENV in self.vectors else None
-        bridge = self.ensure_writer(images)
+        images = self.decoder.submit(self.decode, samples)
+        bridge = self.bridge if self.bridge is not None else self.ensure_writer(images.result())
         if not self.open:
             if self.segment_frames:  # this source episode already produced an episode: a hole split it
                 self.summary.splits += 1
@@ -260,7 +292,7 @@ class _Converter:
             self.open = True
             self.segment_start = pending.frame.time_ns
         obs = Observation(
-            images=images,
+            images={},  # filled in by `flush` once decoded
             state=state,
             task=pending.task,
             time=(pending.frame.time_ns - self.segment_start) / 1e9,
@@ -268,8 +300,17 @@ class _Converter:
         )
         # without a reward source the schema has no reward column and the writer ignores this value
         reward = float(samples[REWARD]) if REWARD in samples else 0.0
-        bridge.add_step(obs, action, reward=reward, done=done, success=success)
+        self.steps.append(_Step(images, obs, action, reward, done, success))
         self.segment_frames += 1
+        self.flush(DECODE_AHEAD)
+
+    def flush(self, keep: int = 0) -> None:
+        """Hand decoded frames to the writer, oldest first, until at most `keep` are still on their way."""
+        while len(self.steps) > keep:
+            step = self.steps.popleft()
+            step.obs.images = step.images.result()
+            assert self.bridge is not None
+            self.bridge.add_step(step.obs, step.action, reward=step.reward, done=step.done, success=step.success)
 
     def close_segment(self, end_success: bool | None, *, cut: bool) -> None:
         success: bool | None = None
@@ -279,6 +320,7 @@ class _Converter:
             self.pending = None
         if self.open:
             assert self.bridge is not None
+            self.flush()
             records = self.bridge.end_episode(success)
             self.summary.episodes.append(records[0])
             self.summary.frames += records[0].length
@@ -318,7 +360,17 @@ class _Converter:
         self.bridge = DatasetBridge(schema, [self.writer])
         return self.bridge
 
+    def close_reader(self) -> None:
+        """Wait for the decoder threads to be done with the bag being closed (after a failure: frames still on
+        their way are dropped; nothing of this run is published)."""
+        for step in self.steps:
+            if not step.images.cancel():
+                step.images.exception()  # wait; its error, if any, is not the one that stopped the run
+
     def close(self) -> None:
+        for step in self.steps:
+            step.images.cancel()  # only after a failure: a finished conversion flushed every frame
+        self.decoder.shutdown(wait=True)
         if self.bridge is not None:
             self.bridge.close()
 
@@ -330,14 +382,56 @@ def convert_bags(
     *,
     codec: Codec = "av1",
     progress: ProgressFn | None = None,
+    bags: list[Path] | None = None,
+    checks: bool = True,
+    cameras: CameraTopics | None = None,
+    carried_task: tuple[int, str] | None = None,
 ) -> ConvertSummary:
-    bags = find_bags(src)
+    """Convert the bags of `src` (or `bags`, a block of them: `src` then only names the source) into a new
+    LeRobot v3 dataset at `dst`. `checks=False` (a block of `convert --workers`): a block without a single filled
+    frame publishes nothing and returns its summary, and the header-stamp check is left to the caller, which
+    makes both over all the blocks. `cameras`: what `check_bags` found over all the bags (a block then takes the
+    first bag's camera intrinsics, as one process does). `carried_task`: the (time, text) a block's first bag
+    starts with, as one process carries the previous bag's last task message into the next bag (`last_task`)."""
+    bags = find_bags(src) if bags is None else bags
     summary = ConvertSummary(src=src, dst=dst, bags=len(bags))
     wanted = mapping.topics()
     extra = [t for t in (mapping.task_topic, mapping.success_topic, mapping.episodes.marker_topic) if t is not None]
+    cameras = CameraTopics() if cameras is None else cameras
+    totals = check_bags(bags, mapping, summary, cameras)
+    check_new_output(dst, "DST")
+    staged = Staging(dst, "openral-data convert")  # DST appears complete or not at all
+    with staged as staging:
+        conv = _Converter(mapping, staging, codec, summary, cameras)
+        if carried_task is not None:
+            conv.tasks = [carried_task]
+        t0 = time.perf_counter()
+        done = 0
+        try:
+            for bag in bags:
+                for _ in _convert_bag(bag, conv, wanted, extra):
+                    done += 1
+                    if progress is not None and done % 64 == 0:
+                        progress(done, totals)
+            if progress is not None:
+                progress(totals, totals)
+        finally:
+            conv.close()
+        summary.seconds = time.perf_counter() - t0
+        if not checks and not summary.episodes:
+            return summary  # the staging folder goes: nothing is published
+        if checks:
+            check_outcome(summary)
+        staged.publish("DST")
+    return summary
+
+
+def check_bags(bags: list[Path], mapping: Mapping, summary: ConvertSummary, cameras: CameraTopics) -> int:
+    """Every mapped topic exists in every bag, with the cameras' types: checked up front, before anything is
+    written. Fills the summary's topic reports and skipped topics, and `cameras`; returns the mapped messages."""
+    wanted = mapping.topics()
+    extra = [t for t in (mapping.task_topic, mapping.success_topic, mapping.episodes.marker_topic) if t is not None]
     info_topics = list(mapping.camera_info.values())  # read up front (first message), not aligned
-    cameras = _CameraTopics()
-    # every mapped topic must exist in every bag: checked up front, before anything is written
     totals = 0
     for bag in bags:
         reader = open_reader(bag)
@@ -365,35 +459,38 @@ def convert_bags(
                 cameras.info.setdefault(name, read_camera_info(reader, bag, name, conn[topic]))
         finally:
             reader.close()
-    check_new_output(dst, "DST")
-    staged = Staging(dst, "openral-data convert")  # DST appears complete or not at all
-    with staged as staging:
-        conv = _Converter(mapping, staging, codec, summary, cameras)
-        t0 = time.perf_counter()
-        done = 0
-        try:
-            for bag in bags:
-                for _ in _convert_bag(bag, conv, wanted, extra):
-                    done += 1
-                    if progress is not None and done % 64 == 0:
-                        progress(done, totals)
-            if progress is not None:
-                progress(totals, totals)
-        finally:
-            conv.close()
-        summary.seconds = time.perf_counter() - t0
-        _check_stamps(src, summary)
-        if not summary.episodes:
-            raise BagError(
-                f"{src}: no frame could be filled; nothing was written (see the mapping's align settings)",
-                code="bag.empty",
-            )
-        staged.publish("DST")
-    return summary
+    return totals
+
+
+def last_task(bag: Path, mapping: Mapping) -> tuple[int, str] | None:
+    """The bag's last message on the mapping's `task_topic` as (time, text): what one process carries into the
+    next bag's frames until that bag's own first task message. None: no task topic, or no message on it."""
+    if mapping.task is not None or mapping.task_topic is None:
+        return None
+    reader = open_reader(bag)
+    try:
+        conns = [c for c in reader.connections if c.topic == mapping.task_topic]
+        last: tuple[int, str] | None = None
+        for conn, ns, raw in read_messages(reader, bag, conns):
+            # a String has no header: its time is its log time with either align.clock, and log order is its order
+            last = (ns, str(deserialize(reader, bag, raw, conn.msgtype).data))
+        return last
+    finally:
+        reader.close()
+
+
+def check_outcome(summary: ConvertSummary) -> None:
+    """Refuse a conversion that filled no frame, or aligned on header stamps that are all zero."""
+    _check_stamps(summary.src, summary)
+    if not summary.episodes:
+        raise BagError(
+            f"{summary.src}: no frame could be filled; nothing was written (see the mapping's align settings)",
+            code="bag.empty",
+        )
 
 
 def _check_depth_cameras(
-    reader: AnyReader, bag: Path, mapping: Mapping, conn: dict[str, Connection], cameras: _CameraTopics
+    reader: AnyReader, bag: Path, mapping: Mapping, conn: dict[str, Connection], cameras: CameraTopics
 ) -> None:
     """Each depth camera carries 16UC1 or 32FC1, the same in every bag."""
     for name, topic in mapping.depth_cameras.items():
@@ -467,6 +564,7 @@ def _convert_bag(bag: Path, conv: _Converter, wanted: list[str], extra: list[str
                     conv.take(frame)
         conv.finish_source_episode(aligner, success)
     finally:
+        conv.close_reader()  # no decoder thread still reads this bag's messages
         reader.close()
 
 

@@ -30,6 +30,7 @@ BASE = 1_700_000_000 * 10**9
 MS = 10**6
 JOINT_STATE = "sensor_msgs/msg/JointState"
 ARRAY = "std_msgs/msg/Float64MultiArray"
+STRING = "std_msgs/msg/String"  # a Sample whose `data` is a str (e.g. a task topic)
 PANDA = [f"panda_joint{i}" for i in range(1, 8)] + ["panda_finger_joint1", "panda_finger_joint2"]
 
 
@@ -88,7 +89,13 @@ def object_poses(duration_ms: int = 1000) -> list[Sample]:
 
 
 def _types(samples: list[Sample]) -> dict[str, str]:
-    return {s.topic: JOINT_STATE if "name" in s.fields else ARRAY for s in samples}
+    return {s.topic: _type(s) for s in samples}
+
+
+def _type(sample: Sample) -> str:
+    if "name" in sample.fields:
+        return JOINT_STATE
+    return STRING if isinstance(sample.fields["data"], str) else ARRAY
 
 
 def _ordered(samples: list[Sample]) -> list[Sample]:
@@ -97,6 +104,8 @@ def _ordered(samples: list[Sample]) -> list[Sample]:
 
 def _message(store: Any, sample: Sample, ros1: bool) -> Any:
     t = store.types
+    if _type(sample) == STRING:
+        return t[STRING](data=sample.fields["data"])
     if "data" in sample.fields:
         layout = t["std_msgs/msg/MultiArrayLayout"](dim=[], data_offset=0)
         return t[ARRAY](layout=layout, data=sample.fields["data"])

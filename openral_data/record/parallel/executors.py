@@ -1,6 +1,8 @@
 """Run worker jobs: local processes (`spawn`, so no simulator or GL state is inherited) or a Ray cluster.
 
-Both return results in the order the workers finished; the caller orders episodes by seed, never by that.
+Both return results in the order the workers finished; the caller orders its output by the jobs (seed, bag
+order), never by that. `record --workers` runs `worker.run_worker` on `plan.WorkerJob`s (the defaults);
+`convert --workers` runs its own job function on its own jobs through the same executors.
 """
 
 from __future__ import annotations
@@ -9,8 +11,9 @@ import contextlib
 import multiprocessing
 import os
 import signal
+from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from typing import Any
+from typing import Any, Protocol
 
 from openral_data import manifests
 from openral_data.errors import ExecutorError, OpenralError, UsageError
@@ -18,6 +21,15 @@ from openral_data.record.parallel.plan import WorkerJob
 from openral_data.record.parallel.worker import WorkerResult, init_local_worker, run_worker
 
 EXECUTORS = ("local", "ray")
+
+
+class Finished(Protocol):
+    """What a job function returns: at least when its work was complete (results are listed in that order)."""
+
+    @property
+    def finished_at(self) -> float: ...
+
+
 # environment a worker needs to find the same manifests and render the same way
 _FORWARDED_ENV = (
     *manifests.ENV_DIRS.values(),
@@ -31,11 +43,13 @@ _FORWARDED_ENV = (
 )
 
 
-def run_local(jobs: list[WorkerJob]) -> list[WorkerResult]:
+def run_local[J, R: Finished](
+    jobs: list[J], fn: Callable[[J], R], initializer: Callable[[], None] = init_local_worker
+) -> list[R]:
     ctx = multiprocessing.get_context("spawn")
-    finished: list[WorkerResult] = []
-    with ProcessPoolExecutor(max_workers=len(jobs), mp_context=ctx, initializer=init_local_worker) as pool:
-        pending = {pool.submit(run_worker, job) for job in jobs}
+    finished: list[R] = []
+    with ProcessPoolExecutor(max_workers=len(jobs), mp_context=ctx, initializer=initializer) as pool:
+        pending = {pool.submit(fn, job) for job in jobs}
         try:
             while pending:
                 done, pending = wait(pending, return_when=FIRST_COMPLETED)
@@ -62,7 +76,7 @@ def _interrupt(pool: ProcessPoolExecutor) -> None:
                 os.kill(proc.pid, signal.SIGTERM)  # a second SIGINT would not wait for a commit
 
 
-def run_ray(jobs: list[WorkerJob], address: str | None = None) -> list[WorkerResult]:
+def run_ray[J, R: Finished](jobs: list[J], fn: Callable[[J], R], address: str | None = None) -> list[R]:
     try:
         import ray
     except ImportError:
@@ -81,9 +95,9 @@ def run_ray(jobs: list[WorkerJob], address: str | None = None) -> list[WorkerRes
         _init_ray(ray, address, kwargs)
         started = True
     try:
-        remote = ray.remote(num_cpus=1, max_retries=0)(run_worker)
+        remote = ray.remote(num_cpus=1, max_retries=0)(fn)
         refs = [remote.remote(job) for job in jobs]
-        finished: list[WorkerResult] = []
+        finished: list[R] = []
         while refs:
             ready, refs = ray.wait(refs, num_returns=1)
             try:
@@ -116,10 +130,27 @@ def _init_ray(ray: Any, address: str | None, kwargs: dict[str, Any]) -> None:
 
 
 def run_jobs(jobs: list[WorkerJob], executor: str = "local", address: str | None = None) -> list[WorkerResult]:
+    """`record --workers`: each job records its share of the seeds."""
+    return run_on(jobs, run_worker, executor, address)
+
+
+def check_executor(executor: str, address: str | None = None) -> None:
+    """The executor's name and --address, checked before any work starts (exit 2, one line)."""
+    if executor not in EXECUTORS:
+        raise UsageError(f"--executor: {executor!r} is not one of {', '.join(EXECUTORS)}")
+    if executor == "local" and address is not None:
+        raise UsageError("--address: only with --executor ray")
+
+
+def run_on[J, R: Finished](
+    jobs: list[J],
+    fn: Callable[[J], R],
+    executor: str = "local",
+    address: str | None = None,
+    initializer: Callable[[], None] = init_local_worker,
+) -> list[R]:
+    """Run `fn(job)` for every job, each in its own process (`local`) or Ray task (`ray`)."""
+    check_executor(executor, address)
     if executor == "local":
-        if address is not None:
-            raise UsageError("--address: only with --executor ray")
-        return run_local(jobs)
-    if executor == "ray":
-        return run_ray(jobs, address)
-    raise UsageError(f"--executor: {executor!r} is not one of {', '.join(EXECUTORS)}")
+        return run_local(jobs, fn, initializer)
+    return run_ray(jobs, fn, address)

@@ -1,0 +1,161 @@
+"""`convert SRC_DIR DST --workers N [--executor local|ray]`: a folder of bags converted in N processes.
+
+The bags (in `find_bags`' order, the order a one-process convert reads them) are split into at most N contiguous
+blocks; each worker (convert/worker.py) converts its block with `convert_bags` into its own dataset under a
+hidden sibling of DST (``.DST.workers-PID``, as `record --workers`), on the executors `record --workers` uses.
+The blocks are then merged in bag order with the merge `record --workers` and `episodes merge` use
+(`edit.ops.write_selection`: rows re-indexed, videos remuxed, no re-encode; camera statistics from the summed
+histograms, so exact), each episode's `source_episode` (its seed) renumbered as one process numbers it.
+DST appears complete or not at all.
+
+With a `task_topic`, one process carries a bag's last task message into the next bag's first frames: each block
+starts with the last task message of the bags before it (read from their task topic up front), so it does too.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import shutil
+import time
+from pathlib import Path
+
+from openral_data.convert.sources import find_bags
+from openral_data.convert.to_lerobot import (
+    CameraTopics,
+    ConvertSummary,
+    ProgressFn,
+    TopicReport,
+    check_bags,
+    check_outcome,
+    last_task,
+)
+from openral_data.convert.worker import ConvertJob, ConvertResult, init_convert_worker, run_convert_job
+from openral_data.edit.ops import Rewrite, summed_histograms, write_selection
+from openral_data.edit.source import EpisodeData, SourceDataset
+from openral_data.errors import ExecutorError, UsageError
+from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.formats.staging import check_new_output
+from openral_data.record.parallel.executors import check_executor, run_on
+from openral_data.record.parallel.run import workers_dir
+from openral_data.schemas.mapping import Mapping
+from openral_data.types import EpisodeRecord
+
+
+def plan_blocks(bags: list[Path], workers: int) -> list[list[Path]]:
+    """At most `workers` contiguous, near-equal blocks of `bags`, in order."""
+    if workers < 1:
+        raise UsageError(f"--workers must be >= 1, got {workers}")
+    n = min(workers, len(bags))
+    blocks: list[list[Path]] = []
+    start = 0
+    for w in range(n):
+        count = len(bags) // n + (1 if w < len(bags) % n else 0)
+        blocks.append(bags[start : start + count])
+        start += count
+    return blocks
+
+
+def carried_tasks(blocks: list[list[Path]], mapping: Mapping) -> list[tuple[int, str] | None]:
+    """The task each block starts with: the last task message of the bags before it, as one process carries it
+    from bag to bag (only with a `task_topic`; reads that topic of every bag but the last block's)."""
+    carry: tuple[int, str] | None = None
+    carried: list[tuple[int, str] | None] = []
+    for block in blocks:
+        carried.append(carry)
+        if block is blocks[-1] or mapping.task_topic is None or mapping.task is not None:
+            continue
+        for bag in block:
+            carry = last_task(bag, mapping) or carry
+    return carried
+
+
+def convert_parallel(
+    src: Path,
+    dst: Path,
+    mapping: Mapping,
+    workers: int,
+    *,
+    executor: str = "local",
+    address: str | None = None,
+    codec: Codec = "av1",
+    progress: ProgressFn | None = None,
+) -> ConvertSummary:
+    """Convert the bags of `src` in `workers` processes into one dataset at `dst`, as `convert_bags` would."""
+    check_executor(executor, address)
+    bags = find_bags(src)
+    blocks = plan_blocks(bags, workers)
+    cameras = CameraTopics()
+    check_bags(bags, mapping, ConvertSummary(src=src, dst=dst), cameras)  # every bag, before any work starts
+    check_new_output(dst, "DST")
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    workdir = workers_dir(dst)
+    shutil.rmtree(workdir, ignore_errors=True)
+    t0 = time.perf_counter()
+    jobs = [
+        ConvertJob(w, src, block, workdir / f"worker-{w:03d}", mapping, codec, cameras, carry)
+        for w, (block, carry) in enumerate(zip(blocks, carried_tasks(blocks, mapping), strict=True))
+    ]
+    try:
+        workdir.mkdir()
+        results = sorted(run_on(jobs, run_convert_job, executor, address, init_convert_worker), key=lambda r: r.worker)
+        summary = _combine(src, dst, [r.summary for r in results])
+        check_outcome(summary)
+        _merge(results, dst)
+    finally:
+        shutil.rmtree(workdir, ignore_errors=True)
+    summary.seconds = time.perf_counter() - t0
+    if progress is not None:
+        progress(1, 1)
+    return summary
+
+
+def _combine(src: Path, dst: Path, parts: list[ConvertSummary]) -> ConvertSummary:
+    """The blocks' summaries as one process's: counts summed, episodes and source episodes numbered on."""
+    total = ConvertSummary(src=src, dst=dst)
+    for part in parts:
+        total.bags += part.bags
+        for e in part.episodes:
+            seed = None if e.seed is None else e.seed + total.source_episodes
+            total.episodes.append(EpisodeRecord(len(total.episodes), e.length, e.success, seed))
+        total.frames += part.frames
+        total.source_episodes += part.source_episodes
+        for topic, rep in part.topics.items():
+            mine = total.topics.setdefault(topic, TopicReport(topic, rep.msgtype))
+            mine.messages += rep.messages
+            mine.used += rep.used
+            mine.unused += rep.unused
+            mine.unfillable_frames += rep.unfillable_frames
+        for name in ("skipped_topics", "header_stamps", "zero_stamps"):
+            counts: dict[str, int] = getattr(total, name)
+            for key, n in getattr(part, name).items():
+                counts[key] = counts.get(key, 0) + n
+        total.unfillable_frames += part.unfillable_frames
+        total.splits += part.splits
+        total.empty_segments += part.empty_segments
+        total.late_messages += part.late_messages
+    return total
+
+
+def _merge(results: list[ConvertResult], dst: Path) -> None:
+    """The workers' datasets, in bag order, as one dataset at `dst` (exact stats, videos remuxed)."""
+    sources: list[SourceDataset] = []
+    offsets: dict[Path, int] = {}  # a worker's dataset -> source episodes of the blocks before it
+    before = 0
+    for r in results:
+        if r.summary.episodes:
+            src = SourceDataset(r.summary.dst)
+            sources.append(src)
+            offsets[src.root] = before
+        before += r.summary.source_episodes
+    hist = summed_histograms(sources)
+    if hist is None:
+        raise ExecutorError(f"{dst}: a worker left no camera histograms (.openral/image_hist.json)")
+
+    def renumber(ep: EpisodeData) -> EpisodeData:
+        if ep.seed is None:
+            return ep
+        seed = ep.seed + offsets[ep.source]
+        return dataclasses.replace(ep, seed=seed, initial_state={**ep.initial_state, "source_episode": seed})
+
+    selection = [(s, e) for s in sources for e in range(s.total)]
+    write_selection(selection, dst, "convert --workers", rewrite=Rewrite(transform=renumber, image_hist=hist))
