@@ -71,13 +71,19 @@ class DatasetBridge:
         out: dict[str, npt.NDArray[Any]] = {}
         for name, img in images.items():
             shape = self.schema.cameras[name]
-            # a depth camera: (H, W) uint16 millimetres or float32 metres
-            dtype = {None: np.uint8, "mm": np.uint16, "m": np.float32}[shape.depth_unit]
-            want = (shape.height, shape.width, 3) if shape.depth_unit is None else (shape.height, shape.width)
+            # a depth camera: (H, W) uint16 millimetres or float32 metres; a segmentation mask: (H, W) uint16 ids
+            dtype = (
+                np.uint16
+                if shape.segmentation
+                else {None: np.uint8, "mm": np.uint16, "m": np.float32}[shape.depth_unit]
+            )
+            colour = shape.depth_unit is None and not shape.segmentation
+            want = (shape.height, shape.width, 3) if colour else (shape.height, shape.width)
+            kind = " (HWC)" if colour else " (segmentation)" if shape.segmentation else " (depth)"
             if not isinstance(img, np.ndarray) or img.dtype != dtype or img.shape != want:
                 raise ContractViolation(
-                    f"{self._where()}: images.{name}: expected {np.dtype(dtype).name}{list(want)}"
-                    f"{' (HWC)' if shape.depth_unit is None else ' (depth)'}, got {_describe(img)}"
+                    f"{self._where()}: images.{name}: expected {np.dtype(dtype).name}{list(want)}{kind}, "
+                    f"got {_describe(img)}"
                 )
             out[name] = np.ascontiguousarray(img).copy()
         return out
