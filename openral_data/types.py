@@ -62,6 +62,9 @@ class Observation:
     time: float | None = None
     privileged: dict[str, Any] = field(default_factory=dict)
     environment_state: npt.NDArray[Any] | None = None
+    # world poses [x, y, z, qw, qx, qy, qz] of the frames cameras are mounted on (a wrist camera's body, named as
+    # its extrinsics' `parent_frame`) at this step: MCAP publishes them on /tf so the camera can be placed
+    transforms: dict[str, npt.NDArray[np.float64]] = field(default_factory=dict)
 
 
 @dataclass
@@ -152,6 +155,7 @@ class Frame:
     timestamp: float = 0.0  # seconds since the episode began, from the producer's clock (see Observation.time)
     extras: dict[str, float] = field(default_factory=dict)  # DatasetSchema.frame_extras values
     environment_state: npt.NDArray[np.float32] | None = None  # when DatasetSchema.environment_state_names is set
+    transforms: dict[str, npt.NDArray[np.float64]] = field(default_factory=dict)  # see Observation.transforms
 
 
 @dataclass(frozen=True)

@@ -88,6 +88,18 @@ class DatasetBridge:
             out[name] = np.ascontiguousarray(img).copy()
         return out
 
+    def _transforms(self, value: Any) -> dict[str, npt.NDArray[np.float64]]:
+        """The observation's mount-frame poses: frame name -> finite [x, y, z, qw, qx, qy, qz]."""
+        if not isinstance(value, dict):
+            raise ContractViolation(f"{self._where()}: transforms: expected a dict of frame name -> pose")
+        out: dict[str, npt.NDArray[np.float64]] = {}
+        for name, pose in value.items():
+            arr = np.asarray(pose, dtype=np.float64)
+            if not isinstance(name, str) or arr.shape != (7,) or not np.isfinite(arr).all():
+                raise ContractViolation(f"{self._where()}: transforms.{name}: expected 7 finite numbers")
+            out[name] = arr.copy()
+        return out
+
     def _environment_state(self, value: Any) -> npt.NDArray[np.float32] | None:
         """The observation's environment state: a float32 vector of the schema's width, or absent when the schema
         names none (a frame without one, or with one the schema does not declare, breaks the contract)."""
@@ -176,6 +188,7 @@ class DatasetBridge:
             timestamp=self._timestamp(observation.time),
             extras=self._extras(extras),
             environment_state=self._environment_state(observation.environment_state),
+            transforms=self._transforms(observation.transforms),
         )
         if not np.isfinite(frame.reward):
             raise ContractViolation(f"{self._where()}: reward: non-finite value {reward}")

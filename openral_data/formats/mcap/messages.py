@@ -14,6 +14,9 @@ Topics of one episode bag (names are stable; `convert` and `export` rely on them
 * ``/camera/<name>/camera_info`` ``sensor_msgs/msg/CameraInfo``, once at the start, for a camera whose feature
   info has ``camera_info``; ``/tf_static`` ``tf2_msgs/msg/TFMessage``, once at the start: the pose of every camera
   whose info has ``extrinsics`` (its optical frame ``<name>`` in its ``parent_frame``).
+* ``/tf``             ``tf2_msgs/msg/TFMessage``, per frame, when the producer reports where the bodies cameras
+  are mounted on are (``Frame.transforms``: a wrist camera's body): each such body in ``world``, so the camera's
+  world pose is that transform composed with its ``/tf_static`` one.
 * ``/reward``         ``std_msgs/msg/Float32``: the reward that followed the action of the same stamp (absent
   when the source has no reward).
 * ``/task``           ``std_msgs/msg/String``: the task text, published on the first frame and on change.
@@ -50,6 +53,7 @@ IMAGE_T = "sensor_msgs/msg/Image"
 CAMERA_INFO_T = "sensor_msgs/msg/CameraInfo"
 TF_T = "tf2_msgs/msg/TFMessage"
 TF_STATIC = "/tf_static"
+TF = "/tf"
 FLOAT32_ARRAY_T = "std_msgs/msg/Float32MultiArray"
 FLOAT32_T = "std_msgs/msg/Float32"
 STRING_T = "std_msgs/msg/String"

@@ -282,6 +282,7 @@ class _EpisodeBag:
             )
             for name in schema.cameras
         }
+        self.c_tf: Connection | None = None
         self.names = list(schema.state_names)
         self.length = 0
         self.last_ns = base_ns
@@ -328,6 +329,14 @@ class _EpisodeBag:
                 w.write(conn, ns, f.mask_image(ns, name, frame.images[name]))
             else:
                 w.write(conn, ns, f.image(ns, name, frame.images[name], encoded.get(name)))
+        if frame.transforms:  # where the moving camera mounts are: /tf, from the first frame that has them
+            if self.c_tf is None:
+                self.c_tf = self.writer.add_connection(m.TF, m.TF_T, typestore=self.factory.store)
+            poses = {
+                name: {"parent_frame": "world", "position": pose[:3], "quaternion": pose[3:]}
+                for name, pose in frame.transforms.items()
+            }
+            w.write(self.c_tf, ns, f.transforms(ns, poses))
         w.write(self.c_action, ns, f.action(frame.action))
         if self.c_reward is not None:
             w.write(self.c_reward, ns, f.float32(frame.reward))

@@ -9,6 +9,7 @@ plane) it is +inf, REP 118's "no return" (a lerobot depth video loads it as its 
 A camera with `segmentation: true` also gives its mask, `<name>_segmentation`: (H, W) uint16 object ids
 (segmentation.py; MuJoCo's `enable_segmentation_rendering`, the same scene update), the id -> name table in its
 shape's `info["segmentation_ids"]`.
+`mount_poses()` is the world pose of each body a camera is mounted on (a wrist camera's: MCAP's per-frame /tf).
 `shapes()` is every stream's CameraShape with the camera's geometry (camera_geometry.py) in its info.
 Renderers hold GL contexts: `close()` frees them.
 """
@@ -22,7 +23,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from openral_data.producers.sim.mujoco.camera_geometry import camera_geometry
+from openral_data.producers.sim.mujoco.camera_geometry import WORLD, camera_geometry
 from openral_data.producers.sim.mujoco.compose import SCENE_GROUP
 from openral_data.producers.sim.mujoco.segmentation import segmenter
 from openral_data.schemas.scene import RenderConfig, SceneCamera, depth_camera_name, segmentation_camera_name
@@ -72,6 +73,9 @@ class CameraRig:
                 geometry = camera_geometry(model, cam.name, cam.width, cam.height, mask, flip) or {}
                 info = {**geometry, "segmentation_ids": self._segmenter.info()}
                 self._shapes[mask] = CameraShape(cam.height, cam.width, segmentation=True, info=info)
+        parents = {str(s.info["extrinsics"]["parent_frame"]) for s in self._shapes.values() if "extrinsics" in s.info}
+        bodies = {p: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, p) for p in sorted(parents - {WORLD}) if p}
+        self._mounts = {p: body for p, body in bodies.items() if body > 0}
         self._renderers: dict[str, mujoco.Renderer] = {}
         try:
             for cam in cameras:
@@ -84,6 +88,14 @@ class CameraRig:
         """Every stream the rig renders (a camera, then its depth map and mask if asked), with its geometry in
         `info`."""
         return dict(self._shapes)
+
+    def mount_poses(self, data: mujoco.MjData) -> dict[str, npt.NDArray[np.float64]]:
+        """The world pose [x, y, z, qw, qx, qy, qz] of every body a camera is mounted on (its extrinsics'
+        `parent_frame` other than `world`), as `data` has it (the state the frames are rendered from)."""
+        return {
+            name: np.concatenate([data.xpos[body], data.xquat[body]]).astype(np.float64)
+            for name, body in self._mounts.items()
+        }
 
     def render(self, data: mujoco.MjData) -> dict[str, npt.NDArray[Any]]:
         """Colour frames (uint8 HWC); a depth stream's entry is float32 (H, W) metres, a mask's (H, W) uint16 ids
