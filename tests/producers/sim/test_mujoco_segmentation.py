@@ -2,7 +2,7 @@
 lerobot `dtype: image` feature of 16-bit PNGs and as MCAP mono16 images, read back with the real readers
 (lerobot 0.6.1, rosbags, mcap) and compared with a second rollout of the same seed and actions rendered by the
 same rig; the cube's id covers the red pixels of the colour frame; doctor, stats, view, episodes and
-stats recompute accept the dataset."""
+stats recompute accept the dataset, and an actions replay re-records the same masks."""
 
 from __future__ import annotations
 
@@ -160,6 +160,15 @@ def test_doctor_stats_view_and_edits_accept_masks(recorded: Recorded, tmp_path: 
     ds = LeRobotDataset("local/s", root=tmp_path / "s", video_backend="pyav")
     got = ds[STEPS - 1]["observation.images.wrist_segmentation"].numpy()[0]
     assert np.array_equal(got, recorded.masks[STEPS - 1]["wrist_segmentation"].astype(np.float32))
+    # actions replay rebuilds the scene with its segmenting cameras: the re-recorded masks are the same
+    replay = run_cli(
+        "replay", str(recorded.out), "--out", str(tmp_path / "r"), "--record", str(tmp_path / "again"), "--json"
+    )
+    assert replay.returncode == 0, replay.stderr
+    again = LeRobotDataset("local/again", root=tmp_path / "again", video_backend="pyav")
+    for row in (0, STEPS - 1):
+        got = again[row]["observation.images.front_segmentation"].numpy()[0]
+        assert np.array_equal(got, recorded.masks[row]["front_segmentation"].astype(np.float32))
     # a mask is never turned into a (lossy) video
     res = run_cli(
         "videos", "encode-images", str(recorded.out), "--camera", "front_segmentation", "--out", str(tmp_path / "v")
