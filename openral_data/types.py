@@ -21,6 +21,9 @@ class CameraShape:
     depth_unit: Literal["mm", "m"] | None = None
     # extra entries of the camera feature's `info` (e.g. `camera_info`: intrinsics from a CameraInfo topic)
     info: dict[str, Any] = field(default_factory=dict, compare=False, hash=False)
+    # a segmentation mask: its frames are (H, W) uint16 object ids (0 = background; the names in
+    # `info["segmentation_ids"]`, {"<id>": name})
+    segmentation: bool = False
 
 
 @dataclass(frozen=True)
@@ -40,7 +43,8 @@ class ProducerSpec:
 @dataclass
 class Observation:
     """What the policy sees at one step: camera images (HWC uint8; a depth camera's (H, W) float32 metres or
-    uint16 millimetres, per its CameraShape), the state vector and the task text.
+    uint16 millimetres, a segmentation mask's (H, W) uint16 ids, per its CameraShape), the state vector and the
+    task text.
 
     `time` is the producer's clock for this observation in seconds since the episode began: simulation time
     for sim scenes, a monotonic clock for hardware. `None` means "no clock of its own" (frame index / fps).
@@ -58,6 +62,9 @@ class Observation:
     time: float | None = None
     privileged: dict[str, Any] = field(default_factory=dict)
     environment_state: npt.NDArray[Any] | None = None
+    # world poses [x, y, z, qw, qx, qy, qz] of the frames cameras are mounted on (a wrist camera's body, named as
+    # its extrinsics' `parent_frame`) at this step: MCAP publishes them on /tf so the camera can be placed
+    transforms: dict[str, npt.NDArray[np.float64]] = field(default_factory=dict)
 
 
 @dataclass
@@ -148,6 +155,7 @@ class Frame:
     timestamp: float = 0.0  # seconds since the episode began, from the producer's clock (see Observation.time)
     extras: dict[str, float] = field(default_factory=dict)  # DatasetSchema.frame_extras values
     environment_state: npt.NDArray[np.float32] | None = None  # when DatasetSchema.environment_state_names is set
+    transforms: dict[str, npt.NDArray[np.float64]] = field(default_factory=dict)  # see Observation.transforms
 
 
 @dataclass(frozen=True)

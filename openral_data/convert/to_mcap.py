@@ -23,6 +23,7 @@ from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX, camera_keys, dim_names
 from openral_data.formats.lerobot_v3.frames import episode_frames
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE
+from openral_data.formats.lerobot_v3.masks import MASK_IDS, is_mask
 from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_tasks
 from openral_data.formats.lerobot_v3.success import episode_successes
 from openral_data.formats.mcap import McapConfig, McapSink
@@ -67,11 +68,17 @@ def is_lerobot_dataset(path: Path) -> bool:
 
 def _camera_shape(feature: dict[str, Any]) -> CameraShape:
     """A camera of the dataset as the MCAP sink takes it: a depth video (`is_depth_map`) as 16UC1 millimetres
-    with its quantizer settings, and the intrinsics (`info.camera_info`) when the feature has them."""
+    with its quantizer settings, a segmentation mask as mono16 ids with their names, and the intrinsics
+    (`info.camera_info`) when the feature has them."""
     info = feature.get("info") or {}
-    keep = {k: v for k, v in info.items() if k == "camera_info" or (info.get("is_depth_map") and k in _QUANTIZER)}
+    mask = is_mask(feature)
+    keep = {
+        k: v
+        for k, v in info.items()
+        if k == "camera_info" or (info.get("is_depth_map") and k in _QUANTIZER) or (mask and k == MASK_IDS)
+    }
     depth_unit: Literal["mm"] | None = "mm" if info.get("is_depth_map") else None
-    return CameraShape(int(feature["shape"][0]), int(feature["shape"][1]), depth_unit, keep)
+    return CameraShape(int(feature["shape"][0]), int(feature["shape"][1]), depth_unit, keep, segmentation=mask)
 
 
 def export_mcap(

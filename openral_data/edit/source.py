@@ -39,6 +39,7 @@ from openral_data.formats.lerobot_v3.features import (
     dim_names,
 )
 from openral_data.formats.lerobot_v3.lock import check_settled
+from openral_data.formats.lerobot_v3.masks import is_mask
 from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_openral, read_tasks
 from openral_data.formats.lerobot_v3.stats import STAT_KEYS, ImageStatsAccumulator, Stats
 from openral_data.formats.lerobot_v3.video import VideoSettings
@@ -300,15 +301,15 @@ class SourceDataset:
 
 
 def _carriable(feature: dict[str, Any]) -> bool:
-    """A numeric per-frame feature (float32, int64 or bool, one axis) or an image (height, width, 3) that editing
-    copies as it is."""
+    """A numeric per-frame feature (float32, int64 or bool, one axis) or an image (height, width, 3; a segmentation
+    mask's (height, width, 1)) that editing copies as it is."""
     shape = feature.get("shape")
     if feature.get("dtype") == "image":
         return (
             isinstance(shape, list)
             and len(shape) == 3
             and all(isinstance(d, int) and d >= 1 for d in shape)
-            and shape[2] == 3
+            and shape[2] == (1 if is_mask(feature) else 3)
         )
     return (
         feature.get("dtype") in ("float32", "int64", "bool")

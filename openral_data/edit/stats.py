@@ -5,7 +5,8 @@ writer recomputes them on every copy). Cameras: from decoded pixels with the wri
 (`ImageStatsAccumulator`: per-channel histograms of every frame, spatially strided to <= 64 px a side), a video
 camera's frames decoded from its mp4 (the packets themselves are copied, never re-encoded), a `dtype: image`
 camera's from its embedded PNG/JPEG. Dataset-level camera statistics come from the summed histograms, so they are
-exact (quantiles included), and `.openral/image_hist.json` is written again. Nothing else changes.
+exact (quantiles included), and `.openral/image_hist.json` is written again. A segmentation mask's statistics are
+its ids' (masks.py), merged per dataset as numeric features are. Nothing else changes.
 """
 
 from __future__ import annotations
@@ -23,13 +24,16 @@ from openral_data.edit.ops import EditResult, Rewrite, write_edit
 from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.errors import DatasetError
 from openral_data.formats.lerobot_v3.images import decode_image
+from openral_data.formats.lerobot_v3.masks import decode_mask, is_mask, mask_stats
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
 
 
 def recompute(dataset: Path, out: Path | None, in_place: bool = False) -> EditResult:
     """Write `dataset` with recomputed statistics to `out` (or in place)."""
     src = SourceDataset(dataset)
-    pictures = [k for k in src.carried if src.features[k].get("dtype") == "image"]
+    images = [k for k in src.carried if src.features[k].get("dtype") == "image"]
+    masks = [k for k in images if is_mask(src.features[k])]  # ids, merged per dataset as numbers (masks.py)
+    pictures = [k for k in images if k not in masks]
     video_hist = {name: ImageStatsAccumulator() for name in src.camera_names()}
     image_hist = {key: ImageStatsAccumulator() for key in pictures}
 
@@ -46,6 +50,10 @@ def recompute(dataset: Path, out: Path | None, in_place: bool = False) -> EditRe
             acc = _histogram((decode_image(c, f"{where}: frame {i}") for i, c in enumerate(cells)), ep.length)
             image_hist[key].merge(acc)
             column_stats[key] = acc.stats()
+        for key in masks:
+            where = f"{src.root}: {key}: episode {ep.index}"
+            cells = ep.columns[key].to_pylist()
+            column_stats[key] = mask_stats([decode_mask(c, f"{where}: frame {i}") for i, c in enumerate(cells)])
         return dataclasses.replace(ep, image_stats=image_stats, column_stats=column_stats)
 
     rewrite = Rewrite(transform=restated, image_hist=video_hist, column_hist=image_hist)

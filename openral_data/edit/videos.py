@@ -29,6 +29,7 @@ from openral_data.edit.recode import CameraEncoders, Pixels, clip_frames, image_
 from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.errors import DatasetError, UsageError
 from openral_data.formats.lerobot_v3.features import camera_keys
+from openral_data.formats.lerobot_v3.masks import is_mask
 from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
 from openral_data.formats.lerobot_v3.video import Codec, VideoSettings
@@ -176,7 +177,16 @@ def encode_images(
     check_edit_output(out, in_place)  # before any decoding
     settings = settings_for(codec)
     # (a missing folder is SourceDataset's to report)
-    keys = choose_cameras(read_info(dataset)["features"], cameras, "image", dataset) if dataset.is_dir() else {}
+    features = read_info(dataset)["features"] if dataset.is_dir() else {}
+    keys = choose_cameras(features, cameras, "image", dataset) if dataset.is_dir() else {}
+    # a segmentation mask stays lossless PNGs: never chosen by default, refused by name
+    for name, key in list(keys.items()):
+        if is_mask(features[key]):
+            if cameras:
+                raise UsageError(f"--camera: {key} is a segmentation mask (kept lossless, not encoded as a video)")
+            del keys[name]
+    if dataset.is_dir() and not keys:
+        raise UsageError(f"{dataset}: has no image cameras besides segmentation masks")
     src = SourceDataset(dataset)  # refuses what it cannot edit (a busy or interrupted dataset, a foreign layout)
     shapes: dict[str, CameraShape] = {}
     for name, key in keys.items():

@@ -71,15 +71,33 @@ class DatasetBridge:
         out: dict[str, npt.NDArray[Any]] = {}
         for name, img in images.items():
             shape = self.schema.cameras[name]
-            # a depth camera: (H, W) uint16 millimetres or float32 metres
-            dtype = {None: np.uint8, "mm": np.uint16, "m": np.float32}[shape.depth_unit]
-            want = (shape.height, shape.width, 3) if shape.depth_unit is None else (shape.height, shape.width)
+            # a depth camera: (H, W) uint16 millimetres or float32 metres; a segmentation mask: (H, W) uint16 ids
+            dtype = (
+                np.uint16
+                if shape.segmentation
+                else {None: np.uint8, "mm": np.uint16, "m": np.float32}[shape.depth_unit]
+            )
+            colour = shape.depth_unit is None and not shape.segmentation
+            want = (shape.height, shape.width, 3) if colour else (shape.height, shape.width)
+            kind = " (HWC)" if colour else " (segmentation)" if shape.segmentation else " (depth)"
             if not isinstance(img, np.ndarray) or img.dtype != dtype or img.shape != want:
                 raise ContractViolation(
-                    f"{self._where()}: images.{name}: expected {np.dtype(dtype).name}{list(want)}"
-                    f"{' (HWC)' if shape.depth_unit is None else ' (depth)'}, got {_describe(img)}"
+                    f"{self._where()}: images.{name}: expected {np.dtype(dtype).name}{list(want)}{kind}, "
+                    f"got {_describe(img)}"
                 )
             out[name] = np.ascontiguousarray(img).copy()
+        return out
+
+    def _transforms(self, value: Any) -> dict[str, npt.NDArray[np.float64]]:
+        """The observation's mount-frame poses: frame name -> finite [x, y, z, qw, qx, qy, qz]."""
+        if not isinstance(value, dict):
+            raise ContractViolation(f"{self._where()}: transforms: expected a dict of frame name -> pose")
+        out: dict[str, npt.NDArray[np.float64]] = {}
+        for name, pose in value.items():
+            arr = np.asarray(pose, dtype=np.float64)
+            if not isinstance(name, str) or arr.shape != (7,) or not np.isfinite(arr).all():
+                raise ContractViolation(f"{self._where()}: transforms.{name}: expected 7 finite numbers")
+            out[name] = arr.copy()
         return out
 
     def _environment_state(self, value: Any) -> npt.NDArray[np.float32] | None:
@@ -170,6 +188,7 @@ class DatasetBridge:
             timestamp=self._timestamp(observation.time),
             extras=self._extras(extras),
             environment_state=self._environment_state(observation.environment_state),
+            transforms=self._transforms(observation.transforms),
         )
         if not np.isfinite(frame.reward):
             raise ContractViolation(f"{self._where()}: reward: non-finite value {reward}")

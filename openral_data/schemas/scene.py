@@ -39,11 +39,30 @@ class SceneCamera(StrictModel):
         description="also record this camera's depth (metres, float32) as the depth camera `<name>_depth` "
         "(scenes whose producer renders depth: the MuJoCo scenes)",
     )
+    segmentation: bool = Field(
+        default=False,
+        description="also record this camera's segmentation mask (uint16 object ids per pixel, 0 = background) "
+        "as `<name>_segmentation` (the MuJoCo scenes)",
+    )
 
 
 def depth_camera_name(camera: str) -> str:
     """The name of camera `camera`'s depth stream (`front` -> `front_depth`, `observation.images.front_depth`)."""
     return f"{camera}_depth"
+
+
+def segmentation_camera_name(camera: str) -> str:
+    """The name of camera `camera`'s segmentation stream (`front` -> `front_segmentation`)."""
+    return f"{camera}_segmentation"
+
+
+def stream_names(camera: SceneCamera) -> list[str]:
+    """Every stream a scene camera records: its colour frames, then its depth and segmentation if asked."""
+    return (
+        [camera.name]
+        + ([depth_camera_name(camera.name)] if camera.depth else [])
+        + ([segmentation_camera_name(camera.name)] if camera.segmentation else [])
+    )
 
 
 class ObservationsConfig(StrictModel):
@@ -85,11 +104,14 @@ class SceneSpec(StrictModel):
 
     @model_validator(mode="after")
     def _unique_cameras(self) -> SceneSpec:
-        names = [c.name for c in self.cameras] + [depth_camera_name(c.name) for c in self.cameras if c.depth]
+        names = [n for c in self.cameras for n in stream_names(c)]
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
-            raise ValueError(f"duplicate camera names (a depth camera is named <camera>_depth): {dup}")
-        pixels = sum(c.width * c.height * (2 if c.depth else 1) for c in self.cameras)
+            raise ValueError(
+                "duplicate camera names (a depth camera is named <camera>_depth, a segmentation mask "
+                f"<camera>_segmentation): {dup}"
+            )
+        pixels = sum(c.width * c.height * len(stream_names(c)) for c in self.cameras)
         if pixels > MAX_FRAME_PIXELS:
             raise ValueError(f"cameras: {pixels} pixels per step in all; at most {MAX_FRAME_PIXELS}")
         return self

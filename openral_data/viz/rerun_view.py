@@ -4,7 +4,9 @@ Cameras are logged once as `AssetVideo` plus one `VideoFrameReference` per row, 
 packs many episodes into one mp4, so the episode's packets — from `from_timestamp` to `to_timestamp` — are
 remuxed into a clip of their own (frame k at k / fps); if the episode does not start on a keyframe, the whole
 file is logged and frame k is referenced at `from_timestamp + k / fps`; a `dtype: image` camera logs each frame's
-embedded PNG/JPEG; a depth video (`is_depth_map`) is decoded into one `DepthImage` (millimetres) per row.
+embedded PNG/JPEG, a segmentation mask (`is_segmentation_mask`) one `SegmentationImage` per row under an
+`AnnotationContext` naming its ids; a depth video (`is_depth_map`) is decoded into one `DepthImage`
+(millimetres) per row.
 State, action and `observation.environment_state` become one scalar series per dimension named after the
 contract (or info.json's names), the task is a text document, reward/success/done are series with a text event
 at the end, and replay results (see `metrics/results.py`) add per-step action error and divergence.
@@ -29,6 +31,7 @@ from openral_data.formats.lerobot_v3.features import ACTION, STATE
 from openral_data.formats.lerobot_v3.frames import decode_episode_video, depth_settings
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE, image_bytes, image_keys, media_type
 from openral_data.formats.lerobot_v3.layout import FilePos
+from openral_data.formats.lerobot_v3.masks import MASK_IDS, decode_mask, is_mask
 from openral_data.formats.lerobot_v3.success import EPISODE_SUCCESS, episode_successes
 from openral_data.formats.parquetfile import read_table
 from openral_data.metrics.sources import DatasetSource, open_dataset
@@ -200,7 +203,9 @@ def log_episode(rec: rr.RecordingStream, data: EpisodeData) -> None:
     for cam, path in data.videos.items():
         _log_camera(rec, ds, row, cam, path, frame_index, times)
     for key in image_keys(ds.info):
-        if key in table.column_names:
+        if key in table.column_names and is_mask(ds.info["features"][key]):
+            _log_masks(rec, table, key, ds.info["features"][key], frame_index, ts)
+        elif key in table.column_names:
             _log_images(rec, table, key, frame_index, ts)
     for key, base in ((STATE, "state"), (ACTION, "action"), (ENVIRONMENT_STATE, "environment_state")):
         if key not in table.column_names:
@@ -221,6 +226,27 @@ def log_episode(rec: rr.RecordingStream, data: EpisodeData) -> None:
     log_episode_end(rec, episode, success)
     if data.steps is not None:
         _log_results(rec, data.steps, ts, frame_index)
+
+
+def _log_masks(
+    rec: rr.RecordingStream,
+    table: pa.Table,
+    key: str,
+    feature: dict[str, Any],
+    frame_index: np.ndarray[Any, np.dtype[np.int64]],
+    ts: np.ndarray[Any, np.dtype[np.float64]],
+) -> None:
+    """A segmentation mask (masks.py): one SegmentationImage per row, its ids named by an annotation context."""
+    entity = camera_entity(key)
+    ids = feature["info"].get(MASK_IDS)
+    if isinstance(ids, dict):
+        labels = [(int(i), str(name)) for i, name in ids.items() if str(i).isdigit()]
+        rec.log(entity, rr.AnnotationContext(labels), static=True)
+    for k, cell in enumerate(table.column(key).to_pylist()):
+        mask = decode_mask(cell, f"{key}: frame {int(frame_index[k])}")
+        rec.set_time(FRAME, sequence=int(frame_index[k]))
+        rec.set_time(TIME, duration=float(ts[k]))
+        rec.log(entity, rr.SegmentationImage(mask))
 
 
 def _log_images(

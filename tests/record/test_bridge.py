@@ -116,6 +116,8 @@ def test_valid_frames_pass_and_are_copied(bridge: tuple[DatasetBridge, Recording
             r"undeclared \['extra'\]",
         ),
         (obs(task=""), ACTION, r"task: expected a non-empty string"),
+        (obs(transforms={"hand": np.zeros(6)}), ACTION, r"transforms.hand: expected 7 finite numbers"),
+        (obs(transforms={"hand": np.full(7, np.nan)}), ACTION, r"transforms.hand: expected 7 finite numbers"),
     ],
 )
 def test_violations_are_rejected(

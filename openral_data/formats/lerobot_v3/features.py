@@ -9,6 +9,7 @@ import pyarrow as pa
 
 from openral_data.formats.lerobot_v3.depth import DepthSettings
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE
+from openral_data.formats.lerobot_v3.masks import mask_feature
 from openral_data.formats.lerobot_v3.stats import STAT_KEYS
 from openral_data.formats.lerobot_v3.video import VideoSettings
 from openral_data.types import DatasetSchema
@@ -92,9 +93,13 @@ def build_features(
     keys: Mapping[str, str] | None = None,
 ) -> dict[str, dict[str, Any]]:
     """The features our writer writes for `schema`; a camera's key is `keys[name]` if given (`writer_camera_keys`),
-    else `camera_key(name)`; a depth camera's info is `depth`'s (lerobot's defaults if None)."""
+    else `camera_key(name)`; a depth camera's info is `depth`'s (lerobot's defaults if None); a segmentation
+    mask is a `dtype: image` feature (masks.py)."""
     features: dict[str, dict[str, Any]] = {}
     for name, shape in schema.cameras.items():
+        if shape.segmentation:  # a mask: lossless 16-bit PNGs in the parquet (masks.py)
+            features[(keys or {}).get(name) or camera_key(name)] = mask_feature(shape)
+            continue
         info = (
             video.feature_info(shape.height, shape.width, schema.fps)
             if shape.depth_unit is None

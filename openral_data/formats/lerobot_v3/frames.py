@@ -20,6 +20,7 @@ from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.depth import DepthSettings, decode_codes
 from openral_data.formats.lerobot_v3.features import camera_key, camera_keys
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE, decode_image, image_keys
+from openral_data.formats.lerobot_v3.masks import decode_mask, is_mask
 from openral_data.formats.parquetfile import read_table
 from openral_data.types import Frame
 
@@ -47,8 +48,12 @@ def episode_frames(
     key = {name: keys.get(name, camera_key(name)) for name in cameras}
     videos = {name: _decode_video(src, info, row, key[name], n, fps) for name in cameras if key[name] not in stored}
     pictures = {name: cols[key[name]] for name in cameras if key[name] in stored}
+    masks = {name for name in pictures if is_mask(info["features"][key[name]])}  # uint16 ids, not RGB
     for i in range(n):
-        images = {name: decode_image(cells[i], f"{path}: {key[name]}: row {i}") for name, cells in pictures.items()}
+        images = {
+            name: (decode_mask if name in masks else decode_image)(cells[i], f"{path}: {key[name]}: row {i}")
+            for name, cells in pictures.items()
+        }
         for name, it in videos.items():
             img = next(it, None)
             if img is None:

@@ -49,6 +49,7 @@ from openral_data.formats.lerobot_v3.depth import (
 )
 from openral_data.formats.lerobot_v3.features import (
     ACTION,
+    IMAGE_STRUCT,
     STATE,
     build_features,
     data_schema,
@@ -57,6 +58,7 @@ from openral_data.formats.lerobot_v3.features import (
 )
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE
 from openral_data.formats.lerobot_v3.layout import FilePos
+from openral_data.formats.lerobot_v3.masks import MaskColumn
 from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.restore import check_same_format, restore
 from openral_data.formats.lerobot_v3.stats import (
@@ -142,6 +144,8 @@ class EpisodeBuffer:
     # the episode statistics of those columns that are not numbers (a `dtype: image` feature's, as its source
     # has them): used instead of statistics computed from the column, and merged into the dataset's
     column_stats: dict[str, Stats] = field(default_factory=dict)
+    # segmentation masks being recorded (the schema's `segmentation` cameras): PNGs that become `columns`
+    masks: dict[str, MaskColumn] = field(default_factory=dict)
 
 
 class LeRobotV3Writer:
@@ -167,7 +171,10 @@ class LeRobotV3Writer:
         self.root = root
         self.schema = schema
         self.config = config or WriterConfig()
-        for name, shape in schema.cameras.items():
+        # video cameras (colour, depth) and segmentation masks (a `dtype: image` column each, masks.py)
+        self._videos = {n: s for n, s in schema.cameras.items() if not s.segmentation}
+        self._masks = [n for n, s in schema.cameras.items() if s.segmentation]
+        for name, shape in self._videos.items():
             problem = (
                 self.config.video.size_problem(shape.height, shape.width)
                 if shape.depth_unit is None
@@ -180,7 +187,8 @@ class LeRobotV3Writer:
         self._created_root = not root.exists()
         root.mkdir(parents=True, exist_ok=True)
         # a camera's files and columns are named by its key in `features` (a source's `observation.image`)
-        self._keys = writer_camera_keys(schema.cameras, features)
+        self._keys = writer_camera_keys(self._videos, features)
+        self._mask_keys = writer_camera_keys(self._masks, features)
         self.features = (
             features
             if features is not None
@@ -196,7 +204,7 @@ class LeRobotV3Writer:
                 self.config.queue_size,
                 None if shape.depth_unit is None else DepthStream(self.config.depth, shape.depth_unit),
             )
-            for name, shape in schema.cameras.items()
+            for name, shape in self._videos.items()
         }
         self.tasks: dict[str, int] = {}
         self._tasks_written = 0
@@ -205,12 +213,12 @@ class LeRobotV3Writer:
         self._episode_file = FilePos()
         self._data_file = FilePos()
         self._data_tables: list[pa.Table] = []
-        self._groups = {name: _VideoGroup(FilePos()) for name in schema.cameras}
+        self._groups = {name: _VideoGroup(FilePos()) for name in self._videos}
         self._numeric_stats: dict[str, Stats] = {}
         self.image_stats: dict[str, CameraStats] = (
             dict(image_stats)
             if image_stats is not None
-            else {n: camera_stats(shape.depth_unit) for n, shape in schema.cameras.items()}
+            else {n: camera_stats(shape.depth_unit) for n, shape in self._videos.items()}
         )
         # dataset-level statistics written instead of the merged ones (editing's exact `dtype: image` histograms)
         self.stats_override: dict[str, Stats] = {}
@@ -272,7 +280,7 @@ class LeRobotV3Writer:
     def begin_episode(self, start: EpisodeStart) -> None:
         if self._episode is not None:
             raise RuntimeError("begin_episode() while an episode is open")
-        self._episode = EpisodeBuffer(start)
+        self._episode = EpisodeBuffer(start, masks={name: MaskColumn() for name in self._masks})
         for name, worker in self._workers.items():
             shape = self.schema.cameras[name]
             worker.begin(self.pending_video(name), shape.height, shape.width)
@@ -287,6 +295,8 @@ class LeRobotV3Writer:
             raise ContractViolation(f"observation.environment_state: expected float32[{width}], got {got}")
         for name, worker in self._workers.items():
             worker.put(frame.images[name])  # blocks while the encoder is behind: backpressure, never a drop
+        for name, column in ep.masks.items():
+            column.add(frame.images[name])
         ep.states.append(frame.state)
         ep.actions.append(frame.action)
         ep.rewards.append(frame.reward)
@@ -337,6 +347,9 @@ class LeRobotV3Writer:
                 raise DiskError(self.root, problem, f"encoding episode {self.total_episodes}'s videos") from exc
             raise
         self._episode = None
+        for name, column in ep.masks.items():
+            ep.columns[self._mask_keys[name]] = column.array(IMAGE_STRUCT)
+            ep.column_stats[self._mask_keys[name]] = column.stats()
         short = {name: enc.frames for name, enc in encoded.items() if enc.frames != n}
         if short:
             for enc in encoded.values():
@@ -735,7 +748,7 @@ class LeRobotV3Writer:
             "data_files_size_in_mb": c.data_files_size_in_mb,
             "video_files_size_in_mb": c.video_files_size_in_mb,
             "data_path": layout.DATA_PATH,
-            "video_path": layout.VIDEO_PATH if self.schema.cameras else None,
+            "video_path": layout.VIDEO_PATH if self._videos else None,
             "robot_type": self.schema.robot_type,
             "splits": {"train": f"0:{self.total_episodes}"},
         }

@@ -9,9 +9,14 @@ Topics of one episode bag (names are stable; `convert` and `export` rely on them
   ``/camera/<name>/image_raw`` ``sensor_msgs/msg/Image`` (``rgb8``) with ``image_format: raw``.
 * ``/camera/<name>/depth/image_raw`` ``sensor_msgs/msg/Image`` of a depth camera: ``16UC1`` millimetres or
   ``32FC1`` metres, the unit its frames came in (a simulated depth camera: 32FC1).
+* ``/camera/<name>/segmentation/image_raw`` ``sensor_msgs/msg/Image`` of a segmentation mask: ``mono16``, each
+  pixel the uint16 object id (0 = background; the names in the start marker's ``segmentation_cameras``).
 * ``/camera/<name>/camera_info`` ``sensor_msgs/msg/CameraInfo``, once at the start, for a camera whose feature
   info has ``camera_info``; ``/tf_static`` ``tf2_msgs/msg/TFMessage``, once at the start: the pose of every camera
   whose info has ``extrinsics`` (its optical frame ``<name>`` in its ``parent_frame``).
+* ``/tf``             ``tf2_msgs/msg/TFMessage``, per frame, when the producer reports where the bodies cameras
+  are mounted on are (``Frame.transforms``: a wrist camera's body): each such body in ``world``, so the camera's
+  world pose is that transform composed with its ``/tf_static`` one.
 * ``/reward``         ``std_msgs/msg/Float32``: the reward that followed the action of the same stamp (absent
   when the source has no reward).
 * ``/task``           ``std_msgs/msg/String``: the task text, published on the first frame and on change.
@@ -48,6 +53,7 @@ IMAGE_T = "sensor_msgs/msg/Image"
 CAMERA_INFO_T = "sensor_msgs/msg/CameraInfo"
 TF_T = "tf2_msgs/msg/TFMessage"
 TF_STATIC = "/tf_static"
+TF = "/tf"
 FLOAT32_ARRAY_T = "std_msgs/msg/Float32MultiArray"
 FLOAT32_T = "std_msgs/msg/Float32"
 STRING_T = "std_msgs/msg/String"
@@ -70,6 +76,11 @@ def camera_topic(name: str, fmt: ImageFormat) -> str:
 def depth_topic(name: str) -> str:
     """A depth camera's topic: 16UC1 millimetres, whatever the colour cameras' image format."""
     return f"/camera/{name}/depth/image_raw"
+
+
+def segmentation_topic(name: str) -> str:
+    """A segmentation mask's topic: mono16 object ids."""
+    return f"/camera/{name}/segmentation/image_raw"
 
 
 def camera_info_topic(name: str) -> str:
@@ -173,6 +184,14 @@ class MessageFactory:
         header = self._stamp_header(stamp_ns, frame_id=camera)
         encoding, size = ("32FC1", 4) if metres else ("16UC1", 2)
         msg = self._image(header=header, height=h, width=w, encoding=encoding, is_bigendian=0, step=size * w, data=data)
+        return bytes(self.store.serialize_cdr(msg, IMAGE_T))
+
+    def mask_image(self, stamp_ns: int, camera: str, mask: npt.NDArray[np.uint16]) -> bytes:
+        """An Image of an (H, W) uint16 segmentation mask: `mono16`, little-endian, the ids exactly."""
+        h, w = int(mask.shape[0]), int(mask.shape[1])
+        data = np.ascontiguousarray(mask, dtype="<u2").view(np.uint8).reshape(-1)
+        header = self._stamp_header(stamp_ns, frame_id=camera)
+        msg = self._image(header=header, height=h, width=w, encoding="mono16", is_bigendian=0, step=2 * w, data=data)
         return bytes(self.store.serialize_cdr(msg, IMAGE_T))
 
     def transforms(self, stamp_ns: int, poses: dict[str, dict[str, Any]]) -> bytes:

@@ -149,7 +149,8 @@ class McapSink:
         encoded: dict[str, Future[bytes]] = {}
         if self._pool is not None:
             for name, img in frame.images.items():
-                if self.schema.cameras[name].depth_unit is None:  # depth goes out raw (16UC1)
+                shape = self.schema.cameras[name]
+                if shape.depth_unit is None and not shape.segmentation:  # depth and masks go out raw
                     encoded[name] = self._pool.submit(self._factory.compress, img)
         self._pending.append(_Pending(frame, encoded))
         while len(self._pending) > (self.config.queue_size if self._pool is not None else 0):
@@ -264,6 +265,7 @@ class _EpisodeBag:
         self.c_env = add(m.ENVIRONMENT_STATE, m.FLOAT32_ARRAY_T, typestore=store) if env else None
         fmt = config.image_format
         self.depth = [name for name, shape in schema.cameras.items() if shape.depth_unit is not None]
+        self.masks = [name for name, shape in schema.cameras.items() if shape.segmentation]
         intrinsics = {
             name: shape.info["camera_info"] for name, shape in schema.cameras.items() if "camera_info" in shape.info
         }
@@ -274,10 +276,13 @@ class _EpisodeBag:
             name: (
                 add(m.depth_topic(name), m.IMAGE_T, typestore=store)
                 if name in self.depth
+                else add(m.segmentation_topic(name), m.IMAGE_T, typestore=store)
+                if name in self.masks
                 else add(m.camera_topic(name, fmt), m.camera_type(fmt), typestore=store)
             )
             for name in schema.cameras
         }
+        self.c_tf: Connection | None = None
         self.names = list(schema.state_names)
         self.length = 0
         self.last_ns = base_ns
@@ -291,9 +296,13 @@ class _EpisodeBag:
             "robot_type": schema.robot_type,
             "state_names": list(schema.state_names),
             "action_names": list(schema.action_names),
-            "cameras": [name for name in schema.cameras if name not in self.depth],
+            "cameras": [name for name in schema.cameras if name not in self.depth and name not in self.masks],
             # 16UC1 millimetres or 32FC1 metres on depth_topic(name); each with its lerobot quantizer (video.depth_*)
             "depth_cameras": {name: _quantizer(schema.cameras[name].info) for name in self.depth},
+            # mono16 object ids on segmentation_topic(name); each with its {"<id>": object name}
+            "segmentation_cameras": {
+                name: schema.cameras[name].info.get("segmentation_ids", {}) for name in self.masks
+            },
             "environment_state_names": list(schema.environment_state_names),
             "initial_state": start.initial_state,
             "outcomes": {"reward": schema.has_reward, "success": schema.has_success},
@@ -316,8 +325,18 @@ class _EpisodeBag:
         for name, conn in self.c_cams.items():
             if name in self.depth:
                 w.write(conn, ns, f.depth_image(ns, name, frame.images[name]))
+            elif name in self.masks:
+                w.write(conn, ns, f.mask_image(ns, name, frame.images[name]))
             else:
                 w.write(conn, ns, f.image(ns, name, frame.images[name], encoded.get(name)))
+        if frame.transforms:  # where the moving camera mounts are: /tf, from the first frame that has them
+            if self.c_tf is None:
+                self.c_tf = self.writer.add_connection(m.TF, m.TF_T, typestore=self.factory.store)
+            poses = {
+                name: {"parent_frame": "world", "position": pose[:3], "quaternion": pose[3:]}
+                for name, pose in frame.transforms.items()
+            }
+            w.write(self.c_tf, ns, f.transforms(ns, poses))
         w.write(self.c_action, ns, f.action(frame.action))
         if self.c_reward is not None:
             w.write(self.c_reward, ns, f.float32(frame.reward))

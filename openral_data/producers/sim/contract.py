@@ -37,14 +37,17 @@ def scene_spec(
 ) -> ProducerSpec:
     """The spec of a simulated scene rendering `cameras` at their YAML sizes; `None` dims mean "any".
 
-    `shapes`: every stream the scene renders with its geometry (`CameraRig.shapes()`, depth streams included);
-    without them the scene renders colour only and a camera asking for depth is refused. `environment_objects`:
-    the objects whose poses `observation.environment_state` carries (empty: none)."""
+    `shapes`: every stream the scene renders with its geometry (`CameraRig.shapes()`, depth and segmentation
+    streams included); without them the scene renders colour only and a camera asking for depth or segmentation
+    is refused. `environment_objects`: the objects whose poses `observation.environment_state` carries (empty:
+    none)."""
     cams = list(cameras)
     if shapes is None:
         for i, c in enumerate(cams):
             if c.depth:
                 raise ConfigError(f"{source}: scene.cameras[{i}].depth: this scene type renders no depth")
+            if c.segmentation:
+                raise ConfigError(f"{source}: scene.cameras[{i}].segmentation: this scene type renders no segmentation")
         shapes = {c.name: CameraShape(c.height, c.width) for c in cams}
     return ProducerSpec(
         state_dim=state_dim,

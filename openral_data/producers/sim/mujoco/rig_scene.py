@@ -38,6 +38,7 @@ class RigScene:
             time=float(self.data.time) - self.t0,
             privileged=privileged,
             environment_state=object_pose_vector(privileged["object_poses"], objects) if objects else None,
+            transforms=self.rig.mount_poses(self.data),
         )
 
     def render(self) -> dict[str, npt.NDArray[Any]]:
