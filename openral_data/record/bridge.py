@@ -85,7 +85,7 @@ class DatasetBridge:
                     f"{self._where()}: images.{name}: expected {np.dtype(dtype).name}{list(want)}{kind}, "
                     f"got {_describe(img)}"
                 )
-            out[name] = np.ascontiguousarray(img).copy()
+            out[name] = np.array(img, order="C", copy=True)  # one copy, contiguous, whatever the input's layout
         return out
 
     def _transforms(self, value: Any) -> dict[str, npt.NDArray[np.float64]]:

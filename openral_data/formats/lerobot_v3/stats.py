@@ -60,12 +60,14 @@ class ImageStatsAccumulator:
     def __init__(self) -> None:
         self.hist = np.zeros((3, 256), dtype=np.int64)
         self.frames = 0
-        self._offsets = np.array([0, 256, 512], dtype=np.int64)
+        self._offsets = np.array([0, 256, 512], dtype=np.uint16)
 
     def add(self, frame: npt.NDArray[np.uint8]) -> None:
         h, w = frame.shape[:2]
         step = max(1, -(-max(h, w) // IMAGE_SIDE))
-        px = frame[::step, ::step, :3].reshape(-1, 3).astype(np.int64) + self._offsets
+        # one uint16 copy of the subsampled pixels, offset in place per channel (bin = channel * 256 + level)
+        px = frame[::step, ::step, :3].astype(np.uint16)
+        px += self._offsets
         self.hist += np.bincount(px.ravel(), minlength=768).reshape(3, 256)
         self.frames += 1
 
