@@ -2,18 +2,24 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 import pytest
+import yaml
 
 from openral_data.errors import ConfigError
 from openral_data.producers.sim.mujoco.assets import check_robosuite_assets
 from openral_data.producers.sim.mujoco.scene import TabletopScene
 from openral_data.record import registry
+from openral_data.record.options import RecordOptions
+from openral_data.record.sim import record
 from openral_data.schemas.rskill import Contract, RSkillManifest
 from openral_data.schemas.scene import RenderConfig, SceneCamera, SimScene, load_recordable_scene
+from tests.support.scenes import write_yaml
 
 try:
     check_robosuite_assets("tests")
@@ -104,3 +110,37 @@ def project(scene: TabletopScene, camera: str, point: npt.NDArray[np.float64]) -
     shape = scene.spec.cameras[cam]
     f = (shape.height / 2) / np.tan(np.deg2rad(m.cam_fovy[cid]) / 2)
     return shape.width / 2 + f * local[0] / -local[2], shape.height / 2 - f * local[1] / -local[2]
+
+
+@dataclass
+class PushRecording:
+    out: Path
+    scene_file: Path
+    actions: npt.NDArray[np.float32]  # as lerobot loads them: what a second rollout of the episode replays
+
+
+def record_push_variant(
+    home: Path, name: str, scene: dict[str, Any], seed: int, steps: int, out: Path
+) -> PushRecording:
+    """One episode of the shipped `tabletop_push` (in the isolated `home`) with the `scene:` keys in `scene`
+    replaced (cameras, observations), saved as scene `name` and recorded by the push expert to LeRobot v3 and
+    MCAP at `out`."""
+    data = yaml.safe_load((home / "scenes/sim/tabletop_push.yaml").read_text())
+    data["scene"].update(scene)
+    scene_file = write_yaml(home / f"scenes/sim/{name}.yaml", data)
+    opts = RecordOptions(
+        scene=str(scene_file), n_episodes=1, seed=seed, max_steps=steps, out=out, formats=("lerobot", "mcap")
+    )
+    assert record(opts).frames == steps
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    ds = LeRobotDataset(f"local/{name}", root=out, video_backend="pyav")
+    actions = np.stack(ds.hf_dataset.with_format("numpy")["action"]).astype(np.float32)
+    return PushRecording(out, scene_file, actions)
+
+
+def push_scene(scene_file: Path) -> TabletopScene:
+    """The push scene of `scene_file` on the Franka, driven by the push expert's contract."""
+    return TabletopScene(
+        load_recordable_scene(scene_file), registry.ROBOTS["franka_panda"], expert_rskill("push"), "push"
+    )

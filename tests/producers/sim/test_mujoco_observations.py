@@ -15,21 +15,16 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 import pytest
-import yaml
 
 from openral_data.errors import ConfigError
 from openral_data.formats.lerobot_v3.depth import DepthSettings
 from openral_data.producers.sim.mujoco.camera_geometry import project
-from openral_data.producers.sim.mujoco.scene import TabletopScene
-from openral_data.record import registry
-from openral_data.record.options import RecordOptions
-from openral_data.record.sim import record
 from openral_data.schemas.rskill import Contract
 from openral_data.schemas.scene import load_recordable_scene
 from tests.support.cli import run_cli
 from tests.support.home import isolated_home
 from tests.support.mcap import check_bag
-from tests.support.mujoco import expert_rskill, make_scene, red_mask
+from tests.support.mujoco import expert_rskill, make_scene, push_scene, record_push_variant, red_mask
 from tests.support.rrd import verify
 from tests.support.scenes import mock_scene, write_yaml
 
@@ -51,8 +46,7 @@ class Recorded:
 
 
 def _rollout(scene_file: Path, actions: npt.NDArray[np.float32]) -> Recorded:
-    scene = load_recordable_scene(scene_file)
-    env = TabletopScene(scene, registry.ROBOTS["franka_panda"], expert_rskill("push"), "push")
+    env = push_scene(scene_file)
     depth, rgb, poses = [], [], []
     try:
         obs = env.reset(SEED)
@@ -72,22 +66,11 @@ def recorded(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Recorded]:
     recorded to LeRobot v3 and MCAP; and the reference rollout of the same seed and actions."""
     base = tmp_path_factory.mktemp("observations")
     with isolated_home(base / "home") as home:
-        data = yaml.safe_load((home / "scenes/sim/tabletop_push.yaml").read_text())
-        data["scene"]["cameras"] = [{**FRONT, "depth": True}, {**WRIST, "depth": True}]
-        data["scene"]["observations"] = {"environment_state": True}
-        scene_file = write_yaml(home / "scenes/sim/depth_push.yaml", data)
-        out = base / "out"
-        opts = RecordOptions(
-            scene=str(scene_file), n_episodes=1, seed=SEED, max_steps=STEPS, out=out, formats=("lerobot", "mcap")
-        )
-        summary = record(opts)
-        assert summary.frames == STEPS
-        from lerobot.datasets.lerobot_dataset import LeRobotDataset
-
-        ds = LeRobotDataset("local/depth", root=out, video_backend="pyav")
-        actions = np.stack(ds.hf_dataset.with_format("numpy")["action"]).astype(np.float32)
-        ref = _rollout(scene_file, actions)
-        ref.out, ref.info = out, json.loads((out / "meta/info.json").read_text())
+        cameras = [{**FRONT, "depth": True}, {**WRIST, "depth": True}]
+        scene = {"cameras": cameras, "observations": {"environment_state": True}}
+        rec = record_push_variant(home, "depth_push", scene, SEED, STEPS, base / "out")
+        ref = _rollout(rec.scene_file, rec.actions)
+        ref.out, ref.info = rec.out, json.loads((rec.out / "meta/info.json").read_text())
         yield ref
 
 

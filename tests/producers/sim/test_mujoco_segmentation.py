@@ -15,18 +15,12 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 import pytest
-import yaml
 
 from openral_data.formats.lerobot_v3.masks import decode_mask, encode_mask, mask_stats
-from openral_data.producers.sim.mujoco.scene import TabletopScene
-from openral_data.record import registry
-from openral_data.record.options import RecordOptions
-from openral_data.record.sim import record
-from openral_data.schemas.scene import load_recordable_scene
 from tests.support.cli import run_cli
 from tests.support.home import isolated_home
 from tests.support.mcap import check_bag
-from tests.support.mujoco import expert_rskill, red_mask
+from tests.support.mujoco import push_scene, record_push_variant, red_mask
 from tests.support.rrd import verify
 from tests.support.scenes import mock_scene, write_yaml
 
@@ -48,31 +42,19 @@ class Recorded:
 def recorded(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Recorded]:
     base = tmp_path_factory.mktemp("segmentation")
     with isolated_home(base / "home") as home:
-        data = yaml.safe_load((home / "scenes/sim/tabletop_push.yaml").read_text())
-        data["scene"]["cameras"] = [{**FRONT, "segmentation": True}, {**WRIST, "segmentation": True}]
-        scene_file = write_yaml(home / "scenes/sim/seg_push.yaml", data)
-        out = base / "out"
-        opts = RecordOptions(
-            scene=str(scene_file), n_episodes=1, seed=SEED, max_steps=STEPS, out=out, formats=("lerobot", "mcap")
-        )
-        assert record(opts).frames == STEPS
-        from lerobot.datasets.lerobot_dataset import LeRobotDataset
-
-        ds = LeRobotDataset("local/seg", root=out, video_backend="pyav")
-        actions = np.stack(ds.hf_dataset.with_format("numpy")["action"]).astype(np.float32)
-        env = TabletopScene(
-            load_recordable_scene(scene_file), registry.ROBOTS["franka_panda"], expert_rskill("push"), "push"
-        )
+        cameras = [{**FRONT, "segmentation": True}, {**WRIST, "segmentation": True}]
+        rec = record_push_variant(home, "seg_push", {"cameras": cameras}, SEED, STEPS, base / "out")
+        env = push_scene(rec.scene_file)
         masks, rgb = [], []
         try:
             obs = env.reset(SEED)
-            for action in actions:
+            for action in rec.actions:
                 masks.append({k: obs.images[k] for k in MASKS})
                 rgb.append({k: obs.images[k] for k in ("front", "wrist")})
                 obs = env.step(action).observation
         finally:
             env.close()
-        yield Recorded(out, json.loads((out / "meta/info.json").read_text()), masks, rgb)
+        yield Recorded(rec.out, json.loads((rec.out / "meta/info.json").read_text()), masks, rgb)
 
 
 def _ids(info: dict[str, Any], key: str) -> dict[str, int]:

@@ -10,18 +10,11 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 import pytest
-import yaml
 
 from openral_data.formats.lerobot_v3.reader import read_info
-from openral_data.producers.sim.mujoco.scene import TabletopScene
-from openral_data.record import registry
-from openral_data.record.options import RecordOptions
-from openral_data.record.sim import record
-from openral_data.schemas.scene import load_recordable_scene
 from tests.support.home import isolated_home
 from tests.support.mcap import check_bag
-from tests.support.mujoco import expert_rskill
-from tests.support.scenes import write_yaml
+from tests.support.mujoco import push_scene, record_push_variant
 
 SEED, STEPS = 2, 6
 WRIST = {"name": "wrist", "width": 32, "height": 32, "mount": "wrist"}
@@ -38,33 +31,20 @@ def _rot(q: list[float]) -> npt.NDArray[np.float64]:
 @pytest.mark.slow
 def test_wrist_camera_tf_composes_to_mujocos_camera_pose_at_every_frame(tmp_path: Path) -> None:
     with isolated_home(tmp_path / "home") as home:
-        data = yaml.safe_load((home / "scenes/sim/tabletop_push.yaml").read_text())
-        data["scene"]["cameras"] = [FRONT, WRIST]
-        scene_file = write_yaml(home / "scenes/sim/tf_push.yaml", data)
-        out = tmp_path / "out"
-        opts = RecordOptions(
-            scene=str(scene_file), n_episodes=1, seed=SEED, max_steps=STEPS, out=out, formats=("lerobot", "mcap")
-        )
-        assert record(opts).frames == STEPS
-        from lerobot.datasets.lerobot_dataset import LeRobotDataset
-
-        ds = LeRobotDataset("local/tf", root=out, video_backend="pyav")
-        actions = np.stack(ds.hf_dataset.with_format("numpy")["action"]).astype(np.float32)
-        env = TabletopScene(
-            load_recordable_scene(scene_file), registry.ROBOTS["franka_panda"], expert_rskill("push"), "push"
-        )
+        rec = record_push_variant(home, "tf_push", {"cameras": [FRONT, WRIST]}, SEED, STEPS, tmp_path / "out")
+        env = push_scene(rec.scene_file)
         want: list[tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]] = []
         try:
             env.reset(SEED)
             cid = env.model.camera("wrist").id
-            for action in actions:
+            for action in rec.actions:
                 want.append((env.data.cam_xpos[cid].copy(), env.data.cam_xmat[cid].reshape(3, 3) @ TO_OPTICAL))
                 env.step(action)
         finally:
             env.close()
-    ext = read_info(out)["features"]["observation.images.wrist"]["info"]["extrinsics"]
+    ext = read_info(rec.out)["features"]["observation.images.wrist"]["info"]["extrinsics"]
     body = ext["parent_frame"]
-    (bag,) = sorted((out / "mcap").glob("episode_*"))
+    (bag,) = sorted((rec.out / "mcap").glob("episode_*"))
     msgs = check_bag(bag)  # rosbags, the mcap reader (CRCs, decoding) and `rerun mcap check`
     ((_, static),) = msgs["/tf_static"]
     mount = {t.child_frame_id: t for t in static.transforms}["wrist"]
