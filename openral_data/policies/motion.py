@@ -16,6 +16,7 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.errors import ConfigError
+from openral_data.producers.sim.mujoco.layout import yaw_of
 from openral_data.types import Observation
 
 F64 = npt.NDArray[np.float64]
@@ -24,12 +25,6 @@ TRAVEL = 0.1  # travel height of the grasp site above the table
 CARRY = 0.15  # carry height of the grasp site above the table
 GRASP_STEPS = 8  # control steps the gripper is given to close
 OPEN, CLOSED = 0.0, 1.0
-
-
-def yaw_of(quat: F64) -> float:
-    """Heading of the frame's x axis projected on the table."""
-    w, x, y, z = (float(v) for v in quat)
-    return float(np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)))
 
 
 def wrap(angle: float, period: float) -> float:

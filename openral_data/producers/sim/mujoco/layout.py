@@ -194,3 +194,9 @@ def place(
 
 def yaw_quat(yaw: float) -> F64:
     return np.array([np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)])
+
+
+def yaw_of(quat: F64) -> float:
+    """Heading of the frame's x axis projected on the table (quaternion [qw, qx, qy, qz])."""
+    w, x, y, z = (float(v) for v in quat)
+    return float(np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)))

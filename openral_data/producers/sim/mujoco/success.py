@@ -17,7 +17,7 @@ from typing import Protocol
 import numpy as np
 import numpy.typing as npt
 
-from openral_data.producers.sim.mujoco.layout import Extent
+from openral_data.producers.sim.mujoco.layout import Extent, yaw_of
 from openral_data.schemas.tabletop import AllOf, AnyOf, Criterion, DrawerOpened, InRegion, Lifted, On
 
 F64 = npt.NDArray[np.float64]
@@ -40,8 +40,7 @@ class WorldView(Protocol):
 
 def _local_xy(view: WorldView, frame: str, point: F64) -> F64:
     """`point` (x, y) in the frame of object `frame` (its yaw about the vertical)."""
-    w, x, y, z = (float(v) for v in view.quat(frame))
-    yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    yaw = yaw_of(view.quat(frame))
     d = point[:2] - view.pos(frame)[:2]
     c, s = np.cos(yaw), np.sin(yaw)
     return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
