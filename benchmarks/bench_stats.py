@@ -184,7 +184,9 @@ def generate(root: Path, frames: int, rows_per_file: int, row_group: int, seed: 
         "splits": {"train": f"0:{n_eps}"},
     }
     (root / layout.INFO_PATH).write_text(json.dumps(info, indent=4))
-    (root / digests.DIGESTS_PATH).write_text(json.dumps(digests.compute(root, {}, {}), indent=1))
+    (root / digests.DIGESTS_PATH).write_text("{}")  # then every file hashed, as a writer's last join leaves it
+    files = [p for pattern in digests.PATTERNS for p in root.glob(pattern)] + [root / r for r in digests.SINGLE]
+    digests.refresh(root, [p for p in files if p.is_file()], durable=False)
     return {"episodes": n_eps, "frames": total, "data_files": file_index}
 
 

@@ -56,18 +56,21 @@ def read_control(path: Path, limit: int = 1 << 24) -> bytes:
         os.close(fd)
 
 
-def state_dir(root: Path) -> Path:
-    """``root/.openral``, created if missing; refused when it is a symlink or not a folder."""
+def state_dir(root: Path, *sub: str) -> Path:
+    """``root/.openral`` (or a folder below it, `sub`), created if missing; refused when it or any folder on
+    the way is a symlink or not a folder."""
     path = root / ".openral"
-    try:
-        st = os.lstat(path)
-    except FileNotFoundError:
-        path.mkdir(parents=True, exist_ok=True)
-        return state_dir(root)
-    if not stat.S_ISDIR(st.st_mode):
-        raise DatasetError(
-            f"{path}: not a real folder (a symbolic link or a file); refusing to use it", code="dataset.unsafe"
-        )
+    for name in ("", *sub):
+        path = path / name if name else path
+        try:
+            st = os.lstat(path)
+        except FileNotFoundError:
+            path.mkdir(parents=True, exist_ok=True)
+            st = os.lstat(path)
+        if not stat.S_ISDIR(st.st_mode):
+            raise DatasetError(
+                f"{path}: not a real folder (a symbolic link or a file); refusing to use it", code="dataset.unsafe"
+            )
     return path
 
 
@@ -122,6 +125,20 @@ def parquet_writer(table: pa.Table) -> Callable[[Path], None]:
     return write
 
 
+def concat_parquet_writer(sources: list[Path], schema: pa.Schema) -> Callable[[Path], None]:
+    """A `writer` for `write_with`: the row groups of `sources` in order, as they are, in one file of `schema`
+    (written like `parquet_writer`; one row group read at a time)."""
+
+    def write(path: Path) -> None:
+        with pq.ParquetWriter(path, schema, compression="snappy", write_page_checksum=True) as out:
+            for source in sources:
+                pf = pq.ParquetFile(source)
+                for i in range(pf.num_row_groups):
+                    out.write_table(pf.read_row_group(i).cast(schema))
+
+    return write
+
+
 def write_with(path: Path, writer: Callable[[Path], None], durable: bool = True) -> None:
     """Write `path` through `writer(tmp)`, then atomically replace it; on error the old file stays (and no tmp)."""
     batch = Batch(durable)
@@ -163,6 +180,10 @@ class Batch:
             tmp.unlink(missing_ok=True)
             raise
         self._staged.append((tmp, path))
+
+    def staged(self) -> list[tuple[Path, Path]]:
+        """(staged file, destination) of every file written into this batch so far, in write order."""
+        return list(self._staged)
 
     def commit(self) -> None:
         journaled = self.write_journal()

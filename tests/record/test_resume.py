@@ -247,8 +247,8 @@ CRASH_POINTS = [
     pytest.param(  # staged and fsynced, journal not yet durable: the episode is discarded
         ("journal.json", 3), 2, "writer.staged", id="journal.json#3", marks=pytest.mark.slow
     ),
-    pytest.param(  # journal durable, the data file renamed, nothing else: finished on recovery
-        ("file-000.parquet", 5), 3, "writer.journal", id="file-000.parquet#5", marks=pytest.mark.slow
+    pytest.param(  # journal durable, the episode's data file renamed, nothing else: finished on recovery
+        ("file-002.parquet", 1), 3, "writer.journal", id="file-002.parquet#1", marks=pytest.mark.slow
     ),
 ]
 

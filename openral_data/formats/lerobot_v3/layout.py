@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import operator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -60,6 +60,44 @@ class FilePos:
         if self.file + 1 >= chunks_size:
             return FilePos(self.chunk + 1, 0)
         return FilePos(self.chunk, self.file + 1)
+
+
+def row_pos(row: dict[str, Any], prefix: str) -> FilePos:
+    """The file an episodes row names under `prefix` (``data``, ``meta/episodes``, ``videos/<key>``)."""
+    return FilePos(row[f"{prefix}/chunk_index"], row[f"{prefix}/file_index"])
+
+
+@dataclass
+class FileRun:
+    """Consecutive files of one kind (data or meta/episodes parquet) that a writer joins into the first.
+
+    The first file may already hold many episodes; every later one holds one committed episode. `sizes` and
+    `rows` are each file's bytes and rows (frames for data, episodes for meta/episodes), in file order.
+    """
+
+    first: FilePos
+    positions: list[FilePos] = field(default_factory=list)
+    sizes: list[int] = field(default_factory=list)
+    rows: list[int] = field(default_factory=list)
+
+    @property
+    def size(self) -> int:
+        return sum(self.sizes)
+
+    @property
+    def total_rows(self) -> int:
+        return sum(self.rows)
+
+    def next_pos(self, chunks_size: int) -> FilePos:
+        return self.positions[-1].next(chunks_size) if self.positions else self.first
+
+    def add(self, pos: FilePos, size: int, rows: int) -> None:
+        self.positions.append(pos)
+        self.sizes.append(size)
+        self.rows.append(rows)
+
+    def copy(self) -> FileRun:
+        return FileRun(self.first, list(self.positions), list(self.sizes), list(self.rows))
 
 
 def data_path(root: Path, pos: FilePos) -> Path:

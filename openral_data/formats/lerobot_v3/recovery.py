@@ -7,7 +7,14 @@ hold, beside them:
 * staged temporary files (``.NAME.tmp``: the episode in flight, or a commit that never reached its journal);
 * rows beyond the totals (datasets written before the journal existed, or by other tools);
 * video files no episode row names (an episode's mp4 placed before its commit, or per-episode files left
-  after a join).
+  after a join);
+* after a join of the per-episode data and meta/episodes files cut short (the writer's `_consolidate`):
+  episode rows repeated in a later episodes file, and data rows repeated in a file other than the one their
+  episode's row names (both only in datasets we wrote);
+* digest deltas of an episode that was never committed, and digests a cut-short join had not refreshed yet.
+
+Every file recovery moves or rewrites gets its digests refreshed, so `doctor` afterwards reports only what
+recovery could not explain.
 
 Nothing is deleted: what recovery takes out goes to ``.openral/quarantine/<time>/`` with its relative path.
 """
@@ -28,7 +35,7 @@ import pyarrow.parquet as pq
 
 from openral_data.errors import DatasetError
 from openral_data.formats import atomic
-from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3 import digests, layout
 from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.paths import contained
 
@@ -42,6 +49,7 @@ class Quarantine:
         self.root = root
         stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%S.%fZ")
         self.dir = root / layout.QUARANTINE_DIR / stamp
+        self.touched: list[Path] = []  # every dataset file moved or rewritten, for the digests to follow
 
     def _dest(self, rel: str) -> Path:
         """Where `rel` goes; `.openral` and the quarantine folders must be real folders inside the dataset."""
@@ -57,6 +65,7 @@ class Quarantine:
     def move(self, path: Path) -> Path:
         dest = self._dest(str(path.relative_to(self.root)))
         os.replace(path, dest)
+        self.touched.append(path)
         return dest
 
     def keep_rows(self, path: Path, rows: pa.Table) -> Path:
@@ -141,14 +150,59 @@ def recover(root: Path, durable: bool = True) -> list[str]:
             actions.append(f"no committed episode: moved {len(leftovers)} file(s) to {quarantine.dir}")
         return actions
     info = read_info(root)
+    ours = (root / layout.OPENRAL_PATH).is_file()
+    if ours:
+        actions += drop_repeated_episode_rows(root, quarantine, durable)
     actions += trim_to_totals(root, info, quarantine, durable)
     rows = episode_rows(root)
+    if ours:
+        actions += drop_repeated_data_rows(root, rows, quarantine, durable)
     keep = referenced_videos(root, rows, info)
     orphans = [p for p in video_files(root) if p not in keep]
     for path in orphans:
         quarantine.move(path)
     if orphans:
         actions.append(f"moved {len(orphans)} video file(s) no episode refers to to {quarantine.dir}")
+    uncommitted = [p for k, p in digests.deltas(root) if k >= int(info.get("total_episodes", 0))]
+    for path in uncommitted:
+        quarantine.move(path)
+    if quarantine.touched or uncommitted or (root / digests.REHASH_PATH).is_file():
+        digests.refresh(root, quarantine.touched, durable)
+    return actions
+
+
+def drop_repeated_episode_rows(root: Path, quarantine: Quarantine, durable: bool = True) -> list[str]:
+    """Rows of an episode already listed by an earlier episodes file (in file order, as lerobot reads them):
+    what a join cut short left in the files it had not removed yet."""
+    seen: set[int] = set()
+    actions: list[str] = []
+    for path in layout.episodes_files(root):
+        indices = pq.read_table(path, columns=["episode_index"])["episode_index"].to_pylist()
+        if seen:
+            earlier = pa.array(sorted(seen), pa.int64())
+            actions += _drop_rows(root, path, pc.field("episode_index").isin(earlier), quarantine, durable)
+        seen.update(int(i) for i in indices)
+    return actions
+
+
+def drop_repeated_data_rows(
+    root: Path, rows: list[dict[str, Any]], quarantine: Quarantine, durable: bool = True
+) -> list[str]:
+    """Data rows of an episode in a file other than the one its row names, when that file exists: copies a
+    join cut short left behind (the joined file before the metadata named it, or the files it joined)."""
+    owner: dict[int, Path] = {}
+    for row in rows:
+        if row.get("data/chunk_index") is None or row.get("data/file_index") is None:
+            return []  # not ours to judge: rows that do not say where their frames are
+        owner[int(row["episode_index"])] = layout.data_path(root, layout.row_pos(row, "data"))
+    exists = {p: p.is_file() for p in set(owner.values())}
+    actions: list[str] = []
+    for path in layout.data_files(root):
+        found = pc.unique(pq.read_table(path, columns=["episode_index"])["episode_index"]).to_pylist()
+        elsewhere = [e for e in found if e in owner and owner[e] != path and exists[owner[e]]]
+        if elsewhere:
+            repeated = pc.field("episode_index").isin(pa.array(sorted(elsewhere), pa.int64()))
+            actions += _drop_rows(root, path, repeated, quarantine, durable)
     return actions
 
 
@@ -182,6 +236,7 @@ def _drop_rows(root: Path, path: Path, beyond: pc.Expression, quarantine: Quaran
     if extra.num_rows == 0:
         return []
     quarantine.keep_rows(path, extra)
+    quarantine.touched.append(path)
     kept = table.filter(~beyond)
     rel = path.relative_to(root)
     if kept.num_rows == 0 and path.name != "tasks.parquet":

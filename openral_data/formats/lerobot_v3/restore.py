@@ -7,6 +7,7 @@ on disk is committed, and the state rebuilt here is exactly what the writer held
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -19,7 +20,7 @@ from openral_data.errors import DatasetError
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.depth import CameraStats, camera_stats_from_json
-from openral_data.formats.lerobot_v3.layout import FilePos
+from openral_data.formats.lerobot_v3.layout import FilePos, FileRun
 from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.recovery import episode_rows
 from openral_data.formats.lerobot_v3.stats import STAT_KEYS, Stats, merge_numeric
@@ -39,9 +40,8 @@ class Restored:
     tasks: dict[str, int]
     rows: list[dict[str, Any]]
     total_frames: int
-    episode_file: FilePos
-    data_file: FilePos
-    data_tables: list[pa.Table]
+    data_run: FileRun
+    episodes_run: FileRun
     videos: dict[str, VideoTail]  # camera name -> tail
     numeric_stats: dict[str, Stats]
     image_stats: dict[str, CameraStats]  # empty before the first episode: the writer keeps its fresh ones
@@ -81,7 +81,12 @@ def check_same_format(root: Path, info: dict[str, Any], fps: int, features: dict
 
 
 def restore(
-    root: Path, data_schema: pa.Schema, camera_keys: dict[str, str], chunks_size: int, size_limit: int
+    root: Path,
+    data_schema: pa.Schema,
+    camera_keys: dict[str, str],
+    chunks_size: int,
+    size_limit: int,
+    data_size_limit: int,
 ) -> Restored:
     info = read_info(root)
     rows = episode_rows(root)
@@ -95,13 +100,6 @@ def restore(
         table = pq.read_table(root / layout.TASKS_PATH)
         names, indices = table["task"].to_pylist(), table["task_index"].to_pylist()
         tasks = {str(t): int(i) for t, i in zip(names, indices, strict=True)}
-    episode_file = max((_pos(r, "meta/episodes") for r in rows), default=FilePos())
-    data_file = max((_pos(r, "data") for r in rows), default=FilePos())
-    data_tables: list[pa.Table] = []
-    path = layout.data_path(root, data_file)
-    if rows and path.is_file():
-        pf = pq.ParquetFile(path)
-        data_tables = [pf.read_row_group(i).cast(data_schema) for i in range(pf.num_row_groups)]
     numeric: dict[str, Stats] = {}
     for row in rows:
         for key in data_schema.names:
@@ -111,20 +109,51 @@ def restore(
         tasks=tasks,
         rows=rows,
         total_frames=sum(int(r["length"]) for r in rows),
-        episode_file=episode_file,
-        data_file=data_file,
-        data_tables=data_tables,
+        data_run=_file_run(rows, "data", lambda p: layout.data_path(root, p), chunks_size, data_size_limit, True),
+        episodes_run=_file_run(
+            rows, "meta/episodes", lambda p: layout.episodes_path(root, p), chunks_size, data_size_limit, False
+        ),
         videos={name: _video_tail(root, key, rows, chunks_size, size_limit) for name, key in camera_keys.items()},
         numeric_stats=numeric,
         image_stats=_image_stats(root, list(camera_keys), bool(rows)),
     )
 
 
+def _file_run(
+    rows: list[dict[str, Any]],
+    prefix: str,
+    path_of: Callable[[FilePos], Path],
+    chunks_size: int,
+    size_limit: int,
+    frames: bool,
+) -> FileRun:
+    """The trailing consecutive files (data or meta/episodes) whose bytes stay below the size limit: the run
+    the writer goes on joining (episodes still in files of their own, after the one they join into)."""
+    counts: dict[FilePos, int] = {}
+    for r in rows:
+        pos = layout.row_pos(r, prefix)
+        counts[pos] = counts.get(pos, 0) + (int(r["length"]) if frames else 1)
+    order = list(counts)
+    run = FileRun(order[-1].next(chunks_size) if order else FilePos())
+    total = 0
+    for i in range(len(order) - 1, -1, -1):
+        pos, size = order[i], path_of(order[i]).stat().st_size
+        follows = i == len(order) - 1 or pos.next(chunks_size) == order[i + 1]
+        if not follows or total + size >= size_limit:
+            break
+        total += size
+        run.first = pos
+        run.positions.insert(0, pos)
+        run.sizes.insert(0, size)
+        run.rows.insert(0, counts[pos])
+    return run
+
+
 def _video_tail(root: Path, key: str, rows: list[dict[str, Any]], chunks_size: int, size_limit: int) -> VideoTail:
     """The trailing episodes that sit alone in consecutive files (a group not yet joined) become the group."""
 
     def pos(r: dict[str, Any]) -> FilePos:
-        return _pos(r, f"videos/{key}")
+        return layout.row_pos(r, f"videos/{key}")
 
     users: dict[FilePos, int] = {}
     for r in rows:
@@ -146,10 +175,6 @@ def _video_tail(root: Path, key: str, rows: list[dict[str, Any]], chunks_size: i
     if members and sum(m[3] for m in members) < size_limit:
         return VideoTail(first=members[0][1], members=members)
     return VideoTail(first=last.next(chunks_size) if last is not None else FilePos())
-
-
-def _pos(row: dict[str, Any], prefix: str) -> FilePos:
-    return FilePos(int(row[f"{prefix}/chunk_index"]), int(row[f"{prefix}/file_index"]))
 
 
 def _image_stats(root: Path, names: list[str], has_rows: bool) -> dict[str, CameraStats]:

@@ -1,14 +1,18 @@
 """LeRobotDataset v3 writer built on pyarrow + PyAV (not lerobot's writer).
 
 Durability: every finished episode is committed before `end_episode` returns. Its videos are complete mp4s,
-the data and episodes parquet files that hold it are rewritten atomically (temp file, fsync, rename), and
-`meta/info.json` — whose totals decide what lerobot's loader exposes — is written last. Those renames are
-journaled (``.openral/journal.json``), so a crash in the middle of them is finished by `recovery.recover`
-(which `record --resume` and `doctor --repair` run) and lerobot meanwhile sees the previous episode count.
+its frames and its meta/episodes row land in files of their own (temp file, fsync, rename), its digests in a
+delta of their own, and `meta/info.json` — whose totals decide what lerobot's loader exposes — is written last.
+Those renames are journaled (``.openral/journal.json``), so a crash in the middle of them is finished by
+`recovery.recover` (which `record --resume` and `doctor --repair` run) and lerobot meanwhile sees the previous
+episode count. A commit therefore costs O(that episode), however large the dataset has grown.
+
+The per-episode data and meta/episodes files of consecutive episodes are joined into the first of them (one
+row group per episode, lerobot's rotated layout) when the data file reaches its size limit, every
+`WriterConfig.staged_episodes` episodes, and at `close()`; per-episode mp4s of one camera likewise when a video
+file fills up and at `close()`, without re-encoding. Each step of a join leaves every episode readable.
 `commit_episode` commits an episode made elsewhere (frame columns and mp4s ready, as `edit` assembles them)
-the same way. `resume=True` continues an existing dataset of the same format (see `restore`). Per-episode mp4s of
-one camera are joined into size-rotated files without re-encoding when a file fills up and at `close()`;
-each step of that join leaves every episode readable.
+the same way. `resume=True` continues an existing dataset of the same format (see `restore`).
 """
 
 from __future__ import annotations
@@ -27,7 +31,6 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 import pyarrow as pa
-import pyarrow.parquet as pq
 
 from openral_data.errors import (
     DISK_ERRNOS,
@@ -57,7 +60,7 @@ from openral_data.formats.lerobot_v3.features import (
     writer_camera_keys,
 )
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE
-from openral_data.formats.lerobot_v3.layout import FilePos
+from openral_data.formats.lerobot_v3.layout import FilePos, FileRun
 from openral_data.formats.lerobot_v3.masks import MaskColumn
 from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.restore import check_same_format, restore
@@ -83,6 +86,13 @@ class WriterConfig:
     chunks_size: int = layout.DEFAULT_CHUNKS_SIZE
     durable: bool = True
     queue_size: int = 16
+    # committed episodes whose data and meta/episodes rows stay in files of their own (a commit then costs
+    # O(that episode)) before they are joined into the run's first file; a data rotation and close() join too
+    staged_episodes: int = 1000
+
+    def __post_init__(self) -> None:
+        if self.staged_episodes < 1:
+            raise ValueError("staged_episodes must be at least 1")
 
 
 @dataclass
@@ -116,9 +126,8 @@ class _State:
     tasks_written: int
     total_frames: int
     episode_rows: list[dict[str, Any]]
-    episode_file: FilePos
-    data_file: FilePos
-    data_tables: list[pa.Table]
+    data_run: FileRun
+    episodes_run: FileRun
     groups: dict[str, _VideoGroup]
     numeric_stats: dict[str, Stats]
     image_stats: dict[str, CameraStats]
@@ -210,9 +219,10 @@ class LeRobotV3Writer:
         self._tasks_written = 0
         self.total_frames = 0
         self.episode_rows: list[dict[str, Any]] = []
-        self._episode_file = FilePos()
-        self._data_file = FilePos()
-        self._data_tables: list[pa.Table] = []
+        # the data and meta/episodes files of the episodes not consolidated yet (see `_consolidate`)
+        self._data_run = FileRun(FilePos())
+        self._episodes_run = FileRun(FilePos())
+        self._placed: list[Path] = []  # the mp4s the episode being committed moved into place
         self._groups = {name: _VideoGroup(FilePos()) for name in self._videos}
         self._numeric_stats: dict[str, Stats] = {}
         self.image_stats: dict[str, CameraStats] = (
@@ -243,14 +253,20 @@ class LeRobotV3Writer:
         info = read_info(self.root)
         check_same_format(self.root, info, self.schema.fps, self.features)
         limit = self.config.video_files_size_in_mb * MB
-        state = restore(self.root, self._data_schema, self._keys, self.config.chunks_size, limit)
+        state = restore(
+            self.root,
+            self._data_schema,
+            self._keys,
+            self.config.chunks_size,
+            limit,
+            self.config.data_files_size_in_mb * MB,
+        )
         self.tasks = dict(state.tasks)
         self._tasks_written = len(self.tasks)
         self.episode_rows = state.rows
         self.total_frames = state.total_frames
-        self._episode_file = state.episode_file
-        self._data_file = state.data_file
-        self._data_tables = state.data_tables
+        self._data_run = state.data_run
+        self._episodes_run = state.episodes_run
         for name, tail in state.videos.items():
             members = [_VideoMember(ep, pos, frames, size) for ep, pos, frames, size in tail.members]
             self._groups[name] = _VideoGroup(tail.first, members)
@@ -413,7 +429,9 @@ class LeRobotV3Writer:
         path = self.root / layout.JOURNAL_PATH if journal else None
         batch = self._batch = atomic.Batch(self.config.durable, journal=path)
         saved: _State | None = None
+        self._placed = []
         try:
+            self._maybe_consolidate(len(ep.states))
             self._rotate_videos(encoded)
             saved = self._state()
             record = self._commit_episode(ep, len(ep.states), success, encoded)
@@ -428,7 +446,6 @@ class LeRobotV3Writer:
             raise
         self._batch = None
         batch.discard()
-        self._maybe_rotate_episodes_file()
         return record
 
     def _fail(
@@ -474,9 +491,8 @@ class LeRobotV3Writer:
             tasks_written=self._tasks_written,
             total_frames=self.total_frames,
             episode_rows=list(self.episode_rows),
-            episode_file=self._episode_file,
-            data_file=self._data_file,
-            data_tables=list(self._data_tables),
+            data_run=self._data_run.copy(),
+            episodes_run=self._episodes_run.copy(),
             groups={n: _VideoGroup(g.first, list(g.members)) for n, g in self._groups.items()},
             numeric_stats=dict(self._numeric_stats),
             image_stats=copy.deepcopy(self.image_stats),
@@ -488,9 +504,8 @@ class LeRobotV3Writer:
         self._tasks_written = s.tasks_written
         self.total_frames = s.total_frames
         self.episode_rows = s.episode_rows
-        self._episode_file = s.episode_file
-        self._data_file = s.data_file
-        self._data_tables = s.data_tables
+        self._data_run = s.data_run
+        self._episodes_run = s.episodes_run
         self._groups = s.groups
         self._numeric_stats = s.numeric_stats
         self.image_stats = s.image_stats
@@ -498,7 +513,8 @@ class LeRobotV3Writer:
     def _commit_episode(
         self, ep: EpisodeBuffer, n: int, success: bool | None, encoded: dict[str, EncodedEpisode]
     ) -> EpisodeRecord:
-        """Place the episode's videos, then stage data, episodes metadata, tasks, stats and info.json."""
+        """Place the episode's videos, then stage its data file, tasks, stats, its episodes file, the digests
+        of all of them and info.json (each episode's data and meta/episodes row in a file of its own)."""
         index = self.total_episodes
         if not self.schema.has_success:
             success = None  # unknown stays unknown: `openral.success` is NULL
@@ -516,15 +532,16 @@ class LeRobotV3Writer:
         for key, s in ep_stats.items():
             for stat, value in to_jsonable(s).items():
                 row[f"stats/{key}/{stat}"] = value
-        self._append_data(table, row)
-        row["meta/episodes/chunk_index"] = self._episode_file.chunk
-        row["meta/episodes/file_index"] = self._episode_file.file
+        self._stage_data(table, row)
+        pos = self._episodes_run.next_pos(self.config.chunks_size)
+        row["meta/episodes/chunk_index"] = pos.chunk
+        row["meta/episodes/file_index"] = pos.file
         self.episode_rows.append(row)
         for key, s in ep_stats.items():
             if key not in self._keys.values():
                 self._numeric_stats[key] = merge_numeric(self._numeric_stats.get(key), s)
         self.total_frames += n
-        self._write_meta(episodes_file=self._episode_file)
+        self._write_meta(episode=index)
         return EpisodeRecord(index=index, length=n, success=success, seed=ep.start.seed)
 
     def close(self) -> None:
@@ -552,6 +569,9 @@ class LeRobotV3Writer:
         a join leaves each episode readable) and leaves the rest as it is."""
         doing = "finishing the dataset"
         try:
+            if len(self._episodes_run.positions) > 1 or len(self._data_run.positions) > 1:
+                doing = "joining the episodes' data files"
+                self._consolidate(rotate=False)
             for name in list(self._groups):
                 doing = f"joining the videos of camera {name}"
                 self._join_group(name)
@@ -602,26 +622,72 @@ class LeRobotV3Writer:
         cols.update(ep.columns)
         return pa.table(cols, schema=self._data_schema)
 
-    # -- data parquet ----------------------------------------------------------------------------------------
-    def _append_data(self, table: pa.Table, row: dict[str, Any]) -> None:
-        path = layout.data_path(self.root, self._data_file)
-        if self._data_tables and path.exists():
-            size = path.stat().st_size
-            rows = sum(t.num_rows for t in self._data_tables)
-            if size + size / rows * table.num_rows >= self.config.data_files_size_in_mb * MB:
-                self._data_file = self._data_file.next(self.config.chunks_size)
-                self._data_tables = []
-                path = layout.data_path(self.root, self._data_file)
-        self._data_tables.append(table)
-        row["data/chunk_index"] = self._data_file.chunk
-        row["data/file_index"] = self._data_file.file
+    # -- data and meta/episodes files: one per episode, joined later ----------------------------------------
+    def _stage_data(self, table: pa.Table, row: dict[str, Any]) -> None:
+        """The episode's frames as a data file of its own (one row group, as lerobot writes an episode)."""
+        pos = self._data_run.next_pos(self.config.chunks_size)
+        row["data/chunk_index"] = pos.chunk
+        row["data/file_index"] = pos.file
+        written = self._write(layout.data_path(self.root, pos), atomic.parquet_writer(table))
+        self._data_run.add(pos, written.stat().st_size, table.num_rows)
 
-        def write(tmp: Path) -> None:
-            with pq.ParquetWriter(tmp, self._data_schema, compression="snappy", write_page_checksum=True) as w:
-                for t in self._data_tables:  # one row group per episode, as lerobot writes
-                    w.write_table(t)
+    def _maybe_consolidate(self, frames: int) -> None:
+        """Before an episode's commit: join the runs when the data file would outgrow its size limit with this
+        episode (the episode then starts the next file), or when `staged_episodes` episodes wait in files of
+        their own. The join is a commit of its own."""
+        data = self._data_run
+        limit = self.config.data_files_size_in_mb * MB
+        if data.positions and data.size + data.size / max(data.total_rows, 1) * frames >= limit:
+            self._consolidate(rotate=True)
+        elif len(self._episodes_run.positions) > self.config.staged_episodes:
+            self._consolidate(rotate=False)
 
-        self._write(path, write)
+    def _consolidate(self, rotate: bool) -> None:
+        """Join the data run into its first file and the episodes run into its first file, rows re-pointed.
+
+        Every step leaves a dataset lerobot loads exactly: the joined data file replaces the first (its rows
+        now also sit, the same, in the later files, which sort after it: rows beyond info.json's total), then
+        the joined episodes file (the later files' rows likewise trail), then the later files go. The files
+        are listed first (`digests.mark`), so a crash in between leaves recovery what to re-hash.
+        `rotate`: the data file is full; the next episode starts the next file.
+        """
+        cs = self.config.chunks_size
+        data, eps = self._data_run, self._episodes_run
+        dest_data = layout.data_path(self.root, data.first)
+        dest_eps = layout.episodes_path(self.root, eps.first)
+        later = [layout.data_path(self.root, p) for p in data.positions[1:]]
+        later += [layout.episodes_path(self.root, p) for p in eps.positions[1:]]
+        changed = [*([dest_data] if data.positions else []), *([dest_eps] if eps.positions else []), *later]
+        digests.mark(self.root, changed, self.config.durable)
+        if len(data.positions) > 1:
+            sources = [layout.data_path(self.root, p) for p in data.positions]
+            atomic.write_with(dest_data, atomic.concat_parquet_writer(sources, self._data_schema), self.config.durable)
+        moved_data, moved_eps = set(data.positions[1:]), set(eps.positions[1:])
+        tail = self.episode_rows[len(self.episode_rows) - eps.total_rows :]
+        for row in tail:
+            if layout.row_pos(row, "data") in moved_data:
+                row["data/chunk_index"], row["data/file_index"] = data.first.chunk, data.first.file
+            if layout.row_pos(row, "meta/episodes") in moved_eps:
+                row["meta/episodes/chunk_index"], row["meta/episodes/file_index"] = eps.first.chunk, eps.first.file
+        if len(eps.positions) > 1:
+            table = pa.Table.from_pylist(tail, schema=self._episodes_schema)
+            atomic.write_with(dest_eps, atomic.parquet_writer(table), self.config.durable)
+        for path in later:
+            path.unlink(missing_ok=True)
+        if self.config.durable:
+            for parent in dict.fromkeys(p.parent for p in later):
+                atomic.fsync_dir(parent)
+        digests.refresh(self.root, changed, self.config.durable)
+        if rotate:
+            self._data_run = FileRun(data.first.next(cs))
+        elif data.positions:
+            self._data_run = FileRun(data.first, [data.first], [dest_data.stat().st_size], [data.total_rows])
+        if eps.positions:
+            eps_size = dest_eps.stat().st_size
+            if eps_size >= self.config.data_files_size_in_mb * MB:
+                self._episodes_run = FileRun(eps.first.next(cs))
+            else:
+                self._episodes_run = FileRun(eps.first, [eps.first], [eps_size], [eps.total_rows])
 
     # -- videos ----------------------------------------------------------------------------------------------
     def pending_video(self, name: str) -> Path:
@@ -637,6 +703,7 @@ class LeRobotV3Writer:
         final = layout.video_path(self.root, key, pos)
         final.parent.mkdir(parents=True, exist_ok=True)
         atomic.move_into_place(tmp, final, self.config.durable)
+        self._placed.append(final)
         group.members.append(_VideoMember(episode, pos, frames, size))
         row[f"videos/{key}/chunk_index"] = pos.chunk
         row[f"videos/{key}/file_index"] = pos.file
@@ -649,6 +716,8 @@ class LeRobotV3Writer:
         for name, enc in encoded.items():
             group = self._groups[name]
             if group.members and group.size + enc.path.stat().st_size >= self.config.video_files_size_in_mb * MB:
+                if len(self._episodes_run.positions) > 1:  # the join re-points rows: one episodes file to rewrite
+                    self._consolidate(rotate=False)
                 self._join_group(name)
 
     def _join_group(self, name: str) -> None:
@@ -662,8 +731,10 @@ class LeRobotV3Writer:
         if len(group.members) > 1:
             dest = layout.video_path(self.root, key, group.first)
             sources = [(layout.video_path(self.root, key, m.pos), m.frames) for m in group.members]
+            touched = {layout.row_pos(self.episode_rows[m.episode], "meta/episodes") for m in group.members}
+            changed = [dest, *(layout.episodes_path(self.root, pos) for pos in touched), *(p for p, _ in sources[1:])]
+            digests.mark(self.root, changed, self.config.durable)
             atomic.write_with(dest, lambda tmp: concat_mp4(sources, tmp, self.schema.fps), self.config.durable)
-            touched: set[FilePos] = set()
             offset = 0
             for m in group.members:
                 row = self.episode_rows[m.episode]
@@ -672,25 +743,26 @@ class LeRobotV3Writer:
                 row[f"videos/{key}/from_timestamp"] = offset / self.schema.fps
                 offset += m.frames
                 row[f"videos/{key}/to_timestamp"] = offset / self.schema.fps
-                touched.add(FilePos(row["meta/episodes/chunk_index"], row["meta/episodes/file_index"]))
-            self._write_episodes(touched, immediate=True)
+            self._write_episodes(touched)
             for m in group.members[1:]:
                 layout.video_path(self.root, key, m.pos).unlink(missing_ok=True)
             # the join replaced files outside a commit batch: their digests follow at once
-            changed = [dest, *(layout.episodes_path(self.root, pos) for pos in touched)]
-            digests.refresh(self.root, changed + [p for p, _ in sources[1:]], self.config.durable)
+            digests.refresh(self.root, changed, self.config.durable)
         start = group.first.next(self.config.chunks_size) if group.members else group.first
         self._groups[name] = _VideoGroup(start)
 
     # -- metadata --------------------------------------------------------------------------------------------
-    def _write(self, path: Path, writer: Callable[[Path], None]) -> None:
-        """Stage into the episode's batch while one is being committed, else replace atomically now."""
+    def _write(self, path: Path, writer: Callable[[Path], None]) -> Path:
+        """Stage into the episode's batch while one is being committed, else replace atomically now; returns
+        where the bytes are now (the staged file, or `path`)."""
         if self._batch is not None:
             self._batch.write_with(path, writer)
-        else:
-            atomic.write_with(path, writer, self.config.durable)
+            return atomic.tmp_name(path)
+        atomic.write_with(path, writer, self.config.durable)
+        return path
 
-    def _write_episodes(self, files: set[FilePos], immediate: bool = False) -> None:
+    def _write_episodes(self, files: set[FilePos]) -> None:
+        """Rewrite whole meta/episodes files now (outside a commit: a video join re-pointed their rows)."""
         for pos in sorted(files):
             rows = [
                 r
@@ -698,24 +770,22 @@ class LeRobotV3Writer:
                 if (r["meta/episodes/chunk_index"], r["meta/episodes/file_index"]) == (pos.chunk, pos.file)
             ]
             table = pa.Table.from_pylist(rows, schema=self._episodes_schema)
-            path = layout.episodes_path(self.root, pos)
-            if immediate:
-                atomic.write_with(path, atomic.parquet_writer(table), self.config.durable)
-            else:
-                self._write(path, atomic.parquet_writer(table))
+            atomic.write_with(layout.episodes_path(self.root, pos), atomic.parquet_writer(table), self.config.durable)
 
-    def _maybe_rotate_episodes_file(self) -> None:
-        path = layout.episodes_path(self.root, self._episode_file)
-        if path.stat().st_size >= self.config.data_files_size_in_mb * MB:
-            self._episode_file = self._episode_file.next(self.config.chunks_size)
-
-    def _write_meta(self, episodes_file: FilePos | None = None) -> None:
-        """tasks, stats, the episodes file, then info.json last: its totals are what the loader trusts.
+    def _write_meta(self, episode: int | None = None) -> None:
+        """tasks, stats, then (in episode `episode`'s commit) its meta/episodes file and the digests of what the
+        commit wrote, then info.json last: its totals are what the loader trusts.
 
         The episodes file lands right before info.json: lerobot lists every row of meta/episodes, so the new
-        row would show (uncounted) in the moment between those two renames, and only then.
+        row would show (uncounted) in the moment between those two renames, and only then. Outside a commit
+        (close) the files are rewritten one by one and their digests refreshed after them.
         """
-        if len(self.tasks) != self._tasks_written:
+        in_commit = episode is not None and self._batch is not None
+        new_tasks = len(self.tasks) != self._tasks_written
+        written = [self.root / p for p in (layout.TASKS_PATH, layout.STATS_PATH, layout.INFO_PATH)]
+        if not in_commit:
+            digests.mark(self.root, written if new_tasks else written[1:], self.config.durable)
+        if new_tasks:
             self._write(self.root / layout.TASKS_PATH, tasks_writer(self.tasks))
             self._tasks_written = len(self.tasks)
         stats: dict[str, Any] = {}
@@ -729,11 +799,19 @@ class LeRobotV3Writer:
         hist = {name: acc.to_json() for name, acc in self.image_stats.items()}
         self._write(self.root / layout.IMAGE_HIST_PATH, atomic.bytes_writer(json.dumps(hist).encode()))
         self._write(self.root / layout.STATS_PATH, atomic.bytes_writer(json.dumps(ordered, indent=4).encode()))
-        if episodes_file is not None:
-            self._write_episodes({episodes_file})
         info = json.dumps(self.info(), indent=4).encode()
-        self._write(self.root / digests.DIGESTS_PATH, digests.writer(self.root, {layout.INFO_PATH: info}))
+        if episode is not None and self._batch is not None:
+            pos = self._episodes_run.next_pos(self.config.chunks_size)
+            table = pa.Table.from_pylist([self.episode_rows[-1]], schema=self._episodes_schema)
+            staged = self._write(layout.episodes_path(self.root, pos), atomic.parquet_writer(table))
+            self._episodes_run.add(pos, staged.stat().st_size, 1)
+            files = [*self._batch.staged(), *((p, p) for p in self._placed)]
+            delta = digests.delta_path(self.root, episode)
+            self._write(delta, digests.delta_writer(self.root, files, {layout.INFO_PATH: info}))
+            self._write(self.root / layout.INFO_PATH, atomic.bytes_writer(info))
+            return
         self._write(self.root / layout.INFO_PATH, atomic.bytes_writer(info))
+        digests.refresh(self.root, written, self.config.durable)
 
     def info(self) -> dict[str, Any]:
         c = self.config

@@ -6,6 +6,7 @@ import errno
 import json
 import logging
 import os
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +33,37 @@ def patterned(e: int, t: int, rng: np.random.Generator) -> np.ndarray:
     return img
 
 
+def unit_schema(state_dim: int = 4) -> DatasetSchema:
+    return DatasetSchema(
+        fps=10,
+        state_names=tuple(f"s{i}" for i in range(state_dim)),
+        action_names=("a0", "a1"),
+        cameras={"cam": CameraShape(H, W)},
+        robot_type="unit",
+    )
+
+
+def add_episode(
+    bridge: DatasetBridge,
+    e: int,
+    n: int,
+    rng: np.random.Generator,
+    states: list[np.ndarray],
+    task: str = "task",
+) -> None:
+    """Episode `e` of `n` frames: state[0] = t, the rest noise (appended to `states`), action (e, t), the
+    camera's top stripe encoding (e, t)."""
+    state_dim = len(bridge.schema.state_names)
+    bridge.begin_episode(seed=100 + e, initial_state={"e": e})
+    for t in range(n):
+        state = rng.standard_normal(state_dim).astype(np.float32)
+        state[0] = t
+        states.append(state)
+        obs = Observation(images={"cam": patterned(e, t, rng)}, state=state, task=task)
+        bridge.add_step(obs, np.array([e, t], np.float32), reward=0.5, done=t == n - 1, success=t == n - 1)
+    bridge.end_episode(success=e % 2 == 0)
+
+
 def write_dataset(
     root: Path,
     lengths: list[int],
@@ -40,31 +72,24 @@ def write_dataset(
     tasks: list[str] | None = None,
     config: WriterConfig | None = None,
     check_after_each: bool = False,
+    after_each: Callable[[int], None] | None = None,
+    close: bool = True,
 ) -> tuple[LeRobotV3Writer, list[np.ndarray]]:
-    schema = DatasetSchema(
-        fps=10,
-        state_names=tuple(f"s{i}" for i in range(state_dim)),
-        action_names=("a0", "a1"),
-        cameras={"cam": CameraShape(H, W)},
-        robot_type="unit",
-    )
+    """`lengths` episodes through a bridge; `after_each(e)` runs after episode e's commit; `close=False` leaves
+    the writer open (as a process killed between two commits leaves its dataset)."""
+    schema = unit_schema(state_dim)
     writer = LeRobotV3Writer(root, schema, config)
     bridge = DatasetBridge(schema, [writer])
     rng = np.random.default_rng(0)
     states: list[np.ndarray] = []
     for e, n in enumerate(lengths):
-        bridge.begin_episode(seed=100 + e, initial_state={"e": e})
-        for t in range(n):
-            state = rng.standard_normal(state_dim).astype(np.float32)
-            state[0] = t
-            states.append(state)
-            task = tasks[e % len(tasks)] if tasks else "task"
-            obs = Observation(images={"cam": patterned(e, t, rng)}, state=state, task=task)
-            bridge.add_step(obs, np.array([e, t], np.float32), reward=0.5, done=t == n - 1, success=t == n - 1)
-        bridge.end_episode(success=e % 2 == 0)
+        add_episode(bridge, e, n, rng, states, tasks[e % len(tasks)] if tasks else "task")
         if check_after_each:
             check_loads(root, lengths[: e + 1], states, tasks)
-    bridge.close()
+        if after_each is not None:
+            after_each(e)
+    if close:
+        bridge.close()
     return writer, states
 
 
