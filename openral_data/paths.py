@@ -32,6 +32,27 @@ def contained(root: Path, relative: str | os.PathLike[str], source: str) -> Path
     return path
 
 
+def contained_all(root: Path, relatives: list[str], source: str) -> list[Path]:
+    """`contained` for many paths at once, resolving each distinct folder once (a commit journal or a digest
+    delta names a handful of folders): same refusals, one `lstat` per path instead of one per component."""
+    folders: dict[str, Path] = {}
+    out: list[Path] = []
+    for text in relatives:
+        if "\x00" in text:
+            raise DatasetError(f"{source}: path {text!r} holds a NUL byte", code="dataset.unsafe")
+        folder, _, name = text.replace(os.sep, "/").rpartition("/")
+        if folder not in folders:
+            folders[folder] = contained(root, folder or ".", source)
+        if name in ("", ".", ".."):
+            path = contained(root, text, source)
+        else:
+            path = folders[folder] / name
+            if path.is_symlink():
+                path = contained(root, text, source)
+        out.append(path)
+    return out
+
+
 def safe_name(name: object, source: str) -> str:
     """`name` if it can be one path component (a feature key, a robot id, a step id), else a one-line refusal.
 

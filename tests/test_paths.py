@@ -9,7 +9,7 @@ import pytest
 
 from openral_data.errors import DatasetError
 from openral_data.formats import atomic
-from openral_data.paths import contained, safe_name
+from openral_data.paths import contained, contained_all, safe_name
 
 
 @pytest.mark.parametrize("rel", ["data/chunk-000/file-000.parquet", "a/b", "videos/x.y/c"])
@@ -23,6 +23,27 @@ def test_contained_refuses_paths_leaving(tmp_path: Path, rel: str) -> None:
         contained(tmp_path, rel, "meta/info.json: data_path")
     assert err.value.code == "dataset.unsafe"
     assert str(err.value).startswith("meta/info.json: data_path: ")
+
+
+@pytest.mark.parametrize("rel", ["../x", "a/../../x", "/etc/passwd", "a/..", "a\x00b"])
+def test_contained_all_refuses_what_contained_refuses(tmp_path: Path, rel: str) -> None:
+    inside = ["data/chunk-000/file-000.parquet", "data/chunk-000/file-001.parquet", "a/b"]
+    assert contained_all(tmp_path, inside, "j") == [tmp_path / r for r in inside]
+    with pytest.raises(DatasetError) as err:
+        contained_all(tmp_path, [*inside, rel], "j")
+    assert err.value.code == "dataset.unsafe"
+
+
+def test_contained_all_refuses_a_symlinked_folder_or_file_out(tmp_path: Path) -> None:
+    root, outside = tmp_path / "root", tmp_path / "outside"
+    (root / "data").mkdir(parents=True)
+    outside.mkdir()
+    (root / "data" / "file-000.parquet").symlink_to(outside / "x")
+    with pytest.raises(DatasetError):
+        contained_all(root, ["data/file-001.parquet", "data/file-000.parquet"], "x")
+    (root / "videos").symlink_to(outside)
+    with pytest.raises(DatasetError):
+        contained_all(root, ["videos/cam/file.mp4"], "x")
 
 
 def test_contained_refuses_a_symlink_out(tmp_path: Path) -> None:

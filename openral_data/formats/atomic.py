@@ -18,7 +18,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from openral_data.errors import DatasetError
-from openral_data.paths import contained
+from openral_data.paths import contained, contained_all
 
 CONTROL_FLAGS = os.O_NOFOLLOW | os.O_NONBLOCK | os.O_CLOEXEC
 
@@ -257,11 +257,18 @@ def check_renames(journal: Path, pairs: list[tuple[str, str]]) -> list[tuple[Pat
     """`pairs` (relative to the journal's folder) as paths, refused unless each stays inside the dataset."""
     here = journal.parent
     root = here.parent
+    try:  # all at once (each folder resolved once); a refusal is then located entry by entry
+        paths = contained_all(root, [os.path.relpath(here / p, root) for pair in pairs for p in pair], str(journal))
+    except DatasetError:
+        paths = []
     out: list[tuple[Path, Path]] = []
     for i, (a, b) in enumerate(pairs):
         source = f"{journal}: renames[{i}]"
-        dest = contained(root, os.path.relpath(here / b, root), source)
-        tmp = contained(root, os.path.relpath(here / a, root), source)
+        if paths:
+            tmp, dest = paths[2 * i], paths[2 * i + 1]
+        else:
+            dest = contained(root, os.path.relpath(here / b, root), source)
+            tmp = contained(root, os.path.relpath(here / a, root), source)
         rel = dest.relative_to(root)
         if len(rel.parts) < 2 or rel.parts[0] not in JOURNAL_AREAS:
             raise DatasetError(

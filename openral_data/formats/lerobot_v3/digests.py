@@ -32,7 +32,7 @@ from typing import Any
 from openral_data.errors import DatasetError
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
-from openral_data.paths import contained
+from openral_data.paths import contained, contained_all
 
 DIGESTS_PATH = ".openral/digests.json"
 DELTAS_DIR = "digests.d"  # below .openral
@@ -77,8 +77,7 @@ def _files(root: Path, data: Any, where: Path) -> Digests:
     )
     if not ok:
         raise DatasetError(f"{where}: not a map of path -> sha256 and size", code="dataset.invalid")
-    for rel in data:
-        contained(root, rel, f"{where}: key")
+    contained_all(root, [str(rel) for rel in data], f"{where}: key")
     return dict(data)
 
 
