@@ -90,3 +90,20 @@ def test_resume_continues_the_staged_runs(tmp_path: Path) -> None:
     assert read_episodes(root).to_pydict()["episode_index"] == [0, 1, 2, 3]
     check_loads(root, [3, 4, 2, 5], states)
     assert check(root) == []
+
+
+def test_staged_files_roll_over_chunks_in_the_order_lerobot_reads_them(tmp_path: Path) -> None:
+    """chunks_size=3: the per-episode files of 7 episodes fill chunk-000 and chunk-001 and start chunk-002;
+    lerobot's sorted glob still reads them in episode order after every commit."""
+    root = tmp_path / "ds"
+    lengths = [2, 3, 2, 4, 2, 3, 2]
+    config = WriterConfig(video=H264, chunks_size=3, staged_episodes=10)
+
+    def after_commit(e: int) -> None:
+        if e == len(lengths) - 1:
+            chunks = sorted(p.parent.name for p in root.glob("data/*/*.parquet"))
+            assert chunks == ["chunk-000"] * 3 + ["chunk-001"] * 3 + ["chunk-002"]
+
+    _, states = write_dataset(root, lengths, config=config, check_after_each=True, after_each=after_commit)
+    check_loads(root, lengths, states)
+    assert check(root) == []
