@@ -6,7 +6,7 @@ import contextlib
 import time
 
 from openral_data.errors import ConfigError, UsageError
-from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
+from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig, warm_up
 from openral_data.formats.mcap import McapSink
 from openral_data.policies.base import PolicyAdapter
 from openral_data.policies.device import resolve_device, with_device
@@ -97,12 +97,17 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
     records: list[EpisodeRecord] = []
     try:
         video = VideoSettings(codec=opts.codec)
+
+        def load_policy() -> PolicyAdapter:
+            warm_up()  # pyarrow's first-use cost, paid beside the scene's build instead of in the first commit
+            return make_policy(with_device(rskill, device))
+
         started = start(
             lambda: make_scene(scene, robot, rskill, scene_src),
             lambda env: check_compatibility(
                 robot, rskill, env.spec, rskill_source=rskill_src, scene_source=scene_src, video=video
             ),
-            lambda: make_policy(with_device(rskill, device)),
+            load_policy,
             lambda env: env.close(),
             lambda policy: policy.close(),
         )

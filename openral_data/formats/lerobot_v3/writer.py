@@ -832,6 +832,12 @@ class LeRobotV3Writer:
         }
 
 
+def warm_up() -> None:
+    """Pay pyarrow's one-time cost now (its first array imports pandas: about half a second): a recording
+    calls this while its scene is being built, so its first episode's commit does not."""
+    pa.array([0.0])
+
+
 def _write_error(root: Path, exc: OSError, doing: str, committed: bool = False) -> WriteError:
     """One line for a failed write: a `DiskError` for a disk problem, else a `WriteError` naming the OS error."""
     if exc.errno in DISK_ERRNOS:
