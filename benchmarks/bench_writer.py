@@ -480,36 +480,41 @@ def print_table(wl: Workload, codec: Codec, results: dict[str, list[RunResult]],
     header = f"{'contestant':<10} {'wall s':>9} {'frames/s':>9} {'cpu s':>8} {'video MB':>9}  runs (wall s)"
     print(header)
     print("-" * len(header))
-    for name in CONTESTANTS:
+    for name, runs_of in results.items():
         med = summary["median_wall_s"][name]
-        runs = " ".join(f"{r.wall_s:.2f}" for r in results[name])
+        runs = " ".join(f"{r.wall_s:.2f}" for r in runs_of)
         print(
             f"{name:<10} {med:>9.2f} {summary['frames_per_s'][name]:>9.1f} "
             f"{summary['median_cpu_s'][name]:>8.1f} {summary['video_mb'][name]:>9.2f}  {runs}"
         )
     ratios = summary["ratios"]
     print()
-    print(f"ours speedup over lerobot (lerobot / ours):   {_fmt_ratio(ratios['ours_speedup_vs_lerobot'])}")
+    if "lerobot" in results:
+        print(f"ours speedup over lerobot (lerobot / ours):   {_fmt_ratio(ratios['ours_speedup_vs_lerobot'])}")
     print(f"ours vs pure encode       (pure / ours):      {ratios['ours_vs_pure_encode']:.3f}")
-    print(f"lerobot vs pure encode    (pure / lerobot):   {ratios['lerobot_vs_pure_encode']:.3f}")
+    if "lerobot" in results:
+        print(f"lerobot vs pure encode    (pure / lerobot):   {ratios['lerobot_vs_pure_encode']:.3f}")
     dropped = summary["dropped_frames"]
-    print(f"dropped frames: ours {dropped['ours']}, lerobot {dropped['lerobot']}")
+    print("dropped frames: " + ", ".join(f"{n} {dropped[n]}" for n in results if n != "pure"))
     print(f"LeRobotDataset(ours) len: {summary['ours_loaded_len']} (expected {wl.total_frames})")
 
 
 def summarize(wl: Workload, results: dict[str, list[RunResult]]) -> dict[str, Any]:
-    med = {n: statistics.median(r.wall_s for r in results[n]) for n in CONTESTANTS}
+    names = list(results)
+    med = {n: statistics.median(r.wall_s for r in results[n]) for n in names}
+    ratios = {"ours_vs_pure_encode": med["pure"] / med["ours"]}
+    if "lerobot" in med:
+        ratios |= {
+            "ours_speedup_vs_lerobot": med["lerobot"] / med["ours"],
+            "lerobot_vs_pure_encode": med["pure"] / med["lerobot"],
+        }
     return {
         "median_wall_s": med,
-        "median_cpu_s": {n: statistics.median(r.cpu_s for r in results[n]) for n in CONTESTANTS},
-        "frames_per_s": {n: wl.total_frames / med[n] for n in CONTESTANTS},
-        "video_mb": {n: statistics.median(r.video_bytes for r in results[n]) / 1e6 for n in CONTESTANTS},
-        "ratios": {
-            "ours_speedup_vs_lerobot": med["lerobot"] / med["ours"],
-            "ours_vs_pure_encode": med["pure"] / med["ours"],
-            "lerobot_vs_pure_encode": med["pure"] / med["lerobot"],
-        },
-        "dropped_frames": {n: max(r.dropped or 0 for r in results[n]) for n in CONTESTANTS},
+        "median_cpu_s": {n: statistics.median(r.cpu_s for r in results[n]) for n in names},
+        "frames_per_s": {n: wl.total_frames / med[n] for n in names},
+        "video_mb": {n: statistics.median(r.video_bytes for r in results[n]) / 1e6 for n in names},
+        "ratios": ratios,
+        "dropped_frames": {n: max(r.dropped or 0 for r in results[n]) for n in names},
         "ours_loaded_len": min(r.loaded_len or 0 for r in results["ours"]),
     }
 
@@ -524,6 +529,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--out", type=Path, default=Path(__file__).resolve().parent / "results", help="results.json dir")
     p.add_argument("--tmp", type=Path, default=None, help="parent of the scratch directory (default: system temp)")
     p.add_argument("--keep", action="store_true", help="keep the written datasets")
+    p.add_argument("--no-lerobot", action="store_true", help="only pure and ours (the ours/pure ratio, faster)")
     args = p.parse_args(argv)
     for name in ("episodes", "frames", "repeats"):
         if getattr(args, name) < 1:
@@ -569,10 +575,11 @@ def main(argv: list[str] | None = None) -> int:
         codec,
     )
 
-    results: dict[str, list[RunResult]] = {n: [] for n in CONTESTANTS}
+    contestants = [n for n in CONTESTANTS if not (args.no_lerobot and n == "lerobot")]
+    results: dict[str, list[RunResult]] = {n: [] for n in contestants}
     try:
         for rep in range(args.repeats):
-            for name in CONTESTANTS:
+            for name in contestants:
                 root = scratch / f"rep{rep}" / name
                 wall, cpu = timed(name, data, root, wl, codec)
                 result = RunResult(wall_s=wall, cpu_s=cpu, video_bytes=video_bytes(root))
@@ -596,10 +603,10 @@ def main(argv: list[str] | None = None) -> int:
         "codec": codec,
         "pure_encoder": dict(zip(("encoder", "options"), pure_encoder(codec), strict=True)),
         "repeats": args.repeats,
-        "order": list(CONTESTANTS),
+        "order": contestants,
         "machine": machine,
         "frame_generation_s": gen_s,
-        "runs": {n: [asdict(r) for r in results[n]] for n in CONTESTANTS},
+        "runs": {n: [asdict(r) for r in results[n]] for n in contestants},
         **summary,
         "kept_datasets": str(scratch) if args.keep else None,
     }
@@ -610,7 +617,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.keep:
         print(f"datasets kept in {scratch}")
 
-    ok = all(summary["dropped_frames"][n] == 0 for n in CONTESTANTS) and summary["ours_loaded_len"] == wl.total_frames
+    ok = all(summary["dropped_frames"][n] == 0 for n in contestants) and summary["ours_loaded_len"] == wl.total_frames
     if not ok:
         print("FAILED: dropped frames or wrong LeRobotDataset length", file=sys.stderr)
     return 0 if ok else 1
