@@ -1,0 +1,35 @@
+"""The worker side of a local pool: its start (signals) and its report channel to the parent.
+
+Kept apart from executors.py so that a worker process, which imports this module to run `start_worker`, does
+not import the executors (nor what they import). Under Ray there is no channel: `report` does nothing there, and
+the parent hears of a job only when it has finished.
+"""
+
+from __future__ import annotations
+
+import signal
+from collections.abc import Callable
+from multiprocessing.queues import SimpleQueue
+from typing import Any
+
+# held blocked in the parent while it starts a worker (the mask is inherited across fork and exec), so a Ctrl-C
+# or SIGTERM that arrives before the worker's initializer installed its handlers waits for them instead of
+# killing the half-started process (a traceback, and a pool that breaks)
+START_BLOCKED = frozenset({signal.SIGINT, signal.SIGTERM})
+
+_reports: list[SimpleQueue[Any]] = []  # this worker's channel to the parent, if it has one
+
+
+def start_worker(initializer: Callable[[], None], reports: SimpleQueue[Any] | None) -> None:
+    """Process-pool initializer: the job's own initializer (its signal handlers), then the signals the parent
+    held blocked for the start are let through; `reports` is where `report` sends."""
+    _reports[:] = [] if reports is None else [reports]
+    initializer()
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, START_BLOCKED)
+
+
+def report(item: Any) -> None:
+    """Send `item` (picklable, small) to the parent's `on_report`; nothing when the parent asked for no reports
+    or the job runs outside a local pool (Ray)."""
+    for channel in _reports:
+        channel.put(item)
