@@ -79,19 +79,21 @@ def long_sources(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
 
 
 @pytest.mark.parametrize(
-    ("workers", "group"),
-    [(1, True), (2, False), (2, True)],
-    ids=["one-process", "workers-parent-only", "workers-terminal"],
+    ("workers", "executor", "group"),
+    [(1, "local", True), (2, "local", False), (2, "local", True), (2, "ray", False)],
+    ids=["one-process", "workers-parent-only", "workers-terminal", "ray-parent-only"],
 )
 def test_ctrl_c_leaves_nothing_and_exits_130(
-    tmp_path: Path, long_sources: tuple[Path, Path], workers: int, group: bool
+    tmp_path: Path, long_sources: tuple[Path, Path], workers: int, executor: str, group: bool
 ) -> None:
     """Ctrl-C while the conversion runs (with --workers: while a worker encodes): exit 130, one line, no
     traceback, no process left behind, nothing under DST or beside it. `group`: the signal reaches the workers
-    too, as at a terminal; otherwise only the parent gets it and must stop them itself."""
+    too, as at a terminal; otherwise only the parent gets it and must stop them itself (a local instance of Ray
+    started by the command is shut down with it)."""
     bags, mapping = long_sources
     out = tmp_path / "ds"
     args = ["convert", str(bags), str(out), "--mapping", str(mapping), "--codec", "h264", "--workers", str(workers)]
+    args += ["--executor", executor]
     staged = ".ds.partial-{pid}" if workers == 1 else ".ds.workers-{pid}/.worker-*.partial-*"
     code, err = interrupt_when(args, tmp_path, staged + "/videos/*/*/.*.mp4.tmp", group=group)
     assert code == 130, err

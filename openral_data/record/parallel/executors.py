@@ -63,7 +63,8 @@ def run_local[J, R: Finished](
             with _blocked(START_BLOCKED):  # the workers start (on submit) with these blocked: see channel.py
                 pending = {pool.submit(fn, job) for job in jobs}
             while pending:
-                done, pending = wait(pending, timeout=_POLL_S, return_when=FIRST_COMPLETED)
+                poll = None if reports is None else _POLL_S
+                done, pending = wait(pending, timeout=poll, return_when=FIRST_COMPLETED)
                 _drain(reports, on_report)  # before the results: a job reports before it returns
                 for fut in done:
                     exc = fut.exception()
