@@ -191,8 +191,11 @@ def _interruptible(bar: Progress, dst: Path) -> Iterator[None]:
     try:
         yield
     except KeyboardInterrupt:
-        bar.stop()
-        print_line(f"interrupted: nothing was written to {dst}", err=True)
+        from openral_data.record.parallel.channel import STOP_HELD, held
+
+        with held(STOP_HELD):  # a second Ctrl-C does not cut the line short
+            bar.stop()
+            print_line(f"interrupted: nothing was written to {dst}", err=True)
         raise typer.Exit(130) from None
 
 

@@ -43,6 +43,7 @@ from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.errors import ExecutorError, UsageError
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.staging import check_new_output
+from openral_data.record.parallel.channel import STOP_HELD, held
 from openral_data.record.parallel.executors import check_executor, run_on
 from openral_data.record.parallel.run import workers_dir
 from openral_data.schemas.mapping import Mapping
@@ -113,7 +114,8 @@ def convert_parallel(
         check_outcome(summary)
         _merge(results, dst)
     finally:
-        shutil.rmtree(workdir, ignore_errors=True)
+        with held(STOP_HELD):
+            shutil.rmtree(workdir, ignore_errors=True)
     summary.seconds = time.perf_counter() - t0
     return summary
 

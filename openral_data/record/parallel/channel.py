@@ -1,4 +1,5 @@
-"""The worker side of a local pool: its start (signals) and its report channel to the parent.
+"""Signals and reports around a pool of workers: a worker's start, its report channel to the parent, and the
+signals a parent holds while it starts or stops its workers.
 
 Kept apart from executors.py so that a worker process, which imports this module to run `start_worker`, does
 not import the executors (nor what they import). Under Ray there is no channel: `report` does nothing there, and
@@ -7,8 +8,9 @@ the parent hears of a job only when it has finished.
 
 from __future__ import annotations
 
+import contextlib
 import signal
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from multiprocessing.queues import SimpleQueue
 from typing import Any
 
@@ -16,6 +18,7 @@ from typing import Any
 # or SIGTERM that arrives before the worker's initializer installed its handlers waits for them instead of
 # killing the half-started process (a traceback, and a pool that breaks)
 START_BLOCKED = frozenset({signal.SIGINT, signal.SIGTERM})
+STOP_HELD = frozenset({signal.SIGINT})  # held by the parent while it stops its workers (see `held`)
 
 _reports: list[SimpleQueue[Any]] = []  # this worker's channel to the parent, if it has one
 
@@ -33,3 +36,16 @@ def report(item: Any) -> None:
     or the job runs outside a local pool (Ray)."""
     for channel in _reports:
         channel.put(item)
+
+
+@contextlib.contextmanager
+def held(signals: frozenset[signal.Signals]) -> Iterator[None]:
+    """Hold `signals` blocked in this thread; one that arrived meanwhile is delivered on leaving. A parent holds
+    SIGINT while it stops its workers and removes their folders: a second Ctrl-C then waits for that clean-up
+    instead of cutting it short (a pool shut down half-way hangs the process at exit, a folder half removed
+    stays)."""
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, signals)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)

@@ -11,14 +11,14 @@ import contextlib
 import multiprocessing
 import os
 import signal
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from multiprocessing.queues import SimpleQueue
 from typing import Any, Protocol
 
 from openral_data import manifests
 from openral_data.errors import ExecutorError, OpenralError, UsageError
-from openral_data.record.parallel.channel import START_BLOCKED, start_worker
+from openral_data.record.parallel.channel import START_BLOCKED, STOP_HELD, held, start_worker
 from openral_data.record.parallel.plan import WorkerJob
 from openral_data.record.parallel.worker import WorkerResult, init_local_worker, run_worker
 
@@ -60,7 +60,7 @@ def run_local[J, R: Finished](
     ) as pool:
         pending: set[Future[R]] = set()
         try:
-            with _blocked(START_BLOCKED):  # the workers start (on submit) with these blocked: see channel.py
+            with held(START_BLOCKED):  # the workers start (on submit) with these blocked: see channel.py
                 pending = {pool.submit(fn, job) for job in jobs}
             while pending:
                 poll = None if reports is None else _POLL_S
@@ -77,24 +77,16 @@ def run_local[J, R: Finished](
         except BaseException:
             # a failed worker or Ctrl-C: stop the others the way Ctrl-C stops `record` (the episode in flight is
             # discarded, finished ones stay durable in each worker's dataset) instead of waiting for their shares
-            for fut in pending:
-                fut.cancel()
-            _interrupt(pool)
+            with held(STOP_HELD):
+                for fut in pending:
+                    fut.cancel()
+                _interrupt(pool)
+                pool.shutdown(wait=True)
             raise
     return finished
 
 
 _POLL_S = 0.1  # how often the parent reads the workers' reports while it waits for results
-
-
-@contextlib.contextmanager
-def _blocked(signals: frozenset[signal.Signals]) -> Iterator[None]:
-    """Hold `signals` blocked in this thread; one that arrived meanwhile is delivered on leaving."""
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, signals)
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def _drain(reports: SimpleQueue[Any] | None, on_report: Callable[[Any], None] | None) -> None:
