@@ -14,10 +14,10 @@ from collections.abc import Callable, Iterator
 from multiprocessing.queues import SimpleQueue
 from typing import Any
 
-# held blocked in the parent while it starts a worker (the mask is inherited across fork and exec), so a Ctrl-C
+# held (blocked) by the parent while it starts a worker (the mask is inherited across fork and exec), so a Ctrl-C
 # or SIGTERM that arrives before the worker's initializer installed its handlers waits for them instead of
 # killing the half-started process (a traceback, and a pool that breaks)
-START_BLOCKED = frozenset({signal.SIGINT, signal.SIGTERM})
+START_HELD = frozenset({signal.SIGINT, signal.SIGTERM})
 STOP_HELD = frozenset({signal.SIGINT})  # held by the parent while it stops its workers (see `held`)
 
 _reports: list[SimpleQueue[Any]] = []  # this worker's channel to the parent, if it has one
@@ -28,7 +28,7 @@ def start_worker(initializer: Callable[[], None], reports: SimpleQueue[Any] | No
     held blocked for the start are let through; `reports` is where `report` sends."""
     _reports[:] = [] if reports is None else [reports]
     initializer()
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, START_BLOCKED)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, START_HELD)
 
 
 def report(item: Any) -> None:

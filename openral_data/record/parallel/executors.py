@@ -18,7 +18,7 @@ from typing import Any, Protocol
 
 from openral_data import manifests
 from openral_data.errors import ExecutorError, OpenralError, UsageError
-from openral_data.record.parallel.channel import START_BLOCKED, STOP_HELD, held, start_worker
+from openral_data.record.parallel.channel import START_HELD, STOP_HELD, held, start_worker
 from openral_data.record.parallel.plan import WorkerJob
 from openral_data.record.parallel.worker import WorkerResult, init_local_worker, run_worker
 
@@ -60,7 +60,7 @@ def run_local[J, R: Finished](
     ) as pool:
         pending: set[Future[R]] = set()
         try:
-            with held(START_BLOCKED):  # the workers start (on submit) with these blocked: see channel.py
+            with held(START_HELD):  # the workers start (on submit) with these blocked: see channel.py
                 pending = {pool.submit(fn, job) for job in jobs}
             while pending:
                 poll = None if reports is None else _POLL_S
