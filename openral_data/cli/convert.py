@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, cast
@@ -10,11 +12,13 @@ import typer
 
 from openral_data.cli.choices import CodecChoice
 from openral_data.cli.jsonout import JsonFlag, print_json
-from openral_data.cli.terminal import print_rows, progress_bar
+from openral_data.cli.terminal import print_line, print_rows, progress_bar
 from openral_data.errors import NotFound, UsageError
 from openral_data.formats.repo_id import resolve_dataset
 
 if TYPE_CHECKING:
+    from rich.progress import Progress
+
     from openral_data.formats.lerobot_v3.video import Codec
     from openral_data.schemas.mapping import Mapping
 
@@ -86,7 +90,7 @@ def _convert(
             raise UsageError(f"--image-format: {image_format!r} is not one of {', '.join(IMAGE_FORMATS)}")
         check_compression(mcap_compression)
         config = McapConfig(image_format=image_format, compression=cast(McapCompression, mcap_compression))
-        with progress_bar("exporting", "frames") as bar:
+        with progress_bar("exporting", "frames") as bar, _interruptible(bar, dst):
             task = bar.add_task("export", total=None)
             summary = export_mcap(
                 src, dst, episodes=episodes, config=config, progress=lambda d, t: bar.update(task, completed=d, total=t)
@@ -114,7 +118,7 @@ def _convert(
 
     bags = find_bags(src)
     mapping = load_mapping(mapping_path) if mapping_path is not None else own_mapping(bags[0])
-    with progress_bar("converting", "messages" if parallel is None else "merged") as bar:
+    with progress_bar("converting", "messages") as bar, _interruptible(bar, dst):
         task = bar.add_task("convert", total=None)
         if parallel is None:
             result = convert_bags(
@@ -178,6 +182,21 @@ def _convert(
     for topic, count in sorted(result.skipped_topics.items()):
         rows.append((f"skipped {topic}", f"{count} msgs (not in the mapping)"))
     print_rows("converted", rows)
+
+
+@contextmanager
+def _interruptible(bar: Progress, dst: Path) -> Iterator[None]:
+    """Ctrl-C: DST appears complete or not at all, so nothing was written to it (the staging folders, the
+    workers' included, are gone); one line on stderr, exit 130."""
+    try:
+        yield
+    except KeyboardInterrupt:
+        from openral_data.record.parallel.channel import STOP_HELD, held
+
+        with held(STOP_HELD):  # a second Ctrl-C does not cut the line short
+            bar.stop()
+            print_line(f"interrupted: nothing was written to {dst}", err=True)
+        raise typer.Exit(130) from None
 
 
 def _outcomes(mapping: Mapping) -> str:

@@ -6,7 +6,9 @@ hidden sibling of DST (``.DST.workers-PID``, as `record --workers`), on the exec
 The blocks are then merged in bag order with the merge `record --workers` and `episodes merge` use
 (`edit.ops.write_selection`: rows re-indexed, videos remuxed, no re-encode; camera statistics from the summed
 histograms, so exact), each episode's `source_episode` (its seed) renumbered as one process numbers it.
-DST appears complete or not at all.
+DST appears complete or not at all; so does an interrupted run (Ctrl-C stops the workers, whose staging folders
+go with the workers' folder). Progress is counted as one process counts it (mapped messages read): each worker
+reports its own count as it goes (local pools; under Ray a block counts when it has finished).
 
 With a `task_topic`, one process carries a bag's last task message into the next bag's first frames: each block
 starts with the last task message of the bags before it (read from their task topic up front), so it does too.
@@ -29,12 +31,19 @@ from openral_data.convert.to_lerobot import (
     check_outcome,
     last_task,
 )
-from openral_data.convert.worker import ConvertJob, ConvertResult, init_convert_worker, run_convert_job
+from openral_data.convert.worker import (
+    ConvertJob,
+    ConvertProgress,
+    ConvertResult,
+    init_convert_worker,
+    run_convert_job,
+)
 from openral_data.edit.ops import Rewrite, summed_histograms, write_selection
 from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.errors import ExecutorError, UsageError
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.staging import check_new_output
+from openral_data.record.parallel.channel import STOP_HELD, held
 from openral_data.record.parallel.executors import check_executor, run_on
 from openral_data.record.parallel.run import workers_dir
 from openral_data.schemas.mapping import Mapping
@@ -85,7 +94,7 @@ def convert_parallel(
     bags = find_bags(src)
     blocks = plan_blocks(bags, workers)
     cameras = CameraTopics()
-    check_bags(bags, mapping, ConvertSummary(src=src, dst=dst), cameras)  # every bag, before any work starts
+    totals = check_bags(bags, mapping, ConvertSummary(src=src, dst=dst), cameras)  # every bag, before any work
     check_new_output(dst, "DST")
     dst.parent.mkdir(parents=True, exist_ok=True)
     workdir = workers_dir(dst)
@@ -95,18 +104,47 @@ def convert_parallel(
         ConvertJob(w, src, block, workdir / f"worker-{w:03d}", mapping, codec, cameras, carry)
         for w, (block, carry) in enumerate(zip(blocks, carried_tasks(blocks, mapping), strict=True))
     ]
+    bar = _Progress(len(jobs), totals, progress)
     try:
         workdir.mkdir()
-        results = sorted(run_on(jobs, run_convert_job, executor, address, init_convert_worker), key=lambda r: r.worker)
+        bar.show()
+        finished = run_on(jobs, run_convert_job, executor, address, init_convert_worker, bar.finished, bar.reported)
+        results = sorted(finished, key=lambda r: r.worker)
         summary = _combine(src, dst, [r.summary for r in results])
         check_outcome(summary)
         _merge(results, dst)
     finally:
-        shutil.rmtree(workdir, ignore_errors=True)
+        with held(STOP_HELD):
+            shutil.rmtree(workdir, ignore_errors=True)
     summary.seconds = time.perf_counter() - t0
-    if progress is not None:
-        progress(1, 1)
     return summary
+
+
+class _Progress:
+    """One process's progress (mapped messages read, of `totals`) summed over the workers: each worker's count
+    as it reports it (local pools) and its block's whole count when its result comes back (any executor).
+    `progress` is called only when the sum grew, so it sees increasing values, the last one `totals`."""
+
+    def __init__(self, workers: int, totals: int, progress: ProgressFn | None) -> None:
+        self.done = [0] * workers
+        self.totals = totals
+        self.progress = progress
+        self.shown = -1
+
+    def reported(self, item: object) -> None:
+        if isinstance(item, ConvertProgress):
+            self.done[item.worker] = max(self.done[item.worker], item.messages)
+            self.show()
+
+    def finished(self, result: ConvertResult) -> None:
+        self.done[result.worker] = max(self.done[result.worker], result.messages)
+        self.show()
+
+    def show(self) -> None:
+        now = sum(self.done)
+        if self.progress is not None and now > self.shown:
+            self.shown = now
+            self.progress(now, self.totals)
 
 
 def _combine(src: Path, dst: Path, parts: list[ConvertSummary]) -> ConvertSummary:

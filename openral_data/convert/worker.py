@@ -1,7 +1,8 @@
 """One worker of `convert --workers`: a plain `convert_bags` of its block of bags, in its own process.
 
 Kept apart from convert/parallel.py so that a worker process imports only the conversion (it is started by
-unpickling `run_convert_job`), not the executors and the merge.
+unpickling `run_convert_job`), not the executors and the merge. In a local pool it reports its progress (the
+mapped messages read, as one process's bar counts them) to the parent as it goes.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from pathlib import Path
 
 from openral_data.convert.to_lerobot import CameraTopics, ConvertSummary, convert_bags
 from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.record.parallel.channel import report
 from openral_data.schemas.mapping import Mapping
 
 
@@ -36,6 +38,15 @@ class ConvertResult:
     summary: ConvertSummary
     finished_at: float
     pid: int
+    messages: int  # mapped messages the block read (its share of the progress total)
+
+
+@dataclass(frozen=True)
+class ConvertProgress:
+    """What a running worker reports to the parent (local pools only, see `channel.report`)."""
+
+    worker: int
+    messages: int  # mapped messages read so far in this worker's block
 
 
 _running = threading.Event()
@@ -58,6 +69,13 @@ def _on_sigterm(signum: int, frame: object) -> None:
 def run_convert_job(job: ConvertJob) -> ConvertResult:
     if _stop_requested.is_set():
         raise KeyboardInterrupt
+    total = 0
+
+    def progress(done: int, messages: int) -> None:
+        nonlocal total
+        total = messages
+        report(ConvertProgress(job.worker, done))
+
     _running.set()
     try:
         summary = convert_bags(
@@ -65,6 +83,7 @@ def run_convert_job(job: ConvertJob) -> ConvertResult:
             job.dst,
             job.mapping,
             codec=job.codec,
+            progress=progress,
             bags=job.bags,
             checks=False,
             cameras=job.cameras,
@@ -72,4 +91,4 @@ def run_convert_job(job: ConvertJob) -> ConvertResult:
         )
     finally:
         _running.clear()
-    return ConvertResult(job.worker, summary, time.time(), os.getpid())
+    return ConvertResult(job.worker, summary, time.time(), os.getpid(), total)

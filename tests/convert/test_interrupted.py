@@ -1,9 +1,11 @@
 """A killed `convert` (bags -> LeRobot with several bags, LeRobot -> MCAP) leaves nothing under DST — no dataset
 that loads, no bags — and the next run into the same parent is not refused, removes the dead run's staging
-folder and finishes with no hidden leftovers. A DST that cannot be written is one line, not a traceback."""
+folder and finishes with no hidden leftovers. A Ctrl-C (one process or `--workers`) leaves nothing at all and
+exits 130 with one line. A DST that cannot be written is one line, not a traceback."""
 
 from __future__ import annotations
 
+import signal
 from pathlib import Path
 
 import pytest
@@ -11,7 +13,7 @@ import pytest
 from openral_data.formats.mcap.writer import finished_bags
 from tests.support.bags import MAPPING, write_ros1
 from tests.support.cli import run_cli
-from tests.support.interrupt import hidden_leftovers, kill_when_staged, snapshot
+from tests.support.interrupt import hidden_leftovers, interrupt_when, kill_when_staged, snapshot
 from tests.support.readonly import read_only_view
 from tests.support.scenes import write_yaml
 from tests.support.timing import TIMED
@@ -63,6 +65,50 @@ def test_killed_lerobot_to_mcap_leaves_no_bags_and_rerun_succeeds(tmp_path: Path
     proc = run_cli("convert", str(dataset), str(out))
     assert proc.returncode == 0, proc.stderr
     assert [b.name for b in finished_bags(out)] == [f"episode_{i:06d}" for i in range(BAGS)]
+    assert hidden_leftovers(tmp_path) == []
+
+
+@pytest.fixture(scope="module")
+def long_sources(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """Four 20 s bags (200 frames each): a worker converting two of them is still at work when it is seen
+    encoding its first one."""
+    root = tmp_path_factory.mktemp("long")
+    (root / "bags").mkdir()
+    for i in range(BAGS):
+        write_ros1(root / "bags" / f"run{i}.bag", duration_ms=20_000, offset_ms=i * 60_000)
+    return root / "bags", write_yaml(root / "mapping.yaml", MAPPING)
+
+
+@pytest.mark.parametrize(
+    ("workers", "executor", "group", "twice"),
+    [
+        (1, "local", True, False),
+        (2, "local", False, False),
+        (2, "local", True, False),
+        (2, "local", True, True),
+        (2, "ray", False, False),
+    ],
+    ids=["one-process", "workers-parent-only", "workers-terminal", "workers-terminal-twice", "ray-parent-only"],
+)
+def test_ctrl_c_leaves_nothing_and_exits_130(
+    tmp_path: Path, long_sources: tuple[Path, Path], workers: int, executor: str, group: bool, twice: bool
+) -> None:
+    """Ctrl-C while the conversion runs (with --workers: while a worker encodes): exit 130, one line, no
+    traceback, no process left behind, nothing under DST or beside it. `group`: the signal reaches the workers
+    too, as at a terminal; otherwise only the parent gets it and must stop them itself (a local instance of Ray
+    started by the command is shut down with it). `twice`: a second Ctrl-C during the clean-up waits for it
+    (one that lands once the command is past it ends the process by SIGINT, which a shell reports as 130)."""
+    bags, mapping = long_sources
+    out = tmp_path / "ds"
+    args = ["convert", str(bags), str(out), "--mapping", str(mapping), "--codec", "h264", "--workers", str(workers)]
+    args += ["--executor", executor]
+    staged = ".ds.partial-{pid}" if workers == 1 else ".ds.workers-{pid}/.worker-*.partial-*"
+    again = 0.1 if twice else None
+    code, err = interrupt_when(args, tmp_path, staged + "/videos/*/*/.*.mp4.tmp", group=group, again_after=again)
+    assert code == 130 or (twice and code == -signal.SIGINT), err
+    assert err.strip().splitlines()[-1] == f"interrupted: nothing was written to {out}", err
+    assert "Traceback" not in err, err
+    assert not out.exists()
     assert hidden_leftovers(tmp_path) == []
 
 

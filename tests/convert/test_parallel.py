@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 from pathlib import Path
 from typing import Any
@@ -143,6 +144,24 @@ def test_camera_less_bags_in_parallel(tmp_path: Path) -> None:
     assert par.frames == seq.frames > 0 and len(par.episodes) == len(seq.episodes) == 3
     assert _frames(tmp_path / "par") == _frames(tmp_path / "seq")
     assert _episodes(tmp_path / "par") == _episodes(tmp_path / "seq")
+
+
+def test_progress_counts_as_one_process_and_advances_within_blocks(tmp_path: Path) -> None:
+    """The callback sees the mapped messages read, summed over the workers as they report them: increasing values
+    from 0 to the total one process counts, with steps inside the blocks (not just one per finished block)."""
+    src = _layout_bags(tmp_path / "bags", broken=False)
+    mapping = load_mapping(write_yaml(tmp_path / "m.yaml", SPLIT_MAPPING))
+    seq: list[tuple[int, int]] = []
+    convert_bags(src, tmp_path / "seq", mapping, progress=lambda d, t: seq.append((d, t)))
+    par: list[tuple[int, int]] = []
+    convert_parallel(src, tmp_path / "par", mapping, 2, progress=lambda d, t: par.append((d, t)))
+    total = seq[-1][1]
+    assert seq[-1] == (total, total) and total > 64 * 3  # several reports per bag
+    assert {t for _, t in par} == {total}
+    done = [d for d, _ in par]
+    assert done[0] == 0 and done[-1] == total
+    assert all(a < b for a, b in itertools.pairwise(done)), done
+    assert len(done) > 2 + 1, done  # more than the start and one step per block (2 blocks)
 
 
 @pytest.mark.parametrize("workers", [2, 3])

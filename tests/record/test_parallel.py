@@ -12,9 +12,11 @@ from rosbags.highlevel import AnyReader
 from openral_data.doctor import check
 from openral_data.errors import OutputExists, UsageError
 from openral_data.record.options import RecordOptions
+from openral_data.record.parallel.executors import run_on
 from openral_data.record.parallel.run import record_parallel
 from openral_data.record.sim import record
 from tests.support.cli import run_cli
+from tests.support.probe_worker import Probe, init_probe, probe
 from tests.support.scenes import mock_scene, write_yaml
 from tests.support.seeded import episode_seeds, verify_seeded_dataset
 from tests.support.timing import TIMED
@@ -162,3 +164,25 @@ def test_view_is_refused_with_workers(tmp_path: Path) -> None:
         record_parallel(RecordOptions(out=tmp_path / "ds", view=True), 2)
     assert "--view" in str(err.value) and err.value.code == "usage"
     assert not (tmp_path / "ds").exists()
+
+
+def test_local_workers_start_with_stop_signals_held_then_report() -> None:
+    """The parent holds SIGINT/SIGTERM blocked while it starts a worker, so a Ctrl-C during the start cannot kill
+    it before its initializer ignores SIGINT; the worker lets them through once its handlers are in place. Each
+    job's reports reach the parent before its result, and the parent's own signal mask is as it was."""
+    import signal
+
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, [])
+    events: list[tuple[str, int]] = []
+
+    def finished(result: Probe) -> None:
+        events.append(("finished", result.job))
+
+    results = run_on([0, 1], probe, initializer=init_probe, on_finished=finished, on_report=events.append)
+    assert signal.pthread_sigmask(signal.SIG_BLOCK, []) == before
+    assert sorted(r.job for r in results) == [0, 1]
+    for r in results:
+        assert {signal.SIGINT, signal.SIGTERM} <= r.blocked_at_start, r
+        assert signal.SIGINT not in r.blocked and signal.SIGTERM not in r.blocked and r.sigint_ignored, r
+        assert events.index(("running", r.job)) < events.index(("finished", r.job)), events
+    assert sorted(events) == [("finished", 0), ("finished", 1), ("running", 0), ("running", 1)]

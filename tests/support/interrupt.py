@@ -1,8 +1,9 @@
-"""SIGKILL a real CLI command once its hidden staging folder (`formats.staging`) has content, and look for what
-a killed run leaves beside its destination."""
+"""SIGKILL a real CLI command once its hidden staging folder (`formats.staging`) has content, or Ctrl-C it once a
+file shows it is under way, and look for what such a run leaves beside its destination."""
 
 from __future__ import annotations
 
+import os
 import signal
 import subprocess
 import sys
@@ -47,3 +48,54 @@ def snapshot(root: Path) -> dict[str, bytes | None]:
 
 def hidden_leftovers(parent: Path) -> list[str]:
     return sorted(p.name for p in parent.iterdir() if p.name.startswith("."))
+
+
+def interrupt_when(
+    args: list[str], parent: Path, ready: str, *, group: bool, again_after: float | None = None, timeout: float = 300.0
+) -> tuple[int, str]:
+    """Run `openral-data ARGS` in a session of its own, poll until `parent` holds `ready` (a glob; `{pid}` is the
+    command's pid), then send SIGINT: to the command only, or (`group`) to its whole process group, as Ctrl-C at
+    a terminal does; `again_after` seconds later a second time, as an impatient user does (wherever it lands,
+    the command must still clean up and end). Returns its exit status and stderr once every process of its group
+    is gone (no worker outlives it)."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "openral_data.cli", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    pattern = ready.format(pid=proc.pid)
+    deadline = time.monotonic() + timeout
+    try:
+        while not any(parent.glob(pattern)):
+            if proc.poll() is not None:
+                raise AssertionError(f"the command ended before it was interrupted: {proc.communicate()}")
+            if time.monotonic() > deadline:
+                raise AssertionError(f"{parent}/{pattern} never appeared")
+            time.sleep(0.002)
+        for k in range(1 if again_after is None else 2):
+            if k:
+                time.sleep(again_after or 0.0)
+            if group:
+                os.killpg(proc.pid, signal.SIGINT)
+            elif proc.poll() is None:
+                proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=120)
+        deadline = time.monotonic() + 30
+        while _group_alive(proc.pid):
+            if time.monotonic() > deadline:
+                raise AssertionError("a process of the interrupted command outlived it")
+            time.sleep(0.01)
+    finally:
+        if _group_alive(proc.pid):
+            os.killpg(proc.pid, signal.SIGKILL)
+    return proc.returncode, err
+
+
+def _group_alive(pgid: int) -> bool:
+    try:
+        os.killpg(pgid, 0)
+    except ProcessLookupError:
+        return False
+    return True

@@ -12,11 +12,13 @@ import multiprocessing
 import os
 import signal
 from collections.abc import Callable
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from multiprocessing.queues import SimpleQueue
 from typing import Any, Protocol
 
 from openral_data import manifests
 from openral_data.errors import ExecutorError, OpenralError, UsageError
+from openral_data.record.parallel.channel import START_HELD, STOP_HELD, held, start_worker
 from openral_data.record.parallel.plan import WorkerJob
 from openral_data.record.parallel.worker import WorkerResult, init_local_worker, run_worker
 
@@ -44,28 +46,54 @@ _FORWARDED_ENV = (
 
 
 def run_local[J, R: Finished](
-    jobs: list[J], fn: Callable[[J], R], initializer: Callable[[], None] = init_local_worker
+    jobs: list[J],
+    fn: Callable[[J], R],
+    initializer: Callable[[], None] = init_local_worker,
+    on_finished: Callable[[R], None] | None = None,
+    on_report: Callable[[Any], None] | None = None,
 ) -> list[R]:
     ctx = multiprocessing.get_context("spawn")
+    reports = ctx.SimpleQueue() if on_report is not None else None
     finished: list[R] = []
-    with ProcessPoolExecutor(max_workers=len(jobs), mp_context=ctx, initializer=initializer) as pool:
-        pending = {pool.submit(fn, job) for job in jobs}
+    with ProcessPoolExecutor(
+        max_workers=len(jobs), mp_context=ctx, initializer=start_worker, initargs=(initializer, reports)
+    ) as pool:
+        pending: set[Future[R]] = set()
         try:
+            with held(START_HELD):  # the workers start (on submit) with these blocked: see channel.py
+                pending = {pool.submit(fn, job) for job in jobs}
             while pending:
-                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                poll = None if reports is None else _POLL_S
+                done, pending = wait(pending, timeout=poll, return_when=FIRST_COMPLETED)
+                _drain(reports, on_report)  # before the results: a job reports before it returns
                 for fut in done:
                     exc = fut.exception()
                     if exc is not None:
                         raise exc
-                finished += sorted((f.result() for f in done), key=lambda r: r.finished_at)
+                for result in sorted((f.result() for f in done), key=lambda r: r.finished_at):
+                    finished.append(result)
+                    if on_finished is not None:
+                        on_finished(result)
         except BaseException:
             # a failed worker or Ctrl-C: stop the others the way Ctrl-C stops `record` (the episode in flight is
             # discarded, finished ones stay durable in each worker's dataset) instead of waiting for their shares
-            for fut in pending:
-                fut.cancel()
-            _interrupt(pool)
+            with held(STOP_HELD):
+                for fut in pending:
+                    fut.cancel()
+                _interrupt(pool)
+                pool.shutdown(wait=True)
             raise
     return finished
+
+
+_POLL_S = 0.1  # how often the parent reads the workers' reports while it waits for results
+
+
+def _drain(reports: SimpleQueue[Any] | None, on_report: Callable[[Any], None] | None) -> None:
+    if reports is None or on_report is None:
+        return
+    while not reports.empty():
+        on_report(reports.get())
 
 
 def _interrupt(pool: ProcessPoolExecutor) -> None:
@@ -76,7 +104,12 @@ def _interrupt(pool: ProcessPoolExecutor) -> None:
                 os.kill(proc.pid, signal.SIGTERM)  # a second SIGINT would not wait for a commit
 
 
-def run_ray[J, R: Finished](jobs: list[J], fn: Callable[[J], R], address: str | None = None) -> list[R]:
+def run_ray[J, R: Finished](
+    jobs: list[J],
+    fn: Callable[[J], R],
+    address: str | None = None,
+    on_finished: Callable[[R], None] | None = None,
+) -> list[R]:
     try:
         import ray
     except ImportError:
@@ -98,15 +131,24 @@ def run_ray[J, R: Finished](jobs: list[J], fn: Callable[[J], R], address: str | 
         remote = ray.remote(num_cpus=1, max_retries=0)(fn)
         refs = [remote.remote(job) for job in jobs]
         finished: list[R] = []
-        while refs:
-            ready, refs = ray.wait(refs, num_returns=1)
-            try:
-                finished.append(ray.get(ready[0]))
-            except ray.exceptions.RayTaskError as exc:
-                cause = getattr(exc, "cause", None)  # the worker's own exception
-                if isinstance(cause, OpenralError):
-                    raise cause.amended(str(cause)) from None
-                raise
+        try:
+            while refs:
+                ready, refs = ray.wait(refs, num_returns=1)
+                try:
+                    result = ray.get(ready[0])
+                except ray.exceptions.RayTaskError as exc:
+                    cause = getattr(exc, "cause", None)  # the worker's own exception
+                    if isinstance(cause, OpenralError):
+                        raise cause.amended(str(cause)) from None
+                    raise
+                finished.append(result)
+                if on_finished is not None:
+                    on_finished(result)
+        except BaseException:
+            for ref in refs:  # a failed task or Ctrl-C: the others stop too (on a cluster, shutdown would not)
+                with contextlib.suppress(Exception):
+                    ray.cancel(ref, force=True)
+            raise
         return finished
     finally:
         if started:
@@ -148,9 +190,14 @@ def run_on[J, R: Finished](
     executor: str = "local",
     address: str | None = None,
     initializer: Callable[[], None] = init_local_worker,
+    on_finished: Callable[[R], None] | None = None,
+    on_report: Callable[[Any], None] | None = None,
 ) -> list[R]:
-    """Run `fn(job)` for every job, each in its own process (`local`) or Ray task (`ray`)."""
+    """Run `fn(job)` for every job, each in its own process (`local`) or Ray task (`ray`).
+
+    `on_finished(result)` runs in this process as each job's result comes back; `on_report(item)` for each item
+    a job sent with `channel.report` while it ran (local only: under Ray a job reports nothing)."""
     check_executor(executor, address)
     if executor == "local":
-        return run_local(jobs, fn, initializer)
-    return run_ray(jobs, fn, address)
+        return run_local(jobs, fn, initializer, on_finished, on_report)
+    return run_ray(jobs, fn, address, on_finished)
