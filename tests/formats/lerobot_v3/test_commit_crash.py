@@ -42,12 +42,28 @@ DRIVER = [sys.executable, "-m", "tests.support.writer_driver"]  # run from REPO
 LENGTHS = [3, 5, 8, 4, 6, 7, 3, 8, 5]
 STRIDE = 7  # through the commits not killed at every step; coprime with a commit's usual step count
 SLOTS = 4  # each configuration's kill points are dealt over this many tests (pytest-xdist spreads them)
-CONFIGS: dict[str, dict[str, int]] = {
-    "defaults": {},
-    # consolidation every 3 episodes (and at rotation: the 1 MB data limit is never reached by these episodes)
-    "staged3": {"staged_episodes": 3, "data_files_size_in_mb": 1, "video_files_size_in_mb": 1},
+
+
+@dataclass(frozen=True)
+class Case:
+    """A writer configuration (`WriterConfig` fields) and the size of the dataset's states."""
+
+    config: dict[str, int]
+    state_dim: int = 4
+
+    def driver_args(self) -> dict[str, Any]:
+        return {"config": self.config, "state_dim": self.state_dim}
+
+    def states(self) -> list[np.ndarray]:
+        return dataset_states(LENGTHS, self.state_dim)
+
+
+CASES = {
+    "defaults": Case({}),
+    # consolidation every 3 episodes, and at data-file rotation: 8,000 floats a frame (32 KB) fill the 1 MB data
+    # file about every 30 frames (and a meta/episodes file every two episodes: each row has their statistics)
+    "staged3": Case({"staged_episodes": 3, "data_files_size_in_mb": 1}, state_dim=8000),
 }
-STATES = dataset_states(LENGTHS)
 
 
 @dataclass(frozen=True)
@@ -94,8 +110,8 @@ class Run:
         return steps
 
 
-def drive(root: Path, config: dict[str, int], die_at: int | None = None) -> tuple[int, Run, str]:
-    args: dict[str, Any] = {"root": str(root), "lengths": LENGTHS, "config": config}
+def drive(root: Path, case: Case, die_at: int | None = None) -> tuple[int, Run, str]:
+    args: dict[str, Any] = {"root": str(root), "lengths": LENGTHS, **case.driver_args()}
     if die_at is not None:
         args["die_at"] = die_at
     proc = subprocess.run(
@@ -119,7 +135,7 @@ def kill_points(run: Run) -> list[int]:
 def clean_run(name: str, base: Path) -> tuple[Run, Path]:
     """The uninterrupted run of configuration `name` (its output and dataset), once per test process."""
     root = base / f"clean-{name}"
-    code, run, err = drive(root, CONFIGS[name])
+    code, run, err = drive(root, CASES[name])
     assert code == 0, err
     total = run.mutations()
     assert total == list(range(1, len(total) + 1)) and run.lines[-1] == f"mutations {len(total)}", run.lines[-3:]
@@ -132,6 +148,11 @@ def needs_field(config: dict[str, int]) -> None:
     missing = sorted(set(config) - fields)
     if missing:
         pytest.skip(f"WriterConfig has no {', '.join(missing)} field yet (the staged-commit layout)")
+
+
+@cache
+def reference_frames(root: Path) -> list[dict[str, Any]]:
+    return frames(root)
 
 
 def frames(root: Path) -> list[dict[str, Any]]:
@@ -152,7 +173,7 @@ def data_table(root: Path) -> pa.Table:
 
 def assert_same_dataset(root: Path, reference: Path) -> None:
     """Frame for frame (lerobot's view, decoded pixels included), data rows, tasks and statistics."""
-    got, want = frames(root), frames(reference)
+    got, want = frames(root), reference_frames(reference)
     assert len(got) == len(want)
     for i, (a, b) in enumerate(zip(got, want, strict=True)):
         assert a.keys() == b.keys(), i
@@ -167,9 +188,9 @@ def assert_same_dataset(root: Path, reference: Path) -> None:
             np.testing.assert_allclose(stats[key][stat], stats_ref[key][stat], rtol=1e-9, err_msg=f"{key}/{stat}")
 
 
-def crash_and_complete(root: Path, name: str, n: int, clean: Run, reference: Path) -> str:
+def crash_and_complete(root: Path, case: Case, n: int, clean: Run, reference: Path) -> str:
     """Kill the driver at mutation `n`; check what lerobot loads, recover, resume, compare. Returns a log line."""
-    code, run, err = drive(root, CONFIGS[name], die_at=n)
+    code, run, err = drive(root, case, die_at=n)
     expect = clean.before(n)
     assert code == KILLED, (n, code, err)
     assert run.lines == expect, f"kill at {n}: the run printed {run.lines[-3:]}, the clean run {expect[-3:]}"
@@ -180,7 +201,7 @@ def crash_and_complete(root: Path, name: str, n: int, clean: Run, reference: Pat
         assert not (root / layout.INFO_PATH).exists(), what
     else:
         try:
-            check_loads(root, LENGTHS[:committed], STATES, shape=SHAPE)  # the killed dataset, as it is
+            check_loads(root, LENGTHS[:committed], case.states(), shape=SHAPE)  # the killed dataset, as it is
         except Exception as exc:
             raise AssertionError(f"killed before {what} ({reported} reported, {committed} committed): {exc!r}") from exc
     recover(root)
@@ -188,12 +209,12 @@ def crash_and_complete(root: Path, name: str, n: int, clean: Run, reference: Pat
     recovered = reported + 1 if Run.journaled(expect) else committed
     if recovered:
         assert [f.line() for f in check(root) if f.severity == "error"] == [], f"after recovery, killed before {what}"
-    config = writer_config(CONFIGS[name])
-    schema = unit_schema(shape=SHAPE)
+    config = writer_config(case.config)
+    schema = unit_schema(case.state_dim, SHAPE)
     writer = LeRobotV3Writer(root, schema, config, resume=True)
     assert writer.total_episodes == recovered, what
     bridge = DatasetBridge(schema, [writer])
-    write_episodes(bridge, LENGTHS, first=recovered, shape=SHAPE)
+    write_episodes(bridge, LENGTHS, first=recovered, state_dim=case.state_dim, shape=SHAPE)
     bridge.close()
     assert [f.line() for f in check(root)] == [], f"resumed after a kill before {what}"
     assert_same_dataset(root, reference)
@@ -201,17 +222,18 @@ def crash_and_complete(root: Path, name: str, n: int, clean: Run, reference: Pat
 
 
 @pytest.mark.parametrize("slot", range(SLOTS))
-@pytest.mark.parametrize("name", list(CONFIGS))
+@pytest.mark.parametrize("name", list(CASES))
 def test_crash_at_every_commit_step(
     tmp_path: Path, tmp_path_factory: pytest.TempPathFactory, name: str, slot: int
 ) -> None:
-    needs_field(CONFIGS[name])
+    case = CASES[name]
+    needs_field(case.config)
     clean, reference = clean_run(name, tmp_path_factory.getbasetemp())
-    check_loads(reference, LENGTHS, STATES, shape=SHAPE)
+    check_loads(reference, LENGTHS, case.states(), shape=SHAPE)
     log, failures = [], []
     for n in kill_points(clean)[slot::SLOTS]:
         try:
-            log.append(crash_and_complete(tmp_path / f"kill-{n}", name, n, clean, reference))
+            log.append(crash_and_complete(tmp_path / f"kill-{n}", case, n, clean, reference))
         except AssertionError as exc:  # every kill point is tried: the report lists each one that fails
             failures.append(f"kill {n}: {str(exc).splitlines()[0]}")
     print("\n".join(log))
