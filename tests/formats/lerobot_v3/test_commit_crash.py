@@ -208,7 +208,8 @@ def crash_and_complete(root: Path, case: Case, n: int, clean: Run, reference: Pa
     # recovery finishes a commit whose journal was in place; else the dataset stays at info.json's count
     recovered = reported + 1 if Run.journaled(expect) else committed
     if recovered:
-        assert [f.line() for f in check(root) if f.severity == "error"] == [], f"after recovery, killed before {what}"
+        errors = [f.line() for f in check(root) if f.severity == "error"]
+        assert errors == [], f"killed before {what}, then recovered: doctor finds {errors}"
     config = writer_config(case.config)
     schema = unit_schema(case.state_dim, SHAPE)
     writer = LeRobotV3Writer(root, schema, config, resume=True)
@@ -216,8 +217,14 @@ def crash_and_complete(root: Path, case: Case, n: int, clean: Run, reference: Pa
     bridge = DatasetBridge(schema, [writer])
     write_episodes(bridge, LENGTHS, first=recovered, state_dim=case.state_dim, shape=SHAPE)
     bridge.close()
-    assert [f.line() for f in check(root)] == [], f"resumed after a kill before {what}"
-    assert_same_dataset(root, reference)
+    findings = [f.line() for f in check(root)]
+    assert findings == [], f"killed before {what}, recovered and resumed: doctor finds {findings}"
+    try:
+        assert_same_dataset(root, reference)
+    except AssertionError as exc:
+        raise AssertionError(
+            f"killed before {what}, recovered and resumed: not the uninterrupted dataset: {exc!r}"
+        ) from exc
     return f"{what}: {reported} reported, {committed} committed, {recovered} after recovery"
 
 
@@ -234,7 +241,7 @@ def test_crash_at_every_commit_step(
     for n in kill_points(clean)[slot::SLOTS]:
         try:
             log.append(crash_and_complete(tmp_path / f"kill-{n}", case, n, clean, reference))
-        except AssertionError as exc:  # every kill point is tried: the report lists each one that fails
-            failures.append(f"kill {n}: {str(exc).splitlines()[0]}")
+        except Exception as exc:  # noqa: BLE001 - every kill point is tried: the report lists each one that fails
+            failures.append(f"kill {n}: {str(exc).splitlines()[0] if isinstance(exc, AssertionError) else repr(exc)}")
     print("\n".join(log))
     assert failures == [], "\n".join(failures)
