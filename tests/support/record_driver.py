@@ -9,34 +9,20 @@ rename onto a file of that name, to land a crash at one exact point of an episod
 from __future__ import annotations
 
 import json
-import os
 import sys
 from pathlib import Path
-from typing import Any
 
 from openral_data.record.options import RecordOptions
 from openral_data.record.sim import record
 from openral_data.types import EpisodeRecord
-
-
-def _die_at_rename(name: str, nth: int) -> None:
-    real = os.replace
-    seen = [0]
-
-    def replace(src: Any, dst: Any) -> None:
-        if Path(dst).name == name:
-            seen[0] += 1
-            if seen[0] == nth:
-                os._exit(137)
-        real(src, dst)
-
-    os.replace = replace  # type: ignore[assignment]
+from tests.support.crash import die_at_mutation
 
 
 def main() -> None:
     args = json.loads(sys.argv[1])
     if args.get("die_at_rename"):
-        _die_at_rename(*args["die_at_rename"])
+        name, nth = args["die_at_rename"]
+        die_at_mutation(nth, ops=("replace",), name=name)
 
     def progress(rec: EpisodeRecord | None, frames: int, total: int) -> None:
         if rec is not None:

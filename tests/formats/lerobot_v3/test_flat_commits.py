@@ -7,7 +7,6 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import numpy as np
 import pyarrow.parquet as pq
 
 from openral_data.doctor import check
@@ -15,7 +14,7 @@ from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, Writ
 from openral_data.formats.lerobot_v3.reader import read_episodes
 from openral_data.formats.lerobot_v3.recovery import recover
 from openral_data.record.bridge import DatasetBridge
-from tests.formats.lerobot_v3.test_writer import add_episode, check_loads, write_dataset
+from tests.support.patterned import check_loads, dataset_states, write_dataset, write_episodes
 
 H264 = VideoSettings(codec="h264")
 
@@ -78,17 +77,17 @@ def test_resume_continues_the_staged_runs(tmp_path: Path) -> None:
     recovery keeps them all, and a resumed writer joins them with its own episodes at close, loading exactly."""
     root = tmp_path / "ds"
     config = WriterConfig(video=H264, staged_episodes=100)
-    writer, states = write_dataset(root, [3, 4, 2], config=config, close=False)
+    writer, _ = write_dataset(root, [3, 4, 2], config=config, close=False)
     assert len(list(root.glob("data/*/*.parquet"))) == 3
     assert recover(root) == []
     resumed = LeRobotV3Writer(root, writer.schema, config, resume=True)
     assert resumed.total_episodes == 3
     bridge = DatasetBridge(writer.schema, [resumed])
-    add_episode(bridge, 3, 5, np.random.default_rng(1), states)
+    write_episodes(bridge, [3, 4, 2, 5], first=3)
     bridge.close()
     assert len(list(root.glob("data/*/*.parquet"))) == 1 and len(list(root.glob("meta/episodes/*/*.parquet"))) == 1
     assert read_episodes(root).to_pydict()["episode_index"] == [0, 1, 2, 3]
-    check_loads(root, [3, 4, 2, 5], states)
+    check_loads(root, [3, 4, 2, 5], dataset_states([3, 4, 2, 5]))
     assert check(root) == []
 
 

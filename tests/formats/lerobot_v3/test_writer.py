@@ -6,7 +6,6 @@ import errno
 import json
 import logging
 import os
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -21,96 +20,7 @@ from openral_data.formats.lerobot_v3.reader import read_episodes
 from openral_data.record.bridge import DatasetBridge
 from openral_data.types import CameraShape, DatasetSchema, EpisodeStart, Frame, Observation
 from tests.support.faults import Faults, inject
-
-H, W = 128, 192
-
-
-def patterned(e: int, t: int, rng: np.random.Generator) -> np.ndarray:
-    """Top quarter: a solid colour encoding (episode, step); the rest: noise that makes files big."""
-    img = np.empty((H, W, 3), np.uint8)
-    img[: H // 4] = (t % 256, (e * 37) % 256, 200)
-    img[H // 4 :] = rng.integers(0, 256, (H - H // 4, W, 3), dtype=np.uint8)
-    return img
-
-
-def unit_schema(state_dim: int = 4) -> DatasetSchema:
-    return DatasetSchema(
-        fps=10,
-        state_names=tuple(f"s{i}" for i in range(state_dim)),
-        action_names=("a0", "a1"),
-        cameras={"cam": CameraShape(H, W)},
-        robot_type="unit",
-    )
-
-
-def add_episode(
-    bridge: DatasetBridge,
-    e: int,
-    n: int,
-    rng: np.random.Generator,
-    states: list[np.ndarray],
-    task: str = "task",
-) -> None:
-    """Episode `e` of `n` frames: state[0] = t, the rest noise (appended to `states`), action (e, t), the
-    camera's top stripe encoding (e, t)."""
-    state_dim = len(bridge.schema.state_names)
-    bridge.begin_episode(seed=100 + e, initial_state={"e": e})
-    for t in range(n):
-        state = rng.standard_normal(state_dim).astype(np.float32)
-        state[0] = t
-        states.append(state)
-        obs = Observation(images={"cam": patterned(e, t, rng)}, state=state, task=task)
-        bridge.add_step(obs, np.array([e, t], np.float32), reward=0.5, done=t == n - 1, success=t == n - 1)
-    bridge.end_episode(success=e % 2 == 0)
-
-
-def write_dataset(
-    root: Path,
-    lengths: list[int],
-    *,
-    state_dim: int = 4,
-    tasks: list[str] | None = None,
-    config: WriterConfig | None = None,
-    check_after_each: bool = False,
-    after_each: Callable[[int], None] | None = None,
-    close: bool = True,
-) -> tuple[LeRobotV3Writer, list[np.ndarray]]:
-    """`lengths` episodes through a bridge; `after_each(e)` runs after episode e's commit; `close=False` leaves
-    the writer open (as a process killed between two commits leaves its dataset)."""
-    schema = unit_schema(state_dim)
-    writer = LeRobotV3Writer(root, schema, config)
-    bridge = DatasetBridge(schema, [writer])
-    rng = np.random.default_rng(0)
-    states: list[np.ndarray] = []
-    for e, n in enumerate(lengths):
-        add_episode(bridge, e, n, rng, states, tasks[e % len(tasks)] if tasks else "task")
-        if check_after_each:
-            check_loads(root, lengths[: e + 1], states, tasks)
-        if after_each is not None:
-            after_each(e)
-    if close:
-        bridge.close()
-    return writer, states
-
-
-def check_loads(root: Path, lengths: list[int], states: list[np.ndarray], tasks: list[str] | None = None) -> None:
-    """lerobot's loader sees exactly the finished episodes, each frame in its place."""
-    from lerobot.datasets.lerobot_dataset import LeRobotDataset
-
-    ds = LeRobotDataset("local/unit", root=root, video_backend="pyav")
-    assert len(ds) == sum(lengths) and ds.num_episodes == len(lengths)
-    i = 0
-    for e, n in enumerate(lengths):
-        for t in range(n):
-            item = ds[i]
-            assert (int(item["episode_index"]), int(item["frame_index"])) == (e, t)
-            np.testing.assert_array_equal(item["observation.state"].numpy(), states[i])
-            np.testing.assert_array_equal(item["action"].numpy(), [e, t])
-            top = item["observation.images.cam"].numpy()[:, 4 : H // 4 - 4].mean(axis=(1, 2)) * 255
-            assert np.abs(top - [t % 256, (e * 37) % 256, 200]).max() < 6, (e, t, top)
-            if tasks:
-                assert item["task"] == tasks[e % len(tasks)]
-            i += 1
+from tests.support.patterned import H, W, check_loads, patterned, write_dataset
 
 
 def test_tasks_in_order_with_pandas_index(tmp_path: Path) -> None:
