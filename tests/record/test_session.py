@@ -92,10 +92,12 @@ def bag_episodes(out: Path) -> list[tuple[int, int]]:
     return found
 
 
-def check_kept(out: Path, formats: tuple[str, ...], kept: int, committed: bool) -> None:
-    """What a reader sees right after the failure, without any repair."""
+def check_kept(out: Path, formats: tuple[str, ...], kept: int, committed: bool, joining: bool = False) -> None:
+    """What a reader sees right after the failure, without any repair. `joining`: it failed inside close()'s
+    join of the per-episode files, which may leave copies of counted rows trailing in meta/episodes (beyond
+    info.json's total, like a commit's uncounted row; the items are unaffected)."""
     if "lerobot" in formats:
-        seen = verify_mock_dataset(out, "pyav", uncounted_rows_ok=committed)
+        seen = verify_mock_dataset(out, "pyav", uncounted_rows_ok=committed or joining)
         # a commit past its journal may be part-renamed: lerobot sees it once info.json (renamed last) counts it
         assert seen["lengths"] in ([expected(kept)] + ([expected(kept - 1)] if committed else [])), seen
     if "mcap" in formats:
@@ -155,7 +157,7 @@ def test_every_failing_write_of_the_last_episode_and_close(tmp_path: Path, home:
             shutil.rmtree(out)
             continue
         seen[state] = kept
-        check_kept(out, formats, kept, committed=err.committed)
+        check_kept(out, formats, kept, committed=err.committed, joining=err.doing.startswith("joining"))
         assert resume(out, 2) is None, where
         check_complete(out, formats, 2)
         shutil.rmtree(out)
@@ -213,13 +215,13 @@ def test_a_one_off_error_inside_the_renames_is_finished_by_resume(tmp_path: Path
 
 @pytest.fixture
 def small_disk(tmp_path: Path) -> Iterator[Path]:
-    """A 1 MiB tmpfs (root only; skipped where mounting is not permitted), always unmounted afterwards."""
+    """A 2 MiB tmpfs (root only; skipped where mounting is not permitted), always unmounted afterwards."""
     mnt = tmp_path / "disk"
     mnt.mkdir()
     if os.geteuid() != 0:
         pytest.skip("mounting a tmpfs needs root")
     done = subprocess.run(
-        ["mount", "-t", "tmpfs", "-o", "size=1M", "tmpfs", str(mnt)], capture_output=True, check=False
+        ["mount", "-t", "tmpfs", "-o", "size=2M", "tmpfs", str(mnt)], capture_output=True, check=False
     )
     if done.returncode != 0:
         pytest.skip(f"cannot mount a tmpfs here: {done.stderr.decode(errors='replace').strip()}")

@@ -24,7 +24,7 @@ from __future__ import annotations
 import os
 import shutil
 import stat
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -37,6 +37,7 @@ from openral_data.errors import DatasetError
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import digests, layout
 from openral_data.formats.lerobot_v3.reader import read_info
+from openral_data.formats.lerobot_v3.video import concat_mp4, probe_frames
 from openral_data.paths import contained
 
 DATASET_DIRS = ("meta", "data", "videos")
@@ -157,6 +158,7 @@ def recover(root: Path, durable: bool = True) -> list[str]:
     rows = episode_rows(root)
     if ours:
         actions += drop_repeated_data_rows(root, rows, quarantine, durable)
+        actions += cut_unfinished_video_joins(root, rows, info, quarantine, durable)
     keep = referenced_videos(root, rows, info)
     orphans = [p for p in video_files(root) if p not in keep]
     for path in orphans:
@@ -169,6 +171,43 @@ def recover(root: Path, durable: bool = True) -> list[str]:
     if quarantine.touched or uncommitted or (root / digests.REHASH_PATH).is_file():
         digests.refresh(root, quarantine.touched, durable)
     return actions
+
+
+def cut_unfinished_video_joins(
+    root: Path, rows: list[dict[str, Any]], info: dict[str, Any], quarantine: Quarantine, durable: bool = True
+) -> list[str]:
+    """A video join cut short before the metadata named it (the writer had listed its files, `digests.mark`):
+    its first file already holds the whole group while the later rows still name their own files. That file is
+    cut back (remuxed, no re-encode) to the frames its rows cover; the original goes to the quarantine."""
+    listed = set(digests.pending(root))
+    fps = int(info.get("fps", 0))
+    keys = [k for k, f in info.get("features", {}).items() if f.get("dtype") == "video"]
+    actions: list[str] = []
+    for key in keys:
+        covered: dict[Path, int] = {}
+        for row in rows:
+            if row.get(f"videos/{key}/chunk_index") is None or row.get(f"videos/{key}/to_timestamp") is None:
+                continue
+            path = layout.video_path(root, key, layout.row_pos(row, f"videos/{key}"))
+            covered[path] = max(covered.get(path, 0), round(float(row[f"videos/{key}/to_timestamp"]) * fps))
+        for path, frames in covered.items():
+            if path not in listed or not path.is_file() or not 0 < frames < probe_frames(path):
+                continue
+            quarantine.keep_copy(path)
+            atomic.write_with(path, _first_frames(path, frames, fps), durable)
+            quarantine.touched.append(path)
+            actions.append(
+                f"{path.relative_to(root)}: an interrupted video join; cut back to the {frames} frame(s) its "
+                f"episodes name (the original is in {quarantine.dir})"
+            )
+    return actions
+
+
+def _first_frames(source: Path, frames: int, fps: int) -> Callable[[Path], None]:
+    def write(tmp: Path) -> None:
+        concat_mp4([(source, frames)], tmp, fps)
+
+    return write
 
 
 def drop_repeated_episode_rows(root: Path, quarantine: Quarantine, durable: bool = True) -> list[str]:

@@ -803,7 +803,7 @@ class LeRobotV3Writer:
         if episode is not None and self._batch is not None:
             pos = self._episodes_run.next_pos(self.config.chunks_size)
             table = pa.Table.from_pylist([self.episode_rows[-1]], schema=self._episodes_schema)
-            staged = self._write(layout.episodes_path(self.root, pos), atomic.parquet_writer(table))
+            staged = self._write(layout.episodes_path(self.root, pos), atomic.parquet_writer(table, small=True))
             self._episodes_run.add(pos, staged.stat().st_size, 1)
             files = [*self._batch.staged(), *((p, p) for p in self._placed)]
             delta = digests.delta_path(self.root, episode)
