@@ -663,13 +663,15 @@ class LeRobotV3Writer:
             sources = [layout.data_path(self.root, p) for p in data.positions]
             atomic.write_with(dest_data, atomic.concat_parquet_writer(sources, self._data_schema), self.config.durable)
         moved_data, moved_eps = set(data.positions[1:]), set(eps.positions[1:])
-        tail = self.episode_rows[len(self.episode_rows) - eps.total_rows :]
+        tail = self.episode_rows[len(self.episode_rows) - eps.total_rows :]  # the rows in the episodes run
+        repointed = False
         for row in tail:
             if layout.row_pos(row, "data") in moved_data:
                 row["data/chunk_index"], row["data/file_index"] = data.first.chunk, data.first.file
+                repointed = True
             if layout.row_pos(row, "meta/episodes") in moved_eps:
                 row["meta/episodes/chunk_index"], row["meta/episodes/file_index"] = eps.first.chunk, eps.first.file
-        if len(eps.positions) > 1:
+        if len(eps.positions) > 1 or repointed:  # (one episodes file whose rows now name the joined data file)
             table = pa.Table.from_pylist(tail, schema=self._episodes_schema)
             atomic.write_with(dest_eps, atomic.parquet_writer(table), self.config.durable)
         for path in later:

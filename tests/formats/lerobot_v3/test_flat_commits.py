@@ -52,22 +52,40 @@ def test_a_commit_writes_only_its_own_files_and_loads_after_every_commit(tmp_pat
     assert check(root) == []
 
 
-def test_runs_join_every_staged_episodes_and_at_rotation_loading_after_each(tmp_path: Path) -> None:
-    """staged_episodes=2 joins the runs before every third staged episode; 1 MiB data files (20k floats a
-    frame) rotate too. lerobot loads after every commit; rows point at the files that hold them."""
-    root = tmp_path / "ds"
-    lengths = [4, 3, 5, 2, 6, 3, 4]
-    config = WriterConfig(video=H264, staged_episodes=2, data_files_size_in_mb=1)
-    _, states = write_dataset(root, lengths, state_dim=20_000, config=config, check_after_each=True)
+def _rows_name_their_files(root: Path) -> None:
+    """Each data file holds exactly the episodes whose rows (as on disk) name it, each episodes row sits in the
+    file it names, and no episode is listed twice."""
     eps = read_episodes(root).to_pydict()
-    data_files = sorted(root.glob("data/*/*.parquet"))
-    assert len(data_files) >= 2
-    for path in data_files:  # each data file holds exactly the episodes whose rows name it
+    assert eps["episode_index"] == list(range(len(eps["episode_index"])))
+    for path in sorted(root.glob("data/*/*.parquet")):
         chunk, file = int(path.parent.name[6:]), int(path.stem[5:])
-        named = [
-            e for e in range(len(lengths)) if (eps["data/chunk_index"][e], eps["data/file_index"][e]) == (chunk, file)
-        ]
+        named = [e for e, c, f in zip(eps["episode_index"], eps["data/chunk_index"], eps["data/file_index"],
+                                      strict=True) if (c, f) == (chunk, file)]  # fmt: skip
         assert sorted(set(pq.read_table(path, columns=["episode_index"])["episode_index"].to_pylist())) == named
+    for path in sorted(root.glob("meta/episodes/*/*.parquet")):
+        t = pq.read_table(path, columns=["meta/episodes/chunk_index", "meta/episodes/file_index"]).to_pydict()
+        assert set(zip(*t.values(), strict=True)) == {(int(path.parent.name[6:]), int(path.stem[5:]))}
+
+
+def test_runs_join_every_staged_episodes_and_at_rotation_loading_after_each(tmp_path: Path) -> None:
+    """staged_episodes=3 joins the runs before every fourth staged episode; 1 MiB data files (6,000 floats a
+    frame) rotate, and so do the episodes files (a row holds 6,000-wide statistics: about 480 KB), so a data
+    rotation also lands right after an episodes rotation. After every commit lerobot loads the dataset and every
+    row names the files that hold it."""
+    root = tmp_path / "ds"
+    lengths = [3, 5, 8, 4, 6, 7, 3, 8, 5]
+    config = WriterConfig(video=H264, staged_episodes=3, data_files_size_in_mb=1)
+    _, states = write_dataset(
+        root,
+        lengths,
+        state_dim=6000,
+        config=config,
+        check_after_each=True,
+        after_each=lambda e: _rows_name_their_files(root),
+    )
+    assert len(sorted(root.glob("data/*/*.parquet"))) >= 2
+    assert len(sorted(root.glob("meta/episodes/*/*.parquet"))) >= 2
+    _rows_name_their_files(root)
     check_loads(root, lengths, states)
     assert check(root) == []
 
