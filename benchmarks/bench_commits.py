@@ -39,13 +39,11 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-import os
 import shutil
 import statistics
 import sys
 import tempfile
 import time
-import warnings
 from dataclasses import asdict, dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -55,7 +53,7 @@ import numpy as np
 import numpy.typing as npt
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_writer import machine_info
+from bench_writer import machine_info, offline_in
 
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
 from openral_data.record.bridge import DatasetBridge
@@ -282,14 +280,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     scratch = Path(tempfile.mkdtemp(prefix="openral-bench-commits-", dir=args.tmp))
-    # No network: nothing may try the Hub, and the datasets cache stays in the scratch directory.
-    os.environ["HF_HUB_OFFLINE"] = "1"
-    os.environ["HF_DATASETS_OFFLINE"] = "1"
-    os.environ["HF_HUB_DISABLE_TELEMETRY"] = "1"
-    os.environ["HF_DATASETS_DISABLE_PROGRESS_BARS"] = "1"
-    warnings.filterwarnings("ignore", message="Cannot enable progress bars", category=UserWarning)
-    os.environ["HF_LEROBOT_HOME"] = str(scratch / "hf_lerobot_home")
-    os.environ["HF_DATASETS_CACHE"] = str(scratch / "hf_datasets_cache")
+    offline_in(scratch)
 
     machine = machine_info()
     print(f"scratch: {scratch}")

@@ -435,6 +435,17 @@ def check(name: str, root: Path, wl: Workload, result: RunResult) -> None:
         del ds
 
 
+def offline_in(scratch: Path) -> None:
+    """No network here: nothing may try the Hub, and the Hugging Face caches stay in the scratch directory."""
+    os.environ["HF_HUB_OFFLINE"] = "1"
+    os.environ["HF_DATASETS_OFFLINE"] = "1"
+    os.environ["HF_HUB_DISABLE_TELEMETRY"] = "1"
+    os.environ["HF_DATASETS_DISABLE_PROGRESS_BARS"] = "1"
+    warnings.filterwarnings("ignore", message="Cannot enable progress bars", category=UserWarning)
+    os.environ["HF_LEROBOT_HOME"] = str(scratch / "hf_lerobot_home")
+    os.environ["HF_DATASETS_CACHE"] = str(scratch / "hf_datasets_cache")
+
+
 # -- reporting ---------------------------------------------------------------------------------------------
 def machine_info() -> dict[str, Any]:
     cpu_model = ""
@@ -542,14 +553,7 @@ def main(argv: list[str] | None = None) -> int:
     codec = cast(Codec, args.codec)
     wl = Workload(episodes=args.episodes, frames=args.frames)
     scratch = Path(tempfile.mkdtemp(prefix="openral-bench-", dir=args.tmp))
-    # No network here: nothing may try the Hub, and the datasets cache stays in the scratch directory.
-    os.environ["HF_HUB_OFFLINE"] = "1"
-    os.environ["HF_DATASETS_OFFLINE"] = "1"
-    os.environ["HF_HUB_DISABLE_TELEMETRY"] = "1"
-    os.environ["HF_DATASETS_DISABLE_PROGRESS_BARS"] = "1"
-    warnings.filterwarnings("ignore", message="Cannot enable progress bars", category=UserWarning)
-    os.environ["HF_LEROBOT_HOME"] = str(scratch / "hf_lerobot_home")
-    os.environ["HF_DATASETS_CACHE"] = str(scratch / "hf_datasets_cache")
+    offline_in(scratch)
 
     # Import everything heavy (torch comes with lerobot) before any timing.
     for module in ("lerobot.datasets.lerobot_dataset", "openral_data.record.bridge", "openral_data.formats.lerobot_v3"):
