@@ -51,12 +51,11 @@ def hidden_leftovers(parent: Path) -> list[str]:
 
 
 def interrupt_when(
-    args: list[str], parent: Path, ready: str, *, group: bool, again_after: float | None = None, timeout: float = 300.0
+    args: list[str], parent: Path, ready: str, *, group: bool, timeout: float = 300.0
 ) -> tuple[int, str]:
     """Run `openral-data ARGS` in a session of its own, poll until `parent` holds `ready` (a glob; `{pid}` is the
     command's pid), then send SIGINT: to the command only, or (`group`) to its whole process group, as Ctrl-C at
-    a terminal does; `again_after` seconds later a second time, as an impatient user does (wherever it lands,
-    the command must still clean up and end). Returns its exit status and stderr once every process of its group
+    a terminal does. Returns its exit status and stderr once every process of its group
     is gone (no worker outlives it)."""
     proc = subprocess.Popen(
         [sys.executable, "-m", "openral_data.cli", *args],
@@ -74,13 +73,10 @@ def interrupt_when(
             if time.monotonic() > deadline:
                 raise AssertionError(f"{parent}/{pattern} never appeared")
             time.sleep(0.002)
-        for k in range(1 if again_after is None else 2):
-            if k:
-                time.sleep(again_after or 0.0)
-            if group:
-                os.killpg(proc.pid, signal.SIGINT)
-            elif proc.poll() is None:
-                proc.send_signal(signal.SIGINT)
+        if group:
+            os.killpg(proc.pid, signal.SIGINT)
+        else:
+            proc.send_signal(signal.SIGINT)
         _, err = proc.communicate(timeout=120)
         deadline = time.monotonic() + 30
         while _group_alive(proc.pid):
