@@ -115,15 +115,22 @@ def deltas(root: Path) -> list[tuple[int, Path]]:
 
 def read(root: Path) -> Digests | None:
     """The stored map, or None when the dataset has none (written by lerobot or an older openral-data)."""
+    return _stored(root)[0]
+
+
+def _stored(root: Path) -> tuple[Digests | None, int, list[tuple[int, Path]]]:
+    """The map (the base with the deltas above its ``through`` applied, or None), the highest episode it
+    covers, and every delta file on disk (also those at or below ``through`` a crashed refresh left)."""
     base = _base(root)
     out, through = base if base is not None else ({}, -1)
-    found = [(k, p) for k, p in deltas(root) if k > through]
+    every = deltas(root)
+    found = [(k, p) for k, p in every if k > through]
     if base is None and not found:
-        return None
+        return None, through, every
     for _, path in found:
         data = _load(path)
         out.update(_files(root, data.get("files") if isinstance(data, dict) else None, path))
-    return out
+    return out, max([through, *(k for k, _ in found)]), every
 
 
 def delta_writer(root: Path, files: Iterable[tuple[Path, Path]], extra: dict[str, bytes]) -> Callable[[Path], None]:
@@ -171,8 +178,7 @@ def refresh(root: Path, changed_paths: Iterable[Path], durable: bool = True) -> 
     """After writes outside a commit batch (a join, `doctor --repair`, a recovery) rewrote or removed
     `changed_paths`: their entries follow them, the others stay; the deltas fold into a new base, and the
     `mark`ed list is cleared. A dataset without digests (not written by us) is left without."""
-    stored = read(root)
-    found = deltas(root)
+    stored, through, found = _stored(root)
     if stored is not None:
         for path in [*changed_paths, *pending(root)]:
             rel = str(path.relative_to(root))
@@ -180,8 +186,6 @@ def refresh(root: Path, changed_paths: Iterable[Path], durable: bool = True) -> 
                 stored.pop(rel, None)
             elif is_tracked(rel):
                 stored[rel] = entry(path)
-        base = _base(root)
-        through = max([k for k, _ in found] + [base[1] if base is not None else -1])
         body = {"through": through, "files": dict(sorted(stored.items()))}
         atomic.write_bytes(root / DIGESTS_PATH, json.dumps(body, indent=1).encode(), durable)
     for _, path in found:

@@ -782,10 +782,10 @@ class LeRobotV3Writer:
         row would show (uncounted) in the moment between those two renames, and only then. Outside a commit
         (close) the files are rewritten one by one and their digests refreshed after them.
         """
-        in_commit = episode is not None and self._batch is not None
+        batch = self._batch if episode is not None else None  # in episode `episode`'s commit
         new_tasks = len(self.tasks) != self._tasks_written
         written = [self.root / p for p in (layout.TASKS_PATH, layout.STATS_PATH, layout.INFO_PATH)]
-        if not in_commit:
+        if batch is None:
             digests.mark(self.root, written if new_tasks else written[1:], self.config.durable)
         if new_tasks:
             self._write(self.root / layout.TASKS_PATH, tasks_writer(self.tasks))
@@ -802,12 +802,12 @@ class LeRobotV3Writer:
         self._write(self.root / layout.IMAGE_HIST_PATH, atomic.bytes_writer(json.dumps(hist).encode()))
         self._write(self.root / layout.STATS_PATH, atomic.bytes_writer(json.dumps(ordered, indent=4).encode()))
         info = json.dumps(self.info(), indent=4).encode()
-        if episode is not None and self._batch is not None:
+        if batch is not None and episode is not None:
             pos = self._episodes_run.next_pos(self.config.chunks_size)
             table = pa.Table.from_pylist([self.episode_rows[-1]], schema=self._episodes_schema)
             staged = self._write(layout.episodes_path(self.root, pos), atomic.parquet_writer(table, small=True))
             self._episodes_run.add(pos, staged.stat().st_size, 1)
-            files = [*self._batch.staged(), *((p, p) for p in self._placed)]
+            files = [*batch.staged(), *((p, p) for p in self._placed)]
             delta = digests.delta_path(self.root, episode)
             self._write(delta, digests.delta_writer(self.root, files, {layout.INFO_PATH: info}))
             self._write(self.root / layout.INFO_PATH, atomic.bytes_writer(info))
