@@ -56,7 +56,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_writer import machine_info, offline_in
 
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
-from openral_data.record.bridge import DatasetBridge
+from openral_data.runtime.bridge import DatasetBridge
 from openral_data.types import CameraShape, DatasetSchema, Observation
 
 FPS = 20

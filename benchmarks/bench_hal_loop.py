@@ -33,9 +33,9 @@ from openral_data.producers.hal.base import JointCommand
 from openral_data.producers.hal.operator import ScriptedOperator
 from openral_data.producers.hal.safety import SafetyFilter
 from openral_data.producers.hal.twin import MujocoTwinHal
-from openral_data.record import registry
-from openral_data.record.bridge import DatasetBridge
 from openral_data.record.hal_loop import FixedRateLoop, LoopConfig, frame_extras
+from openral_data.runtime import registry
+from openral_data.runtime.bridge import DatasetBridge
 from openral_data.types import DatasetSchema, Observation
 
 

@@ -56,10 +56,10 @@ from openral_data.formats.lerobot_v3 import VideoSettings, video
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
 from openral_data.formats.lerobot_v3.writer import LeRobotV3Writer
 from openral_data.producers.sim.mujoco.scene import TabletopScene
-from openral_data.record import registry
-from openral_data.record.bridge import DatasetBridge
 from openral_data.record.options import RecordOptions
 from openral_data.record.sim import record
+from openral_data.runtime import registry
+from openral_data.runtime.bridge import DatasetBridge
 from openral_data.schemas.scene import load_recordable_scene
 
 RSKILL = "scripted-push"

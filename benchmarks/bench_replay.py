@@ -37,11 +37,11 @@ os.environ.setdefault("HF_HUB_OFFLINE", "1")
 
 from timing import Stopwatch, Timing, alternate, overhead_table, run_line
 
-from openral_data.record import registry
 from openral_data.record.options import RecordOptions
 from openral_data.record.sim import record
 from openral_data.replay import ReplayOptions, replay
 from openral_data.replay.recorded import RecordedDataset
+from openral_data.runtime import registry
 
 
 def make_dataset(folder: Path, episodes: int) -> Path:

@@ -273,7 +273,7 @@ def bench_schema(wl: Workload) -> Any:
 
 def feed_bridge(sinks: list[Any], data: list[EpisodeData], wl: Workload) -> None:
     """Record workload W through DatasetBridge into `sinks` (what `record` does), closing them at the end."""
-    from openral_data.record.bridge import DatasetBridge
+    from openral_data.runtime.bridge import DatasetBridge
     from openral_data.types import Observation
 
     bridge = DatasetBridge(bench_schema(wl), sinks)
@@ -556,7 +556,11 @@ def main(argv: list[str] | None = None) -> int:
     offline_in(scratch)
 
     # Import everything heavy (torch comes with lerobot) before any timing.
-    for module in ("lerobot.datasets.lerobot_dataset", "openral_data.record.bridge", "openral_data.formats.lerobot_v3"):
+    for module in (
+        "lerobot.datasets.lerobot_dataset",
+        "openral_data.runtime.bridge",
+        "openral_data.formats.lerobot_v3",
+    ):
         importlib.import_module(module)
 
     machine = machine_info()

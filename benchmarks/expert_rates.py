@@ -13,7 +13,7 @@ import time
 from rollouts import roll_out
 
 from openral_data.producers.sim.mujoco.scene import TabletopScene
-from openral_data.record import registry
+from openral_data.runtime import registry
 from openral_data.schemas.scene import load_recordable_scene
 
 # task column -> scene id (scenes/sim/<id>.yaml); the expert is the scene's default_rskill

@@ -11,7 +11,7 @@ import argparse
 
 from rollouts import roll_out
 
-from openral_data.record import registry
+from openral_data.runtime import registry
 from openral_data.schemas.scene import load_recordable_scene
 
 TASKS = "pick-place-v3,push-v3,door-open-v3,drawer-open-v3,button-press-topdown-v3,window-open-v3"

@@ -20,7 +20,7 @@ import time
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from openral_data.record import registry
+from openral_data.runtime import registry
 from openral_data.schemas.rskill import Contract
 from openral_data.schemas.scene import SimScene, load_recordable_scene
 

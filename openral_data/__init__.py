@@ -26,9 +26,9 @@ from openral_data.version import __version__
 # public name -> the module that defines it
 _API: dict[str, str] = {
     "record": "openral_data.record.sim",
-    "SCENES": "openral_data.record.registry",
-    "POLICIES": "openral_data.record.registry",
-    "ROBOTS": "openral_data.record.registry",
+    "SCENES": "openral_data.runtime.registry",
+    "POLICIES": "openral_data.runtime.registry",
+    "ROBOTS": "openral_data.runtime.registry",
     "RecordOptions": "openral_data.record.options",
     "RecordSummary": "openral_data.record.options",
     "replay": "openral_data.replay",
@@ -117,9 +117,9 @@ if TYPE_CHECKING:
     from openral_data.metrics.command import stats_query
     from openral_data.metrics.report import Table
     from openral_data.record.options import RecordOptions, RecordSummary
-    from openral_data.record.registry import POLICIES, ROBOTS, SCENES
     from openral_data.record.sim import record
     from openral_data.replay import ReplayOptions, ReplaySummary, replay
+    from openral_data.runtime.registry import POLICIES, ROBOTS, SCENES
     from openral_data.schemas import BenchmarkScene, RobotManifest, RSkillManifest, SimScene, load_scene
     from openral_data.types import (
         CameraShape,

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from openral_data import manifests
-from openral_data.record import registry
+from openral_data.runtime import registry
 from tests.support.cli import run_cli
 from tests.support.home import BUILTIN, REPO
 from tests.support.scenes import mock_scene, write_yaml

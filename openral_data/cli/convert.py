@@ -45,7 +45,7 @@ def convert(
     json: JsonFlag = False,
 ) -> None:
     """Convert bags/MCAP to a LeRobot v3 dataset, or a LeRobot v3 dataset to ROS 2 MCAP bags."""
-    from openral_data.record.parallel.executors import check_executor
+    from openral_data.runtime.parallel.executors import check_executor
 
     if workers < 1:
         raise UsageError(f"--workers must be >= 1, got {workers}")
@@ -191,7 +191,7 @@ def _interruptible(bar: Progress, dst: Path) -> Iterator[None]:
     try:
         yield
     except KeyboardInterrupt:
-        from openral_data.record.parallel.channel import STOP_HELD, held
+        from openral_data.runtime.parallel.channel import STOP_HELD, held
 
         with held(STOP_HELD):  # a second Ctrl-C does not cut the line short
             bar.stop()

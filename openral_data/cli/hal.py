@@ -36,7 +36,7 @@ def run_hal_record(
     port: str | None,
     json: bool = False,
 ) -> None:
-    from openral_data.record.sinks import parse_formats
+    from openral_data.runtime.sinks import parse_formats
 
     if mode not in ("sim", "real"):
         raise UsageError(f"--mode: {mode!r}; valid: sim, real")

@@ -19,7 +19,7 @@ from openral_data.formats.repo_id import resolve_dataset
 
 if TYPE_CHECKING:
     from openral_data.formats.lerobot_v3 import DatasetSummary
-    from openral_data.record.catalog import Item
+    from openral_data.runtime.catalog import Item
 
 
 class ListWhat(StrEnum):
@@ -78,7 +78,7 @@ def list_cmd(
         return
     if scene is not None:
         raise UsageError(f"list {what.value}: takes no SCENE (only `list tasks SCENE` does)")
-    from openral_data.record.catalog import SECTIONS, catalog
+    from openral_data.runtime.catalog import SECTIONS, catalog
 
     sections = SECTIONS if what is ListWhat.all else (_SECTION[what],)
     cat = catalog(sections)
@@ -95,7 +95,7 @@ def list_cmd(
 
 
 def _list_tasks(scene_ref: str | None, json: bool) -> None:
-    from openral_data.record.tasks import tasks_of
+    from openral_data.runtime.tasks import tasks_of
 
     if scene_ref is None:
         raise UsageError("list tasks: needs SCENE (a scene id or YAML path), e.g. `list tasks metaworld_push`")
@@ -130,7 +130,7 @@ _JOINED = {"state_dim": "state_representation", "action_dim": "action_representa
 
 
 def _table(name: str, items: list[Item]) -> Table:
-    from openral_data.record.catalog import FIELDS
+    from openral_data.runtime.catalog import FIELDS
 
     joined = set(_JOINED.values())
     columns = [(_TITLES.get(key, key), key) for key in FIELDS[name] if key not in joined]
@@ -181,7 +181,7 @@ def doctor(
 ) -> None:
     """Check a dataset against lerobot 0.6.1's format rules, one line per finding; exit 1 on errors."""
     from openral_data.doctor.command import doctor_report
-    from openral_data.record.catalog import plugin_problems
+    from openral_data.runtime.catalog import plugin_problems
 
     for problem in plugin_problems():  # a broken plug-in is worth knowing about whatever is checked
         print_line("warning: " + problem.line(), err=True)

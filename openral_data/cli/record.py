@@ -102,7 +102,7 @@ def record(
         raise UsageError(f"{', '.join(given)}: only with --hal ROBOT_ID (a scene records at its own fps)")
     from openral_data.record.options import RecordOptions
     from openral_data.record.sim import record as run_record
-    from openral_data.record.sinks import parse_formats
+    from openral_data.runtime.sinks import parse_formats
 
     opts = RecordOptions(
         scene=scene,

@@ -53,8 +53,8 @@ def replay(
     ] = None,
 ) -> None:
     """Replay recorded actions through the rebuilt scene, or evaluate a policy against recorded episodes."""
-    from openral_data.record.sinks import parse_formats
     from openral_data.replay.command import ReplayOptions
+    from openral_data.runtime.sinks import parse_formats
 
     for option, path in (("--out", out), ("--record", record)):
         if path is not None:

@@ -43,9 +43,9 @@ from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.errors import ExecutorError, UsageError
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.staging import check_new_output
-from openral_data.record.parallel.channel import STOP_HELD, held
-from openral_data.record.parallel.executors import check_executor, run_on
 from openral_data.record.parallel.run import workers_dir
+from openral_data.runtime.parallel.channel import STOP_HELD, held
+from openral_data.runtime.parallel.executors import check_executor, run_on
 from openral_data.schemas.mapping import Mapping
 from openral_data.types import EpisodeRecord
 
@@ -108,7 +108,15 @@ def convert_parallel(
     try:
         workdir.mkdir()
         bar.show()
-        finished = run_on(jobs, run_convert_job, executor, address, init_convert_worker, bar.finished, bar.reported)
+        finished = run_on(
+            jobs,
+            run_convert_job,
+            executor,
+            address,
+            initializer=init_convert_worker,
+            on_finished=bar.finished,
+            on_report=bar.reported,
+        )
         results = sorted(finished, key=lambda r: r.worker)
         summary = _combine(src, dst, [r.summary for r in results])
         check_outcome(summary)

@@ -49,7 +49,7 @@ from openral_data.formats.lerobot_v3.depth import DepthSettings, DepthUnit
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.mcap.messages import decode_image
 from openral_data.formats.staging import Staging, check_new_output
-from openral_data.record.bridge import DatasetBridge
+from openral_data.runtime.bridge import DatasetBridge
 from openral_data.schemas.mapping import Mapping
 from openral_data.types import CameraShape, DatasetSchema, EpisodeRecord, Observation
 from openral_data.version import __version__

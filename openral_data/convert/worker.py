@@ -16,7 +16,7 @@ from pathlib import Path
 
 from openral_data.convert.to_lerobot import CameraTopics, ConvertSummary, convert_bags
 from openral_data.formats.lerobot_v3.video import Codec
-from openral_data.record.parallel.channel import report
+from openral_data.runtime.parallel.channel import report
 from openral_data.schemas.mapping import Mapping
 
 

@@ -19,14 +19,15 @@ from openral_data.producers.hal.base import HalBase
 from openral_data.producers.hal.operator import Command, KeyboardOperator, Operator, ScriptedOperator, parse_script
 from openral_data.producers.hal.safety import SafetyFilter
 from openral_data.producers.hal.twin import MujocoTwinHal, SceneHal
-from openral_data.record import registry
-from openral_data.record.bridge import DatasetBridge
-from openral_data.record.compat import check_compatibility
 from openral_data.record.hal_loop import EpisodeEnd, EpisodeReport, FixedRateLoop, LoopConfig, frame_extras
-from openral_data.record.options import check_run_numbers, fresh_out
+from openral_data.record.options import check_run_numbers
 from openral_data.record.output import claim
 from openral_data.record.runlog import log_episode, log_totals
 from openral_data.record.session import episode_loop
+from openral_data.runtime import registry
+from openral_data.runtime.bridge import DatasetBridge
+from openral_data.runtime.compat import check_compatibility
+from openral_data.runtime.outdir import fresh_out
 from openral_data.schemas.hal import SafetyMode
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
@@ -179,7 +180,7 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
     rskill, rskill_path = registry.resolve_rskill(opts.rskill)
     rskill_src = str(rskill_path)
     make_policy = registry.policy_factory(rskill, rskill_src)
-    from openral_data.record.sinks import check_formats
+    from openral_data.runtime.sinks import check_formats
 
     check_formats(opts.formats, opts.image_format, opts.mcap_compression)
     out = opts.out if opts.out is not None else fresh_out(f"hal-{robot.name}--{rskill.id}")
@@ -211,7 +212,7 @@ def _run(
     out: Path,
     notify: Notify | None,
 ) -> HalRecordSummary:
-    from openral_data.record.sinks import make_sinks
+    from openral_data.runtime.sinks import make_sinks
 
     check_hal(hal, robot, rskill, rskill_src, opts.codec)
     fk = hal.forward_kinematics if isinstance(hal, MujocoTwinHal) else None

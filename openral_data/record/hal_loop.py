@@ -39,7 +39,7 @@ from openral_data.policies.base import PolicyAdapter
 from openral_data.producers.hal.base import HalBase, JointCommand, monotonic
 from openral_data.producers.hal.operator import Command, Operator, ScriptedOperator
 from openral_data.producers.hal.safety import SafetyFilter
-from openral_data.record.bridge import DatasetBridge
+from openral_data.runtime.bridge import DatasetBridge
 from openral_data.types import EpisodeRecord, Observation
 
 REAL_TIMESTAMP = "openral.real_timestamp"

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
-from datetime import datetime
 from pathlib import Path
 
-from openral_data import manifests, paths
-from openral_data.errors import OutputExists, UsageError
+from openral_data import manifests
+from openral_data.errors import UsageError
 from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.runtime.outdir import fresh_out
 from openral_data.schemas.scene import MAX_SEED, SimScene
 from openral_data.types import EpisodeRecord
 
@@ -35,7 +35,7 @@ class RecordOptions:
     view: bool = False  # --view: show the run live in rerun (openral_data/viz/live.py); never changes the dataset
     view_port: int = 9876  # --view: the port a spawned viewer or the served stream listens on
     view_address: str | None = None  # --view: send to this running viewer/server instead (rerun+http://.../proxy)
-    task: str | None = None  # a task of a suite scene (`--task`; see openral_data.record.tasks); None: the YAML's
+    task: str | None = None  # a task of a suite scene (`--task`; see openral_data.runtime.tasks); None: the YAML's
     instruction: str | None = None  # recorded for every frame and given to the policy (`--instruction`)
     device: str | None = None  # a neural policy's torch device (`--device`; wins over the rSkill's)
 
@@ -108,34 +108,3 @@ def rskill_ref(given: str | None, scene: SimScene) -> str:
 
 def default_out(scene: SimScene, rskill_id: str) -> Path:
     return fresh_out(f"{scene.scene.id}--{rskill_id}")
-
-
-def fresh_out(prefix: str) -> Path:
-    """A folder under datasets/ named `<prefix>--<time stamp>` that does not exist yet."""
-    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
-    base = manifests.datasets_dir() / f"{prefix}--{stamp}"
-    out, k = base, 1
-    while out.exists():
-        k += 1
-        out = base.with_name(f"{base.name}-{k}")
-    return out
-
-
-def check_out(out: Path) -> None:
-    """Refuse an `--out` that holds anything but (at most) a writer lock file: a recording starts a new folder."""
-    paths.check_creatable(out, "--out")
-    if out.is_symlink() or (out.exists() and not out.is_dir()):
-        raise OutputExists(f"{out}: --out exists and is not a directory")
-    if out.is_dir() and not all(_lock_only(p) for p in out.iterdir()):
-        if (out / "meta" / "info.json").exists() or (out / ".openral" / "record.json").exists():
-            raise OutputExists(
-                f"{out}: --out already holds a dataset; refusing to overwrite it (choose a new --out, or --resume)"
-            )
-        raise OutputExists(f"{out}: --out exists, is not empty and is not a dataset; refusing to write there")
-
-
-def _lock_only(entry: Path) -> bool:
-    """`entry` is a real `.openral/` folder holding nothing but the writer lock (a live or a killed writer's)."""
-    if entry.name != ".openral" or entry.is_symlink() or not entry.is_dir():
-        return False
-    return all(p.name == "lock" for p in entry.iterdir())

@@ -26,7 +26,8 @@ from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.recovery import Quarantine, recover
 from openral_data.formats.mcap.writer import PARTIAL, finished_bags
 from openral_data.formats.staging import clean_orphans, unwritable
-from openral_data.record.options import RecordOptions, check_out
+from openral_data.record.options import RecordOptions
+from openral_data.runtime.outdir import check_out
 from openral_data.types import DatasetSchema
 
 MCAP_SUBDIR = "mcap"  # sinks.select.MCAP_SUBDIR (not imported: select imports the sinks, which is heavier)
@@ -159,11 +160,11 @@ def _normal(name: str, value: Any) -> Any:
     if value is None:
         return None
     if name == "scene":
-        from openral_data.record.registry import resolve_scene_path
+        from openral_data.runtime.registry import resolve_scene_path
 
         return str(resolve_scene_path(str(value)).resolve())
     if name == "rskill":
-        from openral_data.record.registry import resolve_rskill
+        from openral_data.runtime.registry import resolve_rskill
 
         return str(resolve_rskill(str(value))[1].resolve())
     return value

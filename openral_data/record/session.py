@@ -12,7 +12,7 @@ from pathlib import Path
 
 from openral_data.errors import DiskError, OpenralError, disk_errno
 from openral_data.policies.base import PolicyAdapter
-from openral_data.record.bridge import DatasetBridge
+from openral_data.runtime.bridge import DatasetBridge
 
 
 class StopRequest:

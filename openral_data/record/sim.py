@@ -10,10 +10,7 @@ from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig, warm_up
 from openral_data.formats.mcap import McapSink
 from openral_data.policies.base import PolicyAdapter
 from openral_data.policies.device import resolve_device, with_device
-from openral_data.record import output, registry, tasks
-from openral_data.record.bridge import DatasetBridge
-from openral_data.record.compat import check_compatibility
-from openral_data.record.observers import check_observers, make_observers
+from openral_data.record import output
 from openral_data.record.options import (
     ProgressFn,
     RecordOptions,
@@ -25,6 +22,10 @@ from openral_data.record.options import (
 from openral_data.record.runlog import log_episode, log_totals
 from openral_data.record.session import StopRequest, ended_by, episode_loop
 from openral_data.record.start import start
+from openral_data.runtime import registry, tasks
+from openral_data.runtime.bridge import DatasetBridge
+from openral_data.runtime.compat import check_compatibility
+from openral_data.runtime.observers import check_observers, make_observers
 from openral_data.schemas.scene import load_recordable_scene
 from openral_data.types import DatasetSchema, EpisodeRecord, SimRollout, Sink
 from openral_data.version import __version__
@@ -71,7 +72,7 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
     base_seed = opts.seed if opts.seed is not None else scene.seed
     max_steps = opts.max_steps if opts.max_steps is not None else scene.task.max_steps
     check_run_numbers(n_episodes, max_steps, base_seed)
-    from openral_data.record.sinks import check_formats, make_sinks
+    from openral_data.runtime.sinks import check_formats, make_sinks
 
     check_formats(opts.formats, opts.image_format, opts.mcap_compression)
     out = opts.out if opts.out is not None else default_out(scene, rskill.id)

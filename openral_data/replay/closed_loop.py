@@ -14,11 +14,11 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.policies.base import PolicyAdapter
-from openral_data.record.tasks import instructed
 from openral_data.replay.drive import StepHook, drive, restore
 from openral_data.replay.outcome import EpisodeOutcome, outcome
 from openral_data.replay.policy_mode import checked_action
 from openral_data.replay.recorded import RecordedEpisode
+from openral_data.runtime.tasks import instructed
 from openral_data.types import Observation, SimRollout, StepResult
 
 

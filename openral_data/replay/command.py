@@ -23,10 +23,6 @@ from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.results import is_results_dir, write_results
 from openral_data.policies.base import ChunkingPolicy, PolicyAdapter
 from openral_data.policies.device import resolve_device, with_device
-from openral_data.record import registry
-from openral_data.record.compat import check_compatibility
-from openral_data.record.observers import check_observers, make_observers
-from openral_data.record.tasks import check_instruction
 from openral_data.replay import recorded_policy
 from openral_data.replay.actions import DEFAULT_TOLERANCE, ActionReplayer
 from openral_data.replay.closed_loop import ClosedLoop
@@ -36,6 +32,10 @@ from openral_data.replay.rebuild import SceneView, rebuild
 from openral_data.replay.recorded import RecordedDataset
 from openral_data.replay.rerecord import Rerecorder, load_view
 from openral_data.replay.tables import episodes_table, steps_table
+from openral_data.runtime import registry
+from openral_data.runtime.compat import check_compatibility
+from openral_data.runtime.observers import check_observers, make_observers
+from openral_data.runtime.tasks import check_instruction
 from openral_data.schemas.rskill import RSkillManifest
 
 Mode = Literal["actions", "policy", "closed-loop"]

@@ -10,8 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from openral_data.errors import ReplayError
-from openral_data.record import registry
 from openral_data.replay.recorded import RecordedDataset
+from openral_data.runtime import registry
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import RenderConfig, SceneCamera, SceneSpec, SimScene, TaskSpec

@@ -8,7 +8,7 @@ not depend on cameras, so the replay is the same.
 OUT is written in a hidden staging folder beside it (`formats.staging`) and renamed into place when the replay
 ends normally; a failed or killed replay leaves nothing under OUT.
 
-The same bridge feeds a closed-loop replay's `--save-video` / `--view` observers (openral_data/record/observers.py)
+The same bridge feeds a closed-loop replay's `--save-video` / `--view` observers (openral_data/runtime/observers.py)
 the frames `record` would show them; without `--record` it has no sinks and only they watch the run.
 """
 
@@ -27,11 +27,11 @@ from openral_data.errors import CompatibilityError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.staging import Staging
-from openral_data.record.bridge import DatasetBridge
-from openral_data.record.options import check_out
-from openral_data.record.sinks import check_formats, make_sinks
 from openral_data.replay.drive import StepHook
 from openral_data.replay.rebuild import Rebuilt, SceneView
+from openral_data.runtime.bridge import DatasetBridge
+from openral_data.runtime.outdir import check_out
+from openral_data.runtime.sinks import check_formats, make_sinks
 from openral_data.schemas.base import StrictModel, load_model
 from openral_data.schemas.scene import RenderConfig, SceneCamera
 from openral_data.types import DatasetSchema, EpisodeRecord, FrameObserver, Observation, Sink, StepResult

@@ -15,9 +15,9 @@ import yaml
 from openral_data.errors import CompatibilityError, ConfigError
 from openral_data.formats.results import open_results
 from openral_data.policies.base import ChunkingPolicy
-from openral_data.record import registry
 from openral_data.replay import ReplayOptions, replay
 from openral_data.replay.recorded import RecordedDataset
+from openral_data.runtime import registry
 from openral_data.types import Observation
 from tests.support.checkpoint import make_act_checkpoint, make_diffusion_checkpoint
 from tests.support.cli import run_cli

@@ -11,7 +11,7 @@ import pytest
 from openral_data.errors import ConfigError
 from openral_data.policies.scripted import ScriptedOpenDrawer, ScriptedPickPlace
 from openral_data.producers.sim.mujoco.scene import TabletopScene
-from openral_data.record import registry
+from openral_data.runtime import registry
 from openral_data.types import Observation
 from tests.support.cli import run_cli
 from tests.support.mujoco import shipped_scene

@@ -19,8 +19,8 @@ from openral_data.errors import EstopLatched, HalError, OpenralError
 from openral_data.producers.hal.base import JointCommand
 from openral_data.producers.hal.operator import ScriptedOperator, parse_script
 from openral_data.producers.hal.safety import SafetyFilter
-from openral_data.record import registry
 from openral_data.record.hal_loop import EpisodeEnd
+from openral_data.runtime import registry
 from openral_data.types import Observation
 from tests.support.cli import run_cli
 from tests.support.hal import SlowCamera, SlowPolicy, episode_infos, frames_table, run_loop, ur5e_twin
@@ -251,8 +251,8 @@ def test_a_dead_camera_abandons_the_episode_with_an_error(tmp_path: Path) -> Non
     hal.cameras["dead"] = SlowCamera("dead", period=2.0)  # its first image comes long after the abort
     rskill, _ = registry.resolve_rskill("sweep-ur5e")
     from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
-    from openral_data.record.bridge import DatasetBridge
     from openral_data.record.hal_loop import FixedRateLoop, LoopConfig, frame_extras
+    from openral_data.runtime.bridge import DatasetBridge
     from openral_data.types import DatasetSchema
 
     schema = DatasetSchema(

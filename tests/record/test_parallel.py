@@ -12,9 +12,9 @@ from rosbags.highlevel import AnyReader
 from openral_data.doctor import check
 from openral_data.errors import OutputExists, UsageError
 from openral_data.record.options import RecordOptions
-from openral_data.record.parallel.executors import run_on
 from openral_data.record.parallel.run import record_parallel
 from openral_data.record.sim import record
+from openral_data.runtime.parallel.executors import run_on
 from tests.support.cli import run_cli
 from tests.support.probe_worker import Probe, init_probe, probe
 from tests.support.scenes import mock_scene, write_yaml

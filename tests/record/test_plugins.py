@@ -16,7 +16,7 @@ import pytest
 from openral_data import POLICIES, SCENES
 from openral_data.policies.base import PolicyAdapter
 from openral_data.policies.basic import ZeroPolicy
-from openral_data.record import registry
+from openral_data.runtime import registry
 from openral_data.schemas.rskill import RSkillManifest
 from tests.cli.test_json import check_object
 from tests.support.cli import run_cli

@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 
 from openral_data.errors import UsageError
-from openral_data.record import registry
 from openral_data.replay import ReplayOptions, replay
+from openral_data.runtime import registry
 from tests.support.policies import listening
 from tests.support.replay import record_mock
 

@@ -18,11 +18,11 @@ from openral_data.errors import OutputExists, ReplayError
 from openral_data.formats.results import open_results
 from openral_data.metrics.command import StatsOptions, run_stats
 from openral_data.producers.sim.mock import MockScene
-from openral_data.record import registry
 from openral_data.replay import ReplayOptions, replay
 from openral_data.replay.actions import DEFAULT_TOLERANCE, ActionReplayer
 from openral_data.replay.rebuild import SceneView, rebuild
 from openral_data.replay.recorded import RecordedDataset
+from openral_data.runtime import registry
 from tests.support.cli import run_cli
 from tests.support.home import isolated_home
 from tests.support.replay import record_mock, record_push

@@ -17,9 +17,9 @@ from openral_data.producers.hal.operator import Operator
 from openral_data.producers.hal.safety import SafetyFilter
 from openral_data.producers.hal.sensors import ThreadedCamera
 from openral_data.producers.hal.twin import MujocoTwinHal
-from openral_data.record import registry
-from openral_data.record.bridge import DatasetBridge
 from openral_data.record.hal_loop import EpisodeEnd, EpisodeReport, FixedRateLoop, LoopConfig, frame_extras
+from openral_data.runtime import registry
+from openral_data.runtime.bridge import DatasetBridge
 from openral_data.types import CameraShape, DatasetSchema, Observation
 
 

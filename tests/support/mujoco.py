@@ -14,9 +14,9 @@ import yaml
 from openral_data.errors import ConfigError
 from openral_data.producers.sim.mujoco.assets import check_robosuite_assets
 from openral_data.producers.sim.mujoco.scene import TabletopScene
-from openral_data.record import registry
 from openral_data.record.options import RecordOptions
 from openral_data.record.sim import record
+from openral_data.runtime import registry
 from openral_data.schemas.rskill import Contract, RSkillManifest
 from openral_data.schemas.scene import RenderConfig, SceneCamera, SimScene, load_recordable_scene
 from tests.support.scenes import write_yaml

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, WriterConfig
-from openral_data.record.bridge import DatasetBridge
+from openral_data.runtime.bridge import DatasetBridge
 from openral_data.types import CameraShape, DatasetSchema, Observation
 
 H, W = 128, 192

@@ -7,7 +7,7 @@ import signal
 import time
 from dataclasses import dataclass
 
-from openral_data.record.parallel.channel import report
+from openral_data.runtime.parallel.channel import report
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ import pyarrow.parquet as pq
 import yaml
 
 from openral_data.formats.results import open_results
-from openral_data.record import registry
+from openral_data.runtime import registry
 from openral_data.schemas.scene import SceneCamera, SimScene, load_recordable_scene
 from openral_data.types import Observation, SimRollout
 from tests.support.cli import run_cli

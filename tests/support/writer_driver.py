@@ -23,7 +23,7 @@ from typing import Any
 
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
 from openral_data.formats.lerobot_v3.layout import INFO_PATH
-from openral_data.record.bridge import DatasetBridge
+from openral_data.runtime.bridge import DatasetBridge
 from tests.support.crash import die_at_mutation
 from tests.support.patterned import unit_schema, write_episodes
 

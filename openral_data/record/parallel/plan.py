@@ -7,8 +7,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from openral_data.errors import UsageError
-from openral_data.record import registry
 from openral_data.record.options import RecordOptions
+from openral_data.runtime import registry
 from openral_data.schemas.scene import load_recordable_scene
 
 

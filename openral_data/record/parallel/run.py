@@ -25,13 +25,13 @@ from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.mcap import finished_bags
 from openral_data.formats.staging import Staging
-from openral_data.record import registry
 from openral_data.record.options import RecordOptions, RecordSummary, default_out, rskill_ref
 from openral_data.record.output import Claim, claim
-from openral_data.record.parallel.executors import run_jobs
 from openral_data.record.parallel.plan import plan
-from openral_data.record.parallel.worker import WorkerResult
-from openral_data.record.sinks import MCAP_SUBDIR, check_formats
+from openral_data.record.parallel.worker import WorkerResult, init_local_worker, run_worker
+from openral_data.runtime import registry
+from openral_data.runtime.parallel.executors import run_on
+from openral_data.runtime.sinks import MCAP_SUBDIR, check_formats
 from openral_data.schemas.scene import load_recordable_scene
 from openral_data.types import EpisodeRecord
 
@@ -69,7 +69,7 @@ def record_parallel(
     t0 = time.perf_counter()
     try:
         jobs = plan(opts, workers, workdir, threads)
-        results = run_jobs(jobs, executor, address)
+        results = run_on(jobs, run_worker, executor, address, initializer=init_local_worker)
         episodes = _assemble(results, workdir, held, opts.formats)
     except BaseException as exc:
         held.release()  # (a no-op once `_assemble` let go of it for the rename)

@@ -30,7 +30,7 @@ import pytest
 from openral_data.doctor import check
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, WriterConfig, layout
 from openral_data.formats.lerobot_v3.recovery import recover
-from openral_data.record.bridge import DatasetBridge
+from openral_data.runtime.bridge import DatasetBridge
 from tests.support.crash import KILLED
 from tests.support.home import REPO
 from tests.support.patterned import check_loads, dataset_states, unit_schema, write_episodes

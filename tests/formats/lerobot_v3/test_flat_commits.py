@@ -13,7 +13,7 @@ from openral_data.doctor import check
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig, digests
 from openral_data.formats.lerobot_v3.reader import read_episodes
 from openral_data.formats.lerobot_v3.recovery import recover
-from openral_data.record.bridge import DatasetBridge
+from openral_data.runtime.bridge import DatasetBridge
 from tests.support.patterned import check_loads, dataset_states, write_dataset, write_episodes
 
 H264 = VideoSettings(codec="h264")

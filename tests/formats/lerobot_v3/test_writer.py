@@ -17,7 +17,7 @@ from openral_data.errors import CompatibilityError, ContractViolation, DiskError
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig, summarize
 from openral_data.formats.lerobot_v3.features import build_features
 from openral_data.formats.lerobot_v3.reader import read_episodes
-from openral_data.record.bridge import DatasetBridge
+from openral_data.runtime.bridge import DatasetBridge
 from openral_data.types import CameraShape, DatasetSchema, EpisodeStart, Frame, Observation
 from tests.support.faults import Faults, inject
 from tests.support.patterned import H, W, check_loads, patterned, write_dataset

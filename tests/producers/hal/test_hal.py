@@ -14,7 +14,7 @@ from openral_data.producers.hal.base import JointCommand, RobotState
 from openral_data.producers.hal.operator import Command, KeyboardOperator, ScriptedOperator, parse_script
 from openral_data.producers.hal.safety import SafetyFilter
 from openral_data.producers.hal.twin import MujocoTwinHal
-from openral_data.record import registry
+from openral_data.runtime import registry
 from openral_data.schemas.hal import SafetyConfig, Workspace
 from tests.support.hal import ur5e_twin
 

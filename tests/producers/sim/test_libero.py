@@ -151,8 +151,8 @@ def test_task_records_another_task_of_the_suite(project: Path, tmp_path: Path) -
     import_libero("test")  # configured first: a bare `import libero.libero` prompts
     from libero.libero import benchmark
 
-    from openral_data.record.tasks import tasks_of
     from openral_data.replay.recorded import RecordedDataset
+    from openral_data.runtime.tasks import tasks_of
 
     path = project / "scenes/sim/libero_small.yaml"
     path.write_text(json.dumps(_small().model_dump(mode="json")))
@@ -199,7 +199,7 @@ def _bddl_scene(folder: Path, **params: Any) -> Path:
 
 def _build_file(path: Path) -> Any:
     """The scene of a YAML file, built as `record` builds it (the file's path is the source)."""
-    from openral_data.record import registry
+    from openral_data.runtime import registry
     from openral_data.schemas.scene import load_recordable_scene
 
     scene = load_recordable_scene(path)
@@ -258,7 +258,7 @@ def test_bddl_and_init_state_files_are_checked(tmp_path: Path) -> None:
         _build_file(scene)
 
     # the packaged form: a file a package ships, e.g. LIBERO's own; `list tasks` / `--task` see the BDDL's one task
-    from openral_data.record.tasks import tasks_of
+    from openral_data.runtime.tasks import tasks_of
 
     packaged = _bddl_scene(
         tmp_path / "pkg", bddl="pkg://libero/libero/bddl_files/libero_goal/put_the_bowl_on_the_plate.bddl"

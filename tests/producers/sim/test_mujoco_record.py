@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 import yaml
 
-from openral_data.record import registry
 from openral_data.record.options import RecordOptions
 from openral_data.record.sim import record
+from openral_data.runtime import registry
 from tests.support.cli import run_cli
 from tests.support.mujoco import expert_rskill, red_mask, shipped_scene
 from tests.support.scenes import write_yaml

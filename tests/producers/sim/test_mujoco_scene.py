@@ -9,7 +9,7 @@ import pytest
 
 # CompatibilityError and ConfigError raises are matched by message on purpose: the file and field it names are the point
 from openral_data.errors import CompatibilityError, ConfigError
-from openral_data.record import registry
+from openral_data.runtime import registry
 from openral_data.types import SimRollout
 from tests.support.home import REPO
 from tests.support.mujoco import FRONT, OVERHEAD, WRIST, joint_rskill, make_scene, project, red_mask, run_expert

@@ -14,7 +14,7 @@ import yaml
 from openral_data.errors import ConfigError
 from openral_data.producers.sim.mujoco.twin import TwinScene
 from openral_data.producers.sim.mujoco.units import UnitMap
-from openral_data.record import registry
+from openral_data.runtime import registry
 from openral_data.schemas.mujoco import ManifestUnits
 from openral_data.schemas.scene import SceneSpec, SimScene, TaskSpec
 

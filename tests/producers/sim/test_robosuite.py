@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from openral_data.errors import CompatibilityError, ConfigError
-from openral_data.record import registry
 from openral_data.record.options import RecordOptions
 from openral_data.record.sim import record
+from openral_data.runtime import registry
 from openral_data.schemas.rskill import Contract, RSkillManifest
 from openral_data.types import SimRollout
 from tests.support.suites import (

@@ -11,9 +11,9 @@ import pytest
 
 # ConfigError raises are matched by message on purpose: the file and field it names are the point
 from openral_data.errors import ConfigError
-from openral_data.record import registry
 from openral_data.record.options import RecordOptions
 from openral_data.record.sim import record
+from openral_data.runtime import registry
 from openral_data.schemas.scene import BenchmarkScene, load_recordable_scene
 from tests.support.cli import run_cli
 from tests.support.home import REPO

@@ -291,7 +291,7 @@ def test_privileged_objects_and_restore_cover_every_object() -> None:
 
 def test_the_task_label_of_a_push_scene_cannot_be_changed() -> None:
     scene = shipped_scene("push", params={"task": "other"})
-    from openral_data.record import registry
+    from openral_data.runtime import registry
     from tests.support.mujoco import expert_rskill
 
     with pytest.raises(ConfigError, match=r"scene\.params\.task: scene type 'tabletop_push' is the task 'push'"):
@@ -346,7 +346,7 @@ def test_a_mesh_path_leading_out_of_its_package_is_refused() -> None:
 
 
 def test_the_documented_example_scene_builds_and_resets(tmp_path: Any) -> None:
-    from openral_data.record import registry
+    from openral_data.runtime import registry
     from openral_data.schemas.scene import load_recordable_scene
     from tests.support.home import REPO
     from tests.support.mujoco import expert_rskill

@@ -9,7 +9,7 @@ import pytest
 
 # ConfigError raises are matched by message on purpose: the file and field it names are the point
 from openral_data.errors import ConfigError, UsageError
-from openral_data.record import registry
+from openral_data.runtime import registry
 from tests.support.home import BUILTIN
 
 

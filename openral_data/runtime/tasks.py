@@ -89,7 +89,7 @@ def instructed(obs: Observation, instruction: str | None) -> Observation:
 
 def tasks_of(scene_ref: str) -> tuple[SimScene, list[SuiteTask]]:
     """`list tasks SCENE`: the scene (an id or a YAML path) and its type's tasks."""
-    from openral_data.record.registry import resolve_scene_path
+    from openral_data.runtime.registry import resolve_scene_path
     from openral_data.schemas.scene import load_recordable_scene
 
     path = resolve_scene_path(scene_ref)

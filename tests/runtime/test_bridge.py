@@ -9,7 +9,7 @@ import pytest
 
 # ContractViolation raises are matched by message on purpose: the file and field it names are the point
 from openral_data.errors import ContractViolation
-from openral_data.record.bridge import DatasetBridge
+from openral_data.runtime.bridge import DatasetBridge
 from openral_data.types import CameraShape, DatasetSchema, EpisodeRecord, EpisodeStart, Frame, Observation
 
 SCHEMA = DatasetSchema(

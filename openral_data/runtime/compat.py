@@ -12,7 +12,7 @@ from openral_data.types import ProducerSpec
 def rskills_for(robot: RobotManifest, spec: ProducerSpec | None = None) -> list[str]:
     """Ids of the shipped rSkills whose embodiment tags overlap the robot's and (with `spec`) whose state and
     action sizes and required cameras are what the scene has (unreadable manifests skipped)."""
-    from openral_data.record import registry
+    from openral_data.runtime import registry
 
     fitting = []
     for rskill_id in registry.rskill_ids():

@@ -12,7 +12,7 @@ from functools import partial
 
 from openral_data import manifests
 from openral_data.errors import OpenralError
-from openral_data.record import registry
+from openral_data.runtime import registry
 from openral_data.schemas.base import load_model
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import load_scene

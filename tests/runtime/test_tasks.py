@@ -10,10 +10,10 @@ from pathlib import Path
 import pytest
 
 from openral_data.errors import UsageError
-from openral_data.record import registry
 from openral_data.record.options import RecordOptions
 from openral_data.record.sim import record
-from openral_data.record.tasks import SCENE_TASKS, choose_task, tasks_of
+from openral_data.runtime import registry
+from openral_data.runtime.tasks import SCENE_TASKS, choose_task, tasks_of
 from tests.support.cli import run_cli
 from tests.support.policies import listening
 from tests.support.scenes import mock_scene, write_yaml

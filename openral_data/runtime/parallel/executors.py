@@ -1,8 +1,8 @@
 """Run worker jobs: local processes (`spawn`, so no simulator or GL state is inherited) or a Ray cluster.
 
 Both return results in the order the workers finished; the caller orders its output by the jobs (seed, bag
-order), never by that. `record --workers` runs `worker.run_worker` on `plan.WorkerJob`s (the defaults);
-`convert --workers` runs its own job function on its own jobs through the same executors.
+order), never by that. `record --workers` runs `openral_data.record.parallel.worker.run_worker` on its
+`plan.WorkerJob`s and `convert --workers` its own job function on its own jobs, each with its own initializer.
 """
 
 from __future__ import annotations
@@ -18,9 +18,7 @@ from typing import Any, Protocol
 
 from openral_data import manifests
 from openral_data.errors import ExecutorError, OpenralError, UsageError
-from openral_data.record.parallel.channel import START_HELD, STOP_HELD, held, start_worker
-from openral_data.record.parallel.plan import WorkerJob
-from openral_data.record.parallel.worker import WorkerResult, init_local_worker, run_worker
+from openral_data.runtime.parallel.channel import START_HELD, STOP_HELD, held, start_worker
 
 EXECUTORS = ("local", "ray")
 
@@ -48,7 +46,7 @@ _FORWARDED_ENV = (
 def run_local[J, R: Finished](
     jobs: list[J],
     fn: Callable[[J], R],
-    initializer: Callable[[], None] = init_local_worker,
+    initializer: Callable[[], None],
     on_finished: Callable[[R], None] | None = None,
     on_report: Callable[[Any], None] | None = None,
 ) -> list[R]:
@@ -171,11 +169,6 @@ def _init_ray(ray: Any, address: str | None, kwargs: dict[str, Any]) -> None:
                 raise ExecutorError(f"--executor ray: could not start a local Ray instance: {exc}") from None
 
 
-def run_jobs(jobs: list[WorkerJob], executor: str = "local", address: str | None = None) -> list[WorkerResult]:
-    """`record --workers`: each job records its share of the seeds."""
-    return run_on(jobs, run_worker, executor, address)
-
-
 def check_executor(executor: str, address: str | None = None) -> None:
     """The executor's name and --address, checked before any work starts (exit 2, one line)."""
     if executor not in EXECUTORS:
@@ -189,7 +182,8 @@ def run_on[J, R: Finished](
     fn: Callable[[J], R],
     executor: str = "local",
     address: str | None = None,
-    initializer: Callable[[], None] = init_local_worker,
+    *,
+    initializer: Callable[[], None],
     on_finished: Callable[[R], None] | None = None,
     on_report: Callable[[Any], None] | None = None,
 ) -> list[R]:

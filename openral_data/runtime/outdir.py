@@ -1,0 +1,41 @@
+"""Output folders of the commands that write a new dataset (`record`, `replay --record`): a fresh default name
+under datasets/, and the refusal of an `--out` that already holds something."""
+
+from __future__ import annotations
+
+from datetime import datetime
+from pathlib import Path
+
+from openral_data import manifests, paths
+from openral_data.errors import OutputExists
+
+
+def fresh_out(prefix: str) -> Path:
+    """A folder under datasets/ named `<prefix>--<time stamp>` that does not exist yet."""
+    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
+    base = manifests.datasets_dir() / f"{prefix}--{stamp}"
+    out, k = base, 1
+    while out.exists():
+        k += 1
+        out = base.with_name(f"{base.name}-{k}")
+    return out
+
+
+def check_out(out: Path) -> None:
+    """Refuse an `--out` that holds anything but (at most) a writer lock file: a recording starts a new folder."""
+    paths.check_creatable(out, "--out")
+    if out.is_symlink() or (out.exists() and not out.is_dir()):
+        raise OutputExists(f"{out}: --out exists and is not a directory")
+    if out.is_dir() and not all(_lock_only(p) for p in out.iterdir()):
+        if (out / "meta" / "info.json").exists() or (out / ".openral" / "record.json").exists():
+            raise OutputExists(
+                f"{out}: --out already holds a dataset; refusing to overwrite it (choose a new --out, or --resume)"
+            )
+        raise OutputExists(f"{out}: --out exists, is not empty and is not a dataset; refusing to write there")
+
+
+def _lock_only(entry: Path) -> bool:
+    """`entry` is a real `.openral/` folder holding nothing but the writer lock (a live or a killed writer's)."""
+    if entry.name != ".openral" or entry.is_symlink() or not entry.is_dir():
+        return False
+    return all(p.name == "lock" for p in entry.iterdir())
