@@ -46,6 +46,7 @@ from openral_data.convert.sources import (
 from openral_data.errors import BagError
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
 from openral_data.formats.lerobot_v3.depth import DepthSettings, DepthUnit
+from openral_data.formats.lerobot_v3.provenance import Origin
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.mcap.messages import decode_image
 from openral_data.formats.staging import Staging, check_new_output
@@ -347,11 +348,11 @@ class _Converter:
             robot_type=self.mapping.robot_type,
             has_reward=self.mapping.reward is not None,
             has_success=self.mapping.success is not None,
-            metadata={
-                "openral_data_version": __version__,
-                "converted_from": str(self.summary.src),
-                "mapping": self.mapping.model_dump(mode="json"),
-            },
+            metadata=Origin(
+                openral_data_version=__version__,
+                converted_from=str(self.summary.src),
+                mapping=self.mapping.model_dump(mode="json"),
+            ).to_json(),
         )
         depth = DepthSettings(**self.mapping.depth.model_dump())
         self.writer = LeRobotV3Writer(

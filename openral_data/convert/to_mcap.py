@@ -24,6 +24,7 @@ from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX, camera_keys, 
 from openral_data.formats.lerobot_v3.frames import episode_frames
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE
 from openral_data.formats.lerobot_v3.masks import MASK_IDS, is_mask
+from openral_data.formats.lerobot_v3.provenance import Origin
 from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_tasks
 from openral_data.formats.lerobot_v3.success import episode_successes
 from openral_data.formats.mcap import McapConfig, McapSink
@@ -113,7 +114,7 @@ def export_mcap(
         action_names=tuple(dim_names(features["action"], "action")),
         cameras={n: _camera_shape(f) for n, f in cams.items()},
         robot_type=str(info.get("robot_type") or "unknown"),
-        metadata={"exported_from": str(src)},
+        metadata=Origin(exported_from=str(src)).to_json(),
         has_reward="next.reward" in features,
         has_success="next.success" in features,
         environment_state_names=(

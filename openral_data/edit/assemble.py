@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +25,7 @@ from openral_data.edit.source import EpisodeData
 from openral_data.errors import DatasetError
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.provenance import EditRecord, Provenance
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator, Stats, merge_numeric
 from openral_data.formats.lerobot_v3.video import EncodedEpisode
 from openral_data.formats.lerobot_v3.writer import EpisodeBuffer, LeRobotV3Writer, WriterConfig
@@ -60,7 +62,7 @@ class EpisodeAssembler:
         root: Path,
         schema: DatasetSchema,
         config: WriterConfig,
-        provenance: dict[str, Any],
+        provenance: EditRecord,
         image_hist: dict[str, ImageStatsAccumulator] | None = None,
         features: dict[str, dict[str, Any]] | None = None,
         column_hist: dict[str, ImageStatsAccumulator] | None = None,
@@ -74,9 +76,8 @@ class EpisodeAssembler:
         self.schema = schema
         self._exact_hist = image_hist
         self._column_hist = column_hist
-        meta = json.loads((root / layout.OPENRAL_PATH).read_text())
-        meta["edit"] = provenance
-        atomic.write_bytes(root / layout.OPENRAL_PATH, json.dumps(meta, indent=2).encode(), config.durable)
+        written = Provenance.from_json(json.loads((root / layout.OPENRAL_PATH).read_text()))
+        atomic.write_bytes(root / layout.OPENRAL_PATH, replace(written, edit=provenance).dumps(), config.durable)
 
     @property
     def total_episodes(self) -> int:

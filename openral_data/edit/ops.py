@@ -20,6 +20,7 @@ from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.episodes import parse_episodes
 from openral_data.errors import DatasetError, EpisodeSelectionError, UsageError
 from openral_data.formats.lerobot_v3.lock import DatasetLock
+from openral_data.formats.lerobot_v3.provenance import EditRecord, EditSource, Origin
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
 from openral_data.formats.lerobot_v3.writer import WriterConfig
 from openral_data.formats.staging import Staging, check_new_output
@@ -120,15 +121,12 @@ def write_selection(
     sources: dict[Path, list[int]] = {}
     for src, e in selection:
         sources.setdefault(src.root, []).append(e)
-    provenance = {
-        "op": op,
-        "sources": [
-            {"path": str(root.resolve()), "episodes": eps, "schema_metadata": _meta_of(selection, root)}
-            for root, eps in sources.items()
-        ],
-    }
     change = rewrite or Rewrite()
-    provenance.update(change.details)
+    provenance = EditRecord(
+        op,
+        [EditSource(str(root.resolve()), list(eps), _meta_of(selection, root)) for root, eps in sources.items()],
+        dict(change.details),
+    )
     staged = Staging(out, f"openral-data {op}")
     with staged as staging:
         writer = EpisodeAssembler(
@@ -157,9 +155,9 @@ def write_selection(
     return EditResult(out, len(selection), frames)
 
 
-def _meta_of(selection: Selection, root: Path) -> dict[str, Any]:
+def _meta_of(selection: Selection, root: Path) -> Origin:
     src = next(s for s, _ in selection if s.root == root)
-    return dict(src.openral.get("schema_metadata") or {})
+    return src.origin
 
 
 # -- the operations by index ------------------------------------------------------------------------------------

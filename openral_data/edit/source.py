@@ -40,7 +40,8 @@ from openral_data.formats.lerobot_v3.features import (
 )
 from openral_data.formats.lerobot_v3.lock import check_settled
 from openral_data.formats.lerobot_v3.masks import is_mask
-from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_openral, read_tasks
+from openral_data.formats.lerobot_v3.provenance import Origin, read_provenance
+from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_tasks
 from openral_data.formats.lerobot_v3.stats import STAT_KEYS, ImageStatsAccumulator, Stats
 from openral_data.formats.lerobot_v3.video import VideoSettings
 from openral_data.formats.lerobot_v3.writer import WriterConfig
@@ -83,7 +84,7 @@ class SourceDataset:
         info_total = int(self.info.get("total_episodes", 0))
         self.total = min(info_total, self.episodes.num_rows)  # the loader exposes no more than info's total
         self.task_names = read_tasks(root) if self.info.get("total_tasks") else []
-        self.openral = self._openral_json()
+        self.origin = self._origin()
         # camera name -> key of every video camera (`features.camera_keys`: lerobot/pusht's `observation.image`
         # is `image`); a `dtype: image` camera is a carried column
         self.camera_key = {n: k for n, k in camera_keys(self.features).items() if self.features[k]["dtype"] == "video"}
@@ -100,8 +101,11 @@ class SourceDataset:
         self._data_cache: tuple[Path, pa.Table] | None = None
 
     # -- what the dataset is ---------------------------------------------------------------------------------
-    def _openral_json(self) -> dict[str, Any]:
-        return read_openral(self.root) or {}
+    def _origin(self) -> Origin:
+        """Where the source's frames came from (its `meta/openral.json`), carried into what an edit writes; empty
+        for a dataset without one."""
+        provenance = read_provenance(self.root)
+        return provenance.origin if provenance is not None and provenance.origin is not None else Origin()
 
     def camera_names(self) -> list[str]:
         return list(self.camera_key)
@@ -136,7 +140,7 @@ class SourceDataset:
             action_names=tuple(dim_names(action, ACTION)),
             cameras=cameras,
             robot_type=str(self.info.get("robot_type")),
-            metadata=dict(self.openral.get("schema_metadata") or {}),
+            metadata=self.origin.to_json(),
             has_reward="next.reward" in self.features,
             has_success="next.success" in self.features,
         )

@@ -21,7 +21,8 @@ from typing import Any
 from huggingface_hub import DatasetCard, DatasetCardData
 
 from openral_data.formats.lerobot_v3 import layout
-from openral_data.formats.lerobot_v3.reader import DatasetSummary, read_episodes, read_info, read_openral, summarize
+from openral_data.formats.lerobot_v3.provenance import EditRecord, Origin, Provenance, read_provenance
+from openral_data.formats.lerobot_v3.reader import DatasetSummary, read_episodes, read_info, summarize
 from openral_data.metrics.intervals import wilson
 from openral_data.version import __version__
 
@@ -52,7 +53,7 @@ def dataset_card(root: Path, opts: CardOptions) -> str:
     """README.md for `root` pushed as `opts.repo_id`."""
     info = read_info(root)
     summary = summarize(root)
-    meta = read_openral(root)
+    meta = read_provenance(root)
     description = "\n\n".join(
         [
             _summary(summary),
@@ -144,24 +145,22 @@ def _names(names: Any) -> str:
     return str(names)
 
 
-def _provenance(root: Path, meta: dict[str, Any] | None) -> str:
+def _provenance(root: Path, meta: Provenance | None) -> str:
     if meta is None:
         lines = [f"- Written by LeRobot (or another LeRobot v3 writer): it has no `{layout.OPENRAL_PATH}`."]
     else:
-        version = _get(meta, "schema_metadata", "openral_data_version")
+        version = meta.origin.openral_data_version if meta.origin is not None else None
         lines = [f"- Written by openral-data {version or '(version not recorded)'}."]
-        edit = meta.get("edit")
-        if isinstance(edit, dict):
-            lines.append(_edit_line(edit))
-        metas = [meta.get("schema_metadata")] + [
-            s.get("schema_metadata") for s in _list(_get(meta, "edit", "sources")) if isinstance(s, dict)
-        ]
-        for label, path in (
-            ("Scenes", ("scene", "config", "scene", "id")),
-            ("rSkills", ("rskill", "config", "id")),
-            ("Robots", ("robot",)),
+        if meta.edit is not None:
+            lines.append(_edit_line(meta.edit))
+        metas: list[Origin] = [m for m in [meta.origin] if m is not None]
+        metas += [s.origin for s in (meta.edit.sources if meta.edit else []) if s.origin is not None]
+        for label, values in (
+            ("Scenes", {m.scene_id for m in metas}),
+            ("rSkills", {m.rskill_id for m in metas}),
+            ("Robots", {m.robot for m in metas}),
         ):
-            found = sorted({str(v) for m in metas if (v := _get(m, *path)) is not None})
+            found = sorted(v for v in values if v is not None)
             if found:
                 lines.append(f"- {label}: " + ", ".join(f"`{_inline(v)}`" for v in found))
     seeds = _seeds(root)
@@ -171,13 +170,9 @@ def _provenance(root: Path, meta: dict[str, Any] | None) -> str:
     return "### Provenance\n\n" + "\n".join(lines)
 
 
-def _edit_line(edit: dict[str, Any]) -> str:
-    parts = [
-        f"`{_inline(Path(str(s.get('path', '?'))).name)}` (episodes {_ranges(_ints(s.get('episodes')))})"
-        for s in _list(edit.get("sources"))
-        if isinstance(s, dict)
-    ]
-    return f"- Edited with openral-data `{_inline(str(edit.get('op', '?')))}` from " + (", ".join(parts) or "?") + "."
+def _edit_line(edit: EditRecord) -> str:
+    parts = [f"`{_inline(Path(s.path or '?').name)}` (episodes {_ranges(_ints(s.episodes))})" for s in edit.sources]
+    return f"- Edited with openral-data `{_inline(edit.op or '?')}` from " + (", ".join(parts) or "?") + "."
 
 
 def _seeds(root: Path) -> str:
@@ -205,15 +200,6 @@ def _ints(values: Any) -> list[int]:
 
 def _list(value: Any) -> list[Any]:
     return value if isinstance(value, list) else []
-
-
-def _get(data: Any, *keys: str) -> Any:
-    """`data[k1][k2]...`, or None where a level is missing or not a mapping (meta/openral.json is untrusted)."""
-    for key in keys:
-        if not isinstance(data, dict):
-            return None
-        data = data.get(key)
-    return data
 
 
 def _inline(text: str) -> str:

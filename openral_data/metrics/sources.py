@@ -12,7 +12,8 @@ from openral_data.formats import results as results_layout
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.features import ACTION, STATE, dim_names
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE
-from openral_data.formats.lerobot_v3.reader import read_info, read_openral
+from openral_data.formats.lerobot_v3.provenance import read_provenance
+from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.parquetfile import read_schema
 
 
@@ -64,12 +65,10 @@ def open_dataset(root: Path, label: str | None = None) -> DatasetSource:
     episode_columns = _columns(episode_files[0])
     data_columns = _columns(data_files[0]) if data_files else frozenset()
     scene = rskill = robot = None
-    provenance = read_openral(root)
-    if provenance is not None:
-        meta = provenance.get("schema_metadata", {})
-        scene = _dig(meta, "scene", "config", "scene", "id")
-        rskill = _dig(meta, "rskill", "config", "id")
-        robot = meta.get("robot") if isinstance(meta.get("robot"), str) else None
+    provenance = read_provenance(root)
+    meta = provenance.origin if provenance is not None else None
+    if meta is not None:
+        scene, rskill, robot = meta.scene_id, meta.rskill_id, meta.robot
     return DatasetSource(
         label=label or root.name,
         root=root,
@@ -86,14 +85,6 @@ def open_dataset(root: Path, label: str | None = None) -> DatasetSource:
 
 def _columns(path: Path) -> frozenset[str]:
     return frozenset(read_schema(path).names)
-
-
-def _dig(obj: Any, *keys: str) -> str | None:
-    for key in keys:
-        if not isinstance(obj, dict):
-            return None
-        obj = obj.get(key)
-    return obj if isinstance(obj, str) else None
 
 
 def resolve(paths: list[str]) -> tuple[list[DatasetSource], list[results_layout.Results]]:

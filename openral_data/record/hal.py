@@ -13,6 +13,7 @@ from typing import Literal
 from openral_data import manifests
 from openral_data.errors import CompatibilityError, ConfigError, UsageError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
+from openral_data.formats.lerobot_v3.provenance import HalOrigin, Origin, Recorded, SafetyRecord
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.policies.base import PolicyAdapter
 from openral_data.producers.hal.base import HalBase
@@ -233,13 +234,13 @@ def _run(
         action_names=tuple(rskill.action_contract.names),
         cameras={n: hal.cameras[n].shape for n in cameras},
         robot_type=robot.name,
-        metadata={
-            "openral_data_version": __version__,
-            "hal": {"robot": robot.name, "mode": opts.mode, "kind": type(hal).__name__, "scene": opts.scene},
-            "rskill": {"path": rskill_src, "config": rskill.model_dump(mode="json")},
-            "robot": robot.name,
-            "safety": {"mode": safety.mode, "config": robot.safety.model_dump(mode="json")},
-        },
+        metadata=Origin(
+            openral_data_version=__version__,
+            hal=HalOrigin(robot.name, opts.mode, type(hal).__name__, opts.scene),
+            rskill=Recorded(rskill_src, rskill.model_dump(mode="json")),
+            robot=robot.name,
+            safety=SafetyRecord(safety.mode, robot.safety.model_dump(mode="json")),
+        ).to_json(),
         has_reward=isinstance(hal, SceneHal),
         frame_extras=frame_extras(cameras),
     )

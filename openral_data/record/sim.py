@@ -7,6 +7,7 @@ import time
 
 from openral_data.errors import ConfigError, UsageError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig, warm_up
+from openral_data.formats.lerobot_v3.provenance import Origin, Recorded
 from openral_data.formats.mcap import McapSink
 from openral_data.policies.base import PolicyAdapter
 from openral_data.policies.device import resolve_device, with_device
@@ -127,12 +128,12 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
                 cameras=dict(env.spec.cameras),
                 robot_type=robot.name,
                 environment_state_names=env.spec.environment_state_names,
-                metadata={
-                    "openral_data_version": __version__,
-                    "scene": {"path": scene_src, "config": scene.model_dump(mode="json")},
-                    "rskill": {"path": rskill_src, "config": rskill.model_dump(mode="json")},
-                    "robot": robot.name,
-                },
+                metadata=Origin(
+                    openral_data_version=__version__,
+                    scene=Recorded(scene_src, scene.model_dump(mode="json")),
+                    rskill=Recorded(rskill_src, rskill.model_dump(mode="json")),
+                    robot=robot.name,
+                ).to_json(),
             )
             opened = output.open_output(held, opts, schema, kept)
             first = opened.first_episode

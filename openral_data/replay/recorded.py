@@ -24,7 +24,8 @@ from openral_data.errors import ConfigError, DatasetError, ReplayError
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.features import camera_keys
 from openral_data.formats.lerobot_v3.frames import episode_frames as decode_episode_frames
-from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_openral, read_tasks
+from openral_data.formats.lerobot_v3.provenance import Origin, Recorded, read_provenance
+from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_tasks
 from openral_data.formats.lerobot_v3.success import episode_successes
 from openral_data.formats.parquetfile import read_table
 from openral_data.schemas.base import validate
@@ -81,41 +82,44 @@ class RecordedDataset:
 
     # -- provenance --------------------------------------------------------------------------------------------
     @cached_property
-    def provenance(self) -> dict[str, Any] | None:
-        openral = read_openral(self.root)
-        if openral is None:
-            return None
-        meta = openral.get("schema_metadata", {})
-        return meta if isinstance(meta, dict) else None
+    def provenance(self) -> Origin | None:
+        """Where the frames came from (`schema_metadata`); None without `meta/openral.json` (or with one whose
+        `schema_metadata` is not an object)."""
+        openral = read_provenance(self.root)
+        return openral.origin if openral is not None else None
 
-    def _provenance(self, key: str) -> Any:
+    def _origin(self, key: str) -> Origin:
+        """The recorded origin, refused when it lacks `key` (`scene`, `rskill`, `robot`) altogether."""
         meta = self.provenance
-        where = self.root / layout.OPENRAL_PATH
         if meta is None:
             raise ReplayError(
                 f"{self.root}: no {layout.OPENRAL_PATH}: the dataset was not recorded by openral-data, so its scene "
                 "cannot be rebuilt (use --mode policy, which needs no simulator)"
             )
-        if key not in meta:
+        if not meta.present(key):
+            where = self.root / layout.OPENRAL_PATH
             raise ReplayError(f"{where}: schema_metadata.{key}: missing (not a recording of a scene)")
-        return meta[key]
+        return meta
+
+    def _recorded(self, key: str) -> Recorded | None:
+        meta = self._origin(key)
+        return meta.scene if key == "scene" else meta.rskill
 
     def _recorded_config(self, key: str) -> tuple[dict[str, Any], str]:
         """The `config` mapping recorded under `schema_metadata.<key>`, and where it is (for error messages)."""
-        entry = self._provenance(key)
-        config = entry.get("config") if isinstance(entry, dict) else None
+        entry = self._recorded(key)
+        config = entry.config if entry is not None else None
         source = f"{self.root / layout.OPENRAL_PATH}: schema_metadata.{key}.config"
-        if not isinstance(config, dict):
+        if config is None:
             raise ReplayError(f"{source}: missing")
         return config, source
 
     def hal_recording(self) -> bool:
         """Whether `record --hal` recorded it from a robot (its twin or the real one), not from a scene."""
         meta = self.provenance
-        if meta is None or "scene" in meta:
+        if meta is None or meta.present("scene"):
             return False
-        hal = meta.get("hal")
-        return isinstance(hal, dict) and hal.get("scene") is None
+        return meta.hal is not None and meta.hal.scene is None
 
     def scene(self) -> SimScene:
         """The scene exactly as it was recorded (the YAML file may have changed since)."""
@@ -127,8 +131,8 @@ class RecordedDataset:
             raise ConfigError(f"{exc} (recorded by an incompatible openral-data version?)") from None
 
     def scene_source(self) -> str:
-        entry = self._provenance("scene")
-        path = entry.get("path") if isinstance(entry, dict) else None
+        entry = self._recorded("scene")
+        path = entry.path if entry is not None else None
         return f"{path} (as recorded in {self.root})" if path else str(self.root / layout.OPENRAL_PATH)
 
     def rskill(self) -> RSkillManifest:
@@ -136,8 +140,8 @@ class RecordedDataset:
         return validate(RSkillManifest, config, source)
 
     def robot(self) -> str:
-        robot = self._provenance("robot")
-        if not isinstance(robot, str):
+        robot = self._origin("robot").robot
+        if robot is None:
             raise ReplayError(f"{self.root / layout.OPENRAL_PATH}: schema_metadata.robot: missing")
         return robot
 

@@ -25,6 +25,7 @@ from pydantic import Field
 
 from openral_data.errors import CompatibilityError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
+from openral_data.formats.lerobot_v3.provenance import Origin, Recorded, ReplayOrigin
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.staging import Staging
 from openral_data.replay.drive import StepHook
@@ -82,13 +83,13 @@ class Rerecorder:
             cameras=dict(spec.cameras),
             robot_type=built.robot.name,
             environment_state_names=spec.environment_state_names,
-            metadata={
-                "openral_data_version": __version__,
-                "scene": {"path": built.source, "config": built.scene.model_dump(mode="json")},
-                "rskill": {"path": built.rskill_source, "config": built.rskill.model_dump(mode="json")},
-                "robot": built.robot.name,
-                "replayed_from": {"dataset": str(dataset_root.resolve()), "mode": mode},
-            },
+            metadata=Origin(
+                openral_data_version=__version__,
+                scene=Recorded(built.source, built.scene.model_dump(mode="json")),
+                rskill=Recorded(built.rskill_source, built.rskill.model_dump(mode="json")),
+                robot=built.robot.name,
+                replayed_from=ReplayOrigin(str(dataset_root.resolve()), mode),
+            ).to_json(),
         )
         self.out = out
         self.env = built.env

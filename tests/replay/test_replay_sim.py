@@ -147,7 +147,9 @@ def test_a_scene_that_cannot_restore_is_refused_by_type(
 def test_replay_rebuilds_the_recorded_scene_not_todays_yaml(mock: Path, tmp_path: Path) -> None:
     """Editing the scene file after recording changes nothing: the recorded config is used."""
     recorded = RecordedDataset(mock)
-    scene_path = Path(recorded.provenance["scene"]["path"])  # type: ignore[index]
+    origin = recorded.provenance
+    assert origin is not None and origin.scene is not None and origin.scene.path is not None
+    scene_path = Path(origin.scene.path)
     scene_path.write_text("tier: sim\nscene: {broken")
     summary = replay(ReplayOptions(mock, out=tmp_path / "res"))
     assert summary.summary["reproduced"] == 3

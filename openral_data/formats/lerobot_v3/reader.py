@@ -90,20 +90,6 @@ def video_keys(info: dict[str, Any]) -> list[str]:
     return [k for k, f in info.get("features", {}).items() if isinstance(f, dict) and f.get("dtype") == "video"]
 
 
-def read_openral(root: Path) -> dict[str, Any] | None:
-    """`meta/openral.json`, our provenance (writer, schema_metadata, config); None for a dataset without it
-    (written by lerobot, or converted)."""
-    try:
-        data: dict[str, Any] = read_json(root / layout.OPENRAL_PATH)
-    except FileNotFoundError:
-        return None
-    if not isinstance(data, dict):
-        raise DatasetError(
-            f"{root / layout.OPENRAL_PATH}: expected a JSON object, got {type(data).__name__}", code="dataset.invalid"
-        )
-    return data
-
-
 def read_episodes(root: Path) -> pa.Table:
     files = layout.episodes_files(root)
     if not files:

@@ -62,6 +62,7 @@ from openral_data.formats.lerobot_v3.features import (
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE
 from openral_data.formats.lerobot_v3.layout import FilePos, FileRun
 from openral_data.formats.lerobot_v3.masks import MaskColumn
+from openral_data.formats.lerobot_v3.provenance import Origin, Provenance
 from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.restore import check_same_format, restore
 from openral_data.formats.lerobot_v3.stats import (
@@ -241,10 +242,7 @@ class LeRobotV3Writer:
             return
         atomic.write_bytes(
             root / layout.OPENRAL_PATH,
-            json.dumps(
-                {"writer": "openral-data", "schema_metadata": schema.metadata, "config": self._config_json()},
-                indent=2,
-            ).encode(),
+            Provenance(Origin.from_json(schema.metadata), self._config_json()).dumps(),
             self.config.durable,
         )
 
