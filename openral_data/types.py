@@ -7,7 +7,7 @@ Producers emit `Observation`s and `StepResult`s (`SimRollout`, `ProducerSpec`); 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Literal, Protocol, runtime_checkable
+from typing import Any, Literal, Protocol, TypedDict, runtime_checkable
 
 import numpy as np
 import numpy.typing as npt
@@ -40,6 +40,52 @@ class ProducerSpec:
     environment_state_names: tuple[str, ...] = ()
 
 
+class Privileged(TypedDict, total=False):
+    """`Observation.privileged`: simulator ground truth, never recorded. Each scene fills the keys it knows.
+
+    Replay and `observation.environment_state` read `object_poses` (object name -> [x, y, z, qw, qx, qy, qz],
+    world frame) from any scene; the MuJoCo tabletop experts read `ee_pos`, `ee_quat`, `table_height`, `objects`
+    (name -> pos, size, ...) and `roles` (role -> object); `metaworld-expert` reads `suite`, `task` and
+    `metaworld_obs`. The rest is what each scene offers its own experts and tests (robosuite also passes its
+    environment's own observation keys, undeclared here)."""
+
+    object_poses: dict[str, Any]
+    # MuJoCo tabletop scenes (producers/sim/mujoco/scene.py)
+    ee_pos: npt.NDArray[np.float64]
+    ee_quat: npt.NDArray[np.float64]
+    gripper: float
+    table_height: float
+    task: str  # the scene's task kind (tabletop); the MetaWorld task name (metaworld)
+    objects: dict[str, dict[str, Any]]
+    roles: dict[str, str]
+    success: dict[str, Any] | None
+    workspace: dict[str, tuple[float, float]]
+    cube_pos: npt.NDArray[np.float64]  # the `object` role's pose and size, the `goal` role's place (push, pick)
+    cube_quat: npt.NDArray[np.float64]
+    cube_size: float
+    goal_pos: npt.NDArray[np.float64]
+    goal_radius: float
+    # robosuite
+    eef_pos: npt.NDArray[np.float64]
+    env: str
+    suite: str  # "robosuite" | "metaworld"
+    # MetaWorld
+    metaworld_obs: npt.NDArray[np.float64]
+    # LIBERO
+    joint_pos: npt.NDArray[np.float64]
+    eef_quat_xyzw: npt.NDArray[np.float64]
+    object_state: npt.NDArray[np.float64]
+    # PushT
+    agent_pos: npt.NDArray[np.float64]
+    block_pos: npt.NDArray[np.float64]
+    block_angle: float
+    goal_pose: npt.NDArray[np.float64]
+    coverage: float
+    # ALOHA
+    reward_stage: int
+    qvel: npt.NDArray[np.float64]
+
+
 @dataclass
 class Observation:
     """What the policy sees at one step: camera images (HWC uint8; a depth camera's (H, W) float32 metres or
@@ -60,7 +106,7 @@ class Observation:
     state: npt.NDArray[Any]
     task: str
     time: float | None = None
-    privileged: dict[str, Any] = field(default_factory=dict)
+    privileged: Privileged = field(default_factory=Privileged)
     environment_state: npt.NDArray[Any] | None = None
     # world poses [x, y, z, qw, qx, qy, qz] of the frames cameras are mounted on (a wrist camera's body, named as
     # its extrinsics' `parent_frame`) at this step: MCAP publishes them on /tf so the camera can be placed
@@ -121,7 +167,9 @@ class DatasetSchema:
     action_names: tuple[str, ...]
     cameras: dict[str, CameraShape]
     robot_type: str
-    metadata: dict[str, Any] = field(default_factory=dict)  # scene / rSkill / robot provenance
+    metadata: dict[str, Any] = field(
+        default_factory=dict
+    )  # where frames came from: formats.lerobot_v3.provenance.Origin
     # Which outcomes the source knows. A sink stores no reward / success it was not given (a converted hardware
     # log has none): the frames' `reward` / `success` values are then ignored and episode success is unknown.
     has_reward: bool = True
@@ -199,10 +247,3 @@ class FrameObserver(Protocol):
     def end_episode(self, record: EpisodeRecord | None) -> None: ...
 
     def close(self) -> None: ...
-
-
-class EpisodeAnnotations(Protocol):
-    """Optional sink capability: JSON-able facts about the episode in flight (a HAL's overruns, safety
-    interventions, operator verdict), stored with the episode's record. The bridge calls it when a sink has it."""
-
-    def annotate_episode(self, info: dict[str, Any]) -> None: ...

@@ -17,7 +17,7 @@ import numpy.typing as npt
 
 from openral_data.errors import ConfigError
 from openral_data.producers.sim.mujoco.layout import yaw_of
-from openral_data.types import Observation
+from openral_data.types import Observation, Privileged
 
 F64 = npt.NDArray[np.float64]
 Action = npt.NDArray[np.float32]
@@ -41,7 +41,7 @@ def action(dpos: F64, dyaw: float, gripper: float) -> Action:
 class Truth:
     """The ground truth an expert reads at one step."""
 
-    privileged: dict[str, Any]
+    privileged: Privileged
     ee: F64
     ee_quat: F64
     table: float

@@ -9,6 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.replay.recorded import RecordedEpisode
+from openral_data.types import Privileged
 
 F64 = npt.NDArray[np.float64]
 
@@ -82,7 +83,7 @@ def first_exceeding(abs_error: F64, tolerance: float) -> int | None:
     return int(over[0]) if over.size else None
 
 
-def object_error(recorded: object, privileged: dict[str, object]) -> float | None:
+def object_error(recorded: object, privileged: Privileged) -> float | None:
     """Largest position error between the recorded `object_poses` and the replayed ones, if both exist."""
     replayed = privileged.get("object_poses")
     if not isinstance(recorded, dict) or not isinstance(replayed, dict):

@@ -19,6 +19,7 @@ import numpy.typing as npt
 from openral_data.errors import EstopLatched, HalError, StaleState
 from openral_data.producers.hal.sensors import CameraSensor
 from openral_data.schemas.robot import RobotManifest
+from openral_data.types import Privileged
 
 F32 = npt.NDArray[np.float32]
 
@@ -111,7 +112,7 @@ class HalBase(ABC):
         """Called before each episode; returns JSON-able data describing the starting state."""
         return {"robot": self.robot.name}
 
-    def privileged(self) -> dict[str, Any]:
+    def privileged(self) -> Privileged:
         """Ground truth a simulator knows (scripted experts read it); hardware has none."""
         return {}
 

@@ -27,7 +27,7 @@ from openral_data.producers.sim.mujoco.render import CameraRig
 from openral_data.producers.sim.mujoco.twin import Twin
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.scene import RenderConfig, SceneCamera
-from openral_data.types import CameraShape, Observation, SimRollout
+from openral_data.types import CameraShape, Observation, Privileged, SimRollout
 
 # where a manifest's non-wrist cameras go on the twin's table (the manifest gives sizes, not poses)
 DEFAULT_WORLD_CAMERA = {"pos": (1.3, 0.0, 1.4), "lookat": (0.4, 0.0, 0.85), "fovy": 45.0}
@@ -180,7 +180,7 @@ class SceneHal(HalBase):
     def _image(self, name: str) -> Image:
         return self._current().images[name]
 
-    def privileged(self) -> dict[str, Any]:
+    def privileged(self) -> Privileged:
         return self._current().privileged
 
     def _read_state(self) -> RobotState:

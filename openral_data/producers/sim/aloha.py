@@ -37,7 +37,7 @@ from openral_data.producers.sim.tasks import SuiteTask
 from openral_data.schemas.base import StrictModel
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
-from openral_data.types import Observation, StepResult
+from openral_data.types import Observation, Privileged, StepResult
 
 KIND = "gym_aloha"
 STATE_FORMAT = 1
@@ -164,7 +164,7 @@ class AlohaScene(RigScene):
         return {name: [float(v) for v in q[16 + 7 * i : 23 + 7 * i]] for i, name in enumerate(self._objects)}
 
     def _observation(self, raw: dict[str, Any]) -> Observation:
-        privileged = {
+        privileged: Privileged = {
             "object_poses": self._object_poses(),
             "reward_stage": self._stage,
             "qvel": np.asarray(raw["qvel"], dtype=np.float64),

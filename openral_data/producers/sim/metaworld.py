@@ -41,7 +41,7 @@ from openral_data.schemas.base import StrictModel
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
-from openral_data.types import Observation, StepResult
+from openral_data.types import Observation, Privileged, StepResult
 
 STATE_FORMAT = 1
 ROBOT = "metaworld_sawyer"
@@ -209,5 +209,5 @@ class MetaWorldScene(RigScene):
         return self._raw[:STATE_DIM].astype(np.float32)
 
     def _observation(self) -> Observation:
-        privileged = {"suite": "metaworld", "task": self.params.task, "metaworld_obs": self._raw.copy()}
+        privileged: Privileged = {"suite": "metaworld", "task": self.params.task, "metaworld_obs": self._raw.copy()}
         return self.observe(self._state(), privileged)

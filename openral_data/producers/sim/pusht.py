@@ -27,7 +27,7 @@ from openral_data.producers.sim.params import parse_params
 from openral_data.schemas.base import StrictModel
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
-from openral_data.types import Observation, StepResult
+from openral_data.types import Observation, Privileged, StepResult
 
 KIND = "gym_pusht"
 STATE_FORMAT = 1
@@ -118,7 +118,7 @@ class PushTScene:
 
     def _observation(self) -> Observation:
         s = self._sim_state()
-        privileged = {
+        privileged: Privileged = {
             "agent_pos": np.array(s[:2]),
             "block_pos": np.array(s[2:4]),
             "block_angle": s[4],

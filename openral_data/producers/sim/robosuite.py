@@ -27,7 +27,7 @@ import random
 import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -46,7 +46,7 @@ from openral_data.schemas.base import StrictModel
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
-from openral_data.types import Observation, StepResult
+from openral_data.types import Observation, Privileged, StepResult
 
 STATE_FORMAT = 1
 STATE_REPRESENTATIONS = ("eef_pose_gripper", "joint_positions_gripper")
@@ -272,11 +272,15 @@ class RobosuiteScene(RigScene):
         return np.concatenate([pos, quat, [self._gripper()]]).astype(np.float32)
 
     def _observation(self) -> Observation:
-        privileged: dict[str, Any] = {
-            k: np.array(v, dtype=np.float64)
-            for k, v in self._obs.items()
-            if not k.startswith("robot0_") and not k.endswith("-state")
-        }
+        # the environment's own observation keys (cube_pos, ...) as they are: not all of them declared
+        privileged = cast(
+            Privileged,
+            {
+                k: np.array(v, dtype=np.float64)
+                for k, v in self._obs.items()
+                if not k.startswith("robot0_") and not k.endswith("-state")
+            },
+        )
         privileged["eef_pos"] = np.array(self._obs["robot0_eef_pos"], dtype=np.float64)
         privileged["object_poses"] = self._object_poses()
         privileged["suite"] = "robosuite"

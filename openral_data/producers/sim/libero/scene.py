@@ -56,7 +56,7 @@ from openral_data.producers.sim.tasks import SuiteTask
 from openral_data.schemas.base import StrictModel
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
-from openral_data.types import Observation, StepResult
+from openral_data.types import Observation, Privileged, StepResult
 
 KIND = "libero"
 STATE_FORMAT = 1
@@ -432,7 +432,7 @@ class LiberoScene:
                 raw["robot0_gripper_qpos"],
             ]
         ).astype(np.float32)
-        privileged = {
+        privileged: Privileged = {
             "object_poses": _object_poses(raw),
             "joint_pos": np.asarray(raw["robot0_joint_pos"], dtype=np.float64).copy(),
             "eef_quat_xyzw": np.asarray(raw["robot0_eef_quat"], dtype=np.float64).copy(),

@@ -101,9 +101,3 @@ class EefDeltaController:
         q = self.ik.solve(data, self.target_pos, self.target_quat, q_start=data.ctrl[a.act].copy())
         data.ctrl[a.act] = q
         data.ctrl[a.grip_act] = a.gripper_ctrl(float(act[6]))
-
-
-def target_pose(controller: Controller) -> tuple[F64, F64] | None:
-    if isinstance(controller, EefDeltaController):
-        return controller.target_pos.copy(), controller.target_quat.copy()
-    return None

@@ -11,7 +11,7 @@ import numpy.typing as npt
 
 from openral_data.producers.sim.contract import object_pose_vector
 from openral_data.producers.sim.mujoco.render import CameraRig
-from openral_data.types import Observation
+from openral_data.types import Observation, Privileged
 
 
 class RigScene:
@@ -28,7 +28,7 @@ class RigScene:
     env: Any = None
     environment_objects: tuple[str, ...] = ()
 
-    def observe(self, state: npt.NDArray[np.float32], privileged: dict[str, Any]) -> Observation:
+    def observe(self, state: npt.NDArray[np.float32], privileged: Privileged) -> Observation:
         """The current frames, `state`, the task text and the time since the episode began."""
         objects = self.environment_objects
         return Observation(

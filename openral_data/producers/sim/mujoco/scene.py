@@ -72,7 +72,7 @@ from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
 from openral_data.schemas.tabletop import DrawerObject, check_layout, derived_roles
-from openral_data.types import Observation, StepResult
+from openral_data.types import Observation, Privileged, StepResult
 
 STATE_REPRESENTATIONS = ("joint_positions_gripper", "joint_positions", "eef_pose_gripper", "eef_pose_gripper_width")
 STATE_FORMAT = 1
@@ -363,9 +363,9 @@ class TabletopScene(RigScene):
             out[obj.name] = info
         return out
 
-    def _legacy(self) -> dict[str, Any]:
+    def _legacy(self) -> Privileged:
         """The keys the push and pick-place experts read, from the roles `object` and `goal`."""
-        out: dict[str, Any] = {}
+        out: Privileged = {}
         target, goal = self.roles.get("object"), self.roles.get("goal")
         if target is not None:
             out["cube_pos"] = self.pos(target)
@@ -417,7 +417,7 @@ class TabletopScene(RigScene):
         pos, quat = self.arm.ee_pose(d)
         ws = p.workspace or p.table_top
         z = p.workspace.z if p.workspace is not None else (0.0, 0.5)
-        privileged: dict[str, Any] = {
+        privileged: Privileged = {
             **self._legacy(),
             "ee_pos": pos,
             "ee_quat": quat,
