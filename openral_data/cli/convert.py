@@ -6,20 +6,19 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, cast
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from openral_data.cli.choices import CodecChoice
 from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import print_line, print_rows, progress_bar
 from openral_data.errors import NotFound, UsageError
+from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.repo_id import resolve_dataset
 
 if TYPE_CHECKING:
     from rich.progress import Progress
 
-    from openral_data.formats.lerobot_v3.video import Codec
     from openral_data.schemas.mapping import Mapping
 
 
@@ -29,7 +28,7 @@ def convert(
     ],
     dst: Annotated[Path, typer.Argument(help="output folder (must not exist or be empty)")],
     mapping: Annotated[Path | None, typer.Option(help="mapping YAML: topics -> features (bags -> LeRobot)")] = None,
-    codec: Annotated[CodecChoice, typer.Option(help="video codec (bags -> LeRobot)")] = CodecChoice.av1,
+    codec: Annotated[Codec, typer.Option(help="video codec (bags -> LeRobot)")] = "av1",
     episodes: Annotated[str | None, typer.Option(help="episodes to export, e.g. 0,3,5-7 (LeRobot -> MCAP)")] = None,
     image_format: Annotated[
         str, typer.Option(help="MCAP camera messages: jpeg, png or raw (LeRobot -> MCAP)")
@@ -51,7 +50,7 @@ def convert(
         raise UsageError(f"--workers must be >= 1, got {workers}")
     check_executor(executor, address)
     parallel = Parallel(workers, executor, address) if workers != 1 or executor != "local" else None
-    _convert(src, dst, mapping, codec.value, episodes, image_format, mcap_compression, json, parallel)
+    _convert(src, dst, mapping, codec, episodes, image_format, mcap_compression, json, parallel)
 
 
 @dataclass(frozen=True)
@@ -65,7 +64,7 @@ def _convert(
     src: Path,
     dst: Path,
     mapping_path: Path | None,
-    codec: str,
+    codec: Codec,
     episodes: str | None,
     image_format: str,
     mcap_compression: str,
@@ -73,7 +72,7 @@ def _convert(
     parallel: Parallel | None = None,
 ) -> None:
     from openral_data.convert.to_mcap import export_mcap, is_lerobot_dataset
-    from openral_data.formats.mcap import IMAGE_FORMATS, McapCompression, McapConfig, check_compression
+    from openral_data.formats.mcap import McapConfig, parse_compression, parse_image_format
     from openral_data.formats.staging import check_new_output
     from openral_data.schemas.mapping import load_mapping
 
@@ -86,14 +85,12 @@ def _convert(
             raise UsageError(f"{src}: is a LeRobot dataset (exported to MCAP); --workers/--executor apply to bags only")
         if mapping_path is not None:
             raise UsageError(f"{src}: is a LeRobot dataset (exported to MCAP); --mapping applies to bags only")
-        if image_format not in IMAGE_FORMATS:
-            raise UsageError(f"--image-format: {image_format!r} is not one of {', '.join(IMAGE_FORMATS)}")
-        check_compression(mcap_compression)
-        config = McapConfig(image_format=image_format, compression=cast(McapCompression, mcap_compression))
+        image = parse_image_format(image_format)  # `--image-format` and `--mcap-compression` apply to MCAP only
+        mcap = McapConfig(image_format=image, compression=parse_compression(mcap_compression))
         with progress_bar("exporting", "frames") as bar, _interruptible(bar, dst):
             task = bar.add_task("export", total=None)
             summary = export_mcap(
-                src, dst, episodes=episodes, config=config, progress=lambda d, t: bar.update(task, completed=d, total=t)
+                src, dst, episodes=episodes, config=mcap, progress=lambda d, t: bar.update(task, completed=d, total=t)
             )
         if json:
             print_json("convert", summary.to_json())
@@ -125,7 +122,7 @@ def _convert(
                 src,
                 dst,
                 mapping,
-                codec=cast("Codec", codec),
+                codec=codec,
                 progress=lambda d, t: bar.update(task, completed=d, total=t),
             )
         else:
@@ -138,7 +135,7 @@ def _convert(
                 parallel.workers,
                 executor=parallel.executor,
                 address=parallel.address,
-                codec=cast("Codec", codec),
+                codec=codec,
                 progress=lambda d, t: bar.update(task, completed=d, total=t),
             )
     if json:

@@ -36,6 +36,7 @@ def run_hal_record(
     port: str | None,
     json: bool = False,
 ) -> None:
+    from openral_data.formats.mcap import parse_compression, parse_image_format
     from openral_data.runtime.sinks import parse_formats
 
     if mode not in ("sim", "real"):
@@ -54,8 +55,8 @@ def run_hal_record(
         out=out,
         codec=cast(Codec, codec),
         formats=parse_formats(formats),
-        image_format=image_format,
-        mcap_compression=mcap_compression,
+        image_format=parse_image_format(image_format),
+        mcap_compression=parse_compression(mcap_compression),
         operator=operator,
         safety=cast(SafetyMode | None, safety),
         staleness=staleness,

@@ -8,10 +8,12 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from openral_data import manifests
-from openral_data.cli.choices import CodecChoice
+from openral_data.cli.given import given
 from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import INTERRUPTED_RECORDING, print_line, print_rows, progress_bar
 from openral_data.errors import UsageError
+from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.viz import DEFAULT_PORT
 
 if TYPE_CHECKING:
     from openral_data.record.options import RecordSummary
@@ -29,7 +31,7 @@ def record(
     seed: Annotated[int | None, typer.Option(help="seed of the first episode; episode k uses seed+k")] = None,
     max_steps: Annotated[int | None, typer.Option(help="step limit per episode (default: the task's)")] = None,
     out: Annotated[Path | None, typer.Option(help="output folder (default: a new folder under datasets/)")] = None,
-    codec: Annotated[CodecChoice, typer.Option(help="video codec")] = CodecChoice.av1,
+    codec: Annotated[Codec, typer.Option(help="video codec")] = "av1",
     format: Annotated[
         str, typer.Option("--format", help="lerobot, mcap or lerobot,mcap (MCAP bags go to OUT/mcap/)")
     ] = "lerobot",
@@ -61,7 +63,9 @@ def record(
     view: Annotated[
         bool, typer.Option("--view", help="show the run live in rerun: a viewer, or a served stream when headless")
     ] = False,
-    view_port: Annotated[int, typer.Option(help="--view: port of the spawned viewer or the served stream")] = 9876,
+    view_port: Annotated[
+        int, typer.Option(help="--view: port of the spawned viewer or the served stream")
+    ] = DEFAULT_PORT,
     view_address: Annotated[
         str | None, typer.Option(help="--view: send to this running viewer instead (rerun+http://HOST:PORT/proxy)")
     ] = None,
@@ -77,7 +81,8 @@ def record(
     """Record episodes of SCENE driven by RSKILL into a LeRobotDataset v3 and/or ROS 2 MCAP bags."""
     if hal is not None and (save_video or save_video_dir is not None):
         raise UsageError("--save-video/--save-video-dir: not available with --hal (a scene recording only)")
-    view_given = view or view_port != 9876 or view_address is not None
+    explicit = given(ctx)
+    view_given = bool(explicit & {"view", "view_port", "view_address"})
     if view_given and (not view or hal is not None or workers != 1 or executor != "local"):
         raise UsageError("--view, --view-port, --view-address: need --view, and not with --hal or --workers")
     if hal is not None:
@@ -90,16 +95,15 @@ def record(
             raise UsageError("--task/--instruction/--device: not available with --hal (the rSkill's own are used)")
 
         run_hal_record(
-            hal, mode, rskill or DEFAULT_RSKILL, fps, scene if scene != manifests.DEFAULT_SCENE else None, n_episodes,
-            max_steps, seed, out, codec.value, format, image_format, mcap_compression, operator, safety, staleness,
+            hal, mode, rskill or DEFAULT_RSKILL, fps, scene if "scene" in explicit else None, n_episodes,
+            max_steps, seed, out, codec, format, image_format, mcap_compression, operator, safety, staleness,
             port, json,
         )  # fmt: skip
         return
-    hal_only = {"--mode": mode != "sim", "--fps": fps != 20, "--operator": operator != "auto", "--safety": safety,
-                "--staleness": staleness, "--port": port}  # fmt: skip
-    given = [name for name, value in hal_only.items() if value]
-    if given:
-        raise UsageError(f"{', '.join(given)}: only with --hal ROBOT_ID (a scene records at its own fps)")
+    hal_only = [f"--{name}" for name in ("mode", "fps", "operator", "safety", "staleness", "port") if name in explicit]
+    if hal_only:
+        raise UsageError(f"{', '.join(hal_only)}: only with --hal ROBOT_ID (a scene records at its own fps)")
+    from openral_data.formats.mcap import parse_compression, parse_image_format
     from openral_data.record.options import RecordOptions
     from openral_data.record.sim import record as run_record
     from openral_data.runtime.sinks import parse_formats
@@ -112,16 +116,12 @@ def record(
         seed=seed,
         max_steps=max_steps,
         out=out,
-        codec=codec.value,
+        codec=codec,
         formats=parse_formats(format),
-        image_format=image_format,
-        mcap_compression=mcap_compression,
+        image_format=parse_image_format(image_format),
+        mcap_compression=parse_compression(mcap_compression),
         resume=resume,
-        explicit=frozenset(
-            {"format": "formats", "suite_task": "task"}.get(name, name)
-            for name in ctx.params
-            if getattr(ctx.get_parameter_source(name), "name", "") == "COMMANDLINE"
-        ),
+        explicit=frozenset({"format": "formats", "suite_task": "task"}.get(name, name) for name in explicit),
         save_video=save_video,
         save_video_dir=save_video_dir,
         view=view,

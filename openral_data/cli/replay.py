@@ -8,10 +8,12 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from openral_data import paths
-from openral_data.cli.choices import CodecChoice
+from openral_data.cli.given import given
 from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import print_line, print_rows, progress_bar
+from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.repo_id import resolve_dataset
+from openral_data.viz import DEFAULT_PORT
 
 if TYPE_CHECKING:
     from openral_data.replay.command import ReplayOptions, ReplaySummary
@@ -19,6 +21,7 @@ if TYPE_CHECKING:
 
 
 def replay(
+    ctx: typer.Context,
     dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (recorded by openral-data for sim modes)")],
     episodes: Annotated[str | None, typer.Option(help="episodes to replay, e.g. 0,3,5-7 (default: all)")] = None,
     mode: Annotated[str, typer.Option(help="actions | policy | closed-loop")] = "actions",
@@ -28,7 +31,7 @@ def replay(
     max_steps: Annotated[int | None, typer.Option(help="closed-loop step limit (default: the task's)")] = None,
     record: Annotated[Path | None, typer.Option(help="also write the replayed rollouts as a new dataset")] = None,
     cameras: Annotated[Path | None, typer.Option(help="with --record: YAML of cameras replacing the recorded")] = None,
-    codec: Annotated[CodecChoice, typer.Option(help="video codec of --record")] = CodecChoice.av1,
+    codec: Annotated[Codec, typer.Option(help="video codec of --record")] = "av1",
     format: Annotated[str, typer.Option("--format", help="--record formats: lerobot, mcap or both")] = "lerobot",
     label: Annotated[str | None, typer.Option(help="label of the results in stats")] = None,
     json: JsonFlag = False,
@@ -47,7 +50,9 @@ def replay(
     view: Annotated[
         bool, typer.Option("--view", help="closed-loop: show the run live in rerun (a viewer, or a served stream)")
     ] = False,
-    view_port: Annotated[int, typer.Option(help="--view: port of the spawned viewer or the served stream")] = 9876,
+    view_port: Annotated[
+        int, typer.Option(help="--view: port of the spawned viewer or the served stream")
+    ] = DEFAULT_PORT,
     view_address: Annotated[
         str | None, typer.Option(help="--view: send to this running viewer instead (rerun+http://HOST:PORT/proxy)")
     ] = None,
@@ -71,7 +76,7 @@ def replay(
         max_steps=max_steps,
         record=record,
         cameras=cameras,
-        codec=codec.value,
+        codec=codec,
         formats=parse_formats(format),
         instruction=instruction,
         device=device,
@@ -80,6 +85,7 @@ def replay(
         view=view,
         view_port=view_port,
         view_address=view_address,
+        explicit=given(ctx),
     )
     summary = _run(opts)
     if json:

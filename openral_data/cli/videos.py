@@ -8,8 +8,8 @@ from typing import Annotated
 import typer
 
 from openral_data import paths
-from openral_data.cli.choices import CodecChoice
 from openral_data.cli.edit import report
+from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.repo_id import resolve_dataset
 
 videos_app = typer.Typer(
@@ -25,7 +25,7 @@ _CAMERA_HELP = (
 @videos_app.command("reencode")
 def reencode_cmd(
     dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (ours or lerobot's)")],
-    codec: Annotated[CodecChoice, typer.Option(help="video codec of the cameras encoded")],
+    codec: Annotated[Codec, typer.Option(help="video codec of the cameras encoded")],
     size: Annotated[str | None, typer.Option(help="resize the cameras encoded to WIDTHxHEIGHT, e.g. 320x240")] = None,
     camera: Annotated[list[str] | None, typer.Option(help=_CAMERA_HELP)] = None,
     out: Annotated[Path | None, typer.Option(help="new dataset folder (must not exist or be empty)")] = None,
@@ -37,14 +37,14 @@ def reencode_cmd(
 
     if out is not None:
         paths.check_creatable(out, "--out")
-    report("reencoded", [reencode(resolve_dataset(dataset), codec.value, size, camera or (), out, in_place)])
+    report("reencoded", [reencode(resolve_dataset(dataset), codec, size, camera or (), out, in_place)])
 
 
 @videos_app.command("encode-images")
 def encode_images_cmd(
     dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset with dtype: image features")],
     camera: Annotated[list[str] | None, typer.Option(help=_CAMERA_HELP)] = None,
-    codec: Annotated[CodecChoice, typer.Option(help="video codec")] = CodecChoice.av1,
+    codec: Annotated[Codec, typer.Option(help="video codec")] = "av1",
     out: Annotated[Path | None, typer.Option(help="new dataset folder (must not exist or be empty)")] = None,
     in_place: Annotated[bool, typer.Option(help="replace DATASET itself (swapped in once complete)")] = False,
 ) -> None:
@@ -54,4 +54,4 @@ def encode_images_cmd(
 
     if out is not None:
         paths.check_creatable(out, "--out")
-    report("encoded", [encode_images(resolve_dataset(dataset), camera or (), codec.value, out, in_place)])
+    report("encoded", [encode_images(resolve_dataset(dataset), camera or (), codec, out, in_place)])

@@ -133,12 +133,12 @@ def export_mcap(
         try:
             for e in chosen:
                 row = rows[e]
-                sink.next_index = e
                 sink.begin_episode(
                     EpisodeStart(
                         seed=int(row.get("openral.seed") or 0),
                         initial_state=json.loads(row.get("openral.initial_state") or "{}"),
-                    )
+                    ),
+                    index=e,
                 )
                 for frame in episode_frames(src, info, row, tasks, list(cams)):
                     sink.add_frame(frame)

@@ -26,11 +26,13 @@ from typing import Literal
 from pydantic import Field, field_validator, model_validator
 
 from openral_data.errors import ConfigError, DatasetError
+from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.paths import safe_name
+from openral_data.runtime.sinks import OutputFormat
 from openral_data.schemas.base import StrictModel, load_model
 from openral_data.schemas.scene import MAX_SEED
 
-Format = Literal["lerobot", "mcap"]
 _ID = re.compile(r"^[a-z0-9][a-z0-9_-]*$")
 
 
@@ -51,15 +53,22 @@ class RecordStep(StrictModel):
     robots: list[str] | None = None  # None: each scene's own robot
     seeds: Seeds
     max_steps: int | None = Field(default=None, ge=1)
-    codec: Literal["av1", "h264"] = "av1"
-    formats: list[Format] = Field(default_factory=lambda: list[Format](["lerobot"]), min_length=1)
-    image_format: Literal["jpeg", "png", "raw"] = "jpeg"
-    mcap_compression: Literal["zstd", "lz4", "none"] = "zstd"  # `--mcap-compression` of formats: [mcap]
+    codec: Codec = "av1"
+    formats: list[OutputFormat] = Field(default_factory=lambda: list[OutputFormat](["lerobot"]), min_length=1)
+    image_format: ImageFormat = "jpeg"
+    mcap_compression: McapCompression = "zstd"  # `--mcap-compression` of formats: [mcap]
     workers: int = Field(default=1, ge=1)
     executor: Literal["local", "ray"] = "local"
     tasks: list[str] | None = Field(default=None, min_length=1)  # `--task` ids swept per scene; None: the YAML's
     instruction: str | None = Field(default=None, min_length=1)  # `--instruction` of every recording
     device: str | None = None  # `--device` of a neural policy
+
+    @field_validator("formats")
+    @classmethod
+    def _formats_once(cls, formats: list[OutputFormat]) -> list[OutputFormat]:
+        if len(set(formats)) != len(formats):
+            raise ValueError(f"a format is listed twice in {','.join(formats)}")
+        return formats
 
     @field_validator("robots")
     @classmethod
@@ -125,8 +134,8 @@ class ExportStep(StrictModel):
     dataset: str
     to: Literal["mcap"] = "mcap"
     episodes: str | None = None
-    image_format: Literal["jpeg", "png", "raw"] = "jpeg"
-    mcap_compression: Literal["zstd", "lz4", "none"] = "zstd"  # of the bags' chunks (`convert --mcap-compression`)
+    image_format: ImageFormat = "jpeg"
+    mcap_compression: McapCompression = "zstd"  # of the bags' chunks (`convert --mcap-compression`)
 
 
 KINDS = ("record", "merge", "replay", "stats", "export")

@@ -15,6 +15,7 @@ from openral_data.errors import CompatibilityError, ConfigError, UsageError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
 from openral_data.formats.lerobot_v3.provenance import HalOrigin, Origin, Recorded, SafetyRecord
 from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.policies.base import PolicyAdapter
 from openral_data.producers.hal.base import HalBase
 from openral_data.producers.hal.operator import Command, KeyboardOperator, Operator, ScriptedOperator, parse_script
@@ -29,6 +30,7 @@ from openral_data.runtime import registry
 from openral_data.runtime.bridge import DatasetBridge
 from openral_data.runtime.compat import check_compatibility
 from openral_data.runtime.outdir import fresh_out
+from openral_data.runtime.sinks import OutputFormat
 from openral_data.schemas.hal import SafetyMode
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
@@ -51,9 +53,9 @@ class HalRecordOptions:
     seed: int = 0
     out: Path | None = None
     codec: Codec = "av1"
-    formats: tuple[str, ...] = ("lerobot",)
-    image_format: str = "jpeg"
-    mcap_compression: str = "zstd"
+    formats: tuple[OutputFormat, ...] = ("lerobot",)
+    image_format: ImageFormat = "jpeg"
+    mcap_compression: McapCompression = "zstd"
     operator: str = "auto"  # auto | keyboard | a script such as "success@40,discard@10"
     safety: SafetyMode | None = None  # default: the manifest's safety.mode
     staleness: float | None = None  # camera sample age limit (s); default: 3 periods
@@ -181,9 +183,6 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
     rskill, rskill_path = registry.resolve_rskill(opts.rskill)
     rskill_src = str(rskill_path)
     make_policy = registry.policy_factory(rskill, rskill_src)
-    from openral_data.runtime.sinks import check_formats
-
-    check_formats(opts.formats, opts.image_format, opts.mcap_compression)
     out = opts.out if opts.out is not None else fresh_out(f"hal-{robot.name}--{rskill.id}")
     held = claim(out, "openral-data record --hal", resume=False)  # one writer, before any byte goes into `out`
     try:

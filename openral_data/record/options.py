@@ -9,13 +9,20 @@ from pathlib import Path
 from openral_data import manifests
 from openral_data.errors import UsageError
 from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.runtime.outdir import fresh_out
+from openral_data.runtime.sinks import OutputFormat
 from openral_data.schemas.scene import MAX_SEED, SimScene
 from openral_data.types import EpisodeRecord
+from openral_data.viz import DEFAULT_PORT
 
 
 @dataclass(frozen=True)
 class RecordOptions:
+    """Typed at the edge: the CLI parses `--format`/`--image-format`/`--mcap-compression` (`parse_formats`,
+    `parse_image_format`, `parse_compression`), a pipeline YAML is validated by its schema; nothing below checks
+    them again."""
+
     scene: str = manifests.DEFAULT_SCENE
     rskill: str | None = None  # None: the scene's default_rskill (`rskill_ref`)
     robot: str | None = None
@@ -24,16 +31,16 @@ class RecordOptions:
     max_steps: int | None = None
     out: Path | None = None
     codec: Codec = "av1"
-    formats: tuple[str, ...] = ("lerobot",)  # any of FORMATS; see sinks.select.make_sinks for the layout
-    image_format: str = "jpeg"  # MCAP camera messages: jpeg | png | raw
-    mcap_compression: str = "zstd"  # MCAP chunks: zstd | lz4 | none
+    formats: tuple[OutputFormat, ...] = ("lerobot",)  # see runtime.sinks.make_sinks for the layout
+    image_format: ImageFormat = "jpeg"  # MCAP camera messages
+    mcap_compression: McapCompression = "zstd"  # MCAP chunks
     resume: bool = False  # continue the recording in `out` with its own settings (see openral_data.record.output)
     explicit: frozenset[str] = frozenset()  # options the user gave (with resume: they must match the recording)
     first_episode: int = 0  # MCAP bags are numbered from here (a `--workers` share; see openral_data/parallel)
     save_video: bool = False  # a debug mp4 per episode in `<out>.debug/` (openral_data/viz/debug_video.py)
     save_video_dir: Path | None = None  # ... in this folder instead (implies save_video)
     view: bool = False  # --view: show the run live in rerun (openral_data/viz/live.py); never changes the dataset
-    view_port: int = 9876  # --view: the port a spawned viewer or the served stream listens on
+    view_port: int = DEFAULT_PORT  # --view: the port a spawned viewer or the served stream listens on
     view_address: str | None = None  # --view: send to this running viewer/server instead (rerun+http://.../proxy)
     task: str | None = None  # a task of a suite scene (`--task`; see openral_data.runtime.tasks); None: the YAML's
     instruction: str | None = None  # recorded for every frame and given to the policy (`--instruction`)
@@ -49,7 +56,7 @@ class RecordSummary:
     resumed_at: int = 0  # episodes the dataset already held when this run started (--resume)
     recovered: tuple[str, ...] = ()  # what recovery did before resuming
     codec: str = ""  # the settings used (with --resume: the recording's own)
-    formats: tuple[str, ...] = ()
+    formats: tuple[OutputFormat, ...] = ()
     debug_videos: Path | None = None  # where --save-video wrote (not in to_json)
 
     @property

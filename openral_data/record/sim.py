@@ -8,7 +8,6 @@ import time
 from openral_data.errors import ConfigError, UsageError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig, warm_up
 from openral_data.formats.lerobot_v3.provenance import Origin, Recorded
-from openral_data.formats.mcap import McapSink
 from openral_data.policies.base import PolicyAdapter
 from openral_data.policies.device import resolve_device, with_device
 from openral_data.record import output
@@ -73,9 +72,8 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
     base_seed = opts.seed if opts.seed is not None else scene.seed
     max_steps = opts.max_steps if opts.max_steps is not None else scene.task.max_steps
     check_run_numbers(n_episodes, max_steps, base_seed)
-    from openral_data.runtime.sinks import check_formats, make_sinks
+    from openral_data.runtime.sinks import make_sinks
 
-    check_formats(opts.formats, opts.image_format, opts.mcap_compression)
     out = opts.out if opts.out is not None else default_out(scene, rskill.id)
     debug_videos = check_observers(opts, out, resume=opts.resume)
     kept = {
@@ -147,6 +145,7 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
                     opts.image_format,
                     resume=opts.resume,
                     mcap_compression=opts.mcap_compression,
+                    first_index=opts.first_episode,
                 )
             except BaseException as exc:
                 with contextlib.suppress(Exception):  # closes the observers (no sink yet); the error is `exc`
@@ -155,9 +154,6 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
                 if explained is None:
                     raise
                 raise explained from exc
-            for sink in sinks:
-                if isinstance(sink, McapSink):
-                    sink.index_offset = opts.first_episode
             bridge = DatasetBridge(schema, sinks, first_episode=first, observers=observers)
             start_at = getattr(env, "start_at", None)  # producers that number their episodes (the mock)
             if callable(start_at):

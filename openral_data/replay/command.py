@@ -35,8 +35,10 @@ from openral_data.replay.tables import episodes_table, steps_table
 from openral_data.runtime import registry
 from openral_data.runtime.compat import check_compatibility
 from openral_data.runtime.observers import check_observers, make_observers
+from openral_data.runtime.sinks import OutputFormat
 from openral_data.runtime.tasks import check_instruction
 from openral_data.schemas.rskill import RSkillManifest
+from openral_data.viz import DEFAULT_PORT
 
 Mode = Literal["actions", "policy", "closed-loop"]
 MODES: tuple[Mode, ...] = ("actions", "policy", "closed-loop")
@@ -59,7 +61,7 @@ class ReplayOptions:
     record: Path | None = None  # actions / closed-loop: also write the rollouts as a new dataset here
     cameras: Path | None = None  # with record: YAML of cameras (+ render) replacing the recorded ones
     codec: Codec = "av1"
-    formats: tuple[str, ...] = ("lerobot",)
+    formats: tuple[OutputFormat, ...] = ("lerobot",)  # typed at the edge (`runtime.sinks.parse_formats`)
     instruction: str | None = (
         None  # closed-loop: the policy's instruction (and a --record's task) instead of the scene's
     )
@@ -67,8 +69,9 @@ class ReplayOptions:
     save_video: bool = False  # closed-loop: a debug mp4 per episode in `<results>.debug/` (viz/debug_video.py)
     save_video_dir: Path | None = None  # closed-loop: ... in this folder instead (implies save_video)
     view: bool = False  # closed-loop: show the run live in rerun (viz/live.py)
-    view_port: int = 9876  # --view: the port a spawned viewer or the served stream listens on
+    view_port: int = DEFAULT_PORT  # --view: the port a spawned viewer or the served stream listens on
     view_address: str | None = None  # --view: send to this running viewer/server instead
+    explicit: frozenset[str] = frozenset()  # the options the user gave (the CLI's parameter names)
 
 
 @dataclass
@@ -195,7 +198,7 @@ def _check(opts: ReplayOptions) -> None:
     check_instruction(opts.instruction)
     if opts.device is not None and opts.mode == "actions":
         raise UsageError("--device: --mode actions runs no policy")
-    if opts.mode != "closed-loop" and (watched(opts) or opts.view_port != 9876 or opts.view_address is not None):
+    if opts.mode != "closed-loop" and (watched(opts) or "view_port" in opts.explicit or opts.view_address is not None):
         raise UsageError(
             f"--save-video, --view: only with --mode closed-loop (--mode {opts.mode} renders no scene to show)"
         )

@@ -27,12 +27,13 @@ from openral_data.errors import CompatibilityError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
 from openral_data.formats.lerobot_v3.provenance import Origin, Recorded, ReplayOrigin
 from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.formats.mcap import ImageFormat
 from openral_data.formats.staging import Staging
 from openral_data.replay.drive import StepHook
 from openral_data.replay.rebuild import Rebuilt, SceneView
 from openral_data.runtime.bridge import DatasetBridge
 from openral_data.runtime.outdir import check_out
-from openral_data.runtime.sinks import check_formats, make_sinks
+from openral_data.runtime.sinks import OutputFormat, make_sinks
 from openral_data.schemas.base import StrictModel, load_model
 from openral_data.schemas.scene import RenderConfig, SceneCamera
 from openral_data.types import DatasetSchema, EpisodeRecord, FrameObserver, Observation, Sink, StepResult
@@ -63,14 +64,13 @@ class Rerecorder:
         dataset_root: Path,
         mode: str,
         codec: Codec = "av1",
-        formats: tuple[str, ...] = ("lerobot",),
-        image_format: str = "jpeg",
+        formats: tuple[OutputFormat, ...] = ("lerobot",),
+        image_format: ImageFormat = "jpeg",
         observe: Observe | None = None,
     ) -> None:
         video = VideoSettings(codec=codec)
         spec = built.env.spec
         if out is not None:
-            check_formats(formats, image_format)
             check_out(out)
             for name, shape in spec.cameras.items():
                 problem = video.size_problem(shape.height, shape.width)

@@ -11,66 +11,53 @@ lerobot's loader only reads ``meta/``, ``data/`` and ``videos/``, so ``mcap/`` b
 from __future__ import annotations
 
 from pathlib import Path
-from typing import cast
+from typing import Literal, cast
 
 from openral_data.errors import UsageError
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, WriterConfig
-from openral_data.formats.mcap import (
-    IMAGE_FORMATS,
-    ImageFormat,
-    McapCompression,
-    McapConfig,
-    McapSink,
-    check_compression,
-)
+from openral_data.formats.mcap import ImageFormat, McapCompression, McapConfig, McapSink
 from openral_data.types import DatasetSchema, Sink
 
-FORMATS = ("lerobot", "mcap")
+OutputFormat = Literal["lerobot", "mcap"]
+FORMATS: tuple[OutputFormat, ...] = ("lerobot", "mcap")
 MCAP_SUBDIR = "mcap"
 
 
-def parse_formats(text: str) -> tuple[str, ...]:
-    """`lerobot,mcap` -> ("lerobot", "mcap"); unknown or repeated names are errors."""
+def parse_formats(text: str) -> tuple[OutputFormat, ...]:
+    """`lerobot,mcap` -> ("lerobot", "mcap"); unknown or repeated names are errors. The one check of `--format`:
+    below the edge a tuple of `OutputFormat` is trusted."""
     names = tuple(part.strip() for part in text.split(",") if part.strip())
-    check_formats(names)
-    return names
-
-
-def check_formats(formats: tuple[str, ...], image_format: str = "jpeg", mcap_compression: str = "zstd") -> None:
-    if not formats:
+    if not names:
         raise UsageError(f"--format: choose at least one of {', '.join(FORMATS)}")
-    unknown = [f for f in formats if f not in FORMATS]
+    unknown = [f for f in names if f not in FORMATS]
     if unknown:
         raise UsageError(f"--format: unknown format(s) {', '.join(unknown)} (valid: {', '.join(FORMATS)})")
-    if len(set(formats)) != len(formats):
-        raise UsageError(f"--format: a format is listed twice in {','.join(formats)}")
-    if image_format not in IMAGE_FORMATS:
-        raise UsageError(f"--image-format: {image_format!r} is not one of {', '.join(IMAGE_FORMATS)}")
-    check_compression(mcap_compression)
+    if len(set(names)) != len(names):
+        raise UsageError(f"--format: a format is listed twice in {','.join(names)}")
+    return cast(tuple[OutputFormat, ...], names)
 
 
 def make_sinks(
     out: Path,
     schema: DatasetSchema,
-    formats: tuple[str, ...],
+    formats: tuple[OutputFormat, ...],
     writer: WriterConfig,
-    image_format: str = "jpeg",
+    image_format: ImageFormat = "jpeg",
     *,
     resume: bool = False,
-    mcap_compression: str = "zstd",
+    mcap_compression: McapCompression = "zstd",
+    first_index: int = 0,
 ) -> list[Sink]:
     """The sinks in commit order: MCAP before LeRobot, so a kill between the two commits of one episode
-    leaves an extra bag (one folder `record --resume` sets aside), never an extra LeRobot episode."""
-    check_formats(formats, image_format, mcap_compression)
+    leaves an extra bag (one folder `record --resume` sets aside), never an extra LeRobot episode.
+    `first_index`: the number of the first MCAP bag (a `--workers` share writes under its final numbers)."""
     sinks: list[Sink] = []
     try:
         if "lerobot" in formats:  # created first: it refuses a non-empty OUT before anything lands there
             sinks.append(LeRobotV3Writer(out, schema, writer, resume=resume))
         if "mcap" in formats:
-            config = McapConfig(
-                image_format=cast(ImageFormat, image_format), compression=cast(McapCompression, mcap_compression)
-            )
-            sinks.insert(0, McapSink(out / MCAP_SUBDIR, schema, config, resume=resume))
+            config = McapConfig(image_format=image_format, compression=mcap_compression)
+            sinks.insert(0, McapSink(out / MCAP_SUBDIR, schema, config, resume=resume, first_index=first_index))
     except BaseException:
         for sink in sinks:
             sink.close()

@@ -27,6 +27,7 @@ import rerun as rr
 
 from openral_data.errors import UsageError
 from openral_data.types import DatasetSchema, EpisodeRecord, EpisodeStart, Frame
+from openral_data.viz import DEFAULT_PORT
 from openral_data.viz.entities import (
     APP_ID,
     FRAME,
@@ -42,7 +43,6 @@ from openral_data.viz.entities import (
 )
 from openral_data.viz.rerun_view import has_display
 
-DEFAULT_PORT = 9876  # rerun's own default
 MAX_PENDING = 32  # frames waiting for the viewer thread before live frames are dropped
 
 

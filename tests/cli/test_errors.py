@@ -165,6 +165,17 @@ def test_bad_numbers_and_usage(tmp_path: Path, project: Path) -> None:
     _fails(["info", str(tmp_path)], "not a LeRobot v3 dataset")
 
 
+def test_given_flags_are_what_the_parser_saw_not_a_value_compared_with_the_default(
+    tmp_path: Path, project: Path
+) -> None:
+    """A flag repeated at its default value is still a flag the user gave (click's parameter source)."""
+    out = str(tmp_path / "o")
+    _fails(["record", "--out", out, "--view-port", "9876"], "--view, --view-port, --view-address: need --view")
+    _fails(["record", "--out", out, "--mode", "sim", "--fps", "20"], "--mode, --fps: only with --hal ROBOT_ID")
+    _fails(["record", "--out", out, "--image-format", "gif"], "--image-format: 'gif' is not one of jpeg, png, raw")
+    assert not (tmp_path / "o").exists()
+
+
 def test_list_commands(project: Path) -> None:
     scenes = run_cli("list", "scenes")
     assert scenes.returncode == 0 and "mock_pick" in scenes.stdout and "benchmark" in scenes.stdout

@@ -30,6 +30,7 @@ from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.mcap.writer import finished_bags
 from openral_data.record.options import RecordOptions
 from openral_data.record.sim import record
+from openral_data.runtime.sinks import OutputFormat
 from openral_data.types import EpisodeRecord
 from tests.support.cli import run_cli
 from tests.support.faults import Faults, inject
@@ -38,7 +39,7 @@ from tests.support.lerobot import verify_mock_dataset
 from tests.support.scenes import mock_scene, write_yaml
 
 LENGTHS = [3, 2, 4]
-FORMATS = {"lerobot": ("lerobot",), "mcap": ("mcap",), "both": ("lerobot", "mcap")}
+FORMATS: dict[str, tuple[OutputFormat, ...]] = {"lerobot": ("lerobot",), "mcap": ("mcap",), "both": ("lerobot", "mcap")}
 KEPT = re.compile(r"; (?:no episode is|episode 0 is|episodes 0-(\d+) are) kept \(free space, then record --resume")
 
 

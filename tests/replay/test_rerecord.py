@@ -104,6 +104,7 @@ def test_closed_loop_view_serves_a_stream_a_client_receives(
     [
         (["--mode", "actions", "--save-video"], "error: --save-video, --view: only with --mode closed-loop"),
         (["--mode", "actions", "--view"], "error: --save-video, --view: only with --mode closed-loop"),
+        (["--view-port", "9876"], "error: --save-video, --view: only with --mode closed-loop"),  # given, if default
         (
             ["--mode", "policy", "--rskill", "recorded", "--save-video-dir", "v"],
             "error: --save-video, --view: only with --mode closed-loop",

@@ -1,18 +1,19 @@
 """ROS 2 / MCAP: one rosbag2 bag per episode (rosbags, CDR, standard message types; topics in `messages`).
 
 Writing: `McapSink` (a `Sink`, configured by `McapConfig`; chunks compressed as one of `MCAP_COMPRESSIONS`;
-camera images stored as an `ImageFormat`, one of `IMAGE_FORMATS`). Reading: `finished_bags` lists a folder's
+camera images stored as an `ImageFormat`, one of `IMAGE_FORMATS`; text from a user becomes one through
+`parse_compression` / `parse_image_format`, the only places that check it). Reading: `finished_bags` lists a folder's
 complete episode bags (never the one in flight) and `decode_image` turns a camera message back into pixels.
 """
 
-from openral_data.formats.mcap.messages import IMAGE_FORMATS, ImageFormat, decode_image
+from openral_data.formats.mcap.messages import IMAGE_FORMATS, ImageFormat, decode_image, parse_image_format
 from openral_data.formats.mcap.writer import (
     MCAP_COMPRESSIONS,
     McapCompression,
     McapConfig,
     McapSink,
-    check_compression,
     finished_bags,
+    parse_compression,
 )
 
 __all__ = [
@@ -22,7 +23,8 @@ __all__ = [
     "McapCompression",
     "McapConfig",
     "McapSink",
-    "check_compression",
     "decode_image",
     "finished_bags",
+    "parse_compression",
+    "parse_image_format",
 ]

@@ -37,8 +37,18 @@ from PIL import Image as PILImage
 from rosbags.typesys import Stores, get_typestore
 from rosbags.typesys.store import Typestore
 
+from openral_data.errors import UsageError
+
 ImageFormat = Literal["jpeg", "png", "raw"]
 IMAGE_FORMATS: tuple[ImageFormat, ...] = ("jpeg", "png", "raw")
+
+
+def parse_image_format(name: str) -> ImageFormat:
+    """`--image-format` (or any untyped text) -> an `ImageFormat`; below the edge the value is never checked again."""
+    if name not in IMAGE_FORMATS:
+        raise UsageError(f"--image-format: {name!r} is not one of {', '.join(IMAGE_FORMATS)}")
+    return name
+
 
 JOINT_STATES = "/joint_states"
 ACTION = "/action"

@@ -101,26 +101,28 @@ class McapSink:
     """
 
     def __init__(
-        self, root: Path, schema: DatasetSchema, config: McapConfig | None = None, *, resume: bool = False
+        self,
+        root: Path,
+        schema: DatasetSchema,
+        config: McapConfig | None = None,
+        *,
+        resume: bool = False,
+        first_index: int = 0,
     ) -> None:
         self.root = root
         self.schema = schema
         self.config = config or McapConfig()
-        if self.config.image_format not in m.IMAGE_FORMATS:
-            raise UsageError(f"image format {self.config.image_format!r}: expected one of {m.IMAGE_FORMATS}")
         if self.config.queue_size < 1:
             raise UsageError(f"queue_size must be >= 1, got {self.config.queue_size}")
         if self.config.encoder_threads is not None and self.config.encoder_threads < 0:
             raise UsageError(f"encoder_threads must be >= 0, got {self.config.encoder_threads}")
-        check_compression(self.config.compression)
         if not resume and root.exists() and (not root.is_dir() or any(p.name != PARTIAL for p in root.iterdir())):
             raise OutputExists(f"{root}: output exists and is not empty; refusing to overwrite it")
         self._created_root = not root.exists()
         root.mkdir(parents=True, exist_ok=True)
         # resume: continue after the finished bags (numbered 0..n-1; record --resume checked that)
         self.episodes = len(finished_bags(root)) if resume else 0
-        self.next_index: int | None = None  # names the next episode's bag; default: episodes written so far
-        self.index_offset = 0  # added to the default name (a parallel worker writes its share under final numbers)
+        self.first_index = first_index  # the first bag's number (a parallel worker writes its share under final ones)
         self._factory = MessageFactory(self.config.image_format, self.config.jpeg_quality)
         workers = self.config.threads(len(schema.cameras))
         self._pool = ThreadPoolExecutor(workers, thread_name_prefix="mcap-image") if workers > 0 else None
@@ -129,11 +131,13 @@ class McapSink:
         self._closed = False
 
     # -- Sink API --------------------------------------------------------------------------------------------
-    def begin_episode(self, start: EpisodeStart) -> None:
+    def begin_episode(self, start: EpisodeStart, index: int | None = None) -> None:
+        """Open the next episode's bag, numbered `index` (an export keeping the source's numbers) or, by default,
+        `first_index` + the episodes written so far."""
         if self._episode is not None:
             raise RuntimeError("begin_episode() while an episode is open")
-        index = self.episodes + self.index_offset if self.next_index is None else self.next_index
-        self.next_index = None
+        if index is None:
+            index = self.first_index + self.episodes
         if episode_dir(self.root, index).exists():
             raise OutputExists(f"{episode_dir(self.root, index)}: exists; refusing to overwrite it")
         try:
@@ -206,9 +210,11 @@ class McapSink:
             raise _write_error(self.root, exc, self._episode.index, "writing") from exc
 
 
-def check_compression(name: str) -> None:
+def parse_compression(name: str) -> McapCompression:
+    """`--mcap-compression` (or any untyped text) -> a `McapCompression`; never checked again below the edge."""
     if name not in MCAP_COMPRESSIONS:
         raise UsageError(f"--mcap-compression: {name!r} is not one of {', '.join(MCAP_COMPRESSIONS)}")
+    return name
 
 
 def _compressed_chunks(writer: Writer, compression: McapCompression) -> None:
@@ -243,18 +249,35 @@ class _EpisodeBag:
         self.base_ns = base_ns
         self.final = episode_dir(root, index)
         self.staged = root / PARTIAL / self.final.name
+        self.factory = MessageFactory(config.image_format, config.jpeg_quality)
+        self.depth = [name for name, shape in schema.cameras.items() if shape.depth_unit is not None]
+        self.masks = [name for name, shape in schema.cameras.items() if shape.segmentation]
+        self.names = list(schema.state_names)
+        self.length = 0
+        self.last_ns = base_ns
+        self.task: str | None = None
+        self.closed = False
+        self.writer = self._open_writer()
+        self._add_connections()
+        self._write_start(start)
+
+    def _open_writer(self) -> Writer:
+        """The rosbag2 writer of the staged bag, its custom data set and its chunks compressed as configured."""
         shutil.rmtree(self.staged, ignore_errors=True)
         self.staged.parent.mkdir(parents=True, exist_ok=True)
-        self.factory = MessageFactory(config.image_format, config.jpeg_quality)
-        self.writer = Writer(self.staged, version=ROSBAG2_VERSION, storage_plugin=StoragePlugin.MCAP)
-        self.writer.set_custom_data("openral.episode_index", str(index))
-        self.writer.set_custom_data("openral.stamp_base_ns", str(base_ns))
-        if config.compression == "zstd":
-            self.writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
-        self.writer.open()
-        _compressed_chunks(self.writer, config.compression)
-        store = self.factory.store
-        add = self.writer.add_connection
+        writer = Writer(self.staged, version=ROSBAG2_VERSION, storage_plugin=StoragePlugin.MCAP)
+        writer.set_custom_data("openral.episode_index", str(self.index))
+        writer.set_custom_data("openral.stamp_base_ns", str(self.base_ns))
+        if self.config.compression == "zstd":
+            writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+        writer.open()
+        _compressed_chunks(writer, self.config.compression)
+        return writer
+
+    def _add_connections(self) -> None:
+        """One connection per topic, in a fixed order (it is the bag's channel order); /tf waits for the first
+        frame that reports a moving camera mount."""
+        schema, store, add = self.schema, self.factory.store, self.writer.add_connection
         self.c_event = add(m.EPISODE, m.STRING_T, typestore=store)
         self.c_task = add(m.TASK, m.STRING_T, typestore=store)
         self.c_state = add(m.JOINT_STATES, m.JOINT_STATE_T, typestore=store)
@@ -263,15 +286,17 @@ class _EpisodeBag:
         self.c_reward = add(m.REWARD, m.FLOAT32_T, typestore=store) if schema.has_reward else None
         env = schema.environment_state_names
         self.c_env = add(m.ENVIRONMENT_STATE, m.FLOAT32_ARRAY_T, typestore=store) if env else None
-        fmt = config.image_format
-        self.depth = [name for name, shape in schema.cameras.items() if shape.depth_unit is not None]
-        self.masks = [name for name, shape in schema.cameras.items() if shape.segmentation]
-        intrinsics = {
+        fmt = self.config.image_format
+        self.intrinsics = {
             name: shape.info["camera_info"] for name, shape in schema.cameras.items() if "camera_info" in shape.info
         }
-        c_info = {name: add(m.camera_info_topic(name), m.CAMERA_INFO_T, typestore=store) for name in intrinsics}
-        poses = {name: shape.info["extrinsics"] for name, shape in schema.cameras.items() if "extrinsics" in shape.info}
-        c_tf = add(m.TF_STATIC, m.TF_T, typestore=store) if poses else None
+        self.c_info = {
+            name: add(m.camera_info_topic(name), m.CAMERA_INFO_T, typestore=store) for name in self.intrinsics
+        }
+        self.poses = {
+            name: shape.info["extrinsics"] for name, shape in schema.cameras.items() if "extrinsics" in shape.info
+        }
+        self.c_tf_static = add(m.TF_STATIC, m.TF_T, typestore=store) if self.poses else None
         self.c_cams: dict[str, Connection] = {
             name: (
                 add(m.depth_topic(name), m.IMAGE_T, typestore=store)
@@ -283,11 +308,10 @@ class _EpisodeBag:
             for name in schema.cameras
         }
         self.c_tf: Connection | None = None
-        self.names = list(schema.state_names)
-        self.length = 0
-        self.last_ns = base_ns
-        self.task: str | None = None
-        self.closed = False
+
+    def _write_start(self, start: EpisodeStart) -> None:
+        """The start marker, then each camera's intrinsics and where each camera is: once, at the first stamp."""
+        schema = self.schema
         marker: dict[str, Any] = {
             "event": "start",
             "episode": self.index,
@@ -308,10 +332,10 @@ class _EpisodeBag:
             "outcomes": {"reward": schema.has_reward, "success": schema.has_success},
         }
         self.writer.write(self.c_event, self.base_ns, self.factory.event(marker))
-        for name, conn in c_info.items():  # a camera's intrinsics: once, at the start
-            self.writer.write(conn, self.base_ns, self.factory.camera_info(self.base_ns, intrinsics[name]))
-        if c_tf is not None:  # where each camera is: once, at the start
-            self.writer.write(c_tf, self.base_ns, self.factory.transforms(self.base_ns, poses))
+        for name, conn in self.c_info.items():
+            self.writer.write(conn, self.base_ns, self.factory.camera_info(self.base_ns, self.intrinsics[name]))
+        if self.c_tf_static is not None:
+            self.writer.write(self.c_tf_static, self.base_ns, self.factory.transforms(self.base_ns, self.poses))
 
     def write_frame(self, frame: Frame, encoded: dict[str, bytes]) -> None:
         ns = self.base_ns + round(frame.timestamp * 1e9)

@@ -31,7 +31,7 @@ from openral_data.record.parallel.plan import plan
 from openral_data.record.parallel.worker import WorkerResult, init_local_worker, run_worker
 from openral_data.runtime import registry
 from openral_data.runtime.parallel.executors import run_on
-from openral_data.runtime.sinks import MCAP_SUBDIR, check_formats
+from openral_data.runtime.sinks import MCAP_SUBDIR
 from openral_data.schemas.scene import load_recordable_scene
 from openral_data.types import EpisodeRecord
 
@@ -49,7 +49,6 @@ def record_parallel(
     address: str | None = None,
     threads: int | None = None,
 ) -> ParallelSummary:
-    check_formats(opts.formats, opts.image_format, opts.mcap_compression)
     if opts.resume:
         raise UsageError("--resume: continue a recording with one process (no --workers/--executor)")
     if opts.save_video or opts.save_video_dir is not None:

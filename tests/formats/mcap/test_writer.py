@@ -143,3 +143,26 @@ def test_discarded_episode_leaves_nothing(tmp_path: Path) -> None:
     sink.discard_episode()
     sink.close()
     assert not (tmp_path / "m").exists()  # no finished episode: the folder it created is gone
+
+
+def _one_episode(sink: McapSink, index: int | None = None) -> None:
+    sink.begin_episode(EpisodeStart(seed=0, initial_state={}), index)
+    sink.add_frame(_frame(0))
+    sink.end_episode(True)
+
+
+def test_the_sink_numbers_its_bags_from_first_index_or_the_index_it_is_handed(tmp_path: Path) -> None:
+    """Nobody sets the sink's numbering from outside: a `--workers` share gives its first number when the sink is
+    built, an export keeping the source's numbers hands each episode's with `begin_episode`."""
+    sink = McapSink(tmp_path / "share", SCHEMA, first_index=5)
+    _one_episode(sink)
+    _one_episode(sink)
+    sink.close()
+    assert [p.name for p in finished_bags(tmp_path / "share")] == ["episode_000005", "episode_000006"]
+    sink = McapSink(tmp_path / "export", SCHEMA)
+    _one_episode(sink, 3)
+    _one_episode(sink, 7)
+    _one_episode(sink)  # no index: after the episodes written so far
+    sink.close()
+    names = [p.name for p in finished_bags(tmp_path / "export")]
+    assert names == ["episode_000002", "episode_000003", "episode_000007"]
