@@ -22,7 +22,7 @@ import re
 from collections.abc import Iterator, Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, get_args
+from typing import Any
 
 from openral_data.edit.ops import EditResult, Rewrite, check_edit_output, summed_histograms, write_edit
 from openral_data.edit.recode import CameraEncoders, Pixels, clip_frames, image_frames
@@ -32,7 +32,7 @@ from openral_data.formats.lerobot_v3.features import camera_keys
 from openral_data.formats.lerobot_v3.masks import is_mask
 from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
-from openral_data.formats.lerobot_v3.video import Codec, VideoSettings
+from openral_data.formats.lerobot_v3.video import VideoSettings, parse_codec
 from openral_data.formats.lerobot_v3.writer import WriterConfig
 from openral_data.types import CameraShape
 
@@ -49,9 +49,7 @@ def parse_size(text: str) -> CameraShape:
 
 
 def settings_for(codec: str) -> VideoSettings:
-    if codec not in get_args(Codec):
-        raise UsageError(f"--codec: {codec!r} is not one of {', '.join(get_args(Codec))}")
-    return VideoSettings(codec=codec)  # type: ignore[arg-type]  # checked just above
+    return VideoSettings(codec=parse_codec(codec))
 
 
 def choose_cameras(

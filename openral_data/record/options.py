@@ -11,7 +11,7 @@ from openral_data.errors import UsageError
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.runtime.outdir import fresh_out
-from openral_data.runtime.sinks import OutputFormat
+from openral_data.runtime.sinks import OutputFormat, check_outputs
 from openral_data.schemas.scene import MAX_SEED, SimScene
 from openral_data.types import EpisodeRecord
 from openral_data.viz import DEFAULT_PORT
@@ -20,8 +20,9 @@ from openral_data.viz import DEFAULT_PORT
 @dataclass(frozen=True)
 class RecordOptions:
     """Typed at the edge: the CLI parses `--format`/`--image-format`/`--mcap-compression` (`parse_formats`,
-    `parse_image_format`, `parse_compression`), a pipeline YAML is validated by its schema; nothing below checks
-    them again."""
+    `parse_image_format`, `parse_compression`), a pipeline YAML is validated by its schema, and the object checks
+    them once more when it is built (the Python API may be called from untyped code); nothing below checks them
+    again."""
 
     scene: str = manifests.DEFAULT_SCENE
     rskill: str | None = None  # None: the scene's default_rskill (`rskill_ref`)
@@ -45,6 +46,9 @@ class RecordOptions:
     task: str | None = None  # a task of a suite scene (`--task`; see openral_data.runtime.tasks); None: the YAML's
     instruction: str | None = None  # recorded for every frame and given to the policy (`--instruction`)
     device: str | None = None  # a neural policy's torch device (`--device`; wins over the rSkill's)
+
+    def __post_init__(self) -> None:
+        check_outputs(self.formats, self.codec, self.image_format, self.mcap_compression)
 
 
 @dataclass(frozen=True)

@@ -35,7 +35,7 @@ from openral_data.replay.tables import episodes_table, steps_table
 from openral_data.runtime import registry
 from openral_data.runtime.compat import check_compatibility
 from openral_data.runtime.observers import check_observers, make_observers
-from openral_data.runtime.sinks import OutputFormat
+from openral_data.runtime.sinks import OutputFormat, check_outputs
 from openral_data.runtime.tasks import check_instruction
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.viz import DEFAULT_PORT
@@ -72,6 +72,9 @@ class ReplayOptions:
     view_port: int = DEFAULT_PORT  # --view: the port a spawned viewer or the served stream listens on
     view_address: str | None = None  # --view: send to this running viewer/server instead
     explicit: frozenset[str] = frozenset()  # the options the user gave (the CLI's parameter names)
+
+    def __post_init__(self) -> None:
+        check_outputs(self.formats, self.codec)  # once, when built (the Python API may be called untyped)
 
 
 @dataclass

@@ -15,7 +15,15 @@ from typing import Literal, cast
 
 from openral_data.errors import UsageError
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, WriterConfig
-from openral_data.formats.mcap import ImageFormat, McapCompression, McapConfig, McapSink
+from openral_data.formats.lerobot_v3.video import parse_codec
+from openral_data.formats.mcap import (
+    ImageFormat,
+    McapCompression,
+    McapConfig,
+    McapSink,
+    parse_compression,
+    parse_image_format,
+)
 from openral_data.types import DatasetSchema, Sink
 
 OutputFormat = Literal["lerobot", "mcap"]
@@ -35,6 +43,17 @@ def parse_formats(text: str) -> tuple[OutputFormat, ...]:
     if len(set(names)) != len(names):
         raise UsageError(f"--format: a format is listed twice in {','.join(names)}")
     return cast(tuple[OutputFormat, ...], names)
+
+
+def check_outputs(
+    formats: tuple[str, ...], codec: str, image_format: str = "jpeg", mcap_compression: str = "zstd"
+) -> None:
+    """An options object's output settings, checked once when it is built: the CLI hands typed values, but the
+    Python API may be called from untyped code; a bad value is the same one line the CLI gives."""
+    parse_formats(",".join(formats))
+    parse_codec(codec)
+    parse_image_format(image_format)
+    parse_compression(mcap_compression)
 
 
 def make_sinks(

@@ -10,6 +10,7 @@ import pytest
 from openral_data.errors import UsageError
 from openral_data.formats.lerobot_v3 import WriterConfig
 from openral_data.formats.mcap import McapSink, parse_compression, parse_image_format
+from openral_data.record.options import RecordOptions
 from openral_data.runtime.sinks import make_sinks, parse_formats
 from openral_data.types import CameraShape, DatasetSchema
 
@@ -53,3 +54,20 @@ def test_the_typed_values_reach_the_writer(tmp_path: Path) -> None:
     finally:
         for s in sinks:
             s.close()
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "message"),
+    [
+        ("formats", ("lerobot", "csv"), "--format: unknown format(s) csv (valid: lerobot, mcap)"),
+        ("codec", "vp9", "--codec: 'vp9' is not one of av1, h264"),
+        ("image_format", "gif", "--image-format: 'gif' is not one of jpeg, png, raw"),
+        ("mcap_compression", "bz2", "--mcap-compression: 'bz2' is not one of zstd, lz4, none"),
+    ],
+)
+def test_options_built_from_untyped_python_are_checked_once_when_built(field: str, value: object, message: str) -> None:
+    """The Python API may be called from untyped code: RecordOptions refuses a bad value when it is built, with
+    the CLI's own line, so nothing below it needs to check again."""
+    with pytest.raises(UsageError) as excinfo:
+        RecordOptions(**{field: value})  # type: ignore[arg-type]
+    assert str(excinfo.value) == message
