@@ -1,41 +1,68 @@
-"""House rules the import-linter contracts (`lint-imports`) do not cover: private names stay in their module,
-and every package has a documented face."""
+"""House rules the import-linter contracts (`lint-imports`) do not cover: private names stay in their module (in
+the package, its tests and benchmarks alike), and every package has a documented face."""
 
 from __future__ import annotations
 
 import ast
 from pathlib import Path
 
-PACKAGE = Path(__file__).resolve().parent.parent / "openral_data"
+ROOT = Path(__file__).resolve().parent.parent
+PACKAGE = ROOT / "openral_data"
+TESTS = ROOT / "tests"
+BENCHMARKS = ROOT / "benchmarks"
 
 
 def _private(name: str) -> bool:
     return name.startswith("_") and not name.startswith("__")
 
 
-def test_no_module_uses_another_modules_private_name() -> None:
+def _private_uses(path: Path) -> list[str]:
+    """Where `path` imports or touches a `_private` name of an openral_data module: `from m import _x`, `m._x`,
+    `setattr(m, "_x", ...)` / `monkeypatch.setattr(m, "_x", ...)` and `"openral_data.<m>._x"` strings."""
     found = []
-    for path in sorted(PACKAGE.rglob("*.py")):
-        tree = ast.parse(path.read_text(), str(path))
-        modules: set[str] = set()  # local names bound to openral_data modules or their members
-        for node in ast.walk(tree):
-            if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("openral_data"):
-                for alias in node.names:
-                    if _private(alias.name):
-                        found.append(f"{path}:{node.lineno}: from {node.module} import {alias.name}")
-                    modules.add(alias.asname or alias.name)
-            elif isinstance(node, ast.Import):
-                modules.update(
-                    a.asname or a.name.split(".")[0] for a in node.names if a.name.startswith("openral_data")
-                )
-        for node in ast.walk(tree):
-            if (
-                isinstance(node, ast.Attribute)
-                and _private(node.attr)
-                and isinstance(node.value, ast.Name)
-                and node.value.id in modules
-            ):
-                found.append(f"{path}:{node.lineno}: {node.value.id}.{node.attr}")
+    tree = ast.parse(path.read_text(), str(path))
+    modules: set[str] = set()  # local names bound to openral_data modules or their members
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("openral_data"):
+            for alias in node.names:
+                if _private(alias.name):
+                    found.append(f"{path}:{node.lineno}: from {node.module} import {alias.name}")
+                modules.add(alias.asname or alias.name)
+        elif isinstance(node, ast.Import):
+            modules.update(a.asname or a.name.split(".")[0] for a in node.names if a.name.startswith("openral_data"))
+    for node in ast.walk(tree):
+        if isinstance(node, ast.expr) and (use := _private_use(node, modules)):
+            found.append(f"{path}:{node.lineno}: {use}")
+    return found
+
+
+def _private_use(node: ast.expr, modules: set[str]) -> str | None:
+    """`m._x`, `f(m, "_x", ...)` (setattr, monkeypatch.setattr, patch.object) or `"openral_data.<m>._x"`."""
+    if isinstance(node, ast.Attribute) and _private(node.attr) and _names(node.value, modules):
+        return ast.unparse(node)
+    if isinstance(node, ast.Call) and len(node.args) >= 2 and _names(node.args[0], modules):
+        name = node.args[1]
+        if isinstance(name, ast.Constant) and isinstance(name.value, str) and _private(name.value):
+            return f"{ast.unparse(node.func)}({ast.unparse(node.args[0])}, {name.value!r}, ...)"
+    if isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value.startswith("openral_data."):
+        return repr(node.value) if any(_private(part) for part in node.value.split(".")) else None
+    return None
+
+
+def _names(node: ast.expr, modules: set[str]) -> bool:
+    return isinstance(node, ast.Name) and node.id in modules
+
+
+def test_no_module_uses_another_modules_private_name() -> None:
+    found = [line for path in sorted(PACKAGE.rglob("*.py")) for line in _private_uses(path)]
+    assert not found, "\n".join(found)
+
+
+def test_no_test_or_benchmark_uses_a_private_name_of_the_package() -> None:
+    """Tests reach the package through its public names; a fault injected on purpose goes through a documented
+    seam (e.g. `formats.mcap.writer.EpisodeBag.write_frame`), never a `_private` one."""
+    paths = [p for root in (TESTS, BENCHMARKS) for p in sorted(root.rglob("*.py"))]
+    found = [line for path in paths for line in _private_uses(path)]
     assert not found, "\n".join(found)
 
 
