@@ -17,6 +17,7 @@ from openral_data.errors import UsageError
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, WriterConfig
 from openral_data.formats.mcap import (
     IMAGE_FORMATS,
+    MCAP_SUBDIR,
     ImageFormat,
     McapCompression,
     McapConfig,
@@ -26,7 +27,6 @@ from openral_data.formats.mcap import (
 from openral_data.types import DatasetSchema, Sink
 
 FORMATS = ("lerobot", "mcap")
-MCAP_SUBDIR = "mcap"
 
 
 def parse_formats(text: str) -> tuple[str, ...]:

@@ -50,6 +50,7 @@ from openral_data.formats.mcap.messages import ImageFormat, MessageFactory
 from openral_data.types import DatasetSchema, EpisodeRecord, EpisodeStart, Frame
 
 PARTIAL = ".partial"
+MCAP_SUBDIR = "mcap"  # where a dataset output keeps its bags: OUT/mcap/episode_NNNNNN/
 ROSBAG2_VERSION: Final[Literal[8]] = 8  # Humble/Iron readers accept 8; Jazzy reads 8 and 9
 McapCompression = Literal["zstd", "lz4", "none"]
 MCAP_COMPRESSIONS: tuple[McapCompression, ...] = ("zstd", "lz4", "none")
