@@ -156,3 +156,13 @@ def test_every_openral_data_name_in_docstrings_comments_and_docs_exists() -> Non
         }
     )
     assert not stale, "named but not defined:\n" + "\n".join(stale)
+
+
+def test_the_package_trees_list_every_package() -> None:
+    """README.md and docs/architecture.md each draw the package tree: every package of openral_data/ is in both."""
+    for page in (ROOT / "README.md", ROOT / "docs" / "architecture.md"):
+        text = page.read_text()
+        tree = text[text.index("\nopenral_data/\n") :]
+        tree = tree[: tree.index("```")]
+        missing = [name for name in SUBPACKAGES if not re.search(rf"(?<![\w/]){name}/", tree)]
+        assert not missing, f"{page.name}: the package tree lacks {missing}"
