@@ -6,7 +6,7 @@ writer recomputes them on every copy). Cameras: from decoded pixels with the wri
 camera's frames decoded from its mp4 (the packets themselves are copied, never re-encoded), a `dtype: image`
 camera's from its embedded PNG/JPEG. Dataset-level camera statistics come from the summed histograms, so they are
 exact (quantiles included), and `.openral/image_hist.json` is written again. A segmentation mask's statistics are
-its ids' (masks.py), merged per dataset as numeric features are. Nothing else changes.
+its ids' (formats/lerobot_v3/masks.py), merged per dataset as numeric features are. Nothing else changes.
 """
 
 from __future__ import annotations
@@ -32,7 +32,8 @@ def recompute(dataset: Path, out: Path | None, in_place: bool = False) -> EditRe
     """Write `dataset` with recomputed statistics to `out` (or in place)."""
     src = SourceDataset(dataset)
     images = [k for k in src.carried if src.features[k].get("dtype") == "image"]
-    masks = [k for k in images if is_mask(src.features[k])]  # ids, merged per dataset as numbers (masks.py)
+    # a mask's statistics are its ids', merged per dataset as numbers (formats/lerobot_v3/masks.py)
+    masks = [k for k in images if is_mask(src.features[k])]
     pictures = [k for k in images if k not in masks]
     video_hist = {name: ImageStatsAccumulator() for name in src.camera_names()}
     image_hist = {key: ImageStatsAccumulator() for key in pictures}

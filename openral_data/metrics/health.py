@@ -87,7 +87,7 @@ def _frame_checks(
     """Rows per episode, rows with NaN/Inf, and timestamp steps in row order.
 
     The step-by-step check is a window over the episode's rows ordered by `index`; it runs only on the
-    episodes a cheap per-episode aggregate cannot prove regular (see `_regular_sql`), so a healthy dataset is
+    episodes a cheap per-episode aggregate cannot prove regular (see `regular_sql`), so a healthy dataset is
     read in one plain grouped scan of its scalar columns. NaN/Inf rows are counted in that scan, looking only
     at the columns the vector scan found them in (none, usually).
     """
@@ -97,7 +97,7 @@ def _frame_checks(
         order = "index" if "index" in ds.data_columns else "frame_index"
         bad = " OR ".join(f"NOT isfinite({e})" for e in scan.non_finite) or "FALSE"
         suspects = set()
-        for ep, n, nonfin, regular in query(con, _regular_sql(ds, order, bad))[1]:
+        for ep, n, nonfin, regular in query(con, regular_sql(ds, order, bad))[1]:
             counted[int(ep)] = (int(n), 0, 0, int(nonfin), None)
             if not regular:
                 suspects.add(int(ep))
@@ -128,19 +128,20 @@ def _frame_checks(
     return issues
 
 
-def _tolerance(fps: int) -> float:
+def grid_tolerance(fps: int) -> float:
     """How far an episode's timestamps may stray from an even 1/fps grid and still prove the step checks
     pass: lerobot's own tolerance (1e-4 s), capped at a fifth of a frame period so that no step can be <= 0
-    or longer than GAP_FACTOR periods."""
+    or longer than GAP_FACTOR periods. Public as a seam: `tests/metrics/test_health_fastpath.py` makes it negative
+    to send every episode through the ordered check and compare."""
     return min(TIMESTAMP_TOLERANCE_S, 0.2 / fps)
 
 
-def _regular_sql(ds: DatasetSource, order: str, bad: str) -> str:
+def regular_sql(ds: DatasetSource, order: str, bad: str) -> str:
     """Per episode: rows, rows where `bad` (NaN/Inf) holds, and whether its timestamp steps are provably regular.
 
     With o = `index` (or `frame_index` without it), an episode is regular when all its rows sit in one file
     with o - file_row_number constant and max(o) - min(o) = rows - 1 (so its o values are distinct and
-    consecutive, no NULLs), and timestamp - o / fps varies by at most `_tolerance` (lerobot's rule
+    consecutive, no NULLs), and timestamp - o / fps varies by at most `grid_tolerance` (lerobot's rule
     timestamp = frame_index / fps, up to the episode's offset). Then, in o order, every step is one frame
     period +- that tolerance: neither <= 0 nor a gap, exactly what the ordered check would find. Anything
     else (a copied row, a swapped timestamp, rows split across files, a NULL) makes it a suspect.
@@ -156,7 +157,7 @@ def _regular_sql(ds: DatasetSource, order: str, bad: str) -> str:
                AND min(file_index) = max(file_index)
                AND min({o} - file_row_number) = max({o} - file_row_number)
                AND max({o}) - min({o}) = count(*) - 1
-               AND max({offset}) - min({offset}) <= {_tolerance(ds.fps)!r}
+               AND max({offset}) - min({offset}) <= {grid_tolerance(ds.fps)!r}
         FROM {src}
         GROUP BY episode_index
     """

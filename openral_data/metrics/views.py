@@ -9,7 +9,7 @@ Views (documented in docs/stats.md):
   episode has `next.success`, else NULL (unknown, never guessed).
 * `tasks`    — dataset, task_index, task.
 * `datasets` — one row per dataset: dataset, path, fps, robot_type, episodes, frames, scene, rskill, robot.
-* `results`  / `result_steps` — replay/eval results (see `metrics/results.py`), with `results`, `kind`
+* `results`  / `result_steps` — replay/eval results (see `formats/results.py`), with `results`, `kind`
   and `dataset` columns.
 """
 

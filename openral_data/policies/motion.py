@@ -16,7 +16,7 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.errors import ConfigError
-from openral_data.producers.sim.mujoco.layout import yaw_of
+from openral_data.producers.sim.mujoco.placement import yaw_of
 from openral_data.types import Observation, Privileged
 
 F64 = npt.NDArray[np.float64]

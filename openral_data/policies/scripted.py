@@ -16,7 +16,7 @@ import numpy as np
 
 from openral_data.errors import ConfigError
 from openral_data.policies.motion import CARRY, TRAVEL, Action, Mover, Truth, action, wrap
-from openral_data.producers.sim.mujoco.layout import yaw_of
+from openral_data.producers.sim.mujoco.placement import yaw_of
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.types import Observation
 

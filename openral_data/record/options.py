@@ -37,7 +37,7 @@ class RecordOptions:
     mcap_compression: McapCompression = "zstd"  # MCAP chunks
     resume: bool = False  # continue the recording in `out` with its own settings (see openral_data.record.output)
     explicit: frozenset[str] = frozenset()  # options the user gave (with resume: they must match the recording)
-    first_episode: int = 0  # MCAP bags are numbered from here (a `--workers` share; see openral_data/parallel)
+    first_episode: int = 0  # MCAP bags are numbered from here (a `--workers` share; see openral_data/record/parallel)
     save_video: bool = False  # a debug mp4 per episode in `<out>.debug/` (openral_data/viz/debug_video.py)
     save_video_dir: Path | None = None  # ... in this folder instead (implies save_video)
     view: bool = False  # --view: show the run live in rerun (openral_data/viz/live.py); never changes the dataset

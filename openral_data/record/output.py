@@ -24,13 +24,12 @@ from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.lock import DatasetLock, holder
 from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.recovery import Quarantine, recover
-from openral_data.formats.mcap.writer import PARTIAL, finished_bags
+from openral_data.formats.mcap.writer import MCAP_SUBDIR, PARTIAL, finished_bags
 from openral_data.formats.staging import clean_orphans, unwritable
 from openral_data.record.options import RecordOptions
 from openral_data.runtime.outdir import check_out
 from openral_data.types import DatasetSchema
 
-MCAP_SUBDIR = "mcap"  # sinks.select.MCAP_SUBDIR (not imported: select imports the sinks, which is heavier)
 # RecordOptions fields kept for a resume, with the CLI option that sets each (for the refusal message)
 KEPT = {
     "scene": "--scene",

@@ -9,13 +9,11 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from datetime import datetime
 from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
 
-from openral_data import manifests
 from openral_data.errors import CompatibilityError, OutputExists, UsageError
 from openral_data.formats.lerobot_v3 import VideoSettings
 from openral_data.formats.lerobot_v3.features import dim_names
@@ -35,6 +33,7 @@ from openral_data.replay.tables import episodes_table, steps_table
 from openral_data.runtime import registry
 from openral_data.runtime.compat import check_compatibility
 from openral_data.runtime.observers import check_observers, make_observers
+from openral_data.runtime.outdir import fresh_out
 from openral_data.runtime.sinks import OutputFormat, check_outputs
 from openral_data.runtime.tasks import check_instruction
 from openral_data.schemas.rskill import RSkillManifest
@@ -174,15 +173,6 @@ def _num(value: object) -> str:
     return "-" if value is None else f"{float(value):.3g}"  # type: ignore[arg-type]
 
 
-def default_out(dataset: Path, mode: str) -> Path:
-    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
-    base = manifests.datasets_dir() / f"{dataset.resolve().name}--replay-{mode}--{stamp}"
-    k = 1
-    while (out := base if k == 1 else base.with_name(f"{base.name}-{k}")).exists():
-        k += 1
-    return out
-
-
 def _check(opts: ReplayOptions) -> None:
     if opts.mode not in MODES:
         raise UsageError(f"--mode: {opts.mode!r} is not one of {', '.join(MODES)}")
@@ -223,7 +213,7 @@ def replay(opts: ReplayOptions, progress: ProgressFn | None = None) -> ReplaySum
     _check(opts)
     dataset = RecordedDataset(opts.dataset)
     chosen = dataset.select(opts.episodes)
-    out = opts.out if opts.out is not None else default_out(opts.dataset, opts.mode)
+    out = opts.out if opts.out is not None else fresh_out(f"{opts.dataset.resolve().name}--replay-{opts.mode}")
     videos = check_observers(opts, out, what="the results")  # `--save-video`: `<results>.debug/`
     t0 = time.perf_counter()
     outcomes: list[EpisodeOutcome] = []

@@ -1,5 +1,6 @@
-"""Output folders of the commands that write a new dataset (`record`, `replay --record`): a fresh default name
-under datasets/, and the refusal of an `--out` that already holds something."""
+"""Output folders of the commands that write something new (`record`, `record --hal`, `replay` and its
+`--record`): the one fresh default name under datasets/, and the refusal of an `--out` that already holds
+something."""
 
 from __future__ import annotations
 

@@ -1,10 +1,12 @@
-"""Registries: SCENES (scene types -> producer factories), POLICIES (policy ids -> adapters), both open to
-plug-ins (`@SCENES.register("id")`, entry points `openral_data.scenes` / `openral_data.policies`); ROBOTS
-(`robots/<id>/robot.yaml` on the manifest search path); and resolution of scene and rSkill references."""
+"""Registries: SCENES (scene types -> producer factories; a suite's entry, a `SceneType`, also carries the
+lister of its tasks), POLICIES (policy ids -> adapters), both open to plug-ins (`@SCENES.register("id")`, entry
+points `openral_data.scenes` / `openral_data.policies`); ROBOTS (`robots/<id>/robot.yaml` on the manifest search
+path); and resolution of scene and rSkill references."""
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Mapping, MutableMapping
+from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
 from typing import Literal, cast
@@ -13,6 +15,7 @@ from openral_data import manifests
 from openral_data.errors import ConfigError, OpenralError, UsageError
 from openral_data.policies.base import PolicyAdapter
 from openral_data.policies.basic import RandomPolicy, ZeroPolicy
+from openral_data.producers.sim.tasks import SuiteTask, TaskLister
 from openral_data.schemas.base import load_model
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
@@ -21,6 +24,20 @@ from openral_data.types import SimRollout
 
 SceneFactory = Callable[[SimScene, RobotManifest, RSkillManifest, str], SimRollout]
 PolicyFactory = Callable[[RSkillManifest], PolicyAdapter]
+
+
+@dataclass(frozen=True)
+class SceneType:
+    """A scene type registered with its tasks: the producer factory and the lister of the tasks `record --task`
+    may choose and `list tasks` prints (`runtime/tasks.py`). Called, it is the factory, so `SCENES` holds it
+    like any other; a plain factory registers a scene type without tasks. A plug-in's suite registers one too:
+    `SCENES["my_suite"] = SceneType(make_my_suite, tasks=my_suite_tasks)`."""
+
+    make: SceneFactory
+    tasks: TaskLister | None = None
+
+    def __call__(self, scene: SimScene, robot: RobotManifest, rskill: RSkillManifest, source: str) -> SimRollout:
+        return self.make(scene, robot, rskill, source)
 
 
 def _mock_factory(scene: SimScene, robot: RobotManifest, rskill: RSkillManifest, source: str) -> SimRollout:
@@ -64,6 +81,18 @@ def _libero_factory(scene: SimScene, robot: RobotManifest, rskill: RSkillManifes
     return LiberoScene(scene, rskill, source=source, rskill_source=f"rskill {rskill.id}")
 
 
+def _aloha_tasks(scene: SimScene, source: str) -> list[SuiteTask]:
+    from openral_data.producers.sim import aloha
+
+    return aloha.suite_tasks(scene, source)
+
+
+def _libero_tasks(scene: SimScene, source: str) -> list[SuiteTask]:
+    from openral_data.producers.sim.libero import scene as libero
+
+    return libero.suite_tasks(scene, source)
+
+
 def _suite_factory(kind: Literal["robosuite", "metaworld"]) -> SceneFactory:
     """Benchmark-suite simulators (issue 7): imported only when a scene of theirs is built."""
 
@@ -78,6 +107,18 @@ def _suite_factory(kind: Literal["robosuite", "metaworld"]) -> SceneFactory:
         return MetaWorldScene(scene, robot, rskill, source, rskill_source)
 
     return make
+
+
+def _robosuite_tasks(scene: SimScene, source: str) -> list[SuiteTask]:
+    from openral_data.producers.sim import robosuite
+
+    return robosuite.suite_tasks(scene, source)
+
+
+def _metaworld_tasks(scene: SimScene, source: str) -> list[SuiteTask]:
+    from openral_data.producers.sim import metaworld
+
+    return metaworld.suite_tasks(scene, source)
 
 
 def _metaworld_expert(rskill: RSkillManifest) -> PolicyAdapter:
@@ -138,7 +179,8 @@ class Registry[F: Callable[..., object]](MutableMapping[str, F]):
     def __setitem__(self, ident: str, factory: F) -> None:
         self._items[ident] = factory
         builtin = self._builtins.get(ident) is factory
-        self._origins[ident] = "built-in" if builtin else f"registered by {getattr(factory, '__module__', '?')}"
+        defined = factory.make if isinstance(factory, SceneType) else factory  # a SceneType: where its factory is
+        self._origins[ident] = "built-in" if builtin else f"registered by {getattr(defined, '__module__', '?')}"
 
     def __delitem__(self, ident: str) -> None:
         del self._items[ident]
@@ -185,10 +227,10 @@ SCENES: Registry[SceneFactory] = Registry(
         "tabletop_pick_place": _tabletop_factory("pick_place"),
         "mujoco_twin": _twin_factory,
         "gym_pusht": _pusht_factory,
-        "gym_aloha": _aloha_factory,
-        "libero": _libero_factory,
-        "robosuite": _suite_factory("robosuite"),
-        "metaworld": _suite_factory("metaworld"),
+        "gym_aloha": SceneType(_aloha_factory, _aloha_tasks),
+        "libero": SceneType(_libero_factory, _libero_tasks),
+        "robosuite": SceneType(_suite_factory("robosuite"), _robosuite_tasks),
+        "metaworld": SceneType(_suite_factory("metaworld"), _metaworld_tasks),
     },
 )
 POLICIES: Registry[PolicyFactory] = Registry(
@@ -218,6 +260,16 @@ def scene_factory(scene_type: str, source: str) -> SceneFactory:
             f"{source}: scene.type: unknown scene type {scene_type!r}; valid: {', '.join(sorted(SCENES))}"
         )
     return SCENES[scene_type]
+
+
+def task_lister(scene_type: str) -> TaskLister | None:
+    """The lister of `scene_type`'s tasks; None for a scene type without tasks (or not registered)."""
+    factory = SCENES.get(scene_type)
+    return factory.tasks if isinstance(factory, SceneType) else None
+
+
+def scene_types_with_tasks() -> list[str]:
+    return [ident for ident in SCENES if task_lister(ident) is not None]
 
 
 def policy_factory(rskill: RSkillManifest, source: str) -> PolicyFactory:

@@ -17,6 +17,7 @@ from openral_data.errors import UsageError
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, WriterConfig
 from openral_data.formats.lerobot_v3.video import parse_codec
 from openral_data.formats.mcap import (
+    MCAP_SUBDIR,
     ImageFormat,
     McapCompression,
     McapConfig,
@@ -28,7 +29,6 @@ from openral_data.types import DatasetSchema, Sink
 
 OutputFormat = Literal["lerobot", "mcap"]
 FORMATS: tuple[OutputFormat, ...] = ("lerobot", "mcap")
-MCAP_SUBDIR = "mcap"
 
 
 def parse_formats(text: str) -> tuple[OutputFormat, ...]:

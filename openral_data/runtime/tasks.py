@@ -1,8 +1,8 @@
 """`--task` and `--instruction`: which task of a suite scene a run records, and the instruction it records.
 
 Scene types with tasks declare them next to their producer (`suite_tasks`, see openral_data.producers.sim.tasks);
-`SCENE_TASKS` maps the built-in scene types to those declarations (imported only when asked). A scene type
-without tasks refuses `--task`; an unknown id is one line listing the valid ones.
+the scene type's one registration in `SCENES` (a `SceneType`, runtime/registry.py) names that declaration, imported
+only when asked. A scene type without tasks refuses `--task`; an unknown id is one line listing the valid ones.
 
 The instruction a run records for every frame (and gives the policy) is, first to last: `--instruction`, the
 scene's own language for the task (LIBERO's per task; the adapter's description for a `--task` of the other
@@ -14,50 +14,19 @@ from __future__ import annotations
 from dataclasses import replace
 
 from openral_data.errors import UsageError
-from openral_data.producers.sim.tasks import SuiteTask, TaskLister, with_task
+from openral_data.producers.sim.tasks import SuiteTask, with_task
+from openral_data.runtime.registry import resolve_scene_path, scene_types_with_tasks, task_lister
 from openral_data.schemas.scene import SimScene
 from openral_data.types import Observation
 
 SHOWN = 12  # ids an "unknown task" line lists before pointing at `list tasks`
 
 
-def _metaworld(scene: SimScene, source: str) -> list[SuiteTask]:
-    from openral_data.producers.sim import metaworld
-
-    return metaworld.suite_tasks(scene, source)
-
-
-def _libero(scene: SimScene, source: str) -> list[SuiteTask]:
-    from openral_data.producers.sim.libero import scene as libero
-
-    return libero.suite_tasks(scene, source)
-
-
-def _robosuite(scene: SimScene, source: str) -> list[SuiteTask]:
-    from openral_data.producers.sim import robosuite
-
-    return robosuite.suite_tasks(scene, source)
-
-
-def _aloha(scene: SimScene, source: str) -> list[SuiteTask]:
-    from openral_data.producers.sim import aloha
-
-    return aloha.suite_tasks(scene, source)
-
-
-SCENE_TASKS: dict[str, TaskLister] = {
-    "metaworld": _metaworld,
-    "libero": _libero,
-    "robosuite": _robosuite,
-    "gym_aloha": _aloha,
-}
-
-
 def scene_tasks(scene: SimScene, source: str) -> list[SuiteTask]:
     """The tasks of `scene`'s type; UsageError (one line) for a scene type that has none."""
-    lister = SCENE_TASKS.get(scene.scene.type)
+    lister = task_lister(scene.scene.type)
     if lister is None:
-        with_tasks = ", ".join(sorted(SCENE_TASKS))
+        with_tasks = ", ".join(scene_types_with_tasks())
         raise UsageError(
             f"{source}: scene.type: {scene.scene.type!r} scenes have no tasks to choose (--task); "
             f"scene types with tasks: {with_tasks}"
@@ -89,7 +58,6 @@ def instructed(obs: Observation, instruction: str | None) -> Observation:
 
 def tasks_of(scene_ref: str) -> tuple[SimScene, list[SuiteTask]]:
     """`list tasks SCENE`: the scene (an id or a YAML path) and its type's tasks."""
-    from openral_data.runtime.registry import resolve_scene_path
     from openral_data.schemas.scene import load_recordable_scene
 
     path = resolve_scene_path(scene_ref)

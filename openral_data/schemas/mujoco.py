@@ -14,7 +14,7 @@ from typing import Literal
 from pydantic import Field, model_validator
 
 from openral_data.schemas.base import StrictModel
-from openral_data.schemas.tabletop import Layout, XYRegion
+from openral_data.schemas.tabletop import TableLayout, XYRegion
 
 Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
@@ -103,9 +103,9 @@ class MujocoRobotWiring(StrictModel):
         return self
 
 
-class TabletopParams(Layout):
+class TabletopParams(TableLayout):
     """`scene.params` of the native tabletop scenes: the table and robot placement here, the objects, workspace,
-    clutter, success and roles from `Layout` (schemas/tabletop.py). The table top is at `table_height`."""
+    clutter, success and roles from `TableLayout` (schemas/tabletop.py). The table top is at `table_height`."""
 
     task: str | None = Field(
         default=None,

@@ -18,7 +18,7 @@ pushed around), `visual: true` a marker nothing collides with (implies a fixture
 `near: {object, distance: [low, high]}` the object is placed at a random bearing and distance from an object
 declared before it, and `x`/`y` bound where it may land. An object rests on the table (its lowest point on the
 table top). Collidable objects never overlap at reset (footprint circles, `clutter.gap` apart): placement is
-rejection sampling with at most `MAX_TRIES` tries per object, and a layout that cannot be placed is a
+rejection sampling with at most `MAX_TRIES` tries per object, and a table layout that cannot be placed is a
 ConfigError.
 
 `clutter: {n_objects, seed, kinds, size, region, gap}` adds `n_objects` movable objects named `clutter_0`, ...:
@@ -55,7 +55,7 @@ RGBA = tuple[float, float, float, float]
 NAME = r"^[A-Za-z][A-Za-z0-9_]*$"
 RESERVED = ("floor", "table", "sun", "robot")  # names the composed world uses itself
 CLUTTER_PREFIX = "clutter_"
-MAX_TRIES = 200  # placement tries per object before a layout is refused
+MAX_TRIES = 200  # placement tries per object before a table layout is refused
 MAX_OBJECTS = 64
 DEFAULT_TOLERANCE = 0.01
 EPS = 1e-9  # slack of the containment checks (a table edge computed as 0.45 - 0.6 is -0.1499999...)
@@ -301,7 +301,7 @@ AllOf.model_rebuild()
 AnyOf.model_rebuild()
 
 
-class Layout(StrictModel):
+class TableLayout(StrictModel):
     """The objects part of `scene.params` (see the module docstring); the table comes from the scene params."""
 
     objects: list[TabletopObject] = Field(default_factory=list, max_length=MAX_OBJECTS)
@@ -326,7 +326,7 @@ def leaves(criterion: Criterion) -> list[tuple[str, Leaf]]:
     return out
 
 
-def derived_roles(layout: Layout) -> dict[str, str]:
+def derived_roles(layout: TableLayout) -> dict[str, str]:
     """`roles` as declared, completed from the success criterion's leaves (first one wins)."""
     roles: dict[str, str] = {}
     for _, leaf in leaves(layout.success) if layout.success is not None else []:
@@ -342,7 +342,7 @@ def derived_roles(layout: Layout) -> dict[str, str]:
     return {**roles, **layout.roles}
 
 
-def clutter_names(layout: Layout) -> list[str]:
+def clutter_names(layout: TableLayout) -> list[str]:
     return [f"{CLUTTER_PREFIX}{k}" for k in range(layout.clutter.n_objects)] if layout.clutter else []
 
 
@@ -350,7 +350,7 @@ def _r(lo: float, hi: float) -> str:
     return f"[{round(lo, 6):g}, {round(hi, 6):g}]"
 
 
-def check_layout(layout: Layout, table: XYRegion, source: str) -> None:
+def check_layout(layout: TableLayout, table: XYRegion, source: str) -> None:
     """Cross-checks pydantic cannot see field by field; ConfigError `<source>.<field>: <what>` on the first."""
     declared = [o.name for o in layout.objects]
     kinds = {o.name: o.kind for o in layout.objects}

@@ -60,7 +60,7 @@ def existing_videos(folder: Path) -> list[int]:
 
 
 @dataclass(frozen=True)
-class Layout:
+class FrameLayout:
     """Where each camera goes in a debug frame, and the strip of text under them."""
 
     cameras: tuple[tuple[str, int, int], ...]  # (name, x, scaled width), in schema order
@@ -72,7 +72,7 @@ class Layout:
     action_lines: int
 
     @staticmethod
-    def of(schema: DatasetSchema, font: ImageFont.ImageFont) -> Layout:
+    def of(schema: DatasetSchema, font: ImageFont.ImageFont) -> FrameLayout:
         common = max((c.height for c in schema.cameras.values()), default=0)
         placed: list[tuple[str, int, int]] = []
         x = 0
@@ -88,7 +88,7 @@ class Layout:
         per_action_line = max(1, (per_line - len("action ")) // 8)
         action_lines = max(1, -(-values // per_action_line))
         strip = (1 + action_lines) * line_h + 6
-        return Layout(tuple(placed), common, width, _even(common + strip), line_h, per_line, action_lines)
+        return FrameLayout(tuple(placed), common, width, _even(common + strip), line_h, per_line, action_lines)
 
 
 FARTHEST_GREY = 32  # the farthest valid depth: darker than every other, brighter than "no depth"
@@ -119,7 +119,7 @@ class Compositor:
 
     def __init__(self, schema: DatasetSchema) -> None:
         self.font = ImageFont.load_default_imagefont()
-        self.layout = Layout.of(schema, self.font)
+        self.layout = FrameLayout.of(schema, self.font)
 
     def lines(self, index: int, step: int, frame: Frame) -> list[str]:
         lay = self.layout

@@ -9,7 +9,7 @@ embedded PNG/JPEG, a segmentation mask (`is_segmentation_mask`) one `Segmentatio
 (millimetres) per row.
 State, action and `observation.environment_state` become one scalar series per dimension named after the
 contract (or info.json's names), the task is a text document, reward/success/done are series with a text event
-at the end, and replay results (see `metrics/results.py`) add per-step action error and divergence.
+at the end, and replay results (see `formats/results.py`) add per-step action error and divergence.
 """
 
 from __future__ import annotations
@@ -236,7 +236,8 @@ def _log_masks(
     frame_index: np.ndarray[Any, np.dtype[np.int64]],
     ts: np.ndarray[Any, np.dtype[np.float64]],
 ) -> None:
-    """A segmentation mask (masks.py): one SegmentationImage per row, its ids named by an annotation context."""
+    """A segmentation mask (formats/lerobot_v3/masks.py): one SegmentationImage per row, its ids named by an
+    annotation context."""
     entity = camera_entity(key)
     ids = feature["info"].get(MASK_IDS)
     if isinstance(ids, dict):

@@ -38,7 +38,7 @@ def _regular(root: Path) -> dict[int, bool]:
     ds = open_dataset(root)
     con = connect([ds])
     try:
-        rows = query(con, health._regular_sql(ds, "index", "FALSE"))[1]
+        rows = query(con, health.regular_sql(ds, "index", "FALSE"))[1]
     finally:
         con.close()
     return {int(ep): bool(regular) for ep, _, _, regular in rows}
@@ -120,6 +120,6 @@ def test_fast_path_finds_what_the_ordered_check_finds_on_every_episode(
         table = table.set_column(table.schema.get_field_index("action"), "action", action)
     rewrite_parquet(path, table)
     fast = json.loads(run_stats(StatsOptions([str(ds)], fmt="json")))["health"]
-    monkeypatch.setattr(health, "_tolerance", lambda fps: -1.0)  # no episode provable: all go to the window
+    monkeypatch.setattr(health, "grid_tolerance", lambda fps: -1.0)  # no episode provable: all go to the window
     exact = json.loads(run_stats(StatsOptions([str(ds)], fmt="json")))["health"]
     assert fast == exact and fast

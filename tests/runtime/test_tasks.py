@@ -13,7 +13,7 @@ from openral_data.errors import UsageError
 from openral_data.record.options import RecordOptions
 from openral_data.record.sim import record
 from openral_data.runtime import registry
-from openral_data.runtime.tasks import SCENE_TASKS, choose_task, tasks_of
+from openral_data.runtime.tasks import choose_task, tasks_of
 from tests.support.cli import run_cli
 from tests.support.policies import listening
 from tests.support.scenes import mock_scene, write_yaml
@@ -100,4 +100,4 @@ def test_suite_tasks_are_declared_without_building_a_scene(project: Path) -> Non
     aloha, found = tasks_of("aloha_insertion")
     assert [t.id for t in found] == ["insertion", "transfer_cube"]
     assert choose_task(aloha, "transfer_cube", "x")[0].scene.params == {"task": "transfer_cube"}
-    assert set(SCENE_TASKS) == {"metaworld", "libero", "robosuite", "gym_aloha"}
+    assert registry.scene_types_with_tasks() == ["gym_aloha", "libero", "metaworld", "robosuite"]

@@ -2,13 +2,15 @@
 
 Writing: `McapSink` (a `Sink`, configured by `McapConfig`; chunks compressed as one of `MCAP_COMPRESSIONS`;
 camera images stored as an `ImageFormat`, one of `IMAGE_FORMATS`; text from a user becomes one through
-`parse_compression` / `parse_image_format`, the only places that check it). Reading: `finished_bags` lists a folder's
-complete episode bags (never the one in flight) and `decode_image` turns a camera message back into pixels.
+`parse_compression` / `parse_image_format`, the only places that check it); beside a LeRobot dataset the bags go
+under `MCAP_SUBDIR`. Reading: `finished_bags` lists a folder's complete episode bags (never the one in flight) and
+`decode_image` turns a camera message back into pixels.
 """
 
 from openral_data.formats.mcap.messages import IMAGE_FORMATS, ImageFormat, decode_image, parse_image_format
 from openral_data.formats.mcap.writer import (
     MCAP_COMPRESSIONS,
+    MCAP_SUBDIR,
     McapCompression,
     McapConfig,
     McapSink,
@@ -19,6 +21,7 @@ from openral_data.formats.mcap.writer import (
 __all__ = [
     "IMAGE_FORMATS",
     "MCAP_COMPRESSIONS",
+    "MCAP_SUBDIR",
     "ImageFormat",
     "McapCompression",
     "McapConfig",

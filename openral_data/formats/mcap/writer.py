@@ -50,6 +50,7 @@ from openral_data.formats.mcap.messages import ImageFormat, MessageFactory
 from openral_data.types import DatasetSchema, EpisodeRecord, EpisodeStart, Frame
 
 PARTIAL = ".partial"
+MCAP_SUBDIR = "mcap"  # where a dataset output keeps its bags: OUT/mcap/episode_NNNNNN/
 ROSBAG2_VERSION: Final[Literal[8]] = 8  # Humble/Iron readers accept 8; Jazzy reads 8 and 9
 McapCompression = Literal["zstd", "lz4", "none"]
 MCAP_COMPRESSIONS: tuple[McapCompression, ...] = ("zstd", "lz4", "none")
@@ -126,7 +127,7 @@ class McapSink:
         self._factory = MessageFactory(self.config.image_format, self.config.jpeg_quality)
         workers = self.config.threads(len(schema.cameras))
         self._pool = ThreadPoolExecutor(workers, thread_name_prefix="mcap-image") if workers > 0 else None
-        self._episode: _EpisodeBag | None = None
+        self._episode: EpisodeBag | None = None
         self._pending: deque[_Pending] = deque()
         self._closed = False
 
@@ -141,7 +142,7 @@ class McapSink:
         if episode_dir(self.root, index).exists():
             raise OutputExists(f"{episode_dir(self.root, index)}: exists; refusing to overwrite it")
         try:
-            self._episode = _EpisodeBag(self.root, self.schema, self.config, index, start, time.time_ns())
+            self._episode = EpisodeBag(self.root, self.schema, self.config, index, start, time.time_ns())
         except OSError as exc:
             if exc.errno in DISK_ERRNOS:
                 raise DiskError(self.root, exc.errno, f"starting episode {index}'s bag") from exc
@@ -236,8 +237,12 @@ def _write_error(root: Path, exc: OSError, index: int, doing: str, committed: bo
     return WriteError(f"{root}: episode {index}: MCAP write failed: {exc}")
 
 
-class _EpisodeBag:
-    """One episode's bag, staged under ``.partial/`` until it is complete."""
+class EpisodeBag:
+    """One episode's bag, staged under ``.partial/`` until it is complete.
+
+    Public as the sink's fault-injection seam: a test that replaces `EpisodeBag.write_frame` (monkeypatch) makes
+    every frame write fail the way a full disk would, in the caller's thread or the encoder path alike.
+    """
 
     def __init__(
         self, root: Path, schema: DatasetSchema, config: McapConfig, index: int, start: EpisodeStart, base_ns: int

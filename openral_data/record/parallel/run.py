@@ -23,7 +23,7 @@ from openral_data.edit.source import SourceDataset
 from openral_data.errors import ExecutorError, OpenralError, UsageError
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
-from openral_data.formats.mcap import finished_bags
+from openral_data.formats.mcap import MCAP_SUBDIR, finished_bags
 from openral_data.formats.staging import Staging
 from openral_data.record.options import RecordOptions, RecordSummary, default_out, rskill_ref
 from openral_data.record.output import Claim, claim
@@ -31,7 +31,6 @@ from openral_data.record.parallel.plan import plan
 from openral_data.record.parallel.worker import WorkerResult, init_local_worker, run_worker
 from openral_data.runtime import registry
 from openral_data.runtime.parallel.executors import run_on
-from openral_data.runtime.sinks import MCAP_SUBDIR
 from openral_data.schemas.scene import load_recordable_scene
 from openral_data.types import EpisodeRecord
 

@@ -79,10 +79,10 @@ def test_a_failing_write_fails_the_episode_and_leaves_no_bag(
     sink.add_frame(_frame(0))
     assert sink.end_episode(True).length == 1
 
-    def broken(self: mcap_writer._EpisodeBag, frame: Frame, encoded: dict[str, bytes]) -> None:
+    def broken(self: mcap_writer.EpisodeBag, frame: Frame, encoded: dict[str, bytes]) -> None:
         raise OSError("disk full")
 
-    monkeypatch.setattr(mcap_writer._EpisodeBag, "write_frame", broken)
+    monkeypatch.setattr(mcap_writer.EpisodeBag, "write_frame", broken)
     sink.begin_episode(EpisodeStart(seed=1, initial_state={}))
     # the code says the write failed; the wording carries the episode and the cause (disk full), matched too
     with pytest.raises(WriteError, match="episode 1: MCAP write failed: disk full") as excinfo:

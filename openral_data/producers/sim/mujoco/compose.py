@@ -12,7 +12,7 @@ that already drives a joint with a position servo keeps that servo's force range
 arm's bodies get gravity compensation (`gravcomp`), so a joint-position target is held without sag and the
 whole control law runs inside MuJoCo's step (implicitfast integrator), never in Python per sub-step.
 
-The table, its light and the scene's objects are objects.py's; their placement per episode is layout.py's.
+The table, its light and the scene's objects are objects.py's; their placement per episode is placement.py's.
 """
 
 from __future__ import annotations

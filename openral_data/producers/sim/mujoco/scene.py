@@ -52,7 +52,7 @@ from openral_data.producers.sim.mujoco.controllers import (
 )
 from openral_data.producers.sim.mujoco.finger_gap import FingerGap
 from openral_data.producers.sim.mujoco.kinematics import F64, Arm, IKSolver
-from openral_data.producers.sim.mujoco.layout import (
+from openral_data.producers.sim.mujoco.placement import (
     DEFAULT_GAP,
     ROBOT_CLEARANCE,
     Extent,

@@ -17,7 +17,7 @@ from typing import Protocol
 import numpy as np
 import numpy.typing as npt
 
-from openral_data.producers.sim.mujoco.layout import Extent, yaw_of
+from openral_data.producers.sim.mujoco.placement import Extent, yaw_of
 from openral_data.schemas.tabletop import AllOf, AnyOf, Criterion, DrawerOpened, InRegion, Lifted, On
 
 F64 = npt.NDArray[np.float64]

@@ -26,10 +26,10 @@ from openral_data.schemas.tabletop import (
     MESHES,
     BoxObject,
     CylinderObject,
-    Layout,
     MeshObject,
     Pose,
     SphereObject,
+    TableLayout,
     TabletopObject,
     Workspace,
     XYRegion,
@@ -75,7 +75,7 @@ class Extent:
         return float(np.linalg.norm(corners, axis=1).max())
 
 
-def expand_clutter(layout: Layout, area: XYRegion | Workspace) -> list[TabletopObject]:
+def expand_clutter(layout: TableLayout, area: XYRegion | Workspace) -> list[TabletopObject]:
     """The declared objects followed by the clutter `clutter.seed` picks (kinds, sizes and colours)."""
     objects: list[TabletopObject] = list(layout.objects)
     c = layout.clutter
