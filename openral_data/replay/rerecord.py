@@ -31,11 +31,11 @@ from openral_data.replay.drive import StepHook
 from openral_data.replay.rebuild import Rebuilt, SceneView
 from openral_data.runtime.bridge import DatasetBridge
 from openral_data.runtime.outdir import check_out
+from openral_data.runtime.schema import scene_schema
 from openral_data.runtime.sinks import check_formats, make_sinks
 from openral_data.schemas.base import StrictModel, load_model
 from openral_data.schemas.scene import RenderConfig, SceneCamera
 from openral_data.types import DatasetSchema, EpisodeRecord, FrameObserver, Observation, Sink, StepResult
-from openral_data.version import __version__
 
 
 class CameraFile(StrictModel):
@@ -75,20 +75,14 @@ class Rerecorder:
                 problem = video.size_problem(shape.height, shape.width)
                 if problem:
                     raise CompatibilityError(f"--cameras: {name}: {problem}")
-        schema = DatasetSchema(
-            fps=spec.fps,
-            state_names=tuple(built.rskill.state_contract.names),
-            action_names=tuple(built.rskill.action_contract.names),
-            cameras=dict(spec.cameras),
-            robot_type=built.robot.name,
-            environment_state_names=spec.environment_state_names,
-            metadata={
-                "openral_data_version": __version__,
-                "scene": {"path": built.source, "config": built.scene.model_dump(mode="json")},
-                "rskill": {"path": built.rskill_source, "config": built.rskill.model_dump(mode="json")},
-                "robot": built.robot.name,
-                "replayed_from": {"dataset": str(dataset_root.resolve()), "mode": mode},
-            },
+        schema = scene_schema(
+            spec,
+            built.scene,
+            built.source,
+            built.robot,
+            built.rskill,
+            built.rskill_source,
+            extra={"replayed_from": {"dataset": str(dataset_root.resolve()), "mode": mode}},
         )
         self.out = out
         self.env = built.env
