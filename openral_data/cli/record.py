@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import TYPE_CHECKING, Annotated, cast
 
 import typer
 
@@ -14,7 +15,7 @@ from openral_data.cli.terminal import INTERRUPTED_RECORDING, print_line, print_r
 from openral_data.errors import UsageError
 
 if TYPE_CHECKING:
-    from openral_data.record.options import RecordSummary
+    from openral_data.record.options import ProgressFn, RecordOptions, RecordSummary
 
 
 def record(
@@ -75,6 +76,8 @@ def record(
     ] = None,
 ) -> None:
     """Record episodes of SCENE driven by RSKILL into a LeRobotDataset v3 and/or ROS 2 MCAP bags."""
+    # long: the typer signature declares every option with its help; the body only dispatches to the helpers below
+    given = _given(ctx)
     if hal is not None and (save_video or save_video_dir is not None):
         raise UsageError("--save-video/--save-video-dir: not available with --hal (a scene recording only)")
     view_given = view or view_port != 9876 or view_address is not None
@@ -82,26 +85,40 @@ def record(
         raise UsageError("--view, --view-port, --view-address: need --view, and not with --hal or --workers")
     if hal is not None:
         from openral_data.cli.hal import run_hal_record
+        from openral_data.record.hal import HalRecordOptions, Mode
         from openral_data.record.options import DEFAULT_RSKILL
+        from openral_data.runtime.sinks import parse_formats
+        from openral_data.schemas.hal import SafetyMode
 
         if resume or workers != 1:
             raise UsageError("--resume/--workers: not available with --hal (one robot, one new dataset)")
         if suite_task is not None or instruction is not None or device is not None:
             raise UsageError("--task/--instruction/--device: not available with --hal (the rSkill's own are used)")
-
-        run_hal_record(
-            hal, mode, rskill or DEFAULT_RSKILL, fps, scene if scene != manifests.DEFAULT_SCENE else None, n_episodes,
-            max_steps, seed, out, codec.value, format, image_format, mcap_compression, operator, safety, staleness,
-            port, json,
-        )  # fmt: skip
+        hal_opts = HalRecordOptions(
+            robot=hal,
+            rskill=rskill or DEFAULT_RSKILL,
+            mode=cast(Mode, mode),  # checked by HalRecordOptions
+            fps=fps,
+            scene=scene if "scene" in given else None,
+            n_episodes=n_episodes if n_episodes is not None else 1,
+            max_steps=max_steps if max_steps is not None else 200,
+            seed=seed if seed is not None else 0,
+            out=out,
+            codec=codec.value,
+            formats=parse_formats(format),
+            image_format=image_format,
+            mcap_compression=mcap_compression,
+            operator=operator,
+            safety=cast(SafetyMode | None, safety),  # checked by HalRecordOptions
+            staleness=staleness,
+            port=port,
+        )
+        run_hal_record(hal_opts, json)
         return
-    hal_only = {"--mode": mode != "sim", "--fps": fps != 20, "--operator": operator != "auto", "--safety": safety,
-                "--staleness": staleness, "--port": port}  # fmt: skip
-    given = [name for name, value in hal_only.items() if value]
-    if given:
-        raise UsageError(f"{', '.join(given)}: only with --hal ROBOT_ID (a scene records at its own fps)")
+    hal_only = [f"--{name}" for name in ("mode", "fps", "operator", "safety", "staleness", "port") if name in given]
+    if hal_only:
+        raise UsageError(f"{', '.join(hal_only)}: only with --hal ROBOT_ID (a scene records at its own fps)")
     from openral_data.record.options import RecordOptions
-    from openral_data.record.sim import record as run_record
     from openral_data.runtime.sinks import parse_formats
 
     opts = RecordOptions(
@@ -117,11 +134,7 @@ def record(
         image_format=image_format,
         mcap_compression=mcap_compression,
         resume=resume,
-        explicit=frozenset(
-            {"format": "formats", "suite_task": "task"}.get(name, name)
-            for name in ctx.params
-            if getattr(ctx.get_parameter_source(name), "name", "") == "COMMANDLINE"
-        ),
+        explicit=frozenset({"format": "formats", "suite_task": "task"}.get(name, name) for name in given),
         save_video=save_video,
         save_video_dir=save_video_dir,
         view=view,
@@ -132,27 +145,44 @@ def record(
         device=device,
     )
     parallel = workers != 1 or executor != "local"
+    if parallel:
+        from openral_data.record.parallel.run import record_parallel
+
+        summary = _with_progress(
+            lambda _: record_parallel(opts, workers, executor, address, threads_per_worker), opts, n_episodes, True
+        )
+    else:
+        from openral_data.record.sim import record as run_record
+
+        summary = _with_progress(lambda progress: run_record(opts, progress), opts, n_episodes, False)
+    if json:
+        print_json("record", {**summary.to_json(), "workers": workers, "executor": executor if parallel else None})
+    else:
+        _print_summary(summary, resume, f"{workers} ({executor})" if parallel else None)
+
+
+def _given(ctx: typer.Context) -> frozenset[str]:
+    """The parameters the user gave on the command line (not their defaults, even when equal to them)."""
+    sources = {name: ctx.get_parameter_source(name) for name in ctx.params}
+    return frozenset(name for name, source in sources.items() if source is not None and source.name == "COMMANDLINE")
+
+
+def _with_progress(
+    run: Callable[[ProgressFn], RecordSummary], opts: RecordOptions, total: int | None, parallel: bool
+) -> RecordSummary:
+    """`run` under the progress bar (a parallel run reports no progress); Ctrl-C says what was kept."""
     with progress_bar("recording", "episodes", "{task.fields[frames]} frames") as bar:
-        task = bar.add_task("record", total=n_episodes, frames=0)
+        task = bar.add_task("record", total=total, frames=0)
 
         def progress(rec: object, frames: int, total: int) -> None:
             bar.update(task, total=total, advance=0 if rec is None else 1, frames=frames)
 
         try:
-            if parallel:
-                from openral_data.record.parallel.run import record_parallel
-
-                summary: RecordSummary = record_parallel(opts, workers, executor, address, threads_per_worker)
-            else:
-                summary = run_record(opts, progress)
+            return run(progress)
         except KeyboardInterrupt:
             bar.stop()
             _interrupted(opts.out, parallel)
             raise typer.Exit(130) from None
-    if json:
-        print_json("record", {**summary.to_json(), "workers": workers, "executor": executor if parallel else None})
-    else:
-        _print_summary(summary, resume, f"{workers} ({executor})" if parallel else None)
 
 
 def _interrupted(out: Path | None, parallel: bool) -> None:
