@@ -1,68 +1,19 @@
-"""`record --hal`: option parsing and the printed summary (the work is in openral_data/record/hal.py)."""
+"""`record --hal`: the run and its printed summary (cli/record.py builds the options; the work is in
+openral_data/record/hal.py)."""
 
 from __future__ import annotations
-
-from pathlib import Path
-from typing import cast
 
 import typer
 
 from openral_data.cli.jsonout import print_json
 from openral_data.cli.terminal import INTERRUPTED_RECORDING, print_line, print_rows
-from openral_data.errors import UsageError
-from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.producers.hal.operator import HELP
-from openral_data.record.hal import HalRecordOptions, HalRecordSummary, Mode, record_hal
-from openral_data.schemas.hal import SafetyMode
+from openral_data.record.hal import HalRecordOptions, HalRecordSummary, record_hal
 
 
-def run_hal_record(
-    robot: str,
-    mode: str,
-    rskill: str,
-    fps: int,
-    scene: str | None,
-    n_episodes: int | None,
-    max_steps: int | None,
-    seed: int | None,
-    out: Path | None,
-    codec: str,
-    formats: str,
-    image_format: str,
-    mcap_compression: str,
-    operator: str,
-    safety: str | None,
-    staleness: float | None,
-    port: str | None,
-    json: bool = False,
-) -> None:
-    from openral_data.formats.mcap import parse_compression, parse_image_format
-    from openral_data.runtime.sinks import parse_formats
-
-    if mode not in ("sim", "real"):
-        raise UsageError(f"--mode: {mode!r}; valid: sim, real")
-    if safety is not None and safety not in ("clamp", "refuse"):
-        raise UsageError(f"--safety: {safety!r}; valid: clamp, refuse")
-    opts = HalRecordOptions(
-        robot=robot,
-        rskill=rskill,
-        mode=cast(Mode, mode),
-        fps=fps,
-        scene=scene,
-        n_episodes=n_episodes if n_episodes is not None else 1,
-        max_steps=max_steps if max_steps is not None else 200,
-        seed=seed if seed is not None else 0,
-        out=out,
-        codec=cast(Codec, codec),
-        formats=parse_formats(formats),
-        image_format=parse_image_format(image_format),
-        mcap_compression=parse_compression(mcap_compression),
-        operator=operator,
-        safety=cast(SafetyMode | None, safety),
-        staleness=staleness,
-        port=port,
-    )
-    if operator == "keyboard":
+def run_hal_record(opts: HalRecordOptions, json: bool = False) -> None:
+    """Record through the HAL with options the CLI built (and checked: `HalRecordOptions`), then print the summary."""
+    if opts.operator == "keyboard":
         print_line(HELP, err=True)
     try:
         s = record_hal(opts, lambda line: print_line(line, err=True))
@@ -70,9 +21,9 @@ def run_hal_record(
         print_line(INTERRUPTED_RECORDING, err=True)
         raise typer.Exit(130) from None
     if json:
-        print_json("record", {"hal": robot, "mode": mode, "fps": fps, **s.to_json()})
+        print_json("record", {"hal": opts.robot, "mode": opts.mode, "fps": opts.fps, **s.to_json()})
     else:
-        _print_summary(s, fps)
+        _print_summary(s, opts.fps)
     if s.estop is not None:
         raise typer.Exit(1)
 

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import TYPE_CHECKING, Annotated, cast
 
 import typer
 
 from openral_data import manifests
-from openral_data.cli.given import given
+from openral_data.cli.given import given as given_flags
 from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import INTERRUPTED_RECORDING, print_line, print_rows, progress_bar
 from openral_data.errors import UsageError
@@ -16,7 +17,7 @@ from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.viz import DEFAULT_PORT
 
 if TYPE_CHECKING:
-    from openral_data.record.options import RecordSummary
+    from openral_data.record.options import ProgressFn, RecordOptions, RecordSummary
 
 
 def record(
@@ -79,33 +80,51 @@ def record(
     ] = None,
 ) -> None:
     """Record episodes of SCENE driven by RSKILL into a LeRobotDataset v3 and/or ROS 2 MCAP bags."""
+    # long: the typer signature declares every option with its help; the body only dispatches to the helpers below
+    given = given_flags(ctx)
     if hal is not None and (save_video or save_video_dir is not None):
         raise UsageError("--save-video/--save-video-dir: not available with --hal (a scene recording only)")
-    explicit = given(ctx)
-    view_given = bool(explicit & {"view", "view_port", "view_address"})
+    view_given = bool(given & {"view", "view_port", "view_address"})
     if view_given and (not view or hal is not None or workers != 1 or executor != "local"):
         raise UsageError("--view, --view-port, --view-address: need --view, and not with --hal or --workers")
     if hal is not None:
         from openral_data.cli.hal import run_hal_record
+        from openral_data.formats.mcap import parse_compression, parse_image_format
+        from openral_data.record.hal import HalRecordOptions, Mode
         from openral_data.record.options import DEFAULT_RSKILL
+        from openral_data.runtime.sinks import parse_formats
+        from openral_data.schemas.hal import SafetyMode
 
         if resume or workers != 1:
             raise UsageError("--resume/--workers: not available with --hal (one robot, one new dataset)")
         if suite_task is not None or instruction is not None or device is not None:
             raise UsageError("--task/--instruction/--device: not available with --hal (the rSkill's own are used)")
-
-        run_hal_record(
-            hal, mode, rskill or DEFAULT_RSKILL, fps, scene if "scene" in explicit else None, n_episodes,
-            max_steps, seed, out, codec, format, image_format, mcap_compression, operator, safety, staleness,
-            port, json,
-        )  # fmt: skip
+        hal_opts = HalRecordOptions(
+            robot=hal,
+            rskill=rskill or DEFAULT_RSKILL,
+            mode=cast(Mode, mode),  # checked by HalRecordOptions
+            fps=fps,
+            scene=scene if "scene" in given else None,
+            n_episodes=n_episodes if n_episodes is not None else 1,
+            max_steps=max_steps if max_steps is not None else 200,
+            seed=seed if seed is not None else 0,
+            out=out,
+            codec=codec,
+            formats=parse_formats(format),
+            image_format=parse_image_format(image_format),
+            mcap_compression=parse_compression(mcap_compression),
+            operator=operator,
+            safety=cast(SafetyMode | None, safety),  # checked by HalRecordOptions
+            staleness=staleness,
+            port=port,
+        )
+        run_hal_record(hal_opts, json)
         return
-    hal_only = [f"--{name}" for name in ("mode", "fps", "operator", "safety", "staleness", "port") if name in explicit]
+    hal_only = [f"--{name}" for name in ("mode", "fps", "operator", "safety", "staleness", "port") if name in given]
     if hal_only:
         raise UsageError(f"{', '.join(hal_only)}: only with --hal ROBOT_ID (a scene records at its own fps)")
     from openral_data.formats.mcap import parse_compression, parse_image_format
     from openral_data.record.options import RecordOptions
-    from openral_data.record.sim import record as run_record
     from openral_data.runtime.sinks import parse_formats
 
     opts = RecordOptions(
@@ -121,7 +140,7 @@ def record(
         image_format=parse_image_format(image_format),
         mcap_compression=parse_compression(mcap_compression),
         resume=resume,
-        explicit=frozenset({"format": "formats", "suite_task": "task"}.get(name, name) for name in explicit),
+        explicit=frozenset({"format": "formats", "suite_task": "task"}.get(name, name) for name in given),
         save_video=save_video,
         save_video_dir=save_video_dir,
         view=view,
@@ -132,27 +151,38 @@ def record(
         device=device,
     )
     parallel = workers != 1 or executor != "local"
+    if parallel:
+        from openral_data.record.parallel.run import record_parallel
+
+        summary = _with_progress(
+            lambda _: record_parallel(opts, workers, executor, address, threads_per_worker), opts, n_episodes, True
+        )
+    else:
+        from openral_data.record.sim import record as run_record
+
+        summary = _with_progress(lambda progress: run_record(opts, progress), opts, n_episodes, False)
+    if json:
+        print_json("record", {**summary.to_json(), "workers": workers, "executor": executor if parallel else None})
+    else:
+        _print_summary(summary, resume, f"{workers} ({executor})" if parallel else None)
+
+
+def _with_progress(
+    run: Callable[[ProgressFn], RecordSummary], opts: RecordOptions, total: int | None, parallel: bool
+) -> RecordSummary:
+    """`run` under the progress bar (a parallel run reports no progress); Ctrl-C says what was kept."""
     with progress_bar("recording", "episodes", "{task.fields[frames]} frames") as bar:
-        task = bar.add_task("record", total=n_episodes, frames=0)
+        task = bar.add_task("record", total=total, frames=0)
 
         def progress(rec: object, frames: int, total: int) -> None:
             bar.update(task, total=total, advance=0 if rec is None else 1, frames=frames)
 
         try:
-            if parallel:
-                from openral_data.record.parallel.run import record_parallel
-
-                summary: RecordSummary = record_parallel(opts, workers, executor, address, threads_per_worker)
-            else:
-                summary = run_record(opts, progress)
+            return run(progress)
         except KeyboardInterrupt:
             bar.stop()
             _interrupted(opts.out, parallel)
             raise typer.Exit(130) from None
-    if json:
-        print_json("record", {**summary.to_json(), "workers": workers, "executor": executor if parallel else None})
-    else:
-        _print_summary(summary, resume, f"{workers} ({executor})" if parallel else None)
 
 
 def _interrupted(out: Path | None, parallel: bool) -> None:

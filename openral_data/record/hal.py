@@ -1,5 +1,5 @@
 """`record --hal ROBOT`: a robot behind a HAL (its MuJoCo twin, a sim scene, or the real one) recorded by the
-fixed-rate loop (record/hal_loop.py) through the same bridge and sinks as `record`."""
+fixed-rate loop (producers/hal/loop.py) through the same bridge and sinks as `record`."""
 
 from __future__ import annotations
 
@@ -8,12 +8,12 @@ import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Literal
+from typing import Literal, get_args
 
 from openral_data import manifests
 from openral_data.errors import CompatibilityError, ConfigError, UsageError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
-from openral_data.formats.lerobot_v3.provenance import HalOrigin, Origin, Recorded, SafetyRecord
+from openral_data.formats.lerobot_v3.provenance import HalOrigin, Origin, SafetyRecord
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.policies.base import PolicyAdapter
@@ -30,12 +30,12 @@ from openral_data.runtime import registry
 from openral_data.runtime.bridge import DatasetBridge
 from openral_data.runtime.compat import check_compatibility
 from openral_data.runtime.outdir import fresh_out
-from openral_data.runtime.sinks import OutputFormat
+from openral_data.runtime.schema import dataset_schema
+from openral_data.runtime.sinks import OutputFormat, check_outputs
 from openral_data.schemas.hal import SafetyMode
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
-from openral_data.types import DatasetSchema, EpisodeRecord, ProducerSpec, Sink
-from openral_data.version import __version__
+from openral_data.types import EpisodeRecord, ProducerSpec, Sink
 
 Mode = Literal["sim", "real"]
 JOINT_REPRESENTATIONS = ("joint_positions_gripper", "joint_positions")
@@ -60,6 +60,15 @@ class HalRecordOptions:
     safety: SafetyMode | None = None  # default: the manifest's safety.mode
     staleness: float | None = None  # camera sample age limit (s); default: 3 periods
     port: str | None = None  # real mode: override the manifest's hardware.port
+
+    def __post_init__(self) -> None:
+        """`mode`, `safety` and the output settings are checked here, once, by whoever builds the options (the
+        CLI, the Python API)."""
+        check_outputs(self.formats, self.codec, self.image_format, self.mcap_compression)
+        if self.mode not in get_args(Mode):
+            raise UsageError(f"--mode: {self.mode!r}; valid: {', '.join(get_args(Mode))}")
+        if self.safety is not None and self.safety not in get_args(SafetyMode):
+            raise UsageError(f"--safety: {self.safety!r}; valid: {', '.join(get_args(SafetyMode))}")
 
 
 @dataclass
@@ -152,7 +161,8 @@ def build_hal(opts: HalRecordOptions, robot: RobotManifest, rskill: RSkillManife
         except BaseException:
             env.close()
             raise
-        return SceneHal(robot, env, list(rskill.state_contract.names), list(rskill.action_contract.names))
+        state_names, action_names = list(rskill.state_contract.names), list(rskill.action_contract.names)
+        return SceneHal(robot, env, state_names, action_names, task=scene.task.instruction)
     return MujocoTwinHal(robot)
 
 
@@ -172,80 +182,81 @@ Notify = Callable[[str], None]  # one line for the operator: which episode, what
 
 
 def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecordSummary:
-    if opts.fps < 1 or opts.fps > 1000:
-        raise UsageError(f"--fps must be in 1..1000, got {opts.fps}")
-    check_run_numbers(opts.n_episodes, opts.max_steps, opts.seed)
-    if opts.staleness is not None and not 0 < opts.staleness < math.inf:
-        raise UsageError(f"--staleness must be > 0 and finite, got {opts.staleness}")
-    if opts.mode not in ("sim", "real"):
-        raise UsageError(f"--mode: {opts.mode!r}; valid: sim, real")
-    robot = registry.ROBOTS[opts.robot]
-    rskill, rskill_path = registry.resolve_rskill(opts.rskill)
-    rskill_src = str(rskill_path)
-    make_policy = registry.policy_factory(rskill, rskill_src)
-    out = opts.out if opts.out is not None else fresh_out(f"hal-{robot.name}--{rskill.id}")
-    held = claim(out, "openral-data record --hal", resume=False)  # one writer, before any byte goes into `out`
+    """Resolve and check everything, claim `out`, build the HAL, then open the dataset and run the episodes."""
+    run = _resolve(opts)
+    held = claim(run.out, "openral-data record --hal", resume=False)  # one writer, before any byte goes into `out`
     try:
         operator = make_operator(opts.operator)
         try:
-            hal = build_hal(opts, robot, rskill, rskill_src)
+            hal = build_hal(opts, run.robot, run.rskill, run.rskill_src)
             try:
-                return _run(opts, robot, rskill, rskill_src, hal, make_policy(rskill), operator, out, notify)
+                loop = _open(opts, run, hal, run.make_policy(run.rskill), operator)
+                return _episodes(opts, run.out, loop, notify)
             finally:
-                hal.disconnect()
-                if isinstance(hal, SceneHal):
-                    hal.scene.close()
+                hal.close()
         finally:
             operator.close()
     finally:
         held.release()  # what was recorded stays; empty folders the claim made go
 
 
-def _run(
-    opts: HalRecordOptions,
-    robot: RobotManifest,
-    rskill: RSkillManifest,
-    rskill_src: str,
-    hal: HalBase,
-    policy: PolicyAdapter,
-    operator: Operator,
-    out: Path,
-    notify: Notify | None,
-) -> HalRecordSummary:
+@dataclass(frozen=True)
+class _Resolved:
+    robot: RobotManifest
+    rskill: RSkillManifest
+    rskill_src: str
+    make_policy: registry.PolicyFactory
+    out: Path
+
+
+def _resolve(opts: HalRecordOptions) -> _Resolved:
+    """Everything that can be wrong with the numbers, names and formats, found before anything is written."""
+    if opts.fps < 1 or opts.fps > 1000:
+        raise UsageError(f"--fps must be in 1..1000, got {opts.fps}")
+    check_run_numbers(opts.n_episodes, opts.max_steps, opts.seed)
+    if opts.staleness is not None and not 0 < opts.staleness < math.inf:
+        raise UsageError(f"--staleness must be > 0 and finite, got {opts.staleness}")
+    robot = registry.ROBOTS[opts.robot]
+    rskill, rskill_path = registry.resolve_rskill(opts.rskill)
+    rskill_src = str(rskill_path)
+    make_policy = registry.policy_factory(rskill, rskill_src)
+    out = opts.out if opts.out is not None else fresh_out(f"hal-{robot.name}--{rskill.id}")
+    return _Resolved(robot, rskill, rskill_src, make_policy, out)
+
+
+def _open(
+    opts: HalRecordOptions, run: _Resolved, hal: HalBase, policy: PolicyAdapter, operator: Operator
+) -> FixedRateLoop:
+    """The safety filter, the dataset schema, the connected HAL and the sinks, put together as the loop."""
     from openral_data.runtime.sinks import make_sinks
 
-    check_hal(hal, robot, rskill, rskill_src, opts.codec)
-    fk = hal.forward_kinematics if isinstance(hal, MujocoTwinHal) else None
-    names = list(rskill.action_contract.names) if isinstance(hal, SceneHal) else None
-    state_names = list(rskill.state_contract.names) if isinstance(hal, SceneHal) else None
+    robot, rskill = run.robot, run.rskill
+    check_hal(hal, robot, rskill, run.rskill_src, opts.codec)
     safety = SafetyFilter(
         robot,
         mode=opts.safety,
-        fk=fk,
-        names=names,
-        state_names=state_names,
+        fk=hal.kinematics(),
+        names=hal.action_names,
+        state_names=hal.state_names,
         source=str(manifests.robot_file(robot.name)),
     )
     cameras = list(hal.cameras)
-    schema = DatasetSchema(
+    schema = dataset_schema(
+        robot,
+        rskill,
+        run.rskill_src,
         fps=opts.fps,
-        state_names=tuple(rskill.state_contract.names),
-        action_names=tuple(rskill.action_contract.names),
         cameras={n: hal.cameras[n].shape for n in cameras},
-        robot_type=robot.name,
-        metadata=Origin(
-            openral_data_version=__version__,
+        origin=Origin(
             hal=HalOrigin(robot.name, opts.mode, type(hal).__name__, opts.scene),
-            rskill=Recorded(rskill_src, rskill.model_dump(mode="json")),
-            robot=robot.name,
             safety=SafetyRecord(safety.mode, robot.safety.model_dump(mode="json")),
-        ).to_json(),
-        has_reward=isinstance(hal, SceneHal),
+        ),
+        has_reward=hal.has_reward,
         frame_extras=frame_extras(cameras),
     )
     hal.connect()  # a robot that cannot be reached fails here, before anything is written
     sinks: list[Sink] = make_sinks(
-        out,
+        run.out,
         schema,
         opts.formats,
         WriterConfig(video=VideoSettings(codec=opts.codec)),
@@ -253,17 +264,19 @@ def _run(
         mcap_compression=opts.mcap_compression,
     )
     bridge = DatasetBridge(schema, sinks)
-    task = rskill.description or rskill.id
-    if isinstance(hal, SceneHal):
-        from openral_data.schemas.scene import load_recordable_scene
-
-        task = load_recordable_scene(registry.resolve_scene_path(opts.scene or "")).task.instruction
+    task = hal.task if hal.task is not None else rskill.description or rskill.id
     staleness = opts.staleness if opts.staleness is not None else 3.0 / opts.fps
-    loop = FixedRateLoop(hal, policy, safety, bridge, operator, LoopConfig(opts.fps, task, opts.max_steps, staleness))
+    return FixedRateLoop(hal, policy, safety, bridge, operator, LoopConfig(opts.fps, task, opts.max_steps, staleness))
+
+
+def _episodes(opts: HalRecordOptions, out: Path, loop: FixedRateLoop, notify: Notify | None) -> HalRecordSummary:
+    """Episodes until `n_episodes` are kept, the operator quits or the e-stop latches; each one the operator
+    starts (an interactive one is asked first, except to re-record)."""
+    operator = loop.operator
     summary = HalRecordSummary(out=out, episodes=[], reports=[], discarded=0, frames=0, seconds=0.0)
     t0 = time.perf_counter()
     # Ctrl-C / SIGTERM stop between ticks, never inside a commit
-    with episode_loop(bridge, policy, out, lambda: len(summary.episodes)) as stop:
+    with episode_loop(loop.bridge, loop.policy, out, lambda: len(summary.episodes)) as stop:
         loop.config.check_stop = stop.check
         rerecord = False
         while len(summary.episodes) < opts.n_episodes:

@@ -37,7 +37,7 @@ import numpy.typing as npt
 from openral_data.errors import EstopLatched, HalError, StaleState
 from openral_data.policies.base import PolicyAdapter
 from openral_data.producers.hal.base import HalBase, JointCommand, monotonic
-from openral_data.producers.hal.operator import Command, Operator, ScriptedOperator
+from openral_data.producers.hal.operator import Command, Operator
 from openral_data.producers.hal.safety import SafetyFilter
 from openral_data.runtime.bridge import DatasetBridge
 from openral_data.types import EpisodeRecord, Observation
@@ -95,6 +95,17 @@ class _Row:
 
 
 @dataclass
+class _Episode:
+    """Where the episode in flight is: its clock start, the tick due, and what the next frame carries."""
+
+    t0: float
+    k: int = 0  # the tick due
+    last_seq: dict[str, int] = field(default_factory=dict)  # camera -> sequence number of its last recorded sample
+    pending: _Row | None = None  # the newest frame: it goes to the bridge when the next one (or the end) is known
+    skipped: list[int] = field(default_factory=lambda: [0, 0])  # ticks missed / stale since the last frame
+
+
+@dataclass
 class LoopConfig:
     fps: int
     task: str
@@ -126,7 +137,23 @@ class FixedRateLoop:
 
     def run_episode(self, episode: int, seed: int) -> tuple[EpisodeEnd, EpisodeReport, EpisodeRecord | None]:
         """Record one episode (the operator has started it). The HAL stays connected afterwards."""
-        cfg, hal = self.config, self.hal
+        rep = self._begin(seed)
+        ep = _Episode(t0=monotonic())
+        verdict: Command | None = None
+        try:
+            verdict = self._loop(episode, rep, ep)
+        except EstopLatched as exc:  # latched by someone else (another thread, the driver) mid-tick
+            verdict = Command.ESTOP
+            rep.estop = str(exc)
+            rep.ticks = ep.k  # the aborted tick recorded nothing
+        except BaseException:
+            self.bridge.discard_episode()
+            raise
+        return self._finish(verdict, ep.pending, rep)
+
+    def _begin(self, seed: int) -> EpisodeReport:
+        """Reset the HAL and the policy and open the episode in the bridge; the report to fill."""
+        hal = self.hal
         rep = EpisodeReport(
             stale={"state": 0, **dict.fromkeys(self.cameras, 0)}, repeated=dict.fromkeys(self.cameras, 0)
         )
@@ -136,69 +163,70 @@ class FixedRateLoop:
             hal.cameras[name].latest()
         self.policy.reset(seed)
         self.bridge.begin_episode(seed, initial)
-        last_seq: dict[str, int] = {}
-        pending: _Row | None = None
-        verdict: Command | None = None
-        skipped = [0, 0]  # ticks missed / stale since the last recorded frame
-        t0 = monotonic()
-        k = 0
-        try:
-            while True:
-                deadline = t0 + k * self.dt
-                now = monotonic()
-                if deadline > now:
-                    cfg.sleep(deadline - now)
-                if cfg.check_stop is not None:
-                    cfg.check_stop()
-                start = monotonic()
-                rep.max_lateness = max(rep.max_lateness, start - deadline)
-                rep.ticks = k + 1
-                cmd = self.operator.poll(episode, rep.frames)
-                if cmd is not None:
-                    verdict = cmd
-                    rep.ticks = k  # this tick was not worked on
-                    break
-                stale_before = rep.stale_ticks
-                row = self._tick(k, t0, rep, last_seq, skipped)
-                skipped[1] += rep.stale_ticks - stale_before
-                if skipped[1] * self.dt > cfg.stale_abort:
-                    dead = sorted(n for n, c in rep.stale.items() if c)
-                    raise HalError(
-                        f"robot {hal.robot.name}: no fresh sample from {', '.join(dead)} for {cfg.stale_abort:.1f} s "
-                        f"(staleness limit {cfg.staleness:.3f} s); episode {episode} abandoned",
-                        code="hal.camera",
-                    )
-                if row is not None:
-                    if pending is not None:
-                        self.bridge.add_step(
-                            pending.obs, pending.action, reward=pending.reward, done=False,
-                            success=pending.success, extras=pending.extras,
-                        )  # fmt: skip
-                    pending = row
-                    skipped = [0, 0]
-                outcome = hal.outcome()
-                if (outcome is not None and outcome[2]) or rep.frames >= cfg.max_steps:
-                    break
-                end = monotonic()
-                next_k = k + 1
-                if end > t0 + next_k * self.dt:
-                    rep.overruns += 1
-                    late_k = max(next_k, math.floor((end - t0) / self.dt))
-                    rep.missed_ticks += late_k - next_k
-                    skipped[0] += late_k - next_k
-                    next_k = late_k
-                k = next_k
-        except EstopLatched as exc:  # latched by someone else (another thread, the driver) mid-tick
-            verdict = Command.ESTOP
-            rep.estop = str(exc)
-            rep.ticks = k  # the aborted tick recorded nothing
-        except BaseException:
-            self.bridge.discard_episode()
-            raise
-        return self._finish(verdict, pending, rep)
+        return rep
 
-    def _tick(self, k: int, t0: float, rep: EpisodeReport, last_seq: dict[str, int], skipped: list[int]) -> _Row | None:
+    def _loop(self, episode: int, rep: EpisodeReport, ep: _Episode) -> Command | None:
+        """Tick until the operator gives a command (returned), the scene ends the task or the step limit is hit."""
+        cfg = self.config
+        while True:
+            deadline = ep.t0 + ep.k * self.dt
+            now = monotonic()
+            if deadline > now:
+                cfg.sleep(deadline - now)
+            if cfg.check_stop is not None:
+                cfg.check_stop()
+            rep.max_lateness = max(rep.max_lateness, monotonic() - deadline)
+            rep.ticks = ep.k + 1
+            cmd = self.operator.poll(episode, rep.frames)
+            if cmd is not None:
+                rep.ticks = ep.k  # this tick was not worked on
+                return cmd
+            self._work(episode, rep, ep)
+            outcome = self.hal.outcome()
+            if (outcome is not None and outcome.terminated) or rep.frames >= cfg.max_steps:
+                return None
+            self._advance(rep, ep)
+
+    def _work(self, episode: int, rep: EpisodeReport, ep: _Episode) -> None:
+        """One tick: a frame becomes the pending row (the one before it goes to the bridge), or the tick is stale;
+        a sensor stale for longer than `stale_abort` abandons the episode."""
+        cfg = self.config
+        stale_before = rep.stale_ticks
+        row = self._tick(rep, ep)
+        ep.skipped[1] += rep.stale_ticks - stale_before
+        if ep.skipped[1] * self.dt > cfg.stale_abort:
+            dead = sorted(n for n, c in rep.stale.items() if c)
+            raise HalError(
+                f"robot {self.hal.robot.name}: no fresh sample from {', '.join(dead)} for {cfg.stale_abort:.1f} s "
+                f"(staleness limit {cfg.staleness:.3f} s); episode {episode} abandoned",
+                code="hal.camera",
+            )
+        if row is not None:
+            pending = ep.pending
+            if pending is not None:
+                self.bridge.add_step(
+                    pending.obs, pending.action, reward=pending.reward, done=False,
+                    success=pending.success, extras=pending.extras,
+                )  # fmt: skip
+            ep.pending = row
+            ep.skipped = [0, 0]
+
+    def _advance(self, rep: EpisodeReport, ep: _Episode) -> None:
+        """On to the next tick; one whose work ended past the next deadline is an overrun, and the deadlines
+        that passed meanwhile are missed (never worked off in a burst)."""
+        end = monotonic()
+        next_k = ep.k + 1
+        if end > ep.t0 + next_k * self.dt:
+            rep.overruns += 1
+            late_k = max(next_k, math.floor((end - ep.t0) / self.dt))
+            rep.missed_ticks += late_k - next_k
+            ep.skipped[0] += late_k - next_k
+            next_k = late_k
+        ep.k = next_k
+
+    def _tick(self, rep: EpisodeReport, ep: _Episode) -> _Row | None:
         hal, cfg = self.hal, self.config
+        k, t0, last_seq, skipped = ep.k, ep.t0, ep.last_seq, ep.skipped
         try:
             state = hal.read_state()
         except StaleState:
@@ -241,7 +269,7 @@ class FixedRateLoop:
         else:
             sent = hal.send_action(JointCommand(result.applied)).positions
         outcome = hal.outcome()
-        reward, success = (outcome[0], outcome[1]) if outcome is not None else (0.0, False)
+        reward, success = (outcome.reward, outcome.success) if outcome is not None else (0.0, False)
         extras = {
             REAL_TIMESTAMP: state.stamp - t0,
             TICK: float(k),
@@ -264,10 +292,8 @@ class FixedRateLoop:
     def _finish(
         self, verdict: Command | None, pending: _Row | None, rep: EpisodeReport
     ) -> tuple[EpisodeEnd, EpisodeReport, EpisodeRecord | None]:
-        if verdict is None and isinstance(self.operator, ScriptedOperator):
-            planned = self.operator.current()
-            if planned is not None and planned.at_frame is None:
-                verdict = planned.command
+        if verdict is None:
+            verdict = self.operator.at_end()
         if verdict in (Command.DISCARD, Command.RERECORD, Command.QUIT) or pending is None:
             self.bridge.discard_episode()
             rep.verdict = (verdict or Command.DISCARD).value if pending is not None else "empty"
@@ -286,7 +312,7 @@ class FixedRateLoop:
         elif verdict in (Command.FAILURE, Command.ESTOP):
             success = False
         elif outcome is not None:
-            success = bool(outcome[1])
+            success = bool(outcome.success)
         else:
             success = None  # ran to the step limit and nobody said how it went
         rep.verdict = verdict.value if verdict is not None else ("scene" if outcome is not None else "step_limit")

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import contextlib
 import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 from openral_data.errors import ConfigError, UsageError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig, warm_up
-from openral_data.formats.lerobot_v3.provenance import Origin, Recorded
 from openral_data.policies.base import PolicyAdapter
 from openral_data.policies.device import resolve_device, with_device
 from openral_data.record import output
@@ -21,14 +23,16 @@ from openral_data.record.options import (
 )
 from openral_data.record.runlog import log_episode, log_totals
 from openral_data.record.session import StopRequest, ended_by, episode_loop
-from openral_data.record.start import start
+from openral_data.record.start import Started, start
 from openral_data.runtime import registry, tasks
 from openral_data.runtime.bridge import DatasetBridge
 from openral_data.runtime.compat import check_compatibility
 from openral_data.runtime.observers import check_observers, make_observers
-from openral_data.schemas.scene import load_recordable_scene
+from openral_data.runtime.schema import scene_schema
+from openral_data.schemas.robot import RobotManifest
+from openral_data.schemas.rskill import RSkillManifest
+from openral_data.schemas.scene import SimScene, load_recordable_scene
 from openral_data.types import DatasetSchema, EpisodeRecord, SimRollout, Sink
-from openral_data.version import __version__
 
 
 def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSummary:
@@ -45,8 +49,71 @@ def record(opts: RecordOptions, progress: ProgressFn | None = None) -> RecordSum
     return _record(opts, progress, None)
 
 
+@dataclass(frozen=True)
+class _Resolved:
+    """A run's inputs, resolved and checked: the scene (with its `--task`), rSkill, robot, numbers and `out`."""
+
+    opts: RecordOptions
+    scene: SimScene
+    scene_src: str
+    rskill: RSkillManifest
+    rskill_src: str
+    robot: RobotManifest
+    device: str | None
+    make_policy: registry.PolicyFactory
+    make_scene: registry.SceneFactory
+    n_episodes: int
+    base_seed: int
+    max_steps: int
+    out: Path
+    debug_videos: Path | None
+    kept: dict[str, Any]  # the settings `--resume` continues with (`meta/openral.json`)
+
+
 def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim | None) -> RecordSummary:
-    # 1. everything that can be wrong with the inputs is found here, before anything is written
+    run = _resolve(opts)
+    # one writer: the lock on `out` is taken before the scene is built and before any byte goes into `out`
+    if held is None:
+        held = output.claim(run.out, "openral-data record", resume=False)
+    opened: output.Output | None = None
+    records: list[EpisodeRecord] = []
+    try:
+        started = _start(run)
+        env, policy = started.scene, started.policy
+        try:
+            run.kept["device"] = getattr(policy, "device", None)  # the device a neural policy runs on; None: no network
+            schema = _schema(run, env)
+            opened = output.open_output(held, opts, schema, run.kept)
+            bridge = _open_bridge(run, schema, opened.first_episode)
+            start_at = getattr(env, "start_at", None)  # producers that number their episodes (the mock)
+            if callable(start_at):
+                start_at(opened.first_episode)
+            t0 = time.perf_counter()
+            frames = _episodes(run, env, policy, bridge, opened.first_episode, records, progress)
+        finally:
+            env.close()
+    finally:
+        if opened is not None:
+            output.close_output(run.out, opened, len(records))
+        else:  # stopped before the settings were written: `out` is left as the claim found it
+            held.release()
+    seconds = time.perf_counter() - t0
+    log_totals(run.out, len(records), frames, seconds)
+    return RecordSummary(
+        out=run.out,
+        episodes=records,
+        frames=frames,
+        seconds=seconds,
+        resumed_at=opened.first_episode,
+        recovered=tuple(opened.actions),
+        codec=opts.codec,
+        formats=opts.formats,
+        debug_videos=run.debug_videos,
+    )
+
+
+def _resolve(opts: RecordOptions) -> _Resolved:
+    """Everything that can be wrong with the inputs is found here, before anything is written."""
     scene_path = registry.resolve_scene_path(opts.scene)
     scene = load_recordable_scene(scene_path)
     scene_src = str(scene_path)
@@ -72,8 +139,6 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
     base_seed = opts.seed if opts.seed is not None else scene.seed
     max_steps = opts.max_steps if opts.max_steps is not None else scene.task.max_steps
     check_run_numbers(n_episodes, max_steps, base_seed)
-    from openral_data.runtime.sinks import make_sinks
-
     out = opts.out if opts.out is not None else default_out(scene, rskill.id)
     debug_videos = check_observers(opts, out, resume=opts.resume)
     kept = {
@@ -90,108 +155,91 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
         "task": task_id,
         "instruction": opts.instruction,
     }
-    # 2. one writer: the lock on `out` is taken before the scene is built and before any byte goes into `out`
-    if held is None:
-        held = output.claim(out, "openral-data record", resume=False)
-    opened: output.Output | None = None
-    records: list[EpisodeRecord] = []
-    try:
-        video = VideoSettings(codec=opts.codec)
+    return _Resolved(
+        opts, scene, scene_src, rskill, rskill_src, robot, device, make_policy, make_scene, n_episodes, base_seed,
+        max_steps, out, debug_videos, kept,
+    )  # fmt: skip
 
-        def load_policy() -> PolicyAdapter:
-            warm_up()  # pyarrow's first-use cost, paid beside the scene's build instead of in the first commit
-            return make_policy(with_device(rskill, device))
 
-        started = start(
-            lambda: make_scene(scene, robot, rskill, scene_src),
-            lambda env: check_compatibility(
-                robot, rskill, env.spec, rskill_source=rskill_src, scene_source=scene_src, video=video
-            ),
-            load_policy,
-            lambda env: env.close(),
-            lambda policy: policy.close(),
-        )
-        env, policy = started.scene, started.policy
-        try:
-            kept["device"] = getattr(policy, "device", None)  # the device a neural policy runs on; None: no network
-            if scene.scene.observations.environment_state and not env.spec.environment_state_names:
-                raise ConfigError(
-                    f"{scene_src}: scene.observations.environment_state: scene type {scene.scene.type!r} "
-                    "reports no object poses"
-                )
-            schema = DatasetSchema(
-                fps=env.spec.fps,
-                state_names=tuple(rskill.state_contract.names),
-                action_names=tuple(rskill.action_contract.names),
-                cameras=dict(env.spec.cameras),
-                robot_type=robot.name,
-                environment_state_names=env.spec.environment_state_names,
-                metadata=Origin(
-                    openral_data_version=__version__,
-                    scene=Recorded(scene_src, scene.model_dump(mode="json")),
-                    rskill=Recorded(rskill_src, rskill.model_dump(mode="json")),
-                    robot=robot.name,
-                ).to_json(),
-            )
-            opened = output.open_output(held, opts, schema, kept)
-            first = opened.first_episode
-            observers = make_observers(opts, out, schema)
-            try:
-                sinks: list[Sink] = make_sinks(
-                    out,
-                    schema,
-                    opts.formats,
-                    WriterConfig(video=video),
-                    opts.image_format,
-                    resume=opts.resume,
-                    mcap_compression=opts.mcap_compression,
-                    first_index=opts.first_episode,
-                )
-            except BaseException as exc:
-                with contextlib.suppress(Exception):  # closes the observers (no sink yet); the error is `exc`
-                    DatasetBridge(schema, [], observers=observers).close()
-                explained = ended_by(exc, out, first) if isinstance(exc, OSError) else None
-                if explained is None:
-                    raise
-                raise explained from exc
-            bridge = DatasetBridge(schema, sinks, first_episode=first, observers=observers)
-            start_at = getattr(env, "start_at", None)  # producers that number their episodes (the mock)
-            if callable(start_at):
-                start_at(first)
-            frames = 0
-            t0 = time.perf_counter()
-            with episode_loop(bridge, policy, out, lambda: first + len(records)) as stop:
-                if progress is not None:
-                    progress(None, 0, max(0, n_episodes - first))
-                for e in range(first, n_episodes):
-                    t_episode = time.perf_counter()
-                    rec = _record_episode(env, policy, bridge, base_seed + e, max_steps, stop, opts.instruction)
-                    log_episode(rec, time.perf_counter() - t_episode)
-                    records.append(rec)
-                    frames += rec.length
-                    if progress is not None:
-                        progress(rec, frames, max(0, n_episodes - first))
-        finally:
-            env.close()
-    finally:
-        if opened is not None:
-            output.close_output(out, opened, len(records))
-        else:  # stopped before the settings were written: `out` is left as the claim found it
-            held.release()
-    assert opened is not None
-    seconds = time.perf_counter() - t0
-    log_totals(out, len(records), frames, seconds)
-    return RecordSummary(
-        out=out,
-        episodes=records,
-        frames=frames,
-        seconds=seconds,
-        resumed_at=first,
-        recovered=tuple(opened.actions),
-        codec=opts.codec,
-        formats=opts.formats,
-        debug_videos=debug_videos,
+def _start(run: _Resolved) -> Started[SimRollout, PolicyAdapter]:
+    """The scene built (and checked against the rSkill) while the policy loads."""
+    scene, scene_src, robot, rskill = run.scene, run.scene_src, run.robot, run.rskill
+    video = VideoSettings(codec=run.opts.codec)
+
+    def load_policy() -> PolicyAdapter:
+        warm_up()  # pyarrow's first-use cost, paid beside the scene's build instead of in the first commit
+        return run.make_policy(with_device(rskill, run.device))
+
+    return start(
+        lambda: run.make_scene(scene, robot, rskill, scene_src),
+        lambda env: check_compatibility(
+            robot, rskill, env.spec, rskill_source=run.rskill_src, scene_source=scene_src, video=video
+        ),
+        load_policy,
+        lambda env: env.close(),
+        lambda policy: policy.close(),
     )
+
+
+def _schema(run: _Resolved, env: SimRollout) -> DatasetSchema:
+    if run.scene.scene.observations.environment_state and not env.spec.environment_state_names:
+        raise ConfigError(
+            f"{run.scene_src}: scene.observations.environment_state: scene type {run.scene.scene.type!r} "
+            "reports no object poses"
+        )
+    return scene_schema(env.spec, run.scene, run.scene_src, run.robot, run.rskill, run.rskill_src)
+
+
+def _open_bridge(run: _Resolved, schema: DatasetSchema, first: int) -> DatasetBridge:
+    """The observers and the sinks behind one bridge; a sink that cannot open closes the observers again."""
+    from openral_data.runtime.sinks import make_sinks
+
+    opts, out = run.opts, run.out
+    observers = make_observers(opts, out, schema)
+    try:
+        sinks: list[Sink] = make_sinks(
+            out,
+            schema,
+            opts.formats,
+            WriterConfig(video=VideoSettings(codec=opts.codec)),
+            opts.image_format,
+            resume=opts.resume,
+            mcap_compression=opts.mcap_compression,
+            first_index=opts.first_episode,
+        )
+    except BaseException as exc:
+        with contextlib.suppress(Exception):  # closes the observers (no sink yet); the error is `exc`
+            DatasetBridge(schema, [], observers=observers).close()
+        explained = ended_by(exc, out, first) if isinstance(exc, OSError) else None
+        if explained is None:
+            raise
+        raise explained from exc
+    return DatasetBridge(schema, sinks, first_episode=first, observers=observers)
+
+
+def _episodes(
+    run: _Resolved,
+    env: SimRollout,
+    policy: PolicyAdapter,
+    bridge: DatasetBridge,
+    first: int,
+    records: list[EpisodeRecord],
+    progress: ProgressFn | None,
+) -> int:
+    """Episodes `first`..n_episodes-1 into `records` (kept when a stop ends the loop); the frames recorded."""
+    frames = 0
+    with episode_loop(bridge, policy, run.out, lambda: first + len(records)) as stop:
+        if progress is not None:
+            progress(None, 0, max(0, run.n_episodes - first))
+        for e in range(first, run.n_episodes):
+            t_episode = time.perf_counter()
+            rec = _record_episode(env, policy, bridge, run.base_seed + e, run.max_steps, stop, run.opts.instruction)
+            log_episode(rec, time.perf_counter() - t_episode)
+            records.append(rec)
+            frames += rec.length
+            if progress is not None:
+                progress(rec, frames, max(0, run.n_episodes - first))
+    return frames
 
 
 def _record_episode(

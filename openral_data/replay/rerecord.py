@@ -25,7 +25,7 @@ from pydantic import Field
 
 from openral_data.errors import CompatibilityError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
-from openral_data.formats.lerobot_v3.provenance import Origin, Recorded, ReplayOrigin
+from openral_data.formats.lerobot_v3.provenance import ReplayOrigin
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.mcap import ImageFormat
 from openral_data.formats.staging import Staging
@@ -33,11 +33,11 @@ from openral_data.replay.drive import StepHook
 from openral_data.replay.rebuild import Rebuilt, SceneView
 from openral_data.runtime.bridge import DatasetBridge
 from openral_data.runtime.outdir import check_out
+from openral_data.runtime.schema import scene_schema
 from openral_data.runtime.sinks import OutputFormat, make_sinks
 from openral_data.schemas.base import StrictModel, load_model
 from openral_data.schemas.scene import RenderConfig, SceneCamera
 from openral_data.types import DatasetSchema, EpisodeRecord, FrameObserver, Observation, Sink, StepResult
-from openral_data.version import __version__
 
 
 class CameraFile(StrictModel):
@@ -76,20 +76,14 @@ class Rerecorder:
                 problem = video.size_problem(shape.height, shape.width)
                 if problem:
                     raise CompatibilityError(f"--cameras: {name}: {problem}")
-        schema = DatasetSchema(
-            fps=spec.fps,
-            state_names=tuple(built.rskill.state_contract.names),
-            action_names=tuple(built.rskill.action_contract.names),
-            cameras=dict(spec.cameras),
-            robot_type=built.robot.name,
-            environment_state_names=spec.environment_state_names,
-            metadata=Origin(
-                openral_data_version=__version__,
-                scene=Recorded(built.source, built.scene.model_dump(mode="json")),
-                rskill=Recorded(built.rskill_source, built.rskill.model_dump(mode="json")),
-                robot=built.robot.name,
-                replayed_from=ReplayOrigin(str(dataset_root.resolve()), mode),
-            ).to_json(),
+        schema = scene_schema(
+            spec,
+            built.scene,
+            built.source,
+            built.robot,
+            built.rskill,
+            built.rskill_source,
+            ReplayOrigin(str(dataset_root.resolve()), mode),
         )
         self.out = out
         self.env = built.env

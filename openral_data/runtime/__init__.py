@@ -5,6 +5,7 @@
 * `tasks`: the tasks of suite scenes (`--task`) and the instruction a run records (`--instruction`);
 * `catalog`: what this installation knows (`list`), and where each item comes from;
 * `compat`: robot / rSkill / scene compatibility, checked before episode 0;
+* `schema`: a run's dataset schema and provenance metadata (record, record --hal, replay --record);
 * `sinks`: the output formats a run writes (LeRobot v3, MCAP) and their settings;
 * `observers`: frame observers beside the sinks (debug videos, the live rerun view);
 * `outdir`: output folders (a fresh default name, refusing an `--out` that holds something);
@@ -14,4 +15,4 @@ The runtime sits below the tools and above policies and producers; the `record` 
 `openral_data.record`. The modules are not imported here, so using one never loads the others' libraries.
 """
 
-__all__ = ["bridge", "catalog", "compat", "observers", "outdir", "parallel", "registry", "sinks", "tasks"]
+__all__ = ["bridge", "catalog", "compat", "observers", "outdir", "parallel", "registry", "schema", "sinks", "tasks"]

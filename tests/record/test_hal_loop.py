@@ -15,10 +15,11 @@ import av
 import numpy as np
 import pytest
 
-from openral_data.errors import EstopLatched, HalError, OpenralError
+from openral_data.errors import EstopLatched, HalError, OpenralError, UsageError
 from openral_data.producers.hal.base import JointCommand
 from openral_data.producers.hal.operator import ScriptedOperator, parse_script
 from openral_data.producers.hal.safety import SafetyFilter
+from openral_data.record.hal import HalRecordOptions
 from openral_data.record.hal_loop import EpisodeEnd
 from openral_data.runtime import registry
 from openral_data.types import Observation
@@ -149,6 +150,8 @@ def test_cli_error_is_one_line(tmp_path: Path, project: Path) -> None:
         (["--hal", "ur5e", "--rskill", "sweep-ur5e", "--fps", "0"], "--fps"),
         (["--hal", "aloha", "--rskill", "sweep-ur5e"], "has no MuJoCo wiring"),  # the SO arms have a twin now
         (["--mode", "real"], "--mode: only with --hal"),
+        (["--fps", "20", "--mode", "sim"], "--mode, --fps: only with --hal"),  # given, even at the default value
+        (["--hal", "ur5e", "--rskill", "sweep-ur5e", "--mode", "twin"], "--mode: 'twin'; valid: sim, real"),
     ],
 )
 def test_cli_errors_name_the_problem(tmp_path: Path, project: Path, args: list[str], message: str) -> None:
@@ -161,6 +164,14 @@ def test_cli_errors_name_the_problem(tmp_path: Path, project: Path, args: list[s
     assert isinstance(result.exception, OpenralError), result.output
     assert message in str(result.exception) and "\n" not in str(result.exception)
     assert not (tmp_path / "o").exists()
+
+
+def test_hal_options_check_mode_and_safety_when_built() -> None:
+    """The Python API gets the CLI's checks: the options object refuses what the layers below never re-check."""
+    with pytest.raises(UsageError, match=r"^--mode: 'twin'; valid: sim, real$"):
+        HalRecordOptions(robot="ur5e", rskill="sweep-ur5e", mode="twin")  # type: ignore[arg-type]
+    with pytest.raises(UsageError, match=r"^--safety: 'maybe'; valid: clamp, refuse$"):
+        HalRecordOptions(robot="ur5e", rskill="sweep-ur5e", safety="maybe")  # type: ignore[arg-type]
 
 
 class JumpPolicy:

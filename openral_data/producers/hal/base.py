@@ -11,12 +11,13 @@ from __future__ import annotations
 import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import Any, Protocol, runtime_checkable
+from typing import Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 
 from openral_data.errors import EstopLatched, HalError, StaleState
+from openral_data.producers.hal.safety import ForwardKinematics
 from openral_data.producers.hal.sensors import CameraSensor
 from openral_data.schemas.robot import RobotManifest
 from openral_data.types import Privileged
@@ -46,28 +47,12 @@ def monotonic() -> float:
     return time.monotonic()
 
 
-@runtime_checkable
-class Hal(Protocol):
-    robot: RobotManifest
-    cameras: dict[str, CameraSensor]
+class Outcome(NamedTuple):
+    """What a HAL that runs a task (a sim scene) knows after the last command."""
 
-    @property
-    def connected(self) -> bool: ...
-
-    @property
-    def estopped(self) -> bool: ...
-
-    def connect(self) -> None: ...
-
-    def disconnect(self) -> None: ...
-
-    def read_state(self) -> RobotState: ...
-
-    def send_action(self, command: JointCommand) -> JointCommand: ...
-
-    def estop(self, reason: str) -> None: ...
-
-    def reset_estop(self) -> None: ...
+    reward: float
+    success: bool
+    terminated: bool
 
 
 class HalBase(ABC):
@@ -116,9 +101,37 @@ class HalBase(ABC):
         """Ground truth a simulator knows (scripted experts read it); hardware has none."""
         return {}
 
-    def outcome(self) -> tuple[float, bool, bool] | None:
-        """(reward, success, terminated) after the last command, when the HAL knows them (a sim scene)."""
+    def outcome(self) -> Outcome | None:
+        """Reward, success and termination after the last command, when the HAL knows them (a sim scene)."""
         return None
+
+    @property
+    def has_reward(self) -> bool:
+        """Whether `outcome()` reports reward and success (the dataset then stores them)."""
+        return False
+
+    @property
+    def task(self) -> str | None:
+        """The language instruction of the HAL's own task (a sim scene's); None: the rSkill's description."""
+        return None
+
+    @property
+    def state_names(self) -> list[str] | None:
+        """Names of `read_state`'s dimensions when they are not the manifest's `observation.state` ones."""
+        return None
+
+    @property
+    def action_names(self) -> list[str] | None:
+        """Names of `send_action`'s dimensions when they are not the manifest's `action` ones."""
+        return None
+
+    def kinematics(self) -> ForwardKinematics | None:
+        """Forward kinematics for the safety filter's workspace check, when the HAL has a model of the robot."""
+        return None
+
+    def close(self) -> None:
+        """Disconnect and release what the HAL holds beyond the connection (a sim scene)."""
+        self.disconnect()
 
     # -- the protocol ----------------------------------------------------------------------------------------
     @property

@@ -61,6 +61,10 @@ class Operator(Protocol):
         """Non-blocking: a command given during the episode, after `frame` frames were recorded."""
         ...
 
+    def at_end(self) -> Command | None:
+        """The verdict for an episode that ended without a command (step limit or the scene's end), if any."""
+        ...
+
     def close(self) -> None: ...
 
 
@@ -93,6 +97,9 @@ class KeyboardOperator:
     def poll(self, episode: int, frame: int) -> Command | None:
         cmd = self._key(0.0)
         return None if cmd is Command.START else cmd
+
+    def at_end(self) -> Command | None:
+        return None
 
     def close(self) -> None:
         termios.tcsetattr(self.fd, termios.TCSADRAIN, self._saved)
@@ -147,6 +154,10 @@ class ScriptedOperator:
         if v is not None and v.at_frame is not None and frame >= v.at_frame:
             return v.command
         return None
+
+    def at_end(self) -> Command | None:
+        planned = self.current()
+        return planned.command if planned is not None and planned.at_frame is None else None
 
     def close(self) -> None:
         pass

@@ -20,7 +20,8 @@ import mujoco
 import numpy as np
 
 from openral_data.errors import ConfigError
-from openral_data.producers.hal.base import HalBase, JointCommand, RobotState, monotonic
+from openral_data.producers.hal.base import HalBase, JointCommand, Outcome, RobotState, monotonic
+from openral_data.producers.hal.safety import ForwardKinematics
 from openral_data.producers.hal.sensors import Image, PolledCamera
 from openral_data.producers.sim.mujoco.kinematics import F64
 from openral_data.producers.sim.mujoco.render import CameraRig
@@ -129,6 +130,9 @@ class MujocoTwinHal(HalBase):
         frame."""
         return self.twin.forward_kinematics(self.data, self._scratch, q)
 
+    def kinematics(self) -> ForwardKinematics:
+        return self.forward_kinematics
+
     def begin_episode(self, seed: int) -> dict[str, Any]:
         return {"hal": "mujoco_twin", "robot": self.robot.name, "qpos": self.data.qpos.tolist()}
 
@@ -136,11 +140,19 @@ class MujocoTwinHal(HalBase):
 class SceneHal(HalBase):
     """A `SimRollout` behind the HAL protocol: one `send_action` = one control step of the scene."""
 
-    def __init__(self, robot: RobotManifest, scene: SimRollout, state_names: list[str], action_names: list[str]):
+    def __init__(
+        self,
+        robot: RobotManifest,
+        scene: SimRollout,
+        state_names: list[str],
+        action_names: list[str],
+        task: str | None = None,
+    ):
         super().__init__(robot)
         self.scene = scene
-        self.state_names = state_names
-        self.action_names = action_names
+        self._state_names = state_names
+        self._action_names = action_names
+        self._task = task
         self._obs: Observation | None = None
         self._stamp = 0.0
         self.reward = 0.0
@@ -151,11 +163,33 @@ class SceneHal(HalBase):
 
     @property
     def state_dim(self) -> int:
-        return len(self.state_names)
+        return len(self._state_names)
 
     @property
     def action_dim(self) -> int:
-        return len(self.action_names)
+        return len(self._action_names)
+
+    @property
+    def state_names(self) -> list[str]:
+        return self._state_names
+
+    @property
+    def action_names(self) -> list[str]:
+        return self._action_names
+
+    @property
+    def task(self) -> str | None:
+        return self._task
+
+    @property
+    def has_reward(self) -> bool:
+        return True
+
+    def close(self) -> None:
+        try:
+            super().close()
+        finally:
+            self.scene.close()
 
     def _connect(self) -> None:
         pass
@@ -196,5 +230,5 @@ class SceneHal(HalBase):
     def _hold(self) -> None:
         pass  # a paused simulation does not move
 
-    def outcome(self) -> tuple[float, bool, bool] | None:
-        return self.reward, self.success, self.terminated
+    def outcome(self) -> Outcome | None:
+        return Outcome(self.reward, self.success, self.terminated)

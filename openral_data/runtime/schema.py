@@ -1,0 +1,69 @@
+"""The dataset schema of a run: the rSkill's contract, the source's rate and cameras, and the provenance metadata
+(`meta/openral.json` in LeRobot v3, an `Origin`) every tool that records writes the same way: `record` (a sim
+scene), `record --hal` (a robot behind its HAL) and `replay --record`."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+
+from openral_data.formats.lerobot_v3.provenance import Origin, Recorded, ReplayOrigin
+from openral_data.schemas.robot import RobotManifest
+from openral_data.schemas.rskill import RSkillManifest
+from openral_data.schemas.scene import SimScene
+from openral_data.types import CameraShape, DatasetSchema, ProducerSpec
+from openral_data.version import __version__
+
+
+def dataset_schema(
+    robot: RobotManifest,
+    rskill: RSkillManifest,
+    rskill_source: str,
+    *,
+    fps: int,
+    cameras: Mapping[str, CameraShape],
+    origin: Origin,
+    environment_state_names: tuple[str, ...] = (),
+    has_reward: bool = True,
+    frame_extras: tuple[str, ...] = (),
+) -> DatasetSchema:
+    """`origin`: what produced the frames (its `scene` or `hal`, and `safety`/`replayed_from` where they apply);
+    the version, the rSkill and the robot are filled in here."""
+    metadata = dataclasses.replace(
+        origin,
+        openral_data_version=__version__,
+        rskill=Recorded(rskill_source, rskill.model_dump(mode="json")),
+        robot=robot.name,
+    )
+    return DatasetSchema(
+        fps=fps,
+        state_names=tuple(rskill.state_contract.names),
+        action_names=tuple(rskill.action_contract.names),
+        cameras=dict(cameras),
+        robot_type=robot.name,
+        environment_state_names=environment_state_names,
+        metadata=metadata.to_json(),
+        has_reward=has_reward,
+        frame_extras=frame_extras,
+    )
+
+
+def scene_schema(
+    spec: ProducerSpec,
+    scene: SimScene,
+    scene_source: str,
+    robot: RobotManifest,
+    rskill: RSkillManifest,
+    rskill_source: str,
+    replayed_from: ReplayOrigin | None = None,
+) -> DatasetSchema:
+    """The schema of a sim scene's rollouts (`record`, `replay --record`): its rate, cameras and object poses."""
+    return dataset_schema(
+        robot,
+        rskill,
+        rskill_source,
+        fps=spec.fps,
+        cameras=spec.cameras,
+        origin=Origin(scene=Recorded(scene_source, scene.model_dump(mode="json")), replayed_from=replayed_from),
+        environment_state_names=spec.environment_state_names,
+    )
