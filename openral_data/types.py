@@ -227,6 +227,10 @@ class Sink(Protocol):
 
     def add_frame(self, frame: Frame) -> None: ...
 
+    def annotate_episode(self, info: dict[str, Any]) -> None:
+        """Keep `info` (JSON-able) with the open episode (before `end_episode`); a no-op in a sink that stores no
+        episode annotations."""
+
     def end_episode(self, success: bool | None) -> EpisodeRecord: ...
 
     def discard_episode(self) -> None: ...

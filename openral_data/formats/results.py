@@ -4,7 +4,9 @@
 A results directory holds three files:
 
 * `summary.json`: `{"format": "openral-results/1", "kind": "replay" | "eval", "dataset": "<path of the
-  dataset that was replayed or evaluated>", "label": "<free text>", ...}`; other keys are kept as they are.
+  dataset that was replayed or evaluated>", "label": "<free text>", ...}`; other keys are kept as they are
+  (what replay writes there, per mode: `replay/summary.py`). Readers go through `Results.kind`, `.dataset` and
+  `.label`.
 * `episodes.parquet`: one row per episode, columns `EPISODE_SCHEMA` (success is nullable: unknown stays NULL).
 * `steps.parquet`: one row per replayed step, columns `STEP_SCHEMA`.
 
@@ -25,9 +27,10 @@ that does not have them leaves them out and they are stored as NULL, and readers
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Literal, cast
 
 import pyarrow as pa
 import pyarrow.parquet as pq
@@ -41,7 +44,8 @@ FORMAT = "openral-results/1"
 SUMMARY = "summary.json"
 EPISODES = "episodes.parquet"
 STEPS = "steps.parquet"
-KINDS = ("replay", "eval")
+Kind = Literal["replay", "eval"]
+KINDS: tuple[Kind, ...] = ("replay", "eval")
 
 EPISODE_SCHEMA = pa.schema(
     [
@@ -85,7 +89,17 @@ STEP_OPTIONAL = pa.schema(
 @dataclass(frozen=True)
 class Results:
     root: Path
-    summary: dict[str, Any]
+    summary: Mapping[str, object]  # summary.json, `kind` checked
+
+    @property
+    def kind(self) -> Kind:
+        return cast(Kind, self.summary["kind"])
+
+    @property
+    def dataset(self) -> str | None:
+        """The path of the dataset replayed or evaluated (None if the writer gave none)."""
+        ref = self.summary.get("dataset")
+        return ref if isinstance(ref, str) else None
 
     @property
     def label(self) -> str:
@@ -100,7 +114,7 @@ class Results:
         return self.root / STEPS
 
 
-def write_results(root: Path, summary: dict[str, Any], episodes: pa.Table, steps: pa.Table) -> Results:
+def write_results(root: Path, summary: Mapping[str, object], episodes: pa.Table, steps: pa.Table) -> Results:
     """Write a results directory atomically file by file (summary.json last); refuses to overwrite one."""
     if (root / SUMMARY).exists():
         raise OutputExists(f"{root}: already holds results; refusing to overwrite them")

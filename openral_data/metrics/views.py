@@ -179,9 +179,9 @@ def _register_results(
     by_root = {ds.root.resolve(): ds.label for ds in datasets}
     eps, steps = [], []
     for r in results:
-        ref = r.summary.get("dataset")
-        dataset = by_root.get(Path(ref).resolve(), Path(ref).name) if isinstance(ref, str) else None
-        head = f"SELECT {lit(r.label)} AS results, {lit(r.summary['kind'])} AS kind, {lit(dataset)}::VARCHAR AS dataset"
+        ref = r.dataset
+        dataset = by_root.get(Path(ref).resolve(), Path(ref).name) if ref is not None else None
+        head = f"SELECT {lit(r.label)} AS results, {lit(r.kind)} AS kind, {lit(dataset)}::VARCHAR AS dataset"
         eps.append(f"{head}, * FROM read_parquet({lit(str(r.episodes_path))})")
         steps.append(f"{head}, * FROM read_parquet({lit(str(r.steps_path))})")
     empty = (

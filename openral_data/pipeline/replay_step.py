@@ -20,7 +20,15 @@ def replay_jobs(spec: ReplayStep, resolve: Callable[[str], list[tuple[str, Path]
             extra: dict[str, Any] = {} if spec.tolerance is None else {"tolerance": spec.tolerance}
             opts = ReplayOptions(dataset=dataset, episodes=spec.episodes, mode=spec.mode, out=out, **extra)
             s = replay(opts).summary
-            keys = ("success_recorded", "success_replayed", "success_agree", "reproduced", "divergence_max")
-            return {"dataset": str(dataset), "episodes": len(s.get("episodes", [])), **{k: s.get(k) for k in keys}}
+            actions = s if s["mode"] == "actions" else None
+            return {
+                "dataset": str(dataset),
+                "episodes": len(s["episodes"]),
+                "success_recorded": s["success_recorded"],
+                "success_replayed": s["success_replayed"],
+                "success_agree": s["success_agree"],
+                "reproduced": actions["reproduced"] if actions is not None else None,
+                "divergence_max": actions["divergence_max"] if actions is not None else None,
+            }
 
         yield name, run

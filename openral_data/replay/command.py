@@ -8,15 +8,13 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
 
 import numpy as np
 
 from openral_data.errors import CompatibilityError, OutputExists, UsageError
 from openral_data.formats.lerobot_v3 import VideoSettings
-from openral_data.formats.lerobot_v3.features import dim_names
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.results import is_results_dir, write_results
 from openral_data.policies.base import ChunkingPolicy, PolicyAdapter
@@ -29,6 +27,7 @@ from openral_data.replay.policy_mode import evaluate_episode
 from openral_data.replay.rebuild import SceneView, rebuild
 from openral_data.replay.recorded import RecordedDataset
 from openral_data.replay.rerecord import Rerecorder, load_view
+from openral_data.replay.summary import Chunk, Extras, Mode, Run, Summary, summarize
 from openral_data.replay.tables import episodes_table, steps_table
 from openral_data.runtime import registry
 from openral_data.runtime.compat import check_compatibility
@@ -39,9 +38,7 @@ from openral_data.runtime.tasks import check_instruction
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.viz import DEFAULT_PORT
 
-Mode = Literal["actions", "policy", "closed-loop"]
 MODES: tuple[Mode, ...] = ("actions", "policy", "closed-loop")
-KIND = {"actions": "replay", "policy": "eval", "closed-loop": "eval"}
 
 ProgressFn = Callable[[EpisodeOutcome | None, int, int], None]  # (finished episode | None at start, done, total)
 EpisodeRunner = Callable[[int], EpisodeOutcome]
@@ -83,23 +80,22 @@ class ReplaySummary:
     dataset: Path
     episodes: list[EpisodeOutcome]
     seconds: float
-    summary: dict[str, Any] = field(default_factory=dict)  # what summary.json holds
+    summary: Summary  # what summary.json holds (its `mode` is `mode`)
 
     def rows(self) -> list[tuple[str, str]]:
         """`key: value` lines for the CLI."""
         s, n = self.summary, len(self.episodes)
         rows = [("results", str(self.out)), ("mode", self.mode), ("episodes", str(n))]
-        if self.mode != "policy":
+        if s["mode"] != "policy":
             rows.append(("success recorded", f"{s['success_recorded']}/{n}"))
             rows.append(("success replayed", f"{s['success_replayed']}/{n}"))
             rows.append(("success agrees", f"{s['success_agree']}/{s['success_known']} episodes"))
-        if self.mode == "actions":
+        if s["mode"] == "actions":
             rows.append(("reproduced", f"{s['reproduced']}/{n} episodes (tolerance {s['tolerance']:g})"))
-            rows.append(("divergence max", _num(s.get("divergence_max"))))
-            diverged = s.get("diverged_episodes") or {}
-            if diverged:
-                rows.append(("diverged", ", ".join(f"ep {k} at frame {v}" for k, v in diverged.items())))
-        if self.mode == "closed-loop":
+            rows.append(("divergence max", _num(s["divergence_max"])))
+            if s["diverged_episodes"]:
+                rows.append(("diverged", ", ".join(f"ep {k} at frame {v}" for k, v in s["diverged_episodes"].items())))
+        if s["mode"] == "closed-loop":
             p = s["paired"]
             rows.append(
                 (
@@ -108,26 +104,31 @@ class ReplaySummary:
                     f"neither {p['neither']}",
                 )
             )
-        if self.mode == "policy":
+        if s["mode"] == "policy":
             rows.append(("steps compared", str(s["steps"])))
             rows.append(("action MSE", _num(s.get("action_mse_mean"))))
             rows.append(("action MAE", _num(s.get("action_mae_mean"))))
             worst = s.get("action_mae_worst")
             if worst:
                 rows.append(("worst dimension", f"{worst[0]} (MAE {worst[1]:.3g})"))
-            if s.get("chunk"):
+            if "chunk" in s:
                 rows.append(("chunks", f"executes {s['chunk']['n_action_steps']} action(s) per query"))
-        if s.get("record"):
+        if s["mode"] != "policy" and "record" in s:
             rows.append(("re-recorded", f"{s['record']['out']} ({s['record']['frames']} frames)"))
-        if s.get("debug_videos"):
+        if s["mode"] == "closed-loop" and "debug_videos" in s:
             rows.append(("debug videos", s["debug_videos"]))
         rows.append(("seconds", f"{self.seconds:.1f}"))
         return rows
 
     def to_json(self) -> dict[str, object]:
         """The fields of `replay --json`, in docs/scripting.md's order; a field another mode fills is null."""
-        s, sim, actions, policy = self.summary, self.mode != "policy", self.mode == "actions", self.mode == "policy"
-        worst = s.get("action_mae_worst")
+        s = self.summary
+        sim = s if s["mode"] != "policy" else None
+        actions = s if s["mode"] == "actions" else None
+        policy = s if s["mode"] == "policy" else None
+        worst = policy.get("action_mae_worst") if policy is not None else None
+        record = sim.get("record") if sim is not None else None
+        chunk = policy.get("chunk") if policy is not None else None
         return {
             "results": str(self.out),
             "mode": self.mode,
@@ -137,21 +138,21 @@ class ReplaySummary:
             "episodes": len(self.episodes),
             "seconds": self.seconds,
             "success_recorded": s["success_recorded"],
-            "success_replayed": s["success_replayed"] if sim else None,
-            "success_known": s["success_known"] if sim else None,
-            "success_agree": s["success_agree"] if sim else None,
-            "tolerance": s["tolerance"] if sim else None,
-            "reproduced": s["reproduced"] if actions else None,
-            "divergence_max": s["divergence_max"] if actions else None,
-            "diverged_episodes": s["diverged_episodes"] if actions else None,
-            "paired": s.get("paired"),
-            "steps_compared": s["steps"] if policy else None,
-            "action_mse_mean": s.get("action_mse_mean"),
-            "action_mae_mean": s.get("action_mae_mean"),
+            "success_replayed": sim["success_replayed"] if sim is not None else None,
+            "success_known": sim["success_known"] if sim is not None else None,
+            "success_agree": sim["success_agree"] if sim is not None else None,
+            "tolerance": sim["tolerance"] if sim is not None else None,
+            "reproduced": actions["reproduced"] if actions is not None else None,
+            "divergence_max": actions["divergence_max"] if actions is not None else None,
+            "diverged_episodes": actions["diverged_episodes"] if actions is not None else None,
+            "paired": s["paired"] if s["mode"] == "closed-loop" else None,
+            "steps_compared": policy["steps"] if policy is not None else None,
+            "action_mse_mean": policy.get("action_mse_mean") if policy is not None else None,
+            "action_mae_mean": policy.get("action_mae_mean") if policy is not None else None,
             "action_mae_worst": None if not worst else {"name": worst[0], "mae": worst[1]},
-            "chunk_n_action_steps": s["chunk"]["n_action_steps"] if s.get("chunk") else None,
-            "rerecorded": s["record"]["out"] if s.get("record") else None,
-            "rerecorded_frames": s["record"]["frames"] if s.get("record") else None,
+            "chunk_n_action_steps": chunk["n_action_steps"] if chunk is not None else None,
+            "rerecorded": record["out"] if record is not None else None,
+            "rerecorded_frames": record["frames"] if record is not None else None,
             "episode_list": [_episode_json(o) for o in self.episodes],
         }
 
@@ -169,8 +170,8 @@ def _episode_json(o: EpisodeOutcome) -> dict[str, object]:
     }
 
 
-def _num(value: object) -> str:
-    return "-" if value is None else f"{float(value):.3g}"  # type: ignore[arg-type]
+def _num(value: float | None) -> str:
+    return "-" if value is None else f"{float(value):.3g}"
 
 
 def _check(opts: ReplayOptions) -> None:
@@ -217,8 +218,8 @@ def replay(opts: ReplayOptions, progress: ProgressFn | None = None) -> ReplaySum
     videos = check_observers(opts, out, what="the results")  # `--save-video`: `<results>.debug/`
     t0 = time.perf_counter()
     outcomes: list[EpisodeOutcome] = []
-    extra: dict[str, Any] = {} if videos is None else {"debug_videos": str(videos)}
-    with _runner(opts, dataset, out, extra) as run:
+    extras = Extras(debug_videos=None if videos is None else str(videos))
+    with _runner(opts, dataset, out, extras) as run:
         if progress is not None:
             progress(None, 0, len(chosen))
         for e in chosen:
@@ -226,7 +227,8 @@ def replay(opts: ReplayOptions, progress: ProgressFn | None = None) -> ReplaySum
             if progress is not None:
                 progress(outcomes[-1], len(outcomes), len(chosen))
     seconds = time.perf_counter() - t0
-    summary = {**_summary(opts, dataset, outcomes, seconds), **extra}
+    about = Run(opts.mode, opts.dataset, opts.label, opts.rskill, opts.tolerance, dataset.info["features"])
+    summary = summarize(about, outcomes, seconds, extras)
     write_results(out, summary, episodes_table(outcomes), steps_table(outcomes))
     return ReplaySummary(
         out=out, mode=opts.mode, dataset=opts.dataset, episodes=outcomes, seconds=seconds, summary=summary
@@ -234,13 +236,13 @@ def replay(opts: ReplayOptions, progress: ProgressFn | None = None) -> ReplaySum
 
 
 @contextmanager
-def _runner(opts: ReplayOptions, dataset: RecordedDataset, out: Path, extra: dict[str, Any]) -> Iterator[EpisodeRunner]:
+def _runner(opts: ReplayOptions, dataset: RecordedDataset, out: Path, extras: Extras) -> Iterator[EpisodeRunner]:
     """A function replaying one episode in the chosen mode (results in `out`); everything it opened is closed on
     exit."""
     if opts.mode == "policy":
         offline = _policy_for_dataset(opts.rskill or "", dataset, opts.device)
         if isinstance(offline, ChunkingPolicy):
-            extra["chunk"] = {"n_action_steps": int(offline.n_action_steps)}
+            extras.chunk = Chunk(n_action_steps=int(offline.n_action_steps))
         try:
             yield lambda e: evaluate_episode(dataset, e, offline)
         finally:
@@ -295,8 +297,8 @@ def _runner(opts: ReplayOptions, dataset: RecordedDataset, out: Path, extra: dic
         ok = True
     finally:
         try:
-            if rerec is not None and (rerecorded := rerec.close(ok)) is not None:
-                extra["record"] = rerecorded
+            if rerec is not None:
+                extras.record = rerec.close(ok)
             if policy is not None:
                 policy.close()
         finally:
@@ -331,59 +333,3 @@ def _policy_for_dataset(ref: str, dataset: RecordedDataset, device: str | None) 
             f"{src}: required_cameras: {missing} not in dataset {dataset.root} (it has {dataset.cameras})"
         )
     return registry.policy_factory(manifest, src)(manifest)
-
-
-def _summary(
-    opts: ReplayOptions, dataset: RecordedDataset, outcomes: list[EpisodeOutcome], seconds: float
-) -> dict[str, Any]:
-    known = [o for o in outcomes if o.success_agrees is not None]
-    features = dataset.info["features"]
-    s: dict[str, Any] = {
-        "kind": KIND[opts.mode],
-        "mode": opts.mode,
-        "dataset": str(opts.dataset.resolve()),
-        "label": opts.label or f"{opts.dataset.resolve().name} {opts.mode}",
-        "rskill": opts.rskill,
-        "episodes": [o.index for o in outcomes],
-        "seconds": seconds,
-        "success_recorded": sum(o.success_recorded is True for o in outcomes),
-        "success_replayed": sum(o.success_replayed is True for o in outcomes),
-        "success_known": len(known),
-        "success_agree": sum(bool(o.success_agrees) for o in known),
-    }
-    if opts.mode != "policy":
-        divs = [float(o.divergence.max()) for o in outcomes if o.divergence is not None and o.divergence.size]
-        s.update(
-            {
-                "tolerance": opts.tolerance,
-                "tolerance_meaning": "max |replayed - recorded| over state dimensions at any compared frame",
-                "reproduced": sum(o.first_divergence_frame is None and o.success_agrees is not False for o in outcomes),
-                "divergence_max": max(divs) if divs else None,
-                "diverged_episodes": {
-                    str(o.index): o.first_divergence_frame for o in outcomes if o.first_divergence_frame is not None
-                },
-                "state_names": dim_names(features["observation.state"], "state"),
-            }
-        )
-    if opts.mode == "closed-loop":
-        pairs = [(o.success_recorded is True, o.success_replayed is True) for o in outcomes]
-        s["paired"] = {
-            "both": pairs.count((True, True)),
-            "only_recorded": pairs.count((True, False)),
-            "only_policy": pairs.count((False, True)),
-            "neither": pairs.count((False, False)),
-        }
-    if opts.mode == "policy":
-        errors = [o.action_abs for o in outcomes if o.action_abs is not None and o.action_abs.size]
-        names = dim_names(features["action"], "action")
-        s["steps"] = int(sum(len(a) for a in errors))
-        s["action_names"] = names
-        if errors:
-            stacked = np.concatenate(errors)
-            mse, mae = (stacked**2).mean(axis=0), stacked.mean(axis=0)
-            keys = names if len(names) == len(mae) else [f"action_{i}" for i in range(len(mae))]
-            s["action_mse"] = dict(zip(keys, mse.tolist(), strict=True))
-            s["action_mae"] = dict(zip(keys, mae.tolist(), strict=True))
-            s["action_mse_mean"], s["action_mae_mean"] = float(mse.mean()), float(mae.mean())
-            s["action_mae_worst"] = [keys[int(mae.argmax())], float(mae.max())]
-    return s

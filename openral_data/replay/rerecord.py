@@ -17,7 +17,6 @@ from __future__ import annotations
 import contextlib
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -31,6 +30,7 @@ from openral_data.formats.mcap import ImageFormat
 from openral_data.formats.staging import Staging
 from openral_data.replay.drive import StepHook
 from openral_data.replay.rebuild import Rebuilt, SceneView
+from openral_data.replay.summary import Rerecorded
 from openral_data.runtime.bridge import DatasetBridge
 from openral_data.runtime.outdir import check_out
 from openral_data.runtime.schema import scene_schema
@@ -129,7 +129,7 @@ class Rerecorder:
             self.records.extend(self.bridge.end_episode(self._success)[:1])
             self._opened = False
 
-    def close(self, ok: bool) -> dict[str, Any] | None:
+    def close(self, ok: bool) -> Rerecorded | None:
         """Close the sinks and observers; a replay that ended normally publishes OUT, one that failed leaves
         nothing there. What was re-recorded (None without OUT)."""
         try:
@@ -143,4 +143,4 @@ class Rerecorder:
                 self._staged.discard()  # (nothing left to remove once published)
         if self.out is None:
             return None
-        return {"out": str(self.out), "episodes": len(self.records), "frames": sum(r.length for r in self.records)}
+        return Rerecorded(out=str(self.out), episodes=len(self.records), frames=sum(r.length for r in self.records))

@@ -204,9 +204,7 @@ class DatasetBridge:
             raise RuntimeError("end_episode() outside an episode")
         if info is not None and self._step > 0:
             for sink in self.sinks:
-                annotate = getattr(sink, "annotate_episode", None)
-                if annotate is not None:
-                    annotate(info)
+                sink.annotate_episode(info)
         if self._step == 0:
             self.discard_episode()
             raise ContractViolation(f"episode {self._episode}: an episode needs at least one frame")

@@ -66,6 +66,7 @@ def test_adapter_loads_a_local_checkpoint_and_acts_in_the_contract(
     np.testing.assert_allclose(chunk[0], action, atol=1e-5)  # step() executes the chunk's first action
 
     summary = replay(ReplayOptions(dataset, mode="policy", rskill="act-mock", out=tmp_path / "res"))
+    assert summary.summary["mode"] == "policy"
     recorded = RecordedDataset(dataset)
     for o in summary.episodes:
         assert o.action_abs is not None and o.action_abs.shape == recorded.episode(o.index).actions.shape
@@ -190,6 +191,7 @@ def test_act_trained_on_a_push_recording_runs_closed_loop_in_mujoco(tmp_path: Pa
         push = record_push(home, tmp_path / "push", n_episodes=2, seed=7).out
         ckpt = make_act_checkpoint(push, home / "rskills/lerobot-act-push/checkpoint", train_steps=2)
         offline = replay(ReplayOptions(push, mode="policy", rskill="lerobot-act-push", out=tmp_path / "offline"))
+        assert offline.summary["mode"] == "policy"
         assert offline.summary["steps"] == sum(o.steps for o in offline.episodes) > 0
         assert len(offline.summary["action_mse"]) == 7 and offline.summary["chunk"] == {"n_action_steps": 4}
         loop = replay(
@@ -198,5 +200,7 @@ def test_act_trained_on_a_push_recording_runs_closed_loop_in_mujoco(tmp_path: Pa
             )
         )
         assert loop.episodes[0].steps <= 12 and loop.episodes[0].success_recorded is True
-        assert sum(loop.summary["paired"].values()) == 1
+        assert loop.summary["mode"] == "closed-loop"
+        paired = loop.summary["paired"]
+        assert paired["both"] + paired["only_recorded"] + paired["only_policy"] + paired["neither"] == 1
         assert ckpt.is_dir()

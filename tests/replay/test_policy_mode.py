@@ -41,6 +41,7 @@ def _zero_rskill(home: Path, dim: int = 7) -> Path:
 def test_the_recorded_policy_gives_exactly_zero_error(mock: tuple[Path, Path], tmp_path: Path, ref: str) -> None:
     dataset, _ = mock
     summary = replay(ReplayOptions(dataset, mode="policy", rskill=ref, out=tmp_path / "res"))
+    assert summary.summary["mode"] == "policy"
     assert summary.summary["steps"] == sum(RecordedDataset(dataset).episode(e).length for e in range(3))
     assert summary.summary["action_mse_mean"] == 0.0 and summary.summary["action_mae_mean"] == 0.0
     steps = pq.read_table(open_results(tmp_path / "res").steps_path)
@@ -54,6 +55,7 @@ def test_a_different_policy_gives_a_positive_error_of_the_right_shape(mock: tupl
     dataset, home = mock
     rskill = _zero_rskill(home)
     summary = replay(ReplayOptions(dataset, mode="policy", rskill=str(rskill), out=tmp_path / "res", episodes="1,2"))
+    assert summary.summary["mode"] == "policy"
     recorded = RecordedDataset(dataset)
     for o in summary.episodes:
         ep = recorded.episode(o.index)
@@ -75,6 +77,7 @@ def test_policy_mode_needs_no_simulator_or_provenance(mock: tuple[Path, Path], t
     shutil.copytree(mock[0], copy)
     (copy / layout.OPENRAL_PATH).unlink()
     summary = replay(ReplayOptions(copy, mode="policy", rskill="recorded:2", out=tmp_path / "res"))
+    assert summary.summary["mode"] == "policy"
     assert summary.summary["action_mae_mean"] == 0.0
     with pytest.raises(ReplayError, match="not recorded by openral-data") as excinfo:  # why: only the wording says
         replay(ReplayOptions(copy, out=tmp_path / "res2"))
@@ -156,6 +159,7 @@ def test_a_dataset_lerobot_wrote_is_evaluated(tmp_path: Path, with_success: bool
     root = tmp_path / "lerobot"
     write_lerobot_dataset(root, with_success, image_camera=True, environment_state=True)
     summary = replay(ReplayOptions(root, mode="policy", rskill="recorded:2", out=tmp_path / "res"))
+    assert summary.summary["mode"] == "policy"
     assert summary.summary["steps"] == sum(LENGTHS) and summary.summary["action_mae_mean"] == 0.0
     expected = SUCCEEDED if with_success else [None] * len(LENGTHS)
     assert [o.success_recorded for o in summary.episodes] == expected

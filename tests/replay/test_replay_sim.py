@@ -48,6 +48,7 @@ def mock(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
 
 def test_push_replay_reproduces_every_episode_within_tolerance(push: Path, tmp_path: Path) -> None:
     summary = replay(ReplayOptions(push, out=tmp_path / "res"))
+    assert summary.summary["mode"] == "actions"
     recorded = RecordedDataset(push)
     assert [o.index for o in summary.episodes] == [0, 1, 2]
     for o in summary.episodes:
@@ -152,8 +153,9 @@ def test_replay_rebuilds_the_recorded_scene_not_todays_yaml(mock: Path, tmp_path
     scene_path = Path(origin.scene.path)
     scene_path.write_text("tier: sim\nscene: {broken")
     summary = replay(ReplayOptions(mock, out=tmp_path / "res"))
+    assert summary.summary["mode"] == "actions"
     assert summary.summary["reproduced"] == 3
-    assert np.isclose(summary.summary["divergence_max"], 0.0)
+    assert summary.summary["divergence_max"] is not None and np.isclose(summary.summary["divergence_max"], 0.0)
 
 
 def _rskill_like(home: Path, source: str, **changes: object) -> Path:
@@ -165,6 +167,7 @@ def _rskill_like(home: Path, source: str, **changes: object) -> Path:
 def test_closed_loop_pairs_success_episode_by_episode(push: Path, tmp_path: Path) -> None:
     home = Path(os.environ["OPENRAL_DATA_HOME"])
     expert = replay(ReplayOptions(push, mode="closed-loop", rskill="scripted-push", out=tmp_path / "expert"))
+    assert expert.summary["mode"] == "closed-loop"
     assert expert.summary["paired"] == {"both": 3, "only_recorded": 0, "only_policy": 0, "neither": 0}
     recorded = RecordedDataset(push)
     for o in expert.episodes:  # the recorded policy from the recorded start: the same rollout
@@ -172,6 +175,7 @@ def test_closed_loop_pairs_success_episode_by_episode(push: Path, tmp_path: Path
 
     zero = _rskill_like(home, "scripted-push", id="zero-push", policy="zero")
     idle = replay(ReplayOptions(push, mode="closed-loop", rskill=str(zero), max_steps=15, out=tmp_path / "zero"))
+    assert idle.summary["mode"] == "closed-loop"
     assert idle.summary["paired"] == {"both": 0, "only_recorded": 3, "only_policy": 0, "neither": 0}
     assert all(o.steps == 15 and o.success_replayed is False for o in idle.episodes)
     res = open_results(tmp_path / "zero")
@@ -193,6 +197,7 @@ def test_rerecord_with_other_cameras_loads_in_lerobot_and_replays(push: Path, tm
     )
     out = tmp_path / "rendered"
     summary = replay(ReplayOptions(push, out=tmp_path / "res", record=out, cameras=cams, codec="h264", episodes="0,2"))
+    assert summary.summary["mode"] == "actions"
     assert summary.summary["record"] == {
         "out": str(out),
         "episodes": 2,
@@ -210,6 +215,7 @@ def test_rerecord_with_other_cameras_loads_in_lerobot_and_replays(push: Path, tm
         np.testing.assert_array_equal(rendered.episode(new).actions, original.episode(old).actions)
         assert rendered.episode(new).success is True and rendered.episode(new).seed == original.episode(old).seed
     again = replay(ReplayOptions(out, out=tmp_path / "res2"))  # the new dataset is itself replayable
+    assert again.summary["mode"] == "actions"
     assert again.summary["reproduced"] == 2
 
 

@@ -37,6 +37,8 @@ class RecordingSink:
     def add_frame(self, frame: Frame) -> None:
         self.frames.append(frame)
 
+    def annotate_episode(self, info: dict[str, Any]) -> None: ...
+
     def end_episode(self, success: bool | None) -> EpisodeRecord:
         self.ended.append(success)
         return EpisodeRecord(len(self.ended) - 1, len(self.frames), success, self.starts[-1].seed)
@@ -166,6 +168,8 @@ class _Timestamps:
 
     def add_frame(self, frame: Frame) -> None:
         self.got.append(frame.timestamp)
+
+    def annotate_episode(self, info: dict[str, Any]) -> None: ...
 
     def end_episode(self, success: bool | None) -> EpisodeRecord:
         return EpisodeRecord(0, len(self.got), success, 0)

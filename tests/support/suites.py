@@ -5,6 +5,7 @@ camera images, check a recorded dataset with lerobot 0.6.1, and replay / stats t
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -153,7 +154,7 @@ def project_point(
     return int(np.rint(row)), int(np.rint(col))
 
 
-def replay_reproduces(dataset: Path, out: Path, episodes: int) -> dict[str, Any]:
+def replay_reproduces(dataset: Path, out: Path, episodes: int) -> Mapping[str, object]:
     """`openral-data replay DATASET` (actions mode, the real CLI in a subprocess) reproduces every episode bit for
     bit (restored start and every replayed state equal the recorded ones) with the recorded outcome."""
 

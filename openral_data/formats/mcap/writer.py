@@ -181,6 +181,9 @@ class McapSink:
         self.episodes += 1
         return record
 
+    def annotate_episode(self, info: dict[str, Any]) -> None:
+        """MCAP bags store no episode annotations: `info` is dropped."""
+
     def discard_episode(self) -> None:
         episode, self._episode = self._episode, None
         for pending in self._pending:

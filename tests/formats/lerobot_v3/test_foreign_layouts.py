@@ -106,6 +106,7 @@ def test_view_names_the_camera_and_the_dimensions(pusht: Path, tmp_path: Path) -
 @pytest.mark.slow
 def test_policy_mode_sees_the_camera_and_names_the_dimensions(pusht: Path, tmp_path: Path) -> None:
     summary = replay(ReplayOptions(pusht, mode="policy", rskill="recorded", out=tmp_path / "res"))
+    assert summary.summary["mode"] == "policy"
     assert summary.summary["action_names"] == NAMES and list(summary.summary["action_mae"]) == NAMES
     assert summary.summary["steps"] == sum(LENGTHS) and summary.summary["action_mae_mean"] == 0.0
     assert [o.success_recorded for o in summary.episodes] == [True, False]

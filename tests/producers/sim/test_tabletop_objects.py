@@ -472,6 +472,7 @@ def test_a_clutter_scene_records_and_replays_with_every_object_restored(tmp_path
         assert start is not None and start["task"] == "clutter_pick"
         assert set(start["object_poses"]) == {"cube", "clutter_0", "clutter_1", "clutter_2"}
         result = replay(ReplayOptions(summary.out, out=tmp_path / "res"))
+        assert result.summary["mode"] == "actions"
     assert result.summary["reproduced"] == 2 and result.summary["success_agree"] == 2
     for o in result.episodes:
         assert o.object_error_initial is not None and o.object_error_initial < 1e-9
