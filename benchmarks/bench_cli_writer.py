@@ -61,13 +61,8 @@ import numpy as np
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-# bench_writer sets SVT_LOG before any encoder exists; the cli subprocess inherits it
 from bench_writer import (  # noqa: E402
-    Codec,
-    EpisodeData,
-    ImageArray,
     RunResult,
-    Workload,
     check,
     machine_info,
     pure_encoder,
@@ -75,6 +70,9 @@ from bench_writer import (  # noqa: E402
     timed,
     video_bytes,
 )
+
+# workload sets SVT_LOG before any encoder exists; the cli subprocess inherits it
+from workload import Codec, EpisodeData, ImageArray, Workload  # noqa: E402
 
 from tests.support.scenes import mock_scene, write_yaml  # noqa: E402
 

@@ -1,6 +1,6 @@
 """Bag -> LeRobot v3 conversion against our writer on the same frames, and `convert --workers 2`.
 
-Workload W (``bench_writer.py``'s renderer; smaller with ``--episodes/--frames``) is written once as bags by
+Workload W (``workload.py``'s renderer; smaller with ``--episodes/--frames``) is written once as bags by
 our MCAP sink (one bag per episode, JPEG cameras, as ``record --format mcap`` writes them). Then, in a rotating
 order in every round:
 
@@ -37,7 +37,8 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_mcap import run_sink
-from bench_writer import Workload, make_data, run_ours
+from bench_writer import run_ours
+from workload import Workload, make_data
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,6 +1,6 @@
 """MCAP benchmark: our MCAP sink vs a bare rosbags writer on workload W, and bag -> LeRobot v3 throughput.
 
-Workload W (as in ``bench_writer.py``, whose frame renderer this reuses): 10 episodes x 200 frames at 20 fps,
+Workload W (as in ``bench_writer.py``; its frames rendered by ``workload.py``): 10 episodes x 200 frames at 20 fps,
 two RGB cameras 256x256, state float32[8], action float32[7].
 
 Contestants, in this order in every repetition, on the same pre-rendered frames:
@@ -45,7 +45,7 @@ import numpy as np
 from PIL import Image as PILImage
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_writer import EpisodeData, Workload, bench_schema, feed_bridge, make_data
+from workload import EpisodeData, Workload, bench_schema, feed_bridge, make_data
 
 JPEG_QUALITY = 90
 

@@ -82,7 +82,7 @@ def generate(root: Path, frames: int, rows_per_file: int, row_group: int, seed: 
     """A dataset of about `frames` frames (whole episodes), written file by file, vectorised per file."""
     from openral_data.formats.lerobot_v3 import digests, layout
     from openral_data.formats.lerobot_v3.features import DEFAULT_FEATURES, OUTCOME_FEATURES
-    from openral_data.formats.lerobot_v3.writer import tasks_writer
+    from openral_data.formats.lerobot_v3.tasks_table import tasks_writer
 
     rng = np.random.default_rng(seed)
     lengths_all = rng.integers(600, 1201, size=frames // 600 + 2)

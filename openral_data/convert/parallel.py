@@ -21,16 +21,10 @@ import shutil
 import time
 from pathlib import Path
 
+from openral_data.convert.preflight import CameraTopics, check_bags, check_outcome, last_task
 from openral_data.convert.sources import find_bags
-from openral_data.convert.to_lerobot import (
-    CameraTopics,
-    ConvertSummary,
-    ProgressFn,
-    TopicReport,
-    check_bags,
-    check_outcome,
-    last_task,
-)
+from openral_data.convert.summary import ConvertSummary, TopicReport
+from openral_data.convert.to_lerobot import ProgressFn
 from openral_data.convert.worker import (
     ConvertJob,
     ConvertProgress,

@@ -14,7 +14,9 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from openral_data.convert.to_lerobot import CameraTopics, ConvertSummary, convert_bags
+from openral_data.convert.preflight import CameraTopics
+from openral_data.convert.summary import ConvertSummary
+from openral_data.convert.to_lerobot import convert_bags
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.runtime.parallel.channel import report
 from openral_data.schemas.mapping import Mapping

@@ -29,8 +29,8 @@ from openral_data.formats.lerobot_v3 import digests, layout
 from openral_data.formats.lerobot_v3.layout import FilePos
 from openral_data.formats.lerobot_v3.lock import DatasetLock
 from openral_data.formats.lerobot_v3.recovery import Quarantine, finish_interrupted_commit, quarantine_staged
+from openral_data.formats.lerobot_v3.tasks_table import tasks_writer
 from openral_data.formats.lerobot_v3.video import count_packets
-from openral_data.formats.lerobot_v3.writer import tasks_writer
 
 Rows = list[dict[str, Any]]
 

@@ -24,11 +24,10 @@ from typing import Any
 from openral_data.edit.source import EpisodeData
 from openral_data.errors import DatasetError
 from openral_data.formats import atomic
-from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3 import EpisodeBuffer, LeRobotV3Writer, WriterConfig, layout
 from openral_data.formats.lerobot_v3.provenance import EditRecord, Provenance
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator, Stats, merge_numeric
 from openral_data.formats.lerobot_v3.video import EncodedEpisode
-from openral_data.formats.lerobot_v3.writer import EpisodeBuffer, LeRobotV3Writer, WriterConfig
 from openral_data.types import DatasetSchema, EpisodeRecord, EpisodeStart
 
 
@@ -97,9 +96,9 @@ class EpisodeAssembler:
                         f"{self.root}: camera histograms do not cover exactly the episodes written",
                         code="dataset.invalid",
                     )
-                writer.image_stats = dict(exact)  # the final metadata write uses the exact histograms
+                writer.use_image_stats(exact)  # the final metadata write uses the exact histograms
             if self._column_hist is not None and writer.total_episodes and not writer.closed:
-                writer.stats_override = {key: acc.stats() for key, acc in self._column_hist.items()}
+                writer.override_stats({key: acc.stats() for key, acc in self._column_hist.items()})
         finally:
             writer.close()
         if exact is None:
@@ -121,7 +120,7 @@ class EpisodeAssembler:
             rewards=list(episode.rewards),
             dones=list(episode.dones),
             successes=list(episode.successes),
-            task_indices=[writer.tasks.setdefault(t, len(writer.tasks)) for t in episode.tasks],
+            task_indices=[writer.task_index(t) for t in episode.tasks],
             columns=dict(episode.columns),
             column_stats=dict(episode.column_stats),
         )

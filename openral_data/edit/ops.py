@@ -19,10 +19,10 @@ from openral_data.edit.assemble import EpisodeAssembler
 from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.episodes import parse_episodes
 from openral_data.errors import DatasetError, EpisodeSelectionError, UsageError
+from openral_data.formats.lerobot_v3.config import WriterConfig
 from openral_data.formats.lerobot_v3.lock import DatasetLock
 from openral_data.formats.lerobot_v3.provenance import EditRecord, EditSource, Origin
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
-from openral_data.formats.lerobot_v3.writer import WriterConfig
 from openral_data.formats.staging import Staging, check_new_output
 from openral_data.types import DatasetSchema
 

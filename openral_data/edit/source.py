@@ -30,6 +30,7 @@ from openral_data.errors import DatasetError, EpisodeSelectionError, NotFound
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.clip import episode_clip
+from openral_data.formats.lerobot_v3.config import WriterConfig
 from openral_data.formats.lerobot_v3.features import (
     ACTION,
     STATE,
@@ -44,7 +45,6 @@ from openral_data.formats.lerobot_v3.provenance import Origin, read_provenance
 from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_tasks
 from openral_data.formats.lerobot_v3.stats import STAT_KEYS, ImageStatsAccumulator, Stats
 from openral_data.formats.lerobot_v3.video import VideoSettings
-from openral_data.formats.lerobot_v3.writer import WriterConfig
 from openral_data.formats.parquetfile import read_table
 from openral_data.types import CameraShape, DatasetSchema
 

@@ -4,7 +4,8 @@
 * `mcap`: ROS 2 MCAP, one rosbag2 bag per episode (write the bags; list the finished ones, decode images);
 * `results`: the replay / evaluation results layout (`write_results` / `open_results`);
 * `atomic`: crash-safe file writes (temp file, fsync, rename; journaled batches);
-* `jsonfile`: reading their JSON files with one error message.
+* `jsonfile`: reading their JSON files with one error message;
+* `write_errors`: the error a failed write becomes (`DiskError` for a full or failing disk), for every writer.
 
 Formats import only the shared types, errors and schemas below them. The subpackages are not imported here
 (`from openral_data.formats import lerobot_v3`), so using one never loads the others' libraries.

@@ -1,5 +1,5 @@
 """`record --hal ROBOT`: a robot behind a HAL (its MuJoCo twin, a sim scene, or the real one) recorded by the
-fixed-rate loop (producers/hal/loop.py) through the same bridge and sinks as `record`."""
+fixed-rate loop (record/hal_loop.py) through the same bridge and sinks as `record`."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Zero tracebacks on malformed input: every case of the corpus exits 2 with one `error:` line naming the file or
-option (and field), and leaves every byte already under its folder as it was (tests/malformed/corpus.py)."""
+option (and field), and leaves every byte already under its folder as it was (tests/malformed/corpus/)."""
 
 from __future__ import annotations
 

@@ -22,7 +22,7 @@ from typing import Any
 import pyarrow.parquet as pq
 from rosbags.rosbag2 import Writer
 
-from openral_data.formats.lerobot_v3 import writer as lerobot_writer
+from openral_data.formats.lerobot_v3 import joins as lerobot_joins
 
 
 @dataclass
@@ -58,7 +58,7 @@ TARGETS: list[tuple[Any, str, Callable[..., str]]] = [
     (Path, "write_bytes", lambda self, *a, **k: f"write {self.name}"),
     (pq, "write_table", lambda table, where, *a, **k: f"parquet {_name(where)}"),
     (pq.ParquetWriter, "write_table", lambda self, *a, **k: "parquet rows"),
-    (lerobot_writer, "concat_mp4", lambda sources, dest, *a, **k: f"join {_name(dest)}"),
+    (lerobot_joins, "concat_mp4", lambda sources, dest, *a, **k: f"join {_name(dest)}"),
     (Writer, "write", lambda self, *a, **k: "bag message"),
     (Writer, "close", lambda self, *a, **k: "bag close"),
 ]

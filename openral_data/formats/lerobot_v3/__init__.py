@@ -7,17 +7,21 @@ episode's packets out of a shared mp4 without re-encoding.
 Writing: `LeRobotV3Writer` (a `Sink`, configured by `WriterConfig` and `VideoSettings`) commits one episode at a
 time, crash-safe; `commit_episode` takes an `EpisodeBuffer` whose videos are already made. `DatasetLock` keeps
 one writer per dataset (`holder` names it) and `recover` brings a killed writer's dataset back to its last
-committed episode. Paths and chunk/file numbering are in `layout`. `warm_up` pays pyarrow's first-use
+committed episode. The writer's parts: `buffer` (an episode's columns, table and meta/episodes row), `joins`
+(per-episode files joined into lerobot's rotated layout), `tasks_table` (tasks.parquet), `config`,
+`commit_log`. Paths and chunk/file numbering are in `layout`. `warm_up` pays pyarrow's first-use
 cost ahead of a recording.
 """
 
+from openral_data.formats.lerobot_v3.buffer import EpisodeBuffer
 from openral_data.formats.lerobot_v3.clip import episode_clip
+from openral_data.formats.lerobot_v3.config import WriterConfig
 from openral_data.formats.lerobot_v3.frames import episode_frames
 from openral_data.formats.lerobot_v3.lock import DatasetLock, holder
 from openral_data.formats.lerobot_v3.reader import DatasetSummary, read_episodes, read_info, read_tasks, summarize
 from openral_data.formats.lerobot_v3.recovery import recover
 from openral_data.formats.lerobot_v3.video import VideoSettings
-from openral_data.formats.lerobot_v3.writer import EpisodeBuffer, LeRobotV3Writer, WriterConfig, warm_up
+from openral_data.formats.lerobot_v3.writer import LeRobotV3Writer, warm_up
 
 __all__ = [
     "DatasetLock",

@@ -8,7 +8,7 @@ hold, beside them:
 * rows beyond the totals (datasets written before the journal existed, or by other tools);
 * video files no episode row names (an episode's mp4 placed before its commit, or per-episode files left
   after a join);
-* after a join of the per-episode data and meta/episodes files cut short (the writer's `_consolidate`):
+* after a join of the per-episode data and meta/episodes files cut short (`joins.consolidate`):
   episode rows repeated in a later episodes file, and data rows repeated in a file other than the one their
   episode's row names (both only in datasets we wrote);
 * digest deltas of an episode that was never committed, and digests a cut-short join had not refreshed yet.

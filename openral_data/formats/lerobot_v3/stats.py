@@ -8,6 +8,7 @@ dataset statistics — quantiles included — are exact for the sampled pixels, 
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping
 from typing import Any, Self
 
 import numpy as np
@@ -112,3 +113,12 @@ class ImageStatsAccumulator:
 
 def to_jsonable(stats: Stats) -> dict[str, Any]:
     return {k: np.asarray(stats[k]).tolist() for k in STAT_KEYS}
+
+
+def dataset_stats(order: Iterable[str], *parts: Mapping[str, Stats]) -> dict[str, Any]:
+    """meta/stats.json's object: the statistics of each feature in `order` that one of `parts` has (the last
+    part that has it wins), in lerobot's JSON layout and in `order`."""
+    merged: dict[str, Stats] = {}
+    for part in parts:
+        merged.update(part)
+    return {key: to_jsonable(merged[key]) for key in order if key in merged}

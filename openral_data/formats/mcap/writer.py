@@ -47,6 +47,7 @@ from openral_data.errors import DISK_ERRNOS, DiskError, OutputExists, UsageError
 from openral_data.formats.atomic import fsync_dir, fsync_file
 from openral_data.formats.mcap import messages as m
 from openral_data.formats.mcap.messages import ImageFormat, MessageFactory
+from openral_data.formats.write_errors import write_error
 from openral_data.types import DatasetSchema, EpisodeRecord, EpisodeStart, Frame
 
 PARTIAL = ".partial"
@@ -234,10 +235,9 @@ def _compressed_chunks(writer: Writer, compression: McapCompression) -> None:
 
 
 def _write_error(root: Path, exc: OSError, index: int, doing: str, committed: bool = False) -> WriteError:
-    """One line for a failed write: a `DiskError` for a disk problem, else the MCAP write error with the cause."""
-    if exc.errno in DISK_ERRNOS:
-        return DiskError(root, exc.errno, f"{doing} episode {index}'s bag", committed=committed)
-    return WriteError(f"{root}: episode {index}: MCAP write failed: {exc}")
+    """`formats.write_errors.write_error` naming episode `index`'s bag (the MCAP write error with the cause)."""
+    failed = f"episode {index}: MCAP write failed: {exc}"
+    return write_error(root, exc, f"{doing} episode {index}'s bag", committed, message=failed)
 
 
 class EpisodeBag:

@@ -1,0 +1,41 @@
+"""`WriterConfig`: how `LeRobotV3Writer` encodes videos and sizes, numbers and syncs its files."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.depth import DepthSettings
+from openral_data.formats.lerobot_v3.video import VideoSettings
+
+MB = 1 << 20
+
+
+@dataclass(frozen=True)
+class WriterConfig:
+    video: VideoSettings = field(default_factory=VideoSettings)
+    depth: DepthSettings = field(default_factory=DepthSettings)  # the quantizer of depth cameras (lerobot's)
+    data_files_size_in_mb: int = 100
+    video_files_size_in_mb: int = 200
+    chunks_size: int = layout.DEFAULT_CHUNKS_SIZE
+    durable: bool = True
+    queue_size: int = 16
+    # committed episodes whose data and meta/episodes rows stay in files of their own (a commit then costs
+    # O(that episode)) before they are joined into the run's first file; a data rotation and close() join too
+    staged_episodes: int = 1000
+
+    def __post_init__(self) -> None:
+        if self.staged_episodes < 1:
+            raise ValueError("staged_episodes must be at least 1")
+
+    def settings_json(self) -> dict[str, Any]:
+        """The settings meta/openral.json records (`config`): codec and file sizes."""
+        return {
+            "codec": self.video.codec,
+            "crf": self.video.crf,
+            "g": self.video.g,
+            "data_files_size_in_mb": self.data_files_size_in_mb,
+            "video_files_size_in_mb": self.video_files_size_in_mb,
+            "chunks_size": self.chunks_size,
+        }

@@ -1,0 +1,17 @@
+"""The one error a failed write of a dataset's files becomes, for every writer in `formats`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from openral_data.errors import DISK_ERRNOS, DiskError, WriteError
+
+
+def write_error(
+    root: Path, exc: OSError, doing: str, committed: bool = False, *, message: str | None = None
+) -> WriteError:
+    """One line for a failed write under `root` while `doing`: a `DiskError` for a disk problem (`committed`: the
+    episode is committed nevertheless), else a `WriteError` with `message` (default: the OS error and `doing`)."""
+    if exc.errno in DISK_ERRNOS:
+        return DiskError(root, exc.errno, doing, committed=committed)
+    return WriteError(f"{root}: {message if message is not None else f'{exc.strerror or exc} while {doing}'}")

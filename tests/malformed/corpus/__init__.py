@@ -1,0 +1,17 @@
+"""The malformed-input corpus: each case builds one bad input in a fresh workspace and names the command line
+that must refuse it with exit 2 and one `error:` line naming the file or option (and the field).
+
+A case is (id, build, names, new): `build(w)` makes the bad input under `w.root` and returns the arguments;
+`names` is a regex the error line must match; `new` are outputs (relative to `w.root`) that must not exist
+afterwards. Everything else under `w.root` must be byte-identical before and after.
+
+The cases are grouped by the kind of damage: `yaml_files`, `datasets` (datasets, replay results, repair targets),
+`options`, `outputs`, `bags`; each adds its cases to `CASES` (`cases.case`) when imported.
+"""
+
+from tests.malformed.corpus import bags, datasets, options, outputs, yaml_files
+from tests.malformed.corpus.cases import CASES, Case
+
+PARTS = (yaml_files, datasets, options, outputs, bags)
+
+__all__ = ["CASES", "PARTS", "Case"]
