@@ -95,7 +95,6 @@ PENDING_SPLIT = {
     "openral_data/convert/to_lerobot.py",
     "openral_data/formats/lerobot_v3/writer.py",
     "openral_data/formats/lerobot_v3/writer.py::LeRobotV3Writer.__init__",
-    "openral_data/cli/convert.py::_convert",
     # #28: over the limit, not taken by a helper of this round yet (split it, or say why in a `# long:` comment)
     "tests/malformed/corpus.py",
     "benchmarks/bench_writer.py",
