@@ -102,7 +102,6 @@ PENDING_SPLIT = {
     "openral_data/producers/sim/mujoco/objects.py::_drawer",
     "openral_data/producers/sim/mujoco/scene.py::TabletopScene.__init__",
     "openral_data/producers/sim/robosuite.py::RobosuiteScene.__init__",
-    "openral_data/replay/command.py::_runner",
 }
 
 
