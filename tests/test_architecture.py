@@ -88,21 +88,6 @@ def test_the_package_is_typed() -> None:
 
 MAX_MODULE_LINES = 600
 MAX_FUNCTION_LINES = 60
-# Over the limits today, each named once ("path" for a module, "path::Class.function" for a function); the test
-# also fails when one of them is back under the limit, so the list only shrinks.
-PENDING_SPLIT = {
-    # #28: being split
-    "openral_data/cli/convert.py::_convert",
-    # #28: over the limit, not taken by a helper of this round yet (split it, or say why in a `# long:` comment)
-    "openral_data/cli/replay.py::replay",
-    "openral_data/convert/to_mcap.py::export_mcap",
-    "openral_data/edit/ops.py::write_selection",
-    "openral_data/producers/sim/mujoco/compose.py::compose",
-    "openral_data/producers/sim/mujoco/objects.py::_drawer",
-    "openral_data/producers/sim/mujoco/scene.py::TabletopScene.__init__",
-    "openral_data/producers/sim/robosuite.py::RobosuiteScene.__init__",
-    "openral_data/replay/command.py::_runner",
-}
 
 
 def _functions(tree: ast.AST, prefix: str = "") -> Iterator[tuple[str, ast.FunctionDef | ast.AsyncFunctionDef]]:
@@ -144,7 +129,4 @@ def test_no_module_over_600_lines_and_no_function_over_60_without_a_reason() -> 
     """Modules of the package, tests and benchmarks stay under 600 lines; a function of the package over 60 lines
     says why in a `# long: <reason>` comment (right above it or at the top of its body)."""
     found = _too_long()
-    assert not found - PENDING_SPLIT, "too long:\n" + "\n".join(sorted(found - PENDING_SPLIT))
-    assert not PENDING_SPLIT - found, "no longer too long, drop from PENDING_SPLIT:\n" + "\n".join(
-        sorted(PENDING_SPLIT - found)
-    )
+    assert not found, "too long (split it, or say why in a `# long:` comment):\n" + "\n".join(sorted(found))

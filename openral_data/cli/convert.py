@@ -19,6 +19,7 @@ from openral_data.formats.repo_id import resolve_dataset
 if TYPE_CHECKING:
     from rich.progress import Progress
 
+    from openral_data.convert import ConvertSummary
     from openral_data.schemas.mapping import Mapping
 
 
@@ -71,79 +72,129 @@ def _convert(
     json: bool,
     parallel: Parallel | None = None,
 ) -> None:
-    from openral_data.convert.to_mcap import export_mcap, is_lerobot_dataset
-    from openral_data.formats.mcap import McapConfig, parse_compression, parse_image_format
+    """Resolve SRC and DST, then run the direction SRC asks for: a LeRobot dataset is exported to MCAP bags,
+    anything else is a bag (or a folder of them) converted to a LeRobot dataset."""
+    from openral_data.convert.to_mcap import is_lerobot_dataset
+
+    src = _resolve(src, dst)
+    if is_lerobot_dataset(src):
+        _export(src, dst, mapping_path, episodes, image_format, mcap_compression, json, parallel)
+    else:
+        _convert_bags(src, dst, mapping_path, codec, episodes, json, parallel)
+
+
+def _resolve(src: Path, dst: Path) -> Path:
+    """SRC as a local path (a Hub repo id resolved) that exists; DST a new or empty folder."""
     from openral_data.formats.staging import check_new_output
-    from openral_data.schemas.mapping import load_mapping
 
     src = resolve_dataset(src)
     if not src.exists():
         raise NotFound(f"{src}: no such file or directory")
     check_new_output(dst, "DST")
-    if is_lerobot_dataset(src):
-        if parallel is not None:
-            raise UsageError(f"{src}: is a LeRobot dataset (exported to MCAP); --workers/--executor apply to bags only")
-        if mapping_path is not None:
-            raise UsageError(f"{src}: is a LeRobot dataset (exported to MCAP); --mapping applies to bags only")
-        image = parse_image_format(image_format)  # `--image-format` and `--mcap-compression` apply to MCAP only
-        mcap = McapConfig(image_format=image, compression=parse_compression(mcap_compression))
-        with progress_bar("exporting", "frames") as bar, _interruptible(bar, dst):
-            task = bar.add_task("export", total=None)
-            summary = export_mcap(
-                src, dst, episodes=episodes, config=mcap, progress=lambda d, t: bar.update(task, completed=d, total=t)
-            )
-        if json:
-            print_json("convert", summary.to_json())
-            return
-        print_rows(
-            "exported",
-            [
-                ("source", str(src)),
-                ("output", f"{dst} (one rosbag2/MCAP bag per episode)"),
-                ("episodes", ", ".join(str(e.index) for e in summary.episodes)),
-                ("frames", str(summary.frames)),
-                ("frames/s", f"{summary.fps:.1f}"),
-                ("not exported", ", ".join(summary.skipped_features) or "-"),
-            ],
+    return src
+
+
+def _export(
+    src: Path,
+    dst: Path,
+    mapping_path: Path | None,
+    episodes: str | None,
+    image_format: str,
+    mcap_compression: str,
+    json: bool,
+    parallel: Parallel | None,
+) -> None:
+    """LeRobot dataset -> MCAP: check the options that apply, run the export, report it."""
+    from openral_data.convert.to_mcap import export_mcap
+    from openral_data.formats.mcap import McapConfig, parse_compression, parse_image_format
+
+    if parallel is not None:
+        raise UsageError(f"{src}: is a LeRobot dataset (exported to MCAP); --workers/--executor apply to bags only")
+    if mapping_path is not None:
+        raise UsageError(f"{src}: is a LeRobot dataset (exported to MCAP); --mapping applies to bags only")
+    image = parse_image_format(image_format)  # `--image-format` and `--mcap-compression` apply to MCAP only
+    mcap = McapConfig(image_format=image, compression=parse_compression(mcap_compression))
+    with progress_bar("exporting", "frames") as bar, _interruptible(bar, dst):
+        task = bar.add_task("export", total=None)
+        summary = export_mcap(
+            src, dst, episodes=episodes, config=mcap, progress=lambda d, t: bar.update(task, completed=d, total=t)
         )
+    if json:
+        print_json("convert", summary.to_json())
         return
-    if episodes is not None:
-        raise UsageError("--episodes selects episodes of a LeRobot dataset; SRC is a bag")
+    print_rows(
+        "exported",
+        [
+            ("source", str(src)),
+            ("output", f"{dst} (one rosbag2/MCAP bag per episode)"),
+            ("episodes", ", ".join(str(e.index) for e in summary.episodes)),
+            ("frames", str(summary.frames)),
+            ("frames/s", f"{summary.fps:.1f}"),
+            ("not exported", ", ".join(summary.skipped_features) or "-"),
+        ],
+    )
+
+
+def _convert_bags(
+    src: Path,
+    dst: Path,
+    mapping_path: Path | None,
+    codec: Codec,
+    episodes: str | None,
+    json: bool,
+    parallel: Parallel | None,
+) -> None:
+    """Bags -> LeRobot: check the options that apply, open the bags and their mapping, run, report."""
     from openral_data.convert.own_bags import own_mapping
     from openral_data.convert.sources import find_bags
-    from openral_data.convert.to_lerobot import convert_bags
+    from openral_data.schemas.mapping import load_mapping
 
+    if episodes is not None:
+        raise UsageError("--episodes selects episodes of a LeRobot dataset; SRC is a bag")
     bags = find_bags(src)
     mapping = load_mapping(mapping_path) if mapping_path is not None else own_mapping(bags[0])
-    with progress_bar("converting", "messages") as bar, _interruptible(bar, dst):
-        task = bar.add_task("convert", total=None)
-        if parallel is None:
-            result = convert_bags(
-                src,
-                dst,
-                mapping,
-                codec=codec,
-                progress=lambda d, t: bar.update(task, completed=d, total=t),
-            )
-        else:
-            from openral_data.convert.parallel import convert_parallel
-
-            result = convert_parallel(
-                src,
-                dst,
-                mapping,
-                parallel.workers,
-                executor=parallel.executor,
-                address=parallel.address,
-                codec=codec,
-                progress=lambda d, t: bar.update(task, completed=d, total=t),
-            )
+    result = _run_bags(src, dst, mapping, codec, parallel)
     if json:
         if parallel is None:
             print_json("convert", result.to_json(mapping))
         else:
             print_json("convert", result.to_json(mapping, parallel.workers, parallel.executor))
         return
+    print_rows("converted", _bag_rows(src, dst, mapping, result, parallel))
+
+
+def _run_bags(src: Path, dst: Path, mapping: Mapping, codec: Codec, parallel: Parallel | None) -> ConvertSummary:
+    """Convert in this process, or across `parallel`'s workers, behind a progress bar."""
+    from openral_data.convert.to_lerobot import convert_bags
+
+    with progress_bar("converting", "messages") as bar, _interruptible(bar, dst):
+        task = bar.add_task("convert", total=None)
+        if parallel is None:
+            return convert_bags(
+                src,
+                dst,
+                mapping,
+                codec=codec,
+                progress=lambda d, t: bar.update(task, completed=d, total=t),
+            )
+        from openral_data.convert.parallel import convert_parallel
+
+        return convert_parallel(
+            src,
+            dst,
+            mapping,
+            parallel.workers,
+            executor=parallel.executor,
+            address=parallel.address,
+            codec=codec,
+            progress=lambda d, t: bar.update(task, completed=d, total=t),
+        )
+
+
+def _bag_rows(
+    src: Path, dst: Path, mapping: Mapping, result: ConvertSummary, parallel: Parallel | None
+) -> list[tuple[str, str]]:
+    """The summary table of a bags -> LeRobot conversion."""
     rows = [
         ("source", f"{src} ({result.bags} bag(s))"),
         *([("workers", f"{parallel.workers} ({parallel.executor})")] if parallel is not None else []),
@@ -178,7 +229,7 @@ def _convert(
     rows.append(("outcomes", _outcomes(mapping)))
     for topic, count in sorted(result.skipped_topics.items()):
         rows.append((f"skipped {topic}", f"{count} msgs (not in the mapping)"))
-    print_rows("converted", rows)
+    return rows
 
 
 @contextmanager

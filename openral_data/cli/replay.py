@@ -58,6 +58,8 @@ def replay(
     ] = None,
 ) -> None:
     """Replay recorded actions through the rebuilt scene, or evaluate a policy against recorded episodes."""
+    # long: the typer signature declares every option with its help and the body builds the one ReplayOptions from
+    # them (a field per option); running and reporting are in _run and the summary's own rows()/to_json()
     from openral_data.replay.command import ReplayOptions
     from openral_data.runtime.sinks import parse_formats
 

@@ -15,7 +15,7 @@ import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 from openral_data.episodes import parse_episodes
 from openral_data.errors import DatasetError
@@ -30,6 +30,9 @@ from openral_data.formats.lerobot_v3.success import episode_successes
 from openral_data.formats.mcap import McapConfig, McapSink
 from openral_data.formats.staging import Staging, check_new_output
 from openral_data.types import CameraShape, DatasetSchema, EpisodeRecord, EpisodeStart
+
+if TYPE_CHECKING:
+    import pyarrow as pa
 
 ProgressFn = Callable[[int, int], None]  # (frames exported, frames in total)
 _QUANTIZER = ("video.depth_min", "video.depth_max", "video.shift", "video.use_log")
@@ -90,6 +93,64 @@ def export_mcap(
     config: McapConfig | None = None,
     progress: ProgressFn | None = None,
 ) -> ExportSummary:
+    """Write episodes `episodes` (default: all) of the dataset at `src` as one MCAP bag each into the new folder
+    `dst`: read the source, build the bags' schema, write every chosen episode, publish DST."""
+    source = _read_source(src)
+    chosen = parse_episodes(episodes, len(source.rows))
+    successes = episode_successes(src, source.episodes)  # the sink drops them if the schema has no success
+    tasks = read_tasks(src) if int(source.info.get("total_tasks", 0)) else []
+    schema = _schema(source)
+    summary = ExportSummary(src=src, dst=dst, skipped_features=_skipped_features(source))
+    total = sum(int(source.rows[e]["length"]) for e in chosen)
+    check_new_output(dst, "DST")
+    staged = Staging(dst, "openral-data convert")  # DST appears with every bag or not at all
+    with staged as staging:
+        sink = McapSink(staging, schema, config)
+        t0 = time.perf_counter()
+        try:
+            for e in chosen:
+                row = source.rows[e]
+                sink.begin_episode(
+                    EpisodeStart(
+                        seed=int(row.get("openral.seed") or 0),
+                        initial_state=json.loads(row.get("openral.initial_state") or "{}"),
+                    ),
+                    index=e,
+                )
+                for frame in episode_frames(src, source.info, row, tasks, list(source.cams)):
+                    sink.add_frame(frame)
+                    summary.frames += 1
+                    if progress is not None:
+                        progress(summary.frames, total)
+                summary.episodes.append(sink.end_episode(successes.get(int(row["episode_index"]))))
+        finally:
+            sink.close()
+        summary.seconds = time.perf_counter() - t0
+        staged.publish("DST")
+    return summary
+
+
+@dataclass(frozen=True)
+class _Source:
+    """What the export reads of the dataset at `path` before writing: info.json, its cameras (name -> feature,
+    `keys` name -> feature key) and its episodes (the table and its rows in episode-index order)."""
+
+    path: Path
+    info: dict[str, Any]
+    cams: dict[str, dict[str, Any]]
+    keys: dict[str, str]
+    episodes: pa.Table
+    rows: list[dict[str, Any]]
+
+    @property
+    def features(self) -> dict[str, Any]:
+        features: dict[str, Any] = self.info["features"]
+        return features
+
+
+def _read_source(src: Path) -> _Source:
+    """info.json checked for what an export needs (a state, an action, cameras that are videos or images), then
+    the episodes table."""
     info = read_info(src)
     features: dict[str, Any] = info["features"]
     for key in ("observation.state", "action"):
@@ -104,50 +165,29 @@ def export_mcap(
     cams = {name: features[key] for name, key in keys.items()}
     ep_table = read_episodes(src)
     rows = sorted(ep_table.to_pylist(), key=lambda r: int(r["episode_index"]))
-    chosen = parse_episodes(episodes, len(rows))
-    successes = episode_successes(src, ep_table)  # the sink drops them if the schema has no success
-    tasks = read_tasks(src) if int(info.get("total_tasks", 0)) else []
-    fps = int(info["fps"])
-    schema = DatasetSchema(
-        fps=fps,
+    return _Source(src, info, cams, keys, ep_table, rows)
+
+
+def _schema(source: _Source) -> DatasetSchema:
+    """The bags' schema: the dataset's state, action, cameras and outcome columns, its origin in the metadata."""
+    info, features = source.info, source.features
+    return DatasetSchema(
+        fps=int(info["fps"]),
         state_names=tuple(dim_names(features["observation.state"], "observation.state")),
         action_names=tuple(dim_names(features["action"], "action")),
-        cameras={n: _camera_shape(f) for n, f in cams.items()},
+        cameras={n: _camera_shape(f) for n, f in source.cams.items()},
         robot_type=str(info.get("robot_type") or "unknown"),
-        metadata=Origin(exported_from=str(src)).to_json(),
+        metadata=Origin(exported_from=str(source.path)).to_json(),
         has_reward="next.reward" in features,
         has_success="next.success" in features,
         environment_state_names=(
             tuple(dim_names(features[ENVIRONMENT_STATE], ENVIRONMENT_STATE)) if ENVIRONMENT_STATE in features else ()
         ),
     )
+
+
+def _skipped_features(source: _Source) -> list[str]:
+    """Features of the dataset that no MCAP topic carries."""
     known = {"observation.state", "action", "timestamp", "frame_index", "episode_index", "index", "task_index"}
-    known |= {"next.reward", "next.done", "next.success", ENVIRONMENT_STATE} | set(keys.values())
-    summary = ExportSummary(src=src, dst=dst, skipped_features=sorted(set(features) - known))
-    total = sum(int(rows[e]["length"]) for e in chosen)
-    check_new_output(dst, "DST")
-    staged = Staging(dst, "openral-data convert")  # DST appears with every bag or not at all
-    with staged as staging:
-        sink = McapSink(staging, schema, config)
-        t0 = time.perf_counter()
-        try:
-            for e in chosen:
-                row = rows[e]
-                sink.begin_episode(
-                    EpisodeStart(
-                        seed=int(row.get("openral.seed") or 0),
-                        initial_state=json.loads(row.get("openral.initial_state") or "{}"),
-                    ),
-                    index=e,
-                )
-                for frame in episode_frames(src, info, row, tasks, list(cams)):
-                    sink.add_frame(frame)
-                    summary.frames += 1
-                    if progress is not None:
-                        progress(summary.frames, total)
-                summary.episodes.append(sink.end_episode(successes.get(int(row["episode_index"]))))
-        finally:
-            sink.close()
-        summary.seconds = time.perf_counter() - t0
-        staged.publish("DST")
-    return summary
+    known |= {"next.reward", "next.done", "next.success", ENVIRONMENT_STATE} | set(source.keys.values())
+    return sorted(set(source.features) - known)

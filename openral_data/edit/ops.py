@@ -110,23 +110,9 @@ def write_selection(
     `rewrite`: what the edit changes in the episodes besides their selection (its `image_hist` replaces the
     argument's).
     """
-    if not selection:
-        raise EpisodeSelectionError(f"{out}: no episodes selected; a dataset needs at least one", code="episodes.empty")
-    first = selection[0][0]
-    for src, _ in selection:
-        if src is not first:
-            check_compatible(first, src)
-    if not out_checked:
-        check_new_output(out)
-    sources: dict[Path, list[int]] = {}
-    for src, e in selection:
-        sources.setdefault(src.root, []).append(e)
+    first = _check_selection(selection, out, out_checked)
     change = rewrite or Rewrite()
-    provenance = EditRecord(
-        op,
-        [EditSource(str(root.resolve()), list(eps), _meta_of(selection, root)) for root, eps in sources.items()],
-        dict(change.details),
-    )
+    provenance = _provenance(selection, op, change)
     staged = Staging(out, f"openral-data {op}")
     with staged as staging:
         writer = EpisodeAssembler(
@@ -138,21 +124,58 @@ def write_selection(
             features=change.features or first.features,
             column_hist=change.column_hist,
         )
-        try:
-            for k, (src, e) in enumerate(selection):
-                episode = src.episode(e)
-                writer.add(episode if change.transform is None else change.transform(episode))
-                if on_episode is not None:
-                    on_episode(k)
-        except BaseException:
-            writer.abort()  # the staging folder is discarded: the error that stopped the copy is the one to report
-            raise
-        writer.close()
+        _copy(selection, writer, change.transform, on_episode)
         frames = writer.total_frames
         if before_publish is not None:
             before_publish(staging)
         staged.publish(before_rename=before_rename)
     return EditResult(out, len(selection), frames)
+
+
+def _check_selection(selection: Selection, out: Path, out_checked: bool) -> SourceDataset:
+    """The first source of a non-empty selection whose sources all share its episode table; `out` new or empty
+    (unless `out_checked`)."""
+    if not selection:
+        raise EpisodeSelectionError(f"{out}: no episodes selected; a dataset needs at least one", code="episodes.empty")
+    first = selection[0][0]
+    for src, _ in selection:
+        if src is not first:
+            check_compatible(first, src)
+    if not out_checked:
+        check_new_output(out)
+    return first
+
+
+def _provenance(selection: Selection, op: str, change: Rewrite) -> EditRecord:
+    """The `edit` block of `meta/openral.json`: the operation, each source with its episodes, what changed."""
+    sources: dict[Path, list[int]] = {}
+    for src, e in selection:
+        sources.setdefault(src.root, []).append(e)
+    return EditRecord(
+        op,
+        [EditSource(str(root.resolve()), list(eps), _meta_of(selection, root)) for root, eps in sources.items()],
+        dict(change.details),
+    )
+
+
+def _copy(
+    selection: Selection,
+    writer: EpisodeAssembler,
+    transform: Transform | None,
+    on_episode: Callable[[int], None] | None,
+) -> None:
+    """Every selected episode, read, rewritten by `transform` and added in order; the writer closed, or aborted
+    by whatever stopped the copy."""
+    try:
+        for k, (src, e) in enumerate(selection):
+            episode = src.episode(e)
+            writer.add(episode if transform is None else transform(episode))
+            if on_episode is not None:
+                on_episode(k)
+    except BaseException:
+        writer.abort()  # the staging folder is discarded: the error that stopped the copy is the one to report
+        raise
+    writer.close()
 
 
 def _meta_of(selection: Selection, root: Path) -> Origin:

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,7 +24,7 @@ from openral_data.replay.actions import DEFAULT_TOLERANCE, ActionReplayer
 from openral_data.replay.closed_loop import ClosedLoop
 from openral_data.replay.outcome import EpisodeOutcome
 from openral_data.replay.policy_mode import evaluate_episode
-from openral_data.replay.rebuild import SceneView, rebuild
+from openral_data.replay.rebuild import Rebuilt, SceneView, rebuild
 from openral_data.replay.recorded import RecordedDataset
 from openral_data.replay.rerecord import Rerecorder, load_view
 from openral_data.replay.summary import Chunk, Extras, Mode, Run, Summary, summarize
@@ -235,25 +235,34 @@ def replay(opts: ReplayOptions, progress: ProgressFn | None = None) -> ReplaySum
     )
 
 
-@contextmanager
-def _runner(opts: ReplayOptions, dataset: RecordedDataset, out: Path, extras: Extras) -> Iterator[EpisodeRunner]:
+def _runner(
+    opts: ReplayOptions, dataset: RecordedDataset, out: Path, extras: Extras
+) -> AbstractContextManager[EpisodeRunner]:
     """A function replaying one episode in the chosen mode (results in `out`); everything it opened is closed on
     exit."""
     if opts.mode == "policy":
-        offline = _policy_for_dataset(opts.rskill or "", dataset, opts.device)
-        if isinstance(offline, ChunkingPolicy):
-            extras.chunk = Chunk(n_action_steps=int(offline.n_action_steps))
-        try:
-            yield lambda e: evaluate_episode(dataset, e, offline)
-        finally:
-            offline.close()
-        return
+        return _offline(opts, dataset, extras)
+    return _simulated(opts, dataset, out, extras)
+
+
+@contextmanager
+def _offline(opts: ReplayOptions, dataset: RecordedDataset, extras: Extras) -> Iterator[EpisodeRunner]:
+    """Policy mode: the policy judged on the recorded frames, no simulator; closed on exit."""
+    offline = _policy_for_dataset(opts.rskill or "", dataset, opts.device)
+    if isinstance(offline, ChunkingPolicy):
+        extras.chunk = Chunk(n_action_steps=int(offline.n_action_steps))
+    try:
+        yield lambda e: evaluate_episode(dataset, e, offline)
+    finally:
+        offline.close()
+
+
+@contextmanager
+def _simulated(opts: ReplayOptions, dataset: RecordedDataset, out: Path, extras: Extras) -> Iterator[EpisodeRunner]:
+    """Actions or closed-loop mode: each episode run in the rebuilt scene (re-recorded or watched when asked);
+    the re-recorder, the policy and the scene are closed on exit, in that order."""
     manifest, rskill_src = (None, None) if opts.mode == "actions" else _resolve(opts.rskill or "")
-    if opts.cameras is not None:
-        view = load_view(opts.cameras)
-    else:
-        view = SceneView() if opts.record is not None or opts.mode == "closed-loop" else SceneView(cameras=())
-    built = rebuild(dataset, manifest, view, rskill_src)
+    built = rebuild(dataset, manifest, _view(opts), rskill_src)
     rerec: Rerecorder | None = None
     policy: PolicyAdapter | None = None
     ok = False
@@ -262,16 +271,7 @@ def _runner(opts: ReplayOptions, dataset: RecordedDataset, out: Path, extras: Ex
             replayer = ActionReplayer(built.env, opts.tolerance)
         else:
             assert manifest is not None
-            check_compatibility(
-                built.robot,
-                manifest,
-                built.env.spec,
-                rskill_source=str(rskill_src),
-                scene_source=built.source,
-                video=VideoSettings(codec=opts.codec),
-            )
-            device = resolve_device(opts.device) if opts.device is not None else None
-            policy = registry.policy_factory(manifest, str(rskill_src))(with_device(manifest, device))
+            policy = _open_policy(opts, built, manifest, str(rskill_src))
             max_steps = opts.max_steps if opts.max_steps is not None else built.scene.task.max_steps
             loop = ClosedLoop(built.env, policy, max_steps, opts.tolerance, opts.instruction)
         if opts.record is not None or watched(opts):
@@ -303,6 +303,28 @@ def _runner(opts: ReplayOptions, dataset: RecordedDataset, out: Path, extras: Ex
                 policy.close()
         finally:
             built.env.close()
+
+
+def _view(opts: ReplayOptions) -> SceneView:
+    """What the rebuilt scene renders: `--cameras`' YAML, the recorded cameras when the run is recorded or closed
+    loop, else nothing."""
+    if opts.cameras is not None:
+        return load_view(opts.cameras)
+    return SceneView() if opts.record is not None or opts.mode == "closed-loop" else SceneView(cameras=())
+
+
+def _open_policy(opts: ReplayOptions, built: Rebuilt, manifest: RSkillManifest, rskill_src: str) -> PolicyAdapter:
+    """The rSkill's policy for closed loop, once its contract is checked against the rebuilt scene."""
+    check_compatibility(
+        built.robot,
+        manifest,
+        built.env.spec,
+        rskill_source=rskill_src,
+        scene_source=built.source,
+        video=VideoSettings(codec=opts.codec),
+    )
+    device = resolve_device(opts.device) if opts.device is not None else None
+    return registry.policy_factory(manifest, rskill_src)(with_device(manifest, device))
 
 
 def _resolve(ref: str) -> tuple[RSkillManifest, str]:

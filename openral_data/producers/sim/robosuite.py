@@ -128,6 +128,26 @@ class RobosuiteScene(RigScene):
     def __init__(
         self, scene: SimScene, robot: RobotManifest, rskill: RSkillManifest, source: str, rskill_source: str
     ) -> None:
+        self._check_scene(scene, robot, rskill, source, rskill_source)
+        self.env: Any = self._make_env(scene, robot)
+        self.env_name = self.params.env
+        self._obs: dict[str, Any] = {}
+        self.model = self.env.sim.model._model
+        self.data = self.env.sim.data._data
+        self._objects = {o.name: self.model.body(o.root_body).id for o in self.env.model.mujoco_objects}
+        with _seeded_global_numpy(0):
+            self._obs = self.env.reset()
+        n_arm = len(self._obs["robot0_joint_pos"])
+        state_dim = 8 if self.state_representation == "eef_pose_gripper" else n_arm + 1
+        self.task_text = scene.task.instruction
+        self._seed = 0
+        self.initial = {}
+        self._wire_cameras(scene, source, state_dim)
+
+    def _check_scene(
+        self, scene: SimScene, robot: RobotManifest, rskill: RSkillManifest, source: str, rskill_source: str
+    ) -> None:
+        """The scene's params, a robot robosuite has, the rSkill's representations, an fps robosuite can step."""
         self.params = parse_params(RobosuiteParams, scene, source)
         if robot.name not in ROBOTS:
             raise ConfigError(
@@ -146,6 +166,9 @@ class RobosuiteScene(RigScene):
             raise ConfigError(
                 f"{source}: scene.fps: must divide robosuite's 500 Hz physics rate, got {scene.scene.fps}"
             )
+
+    def _make_env(self, scene: SimScene, robot: RobotManifest) -> Any:
+        """The robosuite environment, made once under a fixed seed."""
         suite = _import_robosuite()
         from robosuite.controllers import load_composite_controller_config
 
@@ -154,7 +177,7 @@ class RobosuiteScene(RigScene):
         # robosuite also draws at construction (Lift's cube size, for one): a fixed seed makes the model the same
         # in every process, so a recorded state can be reproduced by `replay` elsewhere
         with _seeded_global_numpy(0):
-            self.env: Any = suite.make(
+            return suite.make(
                 self.params.env,
                 robots=rs_robot,
                 controller_configs=config,
@@ -168,18 +191,9 @@ class RobosuiteScene(RigScene):
                 hard_reset=False,  # keep one compiled model: resets only re-place objects (and stay restorable)
                 reward_shaping=False,
             )
-        self.env_name = self.params.env
-        self._obs: dict[str, Any] = {}
-        self.model = self.env.sim.model._model
-        self.data = self.env.sim.data._data
-        self._objects = {o.name: self.model.body(o.root_body).id for o in self.env.model.mujoco_objects}
-        with _seeded_global_numpy(0):
-            self._obs = self.env.reset()
-        n_arm = len(self._obs["robot0_joint_pos"])
-        state_dim = 8 if self.state_representation == "eef_pose_gripper" else n_arm + 1
-        self.task_text = scene.task.instruction
-        self._seed = 0
-        self.initial = {}
+
+    def _wire_cameras(self, scene: SimScene, source: str, state_dim: int) -> None:
+        """The named cameras (the robot drawn coarse when asked) and the spec the recording sees."""
         groups: tuple[int, ...] = (VISUAL,)
         if scene.scene.render.robot_meshes == "collision":
             self._coarse_robot()

@@ -155,6 +155,36 @@ def compose(
 ) -> Composed:
     """Build and compile the world with `objects` on the table (none: an empty table); ConfigError (naming the
     manifest or scene field) on bad wiring."""
+    world = _world(params, cameras)
+    grip_prefix = _place_robot(world, robot_mjcf, gripper_mjcf, wiring, params, robot_source)
+    for body in world.bodies:
+        if body.name.startswith(ROBOT):
+            body.gravcomp = 1.0
+    arm_joints = _servo_arm(world, wiring, robot_source)
+    _check_gripper(world, wiring, grip_prefix, gripper_mjcf is not None, robot_source)
+
+    # --- the table, the objects, lights (objects.py) ----------------------------------------------------------
+    add_table(world, params.table_height, params.table_size, params.table_center)
+    add_objects(world, objects, f"{scene_source}: scene.params.objects")
+
+    cam_names = _add_cameras(world, cameras, wiring, robot_source, scene_source)
+    try:
+        model = world.compile()
+    except ValueError as exc:
+        raise ConfigError(f"{robot_source}: the composed MuJoCo model does not compile: {exc}") from None
+    g = wiring.gripper
+    return Composed(
+        model=model,
+        arm_joints=arm_joints,
+        gripper_actuators=[grip_prefix + a for a in g.actuators],
+        gripper_joints=[grip_prefix + j for j in g.joints],
+        ee_site=grip_prefix + g.ee_site,
+        cameras=cam_names,
+    )
+
+
+def _world(params: TabletopParams, cameras: list[SceneCamera]) -> mujoco.MjSpec:
+    """The empty world: physics options, headlight, an offscreen buffer as large as the largest camera."""
     world = mujoco.MjSpec()
     world.modelname = "openral_tabletop"
     world.compiler.degree = False  # robot MJCFs declare radians; attaching keeps the host compiler settings
@@ -167,13 +197,25 @@ def compose(
     world.visual.headlight.specular = [0.0, 0.0, 0.0]
     world.visual.global_.offwidth = max([640, *(c.width for c in cameras)])
     world.visual.global_.offheight = max([480, *(c.height for c in cameras)])
+    return world
 
+
+def _place_robot(
+    world: mujoco.MjSpec,
+    robot_mjcf: Path,
+    gripper_mjcf: Path | None,
+    wiring: MujocoRobotWiring,
+    params: TabletopParams,
+    source: str,
+) -> str:
+    """Load the arm (its gripper attached) and attach it under `robot/` at its base on the table; the prefix the
+    gripper's names get (`_attach_gripper`)."""
     robot = mujoco.MjSpec.from_file(str(robot_mjcf))
     _sanitize(robot)
-    grip_prefix = _attach_gripper(robot, gripper_mjcf, wiring, robot_source)
+    grip_prefix = _attach_gripper(robot, gripper_mjcf, wiring, source)
     root = robot.body(wiring.root_body)
     if root is None:
-        raise ConfigError(f"{robot_source}: sim.root_body: no body {wiring.root_body!r} in the robot MJCF")
+        raise ConfigError(f"{source}: sim.root_body: no body {wiring.root_body!r} in the robot MJCF")
 
     h = params.table_height
     base = (
@@ -188,27 +230,33 @@ def compose(
     yaw = params.base_yaw
     frame = world.worldbody.add_frame(pos=list(base), quat=[np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)])
     frame.attach_body(root, ROBOT, "")
+    return grip_prefix
 
-    for body in world.bodies:
-        if body.name.startswith(ROBOT):
-            body.gravcomp = 1.0
-    arm_joints = _servo_arm(world, wiring, robot_source)
 
+def _check_gripper(
+    world: mujoco.MjSpec, wiring: MujocoRobotWiring, grip_prefix: str, separate: bool, source: str
+) -> None:
+    """Every gripper actuator, joint and the ee site named by `sim.gripper` exists in the world (`separate`: the
+    gripper came from its own MJCF)."""
     g = wiring.gripper
-    where = "the gripper MJCF" if gripper_mjcf is not None else "the robot MJCF"
+    where = "the gripper MJCF" if separate else "the robot MJCF"
     for field, names in (("actuators", g.actuators), ("joints", g.joints)):
         for k, name in enumerate(names):
             found = world.actuator(grip_prefix + name) if field == "actuators" else world.joint(grip_prefix + name)
             if found is None:
-                raise ConfigError(f"{robot_source}: sim.gripper.{field}[{k}]: no {name!r} in {where}")
+                raise ConfigError(f"{source}: sim.gripper.{field}[{k}]: no {name!r} in {where}")
     if world.site(grip_prefix + g.ee_site) is None:
-        raise ConfigError(f"{robot_source}: sim.gripper.ee_site: no site {g.ee_site!r} in {where}")
+        raise ConfigError(f"{source}: sim.gripper.ee_site: no site {g.ee_site!r} in {where}")
 
-    # --- the table, the objects, lights (objects.py) ----------------------------------------------------------
-    add_table(world, h, params.table_size, params.table_center)
-    add_objects(world, objects, f"{scene_source}: scene.params.objects")
 
-    # --- cameras ------------------------------------------------------------------------------------------
+def _add_cameras(
+    world: mujoco.MjSpec,
+    cameras: list[SceneCamera],
+    wiring: MujocoRobotWiring,
+    robot_source: str,
+    scene_source: str,
+) -> list[str]:
+    """The scene's cameras, on the wrist mount or in the world looking at their target; their names in order."""
     cam_names: list[str] = []
     for k, cam in enumerate(cameras):
         if cam.mount == "wrist":
@@ -230,16 +278,4 @@ def compose(
                 raise ConfigError(f"{scene_source}: scene.cameras[{k}]: {exc}") from None
             world.worldbody.add_camera(name=cam.name, pos=list(cam.pos), quat=list(quat), fovy=cam.fovy)
         cam_names.append(cam.name)
-
-    try:
-        model = world.compile()
-    except ValueError as exc:
-        raise ConfigError(f"{robot_source}: the composed MuJoCo model does not compile: {exc}") from None
-    return Composed(
-        model=model,
-        arm_joints=arm_joints,
-        gripper_actuators=[grip_prefix + a for a in g.actuators],
-        gripper_joints=[grip_prefix + j for j in g.joints],
-        ee_site=grip_prefix + g.ee_site,
-        cameras=cam_names,
-    )
+    return cam_names

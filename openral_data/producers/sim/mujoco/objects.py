@@ -133,11 +133,19 @@ def mesh_file(obj: MeshObject, source: str) -> Path:
 
 
 def _drawer(cabinet: mujoco.MjsBody, obj: DrawerObject) -> None:
+    """A cabinet (`cabinet`: its body, origin at its centre, open toward -x) with a drawer sliding out of it: the
+    carcass walls, the drawer's body and slide joint, its box, and the handle on its front panel, in that order."""
+    _carcass(cabinet, obj)
+    drawer = _drawer_slide(cabinet, obj)
+    _drawer_box(drawer, obj)
+    _handle(drawer, obj)
+
+
+def _carcass(cabinet: mujoco.MjsBody, obj: DrawerObject) -> None:
+    """The cabinet's five walls: origin at its centre, open toward -x."""
     w, d, h = obj.size
     t = WALL
-    name = obj.name
     shell: dict[str, object] = {"rgba": list(obj.rgba), "group": SCENE_GROUP, "friction": list(FIXTURE_FRICTION)}
-    # cabinet: origin at its centre, open toward -x
     walls: tuple[tuple[str, Vec3, Vec3], ...] = (
         ("bottom", (d / 2, w / 2, t / 2), (0, 0, -h / 2 + t / 2)),
         ("top", (d / 2, w / 2, t / 2), (0, 0, h / 2 - t / 2)),
@@ -146,11 +154,14 @@ def _drawer(cabinet: mujoco.MjsBody, obj: DrawerObject) -> None:
         ("back", (t / 2, w / 2, h / 2), (d / 2 - t / 2, 0, 0)),
     )
     for part, size, pos in walls:
-        cabinet.add_geom(name=f"{name}/{part}", type=GEOM.mjGEOM_BOX, size=list(size), pos=list(pos), **shell)
-    # the drawer: a box inside the cabinet, its front panel flush with the cabinet's front face when closed
-    drawer = cabinet.add_body(name=f"{name}/drawer")
+        cabinet.add_geom(name=f"{obj.name}/{part}", type=GEOM.mjGEOM_BOX, size=list(size), pos=list(pos), **shell)
+
+
+def _drawer_slide(cabinet: mujoco.MjsBody, obj: DrawerObject) -> mujoco.MjsBody:
+    """The drawer's body inside the cabinet, on a damped slide joint (named as the object) opening toward -x."""
+    drawer = cabinet.add_body(name=f"{obj.name}/drawer")
     drawer.add_joint(
-        name=name,
+        name=obj.name,
         type=mujoco.mjtJoint.mjJNT_SLIDE,
         axis=[-1.0, 0.0, 0.0],
         range=[0.0, obj.opening_limit],
@@ -159,6 +170,14 @@ def _drawer(cabinet: mujoco.MjsBody, obj: DrawerObject) -> None:
         frictionloss=DRAWER_FRICTIONLOSS,
         armature=0.01,
     )
+    return drawer
+
+
+def _drawer_box(drawer: mujoco.MjsBody, obj: DrawerObject) -> None:
+    """The drawer: a box inside the cabinet, its front panel flush with the cabinet's front face when closed;
+    80 % of the object's mass, spread by volume."""
+    w, d, h = obj.size
+    t = WALL
     iw, ih = w - 2 * t - 0.004, h - 2 * t - 0.004  # inner drawer width / height, 2 mm clearance
     depth = d - 2 * t
     x0 = -d / 2  # the cabinet's front face
@@ -173,7 +192,7 @@ def _drawer(cabinet: mujoco.MjsBody, obj: DrawerObject) -> None:
     front = [min(1.0, c * 1.15) for c in obj.rgba[:3]] + [obj.rgba[3]]
     for (part, size, pos), vol in zip(parts, volumes, strict=True):
         drawer.add_geom(
-            name=f"{name}/{part}",
+            name=f"{obj.name}/{part}",
             type=GEOM.mjGEOM_BOX,
             size=list(size),
             pos=list(pos),
@@ -182,8 +201,15 @@ def _drawer(cabinet: mujoco.MjsBody, obj: DrawerObject) -> None:
             group=SCENE_GROUP,
             friction=list(FIXTURE_FRICTION),
         )
-    # the handle: an upright bar in front of the panel on two posts; a top-down gripper's fingers close around it
-    # (across y), the posts passing between them, and its hand stays clear of the panel
+
+
+def _handle(drawer: mujoco.MjsBody, obj: DrawerObject) -> None:
+    """The handle: an upright bar in front of the panel on two posts, and its site; a top-down gripper's fingers
+    close around it (across y), the posts passing between them, and its hand stays clear of the panel."""
+    _, d, h = obj.size
+    t = WALL
+    name = obj.name
+    x0 = -d / 2  # the cabinet's front face
     bar_x = x0 - t - HANDLE_OFFSET
     half_len = min(0.04, 0.3 * h)
     metal = rgba(0.75, 0.75, 0.78)

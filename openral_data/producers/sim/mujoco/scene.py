@@ -115,6 +115,27 @@ class TabletopScene(RigScene):
         source: str = "scene",
         rskill_source: str = "rskill",
     ) -> None:
+        self._check_scene(scene, rskill, task, source, rskill_source)
+        wiring, arm_mjcf, grip_mjcf, robot_source = load_wiring(robot)
+        if not wiring.tabletop:
+            raise ConfigError(
+                f"{robot_source}: sim.tabletop: robot {robot.name!r} is a twin only (record --hal {robot.name}); "
+                "the tabletop scenes' workspace is out of its reach"
+            )
+        self._robot_source = robot_source
+        self._build(scene, wiring, arm_mjcf, grip_mjcf, source)
+        self._place(0)  # a layout that cannot be placed is refused now, not at some episode's reset
+        self.n_substeps = max(1, round(1.0 / (scene.scene.fps * self.params.timestep)))
+        self.ready_q = self._ready_posture(np.array(wiring.home))
+        self._wire_control(scene, rskill.action_contract.representation)
+        self._seed = 0
+        self.initial = {}
+
+    # -- setup -----------------------------------------------------------------------------------------------
+    def _check_scene(
+        self, scene: SimScene, rskill: RSkillManifest, task: str | None, source: str, rskill_source: str
+    ) -> None:
+        """The scene's params (their layout checked), the task they are, and the rSkill's representations."""
         self.params = parse_params(TabletopParams, scene, source)
         self._params_source = f"{source}: scene.params"
         check_layout(self.params, self.params.table_top, self._params_source)
@@ -125,17 +146,14 @@ class TabletopScene(RigScene):
             )
         self.task_kind: str = task or self.params.task or scene.scene.id
         self.state_representation = rskill.state_contract.representation
-        action_rep = rskill.action_contract.representation
         check_representations(
             rskill, rskill_source, "MuJoCo tabletop scenes", STATE_REPRESENTATIONS, ACTION_REPRESENTATIONS
         )
-        wiring, arm_mjcf, grip_mjcf, robot_source = load_wiring(robot)
-        if not wiring.tabletop:
-            raise ConfigError(
-                f"{robot_source}: sim.tabletop: robot {robot.name!r} is a twin only (record --hal {robot.name}); "
-                "the tabletop scenes' workspace is out of its reach"
-            )
-        self._robot_source = robot_source
+
+    def _build(
+        self, scene: SimScene, wiring: MujocoRobotWiring, arm_mjcf: Path, grip_mjcf: Path | None, source: str
+    ) -> None:
+        """The composed model with the scene's objects, the arm's kinematics, and where each object lives in it."""
         self.objects = expand_clutter(self.params, self.params.workspace or self.params.table_top)
         self.composed = compose(
             robot_mjcf=arm_mjcf,
@@ -143,7 +161,7 @@ class TabletopScene(RigScene):
             wiring=wiring,
             params=self.params,
             cameras=list(scene.scene.cameras),
-            robot_source=robot_source,
+            robot_source=self._robot_source,
             scene_source=source,
             objects=self.objects,
         )
@@ -171,9 +189,10 @@ class TabletopScene(RigScene):
         mujoco.mj_kinematics(self.model, base)
         base_xy = np.array(base.xpos[self.model.body(ROBOT + wiring.root_body).id][:2], dtype=np.float64)
         self._keep_clear = [(base_xy, ROBOT_CLEARANCE)]
-        self._place(0)  # a layout that cannot be placed is refused now, not at some episode's reset
-        self.n_substeps = max(1, round(1.0 / (scene.scene.fps * self.params.timestep)))
-        self.ready_q = self._ready_posture(np.array(wiring.home))
+
+    def _wire_control(self, scene: SimScene, action_rep: str) -> None:
+        """The controller for the action representation, the state's size (and finger gauge), the cameras and
+        the spec the recording sees."""
         self.controller: Controller
         if action_rep == "joint_positions_gripper":
             self.controller = JointPositionController(self.arm)
@@ -187,7 +206,7 @@ class TabletopScene(RigScene):
             self.arm.hold(self.data, self.ready_q)
             mujoco.mj_forward(self.model, self.data)
             self.finger_gap = FingerGap(
-                self.model, self.data, self.composed.gripper_joints, self.arm.site, robot_source
+                self.model, self.data, self.composed.gripper_joints, self.arm.site, self._robot_source
             )
         self.task_text = scene.task.instruction
         if scene.scene.observations.environment_state:
@@ -201,10 +220,7 @@ class TabletopScene(RigScene):
             shapes=self.rig.shapes(),
             environment_objects=self.environment_objects,
         )
-        self._seed = 0
-        self.initial = {}
 
-    # -- setup -----------------------------------------------------------------------------------------------
     def _ready_posture(self, home: F64) -> F64:
         """Arm posture with the grasp site at `ready_xy`, `ready_height` above the table, pointing down.
 
