@@ -14,12 +14,17 @@ from openral_data.errors import DiskError, OpenralError, disk_errno
 from openral_data.policies.base import PolicyAdapter
 from openral_data.runtime.bridge import DatasetBridge
 
+# A stop asked for before any episode loop's handlers were in place: a `--workers` worker's SIGTERM that arrived
+# while its scene was still being built (record/parallel/worker.py sets it). The next StopRequest starts with it.
+EARLY_STOP = threading.Event()
+
 
 class StopRequest:
     """Ctrl-C / SIGTERM ask the recording to stop at the next step boundary, never inside a commit.
 
     The loop then raises KeyboardInterrupt where nothing is half-written: the episode in flight is discarded
-    and every finished one stays. A second Ctrl-C interrupts at once.
+    and every finished one stays. A second Ctrl-C interrupts at once. A stop that came before the handlers were
+    installed (`EARLY_STOP`) counts as already requested.
     """
 
     def __init__(self) -> None:
@@ -28,6 +33,7 @@ class StopRequest:
         if threading.current_thread() is threading.main_thread():
             for sig in (signal.SIGINT, signal.SIGTERM):
                 self._previous[sig] = signal.signal(sig, self._handle)
+        self._requested = self._requested or EARLY_STOP.is_set()
 
     def _handle(self, signum: int, frame: object) -> None:
         if self._requested and signum == signal.SIGINT:

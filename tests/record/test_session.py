@@ -255,3 +255,23 @@ def test_a_full_tmpfs(small_disk: Path, home: Path) -> None:
     assert verify_mock_dataset(out, "pyav")["lengths"] == lengths
     assert [n for _, n in bag_episodes(out)] == lengths
     assert check(out) == []
+
+
+def test_a_stop_that_came_before_the_loop_started_stops_it_at_the_first_boundary() -> None:
+    """A `--workers` worker's SIGTERM while its scene was still being built (before the episode loop installed its
+    handlers) is remembered in EARLY_STOP; the loop's StopRequest starts stopped instead of recording the share."""
+    from openral_data.record.session import EARLY_STOP, StopRequest
+
+    EARLY_STOP.set()
+    try:
+        stop = StopRequest()
+        try:
+            with pytest.raises(KeyboardInterrupt):
+                stop.check()
+        finally:
+            stop.restore()
+    finally:
+        EARLY_STOP.clear()
+    stop = StopRequest()
+    stop.check()  # without one, nothing is requested
+    stop.restore()
