@@ -27,9 +27,31 @@ def contained(root: Path, relative: str | os.PathLike[str], source: str) -> Path
     if rel.is_absolute():
         raise DatasetError(f"{source}: path {text!r} is absolute; it must stay inside {root}", code="dataset.unsafe")
     path = root / rel
-    if ".." in rel.parts or not path.resolve().is_relative_to(root.resolve()):
+    linked = _link_on_the_way(root, rel)
+    if ".." in rel.parts or (linked and not _resolved(path, source).is_relative_to(root.resolve())):
         raise DatasetError(f"{source}: path {text!r} leads outside {root}", code="dataset.unsafe")
     return path
+
+
+def _link_on_the_way(root: Path, rel: Path) -> bool:
+    """Whether a component of `rel` below `root` is a symlink (one `lstat` each, up to the first missing one):
+    without one, `root / rel` is inside `root` and needs no full resolve (the common case, per file written)."""
+    here = os.fspath(root)
+    for part in rel.parts:
+        here = os.path.join(here, part)
+        try:
+            if stat.S_ISLNK(os.lstat(here).st_mode):
+                return True
+        except (FileNotFoundError, NotADirectoryError):
+            return False
+    return False
+
+
+def _resolved(path: Path, source: str) -> Path:
+    try:
+        return path.resolve()
+    except (RuntimeError, OSError) as exc:  # a symlink loop (RuntimeError before Python 3.13)
+        raise DatasetError(f"{source}: cannot resolve {path}: {exc}", code="dataset.unsafe") from None
 
 
 def contained_all(root: Path, relatives: list[str], source: str) -> list[Path]:

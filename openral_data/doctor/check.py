@@ -23,6 +23,9 @@ def check(root: Path, *, lock_held_by_us: bool = False, deep: bool = False) -> l
     Never raises on a damaged dataset: a file that cannot be read, or a check that fails on what it read,
     becomes an error finding. `deep` also decodes every video frame (`check_deep`)."""
     findings = leftovers(root, lock_held_by_us) + check_paths.check_controls(root)
+    links = check_paths.check_links(root)
+    if links:
+        return findings + links  # every other check would read the files they lead to
     ds, fatal = load(root)
     if ds is None:
         return findings + fatal

@@ -1,6 +1,7 @@
 """Paths a dataset's own files could turn against us: control files that are not regular files, a commit
-journal whose entries lead outside the dataset, feature keys that are not one path component, chunk/file
-indices that are not small non-negative integers, and path templates other than lerobot's.
+journal whose entries lead outside the dataset, symlinks in its folders leading out, feature keys that are not
+one path component, chunk/file indices that are not small non-negative integers, and path templates other than
+lerobot's.
 
 Each is an error finding that `doctor --repair` never "repairs" by following it: a repair refuses unsafe
 control files and journals in one line (`DatasetLock`, `atomic.replay_journal`) and leaves keys and templates
@@ -19,6 +20,7 @@ from openral_data.doctor.inspect import Dataset
 from openral_data.errors import DatasetError
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.links import outside_links
 from openral_data.paths import safe_name
 
 CONTROL_FILES = (layout.LOCK_PATH, layout.JOURNAL_PATH, layout.RECORD_PATH, layout.IMAGE_HIST_PATH)
@@ -43,6 +45,13 @@ def check_controls(root: Path) -> list[Finding]:
     if _kind(root / layout.JOURNAL_PATH) == "file":
         out.append(_journal(root))
     return out
+
+
+def check_links(root: Path) -> list[Finding]:
+    """Each symlink under ``meta/``, ``data/``, ``videos/`` or ``mcap/`` leading outside the dataset
+    (`links.outside_links`): no other check reads through one, and `--repair` / `record --resume` refuse it."""
+    message = "a symbolic link leading outside the dataset (to {}); nothing of ours follows it"
+    return [error("path.outside", rel, message.format(target)) for rel, target in outside_links(root)]
 
 
 def _journal(root: Path) -> Finding:

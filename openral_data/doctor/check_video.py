@@ -137,7 +137,7 @@ def orphan_videos(ds: Dataset) -> list[Path]:
     for key in ds.video_keys:
         if f"videos/{key}/chunk_index" in ds.episodes.column_names:
             named |= set(placements(ds, key))
-    return [p for p in sorted((ds.root / "videos").glob("*/*/*.mp4")) if p not in named]
+    return [p for p in layout.found_files(ds.root, "videos", "*/*/*.mp4") if p not in named]
 
 
 def check_orphans(ds: Dataset) -> list[Finding]:

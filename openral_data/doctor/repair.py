@@ -27,6 +27,7 @@ from openral_data.errors import DatasetError, NotFound
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import digests, layout
 from openral_data.formats.lerobot_v3.layout import FilePos
+from openral_data.formats.lerobot_v3.links import refuse_outside_links
 from openral_data.formats.lerobot_v3.lock import DatasetLock
 from openral_data.formats.lerobot_v3.recovery import Quarantine, finish_interrupted_commit, quarantine_staged
 from openral_data.formats.lerobot_v3.tasks_table import tasks_writer
@@ -64,6 +65,7 @@ def repair(root: Path) -> RepairResult:
     """Fix what is safely fixable; a dataset with files it cannot read is left as it is (`refused` says why)."""
     if not root.is_dir():  # nothing to repair, and nothing (not even the lock) may be created there
         raise NotFound(f"{root}: not a dataset folder")
+    refuse_outside_links(root, "doctor --repair")  # plain doctor reports each one (`path.outside`)
     with DatasetLock(root, "openral-data doctor --repair"):
         q = Quarantine(root)
         actions = _writer_leftovers(root, q)

@@ -210,6 +210,7 @@ def write_edit(
     check_edit_output(out, in_place)
     if out is not None:
         return write_selection(keep, out, op, rewrite=rewrite)
+    given, dataset = dataset, dataset.resolve()  # a DATASET given as a symlink: the real folder is edited in place
     # lerobot leaves empty `images/<key>/` folders behind: nothing is lost without them
     foreign = sorted(
         p.name
@@ -227,7 +228,7 @@ def write_edit(
     with DatasetLock(dataset, f"{command} --in-place"), staged as new:  # no recording may start meanwhile
         result = write_selection(keep, new, op, rewrite=rewrite)
         staged.replace_existing(old)  # the input stays whole (under `old`) until the new dataset took its name
-    return EditResult(dataset, result.episodes, result.frames)
+    return EditResult(given, result.episodes, result.frames)
 
 
 def _empty_folder(path: Path) -> bool:

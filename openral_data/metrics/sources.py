@@ -58,10 +58,10 @@ def open_dataset(root: Path, label: str | None = None) -> DatasetSource:
     for key in ("fps", "features"):
         if key not in info:
             raise DatasetError(f"{root / layout.INFO_PATH}: {key}: missing", code="dataset.invalid")
-    episode_files = sorted((root / "meta" / "episodes").glob("chunk-*/file-*.parquet"))
+    episode_files = layout.found_files(root, "meta/episodes", "chunk-*/file-*.parquet")
     if not episode_files:
         raise DatasetError(f"{root}: no episodes metadata under meta/episodes/", code="dataset.invalid")
-    data_files = sorted((root / "data").glob("chunk-*/file-*.parquet"))
+    data_files = layout.found_files(root, "data", "chunk-*/file-*.parquet")
     episode_columns = _columns(episode_files[0])
     data_columns = _columns(data_files[0]) if data_files else frozenset()
     scene = rskill = robot = None

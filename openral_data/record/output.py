@@ -21,10 +21,11 @@ from typing import Any
 from openral_data.errors import ConfigError, DatasetBusy, DatasetError, UsageError
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.links import refuse_outside_links
 from openral_data.formats.lerobot_v3.lock import DatasetLock, holder
 from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.recovery import Quarantine, recover
-from openral_data.formats.mcap.writer import MCAP_SUBDIR, PARTIAL, finished_bags
+from openral_data.formats.mcap.writer import MCAP_SUBDIR, PARTIAL, bags_dir, finished_bags
 from openral_data.formats.staging import clean_orphans, unwritable
 from openral_data.record.options import RecordOptions
 from openral_data.runtime.outdir import check_out
@@ -74,6 +75,8 @@ def claim(out: Path, purpose: str, resume: bool) -> Claim:
     a folder that already holds a dataset or anything else (`OutputExists`) before touching it, and again under
     the lock (a writer that finished in between). Orphaned staging folders of killed runs beside `out` go.
     """
+    if resume and out.is_dir():
+        refuse_outside_links(out, "record --resume")  # before the lock: nothing is touched
     if not resume:
         busy = holder(out) if out.is_dir() else None
         if busy is not None:
@@ -225,7 +228,7 @@ def _recover(out: Path, formats: tuple[str, ...]) -> tuple[list[str], int]:
     if "lerobot" in formats:
         actions += recover(out)
         counts["lerobot"] = int(read_info(out).get("total_episodes", 0)) if (out / layout.INFO_PATH).is_file() else 0
-    bags = out / MCAP_SUBDIR
+    bags = bags_dir(out)
     if "mcap" in formats:
         shutil.rmtree(bags / PARTIAL, ignore_errors=True)
         found = finished_bags(bags) if bags.is_dir() else []

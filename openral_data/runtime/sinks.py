@@ -17,11 +17,11 @@ from openral_data.errors import UsageError
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, WriterConfig
 from openral_data.formats.lerobot_v3.video import parse_codec
 from openral_data.formats.mcap import (
-    MCAP_SUBDIR,
     ImageFormat,
     McapCompression,
     McapConfig,
     McapSink,
+    bags_dir,
     parse_compression,
     parse_image_format,
 )
@@ -76,7 +76,7 @@ def make_sinks(
             sinks.append(LeRobotV3Writer(out, schema, writer, resume=resume))
         if "mcap" in formats:
             config = McapConfig(image_format=image_format, compression=mcap_compression)
-            sinks.insert(0, McapSink(out / MCAP_SUBDIR, schema, config, resume=resume, first_index=first_index))
+            sinks.insert(0, McapSink(bags_dir(out), schema, config, resume=resume, first_index=first_index))
     except BaseException:
         for sink in sinks:
             sink.close()

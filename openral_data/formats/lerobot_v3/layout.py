@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from openral_data.errors import DatasetError
-from openral_data.paths import contained, safe_name
+from openral_data.paths import contained, contained_all, safe_name
 
 CODEBASE_VERSION = "v3.0"
 DATA_PATH = "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
@@ -100,15 +100,25 @@ class FileRun:
         return FileRun(self.first, list(self.positions), list(self.sizes), list(self.rows))
 
 
+# Every file of a dataset we open or write is named by one of the functions below, and each refuses in one
+# line (`paths.contained`, ``dataset.unsafe``) a path that symlinks (a folder or the file itself) lead outside
+# the dataset: no reader copies an outside file in, no writer writes through a link out.
+
+
+def inside(root: Path, rel: str) -> Path:
+    """`root / rel` (a dataset-relative path of ours), refused unless it stays inside `root` after symlinks."""
+    return contained(root, rel, str(root / rel))
+
+
 def data_path(root: Path, pos: FilePos) -> Path:
-    return root / DATA_PATH.format(chunk_index=pos.chunk, file_index=pos.file)
+    return inside(root, DATA_PATH.format(chunk_index=pos.chunk, file_index=pos.file))
 
 
 def video_path(root: Path, key: str, pos: FilePos) -> Path:
     """The standard place of `key`'s video file `pos`; `key` (a feature name from info.json) must be one path
     component (`safe_name`)."""
     safe_name(key, f"{INFO_PATH}: features")
-    return root / VIDEO_PATH.format(video_key=key, chunk_index=pos.chunk, file_index=pos.file)
+    return inside(root, VIDEO_PATH.format(video_key=key, chunk_index=pos.chunk, file_index=pos.file))
 
 
 def template_path(root: Path, info: dict[str, Any], field: str, pos: FilePos, video_key: str | None = None) -> Path:
@@ -131,14 +141,28 @@ def template_path(root: Path, info: dict[str, Any], field: str, pos: FilePos, vi
 
 
 def episodes_path(root: Path, pos: FilePos) -> Path:
-    return root / EPISODES_PATH.format(chunk_index=pos.chunk, file_index=pos.file)
+    return inside(root, EPISODES_PATH.format(chunk_index=pos.chunk, file_index=pos.file))
+
+
+def found_files(root: Path, folder: str, pattern: str) -> list[Path]:
+    """The files matching the glob `pattern` below `root/folder` on disk, sorted; refused in one line if a
+    symlink leads one of them (or its folder) outside `root` (`paths.contained_all`)."""
+    found = sorted((root / folder).glob(pattern))
+    return contained_all(root, [str(p.relative_to(root)) for p in found], str(root / folder / pattern))
 
 
 def data_files(root: Path) -> list[Path]:
     """The frame tables (data/*/*.parquet) on disk, in chunk/file order."""
-    return sorted((root / "data").glob("*/*.parquet"))
+    return found_files(root, "data", "*/*.parquet")
 
 
 def episodes_files(root: Path) -> list[Path]:
     """The episodes metadata tables (meta/episodes/*/*.parquet) on disk, in chunk/file order."""
-    return sorted((root / "meta" / "episodes").glob("*/*.parquet"))
+    return found_files(root, "meta/episodes", "*/*.parquet")
+
+
+def video_files(root: Path, key: str | None = None) -> list[Path]:
+    """The video files (videos/KEY/chunk-*/file-*.mp4; every camera's without `key`) on disk, sorted."""
+    if key is None:
+        return found_files(root, "videos", "*/chunk-*/file-*.mp4")
+    return found_files(root, f"videos/{safe_name(key, f'{INFO_PATH}: features')}", "chunk-*/file-*.mp4")

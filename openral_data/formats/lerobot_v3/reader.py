@@ -54,7 +54,7 @@ class DatasetSummary:
 
 def read_info(root: Path) -> dict[str, Any]:
     """`meta/info.json`, checked for what would make a path out of it leave the dataset (`check_paths`)."""
-    path = root / layout.INFO_PATH
+    path = layout.inside(root, layout.INFO_PATH)
     try:
         info: dict[str, Any] = read_json(path)
     except FileNotFoundError:
@@ -104,7 +104,7 @@ def read_episodes(root: Path) -> pa.Table:
 
 
 def read_tasks(root: Path) -> list[str]:
-    path = root / layout.TASKS_PATH
+    path = layout.inside(root, layout.TASKS_PATH)
     table = read_table(path)
     try:
         rows = sorted(zip(table.column("task_index").to_pylist(), table.column("task").to_pylist(), strict=True))

@@ -105,10 +105,6 @@ def _walk(base: Path) -> Iterator[Path]:
                 yield path
 
 
-def video_files(root: Path) -> list[Path]:
-    return sorted((root / "videos").glob("*/chunk-*/file-*.mp4"))
-
-
 def referenced_videos(root: Path, rows: list[dict[str, Any]], info: dict[str, Any]) -> set[Path]:
     keys = [k for k, f in info.get("features", {}).items() if f.get("dtype") == "video"]
     out: set[Path] = set()
@@ -160,7 +156,7 @@ def recover(root: Path, durable: bool = True) -> list[str]:
         actions += drop_repeated_data_rows(root, rows, quarantine, durable)
         actions += cut_unfinished_video_joins(root, rows, info, quarantine, durable)
     keep = referenced_videos(root, rows, info)
-    orphans = [p for p in video_files(root) if p not in keep]
+    orphans = [p for p in layout.video_files(root) if p not in keep]
     for path in orphans:
         quarantine.move(path)
     if orphans:

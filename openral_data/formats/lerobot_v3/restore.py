@@ -158,7 +158,7 @@ def _video_tail(root: Path, key: str, rows: list[dict[str, Any]], chunks_size: i
     users: dict[FilePos, int] = {}
     for r in rows:
         users[pos(r)] = users.get(pos(r), 0) + 1
-    files = (root / "videos" / key).glob("chunk-*/file-*.mp4")
+    files = layout.video_files(root, key)
     on_disk = [FilePos(int(p.parent.name[6:]), int(p.stem[5:])) for p in files]
     last = max([*users, *on_disk], default=None)
     members: list[tuple[int, FilePos, int, int]] = []

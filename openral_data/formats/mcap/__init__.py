@@ -3,8 +3,8 @@
 Writing: `McapSink` (a `Sink`, configured by `McapConfig`; chunks compressed as one of `MCAP_COMPRESSIONS`;
 camera images stored as an `ImageFormat`, one of `IMAGE_FORMATS`; text from a user becomes one through
 `parse_compression` / `parse_image_format`, the only places that check it); beside a LeRobot dataset the bags go
-under `MCAP_SUBDIR`. Reading: `finished_bags` lists a folder's complete episode bags (never the one in flight) and
-`decode_image` turns a camera message back into pixels.
+under `MCAP_SUBDIR` (`bags_dir`, refused if a symlink leads it out). Reading: `finished_bags` lists a folder's
+complete episode bags (never the one in flight) and `decode_image` turns a camera message back into pixels.
 """
 
 from openral_data.formats.mcap.messages import IMAGE_FORMATS, ImageFormat, decode_image, parse_image_format
@@ -14,6 +14,7 @@ from openral_data.formats.mcap.writer import (
     McapCompression,
     McapConfig,
     McapSink,
+    bags_dir,
     finished_bags,
     parse_compression,
 )
@@ -26,6 +27,7 @@ __all__ = [
     "McapCompression",
     "McapConfig",
     "McapSink",
+    "bags_dir",
     "decode_image",
     "finished_bags",
     "parse_compression",

@@ -48,6 +48,7 @@ from openral_data.formats.atomic import fsync_dir, fsync_file
 from openral_data.formats.mcap import messages as m
 from openral_data.formats.mcap.messages import ImageFormat, MessageFactory
 from openral_data.formats.write_errors import write_error
+from openral_data.paths import contained
 from openral_data.types import DatasetSchema, EpisodeRecord, EpisodeStart, Frame
 
 PARTIAL = ".partial"
@@ -57,8 +58,15 @@ McapCompression = Literal["zstd", "lz4", "none"]
 MCAP_COMPRESSIONS: tuple[McapCompression, ...] = ("zstd", "lz4", "none")
 
 
+def bags_dir(out: Path) -> Path:
+    """A dataset output's bag folder ``OUT/mcap``, refused in one line if a symlink leads it outside `out`."""
+    return contained(out, MCAP_SUBDIR, str(out / MCAP_SUBDIR))
+
+
 def episode_dir(root: Path, index: int) -> Path:
-    return root / f"episode_{index:06d}"
+    """Episode `index`'s bag folder under the bag folder `root`, refused if a symlink leads it outside `root`."""
+    name = f"episode_{index:06d}"
+    return contained(root, name, str(root / name))
 
 
 def finished_bags(root: Path) -> list[Path]:
@@ -256,7 +264,7 @@ class EpisodeBag:
         self.seed = start.seed
         self.base_ns = base_ns
         self.final = episode_dir(root, index)
-        self.staged = root / PARTIAL / self.final.name
+        self.staged = contained(root, f"{PARTIAL}/{self.final.name}", str(root / PARTIAL))
         self.factory = MessageFactory(config.image_format, config.jpeg_quality)
         self.depth = [name for name, shape in schema.cameras.items() if shape.depth_unit is not None]
         self.masks = [name for name, shape in schema.cameras.items() if shape.segmentation]
