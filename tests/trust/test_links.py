@@ -107,6 +107,7 @@ EDITS = {
     "stats": ["stats", "recompute", "{ds}", "--out", "{out}"],
     "reencode": ["videos", "reencode", "{ds}", "--codec", "h264", "--camera", FRONT, "--out", "{out}"],
     "view": ["view", "{ds}", "--save", "{out}.rrd"],
+    "report": ["stats", "{ds}"],  # plain stats: reads the frames, writes nothing
 }
 
 
@@ -137,11 +138,21 @@ def _data_in_chunk_1(root: Path) -> None:
 
 
 @pytest.mark.parametrize("rel", [f"videos/{FRONT}", "data/chunk-001", "meta"])
-@pytest.mark.parametrize("name", ["delete", "view"])
+@pytest.mark.parametrize("name", ["delete", "view", "report"])
 def test_edit_refuses_a_folder_leading_out(root: Path, recorded: Path, name: str, rel: str) -> None:
     if rel.startswith("data/"):
         _data_in_chunk_1(root)
     _edit_refused(name, root, recorded, rel)
+
+
+def test_a_symlink_loop_is_one_line(root: Path) -> None:
+    loop = root / "videos" / FRONT
+    shutil.rmtree(loop)
+    loop.symlink_to(FRONT)  # points at itself
+    plain = run_inproc("doctor", str(root))
+    assert plain.returncode == 1 and f"error   videos/{FRONT}: a symbolic link" in plain.stdout, plain
+    _refused(run_inproc("doctor", str(root), "--repair"), "symlink loop")
+    _refused(run_inproc("episodes", "delete", str(root), "--episodes", "1", "--out", str(root.parent / "n")), FRONT)
 
 
 def test_a_link_inside_the_dataset_is_followed(root: Path) -> None:

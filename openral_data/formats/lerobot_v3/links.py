@@ -27,7 +27,11 @@ def outside_links(root: Path) -> list[tuple[str, str]]:
     while pending:
         rel = pending.pop()
         path = root / rel
-        target = path.resolve()
+        try:
+            target = path.resolve()
+        except (RuntimeError, OSError):  # a symlink loop (RuntimeError before Python 3.13): it leads nowhere inside
+            found.append((rel, f"{os.readlink(path)}, a symlink loop"))
+            continue
         if not target.is_relative_to(base):
             found.append((rel, os.readlink(path) if path.is_symlink() else str(target)))
             continue
