@@ -16,6 +16,7 @@ from openral_data.errors import BagError, ConfigError, DatasetError
 from openral_data.formats.jsonfile import MAX_JSON_DEPTH, parse_json, read_json
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.digests import DIGESTS_PATH, REHASH_PATH
+from openral_data.formats.lerobot_v3.info import MAX_FEATURES
 from openral_data.formats.mcap.chunks import check_mcap
 from openral_data.pipeline.state import read_marker
 from tests.malformed.conftest import corpus_dataset  # noqa: F401  (the session's small recorded dataset)
@@ -63,18 +64,17 @@ def test_info_json_to_dev_zero_is_refused(ds: Path) -> None:
         _one_line(run.stderr, "info.json")
 
 
-def test_a_million_features_are_refused(ds: Path) -> None:
+def test_too_many_features_are_refused(ds: Path) -> None:
+    """The red team's info.json had 10**6 features (`info` printed them all, slowly); one past the cap is enough."""
     info = json.loads((ds / layout.INFO_PATH).read_text())
-    info["features"].update({f"f{i}": {"dtype": "float32", "shape": [1]} for i in range(10**6)})
+    info["features"].update({f"f{i}": {"dtype": "float32", "shape": [1]} for i in range(MAX_FEATURES + 1)})
     (ds / layout.INFO_PATH).write_text(json.dumps(info))
-    t0 = time.monotonic()
     run = run_inproc("info", str(ds))
     assert run.returncode == 2
-    _one_line(run.stderr, "features: more than 10000 features")
+    _one_line(run.stderr, f"features: more than {MAX_FEATURES} features")
     doctor = run_inproc("doctor", str(ds))
     assert doctor.returncode == 1 and "Traceback" not in doctor.stderr
-    assert "more than 10000 features" in doctor.stdout + doctor.stderr
-    assert time.monotonic() - t0 < 30
+    assert f"more than {MAX_FEATURES} features" in doctor.stdout + doctor.stderr
 
 
 # (command, the file made 200,000 deep, what the one line or the finding names)
