@@ -3,12 +3,12 @@ mcap` or `convert DATASET DST`): everything is described by the `/openral/episod
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
 from openral_data.convert.sources import BAG_READ_ERRORS, deserialize, open_reader, read_messages
 from openral_data.errors import BagError
+from openral_data.formats.jsonfile import parse_json
 from openral_data.formats.mcap import messages as m
 from openral_data.schemas.mapping import Mapping
 
@@ -25,7 +25,7 @@ def own_mapping(bag: Path) -> Mapping:
             )
         start = None
         for conn, _, raw in read_messages(reader, bag, [marker]):
-            event = json.loads(deserialize(reader, bag, raw, conn.msgtype).data)
+            event = parse_json(deserialize(reader, bag, raw, conn.msgtype).data)
             if isinstance(event, dict) and event.get("event") == "start":
                 start = event
                 break

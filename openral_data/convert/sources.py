@@ -22,6 +22,7 @@ from rosbags.serde import SerdeError
 from rosbags.typesys import Stores, get_typestore
 
 from openral_data.errors import BagError, NotFound
+from openral_data.formats.mcap.chunks import check_bag
 from openral_data.formats.mcap.messages import DEPTH_ENCODINGS, RGB_ENCODINGS
 from openral_data.schemas.mapping import Vector, VectorSource
 
@@ -64,6 +65,7 @@ BAG_READ_ERRORS = (
 def open_reader(bag: Path) -> AnyReader:
     """The bag opened for reading; an empty, truncated or garbage bag raises a `BagError` naming it."""
     store = get_typestore(Stores.ROS1_NOETIC if bag.suffix == ".bag" else Stores.ROS2_HUMBLE)
+    check_bag(bag)  # bounded chunks and records, before rosbags allocates what they declare
     reader = AnyReader([bag], default_typestore=store)
     try:
         reader.open()

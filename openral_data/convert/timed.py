@@ -4,7 +4,6 @@ deserialised only when used (`Message`), and the values read from the reward, su
 from __future__ import annotations
 
 import heapq
-import json
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -18,6 +17,7 @@ from openral_data.convert.camera_topics import decode_depth
 from openral_data.convert.sources import check_image, deserialize, field_value, read_messages
 from openral_data.convert.summary import ConvertSummary
 from openral_data.errors import BagError
+from openral_data.formats.jsonfile import parse_json
 from openral_data.formats.lerobot_v3.depth import DepthUnit
 from openral_data.formats.mcap.messages import decode_image
 from openral_data.schemas.mapping import Mapping
@@ -118,8 +118,8 @@ def marker_event(msg: Any) -> dict[str, Any]:
     data = getattr(msg, "data", None)
     if isinstance(data, str):
         try:
-            parsed = json.loads(data)
-        except json.JSONDecodeError:
+            parsed = parse_json(data)
+        except ValueError:
             return {"event": data.strip().lower()}
         if isinstance(parsed, dict):
             return parsed

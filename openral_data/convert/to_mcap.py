@@ -10,7 +10,6 @@ The bags are written into a hidden staging folder beside DST, renamed to DST onc
 
 from __future__ import annotations
 
-import json
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
@@ -19,6 +18,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from openral_data.episodes import parse_episodes
 from openral_data.errors import DatasetError
+from openral_data.formats.jsonfile import parse_field
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX, camera_keys, dim_names
 from openral_data.formats.lerobot_v3.frames import episode_frames
@@ -113,7 +113,9 @@ def export_mcap(
                 sink.begin_episode(
                     EpisodeStart(
                         seed=int(row.get("openral.seed") or 0),
-                        initial_state=json.loads(row.get("openral.initial_state") or "{}"),
+                        initial_state=parse_field(
+                            row.get("openral.initial_state") or "{}", f"{src}: episode {e}: openral.initial_state"
+                        ),
                     ),
                     index=e,
                 )

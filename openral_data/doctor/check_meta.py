@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import json
 import re
 from collections import Counter
 
@@ -11,6 +10,7 @@ import numpy as np
 
 from openral_data.doctor.findings import Finding, error, warning
 from openral_data.doctor.inspect import DEFAULT_FEATURES, Dataset
+from openral_data.formats.jsonfile import load_json
 from openral_data.formats.lerobot_v3 import layout
 
 INFO = layout.INFO_PATH
@@ -45,8 +45,8 @@ def check_stats(ds: Dataset) -> list[Finding]:
     if not path.is_file():
         return [warning("stats.missing", layout.STATS_PATH, "missing: lerobot's training normalisation needs it")]
     try:
-        stats = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        stats = load_json(path)
+    except (ValueError, OSError) as exc:
         return [error("stats.json", layout.STATS_PATH, f"invalid JSON: {exc}")]
     wanted = [k for k, f in ds.features.items() if f.get("dtype") != "string"]
     absent = [k for k in wanted if k not in stats]

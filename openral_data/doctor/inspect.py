@@ -6,7 +6,6 @@ the checks need, so a large dataset costs one column scan.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -17,7 +16,9 @@ import pyarrow.parquet as pq
 
 from openral_data.doctor.findings import Finding, error
 from openral_data.errors import OpenralError
+from openral_data.formats.jsonfile import load_json, parse_json
 from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.info import MAX_FEATURES
 from openral_data.paths import regular_file
 
 DEFAULT_FEATURES = ("timestamp", "frame_index", "episode_index", "index", "task_index")
@@ -81,8 +82,8 @@ def load(root: Path) -> tuple[Dataset | None, list[Finding]]:
     if not path.is_file():
         return None, [error("info.missing", layout.INFO_PATH, "missing: lerobot falls back to a Hub download")]
     try:
-        info = json.loads(path.read_text())
-    except (ValueError, OSError) as exc:  # JSONDecodeError and UnicodeDecodeError are ValueErrors
+        info = load_json(path)
+    except (ValueError, OSError) as exc:  # bad or unbounded JSON, a FIFO or device: `load_json`
         return None, [error("info.json", layout.INFO_PATH, f"invalid JSON: {exc}")]
     if not isinstance(info, dict):
         return None, [error("info.json", layout.INFO_PATH, "not a JSON object")]
@@ -95,6 +96,8 @@ def load(root: Path) -> tuple[Dataset | None, list[Finding]]:
     features = info["features"]
     if not isinstance(features, dict) or not all(isinstance(f, dict) for f in features.values()):
         return None, [error("info.features", layout.INFO_PATH, "features must map names to objects")]
+    if len(features) > MAX_FEATURES:
+        return None, [error("info.features", layout.INFO_PATH, f"more than {MAX_FEATURES} features")]
     for key in TOTALS:
         value = info.get(key, 0)
         if not isinstance(value, int) or isinstance(value, bool) or value < 0:
@@ -122,7 +125,7 @@ def _load_tasks(ds: Dataset) -> None:
     try:
         tasks = read_parquet(path)
         raw = (tasks.schema.metadata or {}).get(b"pandas")
-        pandas = json.loads(raw) if raw else None
+        pandas = parse_json(raw) if raw else None
     except READ_ERRORS as exc:
         _unreadable(ds, "tasks.unreadable", path, exc)
         return

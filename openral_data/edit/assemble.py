@@ -16,7 +16,6 @@ quantiles are frame-weighted means of the episodes' quantiles), and no histogram
 from __future__ import annotations
 
 import contextlib
-import json
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -24,6 +23,7 @@ from typing import Any
 from openral_data.edit.source import EpisodeData
 from openral_data.errors import DatasetError
 from openral_data.formats import atomic
+from openral_data.formats.jsonfile import read_json
 from openral_data.formats.lerobot_v3 import EpisodeBuffer, LeRobotV3Writer, WriterConfig, layout
 from openral_data.formats.lerobot_v3.provenance import EditRecord, Provenance
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator, Stats, merge_numeric
@@ -75,7 +75,7 @@ class EpisodeAssembler:
         self.schema = schema
         self._exact_hist = image_hist
         self._column_hist = column_hist
-        written = Provenance.from_json(json.loads((root / layout.OPENRAL_PATH).read_text()))
+        written = Provenance.from_json(read_json(root / layout.OPENRAL_PATH))
         atomic.write_bytes(root / layout.OPENRAL_PATH, replace(written, edit=provenance).dumps(), config.durable)
 
     @property

@@ -16,7 +16,6 @@ episode's seed is unknown (`None`), its initial state empty, and its success rea
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -28,6 +27,7 @@ import pyarrow.compute as pc
 
 from openral_data.errors import DatasetError, EpisodeSelectionError, NotFound
 from openral_data.formats import atomic
+from openral_data.formats.jsonfile import parse_field, parse_json
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.clip import episode_clip
 from openral_data.formats.lerobot_v3.config import WriterConfig
@@ -168,8 +168,8 @@ class SourceDataset:
         """The writer's dataset-level camera histograms (`.openral/image_hist.json`), if it left them."""
         path = self.root / layout.IMAGE_HIST_PATH
         try:
-            saved = json.loads(atomic.read_control(path))  # a control file: no symlink, no FIFO
-        except (FileNotFoundError, ValueError, UnicodeDecodeError):
+            saved = parse_json(atomic.read_control(path))  # a control file: no symlink, no FIFO, bounded
+        except (FileNotFoundError, ValueError):
             return None
         if not isinstance(saved, dict):
             return None
@@ -247,7 +247,9 @@ class SourceDataset:
             tasks=tasks,
             seed=None if seed is None else int(seed),
             success=self._success(row, successes),
-            initial_state=json.loads(initial) if initial else {},
+            initial_state=parse_field(initial, f"{self.root}: episode {index}: openral.initial_state")
+            if initial
+            else {},
             videos=videos,
             image_stats=image_stats,
             columns={key: data.column(key).combine_chunks().cast(self._types.field(key).type) for key in self.carried},

@@ -18,6 +18,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from openral_data.errors import DatasetError
+from openral_data.formats.jsonfile import parse_json
 from openral_data.paths import contained, contained_all
 
 CONTROL_FLAGS = os.O_NOFOLLOW | os.O_NONBLOCK | os.O_CLOEXEC
@@ -250,7 +251,7 @@ def journal_renames(journal: Path) -> list[tuple[Path, Path]]:
     destination. Anything else is refused in one line (``dataset.unsafe``).
     """
     try:
-        data = json.loads(read_control(journal))
+        data = parse_json(read_control(journal))
         entries = data["renames"]
         if not isinstance(entries, list) or not all(
             isinstance(e, list) and len(e) == 2 and all(isinstance(p, str) for p in e) for e in entries

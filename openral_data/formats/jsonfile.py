@@ -1,30 +1,108 @@
-"""The JSON files of a dataset or results folder, read with the one error message every reader gives."""
+"""The JSON files of a dataset, bag or results folder, read the one bounded way every reader uses.
+
+Every JSON we read is untrusted, so every reader goes through `parse_json` (text already in hand: a control file
+read by `atomic.read_control`, a parquet column) or `load_json`/`read_json` (a file by name). Both bound the
+input: a file must be a regular file (opened ``O_NONBLOCK`` and `fstat`-ed, so a FIFO or device is refused
+before it can block), at most `MAX_JSON_BYTES` long, and nested at most `MAX_JSON_DEPTH` deep (checked without
+recursion, so a 200,000-deep file is refused, not a `RecursionError`).
+"""
 
 from __future__ import annotations
 
+import errno
 import json
+import os
+import re
+import stat
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from openral_data.errors import DatasetError
 
+MAX_JSON_BYTES = 64 << 20  # info.json/stats.json of a large dataset are a few MB; 64 MiB is far above any we write
+MAX_JSON_DEPTH = 100  # ours nest at most ~6 deep; anything this deep is crafted (and would overflow recursion)
 
-def read_json(path: Path) -> Any:
-    """`path` parsed; a missing file raises `FileNotFoundError` (its caller says what that means); a folder, an
-    unreadable file, text that is not UTF-8, invalid or too deeply nested JSON an `OpenralError` naming the file."""
+_STRING = re.compile(rb'"(?:[^"\\]|\\.)*"', re.DOTALL)
+_NOT_BRACKETS = bytes(b for b in range(256) if b not in b"[]{}")
+_STEP = np.zeros(256, np.int8)
+_STEP[list(b"[{")] = 1
+_STEP[list(b"]}")] = -1
+
+
+class NotRegularFile(OSError):
+    """A JSON file that is a FIFO, a device or a folder: reading it could block for ever or never end."""
+
+
+def parse_json(data: bytes | str) -> Any:
+    """`data` parsed; text that is not UTF-8, invalid JSON or JSON nested deeper than `MAX_JSON_DEPTH` raise a
+    `ValueError` saying which (callers name the file)."""
+    raw = data.encode() if isinstance(data, str) else data
     try:
-        text = path.read_bytes().decode("utf-8")
+        value = json.loads(raw.decode("utf-8"))
+    except RecursionError:
+        raise ValueError(f"nested more than {MAX_JSON_DEPTH} deep") from None
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"not UTF-8 text (byte {exc.start})") from None
+    if raw.count(b"[") + raw.count(b"{") > MAX_JSON_DEPTH and _depth(raw) > MAX_JSON_DEPTH:
+        raise ValueError(f"nested more than {MAX_JSON_DEPTH} deep")
+    return value
+
+
+def _depth(raw: bytes) -> int:
+    """How deep the (valid) JSON text `raw` nests: its brackets outside strings, summed in slices (no recursion,
+    linear; every string is closed, as the text parsed)."""
+    steps = _STEP[np.frombuffer(_STRING.sub(b"", raw).translate(None, _NOT_BRACKETS), np.uint8)]
+    level, deepest = 0, 0
+    for start in range(0, len(steps), 1 << 20):
+        run = np.cumsum(steps[start : start + (1 << 20)], dtype=np.int64) + level
+        deepest, level = max(deepest, int(run.max())), int(run[-1])
+    return deepest
+
+
+def load_json(path: Path, limit: int = MAX_JSON_BYTES) -> Any:
+    """`path` (symlinks followed) parsed by `parse_json`. A missing file raises `FileNotFoundError`; a FIFO,
+    device or folder `NotRegularFile` (checked before reading, so nothing blocks); a file over `limit` bytes or
+    bad JSON `ValueError`; other read failures `OSError`."""
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
+    try:
+        mode = os.fstat(fd).st_mode
+        if stat.S_ISDIR(mode):
+            raise NotRegularFile(errno.EISDIR, "is a directory, expected a JSON file")
+        if not stat.S_ISREG(mode):
+            raise NotRegularFile(errno.EINVAL, "not a regular file (a FIFO or device); refusing to read it")
+        chunks, size = [], 0
+        while size <= limit and (chunk := os.read(fd, 1 << 20)):
+            chunks.append(chunk)
+            size += len(chunk)
+    finally:
+        os.close(fd)
+    if size > limit:
+        raise ValueError(f"larger than {limit} bytes")
+    return parse_json(b"".join(chunks))
+
+
+def read_json(path: Path, limit: int = MAX_JSON_BYTES) -> Any:
+    """`path` read by `load_json`; a missing file raises `FileNotFoundError` (its caller says what that means);
+    anything else wrong an `OpenralError` in one line naming the file."""
+    try:
+        return load_json(path, limit)
     except FileNotFoundError:
         raise
-    except IsADirectoryError:
-        raise DatasetError(f"{path}: is a directory, expected a JSON file", code="dataset.invalid") from None
-    except UnicodeDecodeError as exc:
-        raise DatasetError(f"{path}: not UTF-8 text (byte {exc.start})", code="dataset.invalid") from None
+    except NotRegularFile as exc:
+        code = "dataset.invalid" if exc.errno == errno.EISDIR else "dataset.unsafe"
+        raise DatasetError(f"{path}: {exc.strerror}", code=code) from None
     except OSError as exc:
         raise DatasetError(f"{path}: cannot read: {exc.strerror or exc}", code="dataset.invalid") from None
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError as exc:
+    except ValueError as exc:
         raise DatasetError(f"{path}: invalid JSON: {exc}", code="dataset.invalid") from None
-    except RecursionError:
-        raise DatasetError(f"{path}: invalid JSON: nested too deeply", code="dataset.invalid") from None
+
+
+def parse_field(data: bytes | str, where: str) -> Any:
+    """`parse_json` for JSON stored inside another file (a parquet column): bad JSON is a `DatasetError` in one
+    line naming `where` (the file, the row and the column)."""
+    try:
+        return parse_json(data)
+    except ValueError as exc:
+        raise DatasetError(f"{where}: invalid JSON: {exc}", code="dataset.invalid") from None

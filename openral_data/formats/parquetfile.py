@@ -10,6 +10,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from openral_data.errors import DatasetError
+from openral_data.paths import regular_file
 
 
 def _refused(path: Path, exc: Exception) -> DatasetError:
@@ -22,13 +23,22 @@ def _refused(path: Path, exc: Exception) -> DatasetError:
     return DatasetError(f"{path}: unreadable parquet: {reason}", code="dataset.invalid")
 
 
+def checked(path: Path) -> Path:
+    """`path` if pyarrow or DuckDB may open it: a regular file (`paths.regular_file`, so a FIFO or a device cannot
+    block the reader), not a folder (pyarrow would read one as a partitioned dataset) and present."""
+    if path.is_dir():
+        raise _refused(path, IsADirectoryError())
+    try:
+        return regular_file(path)
+    except FileNotFoundError as exc:
+        raise _refused(path, exc) from None
+
+
 def read_table(path: Path, **kwargs: Any) -> pa.Table:
     """`pq.read_table(path, **kwargs)`, fully validated (offsets, UTF-8 of every string), so later conversions
     cannot fail on damaged values; an unreadable file raises a `DatasetError` naming it."""
-    if path.is_dir():  # pyarrow would read a folder as a (possibly empty) partitioned dataset
-        raise _refused(path, IsADirectoryError())
     try:
-        table = pq.read_table(path, **kwargs)
+        table = pq.read_table(checked(path), **kwargs)
         table.validate(full=True)
         _ = table.column_names  # a column name that is not UTF-8 fails here, not in a later reader
     except (pa.ArrowException, OSError, UnicodeDecodeError) as exc:
@@ -38,10 +48,8 @@ def read_table(path: Path, **kwargs: Any) -> pa.Table:
 
 def read_schema(path: Path) -> pa.Schema:
     """`pq.read_schema(path)`; an unreadable file raises a `DatasetError` naming it."""
-    if path.is_dir():
-        raise _refused(path, IsADirectoryError())
     try:
-        schema = pq.read_schema(path)
+        schema = pq.read_schema(checked(path))
         _ = schema.names
     except (pa.ArrowException, OSError, UnicodeDecodeError) as exc:
         raise _refused(path, exc) from None

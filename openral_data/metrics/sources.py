@@ -14,7 +14,7 @@ from openral_data.formats.lerobot_v3.features import ACTION, STATE, dim_names
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE
 from openral_data.formats.lerobot_v3.provenance import read_provenance
 from openral_data.formats.lerobot_v3.reader import read_info
-from openral_data.formats.parquetfile import read_schema
+from openral_data.formats.parquetfile import checked, read_schema
 
 
 @dataclass(frozen=True)
@@ -62,6 +62,8 @@ def open_dataset(root: Path, label: str | None = None) -> DatasetSource:
     if not episode_files:
         raise DatasetError(f"{root}: no episodes metadata under meta/episodes/", code="dataset.invalid")
     data_files = layout.found_files(root, "data", "chunk-*/file-*.parquet")
+    for file in (*episode_files, *data_files):  # DuckDB opens them by name: none may be a FIFO or a device
+        checked(file)
     episode_columns = _columns(episode_files[0])
     data_columns = _columns(data_files[0]) if data_files else frozenset()
     scene = rskill = robot = None

@@ -22,6 +22,7 @@ from typing import Any
 
 from openral_data.errors import ConfigError
 from openral_data.formats.atomic import fsync_dir, fsync_file, fsync_tree, read_control, write_bytes
+from openral_data.formats.jsonfile import parse_json
 from openral_data.formats.staging import clean_orphans
 from openral_data.paths import contained, safe_name
 from openral_data.pipeline.schema import Step
@@ -48,8 +49,8 @@ def read_marker(path: Path) -> dict[str, Any] | None:
     except FileNotFoundError:
         return None
     try:
-        data = json.loads(raw)
-    except (ValueError, UnicodeDecodeError) as exc:
+        data = parse_json(raw)
+    except ValueError as exc:
         raise ConfigError(f"{path}: not a pipeline marker (invalid JSON: {exc}); delete it to redo the step") from None
     if not isinstance(data, dict):
         raise ConfigError(f"{path}: not a pipeline marker (not a JSON object); delete it to redo the step")

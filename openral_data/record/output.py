@@ -20,6 +20,7 @@ from typing import Any
 
 from openral_data.errors import ConfigError, DatasetBusy, DatasetError, UsageError
 from openral_data.formats import atomic
+from openral_data.formats.jsonfile import parse_json
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.links import refuse_outside_links
 from openral_data.formats.lerobot_v3.lock import DatasetLock, holder
@@ -145,10 +146,10 @@ def _settings(out: Path) -> dict[str, Any]:
     """``OUT/.openral/record.json``, read as one of our control files (no symlink, no FIFO, bounded)."""
     path = settings_path(out)
     try:
-        doc = json.loads(atomic.read_control(path))
+        doc = parse_json(atomic.read_control(path))
     except FileNotFoundError:
         raise DatasetError(f"{out}: nothing to resume (no {layout.RECORD_PATH})", code="dataset.invalid") from None
-    except (ValueError, UnicodeDecodeError) as exc:
+    except ValueError as exc:
         raise DatasetError(f"{path}: unreadable recording settings: {exc}", code="dataset.invalid") from None
     except OSError as exc:
         raise DatasetError(f"{path}: cannot read: {exc.strerror or exc}", code="dataset.invalid") from None

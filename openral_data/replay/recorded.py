@@ -7,7 +7,6 @@ datasets openral-data recorded (`meta/openral.json`, `openral.*` episode columns
 
 from __future__ import annotations
 
-import json
 from collections.abc import Iterator
 from dataclasses import dataclass
 from functools import cached_property
@@ -21,6 +20,7 @@ import pyarrow.compute as pc
 
 from openral_data.episodes import parse_episodes
 from openral_data.errors import ConfigError, DatasetError, ReplayError
+from openral_data.formats.jsonfile import parse_json
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.features import camera_keys
 from openral_data.formats.lerobot_v3.frames import episode_frames as decode_episode_frames
@@ -165,8 +165,8 @@ class RecordedDataset:
         actions = _matrix(table.column(ACTION), n)
         raw_state = row.get("openral.initial_state")
         try:
-            initial = json.loads(raw_state) if raw_state else None
-        except json.JSONDecodeError as exc:
+            initial = parse_json(raw_state) if raw_state else None
+        except ValueError as exc:
             raise ReplayError(f"{self.root}: meta/episodes: openral.initial_state of episode {e}: {exc}") from None
         task_index = int(table.column("task_index")[0].as_py()) if n else 0
         return RecordedEpisode(

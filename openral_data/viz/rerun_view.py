@@ -33,6 +33,7 @@ from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE, image_byte
 from openral_data.formats.lerobot_v3.layout import FilePos
 from openral_data.formats.lerobot_v3.masks import MASK_IDS, decode_mask, is_mask
 from openral_data.formats.lerobot_v3.success import EPISODE_SUCCESS, episode_successes
+from openral_data.formats.mcap.chunks import check_mcap
 from openral_data.formats.parquetfile import read_table
 from openral_data.metrics.sources import DatasetSource, open_dataset
 from openral_data.viz.entities import (
@@ -83,7 +84,9 @@ def run_view(opts: ViewOptions) -> str:
         if save.exists():
             raise OutputExists(f"{save}: exists; refusing to overwrite it")
     # everything that can be wrong with the inputs is found before anything is written
-    episode = None if is_mcap else load_episode(open_dataset(opts.path), opts.episode, opts.results)
+    episode = None if mcap is not None else load_episode(open_dataset(opts.path), opts.episode, opts.results)
+    if mcap is not None:
+        check_mcap(mcap)  # rerun's loader would decompress a chunk bomb without bound
     rec = rr.RecordingStream(APP_ID)
     if save is not None:
         save.parent.mkdir(parents=True, exist_ok=True)

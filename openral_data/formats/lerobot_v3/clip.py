@@ -16,6 +16,7 @@ from pathlib import Path
 import av
 
 from openral_data.errors import DatasetError
+from openral_data.paths import regular_file
 
 
 @dataclass(frozen=True)
@@ -40,7 +41,7 @@ def _clip(path: Path, from_ts: float, to_ts: float, fps: int) -> Clip:
     half = Fraction(1, 2 * fps)
     lo = Fraction(from_ts).limit_denominator(1_000_000) - half
     hi = Fraction(to_ts).limit_denominator(1_000_000) - half
-    src = av.open(str(path))
+    src = av.open(str(regular_file(path)))  # a FIFO would block PyAV for ever
     try:
         if not src.streams.video:
             raise DatasetError(f"{path}: holds no video stream", code="dataset.invalid")

@@ -31,6 +31,7 @@ from typing import Any
 
 from openral_data.errors import DatasetError
 from openral_data.formats import atomic
+from openral_data.formats.jsonfile import parse_json
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.paths import contained, contained_all
 
@@ -84,8 +85,8 @@ def _files(root: Path, data: Any, where: Path) -> Digests:
 def _load(path: Path) -> Any:
     raw = atomic.read_control(path)
     try:
-        return json.loads(raw)
-    except (ValueError, UnicodeDecodeError) as exc:
+        return parse_json(raw)
+    except ValueError as exc:
         raise DatasetError(f"{path}: invalid JSON: {exc}", code="dataset.invalid") from None
 
 

@@ -22,6 +22,7 @@ from openral_data.formats.lerobot_v3.features import camera_key, camera_keys
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE, decode_image, image_keys
 from openral_data.formats.lerobot_v3.masks import decode_mask, is_mask
 from openral_data.formats.parquetfile import read_table
+from openral_data.paths import regular_file
 from openral_data.types import Frame
 
 
@@ -110,7 +111,7 @@ def _decode(
     path: Path, start: float, n: int, fps: int, depth: DepthSettings | None = None
 ) -> Iterator[npt.NDArray[Any]]:
     half = 0.5 / fps
-    with av.open(str(path)) as container:
+    with av.open(str(regular_file(path))) as container:  # a FIFO would block PyAV for ever
         if not container.streams.video:
             raise DatasetError(f"{path}: holds no video stream", code="dataset.invalid")
         stream = container.streams.video[0]

@@ -9,6 +9,7 @@ from typing import Any
 from openral_data.errors import DatasetError
 
 MAX_FPS = 1000  # as a scene or mapping may declare
+MAX_FEATURES = 10_000  # ours have tens; a million would make every reader (and lerobot) crawl
 _COUNTS = ("total_episodes", "total_frames", "total_tasks")
 _TEXTS = ("codebase_version", "robot_type", "data_path", "video_path")
 
@@ -35,6 +36,8 @@ def check_info(info: Any, path: Path) -> dict[str, Any]:
     features = info.get("features")
     if not isinstance(features, dict):
         raise _bad(path, "features", "must be an object of feature name -> description", features)
+    if len(features) > MAX_FEATURES:
+        raise DatasetError(f"{path}: features: more than {MAX_FEATURES} features", code="dataset.invalid")
     for key, feature in features.items():
         if not isinstance(feature, dict):
             raise _bad(path, f"features.{key}", "must be an object (dtype, shape, names)", feature)

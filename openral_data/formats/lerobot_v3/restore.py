@@ -6,7 +6,6 @@ on disk is committed, and the state rebuilt here is exactly what the writer held
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -18,6 +17,7 @@ import pyarrow.parquet as pq
 
 from openral_data.errors import DatasetError
 from openral_data.formats import atomic
+from openral_data.formats.jsonfile import parse_json
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.depth import CameraStats, camera_stats_from_json
 from openral_data.formats.lerobot_v3.layout import FilePos, FileRun
@@ -182,12 +182,12 @@ def _image_stats(root: Path, names: list[str], has_rows: bool) -> dict[str, Came
         return {}
     path = root / layout.IMAGE_HIST_PATH
     try:
-        saved = json.loads(atomic.read_control(path))  # a control file: no symlink, no FIFO
+        saved = parse_json(atomic.read_control(path))  # a control file: no symlink, no FIFO, bounded
     except FileNotFoundError:
         raise DatasetError(
             f"{path}: missing: cannot continue this dataset's camera statistics exactly", code="dataset.incomplete"
         ) from None
-    except (ValueError, UnicodeDecodeError) as exc:
+    except ValueError as exc:
         raise DatasetError(f"{path}: invalid JSON: {exc}", code="dataset.invalid") from None
     if not isinstance(saved, dict):
         raise DatasetError(f"{path}: not a JSON object", code="dataset.invalid")

@@ -22,6 +22,7 @@ from openral_data.edit.ops import summed_histograms, write_selection
 from openral_data.edit.source import SourceDataset
 from openral_data.errors import ExecutorError, OpenralError, UsageError
 from openral_data.formats import atomic
+from openral_data.formats.jsonfile import load_json, parse_json
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.mcap import MCAP_SUBDIR, finished_bags
 from openral_data.formats.staging import Staging
@@ -109,7 +110,7 @@ def kept_worker_episodes(workdir: Path) -> int:
     total = 0
     for info in sorted(workdir.glob(f"worker-*/{layout.INFO_PATH}")):
         try:
-            total += int(json.loads(info.read_text())["total_episodes"])
+            total += int(load_json(info)["total_episodes"])
         except (OSError, ValueError, KeyError, TypeError):
             continue
     return total
@@ -176,7 +177,7 @@ def _keep_settings(first_worker: Path, staging: Path, total: int) -> None:
     path = first_worker / layout.RECORD_PATH
     if not path.is_file():
         return
-    settings = json.loads(atomic.read_control(path))
+    settings = parse_json(atomic.read_control(path))
     settings["options"]["n_episodes"] = total
     dest = staging / layout.RECORD_PATH
     dest.parent.mkdir(parents=True, exist_ok=True)
