@@ -63,10 +63,10 @@ def stats(
 
     A dataset folder named `report` or `recompute` is given as `./report`, `./recompute`."""
     from openral_data.metrics.command import StatsOptions
-    from openral_data.paths import check_creatable
+    from openral_data.paths import check_file_output
 
     if plot is not None:
-        check_creatable(plot, "--plot", folder=False)
+        check_file_output(plot, "--plot")
     paths = [str(resolve_dataset(p)) for p in paths]  # a repo id is its cached folder; globs stay globs
     opts = StatsOptions(paths, by, sql, fmt.value, plot, memory_limit, health, trust_episode_stats, full_scan)
     print(stats_text(opts))

@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 
 from openral_data.text import printable
-from tests.support.home import isolated_home
 from tests.support.inproc import Run, run_inproc
+from tests.support.recorded import record_small
 
 EVIL_TASK = "go [/] [bold]x:x: \x1b]8;;http://evil\x07link\x1b]8;;\x07 \x1b[2J\nforged: line"
 EVIL_KEY = "observation.images.fr\x1b[2Jont"  # a camera key with a control sequence
@@ -24,15 +24,10 @@ CAMERA = "observation.images.front"
 def evil(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A recorded mock dataset whose one task is EVIL_TASK (set through `tasks rename`, so it stays healthy)."""
     base = tmp_path_factory.mktemp("evil_text")
-    with isolated_home(base):
-        rec = run_inproc(
-            "record", "--n-episodes", "2", "--max-steps", "3", "--codec", "h264", "--out", str(base / "ds")
-        )
-        assert rec.returncode == 0, rec.stderr
-        renamed = run_inproc(
-            "tasks", "rename", str(base / "ds"), "--from", "pick up the mock cube", "--to", EVIL_TASK,
-            "--out", str(base / "evil"),
-        )  # fmt: skip
+    ds = record_small(base)
+    renamed = run_inproc(
+        "tasks", "rename", str(ds), "--from", "pick up the mock cube", "--to", EVIL_TASK, "--out", str(base / "evil")
+    )
     assert renamed.returncode == 0, renamed.stderr
     return base / "evil"
 
