@@ -6,11 +6,13 @@ never a raw ESC byte on stdout or stderr."""
 from __future__ import annotations
 
 import json
+import logging
 import shutil
 from pathlib import Path
 
 import pytest
 
+from openral_data.cli.logs import PrintableFormatter, TextFormatter
 from openral_data.text import printable
 from tests.support.inproc import Run, run_inproc
 from tests.support.recorded import record_small
@@ -99,3 +101,10 @@ def test_printable_leaves_good_text_alone() -> None:
     assert printable(good) == good
     assert printable("a\nb\tc\x1b\x7f\x9b\u202e") == "a\\nb\\tc\\x1b\\x7f\\x9b\\u202e"
     assert printable("a\nb\x1b", keep_newlines=True) == "a\nb\\x1b"
+
+
+@pytest.mark.parametrize("formatter", [TextFormatter(), PrintableFormatter()], ids=["text", "rich"])
+def test_log_records_quoting_dataset_text_are_escaped(formatter: logging.Formatter) -> None:
+    record = logging.LogRecord("openral_data.test", logging.WARNING, __file__, 1, "task %s", (EVIL_TASK,), None)
+    line = formatter.format(record)
+    assert "\x1b" not in line and "\x07" not in line and "\\x1b[2J" in line
