@@ -149,5 +149,6 @@ def test_ctrl_c_while_importing_exits_130_without_traceback(entry: str, tmp_path
             break
     _, rest = proc.communicate(timeout=60)
     stderr = "".join(seen) + rest
+    assert seen and seen[-1].split("|")[-1].strip() == "typer", "typer's import was never reported"
     assert "Traceback" not in stderr, stderr[-2000:]
     assert proc.returncode == 130, stderr[-3000:]
