@@ -22,9 +22,14 @@ def write_error(
 @contextmanager
 def disk_errors(root: Path, doing: str) -> Iterator[None]:
     """A full or failing disk (ENOSPC, EIO, EROFS, EDQUOT) inside the block becomes one `DiskError` line about
-    `root` (an edit's output, a dataset being locked); any other OSError passes unchanged."""
+    `root` (an edit's output; an in-place edit's dataset rather than its hidden staging folder); any other
+    OSError passes unchanged."""
     try:
         yield
+    except DiskError as exc:
+        if exc.path == root:
+            raise
+        raise DiskError(root, exc.errno, doing) from exc
     except OSError as exc:
         if exc.errno not in DISK_ERRNOS:
             raise
