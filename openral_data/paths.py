@@ -107,3 +107,12 @@ def check_creatable(out: Path, source: str, *, folder: bool = True) -> None:
             if not parent.is_dir():
                 raise UsageError(f"{out}: {source}: cannot create it, {parent} is a file, not a folder")
             return
+
+
+def check_file_output(out: Path, source: str) -> None:
+    """`check_creatable` for a file option (`stats --plot`, `view --save`), and the nearest existing folder on its
+    way must be writable: a read-only mount or a folder without permission is one line before any work."""
+    check_creatable(out, source, folder=False)
+    parent = next((p for p in out.absolute().parents if p.is_dir()), None)
+    if parent is not None and not os.access(parent, os.W_OK):
+        raise UsageError(f"{out}: {source}: cannot write into {parent} (read-only or no permission)")

@@ -1,5 +1,5 @@
 """`python -m openral_data.cli` runs the command line."""
 
-from openral_data.cli.app import main
+from openral_data.cli import main
 
 main()

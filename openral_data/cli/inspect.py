@@ -167,7 +167,7 @@ def view(
 
     path = resolve_dataset(path)
     if save is not None:
-        paths.check_creatable(save, "--save", folder=False)
+        paths.check_file_output(save, "--save")
     print_line(run_view(ViewOptions(path, episode, save, results)))
 
 

@@ -19,6 +19,7 @@ from rich.logging import RichHandler
 
 from openral_data.cli import terminal
 from openral_data.cli.terminal import err_console
+from openral_data.text import printable
 
 PACKAGE = "openral_data"
 # the attributes every LogRecord has: anything else on a record came from `extra=`
@@ -58,7 +59,14 @@ class TextFormatter(logging.Formatter):
         stamp = datetime.fromtimestamp(record.created, UTC).isoformat(timespec="milliseconds").replace("+00:00", "Z")
         extra = "".join(f" {k}={v}" for k, v in fields(record).items())
         text = f"{stamp} {record.levelname} {record.name}: {record.getMessage()}{extra}"
-        return " ".join(text.splitlines())
+        return printable(" ".join(text.splitlines()))
+
+
+class PrintableFormatter(logging.Formatter):
+    """The rich handler's message, control characters (from dataset text a message quotes) shown escaped."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        return printable(super().format(record), keep_newlines=True)
 
 
 def level_for(verbose: int, quiet: bool) -> int:
@@ -82,6 +90,7 @@ def configure(verbose: int, quiet: bool, log_format: LogFormat) -> None:
         handler.setFormatter(JsonFormatter())
     elif err_console.is_terminal:
         handler = RichHandler(console=err_console, show_path=False, markup=False, rich_tracebacks=False)
+        handler.setFormatter(PrintableFormatter())
     else:
         handler = logging.StreamHandler(sys.stderr)
         handler.setFormatter(TextFormatter())

@@ -15,7 +15,9 @@ from rich.table import Table as RichTable
 from openral_data import paths as paths_
 from openral_data.cli.defaultgroup import DefaultCommandGroup
 from openral_data.cli.edit import report
+from openral_data.cli.terminal import shown
 from openral_data.formats.repo_id import resolve_dataset
+from openral_data.text import printable
 
 if TYPE_CHECKING:
     from openral_data.metrics.command import StatsOptions
@@ -61,10 +63,10 @@ def stats(
 
     A dataset folder named `report` or `recompute` is given as `./report`, `./recompute`."""
     from openral_data.metrics.command import StatsOptions
-    from openral_data.paths import check_creatable
+    from openral_data.paths import check_file_output
 
     if plot is not None:
-        check_creatable(plot, "--plot", folder=False)
+        check_file_output(plot, "--plot")
     paths = [str(resolve_dataset(p)) for p in paths]  # a repo id is its cached folder; globs stay globs
     opts = StatsOptions(paths, by, sql, fmt.value, plot, memory_limit, health, trust_episode_stats, full_scan)
     print(stats_text(opts))
@@ -85,25 +87,27 @@ def recompute_cmd(
 
 
 def stats_text(opts: StatsOptions) -> str:
-    """What `stats` prints: the tables in `opts.fmt`."""
+    """What `stats` prints: the tables in `opts.fmt`, dataset text (tasks, SQL results) with control characters
+    escaped (JSON escapes its own)."""
     from openral_data.metrics.command import stats_tables
     from openral_data.metrics.render import render
 
     tables = stats_tables(opts)
-    return render_table(tables) if opts.fmt == "table" else render(tables, opts.fmt)
+    return render_table(tables) if opts.fmt == "table" else printable(render(tables, opts.fmt), keep_newlines=True)
 
 
 def render_table(tables: Sequence[Table]) -> str:
-    """The tables as boxed text, 200 columns wide, long cells folded (never cut)."""
+    """The tables as boxed text, 200 columns wide, long cells folded (never cut); every name and cell literal
+    (a task reading `[/]` or `:x:` is shown as such)."""
     from openral_data.metrics.render import cell
 
-    console = Console(file=io.StringIO(), width=200, force_terminal=False, color_system=None)
+    console = Console(file=io.StringIO(), width=200, force_terminal=False, color_system=None, emoji=False)
     for t in tables:
-        rich = RichTable(title=t.name, title_justify="left")
+        rich = RichTable(title=shown(t.name), title_justify="left")
         for c in t.columns:
-            rich.add_column(c, overflow="fold")
+            rich.add_column(shown(c), overflow="fold")
         for r in t.rows:
-            rich.add_row(*(cell(v) for v in r))
+            rich.add_row(*(shown(cell(v)) for v in r))
         if not t.rows:
             rich.add_row("(none)", *("" for _ in t.columns[1:]))
         console.print(rich)

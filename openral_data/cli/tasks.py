@@ -13,6 +13,7 @@ from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import print_line
 from openral_data.episodes import format_episodes
 from openral_data.formats.repo_id import resolve_dataset
+from openral_data.text import printable
 
 tasks_app = typer.Typer(
     no_args_is_help=True,
@@ -35,7 +36,7 @@ def list_cmd(dataset: Dataset, json: JsonFlag = False) -> None:
         print_json("tasks list", {"dataset": str(dataset), "tasks": items})
         return
     for u in uses:
-        print_line(f"{u.index:>4}  episodes {format_episodes(u.episodes) or '-':<12}  {u.task}")
+        print_line(f"{u.index:>4}  episodes {format_episodes(u.episodes) or '-':<12}  {printable(u.task)}")
 
 
 @tasks_app.command("rename")

@@ -1,12 +1,20 @@
-"""What every command prints with: the two consoles, the progress bar and the `key: value` summary rows."""
+"""What every command prints with: the two consoles, the progress bar and the `key: value` summary rows.
+
+Dataset text is data (docs/threat-model.md): the consoles never turn `:x:` into an emoji, lines and rows are
+printed without rich markup, and every control character in them is shown escaped (`openral_data.text.printable`);
+a table cell holding dataset text is a `shown(...)` Text, never markup.
+"""
 
 from __future__ import annotations
 
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.text import Text
 
-console = Console()
-err_console = Console(stderr=True)
+from openral_data.text import printable
+
+console = Console(emoji=False)
+err_console = Console(stderr=True, emoji=False)
 # what a Ctrl-C during `record` leaves (sim and --hal alike; see openral_data/record/session.py)
 INTERRUPTED_RECORDING = "interrupted: the episode in flight was discarded, finished episodes are kept"
 quiet = False  # `-q`: no progress bar (set by the root callback, see openral_data/cli/logs.py)
@@ -32,12 +40,19 @@ def progress_bar(what: str, unit: str, *fields: str) -> Progress:
 def print_rows(title: str, rows: list[tuple[str, str]]) -> None:
     """`key: value` lines: readable in a terminal, greppable in logs, never wrapped or truncated."""
     width = max(len(k) for k, _ in rows)
-    console.print(title, markup=False, highlight=False, soft_wrap=True)
+    console.print(printable(title), markup=False, highlight=False, soft_wrap=True)
     for key, value in rows:
-        console.print(f"  {key:<{width}}  {value}", markup=False, highlight=False, soft_wrap=True)
+        console.print(f"  {key:<{width}}  {printable(value)}", markup=False, highlight=False, soft_wrap=True)
 
 
 def print_line(text: str, *, err: bool = False) -> None:
-    """One line exactly as given: no markup, no highlighting, never wrapped at the terminal width (a long dataset
-    path piped to a log or a test must not split the line)."""
-    (err_console if err else console).print(text, markup=False, highlight=False, soft_wrap=True)
+    """One line as given: no markup, no highlighting, never wrapped at the terminal width (a long dataset path
+    piped to a log or a test must not split the line); control characters but `\\n` shown escaped."""
+    (err_console if err else console).print(
+        printable(text, keep_newlines=True), markup=False, highlight=False, soft_wrap=True
+    )
+
+
+def shown(text: str) -> Text:
+    """`text` (a dataset's, a user's) as a table cell or header: literal, no markup, no emoji, controls escaped."""
+    return Text(printable(text))

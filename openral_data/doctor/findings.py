@@ -6,6 +6,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
+from openral_data.text import printable
+
 Severity = Literal["error", "warning"]
 
 
@@ -18,8 +20,9 @@ class Finding:
     repairable: bool = False
 
     def line(self) -> str:
+        """One line: a message quoting dataset text (a feature key) shows its line breaks and controls escaped."""
         tag = " [repairable]" if self.repairable else ""
-        return f"{self.severity:<7} {self.where}: {self.message}{tag}"
+        return printable(f"{self.severity:<7} {self.where}: {self.message}{tag}")
 
     def to_json(self) -> dict[str, object]:
         """One element of `doctor --json`'s `findings`."""

@@ -24,6 +24,7 @@ from openral_data.formats.lerobot_v3.lock import DatasetLock
 from openral_data.formats.lerobot_v3.provenance import EditRecord, EditSource, Origin
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
 from openral_data.formats.staging import Staging, check_new_output
+from openral_data.formats.write_errors import disk_errors
 from openral_data.types import DatasetSchema
 
 _DATASET_ENTRIES = {"meta", "data", "videos", ".openral"}
@@ -114,7 +115,7 @@ def write_selection(
     change = rewrite or Rewrite()
     provenance = _provenance(selection, op, change)
     staged = Staging(out, f"openral-data {op}")
-    with staged as staging:
+    with disk_errors(out, f"writing the {op} output"), staged as staging:
         writer = EpisodeAssembler(
             staging,
             change.schema or first.schema,
@@ -225,7 +226,8 @@ def write_edit(
     old = dataset.parent / f".{dataset.name}.replaced-{os.getpid()}"
     command = f"episodes {op}" if op in ("delete", "filter") else op  # `tasks rename`, `stats recompute`, …
     staged = Staging(dataset, f"openral-data {command} --in-place")
-    with DatasetLock(dataset, f"{command} --in-place"), staged as new:  # no recording may start meanwhile
+    lock = DatasetLock(dataset, f"{command} --in-place")
+    with lock, disk_errors(dataset, f"replacing it by its {op} edit"), staged as new:  # no recording meanwhile
         result = write_selection(keep, new, op, rewrite=rewrite)
         staged.replace_existing(old)  # the input stays whole (under `old`) until the new dataset took its name
     return EditResult(given, result.episodes, result.frames)

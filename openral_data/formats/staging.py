@@ -110,11 +110,16 @@ class Staging:
     def replace_existing(self, aside: Path) -> None:
         """fsync, move the existing `out` to `aside`, rename the staging folder to `out`, then remove `aside`.
 
-        Killed between the two renames, the old `out` is whole under `aside` (a name `clean_orphans` never takes).
+        Killed between the two renames, the old `out` is whole under `aside` (a name `clean_orphans` never takes);
+        a failed second rename (EIO) puts it back under its name.
         """
         fsync_tree(self.path)
         os.replace(self.out, aside)
-        os.replace(self.path, self.out)
+        try:
+            os.replace(self.path, self.out)
+        except OSError:
+            os.replace(aside, self.out)
+            raise
         self._close()
         fsync_dir(self.out.parent)
         shutil.rmtree(aside)

@@ -24,6 +24,7 @@ from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.provenance import EditRecord, Origin, Provenance, read_provenance
 from openral_data.formats.lerobot_v3.reader import DatasetSummary, read_episodes, read_info, summarize
 from openral_data.metrics.intervals import wilson
+from openral_data.text import printable
 from openral_data.version import __version__
 
 TAGS = ["LeRobot", "openral-data"]
@@ -203,8 +204,9 @@ def _list(value: Any) -> list[Any]:
 
 
 def _inline(text: str) -> str:
-    """`text` on one line (a task or an id from the dataset must not break the card's Markdown)."""
-    return " ".join(str(text).split())
+    """`text` on one line (a task or an id from the dataset must not break the card's Markdown), its control
+    characters shown escaped (dataset text is data: no terminal sequence reaches the card or `push --dry-run`)."""
+    return printable(" ".join(str(text).split()))
 
 
 def _cell(value: Any) -> str:

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 import duckdb
 
-from openral_data.errors import OutputExists, UsageError
+from openral_data.errors import OutputExists, UsageError, WriteError
 from openral_data.formats.lerobot_v3.features import ACTION
 from openral_data.metrics.report import GROUP_NUMBERS, Report
 from openral_data.metrics.sources import DatasetSource
@@ -114,8 +114,13 @@ def save_plot(path: Path, report: Report, con: duckdb.DuckDBPyConnection, datase
     import matplotlib.pyplot as plt
 
     fig = plot_figure(report, action_histograms(con, datasets, group_keys(report)))
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)  # as `view --save` does
+        fig.savefig(path, dpi=100)
+    except OSError as exc:  # a full disk, a folder gone read-only since the check
+        raise WriteError(f"{path}: --plot: {exc.strerror or exc}") from None
+    finally:
+        plt.close(fig)
 
 
 def plot_figure(report: Report, hists: Sequence[Histogram]) -> Figure:

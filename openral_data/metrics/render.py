@@ -11,12 +11,14 @@ from collections.abc import Sequence
 from typing import Any
 
 from openral_data.metrics.report import Table, clean
+from openral_data.text import printable
 
 DATA_FORMATS = ("json", "csv", "markdown")  # what `render` writes
 FORMATS = ("table", *DATA_FORMATS)  # `stats --format`
 
 
 def cell(value: Any) -> str:
+    """A value as one line of text: `-` for none, `yes`/`no`, 4 significant digits, controls escaped."""
     if value is None:
         return "-"
     if isinstance(value, bool):
@@ -27,7 +29,7 @@ def cell(value: Any) -> str:
         return f"{value:.4g}"
     if isinstance(value, list | tuple):
         return "; ".join(cell(v) for v in value)
-    return str(value)
+    return printable(str(value))
 
 
 def render(tables: Sequence[Table], fmt: str) -> str:

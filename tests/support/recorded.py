@@ -7,6 +7,7 @@ from typing import Any
 
 from tests.support.cli import run_cli
 from tests.support.home import isolated_home
+from tests.support.inproc import run_inproc
 from tests.support.scenes import mock_scene, write_yaml
 
 
@@ -20,4 +21,13 @@ def record_mock_cli(base: Path, success_after: list[int], **scene: Any) -> Path:
     with isolated_home(base):
         done = run_cli("record", "--scene", str(path), "--out", str(out), "--codec", "h264")
     assert done.returncode == 0, done.stderr
+    return out
+
+
+def record_small(base: Path) -> Path:
+    """`record` (in-process, h264) of 2 mock episodes of 3 steps in a project home under `base`; returns `base/ds`."""
+    out = base / "ds"
+    with isolated_home(base):
+        run = run_inproc("record", "--n-episodes", "2", "--max-steps", "3", "--codec", "h264", "--out", str(out))
+    assert run.returncode == 0, run.stderr
     return out

@@ -15,7 +15,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from types import TracebackType
 
-from openral_data.errors import DatasetBusy, DatasetError
+from openral_data.errors import DISK_ERRNOS, DatasetBusy, DatasetError, DiskError
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import layout
 
@@ -30,6 +30,8 @@ class DatasetLock:
         self._fd: int | None = None
 
     def acquire(self) -> DatasetLock:
+        """Take the lock; a read-only dataset, or a full or failing disk while creating or stamping the lock file,
+        is one line."""
         try:
             return self._acquire()
         except OSError as exc:
@@ -38,6 +40,8 @@ class DatasetLock:
                     f"{self.root}: cannot be written ({exc.strerror}); commands that only read it still work",
                     code="dataset.readonly",
                 ) from None
+            if exc.errno in DISK_ERRNOS:
+                raise DiskError(self.root, exc.errno, f"taking its writer lock ({layout.LOCK_PATH})") from exc
             raise
 
     def _acquire(self) -> DatasetLock:
@@ -58,9 +62,13 @@ class DatasetLock:
             if not same:
                 os.close(fd)
                 continue
-            os.ftruncate(fd, 0)
-            stamp = datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
-            os.pwrite(fd, f"pid {os.getpid()}, {self.purpose}, since {stamp}\n".encode(), 0)
+            try:
+                os.ftruncate(fd, 0)
+                stamp = datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
+                os.pwrite(fd, f"pid {os.getpid()}, {self.purpose}, since {stamp}\n".encode(), 0)
+            except BaseException:
+                os.close(fd)  # let go of the lock we could not stamp
+                raise
             self._fd = fd
             return self
 

@@ -1,0 +1,26 @@
+"""Dataset text is data: `printable` makes a string from a file (a task, a feature key, an id) safe to show.
+
+A crafted dataset may put terminal control sequences in its text (`ESC ]8;;http://evil BEL` makes a link,
+`ESC [2J` clears the screen) or line breaks that forge extra output lines. Wherever such text is printed or
+published (the CLI's tables, rows and error lines, the Hub card), it goes through `printable` first; the CLI
+also shows it without rich markup or emoji codes (openral_data/cli/terminal.py).
+"""
+
+from __future__ import annotations
+
+import re
+
+# C0 and C1 controls, DEL, the Unicode line/paragraph separators and the bidirectional overrides (which reorder
+# what a reader sees, "Trojan Source")
+_CONTROL = re.compile("[\x00-\x1f\x7f-\x9f\u2028\u2029\u200e\u200f\u202a-\u202e\u2066-\u2069]")
+
+
+def printable(text: str, *, keep_newlines: bool = False) -> str:
+    """`text` with every control character shown as its Python escape (`\\x1b`, `\\n`, `\\u202e`), so none
+    reaches a terminal or breaks a line; with `keep_newlines`, `\\n` stays (multi-line output of our own)."""
+
+    def shown(match: re.Match[str]) -> str:
+        ch = match.group()
+        return ch if keep_newlines and ch == "\n" else repr(ch)[1:-1]
+
+    return _CONTROL.sub(shown, text)
