@@ -9,6 +9,7 @@ below ran its payload (or loaded what it named) before the fix.
 from __future__ import annotations
 
 import json
+import shutil
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -77,14 +78,12 @@ def planted(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Path, Pa
 @pytest.mark.slow
 def test_resume_never_loads_an_rskill_planted_in_the_dataset(planted: tuple[Path, Path, Path], tmp_path: Path) -> None:
     _, source, canary = planted
-    out = tmp_path / "ds"
-    import shutil
-
-    shutil.copytree(source, out)
+    out = shutil.copytree(source, tmp_path / "ds")
     _set_option(out, "rskill", str(out / "evil"))
     before = snapshot(out)
-    _one_error(_resume(out), f"{out / layout.RECORD_PATH}: rskill: ", "not on the manifest search path")
-    assert _absent(canary)
+    refused = _resume(out)
+    assert _absent(canary)  # (before the fix: the policy loaded beside the scene and its preprocessor ran it)
+    _one_error(refused, f"{out / layout.RECORD_PATH}: rskill: ", "not on the manifest search path")
     assert snapshot(out) == before
 
 
@@ -101,11 +100,11 @@ def test_a_processor_step_outside_lerobots_registry_is_refused(
     try:
         done = run_inproc("record", "--scene", "mock_replay", "--rskill", "evil", "--out", str(tmp_path / "o"))
     finally:
-        rskill.unlink()
+        shutil.rmtree(rskill.parent)
     pre = source / "evil/ckpt/policy_preprocessor.json"
     steps = len(json.loads(pre.read_text())["steps"])
-    _one_error((done.returncode, done.stderr), f"{pre}: steps[{steps - 1}]: ", f"'{POPEN}' is not a registered lerobot")
     assert _absent(canary)
+    _one_error((done.returncode, done.stderr), f"{pre}: steps[{steps - 1}]: ", f"'{POPEN}' is not a registered lerobot")
     assert not (tmp_path / "o").exists()
 
 
