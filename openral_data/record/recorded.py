@@ -54,9 +54,15 @@ def trusted(name: str, value: object, digest: object, out: Path, source: Path) -
     if path is not None:
         return str(path)
     again = f"name it again with {flag} to continue"
-    if name != "scene" or not isinstance(digest, str) or not Path(value).is_absolute():
-        what = "an rSkill chooses the policy code we load" if name == "rskill" else "no digest of it was recorded"
-        raise ConfigError(f"{source}: {name}: {value!r} is not on the manifest search path ({what}); {again}")
+    why = None
+    if name != "scene":
+        why = "an rSkill chooses the policy code we load"
+    elif not isinstance(digest, str):
+        why = "no digest of it was recorded"
+    elif not Path(value).is_absolute():
+        why = "a relative path"
+    if why is not None:
+        raise ConfigError(f"{source}: {name}: {value!r} is not on the manifest search path ({why}); {again}")
     scene = Path(value)
     if scene.resolve().is_relative_to(out.resolve()):
         raise ConfigError(f"{source}: {name}: {value!r} lies inside the dataset; {again}")

@@ -156,6 +156,22 @@ def test_resume_refuses_a_changed_or_planted_scene(recorded: Path, tmp_path: Pat
     assert done.returncode == 0, done.stderr
 
 
+def test_recordings_from_before_the_digest(recorded: Path, tmp_path: Path) -> None:
+    """Without `scene_sha256` (older recordings) a scene on the search path still resumes, a file elsewhere must be
+    named again."""
+    path = recorded / layout.RECORD_PATH
+    doc = json.loads(path.read_text())
+    del doc["options"]["scene_sha256"]
+    path.write_text(json.dumps(doc))
+    _one_error(_resume(recorded), f"{path}: scene: ", "no digest of it was recorded); name it again with --scene")
+    out = tmp_path / "ids"
+    args = ["--n-episodes", "1", "--max-steps", "3", "--codec", "h264"]
+    assert run_inproc("record", "--scene", "mock_pick", "--out", str(out), *args).returncode == 0
+    _set_option(out, "scene_sha256", None)
+    done = run_inproc("record", "--resume", "--out", str(out), "--n-episodes", "2")
+    assert done.returncode == 0, done.stderr
+
+
 # --- pipeline files ------------------------------------------------------------------------------------------
 
 
