@@ -48,7 +48,7 @@ KEPT = {
     "instruction": "--instruction",
 }
 RANGES = {"max_steps": (1, MAX_STEPS), "seed": (0, MAX_SEED), "n_episodes": (1, 10**9)}
-DIGEST = "scene_sha256"  # the sha256 of the scene file's bytes, for a scene recorded from a path (`recorded.trusted`)
+DIGEST = "scene_sha256"  # the sha256 of the scene file's bytes: a scene named again must still have it (`recorded`)
 
 
 @dataclass(frozen=True)
@@ -138,7 +138,9 @@ def continue_options(opts: RecordOptions, explicit: frozenset[str]) -> RecordOpt
                 "(leave the option out to continue with the recorded one)"
             )
         if name in ("scene", "rskill"):  # a manifest: never a file the dataset chose (see record/recorded.py)
-            stored = given if name in explicit else recorded.trusted(name, stored, saved.get(DIGEST), opts.out, path)
+            stored = given if name in explicit else recorded.trusted(name, stored, path)
+        if name == "scene" and "scene" in explicit:
+            recorded.unchanged(str(given), saved.get(DIGEST), path)
         changes[name] = stored
     if "n_episodes" not in explicit:
         changes["n_episodes"] = saved.get("n_episodes")

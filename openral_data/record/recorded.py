@@ -1,12 +1,12 @@
 """`record --resume`: which scene and rSkill a recording's `.openral/record.json` may bring back.
 
-`record.json` lies inside the dataset, so it is untrusted (docs/threat-model.md): it could name any file, and an
-rSkill names the policy code and the checkpoint we load. A reference taken from it is used only as a manifest on
-the search path (`openral_data.manifests`): its id, or the exact resolved file of one (what recordings store).
-An rSkill anywhere else is refused; the user names it again with `--rskill`. A scene is data (its type and robot
-are registry ids, its rSkill is the recorded one), so a scene file elsewhere (`--scene PATH`) is used again only
-when it lies outside the dataset and its bytes still have the sha256 the recording stored (`scene_sha256`);
-otherwise the user names it again with `--scene`. These checks run before anything is built or loaded.
+`record.json` lies inside the dataset, so it is untrusted (docs/threat-model.md): it could name any file, and
+its own `scene_sha256` could vouch for any file whose bytes an attacker knows. A reference taken from it is used
+only as a manifest on the search path (`openral_data.manifests`): its id, or the exact resolved file of one (what
+recordings store). Any other scene or rSkill (a path given with `--scene PATH` / `--rskill PATH` when recording)
+is refused; the user names it again with `--scene` / `--rskill`. A scene so named must still have the sha256 the
+recording stored (`unchanged`): that guards the user against continuing a dataset with an edited scene. These
+checks run before anything is built or loaded.
 """
 
 from __future__ import annotations
@@ -41,11 +41,9 @@ def on_search_path(kind: manifests.Kind, value: str) -> Path | None:
     return None
 
 
-def trusted(name: str, value: object, digest: object, out: Path, source: Path) -> str:
-    """The reference `record --resume` may use for the recorded `name` (`scene` or `rskill`) `value`.
-
-    `source` is record.json (named in the refusal), `out` the dataset (a recorded scene inside it is refused).
-    """
+def trusted(name: str, value: object, source: Path) -> str:
+    """The reference `record --resume` may use for the recorded `name` (`scene` or `rskill`) `value`: the
+    search-path manifest it names. `source` is record.json (named in the refusal)."""
     flag = f"--{name}"
     if not isinstance(value, str) or not value:
         raise ConfigError(f"{source}: {name}: not recorded; name it again with {flag}")
@@ -53,26 +51,33 @@ def trusted(name: str, value: object, digest: object, out: Path, source: Path) -
     path = on_search_path(kind, value)
     if path is not None:
         return str(path)
-    again = f"name it again with {flag} to continue"
-    why = None
-    if name != "scene":
-        why = "an rSkill chooses the policy code we load"
-    elif not isinstance(digest, str):
-        why = "no digest of it was recorded"
-    elif not Path(value).is_absolute():
-        why = "a relative path"
-    if why is not None:
-        raise ConfigError(f"{source}: {name}: {value!r} is not on the manifest search path ({why}); {again}")
-    scene = Path(value)
-    if scene.resolve().is_relative_to(out.resolve()):
-        raise ConfigError(f"{source}: {name}: {value!r} lies inside the dataset; {again}")
+    why = (
+        "a scene chooses the simulator and assets we load"
+        if name == "scene"
+        else "an rSkill chooses the policy code we load"
+    )
+    raise ConfigError(
+        f"{source}: {name}: {value!r} is not on the manifest search path ({why}); name it again with {flag} to continue"
+    )
+
+
+def unchanged(scene: str, digest: object, source: Path) -> None:
+    """The scene named again with `--scene` still has the sha256 `digest` the recording stored, if it stored one
+    (recordings before `scene_sha256` did not). `source` is record.json."""
+    if not isinstance(digest, str):
+        return
+    from openral_data.runtime.registry import resolve_scene_path
+
+    path = resolve_scene_path(scene)
     try:
-        now = sha256(scene)
+        now = sha256(path)
     except OSError as exc:
-        raise ConfigError(f"{source}: {name}: {value!r}: {exc.strerror or exc}; {again}") from None
+        raise ConfigError(f"{path}: {exc.strerror or exc}") from None
     if now != digest:
-        raise ConfigError(f"{source}: {name}: {value!r} changed since the recording (sha256 differs); {again}")
-    return value
+        raise ConfigError(
+            f"{source}: scene: {scene!r} changed since the recording (sha256 differs); a dataset continues with "
+            "the scene it was recorded with"
+        )
 
 
 def same(name: str, given: str, stored: object) -> bool:

@@ -143,7 +143,7 @@ def _resolve(opts: RecordOptions) -> _Resolved:
     debug_videos = check_observers(opts, out, resume=opts.resume)
     kept = {
         "scene": str(scene_path.resolve()),
-        output.DIGEST: recorded.sha256(scene_path),  # what lets --resume use a scene file off the search path
+        output.DIGEST: recorded.sha256(scene_path),  # a resume that names the scene again checks it
         "rskill": str(rskill_path.resolve()),
         "robot": opts.robot,
         "seed": base_seed,

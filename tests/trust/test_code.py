@@ -1,13 +1,14 @@
 """#29 class 1: nothing read from a dataset or a pipeline file chooses code.
 
 `record --resume` takes the scene and rSkill from the dataset's `.openral/record.json` only through the manifest
-search path (or, for a scene file, by the sha256 it recorded); a pipeline's `scenes:`/`rskills:` are ids or paths
+search path (a scene or rSkill file elsewhere must be named again); a pipeline's `scenes:`/`rskills:` are ids or paths
 inside its own folder; a lerobot checkpoint's processor steps must be lerobot's registered ones. Each attack
 below ran its payload (or loaded what it named) before the fix.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import shutil
 import time
@@ -18,6 +19,7 @@ import pytest
 import yaml
 
 from openral_data.formats.lerobot_v3 import layout
+from openral_data.schemas.scene import SimScene, load_recordable_scene
 from tests.support.checkpoint import make_act_checkpoint
 from tests.support.home import isolated_home
 from tests.support.inproc import run_inproc
@@ -48,8 +50,8 @@ def _set_option(out: Path, name: str, value: object) -> None:
     path.write_text(json.dumps(doc))
 
 
-def _resume(out: Path) -> tuple[int, str]:
-    done = run_inproc("record", "--resume", "--out", str(out), "--n-episodes", "4")
+def _resume(out: Path, *args: str) -> tuple[int, str]:
+    done = run_inproc("record", "--resume", "--out", str(out), "--n-episodes", "4", *args)
     return done.returncode, done.stderr
 
 
@@ -113,12 +115,18 @@ def test_a_processor_step_outside_lerobots_registry_is_refused(
 
 @pytest.fixture
 def recorded(tmp_path: Path, project: Path) -> Path:
-    """A one-episode mock recording of a scene file outside the search path (`--scene PATH`)."""
+    """A one-episode mock recording of a scene file outside the search path (`--scene PATH`): `tmp_path/ds`,
+    recorded from `tmp_path/scene.yaml` (`_named`)."""
     scene = write_yaml(tmp_path / "scene.yaml", mock_scene(success_after=3, max_steps=4, n_episodes=1))
     out = tmp_path / "ds"
     done = run_inproc("record", "--scene", str(scene), "--out", str(out), "--codec", "h264")
     assert done.returncode == 0, done.stderr
     return out
+
+
+def _named(recorded: Path) -> tuple[str, str]:
+    """`--scene` naming the scene file `recorded` was made from again, as a resume of it must."""
+    return "--scene", str(recorded.parent / "scene.yaml")
 
 
 @pytest.mark.parametrize("where", ["home", "absolute", "relative"])
@@ -132,38 +140,58 @@ def test_resume_refuses_an_rskill_path_from_record_json(
     value = {"home": "~/rskills/random-mock", "absolute": str(outside), "relative": "elsewhere"}[where]
     _set_option(recorded, "rskill", value)
     before = snapshot(recorded)
-    _one_error(_resume(recorded), f"{recorded / layout.RECORD_PATH}: rskill: ", "--rskill")
+    _one_error(_resume(recorded, *_named(recorded)), f"{recorded / layout.RECORD_PATH}: rskill: ", "--rskill")
     assert snapshot(recorded) == before
 
 
-def test_resume_refuses_a_changed_or_planted_scene(recorded: Path, tmp_path: Path) -> None:
+@pytest.mark.parametrize("where", ["outside", "inside"])
+def test_resume_refuses_a_scene_file_from_record_json(
+    recorded: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, where: str
+) -> None:
+    """A scene YAML the dataset points at, with the true sha256 of its bytes (record.json vouches for itself, so
+    it could name any file whose bytes an attacker knows): refused before it is read. Before the fix the one
+    outside the dataset was loaded and recorded into it."""
+    other = mock_scene(success_after=2, max_steps=3, n_episodes=1)
+    scene = write_yaml((tmp_path if where == "outside" else recorded) / "other.yaml", other)
+    _set_option(recorded, "scene", str(scene))
+    _set_option(recorded, "scene_sha256", hashlib.sha256(scene.read_bytes()).hexdigest())
+    loaded: list[Path] = []
+
+    def spy(path: Path) -> SimScene:
+        loaded.append(path)
+        return load_recordable_scene(path)
+
+    monkeypatch.setattr("openral_data.record.sim.load_recordable_scene", spy)
+    before = snapshot(recorded)
+    record_json = recorded / layout.RECORD_PATH
+    _one_error(_resume(recorded), f"{record_json}: scene: {str(scene)!r} is not on the manifest search path", "--scene")
+    assert loaded == [] and snapshot(recorded) == before
+
+
+def test_resume_with_the_scene_named_again(recorded: Path, tmp_path: Path) -> None:
+    """The user names the scene file again: used, if its bytes still have the sha256 the recording stored (a
+    dataset continues with the scene it was recorded with)."""
     record_json = recorded / layout.RECORD_PATH
     scene = tmp_path / "scene.yaml"
-    _set_option(recorded, "scene", str(scene))  # (record.json as _set_option writes it)
     original = scene.read_text()
     scene.write_text(original.replace("success_after", "success_after ", 1))  # same meaning, other bytes
     before = snapshot(recorded)
-    _one_error(_resume(recorded), f"{record_json}: scene: ", "changed since the recording (sha256 differs)")
-    planted = recorded / "scene.yaml"  # the recorded digest, but a copy inside the dataset
-    planted.write_text(original)
-    _set_option(recorded, "scene", str(planted))
-    _one_error(_resume(recorded), f"{record_json}: scene: ", "lies inside the dataset")
-    planted.unlink()
-    _set_option(recorded, "scene", str(scene))
+    _one_error(_resume(recorded, *_named(recorded)), f"{record_json}: scene: ", "changed since the recording")
     scene.write_text(original)
     assert snapshot(recorded) == before
-    done = run_inproc("record", "--resume", "--out", str(recorded), "--n-episodes", "2")  # the good case goes on
+    done = run_inproc("record", "--resume", "--out", str(recorded), "--n-episodes", "2", *_named(recorded))
     assert done.returncode == 0, done.stderr
 
 
 def test_recordings_from_before_the_digest(recorded: Path, tmp_path: Path) -> None:
-    """Without `scene_sha256` (older recordings) a scene on the search path still resumes, a file elsewhere must be
-    named again."""
+    """Without `scene_sha256` (older recordings) a scene on the search path still resumes (record.json holds the
+    resolved path of its file), a file elsewhere is named again."""
     path = recorded / layout.RECORD_PATH
     doc = json.loads(path.read_text())
     del doc["options"]["scene_sha256"]
     path.write_text(json.dumps(doc))
-    _one_error(_resume(recorded), f"{path}: scene: ", "no digest of it was recorded); name it again with --scene")
+    _one_error(_resume(recorded), f"{path}: scene: ", "not on the manifest search path")
+    assert _resume(recorded, *_named(recorded))[0] == 0
     out = tmp_path / "ids"
     args = ["--n-episodes", "1", "--max-steps", "3", "--codec", "h264"]
     assert run_inproc("record", "--scene", "mock_pick", "--out", str(out), *args).returncode == 0
@@ -224,5 +252,7 @@ def test_max_steps_is_bounded(tmp_path: Path, project: Path, recorded: Path) -> 
     _one_error((done.returncode, done.stderr), f"{spec}: steps[0].record.max_steps", "10000000")
     _set_option(recorded, "max_steps", 1e30)
     before = snapshot(recorded)
-    _one_error(_resume(recorded), f"{recorded / layout.RECORD_PATH}: max_steps: 1e+30", "whole number")
+    _one_error(
+        _resume(recorded, *_named(recorded)), f"{recorded / layout.RECORD_PATH}: max_steps: 1e+30", "whole number"
+    )
     assert snapshot(recorded) == before and not (tmp_path / "o").exists() and not (tmp_path / "w").exists()
