@@ -215,7 +215,9 @@ def plugin_objects(group: str) -> list[tuple[str, str, object]]:
             dist = ep.dist.name if ep.dist is not None else "?"
             try:
                 out.append((ep.name, dist, ep.load()))
-            except Exception as exc:  # noqa: BLE001 - a plug-in's failure, whatever it is, must not break us
+            except KeyboardInterrupt:
+                raise
+            except BaseException as exc:  # noqa: BLE001 - a plug-in's failure (`sys.exit` too) must not break us
                 record_problem(PluginProblem(group, ep.name, dist, one_line(exc)))
         _LOADED[group] = out
     return _LOADED[group]

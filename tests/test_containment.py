@@ -98,7 +98,16 @@ def test_crafted_journal_record_resume_refuses(case: tuple[Path, Path], recorded
     root, canary = case
     _crafted_journal(root, canary)
     with isolated_home(recorded.parent):
-        done = run_cli("record", "--resume", "--out", str(root), "--n-episodes", "3")
+        done = run_cli(
+            "record",
+            "--resume",
+            "--out",
+            str(root),
+            "--n-episodes",
+            "3",
+            "--scene",
+            str(recorded.parent / "scene.yaml"),
+        )
     _refused(done, "renames[0]")
     _untouched(canary)
 

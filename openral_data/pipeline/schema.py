@@ -28,10 +28,11 @@ from pydantic import Field, field_validator, model_validator
 from openral_data.errors import ConfigError, DatasetError
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.mcap import ImageFormat, McapCompression
-from openral_data.paths import safe_name
+from openral_data.manifests import Kind, find
+from openral_data.paths import contained, safe_name
 from openral_data.runtime.sinks import OutputFormat
 from openral_data.schemas.base import StrictModel, load_model
-from openral_data.schemas.scene import MAX_SEED
+from openral_data.schemas.scene import MAX_SEED, MAX_STEPS
 
 _ID = re.compile(r"^[a-z0-9][a-z0-9_-]*$")
 
@@ -52,7 +53,7 @@ class RecordStep(StrictModel):
     rskills: list[str] = Field(min_length=1)
     robots: list[str] | None = None  # None: each scene's own robot
     seeds: Seeds
-    max_steps: int | None = Field(default=None, ge=1)
+    max_steps: int | None = Field(default=None, ge=1, le=MAX_STEPS)
     codec: Codec = "av1"
     formats: list[OutputFormat] = Field(default_factory=lambda: list[OutputFormat](["lerobot"]), min_length=1)
     image_format: ImageFormat = "jpeg"
@@ -202,4 +203,46 @@ def load_pipeline(path: Path) -> Pipeline:
                     f"{' or '.join(kinds)}"
                 )
         seen[step.id] = step.kind
-    return pipeline
+    return _anchored(pipeline, path)
+
+
+_MANIFEST_REFS: tuple[Kind, ...] = ("scenes", "rskills")  # a record step's fields naming manifests
+
+
+def _anchored(pipeline: Pipeline, path: Path) -> Pipeline:
+    """Each record step's scenes and rSkills as manifest ids or as paths inside the pipeline file's folder.
+
+    A pipeline file is untrusted (docs/threat-model.md) and an rSkill names the policy code we load, so a
+    reference is a manifest id on the search path or a file the pipeline's own folder contains (after
+    symlinks, `paths.contained`), anchored there (not at the working directory); anything else is refused here.
+    """
+    folder = path.absolute().parent
+    steps = []
+    for i, step in enumerate(pipeline.steps):
+        spec = step.record
+        if spec is None:
+            steps.append(step)
+            continue
+        where = f"{path}: steps[{i}].record"
+        refs: dict[str, list[str]] = {
+            kind: [_manifest_ref(kind, r, folder, f"{where}.{kind}[{j}]") for j, r in enumerate(getattr(spec, kind))]
+            for kind in _MANIFEST_REFS
+        }
+        steps.append(step.model_copy(update={"record": spec.model_copy(update=refs)}))
+    return pipeline.model_copy(update={"steps": steps})
+
+
+def _manifest_ref(kind: Kind, ref: str, folder: Path, source: str) -> str:
+    """`ref` as a file or folder inside `folder` (its absolute path), else as a manifest id; else refused."""
+    try:
+        inside = contained(folder, ref, source)
+    except DatasetError as exc:
+        if find(kind, ref) is not None:
+            return ref
+        raise ConfigError(f"{exc}; name a manifest id or a path inside the pipeline's folder") from None
+    if inside.exists():
+        return str(inside)
+    if find(kind, ref) is not None:
+        return ref
+    what = "a scene" if kind == "scenes" else "an rSkill"
+    raise ConfigError(f"{source}: {ref!r} is neither {what} id on the manifest search path nor a path in {folder}")

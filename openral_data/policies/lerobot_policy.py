@@ -30,6 +30,7 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.errors import CompatibilityError, ConfigError, ContractViolation
+from openral_data.formats.jsonfile import read_json
 from openral_data.policies.device import resolve_device
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.types import Observation
@@ -37,6 +38,7 @@ from openral_data.types import Observation
 SUPPORTED = ("act", "diffusion")
 IMAGE_PREFIX = "observation.images."
 STATE, ACTION = "observation.state", "action"
+PROCESSOR_FILES = ("policy_preprocessor.json", "policy_postprocessor.json")  # what make_pre_post_processors reads
 
 
 def checkpoint_dir(rskill: RSkillManifest) -> Path:
@@ -51,7 +53,37 @@ def checkpoint_dir(rskill: RSkillManifest) -> Path:
             f"rskill {rskill.id}: policy_extras.checkpoint: {path} is not a lerobot checkpoint directory "
             "(needs config.json and model.safetensors)"
         )
+    check_processor_steps(path)
     return path
+
+
+def check_processor_steps(path: Path) -> None:
+    """Refuse a checkpoint whose saved pre/post-processor names a step lerobot did not register.
+
+    A checkpoint is code: lerobot's `DataProcessorPipeline.from_pretrained` imports and calls any `module.Name`
+    a step's `class` names (`subprocess.Popen` included). Only lerobot's registered steps (`ProcessorStepRegistry`,
+    by `registry_name` or by their own `module.Name`) are let through, before anything of the checkpoint loads.
+    """
+    from lerobot.policies import factory  # noqa: F401 - importing it registers lerobot's processor steps
+    from lerobot.processor.pipeline import ProcessorStepRegistry
+
+    names = ProcessorStepRegistry.list()
+    classes = {f"{c.__module__}.{c.__name__}" for c in map(ProcessorStepRegistry.get, names)}
+    for name in PROCESSOR_FILES:
+        file = path / name
+        try:
+            doc = read_json(file)
+        except FileNotFoundError:
+            continue  # lerobot reports a missing one itself
+        steps = doc.get("steps") if isinstance(doc, dict) else None
+        if not isinstance(steps, list):
+            raise ConfigError(f"{file}: steps: missing or not a list")
+        for i, step in enumerate(steps):
+            named = step.get("registry_name") if isinstance(step, dict) else None
+            cls = step.get("class") if isinstance(step, dict) and named is None else None
+            if not (named in names if named is not None else isinstance(cls, str) and cls in classes):
+                shown = named if named is not None else cls
+                raise ConfigError(f"{file}: steps[{i}]: {shown!r} is not a registered lerobot processor step")
 
 
 def load_config(path: Path, device: str) -> Any:

@@ -12,7 +12,7 @@ from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.runtime.outdir import fresh_out
 from openral_data.runtime.sinks import OutputFormat, check_outputs
-from openral_data.schemas.scene import MAX_SEED, SimScene
+from openral_data.schemas.scene import MAX_SEED, MAX_STEPS, SimScene
 from openral_data.types import EpisodeRecord
 from openral_data.viz import DEFAULT_PORT
 
@@ -101,6 +101,8 @@ def check_run_numbers(n_episodes: int, max_steps: int, seed: int) -> None:
         raise UsageError(f"--n-episodes must be >= 1, got {n_episodes}")
     if max_steps < 1:
         raise UsageError(f"--max-steps must be >= 1, got {max_steps}")
+    if max_steps > MAX_STEPS:
+        raise UsageError(f"--max-steps must be <= {MAX_STEPS}, got {max_steps}")
     if seed < 0:
         raise UsageError(f"--seed must be >= 0, got {seed}")
     if seed + n_episodes - 1 > MAX_SEED:

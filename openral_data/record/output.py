@@ -3,7 +3,8 @@
 A recording keeps its settings in ``OUT/.openral/record.json`` (scene, rSkill, robot, seed, step limit,
 codec, formats, image format, MCAP chunk compression, task, instruction, the requested episode count and the
 dataset schema; the device a neural policy ran on is noted too, but a resume may run on another). `--resume` takes them
-from there; an option given again must match, except `--n-episodes` (the total wanted). Under the dataset's
+from there (the scene and rSkill only as `record/recorded.py` allows: record.json is dataset content, it never
+chooses code); an option given again must match, except `--n-episodes` (the total wanted). Under the dataset's
 writer lock it then recovers each sink (`recovery.recover` for LeRobot, the staging folder for MCAP) and, if a
 kill fell between the sinks' commits of one episode, sets aside the sink that got one episode further (the
 MCAP sink commits first, and a bag is one folder to move).
@@ -28,8 +29,10 @@ from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.recovery import Quarantine, recover
 from openral_data.formats.mcap.writer import MCAP_SUBDIR, PARTIAL, bags_dir, finished_bags
 from openral_data.formats.staging import clean_orphans, unwritable
+from openral_data.record import recorded
 from openral_data.record.options import RecordOptions
 from openral_data.runtime.outdir import check_out
+from openral_data.schemas.scene import MAX_SEED, MAX_STEPS
 from openral_data.types import DatasetSchema
 
 # RecordOptions fields kept for a resume, with the CLI option that sets each (for the refusal message)
@@ -46,6 +49,8 @@ KEPT = {
     "task": "--task",
     "instruction": "--instruction",
 }
+RANGES = {"max_steps": (1, MAX_STEPS), "seed": (0, MAX_SEED), "n_episodes": (1, 10**9)}
+DIGEST = "scene_sha256"  # the sha256 of the scene file's bytes: a scene named again must still have it (`recorded`)
 
 
 @dataclass(frozen=True)
@@ -130,15 +135,25 @@ def continue_options(opts: RecordOptions, explicit: frozenset[str]) -> RecordOpt
         if name == "mcap_compression":
             stored = stored or "none"  # recorded before chunks were compressed
         given = getattr(opts, name)
-        if name in explicit and _normal(name, given) != _normal(name, stored):
+        if name in explicit and not _same(name, given, stored):
             shown = ",".join(given) if name == "formats" else given
             raise ConfigError(
                 f"{path}: {name}: the dataset was recorded with {_show(stored)}; {flag} {shown} differs "
                 "(leave the option out to continue with the recorded one)"
             )
+        if name in ("scene", "rskill"):  # a manifest: never a file the dataset chose (see record/recorded.py)
+            stored = given if name in explicit else recorded.trusted(name, stored, path)
+        if name == "scene" and "scene" in explicit:
+            recorded.unchanged(str(given), saved.get(DIGEST), path)
         changes[name] = stored
     if "n_episodes" not in explicit:
         changes["n_episodes"] = saved.get("n_episodes")
+    for name, (low, high) in RANGES.items():  # numbers from the file: whole and in range before anything runs
+        value = changes.get(name) if name not in explicit else None  # (given ones: `check_run_numbers`)
+        if value is not None and (type(value) is not int or not low <= value <= high):
+            raise DatasetError(
+                f"{path}: {name}: {value!r} is not a whole number in {low}..{high}", code="dataset.invalid"
+            )
     return replace(opts, **changes)
 
 
@@ -158,19 +173,11 @@ def _settings(out: Path) -> dict[str, Any]:
     return doc
 
 
-def _normal(name: str, value: Any) -> Any:
-    """Compare scene/rSkill references by the file they resolve to."""
-    if value is None:
-        return None
-    if name == "scene":
-        from openral_data.runtime.registry import resolve_scene_path
-
-        return str(resolve_scene_path(str(value)).resolve())
-    if name == "rskill":
-        from openral_data.runtime.registry import resolve_rskill
-
-        return str(resolve_rskill(str(value))[1].resolve())
-    return value
+def _same(name: str, given: Any, stored: Any) -> bool:
+    """An option given again equals the recorded one; scene/rSkill references by the file each resolves to."""
+    if name in ("scene", "rskill"):
+        return given is not None and recorded.same(name, str(given), stored)
+    return bool(given == stored)
 
 
 def _show(value: Any) -> str:

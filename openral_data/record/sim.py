@@ -12,7 +12,7 @@ from openral_data.errors import ConfigError, UsageError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig, warm_up
 from openral_data.policies.base import PolicyAdapter
 from openral_data.policies.device import resolve_device, with_device
-from openral_data.record import output
+from openral_data.record import output, recorded
 from openral_data.record.options import (
     ProgressFn,
     RecordOptions,
@@ -143,6 +143,7 @@ def _resolve(opts: RecordOptions) -> _Resolved:
     debug_videos = check_observers(opts, out, resume=opts.resume)
     kept = {
         "scene": str(scene_path.resolve()),
+        output.DIGEST: recorded.sha256(scene_path),  # a resume that names the scene again checks it
         "rskill": str(rskill_path.resolve()),
         "robot": opts.robot,
         "seed": base_seed,

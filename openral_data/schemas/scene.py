@@ -20,6 +20,7 @@ MAX_CAMERA_SIDE = 4096
 MAX_FRAME_PIXELS = 4 * MAX_CAMERA_SIDE**2  # all cameras of one step together (~200 MB of RGB)
 # episode k of a recording uses seed + k; every simulator we drive takes a uint32 seed (numpy's legacy seeding)
 MAX_SEED = 2**32 - 1
+MAX_STEPS = 10**7  # steps per episode (over a day of recording at 100 fps); `1e30` is a typo, not a limit
 _POLICY_KEYS = ("vla", "policy", "rskill")
 
 
@@ -120,7 +121,7 @@ class SceneSpec(StrictModel):
 class TaskSpec(StrictModel):
     scene_id: str
     instruction: str = Field(min_length=1)
-    max_steps: int = Field(default=200, gt=0)
+    max_steps: int = Field(default=200, gt=0, le=MAX_STEPS)
     params: dict[str, Any] = Field(default_factory=dict)
 
 

@@ -70,7 +70,18 @@ def test_save_video_dir_and_resume_continue_the_numbering(tmp_path: Path, projec
     assert _record(scene, out, "--save-video-dir", str(folder)).returncode == 0
     assert existing_videos(folder) == [0, 1] and not (tmp_path / "ds.debug").exists()
     first = (folder / "episode_000000.mp4").read_bytes()
-    done = run_cli("record", "--resume", "--out", str(out), "--n-episodes", "3", "--save-video-dir", str(folder))
+    done = run_cli(
+        "record",
+        "--resume",
+        "--out",
+        str(out),
+        "--n-episodes",
+        "3",
+        "--scene",
+        str(scene),
+        "--save-video-dir",
+        str(folder),
+    )
     assert done.returncode == 0, done.stderr
     assert existing_videos(folder) == [0, 1, 2] and leftovers(folder) == []
     assert (folder / "episode_000000.mp4").read_bytes() == first  # what was there stays as it was

@@ -81,7 +81,7 @@ def test_second_writer_started_while_the_first_builds_exits_2_and_changes_nothin
     assert _seeds(out) == [100, 101, 102]
     assert not (out / layout.LOCK_PATH).exists()
     if workers == 1:  # the first's --resume continues with its own seeds
-        resumed = run_cli("record", "--resume", "--out", str(out), "--n-episodes", "5")
+        resumed = run_cli("record", "--resume", "--out", str(out), "--n-episodes", "5", "--scene", str(scene))
         assert resumed.returncode == 0, resumed.stderr
         verify_mock_dataset(out)
         assert _seeds(out) == [100, 101, 102, 103, 104]
@@ -130,7 +130,7 @@ def test_read_only_parent_and_dataset_give_one_line(tmp_path: Path, project: Pat
         before = snapshot(ro)
         cases = [
             ["record", "--scene", str(scene), "--out", str(ro / "new"), "--codec", "h264"],
-            ["record", "--resume", "--out", str(ro / "ds"), "--n-episodes", "2"],
+            ["record", "--resume", "--out", str(ro / "ds"), "--n-episodes", "2", "--scene", str(scene)],
         ]
         for args in cases:
             proc = run_cli(*args)

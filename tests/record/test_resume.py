@@ -64,6 +64,13 @@ def seeds(root: Path) -> list[int]:
     return [int(r["openral.seed"]) for r in rows]
 
 
+def resumed(scene: Path, **given: Any) -> RecordOptions:
+    """`record --resume --scene SCENE` with `given` (RecordOptions fields) on the command line: a recording made
+    from a scene file names it again (record/recorded.py)."""
+    explicit = frozenset({"scene", *given} - {"out"})
+    return RecordOptions(scene=str(scene), resume=True, explicit=explicit, **given)
+
+
 @pytest.fixture
 def scene(tmp_path: Path, project: Path) -> Path:
     return write_yaml(tmp_path / "scene.yaml", mock_scene(success_after=LENGTHS, n_episodes=2))
@@ -90,7 +97,7 @@ def test_resume_continues_both_formats_exactly(tmp_path: Path, home: Path) -> No
     opts = RecordOptions(scene=str(home / "scene.yaml"), out=out, codec="h264", formats=("lerobot", "mcap"))
     record(opts)
     stats_before = json.loads((out / layout.STATS_PATH).read_text())
-    done = run_cli("record", "--resume", "--out", str(out), "--n-episodes", "4")
+    done = run_cli("record", "--resume", "--out", str(out), "--n-episodes", "4", "--scene", str(home / "scene.yaml"))
     assert done.returncode == 0, done.stderr
     assert "resumed at    episode 2" in done.stdout and "codec         h264" in done.stdout
     seen = verify_mock_dataset(out, "pyav")  # G channel = episode index: numbering continued
@@ -110,7 +117,7 @@ def test_resume_continues_both_formats_exactly(tmp_path: Path, home: Path) -> No
     states = [msg.position for _, msg in topics["/joint_states"]]
     assert len(states) == expected(4)[3] and all(s[1] == 3 for s in states)
     # nothing left to do: resuming again records nothing
-    again = record(RecordOptions(out=out, resume=True, explicit=frozenset({"n_episodes"}), n_episodes=4))
+    again = record(resumed(home / "scene.yaml", out=out, n_episodes=4))
     assert again.episodes == [] and again.resumed_at == 4
 
 
@@ -118,29 +125,29 @@ def test_resume_mcap_only(tmp_path: Path, home: Path) -> None:
     out = tmp_path / "bags"
     record(RecordOptions(scene=str(home / "scene.yaml"), out=out, n_episodes=1, formats=("mcap",)))
     (out / "mcap/.partial/episode_000001").mkdir(parents=True)  # a bag in flight when it was killed
-    summary = record(RecordOptions(out=out, resume=True, n_episodes=3, explicit=frozenset({"n_episodes"})))
+    summary = record(resumed(home / "scene.yaml", out=out, n_episodes=3))
     assert summary.resumed_at == 1 and [e.index for e in summary.episodes] == [1, 2]
     bags = finished_bags(out / "mcap")
     assert [b.name for b in bags] == ["episode_000000", "episode_000001", "episode_000002"]
     assert not (out / "mcap/.partial").exists() and not (out / "meta").exists()
     with pytest.raises(ConfigError, match="formats: the dataset was recorded with mcap"):
-        record(RecordOptions(out=out, resume=True, formats=("lerobot",), explicit=frozenset({"formats"})))
+        record(resumed(home / "scene.yaml", out=out, formats=("lerobot",)))
 
 
 def test_resume_keeps_the_mcap_compression(tmp_path: Path, home: Path) -> None:
     out = tmp_path / "bags"
-    scene = str(home / "scene.yaml")
-    record(RecordOptions(scene=scene, out=out, n_episodes=1, formats=("mcap",), mcap_compression="lz4"))
-    record(RecordOptions(out=out, resume=True, n_episodes=2, explicit=frozenset({"n_episodes"})))
+    scene = home / "scene.yaml"
+    record(RecordOptions(scene=str(scene), out=out, n_episodes=1, formats=("mcap",), mcap_compression="lz4"))
+    record(resumed(scene, out=out, n_episodes=2))
     assert [chunk_compressions(b) for b in finished_bags(out / "mcap")] == [{"lz4"}, {"lz4"}]
     with pytest.raises(ConfigError, match="mcap_compression: the dataset was recorded with lz4; --mcap-compression"):
-        record(RecordOptions(out=out, resume=True, mcap_compression="zstd", explicit=frozenset({"mcap_compression"})))
+        record(resumed(scene, out=out, mcap_compression="zstd"))
     # a recording made before chunks were compressed continues uncompressed
     settings = out / ".openral" / "record.json"
     doc = json.loads(settings.read_text())
     del doc["options"]["mcap_compression"]
     settings.write_text(json.dumps(doc))
-    record(RecordOptions(out=out, resume=True, n_episodes=3, explicit=frozenset({"n_episodes"})))
+    record(resumed(scene, out=out, n_episodes=3))
     assert chunk_compressions(finished_bags(out / "mcap")[2]) == {""}
 
 
@@ -171,6 +178,11 @@ def test_resume_refuses_mismatches(
     tmp_path: Path, home: Path, one_episode: Path, given: dict[str, Any], edit: Edit, message: str
 ) -> None:
     out = shutil.copytree(one_episode, tmp_path / "ds")
+    if edit is not None and edit[0] == "scene.yaml":  # a recording from before scene_sha256, which would refuse
+        settings = out / layout.RECORD_PATH  # the edited scene first (tests/trust/test_code.py)
+        doc = json.loads(settings.read_text())
+        del doc["options"]["scene_sha256"]
+        settings.write_text(json.dumps(doc))
     before = snapshot(out)
     saved = {}
     if edit is not None:
@@ -178,7 +190,7 @@ def test_resume_refuses_mismatches(
         saved[path] = path.read_text()
         _edit(path, edit[1])
     try:
-        opts = RecordOptions(out=out, resume=True, n_episodes=3, explicit=frozenset({"n_episodes", *given}), **given)
+        opts = resumed(home / "scene.yaml", out=out, n_episodes=3, **given)
         with pytest.raises(ConfigError) as err:
             record(opts)
     finally:
@@ -192,7 +204,7 @@ def test_cli_mismatch_is_one_line_and_fresh_record_into_a_dataset_is_refused(
     tmp_path: Path, home: Path, one_episode: Path
 ) -> None:
     out = shutil.copytree(one_episode, tmp_path / "ds")
-    proc = run_cli("record", "--resume", "--out", str(out), "--codec", "av1")
+    proc = run_cli("record", "--resume", "--out", str(out), "--codec", "av1", "--scene", str(home / "scene.yaml"))
     lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
     assert proc.returncode == 2 and len(lines) == 1, proc.stderr
     assert lines[0].startswith("error: ") and "codec: the dataset was recorded with h264" in lines[0]
@@ -206,9 +218,9 @@ def test_cli_mismatch_is_one_line_and_fresh_record_into_a_dataset_is_refused(
     assert excinfo.value.code == "dataset.invalid"
 
 
-def test_lock_refuses_a_second_writer(tmp_path: Path, one_episode: Path) -> None:
+def test_lock_refuses_a_second_writer(tmp_path: Path, home: Path, one_episode: Path) -> None:
     out = shutil.copytree(one_episode, tmp_path / "ds")
-    opts = RecordOptions(out=out, resume=True, n_episodes=2, explicit=frozenset({"n_episodes"}))
+    opts = resumed(home / "scene.yaml", out=out, n_episodes=2)
     with DatasetLock(out, "another recording"), pytest.raises(DatasetBusy) as excinfo:
         record(opts)
     assert excinfo.value.code == "dataset.busy" and re.match(r"pid \d+, another recording", excinfo.value.holder)
@@ -236,8 +248,8 @@ def test_a_live_recording_holds_the_lock_and_a_killed_ones_is_stale(tmp_path: Pa
         proc.wait()
     assert (out / layout.LOCK_PATH).exists()  # left behind by the killed writer: stale, nobody holds it
     finished = json.loads((out / layout.INFO_PATH).read_text())["total_episodes"]
-    resumed = run_cli("record", "--resume", "--out", str(out), "--n-episodes", str(finished + 1))
-    assert resumed.returncode == 0, resumed.stderr
+    again = run_cli("record", "--resume", "--out", str(out), "--n-episodes", str(finished + 1), "--scene", str(long))
+    assert again.returncode == 0, again.stderr
     assert verify_mock_dataset(out, "pyav")["lengths"] == [10] * (finished + 1)
 
 
@@ -262,7 +274,7 @@ def test_crash_inside_a_commit(tmp_path: Path, scene: Path, die: tuple[str, int]
     seen = verify_mock_dataset(out, "pyav", uncounted_rows_ok=True)
     assert seen["lengths"] == expected(2)
     assert finding in {f.code for f in check(out)}
-    done = run_cli("record", "--resume", "--out", str(out), "--n-episodes", "4")
+    done = run_cli("record", "--resume", "--out", str(out), "--n-episodes", "4", "--scene", str(scene))
     assert done.returncode == 0, done.stderr
     assert f"resumed at    episode {kept}" in done.stdout and "recovered" in done.stdout
     assert verify_mock_dataset(out, "pyav")["lengths"] == expected(4) and seeds(out) == [0, 1, 2, 3]
@@ -275,7 +287,7 @@ def test_killed_before_the_first_commit_resumes_from_zero(tmp_path: Path, scene:
     out = tmp_path / "ds"
     code, reported = drive({"scene": str(scene), "out": str(out), "n": 2, "die_at_rename": ["journal.json", 1]})
     assert code == 137 and reported == [] and not (out / layout.INFO_PATH).exists()
-    done = run_cli("record", "--resume", "--out", str(out))
+    done = run_cli("record", "--resume", "--out", str(out), "--scene", str(scene))
     assert done.returncode == 0, done.stderr
     assert "resumed at    episode 0" in done.stdout
     assert verify_mock_dataset(out, "pyav")["lengths"] == expected(2) and check(out) == []

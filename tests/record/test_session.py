@@ -65,14 +65,16 @@ def home(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
         yield root
 
 
-def resume(out: Path, n: int, faults: Faults | None = None) -> OpenralError | None:
-    """`record --resume --out OUT --n-episodes N` in this process; `faults` armed once the episode loop starts."""
+def resume(out: Path, n: int, home: Path, faults: Faults | None = None) -> OpenralError | None:
+    """`record --resume --out OUT --n-episodes N --scene HOME/scene.yaml` (the scene file `out` was recorded
+    from, named again) in this process; `faults` armed once the episode loop starts."""
 
     def progress(rec: EpisodeRecord | None, frames: int, total: int) -> None:
         if rec is None and faults is not None:
             faults.armed = True
 
-    opts = RecordOptions(out=out, n_episodes=n, resume=True, explicit=frozenset({"n_episodes"}))
+    scene = str(home / "scene.yaml")
+    opts = RecordOptions(scene=scene, out=out, n_episodes=n, resume=True, explicit=frozenset({"n_episodes", "scene"}))
     try:
         record(opts, progress)
     except OpenralError as exc:
@@ -136,7 +138,7 @@ def test_every_failing_write_of_the_last_episode_and_close(tmp_path: Path, home:
     clean = tmp_path / "clean"
     shutil.copytree(first, clean)
     with inject(counted):
-        assert resume(clean, 2, counted) is None
+        assert resume(clean, 2, home, counted) is None
     calls = counted.calls
     assert len(calls) >= (12 if name == "mcap" else 40), calls  # every write, fsync and rename of the commit
     check_complete(clean, formats, 2)
@@ -146,7 +148,7 @@ def test_every_failing_write_of_the_last_episode_and_close(tmp_path: Path, home:
         shutil.copytree(first, out)
         faults = Faults(fail_at=n)
         with inject(faults):
-            err = resume(out, 2, faults)
+            err = resume(out, 2, home, faults)
         where = f"call {n} ({calls[n - 1]})"
         assert isinstance(err, DiskError) and err.code == "write.disk", (where, err)
         line = str(err)
@@ -159,7 +161,7 @@ def test_every_failing_write_of_the_last_episode_and_close(tmp_path: Path, home:
             continue
         seen[state] = kept
         check_kept(out, formats, kept, committed=err.committed, joining=err.doing.startswith("joining"))
-        assert resume(out, 2) is None, where
+        assert resume(out, 2, home) is None, where
         check_complete(out, formats, 2)
         shutil.rmtree(out)
     assert len(seen) > 1
@@ -173,7 +175,7 @@ def test_each_disk_errno_is_named(tmp_path: Path, home: Path, code: int) -> None
     before = {p: p.read_bytes() for p in sorted((out / "meta").rglob("*")) if p.is_file()}
     faults = Faults(fail_at=4, errno=code)
     with inject(faults):
-        err = resume(out, 3, faults)
+        err = resume(out, 3, home, faults)
     assert isinstance(err, DiskError) and err.code == "write.disk"
     what = os.strerror(code)
     assert str(err) == (
@@ -181,7 +183,7 @@ def test_each_disk_errno_is_named(tmp_path: Path, home: Path, code: int) -> None
         "episode 0 is kept (free space, then record --resume)"
     )
     assert {p: p.read_bytes() for p in sorted((out / "meta").rglob("*")) if p.is_file()} == before
-    assert resume(out, 3) is None
+    assert resume(out, 3, home) is None
     check_complete(out, ("lerobot",), 3)
 
 
@@ -194,11 +196,11 @@ def test_a_one_off_error_inside_the_renames_is_finished_by_resume(tmp_path: Path
     probe = tmp_path / "probe"
     shutil.copytree(out, probe)
     with inject(counted):
-        assert resume(probe, 2, counted) is None
+        assert resume(probe, 2, home, counted) is None
     stats = counted.calls.index("replace stats.json") + 1
     faults = Faults(fail_at=stats, errno=errno.EIO, persist=False)
     with inject(faults):
-        err = resume(out, 2, faults)
+        err = resume(out, 2, home, faults)
     assert isinstance(err, DiskError) and err.committed
     assert str(err) == (
         f"{out}: input/output error while committing episode 1; "
@@ -207,7 +209,7 @@ def test_a_one_off_error_inside_the_renames_is_finished_by_resume(tmp_path: Path
     assert len(faults.calls) == stats  # failed: close() wrote nothing more
     assert (out / layout.JOURNAL_PATH).is_file()
     assert verify_mock_dataset(out, "pyav", uncounted_rows_ok=True)["lengths"] == expected(1)
-    assert resume(out, 3) is None
+    assert resume(out, 3, home) is None
     check_complete(out, ("lerobot",), 3)
 
 
@@ -250,7 +252,7 @@ def test_a_full_tmpfs(small_disk: Path, home: Path) -> None:
     seen = verify_mock_dataset(out, "pyav", uncounted_rows_ok=True)  # no repair first
     assert seen["lengths"] in (lengths[:kept], lengths[: kept - 1]), (line, seen)
     filler.unlink()  # free space
-    done = run_cli("record", "--resume", "--out", str(out))
+    done = run_cli("record", "--resume", "--out", str(out), "--scene", str(scene))
     assert done.returncode == 0, done.stderr
     assert verify_mock_dataset(out, "pyav")["lengths"] == lengths
     assert [n for _, n in bag_episodes(out)] == lengths

@@ -95,7 +95,7 @@ def test_sigkill_at_random_moments_then_resume(tmp_path: Path, project: Path) ->
     assert len(reported) >= KILLS // 2, reported
     total = len(reported) + 3
     final = subprocess.run(
-        [*DRIVER, json.dumps({"out": str(out), "n": total, "resume": True})],
+        [*DRIVER, json.dumps({"scene": str(scene), "out": str(out), "n": total, "resume": True})],
         cwd=REPO,
         capture_output=True,
         text=True,

@@ -28,9 +28,14 @@ def main() -> None:
         if rec is not None:
             print(f"finished {rec.index}", flush=True)
 
-    if args.get("resume"):  # like `record --resume --out OUT --n-episodes N`
+    if args.get("resume"):  # like `record --resume --out OUT --n-episodes N [--scene SCENE]`
+        named = {"scene"} if args.get("scene") else set()  # a scene file is named again (record/recorded.py)
         opts = RecordOptions(
-            out=Path(args["out"]), n_episodes=args["n"], resume=True, explicit=frozenset({"n_episodes"})
+            scene=args.get("scene"),
+            out=Path(args["out"]),
+            n_episodes=args["n"],
+            resume=True,
+            explicit=frozenset({"n_episodes", *named}),
         )
     else:
         opts = RecordOptions(
