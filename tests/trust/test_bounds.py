@@ -21,6 +21,7 @@ from openral_data.formats.mcap.chunks import check_mcap
 from openral_data.pipeline.state import read_marker
 from tests.malformed.conftest import corpus_dataset  # noqa: F401  (the session's small recorded dataset)
 from tests.support.bounded import run_bounded
+from tests.support.home import isolated_home
 from tests.support.inproc import run_inproc
 from tests.support.mcap_bomb import write_bomb
 
@@ -96,12 +97,13 @@ def test_deep_json_is_refused(
     command: tuple[str, ...],
     rel: str,
     names: str,
-    project: Path,
+    corpus_dataset: Path,  # noqa: F811
     ds: Path,
 ) -> None:
     (ds / rel).parent.mkdir(parents=True, exist_ok=True)
     (ds / rel).write_bytes(DEEP)
-    run = run_inproc(*command, str(ds))
+    with isolated_home(corpus_dataset.parent):  # the project it was recorded in: --resume finds its manifests
+        run = run_inproc(*command, str(ds))
     assert "Traceback" not in run.stderr, run.stderr
     if command[0] == "doctor":  # a finding naming the file, exit 1
         assert run.returncode == 1, run.stdout + run.stderr
