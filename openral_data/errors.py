@@ -264,3 +264,8 @@ class StaleState(HalError):
 
 class EncoderError(RuntimeError):
     """Internal: a video encoder failed or was misused. Not user-facing (a bug or a broken codec install)."""
+
+
+class NotRegularFile(OSError):
+    """Not user-facing: a file read by name (a JSON file) is a FIFO, a device or a folder, so reading it could
+    block for ever or never end; `formats.jsonfile.read_json` turns it into a `DatasetError`."""

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from openral_data.errors import DatasetError
+from openral_data.errors import DatasetError, NotRegularFile
 
 MAX_JSON_BYTES = 64 << 20  # info.json/stats.json of a large dataset are a few MB; 64 MiB is far above any we write
 MAX_JSON_DEPTH = 100  # ours nest at most ~6 deep; anything this deep is crafted (and would overflow recursion)
@@ -29,10 +29,6 @@ _NOT_BRACKETS = bytes(b for b in range(256) if b not in b"[]{}")
 _STEP = np.zeros(256, np.int8)
 _STEP[list(b"[{")] = 1
 _STEP[list(b"]}")] = -1
-
-
-class NotRegularFile(OSError):
-    """A JSON file that is a FIFO, a device or a folder: reading it could block for ever or never end."""
 
 
 def parse_json(data: bytes | str) -> Any:
@@ -91,8 +87,9 @@ def read_json(path: Path, limit: int = MAX_JSON_BYTES) -> Any:
     except FileNotFoundError:
         raise
     except NotRegularFile as exc:
-        code = "dataset.invalid" if exc.errno == errno.EISDIR else "dataset.unsafe"
-        raise DatasetError(f"{path}: {exc.strerror}", code=code) from None
+        if exc.errno == errno.EISDIR:
+            raise DatasetError(f"{path}: {exc.strerror}", code="dataset.invalid") from None
+        raise DatasetError(f"{path}: {exc.strerror}", code="dataset.unsafe") from None
     except OSError as exc:
         raise DatasetError(f"{path}: cannot read: {exc.strerror or exc}", code="dataset.invalid") from None
     except ValueError as exc:
