@@ -92,7 +92,8 @@ def resolve(paths: list[str]) -> tuple[list[DatasetSource], list[results_layout.
     datasets: list[DatasetSource] = []
     results: list[results_layout.Results] = []
     for arg in paths:
-        matches = sorted(glob.glob(arg)) if glob.has_magic(arg) else [arg]
+        # a path that exists is itself, even with glob characters in its name (a folder `ds[1]` is not `ds1`)
+        matches = sorted(glob.glob(arg)) if glob.has_magic(arg) and not Path(arg).exists() else [arg]
         if not matches:
             raise NotFound(f"{arg}: no such file or directory")
         for match in matches:
