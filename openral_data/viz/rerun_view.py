@@ -28,11 +28,12 @@ from openral_data.formats import results as results_layout
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.clip import episode_clip
 from openral_data.formats.lerobot_v3.features import ACTION, STATE
-from openral_data.formats.lerobot_v3.frames import decode_episode_video, depth_settings
+from openral_data.formats.lerobot_v3.frames import decode_episode_video, depth_settings, video_span
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE, image_bytes, image_keys, media_type
 from openral_data.formats.lerobot_v3.layout import FilePos
 from openral_data.formats.lerobot_v3.masks import MASK_IDS, decode_mask, is_mask
 from openral_data.formats.lerobot_v3.success import EPISODE_SUCCESS, episode_successes
+from openral_data.formats.mcap.summary import check_summary
 from openral_data.formats.parquetfile import read_table
 from openral_data.metrics.sources import DatasetSource, open_dataset
 from openral_data.viz.entities import (
@@ -83,6 +84,8 @@ def run_view(opts: ViewOptions) -> str:
         if save.exists():
             raise OutputExists(f"{save}: exists; refusing to overwrite it")
     # everything that can be wrong with the inputs is found before anything is written
+    if mcap is not None:
+        check_summary(mcap)  # rerun would only log its refusal, and an empty recording be "saved"
     episode = None if is_mcap else load_episode(open_dataset(opts.path), opts.episode, opts.results)
     rec = rr.RecordingStream(APP_ID)
     if save is not None:
@@ -300,9 +303,13 @@ def _log_camera(
     if depth_settings(ds.info, cam) is not None:
         _log_depth(rec, ds, row, cam, frame_index)
         return
-    start = float(row.get(f"videos/{cam}/from_timestamp") or 0.0)
-    end = float(row.get(f"videos/{cam}/to_timestamp") or start + len(frame_index) / ds.fps)
+    start, end = video_span(path, row, cam, len(frame_index), ds.fps)
     clip = episode_clip(path, start, end, ds.fps)
+    if clip.frames != len(frame_index):  # cut short: rerun would show blank frames; more: another episode's
+        raise DatasetError(
+            f"{path}: {cam}: holds {clip.frames} frames in the episode's range, its data {len(frame_index)} rows",
+            code="dataset.invalid",
+        )
     if clip.data is not None:  # only this episode's packets, remuxed: the .rrd does not carry the whole file
         rec.log(entity, rr.AssetVideo(contents=clip.data, media_type="video/mp4"), static=True)
     else:
