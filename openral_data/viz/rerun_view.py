@@ -182,6 +182,12 @@ def _episode_frames(ds: DatasetSource, row: dict[str, Any]) -> pa.Table:
     table = read_table(path, filters=[("episode_index", "=", int(row["episode_index"]))])
     if table.num_rows == 0:
         raise DatasetError(f"{path}: no rows for episode {row['episode_index']}", code="dataset.invalid")
+    for name in ("frame_index", "timestamp"):  # the timelines: rerun takes neither a missing nor a NaN time
+        values = table.column(name).to_numpy(zero_copy_only=False) if name in table.column_names else None
+        if values is None or not np.isfinite(np.asarray(values, dtype=np.float64)).all():
+            raise DatasetError(
+                f"{path}: {name}: missing or not finite in episode {row['episode_index']}", code="dataset.invalid"
+            )
     order = "index" if "index" in table.column_names else "frame_index"
     return table.sort_by(order)
 

@@ -254,6 +254,11 @@ SILENT: dict[str, tuple[Callable[[Workspace, Path], object], str, tuple[str, ...
         r"file-000\.parquet: task_index: 7",
         ("convert",),
     ),
+    "data-timestamp-nan": (  # not silent but a traceback: rerun cannot put a frame at time NaN
+        lambda w, d: _column(d / DATA, "timestamp", lambda v: float("nan")),
+        r"file-000\.parquet: timestamp",
+        ("view",),
+    ),
     "data-task-index-negative": (
         lambda w, d: _column(d / DATA, "task_index", lambda v: -1),
         r"file-000\.parquet: task_index: -1",
