@@ -152,12 +152,7 @@ def committed_episodes(root: Path, info: dict[str, Any], episodes: pa.Table) -> 
     that are not there, or frames their lengths do not add up to, is one line (`doctor`: `info.totals`), never a
     wrong count. Episode lengths must be integers >= 0."""
     where = f"{root / layout.INFO_PATH}"
-    n = info.get("total_episodes", episodes.num_rows)
-    if n > episodes.num_rows:
-        raise DatasetError(
-            f"{where}: total_episodes: {n}, but meta/episodes/ holds {episodes.num_rows} episode(s)",
-            code="dataset.invalid",
-        )
+    n = check_episode_count(root, info, episodes.num_rows)
     episodes = episodes.slice(0, n)
     if "length" not in episodes.column_names:
         return episodes
@@ -170,3 +165,15 @@ def committed_episodes(root: Path, info: dict[str, Any], episodes: pa.Table) -> 
             code="dataset.invalid",
         )
     return episodes
+
+
+def check_episode_count(root: Path, info: dict[str, Any], rows: int) -> int:
+    """info.json's `total_episodes` (default: `rows`), which must not claim more than the `rows` of the episodes
+    table (rows past it are an unfinished commit's)."""
+    n = info.get("total_episodes", rows)
+    if n > rows:
+        raise DatasetError(
+            f"{root / layout.INFO_PATH}: total_episodes: {n}, but meta/episodes/ holds {rows} episode(s)",
+            code="dataset.invalid",
+        )
+    return int(n)
