@@ -25,7 +25,7 @@ from openral_data.formats.lerobot_v3.frames import episode_frames
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE
 from openral_data.formats.lerobot_v3.masks import MASK_IDS, is_mask
 from openral_data.formats.lerobot_v3.provenance import Origin
-from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_tasks
+from openral_data.formats.lerobot_v3.reader import dataset_tasks, read_episodes, read_info
 from openral_data.formats.lerobot_v3.success import episode_successes
 from openral_data.formats.mcap import McapConfig, McapSink
 from openral_data.formats.staging import Staging, check_new_output
@@ -98,7 +98,7 @@ def export_mcap(
     source = _read_source(src)
     chosen = parse_episodes(episodes, len(source.rows))
     successes = episode_successes(src, source.episodes)  # the sink drops them if the schema has no success
-    tasks = read_tasks(src) if int(source.info.get("total_tasks", 0)) else []
+    tasks = dataset_tasks(src, source.info)
     schema = _schema(source)
     summary = ExportSummary(src=src, dst=dst, skipped_features=_skipped_features(source))
     total = sum(int(source.rows[e]["length"]) for e in chosen)

@@ -47,6 +47,7 @@ def check_dataset(ds: Dataset, *, deep: bool = False) -> list[Finding]:
     out = list(ds.problems)
     for step in (
         check_meta.check_info,
+        check_meta.check_provenance,
         check_meta.check_tasks,
         check_meta.check_episodes,
         check_data.check_columns,

@@ -10,7 +10,8 @@ import numpy as np
 
 from openral_data.doctor.findings import Finding, error, warning
 from openral_data.doctor.inspect import DEFAULT_FEATURES, Dataset
-from openral_data.formats.jsonfile import load_json
+from openral_data.errors import OpenralError
+from openral_data.formats.jsonfile import load_json, read_json
 from openral_data.formats.lerobot_v3 import layout
 
 INFO = layout.INFO_PATH
@@ -38,6 +39,22 @@ def check_info(ds: Dataset) -> list[Finding]:
         if value is not None and (not isinstance(value, int) or value <= 0):
             out.append(error("info.sizes", INFO, f"{key} must be an integer > 0, got {value!r}"))
     return out
+
+
+def check_provenance(ds: Dataset) -> list[Finding]:
+    """Our `meta/openral.json` (absent in lerobot's datasets). Readers refuse one that is not a JSON object (an
+    error) and read a block that is not one (`schema_metadata`, `config`, `edit`) as unknown (a warning)."""
+    try:
+        data = read_json(ds.root / layout.OPENRAL_PATH)
+    except FileNotFoundError:
+        return []
+    except (OpenralError, OSError) as exc:
+        return [error("openral.invalid", layout.OPENRAL_PATH, str(exc))]
+    if not isinstance(data, dict):
+        return [error("openral.invalid", layout.OPENRAL_PATH, f"expected a JSON object, got {type(data).__name__}")]
+    blocks = ("schema_metadata", "config", "edit")
+    bad = [k for k in blocks if data.get(k) is not None and not isinstance(data[k], dict)]
+    return [warning("openral.invalid", layout.OPENRAL_PATH, f"{k}: not a JSON object; read as unknown") for k in bad]
 
 
 def check_stats(ds: Dataset) -> list[Finding]:

@@ -19,19 +19,19 @@ from openral_data.doctor.findings import Finding, error
 from openral_data.doctor.inspect import Dataset
 from openral_data.errors import DatasetError
 from openral_data.formats import atomic
-from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3 import digests, layout
 from openral_data.formats.lerobot_v3.links import outside_links
 from openral_data.paths import safe_name
 
-CONTROL_FILES = (layout.LOCK_PATH, layout.JOURNAL_PATH, layout.RECORD_PATH, layout.IMAGE_HIST_PATH)
+CONTROL_FILES = (layout.LOCK_PATH, layout.JOURNAL_PATH, layout.RECORD_PATH, layout.IMAGE_HIST_PATH, digests.REHASH_PATH)
 CONTROL_DIRS = (layout.STATE_DIR, layout.QUARANTINE_DIR)
 # findings after which the other checks would build paths from the offending values: they stop there
 BLOCKING = frozenset({"features.unsafe_key", "episodes.file_index"})
 
 
 def check_controls(root: Path) -> list[Finding]:
-    """The control files and folders under ``.openral``, and the commit journal (``writer.journal`` when it
-    can be finished safely, ``journal.unsafe`` / ``journal.invalid`` when it cannot)."""
+    """The control files and folders under ``.openral``, the commit journal (``writer.journal`` when it
+    can be finished safely, ``journal.unsafe`` / ``journal.invalid`` when it cannot) and the re-hash list."""
     out: list[Finding] = []
     for rel in CONTROL_DIRS:
         kind = _kind(root / rel)
@@ -44,6 +44,8 @@ def check_controls(root: Path) -> list[Finding]:
             out.append(error("control.unsafe", rel, f"is a {kind}, not a regular file; nothing of ours opens it"))
     if _kind(root / layout.JOURNAL_PATH) == "file":
         out.append(_journal(root))
+    if _kind(root / digests.REHASH_PATH) == "file":
+        out += _rehash(root)
     return out
 
 
@@ -52,6 +54,17 @@ def check_links(root: Path) -> list[Finding]:
     (`links.outside_links`): no other check reads through one, and `--repair` / `record --resume` refuse it."""
     message = "a symbolic link leading outside the dataset (to {}); nothing of ours follows it"
     return [error("path.outside", rel, message.format(target)) for rel, target in outside_links(root)]
+
+
+def _rehash(root: Path) -> list[Finding]:
+    """The files a join listed for re-hashing: recovery (`record --resume`, `--repair`) re-hashes each, so one
+    that leads outside the dataset (`rehash.unsafe`) or a list that is not one (`rehash.invalid`) is an error."""
+    try:
+        digests.pending(root)
+    except DatasetError as exc:
+        code = "rehash.unsafe" if exc.code == "dataset.unsafe" else "rehash.invalid"
+        return [error(code, digests.REHASH_PATH, f"{exc} (not followed; inspect or remove it by hand)")]
+    return []
 
 
 def _journal(root: Path) -> Finding:

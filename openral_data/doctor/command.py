@@ -22,7 +22,8 @@ class DoctorReport:
 
     @property
     def exit_code(self) -> int:
-        return 1 if any(f.severity == "error" for f in self.findings) else 0
+        """1 while errors remain, or when `--repair` refused (it did not finish: the dataset is not repaired)."""
+        return 1 if self.refused or any(f.severity == "error" for f in self.findings) else 0
 
     def text(self) -> str:
         lines: list[str] = []

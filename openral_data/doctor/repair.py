@@ -23,7 +23,7 @@ from openral_data.doctor.check import check
 from openral_data.doctor.check_video import placements
 from openral_data.doctor.findings import Finding
 from openral_data.doctor.inspect import DAMAGE, Dataset, load
-from openral_data.errors import DatasetError, NotFound
+from openral_data.errors import DatasetError, DiskError, NotFound, disk_errno
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import digests, layout
 from openral_data.formats.lerobot_v3.layout import FilePos
@@ -62,30 +62,43 @@ UNREADABLE = {
 
 
 def repair(root: Path) -> RepairResult:
-    """Fix what is safely fixable; a dataset with files it cannot read is left as it is (`refused` says why)."""
+    """Fix what is safely fixable; a dataset with files it cannot read is left as it is (`refused` says why).
+    A disk that fails or is full meanwhile is one `DiskError` (the files replaced so far are in the quarantine)."""
     if not root.is_dir():  # nothing to repair, and nothing (not even the lock) may be created there
         raise NotFound(f"{root}: not a dataset folder")
     refuse_outside_links(root, "doctor --repair")  # plain doctor reports each one (`path.outside`)
-    with DatasetLock(root, "openral-data doctor --repair"):
-        q = Quarantine(root)
-        actions = _writer_leftovers(root, q)
-        refused = _refusals(check(root, lock_held_by_us=True))
-        steps = (_tasks, _episode_order, _data_columns, _data_rows, _totals, _index_range, _video_times)
-        for step in steps if not refused else ():
-            findings = {f.code: f for f in check(root, lock_held_by_us=True) if f.repairable}
-            ds, _ = load(root)
-            if ds is None:
-                break
-            try:
-                actions += step(ds, findings, q)
-            except DAMAGE as exc:
-                refused.append(f"stopped in {step.__name__.strip('_')}: cannot read the dataset: {exc!r}")
-                break
+    try:
+        with DatasetLock(root, "openral-data doctor --repair"):
+            return _repair(root)
+    except Exception as exc:  # only a disk problem (its errno anywhere in the chain) is handled here
+        errno = disk_errno(exc)
+        if errno is None or isinstance(exc, DiskError):
+            raise
+        raise DiskError(root, errno, "repairing") from None
+
+
+def _repair(root: Path) -> RepairResult:
+    q = Quarantine(root)
+    actions = _writer_leftovers(root, q)
+    refused = _refusals(check(root, lock_held_by_us=True))
+    steps = (_tasks, _episode_order, _data_columns, _data_rows, _totals, _index_range, _video_times)
+    for step in steps if not refused else ():
+        findings = {f.code: f for f in check(root, lock_held_by_us=True) if f.repairable}
         ds, _ = load(root)
-        if ds is not None and not refused:
-            actions += _orphans(ds, {f.code: f for f in check(root, lock_held_by_us=True)}, q)
-        _follow_digests(root, q)
-        remaining = check(root, lock_held_by_us=True)
+        if ds is None:
+            break
+        try:
+            actions += step(ds, findings, q)
+        except DAMAGE as exc:
+            if disk_errno(exc) is not None:
+                raise  # not the dataset's fault: `repair` makes it one line
+            refused.append(f"stopped in {step.__name__.strip('_')}: cannot read the dataset: {exc!r}")
+            break
+    ds, _ = load(root)
+    if ds is not None and not refused:
+        actions += _orphans(ds, {f.code: f for f in check(root, lock_held_by_us=True)}, q)
+    _follow_digests(root, q)
+    remaining = check(root, lock_held_by_us=True)
     return RepairResult(actions, remaining, q.dir if q.dir.exists() else None, refused)
 
 

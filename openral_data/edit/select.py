@@ -22,7 +22,7 @@ from openral_data.edit.source import SourceDataset
 from openral_data.errors import EpisodeSelectionError, QueryError, UsageError
 from openral_data.formats.staging import check_new_output
 from openral_data.metrics.sources import open_dataset
-from openral_data.metrics.views import connect, files_sql, ident
+from openral_data.metrics.views import connect, files_sql, ident, lock_down, view_files
 from openral_data.paths import safe_name
 
 DEFAULT_NAMES = ("train", "val", "test")
@@ -55,6 +55,7 @@ def matching_episodes(dataset: Path, where: str) -> list[int]:
             f"CREATE VIEW {_VIEW} AS SELECT v.*{cols} FROM episodes v "
             f"JOIN read_parquet({files_sql(ds.episode_files)}) e USING (episode_index)"
         )
+        lock_down(con, view_files([ds]))  # the predicate reads these files and nothing else
         try:
             if len(con.extract_statements(f"SELECT 1 WHERE ({where})")) != 1:
                 raise QueryError(f"--where: {where!r} is not one predicate")

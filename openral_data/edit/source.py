@@ -42,7 +42,7 @@ from openral_data.formats.lerobot_v3.features import (
 from openral_data.formats.lerobot_v3.lock import check_settled
 from openral_data.formats.lerobot_v3.masks import is_mask
 from openral_data.formats.lerobot_v3.provenance import Origin, read_provenance
-from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_tasks
+from openral_data.formats.lerobot_v3.reader import dataset_tasks, read_episodes, read_info
 from openral_data.formats.lerobot_v3.stats import STAT_KEYS, ImageStatsAccumulator, Stats
 from openral_data.formats.lerobot_v3.video import VideoSettings
 from openral_data.formats.parquetfile import read_table
@@ -83,7 +83,7 @@ class SourceDataset:
         self.episodes = read_episodes(root)
         info_total = int(self.info.get("total_episodes", 0))
         self.total = min(info_total, self.episodes.num_rows)  # the loader exposes no more than info's total
-        self.task_names = read_tasks(root) if self.info.get("total_tasks") else []
+        self.task_names = dataset_tasks(root, self.info)
         self.origin = self._origin()
         # camera name -> key of every video camera (`features.camera_keys`: lerobot/pusht's `observation.image`
         # is `image`); a `dtype: image` camera is a carried column

@@ -16,7 +16,7 @@ from openral_data.edit.ops import EditResult, Rewrite, Transform, summed_histogr
 from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.episodes import parse_episodes
 from openral_data.errors import UsageError
-from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_tasks
+from openral_data.formats.lerobot_v3.reader import committed_episodes, dataset_tasks, read_episodes, read_info
 
 
 @dataclass(frozen=True)
@@ -29,10 +29,10 @@ class TaskUse:
 def list_tasks(dataset: Path) -> list[TaskUse]:
     """Every task of `dataset` in task_index order, with the episodes that use it (read only)."""
     info = read_info(dataset)
-    names = read_tasks(dataset) if info.get("total_tasks") else []
-    total = int(info.get("total_episodes", 0))
+    names = dataset_tasks(dataset, info)
+    episodes = committed_episodes(dataset, info, read_episodes(dataset))
     using: dict[str, list[int]] = {t: [] for t in names}
-    for row in read_episodes(dataset).to_pylist()[:total]:
+    for row in episodes.to_pylist():
         for task in row.get("tasks") or []:
             if task in using:
                 using[task].append(int(row["episode_index"]))

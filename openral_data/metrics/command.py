@@ -13,7 +13,7 @@ from openral_data.metrics import report as rep
 from openral_data.metrics.plot import check_plot_path, save_plot
 from openral_data.metrics.render import FORMATS, render
 from openral_data.metrics.sources import resolve
-from openral_data.metrics.views import DEFAULT_MEMORY_LIMIT, connect
+from openral_data.metrics.views import DEFAULT_MEMORY_LIMIT, connect, lock_down, view_files
 
 
 @dataclass(frozen=True)
@@ -56,7 +56,8 @@ def stats_tables(opts: StatsOptions) -> list[rep.Table]:
     except duckdb.Error as exc:
         raise QueryError(f"duckdb: {_first_line(exc)}") from None
     try:
-        if opts.sql is not None:
+        if opts.sql is not None:  # the user's query may read the views' files, nothing else (docs/threat-model.md)
+            lock_down(con, view_files(datasets, results))
             return [rep.run_sql(con, opts.sql)]
         report = rep.build_report(
             con,

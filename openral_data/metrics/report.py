@@ -15,7 +15,7 @@ from openral_data.metrics import health, intervals
 from openral_data.metrics.episode_stats import DimensionSource, summarise
 from openral_data.metrics.scan import VectorScan
 from openral_data.metrics.sources import DatasetSource
-from openral_data.metrics.views import ident, query
+from openral_data.metrics.views import check_select, ident, query
 
 BY_KEYS = ("dataset", "task", "rskill", "scene", "robot", "seed")
 GROUP_NUMBERS = (
@@ -56,6 +56,7 @@ def parse_by(value: str | None) -> list[str]:
 
 
 def run_sql(con: duckdb.DuckDBPyConnection, sql: str) -> Table:
+    check_select(con, sql, "--sql")
     try:
         columns, rows = query(con, sql)
     except duckdb.Error as exc:

@@ -13,8 +13,8 @@ from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.features import ACTION, STATE, dim_names
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE
 from openral_data.formats.lerobot_v3.provenance import read_provenance
-from openral_data.formats.lerobot_v3.reader import read_info
-from openral_data.formats.parquetfile import checked, read_schema
+from openral_data.formats.lerobot_v3.reader import check_episode_count, read_info
+from openral_data.formats.parquetfile import checked, read_schema, read_table
 
 
 @dataclass(frozen=True)
@@ -65,6 +65,8 @@ def open_dataset(root: Path, label: str | None = None) -> DatasetSource:
     for file in (*episode_files, *data_files):  # DuckDB opens them by name: none may be a FIFO or a device
         checked(file)
     episode_columns = _columns(episode_files[0])
+    # the `datasets` view's episode count; lengths that do not add up are the report's `frame_count` health finding
+    check_episode_count(root, info, sum(read_table(f, columns=[]).num_rows for f in episode_files))
     data_columns = _columns(data_files[0]) if data_files else frozenset()
     scene = rskill = robot = None
     provenance = read_provenance(root)
@@ -94,7 +96,8 @@ def resolve(paths: list[str]) -> tuple[list[DatasetSource], list[results_layout.
     datasets: list[DatasetSource] = []
     results: list[results_layout.Results] = []
     for arg in paths:
-        matches = sorted(glob.glob(arg)) if glob.has_magic(arg) else [arg]
+        # a path that exists is itself, even with glob characters in its name (a folder `ds[1]` is not `ds1`)
+        matches = sorted(glob.glob(arg)) if glob.has_magic(arg) and not Path(arg).exists() else [arg]
         if not matches:
             raise NotFound(f"{arg}: no such file or directory")
         for match in matches:

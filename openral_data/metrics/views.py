@@ -15,7 +15,8 @@ Views (documented in docs/stats.md):
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import re
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -47,8 +48,50 @@ def ident(name: str) -> str:
     return '"' + name.replace('"', '""') + '"'
 
 
+_GLOB = re.compile(r"([*?\[])")
+
+
+def glob_escape(path: str) -> str:
+    """`path` as a DuckDB file pattern that matches only itself. DuckDB globs every file name it is given, so a
+    dataset folder named `ds[1]` would otherwise read its sibling `ds1` (`[1]` is a character class)."""
+    return _GLOB.sub(r"[\1]", path)
+
+
+def path_sql(path: Path) -> str:
+    """A file for `read_parquet`: an SQL literal, its glob characters escaped."""
+    return lit(glob_escape(str(path)))
+
+
 def files_sql(files: Sequence[Path]) -> str:
-    return "[" + ", ".join(lit(str(f)) for f in files) + "]"
+    return "[" + ", ".join(path_sql(f) for f in files) + "]"
+
+
+def view_files(datasets: Sequence[DatasetSource], results: Sequence[Results] = ()) -> list[Path]:
+    """Every file the views read."""
+    out = [f for ds in datasets for f in (*ds.data_files, *ds.episode_files, ds.root / layout.TASKS_PATH)]
+    return out + [f for r in results for f in (r.episodes_path, r.steps_path)]
+
+
+def lock_down(con: duckdb.DuckDBPyConnection, files: Iterable[Path]) -> None:
+    """From here on `con` reads `files` and nothing else, for good: user-given SQL (`stats --sql`, `--where`) can
+    no longer read or write any other file (COPY, ATTACH, EXPORT, read_csv, glob), reach the network, install
+    or load an extension, or change a setting back (docs/threat-model.md). Views created before keep working."""
+    allowed = sorted({p for f in files for p in (str(f), glob_escape(str(f)))})
+    con.execute(f"SET allowed_paths = [{', '.join(lit(p) for p in allowed)}]")
+    con.execute("SET enable_external_access = false")
+    con.execute("SET lock_configuration = true")
+
+
+def check_select(con: duckdb.DuckDBPyConnection, sql: str, option: str) -> None:
+    """User-given SQL may only query: every statement a SELECT. An allowed file could otherwise be overwritten
+    (`COPY ... TO` one of the views' own files) and `EXPLAIN ANALYZE` runs what it explains."""
+    try:
+        kinds = [s.type for s in con.extract_statements(sql)]
+    except duckdb.Error as exc:
+        raise QueryError(f"{option}: {str(exc).splitlines()[0]}") from None
+    bad = sorted({k.name for k in kinds if k != duckdb.StatementType.SELECT})
+    if bad or not kinds:
+        raise QueryError(f"{option}: only SELECT queries may run here, not {', '.join(bad) or 'nothing'}")
 
 
 def connect(
@@ -97,7 +140,7 @@ def _register_datasets(con: duckdb.DuckDBPyConnection, datasets: Sequence[Datase
     con.execute("CREATE VIEW episodes AS " + _union(parts, _EMPTY_EPISODES))
     tasks = [
         f"SELECT {lit(ds.label)} AS dataset, task_index, task "
-        f"FROM read_parquet({lit(str(ds.root / layout.TASKS_PATH))})"
+        f"FROM read_parquet({path_sql(ds.root / layout.TASKS_PATH)})"
         for ds in datasets
         if (ds.root / layout.TASKS_PATH).is_file()
     ]
@@ -182,8 +225,8 @@ def _register_results(
         ref = r.dataset
         dataset = by_root.get(Path(ref).resolve(), Path(ref).name) if ref is not None else None
         head = f"SELECT {lit(r.label)} AS results, {lit(r.kind)} AS kind, {lit(dataset)}::VARCHAR AS dataset"
-        eps.append(f"{head}, * FROM read_parquet({lit(str(r.episodes_path))})")
-        steps.append(f"{head}, * FROM read_parquet({lit(str(r.steps_path))})")
+        eps.append(f"{head}, * FROM read_parquet({path_sql(r.episodes_path)})")
+        steps.append(f"{head}, * FROM read_parquet({path_sql(r.steps_path)})")
     empty = (
         "SELECT NULL::VARCHAR AS results, NULL::VARCHAR AS kind, NULL::VARCHAR AS dataset, "
         "NULL::BIGINT AS episode_index LIMIT 0"

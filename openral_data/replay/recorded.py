@@ -25,7 +25,7 @@ from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.features import camera_keys
 from openral_data.formats.lerobot_v3.frames import episode_frames as decode_episode_frames
 from openral_data.formats.lerobot_v3.provenance import Origin, Recorded, read_provenance
-from openral_data.formats.lerobot_v3.reader import read_episodes, read_info, read_tasks
+from openral_data.formats.lerobot_v3.reader import dataset_tasks, read_episodes, read_info
 from openral_data.formats.lerobot_v3.success import episode_successes
 from openral_data.formats.parquetfile import read_table
 from openral_data.schemas.base import validate
@@ -70,7 +70,7 @@ class RecordedDataset:
         keep = [c for c in table.column_names if not c.startswith("stats/")]
         self._episodes = table.select(keep)
         self._rows = sorted(self._episodes.to_pylist(), key=lambda r: int(r["episode_index"]))
-        self._tasks = read_tasks(root) if int(self.info.get("total_tasks", 0)) else []
+        self._tasks = dataset_tasks(root, self.info)
         self._data_cache: tuple[Path, pa.Table] | None = None
 
     def __len__(self) -> int:

@@ -28,12 +28,13 @@ from openral_data.formats import results as results_layout
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.clip import episode_clip
 from openral_data.formats.lerobot_v3.features import ACTION, STATE
-from openral_data.formats.lerobot_v3.frames import decode_episode_video, depth_settings
+from openral_data.formats.lerobot_v3.frames import decode_episode_video, depth_settings, video_span
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE, image_bytes, image_keys, media_type
 from openral_data.formats.lerobot_v3.layout import FilePos
 from openral_data.formats.lerobot_v3.masks import MASK_IDS, decode_mask, is_mask
 from openral_data.formats.lerobot_v3.success import EPISODE_SUCCESS, episode_successes
 from openral_data.formats.mcap.chunks import check_mcap
+from openral_data.formats.mcap.summary import check_summary
 from openral_data.formats.parquetfile import read_table
 from openral_data.metrics.sources import DatasetSource, open_dataset
 from openral_data.viz.entities import (
@@ -84,9 +85,10 @@ def run_view(opts: ViewOptions) -> str:
         if save.exists():
             raise OutputExists(f"{save}: exists; refusing to overwrite it")
     # everything that can be wrong with the inputs is found before anything is written
-    episode = None if mcap is not None else load_episode(open_dataset(opts.path), opts.episode, opts.results)
     if mcap is not None:
         check_mcap(mcap)  # rerun's loader would decompress a chunk bomb without bound
+        check_summary(mcap)  # rerun would only log its refusal, and an empty recording be "saved"
+    episode = None if is_mcap else load_episode(open_dataset(opts.path), opts.episode, opts.results)
     rec = rr.RecordingStream(APP_ID)
     if save is not None:
         save.parent.mkdir(parents=True, exist_ok=True)
@@ -182,6 +184,12 @@ def _episode_frames(ds: DatasetSource, row: dict[str, Any]) -> pa.Table:
     table = read_table(path, filters=[("episode_index", "=", int(row["episode_index"]))])
     if table.num_rows == 0:
         raise DatasetError(f"{path}: no rows for episode {row['episode_index']}", code="dataset.invalid")
+    for name in ("frame_index", "timestamp"):  # the timelines: rerun takes neither a missing nor a NaN time
+        values = table.column(name).to_numpy(zero_copy_only=False) if name in table.column_names else None
+        if values is None or not np.isfinite(np.asarray(values, dtype=np.float64)).all():
+            raise DatasetError(
+                f"{path}: {name}: missing or not finite in episode {row['episode_index']}", code="dataset.invalid"
+            )
     order = "index" if "index" in table.column_names else "frame_index"
     return table.sort_by(order)
 
@@ -303,9 +311,13 @@ def _log_camera(
     if depth_settings(ds.info, cam) is not None:
         _log_depth(rec, ds, row, cam, frame_index)
         return
-    start = float(row.get(f"videos/{cam}/from_timestamp") or 0.0)
-    end = float(row.get(f"videos/{cam}/to_timestamp") or start + len(frame_index) / ds.fps)
+    start, end = video_span(path, row, cam, len(frame_index), ds.fps)
     clip = episode_clip(path, start, end, ds.fps)
+    if clip.frames != len(frame_index):  # cut short: rerun would show blank frames; more: another episode's
+        raise DatasetError(
+            f"{path}: {cam}: holds {clip.frames} frames in the episode's range, its data {len(frame_index)} rows",
+            code="dataset.invalid",
+        )
     if clip.data is not None:  # only this episode's packets, remuxed: the .rrd does not carry the whole file
         rec.log(entity, rr.AssetVideo(contents=clip.data, media_type="video/mp4"), static=True)
     else:

@@ -5,6 +5,7 @@ loader dequantizes it). Works on any LeRobot v3 dataset."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -64,11 +65,17 @@ def episode_frames(
             images[name] = img
         images = {name: images[name] for name in cameras}  # in the caller's camera order
         task_index = int(cols["task_index"][i])
+        if task_index < 0 or (tasks and task_index >= len(tasks)):  # never another task's text, nor ""
+            raise DatasetError(
+                f"{path}: task_index: {task_index} at episode {e} row {i} is not in meta/tasks.parquet "
+                f"({len(tasks)} task(s))",
+                code="dataset.invalid",
+            )
         yield Frame(
             state=np.asarray(cols["observation.state"][i], dtype=np.float32).reshape(-1),
             action=np.asarray(cols["action"][i], dtype=np.float32).reshape(-1),
             images=images,
-            task=tasks[task_index] if task_index < len(tasks) else "",
+            task=tasks[task_index] if tasks else "",
             reward=float(cols["next.reward"][i]) if "next.reward" in cols else 0.0,  # ignored: schema has no reward
             done=bool(cols["next.done"][i]) if "next.done" in cols else i == n - 1,
             success=bool(cols["next.success"][i]) if "next.success" in cols else False,  # likewise
@@ -80,6 +87,22 @@ def episode_frames(
                 else None
             ),
         )
+
+
+def video_span(path: Path, row: dict[str, Any], key: str, n: int, fps: int) -> tuple[float, float]:
+    """The seconds [from, to) of the `n`-frame episode of meta/episodes `row` in the mp4 of `key` at `path`
+    (a missing value: from 0, to from + n / fps). `from` must be a finite number >= 0 and `to - from` be
+    `n / fps` within half a frame; else a `DatasetError`: another episode's frames would pass as this one's."""
+    start, end = row.get(f"videos/{key}/from_timestamp"), row.get(f"videos/{key}/to_timestamp")
+    start = 0.0 if start is None else float(start)
+    end = start + n / fps if end is None else float(end)
+    if not (math.isfinite(start) and math.isfinite(end) and start >= 0 and abs(end - start - n / fps) <= 0.5 / fps):
+        raise DatasetError(
+            f"{path}: episode {row.get('episode_index')}: videos/{key}/from_timestamp..to_timestamp {start}..{end} "
+            f"is not its {n} frames at {fps} fps",
+            code="dataset.invalid",
+        )
+    return start, end
 
 
 def depth_settings(info: dict[str, Any], key: str) -> DepthSettings | None:
@@ -94,7 +117,7 @@ def _decode_video(
     """The episode's `n` frames of `key`, decoded from its mp4 starting at `from_timestamp`."""
     pos = layout.FilePos(row[f"videos/{key}/chunk_index"], row[f"videos/{key}/file_index"])
     path = layout.template_path(src, info, "video_path", pos, video_key=key)
-    start = float(row[f"videos/{key}/from_timestamp"])
+    start, _ = video_span(path, row, key, n, fps)
     try:
         yield from _decode(path, start, n, fps, depth_settings(info, key))
     except (av.error.FFmpegError, OSError) as exc:  # missing, empty, truncated or not a video

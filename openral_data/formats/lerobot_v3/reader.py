@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -103,6 +104,19 @@ def read_episodes(root: Path) -> pa.Table:
         ) from None
 
 
+def dataset_tasks(root: Path, info: dict[str, Any]) -> list[str]:
+    """The task texts in task_index order, which info.json's `total_tasks` must count (`info` and `tasks list`
+    print them: a `total_tasks` of 0 must not hide the tasks there are)."""
+    total = info.get("total_tasks")
+    tasks = read_tasks(root) if total or os.path.lexists(root / layout.TASKS_PATH) else []
+    if total is not None and total != len(tasks):
+        raise DatasetError(
+            f"{root / layout.INFO_PATH}: total_tasks: {total}, but {layout.TASKS_PATH} holds {len(tasks)} task(s)",
+            code="dataset.invalid",
+        )
+    return tasks
+
+
 def read_tasks(root: Path) -> list[str]:
     path = layout.inside(root, layout.TASKS_PATH)
     table = read_table(path)
@@ -117,16 +131,49 @@ def read_tasks(root: Path) -> list[str]:
 
 def summarize(root: Path) -> DatasetSummary:
     info = read_info(root)
-    episodes = read_episodes(root)
+    episodes = committed_episodes(root, info, read_episodes(root))
     successes, known = count_successes(episode_successes(root, episodes))
     return DatasetSummary(
         root=root,
         fps=info["fps"],
         episodes=info.get("total_episodes", 0),
         frames=info.get("total_frames", 0),
-        tasks=read_tasks(root) if info.get("total_tasks") else [],
+        tasks=dataset_tasks(root, info),
         cameras=[k for k, f in info["features"].items() if f.get("dtype") in ("video", "image")],
         successes=successes if known else None,
         robot_type=info.get("robot_type"),
         success_known=known,
     )
+
+
+def committed_episodes(root: Path, info: dict[str, Any], episodes: pa.Table) -> pa.Table:
+    """The rows of the episodes table that info.json's totals count: its first `total_episodes` (rows past them
+    are an unfinished commit's, which `doctor --repair` finishes). `info` prints the totals, so claiming episodes
+    that are not there, or frames their lengths do not add up to, is one line (`doctor`: `info.totals`), never a
+    wrong count. Episode lengths must be integers >= 0."""
+    where = f"{root / layout.INFO_PATH}"
+    n = check_episode_count(root, info, episodes.num_rows)
+    episodes = episodes.slice(0, n)
+    if "length" not in episodes.column_names:
+        return episodes
+    lengths = episodes.column("length").to_pylist()
+    if not all(isinstance(v, int) and v >= 0 for v in lengths):
+        raise DatasetError(f"{root}/meta/episodes/: length: not all integers >= 0", code="dataset.invalid")
+    if info.get("total_frames", sum(lengths)) != sum(lengths):
+        raise DatasetError(
+            f"{where}: total_frames: {info['total_frames']}, but the episodes' lengths add up to {sum(lengths)}",
+            code="dataset.invalid",
+        )
+    return episodes
+
+
+def check_episode_count(root: Path, info: dict[str, Any], rows: int) -> int:
+    """info.json's `total_episodes` (default: `rows`), which must not claim more than the `rows` of the episodes
+    table (rows past it are an unfinished commit's)."""
+    n = info.get("total_episodes", rows)
+    if n > rows:
+        raise DatasetError(
+            f"{root / layout.INFO_PATH}: total_episodes: {n}, but meta/episodes/ holds {rows} episode(s)",
+            code="dataset.invalid",
+        )
+    return int(n)

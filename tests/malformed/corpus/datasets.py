@@ -126,22 +126,21 @@ UNREAD = {
 }
 
 
-def _damage_case(reader: str, damage: str) -> None:
+def _damage_case(reader: str, id: str, hurt: Callable[[Workspace, Path], object], names: str) -> None:
     argv, new = READERS[reader]
-    hurt, names = DAMAGE[damage]
 
     def build(w: Workspace) -> list[str]:
         d = w.ds()
         hurt(w, d)
         return argv(w, d)
 
-    case(f"{reader}-{damage}", build, names, new)
+    case(id, build, names, new)
 
 
 for _reader, _reads in READS.items():
-    for _damage in DAMAGE:
+    for _damage, (_hurt, _names) in DAMAGE.items():
         if _damage.split("-")[0] in _reads and f"{_reader}-{_damage}" not in UNREAD:
-            _damage_case(_reader, _damage)
+            _damage_case(_reader, f"{_reader}-{_damage}", _hurt, _names)
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -203,3 +202,71 @@ def _repair_file(w: Workspace) -> list[str]:
 
 case("doctor-repair-file", _repair_file, r"notes\.txt")
 case("doctor-repair-missing", lambda w: ["doctor", str(w.root / "gone"), "--repair"], r"gone", ("gone",))
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Silent wrong answers (#29): damage these commands used to read as a plausible answer, exiting 0 — episodes that
+# are not there (`info`, the `datasets` view of `stats`), another episode's video frames or a task text of ""
+# (`view`, `convert` to MCAP)
+
+
+def _column(path: Path, name: str, value: Callable[[Any], Any]) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    t = pq.read_table(path)
+    i = t.schema.get_field_index(name)
+    t = t.set_column(i, name, pa.array([value(v) for v in t.column(name).to_pylist()], t.schema.field(i).type))
+    pq.write_table(t, path)
+
+
+FROM_TS = "videos/observation.images.front/from_timestamp"
+TO_TS = "videos/observation.images.front/to_timestamp"
+SILENT: dict[str, tuple[Callable[[Workspace, Path], object], str, tuple[str, ...]]] = {
+    "info-total-episodes": (
+        lambda w, d: _info(w, d, total_episodes=5),
+        r"info\.json: total_episodes",
+        ("info", "stats"),
+    ),
+    "info-total-frames": (lambda w, d: _info(w, d, total_frames=99), r"info\.json: total_frames", ("info",)),
+    "info-total-tasks-zero": (
+        lambda w, d: _info(w, d, total_tasks=0),
+        r"info\.json: total_tasks: 0",
+        ("info", "convert", "delete"),
+    ),
+    "episodes-length-negative": (
+        lambda w, d: _column(d / EPISODES, "length", lambda v: -v),
+        r"meta/episodes/: length",
+        ("info",),  # stats reports it (health: frame_count)
+    ),
+    "episodes-video-from-negative": (
+        lambda w, d: _column(d / EPISODES, FROM_TS, lambda v: -5.0),
+        r"file-000\.mp4: episode 0: .*from_timestamp",
+        ("view", "convert"),
+    ),
+    "episodes-video-to-beyond": (
+        lambda w, d: _column(d / EPISODES, TO_TS, lambda v: v + 100),
+        r"file-000\.mp4: episode 0: .*to_timestamp",
+        ("view", "convert"),
+    ),
+    "data-task-index-out-of-range": (
+        lambda w, d: _column(d / DATA, "task_index", lambda v: 7),
+        r"file-000\.parquet: task_index: 7",
+        ("convert",),
+    ),
+    "data-timestamp-nan": (  # not silent but a traceback: rerun cannot put a frame at time NaN
+        lambda w, d: _column(d / DATA, "timestamp", lambda v: float("nan")),
+        r"file-000\.parquet: timestamp",
+        ("view",),
+    ),
+    "data-task-index-negative": (
+        lambda w, d: _column(d / DATA, "task_index", lambda v: -1),
+        r"file-000\.parquet: task_index: -1",
+        ("convert",),
+    ),
+}
+
+
+for _damage, (_hurt, _names, _readers) in SILENT.items():
+    for _reader in _readers:
+        _damage_case(_reader, f"{_reader}-silent-{_damage}", _hurt, _names)
