@@ -24,3 +24,10 @@ def printable(text: str, *, keep_newlines: bool = False) -> str:
         return ch if keep_newlines and ch == "\n" else repr(ch)[1:-1]
 
     return _CONTROL.sub(shown, text)
+
+
+def json_escaped(text: str) -> str:
+    """JSON text (from `json.dumps(..., ensure_ascii=False)`) with the control characters JSON leaves raw (C1,
+    DEL, bidi overrides, line separators) written as ``\\uXXXX`` escapes: the same document, safe on a terminal.
+    Outside strings JSON text holds none of them, so every one replaced lies inside a string."""
+    return _CONTROL.sub(lambda m: f"\\u{ord(m.group()):04x}", text)

@@ -11,6 +11,7 @@ from typing import Annotated
 
 import typer
 
+from openral_data.text import json_escaped
 from openral_data.version import __version__
 
 
@@ -18,11 +19,12 @@ def print_json(command: str, doc: Mapping[str, object]) -> None:
     """Write `{"command": command, "version": <package version>, **doc}` to stdout as ONE line of JSON.
 
     Keys keep the order given (`command`, `version`, then the command's fields as docs/scripting.md lists them);
-    non-ASCII stays as is (UTF-8); a path becomes its string; a non-finite float becomes null (JSON has no NaN).
+    non-ASCII stays as is (UTF-8), control characters are escaped (`text.json_escaped`); a path becomes its
+    string; a non-finite float becomes null (JSON has no NaN).
     Nothing else may be written to stdout by a `--json` run: progress and messages go to stderr.
     """
     full = {"command": command, "version": __version__, **doc}
-    text = json.dumps(_plain(full), ensure_ascii=False, allow_nan=False)
+    text = json_escaped(json.dumps(_plain(full), ensure_ascii=False, allow_nan=False))
     sys.stdout.write(text + "\n")
     sys.stdout.flush()
 

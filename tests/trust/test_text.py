@@ -108,3 +108,16 @@ def test_log_records_quoting_dataset_text_are_escaped(formatter: logging.Formatt
     record = logging.LogRecord("openral_data.test", logging.WARNING, __file__, 1, "task %s", (EVIL_TASK,), None)
     line = formatter.format(record)
     assert "\x1b" not in line and "\x07" not in line and "\\x1b[2J" in line
+
+
+def test_json_output_escapes_the_controls_json_leaves_raw(evil: Path, tmp_path: Path) -> None:
+    """JSON escapes C0 itself; C1 (`\\x9b` is a one-byte CSI), DEL and the bidi overrides it leaves raw unless
+    `--json` escapes them too: the document reads back the same."""
+    task = "c1 \x9b2J del \x7f bidi \u202etxt.exe"
+    out = tmp_path / "c1"
+    run = run_inproc("tasks", "rename", str(evil), "--from", EVIL_TASK, "--to", task, "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    run = run_inproc("tasks", "list", str(out), "--json")
+    assert run.returncode == 0, run.stderr
+    assert not any(c in run.stdout for c in "\x9b\x7f\u202e"), run.stdout
+    assert [t["task"] for t in json.loads(run.stdout)["tasks"]] == [task]
