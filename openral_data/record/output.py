@@ -19,6 +19,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from openral_data import manifests
 from openral_data.errors import ConfigError, DatasetBusy, DatasetError, UsageError
 from openral_data.formats import atomic
 from openral_data.formats.jsonfile import parse_json
@@ -139,7 +140,7 @@ def continue_options(opts: RecordOptions, explicit: frozenset[str]) -> RecordOpt
             shown = ",".join(given) if name == "formats" else given
             raise ConfigError(
                 f"{path}: {name}: the dataset was recorded with {_show(stored)}; {flag} {shown} differs "
-                "(leave the option out to continue with the recorded one)"
+                + _hint(name, stored)
             )
         if name in ("scene", "rskill"):  # a manifest: never a file the dataset chose (see record/recorded.py)
             stored = given if name in explicit else recorded.trusted(name, stored, path)
@@ -178,6 +179,16 @@ def _same(name: str, given: Any, stored: Any) -> bool:
     if name in ("scene", "rskill"):
         return given is not None and recorded.same(name, str(given), stored)
     return bool(given == stored)
+
+
+def _hint(name: str, stored: Any) -> str:
+    """How to continue after a differing option: leave it out, unless it is a manifest file that --resume may not
+    take from record.json (`recorded.trusted`): that one must be named again."""
+    kinds: dict[str, manifests.Kind] = {"scene": "scenes", "rskill": "rskills"}
+    kind = kinds.get(name)
+    if kind is not None and recorded.on_search_path(kind, str(stored)) is None:
+        return "(name the file it was recorded with)"
+    return "(leave the option out to continue with the recorded one)"
 
 
 def _show(value: Any) -> str:

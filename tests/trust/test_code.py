@@ -179,6 +179,9 @@ def test_resume_with_the_scene_named_again(recorded: Path, tmp_path: Path) -> No
     _one_error(_resume(recorded, *_named(recorded)), f"{record_json}: scene: ", "changed since the recording")
     scene.write_text(original)
     assert snapshot(recorded) == before
+    other = tmp_path / "other.yaml"
+    other.write_text(original)
+    _one_error(_resume(recorded, "--scene", str(other)), f"{record_json}: scene: ", "name the file it was recorded")
     done = run_inproc("record", "--resume", "--out", str(recorded), "--n-episodes", "2", *_named(recorded))
     assert done.returncode == 0, done.stderr
 
