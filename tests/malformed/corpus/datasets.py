@@ -27,6 +27,13 @@ def _info(w: Workspace, ds: Path, **changes: Any) -> None:
     (ds / "meta/info.json").write_text(json.dumps(info))
 
 
+def _features(ds: Path) -> dict[str, Any]:
+    import json
+
+    features: dict[str, Any] = json.loads((ds / "meta/info.json").read_text())["features"]
+    return features
+
+
 def _to_folder(path: Path) -> None:
     path.unlink()
     path.mkdir()
@@ -258,6 +265,13 @@ SILENT: dict[str, tuple[Callable[[Workspace, Path], object], str, tuple[str, ...
         lambda w, d: _column(d / DATA, "timestamp", lambda v: float("nan")),
         r"file-000\.parquet: timestamp",
         ("view",),
+    ),
+    "info-state-shape": (  # not silent but a traceback: the writer failed casting 8 values to the declared 99
+        lambda w, d: _info(
+            w, d, features={**_features(d), "observation.state": {**_features(d)["observation.state"], "shape": [99]}}
+        ),
+        r"info\.json: features: observation\.state: shape \[99\]",
+        ("delete",),
     ),
     "data-task-index-negative": (
         lambda w, d: _column(d / DATA, "task_index", lambda v: -1),
