@@ -79,12 +79,14 @@ def load(root: Path) -> tuple[Dataset | None, list[Finding]]:
     path = root / layout.INFO_PATH
     if not root.is_dir():
         return None, [error("dataset.missing", str(root), "not a folder")]
-    if not path.is_file():
+    if not path.exists() and not path.is_symlink():
         return None, [error("info.missing", layout.INFO_PATH, "missing: lerobot falls back to a Hub download")]
     try:
         info = load_json(path)
-    except (ValueError, OSError) as exc:  # bad or unbounded JSON, a FIFO or device: `load_json`
+    except ValueError as exc:  # bad or unbounded JSON: `load_json`
         return None, [error("info.json", layout.INFO_PATH, f"invalid JSON: {exc}")]
+    except OSError as exc:  # a FIFO, device or folder (`load_json` refuses it before reading), an I/O error
+        return None, [error("info.json", layout.INFO_PATH, f"cannot read: {exc.strerror or exc}")]
     if not isinstance(info, dict):
         return None, [error("info.json", layout.INFO_PATH, "not a JSON object")]
     missing = [k for k in ("codebase_version", "fps", "features") if k not in info]

@@ -65,3 +65,12 @@ def test_a_fifo_manifest_is_listed_as_invalid(project: Path) -> None:
     assert run.returncode == 0 and "Traceback" not in run.stderr, run.stderr
     row = next(ln for ln in run.stdout.splitlines() if "zz_fifo" in ln)
     assert "invalid" in row, run.stdout
+
+
+def test_doctor_names_a_fifo_info_json_as_unreadable_not_missing(ds: Path) -> None:
+    (ds / layout.INFO_PATH).unlink()
+    os.mkfifo(ds / layout.INFO_PATH)
+    run = run_bounded("doctor", str(ds))
+    assert not run.timed_out and run.returncode == 1, run.stdout + run.stderr
+    assert "meta/info.json: cannot read: not a regular file" in run.stdout, run.stdout
+    assert "missing" not in run.stdout
