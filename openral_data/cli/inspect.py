@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
@@ -163,6 +164,8 @@ def view(
     results: Annotated[Path | None, typer.Option(help="replay/eval results directory: log divergence")] = None,
 ) -> None:
     """Show an episode in rerun: videos, named state/action series, task, success/done, replay divergence."""
+    # rerun's own log lines (on stderr) would come on top of our one-line error; what it fails on, we report
+    os.environ.setdefault("RUST_LOG", "off")
     from openral_data.viz.rerun_view import ViewOptions, run_view
 
     path = resolve_dataset(path)

@@ -23,7 +23,15 @@ import numpy as np
 import pyarrow as pa
 import rerun as rr
 
-from openral_data.errors import DatasetError, EpisodeSelectionError, NotFound, OutputExists, ResultsError, UsageError
+from openral_data.errors import (
+    DatasetError,
+    EpisodeSelectionError,
+    NotFound,
+    OutputExists,
+    ResultsError,
+    UsageError,
+    WriteError,
+)
 from openral_data.formats import results as results_layout
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.clip import episode_clip
@@ -106,11 +114,23 @@ def run_view(opts: ViewOptions) -> str:
             what = f"{opts.path} episode {opts.episode} ({episode.frames.num_rows} frames)"
         ok = True
     finally:
-        rec.flush()
-        rec.disconnect()
-        if not ok and save is not None:
+        failed = _flushed(rec)
+        if (not ok or failed is not None) and save is not None:
             save.unlink(missing_ok=True)
+    if failed is not None:
+        raise WriteError(f"{save if save is not None else 'the rerun viewer'}: cannot write the recording: {failed}")
     return f"saved {what} to {save}" if save is not None else f"opened {what} in the rerun viewer"
+
+
+def _flushed(rec: rr.RecordingStream) -> str | None:
+    """Flush and disconnect `rec`; what stopped rerun's writer (a full disk, an I/O error), if anything did."""
+    try:
+        rec.flush()
+    except RuntimeError as exc:  # rerun's file-writer thread stopped: it says why only in its own log
+        return str(exc)
+    finally:
+        rec.disconnect()
+    return None
 
 
 def mcap_file(path: Path) -> Path | None:

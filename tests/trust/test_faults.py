@@ -15,10 +15,11 @@ from pathlib import Path
 import pytest
 
 from openral_data.formats import atomic
+from tests.support.cli import run_cli
 from tests.support.faults import Faults, inject
 from tests.support.inproc import Run, run_inproc
 from tests.support.interrupt import snapshot
-from tests.support.readonly import read_only_view
+from tests.support.readonly import read_only_view, small_disk
 from tests.support.recorded import record_small
 
 TASK = "pick up the mock cube"  # the mock scene's task
@@ -152,3 +153,15 @@ def test_ctrl_c_while_importing_exits_130_without_traceback(entry: str, tmp_path
     assert seen and seen[-1].split("|")[-1].strip() == "typer", "typer's import was never reported"
     assert "Traceback" not in stderr, stderr[-2000:]
     assert proc.returncode == 130, stderr[-3000:]
+
+
+def test_view_save_onto_a_full_disk_is_one_line(recorded: Path, tmp_path: Path) -> None:
+    """rerun writes the .rrd on its own thread; a full disk stopped it with a RuntimeError traceback, its own log
+    lines and a cut .rrd left behind. In a subprocess: rerun reads RUST_LOG when it is first imported."""
+    with small_disk(tmp_path / "full") as full:
+        run = run_cli("view", str(recorded), "--save", str(full / "v.rrd"))
+        assert "Traceback" not in run.stderr, run.stderr
+        lines = [ln for ln in run.stderr.splitlines() if ln.strip()]
+        assert run.returncode == 2 and len(lines) == 1, run.stderr
+        assert lines[0].startswith(f"error: {full / 'v.rrd'}: cannot write the recording"), lines[0]
+        assert not (full / "v.rrd").exists()
