@@ -7,6 +7,7 @@ from __future__ import annotations
 import struct
 from pathlib import Path
 
+import numpy as np
 from backports import zstd
 
 FRAME = 64 << 20
@@ -36,4 +37,28 @@ def write_bomb(path: Path, expands_to: int, honest: bool = False) -> Path:
         + _record(0x02, struct.pack("<QQI", 0, 0, 0))  # no summary: readers scan, and so reach the chunk
         + MAGIC
     )
+    return path
+
+
+def write_ros1_bomb(path: Path, expands_to: int, honest: bool = False) -> Path:
+    """`path`: a real ROS 1 bag (rosbags' writer, bz2 chunks) holding one message of `expands_to` zero bytes; unless
+    `honest`, its chunk header then declares 1,000 bytes uncompressed (the field is a fixed-width u32)."""
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    msgtype = "std_msgs/msg/UInt8MultiArray"
+    msg = store.types[msgtype](
+        layout=store.types["std_msgs/msg/MultiArrayLayout"](dim=[], data_offset=0), data=np.zeros(expands_to, np.uint8)
+    )
+    writer = Writer(path)
+    writer.set_compression(Writer.CompressionFormat.BZ2)
+    with writer:
+        conn = writer.add_connection("/blob", msgtype, typestore=store)
+        writer.write(conn, 1, store.serialize_ros1(msg, msgtype))
+    if not honest:
+        raw = bytearray(path.read_bytes())
+        at = raw.index(b"\x09\x00\x00\x00size=") + 9  # the chunk header's size field (no other record has one)
+        raw[at : at + 4] = struct.pack("<I", 1000)
+        path.write_bytes(bytes(raw))
     return path

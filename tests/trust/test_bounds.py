@@ -18,12 +18,14 @@ from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.digests import DIGESTS_PATH, REHASH_PATH
 from openral_data.formats.lerobot_v3.info import MAX_FEATURES
 from openral_data.formats.mcap.chunks import check_mcap
+from openral_data.formats.rosbag1 import check_ros1
 from openral_data.pipeline.state import read_marker
 from tests.malformed.conftest import corpus_dataset  # noqa: F401  (the session's small recorded dataset)
+from tests.support.bags import write_ros1
 from tests.support.bounded import run_bounded
 from tests.support.home import isolated_home
 from tests.support.inproc import run_inproc
-from tests.support.mcap_bomb import write_bomb
+from tests.support.mcap_bomb import write_bomb, write_ros1_bomb
 
 DEEP = b"[" * 200_000 + b"]" * 200_000
 
@@ -158,3 +160,22 @@ def test_honest_zstd_bags_pass(tmp_path: Path) -> None:
     check_mcap(bag)
     os.truncate(bag, bag.stat().st_size - 20)  # truncated: left to the reader, which says so
     check_mcap(bag)
+
+
+def test_ros1_bz2_chunk_expanding_past_its_declared_size_is_refused(tmp_path: Path) -> None:
+    """ROS 1 bags: rosbags decompresses a chunk whole, whatever its header declares; `convert` now walks the
+    records first, as for MCAP. A real bag (rosbags' writer) is fine; with its chunk's size field lowered, it is
+    refused in one line."""
+    honest = write_ros1_bomb(tmp_path / "fine.bag", expands_to=4 << 20, honest=True)
+    check_ros1(honest)
+    bag = write_ros1_bomb(tmp_path / "bomb.bag", expands_to=4 << 20)
+    with pytest.raises(BagError, match="a bz2 chunk expanding past its declared 1000 bytes"):
+        check_ros1(bag)
+    run = run_inproc("convert", str(bag), str(tmp_path / "out"))
+    assert run.returncode == 2, run.stderr
+    _one_line(run.stderr, "bomb.bag: chunk: ")
+    assert not (tmp_path / "out").exists()
+
+
+def test_our_ros1_bags_pass(tmp_path: Path) -> None:
+    check_ros1(write_ros1(tmp_path / "plain.bag", duration_ms=200))

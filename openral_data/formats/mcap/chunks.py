@@ -10,6 +10,7 @@ byte past it. Anything else is refused in one line before the real reader starts
 
 from __future__ import annotations
 
+import bz2
 import os
 import struct
 from collections.abc import Callable
@@ -42,6 +43,7 @@ class _Decompressor(Protocol):
 _DECOMPRESSORS: dict[str, Callable[[], _Decompressor]] = {
     "zstd": zstd.ZstdDecompressor,
     "lz4": lz4.frame.LZ4FrameDecompressor,
+    "bz2": bz2.BZ2Decompressor,  # ROS 1 bags (`formats/rosbag1`)
 }
 
 
@@ -66,7 +68,7 @@ def check_mcap(path: Path) -> None:
                 return  # truncated: the reader says so
             op, length = header[0], struct.unpack("<Q", header[1:])[0]
             if length > MAX_RECORD_BYTES:
-                raise _refused(path, f"a record of {length} bytes (more than {MAX_RECORD_BYTES})")
+                raise refused(path, f"a record of {length} bytes (more than {MAX_RECORD_BYTES})")
             if op == _FOOTER or f.tell() + length > end:
                 return  # the end, or a truncated record: the reader says so
             if op != _CHUNK:
@@ -82,17 +84,23 @@ def _check_chunk(path: Path, body: bytes) -> None:
     name_len = struct.unpack_from("<I", body, 28)[0]
     compression = body[32 : 32 + name_len].decode("utf-8", "replace")
     data = body[32 + name_len + 8 :]
+    check_chunk(path, compression, declared, data)
+
+
+def check_chunk(path: Path, compression: str, declared: int, data: bytes) -> None:
+    """Refuse a chunk of `path` (MCAP or ROS 1) declaring more than `MAX_RECORD_BYTES` uncompressed, or whose
+    `compression` (zstd, lz4, bz2) `data` expands past its `declared` size (counted in pieces, never held)."""
     if declared > MAX_RECORD_BYTES:
-        raise _refused(path, f"a chunk declaring {declared} bytes uncompressed (more than {MAX_RECORD_BYTES})")
+        raise refused(path, f"a chunk declaring {declared} bytes uncompressed (more than {MAX_RECORD_BYTES})")
     make = _DECOMPRESSORS.get(compression)
     if make is None:
         return  # uncompressed (its size is the record's) or unknown: the reader says so
     try:
         size = _expanded_size(make, data, declared + 1)
-    except (zstd.ZstdError, RuntimeError, ValueError) as exc:  # lz4 raises RuntimeError: the chunk is damaged
-        raise _refused(path, f"a {compression} chunk that does not decompress: {exc}") from None
+    except (zstd.ZstdError, RuntimeError, ValueError, OSError, EOFError) as exc:  # lz4: RuntimeError, bz2: OSError
+        raise refused(path, f"a {compression} chunk that does not decompress: {exc}") from None
     if size > declared:
-        raise _refused(path, f"a {compression} chunk expanding past its declared {declared} bytes")
+        raise refused(path, f"a {compression} chunk expanding past its declared {declared} bytes")
 
 
 def _expanded_size(make: Callable[[], _Decompressor], data: bytes, limit: int) -> int:
@@ -109,5 +117,6 @@ def _expanded_size(make: Callable[[], _Decompressor], data: bytes, limit: int) -
     return total
 
 
-def _refused(path: Path, what: str) -> BagError:
+def refused(path: Path, what: str) -> BagError:
+    """The one-line refusal of a bag whose records or chunks are not bounded."""
     return BagError(f"{path}: chunk: {what}; refusing to read it", code="bag.invalid")
