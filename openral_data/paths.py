@@ -1,15 +1,17 @@
 """The one rule for a path that comes out of a file's contents: it stays inside its root (`contained`,
-`safe_name`, `regular_file`); an output folder given on the command line must be creatable (`check_creatable`).
-Where manifests and outputs live is `openral_data.manifests`.
+`safe_name`), and a file read by name is a regular file (`regular_file`, `read_regular`); an output folder
+given on the command line must be creatable (`check_creatable`). Where manifests and outputs live is
+`openral_data.manifests`.
 """
 
 from __future__ import annotations
 
+import errno
 import os
 import stat
 from pathlib import Path
 
-from openral_data.errors import DatasetError, UsageError
+from openral_data.errors import DatasetError, NotRegularFile, UsageError
 
 
 def contained(root: Path, relative: str | os.PathLike[str], source: str) -> Path:
@@ -95,6 +97,29 @@ def regular_file(path: Path) -> Path:
             f"{path}: not a regular file (a FIFO, device or folder); refusing to read it", code="dataset.unsafe"
         )
     return path
+
+
+def read_regular(path: Path, limit: int | None = None) -> bytes:
+    """The bytes of `path` (symlinks followed) if it is a regular file, checked before reading: opened
+    ``O_NONBLOCK`` and `fstat`-ed, so a FIFO or a device cannot block the reader. A folder raises
+    `IsADirectoryError`, a FIFO or device `NotRegularFile`, a missing file `FileNotFoundError`, a file of more
+    than `limit` bytes `ValueError` (read no further than one byte past it)."""
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
+    try:
+        mode = os.fstat(fd).st_mode
+        if stat.S_ISDIR(mode):
+            raise IsADirectoryError(errno.EISDIR, "is a directory")
+        if not stat.S_ISREG(mode):
+            raise NotRegularFile(errno.EINVAL, "not a regular file (a FIFO or device); refusing to read it")
+        chunks, size = [], 0
+        while (limit is None or size <= limit) and (chunk := os.read(fd, 1 << 20)):
+            chunks.append(chunk)
+            size += len(chunk)
+    finally:
+        os.close(fd)
+    if limit is not None and size > limit:
+        raise ValueError(f"larger than {limit} bytes")
+    return b"".join(chunks)
 
 
 def check_creatable(out: Path, source: str, *, folder: bool = True) -> None:

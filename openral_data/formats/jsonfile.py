@@ -2,24 +2,22 @@
 
 Every JSON we read is untrusted, so every reader goes through `parse_json` (text already in hand: a control file
 read by `atomic.read_control`, a parquet column) or `load_json`/`read_json` (a file by name). Both bound the
-input: a file must be a regular file (opened ``O_NONBLOCK`` and `fstat`-ed, so a FIFO or device is refused
-before it can block), at most `MAX_JSON_BYTES` long, and nested at most `MAX_JSON_DEPTH` deep (checked without
-recursion, so a 200,000-deep file is refused, not a `RecursionError`).
+input: a file must be a regular file (`paths.read_regular`: opened ``O_NONBLOCK`` and `fstat`-ed, so a FIFO
+or device is refused before it can block), at most `MAX_JSON_BYTES` long, and nested at most `MAX_JSON_DEPTH`
+deep (checked without recursion, so a 200,000-deep file is refused, not a `RecursionError`).
 """
 
 from __future__ import annotations
 
-import errno
 import json
-import os
 import re
-import stat
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from openral_data.errors import DatasetError, NotRegularFile
+from openral_data.paths import read_regular
 
 MAX_JSON_BYTES = 64 << 20  # info.json/stats.json of a large dataset are a few MB; 64 MiB is far above any we write
 MAX_JSON_DEPTH = 100  # ours nest at most ~6 deep; anything this deep is crafted (and would overflow recursion)
@@ -58,25 +56,10 @@ def _depth(raw: bytes) -> int:
 
 
 def load_json(path: Path, limit: int = MAX_JSON_BYTES) -> Any:
-    """`path` (symlinks followed) parsed by `parse_json`. A missing file raises `FileNotFoundError`; a FIFO,
-    device or folder `NotRegularFile` (checked before reading, so nothing blocks); a file over `limit` bytes or
-    bad JSON `ValueError`; other read failures `OSError`."""
-    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
-    try:
-        mode = os.fstat(fd).st_mode
-        if stat.S_ISDIR(mode):
-            raise NotRegularFile(errno.EISDIR, "is a directory, expected a JSON file")
-        if not stat.S_ISREG(mode):
-            raise NotRegularFile(errno.EINVAL, "not a regular file (a FIFO or device); refusing to read it")
-        chunks, size = [], 0
-        while size <= limit and (chunk := os.read(fd, 1 << 20)):
-            chunks.append(chunk)
-            size += len(chunk)
-    finally:
-        os.close(fd)
-    if size > limit:
-        raise ValueError(f"larger than {limit} bytes")
-    return parse_json(b"".join(chunks))
+    """`path` (symlinks followed) read by `paths.read_regular` and parsed by `parse_json`. A missing file raises
+    `FileNotFoundError`; a folder `IsADirectoryError`, a FIFO or device `NotRegularFile` (checked before reading,
+    so nothing blocks); a file over `limit` bytes or bad JSON `ValueError`; other read failures `OSError`."""
+    return parse_json(read_regular(path, limit))
 
 
 def read_json(path: Path, limit: int = MAX_JSON_BYTES) -> Any:
@@ -86,9 +69,9 @@ def read_json(path: Path, limit: int = MAX_JSON_BYTES) -> Any:
         return load_json(path, limit)
     except FileNotFoundError:
         raise
+    except IsADirectoryError:
+        raise DatasetError(f"{path}: is a directory, expected a JSON file", code="dataset.invalid") from None
     except NotRegularFile as exc:
-        if exc.errno == errno.EISDIR:
-            raise DatasetError(f"{path}: {exc.strerror}", code="dataset.invalid") from None
         raise DatasetError(f"{path}: {exc.strerror}", code="dataset.unsafe") from None
     except OSError as exc:
         raise DatasetError(f"{path}: cannot read: {exc.strerror or exc}", code="dataset.invalid") from None

@@ -16,17 +16,17 @@ from pathlib import Path
 
 from openral_data import manifests
 from openral_data.errors import ConfigError
-from openral_data.paths import regular_file
+from openral_data.paths import read_regular
 
 MAX_MANIFEST_BYTES = 4 << 20  # a scene or rSkill manifest is a few KB; more is not one
 
 
 def sha256(path: Path) -> str:
     """The sha256 of a manifest file's bytes (a regular file of at most `MAX_MANIFEST_BYTES`)."""
-    with regular_file(path).open("rb") as f:
-        data = f.read(MAX_MANIFEST_BYTES + 1)
-    if len(data) > MAX_MANIFEST_BYTES:
-        raise ConfigError(f"{path}: larger than {MAX_MANIFEST_BYTES} bytes; not a manifest")
+    try:
+        data = read_regular(path, MAX_MANIFEST_BYTES)
+    except ValueError as exc:
+        raise ConfigError(f"{path}: {exc}; not a manifest") from None
     return hashlib.sha256(data).hexdigest()
 
 

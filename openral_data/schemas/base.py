@@ -2,16 +2,15 @@
 
 from __future__ import annotations
 
-import os
 import re
-import stat
 from pathlib import Path
 from typing import Any
 
 import yaml
 from pydantic import BaseModel, ConfigDict, ValidationError
 
-from openral_data.errors import ConfigError
+from openral_data.errors import ConfigError, NotRegularFile
+from openral_data.paths import read_regular
 
 
 class StrictModel(BaseModel):
@@ -66,28 +65,18 @@ def read_yaml(path: Path) -> Any:
     """Parse a YAML file, raising ConfigError (naming the file) for a missing or unreadable file, text that is
     not UTF-8, bad syntax, a key given twice or nesting too deep to load."""
     try:
-        text = _read_regular(path).decode("utf-8")
+        text = read_regular(path).decode("utf-8")
     except FileNotFoundError:
         raise ConfigError(f"{path}: file not found") from None
     except IsADirectoryError:
         raise ConfigError(f"{path}: is a directory, expected a YAML file") from None
     except UnicodeDecodeError as exc:
         raise ConfigError(f"{path}: not UTF-8 text (byte {exc.start})") from None
+    except NotRegularFile as exc:  # a FIFO or a device among the manifests would block every command listing them
+        raise ConfigError(f"{path}: {exc.strerror}") from None
     except OSError as exc:
         raise ConfigError(f"{path}: cannot read: {exc.strerror or exc}") from None
     return parse_yaml(text, str(path))
-
-
-def _read_regular(path: Path) -> bytes:
-    """The bytes of `path` if it is a regular file, checked before reading (opened ``O_NONBLOCK``, then
-    `fstat`-ed): a FIFO or a device among the manifests would block every command that lists them."""
-    with os.fdopen(os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC), "rb") as f:
-        mode = os.fstat(f.fileno()).st_mode
-        if stat.S_ISDIR(mode):
-            raise IsADirectoryError(path)
-        if not stat.S_ISREG(mode):
-            raise ConfigError(f"{path}: not a regular file (a FIFO or device); refusing to read it")
-        return f.read()
 
 
 def parse_yaml(text: str, source: str) -> Any:
