@@ -19,7 +19,6 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from openral_data import manifests
 from openral_data.errors import ConfigError, DatasetBusy, DatasetError, UsageError
 from openral_data.formats import atomic
 from openral_data.formats.jsonfile import parse_json
@@ -184,9 +183,7 @@ def _same(name: str, given: Any, stored: Any) -> bool:
 def _hint(name: str, stored: Any) -> str:
     """How to continue after a differing option: leave it out, unless it is a manifest file that --resume may not
     take from record.json (`recorded.trusted`): that one must be named again."""
-    kinds: dict[str, manifests.Kind] = {"scene": "scenes", "rskill": "rskills"}
-    kind = kinds.get(name)
-    if kind is not None and recorded.on_search_path(kind, str(stored)) is None:
+    if name in recorded.KINDS and recorded.on_search_path(name, str(stored)) is None:
         return "(name the file it was recorded with)"
     return "(leave the option out to continue with the recorded one)"
 

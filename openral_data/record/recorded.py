@@ -19,6 +19,7 @@ from openral_data.errors import ConfigError
 from openral_data.paths import read_regular
 
 MAX_MANIFEST_BYTES = 4 << 20  # a scene or rSkill manifest is a few KB; more is not one
+KINDS: dict[str, manifests.Kind] = {"scene": "scenes", "rskill": "rskills"}  # record.json's manifest references
 
 
 def sha256(path: Path) -> str:
@@ -30,9 +31,10 @@ def sha256(path: Path) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
-def on_search_path(kind: manifests.Kind, value: str) -> Path | None:
-    """The manifest file `value` names when it is an id on the search path or the resolved file of one."""
-    found = manifests.entries(kind)
+def on_search_path(name: str, value: str) -> Path | None:
+    """The manifest file the recorded `name` (`scene` or `rskill`) `value` names when it is an id on the search
+    path or the resolved file of one."""
+    found = manifests.entries(KINDS[name])
     if value in found:
         return found[value].path
     for entry in found.values():
@@ -47,8 +49,7 @@ def trusted(name: str, value: object, source: Path) -> str:
     flag = f"--{name}"
     if not isinstance(value, str) or not value:
         raise ConfigError(f"{source}: {name}: not recorded; name it again with {flag}")
-    kind: manifests.Kind = "scenes" if name == "scene" else "rskills"
-    path = on_search_path(kind, value)
+    path = on_search_path(name, value)
     if path is not None:
         return str(path)
     why = (
@@ -88,6 +89,5 @@ def same(name: str, given: str, stored: object) -> bool:
     now = resolve_scene_path(given) if name == "scene" else resolve_rskill(given)[1]
     if not isinstance(stored, str):
         return False
-    kind: manifests.Kind = "scenes" if name == "scene" else "rskills"
-    found = on_search_path(kind, stored)
+    found = on_search_path(name, stored)
     return str(now.resolve()) == (str(found.resolve()) if found is not None else stored)
