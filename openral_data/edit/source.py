@@ -232,7 +232,7 @@ class SourceDataset:
         for name in self.camera_names():
             videos[name] = self._clip(index, row, name, n)
             image_stats[name] = self._stats(row, self.camera_key[name])
-        states, actions = self._vectors(data, index)
+        states, actions = self._vector(data, STATE, index), self._vector(data, ACTION, index)
         initial = row.get("openral.initial_state")
         successes = _list(data, "next.success", False)
         seed = row.get("openral.seed")
@@ -257,21 +257,18 @@ class SourceDataset:
             column_stats={key: self._stats(row, key) for key in self.carried if self.features[key]["dtype"] == "image"},
         )
 
-    def _vectors(self, data: pa.Table, index: int) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.float32]]:
-        """The episode's state and action rows, refused in one line unless they have the width info.json declares
-        (the writer would otherwise fail casting them, deep inside the copy)."""
-        out = []
-        for key in (STATE, ACTION):
-            matrix = _matrix(data.column(key))
-            want = self.features[key]["shape"][0]
-            if matrix.shape[1] != want:
-                raise DatasetError(
-                    f"{self.root / layout.INFO_PATH}: features: {key}: shape [{want}] but the data of episode "
-                    f"{index} holds {matrix.shape[1]} values a frame",
-                    code="dataset.invalid",
-                )
-            out.append(matrix)
-        return out[0], out[1]
+    def _vector(self, data: pa.Table, key: str, index: int) -> npt.NDArray[np.float32]:
+        """The episode's rows of `key` (state or action), refused in one line unless they have the width
+        info.json declares (the writer would otherwise fail casting them, deep inside the copy)."""
+        matrix = _matrix(data.column(key))
+        want = self.features[key]["shape"][0]
+        if matrix.shape[1] != want:
+            raise DatasetError(
+                f"{self.root / layout.INFO_PATH}: features: {key}: shape [{want}] but the data of episode "
+                f"{index} holds {matrix.shape[1]} values a frame",
+                code="dataset.invalid",
+            )
+        return matrix
 
     def _stats(self, row: dict[str, Any], key: str) -> Stats:
         """A feature's statistics for one episode as meta/episodes has them."""
