@@ -62,11 +62,12 @@ def open_dataset(root: Path, label: str | None = None) -> DatasetSource:
     if not episode_files:
         raise DatasetError(f"{root}: no episodes metadata under meta/episodes/", code="dataset.invalid")
     data_files = layout.found_files(root, "data", "chunk-*/file-*.parquet")
-    for file in (*episode_files, *data_files):  # DuckDB opens them by name: none may be a FIFO or a device
+    # the `datasets` view's episode count (read_table checks each episodes file is a regular file); lengths that
+    # do not add up are the report's `frame_count` health finding
+    check_episode_count(root, info, sum(read_table(f, columns=[]).num_rows for f in episode_files))
+    for file in data_files:  # DuckDB opens them by name: none may be a FIFO or a device
         checked(file)
     episode_columns = _columns(episode_files[0])
-    # the `datasets` view's episode count; lengths that do not add up are the report's `frame_count` health finding
-    check_episode_count(root, info, sum(read_table(f, columns=[]).num_rows for f in episode_files))
     data_columns = _columns(data_files[0]) if data_files else frozenset()
     scene = rskill = robot = None
     provenance = read_provenance(root)
