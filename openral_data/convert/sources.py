@@ -24,7 +24,6 @@ from rosbags.typesys import Stores, get_typestore
 from openral_data.errors import BagError, NotFound
 from openral_data.formats.mcap.chunks import check_bag
 from openral_data.formats.mcap.messages import DEPTH_ENCODINGS, RGB_ENCODINGS
-from openral_data.formats.rosbag1 import check_ros1
 from openral_data.schemas.mapping import Vector, VectorSource
 
 
@@ -67,8 +66,6 @@ def open_reader(bag: Path) -> AnyReader:
     """The bag opened for reading; an empty, truncated or garbage bag raises a `BagError` naming it."""
     store = get_typestore(Stores.ROS1_NOETIC if bag.suffix == ".bag" else Stores.ROS2_HUMBLE)
     check_bag(bag)  # bounded chunks and records, before rosbags allocates what they declare
-    if bag.is_file() and bag.suffix == ".bag":
-        check_ros1(bag)
     reader = AnyReader([bag], default_typestore=store)
     try:
         reader.open()

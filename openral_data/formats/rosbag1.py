@@ -1,8 +1,8 @@
 """ROS 1 ``.bag`` files checked for bounded reading before rosbags opens them (`convert`): rosbags allocates the
 lengths a record declares and decompresses a bz2 or lz4 chunk whole, so a small crafted chunk could expand to
 gigabytes. `check_ros1` walks the file's records (no index trusted): every record header and data part is at most
-`chunks.MAX_RECORD_BYTES`, and each chunk's data expands to no more than the ``size`` its header declares
-(`chunks.check_chunk`, the same bound as for MCAP chunks). Anything else is refused in one line.
+`chunk_bounds.MAX_RECORD_BYTES`, and each chunk's data expands to no more than the ``size`` its header declares
+(`chunk_bounds.check_chunk`, the same bound as for MCAP chunks). Anything else is refused in one line.
 
 Record layout (ROS bag format 2.0): ``<header_len u32><header><data_len u32><data>``, the header a run of
 ``<field_len u32>name=value`` fields; a chunk has ``op=0x05``, ``compression`` and ``size`` (u32).
@@ -15,7 +15,7 @@ import struct
 from pathlib import Path
 from typing import BinaryIO
 
-from openral_data.formats.mcap.chunks import MAX_RECORD_BYTES, check_chunk, refused
+from openral_data.formats.chunk_bounds import MAX_RECORD_BYTES, check_chunk, refused
 from openral_data.paths import regular_file
 
 MAGIC = b"#ROSBAG V2.0\n"
