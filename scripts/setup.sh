@@ -36,3 +36,17 @@ EXTRAS=(robosuite metaworld aloha pusht feetech so_arm ray)
 extra_args=()
 for extra in "${EXTRAS[@]}"; do extra_args+=(--extra "$extra"); done
 "${UV[@]}" sync --frozen --quiet --python "$PY" "${extra_args[@]}"
+
+# Older lerobot releases, as writers of the layouts they wrote (tests/support/old_lerobot.py): 0.3.3 writes
+# LeRobot v2.1, 0.4.4 the early v3.0 layout (task text in tasks.parquet's pandas index). Their code only, without
+# dependencies: they run on this environment's torch/datasets/PyAV, each from its own folder on PYTHONPATH.
+OLD_LEROBOT=("0.3.3:lerobot==0.3.3" "0.4.4:lerobot==0.4.4 accelerate==1.15.0")
+for entry in "${OLD_LEROBOT[@]}"; do
+    version="${entry%%:*}"; target=".old-lerobot/$version"
+    if [ ! -f "$target/.installed" ]; then
+        rm -rf "$target"
+        # shellcheck disable=SC2086  # the requirement list is split on purpose
+        "${UV[@]}" pip install --quiet --no-deps --python "$PY" --target "$target" ${entry#*:}
+        touch "$target/.installed"
+    fi
+done
