@@ -109,16 +109,19 @@ class _Handler(BaseHTTPRequestHandler):
         self._resolve(head=True)
 
     def do_GET(self) -> None:
-        self.received.tokens.add(self.headers.get("Authorization", ""))
         path = unquote(self.path.split("?")[0])
         parts = path.strip("/").split("/")
         if len(parts) > 5 and parts[0] == "datasets" and parts[3] == "resolve":
             return self._resolve(head=False)
-        if len(parts) < 5 or parts[:2] != ["api", "datasets"]:
+        if len(parts) < 5 or parts[:2] != ["api", "datasets"]:  # e.g. the client's own /api/agent-harnesses
             return self._reply({"error": f"not emulated: GET {self.path}"}, 404)
+        self.received.tokens.add(self.headers.get("Authorization", ""))
         repo, kind = f"{parts[2]}/{parts[3]}", parts[4]
         if kind in self.refuse:
             return self._error(self.refuse[kind])
+        pushed = self.received.held.get((repo, unquote(parts[5]) if len(parts) > 5 else "main"))
+        if kind == "revision" and pushed is not None:  # after a commit with nothing new: the branch's head
+            return self._reply({"id": repo, "sha": commit_id(pushed, "pushed"), "private": False, "siblings": []})
         if repo not in self.received.served:
             return self._error(404)
         if kind == "refs":
