@@ -136,7 +136,7 @@ def _hub_errors(repo_id: str, revision: str | None) -> Iterator[None]:
     """Every Hub or network failure of a download as one `HubError` line saying what to do."""
     try:
         yield
-    except (HfHubHTTPError, LocalEntryNotFoundError, httpx.HTTPError, ConnectionError, TimeoutError) as exc:
+    except (HfHubHTTPError, LocalEntryNotFoundError, httpx.HTTPError, ConnectionError, TimeoutError, ValueError) as exc:
         raise _hub_error(repo_id, revision, exc) from None
 
 
@@ -159,6 +159,8 @@ def _hub_error(repo_id: str, revision: str | None, exc: BaseException) -> HubErr
             "(set HF_TOKEN or run `hf auth login`)",
             code="hub.missing",
         )
+    if isinstance(exc, ValueError) and not isinstance(exc, HfHubHTTPError):  # e.g. a repo path leaving the folder
+        return HubError(f"{repo_id}: the Hub's answer is refused: {one_line(exc)}", code="hub.refused")
     if isinstance(exc, OfflineModeIsEnabled):
         return HubError(f"{repo_id}: HF_HUB_OFFLINE is set; unset it to download", code="hub.network")
     if isinstance(exc, HfHubHTTPError):

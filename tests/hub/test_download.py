@@ -133,6 +133,19 @@ def test_refusals_are_one_line(
     assert not (home / repo).exists()
 
 
+def test_a_repo_path_leaving_the_folder_is_refused(hub: tuple[str, Received], home: Path, source: Files) -> None:
+    """Downloaded = untrusted: a tree entry `meta/../../escaped` is refused before anything is written."""
+    hub[1].served["me/evil"] = {"v3.0": {**source, "meta/../../escaped": b"x"}}
+    with pytest.raises(HubError) as err:
+        fetch_dataset("me/evil", DownloadOptions(videos=False))
+    assert err.value.code == "hub.refused" and "\n" not in str(err.value) and "answer is refused" in str(err.value)
+    assert (
+        not (home / "me" / "evil").exists()
+        and not (home / "escaped").exists()
+        and not (home / "me" / "escaped").exists()
+    )
+
+
 def test_offline_is_one_line(home: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(constants, "HF_HUB_OFFLINE", True)
     done = run_inproc("info", "me/ds", "--download")
