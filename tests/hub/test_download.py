@@ -187,3 +187,10 @@ def test_a_killed_download_never_looks_complete_and_a_rerun_finishes_it(
     assert _tree(home / "me" / "ds") == _only(source, "meta", "data", "videos")  # byte-identical
     assert not staging.exists()
     assert not finished & {rel for rel, _ in received.gets}  # what the killed run finished is not fetched again
+    # lerobot takes the folder as a local dataset (no `.cache/huggingface/download/` there, which it would take for
+    # an old-style mirror and fetch again): offline, `LeRobotDataset("me/ds")` loads it
+    load = "from lerobot.datasets.lerobot_dataset import LeRobotDataset as D; print(D('me/ds').num_frames)"
+    env = {**os.environ, "HF_LEROBOT_HOME": str(home), "HF_HUB_OFFLINE": "1"}
+    loaded = subprocess.run([sys.executable, "-c", load], env=env, capture_output=True, text=True, check=False)
+    assert loaded.returncode == 0, loaded.stderr
+    assert int(loaded.stdout.split()[-1]) > 0
