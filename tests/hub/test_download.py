@@ -12,6 +12,7 @@ import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 from huggingface_hub import constants
@@ -194,3 +195,25 @@ def test_a_killed_download_never_looks_complete_and_a_rerun_finishes_it(
     loaded = subprocess.run([sys.executable, "-c", load], env=env, capture_output=True, text=True, check=False)
     assert loaded.returncode == 0, loaded.stderr
     assert int(loaded.stdout.split()[-1]) > 0
+
+
+def test_every_command_taking_a_dataset_has_the_options_push_does_not() -> None:
+    import typer.main
+
+    from openral_data.cli.app import app
+
+    root: Any = typer.main.get_command(app)
+
+    def options(*path: str) -> set[str]:
+        command = root
+        for name in path:
+            command = command.commands[name]
+        return {opt for p in command.params for opt in p.opts}
+
+    taking = [("info",), ("doctor",), ("view",), ("convert",), ("replay",), ("stats", "report"), ("stats", "recompute")]
+    taking += [("episodes", c) for c in ("delete", "filter", "split", "merge")]
+    taking += [("tasks", c) for c in ("list", "rename", "set")] + [("features", "remove")]
+    taking += [("videos", c) for c in ("reencode", "encode-images")]
+    for path in taking:
+        assert {"--download", "--revision", "--include"} <= options(*path), path
+    assert "--download" not in options("push") and "--include" not in options("push")
