@@ -41,9 +41,10 @@ bag.type                a mapped topic's message type or image encoding cannot s
 bag.empty               no frame could be filled; nothing was written
 results               a results directory (policy evaluation output) is malformed
 query                 DuckDB rejected a query or a setting
-hub                   the Hugging Face Hub did not take a push:
+hub                   the Hugging Face Hub did not take a push or give a download:
 hub.auth                no token, or the Hub refused it (401/403)
 hub.network             the Hub could not be reached (no network, offline mode, a timeout)
+hub.missing             no such dataset repo or revision (or a private one the token cannot read)
 hub.refused             the Hub answered with an error (an invalid repo id, a rejected commit, ...)
 replay                a dataset cannot be replayed (no initial state, no scene to rebuild, ...)
 executor              a parallel recording's executor is unavailable or a worker failed
@@ -182,7 +183,8 @@ class QueryError(OpenralError):
 
 
 class HubError(OpenralError):
-    """The Hugging Face Hub did not take a push: no token, no network, or an error answer (`code` says which)."""
+    """The Hugging Face Hub did not take a push or give a download: no token, no network, no such repo, or an error
+    answer (`code` says which)."""
 
     default_code = "hub"
 

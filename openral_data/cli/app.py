@@ -10,6 +10,7 @@ from typing import Annotated, Any, cast
 import typer
 
 from openral_data.cli import convert, hub, inspect, record, replay, stats
+from openral_data.cli.download import dataset_download
 from openral_data.cli.edit import episodes_app
 from openral_data.cli.features import features_app
 from openral_data.cli.help import plain_flags
@@ -93,6 +94,7 @@ app.add_typer(pipeline_app, name="pipeline")
 app.add_typer(videos_app, name="videos")
 app.add_typer(tasks_app, name="tasks")
 app.add_typer(features_app, name="features")
+dataset_download(app)  # after every command and sub-app: --download/--revision/--include where a dataset goes
 plain_flags(app)  # after every command and sub-app: their --help shows no <bool> for flags
 
 

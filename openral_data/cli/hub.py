@@ -7,7 +7,7 @@ from typing import Annotated
 
 import typer
 
-from openral_data.cli.terminal import print_line
+from openral_data.cli.terminal import print_line, progress_bar
 from openral_data.errors import NotFound
 from openral_data.formats.repo_id import resolve_dataset
 
@@ -25,6 +25,9 @@ def push(
     ] = False,
     license: Annotated[str, typer.Option(help="the card's license (a Hub license id)")] = "apache-2.0",
     citation: Annotated[Path | None, typer.Option(help="a BibTeX file for the card's citation")] = None,
+    tags: Annotated[
+        list[str] | None, typer.Option("--tags", help="a tag for the card, after LeRobot (repeatable)", metavar="TAG")
+    ] = None,
     force: Annotated[bool, typer.Option("--force", help="push even when `doctor` finds errors")] = False,
     dry_run: Annotated[
         bool, typer.Option("--dry-run", help="print the files and the card; no network, nothing uploaded")
@@ -36,10 +39,15 @@ def push(
     if citation is not None and not citation.is_file():
         raise NotFound(f"--citation: {citation}: no such file")
     bibtex = citation.read_text(errors="replace").strip() if citation is not None else None
-    opts = PushOptions(repo_id, private, revision, include_mcap, include_state, force, license, bibtex)
+    opts = PushOptions(
+        repo_id, private, revision, include_mcap, include_state, force, license, bibtex, tuple(tags or ())
+    )
     plan = plan_push(resolve_dataset(dataset), opts)
     if dry_run:
         print_line(plan.text())
         return
-    result = upload(plan)
-    print_line(f"pushed {len(plan.files)} files + the card to {repo_id} (tag {result.tag}): {result.url}")
+    with progress_bar("pushing", "files") as bar:
+        task = bar.add_task("push", total=len(plan.files) + 1)
+        result = upload(plan, lambda files: bar.advance(task, files))
+    commits = f" in {result.commits} commits" if result.commits > 1 else ""
+    print_line(f"pushed {len(plan.files)} files + the card to {repo_id}{commits} (tag {result.tag}): {result.url}")

@@ -3,7 +3,9 @@
 `resolve_dataset(arg)`: an argument that names an existing path is that path (a local folder named like a repo
 id wins over the cache); one that does not but looks like `owner/name` is `HF_LEROBOT_HOME/owner/name`, exactly
 where `LeRobotDataset(repo_id)` looks (lerobot 0.6.1's own constant, so its environment rules apply); when that
-folder is missing too, one line says where it looked and how to download it. Nothing here touches the network.
+folder is missing too, one line says where it looked and that `--download` fetches it. Nothing here touches the
+network: the CLI's `--download` (openral_data/cli/download.py, with `openral_data.hub.fetch_dataset`) fills the
+cache folder before a command resolves its argument here.
 """
 
 from __future__ import annotations
@@ -39,7 +41,7 @@ def resolve_dataset(arg: str | Path) -> Path:
     cached = lerobot_home() / text
     if not cached.is_dir():
         raise NotFound(
-            f"{text}: no such folder, and not in the local cache (looked in {cached}); download it with "
-            f"`hf download --repo-type dataset {text} --local-dir {cached}`"
+            f"{text}: no such folder, and not in the local cache (looked in {cached}); add --download to fetch it "
+            "from the Hub"
         )
     return cached

@@ -2,11 +2,11 @@
 
 The front matter is what `lerobot.datasets.utils.create_lerobot_dataset_card` puts there (license,
 ``task_categories: [robotics]``, the ``LeRobot`` tag, a ``default`` config whose ``data_files`` are
-``data/*/*.parquet``, which the Hub's dataset viewer reads) plus our ``openral-data`` tag; the text is lerobot's
-card template (read from the installed lerobot, rendered by huggingface_hub) with its description filled in:
-a summary (episodes, frames, fps, robot type, success with its 95 % Wilson interval by the one success rule), the
-tasks, a features table and the provenance (openral-data's `meta/openral.json`: writer version, scenes,
-rSkills, seeds, edits; else "written by LeRobot"). The text depends only on the dataset and the options, so
+``data/*/*.parquet``, which the Hub's dataset viewer reads) plus our ``openral-data`` tag and `--tags`; the text
+is lerobot's card template (read from the installed lerobot, rendered by huggingface_hub) with its description
+filled in: a summary (episodes, frames, fps, robot type, success with its 95 % Wilson interval by the one success
+rule), the tasks, a features table and the provenance (openral-data's `meta/openral.json`: writer version,
+scenes, rSkills, seeds, edits; else "written by LeRobot"). The text depends only on the dataset and the options, so
 tests compare it whole. Local paths (a scene's file, an edit's source folder) are never published, only names.
 """
 
@@ -38,13 +38,15 @@ class CardOptions:
     repo_id: str
     license: str = "apache-2.0"  # lerobot's `push_to_hub` default
     citation: str | None = None  # BibTeX
+    tags: tuple[str, ...] = ()  # more card tags (`push --tags`, lerobot's `push_to_hub(tags=...)`)
 
 
-def card_data(license: str) -> DatasetCardData:
-    """The YAML front matter: lerobot's (`create_lerobot_dataset_card`) with our tag."""
+def card_data(license: str, tags: tuple[str, ...] = ()) -> DatasetCardData:
+    """The YAML front matter: lerobot's (`create_lerobot_dataset_card`, whose `tags=` follow its ``LeRobot``) with
+    our tag, then `tags` (each once)."""
     return DatasetCardData(
         license=license,
-        tags=list(TAGS),
+        tags=list(dict.fromkeys([*TAGS, *tags])),
         task_categories=["robotics"],
         configs=[{"config_name": "default", "data_files": DATA_FILES}],
     )
@@ -65,7 +67,7 @@ def dataset_card(root: Path, opts: CardOptions) -> str:
     )
     structure = f"[{layout.INFO_PATH}]({layout.INFO_PATH}):\n```json\n{json.dumps(info, indent=4)}\n```\n"
     card = DatasetCard.from_template(
-        card_data(opts.license),
+        card_data(opts.license, opts.tags),
         template_str=lerobot_template(),
         repo_id=opts.repo_id,
         license=opts.license,

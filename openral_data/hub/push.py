@@ -4,14 +4,17 @@
 interrupted, one `doctor` finds errors in (unless `force`), selects the files (`select_files`) and writes the
 card (`dataset_card`); the plan's `operations` are exactly the `CommitOperationAdd`s the commit sends.
 `upload` sends them the way lerobot's `LeRobotDataset.push_to_hub` does: create the dataset repo (``exist_ok``),
-the branch if one is named, one commit with the files and README.md, then the codebase-version tag (``v3.0``)
-on that revision. The token is huggingface_hub's own (``HF_TOKEN``, else the cached `hf auth login`); a missing
-token, no network or an error answer from the Hub is one `HubError` line, not a traceback.
+the branch if one is named, the files and README.md (one commit, or several for a large dataset:
+`hub._commits`), then the codebase-version tag (``v3.0``) on that revision. An interrupted push resumes when run
+again: what the Hub already holds is not sent again. Nothing is written into the dataset. The token is
+huggingface_hub's own (``HF_TOKEN``, else the cached `hf auth login`); a missing token, no network or an error
+answer from the Hub is one `HubError` line, not a traceback.
 """
 
 from __future__ import annotations
 
 import contextlib
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,7 +28,9 @@ from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.lock import check_settled
 from openral_data.formats.repo_id import looks_like_repo_id
 from openral_data.hub._card import CardOptions, dataset_card
+from openral_data.hub._commits import COMMIT_BYTES, COMMIT_FILES, commit_batches
 from openral_data.hub._files import select_files
+from openral_data.hub.download import one_line
 
 CARD_PATH = "README.md"
 
@@ -40,6 +45,9 @@ class PushOptions:
     force: bool = False  # push even when doctor finds errors
     license: str = "apache-2.0"
     citation: str | None = None
+    tags: tuple[str, ...] = ()  # more card tags, after LeRobot and openral-data
+    commit_files: int = COMMIT_FILES  # a push of more files (or bytes) is several commits
+    commit_bytes: int = COMMIT_BYTES
 
 
 @dataclass(frozen=True)
@@ -69,9 +77,10 @@ class PushPlan:
 
 @dataclass(frozen=True)
 class PushResult:
-    url: str  # the commit's URL on the Hub
+    url: str  # the (last) commit's URL on the Hub
     files: int
     tag: str
+    commits: int = 1
 
 
 def plan_push(root: Path, opts: PushOptions) -> PushPlan:
@@ -89,12 +98,13 @@ def plan_push(root: Path, opts: PushOptions) -> PushPlan:
             code="dataset.invalid",
         )
     files = select_files(root, include_mcap=opts.include_mcap, include_state=opts.include_state)
-    card = dataset_card(root, CardOptions(opts.repo_id, opts.license, opts.citation))
+    card = dataset_card(root, CardOptions(opts.repo_id, opts.license, opts.citation, opts.tags))
     return PushPlan(root, opts, files, card)
 
 
-def upload(plan: PushPlan) -> PushResult:
-    """Send `plan` to the Hub (see the module docstring); every Hub or network failure is one `HubError`."""
+def upload(plan: PushPlan, progress: Callable[[int], None] | None = None) -> PushResult:
+    """Send `plan` to the Hub (see the module docstring), calling `progress(files)` after each commit; every Hub
+    or network failure is one `HubError`."""
     if get_token() is None:
         raise HubError(
             "no Hugging Face token: set HF_TOKEN or run `hf auth login` (a token with write access)", code="hub.auth"
@@ -102,34 +112,44 @@ def upload(plan: PushPlan) -> PushResult:
     opts = plan.opts
     api = HfApi()
     repo = opts.repo_id
+    batches = commit_batches(plan.operations, opts.commit_files, opts.commit_bytes)
+    landed = 0
     try:
         api.create_repo(repo, repo_type="dataset", private=opts.private, exist_ok=True)
         if opts.revision:
             api.create_branch(repo, branch=opts.revision, repo_type="dataset", exist_ok=True)
-        info = api.create_commit(
-            repo,
-            plan.operations,
-            commit_message=f"Upload {plan.root.name} with openral-data",
-            repo_type="dataset",
-            revision=opts.revision,
-        )
+        for batch in batches:
+            part = f" ({landed + 1}/{len(batches)})" if len(batches) > 1 else ""
+            info = api.create_commit(
+                repo,
+                batch,
+                commit_message=f"Upload {plan.root.name} with openral-data{part}",
+                repo_type="dataset",
+                revision=opts.revision,
+            )
+            landed += 1
+            if progress is not None:
+                progress(len(batch))
         with contextlib.suppress(RevisionNotFoundError):
             api.delete_tag(repo, tag=layout.CODEBASE_VERSION, repo_type="dataset")
         api.create_tag(repo, tag=layout.CODEBASE_VERSION, revision=opts.revision, repo_type="dataset")
-    except OfflineModeIsEnabled:
-        raise HubError(f"{repo}: HF_HUB_OFFLINE is set; unset it to push", code="hub.network") from None
-    except HfHubHTTPError as exc:
-        message = f"{repo}: the Hub refused the push: {_one_line(exc)}"
-        if exc.response is not None and exc.response.status_code in (401, 403):
-            raise HubError(message, code="hub.auth") from None
-        raise HubError(message, code="hub.refused") from None
-    except (httpx.HTTPError, ConnectionError, TimeoutError) as exc:
-        raise HubError(f"{repo}: cannot reach the Hub: {_one_line(exc)}", code="hub.network") from None
-    except ValueError as exc:  # huggingface_hub's own refusals: the card's metadata (validated by the Hub), a repo id
-        raise HubError(f"{repo}: the Hub refused the push: {_one_line(exc)}", code="hub.refused") from None
-    return PushResult(url=str(getattr(info, "commit_url", "")), files=len(plan.files) + 1, tag=layout.CODEBASE_VERSION)
+    except (OfflineModeIsEnabled, HfHubHTTPError, httpx.HTTPError, ConnectionError, TimeoutError, ValueError) as exc:
+        raise _push_error(repo, exc, landed, len(batches)) from None
+    url = str(getattr(info, "commit_url", ""))
+    return PushResult(url=url, files=len(plan.files) + 1, tag=layout.CODEBASE_VERSION, commits=len(batches))
 
 
-def _one_line(exc: BaseException) -> str:
-    """The client's message on one line (it may list the Hub's reasons on several)."""
-    return " ".join(str(exc).split()) or type(exc).__name__
+def _push_error(repo: str, exc: Exception, landed: int, commits: int) -> HubError:
+    """The one line for a failed push; after some of several commits landed, how to resume it."""
+    resume = f" ({landed} of {commits} commits landed; run the same push again to send the rest)" if landed else ""
+    if isinstance(exc, OfflineModeIsEnabled):
+        return HubError(f"{repo}: HF_HUB_OFFLINE is set; unset it to push", code="hub.network")
+    if isinstance(exc, HfHubHTTPError):
+        message = f"{repo}: the Hub refused the push: {one_line(exc)}{resume}"
+        status = exc.response.status_code if exc.response is not None else 0
+        if status in (401, 403):
+            return HubError(message, code="hub.auth")
+        return HubError(message, code="hub.refused")
+    if isinstance(exc, ValueError):  # huggingface_hub's own refusals: the card's metadata (validated by the Hub)
+        return HubError(f"{repo}: the Hub refused the push: {one_line(exc)}{resume}", code="hub.refused")
+    return HubError(f"{repo}: cannot reach the Hub: {one_line(exc)}{resume}", code="hub.network")

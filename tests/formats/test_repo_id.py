@@ -68,8 +68,8 @@ def test_a_missing_repo_id_is_one_line_and_writes_nothing(tmp_path: Path) -> Non
         assert res.returncode == 2, (args, res.stdout, res.stderr)
         where = home / "ghost" / "none"
         assert res.stderr == (
-            f"error: ghost/none: no such folder, and not in the local cache (looked in {where}); download it with "
-            f"`hf download --repo-type dataset ghost/none --local-dir {where}`\n"
+            f"error: ghost/none: no such folder, and not in the local cache (looked in {where}); add --download to "
+            "fetch it from the Hub\n"
         ), res.stderr
     assert _files(home) == [] and _files(work) == []
     with pytest.raises(NotFound):
