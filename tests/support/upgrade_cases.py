@@ -1,0 +1,153 @@
+"""The v2.x datasets `upgrade` is tested on: `legacy_v2.write_v2`'s, and variants of them that lerobot 0.6.1's
+own converter gets wrong (each edits a written dataset the way such datasets occur on people's disks and the
+Hub); `reference` runs lerobot's converter itself on a copy; `old_frames` reads what OLD holds, frame by frame,
+as lerobot's loader returns frames (`lerobot_written.loaded_episodes`' shape), for frame-exact comparisons."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+from typing import Any
+
+import av
+import numpy as np
+import pyarrow.parquet as pq
+
+from tests.support.legacy_v2 import IMAGE_CAMERA, VIDEO_CAMERA, write_v2
+
+CAMERAS = (VIDEO_CAMERA, IMAGE_CAMERA)
+Frame = dict[str, Any]
+
+
+def _edit_json(path: Path, edit: Any) -> None:
+    doc = json.loads(path.read_text())
+    edit(doc)
+    path.write_text(json.dumps(doc, indent=4))
+
+
+def _edit_lines(path: Path, edit: Any) -> None:
+    rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    for row in rows:
+        edit(row)
+    path.write_text("".join(json.dumps(r) + "\n" for r in rows))
+
+
+def camera_names_null(root: Path) -> None:
+    """Cameras with `names: null` (lerobot issue #3786: kept so by its converter; the loader indexes names[2])."""
+
+    def edit(info: dict[str, Any]) -> None:
+        for key in CAMERAS:
+            if key in info["features"]:
+                info["features"][key]["names"] = None
+
+    _edit_json(root / "meta/info.json", edit)
+
+
+def without_camera_stats(root: Path) -> None:
+    """episodes_stats.jsonl without the cameras (#3786: the converted stats.json then lacks them)."""
+    _edit_lines(root / "meta/episodes_stats.jsonl", lambda row: [row["stats"].pop(k, None) for k in CAMERAS])
+
+
+def flat_camera_stats(root: Path) -> None:
+    """Camera statistics stored one value per channel ([r, g, b]) instead of lerobot's (3, 1, 1)."""
+
+    def edit(row: dict[str, Any]) -> None:
+        for key in CAMERAS & row["stats"].keys():
+            row["stats"][key] = {
+                k: v if k == "count" else np.asarray(v).reshape(-1).tolist() for k, v in row["stats"][key].items()
+            }
+
+    _edit_lines(root / "meta/episodes_stats.jsonl", edit)
+
+
+def without_info_keys(root: Path, *keys: str) -> None:
+    """info.json without keys lerobot's `convert_info` indexes (`total_chunks`, `total_videos`: KeyError)."""
+    _edit_json(root / "meta/info.json", lambda info: [info.pop(k, None) for k in keys])
+
+
+def stale_counts(root: Path) -> None:
+    """info.json's totals and episode 0's `length` in episodes.jsonl off by some (hand-edited datasets)."""
+
+    def info(doc: dict[str, Any]) -> None:
+        doc["total_frames"] += 7
+        doc["total_episodes"] += 1
+
+    _edit_json(root / "meta/info.json", info)
+    _edit_lines(
+        root / "meta/episodes.jsonl",
+        lambda row: row.update(length=row["length"] + 2) if row["episode_index"] == 0 else None,
+    )
+
+
+def apple_double(root: Path) -> None:
+    """macOS `._NAME` resource-fork files beside the episodes' files (copied off a Mac): lerobot's globs take them."""
+    for pattern in ("data/*/*.parquet", "videos/*/*/*.mp4"):
+        for path in sorted(root.glob(pattern)):
+            path.with_name("._" + path.name).write_bytes(b"\x00\x05\x16\x07" + bytes(80))
+            break
+
+
+def written(root: Path, variant: str = "", **kw: Any) -> Path:
+    """`write_v2(root, **kw)` then the named variant's edit."""
+    write_v2(root, **kw)
+    edits = {
+        "": lambda r: None,
+        "camera_names_null": camera_names_null,
+        "without_camera_stats": without_camera_stats,
+        "flat_camera_stats": flat_camera_stats,
+        "without_info_keys": lambda r: without_info_keys(r, "total_chunks", "total_videos"),
+        "stale_counts": stale_counts,
+        "apple_double": apple_double,
+    }
+    edits[variant](root)
+    return root
+
+
+def reference(old: Path, work: Path) -> Path:
+    """lerobot 0.6.1's own `convert_dataset` (local root, no push: no network) run on a copy of `old`; returns the
+    converted dataset (lerobot moves it into the copy's place)."""
+    from lerobot.scripts.convert_dataset_v21_to_v30 import convert_dataset
+
+    copy = work / "lerobot-converted"
+    shutil.copytree(old, copy)
+    convert_dataset("local/reference", root=copy, push_to_hub=False)
+    return copy
+
+
+def old_frames(root: Path) -> list[list[Frame]]:
+    """What v2.x dataset `root` holds, per episode: state, action, task and the cameras as lerobot returns them
+    (CHW float32 in [0, 1]; the video decoded from OLD's own mp4 with PyAV, as lerobot's pyav backend does)."""
+    info = json.loads((root / "meta/info.json").read_text())
+    tasks = {r["task_index"]: r["task"] for r in map(json.loads, (root / "meta/tasks.jsonl").read_text().splitlines())}
+    out: list[list[Frame]] = []
+    for e in range(info["total_episodes"]):
+        fmt = {"episode_chunk": 0, "episode_index": e, "video_key": VIDEO_CAMERA}
+        table = pq.read_table(root / info["data_path"].format(**fmt)).to_pylist()
+        cams: list[Any] = [None] * len(table)
+        if VIDEO_CAMERA in info["features"]:
+            with av.open(str(root / info["video_path"].format(**fmt))) as video:
+                cams = [_chw(f.to_ndarray(format="rgb24")) for f in video.decode(video=0)]
+        out.append([_frame(row, cams[t], tasks) for t, row in enumerate(table)])
+    return out
+
+
+def _frame(row: dict[str, Any], cam: Any, tasks: dict[int, str]) -> Frame:
+    from io import BytesIO
+
+    from PIL import Image
+
+    wrist = row.get(IMAGE_CAMERA)
+    return {
+        "state": np.asarray(row["observation.state"], np.float32).tolist(),
+        "action": np.asarray(row["action"], np.float32).tolist(),
+        "cam": cam,
+        "wrist": None if wrist is None else _chw(np.asarray(Image.open(BytesIO(wrist["bytes"])).convert("RGB"))),
+        "task": tasks[row["task_index"]],
+        "success": None,
+        "env": None,
+    }
+
+
+def _chw(pixels: Any) -> Any:
+    return (np.asarray(pixels, np.float32) / 255.0).transpose(2, 0, 1)
