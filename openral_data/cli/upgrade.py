@@ -23,6 +23,8 @@ def upgrade(
     paths.check_creatable(new, "NEW")
     result = run(resolve_dataset(old), new, _stage)
     rows = [("from", result.version), ("episodes", str(result.episodes)), ("frames", str(result.frames))]
+    if result.rewritten:
+        rows.append(("rewritten", ", ".join(result.rewritten)))
     if result.computed:
         rows.append(("stats computed", ", ".join(result.computed)))
     print_rows(f"upgraded: {result.out}", rows)

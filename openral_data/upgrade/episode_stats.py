@@ -30,17 +30,20 @@ NO_STATS = ("string", "language")  # lerobot keeps no statistics of text
 CAMERAS = ("image", "video")
 
 
-def missing_stats(legacy: Legacy, episode: int) -> list[str]:
-    """The features of `episode` with statistics lerobot would keep but the dataset does not have."""
+def missing_stats(legacy: Legacy, episode: int, stale: list[str]) -> list[str]:
+    """The features of `episode` with statistics lerobot would keep but the dataset does not have (or has of
+    values since rewritten: `stale`)."""
     have = (legacy.stats or {}).get(episode, {})
-    return [k for k, ft in legacy.features.items() if ft["dtype"] not in NO_STATS and k not in have]
+    return [k for k, ft in legacy.features.items() if ft["dtype"] not in NO_STATS and (k not in have or k in stale)]
 
 
-def episode_stats(legacy: Legacy, episode: int, keys: list[str], scratch: Path) -> dict[str, dict[str, Any]]:
-    """lerobot's `compute_episode_stats` of `keys` over episode `episode` (JSON-ready: lists, not arrays)."""
+def episode_stats(
+    legacy: Legacy, episode: int, keys: list[str], path: Path, scratch: Path
+) -> dict[str, dict[str, Any]]:
+    """lerobot's `compute_episode_stats` of `keys` over episode `episode`, whose data file is `path` (OLD's or its
+    rewrite, `columns.fixed_data`); JSON-ready (lists, not arrays)."""
     from lerobot.datasets.compute_stats import compute_episode_stats, sample_indices
 
-    path = legacy.data[episode]
     table = read_table(path)
     n = table.num_rows
     sampled = set(sample_indices(n))

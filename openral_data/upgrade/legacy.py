@@ -38,11 +38,16 @@ class Legacy:
     root: Path
     version: str
     info: dict[str, Any]
-    episodes: list[dict[str, Any]]  # episodes.jsonl, by episode_index 0..n-1
+    episodes: list[dict[str, Any]]  # episodes.jsonl in episode_index order (its indices may have gaps)
     tasks: list[dict[str, Any]]  # tasks.jsonl, by task_index
-    stats: dict[int, dict[str, Any]] | None  # episodes_stats.jsonl (v2.1), by episode_index
+    stats: dict[int, dict[str, Any]] | None  # episodes_stats.jsonl (v2.1), by position in `episodes`
     data: list[Path] = field(default_factory=list)  # per episode
     videos: dict[str, list[Path]] = field(default_factory=dict)  # per video key, per episode
+
+    @property
+    def numbers(self) -> list[int]:
+        """Each episode's episode_index in OLD (0..n-1 unless episodes were deleted or a subset was kept)."""
+        return [int(ep["episode_index"]) for ep in self.episodes]
 
     @property
     def features(self) -> dict[str, dict[str, Any]]:
@@ -56,11 +61,16 @@ def read_legacy(root: Path) -> Legacy:
     """`root` read as a v2.0/v2.1 dataset (see the module docstring); refused in one line otherwise."""
     info = _info(root)
     episodes = _by_index(read_jsonl(root / EPISODES), "episode_index", root / EPISODES)
-    tasks = _by_index(read_jsonl(root / TASKS), "task_index", root / TASKS, contiguous=False)
+    tasks = _by_index(read_jsonl(root / TASKS), "task_index", root / TASKS)
     stats = None
     if (root / EPISODES_STATS).exists():
         rows = _by_index(read_jsonl(root / EPISODES_STATS), "episode_index", root / EPISODES_STATS)
-        stats = {int(r["episode_index"]): _stats_of(r, root / EPISODES_STATS) for r in rows}
+        position = {int(ep["episode_index"]): e for e, ep in enumerate(episodes)}
+        stats = {
+            position[r["episode_index"]]: _stats_of(r, root / EPISODES_STATS)
+            for r in rows
+            if r["episode_index"] in position  # a line of an episode no longer listed is of no use
+        }
     legacy = Legacy(root, str(info["codebase_version"]), info, episodes, tasks, stats)
     _find_files(legacy)
     return legacy
@@ -124,22 +134,18 @@ def read_jsonl(path: Path) -> list[dict[str, Any]]:
     return rows
 
 
-def _by_index(rows: list[dict[str, Any]], key: str, path: Path, contiguous: bool = True) -> list[dict[str, Any]]:
-    """`rows` sorted by their `key`: unique, and (`contiguous`) running 0..n-1 (lerobot's converter pairs
-    episodes by position)."""
+def _by_index(rows: list[dict[str, Any]], key: str, path: Path) -> list[dict[str, Any]]:
+    """`rows` sorted by their integer `key`, each listed once (gaps are allowed: episodes are renumbered)."""
     for n, row in enumerate(rows, 1):
         value = row.get(key)
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise DatasetError(f"{path}: line {n}: {key}: {value!r} is not an integer", code="dataset.invalid")
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise DatasetError(
+                f"{path}: line {n}: {key}: {value!r} is not an index (an integer >= 0)", code="dataset.invalid"
+            )
     rows = sorted(rows, key=lambda r: int(r[key]))
     for before, row in itertools.pairwise(rows):
         if before[key] == row[key]:
             raise DatasetError(f"{path}: {key}: {row[key]} is listed twice", code="dataset.invalid")
-    for expected, row in enumerate(rows if contiguous else []):
-        if row[key] != expected:
-            raise DatasetError(
-                f"{path}: {key}: {expected} is missing (episodes must be numbered 0..n-1)", code="dataset.invalid"
-            )
     return rows
 
 
@@ -168,7 +174,7 @@ def _find_files(legacy: Legacy) -> None:
     video_keys = legacy.keys_of("video")
     for key in video_keys:
         safe_name(key, f"{root / INFO}: features")
-    for e in range(len(legacy.episodes)):
+    for e in legacy.numbers:
         values = {"episode_chunk": e // chunks, "episode_index": e}
         legacy.data.append(_file(root, info, "data_path", DATA_TEMPLATE, values))
         for key in video_keys:

@@ -26,6 +26,7 @@ from openral_data.errors import CompatibilityError, DatasetError, UsageError
 from openral_data.formats.parquetfile import num_rows
 from openral_data.formats.staging import Staging, check_new_output
 from openral_data.formats.write_errors import disk_errors
+from openral_data.upgrade.columns import FixedData, fixed_data
 from openral_data.upgrade.episode_stats import episode_stats, missing_stats
 from openral_data.upgrade.legacy import Legacy, read_legacy
 from openral_data.upgrade.source import write_source
@@ -40,7 +41,8 @@ class UpgradeResult:
     version: str  # OLD's codebase_version
     episodes: int
     frames: int
-    computed: list[str]  # features whose per-episode statistics were computed (absent from OLD)
+    computed: list[str]  # features whose per-episode statistics were computed (absent from OLD, or rewritten)
+    rewritten: list[str]  # index columns set as lerobot writes them (`columns.fixed_data`)
 
 
 def upgrade(old: Path, new: Path, on_stage: Say | None = None) -> UpgradeResult:
@@ -56,12 +58,15 @@ def upgrade(old: Path, new: Path, on_stage: Say | None = None) -> UpgradeResult:
     staged = Staging(new, "openral-data upgrade")
     with disk_errors(new, "writing the upgraded dataset"), staged as out:
         scratch = out / SCRATCH
-        stats, computed = _complete_stats(legacy, scratch / "frames", say)
-        write_source(legacy, stats, lengths, scratch / "source")
+        data = fixed_data(legacy, lengths, scratch / "rewritten")
+        _say_fixes(legacy, data, say)
+        stats, computed = _complete_stats(legacy, data, scratch / "frames", say)
+        write_source(legacy, data.paths, stats, lengths, scratch / "source")
         _convert(converter, old, scratch, out, say)
         shutil.rmtree(scratch)
         staged.publish()
-    return UpgradeResult(new, legacy.version, len(legacy.episodes), sum(lengths), computed)
+    rewritten = sorted({c for columns in data.columns.values() for c in columns})
+    return UpgradeResult(new, legacy.version, len(legacy.episodes), sum(lengths), computed, rewritten)
 
 
 def _converter() -> ModuleType:
@@ -74,17 +79,28 @@ def _converter() -> ModuleType:
         ) from None
 
 
-def _complete_stats(legacy: Legacy, scratch: Path, say: Say) -> tuple[dict[int, dict[str, Any]], list[str]]:
-    """Every episode's statistics: OLD's, with what it lacks computed (`episode_stats`)."""
+def _say_fixes(legacy: Legacy, data: FixedData, say: Say) -> None:
+    if legacy.numbers != list(range(len(legacy.numbers))):
+        shown = ", ".join(str(n) for n in legacy.numbers[:5]) + (", …" if len(legacy.numbers) > 5 else "")
+        say(f"renumbering episodes {shown} as 0..{len(legacy.numbers) - 1}")
+    columns = sorted({c for cs in data.columns.values() for c in cs})
+    if columns:
+        say(f"rewriting {', '.join(columns)} of {len(data.columns)} episode(s) as lerobot writes them")
+
+
+def _complete_stats(
+    legacy: Legacy, data: FixedData, scratch: Path, say: Say
+) -> tuple[dict[int, dict[str, Any]], list[str]]:
+    """Every episode's statistics: OLD's, with what it lacks or what was rewritten computed (`episode_stats`)."""
     stats: dict[int, dict[str, Any]] = {}
     computed: set[str] = set()
     for e in range(len(legacy.episodes)):
         have = dict((legacy.stats or {}).get(e, {}))
-        keys = missing_stats(legacy, e)
+        keys = missing_stats(legacy, e, data.columns.get(e, []))
         if keys:
             if not computed:
                 say(f"computing per-episode statistics of {', '.join(keys)}")
-            have.update(episode_stats(legacy, e, keys, scratch / f"episode-{e}"))
+            have.update(episode_stats(legacy, e, keys, data.paths[e], scratch / f"episode-{e}"))
             shutil.rmtree(scratch / f"episode-{e}", ignore_errors=True)
             computed.update(keys)
         stats[e] = have
@@ -93,6 +109,8 @@ def _complete_stats(legacy: Legacy, scratch: Path, say: Say) -> tuple[dict[int, 
 
 def _convert(converter: ModuleType, old: Path, scratch: Path, out: Path, say: Say) -> None:
     """lerobot's conversion steps from `scratch/source` into `out`; a failure of theirs is one line."""
+    import pyarrow as pa
+    from datasets.exceptions import DatasetsError
     from lerobot.datasets.utils import DEFAULT_DATA_FILE_SIZE_IN_MB, DEFAULT_VIDEO_FILE_SIZE_IN_MB
 
     src = scratch / "source"
@@ -110,8 +128,9 @@ def _convert(converter: ModuleType, old: Path, scratch: Path, out: Path, say: Sa
         say("writing episodes metadata and stats")
         with _datasets_cache(scratch / "datasets-cache"), _quiet():
             converter.convert_episodes_metadata(src, out, episodes, videos)
-    except (ValueError, KeyError, TypeError, IndexError, RuntimeError) as exc:
-        raise DatasetError(f"{old}: lerobot's converter failed: {_first_line(exc)}", code="dataset.invalid") from None
+    except (ValueError, KeyError, TypeError, IndexError, RuntimeError, pa.ArrowException, DatasetsError) as exc:
+        cause = exc.__cause__ if isinstance(exc, DatasetsError) and exc.__cause__ is not None else exc
+        raise DatasetError(f"{old}: lerobot's converter failed: {_first_line(cause)}", code="dataset.invalid") from None
 
 
 @contextmanager

@@ -9,6 +9,7 @@ wrong is fixed here, before it runs, in a copy of `meta/` (OLD is only read):
   camera with `names: null` gets lerobot's `["height", "width", "channels"]` (lerobot issue #3786; the loader's
   policy features index `names[2]`);
 * an episode's `length` is its data file's row count, and info.json's totals are counted (either can be stale);
+  episodes are numbered 0..n-1 in OLD's order (a subset of a larger dataset keeps its numbers in OLD);
 * `data/` and `videos/` hold exactly the listed episodes' files, under lerobot's v2.1 names, as symlinks to
   OLD's (stray files in OLD are not picked up by the glob; a file whose real path holds a `'`, which the
   ffconcat list lerobot writes cannot quote, is copied instead).
@@ -37,18 +38,23 @@ HWC = ["height", "width", "channels"]
 CHW = ["channels", "height", "width"]
 
 
-def write_source(legacy: Legacy, stats: dict[int, dict[str, Any]], lengths: list[int], at: Path) -> None:
-    """The fixed-up v2.1 dataset lerobot's converter reads, at `at` (a new folder)."""
+def write_source(
+    legacy: Legacy, data: list[Path], stats: dict[int, dict[str, Any]], lengths: list[int], at: Path
+) -> None:
+    """The fixed-up v2.1 dataset lerobot's converter reads, at `at` (a new folder): episodes numbered 0..n-1,
+    each episode's data file `data[e]` (OLD's, or its rewrite by `columns.fixed_data`)."""
     (at / "meta").mkdir(parents=True)
     _write_json(at / INFO, fixed_info(legacy, lengths))
-    episodes = [{**ep, "length": n} for ep, n in zip(legacy.episodes, lengths, strict=True)]
+    episodes = [
+        {**ep, "episode_index": e, "length": n} for e, (ep, n) in enumerate(zip(legacy.episodes, lengths, strict=True))
+    ]
     _write_lines(at / EPISODES, episodes)
     _write_lines(at / TASKS, legacy.tasks)
     cameras = set(legacy.keys_of(*CAMERAS))
     rows = [{"episode_index": e, "stats": _shaped(stats[e], cameras)} for e in range(len(legacy.episodes))]
     _write_lines(at / EPISODES_STATS, rows)
     chunks = int(legacy.info.get("chunks_size", 1000))
-    for e, path in enumerate(legacy.data):
+    for e, path in enumerate(data):
         values = {"episode_chunk": e // chunks, "episode_index": e}
         _link(path, at / DATA_TEMPLATE.format(**values))
         for key, videos in legacy.videos.items():

@@ -188,13 +188,6 @@ def test_a_garbage_data_file(small: Path, tmp_path: Path) -> None:
     _refused(small, tmp_path / "new", "episode_000001.parquet: unreadable parquet")
 
 
-def test_an_episode_gap(small: Path, tmp_path: Path) -> None:
-    path = small / "meta/episodes.jsonl"
-    rows = path.read_text().splitlines()
-    path.write_text(rows[0] + "\n" + rows[2] + "\n")
-    _refused(small, tmp_path / "new", "episodes.jsonl: episode_index: 1 is missing")
-
-
 def test_a_path_template_leading_out(small: Path, tmp_path: Path) -> None:
     info = json.loads((small / "meta/info.json").read_text())
     info["data_path"] = "../../{episode_index}.parquet"

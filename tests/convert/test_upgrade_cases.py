@@ -8,12 +8,14 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pyarrow as pa
 import pytest
 
 from tests.support.inproc import run_inproc
 from tests.support.legacy_v2 import IMAGE_CAMERA, VIDEO_CAMERA
 from tests.support.lerobot_written import digest, loaded_episodes, same_frames
-from tests.support.upgrade_cases import old_frames, reference, written
+from tests.support.real_datasets import REAL, copy_real, real_root
+from tests.support.upgrade_cases import assert_loads_like_old, old_frames, reference, written
 
 pytestmark = pytest.mark.slow  # each case also runs lerobot's converter
 
@@ -108,6 +110,50 @@ def test_stale_totals_and_lengths(tmp_path: Path, baseline: dict[str, bytes]) ->
 def test_macos_resource_forks_beside_the_files(tmp_path: Path, baseline: dict[str, bytes]) -> None:
     """`._episode_000000.parquet` (a dataset copied off a Mac): lerobot's converter globs and reads it."""
     old, new = _case(tmp_path, "apple_double")
-    with pytest.raises(Exception):  # noqa: B017,PT011  # pyarrow's own error for the garbage file
+    with pytest.raises((pa.ArrowException, OSError)):  # pyarrow's own error for the garbage file
         reference(old, tmp_path)
     assert _files(new) == baseline
+
+
+def test_a_subset_of_episodes_is_renumbered(tmp_path: Path) -> None:
+    """Episodes 1 and 2 only (episode 0 deleted): lerobot's converter pairs episodes by position and refuses it;
+    upgrade numbers them 0 and 1 (episode_index, index from 0, their stats computed again) and lerobot loads
+    every frame of OLD's."""
+    old, new = _case(tmp_path, "subset")
+    from datasets.exceptions import DatasetGenerationError
+
+    with pytest.raises(DatasetGenerationError) as refused:  # raised inside lerobot's generator
+        reference(old, tmp_path)
+    assert "Number of episodes is not the same" in str(refused.value.__cause__)
+    got = loaded_episodes(new)  # asserts index == position and timestamp == frame_index / fps
+    assert [len(e) for e in got] == [8, 3]
+    for g, w in zip(got, old_frames(old), strict=True):
+        same_frames(g, w)
+    stats = _stats(new)
+    assert stats["episode_index"]["max"] == [1] and stats["index"]["max"] == [10]
+
+
+def test_wallclock_timestamps_are_put_on_the_frame_grid(tmp_path: Path) -> None:
+    """Timestamps off t / fps: lerobot's converter converts them and its loader then fails; upgrade sets them to
+    t / fps (where the video's frames are) and lerobot loads every frame of OLD's."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+    from lerobot.datasets.video_utils import FrameTimestampError
+
+    old, new = _case(tmp_path, "wallclock")
+    ref = LeRobotDataset("local/ref", root=reference(old, tmp_path), video_backend="pyav")
+    with pytest.raises(FrameTimestampError, match="tolerance"):
+        ref[0]
+    for g, w in zip(loaded_episodes(new), old_frames(old), strict=True):
+        same_frames(g, w)
+
+
+@pytest.mark.parametrize("name", [n for n, d in REAL.items() if d.version.startswith("v2")])
+def test_real_v2_datasets(tmp_path: Path, name: str) -> None:
+    """The real third-party v2.1 fixtures (tests/fixtures/lerobot/README.md), both refused or unloadable after
+    lerobot's converter (G1: its only episode is 29; CR5: wall-clock timestamps): upgraded, they pass `doctor
+    --deep` and lerobot loads OLD's frames from them (pixels of every 10th frame compared: AV1 at 640x480)."""
+    if real_root(name) is None:
+        pytest.skip(f"real fixture {name} is not present")
+    old = copy_real(name, tmp_path)
+    new = _upgraded(old, tmp_path / "new")
+    assert assert_loads_like_old(old, new, every=10) == REAL[name].frames
