@@ -5,8 +5,8 @@ The steps of lerobot's `convert_dataset_v21_to_v30` run one by one (`convert_inf
 moves the input aside and pushes: here they read a fixed-up v2.1 copy of OLD's metadata beside links to OLD's
 files (`source.write_source`, with the per-episode statistics OLD lacks computed by `episode_stats`), and write
 NEW's hidden staging folder (`formats.staging`), renamed to NEW once complete. OLD is only read; a failure or a
-kill leaves NEW absent; nothing touches the network (the steps take local folders, and the `datasets` cache
-lerobot's episodes step fills is pointed into the staging folder).
+kill leaves NEW absent; nothing touches the network (the steps take local folders). The `datasets` cache lerobot's
+episodes step fills and the temporary files of its video step are pointed into the staging folder.
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ import importlib
 import io
 import logging
 import shutil
+import tempfile
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager, redirect_stderr
 from dataclasses import dataclass
@@ -123,7 +124,7 @@ def _convert(converter: ModuleType, old: Path, scratch: Path, out: Path, say: Sa
         with _quiet():
             episodes = converter.convert_data(src, out, DEFAULT_DATA_FILE_SIZE_IN_MB)
         say("concatenating videos")
-        with _quiet():
+        with _quiet(), _temp_files_in(scratch / "tmp"):
             videos = converter.convert_videos(src, out, DEFAULT_VIDEO_FILE_SIZE_IN_MB)
         say("writing episodes metadata and stats")
         with _datasets_cache(scratch / "datasets-cache"), _quiet():
@@ -144,6 +145,19 @@ def _datasets_cache(folder: Path) -> Iterator[None]:
         yield
     finally:
         datasets.config.HF_DATASETS_CACHE = before
+
+
+@contextmanager
+def _temp_files_in(folder: Path) -> Iterator[None]:
+    """lerobot's video concatenation writes its ffconcat list and its mp4 through `tempfile`: into `folder` (in the
+    staging folder: a killed run leaves nothing in the system's temp folder, and the mp4 is renamed, not copied)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    before = tempfile.tempdir
+    tempfile.tempdir = str(folder)
+    try:
+        yield
+    finally:
+        tempfile.tempdir = before
 
 
 @contextmanager

@@ -240,3 +240,17 @@ def test_without_lerobot_one_line_naming_the_extra(
 ) -> None:
     monkeypatch.setitem(sys.modules, "lerobot.scripts.convert_dataset_v21_to_v30", None)
     _refused(small, tmp_path / "new", "lerobot[dataset]")
+
+
+@pytest.mark.slow
+def test_a_kill_leaves_new_absent_and_a_rerun_completes(small: Path, tmp_path: Path) -> None:
+    """SIGKILL once lerobot's data step has written into the staging folder: NEW is absent, OLD as it was; the
+    next run removes the dead run's staging folder and writes NEW."""
+    from tests.support.interrupt import hidden_leftovers, kill_when_staged, snapshot
+
+    before = snapshot(small)
+    new = tmp_path / "new"
+    kill_when_staged(["upgrade", str(small), str(new)], new, "data/*/*.parquet")
+    assert not new.exists() and snapshot(small) == before
+    _upgrade(small, new)
+    assert hidden_leftovers(tmp_path) == [] and snapshot(small) == before
