@@ -191,3 +191,22 @@ def _file(root: Path, info: dict[str, Any], name: str, default: str, values: dic
             f"{path}: missing (episode {values['episode_index']}); upgrade needs every episode's files",
             code="dataset.incomplete",
         ) from None
+
+
+def check_videos(legacy: Legacy, lengths: list[int]) -> None:
+    """Every episode's mp4 holds at least its frames (packets counted, nothing decoded): lerobot's converter
+    concatenates a shorter one as it is, and its loader then fails on the episode's last frames."""
+    import av
+
+    from openral_data.formats.lerobot_v3.video import probe_frames
+
+    for videos in legacy.videos.values():
+        for e, (path, n) in enumerate(zip(videos, lengths, strict=True)):
+            try:
+                frames = probe_frames(path)
+            except (av.error.FFmpegError, IndexError) as exc:
+                raise DatasetError(f"{path}: not a readable video: {exc}", code="dataset.invalid") from None
+            if frames < n:
+                raise DatasetError(
+                    f"{path}: {frames} frames, but episode {legacy.numbers[e]} has {n}", code="dataset.invalid"
+                )

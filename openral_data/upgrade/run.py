@@ -29,7 +29,7 @@ from openral_data.formats.staging import Staging, check_new_output
 from openral_data.formats.write_errors import disk_errors
 from openral_data.upgrade.columns import FixedData, fixed_data
 from openral_data.upgrade.episode_stats import episode_stats, missing_stats
-from openral_data.upgrade.legacy import Legacy, read_legacy
+from openral_data.upgrade.legacy import Legacy, check_videos, read_legacy
 from openral_data.upgrade.source import write_source
 
 SCRATCH = ".upgrade"  # inside the staging folder, removed before it is published
@@ -56,6 +56,7 @@ def upgrade(old: Path, new: Path, on_stage: Say | None = None) -> UpgradeResult:
     say(f"reading {old}")
     legacy = read_legacy(old)
     lengths = [num_rows(path) for path in legacy.data]
+    check_videos(legacy, lengths)
     staged = Staging(new, "openral-data upgrade")
     with disk_errors(new, "writing the upgraded dataset"), staged as out:
         scratch = out / SCRATCH

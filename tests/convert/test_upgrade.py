@@ -9,6 +9,7 @@ bad input is one line, exit 2, NEW absent.
 from __future__ import annotations
 
 import json
+import shutil
 import sys
 from pathlib import Path
 
@@ -181,6 +182,20 @@ def test_a_missing_data_file(small: Path, tmp_path: Path) -> None:
 def test_a_missing_video(small: Path, tmp_path: Path) -> None:
     (small / "videos/chunk-000/observation.images.cam/episode_000002.mp4").unlink()
     _refused(small, tmp_path / "new", "episode_000002.mp4: missing (episode 2)")
+
+
+def test_a_video_shorter_than_its_episode(small: Path, tmp_path: Path) -> None:
+    """lerobot's converter concatenates it as it is; its loader then fails on the episode's last frames."""
+    shutil.copyfile(
+        small / "videos/chunk-000/observation.images.cam/episode_000002.mp4",
+        small / "videos/chunk-000/observation.images.cam/episode_000001.mp4",
+    )  # 3 frames for an episode of 8
+    _refused(small, tmp_path / "new", "episode_000001.mp4: 3 frames, but episode 1 has 8")
+
+
+def test_a_garbage_video(small: Path, tmp_path: Path) -> None:
+    (small / "videos/chunk-000/observation.images.cam/episode_000001.mp4").write_bytes(b"not a video")
+    _refused(small, tmp_path / "new", "episode_000001.mp4: not a readable video")
 
 
 def test_a_garbage_data_file(small: Path, tmp_path: Path) -> None:
