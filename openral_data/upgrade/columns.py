@@ -36,6 +36,11 @@ class FixedData:
     paths: list[Path] = field(default_factory=list)  # each episode's data file: OLD's, or its rewrite
     columns: dict[int, list[str]] = field(default_factory=dict)  # episode -> the columns rewritten
 
+    @property
+    def rewritten(self) -> list[str]:
+        """Every column rewritten in some episode."""
+        return sorted({c for columns in self.columns.values() for c in columns})
+
 
 def fixed_data(legacy: Legacy, lengths: list[int], scratch: Path) -> FixedData:
     """Each episode's data file with lerobot's index columns (see the module docstring)."""

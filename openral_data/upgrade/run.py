@@ -67,8 +67,7 @@ def upgrade(old: Path, new: Path, on_stage: Say | None = None) -> UpgradeResult:
         _convert(converter, old, scratch, out, say)
         shutil.rmtree(scratch)
         staged.publish()
-    rewritten = sorted({c for columns in data.columns.values() for c in columns})
-    return UpgradeResult(new, legacy.version, len(legacy.episodes), sum(lengths), computed, rewritten)
+    return UpgradeResult(new, legacy.version, len(legacy.episodes), sum(lengths), computed, data.rewritten)
 
 
 def _converter() -> ModuleType:
@@ -85,9 +84,8 @@ def _say_fixes(legacy: Legacy, data: FixedData, say: Say) -> None:
     if legacy.numbers != list(range(len(legacy.numbers))):
         shown = ", ".join(str(n) for n in legacy.numbers[:5]) + (", …" if len(legacy.numbers) > 5 else "")
         say(f"renumbering episodes {shown} as 0..{len(legacy.numbers) - 1}")
-    columns = sorted({c for cs in data.columns.values() for c in cs})
-    if columns:
-        say(f"rewriting {', '.join(columns)} of {len(data.columns)} episode(s) as lerobot writes them")
+    if data.rewritten:
+        say(f"rewriting {', '.join(data.rewritten)} of {len(data.columns)} episode(s) as lerobot writes them")
 
 
 def _complete_stats(
@@ -101,7 +99,7 @@ def _complete_stats(
         keys = missing_stats(legacy, e, data.columns.get(e, []))
         if keys:
             if not computed:
-                say(f"computing per-episode statistics of {', '.join(keys)}")
+                say(f"computing the per-episode statistics OLD lacks ({', '.join(keys)} of episode {e}, ...)")
             have.update(episode_stats(legacy, e, keys, data.paths[e], scratch / f"episode-{e}"))
             shutil.rmtree(scratch / f"episode-{e}", ignore_errors=True)
             computed.update(keys)

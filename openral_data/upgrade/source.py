@@ -53,9 +53,8 @@ def write_source(
     cameras = set(legacy.keys_of(*CAMERAS))
     rows = [{"episode_index": e, "stats": _shaped(stats[e], cameras)} for e in range(len(legacy.episodes))]
     _write_lines(at / EPISODES_STATS, rows)
-    chunks = int(legacy.info.get("chunks_size", 1000))
     for e, path in enumerate(data):
-        values = {"episode_chunk": e // chunks, "episode_index": e}
+        values = {"episode_chunk": 0, "episode_index": e}  # one chunk: lerobot's sorted globs keep episode order
         _link(path, at / DATA_TEMPLATE.format(**values))
         for key, videos in legacy.videos.items():
             _link(videos[e], at / VIDEO_TEMPLATE.format(**values, video_key=key))
