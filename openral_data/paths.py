@@ -35,6 +35,20 @@ def contained(root: Path, relative: str | os.PathLike[str], source: str) -> Path
     return path
 
 
+def from_template(root: Path, template: object, values: dict[str, object], source: str) -> Path:
+    """A dataset file named by a path template from its metadata (info.json's ``data_path``, ``video_path``):
+    `template` formatted with `values` and `contained` in `root`, else one line naming `source`."""
+    if not isinstance(template, str):
+        raise DatasetError(f"{source}: {template!r} is not a path template", code="dataset.invalid")
+    try:
+        rel = template.format(**values)
+    except (KeyError, IndexError, ValueError, AttributeError, TypeError) as exc:
+        raise DatasetError(
+            f"{source}: {template!r} is not a usable path template ({exc})", code="dataset.invalid"
+        ) from None
+    return contained(root, rel, source)
+
+
 def _link_on_the_way(root: Path, rel: Path) -> bool:
     """Whether a component of `rel` below `root` is a symlink (one `lstat` each, up to the first missing one):
     without one, `root / rel` is inside `root` and needs no full resolve (the common case, per file written)."""

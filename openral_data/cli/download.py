@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from openral_data.cli import convert, edit, features, replay, stats, tasks, terminal, videos
+from openral_data.cli import convert, edit, features, replay, stats, tasks, terminal, upgrade, videos
 from openral_data.cli import inspect as look
 from openral_data.errors import UsageError
 from openral_data.formats.repo_id import looks_like_repo_id
@@ -56,6 +56,7 @@ TAKES: dict[Callable[..., Any], tuple[str, bool]] = {
     stats.recompute_cmd: ("dataset", True),
     replay.replay: ("dataset", True),
     convert.convert: ("src", True),
+    upgrade.upgrade: ("old", True),
     edit.delete_cmd: ("dataset", True),
     edit.filter_cmd: ("dataset", True),
     edit.split_cmd: ("dataset", True),

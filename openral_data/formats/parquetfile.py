@@ -54,3 +54,11 @@ def read_schema(path: Path) -> pa.Schema:
     except (pa.ArrowException, OSError, UnicodeDecodeError) as exc:
         raise _refused(path, exc) from None
     return schema
+
+
+def num_rows(path: Path) -> int:
+    """The row count in `path`'s footer; an unreadable file raises a `DatasetError` naming it."""
+    try:
+        return int(pq.read_metadata(checked(path)).num_rows)
+    except (pa.ArrowException, OSError, UnicodeDecodeError) as exc:
+        raise _refused(path, exc) from None

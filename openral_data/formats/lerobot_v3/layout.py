@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from openral_data.errors import DatasetError
-from openral_data.paths import contained, contained_all, safe_name
+from openral_data.paths import contained, contained_all, from_template, safe_name
 
 CODEBASE_VERSION = "v3.0"
 DATA_PATH = "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
@@ -129,15 +129,7 @@ def template_path(root: Path, info: dict[str, Any], field: str, pos: FilePos, vi
     values: dict[str, object] = {"chunk_index": pos.chunk, "file_index": pos.file}
     if video_key is not None:
         values["video_key"] = safe_name(video_key, f"{root / INFO_PATH}: features")
-    if not isinstance(template, str):
-        raise DatasetError(f"{source}: {template!r} is not a path template", code="dataset.invalid")
-    try:
-        rel = template.format(**values)
-    except (KeyError, IndexError, ValueError, AttributeError, TypeError) as exc:
-        raise DatasetError(
-            f"{source}: {template!r} is not a usable path template ({exc})", code="dataset.invalid"
-        ) from None
-    return contained(root, rel, source)
+    return from_template(root, template, values, source)
 
 
 def episodes_path(root: Path, pos: FilePos) -> Path:
