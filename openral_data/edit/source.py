@@ -215,8 +215,7 @@ class SourceDataset:
         """Refuse in one line, before anything is written, when a file that copying `episodes` with the video
         `cameras` (names) needs is absent (a partial download: `missing.MissingFiles.need`)."""
         keys = [self.camera_key[n] for n in cameras if n in self.camera_key]
-        instead = f"; or drop such a camera first: features remove {self.root} --feature KEY" if keys else ""
-        self.missing.need(episodes, keys, what, instead)
+        self.missing.need(episodes, keys, what, drop=True)
 
     def episode(self, index: int, cameras: Iterable[str] | None = None) -> EpisodeData:
         """Episode `index` with the videos of `cameras` (names; default every video camera): a camera an edit

@@ -96,10 +96,10 @@ class MissingFiles:
         """The `hf download` command that fetches the absent files into this folder (the repo id is the user's)."""
         return fetch_hint(self.root, [a.pattern for a in self.kinds()] + ([layout.STATS_PATH] if self.stats else []))
 
-    def need(self, episodes: Iterable[int] | None, cameras: Iterable[str], what: str, instead: str = "") -> None:
+    def need(self, episodes: Iterable[int] | None, cameras: Iterable[str], what: str, drop: bool = False) -> None:
         """Refuse in one line (``dataset.incomplete``) when the data of `episodes` (None: all) or the videos of
-        `cameras` (keys) for them are absent: `what` is what needs them (e.g. ``episodes delete``), `instead` an
-        alternative appended to the line."""
+        `cameras` (keys) for them are absent: `what` is what needs them (e.g. ``episodes delete``); `drop`: an edit,
+        which can drop a camera instead (`features remove`), says so when the file is a camera's."""
         wanted = None if episodes is None else set(episodes)
         absent: list[tuple[str, str]] = []
         for kind, files in [("data", self.data)] + [(k, self.videos.get(k, {})) for k in cameras]:
@@ -108,6 +108,8 @@ class MissingFiles:
             return
         more = f" (and {len(absent) - 1} more file(s))" if len(absent) > 1 else ""
         path, kind = absent[0]
+        camera = drop and kind != "data"
+        instead = f"; or drop that camera first: features remove {self.root} --feature {kind}" if camera else ""
         raise DatasetError(
             f"{self.root / path}: {kind}: missing, not downloaded{more}, and {what} needs it; fetch the rest: "
             f"{self.fetch_hint()}{instead}",
