@@ -13,6 +13,7 @@ from openral_data.doctor.inspect import DAMAGE, Dataset
 from openral_data.formats.lerobot_v3.missing import MissingFiles, fetch_hint, missing_files
 
 SHOWN = 5  # episodes a finding names
+PARTIAL_DOWNLOAD = ("data.missing", "video.missing")  # the codes of files the episodes name that are absent
 
 
 def absent(ds: Dataset) -> MissingFiles:
@@ -33,7 +34,7 @@ def check_missing(ds: Dataset) -> list[Finding]:
     found = absent(ds)
     out: list[Finding] = []
     for kind in found.kinds():
-        code = "data.missing" if kind.kind == "data" else "video.missing"
+        code = "data.missing" if kind.kind == "data" else "video.missing"  # PARTIAL_DOWNLOAD
         eps = kind.episodes()
         message = (
             f"{kind.summary()} not downloaded, episode(s) {eps[:SHOWN]}{' …' if len(eps) > SHOWN else ''}: a partial "

@@ -102,7 +102,7 @@ class SourceDataset:
             )
         self._data_cache: tuple[Path, pa.Table] | None = None
         # the files a partial download left out: an edit asks only for those it copies (`need`)
-        self.missing = missing_files(root, self.info, self.episodes.slice(0, self.total), self.camera_key.values())
+        self.missing = missing_files(root, self.info, self._rows[: self.total], self.camera_key.values())
 
     # -- what the dataset is ---------------------------------------------------------------------------------
     def _origin(self) -> Origin:

@@ -138,6 +138,12 @@ def missing_files(
     a symlink leads outside `root` is refused in one line (`layout.inside`)."""
     if keys is None:
         keys = [k for k, f in info.get("features", {}).items() if isinstance(f, dict) and f.get("dtype") == "video"]
+    keys = list(keys)
+    if isinstance(episodes, pa.Table):  # only the columns that name files (not the many stats/* columns)
+        wanted = {"episode_index"} | {
+            f"{p}/{i}_index" for p in ["data", *(f"videos/{k}" for k in keys)] for i in ("chunk", "file")
+        }
+        episodes = episodes.select([c for c in episodes.column_names if c in wanted])
     rows: list[dict[str, Any]] = episodes.to_pylist() if isinstance(episodes, pa.Table) else episodes
     data, named_data = _absent(rows, "data", lambda pos: layout.data_path(root, pos), root)
     videos: dict[str, dict[str, list[int]]] = {}
