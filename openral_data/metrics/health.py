@@ -65,7 +65,8 @@ def _episode_meta(con: duckdb.DuckDBPyConnection, ds: DatasetSource) -> list[dic
 def _missing_files(ds: DatasetSource, meta: list[dict[str, Any]]) -> tuple[list[Issue], set[int]]:
     """The files the metadata names that are absent (a partial download: `missing.missing_files`), one issue per
     kind (data, each camera's videos, the tasks table) with the `hf download` that fetches them; and the episodes
-    whose data is absent (their rows are not counted against their lengths)."""
+    whose data is absent (their rows are not counted against their lengths). `meta/stats.json` is not read here
+    (`info` and `doctor` say when it is absent)."""
     issues = []
     if int(ds.info.get("total_tasks", 0)) and not (ds.root / layout.TASKS_PATH).is_file():
         issues.append(Issue(ds.label, None, "missing_file", layout.TASKS_PATH))
@@ -76,9 +77,6 @@ def _missing_files(ds: DatasetSource, meta: list[dict[str, Any]]) -> tuple[list[
             f"{kind.kind}: {kind.summary()} not downloaded, episode(s) {eps[:5]}{' …' if len(eps) > 5 else ''}; "
             f"fetch them: {fetch_hint(ds.root, [kind.pattern])}"
         )
-        issues.append(Issue(ds.label, None, "missing_file", detail))
-    if gone.stats:
-        detail = f"{layout.STATS_PATH}: not downloaded; fetch it: {fetch_hint(ds.root, [layout.STATS_PATH])}"
         issues.append(Issue(ds.label, None, "missing_file", detail))
     return issues, {e for eps in gone.data.values() for e in eps}
 

@@ -51,7 +51,7 @@ def test_info_and_stats_without_data_and_stats_json(full: Path, tmp_path: Path) 
     run = run_inproc("stats", str(src), "--format", "json")
     assert run.returncode == 0, run.stderr
     health = [(h["check"], h["detail"].split(":")[0]) for h in json.loads(run.stdout)["health"]]
-    assert health == [("missing_file", "data"), ("missing_file", layout.STATS_PATH)]
+    assert health == [("missing_file", "data")]
 
 
 @pytest.mark.parametrize(

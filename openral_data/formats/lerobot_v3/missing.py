@@ -85,7 +85,7 @@ class MissingFiles:
         return f"missing: {'; '.join(parts)}; fetch them: {self.fetch_hint()}"
 
     def to_json(self) -> dict[str, object]:
-        """`info --json`'s and `stats --format json`'s `missing` field: the absent files by kind."""
+        """`info --json`'s `missing` field: the absent files by kind (paths relative to the root)."""
         return {
             "data": list(self.data),
             "videos": {k: list(v) for k, v in self.videos.items() if v},
