@@ -53,6 +53,7 @@ def info(dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset fold
             ("tasks", "; ".join(s.tasks) or "-"),
             ("robot", s.robot_type or "-"),
             ("success rate", _success_cell(s)),
+            *([("missing", line.removeprefix("missing: "))] if s.missing and (line := s.missing.line()) else []),
         ],
     )
 

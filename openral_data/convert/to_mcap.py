@@ -24,6 +24,7 @@ from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX, camera_keys, 
 from openral_data.formats.lerobot_v3.frames import episode_frames
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE
 from openral_data.formats.lerobot_v3.masks import MASK_IDS, is_mask
+from openral_data.formats.lerobot_v3.missing import missing_files
 from openral_data.formats.lerobot_v3.provenance import Origin
 from openral_data.formats.lerobot_v3.reader import dataset_tasks, read_episodes, read_info
 from openral_data.formats.lerobot_v3.success import episode_successes
@@ -102,6 +103,8 @@ def export_mcap(
     schema = _schema(source)
     summary = ExportSummary(src=src, dst=dst, skipped_features=_skipped_features(source))
     total = sum(int(source.rows[e]["length"]) for e in chosen)
+    videos = [k for k in source.keys.values() if source.features[k].get("dtype") == "video"]
+    missing_files(src, source.info, [source.rows[e] for e in chosen], videos).need(None, videos, "convert to MCAP")
     check_new_output(dst, "DST")
     staged = Staging(dst, "openral-data convert")  # DST appears with every bag or not at all
     with staged as staging:

@@ -2,7 +2,8 @@
 including those its loader gets silently wrong, and repair what can be repaired safely."""
 
 from openral_data.doctor.check import check
+from openral_data.doctor.check_missing import PARTIAL_DOWNLOAD
 from openral_data.doctor.findings import Finding, Severity
 from openral_data.doctor.repair import RepairResult, repair
 
-__all__ = ["Finding", "RepairResult", "Severity", "check", "repair"]
+__all__ = ["PARTIAL_DOWNLOAD", "Finding", "RepairResult", "Severity", "check", "repair"]

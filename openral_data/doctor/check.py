@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-from openral_data.doctor import check_data, check_meta, check_paths, check_video
+from openral_data.doctor import check_data, check_meta, check_missing, check_paths, check_video
 from openral_data.doctor.check_deep import check_deep
 from openral_data.doctor.check_digests import check_digests
 from openral_data.doctor.findings import Finding, error, warning
@@ -46,6 +46,7 @@ def _run(step: Check, ds: Dataset) -> list[Finding]:
 def check_dataset(ds: Dataset, *, deep: bool = False) -> list[Finding]:
     out = list(ds.problems)
     for step in (
+        check_missing.check_missing,
         check_meta.check_info,
         check_meta.check_provenance,
         check_meta.check_tasks,

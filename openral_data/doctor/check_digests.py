@@ -3,6 +3,7 @@ in them is an error. A dataset without digests (written by lerobot or another to
 
 from __future__ import annotations
 
+from openral_data.doctor.check_missing import absent
 from openral_data.doctor.findings import Finding, error
 from openral_data.doctor.inspect import Dataset
 from openral_data.errors import DatasetError
@@ -17,4 +18,7 @@ def check_digests(ds: Dataset) -> list[Finding]:
         changed = digests.changed(ds.root, stored)
     except (DatasetError, OSError) as exc:
         return [error("file.digests", digests.DIGESTS_PATH, f"unusable: {exc}")]
-    return [error("file.digest", rel, f"changed since it was written: {what}") for rel, what in changed]
+    gone = set(absent(ds).files())  # not downloaded: `check_missing`
+    return [
+        error("file.digest", rel, f"changed since it was written: {what}") for rel, what in changed if rel not in gone
+    ]

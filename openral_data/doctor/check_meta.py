@@ -8,11 +8,13 @@ from collections import Counter
 
 import numpy as np
 
+from openral_data.doctor.check_missing import absent
 from openral_data.doctor.findings import Finding, error, warning
 from openral_data.doctor.inspect import DEFAULT_FEATURES, Dataset
 from openral_data.errors import OpenralError
 from openral_data.formats.jsonfile import load_json, read_json
 from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.missing import fetch_hint
 
 INFO = layout.INFO_PATH
 TASKS = layout.TASKS_PATH
@@ -60,7 +62,9 @@ def check_provenance(ds: Dataset) -> list[Finding]:
 def check_stats(ds: Dataset) -> list[Finding]:
     path = ds.root / layout.STATS_PATH
     if not path.is_file():
-        return [warning("stats.missing", layout.STATS_PATH, "missing: lerobot's training normalisation needs it")]
+        hint = fetch_hint(ds.root, [layout.STATS_PATH])
+        message = f"missing: lerobot's training normalisation needs it (a partial download? fetch it: {hint})"
+        return [warning("stats.missing", layout.STATS_PATH, message)]
     try:
         stats = load_json(path)
     except (ValueError, OSError) as exc:
@@ -175,8 +179,8 @@ def check_totals(ds: Dataset) -> list[Finding]:
     said = (ds.total("total_episodes"), ds.total("total_frames"), ds.total("total_tasks"))
     if (episodes, frames, tasks) == said:
         return []
-    if ds.episodes is None or ds.data is None:
-        return []  # reported as missing files
+    if ds.episodes is None or ds.data is None or (absent(ds).data and (episodes, tasks) == (said[0], said[2])):
+        return []  # reported as missing files (a partial download holds fewer frames than info.json counts)
     return [
         error(
             "info.totals",

@@ -4,6 +4,7 @@ that no episode names. Packets are read without decoding (PyAV demux)."""
 
 from __future__ import annotations
 
+import os
 from bisect import bisect_left
 from collections import defaultdict
 from dataclasses import dataclass
@@ -60,6 +61,8 @@ def check_videos(ds: Dataset) -> list[Finding]:
 
 def _check_file(ds: Dataset, path: Path, eps: list[Placement]) -> list[Finding]:
     rel = ds.rel(path)
+    if not os.path.lexists(path):
+        return []  # not downloaded: `check_missing`
     if not path.is_file():
         which = [p.episode for p in eps][:5]
         return [error("video.missing", rel, f"missing (episode(s) {which}; lerobot falls back to a Hub download)")]

@@ -19,6 +19,7 @@ from openral_data.errors import OpenralError
 from openral_data.formats.jsonfile import load_json, parse_json
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.info import MAX_FEATURES
+from openral_data.formats.lerobot_v3.missing import MissingFiles
 from openral_data.paths import regular_file
 
 DEFAULT_FEATURES = ("timestamp", "frame_index", "episode_index", "index", "task_index")
@@ -57,6 +58,7 @@ class Dataset:
     tasks: pa.Table | None = None
     tasks_pandas: dict[str, Any] | None = None
     problems: list[Finding] = field(default_factory=list)  # unreadable files found while loading
+    missing: MissingFiles | None = None  # the absent files the episodes name (`check_missing.absent`), once known
 
     @property
     def video_keys(self) -> list[str]:

@@ -20,6 +20,7 @@ import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from openral_data.doctor.check import check
+from openral_data.doctor.check_missing import absent
 from openral_data.doctor.check_video import placements
 from openral_data.doctor.findings import Finding
 from openral_data.doctor.inspect import DAMAGE, Dataset, load
@@ -80,7 +81,7 @@ def repair(root: Path) -> RepairResult:
 def _repair(root: Path) -> RepairResult:
     q = Quarantine(root)
     actions = _writer_leftovers(root, q)
-    refused = _refusals(check(root, lock_held_by_us=True))
+    refused = _refusals(check(root, lock_held_by_us=True)) + _partial(root)
     steps = (_tasks, _episode_order, _data_columns, _data_rows, _totals, _index_range, _video_times)
     for step in steps if not refused else ():
         findings = {f.code: f for f in check(root, lock_held_by_us=True) if f.repairable}
@@ -108,6 +109,24 @@ def _refusals(findings: list[Finding]) -> list[str]:
         f"nothing rewritten: {f.where} cannot be read safely ({f.message}); restore it first"
         for f in findings
         if f.code in UNREADABLE
+    ]
+
+
+def _partial(root: Path) -> list[str]:
+    """A partial download is not repaired: with data files absent, what the rest holds is not what info.json
+    and the episodes count, and a repair would cut the dataset down to it (`check_missing`)."""
+    ds, _ = load(root)
+    if ds is None:
+        return []
+    try:
+        gone = absent(ds)
+    except DAMAGE:
+        return []  # the checks report what cannot be read
+    if not gone.data:
+        return []
+    return [
+        f"nothing rewritten: data: {len(gone.data)} of {gone.named_data} file(s) not downloaded (a partial "
+        f"download is not damage); fetch them first: {gone.fetch_hint()}"
     ]
 
 

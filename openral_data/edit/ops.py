@@ -113,6 +113,8 @@ def write_selection(
     """
     first = _check_selection(selection, out, out_checked)
     change = rewrite or Rewrite()
+    cameras = list((change.schema or first.schema).cameras)  # the video cameras written (a dropped one is not read)
+    _check_present(selection, cameras, op)
     provenance = _provenance(selection, op, change)
     staged = Staging(out, f"openral-data {op}")
     with disk_errors(out, f"writing the {op} output"), staged as staging:
@@ -125,7 +127,7 @@ def write_selection(
             features=change.features or first.features,
             column_hist=change.column_hist,
         )
-        _copy(selection, writer, change.transform, on_episode)
+        _copy(selection, writer, change.transform, on_episode, cameras)
         frames = writer.total_frames
         if before_publish is not None:
             before_publish(staging)
@@ -147,6 +149,21 @@ def _check_selection(selection: Selection, out: Path, out_checked: bool) -> Sour
     return first
 
 
+def _check_present(selection: Selection, cameras: list[str], op: str) -> None:
+    """Refuse, before any work, a selection whose data or `cameras`' videos a partial download left out (only
+    the files copied are needed: `features remove` of an absent camera works)."""
+    episodes: dict[SourceDataset, list[int]] = {}
+    for src, e in selection:
+        episodes.setdefault(src, []).append(e)
+    for src, eps in episodes.items():
+        src.need(eps, cameras, _command(op))
+
+
+def _command(op: str) -> str:
+    """The command an edit's `op` is (`delete` is `episodes delete`; `tasks rename`, `stats recompute`, …)."""
+    return f"episodes {op}" if op in ("delete", "filter", "split", "merge") else op
+
+
 def _provenance(selection: Selection, op: str, change: Rewrite) -> EditRecord:
     """The `edit` block of `meta/openral.json`: the operation, each source with its episodes, what changed."""
     sources: dict[Path, list[int]] = {}
@@ -164,12 +181,13 @@ def _copy(
     writer: EpisodeAssembler,
     transform: Transform | None,
     on_episode: Callable[[int], None] | None,
+    cameras: list[str],
 ) -> None:
-    """Every selected episode, read, rewritten by `transform` and added in order; the writer closed, or aborted
-    by whatever stopped the copy."""
+    """Every selected episode, read (with the videos of `cameras`), rewritten by `transform` and added in order;
+    the writer closed, or aborted by whatever stopped the copy."""
     try:
         for k, (src, e) in enumerate(selection):
-            episode = src.episode(e)
+            episode = src.episode(e, cameras)
             writer.add(episode if transform is None else transform(episode))
             if on_episode is not None:
                 on_episode(k)
@@ -224,7 +242,7 @@ def write_edit(
             "and videos/ only); use --out"
         )
     old = dataset.parent / f".{dataset.name}.replaced-{os.getpid()}"
-    command = f"episodes {op}" if op in ("delete", "filter") else op  # `tasks rename`, `stats recompute`, …
+    command = _command(op)
     staged = Staging(dataset, f"openral-data {command} --in-place")
     lock = DatasetLock(dataset, f"{command} --in-place")
     with lock, disk_errors(dataset, f"replacing it by its {op} edit"), staged as new:  # no recording meanwhile

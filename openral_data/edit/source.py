@@ -16,6 +16,7 @@ episode's seed is unknown (`None`), its initial state empty, and its success rea
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -41,6 +42,7 @@ from openral_data.formats.lerobot_v3.features import (
 )
 from openral_data.formats.lerobot_v3.lock import check_settled
 from openral_data.formats.lerobot_v3.masks import is_mask
+from openral_data.formats.lerobot_v3.missing import missing_files
 from openral_data.formats.lerobot_v3.provenance import Origin, read_provenance
 from openral_data.formats.lerobot_v3.reader import dataset_tasks, read_episodes, read_info
 from openral_data.formats.lerobot_v3.stats import STAT_KEYS, ImageStatsAccumulator, Stats
@@ -99,6 +101,8 @@ class SourceDataset:
                 f"{root}: meta/episodes: rows are not episodes 0..{self.total - 1} in order", code="dataset.invalid"
             )
         self._data_cache: tuple[Path, pa.Table] | None = None
+        # the files a partial download left out: an edit asks only for those it copies (`need`)
+        self.missing = missing_files(root, self.info, self._rows[: self.total], self.camera_key.values())
 
     # -- what the dataset is ---------------------------------------------------------------------------------
     def _origin(self) -> Origin:
@@ -207,7 +211,15 @@ class SourceDataset:
             )
         return int(value)
 
-    def episode(self, index: int) -> EpisodeData:
+    def need(self, episodes: Iterable[int], cameras: Iterable[str], what: str) -> None:
+        """Refuse in one line, before anything is written, when a file that copying `episodes` with the video
+        `cameras` (names) needs is absent (a partial download: `missing.MissingFiles.need`)."""
+        keys = [self.camera_key[n] for n in cameras if n in self.camera_key]
+        self.missing.need(episodes, keys, what, drop=True)
+
+    def episode(self, index: int, cameras: Iterable[str] | None = None) -> EpisodeData:
+        """Episode `index` with the videos of `cameras` (names; default every video camera): a camera an edit
+        drops is never read, so its mp4 need not be there."""
         if not 0 <= index < self.total:
             raise EpisodeSelectionError(
                 f"{self.root}: episode {index} is outside 0..{self.total - 1}", code="episodes.range"
@@ -229,7 +241,8 @@ class SourceDataset:
             ) from None
         videos: dict[str, bytes] = {}
         image_stats: dict[str, Stats] = {}
-        for name in self.camera_names():
+        wanted = self.camera_names() if cameras is None else [c for c in self.camera_names() if c in set(cameras)]
+        for name in wanted:
             videos[name] = self._clip(index, row, name, n)
             image_stats[name] = self._stats(row, self.camera_key[name])
         states, actions = self._vector(data, STATE, index), self._vector(data, ACTION, index)

@@ -22,7 +22,7 @@ import httpx
 from huggingface_hub import CommitOperationAdd, HfApi, get_token
 from huggingface_hub.errors import HfHubHTTPError, OfflineModeIsEnabled, RevisionNotFoundError
 
-from openral_data.doctor import check
+from openral_data.doctor import PARTIAL_DOWNLOAD, check
 from openral_data.errors import DatasetError, HubError, NotFound, UsageError
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.lock import check_settled
@@ -90,10 +90,11 @@ def plan_push(root: Path, opts: PushOptions) -> PushPlan:
     if not root.is_dir():
         raise NotFound(f"{root}: no such dataset folder")
     check_settled(root, "push")
-    errors = [f for f in check(root) if f.severity == "error"]
+    # a partial download's absent files are warnings to doctor, but pushing it would publish an incomplete dataset
+    errors = [f for f in check(root) if f.severity == "error" or f.code in PARTIAL_DOWNLOAD]
     if errors and not opts.force:
         raise DatasetError(
-            f"{root}: doctor finds {len(errors)} error(s) (first: {errors[0].line()}); see `openral-data doctor "
+            f"{root}: doctor finds {len(errors)} problem(s) (first: {errors[0].line()}); see `openral-data doctor "
             f"{root}`, or push anyway with --force",
             code="dataset.invalid",
         )

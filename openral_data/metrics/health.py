@@ -20,6 +20,7 @@ import duckdb
 
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.layout import FilePos
+from openral_data.formats.lerobot_v3.missing import fetch_hint, missing_files
 from openral_data.formats.lerobot_v3.video import count_packets
 from openral_data.metrics.scan import VectorScan, vector_scan
 from openral_data.metrics.sources import DatasetSource
@@ -44,8 +45,10 @@ def check_dataset(con: duckdb.DuckDBPyConnection, ds: DatasetSource, scan: Vecto
     """All checks of one dataset; `scan` (which columns hold NaN/Inf) is computed when not given."""
     issues: list[Issue] = []
     meta = _episode_meta(con, ds)
-    issues += _missing_files(ds, meta)
-    issues += _frame_checks(con, ds, meta, scan if scan is not None else vector_scan(con, ds))
+    missing, no_data = _missing_files(ds, meta)
+    issues += missing
+    counted = [m for m in meta if int(m["episode_index"]) not in no_data]
+    issues += _frame_checks(con, ds, counted, scan if scan is not None else vector_scan(con, ds))
     issues += _video_checks(ds, meta)
     return sorted(issues, key=lambda i: (i.dataset, -1 if i.episode is None else i.episode, i.check))
 
@@ -59,26 +62,23 @@ def _episode_meta(con: duckdb.DuckDBPyConnection, ds: DatasetSource) -> list[dic
     return [dict(zip(names, row, strict=True)) for row in rows]
 
 
-def _missing_files(ds: DatasetSource, meta: list[dict[str, Any]]) -> list[Issue]:
-    """Every file the metadata names must exist; each episode that names a missing one is reported."""
+def _missing_files(ds: DatasetSource, meta: list[dict[str, Any]]) -> tuple[list[Issue], set[int]]:
+    """The files the metadata names that are absent (a partial download: `missing.missing_files`), one issue per
+    kind (data, each camera's videos, the tasks table) with the `hf download` that fetches them; and the episodes
+    whose data is absent (their rows are not counted against their lengths). `meta/stats.json` is not read here
+    (`info` and `doctor` say when it is absent)."""
     issues = []
     if int(ds.info.get("total_tasks", 0)) and not (ds.root / layout.TASKS_PATH).is_file():
         issues.append(Issue(ds.label, None, "missing_file", layout.TASKS_PATH))
-    exists: dict[str, bool] = {}
-    for ep in meta:
-        names = []
-        if ep["data/chunk_index"] is not None:
-            names.append(layout.DATA_PATH.format(chunk_index=ep["data/chunk_index"], file_index=ep["data/file_index"]))
-        for cam in ds.cameras:
-            if ep[f"videos/{cam}/chunk_index"] is not None:
-                chunk, file = ep[f"videos/{cam}/chunk_index"], ep[f"videos/{cam}/file_index"]
-                names.append(layout.VIDEO_PATH.format(video_key=cam, chunk_index=chunk, file_index=file))
-        for name in names:
-            if name not in exists:
-                exists[name] = (ds.root / name).is_file()
-            if not exists[name]:
-                issues.append(Issue(ds.label, int(ep["episode_index"]), "missing_file", name))
-    return issues
+    gone = missing_files(ds.root, ds.info, meta, ds.cameras)
+    for kind in gone.kinds():
+        eps = kind.episodes()
+        detail = (
+            f"{kind.kind}: {kind.summary()} not downloaded, episode(s) {eps[:5]}{' …' if len(eps) > 5 else ''}; "
+            f"fetch them: {fetch_hint(ds.root, [kind.pattern])}"
+        )
+        issues.append(Issue(ds.label, None, "missing_file", detail))
+    return issues, {e for eps in gone.data.values() for e in eps}
 
 
 def _frame_checks(

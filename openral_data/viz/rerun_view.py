@@ -40,6 +40,7 @@ from openral_data.formats.lerobot_v3.frames import decode_episode_video, depth_s
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE, image_bytes, image_keys, media_type
 from openral_data.formats.lerobot_v3.layout import FilePos
 from openral_data.formats.lerobot_v3.masks import MASK_IDS, decode_mask, is_mask
+from openral_data.formats.lerobot_v3.missing import missing_files
 from openral_data.formats.lerobot_v3.success import EPISODE_SUCCESS, episode_successes
 from openral_data.formats.mcap.chunks import check_mcap
 from openral_data.formats.mcap.summary import check_summary
@@ -162,6 +163,8 @@ class EpisodeData:
 
 def load_episode(ds: DatasetSource, episode: int, results: Path | None = None) -> EpisodeData:
     row = _episode_row(ds, episode)
+    # a partial download: the files this episode needs, named in one line with the command that fetches them
+    missing_files(ds.root, ds.info, [row], ds.cameras).need(None, ds.cameras, "view")
     frames = _episode_frames(ds, row)
     videos = {cam: _video_path(ds, row, cam) for cam in ds.cameras}
     steps = None

@@ -51,17 +51,19 @@ def test_recorded_dataset_is_healthy(healthy: Path) -> None:
 
 
 def test_missing_video_and_data_files(healthy: Path, tmp_path: Path) -> None:
+    """Absent files (a partial download) are one `missing_file` row per kind, not one per episode, and the
+    episodes whose data is absent are not counted as zero-frame episodes (#30)."""
     ds = copy_dataset(healthy, tmp_path / "missing")
     (ds / "videos/observation.images.wrist/chunk-000/file-000.mp4").unlink()
     found = _issues(ds)
-    missing = [(e, d) for e, c, d in found if c == "missing_file"]
-    assert len(missing) == 8 and all("observation.images.wrist" in d for _, d in missing)
-    assert {c for _, c, _ in found} == {"missing_file"}
+    assert [(e, c) for e, c, _ in found] == [(None, "missing_file")]
+    assert found[0][2].startswith("videos/observation.images.wrist: 1 of 1 files (file-000.mp4) not downloaded")
+    assert "--include 'videos/observation.images.wrist/*'" in found[0][2]
 
     data_file(ds).unlink()
-    checks = _checks(ds)
-    assert {c for _, c in checks} == {"missing_file", "zero_frames"}
-    assert {e for e, c in checks if c == "zero_frames"} == set(range(8))
+    found = _issues(ds)
+    assert [(e, c) for e, c, _ in found] == [(None, "missing_file")] * 2
+    assert found[0][2].startswith("data: 1 of 1 files (file-000.parquet) not downloaded, episode(s) [0, 1, 2, 3, 4] …")
 
 
 def test_timestamp_gap_and_non_monotonic(healthy: Path, tmp_path: Path) -> None:

@@ -13,6 +13,7 @@ from openral_data.errors import DatasetError
 from openral_data.formats.jsonfile import read_json
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.info import check_info
+from openral_data.formats.lerobot_v3.missing import MissingFiles, missing_files
 from openral_data.formats.lerobot_v3.success import count_successes, episode_successes
 from openral_data.formats.parquetfile import read_table
 from openral_data.paths import safe_name
@@ -29,6 +30,7 @@ class DatasetSummary:
     successes: int | None  # None when no episode's success is known (see `success.episode_successes`)
     robot_type: str | None
     success_known: int = 0  # episodes whose success is known (the rate's denominator)
+    missing: MissingFiles | None = None  # files a partial download left out (`missing.missing_files`)
 
     @property
     def success_rate(self) -> float | None:
@@ -50,6 +52,7 @@ class DatasetSummary:
             "success_known": self.successes is not None and self.success_known > 0,
             "successes": self.successes,
             "success_rate": self.success_rate,
+            "missing": self.missing.to_json() if self.missing else None,
         }
 
 
@@ -143,6 +146,7 @@ def summarize(root: Path) -> DatasetSummary:
         successes=successes if known else None,
         robot_type=info.get("robot_type"),
         success_known=known,
+        missing=missing_files(root, info, episodes),
     )
 
 
