@@ -23,7 +23,7 @@ from openral_data.formats.lerobot_v3.layout import FilePos
 from openral_data.formats.lerobot_v3.video import count_packets
 from openral_data.metrics.scan import VectorScan, vector_scan
 from openral_data.metrics.sources import DatasetSource
-from openral_data.metrics.views import files_sql, ident, query
+from openral_data.metrics.views import episodes_from, files_sql, ident, query
 
 GAP_FACTOR = 1.5  # a step longer than 1.5 frame periods is a gap
 TIMESTAMP_TOLERANCE_S = 1e-4  # lerobot's tolerance_s for timestamp = frame_index / fps
@@ -55,24 +55,27 @@ def _episode_meta(con: duckdb.DuckDBPyConnection, ds: DatasetSource) -> list[dic
     for cam in ds.cameras:
         wanted += [f"videos/{cam}/{k}" for k in ("chunk_index", "file_index", "from_timestamp", "to_timestamp")]
     cols = ", ".join(ident(c) if c in ds.episode_columns else f"NULL AS {ident(c)}" for c in wanted)
-    names, rows = query(con, f"SELECT {cols} FROM read_parquet({files_sql(ds.episode_files)}) ORDER BY episode_index")
+    names, rows = query(con, f"SELECT {cols} FROM {episodes_from(ds)} ORDER BY episode_index")
     return [dict(zip(names, row, strict=True)) for row in rows]
 
 
 def _missing_files(ds: DatasetSource, meta: list[dict[str, Any]]) -> list[Issue]:
     """Every file the metadata names must exist; each episode that names a missing one is reported."""
     issues = []
-    if int(ds.info.get("total_tasks", 0)) and not (ds.root / layout.TASKS_PATH).is_file():
-        issues.append(Issue(ds.label, None, "missing_file", layout.TASKS_PATH))
+    if int(ds.info.get("total_tasks", 0)) and not (ds.root / ds.tasks_path).is_file():
+        issues.append(Issue(ds.label, None, "missing_file", ds.tasks_path))
     exists: dict[str, bool] = {}
+    # the templates read_info checked (a v2.x dataset's name each episode's own files)
+    data_template = ds.info.get("data_path") or layout.DATA_PATH
+    video_template = ds.info.get("video_path") or layout.VIDEO_PATH
     for ep in meta:
         names = []
         if ep["data/chunk_index"] is not None:
-            names.append(layout.DATA_PATH.format(chunk_index=ep["data/chunk_index"], file_index=ep["data/file_index"]))
+            names.append(data_template.format(chunk_index=ep["data/chunk_index"], file_index=ep["data/file_index"]))
         for cam in ds.cameras:
             if ep[f"videos/{cam}/chunk_index"] is not None:
                 chunk, file = ep[f"videos/{cam}/chunk_index"], ep[f"videos/{cam}/file_index"]
-                names.append(layout.VIDEO_PATH.format(video_key=cam, chunk_index=chunk, file_index=file))
+                names.append(video_template.format(video_key=cam, chunk_index=chunk, file_index=file))
         for name in names:
             if name not in exists:
                 exists[name] = (ds.root / name).is_file()
