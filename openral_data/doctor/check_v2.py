@@ -2,12 +2,13 @@
 
 Codes (stable): ``v2.meta`` (info.json, episodes.jsonl or tasks.jsonl unusable: the other checks stop),
 ``v2.data.missing`` / ``v2.video.missing`` (an episode's parquet or mp4 absent), ``v2.data.rows`` (an episode's
-parquet does not hold its ``length`` frames 0..n-1 of that episode, with the global ``index`` range the episode
-order gives), ``v2.data.timestamps`` (a timestamp off ``frame_index / fps``), ``v2.data.task_index`` (a task
-index with no task), ``v2.video.frames`` (an mp4 with fewer frames than the episode), ``v2.stats`` (v2.1 without
-a per-episode stats line per episode, v2.0 without meta/stats.json: a warning) and, with ``--deep``,
-``v2.video.content`` (decoded frames whose per-channel mean is not the episode's stored image mean). `--repair`
-is refused: `openral-data upgrade` writes a v3 dataset, which doctor can repair.
+parquet does not hold its ``length`` frames 0..n-1 of that episode), ``v2.data.index`` (a warning: its global
+``index`` is not the range the episode order gives, e.g. a subset of a larger dataset), ``v2.data.timestamps``
+(a timestamp off ``frame_index / fps``), ``v2.data.task_index`` (a task index with no task), ``v2.video.frames``
+(an mp4 with fewer frames than the episode), ``v2.stats`` (v2.1 without a per-episode stats line per episode,
+v2.0 without meta/stats.json: a warning) and, with ``--deep``, ``v2.video.content`` (decoded frames whose
+per-channel mean is not the episode's stored image mean). `--repair` is refused: `openral-data upgrade` writes
+a v3 dataset, which doctor can repair.
 """
 
 from __future__ import annotations
@@ -80,13 +81,16 @@ def _check_data(ds: LeRobotDataset, rows: list[dict[str, Any]], n_tasks: int) ->
             out.append(error("v2.data.rows", _rel(ds, path), str(exc).split(": ", 1)[-1]))
             continue
         got = {k: cols.column(k).to_pylist() for k in cols.column_names}
-        want = {"episode_index": [e] * n, "frame_index": list(range(n)), "index": list(range(start, start + n))}
+        want = {"episode_index": [e] * n, "frame_index": list(range(n))}
         bad = [k for k, v in want.items() if got.get(k) != v]
         if bad:
             out.append(
                 error("v2.data.rows", _rel(ds, path), f"{', '.join(bad)}: not the {n} frames of episode {e} in order")
             )
             continue
+        if got.get("index") != list(range(start, start + n)):  # e.g. a subset of a larger dataset's episodes
+            message = f"index: not {start}..{start + n - 1}, the frames' place in episode order (`upgrade` renumbers)"
+            out.append(warning("v2.data.index", _rel(ds, path), message))
         times = np.asarray(got.get("timestamp", []), dtype=np.float64)
         if len(times) != n or np.abs(times - np.arange(n) / fps).max(initial=0) > TIME_TOLERANCE:
             out.append(error("v2.data.timestamps", _rel(ds, path), f"timestamps are not frame_index / {fps}"))
