@@ -148,17 +148,7 @@ def _register_datasets(con: duckdb.DuckDBPyConnection, datasets: Sequence[Datase
             con.register(f"tasks:{ds.label}", ds.tasks_table)
         parts.append(_episodes_sql(ds, f"success_{i}"))
     con.execute("CREATE VIEW episodes AS " + _union(parts, _EMPTY_EPISODES))
-    tasks = [
-        f"SELECT {lit(ds.label)} AS dataset, task_index, task FROM "
-        + (ident(f"tasks:{ds.label}") if ds.tasks_table is not None else read)
-        for ds in datasets
-        if ds.tasks_table is not None or (ds.root / layout.TASKS_PATH).is_file()
-        for read in [f"read_parquet({path_sql(ds.root / layout.TASKS_PATH)})"]
-    ]
-    con.execute(
-        "CREATE VIEW tasks AS "
-        + _union(tasks, "SELECT NULL::VARCHAR AS dataset, NULL::BIGINT AS task_index, NULL::VARCHAR AS task LIMIT 0")
-    )
+    _register_tasks(con, datasets)
     rows = [
         "("
         + ", ".join(
@@ -189,6 +179,21 @@ def _register_datasets(con: duckdb.DuckDBPyConnection, datasets: Sequence[Datase
         else f"SELECT {typed} FROM (SELECT {', '.join('NULL' for _ in cols.split(','))}) v({cols}) LIMIT 0"
     )
     con.execute("CREATE VIEW datasets AS " + body)
+
+
+def _register_tasks(con: duckdb.DuckDBPyConnection, datasets: Sequence[DatasetSource]) -> None:
+    """The `tasks` view: meta/tasks.parquet, or a v2.x dataset's table (from meta/tasks.jsonl)."""
+    tasks = [
+        f"SELECT {lit(ds.label)} AS dataset, task_index, task FROM "
+        + (ident(f"tasks:{ds.label}") if ds.tasks_table is not None else f"read_parquet({path_sql(tasks_file)})")
+        for ds in datasets
+        for tasks_file in [ds.root / layout.TASKS_PATH]
+        if ds.tasks_table is not None or tasks_file.is_file()
+    ]
+    con.execute(
+        "CREATE VIEW tasks AS "
+        + _union(tasks, "SELECT NULL::VARCHAR AS dataset, NULL::BIGINT AS task_index, NULL::VARCHAR AS task LIMIT 0")
+    )
 
 
 _EMPTY_EPISODES = (

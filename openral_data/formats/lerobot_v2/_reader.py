@@ -10,8 +10,15 @@ import pyarrow as pa
 
 from openral_data.errors import DatasetError
 from openral_data.formats.jsonfile import read_json
-from openral_data.formats.lerobot_v2 import _layout
 from openral_data.formats.lerobot_v2._jsonl import read_jsonl
+from openral_data.formats.lerobot_v2._layout import (
+    DATA_PATH,
+    EPISODES_PATH,
+    TASKS_PATH,
+    VIDEO_PATH,
+    as_v3_template,
+    chunk_of,
+)
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.info import check_info
 from openral_data.formats.lerobot_v3.reader import check_paths, video_keys
@@ -35,16 +42,16 @@ def as_v3_info(root: Path, raw: dict[str, Any]) -> dict[str, Any]:
     lerobot's v2 templates where `raw` has none), checked to stay inside `root` (`check_paths`);
     ``codebase_version`` stays the source's."""
     info = dict(raw)
-    info["data_path"] = _layout.as_v3_template(raw.get("data_path") or _layout.DATA_PATH)
+    info["data_path"] = as_v3_template(raw.get("data_path") or DATA_PATH)
     if video_keys(raw):
-        info["video_path"] = _layout.as_v3_template(raw.get("video_path") or _layout.VIDEO_PATH)
+        info["video_path"] = as_v3_template(raw.get("video_path") or VIDEO_PATH)
     check_paths(root, info)
     return info
 
 
 def read_tasks(root: Path, info: dict[str, Any]) -> list[str]:
     """meta/tasks.jsonl's texts in task_index order; the indices must be 0..n-1 and `total_tasks` count them."""
-    path = layout.inside(root, _layout.TASKS_PATH)
+    path = layout.inside(root, TASKS_PATH)
     try:
         rows = read_jsonl(path)
     except FileNotFoundError:
@@ -65,7 +72,7 @@ def read_tasks(root: Path, info: dict[str, Any]) -> list[str]:
     total = info.get("total_tasks")
     if total is not None and total != len(tasks):
         raise DatasetError(
-            f"{root / layout.INFO_PATH}: total_tasks: {total}, but {_layout.TASKS_PATH} holds {len(tasks)} task(s)",
+            f"{root / layout.INFO_PATH}: total_tasks: {total}, but {TASKS_PATH} holds {len(tasks)} task(s)",
             code="dataset.invalid",
         )
     return [tasks[i] for i in range(len(tasks))]
@@ -73,7 +80,7 @@ def read_tasks(root: Path, info: dict[str, Any]) -> list[str]:
 
 def _episode_rows(root: Path, info: dict[str, Any]) -> list[tuple[int, int, list[str]]]:
     """(episode_index, length, tasks) of meta/episodes.jsonl, in episode order, the first `total_episodes`."""
-    path = layout.inside(root, _layout.EPISODES_PATH)
+    path = layout.inside(root, EPISODES_PATH)
     try:
         rows = read_jsonl(path)
     except FileNotFoundError:
@@ -89,13 +96,12 @@ def _episode_rows(root: Path, info: dict[str, Any]) -> list[tuple[int, int, list
             raise DatasetError(f"{path}: line {n}: tasks: not a list of texts", code="dataset.invalid")
         if e in out:
             raise DatasetError(f"{path}: line {n}: episode_index {e} listed twice", code="dataset.invalid")
-        layout.FilePos(_layout.chunk_of(e, info), e)  # an index that can name a file
+        layout.FilePos(chunk_of(e, info), e)  # an index that can name a file
         out[e] = (e, length, tasks)
     total = info.get("total_episodes", len(out))
     if total > len(out):
         raise DatasetError(
-            f"{root / layout.INFO_PATH}: total_episodes: {total}, but {_layout.EPISODES_PATH} holds {len(out)} "
-            "episode(s)",
+            f"{root / layout.INFO_PATH}: total_episodes: {total}, but {EPISODES_PATH} holds {len(out)} episode(s)",
             code="dataset.invalid",
         )
     return [out[e] for e in sorted(out)][:total]
@@ -115,7 +121,7 @@ def read_episodes(root: Path, info: dict[str, Any]) -> pa.Table:
             code="dataset.invalid",
         )
     ids = [e for e, _, _ in rows]
-    chunks = [_layout.chunk_of(e, info) for e in ids]
+    chunks = [chunk_of(e, info) for e in ids]
     starts = _cumulative(lengths)
     columns: dict[str, pa.Array] = {
         "episode_index": pa.array(ids, pa.int64()),
