@@ -13,6 +13,7 @@ a v3 dataset, which doctor can repair.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
@@ -36,12 +37,15 @@ TIME_TOLERANCE = 1e-4  # s: float32 of t / fps
 
 
 def legacy_version(root: Path) -> str | None:
-    """ "v2.0"/"v2.1" when `root`'s info.json says so; None otherwise (also when it is unreadable: the v3 checks
-    report that)."""
+    """The v2.x version `root`'s info.json says, when its meta/episodes.jsonl is there too (a v3 layout labelled
+    v2.x is the v3 checks' ``info.version`` error); None otherwise (also when info.json is unreadable: the v3
+    checks report that)."""
     try:
-        return lerobot_v2.version(lerobot_v2.read_raw_info(root))
+        version = lerobot_v2.version(lerobot_v2.read_raw_info(root))
     except (DatasetError, OSError):
         return None
+    v3_layout = not os.path.lexists(root / lerobot_v2.EPISODES_PATH) and os.path.lexists(root / "meta/episodes")
+    return None if v3_layout else version
 
 
 def check_v2(root: Path, *, deep: bool = False) -> list[Finding]:

@@ -34,7 +34,9 @@ def read_raw_info(root: Path) -> dict[str, Any]:
     try:
         return check_info(read_json(path), path)
     except FileNotFoundError:
-        raise DatasetError(f"{root}: not a LeRobot dataset (no {layout.INFO_PATH})", code="dataset.invalid") from None
+        raise DatasetError(
+            f"{root}: not a LeRobot v3 dataset (no {layout.INFO_PATH})", code="dataset.invalid"
+        ) from None
 
 
 def as_v3_info(root: Path, raw: dict[str, Any]) -> dict[str, Any]:
