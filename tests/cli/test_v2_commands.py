@@ -9,8 +9,11 @@ from __future__ import annotations
 import json
 import shutil
 from collections import Counter
+from collections.abc import Callable
 from pathlib import Path
 
+import pyarrow as pa
+import pyarrow.parquet as pq
 import pytest
 from rerun.chunk import RrdReader
 
@@ -20,6 +23,7 @@ from tests.support.real_datasets import REAL, real_root
 from tests.support.rrd import verify
 
 VERSIONS = ["v2.0", "v2.1"]
+DATA_0 = "data/chunk-000/episode_000000.parquet"
 REAL_V2 = [name for name, d in REAL.items() if d.version in VERSIONS]
 
 
@@ -89,6 +93,32 @@ def test_doctor_deep_sees_swapped_videos(tmp_path: Path) -> None:
     proc = run_inproc("doctor", str(root), "--deep", "--json")
     assert proc.returncode == 1
     assert {f["code"] for f in json.loads(proc.stdout)["findings"]} == {"v2.video.content"}
+
+
+def _rewrite_column(path: Path, name: str, values: list[object]) -> None:
+    table = pq.read_table(path)
+    column = pa.array(values, table.schema.field(name).type)
+    pq.write_table(table.set_column(table.schema.get_field_index(name), name, column), path)
+
+
+@pytest.mark.parametrize(
+    ("damage", "code", "severity"),
+    [
+        (lambda r: _rewrite_column(r / DATA_0, "timestamp", [0.0, 0.5]), "v2.data.timestamps", "error"),
+        (lambda r: _rewrite_column(r / DATA_0, "task_index", [0, 7]), "v2.data.task_index", "error"),
+        (lambda r: _rewrite_column(r / DATA_0, "frame_index", [1, 0]), "v2.data.rows", "error"),
+        (lambda r: _rewrite_column(r / DATA_0, "index", [10, 11]), "v2.data.index", "warning"),
+        (lambda r: (r / "meta/episodes.jsonl").write_text("{oops\n"), "v2.meta", "error"),
+        (lambda r: (r / "meta/episodes_stats.jsonl").unlink(), "v2.stats", "warning"),
+    ],
+)
+def test_doctor_v2_findings(tmp_path: Path, damage: Callable[[Path], object], code: str, severity: str) -> None:
+    root = write_v2(tmp_path / "ds", version="v2.1", lengths=[2, 3], video=False)
+    damage(root)
+    proc = run_inproc("doctor", str(root), "--json")
+    assert proc.returncode == (1 if severity == "error" else 0), proc.stderr
+    found = [(f["code"], f["severity"]) for f in json.loads(proc.stdout)["findings"]]
+    assert found == [(code, severity)], found
 
 
 def test_stats(v2: Path) -> None:
