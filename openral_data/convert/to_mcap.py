@@ -4,7 +4,8 @@ Frames are read one episode at a time: the numeric columns of that episode from 
 images decoded with PyAV from each camera's mp4 starting at the episode's ``from_timestamp``; a depth video
 (``is_depth_map``) becomes a 16UC1 Image topic (millimetres, as lerobot's loader returns them) and a camera's
 ``info.camera_info`` a CameraInfo topic. Works on any
-LeRobot v3 dataset (ours or lerobot's); our extra episode columns (seed, success, initial state) are kept.
+LeRobot v3 dataset (ours or lerobot's) and on LeRobot v2.0/v2.1 ones (opened by `formats.dataset.open_lerobot`);
+our extra episode columns (seed, success, initial state) are kept.
 The bags are written into a hidden staging folder beside DST, renamed to DST once every bag is finished.
 """
 
