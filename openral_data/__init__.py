@@ -42,7 +42,7 @@ _API: dict[str, str] = {
     "repair": "openral_data.doctor",
     "Finding": "openral_data.doctor",
     "RepairResult": "openral_data.doctor",
-    "summarize": "openral_data.formats.lerobot_v3",
+    "summarize": "openral_data.formats.dataset",  # any version: v3, or v2.x read in place
     "DatasetSummary": "openral_data.formats.lerobot_v3",
     "stats_query": "openral_data.metrics.command",
     "Table": "openral_data.metrics.report",
@@ -113,7 +113,8 @@ if TYPE_CHECKING:
     from openral_data.convert import ConvertSummary, ExportSummary, convert_bags, export_mcap
     from openral_data.doctor import Finding, RepairResult, check, repair
     from openral_data.errors import CompatibilityError, ConfigError, ContractViolation, OpenralError
-    from openral_data.formats.lerobot_v3 import DatasetSummary, summarize
+    from openral_data.formats.dataset import summarize
+    from openral_data.formats.lerobot_v3 import DatasetSummary
     from openral_data.metrics.command import stats_query
     from openral_data.metrics.report import Table
     from openral_data.record.options import RecordOptions, RecordSummary

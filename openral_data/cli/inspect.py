@@ -35,7 +35,8 @@ class ListWhat(StrEnum):
 
 def info(dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset folder")], json: JsonFlag = False) -> None:
     """Print a dataset's summary: episodes, frames, tasks, cameras, success rate."""
-    from openral_data.formats.lerobot_v3 import summarize
+    from openral_data.formats.dataset import summarize
+    from openral_data.formats.lerobot_v3.reader import LEGACY_VERSIONS as legacy
 
     dataset = resolve_dataset(dataset)
     s = summarize(dataset)
@@ -53,6 +54,7 @@ def info(dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset fold
             ("tasks", "; ".join(s.tasks) or "-"),
             ("robot", s.robot_type or "-"),
             ("success rate", _success_cell(s)),
+            *([("format", f"LeRobot {s.codebase_version} (read in place)")] if s.codebase_version in legacy else []),
             *([("missing", line.removeprefix("missing: "))] if s.missing and (line := s.missing.line()) else []),
         ],
     )

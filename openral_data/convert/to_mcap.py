@@ -4,7 +4,8 @@ Frames are read one episode at a time: the numeric columns of that episode from 
 images decoded with PyAV from each camera's mp4 starting at the episode's ``from_timestamp``; a depth video
 (``is_depth_map``) becomes a 16UC1 Image topic (millimetres, as lerobot's loader returns them) and a camera's
 ``info.camera_info`` a CameraInfo topic. Works on any
-LeRobot v3 dataset (ours or lerobot's); our extra episode columns (seed, success, initial state) are kept.
+LeRobot v3 dataset (ours or lerobot's) and on LeRobot v2.0/v2.1 ones (opened by `formats.dataset.open_lerobot`);
+our extra episode columns (seed, success, initial state) are kept.
 The bags are written into a hidden staging folder beside DST, renamed to DST once every bag is finished.
 """
 
@@ -18,6 +19,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from openral_data.episodes import parse_episodes
 from openral_data.errors import DatasetError
+from openral_data.formats.dataset import open_lerobot
 from openral_data.formats.jsonfile import parse_field
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX, camera_keys, dim_names
@@ -26,7 +28,6 @@ from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE
 from openral_data.formats.lerobot_v3.masks import MASK_IDS, is_mask
 from openral_data.formats.lerobot_v3.missing import missing_files
 from openral_data.formats.lerobot_v3.provenance import Origin
-from openral_data.formats.lerobot_v3.reader import dataset_tasks, read_episodes, read_info
 from openral_data.formats.lerobot_v3.success import episode_successes
 from openral_data.formats.mcap import McapConfig, McapSink
 from openral_data.formats.staging import Staging, check_new_output
@@ -99,7 +100,7 @@ def export_mcap(
     source = _read_source(src)
     chosen = parse_episodes(episodes, len(source.rows))
     successes = episode_successes(src, source.episodes)  # the sink drops them if the schema has no success
-    tasks = dataset_tasks(src, source.info)
+    tasks = source.tasks
     schema = _schema(source)
     summary = ExportSummary(src=src, dst=dst, skipped_features=_skipped_features(source))
     total = sum(int(source.rows[e]["length"]) for e in chosen)
@@ -146,6 +147,7 @@ class _Source:
     keys: dict[str, str]
     episodes: pa.Table
     rows: list[dict[str, Any]]
+    tasks: list[str]
 
     @property
     def features(self) -> dict[str, Any]:
@@ -156,7 +158,8 @@ class _Source:
 def _read_source(src: Path) -> _Source:
     """info.json checked for what an export needs (a state, an action, cameras that are videos or images), then
     the episodes table."""
-    info = read_info(src)
+    dataset = open_lerobot(src)  # v3, or v2.x read in place
+    info = dataset.info
     features: dict[str, Any] = info["features"]
     for key in ("observation.state", "action"):
         if key not in features:
@@ -168,9 +171,9 @@ def _read_source(src: Path) -> _Source:
             f"{src}: cameras {odd} are neither videos nor images; cannot export them", code="dataset.unsupported"
         )
     cams = {name: features[key] for name, key in keys.items()}
-    ep_table = read_episodes(src)
+    ep_table = dataset.episodes()
     rows = sorted(ep_table.to_pylist(), key=lambda r: int(r["episode_index"]))
-    return _Source(src, info, cams, keys, ep_table, rows)
+    return _Source(src, info, cams, keys, ep_table, rows, dataset.tasks())
 
 
 def _schema(source: _Source) -> DatasetSchema:

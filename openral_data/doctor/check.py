@@ -8,6 +8,7 @@ from pathlib import Path
 from openral_data.doctor import check_data, check_meta, check_missing, check_paths, check_video
 from openral_data.doctor.check_deep import check_deep
 from openral_data.doctor.check_digests import check_digests
+from openral_data.doctor.check_v2 import check_v2, legacy_version
 from openral_data.doctor.findings import Finding, error, warning
 from openral_data.doctor.inspect import DAMAGE, Dataset, load
 from openral_data.formats.lerobot_v3 import layout
@@ -26,6 +27,8 @@ def check(root: Path, *, lock_held_by_us: bool = False, deep: bool = False) -> l
     links = check_paths.check_links(root)
     if links:
         return findings + links  # every other check would read the files they lead to
+    if legacy_version(root):
+        return findings + check_v2(root, deep=deep)  # LeRobot v2.x: its own layout's checks
     ds, fatal = load(root)
     if ds is None:
         return findings + fatal

@@ -7,8 +7,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from openral_data.doctor.check import check
+from openral_data.doctor.check_v2 import legacy_version
 from openral_data.doctor.findings import Finding
 from openral_data.doctor.repair import repair
+from openral_data.errors import DatasetError
 
 
 @dataclass(frozen=True)
@@ -57,6 +59,13 @@ def doctor_report(root: Path, fix: bool, deep: bool = False) -> DoctorReport:
     """Check `root` (after repairing it, with `fix`); `deep` also decodes every frame."""
     if not fix:
         return DoctorReport(root, check(root, deep=deep))
+    legacy = legacy_version(root)
+    if legacy:
+        raise DatasetError(
+            f"{root}: doctor --repair: LeRobot {legacy} is not repaired in place; run "
+            f"`openral-data upgrade {root} NEW` and repair the v3 dataset",
+            code="dataset.unsupported",
+        )
     result = repair(root)
     findings = check(root, deep=True) if deep else result.remaining
     return DoctorReport(root, findings, True, list(result.actions), list(result.refused), result.quarantine)

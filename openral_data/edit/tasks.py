@@ -16,7 +16,7 @@ from openral_data.edit.ops import EditResult, Rewrite, Transform, summed_histogr
 from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.episodes import parse_episodes
 from openral_data.errors import UsageError
-from openral_data.formats.lerobot_v3.reader import committed_episodes, dataset_tasks, read_episodes, read_info
+from openral_data.formats.dataset import open_lerobot
 
 
 @dataclass(frozen=True)
@@ -28,9 +28,9 @@ class TaskUse:
 
 def list_tasks(dataset: Path) -> list[TaskUse]:
     """Every task of `dataset` in task_index order, with the episodes that use it (read only)."""
-    info = read_info(dataset)
-    names = dataset_tasks(dataset, info)
-    episodes = committed_episodes(dataset, info, read_episodes(dataset))
+    ds = open_lerobot(dataset)  # any version: listing is read-only
+    names = ds.tasks()
+    episodes = ds.committed_episodes()
     using: dict[str, list[int]] = {t: [] for t in names}
     for row in episodes.to_pylist():
         for task in row.get("tasks") or []:

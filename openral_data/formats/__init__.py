@@ -1,6 +1,8 @@
 """On-disk formats, each a subpackage or module whose face names its reader and writer API.
 
 * `lerobot_v3`: LeRobotDataset v3 (read its metadata and frames back; write it episode by episode, crash-safe);
+* `lerobot_v2`: LeRobot v2.0/v2.1 read in place, read-only, in the v3 readers' shapes; `dataset`: `open_lerobot`,
+  the one place the read-only commands pick the v3 or v2.x reader by `codebase_version`;
 * `mcap`: ROS 2 MCAP, one rosbag2 bag per episode (write the bags; list the finished ones, decode images);
 * `results`: the replay / evaluation results layout (`write_results` / `open_results`);
 * `atomic`: crash-safe file writes (temp file, fsync, rename; journaled batches);
@@ -11,4 +13,4 @@ Formats import only the shared types, errors and schemas below them. The subpack
 (`from openral_data.formats import lerobot_v3`), so using one never loads the others' libraries.
 """
 
-__all__ = ["atomic", "jsonfile", "lerobot_v3", "mcap", "results"]
+__all__ = ["atomic", "dataset", "jsonfile", "lerobot_v2", "lerobot_v3", "mcap", "results"]

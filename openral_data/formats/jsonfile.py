@@ -63,14 +63,25 @@ def load_json(path: Path, limit: int = MAX_JSON_BYTES) -> Any:
 
 
 def read_json(path: Path, limit: int = MAX_JSON_BYTES) -> Any:
-    """`path` read by `load_json`; a missing file raises `FileNotFoundError` (its caller says what that means);
-    anything else wrong an `OpenralError` in one line naming the file."""
+    """`path` read by `read_text_file` and parsed by `parse_json`; a missing file raises `FileNotFoundError` (its
+    caller says what that means); anything else wrong an `OpenralError` in one line naming the file."""
+    raw = read_text_file(path, limit, "a JSON file")
     try:
-        return load_json(path, limit)
+        return parse_json(raw)
+    except ValueError as exc:
+        raise DatasetError(f"{path}: invalid JSON: {exc}", code="dataset.invalid") from None
+
+
+def read_text_file(path: Path, limit: int, expected: str) -> bytes:
+    """The bytes of `path` by `paths.read_regular`; a missing file raises `FileNotFoundError`, anything else wrong
+    (a folder, a FIFO, over `limit` bytes, unreadable) a one-line `DatasetError` naming the file (`expected`
+    says what it should have been: "a JSON file")."""
+    try:
+        return read_regular(path, limit)
     except FileNotFoundError:
         raise
     except IsADirectoryError:
-        raise DatasetError(f"{path}: is a directory, expected a JSON file", code="dataset.invalid") from None
+        raise DatasetError(f"{path}: is a directory, expected {expected}", code="dataset.invalid") from None
     except NotRegularFile as exc:
         raise DatasetError(f"{path}: {exc.strerror}", code="dataset.unsafe") from None
     except OSError as exc:

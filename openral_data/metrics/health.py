@@ -24,7 +24,7 @@ from openral_data.formats.lerobot_v3.missing import fetch_hint, missing_files
 from openral_data.formats.lerobot_v3.video import count_packets
 from openral_data.metrics.scan import VectorScan, vector_scan
 from openral_data.metrics.sources import DatasetSource
-from openral_data.metrics.views import files_sql, ident, query
+from openral_data.metrics.views import episodes_from, files_sql, ident, query
 
 GAP_FACTOR = 1.5  # a step longer than 1.5 frame periods is a gap
 TIMESTAMP_TOLERANCE_S = 1e-4  # lerobot's tolerance_s for timestamp = frame_index / fps
@@ -58,7 +58,7 @@ def _episode_meta(con: duckdb.DuckDBPyConnection, ds: DatasetSource) -> list[dic
     for cam in ds.cameras:
         wanted += [f"videos/{cam}/{k}" for k in ("chunk_index", "file_index", "from_timestamp", "to_timestamp")]
     cols = ", ".join(ident(c) if c in ds.episode_columns else f"NULL AS {ident(c)}" for c in wanted)
-    names, rows = query(con, f"SELECT {cols} FROM read_parquet({files_sql(ds.episode_files)}) ORDER BY episode_index")
+    names, rows = query(con, f"SELECT {cols} FROM {episodes_from(ds)} ORDER BY episode_index")
     return [dict(zip(names, row, strict=True)) for row in rows]
 
 
@@ -68,8 +68,8 @@ def _missing_files(ds: DatasetSource, meta: list[dict[str, Any]]) -> tuple[list[
     whose data is absent (their rows are not counted against their lengths). `meta/stats.json` is not read here
     (`info` and `doctor` say when it is absent)."""
     issues = []
-    if int(ds.info.get("total_tasks", 0)) and not (ds.root / layout.TASKS_PATH).is_file():
-        issues.append(Issue(ds.label, None, "missing_file", layout.TASKS_PATH))
+    if int(ds.info.get("total_tasks", 0)) and not (ds.root / ds.tasks_path).is_file():
+        issues.append(Issue(ds.label, None, "missing_file", ds.tasks_path))
     gone = missing_files(ds.root, ds.info, meta, ds.cameras)
     for kind in gone.kinds():
         eps = kind.episodes()

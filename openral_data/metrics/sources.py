@@ -7,13 +7,17 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+import pyarrow as pa
+
 from openral_data.errors import DatasetError, NotFound
+from openral_data.formats import lerobot_v2
 from openral_data.formats import results as results_layout
+from openral_data.formats.dataset import LeRobotDataset, open_lerobot
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.features import ACTION, STATE, dim_names
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE
 from openral_data.formats.lerobot_v3.provenance import read_provenance
-from openral_data.formats.lerobot_v3.reader import check_episode_count, read_info
+from openral_data.formats.lerobot_v3.reader import check_episode_count
 from openral_data.formats.parquetfile import checked, read_schema, read_table
 
 
@@ -31,6 +35,20 @@ class DatasetSource:
     scene: str | None
     rskill: str | None
     robot: str | None
+    # a LeRobot v2.x dataset's episodes and tasks, as v3's tables (its JSON lines are no parquet DuckDB can read)
+    episodes_table: pa.Table | None = None
+    tasks_table: pa.Table | None = None
+
+    @property
+    def tasks_path(self) -> str:
+        """The tasks file the dataset's layout has (v3: meta/tasks.parquet, v2.x: meta/tasks.jsonl)."""
+        return layout.TASKS_PATH if self.tasks_table is None else lerobot_v2.TASKS_PATH
+
+    def read_episodes(self, columns: list[str] | None = None) -> pa.Table:
+        """The episodes table (all its files), `columns` only when given."""
+        if self.episodes_table is not None:
+            return self.episodes_table if columns is None else self.episodes_table.select(columns)
+        return pa.concat_tables([read_table(f, columns=columns) for f in self.episode_files], promote_options="default")
 
     @property
     def fps(self) -> int:
@@ -54,7 +72,10 @@ class DatasetSource:
 
 
 def open_dataset(root: Path, label: str | None = None) -> DatasetSource:
-    info = read_info(root)
+    dataset = open_lerobot(root)
+    if dataset.legacy:
+        return _legacy_source(dataset, label)
+    info = dataset.info
     for key in ("fps", "features"):
         if key not in info:
             raise DatasetError(f"{root / layout.INFO_PATH}: {key}: missing", code="dataset.invalid")
@@ -85,6 +106,30 @@ def open_dataset(root: Path, label: str | None = None) -> DatasetSource:
         scene=scene,
         rskill=rskill,
         robot=robot or info.get("robot_type"),
+    )
+
+
+def _legacy_source(dataset: LeRobotDataset, label: str | None) -> DatasetSource:
+    """A LeRobot v2.x dataset for DuckDB: its episodes' data files (those present: `stats` reports the missing
+    ones, `health`), its episodes and tasks as tables."""
+    episodes = dataset.committed_episodes()
+    data_files = [checked(f) for f in dataset.data_files() if f.exists()]  # DuckDB opens them: regular files only
+    tasks = dataset.tasks()
+    return DatasetSource(
+        label=label or dataset.root.name,
+        root=dataset.root,
+        info=dataset.info,
+        data_files=data_files,
+        episode_files=[],
+        episode_columns=frozenset(episodes.column_names),
+        data_columns=_columns(data_files[0]) if data_files else frozenset(),
+        scene=None,
+        rskill=None,
+        robot=dataset.info.get("robot_type"),
+        episodes_table=episodes,
+        tasks_table=pa.table(
+            {"task_index": pa.array(range(len(tasks)), pa.int64()), "task": pa.array(tasks, pa.string())}
+        ),
     )
 
 

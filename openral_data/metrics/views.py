@@ -26,7 +26,6 @@ import pyarrow as pa
 from openral_data.errors import QueryError
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.success import EPISODE_SUCCESS, episode_successes
-from openral_data.formats.parquetfile import read_table
 from openral_data.formats.results import Results
 from openral_data.metrics.sources import DatasetSource
 
@@ -70,6 +69,14 @@ def view_files(datasets: Sequence[DatasetSource], results: Sequence[Results] = (
     """Every file the views read."""
     out = [f for ds in datasets for f in (*ds.data_files, *ds.episode_files, ds.root / layout.TASKS_PATH)]
     return out + [f for r in results for f in (r.episodes_path, r.steps_path)]
+
+
+def episodes_from(ds: DatasetSource) -> str:
+    """`ds`'s episodes table in SQL: read_parquet of meta/episodes/, or a v2.x dataset's table as `connect`
+    registers it."""
+    if ds.episodes_table is not None:
+        return ident(f"episodes:{ds.label}")
+    return f"read_parquet({files_sql(ds.episode_files)})"
 
 
 def lock_down(con: duckdb.DuckDBPyConnection, files: Iterable[Path]) -> None:
@@ -136,18 +143,12 @@ def _register_datasets(con: duckdb.DuckDBPyConnection, datasets: Sequence[Datase
     parts = []
     for i, ds in enumerate(datasets):
         con.register(f"success_{i}", _success_table(ds))
+        if ds.episodes_table is not None and ds.tasks_table is not None:  # v2.x: read from JSON lines
+            con.register(f"episodes:{ds.label}", ds.episodes_table)
+            con.register(f"tasks:{ds.label}", ds.tasks_table)
         parts.append(_episodes_sql(ds, f"success_{i}"))
     con.execute("CREATE VIEW episodes AS " + _union(parts, _EMPTY_EPISODES))
-    tasks = [
-        f"SELECT {lit(ds.label)} AS dataset, task_index, task "
-        f"FROM read_parquet({path_sql(ds.root / layout.TASKS_PATH)})"
-        for ds in datasets
-        if (ds.root / layout.TASKS_PATH).is_file()
-    ]
-    con.execute(
-        "CREATE VIEW tasks AS "
-        + _union(tasks, "SELECT NULL::VARCHAR AS dataset, NULL::BIGINT AS task_index, NULL::VARCHAR AS task LIMIT 0")
-    )
+    _register_tasks(con, datasets)
     rows = [
         "("
         + ", ".join(
@@ -180,6 +181,21 @@ def _register_datasets(con: duckdb.DuckDBPyConnection, datasets: Sequence[Datase
     con.execute("CREATE VIEW datasets AS " + body)
 
 
+def _register_tasks(con: duckdb.DuckDBPyConnection, datasets: Sequence[DatasetSource]) -> None:
+    """The `tasks` view: meta/tasks.parquet, or a v2.x dataset's table (from meta/tasks.jsonl)."""
+    tasks = [
+        f"SELECT {lit(ds.label)} AS dataset, task_index, task FROM "
+        + (ident(f"tasks:{ds.label}") if ds.tasks_table is not None else f"read_parquet({path_sql(tasks_file)})")
+        for ds in datasets
+        for tasks_file in [ds.root / layout.TASKS_PATH]
+        if ds.tasks_table is not None or tasks_file.is_file()
+    ]
+    con.execute(
+        "CREATE VIEW tasks AS "
+        + _union(tasks, "SELECT NULL::VARCHAR AS dataset, NULL::BIGINT AS task_index, NULL::VARCHAR AS task LIMIT 0")
+    )
+
+
 _EMPTY_EPISODES = (
     "SELECT NULL::VARCHAR AS dataset, NULL::BIGINT AS episode_index, NULL::BIGINT AS length, "
     "NULL::DOUBLE AS duration_s, NULL::VARCHAR[] AS tasks, NULL::VARCHAR AS task, NULL::BOOLEAN AS success, "
@@ -190,7 +206,7 @@ _EMPTY_EPISODES = (
 def _success_table(ds: DatasetSource) -> pa.Table:
     """episode_index -> success by the one rule (`formats.lerobot_v3.success`), NULL where unknown."""
     cols = ["episode_index"] + [c for c in (EPISODE_SUCCESS,) if c in ds.episode_columns]
-    episodes = pa.concat_tables([read_table(f, columns=cols) for f in ds.episode_files], promote_options="default")
+    episodes = ds.read_episodes(cols)
     found = episode_successes(ds.root, episodes)
     return pa.table(
         {"episode_index": pa.array(list(found), pa.int64()), "success": pa.array(list(found.values()), pa.bool_())}
@@ -212,7 +228,7 @@ def _episodes_sql(ds: DatasetSource, success_view: str) -> str:
         f"SELECT {lit(ds.label)} AS dataset, episode_index, e.length, e.length / {ds.fps}::DOUBLE AS duration_s, "
         f"{tasks} AS tasks, {tasks}[1] AS task, {success} AS success, {seed} AS seed, "
         f"{lit(ds.scene)}::VARCHAR AS scene, {lit(ds.rskill)}::VARCHAR AS rskill, {lit(ds.robot)}::VARCHAR AS robot, "
-        f"{span} FROM read_parquet({files_sql(ds.episode_files)}) e {join}"
+        f"{span} FROM {episodes_from(ds)} e {join}"
     )
 
 

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 import pyarrow as pa
+import pyarrow.compute as pc
 import rerun as rr
 
 from openral_data.errors import (
@@ -183,15 +184,19 @@ def _video_path(ds: DatasetSource, row: dict[str, Any], cam: str) -> Path:
             f"{ds.root}: meta/episodes: videos/{cam}/chunk_index: missing for episode {row['episode_index']}",
             code="dataset.invalid",
         )
-    path = layout.video_path(ds.root, cam, FilePos(int(chunk), int(file)))
+    path = layout.template_path(ds.root, ds.info, "video_path", FilePos(int(chunk), int(file)), video_key=cam)
     if not path.is_file():
         raise DatasetError(f"{path}: missing (video of episode {row['episode_index']})", code="dataset.incomplete")
     return path
 
 
 def _episode_row(ds: DatasetSource, episode: int) -> dict[str, Any]:
-    for f in ds.episode_files:
-        table = read_table(f, filters=[("episode_index", "=", episode)])
+    tables = (
+        [ds.episodes_table.filter(pc.equal(ds.episodes_table.column("episode_index"), episode))]
+        if ds.episodes_table is not None  # a v2.x dataset's, from meta/episodes.jsonl
+        else (read_table(f, filters=[("episode_index", "=", episode)]) for f in ds.episode_files)
+    )
+    for table in tables:
         if table.num_rows:
             drop = [c for c in table.column_names if c.startswith("stats/")]
             row: dict[str, Any] = table.drop_columns(drop).to_pylist()[0]
@@ -201,7 +206,8 @@ def _episode_row(ds: DatasetSource, episode: int) -> dict[str, Any]:
 
 
 def _episode_frames(ds: DatasetSource, row: dict[str, Any]) -> pa.Table:
-    path = layout.data_path(ds.root, FilePos(int(row["data/chunk_index"]), int(row["data/file_index"])))
+    pos = FilePos(int(row["data/chunk_index"]), int(row["data/file_index"]))
+    path = layout.template_path(ds.root, ds.info, "data_path", pos)
     if not path.is_file():
         raise DatasetError(f"{path}: missing (data of episode {row['episode_index']})", code="dataset.incomplete")
     table = read_table(path, filters=[("episode_index", "=", int(row["episode_index"]))])

@@ -145,17 +145,18 @@ def missing_files(
         }
         episodes = episodes.select([c for c in episodes.column_names if c in wanted])
     rows: list[dict[str, Any]] = episodes.to_pylist() if isinstance(episodes, pa.Table) else episodes
-    data, named_data = _absent(rows, "data", lambda pos: layout.data_path(root, pos), root)
+    data, named_data = _absent(rows, "data", lambda pos: layout.template_path(root, info, "data_path", pos), root)
     videos: dict[str, dict[str, list[int]]] = {}
     named_videos: dict[str, int] = {}
     for key in keys:
-        videos[key], named_videos[key] = _absent(rows, f"videos/{key}", _video_of(root, key), root)
-    stats = not os.path.lexists(root / layout.STATS_PATH)
+        videos[key], named_videos[key] = _absent(rows, f"videos/{key}", _video_of(root, info, key), root)
+    # a v2.1 dataset keeps its stats per episode (meta/episodes_stats.jsonl): no meta/stats.json is due
+    stats = info.get("codebase_version") != "v2.1" and not os.path.lexists(root / layout.STATS_PATH)
     return MissingFiles(root, data, videos, named_data, named_videos, stats)
 
 
-def _video_of(root: Path, key: str) -> Callable[[layout.FilePos], Path]:
-    return lambda pos: layout.video_path(root, key, pos)
+def _video_of(root: Path, info: dict[str, Any], key: str) -> Callable[[layout.FilePos], Path]:
+    return lambda pos: layout.template_path(root, info, "video_path", pos, video_key=key)
 
 
 def _absent(

@@ -31,6 +31,7 @@ class DatasetSummary:
     robot_type: str | None
     success_known: int = 0  # episodes whose success is known (the rate's denominator)
     missing: MissingFiles | None = None  # files a partial download left out (`missing.missing_files`)
+    codebase_version: str | None = None  # info.json's
 
     @property
     def success_rate(self) -> float | None:
@@ -53,6 +54,7 @@ class DatasetSummary:
             "successes": self.successes,
             "success_rate": self.success_rate,
             "missing": self.missing.to_json() if self.missing else None,
+            "codebase_version": self.codebase_version,
         }
 
 
@@ -65,7 +67,23 @@ def read_info(root: Path) -> dict[str, Any]:
         raise DatasetError(
             f"{root}: not a LeRobot v3 dataset (no {layout.INFO_PATH})", code="dataset.invalid"
         ) from None
-    check_paths(root, check_info(info, path))
+    check_paths(root, refuse_legacy(root, check_info(info, path)))
+    return info
+
+
+LEGACY_VERSIONS = ("v2.0", "v2.1")  # read in place by `formats.dataset` (read-only commands); upgraded for the rest
+
+
+def refuse_legacy(root: Path, info: dict[str, Any]) -> dict[str, Any]:
+    """`info` unless it is a LeRobot v2.x one: the v3 readers (every writing command) refuse those in one line
+    naming `openral-data upgrade`."""
+    version = info.get("codebase_version")
+    if version in LEGACY_VERSIONS:
+        raise DatasetError(
+            f"{root / layout.INFO_PATH}: codebase_version: {version}: only info, doctor, stats, view, tasks list and "
+            f"convert read LeRobot v2.x; run `openral-data upgrade {root} NEW` for a v3 dataset first",
+            code="dataset.unsupported",
+        )
     return info
 
 
@@ -147,6 +165,7 @@ def summarize(root: Path) -> DatasetSummary:
         robot_type=info.get("robot_type"),
         success_known=known,
         missing=missing_files(root, info, episodes),
+        codebase_version=info.get("codebase_version"),
     )
 
 
