@@ -25,6 +25,7 @@ import pyarrow as pa
 
 from openral_data.errors import QueryError
 from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.reader import read_tasks_table
 from openral_data.formats.lerobot_v3.success import EPISODE_SUCCESS, episode_successes
 from openral_data.formats.parquetfile import read_table
 from openral_data.formats.results import Results
@@ -138,12 +139,11 @@ def _register_datasets(con: duckdb.DuckDBPyConnection, datasets: Sequence[Datase
         con.register(f"success_{i}", _success_table(ds))
         parts.append(_episodes_sql(ds, f"success_{i}"))
     con.execute("CREATE VIEW episodes AS " + _union(parts, _EMPTY_EPISODES))
-    tasks = [
-        f"SELECT {lit(ds.label)} AS dataset, task_index, task "
-        f"FROM read_parquet({path_sql(ds.root / layout.TASKS_PATH)})"
-        for ds in datasets
-        if (ds.root / layout.TASKS_PATH).is_file()
-    ]
+    tasks = []
+    for i, ds in enumerate(datasets):
+        if (ds.root / layout.TASKS_PATH).is_file():  # any layout lerobot reads (older lerobot's unnamed index too)
+            con.register(f"tasks_{i}", read_tasks_table(ds.root))
+            tasks.append(f"SELECT {lit(ds.label)} AS dataset, task_index, task FROM tasks_{i}")
     con.execute(
         "CREATE VIEW tasks AS "
         + _union(tasks, "SELECT NULL::VARCHAR AS dataset, NULL::BIGINT AS task_index, NULL::VARCHAR AS task LIMIT 0")
