@@ -16,6 +16,7 @@ episode's seed is unknown (`None`), its initial state empty, and its success rea
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -25,6 +26,7 @@ import numpy.typing as npt
 import pyarrow as pa
 import pyarrow.compute as pc
 
+from openral_data.edit.recode import clip_frames, image_frames
 from openral_data.errors import DatasetError, EpisodeSelectionError, NotFound
 from openral_data.formats import atomic
 from openral_data.formats.jsonfile import parse_field, parse_json
@@ -40,10 +42,11 @@ from openral_data.formats.lerobot_v3.features import (
     dim_names,
 )
 from openral_data.formats.lerobot_v3.lock import check_settled
-from openral_data.formats.lerobot_v3.masks import is_mask
+from openral_data.formats.lerobot_v3.masks import decode_mask, is_mask, mask_stats
 from openral_data.formats.lerobot_v3.provenance import Origin, read_provenance
 from openral_data.formats.lerobot_v3.reader import dataset_tasks, read_episodes, read_info
 from openral_data.formats.lerobot_v3.stats import STAT_KEYS, ImageStatsAccumulator, Stats
+from openral_data.formats.lerobot_v3.variants import camera_layout, feature_info
 from openral_data.formats.lerobot_v3.video import VideoSettings
 from openral_data.formats.parquetfile import read_table
 from openral_data.types import CameraShape, DatasetSchema
@@ -111,7 +114,7 @@ class SourceDataset:
         return list(self.camera_key)
 
     def _video_settings(self) -> VideoSettings:
-        infos = [f.get("info") or {} for f in self.features.values() if f.get("dtype") == "video"]
+        infos = [feature_info(f) for f in self.features.values() if f.get("dtype") == "video"]
         if not infos:
             return VideoSettings()
         i = infos[0]
@@ -154,8 +157,9 @@ class SourceDataset:
         for key in self.features.keys() - set(self.carried) | rebuilt.keys():
             ours, theirs = dict(rebuilt.get(key) or {}), dict(self.features.get(key) or {})
             if ours.get("dtype") == "video" and theirs.get("dtype") == "video":
-                ours.pop("info", None)  # the encoder settings are the source's; packets are copied, not encoded
-                theirs.pop("info", None)
+                # the encoder settings (`info`, a legacy `video_info`) are the source's, packets are copied, not
+                # encoded; `channel` or `channels` names the same axis
+                ours, theirs = camera_layout(ours), camera_layout(theirs)
             if key in (STATE, ACTION):  # names as a list or lerobot's `{"motors": [...]}`: kept verbatim
                 ours["names"], theirs["names"] = dim_names(ours, key), dim_names(theirs, key)
             if key not in rebuilt or key not in self.features or ours != theirs:
@@ -231,7 +235,7 @@ class SourceDataset:
         image_stats: dict[str, Stats] = {}
         for name in self.camera_names():
             videos[name] = self._clip(index, row, name, n)
-            image_stats[name] = self._stats(row, self.camera_key[name])
+            image_stats[name] = self._picture_stats(row, self.camera_key[name], videos[name])
         states, actions = self._vector(data, STATE, index), self._vector(data, ACTION, index)
         initial = row.get("openral.initial_state")
         successes = _list(data, "next.success", False)
@@ -254,7 +258,11 @@ class SourceDataset:
             videos=videos,
             image_stats=image_stats,
             columns={key: data.column(key).combine_chunks().cast(self._types.field(key).type) for key in self.carried},
-            column_stats={key: self._stats(row, key) for key in self.carried if self.features[key]["dtype"] == "image"},
+            column_stats={
+                key: self._picture_stats(row, key, data.column(key).combine_chunks())
+                for key in self.carried
+                if self.features[key]["dtype"] == "image"
+            },
         )
 
     def _vector(self, data: pa.Table, key: str, index: int) -> npt.NDArray[np.float32]:
@@ -282,6 +290,24 @@ class SourceDataset:
                 f"{self.root}: meta/episodes: stats/{key}: missing or not numbers (episode {row['episode_index']})",
                 code="dataset.invalid",
             ) from None
+
+    def _picture_stats(self, row: dict[str, Any], key: str, pixels: bytes | pa.Array) -> Stats:
+        """A camera's statistics for one episode as meta/episodes has them; computed from its pixels (`pixels`:
+        the episode's mp4, or its `dtype: image` cells) as `stats recompute` does when the source has none
+        (statistics are optional to lerobot's loader: older or foreign datasets may lack them)."""
+        if any(row.get(f"stats/{key}/{s}") is not None for s in STAT_KEYS):
+            return self._stats(row, key)
+        where = f"{self.root}: {key}: episode {row['episode_index']}"
+        if isinstance(pixels, bytes):
+            frames: Iterator[npt.NDArray[np.uint8]] = clip_frames(pixels, where)
+        elif is_mask(self.features[key]):
+            return mask_stats([decode_mask(c, f"{where}: frame {i}") for i, c in enumerate(pixels.to_pylist())])
+        else:
+            frames = image_frames(pixels, where)
+        acc = ImageStatsAccumulator()
+        for frame in frames:
+            acc.add(frame)
+        return acc.stats()
 
     def _success(self, row: dict[str, Any], successes: list[bool]) -> bool | None:
         if "openral.success" in self.episodes.column_names:
