@@ -173,3 +173,42 @@ def test_push(variant: Path) -> None:
     sent = commit["files"]
     assert sent["meta/tasks.parquet"] == (variant / "meta/tasks.parquet").read_bytes()  # sent as it is
     assert TASK in sent["README.md"].decode()
+
+
+REBOT = "v30early_rebot_b601_state_only"  # tests/fixtures/lerobot/README.md: an early-v3 dataset lerobot < 0.5 wrote
+
+
+@pytest.mark.slow
+def test_real_early_v3_dataset(tmp_path: Path) -> None:
+    """A real dataset older lerobot wrote (its task in `__index_level_0__`), read and edited by every command."""
+    from tests.support.real_datasets import copy_real, real_root
+
+    if real_root(REBOT) is None:
+        pytest.skip(f"real fixture {REBOT} is not present (tests/fixtures/lerobot/README.md)")
+    src = copy_real(REBOT, tmp_path)
+    before = digest(src)
+    assert json.loads(_ok("info", str(src), "--json"))["tasks"] == ["pick and place"]
+    _ok("doctor", str(src), "--deep")
+    _ok("stats", str(src))
+    assert "pick and place" in _ok("tasks", "list", str(src))
+    _ok("episodes", "merge", str(src), str(src), "--out", str(tmp_path / "merged"))
+    _ok("stats", "recompute", str(src), "--out", str(tmp_path / "rec"))
+    _ok("convert", str(src), str(tmp_path / "bags"))
+    assert digest(src) == before
+    assert check(tmp_path / "merged") == [] and check(tmp_path / "rec") == []
+    merged = json.loads(_ok("info", str(tmp_path / "merged"), "--json"))
+    assert (merged["episodes"], merged["tasks"]) == (2, ["pick and place"])
+    _lerobot_sample_equal(tmp_path / "rec", src)
+
+
+def _lerobot_sample_equal(got: Path, want: Path) -> None:
+    """lerobot loads `got` with `want`'s length and, at a sample of frames, its values (a whole load of a real
+    dataset's hundreds of frames takes lerobot tens of seconds)."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    a, b = (LeRobotDataset("local/check", root=r, video_backend="pyav") for r in (got, want))
+    assert len(a) == len(b)
+    for i in (0, len(b) // 2, len(b) - 1):
+        x, y = a[i], b[i]
+        assert x.keys() == y.keys() and x["task"] == y["task"]
+        assert all(str(x[k]) == str(y[k]) for k in x), i
