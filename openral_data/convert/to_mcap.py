@@ -27,7 +27,7 @@ from openral_data.formats.lerobot_v3.masks import MASK_IDS, is_mask
 from openral_data.formats.lerobot_v3.provenance import Origin
 from openral_data.formats.lerobot_v3.reader import dataset_tasks, read_episodes, read_info
 from openral_data.formats.lerobot_v3.success import episode_successes
-from openral_data.formats.lerobot_v3.variants import feature_info, is_depth
+from openral_data.formats.lerobot_v3.variants import camera_layout, feature_info, is_depth
 from openral_data.formats.mcap import McapConfig, McapSink
 from openral_data.formats.staging import Staging, check_new_output
 from openral_data.types import CameraShape, DatasetSchema, EpisodeRecord, EpisodeStart
@@ -83,7 +83,8 @@ def _camera_shape(feature: dict[str, Any]) -> CameraShape:
         if k == "camera_info" or (is_depth(feature) and k in _QUANTIZER) or (mask and k == MASK_IDS)
     }
     depth_unit: Literal["mm"] | None = "mm" if is_depth(feature) else None
-    return CameraShape(int(feature["shape"][0]), int(feature["shape"][1]), depth_unit, keep, segmentation=mask)
+    shape = camera_layout(feature)["shape"]  # height, width, channels (also of a channel-first feature)
+    return CameraShape(int(shape[0]), int(shape[1]), depth_unit, keep, segmentation=mask)
 
 
 def export_mcap(

@@ -46,7 +46,7 @@ from openral_data.formats.lerobot_v3.masks import decode_mask, is_mask, mask_sta
 from openral_data.formats.lerobot_v3.provenance import Origin, read_provenance
 from openral_data.formats.lerobot_v3.reader import dataset_tasks, read_episodes, read_info
 from openral_data.formats.lerobot_v3.stats import STAT_KEYS, ImageStatsAccumulator, Stats
-from openral_data.formats.lerobot_v3.variants import camera_layout, feature_info
+from openral_data.formats.lerobot_v3.variants import camera_layout, feature_info, is_depth
 from openral_data.formats.lerobot_v3.video import VideoSettings
 from openral_data.formats.parquetfile import read_table
 from openral_data.types import CameraShape, DatasetSchema
@@ -133,10 +133,7 @@ class SourceDataset:
             state, action = self.features[STATE], self.features[ACTION]
         except KeyError as exc:
             raise DatasetError(f"{where}.{exc.args[0]}: missing", code="dataset.invalid") from None
-        cameras = {
-            name: CameraShape(int(self.features[key]["shape"][0]), int(self.features[key]["shape"][1]))
-            for name, key in self.camera_key.items()
-        }
+        cameras = {name: _camera_shape(self.features[key]) for name, key in self.camera_key.items()}
         return DatasetSchema(
             fps=self.fps,
             state_names=tuple(dim_names(state, STATE)),
@@ -298,6 +295,7 @@ class SourceDataset:
         if any(row.get(f"stats/{key}/{s}") is not None for s in STAT_KEYS):
             return self._stats(row, key)
         where = f"{self.root}: {key}: episode {row['episode_index']}"
+        self.refuse_depth(key, "computing a depth camera's missing statistics")
         if isinstance(pixels, bytes):
             frames: Iterator[npt.NDArray[np.uint8]] = clip_frames(pixels, where)
         elif is_mask(self.features[key]):
@@ -308,6 +306,15 @@ class SourceDataset:
         for frame in frames:
             acc.add(frame)
         return acc.stats()
+
+    def refuse_depth(self, key: str, what: str) -> None:
+        """One line refusing `what` for a depth camera (`variants.is_depth`): its statistics are in its depth
+        unit from the dequantized frames, which editing does not compute yet (copying them is fine)."""
+        if is_depth(self.features[key]):
+            raise DatasetError(
+                f"{self.root / layout.INFO_PATH}: features.{key}: {what} is not supported yet",
+                code="dataset.unsupported",
+            )
 
     def _success(self, row: dict[str, Any], successes: list[bool]) -> bool | None:
         if "openral.success" in self.episodes.column_names:
@@ -344,6 +351,15 @@ class SourceDataset:
                 code="dataset.invalid",
             )
         return clip.data
+
+
+def _camera_shape(feature: dict[str, Any]) -> CameraShape:
+    """A video camera's shape; a depth camera (`variants.is_depth`) with its `depth_unit` (lerobot's default mm)."""
+    shape = camera_layout(feature)["shape"]  # height, width, channels (also of a channel-first feature)
+    height, width = int(shape[0]), int(shape[1])
+    if not is_depth(feature):
+        return CameraShape(height, width)
+    return CameraShape(height, width, "m" if feature_info(feature).get("depth_unit") == "m" else "mm")
 
 
 def _carriable(feature: dict[str, Any]) -> bool:

@@ -19,6 +19,7 @@ from openral_data.formats.lerobot_v3.variants import task_is_index
 from tests.support.cli import run_cli
 from tests.support.inproc import run_inproc
 from tests.support.lerobot_written import (
+    DEPTH_CAMERA,
     VIDEO_CAMERA,
     Frame,
     digest,
@@ -26,7 +27,7 @@ from tests.support.lerobot_written import (
     same_frames,
     write_lerobot_dataset,
 )
-from tests.support.variants import VARIANTS
+from tests.support.variants import VARIANTS, legacy_depth
 
 TASK = "push the block"
 
@@ -44,7 +45,7 @@ def want(base: Path) -> list[list[Frame]]:
 
 
 # what `convert` and `push` read differently per variant (the others read as the dataset lerobot wrote)
-CONVERTED = {"old-tasks", "channel-names", "video-info", "names-forms"}
+CONVERTED = {"old-tasks", "channel-names", "video-info", "names-forms", "channel-first"}
 PUSHED = {"old-tasks", "no-stats"}
 
 
@@ -212,3 +213,44 @@ def _lerobot_sample_equal(got: Path, want: Path) -> None:
         x, y = a[i], b[i]
         assert x.keys() == y.keys() and x["task"] == y["task"]
         assert all(str(x[k]) == str(y[k]) for k in x), i
+
+
+@pytest.fixture(scope="module", params=["is_depth_map", "video.is_depth_map"])
+def depth(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A lerobot-written dataset with a depth video camera, flagged as lerobot writes it or the legacy way."""
+    root = tmp_path_factory.mktemp("depth") / "ds"
+    write_lerobot_dataset(root, with_success=True, depth_camera=True)
+    if request.param == "video.is_depth_map":
+        legacy_depth(root)
+    return root
+
+
+def _depth_frames(root: Path) -> list[Any]:
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    ds = LeRobotDataset("local/check", root=root, video_backend="pyav")
+    return [(ds[i][DEPTH_CAMERA].numpy().tolist(), ds[i]["task"]) for i in range(len(ds))]
+
+
+@pytest.mark.slow
+def test_depth_cameras_are_edited_by_copy(depth: Path, tmp_path: Path) -> None:
+    """Edits that copy a depth camera's packets and statistics work; those that would compute its statistics or
+    encode it (`stats recompute`, `videos reencode`) are refused in one line, nothing written."""
+    before = digest(depth)
+    assert json.loads(_ok("info", str(depth), "--json"))["tasks"] == [TASK]
+    _ok("doctor", str(depth), "--deep")
+    _ok("episodes", "delete", str(depth), "--episodes", "1", "--out", str(tmp_path / "del"))
+    _ok("episodes", "merge", str(depth), str(tmp_path / "del"), "--out", str(tmp_path / "merged"))
+    for args in (["stats", "recompute"], ["videos", "reencode", "--codec", "h264"]):
+        done = run_inproc(*args, str(depth), "--out", str(tmp_path / "refused"))
+        assert done.returncode == 2 and done.stderr.startswith("error: "), done.stderr
+        assert f"features.{DEPTH_CAMERA}: " in done.stderr and "not supported yet" in done.stderr
+        assert not (tmp_path / "refused").exists()
+    assert digest(depth) == before
+    want = _depth_frames(depth)
+    lengths = [6, 9, 4]
+    kept = want[:6] + want[15:]
+    assert check(tmp_path / "merged", deep=True) == []
+    assert _depth_frames(tmp_path / "merged") == want + kept and len(kept) == lengths[0] + lengths[2]
+    feature = json.loads((tmp_path / "merged/meta/info.json").read_text())["features"][DEPTH_CAMERA]
+    assert feature == json.loads((depth / "meta/info.json").read_text())["features"][DEPTH_CAMERA]

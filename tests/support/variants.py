@@ -9,8 +9,11 @@ writer made (`lerobot_written.write_lerobot_dataset`) the way older lerobot vers
 - `no-stats`: no `meta/stats.json` and no `stats/...` columns in meta/episodes (lerobot: stats are optional).
 - `some-stats`: the statistics of `action` missing from stats.json and from meta/episodes.
 - `names-forms`: `observation.state`'s names as `{"motors": [...]}`, `action`'s names null.
+- `channel-first`: the video camera's shape `[3, H, W]`, names `["channel", "height", "width"]`.
+- `camera-names-null`: the video camera's names null.
 
-`VARIANTS` maps each name to its alteration; `write_variant(root, name)` writes one."""
+`VARIANTS` maps each name to its alteration (of `write_lerobot_dataset(root, True, image_camera=True)`);
+`legacy_depth` alters one written with `depth_camera=True`."""
 
 from __future__ import annotations
 
@@ -21,7 +24,7 @@ from typing import Any
 
 import pyarrow.parquet as pq
 
-from tests.support.lerobot_written import VIDEO_CAMERA, write_lerobot_dataset
+from tests.support.lerobot_written import DEPTH_CAMERA, VIDEO_CAMERA
 
 TASKS = "meta/tasks.parquet"
 INFO = "meta/info.json"
@@ -91,6 +94,23 @@ def names_forms(root: Path) -> None:
     _edit_info(root, change)
 
 
+def channel_first(root: Path) -> None:
+    """The video camera's shape given channel first, `[3, H, W]` with names `["channel", "height", "width"]`."""
+
+    def change(features: dict[str, Any]) -> None:
+        h, w, c = features[VIDEO_CAMERA]["shape"]
+        features[VIDEO_CAMERA].update(shape=[c, h, w], names=["channel", "height", "width"])
+
+    _edit_info(root, change)
+
+
+def camera_names_null(root: Path) -> None:
+    def change(features: dict[str, Any]) -> None:
+        features[VIDEO_CAMERA]["names"] = None
+
+    _edit_info(root, change)
+
+
 VARIANTS: dict[str, Callable[[Path], None]] = {
     "old-tasks": old_tasks,
     "channel-names": channel_names,
@@ -99,15 +119,19 @@ VARIANTS: dict[str, Callable[[Path], None]] = {
     "no-stats": no_stats,
     "some-stats": some_stats,
     "names-forms": names_forms,
+    "channel-first": channel_first,
+    "camera-names-null": camera_names_null,
 }
 
 
-def write_variant(root: Path, name: str, **kwargs: bool) -> None:
-    """A lerobot-written dataset (with success, a `dtype: image` camera unless told otherwise) altered as `name`."""
-    kwargs.setdefault("image_camera", True)
-    write_lerobot_dataset(root, with_success=True, **kwargs)
-    VARIANTS[name](root)
+def legacy_depth(root: Path) -> None:
+    """The depth camera flagged the legacy way lerobot still reads: `video.is_depth_map` in a `video_info` block
+    (for a dataset written with `depth_camera=True`)."""
 
+    def change(features: dict[str, Any]) -> None:
+        feature = features[DEPTH_CAMERA]
+        info = feature.pop("info")
+        del info["is_depth_map"]
+        feature["video_info"] = {**info, "video.is_depth_map": True}
 
-def alter(root: Path, name: str) -> None:
-    VARIANTS[name](root)
+    _edit_info(root, change)

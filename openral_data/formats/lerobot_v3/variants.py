@@ -96,11 +96,15 @@ def is_depth(feature: dict[str, Any]) -> bool:
 
 
 def camera_layout(feature: dict[str, Any]) -> dict[str, Any]:
-    """A camera feature as its layout compares: `names` with the channel axis spelt `channels`, and neither
-    `info` nor `video_info` (encoder settings, not layout)."""
+    """A camera feature as its layout compares: height, width, channels order with `names` spelt
+    `["height", "width", "channels"]` (lerobot also loads `channel`, a channel-first `["channel(s)", "height",
+    "width"]` shape, and null names), and neither `info` nor `video_info` (encoder settings, not layout)."""
     out = {k: v for k, v in feature.items() if k not in ("info", "video_info")}
-    if out.get("names") in CHANNEL_NAMES:
+    names, shape = out.get("names"), out.get("shape")
+    if names in CHANNEL_NAMES or names is None:
         out["names"] = CHANNEL_NAMES[0]
+    elif names in [spelt[2:] + spelt[:2] for spelt in CHANNEL_NAMES] and isinstance(shape, list):
+        out["names"], out["shape"] = CHANNEL_NAMES[0], [*shape[1:], *shape[:1]]
     return out
 
 

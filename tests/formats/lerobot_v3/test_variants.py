@@ -82,6 +82,8 @@ def test_camera_spellings_compare_equal() -> None:
     both = {**current, "video_info": {"video.codec": "h264"}}
     assert feature_info(old) == feature_info(current) == feature_info(both) == info
     assert comparable({"cam": old}) == comparable({"cam": current}) == comparable({"cam": both})
+    first = {**old, "shape": [3, 32, 32], "names": ["channel", "height", "width"]}
+    assert comparable({"cam": first}) == comparable({"cam": {**current, "names": None}}) == comparable({"cam": current})
     other = {**current, "shape": [32, 32, 1]}
     assert comparable({"cam": other}) != comparable({"cam": current})
 
