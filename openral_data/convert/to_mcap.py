@@ -29,6 +29,7 @@ from openral_data.formats.lerobot_v3.masks import MASK_IDS, is_mask
 from openral_data.formats.lerobot_v3.missing import missing_files
 from openral_data.formats.lerobot_v3.provenance import Origin
 from openral_data.formats.lerobot_v3.success import episode_successes
+from openral_data.formats.lerobot_v3.variants import camera_layout, feature_info, is_depth
 from openral_data.formats.mcap import McapConfig, McapSink
 from openral_data.formats.staging import Staging, check_new_output
 from openral_data.types import CameraShape, DatasetSchema, EpisodeRecord, EpisodeStart
@@ -76,15 +77,16 @@ def _camera_shape(feature: dict[str, Any]) -> CameraShape:
     """A camera of the dataset as the MCAP sink takes it: a depth video (`is_depth_map`) as 16UC1 millimetres
     with its quantizer settings, a segmentation mask as mono16 ids with their names, and the intrinsics
     (`info.camera_info`) when the feature has them."""
-    info = feature.get("info") or {}
+    info = feature_info(feature)  # a legacy `video_info` block too
     mask = is_mask(feature)
     keep = {
         k: v
         for k, v in info.items()
-        if k == "camera_info" or (info.get("is_depth_map") and k in _QUANTIZER) or (mask and k == MASK_IDS)
+        if k == "camera_info" or (is_depth(feature) and k in _QUANTIZER) or (mask and k == MASK_IDS)
     }
-    depth_unit: Literal["mm"] | None = "mm" if info.get("is_depth_map") else None
-    return CameraShape(int(feature["shape"][0]), int(feature["shape"][1]), depth_unit, keep, segmentation=mask)
+    depth_unit: Literal["mm"] | None = "mm" if is_depth(feature) else None
+    shape = camera_layout(feature)["shape"]  # height, width, channels (also of a channel-first feature)
+    return CameraShape(int(shape[0]), int(shape[1]), depth_unit, keep, segmentation=mask)
 
 
 def export_mcap(

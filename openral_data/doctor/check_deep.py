@@ -18,6 +18,7 @@ from openral_data.doctor.findings import Finding, error
 from openral_data.doctor.inspect import Dataset, read_parquet
 from openral_data.formats.lerobot_v3.depth import MM_PER_METRE, QMAX, DepthSettings, decode_codes
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
+from openral_data.formats.lerobot_v3.variants import feature_info
 from openral_data.paths import regular_file
 
 TOLERANCE = 0.02  # of the [0, 1] range, ~5 of 255 levels: well above what encoding changes in a mean
@@ -39,7 +40,7 @@ def stored_means(ds: Dataset, key: str) -> dict[int, np.ndarray[Any, Any]]:
 
 def _depth(info: dict[str, Any]) -> tuple[DepthSettings, float] | None:
     """A depth feature's quantizer and the factor from metres to its `depth_unit`; None for a colour video."""
-    if not info.get("is_depth_map"):
+    if not (info.get("is_depth_map") or info.get("video.is_depth_map")):
         return None
     return DepthSettings.from_info(info), (1.0 if info.get("depth_unit") == "m" else MM_PER_METRE)
 
@@ -89,7 +90,7 @@ def check_deep(ds: Dataset) -> list[Finding]:
         want = stored_means(ds, key)
         if not want:
             continue
-        depth = _depth(ds.features[key].get("info") or {})
+        depth = _depth(feature_info(ds.features[key]))
         tol = TOLERANCE if depth is None else TOLERANCE * (depth[0].depth_max - depth[0].depth_min) * depth[1]
         for path, eps in sorted(placements(ds, key).items()):
             if not path.is_file():

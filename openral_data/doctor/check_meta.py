@@ -15,6 +15,7 @@ from openral_data.errors import OpenralError
 from openral_data.formats.jsonfile import load_json, read_json
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.missing import fetch_hint
+from openral_data.formats.lerobot_v3.variants import task_column, task_is_index
 
 INFO = layout.INFO_PATH
 TASKS = layout.TASKS_PATH
@@ -83,11 +84,10 @@ def check_tasks(ds: Dataset) -> list[Finding]:
         if total > 0 and not any(p.code == "tasks.unreadable" for p in ds.problems):
             out.append(error("tasks.missing", TASKS, f"missing while total_tasks is {total}"))
         return out
-    names = ds.tasks.column_names
-    if "task_index" not in names or "task" not in names:
+    names, column = ds.tasks.column_names, task_column(ds.tasks.schema)
+    if "task_index" not in names or column is None:
         return [error("tasks.columns", TASKS, f"needs columns task_index and task, has {names}")]
-    index_cols = (ds.tasks_pandas or {}).get("index_columns")
-    if index_cols != ["task"]:
+    if not task_is_index(ds.tasks.schema):  # `task` as lerobot writes it, or older lerobot's unnamed index
         out.append(
             error(
                 "tasks.pandas_index",
@@ -96,7 +96,7 @@ def check_tasks(ds: Dataset) -> list[Finding]:
                 repairable=True,
             )
         )
-    repeated = sorted(str(t) for t, n in Counter(ds.tasks["task"].to_pylist()).items() if n > 1)
+    repeated = sorted(str(t) for t, n in Counter(ds.tasks[column].to_pylist()).items() if n > 1)
     if repeated:
         out.append(
             error(

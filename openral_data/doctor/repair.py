@@ -32,6 +32,7 @@ from openral_data.formats.lerobot_v3.links import refuse_outside_links
 from openral_data.formats.lerobot_v3.lock import DatasetLock
 from openral_data.formats.lerobot_v3.recovery import Quarantine, finish_interrupted_commit, quarantine_staged
 from openral_data.formats.lerobot_v3.tasks_table import tasks_writer
+from openral_data.formats.lerobot_v3.variants import tasks_table
 from openral_data.formats.lerobot_v3.video import count_packets
 
 Rows = list[dict[str, Any]]
@@ -153,7 +154,8 @@ def _tasks(ds: Dataset, found: dict[str, Finding], q: Quarantine) -> list[str]:
     if ("tasks.pandas_index" not in found and "tasks.order" not in found) or ds.tasks is None:
         return []
     path = ds.root / layout.TASKS_PATH
-    names, indices = ds.tasks["task"].to_pylist(), ds.tasks["task_index"].to_pylist()
+    table = tasks_table(ds.tasks, path)
+    names, indices = table["task"].to_pylist(), table["task_index"].to_pylist()
     tasks = {str(t): int(i) for t, i in zip(names, indices, strict=True)}
     q.keep_copy(path)
     atomic.write_with(path, tasks_writer(tasks))

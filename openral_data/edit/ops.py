@@ -23,6 +23,7 @@ from openral_data.formats.lerobot_v3.config import WriterConfig
 from openral_data.formats.lerobot_v3.lock import DatasetLock
 from openral_data.formats.lerobot_v3.provenance import EditRecord, EditSource, Origin
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
+from openral_data.formats.lerobot_v3.variants import comparable
 from openral_data.formats.staging import Staging, check_new_output
 from openral_data.formats.write_errors import disk_errors
 from openral_data.types import DatasetSchema
@@ -73,7 +74,7 @@ def check_compatible(first: SourceDataset, other: SourceDataset) -> None:
             f"{first.root}'s {first.info.get('robot_type')!r}",
             code="dataset.mismatch",
         )
-    field = _first_difference(first.features, other.features, "features")
+    field = _first_difference(comparable(first.features), comparable(other.features), "features")
     if field is not None:
         raise DatasetError(f"{where}: {field}: differs from {first.root}", code="dataset.mismatch")
 

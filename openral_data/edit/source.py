@@ -16,7 +16,7 @@ episode's seed is unknown (`None`), its initial state empty, and its success rea
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -26,6 +26,7 @@ import numpy.typing as npt
 import pyarrow as pa
 import pyarrow.compute as pc
 
+from openral_data.edit.recode import clip_frames, image_frames
 from openral_data.errors import DatasetError, EpisodeSelectionError, NotFound
 from openral_data.formats import atomic
 from openral_data.formats.jsonfile import parse_field, parse_json
@@ -41,11 +42,12 @@ from openral_data.formats.lerobot_v3.features import (
     dim_names,
 )
 from openral_data.formats.lerobot_v3.lock import check_settled
-from openral_data.formats.lerobot_v3.masks import is_mask
+from openral_data.formats.lerobot_v3.masks import decode_mask, is_mask, mask_stats
 from openral_data.formats.lerobot_v3.missing import missing_files
 from openral_data.formats.lerobot_v3.provenance import Origin, read_provenance
 from openral_data.formats.lerobot_v3.reader import dataset_tasks, read_episodes, read_info
 from openral_data.formats.lerobot_v3.stats import STAT_KEYS, ImageStatsAccumulator, Stats
+from openral_data.formats.lerobot_v3.variants import camera_layout, feature_info, is_depth
 from openral_data.formats.lerobot_v3.video import VideoSettings
 from openral_data.formats.parquetfile import read_table
 from openral_data.types import CameraShape, DatasetSchema
@@ -115,7 +117,7 @@ class SourceDataset:
         return list(self.camera_key)
 
     def _video_settings(self) -> VideoSettings:
-        infos = [f.get("info") or {} for f in self.features.values() if f.get("dtype") == "video"]
+        infos = [feature_info(f) for f in self.features.values() if f.get("dtype") == "video"]
         if not infos:
             return VideoSettings()
         i = infos[0]
@@ -134,10 +136,7 @@ class SourceDataset:
             state, action = self.features[STATE], self.features[ACTION]
         except KeyError as exc:
             raise DatasetError(f"{where}.{exc.args[0]}: missing", code="dataset.invalid") from None
-        cameras = {
-            name: CameraShape(int(self.features[key]["shape"][0]), int(self.features[key]["shape"][1]))
-            for name, key in self.camera_key.items()
-        }
+        cameras = {name: _camera_shape(self.features[key]) for name, key in self.camera_key.items()}
         return DatasetSchema(
             fps=self.fps,
             state_names=tuple(dim_names(state, STATE)),
@@ -158,8 +157,9 @@ class SourceDataset:
         for key in self.features.keys() - set(self.carried) | rebuilt.keys():
             ours, theirs = dict(rebuilt.get(key) or {}), dict(self.features.get(key) or {})
             if ours.get("dtype") == "video" and theirs.get("dtype") == "video":
-                ours.pop("info", None)  # the encoder settings are the source's; packets are copied, not encoded
-                theirs.pop("info", None)
+                # the encoder settings (`info`, a legacy `video_info`) are the source's, packets are copied, not
+                # encoded; `channel` or `channels` names the same axis
+                ours, theirs = camera_layout(ours), camera_layout(theirs)
             if key in (STATE, ACTION):  # names as a list or lerobot's `{"motors": [...]}`: kept verbatim
                 ours["names"], theirs["names"] = dim_names(ours, key), dim_names(theirs, key)
             if key not in rebuilt or key not in self.features or ours != theirs:
@@ -244,7 +244,7 @@ class SourceDataset:
         wanted = self.camera_names() if cameras is None else [c for c in self.camera_names() if c in set(cameras)]
         for name in wanted:
             videos[name] = self._clip(index, row, name, n)
-            image_stats[name] = self._stats(row, self.camera_key[name])
+            image_stats[name] = self._picture_stats(row, self.camera_key[name], videos[name])
         states, actions = self._vector(data, STATE, index), self._vector(data, ACTION, index)
         initial = row.get("openral.initial_state")
         successes = _list(data, "next.success", False)
@@ -267,7 +267,11 @@ class SourceDataset:
             videos=videos,
             image_stats=image_stats,
             columns={key: data.column(key).combine_chunks().cast(self._types.field(key).type) for key in self.carried},
-            column_stats={key: self._stats(row, key) for key in self.carried if self.features[key]["dtype"] == "image"},
+            column_stats={
+                key: self._picture_stats(row, key, data.column(key).combine_chunks())
+                for key in self.carried
+                if self.features[key]["dtype"] == "image"
+            },
         )
 
     def _vector(self, data: pa.Table, key: str, index: int) -> npt.NDArray[np.float32]:
@@ -295,6 +299,34 @@ class SourceDataset:
                 f"{self.root}: meta/episodes: stats/{key}: missing or not numbers (episode {row['episode_index']})",
                 code="dataset.invalid",
             ) from None
+
+    def _picture_stats(self, row: dict[str, Any], key: str, pixels: bytes | pa.Array) -> Stats:
+        """A camera's statistics for one episode as meta/episodes has them; computed from its pixels (`pixels`:
+        the episode's mp4, or its `dtype: image` cells) as `stats recompute` does when the source has none
+        (statistics are optional to lerobot's loader: older or foreign datasets may lack them)."""
+        if any(row.get(f"stats/{key}/{s}") is not None for s in STAT_KEYS):
+            return self._stats(row, key)
+        where = f"{self.root}: {key}: episode {row['episode_index']}"
+        self.refuse_depth(key, "computing a depth camera's missing statistics")
+        if isinstance(pixels, bytes):
+            frames: Iterator[npt.NDArray[np.uint8]] = clip_frames(pixels, where)
+        elif is_mask(self.features[key]):
+            return mask_stats([decode_mask(c, f"{where}: frame {i}") for i, c in enumerate(pixels.to_pylist())])
+        else:
+            frames = image_frames(pixels, where)
+        acc = ImageStatsAccumulator()
+        for frame in frames:
+            acc.add(frame)
+        return acc.stats()
+
+    def refuse_depth(self, key: str, what: str) -> None:
+        """One line refusing `what` for a depth camera (`variants.is_depth`): its statistics are in its depth
+        unit from the dequantized frames, which editing does not compute yet (copying them is fine)."""
+        if is_depth(self.features[key]):
+            raise DatasetError(
+                f"{self.root / layout.INFO_PATH}: features.{key}: {what} is not supported yet",
+                code="dataset.unsupported",
+            )
 
     def _success(self, row: dict[str, Any], successes: list[bool]) -> bool | None:
         if "openral.success" in self.episodes.column_names:
@@ -331,6 +363,15 @@ class SourceDataset:
                 code="dataset.invalid",
             )
         return clip.data
+
+
+def _camera_shape(feature: dict[str, Any]) -> CameraShape:
+    """A video camera's shape; a depth camera (`variants.is_depth`) with its `depth_unit` (lerobot's default mm)."""
+    shape = camera_layout(feature)["shape"]  # height, width, channels (also of a channel-first feature)
+    height, width = int(shape[0]), int(shape[1])
+    if not is_depth(feature):
+        return CameraShape(height, width)
+    return CameraShape(height, width, "m" if feature_info(feature).get("depth_unit") == "m" else "mm")
 
 
 def _carriable(feature: dict[str, Any]) -> bool:

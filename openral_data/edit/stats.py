@@ -31,6 +31,8 @@ from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
 def recompute(dataset: Path, out: Path | None, in_place: bool = False) -> EditResult:
     """Write `dataset` with recomputed statistics to `out` (or in place)."""
     src = SourceDataset(dataset)
+    for key in src.camera_key.values():
+        src.refuse_depth(key, "stats recompute")
     images = [k for k in src.carried if src.features[k].get("dtype") == "image"]
     # a mask's statistics are its ids', merged per dataset as numbers (formats/lerobot_v3/masks.py)
     masks = [k for k in images if is_mask(src.features[k])]

@@ -156,6 +156,8 @@ def reencode(
         raise UsageError(f"--size: {problem}")
     src = SourceDataset(dataset)
     names = list(choose_cameras(src.features, cameras, "video", dataset))
+    for name in names:
+        src.refuse_depth(src.camera_key[name], "videos reencode")
     shapes = {name: target or src.schema.cameras[name] for name in names}
     every = set(names) == set(src.camera_names())
     config = replace(src.writer_config(), video=settings if every else src.video)

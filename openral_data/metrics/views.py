@@ -25,6 +25,7 @@ import pyarrow as pa
 
 from openral_data.errors import QueryError
 from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.reader import read_tasks_table
 from openral_data.formats.lerobot_v3.success import EPISODE_SUCCESS, episode_successes
 from openral_data.formats.results import Results
 from openral_data.metrics.sources import DatasetSource
@@ -182,14 +183,16 @@ def _register_datasets(con: duckdb.DuckDBPyConnection, datasets: Sequence[Datase
 
 
 def _register_tasks(con: duckdb.DuckDBPyConnection, datasets: Sequence[DatasetSource]) -> None:
-    """The `tasks` view: meta/tasks.parquet, or a v2.x dataset's table (from meta/tasks.jsonl)."""
-    tasks = [
-        f"SELECT {lit(ds.label)} AS dataset, task_index, task FROM "
-        + (ident(f"tasks:{ds.label}") if ds.tasks_table is not None else f"read_parquet({path_sql(tasks_file)})")
-        for ds in datasets
-        for tasks_file in [ds.root / layout.TASKS_PATH]
-        if ds.tasks_table is not None or tasks_file.is_file()
-    ]
+    """The `tasks` view: meta/tasks.parquet in any layout lerobot reads (older lerobot's unnamed pandas index too:
+    `reader.read_tasks_table`), or a v2.x dataset's table (from meta/tasks.jsonl)."""
+    tasks = []
+    for i, ds in enumerate(datasets):
+        table = ds.tasks_table
+        if table is None and (ds.root / layout.TASKS_PATH).is_file():
+            table = read_tasks_table(ds.root)
+        if table is not None:
+            con.register(f"tasks_{i}", table)
+            tasks.append(f"SELECT {lit(ds.label)} AS dataset, task_index, task FROM tasks_{i}")
     con.execute(
         "CREATE VIEW tasks AS "
         + _union(tasks, "SELECT NULL::VARCHAR AS dataset, NULL::BIGINT AS task_index, NULL::VARCHAR AS task LIMIT 0")

@@ -2,7 +2,8 @@
 
 Reading: `read_info`, `read_tasks` and `read_episodes` give a dataset's metadata, `summarize` a
 `DatasetSummary`; `episode_frames` reads an episode's frames back (images decoded) and `episode_clip` cuts an
-episode's packets out of a shared mp4 without re-encoding.
+episode's packets out of a shared mp4 without re-encoding. `variants` reads the older v3 layouts lerobot still
+loads (tasks as an unnamed pandas index, `channel` names, `video_info` blocks) the way every reader needs them.
 
 Writing: `LeRobotV3Writer` (a `Sink`, configured by `WriterConfig` and `VideoSettings`) commits one episode at a
 time, crash-safe; `commit_episode` takes an `EpisodeBuffer` whose videos are already made. `DatasetLock` keeps

@@ -22,6 +22,7 @@ from openral_data.formats.lerobot_v3.depth import DepthSettings, decode_codes
 from openral_data.formats.lerobot_v3.features import camera_key, camera_keys
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE, decode_image, image_keys
 from openral_data.formats.lerobot_v3.masks import decode_mask, is_mask
+from openral_data.formats.lerobot_v3.variants import feature_info, is_depth
 from openral_data.formats.parquetfile import read_table
 from openral_data.paths import regular_file
 from openral_data.types import Frame
@@ -106,9 +107,10 @@ def video_span(path: Path, row: dict[str, Any], key: str, n: int, fps: int) -> t
 
 
 def depth_settings(info: dict[str, Any], key: str) -> DepthSettings | None:
-    """The quantizer of feature `key` if it is a depth video (`is_depth_map` in its info), else None."""
-    feature_info = info["features"].get(key, {}).get("info") or {}
-    return DepthSettings.from_info(feature_info) if feature_info.get("is_depth_map") else None
+    """The quantizer of feature `key` if it is a depth video (`is_depth_map` in its info, or lerobot's legacy
+    spellings: `variants.is_depth`), else None."""
+    feature = info["features"].get(key, {})
+    return DepthSettings.from_info(feature_info(feature)) if is_depth(feature) else None
 
 
 def _decode_video(

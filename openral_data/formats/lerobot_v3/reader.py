@@ -15,6 +15,7 @@ from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.info import check_info
 from openral_data.formats.lerobot_v3.missing import MissingFiles, missing_files
 from openral_data.formats.lerobot_v3.success import count_successes, episode_successes
+from openral_data.formats.lerobot_v3.variants import tasks_table
 from openral_data.formats.parquetfile import read_table
 from openral_data.paths import safe_name
 
@@ -138,13 +139,17 @@ def dataset_tasks(root: Path, info: dict[str, Any]) -> list[str]:
     return tasks
 
 
+def read_tasks_table(root: Path) -> pa.Table:
+    """meta/tasks.parquet as columns `task_index, task`, in any layout lerobot reads (`variants.tasks_table`)."""
+    path = layout.inside(root, layout.TASKS_PATH)
+    return tasks_table(read_table(path), path)
+
+
 def read_tasks(root: Path) -> list[str]:
     path = layout.inside(root, layout.TASKS_PATH)
-    table = read_table(path)
+    table = read_tasks_table(root)
     try:
         rows = sorted(zip(table.column("task_index").to_pylist(), table.column("task").to_pylist(), strict=True))
-    except KeyError as exc:
-        raise DatasetError(f"{path}: no column {exc}", code="dataset.invalid") from None
     except TypeError:  # None or mixed values in task_index
         raise DatasetError(f"{path}: task_index: not all integers", code="dataset.invalid") from None
     return [str(task) for _, task in rows]

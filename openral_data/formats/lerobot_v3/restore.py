@@ -13,7 +13,6 @@ from typing import Any
 
 import numpy as np
 import pyarrow as pa
-import pyarrow.parquet as pq
 
 from openral_data.errors import DatasetError
 from openral_data.formats import atomic
@@ -21,7 +20,7 @@ from openral_data.formats.jsonfile import parse_json
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.depth import CameraStats, camera_stats_from_json
 from openral_data.formats.lerobot_v3.layout import FilePos, FileRun
-from openral_data.formats.lerobot_v3.reader import read_info
+from openral_data.formats.lerobot_v3.reader import read_info, read_tasks_table
 from openral_data.formats.lerobot_v3.recovery import episode_rows
 from openral_data.formats.lerobot_v3.stats import STAT_KEYS, Stats, merge_numeric
 from openral_data.formats.lerobot_v3.video import probe_frames
@@ -97,7 +96,7 @@ def restore(
         )
     tasks: dict[str, int] = {}
     if rows:
-        table = pq.read_table(root / layout.TASKS_PATH)
+        table = read_tasks_table(root)  # any layout lerobot reads (older lerobot's unnamed index too)
         names, indices = table["task"].to_pylist(), table["task_index"].to_pylist()
         tasks = {str(t): int(i) for t, i in zip(names, indices, strict=True)}
     numeric: dict[str, Stats] = {}
