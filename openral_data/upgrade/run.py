@@ -53,8 +53,8 @@ def upgrade(old: Path, new: Path, on_stage: Say | None = None) -> UpgradeResult:
     if new.resolve().is_relative_to(old.resolve()):
         raise UsageError(f"{new}: NEW is inside OLD ({old}); upgrade never writes into OLD")
     converter = _converter()
-    say(f"reading {old}")
-    legacy = read_legacy(old)
+    legacy = read_legacy(old)  # before the first stage line: a refused OLD is one line, nothing before it
+    say(f"read {old}: LeRobot {legacy.version}, {len(legacy.episodes)} episode(s)")
     lengths = [num_rows(path) for path in legacy.data]
     check_videos(legacy, lengths)
     staged = Staging(new, "openral-data upgrade")

@@ -76,7 +76,7 @@ def test_stages_are_shown_and_q_hides_them(tmp_path: Path) -> None:
     assert res.returncode == 0, res.stderr
     stages = [line for line in res.stderr.splitlines() if line.startswith("upgrade: ")]
     assert [s.split(": ", 1)[1].split(" ", 1)[0] for s in stages] == [
-        "reading",
+        "read",
         "converting",
         "converting",
         "concatenating",
