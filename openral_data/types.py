@@ -166,7 +166,7 @@ class DatasetSchema:
     state_names: tuple[str, ...]
     action_names: tuple[str, ...]
     cameras: dict[str, CameraShape]
-    robot_type: str
+    robot_type: str | None  # None: not known (lerobot writes null, and an edit keeps it)
     metadata: dict[str, Any] = field(
         default_factory=dict
     )  # where frames came from: formats.lerobot_v3.provenance.Origin

@@ -142,7 +142,7 @@ class SourceDataset:
             state_names=tuple(dim_names(state, STATE)),
             action_names=tuple(dim_names(action, ACTION)),
             cameras=cameras,
-            robot_type=str(self.info.get("robot_type")),
+            robot_type=self.info.get("robot_type"),  # a string or null (`info.check_info`)
             metadata=self.origin.to_json(),
             has_reward="next.reward" in self.features,
             has_success="next.success" in self.features,
