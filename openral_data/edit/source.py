@@ -47,7 +47,7 @@ from openral_data.formats.lerobot_v3.missing import missing_files
 from openral_data.formats.lerobot_v3.provenance import Origin, read_provenance
 from openral_data.formats.lerobot_v3.reader import dataset_tasks, read_episodes, read_info
 from openral_data.formats.lerobot_v3.stats import STAT_KEYS, ImageStatsAccumulator, Stats
-from openral_data.formats.lerobot_v3.variants import camera_layout, feature_info, is_depth
+from openral_data.formats.lerobot_v3.variants import camera_layout, feature_info, is_depth, without_fps
 from openral_data.formats.lerobot_v3.video import VideoSettings
 from openral_data.formats.parquetfile import read_table
 from openral_data.types import CameraShape, DatasetSchema
@@ -155,7 +155,7 @@ class SourceDataset:
         where = f"{self.root}/meta/info.json: features"
         self.carried = [k for k, f in self.features.items() if k not in rebuilt and _carriable(f)]
         for key in self.features.keys() - set(self.carried) | rebuilt.keys():
-            ours, theirs = dict(rebuilt.get(key) or {}), dict(self.features.get(key) or {})
+            ours, theirs = dict(rebuilt.get(key) or {}), without_fps(dict(self.features.get(key) or {}))
             if ours.get("dtype") == "video" and theirs.get("dtype") == "video":
                 # the encoder settings (`info`, a legacy `video_info`) are the source's, packets are copied, not
                 # encoded; `channel` or `channels` names the same axis
@@ -303,8 +303,9 @@ class SourceDataset:
     def _picture_stats(self, row: dict[str, Any], key: str, pixels: bytes | pa.Array) -> Stats:
         """A camera's statistics for one episode as meta/episodes has them; computed from its pixels (`pixels`:
         the episode's mp4, or its `dtype: image` cells) as `stats recompute` does when the source has none
-        (statistics are optional to lerobot's loader: older or foreign datasets may lack them)."""
-        if any(row.get(f"stats/{key}/{s}") is not None for s in STAT_KEYS):
+        (statistics are optional to lerobot's loader: older or foreign datasets may lack them, or lack only the
+        quantiles, as lerobot's v2.1 -> v3.0 converter leaves them)."""
+        if all(row.get(f"stats/{key}/{s}") is not None for s in STAT_KEYS):
             return self._stats(row, key)
         where = f"{self.root}: {key}: episode {row['episode_index']}"
         self.refuse_depth(key, "computing a depth camera's missing statistics")

@@ -10,6 +10,8 @@
   or instead of it); lerobot reads `is_depth_map` / `video.is_depth_map` from either. `feature_info` merges them.
 - Statistics are optional (no `meta/stats.json`, a feature missing there, no `stats/...` episode columns):
   lerobot loads such a dataset, so readers treat a missing statistic as unknown, not as an error.
+- A feature may carry its own `fps` (LeRobot v2.x wrote one on every feature, and lerobot's v2.1 -> v3.0
+  converter keeps them); lerobot ignores it, so layouts compare without it (`without_fps`).
 - `names` of a vector are a list, lerobot's one-entry `{"motors": [...]}` or null (`features.dim_names`).
 
 Editing keeps the source's spelling of what it copies (info.json features verbatim); a file an edit writes anew
@@ -108,13 +110,18 @@ def camera_layout(feature: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+def without_fps(feature: dict[str, Any]) -> dict[str, Any]:
+    """A feature without the per-feature `fps` key LeRobot v2.x wrote (lerobot reads the dataset's `fps`)."""
+    return {k: v for k, v in feature.items() if k != "fps"}
+
+
 def comparable(features: dict[str, Any]) -> dict[str, Any]:
     """info.json features with each variant spelt one way (`channels`; a `video_info` block merged into `info`),
     so that two datasets differing only in spelling compare equal (merge keeps the first one's spelling)."""
     out: dict[str, Any] = {}
     for key, feature in features.items():
-        out[key] = feature
+        out[key] = without_fps(feature) if isinstance(feature, dict) else feature
         if isinstance(feature, dict) and feature.get("dtype") in ("video", "image"):
             info = feature_info(feature)
-            out[key] = {**camera_layout(feature), **({"info": info} if info else {})}
+            out[key] = {**without_fps(camera_layout(feature)), **({"info": info} if info else {})}
     return out
