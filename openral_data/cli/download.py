@@ -16,6 +16,7 @@ import typer
 
 from openral_data.cli import convert, edit, features, replay, stats, tasks, terminal, upgrade, videos
 from openral_data.cli import inspect as look
+from openral_data.cli.legacy import read_as_v3
 from openral_data.errors import UsageError
 from openral_data.formats.repo_id import looks_like_repo_id
 
@@ -67,6 +68,9 @@ TAKES: dict[Callable[..., Any], tuple[str, bool]] = {
     videos.reencode_cmd: ("dataset", True),
     videos.encode_images_cmd: ("dataset", True),
 }
+# the commands that read a LeRobot v2.x dataset in place (`formats.dataset`); the others read it through a
+# temporary upgrade (`legacy.read_as_v3`)
+READS_V2 = {look.info, stats.stats, tasks.list_cmd, look.view, look.doctor, convert.convert, upgrade.upgrade}
 _ADDED = [("download", Download, False), ("hub_revision", Revision, None), ("hub_include", Include, None)]
 
 
@@ -100,7 +104,10 @@ def _with_download(command: Callable[..., Any], param: str, pixels: bool) -> Cal
                 _fetch(str(arg), opts)
         elif hub_revision is not None or hub_include:
             raise UsageError("--revision and --include go with --download")
-        return command(*args, **kwargs)
+        if command in READS_V2:
+            return command(*args, **kwargs)
+        with read_as_v3(kwargs, param):
+            return command(*args, **kwargs)
 
     added = [inspect.Parameter(n, inspect.Parameter.KEYWORD_ONLY, default=d, annotation=t) for n, t, d in _ADDED]
     run.__signature__ = signature.replace(parameters=[*signature.parameters.values(), *added])  # type: ignore[attr-defined]

@@ -2,8 +2,9 @@
 one place: `open_lerobot` reads info.json once and picks the reader by its ``codebase_version``.
 
 The v3 readers (`lerobot_v3.reader`) refuse a v2.x dataset in one line pointing at `openral-data upgrade`, so
-every writing command stays v3-only; `info`, `doctor`, `stats`, `view`, `tasks list` and `convert`
-(to MCAP) open datasets here and take v2.x as it is (`lerobot_v2`).
+every writing command stays v3-only (the CLI gives them a temporary upgrade instead: `cli/legacy.py`); `info`,
+`doctor`, `stats`, `view`, `tasks list` and `convert` (to MCAP) open datasets here and take v2.x as it is
+(`lerobot_v2`).
 """
 
 from __future__ import annotations

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import shutil
+import tempfile
 from collections import Counter
 from collections.abc import Callable
 from pathlib import Path
@@ -19,6 +20,7 @@ from rerun.chunk import RrdReader
 
 from tests.support.inproc import run_inproc
 from tests.support.legacy_v2 import COLOUR_TOL, IMAGE_CAMERA, LENGTHS, TASKS, VIDEO_CAMERA, expected_episodes, write_v2
+from tests.support.lerobot_written import digest
 from tests.support.real_datasets import REAL, real_root
 from tests.support.rrd import verify
 
@@ -196,18 +198,33 @@ def test_convert_to_mcap_and_back(v2: Path, tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     "args",
     [
-        ("features", "remove", "{ds}", "--feature", "action", "--out", "{out}"),
         ("tasks", "rename", "{ds}", "--from", TASKS[0], "--to", "x", "--out", "{out}"),
         ("episodes", "delete", "{ds}", "--episodes", "0", "--out", "{out}"),
-        ("stats", "recompute", "{ds}", "--out", "{out}"),
     ],
 )
-def test_edits_refuse_in_one_line(v2: Path, tmp_path: Path, args: tuple[str, ...]) -> None:
-    out = tmp_path / "out"
+def test_edits_write_v3_through_a_temporary_upgrade(
+    v2: Path, tmp_path: Path, args: tuple[str, ...], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Every edit of tests/compat/ runs on lerobot-written v2.x; here: the output is v3.0, the source unchanged,
+    and no temporary folder is left."""
+    out, before = tmp_path / "out", digest(v2)
+    (tmp_path / "tmp").mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path / "tmp"))  # where the temporary upgrade goes
     proc = run_inproc(*(a.format(ds=v2, out=out) for a in args))
-    assert proc.returncode == 2, proc.stderr
-    assert len(proc.stderr.strip().splitlines()) == 1 and "openral-data upgrade" in proc.stderr, proc.stderr
-    assert not out.exists()
+    assert proc.returncode == 0, proc.stderr
+    assert _json("info", str(out))["codebase_version"] == "v3.0"
+    assert digest(v2) == before and not list((tmp_path / "tmp").glob("openral-upgrade-*"))
+
+
+def test_in_place_edit_and_push_refuse_v2(v2: Path, tmp_path: Path) -> None:
+    before = digest(v2)
+    proc = run_inproc("episodes", "delete", str(v2), "--episodes", "0", "--in-place")
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert "not edited in place" in proc.stderr and "openral-data upgrade" in proc.stderr
+    proc = run_inproc("push", str(v2), "me/old", "--dry-run")
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert "openral-data upgrade" in proc.stderr
+    assert digest(v2) == before
 
 
 @pytest.mark.slow  # real AV1 videos decoded several times
