@@ -4,6 +4,8 @@ holds read without our code (pyarrow, PyAV, PIL), so a command's output is compa
 * `v3.0`: lerobot 0.6.1's writer (`lerobot_written`), one video and one image camera.
 * `v3.0-early`: lerobot 0.4.4's writer (`old_lerobot`): tasks.parquet keeps the task in the pandas index.
 * `v2.1`: lerobot 0.3.3's writer: per-episode parquet and mp4, jsonl meta, `episodes_stats.jsonl`.
+* `v3.0-converted`: that v2.1 dataset converted by lerobot 0.6.1's own `convert_dataset_v21_to_v30` (what
+  many Hub datasets are: per-feature `fps` keys, stats without quantiles).
 * `v2.0`: that v2.1 dataset as lerobot's v2.0 layout had it: no `episodes_stats.jsonl`, one `meta/stats.json`
   (lerobot 0.6.1's `aggregate_stats` of the per-episode stats), `codebase_version` "v2.0".
 """
@@ -22,8 +24,9 @@ from PIL import Image
 
 from tests.support.lerobot_written import IMAGE_CAMERA, VIDEO_CAMERA, Frame, loaded_episodes, write_lerobot_dataset
 from tests.support.old_lerobot import write_old
+from tests.support.upgrade_cases import reference
 
-KINDS = ["v3.0", "v3.0-early", "v2.1", "v2.0"]
+KINDS = ["v3.0", "v3.0-early", "v3.0-converted", "v2.1", "v2.0"]
 LEGACY = {"v2.1", "v2.0"}
 
 
@@ -32,6 +35,8 @@ def build(kind: str, root: Path) -> Path:
         write_lerobot_dataset(root, with_success=False, image_camera=True)
     elif kind == "v3.0-early":
         write_old("0.4.4", root, image=True)
+    elif kind == "v3.0-converted":
+        reference(write_old("0.3.3", root.parent / "v2.1", image=True), root.parent).rename(root)
     else:
         write_old("0.3.3", root, image=True)
         if kind == "v2.0":
