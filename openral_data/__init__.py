@@ -4,7 +4,8 @@ The Python API (docs/python-api.md); the `openral-data` command line wraps the s
 
 - recording: `record(RecordOptions(...)) -> RecordSummary`
 - replay: `replay(ReplayOptions(...)) -> ReplaySummary`
-- conversion: `convert_bags(...) -> ConvertSummary` (bags -> LeRobot v3), `export_mcap(...) -> ExportSummary`
+- conversion: `convert_bags(...) -> ConvertSummary` (bags -> LeRobot v3), `export_mcap(...) -> ExportSummary`,
+  `upgrade(old, new) -> UpgradeResult` (LeRobot v2.0/v2.1 -> v3.0 with lerobot's converter)
 - checking: `check(root) -> list[Finding]`, `repair(root) -> RepairResult`
 - reading: `summarize(root) -> DatasetSummary`, `stats_query(paths, sql) -> Table` (DuckDB over the stats views)
 - extending: `SCENES` and `POLICIES` (`@SCENES.register("id")` over a factory; plug-ins also use entry points),
@@ -38,6 +39,8 @@ _API: dict[str, str] = {
     "ConvertSummary": "openral_data.convert",
     "export_mcap": "openral_data.convert",
     "ExportSummary": "openral_data.convert",
+    "upgrade": "openral_data.upgrade",
+    "UpgradeResult": "openral_data.upgrade",
     "check": "openral_data.doctor",
     "repair": "openral_data.doctor",
     "Finding": "openral_data.doctor",
@@ -97,6 +100,7 @@ __all__ = [
     "Sink",
     "StepResult",
     "Table",
+    "UpgradeResult",
     "__version__",
     "check",
     "convert_bags",
@@ -107,6 +111,7 @@ __all__ = [
     "replay",
     "stats_query",
     "summarize",
+    "upgrade",
 ]
 
 if TYPE_CHECKING:
@@ -133,6 +138,7 @@ if TYPE_CHECKING:
         Sink,
         StepResult,
     )
+    from openral_data.upgrade import UpgradeResult, upgrade
 
 
 def __getattr__(name: str) -> Any:
