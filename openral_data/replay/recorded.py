@@ -24,6 +24,7 @@ from openral_data.formats.jsonfile import parse_json
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.features import camera_keys
 from openral_data.formats.lerobot_v3.frames import episode_frames as decode_episode_frames
+from openral_data.formats.lerobot_v3.missing import missing_files
 from openral_data.formats.lerobot_v3.provenance import Origin, Recorded, read_provenance
 from openral_data.formats.lerobot_v3.reader import dataset_tasks, read_episodes, read_info
 from openral_data.formats.lerobot_v3.success import episode_successes
@@ -146,6 +147,13 @@ class RecordedDataset:
         return robot
 
     # -- episodes ------------------------------------------------------------------------------------------------
+    def need_files(self, episodes: list[int], pixels: bool, what: str) -> None:
+        """Refuse in one line, before anything runs, when the data of `episodes` (and with `pixels` their videos)
+        is absent: a partial download (`missing.MissingFiles.need`)."""
+        features = self.info.get("features", {})
+        videos = [k for k in camera_keys(features).values() if features[k].get("dtype") == "video"] if pixels else []
+        missing_files(self.root, self.info, [self._rows[e] for e in episodes], videos).need(episodes, videos, what)
+
     def row(self, e: int) -> dict[str, Any]:
         row: dict[str, Any] = self._rows[e]
         return row

@@ -56,8 +56,12 @@ def test_info_and_stats_without_data_and_stats_json(full: Path, tmp_path: Path) 
 
 @pytest.mark.parametrize(
     "argv",
-    [["view", "{src}", "--save", "{out}.rrd"], ["convert", "{src}", "{out}"]],
-    ids=["view", "convert"],
+    [
+        ["view", "{src}", "--save", "{out}.rrd"],
+        ["convert", "{src}", "{out}"],
+        ["replay", "{src}", "--mode", "policy", "--rskill", "recorded", "--out", "{out}"],
+    ],
+    ids=["view", "convert", "replay-policy"],
 )
 def test_pixel_commands_name_the_absent_file(no_videos: Path, tmp_path: Path, argv: list[str]) -> None:
     out = tmp_path / "out"
