@@ -12,7 +12,7 @@ from typing import Any
 
 import duckdb
 
-from openral_data.errors import DatasetError, QueryError
+from openral_data.errors import DatasetError, NotFound, QueryError
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.metrics.intervals import wilson
 from openral_data.metrics.sources import DatasetSource
@@ -22,10 +22,6 @@ from openral_data.metrics.where import WHERE_VIEW, where_connection, where_query
 COLUMNS = ("episode_index", "task", "length", "duration_s", "success", "seed")
 MAX_LIMIT = 500
 REWARD = "next.reward"
-
-
-class NotFoundError(LookupError):
-    """A page or file the server does not have (answered 404)."""
 
 
 @dataclass
@@ -125,16 +121,16 @@ class Catalog:
         """The mp4 holding camera number `camera` of episode `index`: its standard place inside the dataset
         (`layout.template_path`: refused, as not found, unless it stays inside after symlinks)."""
         if not 0 <= camera < len(self.ds.cameras):
-            raise NotFoundError(f"no camera {camera}")
+            raise NotFound(f"no camera {camera}")
         key = self.ds.cameras[camera]
         row = self._meta_row(index)
         chunk, file = row.get(f"videos/{key}/chunk_index"), row.get(f"videos/{key}/file_index")
         if chunk is None or file is None:
-            raise NotFoundError(f"episode {index}: no video for {key}")
+            raise NotFound(f"episode {index}: no video for {key}")
         try:
             path = layout.template_path(self.ds.root, self.ds.info, "video_path", layout.FilePos(chunk, file), key)
         except DatasetError as exc:
-            raise NotFoundError(str(exc)) from None
+            raise NotFound(str(exc)) from None
         return str(path)
 
     def commands(self, episodes: list[int], where: str) -> dict[str, str]:
@@ -146,7 +142,7 @@ class Catalog:
             out["keep"] = f"openral-data episodes split {ds} --episodes {picked} --out {ds}-selected"
         if where.strip():
             out["filter"] = f"openral-data episodes filter {ds} --where {shlex.quote(where)} --out {ds}-filtered"
-        return {k: v for k, v in out.items()}
+        return out
 
     def _meta_row(self, index: int) -> dict[str, Any]:
         """Episode `index`'s meta/episodes row (only its location and span columns, not its stats)."""
@@ -161,7 +157,7 @@ class Catalog:
             cur = self.con.execute(sql + "WHERE episode_index = ?", [index])
             rows = cur.fetchall()
         if not rows:
-            raise NotFoundError(f"no episode {index}")
+            raise NotFound(f"no episode {index}")
         return dict(zip(have, rows[0], strict=True))
 
 

@@ -21,9 +21,7 @@ def open_catalogs(paths: Sequence[str]) -> list[Catalog]:
     """A `Catalog` per dataset named (results directories are not shown yet: refused in one line)."""
     datasets, results = resolve(list(paths))
     if results:
-        raise UsageError(
-            f"browse: {results[0].root}: results directories are not shown yet; give datasets", code="usage.results"
-        )
+        raise UsageError(f"browse: {results[0].root}: results directories are not shown yet; give datasets")
     # the command-line spelling of each dataset when there is one per argument (no glob), else its folder
     args = list(paths) if len(paths) == len(datasets) else [str(ds.root) for ds in datasets]
     return [Catalog(ds, arg) for ds, arg in zip(datasets, args, strict=True)]

@@ -36,7 +36,5 @@ def start_browser(paths: list[str], host: str, port: int) -> Browser:
     try:
         from openral_data.browse import Browser, open_catalogs
     except ImportError as exc:
-        raise ConfigError(
-            f"browse: needs the 'browse' extra ({exc.name} missing): uv sync --extra browse", code="config.extra"
-        ) from None
+        raise ConfigError(f"browse: needs the 'browse' extra ({exc.name} missing): uv sync --extra browse") from None
     return Browser(open_catalogs(paths), host, port)

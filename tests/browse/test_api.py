@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -155,3 +156,12 @@ def test_cli_refuses_what_is_not_a_dataset(tmp_path: Path) -> None:
     r = run_inproc("browse", str(tmp_path))
     assert r.returncode == 2
     assert r.stderr.startswith("error: ") and r.stderr.count("\n") == 1
+
+
+def test_cli_without_the_browse_extra_names_it_in_one_line(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    for name in [m for m in sys.modules if m.startswith("openral_data.browse")]:
+        monkeypatch.delitem(sys.modules, name)
+    monkeypatch.setitem(sys.modules, "uvicorn", None)  # as if not installed
+    r = run_inproc("browse", str(tmp_path))
+    assert r.returncode == 2
+    assert r.stderr == "error: browse: needs the 'browse' extra (uvicorn missing): uv sync --extra browse\n"
