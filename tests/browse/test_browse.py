@@ -6,6 +6,7 @@ traversal URLs refused with 404 over a real socket."""
 from __future__ import annotations
 
 import http.client
+import os
 import shlex
 from collections.abc import Iterator
 from pathlib import Path
@@ -163,3 +164,27 @@ def test_traversal_urls_are_404_over_the_wire(server: Browser, url: str) -> None
         assert conn.getresponse().status == 404
     finally:
         conn.close()
+
+
+def test_screenshots_of_the_table_and_an_episode(server: Browser, chromium: Any, tmp_path: Path) -> None:
+    """The pictures in docs/ (browse-table.png, browse-episode.png) come from here: run once with
+    OPENRAL_SCREENSHOTS=docs to refresh them."""
+    folder = Path(os.environ.get("OPENRAL_SCREENSHOTS", tmp_path))
+    context = chromium.new_context(viewport={"width": 1100, "height": 700})
+    page = context.new_page()
+    try:
+        page.goto(server.url + "d/0/")
+        page.wait_for_function("() => document.querySelectorAll('#episodes tbody tr').length === 3")
+        page.check("#episodes tbody tr[data-episode='1'] input[type=checkbox]")
+        page.wait_for_selector("#command-delete")
+        page.screenshot(path=str(folder / "browse-table.png"), full_page=True)
+        page.goto(server.url + "d/0/episode/1")
+        page.wait_for_selector("body[data-ready='1']")
+        page.evaluate(_GRAB, [4, 10])  # the video and the plots' cursor at frame 4
+        page.wait_for_function("() => !document.querySelector('video').seeking")
+        page.evaluate("() => { document.querySelector('video').controls = false; }")  # the frame, not the player
+        page.screenshot(path=str(folder / "browse-episode.png"), full_page=True)
+    finally:
+        context.close()
+    assert (folder / "browse-table.png").stat().st_size > 1000
+    assert (folder / "browse-episode.png").stat().st_size > 1000

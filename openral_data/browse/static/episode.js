@@ -95,7 +95,7 @@ async function main() {
   const success = info.success === null ? "unknown" : String(info.success);
   document.getElementById("facts").textContent =
     `${info.length} frames at ${info.fps} fps; success: ${success}` + (info.seed === null ? "" : `; seed ${info.seed}`);
-  duration = Math.max(info.length / info.fps, 1e-6);
+  duration = Math.max((info.length - 1) / info.fps, 1e-6);  // frame k is at k / fps: the last at the right edge
   let leader = null;
   for (const cam of info.cameras) {
     const shown = camera(cam, leader);
