@@ -12,11 +12,12 @@ from typing import Any
 
 import duckdb
 
+from openral_data.browse._rows import EpisodeRows
 from openral_data.errors import DatasetError, NotFound, QueryError
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.metrics.intervals import wilson
 from openral_data.metrics.sources import DatasetSource
-from openral_data.metrics.views import files_sql, ident, path_sql
+from openral_data.metrics.views import files_sql, ident
 from openral_data.metrics.where import WHERE_VIEW, where_connection, where_query
 
 COLUMNS = ("episode_index", "task", "length", "duration_s", "success", "seed")
@@ -32,6 +33,7 @@ class Catalog:
     arg: str
     con: duckdb.DuckDBPyConnection = field(init=False)
     lock: threading.Lock = field(default_factory=threading.Lock, init=False)
+    rows: EpisodeRows = field(default_factory=EpisodeRows, init=False)
 
     def __post_init__(self) -> None:
         self.con = where_connection(self.ds)
@@ -100,12 +102,8 @@ class Catalog:
             self.ds.root, self.ds.info, "data_path", layout.FilePos(row["data/chunk_index"], row["data/file_index"])
         )
         keys = [*self.ds.vector_features, *([REWARD] if REWARD in self.ds.data_columns else [])]
-        cols = ", ".join(ident(k) for k in ["timestamp", *keys])
-        with self.lock:
-            rows = self.con.execute(
-                f"SELECT {cols} FROM read_parquet({path_sql(path)}) WHERE episode_index = ? ORDER BY frame_index",
-                [index],
-            ).fetchall()
+        table = self.rows.read(path, index, ["timestamp", *keys])
+        rows = list(zip(*(table.column(c).to_pylist() for c in table.column_names), strict=True))
         series = []
         for k, key in enumerate(keys, start=1):
             values = [r[k] for r in rows]
