@@ -6,8 +6,13 @@ traversal URLs refused with 404 over a real socket."""
 from __future__ import annotations
 
 import http.client
+import json
 import os
 import shlex
+import signal
+import subprocess
+import sys
+import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -188,3 +193,21 @@ def test_screenshots_of_the_table_and_an_episode(server: Browser, chromium: Any,
         context.close()
     assert (folder / "browse-table.png").stat().st_size > 1000
     assert (folder / "browse-episode.png").stat().st_size > 1000
+
+
+def test_the_command_prints_its_url_serves_and_stops_on_ctrl_c(browse_dataset: Path) -> None:
+    cmd = [sys.executable, "-m", "openral_data.cli", "browse", str(browse_dataset), "--port", "0"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout is not None
+        line = proc.stdout.readline()
+        url = line.split(" at ", 1)[1].split()[0]
+        assert line.startswith("browse: serving 1 dataset(s) at http://127.0.0.1:")
+        with urllib.request.urlopen(url + "api/datasets", timeout=10) as r:
+            assert json.load(r)[0]["path"] == str(browse_dataset)
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=20) == 130  # the CLI's exit status for Ctrl-C, as for every command
+        assert "Traceback" not in proc.communicate()[1]
+    finally:
+        proc.kill()
+        proc.communicate()
