@@ -38,6 +38,7 @@ def create_app(catalogs: Sequence[Catalog]) -> Starlette:
     routes = [
         Route("/", _index),
         Route("/static/{name}", _static),
+        Route("/favicon.ico", _no_icon),
         Route("/d/{ds}/", _table_page),
         Route("/d/{ds}/episode/{ep:int}", _episode_page),
         Route("/d/{ds}/video/{ep:int}/{cam:int}", _video),
@@ -82,6 +83,10 @@ def _number(request: Request, name: str, default: int) -> int:
 
 async def _index(request: Request) -> Response:
     return _asset(request, "index.html")
+
+
+async def _no_icon(request: Request) -> Response:
+    return Response(status_code=204)
 
 
 async def _static(request: Request) -> Response:

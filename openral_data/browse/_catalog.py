@@ -98,9 +98,10 @@ class Catalog:
     def series(self, index: int) -> dict[str, Any]:
         """The episode's state/action/environment-state vectors (one series per dimension, named) and reward."""
         row = self._meta_row(index)
-        path = layout.template_path(
-            self.ds.root, self.ds.info, "data_path", layout.FilePos(row["data/chunk_index"], row["data/file_index"])
-        )
+        chunk, file = row.get("data/chunk_index"), row.get("data/file_index")
+        if chunk is None or file is None:
+            raise NotFound(f"episode {index}: meta/episodes names no data file")
+        path = layout.template_path(self.ds.root, self.ds.info, "data_path", layout.FilePos(chunk, file))
         keys = [*self.ds.vector_features, *([REWARD] if REWARD in self.ds.data_columns else [])]
         table = self.rows.read(path, index, ["timestamp", *keys])
         rows = list(zip(*(table.column(c).to_pylist() for c in table.column_names), strict=True))
