@@ -8,7 +8,7 @@ export UV_PYTHON_DOWNLOADS=never
 # test subprocess would otherwise recompile lerobot/robosuite/torch sources on import.
 export UV_COMPILE_BYTECODE=1
 
-APT_PACKAGES=(libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 libosmesa6)
+APT_PACKAGES=(libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 libosmesa6 chromium)
 missing=()
 for pkg in "${APT_PACKAGES[@]}"; do
     dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" || missing+=("$pkg")
@@ -32,7 +32,7 @@ fi
 UV=("$PY" -m uv)
 # Optional extras the default environment (and CI) installs; each is one [project.optional-dependencies] entry.
 # Extras that conflict with these (e.g. a separate simulator environment) are set up by their own script.
-EXTRAS=(robosuite metaworld aloha pusht feetech so_arm ray)
+EXTRAS=(robosuite metaworld aloha pusht feetech so_arm ray browse)
 extra_args=()
 for extra in "${EXTRAS[@]}"; do extra_args+=(--extra "$extra"); done
 "${UV[@]}" sync --frozen --quiet --python "$PY" "${extra_args[@]}"

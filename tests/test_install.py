@@ -62,6 +62,7 @@ def test_the_wheel_holds_the_package_only(venv: Path) -> None:
     site = next((venv / "lib").glob("python3.12/site-packages"))
     assert (site / "openral_data/builtin/scenes/sim/tabletop_push.yaml").is_file()
     assert (site / "openral_data/py.typed").is_file()
+    assert (site / "openral_data/browse/static/episode.js").is_file()  # browse's pages ship as package data
     (record,) = site.glob("openral_data-*.dist-info/RECORD")
     tops = {line.split("/", 1)[0] for line in record.read_text().splitlines() if "/" in line.split(",", 1)[0]}
     # no `tests` package (or anything else) beside ours; `..` is the bin/openral-data script
@@ -111,3 +112,9 @@ ds = LeRobotDataset("local/installed", root=sys.argv[1], video_backend="pyav")
 ds[0]
 print(json.dumps({"episodes": ds.meta.total_episodes, "robot_type": ds.meta.robot_type}))
 """
+
+
+def test_browse_without_its_extra_says_which_in_one_line(venv: Path, tmp_path: Path) -> None:
+    r = _run(venv, tmp_path, "browse", str(tmp_path))
+    assert r.returncode == 2
+    assert r.stderr.count("\n") == 1 and "'browse' extra" in r.stderr and "uv sync --extra browse" in r.stderr

@@ -9,7 +9,7 @@ from typing import Annotated, Any, cast
 
 import typer
 
-from openral_data.cli import convert, hub, inspect, record, replay, stats, upgrade
+from openral_data.cli import browse, convert, hub, inspect, record, replay, stats, upgrade
 from openral_data.cli.download import dataset_download
 from openral_data.cli.edit import episodes_app
 from openral_data.cli.features import features_app
@@ -90,6 +90,7 @@ app.command()(inspect.view)
 app.command()(replay.replay)
 app.command()(inspect.doctor)
 app.command()(hub.push)
+app.command()(browse.browse)
 app.add_typer(episodes_app, name="episodes")
 app.add_typer(pipeline_app, name="pipeline")
 app.add_typer(videos_app, name="videos")

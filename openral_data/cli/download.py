@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from openral_data.cli import convert, edit, features, replay, stats, tasks, terminal, upgrade, videos
+from openral_data.cli import browse, convert, edit, features, replay, stats, tasks, terminal, upgrade, videos
 from openral_data.cli import inspect as look
 from openral_data.cli.legacy import read_as_v3
 from openral_data.errors import UsageError
@@ -53,6 +53,7 @@ TAKES: dict[Callable[..., Any], tuple[str, bool]] = {
     stats.stats: ("paths", False),
     tasks.list_cmd: ("dataset", False),
     look.view: ("path", True),
+    browse.browse: ("paths", True),
     look.doctor: ("dataset", True),
     stats.recompute_cmd: ("dataset", True),
     replay.replay: ("dataset", True),

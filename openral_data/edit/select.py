@@ -14,19 +14,17 @@ import math
 from collections.abc import Sequence
 from pathlib import Path
 
-import duckdb
 import numpy as np
 
 from openral_data.edit.ops import EditResult, check_edit_output, write_edit, write_selection
 from openral_data.edit.source import SourceDataset
-from openral_data.errors import EpisodeSelectionError, QueryError, UsageError
+from openral_data.errors import EpisodeSelectionError, UsageError
 from openral_data.formats.staging import check_new_output
 from openral_data.metrics.sources import open_dataset
-from openral_data.metrics.views import connect, files_sql, ident, lock_down, view_files
+from openral_data.metrics.where import where_connection, where_query
 from openral_data.paths import safe_name
 
 DEFAULT_NAMES = ("train", "val", "test")
-_VIEW = "openral_filter_episodes"
 
 
 def filter_episodes(dataset: Path, where: str, out: Path | None, in_place: bool = False) -> EditResult:
@@ -46,22 +44,9 @@ def matching_episodes(dataset: Path, where: str) -> list[int]:
     """The episode indices of `dataset` for which `where` is true, ascending."""
     if not where.strip():
         raise UsageError("--where: empty predicate")
-    ds = open_dataset(dataset)
-    extra = sorted(c for c in ds.episode_columns if c.startswith("openral."))
-    cols = "".join(f", e.{ident(c)}" for c in extra)
-    con = connect([ds])
+    con = where_connection(open_dataset(dataset))
     try:
-        con.execute(
-            f"CREATE VIEW {_VIEW} AS SELECT v.*{cols} FROM episodes v "
-            f"JOIN read_parquet({files_sql(ds.episode_files)}) e USING (episode_index)"
-        )
-        lock_down(con, view_files([ds]))  # the predicate reads these files and nothing else
-        try:
-            if len(con.extract_statements(f"SELECT 1 WHERE ({where})")) != 1:
-                raise QueryError(f"--where: {where!r} is not one predicate")
-            rows = con.execute(f"SELECT episode_index FROM {_VIEW} WHERE ({where}) ORDER BY episode_index").fetchall()
-        except duckdb.Error as exc:
-            raise QueryError(f"--where: {str(exc).splitlines()[0]}") from None
+        rows = where_query(con, "episode_index", where, "ORDER BY episode_index")
     finally:
         con.close()
     return sorted({int(r[0]) for r in rows if r[0] is not None})  # a predicate may end in a comment

@@ -1,0 +1,137 @@
+"""`browse` on a large dataset: how long until the episodes table and an episode page are painted in a real
+Chromium (Debian's, through Playwright), on a dataset of 10,000 episodes.
+
+The dataset (unless ``--dataset`` names one already written) is written by ``LeRobotV3Writer`` through
+``DatasetBridge``: ``--episodes`` (10,000) episodes of ``--length`` (5) frames at 20 fps, state/action
+float32[7], one 64x64 camera in h264, frames from `bench_commits`'s pre-rendered pool. Then the server
+(`openral_data.browse.Browser`, in a thread) and one headless Chromium; each figure is the wall time from
+``page.goto`` to the page being usable, ``--repeat`` (5) times after one untimed warm-up, printed as
+min/median/max:
+
+* table: the first page of 50 rows is in the DOM (count, success interval and the page come from the server);
+* table, filtered: the same with ``--where "length > 4 AND episode_index % 7 = 0"``, typed into the page;
+* episode: the middle episode's page with its plot drawn and its video's first frame decoded (readyState >= 2).
+
+Run (from the repository root)::
+
+    .venv/bin/python benchmarks/bench_browse.py                             # 10,000 episodes (writes ~4 min)
+    .venv/bin/python benchmarks/bench_browse.py --keep /tmp/browse10k       # keep the dataset for reruns
+    .venv/bin/python benchmarks/bench_browse.py --dataset /tmp/browse10k    # reuse it
+    .venv/bin/python benchmarks/bench_browse.py --episodes 200 --repeat 2   # smoke run
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_commits import TASK, frame_pool, schema, state
+
+from openral_data.browse import Browser, open_catalogs
+from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
+from openral_data.runtime.bridge import DatasetBridge
+from openral_data.types import Observation
+
+FPS = 20
+CHROMIUM = "/usr/bin/chromium"
+WHERE = "length > 4 AND episode_index % 7 = 0"  # lengths alternate 5, 4: every 14th episode
+
+
+def write(root: Path, episodes: int, length: int) -> None:
+    sch = schema(1)
+    bridge = DatasetBridge(sch, [LeRobotV3Writer(root, sch, WriterConfig(video=VideoSettings(codec="h264")))])
+    pool = frame_pool()
+    try:
+        for e in range(episodes):
+            bridge.begin_episode(e, {"seed": e})
+            n = length - (e % 2)  # lengths differ, so a filter on length narrows
+            for t in range(n):
+                obs = Observation(
+                    images={"cam0": pool[(e + t) % len(pool)]}, state=state(e, t), task=TASK, time=t / FPS
+                )
+                bridge.add_step(obs, state(e, t + 1), reward=0.0, done=t == n - 1, success=e % 3 == 0)
+            bridge.end_episode(success=e % 3 == 0)
+    finally:
+        bridge.close()
+
+
+def timed(page: Any, repeat: int, action: Any) -> list[float]:
+    action(page)  # warm-up
+    out = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        action(page)
+        out.append(time.perf_counter() - t0)
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--episodes", type=int, default=10_000)
+    p.add_argument("--length", type=int, default=5)
+    p.add_argument("--repeat", type=int, default=5)
+    p.add_argument("--dataset", type=Path, help="an existing dataset to browse (nothing written)")
+    p.add_argument("--keep", type=Path, help="write the dataset here and keep it")
+    args = p.parse_args(argv)
+    tmp = Path(tempfile.mkdtemp(prefix="bench-browse-"))
+    root = args.dataset or args.keep or tmp / "ds"
+    try:
+        if args.dataset is None:
+            t0 = time.perf_counter()
+            write(root, args.episodes, args.length)
+            print(f"wrote {args.episodes} episodes in {time.perf_counter() - t0:.0f} s", flush=True)
+        return measure(root, args.repeat)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def measure(root: Path, repeat: int) -> int:
+    from playwright.sync_api import sync_playwright
+
+    server = Browser(open_catalogs([str(root)]))
+    server.start()
+    total = int(server.catalogs[0].ds.info["total_episodes"])
+    rows = "() => document.querySelectorAll('#episodes tbody tr').length > 0"
+
+    def table(page: Any) -> None:
+        page.goto(server.url + "d/0/")
+        page.wait_for_function(rows)
+
+    def filtered(page: Any) -> None:
+        table(page)
+        page.fill("#where", WHERE)
+        page.click("#filter button")
+        want = f"{len(range(0, total, 14))} episodes"
+        page.wait_for_function(f"() => document.getElementById('summary').textContent.startsWith('{want}')")
+
+    def episode(page: Any) -> None:
+        page.goto(server.url + f"d/0/episode/{total // 2}")
+        page.wait_for_selector("body[data-ready='1']")
+        page.wait_for_function("() => document.querySelector('video').readyState >= 2")
+
+    try:
+        with sync_playwright() as pw:
+            browser = pw.chromium.launch(executable_path=CHROMIUM)
+            page = browser.new_page()
+            for name, action in (("table", table), ("table, filtered", filtered), ("episode", episode)):
+                s = timed(page, repeat, action)
+                print(
+                    f"{name:16s} ({total} episodes): min {min(s) * 1000:.0f} ms, median "
+                    f"{statistics.median(s) * 1000:.0f} ms, max {max(s) * 1000:.0f} ms",
+                    flush=True,
+                )
+            browser.close()
+    finally:
+        server.close()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

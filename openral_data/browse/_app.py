@@ -1,0 +1,156 @@
+"""The Starlette app: HTML pages and static assets (package data, served from memory by name), the JSON API and
+the videos. Read-only: no route writes, runs a command or opens a path named by the URL; a video is found from
+the episode's metadata (`Catalog.video`), so a URL can only reach the mp4 files of the datasets given."""
+
+from __future__ import annotations
+
+import os
+import stat
+from collections.abc import Sequence
+from importlib import resources
+
+from starlette.applications import Starlette
+from starlette.exceptions import HTTPException
+from starlette.requests import Request
+from starlette.responses import FileResponse, JSONResponse, Response
+from starlette.routing import Route
+
+from openral_data.browse._catalog import Catalog
+from openral_data.errors import NotFound, OpenralError
+
+_TYPES = {".html": "text/html; charset=utf-8", ".js": "text/javascript", ".css": "text/css"}
+# pages need nothing from outside: no CDN, no inline script (the assets are ours, served from this package)
+_CSP = "default-src 'self'; img-src 'self' data:; media-src 'self'; object-src 'none'; base-uri 'none'"
+
+
+def _assets() -> dict[str, tuple[bytes, str]]:
+    folder = resources.files("openral_data.browse") / "static"
+    out = {}
+    for item in folder.iterdir():
+        suffix = os.path.splitext(item.name)[1]
+        if suffix in _TYPES:
+            out[item.name] = (item.read_bytes(), _TYPES[suffix])
+    return out
+
+
+def create_app(catalogs: Sequence[Catalog]) -> Starlette:
+    """The app over `catalogs` (dataset number i = `catalogs[i]`)."""
+    routes = [
+        Route("/", _index),
+        Route("/static/{name}", _static),
+        Route("/favicon.ico", _no_icon),
+        Route("/d/{ds}/", _table_page),
+        Route("/d/{ds}/episode/{ep:int}", _episode_page),
+        Route("/d/{ds}/video/{ep:int}/{cam:int}", _video),
+        Route("/api/datasets", _datasets),
+        Route("/api/d/{ds}/episodes", _episodes),
+        Route("/api/d/{ds}/episode/{ep:int}", _episode),
+        Route("/api/d/{ds}/episode/{ep:int}/series", _series),
+        Route("/api/d/{ds}/commands", _commands),
+    ]
+    app = Starlette(routes=routes, exception_handlers={NotFound: _not_found, OpenralError: _refused})
+    app.state.catalogs = list(catalogs)
+    app.state.assets = _assets()
+    return app
+
+
+def _asset(request: Request, name: str) -> Response:
+    assets: dict[str, tuple[bytes, str]] = request.app.state.assets
+    if name not in assets:
+        raise HTTPException(404)
+    body, media = assets[name]
+    return Response(body, media_type=media, headers={"Content-Security-Policy": _CSP})
+
+
+def _catalog(request: Request) -> Catalog:
+    catalogs: list[Catalog] = request.app.state.catalogs
+    try:
+        i = int(request.path_params["ds"])
+    except ValueError:
+        raise HTTPException(404) from None
+    if not 0 <= i < len(catalogs):
+        raise HTTPException(404)
+    return catalogs[i]
+
+
+def _number(request: Request, name: str, default: int) -> int:
+    text = request.query_params.get(name, str(default))
+    try:
+        return int(text)
+    except ValueError:
+        raise HTTPException(400, f"{name}: {text!r} is not an integer") from None
+
+
+async def _index(request: Request) -> Response:
+    return _asset(request, "index.html")
+
+
+async def _no_icon(request: Request) -> Response:
+    return Response(status_code=204)
+
+
+async def _static(request: Request) -> Response:
+    return _asset(request, request.path_params["name"])
+
+
+def _table_page(request: Request) -> Response:
+    _catalog(request)
+    return _asset(request, "table.html")
+
+
+def _episode_page(request: Request) -> Response:
+    _catalog(request).episode(request.path_params["ep"])  # 404 for an episode the dataset does not have
+    return _asset(request, "episode.html")
+
+
+def _datasets(request: Request) -> Response:
+    return JSONResponse([c.summary() for c in request.app.state.catalogs])
+
+
+def _episodes(request: Request) -> Response:
+    q = request.query_params
+    body = _catalog(request).table(
+        q.get("where", ""),
+        q.get("sort", "episode_index"),
+        q.get("desc", "0") == "1",
+        _number(request, "offset", 0),
+        _number(request, "limit", 50),
+    )
+    return JSONResponse(body)
+
+
+def _episode(request: Request) -> Response:
+    return JSONResponse(_catalog(request).episode(request.path_params["ep"]))
+
+
+def _series(request: Request) -> Response:
+    return JSONResponse(_catalog(request).series(request.path_params["ep"]))
+
+
+def _commands(request: Request) -> Response:
+    q = request.query_params
+    try:
+        picked = [int(e) for e in q.get("episodes", "").split(",") if e.strip()]
+    except ValueError:
+        raise HTTPException(400, "episodes: not a comma-separated list of integers") from None
+    return JSONResponse(_catalog(request).commands(picked, q.get("where", "")))
+
+
+def _video(request: Request) -> Response:
+    path = _catalog(request).video(request.path_params["ep"], request.path_params["cam"])
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        raise HTTPException(404) from None
+    if not stat.S_ISREG(mode):  # a FIFO or device named like an mp4 is never opened
+        raise HTTPException(404)
+    return FileResponse(path, media_type="video/mp4")  # answers Range requests (206) itself
+
+
+async def _not_found(request: Request, exc: Exception) -> Response:
+    return JSONResponse({"error": "not found"}, status_code=404)
+
+
+async def _refused(request: Request, exc: Exception) -> Response:
+    """A bad --where, sort or page: 400 with the one-line message the CLI would print."""
+    return JSONResponse({"error": str(exc)}, status_code=400)

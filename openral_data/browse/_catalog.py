@@ -1,0 +1,167 @@
+"""What the pages show of one dataset, read from its metadata: the episodes table (paged, sorted, filtered by the
+`--where` of `episodes filter` through the same code, `metrics.where`), one episode's cameras and task, and its
+state/action/reward series. Every query runs on one locked-down DuckDB connection (no other file, no network)."""
+
+from __future__ import annotations
+
+import math
+import shlex
+import threading
+from dataclasses import dataclass, field
+from typing import Any
+
+import duckdb
+
+from openral_data.browse._rows import EpisodeRows
+from openral_data.errors import DatasetError, NotFound, QueryError
+from openral_data.formats.lerobot_v3 import layout
+from openral_data.metrics.intervals import wilson
+from openral_data.metrics.sources import DatasetSource
+from openral_data.metrics.views import files_sql, ident
+from openral_data.metrics.where import WHERE_VIEW, where_connection, where_query
+
+COLUMNS = ("episode_index", "task", "length", "duration_s", "success", "seed")
+MAX_LIMIT = 500
+REWARD = "next.reward"
+
+
+@dataclass
+class Catalog:
+    """One dataset as the server sees it; `arg` is the path as given on the command line (for the commands)."""
+
+    ds: DatasetSource
+    arg: str
+    con: duckdb.DuckDBPyConnection = field(init=False)
+    lock: threading.Lock = field(default_factory=threading.Lock, init=False)
+    rows: EpisodeRows = field(default_factory=EpisodeRows, init=False)
+
+    def __post_init__(self) -> None:
+        self.con = where_connection(self.ds)
+
+    def close(self) -> None:
+        self.con.close()
+
+    def summary(self) -> dict[str, Any]:
+        return {
+            "label": self.ds.label,
+            "path": self.arg,
+            "fps": self.ds.fps,
+            "episodes": int(self.ds.info.get("total_episodes", 0)),
+            "cameras": self.ds.cameras,
+        }
+
+    def table(self, where: str, sort: str, desc: bool, offset: int, limit: int) -> dict[str, Any]:
+        """One page of the episodes for which `where` holds (all when empty), with the filter's counts and
+        success rate (Wilson 95 % interval over the episodes whose success is known)."""
+        if sort not in COLUMNS:
+            raise QueryError(f"sort: {sort!r} is not one of {', '.join(COLUMNS)}")
+        predicate = where if where.strip() else "TRUE"
+        order = f"ORDER BY {ident(sort)} {'DESC' if desc else 'ASC'} NULLS LAST, episode_index"
+        page = f"{order} LIMIT {max(1, min(limit, MAX_LIMIT))} OFFSET {max(0, offset)}"
+        with self.lock:
+            ((n, known, wins),) = where_query(self.con, "count(*), count(success), count_if(success)", predicate)
+            rows = where_query(self.con, ", ".join(ident(c) for c in COLUMNS), predicate, page)
+        interval = wilson(int(wins), int(known))
+        return {
+            "total": int(n),
+            "known": int(known),
+            "successes": int(wins),
+            "rate": wins / known if known else None,
+            "interval": [interval.low, interval.high] if known else None,
+            "rows": [dict(zip(COLUMNS, (_json(v) for v in r), strict=True)) for r in rows],
+        }
+
+    def episode(self, index: int) -> dict[str, Any]:
+        """Episode `index`: task, length, and per camera its video span (from/to timestamps in the shared mp4)."""
+        row = self._meta_row(index)
+        with self.lock:
+            found = self.con.execute(
+                f"SELECT tasks, success, seed FROM {WHERE_VIEW} WHERE episode_index = ?", [index]
+            ).fetchall()
+        tasks, success, seed = found[0] if found else (None, None, None)
+        cameras = []
+        for i, cam in enumerate(self.ds.cameras):
+            start, end = row.get(f"videos/{cam}/from_timestamp"), row.get(f"videos/{cam}/to_timestamp")
+            if start is not None and end is not None:
+                cameras.append({"key": cam, "url": f"video/{index}/{i}", "from": float(start), "to": float(end)})
+        return {
+            "dataset": self.ds.label,
+            "episode_index": index,
+            "length": int(row["length"]),
+            "fps": self.ds.fps,
+            "tasks": list(tasks or []),
+            "success": success,
+            "seed": seed,
+            "cameras": cameras,
+        }
+
+    def series(self, index: int) -> dict[str, Any]:
+        """The episode's state/action/environment-state vectors (one series per dimension, named) and reward."""
+        row = self._meta_row(index)
+        chunk, file = row.get("data/chunk_index"), row.get("data/file_index")
+        if chunk is None or file is None:
+            raise NotFound(f"episode {index}: meta/episodes names no data file")
+        path = layout.template_path(self.ds.root, self.ds.info, "data_path", layout.FilePos(chunk, file))
+        keys = [*self.ds.vector_features, *([REWARD] if REWARD in self.ds.data_columns else [])]
+        table = self.rows.read(path, index, ["timestamp", *keys])
+        rows = list(zip(*(table.column(c).to_pylist() for c in table.column_names), strict=True))
+        series = []
+        for k, key in enumerate(keys, start=1):
+            values = [r[k] for r in rows]
+            if key == REWARD:
+                series.append({"feature": key, "name": key, "values": [_json(v) for v in values]})
+                continue
+            names = self.ds.dim_names(key)
+            for d, name in enumerate(names):
+                series.append({"feature": key, "name": name, "values": [_json(v[d]) if v else None for v in values]})
+        return {"timestamps": [_json(r[0]) for r in rows], "series": series}
+
+    def video(self, index: int, camera: int) -> str:
+        """The mp4 holding camera number `camera` of episode `index`: its standard place inside the dataset
+        (`layout.template_path`: refused, as not found, unless it stays inside after symlinks)."""
+        if not 0 <= camera < len(self.ds.cameras):
+            raise NotFound(f"no camera {camera}")
+        key = self.ds.cameras[camera]
+        row = self._meta_row(index)
+        chunk, file = row.get(f"videos/{key}/chunk_index"), row.get(f"videos/{key}/file_index")
+        if chunk is None or file is None:
+            raise NotFound(f"episode {index}: no video for {key}")
+        try:
+            path = layout.template_path(self.ds.root, self.ds.info, "video_path", layout.FilePos(chunk, file), key)
+        except DatasetError as exc:
+            raise NotFound(str(exc)) from None
+        return str(path)
+
+    def commands(self, episodes: list[int], where: str) -> dict[str, str]:
+        """The commands that do what the selection says; the server runs none of them."""
+        ds, picked = shlex.quote(self.arg), ",".join(str(e) for e in sorted(set(episodes)))
+        out = {}
+        if picked:
+            out["delete"] = f"openral-data episodes delete {ds} --episodes {picked} --out {ds}-deleted"
+            out["keep"] = f"openral-data episodes split {ds} --episodes {picked} --out {ds}-selected"
+        if where.strip():
+            out["filter"] = f"openral-data episodes filter {ds} --where {shlex.quote(where)} --out {ds}-filtered"
+        return out
+
+    def _meta_row(self, index: int) -> dict[str, Any]:
+        """Episode `index`'s meta/episodes row (only its location and span columns, not its stats)."""
+        wanted = ["length", "data/chunk_index", "data/file_index"] + [
+            f"videos/{cam}/{c}"
+            for cam in self.ds.cameras
+            for c in ("chunk_index", "file_index", "from_timestamp", "to_timestamp")
+        ]
+        have = [c for c in wanted if c in self.ds.episode_columns]
+        sql = f"SELECT {', '.join(ident(c) for c in have)} FROM read_parquet({files_sql(self.ds.episode_files)}) "
+        with self.lock:
+            cur = self.con.execute(sql + "WHERE episode_index = ?", [index])
+            rows = cur.fetchall()
+        if not rows:
+            raise NotFound(f"no episode {index}")
+        return dict(zip(have, rows[0], strict=True))
+
+
+def _json(value: Any) -> Any:
+    """A value JSON can carry: NaN/inf as null."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value

@@ -1,0 +1,40 @@
+"""`openral-data browse`: a local, read-only web server over datasets (openral_data.browse; docs/browse.md)."""
+
+from __future__ import annotations
+
+import webbrowser
+from typing import TYPE_CHECKING, Annotated
+
+import typer
+
+from openral_data.cli.terminal import print_line
+from openral_data.errors import ConfigError
+from openral_data.formats.repo_id import resolve_dataset
+
+if TYPE_CHECKING:
+    from openral_data.browse import Browser
+
+
+def browse(
+    paths: Annotated[list[str], typer.Argument(help="datasets (folders or cached Hub repo ids)")],
+    host: Annotated[str, typer.Option(help="address to listen on (default: this machine only)")] = "127.0.0.1",
+    port: Annotated[int, typer.Option(help="port to listen on; 0 picks a free one")] = 8765,
+    open_: Annotated[bool, typer.Option("--open", help="open the page in a web browser")] = False,
+) -> None:
+    """Browse datasets in a web browser: episodes table (sortable, paged, filtered by an `episodes filter --where`
+    predicate, success rate with its 95 % interval), episode pages (videos, state/action plots), and the
+    `episodes delete/split/filter` command for a selection. Read-only; serves until Ctrl-C."""
+    server = start_browser([str(resolve_dataset(p)) for p in paths], host, port)
+    print_line(f"browse: serving {len(server.catalogs)} dataset(s) at {server.url} (Ctrl-C stops)")
+    if open_:
+        webbrowser.open(server.url)
+    server.run()
+
+
+def start_browser(paths: list[str], host: str, port: int) -> Browser:
+    """The server, bound; the `browse` extra (Starlette, uvicorn) is needed, refused in one line when absent."""
+    try:
+        from openral_data.browse import Browser, open_catalogs
+    except ImportError as exc:
+        raise ConfigError(f"browse: needs the 'browse' extra ({exc.name} missing): uv sync --extra browse") from None
+    return Browser(open_catalogs(paths), host, port)

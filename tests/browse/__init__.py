@@ -1,0 +1,1 @@
+"""Tests of openral_data.browse."""
