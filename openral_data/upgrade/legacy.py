@@ -1,7 +1,7 @@
 """A LeRobot v2.0/v2.1 dataset as `upgrade` reads it: its meta files checked, its episodes' files found.
 
 `read_legacy(root)` reads `meta/info.json` and the JSON-lines files (`episodes.jsonl`, `tasks.jsonl` and, in
-v2.1, `episodes_stats.jsonl`) the one bounded way (`paths.read_regular`, `jsonfile.parse_json`), and names every
+v2.1, `episodes_stats.jsonl`) the one bounded way (`lerobot_v2.read_jsonl`), and names every
 episode's data file and video files by info.json's `data_path`/`video_path` templates, each kept inside the
 root after symlinks (`paths.contained`) and a regular file. Anything wrong is one line naming the file and
 field: not a dataset, a v3 dataset (``already v3.0``), a broken line, an episode whose files are missing.
@@ -16,9 +16,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from openral_data.errors import DatasetError, NotRegularFile
-from openral_data.formats.jsonfile import MAX_JSON_BYTES, parse_json, read_json
-from openral_data.paths import from_template, read_regular, regular_file, safe_name
+from openral_data.errors import DatasetError
+from openral_data.formats import lerobot_v2
+from openral_data.formats.jsonfile import read_json
+from openral_data.paths import from_template, regular_file, safe_name
 
 INFO = "meta/info.json"
 EPISODES = "meta/episodes.jsonl"
@@ -28,7 +29,6 @@ VERSIONS = ("v2.0", "v2.1")
 # what lerobot 0.x wrote when a template is missing from info.json
 DATA_TEMPLATE = "data/chunk-{episode_chunk:03d}/episode_{episode_index:06d}.parquet"
 VIDEO_TEMPLATE = "videos/chunk-{episode_chunk:03d}/{video_key}/episode_{episode_index:06d}.mp4"
-MAX_JSONL_BYTES = 1 << 30  # episodes_stats.jsonl of a 10k-episode dataset is tens of MB
 
 
 @dataclass
@@ -109,29 +109,12 @@ def _info(root: Path) -> dict[str, Any]:
 
 
 def read_jsonl(path: Path) -> list[dict[str, Any]]:
-    """Every line of a JSON-lines file, each a JSON object (blank lines skipped); one line naming the file and
-    the line number otherwise."""
+    """Every line of a JSON-lines file, each a JSON object (`lerobot_v2.read_jsonl`, bounded); a missing file is
+    one line too (OLD cannot be upgraded without it)."""
     try:
-        raw = read_regular(path, MAX_JSONL_BYTES)
+        return lerobot_v2.read_jsonl(path)
     except FileNotFoundError:
         raise DatasetError(f"{path}: missing", code="dataset.incomplete") from None
-    except NotRegularFile as exc:
-        raise DatasetError(f"{path}: {exc.strerror}", code="dataset.unsafe") from None
-    except (OSError, ValueError) as exc:
-        text = exc.strerror if isinstance(exc, OSError) else str(exc)
-        raise DatasetError(f"{path}: cannot read: {text or exc}", code="dataset.invalid") from None
-    rows: list[dict[str, Any]] = []
-    for n, line in enumerate(raw.splitlines(), 1):
-        if not line.strip():
-            continue
-        try:
-            row = parse_json(line) if len(line) <= MAX_JSON_BYTES else None
-        except ValueError as exc:
-            raise DatasetError(f"{path}: line {n}: invalid JSON: {exc}", code="dataset.invalid") from None
-        if not isinstance(row, dict):
-            raise DatasetError(f"{path}: line {n}: not a JSON object", code="dataset.invalid")
-        rows.append(row)
-    return rows
 
 
 def _by_index(rows: list[dict[str, Any]], key: str, path: Path) -> list[dict[str, Any]]:
