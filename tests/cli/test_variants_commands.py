@@ -49,17 +49,18 @@ CONVERTED = {"old-tasks", "channel-names", "video-info", "names-forms", "channel
 PUSHED = {"old-tasks", "no-stats"}
 
 
-@pytest.fixture(scope="module", params=list(VARIANTS))
-def variant(request: pytest.FixtureRequest, base: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A copy of `base` altered as the variant; read-only to the tests (writing commands write elsewhere)."""
-    root = tmp_path_factory.mktemp(request.param) / "ds"
+def _made(name: str, base: Path, folder: Path) -> Path:
+    """A copy of `base` altered as variant `name`, at `folder/name/ds`."""
+    root = folder / name / "ds"
     shutil.copytree(base, root)
-    VARIANTS[request.param](root)
+    VARIANTS[name](root)
     return root
 
 
-def _name(variant: Path) -> str:
-    return next(name for name in VARIANTS if variant.parent.name.startswith(name))
+@pytest.fixture(scope="module", params=list(VARIANTS))
+def variant(request: pytest.FixtureRequest, base: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A copy of `base` altered as the variant; read-only to the tests (writing commands write elsewhere)."""
+    return _made(request.param, base, tmp_path_factory.mktemp("variant"))
 
 
 def _ok(*args: str) -> str:
@@ -147,9 +148,9 @@ def test_merge_across_variants(base: Path, want: list[list[Frame]], tmp_path: Pa
 
 
 @pytest.mark.slow
-def test_convert_to_mcap_and_back(variant: Path, want: list[list[Frame]], tmp_path: Path) -> None:
-    if _name(variant) not in CONVERTED:
-        pytest.skip("convert reads this variant as the dataset lerobot wrote")
+@pytest.mark.parametrize("name", sorted(CONVERTED))
+def test_convert_to_mcap_and_back(name: str, base: Path, want: list[list[Frame]], tmp_path: Path) -> None:
+    variant = _made(name, base, tmp_path)
     bags, back = tmp_path / "bags", tmp_path / "back"
     _ok("convert", str(variant), str(bags), "--image-format", "png")
     _ok("convert", str(bags), str(back), "--codec", "h264")
@@ -162,9 +163,9 @@ def test_convert_to_mcap_and_back(variant: Path, want: list[list[Frame]], tmp_pa
 
 
 @pytest.mark.slow
-def test_push(variant: Path) -> None:
-    if _name(variant) not in PUSHED:
-        pytest.skip("push reads this variant as the dataset lerobot wrote")
+@pytest.mark.parametrize("name", sorted(PUSHED))
+def test_push(name: str, base: Path, tmp_path: Path) -> None:
+    variant = _made(name, base, tmp_path)
     from tests.support.hub_endpoint import local_hub
 
     env = {"HF_ENDPOINT": "", "HF_TOKEN": "hf_test_token", "HF_HUB_OFFLINE": "0"}
