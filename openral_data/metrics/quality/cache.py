@@ -1,0 +1,74 @@
+"""Where a dataset's quality table is kept, and whether it still holds.
+
+The table is cached as parquet with a key in its schema metadata: a sha256 over the stride, the thresholds and
+the (path, size, mtime, inode) of every file `formats.lerobot_v3.digests` tracks (info.json, stats.json, tasks,
+the episodes and data parquet files, the mp4s). Any write to the data changes one of those, and the table is
+computed again; an unchanged dataset is never read twice. Stat rather than content hashes: hashing would read
+every byte of every video to decide whether to read them.
+
+Where: `DATASET/.openral/quality.parquet` when the dataset has our `.openral/` folder and it is writable; else
+(a lerobot-written dataset, a read-only folder, the Hub cache) `$XDG_CACHE_HOME/openral-data/quality/<sha256 of
+the dataset's resolved path>.parquet` (`~/.cache` without XDG_CACHE_HOME): we never add files to a dataset we
+did not write. Writes are atomic (`formats.atomic.write_with`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from pathlib import Path
+
+import pyarrow as pa
+
+from openral_data.errors import DatasetError
+from openral_data.formats import atomic
+from openral_data.formats.lerobot_v3 import digests
+from openral_data.formats.parquetfile import read_table
+from openral_data.metrics.quality.table import SCHEMA
+from openral_data.metrics.quality.thresholds import Thresholds
+
+VERSION = 1  # of the measures: a change to how they are computed bumps it, so older tables are recomputed
+KEY = b"openral.quality.key"
+CACHE_NAME = "quality.parquet"
+
+
+def fingerprint(root: Path, stride: int, th: Thresholds) -> str:
+    files = sorted({p for pattern in (*digests.PATTERNS, *digests.SINGLE) for p in root.glob(pattern)})
+    stats = []
+    for path in files:
+        st = path.stat()
+        stats.append([str(path.relative_to(root)), st.st_size, st.st_mtime_ns, st.st_ino])
+    text = json.dumps({"version": VERSION, "stride": stride, "thresholds": th.as_json(), "files": stats})
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def user_cache_dir() -> Path:
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "openral-data" / "quality"
+
+
+def cache_path(root: Path) -> Path:
+    """Where `root`'s table is kept (the module docstring says why there)."""
+    ours = root / ".openral"
+    if ours.is_dir() and not ours.is_symlink() and os.access(ours, os.W_OK):
+        return atomic.state_dir(root) / CACHE_NAME
+    name = hashlib.sha256(str(root.resolve()).encode()).hexdigest()[:32]
+    return user_cache_dir() / f"{name}.parquet"
+
+
+def load(path: Path, key: str) -> pa.Table | None:
+    """The cached table at `path` if it was computed under `key` (None if absent, stale or unreadable)."""
+    if not path.is_file():
+        return None
+    try:
+        table = read_table(path)
+    except DatasetError:
+        return None
+    if (table.schema.metadata or {}).get(KEY) != key.encode() or not table.schema.equals(SCHEMA):
+        return None
+    return table
+
+
+def store(path: Path, table: pa.Table, key: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic.write_with(path, atomic.parquet_writer(table.replace_schema_metadata({KEY: key.encode()})))
