@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from openral_data.cli import convert, edit, features, replay, stats, tasks, terminal, upgrade, videos
+from openral_data.cli import convert, edit, features, quality, replay, stats, tasks, terminal, upgrade, videos
 from openral_data.cli import inspect as look
 from openral_data.errors import UsageError
 from openral_data.formats.repo_id import looks_like_repo_id
@@ -50,6 +50,7 @@ Include = Annotated[
 TAKES: dict[Callable[..., Any], tuple[str, bool]] = {
     look.info: ("dataset", False),
     stats.stats: ("paths", False),
+    quality.quality: ("paths", True),
     tasks.list_cmd: ("dataset", False),
     look.view: ("path", True),
     look.doctor: ("dataset", True),

@@ -6,6 +6,8 @@ Both choose episodes, then write them through `ops` (atomic, lock-aware, re-inde
 duration_s, tasks, task, success, seed, scene, rskill, robot, …) plus every `openral.*` column of the dataset's
 episodes metadata not already there (quote it: `"openral.success"`). Episodes for which it is false or NULL are
 dropped (an unknown `success` is NULL: `success` keeps only known successes, `success IS NOT TRUE` the rest).
+A predicate naming `quality` may use the episode's quality measures and flags (`quality.idle_fraction < 0.5`,
+`NOT quality.flagged`; metrics/quality): the table is computed first unless it is cached and current.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from openral_data.edit.ops import EditResult, check_edit_output, write_edit, wri
 from openral_data.edit.source import SourceDataset
 from openral_data.errors import EpisodeSelectionError, QueryError, UsageError
 from openral_data.formats.staging import check_new_output
+from openral_data.metrics.quality import mentions_quality, register_quality
 from openral_data.metrics.sources import open_dataset
 from openral_data.metrics.views import connect, files_sql, ident, lock_down, view_files
 from openral_data.paths import safe_name
@@ -50,7 +53,11 @@ def matching_episodes(dataset: Path, where: str) -> list[int]:
     extra = sorted(c for c in ds.episode_columns if c.startswith("openral."))
     cols = "".join(f", e.{ident(c)}" for c in extra)
     con = connect([ds])
+    uses_quality = mentions_quality(where)
+    # only a predicate naming `quality` pays for it (or meets its columns); every other one runs as before
+    source = f"{_VIEW} LEFT JOIN (SELECT * EXCLUDE (dataset) FROM quality) quality USING (episode_index)"
     try:
+        register_quality(con, [ds], compute=uses_quality)
         con.execute(
             f"CREATE VIEW {_VIEW} AS SELECT v.*{cols} FROM episodes v "
             f"JOIN read_parquet({files_sql(ds.episode_files)}) e USING (episode_index)"
@@ -59,7 +66,8 @@ def matching_episodes(dataset: Path, where: str) -> list[int]:
         try:
             if len(con.extract_statements(f"SELECT 1 WHERE ({where})")) != 1:
                 raise QueryError(f"--where: {where!r} is not one predicate")
-            rows = con.execute(f"SELECT episode_index FROM {_VIEW} WHERE ({where}) ORDER BY episode_index").fetchall()
+            frm = source if uses_quality else _VIEW
+            rows = con.execute(f"SELECT episode_index FROM {frm} WHERE ({where}) ORDER BY episode_index").fetchall()
         except duckdb.Error as exc:
             raise QueryError(f"--where: {str(exc).splitlines()[0]}") from None
     finally:

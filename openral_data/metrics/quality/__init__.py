@@ -6,7 +6,7 @@ DuckDB as the `quality` view (`view`)."""
 from openral_data.metrics.quality.cached import Quality, cached_quality, quality_of
 from openral_data.metrics.quality.table import FLAGS, SCHEMA
 from openral_data.metrics.quality.thresholds import DEFAULT, DEFAULT_STRIDE, Thresholds
-from openral_data.metrics.quality.view import flag_counts, mentions_quality, register_quality
+from openral_data.metrics.quality.view import counts_table, flag_counts, mentions_quality, register_quality
 
 __all__ = [
     "DEFAULT",
@@ -16,6 +16,7 @@ __all__ = [
     "Quality",
     "Thresholds",
     "cached_quality",
+    "counts_table",
     "flag_counts",
     "mentions_quality",
     "quality_of",

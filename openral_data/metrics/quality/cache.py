@@ -1,10 +1,10 @@
 """Where a dataset's quality table is kept, and whether it still holds.
 
-The table is cached as parquet with a key in its schema metadata: a sha256 over the stride, the thresholds and
-the (path, size, mtime, inode) of every file `formats.lerobot_v3.digests` tracks (info.json, stats.json, tasks,
-the episodes and data parquet files, the mp4s). Any write to the data changes one of those, and the table is
-computed again; an unchanged dataset is never read twice. Stat rather than content hashes: hashing would read
-every byte of every video to decide whether to read them.
+The table is cached as parquet with a key in its schema metadata: a sha256 over the thresholds and the (path,
+size, mtime, inode) of every file `formats.lerobot_v3.digests` tracks (info.json, stats.json, tasks, the
+episodes and data parquet files, the mp4s); the camera stride is kept beside it. Any write to the data changes
+one of those, and the table is computed again; an unchanged dataset is never read twice. Stat rather than
+content hashes: hashing would read every byte of every video to decide whether to read them.
 
 Where: `DATASET/.openral/quality.parquet` when the dataset has our `.openral/` folder and it is writable; else
 (a lerobot-written dataset, a read-only folder, the Hub cache) `$XDG_CACHE_HOME/openral-data/quality/<sha256 of
@@ -30,16 +30,17 @@ from openral_data.metrics.quality.thresholds import Thresholds
 
 VERSION = 1  # of the measures: a change to how they are computed bumps it, so older tables are recomputed
 KEY = b"openral.quality.key"
+STRIDE = b"openral.quality.stride"
 CACHE_NAME = "quality.parquet"
 
 
-def fingerprint(root: Path, stride: int, th: Thresholds) -> str:
+def fingerprint(root: Path, th: Thresholds) -> str:
     files = sorted({p for pattern in (*digests.PATTERNS, *digests.SINGLE) for p in root.glob(pattern)})
     stats = []
     for path in files:
         st = path.stat()
         stats.append([str(path.relative_to(root)), st.st_size, st.st_mtime_ns, st.st_ino])
-    text = json.dumps({"version": VERSION, "stride": stride, "thresholds": th.as_json(), "files": stats})
+    text = json.dumps({"version": VERSION, "thresholds": th.as_json(), "files": stats})
     return hashlib.sha256(text.encode()).hexdigest()
 
 
@@ -56,19 +57,24 @@ def cache_path(root: Path) -> Path:
     return user_cache_dir() / f"{name}.parquet"
 
 
-def load(path: Path, key: str) -> pa.Table | None:
-    """The cached table at `path` if it was computed under `key` (None if absent, stale or unreadable)."""
+def load(path: Path, key: str, stride: int | None = None) -> pa.Table | None:
+    """The cached table at `path` if it was computed under `key` (and at `stride`, when given); None if absent,
+    stale or unreadable."""
     if not path.is_file():
         return None
     try:
         table = read_table(path)
     except DatasetError:
         return None
-    if (table.schema.metadata or {}).get(KEY) != key.encode() or not table.schema.equals(SCHEMA):
+    meta = table.schema.metadata or {}
+    if meta.get(KEY) != key.encode() or not table.schema.equals(SCHEMA):
+        return None
+    if stride is not None and meta.get(STRIDE) != str(stride).encode():
         return None
     return table
 
 
-def store(path: Path, table: pa.Table, key: str) -> None:
+def store(path: Path, table: pa.Table, key: str, stride: int) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
-    atomic.write_with(path, atomic.parquet_writer(table.replace_schema_metadata({KEY: key.encode()})))
+    meta = {KEY: key.encode(), STRIDE: str(stride).encode()}
+    atomic.write_with(path, atomic.parquet_writer(table.replace_schema_metadata(meta)))

@@ -22,22 +22,24 @@ class Quality:
 
 def quality_of(
     ds: DatasetSource,
-    stride: int = DEFAULT_STRIDE,
+    stride: int | None = None,
     th: Thresholds = DEFAULT,
     recompute: bool = False,
     progress: Progress | None = None,
 ) -> Quality:
-    """`ds`'s quality table: the cached one when current, else computed and cached."""
+    """`ds`'s quality table: the cached one when current (and at `stride`, when given), else computed (at
+    `stride`, by default `DEFAULT_STRIDE`) and cached."""
     path = cache.cache_path(ds.root)
-    key = cache.fingerprint(ds.root, stride, th)
-    table = None if recompute else cache.load(path, key)
+    key = cache.fingerprint(ds.root, th)
+    table = None if recompute else cache.load(path, key, stride)
     if table is not None:
         return Quality(table, path, computed=False)
+    stride = DEFAULT_STRIDE if stride is None else stride
     table = dataset_quality(ds, stride, th, progress)
-    cache.store(path, table, key)
+    cache.store(path, table, key, stride)
     return Quality(table, path, computed=True)
 
 
-def cached_quality(ds: DatasetSource, stride: int = DEFAULT_STRIDE, th: Thresholds = DEFAULT) -> pa.Table | None:
-    """The cached table if current (computed at `stride` with `th`), else None; never computes."""
-    return cache.load(cache.cache_path(ds.root), cache.fingerprint(ds.root, stride, th))
+def cached_quality(ds: DatasetSource, th: Thresholds = DEFAULT) -> pa.Table | None:
+    """The cached table if current (at whatever stride it was computed), else None; never computes."""
+    return cache.load(cache.cache_path(ds.root), cache.fingerprint(ds.root, th))

@@ -11,6 +11,7 @@ import pyarrow as pa
 
 from openral_data.metrics.quality.cached import cached_quality, quality_of
 from openral_data.metrics.quality.table import FLAGS, SCHEMA
+from openral_data.metrics.report import Table
 from openral_data.metrics.sources import DatasetSource
 
 VIEW = "quality"
@@ -44,3 +45,17 @@ def flag_counts(ds: DatasetSource) -> dict[str, int] | None:
         return None
     counts = {f: sum(bool(v) for v in table.column(f).to_pylist()) for f in (*FLAGS, "flagged")}
     return {"episodes": table.num_rows, **counts}
+
+
+def counts_table(datasets: Sequence[DatasetSource]) -> Table:
+    """The report's `quality` table: per dataset, how many episodes raise each flag; NULL counts (and
+    `computed` false) where no current table is cached (`openral-data quality` computes it)."""
+    columns = ["dataset", "computed", "episodes", "flagged", *FLAGS]
+    table = Table("quality", columns)
+    for ds in datasets:
+        counts = flag_counts(ds)
+        if counts is None:
+            table.rows.append([ds.label, False, *(None for _ in columns[2:])])
+        else:
+            table.rows.append([ds.label, True, *(counts[c] for c in columns[2:])])
+    return table
