@@ -46,7 +46,7 @@ def quality(
         with progress_bar(f"quality {printable(ds.label)}", "episodes") as bar:
             advance = functools.partial(bar.advance, bar.add_task("", total=int(ds.info.get("total_episodes", 0))))
             q = quality_of(ds, stride, recompute=recompute, progress=advance)
-        print_line(f"quality: {'computed' if q.computed else 'cached'}: {q.path}", err=True)
+        print_line(f"quality: {'computed' if q.computed else 'cached'}: {q.paths.episodes.parent}", err=True)
         for row in q.table.select([*DETAIL, "flagged"]).to_pylist():
             if all_episodes or row["flagged"]:
                 detail.rows.append([ds.label, *(row[c] for c in DETAIL)])

@@ -57,12 +57,12 @@ def matching_episodes(dataset: Path, where: str) -> list[int]:
     # only a predicate naming `quality` pays for it (or meets its columns); every other one runs as before
     source = f"{_VIEW} LEFT JOIN (SELECT * EXCLUDE (dataset) FROM quality) quality USING (episode_index)"
     try:
-        register_quality(con, [ds], compute=uses_quality)
+        quality_files = register_quality(con, [ds], compute=uses_quality)
         con.execute(
             f"CREATE VIEW {_VIEW} AS SELECT v.*{cols} FROM episodes v "
             f"JOIN read_parquet({files_sql(ds.episode_files)}) e USING (episode_index)"
         )
-        lock_down(con, view_files([ds]))  # the predicate reads these files and nothing else
+        lock_down(con, [*view_files([ds]), *quality_files])  # the predicate reads these files and nothing else
         try:
             if len(con.extract_statements(f"SELECT 1 WHERE ({where})")) != 1:
                 raise QueryError(f"--where: {where!r} is not one predicate")

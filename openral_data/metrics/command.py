@@ -57,9 +57,10 @@ def stats_tables(opts: StatsOptions) -> list[rep.Table]:
     except duckdb.Error as exc:
         raise QueryError(f"duckdb: {_first_line(exc)}") from None
     try:
-        register_quality(con, datasets, compute=mentions_quality(opts.sql))  # stats alone never computes it
+        # only a query naming quality computes it; the report shows the cached counts
+        quality_files = register_quality(con, datasets, compute=mentions_quality(opts.sql))
         if opts.sql is not None:  # the user's query may read the views' files, nothing else (docs/threat-model.md)
-            lock_down(con, view_files(datasets, results))
+            lock_down(con, [*view_files(datasets, results), *quality_files])
             return [rep.run_sql(con, opts.sql)]
         report = rep.build_report(
             con,

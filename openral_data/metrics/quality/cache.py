@@ -6,10 +6,12 @@ episodes and data parquet files, the mp4s); the camera stride is kept beside it.
 one of those, and the table is computed again; an unchanged dataset is never read twice. Stat rather than
 content hashes: hashing would read every byte of every video to decide whether to read them.
 
-Where: `DATASET/.openral/quality.parquet` when the dataset has our `.openral/` folder and it is writable; else
-(a lerobot-written dataset, a read-only folder, the Hub cache) `$XDG_CACHE_HOME/openral-data/quality/<sha256 of
-the dataset's resolved path>.parquet` (`~/.cache` without XDG_CACHE_HOME): we never add files to a dataset we
-did not write. Writes are atomic (`formats.atomic.write_with`).
+Three files: the episodes' table (`quality.parquet`), the frames' (`quality_frames.parquet`) and the sampled
+camera frames' (`quality_camera_frames.parquet`), all three with the key. Where: in `DATASET/.openral/` when the
+dataset has our `.openral/` folder and it is writable; else (a lerobot-written dataset, a read-only folder, the
+Hub cache) in `$XDG_CACHE_HOME/openral-data/quality/<sha256 of the dataset's resolved path>/` (`~/.cache`
+without XDG_CACHE_HOME): we never add files to a dataset we did not write. The three are staged and renamed into
+place together (`formats.atomic.Batch`), the episodes' table last: it is what says the others are current.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+from dataclasses import dataclass
 from pathlib import Path
 
 import pyarrow as pa
@@ -31,7 +34,18 @@ from openral_data.metrics.quality.thresholds import Thresholds
 VERSION = 1  # of the measures: a change to how they are computed bumps it, so older tables are recomputed
 KEY = b"openral.quality.key"
 STRIDE = b"openral.quality.stride"
-CACHE_NAME = "quality.parquet"
+
+
+@dataclass(frozen=True)
+class CachePaths:
+    episodes: Path
+    frames: Path
+    camera_frames: Path
+
+    @staticmethod
+    def inside(folder: Path) -> CachePaths:
+        names = ("quality.parquet", "quality_frames.parquet", "quality_camera_frames.parquet")
+        return CachePaths(*(folder / n for n in names))
 
 
 def fingerprint(root: Path, th: Thresholds) -> str:
@@ -48,13 +62,22 @@ def user_cache_dir() -> Path:
     return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "openral-data" / "quality"
 
 
-def cache_path(root: Path) -> Path:
-    """Where `root`'s table is kept (the module docstring says why there)."""
+def cache_paths(root: Path) -> CachePaths:
+    """Where `root`'s tables are kept (the module docstring says why there)."""
     ours = root / ".openral"
     if ours.is_dir() and not ours.is_symlink() and os.access(ours, os.W_OK):
-        return atomic.state_dir(root) / CACHE_NAME
-    name = hashlib.sha256(str(root.resolve()).encode()).hexdigest()[:32]
-    return user_cache_dir() / f"{name}.parquet"
+        return CachePaths.inside(atomic.state_dir(root))
+    return CachePaths.inside(user_cache_dir() / hashlib.sha256(str(root.resolve()).encode()).hexdigest()[:32])
+
+
+def metadata(key: str, stride: int) -> dict[bytes, bytes]:
+    return {KEY: key.encode(), STRIDE: str(stride).encode()}
+
+
+def current(schema: pa.Schema, key: str, stride: int | None) -> bool:
+    """Whether a cached table's `schema` says it was computed under `key` (and at `stride`, when given)."""
+    meta = schema.metadata or {}
+    return meta.get(KEY) == key.encode() and (stride is None or meta.get(STRIDE) == str(stride).encode())
 
 
 def load(path: Path, key: str, stride: int | None = None) -> pa.Table | None:
@@ -66,15 +89,8 @@ def load(path: Path, key: str, stride: int | None = None) -> pa.Table | None:
         table = read_table(path)
     except DatasetError:
         return None
-    meta = table.schema.metadata or {}
-    if meta.get(KEY) != key.encode() or not table.schema.equals(SCHEMA):
-        return None
-    if stride is not None and meta.get(STRIDE) != str(stride).encode():
-        return None
-    return table
+    return table if current(table.schema, key, stride) and table.schema.equals(SCHEMA) else None
 
 
-def store(path: Path, table: pa.Table, key: str, stride: int) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    meta = {KEY: key.encode(), STRIDE: str(stride).encode()}
-    atomic.write_with(path, atomic.parquet_writer(table.replace_schema_metadata(meta)))
+def stored_stride(table: pa.Table) -> int:
+    return int((table.schema.metadata or {}).get(STRIDE, b"0"))

@@ -15,13 +15,30 @@ _LUMA = np.array([0.299, 0.587, 0.114], dtype=np.float32)
 
 
 @dataclass(frozen=True)
+class Sample:
+    """One measured frame: its mean luma (0-255), mean absolute luma change since the previous sample (None for
+    the first), variance of its Laplacian, and the faults these make."""
+
+    frame_index: int
+    luma: float
+    change: float | None
+    sharpness: float
+    black: bool
+    saturated: bool
+    frozen: bool
+    blurred: bool
+
+
+@dataclass(frozen=True)
 class CameraQuality:
-    samples: int
-    black: float  # shares of the sampled frames
-    saturated: float
-    frozen: float
-    blurred: float
-    first_black: int | None  # frame index of the first black sample
+    samples: list[Sample]
+
+    def share(self, fault: str) -> float:
+        """The share of the samples with `fault` (black, saturated, frozen, blurred); 0.0 without samples."""
+        return sum(getattr(s, fault) for s in self.samples) / len(self.samples) if self.samples else 0.0
+
+    def first(self, fault: str) -> int | None:
+        return next((s.frame_index for s in self.samples if getattr(s, fault)), None)
 
 
 def luma(rgb: npt.NDArray[np.uint8]) -> npt.NDArray[np.float32]:
@@ -37,24 +54,19 @@ def laplacian_var(gray: npt.NDArray[np.float32]) -> float:
 
 
 def camera_quality(frames: Iterable[npt.NDArray[np.uint8]], stride: int, th: Thresholds) -> CameraQuality:
-    """The measures over frames 0, stride, 2*stride, ... of `frames` (an episode's decoded RGB frames)."""
-    samples = black = saturated = frozen = blurred = 0
-    first_black: int | None = None
+    """The measures over frames 0, stride, 2*stride, ... of `frames` (an episode's decoded RGB frames). A black
+    or saturated frame says so already: it is neither frozen nor blurred."""
+    samples: list[Sample] = []
     prev: npt.NDArray[np.float32] | None = None
     for t, rgb in enumerate(frames):
         if t % stride:
             continue
         gray = luma(rgb)
-        mean = float(gray.mean())
-        samples += 1
+        mean, sharpness = float(gray.mean()), laplacian_var(gray)
+        change = None if prev is None else float(np.abs(gray - prev).mean())
         dark, bright = mean < th.black_luma, mean > th.saturated_luma
-        black += dark
-        saturated += bright
-        if dark and first_black is None:
-            first_black = t
-        if not (dark or bright):  # a black or white frame says so already; it is neither frozen nor blurred
-            frozen += prev is not None and float(np.abs(gray - prev).mean()) < th.frozen_diff
-            blurred += laplacian_var(gray) < th.blur_var
+        lit = not (dark or bright)
+        frozen = lit and change is not None and change < th.frozen_diff
+        samples.append(Sample(t, mean, change, sharpness, dark, bright, frozen, lit and sharpness < th.blur_var))
         prev = gray
-    share = (lambda k: k / samples) if samples else (lambda k: 0.0)
-    return CameraQuality(samples, share(black), share(saturated), share(frozen), share(blurred), first_black)
+    return CameraQuality(samples)

@@ -2,7 +2,7 @@
 observed range, then the measures episode by episode), each camera decoded episode by episode with PyAV.
 
 Memory is bounded by one data file's episode_index/frame_index/timestamp/state/action columns and one decoded
-frame per camera, whatever the dataset's size.
+frame per camera, whatever the dataset's size: per-frame rows go to `Sink`s as they are made.
 """
 
 from __future__ import annotations
@@ -12,7 +12,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import numpy.typing as npt
 import pyarrow as pa
 import pyarrow.compute as pc
 
@@ -21,15 +20,15 @@ from openral_data.formats.lerobot_v3.features import ACTION, STATE
 from openral_data.formats.lerobot_v3.frames import decode_episode_video, depth_settings
 from openral_data.formats.lerobot_v3.reader import read_episodes
 from openral_data.formats.parquetfile import read_table
-from openral_data.metrics.quality import dims, motion, timing
 from openral_data.metrics.quality.camera import camera_quality
-from openral_data.metrics.quality.table import CAMERA_MEASURES, finish
+from openral_data.metrics.quality.episode import Array, Ranges, episode_motion
+from openral_data.metrics.quality.table import CAMERA_MEASURES, FRAME_SCHEMA, SAMPLE_SCHEMA
 from openral_data.metrics.quality.thresholds import Thresholds
 from openral_data.metrics.sources import DatasetSource
 
-Array = npt.NDArray[np.float64]
-Ranges = dict[str, tuple[Array, Array]]
 Progress = Callable[[int], None]
+Sink = Callable[[pa.Table], None]
+Rows = dict[int, dict[str, Any]]
 
 
 def vectors(table: pa.Table, key: str, path: Path) -> Array:
@@ -60,67 +59,42 @@ def observed_ranges(ds: DatasetSource) -> Ranges:
     return {k: (np.nan_to_num(lo), np.nan_to_num(hi)) for k, (lo, hi) in out.items()}
 
 
-def episode_motion(
-    ds: DatasetSource, arrays: dict[str, Array], timestamps: Array, ranges: Ranges, th: Thresholds
-) -> dict[str, Any]:
-    """The state/action/timestamp measures of one episode (`arrays`: its state and action, frames in order)."""
-    n, fps = len(timestamps), ds.fps
-    z = {k: motion.normalised(x, *ranges[k]) for k, x in arrays.items() if k in ranges}
-    speed = {k: motion.speeds(v, fps) for k, v in z.items()}
-    idle = motion.idle_frames(speed.get(STATE), speed.get(ACTION), n, th.idle_speed)
-    head, tail = motion.run_lengths(idle)
-    frozen: list[dims.Frozen] = []
-    clip: dict[str, float | None] = {}
-    grippers: list[tuple[Array, float, float]] = []
-    arm: dict[str, Array] = {}  # the trajectory without gripper dimensions (open/close steps are no jerk)
-    for key, x in arrays.items():
-        if key not in ranges:
-            continue
-        lo, hi = ranges[key]
-        names = ds.dim_names(key)
-        grip = dims.gripper_dims(names)
-        varies = (hi > lo) & ~np.isin(np.arange(len(names)), grip)  # a gripper holds still on purpose
-        frozen += dims.frozen_dims(key, x, names, varies, th.frozen_min_frames, th.frozen_min_share)
-        clip[key] = dims.clip_fraction(x, lo, hi, set(grip), th.clip_plateau)
-        arm[key] = motion.normalised(x[:, varies], lo[varies], hi[varies])
-        if key == ACTION or not dims.gripper_dims(ds.dim_names(ACTION)):
-            grippers += [(x[:, g], float(lo[g]), float(hi[g])) for g in grip]
-    toggles = max((dims.toggles(*g) for g in grippers), default=None)
-    steps = timing.timestamp_steps(timestamps, fps)
-    trajectory = arm.get(ACTION, arm.get(STATE))
-    return {
-        "idle_fraction": float(idle.mean()) if n else 0.0,
-        "idle_head": head,
-        "idle_tail": tail,
-        "frozen_dims": [f.__dict__ for f in frozen],
-        "ldlj": motion.windowed_ldlj(trajectory, fps, th.jerk_window_s) if trajectory is not None else None,
-        "gripper_toggles": toggles,
-        "gripper_toggles_per_s": None if toggles is None or not n else toggles * fps / n,
-        "action_clip_fraction": clip.get(ACTION),
-        "state_clip_fraction": clip.get(STATE),
-        "timestamp_jitter": timing.jitter(steps, th.gap_frames),
-        "timestamp_gaps": timing.gaps(steps, th.gap_frames),
-    }
-
-
-def file_episodes(ds: DatasetSource, path: Path, ranges: Ranges, th: Thresholds) -> dict[int, dict[str, Any]]:
-    """The motion measures of every episode in data file `path`."""
+def file_episodes(ds: DatasetSource, path: Path, ranges: Ranges, th: Thresholds, frames: Sink) -> Rows:
+    """The motion measures of every episode in data file `path`; its per-frame rows go to `frames`."""
     keys = [k for k in (STATE, ACTION) if k in ds.data_columns]
     table = read_table(path, columns=["episode_index", "frame_index", "timestamp", *keys])
     try:
         table = table.sort_by([("episode_index", "ascending"), ("frame_index", "ascending")])
     except (KeyError, pa.ArrowException) as exc:
         raise DatasetError(f"{path}: episode_index/frame_index: {exc}", code="dataset.invalid") from None
-    episodes = table.column("episode_index").to_numpy(zero_copy_only=False)
+    episodes = table.column("episode_index").to_numpy(zero_copy_only=False).astype(np.int64)
     stamps = table.column("timestamp").to_numpy(zero_copy_only=False).astype(np.float64)
     arrays = {k: vectors(table, k, path) for k in keys}
-    out: dict[int, dict[str, Any]] = {}
+    out: Rows = {}
+    n = len(episodes)
+    speeds = {STATE: np.full(n, np.nan), ACTION: np.full(n, np.nan)}
+    idle = np.zeros(n, dtype=bool)
     bounds = np.flatnonzero(np.diff(episodes)) + 1
-    for a, b in zip(np.concatenate([[0], bounds]), np.concatenate([bounds, [len(episodes)]]), strict=True):
+    for a, b in zip(np.concatenate([[0], bounds]), np.concatenate([bounds, [n]]), strict=True):
         if b > a:
             part = {k: x[a:b] for k, x in arrays.items()}
-            out[int(episodes[a])] = episode_motion(ds, part, stamps[a:b], ranges, th)
+            out[int(episodes[a])], per_frame = episode_motion(ds, part, stamps[a:b], ranges, th)
+            for key, s in ((STATE, per_frame.state_speed), (ACTION, per_frame.action_speed)):
+                if s is not None:
+                    speeds[key][a:b] = s
+            idle[a:b] = per_frame.idle
+    frame_index = table.column("frame_index").to_numpy(zero_copy_only=False).astype(np.int64)
+    columns = [episodes, frame_index, *(pa.array(speeds[k], from_pandas=True) for k in (STATE, ACTION)), idle]
+    frames(pa.Table.from_arrays(columns, schema=FRAME_SCHEMA))
     return out
+
+
+def motion_pass(ds: DatasetSource, th: Thresholds, frames: Sink) -> Rows:
+    ranges = observed_ranges(ds)
+    rows: Rows = {}
+    for path in ds.data_files:
+        rows.update(file_episodes(ds, path, ranges, th, frames))
+    return rows
 
 
 def rgb_cameras(ds: DatasetSource) -> list[str]:
@@ -128,41 +102,43 @@ def rgb_cameras(ds: DatasetSource) -> list[str]:
     return [k for k in ds.cameras if depth_settings(ds.info, k) is None]
 
 
-def episode_cameras(ds: DatasetSource, row: dict[str, Any], stride: int, th: Thresholds) -> dict[str, Any]:
-    """The camera measures of episode `row` (meta/episodes), the worst camera's share of each, and which
-    cameras raise which flag."""
+def episode_cameras(
+    ds: DatasetSource, row: dict[str, Any], stride: int, th: Thresholds, samples: Sink
+) -> dict[str, Any]:
+    """The camera measures of episode `row` (meta/episodes): the worst camera's share of each fault, the first
+    black frame, and which cameras raise which flag; the measured frames go to `samples`."""
     worst = dict.fromkeys(CAMERA_MEASURES, 0.0)
     raised: list[str] = []
-    first_black: int | None = None
+    firsts: list[int] = []
     for key in rgb_cameras(ds):
         q = camera_quality(decode_episode_video(ds.root, ds.info, row, key), stride, th)
         for measure in CAMERA_MEASURES:
-            share = getattr(q, measure)
-            worst[measure] = max(worst[measure], share)
-            if share >= th.camera_flag:
+            worst[measure] = max(worst[measure], q.share(measure))
+            if q.share(measure) >= th.camera_flag:
                 raised.append(f"{key}:{measure}")
-        if q.first_black is not None:
-            first_black = q.first_black if first_black is None else min(first_black, q.first_black)
+        if (first := q.first("black")) is not None:
+            firsts.append(first)
+        records = [{"episode_index": int(row["episode_index"]), "camera": key, **s.__dict__} for s in q.samples]
+        samples(pa.Table.from_pylist(records, schema=SAMPLE_SCHEMA))
     return {
         **{f"camera_{m}_fraction": v for m, v in worst.items()},
-        "camera_first_black": first_black,
+        "camera_first_black": min(firsts, default=None),
         "camera_flags": raised,
     }
 
 
-def dataset_quality(ds: DatasetSource, stride: int, th: Thresholds, progress: Progress | None = None) -> pa.Table:
-    """One row per episode of `ds` (table.SCHEMA), in episode order."""
-    ranges = observed_ranges(ds)
-    rows: dict[int, dict[str, Any]] = {}
-    for path in ds.data_files:
-        rows.update(file_episodes(ds, path, ranges, th))
+def camera_pass(
+    ds: DatasetSource, rows: Rows, stride: int, th: Thresholds, samples: Sink, progress: Progress | None
+) -> bool:
+    """Add the camera measures to `rows` (every episode meta/episodes lists must have frames); whether the
+    dataset has colour cameras."""
     cameras = bool(rgb_cameras(ds))
     for row in read_episodes(ds.root).to_pylist():
         e = int(row["episode_index"])
         if e not in rows:
             raise DatasetError(f"{ds.root}: episode {e}: no frames in data/", code="dataset.invalid")
         if cameras and int(row["length"]):
-            rows[e].update(episode_cameras(ds, row, stride, th))
+            rows[e].update(episode_cameras(ds, row, stride, th, samples))
         if progress is not None:
             progress(1)
-    return finish(rows, th, stride, has_cameras=cameras)
+    return cameras

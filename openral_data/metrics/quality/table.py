@@ -1,5 +1,5 @@
-"""The quality table: one row per episode, its measures, one boolean flag per fault, and `flags` naming those
-raised (docs/stats.md, "Quality")."""
+"""The quality tables: one row per episode (its measures, one boolean flag per fault, and `flags` naming those
+raised), one per frame (speeds, idle) and one per sampled camera frame (docs/stats.md, "Quality")."""
 
 from __future__ import annotations
 
@@ -31,6 +31,26 @@ MEASURES = pa.schema(
         ("camera_first_black", pa.int64()),
         ("camera_flags", pa.list_(pa.string())),
         ("camera_stride", pa.int64()),
+    ]
+)
+FRAME_SCHEMA = pa.schema(
+    [
+        ("episode_index", pa.int64()),
+        ("frame_index", pa.int64()),
+        ("state_speed", pa.float64()),
+        ("action_speed", pa.float64()),
+        ("idle", pa.bool_()),
+    ]
+)
+SAMPLE_SCHEMA = pa.schema(
+    [
+        ("episode_index", pa.int64()),
+        ("frame_index", pa.int64()),
+        ("camera", pa.string()),
+        ("luma", pa.float64()),
+        ("change", pa.float64()),
+        ("sharpness", pa.float64()),
+        *((m, pa.bool_()) for m in CAMERA_MEASURES),
     ]
 )
 FLAGS = (
