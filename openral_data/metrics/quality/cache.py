@@ -50,9 +50,13 @@ class CachePaths:
 
 def fingerprint(root: Path, th: Thresholds) -> str:
     files = sorted({p for pattern in (*digests.PATTERNS, *digests.SINGLE) for p in root.glob(pattern)})
-    stats = []
+    stats: list[list[object]] = []
     for path in files:
-        st = path.stat()
+        try:
+            st = path.stat()
+        except OSError as exc:  # a dangling or looping symlink: its readers report it; here it is just a state
+            stats.append([str(path.relative_to(root)), exc.errno])
+            continue
         stats.append([str(path.relative_to(root)), st.st_size, st.st_mtime_ns, st.st_ino])
     text = json.dumps({"version": VERSION, "thresholds": th.as_json(), "files": stats})
     return hashlib.sha256(text.encode()).hexdigest()
