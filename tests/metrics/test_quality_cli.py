@@ -157,3 +157,21 @@ def test_read_only_dataset_cached_in_the_user_cache(tmp_path: Path) -> None:
         assert "quality: cached:" in run_inproc("quality", str(ro)).stderr
     assert not (root / ".openral" / "quality.parquet").exists()
     assert any((tmp_path / "xdg" / "openral-data" / "quality").glob("*/quality.parquet"))
+
+
+def test_a_damaged_dataset_is_one_error_line_and_nothing_cached(tmp_path: Path) -> None:
+    root = _dataset(tmp_path / "ds")
+    video = sorted(root.glob("videos/*/*/*.mp4"))[0]
+    video.write_bytes(video.read_bytes()[:3000])
+    run = run_inproc("quality", str(root))
+    lines = [ln for ln in run.stderr.splitlines() if ln.strip()]
+    assert run.returncode == 2 and len(lines) == 1 and lines[0].startswith(f"error: {video}: cannot decode video")
+    assert sorted(p.name for p in (root / ".openral").iterdir() if "quality" in p.name) == []
+
+
+def test_stats_sql_without_quality_computes_nothing(tmp_path: Path) -> None:
+    root = _dataset(tmp_path / "ds")
+    _ok("stats", str(root), "--sql", "SELECT count(*) FROM episodes")
+    assert not (root / ".openral" / "quality.parquet").exists()
+    rows = json.loads(_ok("stats", str(root), "--sql", "SELECT count(*) AS n FROM quality", "--format", "json"))
+    assert rows["sql"] == [{"n": 3}]  # naming it computes it
