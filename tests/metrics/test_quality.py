@@ -151,7 +151,7 @@ def test_a_moving_clean_episode_raises_no_flag(n: int, fps: int, period_s: float
     ranges = {k: (x.min(axis=0), x.max(axis=0)) for k, x in arrays.items()}
     ds = _FakeSource(fps)
     row, _ = episode_motion(ds, arrays, np.arange(n) / fps, ranges, DEFAULT)  # type: ignore[arg-type]
-    cam = camera_quality(iter(ep.images), 1, DEFAULT)
+    cam = camera_quality(iter(ep.images), 1, DEFAULT)  # stride 1: every frame is a sample
     row |= {f"camera_{m}_fraction": cam.share(m) for m in ("black", "saturated", "frozen", "blurred")}
     flags = raised(row, DEFAULT)
     assert set(flags) == set(FLAGS) and not any(flags.values()), (row, flags)

@@ -53,14 +53,13 @@ def laplacian_var(gray: npt.NDArray[np.float32]) -> float:
     return float(lap.var())
 
 
-def camera_quality(frames: Iterable[npt.NDArray[np.uint8]], stride: int, th: Thresholds) -> CameraQuality:
-    """The measures over frames 0, stride, 2*stride, ... of `frames` (an episode's decoded RGB frames). A black
-    or saturated frame says so already: it is neither frozen nor blurred."""
+def camera_quality(samples_in: Iterable[npt.NDArray[np.uint8]], stride: int, th: Thresholds) -> CameraQuality:
+    """The measures of an episode's sampled RGB frames, frames 0, stride, 2*stride, ... (`samples_in` holds only
+    those). A black or saturated frame says so already: it is neither frozen nor blurred."""
     samples: list[Sample] = []
     prev: npt.NDArray[np.float32] | None = None
-    for t, rgb in enumerate(frames):
-        if t % stride:
-            continue
+    for k, rgb in enumerate(samples_in):
+        t = k * stride
         gray = luma(rgb)
         mean, sharpness = float(gray.mean()), laplacian_var(gray)
         change = None if prev is None else float(np.abs(gray - prev).mean())

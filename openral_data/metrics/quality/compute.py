@@ -111,7 +111,7 @@ def episode_cameras(
     raised: list[str] = []
     firsts: list[int] = []
     for key in rgb_cameras(ds):
-        q = camera_quality(decode_episode_video(ds.root, ds.info, row, key), stride, th)
+        q = camera_quality(decode_episode_video(ds.root, ds.info, row, key, stride), stride, th)
         for measure in CAMERA_MEASURES:
             worst[measure] = max(worst[measure], q.share(measure))
             if q.share(measure) >= th.camera_flag:
