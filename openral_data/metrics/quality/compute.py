@@ -8,6 +8,7 @@ frame per camera, whatever the dataset's size: per-frame rows go to `Sink`s as t
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -118,7 +119,7 @@ def episode_cameras(
                 raised.append(f"{key}:{measure}")
         if (first := q.first("black")) is not None:
             firsts.append(first)
-        records = [{"episode_index": int(row["episode_index"]), "camera": key, **s.__dict__} for s in q.samples]
+        records = [{"episode_index": int(row["episode_index"]), "camera": key, **asdict(s)} for s in q.samples]
         samples(pa.Table.from_pylist(records, schema=SAMPLE_SCHEMA))
     return {
         **{f"camera_{m}_fraction": v for m, v in worst.items()},

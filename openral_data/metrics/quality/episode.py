@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
@@ -56,7 +56,7 @@ def episode_motion(
         "idle_fraction": float(idle.mean()) if n else 0.0,
         "idle_head": head,
         "idle_tail": tail,
-        "frozen_dims": [f.__dict__ for f in frozen],
+        "frozen_dims": [asdict(f) for f in frozen],
         "ldlj": motion.windowed_ldlj(trajectory, fps, th.jerk_window_s) if trajectory is not None else None,
         "gripper_toggles": toggles,
         "gripper_toggles_per_s": None if toggles is None or not n else toggles * fps / n,
