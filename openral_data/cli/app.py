@@ -9,7 +9,7 @@ from typing import Annotated, Any, cast
 
 import typer
 
-from openral_data.cli import browse, convert, hub, inspect, record, replay, stats, upgrade
+from openral_data.cli import browse, convert, hub, inspect, quality, record, replay, stats, upgrade
 from openral_data.cli.download import dataset_download
 from openral_data.cli.edit import episodes_app
 from openral_data.cli.features import features_app
@@ -86,6 +86,7 @@ app.command()(upgrade.upgrade)
 app.command()(inspect.info)
 app.command("list")(inspect.list_cmd)
 app.add_typer(stats.stats_app, name="stats")
+app.command()(quality.quality)
 app.command()(inspect.view)
 app.command()(replay.replay)
 app.command()(inspect.doctor)

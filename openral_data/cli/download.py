@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from openral_data.cli import browse, convert, edit, features, replay, stats, tasks, terminal, upgrade, videos
+from openral_data.cli import browse, convert, edit, features, quality, replay, stats, tasks, terminal, upgrade, videos
 from openral_data.cli import inspect as look
 from openral_data.cli.legacy import read_as_v3
 from openral_data.errors import UsageError
@@ -51,6 +51,7 @@ Include = Annotated[
 TAKES: dict[Callable[..., Any], tuple[str, bool]] = {
     look.info: ("dataset", False),
     stats.stats: ("paths", False),
+    quality.quality: ("paths", True),
     tasks.list_cmd: ("dataset", False),
     look.view: ("path", True),
     browse.browse: ("paths", True),

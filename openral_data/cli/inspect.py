@@ -15,7 +15,7 @@ from rich.table import Table
 from openral_data import paths
 from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import console, print_line, print_rows
-from openral_data.errors import UsageError
+from openral_data.errors import OpenralError, UsageError
 from openral_data.formats.repo_id import resolve_dataset
 
 if TYPE_CHECKING:
@@ -56,8 +56,24 @@ def info(dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset fold
             ("success rate", _success_cell(s)),
             *([("format", f"LeRobot {s.codebase_version} (read in place)")] if s.codebase_version in legacy else []),
             *([("missing", line.removeprefix("missing: "))] if s.missing and (line := s.missing.line()) else []),
+            ("quality", _quality_cell(dataset)),
         ],
     )
+
+
+def _quality_cell(dataset: Path) -> str:
+    """`2 of 8 episodes flagged (idle 1, camera_black 1)` from the cached quality table, else how to get one."""
+    from openral_data.metrics.quality import flag_counts
+    from openral_data.metrics.sources import open_dataset
+
+    try:
+        counts = flag_counts(open_dataset(dataset))
+    except OpenralError:
+        counts = None
+    if counts is None:
+        return "not computed (openral-data quality DATASET)"
+    raised = ", ".join(f"{k} {v}" for k, v in counts.items() if v and k not in ("episodes", "flagged"))
+    return f"{counts['flagged']} of {counts['episodes']} episodes flagged" + (f" ({raised})" if raised else "")
 
 
 def _success_cell(s: DatasetSummary) -> str:

@@ -6,6 +6,8 @@ Both choose episodes, then write them through `ops` (atomic, lock-aware, re-inde
 duration_s, tasks, task, success, seed, scene, rskill, robot, …) plus every `openral.*` column of the dataset's
 episodes metadata not already there (quote it: `"openral.success"`). Episodes for which it is false or NULL are
 dropped (an unknown `success` is NULL: `success` keeps only known successes, `success IS NOT TRUE` the rest).
+A predicate naming `quality` may use the episode's quality measures and flags (`quality.idle_fraction < 0.5`,
+`NOT quality.flagged`; metrics/quality): the table is computed first unless it is cached and current.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from openral_data.edit.ops import EditResult, check_edit_output, write_edit, wri
 from openral_data.edit.source import SourceDataset
 from openral_data.errors import EpisodeSelectionError, UsageError
 from openral_data.formats.staging import check_new_output
+from openral_data.metrics.quality import mentions_quality
 from openral_data.metrics.sources import open_dataset
 from openral_data.metrics.where import where_connection, where_query
 from openral_data.paths import safe_name
@@ -44,7 +47,7 @@ def matching_episodes(dataset: Path, where: str) -> list[int]:
     """The episode indices of `dataset` for which `where` is true, ascending."""
     if not where.strip():
         raise UsageError("--where: empty predicate")
-    con = where_connection(open_dataset(dataset))
+    con = where_connection(open_dataset(dataset), compute_quality=mentions_quality(where))
     try:
         rows = where_query(con, "episode_index", where, "ORDER BY episode_index")
     finally:

@@ -11,6 +11,7 @@ import duckdb
 from openral_data.errors import QueryError, UsageError
 from openral_data.metrics import report as rep
 from openral_data.metrics.plot import check_plot_path, save_plot
+from openral_data.metrics.quality import counts_table, mentions_quality, register_quality
 from openral_data.metrics.render import FORMATS, render
 from openral_data.metrics.sources import resolve
 from openral_data.metrics.views import DEFAULT_MEMORY_LIMIT, connect, lock_down, view_files
@@ -56,8 +57,10 @@ def stats_tables(opts: StatsOptions) -> list[rep.Table]:
     except duckdb.Error as exc:
         raise QueryError(f"duckdb: {_first_line(exc)}") from None
     try:
+        # only a query naming quality computes it; the report shows the cached counts
+        quality_files = register_quality(con, datasets, compute=mentions_quality(opts.sql))
         if opts.sql is not None:  # the user's query may read the views' files, nothing else (docs/threat-model.md)
-            lock_down(con, view_files(datasets, results))
+            lock_down(con, [*view_files(datasets, results), *quality_files])
             return [rep.run_sql(con, opts.sql)]
         report = rep.build_report(
             con,
@@ -72,7 +75,7 @@ def stats_tables(opts: StatsOptions) -> list[rep.Table]:
             if not datasets:
                 raise UsageError("--plot needs at least one dataset")
             save_plot(opts.plot, report, con, datasets)
-        return list(report.tables)
+        return [*report.tables, counts_table(datasets)] if datasets else list(report.tables)
     except duckdb.Error as exc:  # e.g. a truncated or corrupt parquet file: DuckDB's message names it
         raise QueryError(f"duckdb: {_first_line(exc)}") from None
     finally:

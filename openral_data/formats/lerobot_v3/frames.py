@@ -114,26 +114,29 @@ def depth_settings(info: dict[str, Any], key: str) -> DepthSettings | None:
 
 
 def _decode_video(
-    src: Path, info: dict[str, Any], row: dict[str, Any], key: str, n: int, fps: int
+    src: Path, info: dict[str, Any], row: dict[str, Any], key: str, n: int, fps: int, stride: int = 1
 ) -> Iterator[npt.NDArray[Any]]:
-    """The episode's `n` frames of `key`, decoded from its mp4 starting at `from_timestamp`."""
+    """The episode's `n` frames of `key` (every `stride`-th), decoded from its mp4 starting at `from_timestamp`."""
     pos = layout.FilePos(row[f"videos/{key}/chunk_index"], row[f"videos/{key}/file_index"])
     path = layout.template_path(src, info, "video_path", pos, video_key=key)
     start, _ = video_span(path, row, key, n, fps)
     try:
-        yield from _decode(path, start, n, fps, depth_settings(info, key))
+        yield from _decode(path, start, n, fps, depth_settings(info, key), stride)
     except (av.error.FFmpegError, OSError) as exc:  # missing, empty, truncated or not a video
         reason = getattr(exc, "strerror", None) or type(exc).__name__
         raise DatasetError(f"{path}: cannot decode video: {reason}", code="dataset.invalid") from None
 
 
-def decode_episode_video(src: Path, info: dict[str, Any], row: dict[str, Any], key: str) -> Iterator[npt.NDArray[Any]]:
-    """The frames of video feature `key` in the episode of meta/episodes `row` (RGB, or depth in mm)."""
-    yield from _decode_video(src, info, row, key, int(row["length"]), int(info["fps"]))
+def decode_episode_video(
+    src: Path, info: dict[str, Any], row: dict[str, Any], key: str, stride: int = 1
+) -> Iterator[npt.NDArray[Any]]:
+    """The frames of video feature `key` in the episode of meta/episodes `row` (RGB, or depth in mm); with
+    `stride` > 1 only frames 0, stride, 2*stride, … (all are decoded, only those converted)."""
+    yield from _decode_video(src, info, row, key, int(row["length"]), int(info["fps"]), stride)
 
 
 def _decode(
-    path: Path, start: float, n: int, fps: int, depth: DepthSettings | None = None
+    path: Path, start: float, n: int, fps: int, depth: DepthSettings | None = None, stride: int = 1
 ) -> Iterator[npt.NDArray[Any]]:
     half = 0.5 / fps
     with av.open(str(regular_file(path))) as container:  # a FIFO would block PyAV for ever
@@ -148,7 +151,9 @@ def _decode(
         for frame in container.decode(stream):
             if frame.pts is None or float(frame.pts * tb) < start - half:
                 continue
-            if depth is not None:
+            if count % stride:
+                pass
+            elif depth is not None:
                 yield depth.to_millimetres(decode_codes(frame))
             else:
                 yield np.asarray(frame.to_ndarray(format="rgb24"), dtype=np.uint8)

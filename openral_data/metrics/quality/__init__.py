@@ -1,0 +1,24 @@
+"""Episode quality: idle time, frozen dimensions, jerk, gripper chatter, clipping, timestamp jitter and gaps, and
+camera faults (black, saturated, frozen, blurred), one row per episode with a flag per fault (docs/stats.md,
+"Quality"): computed streaming (`compute`), cached beside the dataset or in the user's cache (`cache`), seen by
+DuckDB as the `quality` view (`view`)."""
+
+from openral_data.metrics.quality.cached import Quality, cached_quality, quality_of
+from openral_data.metrics.quality.table import FLAGS, SCHEMA
+from openral_data.metrics.quality.thresholds import DEFAULT, DEFAULT_STRIDE, Thresholds
+from openral_data.metrics.quality.view import counts_table, flag_counts, mentions_quality, register_quality
+
+__all__ = [
+    "DEFAULT",
+    "DEFAULT_STRIDE",
+    "FLAGS",
+    "SCHEMA",
+    "Quality",
+    "Thresholds",
+    "cached_quality",
+    "counts_table",
+    "flag_counts",
+    "mentions_quality",
+    "quality_of",
+    "register_quality",
+]

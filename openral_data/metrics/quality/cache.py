@@ -1,0 +1,100 @@
+"""Where a dataset's quality table is kept, and whether it still holds.
+
+The table is cached as parquet with a key in its schema metadata: a sha256 over the thresholds and the (path,
+size, mtime, inode) of every file `formats.lerobot_v3.digests` tracks (info.json, stats.json, tasks, the
+episodes and data parquet files, the mp4s); the camera stride is kept beside it. Any write to the data changes
+one of those, and the table is computed again; an unchanged dataset is never read twice. Stat rather than
+content hashes: hashing would read every byte of every video to decide whether to read them.
+
+Three files: the episodes' table (`quality.parquet`), the frames' (`quality_frames.parquet`) and the sampled
+camera frames' (`quality_camera_frames.parquet`), all three with the key. Where: in `DATASET/.openral/` when the
+dataset has our `.openral/` folder and it is writable; else (a lerobot-written dataset, a read-only folder, the
+Hub cache) in `$XDG_CACHE_HOME/openral-data/quality/<sha256 of the dataset's resolved path>/` (`~/.cache`
+without XDG_CACHE_HOME): we never add files to a dataset we did not write. The three are staged and renamed into
+place together (`formats.atomic.Batch`), the episodes' table last: it is what says the others are current.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import pyarrow as pa
+
+from openral_data.errors import DatasetError
+from openral_data.formats import atomic
+from openral_data.formats.lerobot_v3 import digests
+from openral_data.formats.parquetfile import read_table
+from openral_data.metrics.quality.table import SCHEMA
+from openral_data.metrics.quality.thresholds import Thresholds
+
+VERSION = 1  # of the measures: a change to how they are computed bumps it, so older tables are recomputed
+KEY = b"openral.quality.key"
+STRIDE = b"openral.quality.stride"
+
+
+@dataclass(frozen=True)
+class CachePaths:
+    episodes: Path
+    frames: Path
+    camera_frames: Path
+
+    @staticmethod
+    def inside(folder: Path) -> CachePaths:
+        names = ("quality.parquet", "quality_frames.parquet", "quality_camera_frames.parquet")
+        return CachePaths(*(folder / n for n in names))
+
+
+def fingerprint(root: Path, th: Thresholds) -> str:
+    files = sorted({p for pattern in (*digests.PATTERNS, *digests.SINGLE) for p in root.glob(pattern)})
+    stats: list[list[object]] = []
+    for path in files:
+        try:
+            st = path.stat()
+        except OSError as exc:  # a dangling or looping symlink: its readers report it; here it is just a state
+            stats.append([str(path.relative_to(root)), exc.errno])
+            continue
+        stats.append([str(path.relative_to(root)), st.st_size, st.st_mtime_ns, st.st_ino])
+    text = json.dumps({"version": VERSION, "thresholds": th.as_json(), "files": stats})
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def user_cache_dir() -> Path:
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "openral-data" / "quality"
+
+
+def cache_paths(root: Path) -> CachePaths:
+    """Where `root`'s tables are kept (the module docstring says why there)."""
+    ours = root / ".openral"
+    if ours.is_dir() and not ours.is_symlink() and os.access(ours, os.W_OK):
+        return CachePaths.inside(atomic.state_dir(root))
+    return CachePaths.inside(user_cache_dir() / hashlib.sha256(str(root.resolve()).encode()).hexdigest()[:32])
+
+
+def metadata(key: str, stride: int) -> dict[bytes, bytes]:
+    return {KEY: key.encode(), STRIDE: str(stride).encode()}
+
+
+def current(schema: pa.Schema, key: str, stride: int | None) -> bool:
+    """Whether a cached table's `schema` says it was computed under `key` (and at `stride`, when given)."""
+    meta = schema.metadata or {}
+    return meta.get(KEY) == key.encode() and (stride is None or meta.get(STRIDE) == str(stride).encode())
+
+
+def load(path: Path, key: str, stride: int | None = None) -> pa.Table | None:
+    """The cached table at `path` if it was computed under `key` (and at `stride`, when given); None if absent,
+    stale or unreadable."""
+    if not path.is_file():
+        return None
+    try:
+        table = read_table(path)
+    except DatasetError:
+        return None
+    return table if current(table.schema, key, stride) and table.schema.equals(SCHEMA) else None
+
+
+def stored_stride(table: pa.Table) -> int:
+    return int((table.schema.metadata or {}).get(STRIDE, b"0"))

@@ -1,0 +1,70 @@
+"""A dataset's quality tables, computed once and reused while its data is unchanged (`cache`)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from openral_data.formats import atomic
+from openral_data.metrics.quality import cache
+from openral_data.metrics.quality.compute import Progress, Rows, Sink, camera_pass, motion_pass
+from openral_data.metrics.quality.table import FRAME_SCHEMA, SAMPLE_SCHEMA, finish
+from openral_data.metrics.quality.thresholds import DEFAULT, DEFAULT_STRIDE, Thresholds
+from openral_data.metrics.sources import DatasetSource
+
+
+@dataclass(frozen=True)
+class Quality:
+    table: pa.Table  # one row per episode
+    paths: cache.CachePaths  # where the tables are cached
+    computed: bool  # False: read from the cache
+
+
+def quality_of(
+    ds: DatasetSource,
+    stride: int | None = None,
+    th: Thresholds = DEFAULT,
+    recompute: bool = False,
+    progress: Progress | None = None,
+) -> Quality:
+    """`ds`'s quality table: the cached one when current (and at `stride`, when given), else computed (at
+    `stride`, by default `DEFAULT_STRIDE`) and cached with its per-frame tables."""
+    paths = cache.cache_paths(ds.root)
+    key = cache.fingerprint(ds.root, th)
+    table = None if recompute else cache.load(paths.episodes, key, stride)
+    if table is not None:
+        return Quality(table, paths, computed=False)
+    stride = DEFAULT_STRIDE if stride is None else stride
+    meta = cache.metadata(key, stride)
+    rows: Rows = {}
+    cameras: list[bool] = []
+
+    def streamed(schema: pa.Schema, fill: Callable[[Sink], None]) -> Callable[[Path], None]:
+        def write(tmp: Path) -> None:
+            with pq.ParquetWriter(tmp, schema.with_metadata(meta), compression="snappy", write_page_checksum=True) as w:
+                fill(w.write_table)
+
+        return write
+
+    batch = atomic.Batch()
+    try:
+        batch.write_with(paths.frames, streamed(FRAME_SCHEMA, lambda sink: rows.update(motion_pass(ds, th, sink))))
+        batch.write_with(
+            paths.camera_frames,
+            streamed(SAMPLE_SCHEMA, lambda sink: cameras.append(camera_pass(ds, rows, stride, th, sink, progress))),
+        )
+        table = finish(rows, th, stride, has_cameras=cameras[0]).replace_schema_metadata(meta)
+        batch.write_with(paths.episodes, atomic.parquet_writer(table))  # last: it makes the others count
+        batch.commit()
+    finally:
+        batch.discard()
+    return Quality(table, paths, computed=True)
+
+
+def cached_quality(ds: DatasetSource, th: Thresholds = DEFAULT) -> pa.Table | None:
+    """The cached table if current (at whatever stride it was computed), else None; never computes."""
+    return cache.load(cache.cache_paths(ds.root).episodes, cache.fingerprint(ds.root, th))

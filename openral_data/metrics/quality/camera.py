@@ -1,0 +1,71 @@
+"""Camera faults of one episode: every `stride`-th decoded frame measured for black, saturated, frozen (as the
+previous sample) and blurred (variance of the Laplacian), one frame in memory at a time."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from openral_data.metrics.quality.thresholds import Thresholds
+
+_LUMA = np.array([0.299, 0.587, 0.114], dtype=np.float32)
+
+
+@dataclass(frozen=True)
+class Sample:
+    """One measured frame: its mean luma (0-255), mean absolute luma change since the previous sample (None for
+    the first), variance of its Laplacian, and the faults these make."""
+
+    frame_index: int
+    luma: float
+    change: float | None
+    sharpness: float
+    black: bool
+    saturated: bool
+    frozen: bool
+    blurred: bool
+
+
+@dataclass(frozen=True)
+class CameraQuality:
+    samples: list[Sample]
+
+    def share(self, fault: str) -> float:
+        """The share of the samples with `fault` (black, saturated, frozen, blurred); 0.0 without samples."""
+        return sum(getattr(s, fault) for s in self.samples) / len(self.samples) if self.samples else 0.0
+
+    def first(self, fault: str) -> int | None:
+        return next((s.frame_index for s in self.samples if getattr(s, fault)), None)
+
+
+def luma(rgb: npt.NDArray[np.uint8]) -> npt.NDArray[np.float32]:
+    return np.asarray(rgb[..., :3].astype(np.float32) @ _LUMA, dtype=np.float32)
+
+
+def laplacian_var(gray: npt.NDArray[np.float32]) -> float:
+    """Variance of the 4-neighbour Laplacian over the interior (0.0 for a frame under 3x3)."""
+    if gray.shape[0] < 3 or gray.shape[1] < 3:
+        return 0.0
+    lap = gray[:-2, 1:-1] + gray[2:, 1:-1] + gray[1:-1, :-2] + gray[1:-1, 2:] - 4 * gray[1:-1, 1:-1]
+    return float(lap.var())
+
+
+def camera_quality(samples_in: Iterable[npt.NDArray[np.uint8]], stride: int, th: Thresholds) -> CameraQuality:
+    """The measures of an episode's sampled RGB frames, frames 0, stride, 2*stride, ... (`samples_in` holds only
+    those). A black or saturated frame says so already: it is neither frozen nor blurred."""
+    samples: list[Sample] = []
+    prev: npt.NDArray[np.float32] | None = None
+    for k, rgb in enumerate(samples_in):
+        t = k * stride
+        gray = luma(rgb)
+        mean, sharpness = float(gray.mean()), laplacian_var(gray)
+        change = None if prev is None else float(np.abs(gray - prev).mean())
+        dark, bright = mean < th.black_luma, mean > th.saturated_luma
+        lit = not (dark or bright)
+        frozen = lit and change is not None and change < th.frozen_diff
+        samples.append(Sample(t, mean, change, sharpness, dark, bright, frozen, lit and sharpness < th.blur_var))
+        prev = gray
+    return CameraQuality(samples)

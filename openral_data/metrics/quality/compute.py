@@ -1,0 +1,145 @@
+"""Quality of every episode of one dataset, streamed: data files one at a time (two passes: each dimension's
+observed range, then the measures episode by episode), each camera decoded episode by episode with PyAV.
+
+Memory is bounded by one data file's episode_index/frame_index/timestamp/state/action columns and one decoded
+frame per camera, whatever the dataset's size: per-frame rows go to `Sink`s as they are made.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.compute as pc
+
+from openral_data.errors import DatasetError
+from openral_data.formats.lerobot_v3.features import ACTION, STATE
+from openral_data.formats.lerobot_v3.frames import decode_episode_video, depth_settings
+from openral_data.formats.lerobot_v3.reader import read_episodes
+from openral_data.formats.parquetfile import read_table
+from openral_data.metrics.quality.camera import camera_quality
+from openral_data.metrics.quality.episode import Array, Ranges, episode_motion
+from openral_data.metrics.quality.table import CAMERA_MEASURES, FRAME_SCHEMA, SAMPLE_SCHEMA
+from openral_data.metrics.quality.thresholds import Thresholds
+from openral_data.metrics.sources import DatasetSource
+
+Progress = Callable[[int], None]
+Sink = Callable[[pa.Table], None]
+Rows = dict[int, dict[str, Any]]
+
+
+def vectors(table: pa.Table, key: str, path: Path) -> Array:
+    """A list column as a float64 (rows, dims) array; NaN/Inf kept (the measures skip them)."""
+    col = table.column(key).combine_chunks()
+    n = len(col)
+    flat = pc.list_flatten(col).to_numpy(zero_copy_only=False).astype(np.float64)
+    if n and len(flat) % n:
+        raise DatasetError(f"{path}: {key}: rows of different lengths", code="dataset.invalid")
+    return np.asarray(flat.reshape(n, len(flat) // n if n else 0), dtype=np.float64)
+
+
+def observed_ranges(ds: DatasetSource) -> Ranges:
+    """Each vector's per-dimension finite min and max over the whole dataset (one data file read at a time)."""
+    keys = [k for k in (STATE, ACTION) if k in ds.data_columns]
+    out: Ranges = {}
+    for path in ds.data_files:
+        table = read_table(path, columns=keys)
+        for key in keys:
+            x = vectors(table, key, path)
+            if not len(x):
+                continue
+            finite = np.where(np.isfinite(x), x, np.nan)
+            lo, hi = np.nanmin(finite, axis=0), np.nanmax(finite, axis=0)
+            if key in out:
+                lo, hi = np.fmin(out[key][0], lo), np.fmax(out[key][1], hi)
+            out[key] = (lo, hi)
+    return {k: (np.nan_to_num(lo), np.nan_to_num(hi)) for k, (lo, hi) in out.items()}
+
+
+def file_episodes(ds: DatasetSource, path: Path, ranges: Ranges, th: Thresholds, frames: Sink) -> Rows:
+    """The motion measures of every episode in data file `path`; its per-frame rows go to `frames`."""
+    keys = [k for k in (STATE, ACTION) if k in ds.data_columns]
+    table = read_table(path, columns=["episode_index", "frame_index", "timestamp", *keys])
+    try:
+        table = table.sort_by([("episode_index", "ascending"), ("frame_index", "ascending")])
+    except (KeyError, pa.ArrowException) as exc:
+        raise DatasetError(f"{path}: episode_index/frame_index: {exc}", code="dataset.invalid") from None
+    episodes = table.column("episode_index").to_numpy(zero_copy_only=False).astype(np.int64)
+    stamps = table.column("timestamp").to_numpy(zero_copy_only=False).astype(np.float64)
+    arrays = {k: vectors(table, k, path) for k in keys}
+    out: Rows = {}
+    n = len(episodes)
+    speeds = {STATE: np.full(n, np.nan), ACTION: np.full(n, np.nan)}
+    idle = np.zeros(n, dtype=bool)
+    bounds = np.flatnonzero(np.diff(episodes)) + 1
+    for a, b in zip(np.concatenate([[0], bounds]), np.concatenate([bounds, [n]]), strict=True):
+        if b > a:
+            part = {k: x[a:b] for k, x in arrays.items()}
+            out[int(episodes[a])], per_frame = episode_motion(ds, part, stamps[a:b], ranges, th)
+            for key, s in ((STATE, per_frame.state_speed), (ACTION, per_frame.action_speed)):
+                if s is not None:
+                    speeds[key][a:b] = s
+            idle[a:b] = per_frame.idle
+    frame_index = table.column("frame_index").to_numpy(zero_copy_only=False).astype(np.int64)
+    columns = [episodes, frame_index, *(pa.array(speeds[k], from_pandas=True) for k in (STATE, ACTION)), idle]
+    frames(pa.Table.from_arrays(columns, schema=FRAME_SCHEMA))
+    return out
+
+
+def motion_pass(ds: DatasetSource, th: Thresholds, frames: Sink) -> Rows:
+    ranges = observed_ranges(ds)
+    rows: Rows = {}
+    for path in ds.data_files:
+        rows.update(file_episodes(ds, path, ranges, th, frames))
+    return rows
+
+
+def rgb_cameras(ds: DatasetSource) -> list[str]:
+    """The video features holding colour pictures (a depth map's luma means nothing)."""
+    return [k for k in ds.cameras if depth_settings(ds.info, k) is None]
+
+
+def episode_cameras(
+    ds: DatasetSource, row: dict[str, Any], stride: int, th: Thresholds, samples: Sink
+) -> dict[str, Any]:
+    """The camera measures of episode `row` (meta/episodes): the worst camera's share of each fault, the first
+    black frame, and which cameras raise which flag; the measured frames go to `samples`."""
+    worst = dict.fromkeys(CAMERA_MEASURES, 0.0)
+    raised: list[str] = []
+    firsts: list[int] = []
+    for key in rgb_cameras(ds):
+        q = camera_quality(decode_episode_video(ds.root, ds.info, row, key, stride), stride, th)
+        for measure in CAMERA_MEASURES:
+            worst[measure] = max(worst[measure], q.share(measure))
+            if q.share(measure) >= th.camera_flag:
+                raised.append(f"{key}:{measure}")
+        if (first := q.first("black")) is not None:
+            firsts.append(first)
+        records = [{"episode_index": int(row["episode_index"]), "camera": key, **asdict(s)} for s in q.samples]
+        samples(pa.Table.from_pylist(records, schema=SAMPLE_SCHEMA))
+    return {
+        **{f"camera_{m}_fraction": v for m, v in worst.items()},
+        "camera_first_black": min(firsts, default=None),
+        "camera_flags": raised,
+    }
+
+
+def camera_pass(
+    ds: DatasetSource, rows: Rows, stride: int, th: Thresholds, samples: Sink, progress: Progress | None
+) -> bool:
+    """Add the camera measures to `rows` (every episode meta/episodes lists must have frames); whether the
+    dataset has colour cameras."""
+    cameras = bool(rgb_cameras(ds))
+    for row in read_episodes(ds.root).to_pylist():
+        e = int(row["episode_index"])
+        if e not in rows:
+            raise DatasetError(f"{ds.root}: episode {e}: no frames in data/", code="dataset.invalid")
+        if cameras and int(row["length"]):
+            rows[e].update(episode_cameras(ds, row, stride, th, samples))
+        if progress is not None:
+            progress(1)
+    return cameras

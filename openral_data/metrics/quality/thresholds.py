@@ -1,0 +1,38 @@
+"""The quality measures' thresholds and the camera stride, one place (docs/stats.md, "Quality").
+
+Motion is measured in each dimension's dataset range (its observed max - min over every frame of the dataset),
+so one threshold fits joints in radians, grippers in millimetres and end-effector poses in metres alike.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any
+
+
+@dataclass(frozen=True)
+class Thresholds:
+    idle_speed: float = 0.02  # a frame is idle when state and action move less than this (range / second)
+    idle_flag: float = 0.5  # `idle` when at least this share of the episode's frames is idle
+    frozen_min_frames: int = 10  # a dimension frozen to its end for at least this many frames...
+    frozen_min_share: float = 0.25  # ... and this share of the episode, while another dimension still moves
+    jerk_ldlj: float = -9.0  # `jerky` when the median log dimensionless jerk of 2 s windows is below this
+    jerk_window_s: float = 2.0
+    chatter_hz: float = 1.0  # `chatter` when the gripper toggles at least this often per second...
+    chatter_min_toggles: int = 4  # ... and at least this many times in the episode
+    clip_plateau: int = 3  # a dimension sitting on its observed min/max for this many frames in a row is clipped
+    clip_flag: float = 0.1  # `clipped` when this share of the frames (action or state) is clipped
+    gap_frames: float = 1.5  # a timestamp step longer than this many frame periods (or not forward) is a gap
+    jitter_flag: float = 0.25  # `jitter` when a step (gaps aside) is off 1/fps by more than this many periods
+    black_luma: float = 16.0  # a sampled camera frame is black below this mean luma (0-255)...
+    saturated_luma: float = 240.0  # ... saturated above this one
+    frozen_diff: float = 0.5  # ... frozen when its mean absolute luma difference to the previous sample is below
+    blur_var: float = 10.0  # ... blurred when the variance of its Laplacian is below this
+    camera_flag: float = 0.1  # a camera flag is raised when this share of the sampled frames has the fault
+
+    def as_json(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+DEFAULT = Thresholds()
+DEFAULT_STRIDE = 5  # every 5th frame of each camera is measured (all frames are decoded, codecs need them)
