@@ -12,6 +12,7 @@ from typing import Any
 
 import duckdb
 
+from openral_data.browse._results import ResultSet
 from openral_data.browse._rows import EpisodeRows
 from openral_data.errors import DatasetError, NotFound, QueryError
 from openral_data.formats.lerobot_v3 import layout
@@ -31,12 +32,15 @@ class Catalog:
 
     ds: DatasetSource
     arg: str
+    results: list[ResultSet] = field(default_factory=list)
     con: duckdb.DuckDBPyConnection = field(init=False)
     lock: threading.Lock = field(default_factory=threading.Lock, init=False)
     rows: EpisodeRows = field(default_factory=EpisodeRows, init=False)
 
     def __post_init__(self) -> None:
         self.con = where_connection(self.ds)
+        for r in self.results:  # Arrow tables, not files: the connection stays locked down to the dataset's
+            self.con.register(r.view, r.table)
 
     def close(self) -> None:
         self.con.close()
@@ -48,19 +52,38 @@ class Catalog:
             "fps": self.ds.fps,
             "episodes": int(self.ds.info.get("total_episodes", 0)),
             "cameras": self.ds.cameras,
+            "results": [{"label": r.results.label, "kind": r.results.kind} for r in self.results],
         }
+
+    @property
+    def columns(self) -> list[dict[str, str]]:
+        """The table's columns: the dataset's (`COLUMNS`), then each attached results folder's."""
+        return [{"key": c, "label": c} for c in COLUMNS] + [c for r in self.results for c in r.columns]
+
+    def _select(self) -> str:
+        """The table's SELECT list: a results column is looked up by episode_index in its registered table."""
+        parts = [ident(c) for c in COLUMNS]
+        for r in self.results:
+            for c in r.columns:
+                key = ident(c["key"])
+                parts.append(
+                    f"(SELECT r.{key} FROM {ident(r.view)} r WHERE r.episode_index = {WHERE_VIEW}.episode_index) "
+                    f"AS {key}"
+                )
+        return ", ".join(parts)
 
     def table(self, where: str, sort: str, desc: bool, offset: int, limit: int) -> dict[str, Any]:
         """One page of the episodes for which `where` holds (all when empty), with the filter's counts and
         success rate (Wilson 95 % interval over the episodes whose success is known)."""
-        if sort not in COLUMNS:
-            raise QueryError(f"sort: {sort!r} is not one of {', '.join(COLUMNS)}")
+        keys = [c["key"] for c in self.columns]
+        if sort not in keys:
+            raise QueryError(f"sort: {sort!r} is not one of {', '.join(keys)}")
         predicate = where if where.strip() else "TRUE"
         order = f"ORDER BY {ident(sort)} {'DESC' if desc else 'ASC'} NULLS LAST, episode_index"
         page = f"{order} LIMIT {max(1, min(limit, MAX_LIMIT))} OFFSET {max(0, offset)}"
         with self.lock:
             ((n, known, wins),) = where_query(self.con, "count(*), count(success), count_if(success)", predicate)
-            rows = where_query(self.con, ", ".join(ident(c) for c in COLUMNS), predicate, page)
+            rows = where_query(self.con, self._select(), predicate, page)
         interval = wilson(int(wins), int(known))
         return {
             "total": int(n),
@@ -68,7 +91,8 @@ class Catalog:
             "successes": int(wins),
             "rate": wins / known if known else None,
             "interval": [interval.low, interval.high] if known else None,
-            "rows": [dict(zip(COLUMNS, (_json(v) for v in r), strict=True)) for r in rows],
+            "columns": self.columns,
+            "rows": [dict(zip(keys, (_json(v) for v in r), strict=True)) for r in rows],
         }
 
     def episode(self, index: int) -> dict[str, Any]:
@@ -93,6 +117,7 @@ class Catalog:
             "success": success,
             "seed": seed,
             "cameras": cameras,
+            "results": {k: _json(v) for r in self.results for k, v in r.facts(index).items()},
         }
 
     def series(self, index: int) -> dict[str, Any]:
@@ -103,10 +128,10 @@ class Catalog:
             raise NotFound(f"episode {index}: meta/episodes names no data file")
         path = layout.template_path(self.ds.root, self.ds.info, "data_path", layout.FilePos(chunk, file))
         keys = [*self.ds.vector_features, *([REWARD] if REWARD in self.ds.data_columns else [])]
-        table = self.rows.read(path, index, ["timestamp", *keys])
+        table = self.rows.read(path, index, ["frame_index", "timestamp", *keys])
         rows = list(zip(*(table.column(c).to_pylist() for c in table.column_names), strict=True))
         series = []
-        for k, key in enumerate(keys, start=1):
+        for k, key in enumerate(keys, start=2):
             values = [r[k] for r in rows]
             if key == REWARD:
                 series.append({"feature": key, "name": key, "values": [_json(v) for v in values]})
@@ -114,7 +139,9 @@ class Catalog:
             names = self.ds.dim_names(key)
             for d, name in enumerate(names):
                 series.append({"feature": key, "name": name, "values": [_json(v[d]) if v else None for v in values]})
-        return {"timestamps": [_json(r[0]) for r in rows], "series": series}
+        for r in self.results:
+            series.extend(r.series(index, [row[0] for row in rows]))
+        return {"timestamps": [_json(r[1]) for r in rows], "series": series}
 
     def video(self, index: int, camera: int) -> str:
         """The mp4 holding camera number `camera` of episode `index`: its standard place inside the dataset

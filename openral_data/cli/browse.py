@@ -16,14 +16,17 @@ if TYPE_CHECKING:
 
 
 def browse(
-    paths: Annotated[list[str], typer.Argument(help="datasets (folders or cached Hub repo ids)")],
+    paths: Annotated[
+        list[str], typer.Argument(help="datasets (folders or cached Hub repo ids) and replay/eval results")
+    ],
     host: Annotated[str, typer.Option(help="address to listen on (default: this machine only)")] = "127.0.0.1",
     port: Annotated[int, typer.Option(help="port to listen on; 0 picks a free one")] = 8765,
     open_: Annotated[bool, typer.Option("--open", help="open the page in a web browser")] = False,
 ) -> None:
     """Browse datasets in a web browser: episodes table (sortable, paged, filtered by an `episodes filter --where`
-    predicate, success rate with its 95 % interval), episode pages (videos, state/action plots), and the
-    `episodes delete/split/filter` command for a selection. Read-only; serves until Ctrl-C."""
+    predicate, success rate with its 95 % interval, the columns of replay/eval results given), episode pages
+    (videos, state/action plots, the results' error plots), and the `episodes delete/split/filter` command for a
+    selection. Read-only; serves until Ctrl-C."""
     server = start_browser([str(resolve_dataset(p)) for p in paths], host, port)
     print_line(f"browse: serving {len(server.catalogs)} dataset(s) at {server.url} (Ctrl-C stops)")
     if open_:

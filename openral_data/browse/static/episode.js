@@ -95,6 +95,8 @@ async function main() {
   const success = info.success === null ? "unknown" : String(info.success);
   document.getElementById("facts").textContent =
     `${info.length} frames at ${info.fps} fps; success: ${success}` + (info.seed === null ? "" : `; seed ${info.seed}`);
+  const results = Object.entries(info.results).map(([k, v]) => `${k} ${v === null ? "–" : v}`);
+  document.getElementById("results").textContent = results.join("; ");
   duration = Math.max((info.length - 1) / info.fps, 1e-6);  // frame k is at k / fps: the last at the right edge
   let leader = null;
   for (const cam of info.cameras) {
