@@ -16,6 +16,7 @@ from starlette.responses import FileResponse, JSONResponse, Response
 from starlette.routing import Route
 
 from openral_data.browse._catalog import Catalog
+from openral_data.browse._compare import compare
 from openral_data.errors import NotFound, OpenralError
 
 _TYPES = {".html": "text/html; charset=utf-8", ".js": "text/javascript", ".css": "text/css"}
@@ -40,6 +41,8 @@ def create_app(catalogs: Sequence[Catalog]) -> Starlette:
         Route("/static/{name}", _static),
         Route("/favicon.ico", _no_icon),
         Route("/d/{ds}/", _table_page),
+        Route("/compare", _compare_page),
+        Route("/api/compare", _compare),
         Route("/d/{ds}/episode/{ep:int}", _episode_page),
         Route("/d/{ds}/video/{ep:int}/{cam:int}", _video),
         Route("/api/datasets", _datasets),
@@ -62,15 +65,21 @@ def _asset(request: Request, name: str) -> Response:
     return Response(body, media_type=media, headers={"Content-Security-Policy": _CSP})
 
 
-def _catalog(request: Request) -> Catalog:
+def _catalog(request: Request, number: str | None = None) -> Catalog:
+    """Dataset number `number` (default: the URL's `ds`); 404 for anything else."""
     catalogs: list[Catalog] = request.app.state.catalogs
     try:
-        i = int(request.path_params["ds"])
+        i = int(request.path_params["ds"] if number is None else number)
     except ValueError:
         raise HTTPException(404) from None
     if not 0 <= i < len(catalogs):
         raise HTTPException(404)
     return catalogs[i]
+
+
+def _pair(request: Request) -> tuple[Catalog, Catalog]:
+    """The datasets `?a=I&b=J` name (default 0 and 1)."""
+    return _catalog(request, request.query_params.get("a", "0")), _catalog(request, request.query_params.get("b", "1"))
 
 
 def _number(request: Request, name: str, default: int) -> int:
@@ -96,6 +105,18 @@ async def _static(request: Request) -> Response:
 def _table_page(request: Request) -> Response:
     _catalog(request)
     return _asset(request, "table.html")
+
+
+def _compare_page(request: Request) -> Response:
+    _pair(request)
+    return _asset(request, "compare.html")
+
+
+def _compare(request: Request) -> Response:
+    a, b = _pair(request)
+    q = request.query_params
+    body = compare(a, b, q.get("where", ""), q.get("sort", "episode_index"), q.get("desc", "0") == "1", 50)
+    return JSONResponse(body)
 
 
 def _episode_page(request: Request) -> Response:
