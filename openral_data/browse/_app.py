@@ -34,8 +34,9 @@ def _assets() -> dict[str, tuple[bytes, str]]:
     return out
 
 
-def create_app(catalogs: Sequence[Catalog]) -> Starlette:
-    """The app over `catalogs` (dataset number i = `catalogs[i]`)."""
+def create_app(catalogs: Sequence[Catalog], rerun_url: str | None = None) -> Starlette:
+    """The app over `catalogs` (dataset number i = `catalogs[i]`); episode pages link to `rerun_url` (a web
+    viewer `view --serve` keeps) when given."""
     routes = [
         Route("/", _index),
         Route("/static/{name}", _static),
@@ -54,6 +55,7 @@ def create_app(catalogs: Sequence[Catalog]) -> Starlette:
     app = Starlette(routes=routes, exception_handlers={NotFound: _not_found, OpenralError: _refused})
     app.state.catalogs = list(catalogs)
     app.state.assets = _assets()
+    app.state.rerun_url = rerun_url
     return app
 
 
@@ -141,7 +143,10 @@ def _episodes(request: Request) -> Response:
 
 
 def _episode(request: Request) -> Response:
-    return JSONResponse(_catalog(request).episode(request.path_params["ep"]))
+    catalog, index = _catalog(request), request.path_params["ep"]
+    body = catalog.episode(index)
+    body["rerun"] = {"url": request.app.state.rerun_url, "command": catalog.serve_command(index)}
+    return JSONResponse(body)
 
 
 def _series(request: Request) -> Response:

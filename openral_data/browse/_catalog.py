@@ -170,6 +170,11 @@ class Catalog:
             out["filter"] = f"openral-data episodes filter {ds} --where {shlex.quote(where)} --out {ds}-filtered"
         return out
 
+    def serve_command(self, index: int) -> str:
+        """The command that keeps episode `index` in rerun's web viewer (its URL is what `browse --rerun-url`
+        takes); the server does not run it."""
+        return f"openral-data view {shlex.quote(self.arg)} --episode {index} --serve"
+
     def _meta_row(self, index: int) -> dict[str, Any]:
         """Episode `index`'s meta/episodes row (only its location and span columns, not its stats)."""
         wanted = ["length", "data/chunk_index", "data/file_index"] + [

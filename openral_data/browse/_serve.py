@@ -43,6 +43,7 @@ class Browser:
     catalogs: list[Catalog]
     host: str = "127.0.0.1"
     port: int = 0
+    rerun_url: str | None = None
     sock: socket.socket = field(init=False)
     server: uvicorn.Server = field(init=False)
     thread: threading.Thread | None = field(default=None, init=False)
@@ -57,7 +58,9 @@ class Browser:
             self.sock.close()
             raise UsageError(f"--host/--port: cannot listen on {self.host}:{self.port}: {exc.strerror}") from None
         self.sock.listen(128)
-        config = uvicorn.Config(create_app(self.catalogs), log_level="warning", access_log=False, lifespan="off")
+        config = uvicorn.Config(
+            create_app(self.catalogs, self.rerun_url), log_level="warning", access_log=False, lifespan="off"
+        )
         self.server = uvicorn.Server(config)
 
     @property

@@ -133,8 +133,8 @@ def test_a_results_file_symlinked_out_is_refused(browse_dataset: Path, results: 
 
 def test_the_pages_show_the_results(browse_dataset: Path, results: Path, page: Any) -> None:
     """In Chromium: the table has the results' columns and sorts by them; the episode page plots the divergence
-    with the same cursor as the other plots and lists the episode's results."""
-    server = Browser(open_catalogs([str(browse_dataset), str(results)]))
+    with the same cursor as the other plots, lists the episode's results and links to rerun (--rerun-url)."""
+    server = Browser(open_catalogs([str(browse_dataset), str(results)]), rerun_url="http://127.0.0.1:9/?url=x")
     server.start()
     try:
         page.goto(server.url + "d/0/")
@@ -148,6 +148,8 @@ def test_the_pages_show_the_results(browse_dataset: Path, results: Path, page: A
         assert plotted[-1] == ["rp (replay)", [["action_error", 9], ["divergence", 9]]]
         assert page.locator("svg.plot[data-feature='rp (replay)'] line.cursor").count() == 1
         assert "rp: reproduced false" in (page.text_content("#results") or "")
+        assert page.get_attribute("#rerun a", "href") == "http://127.0.0.1:9/?url=x"  # browse --rerun-url
+        assert page.text_content("#rerun pre") == f"openral-data view {browse_dataset} --episode 1 --serve"
     finally:
         server.close()
 

@@ -87,6 +87,23 @@ function camera(cam, leader) {
   return { video, cam };
 }
 
+// a deeper look in rerun: the command that serves this episode in its web viewer, and a link to the viewer when
+// `browse --rerun-url` named one (it shows the episode its `view --serve` was started for)
+function rerun(r) {
+  const div = document.getElementById("rerun");
+  if (r.url) {
+    const a = document.createElement("a");
+    a.href = r.url;
+    a.target = "_blank";
+    a.rel = "noopener";
+    a.textContent = "open in rerun's web viewer";
+    div.append(a);
+  }
+  const pre = document.createElement("pre");
+  pre.textContent = r.command;
+  div.append(pre);
+}
+
 async function main() {
   const info = await (await fetch(`/api/d/${ds}/episode/${ep}`)).json();
   document.getElementById("back").href = `/d/${ds}/`;
@@ -97,6 +114,7 @@ async function main() {
     `${info.length} frames at ${info.fps} fps; success: ${success}` + (info.seed === null ? "" : `; seed ${info.seed}`);
   const results = Object.entries(info.results).map(([k, v]) => `${k} ${v === null ? "–" : v}`);
   document.getElementById("results").textContent = results.join("; ");
+  rerun(info.rerun);
   duration = Math.max((info.length - 1) / info.fps, 1e-6);  // frame k is at k / fps: the last at the right edge
   let leader = null;
   for (const cam of info.cameras) {
