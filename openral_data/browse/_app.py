@@ -46,6 +46,7 @@ def create_app(catalogs: Sequence[Catalog], rerun_url: str | None = None) -> Sta
         Route("/api/compare", _compare),
         Route("/d/{ds}/episode/{ep:int}", _episode_page),
         Route("/d/{ds}/video/{ep:int}/{cam:int}", _video),
+        Route("/d/{ds}/depth/{ep:int}/{cam:int}/{frame:int}", _depth),
         Route("/api/datasets", _datasets),
         Route("/api/d/{ds}/episodes", _episodes),
         Route("/api/d/{ds}/episode/{ep:int}", _episode),
@@ -171,6 +172,12 @@ def _video(request: Request) -> Response:
     if not stat.S_ISREG(mode):  # a FIFO or device named like an mp4 is never opened
         raise HTTPException(404)
     return FileResponse(path, media_type="video/mp4")  # answers Range requests (206) itself
+
+
+def _depth(request: Request) -> Response:
+    p = request.path_params
+    png = _catalog(request).depth(p["ep"], p["cam"], p["frame"])
+    return Response(png, media_type="image/png", headers={"Cache-Control": "max-age=3600"})
 
 
 async def _not_found(request: Request, exc: Exception) -> Response:

@@ -12,6 +12,7 @@ from typing import Any
 
 import duckdb
 
+from openral_data.browse._depth import depth_png, depth_unit
 from openral_data.browse._results import ResultSet
 from openral_data.browse._rows import EpisodeRows
 from openral_data.errors import DatasetError, NotFound, QueryError
@@ -107,7 +108,8 @@ class Catalog:
         for i, cam in enumerate(self.ds.cameras):
             start, end = row.get(f"videos/{cam}/from_timestamp"), row.get(f"videos/{cam}/to_timestamp")
             if start is not None and end is not None:
-                cameras.append({"key": cam, "url": f"video/{index}/{i}", "from": float(start), "to": float(end)})
+                shown = {"key": cam, "url": f"video/{index}/{i}", "from": float(start), "to": float(end)}
+                cameras.append({**shown, "depth": depth_unit(self.ds.info, cam)})
         return {
             "dataset": self.ds.label,
             "episode_index": index,
@@ -158,6 +160,16 @@ class Catalog:
         except DatasetError as exc:
             raise NotFound(str(exc)) from None
         return str(path)
+
+    def depth(self, index: int, camera: int, frame: int) -> bytes:
+        """Frame `frame` of depth camera number `camera` in episode `index`, as a grey PNG (`_depth`)."""
+        if not 0 <= camera < len(self.ds.cameras) or depth_unit(self.ds.info, self.ds.cameras[camera]) is None:
+            raise NotFound(f"no depth camera {camera}")
+        self.video(index, camera)  # the mp4 is where the metadata says, inside the dataset
+        try:
+            return depth_png(self.ds.root, self.ds.info, self._meta_row(index), self.ds.cameras[camera], frame)
+        except DatasetError as exc:
+            raise NotFound(str(exc)) from None
 
     def commands(self, episodes: list[int], where: str) -> dict[str, str]:
         """The commands that do what the selection says; the server runs none of them."""
