@@ -30,9 +30,10 @@ def open_catalogs(paths: Sequence[str]) -> list[Catalog]:
     # the command-line spelling of each dataset (for the commands): the argument that named its folder, if any
     spelled = {Path(p).resolve(): p for p in paths}
     number = itertools.count()
+    shown = [[ResultSet(r, next(number)) for r in found] for found in attached]  # read (or refused) first
     return [
-        Catalog(ds, spelled.get(ds.root.resolve(), str(ds.root)), [ResultSet(r, next(number)) for r in found])
-        for ds, found in zip(datasets, attached, strict=True)
+        Catalog(ds, spelled.get(ds.root.resolve(), str(ds.root)), sets)
+        for ds, sets in zip(datasets, shown, strict=True)
     ]
 
 
