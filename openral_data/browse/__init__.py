@@ -2,9 +2,11 @@
 
 Pages: the episodes table (paged, sorted, filtered by the `--where` of `episodes filter`, through
 `metrics.where`), an episode page (every camera's mp4 served with HTTP range requests and sought to the episode's
-span; state/action plots with a cursor on the video time; the task), and a selection panel that prints the
-`episodes delete/split/filter` command to run. The server never writes, runs nothing, and serves only the files of
-the datasets given (docs/threat-model.md). Needs the `browse` extra (Starlette + uvicorn).
+span, depth cameras as the decoded frame at the cursor; state/action plots and replay/eval error plots with a
+cursor on the video time; the task), a side-by-side compare of two datasets, and a selection panel that prints
+the `episodes delete/split/filter` command to run. Results folders given add their per-episode columns. The
+server never writes, runs nothing, and serves only the files of the datasets and results given
+(docs/threat-model.md). Needs the `browse` extra (Starlette + uvicorn).
 """
 
 from openral_data.browse._app import create_app

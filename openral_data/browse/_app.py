@@ -16,6 +16,7 @@ from starlette.responses import FileResponse, JSONResponse, Response
 from starlette.routing import Route
 
 from openral_data.browse._catalog import Catalog
+from openral_data.browse._compare import compare
 from openral_data.errors import NotFound, OpenralError
 
 _TYPES = {".html": "text/html; charset=utf-8", ".js": "text/javascript", ".css": "text/css"}
@@ -33,15 +34,19 @@ def _assets() -> dict[str, tuple[bytes, str]]:
     return out
 
 
-def create_app(catalogs: Sequence[Catalog]) -> Starlette:
-    """The app over `catalogs` (dataset number i = `catalogs[i]`)."""
+def create_app(catalogs: Sequence[Catalog], rerun_url: str | None = None) -> Starlette:
+    """The app over `catalogs` (dataset number i = `catalogs[i]`); episode pages link to `rerun_url` (a web
+    viewer `view --serve` keeps) when given."""
     routes = [
         Route("/", _index),
         Route("/static/{name}", _static),
         Route("/favicon.ico", _no_icon),
         Route("/d/{ds}/", _table_page),
+        Route("/compare", _compare_page),
+        Route("/api/compare", _compare),
         Route("/d/{ds}/episode/{ep:int}", _episode_page),
         Route("/d/{ds}/video/{ep:int}/{cam:int}", _video),
+        Route("/d/{ds}/depth/{ep:int}/{cam:int}/{frame:int}", _depth),
         Route("/api/datasets", _datasets),
         Route("/api/d/{ds}/episodes", _episodes),
         Route("/api/d/{ds}/episode/{ep:int}", _episode),
@@ -51,6 +56,7 @@ def create_app(catalogs: Sequence[Catalog]) -> Starlette:
     app = Starlette(routes=routes, exception_handlers={NotFound: _not_found, OpenralError: _refused})
     app.state.catalogs = list(catalogs)
     app.state.assets = _assets()
+    app.state.rerun_url = rerun_url
     return app
 
 
@@ -62,15 +68,21 @@ def _asset(request: Request, name: str) -> Response:
     return Response(body, media_type=media, headers={"Content-Security-Policy": _CSP})
 
 
-def _catalog(request: Request) -> Catalog:
+def _catalog(request: Request, number: str | None = None) -> Catalog:
+    """Dataset number `number` (default: the URL's `ds`); 404 for anything else."""
     catalogs: list[Catalog] = request.app.state.catalogs
     try:
-        i = int(request.path_params["ds"])
+        i = int(request.path_params["ds"] if number is None else number)
     except ValueError:
         raise HTTPException(404) from None
     if not 0 <= i < len(catalogs):
         raise HTTPException(404)
     return catalogs[i]
+
+
+def _pair(request: Request) -> tuple[Catalog, Catalog]:
+    """The datasets `?a=I&b=J` name (default 0 and 1)."""
+    return _catalog(request, request.query_params.get("a", "0")), _catalog(request, request.query_params.get("b", "1"))
 
 
 def _number(request: Request, name: str, default: int) -> int:
@@ -98,6 +110,18 @@ def _table_page(request: Request) -> Response:
     return _asset(request, "table.html")
 
 
+def _compare_page(request: Request) -> Response:
+    _pair(request)
+    return _asset(request, "compare.html")
+
+
+def _compare(request: Request) -> Response:
+    a, b = _pair(request)
+    q = request.query_params
+    body = compare(a, b, q.get("where", ""), q.get("sort", "episode_index"), q.get("desc", "0") == "1", 50)
+    return JSONResponse(body)
+
+
 def _episode_page(request: Request) -> Response:
     _catalog(request).episode(request.path_params["ep"])  # 404 for an episode the dataset does not have
     return _asset(request, "episode.html")
@@ -120,7 +144,10 @@ def _episodes(request: Request) -> Response:
 
 
 def _episode(request: Request) -> Response:
-    return JSONResponse(_catalog(request).episode(request.path_params["ep"]))
+    catalog, index = _catalog(request), request.path_params["ep"]
+    body = catalog.episode(index)
+    body["rerun"] = {"url": request.app.state.rerun_url, "command": catalog.serve_command(index)}
+    return JSONResponse(body)
 
 
 def _series(request: Request) -> Response:
@@ -145,6 +172,12 @@ def _video(request: Request) -> Response:
     if not stat.S_ISREG(mode):  # a FIFO or device named like an mp4 is never opened
         raise HTTPException(404)
     return FileResponse(path, media_type="video/mp4")  # answers Range requests (206) itself
+
+
+def _depth(request: Request) -> Response:
+    p = request.path_params
+    png = _catalog(request).depth(p["ep"], p["cam"], p["frame"])
+    return Response(png, media_type="image/png", headers={"Cache-Control": "max-age=3600"})
 
 
 async def _not_found(request: Request, exc: Exception) -> Response:

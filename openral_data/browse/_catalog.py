@@ -12,6 +12,8 @@ from typing import Any
 
 import duckdb
 
+from openral_data.browse._depth import depth_png, depth_unit
+from openral_data.browse._results import ResultSet
 from openral_data.browse._rows import EpisodeRows
 from openral_data.errors import DatasetError, NotFound, QueryError
 from openral_data.formats.lerobot_v3 import layout
@@ -31,12 +33,15 @@ class Catalog:
 
     ds: DatasetSource
     arg: str
+    results: list[ResultSet] = field(default_factory=list)
     con: duckdb.DuckDBPyConnection = field(init=False)
     lock: threading.Lock = field(default_factory=threading.Lock, init=False)
     rows: EpisodeRows = field(default_factory=EpisodeRows, init=False)
 
     def __post_init__(self) -> None:
         self.con = where_connection(self.ds)
+        for r in self.results:  # Arrow tables, not files: the connection stays locked down to the dataset's
+            self.con.register(r.view, r.table)
 
     def close(self) -> None:
         self.con.close()
@@ -48,19 +53,38 @@ class Catalog:
             "fps": self.ds.fps,
             "episodes": int(self.ds.info.get("total_episodes", 0)),
             "cameras": self.ds.cameras,
+            "results": [{"label": r.results.label, "kind": r.results.kind} for r in self.results],
         }
+
+    @property
+    def columns(self) -> list[dict[str, str]]:
+        """The table's columns: the dataset's (`COLUMNS`), then each attached results folder's."""
+        return [{"key": c, "label": c} for c in COLUMNS] + [c for r in self.results for c in r.columns]
+
+    def _select(self) -> str:
+        """The table's SELECT list: a results column is looked up by episode_index in its registered table."""
+        parts = [ident(c) for c in COLUMNS]
+        for r in self.results:
+            for c in r.columns:
+                key = ident(c["key"])
+                parts.append(
+                    f"(SELECT r.{key} FROM {ident(r.view)} r WHERE r.episode_index = {WHERE_VIEW}.episode_index) "
+                    f"AS {key}"
+                )
+        return ", ".join(parts)
 
     def table(self, where: str, sort: str, desc: bool, offset: int, limit: int) -> dict[str, Any]:
         """One page of the episodes for which `where` holds (all when empty), with the filter's counts and
         success rate (Wilson 95 % interval over the episodes whose success is known)."""
-        if sort not in COLUMNS:
-            raise QueryError(f"sort: {sort!r} is not one of {', '.join(COLUMNS)}")
+        keys = [c["key"] for c in self.columns]
+        if sort not in keys:
+            raise QueryError(f"sort: {sort!r} is not one of {', '.join(keys)}")
         predicate = where if where.strip() else "TRUE"
         order = f"ORDER BY {ident(sort)} {'DESC' if desc else 'ASC'} NULLS LAST, episode_index"
         page = f"{order} LIMIT {max(1, min(limit, MAX_LIMIT))} OFFSET {max(0, offset)}"
         with self.lock:
             ((n, known, wins),) = where_query(self.con, "count(*), count(success), count_if(success)", predicate)
-            rows = where_query(self.con, ", ".join(ident(c) for c in COLUMNS), predicate, page)
+            rows = where_query(self.con, self._select(), predicate, page)
         interval = wilson(int(wins), int(known))
         return {
             "total": int(n),
@@ -68,7 +92,8 @@ class Catalog:
             "successes": int(wins),
             "rate": wins / known if known else None,
             "interval": [interval.low, interval.high] if known else None,
-            "rows": [dict(zip(COLUMNS, (_json(v) for v in r), strict=True)) for r in rows],
+            "columns": self.columns,
+            "rows": [dict(zip(keys, (_json(v) for v in r), strict=True)) for r in rows],
         }
 
     def episode(self, index: int) -> dict[str, Any]:
@@ -83,7 +108,8 @@ class Catalog:
         for i, cam in enumerate(self.ds.cameras):
             start, end = row.get(f"videos/{cam}/from_timestamp"), row.get(f"videos/{cam}/to_timestamp")
             if start is not None and end is not None:
-                cameras.append({"key": cam, "url": f"video/{index}/{i}", "from": float(start), "to": float(end)})
+                shown = {"key": cam, "url": f"video/{index}/{i}", "from": float(start), "to": float(end)}
+                cameras.append({**shown, "depth": depth_unit(self.ds.info, cam)})
         return {
             "dataset": self.ds.label,
             "episode_index": index,
@@ -93,6 +119,7 @@ class Catalog:
             "success": success,
             "seed": seed,
             "cameras": cameras,
+            "results": {k: _json(v) for r in self.results for k, v in r.facts(index).items()},
         }
 
     def series(self, index: int) -> dict[str, Any]:
@@ -103,10 +130,10 @@ class Catalog:
             raise NotFound(f"episode {index}: meta/episodes names no data file")
         path = layout.template_path(self.ds.root, self.ds.info, "data_path", layout.FilePos(chunk, file))
         keys = [*self.ds.vector_features, *([REWARD] if REWARD in self.ds.data_columns else [])]
-        table = self.rows.read(path, index, ["timestamp", *keys])
+        table = self.rows.read(path, index, ["frame_index", "timestamp", *keys])
         rows = list(zip(*(table.column(c).to_pylist() for c in table.column_names), strict=True))
         series = []
-        for k, key in enumerate(keys, start=1):
+        for k, key in enumerate(keys, start=2):
             values = [r[k] for r in rows]
             if key == REWARD:
                 series.append({"feature": key, "name": key, "values": [_json(v) for v in values]})
@@ -114,7 +141,9 @@ class Catalog:
             names = self.ds.dim_names(key)
             for d, name in enumerate(names):
                 series.append({"feature": key, "name": name, "values": [_json(v[d]) if v else None for v in values]})
-        return {"timestamps": [_json(r[0]) for r in rows], "series": series}
+        for r in self.results:
+            series.extend(r.series(index, [row[0] for row in rows]))
+        return {"timestamps": [_json(r[1]) for r in rows], "series": series}
 
     def video(self, index: int, camera: int) -> str:
         """The mp4 holding camera number `camera` of episode `index`: its standard place inside the dataset
@@ -132,6 +161,16 @@ class Catalog:
             raise NotFound(str(exc)) from None
         return str(path)
 
+    def depth(self, index: int, camera: int, frame: int) -> bytes:
+        """Frame `frame` of depth camera number `camera` in episode `index`, as a grey PNG (`_depth`)."""
+        if not 0 <= camera < len(self.ds.cameras) or depth_unit(self.ds.info, self.ds.cameras[camera]) is None:
+            raise NotFound(f"no depth camera {camera}")
+        self.video(index, camera)  # the mp4 is where the metadata says, inside the dataset
+        try:
+            return depth_png(self.ds.root, self.ds.info, self._meta_row(index), self.ds.cameras[camera], frame)
+        except DatasetError as exc:
+            raise NotFound(str(exc)) from None
+
     def commands(self, episodes: list[int], where: str) -> dict[str, str]:
         """The commands that do what the selection says; the server runs none of them."""
         ds, picked = shlex.quote(self.arg), ",".join(str(e) for e in sorted(set(episodes)))
@@ -142,6 +181,11 @@ class Catalog:
         if where.strip():
             out["filter"] = f"openral-data episodes filter {ds} --where {shlex.quote(where)} --out {ds}-filtered"
         return out
+
+    def serve_command(self, index: int) -> str:
+        """The command that keeps episode `index` in rerun's web viewer (its URL is what `browse --rerun-url`
+        takes); the server does not run it."""
+        return f"openral-data view {shlex.quote(self.arg)} --episode {index} --serve"
 
     def _meta_row(self, index: int) -> dict[str, Any]:
         """Episode `index`'s meta/episodes row (only its location and span columns, not its stats)."""

@@ -31,11 +31,12 @@ class EpisodeRows:
 
     def read(self, path: Path, episode: int, columns: list[str]) -> pa.Table:
         """`columns` of episode `episode`'s rows of `path`, by frame_index; a bad file is a `DatasetError`."""
+        keys = ["episode_index", "frame_index"]
         try:
             index = self._index(path)
             groups = [g for g, s in enumerate(index.spans) if s is None or s[0] <= episode <= s[1]]
             table = pq.ParquetFile(checked(path), metadata=index.metadata).read_row_groups(
-                groups, columns=["episode_index", "frame_index", *columns]
+                groups, columns=[*keys, *(c for c in columns if c not in keys)]
             )
             table = table.filter(pc.equal(table.column("episode_index"), episode)).sort_by("frame_index")
         except (pa.ArrowException, OSError, KeyError) as exc:

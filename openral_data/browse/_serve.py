@@ -3,28 +3,38 @@ URL printed is the real one), then uvicorn on that socket, in the foreground or 
 
 from __future__ import annotations
 
+import itertools
 import socket
 import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import uvicorn
 
 from openral_data.browse._app import create_app
 from openral_data.browse._catalog import Catalog
+from openral_data.browse._results import ResultSet, attach
 from openral_data.errors import UsageError
 from openral_data.metrics.sources import resolve
 
 
 def open_catalogs(paths: Sequence[str]) -> list[Catalog]:
-    """A `Catalog` per dataset named (results directories are not shown yet: refused in one line)."""
+    """A `Catalog` per dataset named, with the results folders named (replay/eval) attached to the dataset they
+    were computed on (`_results.attach`); results without any dataset are refused in one line."""
     datasets, results = resolve(list(paths))
-    if results:
-        raise UsageError(f"browse: {results[0].root}: results directories are not shown yet; give datasets")
-    # the command-line spelling of each dataset when there is one per argument (no glob), else its folder
-    args = list(paths) if len(paths) == len(datasets) else [str(ds.root) for ds in datasets]
-    return [Catalog(ds, arg) for ds, arg in zip(datasets, args, strict=True)]
+    if results and not datasets:
+        raise UsageError(f"browse: {results[0].root}: results alone; give the dataset too (browse DATASET RESULTS)")
+    attached = attach(datasets, results)
+    # the command-line spelling of each dataset (for the commands): the argument that named its folder, if any
+    spelled = {Path(p).resolve(): p for p in paths}
+    number = itertools.count()
+    shown = [[ResultSet(r, next(number)) for r in found] for found in attached]  # read (or refused) first
+    return [
+        Catalog(ds, spelled.get(ds.root.resolve(), str(ds.root)), sets)
+        for ds, sets in zip(datasets, shown, strict=True)
+    ]
 
 
 @dataclass
@@ -34,6 +44,7 @@ class Browser:
     catalogs: list[Catalog]
     host: str = "127.0.0.1"
     port: int = 0
+    rerun_url: str | None = None
     sock: socket.socket = field(init=False)
     server: uvicorn.Server = field(init=False)
     thread: threading.Thread | None = field(default=None, init=False)
@@ -48,7 +59,9 @@ class Browser:
             self.sock.close()
             raise UsageError(f"--host/--port: cannot listen on {self.host}:{self.port}: {exc.strerror}") from None
         self.sock.listen(128)
-        config = uvicorn.Config(create_app(self.catalogs), log_level="warning", access_log=False, lifespan="off")
+        config = uvicorn.Config(
+            create_app(self.catalogs, self.rerun_url), log_level="warning", access_log=False, lifespan="off"
+        )
         self.server = uvicorn.Server(config)
 
     @property

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import time
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
@@ -181,16 +182,36 @@ def view(
     episode: Annotated[int, typer.Option(help="episode index")] = 0,
     save: Annotated[Path | None, typer.Option(help="write this .rrd instead of opening a viewer")] = None,
     results: Annotated[Path | None, typer.Option(help="replay/eval results directory: log divergence")] = None,
+    serve: Annotated[
+        bool, typer.Option("--serve", help="keep the episode in rerun's web viewer, served until Ctrl-C")
+    ] = False,
+    web_port: Annotated[int, typer.Option(help="--serve: the web viewer's HTTP port")] = 9090,
+    grpc_port: Annotated[int, typer.Option(help="--serve: the port of the stream the viewer reads")] = 9876,
 ) -> None:
     """Show an episode in rerun: videos, named state/action series, task, success/done, replay divergence."""
     # rerun's own log lines (on stderr) would come on top of our one-line error; what it fails on, we report
     os.environ.setdefault("RUST_LOG", "off")
+    path = resolve_dataset(path)
+    if serve:
+        _serve(path, episode, save, results, web_port, grpc_port)
+        return
     from openral_data.viz.rerun_view import ViewOptions, run_view
 
-    path = resolve_dataset(path)
     if save is not None:
         paths.check_file_output(save, "--save")
     print_line(run_view(ViewOptions(path, episode, save, results)))
+
+
+def _serve(path: Path, episode: int, save: Path | None, results: Path | None, web_port: int, grpc_port: int) -> None:
+    """`view --serve`: serve the episode in rerun's web viewer until Ctrl-C (exit 130, as every command)."""
+    if save is not None:
+        raise UsageError("--serve: serves the episode; --save writes it to a file: give one of them")
+    from openral_data.viz.serve import serve_episode
+
+    served = serve_episode(path, episode, results, web_port, grpc_port)
+    print_line(f"view: serving {path} episode {episode} ({served.frames} frames) at {served.url} (Ctrl-C stops)")
+    while True:  # rerun serves from its own threads; this process only has to stay alive
+        time.sleep(3600)
 
 
 def doctor(

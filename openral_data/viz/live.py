@@ -67,15 +67,15 @@ class LiveStats:
     errors: list[str] = field(default_factory=list)
 
 
-def check_port(port: int) -> None:
-    """The port is free to serve on (else one line, before anything is recorded)."""
+def check_port(port: int, option: str = "--view-port") -> None:
+    """The port is free to serve on (else one line naming `option`, before anything is recorded)."""
     if not 0 < port < 65536:
-        raise UsageError(f"--view-port: {port}: not a TCP port (1..65535)")
+        raise UsageError(f"{option}: {port}: not a TCP port (1..65535)")
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
         try:
             s.bind(("0.0.0.0", port))
         except OSError as exc:
-            raise UsageError(f"--view-port: {port}: cannot serve there ({exc.strerror})") from exc
+            raise UsageError(f"{option}: {port}: cannot serve there ({exc.strerror})") from exc
 
 
 def check_address(address: str) -> None:

@@ -165,3 +165,18 @@ def test_cli_without_the_browse_extra_names_it_in_one_line(monkeypatch: pytest.M
     r = run_inproc("browse", str(tmp_path))
     assert r.returncode == 2
     assert r.stderr == "error: browse: needs the 'browse' extra (uvicorn missing): uv sync --extra browse\n"
+
+
+def test_episode_links_to_rerun(browse_dataset: Path) -> None:
+    catalogs = open_catalogs([str(browse_dataset)])
+    try:
+        with TestClient(create_app(catalogs, "http://127.0.0.1:9090/?url=x")) as c:
+            rerun = c.get("/api/d/0/episode/2").json()["rerun"]
+            assert rerun == {
+                "url": "http://127.0.0.1:9090/?url=x",
+                "command": f"openral-data view {browse_dataset} --episode 2 --serve",
+            }
+    finally:
+        catalogs[0].close()
+    bad = run_inproc("browse", str(browse_dataset), "--rerun-url", "javascript:alert(1)")
+    assert bad.returncode == 2 and bad.stderr.startswith("error: --rerun-url: ")

@@ -23,10 +23,9 @@ import pytest
 
 from openral_data.browse import Browser, open_catalogs
 from openral_data.metrics.sources import open_dataset
+from tests.browse.pages import plots
 from tests.support.inproc import run_inproc
 from tests.support.lerobot_written import LENGTHS
-
-CHROMIUM = "/usr/bin/chromium"
 
 
 @pytest.fixture(scope="module")
@@ -35,23 +34,6 @@ def server(browse_dataset: Path) -> Iterator[Browser]:
     browser.start()
     yield browser
     browser.close()
-
-
-@pytest.fixture(scope="module")
-def chromium() -> Iterator[Any]:
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, args=["--autoplay-policy=no-user-gesture-required"])
-        yield browser
-        browser.close()
-
-
-@pytest.fixture
-def page(chromium: Any) -> Iterator[Any]:
-    context = chromium.new_context()
-    yield context.new_page()
-    context.close()
 
 
 def _rows(page: Any) -> list[list[str]]:
@@ -125,14 +107,7 @@ def test_episode_video_plays_and_seeks_to_frame_k(server: Browser, page: Any, br
 
 
 def test_plot_shows_the_named_series(server: Browser, page: Any) -> None:
-    page.goto(server.url + "d/0/episode/1")
-    page.wait_for_selector("body[data-ready='1']")
-    plotted = page.eval_on_selector_all(
-        "svg.plot",
-        "svgs => svgs.map(s => [s.dataset.feature, [...s.querySelectorAll('polyline')].map("
-        "p => [p.dataset.series, p.getAttribute('points').split(' ').length])])",
-    )
-    assert plotted == [
+    assert plots(page, server.url + "d/0/episode/1") == [
         ["observation.state", [["x", 9], ["y", 9], ["z", 9]]],
         ["action", [["vx", 9], ["vy", 9]]],
     ]

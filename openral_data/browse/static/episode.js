@@ -8,7 +8,9 @@ const SVG = "http://www.w3.org/2000/svg";
 const W = 800, H = 160;
 const COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"];
 const cursors = [];
+const depths = [];  // depth cameras: an <img> of the decoded frame at the cursor (browsers do not play 12-bit HEVC)
 let duration = 1;
+let frames = { fps: 1, length: 1 };
 
 function svg(tag, attrs) {
   const el = document.createElementNS(SVG, tag);
@@ -54,6 +56,25 @@ function plot(feature, series, times) {
 function moveCursor(t) {
   const x = (W * t / duration).toFixed(1);
   for (const c of cursors) { c.setAttribute("x1", x); c.setAttribute("x2", x); }
+  const k = Math.max(0, Math.min(frames.length - 1, Math.round(t * frames.fps)));
+  for (const d of depths) {
+    if (d.dataset.frame !== String(k)) { d.dataset.frame = String(k); d.src = `${d.dataset.base}/${k}`; }
+  }
+}
+
+function depth(cam) {
+  const figure = document.createElement("figure");
+  const caption = document.createElement("figcaption");
+  caption.textContent = `${cam.key} (depth, ${cam.depth}; near bright, far dark)`;
+  const img = document.createElement("img");
+  img.className = "depth";
+  img.dataset.camera = cam.key;
+  img.dataset.base = `/d/${ds}/depth/${ep}/${cam.url.split("/").pop()}`;
+  img.dataset.frame = "0";
+  img.src = `${img.dataset.base}/0`;
+  depths.push(img);
+  figure.append(img, caption);
+  document.getElementById("cameras").append(figure);
 }
 
 function camera(cam, leader) {
@@ -87,6 +108,23 @@ function camera(cam, leader) {
   return { video, cam };
 }
 
+// a deeper look in rerun: the command that serves this episode in its web viewer, and a link to the viewer when
+// `browse --rerun-url` named one (it shows the episode its `view --serve` was started for)
+function rerun(r) {
+  const div = document.getElementById("rerun");
+  if (r.url) {
+    const a = document.createElement("a");
+    a.href = r.url;
+    a.target = "_blank";
+    a.rel = "noopener";
+    a.textContent = "open in rerun's web viewer";
+    div.append(a);
+  }
+  const pre = document.createElement("pre");
+  pre.textContent = r.command;
+  div.append(pre);
+}
+
 async function main() {
   const info = await (await fetch(`/api/d/${ds}/episode/${ep}`)).json();
   document.getElementById("back").href = `/d/${ds}/`;
@@ -95,9 +133,14 @@ async function main() {
   const success = info.success === null ? "unknown" : String(info.success);
   document.getElementById("facts").textContent =
     `${info.length} frames at ${info.fps} fps; success: ${success}` + (info.seed === null ? "" : `; seed ${info.seed}`);
+  const results = Object.entries(info.results).map(([k, v]) => `${k} ${v === null ? "–" : v}`);
+  document.getElementById("results").textContent = results.join("; ");
+  rerun(info.rerun);
   duration = Math.max((info.length - 1) / info.fps, 1e-6);  // frame k is at k / fps: the last at the right edge
   let leader = null;
+  frames = { fps: info.fps, length: info.length };
   for (const cam of info.cameras) {
+    if (cam.depth) { depth(cam); continue; }
     const shown = camera(cam, leader);
     if (leader === null) leader = shown;
   }

@@ -2,20 +2,20 @@
 // The episodes table: every query goes to the server (paging, sorting, the --where filter); the selection only
 // prints commands, it never changes anything.
 const ds = location.pathname.split("/")[2];
-const columns = [
-  ["episode_index", "episode"], ["task", "task"], ["length", "length"],
-  ["duration_s", "duration (s)"], ["success", "success"], ["seed", "seed"],
-];
+// the dataset's columns by these titles; a results folder's columns (browse DATASET RESULTS) as the server names them
+const TITLES = { episode_index: "episode", duration_s: "duration (s)" };
+let columns = [];
 const state = { where: "", sort: "episode_index", desc: false, offset: 0, limit: 50, total: 0 };
 const selected = new Set();
 
 function text(v) {
   if (v === null || v === undefined) return "";
-  if (typeof v === "number" && !Number.isInteger(v)) return v.toFixed(2);
+  if (typeof v === "number" && !Number.isInteger(v)) return Math.abs(v) < 0.01 && v !== 0 ? v.toExponential(1) : v.toFixed(2);
   return String(v);
 }
 
-function header() {
+function header(list) {
+  columns = list.map((c) => [c.key, TITLES[c.key] || c.label]);
   const tr = document.querySelector("#episodes thead tr");
   for (const [key, label] of columns) {
     const th = document.createElement("th");
@@ -44,6 +44,7 @@ async function load() {
   const error = document.getElementById("error");
   if (!r.ok) { error.textContent = body.error; return; }
   error.textContent = "";
+  if (!columns.length) header(body.columns);
   state.total = body.total;
   let summary = `${body.total} episodes`;
   if (body.known) {
@@ -117,5 +118,4 @@ document.getElementById("next").addEventListener("click", () => {
 fetch("/api/datasets").then((r) => r.json()).then((list) => {
   document.getElementById("title").textContent = `${list[ds].label}: episodes`;
 });
-header();
 load();
