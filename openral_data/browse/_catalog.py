@@ -23,6 +23,7 @@ from openral_data.metrics.views import files_sql, ident
 from openral_data.metrics.where import WHERE_VIEW, where_connection, where_query
 
 COLUMNS = ("episode_index", "task", "length", "duration_s", "success", "seed")
+QUALITY = "quality_flags"  # the column of the flags `openral-data quality` raised, when its table is cached
 MAX_LIMIT = 500
 REWARD = "next.reward"
 
@@ -37,11 +38,13 @@ class Catalog:
     con: duckdb.DuckDBPyConnection = field(init=False)
     lock: threading.Lock = field(default_factory=threading.Lock, init=False)
     rows: EpisodeRows = field(default_factory=EpisodeRows, init=False)
+    quality: bool = field(default=False, init=False)  # a current quality table is cached: its flags are a column
 
     def __post_init__(self) -> None:
-        self.con = where_connection(self.ds)
+        self.con = where_connection(self.ds)  # with the `quality` view: the cached table, never computed here
         for r in self.results:  # Arrow tables, not files: the connection stays locked down to the dataset's
             self.con.register(r.view, r.table)
+        self.quality = bool(self.con.execute("SELECT count(*) FROM quality").fetchone()[0])  # type: ignore[index]
 
     def close(self) -> None:
         self.con.close()
@@ -59,11 +62,19 @@ class Catalog:
     @property
     def columns(self) -> list[dict[str, str]]:
         """The table's columns: the dataset's (`COLUMNS`), then each attached results folder's."""
-        return [{"key": c, "label": c} for c in COLUMNS] + [c for r in self.results for c in r.columns]
+        shown = [{"key": c, "label": c} for c in COLUMNS]
+        if self.quality:  # `openral-data quality D` has run and its table is current
+            shown.append({"key": QUALITY, "label": "quality flags"})
+        return shown + [c for r in self.results for c in r.columns]
 
     def _select(self) -> str:
         """The table's SELECT list: a results column is looked up by episode_index in its registered table."""
         parts = [ident(c) for c in COLUMNS]
+        if self.quality:  # the raised flags' names, "" for a clean episode (`metrics.quality.FLAGS`)
+            parts.append(
+                f"(SELECT array_to_string(q.flags, ', ') FROM quality q WHERE q.episode_index = "
+                f"{WHERE_VIEW}.episode_index) AS {QUALITY}"
+            )
         for r in self.results:
             for c in r.columns:
                 key = ident(c["key"])

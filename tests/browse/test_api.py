@@ -4,6 +4,7 @@ range requests on the videos, the selection's commands, and refusals (404 for an
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import sys
@@ -180,3 +181,28 @@ def test_episode_links_to_rerun(browse_dataset: Path) -> None:
         catalogs[0].close()
     bad = run_inproc("browse", str(browse_dataset), "--rerun-url", "javascript:alert(1)")
     assert bad.returncode == 2 and bad.stderr.startswith("error: --rerun-url: ")
+
+
+def test_quality_flags_are_a_column_once_computed(
+    browse_dataset: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Without a cached quality table there is no such column; after `openral-data quality D` each episode's raised
+    flags are shown (and sortable), as the `quality` view holds them."""
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))  # a lerobot-written dataset: cached outside it
+    root = tmp_path / "ds"
+    shutil.copytree(browse_dataset, root)
+    before = open_catalogs([str(root)])
+    try:
+        assert "quality_flags" not in [c["key"] for c in before[0].columns]
+    finally:
+        before[0].close()
+    assert run_inproc("quality", str(root)).returncode == 0
+    sql = run_inproc("stats", str(root), "--sql", "SELECT episode_index, flags FROM quality", "--format", "json")
+    want = {r["episode_index"]: ", ".join(r["flags"]) for r in json.loads(sql.stdout)["sql"]}
+    catalogs = open_catalogs([str(root)])
+    with TestClient(create_app(catalogs)) as c:
+        body = c.get("/api/d/0/episodes", params={"sort": "quality_flags"}).json()
+    for cat in catalogs:
+        cat.close()
+    assert {r["episode_index"]: r["quality_flags"] for r in body["rows"]} == want
+    assert any(want.values())  # lerobot_written's state holds a constant dimension: a raised flag to show
