@@ -47,6 +47,7 @@ def create_app(catalogs: Sequence[Catalog], rerun_url: str | None = None) -> Sta
         Route("/d/{ds}/episode/{ep:int}", _episode_page),
         Route("/d/{ds}/video/{ep:int}/{cam:int}", _video),
         Route("/d/{ds}/depth/{ep:int}/{cam:int}/{frame:int}", _depth),
+        Route("/d/{ds}/picture/{ep:int}/{feature:int}/{frame:int}", _picture),
         Route("/api/datasets", _datasets),
         Route("/api/d/{ds}/episodes", _episodes),
         Route("/api/d/{ds}/episode/{ep:int}", _episode),
@@ -177,6 +178,12 @@ def _video(request: Request) -> Response:
 def _depth(request: Request) -> Response:
     p = request.path_params
     png = _catalog(request).depth(p["ep"], p["cam"], p["frame"])
+    return Response(png, media_type="image/png", headers={"Cache-Control": "max-age=3600"})
+
+
+def _picture(request: Request) -> Response:
+    p = request.path_params
+    png = _catalog(request).picture(p["ep"], p["feature"], p["frame"])
     return Response(png, media_type="image/png", headers={"Cache-Control": "max-age=3600"})
 
 

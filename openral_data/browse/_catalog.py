@@ -8,15 +8,18 @@ import math
 import shlex
 import threading
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import duckdb
 
 from openral_data.browse._depth import depth_png, depth_unit
+from openral_data.browse._pictures import picture_keys, picture_png
 from openral_data.browse._results import ResultSet
 from openral_data.browse._rows import EpisodeRows
 from openral_data.errors import DatasetError, NotFound, QueryError
 from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.masks import is_mask
 from openral_data.metrics.intervals import wilson
 from openral_data.metrics.sources import DatasetSource
 from openral_data.metrics.views import files_sql, ident
@@ -121,6 +124,10 @@ class Catalog:
             if start is not None and end is not None:
                 shown = {"key": cam, "url": f"video/{index}/{i}", "from": float(start), "to": float(end)}
                 cameras.append({**shown, "depth": depth_unit(self.ds.info, cam)})
+        features = self.ds.info.get("features", {})
+        for j, key in enumerate(picture_keys(self.ds.info)):
+            kind = "mask" if is_mask(features[key]) else "image"
+            cameras.append({"key": key, "picture": j, "kind": kind})  # served at /d/N/picture/E/j/K
         return {
             "dataset": self.ds.label,
             "episode_index": index,
@@ -135,11 +142,7 @@ class Catalog:
 
     def series(self, index: int) -> dict[str, Any]:
         """The episode's state/action/environment-state vectors (one series per dimension, named) and reward."""
-        row = self._meta_row(index)
-        chunk, file = row.get("data/chunk_index"), row.get("data/file_index")
-        if chunk is None or file is None:
-            raise NotFound(f"episode {index}: meta/episodes names no data file")
-        path = layout.template_path(self.ds.root, self.ds.info, "data_path", layout.FilePos(chunk, file))
+        path = self._data_path(index, self._meta_row(index))
         keys = [*self.ds.vector_features, *([REWARD] if REWARD in self.ds.data_columns else [])]
         table = self.rows.read(path, index, ["frame_index", "timestamp", *keys])
         rows = list(zip(*(table.column(c).to_pylist() for c in table.column_names), strict=True))
@@ -150,8 +153,9 @@ class Catalog:
                 series.append({"feature": key, "name": key, "values": [_json(v) for v in values]})
                 continue
             names = self.ds.dim_names(key)
+            vectors = [v if isinstance(v, list) or v is None else [v] for v in values]  # shape [1]: a scalar cell
             for d, name in enumerate(names):
-                series.append({"feature": key, "name": name, "values": [_json(v[d]) if v else None for v in values]})
+                series.append({"feature": key, "name": name, "values": [_json(v[d]) if v else None for v in vectors]})
         for r in self.results:
             series.extend(r.series(index, [row[0] for row in rows]))
         return {"timestamps": [_json(r[1]) for r in rows], "series": series}
@@ -182,6 +186,24 @@ class Catalog:
         except DatasetError as exc:
             raise NotFound(str(exc)) from None
 
+    def picture(self, index: int, number: int, frame: int) -> bytes:
+        """Frame `frame` of `dtype: image` feature number `number` in episode `index`, as a PNG (`_pictures`)."""
+        keys = picture_keys(self.ds.info)
+        if not 0 <= number < len(keys):
+            raise NotFound(f"no picture feature {number}")
+        row = self._meta_row(index)
+        if not 0 <= frame < int(row["length"]):
+            raise NotFound(f"no frame {frame}")
+        key = keys[number]
+        table = self.rows.read(self._data_path(index, row), index, [key])
+        if frame >= table.num_rows:
+            raise NotFound(f"episode {index}: no row for frame {frame}")
+        source = f"{self.ds.root}: {key}: episode {index} frame {frame}"
+        try:
+            return picture_png(self.ds.info["features"][key], table.column(key)[frame].as_py(), source)
+        except DatasetError as exc:
+            raise NotFound(str(exc)) from None
+
     def commands(self, episodes: list[int], where: str) -> dict[str, str]:
         """The commands that do what the selection says; the server runs none of them."""
         ds, picked = shlex.quote(self.arg), ",".join(str(e) for e in sorted(set(episodes)))
@@ -197,6 +219,13 @@ class Catalog:
         """The command that keeps episode `index` in rerun's web viewer (its URL is what `browse --rerun-url`
         takes); the server does not run it."""
         return f"openral-data view {shlex.quote(self.arg)} --episode {index} --serve"
+
+    def _data_path(self, index: int, row: dict[str, Any]) -> Path:
+        """The data file holding episode `index` (its meta/episodes `row`), inside the dataset after symlinks."""
+        chunk, file = row.get("data/chunk_index"), row.get("data/file_index")
+        if chunk is None or file is None:
+            raise NotFound(f"episode {index}: meta/episodes names no data file")
+        return layout.template_path(self.ds.root, self.ds.info, "data_path", layout.FilePos(chunk, file))
 
     def _meta_row(self, index: int) -> dict[str, Any]:
         """Episode `index`'s meta/episodes row (only its location and span columns, not its stats)."""

@@ -8,7 +8,7 @@ const SVG = "http://www.w3.org/2000/svg";
 const W = 800, H = 160;
 const COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"];
 const cursors = [];
-const depths = [];  // depth cameras: an <img> of the decoded frame at the cursor (browsers do not play 12-bit HEVC)
+const depths = [];  // depth cameras, pictures, masks: an <img> of the frame at the cursor (drawn on the server)
 let duration = 1;
 let frames = { fps: 1, length: 1 };
 
@@ -60,16 +60,42 @@ function moveCursor(t) {
   for (const d of depths) {
     if (d.dataset.frame !== String(k)) { d.dataset.frame = String(k); d.src = `${d.dataset.base}/${k}`; }
   }
+  const slider = document.getElementById("frame");
+  if (slider) slider.value = String(k);
+}
+
+// frame k by hand: seeks the leading video when there is one, else moves the cursor (pictures, masks, depth, plots)
+function frameSlider(leader) {
+  const slider = document.createElement("input");
+  Object.assign(slider, { type: "range", id: "frame", min: "0", max: String(frames.length - 1), value: "0" });
+  slider.addEventListener("input", () => {
+    const t = Number(slider.value) / frames.fps;
+    if (leader !== null) leader.video.currentTime = leader.cam.from + t;
+    else moveCursor(t);
+  });
+  const label = document.createElement("label");
+  label.append("frame ", slider);
+  document.getElementById("cameras").before(label);
 }
 
 function depth(cam) {
+  still(cam, `/d/${ds}/depth/${ep}/${cam.url.split("/").pop()}`, `${cam.key} (depth, ${cam.depth}; near bright, far dark)`, "depth");
+}
+
+function picture(cam) {
+  const what = cam.kind === "mask" ? "segmentation mask: one colour per object, background black" : "image frames";
+  still(cam, `/d/${ds}/picture/${ep}/${cam.picture}`, `${cam.key} (${what})`, cam.kind);
+}
+
+// a frame drawn on the server (depth, pictures, masks): an <img> the cursor moves to frame k
+function still(cam, base, text, kind) {
   const figure = document.createElement("figure");
   const caption = document.createElement("figcaption");
-  caption.textContent = `${cam.key} (depth, ${cam.depth}; near bright, far dark)`;
+  caption.textContent = text;
   const img = document.createElement("img");
-  img.className = "depth";
+  img.className = kind;
   img.dataset.camera = cam.key;
-  img.dataset.base = `/d/${ds}/depth/${ep}/${cam.url.split("/").pop()}`;
+  img.dataset.base = base;
   img.dataset.frame = "0";
   img.src = `${img.dataset.base}/0`;
   depths.push(img);
@@ -141,9 +167,11 @@ async function main() {
   frames = { fps: info.fps, length: info.length };
   for (const cam of info.cameras) {
     if (cam.depth) { depth(cam); continue; }
+    if (cam.picture !== undefined) { picture(cam); continue; }
     const shown = camera(cam, leader);
     if (leader === null) leader = shown;
   }
+  frameSlider(leader);
   const data = await (await fetch(`/api/d/${ds}/episode/${ep}/series`)).json();
   const features = [...new Set(data.series.map((s) => s.feature))];
   for (const f of features) plot(f, data.series.filter((s) => s.feature === f), data.timestamps);
