@@ -12,19 +12,14 @@ holds read without our code (pyarrow, PyAV, PIL), so a command's output is compa
 
 from __future__ import annotations
 
-import io
 import json
 from pathlib import Path
-from typing import Any
 
-import av
 import numpy as np
-import pyarrow.parquet as pq
-from PIL import Image
 
-from tests.support.lerobot_written import IMAGE_CAMERA, VIDEO_CAMERA, Frame, loaded_episodes, write_lerobot_dataset
+from tests.support.lerobot_written import Frame, loaded_episodes, write_lerobot_dataset
 from tests.support.old_lerobot import write_old
-from tests.support.upgrade_cases import reference
+from tests.support.upgrade_cases import old_frames, reference
 
 KINDS = ["v3.0", "v3.0-early", "v3.0-converted", "v2.1", "v2.0"]
 LEGACY = {"v2.1", "v2.0"}
@@ -62,38 +57,7 @@ def to_v20(root: Path) -> None:
     (root / "meta/info.json").write_text(json.dumps(info, indent=4))
 
 
-def chw(pixels: np.ndarray) -> np.ndarray:
-    """HWC uint8 as lerobot's loader hands a picture out: CHW float32 in [0, 1]."""
-    return (pixels.astype(np.float32) / 255.0).transpose(2, 0, 1)
-
-
 def source_frames(kind: str, root: Path) -> list[list[Frame]]:
     """The frames of `root` as `loaded_episodes` gives them: by lerobot 0.6.1's loader for v3, and for v2.x (which
-    that loader refuses) from the per-episode parquet, mp4 and PNG bytes directly."""
-    if kind not in LEGACY:
-        return loaded_episodes(root)
-    tasks = {
-        row["task_index"]: row["task"] for row in map(json.loads, (root / "meta/tasks.jsonl").read_text().splitlines())
-    }
-    out: list[list[Frame]] = []
-    for data in sorted((root / "data").glob("chunk-*/episode_*.parquet")):
-        rows: list[dict[str, Any]] = pq.read_table(data).to_pylist()
-        video = root / "videos" / data.parent.name / VIDEO_CAMERA / data.with_suffix(".mp4").name
-        with av.open(str(video)) as container:
-            pictures = [f.to_ndarray(format="rgb24") for f in container.decode(video=0)]
-        assert len(pictures) == len(rows)
-        out.append(
-            [
-                {
-                    "state": row["observation.state"],
-                    "action": row["action"],
-                    "cam": chw(picture),
-                    "wrist": chw(np.asarray(Image.open(io.BytesIO(row[IMAGE_CAMERA]["bytes"])).convert("RGB"))),
-                    "task": tasks[row["task_index"]],
-                    "success": None,
-                    "env": None,
-                }
-                for row, picture in zip(rows, pictures, strict=True)
-            ]
-        )
-    return out
+    that loader refuses) from the per-episode parquet, mp4 and PNG bytes directly (`upgrade_cases.old_frames`)."""
+    return old_frames(root) if kind in LEGACY else loaded_episodes(root)
