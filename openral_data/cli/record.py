@@ -75,6 +75,9 @@ def record(
         typer.Option("--task", help="a task of a suite scene, e.g. pick-place-v3 or libero_spatial/3 (list tasks)"),
     ] = None,
     instruction: Annotated[str | None, typer.Option(help="the language instruction of every frame")] = None,
+    randomize: Annotated[
+        str | None, typer.Option(help="on or off: the scene's randomize: block (default: as the YAML says)")
+    ] = None,
     device: Annotated[
         str | None, typer.Option(help="neural policies: cpu, cuda, cuda:N, mps or auto (default: the rSkill's)")
     ] = None,
@@ -97,8 +100,10 @@ def record(
 
         if resume or workers != 1:
             raise UsageError("--resume/--workers: not available with --hal (one robot, one new dataset)")
-        if suite_task is not None or instruction is not None or device is not None:
-            raise UsageError("--task/--instruction/--device: not available with --hal (the rSkill's own are used)")
+        if suite_task is not None or instruction is not None or device is not None or randomize is not None:
+            raise UsageError(
+                "--task/--instruction/--device/--randomize: not available with --hal (the rSkill's own are used)"
+            )
         hal_opts = HalRecordOptions(
             robot=hal,
             rskill=rskill or DEFAULT_RSKILL,
@@ -149,6 +154,7 @@ def record(
         task=suite_task,
         instruction=instruction,
         device=device,
+        randomize=_on_off(randomize),
     )
     parallel = workers != 1 or executor != "local"
     if parallel:
@@ -215,3 +221,11 @@ def _print_summary(summary: RecordSummary, resume: bool, workers: str | None) ->
             *([("debug videos", str(summary.debug_videos))] if summary.debug_videos is not None else []),
         ],
     )
+
+
+def _on_off(value: str | None) -> bool | None:
+    if value is None:
+        return None
+    if value not in ("on", "off"):
+        raise UsageError(f"--randomize: {value!r} is not on or off")
+    return value == "on"

@@ -7,6 +7,9 @@ Views (documented in docs/stats.md):
   scene, rskill, robot, dataset_from_index, dataset_to_index. `success` follows the one rule of
   `formats.lerobot_v3.success`: our `openral.success` when it holds a value, else whether any frame of the
   episode has `next.success`, else NULL (unknown, never guessed).
+* `randomization` — one row per value a randomized scene drew for an episode (`scene.params.randomize`, stored
+  in `openral.initial_state`): dataset, episode_index, key (`light.diffuse[0]`, `textures.table`,
+  `distractors.count`, ...), value (DOUBLE, numbers) and text (VARCHAR, names).
 * `tasks`    — dataset, task_index, task.
 * `datasets` — one row per dataset: dataset, path, fps, robot_type, episodes, frames, scene, rskill, robot.
 * `results`  / `result_steps` — replay/eval results (see `formats/results.py`), with `results`, `kind`
@@ -149,6 +152,8 @@ def _register_datasets(con: duckdb.DuckDBPyConnection, datasets: Sequence[Datase
             con.register(f"tasks:{ds.label}", ds.tasks_table)
         parts.append(_episodes_sql(ds, f"success_{i}"))
     con.execute("CREATE VIEW episodes AS " + _union(parts, _EMPTY_EPISODES))
+    drawn = [_randomization_sql(ds) for ds in datasets if "openral.initial_state" in ds.episode_columns]
+    con.execute("CREATE VIEW randomization AS " + _union(drawn, _EMPTY_RANDOMIZATION))
     _register_tasks(con, datasets)
     rows = [
         "("
@@ -204,6 +209,23 @@ _EMPTY_EPISODES = (
     "NULL::DOUBLE AS duration_s, NULL::VARCHAR[] AS tasks, NULL::VARCHAR AS task, NULL::BOOLEAN AS success, "
     "NULL::BIGINT AS seed, NULL::VARCHAR AS scene, NULL::VARCHAR AS rskill, NULL::VARCHAR AS robot LIMIT 0"
 )
+
+
+_EMPTY_RANDOMIZATION = (
+    "SELECT NULL::VARCHAR AS dataset, NULL::BIGINT AS episode_index, NULL::VARCHAR AS key, NULL::DOUBLE AS value, "
+    "NULL::VARCHAR AS text LIMIT 0"
+)
+
+
+def _randomization_sql(ds: DatasetSource) -> str:
+    """The leaves of each episode's `randomization` (initial state JSON) as rows."""
+    return (
+        f"SELECT {lit(ds.label)} AS dataset, e.episode_index, substr(t.fullkey, 3) AS key, "
+        "TRY_CAST(t.value AS DOUBLE) AS value, CASE WHEN t.type = 'VARCHAR' THEN t.value ->> '$' END AS text "
+        f"FROM {episodes_from(ds)} e, "
+        """json_tree(json_extract(e."openral.initial_state", '$.randomization')) t """
+        "WHERE t.type NOT IN ('OBJECT', 'ARRAY')"
+    )
 
 
 def _success_table(ds: DatasetSource) -> pa.Table:

@@ -46,6 +46,7 @@ class RecordOptions:
     task: str | None = None  # a task of a suite scene (`--task`; see openral_data.runtime.tasks); None: the YAML's
     instruction: str | None = None  # recorded for every frame and given to the policy (`--instruction`)
     device: str | None = None  # a neural policy's torch device (`--device`; wins over the rSkill's)
+    randomize: bool | None = None  # turn the scene's `randomize:` block on or off (`--randomize`); None: the YAML's
 
     def __post_init__(self) -> None:
         check_outputs(self.formats, self.codec, self.image_format, self.mcap_compression)

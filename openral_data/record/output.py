@@ -48,6 +48,7 @@ KEPT = {
     "mcap_compression": "--mcap-compression",
     "task": "--task",
     "instruction": "--instruction",
+    "randomize": "--randomize",
 }
 RANGES = {"max_steps": (1, MAX_STEPS), "seed": (0, MAX_SEED), "n_episodes": (1, 10**9)}
 DIGEST = "scene_sha256"  # the sha256 of the scene file's bytes: a scene named again must still have it (`recorded`)
@@ -143,6 +144,8 @@ def continue_options(opts: RecordOptions, explicit: frozenset[str]) -> RecordOpt
             )
         if name in ("scene", "rskill"):  # a manifest: never a file the dataset chose (see record/recorded.py)
             stored = given if name in explicit else recorded.trusted(name, stored, path)
+        if name == "randomize" and stored not in (True, False, None):
+            raise DatasetError(f"{path}: randomize: {stored!r} is not true, false or null", code="dataset.invalid")
         if name == "scene" and "scene" in explicit:
             recorded.unchanged(str(given), saved.get(DIGEST), path)
         changes[name] = stored

@@ -120,6 +120,8 @@ def _resolve(opts: RecordOptions) -> _Resolved:
     task_id = None
     if opts.task is not None:
         scene, task_id = tasks.choose_task(scene, opts.task, scene_src)
+    if opts.randomize is not None:
+        scene = tasks.with_randomize(scene, opts.randomize, scene_src)
     tasks.check_instruction(opts.instruction)
     device = resolve_device(opts.device) if opts.device is not None else None
     rskill, rskill_path = registry.resolve_rskill(rskill_ref(opts.rskill, scene))
@@ -155,6 +157,7 @@ def _resolve(opts: RecordOptions) -> _Resolved:
         "n_episodes": n_episodes,
         "task": task_id,
         "instruction": opts.instruction,
+        "randomize": opts.randomize,
     }
     return _Resolved(
         opts, scene, scene_src, rskill, rskill_src, robot, device, make_policy, make_scene, n_episodes, base_seed,

@@ -46,6 +46,18 @@ def choose_task(scene: SimScene, task_id: str, source: str) -> tuple[SimScene, s
     raise UsageError(f"--task: unknown task {task_id!r} of scene {scene.scene.id}; valid: {shown}{more}")
 
 
+def with_randomize(scene: SimScene, enabled: bool, source: str) -> SimScene:
+    """`scene` with its `scene.params.randomize` block turned on or off (`record --randomize on|off`)."""
+    block = scene.scene.params.get("randomize")
+    if not isinstance(block, dict):
+        raise UsageError(
+            f"--randomize: {source}: scene.params.randomize: scene {scene.scene.id} declares no randomization "
+            "(docs/scenes.md: Randomization)"
+        )
+    params = {**scene.scene.params, "randomize": {**block, "enabled": enabled}}
+    return scene.model_copy(update={"scene": scene.scene.model_copy(update={"params": params})})
+
+
 def check_instruction(instruction: str | None) -> None:
     if instruction is not None and not instruction.strip():
         raise UsageError("--instruction: must not be empty")

@@ -14,6 +14,7 @@ from typing import Literal
 from pydantic import Field, model_validator
 
 from openral_data.schemas.base import StrictModel
+from openral_data.schemas.randomize import Randomize
 from openral_data.schemas.tabletop import TableLayout, XYRegion
 
 Vec3 = tuple[float, float, float]
@@ -120,6 +121,7 @@ class TabletopParams(TableLayout):
     timestep: float = Field(default=0.002, gt=0, le=0.01)
     ready_xy: tuple[float, float] = (0.38, 0.0)
     ready_height: float = Field(default=0.25, gt=0, description="start: grasp site this far above the table")
+    randomize: Randomize | None = Field(default=None, description="per-episode variation (schemas/randomize.py)")
 
     @property
     def table_top(self) -> XYRegion:

@@ -26,7 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.errors import ConfigError
-from openral_data.producers.sim.mujoco.objects import add_objects, add_table
+from openral_data.producers.sim.mujoco.objects import add_objects, add_table, add_textures
 from openral_data.schemas.mujoco import MujocoRobotWiring, TabletopParams
 from openral_data.schemas.scene import SceneCamera
 from openral_data.schemas.tabletop import TabletopObject
@@ -152,9 +152,11 @@ def compose(
     robot_source: str,
     scene_source: str,
     objects: Sequence[TabletopObject] = (),
+    textures: bool = False,
 ) -> Composed:
-    """Build and compile the world with `objects` on the table (none: an empty table); ConfigError (naming the
-    manifest or scene field) on bad wiring."""
+    """Build and compile the world with `objects` on the table (none: an empty table) and, with `textures`, the
+    shipped textures as materials (`randomize.textures`); ConfigError (naming the manifest or scene field) on bad
+    wiring."""
     world = _world(params, cameras)
     grip_prefix = _place_robot(world, robot_mjcf, gripper_mjcf, wiring, params, robot_source)
     for body in world.bodies:
@@ -166,6 +168,8 @@ def compose(
     # --- the table, the objects, lights (objects.py) ----------------------------------------------------------
     add_table(world, params.table_height, params.table_size, params.table_center)
     add_objects(world, objects, f"{scene_source}: scene.params.objects")
+    if textures:
+        add_textures(world)
 
     cam_names = _add_cameras(world, cameras, wiring, robot_source, scene_source)
     try:

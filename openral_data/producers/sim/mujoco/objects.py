@@ -21,6 +21,7 @@ import mujoco
 
 from openral_data.errors import ConfigError
 from openral_data.producers.sim.mujoco.assets import resolve_asset
+from openral_data.schemas.randomize import TEXTURES
 from openral_data.schemas.tabletop import MESHES, DrawerObject, MeshObject, TabletopObject
 
 SCENE_GROUP = 2  # geom group of the table, floor and objects; robot MJCFs use 0 (collision) and 1 (visual)
@@ -33,6 +34,17 @@ DRAWER_DAMPING = 2.0
 DRAWER_FRICTIONLOSS = 0.2
 GEOM = mujoco.mjtGeom
 MESH_SUFFIXES = (".stl", ".obj", ".msh")
+MATERIAL_PREFIX = "rand/"  # the shipped textures' materials (add_textures)
+_BUILTIN = {
+    "checker": mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
+    "gradient": mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
+    "flat": mujoco.mjtBuiltin.mjBUILTIN_FLAT,
+}
+_MARK = {
+    "none": mujoco.mjtMark.mjMARK_NONE,
+    "edge": mujoco.mjtMark.mjMARK_EDGE,
+    "random": mujoco.mjtMark.mjMARK_RANDOM,
+}
 Vec3 = tuple[float, float, float]
 
 
@@ -79,6 +91,30 @@ def add_table(
         specular=[0.05, 0.05, 0.05],
         castshadow=True,
     )
+
+
+def add_textures(world: mujoco.MjSpec) -> None:
+    """The shipped textures (schemas/randomize.py), each a material ``rand/<name>`` a geom can be switched to."""
+    for name, (builtin, mark, rgb1, rgb2, repeat) in TEXTURES.items():
+        world.add_texture(
+            name=f"{MATERIAL_PREFIX}{name}",
+            type=mujoco.mjtTexture.mjTEXTURE_2D,
+            builtin=_BUILTIN[builtin],
+            mark=_MARK[mark],
+            rgb1=list(rgb1),
+            rgb2=list(rgb2),
+            markrgb=list(rgb2),
+            random=0.15 if mark == "random" else 0.0,
+            width=64,
+            height=64,
+        )
+        world.add_material(
+            name=f"{MATERIAL_PREFIX}{name}",
+            textures=["", f"{MATERIAL_PREFIX}{name}"],
+            texrepeat=[repeat, repeat],
+            texuniform=True,
+            specular=0.05,
+        )
 
 
 def add_objects(world: mujoco.MjSpec, objects: Sequence[TabletopObject], source: str) -> None:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -93,15 +94,17 @@ def expand_clutter(layout: TableLayout, area: XYRegion | Workspace) -> list[Tabl
             "rgba": (*colour, 1.0),
             "pose": Pose(x=region.x, y=region.y, yaw=(-np.pi, np.pi)),
         }
-        if kind in MESHES:
-            objects.append(MeshObject(kind="mesh", mesh=kind, **common))
-        elif kind == "box":
-            objects.append(BoxObject(kind="box", size=(s, s, s), **common))
-        elif kind == "sphere":
-            objects.append(SphereObject(kind="sphere", size=(s / 2,), **common))
-        else:
-            objects.append(CylinderObject(kind="cylinder", size=(s / 2, s), **common))
+        objects.append(MeshObject(kind="mesh", mesh=kind, **common) if kind in MESHES else primitive(kind, s, common))
     return objects
+
+
+def primitive(kind: str, s: float, common: dict[str, Any]) -> TabletopObject:
+    """A box (side `s`), sphere or cylinder (diameter and height `s`) with the other fields in `common`."""
+    if kind == "box":
+        return BoxObject(kind="box", size=(s, s, s), **common)
+    if kind == "sphere":
+        return SphereObject(kind="sphere", size=(s / 2,), **common)
+    return CylinderObject(kind="cylinder", size=(s / 2, s), **common)
 
 
 def _corners(half: F64) -> F64:

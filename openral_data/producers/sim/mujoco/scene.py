@@ -62,6 +62,7 @@ from openral_data.producers.sim.mujoco.placement import (
     place,
     yaw_quat,
 )
+from openral_data.producers.sim.mujoco.randomize import DISTRACTOR_PREFIX, Randomizer, distractor_objects
 from openral_data.producers.sim.mujoco.render import CameraRig
 from openral_data.producers.sim.mujoco.rig_scene import RigScene
 from openral_data.producers.sim.mujoco.success import holds
@@ -154,7 +155,11 @@ class TabletopScene(RigScene):
         self, scene: SimScene, wiring: MujocoRobotWiring, arm_mjcf: Path, grip_mjcf: Path | None, source: str
     ) -> None:
         """The composed model with the scene's objects, the arm's kinematics, and where each object lives in it."""
-        self.objects = expand_clutter(self.params, self.params.workspace or self.params.table_top)
+        area = self.params.workspace or self.params.table_top
+        rz = self.params.randomize
+        self.objects = expand_clutter(self.params, area) + distractor_objects(
+            rz.distractors if rz is not None else None, area
+        )
         self.composed = compose(
             robot_mjcf=arm_mjcf,
             gripper_mjcf=grip_mjcf,
@@ -164,9 +169,13 @@ class TabletopScene(RigScene):
             robot_source=self._robot_source,
             scene_source=source,
             objects=self.objects,
+            textures=rz is not None and bool(rz.textures),
         )
         self.model = self.composed.model
         self.data = mujoco.MjData(self.model)
+        self.randomizer = Randomizer(self.model, rz, self.objects, list(scene.scene.cameras), source)
+        self.randomization: dict[str, Any] = {}  # the current episode's drawn values (its provenance)
+        self._nominal_extents = True
         self.arm = Arm.build(self.composed, wiring)
         self.ik = IKSolver(self.arm, rest=np.array(wiring.home))
         self.extents = extents(self.model, self.objects)
@@ -253,10 +262,17 @@ class TabletopScene(RigScene):
     # -- SimRollout ------------------------------------------------------------------------------------------
     def reset(self, seed: int) -> Observation:
         self._seed = seed
-        placed = self._place(seed)
+        values = self.randomizer.draw(seed)
+        self._randomize(values)
+        parked = self.randomizer.parked(values)
+        placed = self._place(seed, skip=set(parked))
         d, a = self.data, self.arm
         mujoco.mj_resetData(self.model, d)
         a.hold(d, self.ready_q)
+        for k, name in enumerate(parked):
+            c = self._free[name]
+            d.qpos[c : c + 3] = self.randomizer.parked_pos(k)
+            d.qpos[c + 3 : c + 7] = (1.0, 0.0, 0.0, 0.0)
         for name, p in placed.items():
             if name in self._free:
                 c = self._free[name]
@@ -271,6 +287,10 @@ class TabletopScene(RigScene):
         """Restore exactly the state `initial_state()` described (for replay); the controller restarts too."""
         check_format(initial_state, STATE_FORMAT)
         check_recorded_on(initial_state, "task", self.task_kind)
+        values = initial_state.get("randomization", {})
+        if not isinstance(values, dict):
+            raise ConfigError("initial_state: randomization: not a mapping")
+        self._randomize(values)
         d = self.data
         mujoco.mj_resetData(self.model, d)
         try:
@@ -300,8 +320,9 @@ class TabletopScene(RigScene):
         return self._observation()
 
     def object_names(self) -> tuple[str, ...]:
-        """The movable objects, in the order `observation.environment_state` lists them (`object_poses` keys)."""
-        return (*self._free, *self._drawers)
+        """The movable objects, in the order `observation.environment_state` lists them (`object_poses` keys);
+        distractors (`randomize.distractors`, not every episode has them) are not among them."""
+        return (*(n for n in self._free if not n.startswith(DISTRACTOR_PREFIX)), *self._drawers)
 
     def success(self) -> bool:
         return self.params.success is not None and holds(self.params.success, self)
@@ -328,10 +349,22 @@ class TabletopScene(RigScene):
         return float(self.data.qpos[self._drawers[name][0]])
 
     # -- helpers ---------------------------------------------------------------------------------------------
-    def _place(self, seed: int) -> dict[str, Placed]:
+    def _place(self, seed: int, skip: set[str] | None = None) -> dict[str, Placed]:
         rng = np.random.default_rng(seed)
         p = self.params
-        return place(self.objects, self.extents, p.table_height, rng, self._gap, self._params_source, self._keep_clear)
+        objects = [o for o in self.objects if not skip or o.name not in skip]
+        return place(objects, self.extents, p.table_height, rng, self._gap, self._params_source, self._keep_clear)
+
+    def _randomize(self, values: dict[str, Any]) -> None:
+        """Write an episode's variation into the model (nominal first); sizes and masses changed mean new
+        derived constants and, for sizes, new extents to place by."""
+        changed = bool(values.get("physics") or values.get("distractors"))
+        self.randomizer.apply(values)
+        if changed or not self._nominal_extents:
+            mujoco.mj_setConst(self.model, self.data)
+            self.extents = extents(self.model, self.objects)
+        self._nominal_extents = not changed
+        self.randomization = values
 
     def cube_pos(self) -> F64:
         """The role `object`'s position (the cube of the push and pick-place scenes)."""
@@ -409,6 +442,8 @@ class TabletopScene(RigScene):
             "mocap_quat": d.mocap_quat.tolist(),
             "object_poses": {k: v.tolist() for k, v in self.object_poses().items()},
         }
+        if self.randomization:
+            state["randomization"] = self.randomization
         target, goal = self.roles.get("object"), self.roles.get("goal")
         if target in self._free:
             c = self._free[target]
