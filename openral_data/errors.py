@@ -195,6 +195,12 @@ class ReplayError(OpenralError):
     default_code = "replay"
 
 
+class GenerateError(OpenralError):
+    """`generate` cannot start (source demonstrations it cannot segment or re-target) or kept no episode."""
+
+    default_code = "generate"
+
+
 class ExecutorError(OpenralError):
     """A parallel recording's executor is unavailable or a worker failed."""
 

@@ -9,7 +9,7 @@ from typing import Annotated, Any, cast
 
 import typer
 
-from openral_data.cli import browse, convert, hub, inspect, quality, record, replay, stats, upgrade
+from openral_data.cli import browse, convert, generate, hub, inspect, quality, record, replay, stats, upgrade
 from openral_data.cli.download import dataset_download
 from openral_data.cli.edit import episodes_app
 from openral_data.cli.features import features_app
@@ -89,6 +89,7 @@ app.add_typer(stats.stats_app, name="stats")
 app.command()(quality.quality)
 app.command()(inspect.view)
 app.command()(replay.replay)
+app.command()(generate.generate)
 app.command()(inspect.doctor)
 app.command()(hub.push)
 app.command()(browse.browse)

@@ -78,6 +78,7 @@ def record(
     randomize: Annotated[
         str | None, typer.Option(help="on or off: the scene's randomize: block (default: as the YAML says)")
     ] = None,
+    keep: Annotated[str, typer.Option(help="all, or success: discard the episodes that do not succeed")] = "all",
     device: Annotated[
         str | None, typer.Option(help="neural policies: cpu, cuda, cuda:N, mps or auto (default: the rSkill's)")
     ] = None,
@@ -100,9 +101,9 @@ def record(
 
         if resume or workers != 1:
             raise UsageError("--resume/--workers: not available with --hal (one robot, one new dataset)")
-        if suite_task is not None or instruction is not None or device is not None or randomize is not None:
+        if (suite_task, instruction, device, randomize) != (None,) * 4 or keep != "all":
             raise UsageError(
-                "--task/--instruction/--device/--randomize: not available with --hal (the rSkill's own are used)"
+                "--task/--instruction/--device/--randomize/--keep: not available with --hal (the rSkill's own are used)"
             )
         hal_opts = HalRecordOptions(
             robot=hal,
@@ -129,7 +130,7 @@ def record(
     if hal_only:
         raise UsageError(f"{', '.join(hal_only)}: only with --hal ROBOT_ID (a scene records at its own fps)")
     from openral_data.formats.mcap import parse_compression, parse_image_format
-    from openral_data.record.options import RecordOptions
+    from openral_data.record.options import Keep, RecordOptions
     from openral_data.runtime.sinks import parse_formats
 
     opts = RecordOptions(
@@ -155,6 +156,7 @@ def record(
         instruction=instruction,
         device=device,
         randomize=_on_off(randomize),
+        keep=cast(Keep, keep),  # checked by RecordOptions
     )
     parallel = workers != 1 or executor != "local"
     if parallel:

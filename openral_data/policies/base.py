@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 import numpy.typing as npt
@@ -33,3 +33,11 @@ class ChunkingPolicy(PolicyAdapter, Protocol):
     n_action_steps: int
 
     def predict_chunk(self, observation: Observation, instruction: str) -> npt.NDArray[np.float32]: ...
+
+
+@runtime_checkable
+class AnnotatingPolicy(PolicyAdapter, Protocol):
+    """A policy that says something about the episode it just played (e.g. the generator's source episode and
+    segments); `record` stores it in the episode's `openral.episode_info`."""
+
+    def episode_info(self) -> dict[str, Any]: ...

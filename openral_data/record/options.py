@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Literal
 
 from openral_data import manifests
 from openral_data.errors import UsageError
@@ -15,6 +16,8 @@ from openral_data.runtime.sinks import OutputFormat, check_outputs
 from openral_data.schemas.scene import MAX_SEED, MAX_STEPS, SimScene
 from openral_data.types import EpisodeRecord
 from openral_data.viz import DEFAULT_PORT
+
+Keep = Literal["all", "success"]
 
 
 @dataclass(frozen=True)
@@ -47,9 +50,14 @@ class RecordOptions:
     instruction: str | None = None  # recorded for every frame and given to the policy (`--instruction`)
     device: str | None = None  # a neural policy's torch device (`--device`; wins over the rSkill's)
     randomize: bool | None = None  # turn the scene's `randomize:` block on or off (`--randomize`); None: the YAML's
+    keep: Keep = "all"  # "success": an episode that does not succeed is discarded (`--keep`, `generate`)
 
     def __post_init__(self) -> None:
         check_outputs(self.formats, self.codec, self.image_format, self.mcap_compression)
+        if self.keep not in ("all", "success"):
+            raise UsageError(f"--keep: {self.keep!r} is not all or success")
+        if self.keep == "success" and self.resume:
+            raise UsageError("--keep success: not with --resume (the seeds of discarded episodes are not recorded)")
 
 
 @dataclass(frozen=True)
@@ -63,6 +71,7 @@ class RecordSummary:
     codec: str = ""  # the settings used (with --resume: the recording's own)
     formats: tuple[OutputFormat, ...] = ()
     debug_videos: Path | None = None  # where --save-video wrote (not in to_json)
+    discarded: int = 0  # episodes not kept (`keep="success"`: they did not succeed)
 
     @property
     def success_rate(self) -> float:
@@ -88,6 +97,7 @@ class RecordSummary:
             "codec": self.codec,
             "formats": list(self.formats),
             "mcap_dir": str(self.out / "mcap") if "mcap" in self.formats else None,
+            "discarded": self.discarded,
             "episode_list": [asdict(e) for e in self.episodes],
         }
 

@@ -10,10 +10,11 @@ from typing import Any
 
 from openral_data.errors import ConfigError, UsageError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig, warm_up
-from openral_data.policies.base import PolicyAdapter
+from openral_data.policies.base import AnnotatingPolicy, PolicyAdapter
 from openral_data.policies.device import resolve_device, with_device
 from openral_data.record import output, recorded
 from openral_data.record.options import (
+    Keep,
     ProgressFn,
     RecordOptions,
     RecordSummary,
@@ -89,7 +90,7 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
             if callable(start_at):
                 start_at(opened.first_episode)
             t0 = time.perf_counter()
-            frames = _episodes(run, env, policy, bridge, opened.first_episode, records, progress)
+            frames, discarded = _episodes(run, env, policy, bridge, opened.first_episode, records, progress)
         finally:
             env.close()
     finally:
@@ -108,6 +109,7 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
         recovered=tuple(opened.actions),
         codec=opts.codec,
         formats=opts.formats,
+        discarded=discarded,
         debug_videos=run.debug_videos,
     )
 
@@ -229,21 +231,27 @@ def _episodes(
     first: int,
     records: list[EpisodeRecord],
     progress: ProgressFn | None,
-) -> int:
-    """Episodes `first`..n_episodes-1 into `records` (kept when a stop ends the loop); the frames recorded."""
-    frames = 0
+) -> tuple[int, int]:
+    """Episodes `first`..n_episodes-1 into `records` (kept when a stop ends the loop); the frames recorded and the
+    episodes discarded (`keep="success"`: a failed episode is not committed and takes no episode number)."""
+    frames = discarded = 0
     with episode_loop(bridge, policy, run.out, lambda: first + len(records)) as stop:
         if progress is not None:
             progress(None, 0, max(0, run.n_episodes - first))
         for e in range(first, run.n_episodes):
             t_episode = time.perf_counter()
-            rec = _record_episode(env, policy, bridge, run.base_seed + e, run.max_steps, stop, run.opts.instruction)
+            rec = _record_episode(
+                env, policy, bridge, run.base_seed + e, run.max_steps, stop, run.opts.instruction, run.opts.keep
+            )
+            if rec is None:
+                discarded += 1
+                continue
             log_episode(rec, time.perf_counter() - t_episode)
             records.append(rec)
             frames += rec.length
             if progress is not None:
-                progress(rec, frames, max(0, run.n_episodes - first))
-    return frames
+                progress(rec, frames, max(0, run.n_episodes - first - discarded))
+    return frames, discarded
 
 
 def _record_episode(
@@ -254,9 +262,12 @@ def _record_episode(
     max_steps: int,
     stop: StopRequest,
     instruction: str | None = None,
-) -> EpisodeRecord:
+    keep: Keep = "all",
+) -> EpisodeRecord | None:
     """One episode: row t = (observation t, the action the policy produced from it, what followed); with an
-    `instruction` (`--instruction`) that is every observation's task, for the policy and in the dataset."""
+    `instruction` (`--instruction`) that is every observation's task, for the policy and in the dataset. With
+    `keep="success"` an episode that does not succeed is discarded (None). What an annotating policy says of the
+    episode goes to its `openral.episode_info`."""
     stop.check()
     obs = tasks.instructed(env.reset(seed), instruction)
     policy.reset(seed)
@@ -273,4 +284,8 @@ def _record_episode(
         if result.terminated:
             success = result.success
             break
-    return bridge.end_episode(success)[0]
+    if keep == "success" and not success:
+        bridge.discard_episode()
+        return None
+    info = policy.episode_info() if isinstance(policy, AnnotatingPolicy) else None
+    return bridge.end_episode(success, info)[0]

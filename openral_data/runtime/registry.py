@@ -143,6 +143,12 @@ def _lerobot(rskill: RSkillManifest) -> PolicyAdapter:
     return make_lerobot_policy(rskill)
 
 
+def _mimicgen(rskill: RSkillManifest) -> PolicyAdapter:
+    from openral_data.policies.mimicgen import MimicGenPolicy
+
+    return MimicGenPolicy(rskill)
+
+
 def _sweep(rskill: RSkillManifest) -> PolicyAdapter:
     from openral_data.policies.sweep import SweepPolicy
 
@@ -246,6 +252,7 @@ POLICIES: Registry[PolicyFactory] = Registry(
         "metaworld_expert": _metaworld_expert,
         "lerobot": _lerobot,
         "sweep": _sweep,
+        "mimicgen": _mimicgen,
     },
 )
 

@@ -29,7 +29,7 @@ MAX_STEPS = 6
 TABLES = {
     "common", "info", "doctor", "record", "record --hal", "convert bags-to-lerobot", "convert lerobot-to-mcap",
     "replay", "list", "list item", "list scenes", "list rskills", "list robots", "list plugin_problems",
-    "list tasks", "list tasks item", "tasks list", "tasks list item",
+    "list tasks", "list tasks item", "tasks list", "tasks list item", "generate",
 }  # fmt: skip
 
 

@@ -55,6 +55,8 @@ def record_parallel(
         raise UsageError("--save-video: record with one process (no --workers/--executor) to get debug videos")
     if opts.view:
         raise UsageError("--view: watch a recording made by one process (no --workers/--executor)")
+    if opts.keep == "success" and "mcap" in opts.formats:
+        raise UsageError("--keep success: the MCAP bags of several workers are numbered in advance; use one process")
     if opts.out is None:
         scene = load_recordable_scene(registry.resolve_scene_path(opts.scene))
         rskill = registry.resolve_rskill(rskill_ref(opts.rskill, scene))[0]
@@ -89,6 +91,7 @@ def record_parallel(
         formats=opts.formats,
         finish_order=tuple(r.worker for r in results),
         workers=len(jobs),
+        discarded=sum(r.discarded for r in results),
     )
 
 
@@ -130,7 +133,11 @@ def _assemble(results: list[WorkerResult], workdir: Path, held: Claim, formats: 
     # a recorded episode always carries its seed (only an edited one may not know it)
     by_seed = sorted((e for r in results for e in r.episodes), key=lambda e: e.seed or 0)
     episodes = [EpisodeRecord(k, e.length, e.success, e.seed) for k, e in enumerate(by_seed)]
-    folders = [r.worker for r in sorted(results, key=lambda r: r.worker)]
+    # a worker that kept no episode (`keep="success"`) left no dataset behind
+    folders = [r.worker for r in sorted(results, key=lambda r: r.worker) if r.episodes]
+    if not folders:
+        dropped = sum(r.discarded for r in results)
+        raise ExecutorError(f"{out}: no worker kept an episode ({dropped} discarded)", code="executor.nothing_kept")
     worker_dirs = [workdir / f"worker-{w:03d}" for w in folders]
 
     def add_bags(staging: Path) -> None:

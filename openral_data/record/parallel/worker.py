@@ -20,6 +20,7 @@ class WorkerResult:
     seconds: float
     finished_at: float  # time.time() when the worker's dataset was complete
     pid: int
+    discarded: int = 0  # episodes it did not keep (`keep="success"`)
 
 
 def init_local_worker() -> None:
@@ -45,4 +46,6 @@ def run_worker(job: WorkerJob) -> WorkerResult:
     if EARLY_STOP.is_set():
         raise KeyboardInterrupt
     summary = record(job.opts)
-    return WorkerResult(job.worker, summary.episodes, summary.frames, summary.seconds, time.time(), os.getpid())
+    return WorkerResult(
+        job.worker, summary.episodes, summary.frames, summary.seconds, time.time(), os.getpid(), summary.discarded
+    )

@@ -1,0 +1,58 @@
+"""`openral-data generate SOURCE --scene SCENE --n N --out OUT`: many demonstrations from a few (docs/generate.md)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from openral_data import paths
+from openral_data.cli.jsonout import JsonFlag, print_json
+from openral_data.cli.terminal import print_rows
+
+
+def generate(
+    source: Annotated[Path, typer.Argument(help="source dataset: demonstrations in a MuJoCo tabletop scene")],
+    scene: Annotated[str, typer.Option(help="scene to generate in (an id or a YAML path)")],
+    n: Annotated[int, typer.Option("--n", help="attempts; the episodes that succeed are kept")],
+    out: Annotated[Path, typer.Option(help="the dataset to write (must not exist or be empty)")],
+    seed: Annotated[int, typer.Option(help="seed of the first attempt; attempt k uses seed+k")] = 1000,
+    max_steps: Annotated[int | None, typer.Option(help="step limit per attempt (default: the scene's)")] = None,
+    interpolation: Annotated[int, typer.Option(help="steps between two segments (at least)")] = 5,
+    settle: Annotated[int, typer.Option(help="frames a grasp segment runs on after the gripper closes")] = 8,
+    annotations: Annotated[Path | None, typer.Option(help="segments given by hand (docs/generate.md)")] = None,
+    workers: Annotated[int, typer.Option(help="attempts in N processes, merged by seed")] = 1,
+    executor: Annotated[str, typer.Option(help="local (processes on this machine) or ray")] = "local",
+    address: Annotated[str | None, typer.Option(help="Ray cluster address (--executor ray)")] = None,
+    codec: Annotated[str, typer.Option(help="video codec: av1 or h264")] = "av1",
+    json: JsonFlag = False,
+) -> None:
+    """Generate demonstrations MimicGen-style: SOURCE's successful episodes, cut into object-centric segments,
+    re-targeted to new object poses in SCENE and executed; the episodes that succeed are kept in OUT."""
+    from openral_data.generate import GenerateOptions
+    from openral_data.generate import generate as run
+
+    paths.check_creatable(out, "--out")
+    summary = run(
+        GenerateOptions(
+            source=source,
+            scene=scene,
+            n=n,
+            out=out,
+            seed=seed,
+            max_steps=max_steps,
+            interpolation=interpolation,
+            settle=settle,
+            annotations=annotations,
+            workers=workers,
+            executor=executor,
+            address=address,
+            codec=codec,
+        )
+    )
+    if json:
+        print_json("generate", summary.to_json())
+        return
+    doc = summary.to_json()
+    print_rows(f"generated: {summary.out}", [(k.replace("_", " "), str(v)) for k, v in doc.items() if k != "out"])
