@@ -151,7 +151,8 @@ def trim_cmd(
     report("trimmed", [result])
     print_line(
         f"trimmed: {done['changed']} episodes, {done['dropped']} frames dropped; camera clips: "
-        f"{done['copied']} cut by copying packets, {done['encoded']} re-encoded"
+        f"{done['copied']} cut by copying packets, {done['spliced']} re-encoding only the groups of pictures at a "
+        f"cut, {done['encoded']} re-encoded"
     )
 
 

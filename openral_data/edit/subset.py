@@ -4,10 +4,12 @@
 `SourceDataset.episode`: its rows (state, action, reward, task, carried columns) are those frames' rows, the
 writer renumbering `frame_index`, `index` and `timestamp` (frame j at j / fps) as it commits the episode; the
 episode's terminal flags (`next.done`, `next.success` of its source's last frame) move to its new last frame,
-so an episode that ended done or successful still does. Each video camera's clip is cut by copying packets
-when `cut.copyable` allows it at an unchanged fps, else the kept frames are decoded and encoded again with the
-source's encoder settings (lerobot's, `VideoSettings`) at the output fps. Every camera statistic of a changed
-episode is recomputed from its kept pixels; numeric statistics are recomputed by the writer from the rows.
+so an episode that ended done or successful still does. Each video camera's clip is cut by `cut.plan` and
+`cut.splice` at an unchanged fps: packets copied where the cuts fall on keyframes, the groups of pictures at
+other cuts decoded and encoded again with the source's encoder settings (lerobot's, `VideoSettings`), kept only
+when every copied frame decodes to exactly the source's pixels; else (or at another fps) every kept frame is
+decoded and encoded again at the output fps. Every camera statistic of a changed episode is recomputed from its
+kept pixels; numeric statistics are recomputed by the writer from the rows.
 An episode `keep` leaves whole (None) is the source's, untouched.
 """
 
@@ -16,6 +18,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
+import numpy as np
 import pyarrow as pa
 
 from openral_data.edit import cut
@@ -35,7 +38,9 @@ class Counts:
     episodes_changed: int = 0
     frames_dropped: int = 0
     clips_copied: int = 0  # camera clips cut by copying packets
-    clips_encoded: int = 0  # camera clips whose kept frames were encoded again
+    clips_spliced: int = 0  # camera clips copied but for the groups of pictures at a cut, encoded again
+    clips_encoded: int = 0  # camera clips whose kept frames were all encoded again
+    spliced: list[str] = field(default_factory=list)  # "EPISODE:camera" of the clips spliced
     encoded: list[str] = field(default_factory=list)  # "EPISODE:camera" of the clips encoded again
 
 
@@ -82,22 +87,38 @@ class FrameSubset:
         )
 
     def _clip(self, index: int, name: str, mp4: bytes, keep: Sequence[int], where: str) -> tuple[bytes, Stats]:
-        """One camera's clip of the kept frames and their statistics: packets copied when possible, else encoded."""
-        if self.fps == self.src.fps and cut.copyable(keep, cut.keyframes(mp4, where)):
-            data = cut.copy_frames(mp4, keep, where)
-            acc = ImageStatsAccumulator()
-            for frame in clip_frames(data, where):
-                acc.add(frame)
-            self.counts.clips_copied += 1
-            return data, acc.stats()
+        """One camera's clip of the kept frames and their statistics: packets copied where the cuts fall on
+        keyframes, the groups of pictures at other cuts encoded again, or (fps changed, or no splice possible)
+        every kept frame encoded again."""
+        if self.fps == self.src.fps:
+            key = cut.keyframes(mp4, where)
+            segments = cut.plan(keep, key)
+            fresh = [self._encode(name, mp4, list(range(a, b)), where) for copied, a, b in segments if not copied]
+            data = cut.splice(mp4, segments, fresh, self.fps, where)
+            stats = None if data is None else _checked_stats(data, mp4, keep, segments, where)
+            if data is not None and stats is not None:
+                if fresh:
+                    self.counts.clips_spliced += 1
+                    self.counts.spliced.append(f"{index}:{self.src.camera_key[name]}")
+                else:
+                    self.counts.clips_copied += 1
+                return data, stats
+        enc = self._encoders_of(name).encode({name: cut.decoded_frames(mp4, keep, where)}, len(keep), where)[name]
+        self.counts.clips_encoded += 1
+        self.counts.encoded.append(f"{index}:{self.src.camera_key[name]}")
+        return enc.data, enc.stats.stats()
+
+    def _encoders_of(self, name: str) -> CameraEncoders:
         encoders = self._encoders.get(name)
         if encoders is None:
             shape = self.src.schema.cameras[name]
             encoders = self._encoders[name] = CameraEncoders({name: shape}, self.src.video, self.fps)
-        enc = encoders.encode({name: cut.decoded_frames(mp4, keep, where)}, len(keep), where)[name]
-        self.counts.clips_encoded += 1
-        self.counts.encoded.append(f"{index}:{self.src.camera_key[name]}")
-        return enc.data, enc.stats.stats()
+        return encoders
+
+    def _encode(self, name: str, mp4: bytes, frames: list[int], where: str) -> bytes:
+        """The source frames `frames` of a clip (decoded from its start), encoded again as a clip of their own."""
+        pictures = cut.decoded_frames(mp4, frames, where)
+        return self._encoders_of(name).encode({name: pictures}, len(frames), where)[name].data
 
     def step(self, progress: Progress | None) -> Callable[[EpisodeData], EpisodeData]:
         """`episode`, reporting each episode done to `progress`."""
@@ -124,3 +145,24 @@ def _terminal(flags: list[bool], keep: Sequence[int]) -> list[bool]:
     if out and flags and flags[-1]:
         out[-1] = True
     return out
+
+
+def _checked_stats(
+    data: bytes, mp4: bytes, keep: Sequence[int], segments: list[cut.Segment], where: str
+) -> Stats | None:
+    """The statistics of a cut clip's frames, once every frame it copied decodes to exactly the source's pixels
+    and it holds exactly the kept frames; None otherwise (a splice the decoder did not take as a whole)."""
+    acc = ImageStatsAccumulator()
+    if all(flag for flag, _, _ in segments):  # packets only: the source's frames by construction
+        for frame in clip_frames(data, where):
+            acc.add(frame)
+        return acc.stats()
+    copied = {k for flag, a, b in segments if flag for k in range(a, b)}
+    try:
+        for frame, k, want in zip(clip_frames(data, where), keep, cut.decoded_frames(mp4, keep, where), strict=True):
+            if k in copied and not np.array_equal(frame, want):
+                return None
+            acc.add(frame)
+    except ValueError:  # zip: the clip does not hold exactly the kept frames
+        return None
+    return acc.stats()

@@ -146,5 +146,6 @@ def trim(
         "changed": c.episodes_changed,
         "dropped": c.frames_dropped,
         "copied": c.clips_copied,
+        "spliced": c.clips_spliced,
         "encoded": c.clips_encoded,
     }

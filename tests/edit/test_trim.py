@@ -16,10 +16,13 @@ import pyarrow.parquet as pq
 import pytest
 
 from openral_data.doctor import check
-from openral_data.edit.cut import copyable, runs
+from openral_data.edit.cut import plan, runs, splice
+from openral_data.edit.recode import CameraEncoders
 from openral_data.edit.trim import parse_frames, trim
 from openral_data.errors import DatasetBusy, EpisodeSelectionError
 from openral_data.formats.lerobot_v3.lock import DatasetLock
+from openral_data.formats.lerobot_v3.video import VideoSettings
+from openral_data.types import CameraShape
 from tests.support import quality as q
 from tests.support.inproc import run_inproc
 from tests.support.lerobot_written import LENGTHS, digest, loaded_episodes, write_lerobot_dataset
@@ -122,8 +125,25 @@ def test_frames_are_parsed_end_included_and_refused_in_one_line() -> None:
 def test_runs_and_when_packets_can_be_copied() -> None:
     assert runs([0, 1, 2, 5, 6]) == [(0, 3), (5, 7)]
     key = [True, False, True, False, True, False]
-    assert copyable([2, 3], key) and copyable([2, 3, 4, 5], key) and copyable([0, 1, 4, 5], key)
-    assert not copyable([1, 2, 3], key) and not copyable([2, 3, 4], key)
+    assert plan([2, 3], key) == [(True, 2, 4)] and plan([0, 1, 4, 5], key) == [(True, 0, 2), (True, 4, 6)]
+    # the groups of pictures inside a run are copied, the frames before its first / from its last keyframe not
+    assert plan([1, 2, 3, 4, 5], key) == [(False, 1, 2), (True, 2, 6)]
+    assert plan([1, 2, 3, 4], key) == [(False, 1, 2), (True, 2, 4), (False, 4, 5)]
+    assert plan([0, 1, 2, 3, 4], key) == [(True, 0, 4), (False, 4, 5)]
+    assert plan([1, 2], key) == [(False, 1, 3)]  # no whole group of pictures: encoded as a whole
+
+
+def test_a_splice_whose_codec_headers_differ_is_refused() -> None:
+    shape = CameraShape(32, 32)
+    frames = [np.full((32, 32, 3), 20 * t, np.uint8) for t in range(4)]
+    clips = {}
+    for codec in ("av1", "h264"):
+        enc = CameraEncoders({"cam": shape}, VideoSettings(codec=codec), fps=10)
+        clips[codec] = enc.encode({"cam": iter(frames)}, 4, "test")["cam"].data
+        enc.close()
+    segments = [(True, 0, 2), (False, 2, 3)]
+    assert splice(clips["av1"], segments, [clips["h264"]], 10, "test") is None
+    assert splice(clips["av1"], segments, [clips["av1"]], 10, "test") is not None
 
 
 # -- our recordings -----------------------------------------------------------------------------------------------
@@ -132,14 +152,15 @@ def test_idle_heads_are_trimmed_frame_exact(ours: Path, tmp_path: Path) -> None:
     out = tmp_path / "out"
     said = edited(ours, out, "episodes", "trim", str(ours), "--idle", "--min-frames", "6", "--out", str(out))
     assert "2 episodes, 15 frames dropped" in said
-    assert "1 cut by copying packets, 1 re-encoded" in said  # head 8 is on a keyframe (g=2), head 7 is not
+    # head 8 starts on a keyframe (g=2): packets copied; head 7 does not: its frame 7 is encoded again, alone
+    assert "1 cut by copying packets, 1 re-encoding only the groups of pictures at a cut, 0 re-encoded" in said
     lengths = [r["length"] for r in _episode_rows(out)]
     assert lengths == [N - 7, N, N - 8, N]  # `short` would keep 5 < --min-frames 6: kept whole
     src, got = loaded_episodes(ours), loaded_episodes(out)
     for e, name in enumerate(EPISODES):
         k = 0 if name == "short" else IDLE.get(name, 0)
         for t, frame in enumerate(got[e]):
-            _same_frame(frame, src[e][t + k], exact=name != "head7")
+            _same_frame(frame, src[e][t + k], exact=(name, t) != ("head7", 0))
     rows, old = _rows(out), _rows(ours)
     assert [r["index"] for r in rows] == list(range(sum(lengths)))
     assert [r["timestamp"] for r in rows if r["episode_index"] == 2] == pytest.approx([t / q.FPS for t in range(N - 8)])
@@ -149,11 +170,15 @@ def test_idle_heads_are_trimmed_frame_exact(ours: Path, tmp_path: Path) -> None:
     assert [{k: v for k, v in r.items() if k not in drop} for r in rows if r["episode_index"] == 1] == same
     assert _packets(out, 1) == _packets(ours, 1)
     assert _packets(out, 2) == _packets(ours, 2)[8:]  # copied from the keyframe on
+    assert _packets(out, 0)[1:] == _packets(ours, 0)[8:]  # frame 7 encoded again, from frame 8 on copied
     # the trimmed episode's last frame still ends it
     assert [r["next.done"] for r in rows if r["episode_index"] == 0][-1] is True
 
 
-def test_frames_in_place_and_a_busy_dataset_is_refused(ours: Path, tmp_path: Path) -> None:
+@pytest.mark.slow
+def test_frames_in_place_and_a_busy_dataset_is_refused(
+    ours: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     src = tmp_path / "copy"
     shutil.copytree(ours, src)
     with DatasetLock(src, "test"), pytest.raises(DatasetBusy):
@@ -162,6 +187,17 @@ def test_frames_in_place_and_a_busy_dataset_is_refused(ours: Path, tmp_path: Pat
     assert res.returncode == 0, res.stderr
     assert [r["length"] for r in _episode_rows(src)] == [N, N - 8, N, N - 1]
     assert check(src, deep=True) == []
+    # --idle reads the quality table `quality` cached rather than measuring again
+    assert run_inproc("quality", str(src)).returncode == 0
+    monkeypatch.setattr("openral_data.edit.trim.motion_pass", _not_called)
+    out = tmp_path / "idle"
+    res = run_inproc("episodes", "trim", str(src), "--idle", "--min-frames", "6", "--out", str(out))
+    assert res.returncode == 0, res.stderr
+    assert [r["length"] for r in _episode_rows(out)] == [N - 7, N - 8, N - 8, N - 1]
+
+
+def _not_called(*_: object) -> None:
+    raise AssertionError("measured again")
 
 
 def test_bad_requests_are_one_line_and_write_nothing(ours: Path, tmp_path: Path) -> None:
@@ -183,12 +219,15 @@ def test_bad_requests_are_one_line_and_write_nothing(ours: Path, tmp_path: Path)
 @pytest.mark.slow
 def test_a_lerobot_dataset_is_trimmed_frame_exact(theirs: Path, tmp_path: Path) -> None:
     out = tmp_path / "out"
-    edited(theirs, out, "episodes", "trim", str(theirs), "--frames", "0:0-1,1:3,1:7-8", "--out", str(out))
-    keep = {0: list(range(2, LENGTHS[0])), 1: [0, 1, 2, 4, 5, 6], 2: list(range(LENGTHS[2]))}
+    said = edited(theirs, out, "episodes", "trim", str(theirs), "--frames", "0:0-1,1:3,1:8", "--out", str(out))
+    # lerobot's h264 here: frames 0..7 of episode 1 are keyframes, frame 8 is not, so the run 4..7 ends inside
+    # a group of pictures: frame 7 is encoded again, frames 4..6 copied
+    assert "1 cut by copying packets, 1 re-encoding only the groups of pictures at a cut, 0 re-encoded" in said
+    keep = {0: list(range(2, LENGTHS[0])), 1: [0, 1, 2, 4, 5, 6, 7], 2: list(range(LENGTHS[2]))}
     src, got = loaded_episodes(theirs), loaded_episodes(out)
     assert [len(g) for g in got] == [len(k) for k in keep.values()]
     for e, frames in keep.items():
         for t, k in enumerate(frames):
-            _same_frame(got[e][t], src[e][k], exact=True)  # lerobot's h264 here: every cut falls on a keyframe
+            _same_frame(got[e][t], src[e][k], exact=(e, k) != (1, 7))
     assert [f["success"] for f in got[0]] == [False] * 3 + [True]  # the last frame of a success still says so
     assert not any(f["success"] for f in got[1])
