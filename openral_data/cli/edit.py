@@ -150,9 +150,9 @@ def trim_cmd(
         )
     report("trimmed", [result])
     print_line(
-        f"trimmed: {done['changed']} episodes, {done['dropped']} frames dropped; camera clips: "
-        f"{done['copied']} cut by copying packets, {done['spliced']} re-encoding only the groups of pictures at a "
-        f"cut, {done['encoded']} re-encoded"
+        f"trimmed: {done.episodes_changed} episodes, {done.frames_dropped} frames dropped; camera clips: "
+        f"{done.clips_copied} cut by copying packets, {done.clips_spliced} re-encoding only the groups of "
+        f"pictures at a cut, {done.clips_encoded} re-encoded"
     )
 
 
@@ -164,14 +164,15 @@ def resample_cmd(
     in_place: InPlace = False,
 ) -> None:
     """Lower the frame rate: output frame j is source frame floor(j * FPS_OLD / FPS) (every k-th frame for an
-    integer ratio); videos re-encoded at the new rate, statistics recomputed."""
+    integer ratio); videos re-timed (keyframes copied, other frames re-encoded), statistics recomputed."""
     from openral_data.edit.resample import resample
 
     if out is not None:
         paths.check_creatable(out, "--out")
     with progress_bar("resampling", "episodes") as bar:
         task = bar.add_task("", total=None)
-        result = resample(
+        result, done = resample(
             resolve_dataset(dataset), fps, out, in_place, progress=lambda d, t: bar.update(task, completed=d, total=t)
         )
     report("resampled", [result])
+    print_line(f"resampled: camera clips: {done.clips_copied} keyframes copied, {done.clips_encoded} re-encoded")

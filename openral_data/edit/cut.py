@@ -21,7 +21,8 @@ of that camera (never its neighbours' bytes) when either fails.
 from __future__ import annotations
 
 import io
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
 from fractions import Fraction
 
 import av
@@ -88,70 +89,105 @@ def splice(mp4: bytes, segments: Sequence[Segment], encoded: Sequence[bytes], fp
     `encoded` (in order), frame j at j / fps; None when the encoded clips' codec headers differ from the source's
     or the timing cannot be expressed (the caller encodes everything instead)."""
     try:
-        return _splice(mp4, segments, list(encoded), fps)
+        return _rewrite(mp4, fps, lambda clip: _spliced(clip, segments, list(encoded)))
     except (av.error.FFmpegError, IndexError, ValueError):
         return None  # e.g. decode timestamps that would not increase: not spliceable
 
 
-def _splice(mp4: bytes, segments: Sequence[Segment], encoded: list[bytes], fps: int) -> bytes | None:
+def select(mp4: bytes, keep: Sequence[int], fps: int, where: str) -> bytes | None:
+    """A clip of the frames `keep` of `mp4`, every one a keyframe (`keyframes`), shown at j / `fps`: their
+    packets copied (a keyframe decodes on its own), decode times lagging as the source's do; None when the
+    source's time base cannot express 1 / `fps`."""
+    try:
+        return _rewrite(mp4, fps, lambda clip: _selected(clip, keep))
+    except (av.error.FFmpegError, IndexError, ValueError) as exc:
+        raise DatasetError(f"{where}: cannot cut video: {type(exc).__name__}", code="dataset.invalid") from None
+
+
+@dataclass(frozen=True)
+class _Clip:
+    stream: av.VideoStream
+    tb: Fraction
+    step: int  # an output frame's duration, in ticks of `tb`
+    packets: list[av.Packet]  # in decode order, each with pts and dts
+    delay: int  # ticks the first frame decodes before it shows (B-frames): the clip shows frame 0 at pts 0
+
+
+def _rewrite(mp4: bytes, fps: int, choose: Callable[[_Clip], list[av.Packet] | None]) -> bytes | None:
+    """A clip of the packets `choose` takes from `mp4` (re-stamped, in decode order), muxed without decoding;
+    None when `choose` refuses or `mp4`'s time base cannot express 1 / `fps`."""
     buf = io.BytesIO()
-    with av.open(io.BytesIO(mp4), mode="r") as src, av.open(buf, "w", format="mp4") as dst:
+    with av.open(io.BytesIO(mp4), mode="r") as src:
         stream = src.streams.video[0]
         tb = stream.time_base
         if tb is None or (1 / (tb * fps)).denominator != 1:
             return None
-        step = int(1 / (tb * fps))
         packets = [p for p in src.demux(stream) if p.pts is not None and p.dts is not None and p.size]
-        starts = sorted({int(p.pts) for p in packets if p.pts is not None})
-        delay = -min(int(p.dts) for p in packets if p.dts is not None)  # the clip shows frame 0 at pts 0
-        frame_of = {t: k for k, t in enumerate(starts)}
-        out = dst.add_stream_from_template(stream, opaque=True)
-        offset = 0
-        clips = iter(encoded)
-        for copied, a, b in segments:
-            if copied:
-                moved = [
-                    (p, (offset - a) * step) for p in packets if p.pts is not None and a <= frame_of[int(p.pts)] < b
-                ]
-            else:
-                fresh = _encoded_packets(next(clips), stream.codec_context.extradata, tb, offset * step, delay)
-                if fresh is None:
-                    return None
-                moved = fresh
-            for p, shift in moved:
-                assert p.pts is not None
-                dts = p.dts
-                p.pts += shift
-                p.dts = None if dts is None else dts + shift
+        delay = max(0, -min(int(p.dts or 0) for p in packets))
+        chosen = choose(_Clip(stream, tb, int(1 / (tb * fps)), packets, delay))
+        if chosen is None:
+            return None
+        with av.open(buf, "w", format="mp4") as dst:
+            out = dst.add_stream_from_template(stream, opaque=True)  # remux only (see formats/lerobot_v3/clip.py)
+            for p in chosen:
                 p.stream = out
                 dst.mux(p)
-            offset += b - a
     return buf.getvalue()
 
 
-def _encoded_packets(
-    clip: bytes, extradata: bytes | None, tb: Fraction, start: int, delay: int
-) -> list[tuple[av.Packet, int]] | None:
-    """An encoded segment's packets, their timestamps rescaled to `tb` and the shift placing them at `start`;
-    their decode timestamps lag their presentation by the source's `delay` (ticks), so that decode times keep
-    rising across segments and across the episodes `video.concat_mp4` joins after this one. None when its codec
-    headers are not `extradata` or its timing cannot be made the source's."""
-    with av.open(io.BytesIO(clip), mode="r") as container:
+def _spliced(clip: _Clip, segments: Sequence[Segment], encoded: list[bytes]) -> list[av.Packet] | None:
+    starts = sorted({int(p.pts or 0) for p in clip.packets})
+    frame_of = {t: k for k, t in enumerate(starts)}
+    out: list[av.Packet] = []
+    offset = 0  # output frames before the segment
+    fresh = iter(encoded)
+    for copied, a, b in segments:
+        if copied:  # decode order within the segment: it is a closed group of pictures
+            shift = (offset - a) * clip.step
+            moved = [p for p in clip.packets if a <= frame_of[int(p.pts or 0)] < b]
+            for p in moved:
+                p.pts, p.dts = int(p.pts or 0) + shift, int(p.dts or 0) + shift
+        else:
+            placed = _encoded_packets(next(fresh), clip, offset * clip.step)
+            if placed is None:
+                return None
+            moved = placed
+        out += moved
+        offset += b - a
+    return out
+
+
+def _encoded_packets(data: bytes, clip: _Clip, start: int) -> list[av.Packet] | None:
+    """An encoded segment's packets, re-stamped in `clip`'s time base from `start` on, decoding as much ahead of
+    showing as `clip`'s own, so that decode times keep rising across segments and across the episodes
+    `video.concat_mp4` joins after this one. None when its codec headers are not `clip`'s or its timing cannot
+    be made `clip`'s."""
+    with av.open(io.BytesIO(data), mode="r") as container:
         stream = container.streams.video[0]
-        if stream.codec_context.extradata != extradata or stream.time_base is None:
+        if stream.codec_context.extradata != clip.stream.codec_context.extradata or stream.time_base is None:
             return None
-        scale = stream.time_base / tb
+        scale = stream.time_base / clip.tb
         packets = [p for p in container.demux(stream) if p.pts is not None and p.dts is not None and p.size]
     times = [(p.pts * scale, p.dts * scale) for p in packets if p.pts is not None and p.dts is not None]
     # frame times (k / fps) are whole ticks of both time bases, whatever their ratio
     if not times or any(t.denominator != 1 for pair in times for t in pair):
         return None
-    lag = -min(int(d) for _, d in times) - delay  # how much later than the source's this clip decodes
-    moved = []
+    lag = -min(int(d) for _, d in times) - clip.delay  # how much later than the source's this clip decodes
     for p, (pts, dts) in zip(packets, times, strict=True):
-        p.pts, p.dts = int(pts), int(dts) + lag
+        p.pts, p.dts = start + int(pts), start + int(dts) + lag
         if p.dts > p.pts:
             return None
-        p.time_base = tb
-        moved.append((p, start))
-    return moved
+        p.time_base = clip.tb
+    return packets
+
+
+def _selected(clip: _Clip, keep: Sequence[int]) -> list[av.Packet]:
+    shown = sorted(clip.packets, key=lambda p: int(p.pts or 0))
+    source_step = int(shown[1].pts or 0) - int(shown[0].pts or 0) if len(shown) > 1 else clip.step
+    lag = -(clip.delay // -source_step)  # the source's decode lag, in whole frames
+    out = []
+    for j, k in enumerate(keep):
+        p = shown[k]
+        p.pts, p.dts = j * clip.step, (j - lag) * clip.step
+        out.append(p)
+    return out

@@ -5,8 +5,10 @@ The rule: output frame j of an episode (at j / N seconds) is source frame floor(
 the source frame at or right before its time, for j while that frame exists: an episode of n frames keeps
 ceil(n * N / F). When F is a multiple of N that is exactly every (F / N)-th frame, starting with the first.
 Every kept frame's row is the source's (state, action, reward, task: sampled, not averaged), the episode's
-terminal flags move to its new last frame (`edit.subset`). Videos are re-timed by decoding the kept frames and
-encoding them again at N fps with the source's encoder settings (pixels within codec loss). `info.fps`, every
+terminal flags move to its new last frame (`edit.subset`). Videos are re-timed: when every kept frame of an
+episode's camera is a keyframe (lerobot's default g=2 halved, say) its packets are copied, re-stamped (pixels
+exact); otherwise the kept frames are decoded and encoded again at N fps with the source's encoder settings
+(pixels within codec loss). `info.fps`, every
 video feature's `info.video.fps` (and a legacy per-feature `fps`) become N; statistics are recomputed.
 Upsampling, N <= 0 and N equal to the source's fps are refused in one line.
 """
@@ -19,7 +21,7 @@ from typing import Any
 
 from openral_data.edit.ops import EditResult, Rewrite, check_edit_output, write_edit
 from openral_data.edit.source import EpisodeData, SourceDataset
-from openral_data.edit.subset import FrameSubset, Progress
+from openral_data.edit.subset import Counts, FrameSubset, Progress
 from openral_data.errors import UsageError
 
 
@@ -48,8 +50,9 @@ def resample(
     out: Path | None = None,
     in_place: bool = False,
     progress: Progress | None = None,
-) -> EditResult:
-    """Write `dataset` at `fps` frames per second (downsampling only, by the module's rule)."""
+) -> tuple[EditResult, Counts]:
+    """Write `dataset` at `fps` frames per second (downsampling only, by the module's rule); the result and what
+    was done to its videos."""
     if fps <= 0:
         raise UsageError(f"--fps: {fps} is not a positive frame rate")
     check_edit_output(out, in_place)  # before any reading
@@ -73,6 +76,7 @@ def resample(
         details={"from_fps": src.fps, "to_fps": fps, "rule": f"frame j is source frame floor(j * {src.fps} / {fps})"},
     )
     try:
-        return write_edit([(src, e) for e in range(src.total)], src.root, out, in_place, "resample", rewrite)
+        result = write_edit([(src, e) for e in range(src.total)], src.root, out, in_place, "resample", rewrite)
     finally:
         subset.close()
+    return result, subset.counts

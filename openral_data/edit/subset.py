@@ -88,10 +88,10 @@ class FrameSubset:
 
     def _clip(self, index: int, name: str, mp4: bytes, keep: Sequence[int], where: str) -> tuple[bytes, Stats]:
         """One camera's clip of the kept frames and their statistics: packets copied where the cuts fall on
-        keyframes, the groups of pictures at other cuts encoded again, or (fps changed, or no splice possible)
-        every kept frame encoded again."""
+        keyframes, the groups of pictures at other cuts encoded again; at another fps, packets copied when every
+        kept frame is a keyframe; else every kept frame encoded again."""
+        key = cut.keyframes(mp4, where)
         if self.fps == self.src.fps:
-            key = cut.keyframes(mp4, where)
             segments = cut.plan(keep, key)
             fresh = [self._encode(name, mp4, list(range(a, b)), where) for copied, a, b in segments if not copied]
             data = cut.splice(mp4, segments, fresh, self.fps, where)
@@ -103,6 +103,11 @@ class FrameSubset:
                 else:
                     self.counts.clips_copied += 1
                 return data, stats
+        elif all(key[k] for k in keep):  # another fps, only keyframes kept: their packets are copied
+            data = cut.select(mp4, keep, self.fps, where)
+            if data is not None:
+                self.counts.clips_copied += 1
+                return data, _pixel_stats(data, where)
         enc = self._encoders_of(name).encode({name: cut.decoded_frames(mp4, keep, where)}, len(keep), where)[name]
         self.counts.clips_encoded += 1
         self.counts.encoded.append(f"{index}:{self.src.camera_key[name]}")
@@ -152,11 +157,9 @@ def _checked_stats(
 ) -> Stats | None:
     """The statistics of a cut clip's frames, once every frame it copied decodes to exactly the source's pixels
     and it holds exactly the kept frames; None otherwise (a splice the decoder did not take as a whole)."""
-    acc = ImageStatsAccumulator()
     if all(flag for flag, _, _ in segments):  # packets only: the source's frames by construction
-        for frame in clip_frames(data, where):
-            acc.add(frame)
-        return acc.stats()
+        return _pixel_stats(data, where)
+    acc = ImageStatsAccumulator()
     copied = {k for flag, a, b in segments if flag for k in range(a, b)}
     try:
         for frame, k, want in zip(clip_frames(data, where), keep, cut.decoded_frames(mp4, keep, where), strict=True):
@@ -165,4 +168,11 @@ def _checked_stats(
             acc.add(frame)
     except ValueError:  # zip: the clip does not hold exactly the kept frames
         return None
+    return acc.stats()
+
+
+def _pixel_stats(data: bytes, where: str) -> Stats:
+    acc = ImageStatsAccumulator()
+    for frame in clip_frames(data, where):
+        acc.add(frame)
     return acc.stats()

@@ -22,7 +22,7 @@ from typing import Any
 
 from openral_data.edit.ops import EditResult, Rewrite, check_edit_output, write_edit
 from openral_data.edit.source import EpisodeData, SourceDataset
-from openral_data.edit.subset import FrameSubset, Progress
+from openral_data.edit.subset import Counts, FrameSubset, Progress
 from openral_data.errors import EpisodeSelectionError, UsageError
 from openral_data.metrics.quality import DEFAULT, cached_quality
 from openral_data.metrics.quality.compute import motion_pass
@@ -115,9 +115,9 @@ def trim(
     out: Path | None = None,
     in_place: bool = False,
     progress: Progress | None = None,
-) -> tuple[EditResult, dict[str, Any]]:
+) -> tuple[EditResult, Counts]:
     """Write `dataset` without the frames `frames` names, or (`idle`) without its episodes' idle heads and tails;
-    the result and what was done (the `edit` block's details)."""
+    the result and what was done to its episodes' videos."""
     if (frames is None) == (not idle):
         raise UsageError("--frames: give either --frames EP:START-END,... or --idle")
     if min_frames < 1:
@@ -141,11 +141,4 @@ def trim(
         )
     finally:
         subset.close()
-    c = subset.counts
-    return result, {
-        "changed": c.episodes_changed,
-        "dropped": c.frames_dropped,
-        "copied": c.clips_copied,
-        "spliced": c.clips_spliced,
-        "encoded": c.clips_encoded,
-    }
+    return result, subset.counts
