@@ -25,7 +25,7 @@ from openral_data.formats.lerobot_v3.video import VideoSettings
 from openral_data.types import CameraShape
 from tests.support import quality as q
 from tests.support.inproc import run_inproc
-from tests.support.lerobot_written import LENGTHS, digest, loaded_episodes, write_lerobot_dataset
+from tests.support.lerobot_written import IMAGE_CAMERA, LENGTHS, digest, loaded_episodes, write_lerobot_dataset
 
 N = 24
 EPISODES = ["head7", "clean", "head8", "short"]  # idle heads of 7 and 8 frames; `short` keeps 5 after its head
@@ -53,7 +53,7 @@ def ours(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="module")
 def theirs(tmp_path_factory: pytest.TempPathFactory) -> Path:
     root = tmp_path_factory.mktemp("trim-lerobot") / "ds"
-    write_lerobot_dataset(root, with_success=True)
+    write_lerobot_dataset(root, with_success=True, image_camera=True, environment_state=True)
     return root
 
 
@@ -84,6 +84,8 @@ def _packets(root: Path, episode: int) -> list[bytes]:
 
 def _same_frame(got: dict[str, Any], want: dict[str, Any], exact: bool) -> None:
     assert got["state"] == want["state"] and got["action"] == want["action"] and got["task"] == want["task"]
+    assert got["env"] == want["env"]  # a carried column (lerobot's environment state), or None in both
+    assert (got["wrist"] is None and want["wrist"] is None) or np.array_equal(got["wrist"], want["wrist"])
     if exact:
         assert np.array_equal(got["cam"], want["cam"])
     else:
@@ -231,3 +233,7 @@ def test_a_lerobot_dataset_is_trimmed_frame_exact(theirs: Path, tmp_path: Path) 
             _same_frame(got[e][t], src[e][k], exact=(e, k) != (1, 7))
     assert [f["success"] for f in got[0]] == [False] * 3 + [True]  # the last frame of a success still says so
     assert not any(f["success"] for f in got[1])
+    # every feature's statistics of a trimmed episode count its kept frames (the image column's recomputed)
+    meta = _episode_rows(out)
+    for key in (KEY, IMAGE_CAMERA, "observation.state", "observation.environment_state"):
+        assert [int(np.ravel(r[f"stats/{key}/count"])[0]) for r in meta] == [4, 7, LENGTHS[2]], key
