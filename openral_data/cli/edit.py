@@ -132,7 +132,7 @@ def trim_cmd(
     in_place: InPlace = False,
 ) -> None:
     """Drop frames inside episodes (--frames, or --idle heads and tails); later frames renumbered, the episodes'
-    statistics recomputed, videos cut by copying packets where the cut falls on keyframes."""
+    statistics recomputed, videos cut by copying packets (only a group of pictures a cut falls inside re-encoded)."""
     from openral_data.edit.trim import trim
 
     if out is not None:

@@ -1,7 +1,7 @@
 """Episode editing of LeRobot v3 datasets: `delete`, `split` and `merge` (see ops.py), `filter_episodes` and
-`split_fractions` (see select.py), `reencode` and `encode_images` (see videos.py), `trim` and `resample` (frames
-dropped inside episodes, see trim.py, resample.py, subset.py and cut.py; with the `subset.Counts` of what was done
-to the videos), each returning `EditResult`s;
+`split_fractions` (see select.py), `reencode` and `encode_images` (see videos.py), each returning `EditResult`s
+(`trim.trim` and `resample.resample`, frames dropped inside episodes through subset.py and cut.py, also return the
+`subset.Counts` of what was done to the videos; not re-exported here, where they would hide their modules);
 `tasks.rename`/`tasks.set_task`, `features.remove` and `stats.recompute` change what is copied (through
 `ops.Rewrite`), as `videos` does.
 
@@ -11,20 +11,7 @@ and the frames `trim` and `resample` cannot keep by copying packets.
 """
 
 from openral_data.edit.ops import EditResult, delete, merge, split
-from openral_data.edit.resample import resample
 from openral_data.edit.select import filter_episodes, split_fractions
-from openral_data.edit.trim import trim
 from openral_data.edit.videos import encode_images, reencode
 
-__all__ = [
-    "EditResult",
-    "delete",
-    "encode_images",
-    "filter_episodes",
-    "merge",
-    "reencode",
-    "resample",
-    "split",
-    "split_fractions",
-    "trim",
-]
+__all__ = ["EditResult", "delete", "encode_images", "filter_episodes", "merge", "reencode", "split", "split_fractions"]
