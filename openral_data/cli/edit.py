@@ -1,4 +1,5 @@
-"""`openral-data episodes delete|filter|split|merge`: thin typer wrappers over `edit.ops` and `edit.select`."""
+"""`openral-data episodes delete|filter|split|merge|trim|resample`: thin typer wrappers over `edit.ops`,
+`edit.select`, `edit.trim` and `edit.resample`."""
 
 from __future__ import annotations
 
@@ -8,15 +9,22 @@ from typing import Annotated
 import typer
 
 from openral_data import paths
-from openral_data.cli.terminal import print_line
+from openral_data.cli.terminal import print_line, progress_bar
 from openral_data.edit.ops import EditResult
 from openral_data.errors import UsageError
 from openral_data.formats.repo_id import resolve_dataset
 
 episodes_app = typer.Typer(
     no_args_is_help=True,
-    help="Delete, filter, split and merge episodes of LeRobot v3 datasets (written to a new dataset, re-indexed).",
+    help="Delete, filter, split, merge, trim and resample episodes of LeRobot v3 datasets (written to a new dataset, "
+    "re-indexed).",
 )
+
+
+# the arguments every writing edit takes
+Dataset = Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (ours or lerobot's)")]
+Out = Annotated[Path | None, typer.Option(help="new dataset folder (must not exist or be empty)")]
+InPlace = Annotated[bool, typer.Option(help="replace DATASET itself (swapped in once complete)")]
 
 
 def report(op: str, results: list[EditResult]) -> None:
@@ -106,3 +114,65 @@ def merge_cmd(
 
     paths.check_creatable(out, "--out")
     report("merged", [merge([resolve_dataset(d) for d in datasets], out, order)])
+
+
+@episodes_app.command("trim")
+def trim_cmd(
+    dataset: Dataset,
+    frames: Annotated[
+        str | None, typer.Option(help="frames to drop, END included: EP:START-END or EP:FRAME, e.g. 0:0-9,3:50-59")
+    ] = None,
+    idle: Annotated[
+        bool, typer.Option(help="drop each episode's idle head and tail (as `quality` measures them)")
+    ] = False,
+    min_frames: Annotated[
+        int, typer.Option(help="with --idle: keep an episode whole unless this many frames remain")
+    ] = 10,
+    out: Out = None,
+    in_place: InPlace = False,
+) -> None:
+    """Drop frames inside episodes (--frames, or --idle heads and tails); later frames renumbered, the episodes'
+    statistics recomputed, videos cut by copying packets (only a group of pictures a cut falls inside re-encoded)."""
+    from openral_data.edit.trim import trim
+
+    if out is not None:
+        paths.check_creatable(out, "--out")
+    with progress_bar("trimming", "episodes") as bar:
+        task = bar.add_task("", total=None)
+        result, done = trim(
+            resolve_dataset(dataset),
+            frames,
+            idle,
+            min_frames,
+            out,
+            in_place,
+            progress=lambda d, t: bar.update(task, completed=d, total=t),
+        )
+    report("trimmed", [result])
+    print_line(
+        f"trimmed: {done.episodes_changed} episodes, {done.frames_dropped} frames dropped; camera clips: "
+        f"{done.clips_copied} cut by copying packets, {done.clips_spliced} re-encoding only the groups of "
+        f"pictures at a cut, {done.clips_encoded} re-encoded"
+    )
+
+
+@episodes_app.command("resample")
+def resample_cmd(
+    dataset: Dataset,
+    fps: Annotated[int, typer.Option(help="the new frame rate, below the dataset's")],
+    out: Out = None,
+    in_place: InPlace = False,
+) -> None:
+    """Lower the frame rate: output frame j is source frame floor(j * FPS_OLD / FPS) (every k-th frame for an
+    integer ratio); videos re-timed (keyframes copied, other frames re-encoded), statistics recomputed."""
+    from openral_data.edit.resample import resample
+
+    if out is not None:
+        paths.check_creatable(out, "--out")
+    with progress_bar("resampling", "episodes") as bar:
+        task = bar.add_task("", total=None)
+        result, done = resample(
+            resolve_dataset(dataset), fps, out, in_place, progress=lambda d, t: bar.update(task, completed=d, total=t)
+        )
+    report("resampled", [result])
+    print_line(f"resampled: camera clips: {done.clips_copied} keyframes copied, {done.clips_encoded} re-encoded")

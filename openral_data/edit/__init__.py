@@ -1,10 +1,13 @@
 """Episode editing of LeRobot v3 datasets: `delete`, `split` and `merge` (see ops.py), `filter_episodes` and
-`split_fractions` (see select.py), `reencode` and `encode_images` (see videos.py), each returning `EditResult`s;
+`split_fractions` (see select.py), `reencode` and `encode_images` (see videos.py), each returning `EditResult`s
+(`trim.trim` and `resample.resample`, frames dropped inside episodes through subset.py and cut.py, also return the
+`subset.Counts` of what was done to the videos; not re-exported here, where they would hide their modules);
 `tasks.rename`/`tasks.set_task`, `features.remove` and `stats.recompute` change what is copied (through
 `ops.Rewrite`), as `videos` does.
 
 Every edit writes a complete new dataset atomically through our LeRobot v3 writer (`assemble`), reading its
-episodes from the sources without re-encoding video (`source`), except the cameras `videos` is asked to encode.
+episodes from the sources without re-encoding video (`source`), except the cameras `videos` is asked to encode
+and the frames `trim` and `resample` cannot keep by copying packets.
 """
 
 from openral_data.edit.ops import EditResult, delete, merge, split

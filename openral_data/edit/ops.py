@@ -162,7 +162,7 @@ def _check_present(selection: Selection, cameras: list[str], op: str) -> None:
 
 def _command(op: str) -> str:
     """The command an edit's `op` is (`delete` is `episodes delete`; `tasks rename`, `stats recompute`, …)."""
-    return f"episodes {op}" if op in ("delete", "filter", "split", "merge") else op
+    return f"episodes {op}" if op in ("delete", "filter", "split", "merge", "trim", "resample") else op
 
 
 def _provenance(selection: Selection, op: str, change: Rewrite) -> EditRecord:

@@ -15,6 +15,7 @@ import dataclasses
 import io
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import av
 import numpy as np
@@ -25,7 +26,7 @@ from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.errors import DatasetError
 from openral_data.formats.lerobot_v3.images import decode_image
 from openral_data.formats.lerobot_v3.masks import decode_mask, is_mask, mask_stats
-from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
+from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator, Stats
 
 
 def recompute(dataset: Path, out: Path | None, in_place: bool = False) -> EditResult:
@@ -47,20 +48,26 @@ def recompute(dataset: Path, out: Path | None, in_place: bool = False) -> EditRe
             video_hist[name].merge(acc)
             image_stats[name] = acc.stats()
         column_stats = {}
-        for key in pictures:
+        for key in images:
             where = f"{src.root}: {key}: episode {ep.index}"
-            cells = ep.columns[key].to_pylist()
-            acc = _histogram((decode_image(c, f"{where}: frame {i}") for i, c in enumerate(cells)), ep.length)
-            image_hist[key].merge(acc)
-            column_stats[key] = acc.stats()
-        for key in masks:
-            where = f"{src.root}: {key}: episode {ep.index}"
-            cells = ep.columns[key].to_pylist()
-            column_stats[key] = mask_stats([decode_mask(c, f"{where}: frame {i}") for i, c in enumerate(cells)])
+            column_stats[key], hist = column_stats_of(src.features[key], ep.columns[key].to_pylist(), where)
+            if hist is not None:
+                image_hist[key].merge(hist)
         return dataclasses.replace(ep, image_stats=image_stats, column_stats=column_stats)
 
     rewrite = Rewrite(transform=restated, image_hist=video_hist, column_hist=image_hist)
     return write_edit([(src, e) for e in range(src.total)], dataset, out, in_place, "stats recompute", rewrite)
+
+
+def column_stats_of(
+    feature: dict[str, Any], cells: list[object], where: str
+) -> tuple[Stats, ImageStatsAccumulator | None]:
+    """A carried `dtype: image` column's statistics over `cells` (one episode's), from its decoded pictures: a
+    segmentation mask's ids' (no histogram), else the pixels' (with their histogram)."""
+    if is_mask(feature):
+        return mask_stats([decode_mask(c, f"{where}: frame {i}") for i, c in enumerate(cells)]), None
+    acc = _histogram((decode_image(c, f"{where}: frame {i}") for i, c in enumerate(cells)), len(cells))
+    return acc.stats(), acc
 
 
 def _histogram(frames: Iterator[npt.NDArray[np.uint8]], n: int) -> ImageStatsAccumulator:
