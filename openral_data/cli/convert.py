@@ -224,7 +224,10 @@ def _bag_rows(
     )
     if mapping.align.clock == "header":
         rows.append(
-            ("late messages", f"{result.late_messages} not used (stamp more than align.reorder behind the log)")
+            (
+                "late messages",
+                f"{result.late_messages} not used (stamp more than align.reorder behind the newest stamp read)",
+            )
         )
     rows.append(("outcomes", _outcomes(mapping)))
     for topic, count in sorted(result.skipped_topics.items()):

@@ -32,7 +32,7 @@ class ConvertSummary:
     unfillable_frames: int = 0
     splits: int = 0  # extra episodes started because unfillable frames interrupted a source episode
     empty_segments: int = 0  # source episodes in which no frame could be filled
-    late_messages: int = 0  # align.clock header: stamps further behind the log order than align.reorder
+    late_messages: int = 0  # align.clock header: stamps further than align.reorder behind the newest one read
     header_stamps: dict[str, int] = field(default_factory=dict)  # align.clock header: topic -> stamped messages
     zero_stamps: dict[str, int] = field(default_factory=dict)  # ... of them with header.stamp 0
     source_episodes: int = 0  # source episodes seen (boundaries by the mapping's episodes.split)
