@@ -128,6 +128,7 @@ def _robomimic(
     cams = {_camera_name(k): k for k, s in obs.items() if is_picture(s)}
     attrs = first.meta.attrs.get("env_args") or {}
     env_name = attrs.get("env_name") if isinstance(attrs, dict) else None
+    env_name = env_name or first.meta.attrs.get("env")  # robosuite's own demo.hdf5 says only `env`
     kwargs = attrs.get("env_kwargs") if isinstance(attrs, dict) else None
     robots = kwargs.get("robots") if isinstance(kwargs, dict) else None
     robot = robots[0] if isinstance(robots, list) and robots else robots
@@ -136,7 +137,7 @@ def _robomimic(
         out["task_topic"] = LANGUAGE
     else:
         out["task"] = str(env_name) if isinstance(env_name, str) and env_name else source.layout
-        guesses.append(Guess("task", "the env_args env_name (no language instruction in the file)"))
+        guesses.append(Guess("task", "the env name (env_args.env_name or env; no language instruction in the file)"))
     out["state"] = _vector(state)
     out["action"] = {"topic": "actions", "names": _names("actions", specs["actions"])}
     if env:

@@ -113,7 +113,12 @@ class RobomimicFile:
         return text.strip() if isinstance(text, str) and text.strip() else None
 
     def episodes(self) -> Iterator[RobomimicEpisode]:
-        meta_attrs = {"env_args": self.env_args, **({"problem_info": self.problem_info} if self.problem_info else {})}
+        meta_attrs: dict[str, Any] = {"env_args": self.env_args}
+        if self.problem_info:
+            meta_attrs["problem_info"] = self.problem_info
+        env = attr_scalar(self.data, "env")  # robosuite's gather_demonstrations_as_hdf5: the env name
+        if isinstance(env, (str, bytes)):
+            meta_attrs["env"] = env.decode("utf-8", "replace") if isinstance(env, bytes) else env
         for key in sorted((k for k in self.data if k.startswith("demo")), key=natural_key):
             group = member(self.data, key, self.path)
             if not isinstance(group, h5py.Group):
