@@ -2,32 +2,32 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from contextlib import contextmanager
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from openral_data.cli.convert_common import Parallel, interruptible
 from openral_data.cli.jsonout import JsonFlag, print_json
-from openral_data.cli.terminal import print_line, print_rows, progress_bar
+from openral_data.cli.terminal import print_rows, progress_bar
 from openral_data.errors import NotFound, UsageError
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.repo_id import resolve_dataset
 
 if TYPE_CHECKING:
-    from rich.progress import Progress
-
     from openral_data.convert import ConvertSummary
     from openral_data.schemas.mapping import Mapping
 
 
 def convert(
     src: Annotated[
-        Path, typer.Argument(help="a bag (.bag, .mcap, rosbag2 folder, folder of bags) or a LeRobot v3 dataset")
+        Path,
+        typer.Argument(
+            help="a bag (.bag, .mcap, rosbag2 folder, folder of bags), an HDF5 file or folder (robomimic, LIBERO, "
+            "MimicGen / Isaac Lab, ALOHA) or a LeRobot v3 dataset"
+        ),
     ],
-    dst: Annotated[Path, typer.Argument(help="output folder (must not exist or be empty)")],
+    dst: Annotated[Path | None, typer.Argument(help="output folder (must not exist or be empty)")] = None,
     mapping: Annotated[Path | None, typer.Option(help="mapping YAML: topics -> features (bags -> LeRobot)")] = None,
     codec: Annotated[Codec, typer.Option(help="video codec (bags -> LeRobot)")] = "av1",
     episodes: Annotated[str | None, typer.Option(help="episodes to export, e.g. 0,3,5-7 (LeRobot -> MCAP)")] = None,
@@ -42,23 +42,29 @@ def convert(
     ] = 1,
     executor: Annotated[str, typer.Option(help="local (processes on this machine) or ray (with --workers)")] = "local",
     address: Annotated[str | None, typer.Option(help="Ray cluster address (--executor ray)")] = None,
+    fps: Annotated[
+        int | None, typer.Option(help="frame rate of an array source that declares none (HDF5 -> LeRobot)")
+    ] = None,
+    print_mapping: Annotated[
+        bool, typer.Option("--print-mapping", help="print SRC's starting mapping, guesses marked (array sources)")
+    ] = False,
     json: JsonFlag = False,
 ) -> None:
-    """Convert bags/MCAP to a LeRobot v3 dataset, or a LeRobot v3 dataset to ROS 2 MCAP bags."""
+    """Convert bags/MCAP or HDF5 to a LeRobot v3 dataset, or a LeRobot v3 dataset to ROS 2 MCAP bags."""
     from openral_data.runtime.parallel.executors import check_executor
 
     if workers < 1:
         raise UsageError(f"--workers must be >= 1, got {workers}")
     check_executor(executor, address)
     parallel = Parallel(workers, executor, address) if workers != 1 or executor != "local" else None
-    _convert(src, dst, mapping, codec, episodes, image_format, mcap_compression, json, parallel)
+    if print_mapping:
+        from openral_data.cli.convert_arrays import print_starting_mapping
 
-
-@dataclass(frozen=True)
-class Parallel:
-    workers: int
-    executor: str
-    address: str | None
+        print_starting_mapping(src, dst, fps, json)
+        return
+    if dst is None:
+        raise UsageError("DST: missing (the output folder; or --print-mapping to print SRC's starting mapping)")
+    _convert(src, dst, mapping, codec, episodes, image_format, mcap_compression, json, parallel, fps)
 
 
 def _convert(
@@ -71,15 +77,25 @@ def _convert(
     mcap_compression: str,
     json: bool,
     parallel: Parallel | None = None,
+    fps: int | None = None,
 ) -> None:
     """Resolve SRC and DST, then run the direction SRC asks for: a LeRobot dataset is exported to MCAP bags,
     anything else is a bag (or a folder of them) converted to a LeRobot dataset."""
+    from openral_data.convert.array_sources import detect_array_source
     from openral_data.convert.to_mcap import is_lerobot_dataset
 
     src = _resolve(src, dst)
     if is_lerobot_dataset(src):
         _export(src, dst, mapping_path, episodes, image_format, mcap_compression, json, parallel)
+    elif (source := detect_array_source(src)) is not None:
+        from openral_data.cli.convert_arrays import convert_array_source
+
+        if episodes is not None:
+            raise UsageError(f"--episodes selects episodes of a LeRobot dataset; SRC is {source.layout} HDF5")
+        convert_array_source(source, dst, mapping_path, codec, fps, json, parallel)
     else:
+        if fps is not None:
+            raise UsageError("--fps applies to array sources (HDF5); a bag's rate is its mapping's fps")
         _convert_bags(src, dst, mapping_path, codec, episodes, json, parallel)
 
 
@@ -114,7 +130,7 @@ def _export(
         raise UsageError(f"{src}: is a LeRobot dataset (exported to MCAP); --mapping applies to bags only")
     image = parse_image_format(image_format)  # `--image-format` and `--mcap-compression` apply to MCAP only
     mcap = McapConfig(image_format=image, compression=parse_compression(mcap_compression))
-    with progress_bar("exporting", "frames") as bar, _interruptible(bar, dst):
+    with progress_bar("exporting", "frames") as bar, interruptible(bar, dst):
         task = bar.add_task("export", total=None)
         summary = export_mcap(
             src, dst, episodes=episodes, config=mcap, progress=lambda d, t: bar.update(task, completed=d, total=t)
@@ -167,7 +183,7 @@ def _run_bags(src: Path, dst: Path, mapping: Mapping, codec: Codec, parallel: Pa
     """Convert in this process, or across `parallel`'s workers, behind a progress bar."""
     from openral_data.convert.to_lerobot import convert_bags
 
-    with progress_bar("converting", "messages") as bar, _interruptible(bar, dst):
+    with progress_bar("converting", "messages") as bar, interruptible(bar, dst):
         task = bar.add_task("convert", total=None)
         if parallel is None:
             return convert_bags(
@@ -224,27 +240,15 @@ def _bag_rows(
     )
     if mapping.align.clock == "header":
         rows.append(
-            ("late messages", f"{result.late_messages} not used (stamp more than align.reorder behind the log)")
+            (
+                "late messages",
+                f"{result.late_messages} not used (stamp more than align.reorder behind the newest stamp read)",
+            )
         )
     rows.append(("outcomes", _outcomes(mapping)))
     for topic, count in sorted(result.skipped_topics.items()):
         rows.append((f"skipped {topic}", f"{count} msgs (not in the mapping)"))
     return rows
-
-
-@contextmanager
-def _interruptible(bar: Progress, dst: Path) -> Iterator[None]:
-    """Ctrl-C: DST appears complete or not at all, so nothing was written to it (the staging folders, the
-    workers' included, are gone); one line on stderr, exit 130."""
-    try:
-        yield
-    except KeyboardInterrupt:
-        from openral_data.runtime.parallel.channel import STOP_HELD, held
-
-        with held(STOP_HELD):  # a second Ctrl-C does not cut the line short
-            bar.stop()
-            print_line(f"interrupted: nothing was written to {dst}", err=True)
-        raise typer.Exit(130) from None
 
 
 def _outcomes(mapping: Mapping) -> str:

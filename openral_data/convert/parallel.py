@@ -26,6 +26,7 @@ from openral_data.convert.sources import find_bags
 from openral_data.convert.summary import ConvertSummary, TopicReport
 from openral_data.convert.to_lerobot import ProgressFn
 from openral_data.convert.worker import (
+    ArrayJob,
     ConvertJob,
     ConvertProgress,
     ConvertResult,
@@ -35,6 +36,7 @@ from openral_data.convert.worker import (
 from openral_data.edit.ops import Rewrite, summed_histograms, write_selection
 from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.errors import ExecutorError, UsageError
+from openral_data.formats.episodic import ArraySource
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.staging import check_new_output
 from openral_data.record.parallel.run import workers_dir
@@ -45,7 +47,7 @@ from openral_data.types import EpisodeRecord
 
 
 def plan_blocks(bags: list[Path], workers: int) -> list[list[Path]]:
-    """At most `workers` contiguous, near-equal blocks of `bags`, in order."""
+    """At most `workers` contiguous, near-equal blocks of `bags` (or an array source's files), in order."""
     if workers < 1:
         raise UsageError(f"--workers must be >= 1, got {workers}")
     n = min(workers, len(bags))
@@ -93,11 +95,27 @@ def convert_parallel(
     dst.parent.mkdir(parents=True, exist_ok=True)
     workdir = workers_dir(dst)
     shutil.rmtree(workdir, ignore_errors=True)
-    t0 = time.perf_counter()
-    jobs = [
+    jobs: list[ConvertJob | ArrayJob] = [
         ConvertJob(w, src, block, workdir / f"worker-{w:03d}", mapping, codec, cameras, carry)
         for w, (block, carry) in enumerate(zip(blocks, carried_tasks(blocks, mapping), strict=True))
     ]
+    return _run_blocks(jobs, workdir, src, dst, totals, executor, address, progress)
+
+
+def _run_blocks(
+    jobs: list[ConvertJob | ArrayJob],
+    workdir: Path,
+    src: Path,
+    dst: Path,
+    totals: int,
+    executor: str,
+    address: str | None,
+    progress: ProgressFn | None,
+    layout: str | None = None,
+) -> ConvertSummary:
+    """The jobs on the executor, their summaries combined and their datasets merged in order into `dst`
+    (`layout`: an array source's, None for bags); the workers' folder goes in any case."""
+    t0 = time.perf_counter()
     bar = _Progress(len(jobs), totals, progress)
     try:
         workdir.mkdir()
@@ -113,6 +131,7 @@ def convert_parallel(
         )
         results = sorted(finished, key=lambda r: r.worker)
         summary = _combine(src, dst, [r.summary for r in results])
+        summary.source_kind = layout
         check_outcome(summary)
         _merge(results, dst)
     finally:
@@ -120,6 +139,36 @@ def convert_parallel(
             shutil.rmtree(workdir, ignore_errors=True)
     summary.seconds = time.perf_counter() - t0
     return summary
+
+
+def convert_arrays_parallel(
+    source: ArraySource,
+    dst: Path,
+    mapping: Mapping,
+    workers: int,
+    *,
+    executor: str = "local",
+    address: str | None = None,
+    codec: Codec = "av1",
+    progress: ProgressFn | None = None,
+) -> ConvertSummary:
+    """An array source's files in `workers` processes (contiguous blocks of files, as bags), merged in file
+    order into one dataset at `dst`, as `convert_arrays` would write it."""
+    check_executor(executor, address)
+    files: list[Path] = list(getattr(source, "files", []))
+    if not files:
+        raise UsageError(f"{source.path}: --workers splits a source by files; this {source.layout} source has none")
+    totals = sum(ep.length for ep in source.episodes())  # every file opened once, before any work
+    source.close()
+    check_new_output(dst, "DST")
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    workdir = workers_dir(dst)
+    shutil.rmtree(workdir, ignore_errors=True)
+    jobs: list[ConvertJob | ArrayJob] = [
+        ArrayJob(w, source.path, block, workdir / f"worker-{w:03d}", mapping, codec)
+        for w, block in enumerate(plan_blocks(files, workers))
+    ]
+    return _run_blocks(jobs, workdir, source.path, dst, totals, executor, address, progress, source.layout)
 
 
 class _Progress:

@@ -32,10 +32,11 @@ class ConvertSummary:
     unfillable_frames: int = 0
     splits: int = 0  # extra episodes started because unfillable frames interrupted a source episode
     empty_segments: int = 0  # source episodes in which no frame could be filled
-    late_messages: int = 0  # align.clock header: stamps further behind the log order than align.reorder
+    late_messages: int = 0  # align.clock header: stamps further than align.reorder behind the newest one read
     header_stamps: dict[str, int] = field(default_factory=dict)  # align.clock header: topic -> stamped messages
     zero_stamps: dict[str, int] = field(default_factory=dict)  # ... of them with header.stamp 0
     source_episodes: int = 0  # source episodes seen (boundaries by the mapping's episodes.split)
+    source_kind: str | None = None  # an array source's layout (robomimic, aloha, ...); None: bags
 
     @property
     def fps(self) -> float:
@@ -45,7 +46,8 @@ class ConvertSummary:
         """The fields of `convert --json` for bags -> LeRobot (made with `mapping`; `executor` None: one
         process), in docs/scripting.md's order."""
         return {
-            "direction": "bags-to-lerobot",
+            "direction": "bags-to-lerobot" if self.source_kind is None else "arrays-to-lerobot",
+            "layout": self.source_kind,
             "source": str(self.src),
             "out": str(self.dst),
             "bags": self.bags,

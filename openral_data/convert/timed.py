@@ -46,15 +46,23 @@ class Message:
         return decode_depth(self.get(), self.msgtype, unit, f"{self.bag}: {self.topic}")
 
 
+# log time and header stamps this far apart at the first stamped message are two clocks (simulation time in
+# the stamps, wall time in the log): messages without a header are then placed in the header time base
+SEPARATE_CLOCKS_NS = 60 * 1_000_000_000
+
+
 def timed_messages(
     reader: AnyReader, bag: Path, conns: list[Connection], mapping: Mapping, summary: ConvertSummary
 ) -> Iterator[tuple[Connection, int, Message]]:
     """The mapped messages in the order of the clock the mapping aligns on.
 
-    `log`: bag receive time, as stored. `header`: `header.stamp` for messages that have a header (log time for
-    the others). Stamps can lag the log order (a camera stamps at exposure, the message is logged later), so
-    messages are held in a heap for `align.reorder` seconds of log time; a message whose stamp is older than one
-    already released is late: it is counted in the summary and not used (never reordered into decided frames).
+    `log`: bag receive time, as stored. `header`: everything in the header time base, never compared with log
+    time (the stamps may be simulation time in a wall-clock log): a message with a header is at its
+    `header.stamp`; one without is at its log time when both clocks agree, else (stamps over a minute from their
+    log time) at the latest stamped message's stamp plus the log time since it (`HeaderClock`). Stamps can lag
+    one another (a camera stamps at exposure, the message is logged later), so messages are held in a heap
+    until the newest time read is `align.reorder` seconds past them; a message older than one already released
+    is late: it is counted in the summary and not used (never reordered into decided frames).
     """
     if mapping.align.clock == "log":
         for conn, ns, raw in read_messages(reader, bag, conns):
@@ -62,30 +70,70 @@ def timed_messages(
         return
     window = round(mapping.align.reorder * 1e9)
     heap: list[tuple[int, int, Connection, Message]] = []
+    clock = HeaderClock()
     released: int | None = None
+    newest: int | None = None
     seq = 0
     for conn, ns, raw in read_messages(reader, bag, conns):
         msg = Message(reader, bag, raw, conn)
-        stamp = _header_stamp(msg.get(), ns, conn.topic, summary)
-        if released is not None and stamp < released:
-            summary.late_messages += 1
-            continue
-        heapq.heappush(heap, (stamp, seq, conn, msg))
+        for c, stamp, m in clock.place(conn, ns, msg, _header_stamp(msg.get(), conn.topic, summary)):
+            if released is not None and stamp < released:
+                summary.late_messages += 1
+                continue
+            heapq.heappush(heap, (stamp, seq, c, m))
+            seq += 1
+            newest = stamp if newest is None else max(newest, stamp)
+            while heap and heap[0][0] <= newest - window:
+                out, _, c2, m2 = heapq.heappop(heap)
+                released = out
+                yield c2, out, m2
+    for c, stamp, m in clock.flush():
+        heapq.heappush(heap, (stamp, seq, c, m))
         seq += 1
-        while heap and heap[0][0] <= ns - window:
-            stamp, _, c, m = heapq.heappop(heap)
-            released = stamp
-            yield c, stamp, m
     while heap:
         stamp, _, c, m = heapq.heappop(heap)
         yield c, stamp, m
 
 
-def _header_stamp(msg: Any, log_ns: int, topic: str, summary: ConvertSummary) -> int:
-    """`header.stamp` in ns (log time for a message without a header), counted per topic in `summary`."""
+class HeaderClock:
+    """Times in the header time base for `timed_messages`: a stamped message at its stamp; a message without a
+    header at its log time if the stamps are on the log's clock, else at the latest stamp plus the log time
+    elapsed since that stamped message was logged. Headerless messages before the first stamped one wait for it
+    (which clock the stamps are on is unknown until then; a bag without stamps keeps log time)."""
+
+    def __init__(self) -> None:
+        self.offset: int | None = None  # log - stamp of the latest stamped message (0: the clocks agree)
+        self.separate: bool | None = None
+        self.waiting: list[tuple[Connection, int, Message]] = []
+
+    def place(
+        self, conn: Connection, log_ns: int, msg: Message, stamp: int | None
+    ) -> Iterator[tuple[Connection, int, Message]]:
+        if stamp is None:
+            if self.separate is None:
+                self.waiting.append((conn, log_ns, msg))
+                return
+            yield conn, log_ns - (self.offset or 0), msg
+            return
+        if self.separate is None:
+            self.separate = abs(log_ns - stamp) > SEPARATE_CLOCKS_NS
+        self.offset = log_ns - stamp if self.separate else 0
+        waiting, self.waiting = self.waiting, []
+        for c, ns, m in waiting:
+            yield c, ns - self.offset, m
+        yield conn, stamp, msg
+
+    def flush(self) -> Iterator[tuple[Connection, int, Message]]:
+        """Headerless messages still waiting at the end of the bag (no stamped message came): at log time."""
+        waiting, self.waiting = self.waiting, []
+        yield from waiting
+
+
+def _header_stamp(msg: Any, topic: str, summary: ConvertSummary) -> int | None:
+    """`header.stamp` in ns (None for a message without a header), counted per topic in `summary`."""
     stamp = getattr(getattr(msg, "header", None), "stamp", None)
     if stamp is None:
-        return log_ns
+        return None
     ns = int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
     summary.header_stamps[topic] = summary.header_stamps.get(topic, 0) + 1
     summary.zero_stamps[topic] = summary.zero_stamps.get(topic, 0) + (ns == 0)

@@ -11,9 +11,11 @@ import os
 import signal
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from openral_data.convert.from_arrays import convert_arrays
 from openral_data.convert.preflight import CameraTopics
 from openral_data.convert.summary import ConvertSummary
 from openral_data.convert.to_lerobot import convert_bags
@@ -32,6 +34,18 @@ class ConvertJob:
     codec: Codec
     cameras: CameraTopics  # depth units and intrinsics, as found over all the bags
     carried_task: tuple[int, str] | None  # the task text the block's first bag starts with (one process's carry)
+
+
+@dataclass(frozen=True)
+class ArrayJob:
+    """A block of an array source's files (`convert --workers` over HDF5 files)."""
+
+    worker: int
+    src: Path  # the source as the user named it
+    files: list[Path]  # this worker's block, in source order
+    dst: Path
+    mapping: Mapping
+    codec: Codec
 
 
 @dataclass(frozen=True)
@@ -68,7 +82,7 @@ def _on_sigterm(signum: int, frame: object) -> None:
         raise KeyboardInterrupt
 
 
-def run_convert_job(job: ConvertJob) -> ConvertResult:
+def run_convert_job(job: ConvertJob | ArrayJob) -> ConvertResult:
     if _stop_requested.is_set():
         raise KeyboardInterrupt
     total = 0
@@ -80,6 +94,8 @@ def run_convert_job(job: ConvertJob) -> ConvertResult:
 
     _running.set()
     try:
+        if isinstance(job, ArrayJob):
+            return _run_array_job(job, progress)
         summary = convert_bags(
             job.src,
             job.dst,
@@ -94,3 +110,19 @@ def run_convert_job(job: ConvertJob) -> ConvertResult:
     finally:
         _running.clear()
     return ConvertResult(job.worker, summary, time.time(), os.getpid(), total)
+
+
+def _run_array_job(job: ArrayJob, progress: Callable[[int, int], None]) -> ConvertResult:
+    from openral_data.formats.hdf5 import detect_hdf5
+
+    source = detect_hdf5(job.src, files=job.files)
+    assert source is not None
+    steps = 0
+
+    def counted(done: int, total: int) -> None:
+        nonlocal steps
+        steps = done
+        progress(done, total)
+
+    summary = convert_arrays(source, job.dst, job.mapping, codec=job.codec, progress=counted, checks=False)
+    return ConvertResult(job.worker, summary, time.time(), os.getpid(), steps)

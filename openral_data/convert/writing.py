@@ -103,10 +103,15 @@ class Converter:
             return  # nothing mapped arrived since the last boundary (e.g. the bag ends right after an end marker)
         for frame in aligner.finish():
             self.take(frame)
+        self.collect(aligner)
+        self.end_source_episode(end_success)
+
+    def end_source_episode(self, end_success: bool | None) -> None:
+        """The source episode's last frame was taken: close its segment and start the next source episode
+        (array sources, whose steps are frames, call it directly)."""
         self.close_segment(end_success, cut=False)
         if self.segment_frames == 0:
             self.summary.empty_segments += 1
-        self.collect(aligner)
         self.source_episode += 1
         self.summary.source_episodes = self.source_episode
         self.segment_frames = 0

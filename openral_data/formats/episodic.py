@@ -64,7 +64,7 @@ class ArrayEpisode(Protocol):
 
     def read(self, key: str, start: int, stop: int) -> npt.NDArray[Any]:
         """Rows ``start:stop`` of one array, decoded (pictures as HxWxC uint8). Raises `DatasetError`
-        (code ``source.*``) naming the file and key when the stored data is malformed."""
+        (code ``dataset.source.*``) naming the file and key when the stored data is malformed."""
         ...
 
 

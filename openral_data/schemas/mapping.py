@@ -50,7 +50,7 @@ align:
   method: previous            # previous | nearest sample
   max_staleness: 0.1          # seconds; frames with a stream older than this cannot be filled
   clock: log                  # log (bag receive time) | header (header.stamp where the message has one)
-  reorder: 0.5                # clock: header: seconds a message's stamp may lag behind the log order
+  reorder: 0.5                # clock: header: seconds a message's stamp may lag behind the newest stamp read
 episodes:
   split: bag                  # bag (one per bag file) | marker (messages on marker_topic) | gap
   marker_topic: /openral/episode

@@ -1,0 +1,182 @@
+"""The mapping of an array source (HDF5, Zarr, RLDS): the same `Mapping` as bags, with array keys (slash paths
+relative to an episode, `obs/agentview_image`) where bags have topics, and the starting mapping `convert` uses
+without `--mapping` (`starting_mapping`): what a known layout holds, each guess said (`Guess`), printed by
+`convert SRC --print-mapping` (`mapping_yaml`).
+
+For array sources a role's `topic` is an array key and its `field` is not used; `task_topic: episode:language`
+takes the episode's own language instruction (LIBERO's `problem_info`); `reward` takes a numeric per-step array;
+`success` a per-step array whose non-zero values mean success (`dones`, `rewards`, `is_terminal`). Steps are
+frames: `align` and `episodes` do not apply (episodes are the source's).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Any
+
+import yaml
+
+from openral_data.errors import ConfigError, DatasetError
+from openral_data.formats.episodic import ArrayEpisode, ArraySource, ArraySpec
+from openral_data.schemas.base import validate
+from openral_data.schemas.mapping import Mapping, Vector
+
+LANGUAGE = "episode:language"  # task_topic: the episode's own language instruction
+ALOHA_FPS = 50  # ACT / ALOHA record at 50 Hz (DT = 0.02 in their sim and real recorders); not in their files
+ALOHA_JOINTS = [
+    f"{side}_{j}"
+    for side in ("left", "right")
+    for j in ("waist", "shoulder", "elbow", "forearm_roll", "wrist_angle", "wrist_rotate", "gripper")
+]
+
+
+@dataclass(frozen=True)
+class Guess:
+    key: str  # the mapping's top-level key the guess is about
+    why: str
+
+
+def is_picture(spec: ArraySpec) -> bool:
+    return spec.dtype == "uint8" and len(spec.shape) == 3 and spec.shape[-1] == 3
+
+
+def is_vector(spec: ArraySpec) -> bool:
+    return spec.encoding == "raw" and spec.dtype != "bytes" and len(spec.shape) <= 1
+
+
+def _camera_name(key: str) -> str:
+    base = key.rsplit("/", 1)[-1]
+    base = re.sub(r"_(image|rgb|img)$", "", base)
+    return re.sub(r"[^A-Za-z0-9_]", "_", base) or "camera"
+
+
+def _names(key: str, spec: ArraySpec) -> list[str]:
+    width = spec.shape[0] if spec.shape else 1
+    base = key.rsplit("/", 1)[-1]
+    return [base] if not spec.shape else [f"{base}_{i}" for i in range(width)]
+
+
+def _part(key: str, spec: ArraySpec) -> dict[str, Any]:
+    return {"topic": key, "names": _names(key, spec)}
+
+
+def _vector(parts: list[dict[str, Any]]) -> dict[str, Any]:
+    return parts[0] if len(parts) == 1 else {"parts": parts}
+
+
+def starting_mapping(source: ArraySource, first: ArrayEpisode, fps: float | None) -> tuple[dict[str, Any], list[Guess]]:
+    """The mapping a known layout converts with (as plain data, before validation) and the guesses in it."""
+    specs = {s.key: s for s in first.specs()}
+    guesses: list[Guess] = []
+    if source.layout == "aloha":
+        out, guesses = _aloha(source, specs)
+    else:
+        out, guesses = _robomimic(source, first, specs)
+    if fps is None:
+        fps = source.fps
+    return {"fps": round(fps) if fps is not None else None, **out}, guesses
+
+
+def with_fps_guess(data: dict[str, Any], guesses: list[Guess], layout: str) -> None:
+    """For printing only: a source without a step rate gets its layout's usual one, marked as a guess (a
+    conversion never guesses the rate)."""
+    if data.get("fps") is None:
+        data["fps"] = ALOHA_FPS if layout == "aloha" else 10
+        why = "ACT / ALOHA record at 50 Hz" if layout == "aloha" else "a placeholder"
+        guesses.insert(0, Guess("fps", f"{why}; the source does not say: check it"))
+
+
+def _aloha(source: ArraySource, specs: dict[str, ArraySpec]) -> tuple[dict[str, Any], list[Guess]]:
+    state = specs.get("observations/qpos")
+    action = specs.get("action")
+    if state is None or action is None:
+        raise DatasetError(f"{source.path}: observations/qpos or action: missing", code="dataset.source.key")
+    named = state.shape == (14,) and action.shape == (14,)
+    guesses = [Guess("task", "the folder's name; ALOHA files hold no task text")]
+    if named:
+        guesses.append(Guess("state", "ALOHA's 14 joints (left arm then right arm, 6 joints + gripper each)"))
+    cams = {_camera_name(k): k for k, s in specs.items() if k.startswith("observations/images/") and is_picture(s)}
+    out: dict[str, Any] = {
+        "robot_type": "aloha",
+        "task": source.path.stem if source.path.is_file() else source.path.name,
+        "state": {"topic": "observations/qpos", "names": ALOHA_JOINTS if named else _names("qpos", state)},
+        "action": {"topic": "action", "names": ALOHA_JOINTS if named else _names("action", action)},
+        "cameras": cams,
+    }
+    return out, guesses
+
+
+def _robomimic(
+    source: ArraySource, first: ArrayEpisode, specs: dict[str, ArraySpec]
+) -> tuple[dict[str, Any], list[Guess]]:
+    guesses: list[Guess] = []
+    obs = {k: s for k, s in specs.items() if k.startswith("obs/")}
+    low = {k: s for k, s in obs.items() if is_vector(s) and s.dtype.startswith("float")}
+    env = [_part(k, s) for k, s in low.items() if k.rsplit("/", 1)[-1].startswith("object")]
+    state = [_part(k, s) for k, s in low.items() if not k.rsplit("/", 1)[-1].startswith("object")]
+    if state:
+        guesses.append(Guess("state", "every low-dim obs/* array but object*, concatenated in key order"))
+    elif "states" in specs:
+        state = [_part("states", specs["states"])]
+        guesses.append(Guess("state", "no low-dim obs: the simulator state (states)"))
+    else:
+        raise DatasetError(f"{source.path}: {first.name}: no obs/* vectors and no states to map as state",
+                           code="dataset.source.key")  # fmt: skip
+    if "actions" not in specs:
+        raise DatasetError(f"{source.path}: {first.name}/actions: missing", code="dataset.source.key")
+    cams = {_camera_name(k): k for k, s in obs.items() if is_picture(s)}
+    attrs = first.meta.attrs.get("env_args") or {}
+    env_name = attrs.get("env_name") if isinstance(attrs, dict) else None
+    env_name = env_name or first.meta.attrs.get("env")  # robosuite's own demo.hdf5 says only `env`
+    kwargs = attrs.get("env_kwargs") if isinstance(attrs, dict) else None
+    robots = kwargs.get("robots") if isinstance(kwargs, dict) else None
+    robot = robots[0] if isinstance(robots, list) and robots else robots
+    out: dict[str, Any] = {"robot_type": str(robot).lower() if isinstance(robot, str) else "unknown"}
+    if first.meta.language:
+        out["task_topic"] = LANGUAGE
+    else:
+        out["task"] = str(env_name) if isinstance(env_name, str) and env_name else source.layout
+        guesses.append(Guess("task", "the env name (env_args.env_name or env; no language instruction in the file)"))
+    out["state"] = _vector(state)
+    out["action"] = {"topic": "actions", "names": _names("actions", specs["actions"])}
+    if env:
+        out["environment_state"] = _vector(env)
+        guesses.append(Guess("environment_state", "the obs/object* arrays (object poses and relations)"))
+    out["cameras"] = cams
+    if "rewards" in specs and is_vector(specs["rewards"]) and not specs["rewards"].shape:
+        out["reward"] = {"topic": "rewards"}
+    if "dones" in specs and is_vector(specs["dones"]) and not specs["dones"].shape:
+        out["success"] = {"topic": "dones"}
+        guesses.append(Guess("success", "dones: robomimic sets it on the step the task succeeded"))
+    return out, guesses
+
+
+def mapping_of(data: dict[str, Any], source: str) -> Mapping:
+    """The starting mapping validated; a source that declares no step rate needs one (one line)."""
+    if data.get("fps") is None:
+        raise ConfigError(
+            f"{source}: fps: the source declares no step rate; pass --fps N or a --mapping with fps "
+            "(convert SRC --print-mapping prints a starting one)"
+        )
+    return validate(Mapping, data, f"{source}: built-in mapping")
+
+
+def mapping_yaml(data: dict[str, Any], guesses: list[Guess], layout: str) -> str:
+    """The starting mapping as YAML, each guessed key preceded by a `# guess:` comment."""
+    why = {g.key: g.why for g in guesses}
+    lines = [
+        f"# starting mapping for a {layout} source (openral-data convert --print-mapping); edit and pass as --mapping"
+    ]
+    for key, value in data.items():
+        if value is None or value == {}:
+            continue
+        if key in why:
+            lines.append(f"# guess: {why[key]}")
+        flow = None if isinstance(value, (dict, list)) else False  # leaf lists inline, the top level in blocks
+        lines.append(yaml.safe_dump({key: value}, sort_keys=False, width=110, default_flow_style=flow).rstrip())
+    return "\n".join(lines) + "\n"
+
+
+def vector_keys(vector: Vector) -> list[str]:
+    return [s.topic for s in vector.sources()]

@@ -1,0 +1,139 @@
+"""The robomimic layout and the ones built on it: robomimic / robosuite (`data/demo_N/{obs/*, actions, states,
+rewards, dones}`, `data.attrs["env_args"]` JSON), LIBERO (the same plus `data.attrs["problem_info"]` JSON with
+`language_instruction`) and MimicGen / Isaac Lab's recorder (`data/demo_N/...` with an `initial_state` group).
+
+An episode is one `demo_N` group (in natural order: demo_2 before demo_10); its per-step arrays are every dataset
+under it (nested groups as slash paths: `obs/agentview_image`, `states/articulation/robot/joint_position`) but
+`next_obs/*` (the next step's obs, a copy shifted by one) and `initial_state/*` (one row, not per step). The step
+rate is `env_args.env_kwargs.control_freq` when the file says it (robosuite and LIBERO do).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy.typing as npt
+
+from openral_data.errors import DatasetError
+from openral_data.formats.episodic import ArraySpec, EpisodeMeta
+from openral_data.formats.hdf5.files import (
+    attr_scalar,
+    json_attr,
+    member,
+    natural_key,
+    open_file,
+    read_key,
+    step_spec,
+    walk_datasets,
+)
+
+SKIPPED = ("next_obs", "initial_state", "datagen_info")  # groups that are not per-step arrays of this step
+
+
+def robomimic_layout(f: h5py.File) -> str | None:
+    """``robomimic``, ``libero`` or ``mimicgen`` for a file of this family, else None."""
+    data = f.get("data")
+    if not isinstance(data, h5py.Group):
+        return None
+    demos = [k for k in data if k.startswith("demo")]
+    if not demos:
+        return None
+    if "problem_info" in data.attrs:
+        return "libero"
+    first = data.get(sorted(demos, key=natural_key)[0])
+    if isinstance(first, h5py.Group) and ("initial_state" in first or "datagen_info" in first):
+        return "mimicgen"
+    return "robomimic"
+
+
+class RobomimicEpisode:
+    def __init__(self, file: Path, group: h5py.Group, meta: EpisodeMeta) -> None:
+        self.file = file
+        self.group = group
+        self.meta = meta
+        self.name = str(group.name).rsplit("/", 1)[-1]
+        self.length = self._find_length()
+        self._specs: dict[str, ArraySpec] | None = None
+
+    def _find_length(self) -> int:
+        actions = member(self.group, "actions", self.file)
+        if not isinstance(actions, h5py.Dataset) or not actions.shape:
+            raise DatasetError(
+                f"{self.file}: {actions.name.lstrip('/')}: not an array of rows", code="dataset.source.shape"
+            )
+        length = int(actions.shape[0])
+        declared = attr_scalar(self.group, "num_samples")
+        if isinstance(declared, int) and declared != length:
+            raise DatasetError(
+                f"{self.file}: {self.group.name.lstrip('/')}: num_samples says {declared}, actions has {length} rows",
+                code="dataset.source.shape",
+            )
+        return length
+
+    def _all(self) -> dict[str, ArraySpec]:
+        if self._specs is None:
+            self._specs = {
+                k: step_spec(ds, k, self.length, self.file) for k, ds in walk_datasets(self.group, self.file, SKIPPED)
+            }
+        return self._specs
+
+    def specs(self) -> list[ArraySpec]:
+        return list(self._all().values())
+
+    def read(self, key: str, start: int, stop: int) -> npt.NDArray[Any]:
+        return read_key(self.group, self._all(), key, start, stop, self.file)
+
+
+class RobomimicFile:
+    """One HDF5 file of the robomimic family (the `ArraySource` of one file)."""
+
+    def __init__(self, path: Path, f: h5py.File, layout: str) -> None:
+        self.path = path
+        self.f = f
+        self.layout = layout
+        self.data: h5py.Group = member(f, "data", path)
+        env_args = json_attr(self.data, "env_args", path)
+        self.env_args: dict[str, Any] = env_args if isinstance(env_args, dict) else {}
+        info = json_attr(self.data, "problem_info", path)
+        self.problem_info: dict[str, Any] = info if isinstance(info, dict) else {}
+
+    @property
+    def fps(self) -> float | None:
+        kwargs = self.env_args.get("env_kwargs")
+        freq = kwargs.get("control_freq") if isinstance(kwargs, dict) else None
+        return float(freq) if isinstance(freq, (int, float)) and not isinstance(freq, bool) and freq > 0 else None
+
+    def language(self) -> str | None:
+        text = self.problem_info.get("language_instruction")
+        if isinstance(text, list):  # some LIBERO files store it as a list of words
+            text = " ".join(str(t) for t in text)
+        return text.strip() if isinstance(text, str) and text.strip() else None
+
+    def episodes(self) -> Iterator[RobomimicEpisode]:
+        meta_attrs: dict[str, Any] = {"env_args": self.env_args}
+        if self.problem_info:
+            meta_attrs["problem_info"] = self.problem_info
+        env = attr_scalar(self.data, "env")  # robosuite's gather_demonstrations_as_hdf5: the env name
+        if isinstance(env, (str, bytes)):
+            meta_attrs["env"] = env.decode("utf-8", "replace") if isinstance(env, bytes) else env
+        for key in sorted((k for k in self.data if k.startswith("demo")), key=natural_key):
+            group = member(self.data, key, self.path)
+            if not isinstance(group, h5py.Group):
+                raise DatasetError(f"{self.path}: data/{key}: not a group", code="dataset.source.invalid")
+            yield RobomimicEpisode(self.path, group, EpisodeMeta(self.language(), dict(meta_attrs)))
+
+    def close(self) -> None:
+        self.f.close()
+
+
+def open_robomimic(path: Path) -> RobomimicFile | None:
+    """The file as a robomimic-family source, or None when it is HDF5 of another layout."""
+    f = open_file(path)
+    layout = robomimic_layout(f)
+    if layout is None:
+        f.close()
+        return None
+    return RobomimicFile(path, f, layout)
