@@ -100,9 +100,15 @@ def merge_cmd(
     datasets: Annotated[list[Path], typer.Argument(help="datasets with the same features")],
     out: Annotated[Path, typer.Option(help="merged dataset folder (must not exist or be empty)")],
     order: Annotated[str, typer.Option(help="input (datasets in the order given) or seed")] = "input",
+    rename: Annotated[
+        list[str] | None,
+        typer.Option(help="align a key before merging: DATASET:OLD=NEW (DATASET as given; repeatable)"),
+    ] = None,
 ) -> None:
-    """Concatenate datasets with identical features into one (mismatches are refused, naming the field)."""
-    from openral_data.edit.ops import merge
+    """Concatenate datasets into one: keys aligned by --rename, video streams whose encoder parameters differ
+    from the first dataset's re-encoded to them (the rest copied); what cannot be aligned is refused, naming both."""
+    from openral_data.edit.align import merge, parse_renames
 
     paths.check_creatable(out, "--out")
-    report("merged", [merge([resolve_dataset(d) for d in datasets], out, order)])
+    renames = parse_renames(rename or [], datasets)
+    report("merged", [merge([resolve_dataset(d) for d in datasets], out, order, renames)])
