@@ -68,10 +68,27 @@ def split_cmd(
     ] = None,
     names: Annotated[str | None, typer.Option(help="with --fractions: part names (default train,val,test)")] = None,
     seed: Annotated[int | None, typer.Option(help="with --fractions: the shuffle's seed (default 0)")] = None,
-    out_dir: Annotated[Path | None, typer.Option(help="with --fractions: parts are written to OUT_DIR/NAME")] = None,
+    out_dir: Annotated[
+        Path | None, typer.Option(help="with --fractions or --spec: parts are written to OUT_DIR/NAME")
+    ] = None,
+    spec: Annotated[
+        str | None, typer.Option(help="instead of --episodes: named lists, e.g. train=0-39,val=40-44,test=45-49")
+    ] = None,
 ) -> None:
-    """Split DATASET: the listed episodes go to --out, the others (optionally) to --rest; or, with --fractions,
-    a seeded random partition into OUT_DIR/NAME datasets."""
+    """Split DATASET: the listed episodes go to --out, the others (optionally) to --rest; with --fractions, a
+    seeded random partition into OUT_DIR/NAME datasets; with --spec, named episode lists into OUT_DIR/NAME."""
+    if spec is not None:
+        from openral_data.edit.splits import split_spec
+
+        if episodes is not None or out is not None or rest is not None or fractions is not None:
+            raise UsageError("--spec: give --out-dir, not --episodes/--out/--rest/--fractions")
+        if names is not None or seed is not None:
+            raise UsageError("--spec: the names are in the spec; --names and --seed go with --fractions")
+        if out_dir is None:
+            raise UsageError("--out-dir: --spec needs --out-dir DIR")
+        paths.check_creatable(out_dir, "--out-dir")
+        report("split", split_spec(resolve_dataset(dataset), spec, out_dir))
+        return
     if fractions is not None:
         from openral_data.edit.select import split_fractions
 
