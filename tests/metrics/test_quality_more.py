@@ -28,22 +28,18 @@ BLACK = range(2, 6)  # episode 1's image-camera frames 2..5 black
 
 
 @pytest.fixture(autouse=True)
-def _user_cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+def _xdg(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))  # a lerobot dataset's table goes there
 
 
 def _idle_dataset(root: Path) -> Path:
-    """Three moving episodes, the middle one idle for its first 30 of 40 frames."""
-    eps = [q.moving(N, s) for s in range(3)]
-    eps[1].state[:30] = eps[1].state[29]
-    eps[1].action[:30] = eps[1].action[29]
-    return q.write(root, eps)
+    return q.idle_middle(root, N)  # the middle episode idle for 30 of 40 frames
 
 
 def _ok(*args: str) -> str:
-    run = run_inproc(*args)
-    assert run.returncode == 0, run.stderr
-    return run.stdout
+    done = run_inproc(*args)
+    assert done.returncode == 0, done.stderr
+    return done.stdout
 
 
 def _black_png() -> bytes:
