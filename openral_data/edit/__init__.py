@@ -1,7 +1,9 @@
 """Episode editing of LeRobot v3 datasets: `delete`, `split` and `merge` (see ops.py), `filter_episodes` and
 `split_fractions` (see select.py), `reencode` and `encode_images` (see videos.py), each returning `EditResult`s;
-`tasks.rename`/`tasks.set_task`, `features.remove` and `stats.recompute` change what is copied (through
-`ops.Rewrite`), as `videos` does.
+`tasks.rename`/`tasks.set_task`, `features.remove`, `features.rename` (`renames`), `derive.add` (`features add`) and
+`stats.recompute` change what is copied (through `ops.Rewrite`), as `videos` does; `align.merge` merges datasets
+that differ (`--rename`, streams re-encoded where their encoder parameters differ) and `splits.split_spec` splits
+by named episode lists.
 
 Every edit writes a complete new dataset atomically through our LeRobot v3 writer (`assemble`), reading its
 episodes from the sources without re-encoding video (`source`), except the cameras `videos` is asked to encode.
