@@ -101,13 +101,21 @@ class DerivedColumn:
             layout.data_path(src.root, layout.FilePos(int(r["data/chunk_index"]), int(r["data/file_index"])))
             for r in rows
         ]
-        self.con = duckdb.connect(":memory:")
-        for macro in MACROS:
-            self.con.execute(macro)
-        lock_down(self.con, sorted(set(self.files)))
         self._cache: tuple[Path, dict[int, npt.NDArray[Any]]] | None = None
         if not sql.strip():
             raise UsageError("--sql: empty expression")
+        self.con = duckdb.connect(":memory:")
+        try:
+            for macro in MACROS:
+                self.con.execute(macro)
+            lock_down(self.con, sorted(set(self.files)))
+            self._check_one(sql)
+        except BaseException:
+            self.con.close()
+            raise
+
+    def _check_one(self, sql: str) -> None:
+        """Refuse `sql` unless it is one expression (not `1) FROM t; SELECT (1`)."""
         try:
             one = len(self.con.extract_statements(f"SELECT ({sql}) FROM t WINDOW ep AS (PARTITION BY e ORDER BY f)"))
         except duckdb.Error as exc:
@@ -141,7 +149,10 @@ class DerivedColumn:
         if matrix.shape[1] != feature["shape"][0]:
             raise QueryError(f"{where}: {matrix.shape[1]} values a frame, other frames have {feature['shape'][0]}")
         base = {"float32": pa.float32(), "int64": pa.int64(), "bool": pa.bool_()}[feature["dtype"]]
-        flat = pa.array(matrix.reshape(-1)).cast(base)
+        try:
+            flat = pa.array(matrix.reshape(-1)).cast(base)
+        except (pa.ArrowInvalid, pa.ArrowNotImplementedError) as exc:
+            raise QueryError(f"{where}: the values are not {feature['dtype']}: {str(exc).splitlines()[0]}") from None
         return flat if feature["shape"] == [1] else pa.FixedSizeListArray.from_arrays(flat, matrix.shape[1])
 
     def _file(self, path: Path) -> dict[int, npt.NDArray[Any]]:

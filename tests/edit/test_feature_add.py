@@ -84,6 +84,11 @@ def test_declared_dtype_and_shape(source: Path, tmp_path: Path) -> None:
         "features", "add", str(source), "--name", "x", "--sql", "action", "--shape", "3", "--out", str(other)
     )
     assert line == "error: --shape: 3 but --sql gives 2 value(s) a frame"
+    line = refused(
+        "features", "add", str(source), "--name", "x", "--sql", "action[2]", "--dtype", "int64", "--out", str(other)
+    )
+    assert line.startswith(f"error: --sql: {source}: episode 0: the values are not int64: ")
+    assert not other.exists()
 
 
 @pytest.mark.parametrize(
