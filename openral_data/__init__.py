@@ -7,7 +7,8 @@ The Python API (docs/python-api.md); the `openral-data` command line wraps the s
 - conversion: `convert_bags(...) -> ConvertSummary` (bags -> LeRobot v3), `export_mcap(...) -> ExportSummary`,
   `upgrade(old, new) -> UpgradeResult` (LeRobot v2.0/v2.1 -> v3.0 with lerobot's converter)
 - checking: `check(root) -> list[Finding]`, `repair(root) -> RepairResult`
-- reading: `summarize(root) -> DatasetSummary`, `stats_query(paths, sql) -> Table` (DuckDB over the stats views)
+- reading: `summarize(root) -> DatasetSummary`, `stats_query(paths, sql) -> Table` (DuckDB over the stats views),
+  `quality(root, stride, Thresholds(...)) -> Quality` (episode quality measures and flags, cached)
 - extending: `SCENES` and `POLICIES` (`@SCENES.register("id")` over a factory; plug-ins also use entry points),
   `ROBOTS` (every robot manifest on the search path; docs/plugins.md)
 - the schemas (`RobotManifest`, `RSkillManifest`, `SimScene`, `BenchmarkScene`, `load_scene`), the shared types
@@ -48,6 +49,9 @@ _API: dict[str, str] = {
     "summarize": "openral_data.formats.dataset",  # any version: v3, or v2.x read in place
     "DatasetSummary": "openral_data.formats.lerobot_v3",
     "stats_query": "openral_data.metrics.command",
+    "quality": "openral_data.metrics.quality",
+    "Quality": "openral_data.metrics.quality",
+    "Thresholds": "openral_data.metrics.quality",
     "Table": "openral_data.metrics.report",
     "RobotManifest": "openral_data.schemas",
     "RSkillManifest": "openral_data.schemas",
@@ -88,6 +92,7 @@ __all__ = [
     "Observation",
     "OpenralError",
     "ProducerSpec",
+    "Quality",
     "RSkillManifest",
     "RecordOptions",
     "RecordSummary",
@@ -100,12 +105,14 @@ __all__ = [
     "Sink",
     "StepResult",
     "Table",
+    "Thresholds",
     "UpgradeResult",
     "__version__",
     "check",
     "convert_bags",
     "export_mcap",
     "load_scene",
+    "quality",
     "record",
     "repair",
     "replay",
@@ -121,6 +128,7 @@ if TYPE_CHECKING:
     from openral_data.formats.dataset import summarize
     from openral_data.formats.lerobot_v3 import DatasetSummary
     from openral_data.metrics.command import stats_query
+    from openral_data.metrics.quality import Quality, Thresholds, quality
     from openral_data.metrics.report import Table
     from openral_data.record.options import RecordOptions, RecordSummary
     from openral_data.record.sim import record

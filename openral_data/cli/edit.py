@@ -76,10 +76,27 @@ def split_cmd(
     ] = None,
     names: Annotated[str | None, typer.Option(help="with --fractions: part names (default train,val,test)")] = None,
     seed: Annotated[int | None, typer.Option(help="with --fractions: the shuffle's seed (default 0)")] = None,
-    out_dir: Annotated[Path | None, typer.Option(help="with --fractions: parts are written to OUT_DIR/NAME")] = None,
+    out_dir: Annotated[
+        Path | None, typer.Option(help="with --fractions or --spec: parts are written to OUT_DIR/NAME")
+    ] = None,
+    spec: Annotated[
+        str | None, typer.Option(help="instead of --episodes: named lists, e.g. train=0-39,val=40-44,test=45-49")
+    ] = None,
 ) -> None:
-    """Split DATASET: the listed episodes go to --out, the others (optionally) to --rest; or, with --fractions,
-    a seeded random partition into OUT_DIR/NAME datasets."""
+    """Split DATASET: the listed episodes go to --out, the others (optionally) to --rest; with --fractions, a
+    seeded random partition into OUT_DIR/NAME datasets; with --spec, named episode lists into OUT_DIR/NAME."""
+    if spec is not None:
+        from openral_data.edit.splits import split_spec
+
+        if episodes is not None or out is not None or rest is not None or fractions is not None:
+            raise UsageError("--spec: give --out-dir, not --episodes/--out/--rest/--fractions")
+        if names is not None or seed is not None:
+            raise UsageError("--spec: the names are in the spec; --names and --seed go with --fractions")
+        if out_dir is None:
+            raise UsageError("--out-dir: --spec needs --out-dir DIR")
+        paths.check_creatable(out_dir, "--out-dir")
+        report("split", split_spec(resolve_dataset(dataset), spec, out_dir))
+        return
     if fractions is not None:
         from openral_data.edit.select import split_fractions
 
@@ -108,12 +125,18 @@ def merge_cmd(
     datasets: Annotated[list[Path], typer.Argument(help="datasets with the same features")],
     out: Annotated[Path, typer.Option(help="merged dataset folder (must not exist or be empty)")],
     order: Annotated[str, typer.Option(help="input (datasets in the order given) or seed")] = "input",
+    rename: Annotated[
+        list[str] | None,
+        typer.Option(help="align a key before merging: DATASET:OLD=NEW (DATASET as given; repeatable)"),
+    ] = None,
 ) -> None:
-    """Concatenate datasets with identical features into one (mismatches are refused, naming the field)."""
-    from openral_data.edit.ops import merge
+    """Concatenate datasets into one: keys aligned by --rename, video streams whose encoder parameters differ
+    from the first dataset's re-encoded to them (the rest copied); what cannot be aligned is refused, naming both."""
+    from openral_data.edit.align import merge, parse_renames
 
     paths.check_creatable(out, "--out")
-    report("merged", [merge([resolve_dataset(d) for d in datasets], out, order)])
+    renames = parse_renames(rename or [], datasets)
+    report("merged", [merge([resolve_dataset(d) for d in datasets], out, order, renames)])
 
 
 @episodes_app.command("trim")

@@ -41,8 +41,9 @@ def info(dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset fold
 
     dataset = resolve_dataset(dataset)
     s = summarize(dataset)
+    counts = _quality_counts(dataset)
     if json:
-        print_json("info", s.to_json())
+        print_json("info", {**s.to_json(), "quality": counts})
         return
     print_rows(
         str(dataset),
@@ -57,20 +58,24 @@ def info(dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset fold
             ("success rate", _success_cell(s)),
             *([("format", f"LeRobot {s.codebase_version} (read in place)")] if s.codebase_version in legacy else []),
             *([("missing", line.removeprefix("missing: "))] if s.missing and (line := s.missing.line()) else []),
-            ("quality", _quality_cell(dataset)),
+            ("quality", _quality_cell(counts)),
         ],
     )
 
 
-def _quality_cell(dataset: Path) -> str:
-    """`2 of 8 episodes flagged (idle 1, camera_black 1)` from the cached quality table, else how to get one."""
+def _quality_counts(dataset: Path) -> dict[str, int] | None:
+    """Episodes flagged per quality flag (and `flagged`, `episodes`) from the current cached table, else None."""
     from openral_data.metrics.quality import flag_counts
     from openral_data.metrics.sources import open_dataset
 
     try:
-        counts = flag_counts(open_dataset(dataset))
+        return flag_counts(open_dataset(dataset))
     except OpenralError:
-        counts = None
+        return None
+
+
+def _quality_cell(counts: dict[str, int] | None) -> str:
+    """`2 of 8 episodes flagged (idle 1, camera_black 1)` (`_quality_counts`), else how to get one."""
     if counts is None:
         return "not computed (openral-data quality DATASET)"
     raised = ", ".join(f"{k} {v}" for k, v in counts.items() if v and k not in ("episodes", "flagged"))

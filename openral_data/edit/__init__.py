@@ -2,8 +2,10 @@
 `split_fractions` (see select.py), `reencode` and `encode_images` (see videos.py), each returning `EditResult`s
 (`trim.trim` and `resample.resample`, frames dropped inside episodes through subset.py and cut.py, also return the
 `subset.Counts` of what was done to the videos; not re-exported here, where they would hide their modules);
-`tasks.rename`/`tasks.set_task`, `features.remove` and `stats.recompute` change what is copied (through
-`ops.Rewrite`), as `videos` does.
+`tasks.rename`/`tasks.set_task`, `features.remove`, `features.rename` (`renames`), `derive.add` (`features add`) and
+`stats.recompute` change what is copied (through `ops.Rewrite`), as `videos` does; `align.merge` merges datasets
+that differ (`--rename`, streams re-encoded where their encoder parameters differ) and `splits.split_spec` splits
+by named episode lists.
 
 Every edit writes a complete new dataset atomically through our LeRobot v3 writer (`assemble`), reading its
 episodes from the sources without re-encoding video (`source`), except the cameras `videos` is asked to encode

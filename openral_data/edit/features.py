@@ -1,4 +1,7 @@
-"""`features remove`: write a dataset without some of its features.
+"""`features remove`: write a dataset without some of its features; `features rename`: with one under a new key.
+
+Rename (`edit.renames` says which keys may be renamed to which): a video camera's packets are copied into
+`videos/NEW/...`, never re-encoded; a column is copied under its new name; every statistic is carried over.
 
 A video camera's files are not copied, a `dtype: image` camera's or a numeric feature's column is dropped
 (`observation.environment_state`, `next.reward`, `next.success`, `next.done`, …); `info.json`, `stats.json` and
@@ -47,6 +50,13 @@ def remove(dataset: Path, keys: Sequence[str], out: Path | None, in_place: bool 
         image_hist=None if hist is None else {n: acc for n, acc in hist.items() if n in cameras},
     )
     return write_edit([(src, e) for e in range(src.total)], dataset, out, in_place, "features remove", rewrite)
+
+
+def rename(dataset: Path, old: str, new: str, out: Path | None, in_place: bool = False) -> EditResult:
+    """Write `dataset` with the feature `old` under the key `new` (a camera's files moved, nothing re-encoded)."""
+    src = SourceDataset(dataset, {old: new}, ("--from", "--to"))
+    rewrite = Rewrite(image_hist=summed_histograms([src]), details={"renamed": {old: new}})
+    return write_edit([(src, e) for e in range(src.total)], dataset, out, in_place, "features rename", rewrite)
 
 
 def _checked(src: SourceDataset, keys: Sequence[str]) -> set[str]:

@@ -49,7 +49,8 @@ class Rewrite:
     name the same columns and cameras); `image_hist` are exact dataset-level camera histograms of the episodes
     written and `column_hist` the same for carried `dtype: image` features (both may be filled by `transform` as
     it goes: they are read at the end); `details`, what the change was, join the `edit` block of
-    `meta/openral.json`.
+    `meta/openral.json`; `aligned`: the caller checked that the sources share one episode table once
+    `transform` ran (`align`: a merge re-encoding what differs), so their features are not compared as stored.
     """
 
     transform: Transform | None = None
@@ -59,6 +60,7 @@ class Rewrite:
     image_hist: dict[str, ImageStatsAccumulator] | None = None
     column_hist: dict[str, ImageStatsAccumulator] | None = None
     details: dict[str, Any] = field(default_factory=dict)
+    aligned: bool = False
 
 
 def check_compatible(first: SourceDataset, other: SourceDataset) -> None:
@@ -74,17 +76,18 @@ def check_compatible(first: SourceDataset, other: SourceDataset) -> None:
             f"{first.root}'s {first.info.get('robot_type')!r}",
             code="dataset.mismatch",
         )
-    field = _first_difference(comparable(first.features), comparable(other.features), "features")
+    field = first_difference(comparable(first.features), comparable(other.features), "features")
     if field is not None:
         raise DatasetError(f"{where}: {field}: differs from {first.root}", code="dataset.mismatch")
 
 
-def _first_difference(a: Any, b: Any, path: str) -> str | None:
+def first_difference(a: Any, b: Any, path: str) -> str | None:
+    """The path of the first key or value where `a` and `b` differ, with both values (None when equal)."""
     if isinstance(a, dict) and isinstance(b, dict):
         for key in list(a) + [k for k in b if k not in a]:
             if key not in a or key not in b:
                 return f"{path}.{key} (present in only one dataset)"
-            found = _first_difference(a[key], b[key], f"{path}.{key}")
+            found = first_difference(a[key], b[key], f"{path}.{key}")
             if found is not None:
                 return found
         return None
@@ -112,8 +115,8 @@ def write_selection(
     `rewrite`: what the edit changes in the episodes besides their selection (its `image_hist` replaces the
     argument's).
     """
-    first = _check_selection(selection, out, out_checked)
     change = rewrite or Rewrite()
+    first = _check_selection(selection, out, out_checked, not change.aligned)
     cameras = list((change.schema or first.schema).cameras)  # the video cameras written (a dropped one is not read)
     _check_present(selection, cameras, op)
     provenance = _provenance(selection, op, change)
@@ -136,14 +139,14 @@ def write_selection(
     return EditResult(out, len(selection), frames)
 
 
-def _check_selection(selection: Selection, out: Path, out_checked: bool) -> SourceDataset:
-    """The first source of a non-empty selection whose sources all share its episode table; `out` new or empty
-    (unless `out_checked`)."""
+def _check_selection(selection: Selection, out: Path, out_checked: bool, compare: bool = True) -> SourceDataset:
+    """The first source of a non-empty selection whose sources all share its episode table (unless not
+    `compare`); `out` new or empty (unless `out_checked`)."""
     if not selection:
         raise EpisodeSelectionError(f"{out}: no episodes selected; a dataset needs at least one", code="episodes.empty")
     first = selection[0][0]
     for src, _ in selection:
-        if src is not first:
+        if compare and src is not first:
             check_compatible(first, src)
     if not out_checked:
         check_new_output(out)

@@ -16,7 +16,7 @@ episode's seed is unknown (`None`), its initial state empty, and its success rea
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -27,6 +27,7 @@ import pyarrow as pa
 import pyarrow.compute as pc
 
 from openral_data.edit.recode import clip_frames, image_frames
+from openral_data.edit.renames import check_renames, renamed
 from openral_data.errors import DatasetError, EpisodeSelectionError, NotFound
 from openral_data.formats import atomic
 from openral_data.formats.jsonfile import parse_field, parse_json
@@ -38,6 +39,7 @@ from openral_data.formats.lerobot_v3.features import (
     STATE,
     build_features,
     camera_keys,
+    camera_name,
     data_schema,
     dim_names,
 )
@@ -76,14 +78,20 @@ class EpisodeData:
 
 
 class SourceDataset:
-    def __init__(self, root: Path) -> None:
+    def __init__(
+        self, root: Path, renames: Mapping[str, str] | None = None, flags: tuple[str, str] = ("--rename",) * 2
+    ) -> None:
+        """`renames`: features presented under new keys (`edit.renames`; OLD -> NEW, given by the options
+        `flags`), read from their stored ones."""
         self.root = root
         if not root.is_dir():
             raise NotFound(f"{root}: no such dataset folder")
         check_settled(root, "edit")
         self.info = read_info(root)
         self.fps = int(self.info["fps"])
-        self.features: dict[str, dict[str, Any]] = self.info["features"]
+        check_renames(self.info["features"], renames or {}, str(root), flags)
+        self.features: dict[str, dict[str, Any]] = renamed(self.info["features"], renames or {})
+        self.stored = {new: old for old, new in (renames or {}).items()}  # a presented key -> its key on disk
         self.episodes = read_episodes(root)
         info_total = int(self.info.get("total_episodes", 0))
         self.total = min(info_total, self.episodes.num_rows)  # the loader exposes no more than info's total
@@ -104,7 +112,8 @@ class SourceDataset:
             )
         self._data_cache: tuple[Path, pa.Table] | None = None
         # the files a partial download left out: an edit asks only for those it copies (`need`)
-        self.missing = missing_files(root, self.info, self._rows[: self.total], self.camera_key.values())
+        stored = [self.key_on_disk(k) for k in self.camera_key.values()]
+        self.missing = missing_files(root, self.info, self._rows[: self.total], stored)
 
     # -- what the dataset is ---------------------------------------------------------------------------------
     def _origin(self) -> Origin:
@@ -115,6 +124,10 @@ class SourceDataset:
 
     def camera_names(self) -> list[str]:
         return list(self.camera_key)
+
+    def key_on_disk(self, key: str) -> str:
+        """The stored key of a feature presented as `key` (itself unless renamed)."""
+        return self.stored.get(key, key)
 
     def _video_settings(self) -> VideoSettings:
         infos = [feature_info(f) for f in self.features.values() if f.get("dtype") == "video"]
@@ -178,10 +191,11 @@ class SourceDataset:
         if not isinstance(saved, dict):
             return None
         out: dict[str, ImageStatsAccumulator] = {}
+        stored_name = {n: camera_name(self.key_on_disk(k)) for n, k in self.camera_key.items()}
         for name in self.camera_names():
-            if name not in saved:
+            if stored_name[name] not in saved:
                 return None
-            out[name] = ImageStatsAccumulator.from_json(saved[name])
+            out[name] = ImageStatsAccumulator.from_json(saved[stored_name[name]])
         return out
 
     def writer_config(self) -> WriterConfig:
@@ -214,7 +228,7 @@ class SourceDataset:
     def need(self, episodes: Iterable[int], cameras: Iterable[str], what: str) -> None:
         """Refuse in one line, before anything is written, when a file that copying `episodes` with the video
         `cameras` (names) needs is absent (a partial download: `missing.MissingFiles.need`)."""
-        keys = [self.camera_key[n] for n in cameras if n in self.camera_key]
+        keys = [self.key_on_disk(self.camera_key[n]) for n in cameras if n in self.camera_key]
         self.missing.need(episodes, keys, what, drop=True)
 
     def episode(self, index: int, cameras: Iterable[str] | None = None) -> EpisodeData:
@@ -266,9 +280,12 @@ class SourceDataset:
             else {},
             videos=videos,
             image_stats=image_stats,
-            columns={key: data.column(key).combine_chunks().cast(self._types.field(key).type) for key in self.carried},
+            columns={
+                key: data.column(self.key_on_disk(key)).combine_chunks().cast(self._types.field(key).type)
+                for key in self.carried
+            },
             column_stats={
-                key: self._picture_stats(row, key, data.column(key).combine_chunks())
+                key: self._picture_stats(row, key, data.column(self.key_on_disk(key)).combine_chunks())
                 for key in self.carried
                 if self.features[key]["dtype"] == "image"
             },
@@ -289,14 +306,15 @@ class SourceDataset:
 
     def _stats(self, row: dict[str, Any], key: str) -> Stats:
         """A feature's statistics for one episode as meta/episodes has them."""
+        stored = self.key_on_disk(key)
         try:
             return {
-                s: np.asarray(row[f"stats/{key}/{s}"], dtype=np.int64 if s == "count" else np.float64)
+                s: np.asarray(row[f"stats/{stored}/{s}"], dtype=np.int64 if s == "count" else np.float64)
                 for s in STAT_KEYS
             }
         except (KeyError, TypeError, ValueError):
             raise DatasetError(
-                f"{self.root}: meta/episodes: stats/{key}: missing or not numbers (episode {row['episode_index']})",
+                f"{self.root}: meta/episodes: stats/{stored}: missing or not numbers (episode {row['episode_index']})",
                 code="dataset.invalid",
             ) from None
 
@@ -305,7 +323,7 @@ class SourceDataset:
         the episode's mp4, or its `dtype: image` cells) as `stats recompute` does when the source has none
         (statistics are optional to lerobot's loader: older or foreign datasets may lack them, or lack only the
         quantiles, as lerobot's v2.1 -> v3.0 converter leaves them)."""
-        if all(row.get(f"stats/{key}/{s}") is not None for s in STAT_KEYS):
+        if all(row.get(f"stats/{self.key_on_disk(key)}/{s}") is not None for s in STAT_KEYS):
             return self._stats(row, key)
         where = f"{self.root}: {key}: episode {row['episode_index']}"
         self.refuse_depth(key, "computing a depth camera's missing statistics")
@@ -344,7 +362,7 @@ class SourceDataset:
         return rows.sort_by("frame_index")
 
     def _clip(self, index: int, row: dict[str, Any], name: str, n: int) -> bytes:
-        key = self.camera_key[name]
+        key = self.key_on_disk(self.camera_key[name])
         pos = layout.FilePos(int(row[f"videos/{key}/chunk_index"]), int(row[f"videos/{key}/file_index"]))
         path = layout.video_path(self.root, key, pos)
         if not path.is_file():

@@ -18,8 +18,9 @@ from openral_data.doctor import check
 from openral_data.edit import videos
 from openral_data.errors import DatasetBusy
 from openral_data.formats.lerobot_v3.lock import DatasetLock
-from tests.edit.test_edit import _digest, _packets, _record
+from tests.edit.test_edit import _digest, _record
 from tests.support.cli import run_cli
+from tests.support.curate import packets
 from tests.support.lerobot_written import IMAGE_CAMERA, LENGTHS, image_pixels, write_lerobot_dataset
 
 pytestmark = pytest.mark.slow
@@ -103,7 +104,7 @@ def test_reencode_one_camera_resized_to_av1(project: Path, tmp_path: Path) -> No
     }
     assert [s["path"] for s in edit["sources"]] == [str(src.resolve())]
     assert _feature(out, WRIST) == _feature(src, WRIST)  # not chosen: untouched, packets copied
-    assert _packets(out, WRIST) == _packets(src, WRIST)
+    assert packets(out, WRIST) == packets(src, WRIST)
     with av.open(str(next((out / "videos" / FRONT).rglob("*.mp4")))) as c:
         stream = c.streams.video[0]
         assert (stream.codec_context.name, stream.width, stream.height) in {("libdav1d", 48, 32), ("av1", 48, 32)}

@@ -25,10 +25,7 @@ def _user_cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
 
 def _dataset(root: Path) -> Path:
     """Three moving episodes, the middle one idle for its first 30 of 40 frames (then off at full speed)."""
-    eps = [q.moving(N, s) for s in range(3)]
-    eps[1].state[:30] = eps[1].state[29]
-    eps[1].action[:30] = eps[1].action[29]
-    return q.write(root, eps)
+    return q.idle_middle(root, N)
 
 
 def _ok(*args: str) -> str:

@@ -59,3 +59,12 @@ def write(root: Path, episodes: list[Episode]) -> Path:
         bridge.end_episode(success=True)
     bridge.close()
     return root
+
+
+def idle_middle(root: Path, n: int = 40) -> Path:
+    """Three moving episodes of `n` frames, the middle one idle for its first 3/4 (then off at full speed)."""
+    eps = [moving(n, s) for s in range(3)]
+    still = 3 * n // 4
+    eps[1].state[:still] = eps[1].state[still - 1]
+    eps[1].action[:still] = eps[1].action[still - 1]
+    return write(root, eps)

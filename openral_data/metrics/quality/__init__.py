@@ -3,9 +3,9 @@ camera faults (black, saturated, frozen, blurred), one row per episode with a fl
 "Quality"): computed streaming (`compute`), cached beside the dataset or in the user's cache (`cache`), seen by
 DuckDB as the `quality` view (`view`)."""
 
-from openral_data.metrics.quality.cached import Quality, cached_quality, quality_of
+from openral_data.metrics.quality.cached import Quality, cached_quality, quality, quality_of
 from openral_data.metrics.quality.table import FLAGS, SCHEMA
-from openral_data.metrics.quality.thresholds import DEFAULT, DEFAULT_STRIDE, Thresholds
+from openral_data.metrics.quality.thresholds import DEFAULT, DEFAULT_STRIDE, Thresholds, parse_thresholds
 from openral_data.metrics.quality.view import counts_table, flag_counts, mentions_quality, register_quality
 
 __all__ = [
@@ -19,6 +19,8 @@ __all__ = [
     "counts_table",
     "flag_counts",
     "mentions_quality",
+    "parse_thresholds",
+    "quality",
     "quality_of",
     "register_quality",
 ]

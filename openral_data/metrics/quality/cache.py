@@ -31,7 +31,9 @@ from openral_data.formats.parquetfile import read_table
 from openral_data.metrics.quality.table import SCHEMA
 from openral_data.metrics.quality.thresholds import Thresholds
 
-VERSION = 1  # of the measures: a change to how they are computed bumps it, so older tables are recomputed
+VERSION = (
+    2  # of the measures: a change to how they are computed bumps it, so older tables are recomputed (2: image cameras)
+)
 KEY = b"openral.quality.key"
 STRIDE = b"openral.quality.stride"
 

@@ -14,7 +14,7 @@ from openral_data.metrics.quality import cache
 from openral_data.metrics.quality.compute import Progress, Rows, Sink, camera_pass, motion_pass
 from openral_data.metrics.quality.table import FRAME_SCHEMA, SAMPLE_SCHEMA, finish
 from openral_data.metrics.quality.thresholds import DEFAULT, DEFAULT_STRIDE, Thresholds
-from openral_data.metrics.sources import DatasetSource
+from openral_data.metrics.sources import DatasetSource, open_dataset
 
 
 @dataclass(frozen=True)
@@ -68,3 +68,15 @@ def quality_of(
 def cached_quality(ds: DatasetSource, th: Thresholds = DEFAULT) -> pa.Table | None:
     """The cached table if current (at whatever stride it was computed), else None; never computes."""
     return cache.load(cache.cache_paths(ds.root).episodes, cache.fingerprint(ds.root, th))
+
+
+def quality(
+    dataset: Path | str,
+    stride: int | None = None,
+    thresholds: Thresholds = DEFAULT,
+    recompute: bool = False,
+) -> Quality:
+    """The Python face of `openral-data quality DATASET`: the dataset's quality table (one row per episode,
+    measures and flags; `Quality.table`, a pyarrow Table), from the cache when current, else computed and cached.
+    `thresholds`: `Thresholds(...)` other than the defaults (cached under their own key)."""
+    return quality_of(open_dataset(Path(dataset)), stride, thresholds, recompute)

@@ -1,8 +1,9 @@
 """Quality of every episode of one dataset, streamed: data files one at a time (two passes: each dimension's
 observed range, then the measures episode by episode), each camera decoded episode by episode with PyAV.
 
-Memory is bounded by one data file's episode_index/frame_index/timestamp/state/action columns and one decoded
-frame per camera, whatever the dataset's size: per-frame rows go to `Sink`s as they are made.
+Memory is bounded by one data file's episode_index/frame_index/timestamp/state/action columns (and image
+columns, for `dtype: image` cameras, `pictures`) and one decoded frame per camera, whatever the dataset's size:
+per-frame rows go to `Sink`s as they are made.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from openral_data.formats.lerobot_v3.reader import read_episodes
 from openral_data.formats.parquetfile import read_table
 from openral_data.metrics.quality.camera import camera_quality
 from openral_data.metrics.quality.episode import Array, Ranges, episode_motion
+from openral_data.metrics.quality.pictures import ImageColumns, picture_cameras
 from openral_data.metrics.quality.table import CAMERA_MEASURES, FRAME_SCHEMA, SAMPLE_SCHEMA
 from openral_data.metrics.quality.thresholds import Thresholds
 from openral_data.metrics.sources import DatasetSource
@@ -99,12 +101,13 @@ def motion_pass(ds: DatasetSource, th: Thresholds, frames: Sink) -> Rows:
 
 
 def rgb_cameras(ds: DatasetSource) -> list[str]:
-    """The video features holding colour pictures (a depth map's luma means nothing)."""
-    return [k for k in ds.cameras if depth_settings(ds.info, k) is None]
+    """The cameras holding colour pictures: video features (a depth map's luma means nothing) and `dtype: image`
+    features (a segmentation mask's ids are not pictures)."""
+    return [k for k in ds.cameras if depth_settings(ds.info, k) is None] + picture_cameras(ds.info)
 
 
 def episode_cameras(
-    ds: DatasetSource, row: dict[str, Any], stride: int, th: Thresholds, samples: Sink
+    ds: DatasetSource, row: dict[str, Any], stride: int, th: Thresholds, samples: Sink, images: ImageColumns
 ) -> dict[str, Any]:
     """The camera measures of episode `row` (meta/episodes): the worst camera's share of each fault, the first
     black frame, and which cameras raise which flag; the measured frames go to `samples`."""
@@ -112,7 +115,12 @@ def episode_cameras(
     raised: list[str] = []
     firsts: list[int] = []
     for key in rgb_cameras(ds):
-        q = camera_quality(decode_episode_video(ds.root, ds.info, row, key, stride), stride, th)
+        frames = (
+            images.frames(row, key, stride)
+            if key in images.keys
+            else decode_episode_video(ds.root, ds.info, row, key, stride)
+        )
+        q = camera_quality(frames, stride, th)
         for measure in CAMERA_MEASURES:
             worst[measure] = max(worst[measure], q.share(measure))
             if q.share(measure) >= th.camera_flag:
@@ -134,12 +142,13 @@ def camera_pass(
     """Add the camera measures to `rows` (every episode meta/episodes lists must have frames); whether the
     dataset has colour cameras."""
     cameras = bool(rgb_cameras(ds))
+    images = ImageColumns(ds.root, picture_cameras(ds.info))
     for row in read_episodes(ds.root).to_pylist():
         e = int(row["episode_index"])
         if e not in rows:
             raise DatasetError(f"{ds.root}: episode {e}: no frames in data/", code="dataset.invalid")
         if cameras and int(row["length"]):
-            rows[e].update(episode_cameras(ds, row, stride, th, samples))
+            rows[e].update(episode_cameras(ds, row, stride, th, samples, images))
         if progress is not None:
             progress(1)
     return cameras

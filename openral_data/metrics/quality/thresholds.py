@@ -6,8 +6,12 @@ so one threshold fits joints in radians, grippers in millimetres and end-effecto
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+import math
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, fields, replace
 from typing import Any
+
+from openral_data.errors import UsageError
 
 
 @dataclass(frozen=True)
@@ -36,3 +40,26 @@ class Thresholds:
 
 DEFAULT = Thresholds()
 DEFAULT_STRIDE = 5  # every 5th frame of each camera is measured (all frames are decoded, codecs need them)
+
+
+def parse_thresholds(pairs: Sequence[str], base: Thresholds = DEFAULT) -> Thresholds:
+    """`--threshold NAME=VALUE` (repeatable; NAME a field above, spelt with `-` or `_`) -> `base` with those
+    values; one line for an unknown name or a value that is not a finite number >= 0 (`jerk_ldlj` may be
+    negative; an integer for an integer field)."""
+    kinds = {f.name: f.type for f in fields(Thresholds)}
+    changes: dict[str, float | int] = {}
+    for pair in pairs:
+        name, sep, text = pair.partition("=")
+        name = name.strip().replace("-", "_")
+        if not sep or name not in kinds:
+            raise UsageError(f"--threshold: {pair!r} is not NAME=VALUE with NAME one of {', '.join(kinds)}")
+        try:
+            value: float | int = int(text) if kinds[name] in (int, "int") else float(text)
+        except ValueError:
+            raise UsageError(
+                f"--threshold: {name}: {text!r} is not a{'n integer' if kinds[name] in (int, 'int') else ' number'}"
+            ) from None
+        if not math.isfinite(value) or (value < 0 and name != "jerk_ldlj"):  # a log jerk is negative
+            raise UsageError(f"--threshold: {name}: {text!r} must be a finite number >= 0")
+        changes[name] = value
+    return replace(base, **changes)  # type: ignore[arg-type]  # each value parsed as its field's type above

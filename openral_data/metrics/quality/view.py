@@ -20,7 +20,7 @@ from openral_data.formats.parquetfile import read_schema
 from openral_data.metrics.quality import cache
 from openral_data.metrics.quality.cached import cached_quality, quality_of
 from openral_data.metrics.quality.table import FLAGS, FRAME_SCHEMA, SAMPLE_SCHEMA, SCHEMA
-from openral_data.metrics.quality.thresholds import DEFAULT
+from openral_data.metrics.quality.thresholds import DEFAULT, Thresholds
 from openral_data.metrics.report import Table
 from openral_data.metrics.sources import DatasetSource
 from openral_data.metrics.views import lit, path_sql
@@ -76,22 +76,23 @@ def _current(path: Path, key: str, stride: int) -> bool:
         return False
 
 
-def flag_counts(ds: DatasetSource) -> dict[str, int] | None:
-    """Flagged episodes of `ds` per flag, plus `flagged` (any) and `episodes`; None when no current table."""
-    table = cached_quality(ds)
+def flag_counts(ds: DatasetSource, th: Thresholds = DEFAULT) -> dict[str, int] | None:
+    """Flagged episodes of `ds` per flag, plus `flagged` (any) and `episodes`; None when no current table (of
+    thresholds `th`)."""
+    table = cached_quality(ds, th)
     if table is None:
         return None
     counts = {f: sum(bool(v) for v in table.column(f).to_pylist()) for f in (*FLAGS, "flagged")}
     return {"episodes": table.num_rows, **counts}
 
 
-def counts_table(datasets: Sequence[DatasetSource]) -> Table:
+def counts_table(datasets: Sequence[DatasetSource], th: Thresholds = DEFAULT) -> Table:
     """The report's `quality` table: per dataset, how many episodes raise each flag; NULL counts (and
     `computed` false) where no current table is cached (`openral-data quality` computes it)."""
     columns = ["dataset", "computed", "episodes", "flagged", *FLAGS]
     table = Table("quality", columns)
     for ds in datasets:
-        counts = flag_counts(ds)
+        counts = flag_counts(ds, th)
         if counts is None:
             table.rows.append([ds.label, False, *(None for _ in columns[2:])])
         else:
