@@ -35,7 +35,7 @@ from openral_data.convert.worker import (
 from openral_data.edit.ops import Rewrite, summed_histograms, write_selection
 from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.errors import ExecutorError, UsageError
-from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.formats.lerobot_v3.encoder import Codec, VideoSettings, with_codec
 from openral_data.formats.staging import check_new_output
 from openral_data.record.parallel.run import workers_dir
 from openral_data.runtime.parallel.channel import STOP_HELD, held
@@ -82,8 +82,10 @@ def convert_parallel(
     address: str | None = None,
     codec: Codec = "av1",
     progress: ProgressFn | None = None,
+    video: VideoSettings | None = None,
 ) -> ConvertSummary:
     """Convert the bags of `src` in `workers` processes into one dataset at `dst`, as `convert_bags` would."""
+    settings = with_codec(video, codec)
     check_executor(executor, address)
     bags = find_bags(src)
     blocks = plan_blocks(bags, workers)
@@ -95,7 +97,7 @@ def convert_parallel(
     shutil.rmtree(workdir, ignore_errors=True)
     t0 = time.perf_counter()
     jobs = [
-        ConvertJob(w, src, block, workdir / f"worker-{w:03d}", mapping, codec, cameras, carry)
+        ConvertJob(w, src, block, workdir / f"worker-{w:03d}", mapping, settings, cameras, carry)
         for w, (block, carry) in enumerate(zip(blocks, carried_tasks(blocks, mapping), strict=True))
     ]
     bar = _Progress(len(jobs), totals, progress)

@@ -17,7 +17,7 @@ from pathlib import Path
 from openral_data.convert.preflight import CameraTopics
 from openral_data.convert.summary import ConvertSummary
 from openral_data.convert.to_lerobot import convert_bags
-from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.formats.lerobot_v3.encoder import VideoSettings
 from openral_data.runtime.parallel.channel import report
 from openral_data.schemas.mapping import Mapping
 
@@ -29,7 +29,7 @@ class ConvertJob:
     bags: list[Path]  # this worker's block, in bag order
     dst: Path  # the worker's own dataset
     mapping: Mapping
-    codec: Codec
+    video: VideoSettings  # resolved in the parent: a worker never probes `auto` again
     cameras: CameraTopics  # depth units and intrinsics, as found over all the bags
     carried_task: tuple[int, str] | None  # the task text the block's first bag starts with (one process's carry)
 
@@ -84,7 +84,7 @@ def run_convert_job(job: ConvertJob) -> ConvertResult:
             job.src,
             job.dst,
             job.mapping,
-            codec=job.codec,
+            video=job.video,
             progress=progress,
             bags=job.bags,
             checks=False,
