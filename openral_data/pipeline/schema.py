@@ -48,6 +48,9 @@ class Seeds(StrictModel):
         return self
 
 
+ENCODER_FIELDS = ("vcodec", "crf", "gop", "preset", "pix_fmt", "encoder_threads")  # RecordStep's, None: unset
+
+
 class RecordStep(StrictModel):
     scenes: list[str] = Field(min_length=1)
     rskills: list[str] = Field(min_length=1)
