@@ -149,6 +149,7 @@ def _resolve(opts: RecordOptions) -> _Resolved:
         "seed": base_seed,
         "max_steps": max_steps,
         "codec": opts.codec,
+        "video": output.video_json(opts.video),
         "formats": list(opts.formats),
         "image_format": opts.image_format,
         "mcap_compression": opts.mcap_compression,

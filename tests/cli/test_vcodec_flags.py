@@ -118,3 +118,15 @@ def test_pipeline_record_step_takes_the_settings(project: Path, tmp_path: Path) 
         load_pipeline(_pipeline(tmp_path, crf=99))
     with pytest.raises(ConfigError, match=r"codec h264 and vcodec hevc differ"):
         load_pipeline(_pipeline(tmp_path, codec="h264", vcodec="hevc"))
+
+
+def test_resume_keeps_the_recorded_settings(project: Path, tmp_path: Path) -> None:
+    out = tmp_path / "ds"
+    assert _record(tmp_path, out, "--vcodec", "hevc", "--crf", "20", "--gop", "4", "--n-episodes", "1").returncode == 0
+    res = _record(tmp_path, out, "--resume", "--n-episodes", "2")
+    assert res.returncode == 0, res.stderr
+    assert _picked(_info(out)) == ("hevc", 20, 4, "yuv420p", None)
+    assert json.loads((out / "meta/info.json").read_text())["total_episodes"] == 2
+    res = _record(tmp_path, out, "--resume", "--n-episodes", "3", "--crf", "25")
+    assert res.returncode == 2
+    assert "video.crf: the dataset was recorded with 20; --crf 25 differs" in res.stderr
