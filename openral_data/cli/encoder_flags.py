@@ -19,7 +19,10 @@ PixFmtFlag = Annotated[
     str | None, typer.Option("--pix-fmt", help="pixel format encoded, e.g. yuv444p (default yuv420p)")
 ]
 ThreadsFlag = Annotated[
-    int | None, typer.Option("--encoder-threads", help="threads per camera's encoder (default: cores / cameras)")
+    int | None,
+    typer.Option(
+        "--encoder-threads", help="threads per camera's encoder (default: cores / cameras; 0: the encoder's own)"
+    ),
 ]
 
 

@@ -115,7 +115,7 @@ def test_openral_json_records_the_settings(project: Path, tmp_path: Path) -> Non
         (VideoSettings(codec="h264", preset="turbo"), "--preset: 'turbo': libx264 takes one of ultrafast"),
         (VideoSettings(codec="av1", preset=14), "--preset: 14: av1 (SVT-AV1) takes -1..13"),
         (VideoSettings(g=0), "--gop: 0 must be a positive integer"),
-        (VideoSettings(threads=0), "--encoder-threads: 0 must be >= 1"),
+        (VideoSettings(threads=-1), "--encoder-threads: -1 must be >= 0 (0: the encoder's own default)"),
     ],
 )
 def test_a_bad_combination_is_one_usage_error(video: VideoSettings, message: str) -> None:
@@ -183,6 +183,7 @@ def test_thread_budget_divides_the_cores(monkeypatch: pytest.MonkeyPatch) -> Non
     assert encoder_threads(VideoSettings(), 4) == 4
     assert encoder_threads(VideoSettings(), 32) == 1
     assert encoder_threads(VideoSettings(threads=3), 4) == 3
+    assert "lp=" not in VideoSettings(threads=0).options(encoder_threads(VideoSettings(threads=0), 4))["svtav1-params"]
     assert encoder_threads(VideoSettings(encoder_name="h264_nvenc"), 4) is None
     assert VideoSettings().options(2)["svtav1-params"] == "fast-decode=0:lp=2"
     assert VideoSettings(codec="h264").options(2)["threads"] == "2"

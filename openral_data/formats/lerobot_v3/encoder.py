@@ -70,7 +70,8 @@ def family(encoder: str) -> str:
 class VideoSettings:
     """lerobot 0.6.1's encoder defaults: yuv420p, g=2, crf=30; SVT-AV1 preset 12, fast-decode 0. `threads`
     is the thread budget of one camera's encoder (SVT-AV1 `lp`, x264/x265 `threads`; None: the writer divides
-    the machine's cores among its cameras). `encoder_name` is the FFmpeg encoder `resolve` chose for `auto`."""
+    the machine's cores among its cameras; 0: the encoder's own default, every core for each).
+    `encoder_name` is the FFmpeg encoder `resolve` chose for `auto`."""
 
     codec: Codec = "av1"
     crf: int | float = 30
@@ -183,8 +184,8 @@ class VideoSettings:
         if self.pix_fmt not in formats:
             raise UsageError(f"--pix-fmt: {self.pix_fmt!r}: {enc} encodes {', '.join(formats)}")
         self._check_preset(enc)
-        if self.threads is not None and (isinstance(self.threads, bool) or self.threads < 1):
-            raise UsageError(f"--encoder-threads: {self.threads!r} must be >= 1")
+        if self.threads is not None and (isinstance(self.threads, bool) or self.threads < 0):
+            raise UsageError(f"--encoder-threads: {self.threads!r} must be >= 0 (0: the encoder's own default)")
 
     def _check_preset(self, enc: str) -> None:
         preset = self.effective_preset
