@@ -67,14 +67,15 @@ def test_settings_round_trip_into_info_and_load_frame_exact(
 
     root = _record(tmp_path, video)
     info = _info(root)
-    family = "av1" if video.codec == "av1" else video.codec
+    resolved = video.resolve()  # `auto`: the encoder it picks here
+    family = {"libsvtav1": "av1", "libx264": "h264", "libx265": "hevc"}.get(resolved.encoder, info["video.codec"])
     assert (info["video.codec"], info["video.pix_fmt"], info["video.g"], info["video.crf"]) == (
         family,
         video.pix_fmt,
         video.g,
         video.crf,
     )
-    assert info["video.preset"] == (12 if video.preset is None and family == "av1" else video.preset)
+    assert info["video.preset"] == (12 if video.preset is None and resolved.encoder == "libsvtav1" else video.preset)
     # lerobot rebuilds the config from our info (and validates it against FFmpeg), and its own get_video_info
     # for our file and that config is our info key for key, value for value, type for type
     config = RGBEncoderConfig.from_video_info(info)
@@ -187,3 +188,19 @@ def test_thread_budget_divides_the_cores(monkeypatch: pytest.MonkeyPatch) -> Non
     assert encoder_threads(VideoSettings(encoder_name="h264_nvenc"), 4) is None
     assert VideoSettings().options(2)["svtav1-params"] == "fast-decode=0:lp=2"
     assert VideoSettings(codec="h264").options(2)["threads"] == "2"
+
+
+def test_a_hardware_encoder_takes_the_semi_planar_twin(monkeypatch: pytest.MonkeyPatch) -> None:
+    """QSV takes nv12, not yuv420p: it is fed nv12 and the info still says yuv420p (what the stream reads as)."""
+    monkeypatch.setattr(encoder, "available", lambda name: True)
+    monkeypatch.setattr(encoder, "pixel_formats", lambda name: ("nv12", "p010le", "qsv"))
+    qsv = VideoSettings(codec="auto", encoder_name="h264_qsv")
+    assert (qsv.encoder_pix_fmt, qsv.feature_info(32, 48, 10)["video.pix_fmt"]) == ("nv12", "yuv420p")
+    assert VideoSettings(codec="h264").encoder_pix_fmt == "yuv420p"  # software: never swapped
+
+
+@pytest.mark.skipif(encoder.auto_encoder() == encoder.SOFTWARE["av1"], reason="no hardware encoder opens here")
+def test_hardware_encoder_round_trip(project: Path, tmp_path: Path) -> None:
+    """On a machine where `--vcodec auto` finds a hardware encoder (NVENC, VAAPI, QSV, VideoToolbox): its output
+    loads frame-exact in lerobot and its info is lerobot's (benchmarks/README.md#hardware-encoders runs this)."""
+    test_settings_round_trip_into_info_and_load_frame_exact(project, tmp_path, VideoSettings(codec="auto", g=4))

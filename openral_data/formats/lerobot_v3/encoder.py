@@ -50,6 +50,7 @@ SVT_AV1_PRESET = 12  # lerobot's LIBSVTAV1_DEFAULT_PRESET
 CRF_RANGE: dict[str, tuple[int, int]] = {"av1": (0, 63), "h264": (0, 51), "hevc": (0, 51)}
 X26X_PRESETS = ("ultrafast", "superfast", "veryfast", "faster", "fast", "medium", "slow", "slower", "veryslow")
 SVT_PRESETS = range(-1, 14)
+SEMI_PLANAR = {"yuv420p": "nv12", "yuv420p10le": "p010le"}  # what hardware encoders take for the planar ones
 X265_NARROW = 64  # below this width, x265's cu-tree is turned off (`options`)
 
 
@@ -63,6 +64,11 @@ def parse_codec(name: str) -> Codec:
 
 def family(encoder: str) -> str:
     """The codec an FFmpeg encoder writes (`h264_nvenc` -> h264), as the stream names it (`video.codec`)."""
+    named = {name: codec for codec, name in SOFTWARE.items()}.get(encoder)
+    if named is not None:
+        return named
+    if encoder in HARDWARE:  # h264_qsv, hevc_nvenc, av1_vaapi, ...: named after what they write
+        return encoder.split("_", maxsplit=1)[0]
     return str(av.codec.Codec(encoder, "w").canonical_name)
 
 
@@ -90,6 +96,16 @@ class VideoSettings:
     @property
     def hardware(self) -> bool:
         return self.encoder not in SOFTWARE.values()
+
+    @property
+    def encoder_pix_fmt(self) -> str:
+        """The pixel format the encoder is fed: `pix_fmt`, or its semi-planar twin for a hardware encoder that
+        takes only that (QSV, some NVENC builds: yuv420p -> nv12, the same 4:2:0 stream, read back as yuv420p)."""
+        formats = pixel_formats(self.encoder) if available(self.encoder) else ()
+        if self.pix_fmt in formats or not self.hardware:
+            return self.pix_fmt
+        twin = SEMI_PLANAR.get(self.pix_fmt)
+        return twin if twin in formats else self.pix_fmt
 
     @property
     def effective_preset(self) -> int | str | None:
@@ -181,7 +197,7 @@ class VideoSettings:
         if enc == "libsvtav1" and self.crf != int(self.crf):
             raise UsageError(f"--crf: {self.crf!r}: av1 takes a whole number")
         formats = pixel_formats(enc)
-        if self.pix_fmt not in formats:
+        if self.encoder_pix_fmt not in formats:
             raise UsageError(f"--pix-fmt: {self.pix_fmt!r}: {enc} encodes {', '.join(formats)}")
         self._check_preset(enc)
         if self.threads is not None and (isinstance(self.threads, bool) or self.threads < 0):
@@ -245,7 +261,7 @@ def opens(encoder: str, pix_fmt: str) -> bool:
         assert isinstance(ctx, av.VideoCodecContext)
         ctx.width, ctx.height = 64, 64
         ctx.time_base = Fraction(1, 30)
-        ctx.pix_fmt = pix_fmt if pix_fmt in pixel_formats(encoder) else "nv12"
+        ctx.pix_fmt = pix_fmt if pix_fmt in pixel_formats(encoder) else SEMI_PLANAR.get(pix_fmt, pix_fmt)
         ctx.open()
         frame = av.VideoFrame(64, 64, "rgb24").reformat(format=ctx.pix_fmt)
         frame.pts = 0

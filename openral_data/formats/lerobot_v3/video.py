@@ -154,7 +154,7 @@ class EncoderWorker:
         depth = self.depth
         stats = ImageStatsAccumulator() if depth is None else DepthStatsAccumulator(depth.unit)
         encoder, options, pix_fmt = (
-            (self.settings.encoder, self.settings.options(self.threads, job.width), self.settings.pix_fmt)
+            (self.settings.encoder, self.settings.options(self.threads, job.width), self.settings.encoder_pix_fmt)
             if depth is None
             else (depth.settings.encoder, depth.settings.options(), depth.settings.pix_fmt)
         )
