@@ -159,7 +159,7 @@ def build_hal(opts: HalRecordOptions, robot: RobotManifest, rskill: RSkillManife
         env = registry.scene_factory(scene.scene.type, str(scene_path))(scene, robot, rskill, str(scene_path))
         try:
             check_compatibility(
-                robot, rskill, env.spec, rskill_source=rskill_src, scene_source=str(scene_path), video=VideoSettings()
+                robot, rskill, env.spec, rskill_source=rskill_src, scene_source=str(scene_path), video=opts.video
             )
         except BaseException:
             env.close()
