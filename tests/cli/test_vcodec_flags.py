@@ -78,6 +78,7 @@ def test_auto_falls_back_to_software_in_one_line(project: Path, tmp_path: Path) 
     assert _picked(_info(tmp_path / "ds")) == ("av1", 30, 2, "yuv420p", 12)
 
 
+@pytest.mark.slow  # a recording, a conversion and two re-encodes
 def test_convert_and_videos_take_the_flags(project: Path, tmp_path: Path) -> None:
     rec = tmp_path / "rec"
     assert _record(tmp_path, rec, "--codec", "h264", "--format", "lerobot,mcap").returncode == 0
@@ -120,6 +121,7 @@ def test_pipeline_record_step_takes_the_settings(project: Path, tmp_path: Path) 
         load_pipeline(_pipeline(tmp_path, codec="h264", vcodec="hevc"))
 
 
+@pytest.mark.slow  # three recordings into one dataset
 def test_resume_keeps_the_recorded_settings(project: Path, tmp_path: Path) -> None:
     out = tmp_path / "ds"
     assert _record(tmp_path, out, "--vcodec", "hevc", "--crf", "20", "--gop", "4", "--n-episodes", "1").returncode == 0

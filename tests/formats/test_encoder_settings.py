@@ -58,6 +58,7 @@ VARIANTS = [
 ]
 
 
+@pytest.mark.slow  # a recording and lerobot's loader per variant
 @pytest.mark.parametrize("video", VARIANTS)
 def test_settings_round_trip_into_info_and_load_frame_exact(
     project: Path, tmp_path: Path, video: VideoSettings
