@@ -50,7 +50,7 @@ CAMERAS = ("cam0", "cam1")
 def generate(root: Path, frames: int, episode_frames: int, side: int) -> int:
     """The dataset; returns its episode count."""
     from openral_data.formats.lerobot_v3 import LeRobotV3Writer, WriterConfig
-    from openral_data.formats.lerobot_v3.video import VideoSettings
+    from openral_data.formats.lerobot_v3.encoder import VideoSettings
     from openral_data.runtime.bridge import DatasetBridge
     from openral_data.types import CameraShape, DatasetSchema, Observation
 

@@ -14,6 +14,11 @@ Three contestants write W in the same process, in this order for each repetition
    ``finalize`` with lerobot's defaults (PNG staging, no streaming encoding, no async image writer). It is
    given the same ``next.reward`` / ``next.done`` / ``next.success`` columns our writer always writes, and
    ``video_backend="pyav"``, which only picks the read-back decoder (the one we use; torchcodec is not installed).
+4. **lerobot_stream**: the same with ``streaming_encoding=True`` (lerobot's best: frames go to one encoder
+   thread per camera as they arrive, no PNGs) and ``encoder_threads`` as ours gets them.
+5. **lerobot_batch** (only when named in ``--contestants``): the default writer with ``batch_encoding_size`` = all
+   episodes (PNGs staged, every episode's videos encoded in one batch). lerobot 0.6.1 raises on it for a new
+   dataset (``TypeError`` in ``_batch_save_episode_video``: ``meta.episodes`` is None until a reload).
 
 The frames are rendered once, before anything is timed (workload.py): a smooth textured background (a wall and a
 table) with a few moving, shaded objects whose positions depend on (episode, step, camera); the wrist camera also
@@ -34,6 +39,7 @@ Run (from the repository root)::
     .venv/bin/python benchmarks/bench_writer.py                           # workload W, a few minutes
     .venv/bin/python benchmarks/bench_writer.py --episodes 2 --frames 40  # smoke run
     .venv/bin/python benchmarks/bench_writer.py --repeats 3 --codec h264 --out benchmarks/results --keep
+    .venv/bin/python benchmarks/bench_writer.py --contestants pure,ours,lerobot_stream   # ours vs lerobot's best
 """
 
 from __future__ import annotations
@@ -63,7 +69,8 @@ import numpy as np
 import pyarrow.parquet as pq
 from workload import Codec, EpisodeData, Workload, bench_schema, feed_bridge, make_data
 
-CONTESTANTS = ("pure", "ours", "lerobot")
+CONTESTANTS = ("pure", "ours", "lerobot", "lerobot_stream", "lerobot_batch")
+LEROBOT = ("lerobot", "lerobot_stream", "lerobot_batch")
 IMAGE_PREFIX = "observation.images."
 
 
@@ -103,7 +110,8 @@ def run_pure(data: list[EpisodeData], root: Path, wl: Workload, codec: Codec) ->
 def run_ours(data: list[EpisodeData], root: Path, wl: Workload, codec: Codec) -> None:
     from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
 
-    feed_bridge([LeRobotV3Writer(root, bench_schema(wl), WriterConfig(video=VideoSettings(codec=codec)))], data, wl)
+    video = VideoSettings(codec=codec, threads=KNOBS["encoder_threads"])
+    feed_bridge([LeRobotV3Writer(root, bench_schema(wl), WriterConfig(video=video))], data, wl)
 
 
 def lerobot_features(wl: Workload) -> dict[str, dict[str, Any]]:
@@ -132,7 +140,8 @@ def lerobot_features(wl: Workload) -> dict[str, dict[str, Any]]:
     return features
 
 
-def run_lerobot(data: list[EpisodeData], root: Path, wl: Workload, codec: Codec) -> None:
+def run_lerobot(data: list[EpisodeData], root: Path, wl: Workload, codec: Codec, **knobs: Any) -> None:
+    """lerobot's writer; `knobs` are `LeRobotDataset.create`'s (streaming_encoding, batch_encoding_size, ...)."""
     from lerobot.configs.video import RGBEncoderConfig
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
@@ -147,6 +156,7 @@ def run_lerobot(data: list[EpisodeData], root: Path, wl: Workload, codec: Codec)
         use_videos=True,
         rgb_encoder=rgb_encoder,
         video_backend="pyav",  # read-back decoder only (torchcodec is not installed: docs/recording.md)
+        **knobs,
     )
     last = wl.frames - 1
     reward = np.zeros(1, np.float32)
@@ -167,10 +177,24 @@ def run_lerobot(data: list[EpisodeData], root: Path, wl: Workload, codec: Codec)
         ds.finalize()
 
 
+def run_lerobot_stream(data: list[EpisodeData], root: Path, wl: Workload, codec: Codec) -> None:
+    from openral_data.formats.lerobot_v3.encoder import VideoSettings, encoder_threads
+
+    threads = encoder_threads(VideoSettings(codec=codec, threads=KNOBS["encoder_threads"]), len(wl.cameras))
+    run_lerobot(data, root, wl, codec, streaming_encoding=True, encoder_threads=threads)
+
+
+def run_lerobot_batch(data: list[EpisodeData], root: Path, wl: Workload, codec: Codec) -> None:
+    run_lerobot(data, root, wl, codec, batch_encoding_size=wl.episodes)
+
+
+KNOBS: dict[str, int | None] = {"encoder_threads": None}  # --encoder-threads per camera (None: cores / cameras)
 RUNNERS: dict[str, Callable[[list[EpisodeData], Path, Workload, Codec], None]] = {
     "pure": run_pure,
     "ours": run_ours,
     "lerobot": run_lerobot,
+    "lerobot_stream": run_lerobot_stream,
+    "lerobot_batch": run_lerobot_batch,
 }
 
 
@@ -235,7 +259,7 @@ def check(name: str, root: Path, wl: Workload, result: RunResult) -> None:
     result.parquet_rows = rows
     # a missing row is as lost as a missing video frame: count both against the frames that were written
     result.dropped = sum(abs(rows - n) for n in result.video_frames.values()) + len(keys) * abs(wl.total_frames - rows)
-    if name == "ours":
+    if name == "ours":  # (a lerobot contestant's loss shows as dropped frames: lerobot_stream has lost one)
         from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
         ds = LeRobotDataset("bench/ours", root=root, video_backend="pyav")
@@ -296,23 +320,24 @@ def print_table(wl: Workload, codec: Codec, results: dict[str, list[RunResult]],
         f"{wl.width}x{wl.height}, state f32[{wl.state_dim}], action f32[{wl.action_dim}], {wl.fps} fps, "
         f"codec {codec}, median of {repeats}"
     )
-    header = f"{'contestant':<10} {'wall s':>9} {'frames/s':>9} {'cpu s':>8} {'video MB':>9}  runs (wall s)"
+    header = f"{'contestant':<14} {'wall s':>9} {'frames/s':>9} {'cpu s':>8} {'video MB':>9}  runs (wall s)"
     print(header)
     print("-" * len(header))
     for name, runs_of in results.items():
         med = summary["median_wall_s"][name]
         runs = " ".join(f"{r.wall_s:.2f}" for r in runs_of)
         print(
-            f"{name:<10} {med:>9.2f} {summary['frames_per_s'][name]:>9.1f} "
+            f"{name:<14} {med:>9.2f} {summary['frames_per_s'][name]:>9.1f} "
             f"{summary['median_cpu_s'][name]:>8.1f} {summary['video_mb'][name]:>9.2f}  {runs}"
         )
     ratios = summary["ratios"]
     print()
-    if "lerobot" in results:
-        print(f"ours speedup over lerobot (lerobot / ours):   {_fmt_ratio(ratios['ours_speedup_vs_lerobot'])}")
+    for name in (n for n in LEROBOT if n in results):
+        print(f"ours speedup over {name:<15} ({name} / ours): {_fmt_ratio(ratios[f'ours_speedup_vs_{name}'])}")
     print(f"ours vs pure encode       (pure / ours):      {ratios['ours_vs_pure_encode']:.3f}")
-    if "lerobot" in results:
-        print(f"lerobot vs pure encode    (pure / lerobot):   {ratios['lerobot_vs_pure_encode']:.3f}")
+    for name in (n for n in LEROBOT if n in results):
+        print(f"{name:<15} vs pure encode (pure / {name}): {ratios[f'{name}_vs_pure_encode']:.3f}")
+    print("frames kept (per camera, min): " + ", ".join(f"{n} {summary['frames_kept'][n]}" for n in results))
     dropped = summary["dropped_frames"]
     print("dropped frames: " + ", ".join(f"{n} {dropped[n]}" for n in results if n != "pure"))
     print(f"LeRobotDataset(ours) len: {summary['ours_loaded_len']} (expected {wl.total_frames})")
@@ -322,10 +347,10 @@ def summarize(wl: Workload, results: dict[str, list[RunResult]]) -> dict[str, An
     names = list(results)
     med = {n: statistics.median(r.wall_s for r in results[n]) for n in names}
     ratios = {"ours_vs_pure_encode": med["pure"] / med["ours"]}
-    if "lerobot" in med:
+    for name in (n for n in LEROBOT if n in med):
         ratios |= {
-            "ours_speedup_vs_lerobot": med["lerobot"] / med["ours"],
-            "lerobot_vs_pure_encode": med["pure"] / med["lerobot"],
+            f"ours_speedup_vs_{name}": med[name] / med["ours"],
+            f"{name}_vs_pure_encode": med["pure"] / med[name],
         }
     return {
         "median_wall_s": med,
@@ -334,6 +359,7 @@ def summarize(wl: Workload, results: dict[str, list[RunResult]]) -> dict[str, An
         "video_mb": {n: statistics.median(r.video_bytes for r in results[n]) / 1e6 for n in names},
         "ratios": ratios,
         "dropped_frames": {n: max(r.dropped or 0 for r in results[n]) for n in names},
+        "frames_kept": {n: min(min(r.video_frames.values(), default=0) for r in results[n]) for n in names},
         "ours_loaded_len": min(r.loaded_len or 0 for r in results["ours"]),
     }
 
@@ -349,7 +375,18 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--tmp", type=Path, default=None, help="parent of the scratch directory (default: system temp)")
     p.add_argument("--keep", action="store_true", help="keep the written datasets")
     p.add_argument("--no-lerobot", action="store_true", help="only pure and ours (the ours/pure ratio, faster)")
+    default = ",".join(CONTESTANTS[:-1])  # lerobot_batch fails in lerobot 0.6.1 (above): named only
+    p.add_argument("--contestants", default=default, help=f"comma-separated, of {', '.join(CONTESTANTS)}")
+    p.add_argument(
+        "--encoder-threads",
+        type=int,
+        default=None,
+        help="ours' (and lerobot_stream's) per camera; 0: the encoder's own default",
+    )
     args = p.parse_args(argv)
+    unknown = set(args.contestants.split(",")) - set(CONTESTANTS)
+    if unknown or not {"pure", "ours"} <= set(args.contestants.split(",")):
+        p.error(f"--contestants: {', '.join(sorted(unknown)) or 'pure and ours are needed'}")
     for name in ("episodes", "frames", "repeats"):
         if getattr(args, name) < 1:
             p.error(f"--{name} must be >= 1")
@@ -391,7 +428,9 @@ def main(argv: list[str] | None = None) -> int:
         codec,
     )
 
-    contestants = [n for n in CONTESTANTS if not (args.no_lerobot and n == "lerobot")]
+    KNOBS["encoder_threads"] = args.encoder_threads
+    wanted = args.contestants.split(",")
+    contestants = [n for n in CONTESTANTS if n in wanted and not (args.no_lerobot and n in LEROBOT)]
     results: dict[str, list[RunResult]] = {n: [] for n in contestants}
     try:
         for rep in range(args.repeats):

@@ -8,10 +8,19 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from openral_data.cli.convert_common import Parallel, interruptible
+from openral_data.cli.encoder_flags import (
+    VCODEC_HELP,
+    CrfFlag,
+    GopFlag,
+    PixFmtFlag,
+    PresetFlag,
+    ThreadsFlag,
+    video_settings,
+)
 from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import print_rows, progress_bar
 from openral_data.errors import NotFound, UsageError
-from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.formats.lerobot_v3.encoder import Codec, VideoSettings
 from openral_data.formats.repo_id import resolve_dataset
 
 if TYPE_CHECKING:
@@ -29,7 +38,12 @@ def convert(
     ],
     dst: Annotated[Path | None, typer.Argument(help="output folder (must not exist or be empty)")] = None,
     mapping: Annotated[Path | None, typer.Option(help="mapping YAML: topics -> features (bags -> LeRobot)")] = None,
-    codec: Annotated[Codec, typer.Option(help="video codec (bags -> LeRobot)")] = "av1",
+    codec: Annotated[Codec, typer.Option("--vcodec", "--codec", help=f"{VCODEC_HELP} (bags -> LeRobot)")] = "av1",
+    crf: CrfFlag = None,
+    gop: GopFlag = None,
+    preset: PresetFlag = None,
+    pix_fmt: PixFmtFlag = None,
+    encoder_threads: ThreadsFlag = None,
     episodes: Annotated[str | None, typer.Option(help="episodes to export, e.g. 0,3,5-7 (LeRobot -> MCAP)")] = None,
     image_format: Annotated[
         str, typer.Option(help="MCAP camera messages: jpeg, png or raw (LeRobot -> MCAP)")
@@ -57,6 +71,7 @@ def convert(
         raise UsageError(f"--workers must be >= 1, got {workers}")
     check_executor(executor, address)
     parallel = Parallel(workers, executor, address) if workers != 1 or executor != "local" else None
+    video = video_settings(codec, crf, gop, preset, pix_fmt, encoder_threads)  # a bad combination: before anything
     if print_mapping:
         from openral_data.cli.convert_arrays import print_starting_mapping
 
@@ -64,14 +79,14 @@ def convert(
         return
     if dst is None:
         raise UsageError("DST: missing (the output folder; or --print-mapping to print SRC's starting mapping)")
-    _convert(src, dst, mapping, codec, episodes, image_format, mcap_compression, json, parallel, fps)
+    _convert(src, dst, mapping, video, episodes, image_format, mcap_compression, json, parallel, fps)
 
 
 def _convert(
     src: Path,
     dst: Path,
     mapping_path: Path | None,
-    codec: Codec,
+    video: VideoSettings,
     episodes: str | None,
     image_format: str,
     mcap_compression: str,
@@ -92,11 +107,11 @@ def _convert(
 
         if episodes is not None:
             raise UsageError(f"--episodes selects episodes of a LeRobot dataset; SRC is {source.layout} HDF5")
-        convert_array_source(source, dst, mapping_path, codec, fps, json, parallel)
+        convert_array_source(source, dst, mapping_path, video, fps, json, parallel)
     else:
         if fps is not None:
             raise UsageError("--fps applies to array sources (HDF5); a bag's rate is its mapping's fps")
-        _convert_bags(src, dst, mapping_path, codec, episodes, json, parallel)
+        _convert_bags(src, dst, mapping_path, video, episodes, json, parallel)
 
 
 def _resolve(src: Path, dst: Path) -> Path:
@@ -155,7 +170,7 @@ def _convert_bags(
     src: Path,
     dst: Path,
     mapping_path: Path | None,
-    codec: Codec,
+    video: VideoSettings,
     episodes: str | None,
     json: bool,
     parallel: Parallel | None,
@@ -169,7 +184,7 @@ def _convert_bags(
         raise UsageError("--episodes selects episodes of a LeRobot dataset; SRC is a bag")
     bags = find_bags(src)
     mapping = load_mapping(mapping_path) if mapping_path is not None else own_mapping(bags[0])
-    result = _run_bags(src, dst, mapping, codec, parallel)
+    result = _run_bags(src, dst, mapping, video, parallel)
     if json:
         if parallel is None:
             print_json("convert", result.to_json(mapping))
@@ -179,7 +194,9 @@ def _convert_bags(
     print_rows("converted", _bag_rows(src, dst, mapping, result, parallel))
 
 
-def _run_bags(src: Path, dst: Path, mapping: Mapping, codec: Codec, parallel: Parallel | None) -> ConvertSummary:
+def _run_bags(
+    src: Path, dst: Path, mapping: Mapping, video: VideoSettings, parallel: Parallel | None
+) -> ConvertSummary:
     """Convert in this process, or across `parallel`'s workers, behind a progress bar."""
     from openral_data.convert.to_lerobot import convert_bags
 
@@ -190,7 +207,7 @@ def _run_bags(src: Path, dst: Path, mapping: Mapping, codec: Codec, parallel: Pa
                 src,
                 dst,
                 mapping,
-                codec=codec,
+                video=video,
                 progress=lambda d, t: bar.update(task, completed=d, total=t),
             )
         from openral_data.convert.parallel import convert_parallel
@@ -202,7 +219,7 @@ def _run_bags(src: Path, dst: Path, mapping: Mapping, codec: Codec, parallel: Pa
             parallel.workers,
             executor=parallel.executor,
             address=parallel.address,
-            codec=codec,
+            video=video,
             progress=lambda d, t: bar.update(task, completed=d, total=t),
         )
 

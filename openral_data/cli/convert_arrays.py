@@ -12,7 +12,7 @@ from openral_data.cli.convert_common import Parallel, interruptible
 from openral_data.cli.jsonout import print_json
 from openral_data.cli.terminal import print_line, print_rows, progress_bar
 from openral_data.errors import DatasetError, NotFound, UsageError
-from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.formats.lerobot_v3.encoder import VideoSettings
 
 if TYPE_CHECKING:
     from openral_data.convert import ConvertSummary
@@ -87,7 +87,7 @@ def convert_array_source(
     source: ArraySource,
     dst: Path,
     mapping_path: Path | None,
-    codec: Codec,
+    video: VideoSettings,
     fps: int | None,
     json: bool,
     parallel: Parallel | None,
@@ -103,11 +103,11 @@ def convert_array_source(
             bar.update(task, completed=done, total=total)
 
         if parallel is None:
-            result = convert_arrays(source, dst, mapping, codec=codec, progress=progress)
+            result = convert_arrays(source, dst, mapping, video=video, progress=progress)
         else:
             result = convert_arrays_parallel(
                 source, dst, mapping, parallel.workers, executor=parallel.executor, address=parallel.address,
-                codec=codec, progress=progress,
+                video=video, progress=progress,
             )  # fmt: skip
     if json:
         workers = (parallel.workers, parallel.executor) if parallel is not None else (1, None)

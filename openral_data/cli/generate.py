@@ -8,8 +8,10 @@ from typing import Annotated
 import typer
 
 from openral_data import paths
+from openral_data.cli.encoder_flags import VCODEC_HELP
 from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import print_rows
+from openral_data.formats.lerobot_v3.encoder import Codec
 
 
 def generate(
@@ -25,7 +27,7 @@ def generate(
     workers: Annotated[int, typer.Option(help="attempts in N processes, merged by seed")] = 1,
     executor: Annotated[str, typer.Option(help="local (processes on this machine) or ray")] = "local",
     address: Annotated[str | None, typer.Option(help="Ray cluster address (--executor ray)")] = None,
-    codec: Annotated[str, typer.Option(help="video codec: av1 or h264")] = "av1",
+    codec: Annotated[Codec, typer.Option("--vcodec", "--codec", help=VCODEC_HELP)] = "av1",
     json: JsonFlag = False,
 ) -> None:
     """Generate demonstrations MimicGen-style: SOURCE's successful episodes, cut into object-centric segments,

@@ -9,11 +9,12 @@ from typing import TYPE_CHECKING, Annotated, cast
 import typer
 
 from openral_data import manifests
+from openral_data.cli.encoder_flags import VCODEC_HELP, CrfFlag, GopFlag, PixFmtFlag, PresetFlag, ThreadsFlag
 from openral_data.cli.given import given as given_flags
 from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import INTERRUPTED_RECORDING, print_line, print_rows, progress_bar
 from openral_data.errors import UsageError
-from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.formats.lerobot_v3.encoder import Codec
 from openral_data.viz import DEFAULT_PORT
 
 if TYPE_CHECKING:
@@ -32,7 +33,12 @@ def record(
     seed: Annotated[int | None, typer.Option(help="seed of the first episode; episode k uses seed+k")] = None,
     max_steps: Annotated[int | None, typer.Option(help="step limit per episode (default: the task's)")] = None,
     out: Annotated[Path | None, typer.Option(help="output folder (default: a new folder under datasets/)")] = None,
-    codec: Annotated[Codec, typer.Option(help="video codec")] = "av1",
+    codec: Annotated[Codec, typer.Option("--vcodec", "--codec", help=VCODEC_HELP)] = "av1",
+    crf: CrfFlag = None,
+    gop: GopFlag = None,
+    preset: PresetFlag = None,
+    pix_fmt: PixFmtFlag = None,
+    encoder_threads: ThreadsFlag = None,
     format: Annotated[
         str, typer.Option("--format", help="lerobot, mcap or lerobot,mcap (MCAP bags go to OUT/mcap/)")
     ] = "lerobot",
@@ -86,6 +92,9 @@ def record(
     """Record episodes of SCENE driven by RSKILL into a LeRobotDataset v3 and/or ROS 2 MCAP bags."""
     # long: the typer signature declares every option with its help; the body only dispatches to the helpers below
     given = given_flags(ctx)
+    from openral_data.cli.encoder_flags import video_settings
+
+    video = video_settings(codec, crf, gop, preset, pix_fmt, encoder_threads)  # a bad combination: before anything
     if hal is not None and (save_video or save_video_dir is not None):
         raise UsageError("--save-video/--save-video-dir: not available with --hal (a scene recording only)")
     view_given = bool(given & {"view", "view_port", "view_address"})
@@ -116,6 +125,7 @@ def record(
             seed=seed if seed is not None else 0,
             out=out,
             codec=codec,
+            video=video,
             formats=parse_formats(format),
             image_format=parse_image_format(image_format),
             mcap_compression=parse_compression(mcap_compression),
@@ -142,6 +152,7 @@ def record(
         max_steps=max_steps,
         out=out,
         codec=codec,
+        video=video,
         formats=parse_formats(format),
         image_format=parse_image_format(image_format),
         mcap_compression=parse_compression(mcap_compression),

@@ -25,7 +25,7 @@ from openral_data.convert.summary import ConvertSummary, TopicReport
 from openral_data.convert.writing import REWARD, Converter
 from openral_data.errors import ConfigError, DatasetError
 from openral_data.formats.episodic import ArrayEpisode, ArraySource, ArraySpec
-from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.formats.lerobot_v3.encoder import Codec, VideoSettings, with_codec
 from openral_data.formats.staging import Staging, check_new_output
 from openral_data.schemas.mapping import Mapping
 
@@ -133,6 +133,7 @@ def convert_arrays(
     progress: ProgressFn | None = None,
     checks: bool = True,
     total: int | None = None,
+    video: VideoSettings | None = None,
 ) -> ConvertSummary:
     """Convert every episode of `source` into a new LeRobot v3 dataset at `dst` (staged: DST appears complete
     or not at all). `checks=False` (a block of `convert --workers`): a block without an episode publishes
@@ -145,7 +146,7 @@ def convert_arrays(
     check_new_output(dst, "DST")
     staged = Staging(dst, "openral-data convert")
     with staged as staging:
-        conv = Converter(mapping, staging, codec, summary, CameraTopics())
+        conv = Converter(mapping, staging, with_codec(video, codec), summary, CameraTopics())
         t0 = time.perf_counter()
         done = 0
         try:

@@ -37,7 +37,7 @@ from openral_data.edit.ops import Rewrite, summed_histograms, write_selection
 from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.errors import ExecutorError, UsageError
 from openral_data.formats.episodic import ArraySource
-from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.formats.lerobot_v3.encoder import Codec, VideoSettings, with_codec
 from openral_data.formats.staging import check_new_output
 from openral_data.record.parallel.run import workers_dir
 from openral_data.runtime.parallel.channel import STOP_HELD, held
@@ -84,8 +84,10 @@ def convert_parallel(
     address: str | None = None,
     codec: Codec = "av1",
     progress: ProgressFn | None = None,
+    video: VideoSettings | None = None,
 ) -> ConvertSummary:
     """Convert the bags of `src` in `workers` processes into one dataset at `dst`, as `convert_bags` would."""
+    settings = with_codec(video, codec)
     check_executor(executor, address)
     bags = find_bags(src)
     blocks = plan_blocks(bags, workers)
@@ -96,7 +98,7 @@ def convert_parallel(
     workdir = workers_dir(dst)
     shutil.rmtree(workdir, ignore_errors=True)
     jobs: list[ConvertJob | ArrayJob] = [
-        ConvertJob(w, src, block, workdir / f"worker-{w:03d}", mapping, codec, cameras, carry)
+        ConvertJob(w, src, block, workdir / f"worker-{w:03d}", mapping, settings, cameras, carry)
         for w, (block, carry) in enumerate(zip(blocks, carried_tasks(blocks, mapping), strict=True))
     ]
     return _run_blocks(jobs, workdir, src, dst, totals, executor, address, progress)
@@ -151,9 +153,11 @@ def convert_arrays_parallel(
     address: str | None = None,
     codec: Codec = "av1",
     progress: ProgressFn | None = None,
+    video: VideoSettings | None = None,
 ) -> ConvertSummary:
     """An array source's files in `workers` processes (contiguous blocks of files, as bags), merged in file
     order into one dataset at `dst`, as `convert_arrays` would write it."""
+    settings = with_codec(video, codec)
     check_executor(executor, address)
     files: list[Path] = list(getattr(source, "files", []))
     if not files:
@@ -165,7 +169,7 @@ def convert_arrays_parallel(
     workdir = workers_dir(dst)
     shutil.rmtree(workdir, ignore_errors=True)
     jobs: list[ConvertJob | ArrayJob] = [
-        ArrayJob(w, source.path, block, workdir / f"worker-{w:03d}", mapping, codec)
+        ArrayJob(w, source.path, block, workdir / f"worker-{w:03d}", mapping, settings)
         for w, block in enumerate(plan_blocks(files, workers))
     ]
     return _run_blocks(jobs, workdir, source.path, dst, totals, executor, address, progress, source.layout)

@@ -29,7 +29,7 @@ from openral_data.convert.sources import find_bags, open_reader
 from openral_data.convert.summary import ConvertSummary
 from openral_data.convert.timed import bool_value, marker_event, reward_value, timed_messages
 from openral_data.convert.writing import REWARD, Converter
-from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.formats.lerobot_v3.encoder import Codec, VideoSettings, with_codec
 from openral_data.formats.staging import Staging, check_new_output
 from openral_data.schemas.mapping import Mapping
 
@@ -47,13 +47,16 @@ def convert_bags(
     checks: bool = True,
     cameras: CameraTopics | None = None,
     carried_task: tuple[int, str] | None = None,
+    video: VideoSettings | None = None,
 ) -> ConvertSummary:
     """Convert the bags of `src` (or `bags`, a block of them: `src` then only names the source) into a new
     LeRobot v3 dataset at `dst`. `checks=False` (a block of `convert --workers`): a block without a single filled
     frame publishes nothing and returns its summary, and the header-stamp check is left to the caller, which
     makes both over all the blocks. `cameras`: what `check_bags` found over all the bags (a block then takes the
     first bag's camera intrinsics, as one process does). `carried_task`: the (time, text) a block's first bag
-    starts with, as one process carries the previous bag's last task message into the next bag (`last_task`)."""
+    starts with, as one process carries the previous bag's last task message into the next bag (`last_task`).
+    `video`: the encoder settings (`codec` is the shorthand of `video.codec`), checked before anything is read."""
+    settings = with_codec(video, codec)
     bags = find_bags(src) if bags is None else bags
     summary = ConvertSummary(src=src, dst=dst, bags=len(bags))
     wanted = mapping.topics()
@@ -63,7 +66,7 @@ def convert_bags(
     check_new_output(dst, "DST")
     staged = Staging(dst, "openral-data convert")  # DST appears complete or not at all
     with staged as staging:
-        conv = Converter(mapping, staging, codec, summary, cameras)
+        conv = Converter(mapping, staging, settings, summary, cameras)
         if carried_task is not None:
             conv.tasks = [carried_task]
         t0 = time.perf_counter()

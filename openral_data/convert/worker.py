@@ -19,7 +19,7 @@ from openral_data.convert.from_arrays import convert_arrays
 from openral_data.convert.preflight import CameraTopics
 from openral_data.convert.summary import ConvertSummary
 from openral_data.convert.to_lerobot import convert_bags
-from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.formats.lerobot_v3.encoder import VideoSettings
 from openral_data.runtime.parallel.channel import report
 from openral_data.schemas.mapping import Mapping
 
@@ -31,7 +31,7 @@ class ConvertJob:
     bags: list[Path]  # this worker's block, in bag order
     dst: Path  # the worker's own dataset
     mapping: Mapping
-    codec: Codec
+    video: VideoSettings  # resolved in the parent: a worker never probes `auto` again
     cameras: CameraTopics  # depth units and intrinsics, as found over all the bags
     carried_task: tuple[int, str] | None  # the task text the block's first bag starts with (one process's carry)
 
@@ -45,7 +45,7 @@ class ArrayJob:
     files: list[Path]  # this worker's block, in source order
     dst: Path
     mapping: Mapping
-    codec: Codec
+    video: VideoSettings  # resolved in the parent
 
 
 @dataclass(frozen=True)
@@ -100,7 +100,7 @@ def run_convert_job(job: ConvertJob | ArrayJob) -> ConvertResult:
             job.src,
             job.dst,
             job.mapping,
-            codec=job.codec,
+            video=job.video,
             progress=progress,
             bags=job.bags,
             checks=False,
@@ -124,5 +124,5 @@ def _run_array_job(job: ArrayJob, progress: Callable[[int, int], None]) -> Conve
         steps = done
         progress(done, total)
 
-    summary = convert_arrays(source, job.dst, job.mapping, codec=job.codec, progress=counted, checks=False)
+    summary = convert_arrays(source, job.dst, job.mapping, video=job.video, progress=counted, checks=False)
     return ConvertResult(job.worker, summary, time.time(), os.getpid(), steps)

@@ -21,7 +21,6 @@ from openral_data.convert.summary import ConvertSummary
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
 from openral_data.formats.lerobot_v3.depth import DepthSettings
 from openral_data.formats.lerobot_v3.provenance import Origin
-from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.runtime.bridge import DatasetBridge
 from openral_data.schemas.mapping import Mapping
 from openral_data.types import CameraShape, DatasetSchema, Observation
@@ -54,11 +53,11 @@ class Converter:
     """One conversion's frames on their way into the dataset at `dst` (see the module)."""
 
     def __init__(
-        self, mapping: Mapping, dst: Path, codec: Codec, summary: ConvertSummary, cameras: CameraTopics
+        self, mapping: Mapping, dst: Path, video: VideoSettings, summary: ConvertSummary, cameras: CameraTopics
     ) -> None:
         self.mapping = mapping
         self.dst = dst
-        self.codec: Codec = codec
+        self.video = video  # resolved and checked (`encoder.with_codec`)
         self.summary = summary
         self.cameras = cameras
         # state, action and (when mapped) environment_state, each its parts' readers
@@ -262,9 +261,7 @@ class Converter:
             ).to_json(),
         )
         depth = DepthSettings(**self.mapping.depth.model_dump())
-        self.writer = LeRobotV3Writer(
-            self.dst, schema, WriterConfig(video=VideoSettings(codec=self.codec), depth=depth)
-        )
+        self.writer = LeRobotV3Writer(self.dst, schema, WriterConfig(video=self.video, depth=depth))
         self.bridge = DatasetBridge(schema, [self.writer])
         return self.bridge
 

@@ -33,8 +33,8 @@ from openral_data.edit.recode import CameraEncoders, clip_frames
 from openral_data.edit.renames import as_mapping, parse_pair
 from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.errors import DatasetError, UsageError
+from openral_data.formats.lerobot_v3.encoder import VideoSettings, parse_codec
 from openral_data.formats.lerobot_v3.variants import camera_layout, comparable, feature_info, is_depth
-from openral_data.formats.lerobot_v3.video import VideoSettings, parse_codec
 from openral_data.types import CameraShape
 
 ENCODER_KEYS = ("video.codec", "video.pix_fmt", "video.g")
@@ -149,8 +149,8 @@ def _settings(src: SourceDataset, key: str) -> VideoSettings:
         codec = parse_codec(str(info.get("video.codec", "av1")))
     except UsageError:
         raise DatasetError(
-            f"{src.root}/meta/info.json: features.{key}.info.video.codec: {info.get('video.codec')!r} is not av1 "
-            "or h264; cannot re-encode streams to it",
+            f"{src.root}/meta/info.json: features.{key}.info.video.codec: {info.get('video.codec')!r} is not a codec "
+            "this writer encodes (av1, h264, hevc); cannot re-encode streams to it",
             code="dataset.unsupported",
         ) from None
     preset = info.get("video.preset")
@@ -158,7 +158,7 @@ def _settings(src: SourceDataset, key: str) -> VideoSettings:
         codec=codec,
         crf=int(info.get("video.crf") or 30),
         g=int(info.get("video.g") or 2),
-        preset=preset if isinstance(preset, int) else None,
+        preset=preset if isinstance(preset, int | str) else None,
         pix_fmt=str(info.get("video.pix_fmt") or "yuv420p"),
     )
 

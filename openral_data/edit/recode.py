@@ -22,9 +22,10 @@ import numpy.typing as npt
 import pyarrow as pa
 
 from openral_data.errors import DatasetError
+from openral_data.formats.lerobot_v3.encoder import VideoSettings, encoder_threads
 from openral_data.formats.lerobot_v3.images import decode_image
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
-from openral_data.formats.lerobot_v3.video import EncoderWorker, VideoSettings
+from openral_data.formats.lerobot_v3.video import EncoderWorker
 from openral_data.types import CameraShape
 
 Pixels = npt.NDArray[np.uint8]
@@ -61,7 +62,8 @@ class CameraEncoders:
     def __init__(self, shapes: dict[str, CameraShape], settings: VideoSettings, fps: int) -> None:
         self.shapes = shapes
         self._tmp = tempfile.TemporaryDirectory(prefix="openral-videos-")
-        self._workers = {name: EncoderWorker(name, settings, fps) for name in shapes}
+        budget = encoder_threads(settings, len(shapes))  # the cameras' encoders share the cores
+        self._workers = {name: EncoderWorker(name, settings, fps, threads=budget) for name in shapes}
 
     def encode(self, frames: dict[str, Iterator[Pixels]], n: int, source: str) -> dict[str, Encoded]:
         """Encode exactly `n` frames of each camera (interleaved: the cameras' encoders run side by side)."""

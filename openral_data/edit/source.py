@@ -34,6 +34,7 @@ from openral_data.formats.jsonfile import parse_field, parse_json
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.clip import episode_clip
 from openral_data.formats.lerobot_v3.config import WriterConfig
+from openral_data.formats.lerobot_v3.encoder import VideoSettings
 from openral_data.formats.lerobot_v3.features import (
     ACTION,
     STATE,
@@ -50,7 +51,6 @@ from openral_data.formats.lerobot_v3.provenance import Origin, read_provenance
 from openral_data.formats.lerobot_v3.reader import dataset_tasks, read_episodes, read_info
 from openral_data.formats.lerobot_v3.stats import STAT_KEYS, ImageStatsAccumulator, Stats
 from openral_data.formats.lerobot_v3.variants import camera_layout, feature_info, is_depth, without_fps
-from openral_data.formats.lerobot_v3.video import VideoSettings
 from openral_data.formats.parquetfile import read_table
 from openral_data.types import CameraShape, DatasetSchema
 
@@ -135,12 +135,19 @@ class SourceDataset:
             return VideoSettings()
         i = infos[0]
         codec = i.get("video.codec")
-        if codec not in ("av1", "h264"):
+        if codec not in ("av1", "h264", "hevc"):
             raise DatasetError(
-                f"{self.root}/meta/info.json: video.codec: {codec!r} is not av1 or h264", code="dataset.unsupported"
+                f"{self.root}/meta/info.json: video.codec: {codec!r} is not av1, h264 or hevc",
+                code="dataset.unsupported",
             )
+        crf = i.get("video.crf", 30)
+        pix_fmt = i.get("video.pix_fmt")
         return VideoSettings(
-            codec=codec, crf=int(i.get("video.crf", 30)), g=int(i.get("video.g", 2)), preset=i.get("video.preset")
+            codec=codec,
+            crf=crf if isinstance(crf, int | float) and not isinstance(crf, bool) else 30,
+            g=int(i.get("video.g", 2)),
+            preset=i.get("video.preset"),
+            pix_fmt=pix_fmt if isinstance(pix_fmt, str) else "yuv420p",
         )
 
     def _schema(self) -> DatasetSchema:

@@ -29,11 +29,11 @@ from openral_data.edit.recode import CameraEncoders, Pixels, clip_frames, image_
 from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.errors import DatasetError, UsageError
 from openral_data.formats.lerobot_v3.config import WriterConfig
+from openral_data.formats.lerobot_v3.encoder import VideoSettings, with_codec
 from openral_data.formats.lerobot_v3.features import camera_keys
 from openral_data.formats.lerobot_v3.masks import is_mask
 from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
-from openral_data.formats.lerobot_v3.video import VideoSettings, parse_codec
 from openral_data.types import CameraShape
 
 _SIZE = re.compile(r"([0-9]{1,5})x([0-9]{1,5})")
@@ -48,8 +48,9 @@ def parse_size(text: str) -> CameraShape:
     return CameraShape(height=int(m.group(2)), width=int(m.group(1)))
 
 
-def settings_for(codec: str) -> VideoSettings:
-    return VideoSettings(codec=parse_codec(codec))
+def settings_for(codec: str, video: VideoSettings | None = None) -> VideoSettings:
+    """`--vcodec` applied to the other encoder settings, resolved and checked (`encoder.with_codec`)."""
+    return with_codec(video, codec)
 
 
 def choose_cameras(
@@ -145,11 +146,12 @@ def reencode(
     cameras: Sequence[str] = (),
     out: Path | None = None,
     in_place: bool = False,
+    video: VideoSettings | None = None,
 ) -> EditResult:
-    """Decode and encode again the chosen video cameras of `dataset` (all by default) with `codec`, resized to
-    `size` (WIDTHxHEIGHT) if given; the other cameras' packets are copied."""
+    """Decode and encode again the chosen video cameras of `dataset` (all by default) with `codec` (and `video`'s
+    other encoder settings), resized to `size` (WIDTHxHEIGHT) if given; the other cameras' packets are copied."""
     check_edit_output(out, in_place)  # before any decoding
-    settings = settings_for(codec)
+    settings = settings_for(codec, video)
     target = None if size is None else parse_size(size)
     problem = None if target is None else settings.size_problem(target.height, target.width)
     if problem:
@@ -171,11 +173,12 @@ def encode_images(
     codec: str = "av1",
     out: Path | None = None,
     in_place: bool = False,
+    video: VideoSettings | None = None,
 ) -> EditResult:
     """Turn the chosen `dtype: image` features of `dataset` (all by default) into video cameras encoded with
-    `codec`; every other column and camera is the source's."""
+    `codec` (and `video`'s other encoder settings); every other column and camera is the source's."""
     check_edit_output(out, in_place)  # before any decoding
-    settings = settings_for(codec)
+    settings = settings_for(codec, video)
     # (a missing folder is SourceDataset's to report)
     features = read_info(dataset)["features"] if dataset.is_dir() else {}
     keys = choose_cameras(features, cameras, "image", dataset) if dataset.is_dir() else {}
@@ -220,7 +223,7 @@ def _recode(
     for name, shape in shapes.items():
         problem = settings.size_problem(shape.height, shape.width)
         if problem:
-            raise UsageError(f"--codec: camera {name}: {problem}")
+            raise UsageError(f"--vcodec: camera {name}: {problem}")
     features = dict(src.features)
     keys = camera_keys(features)  # the output keeps each camera's key, so its name too
     for name, shape in shapes.items():

@@ -20,6 +20,7 @@ from pathlib import Path
 import yaml
 
 from openral_data.errors import GenerateError, UsageError
+from openral_data.formats.lerobot_v3.encoder import Codec
 from openral_data.generate.annotations import Annotations, read_annotations
 from openral_data.generate.segments import cuts, segments
 from openral_data.generate.trace import trace
@@ -43,7 +44,7 @@ class GenerateOptions:
     workers: int = 1
     executor: str = "local"
     address: str | None = None
-    codec: str = "av1"
+    codec: Codec = "av1"
 
 
 @dataclass(frozen=True)
@@ -139,7 +140,7 @@ def generate(opts: GenerateOptions) -> GenerateSummary:
             seed=opts.seed,
             max_steps=opts.max_steps,
             out=opts.out,
-            codec=opts.codec,  # type: ignore[arg-type]  # checked by RecordOptions
+            codec=opts.codec,
             keep="success",
         )
         summary = _record(record_opts, opts)

@@ -25,8 +25,8 @@ from typing import Literal
 
 from pydantic import Field, field_validator, model_validator
 
-from openral_data.errors import ConfigError, DatasetError
-from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.errors import ConfigError, DatasetError, UsageError
+from openral_data.formats.lerobot_v3.encoder import Codec, VideoSettings, with_codec
 from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.manifests import Kind, find
 from openral_data.paths import contained, safe_name
@@ -48,6 +48,9 @@ class Seeds(StrictModel):
         return self
 
 
+ENCODER_FIELDS = ("vcodec", "crf", "gop", "preset", "pix_fmt", "encoder_threads")  # RecordStep's, None: unset
+
+
 class RecordStep(StrictModel):
     scenes: list[str] = Field(min_length=1)
     rskills: list[str] = Field(min_length=1)
@@ -55,6 +58,13 @@ class RecordStep(StrictModel):
     seeds: Seeds
     max_steps: int | None = Field(default=None, ge=1, le=MAX_STEPS)
     codec: Codec = "av1"
+    # the encoder settings as lerobot names them (`vcodec` is `codec`'s other name); see docs/recording.md
+    vcodec: Codec | None = None
+    crf: float | None = None
+    gop: int | None = Field(default=None, ge=1)
+    preset: int | str | None = None
+    pix_fmt: str | None = None
+    encoder_threads: int | None = Field(default=None, ge=1)
     formats: list[OutputFormat] = Field(default_factory=lambda: list[OutputFormat](["lerobot"]), min_length=1)
     image_format: ImageFormat = "jpeg"
     mcap_compression: McapCompression = "zstd"  # `--mcap-compression` of formats: [mcap]
@@ -70,6 +80,28 @@ class RecordStep(StrictModel):
         if len(set(formats)) != len(formats):
             raise ValueError(f"a format is listed twice in {','.join(formats)}")
         return formats
+
+    @model_validator(mode="after")
+    def _encoder(self) -> RecordStep:
+        if self.vcodec is not None and "codec" in self.model_fields_set and self.vcodec != self.codec:
+            raise ValueError(f"codec {self.codec} and vcodec {self.vcodec} differ (they are one setting)")
+        try:
+            self.video_settings()  # a bad combination is found when the YAML is read, before any step runs
+        except UsageError as exc:
+            raise ValueError(str(exc)) from None
+        return self
+
+    def video_settings(self) -> VideoSettings:
+        """The step's encoder settings, resolved (`auto` probed) and checked."""
+        base = VideoSettings()
+        video = VideoSettings(
+            crf=base.crf if self.crf is None else (int(self.crf) if self.crf == int(self.crf) else self.crf),
+            g=base.g if self.gop is None else self.gop,
+            preset=self.preset,
+            pix_fmt=self.pix_fmt or base.pix_fmt,
+            threads=self.encoder_threads,
+        )
+        return with_codec(video, self.vcodec or self.codec)
 
     @field_validator("robots")
     @classmethod

@@ -25,11 +25,14 @@ from openral_data.formats.atomic import fsync_dir, fsync_file, fsync_tree, read_
 from openral_data.formats.jsonfile import parse_json
 from openral_data.formats.staging import clean_orphans
 from openral_data.paths import contained, safe_name
-from openral_data.pipeline.schema import Step
+from openral_data.pipeline.schema import ENCODER_FIELDS, Step
 
 
 def config_hash(step: Step) -> str:
-    return hashlib.sha256(step.model_dump_json().encode()).hexdigest()[:16]
+    """A step's settings, hashed; the encoder settings a record step leaves unset are left out, so a step written
+    before they existed keeps its hash (a resumed run does not redo it)."""
+    unset = {k for k in ENCODER_FIELDS if step.record is not None and getattr(step.record, k) is None}
+    return hashlib.sha256(step.model_dump_json(exclude={"record": unset}).encode()).hexdigest()[:16]
 
 
 def make_durable(path: Path) -> None:

@@ -13,8 +13,8 @@ from typing import Literal, get_args
 from openral_data import manifests
 from openral_data.errors import CompatibilityError, ConfigError, UsageError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
+from openral_data.formats.lerobot_v3.encoder import Codec, with_codec
 from openral_data.formats.lerobot_v3.provenance import HalOrigin, Origin, SafetyRecord
-from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.policies.base import PolicyAdapter
 from openral_data.producers.hal.base import HalBase
@@ -60,11 +60,14 @@ class HalRecordOptions:
     safety: SafetyMode | None = None  # default: the manifest's safety.mode
     staleness: float | None = None  # camera sample age limit (s); default: 3 periods
     port: str | None = None  # real mode: override the manifest's hardware.port
+    video: VideoSettings = field(default_factory=VideoSettings)  # the encoder settings; `codec` is its shorthand
 
     def __post_init__(self) -> None:
         """`mode`, `safety` and the output settings are checked here, once, by whoever builds the options (the
         CLI, the Python API)."""
         check_outputs(self.formats, self.codec, self.image_format, self.mcap_compression)
+        object.__setattr__(self, "video", with_codec(self.video, self.codec))  # resolved and checked, once
+        object.__setattr__(self, "codec", self.video.codec)
         if self.mode not in get_args(Mode):
             raise UsageError(f"--mode: {self.mode!r}; valid: {', '.join(get_args(Mode))}")
         if self.safety is not None and self.safety not in get_args(SafetyMode):
@@ -156,7 +159,7 @@ def build_hal(opts: HalRecordOptions, robot: RobotManifest, rskill: RSkillManife
         env = registry.scene_factory(scene.scene.type, str(scene_path))(scene, robot, rskill, str(scene_path))
         try:
             check_compatibility(
-                robot, rskill, env.spec, rskill_source=rskill_src, scene_source=str(scene_path), video=VideoSettings()
+                robot, rskill, env.spec, rskill_source=rskill_src, scene_source=str(scene_path), video=opts.video
             )
         except BaseException:
             env.close()
@@ -166,16 +169,16 @@ def build_hal(opts: HalRecordOptions, robot: RobotManifest, rskill: RSkillManife
     return MujocoTwinHal(robot)
 
 
-def check_hal(hal: HalBase, robot: RobotManifest, rskill: RSkillManifest, rskill_src: str, codec: Codec) -> None:
+def check_hal(
+    hal: HalBase, robot: RobotManifest, rskill: RSkillManifest, rskill_src: str, video: VideoSettings
+) -> None:
     spec = ProducerSpec(
         state_dim=hal.state_dim,
         action_dim=hal.action_dim,
         cameras={n: c.shape for n, c in hal.cameras.items()},
         fps=1,
     )
-    check_compatibility(
-        robot, rskill, spec, rskill_source=rskill_src, scene_source=f"robot {robot.name}", video=VideoSettings(codec)
-    )
+    check_compatibility(robot, rskill, spec, rskill_source=rskill_src, scene_source=f"robot {robot.name}", video=video)
 
 
 Notify = Callable[[str], None]  # one line for the operator: which episode, what happened to it
@@ -231,7 +234,7 @@ def _open(
     from openral_data.runtime.sinks import make_sinks
 
     robot, rskill = run.robot, run.rskill
-    check_hal(hal, robot, rskill, run.rskill_src, opts.codec)
+    check_hal(hal, robot, rskill, run.rskill_src, opts.video)
     safety = SafetyFilter(
         robot,
         mode=opts.safety,
@@ -259,7 +262,7 @@ def _open(
         run.out,
         schema,
         opts.formats,
-        WriterConfig(video=VideoSettings(codec=opts.codec)),
+        WriterConfig(video=opts.video),
         opts.image_format,
         mcap_compression=opts.mcap_compression,
     )

@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Literal
 
 from openral_data import manifests
 from openral_data.errors import UsageError
-from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.formats.lerobot_v3.encoder import Codec, VideoSettings, with_codec
 from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.runtime.outdir import fresh_out
 from openral_data.runtime.sinks import OutputFormat, check_outputs
@@ -34,7 +34,7 @@ class RecordOptions:
     seed: int | None = None
     max_steps: int | None = None
     out: Path | None = None
-    codec: Codec = "av1"
+    codec: Codec = "av1"  # the shorthand of `video.codec` (`--codec`/`--vcodec`)
     formats: tuple[OutputFormat, ...] = ("lerobot",)  # see runtime.sinks.make_sinks for the layout
     image_format: ImageFormat = "jpeg"  # MCAP camera messages
     mcap_compression: McapCompression = "zstd"  # MCAP chunks
@@ -51,9 +51,12 @@ class RecordOptions:
     device: str | None = None  # a neural policy's torch device (`--device`; wins over the rSkill's)
     randomize: bool | None = None  # turn the scene's `randomize:` block on or off (`--randomize`); None: the YAML's
     keep: Keep = "all"  # "success": an episode that does not succeed is discarded (`--keep`, `generate`)
+    video: VideoSettings = field(default_factory=VideoSettings)  # --crf, --gop, --preset, --pix-fmt, ...
 
     def __post_init__(self) -> None:
         check_outputs(self.formats, self.codec, self.image_format, self.mcap_compression)
+        object.__setattr__(self, "video", with_codec(self.video, self.codec))  # resolved and checked, once
+        object.__setattr__(self, "codec", self.video.codec)
         if self.keep not in ("all", "success"):
             raise UsageError(f"--keep: {self.keep!r} is not all or success")
         if self.keep == "success" and self.resume:

@@ -23,6 +23,7 @@ from openral_data.errors import ConfigError, DatasetBusy, DatasetError, UsageErr
 from openral_data.formats import atomic
 from openral_data.formats.jsonfile import parse_json
 from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.encoder import VideoSettings, parse_codec
 from openral_data.formats.lerobot_v3.links import refuse_outside_links
 from openral_data.formats.lerobot_v3.lock import DatasetLock, holder
 from openral_data.formats.lerobot_v3.reader import read_info
@@ -50,6 +51,8 @@ KEPT = {
     "instruction": "--instruction",
     "randomize": "--randomize",
 }
+# the encoder settings a resume keeps (record.json `video`), with the CLI option of each
+ENCODER_FLAGS = {"crf": "--crf", "g": "--gop", "preset": "--preset", "pix_fmt": "--pix-fmt"}
 RANGES = {"max_steps": (1, MAX_STEPS), "seed": (0, MAX_SEED), "n_episodes": (1, 10**9)}
 DIGEST = "scene_sha256"  # the sha256 of the scene file's bytes: a scene named again must still have it (`recorded`)
 
@@ -157,7 +160,37 @@ def continue_options(opts: RecordOptions, explicit: frozenset[str]) -> RecordOpt
             raise DatasetError(
                 f"{path}: {name}: {value!r} is not a whole number in {low}..{high}", code="dataset.invalid"
             )
+    changes["video"] = _recorded_video(opts, saved.get("video"), explicit, path, changes["codec"])
     return replace(opts, **changes)
+
+
+def video_json(video: VideoSettings) -> dict[str, Any]:
+    """The encoder settings record.json keeps (the thread budget is the machine's, not the recording's)."""
+    return {name: getattr(video, name) for name in ENCODER_FLAGS}
+
+
+def _recorded_video(
+    opts: RecordOptions, stored: Any, explicit: frozenset[str], path: Path, codec: str
+) -> VideoSettings:
+    """The recording's encoder settings (a recording from before they were kept: lerobot's defaults); a flag
+    given again must match."""
+    if stored is None:
+        return replace(VideoSettings(), codec=parse_codec(codec), threads=opts.video.threads)
+    try:
+        if not isinstance(stored, dict) or not set(stored) <= set(ENCODER_FLAGS):
+            raise TypeError(f"keys other than {', '.join(ENCODER_FLAGS)}")
+        video = VideoSettings(codec=parse_codec(codec), threads=opts.video.threads, **stored).resolve()
+    except (TypeError, UsageError) as exc:
+        raise DatasetError(f"{path}: video: {stored!r}: {exc}", code="dataset.invalid") from None
+    for name, flag in ENCODER_FLAGS.items():
+        cli = {"g": "gop"}.get(name, name)
+        given = getattr(opts.video, name)
+        if cli in explicit and given != getattr(video, name):
+            raise ConfigError(
+                f"{path}: video.{name}: the dataset was recorded with {getattr(video, name)}; {flag} {given} differs "
+                "(leave the option out to continue with the recorded one)"
+            )
+    return video
 
 
 def _settings(out: Path) -> dict[str, Any]:

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from openral_data.errors import ConfigError, UsageError
-from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig, warm_up
+from openral_data.formats.lerobot_v3 import WriterConfig, warm_up
 from openral_data.policies.base import AnnotatingPolicy, PolicyAdapter
 from openral_data.policies.device import resolve_device, with_device
 from openral_data.record import output, recorded
@@ -153,6 +153,7 @@ def _resolve(opts: RecordOptions) -> _Resolved:
         "seed": base_seed,
         "max_steps": max_steps,
         "codec": opts.codec,
+        "video": output.video_json(opts.video),
         "formats": list(opts.formats),
         "image_format": opts.image_format,
         "mcap_compression": opts.mcap_compression,
@@ -170,7 +171,7 @@ def _resolve(opts: RecordOptions) -> _Resolved:
 def _start(run: _Resolved) -> Started[SimRollout, PolicyAdapter]:
     """The scene built (and checked against the rSkill) while the policy loads."""
     scene, scene_src, robot, rskill = run.scene, run.scene_src, run.robot, run.rskill
-    video = VideoSettings(codec=run.opts.codec)
+    video = run.opts.video
 
     def load_policy() -> PolicyAdapter:
         warm_up()  # pyarrow's first-use cost, paid beside the scene's build instead of in the first commit
@@ -207,7 +208,7 @@ def _open_bridge(run: _Resolved, schema: DatasetSchema, first: int) -> DatasetBr
             out,
             schema,
             opts.formats,
-            WriterConfig(video=VideoSettings(codec=opts.codec)),
+            WriterConfig(video=opts.video),
             opts.image_format,
             resume=opts.resume,
             mcap_compression=opts.mcap_compression,

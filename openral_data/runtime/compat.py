@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from openral_data.errors import CompatibilityError, OpenralError
-from openral_data.formats.lerobot_v3.video import VideoSettings
+from openral_data.formats.lerobot_v3.encoder import VideoSettings
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.types import ProducerSpec

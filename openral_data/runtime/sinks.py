@@ -15,7 +15,7 @@ from typing import Literal, cast
 
 from openral_data.errors import UsageError
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, WriterConfig
-from openral_data.formats.lerobot_v3.video import parse_codec
+from openral_data.formats.lerobot_v3.encoder import parse_codec
 from openral_data.formats.mcap import (
     ImageFormat,
     McapCompression,

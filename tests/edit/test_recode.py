@@ -11,7 +11,7 @@ import pytest
 
 from openral_data.edit.recode import CameraEncoders, clip_frames, image_frames
 from openral_data.errors import DatasetError
-from openral_data.formats.lerobot_v3.video import VideoSettings
+from openral_data.formats.lerobot_v3.encoder import VideoSettings
 from openral_data.types import CameraShape
 
 SHAPE = CameraShape(height=48, width=64)

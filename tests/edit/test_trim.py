@@ -20,8 +20,8 @@ from openral_data.edit.cut import plan, runs, splice
 from openral_data.edit.recode import CameraEncoders
 from openral_data.edit.trim import parse_frames, trim
 from openral_data.errors import DatasetBusy, EpisodeSelectionError
+from openral_data.formats.lerobot_v3.encoder import VideoSettings
 from openral_data.formats.lerobot_v3.lock import DatasetLock
-from openral_data.formats.lerobot_v3.video import VideoSettings
 from openral_data.types import CameraShape
 from tests.support import quality as q
 from tests.support.inproc import run_inproc

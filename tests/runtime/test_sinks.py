@@ -60,7 +60,7 @@ def test_the_typed_values_reach_the_writer(tmp_path: Path) -> None:
     ("field", "value", "message"),
     [
         ("formats", ("lerobot", "csv"), "--format: unknown format(s) csv (valid: lerobot, mcap)"),
-        ("codec", "vp9", "--codec: 'vp9' is not one of av1, h264"),
+        ("codec", "vp9", "--vcodec: 'vp9' is not one of av1, h264, hevc, auto"),
         ("image_format", "gif", "--image-format: 'gif' is not one of jpeg, png, raw"),
         ("mcap_compression", "bz2", "--mcap-compression: 'bz2' is not one of zstd, lz4, none"),
     ],

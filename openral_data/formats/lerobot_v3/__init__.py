@@ -17,11 +17,11 @@ cost ahead of a recording.
 from openral_data.formats.lerobot_v3.buffer import EpisodeBuffer
 from openral_data.formats.lerobot_v3.clip import episode_clip
 from openral_data.formats.lerobot_v3.config import WriterConfig
+from openral_data.formats.lerobot_v3.encoder import VideoSettings
 from openral_data.formats.lerobot_v3.frames import episode_frames
 from openral_data.formats.lerobot_v3.lock import DatasetLock, holder
 from openral_data.formats.lerobot_v3.reader import DatasetSummary, read_episodes, read_info, read_tasks, summarize
 from openral_data.formats.lerobot_v3.recovery import recover
-from openral_data.formats.lerobot_v3.video import VideoSettings
 from openral_data.formats.lerobot_v3.writer import LeRobotV3Writer, warm_up
 
 __all__ = [

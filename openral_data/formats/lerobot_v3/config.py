@@ -7,7 +7,7 @@ from typing import Any
 
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.depth import DepthSettings
-from openral_data.formats.lerobot_v3.video import VideoSettings
+from openral_data.formats.lerobot_v3.encoder import VideoSettings
 
 MB = 1 << 20
 
@@ -28,13 +28,20 @@ class WriterConfig:
     def __post_init__(self) -> None:
         if self.staged_episodes < 1:
             raise ValueError("staged_episodes must be at least 1")
+        # a concrete encoder (`auto` probed once per process), checked against this FFmpeg before anything is written
+        object.__setattr__(self, "video", self.video.resolve())
 
     def settings_json(self) -> dict[str, Any]:
-        """The settings meta/openral.json records (`config`): codec and file sizes."""
+        """The settings meta/openral.json records (`config`): codec and file sizes; the encoder that ran and a
+        pixel format or preset other than lerobot's default only when they are not the software default."""
+        video = self.video
         return {
-            "codec": self.video.codec,
-            "crf": self.video.crf,
-            "g": self.video.g,
+            "codec": video.feature_info(0, 0, 0)["video.codec"],
+            "crf": video.crf,
+            "g": video.g,
+            **({"encoder": video.encoder} if video.hardware else {}),
+            **({"pix_fmt": video.pix_fmt} if video.pix_fmt != "yuv420p" else {}),
+            **({"preset": video.preset} if video.preset is not None else {}),
             "data_files_size_in_mb": self.data_files_size_in_mb,
             "video_files_size_in_mb": self.video_files_size_in_mb,
             "chunks_size": self.chunks_size,

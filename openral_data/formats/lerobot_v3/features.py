@@ -8,10 +8,10 @@ from typing import Any
 import pyarrow as pa
 
 from openral_data.formats.lerobot_v3.depth import DepthSettings
+from openral_data.formats.lerobot_v3.encoder import VideoSettings
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE
 from openral_data.formats.lerobot_v3.masks import mask_feature
 from openral_data.formats.lerobot_v3.stats import STAT_KEYS
-from openral_data.formats.lerobot_v3.video import VideoSettings
 from openral_data.types import DatasetSchema
 
 IMAGE_PREFIX = "observation.images."

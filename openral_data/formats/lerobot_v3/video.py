@@ -15,7 +15,7 @@ import time
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path
-from typing import Any, Literal, get_args
+from typing import Any
 
 import av
 
@@ -24,78 +24,11 @@ os.environ.setdefault("SVT_LOG", "1")
 import numpy as np
 import numpy.typing as npt
 
-from openral_data.errors import EncoderError, UsageError
+from openral_data.errors import EncoderError
 from openral_data.formats.lerobot_v3.depth import CameraStats, DepthStatsAccumulator, DepthStream
+from openral_data.formats.lerobot_v3.encoder import VideoSettings
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
 from openral_data.paths import regular_file
-
-Codec = Literal["av1", "h264"]
-CODECS: tuple[Codec, ...] = get_args(Codec)
-
-
-def parse_codec(name: str) -> Codec:
-    """`--codec` (or any untyped text) -> a `Codec`; below the edge the value is never checked again."""
-    for codec in CODECS:
-        if name == codec:
-            return codec
-    raise UsageError(f"--codec: {name!r} is not one of {', '.join(CODECS)}")
-
-
-@dataclass(frozen=True)
-class VideoSettings:
-    """lerobot 0.6.1's encoder defaults: yuv420p, g=2, crf=30; SVT-AV1 preset 12, fast-decode 0."""
-
-    codec: Codec = "av1"
-    crf: int = 30
-    g: int = 2
-    preset: int | None = None
-    pix_fmt: str = "yuv420p"
-
-    @property
-    def encoder(self) -> str:
-        return {"av1": "libsvtav1", "h264": "libx264"}[self.codec]
-
-    @property
-    def effective_preset(self) -> int | str | None:
-        if self.codec == "av1":
-            return 12 if self.preset is None else self.preset
-        return self.preset
-
-    def size_problem(self, height: int, width: int) -> str | None:
-        """Why frames of this size cannot be encoded, or None. (SVT-AV1 dies with SIGFPE below ~26 px wide.)"""
-        if height % 2 or width % 2:
-            return f"{width}x{height}: video (yuv420p) needs even width and height"
-        low = 32 if self.codec == "av1" else 16
-        if height < low or width < low:
-            return f"{width}x{height}: {self.codec} video needs at least {low}x{low} pixels"
-        return None
-
-    def options(self) -> dict[str, str]:
-        opts = {"g": str(self.g), "crf": str(self.crf)}
-        if self.effective_preset is not None:
-            opts["preset"] = str(self.effective_preset)
-        if self.codec == "av1":
-            opts["svtav1-params"] = "fast-decode=0"
-        return opts
-
-    def feature_info(self, height: int, width: int, fps: int) -> dict[str, Any]:
-        """The `info` block lerobot writes for a video feature."""
-        return {
-            "video.height": height,
-            "video.width": width,
-            "video.codec": self.codec,
-            "video.pix_fmt": self.pix_fmt,
-            "video.fps": fps,
-            "video.channels": 3,
-            "has_audio": False,
-            "video.g": self.g,
-            "video.crf": self.crf,
-            "video.preset": self.effective_preset,
-            "video.fast_decode": 0,
-            "video.video_backend": "pyav",
-            "video.extra_options": {},
-            "is_depth_map": False,
-        }
 
 
 @dataclass
@@ -132,10 +65,17 @@ class EncoderWorker:
     are depth maps, quantized and encoded as lerobot's depth videos (`depth.py`) instead of RGB with `settings`."""
 
     def __init__(
-        self, name: str, settings: VideoSettings, fps: int, queue_size: int = 16, depth: DepthStream | None = None
+        self,
+        name: str,
+        settings: VideoSettings,
+        fps: int,
+        queue_size: int = 16,
+        depth: DepthStream | None = None,
+        threads: int | None = None,
     ) -> None:
         self.name = name
         self.settings = settings
+        self.threads = threads  # this encoder's thread budget (SVT-AV1 lp, x264 threads); None: settings.threads
         self.depth = depth
         self.fps = fps
         self._q: queue.Queue[object] = queue.Queue(maxsize=queue_size)
@@ -214,7 +154,7 @@ class EncoderWorker:
         depth = self.depth
         stats = ImageStatsAccumulator() if depth is None else DepthStatsAccumulator(depth.unit)
         encoder, options, pix_fmt = (
-            (self.settings.encoder, self.settings.options(), self.settings.pix_fmt)
+            (self.settings.encoder, self.settings.options(self.threads, job.width), self.settings.encoder_pix_fmt)
             if depth is None
             else (depth.settings.encoder, depth.settings.options(), depth.settings.pix_fmt)
         )

@@ -38,6 +38,7 @@ from openral_data.formats.lerobot_v3.buffer import EpisodeBuffer, base_row, colu
 from openral_data.formats.lerobot_v3.commit_log import log_commit
 from openral_data.formats.lerobot_v3.config import MB, WriterConfig
 from openral_data.formats.lerobot_v3.depth import CameraStats, DepthStream, camera_stats, merge_camera_stats
+from openral_data.formats.lerobot_v3.encoder import encoder_threads
 from openral_data.formats.lerobot_v3.features import (
     IMAGE_STRUCT,
     build_features,
@@ -102,6 +103,7 @@ class LeRobotV3Writer:
         self._check_cameras()
         self._created_root = _claim_root(root, resume)
         self._set_format(features)
+        budget = encoder_threads(self.config.video, len(self._videos))
         self._workers = {
             name: EncoderWorker(
                 name,
@@ -109,6 +111,7 @@ class LeRobotV3Writer:
                 schema.fps,
                 self.config.queue_size,
                 None if shape.depth_unit is None else DepthStream(self.config.depth, shape.depth_unit),
+                budget,
             )
             for name, shape in self._videos.items()
         }

@@ -14,8 +14,8 @@ import pytest
 from PIL import Image
 from rerun.chunk import RrdReader
 
+from openral_data.formats.lerobot_v3.encoder import VideoSettings
 from openral_data.formats.lerobot_v3.features import build_features, camera_keys, dim_names, writer_camera_keys
-from openral_data.formats.lerobot_v3.video import VideoSettings
 from openral_data.replay import ReplayOptions, replay
 from openral_data.types import CameraShape, DatasetSchema
 from openral_data.viz.rerun_view import ViewOptions, run_view
