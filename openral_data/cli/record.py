@@ -47,6 +47,9 @@ def record(
     safety: Annotated[str | None, typer.Option(help="--hal: clamp or refuse (default: the manifest's)")] = None,
     staleness: Annotated[float | None, typer.Option(help="--hal: camera sample age limit, s (3 periods)")] = None,
     port: Annotated[str | None, typer.Option(help="--hal --mode real: serial port (default: the manifest's)")] = None,
+    teleop: Annotated[
+        str | None, typer.Option(help="a person drives: keyboard (the terminal; the scene's robot at its fps)")
+    ] = None,
     resume: Annotated[
         bool, typer.Option("--resume", help="continue the recording in --out (its settings; --n-episodes = total)")
     ] = False,
@@ -82,6 +85,14 @@ def record(
     """Record episodes of SCENE driven by RSKILL into a LeRobotDataset v3 and/or ROS 2 MCAP bags."""
     # long: the typer signature declares every option with its help; the body only dispatches to the helpers below
     given = given_flags(ctx)
+    if teleop is not None and hal is None:
+        from openral_data.record.hal import teleop_scene
+
+        hal, rskill, scene_fps, scene_steps = teleop_scene(scene, robot, rskill)
+        fps = fps if "fps" in given else scene_fps
+        max_steps = max_steps if max_steps is not None else scene_steps
+        operator = operator if "operator" in given else "keyboard"
+        given = given | {"scene"}
     if hal is not None and (save_video or save_video_dir is not None):
         raise UsageError("--save-video/--save-video-dir: not available with --hal (a scene recording only)")
     view_given = bool(given & {"view", "view_port", "view_address"})
@@ -117,6 +128,7 @@ def record(
             safety=cast(SafetyMode | None, safety),  # checked by HalRecordOptions
             staleness=staleness,
             port=port,
+            teleop=teleop,
         )
         run_hal_record(hal_opts, json)
         return

@@ -13,13 +13,14 @@ from typing import Literal, get_args
 from openral_data import manifests
 from openral_data.errors import CompatibilityError, ConfigError, UsageError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
-from openral_data.formats.lerobot_v3.provenance import HalOrigin, Origin, SafetyRecord
+from openral_data.formats.lerobot_v3.provenance import HalOrigin, Origin, Recorded, SafetyRecord
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.policies.base import PolicyAdapter
 from openral_data.producers.hal.base import HalBase
 from openral_data.producers.hal.operator import Command, KeyboardOperator, Operator, ScriptedOperator, parse_script
 from openral_data.producers.hal.safety import SafetyFilter
+from openral_data.producers.hal.teleop import KeyboardTeleop, tty_status
 from openral_data.producers.hal.twin import MujocoTwinHal, SceneHal
 from openral_data.record.hal_loop import EpisodeEnd, EpisodeReport, FixedRateLoop, LoopConfig, frame_extras
 from openral_data.record.options import check_run_numbers
@@ -38,6 +39,7 @@ from openral_data.schemas.rskill import RSkillManifest
 from openral_data.types import EpisodeRecord, ProducerSpec, Sink
 
 Mode = Literal["sim", "real"]
+TELEOP_DEVICES = ("keyboard",)
 JOINT_REPRESENTATIONS = ("joint_positions_gripper", "joint_positions")
 
 
@@ -60,6 +62,7 @@ class HalRecordOptions:
     safety: SafetyMode | None = None  # default: the manifest's safety.mode
     staleness: float | None = None  # camera sample age limit (s); default: 3 periods
     port: str | None = None  # real mode: override the manifest's hardware.port
+    teleop: str | None = None  # a person drives instead of the rSkill's policy: keyboard (its contract stays)
 
     def __post_init__(self) -> None:
         """`mode`, `safety` and the output settings are checked here, once, by whoever builds the options (the
@@ -69,6 +72,10 @@ class HalRecordOptions:
             raise UsageError(f"--mode: {self.mode!r}; valid: {', '.join(get_args(Mode))}")
         if self.safety is not None and self.safety not in get_args(SafetyMode):
             raise UsageError(f"--safety: {self.safety!r}; valid: {', '.join(get_args(SafetyMode))}")
+        if self.teleop is not None and self.teleop not in TELEOP_DEVICES:
+            raise UsageError(f"--teleop: {self.teleop!r}; valid: {', '.join(TELEOP_DEVICES)}")
+        if self.teleop == "keyboard" and self.operator != "keyboard":
+            raise UsageError("--teleop keyboard: the operator keys come from the same terminal (--operator keyboard)")
 
 
 @dataclass
@@ -124,9 +131,9 @@ class HalRecordSummary:
         }
 
 
-def make_operator(spec: str) -> Operator:
+def make_operator(spec: str, listener: Callable[[str], None] | None = None) -> Operator:
     if spec == "keyboard":
-        return KeyboardOperator()
+        return KeyboardOperator(listener=listener)
     if spec == "auto":
         return ScriptedOperator()
     return ScriptedOperator(parse_script(spec))
@@ -166,6 +173,21 @@ def build_hal(opts: HalRecordOptions, robot: RobotManifest, rskill: RSkillManife
     return MujocoTwinHal(robot)
 
 
+def teleop_scene(scene: str, robot: str | None, rskill: str | None) -> tuple[str, str, int, int]:
+    """`record --scene S --teleop DEVICE` is `record --hal ROBOT --scene S` with a person driving: the robot
+    (`--robot`, else the scene's), the rSkill whose contract the person's actions keep (`--rskill`, else the
+    scene's default), the scene's fps and the task's step limit."""
+    from openral_data.record.options import rskill_ref
+    from openral_data.schemas.scene import load_recordable_scene
+
+    path = registry.resolve_scene_path(scene)
+    loaded = load_recordable_scene(path)
+    robot_id = robot or loaded.scene.robot
+    if robot_id is None:
+        raise ConfigError(f"{path}: scene.robot: not set; pass --robot (valid: {', '.join(registry.robot_ids())})")
+    return robot_id, rskill_ref(rskill, loaded), loaded.scene.fps, loaded.task.max_steps
+
+
 def check_hal(hal: HalBase, robot: RobotManifest, rskill: RSkillManifest, rskill_src: str, codec: Codec) -> None:
     spec = ProducerSpec(
         state_dim=hal.state_dim,
@@ -178,6 +200,7 @@ def check_hal(hal: HalBase, robot: RobotManifest, rskill: RSkillManifest, rskill
     )
 
 
+STATUS_FD = 2  # the teleoperator's status lines go to the terminal on stderr
 Notify = Callable[[str], None]  # one line for the operator: which episode, what happened to it
 
 
@@ -186,11 +209,15 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
     run = _resolve(opts)
     held = claim(run.out, "openral-data record --hal", resume=False)  # one writer, before any byte goes into `out`
     try:
-        operator = make_operator(opts.operator)
+        teleop = None
+        if opts.teleop == "keyboard":
+            teleop = KeyboardTeleop(run.rskill, run.rskill_src, show=tty_status(STATUS_FD))
+        operator = make_operator(opts.operator, teleop.feed if teleop is not None else None)
         try:
             hal = build_hal(opts, run.robot, run.rskill, run.rskill_src)
             try:
-                loop = _open(opts, run, hal, run.make_policy(run.rskill), operator)
+                policy = teleop if teleop is not None else run.make_policy(run.rskill)
+                loop = _open(opts, run, hal, policy, operator)
                 return _episodes(opts, run.out, loop, notify)
             finally:
                 hal.close()
@@ -248,6 +275,7 @@ def _open(
         fps=opts.fps,
         cameras={n: hal.cameras[n].shape for n in cameras},
         origin=Origin(
+            scene=_recorded_scene(opts.scene),  # a scene behind the HAL replays as that scene (`replay`)
             hal=HalOrigin(robot.name, opts.mode, type(hal).__name__, opts.scene),
             safety=SafetyRecord(safety.mode, robot.safety.model_dump(mode="json")),
         ),
@@ -266,7 +294,18 @@ def _open(
     bridge = DatasetBridge(schema, sinks)
     task = hal.task if hal.task is not None else rskill.description or rskill.id
     staleness = opts.staleness if opts.staleness is not None else 3.0 / opts.fps
-    return FixedRateLoop(hal, policy, safety, bridge, operator, LoopConfig(opts.fps, task, opts.max_steps, staleness))
+    driver = f"teleop:{opts.teleop}" if opts.teleop is not None else f"policy:{rskill.id}"
+    config = LoopConfig(opts.fps, task, opts.max_steps, staleness, driver=driver)
+    return FixedRateLoop(hal, policy, safety, bridge, operator, config)
+
+
+def _recorded_scene(scene: str | None) -> Recorded | None:
+    if scene is None:
+        return None
+    from openral_data.schemas.scene import load_recordable_scene
+
+    path = registry.resolve_scene_path(scene)
+    return Recorded(str(path), load_recordable_scene(path).model_dump(mode="json"))
 
 
 def _episodes(opts: HalRecordOptions, out: Path, loop: FixedRateLoop, notify: Notify | None) -> HalRecordSummary:
