@@ -48,7 +48,8 @@ def record(
     staleness: Annotated[float | None, typer.Option(help="--hal: camera sample age limit, s (3 periods)")] = None,
     port: Annotated[str | None, typer.Option(help="--hal --mode real: serial port (default: the manifest's)")] = None,
     teleop: Annotated[
-        str | None, typer.Option(help="a person drives: keyboard (the terminal; the scene's robot at its fps)")
+        str | None,
+        typer.Option(help="a person drives: keyboard (the terminal, a sim scene) or leader (hardware.teleop)"),
     ] = None,
     resume: Annotated[
         bool, typer.Option("--resume", help="continue the recording in --out (its settings; --n-episodes = total)")
@@ -85,6 +86,8 @@ def record(
     """Record episodes of SCENE driven by RSKILL into a LeRobotDataset v3 and/or ROS 2 MCAP bags."""
     # long: the typer signature declares every option with its help; the body only dispatches to the helpers below
     given = given_flags(ctx)
+    if teleop == "leader" and hal is None:
+        raise UsageError("--teleop leader: needs --hal ROBOT_ID (the robot whose manifest names the leader)")
     if teleop is not None and hal is None:
         from openral_data.record.hal import teleop_scene
 
@@ -112,7 +115,7 @@ def record(
             raise UsageError("--task/--instruction/--device: not available with --hal (the rSkill's own are used)")
         hal_opts = HalRecordOptions(
             robot=hal,
-            rskill=rskill or DEFAULT_RSKILL,
+            rskill=rskill or (None if teleop == "leader" else DEFAULT_RSKILL),
             mode=cast(Mode, mode),  # checked by HalRecordOptions
             fps=fps,
             scene=scene if "scene" in given else None,

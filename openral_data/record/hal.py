@@ -39,14 +39,14 @@ from openral_data.schemas.rskill import RSkillManifest
 from openral_data.types import EpisodeRecord, ProducerSpec, Sink
 
 Mode = Literal["sim", "real"]
-TELEOP_DEVICES = ("keyboard",)
+TELEOP_DEVICES = ("keyboard", "leader")  # leader: the manifest's hardware.teleop (a lerobot teleoperator)
 JOINT_REPRESENTATIONS = ("joint_positions_gripper", "joint_positions")
 
 
 @dataclass(frozen=True)
 class HalRecordOptions:
     robot: str
-    rskill: str
+    rskill: str | None  # None: with --teleop leader, the robot manifest's own state/action (`teleop_rskill`)
     mode: Mode = "sim"
     fps: int = 20
     scene: str | None = None  # sim mode: drive this sim scene through the HAL instead of the bare twin
@@ -62,7 +62,7 @@ class HalRecordOptions:
     safety: SafetyMode | None = None  # default: the manifest's safety.mode
     staleness: float | None = None  # camera sample age limit (s); default: 3 periods
     port: str | None = None  # real mode: override the manifest's hardware.port
-    teleop: str | None = None  # a person drives instead of the rSkill's policy: keyboard (its contract stays)
+    teleop: str | None = None  # a person drives instead of the rSkill's policy: keyboard, leader
 
     def __post_init__(self) -> None:
         """`mode`, `safety` and the output settings are checked here, once, by whoever builds the options (the
@@ -76,6 +76,8 @@ class HalRecordOptions:
             raise UsageError(f"--teleop: {self.teleop!r}; valid: {', '.join(TELEOP_DEVICES)}")
         if self.teleop == "keyboard" and self.operator != "keyboard":
             raise UsageError("--teleop keyboard: the operator keys come from the same terminal (--operator keyboard)")
+        if self.rskill is None and self.teleop != "leader":
+            raise UsageError("--rskill: needed (only --teleop leader records without one: the robot's own contract)")
 
 
 @dataclass
@@ -150,7 +152,7 @@ def build_hal(opts: HalRecordOptions, robot: RobotManifest, rskill: RSkillManife
     if opts.mode == "real":
         if opts.scene is not None:
             raise ConfigError("--scene: only with --mode sim (a real robot has no scene to simulate)")
-        from openral_data.producers.hal.so100 import make_hardware_hal
+        from openral_data.producers.hal.lerobot_hw import make_hardware_hal
 
         return make_hardware_hal(robot, robot_src, port=opts.port)
     if opts.scene is not None:
@@ -209,19 +211,26 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
     run = _resolve(opts)
     held = claim(run.out, "openral-data record --hal", resume=False)  # one writer, before any byte goes into `out`
     try:
-        teleop = None
+        keys = None
         if opts.teleop == "keyboard":
-            teleop = KeyboardTeleop(run.rskill, run.rskill_src, show=tty_status(STATUS_FD))
-        operator = make_operator(opts.operator, teleop.feed if teleop is not None else None)
+            keys = KeyboardTeleop(run.rskill, run.rskill_src, show=tty_status(STATUS_FD))
+        operator = make_operator(opts.operator, keys.feed if keys is not None else None)
+        leader = None
         try:
+            if opts.teleop == "leader":
+                from openral_data.producers.hal.leader import LeaderTeleop
+
+                leader = LeaderTeleop(run.robot, str(manifests.robot_file(run.robot.name)))
             hal = build_hal(opts, run.robot, run.rskill, run.rskill_src)
             try:
-                policy = teleop if teleop is not None else run.make_policy(run.rskill)
+                policy = keys or leader or run.make_policy(run.rskill)
                 loop = _open(opts, run, hal, policy, operator)
                 return _episodes(opts, run.out, loop, notify)
             finally:
                 hal.close()
         finally:
+            if leader is not None:
+                leader.close()
             operator.close()
     finally:
         held.release()  # what was recorded stays; empty folders the claim made go
@@ -244,11 +253,36 @@ def _resolve(opts: HalRecordOptions) -> _Resolved:
     if opts.staleness is not None and not 0 < opts.staleness < math.inf:
         raise UsageError(f"--staleness must be > 0 and finite, got {opts.staleness}")
     robot = registry.ROBOTS[opts.robot]
-    rskill, rskill_path = registry.resolve_rskill(opts.rskill)
-    rskill_src = str(rskill_path)
-    make_policy = registry.policy_factory(rskill, rskill_src)
+    if opts.rskill is None:  # --teleop leader: the leader speaks the robot's own joints
+        rskill, rskill_src = teleop_rskill(robot), str(manifests.robot_file(robot.name))
+        make_policy: registry.PolicyFactory = _no_policy
+    else:
+        rskill, rskill_path = registry.resolve_rskill(opts.rskill)
+        rskill_src = str(rskill_path)
+        make_policy = registry.policy_factory(rskill, rskill_src)
     out = opts.out if opts.out is not None else fresh_out(f"hal-{robot.name}--{rskill.id}")
     return _Resolved(robot, rskill, rskill_src, make_policy, out)
+
+
+def teleop_rskill(robot: RobotManifest) -> RSkillManifest:
+    """The contract of a leader arm driving `robot`: the manifest's own state and action (joint positions)."""
+    gripper = any(j.type == "gripper" for j in robot.joints)
+    rep = "joint_positions_gripper" if gripper else "joint_positions"
+    state, action = robot.observation.state, robot.action
+    return RSkillManifest.model_validate(
+        {
+            "id": f"teleop-{robot.name}",
+            "description": f"a person drives {robot.name} with its leader arm",
+            "policy": "teleop",
+            "embodiment_tags": robot.embodiment_tags or [robot.name],
+            "state_contract": {"dim": state.dim, "names": state.names, "representation": rep},
+            "action_contract": {"dim": action.dim, "names": action.names, "representation": rep},
+        }
+    )
+
+
+def _no_policy(rskill: RSkillManifest) -> PolicyAdapter:
+    raise ConfigError(f"rskill {rskill.id}: a teleoperator drives; there is no policy to load")
 
 
 def _open(
@@ -283,6 +317,9 @@ def _open(
         frame_extras=frame_extras(cameras),
     )
     hal.connect()  # a robot that cannot be reached fails here, before anything is written
+    connect = getattr(policy, "connect", None)  # a leader arm: the same, before anything is written
+    if callable(connect):
+        connect()
     sinks: list[Sink] = make_sinks(
         run.out,
         schema,
@@ -294,7 +331,9 @@ def _open(
     bridge = DatasetBridge(schema, sinks)
     task = hal.task if hal.task is not None else rskill.description or rskill.id
     staleness = opts.staleness if opts.staleness is not None else 3.0 / opts.fps
-    driver = f"teleop:{opts.teleop}" if opts.teleop is not None else f"policy:{rskill.id}"
+    driver = f"policy:{rskill.id}"
+    if opts.teleop is not None:
+        driver = f"teleop:{getattr(policy, 'type_name', opts.teleop)}"  # a leader arm: its lerobot type
     config = LoopConfig(opts.fps, task, opts.max_steps, staleness, driver=driver)
     return FixedRateLoop(hal, policy, safety, bridge, operator, config)
 
