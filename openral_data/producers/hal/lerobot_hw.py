@@ -106,18 +106,29 @@ def feature_keys(names: list[str], features: dict[str, Any], source: str, field:
     return keys
 
 
+def stream_source(spec: LerobotDevice) -> bool:
+    """An OpenCV camera reading a video file or a network URL (not a device: an index or /dev/...)."""
+    where = spec.get("index_or_path")
+    return spec["type"] == "opencv" and isinstance(where, str) and not where.startswith("/dev/")
+
+
 def make_cameras(hardware: HardwareConfig, source: str) -> dict[str, LerobotCamera]:
-    """The manifest's cameras, each behind its own capture thread (connected when the HAL connects)."""
+    """The manifest's cameras, each behind its own capture thread (connected when the HAL connects).
+
+    `width`/`height` are required: the dataset's video size. A file or a URL has its own size and rate, which
+    OpenCV cannot set: for those they are not passed to lerobot, and each frame is checked against them."""
     from lerobot.cameras import make_cameras_from_configs
 
     out = {}
     for name, spec in hardware.cameras.items():
         field = f"hardware.cameras.{name}"
-        config = lerobot_config("cameras", spec, source, field)
-        if not config.width or not config.height:
+        width, height = spec.get("width"), spec.get("height")
+        if not isinstance(width, int) or not isinstance(height, int) or width < 1 or height < 1:
             raise ConfigError(f"{source}: {field}: width and height are required (the dataset's video size)")
+        given = {k: v for k, v in spec.items() if not stream_source(spec) or k not in ("width", "height", "fps")}
+        config = lerobot_config("cameras", given, source, field)
         device = make_cameras_from_configs({name: config})[name]
-        out[name] = LerobotCamera(name, CameraShape(int(config.height), int(config.width)), device, source, field)
+        out[name] = LerobotCamera(name, CameraShape(height, width), device, source, field)
     return out
 
 

@@ -126,7 +126,13 @@ class LerobotCamera(ThreadedCamera):
         self.first_frame_timeout = first_frame_timeout
 
     def _read(self) -> Image:
-        frame = np.asarray(self.device.read())
+        while True:
+            try:
+                frame = np.asarray(self.device.read())
+                break
+            except TimeoutError:  # lerobot's 10 s wait ran out: a long stall; the loop counts the stale ticks
+                if self._stop.is_set():
+                    raise
         if frame.shape != (self.shape.height, self.shape.width, 3) or frame.dtype != np.uint8:
             raise HalError(
                 f"{self.source}: {self.field}: a frame of {frame.shape} {frame.dtype}, the config says "
