@@ -173,3 +173,20 @@ def test_leader_failures_are_one_line_before_anything_is_written(
     )
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "hardware.port: cannot connect" in r.stderr, r.stderr
     assert not (tmp_path / "a").exists() and not b.exists()
+
+
+@pytest.mark.parametrize("robot", ["so100_follower", "so101_follower", "koch_follower"])
+def test_every_shipped_hardware_manifest_builds_lerobots_configs(robot: str) -> None:
+    """Each shipped manifest's robot and teleoperator are lerobot configs lerobot itself accepts (the Koch pair is
+    not tested further: no Dynamixel bus simulator here)."""
+    from openral_data.producers.hal.lerobot_hw import lerobot_config
+    from openral_data.producers.hal.lerobot_hw import registry as lerobot_types
+    from openral_data.runtime import registry
+
+    hardware = registry.ROBOTS[robot].hardware
+    assert hardware is not None and hardware.teleop is not None
+    follower = lerobot_config("robots", hardware.robot_config(), "robot.yaml", "hardware")
+    leader = lerobot_config("teleoperators", hardware.teleop, "robot.yaml", "hardware.teleop")
+    # (lerobot registers so100_/so101_ names for one SO config class: compare classes, not `.type`)
+    assert type(follower) is lerobot_types("robots").get_choice_class(hardware.robot_config()["type"])
+    assert type(leader) is lerobot_types("teleoperators").get_choice_class(hardware.teleop["type"])
