@@ -9,6 +9,7 @@ calibration; the follower's state must follow; lerobot 0.6.1 must load the datas
 
 from __future__ import annotations
 
+import json
 import math
 import threading
 import time
@@ -117,6 +118,10 @@ def test_leader_drives_the_follower_over_two_simulated_buses(
     assert np.abs(state[1:] - state[:-1]).max() > 0.5
     info = episode_infos(out)[0]
     assert info["operator"] == "teleop:so101_leader" and info["hal"]["verdict"] == "success"
+
+    sql = "SELECT operator FROM episodes"  # who drove, queryable
+    r = run_inproc("stats", str(out), "--sql", sql, "--format", "json")
+    assert r.returncode == 0 and json.loads(r.stdout)["sql"] == [{"operator": "teleop:so101_leader"}], r.stdout
 
     loaded = loaded_episodes(out)  # lerobot 0.6.1's own loader: frame-exact
     assert np.array_equal(np.array([f["action"] for f in loaded[0]], dtype=np.float32), action.astype(np.float32))
