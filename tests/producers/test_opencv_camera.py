@@ -118,6 +118,7 @@ def feed(path: Path, data: bytes) -> threading.Thread:
     return thread
 
 
+@pytest.mark.slow
 def test_a_video_file_through_lerobots_opencv_camera(tmp_path: Path) -> None:
     """The file written by PyAV, fed at its frame rate through a named pipe: lerobot's OpenCVCamera reads a
     plain file as fast as it decodes (its thread does not pace files), so a file alone is no live camera."""
