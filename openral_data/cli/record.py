@@ -53,6 +53,10 @@ def record(
     safety: Annotated[str | None, typer.Option(help="--hal: clamp or refuse (default: the manifest's)")] = None,
     staleness: Annotated[float | None, typer.Option(help="--hal: camera sample age limit, s (3 periods)")] = None,
     port: Annotated[str | None, typer.Option(help="--hal --mode real: serial port (default: the manifest's)")] = None,
+    teleop: Annotated[
+        str | None,
+        typer.Option(help="a person drives: keyboard (the terminal, a sim scene) or leader (hardware.teleop)"),
+    ] = None,
     resume: Annotated[
         bool, typer.Option("--resume", help="continue the recording in --out (its settings; --n-episodes = total)")
     ] = False,
@@ -95,6 +99,16 @@ def record(
     from openral_data.cli.encoder_flags import video_settings
 
     video = video_settings(codec, crf, gop, preset, pix_fmt, encoder_threads)  # a bad combination: before anything
+    if teleop == "leader" and hal is None:
+        raise UsageError("--teleop leader: needs --hal ROBOT_ID (the robot whose manifest names the leader)")
+    if teleop is not None and hal is None:
+        from openral_data.record.hal import teleop_scene
+
+        hal, rskill, scene_fps, scene_steps = teleop_scene(scene, robot, rskill)
+        fps = fps if "fps" in given else scene_fps
+        max_steps = max_steps if max_steps is not None else scene_steps
+        operator = operator if "operator" in given else "keyboard"
+        given = given | {"scene"}
     if hal is not None and (save_video or save_video_dir is not None):
         raise UsageError("--save-video/--save-video-dir: not available with --hal (a scene recording only)")
     view_given = bool(given & {"view", "view_port", "view_address"})
@@ -116,7 +130,7 @@ def record(
             )
         hal_opts = HalRecordOptions(
             robot=hal,
-            rskill=rskill or DEFAULT_RSKILL,
+            rskill=rskill or (None if teleop == "leader" else DEFAULT_RSKILL),
             mode=cast(Mode, mode),  # checked by HalRecordOptions
             fps=fps,
             scene=scene if "scene" in given else None,
@@ -133,6 +147,7 @@ def record(
             safety=cast(SafetyMode | None, safety),  # checked by HalRecordOptions
             staleness=staleness,
             port=port,
+            teleop=teleop,
         )
         run_hal_record(hal_opts, json)
         return

@@ -207,7 +207,8 @@ def _register_tasks(con: duckdb.DuckDBPyConnection, datasets: Sequence[DatasetSo
 _EMPTY_EPISODES = (
     "SELECT NULL::VARCHAR AS dataset, NULL::BIGINT AS episode_index, NULL::BIGINT AS length, "
     "NULL::DOUBLE AS duration_s, NULL::VARCHAR[] AS tasks, NULL::VARCHAR AS task, NULL::BOOLEAN AS success, "
-    "NULL::BIGINT AS seed, NULL::VARCHAR AS scene, NULL::VARCHAR AS rskill, NULL::VARCHAR AS robot LIMIT 0"
+    "NULL::BIGINT AS seed, NULL::VARCHAR AS scene, NULL::VARCHAR AS rskill, NULL::VARCHAR AS robot, "
+    "NULL::VARCHAR AS operator LIMIT 0"
 )
 
 
@@ -249,11 +250,14 @@ def _episodes_sql(ds: DatasetSource, success_view: str) -> str:
         if {"dataset_from_index", "dataset_to_index"} <= cols
         else "NULL::BIGINT AS dataset_from_index, NULL::BIGINT AS dataset_to_index"
     )
+    # who drove (record --hal: `operator` in the episode's JSON report): policy:<rskill>, teleop:<device>
+    info = '"openral.episode_info"'
+    operator = f"json_extract_string(e.{info}, '$.operator')" if "openral.episode_info" in cols else "NULL"
     return (
         f"SELECT {lit(ds.label)} AS dataset, episode_index, e.length, e.length / {ds.fps}::DOUBLE AS duration_s, "
         f"{tasks} AS tasks, {tasks}[1] AS task, {success} AS success, {seed} AS seed, "
         f"{lit(ds.scene)}::VARCHAR AS scene, {lit(ds.rskill)}::VARCHAR AS rskill, {lit(ds.robot)}::VARCHAR AS robot, "
-        f"{span} FROM {episodes_from(ds)} e {join}"
+        f"{span}, {operator}::VARCHAR AS operator FROM {episodes_from(ds)} e {join}"
     )
 
 

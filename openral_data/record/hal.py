@@ -14,12 +14,13 @@ from openral_data import manifests
 from openral_data.errors import CompatibilityError, ConfigError, UsageError
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
 from openral_data.formats.lerobot_v3.encoder import Codec, with_codec
-from openral_data.formats.lerobot_v3.provenance import HalOrigin, Origin, SafetyRecord
+from openral_data.formats.lerobot_v3.provenance import HalOrigin, Origin, Recorded, SafetyRecord
 from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.policies.base import PolicyAdapter
 from openral_data.producers.hal.base import HalBase
 from openral_data.producers.hal.operator import Command, KeyboardOperator, Operator, ScriptedOperator, parse_script
 from openral_data.producers.hal.safety import SafetyFilter
+from openral_data.producers.hal.teleop import KeyboardTeleop, tty_status
 from openral_data.producers.hal.twin import MujocoTwinHal, SceneHal
 from openral_data.record.hal_loop import EpisodeEnd, EpisodeReport, FixedRateLoop, LoopConfig, frame_extras
 from openral_data.record.options import check_run_numbers
@@ -38,13 +39,14 @@ from openral_data.schemas.rskill import RSkillManifest
 from openral_data.types import EpisodeRecord, ProducerSpec, Sink
 
 Mode = Literal["sim", "real"]
+TELEOP_DEVICES = ("keyboard", "leader")  # leader: the manifest's hardware.teleop (a lerobot teleoperator)
 JOINT_REPRESENTATIONS = ("joint_positions_gripper", "joint_positions")
 
 
 @dataclass(frozen=True)
 class HalRecordOptions:
     robot: str
-    rskill: str
+    rskill: str | None  # None: with --teleop leader, the robot manifest's own state/action (`teleop_rskill`)
     mode: Mode = "sim"
     fps: int = 20
     scene: str | None = None  # sim mode: drive this sim scene through the HAL instead of the bare twin
@@ -61,6 +63,7 @@ class HalRecordOptions:
     staleness: float | None = None  # camera sample age limit (s); default: 3 periods
     port: str | None = None  # real mode: override the manifest's hardware.port
     video: VideoSettings = field(default_factory=VideoSettings)  # the encoder settings; `codec` is its shorthand
+    teleop: str | None = None  # a person drives instead of the rSkill's policy: keyboard, leader
 
     def __post_init__(self) -> None:
         """`mode`, `safety` and the output settings are checked here, once, by whoever builds the options (the
@@ -72,6 +75,12 @@ class HalRecordOptions:
             raise UsageError(f"--mode: {self.mode!r}; valid: {', '.join(get_args(Mode))}")
         if self.safety is not None and self.safety not in get_args(SafetyMode):
             raise UsageError(f"--safety: {self.safety!r}; valid: {', '.join(get_args(SafetyMode))}")
+        if self.teleop is not None and self.teleop not in TELEOP_DEVICES:
+            raise UsageError(f"--teleop: {self.teleop!r}; valid: {', '.join(TELEOP_DEVICES)}")
+        if self.teleop == "keyboard" and self.operator != "keyboard":
+            raise UsageError("--teleop keyboard: the operator keys come from the same terminal (--operator keyboard)")
+        if self.rskill is None and self.teleop != "leader":
+            raise UsageError("--rskill: needed (only --teleop leader records without one: the robot's own contract)")
 
 
 @dataclass
@@ -127,9 +136,9 @@ class HalRecordSummary:
         }
 
 
-def make_operator(spec: str) -> Operator:
+def make_operator(spec: str, listener: Callable[[str], None] | None = None) -> Operator:
     if spec == "keyboard":
-        return KeyboardOperator()
+        return KeyboardOperator(listener=listener)
     if spec == "auto":
         return ScriptedOperator()
     return ScriptedOperator(parse_script(spec))
@@ -146,7 +155,7 @@ def build_hal(opts: HalRecordOptions, robot: RobotManifest, rskill: RSkillManife
     if opts.mode == "real":
         if opts.scene is not None:
             raise ConfigError("--scene: only with --mode sim (a real robot has no scene to simulate)")
-        from openral_data.producers.hal.so100 import make_hardware_hal
+        from openral_data.producers.hal.lerobot_hw import make_hardware_hal
 
         return make_hardware_hal(robot, robot_src, port=opts.port)
     if opts.scene is not None:
@@ -169,6 +178,21 @@ def build_hal(opts: HalRecordOptions, robot: RobotManifest, rskill: RSkillManife
     return MujocoTwinHal(robot)
 
 
+def teleop_scene(scene: str, robot: str | None, rskill: str | None) -> tuple[str, str, int, int]:
+    """`record --scene S --teleop DEVICE` is `record --hal ROBOT --scene S` with a person driving: the robot
+    (`--robot`, else the scene's), the rSkill whose contract the person's actions keep (`--rskill`, else the
+    scene's default), the scene's fps and the task's step limit."""
+    from openral_data.record.options import rskill_ref
+    from openral_data.schemas.scene import load_recordable_scene
+
+    path = registry.resolve_scene_path(scene)
+    loaded = load_recordable_scene(path)
+    robot_id = robot or loaded.scene.robot
+    if robot_id is None:
+        raise ConfigError(f"{path}: scene.robot: not set; pass --robot (valid: {', '.join(registry.robot_ids())})")
+    return robot_id, rskill_ref(rskill, loaded), loaded.scene.fps, loaded.task.max_steps
+
+
 def check_hal(
     hal: HalBase, robot: RobotManifest, rskill: RSkillManifest, rskill_src: str, video: VideoSettings
 ) -> None:
@@ -181,6 +205,7 @@ def check_hal(
     check_compatibility(robot, rskill, spec, rskill_source=rskill_src, scene_source=f"robot {robot.name}", video=video)
 
 
+STATUS_FD = 2  # the teleoperator's status lines go to the terminal on stderr
 Notify = Callable[[str], None]  # one line for the operator: which episode, what happened to it
 
 
@@ -189,15 +214,26 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
     run = _resolve(opts)
     held = claim(run.out, "openral-data record --hal", resume=False)  # one writer, before any byte goes into `out`
     try:
-        operator = make_operator(opts.operator)
+        keys = None
+        if opts.teleop == "keyboard":
+            keys = KeyboardTeleop(run.rskill, run.rskill_src, show=tty_status(STATUS_FD))
+        operator = make_operator(opts.operator, keys.feed if keys is not None else None)
+        leader = None
         try:
+            if opts.teleop == "leader":
+                from openral_data.producers.hal.leader import LeaderTeleop
+
+                leader = LeaderTeleop(run.robot, str(manifests.robot_file(run.robot.name)))
             hal = build_hal(opts, run.robot, run.rskill, run.rskill_src)
             try:
-                loop = _open(opts, run, hal, run.make_policy(run.rskill), operator)
+                policy = keys or leader or run.make_policy(run.rskill)
+                loop = _open(opts, run, hal, policy, operator)
                 return _episodes(opts, run.out, loop, notify)
             finally:
                 hal.close()
         finally:
+            if leader is not None:
+                leader.close()
             operator.close()
     finally:
         held.release()  # what was recorded stays; empty folders the claim made go
@@ -220,11 +256,36 @@ def _resolve(opts: HalRecordOptions) -> _Resolved:
     if opts.staleness is not None and not 0 < opts.staleness < math.inf:
         raise UsageError(f"--staleness must be > 0 and finite, got {opts.staleness}")
     robot = registry.ROBOTS[opts.robot]
-    rskill, rskill_path = registry.resolve_rskill(opts.rskill)
-    rskill_src = str(rskill_path)
-    make_policy = registry.policy_factory(rskill, rskill_src)
+    if opts.rskill is None:  # --teleop leader: the leader speaks the robot's own joints
+        rskill, rskill_src = teleop_rskill(robot), str(manifests.robot_file(robot.name))
+        make_policy: registry.PolicyFactory = _no_policy
+    else:
+        rskill, rskill_path = registry.resolve_rskill(opts.rskill)
+        rskill_src = str(rskill_path)
+        make_policy = registry.policy_factory(rskill, rskill_src)
     out = opts.out if opts.out is not None else fresh_out(f"hal-{robot.name}--{rskill.id}")
     return _Resolved(robot, rskill, rskill_src, make_policy, out)
+
+
+def teleop_rskill(robot: RobotManifest) -> RSkillManifest:
+    """The contract of a leader arm driving `robot`: the manifest's own state and action (joint positions)."""
+    gripper = any(j.type == "gripper" for j in robot.joints)
+    rep = "joint_positions_gripper" if gripper else "joint_positions"
+    state, action = robot.observation.state, robot.action
+    return RSkillManifest.model_validate(
+        {
+            "id": f"teleop-{robot.name}",
+            "description": f"a person drives {robot.name} with its leader arm",
+            "policy": "teleop",
+            "embodiment_tags": robot.embodiment_tags or [robot.name],
+            "state_contract": {"dim": state.dim, "names": state.names, "representation": rep},
+            "action_contract": {"dim": action.dim, "names": action.names, "representation": rep},
+        }
+    )
+
+
+def _no_policy(rskill: RSkillManifest) -> PolicyAdapter:
+    raise ConfigError(f"rskill {rskill.id}: a teleoperator drives; there is no policy to load")
 
 
 def _open(
@@ -251,6 +312,7 @@ def _open(
         fps=opts.fps,
         cameras={n: hal.cameras[n].shape for n in cameras},
         origin=Origin(
+            scene=_recorded_scene(opts.scene),  # a scene behind the HAL replays as that scene (`replay`)
             hal=HalOrigin(robot.name, opts.mode, type(hal).__name__, opts.scene),
             safety=SafetyRecord(safety.mode, robot.safety.model_dump(mode="json")),
         ),
@@ -258,6 +320,9 @@ def _open(
         frame_extras=frame_extras(cameras),
     )
     hal.connect()  # a robot that cannot be reached fails here, before anything is written
+    connect = getattr(policy, "connect", None)  # a leader arm: the same, before anything is written
+    if callable(connect):
+        connect()
     sinks: list[Sink] = make_sinks(
         run.out,
         schema,
@@ -269,7 +334,20 @@ def _open(
     bridge = DatasetBridge(schema, sinks)
     task = hal.task if hal.task is not None else rskill.description or rskill.id
     staleness = opts.staleness if opts.staleness is not None else 3.0 / opts.fps
-    return FixedRateLoop(hal, policy, safety, bridge, operator, LoopConfig(opts.fps, task, opts.max_steps, staleness))
+    driver = f"policy:{rskill.id}"
+    if opts.teleop is not None:
+        driver = f"teleop:{getattr(policy, 'type_name', opts.teleop)}"  # a leader arm: its lerobot type
+    config = LoopConfig(opts.fps, task, opts.max_steps, staleness, driver=driver)
+    return FixedRateLoop(hal, policy, safety, bridge, operator, config)
+
+
+def _recorded_scene(scene: str | None) -> Recorded | None:
+    if scene is None:
+        return None
+    from openral_data.schemas.scene import load_recordable_scene
+
+    path = registry.resolve_scene_path(scene)
+    return Recorded(str(path), load_recordable_scene(path).model_dump(mode="json"))
 
 
 def _episodes(opts: HalRecordOptions, out: Path, loop: FixedRateLoop, notify: Notify | None) -> HalRecordSummary:

@@ -114,6 +114,7 @@ class LoopConfig:
     sleep: Callable[[float], None] = time.sleep
     check_stop: Callable[[], None] | None = None  # raises (KeyboardInterrupt) to stop between ticks
     stale_abort: float = 2.0  # seconds of nothing but stale ticks: a sensor is dead, the episode is abandoned
+    driver: str = "script"  # who drove (`operator` in the episode's record): policy:<rskill>, teleop:<device>
 
 
 class FixedRateLoop:
@@ -320,5 +321,5 @@ class FixedRateLoop:
             pending.obs, pending.action, reward=pending.reward, done=True,
             success=bool(success) if success is not None else pending.success, extras=pending.extras,
         )  # fmt: skip
-        record = self.bridge.end_episode(success, info={"hal": rep.to_json()})[0]
+        record = self.bridge.end_episode(success, info={"hal": rep.to_json(), "operator": self.config.driver})[0]
         return EpisodeEnd.KEPT, rep, record

@@ -14,14 +14,13 @@ import yaml
 
 # ConfigError raises are matched by message on purpose: the file and field it names are the point
 from openral_data.errors import ConfigError, HalError
-from openral_data.producers.hal.so100 import MOTORS
 from openral_data.record.hal import HalRecordOptions, record_hal
 from openral_data.replay.actions import ActionReplayer
 from openral_data.replay.rebuild import SceneView, rebuild
 from openral_data.replay.recorded import RecordedDataset
 from openral_data.types import Observation, StepResult
 from tests.support.cli import run_cli
-from tests.support.feetech_bus import SimulatedFeetechBus
+from tests.support.feetech_bus import SimulatedFeetechBus, write_so_calibration
 from tests.support.hal import episode_infos, frames_table
 from tests.support.mcap import check_bag
 from tests.support.timing import TIMED
@@ -93,16 +92,7 @@ def test_sim_scene_behind_the_hal(tmp_path: Path) -> None:
 
 def _so_project(project: Path, robot: str) -> Path:
     """The SO manifest pointing at a calibration file like `lerobot-calibrate` writes."""
-    cal = project / "robots" / robot / "calibration"
-    cal.mkdir()
-    (cal / f"{robot}.json").write_text(
-        json.dumps(
-            {
-                m: {"id": i + 1, "drive_mode": 0, "homing_offset": 0, "range_min": 1024, "range_max": 3072}
-                for i, m in enumerate(MOTORS)
-            }
-        )
-    )
+    write_so_calibration(project / "robots" / robot / "calibration" / f"{robot}.json")
     path = project / "robots" / robot / "robot.yaml"
     manifest = yaml.safe_load(path.read_text())
     manifest["hardware"]["calibration_dir"] = "calibration"

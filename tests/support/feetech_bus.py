@@ -15,15 +15,18 @@ off for longer than the SDK's packet timeouts (≈ 34–50 ms). While a bus is o
 
 from __future__ import annotations
 
+import json
 import os
 import select
 import threading
 import time
 import tty
+from pathlib import Path
 from typing import Any
 
 from scservo_sdk.port_handler import PortHandler
 
+SO_MOTORS = ("shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll", "gripper")  # ids 1..6
 TIMEOUT_SLACK_MS = 1000.0
 PING, READ, WRITE, SYNC_READ, SYNC_WRITE = 0x01, 0x02, 0x03, 0x82, 0x83
 BROADCAST = 0xFE
@@ -96,6 +99,7 @@ class SimulatedFeetechBus:
         self._stop = threading.Event()
         self._buf = bytearray()
         self.packets = 0
+        self.position_reads: list[dict[int, int]] = []  # every SYNC_READ of Present_Position: id -> value sent
         self._thread = threading.Thread(target=self._run, name="feetech-sim", daemon=True)
         self._original_timeout_check = PortHandler.isPacketTimeout
         PortHandler.isPacketTimeout = _patient_is_packet_timeout  # type: ignore[method-assign]
@@ -162,6 +166,8 @@ class SimulatedFeetechBus:
             return
         if inst == SYNC_READ:
             addr, n = params[0], params[1]
+            if addr == ADDR["present"]:
+                self.position_reads.append({i: self.servos[i].get16("present") for i in params[2:] if i in self.servos})
             self._reply(
                 b"".join(
                     _packet(i, 0, bytes(self.servos[i].regs[addr : addr + n])) for i in params[2:] if i in self.servos
@@ -183,6 +189,17 @@ class SimulatedFeetechBus:
                 servo.position = float(servo.get16("present"))
             servo.writes += 1
             self._reply(_packet(sid, 0, b""))
+
+
+def write_so_calibration(path: Path, range_min: int = 1024, range_max: int = 3072) -> Path:
+    """A calibration file like `lerobot-calibrate` writes for an SO arm (follower or leader) on this bus."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    cal = {
+        m: {"id": i + 1, "drive_mode": 0, "homing_offset": 0, "range_min": range_min, "range_max": range_max}
+        for i, m in enumerate(SO_MOTORS)
+    }
+    path.write_text(json.dumps(cal))
+    return path
 
 
 def _patient_is_packet_timeout(self: Any) -> bool:

@@ -69,14 +69,20 @@ class Operator(Protocol):
 
 
 class KeyboardOperator:
-    """Single keypresses from a terminal file descriptor (default: stdin)."""
+    """Single keypresses from a terminal file descriptor (default: stdin).
+
+    With a `listener` (a teleoperation device, producers/hal/teleop.py) the keys that are no operator command
+    go to it: during an episode every key waiting at a tick is read, commands act, the rest drive the robot.
+    """
 
     interactive = True
 
-    def __init__(self, fd: int | None = None) -> None:
+    def __init__(self, fd: int | None = None, listener: Callable[[str], None] | None = None) -> None:
         self.fd = sys.stdin.fileno() if fd is None else fd
         if not os.isatty(self.fd):
             raise UsageError("--operator keyboard: stdin is not a terminal (use --operator auto or a script)")
+        self.listener = listener
+        self._escape = 0  # characters of an escape sequence still to come
         self._saved = termios.tcgetattr(self.fd)
         tty.setcbreak(self.fd)
 
@@ -84,8 +90,14 @@ class KeyboardOperator:
         ready, _, _ = select.select([self.fd], [], [], timeout)
         if not ready:
             return None
-        ch = os.read(self.fd, 1).decode(errors="replace").lower()
-        return KEYS.get(ch)
+        ch = os.read(self.fd, 1).decode(errors="replace")
+        # an escape sequence (ESC [ A..D: the arrow keys) is no command, whatever its letters
+        in_escape = bool(self._escape) or ch == "\x1b"
+        self._escape = self._escape - 1 if self._escape else 2 if ch == "\x1b" else 0
+        cmd = None if in_escape else KEYS.get(ch.lower())
+        if cmd is None and self.listener is not None:
+            self.listener(ch)
+        return cmd
 
     def wait_start(self, episode: int, check: Callable[[], None] = _nothing) -> Command:
         while True:
@@ -95,8 +107,13 @@ class KeyboardOperator:
                 return cmd
 
     def poll(self, episode: int, frame: int) -> Command | None:
-        cmd = self._key(0.0)
-        return None if cmd is Command.START else cmd
+        while True:  # every key waiting: a teleoperator types faster than one key per tick
+            ready, _, _ = select.select([self.fd], [], [], 0.0)
+            if not ready:
+                return None
+            cmd = self._key(0.0)
+            if cmd is not None and cmd is not Command.START:
+                return cmd
 
     def at_end(self) -> Command | None:
         return None

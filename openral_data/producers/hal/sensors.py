@@ -13,11 +13,12 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
+from openral_data.errors import HalError
 from openral_data.types import CameraShape
 
 Image = npt.NDArray[np.uint8]
@@ -107,3 +108,59 @@ class ThreadedCamera:
     def latest(self) -> CameraSample | None:
         with self._lock:
             return self._latest
+
+
+class LerobotCamera(ThreadedCamera):
+    """A `lerobot.cameras` device (OpenCV: a device index or path, a video file, a network URL; RealSense; ZMQ)
+    read on our own capture thread: `read()` blocks until the device's next frame, and the sample is stamped
+    when it returned. Starting connects the device and waits up to `first_frame_timeout` seconds for a first
+    frame, so a camera that never delivers fails before anything is recorded."""
+
+    def __init__(
+        self, name: str, shape: CameraShape, device: Any, source: str, field: str, first_frame_timeout: float = 5.0
+    ) -> None:
+        super().__init__(name, shape, self._read)
+        self.device = device
+        self.source = source
+        self.field = field
+        self.first_frame_timeout = first_frame_timeout
+
+    def _read(self) -> Image:
+        while True:
+            try:
+                frame = np.asarray(self.device.read())
+                break
+            except TimeoutError:  # lerobot's 10 s wait ran out: a long stall; the loop counts the stale ticks
+                if self._stop.is_set():
+                    raise
+        if frame.shape != (self.shape.height, self.shape.width, 3) or frame.dtype != np.uint8:
+            raise HalError(
+                f"{self.source}: {self.field}: a frame of {frame.shape} {frame.dtype}, the config says "
+                f"{self.shape.height}x{self.shape.width} RGB uint8",
+                code="hal.camera",
+            )
+        return frame
+
+    def start(self) -> None:
+        if self._thread is not None:
+            return
+        try:
+            self.device.connect()
+        except (OSError, ConnectionError, RuntimeError, TimeoutError, ValueError) as exc:
+            raise HalError(f"{self.source}: {self.field}: cannot open the camera: {exc}", code="hal.camera") from None
+        super().start()
+        end = time.monotonic() + self.first_frame_timeout
+        while self.latest() is None:
+            if self.error is not None or time.monotonic() > end:
+                why = f": {self.error}" if self.error is not None else ""
+                self.stop()
+                raise HalError(
+                    f"{self.source}: {self.field}: no frame within {self.first_frame_timeout:.0f} s{why}",
+                    code="hal.camera",
+                )
+            time.sleep(0.01)
+
+    def stop(self) -> None:
+        super().stop()
+        if getattr(self.device, "is_connected", False):
+            self.device.disconnect()

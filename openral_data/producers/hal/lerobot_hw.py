@@ -1,0 +1,189 @@
+"""lerobot 0.6.1's hardware classes behind the HAL, for any robot, camera and teleoperator it registers.
+
+A manifest's `hardware:` block names lerobot types and their configs (schemas/hal.py); this module builds them
+with lerobot's own registries and factories (`RobotConfig.get_choice_class(type)(**fields)`,
+`make_robot_from_config`, `make_cameras_from_configs`, `make_teleoperator_from_config`): no per-robot code.
+Joint values are read and written through the lerobot feature keys of the manifest's state/action names
+(`<name>` or `<name>.pos`). What stays ours: the fixed-rate loop, stamps, staleness, safety filter, e-stop.
+
+Unattended recording never starts lerobot's interactive calibration: a device with a motor bus needs its
+calibration file (`lerobot-calibrate` writes it) and motors that agree with it, else connecting fails with one
+line. Cameras are not given to the robot's config (lerobot would read them inside `get_observation`): each
+runs in its own capture thread with its own stamps (`sensors.ThreadedCamera`).
+"""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+from functools import cache
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from openral_data.errors import ConfigError, HalError
+from openral_data.producers.hal.base import HalBase, JointCommand, RobotState, monotonic
+from openral_data.producers.hal.sensors import LerobotCamera
+from openral_data.schemas.hal import HardwareConfig, LerobotDevice
+from openral_data.schemas.robot import RobotManifest
+from openral_data.types import CameraShape
+
+KINDS = {"robots": "RobotConfig", "teleoperators": "TeleoperatorConfig", "cameras": "CameraConfig"}
+CONNECT_ERRORS = (OSError, ConnectionError, RuntimeError, TimeoutError)
+
+
+@cache
+def registry(kind: str) -> Any:
+    """lerobot's config base class of `kind`, with every config module of its sub-packages imported (they
+    register their types; they are plain dataclasses, no device SDK is imported)."""
+    try:
+        package = importlib.import_module(f"lerobot.{kind}")
+    except ImportError as exc:
+        raise ConfigError(f"hardware: lerobot.{kind} cannot be imported: {exc}") from None
+    for sub in pkgutil.iter_modules(package.__path__):
+        if not sub.ispkg:
+            continue
+        for mod in pkgutil.iter_modules([str(Path(package.__path__[0]) / sub.name)]):
+            if mod.name.startswith("config"):
+                try:
+                    importlib.import_module(f"lerobot.{kind}.{sub.name}.{mod.name}")
+                except ImportError:  # an optional SDK the config itself needs: that type stays unknown
+                    continue
+    return getattr(package, KINDS[kind])
+
+
+def lerobot_config(kind: str, spec: LerobotDevice, source: str, field: str) -> Any:
+    """lerobot's config object of `spec["type"]` (a `calibration_dir` relative to the manifest `source`)."""
+    base = registry(kind)
+    name = spec["type"]
+    known = base.get_known_choices()
+    if name not in known:
+        raise ConfigError(f"{source}: {field}.type: {name!r} is not a lerobot {kind} type; valid: {', '.join(known)}")
+    fields = {k: v for k, v in spec.items() if k != "type" and v is not None}
+    if "calibration_dir" in fields:
+        cal = Path(str(fields["calibration_dir"])).expanduser()
+        fields["calibration_dir"] = cal if cal.is_absolute() else Path(source).parent / cal
+    try:
+        return known[name](**fields)
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(f"{source}: {field}: {exc}") from None
+
+
+def connect_device(device: Any, source: str, field: str, type_name: str) -> None:
+    """`device.connect(calibrate=False)` with the calibration rules above; one line per failure."""
+    bus = getattr(device, "bus", None)
+    path = getattr(device, "calibration_fpath", None)
+    if bus is not None and path is not None and not Path(path).is_file():
+        raise ConfigError(
+            f"{source}: {field}.calibration_dir: no calibration {path} (run: lerobot-calibrate "
+            f"--{'teleop' if 'teleop' in field else 'robot'}.type={type_name} --...port=... --...id={device.id})"
+        )
+    port = getattr(device.config, "port", None)
+    try:
+        device.connect(calibrate=False)
+    except CONNECT_ERRORS as exc:
+        raise HalError(f"{source}: {field}.port: cannot connect to {port}: {exc}", code="hal.connect") from None
+    if bus is not None and not device.is_calibrated:
+        device.disconnect()
+        raise HalError(
+            f"{source}: {field}.calibration_dir: the motors' calibration differs from {path} "
+            "(recalibrate with lerobot-calibrate, or point calibration_dir at this arm's file)",
+            code="hal.calibration",
+        )
+
+
+def feature_keys(names: list[str], features: dict[str, Any], source: str, field: str) -> list[str]:
+    """The lerobot feature key of each manifest name: the name itself, or `<name>.pos`."""
+    keys = []
+    for n in names:
+        key = n if n in features else f"{n}.pos"
+        if key not in features:
+            raise ConfigError(
+                f"{source}: {field}: {n!r} is none of the lerobot device's features ({', '.join(features)})"
+            )
+        keys.append(key)
+    return keys
+
+
+def stream_source(spec: LerobotDevice) -> bool:
+    """An OpenCV camera reading a video file or a network URL (not a device: an index or /dev/...)."""
+    where = spec.get("index_or_path")
+    return spec["type"] == "opencv" and isinstance(where, str) and not where.startswith("/dev/")
+
+
+def make_cameras(hardware: HardwareConfig, source: str) -> dict[str, LerobotCamera]:
+    """The manifest's cameras, each behind its own capture thread (connected when the HAL connects).
+
+    `width`/`height` are required: the dataset's video size. A file or a URL has its own size and rate, which
+    OpenCV cannot set: for those they are not passed to lerobot, and each frame is checked against them."""
+    from lerobot.cameras import make_cameras_from_configs
+
+    out = {}
+    for name, spec in hardware.cameras.items():
+        field = f"hardware.cameras.{name}"
+        width, height = spec.get("width"), spec.get("height")
+        if not isinstance(width, int) or not isinstance(height, int) or width < 1 or height < 1:
+            raise ConfigError(f"{source}: {field}: width and height are required (the dataset's video size)")
+        given = {k: v for k, v in spec.items() if not stream_source(spec) or k not in ("width", "height", "fps")}
+        config = lerobot_config("cameras", given, source, field)
+        device = make_cameras_from_configs({name: config})[name]
+        out[name] = LerobotCamera(name, CameraShape(height, width), device, source, field)
+    return out
+
+
+class LerobotHal(HalBase):
+    """Any `lerobot.robots` robot; the manifest's state/action names pick its joint features."""
+
+    def __init__(self, robot: RobotManifest, hardware: HardwareConfig, source: str, port: str | None = None) -> None:
+        super().__init__(robot)
+        self.source = source
+        self.hardware = hardware
+        spec = hardware.robot_config()
+        if port is not None:
+            spec["port"] = port
+        self.type_name = str(spec["type"])
+        self.field = "hardware.robot" if hardware.robot is not None else "hardware"
+        config = lerobot_config("robots", spec, source, self.field)
+        try:
+            from lerobot.robots import make_robot_from_config
+
+            self.driver: Any = make_robot_from_config(config)
+        except ImportError as exc:  # the device SDK comes with a lerobot extra (feetech, dynamixel, ...)
+            raise ConfigError(
+                f"{source}: {self.field}.type: {self.type_name} needs its lerobot extra (e.g. uv sync --extra "
+                f"feetech): {exc}"
+            ) from None
+        names = robot.observation.state.names or []
+        self.state_keys = feature_keys(names, self.driver.observation_features, source, "observation.state.names")
+        action_names = robot.action.names or []
+        self.action_keys = feature_keys(action_names, self.driver.action_features, source, "action.names")
+        self.cameras.update(make_cameras(hardware, source))
+
+    def _connect(self) -> None:
+        connect_device(self.driver, self.source, self.field, self.type_name)
+
+    def _disconnect(self) -> None:
+        if self.driver.is_connected:
+            self.driver.disconnect()
+
+    def _read_state(self) -> RobotState:
+        before = monotonic()
+        obs = self.driver.get_observation()
+        stamp = (before + monotonic()) / 2  # the middle of the bus read
+        return RobotState(np.array([obs[k] for k in self.state_keys], dtype=np.float32), stamp)
+
+    def _send(self, command: JointCommand) -> JointCommand:
+        goal = {k: float(v) for k, v in zip(self.action_keys, command.positions, strict=True)}
+        sent = self.driver.send_action(goal)
+        return JointCommand(np.array([sent[k] for k in self.action_keys], dtype=np.float32))
+
+    def begin_episode(self, seed: int) -> dict[str, Any]:
+        port = getattr(self.driver.config, "port", None)
+        return {"hal": f"lerobot:{self.type_name}", "robot": self.robot.name, "port": port}
+
+
+def make_hardware_hal(robot: RobotManifest, source: str, port: str | None = None) -> HalBase:
+    if robot.hardware is None:
+        raise ConfigError(f"{source}: hardware: robot {robot.name!r} has no hardware block (--mode real needs one)")
+    return LerobotHal(robot, robot.hardware, source, port)

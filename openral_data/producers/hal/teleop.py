@@ -1,0 +1,130 @@
+"""Teleoperation from a terminal keyboard: a person drives a scene's `delta_eef_gripper` action.
+
+`KeyboardTeleop` is a policy (reset / step / close, the `PolicyAdapter` protocol) whose actions come from keys,
+so a teleoperated episode goes through the same loop, safety filter, contract checks and bridge as an rSkill.
+The keys arrive from the operator's terminal reader (`KeyboardOperator(listener=teleop.feed)`: one reader of
+the one tty, so the operator keys s/f/d/r/q/x keep working); no display is needed (lerobot's
+`KeyboardTeleop` uses pynput, which needs an X server).
+
+A terminal reports key presses, never releases, so every press is one **step**: `i`/`k` (or up/down arrows)
+move the end effector ±`step` m along world x, `j`/`l` (left/right arrows) ±`step` along y, `u`/`m` ±`step`
+along z, `[`/`]` turn ±`yaw_step` rad about z; `g` toggles the gripper (0 open, 1 closed); `h` drops the moves
+not yet made. Presses add up and are paid out at most `max_step` m (and `yaw_step` rad) per axis and tick, so a
+held key (the terminal's auto-repeat) moves the arm steadily and a burst of presses is spread over the next
+ticks; at most `max_queue` steps wait per axis. Keys are digital: there is no deadzone (an analog device would
+need one). Every `status_every` ticks a status line (end-effector position, gripper, moves pending) is written
+to the terminal, so a person without a camera view can see where the gripper is.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from openral_data.errors import ConfigError
+from openral_data.schemas.rskill import RSkillManifest
+from openral_data.types import Observation
+
+REPRESENTATION = "delta_eef_gripper"
+AXES = {"i": (0, 1), "k": (0, -1), "j": (1, 1), "l": (1, -1), "u": (2, 1), "m": (2, -1), "[": (3, 1), "]": (3, -1)}
+ARROWS = {"A": "i", "B": "k", "D": "j", "C": "l"}  # ESC [ A/B/C/D: up, down, right, left
+GRIPPER_KEY = "g"
+HALT_KEY = "h"
+KEYS = frozenset([*AXES, GRIPPER_KEY, HALT_KEY])
+HELP = "teleop keys: i/k (up/down arrows) ±x · j/l (left/right arrows) ±y · u/m ±z · [/] ±yaw · g gripper · h halt"
+
+
+@dataclass(frozen=True)
+class KeyboardGains:
+    """Step sizes of one key press and how fast they are paid out (documented in docs/hal.md)."""
+
+    step: float = 0.01  # m of end-effector travel per press
+    yaw_step: float = 0.05  # rad about world z per press
+    max_step: float = 0.02  # m per axis and tick at most (presses beyond it wait for the next ticks)
+    max_queue: int = 10  # presses that can wait per axis (more are dropped)
+    status_every: int = 4  # ticks between status lines (0: none)
+
+
+class KeyboardTeleop:
+    """Keys (fed one character at a time) -> `delta_eef_gripper` actions [dx, dy, dz, 0, 0, dyaw, gripper]."""
+
+    def __init__(
+        self,
+        rskill: RSkillManifest,
+        source: str,
+        gains: KeyboardGains | None = None,
+        show: Callable[[str], None] | None = None,
+    ) -> None:
+        contract = rskill.action_contract
+        if contract.representation != REPRESENTATION or contract.dim != 7:
+            raise ConfigError(
+                f"{source}: action_contract.representation: keyboard teleoperation drives {REPRESENTATION} (dim 7), "
+                f"got {contract.representation} (dim {contract.dim})"
+            )
+        self.gains = gains or KeyboardGains()
+        self.low = np.asarray(contract.low if contract.low is not None else [-np.inf] * 7, dtype=np.float64)
+        self.high = np.asarray(contract.high if contract.high is not None else [np.inf] * 7, dtype=np.float64)
+        self.show = show
+        self._escape = ""
+        self.pending = np.zeros(4)  # presses waiting per axis: x, y, z, yaw
+        self.gripper = 0.0
+        self.ticks = 0
+
+    def feed(self, ch: str) -> None:
+        """One character from the terminal (arrow keys arrive as ESC [ A..D)."""
+        if self._escape or ch == "\x1b":
+            self._escape += ch
+            if len(self._escape) < 3:
+                return
+            ch, self._escape = ARROWS.get(self._escape[2], ""), ""
+        if ch in AXES:
+            axis, sign = AXES[ch]
+            cap = self.gains.max_queue
+            self.pending[axis] = min(cap, max(-cap, self.pending[axis] + sign))
+        elif ch == GRIPPER_KEY:
+            self.gripper = 1.0 - self.gripper
+        elif ch == HALT_KEY:
+            self.pending[:] = 0
+
+    def reset(self, seed: int) -> None:
+        self.pending[:] = 0
+        self.gripper = 0.0
+        self.ticks = 0
+        self._escape = ""
+
+    def step(self, observation: Observation, instruction: str) -> npt.NDArray[np.float32]:
+        g = self.gains
+        per_tick = np.array([g.max_step / g.step] * 3 + [1.0])
+        paid = np.clip(self.pending, -per_tick, per_tick)
+        self.pending -= paid
+        move = paid * np.array([g.step] * 3 + [g.yaw_step])
+        action = np.array([*move[:3], 0.0, 0.0, move[3], self.gripper])
+        if self.show is not None and g.status_every and self.ticks % g.status_every == 0:
+            self.show(status(observation, self.gripper, self.pending))
+        self.ticks += 1
+        return np.clip(action, self.low, self.high).astype(np.float32)
+
+    def close(self) -> None:
+        pass
+
+
+def status(observation: Observation, gripper: float, pending: npt.NDArray[np.float64]) -> str:
+    """`eef 0.412 -0.031 0.911 gripper open pending 0 0 0 0` (the end effector's world position when the scene
+    reports it, else the first three state values)."""
+    ee = observation.privileged.get("ee_pos")
+    pos = np.asarray(ee if ee is not None else observation.state[:3], dtype=np.float64)
+    moves = " ".join(str(int(p)) for p in pending)
+    return f"eef {pos[0]:.3f} {pos[1]:.3f} {pos[2]:.3f} gripper {'closed' if gripper else 'open'} pending {moves}"
+
+
+def tty_status(fd: int) -> Callable[[str], None]:
+    """Show a status line on the terminal `fd`, overwriting the previous one."""
+
+    def show(line: str) -> None:
+        os.write(fd, f"\r\x1b[K{line}\r\n".encode())
+
+    return show
