@@ -41,7 +41,7 @@ def resolve_dataset(arg: str | Path) -> Path:
         return path
     if not looks_like_repo_id(text):
         if not _GLOB.search(text):  # `./x`, `/abs/x`, `x`: a path, never a Hub id (a glob is matched later)
-            raise NotFound(f"{text}: no such file or folder")
+            raise NotFound(f"{text}: no such file or directory")
         return path
     cached = lerobot_home() / text
     if not cached.is_dir() and path.parent.is_dir():  # `datasets/nope`: a local folder's missing child

@@ -63,7 +63,7 @@ def test_a_misspelt_subcommand_gets_did_you_mean() -> None:
 def test_a_missing_local_path_says_no_such_folder_without_hub_advice(given: str, tmp_path: Path) -> None:
     with isolated_home(tmp_path):
         line = _error("info", given)
-    assert line == f"error: {Path(given)}: no such file or folder"  # the path as typer gives it
+    assert line == f"error: {Path(given)}: no such file or directory"  # the path as typer gives it
 
 
 def test_a_missing_child_of_a_local_folder_says_no_such_folder_first(

@@ -36,7 +36,7 @@ def test_an_existing_path_is_never_resolved(tmp_path: Path) -> None:
     local = tmp_path / "owner" / "name"
     local.mkdir(parents=True)
     assert resolve_dataset(local) == local
-    with pytest.raises(NotFound, match=r"^not a repo id: no such file or folder$"):
+    with pytest.raises(NotFound, match=r"^not a repo id: no such file or directory$"):
         resolve_dataset("not a repo id")
     assert resolve_dataset("datasets/*") == Path("datasets/*")  # a glob: the command matches it
 
