@@ -204,7 +204,7 @@ def _print_summary(summary: RecordSummary, resume: bool, workers: str | None) ->
             ("output", str(summary.out)),
             *([("resumed at", f"episode {summary.resumed_at}")] if resume else []),
             *[("recovered", line) for line in summary.recovered],
-            ("episodes", str(len(summary.episodes))),
+            ("episodes", _episodes_cell(len(summary.episodes), summary.resumed_at if resume else None)),
             ("success rate", f"{summary.success_rate:.1%}"),
             ("frames", str(summary.frames)),
             ("frames/s", f"{summary.fps:.1f}"),
@@ -215,3 +215,10 @@ def _print_summary(summary: RecordSummary, resume: bool, workers: str | None) ->
             *([("debug videos", str(summary.debug_videos))] if summary.debug_videos is not None else []),
         ],
     )
+
+
+def _episodes_cell(added: int, resumed_at: int | None) -> str:
+    """`5`, or after `--resume` every episode the dataset now holds: `5 (3 before, 2 added by this run)`."""
+    if resumed_at is None:
+        return str(added)
+    return f"{resumed_at + added} ({resumed_at} before, {added} added by this run)"
