@@ -6,6 +6,9 @@ where the command being parsed would not read it itself: not after `--`, not as 
 command's options (`--sql -q`), and not when the command has an option of that name.
 
 `-v` counts (`-v` INFO, `-vv` DEBUG): `-v 2` is refused with that hint rather than reading `2` as an argument.
+
+The root group also gives the editing commands (`episodes`, `videos`, `tasks`, `features`, `stats recompute`) their
+progress bar: episodes written of all, on stderr, after ~0 s of work; none with `-q`, `--json` or no terminal.
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ import re
 from typing import Any
 
 from openral_data.cli.help import PlainFlagsGroup
+from openral_data.cli.terminal import LazyBar
 from openral_data.errors import UsageError
 
 _VERBOSE = re.compile(r"-v+")
@@ -82,9 +86,36 @@ def hoist(root: Any, args: list[str]) -> list[str]:
     return moved + kept
 
 
+def _command_name(root: Any, args: list[str]) -> str | None:
+    """The command `args` (root options first, as `hoist` leaves them) run, or None."""
+    i = 0
+    while i < len(args) and args[i].startswith("-") and args[i] != "--":
+        i += 2 if "=" not in args[i] and _takes_value(root, args[i]) else 1
+    return args[i] if i < len(args) else None
+
+
+EDITING = ("episodes", "videos", "tasks", "features", "stats")  # the groups whose commands rewrite a dataset
+
+
 class RootGroup(PlainFlagsGroup):
-    """The `openral-data` group: its options are also taken after the command name (`hoist`)."""
+    """The `openral-data` group: its options are also taken after the command name (`hoist`); an editing
+    command shows the episodes it has written (`edit.ops.EPISODE_PROGRESS`)."""
 
     def parse_args(self, ctx: Any, args: list[str]) -> list[str]:
-        parsed: list[str] = super().parse_args(ctx, hoist(self, args))
+        hoisted = hoist(self, args)
+        parsed: list[str] = super().parse_args(ctx, hoisted)
+        ctx.meta["openral.editing"] = _command_name(self, hoisted) in EDITING and "--json" not in hoisted
         return parsed
+
+    def invoke(self, ctx: Any) -> Any:
+        if not ctx.meta.get("openral.editing"):
+            return super().invoke(ctx)
+        from openral_data.edit.ops import EPISODE_PROGRESS
+
+        bar = LazyBar("writing", "episodes")
+        token = EPISODE_PROGRESS.set(bar)
+        try:
+            return super().invoke(ctx)
+        finally:
+            EPISODE_PROGRESS.reset(token)
+            bar.close()

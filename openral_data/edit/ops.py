@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Sequence
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -91,6 +92,11 @@ def _first_difference(a: Any, b: Any, path: str) -> str | None:
     if a != b:
         return f"{path} ({b!r} vs {a!r})"
     return None
+
+
+# `(done, total)` after each episode an edit writes, for whoever set it (the CLI's progress bar of the editing
+# commands, cli/terminal.py); unset: nothing is reported
+EPISODE_PROGRESS: ContextVar[Callable[[int, int], None] | None] = ContextVar("episode_progress", default=None)
 
 
 def write_selection(
@@ -186,12 +192,15 @@ def _copy(
 ) -> None:
     """Every selected episode, read (with the videos of `cameras`), rewritten by `transform` and added in order;
     the writer closed, or aborted by whatever stopped the copy."""
+    tick = EPISODE_PROGRESS.get()
     try:
         for k, (src, e) in enumerate(selection):
             episode = src.episode(e, cameras)
             writer.add(episode if transform is None else transform(episode))
             if on_episode is not None:
                 on_episode(k)
+            if tick is not None:
+                tick(k + 1, len(selection))
     except BaseException:
         writer.abort()  # the staging folder is discarded: the error that stopped the copy is the one to report
         raise
