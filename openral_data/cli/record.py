@@ -171,11 +171,12 @@ def _with_progress(
     run: Callable[[ProgressFn], RecordSummary], opts: RecordOptions, total: int | None, parallel: bool
 ) -> RecordSummary:
     """`run` under the progress bar (a parallel run reports no progress); Ctrl-C says what was kept."""
-    with progress_bar("recording", "episodes", "{task.fields[frames]} frames") as bar:
-        task = bar.add_task("record", total=total, frames=0)
+    # until the first episode starts the bar says the scene is being built (robosuite's first build: ~1 min)
+    with progress_bar("recording", "episodes", "{task.fields[frames]}") as bar:
+        task = bar.add_task("record", total=total, frames="building the scene...")
 
         def progress(rec: object, frames: int, total: int) -> None:
-            bar.update(task, total=total, advance=0 if rec is None else 1, frames=frames)
+            bar.update(task, total=total, advance=0 if rec is None else 1, frames=f"{frames} frames")
 
         try:
             return run(progress)
