@@ -7,8 +7,9 @@ command's options (`--sql -q`), and not when the command has an option of that n
 
 `-v` counts (`-v` INFO, `-vv` DEBUG): `-v 2` is refused with that hint rather than reading `2` as an argument.
 
-The root group also gives the editing commands (`episodes`, `videos`, `tasks`, `features`, `stats recompute`) their
-progress bar: episodes written of all, on stderr, after ~0 s of work; none with `-q`, `--json` or no terminal.
+The root group also gives the editing commands (`episodes`, `videos`, `tasks`, `features`, `stats recompute`) and
+`doctor --deep` their progress bar (episodes written, video files decoded; `formats.progress`), on stderr; none
+with `-q`, `--json` or no terminal.
 """
 
 from __future__ import annotations
@@ -94,28 +95,32 @@ def _command_name(root: Any, args: list[str]) -> str | None:
     return args[i] if i < len(args) else None
 
 
-EDITING = ("episodes", "videos", "tasks", "features", "stats")  # the groups whose commands rewrite a dataset
+# the commands whose long loops report `formats.progress`, and what their bar says
+EDITING = ("episodes", "videos", "tasks", "features", "stats")  # rewrite a dataset
+BARS = {name: ("writing", "episodes") for name in EDITING} | {"doctor": ("decoding", "video files")}
 
 
 class RootGroup(PlainFlagsGroup):
-    """The `openral-data` group: its options are also taken after the command name (`hoist`); an editing
-    command shows the episodes it has written (`edit.ops.EPISODE_PROGRESS`)."""
+    """The `openral-data` group: its options are also taken after the command name (`hoist`); a command with
+    long loops shows their progress (`BARS`, `formats.progress`)."""
 
     def parse_args(self, ctx: Any, args: list[str]) -> list[str]:
         hoisted = hoist(self, args)
         parsed: list[str] = super().parse_args(ctx, hoisted)
-        ctx.meta["openral.editing"] = _command_name(self, hoisted) in EDITING and "--json" not in hoisted
+        name = _command_name(self, hoisted)
+        ctx.meta["openral.bar"] = BARS.get(name or "") if "--json" not in hoisted else None
         return parsed
 
     def invoke(self, ctx: Any) -> Any:
-        if not ctx.meta.get("openral.editing"):
+        labels = ctx.meta.get("openral.bar")
+        if labels is None:
             return super().invoke(ctx)
-        from openral_data.edit.ops import EPISODE_PROGRESS
+        from openral_data.formats.progress import PROGRESS
 
-        bar = LazyBar("writing", "episodes")
-        token = EPISODE_PROGRESS.set(bar)
+        bar = LazyBar(*labels)
+        token = PROGRESS.set(bar)
         try:
             return super().invoke(ctx)
         finally:
-            EPISODE_PROGRESS.reset(token)
+            PROGRESS.reset(token)
             bar.close()

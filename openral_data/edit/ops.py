@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Sequence
-from contextvars import ContextVar
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -20,6 +19,7 @@ from openral_data.edit.assemble import EpisodeAssembler
 from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.episodes import parse_episodes
 from openral_data.errors import DatasetError, EpisodeSelectionError, UsageError
+from openral_data.formats import progress
 from openral_data.formats.lerobot_v3.config import WriterConfig
 from openral_data.formats.lerobot_v3.lock import DatasetLock
 from openral_data.formats.lerobot_v3.provenance import EditRecord, EditSource, Origin
@@ -92,11 +92,6 @@ def _first_difference(a: Any, b: Any, path: str) -> str | None:
     if a != b:
         return f"{path} ({b!r} vs {a!r})"
     return None
-
-
-# `(done, total)` after each episode an edit writes, for whoever set it (the CLI's progress bar of the editing
-# commands, cli/terminal.py); unset: nothing is reported
-EPISODE_PROGRESS: ContextVar[Callable[[int, int], None] | None] = ContextVar("episode_progress", default=None)
 
 
 def write_selection(
@@ -192,15 +187,13 @@ def _copy(
 ) -> None:
     """Every selected episode, read (with the videos of `cameras`), rewritten by `transform` and added in order;
     the writer closed, or aborted by whatever stopped the copy."""
-    tick = EPISODE_PROGRESS.get()
     try:
         for k, (src, e) in enumerate(selection):
             episode = src.episode(e, cameras)
             writer.add(episode if transform is None else transform(episode))
             if on_episode is not None:
                 on_episode(k)
-            if tick is not None:
-                tick(k + 1, len(selection))
+            progress.tick(k + 1, len(selection))  # the CLI's progress bar, when it set one
     except BaseException:
         writer.abort()  # the staging folder is discarded: the error that stopped the copy is the one to report
         raise

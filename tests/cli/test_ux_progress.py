@@ -1,5 +1,6 @@
-"""Long edits show progress: the editing commands tick `edit.ops.EPISODE_PROGRESS` once per episode written,
-through the CLI's lazy progress bar (stderr, a terminal only; none with `-q` or `--json`)."""
+"""Long work shows progress: the editing commands tick `formats.progress` once per episode written and
+`doctor --deep` once per video file, through the CLI's lazy progress bar (stderr, a terminal only; none with
+`-q` or `--json`)."""
 
 from __future__ import annotations
 
@@ -46,6 +47,15 @@ def test_editing_commands_report_each_episode(dataset: Path, tmp_path: Path, arg
     assert run.returncode == 0, run.stderr
     assert TICKS == [(1, 2), (2, 2)]
     assert "writing" not in run.stderr  # not a terminal: the bar itself stays silent
+
+
+def test_doctor_deep_reports_each_video_file(dataset: Path) -> None:
+    run = run_inproc("doctor", str(dataset), "--deep")
+    assert run.returncode == 0, run.stderr
+    assert TICKS and TICKS[-1][0] == TICKS[-1][1] == len(TICKS)
+    TICKS.clear()
+    assert run_inproc("doctor", str(dataset)).returncode == 0
+    assert TICKS == []
 
 
 def test_json_and_other_commands_get_no_progress(dataset: Path, tmp_path: Path) -> None:
