@@ -8,7 +8,9 @@ also shows it without rich markup or emoji codes (openral_data/cli/terminal.py).
 
 from __future__ import annotations
 
+import difflib
 import re
+from collections.abc import Iterable, Sequence
 
 # C0 and C1 controls, DEL, the Unicode line/paragraph separators and the bidirectional overrides (which reorder
 # what a reader sees, "Trojan Source")
@@ -31,3 +33,29 @@ def json_escaped(text: str) -> str:
     DEL, bidi overrides, line separators) written as ``\\uXXXX`` escapes: the same document, safe on a terminal.
     Outside strings JSON text holds none of them, so every one replaced lies inside a string."""
     return _CONTROL.sub(lambda m: f"\\u{ord(m.group()):04x}", text)
+
+
+SHOWN = 12  # choices an "unknown name" line lists before pointing at the command that lists them all
+
+
+def closest(value: str, choices: Iterable[str]) -> str | None:
+    """The choice `value` most likely misspells (difflib's ratio at least 0.6), or None."""
+    close = difflib.get_close_matches(value, list(choices), n=1, cutoff=0.6)
+    return close[0] if close else None
+
+
+def did_you_mean(value: str, choices: Iterable[str]) -> str:
+    """`; did you mean 'x'?` for the closest of `choices`, or "" (to append to an error line)."""
+    close = closest(value, choices)
+    return "" if close is None else f"; did you mean {close!r}?"
+
+
+def choices_hint(value: str, choices: Sequence[str], listing: str) -> str:
+    """What follows "unknown <kind> 'value'" on an error line: `did you mean 'x'? (N in all: <listing>)` for the
+    closest choice (difflib), else `valid: a, b, ...` (the first `SHOWN`, then `... (N in all: <listing>)`);
+    always one line, however many choices there are. `listing` is the command that lists them all."""
+    close = closest(value, choices)
+    if close is not None:
+        return f"did you mean {close!r}? ({len(choices)} in all: {listing})"
+    shown = ", ".join(choices[:SHOWN]) or "(none)"
+    return f"valid: {shown}" + (f", ... ({len(choices)} in all: {listing})" if len(choices) > SHOWN else "")

@@ -94,7 +94,7 @@ def test_cli_dir_options_and_default_output(tmp_path: Path) -> None:
     )
     assert done.returncode == 0, done.stderr
     (out,) = (cwd / "datasets").iterdir()  # no --out: ./datasets of the current directory
-    assert out.name.startswith("tiny--random-mock--") and (out / "meta/info.json").is_file()
+    assert out.name == "tiny-1" and (out / "meta/info.json").is_file()
 
     missing = run_cli("--robots-dir", str(tmp_path / "nope"), "list")
     assert missing.returncode == 2 and missing.stdout == ""

@@ -13,9 +13,11 @@ from openral_data.cli import browse, convert, generate, hub, inspect, quality, r
 from openral_data.cli.download import dataset_download
 from openral_data.cli.edit import episodes_app
 from openral_data.cli.features import features_app
+from openral_data.cli.globalflags import RootGroup
 from openral_data.cli.help import plain_flags
 from openral_data.cli.logs import LogFormat
 from openral_data.cli.logs import configure as configure_logs
+from openral_data.cli.parsererrors import parser_message
 from openral_data.cli.pipeline import pipeline_app
 from openral_data.cli.tasks import tasks_app
 from openral_data.cli.terminal import print_line
@@ -25,6 +27,7 @@ from openral_data.manifests import ENV_DIRS, Kind
 from openral_data.version import __version__
 
 app = typer.Typer(
+    cls=RootGroup,  # global flags after the command name too
     add_completion=False,
     no_args_is_help=True,
     pretty_exceptions_enable=False,
@@ -56,7 +59,10 @@ def _root(
     rskills_dir: Annotated[Path | None, _dir_option("rskills")] = None,
     robots_dir: Annotated[Path | None, _dir_option("robots")] = None,
     verbose: Annotated[
-        int, typer.Option("--verbose", "-v", count=True, help="log to stderr: -v INFO (timings), -vv DEBUG")
+        int,
+        typer.Option(
+            "--verbose", "-v", count=True, show_default=False, help="log to stderr: -v INFO (timings), -vv DEBUG"
+        ),
     ] = 0,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="only warnings and errors; no progress bar")] = False,
     log_format: Annotated[
@@ -112,7 +118,7 @@ def main() -> None:
     except typer.Abort:  # Ctrl-C at a prompt
         sys.exit(130)
     except typer.TyperException as exc:  # the parser's own errors (click's UsageError family)
-        message = getattr(exc, "format_message", exc.__str__)()
+        message = parser_message(exc)  # a typed option pydantic refused: `--codec: ...`, not pydantic's wording
         if not message.strip():  # no arguments at all: the help was printed, as for --help
             sys.exit(2)
         _fail(message)

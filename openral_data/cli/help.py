@@ -1,5 +1,6 @@
-"""`--help` tables: a boolean flag shows no value type (typer's rich help prints `<bool>` for every flag, `--help`
-included, although a flag takes no value). `plain_flags(app)` applies this to every command and sub-app."""
+"""`--help` tables: a boolean flag or a count (`-v/-vv`) shows no value type (typer's rich help prints `<bool>`
+for every flag, `--help` included, and `<int>` for a count, although neither takes a value). `plain_flags(app)`
+applies this to every command and sub-app."""
 
 from __future__ import annotations
 
@@ -11,9 +12,9 @@ from typer.models import DefaultPlaceholder
 
 
 def _without_flag_metavar(params: list[Any]) -> list[Any]:
-    """`params`, each boolean flag given an empty metavar (what the help's type column shows for it)."""
+    """`params`, each boolean flag and count given an empty metavar (what the help's type column shows for it)."""
     for param in params:
-        if isinstance(param, TyperOption) and param.is_bool_flag and param.metavar is None:
+        if isinstance(param, TyperOption) and (param.is_bool_flag or param.count) and param.metavar is None:
             param.metavar = ""
     return params
 

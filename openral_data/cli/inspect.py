@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
+from rich import box
 from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
@@ -94,11 +95,13 @@ def _success_cell(s: DatasetSummary) -> str:
 def list_cmd(
     what: Annotated[ListWhat, typer.Argument(help="what to list (default: everything)")] = ListWhat.all,
     scene: Annotated[str | None, typer.Argument(help="list tasks: the scene (id or YAML path)")] = None,
+    show_paths: Annotated[bool, typer.Option("--paths", help="also show each manifest's file")] = False,
     json: JsonFlag = False,
 ) -> None:
     """List the scenes, rSkills, robots, scene types and policies this installation knows, and where each comes
     from (built-in, plug-in, user, project, --*-dir); a broken plug-in is reported on one line, never fatal.
-    `list tasks SCENE` lists the tasks of a suite scene (`record --task`)."""
+    `list tasks SCENE` lists the tasks of a suite scene (`record --task`). A scene or rSkill that cannot run in
+    this environment says why in its `runs here` column (a simulator extra missing, a checkpoint absent)."""
     if what is ListWhat.tasks:
         _list_tasks(scene, json)
         return
@@ -113,11 +116,16 @@ def list_cmd(
     if json:
         print_json("list", cat.to_json())
         return
-    # piped or redirected: no terminal width to fit, so never cut a cell (ids, tags and paths stay greppable)
-    out = console if console.is_terminal else Console(width=1000, color_system=None)
+    out = console if console.is_terminal else _piped()
     for name, items in cat.sections.items():
         out.print(name.replace("_", " "), style="bold", markup=False, highlight=False)  # unpadded, unlike a title
-        out.print(_table(name, items))
+        out.print(_table(name, items, show_paths))
+
+
+def _piped() -> Console:
+    """Piped or redirected: no terminal width to fit, so a cell is never cut (ids, tags and paths stay greppable),
+    unless `$COLUMNS` asks for a width."""
+    return Console(width=int(os.environ.get("COLUMNS") or 1000), color_system=None)
 
 
 def _list_tasks(scene_ref: str | None, json: bool) -> None:
@@ -135,7 +143,7 @@ def _list_tasks(scene_ref: str | None, json: bool) -> None:
         table.add_column(col)
     for t in found:
         table.add_row(escape(t.id), escape(",".join(t.aliases)), escape(t.instruction))
-    (console if console.is_terminal else Console(width=1000, color_system=None)).print(table)
+    (console if console.is_terminal else _piped()).print(table)
 
 
 _SECTION = {
@@ -155,23 +163,58 @@ _TITLES = {
 _JOINED = {"state_dim": "state_representation", "action_dim": "action_representation"}
 
 
-def _table(name: str, items: list[Item]) -> Table:
+def _table(name: str, items: list[Item], show_paths: bool) -> Table:
+    """One section: ids never cut (the widest id sets the column), `from` only when something is not built in,
+    `runs here` yes/no with the reasons as numbered notes under the table, the path (with `--paths`) last."""
     from openral_data.runtime.catalog import FIELDS
 
     joined = set(_JOINED.values())
     columns = [(_TITLES.get(key, key), key) for key in FIELDS[name] if key not in joined]
-    with_path = name in ("scenes", "rskills", "robots")
-    table = Table()
-    for col in ("id", *(c for c, _ in columns), "from", *(("path",) if with_path else ())):
-        table.add_column(col)
+    with_path = show_paths and name in ("scenes", "rskills", "robots")
+    with_from = any(it.origin != "built-in" or it.overrides for it in items)
+    notes: list[str] = []  # why an entry cannot run here, each reason once
+    table = Table(box=box.SIMPLE_HEAD, pad_edge=False, caption_justify="left")
+    table.add_column("id", no_wrap=True, min_width=max((len(it.id) for it in items), default=2))
+    for col in (*(c for c, _ in columns), *(("from",) if with_from else ())):
+        table.add_column(col, overflow="fold")
+    if name in ("scenes", "rskills"):
+        table.add_column("runs here", no_wrap=True)
+    if with_path:
+        table.add_column("path", overflow="fold")
     for it in items:
         origin = it.origin + (f" (overrides {', '.join(it.overrides)})" if it.overrides else "")
         if it.error is not None:
             cells = ["[red]invalid: " + escape(it.error), *("" for _ in columns[1:])] if columns else []
         else:
             cells = [" ".join(_cell(it.fields.get(k)) for k in (key, _JOINED.get(key)) if k) for _, key in columns]
-        table.add_row(escape(it.id), *cells, escape(origin), *((escape(it.path or ""),) if with_path else ()))
+        row = [escape(it.id), *cells, *((escape(origin),) if with_from else ())]
+        if name in ("scenes", "rskills"):
+            row.append(_runs_here(name, it, notes))
+        table.add_row(*row, *((escape(it.path or ""),) if with_path else ()))
+    table.caption = "\n".join(f"({i}) {escape(note)}" for i, note in enumerate(notes, 1)) or None
     return table
+
+
+def _runs_here(section: str, it: Item, notes: list[str]) -> str:
+    """`yes`, or `no (n)` with note n saying why (a simulator extra missing, a neural rSkill's checkpoint absent)."""
+    from openral_data.runtime import available, registry
+
+    if it.error is not None:
+        return "no"
+    if section == "scenes":
+        kind = str(it.fields.get("type"))
+        problem = available.scene_type_problem(kind)
+        problem = None if problem is None else f"{kind} scenes: {problem}"
+    else:
+        try:
+            problem = available.rskill_problem(registry.resolve_rskill(it.path or it.id)[0])
+        except OpenralError as exc:
+            problem = str(exc)
+    if problem is None:
+        return "yes"
+    if problem not in notes:
+        notes.append(problem)
+    return f"[yellow]no ({notes.index(problem) + 1})"
 
 
 def _cell(value: object) -> str:

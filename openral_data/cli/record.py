@@ -205,11 +205,12 @@ def _with_progress(
     run: Callable[[ProgressFn], RecordSummary], opts: RecordOptions, total: int | None, parallel: bool
 ) -> RecordSummary:
     """`run` under the progress bar (a parallel run reports no progress); Ctrl-C says what was kept."""
-    with progress_bar("recording", "episodes", "{task.fields[frames]} frames") as bar:
-        task = bar.add_task("record", total=total, frames=0)
+    # until the first episode starts the bar says the scene is being built (robosuite's first build: ~1 min)
+    with progress_bar("recording", "episodes", "{task.fields[frames]}") as bar:
+        task = bar.add_task("record", total=total, frames="building the scene...")
 
         def progress(rec: object, frames: int, total: int) -> None:
-            bar.update(task, total=total, advance=0 if rec is None else 1, frames=frames)
+            bar.update(task, total=total, advance=0 if rec is None else 1, frames=f"{frames} frames")
 
         try:
             return run(progress)
@@ -238,7 +239,7 @@ def _print_summary(summary: RecordSummary, resume: bool, workers: str | None) ->
             ("output", str(summary.out)),
             *([("resumed at", f"episode {summary.resumed_at}")] if resume else []),
             *[("recovered", line) for line in summary.recovered],
-            ("episodes", str(len(summary.episodes))),
+            ("episodes", _episodes_cell(len(summary.episodes), summary.resumed_at if resume else None)),
             ("success rate", f"{summary.success_rate:.1%}"),
             ("frames", str(summary.frames)),
             ("frames/s", f"{summary.fps:.1f}"),
@@ -257,3 +258,10 @@ def _on_off(value: str | None) -> bool | None:
     if value not in ("on", "off"):
         raise UsageError(f"--randomize: {value!r} is not on or off")
     return value == "on"
+
+
+def _episodes_cell(added: int, resumed_at: int | None) -> str:
+    """`5`, or after `--resume` every episode the dataset now holds: `5 (3 before, 2 added by this run)`."""
+    if resumed_at is None:
+        return str(added)
+    return f"{resumed_at + added} ({resumed_at} before, {added} added by this run)"

@@ -2,20 +2,18 @@
 
 from __future__ import annotations
 
-import io
 from collections.abc import Sequence
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
-from rich.console import Console
-from rich.table import Table as RichTable
 
 from openral_data import paths as paths_
 from openral_data.cli.defaultgroup import DefaultCommandGroup
 from openral_data.cli.edit import report
-from openral_data.cli.terminal import shown
+from openral_data.cli.jsonout import JsonFlag, print_json
+from openral_data.cli.tables import render_tables
 from openral_data.formats.repo_id import resolve_dataset
 from openral_data.text import printable
 
@@ -45,7 +43,9 @@ def stats(
     paths: Annotated[list[str], typer.Argument(help="datasets and/or results directories (globs allowed)")],
     by: Annotated[str | None, typer.Option(help="group by: dataset,task,rskill,scene,robot,seed")] = None,
     sql: Annotated[str | None, typer.Option(help="run this SQL on the views instead of the report")] = None,
-    fmt: Annotated[StatsFormat, typer.Option("--format", help="output format")] = StatsFormat.table,
+    fmt: Annotated[
+        StatsFormat, typer.Option("--format", help="output format (json: one line, as --json)")
+    ] = StatsFormat.table,
     plot: Annotated[Path | None, typer.Option(help="also write a PNG: success rates + action histograms")] = None,
     memory_limit: Annotated[str, typer.Option(help="DuckDB memory limit")] = "1GB",
     health: Annotated[bool, typer.Option(help="run the health checks")] = True,
@@ -56,6 +56,10 @@ def stats(
     full_scan: Annotated[
         bool, typer.Option(help="summarise the frames even where verified per-episode stats could stand for them")
     ] = False,
+    all_: Annotated[
+        bool, typer.Option("--all", help="every table and column (default: groups, success, interval)")
+    ] = False,
+    json: JsonFlag = False,
 ) -> None:
     """Episodes, frames, success rates with 95 % intervals, comparisons and health, computed by DuckDB.
 
@@ -68,8 +72,15 @@ def stats(
     if plot is not None:
         check_file_output(plot, "--plot")
     paths = [str(resolve_dataset(p)) for p in paths]  # a repo id is its cached folder; globs stay globs
+    fmt = StatsFormat.json if json else fmt
     opts = StatsOptions(paths, by, sql, fmt.value, plot, memory_limit, health, trust_episode_stats, full_scan)
-    print(stats_text(opts))
+    if fmt is StatsFormat.json:  # one line with `command` and `version`, like every `--json`
+        from openral_data.metrics.command import stats_tables
+        from openral_data.metrics.render import json_payload
+
+        print_json("stats", json_payload(stats_tables(opts)))
+        return
+    print(stats_text(opts, full=all_))
 
 
 @stats_app.command("recompute")
@@ -86,31 +97,18 @@ def recompute_cmd(
     report("recomputed", [recompute(resolve_dataset(dataset), out, in_place)])
 
 
-def stats_text(opts: StatsOptions) -> str:
-    """What `stats` prints: the tables in `opts.fmt`, dataset text (tasks, SQL results) with control characters
-    escaped (JSON escapes its own)."""
+def stats_text(opts: StatsOptions, *, full: bool = False) -> str:
+    """What `stats` prints: the tables in `opts.fmt` (a terminal table: the compact view unless `full`, see
+    cli/tables.py), dataset text (tasks, SQL results) with control characters escaped (JSON escapes its own)."""
     from openral_data.metrics.command import stats_tables
     from openral_data.metrics.render import render
 
     tables = stats_tables(opts)
-    return render_table(tables) if opts.fmt == "table" else printable(render(tables, opts.fmt), keep_newlines=True)
+    if opts.fmt != "table":
+        return printable(render(tables, opts.fmt), keep_newlines=True)
+    return render_tables(tables, compact=not full and opts.sql is None)
 
 
 def render_table(tables: Sequence[Table]) -> str:
-    """The tables as boxed text, 200 columns wide, long cells folded (never cut); every name and cell literal
-    (a task reading `[/]` or `:x:` is shown as such)."""
-    from openral_data.metrics.render import cell
-
-    console = Console(file=io.StringIO(), width=200, force_terminal=False, color_system=None, emoji=False)
-    for t in tables:
-        rich = RichTable(title=shown(t.name), title_justify="left")
-        for c in t.columns:
-            rich.add_column(shown(c), overflow="fold")
-        for r in t.rows:
-            rich.add_row(*(shown(cell(v)) for v in r))
-        if not t.rows:
-            rich.add_row("(none)", *("" for _ in t.columns[1:]))
-        console.print(rich)
-    out = console.file
-    assert isinstance(out, io.StringIO)
-    return out.getvalue().rstrip("\n")
+    """Every table and column, as wide as the terminal (vertical records where a table is wider)."""
+    return render_tables(tables)

@@ -8,7 +8,8 @@ a table cell holding dataset text is a `shown(...)` Text, never markup.
 from __future__ import annotations
 
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.errors import LiveError
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TaskID, TextColumn, TimeElapsedColumn
 from rich.text import Text
 
 from openral_data.text import printable
@@ -35,6 +36,35 @@ def progress_bar(what: str, unit: str, *fields: str) -> Progress:
         console=err_console,
         disable=quiet or not err_console.is_terminal,
     )
+
+
+class LazyBar:
+    """A `progress_bar` that appears at the first `(done, total)` it is given (a command that turns out to have
+    nothing long to do shows none); silent where `progress_bar` is, and when another live display (a command's
+    own bar) is already on screen. `close()` takes it down."""
+
+    def __init__(self, what: str, unit: str) -> None:
+        self.what, self.unit = what, unit
+        self.bar: Progress | None = None
+        self.task: TaskID | None = None
+        self.off = False
+
+    def __call__(self, done: int, total: int) -> None:
+        if self.off:
+            return
+        if self.bar is None or self.task is None:
+            bar = progress_bar(self.what, self.unit)
+            try:
+                bar.start()
+            except LiveError:  # a command's own progress bar is showing: that one speaks
+                self.off = True
+                return
+            self.bar, self.task = bar, bar.add_task(self.what, total=total)
+        self.bar.update(self.task, completed=done, total=total)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.stop()
 
 
 def print_rows(title: str, rows: list[tuple[str, str]]) -> None:

@@ -16,6 +16,7 @@ import numpy as np
 from openral_data.doctor.check_video import Placement, placements
 from openral_data.doctor.findings import Finding, error
 from openral_data.doctor.inspect import Dataset, read_parquet
+from openral_data.formats import progress
 from openral_data.formats.lerobot_v3.depth import MM_PER_METRE, QMAX, DepthSettings, decode_codes
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
 from openral_data.formats.lerobot_v3.variants import feature_info
@@ -86,6 +87,8 @@ def check_deep(ds: Dataset) -> list[Finding]:
     if ds.episodes is None:
         return []
     out: list[Finding] = []
+    total = sum(len(placements(ds, key)) for key in ds.video_keys)
+    done = 0
     for key in ds.video_keys:
         want = stored_means(ds, key)
         if not want:
@@ -93,6 +96,8 @@ def check_deep(ds: Dataset) -> list[Finding]:
         depth = _depth(feature_info(ds.features[key]))
         tol = TOLERANCE if depth is None else TOLERANCE * (depth[0].depth_max - depth[0].depth_min) * depth[1]
         for path, eps in sorted(placements(ds, key).items()):
+            done += 1
+            progress.tick(done, total)  # the CLI's progress bar, when it set one
             if not path.is_file():
                 continue  # reported as video.missing
             got = decoded_means(path, eps, ds.fps) if depth is None else decoded_depth_means(path, eps, ds.fps, depth)

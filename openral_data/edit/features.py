@@ -21,6 +21,7 @@ from openral_data.edit.ops import EditResult, Rewrite, summed_histograms, write_
 from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.errors import UsageError
 from openral_data.formats.lerobot_v3.features import ACTION, DEFAULT_FEATURES, STATE
+from openral_data.text import did_you_mean
 
 
 def remove(dataset: Path, keys: Sequence[str], out: Path | None, in_place: bool = False) -> EditResult:
@@ -64,7 +65,10 @@ def _checked(src: SourceDataset, keys: Sequence[str]) -> set[str]:
         raise UsageError("--feature: give at least one feature to remove")
     for key in keys:
         if key not in src.features:
-            raise UsageError(f"--feature: {src.root} has no feature {key!r} (its features: {', '.join(src.features)})")
+            raise UsageError(
+                f"--feature: {src.root} has no feature {key!r}{did_you_mean(key, src.features)} "
+                f"(its features: {', '.join(src.features)})"
+            )
         if key in DEFAULT_FEATURES:
             raise UsageError(f"--feature: {key} is a column every LeRobot v3 dataset has; it cannot be removed")
         if key in (STATE, ACTION):

@@ -19,6 +19,7 @@ from openral_data.edit.assemble import EpisodeAssembler
 from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.episodes import parse_episodes
 from openral_data.errors import DatasetError, EpisodeSelectionError, UsageError
+from openral_data.formats import progress
 from openral_data.formats.lerobot_v3.config import WriterConfig
 from openral_data.formats.lerobot_v3.lock import DatasetLock
 from openral_data.formats.lerobot_v3.provenance import EditRecord, EditSource, Origin
@@ -195,6 +196,7 @@ def _copy(
             writer.add(episode if transform is None else transform(episode))
             if on_episode is not None:
                 on_episode(k)
+            progress.tick(k + 1, len(selection))  # the CLI's progress bar, when it set one
     except BaseException:
         writer.abort()  # the staging folder is discarded: the error that stopped the copy is the one to report
         raise

@@ -34,6 +34,7 @@ from openral_data.formats.lerobot_v3.features import camera_keys
 from openral_data.formats.lerobot_v3.masks import is_mask
 from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
+from openral_data.text import did_you_mean
 from openral_data.types import CameraShape
 
 _SIZE = re.compile(r"([0-9]{1,5})x([0-9]{1,5})")
@@ -71,7 +72,8 @@ def choose_cameras(
         key = given if given in features else names.get(given)
         if key is None:
             known = ", ".join(every.values()) or "none"
-            raise UsageError(f"--camera: {given!r} is not a feature of {dataset} ({dtype} cameras: {known})")
+            hint = did_you_mean(given, [*every, *every.values()])  # a camera's name or its feature key
+            raise UsageError(f"--camera: {given!r} is not a feature of {dataset}{hint} ({dtype} cameras: {known})")
         found = features[key].get("dtype")
         if found != dtype:
             raise UsageError(f"--camera: {key} is a {found} feature, not a {dtype} camera")

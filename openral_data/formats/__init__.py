@@ -7,10 +7,11 @@
 * `results`: the replay / evaluation results layout (`write_results` / `open_results`);
 * `atomic`: crash-safe file writes (temp file, fsync, rename; journaled batches);
 * `jsonfile`: reading their JSON files with one error message;
-* `write_errors`: the error a failed write becomes (`DiskError` for a full or failing disk), for every writer.
+* `write_errors`: the error a failed write becomes (`DiskError` for a full or failing disk), for every writer;
+* `progress`: the ambient `(done, total)` of long loops (edits, `doctor --deep`), for the CLI's progress bar.
 
 Formats import only the shared types, errors and schemas below them. The subpackages are not imported here
 (`from openral_data.formats import lerobot_v3`), so using one never loads the others' libraries.
 """
 
-__all__ = ["atomic", "dataset", "jsonfile", "lerobot_v2", "lerobot_v3", "mcap", "results"]
+__all__ = ["atomic", "dataset", "jsonfile", "lerobot_v2", "lerobot_v3", "mcap", "progress", "results"]

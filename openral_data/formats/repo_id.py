@@ -17,6 +17,7 @@ from openral_data.errors import NotFound, UsageError
 
 # Hub repo ids: one owner and one name of letters, digits, `-`, `_` and `.` (neither starting with `.` or `-`)
 _REPO_ID = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*/[A-Za-z0-9_][A-Za-z0-9_.-]*")
+_GLOB = re.compile(r"[*?\[]")
 
 
 def looks_like_repo_id(arg: str) -> bool:
@@ -36,9 +37,17 @@ def resolve_dataset(arg: str | Path) -> Path:
     """The dataset folder `arg` names: an existing path as it is, else a repo id's folder in lerobot's cache."""
     path = Path(arg)
     text = str(arg)
-    if path.exists() or path.is_symlink() or not looks_like_repo_id(text):
+    if path.exists() or path.is_symlink():
+        return path
+    if not looks_like_repo_id(text):
+        if not _GLOB.search(text):  # `./x`, `/abs/x`, `x`: a path, never a Hub id (a glob is matched later)
+            raise NotFound(f"{text}: no such file or directory")
         return path
     cached = lerobot_home() / text
+    if not cached.is_dir() and path.parent.is_dir():  # `datasets/nope`: a local folder's missing child
+        raise NotFound(
+            f"{text}: no such folder (nor a Hub dataset of that id in the local cache: --download fetches one)"
+        )
     if not cached.is_dir():
         raise NotFound(
             f"{text}: no such folder, and not in the local cache (looked in {cached}); add --download to fetch it "

@@ -54,6 +54,14 @@ def group_label(values: Sequence[Any]) -> str:
     return "/".join(str(v) for v in values)
 
 
+def group_colours(report: Report) -> dict[str, str]:
+    """One colour per group (matplotlib's `C0`..`C9` cycle, in the groups table's order), the same in every panel:
+    its success-rate bar and its series in each action histogram."""
+    keys = group_keys(report)
+    labels = [group_label([r[k] for k in keys]) for r in report.table("groups").records()]
+    return {label: f"C{i % 10}" for i, label in enumerate(labels)}
+
+
 def action_histograms(
     con: duckdb.DuckDBPyConnection, datasets: Sequence[DatasetSource], keys: Sequence[str]
 ) -> list[Histogram]:
@@ -133,13 +141,14 @@ def plot_figure(report: Report, hists: Sequence[Histogram]) -> Figure:
     hist_rows = math.ceil(len(hists) / NCOLS)
     fig = plt.figure(figsize=(4 * NCOLS, 3.2 * (1 + hist_rows)), layout="constrained")
     grid = fig.add_gridspec(1 + hist_rows, NCOLS)
-    _draw_rates(fig.add_subplot(grid[0, :]), report)
+    colours = group_colours(report)
+    _draw_rates(fig.add_subplot(grid[0, :]), report, colours)
     for i, h in enumerate(hists):
-        _draw_histogram(fig.add_subplot(grid[1 + i // NCOLS, i % NCOLS]), h)
+        _draw_histogram(fig.add_subplot(grid[1 + i // NCOLS, i % NCOLS]), h, colours)
     return fig
 
 
-def _draw_rates(ax: Axes, report: Report) -> None:
+def _draw_rates(ax: Axes, report: Report, colours: dict[str, str]) -> None:
     keys = group_keys(report)
     recs = [r for r in report.table("groups").records() if r["success_known"]]
     if recs:
@@ -148,7 +157,7 @@ def _draw_rates(ax: Axes, report: Report) -> None:
         lows = [r["success_rate"] - r["ci95_low"] for r in recs]
         highs = [r["ci95_high"] - r["success_rate"] for r in recs]
         xs = range(len(recs))
-        ax.bar(xs, rates, width=0.6, color="#4c72b0", alpha=0.8)
+        ax.bar(xs, rates, width=0.6, color=[colours.get(lab, "C0") for lab in labels], alpha=0.8)
         ax.set_xlim(-0.75, max(len(recs), 3) - 0.25)
         ax.errorbar(xs, rates, yerr=[lows, highs], fmt="none", ecolor="black", capsize=5)
         ax.set_xticks(
@@ -161,7 +170,7 @@ def _draw_rates(ax: Axes, report: Report) -> None:
     ax.set_title("success rate per " + ", ".join(keys))
 
 
-def _draw_histogram(ax: Axes, h: Histogram) -> None:
+def _draw_histogram(ax: Axes, h: Histogram, colours: dict[str, str]) -> None:
     """One series per group: step outlines on shared bins (filled when alone); a constant dimension is one bar
     per group at its value, on an axis of ±5 % of the value (±0.05 around 0), labelled constant."""
     n = len(h.series)
@@ -169,13 +178,17 @@ def _draw_histogram(ax: Axes, h: Histogram) -> None:
         half = max(abs(h.low) * 0.05, 0.05)
         width = half / max(n, 1)
         for j, (label, counts) in enumerate(h.series.items()):
-            ax.bar(h.low - half / 2 + (j + 0.5) * width, sum(counts), width=width * 0.9, label=label)
+            x = h.low - half / 2 + (j + 0.5) * width
+            ax.bar(x, sum(counts), width=width * 0.9, label=label, color=colours.get(label))
         ax.set_xlim(h.low - half, h.low + half)
         ax.set_xticks([h.low], [f"{h.low:g}"])
         ax.set_title(f"action {h.name}: constant {h.low:g}", fontsize=9)
     else:
         for label, counts in h.series.items():
-            ax.stairs(counts, h.edges, label=label, fill=n == 1, alpha=0.8 if n == 1 else 1.0, linewidth=1.2)
+            ax.stairs(
+                counts, h.edges, label=label, fill=n == 1, alpha=0.8 if n == 1 else 1.0, linewidth=1.2,
+                color=colours.get(label),
+            )  # fmt: skip
         ax.set_xlim(h.low, h.high)
         ax.set_title(f"action {h.name}", fontsize=9)
     ax.set_ylabel("frames", fontsize=8)

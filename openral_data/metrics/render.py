@@ -32,10 +32,14 @@ def cell(value: Any) -> str:
     return printable(str(value))
 
 
+def json_payload(tables: Sequence[Table]) -> dict[str, list[dict[str, Any]]]:
+    """`{table name: [row as {column: value}]}`: what `stats --format json` prints (after `command`, `version`)."""
+    return {t.name: [{k: clean(v) for k, v in r.items()} for r in t.records()] for t in tables}
+
+
 def render(tables: Sequence[Table], fmt: str) -> str:
-    if fmt == "json":
-        payload = {t.name: [{k: clean(v) for k, v in r.items()} for r in t.records()] for t in tables}
-        return json.dumps(payload, indent=2, default=str)
+    if fmt == "json":  # one line, as every `--json` document (the CLI adds `command` and `version`)
+        return json.dumps(json_payload(tables), default=str)
     if fmt == "csv":
         blocks = []
         for t in tables:

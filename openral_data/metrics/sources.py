@@ -137,6 +137,26 @@ def _columns(path: Path) -> frozenset[str]:
     return frozenset(read_schema(path).names)
 
 
+def _is_input(path: Path) -> bool:
+    return results_layout.is_results_dir(path) or (path / layout.INFO_PATH).is_file()
+
+
+def _inputs(path: Path) -> list[Path]:
+    """`path` itself when it is a dataset or results; a folder holding some (`datasets/`): those children, in
+    name order (each its own group); else a DatasetError."""
+    if _is_input(path):
+        return [path]
+    children = sorted(c for c in path.iterdir() if not c.name.startswith(".") and c.is_dir()) if path.is_dir() else []
+    found = [c for c in children if _is_input(c)]
+    if not found:
+        raise DatasetError(
+            f"{path}: neither a LeRobot v3 dataset (meta/info.json) nor results ({results_layout.SUMMARY}), nor a "
+            "folder holding some",
+            code="dataset.invalid",
+        )
+    return found
+
+
 def resolve(paths: list[str]) -> tuple[list[DatasetSource], list[results_layout.Results]]:
     """Expand paths and globs into datasets and results directories; labels are made unique."""
     datasets: list[DatasetSource] = []
@@ -150,15 +170,11 @@ def resolve(paths: list[str]) -> tuple[list[DatasetSource], list[results_layout.
             path = Path(match)
             if not path.exists():
                 raise NotFound(f"{path}: no such file or directory")
-            if results_layout.is_results_dir(path):
-                results.append(results_layout.open_results(path))
-            elif (path / layout.INFO_PATH).is_file():
-                datasets.append(open_dataset(path))
-            else:
-                raise DatasetError(
-                    f"{path}: neither a LeRobot v3 dataset (meta/info.json) nor results ({results_layout.SUMMARY})",
-                    code="dataset.invalid",
-                )
+            for one in _inputs(path):
+                if results_layout.is_results_dir(one):
+                    results.append(results_layout.open_results(one))
+                else:
+                    datasets.append(open_dataset(one))
     seen: dict[str, int] = {}
     unique = []
     for ds in datasets:

@@ -263,7 +263,7 @@ def _resolve(opts: HalRecordOptions) -> _Resolved:
         rskill, rskill_path = registry.resolve_rskill(opts.rskill)
         rskill_src = str(rskill_path)
         make_policy = registry.policy_factory(rskill, rskill_src)
-    out = opts.out if opts.out is not None else fresh_out(f"hal-{robot.name}--{rskill.id}")
+    out = opts.out if opts.out is not None else fresh_out(f"hal-{robot.name}")
     return _Resolved(robot, rskill, rskill_src, make_policy, out)
 
 

@@ -134,4 +134,6 @@ def rskill_ref(given: str | None, scene: SimScene) -> str:
 
 
 def default_out(scene: SimScene, rskill_id: str) -> Path:
-    return fresh_out(f"{scene.scene.id}--{rskill_id}")
+    """`datasets/<scene>-<n>` (the rSkill is in the dataset's provenance and `stats --by rskill`)."""
+    del rskill_id  # the name stays short; kept in the signature for the callers
+    return fresh_out(scene.scene.id)

@@ -180,7 +180,13 @@ def _start(run: _Resolved) -> Started[SimRollout, PolicyAdapter]:
     return start(
         lambda: run.make_scene(scene, robot, rskill, scene_src),
         lambda env: check_compatibility(
-            robot, rskill, env.spec, rskill_source=run.rskill_src, scene_source=scene_src, video=video
+            robot,
+            rskill,
+            env.spec,
+            rskill_source=run.rskill_src,
+            scene_source=scene_src,
+            video=video,
+            scene_type=scene.scene.type,
         ),
         load_policy,
         lambda env: env.close(),

@@ -215,7 +215,7 @@ def replay(opts: ReplayOptions, progress: ProgressFn | None = None) -> ReplaySum
     dataset = RecordedDataset(opts.dataset)
     chosen = dataset.select(opts.episodes)
     dataset.need_files(chosen, pixels=opts.mode == "policy", what=f"replay --mode {opts.mode}")
-    out = opts.out if opts.out is not None else fresh_out(f"{opts.dataset.resolve().name}--replay-{opts.mode}")
+    out = opts.out if opts.out is not None else fresh_out(f"{opts.dataset.resolve().name}-replay-{opts.mode}")
     videos = check_observers(opts, out, what="the results")  # `--save-video`: `<results>.debug/`
     t0 = time.perf_counter()
     outcomes: list[EpisodeOutcome] = []

@@ -8,10 +8,34 @@ from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.types import ProducerSpec
 
+# the policies that run on some scene types only: their experts read that simulator's ground truth
+_TABLETOP = ("tabletop", "tabletop_push", "tabletop_pick_place")
+_SCENE_TYPES = {"metaworld_expert": ("metaworld",)}
 
-def rskills_for(robot: RobotManifest, spec: ProducerSpec | None = None) -> list[str]:
-    """Ids of the shipped rSkills whose embodiment tags overlap the robot's and (with `spec`) whose state and
-    action sizes and required cameras are what the scene has (unreadable manifests skipped)."""
+
+def runs_on(rskill: RSkillManifest, scene_type: str) -> bool:
+    """Whether `rskill`'s policy can drive a scene of `scene_type` (scripted experts need a MuJoCo tabletop)."""
+    types = _TABLETOP if rskill.policy.startswith("scripted_") else _SCENE_TYPES.get(rskill.policy)
+    return types is None or scene_type in types
+
+
+def runnable(rskill: RSkillManifest) -> bool:
+    """False for a neural rSkill whose checkpoint is not there (a lerobot policy without its checkpoint folder)."""
+    if rskill.policy != "lerobot":
+        return True
+    from openral_data.policies.lerobot_policy import checkpoint_dir
+
+    try:
+        checkpoint_dir(rskill)
+    except (OpenralError, ImportError):
+        return False
+    return True
+
+
+def rskills_for(robot: RobotManifest, spec: ProducerSpec | None = None, scene_type: str | None = None) -> list[str]:
+    """Ids of the rSkills on the search path that can run here: embodiment tags overlapping the robot's, (with
+    `spec`) state and action sizes and required cameras what the scene has, (with `scene_type`) a policy that runs
+    on that scene type, and a neural policy's checkpoint present (unreadable manifests skipped)."""
     from openral_data.runtime import registry
 
     fitting = []
@@ -20,7 +44,9 @@ def rskills_for(robot: RobotManifest, spec: ProducerSpec | None = None) -> list[
             manifest, _ = registry.resolve_rskill(rskill_id)
         except OpenralError:
             continue
-        if set(manifest.embodiment_tags) & set(robot.embodiment_tags) and (spec is None or _fits(manifest, spec)):
+        if not set(manifest.embodiment_tags) & set(robot.embodiment_tags) or (spec and not _fits(manifest, spec)):
+            continue
+        if (scene_type is None or runs_on(manifest, scene_type)) and runnable(manifest):
             fitting.append(rskill_id)
     return fitting
 
@@ -33,8 +59,8 @@ def _fits(rskill: RSkillManifest, spec: ProducerSpec) -> bool:
     )
 
 
-def _hint(robot: RobotManifest, spec: ProducerSpec | None = None) -> str:
-    fitting = rskills_for(robot, spec)
+def _hint(robot: RobotManifest, spec: ProducerSpec | None = None, scene_type: str | None = None) -> str:
+    fitting = rskills_for(robot, spec, scene_type)
     return f" (rSkills that fit: {', '.join(fitting)})" if fitting else ""
 
 
@@ -46,29 +72,31 @@ def check_compatibility(
     rskill_source: str,
     scene_source: str,
     video: VideoSettings,
+    scene_type: str | None = None,
 ) -> None:
-    """Raise CompatibilityError naming the file and field of the first mismatch."""
+    """Raise CompatibilityError naming the file and field of the first mismatch; the rSkills it suggests are those
+    that can run (on `scene_type`, when given)."""
     if not set(rskill.embodiment_tags) & set(robot.embodiment_tags):
         # the spec was built for this rSkill, so only the robot's tags say which rSkills fit
         raise CompatibilityError(
             f"{rskill_source}: embodiment_tags: {rskill.embodiment_tags} share nothing with robot "
-            f"{robot.name!r} tags {robot.embodiment_tags}" + _hint(robot)
+            f"{robot.name!r} tags {robot.embodiment_tags}" + _hint(robot, None, scene_type)
         )
     if spec.state_dim is not None and spec.state_dim != rskill.state_contract.dim:
         raise CompatibilityError(
             f"{rskill_source}: state_contract.dim: {rskill.state_contract.dim} but scene {scene_source} "
-            f"produces a state of {spec.state_dim}" + _hint(robot, spec)
+            f"produces a state of {spec.state_dim}" + _hint(robot, spec, scene_type)
         )
     if spec.action_dim is not None and spec.action_dim != rskill.action_contract.dim:
         raise CompatibilityError(
             f"{rskill_source}: action_contract.dim: {rskill.action_contract.dim} but scene {scene_source} "
-            f"accepts actions of {spec.action_dim}" + _hint(robot, spec)
+            f"accepts actions of {spec.action_dim}" + _hint(robot, spec, scene_type)
         )
     missing = [c for c in rskill.required_cameras if c not in spec.cameras]
     if missing:
         raise CompatibilityError(
             f"{rskill_source}: required_cameras: {missing} not provided by scene {scene_source} "
-            f"(it has {sorted(spec.cameras)})" + _hint(robot, spec)
+            f"(it has {sorted(spec.cameras)})" + _hint(robot, spec, scene_type)
         )
     for name, shape in spec.cameras.items():
         problem = video.size_problem(shape.height, shape.width)

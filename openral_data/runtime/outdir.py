@@ -4,7 +4,6 @@ something."""
 
 from __future__ import annotations
 
-from datetime import datetime
 from pathlib import Path
 
 from openral_data import manifests, paths
@@ -12,14 +11,13 @@ from openral_data.errors import OutputExists
 
 
 def fresh_out(prefix: str) -> Path:
-    """A folder under datasets/ named `<prefix>--<time stamp>` that does not exist yet."""
-    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
-    base = manifests.datasets_dir() / f"{prefix}--{stamp}"
-    out, k = base, 1
-    while out.exists():
-        k += 1
-        out = base.with_name(f"{base.name}-{k}")
-    return out
+    """A folder under datasets/ named `<prefix>-<n>` that does not exist yet: n the first free number from 1
+    (`datasets/mock_pick-1`, `datasets/mock_pick-2`, ...), a name short enough to read in a table cell."""
+    folder = manifests.datasets_dir()
+    n = 1
+    while (folder / f"{prefix}-{n}").exists() or (folder / f"{prefix}-{n}").is_symlink():
+        n += 1
+    return folder / f"{prefix}-{n}"
 
 
 def check_out(out: Path) -> None:

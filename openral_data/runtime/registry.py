@@ -20,6 +20,7 @@ from openral_data.schemas.base import load_model
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
+from openral_data.text import choices_hint
 from openral_data.types import SimRollout
 
 SceneFactory = Callable[[SimScene, RobotManifest, RSkillManifest, str], SimRollout]
@@ -258,7 +259,9 @@ POLICIES: Registry[PolicyFactory] = Registry(
 
 
 def unknown(kind: str, value: str, valid: list[str]) -> OpenralError:
-    return UsageError(f"unknown {kind} {value!r}; valid: {', '.join(sorted(valid)) or '(none)'}")
+    """`unknown scene 'tabletop_psh'; did you mean 'tabletop_push'? (49 in all: openral-data list scenes)`."""
+    listing = f"openral-data list {kind.lower()}s"
+    return UsageError(f"unknown {kind} {value!r}; {choices_hint(value, sorted(valid), listing)}")
 
 
 def scene_factory(scene_type: str, source: str) -> SceneFactory:

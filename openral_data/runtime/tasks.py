@@ -17,9 +17,8 @@ from openral_data.errors import UsageError
 from openral_data.producers.sim.tasks import SuiteTask, with_task
 from openral_data.runtime.registry import resolve_scene_path, scene_types_with_tasks, task_lister
 from openral_data.schemas.scene import SimScene
+from openral_data.text import choices_hint
 from openral_data.types import Observation
-
-SHOWN = 12  # ids an "unknown task" line lists before pointing at `list tasks`
 
 
 def scene_tasks(scene: SimScene, source: str) -> list[SuiteTask]:
@@ -40,10 +39,8 @@ def choose_task(scene: SimScene, task_id: str, source: str) -> tuple[SimScene, s
     for task in tasks:
         if task_id == task.id or task_id in task.aliases:
             return with_task(scene, task), task.id
-    ids = [t.id for t in tasks]
-    shown = ", ".join(ids[:SHOWN])
-    more = f", ... ({len(ids)} in all: openral-data list tasks {scene.scene.id})" if len(ids) > SHOWN else ""
-    raise UsageError(f"--task: unknown task {task_id!r} of scene {scene.scene.id}; valid: {shown}{more}")
+    hint = choices_hint(task_id, [t.id for t in tasks], f"openral-data list tasks {scene.scene.id}")
+    raise UsageError(f"--task: unknown task {task_id!r} of scene {scene.scene.id}; {hint}")
 
 
 def with_randomize(scene: SimScene, enabled: bool, source: str) -> SimScene:

@@ -37,6 +37,7 @@ class _UniqueKeyLoader(yaml.SafeLoader):
 
 
 _PLAIN_KEY = re.compile(r"[A-Za-z0-9_\-/]+")
+_PYDANTIC_PREFIX = re.compile(r"^(Value error|Assertion failed), ")
 
 
 def _loc(loc: tuple[int | str, ...]) -> str:
@@ -50,14 +51,18 @@ def _loc(loc: tuple[int | str, ...]) -> str:
     return out or "<root>"
 
 
+def plain_message(msg: object) -> str:
+    """A pydantic error message on one line, without pydantic's own wording around a validator's text (`Value
+    error, `, `Assertion failed, `)."""
+    return _PYDANTIC_PREFIX.sub("", " ".join(str(msg).split()))
+
+
 def format_validation_error(source: str, err: ValidationError) -> str:
     """`file: field: message` for each error, joined on one line."""
     parts = []
     for e in err.errors():
-        msg = e["msg"]
-        if e["type"] == "extra_forbidden":
-            msg = "unknown key"
-        parts.append(f"{_loc(tuple(e['loc']))}: {' '.join(str(msg).split())}")
+        msg = "unknown key" if e["type"] == "extra_forbidden" else plain_message(e["msg"])
+        parts.append(f"{_loc(tuple(e['loc']))}: {msg}")
     return f"{source}: " + "; ".join(parts)
 
 

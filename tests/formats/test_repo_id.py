@@ -36,7 +36,9 @@ def test_an_existing_path_is_never_resolved(tmp_path: Path) -> None:
     local = tmp_path / "owner" / "name"
     local.mkdir(parents=True)
     assert resolve_dataset(local) == local
-    assert resolve_dataset("not a repo id") == Path("not a repo id")  # the command's own "no such" error follows
+    with pytest.raises(NotFound, match=r"^not a repo id: no such file or directory$"):
+        resolve_dataset("not a repo id")
+    assert resolve_dataset("datasets/*") == Path("datasets/*")  # a glob: the command matches it
 
 
 def test_info_and_doctor_read_a_repo_id_from_the_cache(written: Path, tmp_path: Path) -> None:

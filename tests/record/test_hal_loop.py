@@ -135,7 +135,9 @@ def test_cli_records_through_the_twin(tmp_path: Path, project: Path) -> None:
 def test_cli_error_is_one_line(tmp_path: Path, project: Path) -> None:
     r = run_cli("record", "--hal", "nosuch", "--rskill", "sweep-ur5e", "--out", str(tmp_path / "o"))
     assert r.returncode == 2 and r.stderr.strip().splitlines() == [r.stderr.strip()], r.stderr
-    assert r.stderr.startswith("error: unknown robot 'nosuch'; valid: ") and "ur5e" in r.stderr
+    assert (
+        r.stderr.startswith("error: unknown robot 'nosuch'; valid: ") and "in all: openral-data list robots" in r.stderr
+    )
     assert not (tmp_path / "o").exists()
 
 

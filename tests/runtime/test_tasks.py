@@ -94,8 +94,8 @@ def test_suite_tasks_are_declared_without_building_a_scene(project: Path) -> Non
     with pytest.raises(UsageError) as info:
         choose_task(scene, "Lfit", "robosuite_lift.yaml")
     assert str(info.value) == (
-        "--task: unknown task 'Lfit' of scene robosuite_lift; valid: Lift, Stack, PickPlaceCan, PickPlaceMilk, "
-        "PickPlaceBread, PickPlaceCereal, Door, NutAssemblyRound"
+        "--task: unknown task 'Lfit' of scene robosuite_lift; did you mean 'Lift'? "
+        "(8 in all: openral-data list tasks robosuite_lift)"
     )
     aloha, found = tasks_of("aloha_insertion")
     assert [t.id for t in found] == ["insertion", "transfer_cube"]

@@ -45,16 +45,16 @@ def test_parts_in_order_and_shared_topics(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("state", "message"),
     [
-        ({"parts": []}, "state: Value error, parts must be a non-empty list"),
-        ({"field": "position"}, "state: Value error, needs topic (one source) or parts (several, concatenated in"),
-        ({"topic": "/x", "parts": [ARM]}, "state: Value error, topic beside parts: give each part its own topic"),
+        ({"parts": []}, "state: parts must be a non-empty list"),
+        ({"field": "position"}, "state: needs topic (one source) or parts (several, concatenated in"),
+        ({"topic": "/x", "parts": [ARM]}, "state: topic beside parts: give each part its own topic"),
         ({"parts": [ARM, {**ARM, "names": ["a", "j2"]}]}, "parts[0] and parts[1] both name a dimension 'j2'"),
         (
             {"parts": [{"topic": "/a", "field": "data"}, {"topic": "/a", "field": "data"}]},
             "parts[0] and parts[1] both name a dimension '/a.data' (give each part its own names)",
         ),
-        ({"parts": [{**ARM, "field": "a..b"}]}, "state.parts[0]: Value error, field 'a..b' is not a dotted field"),
-        ({"parts": [{**ARM, "names": ["x"]}]}, "state.parts[0]: Value error, names has 1 entries but joints has 2"),
+        ({"parts": [{**ARM, "field": "a..b"}]}, "state.parts[0]: field 'a..b' is not a dotted field"),
+        ({"parts": [{**ARM, "names": ["x"]}]}, "state.parts[0]: names has 1 entries but joints has 2"),
         ({"parts": [{"field": "data"}]}, "state.parts[0].topic: Field required"),
     ],
 )
@@ -85,4 +85,4 @@ def test_environment_state_is_an_optional_vector_role(tmp_path: Path) -> None:
     assert "/object/pose" in m.topics()
     with pytest.raises(ConfigError) as excinfo:
         _load(tmp_path, environment_state={"topic": "/x", "parts": [pose]})
-    assert "environment_state: Value error, topic beside parts" in str(excinfo.value)
+    assert "environment_state: topic beside parts" in str(excinfo.value)

@@ -221,14 +221,14 @@ def test_bddl_and_init_state_files_are_checked(tmp_path: Path) -> None:
     import_libero("t")
     from libero.libero import benchmark
 
-    with pytest.raises(ConfigError, match=r"scene.params: bddl: Value error, replaces suite and task"):
+    with pytest.raises(ConfigError, match=r"scene.params: bddl: replaces suite and task"):
         _build_file(_bddl_scene(tmp_path / "both", suite="libero_goal", task=0))
-    with pytest.raises(ConfigError, match=r"scene.params: init_state_index: Value error, needs init_states$"):
+    with pytest.raises(ConfigError, match=r"scene.params: init_state_index: needs init_states$"):
         _build_file(_bddl_scene(tmp_path / "index", init_state_index=0))
-    with pytest.raises(ConfigError, match=r"scene.params: bddl: Value error, missing: name a suite task"):
+    with pytest.raises(ConfigError, match=r"scene.params: bddl: missing: name a suite task"):
         _build_file(_bddl_scene(tmp_path / "neither", bddl=None))
     suite_states = _bddl_scene(tmp_path / "suite_states", bddl=None, suite="libero_goal", task=0, init_states="s.npy")
-    with pytest.raises(ConfigError, match=r"scene.params: init_states: Value error, goes with bddl"):
+    with pytest.raises(ConfigError, match=r"scene.params: init_states: goes with bddl"):
         _build_file(suite_states)
     missing = _bddl_scene(tmp_path / "missing", bddl="nowhere.bddl")
     with pytest.raises(ConfigError, match=rf"^{missing}: scene.params.bddl: no such file .*nowhere.bddl"):

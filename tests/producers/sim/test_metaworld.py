@@ -221,5 +221,7 @@ def test_task_records_another_metaworld_task(project: Path, tmp_path: Path) -> N
     assert bad.returncode == 2 and not (tmp_path / "bad").exists()
     line = bad.stderr.strip()
     assert "\n" not in line
-    assert line.startswith("error: --task: unknown task 'pick-plaice-v3' of scene metaworld_push; valid: assembly-v3, ")
-    assert line.endswith(f"... ({len(task_names())} in all: openral-data list tasks metaworld_push)")
+    assert line == (
+        "error: --task: unknown task 'pick-plaice-v3' of scene metaworld_push; did you mean 'pick-place-v3'? "
+        f"({len(task_names())} in all: openral-data list tasks metaworld_push)"
+    )
