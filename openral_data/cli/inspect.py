@@ -12,7 +12,9 @@ import typer
 from rich import box
 from rich.console import Console
 from rich.markup import escape
+from rich.measure import Measurement
 from rich.table import Table
+from rich.text import Text
 
 from openral_data import paths
 from openral_data.cli.jsonout import JsonFlag, print_json
@@ -119,7 +121,25 @@ def list_cmd(
     out = console if console.is_terminal else _piped()
     for name, items in cat.sections.items():
         out.print(name.replace("_", " "), style="bold", markup=False, highlight=False)  # unpadded, unlike a title
-        out.print(_table(name, items, show_paths))
+        table = _table(name, items, show_paths)
+        if Measurement.get(out, out.options.update_width(10_000), table).maximum <= out.width:
+            out.print(table)
+        else:  # too narrow for the grid: one record per entry, so no cell wraps mid-word
+            _print_records(out, table)
+
+
+def _print_records(out: Console, table: Table) -> None:
+    """`table` as records: each entry's id on a line, then one `column  value` line per cell (markup as text)."""
+    heads = [str(c.header) for c in table.columns]
+    cells = [[Text.from_markup(str(v)).plain for v in c.cells] for c in table.columns]
+    pad = max(len(h) for h in heads[1:]) if len(heads) > 1 else 0
+    for i in range(table.row_count):
+        out.print(cells[0][i], markup=False, highlight=False)
+        for h, col in zip(heads[1:], cells[1:], strict=True):
+            if col[i]:
+                out.print(f"  {h:<{pad}}  {col[i]}", markup=False, highlight=False)
+    if table.caption:
+        out.print(Text.from_markup(str(table.caption)).plain, markup=False, highlight=False)
 
 
 def _piped() -> Console:

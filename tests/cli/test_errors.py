@@ -197,7 +197,7 @@ def test_list_commands(project: Path) -> None:
 @pytest.mark.parametrize(
     ("args", "pattern"),
     [
-        (["record", "--codec", "vp9"], r"^error: --codec: 'vp9' is not one of 'av1', 'h264'$"),
+        (["record", "--codec", "vp9"], r"^error: --vcodec: 'vp9' is not one of 'av1', 'h264', 'hevc', 'auto'$"),
         (["record", "--bogus"], r"No such option: --bogus"),
         (["recrd"], r"No such command 'recrd'\. Did you mean 'record'\?"),
         (["info"], r"Missing argument 'dataset'"),

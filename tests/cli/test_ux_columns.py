@@ -52,20 +52,35 @@ def test_stats_all_prints_every_table_within_100_columns(dataset: Path, monkeypa
     assert max(len(line) for line in run.stdout.splitlines()) <= 100
 
 
+def _record(text: str, entry: str) -> dict[str, str]:
+    """One entry of `list` printed as vertical records: its `field  value` lines."""
+    lines = text.splitlines()
+    start = lines.index(entry)
+    out: dict[str, str] = {}
+    for line in lines[start + 1 :]:
+        if not line.startswith("  "):
+            break
+        field, _, value = line.strip().partition("  ")
+        out[field] = value.strip()
+    return out
+
+
 def test_list_never_cuts_an_id_and_says_what_cannot_run(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Too wide for 100 columns: one record per entry (no cell wraps mid-word); a grid where it fits."""
     monkeypatch.setenv("COLUMNS", "100")
     run = run_inproc("list", "rskills")
     assert run.returncode == 0, run.stderr
     assert max(len(line) for line in run.stdout.splitlines()) <= 100
-    ids = [line.split()[0] for line in run.stdout.splitlines() if line.startswith(" ") and line.split()]
     for rskill in ("lerobot-act-push", "robosuite-panda-random", "scripted-open-drawer", "sweep-ur5e"):
-        assert rskill in ids
-    row = next(line for line in run.stdout.splitlines() if line.startswith(" lerobot-act-push "))
-    note = re.search(r"no \((\d)\)", row)
+        assert rskill in run.stdout.splitlines()  # whole, on a line of its own
+    note = re.fullmatch(r"no \((\d)\)", _record(run.stdout, "lerobot-act-push")["runs here"])
     assert note is not None
     assert f"({note.group(1)}) neural rSkills need their checkpoint" in run.stdout
     assert "/rskill.yaml" not in run.stdout  # paths only with --paths
-    assert re.search(r" path *$", run_inproc("list", "rskills", "--paths").stdout, re.M)
+    assert "rskill.yaml" in _record(run_inproc("list", "rskills", "--paths").stdout, "sweep-ur5e")["path"]
+    monkeypatch.setenv("COLUMNS", "400")
+    wide = run_inproc("list", "rskills").stdout
+    assert any(line.startswith(" lerobot-act-push ") for line in wide.splitlines())  # the grid
 
 
 def test_list_scenes_marks_libero_when_its_environment_is_absent(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -73,13 +88,10 @@ def test_list_scenes_marks_libero_when_its_environment_is_absent(monkeypatch: py
     monkeypatch.setenv("COLUMNS", "100")
     run = run_inproc("list", "scenes")
     lines = run.stdout.splitlines()
-    assert any(line.startswith(" libero_spatial_bench ") for line in lines)  # the longest ids whole
-    assert any(line.startswith(" metaworld_button_press_topdown_bench ") for line in lines)
-    pusht = next(line for line in lines if line.startswith(" pusht "))
-    assert pusht.rstrip().endswith("yes")
+    assert "libero_spatial_bench" in lines and "metaworld_button_press_topdown_bench" in lines  # ids whole
+    assert _record(run.stdout, "pusht")["runs here"] == "yes"
     try:
         import libero  # noqa: F401
     except ImportError:
-        libero_row = next(line for line in lines if line.startswith(" libero_10 "))
-        assert re.search(r"no \(\d\)", libero_row)
+        assert re.fullmatch(r"no \(\d\)", _record(run.stdout, "libero_10")["runs here"])
         assert "libero scenes: needs their own environment (bash scripts/setup_libero.sh)" in run.stdout

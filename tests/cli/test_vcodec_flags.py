@@ -54,7 +54,7 @@ def test_record_writes_every_setting_into_info(project: Path, tmp_path: Path) ->
         (["--vcodec", "av1", "--crf", "64"], "error: --crf: 64 is out of range for av1 (0..63)"),
         (["--vcodec", "av1", "--pix-fmt", "yuv444p"], "error: --pix-fmt: 'yuv444p': libsvtav1 encodes yuv420p"),
         (["--vcodec", "h264", "--preset", "9"], "error: --preset: 9: libx264 takes one of ultrafast"),
-        (["--vcodec", "vp9"], "Invalid value for '--vcodec' / '--codec'"),
+        (["--vcodec", "vp9"], "error: --vcodec: 'vp9' is not one of 'av1', 'h264', 'hevc', 'auto'"),
     ],
 )
 def test_record_refuses_a_bad_combination_before_writing(
