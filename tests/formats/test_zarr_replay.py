@@ -1,0 +1,141 @@
+"""Zarr replay buffers (diffusion policy / UMI) read through the episodic protocol: every value equals what zarr
+itself reads from the same store, and a malformed store is one `DatasetError` line naming the file and key."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import zarr
+
+from openral_data.errors import DatasetError
+from openral_data.formats.zarr_replay import ZarrReplaySource, detect
+from tests.support.replay_buffer import sample_episodes, write_replay_buffer
+
+
+@pytest.fixture(scope="module")
+def buffer(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return write_replay_buffer(tmp_path_factory.mktemp("rb") / "pusht.zarr", sample_episodes())
+
+
+def _independent(store: Path | zarr.storage.ZipStore) -> tuple[dict[str, np.ndarray], list[int]]:
+    root: Any = zarr.open_group(store if isinstance(store, zarr.storage.ZipStore) else str(store), mode="r")
+    return {f"data/{k}": np.asarray(a[:]) for k, a in root["data"].arrays()}, [
+        int(e) for e in root["meta/episode_ends"][:]
+    ]
+
+
+@pytest.mark.parametrize("zip_store", [False, True], ids=["directory", "zip"])
+def test_every_value_equals_zarr(tmp_path: Path, zip_store: bool) -> None:
+    path = tmp_path / ("b.zarr.zip" if zip_store else "b.zarr")
+    write_replay_buffer(path, sample_episodes(), zip_store=zip_store)
+    store = zarr.storage.ZipStore(path, mode="r") if zip_store else path
+    arrays, ends = _independent(store)
+    source = detect(path)
+    assert isinstance(source, ZarrReplaySource) and source.layout == "zarr" and source.fps is None
+    episodes = list(source.episodes())
+    assert [e.length for e in episodes] == list(np.diff([0, *ends]))
+    start = 0
+    for ep, end in zip(episodes, ends, strict=True):
+        assert {s.key for s in ep.specs()} == set(arrays)
+        for spec in ep.specs():
+            want = arrays[spec.key][start:end]
+            assert (spec.dtype, spec.shape, spec.encoding) == (want.dtype.name, want.shape[1:], "raw")
+            half = ep.length // 2  # two bounded reads make the whole episode
+            got = np.concatenate([ep.read(spec.key, 0, half), ep.read(spec.key, half, ep.length)])
+            assert got.dtype == want.dtype and np.array_equal(got, want)
+        start = end
+    source.close()
+
+
+def test_not_a_zarr_store_is_not_detected(tmp_path: Path) -> None:
+    (tmp_path / "x.bag").write_bytes(b"")
+    assert detect(tmp_path) is None and detect(tmp_path / "x.bag") is None
+
+
+def _edit(path: Path, rel: str, **changes: object) -> None:
+    doc = path / rel
+    meta = json.loads(doc.read_text())
+    meta.update(changes)
+    doc.write_text(json.dumps(meta))
+
+
+def _missing_ends(p: Path) -> None:
+    shutil.rmtree(p / "meta/episode_ends")
+
+
+def _ragged(p: Path) -> None:
+    _edit(p, "data/state/.zarray", shape=[10, 5])  # 10 rows of 15 the episodes end at
+
+
+def _text_dtype(p: Path) -> None:
+    root: Any = zarr.open_group(str(p), mode="a")
+    root["data"].create_array("label", shape=(15,), dtype="<U4", compressors=None)
+
+
+def _huge(p: Path) -> None:
+    _edit(p, "data/img/.zarray", shape=[15, 100000, 100000, 3], chunks=[4, 100000, 100000, 3])
+
+
+def _falling_ends(p: Path) -> None:
+    ends: Any = zarr.open_group(str(p), mode="a")["meta/episode_ends"]
+    ends[1] = 2
+
+
+def _codec(p: Path) -> None:
+    _edit(p, "data/img/.zarray", compressor={"id": "imagecodecs_jpegxl", "level": 99})
+
+
+def _corrupt_chunk(p: Path) -> None:
+    (p / "data/state/0.0").write_bytes(b"\x02\x01garbage")
+
+
+CASES = {
+    "missing-episode-ends": (_missing_ends, r"meta/episode_ends: missing"),
+    "ragged": (_ragged, r"data/state: 10 rows, but meta/episode_ends ends at row 15"),
+    "text-dtype": (_text_dtype, r"data/label: dtype .* is not numeric"),
+    "huge-shape": (_huge, r"data/img: declares \d+ bytes per step or chunk"),
+    "falling-ends": (_falling_ends, r"meta/episode_ends: entry 1 \(2\) is not above"),
+    "unknown-codec": (_codec, r"data: .*codec 'imagecodecs_jpegxl' is not available"),
+}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_malformed_store_is_one_line(buffer: Path, tmp_path: Path, case: str) -> None:
+    bad = tmp_path / "bad.zarr"
+    shutil.copytree(buffer, bad)
+    damage, message = CASES[case]
+    damage(bad)
+    with pytest.raises(DatasetError) as excinfo:
+        detect(bad)
+    text = str(excinfo.value)
+    assert "\n" not in text and text.startswith(f"{bad}: ") and re.search(message, text), text
+
+
+def test_a_corrupt_chunk_names_file_and_key(buffer: Path, tmp_path: Path) -> None:
+    bad = tmp_path / "bad.zarr"
+    shutil.copytree(buffer, bad)
+    _corrupt_chunk(bad)
+    source = detect(bad)
+    assert source is not None
+    episode = next(source.episodes())
+    with pytest.raises(DatasetError, match=rf"^{bad}: data/state: cannot read rows of episode 0: ") as excinfo:
+        episode.read("data/state", 0, 2)
+    assert "\n" not in str(excinfo.value)
+
+
+def test_a_symlink_out_of_the_store_is_refused(buffer: Path, tmp_path: Path) -> None:
+    bad = tmp_path / "bad.zarr"
+    shutil.copytree(buffer, bad)
+    outside = tmp_path / "secret"
+    outside.write_bytes(b"x")
+    (bad / "data/state/0.0").unlink()
+    (bad / "data/state/0.0").symlink_to(outside)
+    with pytest.raises(DatasetError, match="symlink leads outside the store") as excinfo:
+        detect(bad)
+    assert excinfo.value.code == "dataset.unsafe"

@@ -1,0 +1,85 @@
+"""Zarr replay buffers written by zarr itself, step for step as diffusion policy's `ReplayBuffer` writes them.
+
+The layout and the writing sequence follow real-stanford/diffusion_policy, diffusion_policy/common/replay_buffer.py
+(commit 02373793ac4d0f63582c20fe1cff76034837edb5): `create_empty_zarr` makes groups ``data`` and ``meta`` and an
+empty int64 ``meta/episode_ends`` without a compressor; `add_episode` creates each ``data/<key>`` array at the
+first episode (zeros, time-chunked, Blosc lz4 level 5 without shuffle: its "default" compressor), then for every
+episode resizes each array by the episode's rows, assigns them to the tail, and appends the new total row count to
+``episode_ends``. diffusion_policy targets zarr 2; zarr 3 writes the same v2 store here (``zarr_format=2``). UMI
+writes the same groups into a `zarr.ZipStore` (``*.zarr.zip``), which `zip_store=True` reproduces.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+Episode = dict[str, npt.NDArray[np.generic]]
+
+
+def write_replay_buffer(path: Path, episodes: list[Episode], *, zip_store: bool = False, chunk: int = 4) -> Path:
+    """`episodes` (key -> rows) appended one by one into a new replay buffer at `path`."""
+    import numcodecs
+    import zarr
+
+    built = path.with_name(path.name + ".building") if zip_store else path
+    root: Any = zarr.open_group(str(built), mode="w", zarr_format=2)
+    data = root.require_group("data")
+    meta = root.require_group("meta")
+    ends = meta.zeros(name="episode_ends", shape=(0,), dtype=np.int64, compressor=None)
+    compressor = numcodecs.Blosc(cname="lz4", clevel=5, shuffle=numcodecs.Blosc.NOSHUFFLE)
+    total = 0
+    for episode in episodes:
+        length = len(next(iter(episode.values())))
+        total += length
+        for key, rows in episode.items():
+            if key not in data:
+                arr = data.zeros(
+                    name=key,
+                    shape=(total, *rows.shape[1:]),
+                    chunks=(chunk, *rows.shape[1:]),
+                    dtype=rows.dtype,
+                    compressor=compressor,
+                )
+            else:
+                arr = data[key]
+                arr.resize((total, *rows.shape[1:]))
+            arr[-length:] = rows
+        ends.resize((ends.shape[0] + 1,))
+        ends[-1] = total
+    if zip_store:
+        _save_to_zip(root, path)
+        shutil.rmtree(built)
+    return path
+
+
+def _save_to_zip(root: Any, path: Path) -> None:
+    """UMI's `save_to_store(zarr.ZipStore(path, mode="w"))`: meta and data arrays copied with their chunks and
+    compressors."""
+    import zarr
+
+    store = zarr.storage.ZipStore(path, mode="w")
+    out = zarr.open_group(store, mode="w", zarr_format=2)
+    for group in ("meta", "data"):
+        dst = out.require_group(group)
+        for key, arr in root[group].arrays():
+            dst.create_array(key, data=arr[:], chunks=arr.chunks, compressors=arr.compressors or None)
+    store.close()
+
+
+def sample_episodes(lengths: tuple[int, ...] = (5, 3, 7), seed: int = 0) -> list[Episode]:
+    """A pusht-like buffer: an 8x6 RGB image, a 5-d float32 state, a 2-d action, an int keypoint count."""
+    rng = np.random.default_rng(seed)
+    return [
+        {
+            "img": rng.integers(0, 256, (n, 8, 6, 3), dtype=np.uint8),
+            "state": rng.standard_normal((n, 5)).astype(np.float32),
+            "action": rng.standard_normal((n, 2)).astype(np.float32),
+            "n_contacts": rng.integers(0, 4, (n,), dtype=np.int64),
+        }
+        for n in lengths
+    ]
