@@ -4,7 +4,6 @@ itself reads from the same store, and a malformed store is one `DatasetError` li
 from __future__ import annotations
 
 import json
-import re
 import shutil
 from pathlib import Path
 from typing import Any
@@ -15,6 +14,7 @@ import zarr
 
 from openral_data.errors import DatasetError
 from openral_data.formats.zarr_replay import ZarrReplaySource, detect
+from tests.support.array_sources import assert_one_line, damaged, read_all
 from tests.support.replay_buffer import sample_episodes, write_replay_buffer
 
 
@@ -107,14 +107,10 @@ CASES = {
 
 @pytest.mark.parametrize("case", list(CASES))
 def test_malformed_store_is_one_line(buffer: Path, tmp_path: Path, case: str) -> None:
-    bad = tmp_path / "bad.zarr"
-    shutil.copytree(buffer, bad)
-    damage, message = CASES[case]
-    damage(bad)
+    bad = damaged(buffer, tmp_path / "bad.zarr", CASES[case][0])
     with pytest.raises(DatasetError) as excinfo:
-        detect(bad)
-    text = str(excinfo.value)
-    assert "\n" not in text and text.startswith(f"{bad}: ") and re.search(message, text), text
+        read_all(detect(bad))
+    assert_one_line(excinfo.value, bad, CASES[case][1])
 
 
 def test_a_corrupt_chunk_names_file_and_key(buffer: Path, tmp_path: Path) -> None:
