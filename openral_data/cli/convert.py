@@ -27,8 +27,13 @@ def convert(
     src: Annotated[
         Path, typer.Argument(help="a bag (.bag, .mcap, rosbag2 folder, folder of bags) or a LeRobot v3 dataset")
     ],
-    dst: Annotated[Path, typer.Argument(help="output folder (must not exist or be empty)")],
+    dst: Annotated[
+        Path | None, typer.Argument(help="output folder (must not exist or be empty); none with --print-mapping")
+    ] = None,
     mapping: Annotated[Path | None, typer.Option(help="mapping YAML: topics -> features (bags -> LeRobot)")] = None,
+    print_mapping: Annotated[
+        bool, typer.Option("--print-mapping", help="print a starting mapping for the bag, its guesses marked")
+    ] = False,
     codec: Annotated[Codec, typer.Option(help="video codec (bags -> LeRobot)")] = "av1",
     episodes: Annotated[str | None, typer.Option(help="episodes to export, e.g. 0,3,5-7 (LeRobot -> MCAP)")] = None,
     image_format: Annotated[
@@ -47,11 +52,34 @@ def convert(
     """Convert bags/MCAP to a LeRobot v3 dataset, or a LeRobot v3 dataset to ROS 2 MCAP bags."""
     from openral_data.runtime.parallel.executors import check_executor
 
+    if print_mapping:
+        _print_mapping(src, dst, mapping, json)
+        return
+    if dst is None:
+        raise UsageError("DST: missing (the output folder; or --print-mapping to print a starting mapping for SRC)")
     if workers < 1:
         raise UsageError(f"--workers must be >= 1, got {workers}")
     check_executor(executor, address)
     parallel = Parallel(workers, executor, address) if workers != 1 or executor != "local" else None
     _convert(src, dst, mapping, codec, episodes, image_format, mcap_compression, json, parallel)
+
+
+def _print_mapping(src: Path, dst: Path | None, mapping: Path | None, json: bool) -> None:
+    """`convert BAG --print-mapping`: the guessed starting mapping as commented YAML (or JSON) on stdout."""
+    from openral_data.convert.discover import is_bag_source
+    from openral_data.convert.guess_mapping import guess_mapping, mapping_yaml
+
+    if dst is not None or mapping is not None:
+        raise UsageError("--print-mapping: takes SRC only (no DST, no --mapping); it writes nothing")
+    if not src.exists():
+        raise NotFound(f"{src}: no such file or directory")
+    if not is_bag_source(src):
+        raise UsageError(f"{src}: --print-mapping applies to bags (.bag, .mcap, rosbag2 folder, folder of bags)")
+    guess = guess_mapping(src)
+    if json:
+        print_json("convert", {"source": str(src), "mapping": guess.mapping, "guesses": guess.notes})
+        return
+    print_line(mapping_yaml(src, guess).rstrip("\n"))
 
 
 @dataclass(frozen=True)
