@@ -3,7 +3,6 @@ itself reads from the same store, and a malformed store is one `DatasetError` li
 
 from __future__ import annotations
 
-import json
 import shutil
 from pathlib import Path
 from typing import Any
@@ -15,7 +14,7 @@ import zarr
 from openral_data.errors import DatasetError
 from openral_data.formats.zarr_replay import ZarrReplaySource, detect
 from tests.support.array_sources import assert_one_line, damaged, read_all
-from tests.support.replay_buffer import sample_episodes, write_replay_buffer
+from tests.support.replay_buffer import DAMAGES, corrupt_chunk, sample_episodes, write_replay_buffer
 
 
 @pytest.fixture(scope="module")
@@ -58,65 +57,18 @@ def test_not_a_zarr_store_is_not_detected(tmp_path: Path) -> None:
     assert detect(tmp_path) is None and detect(tmp_path / "x.bag") is None
 
 
-def _edit(path: Path, rel: str, **changes: object) -> None:
-    doc = path / rel
-    meta = json.loads(doc.read_text())
-    meta.update(changes)
-    doc.write_text(json.dumps(meta))
-
-
-def _missing_ends(p: Path) -> None:
-    shutil.rmtree(p / "meta/episode_ends")
-
-
-def _ragged(p: Path) -> None:
-    _edit(p, "data/state/.zarray", shape=[10, 5])  # 10 rows of 15 the episodes end at
-
-
-def _text_dtype(p: Path) -> None:
-    root: Any = zarr.open_group(str(p), mode="a")
-    root["data"].create_array("label", shape=(15,), dtype="<U4", compressors=None)
-
-
-def _huge(p: Path) -> None:
-    _edit(p, "data/img/.zarray", shape=[15, 100000, 100000, 3], chunks=[4, 100000, 100000, 3])
-
-
-def _falling_ends(p: Path) -> None:
-    ends: Any = zarr.open_group(str(p), mode="a")["meta/episode_ends"]
-    ends[1] = 2
-
-
-def _codec(p: Path) -> None:
-    _edit(p, "data/img/.zarray", compressor={"id": "imagecodecs_jpegxl", "level": 99})
-
-
-def _corrupt_chunk(p: Path) -> None:
-    (p / "data/state/0.0").write_bytes(b"\x02\x01garbage")
-
-
-CASES = {
-    "missing-episode-ends": (_missing_ends, r"meta/episode_ends: missing"),
-    "ragged": (_ragged, r"data/state: 10 rows, but meta/episode_ends ends at row 15"),
-    "text-dtype": (_text_dtype, r"data/label: dtype .* is not numeric"),
-    "huge-shape": (_huge, r"data/img: declares \d+ bytes per step or chunk"),
-    "falling-ends": (_falling_ends, r"meta/episode_ends: entry 1 \(2\) is not above"),
-    "unknown-codec": (_codec, r"data: .*codec 'imagecodecs_jpegxl' is not available"),
-}
-
-
-@pytest.mark.parametrize("case", list(CASES))
+@pytest.mark.parametrize("case", list(DAMAGES))
 def test_malformed_store_is_one_line(buffer: Path, tmp_path: Path, case: str) -> None:
-    bad = damaged(buffer, tmp_path / "bad.zarr", CASES[case][0])
+    bad = damaged(buffer, tmp_path / "bad.zarr", DAMAGES[case][0])
     with pytest.raises(DatasetError) as excinfo:
         read_all(detect(bad))
-    assert_one_line(excinfo.value, bad, CASES[case][1])
+    assert_one_line(excinfo.value, bad, DAMAGES[case][1])
 
 
 def test_a_corrupt_chunk_names_file_and_key(buffer: Path, tmp_path: Path) -> None:
     bad = tmp_path / "bad.zarr"
     shutil.copytree(buffer, bad)
-    _corrupt_chunk(bad)
+    corrupt_chunk(bad)
     source = detect(bad)
     assert source is not None
     episode = next(source.episodes())

@@ -11,12 +11,15 @@ writes the same groups into a `zarr.ZipStore` (``*.zarr.zip``), which `zip_store
 
 from __future__ import annotations
 
+import json
 import shutil
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+import zarr
 
 Episode = dict[str, npt.NDArray[np.generic]]
 
@@ -24,7 +27,6 @@ Episode = dict[str, npt.NDArray[np.generic]]
 def write_replay_buffer(path: Path, episodes: list[Episode], *, zip_store: bool = False, chunk: int = 4) -> Path:
     """`episodes` (key -> rows) appended one by one into a new replay buffer at `path`."""
     import numcodecs
-    import zarr
 
     built = path.with_name(path.name + ".building") if zip_store else path
     root: Any = zarr.open_group(str(built), mode="w", zarr_format=2)
@@ -60,8 +62,6 @@ def write_replay_buffer(path: Path, episodes: list[Episode], *, zip_store: bool 
 def _save_to_zip(root: Any, path: Path) -> None:
     """UMI's `save_to_store(zarr.ZipStore(path, mode="w"))`: meta and data arrays copied with their chunks and
     compressors."""
-    import zarr
-
     store = zarr.storage.ZipStore(path, mode="w")
     out = zarr.open_group(store, mode="w", zarr_format=2)
     for group in ("meta", "data"):
@@ -83,3 +83,52 @@ def sample_episodes(lengths: tuple[int, ...] = (5, 3, 7), seed: int = 0) -> list
         }
         for n in lengths
     ]
+
+
+def _edit(path: Path, rel: str, **changes: object) -> None:
+    doc = path / rel
+    meta = json.loads(doc.read_text())
+    meta.update(changes)
+    doc.write_text(json.dumps(meta))
+
+
+def _missing_ends(p: Path) -> None:
+    shutil.rmtree(p / "meta/episode_ends")
+
+
+def _ragged(p: Path) -> None:
+    _edit(p, "data/state/.zarray", shape=[10, 5])  # 10 rows of 15 the episodes end at
+
+
+def _text_dtype(p: Path) -> None:
+    root: Any = zarr.open_group(str(p), mode="a")
+    root["data"].create_array("label", shape=(15,), dtype="<U4", compressors=None)
+
+
+def _huge(p: Path) -> None:
+    _edit(p, "data/img/.zarray", shape=[15, 100000, 100000, 3], chunks=[4, 100000, 100000, 3])
+
+
+def _falling_ends(p: Path) -> None:
+    ends: Any = zarr.open_group(str(p), mode="a")["meta/episode_ends"]
+    ends[1] = 2
+
+
+def _codec(p: Path) -> None:
+    _edit(p, "data/img/.zarray", compressor={"id": "imagecodecs_jpegxl", "level": 99})
+
+
+def corrupt_chunk(p: Path) -> None:
+    """A chunk of data/state that is not Blosc data (found only when its rows are read)."""
+    (p / "data/state/0.0").write_bytes(b"\x02\x01garbage")
+
+
+# damage -> what the one-line refusal says (after the store's path)
+DAMAGES: dict[str, tuple[Callable[[Path], None], str]] = {
+    "missing-episode-ends": (_missing_ends, r"meta/episode_ends: missing"),
+    "ragged": (_ragged, r"data/state: 10 rows, but meta/episode_ends ends at row 15"),
+    "text-dtype": (_text_dtype, r"data/label: dtype .* is not numeric"),
+    "huge-shape": (_huge, r"data/img: declares \d+ bytes per step or chunk"),
+    "falling-ends": (_falling_ends, r"meta/episode_ends: entry 1 \(2\) is not above"),
+    "unknown-codec": (_codec, r"data: .*codec 'imagecodecs_jpegxl' is not available"),
+}

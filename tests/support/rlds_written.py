@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import io
 import json
+import struct
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -109,3 +111,99 @@ def write_rlds(folder: Path, lengths: tuple[tuple[int, ...], ...] = ((4, 6), (5,
             "splits": [{"name": "train", "shardLengths": shard_lengths, "numBytes": "0"}]}  # fmt: skip
     (folder / "dataset_info.json").write_text(json.dumps(info, indent=2))
     return folder
+
+
+SHARD = "toy_rlds-train.tfrecord-00000-of-00002"
+
+
+def _crc(data: bytes) -> bytes:
+    from tfrecord.writer import TFRecordWriter
+
+    crc: bytes = TFRecordWriter.masked_crc(data)
+    return crc
+
+
+def _record(data: bytes) -> bytes:
+    """One TFRecord record framed by tfrecord's own masked CRC."""
+    head = struct.pack("<Q", len(data))
+    return head + _crc(head) + data + _crc(data)
+
+
+def _shard(folder: Path) -> Path:
+    return folder / SHARD
+
+
+def _truncate(folder: Path) -> None:
+    raw = _shard(folder).read_bytes()
+    _shard(folder).write_bytes(raw[: len(raw) - 40])
+
+
+def _bad_crc(folder: Path) -> None:
+    raw = bytearray(_shard(folder).read_bytes())
+    raw[100] ^= 0xFF
+    _shard(folder).write_bytes(bytes(raw))
+
+
+def _huge_record(folder: Path) -> None:
+    head = struct.pack("<Q", 1 << 40)
+    _shard(folder).write_bytes(head + _crc(head))
+
+
+def _not_an_example(folder: Path) -> None:
+    _shard(folder).write_bytes(_record(b"\xff\xff\xff\xff"))
+
+
+def _rewrite(folder: Path, change: Callable[[dict], None]) -> None:
+    from tfrecord.writer import TFRecordWriter
+
+    datum = episode_datum(4, np.random.default_rng(1), 0)
+    change(datum)
+    _shard(folder).write_bytes(_record(TFRecordWriter.serialize_tf_example(datum)))
+
+
+def _missing_key(folder: Path) -> None:
+    _rewrite(folder, lambda d: d.pop("steps/action"))
+
+
+def _ragged(folder: Path) -> None:
+    _rewrite(folder, lambda d: d.update({"steps/is_first": ([1, 0, 0], "int")}))
+
+
+def _wrong_type(folder: Path) -> None:
+    _rewrite(folder, lambda d: d.update({"steps/reward": ([0, 0, 0, 1], "int")}))
+
+
+def _features(folder: Path, change: Callable[[dict], None]) -> None:
+    doc = json.loads((folder / "features.json").read_text())
+    change(doc["featuresDict"]["features"]["steps"]["sequence"]["feature"]["featuresDict"]["features"])
+    (folder / "features.json").write_text(json.dumps(doc))
+
+
+def _huge_shape(folder: Path) -> None:
+    _features(folder, lambda f: f["action"]["tensor"]["shape"].update({"dimensions": ["100000000000"]}))
+
+
+def _zlib_tensor(folder: Path) -> None:
+    _features(folder, lambda f: f["action"]["tensor"].update({"encoding": "zlib"}))
+
+
+def _declared_smaller(folder: Path) -> None:
+    def change(f: dict) -> None:
+        f["observation"]["featuresDict"]["features"]["image"]["image"]["shape"]["dimensions"] = ["10", "16", "3"]
+
+    _features(folder, change)
+
+
+# damage -> what the one-line refusal says (after the folder's path)
+DAMAGES: dict[str, tuple[Callable[[Path], None], str]] = {
+    "truncated": (_truncate, rf"{SHARD}: record 1: cut short"),
+    "bad-crc": (_bad_crc, rf"{SHARD}: record 0: data checksum mismatch"),
+    "huge-record": (_huge_record, rf"{SHARD}: record 0: 1099511627776 bytes, over the \d+-byte limit"),
+    "not-an-example": (_not_an_example, rf"{SHARD}: record 0: not a tf.train.Example"),
+    "missing-key": (_missing_key, rf"{SHARD}: record 0: steps/action: missing from the episode"),
+    "ragged": (_ragged, rf"{SHARD}: record 0: steps/is_first: 3 steps, but steps/action has 4"),
+    "wrong-type": (_wrong_type, rf"{SHARD}: record 0: steps/reward: stored as int64_list, features.json says float"),
+    "huge-shape": (_huge_shape, r"features.json: steps/action: shape \[100000000000\] out of range"),
+    "picture-size": (_declared_smaller, r"steps/observation/image: step 0: a 12x16 picture, features.json says 10x16"),
+    "zlib-tensor": (_zlib_tensor, r"features.json: steps/action: tensor of dtype float32, encoding zlib is not read"),
+}

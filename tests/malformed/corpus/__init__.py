@@ -9,9 +9,9 @@ The cases are grouped by the kind of damage: `yaml_files`, `datasets` (datasets,
 `options`, `outputs`, `bags`; each adds its cases to `CASES` (`cases.case`) when imported.
 """
 
-from tests.malformed.corpus import bags, datasets, options, outputs, yaml_files
+from tests.malformed.corpus import array_sources, bags, datasets, options, outputs, yaml_files
 from tests.malformed.corpus.cases import CASES, Case
 
-PARTS = (yaml_files, datasets, options, outputs, bags)
+PARTS = (yaml_files, datasets, options, outputs, bags, array_sources)
 
 __all__ = ["CASES", "PARTS", "Case"]
