@@ -4,25 +4,24 @@ table and as one line of JSON; a malformed source is one `error:` line, exit 2."
 
 from __future__ import annotations
 
-import json
 from collections import Counter
 from pathlib import Path
 from typing import Any
 
 import pytest
 
+from tests.cli.test_json import parse
 from tests.support.bags import samples, write_plain_mcap, write_ros1, write_ros2
 from tests.support.inproc import run_inproc
 from tests.support.replay_buffer import sample_episodes, write_replay_buffer
 from tests.support.rlds_written import write_rlds
 
 
-def _json(*args: str) -> dict[str, Any]:
-    run = run_inproc("info", "--json", *args)
+def _json(src: str, table: str) -> dict[str, Any]:
+    """`info --json SRC`: one line, its fields those docs/scripting.md's `table` lists, of their types."""
+    run = run_inproc("info", "--json", src)
     assert run.returncode == 0, run.stderr
-    assert len(run.stdout.strip().splitlines()) == 1
-    doc: dict[str, Any] = json.loads(run.stdout)
-    return doc
+    return parse(run.stdout, table)
 
 
 @pytest.fixture(scope="module")
@@ -40,7 +39,7 @@ def bags(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
 
 @pytest.mark.parametrize("kind", ["ros1", "rosbag2", "mcap", "folder"])
 def test_info_lists_a_bags_topics(bags: dict[str, Path], kind: str) -> None:
-    doc = _json(str(bags[kind]))
+    doc = _json(str(bags[kind]), "info bag")
     expected = Counter(topic for topic, _, _ in samples(depth=kind == "ros1"))
     copies = 2 if kind == "folder" else 1
     topics = {t["topic"]: t for t in doc["topics"]}
@@ -57,7 +56,7 @@ def test_info_lists_a_bags_topics(bags: dict[str, Path], kind: str) -> None:
 
 def test_info_describes_a_zarr_replay_buffer(tmp_path: Path) -> None:
     path = write_replay_buffer(tmp_path / "b.zarr.zip", sample_episodes((5, 3, 7)), zip_store=True)
-    doc = _json(str(path))
+    doc = _json(str(path), "info arrays")
     assert (doc["layout"], doc["episodes"], doc["steps"], doc["fps"]) == ("zarr", 3, 15, None)
     assert {"key": "data/img", "dtype": "uint8", "shape": [8, 6, 3], "encoding": "raw"} in doc["arrays"]
     table = run_inproc("info", str(path))
@@ -66,7 +65,7 @@ def test_info_describes_a_zarr_replay_buffer(tmp_path: Path) -> None:
 
 def test_info_describes_an_rlds_folder(tmp_path: Path) -> None:
     folder = write_rlds(tmp_path / "toy" / "1.0.0")
-    doc = _json(str(folder))
+    doc = _json(str(folder), "info arrays")
     assert (doc["layout"], doc["episodes"], doc["steps"]) == ("rlds", 3, 15)
     assert {"key": "steps/observation/image", "dtype": "uint8", "shape": [12, 16, 3], "encoding": "jpeg"} in doc[
         "arrays"

@@ -1,12 +1,13 @@
 """Zarr replay buffers written by zarr itself, step for step as diffusion policy's `ReplayBuffer` writes them.
 
-The layout and the writing sequence follow real-stanford/diffusion_policy, diffusion_policy/common/replay_buffer.py
-(commit 02373793ac4d0f63582c20fe1cff76034837edb5): `create_empty_zarr` makes groups ``data`` and ``meta`` and an
-empty int64 ``meta/episode_ends`` without a compressor; `add_episode` creates each ``data/<key>`` array at the
-first episode (zeros, time-chunked, Blosc lz4 level 5 without shuffle: its "default" compressor), then for every
-episode resizes each array by the episode's rows, assigns them to the tail, and appends the new total row count to
-``episode_ends``. diffusion_policy targets zarr 2; zarr 3 writes the same v2 store here (``zarr_format=2``). UMI
-writes the same groups into a `zarr.ZipStore` (``*.zarr.zip``), which `zip_store=True` reproduces.
+The layout and the writing sequence follow real-stanford/diffusion_policy, its module
+diffusion_policy.common.replay_buffer (commit 02373793ac4d0f63582c20fe1cff76034837edb5): `create_empty_zarr` makes
+groups ``data`` and ``meta`` and an empty int64 ``meta/episode_ends`` without a compressor; `add_episode` creates
+each ``data/<key>`` array at the first episode (zeros, time-chunked, Blosc lz4 level 5 without shuffle: its
+"default" compressor), then for every episode resizes each array by the episode's rows, assigns them to the tail,
+and appends the new total row count to ``episode_ends``. diffusion_policy targets zarr 2; zarr 3 writes the same v2
+store here (``zarr_format=2``). UMI builds its buffer that way, then `save_to_store`s it into a `zarr.ZipStore`
+(``*.zarr.zip``): every array copied whole with its chunks and compressor (`zip_store=True`).
 """
 
 from __future__ import annotations
