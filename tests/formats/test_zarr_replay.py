@@ -14,7 +14,13 @@ import zarr
 from openral_data.errors import DatasetError
 from openral_data.formats.zarr_replay import ZarrReplaySource, detect
 from tests.support.array_sources import assert_one_line, damaged, read_all
-from tests.support.replay_buffer import DAMAGES, corrupt_chunk, sample_episodes, write_replay_buffer
+from tests.support.replay_buffer import (
+    DAMAGES,
+    corrupt_chunk,
+    sample_episodes,
+    write_replay_buffer,
+    write_umi_buffer,
+)
 
 
 @pytest.fixture(scope="module")
@@ -49,6 +55,19 @@ def test_every_value_equals_zarr(tmp_path: Path, zip_store: bool) -> None:
             got = np.concatenate([ep.read(spec.key, 0, half), ep.read(spec.key, half, ep.length)])
             assert got.dtype == want.dtype and np.array_equal(got, want)
         start = end
+    source.close()
+
+
+def test_a_umi_jpegxl_zip_store_equals_zarr(tmp_path: Path) -> None:
+    """UMI's images, JPEG-XL compressed one frame a chunk in a zip store: decoded through imagecodecs' numcodecs
+    codec, the same pixels zarr gives."""
+    episodes = [{"camera0_rgb": ep["img"], "robot0_eef_pos": ep["state"][:, :3]} for ep in sample_episodes((4, 6))]
+    path = write_umi_buffer(tmp_path / "dataset.zarr.zip", episodes)
+    arrays, ends = _independent(zarr.storage.ZipStore(path, mode="r"))
+    source = detect(path)
+    assert source is not None
+    got = np.concatenate([ep.read("data/camera0_rgb", 0, ep.length) for ep in source.episodes()])
+    assert ends == [4, 10] and np.array_equal(got, arrays["data/camera0_rgb"])
     source.close()
 
 

@@ -40,6 +40,17 @@ def detect(path: Path) -> ZarrReplaySource | None:
     return None
 
 
+def register_image_codecs() -> None:
+    """imagecodecs' numcodecs codecs (UMI's ``imagecodecs_jpegxl``, ``imagecodecs_jpeg``, ...) registered, when
+    imagecodecs is installed (as UMI itself does before it opens a buffer); without it those stores are refused in
+    one line naming the codec."""
+    try:
+        from imagecodecs.numcodecs import register_codecs
+    except ImportError:
+        return
+    register_codecs(verbose=False)
+
+
 def _bad(path: Path, key: str, what: str) -> DatasetError:
     return DatasetError(f"{path}: {key}: {what}", code="dataset.invalid")
 
@@ -57,6 +68,7 @@ class ZarrReplaySource:
     def __init__(self, path: Path) -> None:
         import zarr
 
+        register_image_codecs()
         self._path = path
         self._zip: Any = None
         try:
