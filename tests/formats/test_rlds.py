@@ -15,6 +15,7 @@ from PIL import Image
 from openral_data.errors import DatasetError
 from openral_data.formats.rlds import RldsSource, detect
 from tests.support.array_sources import assert_one_line, damaged, read_all
+from tests.support.home import REPO
 from tests.support.rlds_written import DAMAGES, write_rlds
 
 SHARD = "toy_rlds-train.tfrecord-00000-of-00002"
@@ -59,6 +60,34 @@ def test_every_value_equals_the_tfrecord_reader(built: Path) -> None:
                 assert got.dtype.name == spec.dtype
                 assert np.array_equal(got, np.asarray(want).astype(spec.dtype).reshape(got.shape))
                 assert got.shape == (ep.length, *spec.shape)
+
+
+TFDS_WRITTEN = REPO / "tests/fixtures/rlds"
+
+
+def test_a_folder_tensorflow_datasets_wrote_reads_as_tfds_decodes_it() -> None:
+    """tests/fixtures/rlds: written by tensorflow-datasets itself, with what tfds decodes from it beside it."""
+    theirs = np.load(TFDS_WRITTEN / "tfds_decoded.npz")
+    source = detect(TFDS_WRITTEN / "toy_rlds/1.0.0")
+    assert source is not None
+    episodes = list(source.episodes())
+    assert [e.length for e in episodes] == [len(theirs[f"{i}|steps/action"]) for i in range(3)]
+    for i, ep in enumerate(episodes):
+        assert {s.key for s in ep.specs()} == {k.split("|")[1] for k in theirs if k.startswith(f"{i}|steps/")}
+        for spec in ep.specs():
+            got, want = ep.read(spec.key, 0, ep.length), theirs[f"{i}|{spec.key}"]
+            if spec.dtype == "bytes":
+                assert [bytes(v) for v in got] == [bytes(v) for v in want], spec.key
+            elif spec.encoding == "jpeg":  # TensorFlow's and PIL's JPEG decoders (chroma upsampling) differ a little
+                diff = np.abs(got.astype(int) - want)
+                assert got.shape == want.shape and diff.mean() < 2.5 and diff.max() <= 16, spec.key
+            else:
+                assert got.dtype == want.dtype and np.array_equal(got, want), spec.key
+        assert ep.meta.language == bytes(theirs[f"{i}|steps/language_instruction"][0]).decode()
+        assert ep.meta.attrs == {
+            "episode_metadata/episode_id": int(theirs[f"{i}|episode_metadata/episode_id"]),
+            "episode_metadata/file_path": bytes(theirs[f"{i}|episode_metadata/file_path"]).decode(),
+        }
 
 
 def test_a_folder_without_features_json_is_not_detected(tmp_path: Path) -> None:

@@ -74,7 +74,7 @@ def _save_to_zip(root: Any, path: Path) -> None:
 
 def write_umi_buffer(path: Path, episodes: list[Episode], image_key: str = "camera0_rgb", level: int = 99) -> Path:
     """A UMI-style ``*.zarr.zip``: as real-stanford/universal_manipulation_interface's
-    scripts_slam_pipeline/07_generate_replay_buffer.py (commit c34ba9c6861fec16eb84a1cd0a40d06432aaf055) makes
+    script 07_generate_replay_buffer (in scripts_slam_pipeline, commit b310553afd7540b2ee6c32f62da5d41a97320501) makes
     one: the low-dimensional arrays added episode by episode, then each ``camera<i>_rgb`` array created at its
     full length with one frame a chunk and imagecodecs' JPEG-XL compressor (``JpegXl(level, numthreads=1)``,
     registered with numcodecs), its frames assigned one by one, and the buffer saved into a `zarr.ZipStore`.
