@@ -65,8 +65,8 @@ def test_info_describes_a_zarr_replay_buffer(tmp_path: Path) -> None:
 
 def test_info_describes_an_rlds_folder(tmp_path: Path) -> None:
     folder = write_rlds(tmp_path / "toy" / "1.0.0")
-    doc = _json(str(folder), "info arrays")
-    assert (doc["layout"], doc["episodes"], doc["steps"]) == ("rlds", 3, 15)
+    doc = _json(str(folder.parent), "info arrays")  # the dataset folder holding one version folder
+    assert (doc["layout"], doc["episodes"], doc["steps"], doc["source"]) == ("rlds", 3, 15, str(folder))
     assert {"key": "steps/observation/image", "dtype": "uint8", "shape": [12, 16, 3], "encoding": "jpeg"} in doc[
         "arrays"
     ]

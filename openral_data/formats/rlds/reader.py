@@ -25,10 +25,14 @@ LANGUAGE = "steps/language_instruction"
 
 
 def detect(path: Path) -> RldsSource | None:
-    """The RLDS episodes at `path` if it is a TFDS build folder (it holds ``features.json``), else None."""
-    if path.is_dir() and (path / "features.json").is_file():
+    """The RLDS episodes at `path` if it is a TFDS build folder (it holds ``features.json``), or a dataset folder
+    holding exactly one such version folder (``<data_dir>/<name>/`` -> ``<name>/1.0.0/``), else None."""
+    if not path.is_dir():
+        return None
+    if (path / "features.json").is_file():
         return RldsSource(path)
-    return None
+    versions = [d for d in sorted(path.iterdir()) if d.is_dir() and (d / "features.json").is_file()]
+    return RldsSource(versions[0]) if len(versions) == 1 else None
 
 
 class RldsSource:
