@@ -71,6 +71,18 @@ def test_a_umi_jpegxl_zip_store_equals_zarr(tmp_path: Path) -> None:
     source.close()
 
 
+def test_a_zarr_v3_store_is_read_too(tmp_path: Path) -> None:
+    """The same layout written in zarr's v3 format (zarr.json documents, zarr 3's own codecs)."""
+    root: Any = zarr.open_group(str(tmp_path / "v3.zarr"), mode="w", zarr_format=3)
+    state = np.arange(24, dtype=np.float32).reshape(8, 3)
+    root.create_group("data").create_array("state", data=state, chunks=(3, 3))
+    root.create_group("meta").create_array("episode_ends", data=np.array([5, 8], dtype=np.int64))
+    source = detect(tmp_path / "v3.zarr")
+    assert source is not None
+    got = [ep.read("data/state", 0, ep.length) for ep in source.episodes()]
+    assert np.array_equal(got[0], state[:5]) and np.array_equal(got[1], state[5:])
+
+
 def test_not_a_zarr_store_is_not_detected(tmp_path: Path) -> None:
     (tmp_path / "x.bag").write_bytes(b"")
     assert detect(tmp_path) is None and detect(tmp_path / "x.bag") is None
