@@ -9,7 +9,7 @@ import typer
 
 from openral_data.cli.convert_common import Parallel, interruptible
 from openral_data.cli.jsonout import JsonFlag, print_json
-from openral_data.cli.terminal import print_rows, progress_bar
+from openral_data.cli.terminal import print_line, print_rows, progress_bar
 from openral_data.errors import NotFound, UsageError
 from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.repo_id import resolve_dataset
@@ -27,7 +27,9 @@ def convert(
             "MimicGen / Isaac Lab, ALOHA) or a LeRobot v3 dataset"
         ),
     ],
-    dst: Annotated[Path | None, typer.Argument(help="output folder (must not exist or be empty)")] = None,
+    dst: Annotated[
+        Path | None, typer.Argument(help="output folder (must not exist or be empty); none with --print-mapping")
+    ] = None,
     mapping: Annotated[Path | None, typer.Option(help="mapping YAML: topics -> features (bags -> LeRobot)")] = None,
     codec: Annotated[Codec, typer.Option(help="video codec (bags -> LeRobot)")] = "av1",
     episodes: Annotated[str | None, typer.Option(help="episodes to export, e.g. 0,3,5-7 (LeRobot -> MCAP)")] = None,
@@ -46,25 +48,46 @@ def convert(
         int | None, typer.Option(help="frame rate of an array source that declares none (HDF5 -> LeRobot)")
     ] = None,
     print_mapping: Annotated[
-        bool, typer.Option("--print-mapping", help="print SRC's starting mapping, guesses marked (array sources)")
+        bool, typer.Option("--print-mapping", help="print SRC's starting mapping, guesses marked")
     ] = False,
     json: JsonFlag = False,
 ) -> None:
     """Convert bags/MCAP or HDF5 to a LeRobot v3 dataset, or a LeRobot v3 dataset to ROS 2 MCAP bags."""
     from openral_data.runtime.parallel.executors import check_executor
 
+    if print_mapping:
+        _print_mapping(src, dst, mapping, fps, json)
+        return
+    if dst is None:
+        raise UsageError("DST: missing (the output folder; or --print-mapping to print SRC's starting mapping)")
     if workers < 1:
         raise UsageError(f"--workers must be >= 1, got {workers}")
     check_executor(executor, address)
     parallel = Parallel(workers, executor, address) if workers != 1 or executor != "local" else None
-    if print_mapping:
-        from openral_data.cli.convert_arrays import print_starting_mapping
-
-        print_starting_mapping(src, dst, fps, json)
-        return
-    if dst is None:
-        raise UsageError("DST: missing (the output folder; or --print-mapping to print SRC's starting mapping)")
     _convert(src, dst, mapping, codec, episodes, image_format, mcap_compression, json, parallel, fps)
+
+
+def _print_mapping(src: Path, dst: Path | None, mapping: Path | None, fps: int | None, json: bool) -> None:
+    """`convert SRC --print-mapping`: SRC's guessed starting mapping as commented YAML (or JSON) on stdout;
+    a bag's from its topics, an array source's from its layout."""
+    from openral_data.cli.convert_arrays import print_starting_mapping
+    from openral_data.convert.discover import is_bag_source
+    from openral_data.convert.guess_mapping import guess_mapping, mapping_yaml
+
+    if dst is not None or mapping is not None:
+        raise UsageError("--print-mapping: takes SRC only (no DST, no --mapping); it writes nothing")
+    if not src.exists():
+        raise NotFound(f"{src}: no such file or directory")
+    if not is_bag_source(src):
+        print_starting_mapping(src, fps, json)
+        return
+    if fps is not None:
+        raise UsageError("--fps applies to array sources; a bag's starting mapping guesses its rate from the topics")
+    guess = guess_mapping(src)
+    if json:
+        print_json("convert", {"source": str(src), "mapping": guess.mapping, "guesses": guess.notes})
+        return
+    print_line(mapping_yaml(src, guess).rstrip("\n"))
 
 
 def _convert(
