@@ -78,7 +78,8 @@ def info(
 
 def _source_info(src: Path, json: bool) -> bool:
     """`info` of a bag or an episodic array source (False: `src` is neither, so it is read as a dataset)."""
-    from openral_data.convert.discover import describe_arrays, describe_bags, detect_array_source, is_bag_source
+    from openral_data.convert.array_sources import detect_array_source
+    from openral_data.convert.discover import describe_arrays, describe_bags, is_bag_source
 
     if is_bag_source(src):
         bags = describe_bags(src)

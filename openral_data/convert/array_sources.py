@@ -1,8 +1,7 @@
-"""Which kind of source `convert SRC` was given: the array-source detectors, tried in order (`DETECTORS`; each
-`detect(path) -> ArraySource | None`: None when `path` is not of its kind, a one-line error when it is but is
-broken). A source no detector claims is read as bags (`convert.sources.find_bags`).
-
-Zarr replay buffers and RLDS / TFDS episodes plug in here: add their `detect` to `DETECTORS`.
+"""Which kind of array source a path is: the one list of array-source detectors (`DETECTORS`), tried in order by
+`convert SRC` and `info SRC` alike. Each is `detect(path) -> ArraySource | None`: None when `path` is not of its
+kind, a one-line `DatasetError` when it is but is broken. A source no detector claims is read as bags
+(`convert.sources.find_bags`) or a LeRobot dataset.
 """
 
 from __future__ import annotations
@@ -21,7 +20,20 @@ def _hdf5(path: Path) -> ArraySource | None:
     return detect_hdf5(path)
 
 
-DETECTORS: tuple[Detector, ...] = (_hdf5,)
+def _zarr(path: Path) -> ArraySource | None:
+    from openral_data.formats.zarr_replay import detect  # zarr only when a source is looked at
+
+    return detect(path)
+
+
+def _rlds(path: Path) -> ArraySource | None:
+    from openral_data.formats.rlds import detect
+
+    return detect(path)
+
+
+# HDF5 files and folders of them, Zarr replay buffers (.zarr folder, .zarr.zip), RLDS / TFDS build folders
+DETECTORS: tuple[Detector, ...] = (_hdf5, _zarr, _rlds)
 
 
 def detect_array_source(path: Path) -> ArraySource | None:

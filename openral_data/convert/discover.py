@@ -3,34 +3,22 @@
 Bags (a ROS 1 ``.bag``, a rosbag2 folder, a plain ``.mcap``, or a folder of those): every topic with its message
 type, message count and mean rate, and the recording's span, read from the bags' indexes (no message is decoded).
 Array sources: the layout, the episodes and their steps, and every per-step array's dtype, shape and encoding,
-found by the detectors in `ARRAY_DETECTORS` (each returns its source, None when the path is not of its layout,
-or raises `DatasetError` when it is but is malformed) and read through the episodic protocol.
+found by the detectors `convert` uses too (`convert.array_sources.DETECTORS`: each returns its source, None when
+the path is not of its layout, or raises `DatasetError` when it is but is malformed) and read through the
+episodic protocol.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from openral_data.convert.sources import BAG_READ_ERRORS, find_bags, is_bag, open_reader
 from openral_data.errors import BagError
-from openral_data.formats import rlds, zarr_replay
 from openral_data.formats.episodic import ArraySource, ArraySpec
 
 MAX_LANGUAGES = 1000  # distinct task texts listed (an OXE dataset may give every episode its own)
-# every array layout `info` (and convert) recognises, tried in this order
-ARRAY_DETECTORS: tuple[Callable[[Path], ArraySource | None], ...] = (zarr_replay.detect, rlds.detect)
-
-
-def detect_array_source(path: Path) -> ArraySource | None:
-    """The array source at `path` (the first detector that recognises it), or None."""
-    for detect in ARRAY_DETECTORS:
-        source = detect(path)
-        if source is not None:
-            return source
-    return None
 
 
 def is_bag_source(path: Path) -> bool:
