@@ -24,7 +24,7 @@ def convert(
         Path,
         typer.Argument(
             help="a bag (.bag, .mcap, rosbag2 folder, folder of bags), an HDF5 file or folder (robomimic, LIBERO, "
-            "MimicGen / Isaac Lab, ALOHA) or a LeRobot v3 dataset"
+            "MimicGen / Isaac Lab, ALOHA), a zarr replay buffer, an RLDS build folder or a LeRobot v3 dataset"
         ),
     ],
     dst: Annotated[
@@ -45,14 +45,14 @@ def convert(
     executor: Annotated[str, typer.Option(help="local (processes on this machine) or ray (with --workers)")] = "local",
     address: Annotated[str | None, typer.Option(help="Ray cluster address (--executor ray)")] = None,
     fps: Annotated[
-        int | None, typer.Option(help="frame rate of an array source that declares none (HDF5 -> LeRobot)")
+        int | None, typer.Option(help="frame rate of an array source that declares none (HDF5/Zarr/RLDS)")
     ] = None,
     print_mapping: Annotated[
         bool, typer.Option("--print-mapping", help="print SRC's starting mapping, guesses marked")
     ] = False,
     json: JsonFlag = False,
 ) -> None:
-    """Convert bags/MCAP or HDF5 to a LeRobot v3 dataset, or a LeRobot v3 dataset to ROS 2 MCAP bags."""
+    """Convert bags/MCAP, HDF5, Zarr or RLDS to a LeRobot v3 dataset, or a LeRobot v3 dataset to ROS 2 MCAP bags."""
     from openral_data.runtime.parallel.executors import check_executor
 
     if print_mapping:
@@ -114,11 +114,13 @@ def _convert(
         from openral_data.cli.convert_arrays import convert_array_source
 
         if episodes is not None:
-            raise UsageError(f"--episodes selects episodes of a LeRobot dataset; SRC is {source.layout} HDF5")
+            raise UsageError(
+                f"--episodes selects episodes of a LeRobot dataset; SRC is an array source ({source.layout})"
+            )
         convert_array_source(source, dst, mapping_path, codec, fps, json, parallel)
     else:
         if fps is not None:
-            raise UsageError("--fps applies to array sources (HDF5); a bag's rate is its mapping's fps")
+            raise UsageError("--fps applies to array sources (HDF5, Zarr, RLDS); a bag's rate is its mapping's fps")
         _convert_bags(src, dst, mapping_path, codec, episodes, json, parallel)
 
 

@@ -99,7 +99,7 @@ def _source_info(src: Path, json: bool) -> bool:
     if json:
         print_json("info", arrays.to_json())
         return True
-    fps = f"{arrays.fps:g}" if arrays.fps is not None else "not stored (give it in the mapping)"
+    fps = f"{arrays.fps:g}" if arrays.fps is not None else "not stored (convert --fps N or the mapping)"
     languages = "; ".join(arrays.languages[:5]) + (
         f" (+{len(arrays.languages) - 5} more)" if len(arrays.languages) > 5 else ""
     )

@@ -9,6 +9,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
+from openral_data.errors import DatasetError
 from openral_data.formats.episodic import ArraySource
 
 Detector = Callable[[Path], ArraySource | None]
@@ -43,3 +44,29 @@ def detect_array_source(path: Path) -> ArraySource | None:
         if source is not None:
             return source
     return None
+
+
+def block_files(source: ArraySource) -> list[Path]:
+    """What `convert --workers` splits `source` by: its HDF5 files or RLDS shards; a Zarr store is one block."""
+    if source.layout == "rlds":
+        return list(getattr(source, "shards"))  # noqa: B009 - RldsSource's, without importing formats.rlds here
+    files = getattr(source, "files", None)
+    return list(files) if files else [source.path]
+
+
+def open_block(src: Path, layout: str, files: list[Path]) -> ArraySource:
+    """The part of the source `src` (of `layout`) that `files` (some of `block_files`) hold, for one worker."""
+    if layout == "zarr":
+        source = _zarr(src)
+    elif layout == "rlds":
+        from openral_data.formats.rlds import RldsSource
+
+        whole = _rlds(src)
+        source = RldsSource(whole.path, shards=files) if whole is not None else None
+    else:
+        from openral_data.formats.hdf5 import detect_hdf5
+
+        source = detect_hdf5(src, files=files)
+    if source is None:
+        raise DatasetError(f"{src}: no longer a {layout} source", code="dataset.source.layout")
+    return source

@@ -38,7 +38,8 @@ def detect(path: Path) -> RldsSource | None:
 class RldsSource:
     """The episodes of every shard of a TFDS build folder, shards in name order (each split's in turn)."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, shards: list[Path] | None = None) -> None:
+        """`shards`: only these of the folder's shards (a block of `convert --workers`), else all of them."""
         self._path = path
         features = path / "features.json"
         self._leaves = leaves(read_json(features), features)
@@ -48,6 +49,8 @@ class RldsSource:
         self._shards = sorted(
             p for p in path.iterdir() if _SHARD.match(p.name) and p.is_file() and p.resolve().is_relative_to(top)
         )
+        if shards is not None:
+            self._shards = [p for p in self._shards if p in shards]
         if not self._shards:
             raise DatasetError(f"{path}: no *.tfrecord-NNNNN-of-NNNNN shards beside features.json",
                                code="dataset.invalid")  # fmt: skip
