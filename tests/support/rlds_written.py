@@ -22,6 +22,8 @@ from typing import Any
 import numpy as np
 from PIL import Image
 
+from tests.support.hdf5_layouts import SIZE, picture
+
 _TFDS = "tensorflow_datasets.core.features."
 STATE, ACTION, H, W = 8, 7, 12, 16
 
@@ -35,8 +37,8 @@ def _scalar(dtype: str) -> dict[str, Any]:
     return _tensor([], dtype, "scalar.Scalar")
 
 
-def _image(fmt: str) -> dict[str, Any]:
-    shape = {"dimensions": [str(H), str(W), "3"]}
+def _image(fmt: str, size: tuple[int, int]) -> dict[str, Any]:
+    shape = {"dimensions": [str(size[0]), str(size[1]), "3"]}
     return {"pythonClassName": _TFDS + "image_feature.Image",
             "image": {"shape": shape, "dtype": "uint8", "encodingFormat": fmt}}  # fmt: skip
 
@@ -45,11 +47,15 @@ def _dict(features: dict[str, Any]) -> dict[str, Any]:
     return {"pythonClassName": _TFDS + "features_dict.FeaturesDict", "featuresDict": {"features": features}}
 
 
-def features_doc() -> dict[str, Any]:
+def features_doc(size: tuple[int, int] = (H, W)) -> dict[str, Any]:
     step = _dict(
         {
             "observation": _dict(
-                {"image": _image("jpeg"), "wrist_image": _image("png"), "state": _tensor([STATE], "float32")}
+                {
+                    "image": _image("jpeg", size),
+                    "wrist_image": _image("png", size),
+                    "state": _tensor([STATE], "float32"),
+                }
             ),
             "action": _tensor([ACTION], "float32"),
             "language_instruction": {"pythonClassName": _TFDS + "text_feature.Text", "text": {}},
@@ -71,9 +77,12 @@ def _encode(pixels: np.ndarray, fmt: str) -> bytes:
     return out.getvalue()
 
 
-def episode_datum(n: int, rng: np.random.Generator, index: int) -> dict[str, tuple[Any, str]]:
-    """One episode as `TFRecordWriter.write` takes it: key -> (values, "byte"|"float"|"int")."""
+def episode_datum(n: int, rng: np.random.Generator, index: int, smooth: bool = False) -> dict[str, tuple[Any, str]]:
+    """One episode as `TFRecordWriter.write` takes it: key -> (values, "byte"|"float"|"int"). `smooth`: 64x64
+    gradients (`hdf5_layouts.picture`, checkable through lossy video) instead of 12x16 noise."""
     pictures = rng.integers(0, 256, (2, n, H, W, 3), dtype=np.uint8)
+    if smooth:
+        pictures = np.stack([np.stack([picture(index, t, c) for t in range(n)]) for c in range(2)])
     last = [0] * (n - 1) + [1]
     return {
         "steps/observation/image": ([_encode(p, "jpeg") for p in pictures[0]], "byte"),
@@ -90,9 +99,11 @@ def episode_datum(n: int, rng: np.random.Generator, index: int) -> dict[str, tup
     }
 
 
-def write_rlds(folder: Path, lengths: tuple[tuple[int, ...], ...] = ((4, 6), (5,)), seed: int = 0) -> Path:
+def write_rlds(
+    folder: Path, lengths: tuple[tuple[int, ...], ...] = ((4, 6), (5,)), seed: int = 0, *, smooth: bool = False
+) -> Path:
     """A TFDS build folder `folder` (`toy_rlds/1.0.0`-like): one shard per entry of `lengths`, one episode per
-    length in it."""
+    length in it (`smooth`: 64x64 gradient pictures, see `episode_datum`)."""
     from tfrecord import TFRecordWriter
 
     folder.mkdir(parents=True, exist_ok=True)
@@ -102,11 +113,12 @@ def write_rlds(folder: Path, lengths: tuple[tuple[int, ...], ...] = ((4, 6), (5,
     for shard, episodes in enumerate(lengths):
         writer = TFRecordWriter(str(folder / f"toy_rlds-train.tfrecord-{shard:05d}-of-{len(lengths):05d}"))
         for n in episodes:
-            writer.write(episode_datum(n, rng, index))
+            writer.write(episode_datum(n, rng, index, smooth))
             index += 1
         writer.close()
         shard_lengths.append(str(len(episodes)))
-    (folder / "features.json").write_text(json.dumps(features_doc(), indent=2))
+    size = (SIZE, SIZE) if smooth else (H, W)
+    (folder / "features.json").write_text(json.dumps(features_doc(size), indent=2))
     info = {"name": "toy_rlds", "version": "1.0.0", "fileFormat": "tfrecord", "moduleName": "toy_rlds",
             "splits": [{"name": "train", "shardLengths": shard_lengths, "numBytes": "0"}]}  # fmt: skip
     (folder / "dataset_info.json").write_text(json.dumps(info, indent=2))
