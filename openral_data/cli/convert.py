@@ -30,8 +30,8 @@ def convert(
     dst: Annotated[
         Path | None, typer.Argument(help="output folder (must not exist or be empty); none with --print-mapping")
     ] = None,
-    mapping: Annotated[Path | None, typer.Option(help="mapping YAML: topics -> features (bags -> LeRobot)")] = None,
-    codec: Annotated[Codec, typer.Option(help="video codec (bags -> LeRobot)")] = "av1",
+    mapping: Annotated[Path | None, typer.Option(help="mapping YAML: topics or array keys -> features")] = None,
+    codec: Annotated[Codec, typer.Option(help="video codec (-> LeRobot)")] = "av1",
     episodes: Annotated[str | None, typer.Option(help="episodes to export, e.g. 0,3,5-7 (LeRobot -> MCAP)")] = None,
     image_format: Annotated[
         str, typer.Option(help="MCAP camera messages: jpeg, png or raw (LeRobot -> MCAP)")
@@ -40,7 +40,7 @@ def convert(
         str, typer.Option(help="MCAP chunk compression: zstd, lz4 or none (LeRobot -> MCAP)")
     ] = "zstd",
     workers: Annotated[
-        int, typer.Option(help="convert a folder of bags in N processes, merged in bag order (bags -> LeRobot)")
+        int, typer.Option(help="convert bags, HDF5 files or RLDS shards in N processes, merged in order (-> LeRobot)")
     ] = 1,
     executor: Annotated[str, typer.Option(help="local (processes on this machine) or ray (with --workers)")] = "local",
     address: Annotated[str | None, typer.Option(help="Ray cluster address (--executor ray)")] = None,
@@ -85,7 +85,7 @@ def _print_mapping(src: Path, dst: Path | None, mapping: Path | None, fps: int |
         raise UsageError("--fps applies to array sources; a bag's starting mapping guesses its rate from the topics")
     guess = guess_mapping(src)
     if json:
-        print_json("convert", {"source": str(src), "mapping": guess.mapping, "guesses": guess.notes})
+        print_json("convert", {"source": str(src), "layout": "bag", "mapping": guess.mapping, "guesses": guess.notes})
         return
     print_line(mapping_yaml(src, guess).rstrip("\n"))
 

@@ -17,6 +17,7 @@ import pytest
 from PIL import Image
 
 from openral_data.replay.recorded import RecordedDataset
+from tests.cli.test_json import parse
 from tests.support.array_sources import converted_episodes, lerobot_matches_ours
 from tests.support.inproc import run_inproc
 from tests.support.rlds_written import ACTION, STATE, write_rlds
@@ -81,7 +82,7 @@ def test_rlds_without_fps_is_one_line_and_writes_nothing(built: Path, tmp_path: 
 def test_rlds_print_mapping_and_workers_by_shard(built: Path, tmp_path: Path) -> None:
     run = run_inproc("convert", str(built), "--print-mapping", "--json")
     assert run.returncode == 0, run.stderr
-    doc = json.loads(run.stdout)
+    doc = parse(run.stdout, "convert print-mapping")
     mapping = doc["mapping"]
     assert doc["layout"] == "rlds" and mapping["task_topic"] == "episode:language"
     assert mapping["cameras"] == {"image": "steps/observation/image", "wrist": "steps/observation/wrist_image"}

@@ -16,6 +16,7 @@ import pytest
 import zarr
 
 from openral_data.replay.recorded import RecordedDataset
+from tests.cli.test_json import parse
 from tests.support.array_sources import converted_episodes, lerobot_matches_ours
 from tests.support.hdf5_layouts import picture, vector
 from tests.support.inproc import run_inproc
@@ -78,7 +79,7 @@ def test_zarr_store_without_fps_is_one_line_and_writes_nothing(store: Path, tmp_
 def test_zarr_print_mapping_and_workers(store: Path, tmp_path: Path) -> None:
     run = run_inproc("convert", str(store), "--print-mapping", "--json")
     assert run.returncode == 0, run.stderr
-    doc = json.loads(run.stdout)
+    doc = parse(run.stdout, "convert print-mapping")
     assert doc["layout"] == "zarr" and doc["mapping"]["cameras"] == {"img": "data/img"}
     assert doc["mapping"]["state"]["topic"] == "data/state" and doc["mapping"]["action"]["topic"] == "data/action"
     assert "fps" in doc["guesses"]
