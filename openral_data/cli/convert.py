@@ -18,7 +18,7 @@ from openral_data.cli.encoder_flags import (
     video_settings,
 )
 from openral_data.cli.jsonout import JsonFlag, print_json
-from openral_data.cli.terminal import print_rows, progress_bar
+from openral_data.cli.terminal import print_line, print_rows, progress_bar
 from openral_data.errors import NotFound, UsageError
 from openral_data.formats.lerobot_v3.encoder import Codec, VideoSettings
 from openral_data.formats.repo_id import resolve_dataset
@@ -33,12 +33,14 @@ def convert(
         Path,
         typer.Argument(
             help="a bag (.bag, .mcap, rosbag2 folder, folder of bags), an HDF5 file or folder (robomimic, LIBERO, "
-            "MimicGen / Isaac Lab, ALOHA) or a LeRobot v3 dataset"
+            "MimicGen / Isaac Lab, ALOHA), a zarr replay buffer, an RLDS build folder or a LeRobot v3 dataset"
         ),
     ],
-    dst: Annotated[Path | None, typer.Argument(help="output folder (must not exist or be empty)")] = None,
-    mapping: Annotated[Path | None, typer.Option(help="mapping YAML: topics -> features (bags -> LeRobot)")] = None,
-    codec: Annotated[Codec, typer.Option("--vcodec", "--codec", help=f"{VCODEC_HELP} (bags -> LeRobot)")] = "av1",
+    dst: Annotated[
+        Path | None, typer.Argument(help="output folder (must not exist or be empty); none with --print-mapping")
+    ] = None,
+    mapping: Annotated[Path | None, typer.Option(help="mapping YAML: topics or array keys -> features")] = None,
+    codec: Annotated[Codec, typer.Option("--vcodec", "--codec", help=f"{VCODEC_HELP} (-> LeRobot)")] = "av1",
     crf: CrfFlag = None,
     gop: GopFlag = None,
     preset: PresetFlag = None,
@@ -52,34 +54,55 @@ def convert(
         str, typer.Option(help="MCAP chunk compression: zstd, lz4 or none (LeRobot -> MCAP)")
     ] = "zstd",
     workers: Annotated[
-        int, typer.Option(help="convert a folder of bags in N processes, merged in bag order (bags -> LeRobot)")
+        int, typer.Option(help="convert bags, HDF5 files or RLDS shards in N processes, merged in order (-> LeRobot)")
     ] = 1,
     executor: Annotated[str, typer.Option(help="local (processes on this machine) or ray (with --workers)")] = "local",
     address: Annotated[str | None, typer.Option(help="Ray cluster address (--executor ray)")] = None,
     fps: Annotated[
-        int | None, typer.Option(help="frame rate of an array source that declares none (HDF5 -> LeRobot)")
+        int | None, typer.Option(help="frame rate of an array source that declares none (HDF5/Zarr/RLDS)")
     ] = None,
     print_mapping: Annotated[
-        bool, typer.Option("--print-mapping", help="print SRC's starting mapping, guesses marked (array sources)")
+        bool, typer.Option("--print-mapping", help="print SRC's starting mapping, guesses marked")
     ] = False,
     json: JsonFlag = False,
 ) -> None:
-    """Convert bags/MCAP or HDF5 to a LeRobot v3 dataset, or a LeRobot v3 dataset to ROS 2 MCAP bags."""
+    """Convert bags/MCAP, HDF5, Zarr or RLDS to a LeRobot v3 dataset, or a LeRobot v3 dataset to ROS 2 MCAP bags."""
     from openral_data.runtime.parallel.executors import check_executor
 
+    if print_mapping:
+        _print_mapping(src, dst, mapping, fps, json)
+        return
+    if dst is None:
+        raise UsageError("DST: missing (the output folder; or --print-mapping to print SRC's starting mapping)")
     if workers < 1:
         raise UsageError(f"--workers must be >= 1, got {workers}")
     check_executor(executor, address)
     parallel = Parallel(workers, executor, address) if workers != 1 or executor != "local" else None
     video = video_settings(codec, crf, gop, preset, pix_fmt, encoder_threads)  # a bad combination: before anything
-    if print_mapping:
-        from openral_data.cli.convert_arrays import print_starting_mapping
-
-        print_starting_mapping(src, dst, fps, json)
-        return
-    if dst is None:
-        raise UsageError("DST: missing (the output folder; or --print-mapping to print SRC's starting mapping)")
     _convert(src, dst, mapping, video, episodes, image_format, mcap_compression, json, parallel, fps)
+
+
+def _print_mapping(src: Path, dst: Path | None, mapping: Path | None, fps: int | None, json: bool) -> None:
+    """`convert SRC --print-mapping`: SRC's guessed starting mapping as commented YAML (or JSON) on stdout;
+    a bag's from its topics, an array source's from its layout."""
+    from openral_data.cli.convert_arrays import print_starting_mapping
+    from openral_data.convert.discover import is_bag_source
+    from openral_data.convert.guess_mapping import guess_mapping, mapping_yaml
+
+    if dst is not None or mapping is not None:
+        raise UsageError("--print-mapping: takes SRC only (no DST, no --mapping); it writes nothing")
+    if not src.exists():
+        raise NotFound(f"{src}: no such file or directory")
+    if not is_bag_source(src):
+        print_starting_mapping(src, fps, json)
+        return
+    if fps is not None:
+        raise UsageError("--fps applies to array sources; a bag's starting mapping guesses its rate from the topics")
+    guess = guess_mapping(src)
+    if json:
+        print_json("convert", {"source": str(src), "layout": "bag", "mapping": guess.mapping, "guesses": guess.notes})
+        return
+    print_line(mapping_yaml(src, guess).rstrip("\n"))
 
 
 def _convert(
@@ -106,11 +129,13 @@ def _convert(
         from openral_data.cli.convert_arrays import convert_array_source
 
         if episodes is not None:
-            raise UsageError(f"--episodes selects episodes of a LeRobot dataset; SRC is {source.layout} HDF5")
+            raise UsageError(
+                f"--episodes selects episodes of a LeRobot dataset; SRC is an array source ({source.layout})"
+            )
         convert_array_source(source, dst, mapping_path, video, fps, json, parallel)
     else:
         if fps is not None:
-            raise UsageError("--fps applies to array sources (HDF5); a bag's rate is its mapping's fps")
+            raise UsageError("--fps applies to array sources (HDF5, Zarr, RLDS); a bag's rate is its mapping's fps")
         _convert_bags(src, dst, mapping_path, video, episodes, json, parallel)
 
 

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 from openral_data.cli.convert_common import Parallel, interruptible
 from openral_data.cli.jsonout import print_json
 from openral_data.cli.terminal import print_line, print_rows, progress_bar
-from openral_data.errors import DatasetError, NotFound, UsageError
+from openral_data.errors import DatasetError, UsageError
 from openral_data.formats.lerobot_v3.encoder import VideoSettings
 
 if TYPE_CHECKING:
@@ -35,17 +35,17 @@ def _with_first[T](source: ArraySource, fn: Callable[[ArrayEpisode], T]) -> T:
         source.close()
 
 
-def print_starting_mapping(src: Path, dst: Path | None, fps: int | None, json: bool) -> None:
+def print_starting_mapping(src: Path, fps: int | None, json: bool) -> None:
+    """The starting mapping of the array source `src` (an existing path that is no bag), its guesses marked."""
     from openral_data.convert.array_mapping import Guess, mapping_yaml, starting_mapping, with_fps_guess
     from openral_data.convert.array_sources import detect_array_source
 
-    if dst is not None:
-        raise UsageError("--print-mapping prints SRC's starting mapping and writes nothing: drop DST")
-    if not src.exists():
-        raise NotFound(f"{src}: no such file or directory")
     source = detect_array_source(src)
     if source is None:
-        raise UsageError(f"{src}: --print-mapping reads array sources (HDF5); this is none")
+        raise UsageError(
+            f"{src}: --print-mapping applies to bags (.bag, .mcap, rosbag2 folder, folder of bags) and array sources "
+            "(HDF5, Zarr replay buffer, RLDS); this is neither"
+        )
 
     def build(first: ArrayEpisode) -> tuple[dict[str, Any], list[Guess]]:
         return starting_mapping(source, first, fps)

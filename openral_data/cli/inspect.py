@@ -37,12 +37,25 @@ class ListWhat(StrEnum):
     tasks = "tasks"
 
 
-def info(dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset folder")], json: JsonFlag = False) -> None:
-    """Print a dataset's summary: episodes, frames, tasks, cameras, success rate."""
+def info(
+    dataset: Annotated[
+        Path,
+        typer.Argument(
+            help="a LeRobot dataset folder, a bag (.bag, .mcap, rosbag2 folder, folder of bags), a zarr replay "
+            "buffer (.zarr folder or .zarr.zip) or an RLDS/TFDS build folder"
+        ),
+    ],
+    json: JsonFlag = False,
+) -> None:
+    """Print a dataset's summary: episodes, frames, tasks, cameras, success rate; for a bag its topics, types,
+    counts and rates; for a zarr replay buffer or RLDS folder its episodes, steps and arrays."""
+    from openral_data.convert.to_mcap import is_lerobot_dataset
     from openral_data.formats.dataset import summarize
     from openral_data.formats.lerobot_v3.reader import LEGACY_VERSIONS as legacy
 
     dataset = resolve_dataset(dataset)
+    if not is_lerobot_dataset(dataset) and _source_info(dataset, json):
+        return
     s = summarize(dataset)
     counts = _quality_counts(dataset)
     if json:
@@ -64,6 +77,43 @@ def info(dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset fold
             ("quality", _quality_cell(counts)),
         ],
     )
+
+
+def _source_info(src: Path, json: bool) -> bool:
+    """`info` of a bag or an episodic array source (False: `src` is neither, so it is read as a dataset)."""
+    from openral_data.convert.array_sources import detect_array_source
+    from openral_data.convert.discover import describe_arrays, describe_bags, is_bag_source
+
+    if is_bag_source(src):
+        bags = describe_bags(src)
+        if json:
+            print_json("info", bags.to_json())
+            return True
+        rows = [("bags", str(len(bags.bags))), ("duration", f"{bags.duration:.2f} s")]
+        for t in bags.topics.values():
+            rate = f"{t.rate:.2f} Hz" if t.rate is not None else "-"
+            rows.append((t.topic, f"{t.msgtype}, {t.messages} msgs, {rate}"))
+        print_rows(str(src), rows)
+        return True
+    source = detect_array_source(src)
+    if source is None:
+        return False
+    arrays = describe_arrays(source)
+    if json:
+        print_json("info", arrays.to_json())
+        return True
+    fps = f"{arrays.fps:g}" if arrays.fps is not None else "not stored (convert --fps N or the mapping)"
+    languages = "; ".join(arrays.languages[:5]) + (
+        f" (+{len(arrays.languages) - 5} more)" if len(arrays.languages) > 5 else ""
+    )
+    rows = [("layout", arrays.layout), ("episodes", str(arrays.episodes)), ("steps", str(arrays.steps)), ("fps", fps)]
+    rows += [
+        (a.key, f"{a.dtype} {list(a.shape)}" + ("" if a.encoding == "raw" else f" ({a.encoding})"))
+        for a in arrays.arrays
+    ]
+    rows.append(("tasks", languages or "-"))
+    print_rows(str(src), rows)
+    return True
 
 
 def _quality_counts(dataset: Path) -> dict[str, int] | None:

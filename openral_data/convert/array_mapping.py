@@ -71,6 +71,10 @@ def starting_mapping(source: ArraySource, first: ArrayEpisode, fps: float | None
     guesses: list[Guess] = []
     if source.layout == "aloha":
         out, guesses = _aloha(source, specs)
+    elif source.layout == "zarr":
+        out, guesses = _zarr(source, specs)
+    elif source.layout == "rlds":
+        out, guesses = _rlds(source, first, specs)
     else:
         out, guesses = _robomimic(source, first, specs)
     if fps is None:
@@ -149,6 +153,79 @@ def _robomimic(
     if "dones" in specs and is_vector(specs["dones"]) and not specs["dones"].shape:
         out["success"] = {"topic": "dones"}
         guesses.append(Guess("success", "dones: robomimic sets it on the step the task succeeded"))
+    return out, guesses
+
+
+def _store_name(source: ArraySource) -> str:
+    name = source.path.name
+    for suffix in (".zip", ".zarr"):
+        name = name.removesuffix(suffix)
+    return name or "task"
+
+
+def _zarr(source: ArraySource, specs: dict[str, ArraySpec]) -> tuple[dict[str, Any], list[Guess]]:
+    """diffusion policy / UMI replay buffers: `data/action`; `data/state` or `data/agent_pos`, else every other
+    float vector (UMI's robot0_*), as state; every HxWx3 uint8 array a camera."""
+    if "data/action" not in specs or not is_vector(specs["data/action"]):
+        raise DatasetError(f"{source.path}: data/action: missing (a replay buffer's action)", code="dataset.source.key")
+    guesses = [Guess("task", "the store's name; replay buffers hold no task text")]
+    named_state = next((k for k in ("data/state", "data/agent_pos") if k in specs and is_vector(specs[k])), None)
+    if named_state is not None:
+        state = [_part(named_state, specs[named_state])]
+    else:
+        state = [
+            _part(k, s) for k, s in specs.items() if k != "data/action" and is_vector(s) and s.dtype.startswith("float")
+        ]
+        if not state:
+            raise DatasetError(f"{source.path}: data/state: missing (no float vector to map as state)",
+                               code="dataset.source.key")  # fmt: skip
+        guesses.append(Guess("state", "every float vector under data/ but action, concatenated in key order"))
+    out: dict[str, Any] = {
+        "robot_type": "unknown",
+        "task": _store_name(source),
+        "state": _vector(state),
+        "action": _part("data/action", specs["data/action"]),
+        "cameras": {_camera_name(k): k for k, s in specs.items() if is_picture(s)},
+    }
+    return out, guesses
+
+
+def _rlds(source: ArraySource, first: ArrayEpisode, specs: dict[str, ArraySpec]) -> tuple[dict[str, Any], list[Guess]]:
+    """RLDS / Open X-Embodiment: observation pictures as cameras, `steps/observation/state` (else every float
+    observation vector) as state, `steps/action` (or its vector parts), language as task, reward, is_terminal."""
+    obs = {k: s for k, s in specs.items() if k.startswith("steps/observation/")}
+    floats = {k: s for k, s in obs.items() if is_vector(s) and s.dtype.startswith("float")}
+    guesses: list[Guess] = []
+    if "steps/observation/state" in floats:
+        state = [_part("steps/observation/state", floats["steps/observation/state"])]
+    elif floats:
+        state = [_part(k, s) for k, s in floats.items()]
+        guesses.append(Guess("state", "every float observation vector, concatenated in key order"))
+    else:
+        raise DatasetError(f"{source.path}: {first.name}: steps/observation: no float vector to map as state",
+                           code="dataset.source.key")  # fmt: skip
+    if "steps/action" in specs and is_vector(specs["steps/action"]):
+        action = _part("steps/action", specs["steps/action"])
+    else:
+        parts = [_part(k, s) for k, s in specs.items() if k.startswith("steps/action/") and is_vector(s)]
+        if not parts:
+            raise DatasetError(f"{source.path}: {first.name}: steps/action: missing", code="dataset.source.key")
+        action = _vector(parts)
+        guesses.append(Guess("action", "the vectors under steps/action/, concatenated in key order"))
+    out: dict[str, Any] = {"robot_type": "unknown"}
+    if first.meta.language:
+        out["task_topic"] = LANGUAGE
+    else:
+        out["task"] = source.path.parent.name if source.path.name[:1].isdigit() else source.path.name
+        guesses.append(Guess("task", "the dataset's name (no language_instruction in the episodes)"))
+    out |= {"state": _vector(state), "action": action}
+    out["cameras"] = {_camera_name(k): k for k, s in obs.items() if is_picture(s)}
+    scalar = {k for k, s in specs.items() if is_vector(s) and not s.shape}
+    if "steps/reward" in scalar:
+        out["reward"] = {"topic": "steps/reward"}
+    if "steps/is_terminal" in scalar:
+        out["success"] = {"topic": "steps/is_terminal"}
+        guesses.append(Guess("success", "is_terminal: the episode ended in a terminal state (check it means success)"))
     return out, guesses
 
 

@@ -20,7 +20,8 @@ def own_mapping(bag: Path) -> Mapping:
         marker = topics.get(m.EPISODE)
         if marker is None:
             raise BagError(
-                f"{bag}: not written by openral-data (no {m.EPISODE} topic); pass --mapping mapping.yaml",
+                f"{bag}: not written by openral-data (no {m.EPISODE} topic); pass --mapping mapping.yaml "
+                f"(`openral-data convert {bag} --print-mapping` prints a starting one)",
                 code="bag.invalid",
             )
         start = None

@@ -21,6 +21,7 @@ import shutil
 import time
 from pathlib import Path
 
+from openral_data.convert.array_sources import block_files
 from openral_data.convert.preflight import CameraTopics, check_bags, check_outcome, last_task
 from openral_data.convert.sources import find_bags
 from openral_data.convert.summary import ConvertSummary, TopicReport
@@ -155,13 +156,12 @@ def convert_arrays_parallel(
     progress: ProgressFn | None = None,
     video: VideoSettings | None = None,
 ) -> ConvertSummary:
-    """An array source's files in `workers` processes (contiguous blocks of files, as bags), merged in file
-    order into one dataset at `dst`, as `convert_arrays` would write it."""
+    """An array source's files (HDF5 files, RLDS shards; a Zarr store is one block) in `workers` processes
+    (contiguous blocks of files, as bags), merged in file order into one dataset at `dst`, as `convert_arrays`
+    would write it."""
     settings = with_codec(video, codec)
     check_executor(executor, address)
-    files: list[Path] = list(getattr(source, "files", []))
-    if not files:
-        raise UsageError(f"{source.path}: --workers splits a source by files; this {source.layout} source has none")
+    files = block_files(source)
     totals = sum(ep.length for ep in source.episodes())  # every file opened once, before any work
     source.close()
     check_new_output(dst, "DST")
@@ -169,7 +169,7 @@ def convert_arrays_parallel(
     workdir = workers_dir(dst)
     shutil.rmtree(workdir, ignore_errors=True)
     jobs: list[ConvertJob | ArrayJob] = [
-        ArrayJob(w, source.path, block, workdir / f"worker-{w:03d}", mapping, settings)
+        ArrayJob(w, source.path, source.layout, block, workdir / f"worker-{w:03d}", mapping, settings)
         for w, block in enumerate(plan_blocks(files, workers))
     ]
     return _run_blocks(jobs, workdir, source.path, dst, totals, executor, address, progress, source.layout)

@@ -15,6 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from openral_data.convert.array_sources import open_block
 from openral_data.convert.from_arrays import convert_arrays
 from openral_data.convert.preflight import CameraTopics
 from openral_data.convert.summary import ConvertSummary
@@ -38,10 +39,11 @@ class ConvertJob:
 
 @dataclass(frozen=True)
 class ArrayJob:
-    """A block of an array source's files (`convert --workers` over HDF5 files)."""
+    """A block of an array source's files (`convert --workers` over HDF5 files, RLDS shards, a Zarr store)."""
 
     worker: int
     src: Path  # the source as the user named it
+    layout: str
     files: list[Path]  # this worker's block, in source order
     dst: Path
     mapping: Mapping
@@ -113,10 +115,7 @@ def run_convert_job(job: ConvertJob | ArrayJob) -> ConvertResult:
 
 
 def _run_array_job(job: ArrayJob, progress: Callable[[int, int], None]) -> ConvertResult:
-    from openral_data.formats.hdf5 import detect_hdf5
-
-    source = detect_hdf5(job.src, files=job.files)
-    assert source is not None
+    source = open_block(job.src, job.layout, job.files)
     steps = 0
 
     def counted(done: int, total: int) -> None:

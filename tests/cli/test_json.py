@@ -27,7 +27,8 @@ DOC = REPO / "docs" / "scripting.md"
 SUCCESS_AFTER = [3, 99]  # episode 0 succeeds at step 3, episode 1 never does (cut at MAX_STEPS)
 MAX_STEPS = 6
 TABLES = {
-    "common", "info", "doctor", "record", "record --hal", "convert bags-to-lerobot", "convert lerobot-to-mcap",
+    "common", "info", "info bag", "info arrays", "doctor", "record", "record --hal", "convert bags-to-lerobot",
+    "convert lerobot-to-mcap", "convert print-mapping",
     "replay", "list", "list item", "list scenes", "list rskills", "list robots", "list plugin_problems",
     "list tasks", "list tasks item", "tasks list", "tasks list item", "generate",
 }  # fmt: skip

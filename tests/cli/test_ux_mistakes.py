@@ -23,6 +23,9 @@ def _error(*args: str) -> str:
     return run.stderr.strip()
 
 
+CODECS = "'av1', 'h264', 'hevc', 'auto'"
+
+
 @pytest.mark.parametrize(
     ("option", "typo", "meant", "listing"),
     [
@@ -90,8 +93,14 @@ def test_the_rskills_suggested_can_run_on_that_scene(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("args", "line"),
     [
-        (["record", "--codec", "h265x", "--out", "o"], "error: --vcodec: 'h265x' is not one of 'av1', 'h264', 'hevc', 'auto'"),
-        (["videos", "reencode", "D", "--codec", "h26"], "error: --vcodec: 'h26' is not one of 'av1', 'h264', 'hevc', 'auto'"),
+        (
+            ["record", "--codec", "h265x", "--out", "o"],
+            "error: --vcodec: 'h265x' is not one of 'av1', 'h264', 'hevc', 'auto'",
+        ),
+        (
+            ["videos", "reencode", "D", "--codec", "h26"],
+            "error: --vcodec: 'h26' is not one of 'av1', 'h264', 'hevc', 'auto'",
+        ),
         (["record", "--n-episodes", "x"], "error: --n-episodes: Input should be a valid integer, unable to parse"),
     ],
 )

@@ -15,6 +15,7 @@ import pyarrow.parquet as pq
 import pytest
 
 from openral_data.replay.recorded import RecordedDataset
+from tests.support.array_sources import lerobot_matches_ours
 from tests.support.hdf5_layouts import decode_jpeg_row, write_aloha, write_robomimic
 from tests.support.inproc import run_inproc
 
@@ -93,22 +94,6 @@ def test_hdf5_layout_converts_with_no_mapping(tmp_path: Path, kind: str) -> None
         for name, pictures in w["cams"].items():
             got = np.stack([f.images[name] for f in frames]).astype(np.float64)
             assert np.abs(got - pictures).mean() <= VIDEO_TOL, (name, np.abs(got - pictures).mean())
-    _lerobot_matches_ours(out, ours)
+    lerobot_matches_ours(out, ours)
     doctor = run_inproc("doctor", str(out), "--deep")
     assert doctor.returncode == 0 and "healthy" in doctor.stdout, doctor.stdout + doctor.stderr
-
-
-def _lerobot_matches_ours(root: Path, ours: RecordedDataset) -> None:
-    """lerobot 0.6.1 loads every frame: numbers as stored, pixels equal to our own decode."""
-    from lerobot.datasets.lerobot_dataset import LeRobotDataset
-
-    ds = LeRobotDataset("local/check", root=root, video_backend="pyav")
-    mine = {e: list(ours.frames(e)) for e in range(len(ours))}
-    for i in range(len(ds)):
-        item = ds[i]
-        frame = mine[int(item["episode_index"])][int(item["frame_index"])]
-        assert item["observation.state"].numpy().tolist() == frame.state.tolist()
-        assert item["action"].numpy().tolist() == frame.action.tolist()
-        for name, img in frame.images.items():
-            loaded = (item[f"observation.images.{name}"].numpy() * 255).round().astype(np.uint8).transpose(1, 2, 0)
-            assert np.array_equal(loaded, img), (i, name)
