@@ -21,7 +21,6 @@ import, or names no folder) never break the rest; they are collected by `plugin_
 
 from __future__ import annotations
 
-import importlib.metadata
 import importlib.resources
 import os
 from collections.abc import Callable
@@ -210,6 +209,8 @@ def plugin_objects(group: str) -> list[tuple[str, str, object]]:
     """`(name, dist, object)` for each entry point of `group` that loads (imported once per process); one that
     fails to import is recorded as a `PluginProblem` and left out."""
     if group not in _LOADED:
+        import importlib.metadata  # here: it takes ~15 ms, which `--version` and `info` need not pay
+
         out: list[tuple[str, str, object]] = []
         for ep in importlib.metadata.entry_points(group=group):
             dist = ep.dist.name if ep.dist is not None else "?"

@@ -13,7 +13,7 @@ import typer
 from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import print_line, print_rows, progress_bar
 from openral_data.errors import NotFound, UsageError
-from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.formats.codec import Codec
 from openral_data.formats.repo_id import resolve_dataset
 
 if TYPE_CHECKING:

@@ -11,7 +11,7 @@ from openral_data import paths
 from openral_data.cli.given import given
 from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import print_line, print_rows, progress_bar
-from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.formats.codec import Codec
 from openral_data.formats.repo_id import resolve_dataset
 from openral_data.viz import DEFAULT_PORT
 

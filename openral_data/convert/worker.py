@@ -17,7 +17,7 @@ from pathlib import Path
 from openral_data.convert.preflight import CameraTopics
 from openral_data.convert.summary import ConvertSummary
 from openral_data.convert.to_lerobot import convert_bags
-from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.formats.codec import Codec
 from openral_data.runtime.parallel.channel import report
 from openral_data.schemas.mapping import Mapping
 

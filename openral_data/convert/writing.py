@@ -18,10 +18,10 @@ from openral_data.convert.camera_topics import check_info_size
 from openral_data.convert.preflight import CameraTopics
 from openral_data.convert.sources import VectorParts, VectorReader
 from openral_data.convert.summary import ConvertSummary
+from openral_data.formats.codec import Codec
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
 from openral_data.formats.lerobot_v3.depth import DepthSettings
 from openral_data.formats.lerobot_v3.provenance import Origin
-from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.runtime.bridge import DatasetBridge
 from openral_data.schemas.mapping import Mapping
 from openral_data.types import CameraShape, DatasetSchema, Observation

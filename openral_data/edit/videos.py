@@ -28,12 +28,13 @@ from openral_data.edit.ops import EditResult, Rewrite, check_edit_output, summed
 from openral_data.edit.recode import CameraEncoders, Pixels, clip_frames, image_frames
 from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.errors import DatasetError, UsageError
+from openral_data.formats.codec import parse_codec
 from openral_data.formats.lerobot_v3.config import WriterConfig
 from openral_data.formats.lerobot_v3.features import camera_keys
 from openral_data.formats.lerobot_v3.masks import is_mask
 from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
-from openral_data.formats.lerobot_v3.video import VideoSettings, parse_codec
+from openral_data.formats.lerobot_v3.video import VideoSettings
 from openral_data.types import CameraShape
 
 _SIZE = re.compile(r"([0-9]{1,5})x([0-9]{1,5})")

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from openral_data import manifests
 from openral_data.errors import UsageError
-from openral_data.formats.lerobot_v3.video import Codec
+from openral_data.formats.codec import Codec
 from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.runtime.outdir import fresh_out
 from openral_data.runtime.sinks import OutputFormat, check_outputs

@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 
 from openral_data.errors import CompatibilityError, OutputExists, UsageError
+from openral_data.formats.codec import Codec
 from openral_data.formats.lerobot_v3 import VideoSettings
-from openral_data.formats.lerobot_v3.video import Codec
 from openral_data.formats.results import is_results_dir, write_results
 from openral_data.policies.base import ChunkingPolicy, PolicyAdapter
 from openral_data.policies.device import resolve_device, with_device

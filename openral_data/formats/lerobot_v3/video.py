@@ -15,7 +15,7 @@ import time
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path
-from typing import Any, Literal, get_args
+from typing import Any
 
 import av
 
@@ -24,21 +24,11 @@ os.environ.setdefault("SVT_LOG", "1")
 import numpy as np
 import numpy.typing as npt
 
-from openral_data.errors import EncoderError, UsageError
+from openral_data.errors import EncoderError
+from openral_data.formats.codec import Codec
 from openral_data.formats.lerobot_v3.depth import CameraStats, DepthStatsAccumulator, DepthStream
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
 from openral_data.paths import regular_file
-
-Codec = Literal["av1", "h264"]
-CODECS: tuple[Codec, ...] = get_args(Codec)
-
-
-def parse_codec(name: str) -> Codec:
-    """`--codec` (or any untyped text) -> a `Codec`; below the edge the value is never checked again."""
-    for codec in CODECS:
-        if name == codec:
-            return codec
-    raise UsageError(f"--codec: {name!r} is not one of {', '.join(CODECS)}")
 
 
 @dataclass(frozen=True)
