@@ -51,6 +51,7 @@ __all__ = [
     "plugin_problems",
     "project_dir",
     "record_problem",
+    "results_dir",
     "robot_file",
 ]
 
@@ -127,6 +128,11 @@ def project_dir() -> Path:
 def datasets_dir() -> Path:
     """Where outputs go when no `--out` is given: `<project>/datasets`."""
     return project_dir() / "datasets"
+
+
+def results_dir() -> Path:
+    """Where `replay` puts its results when no `--out` is given: `<project>/results`."""
+    return project_dir() / "results"
 
 
 def layers(kind: Kind) -> list[tuple[str, Path]]:

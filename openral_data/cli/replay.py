@@ -26,7 +26,7 @@ def replay(
     episodes: Annotated[str | None, typer.Option(help="episodes to replay, e.g. 0,3,5-7 (default: all)")] = None,
     mode: Annotated[str, typer.Option(help="actions | policy | closed-loop")] = "actions",
     rskill: Annotated[str | None, typer.Option(help="policy / closed-loop: rSkill id or path; recorded[:K]")] = None,
-    out: Annotated[Path | None, typer.Option(help="results folder (default: a new folder under datasets/)")] = None,
+    out: Annotated[Path | None, typer.Option(help="results folder (default: a new folder under results/)")] = None,
     tolerance: Annotated[float, typer.Option(help="max |state error| per dimension that still reproduces")] = 1e-4,
     max_steps: Annotated[int | None, typer.Option(help="closed-loop step limit (default: the task's)")] = None,
     record: Annotated[Path | None, typer.Option(help="also write the replayed rollouts as a new dataset")] = None,
