@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from openral_data.errors import ConfigError, HalError
+from openral_data.errors import ConfigError, HalError, install_hint
 from openral_data.producers.hal.base import HalBase, JointCommand, RobotState, monotonic
 from openral_data.schemas.hal import HardwareConfig
 from openral_data.schemas.robot import RobotManifest
@@ -43,10 +43,10 @@ class So100Hal(HalBase):
         self.source = source
         try:
             from lerobot.robots.so_follower import SOFollower, SOFollowerRobotConfig
-        except ImportError as exc:  # the scservo SDK comes with the feetech extra
+        except ImportError:  # lerobot's SO follower driver and the scservo SDK come with the feetech extra
             raise ConfigError(
-                f"{source}: hardware.driver: {hardware.driver} needs lerobot's feetech extra "
-                f"(uv sync --extra feetech): {exc}"
+                f"{source}: hardware.driver: {hardware.driver} needs the 'feetech' extra (lerobot's Feetech "
+                f"driver): {install_hint('feetech')}"
             ) from None
         cal_dir = None
         if hardware.calibration_dir is not None:
