@@ -1,6 +1,6 @@
 """Output folders of the commands that write something new (`record`, `record --hal`, `replay` and its
-`--record`): the one fresh default name under datasets/, and the refusal of an `--out` that already holds
-something."""
+`--record`): the one fresh default name under datasets/ (replay's results under results/), and the refusal of an
+`--out` that already holds something."""
 
 from __future__ import annotations
 
@@ -11,10 +11,10 @@ from openral_data import manifests, paths
 from openral_data.errors import OutputExists
 
 
-def fresh_out(prefix: str) -> Path:
-    """A folder under datasets/ named `<prefix>--<time stamp>` that does not exist yet."""
+def fresh_out(prefix: str, under: Path | None = None) -> Path:
+    """A folder under `under` (default datasets/) named `<prefix>--<time stamp>` that does not exist yet."""
     stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
-    base = manifests.datasets_dir() / f"{prefix}--{stamp}"
+    base = (under or manifests.datasets_dir()) / f"{prefix}--{stamp}"
     out, k = base, 1
     while out.exists():
         k += 1
