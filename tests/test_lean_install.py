@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -115,7 +114,12 @@ def test_the_default_outputs_are_git_ignored_here() -> None:
 def test_the_so_arm_driver_error_names_its_extra(
     project: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setitem(sys.modules, "lerobot.robots.so_follower", None)  # as without the feetech extra
+    import lerobot.robots
+
+    def no_sdk(config: object) -> None:  # what lerobot raises without the feetech extra's SDK
+        raise ImportError("'feetech-servo-sdk' is required but not installed: pip install 'lerobot[feetech]'")
+
+    monkeypatch.setattr(lerobot.robots, "make_robot_from_config", no_sdk)
     argv = ["record", "--hal", "so100_follower", "--mode", "real", "--rskill", "sweep-so-arm", "--fps", "10"]
     done = run_inproc(*argv, "--port", "/dev/null", "--out", str(tmp_path / "out"))
     assert done.returncode == 2, done.stderr
