@@ -126,3 +126,22 @@ def test_the_so_arm_driver_error_names_its_extra(
     assert "needs the 'feetech' extra" in done.stderr and "so_follower" not in done.stderr
     assert "pip install 'openral-data[feetech]'" in done.stderr and "uv sync --extra feetech" in done.stderr
     assert not (tmp_path / "out").exists()
+
+
+def test_hardware_without_lerobot_names_the_lerobot_extra(
+    project: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import sys
+
+    from openral_data.producers.hal.lerobot_hw import registry
+
+    monkeypatch.setitem(sys.modules, "lerobot.robots", None)  # as in the core install: no lerobot
+    registry.cache_clear()
+    try:
+        argv = ["record", "--hal", "so100_follower", "--mode", "real", "--rskill", "sweep-so-arm", "--fps", "10"]
+        done = run_inproc(*argv, "--port", "/dev/null", "--out", str(tmp_path / "out"))
+    finally:
+        registry.cache_clear()
+    assert done.returncode == 2, done.stderr
+    assert "need the 'lerobot' extra" in done.stderr and "uv sync --extra lerobot" in done.stderr
+    assert not (tmp_path / "out").exists()
