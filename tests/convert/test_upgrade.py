@@ -252,7 +252,7 @@ def test_without_lerobot_one_line_naming_the_extra(
     small: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setitem(sys.modules, "lerobot.scripts.convert_dataset_v21_to_v30", None)
-    _refused(small, tmp_path / "new", "lerobot[dataset]")
+    _refused(small, tmp_path / "new", "pip install 'openral-data[lerobot]'", "uv sync --extra lerobot")
 
 
 @pytest.mark.slow
