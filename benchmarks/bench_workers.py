@@ -27,14 +27,13 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
 import shutil
 import statistics
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
+
+from timing import run_child
 
 CLI = [sys.executable, "-m", "openral_data.cli"]
 # Bytecode caching on, as on a user's machine: with PYTHONDONTWRITEBYTECODE (set in some sandboxes) every
@@ -47,14 +46,9 @@ def run(name: str, extra: list[str], episodes: int, codec: str, work: Path) -> t
     shutil.rmtree(out, ignore_errors=True)
     cmd = [*CLI, "record", "--scene", "tabletop_push", "--rskill", "scripted-push", "--n-episodes", str(episodes)]
     cmd += ["--out", str(out), "--codec", codec, *extra]
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t0 = time.perf_counter()
-    res = subprocess.run(cmd, capture_output=True, text=True, check=False, env=ENV)
-    wall = time.perf_counter() - t0
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    res, wall, cpu = run_child(cmd, ENV)
     if res.returncode != 0:
         raise SystemExit(f"{name} failed: {res.stderr.strip().splitlines()[-1:]}")
-    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     info = json.loads((out / "meta" / "info.json").read_text())
     shutil.rmtree(out, ignore_errors=True)
     return wall, cpu, int(info["total_frames"])

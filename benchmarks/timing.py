@@ -4,7 +4,9 @@ lines they print (`digits` decimals of seconds)."""
 
 from __future__ import annotations
 
+import resource
 import statistics
+import subprocess
 import time
 from collections.abc import Callable
 from types import TracebackType
@@ -28,6 +30,19 @@ class Stopwatch:
 
     def timing(self, work: int) -> Timing:
         return self.wall, self.cpu, work
+
+
+def run_child(
+    cmd: list[str], env: dict[str, str] | None = None
+) -> tuple[subprocess.CompletedProcess[str], float, float]:
+    """`cmd` run to its end (output captured): the result, its wall seconds and its CPU seconds (user + system
+    of the child, from `getrusage`; run one child at a time)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    done = subprocess.run(cmd, capture_output=True, text=True, check=False, env=env)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return done, wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
 def alternate(

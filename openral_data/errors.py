@@ -114,6 +114,12 @@ class ConfigError(OpenralError):
     default_code = "config"
 
 
+def install_hint(extra: str) -> str:
+    """How to install the optional extra `extra`, both ways, for the one line that says it is missing: what a
+    `pip install`-ed user types, and what a checkout's `uv` environment takes (scripts/setup.sh installs all)."""
+    return f"pip install 'openral-data[{extra}]' (in a checkout: uv sync --extra {extra})"
+
+
 class CompatibilityError(OpenralError):
     """Scene, robot and rSkill do not fit together; raised before the first episode."""
 

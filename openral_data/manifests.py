@@ -21,7 +21,6 @@ import, or names no folder) never break the rest; they are collected by `plugin_
 
 from __future__ import annotations
 
-import importlib.metadata
 import importlib.resources
 import os
 from collections.abc import Callable
@@ -52,6 +51,7 @@ __all__ = [
     "plugin_problems",
     "project_dir",
     "record_problem",
+    "results_dir",
     "robot_file",
 ]
 
@@ -128,6 +128,11 @@ def project_dir() -> Path:
 def datasets_dir() -> Path:
     """Where outputs go when no `--out` is given: `<project>/datasets`."""
     return project_dir() / "datasets"
+
+
+def results_dir() -> Path:
+    """Where `replay` puts its results when no `--out` is given: `<project>/results`."""
+    return project_dir() / "results"
 
 
 def layers(kind: Kind) -> list[tuple[str, Path]]:
@@ -210,6 +215,8 @@ def plugin_objects(group: str) -> list[tuple[str, str, object]]:
     """`(name, dist, object)` for each entry point of `group` that loads (imported once per process); one that
     fails to import is recorded as a `PluginProblem` and left out."""
     if group not in _LOADED:
+        import importlib.metadata  # here: it takes ~15 ms, which `--version` and `info` need not pay
+
         out: list[tuple[str, str, object]] = []
         for ep in importlib.metadata.entry_points(group=group):
             dist = ep.dist.name if ep.dist is not None else "?"

@@ -36,6 +36,15 @@ def _offline_hf(tmp_path_factory: pytest.TempPathFactory) -> Iterator[None]:
             os.environ[k] = v
 
 
+@pytest.fixture(scope="session")
+def core_venv(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The wheel and its core dependencies in a fresh venv (tests/support/wheel.py), made once per session: the
+    modules using it are in xdist group "wheel", so one worker makes it."""
+    from tests.support.wheel import build_core_venv
+
+    return build_core_venv(tmp_path_factory.mktemp("install"))
+
+
 @pytest.fixture
 def project(tmp_path: Path) -> Iterator[Path]:
     """A copy of the repo's manifests in tmp, used as OPENRAL_DATA_HOME, so tests can add broken files

@@ -5,7 +5,6 @@ finds its built-in scenes, rSkills and robots and records into ./datasets there.
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -14,48 +13,15 @@ import pytest
 
 from openral_data.version import __version__
 from tests.support.home import REPO
-from tests.support.uv import uv
+from tests.support.wheel import run_installed
 
-pytestmark = pytest.mark.slow
-
-
-@pytest.fixture(scope="module")
-def venv(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A fresh environment holding the wheel and the lock's dependencies (no dev group, no extras)."""
-    base = tmp_path_factory.mktemp("install")
-    env = {k: v for k, v in os.environ.items() if k not in ("VIRTUAL_ENV", "UV_COMPILE_BYTECODE", "PYTHONPATH")}
-    env["UV_PYTHON_DOWNLOADS"] = "never"
-
-    def run(*args: str, cwd: Path = REPO) -> None:
-        subprocess.run([uv(), *args], cwd=cwd, env=env, check=True, timeout=1200)
-
-    run("build", "--wheel", "--quiet", "--out-dir", str(base / "dist"))
-    run("export", "--frozen", "--no-dev", "--no-emit-project", "--no-hashes", "--quiet", "-o", str(base / "req.txt"))
-    python = Path(sys.base_prefix) / "bin" / "python3.12"
-    run("venv", "--quiet", "--python", str(python), str(base / "venv"))
-    (wheel,) = (base / "dist").glob("openral_data-*.whl")
-    run("pip", "install", "--quiet", "--python", str(base / "venv/bin/python"), "-r", str(base / "req.txt"), str(wheel))
-    return base / "venv"
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("wheel")]
 
 
-def _clean_env(tmp: Path) -> dict[str, str]:
-    drop = ("PYTHONPATH", "OPENRAL_DATA_HOME", "VIRTUAL_ENV", "OPENRAL_SCENES_DIR", "OPENRAL_RSKILLS_DIR")
-    env = {k: v for k, v in os.environ.items() if k not in (*drop, "OPENRAL_ROBOTS_DIR", "OPENRAL_DATA_CONFIG")}
-    env["XDG_CONFIG_HOME"] = str(tmp / "config")  # no user manifests either
-    env.setdefault("MUJOCO_GL", "egl")
-    return env
-
-
-def _run(venv: Path, cwd: Path, *args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [str(venv / "bin/openral-data"), *args],
-        cwd=cwd,
-        env=_clean_env(cwd),
-        capture_output=True,
-        text=True,
-        timeout=900,
-        check=False,
-    )
+@pytest.fixture
+def venv(core_venv: Path) -> Path:
+    """A fresh environment holding the wheel and the lock's core dependencies (no dev group, no extras)."""
+    return core_venv
 
 
 def test_the_wheel_holds_the_package_only(venv: Path) -> None:
@@ -72,10 +38,10 @@ def test_the_wheel_holds_the_package_only(venv: Path) -> None:
 def test_installed_lists_its_builtins_and_records_into_cwd(venv: Path, tmp_path: Path) -> None:
     work = tmp_path / "empty"
     work.mkdir()
-    version = _run(venv, work, "--version")
+    version = run_installed(venv, work, "--version")
     assert version.returncode == 0 and version.stdout.strip() == f"openral-data {__version__}"
 
-    listed = _run(venv, work, "list", "--json")
+    listed = run_installed(venv, work, "list", "--json")
     assert listed.returncode == 0, listed.stderr
     doc = json.loads(listed.stdout)
     site = str(next((venv / "lib").glob("python3.12/site-packages")))
@@ -91,12 +57,13 @@ def test_installed_lists_its_builtins_and_records_into_cwd(venv: Path, tmp_path:
     assert doc["plugin_problems"] == []
 
     for scene in ("mock_pick", "tabletop_push"):
-        done = _run(venv, work, "record", "--scene", scene, "--n-episodes", "1", "--json")
+        done = run_installed(venv, work, "record", "--scene", scene, "--n-episodes", "1", "--json")
         assert done.returncode == 0, done.stderr
         out = Path(json.loads(done.stdout)["out"])
         assert out.parent == work / "datasets" and out.name.startswith(f"{scene}--"), out
+        # lerobot is not in the core install: the test environment's (dev group) loads what it wrote
         loaded = subprocess.run(
-            [str(venv / "bin/python"), "-c", _LOAD, str(out)], capture_output=True, text=True, timeout=600, check=False
+            [sys.executable, "-c", _LOAD, str(out)], capture_output=True, text=True, timeout=600, check=False
         )
         assert loaded.returncode == 0, loaded.stderr
         assert "torchcodec" not in loaded.stdout + loaded.stderr  # the lock leaves it out; pyav is chosen
@@ -115,6 +82,6 @@ print(json.dumps({"episodes": ds.meta.total_episodes, "robot_type": ds.meta.robo
 
 
 def test_browse_without_its_extra_says_which_in_one_line(venv: Path, tmp_path: Path) -> None:
-    r = _run(venv, tmp_path, "browse", str(tmp_path))
+    r = run_installed(venv, tmp_path, "browse", str(tmp_path))
     assert r.returncode == 2
     assert r.stderr.count("\n") == 1 and "'browse' extra" in r.stderr and "uv sync --extra browse" in r.stderr

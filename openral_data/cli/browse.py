@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from openral_data.cli.terminal import print_line
-from openral_data.errors import ConfigError, UsageError
+from openral_data.errors import ConfigError, UsageError, install_hint
 from openral_data.formats.repo_id import resolve_dataset
 
 if TYPE_CHECKING:
@@ -44,5 +44,5 @@ def start_browser(paths: list[str], host: str, port: int, rerun_url: str | None 
     try:
         from openral_data.browse import Browser, open_catalogs
     except ImportError as exc:
-        raise ConfigError(f"browse: needs the 'browse' extra ({exc.name} missing): uv sync --extra browse") from None
+        raise ConfigError(f"browse: needs the 'browse' extra ({exc.name} missing): {install_hint('browse')}") from None
     return Browser(open_catalogs(paths), host, port, rerun_url)

@@ -20,11 +20,12 @@ from openral_data.cli.encoder_flags import (
 from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import print_line, print_rows, progress_bar
 from openral_data.errors import NotFound, UsageError
-from openral_data.formats.lerobot_v3.encoder import Codec, VideoSettings
+from openral_data.formats.codec import Codec
 from openral_data.formats.repo_id import resolve_dataset
 
 if TYPE_CHECKING:
     from openral_data.convert import ConvertSummary
+    from openral_data.formats.lerobot_v3.encoder import VideoSettings
     from openral_data.schemas.mapping import Mapping
 
 

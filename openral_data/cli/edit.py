@@ -4,15 +4,17 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from openral_data import paths
 from openral_data.cli.terminal import print_line, progress_bar
-from openral_data.edit.ops import EditResult
 from openral_data.errors import UsageError
 from openral_data.formats.repo_id import resolve_dataset
+
+if TYPE_CHECKING:
+    from openral_data.edit.ops import EditResult
 
 episodes_app = typer.Typer(
     no_args_is_help=True,

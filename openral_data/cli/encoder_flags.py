@@ -3,11 +3,12 @@
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from openral_data.formats.lerobot_v3.encoder import VideoSettings, preset_value, with_codec
+if TYPE_CHECKING:  # the encoder (PyAV, the writer) loads when the flags are turned into settings
+    from openral_data.formats.lerobot_v3.encoder import VideoSettings
 
 VCODEC_HELP = "video codec: av1, h264, hevc, or auto (a hardware encoder that opens here, else av1)"
 CrfFlag = Annotated[float | None, typer.Option("--crf", help="encoder quality: lower is better (default 30)")]
@@ -30,6 +31,8 @@ def video_settings(
     codec: str, crf: float | None, gop: int | None, preset: str | None, pix_fmt: str | None, threads: int | None
 ) -> VideoSettings:
     """The flags as one `VideoSettings`, resolved (`auto` probed) and checked: a bad combination is one line."""
+    from openral_data.formats.lerobot_v3.encoder import VideoSettings, preset_value, with_codec
+
     base = VideoSettings()
     return with_codec(
         VideoSettings(

@@ -11,7 +11,7 @@ from openral_data import paths
 from openral_data.cli.encoder_flags import VCODEC_HELP
 from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import print_rows
-from openral_data.formats.lerobot_v3.encoder import Codec
+from openral_data.formats.codec import Codec
 
 
 def generate(

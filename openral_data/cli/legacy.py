@@ -16,7 +16,6 @@ from typing import Any
 
 from openral_data.cli import terminal
 from openral_data.errors import OpenralError, UsageError
-from openral_data.formats.dataset import open_lerobot
 from openral_data.formats.repo_id import resolve_dataset
 
 
@@ -58,6 +57,8 @@ def read_as_v3(kwargs: dict[str, Any], param: str) -> Iterator[None]:
 def _legacy(item: Any) -> str | None:
     """ "v2.0"/"v2.1" when `item` names a LeRobot v2.x dataset; None otherwise (what else is wrong with it is the
     command's to say, in its own words)."""
+    from openral_data.formats.dataset import open_lerobot
+
     try:
         return open_lerobot(resolve_dataset(item)).legacy
     except (OpenralError, OSError, ValueError):

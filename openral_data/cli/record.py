@@ -14,7 +14,7 @@ from openral_data.cli.given import given as given_flags
 from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import INTERRUPTED_RECORDING, print_line, print_rows, progress_bar
 from openral_data.errors import UsageError
-from openral_data.formats.lerobot_v3.encoder import Codec
+from openral_data.formats.codec import Codec
 from openral_data.viz import DEFAULT_PORT
 
 if TYPE_CHECKING:

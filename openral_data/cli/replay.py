@@ -11,7 +11,7 @@ from openral_data import paths
 from openral_data.cli.given import given
 from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import print_line, print_rows, progress_bar
-from openral_data.formats.lerobot_v3.encoder import Codec
+from openral_data.formats.codec import Codec
 from openral_data.formats.repo_id import resolve_dataset
 from openral_data.viz import DEFAULT_PORT
 
@@ -26,7 +26,7 @@ def replay(
     episodes: Annotated[str | None, typer.Option(help="episodes to replay, e.g. 0,3,5-7 (default: all)")] = None,
     mode: Annotated[str, typer.Option(help="actions | policy | closed-loop")] = "actions",
     rskill: Annotated[str | None, typer.Option(help="policy / closed-loop: rSkill id or path; recorded[:K]")] = None,
-    out: Annotated[Path | None, typer.Option(help="results folder (default: a new folder under datasets/)")] = None,
+    out: Annotated[Path | None, typer.Option(help="results folder (default: a new folder under results/)")] = None,
     tolerance: Annotated[float, typer.Option(help="max |state error| per dimension that still reproduces")] = 1e-4,
     max_steps: Annotated[int | None, typer.Option(help="closed-loop step limit (default: the task's)")] = None,
     record: Annotated[Path | None, typer.Option(help="also write the replayed rollouts as a new dataset")] = None,

@@ -10,7 +10,7 @@ import typer
 from openral_data import paths
 from openral_data.cli import encoder_flags as flags
 from openral_data.cli.edit import report
-from openral_data.formats.lerobot_v3.encoder import Codec
+from openral_data.formats.codec import Codec
 from openral_data.formats.repo_id import resolve_dataset
 
 videos_app = typer.Typer(

@@ -37,8 +37,9 @@ from openral_data.convert.worker import (
 from openral_data.edit.ops import Rewrite, summed_histograms, write_selection
 from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.errors import ExecutorError, UsageError
+from openral_data.formats.codec import Codec
 from openral_data.formats.episodic import ArraySource
-from openral_data.formats.lerobot_v3.encoder import Codec, VideoSettings, with_codec
+from openral_data.formats.lerobot_v3.encoder import VideoSettings, with_codec
 from openral_data.formats.staging import check_new_output
 from openral_data.record.parallel.run import workers_dir
 from openral_data.runtime.parallel.channel import STOP_HELD, held

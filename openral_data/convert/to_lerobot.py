@@ -29,7 +29,8 @@ from openral_data.convert.sources import find_bags, open_reader
 from openral_data.convert.summary import ConvertSummary
 from openral_data.convert.timed import bool_value, marker_event, reward_value, timed_messages
 from openral_data.convert.writing import REWARD, Converter
-from openral_data.formats.lerobot_v3.encoder import Codec, VideoSettings, with_codec
+from openral_data.formats.codec import Codec
+from openral_data.formats.lerobot_v3.encoder import VideoSettings, with_codec
 from openral_data.formats.staging import Staging, check_new_output
 from openral_data.schemas.mapping import Mapping
 

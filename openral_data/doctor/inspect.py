@@ -20,6 +20,7 @@ from openral_data.formats.jsonfile import load_json, parse_json
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.info import MAX_FEATURES
 from openral_data.formats.lerobot_v3.missing import MissingFiles
+from openral_data.formats.parquetfile import read_raw
 from openral_data.paths import regular_file
 
 DEFAULT_FEATURES = ("timestamp", "frame_index", "episode_index", "index", "task_index")
@@ -115,7 +116,7 @@ def load(root: Path) -> tuple[Dataset | None, list[Finding]]:
 
 def read_parquet(path: Path, columns: list[str] | None = None) -> pa.Table:
     """A parquet file with its page checksums verified (a flipped byte in a page is an error, not a value)."""
-    return pq.read_table(regular_file(path), columns=columns, page_checksum_verification=True)
+    return read_raw(regular_file(path), columns, verify_pages=True)
 
 
 def _unreadable(ds: Dataset, code: str, path: Path, exc: BaseException) -> None:

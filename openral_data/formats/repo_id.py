@@ -2,7 +2,7 @@
 
 `resolve_dataset(arg)`: an argument that names an existing path is that path (a local folder named like a repo
 id wins over the cache); one that does not but looks like `owner/name` is `HF_LEROBOT_HOME/owner/name`, exactly
-where `LeRobotDataset(repo_id)` looks (lerobot 0.6.1's own constant, so its environment rules apply); when that
+where `LeRobotDataset(repo_id)` looks (lerobot 0.6.1's rule: `HF_LEROBOT_HOME`, else `$HF_HOME/lerobot`); when that
 folder is missing too, one line says where it looked and that `--download` fetches it. Nothing here touches the
 network: the CLI's `--download` (openral_data/cli/download.py, with `openral_data.hub.fetch_dataset`) fills the
 cache folder before a command resolves its argument here.
@@ -10,6 +10,7 @@ cache folder before a command resolves its argument here.
 
 from __future__ import annotations
 
+import os
 import re
 from pathlib import Path
 
@@ -25,12 +26,14 @@ def looks_like_repo_id(arg: str) -> bool:
 
 
 def lerobot_home() -> Path:
-    """lerobot's `HF_LEROBOT_HOME` (its default under `HF_HOME`, or the `HF_LEROBOT_HOME` variable)."""
-    try:
-        from lerobot.utils.constants import HF_LEROBOT_HOME
-    except ValueError as exc:  # lerobot refuses the deprecated LEROBOT_HOME variable at import
-        raise UsageError(f"LEROBOT_HOME: {str(exc).splitlines()[0]}") from None
-    return Path(HF_LEROBOT_HOME)
+    """lerobot's cache folder, `HF_LEROBOT_HOME` (lerobot.utils.constants): the `HF_LEROBOT_HOME` variable, else
+    `lerobot/` under huggingface_hub's `HF_HOME`, which lerobot reads too. Resolved without lerobot (not in the
+    core install); the deprecated `LEROBOT_HOME` variable is refused, as lerobot refuses it."""
+    if "LEROBOT_HOME" in os.environ:
+        raise UsageError("LEROBOT_HOME: deprecated by lerobot; set HF_LEROBOT_HOME instead")
+    from huggingface_hub.constants import HF_HOME
+
+    return Path(os.environ.get("HF_LEROBOT_HOME", Path(HF_HOME) / "lerobot")).expanduser()
 
 
 def resolve_dataset(arg: str | Path) -> Path:

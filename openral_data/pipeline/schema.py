@@ -26,7 +26,8 @@ from typing import Literal
 from pydantic import Field, field_validator, model_validator
 
 from openral_data.errors import ConfigError, DatasetError, UsageError
-from openral_data.formats.lerobot_v3.encoder import Codec, VideoSettings, with_codec
+from openral_data.formats.codec import Codec
+from openral_data.formats.lerobot_v3.encoder import VideoSettings, with_codec
 from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.manifests import Kind, find
 from openral_data.paths import contained, safe_name

@@ -7,7 +7,7 @@ from __future__ import annotations
 import re
 from typing import Any
 
-from openral_data.errors import ConfigError, OpenralError, UsageError
+from openral_data.errors import ConfigError, OpenralError, UsageError, install_hint
 from openral_data.schemas.rskill import RSkillManifest
 
 CHOICES = "cpu, cuda, cuda:N, mps, auto"
@@ -17,7 +17,7 @@ def resolve_device(requested: str, where: str = "--device") -> str:
     """The device `requested` names, checked against what torch sees here. `where` names the option or field
     (an rSkill field's errors are ConfigErrors, the command line's UsageErrors)."""
     spec = requested.strip().lower()
-    torch = _torch()
+    torch = _torch(where)
     if spec == "auto":
         if torch.cuda.is_available():
             return "cuda"
@@ -40,9 +40,11 @@ def resolve_device(requested: str, where: str = "--device") -> str:
     return spec
 
 
-def _torch() -> Any:
-    import torch
-
+def _torch(where: str) -> Any:
+    try:
+        import torch
+    except ImportError:
+        raise _error(where, f"needs torch, which comes with the 'lerobot' extra: {install_hint('lerobot')}") from None
     return torch
 
 

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from openral_data.errors import CompatibilityError, ConfigError, ContractViolation
+from openral_data.errors import CompatibilityError, ConfigError, ContractViolation, install_hint
 from openral_data.formats.jsonfile import read_json
 from openral_data.policies.device import resolve_device
 from openral_data.schemas.rskill import RSkillManifest
@@ -207,6 +207,10 @@ class LerobotChunkPolicy(LerobotPolicy):
 
 
 def make_lerobot_policy(rskill: RSkillManifest) -> LerobotPolicy:
+    if importlib.util.find_spec("lerobot") is None:  # the core install has no lerobot (nor torch)
+        raise ConfigError(
+            f"rskill {rskill.id}: policy: lerobot policies need the 'lerobot' extra: {install_hint('lerobot')}"
+        )
     path = checkpoint_dir(rskill)
     config = load_config(path, "cpu")
     if config.type == "act" and getattr(config, "temporal_ensemble_coeff", None) is None:

@@ -12,8 +12,9 @@ from typing import Literal, get_args
 
 from openral_data import manifests
 from openral_data.errors import CompatibilityError, ConfigError, UsageError
+from openral_data.formats.codec import Codec
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
-from openral_data.formats.lerobot_v3.encoder import Codec, with_codec
+from openral_data.formats.lerobot_v3.encoder import with_codec
 from openral_data.formats.lerobot_v3.provenance import HalOrigin, Origin, Recorded, SafetyRecord
 from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.policies.base import PolicyAdapter

@@ -9,7 +9,8 @@ from typing import Literal
 
 from openral_data import manifests
 from openral_data.errors import UsageError
-from openral_data.formats.lerobot_v3.encoder import Codec, VideoSettings, with_codec
+from openral_data.formats.codec import Codec
+from openral_data.formats.lerobot_v3.encoder import VideoSettings, with_codec
 from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.runtime.outdir import fresh_out
 from openral_data.runtime.sinks import OutputFormat, check_outputs

@@ -13,9 +13,10 @@ from pathlib import Path
 
 import numpy as np
 
+from openral_data import manifests
 from openral_data.errors import CompatibilityError, OutputExists, UsageError
+from openral_data.formats.codec import Codec
 from openral_data.formats.lerobot_v3 import VideoSettings
-from openral_data.formats.lerobot_v3.encoder import Codec
 from openral_data.formats.results import is_results_dir, write_results
 from openral_data.policies.base import ChunkingPolicy, PolicyAdapter
 from openral_data.policies.device import resolve_device, with_device
@@ -50,7 +51,7 @@ class ReplayOptions:
     episodes: str | None = None  # "0,3,5-7"; None: all
     mode: Mode = "actions"
     rskill: str | None = None  # policy / closed-loop: an rSkill id or path; policy also `recorded[:K]`
-    out: Path | None = None  # results directory (default: datasets/<dataset>--replay-<mode>--<time>)
+    out: Path | None = None  # results directory (default: results/<dataset>--replay-<mode>--<time>)
     tolerance: float = DEFAULT_TOLERANCE
     label: str | None = None
     max_steps: int | None = None  # closed-loop step limit (default: the recorded task's max_steps)
@@ -215,7 +216,9 @@ def replay(opts: ReplayOptions, progress: ProgressFn | None = None) -> ReplaySum
     dataset = RecordedDataset(opts.dataset)
     chosen = dataset.select(opts.episodes)
     dataset.need_files(chosen, pixels=opts.mode == "policy", what=f"replay --mode {opts.mode}")
-    out = opts.out if opts.out is not None else fresh_out(f"{opts.dataset.resolve().name}-replay-{opts.mode}")
+    out = opts.out
+    if out is None:
+        out = fresh_out(f"{opts.dataset.resolve().name}-replay-{opts.mode}", manifests.results_dir())
     videos = check_observers(opts, out, what="the results")  # `--save-video`: `<results>.debug/`
     t0 = time.perf_counter()
     outcomes: list[EpisodeOutcome] = []

@@ -23,8 +23,8 @@ import numpy.typing as npt
 from pydantic import Field
 
 from openral_data.errors import CompatibilityError
+from openral_data.formats.codec import Codec
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
-from openral_data.formats.lerobot_v3.encoder import Codec
 from openral_data.formats.lerobot_v3.provenance import ReplayOrigin
 from openral_data.formats.mcap import ImageFormat
 from openral_data.formats.staging import Staging

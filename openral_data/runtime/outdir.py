@@ -1,6 +1,6 @@
 """Output folders of the commands that write something new (`record`, `record --hal`, `replay` and its
-`--record`): the one fresh default name under datasets/, and the refusal of an `--out` that already holds
-something."""
+`--record`): the one fresh default name under datasets/ (replay's results under results/), and the refusal of an
+`--out` that already holds something."""
 
 from __future__ import annotations
 
@@ -10,10 +10,10 @@ from openral_data import manifests, paths
 from openral_data.errors import OutputExists
 
 
-def fresh_out(prefix: str) -> Path:
-    """A folder under datasets/ named `<prefix>-<n>` that does not exist yet: n the first free number from 1
-    (`datasets/mock_pick-1`, `datasets/mock_pick-2`, ...), a name short enough to read in a table cell."""
-    folder = manifests.datasets_dir()
+def fresh_out(prefix: str, under: Path | None = None) -> Path:
+    """A folder under `under` (default datasets/) named `<prefix>-<n>` that does not exist yet: n the first free
+    number from 1 (`datasets/mock_pick-1`, `datasets/mock_pick-2`, ...), a name short enough to read in a table."""
+    folder = under or manifests.datasets_dir()
     n = 1
     while (folder / f"{prefix}-{n}").exists() or (folder / f"{prefix}-{n}").is_symlink():
         n += 1

@@ -14,8 +14,8 @@ from pathlib import Path
 from typing import Literal, cast
 
 from openral_data.errors import UsageError
+from openral_data.formats.codec import parse_codec
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, WriterConfig
-from openral_data.formats.lerobot_v3.encoder import parse_codec
 from openral_data.formats.mcap import (
     ImageFormat,
     McapCompression,

@@ -23,7 +23,7 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-from openral_data.errors import CompatibilityError, DatasetError, UsageError
+from openral_data.errors import CompatibilityError, DatasetError, UsageError, install_hint
 from openral_data.formats.parquetfile import num_rows
 from openral_data.formats.staging import Staging, check_new_output
 from openral_data.formats.write_errors import disk_errors
@@ -76,7 +76,8 @@ def _converter() -> ModuleType:
         return importlib.import_module("lerobot.scripts.convert_dataset_v21_to_v30")
     except ImportError as exc:
         raise CompatibilityError(
-            f"upgrade: lerobot's converter is not importable ({exc}); install the `lerobot[dataset]` extra"
+            f"upgrade: lerobot's converter is not importable ({exc.name or exc} missing): needs the 'lerobot' extra: "
+            f"{install_hint('lerobot')}"
         ) from None
 
 

@@ -24,6 +24,7 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import rerun as rr
 
+from openral_data import manifests
 from openral_data.errors import (
     DatasetError,
     EpisodeSelectionError,
@@ -88,7 +89,7 @@ def run_view(opts: ViewOptions) -> str:
     save = opts.save
     if save is None and not has_display():
         name = opts.path.stem if is_mcap else f"{opts.path.name}-episode-{opts.episode}"
-        save = Path(f"{name}.rrd")
+        save = manifests.datasets_dir() / f"{name}.rrd"  # beside the outputs (git-ignored), not in the cwd
     if save is not None:
         if save.suffix != ".rrd":
             raise UsageError(f"{save}: --save writes an .rrd file")

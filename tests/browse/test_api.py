@@ -165,7 +165,10 @@ def test_cli_without_the_browse_extra_names_it_in_one_line(monkeypatch: pytest.M
     monkeypatch.setitem(sys.modules, "uvicorn", None)  # as if not installed
     r = run_inproc("browse", str(tmp_path))
     assert r.returncode == 2
-    assert r.stderr == "error: browse: needs the 'browse' extra (uvicorn missing): uv sync --extra browse\n"
+    assert r.stderr == (
+        "error: browse: needs the 'browse' extra (uvicorn missing): "
+        "pip install 'openral-data[browse]' (in a checkout: uv sync --extra browse)\n"
+    )
 
 
 def test_episode_links_to_rerun(browse_dataset: Path) -> None:

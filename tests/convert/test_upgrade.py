@@ -121,9 +121,7 @@ def test_v20_gets_per_episode_stats_as_lerobot_computes_them(tmp_path: Path) -> 
 
 
 def test_a_repo_id_in_lerobots_cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    import lerobot.utils.constants
-
-    monkeypatch.setattr(lerobot.utils.constants, "HF_LEROBOT_HOME", tmp_path / "cache")
+    monkeypatch.setenv("HF_LEROBOT_HOME", str(tmp_path / "cache"))
     write_v2(tmp_path / "cache" / "someone" / "koch_test", video=False)
     _upgrade(Path("someone/koch_test"), tmp_path / "new")
     assert json.loads((tmp_path / "new/meta/info.json").read_text())["codebase_version"] == "v3.0"
@@ -254,7 +252,7 @@ def test_without_lerobot_one_line_naming_the_extra(
     small: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setitem(sys.modules, "lerobot.scripts.convert_dataset_v21_to_v30", None)
-    _refused(small, tmp_path / "new", "lerobot[dataset]")
+    _refused(small, tmp_path / "new", "pip install 'openral-data[lerobot]'", "uv sync --extra lerobot")
 
 
 @pytest.mark.slow

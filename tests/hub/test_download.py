@@ -43,10 +43,8 @@ def source(tmp_path_factory: pytest.TempPathFactory) -> Files:
 
 @pytest.fixture
 def home(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    """lerobot's HF_LEROBOT_HOME for this test."""
-    from lerobot.utils import constants as lerobot_constants
-
-    monkeypatch.setattr(lerobot_constants, "HF_LEROBOT_HOME", tmp_path / "lerobot")
+    """lerobot's HF_LEROBOT_HOME for this test (the variable, read where a repo id is resolved)."""
+    monkeypatch.setenv("HF_LEROBOT_HOME", str(tmp_path / "lerobot"))
     return tmp_path / "lerobot"
 
 

@@ -103,9 +103,10 @@ def test_view_saves_when_there_is_no_display(
     a, _ = dataset
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.delenv("OPENRAL_DATA_HOME", raising=False)
     monkeypatch.chdir(tmp_path)
     msg = run_view(ViewOptions(a, episode=2))
-    rrd = tmp_path / f"{a.name}-episode-2.rrd"
+    rrd = tmp_path / "datasets" / f"{a.name}-episode-2.rrd"  # the project's outputs folder, not the cwd
     assert str(rrd.name) in msg and rrd.is_file()
     verify(rrd)
     temporal, _ = rows_by_entity(rrd)

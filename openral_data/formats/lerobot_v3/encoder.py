@@ -20,16 +20,39 @@ import logging
 import os
 from dataclasses import dataclass, replace
 from fractions import Fraction
-from typing import Any, Literal, get_args
+from typing import Any
 
 import av
 
 from openral_data.errors import UsageError
+from openral_data.formats.codec import CODECS, Codec, parse_codec
+
+__all__ = [  # the codec names are formats/codec.py's (no PyAV there), re-exported here with the settings
+    "AUTO_FALLBACK",
+    "CODECS",
+    "CRF_RANGE",
+    "HARDWARE",
+    "SEMI_PLANAR",
+    "SOFTWARE",
+    "SVT_AV1_PRESET",
+    "SVT_PRESETS",
+    "X26X_PRESETS",
+    "X265_NARROW",
+    "Codec",
+    "VideoSettings",
+    "auto_encoder",
+    "available",
+    "encoder_threads",
+    "family",
+    "opens",
+    "parse_codec",
+    "pixel_formats",
+    "preset_value",
+    "with_codec",
+]
 
 log = logging.getLogger(__name__)
 
-Codec = Literal["av1", "h264", "hevc", "auto"]
-CODECS: tuple[Codec, ...] = get_args(Codec)
 SOFTWARE: dict[str, str] = {"av1": "libsvtav1", "h264": "libx264", "hevc": "libx265"}
 # `auto`'s candidates, first preferred (lerobot's order: H.264, then HEVC; AV1 encoders last)
 HARDWARE: tuple[str, ...] = (
@@ -52,14 +75,6 @@ X26X_PRESETS = ("ultrafast", "superfast", "veryfast", "faster", "fast", "medium"
 SVT_PRESETS = range(-1, 14)
 SEMI_PLANAR = {"yuv420p": "nv12", "yuv420p10le": "p010le"}  # what hardware encoders take for the planar ones
 X265_NARROW = 64  # below this width, x265's cu-tree is turned off (`options`)
-
-
-def parse_codec(name: str) -> Codec:
-    """`--vcodec` (or any untyped text) -> a `Codec`; below the edge the value is never checked again."""
-    for codec in CODECS:
-        if name == codec:
-            return codec
-    raise UsageError(f"--vcodec: {name!r} is not one of {', '.join(CODECS)}")
 
 
 def family(encoder: str) -> str:

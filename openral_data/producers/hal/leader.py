@@ -17,7 +17,7 @@ import numpy.typing as npt
 
 from openral_data.errors import ConfigError
 from openral_data.producers.hal.base import monotonic
-from openral_data.producers.hal.lerobot_hw import connect_device, feature_keys, lerobot_config
+from openral_data.producers.hal.lerobot_hw import connect_device, feature_keys, lerobot_config, missing_sdk
 from openral_data.schemas.robot import RobotManifest
 from openral_data.types import Observation
 
@@ -40,7 +40,7 @@ class LeaderTeleop:
 
             self.device: Any = make_teleoperator_from_config(config)
         except ImportError as exc:
-            raise ConfigError(f"{source}: {FIELD}.type: {self.type_name} needs its lerobot extra: {exc}") from None
+            raise ConfigError(f"{source}: {FIELD}.type: {self.type_name} {missing_sdk(exc)}") from None
         self.keys = feature_keys(robot.action.names or [], self.device.action_features, source, FIELD)
         self.read_at = 0.0  # monotonic time of the last reading
 

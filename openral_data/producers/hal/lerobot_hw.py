@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from openral_data.errors import ConfigError, HalError
+from openral_data.errors import ConfigError, HalError, install_hint
 from openral_data.producers.hal.base import HalBase, JointCommand, RobotState, monotonic
 from openral_data.producers.hal.sensors import LerobotCamera
 from openral_data.schemas.hal import HardwareConfig, LerobotDevice
@@ -40,6 +40,10 @@ def registry(kind: str) -> Any:
     try:
         package = importlib.import_module(f"lerobot.{kind}")
     except ImportError as exc:
+        if (exc.name or "").split(".")[0] == "lerobot":  # lerobot itself is an extra
+            raise ConfigError(
+                f"hardware: lerobot devices need the 'lerobot' extra: {install_hint('lerobot')}"
+            ) from None
         raise ConfigError(f"hardware: lerobot.{kind} cannot be imported: {exc}") from None
     for sub in pkgutil.iter_modules(package.__path__):
         if not sub.ispkg:
@@ -51,6 +55,14 @@ def registry(kind: str) -> Any:
                 except ImportError:  # an optional SDK the config itself needs: that type stays unknown
                     continue
     return getattr(package, KINDS[kind])
+
+
+def missing_sdk(exc: ImportError) -> str:
+    """What a lerobot device whose SDK is missing needs: our 'feetech' extra for the Feetech bus (lerobot's own
+    message names its `lerobot[feetech]` extra), else lerobot's words."""
+    if "lerobot[feetech]" in str(exc) or exc.name == "scservo_sdk":
+        return f"needs the 'feetech' extra (lerobot's Feetech driver): {install_hint('feetech')}"
+    return f"needs its lerobot extra: {exc}"
 
 
 def lerobot_config(kind: str, spec: LerobotDevice, source: str, field: str) -> Any:
@@ -150,10 +162,7 @@ class LerobotHal(HalBase):
 
             self.driver: Any = make_robot_from_config(config)
         except ImportError as exc:  # the device SDK comes with a lerobot extra (feetech, dynamixel, ...)
-            raise ConfigError(
-                f"{source}: {self.field}.type: {self.type_name} needs its lerobot extra (e.g. uv sync --extra "
-                f"feetech): {exc}"
-            ) from None
+            raise ConfigError(f"{source}: {self.field}.type: {self.type_name} {missing_sdk(exc)}") from None
         names = robot.observation.state.names or []
         self.state_keys = feature_keys(names, self.driver.observation_features, source, "observation.state.names")
         action_names = robot.action.names or []

@@ -7,7 +7,7 @@ import importlib
 from collections.abc import Sequence
 from types import ModuleType
 
-from openral_data.errors import ConfigError
+from openral_data.errors import ConfigError, install_hint
 from openral_data.schemas.scene import SceneCamera, SimScene
 
 
@@ -16,7 +16,7 @@ def require(module: str, extra: str, source: str, install: str | None = None) ->
     try:
         return importlib.import_module(module)
     except ImportError as exc:
-        how = install or f"uv sync --extra {extra} (scripts/setup.sh installs it)"
+        how = install or install_hint(extra)
         raise ConfigError(
             f"{source}: scene.type: needs the {extra!r} extra ({exc.name or module} missing): {how}"
         ) from None

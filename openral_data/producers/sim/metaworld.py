@@ -29,7 +29,7 @@ import numpy.typing as npt
 from pydantic import Field
 
 import openral_data.producers.sim.mujoco  # noqa: F401  (chooses a headless MUJOCO_GL before mujoco loads)
-from openral_data.errors import ConfigError
+from openral_data.errors import ConfigError, install_hint
 from openral_data.producers.sim import mjstate
 from openral_data.producers.sim.contract import Side, check_representation, scene_spec
 from openral_data.producers.sim.initial_state import check_recorded_on
@@ -61,7 +61,7 @@ def import_metaworld() -> Any:
             warnings.simplefilter("ignore")
             import metaworld
     except ImportError:
-        raise ConfigError("metaworld scenes need the metaworld extra: `uv sync --extra metaworld`") from None
+        raise ConfigError(f"metaworld scenes need the 'metaworld' extra: {install_hint('metaworld')}") from None
     return metaworld
 
 

@@ -34,7 +34,7 @@ import numpy.typing as npt
 from pydantic import Field
 
 import openral_data.producers.sim.mujoco  # noqa: F401  (chooses a headless MUJOCO_GL before mujoco loads)
-from openral_data.errors import ConfigError
+from openral_data.errors import ConfigError, install_hint
 from openral_data.producers.sim import mjstate
 from openral_data.producers.sim.contract import check_representations, scene_spec
 from openral_data.producers.sim.initial_state import check_recorded_on
@@ -117,7 +117,7 @@ def _import_robosuite() -> Any:
             import robosuite
     except ImportError:
         raise ConfigError(
-            "robosuite scenes need the robosuite extra: `uv sync --extra robosuite` (robosuite 1.5.1, mujoco 3.3.0)"
+            f"robosuite scenes need the 'robosuite' extra (robosuite 1.5.1, mujoco 3.3.0): {install_hint('robosuite')}"
         ) from None
     return robosuite
 
