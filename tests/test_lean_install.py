@@ -100,7 +100,7 @@ def test_view_and_replay_write_under_the_project_not_the_cwd(tmp_path: Path, mon
     assert (home / "datasets" / "ds-episode-1.rrd").stat().st_size > 0
     assert replayed.returncode == 0, replayed.stderr
     (results,) = (home / "results").iterdir()
-    assert results.name.startswith("ds--replay-actions--") and (results / "summary.json").is_file()
+    assert results.name == "ds-replay-actions-1" and (results / "summary.json").is_file()
     assert json.loads(replayed.stdout)["results"] == str(results)
     assert list(cwd.iterdir()) == []
 

@@ -244,8 +244,8 @@ def test_cli_exit_codes_and_lines(healthy: Path, tmp_path: Path) -> None:
     assert fixed.returncode == 0, fixed.stdout + fixed.stderr
     assert "repaired meta/episodes: rows put back in episode order" in fixed.stdout
     assert fixed.stdout.strip().endswith(": healthy")
-    missing = run_cli("doctor", str(tmp_path / "nope"))
-    assert missing.returncode == 1 and "not a folder" in missing.stdout
+    missing = run_cli("doctor", str(tmp_path / "nope"))  # a path that names nothing is bad input, before any check
+    assert missing.returncode == 2 and missing.stderr.strip().endswith("nope: no such file or directory")
 
 
 @pytest.mark.slow

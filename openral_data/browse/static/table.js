@@ -34,13 +34,17 @@ function header(list) {
 
 function percent(x) { return (100 * x).toFixed(1) + " %"; }
 
+let latest = 0; // the newest request: an older response arriving after it is dropped (two quick clicks)
+
 async function load() {
+  const mine = ++latest;
   const q = new URLSearchParams({
     where: state.where, sort: state.sort, desc: state.desc ? "1" : "0",
     offset: String(state.offset), limit: String(state.limit),
   });
   const r = await fetch(`/api/d/${ds}/episodes?${q}`);
   const body = await r.json();
+  if (mine !== latest) return;
   const error = document.getElementById("error");
   if (!r.ok) { error.textContent = body.error; return; }
   error.textContent = "";

@@ -74,7 +74,7 @@ def _videos(cmd: str, *extra: str) -> Callable[[Workspace], list[str]]:
 
 
 OPTIONS: list[tuple[str, Callable[[Workspace], list[str]], str, tuple[str, ...]]] = [
-    ("videos-codec-unknown", _videos("reencode", "--codec", "vp9"), r"--codec", ("v",)),
+    ("videos-codec-unknown", _videos("reencode", "--codec", "vp9"), r"--vcodec", ("v",)),
     ("videos-size-not-wxh", _videos("reencode", "--codec", "av1", "--size", "64"), r"--size", ("v",)),
     ("videos-size-too-small", _videos("reencode", "--codec", "av1", "--size", "16x16"), r"--size", ("v",)),
     ("videos-size-odd", _videos("reencode", "--codec", "h264", "--size", "33x32"), r"--size", ("v",)),
@@ -86,7 +86,7 @@ OPTIONS: list[tuple[str, Callable[[Workspace], list[str]], str, tuple[str, ...]]
         ("v",),
     ),
     ("videos-out-and-in-place", _videos("reencode", "--codec", "av1", "--in-place"), r"--out", ("v",)),
-    ("encode-images-codec-unknown", _videos("encode-images", "--codec", "mpeg2"), r"--codec", ("v",)),
+    ("encode-images-codec-unknown", _videos("encode-images", "--codec", "mpeg2"), r"--vcodec", ("v",)),
     ("encode-images-camera-not-image", _videos("encode-images", "--camera", "front"), r"--camera", ("v",)),
     ("encode-images-no-image-camera", _videos("encode-images"), r"ds: has no image cameras", ("v",)),
     ("record-seed-2**70", _record("--seed", str(2**70)), r"--seed", ("o",)),
