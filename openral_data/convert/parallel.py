@@ -95,15 +95,22 @@ def convert_parallel(
     blocks = plan_blocks(bags, workers)
     cameras = CameraTopics()
     totals = check_bags(bags, mapping, ConvertSummary(src=src, dst=dst), cameras)  # every bag, before any work
-    check_new_output(dst, "DST")
-    dst.parent.mkdir(parents=True, exist_ok=True)
-    workdir = workers_dir(dst)
-    shutil.rmtree(workdir, ignore_errors=True)
+    workdir = fresh_workdir(dst)
     jobs: list[ConvertJob | ArrayJob] = [
         ConvertJob(w, src, block, workdir / f"worker-{w:03d}", mapping, settings, cameras, carry)
         for w, (block, carry) in enumerate(zip(blocks, carried_tasks(blocks, mapping), strict=True))
     ]
     return _run_blocks(jobs, workdir, src, dst, totals, executor, address, progress)
+
+
+def fresh_workdir(dst: Path) -> Path:
+    """DST checked new (or empty), and the hidden folder beside it where the workers write their blocks, emptied
+    of what a killed run left."""
+    check_new_output(dst, "DST")
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    workdir = workers_dir(dst)
+    shutil.rmtree(workdir, ignore_errors=True)
+    return workdir
 
 
 def _run_blocks(
@@ -165,10 +172,7 @@ def convert_arrays_parallel(
     files = block_files(source)
     totals = sum(ep.length for ep in source.episodes())  # every file opened once, before any work
     source.close()
-    check_new_output(dst, "DST")
-    dst.parent.mkdir(parents=True, exist_ok=True)
-    workdir = workers_dir(dst)
-    shutil.rmtree(workdir, ignore_errors=True)
+    workdir = fresh_workdir(dst)
     jobs: list[ConvertJob | ArrayJob] = [
         ArrayJob(w, source.path, source.layout, block, workdir / f"worker-{w:03d}", mapping, settings)
         for w, block in enumerate(plan_blocks(files, workers))
