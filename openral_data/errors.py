@@ -57,6 +57,7 @@ hal.calibration         the motors' calibration differs from the calibration fil
 hal.state               the driver returned a state of the wrong shape
 hal.command             an action of the wrong shape or with non-finite values
 hal.camera              a camera delivered no fresh sample for too long; the episode is abandoned
+hal.teleop              a teleoperation device (gamepad, SpaceMouse) is missing, unreadable or went away
 hal.estop             an emergency stop is latched (`EstopLatched`)
 hal.stale             the newest joint reading is older than the staleness limit (`StaleState`)
 ====================  ================================================================================

@@ -55,7 +55,10 @@ def record(
     port: Annotated[str | None, typer.Option(help="--hal --mode real: serial port (default: the manifest's)")] = None,
     teleop: Annotated[
         str | None,
-        typer.Option(help="a person drives: keyboard (the terminal, a sim scene) or leader (hardware.teleop)"),
+        typer.Option(
+            help="a person drives: keyboard (the terminal), gamepad[=NODE] or spacemouse[=NODE] (a sim scene's "
+            "end effector), or leader (hardware.teleop)"
+        ),
     ] = None,
     resume: Annotated[
         bool, typer.Option("--resume", help="continue the recording in --out (its settings; --n-episodes = total)")
@@ -107,7 +110,7 @@ def record(
         hal, rskill, scene_fps, scene_steps = teleop_scene(scene, robot, rskill)
         fps = fps if "fps" in given else scene_fps
         max_steps = max_steps if max_steps is not None else scene_steps
-        operator = operator if "operator" in given else "keyboard"
+        operator = operator if "operator" in given else ("keyboard" if teleop == "keyboard" else "auto")
         given = given | {"scene"}
     if hal is not None and (save_video or save_video_dir is not None):
         raise UsageError("--save-video/--save-video-dir: not available with --hal (a scene recording only)")

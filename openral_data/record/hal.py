@@ -19,6 +19,8 @@ from openral_data.formats.lerobot_v3.provenance import HalOrigin, Origin, Record
 from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.policies.base import PolicyAdapter
 from openral_data.producers.hal.base import HalBase
+from openral_data.producers.hal.devices import DEVICE_KINDS, device_kind
+from openral_data.producers.hal.eef_device import DeviceOperator, DeviceTeleop
 from openral_data.producers.hal.operator import Command, KeyboardOperator, Operator, ScriptedOperator, parse_script
 from openral_data.producers.hal.safety import SafetyFilter
 from openral_data.producers.hal.teleop import KeyboardTeleop, tty_status
@@ -40,7 +42,8 @@ from openral_data.schemas.rskill import RSkillManifest
 from openral_data.types import EpisodeRecord, ProducerSpec, Sink
 
 Mode = Literal["sim", "real"]
-TELEOP_DEVICES = ("keyboard", "leader")  # leader: the manifest's hardware.teleop (a lerobot teleoperator)
+# leader: the manifest's hardware.teleop (a lerobot teleoperator); gamepad/spacemouse[=NODE]: producers/hal/devices.py
+TELEOP_DEVICES = ("keyboard", "leader", *DEVICE_KINDS)
 JOINT_REPRESENTATIONS = ("joint_positions_gripper", "joint_positions")
 
 
@@ -64,7 +67,7 @@ class HalRecordOptions:
     staleness: float | None = None  # camera sample age limit (s); default: 3 periods
     port: str | None = None  # real mode: override the manifest's hardware.port
     video: VideoSettings = field(default_factory=VideoSettings)  # the encoder settings; `codec` is its shorthand
-    teleop: str | None = None  # a person drives instead of the rSkill's policy: keyboard, leader
+    teleop: str | None = None  # a person drives instead of the rSkill's policy: keyboard, leader, gamepad[=NODE], ...
 
     def __post_init__(self) -> None:
         """`mode`, `safety` and the output settings are checked here, once, by whoever builds the options (the
@@ -76,8 +79,13 @@ class HalRecordOptions:
             raise UsageError(f"--mode: {self.mode!r}; valid: {', '.join(get_args(Mode))}")
         if self.safety is not None and self.safety not in get_args(SafetyMode):
             raise UsageError(f"--safety: {self.safety!r}; valid: {', '.join(get_args(SafetyMode))}")
-        if self.teleop is not None and self.teleop not in TELEOP_DEVICES:
-            raise UsageError(f"--teleop: {self.teleop!r}; valid: {', '.join(TELEOP_DEVICES)}")
+        if (
+            self.teleop is not None
+            and self.teleop not in TELEOP_DEVICES
+            and (device_kind(self.teleop) not in DEVICE_KINDS or self.teleop.endswith("="))
+        ):
+            valid = "keyboard, leader, gamepad[=NODE], spacemouse[=NODE]"
+            raise UsageError(f"--teleop: {self.teleop!r}; valid: {valid}")
         if self.teleop == "keyboard" and self.operator != "keyboard":
             raise UsageError("--teleop keyboard: the operator keys come from the same terminal (--operator keyboard)")
         if self.rskill is None and self.teleop != "leader":
@@ -218,7 +226,10 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
         keys = None
         if opts.teleop == "keyboard":
             keys = KeyboardTeleop(run.rskill, run.rskill_src, show=tty_status(STATUS_FD))
+        device = _device(opts, run)
         operator = make_operator(opts.operator, keys.feed if keys is not None else None)
+        if device is not None:
+            operator = DeviceOperator(operator, device)
         leader = None
         try:
             if opts.teleop == "leader":
@@ -227,7 +238,7 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
                 leader = LeaderTeleop(run.robot, str(manifests.robot_file(run.robot.name)))
             hal = build_hal(opts, run.robot, run.rskill, run.rskill_src)
             try:
-                policy = keys or leader or run.make_policy(run.rskill)
+                policy = keys or leader or device or run.make_policy(run.rskill)
                 loop = _open(opts, run, hal, policy, operator)
                 return _episodes(opts, run.out, loop, notify)
             finally:
@@ -235,9 +246,20 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
         finally:
             if leader is not None:
                 leader.close()
+            if device is not None:
+                device.close()
             operator.close()
     finally:
         held.release()  # what was recorded stays; empty folders the claim made go
+
+
+def _device(opts: HalRecordOptions, run: _Resolved) -> DeviceTeleop | None:
+    """`--teleop gamepad|spacemouse[=NODE]`: the device, open and read on its own thread before episode 0."""
+    if opts.teleop is None or device_kind(opts.teleop) not in DEVICE_KINDS:
+        return None
+    from openral_data.producers.hal.devices import open_teleop_device
+
+    return open_teleop_device(opts.teleop, run.rskill, run.rskill_src, tty_status(STATUS_FD))
 
 
 @dataclass(frozen=True)

@@ -8,11 +8,8 @@ then replays exactly (`replay --mode actions`) and says who drove (`operator` in
 
 from __future__ import annotations
 
-import contextlib
-import json
 import os
 import re
-import select
 import subprocess
 import sys
 import time
@@ -23,12 +20,8 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-from openral_data.policies.motion import Truth
 from openral_data.producers.hal.teleop import KeyboardGains
-from openral_data.runtime import registry
-from openral_data.schemas.scene import load_recordable_scene
-from tests.support.hal import episode_infos, frames_table
-from tests.support.inproc import run_inproc
+from tests.support.teleop_push import Watched, ended, push_waypoints, pushed, replays_exactly
 
 F64 = npt.NDArray[np.float64]
 SEED = 0
@@ -36,44 +29,12 @@ STATUS = re.compile(rb"eef (-?\d+\.\d+) (-?\d+\.\d+) (-?\d+\.\d+) gripper \w+ pe
 STEP = KeyboardGains().step
 
 
-def _waypoints(seed: int) -> list[F64]:
-    """Where a person would put the gripper to push the cube of episode `seed` into the goal: behind the cube
-    at travel height, down to pushing height, then along the line cube -> goal."""
-    path = registry.resolve_scene_path("tabletop_push")
-    scene = load_recordable_scene(path)
-    robot, (rskill, _) = registry.ROBOTS["franka_panda"], registry.resolve_rskill("scripted-push")
-    env = registry.scene_factory(scene.scene.type, str(path))(scene, robot, rskill, str(path))
-    try:
-        t = Truth.of(env.reset(seed))
-        name = t.role("object")
-        cube, goal, half = t.pos(name), t.pos(t.role("goal")), float(t.info(name)["size"][2]) / 2
-    finally:
-        env.close()
-    direction = (goal[:2] - cube[:2]) / np.linalg.norm(goal[:2] - cube[:2])
-    behind = cube[:2] - direction * (half + 0.045)  # clear of the cube by more than a step
-    push_z = t.table + 0.022
-    end = goal[:2] - direction * (half + 0.005)
-    return [np.array([*behind, t.table + 0.1]), np.array([*behind, push_z]), np.array([*end, push_z])]
-
-
-class Terminal:
+class Terminal(Watched):
     """The far side of the pty: what the program printed, and keys typed into it."""
 
     def __init__(self, master: int) -> None:
+        super().__init__(master)
         self.master = master
-        self.text = b""
-
-    def read(self, timeout: float) -> None:
-        ready, _, _ = select.select([self.master], [], [], timeout)
-        if ready:
-            with contextlib.suppress(OSError):  # the program exited and closed the pty
-                self.text += os.read(self.master, 65536)
-
-    def wait_for(self, pattern: bytes, timeout: float) -> None:
-        end = time.monotonic() + timeout
-        while pattern not in self.text:
-            assert time.monotonic() < end, self.text[-2000:].decode(errors="replace")
-            self.read(0.1)
 
     def status(self, after: int) -> tuple[F64, int, int]:
         """The newest status line printed after byte `after`: (eef position, moves pending, its end)."""
@@ -112,7 +73,7 @@ def _drive_to(term: Terminal, target: F64, tol: float, deadline: float, running:
 
 @pytest.mark.slow
 def test_a_person_at_a_terminal_pushes_the_cube_and_the_episode_replays(project: Path, tmp_path: Path) -> None:
-    waypoints = _waypoints(SEED)
+    waypoints = push_waypoints(SEED)
     out = tmp_path / "teleop"
     master, slave = os.openpty()
     args = ["record", "--scene", "tabletop_push", "--teleop", "keyboard", "--out", str(out), "--codec", "h264"]
@@ -131,26 +92,10 @@ def test_a_person_at_a_terminal_pushes_the_cube_and_the_episode_replays(project:
         proc.wait(timeout=20)
         term.read(0.2)
     finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
+        ended(proc)
         os.close(master)
-    text = term.text.decode(errors="replace")
-    assert proc.returncode == 0, text[-2000:]
-    assert "episode 0: kept (scene" in text
-
-    cols = frames_table(out)
-    assert cols["next.success"][-1] is True
-    actions = np.array(cols["action"])
+    actions = pushed(out, proc.returncode, term.text, "teleop:keyboard")
     assert np.all(actions[:, 6] == 1.0)  # the gripper closed from the first frame on
-    assert actions.shape[1] == 7 and np.abs(actions[:, :3]).max() <= KeyboardGains().max_step + 1e-6
+    assert np.abs(actions[:, :3]).max() <= KeyboardGains().max_step + 1e-6
     assert set(np.round(actions[:, :3].ravel() / STEP, 6)) <= {-2.0, -1.0, 0.0, 1.0, 2.0}  # whole key presses
-    info = episode_infos(out)[0]
-    assert info["operator"] == "teleop:keyboard" and info["hal"]["verdict"] == "scene"
-
-    res = tmp_path / "res"
-    r = run_inproc("replay", str(out), "--mode", "actions", "--out", str(res), "--json")
-    assert r.returncode == 0, r.stderr
-    summary = json.loads(r.stdout)
-    assert summary["diverged_episodes"] == {} and summary["divergence_max"] == 0
-    assert summary["success_recorded"] == 1 and summary["success_replayed"] == 1
+    replays_exactly(out, tmp_path / "res")

@@ -59,15 +59,8 @@ class KeyboardTeleop:
         gains: KeyboardGains | None = None,
         show: Callable[[str], None] | None = None,
     ) -> None:
-        contract = rskill.action_contract
-        if contract.representation != REPRESENTATION or contract.dim != 7:
-            raise ConfigError(
-                f"{source}: action_contract.representation: keyboard teleoperation drives {REPRESENTATION} (dim 7), "
-                f"got {contract.representation} (dim {contract.dim})"
-            )
+        self.low, self.high = eef_limits(rskill, source, "keyboard")
         self.gains = gains or KeyboardGains()
-        self.low = np.asarray(contract.low if contract.low is not None else [-np.inf] * 7, dtype=np.float64)
-        self.high = np.asarray(contract.high if contract.high is not None else [np.inf] * 7, dtype=np.float64)
         self.show = show
         self._escape = ""
         self.pending = np.zeros(4)  # presses waiting per axis: x, y, z, yaw
@@ -112,13 +105,33 @@ class KeyboardTeleop:
         pass
 
 
-def status(observation: Observation, gripper: float, pending: npt.NDArray[np.float64]) -> str:
-    """`eef 0.412 -0.031 0.911 gripper open pending 0 0 0 0` (the end effector's world position when the scene
-    reports it, else the first three state values)."""
+def eef_limits(
+    rskill: RSkillManifest, source: str, device: str
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """The action bounds of a `delta_eef_gripper` (dim 7) contract, the only one a teleoperation device drives."""
+    contract = rskill.action_contract
+    if contract.representation != REPRESENTATION or contract.dim != 7:
+        raise ConfigError(
+            f"{source}: action_contract.representation: {device} teleoperation drives {REPRESENTATION} (dim 7), "
+            f"got {contract.representation} (dim {contract.dim})"
+        )
+    low = np.asarray(contract.low if contract.low is not None else [-np.inf] * 7, dtype=np.float64)
+    high = np.asarray(contract.high if contract.high is not None else [np.inf] * 7, dtype=np.float64)
+    return low, high
+
+
+def eef_line(observation: Observation, gripper: float) -> str:
+    """`eef 0.412 -0.031 0.911 gripper open` (the end effector's world position when the scene reports it, else
+    the first three state values)."""
     ee = observation.privileged.get("ee_pos")
     pos = np.asarray(ee if ee is not None else observation.state[:3], dtype=np.float64)
+    return f"eef {pos[0]:.3f} {pos[1]:.3f} {pos[2]:.3f} gripper {'closed' if gripper else 'open'}"
+
+
+def status(observation: Observation, gripper: float, pending: npt.NDArray[np.float64]) -> str:
+    """`eef 0.412 -0.031 0.911 gripper open pending 0 0 0 0`: `eef_line` and the key presses not yet paid out."""
     moves = " ".join(str(int(p)) for p in pending)
-    return f"eef {pos[0]:.3f} {pos[1]:.3f} {pos[2]:.3f} gripper {'closed' if gripper else 'open'} pending {moves}"
+    return f"{eef_line(observation, gripper)} pending {moves}"
 
 
 def tty_status(fd: int) -> Callable[[str], None]:

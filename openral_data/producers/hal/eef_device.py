@@ -1,0 +1,248 @@
+"""An end-effector input device (gamepad, SpaceMouse) read on its own thread, as the producer of actions.
+
+The device node (`/dev/input/eventN`, `/dev/hidrawN`) is opened before episode 0 and read by a `DeviceReader`
+thread: every `read()` goes to the device's `Decoder` (producers/hal/gamepad.py, spacemouse.py), which keeps
+the newest axis values and the button presses; the reader stamps each complete report (`time.monotonic()`).
+`DeviceTeleop` is a policy (reset / step / close, the `PolicyAdapter` protocol): each tick it turns the axes
+(already shaped by the deadzone, in [-1, 1]) into a `delta_eef_gripper` action [dx, dy, dz, 0, 0, dyaw,
+gripper] = gains × axes, clipped to the contract; the gripper button toggles the gripper (0 open, 1 closed).
+Buttons that end an episode (success, failure, re-record, discard, quit) reach the loop through
+`DeviceOperator`, which wraps the run's operator (`--operator auto`, a script, or the terminal keys).
+
+A device that goes away (end of file, ENODEV: unplugged) makes the next `step()` raise `HalError`
+(`hal.teleop`): the episode in flight is discarded, the committed ones are kept, the run ends with one line.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import os
+import stat
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+from openral_data.errors import HalError
+from openral_data.paths import read_regular
+from openral_data.producers.hal.base import monotonic
+from openral_data.producers.hal.operator import Command, Operator
+from openral_data.producers.hal.teleop import eef_line
+from openral_data.types import Observation
+
+GRIPPER = "gripper"  # the button name that toggles the gripper; the others name a `Command`
+READ_SIZE = 4096
+POLL_S = 0.05  # how often the reader thread looks whether it should stop
+
+
+@dataclass(frozen=True)
+class DeviceGains:
+    """How far full deflection moves the end effector per tick, and how much of it reads as rest."""
+
+    linear: float = 0.02  # m per tick along x, y, z at full deflection (the keyboard's max_step)
+    yaw: float = 0.05  # rad per tick about world z at full deflection
+    deadzone: float = 0.1  # fraction of full deflection read as 0; the rest rescaled to 0..1
+    status_every: int = 2  # ticks between status lines (0: none)
+
+
+def shape(value: float, deadzone: float) -> float:
+    """One axis value in [-1, 1] with its deadzone: |v| <= deadzone -> 0, then linear up to ±1 (no jump at the
+    deadzone's edge)."""
+    v = min(1.0, max(-1.0, value))
+    if abs(v) <= deadzone:
+        return 0.0
+    return float(np.sign(v)) * (abs(v) - deadzone) / (1.0 - deadzone)
+
+
+class Decoder(Protocol):
+    """A device's bytes -> its state. `feed` takes what one `read()` returned and says how many complete reports
+    it applied; `motion` is (x, y, z, yaw) in [-1, 1] after the deadzone; `take_presses` hands out (and
+    forgets) the buttons pressed since the last call, by name (`GRIPPER` or a `Command` value)."""
+
+    def feed(self, data: bytes) -> int: ...
+
+    def motion(self) -> npt.NDArray[np.float64]: ...
+
+    def take_presses(self) -> list[str]: ...
+
+
+class Presses:
+    """The button presses a decoder has seen and nobody has taken yet."""
+
+    def __init__(self) -> None:
+        self._presses: list[str] = []
+
+    def take_presses(self) -> list[str]:
+        presses, self._presses = self._presses, []
+        return presses
+
+
+def find_node(dev: Path, prefix: str, sys_class: Path, info: str, looks_like: Callable[[str], bool], what: str) -> Path:
+    """The first `dev`/<prefix>N (in N's order) whose `sys_class`/<prefix>N/device/`info` file (sysfs: read
+    bounded, a regular file only) `looks_like` the device wanted; none is one line (`hal.teleop`)."""
+    numbered = [(int(p.name[len(prefix) :]), p) for p in dev.glob(prefix + "*") if p.name[len(prefix) :].isdigit()]
+    for _, node in sorted(numbered):
+        with contextlib.suppress(OSError, ValueError):
+            text = read_regular(sys_class / node.name / "device" / info, limit=1 << 14).decode(errors="replace")
+            if looks_like(text):
+                return node  # open_node checks that it is a device node
+    raise HalError(
+        f"{dev}: --teleop {what}: no {what} found (no {prefix}N whose {sys_class}/{prefix}N/device/{info} names "
+        f"one); plug one in, or name its node: --teleop {what}={dev}/{prefix}N",
+        code="hal.teleop",
+    )
+
+
+def open_node(path: Path, what: str) -> int:
+    """Open a device node for reading without blocking (a character device, or a FIFO standing in for one)."""
+    try:
+        mode = os.stat(path).st_mode
+    except OSError as exc:
+        raise HalError(
+            f"{path}: {what}: no such device ({exc.strerror}); is it plugged in?", code="hal.teleop"
+        ) from exc
+    if not (stat.S_ISCHR(mode) or stat.S_ISFIFO(mode)):
+        raise HalError(f"{path}: {what}: not a device node (a character device)", code="hal.teleop")
+    try:
+        return os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
+    except OSError as exc:
+        hint = " (add yourself to the group owning it, or a udev rule)" if exc.errno == errno.EACCES else ""
+        raise HalError(f"{path}: {what}: cannot open: {exc.strerror}{hint}", code="hal.teleop") from exc
+
+
+class DeviceReader:
+    """Reads the device on its own thread; `decoder` holds the newest state, guarded by `lock`."""
+
+    def __init__(self, path: Path, fd: int, decoder: Decoder, what: str) -> None:
+        self.path, self.fd, self.decoder, self.what = path, fd, decoder, what
+        self.lock = threading.Lock()
+        self.stamp: float | None = None  # monotonic time of the newest complete report
+        self.reports = 0
+        self.gone: str | None = None  # why the device stopped delivering (unplugged, read error)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name=f"teleop-{what}", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        import select
+
+        while not self._stop.is_set():
+            ready, _, _ = select.select([self.fd], [], [], POLL_S)
+            if not ready:
+                continue
+            try:
+                data = os.read(self.fd, READ_SIZE)
+            except BlockingIOError:
+                continue
+            except OSError as exc:  # ENODEV: the device was unplugged
+                self._lost(exc.strerror or str(exc))
+                return
+            if not data:  # end of file: the device (or the FIFO's writer) went away
+                self._lost("end of file")
+                return
+            with self.lock:
+                n = self.decoder.feed(data)
+                if n:
+                    self.stamp = monotonic()
+                    self.reports += n
+
+    def _lost(self, why: str) -> None:
+        with self.lock:
+            self.gone = why
+
+    def close(self) -> None:
+        """Stop the thread and close the node; once (a second call must not close a reused descriptor)."""
+        if self._stop.is_set():
+            return
+        self._stop.set()
+        self._thread.join(timeout=1.0)
+        with contextlib.suppress(OSError):
+            os.close(self.fd)
+
+
+class DeviceTeleop:
+    """The device's axes and buttons -> `delta_eef_gripper` actions [dx, dy, dz, 0, 0, dyaw, gripper]."""
+
+    def __init__(
+        self,
+        reader: DeviceReader,
+        limits: tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]],
+        gains: DeviceGains,
+        show: Callable[[str], None] | None = None,
+    ) -> None:
+        self.low, self.high = limits  # the contract's bounds (`teleop.eef_limits`)
+        self.reader, self.gains, self.show = reader, gains, show
+        self.type_name = reader.what  # `operator` in the episode's record: teleop:<type_name>
+        self.gripper = 0.0
+        self.ticks = 0
+        self._command: Command | None = None
+
+    def _drain(self) -> None:
+        """Apply the buttons pressed since the last look: the gripper toggles; the first command waits for the
+        operator's `poll`. A device that went away ends the episode here."""
+        r = self.reader
+        with r.lock:
+            if r.gone is not None:
+                raise HalError(f"{r.path}: {r.what}: the device went away ({r.gone}; unplugged?)", code="hal.teleop")
+            presses = r.decoder.take_presses()
+        for name in presses:
+            if name == GRIPPER:
+                self.gripper = 1.0 - self.gripper
+            elif self._command is None:
+                self._command = Command(name)
+
+    def command(self) -> Command | None:
+        """The episode-ending button pressed since the last call, if any (`DeviceOperator.poll`)."""
+        self._drain()
+        cmd, self._command = self._command, None
+        return cmd
+
+    def reset(self, seed: int) -> None:
+        self._drain()  # presses between episodes are dropped, the gripper starts open
+        self._command = None
+        self.gripper = 0.0
+        self.ticks = 0
+
+    def step(self, observation: Observation, instruction: str) -> npt.NDArray[np.float32]:
+        self._drain()
+        with self.reader.lock:
+            m = self.reader.decoder.motion()
+        g = self.gains
+        action = np.array([m[0] * g.linear, m[1] * g.linear, m[2] * g.linear, 0.0, 0.0, m[3] * g.yaw, self.gripper])
+        if self.show is not None and g.status_every and self.ticks % g.status_every == 0:
+            self.show(eef_line(observation, self.gripper))
+        self.ticks += 1
+        return np.clip(action, self.low, self.high).astype(np.float32)
+
+    def close(self) -> None:
+        self.reader.close()
+
+
+def _no_check() -> None:
+    pass
+
+
+class DeviceOperator:
+    """The run's operator, plus the device's buttons: a button's command ends the episode like a key would."""
+
+    def __init__(self, inner: Operator, teleop: DeviceTeleop) -> None:
+        self.inner, self.teleop = inner, teleop
+        self.interactive = inner.interactive
+
+    def wait_start(self, episode: int, check: Callable[[], None] = _no_check) -> Command:
+        return self.inner.wait_start(episode, check)
+
+    def poll(self, episode: int, frame: int) -> Command | None:
+        cmd = self.teleop.command()
+        return cmd if cmd is not None else self.inner.poll(episode, frame)
+
+    def at_end(self) -> Command | None:
+        return self.inner.at_end()
+
+    def close(self) -> None:
+        self.inner.close()

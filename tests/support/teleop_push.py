@@ -1,0 +1,94 @@
+"""Where a person would move the gripper to push the cube of `tabletop_push` into the goal (the teleoperation
+tests drive the real CLI through these waypoints, closed loop against its status lines)."""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import select
+import subprocess
+import time
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+
+from openral_data.policies.motion import Truth
+from openral_data.runtime import registry
+from openral_data.schemas.scene import load_recordable_scene
+from tests.support.hal import episode_infos, frames_table
+from tests.support.inproc import run_inproc
+
+F64 = npt.NDArray[np.float64]
+
+
+def push_waypoints(seed: int) -> list[F64]:
+    """Where a person would put the gripper to push the cube of episode `seed` into the goal: behind the cube
+    at travel height, down to pushing height, then along the line cube -> goal."""
+    path = registry.resolve_scene_path("tabletop_push")
+    scene = load_recordable_scene(path)
+    robot, (rskill, _) = registry.ROBOTS["franka_panda"], registry.resolve_rskill("scripted-push")
+    env = registry.scene_factory(scene.scene.type, str(path))(scene, robot, rskill, str(path))
+    try:
+        t = Truth.of(env.reset(seed))
+        name = t.role("object")
+        cube, goal, half = t.pos(name), t.pos(t.role("goal")), float(t.info(name)["size"][2]) / 2
+    finally:
+        env.close()
+    direction = (goal[:2] - cube[:2]) / np.linalg.norm(goal[:2] - cube[:2])
+    behind = cube[:2] - direction * (half + 0.045)  # clear of the cube by more than a step
+    push_z = t.table + 0.022
+    end = goal[:2] - direction * (half + 0.005)
+    return [np.array([*behind, t.table + 0.1]), np.array([*behind, push_z]), np.array([*end, push_z])]
+
+
+class Watched:
+    """What a program writes to `fd` (the far side of its pty, or its stderr pipe), gathered as it comes."""
+
+    def __init__(self, fd: int) -> None:
+        self.fd = fd
+        self.text = b""
+
+    def read(self, timeout: float) -> None:
+        ready, _, _ = select.select([self.fd], [], [], timeout)
+        if ready:
+            with contextlib.suppress(OSError):  # the program exited and closed the pty
+                self.text += os.read(self.fd, 65536)
+
+    def wait_for(self, pattern: bytes, timeout: float) -> None:
+        end = time.monotonic() + timeout
+        while pattern not in self.text:
+            assert time.monotonic() < end, self.text[-2000:].decode(errors="replace")
+            self.read(0.1)
+
+
+def replays_exactly(out: Path, res: Path) -> None:
+    """`replay --mode actions` of the one-episode recording `out` reproduces it: no divergence, the success too."""
+    r = run_inproc("replay", str(out), "--mode", "actions", "--out", str(res), "--json")
+    assert r.returncode == 0, r.stderr
+    summary = json.loads(r.stdout)
+    assert summary["diverged_episodes"] == {} and summary["divergence_max"] == 0
+    assert summary["success_recorded"] == 1 and summary["success_replayed"] == 1
+
+
+def pushed(out: Path, returncode: int, output: bytes, driver: str) -> npt.NDArray[np.float64]:
+    """The recording `out` of one teleoperated episode the scene ended with the cube in the goal, driven by
+    `driver` (`openral.episode_info`'s operator); its actions."""
+    text = output.decode(errors="replace")
+    assert returncode == 0, text[-2000:]
+    assert "episode 0: kept (scene" in text
+    cols = frames_table(out)
+    assert cols["next.success"][-1] is True
+    info = episode_infos(out)[0]
+    assert info["operator"] == driver and info["hal"]["verdict"] == "scene"
+    actions = np.array(cols["action"], dtype=np.float64)
+    assert actions.shape[1] == 7
+    return actions
+
+
+def ended(proc: subprocess.Popen[bytes]) -> None:
+    """The recording process is gone: killed if it still runs (a test that failed half-way)."""
+    if proc.poll() is None:
+        proc.kill()
+        proc.wait()
