@@ -227,7 +227,12 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
         if opts.teleop == "keyboard":
             keys = KeyboardTeleop(run.rskill, run.rskill_src, show=tty_status(STATUS_FD))
         device = _device(opts, run)
-        operator = make_operator(opts.operator, keys.feed if keys is not None else None)
+        try:
+            operator = make_operator(opts.operator, keys.feed if keys is not None else None)
+        except BaseException:
+            if device is not None:
+                device.close()
+            raise
         if device is not None:
             operator = DeviceOperator(operator, device)
         leader = None
