@@ -99,6 +99,15 @@ def test_axis_values_take_effect_at_the_report_end_and_records_may_arrive_split(
     assert dec.motion()[0] == pytest.approx(0.0, abs=1e-4) and dec.take_presses() == []  # auto-repeat: no press
 
 
+def test_after_lost_records_the_axes_are_read_back_from_the_node() -> None:
+    now = {gamepad.ABS_Y: -32767}
+    dec = EvdevDecoder(dict(gamepad.DEFAULT_RANGES), deadzone=0.0, resync=lambda: dict(now))
+    assert dec.motion()[0] == pytest.approx(1.0, abs=1e-4)  # held forward before the reader started
+    now[gamepad.ABS_Y] = 0  # released while records were lost
+    dec.feed(event(gamepad.EV_SYN, gamepad.SYN_DROPPED, 0) + syn())
+    assert dec.motion()[0] == pytest.approx(0.0, abs=1e-4)
+
+
 def test_a_fifo_has_no_axis_ranges_so_the_xpad_ones_apply(pad: tuple[Gamepad, DeviceReader]) -> None:
     _, reader = pad
     assert isinstance(reader.decoder, EvdevDecoder) and reader.decoder.ranges == gamepad.DEFAULT_RANGES

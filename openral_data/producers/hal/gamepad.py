@@ -3,7 +3,8 @@
 Each record is 24 bytes on a 64-bit kernel: `struct timeval` (two longs), `__u16 type`, `__u16 code`,
 `__s32 value`. `EV_ABS` records move an axis, `EV_KEY` records press (1), release (0) or auto-repeat (2) a
 button, and `EV_SYN`/`SYN_REPORT` closes one report: axis values take effect at the report's end, as the kernel
-means them to; after `SYN_DROPPED` (the reader fell behind) records are dropped up to the next report.
+means them to; after `SYN_DROPPED` (the reader fell behind) records are dropped up to the next report, and the
+axes are read back from the node.
 
 We decode the records ourselves (struct) instead of using python-evdev's `InputDevice`, which issues ioctls on
 open (EVIOCGNAME, EVIOCGVERSION, ...) that only a real evdev node answers, and instead of lerobot 0.6.1's
@@ -24,6 +25,7 @@ import contextlib
 import fcntl
 import re
 import struct
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -71,24 +73,41 @@ def eviocgabs(code: int) -> int:
     return (2 << 30) | (ABSINFO.size << 16) | (ord("E") << 8) | (0x40 + code)
 
 
+def absinfo(fd: int) -> dict[int, tuple[int, int, int]]:
+    """Each axis's (value now, minimum, maximum) as the evdev node reports it (EVIOCGABS); the axes it does not
+    answer for (all of them on a FIFO: ENOTTY) are left out."""
+    info: dict[int, tuple[int, int, int]] = {}
+    for code in DEFAULT_RANGES:
+        with contextlib.suppress(OSError):  # ENOTTY: not an evdev node (a FIFO); EINVAL: no such axis
+            value, low, high, *_ = ABSINFO.unpack(fcntl.ioctl(fd, eviocgabs(code), bytes(ABSINFO.size)))
+            if high > low:
+                info[code] = (value, low, high)
+    return info
+
+
 def axis_ranges(fd: int) -> dict[int, tuple[int, int]]:
     """Each axis's (minimum, maximum) as the evdev node reports it; the xpad defaults where it does not answer."""
-    ranges = dict(DEFAULT_RANGES)
-    for code in ranges:
-        with contextlib.suppress(OSError):  # ENOTTY: not an evdev node (a FIFO); EINVAL: no such axis
-            _, low, high, *_ = ABSINFO.unpack(fcntl.ioctl(fd, eviocgabs(code), bytes(ABSINFO.size)))
-            if high > low:
-                ranges[code] = (low, high)
-    return ranges
+    return {**DEFAULT_RANGES, **{code: (low, high) for code, (_, low, high) in absinfo(fd).items()}}
 
 
 class EvdevDecoder(Presses):
-    """`struct input_event` records -> stick/trigger values and button presses (see the module docstring)."""
+    """`struct input_event` records -> stick/trigger values and button presses (see the module docstring).
 
-    def __init__(self, ranges: dict[int, tuple[int, int]], deadzone: float) -> None:
+    `resync` gives the axes' values now (the node's EVIOCGABS): the start values, and the values after a
+    `SYN_DROPPED` (records were lost, so an axis's last record may be missing); without it (a FIFO) the sticks
+    start centred, the triggers released, and lost records stay lost until the axis moves again."""
+
+    def __init__(
+        self,
+        ranges: dict[int, tuple[int, int]],
+        deadzone: float,
+        resync: Callable[[], dict[int, int]] | None = None,
+    ) -> None:
         super().__init__()
-        self.ranges, self.deadzone = ranges, deadzone
+        self.ranges, self.deadzone, self.resync = ranges, deadzone, resync
         self.raw: dict[int, int] = {c: (lo + hi + 1) // 2 if c in STICKS else lo for c, (lo, hi) in ranges.items()}
+        if resync is not None:
+            self.raw.update(resync())
         self._frame: dict[int, int] = {}  # axis values of the report being read
         self._pressed: list[str] = []  # presses of the report being read
         self._buffer = b""
@@ -108,6 +127,8 @@ class EvdevDecoder(Presses):
             if not self._dropping:
                 self.raw.update(self._frame)
                 self._presses += self._pressed
+            elif self.resync is not None:
+                self.raw.update(self.resync())
             self._dropping, self._frame, self._pressed = False, {}, []
             return True
         elif kind == EV_ABS and code in self.ranges:
@@ -141,4 +162,5 @@ def open_gamepad(path: Path | None, gains: DeviceGains = GAINS) -> DeviceReader:
     """Open the gamepad at `path` (default: the first one found) and start reading it."""
     node = path if path is not None else find_gamepad()
     fd = open_node(node, f"--teleop {WHAT}")
-    return DeviceReader(node, fd, EvdevDecoder(axis_ranges(fd), gains.deadzone), WHAT)
+    decoder = EvdevDecoder(axis_ranges(fd), gains.deadzone, lambda: {c: v for c, (v, _, _) in absinfo(fd).items()})
+    return DeviceReader(node, fd, decoder, WHAT)
