@@ -86,6 +86,8 @@ def test_record_policy_path_acts_as_lerobots_own_policy(
     meta = pq.read_table(sorted((out / "meta/episodes").rglob("*.parquet"))[0])
     infos = [json.loads(v) for v in meta.column("openral.episode_info").to_pylist()]
     assert [i["operator"] for i in infos] == ["policy:act", "policy:act"]
+    sql = run_inproc("stats", str(out), "--sql", "SELECT DISTINCT operator FROM episodes", "--format", "json")
+    assert sql.returncode == 0 and "policy:act" in sql.stdout, sql.stderr
     record_json = json.loads((out / ".openral/record.json").read_text())["options"]
     assert record_json["policy"] == str(checkpoint.resolve()) and record_json["rskill"] is None
 
