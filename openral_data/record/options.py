@@ -63,8 +63,6 @@ class RecordOptions:
             raise UsageError(f"--keep: {self.keep!r} is not all or success")
         if self.policy is not None and self.rskill is not None:
             raise UsageError("--policy, --rskill: give one (a lerobot checkpoint, or an rSkill manifest)")
-        if self.policy is not None and self.resume:
-            raise UsageError("--policy: not with --resume (continue a recording with the rSkill it was made with)")
         if self.keep == "success" and self.resume:
             raise UsageError("--keep success: not with --resume (the seeds of discarded episodes are not recorded)")
 

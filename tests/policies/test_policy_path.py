@@ -95,6 +95,19 @@ def test_record_policy_path_acts_as_lerobots_own_policy(
     assert again.returncode == 0, again.stderr  # the recording replays like any other
 
 
+def test_resume_names_the_checkpoint_again(mock: tuple[Path, Path], checkpoint: Path, tmp_path: Path) -> None:
+    """record.json never chooses a checkpoint: `--resume` of a `--policy` recording takes `--policy` again, the same."""
+    _, home = mock
+    out = tmp_path / "rec"
+    assert _record(home, str(checkpoint), out, "--n-episodes", "1").returncode == 0
+    _refused(run_inproc("record", "--resume", "--out", str(out)), "policy: recorded with the checkpoint ")
+    other = _copy(checkpoint, tmp_path / "other")
+    _refused(run_inproc("record", "--resume", "--out", str(out), "--policy", str(other)), "--policy ")
+    done = run_inproc("record", "--resume", "--out", str(out), "--policy", str(checkpoint), "--n-episodes", "2")
+    assert done.returncode == 0, done.stderr
+    assert pq.read_metadata(sorted((out / "meta/episodes").rglob("*.parquet"))[0]).num_rows == 2
+
+
 def test_a_training_runs_folder_and_a_cached_hub_repo_resolve(
     mock: tuple[Path, Path], checkpoint: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
