@@ -16,6 +16,9 @@ The checkpoint must speak the rSkill's contract, or it is refused before anythin
 checkpoint was made for. ACT policies are chunk-aware (`predict_chunk`, `n_action_steps`); diffusion keeps its
 observation history inside `step` and needs the `diffusers` package (`lerobot[diffusion]`), which the default
 environment does not install: without it a diffusion checkpoint is refused in one line.
+
+`record --policy PATH` / `replay --policy PATH` (no manifest) come through this same loader: `policies/checkpoint.py`
+locates the folder, reads its contract and makes the rSkill it runs as (`as_rskill`).
 """
 
 from __future__ import annotations

@@ -63,6 +63,7 @@ def _raw_images(bag: Path, camera: str) -> list[np.ndarray]:
     return [np.array(m.data, dtype=np.uint8).reshape(m.height, m.width, 3) for m in msgs]
 
 
+@pytest.mark.slow
 def test_record_policy_path_acts_as_lerobots_own_policy(
     mock: tuple[Path, Path], checkpoint: Path, tmp_path: Path
 ) -> None:
@@ -161,6 +162,7 @@ def test_replay_policy_and_closed_loop_take_a_checkpoint(
     assert loop.returncode == 0, loop.stderr
 
 
+@pytest.mark.slow
 def test_replay_policy_on_a_dataset_lerobot_wrote(tmp_path: Path) -> None:
     """Foreign data: a checkpoint made on a lerobot-written dataset is judged on it (no openral metadata)."""
     from tests.support.lerobot_written import write_lerobot_dataset
