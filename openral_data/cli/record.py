@@ -28,6 +28,10 @@ def record(
         str | None,
         typer.Option(help="rSkill id under rskills/, or a path to rskill.yaml (default: the scene's default_rskill)"),
     ] = None,
+    policy: Annotated[
+        str | None,
+        typer.Option(help="a lerobot checkpoint folder (or a Hub repo id in the local cache) instead of --rskill"),
+    ] = None,
     robot: Annotated[str | None, typer.Option(help="robot id (default: the scene's robot)")] = None,
     n_episodes: Annotated[int | None, typer.Option(help="episodes to record (default: the scene's)")] = None,
     seed: Annotated[int | None, typer.Option(help="seed of the first episode; episode k uses seed+k")] = None,
@@ -96,12 +100,14 @@ def record(
         str | None, typer.Option(help="neural policies: cpu, cuda, cuda:N, mps or auto (default: the rSkill's)")
     ] = None,
 ) -> None:
-    """Record episodes of SCENE driven by RSKILL into a LeRobotDataset v3 and/or ROS 2 MCAP bags."""
+    """Record episodes of SCENE driven by RSKILL or --policy into a LeRobotDataset v3 and/or ROS 2 MCAP bags."""
     # long: the typer signature declares every option with its help; the body only dispatches to the helpers below
     given = given_flags(ctx)
     from openral_data.cli.encoder_flags import video_settings
 
     video = video_settings(codec, crf, gop, preset, pix_fmt, encoder_threads)  # a bad combination: before anything
+    if policy is not None and (hal is not None or teleop is not None):
+        raise UsageError("--policy: not with --hal or --teleop (a scene recording only)")
     if teleop == "leader" and hal is None:
         raise UsageError("--teleop leader: needs --hal ROBOT_ID (the robot whose manifest names the leader)")
     if teleop is not None and hal is None:
@@ -164,6 +170,7 @@ def record(
     opts = RecordOptions(
         scene=scene,
         rskill=rskill,
+        policy=policy,
         robot=robot,
         n_episodes=n_episodes,
         seed=seed,

@@ -26,6 +26,9 @@ def replay(
     episodes: Annotated[str | None, typer.Option(help="episodes to replay, e.g. 0,3,5-7 (default: all)")] = None,
     mode: Annotated[str, typer.Option(help="actions | policy | closed-loop")] = "actions",
     rskill: Annotated[str | None, typer.Option(help="policy / closed-loop: rSkill id or path; recorded[:K]")] = None,
+    policy: Annotated[
+        str | None, typer.Option(help="policy / closed-loop: a lerobot checkpoint folder or cached Hub repo id")
+    ] = None,
     out: Annotated[Path | None, typer.Option(help="results folder (default: a new folder under results/)")] = None,
     tolerance: Annotated[float, typer.Option(help="max |state error| per dimension that still reproduces")] = 1e-4,
     max_steps: Annotated[int | None, typer.Option(help="closed-loop step limit (default: the task's)")] = None,
@@ -72,6 +75,7 @@ def replay(
         episodes=episodes,
         mode=mode,  # type: ignore[arg-type]  # checked by replay()
         rskill=rskill,
+        policy=policy,
         out=out,
         tolerance=tolerance,
         label=label,

@@ -16,6 +16,9 @@ The checkpoint must speak the rSkill's contract, or it is refused before anythin
 checkpoint was made for. ACT policies are chunk-aware (`predict_chunk`, `n_action_steps`); diffusion keeps its
 observation history inside `step` and needs the `diffusers` package (`lerobot[diffusion]`), which the default
 environment does not install: without it a diffusion checkpoint is refused in one line.
+
+`record --policy PATH` / `replay --policy PATH` (no manifest) come through this same loader: `policies/checkpoint.py`
+locates the folder, reads its contract and makes the rSkill it runs as (`as_rskill`).
 """
 
 from __future__ import annotations
@@ -31,13 +34,11 @@ import numpy.typing as npt
 
 from openral_data.errors import CompatibilityError, ConfigError, ContractViolation, install_hint
 from openral_data.formats.jsonfile import read_json
+from openral_data.policies.checkpoint import ACTION, CONFIG, IMAGE_PREFIX, STATE, WEIGHTS, read_config
 from openral_data.policies.device import resolve_device
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.types import Observation
 
-SUPPORTED = ("act", "diffusion")
-IMAGE_PREFIX = "observation.images."
-STATE, ACTION = "observation.state", "action"
 PROCESSOR_FILES = ("policy_preprocessor.json", "policy_postprocessor.json")  # what make_pre_post_processors reads
 
 
@@ -48,11 +49,12 @@ def checkpoint_dir(rskill: RSkillManifest) -> Path:
             f"rskill {rskill.id}: policy_extras.checkpoint: a local lerobot checkpoint directory is required"
         )
     path = Path(value).expanduser()
-    if not (path / "config.json").is_file() or not (path / "model.safetensors").is_file():
+    if not (path / CONFIG).is_file() or not (path / WEIGHTS).is_file():
         raise ConfigError(
             f"rskill {rskill.id}: policy_extras.checkpoint: {path} is not a lerobot checkpoint directory "
             "(needs config.json and model.safetensors)"
         )
+    read_config(path)  # bounded, regular files, a policy type we load: before lerobot reads anything of it
     check_processor_steps(path)
     return path
 
@@ -87,7 +89,8 @@ def check_processor_steps(path: Path) -> None:
 
 
 def load_config(path: Path, device: str) -> Any:
-    """The checkpoint's policy config, made safe to instantiate offline on `device`."""
+    """The checkpoint's policy config (its `type` checked by `read_config`), made safe to instantiate offline on
+    `device`."""
     import lerobot.policies.act.configuration_act
     import lerobot.policies.diffusion.configuration_diffusion  # noqa: F401 - registers the config types
     from lerobot.configs.policies import PreTrainedConfig
@@ -96,10 +99,6 @@ def load_config(path: Path, device: str) -> Any:
         config = PreTrainedConfig.from_pretrained(str(path), local_files_only=True)
     except Exception as exc:  # noqa: BLE001 - draccus/json errors of a foreign file: report them in one line
         raise ConfigError(f"{path / 'config.json'}: not a lerobot policy config: {exc}") from None
-    if config.type not in SUPPORTED:
-        raise ConfigError(
-            f"{path / 'config.json'}: type: {config.type!r} policies are not supported ({', '.join(SUPPORTED)})"
-        )
     if config.type == "diffusion" and importlib.util.find_spec("diffusers") is None:
         raise ConfigError(
             f"{path / 'config.json'}: type: diffusion policies need the diffusers package, which this environment "

@@ -30,6 +30,7 @@ class RecordOptions:
 
     scene: str = manifests.DEFAULT_SCENE
     rskill: str | None = None  # None: the scene's default_rskill (`rskill_ref`)
+    policy: str | None = None  # a lerobot checkpoint folder or cached Hub repo id instead of an rSkill (`--policy`)
     robot: str | None = None
     n_episodes: int | None = None
     seed: int | None = None
@@ -60,6 +61,8 @@ class RecordOptions:
         object.__setattr__(self, "codec", self.video.codec)
         if self.keep not in ("all", "success"):
             raise UsageError(f"--keep: {self.keep!r} is not all or success")
+        if self.policy is not None and self.rskill is not None:
+            raise UsageError("--policy, --rskill: give one (a lerobot checkpoint, or an rSkill manifest)")
         if self.keep == "success" and self.resume:
             raise UsageError("--keep success: not with --resume (the seeds of discarded episodes are not recorded)")
 

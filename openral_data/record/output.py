@@ -132,7 +132,10 @@ def continue_options(opts: RecordOptions, explicit: frozenset[str]) -> RecordOpt
     if not isinstance(saved, dict):
         raise DatasetError(f"{path}: options: missing or not a mapping", code="dataset.invalid")
     changes: dict[str, Any] = {}
+    by_checkpoint = _same_policy(opts.policy, saved.get("policy"), path)
     for name, flag in KEPT.items():
+        if name == "rskill" and by_checkpoint:
+            continue  # no rSkill: the checkpoint named again drives
         stored = saved.get(name)
         if name == "formats":
             stored = tuple(stored or ())
@@ -162,6 +165,22 @@ def continue_options(opts: RecordOptions, explicit: frozenset[str]) -> RecordOpt
             )
     changes["video"] = _recorded_video(opts, saved.get("video"), explicit, path, changes["codec"])
     return replace(opts, **changes)
+
+
+def _same_policy(given: str | None, stored: object, path: Path) -> bool:
+    """Whether the recording was made with `record --policy`; if so, the checkpoint must be named again (record.json
+    never chooses one) and be the recorded folder; `--policy` on a recording made with an rSkill is refused."""
+    if stored is None and given is None:
+        return False
+    if not isinstance(stored, str):
+        raise ConfigError(f"{path}: policy: the dataset was recorded with an rSkill; --policy {given} differs")
+    if given is None:
+        raise ConfigError(f"{path}: policy: recorded with the checkpoint {stored}; name it again with --policy")
+    from openral_data.policies.checkpoint import open_checkpoint
+
+    if str(open_checkpoint(given).path.resolve()) != stored:
+        raise ConfigError(f"{path}: policy: the dataset was recorded with {stored}; --policy {given} differs")
+    return True
 
 
 def video_json(video: VideoSettings) -> dict[str, Any]:

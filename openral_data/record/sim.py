@@ -11,6 +11,13 @@ from typing import Any
 from openral_data.errors import ConfigError, UsageError
 from openral_data.formats.lerobot_v3 import WriterConfig, warm_up
 from openral_data.policies.base import AnnotatingPolicy, PolicyAdapter
+from openral_data.policies.checkpoint import (
+    OperatedPolicy,
+    PolicyCheckpoint,
+    as_rskill,
+    check_fits_scene,
+    open_checkpoint,
+)
 from openral_data.policies.device import resolve_device, with_device
 from openral_data.record import output, recorded
 from openral_data.record.options import (
@@ -69,6 +76,7 @@ class _Resolved:
     out: Path
     debug_videos: Path | None
     kept: dict[str, Any]  # the settings `--resume` continues with (`meta/openral.json`)
+    checkpoint: PolicyCheckpoint | None = None  # `--policy`: the lerobot checkpoint driving instead of an rSkill
 
 
 def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim | None) -> RecordSummary:
@@ -128,6 +136,9 @@ def _resolve(opts: RecordOptions) -> _Resolved:
     device = resolve_device(opts.device) if opts.device is not None else None
     rskill, rskill_path = registry.resolve_rskill(rskill_ref(opts.rskill, scene))
     rskill_src = str(rskill_path)
+    checkpoint = open_checkpoint(opts.policy) if opts.policy is not None else None
+    if checkpoint is not None:  # the scene's default rSkill says what its state and action mean; the sizes: `_start`
+        rskill, rskill_src = as_rskill(checkpoint, rskill), str(checkpoint.config_file)
     if opts.robot is not None and scene.scene.fixed_robot and opts.robot != scene.scene.robot:
         raise ConfigError(
             f"{scene_src}: scene.fixed_robot: this scene is defined for robot {scene.scene.robot!r} only; "
@@ -148,7 +159,8 @@ def _resolve(opts: RecordOptions) -> _Resolved:
     kept = {
         "scene": str(scene_path.resolve()),
         output.DIGEST: recorded.sha256(scene_path),  # a resume that names the scene again checks it
-        "rskill": str(rskill_path.resolve()),
+        "rskill": str(rskill_path.resolve()) if checkpoint is None else None,
+        **({"policy": str(checkpoint.path.resolve())} if checkpoint is not None else {}),
         "robot": opts.robot,
         "seed": base_seed,
         "max_steps": max_steps,
@@ -164,7 +176,7 @@ def _resolve(opts: RecordOptions) -> _Resolved:
     }
     return _Resolved(
         opts, scene, scene_src, rskill, rskill_src, robot, device, make_policy, make_scene, n_episodes, base_seed,
-        max_steps, out, debug_videos, kept,
+        max_steps, out, debug_videos, kept, checkpoint,
     )  # fmt: skip
 
 
@@ -175,19 +187,26 @@ def _start(run: _Resolved) -> Started[SimRollout, PolicyAdapter]:
 
     def load_policy() -> PolicyAdapter:
         warm_up()  # pyarrow's first-use cost, paid beside the scene's build instead of in the first commit
-        return run.make_policy(with_device(rskill, run.device))
+        policy = run.make_policy(with_device(rskill, run.device))
+        return policy if run.checkpoint is None else OperatedPolicy(policy, run.checkpoint)
 
-    return start(
-        lambda: run.make_scene(scene, robot, rskill, scene_src),
-        lambda env: check_compatibility(
+    def check(env: SimRollout) -> None:
+        spec = env.spec
+        if run.checkpoint is not None:  # its own contract against the scene, named on both sides
+            check_fits_scene(run.checkpoint, spec, rskill, f"scene {scene_src}")
+        check_compatibility(
             robot,
             rskill,
-            env.spec,
+            spec,
             rskill_source=run.rskill_src,
             scene_source=scene_src,
             video=video,
             scene_type=scene.scene.type,
-        ),
+        )
+
+    return start(
+        lambda: run.make_scene(scene, robot, rskill, scene_src),
+        check,
         load_policy,
         lambda env: env.close(),
         lambda policy: policy.close(),

@@ -19,6 +19,14 @@ from openral_data.formats.codec import Codec
 from openral_data.formats.lerobot_v3 import VideoSettings
 from openral_data.formats.results import is_results_dir, write_results
 from openral_data.policies.base import ChunkingPolicy, PolicyAdapter
+from openral_data.policies.checkpoint import (
+    PolicyCheckpoint,
+    as_rskill,
+    check_fits,
+    check_fits_scene,
+    dataset_cameras,
+    open_checkpoint,
+)
 from openral_data.policies.device import resolve_device, with_device
 from openral_data.replay import recorded_policy
 from openral_data.replay.actions import DEFAULT_TOLERANCE, ActionReplayer
@@ -51,6 +59,7 @@ class ReplayOptions:
     episodes: str | None = None  # "0,3,5-7"; None: all
     mode: Mode = "actions"
     rskill: str | None = None  # policy / closed-loop: an rSkill id or path; policy also `recorded[:K]`
+    policy: str | None = None  # policy / closed-loop: a lerobot checkpoint folder or cached Hub repo id instead
     out: Path | None = None  # results directory (default: results/<dataset>--replay-<mode>--<time>)
     tolerance: float = DEFAULT_TOLERANCE
     label: str | None = None
@@ -178,10 +187,13 @@ def _num(value: float | None) -> str:
 def _check(opts: ReplayOptions) -> None:
     if opts.mode not in MODES:
         raise UsageError(f"--mode: {opts.mode!r} is not one of {', '.join(MODES)}")
-    if opts.mode != "actions" and opts.rskill is None:
-        raise UsageError(f"--mode {opts.mode} needs --rskill (the policy to evaluate)")
-    if opts.mode == "actions" and opts.rskill is not None:
-        raise UsageError("--rskill: --mode actions replays the recorded actions; it takes no policy")
+    if opts.rskill is not None and opts.policy is not None:
+        raise UsageError("--policy, --rskill: give one (a lerobot checkpoint, or an rSkill manifest)")
+    if opts.mode != "actions" and opts.rskill is None and opts.policy is None:
+        raise UsageError(f"--mode {opts.mode} needs --rskill or --policy (the policy to evaluate)")
+    if opts.mode == "actions" and (opts.rskill is not None or opts.policy is not None):
+        flag = "--rskill" if opts.rskill is not None else "--policy"
+        raise UsageError(f"{flag}: --mode actions replays the recorded actions; it takes no policy")
     if opts.mode == "closed-loop" and recorded_policy.parse(opts.rskill or "") is not None:
         raise UsageError("--rskill recorded: in closed loop that is --mode actions")
     if opts.mode == "policy" and opts.record is not None:
@@ -231,7 +243,8 @@ def replay(opts: ReplayOptions, progress: ProgressFn | None = None) -> ReplaySum
             if progress is not None:
                 progress(outcomes[-1], len(outcomes), len(chosen))
     seconds = time.perf_counter() - t0
-    about = Run(opts.mode, opts.dataset, opts.label, opts.rskill, opts.tolerance, dataset.info["features"])
+    driver = opts.rskill if opts.policy is None else f"policy:{opts.policy}"
+    about = Run(opts.mode, opts.dataset, opts.label, driver, opts.tolerance, dataset.info["features"])
     summary = summarize(about, outcomes, seconds, extras)
     write_results(out, summary, episodes_table(outcomes), steps_table(outcomes))
     return ReplaySummary(
@@ -252,7 +265,7 @@ def _runner(
 @contextmanager
 def _offline(opts: ReplayOptions, dataset: RecordedDataset, extras: Extras) -> Iterator[EpisodeRunner]:
     """Policy mode: the policy judged on the recorded frames, no simulator; closed on exit."""
-    offline = _policy_for_dataset(opts.rskill or "", dataset, opts.device)
+    offline = _policy_for_dataset(opts, dataset)
     if isinstance(offline, ChunkingPolicy):
         extras.chunk = Chunk(n_action_steps=int(offline.n_action_steps))
     try:
@@ -265,7 +278,12 @@ def _offline(opts: ReplayOptions, dataset: RecordedDataset, extras: Extras) -> I
 def _simulated(opts: ReplayOptions, dataset: RecordedDataset, out: Path, extras: Extras) -> Iterator[EpisodeRunner]:
     """Actions or closed-loop mode: each episode run in the rebuilt scene (re-recorded or watched when asked);
     the re-recorder, the policy and the scene are closed on exit, in that order."""
-    manifest, rskill_src = (None, None) if opts.mode == "actions" else _resolve(opts.rskill or "")
+    checkpoint = open_checkpoint(opts.policy) if opts.policy is not None else None
+    manifest, rskill_src = (
+        (None, None) if opts.mode == "actions" or checkpoint is not None else _resolve(opts.rskill or "")
+    )
+    if checkpoint is not None:  # the recording's rSkill says what its state and action mean; the sizes: check_fits
+        manifest, rskill_src = as_rskill(checkpoint, dataset.rskill()), str(checkpoint.config_file)
     built = rebuild(dataset, manifest, _view(opts), rskill_src)
     rerec: Rerecorder | None = None
     policy: PolicyAdapter | None = None
@@ -275,7 +293,7 @@ def _simulated(opts: ReplayOptions, dataset: RecordedDataset, out: Path, extras:
             replayer = ActionReplayer(built.env, opts.tolerance)
         else:
             assert manifest is not None
-            policy = _open_policy(opts, built, manifest, str(rskill_src))
+            policy = _open_policy(opts, built, manifest, str(rskill_src), checkpoint)
             max_steps = opts.max_steps if opts.max_steps is not None else built.scene.task.max_steps
             loop = ClosedLoop(built.env, policy, max_steps, opts.tolerance, opts.instruction)
         if opts.record is not None or watched(opts):
@@ -317,8 +335,13 @@ def _view(opts: ReplayOptions) -> SceneView:
     return SceneView() if opts.record is not None or opts.mode == "closed-loop" else SceneView(cameras=())
 
 
-def _open_policy(opts: ReplayOptions, built: Rebuilt, manifest: RSkillManifest, rskill_src: str) -> PolicyAdapter:
-    """The rSkill's policy for closed loop, once its contract is checked against the rebuilt scene."""
+def _open_policy(
+    opts: ReplayOptions, built: Rebuilt, manifest: RSkillManifest, rskill_src: str, checkpoint: PolicyCheckpoint | None
+) -> PolicyAdapter:
+    """The rSkill's (or `--policy`'s) policy for closed loop, once its contract is checked against the rebuilt
+    scene."""
+    if checkpoint is not None:
+        check_fits_scene(checkpoint, built.env.spec, manifest, f"scene {built.source}")
     check_compatibility(
         built.robot,
         manifest,
@@ -336,14 +359,29 @@ def _resolve(ref: str) -> tuple[RSkillManifest, str]:
     return manifest, str(path)
 
 
-def _policy_for_dataset(ref: str, dataset: RecordedDataset, device: str | None) -> PolicyAdapter:
-    """`recorded[:K]`, or the rSkill's policy after checking its contract against what the dataset holds."""
+def _policy_for_dataset(opts: ReplayOptions, dataset: RecordedDataset) -> PolicyAdapter:
+    """`recorded[:K]`, or the rSkill's (or `--policy`'s) policy after checking its contract against what the
+    dataset holds."""
+    device = resolve_device(opts.device) if opts.device is not None else None
+    features = dataset.info["features"]
+    if opts.policy is not None:
+        checkpoint = open_checkpoint(opts.policy)
+        check_fits(
+            checkpoint,
+            f"dataset {dataset.root}",
+            state_dim=int(features["observation.state"]["shape"][0]),
+            action_dim=int(features["action"]["shape"][0]),
+            cameras=dataset_cameras(features),
+            fps=dataset.fps,
+        )
+        manifest = with_device(as_rskill(checkpoint, None), device)
+        return registry.policy_factory(manifest, str(checkpoint.config_file))(manifest)
+    ref = opts.rskill or ""
     chunk = recorded_policy.parse(ref)
     if chunk is not None:
         return recorded_policy.RecordedActions(chunk)
     manifest, src = _resolve(ref)
-    manifest = with_device(manifest, resolve_device(device) if device is not None else None)
-    features = dataset.info["features"]
+    manifest = with_device(manifest, device)
     for side, key, contract in (
         ("state_contract", "observation.state", manifest.state_contract),
         ("action_contract", "action", manifest.action_contract),

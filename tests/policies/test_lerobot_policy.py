@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -22,24 +21,8 @@ from openral_data.types import Observation
 from tests.support.checkpoint import make_act_checkpoint, make_diffusion_checkpoint
 from tests.support.cli import run_cli
 from tests.support.home import isolated_home
-from tests.support.replay import record_mock, record_push
+from tests.support.replay import record_push
 from tests.support.scenes import write_yaml
-
-
-@pytest.fixture(scope="module")
-def mock(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Path, Path]]:
-    """A mock dataset (front 64x48 + wrist 32x32, 8-dim state, 7-dim action) and its project home."""
-    base = tmp_path_factory.mktemp("mock")
-    with isolated_home(base) as home:
-        yield record_mock(home, base / "mock").out, home
-
-
-@pytest.fixture(scope="module")
-def checkpoint(mock: tuple[Path, Path], tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A freshly initialised ACT checkpoint on the dataset's features (front camera only) and stats."""
-    out = tmp_path_factory.mktemp("ckpt") / "act"
-    make_act_checkpoint(mock[0], out, drop=("observation.images.wrist",))
-    return out
 
 
 def _act_rskill(home: Path, checkpoint: str, **changes: object) -> Path:
