@@ -57,16 +57,17 @@ def _stream(kind: Any, fmt: Any, bpp: int, uid: int) -> Any:
     return s
 
 
-def record_sdk(path: Path, n: int, stall_at: int | None = None) -> Path:
+def record_sdk(path: Path, n: int, stall_at: int | None = None, depth_units: float = 0.001) -> Path:
     """An SDK recording of a software RealSense (serial SERIAL): frames 0..n-1 pushed at RATE per second
-    (the recorder stamps them as they arrive), pausing STALL_S after frame `stall_at`."""
+    (the recorder stamps them as they arrive), pausing STALL_S after frame `stall_at`; depth in `depth_units`
+    metres (a D405 has 0.0001)."""
     dev = rs.software_device()
     dev.register_info(rs.camera_info.serial_number, SERIAL)
     dev.register_info(rs.camera_info.name, "Intel RealSense D435 (software)")
     depth_sensor, colour_sensor = dev.add_sensor("Stereo Module"), dev.add_sensor("RGB Camera")
     depth_profile = depth_sensor.add_video_stream(_stream(rs.stream.depth, rs.format.z16, 2, 0))
     colour_profile = colour_sensor.add_video_stream(_stream(rs.stream.color, rs.format.rgb8, 3, 1))
-    depth_sensor.add_read_only_option(rs.option.depth_units, 0.001)
+    depth_sensor.add_read_only_option(rs.option.depth_units, depth_units)
     same = rs.extrinsics()
     same.rotation, same.translation = [1.0, 0, 0, 0, 1.0, 0, 0, 0, 1.0], [0.0, 0.0, 0.0]
     depth_profile.register_extrinsics_to(colour_profile, same)
@@ -201,7 +202,7 @@ def test_a_serial_the_recording_does_not_have_is_one_line_before_episode_0(
     with_realsense(manifest, short_recording, serial="987654321")
     r = run_inproc(*args, "--out", str(tmp_path / "a"))
     assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
-    assert "hardware.cameras.wrist: cannot open the camera" in r.stderr
+    assert "hardware.cameras.wrist: cannot open the camera" in r.stderr and "different serial number" in r.stderr
     empty = record_sdk(tmp_path / "empty.db3", 0)  # sensors started, no frame ever pushed
     with_realsense(manifest, empty)
     r = run_inproc(*args, "--out", str(tmp_path / "b"))
@@ -228,14 +229,7 @@ def test_a_depth_stream_named_like_another_camera_is_one_line(
 
 def test_stamps_increase_and_colour_is_exact_straight_from_the_camera(short_recording: Path) -> None:
     """The capture thread alone (no loop, no codec): every sample is a source frame, pixel for pixel."""
-    from openral_data.producers.hal.lerobot_hw import make_cameras
-    from openral_data.schemas.hal import HardwareConfig
-
-    spec = {"type": "intelrealsense", "serial_number_or_name": SERIAL, "width": W, "height": H, "fps": RATE,
-            "use_depth": True, "playback": str(short_recording)}  # fmt: skip
-    cams = make_cameras(HardwareConfig(driver="lerobot", robot={"type": "x"}, cameras={"wrist": spec}), "robot.yaml")
-    assert list(cams) == ["wrist", "wrist_depth"]
-    cams["wrist"].start()
+    cams = start_wrist(short_recording)
     samples: list[tuple[CameraSample, CameraSample]] = []
     try:
         end = time.monotonic() + 0.5
@@ -246,10 +240,38 @@ def test_stamps_increase_and_colour_is_exact_straight_from_the_camera(short_reco
             time.sleep(0.002)
     finally:
         cams["wrist"].stop()
-    assert samples
+    assert len(samples) >= 3
     for s, d in samples:
         k = nearest(s.image)[0]
         assert np.array_equal(s.image, source_frame(k)) and d.seq == s.seq and d.stamp == s.stamp
         assert d.image.dtype == np.uint16 and d.image.shape == (H, W)
     assert all(b[0].stamp > a[0].stamp for a, b in itertools.pairwise(samples))
     assert cams["wrist"].shape.info["camera_info"]["k"] == pytest.approx([FX, 0, CX, 0, FY, CY, 0, 0, 1])
+
+
+def start_wrist(recording: Path) -> dict[str, Any]:
+    """The manifest camera `wrist` playing `recording`, started (the caller stops it)."""
+    from openral_data.producers.hal.lerobot_hw import make_cameras
+    from openral_data.schemas.hal import HardwareConfig
+
+    spec = {"type": "intelrealsense", "serial_number_or_name": SERIAL, "width": W, "height": H, "fps": RATE,
+            "use_depth": True, "playback": str(recording)}  # fmt: skip
+    cams = make_cameras(HardwareConfig(driver="lerobot", robot={"type": "x"}, cameras={"wrist": spec}), "robot.yaml")
+    assert list(cams) == ["wrist", "wrist_depth"]
+    cams["wrist"].start()
+    return cams
+
+
+def test_depth_in_other_units_is_recorded_in_millimetres(tmp_path: Path) -> None:
+    """A camera whose depth unit is 0.1 mm (the D405's): the device's depth scale is applied."""
+    cams = start_wrist(record_sdk(tmp_path / "d405.db3", 8, depth_units=0.0001))
+    try:
+        time.sleep(0.2)
+        depth = cams["wrist_depth"].latest()
+    finally:
+        cams["wrist"].stop()
+    assert depth is not None and depth.image.dtype == np.uint16
+    kd = int(np.rint(np.median(depth.image * 10.0 - depth_frame(0)) / 25))
+    valid = depth.image > 0
+    want = np.rint(depth_frame(kd) / 10.0)
+    assert valid.mean() > 0.8 and (np.abs(depth.image[valid] - want[valid]) <= 1).all()

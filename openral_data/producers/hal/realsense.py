@@ -96,14 +96,14 @@ def camera_info(profile: Any, frame_id: str) -> dict[str, Any]:
 
 
 class DepthStream:
-    """The aligned depth of a `RealSenseCapture`: its samples share the colour sample's stamp and number; the
-    colour camera owns the device (starting and stopping this one does nothing)."""
+    """The aligned depth of a `RealSenseCapture`: the depth of the frameset whose colour the capture handed out
+    last (same stamp and number), so a loop that reads the colour and then the depth gets one frameset. The
+    colour camera owns the device: starting and stopping this one does nothing."""
 
-    def __init__(self, name: str, shape: CameraShape) -> None:
+    def __init__(self, name: str, shape: CameraShape, capture: RealSenseCapture) -> None:
         self.name = name
         self.shape = shape
-        self._lock = threading.Lock()
-        self._latest: CameraSample | None = None
+        self.capture = capture
 
     def start(self) -> None:
         pass
@@ -111,13 +111,8 @@ class DepthStream:
     def stop(self) -> None:
         pass
 
-    def put(self, sample: CameraSample) -> None:
-        with self._lock:
-            self._latest = sample
-
     def latest(self) -> CameraSample | None:
-        with self._lock:
-            return self._latest
+        return self.capture.latest_depth()
 
 
 class RealSenseCapture(LerobotCamera):
@@ -125,10 +120,13 @@ class RealSenseCapture(LerobotCamera):
 
     def __init__(self, name: str, shape: CameraShape, device: Any, source: str, field: str) -> None:
         super().__init__(name, shape, device, source, field)
-        use_depth = bool(device.use_depth)
-        self.depth = DepthStream(depth_name(name), CameraShape(shape.height, shape.width, "mm")) if use_depth else None
+        depth_shape = CameraShape(shape.height, shape.width, "mm")
+        self.depth = DepthStream(depth_name(name), depth_shape, self) if device.use_depth else None
         self.depth_scale = 0.001  # metres per depth unit (read from the device when it connects)
-        self._pending: Image | None = None
+        self._pending: Image | None = None  # the depth of the frameset being read (capture thread only)
+        self._pair_lock = threading.Lock()
+        self._pair: tuple[CameraSample, CameraSample | None] | None = None  # the newest (colour, depth)
+        self._handed: CameraSample | None = None  # the depth of the colour `latest()` returned last
 
     def open_device(self) -> None:
         import pyrealsense2 as rs
@@ -167,9 +165,22 @@ class RealSenseCapture(LerobotCamera):
         return mm.clip(0, np.iinfo(np.uint16).max).astype(np.uint16)
 
     def publish(self, sample: CameraSample) -> None:
-        super().publish(sample)
-        if self.depth is not None and self._pending is not None:
-            self.depth.put(CameraSample(self._pending, sample.stamp, sample.seq))
+        depth = None if self._pending is None else CameraSample(self._pending, sample.stamp, sample.seq)
+        with self._pair_lock:
+            self._pair = (sample, depth)
+
+    def latest(self) -> CameraSample | None:
+        with self._pair_lock:
+            if self._pair is None:
+                return None
+            self._handed = self._pair[1]
+            return self._pair[0]
+
+    def latest_depth(self) -> CameraSample | None:
+        with self._pair_lock:
+            if self._handed is not None:
+                return self._handed
+            return None if self._pair is None else self._pair[1]
 
 
 def make_realsense(

@@ -159,7 +159,8 @@ class LerobotCamera(ThreadedCamera):
         try:
             self.open_device()
         except (OSError, ConnectionError, RuntimeError, TimeoutError, ValueError) as exc:
-            raise HalError(f"{self.source}: {self.field}: cannot open the camera: {exc}", code="hal.camera") from None
+            why = f"{exc} ({exc.__cause__})" if exc.__cause__ is not None else str(exc)  # the SDK's own words
+            raise HalError(f"{self.source}: {self.field}: cannot open the camera: {why}", code="hal.camera") from None
         super().start()
         end = time.monotonic() + self.first_frame_timeout
         while self.latest() is None:
