@@ -20,6 +20,7 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 import yaml
+from rosbags.highlevel import AnyReader
 
 from openral_data.formats.lerobot_v3.depth import DepthSettings
 from openral_data.producers.hal.sensors import CameraSample
@@ -147,7 +148,7 @@ def test_a_realsense_recording_through_the_hal_loop(so101: tuple[SimulatedFeetec
     s = record_hal(
         HalRecordOptions(
             robot="so101_follower", rskill="sweep-so-arm", mode="real", port=bus.port, fps=10, max_steps=20,
-            out=out, codec="h264", operator="success",
+            out=out, codec="h264", operator="success", formats=("lerobot", "mcap"),
         )
     )  # fmt: skip
     report = s.all_reports[0]
@@ -158,6 +159,12 @@ def test_a_realsense_recording_through_the_hal_loop(so101: tuple[SimulatedFeetec
     assert np.all(np.diff(np.array(cols["openral.real_timestamp"])) > 0)
     assert cols["openral.sample_age.wrist"] == cols["openral.sample_age.wrist_depth"]  # one frameset, one stamp
     assert episode_infos(out)[0]["hal"]["stale"]["wrist_depth"] == report.stale["wrist"]
+    with AnyReader([out / "mcap" / "episode_000000"]) as bag:  # MCAP: the depth as 16UC1, the intrinsics
+        topics = {c.topic: c for c in bag.connections}
+        assert topics["/camera/wrist_depth/depth/image_raw"].msgcount == 20
+        conn = topics["/camera/wrist_depth/camera_info"]
+        info: Any = bag.deserialize(next(bag.messages(connections=[conn]))[2], conn.msgtype)
+        assert list(info.k) == pytest.approx([FX, 0, CX, 0, FY, CY, 0, 0, 1])
 
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 

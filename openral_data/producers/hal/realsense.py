@@ -9,9 +9,9 @@ frameset, read on one capture thread of ours and stamped when lerobot's read ret
 carry the colour stream's intrinsics as `camera_info` (ROS CameraInfo fields) and `intrinsics` (aligned depth
 has the colour camera's geometry), read from the stream the pipeline started.
 
-`playback: PATH` (ours; not passed to lerobot) plays an SDK recording (`.db3` from `rs.recorder` or the
-RealSense Viewer, or a `.bag`) through lerobot's own pipeline instead of a device
-(`rs.config.enable_device_from_file`, in real time, once): the serial number must be the recording's.
+`playback: PATH` (ours; not passed to lerobot) plays an SDK recording (the `.db3` pyrealsense2 2.59's
+`rs.recorder` writes) through lerobot's own pipeline instead of a device (`rs.config.enable_device_from_file`,
+in real time, once): the serial number must be the recording's.
 
 The seams into lerobot's class are two overrides of its pipeline steps, in a subclass: the pipeline config
 (the recording) and the frameset its read thread receives (the alignment). lerobot's connect retries and
@@ -47,13 +47,8 @@ def depth_name(camera: str) -> str:
 @cache
 def camera_class() -> Any:
     """lerobot's `RealSenseCamera` with depth aligned to colour and an optional recording to play."""
-    try:
-        import pyrealsense2 as rs
-        from lerobot.cameras.realsense import RealSenseCamera
-    except ImportError:
-        raise ConfigError(
-            f"hardware.cameras: RealSense cameras need the 'realsense' extra: {install_hint('realsense')}"
-        ) from None
+    import pyrealsense2 as rs  # ImportError without the 'realsense' extra: `make_realsense` says so
+    from lerobot.cameras.realsense import RealSenseCamera
 
     class AlignedRealSenseCamera(RealSenseCamera):  # type: ignore[misc]
         def __init__(self, config: Any, playback: str | None) -> None:
@@ -202,6 +197,10 @@ def make_realsense(
         playback = str(path)
     try:
         device = camera_class()(config, playback)
+    except ImportError:
+        raise ConfigError(
+            f"{source}: {field}.type: {TYPE} needs the 'realsense' extra: {install_hint('realsense')}"
+        ) from None
     except (ValueError, RuntimeError) as exc:  # a name no connected camera has (lerobot resolves names)
         raise HalError(f"{source}: {field}.serial_number_or_name: {exc}", code="hal.camera") from None
     return RealSenseCapture(name, shape, device, source, field)
