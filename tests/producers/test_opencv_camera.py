@@ -15,7 +15,6 @@ import os
 import socketserver
 import threading
 import time
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -30,7 +29,7 @@ from openral_data.producers.hal.lerobot_hw import make_cameras
 from openral_data.producers.hal.sensors import CameraSample
 from openral_data.record.hal import HalRecordOptions, record_hal
 from openral_data.schemas.hal import HardwareConfig
-from tests.support.feetech_bus import SimulatedFeetechBus, write_so_calibration
+from tests.support.feetech_bus import SimulatedFeetechBus
 from tests.support.hal import episode_infos, frames_table
 from tests.support.inproc import run_inproc
 
@@ -148,15 +147,6 @@ def test_a_video_file_through_lerobots_opencv_camera(tmp_path: Path) -> None:
     assert index == sorted(index) and len(set(index)) == len(index)
     stamps = [s.stamp for s in samples]
     assert all(b > a for a, b in itertools.pairwise(stamps))
-
-
-@pytest.fixture
-def so101(project: Path) -> Iterator[tuple[SimulatedFeetechBus, Path]]:
-    """The SO-101 follower on a simulated bus; the manifest (returned) gets its calibration."""
-    path = project / "robots" / "so101_follower" / "robot.yaml"
-    write_so_calibration(path.parent / "calibration" / "so101_follower.json")
-    with SimulatedFeetechBus(list(range(1, 7))) as bus:
-        yield bus, path
 
 
 def _with_camera(path: Path, index_or_path: str) -> None:

@@ -23,8 +23,9 @@ from typing import Any
 import numpy as np
 
 from openral_data.errors import ConfigError, HalError, install_hint
+from openral_data.producers.hal import realsense
 from openral_data.producers.hal.base import HalBase, JointCommand, RobotState, monotonic
-from openral_data.producers.hal.sensors import LerobotCamera
+from openral_data.producers.hal.sensors import CameraSensor, LerobotCamera
 from openral_data.schemas.hal import HardwareConfig, LerobotDevice
 from openral_data.schemas.robot import RobotManifest
 from openral_data.types import CameraShape
@@ -124,20 +125,34 @@ def stream_source(spec: LerobotDevice) -> bool:
     return spec["type"] == "opencv" and isinstance(where, str) and not where.startswith("/dev/")
 
 
-def make_cameras(hardware: HardwareConfig, source: str) -> dict[str, LerobotCamera]:
-    """The manifest's cameras, each behind its own capture thread (connected when the HAL connects).
+def make_cameras(hardware: HardwareConfig, source: str) -> dict[str, CameraSensor]:
+    """The manifest's cameras, each behind its own capture thread (connected when the HAL connects); a
+    RealSense with `use_depth` adds its aligned depth as `<name>_depth` (producers/hal/realsense.py).
 
     `width`/`height` are required: the dataset's video size. A file or a URL has its own size and rate, which
     OpenCV cannot set: for those they are not passed to lerobot, and each frame is checked against them."""
     from lerobot.cameras import make_cameras_from_configs
 
-    out = {}
+    out: dict[str, CameraSensor] = {}
     for name, spec in hardware.cameras.items():
         field = f"hardware.cameras.{name}"
         width, height = spec.get("width"), spec.get("height")
         if not isinstance(width, int) or not isinstance(height, int) or width < 1 or height < 1:
             raise ConfigError(f"{source}: {field}: width and height are required (the dataset's video size)")
         given = {k: v for k, v in spec.items() if not stream_source(spec) or k not in ("width", "height", "fps")}
+        if spec["type"] == realsense.TYPE:
+            config = lerobot_config(
+                "cameras", {k: v for k, v in given.items() if k != realsense.PLAYBACK}, source, field
+            )
+            capture = realsense.make_realsense(name, spec, CameraShape(height, width), source, field, config)
+            out[name] = capture
+            if capture.depth is not None:
+                if capture.depth.name in hardware.cameras:
+                    raise ConfigError(
+                        f"{source}: {field}.use_depth: its depth stream {capture.depth.name!r} is also a camera name"
+                    )
+                out[capture.depth.name] = capture.depth
+            continue
         config = lerobot_config("cameras", given, source, field)
         device = make_cameras_from_configs({name: config})[name]
         out[name] = LerobotCamera(name, CameraShape(height, width), device, source, field)

@@ -94,10 +94,18 @@ class ThreadedCamera:
             except BaseException as exc:  # noqa: BLE001 - reported through `error`; the loop sees a stale camera
                 self.error = exc
                 return
-            sample = CameraSample(image, time.monotonic(), seq)
+            self.publish(CameraSample(image, time.monotonic(), seq))
             seq += 1
-            with self._lock:
-                self._latest = sample
+
+    @property
+    def stopping(self) -> bool:
+        """`stop()` was called: a capture waiting for its device gives up."""
+        return self._stop.is_set()
+
+    def publish(self, sample: CameraSample) -> None:
+        """Make `sample` the newest (on the capture thread; a camera with a second stream extends it)."""
+        with self._lock:
+            self._latest = sample
 
     def stop(self) -> None:
         self._stop.set()
@@ -119,13 +127,14 @@ class LerobotCamera(ThreadedCamera):
     def __init__(
         self, name: str, shape: CameraShape, device: Any, source: str, field: str, first_frame_timeout: float = 5.0
     ) -> None:
-        super().__init__(name, shape, self._read)
+        super().__init__(name, shape, self.read_frame)
         self.device = device
         self.source = source
         self.field = field
         self.first_frame_timeout = first_frame_timeout
 
-    def _read(self) -> Image:
+    def read_frame(self) -> Image:
+        """The device's next frame (on the capture thread), checked against the configured size."""
         while True:
             try:
                 frame = np.asarray(self.device.read())
@@ -133,6 +142,9 @@ class LerobotCamera(ThreadedCamera):
             except TimeoutError:  # lerobot's 10 s wait ran out: a long stall; the loop counts the stale ticks
                 if self._stop.is_set():
                     raise
+        return self.checked(frame)
+
+    def checked(self, frame: Image) -> Image:
         if frame.shape != (self.shape.height, self.shape.width, 3) or frame.dtype != np.uint8:
             raise HalError(
                 f"{self.source}: {self.field}: a frame of {frame.shape} {frame.dtype}, the config says "
@@ -145,9 +157,10 @@ class LerobotCamera(ThreadedCamera):
         if self._thread is not None:
             return
         try:
-            self.device.connect()
+            self.open_device()
         except (OSError, ConnectionError, RuntimeError, TimeoutError, ValueError) as exc:
-            raise HalError(f"{self.source}: {self.field}: cannot open the camera: {exc}", code="hal.camera") from None
+            why = f"{exc} ({exc.__cause__})" if exc.__cause__ is not None else str(exc)  # the SDK's own words
+            raise HalError(f"{self.source}: {self.field}: cannot open the camera: {why}", code="hal.camera") from None
         super().start()
         end = time.monotonic() + self.first_frame_timeout
         while self.latest() is None:
@@ -159,6 +172,10 @@ class LerobotCamera(ThreadedCamera):
                     code="hal.camera",
                 )
             time.sleep(0.01)
+
+    def open_device(self) -> None:
+        """Connect the lerobot device (a camera with more to set up at connect time extends it)."""
+        self.device.connect()
 
     def stop(self) -> None:
         super().stop()

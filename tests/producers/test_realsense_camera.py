@@ -1,0 +1,284 @@
+"""RealSense cameras on the robot: lerobot's `RealSenseCamera` (pyrealsense2 2.59) behind the HAL, colour and
+aligned depth, tested through the SDK itself.
+
+There is no camera here, so the test makes an SDK recording: an `rs.software_device` with a colour sensor (rgb8)
+and a depth sensor (z16, depth scale 1 mm) with their intrinsics and extrinsics, recorded by `rs.recorder` (a
+`.db3` rosbag2 file) as frames are pushed at a live camera's pace, with a pause in the middle. The manifest names
+the camera by the recording's serial number with `playback:` the file; lerobot's own pipeline opens it
+(`rs.config.enable_device_from_file`) and plays it in real time, the SDK's `rs.align` aligns depth to colour,
+and the HAL loop records it with the SO-101 follower on a SIMULATED Feetech bus.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pytest
+import yaml
+from rosbags.highlevel import AnyReader
+
+from openral_data.formats.lerobot_v3.depth import DepthSettings
+from openral_data.producers.hal.sensors import CameraSample
+from openral_data.record.hal import HalRecordOptions, record_hal
+from tests.producers.test_opencv_camera import H, W, nearest, source_frame
+from tests.support.feetech_bus import SimulatedFeetechBus
+from tests.support.hal import episode_infos, frames_table
+from tests.support.inproc import run_inproc
+
+rs = pytest.importorskip("pyrealsense2")
+
+SERIAL = "123456789"
+RATE, N = 15, 68  # frames of W x H (the OpenCV test's source frames), at 15 fps
+STALL_AT, STALL_S = 20, 0.8  # the recording pauses after frame STALL_AT
+FX, FY, CX, CY = 50.0, 51.0, 31.5, 23.5
+
+
+def depth_frame(k: int) -> npt.NDArray[np.uint16]:
+    """Depth frame k (millimetres): a slope over the image, 25 mm further per frame."""
+    y, x = np.mgrid[0:H, 0:W]
+    return (300 + 25 * k + 4 * x + 3 * y).astype(np.uint16)
+
+
+def _intrinsics() -> Any:
+    i = rs.intrinsics()
+    i.width, i.height, i.fx, i.fy, i.ppx, i.ppy = W, H, FX, FY, CX, CY
+    i.model, i.coeffs = rs.distortion.brown_conrady, [0.0] * 5
+    return i
+
+
+def _stream(kind: Any, fmt: Any, bpp: int, uid: int) -> Any:
+    s = rs.video_stream()
+    s.type, s.index, s.uid, s.width, s.height, s.fps, s.bpp, s.fmt = kind, 0, uid, W, H, RATE, bpp, fmt
+    s.intrinsics = _intrinsics()
+    return s
+
+
+def record_sdk(path: Path, n: int, stall_at: int | None = None, depth_units: float = 0.001) -> Path:
+    """An SDK recording of a software RealSense (serial SERIAL): frames 0..n-1 pushed at RATE per second
+    (the recorder stamps them as they arrive), pausing STALL_S after frame `stall_at`; depth in `depth_units`
+    metres (a D405 has 0.0001)."""
+    dev = rs.software_device()
+    dev.register_info(rs.camera_info.serial_number, SERIAL)
+    dev.register_info(rs.camera_info.name, "Intel RealSense D435 (software)")
+    depth_sensor, colour_sensor = dev.add_sensor("Stereo Module"), dev.add_sensor("RGB Camera")
+    depth_profile = depth_sensor.add_video_stream(_stream(rs.stream.depth, rs.format.z16, 2, 0))
+    colour_profile = colour_sensor.add_video_stream(_stream(rs.stream.color, rs.format.rgb8, 3, 1))
+    depth_sensor.add_read_only_option(rs.option.depth_units, depth_units)
+    same = rs.extrinsics()
+    same.rotation, same.translation = [1.0, 0, 0, 0, 1.0, 0, 0, 0, 1.0], [0.0, 0.0, 0.0]
+    depth_profile.register_extrinsics_to(colour_profile, same)
+    recorder = rs.recorder(str(path), dev)
+    sensors = recorder.query_sensors()
+    for s in sensors:
+        s.open(s.get_stream_profiles()[0])
+        s.start(lambda frame: None)
+    streams = ((depth_sensor, depth_profile, depth_frame), (colour_sensor, colour_profile, source_frame))
+    for k in range(n):
+        for sensor, profile, make in streams:
+            pixels: npt.NDArray[Any] = make(k)
+            f = rs.software_video_frame()
+            f.pixels, f.bpp = pixels, pixels.itemsize * (3 if pixels.ndim == 3 else 1)
+            f.stride, f.timestamp, f.frame_number = W * f.bpp, k * 1000.0 / RATE, k
+            f.domain, f.profile = rs.timestamp_domain.hardware_clock, profile.as_video_stream_profile()
+            sensor.on_video_frame(f)
+        time.sleep(1 / RATE + (STALL_S if k == stall_at else 0.0))
+    for s in sensors:
+        s.stop()
+        s.close()
+    del recorder, sensors  # the recorder closes its file when it is released
+    return path
+
+
+def with_realsense(path: Path, playback: Path, serial: str = SERIAL, **extra: Any) -> None:
+    manifest = yaml.safe_load(path.read_text())
+    manifest["hardware"]["calibration_dir"] = "calibration"
+    manifest["hardware"]["cameras"] = {"wrist": {"type": "intelrealsense", "serial_number_or_name": serial,
+        "width": W, "height": H, "fps": RATE, "use_depth": True, "playback": str(playback), **extra}}  # fmt: skip
+    path.write_text(yaml.safe_dump(manifest, sort_keys=False))
+
+
+def aligned_reference(path: Path, n: int) -> dict[int, npt.NDArray[np.uint16]]:
+    """Source depth frame number -> that frame aligned to colour by the SDK's `rs.align`, from the recording
+    played as fast as it decodes: what an aligned depth camera should deliver (the SDK's alignment leaves some
+    pixels without depth, 0, and moves some by a pixel even between identical geometries)."""
+    ctx = rs.context()
+    held = ctx.load_device(str(path))  # the context keeps the playback device only while it is referenced
+    pipe, config = rs.pipeline(ctx), rs.config()
+    config.enable_device(SERIAL)
+    pipe.start(config).get_device().as_playback().set_real_time(False)  # the pipeline's own playback: at full speed
+    align = rs.align(rs.stream.color)
+    out: dict[int, npt.NDArray[np.uint16]] = {}
+    try:
+        while len(out) < n:
+            ok, frames = pipe.try_wait_for_frames(300)
+            if not ok:
+                break
+            k = frames.get_depth_frame().get_frame_number()
+            out.setdefault(k, np.asanyarray(align.process(frames).get_depth_frame().get_data()).copy())
+    finally:
+        pipe.stop()
+        del held
+    return out
+
+
+def one_step_mm(mm: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """The spacing (mm) of lerobot's 12-bit depth codes around each depth: one quantization step."""
+    settings = DepthSettings()
+    codes = settings.quantize(mm.astype(np.float32), "mm").astype(np.int64)
+    up = settings.dequantize(np.minimum(codes + 1, 4095)).astype(np.float64)
+    down = settings.dequantize(np.maximum(codes - 1, 0)).astype(np.float64)
+    mid = settings.dequantize(codes).astype(np.float64)
+    return np.maximum(up - mid, mid - down) * 1000.0
+
+
+@pytest.mark.slow
+def test_a_realsense_recording_through_the_hal_loop(so101: tuple[SimulatedFeetechBus, Path], tmp_path: Path) -> None:
+    """Colour frames are source frames in order, depth loads in lerobot within one quantization step of the
+    source depth (pixels the SDK's alignment left without depth load as depth_min), the pause is counted as stale
+    ticks, stamps increase, and both features carry the stream's intrinsics."""
+    bus, manifest = so101
+    recording = record_sdk(tmp_path / "rs.db3", N, stall_at=STALL_AT)
+    with_realsense(manifest, recording)
+    out = tmp_path / "ds"
+    s = record_hal(
+        HalRecordOptions(
+            robot="so101_follower", rskill="sweep-so-arm", mode="real", port=bus.port, fps=10, max_steps=20,
+            out=out, codec="h264", operator="success", formats=("lerobot", "mcap"),
+        )
+    )  # fmt: skip
+    report = s.all_reports[0]
+    assert s.episodes[0].length == 20 and report.accounted()
+    assert report.stale["wrist"] >= 3 and report.stale["wrist"] == report.stale["wrist_depth"] == report.stale_ticks
+    cols = frames_table(out)
+    assert sum(cols["openral.ticks_stale"]) == report.stale_ticks
+    assert np.all(np.diff(np.array(cols["openral.real_timestamp"])) > 0)
+    assert cols["openral.sample_age.wrist"] == cols["openral.sample_age.wrist_depth"]  # one frameset, one stamp
+    assert episode_infos(out)[0]["hal"]["stale"]["wrist_depth"] == report.stale["wrist"]
+    with AnyReader([out / "mcap" / "episode_000000"]) as bag:  # MCAP: the depth as 16UC1, the intrinsics
+        topics = {c.topic: c for c in bag.connections}
+        assert topics["/camera/wrist_depth/depth/image_raw"].msgcount == 20
+        conn = topics["/camera/wrist_depth/camera_info"]
+        info: Any = bag.deserialize(next(bag.messages(connections=[conn]))[2], conn.msgtype)
+        assert list(info.k) == pytest.approx([FX, 0, CX, 0, FY, CY, 0, 0, 1])
+
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    ds = LeRobotDataset("local/rs", root=out, video_backend="pyav")
+    for key, frame_id in (("observation.images.wrist", "wrist"), ("observation.images.wrist_depth", "wrist_depth")):
+        info = ds.meta.features[key]["info"]
+        assert info["camera_info"]["k"] == pytest.approx([FX, 0, CX, 0, FY, CY, 0, 0, 1])
+        assert info["camera_info"]["frame_id"] == frame_id and info["camera_info"]["distortion_model"] == "plumb_bob"
+        assert (info["camera_info"]["width"], info["camera_info"]["height"]) == (W, H)
+        assert info["intrinsics"]["fx"] == FX
+    assert ds.meta.depth_keys == ["observation.images.wrist_depth"]
+    reference = aligned_reference(recording, N)
+    index, exact = [], 0
+    for i in range(len(ds)):
+        item = ds[i]
+        img = (item["observation.images.wrist"].numpy().transpose(1, 2, 0) * 255).round().astype(np.uint8)
+        k, err = nearest(img)
+        assert err < 4.0, (i, k, err)
+        index.append(k)
+        got = item["observation.images.wrist_depth"].numpy()[0].astype(np.float64)  # lerobot: (1, H, W) mm
+        kd = int(np.rint(np.median(got - depth_frame(0)) / 25))  # which source depth frame this is
+        assert abs(kd - k) <= 1, (i, k, kd)  # the SDK's frameset pairs colour and depth of the same moment
+        want = reference[kd].astype(np.float64)
+        hole = want == 0  # no depth after alignment: loads as lerobot's depth_min
+        assert (got[hole] == DepthSettings().depth_min * 1000).all(), i
+        assert (np.abs(got - want)[~hole] <= one_step_mm(want)[~hole] + 0.5).all(), i
+        exact += int((want == depth_frame(kd)).sum())
+    assert exact > 0.8 * len(ds) * W * H  # the aligned depth is the source depth but for the SDK's holes and seams
+    assert index == sorted(index) and index[-1] - index[0] >= 15
+
+
+@pytest.fixture(scope="module")
+def short_recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return record_sdk(tmp_path_factory.mktemp("rs") / "short.db3", 20)
+
+
+def test_a_serial_the_recording_does_not_have_is_one_line_before_episode_0(
+    so101: tuple[SimulatedFeetechBus, Path], tmp_path: Path, short_recording: Path
+) -> None:
+    bus, manifest = so101
+    args = ["record", "--hal", "so101_follower", "--mode", "real", "--rskill", "sweep-so-arm", "--port", bus.port]
+    with_realsense(manifest, short_recording, serial="987654321")
+    r = run_inproc(*args, "--out", str(tmp_path / "a"))
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    assert "hardware.cameras.wrist: cannot open the camera" in r.stderr and "different serial number" in r.stderr
+    empty = record_sdk(tmp_path / "empty.db3", 0)  # sensors started, no frame ever pushed
+    with_realsense(manifest, empty)
+    r = run_inproc(*args, "--out", str(tmp_path / "b"))
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    assert "hardware.cameras.wrist: " in r.stderr
+    with_realsense(manifest, tmp_path / "absent.db3")
+    r = run_inproc(*args, "--out", str(tmp_path / "c"))
+    assert r.returncode == 2 and "hardware.cameras.wrist.playback: no recording" in r.stderr, r.stderr
+    assert not any((tmp_path / d).exists() for d in "abc")
+
+
+def test_a_depth_stream_named_like_another_camera_is_one_line(
+    so101: tuple[SimulatedFeetechBus, Path], tmp_path: Path, short_recording: Path
+) -> None:
+    bus, manifest = so101
+    with_realsense(manifest, short_recording)
+    data = yaml.safe_load(manifest.read_text())
+    data["hardware"]["cameras"]["wrist_depth"] = {"type": "opencv", "index_or_path": 0, "width": W, "height": H}
+    manifest.write_text(yaml.safe_dump(data, sort_keys=False))
+    r = run_inproc("record", "--hal", "so101_follower", "--mode", "real", "--rskill", "sweep-so-arm",
+                   "--port", bus.port, "--out", str(tmp_path / "a"))  # fmt: skip
+    assert r.returncode == 2 and "hardware.cameras.wrist.use_depth: its depth stream 'wrist_depth'" in r.stderr
+
+
+def test_stamps_increase_and_colour_is_exact_straight_from_the_camera(short_recording: Path) -> None:
+    """The capture thread alone (no loop, no codec): every sample is a source frame, pixel for pixel."""
+    cams = start_wrist(short_recording)
+    samples: list[tuple[CameraSample, CameraSample]] = []
+    try:
+        end = time.monotonic() + 0.5
+        while time.monotonic() < end:
+            s, d = cams["wrist"].latest(), cams["wrist_depth"].latest()
+            if s is not None and d is not None and (not samples or s.seq != samples[-1][0].seq):
+                samples.append((s, d))
+            time.sleep(0.002)
+    finally:
+        cams["wrist"].stop()
+    assert len(samples) >= 3
+    for s, d in samples:
+        k = nearest(s.image)[0]
+        assert np.array_equal(s.image, source_frame(k)) and d.seq == s.seq and d.stamp == s.stamp
+        assert d.image.dtype == np.uint16 and d.image.shape == (H, W)
+    assert all(b[0].stamp > a[0].stamp for a, b in itertools.pairwise(samples))
+    assert cams["wrist"].shape.info["camera_info"]["k"] == pytest.approx([FX, 0, CX, 0, FY, CY, 0, 0, 1])
+
+
+def start_wrist(recording: Path) -> dict[str, Any]:
+    """The manifest camera `wrist` playing `recording`, started (the caller stops it)."""
+    from openral_data.producers.hal.lerobot_hw import make_cameras
+    from openral_data.schemas.hal import HardwareConfig
+
+    spec = {"type": "intelrealsense", "serial_number_or_name": SERIAL, "width": W, "height": H, "fps": RATE,
+            "use_depth": True, "playback": str(recording)}  # fmt: skip
+    cams = make_cameras(HardwareConfig(driver="lerobot", robot={"type": "x"}, cameras={"wrist": spec}), "robot.yaml")
+    assert list(cams) == ["wrist", "wrist_depth"]
+    cams["wrist"].start()
+    return cams
+
+
+def test_depth_in_other_units_is_recorded_in_millimetres(tmp_path: Path) -> None:
+    """A camera whose depth unit is 0.1 mm (the D405's): the device's depth scale is applied."""
+    cams = start_wrist(record_sdk(tmp_path / "d405.db3", 8, depth_units=0.0001))
+    try:
+        time.sleep(0.2)
+        depth = cams["wrist_depth"].latest()
+    finally:
+        cams["wrist"].stop()
+    assert depth is not None and depth.image.dtype == np.uint16
+    kd = int(np.rint(np.median(depth.image * 10.0 - depth_frame(0)) / 25))
+    valid = depth.image > 0
+    want = np.rint(depth_frame(kd) / 10.0)
+    assert valid.mean() > 0.8 and (np.abs(depth.image[valid] - want[valid]) <= 1).all()
