@@ -1,6 +1,6 @@
 """Progress on the rest of the long work (docs/cli.md): `episodes merge` and `episodes split` show the episodes
-written and `push` the files sent, on a terminal's stderr; nothing with `-q` (or `--json`, where a command has
-it). Drawn through a forced-terminal console, as a user sees it."""
+written and `push` the files sent, on a terminal's stderr; nothing with `-q`. Drawn through a forced-terminal
+console, as a user sees it."""
 
 from __future__ import annotations
 
