@@ -16,10 +16,12 @@ Markers, an HTML comment on the line(s) right above a block:
   (`INPUTS` below: inputs no openral-data command makes, e.g. a dataset written by lerobot 0.6.1 itself);
 - `<!-- docs-file: NAME -->` above any block (a mapping YAML): its text is the file NAME for later examples.
 A new example without a marker that cannot run fails its page's test; the marker check below fails on a marker
-with no reason or one on no example."""
+with no reason or one on no example. A synopsis (`not-run: synopsis …`) is checked another way: every flag it
+shows is in its command's `--help`."""
 
 from __future__ import annotations
 
+import itertools
 import json
 import re
 import shlex
@@ -350,3 +352,41 @@ def test_the_examples_of(page: str, tmp_path: Path, monkeypatch: pytest.MonkeyPa
             make_inputs(block.marks["docs-inputs"], tmp_path)
         wrong += [w for step in steps(block) if (w := run_step(step, block.where, tmp_path)) is not None]
     assert not wrong, "\n\n".join(wrong)
+
+
+def _synopses() -> list[tuple[str, list[str], set[str]]]:
+    """Each synopsis line (with its continuation lines) of a block marked `not-run: synopsis`: where, the command
+    words, the flags it names (those before a `COMMAND` placeholder: after it they are another command's)."""
+    out: list[tuple[str, list[str], set[str]]] = []
+    for page in PAGES:
+        for block in blocks(page)[0]:
+            if not block.marks.get("not-run", "").startswith("synopsis"):
+                continue
+            entries: list[str] = []
+            for line in block.lines:
+                if line.startswith("openral-data"):
+                    entries.append(line)
+                elif entries:
+                    entries[-1] += " " + line
+            for entry in entries:
+                code = entry.split("#")[0].split(" COMMAND")[0]
+                words = code.split()[1:]
+                command = list(itertools.takewhile(lambda w: re.fullmatch(r"[a-z][a-z0-9-]*", w), words))
+                flags = set(re.findall(r"(?<![\w-])(--[a-z][a-z0-9-]*|-[a-z]{1,2})\b", code))
+                out.append((block.where, command, flags))
+    return out
+
+
+def test_synopses_name_only_flags_their_command_takes(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A synopsis is not run, but every flag it shows must be in that command's `--help`."""
+    monkeypatch.setenv("COLUMNS", "200")
+    helps: dict[tuple[str, ...], str] = {}
+    wrong: list[str] = []
+    for where, command, flags in _synopses():
+        if tuple(command) not in helps:
+            run = run_inproc(*command, "--help")
+            assert run.returncode == 0, (where, command, run.stderr)
+            helps[tuple(command)] = run.stdout
+        missing = sorted(f for f in flags if f not in helps[tuple(command)])
+        wrong += [f"{where}: openral-data {' '.join(command)}: {missing}"] if missing else []
+    assert not wrong, "\n".join(wrong)
