@@ -3,15 +3,18 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from openral_data import paths
 from openral_data.cli.encoder_flags import VCODEC_HELP
 from openral_data.cli.jsonout import JsonFlag, print_json
-from openral_data.cli.terminal import print_rows
+from openral_data.cli.terminal import print_rows, progress_bar
 from openral_data.formats.codec import Codec
+
+if TYPE_CHECKING:
+    from openral_data.generate import GenerateOptions, GenerateSummary
 
 
 def generate(
@@ -36,25 +39,38 @@ def generate(
     from openral_data.generate import generate as run
 
     paths.check_creatable(out, "--out")
-    summary = run(
-        GenerateOptions(
-            source=source,
-            scene=scene,
-            n=n,
-            out=out,
-            seed=seed,
-            max_steps=max_steps,
-            interpolation=interpolation,
-            settle=settle,
-            annotations=annotations,
-            workers=workers,
-            executor=executor,
-            address=address,
-            codec=codec,
-        )
+    options = GenerateOptions(
+        source=source,
+        scene=scene,
+        n=n,
+        out=out,
+        seed=seed,
+        max_steps=max_steps,
+        interpolation=interpolation,
+        settle=settle,
+        annotations=annotations,
+        workers=workers,
+        executor=executor,
+        address=address,
+        codec=codec,
     )
+    summary = run(options) if workers > 1 or executor != "local" else _with_progress(options)  # parallel: no ticks
     if json:
         print_json("generate", summary.to_json())
         return
     doc = summary.to_json()
     print_rows(f"generated: {summary.out}", [(k.replace("_", " "), str(v)) for k, v in doc.items() if k != "out"])
+
+
+def _with_progress(options: GenerateOptions) -> GenerateSummary:
+    """The run behind a bar: the source demonstrations are replayed and cut first (seconds), then each attempt
+    runs; the bar counts the episodes kept (a failed attempt drops out of the total)."""
+    from openral_data.generate import generate as run
+
+    with progress_bar("generating", "episodes kept", "{task.fields[frames]}") as bar:
+        task = bar.add_task("generate", total=options.n, frames="replaying the source demonstrations...")
+
+        def progress(rec: object, frames: int, total: int) -> None:
+            bar.update(task, total=total, advance=0 if rec is None else 1, frames=f"{frames} frames")
+
+        return run(options, progress)

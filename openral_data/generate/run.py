@@ -25,7 +25,7 @@ from openral_data.generate.annotations import Annotations, read_annotations
 from openral_data.generate.segments import cuts, segments
 from openral_data.generate.trace import trace
 from openral_data.policies.mimicgen.plan import Demo, Plan, write_plan
-from openral_data.record.options import RecordOptions, RecordSummary
+from openral_data.record.options import ProgressFn, RecordOptions, RecordSummary
 from openral_data.replay.rebuild import SceneView, rebuild
 from openral_data.replay.recorded import RecordedDataset
 
@@ -114,7 +114,8 @@ def build_plan(opts: GenerateOptions) -> tuple[Plan, dict[str, object]]:
     return plan, rskill
 
 
-def generate(opts: GenerateOptions) -> GenerateSummary:
+def generate(opts: GenerateOptions, progress: ProgressFn | None = None) -> GenerateSummary:
+    """`progress`: told of each kept episode as `record` tells its bar (a parallel run reports none)."""
     if opts.n < 1:
         raise UsageError(f"--n: must be >= 1, got {opts.n}")
     if opts.settle < 0:
@@ -143,7 +144,7 @@ def generate(opts: GenerateOptions) -> GenerateSummary:
             codec=opts.codec,
             keep="success",
         )
-        summary = _record(record_opts, opts)
+        summary = _record(record_opts, opts, progress)
     finally:
         shutil.rmtree(work, ignore_errors=True)
     kept = len(summary.episodes)
@@ -164,11 +165,11 @@ def generate(opts: GenerateOptions) -> GenerateSummary:
     )
 
 
-def _record(record_opts: RecordOptions, opts: GenerateOptions) -> RecordSummary:
+def _record(record_opts: RecordOptions, opts: GenerateOptions, progress: ProgressFn | None) -> RecordSummary:
     if opts.workers == 1 and opts.executor == "local":
         from openral_data.record.sim import record
 
-        return record(record_opts)
+        return record(record_opts, progress)
     from openral_data.record.parallel.run import record_parallel
 
     return record_parallel(dataclasses.replace(record_opts), opts.workers, executor=opts.executor, address=opts.address)
