@@ -99,7 +99,7 @@ def _with_download(command: Callable[..., Any], param: str, pixels: bool) -> Cal
         if download:
             from openral_data.hub import DownloadOptions
 
-            show = not terminal.quiet and terminal.err_console.is_terminal and not kwargs.get("json", False)
+            show = not (terminal.quiet or terminal.json_output) and terminal.err_console.is_terminal
             opts = DownloadOptions(hub_revision, tuple(hub_include or ()), pixels, show)
             given = kwargs[param]
             for arg in given if isinstance(given, list | tuple) else [given]:

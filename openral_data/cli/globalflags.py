@@ -9,7 +9,8 @@ command's options (`--sql -q`), and not when the command has an option of that n
 
 The root group also gives the editing commands (`episodes`, `videos`, `tasks`, `features`, `stats recompute`) and
 `doctor --deep` their progress bar (episodes written, video files decoded; `formats.progress`), on stderr; none
-with `-q`, `--json` or no terminal.
+with `-q`, `--json` or no terminal. `--json` anywhere before `--` turns every progress bar off
+(`terminal.json_output`).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import itertools
 import re
 from typing import Any
 
+from openral_data.cli import terminal
 from openral_data.cli.help import PlainFlagsGroup
 from openral_data.cli.terminal import LazyBar
 from openral_data.errors import UsageError
@@ -108,10 +110,18 @@ class RootGroup(PlainFlagsGroup):
         hoisted = hoist(self, args)
         parsed: list[str] = super().parse_args(ctx, hoisted)
         name = _command_name(self, hoisted)
-        ctx.meta["openral.bar"] = BARS.get(name or "") if "--json" not in hoisted else None
+        scripted = "--json" in itertools.takewhile(lambda token: token != "--", hoisted)
+        terminal.json_output = scripted  # every progress bar stays off under --json (docs/scripting.md)
+        ctx.meta["openral.bar"] = BARS.get(name or "") if not scripted else None
         return parsed
 
     def invoke(self, ctx: Any) -> Any:
+        try:
+            return self._invoke_with_bar(ctx)
+        finally:
+            terminal.json_output = False  # an in-process caller's next run starts as a fresh process would
+
+    def _invoke_with_bar(self, ctx: Any) -> Any:
         labels = ctx.meta.get("openral.bar")
         if labels is None:
             return super().invoke(ctx)

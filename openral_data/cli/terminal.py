@@ -19,10 +19,13 @@ err_console = Console(stderr=True, emoji=False)
 # what a Ctrl-C during `record` leaves (sim and --hal alike; see openral_data/record/session.py)
 INTERRUPTED_RECORDING = "interrupted: the episode in flight was discarded, finished episodes are kept"
 quiet = False  # `-q`: no progress bar (set by the root callback, see openral_data/cli/logs.py)
+# `--json`: no progress bar either, the run is a script's (set by the root group, openral_data/cli/globalflags.py)
+json_output = False
 
 
 def progress_bar(what: str, unit: str, *fields: str) -> Progress:
-    """`what [bar] done/total unit fields... elapsed` on stderr; silent when stderr is not a terminal or with `-q`.
+    """`what [bar] done/total unit fields... elapsed` on stderr; silent when stderr is not a terminal, with `-q` or
+    under `--json`.
 
     `what` is rich markup (shown bold); each of `fields` is a column template such as "{task.fields[frames]}".
     """
@@ -34,7 +37,7 @@ def progress_bar(what: str, unit: str, *fields: str) -> Progress:
         *(TextColumn(f) for f in fields),
         TimeElapsedColumn(),
         console=err_console,
-        disable=quiet or not err_console.is_terminal,
+        disable=quiet or json_output or not err_console.is_terminal,
     )
 
 

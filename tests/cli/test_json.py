@@ -105,8 +105,8 @@ def test_the_docs_have_every_table_and_known_types() -> None:
 
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str, str]:
-    """`record --json` of 2 mock episodes (LeRobot + MCAP) with stderr on a terminal, so the progress bar is drawn:
-    (dataset, stdout, what the terminal showed)."""
+    """`record --json` of 2 mock episodes (LeRobot + MCAP) with stderr on a terminal, where a progress bar would be
+    drawn without --json: (dataset, stdout, what the terminal showed)."""
     base = tmp_path_factory.mktemp("json")
     scene = write_yaml(base / "scene.yaml", mock_scene(success_after=SUCCESS_AFTER, n_episodes=2, max_steps=MAX_STEPS))
     out = base / "ds"
@@ -147,8 +147,8 @@ def _drain(fd: int, into: list[bytes]) -> None:
 def test_record(recorded: tuple[Path, str, str]) -> None:
     out, stdout, terminal = recorded
     doc = parse(stdout, "record")
-    assert "recording" in terminal and "episodes" in terminal  # the progress bar went to stderr
-    assert "{" not in terminal  # and the document did not
+    assert "recording" not in terminal and "━" not in terminal  # --json: no progress bar, even on a terminal
+    assert "{" not in terminal  # and the document went to stdout only
     assert doc["command"] == "record" and doc["out"] == str(out)
     assert doc["episodes"] == 2 and doc["successes"] == 1 and doc["success_rate"] == 0.5
     assert [e["success"] for e in doc["episode_list"]] == [True, False]

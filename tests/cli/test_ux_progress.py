@@ -71,6 +71,12 @@ def test_the_bar_draws_on_a_terminal_and_not_with_q(monkeypatch: pytest.MonkeyPa
     shown(1, 2)
     assert shown.bar is not None and not shown.bar.disable
     shown.close()
+    monkeypatch.setattr(terminal, "json_output", True)  # what `--json` sets
+    scripted = terminal.LazyBar("writing", "episodes")
+    scripted(1, 2)
+    assert scripted.bar is not None and scripted.bar.disable
+    scripted.close()
+    monkeypatch.setattr(terminal, "json_output", False)
     monkeypatch.setattr(terminal, "quiet", True)
     hidden = terminal.LazyBar("writing", "episodes")
     hidden(1, 2)
