@@ -66,7 +66,8 @@ class Flow:
 
     def reset(self, operator: Operator, index: int, check: Callable[[], None]) -> Command | None:
         """The reset wait before episode `index`: a countdown each whole second until `reset_time_s` passed
-        (None), the person skips it (START) or quits (QUIT). Nothing is sent to the robot meanwhile."""
+        (None), the person skips it (START), quits (QUIT) or trips the e-stop (ESTOP). Nothing is sent to the robot
+        meanwhile."""
         if self.reset_time_s is None:
             return None
         left = self.reset_time_s

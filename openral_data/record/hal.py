@@ -419,12 +419,23 @@ def _episodes(opts: HalRecordOptions, out: Path, loop: FixedRateLoop, notify: No
                 break
             if len(summary.episodes) < opts.n_episodes:
                 reset = flow.reset_time_s is not None
-                if flow.reset(operator, len(summary.episodes), stop.check) is Command.QUIT:
-                    summary.stopped_by_operator = True
+                if not _reset(summary, flow, loop, stop.check):
                     break
     summary.seconds = time.perf_counter() - t0
     log_totals(out, len(summary.episodes), summary.frames, summary.seconds)
     return summary
+
+
+def _reset(summary: HalRecordSummary, flow: Flow, loop: FixedRateLoop, check: Callable[[], None]) -> bool:
+    """The reset wait before the next episode; False when the run stops here (the operator quit, the e-stop)."""
+    cmd = flow.reset(loop.operator, len(summary.episodes), check)
+    if cmd is Command.QUIT:
+        summary.stopped_by_operator = True
+    elif cmd is Command.ESTOP:
+        loop.hal.estop("operator e-stop (between episodes)")
+        summary.estop = loop.hal.estop_reason
+        flow.say(f"e-stop: {summary.estop}")
+    return cmd not in (Command.QUIT, Command.ESTOP)
 
 
 def _account(

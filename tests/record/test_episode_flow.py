@@ -16,6 +16,7 @@ import sys
 import termios
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -166,13 +167,20 @@ def test_a_person_at_the_so_arm_times_resets_and_decides(project: Path, tmp_path
     assert [row["success"] for row in rows] == [True, None, None]
 
 
-def _space_when_listening(master: int, slave: int) -> None:
-    """Type space once the operator reads keys: its terminal left canonical mode (switching flushes what was typed
-    before, so a key typed earlier would be lost)."""
-    deadline = time.monotonic() + 60
-    while termios.tcgetattr(slave)[3] & termios.ICANON and time.monotonic() < deadline:
-        time.sleep(0.02)
-    os.write(master, b" ")
+def _typist(master: int, slave: int, *keys: tuple[Callable[[], bool], bytes]) -> threading.Thread:
+    """A person typing each key once its condition holds (polled), after the operator reads keys: its terminal
+    left canonical mode (switching flushes what was typed before, so a key typed earlier would be lost)."""
+
+    def run() -> None:
+        deadline = time.monotonic() + 60
+        for ready, key in [(lambda: not termios.tcgetattr(slave)[3] & termios.ICANON, b""), *keys]:
+            while not ready() and time.monotonic() < deadline:
+                time.sleep(0.02)
+            os.write(master, key)
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    return thread
 
 
 def test_a_teleop_sim_session_is_timed(project: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -188,8 +196,7 @@ def test_a_teleop_sim_session_is_timed(project: Path, tmp_path: Path, monkeypatc
     try:
         with os.fdopen(slave, "r", closefd=True) as stdin:
             monkeypatch.setattr(sys, "stdin", stdin)
-            typist = threading.Thread(target=_space_when_listening, args=(master, slave), daemon=True)
-            typist.start()
+            _typist(master, slave, (lambda: True, b" "))
             r = run_inproc(
                 "record", "--scene", "tabletop_push", "--teleop", "keyboard", "--episode-time-s", "0.5",
                 "--reset-time-s", "0.3", "--n-episodes", "2", "--out", str(out), "--codec", "h264",
@@ -205,6 +212,29 @@ def test_a_teleop_sim_session_is_timed(project: Path, tmp_path: Path, monkeypatc
     infos = episode_infos(out)
     assert [i["operator"] for i in infos] == ["teleop:keyboard"] * 2
     assert [i["hal"]["verdict"] for i in infos] == ["time_limit"] * 2
+
+
+def test_the_e_stop_key_works_during_the_reset(project: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    out = tmp_path / "estop"
+    committed = out / "meta" / "episodes"
+    master, slave = os.openpty()
+    t0 = time.monotonic()
+    try:
+        with os.fdopen(slave, "r", closefd=True) as stdin:
+            monkeypatch.setattr(sys, "stdin", stdin)
+            # space starts episode 1; `x` once it is committed, in the 30 s reset
+            _typist(master, slave, (lambda: True, b" "), (lambda: any(committed.rglob("*.parquet")), b"x"))
+            r = run_inproc(
+                *HAL, "--fps", "20", "--operator", "keyboard", "--episode-time-s", "0.3", "--reset-time-s", "30",
+                "--n-episodes", "2", "--out", str(out),
+            )  # fmt: skip
+    finally:
+        os.close(master)
+    assert r.returncode == 1, r.stderr  # an e-stop ends the run with exit 1
+    assert time.monotonic() - t0 < 25  # the reset did not run out
+    assert "e-stop: operator e-stop (between episodes)" in r.stderr and "episode 2/2: recording" not in r.stderr
+    assert "e-stop                operator e-stop (between episodes)" in r.stdout
+    assert sorted(_lengths(out)) == [0]  # the first episode is kept
 
 
 @pytest.mark.parametrize(

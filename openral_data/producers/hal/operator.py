@@ -64,7 +64,7 @@ class Operator(Protocol):
 
     def pause(self, seconds: float, check: Callable[[], None] = _nothing) -> Command | None:
         """Between episodes (the reset time): wait `seconds` (None), unless the operator starts the next episode
-        now (START) or quits (QUIT) first; `check()` is called while waiting."""
+        now (START), quits (QUIT) or trips the e-stop (ESTOP) first; `check()` is called while waiting."""
         ...
 
     def at_end(self) -> Command | None:
@@ -117,7 +117,7 @@ class KeyboardOperator:
         while (left := end - time.monotonic()) > 0:
             check()
             cmd = self._key(min(0.1, left))
-            if cmd in (Command.START, Command.QUIT):
+            if cmd in (Command.START, Command.QUIT, Command.ESTOP):
                 return cmd
         return None
 
