@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import typer
 
+from openral_data.cli import terminal
 from openral_data.cli.jsonout import print_json
 from openral_data.cli.terminal import INTERRUPTED_RECORDING, print_line, print_rows
 from openral_data.producers.hal.operator import HELP
@@ -12,11 +13,14 @@ from openral_data.record.hal import HalRecordOptions, HalRecordSummary, record_h
 
 
 def run_hal_record(opts: HalRecordOptions, json: bool = False) -> None:
-    """Record through the HAL with options the CLI built (and checked: `HalRecordOptions`), then print the summary."""
-    if opts.operator == "keyboard":
+    """Record through the HAL with options the CLI built (and checked: `HalRecordOptions`), then print the summary.
+    The person's prompts (the keys, each episode's task, the reset countdown, what was decided) go to stderr,
+    except under -q or --json."""
+    talk = not (json or terminal.quiet)
+    if opts.operator == "keyboard" and talk:
         print_line(HELP, err=True)
     try:
-        s = record_hal(opts, lambda line: print_line(line, err=True))
+        s = record_hal(opts, (lambda line: print_line(line, err=True)) if talk else None)
     except KeyboardInterrupt:
         print_line(INTERRUPTED_RECORDING, err=True)
         raise typer.Exit(130) from None

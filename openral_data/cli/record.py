@@ -64,6 +64,12 @@ def record(
             "end effector), or leader (hardware.teleop)"
         ),
     ] = None,
+    episode_time_s: Annotated[
+        float | None, typer.Option(help="--hal/--teleop: seconds each episode records (a verdict key ends it sooner)")
+    ] = None,
+    reset_time_s: Annotated[
+        float | None, typer.Option(help="--hal/--teleop: seconds to reset the scene between episodes (space skips)")
+    ] = None,
     resume: Annotated[
         bool, typer.Option("--resume", help="continue the recording in --out (its settings; --n-episodes = total)")
     ] = False,
@@ -115,14 +121,15 @@ def record(
 
         hal, rskill, scene_fps, scene_steps = teleop_scene(scene, robot, rskill)
         fps = fps if "fps" in given else scene_fps
-        max_steps = max_steps if max_steps is not None else scene_steps
+        if max_steps is None and episode_time_s is None:  # with --episode-time-s the time decides
+            max_steps = scene_steps
         operator = operator if "operator" in given else ("keyboard" if teleop == "keyboard" else "auto")
         given = given | {"scene"}
     if hal is not None and (save_video or save_video_dir is not None):
         raise UsageError("--save-video/--save-video-dir: not available with --hal (a scene recording only)")
     view_given = bool(given & {"view", "view_port", "view_address"})
-    if view_given and (not view or hal is not None or workers != 1 or executor != "local"):
-        raise UsageError("--view, --view-port, --view-address: need --view, and not with --hal or --workers")
+    if view_given and (not view or workers != 1 or executor != "local"):
+        raise UsageError("--view, --view-port, --view-address: need --view, and not with --workers")
     if hal is not None:
         from openral_data.cli.hal import run_hal_record
         from openral_data.formats.mcap import parse_compression, parse_image_format
@@ -144,7 +151,7 @@ def record(
             fps=fps,
             scene=scene if "scene" in given else None,
             n_episodes=n_episodes if n_episodes is not None else 1,
-            max_steps=max_steps if max_steps is not None else 200,
+            max_steps=max_steps,
             seed=seed if seed is not None else 0,
             out=out,
             codec=codec,
@@ -157,12 +164,18 @@ def record(
             staleness=staleness,
             port=port,
             teleop=teleop,
+            episode_time_s=episode_time_s,
+            reset_time_s=reset_time_s,
+            view=view,
+            view_port=view_port,
+            view_address=view_address,
         )
         run_hal_record(hal_opts, json)
         return
-    hal_only = [f"--{name}" for name in ("mode", "fps", "operator", "safety", "staleness", "port") if name in given]
+    hal_names = ("mode", "fps", "operator", "safety", "staleness", "port", "episode_time_s", "reset_time_s")
+    hal_only = [f"--{name.replace('_', '-')}" for name in hal_names if name in given]
     if hal_only:
-        raise UsageError(f"{', '.join(hal_only)}: only with --hal ROBOT_ID (a scene records at its own fps)")
+        raise UsageError(f"{', '.join(hal_only)}: only with --hal ROBOT_ID or --teleop (a scene runs at its own pace)")
     from openral_data.formats.mcap import parse_compression, parse_image_format
     from openral_data.record.options import Keep, RecordOptions
     from openral_data.runtime.sinks import parse_formats

@@ -25,6 +25,8 @@ from openral_data.producers.hal.operator import Command, KeyboardOperator, Opera
 from openral_data.producers.hal.safety import SafetyFilter
 from openral_data.producers.hal.teleop import KeyboardTeleop, tty_status
 from openral_data.producers.hal.twin import MujocoTwinHal, SceneHal
+from openral_data.record.driver import rskill_driver, teleop_driver
+from openral_data.record.flow import Flow, Notify, check_reset_time, episode_ticks
 from openral_data.record.hal_loop import EpisodeEnd, EpisodeReport, FixedRateLoop, LoopConfig, frame_extras
 from openral_data.record.options import check_run_numbers
 from openral_data.record.output import claim
@@ -39,9 +41,11 @@ from openral_data.runtime.sinks import OutputFormat, check_outputs
 from openral_data.schemas.hal import SafetyMode
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
-from openral_data.types import EpisodeRecord, ProducerSpec, Sink
+from openral_data.types import DatasetSchema, EpisodeRecord, FrameObserver, ProducerSpec, Sink
+from openral_data.viz import DEFAULT_PORT
 
 Mode = Literal["sim", "real"]
+DEFAULT_MAX_STEPS = 200
 # leader: the manifest's hardware.teleop (a lerobot teleoperator); gamepad/spacemouse[=NODE]: producers/hal/devices.py
 TELEOP_DEVICES = ("keyboard", "leader", *DEVICE_KINDS)
 JOINT_REPRESENTATIONS = ("joint_positions_gripper", "joint_positions")
@@ -55,7 +59,7 @@ class HalRecordOptions:
     fps: int = 20
     scene: str | None = None  # sim mode: drive this sim scene through the HAL instead of the bare twin
     n_episodes: int = 1
-    max_steps: int = 200
+    max_steps: int | None = None  # None: the `episode_time_s` ticks, else DEFAULT_MAX_STEPS
     seed: int = 0
     out: Path | None = None
     codec: Codec = "av1"
@@ -68,6 +72,19 @@ class HalRecordOptions:
     port: str | None = None  # real mode: override the manifest's hardware.port
     video: VideoSettings = field(default_factory=VideoSettings)  # the encoder settings; `codec` is its shorthand
     teleop: str | None = None  # a person drives instead of the rSkill's policy: keyboard, leader, gamepad[=NODE], ...
+    episode_time_s: float | None = None  # each episode records this long (record/flow.py); None: to the step limit
+    reset_time_s: float | None = None  # the wait between episodes to reset the scene (space skips it)
+    view: bool = False  # stream the run to rerun (viz/live.py), as `record --view`
+    view_port: int = DEFAULT_PORT
+    view_address: str | None = None
+
+    @property
+    def step_limit(self) -> int:
+        """Frames per episode at most: `max_steps`, else as many as `episode_time_s` lasts, else 200."""
+        if self.max_steps is not None:
+            return self.max_steps
+        ticks = episode_ticks(self.episode_time_s, self.fps)
+        return ticks if ticks is not None else DEFAULT_MAX_STEPS
 
     def __post_init__(self) -> None:
         """`mode`, `safety` and the output settings are checked here, once, by whoever builds the options (the
@@ -215,7 +232,6 @@ def check_hal(
 
 
 STATUS_FD = 2  # the teleoperator's status lines go to the terminal on stderr
-Notify = Callable[[str], None]  # one line for the operator: which episode, what happened to it
 
 
 def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecordSummary:
@@ -280,7 +296,13 @@ def _resolve(opts: HalRecordOptions) -> _Resolved:
     """Everything that can be wrong with the numbers, names and formats, found before anything is written."""
     if opts.fps < 1 or opts.fps > 1000:
         raise UsageError(f"--fps must be in 1..1000, got {opts.fps}")
-    check_run_numbers(opts.n_episodes, opts.max_steps, opts.seed)
+    episode_ticks(opts.episode_time_s, opts.fps)
+    check_reset_time(opts.reset_time_s)
+    check_run_numbers(opts.n_episodes, opts.step_limit, opts.seed)
+    if opts.view:
+        from openral_data.viz.live import check_view_options
+
+        check_view_options(opts.view_port, opts.view_address)
     if opts.staleness is not None and not 0 < opts.staleness < math.inf:
         raise UsageError(f"--staleness must be > 0 and finite, got {opts.staleness}")
     robot = registry.ROBOTS[opts.robot]
@@ -351,22 +373,37 @@ def _open(
     connect = getattr(policy, "connect", None)  # a leader arm: the same, before anything is written
     if callable(connect):
         connect()
-    sinks: list[Sink] = make_sinks(
-        run.out,
-        schema,
-        opts.formats,
-        WriterConfig(video=opts.video),
-        opts.image_format,
-        mcap_compression=opts.mcap_compression,
-    )
-    bridge = DatasetBridge(schema, sinks)
+    observers = _observers(opts, schema)
+    try:
+        sinks: list[Sink] = make_sinks(
+            run.out,
+            schema,
+            opts.formats,
+            WriterConfig(video=opts.video),
+            opts.image_format,
+            mcap_compression=opts.mcap_compression,
+        )
+    except BaseException:
+        DatasetBridge(schema, [], observers=observers).close()  # the live view goes with the failed start
+        raise
+    bridge = DatasetBridge(schema, sinks, observers=observers)
     task = hal.task if hal.task is not None else rskill.description or rskill.id
     staleness = opts.staleness if opts.staleness is not None else 3.0 / opts.fps
-    driver = f"policy:{rskill.id}"
+    driver = rskill_driver(rskill)
     if opts.teleop is not None:
-        driver = f"teleop:{getattr(policy, 'type_name', opts.teleop)}"  # a leader arm: its lerobot type
-    config = LoopConfig(opts.fps, task, opts.max_steps, staleness, driver=driver)
+        driver = teleop_driver(getattr(policy, "type_name", opts.teleop))  # a leader arm: its lerobot type
+    ticks = episode_ticks(opts.episode_time_s, opts.fps)
+    config = LoopConfig(opts.fps, task, opts.step_limit, staleness, driver=driver, max_ticks=ticks)
     return FixedRateLoop(hal, policy, safety, bridge, operator, config)
+
+
+def _observers(opts: HalRecordOptions, schema: DatasetSchema) -> list[FrameObserver]:
+    """`--view`: the run live in rerun, as `record --view` shows a scene (the bridge closes it)."""
+    if not opts.view:
+        return []
+    from openral_data.viz.live import open_live_view
+
+    return [open_live_view(schema, port=opts.view_port, address=opts.view_address)]
 
 
 def _recorded_scene(scene: str | None) -> Recorded | None:
@@ -379,44 +416,71 @@ def _recorded_scene(scene: str | None) -> Recorded | None:
 
 
 def _episodes(opts: HalRecordOptions, out: Path, loop: FixedRateLoop, notify: Notify | None) -> HalRecordSummary:
-    """Episodes until `n_episodes` are kept, the operator quits or the e-stop latches; each one the operator
-    starts (an interactive one is asked first, except to re-record)."""
+    """Episodes until `n_episodes` are kept, the operator quits or the e-stop latches. An interactive operator
+    starts each one (space) unless it is a re-record or a reset wait (`--reset-time-s`) just ended; the reset wait
+    follows every episode but the last."""
     operator = loop.operator
+    flow = Flow(opts.n_episodes, loop.config.task, notify, opts.episode_time_s, opts.reset_time_s)
     summary = HalRecordSummary(out=out, episodes=[], reports=[], discarded=0, frames=0, seconds=0.0)
     t0 = time.perf_counter()
     # Ctrl-C / SIGTERM stop between ticks, never inside a commit
     with episode_loop(loop.bridge, loop.policy, out, lambda: len(summary.episodes)) as stop:
         loop.config.check_stop = stop.check
-        rerecord = False
+        rerecord = reset = False
         while len(summary.episodes) < opts.n_episodes:
             index = len(summary.episodes)
-            if notify is not None and operator.interactive and not rerecord:
-                notify(f"episode {index}: press space to start (q quits)")
-            if not rerecord and operator.wait_start(index, stop.check) is Command.QUIT:
-                summary.stopped_by_operator = True
-                break
+            if not rerecord and not (reset and operator.interactive):
+                flow.ask_start(index, operator.interactive)
+                if operator.wait_start(index, stop.check) is Command.QUIT:
+                    summary.stopped_by_operator = True
+                    break
+            flow.started(index, again=rerecord)
             t_episode = time.perf_counter()
             end, report, rec = loop.run_episode(index, opts.seed + index)
-            summary.all_reports.append(report)
             rerecord = end is EpisodeEnd.RERECORD
-            if notify is not None:
-                notify(
-                    f"episode {index}: {end.value} ({report.verdict}, {report.frames} frames, "
-                    f"{report.overruns} overruns, {report.stale_ticks} stale, {report.interventions} interventions)"
-                )
-            if end is EpisodeEnd.QUIT:
-                summary.stopped_by_operator = True
+            flow.say(
+                f"{flow.name(index)}: {end.value} ({report.verdict}, {report.frames} frames, "
+                f"{report.overruns} overruns, {report.stale_ticks} stale, {report.interventions} interventions)"
+            )
+            if not _account(summary, end, report, rec, time.perf_counter() - t_episode):
                 break
-            if rec is None:
-                summary.discarded += 1
-                continue
-            summary.episodes.append(rec)
-            log_episode(rec, time.perf_counter() - t_episode)
-            summary.reports.append(report)
-            summary.frames += rec.length
-            if report.estop is not None:
-                summary.estop = report.estop
-                break
+            if len(summary.episodes) < opts.n_episodes:
+                reset = flow.reset_time_s is not None
+                if not _reset(summary, flow, loop, stop.check):
+                    break
     summary.seconds = time.perf_counter() - t0
     log_totals(out, len(summary.episodes), summary.frames, summary.seconds)
     return summary
+
+
+def _reset(summary: HalRecordSummary, flow: Flow, loop: FixedRateLoop, check: Callable[[], None]) -> bool:
+    """The reset wait before the next episode; False when the run stops here (the operator quit, the e-stop)."""
+    cmd = flow.reset(loop.operator, len(summary.episodes), check)
+    if cmd is Command.QUIT:
+        summary.stopped_by_operator = True
+    elif cmd is Command.ESTOP:
+        loop.hal.estop("operator e-stop (between episodes)")
+        summary.estop = loop.hal.estop_reason
+        flow.say(f"e-stop: {summary.estop}")
+    return cmd not in (Command.QUIT, Command.ESTOP)
+
+
+def _account(
+    summary: HalRecordSummary, end: EpisodeEnd, report: EpisodeReport, rec: EpisodeRecord | None, seconds: float
+) -> bool:
+    """An episode's end into the summary; False when the run stops here (the operator quit, the e-stop)."""
+    summary.all_reports.append(report)
+    if end is EpisodeEnd.QUIT:
+        summary.stopped_by_operator = True
+        return False
+    if rec is None:
+        summary.discarded += 1
+        return True
+    summary.episodes.append(rec)
+    log_episode(rec, seconds)
+    summary.reports.append(report)
+    summary.frames += rec.length
+    if report.estop is not None:
+        summary.estop = report.estop
+        return False
+    return True

@@ -48,6 +48,7 @@ TICKS_MISSED = "openral.ticks_missed"
 TICKS_STALE = "openral.ticks_stale"
 SAFETY = "openral.safety_interventions"
 SAMPLE_AGE = "openral.sample_age."
+TIME_LIMIT = "time_limit"  # the verdict of an episode that ran its `--episode-time-s` without a verdict key
 MAX_LOGGED_INTERVENTIONS = 1000  # per episode in the JSON record; the per-frame column counts all of them
 
 
@@ -115,6 +116,7 @@ class LoopConfig:
     check_stop: Callable[[], None] | None = None  # raises (KeyboardInterrupt) to stop between ticks
     stale_abort: float = 2.0  # seconds of nothing but stale ticks: a sensor is dead, the episode is abandoned
     driver: str = "script"  # who drove (`operator` in the episode's record): policy:<rskill>, teleop:<device>
+    max_ticks: int | None = None  # `--episode-time-s`: the episode ends when this many ticks were due (record/flow.py)
 
 
 class FixedRateLoop:
@@ -167,9 +169,14 @@ class FixedRateLoop:
         return rep
 
     def _loop(self, episode: int, rep: EpisodeReport, ep: _Episode) -> Command | None:
-        """Tick until the operator gives a command (returned), the scene ends the task or the step limit is hit."""
+        """Tick until the operator gives a command (returned), the scene ends the task, the step limit is hit or the
+        episode's time (`max_ticks`) is up."""
         cfg = self.config
         while True:
+            if cfg.max_ticks is not None and ep.k >= cfg.max_ticks:  # the time ran out during an overrun
+                rep.ticks = ep.k
+                rep.verdict = TIME_LIMIT
+                return None
             deadline = ep.t0 + ep.k * self.dt
             now = monotonic()
             if deadline > now:
@@ -184,7 +191,12 @@ class FixedRateLoop:
                 return cmd
             self._work(episode, rep, ep)
             outcome = self.hal.outcome()
-            if (outcome is not None and outcome.terminated) or rep.frames >= cfg.max_steps:
+            if outcome is not None and outcome.terminated:
+                return None
+            if cfg.max_ticks is not None and ep.k + 1 >= cfg.max_ticks:  # this was the last tick of its time
+                rep.verdict = TIME_LIMIT
+                return None
+            if rep.frames >= cfg.max_steps:
                 return None
             self._advance(rep, ep)
 
@@ -316,7 +328,12 @@ class FixedRateLoop:
             success = bool(outcome.success)
         else:
             success = None  # ran to the step limit and nobody said how it went
-        rep.verdict = verdict.value if verdict is not None else ("scene" if outcome is not None else "step_limit")
+        if verdict is not None:
+            rep.verdict = verdict.value
+        elif outcome is not None and outcome.terminated:
+            rep.verdict = "scene"
+        elif rep.verdict != TIME_LIMIT:
+            rep.verdict = "scene" if outcome is not None else "step_limit"
         self.bridge.add_step(
             pending.obs, pending.action, reward=pending.reward, done=True,
             success=bool(success) if success is not None else pending.success, extras=pending.extras,

@@ -20,6 +20,7 @@ from openral_data.policies.checkpoint import (
 )
 from openral_data.policies.device import resolve_device, with_device
 from openral_data.record import output, recorded
+from openral_data.record.driver import rskill_driver
 from openral_data.record.options import (
     Keep,
     ProgressFn,
@@ -267,7 +268,15 @@ def _episodes(
         for e in range(first, run.n_episodes):
             t_episode = time.perf_counter()
             rec = _record_episode(
-                env, policy, bridge, run.base_seed + e, run.max_steps, stop, run.opts.instruction, run.opts.keep
+                env,
+                policy,
+                bridge,
+                run.base_seed + e,
+                run.max_steps,
+                stop,
+                run.opts.instruction,
+                run.opts.keep,
+                driver=rskill_driver(run.rskill),
             )
             if rec is None:
                 discarded += 1
@@ -289,11 +298,12 @@ def _record_episode(
     stop: StopRequest,
     instruction: str | None = None,
     keep: Keep = "all",
+    driver: str = "policy",
 ) -> EpisodeRecord | None:
     """One episode: row t = (observation t, the action the policy produced from it, what followed); with an
     `instruction` (`--instruction`) that is every observation's task, for the policy and in the dataset. With
-    `keep="success"` an episode that does not succeed is discarded (None). What an annotating policy says of the
-    episode goes to its `openral.episode_info`."""
+    `keep="success"` an episode that does not succeed is discarded (None). Who drove (`driver`, record/driver.py) and
+    what an annotating policy says of the episode go to its `openral.episode_info`."""
     stop.check()
     obs = tasks.instructed(env.reset(seed), instruction)
     policy.reset(seed)
@@ -313,5 +323,5 @@ def _record_episode(
     if keep == "success" and not success:
         bridge.discard_episode()
         return None
-    info = policy.episode_info() if isinstance(policy, AnnotatingPolicy) else None
+    info = {"operator": driver, **(policy.episode_info() if isinstance(policy, AnnotatingPolicy) else {})}
     return bridge.end_episode(success, info)[0]

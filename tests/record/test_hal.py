@@ -10,7 +10,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 
 # ConfigError raises are matched by message on purpose: the file and field it names are the point
 from openral_data.errors import ConfigError, HalError
@@ -20,7 +19,7 @@ from openral_data.replay.rebuild import SceneView, rebuild
 from openral_data.replay.recorded import RecordedDataset
 from openral_data.types import Observation, StepResult
 from tests.support.cli import run_cli
-from tests.support.feetech_bus import SimulatedFeetechBus, write_so_calibration
+from tests.support.feetech_bus import SimulatedFeetechBus, calibrated_so_project
 from tests.support.hal import episode_infos, frames_table
 from tests.support.mcap import check_bag
 from tests.support.timing import TIMED
@@ -92,12 +91,7 @@ def test_sim_scene_behind_the_hal(tmp_path: Path) -> None:
 
 def _so_project(project: Path, robot: str) -> Path:
     """The SO manifest pointing at a calibration file like `lerobot-calibrate` writes."""
-    write_so_calibration(project / "robots" / robot / "calibration" / f"{robot}.json")
-    path = project / "robots" / robot / "robot.yaml"
-    manifest = yaml.safe_load(path.read_text())
-    manifest["hardware"]["calibration_dir"] = "calibration"
-    path.write_text(yaml.safe_dump(manifest, sort_keys=False))
-    return project
+    return calibrated_so_project(project, robot)
 
 
 @pytest.fixture

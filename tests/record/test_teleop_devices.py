@@ -28,7 +28,8 @@ from openral_data.producers.hal import gamepad, spacemouse
 from tests.support.hal import episode_infos
 from tests.support.inproc import run_inproc
 from tests.support.input_devices import DeviceFifo, Gamepad, hid_axes, hid_buttons
-from tests.support.teleop_push import Watched, ended, push_waypoints, pushed, replays_exactly
+from tests.support.pty_terminal import Terminal
+from tests.support.teleop_push import ended, push_waypoints, pushed, replays_exactly
 
 F64 = npt.NDArray[np.float64]
 SEED = 0
@@ -64,7 +65,7 @@ class Device:
             self.fifo.write(hid_buttons(0b00))
 
 
-class Stderr(Watched):
+class Stderr(Terminal):
     """The CLI's stderr as it comes: the status lines and the episode lines."""
 
     def __init__(self, proc: subprocess.Popen[bytes]) -> None:

@@ -8,10 +8,7 @@ then replays exactly (`replay --mode actions`) and says who drove (`operator` in
 
 from __future__ import annotations
 
-import os
 import re
-import subprocess
-import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -21,7 +18,9 @@ import numpy.typing as npt
 import pytest
 
 from openral_data.producers.hal.teleop import KeyboardGains
-from tests.support.teleop_push import Watched, ended, push_waypoints, pushed, replays_exactly
+from tests.support.pty_terminal import Terminal as PtyTerminal
+from tests.support.pty_terminal import cli_on_pty
+from tests.support.teleop_push import push_waypoints, pushed, replays_exactly
 
 F64 = npt.NDArray[np.float64]
 SEED = 0
@@ -29,12 +28,8 @@ STATUS = re.compile(rb"eef (-?\d+\.\d+) (-?\d+\.\d+) (-?\d+\.\d+) gripper \w+ pe
 STEP = KeyboardGains().step
 
 
-class Terminal(Watched):
-    """The far side of the pty: what the program printed, and keys typed into it."""
-
-    def __init__(self, master: int) -> None:
-        super().__init__(master)
-        self.master = master
+class Terminal(PtyTerminal):
+    """The pty, and the teleop's status lines on it."""
 
     def status(self, after: int) -> tuple[F64, int, int]:
         """The newest status line printed after byte `after`: (eef position, moves pending, its end)."""
@@ -44,9 +39,6 @@ class Terminal(Watched):
         m = found[-1]
         pending = sum(abs(int(m.group(k))) for k in range(4, 8))
         return np.array([float(m.group(k)) for k in (1, 2, 3)]), pending, m.end()
-
-    def type(self, keys: str) -> None:
-        os.write(self.master, keys.encode())
 
 
 def _drive_to(term: Terminal, target: F64, tol: float, deadline: float, running: Callable[[], bool]) -> None:
@@ -75,15 +67,8 @@ def _drive_to(term: Terminal, target: F64, tol: float, deadline: float, running:
 def test_a_person_at_a_terminal_pushes_the_cube_and_the_episode_replays(project: Path, tmp_path: Path) -> None:
     waypoints = push_waypoints(SEED)
     out = tmp_path / "teleop"
-    master, slave = os.openpty()
     args = ["record", "--scene", "tabletop_push", "--teleop", "keyboard", "--out", str(out), "--codec", "h264"]
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "openral_data.cli", *args, "--seed", str(SEED), "--n-episodes", "1"],
-        stdin=slave, stdout=slave, stderr=slave, env={**os.environ, "MUJOCO_GL": "egl"}, close_fds=True,
-    )  # fmt: skip
-    os.close(slave)
-    term = Terminal(master)
-    try:
+    with cli_on_pty([*args, "--seed", str(SEED), "--n-episodes", "1"], Terminal) as (proc, term):
         term.wait_for(b"press space to start", 60)
         term.type(" g")  # start, and close the gripper: closed fingers push, open ones straddle the cube
         deadline = time.monotonic() + 40
@@ -91,9 +76,6 @@ def test_a_person_at_a_terminal_pushes_the_cube_and_the_episode_replays(project:
             _drive_to(term, target, 0.008 if k == 0 else 0.012, deadline, lambda: proc.poll() is None)
         proc.wait(timeout=20)
         term.read(0.2)
-    finally:
-        ended(proc)
-        os.close(master)
     actions = pushed(out, proc.returncode, term.text, "teleop:keyboard")
     assert np.all(actions[:, 6] == 1.0)  # the gripper closed from the first frame on
     assert np.abs(actions[:, :3]).max() <= KeyboardGains().max_step + 1e-6

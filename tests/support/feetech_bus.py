@@ -208,3 +208,15 @@ def _patient_is_packet_timeout(self: Any) -> bool:
         self.packet_timeout = 0
         return True
     return False
+
+
+def calibrated_so_project(project: Path, robot: str) -> Path:
+    """`project`'s SO manifest for `robot` pointing at a calibration file like `lerobot-calibrate` writes."""
+    import yaml
+
+    write_so_calibration(project / "robots" / robot / "calibration" / f"{robot}.json")
+    path = project / "robots" / robot / "robot.yaml"
+    manifest = yaml.safe_load(path.read_text())
+    manifest["hardware"]["calibration_dir"] = "calibration"
+    path.write_text(yaml.safe_dump(manifest, sort_keys=False))
+    return project

@@ -3,12 +3,8 @@ tests drive the real CLI through these waypoints, closed loop against its status
 
 from __future__ import annotations
 
-import contextlib
 import json
-import os
-import select
 import subprocess
-import time
 from pathlib import Path
 
 import numpy as np
@@ -43,26 +39,6 @@ def push_waypoints(seed: int) -> list[F64]:
     return [np.array([*behind, t.table + 0.1]), np.array([*behind, push_z]), np.array([*end, push_z])]
 
 
-class Watched:
-    """What a program writes to `fd` (the far side of its pty, or its stderr pipe), gathered as it comes."""
-
-    def __init__(self, fd: int) -> None:
-        self.fd = fd
-        self.text = b""
-
-    def read(self, timeout: float) -> None:
-        ready, _, _ = select.select([self.fd], [], [], timeout)
-        if ready:
-            with contextlib.suppress(OSError):  # the program exited and closed the pty
-                self.text += os.read(self.fd, 65536)
-
-    def wait_for(self, pattern: bytes, timeout: float) -> None:
-        end = time.monotonic() + timeout
-        while pattern not in self.text:
-            assert time.monotonic() < end, self.text[-2000:].decode(errors="replace")
-            self.read(0.1)
-
-
 def replays_exactly(out: Path, res: Path) -> None:
     """`replay --mode actions` of the one-episode recording `out` reproduces it: no divergence, the success too."""
     r = run_inproc("replay", str(out), "--mode", "actions", "--out", str(res), "--json")
@@ -77,7 +53,7 @@ def pushed(out: Path, returncode: int, output: bytes, driver: str) -> npt.NDArra
     `driver` (`openral.episode_info`'s operator); its actions."""
     text = output.decode(errors="replace")
     assert returncode == 0, text[-2000:]
-    assert "episode 0: kept (scene" in text
+    assert "episode 1/1: kept (scene" in text
     cols = frames_table(out)
     assert cols["next.success"][-1] is True
     info = episode_infos(out)[0]

@@ -20,6 +20,7 @@ import errno
 import os
 import stat
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -240,6 +241,18 @@ class DeviceOperator:
     def poll(self, episode: int, frame: int) -> Command | None:
         cmd = self.teleop.command()
         return cmd if cmd is not None else self.inner.poll(episode, frame)
+
+    def pause(self, seconds: float, check: Callable[[], None] = _no_check) -> Command | None:
+        """The reset wait: the operator's keys, and the device's buttons, in 0.1 s slices."""
+        end = time.monotonic() + seconds
+        while (left := end - time.monotonic()) > 0:
+            cmd = self.teleop.command()
+            if cmd in (Command.START, Command.QUIT, Command.ESTOP):
+                return cmd
+            cmd = self.inner.pause(min(0.1, left), check)
+            if cmd is not None:
+                return cmd
+        return None
 
     def at_end(self) -> Command | None:
         return self.inner.at_end()

@@ -12,6 +12,7 @@ import os
 import select
 import sys
 import termios
+import time
 import tty
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -61,6 +62,11 @@ class Operator(Protocol):
         """Non-blocking: a command given during the episode, after `frame` frames were recorded."""
         ...
 
+    def pause(self, seconds: float, check: Callable[[], None] = _nothing) -> Command | None:
+        """Between episodes (the reset time): wait `seconds` (None), unless the operator starts the next episode
+        now (START), quits (QUIT) or trips the e-stop (ESTOP) first; `check()` is called while waiting."""
+        ...
+
     def at_end(self) -> Command | None:
         """The verdict for an episode that ended without a command (step limit or the scene's end), if any."""
         ...
@@ -105,6 +111,15 @@ class KeyboardOperator:
             cmd = self._key(0.1)
             if cmd in (Command.START, Command.QUIT):
                 return cmd
+
+    def pause(self, seconds: float, check: Callable[[], None] = _nothing) -> Command | None:
+        end = time.monotonic() + seconds
+        while (left := end - time.monotonic()) > 0:
+            check()
+            cmd = self._key(min(0.1, left))
+            if cmd in (Command.START, Command.QUIT, Command.ESTOP):
+                return cmd
+        return None
 
     def poll(self, episode: int, frame: int) -> Command | None:
         while True:  # every key waiting: a teleoperator types faster than one key per tick
@@ -170,6 +185,13 @@ class ScriptedOperator:
         v = self.current()
         if v is not None and v.at_frame is not None and frame >= v.at_frame:
             return v.command
+        return None
+
+    def pause(self, seconds: float, check: Callable[[], None] = _nothing) -> Command | None:
+        end = time.monotonic() + seconds
+        while (left := end - time.monotonic()) > 0:
+            check()
+            time.sleep(min(0.05, left))
         return None
 
     def at_end(self) -> Command | None:
