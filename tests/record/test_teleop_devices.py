@@ -149,7 +149,7 @@ def test_a_gamepad_unplugged_mid_run_discards_the_episode_and_keeps_the_committe
     out, pad = tmp_path / "teleop", Gamepad(tmp_path / "event5")
     proc = _record("gamepad", pad.path, out, "--n-episodes", "3", "--operator", "success@5", "--max-steps", "400")
     with _running(proc, pad) as err_out:
-        err_out.wait_for(b"episode 0: kept", 60)
+        err_out.wait_for(b"episode 1/3: kept", 60)
         pad.unplug()
     lines = err_out.text.decode(errors="replace").strip().splitlines()
     assert proc.returncode == 2, lines[-20:]
