@@ -2,7 +2,8 @@
 its real key set). `convert` gives it the action UMI's own training code derives (per robot, eef_pos +
 eef_rot_axis_angle + gripper_width of the same step), through the starting mapping, where `--print-mapping` shows
 it as a guess; a store that has ``data/action`` keeps it. Every action row is checked against that derivation
-computed here with zarr and numpy alone, and lerobot 0.6.1 loads the output frame-exact."""
+computed here with zarr and numpy alone, and lerobot 0.6.1 loads the output frame-exact. A mapping part's
+`offset: N` (array sources; bags refuse it) takes step t + N instead, the last step holding: the next step's pose."""
 
 from __future__ import annotations
 
@@ -16,7 +17,9 @@ import yaml
 import zarr
 
 from openral_data.replay.recorded import RecordedDataset
+from openral_data.schemas.mapping import Vector
 from tests.support.array_sources import converted_episodes, lerobot_matches_ours
+from tests.support.bags import MAPPING, write_ros1
 from tests.support.inproc import run_inproc
 from tests.support.replay_buffer import umi_episodes, write_replay_buffer, write_umi_buffer
 
@@ -114,3 +117,36 @@ def test_no_action_and_no_umi_pose_is_one_line(tmp_path: Path) -> None:
     run = run_inproc("convert", str(path), str(out), "--fps", "10")
     assert run.returncode == 2 and run.stderr.count("\n") == 1, run.stderr
     assert run.stderr.startswith(f"error: {path}: data/action: missing") and not out.exists()
+
+
+def test_offset_1_gives_the_next_steps_pose_the_last_step_holding(
+    store: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr("openral_data.convert.from_arrays.MAX_CHUNK_ROWS", 3)  # offsets across chunk boundaries
+    run = run_inproc("convert", str(store), "--print-mapping", "--fps", "60")
+    mapping = yaml.safe_load(run.stdout)
+    for part in mapping["action"]["parts"]:
+        part["offset"] = 1
+    (tmp_path / "m.yaml").write_text(yaml.safe_dump(mapping))
+    tables = converted_episodes(store, tmp_path / "out", len(LENGTHS), "--mapping", str(tmp_path / "m.yaml"))
+    for w, rows in zip(_zarr_episodes(store), tables, strict=True):
+        action = _umi_action(w)
+        following = action[np.minimum(np.arange(len(action)) + 1, len(action) - 1)]
+        assert rows.column("action").to_pylist() == following.astype(np.float32).tolist()
+        assert rows.column("action").to_pylist()[-1] == rows.column("action").to_pylist()[-2]
+
+
+def test_offset_in_the_single_source_form_and_not_beside_parts() -> None:
+    assert Vector(topic="data/state", offset=2).sources()[0].offset == 2
+    assert Vector(topic="data/state").sources()[0].offset == 0
+    with pytest.raises(ValueError, match="offset beside parts"):
+        Vector(offset=1, parts=[{"topic": "data/state"}])  # type: ignore[list-item]
+
+
+def test_a_bag_mapping_with_an_offset_is_one_line(tmp_path: Path) -> None:
+    bag = write_ros1(tmp_path / "robot.bag")
+    (tmp_path / "m.yaml").write_text(yaml.safe_dump({**MAPPING, "action": {**MAPPING["action"], "offset": 1}}))
+    out = tmp_path / "out"
+    run = run_inproc("convert", str(bag), str(out), "--mapping", str(tmp_path / "m.yaml"))
+    assert run.returncode == 2 and run.stderr.count("\n") == 1, run.stderr
+    assert run.stderr.startswith(f"error: {bag}: action.offset: array sources only") and not out.exists()
