@@ -238,11 +238,10 @@ def _hdf5(root: Path, layout: str) -> None:
 def _zarr(root: Path, umi: bool) -> None:
     from tests.support import replay_buffer as rb
 
-    episodes = [{**e, "img": e["img"].repeat(6, axis=1).repeat(6, axis=2)} for e in rb.sample_episodes()]  # 48x36
-    if umi:  # UMI's arrays: JPEG-XL frames and robot0_* vectors, in a zip store (and data/action, which convert needs)
-        umi = [{"camera0_rgb": e["img"], "robot0_eef_pos": e["state"][:, :3], "action": e["action"]} for e in episodes]
-        rb.write_umi_buffer(root, umi)
+    if umi:  # UMI's own key set (no action: convert derives it as UMI does), JPEG-XL frames, in a zip store
+        rb.write_umi_buffer(root, rb.umi_episodes())
     else:
+        episodes = [{**e, "img": e["img"].repeat(6, axis=1).repeat(6, axis=2)} for e in rb.sample_episodes()]  # 48x36
         rb.write_replay_buffer(root, episodes)
 
 

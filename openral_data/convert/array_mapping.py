@@ -163,12 +163,43 @@ def _store_name(source: ArraySource) -> str:
     return name or "task"
 
 
+# UMI's action when its store has none: real-stanford/universal_manipulation_interface,
+# diffusion_policy/common/sampler.py, `SequenceSampler.__init__` (commit d095ba9590df789df5189eea5ee7e431689038a6):
+# without `action` in the replay buffer it concatenates, robot after robot, `robot<i>_eef_pos`,
+# `robot<i>_eef_rot_axis_angle` and `robot<i>_gripper_width` of the same row; `sample_sequence` then takes the
+# action chunk from the current row on (latency 0), and `UmiDataset.__getitem__` (diffusion_policy/dataset/
+# umi_dataset.py) reads 7 numbers a robot from it. So action[t] is the absolute end-effector pose (position,
+# axis-angle rotation) and gripper width the demonstration holds at step t; UMI's relative pose and 6-d rotation
+# are per-sample transforms of its training, not stored.
+_UMI_ACTION = ("eef_pos", "eef_rot_axis_angle", "gripper_width")
+_UMI_ROBOT = re.compile(r"data/robot(\d+)_eef_pos")
+_UMI_ACTION_WHY = (
+    "no data/action: UMI's training code (diffusion_policy/common/sampler.py) builds it, per robot, from "
+    "eef_pos + eef_rot_axis_angle + gripper_width of the same step (absolute pose, axis-angle)"
+)
+
+
+def _umi_action(specs: dict[str, ArraySpec]) -> list[dict[str, Any]]:
+    """The parts of the action UMI derives for a store without `data/action` (see _UMI_ACTION); [] when the store
+    has no `robot<i>_eef_pos`."""
+    robots = sorted(int(m.group(1)) for k in specs if (m := _UMI_ROBOT.fullmatch(k)))
+    keys = [f"data/robot{i}_{what}" for i in robots for what in _UMI_ACTION]
+    return [_part(k, specs[k]) for k in keys if k in specs and is_vector(specs[k])]
+
+
 def _zarr(source: ArraySource, specs: dict[str, ArraySpec]) -> tuple[dict[str, Any], list[Guess]]:
-    """diffusion policy / UMI replay buffers: `data/action`; `data/state` or `data/agent_pos`, else every other
-    float vector (UMI's robot0_*), as state; every HxWx3 uint8 array a camera."""
-    if "data/action" not in specs or not is_vector(specs["data/action"]):
-        raise DatasetError(f"{source.path}: data/action: missing (a replay buffer's action)", code="dataset.source.key")
+    """diffusion policy / UMI replay buffers: `data/action`, else UMI's derived action (`_umi_action`);
+    `data/state` or `data/agent_pos`, else every other float vector (UMI's robot0_*), as state; every HxWx3 uint8
+    array a camera."""
     guesses = [Guess("task", "the store's name; replay buffers hold no task text")]
+    if "data/action" in specs and is_vector(specs["data/action"]):
+        action = _part("data/action", specs["data/action"])
+    elif derived := _umi_action(specs):
+        action = _vector(derived)
+        guesses.append(Guess("action", _UMI_ACTION_WHY))
+    else:
+        raise DatasetError(f"{source.path}: data/action: missing (a replay buffer's action; nor UMI's "
+                           "robot<i>_eef_pos to derive it from)", code="dataset.source.key")  # fmt: skip
     named_state = next((k for k in ("data/state", "data/agent_pos") if k in specs and is_vector(specs[k])), None)
     if named_state is not None:
         state = [_part(named_state, specs[named_state])]
@@ -184,7 +215,7 @@ def _zarr(source: ArraySource, specs: dict[str, ArraySpec]) -> tuple[dict[str, A
         "robot_type": "unknown",
         "task": _store_name(source),
         "state": _vector(state),
-        "action": _part("data/action", specs["data/action"]),
+        "action": action,
         "cameras": {_camera_name(k): k for k, s in specs.items() if is_picture(s)},
     }
     return out, guesses

@@ -6,6 +6,8 @@ memory is bounded by a chunk and the frames the writer holds, never by a file.
 The mapping's roles name array keys (`convert.array_mapping`); every mapped key is checked on each episode before
 its first row is read (present, numbers or pictures, the width the names say) and every vector, reward and
 success value is checked finite as it is read: a bad one is one line naming the file, the episode and the key.
+A vector part with `offset: N` takes, at step t, the array's step t + N (the episode's last step once past it):
+e.g. an action that is the next step's pose, for sources that record no command.
 """
 
 from __future__ import annotations
@@ -177,10 +179,12 @@ def _episode(conv: Converter, ep: ArrayEpisode, where: str, done: int, total: in
     step_bytes = sum(max(1, int(np.prod(s.shape))) * np.dtype(s.dtype).itemsize for s in specs.values())
     rows = max(1, min(MAX_CHUNK_ROWS, CHUNK_BYTES // max(1, step_bytes)))
     period = 1e9 / mapping.fps
+    parts = {(s.topic, s.offset) for _role, s in mapping.vector_sources()}
     for start in range(0, ep.length, rows):
         stop = min(ep.length, start + rows)
         chunk = {key: ep.read(key, start, stop) for key in specs}
-        _take_chunk(conv, ep, chunk, start, stop, period, where)
+        vectors = {(key, k): _vector_rows(ep, key, k, chunk[key], start, stop, where) for key, k in parts}
+        _take_chunk(conv, ep, chunk, vectors, start, stop, period, where)
         done += stop - start
         if progress is not None:
             progress(done, total)
@@ -192,20 +196,33 @@ def _episode(conv: Converter, ep: ArrayEpisode, where: str, done: int, total: in
     return done
 
 
+def _vector_rows(
+    ep: ArrayEpisode, key: str, offset: int, rows: npt.NDArray[Any], start: int, stop: int, where: str
+) -> npt.NDArray[np.float32]:
+    """Steps start..stop of a vector part as float32, checked finite: `rows` (those steps of `key`) for offset 0,
+    else steps start + offset .. stop + offset read here, the episode's last step standing for those past it."""
+    at = f"{where}: {ep.name}/{key}"
+    if offset == 0:
+        return _finite(rows, at, start).astype(np.float32)
+    steps = np.minimum(np.arange(start + offset, stop + offset), ep.length - 1)
+    first = int(steps[0])
+    read = _finite(ep.read(key, first, int(steps[-1]) + 1), at, first)
+    shifted: npt.NDArray[np.float32] = read[steps - first].astype(np.float32)
+    return shifted
+
+
 def _take_chunk(
-    conv: Converter, ep: ArrayEpisode, chunk: dict[str, npt.NDArray[Any]], start: int, stop: int, period: float,
-    where: str,
+    conv: Converter, ep: ArrayEpisode, chunk: dict[str, npt.NDArray[Any]],
+    vectors: dict[tuple[str, int], npt.NDArray[np.float32]], start: int, stop: int, period: float, where: str,
 ) -> None:  # fmt: skip
     mapping = conv.mapping
     at = f"{where}: {ep.name}"
     values: dict[str, npt.NDArray[Any]] = {}
-    streams: list[tuple[str, str]] = []  # (stream, key) of the vector parts
+    streams: list[tuple[str, tuple[str, int]]] = []  # (stream, (key, offset)) of the vector parts
     for _role, keys in conv.vector_streams.items():
         for stream in keys:
-            key = conv.readers[stream].source.topic
-            if key not in values:
-                values[key] = _finite(chunk[key], f"{at}/{key}", start).astype(np.float32)
-            streams.append((stream, key))
+            source = conv.readers[stream].source
+            streams.append((stream, (source.topic, source.offset)))
     reward = _topic(mapping.reward)
     if reward is not None:
         values[reward] = _finite(chunk[reward], f"{at}/{reward}", start).reshape(-1)
@@ -213,7 +230,7 @@ def _take_chunk(
     done_flags = _finite(chunk[success], f"{at}/{success}", start).reshape(-1) != 0 if success else None
     for i in range(stop - start):
         t = round((start + i) * period)
-        samples: dict[str, Any] = {stream: values[key][i].reshape(-1) for stream, key in streams}
+        samples: dict[str, Any] = {stream: vectors[part][i].reshape(-1) for stream, part in streams}
         for name, key in mapping.cameras.items():
             samples[name] = _Picture(chunk[key][i])
         if reward is not None:

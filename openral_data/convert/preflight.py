@@ -15,7 +15,7 @@ from rosbags.interfaces import Connection
 from openral_data.convert.camera_topics import check_depth_camera, read_camera_info
 from openral_data.convert.sources import check_camera, deserialize, open_reader, read_messages
 from openral_data.convert.summary import ConvertSummary, TopicReport
-from openral_data.errors import BagError
+from openral_data.errors import BagError, ConfigError
 from openral_data.formats.lerobot_v3.depth import DepthUnit
 from openral_data.schemas.mapping import Mapping
 
@@ -31,6 +31,9 @@ class CameraTopics:
 def check_bags(bags: list[Path], mapping: Mapping, summary: ConvertSummary, cameras: CameraTopics) -> int:
     """Every mapped topic exists in every bag, with the cameras' types: checked up front, before anything is
     written. Fills the summary's topic reports and skipped topics, and `cameras`; returns the mapped messages."""
+    for role, source in mapping.vector_sources():
+        if source.offset:
+            raise ConfigError(f"{bags[0]}: {role}.offset: array sources only (a bag's streams align by time)")
     wanted = mapping.topics()
     extra = [t for t in (mapping.task_topic, mapping.success_topic, mapping.episodes.marker_topic) if t is not None]
     info_topics = list(mapping.camera_info.values())  # read up front (first message), not aligned

@@ -25,6 +25,9 @@ environment_state:            # optional -> observation.environment_state (non-r
   names: [x, y, z]
 # Roles may share a topic (state = position, action = velocity of one JointState; reward and success other
 # fields of it): each reads its own field of the same messages. A camera topic is only a camera.
+# Array sources (HDF5, zarr, RLDS; topic = an array key) also take `offset: N` on state / action /
+# environment_state or a part: step t reads the array's step t + N, the episode's last step once past it
+# (action: {topic: data/state, offset: 1} = the next step's state). Bags align by time and refuse it.
 cameras:                      # camera name -> sensor_msgs Image or CompressedImage topic
   front: /camera/front/image/compressed
 depth_cameras:                # camera name -> sensor_msgs Image topic in 16UC1 (millimetres) or 32FC1 (metres),
@@ -90,6 +93,7 @@ class VectorSource(StrictModel):
     field: str = "position"
     joints: list[str] | None = None
     names: list[str] | None = None
+    offset: int = Field(default=0, ge=0, le=100_000)  # array sources: step t reads step t + offset
 
     @model_validator(mode="after")
     def _check(self) -> VectorSource:
@@ -109,6 +113,7 @@ class Vector(StrictModel):
     field: str | None = None  # the single-source form's field; default "position"
     joints: list[str] | None = None
     names: list[str] | None = None
+    offset: int | None = Field(default=None, ge=0, le=100_000)  # the single-source form's offset; default 0
     parts: list[VectorSource] | None = None
 
     @model_validator(mode="after")
@@ -118,9 +123,11 @@ class Vector(StrictModel):
                 raise ValueError("needs topic (one source) or parts (several, concatenated in order)")
             _check_names(self.field or "position", self.joints, self.names)
             return self
-        beside = [k for k in ("topic", "field", "joints", "names") if getattr(self, k) is not None]
+        beside = [k for k in ("topic", "field", "joints", "names", "offset") if getattr(self, k) is not None]
         if beside:
-            raise ValueError(f"{', '.join(beside)} beside parts: give each part its own topic, field, joints, names")
+            raise ValueError(
+                f"{', '.join(beside)} beside parts: give each part its own topic, field, joints, names, offset"
+            )
         if not self.parts:
             raise ValueError("parts must be a non-empty list")
         seen: dict[str, int] = {}
@@ -140,7 +147,10 @@ class Vector(StrictModel):
         if self.parts is not None:
             return list(self.parts)
         assert self.topic is not None
-        return [VectorSource(topic=self.topic, field=self.field or "position", joints=self.joints, names=self.names)]
+        field = self.field or "position"
+        return [
+            VectorSource(topic=self.topic, field=field, joints=self.joints, names=self.names, offset=self.offset or 0)
+        ]
 
     def labels(self) -> list[str]:
         """Where each part is in the mapping, for messages: `parts[i]`, or "" for the single-source form."""

@@ -98,6 +98,32 @@ def write_umi_buffer(path: Path, episodes: list[Episode], image_key: str = "came
     return path
 
 
+def umi_episodes(
+    lengths: tuple[int, ...] = (5, 3, 7), seed: int = 0, size: tuple[int, int] = (36, 48)
+) -> list[Episode]:
+    """One gripper's episodes with UMI's own key set and dtypes, as real-stanford/universal_manipulation_interface's
+    scripts_slam_pipeline/07_generate_replay_buffer.py (commit d095ba9590df789df5189eea5ee7e431689038a6) fills
+    `episode_data`: ``camera0_rgb`` (uint8 HxWx3), ``robot0_eef_pos`` and ``robot0_eef_rot_axis_angle`` (float32
+    [3], the TCP pose), ``robot0_gripper_width`` (float32 [1]), ``robot0_demo_start_pose`` and
+    ``robot0_demo_end_pose`` (the demonstration's start and end pose on every row, in the pose's own dtype:
+    float64 [6]). No ``action``: UMI's training code derives it. Poses and widths are random walks, pictures
+    random."""
+    rng = np.random.default_rng(seed)
+    out: list[Episode] = []
+    for n in lengths:
+        pose = np.cumsum(rng.normal(0.0, 0.01, (n, 6)), axis=0) + rng.normal(0.0, 0.3, 6)
+        width = np.clip(0.05 + np.cumsum(rng.normal(0.0, 0.002, n)), 0.0, 0.1)
+        out.append({
+            "camera0_rgb": rng.integers(0, 256, (n, *size, 3), dtype=np.uint8),
+            "robot0_eef_pos": pose[:, :3].astype(np.float32),
+            "robot0_eef_rot_axis_angle": pose[:, 3:].astype(np.float32),
+            "robot0_gripper_width": width[:, None].astype(np.float32),
+            "robot0_demo_start_pose": np.repeat(pose[:1], n, axis=0),
+            "robot0_demo_end_pose": np.repeat(pose[-1:], n, axis=0),
+        })  # fmt: skip
+    return out
+
+
 def sample_episodes(lengths: tuple[int, ...] = (5, 3, 7), seed: int = 0) -> list[Episode]:
     """A pusht-like buffer: an 8x6 RGB image, a 5-d float32 state, a 2-d action, an int keypoint count."""
     rng = np.random.default_rng(seed)
