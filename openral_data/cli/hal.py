@@ -7,6 +7,7 @@ import typer
 
 from openral_data.cli.jsonout import print_json
 from openral_data.cli.terminal import INTERRUPTED_RECORDING, print_line, print_rows
+from openral_data.policies.intervention import HELP as TAKEOVER_HELP
 from openral_data.producers.hal.operator import HELP
 from openral_data.record.hal import HalRecordOptions, HalRecordSummary, record_hal
 
@@ -15,6 +16,8 @@ def run_hal_record(opts: HalRecordOptions, json: bool = False) -> None:
     """Record through the HAL with options the CLI built (and checked: `HalRecordOptions`), then print the summary."""
     if opts.operator == "keyboard":
         print_line(HELP, err=True)
+    if opts.takeover:
+        print_line(TAKEOVER_HELP, err=True)
     try:
         s = record_hal(opts, lambda line: print_line(line, err=True))
     except KeyboardInterrupt:

@@ -101,6 +101,7 @@ def record(
     video = video_settings(codec, crf, gop, preset, pix_fmt, encoder_threads)  # a bad combination: before anything
     if teleop == "leader" and hal is None:
         raise UsageError("--teleop leader: needs --hal ROBOT_ID (the robot whose manifest names the leader)")
+    takeover = teleop == "keyboard" and rskill is not None  # a policy drives, the person takes over with `t`
     if teleop is not None and hal is None:
         from openral_data.record.hal import teleop_scene
 
@@ -148,6 +149,7 @@ def record(
             staleness=staleness,
             port=port,
             teleop=teleop,
+            takeover=takeover,
         )
         run_hal_record(hal_opts, json)
         return

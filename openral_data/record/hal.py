@@ -18,6 +18,7 @@ from openral_data.formats.lerobot_v3.encoder import with_codec
 from openral_data.formats.lerobot_v3.provenance import HalOrigin, Origin, Recorded, SafetyRecord
 from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.policies.base import PolicyAdapter
+from openral_data.policies.intervention import Intervention, TakeoverSwitch, intervention_columns
 from openral_data.producers.hal.base import HalBase
 from openral_data.producers.hal.operator import Command, KeyboardOperator, Operator, ScriptedOperator, parse_script
 from openral_data.producers.hal.safety import SafetyFilter
@@ -65,6 +66,7 @@ class HalRecordOptions:
     port: str | None = None  # real mode: override the manifest's hardware.port
     video: VideoSettings = field(default_factory=VideoSettings)  # the encoder settings; `codec` is its shorthand
     teleop: str | None = None  # a person drives instead of the rSkill's policy: keyboard, leader
+    takeover: bool = False  # the rSkill's policy drives and the person (`teleop`) takes over with `t` and back
 
     def __post_init__(self) -> None:
         """`mode`, `safety` and the output settings are checked here, once, by whoever builds the options (the
@@ -80,6 +82,8 @@ class HalRecordOptions:
             raise UsageError(f"--teleop: {self.teleop!r}; valid: {', '.join(TELEOP_DEVICES)}")
         if self.teleop == "keyboard" and self.operator != "keyboard":
             raise UsageError("--teleop keyboard: the operator keys come from the same terminal (--operator keyboard)")
+        if self.takeover and (self.teleop != "keyboard" or self.rskill is None):
+            raise UsageError("interventions: a policy (--rskill) and --teleop keyboard, the takeover key's terminal")
         if self.rskill is None and self.teleop != "leader":
             raise UsageError("--rskill: needed (only --teleop leader records without one: the robot's own contract)")
 
@@ -215,10 +219,14 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
     run = _resolve(opts)
     held = claim(run.out, "openral-data record --hal", resume=False)  # one writer, before any byte goes into `out`
     try:
-        keys = None
+        keys = switch = None
         if opts.teleop == "keyboard":
             keys = KeyboardTeleop(run.rskill, run.rskill_src, show=tty_status(STATUS_FD))
-        operator = make_operator(opts.operator, keys.feed if keys is not None else None)
+        listener = keys.feed if keys is not None else None
+        if opts.takeover:  # `t` goes to the switch, the other keys through it to the teleoperator
+            switch = TakeoverSwitch(listener)
+            listener = switch.feed
+        operator = make_operator(opts.operator, listener)
         leader = None
         try:
             if opts.teleop == "leader":
@@ -227,7 +235,12 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
                 leader = LeaderTeleop(run.robot, str(manifests.robot_file(run.robot.name)))
             hal = build_hal(opts, run.robot, run.rskill, run.rskill_src)
             try:
-                policy = keys or leader or run.make_policy(run.rskill)
+                if switch is not None and keys is not None:
+                    policy: PolicyAdapter = Intervention(
+                        run.make_policy(run.rskill), keys, switch, show=tty_status(STATUS_FD)
+                    )
+                else:
+                    policy = keys or leader or run.make_policy(run.rskill)
                 loop = _open(opts, run, hal, policy, operator)
                 return _episodes(opts, run.out, loop, notify)
             finally:
@@ -319,6 +332,7 @@ def _open(
         ),
         has_reward=hal.has_reward,
         frame_extras=frame_extras(cameras),
+        frame_columns=intervention_columns(rskill.action_contract.names) if opts.takeover else (),
     )
     hal.connect()  # a robot that cannot be reached fails here, before anything is written
     connect = getattr(policy, "connect", None)  # a leader arm: the same, before anything is written
@@ -336,7 +350,9 @@ def _open(
     task = hal.task if hal.task is not None else rskill.description or rskill.id
     staleness = opts.staleness if opts.staleness is not None else 3.0 / opts.fps
     driver = f"policy:{rskill.id}"
-    if opts.teleop is not None:
+    if opts.takeover:
+        driver = f"policy:{rskill.id}+teleop:{opts.teleop}"
+    elif opts.teleop is not None:
         driver = f"teleop:{getattr(policy, 'type_name', opts.teleop)}"  # a leader arm: its lerobot type
     config = LoopConfig(opts.fps, task, opts.max_steps, staleness, driver=driver)
     return FixedRateLoop(hal, policy, safety, bridge, operator, config)

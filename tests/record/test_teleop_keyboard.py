@@ -8,13 +8,8 @@ then replays exactly (`replay --mode actions`) and says who drove (`operator` in
 
 from __future__ import annotations
 
-import contextlib
 import json
-import os
 import re
-import select
-import subprocess
-import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -29,6 +24,7 @@ from openral_data.runtime import registry
 from openral_data.schemas.scene import load_recordable_scene
 from tests.support.hal import episode_infos, frames_table
 from tests.support.inproc import run_inproc
+from tests.support.pty_cli import Terminal, on_pty
 
 F64 = npt.NDArray[np.float64]
 SEED = 0
@@ -56,36 +52,14 @@ def _waypoints(seed: int) -> list[F64]:
     return [np.array([*behind, t.table + 0.1]), np.array([*behind, push_z]), np.array([*end, push_z])]
 
 
-class Terminal:
-    """The far side of the pty: what the program printed, and keys typed into it."""
-
-    def __init__(self, master: int) -> None:
-        self.master = master
-        self.text = b""
-
-    def read(self, timeout: float) -> None:
-        ready, _, _ = select.select([self.master], [], [], timeout)
-        if ready:
-            with contextlib.suppress(OSError):  # the program exited and closed the pty
-                self.text += os.read(self.master, 65536)
-
-    def wait_for(self, pattern: bytes, timeout: float) -> None:
-        end = time.monotonic() + timeout
-        while pattern not in self.text:
-            assert time.monotonic() < end, self.text[-2000:].decode(errors="replace")
-            self.read(0.1)
-
-    def status(self, after: int) -> tuple[F64, int, int]:
-        """The newest status line printed after byte `after`: (eef position, moves pending, its end)."""
-        found = list(STATUS.finditer(self.text, after))
-        if not found:
-            return np.zeros(3), 1, after
-        m = found[-1]
-        pending = sum(abs(int(m.group(k))) for k in range(4, 8))
-        return np.array([float(m.group(k)) for k in (1, 2, 3)]), pending, m.end()
-
-    def type(self, keys: str) -> None:
-        os.write(self.master, keys.encode())
+def _status(term: Terminal, after: int) -> tuple[F64, int, int]:
+    """The newest status line printed after byte `after`: (eef position, moves pending, its end)."""
+    found = list(STATUS.finditer(term.text, after))
+    if not found:
+        return np.zeros(3), 1, after
+    m = found[-1]
+    pending = sum(abs(int(m.group(k))) for k in range(4, 8))
+    return np.array([float(m.group(k)) for k in (1, 2, 3)]), pending, m.end()
 
 
 def _drive_to(term: Terminal, target: F64, tol: float, deadline: float, running: Callable[[], bool]) -> None:
@@ -94,7 +68,7 @@ def _drive_to(term: Terminal, target: F64, tol: float, deadline: float, running:
     seen = len(term.text)
     while time.monotonic() < deadline and running():
         term.read(0.05)
-        pos, pending, end = term.status(seen)
+        pos, pending, end = _status(term, seen)
         if end == seen or pending:
             continue
         seen = end
@@ -114,15 +88,8 @@ def _drive_to(term: Terminal, target: F64, tol: float, deadline: float, running:
 def test_a_person_at_a_terminal_pushes_the_cube_and_the_episode_replays(project: Path, tmp_path: Path) -> None:
     waypoints = _waypoints(SEED)
     out = tmp_path / "teleop"
-    master, slave = os.openpty()
     args = ["record", "--scene", "tabletop_push", "--teleop", "keyboard", "--out", str(out), "--codec", "h264"]
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "openral_data.cli", *args, "--seed", str(SEED), "--n-episodes", "1"],
-        stdin=slave, stdout=slave, stderr=slave, env={**os.environ, "MUJOCO_GL": "egl"}, close_fds=True,
-    )  # fmt: skip
-    os.close(slave)
-    term = Terminal(master)
-    try:
+    with on_pty(*args, "--seed", str(SEED), "--n-episodes", "1") as (proc, term):
         term.wait_for(b"press space to start", 60)
         term.type(" g")  # start, and close the gripper: closed fingers push, open ones straddle the cube
         deadline = time.monotonic() + 40
@@ -130,11 +97,6 @@ def test_a_person_at_a_terminal_pushes_the_cube_and_the_episode_replays(project:
             _drive_to(term, target, 0.008 if k == 0 else 0.012, deadline, lambda: proc.poll() is None)
         proc.wait(timeout=20)
         term.read(0.2)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-        os.close(master)
     text = term.text.decode(errors="replace")
     assert proc.returncode == 0, text[-2000:]
     assert "episode 0: kept (scene" in text
