@@ -19,8 +19,9 @@ Stored per frame (LeRobot: float32 columns; MCAP: the message stamps): `timestam
 reading since the episode began (also `Observation.time`, the MCAP stamp); `openral.tick`,
 `openral.ticks_missed`, `openral.ticks_stale`, `openral.safety_interventions` and
 `openral.sample_age.<camera>`; in an intervention session (policies/intervention.py) also the policy's proposal
-`openral.policy_action` and the flag `openral.intervention`. The episode's report (overruns, stale and repeat counts, every safety
-intervention, the operator's verdict) goes to the episode record (`openral.episode_info` in meta/episodes).
+`openral.policy_action` and the flag `openral.intervention`. The episode's report (overruns, stale and repeat
+counts, every safety intervention, the operator's verdict) goes to the episode record (`openral.episode_info` in
+meta/episodes).
 """
 
 from __future__ import annotations

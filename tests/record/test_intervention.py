@@ -1,5 +1,9 @@
 """An intervention session: `record --scene tabletop_push --rskill scripted-push --teleop keyboard`.
 
+First the latency, exactly: the fixed-rate loop on the UR5e twin with the real `KeyboardOperator` reading a
+pty, the person typing `t` into it while frame k is being worked on: frame k+1 is the first one the teleoperator
+drives (and the first the policy drives again after the second `t`), and a plain recording has no such column.
+
 The real CLI runs on a pseudo-terminal; the scripted expert drives; this test is the person: it watches the
 `frame N: policy drives` lines, presses `t` after a known frame, moves the arm up with keys while it drives, and
 presses `t` again. The recording must then say at every frame who drove (exactly the frames between the two
@@ -12,6 +16,7 @@ right numbers in `stats`.
 from __future__ import annotations
 
 import json
+import os
 import re
 import time
 from pathlib import Path
@@ -20,11 +25,21 @@ import numpy as np
 import pytest
 
 from openral_data.metrics.command import stats_query
-from openral_data.policies.intervention import INTERVENTION, POLICY_ACTION
+from openral_data.policies.intervention import (
+    INTERVENTION,
+    POLICY_ACTION,
+    Intervention,
+    TakeoverSwitch,
+    intervention_columns,
+)
+from openral_data.producers.hal.operator import KeyboardOperator
 from openral_data.producers.hal.teleop import KeyboardGains
+from openral_data.record.hal import HalRecordOptions, record_hal
+from openral_data.record.hal_loop import EpisodeEnd
 from openral_data.runtime import registry
 from openral_data.schemas.scene import load_recordable_scene
-from tests.support.hal import episode_infos, frames_table
+from openral_data.types import Observation
+from tests.support.hal import episode_infos, frames_table, run_loop, ur5e_twin
 from tests.support.inproc import run_inproc
 from tests.support.pty_cli import Terminal, on_pty
 
@@ -34,6 +49,79 @@ POLICY = re.compile(rb"frame (\d+): policy drives \(")
 TAKEN = re.compile(rb"frame (\d+): teleop drives")
 BACK = re.compile(rb"frame (\d+): policy drives again")
 STATUS = re.compile(rb"eef -?\d+\.\d+ -?\d+\.\d+ -?\d+\.\d+ gripper \w+ pending 0 0 0 0")
+
+
+class _Hold:
+    """A joint teleoperator that holds the action in effect at the takeover (what it was given by `take_over`)."""
+
+    def __init__(self) -> None:
+        self.held: np.ndarray | None = None  # type: ignore[type-arg]
+
+    def take_over(self, action: np.ndarray) -> None:  # type: ignore[type-arg]
+        self.held = action.copy()
+
+    def reset(self, seed: int) -> None:
+        self.held = None
+
+    def step(self, observation: Observation, instruction: str) -> np.ndarray:  # type: ignore[type-arg]
+        assert self.held is not None
+        return self.held
+
+    def close(self) -> None:
+        pass
+
+
+class _Person:
+    """The sweep policy, and a person who types `t` into the terminal while frame k in `presses` is worked on;
+    it keeps every proposal."""
+
+    def __init__(self, master: int, presses: set[int]) -> None:
+        rskill, path = registry.resolve_rskill("sweep-ur5e")
+        self.inner = registry.policy_factory(rskill, str(path))(rskill)
+        self.master, self.presses = master, presses
+        self.proposals: list[np.ndarray] = []  # type: ignore[type-arg]
+
+    def reset(self, seed: int) -> None:
+        self.inner.reset(seed)
+
+    def step(self, observation: Observation, instruction: str) -> np.ndarray:  # type: ignore[type-arg]
+        if len(self.proposals) in self.presses:
+            os.write(self.master, b"t")
+        self.proposals.append(self.inner.step(observation, instruction))
+        return self.proposals[-1]
+
+    def close(self) -> None:
+        self.inner.close()
+
+
+def test_a_press_takes_effect_at_the_next_frame(tmp_path: Path) -> None:
+    rskill, _ = registry.resolve_rskill("sweep-ur5e")
+    master, slave = os.openpty()
+    switch = TakeoverSwitch()
+    operator = KeyboardOperator(fd=slave, listener=switch.feed)
+    person, hold = _Person(master, {4, 11}), _Hold()
+    policy = Intervention(person, hold, switch)
+    columns = intervention_columns(rskill.action_contract.names)
+    os.write(master, b" ")  # space: start the episode
+    try:
+        [(end, rep)] = run_loop(ur5e_twin(cameras=[]), policy, operator, tmp_path / "ds", max_steps=16, columns=columns)
+    finally:
+        operator.close()
+        os.close(master)
+        os.close(slave)
+    assert end is EpisodeEnd.KEPT and rep.frames == 16
+    cols = frames_table(tmp_path / "ds")
+    flags = cols[INTERVENTION]
+    assert flags == [5 <= i < 12 for i in range(16)]
+    proposals = np.array(cols[POLICY_ACTION], dtype=np.float32)
+    assert np.array_equal(proposals, np.stack(person.proposals))  # what the policy proposed, every frame
+    actions = np.array(cols["action"], dtype=np.float32)
+    assert np.array_equal(actions[5:12], np.repeat(proposals[4:5], 7, axis=0))  # held from the takeover on
+
+    plain = tmp_path / "plain"  # no takeover: the schema has no intervention column
+    record_hal(HalRecordOptions(robot="ur5e", rskill="sweep-ur5e", max_steps=3, out=plain, codec="h264"))
+    features = json.loads((plain / "meta" / "info.json").read_text())["features"]
+    assert not {INTERVENTION, POLICY_ACTION} & set(features)
 
 
 def _wait(term: Terminal, pattern: re.Pattern[bytes], after: int, timeout: float) -> re.Match[bytes]:
