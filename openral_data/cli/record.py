@@ -55,7 +55,10 @@ def record(
     port: Annotated[str | None, typer.Option(help="--hal --mode real: serial port (default: the manifest's)")] = None,
     teleop: Annotated[
         str | None,
-        typer.Option(help="a person drives: keyboard (the terminal, a sim scene) or leader (hardware.teleop)"),
+        typer.Option(
+            help="a person drives: keyboard (the terminal, a sim scene) or leader (hardware.teleop); "
+            "keyboard with --rskill: the policy drives and t takes over and back (interventions)"
+        ),
     ] = None,
     resume: Annotated[
         bool, typer.Option("--resume", help="continue the recording in --out (its settings; --n-episodes = total)")
