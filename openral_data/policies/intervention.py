@@ -98,7 +98,7 @@ class Intervention:
         self.proposal = self.executed = None
 
     def step(self, observation: Observation, instruction: str) -> npt.NDArray[np.float32]:
-        proposal = np.asarray(self.policy.step(observation, instruction), dtype=np.float32)
+        proposal = self.policy.step(observation, instruction)  # the bridge checks it (`columns`), as the action
         if self.switch.requested != self.intervening:
             self.intervening = self.switch.requested
             if self.intervening and self.executed is None:  # taken over before the first frame
@@ -107,7 +107,7 @@ class Intervention:
         elif not self.intervening and self.status_every and self.frame % self.status_every == 0:
             self._say("policy drives (t takes over)")
         action = self.teleop.step(observation, instruction) if self.intervening else proposal
-        self.proposal, self.executed = proposal, np.asarray(action, dtype=np.float32)
+        self.proposal, self.executed = proposal, action
         self.frame += 1
         return self.executed
 
