@@ -159,6 +159,20 @@ class SimRollout(Protocol):
 
 
 @dataclass(frozen=True)
+class FrameColumn:
+    """A per-frame feature beyond the scalar `frame_extras`: a float32 vector with one name per dimension
+    (e.g. `openral.policy_action`, the action's names) or a bool flag (`names` empty: shape [1])."""
+
+    key: str
+    dtype: Literal["float32", "bool"]
+    names: tuple[str, ...] = ()
+
+    @property
+    def dim(self) -> int:
+        return len(self.names) if self.dtype == "float32" else 1
+
+
+@dataclass(frozen=True)
 class DatasetSchema:
     """Everything a sink needs to lay out a dataset before the first frame arrives."""
 
@@ -177,6 +191,8 @@ class DatasetSchema:
     # Extra per-frame float columns (e.g. a HAL's real monotonic timestamps, overrun and safety flags); every
     # frame must carry exactly these keys in `Frame.extras`. LeRobot v3: float32 features of shape [1].
     frame_extras: tuple[str, ...] = ()
+    # Extra per-frame vector/flag features (`Frame.columns`, the same keys on every frame); none by default
+    frame_columns: tuple[FrameColumn, ...] = ()
     # lerobot's `observation.environment_state` (e.g. object poses), per-dimension names; empty: the source has none
     environment_state_names: tuple[str, ...] = ()
 
@@ -204,6 +220,7 @@ class Frame:
     extras: dict[str, float] = field(default_factory=dict)  # DatasetSchema.frame_extras values
     environment_state: npt.NDArray[np.float32] | None = None  # when DatasetSchema.environment_state_names is set
     transforms: dict[str, npt.NDArray[np.float64]] = field(default_factory=dict)  # see Observation.transforms
+    columns: dict[str, npt.NDArray[Any]] = field(default_factory=dict)  # DatasetSchema.frame_columns values
 
 
 @dataclass(frozen=True)

@@ -8,6 +8,7 @@ import typer
 from openral_data.cli import terminal
 from openral_data.cli.jsonout import print_json
 from openral_data.cli.terminal import INTERRUPTED_RECORDING, print_line, print_rows
+from openral_data.policies.intervention import HELP as TAKEOVER_HELP
 from openral_data.producers.hal.operator import HELP
 from openral_data.record.hal import HalRecordOptions, HalRecordSummary, record_hal
 
@@ -19,6 +20,8 @@ def run_hal_record(opts: HalRecordOptions, json: bool = False) -> None:
     talk = not (json or terminal.quiet)
     if opts.operator == "keyboard" and talk:
         print_line(HELP, err=True)
+    if opts.takeover:
+        print_line(TAKEOVER_HELP, err=True)
     try:
         s = record_hal(opts, (lambda line: print_line(line, err=True)) if talk else None)
     except KeyboardInterrupt:

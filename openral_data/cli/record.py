@@ -61,7 +61,8 @@ def record(
         str | None,
         typer.Option(
             help="a person drives: keyboard (the terminal), gamepad[=NODE] or spacemouse[=NODE] (a sim scene's "
-            "end effector), or leader (hardware.teleop)"
+            "end effector), or leader (hardware.teleop); keyboard with --rskill: the policy drives and t takes "
+            "over and back (interventions)"
         ),
     ] = None,
     episode_time_s: Annotated[
@@ -116,6 +117,7 @@ def record(
         raise UsageError("--policy: not with --hal or --teleop (a scene recording only)")
     if teleop == "leader" and hal is None:
         raise UsageError("--teleop leader: needs --hal ROBOT_ID (the robot whose manifest names the leader)")
+    takeover = teleop == "keyboard" and rskill is not None  # a policy drives, the person takes over with `t`
     if teleop is not None and hal is None:
         from openral_data.record.hal import teleop_scene
 
@@ -169,6 +171,7 @@ def record(
             view=view,
             view_port=view_port,
             view_address=view_address,
+            takeover=takeover,
         )
         run_hal_record(hal_opts, json)
         return

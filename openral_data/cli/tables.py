@@ -25,7 +25,7 @@ if TYPE_CHECKING:
 
 PIPED_WIDTH = 200  # no terminal and no $COLUMNS: a log or a pipe, read by a person later
 SHOWN_WHEN_EMPTY = ("groups",)  # compact view: a table without rows is one `name: (none)` line, except these
-COMPACT = ("groups", "comparison", "health")
+COMPACT = ("groups", "comparison", "intervention_policies", "health")
 
 
 def width() -> int:

@@ -11,11 +11,12 @@ import duckdb
 
 from openral_data.errors import QueryError, UsageError
 from openral_data.formats.results import Results
-from openral_data.metrics import health, intervals
+from openral_data.metrics import health, intervals, intervention_sql
 from openral_data.metrics.episode_stats import DimensionSource, summarise
 from openral_data.metrics.scan import VectorScan
 from openral_data.metrics.sources import DatasetSource
 from openral_data.metrics.views import check_select, ident, query
+from openral_data.policies.intervention import INTERVENTION
 
 BY_KEYS = ("dataset", "task", "rskill", "scene", "robot", "seed")
 GROUP_NUMBERS = (
@@ -179,6 +180,17 @@ def results_table(con: duckdb.DuckDBPyConnection) -> Table:
     return out
 
 
+def intervention_tables(con: duckdb.DuckDBPyConnection) -> list[Table]:
+    """Per episode and per policy: the share of frames a person drove, the takeovers and their lengths (the
+    `intervention_episodes` view)."""
+    _, episodes = query(con, intervention_sql.EPISODES_SQL)
+    _, policies = query(con, intervention_sql.POLICIES_SQL)
+    return [
+        Table("interventions", list(intervention_sql.EPISODE_COLUMNS), [list(r) for r in episodes]),
+        Table("intervention_policies", list(intervention_sql.POLICY_COLUMNS), [list(r) for r in policies]),
+    ]
+
+
 def health_table(
     con: duckdb.DuckDBPyConnection, datasets: Sequence[DatasetSource], scans: dict[str, VectorScan]
 ) -> Table:
@@ -210,6 +222,8 @@ def build_report(
     if datasets:
         groups = group_table(con, by)
         tables += [groups, comparison_table(groups, by), dimension_table(scans), sources_table(sources)]
+    if any(INTERVENTION in ds.data_columns for ds in datasets):  # only a session that has them
+        tables += intervention_tables(con)
     if results:
         tables.append(results_table(con))
     if datasets and check_health:

@@ -10,6 +10,8 @@ Views (documented in docs/stats.md):
 * `randomization` — one row per value a randomized scene drew for an episode (`scene.params.randomize`, stored
   in `openral.initial_state`): dataset, episode_index, key (`light.diffuse[0]`, `textures.table`,
   `distractors.count`, ...), value (DOUBLE, numbers) and text (VARCHAR, names).
+* `interventions` / `intervention_episodes` — a person's takeovers from the policy and each episode's rate
+  (metrics/intervention_sql.py); empty for datasets without `openral.intervention`.
 * `tasks`    — dataset, task_index, task.
 * `datasets` — one row per dataset: dataset, path, fps, robot_type, episodes, frames, scene, rskill, robot.
 * `results`  / `result_steps` — replay/eval results (see `formats/results.py`), with `results`, `kind`
@@ -31,7 +33,9 @@ from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.reader import read_tasks_table
 from openral_data.formats.lerobot_v3.success import EPISODE_SUCCESS, episode_successes
 from openral_data.formats.results import Results
+from openral_data.metrics import intervention_sql
 from openral_data.metrics.sources import DatasetSource
+from openral_data.policies.intervention import INTERVENTION
 
 DEFAULT_MEMORY_LIMIT = "1GB"
 
@@ -154,6 +158,11 @@ def _register_datasets(con: duckdb.DuckDBPyConnection, datasets: Sequence[Datase
     con.execute("CREATE VIEW episodes AS " + _union(parts, _EMPTY_EPISODES))
     drawn = [_randomization_sql(ds) for ds in datasets if "openral.initial_state" in ds.episode_columns]
     con.execute("CREATE VIEW randomization AS " + _union(drawn, _EMPTY_RANDOMIZATION))
+    flagged = [ds for ds in datasets if INTERVENTION in ds.data_columns and ds.data_files]
+    for statement in intervention_sql.view_statements(
+        [(lit(ds.label), f"read_parquet({files_sql(ds.data_files)})") for ds in flagged]
+    ):
+        con.execute(statement)
     _register_tasks(con, datasets)
     rows = [
         "("

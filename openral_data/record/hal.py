@@ -18,6 +18,7 @@ from openral_data.formats.lerobot_v3.encoder import with_codec
 from openral_data.formats.lerobot_v3.provenance import HalOrigin, Origin, Recorded, SafetyRecord
 from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.policies.base import PolicyAdapter
+from openral_data.policies.intervention import Intervention, TakeoverSwitch, intervention_columns
 from openral_data.producers.hal.base import HalBase
 from openral_data.producers.hal.devices import DEVICE_KINDS, device_kind
 from openral_data.producers.hal.eef_device import DeviceOperator, DeviceTeleop
@@ -86,6 +87,8 @@ class HalRecordOptions:
         ticks = episode_ticks(self.episode_time_s, self.fps)
         return ticks if ticks is not None else DEFAULT_MAX_STEPS
 
+    takeover: bool = False  # the rSkill's policy drives and the person (`teleop`) takes over with `t` and back
+
     def __post_init__(self) -> None:
         """`mode`, `safety` and the output settings are checked here, once, by whoever builds the options (the
         CLI, the Python API)."""
@@ -105,6 +108,8 @@ class HalRecordOptions:
             raise UsageError(f"--teleop: {self.teleop!r}; valid: {valid}")
         if self.teleop == "keyboard" and self.operator != "keyboard":
             raise UsageError("--teleop keyboard: the operator keys come from the same terminal (--operator keyboard)")
+        if self.takeover and (self.teleop != "keyboard" or self.rskill is None):
+            raise UsageError("interventions: a policy (--rskill) and --teleop keyboard, the takeover key's terminal")
         if self.rskill is None and self.teleop != "leader":
             raise UsageError("--rskill: needed (only --teleop leader records without one: the robot's own contract)")
 
@@ -239,12 +244,16 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
     run = _resolve(opts)
     held = claim(run.out, "openral-data record --hal", resume=False)  # one writer, before any byte goes into `out`
     try:
-        keys = None
+        keys = switch = None
         if opts.teleop == "keyboard":
             keys = KeyboardTeleop(run.rskill, run.rskill_src, show=tty_status(STATUS_FD))
         device = _device(opts, run)
+        listener = keys.feed if keys is not None else None
+        if opts.takeover:  # `t` goes to the switch, the other keys through it to the teleoperator
+            switch = TakeoverSwitch(listener)
+            listener = switch.feed
         try:
-            operator = make_operator(opts.operator, keys.feed if keys is not None else None)
+            operator = make_operator(opts.operator, listener)
         except BaseException:
             if device is not None:
                 device.close()
@@ -259,7 +268,12 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
                 leader = LeaderTeleop(run.robot, str(manifests.robot_file(run.robot.name)))
             hal = build_hal(opts, run.robot, run.rskill, run.rskill_src)
             try:
-                policy = keys or leader or device or run.make_policy(run.rskill)
+                if switch is not None and keys is not None:
+                    policy: PolicyAdapter = Intervention(
+                        run.make_policy(run.rskill), keys, switch, show=tty_status(STATUS_FD)
+                    )
+                else:
+                    policy = keys or leader or device or run.make_policy(run.rskill)
                 loop = _open(opts, run, hal, policy, operator)
                 return _episodes(opts, run.out, loop, notify)
             finally:
@@ -368,6 +382,7 @@ def _open(
         ),
         has_reward=hal.has_reward,
         frame_extras=frame_extras(cameras),
+        frame_columns=intervention_columns(rskill.action_contract.names) if opts.takeover else (),
     )
     hal.connect()  # a robot that cannot be reached fails here, before anything is written
     connect = getattr(policy, "connect", None)  # a leader arm: the same, before anything is written
@@ -390,7 +405,9 @@ def _open(
     task = hal.task if hal.task is not None else rskill.description or rskill.id
     staleness = opts.staleness if opts.staleness is not None else 3.0 / opts.fps
     driver = rskill_driver(rskill)
-    if opts.teleop is not None:
+    if opts.takeover:  # the policy drives, the person takes over: both
+        driver = f"{driver}+{teleop_driver(opts.teleop or 'keyboard')}"
+    elif opts.teleop is not None:
         driver = teleop_driver(getattr(policy, "type_name", opts.teleop))  # a leader arm: its lerobot type
     ticks = episode_ticks(opts.episode_time_s, opts.fps)
     config = LoopConfig(opts.fps, task, opts.step_limit, staleness, driver=driver, max_ticks=ticks)

@@ -18,8 +18,10 @@ Stored per frame (LeRobot: float32 columns; MCAP: the message stamps): `timestam
 (`frame_index / fps`, what lerobot expects); `openral.real_timestamp` is the monotonic time of the joint
 reading since the episode began (also `Observation.time`, the MCAP stamp); `openral.tick`,
 `openral.ticks_missed`, `openral.ticks_stale`, `openral.safety_interventions` and
-`openral.sample_age.<camera>`. The episode's report (overruns, stale and repeat counts, every safety
-intervention, the operator's verdict) goes to the episode record (`openral.episode_info` in meta/episodes).
+`openral.sample_age.<camera>`; in an intervention session (policies/intervention.py) also the policy's proposal
+`openral.policy_action` and the flag `openral.intervention`. The episode's report (overruns, stale and repeat
+counts, every safety intervention, the operator's verdict) goes to the episode record (`openral.episode_info` in
+meta/episodes).
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ import numpy.typing as npt
 
 from openral_data.errors import EstopLatched, HalError, StaleState
 from openral_data.policies.base import PolicyAdapter
+from openral_data.policies.intervention import Intervention
 from openral_data.producers.hal.base import HalBase, JointCommand, monotonic
 from openral_data.producers.hal.operator import Command, Operator
 from openral_data.producers.hal.safety import SafetyFilter
@@ -93,6 +96,7 @@ class _Row:
     reward: float
     success: bool
     extras: dict[str, float]
+    columns: dict[str, Any] | None = None  # an intervention session's proposal and flag (policies/intervention.py)
 
 
 @dataclass
@@ -219,7 +223,7 @@ class FixedRateLoop:
             if pending is not None:
                 self.bridge.add_step(
                     pending.obs, pending.action, reward=pending.reward, done=False,
-                    success=pending.success, extras=pending.extras,
+                    success=pending.success, extras=pending.extras, columns=pending.columns,
                 )  # fmt: skip
             ep.pending = row
             ep.skipped = [0, 0]
@@ -270,6 +274,7 @@ class FixedRateLoop:
             last_seq[name] = seq
         obs = Observation(images, state.positions, cfg.task, time=state.stamp - t0, privileged=hal.privileged())
         action = self.policy.step(obs, cfg.task)
+        columns = self.policy.columns() if isinstance(self.policy, Intervention) else None
         self.bridge.check_action(action)
         result = self.safety.apply(action, state.positions, self.dt)
         for item in result.interventions:
@@ -292,7 +297,7 @@ class FixedRateLoop:
             **{SAMPLE_AGE + n: a for n, a in ages.items()},
         }
         rep.frames += 1
-        return _Row(obs, np.asarray(sent, dtype=np.float32).copy(), reward, success, extras)
+        return _Row(obs, np.asarray(sent, dtype=np.float32).copy(), reward, success, extras, columns)
 
     def _held(self, state: npt.NDArray[np.float32], action: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
         """What the robot keeps doing when a command is refused: its last command (else its current position)."""
@@ -337,6 +342,7 @@ class FixedRateLoop:
         self.bridge.add_step(
             pending.obs, pending.action, reward=pending.reward, done=True,
             success=bool(success) if success is not None else pending.success, extras=pending.extras,
+            columns=pending.columns,
         )  # fmt: skip
         record = self.bridge.end_episode(success, info={"hal": rep.to_json(), "operator": self.config.driver})[0]
         return EpisodeEnd.KEPT, rep, record

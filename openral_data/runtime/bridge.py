@@ -159,6 +159,20 @@ class DatasetBridge:
             raise ContractViolation(f"{self._where()}: extras: non-finite values for {bad}")
         return out
 
+    def _columns(self, columns: Mapping[str, Any] | None) -> dict[str, npt.NDArray[Any]]:
+        """The schema's `frame_columns` values: exactly its keys, a float32 vector of its width or a bool flag."""
+        got = dict(columns or {})
+        want = {c.key: c for c in self.schema.frame_columns}
+        if set(got) != set(want):
+            raise ContractViolation(f"{self._where()}: columns: expected keys {sorted(want)}, got {sorted(got)}")
+        out: dict[str, npt.NDArray[Any]] = {}
+        for key, col in want.items():
+            if col.dtype == "bool":
+                out[key] = np.array([bool(got[key])])
+            else:
+                out[key] = self._vector(key, got[key], col.dim)
+        return out
+
     def add_step(
         self,
         observation: Observation,
@@ -168,10 +182,12 @@ class DatasetBridge:
         done: bool,
         success: bool,
         extras: Mapping[str, float] | None = None,
+        columns: Mapping[str, Any] | None = None,
     ) -> None:
         """Record row t: `observation` (seen at step t), `action` (produced from it) and its outcome.
 
-        `extras` carries the schema's `frame_extras` values for this row (none by default).
+        `extras` carries the schema's `frame_extras` values for this row, `columns` its `frame_columns` values
+        (none by default).
         """
         if not self._open:
             raise RuntimeError("add_step() outside an episode")
@@ -189,6 +205,7 @@ class DatasetBridge:
             extras=self._extras(extras),
             environment_state=self._environment_state(observation.environment_state),
             transforms=self._transforms(observation.transforms),
+            columns=self._columns(columns),
         )
         if not np.isfinite(frame.reward):
             raise ContractViolation(f"{self._where()}: reward: non-finite value {reward}")

@@ -11,7 +11,7 @@ from openral_data.formats.lerobot_v3.provenance import Origin, Recorded, ReplayO
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene
-from openral_data.types import CameraShape, DatasetSchema, ProducerSpec
+from openral_data.types import CameraShape, DatasetSchema, FrameColumn, ProducerSpec
 from openral_data.version import __version__
 
 
@@ -26,6 +26,7 @@ def dataset_schema(
     environment_state_names: tuple[str, ...] = (),
     has_reward: bool = True,
     frame_extras: tuple[str, ...] = (),
+    frame_columns: tuple[FrameColumn, ...] = (),
 ) -> DatasetSchema:
     """`origin`: what produced the frames (its `scene` or `hal`, and `safety`/`replayed_from` where they apply);
     the version, the rSkill and the robot are filled in here."""
@@ -45,6 +46,7 @@ def dataset_schema(
         metadata=metadata.to_json(),
         has_reward=has_reward,
         frame_extras=frame_extras,
+        frame_columns=frame_columns,
     )
 
 

@@ -20,7 +20,7 @@ from openral_data.producers.hal.twin import MujocoTwinHal
 from openral_data.record.hal_loop import EpisodeEnd, EpisodeReport, FixedRateLoop, LoopConfig, frame_extras
 from openral_data.runtime import registry
 from openral_data.runtime.bridge import DatasetBridge
-from openral_data.types import CameraShape, DatasetSchema, Observation
+from openral_data.types import CameraShape, DatasetSchema, FrameColumn, Observation
 
 
 def ur5e_twin(**kwargs: Any) -> MujocoTwinHal:
@@ -76,6 +76,7 @@ def run_loop(
     staleness: float = 0.15,
     episodes: int = 1,
     safety: SafetyFilter | None = None,
+    columns: tuple[FrameColumn, ...] = (),
 ) -> list[tuple[EpisodeEnd, EpisodeReport]]:
     """Record `episodes` attempts through the loop into a LeRobot v3 dataset at `out` (h264 for speed)."""
     rskill, _ = registry.resolve_rskill("sweep-ur5e")
@@ -88,6 +89,7 @@ def run_loop(
         robot_type="ur5e",
         has_reward=False,
         frame_extras=frame_extras(cams),
+        frame_columns=columns,
     )
     bridge = DatasetBridge(schema, [LeRobotV3Writer(out, schema, WriterConfig(video=VideoSettings(codec="h264")))])
     filt = safety or SafetyFilter(hal.robot, fk=hal.forward_kinematics)

@@ -31,6 +31,7 @@ class EpisodeBuffer:
     task_indices: list[int] = field(default_factory=list)
     extras: dict[str, list[float]] = field(default_factory=dict)
     environment_states: list[npt.NDArray[np.float32]] = field(default_factory=list)  # with environment_state_names
+    vectors: dict[str, list[npt.NDArray[Any]]] = field(default_factory=dict)  # the schema's frame_columns
     info: dict[str, Any] | None = None
     # whole columns of features the writer does not build itself (only with the writer's `features`; editing
     # carries e.g. `observation.environment_state` this way), each of the feature's Arrow type
@@ -92,6 +93,9 @@ def episode_table(
         cols[key] = pa.array(np.asarray(ep.extras.get(key, []), dtype=np.float32))
     if schema.environment_state_names:
         cols[ENVIRONMENT_STATE] = _fixed_list(np.stack(ep.environment_states))
+    for col in schema.frame_columns:
+        values = np.stack(ep.vectors[col.key]).reshape(n, col.dim)
+        cols[col.key] = pa.array(values[:, 0].astype(bool)) if col.dtype == "bool" else _fixed_list(values)
     cols.update(ep.columns)
     return pa.table(cols, schema=data_schema)
 

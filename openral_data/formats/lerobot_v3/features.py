@@ -122,6 +122,9 @@ def build_features(
     features.update(DEFAULT_FEATURES)
     for key in schema.frame_extras:
         features[key] = {"dtype": "float32", "shape": [1], "names": None}
+    for col in schema.frame_columns:
+        names = list(col.names) if col.dtype == "float32" else None
+        features[col.key] = {"dtype": col.dtype, "shape": [col.dim], "names": names}
     return features
 
 

@@ -260,6 +260,8 @@ class LeRobotV3Writer:
         ep.task_indices.append(self.task_index(frame.task))
         for key in self.schema.frame_extras:
             ep.extras.setdefault(key, []).append(frame.extras[key])
+        for col in self.schema.frame_columns:
+            ep.vectors.setdefault(col.key, []).append(frame.columns[col.key])
         if width and env is not None:
             ep.environment_states.append(env)
 

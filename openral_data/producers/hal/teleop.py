@@ -89,6 +89,13 @@ class KeyboardTeleop:
         self.ticks = 0
         self._escape = ""
 
+    def take_over(self, action: npt.NDArray[np.float32]) -> None:
+        """Start from `action`, the one in effect (an intervention's takeover, policies/intervention.py): no
+        moves pending (the arm stays where it is) and the gripper as the action had it (closed from 0.5 on)."""
+        self.pending[:] = 0
+        self._escape = ""
+        self.gripper = 1.0 if float(action[6]) >= 0.5 else 0.0
+
     def step(self, observation: Observation, instruction: str) -> npt.NDArray[np.float32]:
         g = self.gains
         per_tick = np.array([g.max_step / g.step] * 3 + [1.0])

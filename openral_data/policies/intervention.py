@@ -1,0 +1,133 @@
+"""Interventions (human-in-the-loop, DAgger-style): a policy drives, a person takes over and hands back.
+
+`Intervention` wraps any policy (a `PolicyAdapter`: an rSkill's, a lerobot checkpoint's) and a teleoperator
+that is itself a policy (producers/hal/teleop.py's `KeyboardTeleop`). `TakeoverSwitch` sits between the
+operator's terminal reader and the teleoperator: the takeover key (`t`) toggles who drives, the other keys go to
+the teleoperator (only while it drives or is about to: keys typed while the policy drives are dropped, so they
+cannot pile up and fire at the takeover).
+
+Every tick the policy is stepped on the observation, also while the person drives, so every frame has the
+policy's proposal (`openral.policy_action`, the action's shape and names) next to what was executed (`action`)
+and who drove (`openral.intervention`). A press is read by the operator at the start of a tick, so it takes
+effect at the first frame whose tick starts after it arrived: at most one tick later. At the takeover the
+teleoperator starts from the action in effect (`take_over`: a keyboard drops the moves not yet made and keeps
+the gripper where the policy had it), so the arm does not jump: the end effector moves from where it is.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+import numpy.typing as npt
+
+from openral_data.policies.base import PolicyAdapter
+from openral_data.producers.hal.teleop import HELP as TELEOP_HELP
+from openral_data.types import FrameColumn, Observation
+
+TAKEOVER_KEY = "t"
+POLICY_ACTION = "openral.policy_action"
+INTERVENTION = "openral.intervention"
+HELP = f"takeover: t hands control to you and back · {TELEOP_HELP}"
+
+
+def intervention_columns(action_names: Sequence[str]) -> tuple[FrameColumn, ...]:
+    """The per-frame columns of an intervention session: the policy's proposal and the flag."""
+    return (FrameColumn(POLICY_ACTION, "float32", tuple(action_names)), FrameColumn(INTERVENTION, "bool"))
+
+
+@runtime_checkable
+class TakesOver(Protocol):
+    """A teleoperator that can start from the action in effect (no jump at the takeover)."""
+
+    def take_over(self, action: npt.NDArray[np.float32]) -> None: ...
+
+
+class TakeoverSwitch:
+    """The keyboard side: `feed` gets every key the operator does not use; `t` toggles the request, and a
+    takeover starts the teleoperator from the action in effect at once (`on_takeover`), so the keys typed after
+    `t` (before the next tick) count."""
+
+    def __init__(self, teleop_feed: Callable[[str], None] | None = None) -> None:
+        self.teleop_feed = teleop_feed
+        self.requested = False  # the person asked to drive
+        self.on_takeover: Callable[[], None] | None = None  # set by the `Intervention` the switch drives
+
+    def feed(self, ch: str) -> None:
+        if ch.lower() == TAKEOVER_KEY:
+            self.requested = not self.requested
+            if self.requested and self.on_takeover is not None:
+                self.on_takeover()
+        elif self.requested and self.teleop_feed is not None:
+            self.teleop_feed(ch)
+
+    def reset(self) -> None:
+        self.requested = False
+
+
+class Intervention:
+    """`policy` drives until the switch hands control to `teleop` and back; both are stepped as the loop's
+    one policy. After each `step`, `columns()` holds the frame's proposal and flag."""
+
+    def __init__(
+        self,
+        policy: PolicyAdapter,
+        teleop: PolicyAdapter,
+        switch: TakeoverSwitch,
+        show: Callable[[str], None] | None = None,
+        status_every: int = 4,
+    ) -> None:
+        self.policy = policy
+        self.teleop = teleop
+        self.switch = switch
+        self.show = show
+        self.status_every = status_every
+        self.intervening = False
+        self.frame = 0
+        self.proposal: npt.NDArray[np.float32] | None = None
+        self.executed: npt.NDArray[np.float32] | None = None  # the action in effect (the last one returned)
+        switch.on_takeover = self._take_over
+
+    def reset(self, seed: int) -> None:
+        self.policy.reset(seed)
+        self.teleop.reset(seed)
+        self.switch.reset()
+        self.intervening = False
+        self.frame = 0
+        self.proposal = self.executed = None
+
+    def step(self, observation: Observation, instruction: str) -> npt.NDArray[np.float32]:
+        proposal = self.policy.step(observation, instruction)  # the bridge checks it (`columns`), as the action
+        if self.switch.requested != self.intervening:
+            self.intervening = self.switch.requested
+            if self.intervening and self.executed is None:  # taken over before the first frame
+                self._take_over(proposal)
+            self._say("teleop drives (t hands back)" if self.intervening else "policy drives again (t takes over)")
+        elif not self.intervening and self.status_every and self.frame % self.status_every == 0:
+            self._say("policy drives (t takes over)")
+        action = self.teleop.step(observation, instruction) if self.intervening else proposal
+        self.proposal, self.executed = proposal, action
+        self.frame += 1
+        return self.executed
+
+    def _take_over(self, in_effect: npt.NDArray[np.float32] | None = None) -> None:
+        action = in_effect if in_effect is not None else self.executed
+        if action is not None and isinstance(self.teleop, TakesOver):
+            self.teleop.take_over(action)
+
+    def _say(self, what: str) -> None:
+        if self.show is not None:
+            self.show(f"frame {self.frame}: {what}")
+
+    def columns(self) -> dict[str, Any]:
+        """The last step's frame columns (`intervention_columns`)."""
+        if self.proposal is None:
+            raise RuntimeError("Intervention.columns() before step()")
+        return {POLICY_ACTION: self.proposal, INTERVENTION: self.intervening}
+
+    def close(self) -> None:
+        try:
+            self.policy.close()
+        finally:
+            self.teleop.close()
