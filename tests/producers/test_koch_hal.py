@@ -115,8 +115,8 @@ def test_a_koch_arm_whose_motors_disagree_with_its_calibration_file_is_one_line(
 
 
 def test_the_simulated_bus_stuffs_its_replies_like_a_servo() -> None:
-    """A reply whose data holds FF FF FD travels stuffed (FF FF FD FD), and dynamixel_sdk's removeStuffing gives
-    back the value; values with FF FF FD in them also go out unchanged."""
+    """Register bytes FF FF FD go out stuffed (FF FF FD FD) and dynamixel_sdk's removeStuffing gives the value
+    back: without stuffing, FF FF FD FD would read as FF FF FD (the test fails if `stuff` is a no-op)."""
     from lerobot.motors import Motor, MotorNormMode
     from lerobot.motors.dynamixel import DynamixelMotorsBus
 
