@@ -10,9 +10,6 @@ calibration; the follower's state must follow; lerobot 0.6.1 must load the datas
 from __future__ import annotations
 
 import json
-import math
-import threading
-import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -27,6 +24,7 @@ from tests.support.feetech_bus import SimulatedFeetechBus, write_so_calibration
 from tests.support.hal import episode_infos, frames_table
 from tests.support.inproc import run_inproc
 from tests.support.lerobot_written import loaded_episodes
+from tests.support.servo_hand import Hand
 
 ROBOT = "so101_follower"
 IDS = list(range(1, 7))
@@ -44,31 +42,6 @@ def _manifest(project: Path, leader_port: str, **teleop: Any) -> Path:
     manifest["hardware"]["teleop"].update({"port": leader_port, "calibration_dir": "calibration", **teleop})
     path.write_text(yaml.safe_dump(manifest, sort_keys=False))
     return path
-
-
-class Hand:
-    """A person moving the leader: each joint swings around the middle of its range, the jaw opens and closes."""
-
-    def __init__(self, bus: SimulatedFeetechBus) -> None:
-        self.bus = bus
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, daemon=True)
-
-    def __enter__(self) -> Hand:
-        self._thread.start()
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self._stop.set()
-        self._thread.join()
-
-    def _run(self) -> None:
-        t0 = time.monotonic()
-        while not self._stop.is_set():
-            t = time.monotonic() - t0
-            for i, servo in self.bus.servos.items():
-                servo.position = 2048 + 150 * math.sin(2 * math.pi * t / 2.0 + i)
-            time.sleep(0.005)
 
 
 def degrees(raw: int) -> float:
@@ -184,8 +157,8 @@ def test_leader_failures_are_one_line_before_anything_is_written(
 
 @pytest.mark.parametrize("robot", ["so100_follower", "so101_follower", "koch_follower"])
 def test_every_shipped_hardware_manifest_builds_lerobots_configs(robot: str) -> None:
-    """Each shipped manifest's robot and teleoperator are lerobot configs lerobot itself accepts (the Koch pair is
-    not tested further: no Dynamixel bus simulator here)."""
+    """Each shipped manifest's robot and teleoperator are lerobot configs lerobot itself accepts (the Koch pair
+    records on simulated Dynamixel buses in test_koch_hal.py)."""
     from openral_data.producers.hal.lerobot_hw import lerobot_config
     from openral_data.producers.hal.lerobot_hw import registry as lerobot_types
     from openral_data.runtime import registry

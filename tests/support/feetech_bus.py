@@ -8,26 +8,20 @@ while torque is on, so the driver sees an arm that actually follows its commands
 scservo SDK run unchanged against it; what it does NOT reproduce: electrical timing, baud-rate switching,
 bus noise, current/load/temperature, servo firmware behaviour beyond the registers above.
 
-A servo answers within microseconds; this simulator is a Python thread that a loaded 2-core CI machine can hold
-off for longer than the SDK's packet timeouts (≈ 34–50 ms). While a bus is open, the SDK's timeout check gets
-`TIMEOUT_SLACK_MS` of extra patience, so a late simulated reply is not taken for a missing servo.
+The pty, its serving thread and the SDK's patient timeout check: tests/support/pty_device.py.
 """
 
 from __future__ import annotations
 
 import json
-import os
-import select
-import threading
 import time
-import tty
 from pathlib import Path
-from typing import Any
 
 from scservo_sdk.port_handler import PortHandler
 
+from tests.support.pty_device import PtyDevice
+
 SO_MOTORS = ("shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll", "gripper")  # ids 1..6
-TIMEOUT_SLACK_MS = 1000.0
 PING, READ, WRITE, SYNC_READ, SYNC_WRITE = 0x01, 0x02, 0x03, 0x82, 0x83
 BROADCAST = 0xFE
 MODEL_STS3215 = 777
@@ -86,51 +80,18 @@ def _packet(sid: int, error: int, params: bytes) -> bytes:
     return b"\xff\xff" + body + bytes([~sum(body) & 0xFF])
 
 
-class SimulatedFeetechBus:
+class SimulatedFeetechBus(PtyDevice):
     """Serves servos `ids` on a pty; `port` is the path the driver opens."""
 
     def __init__(self, ids: list[int], *, position: int = 2048, range_min: int = 1024, range_max: int = 3072,
                  speed: float = 3000.0) -> None:  # fmt: skip
         self.servos = {i: Servo(i, position, range_min, range_max, speed) for i in ids}
-        self._master, slave = os.openpty()
-        tty.setraw(slave)
-        self.port = os.ttyname(slave)
-        self._slave = slave
-        self._stop = threading.Event()
-        self._buf = bytearray()
         self.packets = 0
         self.position_reads: list[dict[int, int]] = []  # every SYNC_READ of Present_Position: id -> value sent
-        self._thread = threading.Thread(target=self._run, name="feetech-sim", daemon=True)
-        self._original_timeout_check = PortHandler.isPacketTimeout
-        PortHandler.isPacketTimeout = _patient_is_packet_timeout  # type: ignore[method-assign]
-        self._thread.start()
+        super().__init__("feetech-sim", PortHandler)
 
-    def close(self) -> None:
-        PortHandler.isPacketTimeout = self._original_timeout_check  # type: ignore[method-assign]
-        self._stop.set()
-        self._thread.join(timeout=5)
-        os.close(self._master)
-        os.close(self._slave)
-
-    def __enter__(self) -> SimulatedFeetechBus:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
-    def _run(self) -> None:
-        while not self._stop.is_set():
-            ready, _, _ = select.select([self._master], [], [], 0.05)
-            if not ready:
-                continue
-            try:
-                self._buf += os.read(self._master, 4096)
-            except OSError:
-                return
-            self._parse()
-
-    def _parse(self) -> None:
-        buf = self._buf
+    def parse(self) -> None:
+        buf = self.buffer
         while True:
             start = buf.find(b"\xff\xff")
             if start < 0:
@@ -150,9 +111,6 @@ class SimulatedFeetechBus:
             self.packets += 1
             self._handle(pkt[2], pkt[4], pkt[5:-1])
 
-    def _reply(self, data: bytes) -> None:
-        os.write(self._master, data)
-
     def _handle(self, sid: int, inst: int, params: bytes) -> None:
         for s in self.servos.values():
             s.update()
@@ -168,7 +126,7 @@ class SimulatedFeetechBus:
             addr, n = params[0], params[1]
             if addr == ADDR["present"]:
                 self.position_reads.append({i: self.servos[i].get16("present") for i in params[2:] if i in self.servos})
-            self._reply(
+            self.reply(
                 b"".join(
                     _packet(i, 0, bytes(self.servos[i].regs[addr : addr + n])) for i in params[2:] if i in self.servos
                 )
@@ -178,17 +136,17 @@ class SimulatedFeetechBus:
         if servo is None:
             return  # nobody answers
         if inst == PING:
-            self._reply(_packet(sid, 0, b""))
+            self.reply(_packet(sid, 0, b""))
         elif inst == READ:
             addr, n = params[0], params[1]
-            self._reply(_packet(sid, 0, bytes(servo.regs[addr : addr + n])))
+            self.reply(_packet(sid, 0, bytes(servo.regs[addr : addr + n])))
         elif inst == WRITE:
             addr = params[0]
             servo.regs[addr : addr + len(params) - 1] = params[1:]
             if addr <= ADDR["present"] < addr + len(params) - 1:
                 servo.position = float(servo.get16("present"))
             servo.writes += 1
-            self._reply(_packet(sid, 0, b""))
+            self.reply(_packet(sid, 0, b""))
 
 
 def write_so_calibration(path: Path, range_min: int = 1024, range_max: int = 3072) -> Path:
@@ -200,14 +158,6 @@ def write_so_calibration(path: Path, range_min: int = 1024, range_max: int = 307
     }
     path.write_text(json.dumps(cal))
     return path
-
-
-def _patient_is_packet_timeout(self: Any) -> bool:
-    """The SDK's own check (port_handler.PortHandler.isPacketTimeout) with TIMEOUT_SLACK_MS more patience."""
-    if self.getTimeSinceStart() > self.packet_timeout + TIMEOUT_SLACK_MS:
-        self.packet_timeout = 0
-        return True
-    return False
 
 
 def calibrated_so_project(project: Path, robot: str) -> Path:

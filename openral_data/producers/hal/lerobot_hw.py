@@ -58,11 +58,20 @@ def registry(kind: str) -> Any:
     return getattr(package, KINDS[kind])
 
 
+# (our extra, the SDK's module, what it is): the motor-bus SDKs our extras of the same name install
+OUR_BUS_EXTRAS = (
+    ("feetech", "scservo_sdk", "lerobot's Feetech driver"),
+    ("dynamixel", "dynamixel_sdk", "lerobot's Dynamixel driver"),
+)
+
+
 def missing_sdk(exc: ImportError) -> str:
-    """What a lerobot device whose SDK is missing needs: our 'feetech' extra for the Feetech bus (lerobot's own
-    message names its `lerobot[feetech]` extra), else lerobot's words."""
-    if "lerobot[feetech]" in str(exc) or exc.name == "scservo_sdk":
-        return f"needs the 'feetech' extra (lerobot's Feetech driver): {install_hint('feetech')}"
+    """What a lerobot device whose SDK is missing needs: our extra of the same name for the Feetech and the
+    Dynamixel bus (lerobot's own message names its `lerobot[feetech]` / `lerobot[dynamixel]` extra), else
+    lerobot's words."""
+    for extra, module, what in OUR_BUS_EXTRAS:
+        if f"lerobot[{extra}]" in str(exc) or exc.name == module:
+            return f"needs the '{extra}' extra ({what}): {install_hint(extra)}"
     return f"needs its lerobot extra: {exc}"
 
 

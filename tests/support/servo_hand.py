@@ -1,0 +1,44 @@
+"""A person moving a leader arm on a simulated servo bus (tests/support/feetech_bus.py, dynamixel_bus.py)."""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections.abc import Mapping
+from typing import Protocol
+
+
+class Shaft(Protocol):
+    position: float
+
+
+class ServoBus(Protocol):
+    @property
+    def servos(self) -> Mapping[int, Shaft]: ...
+
+
+class Hand:
+    """Each joint of `bus` swings ±150 steps around 2048 (the middle of its range), the jaw opens and closes,
+    as a thread turning the servos' shafts (torque off, as lerobot's leaders leave them)."""
+
+    def __init__(self, bus: ServoBus) -> None:
+        self.bus = bus
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+
+    def __enter__(self) -> Hand:
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._stop.set()
+        self._thread.join()
+
+    def _run(self) -> None:
+        t0 = time.monotonic()
+        while not self._stop.is_set():
+            t = time.monotonic() - t0
+            for i, servo in self.bus.servos.items():
+                servo.position = 2048 + 150 * math.sin(2 * math.pi * t / 2.0 + i)
+            time.sleep(0.005)
