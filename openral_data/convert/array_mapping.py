@@ -163,18 +163,19 @@ def _store_name(source: ArraySource) -> str:
     return name or "task"
 
 
-# UMI's action when its store has none: real-stanford/universal_manipulation_interface,
-# diffusion_policy/common/sampler.py, `SequenceSampler.__init__` (commit d095ba9590df789df5189eea5ee7e431689038a6):
+# UMI's action when its store has none (commit d095ba9590df789df5189eea5ee7e431689038a6):
+# real-stanford/universal_manipulation_interface:diffusion_policy/common/sampler.py, `SequenceSampler.__init__`:
 # without `action` in the replay buffer it concatenates, robot after robot, `robot<i>_eef_pos`,
 # `robot<i>_eef_rot_axis_angle` and `robot<i>_gripper_width` of the same row; `sample_sequence` then takes the
-# action chunk from the current row on (latency 0), and `UmiDataset.__getitem__` (diffusion_policy/dataset/
-# umi_dataset.py) reads 7 numbers a robot from it. So action[t] is the absolute end-effector pose (position,
-# axis-angle rotation) and gripper width the demonstration holds at step t; UMI's relative pose and 6-d rotation
-# are per-sample transforms of its training, not stored.
+# action chunk from the current row on (latency 0), and `UmiDataset.__getitem__`
+# (real-stanford/universal_manipulation_interface:diffusion_policy/dataset/umi_dataset.py) reads 7 numbers a robot
+# from it. So action[t] is the absolute end-effector pose (position, axis-angle rotation) and gripper width the
+# demonstration holds at step t; UMI's relative pose and 6-d rotation are per-sample transforms of its training,
+# not stored.
 _UMI_ACTION = ("eef_pos", "eef_rot_axis_angle", "gripper_width")
 _UMI_ROBOT = re.compile(r"data/robot(\d+)_eef_pos")
 _UMI_ACTION_WHY = (
-    "no data/action: UMI's training code (diffusion_policy/common/sampler.py) builds it, per robot, from "
+    "no data/action: UMI's training code (its SequenceSampler) builds it, per robot, from "
     "eef_pos + eef_rot_axis_angle + gripper_width of the same step (absolute pose, axis-angle)"
 )
 

@@ -31,9 +31,11 @@ class CameraTopics:
 def check_bags(bags: list[Path], mapping: Mapping, summary: ConvertSummary, cameras: CameraTopics) -> int:
     """Every mapped topic exists in every bag, with the cameras' types: checked up front, before anything is
     written. Fills the summary's topic reports and skipped topics, and `cameras`; returns the mapped messages."""
-    for role, source in mapping.vector_sources():
-        if source.offset:
-            raise ConfigError(f"{bags[0]}: {role}.offset: array sources only (a bag's streams align by time)")
+    for role, vector in mapping.vectors():
+        for label, source in zip(vector.labels(), vector.sources(), strict=True):
+            if source.offset:
+                where = f"{role}.{label}.offset" if label else f"{role}.offset"
+                raise ConfigError(f"{bags[0]}: {where}: array sources only (a bag's streams align by time)")
     wanted = mapping.topics()
     extra = [t for t in (mapping.task_topic, mapping.success_topic, mapping.episodes.marker_topic) if t is not None]
     info_topics = list(mapping.camera_info.values())  # read up front (first message), not aligned

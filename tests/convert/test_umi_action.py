@@ -47,6 +47,7 @@ def _umi_action(rows: dict[str, np.ndarray[Any, Any]], robots: int = 1) -> np.nd
     return np.concatenate([rows[f"robot{r}_{what}"] for r in range(robots) for what in UMI_POSE], axis=-1)
 
 
+@pytest.mark.slow  # converts and loads the output with lerobot (~7 s)
 def test_a_umi_store_without_action_converts_with_umis_action(store: Path, tmp_path: Path) -> None:
     out = tmp_path / "out"
     want = _zarr_episodes(store)
@@ -150,3 +151,8 @@ def test_a_bag_mapping_with_an_offset_is_one_line(tmp_path: Path) -> None:
     run = run_inproc("convert", str(bag), str(out), "--mapping", str(tmp_path / "m.yaml"))
     assert run.returncode == 2 and run.stderr.count("\n") == 1, run.stderr
     assert run.stderr.startswith(f"error: {bag}: action.offset: array sources only") and not out.exists()
+    parts = {"parts": [{"topic": MAPPING["action"]["topic"], "offset": 1}]}  # named where it is: parts[0]
+    (tmp_path / "m.yaml").write_text(yaml.safe_dump({**MAPPING, "action": parts}))
+    run = run_inproc("convert", str(bag), str(out), "--mapping", str(tmp_path / "m.yaml"))
+    assert run.returncode == 2 and run.stderr.count("\n") == 1, run.stderr
+    assert run.stderr.startswith(f"error: {bag}: action.parts[0].offset: array sources only") and not out.exists()

@@ -101,8 +101,8 @@ def write_umi_buffer(path: Path, episodes: list[Episode], image_key: str = "came
 def umi_episodes(
     lengths: tuple[int, ...] = (5, 3, 7), seed: int = 0, size: tuple[int, int] = (36, 48)
 ) -> list[Episode]:
-    """One gripper's episodes with UMI's own key set and dtypes, as real-stanford/universal_manipulation_interface's
-    scripts_slam_pipeline/07_generate_replay_buffer.py (commit d095ba9590df789df5189eea5ee7e431689038a6) fills
+    """One gripper's episodes with UMI's own key set and dtypes, as (commit d095ba9590df789df5189eea5ee7e431689038a6)
+    real-stanford/universal_manipulation_interface:scripts_slam_pipeline/07_generate_replay_buffer.py fills
     `episode_data`: ``camera0_rgb`` (uint8 HxWx3), ``robot0_eef_pos`` and ``robot0_eef_rot_axis_angle`` (float32
     [3], the TCP pose), ``robot0_gripper_width`` (float32 [1]), ``robot0_demo_start_pose`` and
     ``robot0_demo_end_pose`` (the demonstration's start and end pose on every row, in the pose's own dtype:
