@@ -123,6 +123,7 @@ class EpisodeAssembler:
             task_indices=[writer.task_index(t) for t in episode.tasks],
             columns=dict(episode.columns),
             column_stats=dict(episode.column_stats),
+            info=episode.info,
         )
         encoded: dict[str, EncodedEpisode] = {}
         try:

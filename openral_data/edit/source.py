@@ -9,9 +9,10 @@ dtype, shape and dimension names, video cameras under the source's own keys, out
 image's `{bytes, path}` cells unchanged, its per-episode statistics taken from meta/episodes, as a video
 camera's are). A camera is named as `features.camera_keys` names it (lerobot/pusht's `observation.image` is
 `image`) and written under its own key. The output keeps the source's features verbatim. The dataset need not
-be ours: our `openral.*` episode columns are carried when present and never required. Without them an
-episode's seed is unknown (`None`), its initial state empty, and its success read by the rule `metrics` uses:
-`openral.success`, else whether any frame has `next.success`, else unknown.
+be ours: our `openral.*` episode columns (`features.EPISODE_EXTRA_COLUMNS`: success, seed, initial state, episode
+info) are carried when present and never required. Without them an episode's seed is unknown (`None`), its
+initial state empty, its info absent, and its success read by the rule `metrics` uses: `openral.success`, else
+whether any frame has `next.success`, else unknown.
 """
 
 from __future__ import annotations
@@ -71,6 +72,7 @@ class EpisodeData:
     seed: int | None  # None: the source did not record it
     success: bool | None
     initial_state: dict[str, Any]
+    info: Any  # its `openral.episode_info` (JSON: who drove it, a HAL's report...); None: the source has none
     videos: dict[str, bytes]  # camera name -> a complete mp4 of exactly `length` frames starting at pts 0
     image_stats: dict[str, Stats]  # camera name -> the episode's statistics from the source metadata
     columns: dict[str, pa.Array]  # carried features (`SourceDataset.carried`), as stored
@@ -267,7 +269,7 @@ class SourceDataset:
             videos[name] = self._clip(index, row, name, n)
             image_stats[name] = self._picture_stats(row, self.camera_key[name], videos[name])
         states, actions = self._vector(data, STATE, index), self._vector(data, ACTION, index)
-        initial = row.get("openral.initial_state")
+        initial, info = row.get("openral.initial_state"), row.get("openral.episode_info")
         successes = _list(data, "next.success", False)
         seed = row.get("openral.seed")
         return EpisodeData(
@@ -285,6 +287,7 @@ class SourceDataset:
             initial_state=parse_field(initial, f"{self.root}: episode {index}: openral.initial_state")
             if initial
             else {},
+            info=None if info is None else parse_field(info, f"{self.root}: episode {index}: openral.episode_info"),
             videos=videos,
             image_stats=image_stats,
             columns={
