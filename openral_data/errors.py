@@ -15,6 +15,7 @@ code                  meaning
 error                 the base class only; never raised bare
 usage                 a command-line option has a bad value or does not combine with another
 config                a manifest, scene, mapping or pipeline file is invalid (names file and field)
+config.checkpoint       a policy checkpoint's weights or processor state files are unusable
 compat                scene, robot, rSkill (or a dataset) do not fit together; raised before running
 contract              a frame broke the rSkill's state/action contract or the declared cameras
 missing               an input path does not exist

@@ -6,7 +6,8 @@ run's `checkpoints/<step>/pretrained_model` (or the step folder, or the run fold
 Hub repo id found ONLY in the local Hugging Face cache (`local_files_only`; nothing is downloaded). The
 checkpoint is untrusted: its files must stay inside the folder given (the cache's repo folder for a repo id)
 after symlinks and be regular files, `config.json` is read bounded and its `type` may only name a policy type
-we load (`SUPPORTED`); the processors' steps are checked by `lerobot_policy.check_processor_steps`.
+we load (`SUPPORTED`); the processors' files, their steps and each step's `state_file` are checked by
+`lerobot_policy.check_processor_steps` (inside `root`, which `as_rskill` passes on as `policy_extras.checkpoint_root`).
 
 The contract (`CheckpointContract`) is the config's `input_features` / `output_features`: the state and action sizes and
 the cameras with their (C, H, W) shapes; `check_fits` compares it with what a scene or dataset has, before an
@@ -41,6 +42,7 @@ STATE, ACTION = "observation.state", "action"
 # where the checkpoint is below PATH: itself, a step folder's, a training run's newest
 LAYOUTS = ("", "pretrained_model", "checkpoints/last/pretrained_model")
 MAX_CONFIG_BYTES = 4 << 20  # a policy config is a few KB
+ROOT = "checkpoint_root"  # the policy_extras entry naming the folder the files must stay inside (`as_rskill`)
 
 
 @dataclass(frozen=True)
@@ -55,11 +57,13 @@ class CheckpointContract:
 
 @dataclass(frozen=True)
 class PolicyCheckpoint:
-    """A located checkpoint folder, its name (`policy:<name>` in an episode's operator) and its contract."""
+    """A located checkpoint folder, its name (`policy:<name>` in an episode's operator), its contract and the
+    folder its files must stay inside (`root`: the folder given, or the cache's repo folder for a repo id)."""
 
     path: Path
     name: str
     contract: CheckpointContract
+    root: Path
 
     @property
     def config_file(self) -> Path:
@@ -68,11 +72,11 @@ class PolicyCheckpoint:
 
 def open_checkpoint(ref: str) -> PolicyCheckpoint:
     """The checkpoint `ref` (a folder or a cached repo id) names, its config read and checked (one line if not)."""
-    folder, name = _locate(ref)
-    return PolicyCheckpoint(folder, name, read_contract(folder))
+    folder, name, root = _locate(ref)
+    return PolicyCheckpoint(folder, name, read_contract(folder), root)
 
 
-def _locate(ref: str) -> tuple[Path, str]:
+def _locate(ref: str) -> tuple[Path, str, Path]:
     given = Path(ref).expanduser()
     if given.exists() or given.is_symlink():
         if not given.is_dir():
@@ -87,7 +91,7 @@ def _locate(ref: str) -> tuple[Path, str]:
         config = contained(root, str(base / layout / CONFIG), f"--policy {ref}")
         if config.exists():
             contained(root, str(base / layout / WEIGHTS), f"--policy {ref}")
-            return config.parent, name or _folder_name(config.parent)
+            return config.parent, name or _folder_name(config.parent), root
     looked = ", ".join(lay or "." for lay in LAYOUTS)
     raise ConfigError(f"{root / base}: {CONFIG}: missing; not a lerobot checkpoint folder (looked in {looked})")
 
@@ -248,7 +252,7 @@ def as_rskill(checkpoint: PolicyCheckpoint, base: RSkillManifest | None) -> RSki
             "description": f"lerobot checkpoint {checkpoint.path}",
             "policy": "lerobot",
             "required_cameras": sorted(c.cameras),
-            "policy_extras": {"checkpoint": str(checkpoint.path)},
+            "policy_extras": {"checkpoint": str(checkpoint.path), ROOT: str(checkpoint.root)},
         }
     )
 

@@ -34,7 +34,17 @@ import numpy.typing as npt
 
 from openral_data.errors import CompatibilityError, ConfigError, ContractViolation, install_hint
 from openral_data.formats.jsonfile import read_json
-from openral_data.policies.checkpoint import ACTION, CONFIG, IMAGE_PREFIX, STATE, WEIGHTS, read_config
+from openral_data.paths import contained, regular_file
+from openral_data.policies.checkpoint import (
+    ACTION,
+    CONFIG,
+    IMAGE_PREFIX,
+    MAX_CONFIG_BYTES,
+    ROOT,
+    STATE,
+    WEIGHTS,
+    read_config,
+)
 from openral_data.policies.device import resolve_device
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.types import Observation
@@ -54,27 +64,53 @@ def checkpoint_dir(rskill: RSkillManifest) -> Path:
             f"rskill {rskill.id}: policy_extras.checkpoint: {path} is not a lerobot checkpoint directory "
             "(needs config.json and model.safetensors)"
         )
+    root = containment_root(rskill, path)
+    for name in (CONFIG, WEIGHTS):
+        inside(root, path, name, str(path / name))
     read_config(path)  # bounded, regular files, a policy type we load: before lerobot reads anything of it
-    check_processor_steps(path)
+    check_processor_steps(path, root)
     return path
 
 
-def check_processor_steps(path: Path) -> None:
-    """Refuse a checkpoint whose saved pre/post-processor names a step lerobot did not register.
+def containment_root(rskill: RSkillManifest, path: Path) -> Path:
+    """The folder the checkpoint's files must stay inside: `path` itself, or the Hub cache's repo folder
+    `record --policy REPO_ID` found it in (`policy_extras.checkpoint_root`; a snapshot's files link to
+    `../../blobs/`), which must hold `path`."""
+    value = rskill.policy_extras.get(ROOT)
+    if value is None:
+        return path
+    root = Path(str(value))
+    if not path.is_relative_to(root):
+        raise ConfigError(f"rskill {rskill.id}: policy_extras.{ROOT}: {root} does not hold the checkpoint {path}")
+    return root
+
+
+def inside(root: Path, path: Path, name: str, source: str) -> Path:
+    """`path / name` (`path` inside `root`), refused in one line unless it stays inside `root` after symlinks
+    (an absolute `name` or one with `..` is refused as such)."""
+    return contained(root, str(path.relative_to(root) / name), source)
+
+
+def check_processor_steps(path: Path, root: Path | None = None) -> None:
+    """Refuse a checkpoint whose saved pre/post-processor names a step lerobot did not register, or a file
+    outside `root` (default `path`).
 
     A checkpoint is code: lerobot's `DataProcessorPipeline.from_pretrained` imports and calls any `module.Name`
     a step's `class` names (`subprocess.Popen` included). Only lerobot's registered steps (`ProcessorStepRegistry`,
     by `registry_name` or by their own `module.Name`) are let through, before anything of the checkpoint loads.
+    The processor files (read bounded, regular files) and each step's `state_file` (lerobot opens
+    `path / state_file`) must stay inside `root` after symlinks.
     """
     from lerobot.policies import factory  # noqa: F401 - importing it registers lerobot's processor steps
     from lerobot.processor.pipeline import ProcessorStepRegistry
 
+    root = path if root is None else root
     names = ProcessorStepRegistry.list()
     classes = {f"{c.__module__}.{c.__name__}" for c in map(ProcessorStepRegistry.get, names)}
     for name in PROCESSOR_FILES:
-        file = path / name
+        file = inside(root, path, name, str(path / name))
         try:
-            doc = read_json(file)
+            doc = read_json(file, MAX_CONFIG_BYTES)
         except FileNotFoundError:
             continue  # lerobot reports a missing one itself
         steps = doc.get("steps") if isinstance(doc, dict) else None
@@ -86,6 +122,19 @@ def check_processor_steps(path: Path) -> None:
             if not (named in names if named is not None else isinstance(cls, str) and cls in classes):
                 shown = named if named is not None else cls
                 raise ConfigError(f"{file}: steps[{i}]: {shown!r} is not a registered lerobot processor step")
+            if "state_file" in step:
+                check_state_file(root, path, step["state_file"], f"{file}: steps[{i}].state_file")
+
+
+def check_state_file(root: Path, path: Path, state_file: object, source: str) -> None:
+    """A step's `state_file`: a relative file name whose `path / state_file` stays inside `root` after symlinks
+    and is a regular file (lerobot would open an absolute or `..` one anywhere)."""
+    if not isinstance(state_file, str) or not state_file:
+        raise ConfigError(f"{source}: {state_file!r} is not a file name", code="config.checkpoint")
+    try:
+        regular_file(inside(root, path, state_file, source))
+    except FileNotFoundError:
+        raise ConfigError(f"{source}: {state_file!r} is missing", code="config.checkpoint") from None
 
 
 def load_config(path: Path, device: str) -> Any:
@@ -139,6 +188,25 @@ def check_features(config: Any, rskill: RSkillManifest, path: Path) -> None:
         raise CompatibilityError(f"{where}: input_features: {other} are not part of rskill {rskill.id}'s contract")
 
 
+def load_weights(policy_class: Any, path: Path, config: Any) -> Any:
+    """`policy_class.from_pretrained` of `path`'s weights; weights safetensors cannot read (a cut file) or that
+    do not fit `config` (a tensor of another size) are one line naming the file."""
+    from safetensors import SafetensorError
+
+    weights = path / WEIGHTS
+    try:
+        with contextlib.redirect_stdout(io.StringIO()):  # lerobot prints "Loading weights from local directory"
+            return policy_class.from_pretrained(str(path), config=config, local_files_only=True)
+    except SafetensorError as exc:
+        raise ConfigError(f"{weights}: weights: not readable safetensors ({exc})", code="config.checkpoint") from None
+    except OSError as exc:
+        raise ConfigError(f"{weights}: weights: cannot be read ({exc})", code="config.checkpoint") from None
+    except RuntimeError as exc:  # torch's load_state_dict: a size mismatch lists every tensor on its own line
+        lines = [line.strip() for line in str(exc).splitlines() if line.strip()] or [type(exc).__name__]
+        said = " ".join(lines[:2]) + (f" (and {len(lines) - 2} more)" if len(lines) > 2 else "")
+        raise ConfigError(f"{weights}: weights: do not fit {CONFIG}: {said}", code="config.checkpoint") from None
+
+
 class LerobotPolicy:
     """PolicyAdapter over a lerobot policy + its saved pre/post-processors (normalisation)."""
 
@@ -157,8 +225,7 @@ class LerobotPolicy:
         self.config = config
         self._dim = rskill.action_contract.dim
         self._images = {key: tuple(f.shape) for key, f in config.image_features.items()}
-        with contextlib.redirect_stdout(io.StringIO()):  # lerobot prints "Loading weights from local directory"
-            self.policy = get_policy_class(config.type).from_pretrained(str(path), config=config, local_files_only=True)
+        self.policy = load_weights(get_policy_class(config.type), path, config)
         self.pre, self.post = make_pre_post_processors(
             config, pretrained_path=str(path), preprocessor_overrides={"device_processor": {"device": device}}
         )

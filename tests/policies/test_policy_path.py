@@ -254,3 +254,48 @@ def test_replay_refuses_a_policy_where_it_takes_none_or_does_not_fit(
         run_inproc("replay", str(dataset), "--mode", "policy", "--policy", str(small)),
         f"config.json: output_features.action: shape [2] but dataset {dataset} takes actions of 7",
     )
+
+
+def _state_step(folder: Path, name: str) -> tuple[dict[str, Any], dict[str, Any]]:
+    """`folder/name`'s JSON and its first step that names a state file (the normaliser's)."""
+    doc = json.loads((folder / name).read_text())
+    return doc, next(s for s in doc["steps"] if "state_file" in s)
+
+
+@pytest.mark.parametrize(
+    ("case", "needle"),
+    [
+        ("processor_symlink", "policy_preprocessor.json: path 'policy_preprocessor.json' leads outside "),
+        ("absolute_state_file", "policy_postprocessor.json: steps[0].state_file: path '/"),
+        ("dotdot_state_file", "policy_postprocessor.json: steps[0].state_file: path '../"),
+        ("state_file_symlink", "policy_postprocessor.json: steps[0].state_file: path 'policy_postprocessor_step_"),
+        ("missing_state_file", "policy_postprocessor.json: steps[0].state_file: 'gone.safetensors' is missing"),
+        ("state_file_not_a_name", "policy_postprocessor.json: steps[0].state_file: 7 is not a file name"),
+    ],
+)
+def test_processor_and_state_files_must_stay_inside_the_checkpoint(
+    mock: tuple[Path, Path], checkpoint: Path, tmp_path: Path, case: str, needle: str
+) -> None:
+    """lerobot opens the processors' JSON and `base_path / state_file`: a symlink out, an absolute path or `..`
+    would read anywhere; each is one line, exit 2, nothing written."""
+    _, home = mock
+    outside = tmp_path / "outside"
+    shutil.copytree(checkpoint, outside)  # a valid checkpoint elsewhere: what a link out would read
+    bad = _copy(checkpoint, tmp_path / "bad")
+    doc, step = _state_step(bad, "policy_postprocessor.json")
+    if case == "processor_symlink":
+        (bad / "policy_preprocessor.json").unlink()
+        (bad / "policy_preprocessor.json").symlink_to(outside / "policy_preprocessor.json")
+    elif case == "state_file_symlink":
+        (bad / step["state_file"]).unlink()
+        (bad / step["state_file"]).symlink_to(outside / step["state_file"])
+    else:
+        step["state_file"] = {
+            "absolute_state_file": str(outside / step["state_file"]),
+            "dotdot_state_file": f"../outside/{step['state_file']}",
+            "missing_state_file": "gone.safetensors",
+            "state_file_not_a_name": 7,
+        }[case]
+        (bad / "policy_postprocessor.json").write_text(json.dumps(doc))
+    _refused(_record(home, str(bad), tmp_path / "out"), needle)
+    assert not (tmp_path / "out").exists()
