@@ -21,7 +21,7 @@ import os
 import stat
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
@@ -83,18 +83,27 @@ class Presses:
         return presses
 
 
-def find_node(dev: Path, prefix: str, sys_class: Path, info: str, looks_like: Callable[[str], bool], what: str) -> Path:
-    """The first `dev`/<prefix>N (in N's order) whose `sys_class`/<prefix>N/device/`info` file (sysfs: read
+def find_node(
+    dev: Path,
+    prefix: str,
+    sys_class: Path,
+    info: Sequence[str],
+    looks_like: Callable[[Sequence[str]], bool],
+    what: str,
+) -> Path:
+    """The first `dev`/<prefix>N (in N's order) whose `sys_class`/<prefix>N/device/`info` files (sysfs: each read
     bounded, a regular file only) `looks_like` the device wanted; none is one line (`hal.teleop`)."""
     numbered = [(int(p.name[len(prefix) :]), p) for p in dev.glob(prefix + "*") if p.name[len(prefix) :].isdigit()]
     for _, node in sorted(numbered):
         with contextlib.suppress(OSError, ValueError):
-            text = read_regular(sys_class / node.name / "device" / info, limit=1 << 14).decode(errors="replace")
-            if looks_like(text):
+            folder = sys_class / node.name / "device"
+            texts = [read_regular(folder / name, limit=1 << 14).decode(errors="replace") for name in info]
+            if looks_like(texts):
                 return node  # open_node checks that it is a device node
+    files = " and ".join(f"{sys_class}/{prefix}N/device/{name}" for name in info)
     raise HalError(
-        f"{dev}: --teleop {what}: no {what} found (no {prefix}N whose {sys_class}/{prefix}N/device/{info} names "
-        f"one); plug one in, or name its node: --teleop {what}={dev}/{prefix}N",
+        f"{dev}: --teleop {what}: no {what} found (no {prefix}N whose {files} says it is one); plug one in, "
+        f"or name its node: --teleop {what}={dev}/{prefix}N",
         code="hal.teleop",
     )
 
