@@ -8,20 +8,14 @@ import typer
 from openral_data.cli import terminal
 from openral_data.cli.jsonout import print_json
 from openral_data.cli.terminal import INTERRUPTED_RECORDING, print_line, print_rows
-from openral_data.policies.intervention import HELP as TAKEOVER_HELP
-from openral_data.producers.hal.operator import HELP
 from openral_data.record.hal import HalRecordOptions, HalRecordSummary, record_hal
 
 
 def run_hal_record(opts: HalRecordOptions, json: bool = False) -> None:
     """Record through the HAL with options the CLI built (and checked: `HalRecordOptions`), then print the summary.
-    The person's prompts (the keys, each episode's task, the reset countdown, what was decided) go to stderr,
-    except under -q or --json."""
+    The person's prompts (the keys, once the options are resolved; each episode's task, the reset countdown,
+    what was decided) and the teleop's status lines (on a terminal only) go to stderr, except under -q or --json."""
     talk = not (json or terminal.quiet)
-    if opts.operator == "keyboard" and talk:
-        print_line(HELP, err=True)
-    if opts.takeover:
-        print_line(TAKEOVER_HELP, err=True)
     try:
         s = record_hal(opts, (lambda line: print_line(line, err=True)) if talk else None)
     except KeyboardInterrupt:

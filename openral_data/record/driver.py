@@ -9,7 +9,8 @@ from __future__ import annotations
 
 from openral_data.schemas.rskill import RSkillManifest
 
-# the built-in policies (runtime/registry.py POLICIES) that are programs, not models
+# the built-in policies (runtime/registry.py POLICIES) that are programs, not models (the registry does not say
+# which; tests/record/test_driver_names.py checks the two agree)
 SCRIPTED_POLICIES = frozenset(
     {"scripted_push", "scripted_pick_place", "scripted_pick", "scripted_open_drawer"}
     | {"metaworld_expert", "sweep", "mimicgen"}

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 from openral_data.errors import UsageError
 from openral_data.producers.hal.operator import Command, Operator
+from openral_data.schemas.scene import MAX_STEPS
 
 Notify = Callable[[str], None]  # one line for the person: which episode, what happened to it
 
@@ -26,6 +27,10 @@ def episode_ticks(episode_time_s: float | None, fps: int) -> int | None:
         return None
     if not 0 < episode_time_s < math.inf:
         raise UsageError(f"--episode-time-s must be > 0 and finite, got {episode_time_s}")
+    if episode_time_s * fps > MAX_STEPS:  # before round(): 1e308 s would overflow it
+        raise UsageError(
+            f"--episode-time-s: {episode_time_s} s is more than {MAX_STEPS} frames at {fps} fps (an episode's most)"
+        )
     ticks = round(episode_time_s * fps)
     if ticks < 1:
         raise UsageError(f"--episode-time-s: {episode_time_s} s is less than one frame at {fps} fps")

@@ -18,10 +18,12 @@ from openral_data.formats.lerobot_v3.encoder import with_codec
 from openral_data.formats.lerobot_v3.provenance import HalOrigin, Origin, Recorded, SafetyRecord
 from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.policies.base import PolicyAdapter
+from openral_data.policies.intervention import HELP as TAKEOVER_HELP
 from openral_data.policies.intervention import Intervention, TakeoverSwitch, intervention_columns
 from openral_data.producers.hal.base import HalBase
 from openral_data.producers.hal.devices import DEVICE_KINDS, device_kind
 from openral_data.producers.hal.eef_device import DeviceOperator, DeviceTeleop
+from openral_data.producers.hal.operator import HELP as KEYS_HELP
 from openral_data.producers.hal.operator import Command, KeyboardOperator, Operator, ScriptedOperator, parse_script
 from openral_data.producers.hal.safety import SafetyFilter
 from openral_data.producers.hal.teleop import KeyboardTeleop, tty_status
@@ -240,14 +242,17 @@ STATUS_FD = 2  # the teleoperator's status lines go to the terminal on stderr
 
 
 def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecordSummary:
-    """Resolve and check everything, claim `out`, build the HAL, then open the dataset and run the episodes."""
+    """Resolve and check everything, claim `out`, build the HAL, then open the dataset and run the episodes.
+    `notify` None: the run says nothing (-q, --json): no prompts, and no teleop status lines either (those only
+    ever go to a terminal on stderr)."""
     run = _resolve(opts)
+    show = tty_status(STATUS_FD, talk=notify is not None)  # the person's status lines: when the run talks
     held = claim(run.out, "openral-data record --hal", resume=False)  # one writer, before any byte goes into `out`
     try:
         keys = switch = None
         if opts.teleop == "keyboard":
-            keys = KeyboardTeleop(run.rskill, run.rskill_src, show=tty_status(STATUS_FD))
-        device = _device(opts, run)
+            keys = KeyboardTeleop(run.rskill, run.rskill_src, show=show)
+        device = _device(opts, run, show)
         listener = keys.feed if keys is not None else None
         if opts.takeover:  # `t` goes to the switch, the other keys through it to the teleoperator
             switch = TakeoverSwitch(listener)
@@ -269,12 +274,11 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
             hal = build_hal(opts, run.robot, run.rskill, run.rskill_src)
             try:
                 if switch is not None and keys is not None:
-                    policy: PolicyAdapter = Intervention(
-                        run.make_policy(run.rskill), keys, switch, show=tty_status(STATUS_FD)
-                    )
+                    policy: PolicyAdapter = Intervention(run.make_policy(run.rskill), keys, switch, show=show)
                 else:
                     policy = keys or leader or device or run.make_policy(run.rskill)
                 loop = _open(opts, run, hal, policy, operator)
+                _keys_help(opts, notify)
                 return _episodes(opts, run.out, loop, notify)
             finally:
                 hal.close()
@@ -288,13 +292,21 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
         held.release()  # what was recorded stays; empty folders the claim made go
 
 
-def _device(opts: HalRecordOptions, run: _Resolved) -> DeviceTeleop | None:
+def _keys_help(opts: HalRecordOptions, notify: Notify | None) -> None:
+    """The person's keys, said once everything is resolved and open (bad input is one `error:` line, no help)."""
+    if notify is not None and opts.operator == "keyboard":
+        notify(KEYS_HELP)
+    if notify is not None and opts.takeover:
+        notify(TAKEOVER_HELP)
+
+
+def _device(opts: HalRecordOptions, run: _Resolved, show: Callable[[str], None] | None) -> DeviceTeleop | None:
     """`--teleop gamepad|spacemouse[=NODE]`: the device, open and read on its own thread before episode 0."""
     if opts.teleop is None or device_kind(opts.teleop) not in DEVICE_KINDS:
         return None
     from openral_data.producers.hal.devices import open_teleop_device
 
-    return open_teleop_device(opts.teleop, run.rskill, run.rskill_src, tty_status(STATUS_FD))
+    return open_teleop_device(opts.teleop, run.rskill, run.rskill_src, show)
 
 
 @dataclass(frozen=True)

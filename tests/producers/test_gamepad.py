@@ -12,7 +12,6 @@ import pytest
 
 from openral_data.errors import HalError
 from openral_data.producers.hal import gamepad
-from openral_data.producers.hal.base import monotonic
 from openral_data.producers.hal.eef_device import DeviceGains, DeviceReader, DeviceTeleop, shape
 from openral_data.producers.hal.gamepad import EvdevDecoder, find_gamepad, open_gamepad
 from openral_data.producers.hal.operator import Command
@@ -47,7 +46,6 @@ def test_sticks_map_to_world_deltas_with_the_gains(pad: tuple[Gamepad, DeviceRea
     fifo.sticks(ABS_Y=-1.0, ABS_X=0.55, ABS_RY=0.05)  # forward full, right half, right stick inside the deadzone
     fifo.trigger("ABS_RZ", 255)  # right trigger fully: counter-clockwise
     settle(reader, 2)
-    assert reader.stamp is not None and reader.stamp <= monotonic()  # each report stamped on the reader's thread
     action = teleop.step(OBS, "push")
     assert action.dtype == np.float32
     np.testing.assert_allclose(action, [0.02, -0.01, 0.0, 0.0, 0.0, 0.05, 0.0], atol=1e-4)
@@ -125,18 +123,44 @@ def test_a_gamepad_that_goes_away_ends_the_episode(pad: tuple[Gamepad, DeviceRea
     assert info.value.code == "hal.teleop"
 
 
-def test_discovery_takes_the_first_node_named_like_a_gamepad(tmp_path: Path) -> None:
+# (name, capabilities/key, capabilities/abs) as a 64-bit Linux prints them (evtest / udevadm on real machines)
+KEYBOARD = ("AT Translated Set 2 keyboard", "402000000 3803078f800d001 feffffdfffefffff fffffffffffffffe", "0")
+TOUCHPAD = ("SynPS/2 Synaptics TouchPad", "6420 30000 0 0 0 0", "660800011000003")
+ELAN = ("ELAN0670:00 04F3:3150 Touchpad", "e520 10000 0 0 0 0", "661800001000003")
+EXTRA = ("ThinkPad Extra Buttons", "10040 0 0 0 0 1000 0 0 0 0 0 0 1 0 0 0", "0")
+DS4_TOUCHPAD = ("Wireless Controller Touchpad", "2420 10000 0 0 0 0", "6618000 3")
+DS4_MOTION = ("Wireless Controller Motion Sensors", "0", "3f")
+DS4 = ("Wireless Controller", "3fff000000000000 0 0 0 0", "3003f")
+XBOX = ("Microsoft X-Box 360 pad", "7cdb000000000000 0 0 0 0", "3003f")
+STICK = ("Thrustmaster T.16000M", "ffff00000000 0 0 0 0", "30063")
+
+
+def _sysfs(tmp_path: Path, nodes: list[tuple[int, tuple[str, str, str]]]) -> tuple[Path, Path]:
+    """`dev/eventN` and `sys/eventN/device/{name,capabilities/key,capabilities/abs}` laid out as the kernel does."""
     dev, sys_input = tmp_path / "dev", tmp_path / "sys"
-    for n, name in [
-        (2, "AT Translated Set 2 keyboard"),
-        (11, "Microsoft X-Box 360 pad"),
-        (10, "Logitech Gamepad F310"),
-    ]:
-        (dev / f"event{n}").parent.mkdir(exist_ok=True)
+    dev.mkdir(parents=True, exist_ok=True)
+    for n, (name, key, abs_) in nodes:
         (dev / f"event{n}").touch()
-        (sys_input / f"event{n}" / "device").mkdir(parents=True)
-        (sys_input / f"event{n}" / "device" / "name").write_text(name + "\n")
-    assert find_gamepad(dev, sys_input) == dev / "event10"  # numeric order, the keyboard skipped
+        caps = sys_input / f"event{n}" / "device" / "capabilities"
+        caps.mkdir(parents=True)
+        (caps.parent / "name").write_text(name + "\n")
+        (caps / "key").write_text(key + "\n")
+        (caps / "abs").write_text(abs_ + "\n")
+    return dev, sys_input
+
+
+def test_discovery_takes_the_first_node_with_a_gamepad_s_capabilities(tmp_path: Path) -> None:
+    nodes = [(1, TOUCHPAD), (2, KEYBOARD), (3, ELAN), (4, EXTRA), (5, DS4_TOUCHPAD), (6, DS4_MOTION), (12, DS4)]
+    dev, sys_input = _sysfs(tmp_path, [*nodes, (11, XBOX)])
+    assert find_gamepad(dev, sys_input) == dev / "event11"  # numeric order; touchpads, keys, motion skipped
+    dev, sys_input = _sysfs(tmp_path / "ds4", nodes)
+    assert find_gamepad(dev, sys_input) == dev / "event12"  # the DualShock itself, not its touchpad
+    dev, sys_input = _sysfs(tmp_path / "stick", [(3, ELAN), (7, STICK)])
+    assert find_gamepad(dev, sys_input) == dev / "event7"  # a joystick (BTN_TRIGGER...) counts too
+    assert not any(gamepad.is_gamepad(caps) for _, *caps in (TOUCHPAD, ELAN, EXTRA, DS4_TOUCHPAD, DS4_MOTION))
+    dev, sys_input = _sysfs(tmp_path / "none", [(1, TOUCHPAD), (5, DS4_TOUCHPAD), (6, DS4_MOTION)])
     with pytest.raises(HalError, match="no gamepad found") as info:
-        find_gamepad(tmp_path / "none", sys_input)
+        find_gamepad(dev, sys_input)
     assert info.value.code == "hal.teleop"
+    with pytest.raises(HalError, match="no gamepad found"):
+        find_gamepad(tmp_path / "absent", sys_input)

@@ -33,7 +33,7 @@ from tests.support.teleop_push import ended, push_waypoints, pushed, replays_exa
 
 F64 = npt.NDArray[np.float64]
 SEED = 0
-STATUS = re.compile(rb"eef (-?\d+\.\d+) (-?\d+\.\d+) (-?\d+\.\d+) gripper (open|closed)\r?\n")
+STATUS = re.compile(rb"eef (-?\d+\.\d+) (-?\d+\.\d+) (-?\d+\.\d+) gripper (open|closed)\r*\n")  # a pty adds \r
 LINEAR = gamepad.GAINS.linear  # m per tick at full deflection (the same for both devices)
 
 
@@ -66,11 +66,7 @@ class Device:
 
 
 class Stderr(Terminal):
-    """The CLI's stderr as it comes: the status lines and the episode lines."""
-
-    def __init__(self, proc: subprocess.Popen[bytes]) -> None:
-        assert proc.stderr is not None
-        super().__init__(proc.stderr.fileno())
+    """The CLI's stderr as it comes, on a pty (status lines go to a terminal only): the status and episode lines."""
 
     def position(self, after: int) -> tuple[F64 | None, int]:
         found = list(STATUS.finditer(self.text, after))
@@ -100,26 +96,31 @@ def _drive_to(device: Device, err_out: Stderr, target: F64, tol: float, running:
 
 
 @contextlib.contextmanager
-def _running(proc: subprocess.Popen[bytes], device: DeviceFifo) -> Iterator[Stderr]:
-    """The recording's stderr while it runs; afterwards the process is gone (killed if it still ran) and the
-    device unplugged."""
-    err_out = Stderr(proc)
+def _running(proc: subprocess.Popen[bytes], err_fd: int, device: DeviceFifo) -> Iterator[Stderr]:
+    """The recording's stderr (the pty's far side `err_fd`) while it runs; afterwards the process is gone (killed
+    if it still ran), the pty closed and the device unplugged."""
+    err_out = Stderr(err_fd)
     try:
         yield err_out
         proc.wait(timeout=30)
         err_out.read(0.2)
     finally:
         ended(proc)
+        os.close(err_fd)
         device.unplug()
 
 
-def _record(kind: str, node: Path, out: Path, *extra: str) -> subprocess.Popen[bytes]:
+def _record(kind: str, node: Path, out: Path, *extra: str) -> tuple[subprocess.Popen[bytes], int]:
+    """The recording, its stderr a pty (as a person's terminal); the pty's far side is returned with it."""
     args = ["record", "--scene", "tabletop_push", "--teleop", f"{kind}={node}", "--out", str(out), "--codec", "h264"]
-    return subprocess.Popen(
+    master, slave = os.openpty()
+    proc = subprocess.Popen(
         [sys.executable, "-m", "openral_data.cli", *args, "--seed", str(SEED), *extra],
-        stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-        env={**os.environ, "MUJOCO_GL": "egl"},
+        stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=slave,
+        env={**os.environ, "MUJOCO_GL": "egl"}, close_fds=True,
     )  # fmt: skip
+    os.close(slave)
+    return proc, master
 
 
 @pytest.mark.slow
@@ -129,8 +130,8 @@ def test_a_person_with_a_device_pushes_the_cube_and_the_episode_replays(
 ) -> None:
     waypoints = push_waypoints(SEED)
     out, device = tmp_path / "teleop", Device(kind, tmp_path / "node")
-    proc = _record(kind, device.fifo.path, out, "--n-episodes", "1", "--max-steps", "600")
-    with _running(proc, device.fifo) as err_out:
+    proc, err_fd = _record(kind, device.fifo.path, out, "--n-episodes", "1", "--max-steps", "600")
+    with _running(proc, err_fd, device.fifo) as err_out:
         err_out.wait_for(b"gripper open", 60)  # the episode runs: close the gripper, closed fingers push
         device.grip()
         for k, target in enumerate(waypoints):
@@ -147,8 +148,10 @@ def test_a_gamepad_unplugged_mid_run_discards_the_episode_and_keeps_the_committe
     project: Path, tmp_path: Path
 ) -> None:
     out, pad = tmp_path / "teleop", Gamepad(tmp_path / "event5")
-    proc = _record("gamepad", pad.path, out, "--n-episodes", "3", "--operator", "success@5", "--max-steps", "400")
-    with _running(proc, pad) as err_out:
+    proc, err_fd = _record(
+        "gamepad", pad.path, out, "--n-episodes", "3", "--operator", "success@5", "--max-steps", "400"
+    )
+    with _running(proc, err_fd, pad) as err_out:
         err_out.wait_for(b"episode 1/3: kept", 60)
         pad.unplug()
     lines = err_out.text.decode(errors="replace").strip().splitlines()

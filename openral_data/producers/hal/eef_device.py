@@ -2,7 +2,7 @@
 
 The device node (`/dev/input/eventN`, `/dev/hidrawN`) is opened before episode 0 and read by a `DeviceReader`
 thread: every `read()` goes to the device's `Decoder` (producers/hal/gamepad.py, spacemouse.py), which keeps
-the newest axis values and the button presses; the reader stamps each complete report (`time.monotonic()`).
+the newest axis values and the button presses; the reader counts the complete reports.
 `DeviceTeleop` is a policy (reset / step / close, the `PolicyAdapter` protocol): each tick it turns the axes
 (already shaped by the deadzone, in [-1, 1]) into a `delta_eef_gripper` action [dx, dy, dz, 0, 0, dyaw,
 gripper] = gains × axes, clipped to the contract; the gripper button toggles the gripper (0 open, 1 closed).
@@ -21,7 +21,7 @@ import os
 import stat
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
@@ -31,8 +31,7 @@ import numpy.typing as npt
 
 from openral_data.errors import HalError
 from openral_data.paths import read_regular
-from openral_data.producers.hal.base import monotonic
-from openral_data.producers.hal.operator import Command, Operator
+from openral_data.producers.hal.operator import Command, Operator, no_check
 from openral_data.producers.hal.teleop import eef_line
 from openral_data.types import Observation
 
@@ -83,18 +82,27 @@ class Presses:
         return presses
 
 
-def find_node(dev: Path, prefix: str, sys_class: Path, info: str, looks_like: Callable[[str], bool], what: str) -> Path:
-    """The first `dev`/<prefix>N (in N's order) whose `sys_class`/<prefix>N/device/`info` file (sysfs: read
+def find_node(
+    dev: Path,
+    prefix: str,
+    sys_class: Path,
+    info: Sequence[str],
+    looks_like: Callable[[Sequence[str]], bool],
+    what: str,
+) -> Path:
+    """The first `dev`/<prefix>N (in N's order) whose `sys_class`/<prefix>N/device/`info` files (sysfs: each read
     bounded, a regular file only) `looks_like` the device wanted; none is one line (`hal.teleop`)."""
     numbered = [(int(p.name[len(prefix) :]), p) for p in dev.glob(prefix + "*") if p.name[len(prefix) :].isdigit()]
     for _, node in sorted(numbered):
         with contextlib.suppress(OSError, ValueError):
-            text = read_regular(sys_class / node.name / "device" / info, limit=1 << 14).decode(errors="replace")
-            if looks_like(text):
+            folder = sys_class / node.name / "device"
+            texts = [read_regular(folder / name, limit=1 << 14).decode(errors="replace") for name in info]
+            if looks_like(texts):
                 return node  # open_node checks that it is a device node
+    files = " and ".join(f"{sys_class}/{prefix}N/device/{name}" for name in info)
     raise HalError(
-        f"{dev}: --teleop {what}: no {what} found (no {prefix}N whose {sys_class}/{prefix}N/device/{info} names "
-        f"one); plug one in, or name its node: --teleop {what}={dev}/{prefix}N",
+        f"{dev}: --teleop {what}: no {what} found (no {prefix}N whose {files} says it is one); plug one in, "
+        f"or name its node: --teleop {what}={dev}/{prefix}N",
         code="hal.teleop",
     )
 
@@ -122,8 +130,7 @@ class DeviceReader:
     def __init__(self, path: Path, fd: int, decoder: Decoder, what: str) -> None:
         self.path, self.fd, self.decoder, self.what = path, fd, decoder, what
         self.lock = threading.Lock()
-        self.stamp: float | None = None  # monotonic time of the newest complete report
-        self.reports = 0
+        self.reports = 0  # complete reports applied (what tests/support/input_devices.settle waits on)
         self.gone: str | None = None  # why the device stopped delivering (unplugged, read error)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name=f"teleop-{what}", daemon=True)
@@ -147,10 +154,7 @@ class DeviceReader:
                 self._lost("end of file")
                 return
             with self.lock:
-                n = self.decoder.feed(data)
-                if n:
-                    self.stamp = monotonic()
-                    self.reports += n
+                self.reports += self.decoder.feed(data)
 
     def _lost(self, why: str) -> None:
         with self.lock:
@@ -224,10 +228,6 @@ class DeviceTeleop:
         self.reader.close()
 
 
-def _no_check() -> None:
-    pass
-
-
 class DeviceOperator:
     """The run's operator, plus the device's buttons: a button's command ends the episode like a key would."""
 
@@ -235,14 +235,14 @@ class DeviceOperator:
         self.inner, self.teleop = inner, teleop
         self.interactive = inner.interactive
 
-    def wait_start(self, episode: int, check: Callable[[], None] = _no_check) -> Command:
+    def wait_start(self, episode: int, check: Callable[[], None] = no_check) -> Command:
         return self.inner.wait_start(episode, check)
 
     def poll(self, episode: int, frame: int) -> Command | None:
         cmd = self.teleop.command()
         return cmd if cmd is not None else self.inner.poll(episode, frame)
 
-    def pause(self, seconds: float, check: Callable[[], None] = _no_check) -> Command | None:
+    def pause(self, seconds: float, check: Callable[[], None] = no_check) -> Command | None:
         """The reset wait: the operator's keys, and the device's buttons, in 0.1 s slices."""
         end = time.monotonic() + seconds
         while (left := end - time.monotonic()) > 0:

@@ -23,9 +23,8 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
-import re
 import struct
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -62,9 +61,12 @@ BUTTONS: dict[int, str] = {
 GAINS = DeviceGains(deadzone=0.1)  # a stick at rest reads up to a few % off centre
 DEV_INPUT = Path("/dev/input")
 SYS_INPUT = Path("/sys/class/input")
-GAMEPAD_NAME = re.compile(
-    r"gamepad|joystick|controller|x-?box|playstation|dualshock|dualsense|8bitdo|joy-?con|pad\b", re.I
-)
+# udev's input_id: a joystick or gamepad has a button of the BTN_JOYSTICK (0x120..) or BTN_GAMEPAD (0x130..0x13e)
+# block and the ABS_X/ABS_Y axes; a touchpad (a laptop's, a DualShock's) has BTN_TOOL_FINGER/BTN_TOUCH instead
+PAD_BUTTONS = range(0x120, 0x13F)
+BTN_TOOL_FINGER, BTN_TOUCH = 0x145, 0x14A
+CAPABILITIES = ("capabilities/key", "capabilities/abs")
+WORD_BITS = struct.calcsize("l") * 8  # sysfs prints a bitmap as hex longs, the most significant first
 WHAT = "gamepad"
 
 
@@ -153,9 +155,27 @@ class EvdevDecoder(Presses):
         return np.array([-self.stick(ABS_Y), -self.stick(ABS_X), -self.stick(ABS_RY), yaw])
 
 
+def bitmap(text: str) -> int:
+    """A sysfs capability bitmap (`7cdb000000000000 0 0 0 0`: hex longs, the most significant first) as one int."""
+    value = 0
+    for word in text.split():
+        value = (value << WORD_BITS) | int(word, 16)
+    return value
+
+
+def is_gamepad(capabilities: Sequence[str]) -> bool:
+    """An evdev node's `capabilities/key` and `capabilities/abs` are a gamepad's or a joystick's (udev's
+    input_id test): a gamepad or joystick button, the X and Y axes, and no touch (a touchpad's finger)."""
+    keys, axes = (bitmap(text) for text in capabilities)
+    button = any(keys >> code & 1 for code in PAD_BUTTONS)
+    touch = keys >> BTN_TOUCH & 1 or keys >> BTN_TOOL_FINGER & 1
+    return button and not touch and axes >> ABS_X & 1 == 1 and axes >> ABS_Y & 1 == 1
+
+
 def find_gamepad(dev: Path = DEV_INPUT, sys_input: Path = SYS_INPUT) -> Path:
-    """The first `eventN` under `dev` whose name (`sys_input`/eventN/device/name) looks like a gamepad."""
-    return find_node(dev, "event", sys_input, "name", lambda name: GAMEPAD_NAME.search(name) is not None, WHAT)
+    """The first `eventN` under `dev` whose capabilities (`sys_input`/eventN/device/capabilities/key, abs) are a
+    gamepad's (`is_gamepad`); its name is not looked at (touchpads and extra-button nodes have names like pads)."""
+    return find_node(dev, "event", sys_input, CAPABILITIES, is_gamepad, WHAT)
 
 
 def open_gamepad(path: Path | None, gains: DeviceGains = GAINS) -> DeviceReader:

@@ -46,14 +46,14 @@ KEYS: dict[str, Command] = {
 HELP = "keys: space/enter start · s success · f failure · d discard · r re-record · q quit · x e-stop"
 
 
-def _nothing() -> None:
-    pass
+def no_check() -> None:
+    """The default `check` of a wait: nothing to check (no e-stop source, no device to watch)."""
 
 
 class Operator(Protocol):
     interactive: bool
 
-    def wait_start(self, episode: int, check: Callable[[], None] = _nothing) -> Command:
+    def wait_start(self, episode: int, check: Callable[[], None] = no_check) -> Command:
         """Block until the operator starts episode `episode` (START) or quits (QUIT); `check()` is called
         while waiting (it raises to abandon the wait, e.g. on Ctrl-C)."""
         ...
@@ -62,7 +62,7 @@ class Operator(Protocol):
         """Non-blocking: a command given during the episode, after `frame` frames were recorded."""
         ...
 
-    def pause(self, seconds: float, check: Callable[[], None] = _nothing) -> Command | None:
+    def pause(self, seconds: float, check: Callable[[], None] = no_check) -> Command | None:
         """Between episodes (the reset time): wait `seconds` (None), unless the operator starts the next episode
         now (START), quits (QUIT) or trips the e-stop (ESTOP) first; `check()` is called while waiting."""
         ...
@@ -105,14 +105,14 @@ class KeyboardOperator:
             self.listener(ch)
         return cmd
 
-    def wait_start(self, episode: int, check: Callable[[], None] = _nothing) -> Command:
+    def wait_start(self, episode: int, check: Callable[[], None] = no_check) -> Command:
         while True:
             check()
             cmd = self._key(0.1)
             if cmd in (Command.START, Command.QUIT):
                 return cmd
 
-    def pause(self, seconds: float, check: Callable[[], None] = _nothing) -> Command | None:
+    def pause(self, seconds: float, check: Callable[[], None] = no_check) -> Command | None:
         end = time.monotonic() + seconds
         while (left := end - time.monotonic()) > 0:
             check()
@@ -173,7 +173,7 @@ class ScriptedOperator:
         self.verdicts = list(verdicts or [])
         self._started = -1
 
-    def wait_start(self, episode: int, check: Callable[[], None] = _nothing) -> Command:
+    def wait_start(self, episode: int, check: Callable[[], None] = no_check) -> Command:
         check()
         self._started += 1
         return Command.START
@@ -187,7 +187,7 @@ class ScriptedOperator:
             return v.command
         return None
 
-    def pause(self, seconds: float, check: Callable[[], None] = _nothing) -> Command | None:
+    def pause(self, seconds: float, check: Callable[[], None] = no_check) -> Command | None:
         end = time.monotonic() + seconds
         while (left := end - time.monotonic()) > 0:
             check()

@@ -96,7 +96,7 @@ def is_spacemouse(uevent: str) -> bool:
 
 def find_spacemouse(dev: Path = DEV, sys_hidraw: Path = SYS_HIDRAW) -> Path:
     """The first `hidrawN` under `dev` whose HID device (`sys_hidraw`/hidrawN/device/uevent) is a 3Dconnexion one."""
-    return find_node(dev, "hidraw", sys_hidraw, "uevent", is_spacemouse, WHAT)
+    return find_node(dev, "hidraw", sys_hidraw, ("uevent",), lambda texts: is_spacemouse(texts[0]), WHAT)
 
 
 def open_spacemouse(path: Path | None, gains: DeviceGains = GAINS) -> DeviceReader:

@@ -141,8 +141,11 @@ def status(observation: Observation, gripper: float, pending: npt.NDArray[np.flo
     return f"{eef_line(observation, gripper)} pending {moves}"
 
 
-def tty_status(fd: int) -> Callable[[str], None]:
-    """Show a status line on the terminal `fd`, overwriting the previous one."""
+def tty_status(fd: int, talk: bool = True) -> Callable[[str], None] | None:
+    """Show a status line on the terminal `fd`, overwriting the previous one; None (no status lines) when the run
+    says nothing (`talk` False: -q, --json) or `fd` is not a terminal (a file or a pipe: a log, not a person)."""
+    if not talk or not os.isatty(fd):
+        return None
 
     def show(line: str) -> None:
         os.write(fd, f"\r\x1b[K{line}\r\n".encode())
