@@ -14,7 +14,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 
 from openral_data.errors import HalError
 from openral_data.record.hal import HalRecordOptions, record_hal
@@ -24,12 +23,13 @@ from tests.support.dynamixel_bus import (
     KOCH_RANGES,
     LEADER_DRIVE_MODES,
     SimulatedDynamixelBus,
+    normalized,
     write_koch_calibration,
 )
-from tests.support.hal import episode_infos, frames_table
+from tests.support.hal import calibrated_leader_manifest, episode_infos, frames_table
 from tests.support.inproc import run_inproc
 from tests.support.lerobot_written import loaded_episodes
-from tests.support.servo_hand import Hand
+from tests.support.servo_hand import record_by_hand
 
 ROBOT = "koch_follower"
 IDS = list(range(1, 7))
@@ -41,19 +41,7 @@ def _manifest(project: Path, leader_port: str) -> Path:
     folder = project / "robots" / ROBOT
     write_koch_calibration(folder / "calibration" / "koch_follower.json")
     write_koch_calibration(folder / "calibration" / "koch_leader.json", LEADER_DRIVE_MODES)
-    path = folder / "robot.yaml"
-    manifest = yaml.safe_load(path.read_text())
-    manifest["hardware"]["robot"]["calibration_dir"] = "calibration"
-    manifest["hardware"]["teleop"].update({"port": leader_port, "calibration_dir": "calibration"})
-    path.write_text(yaml.safe_dump(manifest, sort_keys=False))
-    return path
-
-
-def normalized(raw: int, sid: int) -> float:
-    """lerobot's normalisation of a Koch reading: -100..100 of the calibrated range, the gripper (id 6) 0..100."""
-    lo, hi = KOCH_RANGES[sid]
-    part = (min(hi, max(lo, raw)) - lo) / (hi - lo)
-    return part * 100 if sid == 6 else part * 200 - 100
+    return calibrated_leader_manifest(folder / "robot.yaml", leader_port)
 
 
 @pytest.fixture
@@ -73,18 +61,14 @@ def test_the_koch_leader_drives_the_follower_over_two_simulated_dynamixel_buses(
 ) -> None:
     follower, leader = buses
     out = tmp_path / "koch"
-    with Hand(leader):
-        r = run_inproc(
-            "record", "--hal", ROBOT, "--mode", "real", "--port", follower.port, "--teleop", "leader",
-            "--fps", "10", "--max-steps", str(STEPS), "--out", str(out), "--codec", "h264", "--operator", "success",
-        )  # fmt: skip
+    r = record_by_hand([leader], ROBOT, out, STEPS, "--port", follower.port)
     assert r.returncode == 0, r.stderr
     cols = frames_table(out)
     action, state = np.array(cols["action"]), np.array(cols["observation.state"])
     assert len(action) == STEPS
     # every action is what the leader's bus reported at that tick (the last STEPS position reads)
     reads = leader.position_reads[-STEPS:]
-    want = np.array([[normalized(r[i], i) for i in IDS] for r in reads])
+    want = np.array([[normalized(r[i], i, KOCH_RANGES) for i in IDS] for r in reads])
     assert np.allclose(action, want, atol=1e-3)
     assert np.ptp(action[:, 1]) > 3.0  # the hand moved the leader
     # the follower's servos follow: readings close to the previous frame's command (a tick the loaded machine

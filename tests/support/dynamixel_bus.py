@@ -15,6 +15,9 @@ registers above.
 The Koch pair (lerobot's koch_follower and koch_leader): motor ids 1..6, models `KOCH_FOLLOWER_MODELS` /
 `KOCH_LEADER_MODELS`, position limits `KOCH_RANGES`; `write_koch_calibration` writes the file `lerobot-calibrate`
 would for an arm on this bus, and a bus built with the same `drive_modes` holds that calibration in its registers.
+The OMX pair (lerobot's omx_follower, ids 11..16, and omx_leader, ids 1..6): models `OMX_FOLLOWER_MODELS` /
+`OMX_LEADER_MODELS`, lerobot's factory calibration (`OMX_RANGES`: 0..4095 everywhere; the leader's gripper inverted
+with homing offset 100: `OMX_LEADER_DRIVE_MODES`, `OMX_LEADER_HOMING`), written by `write_omx_calibration`.
 
 dynamixel_sdk (3.8.4) sends its instructions unstuffed (txPacket drops the lengthened packet addStuffing makes);
 this bus unstuffs what arrives as a servo does, and stuffs its replies, which the SDK's rxPacket unstuffs.
@@ -38,6 +41,10 @@ KOCH_LEADER_MODELS = dict.fromkeys(range(1, 7), XL330_M077)
 # ranges for the others; the leader's elbow is mounted reversed (drive mode 1)
 KOCH_RANGES = {1: (0, 4095), 2: (1024, 3072), 3: (1024, 3072), 4: (1024, 3072), 5: (0, 4095), 6: (1500, 2600)}
 LEADER_DRIVE_MODES = {3: 1}
+OMX_FOLLOWER_MODELS = {11: XL430_W250, 12: XL430_W250, 13: XL430_W250, 14: XL330_M288, 15: XL330_M288, 16: XL330_M288}
+OMX_LEADER_MODELS = {**dict.fromkeys(range(1, 6), XL330_M288), 6: XL330_M077}
+OMX_RANGES = dict.fromkeys([*range(1, 7), *range(11, 17)], (0, 4095))
+OMX_LEADER_DRIVE_MODES, OMX_LEADER_HOMING = {6: 1}, {6: 100}
 
 PING, READ, WRITE, SYNC_READ, SYNC_WRITE, STATUS = 0x01, 0x02, 0x03, 0x82, 0x83, 0x55
 BROADCAST = 0xFE
@@ -137,10 +144,14 @@ class SimulatedDynamixelBus(PtyDevice):
     """Serves X-series servos `models` (id -> model number) on a pty; `port` is the path the driver opens."""
 
     def __init__(self, models: dict[int, int], *, position: int = 2048, drive_modes: dict[int, int] | None = None,
-                 speed: float = 3000.0) -> None:  # fmt: skip
-        self.servos = {i: Servo(i, m, position, KOCH_RANGES[i], speed) for i, m in models.items()}
+                 speed: float = 3000.0, ranges: dict[int, tuple[int, int]] = KOCH_RANGES,
+                 homing: dict[int, int] | None = None) -> None:  # fmt: skip
+        self.servos = {i: Servo(i, m, position, ranges[i], speed) for i, m in models.items()}
         for i, mode in (drive_modes or {}).items():
             self.servos[i].set("drive_mode", mode)
+        for i, offset in (homing or {}).items():
+            self.servos[i].set("homing", offset)
+            self.servos[i].update()
         self.packets = 0
         self.position_reads: list[dict[int, int]] = []  # every SYNC_READ of Present_Position: id -> value sent
         super().__init__("dynamixel-sim", PortHandler)
@@ -200,11 +211,37 @@ class SimulatedDynamixelBus(PtyDevice):
 
 def write_koch_calibration(path: Path, drive_modes: dict[int, int] | None = None) -> Path:
     """A calibration file like `lerobot-calibrate` writes for a Koch arm on this bus (KOCH_RANGES, homing 0)."""
+    return write_calibration(path, KOCH_RANGES, drive_modes)
+
+
+def write_omx_calibration(path: Path, ids: range, drive_modes: dict[int, int] | None = None,
+                          homing: dict[int, int] | None = None) -> Path:  # fmt: skip
+    """The factory calibration lerobot's OMX classes save for an arm with servo `ids` (OMX_RANGES)."""
+    return write_calibration(path, {i: OMX_RANGES[i] for i in ids}, drive_modes, homing)
+
+
+def write_calibration(path: Path, ranges: dict[int, tuple[int, int]], drive_modes: dict[int, int] | None = None,
+                      homing: dict[int, int] | None = None) -> Path:  # fmt: skip
+    """lerobot's calibration file of a six-servo arm (KOCH_MOTORS' names, in id order) on this bus."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    modes = drive_modes or {}
+    modes, offsets = drive_modes or {}, homing or {}
     cal = {
-        m: {"id": i, "drive_mode": modes.get(i, 0), "homing_offset": 0, "range_min": lo, "range_max": hi}
-        for m, (i, (lo, hi)) in zip(KOCH_MOTORS, KOCH_RANGES.items(), strict=True)
+        m: {
+            "id": i,
+            "drive_mode": modes.get(i, 0),
+            "homing_offset": offsets.get(i, 0),
+            "range_min": lo,
+            "range_max": hi,
+        }
+        for m, (i, (lo, hi)) in zip(KOCH_MOTORS, ranges.items(), strict=True)
     }
     path.write_text(json.dumps(cal))
     return path
+
+
+def normalized(raw: int, sid: int, ranges: dict[int, tuple[int, int]]) -> float:
+    """lerobot's normalisation of servo `sid`'s reading on a six-servo arm: -100..100 of its calibrated range, the
+    gripper (id 6 or 16) 0..100 (lerobot's Dynamixel bus does not apply the drive mode)."""
+    lo, hi = ranges[sid]
+    part = (min(hi, max(lo, raw)) - lo) / (hi - lo)
+    return part * 100 if sid % 10 == 6 else part * 200 - 100

@@ -170,3 +170,11 @@ def calibrated_so_project(project: Path, robot: str) -> Path:
     manifest["hardware"]["calibration_dir"] = "calibration"
     path.write_text(yaml.safe_dump(manifest, sort_keys=False))
     return project
+
+
+def so_normalized(raw: int, sid: int, range_min: int = 1024, range_max: int = 3072) -> float:
+    """lerobot's normalisation of an SO arm's reading (use_degrees): degrees about the middle of the range (STS3215:
+    4096 steps), the gripper (id 6) 0..100 of its range."""
+    if sid == 6:
+        return (raw - range_min) / (range_max - range_min) * 100
+    return (raw - (range_min + range_max) / 2) * 360 / 4095

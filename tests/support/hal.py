@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 import pyarrow.parquet as pq
+import yaml
 
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
 from openral_data.policies.base import PolicyAdapter
@@ -116,3 +117,13 @@ def episode_infos(root: Path) -> list[dict[str, Any]]:
     files = sorted((root / "meta" / "episodes").rglob("*.parquet"))
     rows = pq.read_table(files[0]).to_pydict()
     return [json.loads(s) for s in rows["openral.episode_info"]]
+
+
+def calibrated_leader_manifest(path: Path, leader_port: str) -> Path:
+    """The `driver: lerobot` manifest at `path` with `calibration_dir: calibration` (beside it) for its robot and
+    its teleoperator, the leader on `leader_port`."""
+    manifest = yaml.safe_load(path.read_text())
+    manifest["hardware"]["robot"]["calibration_dir"] = "calibration"
+    manifest["hardware"]["teleop"].update({"port": leader_port, "calibration_dir": "calibration"})
+    path.write_text(yaml.safe_dump(manifest, sort_keys=False))
+    return path

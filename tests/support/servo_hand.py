@@ -1,12 +1,17 @@
-"""A person moving a leader arm on a simulated servo bus (tests/support/feetech_bus.py, dynamixel_bus.py)."""
+"""A person moving a leader arm on a simulated servo bus (tests/support/feetech_bus.py, dynamixel_bus.py), and a
+recording through the real CLI while they do."""
 
 from __future__ import annotations
 
 import math
 import threading
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from contextlib import ExitStack
+from pathlib import Path
 from typing import Protocol
+
+from tests.support.inproc import Run, run_inproc
 
 
 class Shaft(Protocol):
@@ -42,3 +47,15 @@ class Hand:
             for i, servo in self.bus.servos.items():
                 servo.position = 2048 + 150 * math.sin(2 * math.pi * t / 2.0 + i)
             time.sleep(0.005)
+
+
+def record_by_hand(leaders: Sequence[ServoBus], robot: str, out: Path, steps: int, *extra: str) -> Run:
+    """`record --hal ROBOT --mode real --teleop leader` (10 fps, h264, marked success; `extra` arguments after)
+    while a `Hand` moves each of the `leaders`' buses."""
+    with ExitStack() as hands:
+        for bus in leaders:
+            hands.enter_context(Hand(bus))
+        return run_inproc(
+            "record", "--hal", robot, "--mode", "real", "--teleop", "leader", "--fps", "10", "--max-steps", str(steps),
+            "--out", str(out), "--codec", "h264", "--operator", "success", *extra,
+        )  # fmt: skip

@@ -6,16 +6,20 @@ with lerobot's own registries and factories (`RobotConfig.get_choice_class(type)
 Joint values are read and written through the lerobot feature keys of the manifest's state/action names
 (`<name>` or `<name>.pos`). What stays ours: the fixed-rate loop, stamps, staleness, safety filter, e-stop.
 
-Unattended recording never starts lerobot's interactive calibration: a device with a motor bus needs its
-calibration file (`lerobot-calibrate` writes it) and motors that agree with it, else connecting fails with one
-line. Cameras are not given to the robot's config (lerobot would read them inside `get_observation`): each
+Unattended recording never starts lerobot's interactive calibration: a device with a motor bus (each arm of a
+bimanual one) needs its calibration file (`lerobot-calibrate` writes it) and motors that agree with it, else
+connecting fails with one line. A config's nested dataclass fields (a bimanual robot's `left_arm_config: {port:
+...}`) are built from the manifest's mappings, as lerobot's own CLI parser builds them. Cameras are not given
+to the robot's config (lerobot would read them inside `get_observation`): each
 runs in its own capture thread with its own stamps (`sensors.ThreadedCamera`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import pkgutil
+import typing
 from functools import cache
 from pathlib import Path
 from typing import Any
@@ -87,32 +91,57 @@ def lerobot_config(kind: str, spec: LerobotDevice, source: str, field: str) -> A
         cal = Path(str(fields["calibration_dir"])).expanduser()
         fields["calibration_dir"] = cal if cal.is_absolute() else Path(source).parent / cal
     try:
-        return known[name](**fields)
+        return with_nested(known[name], fields)
     except (TypeError, ValueError) as exc:
         raise ConfigError(f"{source}: {field}: {exc}") from None
 
 
+def with_nested(cls: Any, fields: dict[str, Any]) -> Any:
+    """`cls(**fields)`, a mapping given for a dataclass-typed field built into that dataclass first (lerobot's
+    bimanual configs: `left_arm_config: {port: ...}`, as lerobot's CLI parser builds them)."""
+    if not any(isinstance(v, dict) for v in fields.values()):
+        return cls(**fields)
+    try:
+        hints = typing.get_type_hints(cls)
+    except NameError:  # an annotation lerobot's module cannot resolve: leave the mappings to lerobot
+        hints = {}
+    nested = {
+        k: with_nested(hints[k], v) if isinstance(v, dict) and dataclasses.is_dataclass(hints.get(k)) else v
+        for k, v in fields.items()
+    }
+    return cls(**nested)
+
+
 def connect_device(device: Any, source: str, field: str, type_name: str) -> None:
-    """`device.connect(calibrate=False)` with the calibration rules above; one line per failure."""
-    bus = getattr(device, "bus", None)
-    path = getattr(device, "calibration_fpath", None)
-    if bus is not None and path is not None and not Path(path).is_file():
-        raise ConfigError(
-            f"{source}: {field}.calibration_dir: no calibration {path} (run: lerobot-calibrate "
-            f"--{'teleop' if 'teleop' in field else 'robot'}.type={type_name} --...port=... --...id={device.id})"
-        )
+    """`device.connect(calibrate=False)` with the calibration rules above (for each arm of a bimanual device);
+    one line per failure."""
+    arms = motor_arms(device)
+    for path in [getattr(arm, "calibration_fpath", None) for arm in arms]:
+        if path is not None and not Path(path).is_file():
+            raise ConfigError(
+                f"{source}: {field}.calibration_dir: no calibration {path} (run: lerobot-calibrate "
+                f"--{'teleop' if 'teleop' in field else 'robot'}.type={type_name} --...port=... --...id={device.id})"
+            )
     port = getattr(device.config, "port", None)
     try:
         device.connect(calibrate=False)
     except CONNECT_ERRORS as exc:
         raise HalError(f"{source}: {field}.port: cannot connect to {port}: {exc}", code="hal.connect") from None
-    if bus is not None and not device.is_calibrated:
+    if differs := [getattr(arm, "calibration_fpath", None) for arm in arms if not arm.is_calibrated]:
         device.disconnect()
         raise HalError(
-            f"{source}: {field}.calibration_dir: the motors' calibration differs from {path} "
+            f"{source}: {field}.calibration_dir: the motors' calibration differs from {differs[0]} "
             "(recalibrate with lerobot-calibrate, or point calibration_dir at this arm's file)",
             code="hal.calibration",
         )
+
+
+def motor_arms(device: Any) -> list[Any]:
+    """The parts of a lerobot device with a motor bus: the device itself, or the arms a
+    bimanual device holds (lerobot's bi_so_follower: `left_arm`, `right_arm`)."""
+    if getattr(device, "bus", None) is not None:
+        return [device]
+    return [part for part in vars(device).values() if getattr(part, "bus", None) is not None]
 
 
 def feature_keys(names: list[str], features: dict[str, Any], source: str, field: str) -> list[str]:
