@@ -130,7 +130,7 @@ class DeviceReader:
     def __init__(self, path: Path, fd: int, decoder: Decoder, what: str) -> None:
         self.path, self.fd, self.decoder, self.what = path, fd, decoder, what
         self.lock = threading.Lock()
-        self.reports = 0  # complete reports applied (what tests/support/input_devices.settle waits on)
+        self.reports = 0  # complete reports applied (`settle` in tests/support/input_devices.py waits on it)
         self.gone: str | None = None  # why the device stopped delivering (unplugged, read error)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name=f"teleop-{what}", daemon=True)
