@@ -117,7 +117,7 @@ def run_view(opts: ViewOptions) -> str:
             what = f"{opts.path} episode {opts.episode} ({episode.frames.num_rows} frames)"
         ok = True
     finally:
-        failed = _flushed(rec)
+        failed = _flushed(rec, save)
         if (not ok or failed is not None) and save is not None:
             save.unlink(missing_ok=True)
     if failed is not None:
@@ -125,15 +125,31 @@ def run_view(opts: ViewOptions) -> str:
     return f"saved {what} to {save}" if save is not None else f"opened {what} in the rerun viewer"
 
 
-def _flushed(rec: rr.RecordingStream) -> str | None:
-    """Flush and disconnect `rec`; what stopped rerun's writer (a full disk, an I/O error), if anything did."""
+FLUSH_WAIT = 5.0  # s a flush may go without the .rrd growing before rerun's writer counts as stopped
+TIMED_OUT = "Flush timed out"  # rerun 0.41's message when flush(timeout_sec=...) runs out
+
+
+def _flushed(rec: rr.RecordingStream, save: Path | None) -> str | None:
+    """Flush and disconnect `rec`; what stopped rerun's writer (a full disk, an I/O error), if anything did.
+
+    rerun's flush either raises when its file-writer thread stopped or, racing with that thread's end, waits
+    forever (seen on a full disk): so it waits `FLUSH_WAIT` s at a time while the .rrd still grows, and a
+    wait in which nothing was written counts as the writer stopped (a spawned viewer: one wait of 12x)."""
     try:
-        rec.flush()
-    except RuntimeError as exc:  # rerun's file-writer thread stopped: it says why only in its own log
-        return str(exc)
+        written = -1
+        while True:
+            try:
+                rec.flush(timeout_sec=FLUSH_WAIT if save is not None else 12 * FLUSH_WAIT)
+                return None
+            except RuntimeError as exc:  # rerun's file-writer thread stopped: it says why only in its own log
+                if TIMED_OUT not in str(exc) or save is None:
+                    return str(exc)
+                size = save.stat().st_size if save.is_file() else -1
+                if size == written:
+                    return f"rerun's writer stopped: nothing written for {FLUSH_WAIT:g} s ({exc})"
+                written = size
     finally:
         rec.disconnect()
-    return None
 
 
 def mcap_file(path: Path) -> Path | None:
