@@ -61,6 +61,7 @@ from openral_data.viz.entities import (
     outcome_entity,
     series_entities,
 )
+from openral_data.viz.rrd_file import RrdFile
 
 
 @dataclass(frozen=True)
@@ -102,54 +103,31 @@ def run_view(opts: ViewOptions) -> str:
     episode = None if is_mcap else load_episode(open_dataset(opts.path), opts.episode, opts.results)
     rec = rr.RecordingStream(APP_ID)
     if save is not None:
-        save.parent.mkdir(parents=True, exist_ok=True)
-        rec.save(save)
-    else:
-        rec.spawn()
-    ok = False
+        with RrdFile(rec, save):
+            what = _log(rec, opts, mcap, episode)
+        return f"saved {what} to {save}"
+    rec.spawn()
     try:
-        if episode is None:
-            assert mcap is not None  # no episode is loaded only for an MCAP file
-            rec.log_file_from_path(mcap)
-            what = f"{opts.path}"
-        else:
-            log_episode(rec, episode)
-            what = f"{opts.path} episode {opts.episode} ({episode.frames.num_rows} frames)"
-        ok = True
-    finally:
-        failed = _flushed(rec, save)
-        if (not ok or failed is not None) and save is not None:
-            save.unlink(missing_ok=True)
-    if failed is not None:
-        raise WriteError(f"{save if save is not None else 'the rerun viewer'}: cannot write the recording: {failed}")
-    return f"saved {what} to {save}" if save is not None else f"opened {what} in the rerun viewer"
-
-
-FLUSH_WAIT = 5.0  # s a flush may go without the .rrd growing before rerun's writer counts as stopped
-TIMED_OUT = "Flush timed out"  # rerun 0.41's message when flush(timeout_sec=...) runs out
-
-
-def _flushed(rec: rr.RecordingStream, save: Path | None) -> str | None:
-    """Flush and disconnect `rec`; what stopped rerun's writer (a full disk, an I/O error), if anything did.
-
-    rerun's flush either raises when its file-writer thread stopped or, racing with that thread's end, waits
-    forever (seen on a full disk): so it waits `FLUSH_WAIT` s at a time while the .rrd still grows, and a
-    wait in which nothing was written counts as the writer stopped (a spawned viewer: one wait of 12x)."""
-    try:
-        written = -1
-        while True:
-            try:
-                rec.flush(timeout_sec=FLUSH_WAIT if save is not None else 12 * FLUSH_WAIT)
-                return None
-            except RuntimeError as exc:  # rerun's file-writer thread stopped: it says why only in its own log
-                if TIMED_OUT not in str(exc) or save is None:
-                    return str(exc)
-                size = save.stat().st_size if save.is_file() else -1
-                if size == written:
-                    return f"rerun's writer stopped: nothing written for {FLUSH_WAIT:g} s ({exc})"
-                written = size
+        what = _log(rec, opts, mcap, episode)
+        rec.flush(timeout_sec=VIEWER_FLUSH)
+    except RuntimeError as exc:  # the viewer went away or did not take the recording in time
+        raise WriteError(f"the rerun viewer: cannot write the recording: {exc}") from exc
     finally:
         rec.disconnect()
+    return f"opened {what} in the rerun viewer"
+
+
+VIEWER_FLUSH = 60.0  # s a spawned viewer may take to receive what was logged
+
+
+def _log(rec: rr.RecordingStream, opts: ViewOptions, mcap: Path | None, episode: EpisodeData | None) -> str:
+    """Log the MCAP file or the episode into `rec`; what was logged, for the summary line."""
+    if episode is None:
+        assert mcap is not None  # no episode is loaded only for an MCAP file
+        rec.log_file_from_path(mcap)
+        return f"{opts.path}"
+    log_episode(rec, episode)
+    return f"{opts.path} episode {opts.episode} ({episode.frames.num_rows} frames)"
 
 
 def mcap_file(path: Path) -> Path | None:

@@ -1,0 +1,83 @@
+"""An .rrd file written by us from rerun's in-memory stream, never by rerun's own file sink.
+
+rerun 0.41's file sink writes on a thread of its own: on a full disk that thread stops, says why only in its own
+log, and `flush` then either raises or — racing with the thread's end — waits forever (CI hung there twice).
+So the recording goes to `rec.binary_stream()`; a thread of ours moves the encoded bytes into a hidden sibling
+of the output while the episode is logged (memory stays bounded), and `close` takes the rest, fsyncs and renames
+the file into place. A failed write is an ordinary `OSError` in our code: the hidden file is removed and nothing
+is left under the output's name.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+from pathlib import Path
+from types import TracebackType
+
+import rerun as rr
+
+from openral_data.errors import WriteError
+from openral_data.formats.atomic import move_into_place, tmp_name
+
+DRAIN_EVERY = 0.1  # s between two moves of encoded bytes from rerun's memory into the file
+FINAL_FLUSH = 120.0  # s rerun may take to encode what is still queued when the episode is logged
+
+
+class RrdFile:
+    """`with RrdFile(rec, path):` everything `rec` logs inside the block ends up in `path` (written only when the
+    block ends without an exception; else nothing is left)."""
+
+    def __init__(self, rec: rr.RecordingStream, path: Path) -> None:
+        self.path = path
+        self._tmp = tmp_name(path)
+        self._stream = rr.binary_stream(recording=rec)
+        self._stop = threading.Event()
+        self._error: OSError | None = None
+        self._fd = -1
+        self._thread = threading.Thread(target=self._drain_loop, name="rrd-file", daemon=True)
+
+    def __enter__(self) -> RrdFile:
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._tmp.unlink(missing_ok=True)  # a stale one from a killed run
+        self._fd = os.open(self._tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+        self._thread.start()
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None) -> None:
+        self._stop.set()
+        self._thread.join()
+        try:
+            if kind is None:
+                self._finish()
+        finally:
+            os.close(self._fd)
+            self._tmp.unlink(missing_ok=True)  # gone already once renamed into place
+
+    def _finish(self) -> None:
+        if self._error is None:
+            try:
+                rest = self._stream.read(flush=True, flush_timeout_sec=FINAL_FLUSH)
+            except RuntimeError as exc:  # rerun did not encode the queue in time: not a file-system error
+                raise WriteError(f"{self.path}: cannot write the recording: {exc}") from exc
+            self._write(rest)
+        if self._error is not None:
+            raise WriteError(
+                f"{self.path}: cannot write the recording: {self._error.strerror or self._error}"
+            ) from self._error
+        try:
+            move_into_place(self._tmp, self.path)
+        except OSError as exc:
+            raise WriteError(f"{self.path}: cannot write the recording: {exc.strerror or exc}") from exc
+
+    def _drain_loop(self) -> None:
+        while not self._stop.wait(DRAIN_EVERY) and self._error is None:
+            self._write(self._stream.read(flush=False))
+
+    def _write(self, data: bytes | None) -> None:
+        view = memoryview(data or b"")
+        try:
+            while view:
+                view = view[os.write(self._fd, view) :]
+        except OSError as exc:
+            self._error = exc
