@@ -61,8 +61,8 @@ def record(
         str | None,
         typer.Option(
             help="a person drives: keyboard (the terminal), gamepad[=NODE] or spacemouse[=NODE] (a sim scene's "
-            "end effector), or leader (hardware.teleop); keyboard with --rskill: the policy drives and t takes "
-            "over and back (interventions)"
+            "end effector), or leader (hardware.teleop); keyboard, gamepad or spacemouse with --rskill: the policy "
+            "drives and t, the gamepad's RB or the SpaceMouse's right button takes over and back (interventions)"
         ),
     ] = None,
     episode_time_s: Annotated[
@@ -117,7 +117,7 @@ def record(
         raise UsageError("--policy: not with --hal or --teleop (a scene recording only)")
     if teleop == "leader" and hal is None:
         raise UsageError("--teleop leader: needs --hal ROBOT_ID (the robot whose manifest names the leader)")
-    takeover = teleop == "keyboard" and rskill is not None  # a policy drives, the person takes over with `t`
+    takeover = rskill is not None and _takes_over(teleop)  # a policy drives, the person takes over: `t`, a button
     if teleop is not None and hal is None:
         from openral_data.record.hal import teleop_scene
 
@@ -276,6 +276,15 @@ def _print_summary(summary: RecordSummary, resume: bool, workers: str | None) ->
             *([("debug videos", str(summary.debug_videos))] if summary.debug_videos is not None else []),
         ],
     )
+
+
+def _takes_over(teleop: str | None) -> bool:
+    """`--teleop` is one a person takes over from a policy with (keyboard, gamepad[=NODE], spacemouse[=NODE])."""
+    if teleop is None:
+        return False
+    from openral_data.producers.hal.devices import TAKEOVER_TELEOPS, device_kind
+
+    return device_kind(teleop) in TAKEOVER_TELEOPS
 
 
 def _on_off(value: str | None) -> bool | None:

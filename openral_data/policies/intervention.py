@@ -1,17 +1,23 @@
 """Interventions (human-in-the-loop, DAgger-style): a policy drives, a person takes over and hands back.
 
 `Intervention` wraps any policy (a `PolicyAdapter`: an rSkill's, a lerobot checkpoint's) and a teleoperator
-that is itself a policy (producers/hal/teleop.py's `KeyboardTeleop`). `TakeoverSwitch` sits between the
-operator's terminal reader and the teleoperator: the takeover key (`t`) toggles who drives, the other keys go to
-the teleoperator (only while it drives or is about to: keys typed while the policy drives are dropped, so they
-cannot pile up and fire at the takeover).
+that is itself a policy (producers/hal/teleop.py's `KeyboardTeleop`, producers/hal/eef_device.py's
+`DeviceTeleop`). `TakeoverSwitch` says who drives; its `control` toggles it:
+* the keyboard: the switch sits between the operator's terminal reader and the teleoperator: the takeover key
+  (`t`) toggles, the other keys go to the teleoperator (only while it drives or is about to: keys typed while
+  the policy drives are dropped, so they cannot pile up and fire at the takeover);
+* a gamepad or SpaceMouse (`device_switch`): its takeover button (gamepad: RB, the right shoulder; SpaceMouse:
+  the right button) toggles; the device's buttons are read by `DeviceOperator.poll` at the start of every tick,
+  so the switch sees a press as the keyboard's does. While the person drives, the device's axes drive exactly
+  as in plain device teleoperation; gripper presses made while the policy drives are overridden at the takeover.
 
 Every tick the policy is stepped on the observation, also while the person drives, so every frame has the
 policy's proposal (`openral.policy_action`, the action's shape and names) next to what was executed (`action`)
 and who drove (`openral.intervention`). A press is read by the operator at the start of a tick, so it takes
 effect at the first frame whose tick starts after it arrived: at most one tick later. At the takeover the
 teleoperator starts from the action in effect (`take_over`: a keyboard drops the moves not yet made and keeps
-the gripper where the policy had it), so the arm does not jump: the end effector moves from where it is.
+the gripper where the policy had it, a device keeps the gripper), so the arm does not jump: the end effector
+moves from where it is.
 """
 
 from __future__ import annotations
@@ -23,13 +29,21 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.policies.base import PolicyAdapter
+from openral_data.producers.hal.eef_device import DeviceTeleop
 from openral_data.producers.hal.teleop import HELP as TELEOP_HELP
 from openral_data.types import FrameColumn, Observation
 
 TAKEOVER_KEY = "t"
 POLICY_ACTION = "openral.policy_action"
 INTERVENTION = "openral.intervention"
-HELP = f"takeover: t hands control to you and back · {TELEOP_HELP}"
+
+
+def takeover_help(control: str) -> str:
+    """The line said once before episode 0: what takes over and hands back."""
+    return f"takeover: {control} hands control to you and back"
+
+
+HELP = f"{takeover_help(TAKEOVER_KEY)} · {TELEOP_HELP}"
 
 
 def intervention_columns(action_names: Sequence[str]) -> tuple[FrameColumn, ...]:
@@ -45,25 +59,37 @@ class TakesOver(Protocol):
 
 
 class TakeoverSwitch:
-    """The keyboard side: `feed` gets every key the operator does not use; `t` toggles the request, and a
-    takeover starts the teleoperator from the action in effect at once (`on_takeover`), so the keys typed after
-    `t` (before the next tick) count."""
+    """Who is asked to drive. The keyboard side: `feed` gets every key the operator does not use; `t` toggles the
+    request. `toggle` (a device's takeover button, `device_switch`) does the same. A takeover starts the
+    teleoperator from the action in effect at once (`on_takeover`), so the keys typed or buttons pressed after it
+    (before the next tick) count. `control` names what toggles it (the status lines and the help say it)."""
 
-    def __init__(self, teleop_feed: Callable[[str], None] | None = None) -> None:
+    def __init__(self, teleop_feed: Callable[[str], None] | None = None, control: str = TAKEOVER_KEY) -> None:
         self.teleop_feed = teleop_feed
+        self.control = control
         self.requested = False  # the person asked to drive
         self.on_takeover: Callable[[], None] | None = None  # set by the `Intervention` the switch drives
 
     def feed(self, ch: str) -> None:
         if ch.lower() == TAKEOVER_KEY:
-            self.requested = not self.requested
-            if self.requested and self.on_takeover is not None:
-                self.on_takeover()
+            self.toggle()
         elif self.requested and self.teleop_feed is not None:
             self.teleop_feed(ch)
 
+    def toggle(self) -> None:
+        self.requested = not self.requested
+        if self.requested and self.on_takeover is not None:
+            self.on_takeover()
+
     def reset(self) -> None:
         self.requested = False
+
+
+def device_switch(device: DeviceTeleop, control: str) -> TakeoverSwitch:
+    """The switch a device's takeover button (`control`, e.g. `RB`) toggles (`DeviceTeleop.on_takeover`)."""
+    switch = TakeoverSwitch(control=control)
+    device.on_takeover = switch.toggle
+    return switch
 
 
 class Intervention:
@@ -103,9 +129,12 @@ class Intervention:
             self.intervening = self.switch.requested
             if self.intervening and self.executed is None:  # taken over before the first frame
                 self._take_over(proposal)
-            self._say("teleop drives (t hands back)" if self.intervening else "policy drives again (t takes over)")
+            c = self.switch.control
+            self._say(
+                f"teleop drives ({c} hands back)" if self.intervening else f"policy drives again ({c} takes over)"
+            )
         elif not self.intervening and self.status_every and self.frame % self.status_every == 0:
-            self._say("policy drives (t takes over)")
+            self._say(f"policy drives ({self.switch.control} takes over)")
         action = self.teleop.step(observation, instruction) if self.intervening else proposal
         self.proposal, self.executed = proposal, action
         self.frame += 1

@@ -19,9 +19,15 @@ from openral_data.formats.lerobot_v3.provenance import HalOrigin, Origin, Record
 from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.policies.base import PolicyAdapter
 from openral_data.policies.intervention import HELP as TAKEOVER_HELP
-from openral_data.policies.intervention import Intervention, TakeoverSwitch, intervention_columns
+from openral_data.policies.intervention import (
+    Intervention,
+    TakeoverSwitch,
+    device_switch,
+    intervention_columns,
+    takeover_help,
+)
 from openral_data.producers.hal.base import HalBase
-from openral_data.producers.hal.devices import DEVICE_KINDS, device_kind
+from openral_data.producers.hal.devices import DEVICE_KINDS, TAKEOVER_CONTROLS, TAKEOVER_TELEOPS, device_kind
 from openral_data.producers.hal.eef_device import DeviceOperator, DeviceTeleop
 from openral_data.producers.hal.operator import HELP as KEYS_HELP
 from openral_data.producers.hal.operator import Command, KeyboardOperator, Operator, ScriptedOperator, parse_script
@@ -89,7 +95,7 @@ class HalRecordOptions:
         ticks = episode_ticks(self.episode_time_s, self.fps)
         return ticks if ticks is not None else DEFAULT_MAX_STEPS
 
-    takeover: bool = False  # the rSkill's policy drives and the person (`teleop`) takes over with `t` and back
+    takeover: bool = False  # the rSkill's policy drives; the person (`teleop`) takes over and back: `t`, a button
 
     def __post_init__(self) -> None:
         """`mode`, `safety` and the output settings are checked here, once, by whoever builds the options (the
@@ -110,8 +116,11 @@ class HalRecordOptions:
             raise UsageError(f"--teleop: {self.teleop!r}; valid: {valid}")
         if self.teleop == "keyboard" and self.operator != "keyboard":
             raise UsageError("--teleop keyboard: the operator keys come from the same terminal (--operator keyboard)")
-        if self.takeover and (self.teleop != "keyboard" or self.rskill is None):
-            raise UsageError("interventions: a policy (--rskill) and --teleop keyboard, the takeover key's terminal")
+        if self.takeover and (self.rskill is None or device_kind(self.teleop or "") not in TAKEOVER_TELEOPS):
+            raise UsageError(
+                "interventions: a policy (--rskill) and --teleop keyboard, gamepad[=NODE] or spacemouse[=NODE] "
+                "(its takeover key or button)"
+            )
         if self.rskill is None and self.teleop != "leader":
             raise UsageError("--rskill: needed (only --teleop leader records without one: the robot's own contract)")
 
@@ -254,7 +263,9 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
             keys = KeyboardTeleop(run.rskill, run.rskill_src, show=show)
         device = _device(opts, run, show)
         listener = keys.feed if keys is not None else None
-        if opts.takeover:  # `t` goes to the switch, the other keys through it to the teleoperator
+        if opts.takeover and device is not None:  # the device's takeover button toggles the switch
+            switch = device_switch(device, TAKEOVER_CONTROLS[device.type_name])
+        elif opts.takeover:  # `t` goes to the switch, the other keys through it to the teleoperator
             switch = TakeoverSwitch(listener)
             listener = switch.feed
         try:
@@ -273,12 +284,13 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
                 leader = LeaderTeleop(run.robot, str(manifests.robot_file(run.robot.name)))
             hal = build_hal(opts, run.robot, run.rskill, run.rskill_src)
             try:
-                if switch is not None and keys is not None:
-                    policy: PolicyAdapter = Intervention(run.make_policy(run.rskill), keys, switch, show=show)
+                teleop = keys or device
+                if switch is not None and teleop is not None:
+                    policy: PolicyAdapter = Intervention(run.make_policy(run.rskill), teleop, switch, show=show)
                 else:
                     policy = keys or leader or device or run.make_policy(run.rskill)
                 loop = _open(opts, run, hal, policy, operator)
-                _keys_help(opts, notify)
+                _keys_help(opts, notify, switch)
                 return _episodes(opts, run.out, loop, notify)
             finally:
                 hal.close()
@@ -292,12 +304,12 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
         held.release()  # what was recorded stays; empty folders the claim made go
 
 
-def _keys_help(opts: HalRecordOptions, notify: Notify | None) -> None:
+def _keys_help(opts: HalRecordOptions, notify: Notify | None, switch: TakeoverSwitch | None) -> None:
     """The person's keys, said once everything is resolved and open (bad input is one `error:` line, no help)."""
     if notify is not None and opts.operator == "keyboard":
         notify(KEYS_HELP)
-    if notify is not None and opts.takeover:
-        notify(TAKEOVER_HELP)
+    if notify is not None and switch is not None:
+        notify(TAKEOVER_HELP if opts.teleop == "keyboard" else takeover_help(switch.control))
 
 
 def _device(opts: HalRecordOptions, run: _Resolved, show: Callable[[str], None] | None) -> DeviceTeleop | None:
@@ -306,7 +318,7 @@ def _device(opts: HalRecordOptions, run: _Resolved, show: Callable[[str], None] 
         return None
     from openral_data.producers.hal.devices import open_teleop_device
 
-    return open_teleop_device(opts.teleop, run.rskill, run.rskill_src, show)
+    return open_teleop_device(opts.teleop, run.rskill, run.rskill_src, show, opts.takeover)
 
 
 @dataclass(frozen=True)
@@ -418,7 +430,7 @@ def _open(
     staleness = opts.staleness if opts.staleness is not None else 3.0 / opts.fps
     driver = rskill_driver(rskill)
     if opts.takeover:  # the policy drives, the person takes over: both
-        driver = f"{driver}+{teleop_driver(opts.teleop or 'keyboard')}"
+        driver = f"{driver}+{teleop_driver(device_kind(opts.teleop or 'keyboard'))}"
     elif opts.teleop is not None:
         driver = teleop_driver(getattr(policy, "type_name", opts.teleop))  # a leader arm: its lerobot type
     ticks = episode_ticks(opts.episode_time_s, opts.fps)

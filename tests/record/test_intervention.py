@@ -18,7 +18,6 @@ from __future__ import annotations
 import json
 import os
 import re
-import time
 from pathlib import Path
 
 import numpy as np
@@ -37,17 +36,19 @@ from openral_data.producers.hal.teleop import KeyboardGains
 from openral_data.record.hal import HalRecordOptions, record_hal
 from openral_data.record.hal_loop import EpisodeEnd
 from openral_data.runtime import registry
-from openral_data.schemas.scene import load_recordable_scene
 from openral_data.types import Observation
 from tests.support.hal import episode_infos, frames_table, run_loop, ur5e_twin
-from tests.support.inproc import run_inproc
 from tests.support.pty_terminal import Terminal, cli_on_pty
+from tests.support.teleop_push import (
+    POLICY_AGAIN,
+    POLICY_DRIVES,
+    TELEOP_TAKES_OVER,
+    expert_proposals,
+    replays_exactly,
+)
 
 SEED = 0
 STEPS = 70
-POLICY = re.compile(rb"frame (\d+): policy drives \(")
-TAKEN = re.compile(rb"frame (\d+): teleop drives")
-BACK = re.compile(rb"frame (\d+): policy drives again")
 STATUS = re.compile(rb"eef -?\d+\.\d+ -?\d+\.\d+ -?\d+\.\d+ gripper \w+ pending 0 0 0 0")
 
 
@@ -124,16 +125,6 @@ def test_a_press_takes_effect_at_the_next_frame(tmp_path: Path) -> None:
     assert not {INTERVENTION, POLICY_ACTION} & set(features)
 
 
-def _wait(term: Terminal, pattern: re.Pattern[bytes], after: int, timeout: float) -> re.Match[bytes]:
-    end = time.monotonic() + timeout
-    while True:
-        found = pattern.search(term.text, after)
-        if found is not None:
-            return found
-        assert time.monotonic() < end, term.text[-2000:].decode(errors="replace")
-        term.read(0.05)
-
-
 def _session(out: Path) -> tuple[int, int, int, str]:
     """Record one episode; (the last frame seen before `t`, the takeover frame, the hand-back frame, output)."""
     args = ["record", "--scene", "tabletop_push", "--rskill", "scripted-push", "--teleop", "keyboard"]
@@ -141,41 +132,21 @@ def _session(out: Path) -> tuple[int, int, int, str]:
     with cli_on_pty([*args, *more], Terminal) as (proc, term):
         term.wait_for(b"press space to start", 60)
         term.type(" ")
-        seen = _wait(term, POLICY, 0, 30)
+        seen = term.search(POLICY_DRIVES, 0, 30)
         while int(seen.group(1)) < 8:
-            seen = _wait(term, POLICY, seen.end(), 30)
+            seen = term.search(POLICY_DRIVES, seen.end(), 30)
         term.type("t")
-        taken = _wait(term, TAKEN, seen.end(), 30)
+        taken = term.search(TELEOP_TAKES_OVER, seen.end(), 30)
         term.type("uu")  # two presses up: 0.02 m of z, paid out over the next tick(s)
-        settled = _wait(term, STATUS, taken.end(), 30)  # the moves were made
-        settled = _wait(term, STATUS, settled.end(), 30)
+        settled = term.search(STATUS, taken.end(), 30)  # the moves were made
+        settled = term.search(STATUS, settled.end(), 30)
         term.type("t")
-        back = _wait(term, BACK, settled.end(), 30)
+        back = term.search(POLICY_AGAIN, settled.end(), 30)
         proc.wait(timeout=60)
         term.read(0.2)
     text = term.text.decode(errors="replace")
     assert proc.returncode == 0, text[-2000:]
     return int(seen.group(1)), int(taken.group(1)), int(back.group(1)), text
-
-
-def _proposals(actions: np.ndarray) -> np.ndarray:  # type: ignore[type-arg]
-    """The expert's proposal at every frame, recomputed: the scene re-run from the seed with the recorded
-    (executed) actions, the same expert stepped on each observation."""
-    path = registry.resolve_scene_path("tabletop_push")
-    scene = load_recordable_scene(path)
-    robot, (rskill, rskill_path) = registry.ROBOTS["franka_panda"], registry.resolve_rskill("scripted-push")
-    env = registry.scene_factory(scene.scene.type, str(path))(scene, robot, rskill, str(path))
-    policy = registry.policy_factory(rskill, str(rskill_path))(rskill)
-    try:
-        obs = env.reset(SEED)
-        policy.reset(SEED)
-        out = []
-        for action in actions:
-            out.append(policy.step(obs, obs.task))
-            obs = env.step(np.asarray(action, dtype=np.float32)).observation
-    finally:
-        env.close()
-    return np.stack(out)
 
 
 @pytest.mark.slow
@@ -197,7 +168,7 @@ def test_a_person_takes_over_from_the_policy_and_hands_back(project: Path, tmp_p
     assert np.allclose(taken[:, [0, 1, 3, 4, 5]], 0) and np.isclose(taken[:, 2].sum(), 2 * step)  # the keys typed
     assert np.all(taken[:, 6] == actions[start - 1, 6])  # the gripper stays as the policy held it: no jump
     assert not np.array_equal(taken, proposals[start:end])  # the policy kept proposing its own moves meanwhile
-    np.testing.assert_allclose(_proposals(actions), proposals, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(expert_proposals(actions, SEED), proposals, rtol=0, atol=1e-6)
 
     info = episode_infos(out)[0]
     assert info["operator"] == "script:scripted-push+teleop:keyboard"
@@ -209,7 +180,4 @@ def test_a_person_takes_over_from_the_policy_and_hands_back(project: Path, tmp_p
         {"start_frame": start, "end_frame": end}
     ]
 
-    r = run_inproc("replay", str(out), "--mode", "actions", "--out", str(tmp_path / "res"), "--json")
-    assert r.returncode == 0, r.stderr
-    summary = json.loads(r.stdout)
-    assert summary["diverged_episodes"] == {} and summary["divergence_max"] == 0
+    replays_exactly(out, tmp_path / "res", succeeded=False)

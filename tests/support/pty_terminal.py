@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import select
 import subprocess
 import sys
@@ -30,6 +31,14 @@ class Terminal:
             assert time.monotonic() < end, self.text[-2000:].decode(errors="replace")
             self.read(0.05)
         return time.monotonic(), at + len(pattern)
+
+    def search(self, pattern: re.Pattern[bytes], after: int, timeout: float) -> re.Match[bytes]:
+        """The first match of `pattern` after byte `after`, waiting for it up to `timeout` s."""
+        end = time.monotonic() + timeout
+        while (found := pattern.search(self.text, after)) is None:
+            assert time.monotonic() < end, self.text[-2000:].decode(errors="replace")
+            self.read(0.05)
+        return found
 
     def type(self, keys: str) -> None:
         os.write(self.master, keys.encode())

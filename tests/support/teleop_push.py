@@ -4,6 +4,7 @@ tests drive the real CLI through these waypoints, closed loop against its status
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 from pathlib import Path
 
@@ -17,6 +18,11 @@ from tests.support.hal import episode_infos, frames_table
 from tests.support.inproc import run_inproc
 
 F64 = npt.NDArray[np.float64]
+# an intervention session's announcements on the terminal (policies/intervention.py): the frame a toggle took
+# effect, and every few frames while the policy drives
+POLICY_DRIVES = re.compile(rb"frame (\d+): policy drives \(")
+TELEOP_TAKES_OVER = re.compile(rb"frame (\d+): teleop drives")
+POLICY_AGAIN = re.compile(rb"frame (\d+): policy drives again")
 
 
 def push_waypoints(seed: int) -> list[F64]:
@@ -39,13 +45,35 @@ def push_waypoints(seed: int) -> list[F64]:
     return [np.array([*behind, t.table + 0.1]), np.array([*behind, push_z]), np.array([*end, push_z])]
 
 
-def replays_exactly(out: Path, res: Path) -> None:
-    """`replay --mode actions` of the one-episode recording `out` reproduces it: no divergence, the success too."""
+def expert_proposals(actions: npt.NDArray[np.float32], seed: int) -> npt.NDArray[np.float32]:
+    """What the `scripted-push` expert proposes at every frame of a `tabletop_push` episode that executed `actions`,
+    recomputed: the scene re-run from `seed` with those actions, the same expert stepped on each observation."""
+    path = registry.resolve_scene_path("tabletop_push")
+    scene = load_recordable_scene(path)
+    robot, (rskill, rskill_path) = registry.ROBOTS["franka_panda"], registry.resolve_rskill("scripted-push")
+    env = registry.scene_factory(scene.scene.type, str(path))(scene, robot, rskill, str(path))
+    policy = registry.policy_factory(rskill, str(rskill_path))(rskill)
+    try:
+        obs = env.reset(seed)
+        policy.reset(seed)
+        out = []
+        for action in actions:
+            out.append(policy.step(obs, obs.task))
+            obs = env.step(np.asarray(action, dtype=np.float32)).observation
+    finally:
+        env.close()
+    return np.stack(out)
+
+
+def replays_exactly(out: Path, res: Path, succeeded: bool = True) -> None:
+    """`replay --mode actions` of the one-episode recording `out` reproduces it: no divergence; the success too
+    (`succeeded`: the episode ended with the cube in the goal)."""
     r = run_inproc("replay", str(out), "--mode", "actions", "--out", str(res), "--json")
     assert r.returncode == 0, r.stderr
     summary = json.loads(r.stdout)
     assert summary["diverged_episodes"] == {} and summary["divergence_max"] == 0
-    assert summary["success_recorded"] == 1 and summary["success_replayed"] == 1
+    if succeeded:
+        assert summary["success_recorded"] == 1 and summary["success_replayed"] == 1
 
 
 def pushed(out: Path, returncode: int, output: bytes, driver: str) -> npt.NDArray[np.float64]:

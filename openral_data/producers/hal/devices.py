@@ -1,20 +1,20 @@
 """`--teleop gamepad[=NODE]` and `--teleop spacemouse[=NODE]`: the device named (or found), opened and read
-before episode 0, as a `DeviceTeleop` driving the rSkill's `delta_eef_gripper` action."""
+before episode 0, as a `DeviceTeleop` driving the rSkill's `delta_eef_gripper` action (or, with `takeover`, the
+teleoperator of an intervention session: policies/intervention.py)."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
 
+from openral_data.producers.hal import gamepad, spacemouse
 from openral_data.producers.hal.eef_device import DeviceTeleop
-from openral_data.producers.hal.gamepad import GAINS as GAMEPAD_GAINS
-from openral_data.producers.hal.gamepad import open_gamepad
-from openral_data.producers.hal.spacemouse import GAINS as SPACEMOUSE_GAINS
-from openral_data.producers.hal.spacemouse import open_spacemouse
 from openral_data.producers.hal.teleop import eef_limits
 from openral_data.schemas.rskill import RSkillManifest
 
 DEVICE_KINDS = ("gamepad", "spacemouse")
+TAKEOVER_TELEOPS = ("keyboard", *DEVICE_KINDS)  # what a person takes over from a policy with (interventions)
+TAKEOVER_CONTROLS = {"gamepad": gamepad.TAKEOVER_CONTROL, "spacemouse": spacemouse.TAKEOVER_CONTROL}
 
 
 def device_kind(spec: str) -> str:
@@ -23,15 +23,20 @@ def device_kind(spec: str) -> str:
 
 
 def open_teleop_device(
-    spec: str, rskill: RSkillManifest, source: str, show: Callable[[str], None] | None = None
+    spec: str,
+    rskill: RSkillManifest,
+    source: str,
+    show: Callable[[str], None] | None = None,
+    takeover: bool = False,
 ) -> DeviceTeleop:
     """The contract is checked first (a wrong rSkill is a config error, whatever is plugged in), then the device
-    is opened: a missing one is one line (`hal.teleop`) before anything is recorded."""
+    is opened: a missing one is one line (`hal.teleop`) before anything is recorded. `takeover`: an intervention
+    session (a SpaceMouse's right button then takes over instead of marking success)."""
     kind, _, path = spec.partition("=")
     limits = eef_limits(rskill, source, kind)
     node = Path(path) if path else None
     if kind == "gamepad":
-        gains, reader = GAMEPAD_GAINS, open_gamepad(node, GAMEPAD_GAINS)
+        gains, reader = gamepad.GAINS, gamepad.open_gamepad(node, gamepad.GAINS)
     else:
-        gains, reader = SPACEMOUSE_GAINS, open_spacemouse(node, SPACEMOUSE_GAINS)
+        gains, reader = spacemouse.GAINS, spacemouse.open_spacemouse(node, spacemouse.GAINS, takeover)
     return DeviceTeleop(reader, limits, gains, show)

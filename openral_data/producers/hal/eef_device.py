@@ -6,6 +6,8 @@ the newest axis values and the button presses; the reader counts the complete re
 `DeviceTeleop` is a policy (reset / step / close, the `PolicyAdapter` protocol): each tick it turns the axes
 (already shaped by the deadzone, in [-1, 1]) into a `delta_eef_gripper` action [dx, dy, dz, 0, 0, dyaw,
 gripper] = gains × axes, clipped to the contract; the gripper button toggles the gripper (0 open, 1 closed).
+In an intervention session (policies/intervention.py) the takeover button calls `on_takeover` (the switch:
+the policy drives until a press, the device until the next) and `take_over` keeps the policy's gripper.
 Buttons that end an episode (success, failure, re-record, discard, quit) reach the loop through
 `DeviceOperator`, which wraps the run's operator (`--operator auto`, a script, or the terminal keys).
 
@@ -32,10 +34,11 @@ import numpy.typing as npt
 from openral_data.errors import HalError
 from openral_data.paths import read_regular
 from openral_data.producers.hal.operator import Command, Operator, no_check
-from openral_data.producers.hal.teleop import eef_line
+from openral_data.producers.hal.teleop import eef_line, held_gripper
 from openral_data.types import Observation
 
-GRIPPER = "gripper"  # the button name that toggles the gripper; the others name a `Command`
+GRIPPER = "gripper"  # the button name that toggles the gripper; the others name a `Command` or:
+TAKEOVER = "takeover"  # the button that hands control to the person and back (interventions); else ignored
 READ_SIZE = 4096
 POLL_S = 0.05  # how often the reader thread looks whether it should stop
 
@@ -62,7 +65,7 @@ def shape(value: float, deadzone: float) -> float:
 class Decoder(Protocol):
     """A device's bytes -> its state. `feed` takes what one `read()` returned and says how many complete reports
     it applied; `motion` is (x, y, z, yaw) in [-1, 1] after the deadzone; `take_presses` hands out (and
-    forgets) the buttons pressed since the last call, by name (`GRIPPER` or a `Command` value)."""
+    forgets) the buttons pressed since the last call, by name (`GRIPPER`, `TAKEOVER` or a `Command` value)."""
 
     def feed(self, data: bytes) -> int: ...
 
@@ -186,10 +189,12 @@ class DeviceTeleop:
         self.gripper = 0.0
         self.ticks = 0
         self._command: Command | None = None
+        self.on_takeover: Callable[[], None] | None = None  # an intervention's switch (`device_switch`)
 
     def _drain(self) -> None:
-        """Apply the buttons pressed since the last look: the gripper toggles; the first command waits for the
-        operator's `poll`. A device that went away ends the episode here."""
+        """Apply the buttons pressed since the last look, in order: the gripper toggles, the takeover button
+        toggles who drives (`on_takeover`); the first command waits for the operator's `poll`. A device that
+        went away ends the episode here."""
         r = self.reader
         with r.lock:
             if r.gone is not None:
@@ -198,6 +203,9 @@ class DeviceTeleop:
         for name in presses:
             if name == GRIPPER:
                 self.gripper = 1.0 - self.gripper
+            elif name == TAKEOVER:
+                if self.on_takeover is not None:
+                    self.on_takeover()
             elif self._command is None:
                 self._command = Command(name)
 
@@ -212,6 +220,11 @@ class DeviceTeleop:
         self._command = None
         self.gripper = 0.0
         self.ticks = 0
+
+    def take_over(self, action: npt.NDArray[np.float32]) -> None:
+        """Start from `action`, the one in effect (an intervention's takeover): the gripper as it had it; the axes
+        are where the person holds them."""
+        self.gripper = held_gripper(action)
 
     def step(self, observation: Observation, instruction: str) -> npt.NDArray[np.float32]:
         self._drain()

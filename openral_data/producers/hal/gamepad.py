@@ -16,7 +16,8 @@ driver's ranges are assumed: sticks -32768..32767, triggers 0..255.
 Mapping (Linux gamepad API names; docs/record-your-robot.md has the table): left stick forward/back ±x,
 left/right ±y (left is +y); right stick up/down ±z; right trigger minus left trigger ±yaw; the south button
 (A / cross) toggles the gripper; north (Y / triangle) success, east (B / circle) failure, west (X / square)
-re-record, left shoulder discard, select (back / share) quit.
+re-record, left shoulder discard, select (back / share) quit; the right shoulder (RB / R1) takes over from the
+policy and hands back in an intervention session (`record --rskill R --teleop gamepad`; ignored otherwise).
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ import numpy.typing as npt
 
 from openral_data.producers.hal.eef_device import (
     GRIPPER,
+    TAKEOVER,
     DeviceGains,
     DeviceReader,
     Presses,
@@ -46,7 +48,7 @@ ABSINFO = struct.Struct("6i")  # struct input_absinfo: value, minimum, maximum, 
 EV_SYN, EV_KEY, EV_ABS = 0x00, 0x01, 0x03
 SYN_REPORT, SYN_DROPPED = 0, 3
 ABS_X, ABS_Y, ABS_Z, ABS_RX, ABS_RY, ABS_RZ = 0x00, 0x01, 0x02, 0x03, 0x04, 0x05
-BTN_SOUTH, BTN_EAST, BTN_NORTH, BTN_WEST, BTN_TL, BTN_SELECT = 0x130, 0x131, 0x133, 0x134, 0x136, 0x13A
+BTN_SOUTH, BTN_EAST, BTN_NORTH, BTN_WEST, BTN_TL, BTN_TR, BTN_SELECT = 0x130, 0x131, 0x133, 0x134, 0x136, 0x137, 0x13A
 STICKS = (ABS_X, ABS_Y, ABS_RX, ABS_RY)
 TRIGGERS = (ABS_Z, ABS_RZ)
 DEFAULT_RANGES = {**dict.fromkeys(STICKS, (-32768, 32767)), **dict.fromkeys(TRIGGERS, (0, 255))}  # xpad's
@@ -57,7 +59,9 @@ BUTTONS: dict[int, str] = {
     BTN_WEST: Command.RERECORD.value,
     BTN_TL: Command.DISCARD.value,
     BTN_SELECT: Command.QUIT.value,
+    BTN_TR: TAKEOVER,
 }
+TAKEOVER_CONTROL = "RB"  # the right shoulder button
 GAINS = DeviceGains(deadzone=0.1)  # a stick at rest reads up to a few % off centre
 DEV_INPUT = Path("/dev/input")
 SYS_INPUT = Path("/sys/class/input")

@@ -9,7 +9,9 @@ A hidraw node hands out one report per `read()`, its first byte the report id:
 
 Values reach about ±350 at full deflection (`FULL_SCALE`). 3Dconnexion's axes: +x right, +y towards you, +z
 down, +rz clockwise seen from above; so pushing the cap away from you is +x, to the left +y, lifting it +z and
-twisting it counter-clockwise +yaw. The left button toggles the gripper, the right one marks success.
+twisting it counter-clockwise +yaw. The left button toggles the gripper, the right one marks success; in an
+intervention session (`record --rskill R --teleop spacemouse`) the right one takes over from the policy and hands
+back instead (a SpaceMouse has two buttons: the episode then ends by the scene, the step limit or the keys).
 
 We read the node itself rather than through hidapi (`hid`, not installed here) or lerobot (it has no SpaceMouse
 teleoperator): hidraw is the lowest layer there is, needs no library, and a FIFO can stand in for it in tests
@@ -27,6 +29,7 @@ import numpy.typing as npt
 
 from openral_data.producers.hal.eef_device import (
     GRIPPER,
+    TAKEOVER,
     DeviceGains,
     DeviceReader,
     Presses,
@@ -40,6 +43,8 @@ AXES3 = struct.Struct("<3h")
 FULL_SCALE = 350.0
 TRANSLATION, ROTATION, BUTTONS = 1, 2, 3
 BUTTON_NAMES = {0: GRIPPER, 1: Command.SUCCESS.value}  # bit -> what a press does
+TAKEOVER_BUTTONS = {0: GRIPPER, 1: TAKEOVER}  # an intervention session's
+TAKEOVER_CONTROL = "the right button"
 GAINS = DeviceGains(deadzone=0.05)  # the cap at rest reads a few counts off zero
 DEV = Path("/dev")
 SYS_HIDRAW = Path("/sys/class/hidraw")
@@ -51,9 +56,10 @@ WHAT = "spacemouse"
 class HidrawDecoder(Presses):
     """SpaceMouse HID reports -> six axes and button presses (see the module docstring)."""
 
-    def __init__(self, deadzone: float) -> None:
+    def __init__(self, deadzone: float, buttons: dict[int, str] | None = None) -> None:
         super().__init__()
         self.deadzone = deadzone
+        self.names = BUTTON_NAMES if buttons is None else buttons
         self.translation = (0, 0, 0)
         self.rotation = (0, 0, 0)
         self.buttons = 0
@@ -70,7 +76,7 @@ class HidrawDecoder(Presses):
         elif report == bytes([BUTTONS]) and body:
             mask = int.from_bytes(body[:4], "little")
             pressed = mask & ~self.buttons
-            self._presses += [name for bit, name in BUTTON_NAMES.items() if pressed >> bit & 1]
+            self._presses += [name for bit, name in self.names.items() if pressed >> bit & 1]
             self.buttons = mask
         else:
             return 0
@@ -99,7 +105,9 @@ def find_spacemouse(dev: Path = DEV, sys_hidraw: Path = SYS_HIDRAW) -> Path:
     return find_node(dev, "hidraw", sys_hidraw, ("uevent",), lambda texts: is_spacemouse(texts[0]), WHAT)
 
 
-def open_spacemouse(path: Path | None, gains: DeviceGains = GAINS) -> DeviceReader:
-    """Open the SpaceMouse at `path` (default: the first one found) and start reading it."""
+def open_spacemouse(path: Path | None, gains: DeviceGains = GAINS, takeover: bool = False) -> DeviceReader:
+    """Open the SpaceMouse at `path` (default: the first one found) and start reading it; `takeover`: the right
+    button takes over (an intervention session) instead of marking success."""
     node = path if path is not None else find_spacemouse()
-    return DeviceReader(node, open_node(node, f"--teleop {WHAT}"), HidrawDecoder(gains.deadzone), WHAT)
+    decoder = HidrawDecoder(gains.deadzone, TAKEOVER_BUTTONS if takeover else None)
+    return DeviceReader(node, open_node(node, f"--teleop {WHAT}"), decoder, WHAT)

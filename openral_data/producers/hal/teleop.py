@@ -94,7 +94,7 @@ class KeyboardTeleop:
         moves pending (the arm stays where it is) and the gripper as the action had it (closed from 0.5 on)."""
         self.pending[:] = 0
         self._escape = ""
-        self.gripper = 1.0 if float(action[6]) >= 0.5 else 0.0
+        self.gripper = held_gripper(action)
 
     def step(self, observation: Observation, instruction: str) -> npt.NDArray[np.float32]:
         g = self.gains
@@ -110,6 +110,12 @@ class KeyboardTeleop:
 
     def close(self) -> None:
         pass
+
+
+def held_gripper(action: npt.NDArray[np.float32]) -> float:
+    """The gripper a teleoperator keeps at a takeover from `action` (`delta_eef_gripper`): closed (1) from 0.5 on,
+    else open (0)."""
+    return 1.0 if float(action[6]) >= 0.5 else 0.0
 
 
 def eef_limits(
