@@ -35,7 +35,7 @@ from openral_data.policies.intervention import (
 )
 from openral_data.producers.hal import gamepad, spacemouse
 from openral_data.producers.hal.eef_device import DeviceOperator, DeviceTeleop
-from openral_data.producers.hal.operator import ScriptedOperator
+from openral_data.producers.hal.operator import Command, ScriptedOperator
 from openral_data.record.hal import HalRecordOptions
 from openral_data.record.hal_loop import EpisodeEnd
 from openral_data.runtime import registry
@@ -54,7 +54,7 @@ from tests.support.teleop_push import (
 
 F32 = npt.NDArray[np.float32]
 SEED = 0
-STEPS = 70
+STEPS = 100  # 5 s at 20 fps: room for a loaded machine between the two presses
 STATUS = re.compile(rb"eef -?\d+\.\d+ -?\d+\.\d+ -?\d+\.\d+ gripper \w+")
 STICK_MAX, TRIGGER_MAX = 32767, 255
 # what the person holds: gamepad left stick forward 0.6, right 0.4, right stick down 0.3, right trigger 200/255;
@@ -162,6 +162,21 @@ def test_a_button_press_takes_effect_at_the_next_frame(kind: str, tmp_path: Path
     cols = frames_table(tmp_path / "ds")
     assert cols[INTERVENTION] == [5 <= i < 12 for i in range(16)]
     assert np.array_equal(np.array(cols[POLICY_ACTION], dtype=np.float32), np.stack(person.proposals))
+
+
+@pytest.mark.parametrize("kind", ["gamepad", "spacemouse"])
+def test_without_a_policy_the_button_is_what_it_was(kind: str, tmp_path: Path) -> None:
+    """Plain device teleoperation: the gamepad's RB does nothing, the SpaceMouse's right button marks success."""
+    fifo = _device(kind, tmp_path / "node")
+    reader = gamepad.open_gamepad(fifo.path) if kind == "gamepad" else spacemouse.open_spacemouse(fifo.path)
+    teleop = DeviceTeleop(reader, (np.full(7, -np.inf), np.full(7, np.inf)), gamepad.GAINS)
+    try:
+        _press_takeover(fifo)
+        settle(reader, 2)
+        assert teleop.command() == (None if kind == "gamepad" else Command.SUCCESS) and teleop.gripper == 0.0
+    finally:
+        teleop.close()
+        fifo.unplug()
 
 
 def _session(kind: str, fifo: DeviceFifo, out: Path) -> tuple[int, int, int, str]:
