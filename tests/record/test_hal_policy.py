@@ -124,13 +124,16 @@ def test_a_checkpoint_drives_the_arm_as_lerobots_own_policy(
     assert [i["operator"] for i in infos] == ["policy:act", "policy:act"]
 
 
-def _fake_checkpoint(folder: Path, state: int = 6, action: int = 6, cameras: dict[str, Any] | None = None) -> Path:
+def _fake_checkpoint(
+    folder: Path, state: int = 6, action: int = 6, cameras: dict[str, Any] | None = None, **stored: Any
+) -> Path:
     """A checkpoint folder whose config states these features (the weights a placeholder: the fit is checked from
     config.json alone, before lerobot loads anything)."""
     inputs: dict[str, Any] = {"observation.state": {"type": "STATE", "shape": [state]}}
     for name, shape in (cameras or {}).items():
         inputs[f"observation.images.{name}"] = {"type": "VISUAL", "shape": shape}
     config = {
+        **stored,  # e.g. a stored fps
         "type": "act",
         "input_features": inputs,
         "output_features": {"action": {"type": "ACTION", "shape": [action]}},
@@ -167,6 +170,7 @@ def test_a_checkpoint_that_does_not_fit_the_robot_is_one_line_before_it_connects
             _fake_checkpoint(tmp_path / "size", cameras={"front": [3, 96, 128]}),
             f"input_features.observation.images.front.shape: 96x128 (HxW) but {robot} records {H}x{W}",
         ),
+        "fps": (_fake_checkpoint(tmp_path / "fps", fps=30), f"fps: 30 but {robot} runs at 10 fps"),
     }
     with SimulatedFeetechBus(list(range(1, 7))) as bus:
         for case, (checkpoint, needle) in cases.items():

@@ -1,6 +1,8 @@
 """Make a lerobot 0.6.1 ACT checkpoint locally from a dataset we recorded: the features and normalisation stats
 come from the dataset (as lerobot-train does), optionally a few real training steps, then `save_pretrained` of
-the policy and its pre/post-processors. Nothing is downloaded (no pretrained backbone)."""
+the policy and its pre/post-processors. Nothing is downloaded (no pretrained backbone). And what lerobot's own
+loaded ACT policy computes on recorded frames (`lerobot_actions`), the frames taken exactly from an MCAP bag's raw
+images (`raw_images`), to compare a recording's actions with."""
 
 from __future__ import annotations
 
