@@ -122,6 +122,9 @@ def test_a_checkpoint_drives_the_arm_as_lerobots_own_policy(
     assert present != dict.fromkeys(present, 2048)  # the simulated servos left the middle
     infos = episode_infos(out)
     assert [i["operator"] for i in infos] == ["policy:act", "policy:act"]
+    again = run_inproc("replay", str(out), "--tolerance", "5", "--out", str(tmp_path / "res"), "--json")
+    assert again.returncode == 0, again.stderr  # the recording replays on the arm's twin like any other
+    assert json.loads(again.stdout)["episodes"] == 2
 
 
 def _fake_checkpoint(
