@@ -59,9 +59,7 @@ JOINT_REPRESENTATIONS = ("joint_positions_gripper", "joint_positions")
 @dataclass(frozen=True)
 class HalRecordOptions:
     robot: str
-    rskill: (
-        str | None
-    )  # None: with --teleop leader or --policy, the robot manifest's own state/action (`teleop_rskill`)
+    rskill: str | None  # None: --teleop leader or --policy; the robot manifest's own state/action (`teleop_rskill`)
     mode: Mode = "sim"
     fps: int = 20
     scene: str | None = None  # sim mode: drive this sim scene through the HAL instead of the bare twin
@@ -294,7 +292,7 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
             hal = build_hal(opts, run.robot, run.rskill, run.rskill_src)
             try:
                 if run.checkpoint is not None:  # before the policy loads and the robot connects
-                    check_checkpoint_fits(run.checkpoint, hal, run.robot, opts.fps)
+                    _check_fits_hal(run.checkpoint, hal, run.robot, opts.fps)
                 if switch is not None and keys is not None:
                     policy: PolicyAdapter = Intervention(run.make_policy(run.rskill), keys, switch, show=show)
                 else:
@@ -384,7 +382,7 @@ def _checkpoint_policy(
     return make
 
 
-def check_checkpoint_fits(checkpoint: PolicyCheckpoint, hal: HalBase, robot: RobotManifest, fps: int) -> None:
+def _check_fits_hal(checkpoint: PolicyCheckpoint, hal: HalBase, robot: RobotManifest, fps: int) -> None:
     """The checkpoint's contract against what the (built, not yet connected) HAL gives and takes at `--fps`."""
     where = f"robot {manifests.robot_file(robot.name)}"
     cameras = {n: c.shape for n, c in hal.cameras.items()}
