@@ -30,7 +30,10 @@ def record(
     ] = None,
     policy: Annotated[
         str | None,
-        typer.Option(help="a lerobot checkpoint folder (or a Hub repo id in the local cache) instead of --rskill"),
+        typer.Option(
+            help="a lerobot checkpoint folder (or a Hub repo id in the local cache) instead of --rskill; with --hal "
+            "it drives the robot (the manifest's joints)"
+        ),
     ] = None,
     robot: Annotated[str | None, typer.Option(help="robot id (default: the scene's robot)")] = None,
     n_episodes: Annotated[int | None, typer.Option(help="episodes to record (default: the scene's)")] = None,
@@ -113,8 +116,8 @@ def record(
     from openral_data.cli.encoder_flags import video_settings
 
     video = video_settings(codec, crf, gop, preset, pix_fmt, encoder_threads)  # a bad combination: before anything
-    if policy is not None and (hal is not None or teleop is not None):
-        raise UsageError("--policy: not with --hal or --teleop (a scene recording only)")
+    if policy is not None and teleop is not None:
+        raise UsageError("--policy: not with --teleop (interventions take an rSkill: --rskill R --teleop keyboard|gamepad|spacemouse)")
     if teleop == "leader" and hal is None:
         raise UsageError("--teleop leader: needs --hal ROBOT_ID (the robot whose manifest names the leader)")
     takeover = rskill is not None and _takes_over(teleop)  # a policy drives, the person takes over: `t`, a button
@@ -142,13 +145,13 @@ def record(
 
         if resume or workers != 1:
             raise UsageError("--resume/--workers: not available with --hal (one robot, one new dataset)")
-        if (suite_task, instruction, device, randomize) != (None,) * 4 or keep != "all":
+        if (suite_task, instruction, randomize) != (None,) * 3 or keep != "all":
             raise UsageError(
-                "--task/--instruction/--device/--randomize/--keep: not available with --hal (the rSkill's own are used)"
+                "--task/--instruction/--randomize/--keep: not available with --hal (the rSkill's own are used)"
             )
         hal_opts = HalRecordOptions(
             robot=hal,
-            rskill=rskill or (None if teleop == "leader" else DEFAULT_RSKILL),
+            rskill=rskill or (None if teleop == "leader" or policy is not None else DEFAULT_RSKILL),
             mode=cast(Mode, mode),  # checked by HalRecordOptions
             fps=fps,
             scene=scene if "scene" in given else None,
@@ -172,6 +175,8 @@ def record(
             view_port=view_port,
             view_address=view_address,
             takeover=takeover,
+            policy=policy,
+            device=device,
         )
         run_hal_record(hal_opts, json)
         return

@@ -18,6 +18,8 @@ from openral_data.formats.lerobot_v3.encoder import with_codec
 from openral_data.formats.lerobot_v3.provenance import HalOrigin, Origin, Recorded, SafetyRecord
 from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.policies.base import PolicyAdapter
+from openral_data.policies.checkpoint import OperatedPolicy, PolicyCheckpoint, as_rskill, check_fits, open_checkpoint
+from openral_data.policies.device import resolve_device, with_device
 from openral_data.policies.intervention import HELP as TAKEOVER_HELP
 from openral_data.policies.intervention import (
     Intervention,
@@ -63,7 +65,7 @@ JOINT_REPRESENTATIONS = ("joint_positions_gripper", "joint_positions")
 @dataclass(frozen=True)
 class HalRecordOptions:
     robot: str
-    rskill: str | None  # None: with --teleop leader, the robot manifest's own state/action (`teleop_rskill`)
+    rskill: str | None  # None: --teleop leader or --policy; the robot manifest's own state/action (`teleop_rskill`)
     mode: Mode = "sim"
     fps: int = 20
     scene: str | None = None  # sim mode: drive this sim scene through the HAL instead of the bare twin
@@ -96,6 +98,8 @@ class HalRecordOptions:
         return ticks if ticks is not None else DEFAULT_MAX_STEPS
 
     takeover: bool = False  # the rSkill's policy drives; the person (`teleop`) takes over and back: `t`, a button
+    policy: str | None = None  # a lerobot checkpoint (folder or cached repo id) drives instead of an rSkill
+    device: str | None = None  # with `policy`: cpu, cuda[:N], mps or auto (default: cpu)
 
     def __post_init__(self) -> None:
         """`mode`, `safety` and the output settings are checked here, once, by whoever builds the options (the
@@ -121,8 +125,22 @@ class HalRecordOptions:
                 "interventions: a policy (--rskill) and --teleop keyboard, gamepad[=NODE] or spacemouse[=NODE] "
                 "(its takeover key or button)"
             )
-        if self.rskill is None and self.teleop != "leader":
+        if self.policy is not None:
+            _check_policy_options(self)
+        elif self.device is not None:
+            raise UsageError("--device: with --hal only for --policy (an rSkill names its own device)")
+        if self.rskill is None and self.teleop != "leader" and self.policy is None:
             raise UsageError("--rskill: needed (only --teleop leader records without one: the robot's own contract)")
+
+
+def _check_policy_options(opts: HalRecordOptions) -> None:
+    """`--policy` on a HAL: the robot manifest's own joints are the contract; no rSkill, person or scene besides."""
+    if opts.rskill is not None:
+        raise UsageError("--policy, --rskill: give one (a lerobot checkpoint, or an rSkill manifest)")
+    if opts.teleop is not None:
+        raise UsageError("--policy: not with --teleop (interventions take an rSkill: --rskill R --teleop keyboard)")
+    if opts.scene is not None:
+        raise UsageError("--policy: not with --hal --scene (record --scene S --policy PATH records a scene)")
 
 
 @dataclass
@@ -284,6 +302,8 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
                 leader = LeaderTeleop(run.robot, str(manifests.robot_file(run.robot.name)))
             hal = build_hal(opts, run.robot, run.rskill, run.rskill_src)
             try:
+                if run.checkpoint is not None:  # before the policy loads and the robot connects
+                    _check_fits_hal(run.checkpoint, hal, run.robot, opts.fps)
                 teleop = keys or device
                 if switch is not None and teleop is not None:
                     policy: PolicyAdapter = Intervention(run.make_policy(run.rskill), teleop, switch, show=show)
@@ -328,6 +348,7 @@ class _Resolved:
     rskill_src: str
     make_policy: registry.PolicyFactory
     out: Path
+    checkpoint: PolicyCheckpoint | None = None  # `--policy`: the lerobot checkpoint driving instead of an rSkill
 
 
 def _resolve(opts: HalRecordOptions) -> _Resolved:
@@ -344,15 +365,40 @@ def _resolve(opts: HalRecordOptions) -> _Resolved:
     if opts.staleness is not None and not 0 < opts.staleness < math.inf:
         raise UsageError(f"--staleness must be > 0 and finite, got {opts.staleness}")
     robot = registry.ROBOTS[opts.robot]
-    if opts.rskill is None:  # --teleop leader: the leader speaks the robot's own joints
+    checkpoint = None
+    if opts.policy is not None:  # a lerobot checkpoint: the robot's own joints, its cameras (`check_fits` on the HAL)
+        device = resolve_device(opts.device) if opts.device is not None else None
+        checkpoint = open_checkpoint(opts.policy)
+        rskill, rskill_src = as_rskill(checkpoint, teleop_rskill(robot)), str(checkpoint.config_file)
+        make_policy = _checkpoint_policy(registry.policy_factory(rskill, rskill_src), checkpoint, device)
+    elif opts.rskill is None:  # --teleop leader: the leader speaks the robot's own joints
         rskill, rskill_src = teleop_rskill(robot), str(manifests.robot_file(robot.name))
-        make_policy: registry.PolicyFactory = _no_policy
+        make_policy = _no_policy
     else:
         rskill, rskill_path = registry.resolve_rskill(opts.rskill)
         rskill_src = str(rskill_path)
         make_policy = registry.policy_factory(rskill, rskill_src)
     out = opts.out if opts.out is not None else fresh_out(f"hal-{robot.name}")
-    return _Resolved(robot, rskill, rskill_src, make_policy, out)
+    return _Resolved(robot, rskill, rskill_src, make_policy, out, checkpoint)
+
+
+def _checkpoint_policy(
+    load: registry.PolicyFactory, checkpoint: PolicyCheckpoint, device: str | None
+) -> registry.PolicyFactory:
+    """The checkpoint's policy as `record --policy` runs it on a scene: lerobot's loader on `device`, its episodes
+    saying `policy:<checkpoint>` drove."""
+
+    def make(rskill: RSkillManifest) -> PolicyAdapter:
+        return OperatedPolicy(load(with_device(rskill, device)), checkpoint)
+
+    return make
+
+
+def _check_fits_hal(checkpoint: PolicyCheckpoint, hal: HalBase, robot: RobotManifest, fps: int) -> None:
+    """The checkpoint's contract against what the (built, not yet connected) HAL gives and takes at `--fps`."""
+    where = f"robot {manifests.robot_file(robot.name)}"
+    cameras = {n: c.shape for n, c in hal.cameras.items()}
+    check_fits(checkpoint, where, state_dim=hal.state_dim, action_dim=hal.action_dim, cameras=cameras, fps=fps)
 
 
 def teleop_rskill(robot: RobotManifest) -> RSkillManifest:
@@ -428,7 +474,7 @@ def _open(
     bridge = DatasetBridge(schema, sinks, observers=observers)
     task = hal.task if hal.task is not None else rskill.description or rskill.id
     staleness = opts.staleness if opts.staleness is not None else 3.0 / opts.fps
-    driver = rskill_driver(rskill)
+    driver = policy.operator if isinstance(policy, OperatedPolicy) else rskill_driver(rskill)
     if opts.takeover:  # the policy drives, the person takes over: both
         driver = f"{driver}+{teleop_driver(device_kind(opts.teleop or 'keyboard'))}"
     elif opts.teleop is not None:

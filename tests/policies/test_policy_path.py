@@ -12,7 +12,7 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
-from tests.support.checkpoint import make_act_checkpoint
+from tests.support.checkpoint import lerobot_actions, make_act_checkpoint, raw_images
 from tests.support.inproc import run_inproc
 
 SCENE = "scenes/sim/mock_replay.yaml"  # the mock: front 64x48 + wrist 32x32, state 8 and action 7 (random-mock)
@@ -29,38 +29,6 @@ def _copy(checkpoint: Path, dest: Path, **config: Any) -> Path:
 def _record(home: Path, policy: str, out: Path, *extra: str) -> Any:
     args = ["record", "--scene", str(home / SCENE), "--policy", policy, "--n-episodes", "2", "--max-steps", "5"]
     return run_inproc(*args, "--out", str(out), "--vcodec", "h264", *extra)
-
-
-def _lerobot_actions(checkpoint: Path, states: np.ndarray, images: list[np.ndarray], task: str) -> np.ndarray:
-    """What lerobot's own policy (from_pretrained + its saved processors, none of our code) does on these frames."""
-    import torch
-    from lerobot.policies.act.modeling_act import ACTPolicy
-    from lerobot.policies.factory import make_pre_post_processors
-
-    policy = ACTPolicy.from_pretrained(str(checkpoint))
-    pre, post = make_pre_post_processors(policy.config, pretrained_path=str(checkpoint))
-    policy.eval()
-    policy.reset()
-    out = []
-    with torch.inference_mode():
-        for state, image in zip(states, images, strict=True):
-            batch = {
-                "observation.state": torch.from_numpy(state).unsqueeze(0),
-                "observation.images.front": torch.from_numpy(image).permute(2, 0, 1).float().div(255).unsqueeze(0),
-                "task": [task],
-            }
-            out.append(post(policy.select_action(pre(batch))).reshape(-1).numpy())
-    return np.stack(out)
-
-
-def _raw_images(bag: Path, camera: str) -> list[np.ndarray]:
-    """The exact frames the policy saw: the MCAP bag's raw sensor_msgs/Image messages, read by rosbags."""
-    from rosbags.highlevel import AnyReader
-
-    with AnyReader([bag]) as reader:
-        conns = [c for c in reader.connections if c.topic == f"/camera/{camera}/image_raw"]
-        msgs: list[Any] = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages(connections=conns)]
-    return [np.array(m.data, dtype=np.uint8).reshape(m.height, m.width, 3) for m in msgs]
 
 
 @pytest.mark.slow
@@ -80,8 +48,8 @@ def test_record_policy_path_acts_as_lerobots_own_policy(
     assert len(set(episodes.tolist())) == 2
     for e in (0, 1):
         rows = episodes == e
-        images = _raw_images(out / "mcap" / f"episode_{e:06d}", "front")
-        want = _lerobot_actions(checkpoint, states[rows], images, "pick up the mock cube")
+        images = raw_images(out / "mcap" / f"episode_{e:06d}", "front")
+        want = lerobot_actions(checkpoint, states[rows], images, "pick up the mock cube")
         assert np.ptp(want, axis=0).max() > 1e-3  # the actions move: the frames matter
         np.testing.assert_allclose(actions[rows], want, rtol=1e-5, atol=1e-5)
     meta = pq.read_table(sorted((out / "meta/episodes").rglob("*.parquet"))[0])

@@ -1,11 +1,15 @@
 """Make a lerobot 0.6.1 ACT checkpoint locally from a dataset we recorded: the features and normalisation stats
 come from the dataset (as lerobot-train does), optionally a few real training steps, then `save_pretrained` of
-the policy and its pre/post-processors. Nothing is downloaded (no pretrained backbone)."""
+the policy and its pre/post-processors. Nothing is downloaded (no pretrained backbone). And what lerobot's own
+loaded ACT policy computes on recorded frames (`lerobot_actions`), the frames taken exactly from an MCAP bag's raw
+images (`raw_images`), to compare a recording's actions with."""
 
 from __future__ import annotations
 
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 
 def _features(dataset: Path, drop: tuple[str, ...]) -> tuple[Any, dict[str, Any], dict[str, Any]]:
@@ -113,3 +117,35 @@ def make_diffusion_checkpoint(dataset: Path, out: Path, *, drop: tuple[str, ...]
     pre.save_pretrained(out)
     post.save_pretrained(out)
     return out
+
+
+def lerobot_actions(checkpoint: Path, states: np.ndarray, images: list[np.ndarray], task: str) -> np.ndarray:
+    """What lerobot's own policy (from_pretrained + its saved processors, none of our code) does on these frames."""
+    import torch
+    from lerobot.policies.act.modeling_act import ACTPolicy
+    from lerobot.policies.factory import make_pre_post_processors
+
+    policy = ACTPolicy.from_pretrained(str(checkpoint))
+    pre, post = make_pre_post_processors(policy.config, pretrained_path=str(checkpoint))
+    policy.eval()
+    policy.reset()
+    out = []
+    with torch.inference_mode():
+        for state, image in zip(states, images, strict=True):
+            batch = {
+                "observation.state": torch.from_numpy(state).unsqueeze(0),
+                "observation.images.front": torch.from_numpy(image).permute(2, 0, 1).float().div(255).unsqueeze(0),
+                "task": [task],
+            }
+            out.append(post(policy.select_action(pre(batch))).reshape(-1).numpy())
+    return np.stack(out)
+
+
+def raw_images(bag: Path, camera: str) -> list[np.ndarray]:
+    """The exact frames the policy saw: the MCAP bag's raw sensor_msgs/Image messages, read by rosbags."""
+    from rosbags.highlevel import AnyReader
+
+    with AnyReader([bag]) as reader:
+        conns = [c for c in reader.connections if c.topic == f"/camera/{camera}/image_raw"]
+        msgs: list[Any] = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages(connections=conns)]
+    return [np.array(m.data, dtype=np.uint8).reshape(m.height, m.width, 3) for m in msgs]
