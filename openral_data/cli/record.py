@@ -117,7 +117,7 @@ def record(
 
     video = video_settings(codec, crf, gop, preset, pix_fmt, encoder_threads)  # a bad combination: before anything
     if policy is not None and teleop is not None:
-        raise UsageError("--policy: not with --teleop (interventions take an rSkill: --rskill R --teleop keyboard|gamepad|spacemouse)")
+        raise UsageError("--policy: not with --teleop (interventions take an rSkill: --rskill R --teleop D)")
     if teleop == "leader" and hal is None:
         raise UsageError("--teleop leader: needs --hal ROBOT_ID (the robot whose manifest names the leader)")
     takeover = rskill is not None and _takes_over(teleop)  # a policy drives, the person takes over: `t`, a button

@@ -138,7 +138,7 @@ def _check_policy_options(opts: HalRecordOptions) -> None:
     if opts.rskill is not None:
         raise UsageError("--policy, --rskill: give one (a lerobot checkpoint, or an rSkill manifest)")
     if opts.teleop is not None:
-        raise UsageError("--policy: not with --teleop (interventions take an rSkill: --rskill R --teleop keyboard)")
+        raise UsageError("--policy: not with --teleop (interventions take an rSkill: --rskill R --teleop D)")
     if opts.scene is not None:
         raise UsageError("--policy: not with --hal --scene (record --scene S --policy PATH records a scene)")
 
