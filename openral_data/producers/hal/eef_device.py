@@ -22,7 +22,6 @@ import errno
 import os
 import stat
 import threading
-import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,7 +32,7 @@ import numpy.typing as npt
 
 from openral_data.errors import HalError
 from openral_data.paths import read_regular
-from openral_data.producers.hal.operator import Command, Operator, no_check
+from openral_data.producers.hal.operator import PAUSE_ENDS, Command, Operator, no_check, sliced_wait
 from openral_data.producers.hal.teleop import eef_line, held_gripper
 from openral_data.types import Observation
 
@@ -257,15 +256,12 @@ class DeviceOperator:
 
     def pause(self, seconds: float, check: Callable[[], None] = no_check) -> Command | None:
         """The reset wait: the operator's keys, and the device's buttons, in 0.1 s slices."""
-        end = time.monotonic() + seconds
-        while (left := end - time.monotonic()) > 0:
+
+        def either(wait: float) -> Command | None:
             cmd = self.teleop.command()
-            if cmd in (Command.START, Command.QUIT, Command.ESTOP):
-                return cmd
-            cmd = self.inner.pause(min(0.1, left), check)
-            if cmd is not None:
-                return cmd
-        return None
+            return cmd if cmd in PAUSE_ENDS else self.inner.pause(wait, check)
+
+        return sliced_wait(seconds, 0.1, either)
 
     def at_end(self) -> Command | None:
         return self.inner.at_end()

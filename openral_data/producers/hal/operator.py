@@ -74,6 +74,20 @@ class Operator(Protocol):
     def close(self) -> None: ...
 
 
+PAUSE_ENDS = (Command.START, Command.QUIT, Command.ESTOP)  # the commands that end a reset wait early
+
+
+def sliced_wait(seconds: float, slice_s: float, step: Callable[[float], Command | None]) -> Command | None:
+    """A reset wait of `seconds` in slices: `step(slice)` waits at most one slice; the first command it returns
+    ends the wait (None: the time ran out)."""
+    end = time.monotonic() + seconds
+    while (left := end - time.monotonic()) > 0:
+        cmd = step(min(slice_s, left))
+        if cmd is not None:
+            return cmd
+    return None
+
+
 class KeyboardOperator:
     """Single keypresses from a terminal file descriptor (default: stdin).
 
@@ -113,13 +127,12 @@ class KeyboardOperator:
                 return cmd
 
     def pause(self, seconds: float, check: Callable[[], None] = no_check) -> Command | None:
-        end = time.monotonic() + seconds
-        while (left := end - time.monotonic()) > 0:
+        def key(wait: float) -> Command | None:
             check()
-            cmd = self._key(min(0.1, left))
-            if cmd in (Command.START, Command.QUIT, Command.ESTOP):
-                return cmd
-        return None
+            cmd = self._key(wait)
+            return cmd if cmd in PAUSE_ENDS else None
+
+        return sliced_wait(seconds, 0.1, key)
 
     def poll(self, episode: int, frame: int) -> Command | None:
         while True:  # every key waiting: a teleoperator types faster than one key per tick
@@ -188,11 +201,11 @@ class ScriptedOperator:
         return None
 
     def pause(self, seconds: float, check: Callable[[], None] = no_check) -> Command | None:
-        end = time.monotonic() + seconds
-        while (left := end - time.monotonic()) > 0:
+        def nap(wait: float) -> None:
             check()
-            time.sleep(min(0.05, left))
-        return None
+            time.sleep(wait)
+
+        return sliced_wait(seconds, 0.05, nap)
 
     def at_end(self) -> Command | None:
         planned = self.current()
