@@ -6,7 +6,7 @@ loader dequantizes it). Works on any LeRobot v3 dataset."""
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -25,13 +25,19 @@ from openral_data.formats.lerobot_v3.masks import decode_mask, is_mask
 from openral_data.formats.lerobot_v3.variants import feature_info, is_depth
 from openral_data.formats.parquetfile import read_table
 from openral_data.paths import regular_file
-from openral_data.types import Frame
+from openral_data.types import Frame, FrameColumn
 
 
 def episode_frames(
-    src: Path, info: dict[str, Any], row: dict[str, Any], tasks: list[str], cameras: list[str]
+    src: Path,
+    info: dict[str, Any],
+    row: dict[str, Any],
+    tasks: list[str],
+    cameras: list[str],
+    columns: Sequence[FrameColumn] = (),
 ) -> Iterator[Frame]:
-    """Episode `row` frame by frame; `cameras` are camera names (`features.camera_keys`), in the order wanted."""
+    """Episode `row` frame by frame; `cameras` are camera names (`features.camera_keys`), in the order wanted;
+    `columns` the per-frame features to hand on in `Frame.columns` (a float32 vector, or a bool as shape [1])."""
     e = int(row["episode_index"])
     path = layout.template_path(src, info, "data_path", layout.FilePos(row["data/chunk_index"], row["data/file_index"]))
     table = read_table(path)
@@ -87,6 +93,10 @@ def episode_frames(
                 if ENVIRONMENT_STATE in cols
                 else None
             ),
+            columns={
+                c.key: np.asarray(cols[c.key][i], dtype=np.float32 if c.dtype == "float32" else bool).reshape(-1)
+                for c in columns
+            },
         )
 
 
