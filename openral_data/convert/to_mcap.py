@@ -5,7 +5,8 @@ images decoded with PyAV from each camera's mp4 starting at the episode's ``from
 (``is_depth_map``) becomes a 16UC1 Image topic (millimetres, as lerobot's loader returns them) and a camera's
 ``info.camera_info`` a CameraInfo topic. Works on any
 LeRobot v3 dataset (ours or lerobot's) and on LeRobot v2.0/v2.1 ones (opened by `formats.dataset.open_lerobot`);
-our extra episode columns (seed, success, initial state) are kept.
+our extra episode columns (seed, success, initial state, episode info: who drove) are kept, and so are an
+intervention session's per-frame proposal and flag (`openral.policy_action`, `openral.intervention`).
 The bags are written into a hidden staging folder beside DST, renamed to DST once every bag is finished.
 """
 

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+import pyarrow.parquet as pq
 import pytest
 from rosbags.highlevel import AnyReader
 
@@ -32,7 +33,9 @@ from openral_data.producers.hal.operator import KeyboardOperator
 from openral_data.record.hal_loop import EpisodeEnd
 from openral_data.runtime import registry
 from openral_data.types import Observation
+from tests.support.bags import MAPPING, write_ros2
 from tests.support.hal import episode_infos, frames_table, run_loop, ur5e_twin
+from tests.support.hdf5_layouts import write_robomimic
 from tests.support.inproc import run_inproc
 from tests.support.lerobot_written import loaded_episodes
 from tests.support.scenes import mock_scene, write_yaml
@@ -187,3 +190,50 @@ def test_a_plain_recordings_bags_keep_their_topics(tmp_path: Path) -> None:
         [{k: f[k] for k in ("state", "action", "task", "success")} for f in loaded_episodes(d)[0]] for d in (back, out)
     ]
     assert values[0] == values[1]
+
+
+def test_a_mapping_maps_columns_of_a_foreign_bag(tmp_path: Path) -> None:
+    bag = write_ros2(tmp_path / "b", "mcap", duration_ms=500)
+    columns = {"my.cmd": {"topic": "/cmd", "field": "data", "names": ["a", "b"]}}
+    mapping = write_yaml(tmp_path / "m.yaml", {**MAPPING, "columns": columns})
+    out = tmp_path / "ds"
+    done = run_inproc("convert", str(bag), str(out), "--mapping", str(mapping), "--codec", "h264")
+    assert done.returncode == 0, done.stderr
+    feature = json.loads((out / "meta" / "info.json").read_text())["features"]["my.cmd"]
+    assert feature == {"dtype": "float32", "shape": [2], "names": ["a", "b"]}
+    cols = frames_table(out)
+    assert cols["my.cmd"] == cols["action"]  # the same field of the same messages
+    [episodes] = sorted((out / "meta" / "episodes").rglob("*.parquet"))
+    assert pq.read_table(episodes).column("openral.episode_info").to_pylist() == [None]  # nobody said who drove
+
+
+@pytest.mark.parametrize(
+    ("columns", "message"),
+    [
+        ({"action": {"topic": "/cmd"}}, "columns: 'action' is not a free feature name"),
+        ({"f": {"topic": "/cmd", "dtype": "bool", "names": ["a"]}}, "a bool column has no names"),
+        ({"f": {"topic": "/cmd", "dtype": "bool"}}, "mapping: columns.f: 2 values for one flag"),
+        ({"f": {"topic": "/cam/image_raw"}}, "columns.f topic /cam/image_raw is also mapped as a camera"),
+    ],
+)
+def test_bad_columns_are_one_line(tmp_path: Path, columns: dict[str, Any], message: str) -> None:
+    bag = write_ros2(tmp_path / "b", "mcap", duration_ms=300)
+    mapping = write_yaml(tmp_path / "m.yaml", {**MAPPING, "columns": columns})
+    out = tmp_path / "ds"
+    done = run_inproc("convert", str(bag), str(out), "--mapping", str(mapping), "--codec", "h264")
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 2 and len(lines) == 1 and lines[0].startswith("error: "), done.stderr
+    assert message in lines[0], lines[0]
+    assert not out.exists()
+
+
+def test_array_sources_refuse_columns(tmp_path: Path) -> None:
+    src = write_robomimic(tmp_path / "demo.hdf5", lengths=(3,))
+    printed = run_inproc("convert", str(src), "--print-mapping", "--json")
+    assert printed.returncode == 0, printed.stderr
+    columns = {"my.flag": {"topic": "data/demo_0/dones", "dtype": "bool"}}
+    mapping = write_yaml(tmp_path / "m.yaml", {**json.loads(printed.stdout)["mapping"], "columns": columns})
+    out = tmp_path / "ds"
+    done = run_inproc("convert", str(src), str(out), "--mapping", str(mapping), "--codec", "h264")
+    assert done.returncode == 2 and "columns: bags only" in done.stderr and len(done.stderr.splitlines()) == 1
+    assert not out.exists()
