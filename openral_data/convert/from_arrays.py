@@ -55,6 +55,8 @@ def check_array_mapping(mapping: Mapping, where: str) -> None:
             raise ConfigError(f"{where}: {key}: not supported for array sources (map colour cameras only)")
     if mapping.success is not None and mapping.success.marker:
         raise ConfigError(f"{where}: success.marker: array sources have no episode markers (use success.topic)")
+    if mapping.columns:
+        raise ConfigError(f"{where}: columns: bags only (array sources map state, action, cameras, reward, success)")
 
 
 def named(mapping: Mapping, first: ArrayEpisode, where: str) -> Mapping:

@@ -1,5 +1,6 @@
 """The mapping `convert` uses without `--mapping` for bags that openral-data wrote itself (`record --format
-mcap` or `convert DATASET DST`): everything is described by the `/openral/episode` start marker."""
+mcap` or `convert DATASET DST`): everything is described by the `/openral/episode` start marker (an intervention
+session's per-frame columns too: its `frame_columns`)."""
 
 from __future__ import annotations
 
@@ -63,6 +64,13 @@ def _from_start(bag: Path, start: dict[str, Any], topics: set[str]) -> Mapping:
     fps = int(start["fps"])
     # bags written before the start marker named it, or of a source without one, have no environment state
     env_names = start.get("environment_state_names") or None
+    # an intervention session's per-frame columns (bags written before they were kept, or plain ones, have none)
+    columns = start.get("frame_columns") or {}
+    if not isinstance(columns, dict):
+        raise TypeError("frame_columns: not a mapping of feature key -> topic, dtype, names")
+    for key, column in columns.items():
+        if column["topic"] not in topics:
+            raise BagError(f"{bag}: no topic {column['topic']} for the per-frame column {key!r}", code="bag.topic")
     return Mapping.model_validate(
         {
             "fps": fps,
@@ -80,6 +88,10 @@ def _from_start(bag: Path, start: dict[str, Any], topics: set[str]) -> Mapping:
             "camera_info": infos,
             "reward": {"topic": m.REWARD, "field": "data"} if has_reward else None,
             "success": {"marker": True} if outcomes.get("success") else None,
+            "columns": {
+                key: {"topic": c["topic"], "dtype": c["dtype"], "names": c.get("names") or None}
+                for key, c in columns.items()
+            },
             # every stream is stamped on the same grid: the exact sample, never a neighbour's
             "align": {"method": "nearest", "max_staleness": 0.25 / fps},
             "episodes": {"split": "marker", "marker_topic": m.EPISODE},

@@ -162,7 +162,8 @@ def bool_value(msg: Any, mapping: Mapping, bag: Path) -> bool:
 
 
 def marker_event(msg: Any) -> dict[str, Any]:
-    """Our `/openral/episode` JSON markers say start/end (+ success); any other marker message is a boundary."""
+    """Our `/openral/episode` JSON markers say start/end (+ success, and who drove: `info`); any other marker
+    message is a boundary."""
     data = getattr(msg, "data", None)
     if isinstance(data, str):
         try:

@@ -100,17 +100,19 @@ def _convert_bag(bag: Path, conv: Converter, wanted: list[str], extra: list[str]
         aligner = conv.new_aligner()
         last_ns: int | None = None
         success: bool | None = None  # the latest `end` marker's verdict in this source episode
+        info: dict[str, Any] | None = None  # and its episode info (our own bags': who drove)
         for conn, ns, msg in timed_messages(reader, bag, conns, mapping, conv.summary):
             yield None
             topic = conn.topic
             if topic == split.marker_topic:
                 event = marker_event(msg.get())
                 if event.get("event") == "end":
-                    verdict = event.get("success")
+                    verdict, said = event.get("success"), event.get("info")
                     success = verdict if isinstance(verdict, bool) else None
+                    info = said if isinstance(said, dict) else None
                 if split.split == "marker" and event.get("event") != "start":
-                    conv.finish_source_episode(aligner, success)
-                    aligner, success = conv.new_aligner(), None
+                    conv.finish_source_episode(aligner, success, info)
+                    aligner, success, info = conv.new_aligner(), None, None
                 continue
             if topic == mapping.task_topic:
                 conv.tasks.append((ns, str(msg.get().data)))
@@ -125,8 +127,8 @@ def _convert_bag(bag: Path, conv: Converter, wanted: list[str], extra: list[str]
                 and split.gap is not None
                 and ns - last_ns > split.gap * 1e9
             ):
-                conv.finish_source_episode(aligner, success)
-                aligner, success = conv.new_aligner(), None
+                conv.finish_source_episode(aligner, success, info)
+                aligner, success, info = conv.new_aligner(), None, None
             last_ns = ns
             for stream in conv.topic_streams[topic]:
                 part = conv.readers.get(stream)
@@ -138,7 +140,7 @@ def _convert_bag(bag: Path, conv: Converter, wanted: list[str], extra: list[str]
                     payload = msg  # images stay serialised until a frame uses them
                 for frame in aligner.push(stream, ns, payload):
                     conv.take(frame)
-        conv.finish_source_episode(aligner, success)
+        conv.finish_source_episode(aligner, success, info)
     finally:
         conv.close_reader()  # no decoder thread still reads this bag's messages
         reader.close()

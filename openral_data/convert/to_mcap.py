@@ -5,7 +5,8 @@ images decoded with PyAV from each camera's mp4 starting at the episode's ``from
 (``is_depth_map``) becomes a 16UC1 Image topic (millimetres, as lerobot's loader returns them) and a camera's
 ``info.camera_info`` a CameraInfo topic. Works on any
 LeRobot v3 dataset (ours or lerobot's) and on LeRobot v2.0/v2.1 ones (opened by `formats.dataset.open_lerobot`);
-our extra episode columns (seed, success, initial state) are kept.
+our extra episode columns (seed, success, initial state, episode info: who drove) are kept, and so are an
+intervention session's per-frame proposal and flag (`openral.policy_action`, `openral.intervention`).
 The bags are written into a hidden staging folder beside DST, renamed to DST once every bag is finished.
 """
 
@@ -32,7 +33,8 @@ from openral_data.formats.lerobot_v3.success import episode_successes
 from openral_data.formats.lerobot_v3.variants import camera_layout, feature_info, is_depth
 from openral_data.formats.mcap import McapConfig, McapSink
 from openral_data.formats.staging import Staging, check_new_output
-from openral_data.types import CameraShape, DatasetSchema, EpisodeRecord, EpisodeStart
+from openral_data.policies.intervention import INTERVENTION, POLICY_ACTION
+from openral_data.types import CameraShape, DatasetSchema, EpisodeRecord, EpisodeStart, FrameColumn
 
 if TYPE_CHECKING:
     import pyarrow as pa
@@ -125,11 +127,14 @@ def export_mcap(
                     ),
                     index=e,
                 )
-                for frame in episode_frames(src, source.info, row, tasks, list(source.cams)):
+                for frame in episode_frames(src, source.info, row, tasks, list(source.cams), schema.frame_columns):
                     sink.add_frame(frame)
                     summary.frames += 1
                     if progress is not None:
                         progress(summary.frames, total)
+                info = row.get("openral.episode_info")  # who drove it: kept in the bag's end marker
+                if info is not None:
+                    sink.annotate_episode(parse_field(info, f"{src}: episode {e}: openral.episode_info"))
                 summary.episodes.append(sink.end_episode(successes.get(int(row["episode_index"]))))
         finally:
             sink.close()
@@ -193,11 +198,24 @@ def _schema(source: _Source) -> DatasetSchema:
         environment_state_names=(
             tuple(dim_names(features[ENVIRONMENT_STATE], ENVIRONMENT_STATE)) if ENVIRONMENT_STATE in features else ()
         ),
+        frame_columns=_frame_columns(features),
     )
+
+
+def _frame_columns(features: dict[str, Any]) -> tuple[FrameColumn, ...]:
+    """An intervention session's per-frame columns the dataset has (the policy's proposal, a float32 vector with
+    the action's names; the flag, a bool of shape [1]): the bags carry them as topics of their own."""
+    out = []
+    if POLICY_ACTION in features and features[POLICY_ACTION].get("dtype") == "float32":
+        out.append(FrameColumn(POLICY_ACTION, "float32", tuple(dim_names(features[POLICY_ACTION], POLICY_ACTION))))
+    if INTERVENTION in features and features[INTERVENTION].get("dtype") == "bool":
+        out.append(FrameColumn(INTERVENTION, "bool"))
+    return tuple(out)
 
 
 def _skipped_features(source: _Source) -> list[str]:
     """Features of the dataset that no MCAP topic carries."""
     known = {"observation.state", "action", "timestamp", "frame_index", "episode_index", "index", "task_index"}
     known |= {"next.reward", "next.done", "next.success", ENVIRONMENT_STATE} | set(source.keys.values())
+    known |= {c.key for c in _frame_columns(source.features)}
     return sorted(set(source.features) - known)

@@ -18,12 +18,13 @@ from openral_data.convert.camera_topics import check_info_size
 from openral_data.convert.preflight import CameraTopics
 from openral_data.convert.sources import VectorParts, VectorReader
 from openral_data.convert.summary import ConvertSummary
+from openral_data.errors import BagError
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
 from openral_data.formats.lerobot_v3.depth import DepthSettings
 from openral_data.formats.lerobot_v3.provenance import Origin
 from openral_data.runtime.bridge import DatasetBridge
 from openral_data.schemas.mapping import Mapping
-from openral_data.types import CameraShape, DatasetSchema, Observation
+from openral_data.types import CameraShape, DatasetSchema, FrameColumn, Observation
 from openral_data.version import __version__
 
 STATE, ACTION, ENV, REWARD = "state", "action", "environment_state", "reward"
@@ -47,6 +48,7 @@ class _Step:
     reward: float
     done: bool
     success: bool
+    columns: dict[str, Any]
 
 
 class Converter:
@@ -77,6 +79,12 @@ class Converter:
             self.topic_streams.setdefault(topic, []).append(name)
         if mapping.reward is not None:
             self.topic_streams.setdefault(mapping.reward.topic, []).append(REWARD)
+        # the mapping's extra per-frame columns, each one aligned stream read as a vector (a flag as one number)
+        self.column_streams = {key: f"columns.{key}" for key in mapping.columns}
+        for key, column in mapping.columns.items():
+            stream = self.column_streams[key]
+            self.readers[stream] = VectorReader(column.vector_source(), f"columns.{key}")
+            self.topic_streams.setdefault(column.topic, []).append(stream)
         self.streams = [s for streams in self.topic_streams.values() for s in streams]
         self.bridge: DatasetBridge | None = None
         self.writer: LeRobotV3Writer | None = None
@@ -96,19 +104,22 @@ class Converter:
         a = self.mapping.align
         return Aligner(self.streams, self.mapping.fps, a.method, a.max_staleness)
 
-    def finish_source_episode(self, aligner: Aligner[Any], end_success: bool | None) -> None:
-        """End of a source episode; `end_success` is its end marker's verdict (None: no marker / unknown)."""
+    def finish_source_episode(
+        self, aligner: Aligner[Any], end_success: bool | None, info: dict[str, Any] | None = None
+    ) -> None:
+        """End of a source episode; `end_success` is its end marker's verdict (None: no marker / unknown), `info`
+        its end marker's episode info (who drove: our own bags'), kept as the last segment's."""
         if not any(aligner.stats.received.values()):
             return  # nothing mapped arrived since the last boundary (e.g. the bag ends right after an end marker)
         for frame in aligner.finish():
             self.take(frame)
         self.collect(aligner)
-        self.end_source_episode(end_success)
+        self.end_source_episode(end_success, info)
 
-    def end_source_episode(self, end_success: bool | None) -> None:
+    def end_source_episode(self, end_success: bool | None, info: dict[str, Any] | None = None) -> None:
         """The source episode's last frame was taken: close its segment and start the next source episode
         (array sources, whose steps are frames, call it directly)."""
-        self.close_segment(end_success, cut=False)
+        self.close_segment(end_success, cut=False, info=info)
         if self.segment_frames == 0:
             self.summary.empty_segments += 1
         self.source_episode += 1
@@ -207,7 +218,8 @@ class Converter:
         )
         # without a reward source the schema has no reward column and the writer ignores this value
         reward = float(samples[REWARD]) if REWARD in samples else 0.0
-        self.steps.append(_Step(images, obs, action, reward, done, success))
+        columns = {key: self.column_value(key, samples[stream]) for key, stream in self.column_streams.items()}
+        self.steps.append(_Step(images, obs, action, reward, done, success, columns))
         self.segment_frames += 1
         self.flush(DECODE_AHEAD)
 
@@ -217,9 +229,20 @@ class Converter:
             step = self.steps.popleft()
             step.obs.images = step.images.result()
             assert self.bridge is not None
-            self.bridge.add_step(step.obs, step.action, reward=step.reward, done=step.done, success=step.success)
+            self.bridge.add_step(
+                step.obs, step.action, reward=step.reward, done=step.done, success=step.success, columns=step.columns
+            )
 
-    def close_segment(self, end_success: bool | None, *, cut: bool) -> None:
+    def column_value(self, key: str, sample: npt.NDArray[np.float32]) -> Any:
+        """A column's value of a frame: the vector, or a flag's one number as a bool."""
+        if self.mapping.columns[key].dtype == "float32":
+            return sample
+        if sample.shape != (1,):
+            raise BagError(f"{self.summary.src}: mapping: columns.{key}: {sample.shape[0]} values for one flag",
+                           code="bag.field")  # fmt: skip
+        return bool(sample[0])
+
+    def close_segment(self, end_success: bool | None, *, cut: bool, info: dict[str, Any] | None = None) -> None:
         success: bool | None = None
         if self.pending is not None:
             success = self.episode_success(self.pending, end_success, cut)
@@ -228,7 +251,7 @@ class Converter:
         if self.open:
             assert self.bridge is not None
             self.flush()
-            records = self.bridge.end_episode(success)
+            records = self.bridge.end_episode(success, info)
             self.summary.episodes.append(records[0])
             self.summary.frames += records[0].length
             self.open = False
@@ -254,6 +277,12 @@ class Converter:
             robot_type=self.mapping.robot_type,
             has_reward=self.mapping.reward is not None,
             has_success=self.mapping.success is not None,
+            frame_columns=tuple(
+                FrameColumn(key, "float32", tuple(self.readers[stream].names()))
+                if self.mapping.columns[key].dtype == "float32"
+                else FrameColumn(key, "bool")
+                for key, stream in self.column_streams.items()
+            ),
             metadata=Origin(
                 openral_data_version=__version__,
                 converted_from=str(self.summary.src),

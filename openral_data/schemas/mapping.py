@@ -49,6 +49,11 @@ success:                      # optional -> next.success and the episode's succe
                               #   in its source episode (false before the first; episode: NULL if none)
   marker: false               # true: episode success from `{"event": "end", "success": ...}` markers on
                               #   episodes.marker_topic (as openral-data bags carry)
+columns:                      # optional: extra per-frame features, each aligned like state (as openral-data
+  openral.intervention:       #   bags carry an intervention session's; `convert` maps those by itself)
+    topic: /openral/intervention
+    field: data
+    dtype: bool               # bool (a flag, shape [1]) | float32 (a vector, one name per dimension in `names`)
 align:
   method: previous            # previous | nearest sample
   max_staleness: 0.1          # seconds; frames with a stream older than this cannot be filled
@@ -186,6 +191,33 @@ class SuccessSource(StrictModel):
         return self
 
 
+class ColumnSource(StrictModel):
+    """An extra per-frame feature read from one field of one topic: a float32 vector (`names`: one per dimension,
+    default `<topic>.<field>[i]`) or a bool flag (a Bool's `data`; stored with shape [1], no names)."""
+
+    topic: str = Field(min_length=1)
+    field: str = "data"
+    dtype: Literal["float32", "bool"] = "float32"
+    names: list[str] | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> ColumnSource:
+        _check_names(self.field, None, self.names)
+        if self.dtype == "bool" and self.names is not None:
+            raise ValueError("a bool column has no names (it is one flag)")
+        return self
+
+    def vector_source(self) -> VectorSource:
+        """The column read as a vector (a bool as one number), by the readers of state and action."""
+        return VectorSource(topic=self.topic, field=self.field, names=self.names)
+
+
+# features a column cannot be: the ones every dataset has or the mapping's roles fill
+_RESERVED = {"observation.state", "observation.environment_state", "action", "timestamp", "frame_index"}
+_RESERVED |= {"episode_index", "index", "task_index", "next.reward", "next.done", "next.success"}
+_COLUMN = re.compile(r"^[A-Za-z0-9_]+(\.[A-Za-z0-9_]+)*$")
+
+
 class DepthQuantization(StrictModel):
     """lerobot 0.6.1's `DepthEncoderConfig` quantizer settings (metres)."""
 
@@ -238,6 +270,7 @@ class Mapping(StrictModel):
     camera_info: dict[str, str] = Field(default_factory=dict)
     reward: ScalarSource | None = None
     success: SuccessSource | None = None
+    columns: dict[str, ColumnSource] = Field(default_factory=dict)
     align: Align = Field(default_factory=Align)
     episodes: Episodes = Field(default_factory=Episodes)
 
@@ -250,6 +283,9 @@ class Mapping(StrictModel):
                 raise ValueError(f"camera name {name!r}: letters, digits and _ only")
             if name in self.cameras and name in self.depth_cameras:
                 raise ValueError(f"camera name {name!r} is in both cameras and depth_cameras")
+        for key in self.columns:
+            if not _COLUMN.match(key) or key in _RESERVED or key.startswith("observation.images."):
+                raise ValueError(f"columns: {key!r} is not a free feature name (dotted words, none of lerobot's own)")
         topics = self.topics()
         images = self.image_topics()
         if len(set(images.values())) != len(images):
@@ -263,6 +299,7 @@ class Mapping(StrictModel):
         for key, topic in (
             ("reward topic", self.reward.topic if self.reward is not None else None),
             ("success.topic", self.success_topic),
+            *((f"columns.{key} topic", c.topic) for key, c in self.columns.items()),
         ):
             if topic is not None and topic in cameras:
                 raise ValueError(f"{key} {topic} is also mapped as a camera")
@@ -298,7 +335,8 @@ class Mapping(StrictModel):
         action = velocity of one JointState topic): each reads its own field of the same messages."""
         reward = [self.reward.topic] if self.reward is not None else []
         vectors = [s.topic for _, s in self.vector_sources()]
-        return list(dict.fromkeys([*vectors, *self.image_topics().values(), *reward]))
+        columns = [c.topic for c in self.columns.values()]
+        return list(dict.fromkeys([*vectors, *self.image_topics().values(), *reward, *columns]))
 
 
 def load_mapping(path: Path) -> Mapping:

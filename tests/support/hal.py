@@ -13,6 +13,7 @@ import pyarrow.parquet as pq
 import yaml
 
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
+from openral_data.formats.mcap import McapSink
 from openral_data.policies.base import PolicyAdapter
 from openral_data.producers.hal.operator import Operator
 from openral_data.producers.hal.safety import SafetyFilter
@@ -21,7 +22,7 @@ from openral_data.producers.hal.twin import MujocoTwinHal
 from openral_data.record.hal_loop import EpisodeEnd, EpisodeReport, FixedRateLoop, LoopConfig, frame_extras
 from openral_data.runtime import registry
 from openral_data.runtime.bridge import DatasetBridge
-from openral_data.types import CameraShape, DatasetSchema, FrameColumn, Observation
+from openral_data.types import CameraShape, DatasetSchema, FrameColumn, Observation, Sink
 
 
 def ur5e_twin(**kwargs: Any) -> MujocoTwinHal:
@@ -78,8 +79,10 @@ def run_loop(
     episodes: int = 1,
     safety: SafetyFilter | None = None,
     columns: tuple[FrameColumn, ...] = (),
+    mcap: Path | None = None,
 ) -> list[tuple[EpisodeEnd, EpisodeReport]]:
-    """Record `episodes` attempts through the loop into a LeRobot v3 dataset at `out` (h264 for speed)."""
+    """Record `episodes` attempts through the loop into a LeRobot v3 dataset at `out` (h264 for speed), and with
+    `mcap` into MCAP bags there too (as `record --format lerobot,mcap`)."""
     rskill, _ = registry.resolve_rskill("sweep-ur5e")
     cams = list(hal.cameras)
     schema = DatasetSchema(
@@ -92,7 +95,10 @@ def run_loop(
         frame_extras=frame_extras(cams),
         frame_columns=columns,
     )
-    bridge = DatasetBridge(schema, [LeRobotV3Writer(out, schema, WriterConfig(video=VideoSettings(codec="h264")))])
+    sinks: list[Sink] = [LeRobotV3Writer(out, schema, WriterConfig(video=VideoSettings(codec="h264")))]
+    if mcap is not None:
+        sinks.append(McapSink(mcap, schema))
+    bridge = DatasetBridge(schema, sinks)
     filt = safety or SafetyFilter(hal.robot, fk=hal.forward_kinematics)
     loop = FixedRateLoop(hal, policy, filt, bridge, operator, LoopConfig(fps, "sweep", max_steps, staleness))
     results = []

@@ -6,7 +6,7 @@ loader dequantizes it). Works on any LeRobot v3 dataset."""
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -25,13 +25,15 @@ from openral_data.formats.lerobot_v3.masks import decode_mask, is_mask
 from openral_data.formats.lerobot_v3.variants import feature_info, is_depth
 from openral_data.formats.parquetfile import read_table
 from openral_data.paths import regular_file
-from openral_data.types import Frame
+from openral_data.types import Frame, FrameColumn
 
 
 def episode_frames(
-    src: Path, info: dict[str, Any], row: dict[str, Any], tasks: list[str], cameras: list[str]
-) -> Iterator[Frame]:
-    """Episode `row` frame by frame; `cameras` are camera names (`features.camera_keys`), in the order wanted."""
+    src: Path, info: dict[str, Any], row: dict[str, Any], tasks: list[str], cameras: list[str],
+    columns: Sequence[FrameColumn] = (),
+) -> Iterator[Frame]:  # fmt: skip
+    """Episode `row` frame by frame; `cameras` are camera names (`features.camera_keys`), in the order wanted;
+    `columns` the per-frame features to hand on in `Frame.columns` (a float32 vector, or a bool as shape [1])."""
     e = int(row["episode_index"])
     path = layout.template_path(src, info, "data_path", layout.FilePos(row["data/chunk_index"], row["data/file_index"]))
     table = read_table(path)
@@ -65,18 +67,11 @@ def episode_frames(
                 )
             images[name] = img
         images = {name: images[name] for name in cameras}  # in the caller's camera order
-        task_index = int(cols["task_index"][i])
-        if task_index < 0 or (tasks and task_index >= len(tasks)):  # never another task's text, nor ""
-            raise DatasetError(
-                f"{path}: task_index: {task_index} at episode {e} row {i} is not in meta/tasks.parquet "
-                f"({len(tasks)} task(s))",
-                code="dataset.invalid",
-            )
         yield Frame(
             state=np.asarray(cols["observation.state"][i], dtype=np.float32).reshape(-1),
             action=np.asarray(cols["action"][i], dtype=np.float32).reshape(-1),
             images=images,
-            task=tasks[task_index] if tasks else "",
+            task=_task(tasks, int(cols["task_index"][i]), f"{path}: task_index", f"episode {e} row {i}"),
             reward=float(cols["next.reward"][i]) if "next.reward" in cols else 0.0,  # ignored: schema has no reward
             done=bool(cols["next.done"][i]) if "next.done" in cols else i == n - 1,
             success=bool(cols["next.success"][i]) if "next.success" in cols else False,  # likewise
@@ -87,7 +82,26 @@ def episode_frames(
                 if ENVIRONMENT_STATE in cols
                 else None
             ),
+            columns=_row_columns(cols, i, columns),
         )
+
+
+def _task(tasks: list[str], task_index: int, where: str, row: str) -> str:
+    """The text of `task_index` (a dataset without meta/tasks: ""); never another task's text, nor ""."""
+    if task_index < 0 or (tasks and task_index >= len(tasks)):
+        raise DatasetError(
+            f"{where}: {task_index} at {row} is not in meta/tasks.parquet ({len(tasks)} task(s))",
+            code="dataset.invalid",
+        )
+    return tasks[task_index] if tasks else ""
+
+
+def _row_columns(cols: dict[str, list[Any]], i: int, columns: Sequence[FrameColumn]) -> dict[str, npt.NDArray[Any]]:
+    """Row `i`'s values of the per-frame `columns`: a float32 vector, or a bool flag as shape [1]."""
+    return {
+        c.key: np.asarray(cols[c.key][i], dtype=np.float32 if c.dtype == "float32" else bool).reshape(-1)
+        for c in columns
+    }
 
 
 def video_span(path: Path, row: dict[str, Any], key: str, n: int, fps: int) -> tuple[float, float]:

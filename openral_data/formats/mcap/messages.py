@@ -20,9 +20,14 @@ Topics of one episode bag (names are stable; `convert` and `export` rely on them
 * ``/reward``         ``std_msgs/msg/Float32``: the reward that followed the action of the same stamp (absent
   when the source has no reward).
 * ``/task``           ``std_msgs/msg/String``: the task text, published on the first frame and on change.
+* ``/openral/policy_action`` ``std_msgs/msg/Float32MultiArray`` and ``/openral/intervention`` ``std_msgs/msg/Bool``,
+  per frame, only in a recording that has them (an intervention session): the schema's `frame_columns`, each on
+  `column_topic(key)` (a float32 vector as the action is written, a flag as a Bool); the start marker's
+  ``frame_columns`` lists them (key -> topic, dtype, names).
 * ``/openral/episode`` ``std_msgs/msg/String``: JSON ``{"event": "start"|"end", ...}`` markers; the end
-  marker carries ``success`` (``null``: unknown) and ``length``; the start marker's ``outcomes`` says whether
-  reward and success are known.
+  marker carries ``success`` (``null``: unknown), ``length`` and, when the recording said who drove and how
+  (the dataset's ``openral.episode_info``), ``info``; the start marker's ``outcomes`` says whether reward and
+  success are known.
 """
 
 from __future__ import annotations
@@ -66,6 +71,7 @@ TF_STATIC = "/tf_static"
 TF = "/tf"
 FLOAT32_ARRAY_T = "std_msgs/msg/Float32MultiArray"
 FLOAT32_T = "std_msgs/msg/Float32"
+BOOL_T = "std_msgs/msg/Bool"
 STRING_T = "std_msgs/msg/String"
 
 _STORE: Typestore | None = None
@@ -97,6 +103,11 @@ def camera_info_topic(name: str) -> str:
     return f"/camera/{name}/camera_info"
 
 
+def column_topic(key: str) -> str:
+    """A per-frame column's topic: its key with dots as slashes (`openral.intervention` -> /openral/intervention)."""
+    return "/" + key.replace(".", "/")
+
+
 def camera_type(fmt: ImageFormat) -> str:
     return IMAGE_T if fmt == "raw" else COMPRESSED_T
 
@@ -125,6 +136,7 @@ class MessageFactory:
         self._layout = t["std_msgs/msg/MultiArrayLayout"]
         self._dim = t["std_msgs/msg/MultiArrayDimension"]
         self._f32 = t[FLOAT32_T]
+        self._bool = t[BOOL_T]
         self._string = t[STRING_T]
         self._empty_f64: npt.NDArray[np.float64] = np.zeros(0, dtype=np.float64)
 
@@ -151,6 +163,9 @@ class MessageFactory:
 
     def float32(self, value: float) -> bytes:
         return bytes(self.store.serialize_cdr(self._f32(data=float(value)), FLOAT32_T))
+
+    def boolean(self, value: bool) -> bytes:
+        return bytes(self.store.serialize_cdr(self._bool(data=bool(value)), BOOL_T))
 
     def string(self, text: str) -> bytes:
         return bytes(self.store.serialize_cdr(self._string(data=text), STRING_T))

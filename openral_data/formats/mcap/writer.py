@@ -191,7 +191,10 @@ class McapSink:
         return record
 
     def annotate_episode(self, info: dict[str, Any]) -> None:
-        """MCAP bags store no episode annotations: `info` is dropped."""
+        """Keep `info` (who drove, a HAL's report: the dataset's `openral.episode_info`) for the end marker."""
+        if self._episode is None:
+            raise RuntimeError("annotate_episode() outside an episode")
+        self._episode.info = info
 
     def discard_episode(self) -> None:
         episode, self._episode = self._episode, None
@@ -272,6 +275,7 @@ class EpisodeBag:
         self.length = 0
         self.last_ns = base_ns
         self.task: str | None = None
+        self.info: dict[str, Any] | None = None  # `annotate_episode`'s, written in the end marker
         self.closed = False
         self.writer = self._open_writer()
         self._add_connections()
@@ -302,6 +306,13 @@ class EpisodeBag:
         self.c_reward = add(m.REWARD, m.FLOAT32_T, typestore=store) if schema.has_reward else None
         env = schema.environment_state_names
         self.c_env = add(m.ENVIRONMENT_STATE, m.FLOAT32_ARRAY_T, typestore=store) if env else None
+        # the schema's per-frame columns (an intervention session's proposal and flag); none in a plain recording
+        self.c_columns = {
+            col.key: add(
+                m.column_topic(col.key), m.BOOL_T if col.dtype == "bool" else m.FLOAT32_ARRAY_T, typestore=store
+            )
+            for col in schema.frame_columns
+        }
         fmt = self.config.image_format
         self.intrinsics = {
             name: shape.info["camera_info"] for name, shape in schema.cameras.items() if "camera_info" in shape.info
@@ -347,6 +358,11 @@ class EpisodeBag:
             "initial_state": start.initial_state,
             "outcomes": {"reward": schema.has_reward, "success": schema.has_success},
         }
+        if schema.frame_columns:  # a plain recording's marker stays as it was
+            marker["frame_columns"] = {
+                col.key: {"topic": m.column_topic(col.key), "dtype": col.dtype, "names": list(col.names)}
+                for col in schema.frame_columns
+            }
         self.writer.write(self.c_event, self.base_ns, self.factory.event(marker))
         for name, conn in self.c_info.items():
             self.writer.write(conn, self.base_ns, self.factory.camera_info(self.base_ns, self.intrinsics[name]))
@@ -384,13 +400,19 @@ class EpisodeBag:
             if frame.environment_state is None:
                 raise ValueError("frame has no environment_state, the schema names one")  # our bug, not the input
             w.write(self.c_env, ns, f.action(frame.environment_state, label="environment_state"))
+        for col in self.schema.frame_columns:
+            value = frame.columns[col.key]
+            raw = f.boolean(bool(value[0])) if col.dtype == "bool" else f.action(value, label=col.key)
+            w.write(self.c_columns[col.key], ns, raw)
         self.length += 1
 
     def finish(self, success: bool | None) -> EpisodeRecord:
         if not self.schema.has_success:
             success = None
         known = None if success is None else bool(success)
-        end = {"event": "end", "episode": self.index, "success": known, "length": self.length}
+        end: dict[str, Any] = {"event": "end", "episode": self.index, "success": known, "length": self.length}
+        if self.info is not None:  # known at the end only (a HAL's report), so it is the end marker's
+            end["info"] = self.info
         # 1 ns after the last frame, so readers that order equal stamps arbitrarily still see it last
         self.writer.write(self.c_event, self.last_ns + 1, self.factory.event(end))
         self.writer.close()
