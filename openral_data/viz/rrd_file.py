@@ -38,9 +38,12 @@ class RrdFile:
         self._thread = threading.Thread(target=self._drain_loop, name="rrd-file", daemon=True)
 
     def __enter__(self) -> RrdFile:
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._tmp.unlink(missing_ok=True)  # a stale one from a killed run
-        self._fd = os.open(self._tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._tmp.unlink(missing_ok=True)  # a stale one from a killed run
+            self._fd = os.open(self._tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+        except OSError as exc:  # a folder that cannot be written (read-only, no permission, not a folder)
+            raise self._failed(exc) from exc
         self._thread.start()
         return self
 
@@ -51,8 +54,22 @@ class RrdFile:
             if kind is None:
                 self._finish()
         finally:
+            self._close(quiet=kind is not None or self._error is not None)
+
+    def _close(self, quiet: bool) -> None:
+        """Close the file and remove the hidden copy (gone already once renamed into place); a failure is one line
+        unless another one is already on its way (`quiet`)."""
+        failed: OSError | None = None
+        try:
             os.close(self._fd)
-            self._tmp.unlink(missing_ok=True)  # gone already once renamed into place
+        except OSError as exc:
+            failed = exc
+        try:
+            self._tmp.unlink(missing_ok=True)
+        except OSError as exc:
+            failed = failed or exc
+        if failed is not None and not quiet:
+            raise self._failed(failed) from failed
 
     def _finish(self) -> None:
         if self._error is None:
@@ -62,19 +79,22 @@ class RrdFile:
                 raise WriteError(f"{self.path}: cannot write the recording: {exc}") from exc
             self._write(rest)
         if self._error is not None:
-            raise WriteError(
-                f"{self.path}: cannot write the recording: {self._error.strerror or self._error}"
-            ) from self._error
+            raise self._failed(self._error) from self._error
         try:
             move_into_place(self._tmp, self.path)
         except OSError as exc:
-            raise WriteError(f"{self.path}: cannot write the recording: {exc.strerror or exc}") from exc
+            raise self._failed(exc) from exc
+
+    def _failed(self, exc: OSError) -> WriteError:
+        return WriteError(f"{self.path}: cannot write the recording: {exc.strerror or exc}")
 
     def _drain_loop(self) -> None:
-        while not self._stop.wait(DRAIN_EVERY) and self._error is None:
-            self._write(self._stream.read(flush=False))
+        while not self._stop.wait(DRAIN_EVERY):
+            self._write(self._stream.read(flush=False))  # after a failed write: read and dropped (memory bounded)
 
     def _write(self, data: bytes | None) -> None:
+        if self._error is not None:
+            return
         view = memoryview(data or b"")
         try:
             while view:

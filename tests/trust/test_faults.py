@@ -155,6 +155,14 @@ def test_ctrl_c_while_importing_exits_130_without_traceback(entry: str, tmp_path
     assert proc.returncode == 130, stderr[-3000:]
 
 
+def test_view_save_where_no_file_can_be_made_is_one_line(recorded: Path) -> None:
+    """A folder that passes the output checks but refuses new files (/proc): one line naming the output, not an
+    OSError traceback from opening the .rrd."""
+    out = Path("/proc") / f"openral-view-{os.getpid()}.rrd"
+    run = run_inproc("view", str(recorded), "--save", str(out))
+    _one_error_line(run, f"{out}: cannot write the recording:")
+
+
 def test_view_save_onto_a_full_disk_is_one_line(recorded: Path, tmp_path: Path) -> None:
     """A full disk while the .rrd is written: one line, nothing left behind. (rerun's own file sink stopped with a
     RuntimeError traceback and its own log lines, or hung in flush; viz/rrd_file.py writes the file instead.) In a
