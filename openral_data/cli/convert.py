@@ -202,14 +202,14 @@ def _convert_bags(
     parallel: Parallel | None,
 ) -> None:
     """Bags -> LeRobot: check the options that apply, open the bags and their mapping, run, report."""
-    from openral_data.convert.own_bags import own_mapping
+    from openral_data.convert.own_bags import own_bags_mapping
     from openral_data.convert.sources import find_bags
     from openral_data.schemas.mapping import load_mapping
 
     if episodes is not None:
         raise UsageError("--episodes selects episodes of a LeRobot dataset; SRC is a bag")
     bags = find_bags(src)
-    mapping = load_mapping(mapping_path) if mapping_path is not None else own_mapping(bags[0])
+    mapping = load_mapping(mapping_path) if mapping_path is not None else own_bags_mapping(bags)
     result = _run_bags(src, dst, mapping, video, parallel)
     if json:
         if parallel is None:

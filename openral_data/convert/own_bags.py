@@ -4,17 +4,56 @@ session's per-frame columns too: its `frame_columns`)."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
+
+from pydantic import ValidationError
 
 from openral_data.convert.sources import BAG_READ_ERRORS, deserialize, open_reader, read_messages
 from openral_data.errors import BagError
 from openral_data.formats.jsonfile import parse_json
 from openral_data.formats.mcap import messages as m
+from openral_data.schemas.base import format_validation_error
 from openral_data.schemas.mapping import Mapping
 
 
 def own_mapping(bag: Path) -> Mapping:
+    """The mapping `bag`'s start marker describes."""
+    return _mapping(bag, *_read_start(bag))
+
+
+def _mapping(bag: Path, start: dict[str, Any] | None, topics: set[str]) -> Mapping:
+    if start is None:
+        raise BagError(f"{bag}: {m.EPISODE} has no start marker; pass --mapping mapping.yaml", code="bag.invalid")
+    try:
+        return _from_start(bag, start, topics)
+    except ValidationError as exc:  # the field named: frame_columns are the mapping's columns
+        text = format_validation_error(f"{bag}: {m.EPISODE} start marker", exc).replace(": <root>: ", ": ")
+        raise BagError(re.sub(r"(: |; )columns\b", r"\1frame_columns", text), code="bag.invalid") from None
+    except (KeyError, TypeError, ValueError, ZeroDivisionError) as exc:
+        reason = f"missing {exc}" if isinstance(exc, KeyError) else str(exc).splitlines()[0]
+        raise BagError(f"{bag}: {m.EPISODE} start marker: {reason}", code="bag.invalid") from None
+
+
+def own_bags_mapping(bags: list[Path]) -> Mapping:
+    """The mapping of a folder of our own bags: the first bag's. Every bag must carry the same per-frame columns
+    (`frame_columns`): a bag without them has no value for its frames, and a first bag without them would drop
+    the others' (the other fields' topics are checked by `preflight.check_bags`). Reads each bag's markers up to
+    its start marker (the first one written)."""
+    first, topics = _read_start(bags[0])
+    mapping = _mapping(bags[0], first, topics)
+    assert first is not None
+    for bag in bags[1:]:
+        start, _ = _read_start(bag)
+        if ((start or {}).get("frame_columns") or {}) != (first.get("frame_columns") or {}):
+            raise BagError(f"{bag}: {m.EPISODE} start marker: frame_columns: differ from {bags[0]}'s",
+                           code="bag.invalid")  # fmt: skip
+    return mapping
+
+
+def _read_start(bag: Path) -> tuple[dict[str, Any] | None, set[str]]:
+    """`bag`'s start marker (None: it has none) and its topics."""
     reader = open_reader(bag)
     try:
         topics = {c.topic: c for c in reader.connections}
@@ -25,23 +64,15 @@ def own_mapping(bag: Path) -> Mapping:
                 f"(`openral-data convert {bag} --print-mapping` prints a starting one)",
                 code="bag.invalid",
             )
-        start = None
         for conn, _, raw in read_messages(reader, bag, [marker]):
             event = parse_json(deserialize(reader, bag, raw, conn.msgtype).data)
             if isinstance(event, dict) and event.get("event") == "start":
-                start = event
-                break
+                return event, set(topics)
     except (*BAG_READ_ERRORS, AttributeError) as exc:
         raise BagError(f"{bag}: cannot read bag: {exc}", code="bag.invalid") from None
     finally:
         reader.close()
-    if start is None:
-        raise BagError(f"{bag}: {m.EPISODE} has no start marker; pass --mapping mapping.yaml", code="bag.invalid")
-    try:
-        return _from_start(bag, start, set(topics))
-    except (KeyError, TypeError, ValueError, ZeroDivisionError) as exc:  # pydantic's ValidationError is a ValueError
-        reason = f"missing {exc}" if isinstance(exc, KeyError) else str(exc).splitlines()[0]
-        raise BagError(f"{bag}: {m.EPISODE} start marker: {reason}", code="bag.invalid") from None
+    return None, set(topics)
 
 
 def _from_start(bag: Path, start: dict[str, Any], topics: set[str]) -> Mapping:

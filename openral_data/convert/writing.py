@@ -22,6 +22,7 @@ from openral_data.errors import BagError
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
 from openral_data.formats.lerobot_v3.depth import DepthSettings
 from openral_data.formats.lerobot_v3.provenance import Origin
+from openral_data.policies.intervention import POLICY_ACTION
 from openral_data.runtime.bridge import DatasetBridge
 from openral_data.schemas.mapping import Mapping
 from openral_data.types import CameraShape, DatasetSchema, FrameColumn, Observation
@@ -268,10 +269,16 @@ class Converter:
     def ensure_writer(self, images: dict[str, npt.NDArray[Any]]) -> DatasetBridge:
         if self.bridge is not None:
             return self.bridge
+        action_names = tuple(self.vectors[ACTION].names())
+        proposal = self.column_streams.get(POLICY_ACTION)
+        if proposal is not None and len(self.readers[proposal].names()) != len(action_names):
+            raise BagError(f"{self.summary.src}: mapping: columns.{POLICY_ACTION}: "
+                           f"{len(self.readers[proposal].names())} dimensions, the action has {len(action_names)}",
+                           code="bag.field")  # fmt: skip
         schema = DatasetSchema(
             fps=self.mapping.fps,
             state_names=tuple(self.vectors[STATE].names()),
-            action_names=tuple(self.vectors[ACTION].names()),
+            action_names=action_names,
             environment_state_names=tuple(self.vectors[ENV].names()) if ENV in self.vectors else (),
             cameras={name: self.camera_shape(name, img) for name, img in images.items()},
             robot_type=self.mapping.robot_type,

@@ -9,13 +9,19 @@ Views (docs/stats.md):
   episode_index, policy (the rSkill that drove), frames, intervention_frames, rate (their share), interventions
   (takeovers), mean_length, max_length (frames; NULL without a takeover).
 
-A dataset without the column (a plain recording, a foreign dataset) adds no rows; with none, both are empty.
+A dataset without the column (a plain recording, a foreign dataset) adds no rows; with none, both are empty. So
+does a dataset whose `openral.intervention` is not our flag (a foreign dataset may carry anything under that name):
+only a bool of shape [1] (info.json and the data) is read as one (`records_interventions`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 
+import pyarrow as pa
+
+from openral_data.formats.parquetfile import read_schema
+from openral_data.metrics.sources import DatasetSource
 from openral_data.policies.intervention import INTERVENTION
 
 _EMPTY_RUNS = (
@@ -47,6 +53,17 @@ POLICIES_SQL = (
     "CASE WHEN sum(interventions) > 0 THEN sum(intervention_frames) / sum(interventions)::DOUBLE END, "
     "max(max_length) FROM intervention_episodes GROUP BY policy ORDER BY policy"
 )
+
+
+def records_interventions(ds: DatasetSource) -> bool:
+    """Whether `ds` has our intervention flags: `openral.intervention` a bool of shape [1] in info.json and a bool
+    column in its (first) data file, as `data_columns` is read."""
+    feature = ds.info["features"].get(INTERVENTION)
+    if INTERVENTION not in ds.data_columns or not ds.data_files or not isinstance(feature, dict):
+        return False
+    if feature.get("dtype") != "bool" or feature.get("shape") != [1]:
+        return False
+    return bool(read_schema(ds.data_files[0]).field(INTERVENTION).type == pa.bool_())
 
 
 def _union(parts: list[str], empty: str) -> str:

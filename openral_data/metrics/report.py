@@ -16,7 +16,6 @@ from openral_data.metrics.episode_stats import DimensionSource, summarise
 from openral_data.metrics.scan import VectorScan
 from openral_data.metrics.sources import DatasetSource
 from openral_data.metrics.views import check_select, ident, query
-from openral_data.policies.intervention import INTERVENTION
 
 BY_KEYS = ("dataset", "task", "rskill", "scene", "robot", "seed")
 GROUP_NUMBERS = (
@@ -222,7 +221,7 @@ def build_report(
     if datasets:
         groups = group_table(con, by)
         tables += [groups, comparison_table(groups, by), dimension_table(scans), sources_table(sources)]
-    if any(INTERVENTION in ds.data_columns for ds in datasets):  # only a session that has them
+    if any(intervention_sql.records_interventions(ds) for ds in datasets):  # only a session that has them
         tables += intervention_tables(con)
     if results:
         tables.append(results_table(con))

@@ -35,7 +35,6 @@ from openral_data.formats.lerobot_v3.success import EPISODE_SUCCESS, episode_suc
 from openral_data.formats.results import Results
 from openral_data.metrics import intervention_sql
 from openral_data.metrics.sources import DatasetSource
-from openral_data.policies.intervention import INTERVENTION
 
 DEFAULT_MEMORY_LIMIT = "1GB"
 
@@ -158,7 +157,7 @@ def _register_datasets(con: duckdb.DuckDBPyConnection, datasets: Sequence[Datase
     con.execute("CREATE VIEW episodes AS " + _union(parts, _EMPTY_EPISODES))
     drawn = [_randomization_sql(ds) for ds in datasets if "openral.initial_state" in ds.episode_columns]
     con.execute("CREATE VIEW randomization AS " + _union(drawn, _EMPTY_RANDOMIZATION))
-    flagged = [ds for ds in datasets if INTERVENTION in ds.data_columns and ds.data_files]
+    flagged = [ds for ds in datasets if intervention_sql.records_interventions(ds)]
     for statement in intervention_sql.view_statements(
         [(lit(ds.label), f"read_parquet({files_sql(ds.data_files)})") for ds in flagged]
     ):

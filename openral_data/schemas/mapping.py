@@ -54,6 +54,8 @@ columns:                      # optional: extra per-frame features, each aligned
     topic: /openral/intervention
     field: data
     dtype: bool               # bool (a flag, shape [1]) | float32 (a vector, one name per dimension in `names`)
+                              # openral.* names are ours: only openral.intervention (bool) and openral.policy_action
+                              #   (float32, the action's dimension); none of lerobot's features, nor `task`
 align:
   method: previous            # previous | nearest sample
   max_staleness: 0.1          # seconds; frames with a stream older than this cannot be filled
@@ -212,10 +214,29 @@ class ColumnSource(StrictModel):
         return VectorSource(topic=self.topic, field=self.field, names=self.names)
 
 
-# features a column cannot be: the ones every dataset has or the mapping's roles fill
+# features a column cannot be: the ones every dataset has, the mapping's roles fill or lerobot's loader adds
+# (`task`), and the cameras' (tests/convert/test_mapping_columns.py keeps it in step with formats/lerobot_v3)
 _RESERVED = {"observation.state", "observation.environment_state", "action", "timestamp", "frame_index"}
-_RESERVED |= {"episode_index", "index", "task_index", "next.reward", "next.done", "next.success"}
+_RESERVED |= {"episode_index", "index", "task_index", "task", "next.reward", "next.done", "next.success"}
+_RESERVED |= {"observation.images"}
 _COLUMN = re.compile(r"^[A-Za-z0-9_]+(\.[A-Za-z0-9_]+)*$")
+# our own `openral.*` names (policies/intervention.py) a column may take, each with the one dtype it has there
+# (`stats` reads the flag as a bool); every other `openral.*` name is ours (the episode columns of meta/episodes)
+OWN_COLUMNS: dict[str, Literal["float32", "bool"]] = {
+    "openral.intervention": "bool",
+    "openral.policy_action": "float32",
+}
+
+
+def column_problem(key: str, dtype: str) -> str | None:
+    """Why `key` (with `dtype`) cannot be an extra per-frame column, or None."""
+    if not _COLUMN.match(key) or key in _RESERVED or key.startswith("observation.images."):
+        return f"{key!r} is not a free feature name (dotted words, none of lerobot's own)"
+    if key.startswith("openral.") and key not in OWN_COLUMNS:
+        return f"{key!r}: openral.* names are openral-data's own (only {', '.join(OWN_COLUMNS)} are columns)"
+    if key in OWN_COLUMNS and dtype != OWN_COLUMNS[key]:
+        return f"{key!r} is a {OWN_COLUMNS[key]} column (dtype: {OWN_COLUMNS[key]})"
+    return None
 
 
 class DepthQuantization(StrictModel):
@@ -283,9 +304,12 @@ class Mapping(StrictModel):
                 raise ValueError(f"camera name {name!r}: letters, digits and _ only")
             if name in self.cameras and name in self.depth_cameras:
                 raise ValueError(f"camera name {name!r} is in both cameras and depth_cameras")
-        for key in self.columns:
-            if not _COLUMN.match(key) or key in _RESERVED or key.startswith("observation.images."):
-                raise ValueError(f"columns: {key!r} is not a free feature name (dotted words, none of lerobot's own)")
+        for key, column in self.columns.items():
+            problem = column_problem(key, column.dtype)
+            if problem is not None:
+                raise ValueError(f"columns: {problem}")
+            if column.topic in (self.task_topic, self.episodes.marker_topic):
+                raise ValueError(f"columns: {key!r}: topic {column.topic} is the task_topic or the marker_topic")
         topics = self.topics()
         images = self.image_topics()
         if len(set(images.values())) != len(images):
