@@ -18,7 +18,7 @@ representations, the scene's; the checkpoint's cameras), so the one lerobot load
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -32,6 +32,7 @@ from openral_data.formats.lerobot_v3.features import camera_keys
 from openral_data.formats.repo_id import looks_like_repo_id
 from openral_data.paths import contained, regular_file
 from openral_data.policies.base import PolicyAdapter
+from openral_data.policies.device import with_device
 from openral_data.schemas.rskill import Contract, RSkillManifest
 from openral_data.types import CameraShape, Observation, ProducerSpec
 
@@ -277,3 +278,16 @@ class OperatedPolicy:
 
     def close(self) -> None:
         self.policy.close()
+
+
+def load_operated(
+    make: Callable[[RSkillManifest], PolicyAdapter],
+    rskill: RSkillManifest,
+    *,
+    device: str | None,
+    checkpoint: PolicyCheckpoint | None,
+) -> PolicyAdapter:
+    """The policy `make` builds for `rskill` on `device` (`--device`; None: the rSkill's own), wrapped as an
+    `OperatedPolicy` when a checkpoint drives (`--policy`): one way for a scene's recording and a HAL's."""
+    policy = make(with_device(rskill, device))
+    return policy if checkpoint is None else OperatedPolicy(policy, checkpoint)

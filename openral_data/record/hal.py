@@ -7,6 +7,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Literal, get_args
 
@@ -18,8 +19,15 @@ from openral_data.formats.lerobot_v3.encoder import with_codec
 from openral_data.formats.lerobot_v3.provenance import HalOrigin, Origin, Recorded, SafetyRecord
 from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.policies.base import PolicyAdapter
-from openral_data.policies.checkpoint import OperatedPolicy, PolicyCheckpoint, as_rskill, check_fits, open_checkpoint
-from openral_data.policies.device import resolve_device, with_device
+from openral_data.policies.checkpoint import (
+    OperatedPolicy,
+    PolicyCheckpoint,
+    as_rskill,
+    check_fits,
+    load_operated,
+    open_checkpoint,
+)
+from openral_data.policies.device import resolve_device
 from openral_data.policies.intervention import HELP as TAKEOVER_HELP
 from openral_data.policies.intervention import (
     Intervention,
@@ -370,7 +378,8 @@ def _resolve(opts: HalRecordOptions) -> _Resolved:
         device = resolve_device(opts.device) if opts.device is not None else None
         checkpoint = open_checkpoint(opts.policy)
         rskill, rskill_src = as_rskill(checkpoint, teleop_rskill(robot)), str(checkpoint.config_file)
-        make_policy = _checkpoint_policy(registry.policy_factory(rskill, rskill_src), checkpoint, device)
+        load = registry.policy_factory(rskill, rskill_src)
+        make_policy: registry.PolicyFactory = partial(load_operated, load, device=device, checkpoint=checkpoint)
     elif opts.rskill is None:  # --teleop leader: the leader speaks the robot's own joints
         rskill, rskill_src = teleop_rskill(robot), str(manifests.robot_file(robot.name))
         make_policy = _no_policy
@@ -380,18 +389,6 @@ def _resolve(opts: HalRecordOptions) -> _Resolved:
         make_policy = registry.policy_factory(rskill, rskill_src)
     out = opts.out if opts.out is not None else fresh_out(f"hal-{robot.name}")
     return _Resolved(robot, rskill, rskill_src, make_policy, out, checkpoint)
-
-
-def _checkpoint_policy(
-    load: registry.PolicyFactory, checkpoint: PolicyCheckpoint, device: str | None
-) -> registry.PolicyFactory:
-    """The checkpoint's policy as `record --policy` runs it on a scene: lerobot's loader on `device`, its episodes
-    saying `policy:<checkpoint>` drove."""
-
-    def make(rskill: RSkillManifest) -> PolicyAdapter:
-        return OperatedPolicy(load(with_device(rskill, device)), checkpoint)
-
-    return make
 
 
 def _check_fits_hal(checkpoint: PolicyCheckpoint, hal: HalBase, robot: RobotManifest, fps: int) -> None:

@@ -12,13 +12,13 @@ from openral_data.errors import ConfigError, UsageError
 from openral_data.formats.lerobot_v3 import WriterConfig, warm_up
 from openral_data.policies.base import AnnotatingPolicy, PolicyAdapter
 from openral_data.policies.checkpoint import (
-    OperatedPolicy,
     PolicyCheckpoint,
     as_rskill,
     check_fits_scene,
+    load_operated,
     open_checkpoint,
 )
-from openral_data.policies.device import resolve_device, with_device
+from openral_data.policies.device import resolve_device
 from openral_data.record import output, recorded
 from openral_data.record.driver import rskill_driver
 from openral_data.record.options import (
@@ -188,8 +188,7 @@ def _start(run: _Resolved) -> Started[SimRollout, PolicyAdapter]:
 
     def load_policy() -> PolicyAdapter:
         warm_up()  # pyarrow's first-use cost, paid beside the scene's build instead of in the first commit
-        policy = run.make_policy(with_device(rskill, run.device))
-        return policy if run.checkpoint is None else OperatedPolicy(policy, run.checkpoint)
+        return load_operated(run.make_policy, rskill, device=run.device, checkpoint=run.checkpoint)
 
     def check(env: SimRollout) -> None:
         spec = env.spec
