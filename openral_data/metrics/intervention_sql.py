@@ -18,9 +18,6 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-import pyarrow as pa
-
-from openral_data.formats.parquetfile import read_schema
 from openral_data.metrics.sources import DatasetSource
 from openral_data.policies.intervention import INTERVENTION
 
@@ -57,13 +54,11 @@ POLICIES_SQL = (
 
 def records_interventions(ds: DatasetSource) -> bool:
     """Whether `ds` has our intervention flags: `openral.intervention` a bool of shape [1] in info.json and a bool
-    column in its (first) data file, as `data_columns` is read."""
+    column in its (first) data file (`bool_data_columns`, read with `data_columns`)."""
     feature = ds.info["features"].get(INTERVENTION)
-    if INTERVENTION not in ds.data_columns or not ds.data_files or not isinstance(feature, dict):
+    if INTERVENTION not in ds.bool_data_columns or not ds.data_files or not isinstance(feature, dict):
         return False
-    if feature.get("dtype") != "bool" or feature.get("shape") != [1]:
-        return False
-    return bool(read_schema(ds.data_files[0]).field(INTERVENTION).type == pa.bool_())
+    return feature.get("dtype") == "bool" and feature.get("shape") == [1]
 
 
 def _union(parts: list[str], empty: str) -> str:

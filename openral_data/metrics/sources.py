@@ -38,6 +38,8 @@ class DatasetSource:
     # a LeRobot v2.x dataset's episodes and tasks, as v3's tables (its JSON lines are no parquet DuckDB can read)
     episodes_table: pa.Table | None = None
     tasks_table: pa.Table | None = None
+    # the data columns (of the first data file, as `data_columns`) whose type is a plain bool: a flag per frame
+    bool_data_columns: frozenset[str] = frozenset()
 
     @property
     def tasks_path(self) -> str:
@@ -89,7 +91,7 @@ def open_dataset(root: Path, label: str | None = None) -> DatasetSource:
     for file in data_files:  # DuckDB opens them by name: none may be a FIFO or a device
         checked(file)
     episode_columns = _columns(episode_files[0])
-    data_columns = _columns(data_files[0]) if data_files else frozenset()
+    data_columns, bool_columns = _data_columns(data_files)
     scene = rskill = robot = None
     provenance = read_provenance(root)
     meta = provenance.origin if provenance is not None else None
@@ -106,6 +108,7 @@ def open_dataset(root: Path, label: str | None = None) -> DatasetSource:
         scene=scene,
         rskill=rskill,
         robot=robot or info.get("robot_type"),
+        bool_data_columns=bool_columns,
     )
 
 
@@ -115,6 +118,7 @@ def _legacy_source(dataset: LeRobotDataset, label: str | None) -> DatasetSource:
     episodes = dataset.committed_episodes()
     data_files = [checked(f) for f in dataset.data_files() if f.exists()]  # DuckDB opens them: regular files only
     tasks = dataset.tasks()
+    data_columns, bool_columns = _data_columns(data_files)
     return DatasetSource(
         label=label or dataset.root.name,
         root=dataset.root,
@@ -122,7 +126,8 @@ def _legacy_source(dataset: LeRobotDataset, label: str | None) -> DatasetSource:
         data_files=data_files,
         episode_files=[],
         episode_columns=frozenset(episodes.column_names),
-        data_columns=_columns(data_files[0]) if data_files else frozenset(),
+        data_columns=data_columns,
+        bool_data_columns=bool_columns,
         scene=None,
         rskill=None,
         robot=dataset.info.get("robot_type"),
@@ -135,6 +140,14 @@ def _legacy_source(dataset: LeRobotDataset, label: str | None) -> DatasetSource:
 
 def _columns(path: Path) -> frozenset[str]:
     return frozenset(read_schema(path).names)
+
+
+def _data_columns(data_files: list[Path]) -> tuple[frozenset[str], frozenset[str]]:
+    """The first data file's column names, and those of them whose type is bool (none without a data file)."""
+    if not data_files:
+        return frozenset(), frozenset()
+    schema = read_schema(data_files[0])
+    return frozenset(schema.names), frozenset(f.name for f in schema if f.type == pa.bool_())
 
 
 def _is_input(path: Path) -> bool:
