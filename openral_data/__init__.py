@@ -4,7 +4,8 @@ The Python API (docs/python-api.md); the `openral-data` command line wraps the s
 
 - recording: `record(RecordOptions(...)) -> RecordSummary`
 - replay: `replay(ReplayOptions(...)) -> ReplaySummary`
-- conversion: `convert_bags(...) -> ConvertSummary` (bags -> LeRobot v3), `export_mcap(...) -> ExportSummary`,
+- conversion: `convert(source, dst, mapping=None, ...) -> ConvertSummary | ExportSummary` (bags, HDF5, Zarr,
+  RLDS -> LeRobot v3; LeRobot -> MCAP), `convert_bags(...) -> ConvertSummary`, `export_mcap(...) -> ExportSummary`,
   `upgrade(old, new) -> UpgradeResult` (LeRobot v2.0/v2.1 -> v3.0 with lerobot's converter)
 - checking: `check(root) -> list[Finding]`, `repair(root) -> RepairResult`
 - reading: `summarize(root) -> DatasetSummary`, `stats_query(paths, sql) -> Table` (DuckDB over the stats views),
@@ -36,6 +37,8 @@ _API: dict[str, str] = {
     "replay": "openral_data.replay",
     "ReplayOptions": "openral_data.replay",
     "ReplaySummary": "openral_data.replay",
+    "convert": "openral_data.convert",
+    "Parallel": "openral_data.convert",
     "convert_bags": "openral_data.convert",
     "ConvertSummary": "openral_data.convert",
     "export_mcap": "openral_data.convert",
@@ -91,6 +94,7 @@ __all__ = [
     "Frame",
     "Observation",
     "OpenralError",
+    "Parallel",
     "ProducerSpec",
     "Quality",
     "RSkillManifest",
@@ -109,6 +113,7 @@ __all__ = [
     "UpgradeResult",
     "__version__",
     "check",
+    "convert",
     "convert_bags",
     "export_mcap",
     "load_scene",
@@ -122,7 +127,7 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:
-    from openral_data.convert import ConvertSummary, ExportSummary, convert_bags, export_mcap
+    from openral_data.convert import ConvertSummary, ExportSummary, Parallel, convert, convert_bags, export_mcap
     from openral_data.doctor import Finding, RepairResult, check, repair
     from openral_data.errors import CompatibilityError, ConfigError, ContractViolation, OpenralError
     from openral_data.formats.dataset import summarize
@@ -153,7 +158,10 @@ def __getattr__(name: str) -> Any:
     module = _API.get(name)
     if module is None:
         raise AttributeError(f"module 'openral_data' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
+    imported = importlib.import_module(module)
+    if name == "convert":  # the package, callable (importing it already set it here, a module attribute)
+        return imported
+    value = getattr(imported, name)
     globals()[name] = value
     return value
 

@@ -1,11 +1,9 @@
-"""What `convert`'s directions share on the command line: the `--workers/--executor` choice (`Parallel`) and the
-Ctrl-C rule (`interruptible`)."""
+"""What `convert`'s directions share on the command line: the Ctrl-C rule (`interruptible`)."""
 
 from __future__ import annotations
 
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -15,13 +13,6 @@ from openral_data.cli.terminal import print_line
 
 if TYPE_CHECKING:
     from rich.progress import Progress
-
-
-@dataclass(frozen=True)
-class Parallel:
-    workers: int
-    executor: str
-    address: str | None
 
 
 @contextmanager

@@ -23,7 +23,6 @@ from openral_data.errors import OpenralError, UsageError
 from openral_data.formats.repo_id import resolve_dataset
 
 if TYPE_CHECKING:
-    from openral_data.formats.lerobot_v3 import DatasetSummary
     from openral_data.runtime.catalog import Item
 
 
@@ -49,99 +48,14 @@ def info(
 ) -> None:
     """Print a dataset's summary: episodes, frames, tasks, cameras, success rate; for a bag its topics, types,
     counts and rates; for a zarr replay buffer or RLDS folder its episodes, steps and arrays."""
-    from openral_data.convert.to_mcap import is_lerobot_dataset
-    from openral_data.formats.dataset import summarize
-    from openral_data.formats.lerobot_v3.reader import LEGACY_VERSIONS as legacy
+    from openral_data.convert.entry import describe
 
     dataset = resolve_dataset(dataset)
-    if not is_lerobot_dataset(dataset) and _source_info(dataset, json):
-        return
-    s = summarize(dataset)
-    counts = _quality_counts(dataset)
+    about = describe(dataset)  # the source registry's kind of it (a LeRobot dataset when none takes it)
     if json:
-        print_json("info", {**s.to_json(), "quality": counts})
+        print_json("info", about.to_json())
         return
-    print_rows(
-        str(dataset),
-        [
-            ("episodes", str(s.episodes)),
-            ("frames", str(s.frames)),
-            ("fps", str(s.fps)),
-            ("duration", f"{s.frames / s.fps:.1f} s"),
-            ("cameras", ", ".join(s.cameras) or "-"),
-            ("tasks", "; ".join(s.tasks) or "-"),
-            ("robot", s.robot_type or "-"),
-            ("success rate", _success_cell(s)),
-            *([("format", f"LeRobot {s.codebase_version} (read in place)")] if s.codebase_version in legacy else []),
-            *([("missing", line.removeprefix("missing: "))] if s.missing and (line := s.missing.line()) else []),
-            ("quality", _quality_cell(counts)),
-        ],
-    )
-
-
-def _source_info(src: Path, json: bool) -> bool:
-    """`info` of a bag or an episodic array source (False: `src` is neither, so it is read as a dataset)."""
-    from openral_data.convert.array_sources import detect_array_source
-    from openral_data.convert.discover import describe_arrays, describe_bags, is_bag_source
-
-    if is_bag_source(src):
-        bags = describe_bags(src)
-        if json:
-            print_json("info", bags.to_json())
-            return True
-        rows = [("bags", str(len(bags.bags))), ("duration", f"{bags.duration:.2f} s")]
-        for t in bags.topics.values():
-            rate = f"{t.rate:.2f} Hz" if t.rate is not None else "-"
-            rows.append((t.topic, f"{t.msgtype}, {t.messages} msgs, {rate}"))
-        print_rows(str(src), rows)
-        return True
-    source = detect_array_source(src)
-    if source is None:
-        return False
-    arrays = describe_arrays(source)
-    if json:
-        print_json("info", arrays.to_json())
-        return True
-    fps = f"{arrays.fps:g}" if arrays.fps is not None else "not stored (convert --fps N or the mapping)"
-    languages = "; ".join(arrays.languages[:5]) + (
-        f" (+{len(arrays.languages) - 5} more)" if len(arrays.languages) > 5 else ""
-    )
-    rows = [("layout", arrays.layout), ("episodes", str(arrays.episodes)), ("steps", str(arrays.steps)), ("fps", fps)]
-    rows += [
-        (a.key, f"{a.dtype} {list(a.shape)}" + ("" if a.encoding == "raw" else f" ({a.encoding})"))
-        for a in arrays.arrays
-    ]
-    rows.append(("tasks", languages or "-"))
-    print_rows(str(src), rows)
-    return True
-
-
-def _quality_counts(dataset: Path) -> dict[str, int] | None:
-    """Episodes flagged per quality flag (and `flagged`, `episodes`) from the current cached table, else None."""
-    from openral_data.metrics.quality import flag_counts
-    from openral_data.metrics.sources import open_dataset
-
-    try:
-        return flag_counts(open_dataset(dataset))
-    except OpenralError:
-        return None
-
-
-def _quality_cell(counts: dict[str, int] | None) -> str:
-    """`2 of 8 episodes flagged (idle 1, camera_black 1)` (`_quality_counts`), else how to get one."""
-    if counts is None:
-        return "not computed (openral-data quality DATASET)"
-    raised = ", ".join(f"{k} {v}" for k, v in counts.items() if v and k not in ("episodes", "flagged"))
-    return f"{counts['flagged']} of {counts['episodes']} episodes flagged" + (f" ({raised})" if raised else "")
-
-
-def _success_cell(s: DatasetSummary) -> str:
-    """`50.0% (1/2)` over the episodes whose success is known (and how many are not), `unknown (N episodes)` when
-    none is (never 0 %)."""
-    if s.success_rate is None:
-        return f"unknown ({s.episodes} episode{'' if s.episodes == 1 else 's'})"
-    unknown = s.episodes - s.success_known
-    return f"{s.success_rate:.1%} ({s.successes}/{s.success_known}" + (f", {unknown} unknown)" if unknown else ")")
+    print_rows(str(dataset), about.rows())
 
 
 def list_cmd(

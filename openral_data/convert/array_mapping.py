@@ -1,6 +1,7 @@
 """The mapping of an array source (HDF5, Zarr, RLDS): the same `Mapping` as bags, with array keys (slash paths
 relative to an episode, `obs/agentview_image`) where bags have topics, and the starting mapping `convert` uses
-without `--mapping` (`starting_mapping`): what a known layout holds, each guess said (`Guess`), printed by
+without `--mapping` (`robomimic_mapping`, `aloha_mapping`, `zarr_mapping`, `rlds_mapping`, each its source
+kind's in `convert.kinds`): what a known layout holds, each guess said (`Guess`), printed by
 `convert SRC --print-mapping` (`mapping_yaml`).
 
 For array sources a role's `topic` is an array key and its `field` is not used; `task_topic: episode:language`
@@ -65,33 +66,20 @@ def _vector(parts: list[dict[str, Any]]) -> dict[str, Any]:
     return parts[0] if len(parts) == 1 else {"parts": parts}
 
 
-def starting_mapping(source: ArraySource, first: ArrayEpisode, fps: float | None) -> tuple[dict[str, Any], list[Guess]]:
-    """The mapping a known layout converts with (as plain data, before validation) and the guesses in it."""
-    specs = {s.key: s for s in first.specs()}
-    guesses: list[Guess] = []
-    if source.layout == "aloha":
-        out, guesses = _aloha(source, specs)
-    elif source.layout == "zarr":
-        out, guesses = _zarr(source, specs)
-    elif source.layout == "rlds":
-        out, guesses = _rlds(source, first, specs)
-    else:
-        out, guesses = _robomimic(source, first, specs)
-    if fps is None:
-        fps = source.fps
-    return {"fps": round(fps) if fps is not None else None, **out}, guesses
-
-
-def with_fps_guess(data: dict[str, Any], guesses: list[Guess], layout: str) -> None:
-    """For printing only: a source without a step rate gets its layout's usual one, marked as a guess (a
+def with_fps_guess(data: dict[str, Any], guesses: list[Guess], usual: int, why: str) -> None:
+    """For printing only: a source without a step rate gets its layout's `usual` one, marked as a guess (a
     conversion never guesses the rate)."""
     if data.get("fps") is None:
-        data["fps"] = ALOHA_FPS if layout == "aloha" else 10
-        why = "ACT / ALOHA record at 50 Hz" if layout == "aloha" else "a placeholder"
+        data["fps"] = usual
         guesses.insert(0, Guess("fps", f"{why}; the source does not say: check it"))
 
 
-def _aloha(source: ArraySource, specs: dict[str, ArraySpec]) -> tuple[dict[str, Any], list[Guess]]:
+def _specs(first: ArrayEpisode) -> dict[str, ArraySpec]:
+    return {s.key: s for s in first.specs()}
+
+
+def aloha_mapping(source: ArraySource, first: ArrayEpisode) -> tuple[dict[str, Any], list[Guess]]:
+    specs = _specs(first)
     state = specs.get("observations/qpos")
     action = specs.get("action")
     if state is None or action is None:
@@ -111,9 +99,8 @@ def _aloha(source: ArraySource, specs: dict[str, ArraySpec]) -> tuple[dict[str, 
     return out, guesses
 
 
-def _robomimic(
-    source: ArraySource, first: ArrayEpisode, specs: dict[str, ArraySpec]
-) -> tuple[dict[str, Any], list[Guess]]:
+def robomimic_mapping(source: ArraySource, first: ArrayEpisode) -> tuple[dict[str, Any], list[Guess]]:
+    specs = _specs(first)
     guesses: list[Guess] = []
     obs = {k: s for k, s in specs.items() if k.startswith("obs/")}
     low = {k: s for k, s in obs.items() if is_vector(s) and s.dtype.startswith("float")}
@@ -188,10 +175,11 @@ def _umi_action(specs: dict[str, ArraySpec]) -> list[dict[str, Any]]:
     return [_part(k, specs[k]) for k in keys if k in specs and is_vector(specs[k])]
 
 
-def _zarr(source: ArraySource, specs: dict[str, ArraySpec]) -> tuple[dict[str, Any], list[Guess]]:
+def zarr_mapping(source: ArraySource, first: ArrayEpisode) -> tuple[dict[str, Any], list[Guess]]:
     """diffusion policy / UMI replay buffers: `data/action`, else UMI's derived action (`_umi_action`);
     `data/state` or `data/agent_pos`, else every other float vector (UMI's robot0_*), as state; every HxWx3 uint8
     array a camera."""
+    specs = _specs(first)
     guesses = [Guess("task", "the store's name; replay buffers hold no task text")]
     if "data/action" in specs and is_vector(specs["data/action"]):
         action = _part("data/action", specs["data/action"])
@@ -222,9 +210,10 @@ def _zarr(source: ArraySource, specs: dict[str, ArraySpec]) -> tuple[dict[str, A
     return out, guesses
 
 
-def _rlds(source: ArraySource, first: ArrayEpisode, specs: dict[str, ArraySpec]) -> tuple[dict[str, Any], list[Guess]]:
+def rlds_mapping(source: ArraySource, first: ArrayEpisode) -> tuple[dict[str, Any], list[Guess]]:
     """RLDS / Open X-Embodiment: observation pictures as cameras, `steps/observation/state` (else every float
     observation vector) as state, `steps/action` (or its vector parts), language as task, reward, is_terminal."""
+    specs = _specs(first)
     obs = {k: s for k, s in specs.items() if k.startswith("steps/observation/")}
     floats = {k: s for k, s in obs.items() if is_vector(s) and s.dtype.startswith("float")}
     guesses: list[Guess] = []

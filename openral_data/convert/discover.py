@@ -3,9 +3,9 @@
 Bags (a ROS 1 ``.bag``, a rosbag2 folder, a plain ``.mcap``, or a folder of those): every topic with its message
 type, message count and mean rate, and the recording's span, read from the bags' indexes (no message is decoded).
 Array sources: the layout, the episodes and their steps, and every per-step array's dtype, shape and encoding,
-found by the detectors `convert` uses too (`convert.array_sources.DETECTORS`: each returns its source, None when
-the path is not of its layout, or raises `DatasetError` when it is but is malformed) and read through the
-episodic protocol.
+found by the source kinds `convert` uses too (`convert.kinds`: each returns its source, None when the path is not
+of its kind, or raises `DatasetError` when it is but is malformed) and read through the episodic protocol. Each
+prints as `info SRC --json` (`to_json`) or as rows under SRC (`rows`).
 """
 
 from __future__ import annotations
@@ -14,16 +14,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from openral_data.convert.sources import BAG_READ_ERRORS, find_bags, is_bag, open_reader
+from openral_data.convert.sources import BAG_READ_ERRORS, find_bags, open_reader
 from openral_data.errors import BagError
 from openral_data.formats.episodic import ArraySource, ArraySpec
 
 MAX_LANGUAGES = 1000  # distinct task texts listed (an OXE dataset may give every episode its own)
-
-
-def is_bag_source(path: Path) -> bool:
-    """`path` is a bag, or a folder holding bags."""
-    return is_bag(path) or (path.is_dir() and any(is_bag(p) for p in path.iterdir() if not p.name.startswith(".")))
 
 
 @dataclass
@@ -59,6 +54,13 @@ class BagInfo:
                 for t in self.topics.values()
             ],
         }
+
+    def rows(self) -> list[tuple[str, str]]:
+        rows = [("bags", str(len(self.bags))), ("duration", f"{self.duration:.2f} s")]
+        for t in self.topics.values():
+            rate = f"{t.rate:.2f} Hz" if t.rate is not None else "-"
+            rows.append((t.topic, f"{t.msgtype}, {t.messages} msgs, {rate}"))
+        return rows
 
 
 def describe_bags(src: Path) -> BagInfo:
@@ -109,6 +111,18 @@ class ArrayInfo:
             ],
             "languages": self.languages,
         }
+
+    def rows(self) -> list[tuple[str, str]]:
+        fps = f"{self.fps:g}" if self.fps is not None else "not stored (convert --fps N or the mapping)"
+        more = len(self.languages) - 5
+        languages = "; ".join(self.languages[:5]) + (f" (+{more} more)" if more > 0 else "")
+        rows = [("layout", self.layout), ("episodes", str(self.episodes)), ("steps", str(self.steps)), ("fps", fps)]
+        rows += [
+            (a.key, f"{a.dtype} {list(a.shape)}" + ("" if a.encoding == "raw" else f" ({a.encoding})"))
+            for a in self.arrays
+        ]
+        rows.append(("tasks", languages or "-"))
+        return rows
 
 
 def describe_arrays(source: ArraySource) -> ArrayInfo:

@@ -176,8 +176,7 @@ def _episode(conv: Converter, ep: ArrayEpisode, where: str, done: int, total: in
     specs = check_episode(ep, mapping, where)
     for key, spec in specs.items():
         conv.summary.topics.setdefault(key, TopicReport(key, f"{spec.dtype}{list(spec.shape)} ({spec.encoding})"))
-    conv.tasks = [(0, (mapping.task_topic and ep.meta.language) or mapping.task or "")]
-    conv.successes = []
+    conv.start_source_episode((mapping.task_topic and ep.meta.language) or mapping.task or "")
     step_bytes = sum(max(1, int(np.prod(s.shape))) * np.dtype(s.dtype).itemsize for s in specs.values())
     rows = max(1, min(MAX_CHUNK_ROWS, CHUNK_BYTES // max(1, step_bytes)))
     period = 1e9 / mapping.fps
@@ -238,5 +237,5 @@ def _take_chunk(
         if reward is not None:
             samples[REWARD] = float(values[reward][i])
         if done_flags is not None:
-            conv.successes.append((t, bool(done_flags[i])))
+            conv.note_success(t, bool(done_flags[i]))
         conv.take(AlignedFrame(start + i, t, samples))

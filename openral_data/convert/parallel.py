@@ -21,7 +21,6 @@ import shutil
 import time
 from pathlib import Path
 
-from openral_data.convert.array_sources import block_files
 from openral_data.convert.preflight import CameraTopics, check_bags, check_outcome, last_task
 from openral_data.convert.sources import find_bags
 from openral_data.convert.summary import ConvertSummary, TopicReport
@@ -31,6 +30,7 @@ from openral_data.convert.worker import (
     ConvertJob,
     ConvertProgress,
     ConvertResult,
+    Reopen,
     init_convert_worker,
     run_convert_job,
 )
@@ -163,18 +163,20 @@ def convert_arrays_parallel(
     codec: Codec = "av1",
     progress: ProgressFn | None = None,
     video: VideoSettings | None = None,
+    files: list[Path],
+    reopen: Reopen,
 ) -> ConvertSummary:
-    """An array source's files (HDF5 files, RLDS shards; a Zarr store is one block) in `workers` processes
-    (contiguous blocks of files, as bags), merged in file order into one dataset at `dst`, as `convert_arrays`
-    would write it."""
+    """An array source's `files` (its kind's blocks: HDF5 files, RLDS shards; a Zarr store is one block) in
+    `workers` processes (contiguous blocks of files, as bags), merged in file order into one dataset at `dst`, as
+    `convert_arrays` would write it; each worker opens its block with `reopen(source.path, block)` (its kind's
+    `open_block`)."""
     settings = with_codec(video, codec)
     check_executor(executor, address)
-    files = block_files(source)
     totals = sum(ep.length for ep in source.episodes())  # every file opened once, before any work
     source.close()
     workdir = fresh_workdir(dst)
     jobs: list[ConvertJob | ArrayJob] = [
-        ArrayJob(w, source.path, source.layout, block, workdir / f"worker-{w:03d}", mapping, settings)
+        ArrayJob(w, source.path, source.layout, block, workdir / f"worker-{w:03d}", mapping, settings, reopen)
         for w, block in enumerate(plan_blocks(files, workers))
     ]
     return _run_blocks(jobs, workdir, source.path, dst, totals, executor, address, progress, source.layout)

@@ -21,16 +21,11 @@ from rosbags.rosbag2 import ReaderError as Ros2ReaderError
 from rosbags.serde import SerdeError
 from rosbags.typesys import Stores, get_typestore
 
+from openral_data.convert.bag_paths import folder_bags, is_bag
 from openral_data.errors import BagError, NotFound
 from openral_data.formats.mcap.chunks import check_bag
 from openral_data.formats.mcap.messages import DEPTH_ENCODINGS, RGB_ENCODINGS
 from openral_data.schemas.mapping import Vector, VectorSource
-
-
-def is_bag(path: Path) -> bool:
-    if path.is_file():
-        return path.suffix in {".bag", ".mcap"}
-    return path.is_dir() and (path / "metadata.yaml").is_file()
 
 
 def find_bags(src: Path) -> list[Path]:
@@ -38,10 +33,8 @@ def find_bags(src: Path) -> list[Path]:
         raise NotFound(f"{src}: no such file or directory")
     if is_bag(src):
         return [src]
-    if src.is_dir():
-        bags = sorted(p for p in src.iterdir() if not p.name.startswith(".") and is_bag(p))
-        if bags:
-            return bags
+    if bags := folder_bags(src):
+        return bags
     raise BagError(
         f"{src}: not a bag: expected a ROS 1 .bag, a plain .mcap, a rosbag2 folder (metadata.yaml) "
         "or a folder of those",

@@ -67,9 +67,7 @@ def convert_bags(
     check_new_output(dst, "DST")
     staged = Staging(dst, "openral-data convert")  # DST appears complete or not at all
     with staged as staging:
-        conv = Converter(mapping, staging, settings, summary, cameras)
-        if carried_task is not None:
-            conv.tasks = [carried_task]
+        conv = Converter(mapping, staging, settings, summary, cameras, carried_task)
         t0 = time.perf_counter()
         done = 0
         try:
@@ -115,10 +113,10 @@ def _convert_bag(bag: Path, conv: Converter, wanted: list[str], extra: list[str]
                     aligner, success, info = conv.new_aligner(), None, None
                 continue
             if topic == mapping.task_topic:
-                conv.tasks.append((ns, str(msg.get().data)))
+                conv.note_task(ns, str(msg.get().data))
                 continue
             if topic == mapping.success_topic:
-                conv.successes.append((ns, bool_value(msg.get(), mapping, bag)))
+                conv.note_success(ns, bool_value(msg.get(), mapping, bag))
                 if topic not in conv.topic_streams:
                     continue  # else the same messages also carry aligned fields (reward, state, ...)
             if (

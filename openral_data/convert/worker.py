@@ -15,11 +15,12 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from openral_data.convert.array_sources import open_block
 from openral_data.convert.from_arrays import convert_arrays
 from openral_data.convert.preflight import CameraTopics
 from openral_data.convert.summary import ConvertSummary
 from openral_data.convert.to_lerobot import convert_bags
+from openral_data.errors import DatasetError
+from openral_data.formats.episodic import ArraySource
 from openral_data.formats.lerobot_v3.encoder import VideoSettings
 from openral_data.runtime.parallel.channel import report
 from openral_data.schemas.mapping import Mapping
@@ -37,6 +38,9 @@ class ConvertJob:
     carried_task: tuple[int, str] | None  # the task text the block's first bag starts with (one process's carry)
 
 
+Reopen = Callable[[Path, list[Path]], ArraySource | None]  # a source kind's `open_block` (pickled by reference)
+
+
 @dataclass(frozen=True)
 class ArrayJob:
     """A block of an array source's files (`convert --workers` over HDF5 files, RLDS shards, a Zarr store)."""
@@ -48,6 +52,7 @@ class ArrayJob:
     dst: Path
     mapping: Mapping
     video: VideoSettings  # resolved in the parent
+    reopen: Reopen  # the part of `src` that `files` hold, as its kind opens it
 
 
 @dataclass(frozen=True)
@@ -115,7 +120,9 @@ def run_convert_job(job: ConvertJob | ArrayJob) -> ConvertResult:
 
 
 def _run_array_job(job: ArrayJob, progress: Callable[[int, int], None]) -> ConvertResult:
-    source = open_block(job.src, job.layout, job.files)
+    source = job.reopen(job.src, job.files)
+    if source is None:
+        raise DatasetError(f"{job.src}: no longer a {job.layout} source", code="dataset.source.layout")
     steps = 0
 
     def counted(done: int, total: int) -> None:

@@ -56,7 +56,13 @@ class Converter:
     """One conversion's frames on their way into the dataset at `dst` (see the module)."""
 
     def __init__(
-        self, mapping: Mapping, dst: Path, video: VideoSettings, summary: ConvertSummary, cameras: CameraTopics
+        self,
+        mapping: Mapping,
+        dst: Path,
+        video: VideoSettings,
+        summary: ConvertSummary,
+        cameras: CameraTopics,
+        carried_task: tuple[int, str] | None = None,
     ) -> None:
         self.mapping = mapping
         self.dst = dst
@@ -92,7 +98,7 @@ class Converter:
         self.camera_shapes: dict[str, CameraShape] = {}
         self.open = False
         self.pending: _Pending | None = None
-        self.tasks: list[tuple[int, str]] = []
+        self.tasks: list[tuple[int, str]] = [carried_task] if carried_task is not None else []
         self.successes: list[tuple[int, bool]] = []  # (time, value) on the success topic, oldest first
         self.source_episode = 0
         self.segment_frames = 0
@@ -101,6 +107,19 @@ class Converter:
         self.steps: deque[_Step] = deque()  # frames whose images are being decoded, in frame order
 
     # -- per source episode --------------------------------------------------------------------------------
+    def note_task(self, t_ns: int, text: str) -> None:
+        """The task text from time `t_ns` on (a task message)."""
+        self.tasks.append((t_ns, text))
+
+    def note_success(self, t_ns: int, value: bool) -> None:
+        """The success signal's value from time `t_ns` on."""
+        self.successes.append((t_ns, value))
+
+    def start_source_episode(self, task: str) -> None:
+        """An array source's episode begins: its own task text from its first frame, its success unknown yet."""
+        self.tasks = [(0, task)]
+        self.successes = []
+
     def new_aligner(self) -> Aligner[Any]:
         a = self.mapping.align
         return Aligner(self.streams, self.mapping.fps, a.method, a.max_staleness)

@@ -13,8 +13,11 @@ steps:
     stats: {inputs: [rec, rep]}
   - id: bags
     export: {dataset: all, episodes: "0-1"}
+  - id: demos                  # a source outside the run: bags, HDF5, Zarr, RLDS (or a LeRobot dataset -> MCAP)
+    convert: {source: data/demo.hdf5, mapping: demo_mapping.yaml, fps: 20}
 ```
-A reference is a step id (every output of that step) or `step/item` (one output).
+A reference is a step id (every output of that step) or `step/item` (one output). A convert step's `source`
+and `mapping` are paths inside the pipeline file's folder.
 """
 
 from __future__ import annotations
@@ -172,9 +175,27 @@ class ExportStep(StrictModel):
     mcap_compression: McapCompression = "zstd"  # of the bags' chunks (`convert --mcap-compression`)
 
 
-KINDS = ("record", "merge", "replay", "stats", "export")
+class ConvertStep(StrictModel):
+    """`openral-data convert SOURCE OUT`: bags, HDF5, Zarr or RLDS -> a LeRobot v3 dataset (`mapping`: a mapping
+    file, else the source's starting mapping; `fps`: an array source's rate when it declares none)."""
+
+    source: str
+    mapping: str | None = None
+    fps: int | None = Field(default=None, ge=1)
+    vcodec: Codec | None = None
+    workers: int = Field(default=1, ge=1)
+
+
+KINDS = ("record", "merge", "replay", "stats", "export", "convert")
 # what a step's outputs are, for checking references
-PRODUCES = {"record": "dataset", "merge": "dataset", "replay": "results", "stats": "report", "export": "bags"}
+PRODUCES = {
+    "record": "dataset",
+    "merge": "dataset",
+    "replay": "results",
+    "stats": "report",
+    "export": "bags",
+    "convert": "dataset",
+}
 
 
 class Step(StrictModel):
@@ -184,6 +205,7 @@ class Step(StrictModel):
     replay: ReplayStep | None = None
     stats: StatsStep | None = None
     export: ExportStep | None = None
+    convert: ConvertStep | None = None
 
     @model_validator(mode="after")
     def _one_kind(self) -> Step:
@@ -252,6 +274,9 @@ def _anchored(pipeline: Pipeline, path: Path) -> Pipeline:
     folder = path.absolute().parent
     steps = []
     for i, step in enumerate(pipeline.steps):
+        if step.convert is not None:
+            steps.append(_anchored_convert(step, step.convert, folder, f"{path}: steps[{i}].convert"))
+            continue
         spec = step.record
         if spec is None:
             steps.append(step)
@@ -263,6 +288,14 @@ def _anchored(pipeline: Pipeline, path: Path) -> Pipeline:
         }
         steps.append(step.model_copy(update={"record": spec.model_copy(update=refs)}))
     return pipeline.model_copy(update={"steps": steps})
+
+
+def _anchored_convert(step: Step, spec: ConvertStep, folder: Path, where: str) -> Step:
+    """A convert step's source and mapping as paths inside the pipeline file's folder (after symlinks), else
+    refused (one line)."""
+    source = str(contained(folder, spec.source, f"{where}.source"))
+    mapping = str(contained(folder, spec.mapping, f"{where}.mapping")) if spec.mapping is not None else None
+    return step.model_copy(update={"convert": spec.model_copy(update={"source": source, "mapping": mapping})})
 
 
 def _manifest_ref(kind: Kind, ref: str, folder: Path, source: str) -> str:

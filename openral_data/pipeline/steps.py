@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from openral_data.errors import ConfigError
-from openral_data.pipeline.schema import ExportStep, MergeStep, RecordStep, StatsStep, Step
+from openral_data.pipeline.schema import ConvertStep, ExportStep, MergeStep, RecordStep, StatsStep, Step
 
 # (item name, run(item path) -> summary); the runner skips items already marked done
 ItemJob = tuple[str, Callable[[Path], dict[str, Any]]]
@@ -27,6 +27,8 @@ def jobs_for(step: Step, resolve: Resolve) -> Iterator[ItemJob]:
         yield _stats_job(step.stats, resolve)
     elif step.export is not None:
         yield from _export_jobs(step.export, resolve)
+    elif step.convert is not None:
+        yield _convert_job(step.convert)
 
 
 def _record_jobs(spec: RecordStep) -> Iterator[ItemJob]:
@@ -124,3 +126,18 @@ def _export_jobs(spec: ExportStep, resolve: Resolve) -> Iterator[ItemJob]:
             return {"source": str(src), "episodes": len(summary.episodes), "frames": summary.frames}
 
         yield name, run
+
+
+def _convert_job(spec: ConvertStep) -> ItemJob:
+    def run(out: Path) -> dict[str, Any]:
+        from openral_data.convert.entry import convert
+        from openral_data.convert.kinds.base import Parallel
+        from openral_data.formats.lerobot_v3.encoder import with_codec
+
+        video = with_codec(None, spec.vcodec) if spec.vcodec is not None else None
+        parallel = Parallel(spec.workers) if spec.workers > 1 else None
+        mapping = Path(spec.mapping) if spec.mapping is not None else None
+        summary = convert(Path(spec.source), out, mapping, video=video, parallel=parallel, fps=spec.fps)
+        return {"source": spec.source, "episodes": len(summary.episodes), "frames": summary.frames}
+
+    return "dataset", run

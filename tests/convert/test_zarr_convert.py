@@ -106,20 +106,20 @@ def test_umi_like_store_maps_its_vectors_as_state(tmp_path: Path) -> None:
 
 
 def test_info_and_convert_share_one_detector_list(store: Path, tmp_path: Path) -> None:
-    """`info SRC --json` recognises every layout `convert` does (HDF5 too), from the one `DETECTORS` list."""
-    from openral_data.convert.array_sources import DETECTORS, detect_array_source
+    """`info SRC --json` recognises every layout `convert` does (HDF5 too), from the one source registry."""
+    from openral_data.convert.kinds import detect
+
     from tests.support.hdf5_layouts import write_robomimic
     from tests.support.rlds_written import write_rlds
 
-    assert len(DETECTORS) == 3
     sources = {
         "robomimic": write_robomimic(tmp_path / "lift.hdf5"),
         "zarr": store,
         "rlds": write_rlds(tmp_path / "toy_rlds" / "1.0.0"),
     }
     for layout, path in sources.items():
-        source = detect_array_source(path)
-        assert source is not None and source.layout == layout
-        source.close()
+        found = detect(path)
+        assert found is not None and found.handle.layout == layout
+        found.handle.close()
         run = run_inproc("info", str(path), "--json")
         assert run.returncode == 0 and json.loads(run.stdout)["layout"] == layout, run.stderr
