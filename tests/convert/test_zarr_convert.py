@@ -108,7 +108,6 @@ def test_umi_like_store_maps_its_vectors_as_state(tmp_path: Path) -> None:
 def test_info_and_convert_share_one_detector_list(store: Path, tmp_path: Path) -> None:
     """`info SRC --json` recognises every layout `convert` does (HDF5 too), from the one source registry."""
     from openral_data.convert.kinds import detect
-
     from tests.support.hdf5_layouts import write_robomimic
     from tests.support.rlds_written import write_rlds
 
