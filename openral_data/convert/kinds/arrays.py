@@ -124,6 +124,6 @@ class ArrayPlan(Plan):
         return summary.to_json(self.mapping, *workers)
 
     def rows(self, summary: ConvertSummary) -> list[tuple[str, str]]:
-        from openral_data.convert.report import array_rows
+        from openral_data.convert.kinds.report import array_rows
 
         return array_rows(self.source, self.dst, self.mapping, summary, self.parallel)

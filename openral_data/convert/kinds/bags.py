@@ -79,6 +79,6 @@ class BagPlan(Plan):
         return summary.to_json(self.mapping) if p is None else summary.to_json(self.mapping, p.workers, p.executor)
 
     def rows(self, summary: ConvertSummary) -> list[tuple[str, str]]:
-        from openral_data.convert.report import bag_rows
+        from openral_data.convert.kinds.report import bag_rows
 
         return bag_rows(self.src, self.dst, self.mapping, summary, self.request.parallel)

@@ -163,6 +163,6 @@ class ExportPlan(Plan):
         return summary.to_json()
 
     def rows(self, summary: ExportSummary) -> list[tuple[str, str]]:
-        from openral_data.convert.report import export_rows
+        from openral_data.convert.kinds.report import export_rows
 
         return export_rows(self.src, self.dst, summary)
