@@ -102,14 +102,9 @@ def test_python_api_converts_hdf5_with_the_values_h5py_reads(tmp_path: Path) -> 
     data = _data(dst)
     with h5py.File(src) as f:
         actions = np.concatenate([f[f"data/demo_{e}/actions"][()] for e in (0, 1)])
-        state = np.concatenate(
-            [
-                np.concatenate(
-                    [f[f"data/demo_{e}/obs/{k}"][()] for k in ("robot0_eef_pos", "robot0_gripper_qpos")], axis=1
-                )
-                for e in (0, 1)
-            ]  # fmt: skip
-        )
+        keys = ("robot0_eef_pos", "robot0_gripper_qpos")
+        steps = [np.concatenate([f[f"data/demo_{e}/obs/{k}"][()] for k in keys], axis=1) for e in (0, 1)]
+        state = np.concatenate(steps)
     np.testing.assert_array_equal(np.array(data["action"]), actions.astype(np.float32))
     np.testing.assert_array_equal(np.array(data["observation.state"]), state.astype(np.float32))
 
