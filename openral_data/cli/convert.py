@@ -111,11 +111,10 @@ def _convert(
     """SRC's kind (the source registry's) plans the conversion, which runs behind a progress bar; its summary
     printed."""
     from openral_data.convert.entry import plan
+    from openral_data.convert.kinds.base import Request
 
-    planned = plan(
-        src, dst, mapping, video=video, parallel=parallel, fps=fps, episodes=episodes, image_format=image_format,
-        mcap_compression=mcap_compression,
-    )  # fmt: skip
+    request = Request(mapping, video, parallel, fps, episodes, image_format, mcap_compression)
+    planned = plan(src, dst, request)
     with progress_bar(planned.what, planned.unit) as bar, interruptible(bar, dst):
         task = bar.add_task(planned.what, total=None)
         summary = planned.run(lambda d, t: bar.update(task, completed=d, total=t))

@@ -32,20 +32,9 @@ if TYPE_CHECKING:
 MappingArg = Path | str | dict[str, Any] | None  # a mapping file, or its content; see `_mapping`
 
 
-def plan(
-    source: Path | str,
-    dst: Path | str,
-    mapping: MappingArg | Mapping = None,
-    *,
-    video: VideoSettings | None = None,
-    parallel: Parallel | None = None,
-    fps: int | None = None,
-    episodes: str | None = None,
-    image_format: str = "jpeg",
-    mcap_compression: str = "zstd",
-) -> Plan:
+def plan(source: Path | str, dst: Path | str, request: Request | None = None) -> Plan:
     """`source` (a path, or a Hub repo id of a dataset) and `dst` (a new or empty folder) checked, SRC's kind
-    found, and its conversion planned with the options given (one line for an option its kind does not take)."""
+    found, and its conversion planned as `request` asks (one line for an option its kind does not take)."""
     from openral_data.formats.repo_id import resolve_dataset
     from openral_data.formats.staging import check_new_output
 
@@ -56,8 +45,7 @@ def plan(
     check_new_output(out, "DST")
     found = detect(src)
     kind, handle = (found.kind, found.handle) if found is not None else (BAGS, src)
-    request = Request(_mapping(mapping), video, parallel, fps, episodes, image_format, mcap_compression)
-    return kind.plan(handle, out, request)
+    return kind.plan(handle, out, request or Request())
 
 
 def convert(
@@ -78,11 +66,8 @@ def convert(
     its content, else the source's starting mapping; `fps`: the rate of an array source that declares none;
     `parallel`: `--workers`); a LeRobot dataset -> ROS 2 MCAP bags (`episodes`, `image_format`,
     `mcap_compression`). `progress(done, total)` is called as it goes."""
-    planned = plan(
-        source, dst, mapping, video=video, parallel=parallel, fps=fps, episodes=episodes, image_format=image_format,
-        mcap_compression=mcap_compression,
-    )  # fmt: skip
-    return planned.run(progress)
+    request = Request(_mapping(mapping), video, parallel, fps, episodes, image_format, mcap_compression)
+    return plan(source, dst, request).run(progress)
 
 
 def _mapping(mapping: MappingArg | Mapping) -> Path | Mapping | None:

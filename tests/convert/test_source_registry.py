@@ -8,6 +8,7 @@ import inspect
 import json
 import re
 from pathlib import Path
+from typing import Any
 
 import h5py
 import numpy as np
@@ -19,7 +20,9 @@ import zarr
 import openral_data
 from openral_data.convert import kinds
 from openral_data.convert.entry import plan
-from openral_data.convert.kinds.base import SourceKind
+from openral_data.convert.kinds.base import Request, SourceKind
+from openral_data.formats.lerobot_v3.encoder import VideoSettings
+from openral_data.schemas.mapping import Mapping
 from tests.support.bags import MAPPING, write_plain_mcap, write_ros1
 from tests.support.hdf5_layouts import write_aloha, write_robomimic
 from tests.support.inproc import run_inproc
@@ -78,7 +81,8 @@ def test_info_and_convert_pick_the_same_kind(sources: dict[str, Path], tmp_path:
         is_bags = expected in ("ros1-bag", "rosbag2")
         assert doc["kind"] == ("bag" if is_bags else "arrays"), path
         fps = None if is_bags or name == "hdf5-robomimic" else 10
-        planned = plan(path, tmp_path / f"out-{name}", MAPPING if is_bags else None, fps=fps)
+        mapping = Mapping.model_validate(MAPPING) if is_bags else None
+        planned = plan(path, tmp_path / f"out-{name}", Request(mapping=mapping, fps=fps))
         assert planned.unit == ("messages" if is_bags else "steps"), path
         if not is_bags:
             assert doc["layout"] == planned.to_json(_summary(planned))["layout"]
@@ -116,9 +120,9 @@ def test_python_api_converts_zarr_and_rlds_with_a_mapping_and_fps(tmp_path: Path
     summary = openral_data.convert(store, tmp_path / "zarr_out", mapping, video=_h264())
     assert summary.frames == 8
     data = _data(tmp_path / "zarr_out")
-    root = zarr.open_group(str(store), mode="r")
-    np.testing.assert_array_equal(np.array(data["action"]), root["data/action"][:].astype(np.float32))
-    np.testing.assert_array_equal(np.array(data["observation.state"]), root["data/state"][:].astype(np.float32))
+    root: Any = zarr.open_group(str(store), mode="r")
+    np.testing.assert_array_equal(np.array(data["action"]), np.asarray(root["data/action"][:], np.float32))
+    np.testing.assert_array_equal(np.array(data["observation.state"]), np.asarray(root["data/state"][:], np.float32))
     rlds = write_rlds(tmp_path / "toy_rlds" / "1.0.0", ((4,), (3,)), smooth=True)
     summary = openral_data.convert(str(rlds), tmp_path / "rlds_out", fps=5)
     assert (len(summary.episodes), summary.frames) == (2, 7)
@@ -155,7 +159,5 @@ def test_pipeline_convert_source_stays_in_the_pipeline_folder(tmp_path: Path) ->
         load_pipeline(tmp_path / "p.yaml")
 
 
-def _h264() -> object:
-    from openral_data.formats.lerobot_v3.encoder import VideoSettings
-
+def _h264() -> VideoSettings:
     return VideoSettings(codec="h264")

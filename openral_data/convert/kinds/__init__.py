@@ -16,8 +16,8 @@ is imported for them), then the array sources. A kind's `open` returns None when
 and raises one line when it is but is broken (an HDF5 file of no known layout stops the search there). What no
 kind takes is read as bags by `convert` (which then says it is not a bag) and as a dataset by `info`.
 
-Adding a source kind: one module here with a `SourceKind` subclass (an array source: an `ArrayKind`), and one
-line in `_KINDS` below at its place in the order.
+Adding a source kind: one module here with a `SourceKind` subclass (an array source: an `ArrayKind`; an HDF5
+family: an `HDF5Kind`), and one line in `_KINDS` below at its place in the order.
 """
 
 from __future__ import annotations

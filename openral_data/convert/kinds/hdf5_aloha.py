@@ -4,28 +4,17 @@ them: split by file; the starting mapping names ALOHA's 14 joints and guesses 50
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from openral_data.convert.array_mapping import ALOHA_FPS
-from openral_data.convert.kinds.arrays import ArrayKind, LayoutMapping
-from openral_data.convert.kinds.hdf5_robomimic import hdf5_of
+from openral_data.convert.kinds.arrays import LayoutMapping
+from openral_data.convert.kinds.hdf5 import HDF5Kind
 from openral_data.formats.episodic import ArrayEpisode, ArraySource
 
 
-class AlohaKind(ArrayKind):
+class AlohaKind(HDF5Kind):
     name = "hdf5-aloha"
     summary = "HDF5: ALOHA / ACT episode files (observations/qpos, action, observations/images), file or folder"
     layouts = ("aloha",)
     usual_fps = (ALOHA_FPS, "ACT / ALOHA record at 50 Hz")
-
-    def open(self, path: Path) -> ArraySource | None:
-        return hdf5_of(path, self.layouts)
-
-    def blocks(self, handle: ArraySource) -> list[Path]:
-        return list(getattr(handle, "files"))  # noqa: B009 - an HDF5Source's
-
-    def open_block(self, src: Path, files: list[Path]) -> ArraySource | None:
-        return hdf5_of(src, self.layouts, files)
 
     def layout_mapping(self, source: ArraySource, first: ArrayEpisode) -> LayoutMapping:
         from openral_data.convert.array_mapping import aloha_mapping
