@@ -182,7 +182,7 @@ class ConvertStep(StrictModel):
     source: str
     mapping: str | None = None
     fps: int | None = Field(default=None, ge=1)
-    vcodec: Codec | None = None
+    codec: Codec | None = None  # None: the default (av1), as `convert`
     workers: int = Field(default=1, ge=1)
 
 

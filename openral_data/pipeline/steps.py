@@ -134,7 +134,7 @@ def _convert_job(spec: ConvertStep) -> ItemJob:
         from openral_data.convert.kinds.base import Parallel
         from openral_data.formats.lerobot_v3.encoder import with_codec
 
-        video = with_codec(None, spec.vcodec) if spec.vcodec is not None else None
+        video = with_codec(None, spec.codec) if spec.codec is not None else None
         parallel = Parallel(spec.workers) if spec.workers > 1 else None
         mapping = Path(spec.mapping) if spec.mapping is not None else None
         summary = convert(Path(spec.source), out, mapping, video=video, parallel=parallel, fps=spec.fps)

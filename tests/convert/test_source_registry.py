@@ -137,7 +137,7 @@ def test_pipeline_convert_step_over_hdf5(tmp_path: Path) -> None:
     folder.mkdir()
     write_robomimic(folder / "demo.hdf5", (5,))
     spec = {"name": "from_hdf5", "steps": [
-        {"id": "demos", "convert": {"source": "demo.hdf5", "fps": 25, "vcodec": "h264"}},
+        {"id": "demos", "convert": {"source": "demo.hdf5", "fps": 25, "codec": "h264"}},
     ]}  # fmt: skip
     (folder / "pipeline.yaml").write_text(yaml.safe_dump(spec))
     report = run_pipeline(folder / "pipeline.yaml", tmp_path / "run")
