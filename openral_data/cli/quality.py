@@ -9,6 +9,7 @@ from typing import Annotated
 import typer
 
 from openral_data.cli.stats import StatsFormat, render_table
+from openral_data.cli.takes import takes
 from openral_data.cli.terminal import print_line, progress_bar
 from openral_data.errors import UsageError
 from openral_data.formats.repo_id import resolve_dataset
@@ -17,6 +18,7 @@ from openral_data.text import printable
 DETAIL = ("episode_index", "flags", "idle_fraction", "idle_head", "idle_tail", "ldlj", "gripper_toggles_per_s")
 
 
+@takes("paths", pixels=True, v2="upgrade")
 def quality(
     paths: Annotated[list[str], typer.Argument(help="LeRobot v3 datasets (ours or lerobot's; globs allowed)")],
     stride: Annotated[

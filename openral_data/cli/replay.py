@@ -10,6 +10,7 @@ import typer
 from openral_data import paths
 from openral_data.cli.given import given
 from openral_data.cli.jsonout import JsonFlag, print_json
+from openral_data.cli.takes import takes
 from openral_data.cli.terminal import print_line, print_rows, progress_bar
 from openral_data.formats.codec import Codec
 from openral_data.formats.repo_id import resolve_dataset
@@ -20,6 +21,7 @@ if TYPE_CHECKING:
     from openral_data.replay.outcome import EpisodeOutcome
 
 
+@takes("dataset", pixels=True, v2="upgrade", writes="new", episodes={"episodes": "list"})
 def replay(
     ctx: typer.Context,
     dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (recorded by openral-data for sim modes)")],
