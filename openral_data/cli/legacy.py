@@ -76,10 +76,9 @@ def _legacy(item: Any) -> str | None:
 
 def _numbers(item: Any) -> list[int]:
     """The v2.x dataset's own episode numbers, in the order its upgrade numbers them 0..n-1."""
-    from openral_data.formats.dataset import open_lerobot
+    from openral_data.upgrade.legacy import read_legacy
 
-    episodes = open_lerobot(resolve_dataset(item)).committed_episodes()
-    return sorted(int(e) for e in episodes.column("episode_index").to_pylist())
+    return read_legacy(resolve_dataset(item)).numbers
 
 
 def _renumbered(syntax: Numbers, text: str, numbers: Sequence[int]) -> str:
