@@ -56,7 +56,8 @@ def read_as_v3(kwargs: dict[str, Any], takes: Takes) -> Iterator[None]:
                     f"(`openral-data upgrade {item} NEW` keeps one)",
                     err=True,
                 )
-            swapped.append(upgrade(resolve_dataset(item), Path(tmp) / str(i)).out)
+            root = resolve_dataset(item)  # the copy keeps its folder name: a label shown (quality, replay)
+            swapped.append(upgrade(root, Path(tmp) / str(i) / root.name).out)
         kwargs[takes.param] = swapped if isinstance(given, list | tuple) else swapped[0]
         upgraded = {str(new): str(item) for item, new in zip(items, swapped, strict=True) if new is not item}
         with _as_given(upgraded, old, numbers):
