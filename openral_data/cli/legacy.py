@@ -12,6 +12,8 @@ from __future__ import annotations
 import tempfile
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
+from contextvars import ContextVar
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +21,24 @@ from openral_data.cli import terminal
 from openral_data.cli.takes import Numbers, Takes
 from openral_data.errors import EpisodeSelectionError, OpenralError, UsageError
 from openral_data.formats.repo_id import resolve_dataset
+
+
+@dataclass(frozen=True)
+class Upgraded:
+    """What a temporary upgrade was made from: the dataset as the user gave it, and its own episode numbers (the
+    upgrade's episode e is OLD's `numbers[e]`)."""
+
+    given: str
+    numbers: tuple[int, ...]
+
+
+_UPGRADED: ContextVar[dict[str, Upgraded] | None] = ContextVar("openral_upgraded", default=None)
+
+
+def upgraded(path: Path) -> Upgraded | None:
+    """While a command runs on temporary upgrades, what the one at `path` was made from; None for any other path
+    (what the command prints about an episode can then be numbered as the user's)."""
+    return (_UPGRADED.get() or {}).get(str(Path(path).resolve()))
 
 
 @contextmanager
@@ -59,9 +79,17 @@ def read_as_v3(kwargs: dict[str, Any], takes: Takes) -> Iterator[None]:
             root = resolve_dataset(item)  # the copy keeps its folder name: a label shown (quality, replay)
             swapped.append(upgrade(root, Path(tmp) / str(i) / root.name).out)
         kwargs[takes.param] = swapped if isinstance(given, list | tuple) else swapped[0]
-        upgraded = {str(new): str(item) for item, new in zip(items, swapped, strict=True) if new is not item}
-        with _as_given(upgraded, old, numbers):
-            yield
+        made = {
+            str(Path(new).resolve()): Upgraded(str(item), tuple(_numbers(item)))
+            for item, new in zip(items, swapped, strict=True)
+            if new is not item
+        }
+        token = _UPGRADED.set(made)
+        try:
+            with _as_given({str(new): str(item) for item, new in zip(items, swapped, strict=True)}, old, numbers):
+                yield
+        finally:
+            _UPGRADED.reset(token)
 
 
 def _legacy(item: Any) -> str | None:

@@ -10,6 +10,7 @@ import typer
 from openral_data import paths
 from openral_data.cli.given import given
 from openral_data.cli.jsonout import JsonFlag, print_json
+from openral_data.cli.legacy import upgraded
 from openral_data.cli.takes import takes
 from openral_data.cli.terminal import print_line, print_rows, progress_bar
 from openral_data.formats.codec import Codec
@@ -85,6 +86,7 @@ def replay(
     for option, path in (("--out", out), ("--record", record)):
         if path is not None:
             paths.check_creatable(path, option)
+    source = upgraded(resolve_dataset(dataset))  # a v2.x dataset's temporary upgrade: its results name it
     opts = ReplayOptions(
         dataset=resolve_dataset(dataset),
         episodes=episodes,
@@ -107,6 +109,8 @@ def replay(
         view_port=view_port,
         view_address=view_address,
         explicit=given(ctx),
+        given=None if source is None else Path(source.given),
+        numbers=() if source is None else source.numbers,
     )
     _report(_run(opts), opts.mode, json)
 

@@ -2,7 +2,8 @@
 docs/upgrade.md#other-commands-on-v2x-datasets): it takes `--download/--revision/--include` and a LeRobot v2.x
 dataset. Then `episodes trim`/`resample` and `features rename`/`add` on a real v2.1 dataset written by lerobot
 0.3.3's own writer (frame t of episode e has state [t, e, 0.5], action [0.1 t, -0.1 t]), and episode numbers
-typed for a v2.1 dataset whose only episode is 29 (the real G1 fixture's shape) meaning that episode."""
+typed for a v2.1 dataset whose only episode is 29 (the real G1 fixture's shape) meaning that episode, and named
+so in what replay and quality print."""
 
 from __future__ import annotations
 
@@ -153,6 +154,24 @@ def test_episode_29_of_a_v21_dataset_is_addressed_as_29(only_29: Path, tmp_path:
     assert states(tmp_path / "parts/all") == [[state(t, 1) for t in range(8)]]
     ok("convert", only_29, tmp_path / "bags", "--episodes", "29")  # read in place: the bag keeps its number
     assert [p.name for p in (tmp_path / "bags").iterdir()] == ["episode_000029"]
+    doc = json.loads(
+        ok(
+            "replay",
+            only_29,
+            "--episodes",
+            "29",
+            "--mode",
+            "policy",
+            "--rskill",
+            "recorded",
+            "--out",
+            tmp_path / "eval",
+            "--json",
+        )
+    )
+    assert [e["index"] for e in doc["episode_list"]] == [29] and doc["dataset"] == str(only_29)
+    assert set(pq.read_table(tmp_path / "eval/steps.parquet").column("episode_index").to_pylist()) == {29}
+    assert ok("quality", only_29, "--all", "--format", "csv").splitlines()[-1].startswith("ds,29,")
     run = run_inproc("episodes", "delete", str(only_29), "--episodes", "0", "--out", str(tmp_path / "none"))
     assert run.returncode == 2 and run.stderr.count("\n") == 1, run.stderr
     assert "'0': episode 0 is not one of the dataset's episodes 29" in run.stderr
