@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from openral_data import paths
+from openral_data.cli.legacy import upgraded
 from openral_data.cli.takes import takes
 from openral_data.cli.terminal import print_line, progress_bar
 from openral_data.errors import UsageError
@@ -142,7 +143,8 @@ def merge_cmd(
     from openral_data.edit.align import merge, parse_renames
 
     paths.check_creatable(out, "--out")
-    renames = parse_renames(rename or [], datasets)
+    given = [Path(up.given) if (up := upgraded(d)) is not None else d for d in datasets]  # v2.x: not its upgrade
+    renames = parse_renames(rename or [], given)
     report("merged", [merge([resolve_dataset(d) for d in datasets], out, order, renames)])
 
 

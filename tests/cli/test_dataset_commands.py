@@ -138,6 +138,9 @@ def test_rename_and_add_features_of_a_v21_dataset(v21: Path, tmp_path: Path) -> 
     assert VIDEO_CAMERA not in got[0][0]
     for g_ep, w_ep in zip(got, want, strict=True):
         assert [np.asarray(f[front]).tolist() for f in g_ep] == [w["cam"].tolist() for w in w_ep]  # packets moved
+    rename = f"{v21}:{VIDEO_CAMERA}={front}"  # --rename names the v2.1 dataset as given, not its upgrade
+    ok("episodes", "merge", v21, tmp_path / "renamed", "--rename", rename, "--out", tmp_path / "merged")
+    assert states(tmp_path / "merged") == states(tmp_path / "renamed") * 2
     ok("features", "add", v21, "--name", "action.y", "--sql", "action[2]", "--out", tmp_path / "added")
     table = pq.read_table(sorted((tmp_path / "added/data").rglob("*.parquet"))[0])
     assert table.column("action.y").to_pylist() == [a[1] for a in table.column("action").to_pylist()]
