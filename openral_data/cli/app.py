@@ -10,7 +10,7 @@ from typing import Annotated, Any, cast
 import typer
 
 from openral_data.cli import browse, convert, generate, hub, inspect, quality, record, replay, stats, upgrade
-from openral_data.cli.download import dataset_download
+from openral_data.cli.download import dataset_commands
 from openral_data.cli.edit import episodes_app
 from openral_data.cli.features import features_app
 from openral_data.cli.globalflags import RootGroup
@@ -104,7 +104,7 @@ app.add_typer(pipeline_app, name="pipeline")
 app.add_typer(videos_app, name="videos")
 app.add_typer(tasks_app, name="tasks")
 app.add_typer(features_app, name="features")
-dataset_download(app)  # after every command and sub-app: --download/--revision/--include where a dataset goes
+dataset_commands(app)  # after every command and sub-app: their @takes (--download…, v2.x) applied
 plain_flags(app)  # after every command and sub-app: their --help shows no <bool> for flags
 
 

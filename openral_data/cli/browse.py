@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from openral_data.cli.takes import takes
 from openral_data.cli.terminal import print_line
 from openral_data.errors import ConfigError, UsageError, install_hint
 from openral_data.formats.repo_id import resolve_dataset
@@ -15,6 +16,7 @@ if TYPE_CHECKING:
     from openral_data.browse import Browser
 
 
+@takes("paths", pixels=True, v2="upgrade")
 def browse(
     paths: Annotated[
         list[str], typer.Argument(help="datasets (folders or cached Hub repo ids) and replay/eval results")

@@ -18,6 +18,7 @@ from openral_data.cli.encoder_flags import (
     video_settings,
 )
 from openral_data.cli.jsonout import JsonFlag, print_json
+from openral_data.cli.takes import takes
 from openral_data.cli.terminal import print_line, print_rows, progress_bar
 from openral_data.errors import UsageError
 from openral_data.formats.codec import Codec
@@ -27,6 +28,7 @@ if TYPE_CHECKING:
     from openral_data.formats.lerobot_v3.encoder import VideoSettings
 
 
+@takes("src", pixels=True, v2="in place", writes="new")
 def convert(
     src: Annotated[
         Path,

@@ -9,6 +9,8 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from openral_data import paths
+from openral_data.cli.legacy import upgraded
+from openral_data.cli.takes import takes
 from openral_data.cli.terminal import print_line, progress_bar
 from openral_data.errors import UsageError
 from openral_data.formats.repo_id import resolve_dataset
@@ -35,6 +37,7 @@ def report(op: str, results: list[EditResult]) -> None:
 
 
 @episodes_app.command("delete")
+@takes("dataset", pixels=True, v2="upgrade", writes="new or in place", episodes={"episodes": "list"})
 def delete_cmd(
     dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (ours or lerobot's)")],
     episodes: Annotated[str, typer.Option(help="episodes to delete, e.g. 0,3,5-7")],
@@ -50,6 +53,7 @@ def delete_cmd(
 
 
 @episodes_app.command("filter")
+@takes("dataset", pixels=True, v2="upgrade", writes="new or in place")
 def filter_cmd(
     dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (ours or lerobot's)")],
     where: Annotated[
@@ -68,6 +72,7 @@ def filter_cmd(
 
 
 @episodes_app.command("split")
+@takes("dataset", pixels=True, v2="upgrade", writes="new", episodes={"episodes": "list", "spec": "spec"})
 def split_cmd(
     dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (ours or lerobot's)")],
     episodes: Annotated[str | None, typer.Option(help="episodes for --out, in this order, e.g. 0-9 or 4,2")] = None,
@@ -123,6 +128,7 @@ def split_cmd(
 
 
 @episodes_app.command("merge")
+@takes("datasets", pixels=True, v2="upgrade", writes="new")
 def merge_cmd(
     datasets: Annotated[list[Path], typer.Argument(help="datasets with the same features")],
     out: Annotated[Path, typer.Option(help="merged dataset folder (must not exist or be empty)")],
@@ -137,11 +143,13 @@ def merge_cmd(
     from openral_data.edit.align import merge, parse_renames
 
     paths.check_creatable(out, "--out")
-    renames = parse_renames(rename or [], datasets)
+    given = [Path(up.given) if (up := upgraded(d)) is not None else d for d in datasets]  # v2.x: not its upgrade
+    renames = parse_renames(rename or [], given)
     report("merged", [merge([resolve_dataset(d) for d in datasets], out, order, renames)])
 
 
 @episodes_app.command("trim")
+@takes("dataset", pixels=True, v2="upgrade", writes="new or in place", episodes={"frames": "frames"})
 def trim_cmd(
     dataset: Dataset,
     frames: Annotated[
@@ -182,6 +190,7 @@ def trim_cmd(
 
 
 @episodes_app.command("resample")
+@takes("dataset", pixels=True, v2="upgrade", writes="new or in place")
 def resample_cmd(
     dataset: Dataset,
     fps: Annotated[int, typer.Option(help="the new frame rate, below the dataset's")],

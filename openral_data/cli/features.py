@@ -9,6 +9,7 @@ import typer
 
 from openral_data import paths
 from openral_data.cli.edit import report
+from openral_data.cli.takes import takes
 from openral_data.formats.repo_id import resolve_dataset
 
 features_app = typer.Typer(
@@ -17,6 +18,7 @@ features_app = typer.Typer(
 
 
 @features_app.command("remove")
+@takes("dataset", pixels=True, v2="upgrade", writes="new or in place")
 def remove_cmd(
     dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (ours or lerobot's)")],
     feature: Annotated[list[str], typer.Option(help="a feature to remove, e.g. observation.images.wrist (repeatable)")],
@@ -32,6 +34,7 @@ def remove_cmd(
 
 
 @features_app.command("rename")
+@takes("dataset", pixels=True, v2="upgrade", writes="new or in place")
 def rename_cmd(
     dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (ours or lerobot's)")],
     from_: Annotated[str, typer.Option("--from", help="the feature's key, e.g. observation.images.cam")],
@@ -48,6 +51,7 @@ def rename_cmd(
 
 
 @features_app.command("add")
+@takes("dataset", pixels=True, v2="upgrade", writes="new or in place")
 def add_cmd(
     dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (ours or lerobot's)")],
     name: Annotated[str, typer.Option(help="the new feature's key, e.g. action.relative")],

@@ -10,6 +10,7 @@ import typer
 from openral_data import paths
 from openral_data.cli.encoder_flags import VCODEC_HELP
 from openral_data.cli.jsonout import JsonFlag, print_json
+from openral_data.cli.takes import takes
 from openral_data.cli.terminal import print_rows, progress_bar
 from openral_data.formats.codec import Codec
 
@@ -17,6 +18,7 @@ if TYPE_CHECKING:
     from openral_data.generate import GenerateOptions, GenerateSummary
 
 
+@takes("source", pixels=True, v2="refused", writes="new", download=False)  # ours only
 def generate(
     source: Annotated[Path, typer.Argument(help="source dataset: demonstrations in a MuJoCo tabletop scene")],
     scene: Annotated[str, typer.Option(help="scene to generate in (an id or a YAML path)")],

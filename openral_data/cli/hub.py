@@ -7,11 +7,13 @@ from typing import Annotated
 
 import typer
 
+from openral_data.cli.takes import takes
 from openral_data.cli.terminal import print_line, progress_bar
 from openral_data.errors import NotFound
 from openral_data.formats.repo_id import resolve_dataset
 
 
+@takes("dataset", pixels=True, v2="refused", writes="new", download=False)  # --revision: its branch
 def push(
     dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (ours or lerobot's), or a cached repo id")],
     repo_id: Annotated[str, typer.Argument(help="the Hub dataset repo to push to, owner/name")],

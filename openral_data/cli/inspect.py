@@ -18,6 +18,7 @@ from rich.text import Text
 
 from openral_data import paths
 from openral_data.cli.jsonout import JsonFlag, print_json
+from openral_data.cli.takes import takes
 from openral_data.cli.terminal import console, print_line, print_rows
 from openral_data.errors import OpenralError, UsageError
 from openral_data.formats.repo_id import resolve_dataset
@@ -36,6 +37,7 @@ class ListWhat(StrEnum):
     tasks = "tasks"
 
 
+@takes("dataset", pixels=False, v2="in place")
 def info(
     dataset: Annotated[
         Path,
@@ -209,6 +211,7 @@ def _cell(value: object) -> str:
     return escape(str(value))
 
 
+@takes("path", pixels=True, v2="in place")
 def view(
     path: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset folder or an .mcap file")],
     episode: Annotated[int, typer.Option(help="episode index")] = 0,
@@ -246,6 +249,7 @@ def _serve(path: Path, episode: int, save: Path | None, results: Path | None, we
         time.sleep(3600)
 
 
+@takes("dataset", pixels=True, v2="in place")
 def doctor(
     dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset folder (ours or lerobot's)")],
     repair: Annotated[bool, typer.Option("--repair", help="fix what is safely fixable (originals are kept)")] = False,

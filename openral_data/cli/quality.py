@@ -8,7 +8,9 @@ from typing import Annotated
 
 import typer
 
+from openral_data.cli.legacy import upgraded
 from openral_data.cli.stats import StatsFormat, render_table
+from openral_data.cli.takes import takes
 from openral_data.cli.terminal import print_line, progress_bar
 from openral_data.errors import UsageError
 from openral_data.formats.repo_id import resolve_dataset
@@ -17,6 +19,7 @@ from openral_data.text import printable
 DETAIL = ("episode_index", "flags", "idle_fraction", "idle_head", "idle_tail", "ldlj", "gripper_toggles_per_s")
 
 
+@takes("paths", pixels=True, v2="upgrade")
 def quality(
     paths: Annotated[list[str], typer.Argument(help="LeRobot v3 datasets (ours or lerobot's; globs allowed)")],
     stride: Annotated[
@@ -52,7 +55,10 @@ def quality(
             advance = functools.partial(bar.advance, bar.add_task("", total=int(ds.info.get("total_episodes", 0))))
             q = quality_of(ds, stride, th, recompute=recompute, progress=advance)
         print_line(f"quality: {'computed' if q.computed else 'cached'}: {q.paths.episodes.parent}", err=True)
+        source = upgraded(ds.root)  # a v2.x dataset's temporary upgrade: its episodes as the user numbers them
         for row in q.table.select([*DETAIL, "flagged"]).to_pylist():
+            if source is not None:
+                row["episode_index"] = source.numbers[row["episode_index"]]
             if all_episodes or row["flagged"]:
                 detail.rows.append([ds.label, *(row[c] for c in DETAIL)])
     tables = [counts_table(datasets, th), detail]

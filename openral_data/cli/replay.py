@@ -10,6 +10,8 @@ import typer
 from openral_data import paths
 from openral_data.cli.given import given
 from openral_data.cli.jsonout import JsonFlag, print_json
+from openral_data.cli.legacy import upgraded
+from openral_data.cli.takes import takes
 from openral_data.cli.terminal import print_line, print_rows, progress_bar
 from openral_data.formats.codec import Codec
 from openral_data.formats.repo_id import resolve_dataset
@@ -20,56 +22,71 @@ if TYPE_CHECKING:
     from openral_data.replay.outcome import EpisodeOutcome
 
 
+Dataset = Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (recorded by openral-data for sim modes)")]
+Episodes = Annotated[str | None, typer.Option(help="episodes to replay, e.g. 0,3,5-7 (default: all)")]
+Mode = Annotated[str, typer.Option(help="actions | policy | closed-loop")]
+RSkill = Annotated[str | None, typer.Option(help="policy / closed-loop: rSkill id or path; recorded[:K]")]
+Policy = Annotated[
+    str | None, typer.Option(help="policy / closed-loop: a lerobot checkpoint folder or cached Hub repo id")
+]
+Out = Annotated[Path | None, typer.Option(help="results folder (default: a new folder under results/)")]
+Tolerance = Annotated[float, typer.Option(help="max |state error| per dimension that still reproduces")]
+MaxSteps = Annotated[int | None, typer.Option(help="closed-loop step limit (default: the task's)")]
+Record = Annotated[Path | None, typer.Option(help="also write the replayed rollouts as a new dataset")]
+Cameras = Annotated[Path | None, typer.Option(help="with --record: YAML of cameras replacing the recorded")]
+RecordCodec = Annotated[Codec, typer.Option(help="video codec of --record")]
+Formats = Annotated[str, typer.Option("--format", help="--record formats: lerobot, mcap or both")]
+Label = Annotated[str | None, typer.Option(help="label of the results in stats")]
+Instruction = Annotated[str | None, typer.Option(help="closed-loop: the policy's instruction instead of the scene's")]
+Device = Annotated[
+    str | None, typer.Option(help="policy / closed-loop: cpu, cuda, cuda:N, mps or auto (neural policies)")
+]
+SaveVideo = Annotated[bool, typer.Option("--save-video", help="closed-loop: a debug mp4 per episode in RESULTS.debug/")]
+SaveVideoDir = Annotated[
+    Path | None, typer.Option(help="write the --save-video mp4s to this folder instead (implies --save-video)")
+]
+View = Annotated[
+    bool, typer.Option("--view", help="closed-loop: show the run live in rerun (a viewer, or a served stream)")
+]
+ViewPort = Annotated[int, typer.Option(help="--view: port of the spawned viewer or the served stream")]
+ViewAddress = Annotated[
+    str | None, typer.Option(help="--view: send to this running viewer instead (rerun+http://HOST:PORT/proxy)")
+]
+
+
+@takes("dataset", pixels=True, v2="upgrade", writes="new", episodes={"episodes": "list"})
 def replay(
     ctx: typer.Context,
-    dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (recorded by openral-data for sim modes)")],
-    episodes: Annotated[str | None, typer.Option(help="episodes to replay, e.g. 0,3,5-7 (default: all)")] = None,
-    mode: Annotated[str, typer.Option(help="actions | policy | closed-loop")] = "actions",
-    rskill: Annotated[str | None, typer.Option(help="policy / closed-loop: rSkill id or path; recorded[:K]")] = None,
-    policy: Annotated[
-        str | None, typer.Option(help="policy / closed-loop: a lerobot checkpoint folder or cached Hub repo id")
-    ] = None,
-    out: Annotated[Path | None, typer.Option(help="results folder (default: a new folder under results/)")] = None,
-    tolerance: Annotated[float, typer.Option(help="max |state error| per dimension that still reproduces")] = 1e-4,
-    max_steps: Annotated[int | None, typer.Option(help="closed-loop step limit (default: the task's)")] = None,
-    record: Annotated[Path | None, typer.Option(help="also write the replayed rollouts as a new dataset")] = None,
-    cameras: Annotated[Path | None, typer.Option(help="with --record: YAML of cameras replacing the recorded")] = None,
-    codec: Annotated[Codec, typer.Option(help="video codec of --record")] = "av1",
-    format: Annotated[str, typer.Option("--format", help="--record formats: lerobot, mcap or both")] = "lerobot",
-    label: Annotated[str | None, typer.Option(help="label of the results in stats")] = None,
+    dataset: Dataset,
+    episodes: Episodes = None,
+    mode: Mode = "actions",
+    rskill: RSkill = None,
+    policy: Policy = None,
+    out: Out = None,
+    tolerance: Tolerance = 1e-4,
+    max_steps: MaxSteps = None,
+    record: Record = None,
+    cameras: Cameras = None,
+    codec: RecordCodec = "av1",
+    format: Formats = "lerobot",
+    label: Label = None,
     json: JsonFlag = False,
-    instruction: Annotated[
-        str | None, typer.Option(help="closed-loop: the policy's instruction instead of the scene's")
-    ] = None,
-    device: Annotated[
-        str | None, typer.Option(help="policy / closed-loop: cpu, cuda, cuda:N, mps or auto (neural policies)")
-    ] = None,
-    save_video: Annotated[
-        bool, typer.Option("--save-video", help="closed-loop: a debug mp4 per episode in RESULTS.debug/")
-    ] = False,
-    save_video_dir: Annotated[
-        Path | None, typer.Option(help="write the --save-video mp4s to this folder instead (implies --save-video)")
-    ] = None,
-    view: Annotated[
-        bool, typer.Option("--view", help="closed-loop: show the run live in rerun (a viewer, or a served stream)")
-    ] = False,
-    view_port: Annotated[
-        int, typer.Option(help="--view: port of the spawned viewer or the served stream")
-    ] = DEFAULT_PORT,
-    view_address: Annotated[
-        str | None, typer.Option(help="--view: send to this running viewer instead (rerun+http://HOST:PORT/proxy)")
-    ] = None,
+    instruction: Instruction = None,
+    device: Device = None,
+    save_video: SaveVideo = False,
+    save_video_dir: SaveVideoDir = None,
+    view: View = False,
+    view_port: ViewPort = DEFAULT_PORT,
+    view_address: ViewAddress = None,
 ) -> None:
     """Replay recorded actions through the rebuilt scene, or evaluate a policy against recorded episodes."""
-    # long: the typer signature declares every option with its help and the body builds the one ReplayOptions from
-    # them (a field per option); running and reporting are in _run and the summary's own rows()/to_json()
     from openral_data.replay.command import ReplayOptions
     from openral_data.runtime.sinks import parse_formats
 
     for option, path in (("--out", out), ("--record", record)):
         if path is not None:
             paths.check_creatable(path, option)
-
+    source = upgraded(resolve_dataset(dataset))  # a v2.x dataset's temporary upgrade: its results name it
     opts = ReplayOptions(
         dataset=resolve_dataset(dataset),
         episodes=episodes,
@@ -92,12 +109,17 @@ def replay(
         view_port=view_port,
         view_address=view_address,
         explicit=given(ctx),
+        given=None if source is None else Path(source.given),
+        numbers=() if source is None else source.numbers,
     )
-    summary = _run(opts)
+    _report(_run(opts), opts.mode, json)
+
+
+def _report(summary: ReplaySummary, mode: str, json: bool) -> None:
     if json:
         print_json("replay", summary.to_json())
         return
-    print_rows("replayed" if opts.mode == "actions" else "evaluated", summary.rows())
+    print_rows("replayed" if mode == "actions" else "evaluated", summary.rows())
 
 
 def _run(opts: ReplayOptions) -> ReplaySummary:

@@ -14,6 +14,7 @@ from openral_data.cli.defaultgroup import DefaultCommandGroup
 from openral_data.cli.edit import report
 from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.tables import render_tables
+from openral_data.cli.takes import takes
 from openral_data.formats.repo_id import resolve_dataset
 from openral_data.text import printable
 
@@ -39,6 +40,7 @@ stats_app = typer.Typer(
 
 
 @stats_app.command("report")
+@takes("paths", pixels=False, v2="in place")
 def stats(
     paths: Annotated[list[str], typer.Argument(help="datasets and/or results directories (globs allowed)")],
     by: Annotated[str | None, typer.Option(help="group by: dataset,task,rskill,scene,robot,seed")] = None,
@@ -84,6 +86,7 @@ def stats(
 
 
 @stats_app.command("recompute")
+@takes("dataset", pixels=True, v2="upgrade", writes="new or in place")
 def recompute_cmd(
     dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (ours or lerobot's)")],
     out: Annotated[Path | None, typer.Option(help="new dataset folder (must not exist or be empty)")] = None,

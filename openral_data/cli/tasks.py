@@ -10,6 +10,7 @@ import typer
 from openral_data import paths
 from openral_data.cli.edit import report
 from openral_data.cli.jsonout import JsonFlag, print_json
+from openral_data.cli.takes import takes
 from openral_data.cli.terminal import print_line
 from openral_data.episodes import format_episodes
 from openral_data.formats.repo_id import resolve_dataset
@@ -25,6 +26,7 @@ InPlace = Annotated[bool, typer.Option(help="replace DATASET itself (swapped in 
 
 
 @tasks_app.command("list")
+@takes("dataset", pixels=False, v2="in place")
 def list_cmd(dataset: Dataset, json: JsonFlag = False) -> None:
     """The tasks of DATASET: index, the episodes using it, text."""
     from openral_data.edit.tasks import list_tasks
@@ -40,6 +42,7 @@ def list_cmd(dataset: Dataset, json: JsonFlag = False) -> None:
 
 
 @tasks_app.command("rename")
+@takes("dataset", pixels=True, v2="upgrade", writes="new or in place")
 def rename_cmd(
     dataset: Dataset,
     from_: Annotated[str, typer.Option("--from", help="the task's current text")],
@@ -56,6 +59,7 @@ def rename_cmd(
 
 
 @tasks_app.command("set")
+@takes("dataset", pixels=True, v2="upgrade", writes="new or in place", episodes={"episodes": "list"})
 def set_cmd(
     dataset: Dataset,
     episodes: Annotated[str, typer.Option(help="episodes whose task to set, e.g. 0,2-4")],

@@ -9,10 +9,12 @@ import typer
 
 from openral_data import paths
 from openral_data.cli import terminal
+from openral_data.cli.takes import takes
 from openral_data.cli.terminal import print_line, print_rows
 from openral_data.formats.repo_id import resolve_dataset
 
 
+@takes("old", pixels=True, v2="in place", writes="new")
 def upgrade(
     old: Annotated[Path, typer.Argument(help="a LeRobot v2.0/v2.1 dataset folder, or a repo id in lerobot's cache")],
     new: Annotated[Path, typer.Argument(help="the v3.0 dataset to write (must not exist or be empty)")],

@@ -10,6 +10,7 @@ import typer
 from openral_data import paths
 from openral_data.cli import encoder_flags as flags
 from openral_data.cli.edit import report
+from openral_data.cli.takes import takes
 from openral_data.formats.codec import Codec
 from openral_data.formats.repo_id import resolve_dataset
 
@@ -24,6 +25,7 @@ _CAMERA_HELP = (
 
 
 @videos_app.command("reencode")
+@takes("dataset", pixels=True, v2="upgrade", writes="new or in place")
 def reencode_cmd(
     dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset (ours or lerobot's)")],
     codec: Annotated[Codec, typer.Option("--vcodec", "--codec", help=flags.VCODEC_HELP)],
@@ -48,6 +50,7 @@ def reencode_cmd(
 
 
 @videos_app.command("encode-images")
+@takes("dataset", pixels=True, v2="upgrade", writes="new or in place")
 def encode_images_cmd(
     dataset: Annotated[Path, typer.Argument(help="a LeRobot v3 dataset with dtype: image features")],
     camera: Annotated[list[str] | None, typer.Option(help=_CAMERA_HELP)] = None,

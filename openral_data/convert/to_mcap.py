@@ -18,7 +18,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
-from openral_data.episodes import parse_episodes
+from openral_data.episodes import select_numbered
 from openral_data.errors import DatasetError
 from openral_data.formats.dataset import open_lerobot
 from openral_data.formats.jsonfile import parse_field
@@ -102,7 +102,7 @@ def export_mcap(
     """Write episodes `episodes` (default: all) of the dataset at `src` as one MCAP bag each into the new folder
     `dst`: read the source, build the bags' schema, write every chosen episode, publish DST."""
     source = _read_source(src)
-    chosen = parse_episodes(episodes, len(source.rows))
+    chosen = select_numbered(episodes, [int(r["episode_index"]) for r in source.rows])  # v2.x: its own numbers
     successes = episode_successes(src, source.episodes)  # the sink drops them if the schema has no success
     tasks = source.tasks
     schema = _schema(source)
@@ -118,14 +118,15 @@ def export_mcap(
         try:
             for e in chosen:
                 row = source.rows[e]
+                number = int(row["episode_index"])  # the source's own (v2.x: gaps allowed), kept by the bag
                 sink.begin_episode(
                     EpisodeStart(
                         seed=int(row.get("openral.seed") or 0),
                         initial_state=parse_field(
-                            row.get("openral.initial_state") or "{}", f"{src}: episode {e}: openral.initial_state"
+                            row.get("openral.initial_state") or "{}", f"{src}: episode {number}: openral.initial_state"
                         ),
                     ),
-                    index=e,
+                    index=number,
                 )
                 for frame in episode_frames(src, source.info, row, tasks, list(source.cams), schema.frame_columns):
                     sink.add_frame(frame)
@@ -134,8 +135,8 @@ def export_mcap(
                         progress(summary.frames, total)
                 info = row.get("openral.episode_info")  # who drove it: kept in the bag's end marker
                 if info is not None:
-                    sink.annotate_episode(parse_field(info, f"{src}: episode {e}: openral.episode_info"))
-                summary.episodes.append(sink.end_episode(successes.get(int(row["episode_index"]))))
+                    sink.annotate_episode(parse_field(info, f"{src}: episode {number}: openral.episode_info"))
+                summary.episodes.append(sink.end_episode(successes.get(number)))
         finally:
             sink.close()
         summary.seconds = time.perf_counter() - t0

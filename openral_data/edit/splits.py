@@ -10,11 +10,12 @@ Episodes in no part are left out.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 from openral_data.edit.ops import EditResult, write_selection
 from openral_data.edit.source import SourceDataset
-from openral_data.episodes import parse_episodes
+from openral_data.episodes import parse_episodes, renumber_list
 from openral_data.errors import EpisodeSelectionError, UsageError
 from openral_data.formats.staging import check_new_output
 from openral_data.paths import safe_name
@@ -60,3 +61,11 @@ def split_spec(dataset: Path, spec: str, out_dir: Path) -> list[EditResult]:
     for out in outs:
         check_new_output(out, "--out-dir")  # every part's folder is checked before the first one is written
     return [write_selection([(src, e) for e in eps], out, "split") for out, (_, eps) in zip(outs, chosen, strict=True)]
+
+
+def renumber_spec(spec: str, numbers: Sequence[int]) -> str:
+    """`spec` typed in a LeRobot v2.x dataset's own episode numbers `numbers`, as its v3.0 upgrade numbers them
+    (`episodes.renumber_list` on each part's list)."""
+    if list(numbers) == list(range(len(numbers))):
+        return spec
+    return ",".join(f"{name}={renumber_list(lst, numbers, f'--spec: {name}')}" for name, lst in parse_spec(spec))

@@ -16,13 +16,14 @@ from __future__ import annotations
 
 import itertools
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 from openral_data.edit.ops import EditResult, Rewrite, check_edit_output, write_edit
 from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.edit.subset import Counts, FrameSubset, Progress
+from openral_data.episodes import position_of
 from openral_data.errors import EpisodeSelectionError, UsageError
 from openral_data.metrics.quality import DEFAULT, cached_quality
 from openral_data.metrics.quality.compute import motion_pass
@@ -142,3 +143,16 @@ def trim(
     finally:
         subset.close()
     return result, subset.counts
+
+
+def renumber_frames(text: str, numbers: Sequence[int]) -> str:
+    """`--frames` typed in a LeRobot v2.x dataset's own episode numbers `numbers`, as its v3.0 upgrade numbers
+    them (`episodes.renumber_list`): with numbers [29], `29:0-9` -> `0:0-9`; a malformed part left as typed."""
+    if list(numbers) == list(range(len(numbers))):
+        return text
+    out: list[str] = []
+    for part in (p.strip() for p in text.split(",")):
+        m = _SPAN.fullmatch(part)
+        at = position_of(int(m[1]), numbers, f"--frames: {part!r}") if m is not None else None
+        out.append(part if m is None else f"{at}:{part.partition(':')[2]}")
+    return ",".join(out)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager, contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -78,6 +78,10 @@ class ReplayOptions:
     view_port: int = DEFAULT_PORT  # --view: the port a spawned viewer or the served stream listens on
     view_address: str | None = None  # --view: send to this running viewer/server instead
     explicit: frozenset[str] = frozenset()  # the options the user gave (the CLI's parameter names)
+    # `dataset` a temporary v3.0 upgrade of a v2.x one (`cli/legacy.py`): that dataset as given and its own episode
+    # numbers (the upgrade's episode e is its `numbers[e]`), which the results and the summary name
+    given: Path | None = None
+    numbers: tuple[int, ...] = ()
 
     def __post_init__(self) -> None:
         check_outputs(self.formats, self.codec)  # once, when built (the Python API may be called untyped)
@@ -243,12 +247,14 @@ def replay(opts: ReplayOptions, progress: ProgressFn | None = None) -> ReplaySum
             if progress is not None:
                 progress(outcomes[-1], len(outcomes), len(chosen))
     seconds = time.perf_counter() - t0
+    if opts.numbers:  # the episodes as the user numbers them
+        outcomes = [replace(o, index=opts.numbers[o.index]) for o in outcomes]
     driver = opts.rskill if opts.policy is None else f"policy:{opts.policy}"
-    about = Run(opts.mode, opts.dataset, opts.label, driver, opts.tolerance, dataset.info["features"])
+    about = Run(opts.mode, opts.given or opts.dataset, opts.label, driver, opts.tolerance, dataset.info["features"])
     summary = summarize(about, outcomes, seconds, extras)
     write_results(out, summary, episodes_table(outcomes), steps_table(outcomes))
     return ReplaySummary(
-        out=out, mode=opts.mode, dataset=opts.dataset, episodes=outcomes, seconds=seconds, summary=summary
+        out=out, mode=opts.mode, dataset=about.dataset, episodes=outcomes, seconds=seconds, summary=summary
     )
 
 

@@ -216,3 +216,31 @@ def assert_loads_like_old(old: Path, new: Path, every: int = 1) -> int:
             i += 1
     assert i == len(ds)
     return i
+
+
+def renumber(root: Path, numbers: dict[int, int]) -> Path:
+    """v2.x dataset `root`'s episodes numbered anew, old -> new (files renamed, `episode_index` in the data and the
+    jsonl meta rewritten; `index` kept), as a subset kept from a larger dataset is: the real G1 fixture's only
+    episode is 29."""
+    info = json.loads((root / "meta/info.json").read_text())
+    videos = [k for k, ft in info["features"].items() if ft["dtype"] == "video"]
+    for old, new in sorted(numbers.items(), key=lambda p: -p[1]):  # highest first: no rename onto a pending one
+        for key in [None, *videos]:
+            template = info["data_path"] if key is None else info["video_path"]
+            src, dst = (
+                root / template.format(episode_chunk=n // info["chunks_size"], episode_index=n, video_key=key)
+                for n in (old, new)
+            )
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            if key is not None:
+                src.rename(dst)
+                continue
+            table = pq.read_table(src)
+            i = table.schema.get_field_index("episode_index")
+            src.unlink()
+            column = pa.array([new] * table.num_rows, table.schema.field(i).type)
+            pq.write_table(table.set_column(i, table.schema.field(i), column), dst)
+    for name in ("episodes.jsonl", "episodes_stats.jsonl"):
+        if (root / "meta" / name).is_file():
+            _edit_lines(root / "meta" / name, lambda row: row.update(episode_index=numbers[row["episode_index"]]))
+    return root

@@ -81,8 +81,9 @@ def refuse_legacy(root: Path, info: dict[str, Any]) -> dict[str, Any]:
     version = info.get("codebase_version")
     if version in LEGACY_VERSIONS:
         raise DatasetError(
-            f"{root / layout.INFO_PATH}: codebase_version: {version}: only info, doctor, stats, view, tasks list and "
-            f"convert read LeRobot v2.x; run `openral-data upgrade {root} NEW` for a v3 dataset first",
+            f"{root / layout.INFO_PATH}: codebase_version: {version}: LeRobot v2.x is not read here (the CLI's "
+            f"dataset commands but push and generate take it); run `openral-data upgrade {root} NEW` for a v3 "
+            "dataset first",
             code="dataset.unsupported",
         )
     return info
