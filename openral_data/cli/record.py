@@ -287,7 +287,7 @@ def _takes_over(teleop: str | None) -> bool:
     """`--teleop` is one a person takes over from a policy with (keyboard, gamepad[=NODE], spacemouse[=NODE])."""
     if teleop is None:
         return False
-    from openral_data.producers.hal.devices import TAKEOVER_TELEOPS, device_kind
+    from openral_data.producers.hal.teleop.devices import TAKEOVER_TELEOPS, device_kind
 
     return device_kind(teleop) in TAKEOVER_TELEOPS
 

@@ -36,14 +36,14 @@ from openral_data.policies.intervention import (
     intervention_columns,
     takeover_help,
 )
-from openral_data.producers.hal.base import HalBase
-from openral_data.producers.hal.devices import DEVICE_KINDS, TAKEOVER_CONTROLS, TAKEOVER_TELEOPS, device_kind
-from openral_data.producers.hal.eef_device import DeviceOperator, DeviceTeleop
-from openral_data.producers.hal.operator import HELP as KEYS_HELP
-from openral_data.producers.hal.operator import Command, KeyboardOperator, Operator, ScriptedOperator, parse_script
-from openral_data.producers.hal.safety import SafetyFilter
-from openral_data.producers.hal.teleop import KeyboardTeleop, tty_status
-from openral_data.producers.hal.twin import MujocoTwinHal, SceneHal
+from openral_data.producers.hal.robots.base import HalBase
+from openral_data.producers.hal.teleop.devices import DEVICE_KINDS, TAKEOVER_CONTROLS, TAKEOVER_TELEOPS, device_kind
+from openral_data.producers.hal.teleop.eef_device import DeviceOperator, DeviceTeleop
+from openral_data.producers.hal.session.operator import HELP as KEYS_HELP
+from openral_data.producers.hal.session.operator import Command, KeyboardOperator, Operator, ScriptedOperator, parse_script
+from openral_data.producers.hal.robots.safety import SafetyFilter
+from openral_data.producers.hal.teleop.keyboard import KeyboardTeleop, tty_status
+from openral_data.producers.hal.robots.twin import MujocoTwinHal, SceneHal
 from openral_data.record.driver import rskill_driver, teleop_driver
 from openral_data.record.flow import Flow, Notify, check_reset_time, episode_ticks
 from openral_data.record.hal_loop import EpisodeEnd, EpisodeReport, FixedRateLoop, LoopConfig, frame_extras
@@ -65,7 +65,7 @@ from openral_data.viz import DEFAULT_PORT
 
 Mode = Literal["sim", "real"]
 DEFAULT_MAX_STEPS = 200
-# leader: the manifest's hardware.teleop (a lerobot teleoperator); gamepad/spacemouse[=NODE]: producers/hal/devices.py
+# leader: the manifest's hardware.teleop (a lerobot teleoperator); gamepad/spacemouse[=NODE]: producers/hal/teleop/devices.py
 TELEOP_DEVICES = ("keyboard", "leader", *DEVICE_KINDS)
 JOINT_REPRESENTATIONS = ("joint_positions_gripper", "joint_positions")
 
@@ -223,7 +223,7 @@ def build_hal(opts: HalRecordOptions, robot: RobotManifest, rskill: RSkillManife
     if opts.mode == "real":
         if opts.scene is not None:
             raise ConfigError("--scene: only with --mode sim (a real robot has no scene to simulate)")
-        from openral_data.producers.hal.lerobot_hw import make_hardware_hal
+        from openral_data.producers.hal.robots.lerobot_hw import make_hardware_hal
 
         return make_hardware_hal(robot, robot_src, port=opts.port)
     if opts.scene is not None:
@@ -305,7 +305,7 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
         leader = None
         try:
             if opts.teleop == "leader":
-                from openral_data.producers.hal.leader import LeaderTeleop
+                from openral_data.producers.hal.teleop.leader import LeaderTeleop
 
                 leader = LeaderTeleop(run.robot, str(manifests.robot_file(run.robot.name)))
             hal = build_hal(opts, run.robot, run.rskill, run.rskill_src)
@@ -344,7 +344,7 @@ def _device(opts: HalRecordOptions, run: _Resolved, show: Callable[[str], None] 
     """`--teleop gamepad|spacemouse[=NODE]`: the device, open and read on its own thread before episode 0."""
     if opts.teleop is None or device_kind(opts.teleop) not in DEVICE_KINDS:
         return None
-    from openral_data.producers.hal.devices import open_teleop_device
+    from openral_data.producers.hal.teleop.devices import open_teleop_device
 
     return open_teleop_device(opts.teleop, run.rskill, run.rskill_src, show, opts.takeover)
 

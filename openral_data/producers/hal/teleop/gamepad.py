@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from openral_data.producers.hal.eef_device import (
+from openral_data.producers.hal.teleop.eef_device import (
     GRIPPER,
     TAKEOVER,
     DeviceGains,
@@ -41,7 +41,7 @@ from openral_data.producers.hal.eef_device import (
     open_node,
     shape,
 )
-from openral_data.producers.hal.operator import Command
+from openral_data.producers.hal.session.operator import Command
 
 EVENT = struct.Struct("llHHi")  # struct input_event: tv_sec, tv_usec, type, code, value (native, 24 bytes)
 ABSINFO = struct.Struct("6i")  # struct input_absinfo: value, minimum, maximum, fuzz, flat, resolution

@@ -7,9 +7,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-from openral_data.producers.hal import gamepad, spacemouse
-from openral_data.producers.hal.eef_device import DeviceTeleop
-from openral_data.producers.hal.teleop import eef_limits
+from openral_data.producers.hal.teleop import gamepad, spacemouse
+from openral_data.producers.hal.teleop.eef_device import DeviceTeleop
+from openral_data.producers.hal.teleop.keyboard import eef_limits
 from openral_data.schemas.rskill import RSkillManifest
 
 DEVICE_KINDS = ("gamepad", "spacemouse")

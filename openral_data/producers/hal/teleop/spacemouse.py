@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from openral_data.producers.hal.eef_device import (
+from openral_data.producers.hal.teleop.eef_device import (
     GRIPPER,
     TAKEOVER,
     DeviceGains,
@@ -37,7 +37,7 @@ from openral_data.producers.hal.eef_device import (
     open_node,
     shape,
 )
-from openral_data.producers.hal.operator import Command
+from openral_data.producers.hal.session.operator import Command
 
 AXES3 = struct.Struct("<3h")
 FULL_SCALE = 350.0
