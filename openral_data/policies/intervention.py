@@ -31,9 +31,9 @@ import numpy.typing as npt
 from openral_data.policies.base import PolicyAdapter
 from openral_data.producers.hal.teleop.eef_device import DeviceTeleop
 from openral_data.producers.hal.teleop.keyboard import HELP as TELEOP_HELP
+from openral_data.producers.hal.teleop.keyboard import TAKEOVER_KEY
 from openral_data.types import FrameColumn, Observation
 
-TAKEOVER_KEY = "t"
 POLICY_ACTION = "openral.policy_action"
 INTERVENTION = "openral.intervention"
 

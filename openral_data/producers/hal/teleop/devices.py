@@ -1,42 +1,30 @@
-"""`--teleop gamepad[=NODE]` and `--teleop spacemouse[=NODE]`: the device named (or found), opened and read
-before episode 0, as a `DeviceTeleop` driving the rSkill's `delta_eef_gripper` action (or, with `takeover`, the
-teleoperator of an intervention session: policies/intervention.py)."""
+"""The teleop devices a person drives with (`--teleop NAME[=NODE]`), each declared in its own module: adding a
+device is one module declaring `DEVICE = TeleopDevice(...)` (declare.py) plus its line in `DEVICES`. A leader
+arm is not one of them: it is the robot manifest's `hardware.teleop` (leader.py, `--teleop leader`)."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
 
-from openral_data.producers.hal.teleop import gamepad, spacemouse
-from openral_data.producers.hal.teleop.eef_device import DeviceTeleop
-from openral_data.producers.hal.teleop.keyboard import eef_limits
-from openral_data.schemas.rskill import RSkillManifest
+from openral_data.errors import UsageError
+from openral_data.producers.hal.teleop import gamepad, keyboard, spacemouse
+from openral_data.producers.hal.teleop.declare import TeleopDevice
 
-DEVICE_KINDS = ("gamepad", "spacemouse")
-TAKEOVER_TELEOPS = ("keyboard", *DEVICE_KINDS)  # what a person takes over from a policy with (interventions)
-TAKEOVER_CONTROLS = {"gamepad": gamepad.TAKEOVER_CONTROL, "spacemouse": spacemouse.TAKEOVER_CONTROL}
+DEVICES: dict[str, TeleopDevice] = {d.name: d for d in (keyboard.DEVICE, gamepad.DEVICE, spacemouse.DEVICE)}
+LEADER = "leader"  # `--teleop leader`: the manifest's hardware.teleop drives the robot's own joints
 
 
-def device_kind(spec: str) -> str:
-    """`gamepad=/dev/input/event3` -> `gamepad` (the part before `=`)."""
-    return spec.partition("=")[0]
+def valid_teleops() -> str:
+    """`keyboard, leader, gamepad[=NODE], spacemouse[=NODE]`: what `--teleop` takes."""
+    plain = [d.name for d in DEVICES.values() if not d.takes_node]
+    nodes = [f"{d.name}[=NODE]" for d in DEVICES.values() if d.takes_node]
+    return ", ".join([*plain, LEADER, *nodes])
 
 
-def open_teleop_device(
-    spec: str,
-    rskill: RSkillManifest,
-    source: str,
-    show: Callable[[str], None] | None = None,
-    takeover: bool = False,
-) -> DeviceTeleop:
-    """The contract is checked first (a wrong rSkill is a config error, whatever is plugged in), then the device
-    is opened: a missing one is one line (`hal.teleop`) before anything is recorded. `takeover`: an intervention
-    session (a SpaceMouse's right button then takes over instead of marking success)."""
-    kind, _, path = spec.partition("=")
-    limits = eef_limits(rskill, source, kind)
-    node = Path(path) if path else None
-    if kind == "gamepad":
-        gains, reader = gamepad.GAINS, gamepad.open_gamepad(node, gamepad.GAINS)
-    else:
-        gains, reader = spacemouse.GAINS, spacemouse.open_spacemouse(node, spacemouse.GAINS, takeover)
-    return DeviceTeleop(reader, limits, gains, show)
+def find_device(spec: str) -> tuple[TeleopDevice, Path | None]:
+    """`gamepad=/dev/input/event3` -> the gamepad's declaration and its node; anything else is one line."""
+    name, eq, node = spec.partition("=")
+    device = DEVICES.get(name)
+    if device is None or (eq and (not device.takes_node or not node)):
+        raise UsageError(f"--teleop: {spec!r}; valid: {valid_teleops()}")
+    return device, Path(node) if node else None
