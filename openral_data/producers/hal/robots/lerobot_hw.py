@@ -28,8 +28,8 @@ import numpy as np
 
 from openral_data.errors import ConfigError, HalError, install_hint
 from openral_data.producers.hal.cameras import realsense
-from openral_data.producers.hal.robots.base import HalBase, JointCommand, RobotState, monotonic
 from openral_data.producers.hal.cameras.sensors import CameraSensor, LerobotCamera
+from openral_data.producers.hal.robots.base import HalBase, JointCommand, RobotState, monotonic
 from openral_data.schemas.hal import HardwareConfig, LerobotDevice
 from openral_data.schemas.robot import RobotManifest
 from openral_data.types import CameraShape
