@@ -13,7 +13,7 @@ from openral_data.policies.base import PolicyAdapter
 from openral_data.policies.checkpoint import OperatedPolicy, PolicyCheckpoint
 from openral_data.producers.hal.robots.base import HalBase
 from openral_data.producers.hal.teleop.eef_device import DeviceTeleop
-from openral_data.record.driver import rskill_driver
+from openral_data.record.drivers.names import rskill_driver
 from openral_data.runtime.registry import PolicyFactory
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
@@ -45,7 +45,7 @@ class Driver(ABC):
 
     @abstractmethod
     def name(self, policy: PolicyAdapter) -> str:
-        """Who drove, as the episode's record says (`operator`: record/driver.py)."""
+        """Who drove, as the episode's record says (`operator`: record/drivers/names.py)."""
 
 
 def policy_name(policy: PolicyAdapter, rskill: RSkillManifest) -> str:

@@ -18,7 +18,7 @@ POLICY_AND_TELEOP = "--policy: not with --teleop (interventions take an rSkill: 
 
 
 class DriverKind(StrEnum):
-    RSKILL = "rskill"  # an rSkill's policy (a learned one, or a script: record/driver.py names which)
+    RSKILL = "rskill"  # an rSkill's policy (a learned one, or a script: record/drivers/names.py names which)
     CHECKPOINT = "checkpoint"  # a lerobot checkpoint (`--policy`)
     PERSON = "person"  # a person through a teleop device (keyboard, gamepad, SpaceMouse)
     LEADER = "leader"  # a person through the robot's leader arm (its manifest's hardware.teleop)

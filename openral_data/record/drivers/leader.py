@@ -8,9 +8,9 @@ from openral_data import manifests
 from openral_data.policies.base import PolicyAdapter
 from openral_data.producers.hal.robots.base import HalBase
 from openral_data.producers.hal.teleop.leader import LeaderTeleop
-from openral_data.record.driver import teleop_driver
 from openral_data.record.drivers.base import DriveContext, Driver
 from openral_data.record.drivers.choice import DriverChoice
+from openral_data.record.drivers.names import teleop_driver
 
 
 class LeaderDriver(Driver):

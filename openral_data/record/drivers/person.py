@@ -9,9 +9,9 @@ from openral_data.producers.hal.robots.base import HalBase
 from openral_data.producers.hal.teleop.declare import DeviceRequest, Teleoperator
 from openral_data.producers.hal.teleop.eef_device import DeviceTeleop
 from openral_data.producers.hal.teleop.keyboard import KeyboardTeleop
-from openral_data.record.driver import teleop_driver
 from openral_data.record.drivers.base import DriveContext, Driver
 from openral_data.record.drivers.choice import DriverChoice, DriverKind
+from openral_data.record.drivers.names import teleop_driver
 
 
 def open_device(driver: Driver, choice: DriverChoice, stack: ExitStack) -> Teleoperator:

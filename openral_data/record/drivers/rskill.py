@@ -1,4 +1,4 @@
-"""An rSkill drives: its policy, a learned one or a script (`record/driver.py` names which)."""
+"""An rSkill drives: its policy, a learned one or a script (`record/drivers/names.py` names which)."""
 
 from __future__ import annotations
 

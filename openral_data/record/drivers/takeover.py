@@ -9,9 +9,9 @@ from openral_data.policies.base import PolicyAdapter
 from openral_data.policies.intervention import HELP as KEYBOARD_TAKEOVER_HELP
 from openral_data.policies.intervention import Intervention, TakeoverSwitch, device_switch, takeover_help
 from openral_data.producers.hal.robots.base import HalBase
-from openral_data.record.driver import teleop_driver
 from openral_data.record.drivers.base import DriveContext, Driver, policy_name
 from openral_data.record.drivers.choice import DriverChoice
+from openral_data.record.drivers.names import teleop_driver
 from openral_data.record.drivers.person import open_device
 
 
