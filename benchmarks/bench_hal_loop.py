@@ -29,10 +29,10 @@ import time
 from pathlib import Path
 
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
-from openral_data.producers.hal.base import JointCommand
-from openral_data.producers.hal.operator import ScriptedOperator
-from openral_data.producers.hal.safety import SafetyFilter
-from openral_data.producers.hal.twin import MujocoTwinHal
+from openral_data.producers.hal.robots.base import JointCommand
+from openral_data.producers.hal.robots.safety import SafetyFilter
+from openral_data.producers.hal.robots.twin import MujocoTwinHal
+from openral_data.producers.hal.session.operator import ScriptedOperator
 from openral_data.record.hal_loop import FixedRateLoop, LoopConfig, frame_extras
 from openral_data.runtime import registry
 from openral_data.runtime.bridge import DatasetBridge

@@ -133,7 +133,7 @@ def test_hardware_without_lerobot_names_the_lerobot_extra(
 ) -> None:
     import sys
 
-    from openral_data.producers.hal.lerobot_hw import registry
+    from openral_data.producers.hal.robots.lerobot_hw import registry
 
     monkeypatch.setitem(sys.modules, "lerobot.robots", None)  # as in the core install: no lerobot
     registry.cache_clear()

@@ -1,7 +1,7 @@
 """Interventions (human-in-the-loop, DAgger-style): a policy drives, a person takes over and hands back.
 
 `Intervention` wraps any policy (a `PolicyAdapter`: an rSkill's, a lerobot checkpoint's) and a teleoperator
-that is itself a policy (producers/hal/teleop.py's `KeyboardTeleop`, producers/hal/eef_device.py's
+that is itself a policy (producers/hal/teleop/keyboard.py's `KeyboardTeleop`, producers/hal/teleop/eef_device.py's
 `DeviceTeleop`). `TakeoverSwitch` says who drives; its `control` toggles it:
 * the keyboard: the switch sits between the operator's terminal reader and the teleoperator: the takeover key
   (`t`) toggles, the other keys go to the teleoperator (only while it drives or is about to: keys typed while
@@ -29,11 +29,11 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.policies.base import PolicyAdapter
-from openral_data.producers.hal.eef_device import DeviceTeleop
-from openral_data.producers.hal.teleop import HELP as TELEOP_HELP
+from openral_data.producers.hal.teleop.eef_device import DeviceTeleop
+from openral_data.producers.hal.teleop.keyboard import HELP as TELEOP_HELP
+from openral_data.producers.hal.teleop.keyboard import TAKEOVER_KEY
 from openral_data.types import FrameColumn, Observation
 
-TAKEOVER_KEY = "t"
 POLICY_ACTION = "openral.policy_action"
 INTERVENTION = "openral.intervention"
 

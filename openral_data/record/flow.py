@@ -14,7 +14,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from openral_data.errors import UsageError
-from openral_data.producers.hal.operator import Command, Operator
+from openral_data.producers.hal.session.operator import Command, Operator
 from openral_data.schemas.scene import MAX_STEPS
 
 Notify = Callable[[str], None]  # one line for the person: which episode, what happened to it

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
+from contextlib import ExitStack, closing
 from dataclasses import asdict, dataclass, field
 from functools import partial
 from pathlib import Path
@@ -19,32 +20,25 @@ from openral_data.formats.lerobot_v3.encoder import with_codec
 from openral_data.formats.lerobot_v3.provenance import HalOrigin, Origin, Recorded, SafetyRecord
 from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.policies.base import PolicyAdapter
-from openral_data.policies.checkpoint import (
-    OperatedPolicy,
-    PolicyCheckpoint,
-    as_rskill,
-    check_fits,
-    load_operated,
-    open_checkpoint,
-)
+from openral_data.policies.checkpoint import PolicyCheckpoint, as_rskill, load_operated, open_checkpoint
 from openral_data.policies.device import resolve_device
-from openral_data.policies.intervention import HELP as TAKEOVER_HELP
-from openral_data.policies.intervention import (
-    Intervention,
-    TakeoverSwitch,
-    device_switch,
-    intervention_columns,
-    takeover_help,
+from openral_data.policies.intervention import intervention_columns
+from openral_data.producers.hal.robots.base import HalBase
+from openral_data.producers.hal.robots.safety import SafetyFilter
+from openral_data.producers.hal.robots.twin import MujocoTwinHal, SceneHal
+from openral_data.producers.hal.session.operator import HELP as KEYS_HELP
+from openral_data.producers.hal.session.operator import (
+    Command,
+    KeyboardOperator,
+    Operator,
+    ScriptedOperator,
+    parse_script,
 )
-from openral_data.producers.hal.base import HalBase
-from openral_data.producers.hal.devices import DEVICE_KINDS, TAKEOVER_CONTROLS, TAKEOVER_TELEOPS, device_kind
-from openral_data.producers.hal.eef_device import DeviceOperator, DeviceTeleop
-from openral_data.producers.hal.operator import HELP as KEYS_HELP
-from openral_data.producers.hal.operator import Command, KeyboardOperator, Operator, ScriptedOperator, parse_script
-from openral_data.producers.hal.safety import SafetyFilter
-from openral_data.producers.hal.teleop import KeyboardTeleop, tty_status
-from openral_data.producers.hal.twin import MujocoTwinHal, SceneHal
-from openral_data.record.driver import rskill_driver, teleop_driver
+from openral_data.producers.hal.teleop.eef_device import DeviceOperator
+from openral_data.producers.hal.teleop.keyboard import tty_status
+from openral_data.record.drivers.base import DriveContext, Driver
+from openral_data.record.drivers.choice import OWN_CONTRACT, DriverChoice, DriverKind, choose_driver
+from openral_data.record.drivers.kinds import open_driver
 from openral_data.record.flow import Flow, Notify, check_reset_time, episode_ticks
 from openral_data.record.hal_loop import EpisodeEnd, EpisodeReport, FixedRateLoop, LoopConfig, frame_extras
 from openral_data.record.options import check_run_numbers
@@ -65,8 +59,6 @@ from openral_data.viz import DEFAULT_PORT
 
 Mode = Literal["sim", "real"]
 DEFAULT_MAX_STEPS = 200
-# leader: the manifest's hardware.teleop (a lerobot teleoperator); gamepad/spacemouse[=NODE]: producers/hal/devices.py
-TELEOP_DEVICES = ("keyboard", "leader", *DEVICE_KINDS)
 JOINT_REPRESENTATIONS = ("joint_positions_gripper", "joint_positions")
 
 
@@ -108,6 +100,7 @@ class HalRecordOptions:
     takeover: bool = False  # the rSkill's policy drives; the person (`teleop`) takes over and back: `t`, a button
     policy: str | None = None  # a lerobot checkpoint (folder or cached repo id) drives instead of an rSkill
     device: str | None = None  # with `policy`: cpu, cuda[:N], mps or auto (default: cpu)
+    driver: DriverChoice = field(init=False)  # who drives: `rskill`, `policy`, `teleop` and `takeover`, chosen once
 
     def __post_init__(self) -> None:
         """`mode`, `safety` and the output settings are checked here, once, by whoever builds the options (the
@@ -119,36 +112,18 @@ class HalRecordOptions:
             raise UsageError(f"--mode: {self.mode!r}; valid: {', '.join(get_args(Mode))}")
         if self.safety is not None and self.safety not in get_args(SafetyMode):
             raise UsageError(f"--safety: {self.safety!r}; valid: {', '.join(get_args(SafetyMode))}")
-        if (
-            self.teleop is not None
-            and self.teleop not in TELEOP_DEVICES
-            and (device_kind(self.teleop) not in DEVICE_KINDS or self.teleop.endswith("="))
-        ):
-            valid = "keyboard, leader, gamepad[=NODE], spacemouse[=NODE]"
-            raise UsageError(f"--teleop: {self.teleop!r}; valid: {valid}")
-        if self.teleop == "keyboard" and self.operator != "keyboard":
-            raise UsageError("--teleop keyboard: the operator keys come from the same terminal (--operator keyboard)")
-        if self.takeover and (self.rskill is None or device_kind(self.teleop or "") not in TAKEOVER_TELEOPS):
+        driver = choose_driver(self.rskill, self.policy, self.teleop, hal=True, takeover=self.takeover)
+        object.__setattr__(self, "driver", driver)
+        if driver.terminal and self.operator != "keyboard":
             raise UsageError(
-                "interventions: a policy (--rskill) and --teleop keyboard, gamepad[=NODE] or spacemouse[=NODE] "
-                "(its takeover key or button)"
+                f"--teleop {self.teleop}: the operator keys come from the same terminal (--operator keyboard)"
             )
-        if self.policy is not None:
-            _check_policy_options(self)
-        elif self.device is not None:
+        if driver.kind is DriverKind.CHECKPOINT and self.scene is not None:
+            raise UsageError("--policy: not with --hal --scene (record --scene S --policy PATH records a scene)")
+        if self.device is not None and driver.kind is not DriverKind.CHECKPOINT:
             raise UsageError("--device: with --hal only for --policy (an rSkill names its own device)")
-        if self.rskill is None and self.teleop != "leader" and self.policy is None:
+        if self.rskill is None and driver.kind not in OWN_CONTRACT:
             raise UsageError("--rskill: needed (only --teleop leader records without one: the robot's own contract)")
-
-
-def _check_policy_options(opts: HalRecordOptions) -> None:
-    """`--policy` on a HAL: the robot manifest's own joints are the contract; no rSkill, person or scene besides."""
-    if opts.rskill is not None:
-        raise UsageError("--policy, --rskill: give one (a lerobot checkpoint, or an rSkill manifest)")
-    if opts.teleop is not None:
-        raise UsageError("--policy: not with --teleop (interventions take an rSkill: --rskill R --teleop D)")
-    if opts.scene is not None:
-        raise UsageError("--policy: not with --hal --scene (record --scene S --policy PATH records a scene)")
 
 
 @dataclass
@@ -223,7 +198,7 @@ def build_hal(opts: HalRecordOptions, robot: RobotManifest, rskill: RSkillManife
     if opts.mode == "real":
         if opts.scene is not None:
             raise ConfigError("--scene: only with --mode sim (a real robot has no scene to simulate)")
-        from openral_data.producers.hal.lerobot_hw import make_hardware_hal
+        from openral_data.producers.hal.robots.lerobot_hw import make_hardware_hal
 
         return make_hardware_hal(robot, robot_src, port=opts.port)
     if opts.scene is not None:
@@ -277,76 +252,31 @@ STATUS_FD = 2  # the teleoperator's status lines go to the terminal on stderr
 
 
 def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecordSummary:
-    """Resolve and check everything, claim `out`, build the HAL, then open the dataset and run the episodes.
-    `notify` None: the run says nothing (-q, --json): no prompts, and no teleop status lines either (those only
-    ever go to a terminal on stderr)."""
+    """Resolve and check everything, claim `out`, open the driver, build the HAL, then open the dataset and run
+    the episodes. `notify` None: the run says nothing (-q, --json): no prompts, and no teleop status lines either
+    (those only ever go to a terminal on stderr). Whatever is opened is closed, in reverse order, by the stack."""
     run = _resolve(opts)
     show = tty_status(STATUS_FD, talk=notify is not None)  # the person's status lines: when the run talks
-    held = claim(run.out, "openral-data record --hal", resume=False)  # one writer, before any byte goes into `out`
-    try:
-        keys = switch = None
-        if opts.teleop == "keyboard":
-            keys = KeyboardTeleop(run.rskill, run.rskill_src, show=show)
-        device = _device(opts, run, show)
-        listener = keys.feed if keys is not None else None
-        if opts.takeover and device is not None:  # the device's takeover button toggles the switch
-            switch = device_switch(device, TAKEOVER_CONTROLS[device.type_name])
-        elif opts.takeover:  # `t` goes to the switch, the other keys through it to the teleoperator
-            switch = TakeoverSwitch(listener)
-            listener = switch.feed
-        try:
-            operator = make_operator(opts.operator, listener)
-        except BaseException:
-            if device is not None:
-                device.close()
-            raise
-        if device is not None:
-            operator = DeviceOperator(operator, device)
-        leader = None
-        try:
-            if opts.teleop == "leader":
-                from openral_data.producers.hal.leader import LeaderTeleop
-
-                leader = LeaderTeleop(run.robot, str(manifests.robot_file(run.robot.name)))
-            hal = build_hal(opts, run.robot, run.rskill, run.rskill_src)
-            try:
-                if run.checkpoint is not None:  # before the policy loads and the robot connects
-                    _check_fits_hal(run.checkpoint, hal, run.robot, opts.fps)
-                teleop = keys or device
-                if switch is not None and teleop is not None:
-                    policy: PolicyAdapter = Intervention(run.make_policy(run.rskill), teleop, switch, show=show)
-                else:
-                    policy = keys or leader or device or run.make_policy(run.rskill)
-                loop = _open(opts, run, hal, policy, operator)
-                _keys_help(opts, notify, switch)
-                return _episodes(opts, run.out, loop, notify)
-            finally:
-                hal.close()
-        finally:
-            if leader is not None:
-                leader.close()
-            if device is not None:
-                device.close()
-            operator.close()
-    finally:
-        held.release()  # what was recorded stays; empty folders the claim made go
+    ctx = DriveContext(run.robot, run.rskill, run.rskill_src, run.make_policy, opts.fps, show, run.checkpoint)
+    with ExitStack() as stack:
+        held = claim(run.out, "openral-data record --hal", resume=False)  # one writer, before any byte goes in
+        stack.callback(held.release)  # what was recorded stays; empty folders the claim made go
+        driver = open_driver(opts.driver, ctx, stack)
+        operator = stack.enter_context(closing(make_operator(opts.operator, driver.listener)))
+        if driver.device is not None:
+            operator = DeviceOperator(operator, driver.device)
+        hal = stack.enter_context(closing(build_hal(opts, run.robot, run.rskill, run.rskill_src)))
+        loop = _open(opts, run, hal, driver, operator)
+        _keys_help(opts, notify, driver)
+        return _episodes(opts, run.out, loop, notify)
 
 
-def _keys_help(opts: HalRecordOptions, notify: Notify | None, switch: TakeoverSwitch | None) -> None:
+def _keys_help(opts: HalRecordOptions, notify: Notify | None, driver: Driver) -> None:
     """The person's keys, said once everything is resolved and open (bad input is one `error:` line, no help)."""
     if notify is not None and opts.operator == "keyboard":
         notify(KEYS_HELP)
-    if notify is not None and switch is not None:
-        notify(TAKEOVER_HELP if opts.teleop == "keyboard" else takeover_help(switch.control))
-
-
-def _device(opts: HalRecordOptions, run: _Resolved, show: Callable[[str], None] | None) -> DeviceTeleop | None:
-    """`--teleop gamepad|spacemouse[=NODE]`: the device, open and read on its own thread before episode 0."""
-    if opts.teleop is None or device_kind(opts.teleop) not in DEVICE_KINDS:
-        return None
-    from openral_data.producers.hal.devices import open_teleop_device
-
-    return open_teleop_device(opts.teleop, run.rskill, run.rskill_src, show, opts.takeover)
+    if notify is not None and driver.help is not None:
+        notify(driver.help)
 
 
 @dataclass(frozen=True)
@@ -374,13 +304,15 @@ def _resolve(opts: HalRecordOptions) -> _Resolved:
         raise UsageError(f"--staleness must be > 0 and finite, got {opts.staleness}")
     robot = registry.ROBOTS[opts.robot]
     checkpoint = None
-    if opts.policy is not None:  # a lerobot checkpoint: the robot's own joints, its cameras (`check_fits` on the HAL)
+    if (
+        opts.driver.kind is DriverKind.CHECKPOINT and opts.policy is not None
+    ):  # a lerobot checkpoint: the robot's own joints, its cameras (`check_fits` on the HAL)
         device = resolve_device(opts.device) if opts.device is not None else None
         checkpoint = open_checkpoint(opts.policy)
         rskill, rskill_src = as_rskill(checkpoint, teleop_rskill(robot)), str(checkpoint.config_file)
         load = registry.policy_factory(rskill, rskill_src)
         make_policy: registry.PolicyFactory = partial(load_operated, load, device=device, checkpoint=checkpoint)
-    elif opts.rskill is None:  # --teleop leader: the leader speaks the robot's own joints
+    elif opts.rskill is None:  # a leader arm without --rskill: it speaks the robot's own joints
         rskill, rskill_src = teleop_rskill(robot), str(manifests.robot_file(robot.name))
         make_policy = _no_policy
     else:
@@ -389,13 +321,6 @@ def _resolve(opts: HalRecordOptions) -> _Resolved:
         make_policy = registry.policy_factory(rskill, rskill_src)
     out = opts.out if opts.out is not None else fresh_out(f"hal-{robot.name}")
     return _Resolved(robot, rskill, rskill_src, make_policy, out, checkpoint)
-
-
-def _check_fits_hal(checkpoint: PolicyCheckpoint, hal: HalBase, robot: RobotManifest, fps: int) -> None:
-    """The checkpoint's contract against what the (built, not yet connected) HAL gives and takes at `--fps`."""
-    where = f"robot {manifests.robot_file(robot.name)}"
-    cameras = {n: c.shape for n, c in hal.cameras.items()}
-    check_fits(checkpoint, where, state_dim=hal.state_dim, action_dim=hal.action_dim, cameras=cameras, fps=fps)
 
 
 def teleop_rskill(robot: RobotManifest) -> RSkillManifest:
@@ -419,13 +344,13 @@ def _no_policy(rskill: RSkillManifest) -> PolicyAdapter:
     raise ConfigError(f"rskill {rskill.id}: a teleoperator drives; there is no policy to load")
 
 
-def _open(
-    opts: HalRecordOptions, run: _Resolved, hal: HalBase, policy: PolicyAdapter, operator: Operator
-) -> FixedRateLoop:
-    """The safety filter, the dataset schema, the connected HAL and the sinks, put together as the loop."""
+def _open(opts: HalRecordOptions, run: _Resolved, hal: HalBase, driver: Driver, operator: Operator) -> FixedRateLoop:
+    """The driver's policy, the safety filter, the dataset schema, the connected HAL and the sinks, put together
+    as the loop."""
     from openral_data.runtime.sinks import make_sinks
 
     robot, rskill = run.robot, run.rskill
+    policy = driver.policy(hal)  # a checkpoint is checked against the HAL first
     check_hal(hal, robot, rskill, run.rskill_src, opts.video)
     safety = SafetyFilter(
         robot,
@@ -449,7 +374,7 @@ def _open(
         ),
         has_reward=hal.has_reward,
         frame_extras=frame_extras(cameras),
-        frame_columns=intervention_columns(rskill.action_contract.names) if opts.takeover else (),
+        frame_columns=intervention_columns(rskill.action_contract.names) if driver.takeover else (),
     )
     hal.connect()  # a robot that cannot be reached fails here, before anything is written
     connect = getattr(policy, "connect", None)  # a leader arm: the same, before anything is written
@@ -471,13 +396,8 @@ def _open(
     bridge = DatasetBridge(schema, sinks, observers=observers)
     task = hal.task if hal.task is not None else rskill.description or rskill.id
     staleness = opts.staleness if opts.staleness is not None else 3.0 / opts.fps
-    driver = policy.operator if isinstance(policy, OperatedPolicy) else rskill_driver(rskill)
-    if opts.takeover:  # the policy drives, the person takes over: both
-        driver = f"{driver}+{teleop_driver(device_kind(opts.teleop or 'keyboard'))}"
-    elif opts.teleop is not None:
-        driver = teleop_driver(getattr(policy, "type_name", opts.teleop))  # a leader arm: its lerobot type
     ticks = episode_ticks(opts.episode_time_s, opts.fps)
-    config = LoopConfig(opts.fps, task, opts.step_limit, staleness, driver=driver, max_ticks=ticks)
+    config = LoopConfig(opts.fps, task, opts.step_limit, staleness, driver=driver.name(policy), max_ticks=ticks)
     return FixedRateLoop(hal, policy, safety, bridge, operator, config)
 
 

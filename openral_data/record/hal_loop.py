@@ -39,9 +39,9 @@ import numpy.typing as npt
 from openral_data.errors import EstopLatched, HalError, StaleState
 from openral_data.policies.base import PolicyAdapter
 from openral_data.policies.intervention import Intervention
-from openral_data.producers.hal.base import HalBase, JointCommand, monotonic
-from openral_data.producers.hal.operator import Command, Operator
-from openral_data.producers.hal.safety import SafetyFilter
+from openral_data.producers.hal.robots.base import HalBase, JointCommand, monotonic
+from openral_data.producers.hal.robots.safety import SafetyFilter
+from openral_data.producers.hal.session.operator import Command, Operator
 from openral_data.runtime.bridge import DatasetBridge
 from openral_data.types import EpisodeRecord, Observation
 

@@ -20,7 +20,7 @@ from openral_data.policies.checkpoint import (
 )
 from openral_data.policies.device import resolve_device
 from openral_data.record import output, recorded
-from openral_data.record.driver import rskill_driver
+from openral_data.record.drivers.names import rskill_driver
 from openral_data.record.options import (
     Keep,
     ProgressFn,
@@ -301,8 +301,8 @@ def _record_episode(
 ) -> EpisodeRecord | None:
     """One episode: row t = (observation t, the action the policy produced from it, what followed); with an
     `instruction` (`--instruction`) that is every observation's task, for the policy and in the dataset. With
-    `keep="success"` an episode that does not succeed is discarded (None). Who drove (`driver`, record/driver.py) and
-    what an annotating policy says of the episode go to its `openral.episode_info`."""
+    `keep="success"` an episode that does not succeed is discarded (None). Who drove (`driver`,
+    record/drivers/names.py) and what an annotating policy says of the episode go to its `openral.episode_info`."""
     stop.check()
     obs = tasks.instructed(env.reset(seed), instruction)
     policy.reset(seed)

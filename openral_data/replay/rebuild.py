@@ -80,7 +80,7 @@ def rebuild(
 def _twin_scene(dataset: RecordedDataset) -> SimScene:
     """The scene a robot recording replays in: the robot's twin at the recorded fps, with the twin's default
     cameras for the manifest's (the real cameras' poses are not known)."""
-    from openral_data.producers.hal.twin import twin_cameras
+    from openral_data.producers.hal.robots.twin import twin_cameras
 
     robot = registry.ROBOTS[dataset.robot()]
     spec = SceneSpec(

@@ -48,7 +48,7 @@ class HardwareConfig(StrictModel):
     ..., id: ..., calibration_dir: ...}); the SO drivers are the same with the SO follower's fields at the top
     level. `cameras:` (name -> a `lerobot.cameras` config: {type: opencv, index_or_path: ..., width, height,
     fps}) and `teleop:` (a `lerobot.teleoperators` config, e.g. {type: so101_leader, port: ..., id: ...}) go
-    with either. lerobot validates each config itself (producers/hal/lerobot_hw.py); a `calibration_dir` is
+    with either. lerobot validates each config itself (producers/hal/robots/lerobot_hw.py); a `calibration_dir` is
     relative to the manifest.
     """
 

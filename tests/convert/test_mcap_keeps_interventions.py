@@ -29,7 +29,7 @@ from openral_data.policies.intervention import (
     TakeoverSwitch,
     intervention_columns,
 )
-from openral_data.producers.hal.operator import KeyboardOperator
+from openral_data.producers.hal.session.operator import KeyboardOperator
 from openral_data.record.hal_loop import EpisodeEnd
 from openral_data.runtime import registry
 from openral_data.types import Observation

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from openral_data.errors import HalError
-from openral_data.producers.hal import gamepad
-from openral_data.producers.hal.eef_device import DeviceGains, DeviceReader, DeviceTeleop, shape
-from openral_data.producers.hal.gamepad import EvdevDecoder, find_gamepad, open_gamepad
-from openral_data.producers.hal.operator import Command
+from openral_data.producers.hal.session.operator import Command
+from openral_data.producers.hal.teleop import gamepad
+from openral_data.producers.hal.teleop.eef_device import DeviceGains, DeviceReader, DeviceTeleop, shape
+from openral_data.producers.hal.teleop.gamepad import EvdevDecoder, find_gamepad, open_gamepad
 from openral_data.types import Observation
 from tests.support.input_devices import Gamepad, event, settle, syn, wait_gone
 

@@ -159,8 +159,8 @@ def test_leader_failures_are_one_line_before_anything_is_written(
 def test_every_shipped_hardware_manifest_builds_lerobots_configs(robot: str) -> None:
     """Each shipped manifest's robot and teleoperator are lerobot configs lerobot itself accepts (the Koch pair
     records on simulated Dynamixel buses in test_koch_hal.py)."""
-    from openral_data.producers.hal.lerobot_hw import lerobot_config
-    from openral_data.producers.hal.lerobot_hw import registry as lerobot_types
+    from openral_data.producers.hal.robots.lerobot_hw import lerobot_config
+    from openral_data.producers.hal.robots.lerobot_hw import registry as lerobot_types
     from openral_data.runtime import registry
 
     hardware = registry.ROBOTS[robot].hardware

@@ -25,8 +25,8 @@ import pytest
 import yaml
 
 from openral_data.errors import HalError
-from openral_data.producers.hal.lerobot_hw import make_cameras
-from openral_data.producers.hal.sensors import CameraSample
+from openral_data.producers.hal.cameras.sensors import CameraSample
+from openral_data.producers.hal.robots.lerobot_hw import make_cameras
 from openral_data.record.hal import HalRecordOptions, record_hal
 from openral_data.schemas.hal import HardwareConfig
 from tests.support.feetech_bus import SimulatedFeetechBus

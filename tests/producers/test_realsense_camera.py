@@ -23,7 +23,7 @@ import yaml
 from rosbags.highlevel import AnyReader
 
 from openral_data.formats.lerobot_v3.depth import DepthSettings
-from openral_data.producers.hal.sensors import CameraSample
+from openral_data.producers.hal.cameras.sensors import CameraSample
 from openral_data.record.hal import HalRecordOptions, record_hal
 from tests.producers.test_opencv_camera import H, W, nearest, source_frame
 from tests.support.feetech_bus import SimulatedFeetechBus
@@ -269,7 +269,7 @@ def test_stamps_increase_and_colour_is_exact_straight_from_the_camera(short_reco
 
 def start_wrist(recording: Path) -> dict[str, Any]:
     """The manifest camera `wrist` playing `recording`, started (the caller stops it)."""
-    from openral_data.producers.hal.lerobot_hw import make_cameras
+    from openral_data.producers.hal.robots.lerobot_hw import make_cameras
     from openral_data.schemas.hal import HardwareConfig
 
     spec = {"type": "intelrealsense", "serial_number_or_name": SERIAL, "width": W, "height": H, "fps": RATE,

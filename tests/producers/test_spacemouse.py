@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from openral_data.errors import HalError
-from openral_data.producers.hal.eef_device import DeviceGains, DeviceReader, DeviceTeleop
-from openral_data.producers.hal.operator import Command
-from openral_data.producers.hal.spacemouse import HidrawDecoder, find_spacemouse, open_spacemouse
+from openral_data.producers.hal.session.operator import Command
+from openral_data.producers.hal.teleop.eef_device import DeviceGains, DeviceReader, DeviceTeleop
+from openral_data.producers.hal.teleop.spacemouse import HidrawDecoder, find_spacemouse, open_spacemouse
 from openral_data.types import Observation
 from tests.support.input_devices import DeviceFifo, hid_axes, hid_buttons, settle, wait_gone
 

@@ -33,9 +33,9 @@ from openral_data.policies.intervention import (
     device_switch,
     intervention_columns,
 )
-from openral_data.producers.hal import gamepad, spacemouse
-from openral_data.producers.hal.eef_device import DeviceOperator, DeviceTeleop
-from openral_data.producers.hal.operator import Command, ScriptedOperator
+from openral_data.producers.hal.session.operator import Command, ScriptedOperator
+from openral_data.producers.hal.teleop import gamepad, spacemouse
+from openral_data.producers.hal.teleop.eef_device import DeviceOperator, DeviceTeleop
 from openral_data.record.hal import HalRecordOptions
 from openral_data.record.hal_loop import EpisodeEnd
 from openral_data.runtime import registry

@@ -4,7 +4,7 @@ and a built-in added to the registry must be put on one side or the other here."
 
 from __future__ import annotations
 
-from openral_data.record.driver import SCRIPTED_POLICIES
+from openral_data.record.drivers.names import SCRIPTED_POLICIES
 from openral_data.runtime.registry import POLICIES
 
 MODELS = frozenset({"zero", "random", "lerobot"})  # built-ins that are no hand-written program: `policy:<id>`

@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from openral_data.errors import EstopLatched, HalError, OpenralError, UsageError
-from openral_data.producers.hal.base import JointCommand
-from openral_data.producers.hal.operator import ScriptedOperator, parse_script
-from openral_data.producers.hal.safety import SafetyFilter
+from openral_data.producers.hal.robots.base import JointCommand
+from openral_data.producers.hal.robots.safety import SafetyFilter
+from openral_data.producers.hal.session.operator import ScriptedOperator, parse_script
 from openral_data.record.hal import HalRecordOptions
 from openral_data.record.hal_loop import EpisodeEnd
 from openral_data.runtime import registry

@@ -31,8 +31,8 @@ from openral_data.policies.intervention import (
     TakeoverSwitch,
     intervention_columns,
 )
-from openral_data.producers.hal.operator import KeyboardOperator
-from openral_data.producers.hal.teleop import KeyboardGains
+from openral_data.producers.hal.session.operator import KeyboardOperator
+from openral_data.producers.hal.teleop.keyboard import KeyboardGains
 from openral_data.record.hal import HalRecordOptions, record_hal
 from openral_data.record.hal_loop import EpisodeEnd
 from openral_data.runtime import registry

@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-from openral_data.producers.hal import gamepad, spacemouse
+from openral_data.producers.hal.teleop import gamepad, spacemouse
 from tests.support.hal import episode_infos
 from tests.support.inproc import run_inproc
 from tests.support.input_devices import DeviceFifo, Gamepad, hid_axes, hid_buttons

@@ -17,7 +17,7 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-from openral_data.producers.hal.teleop import KeyboardGains
+from openral_data.producers.hal.teleop.keyboard import KeyboardGains
 from tests.support.pty_terminal import Terminal as PtyTerminal
 from tests.support.pty_terminal import cli_on_pty
 from tests.support.teleop_push import push_waypoints, pushed, replays_exactly

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from openral_data.producers.hal.teleop import tty_status
+from openral_data.producers.hal.teleop.keyboard import tty_status
 from openral_data.record import hal
 from openral_data.schemas.scene import MAX_STEPS
 from tests.support.inproc import run_inproc

@@ -15,10 +15,10 @@ import yaml
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
 from openral_data.formats.mcap import McapSink
 from openral_data.policies.base import PolicyAdapter
-from openral_data.producers.hal.operator import Operator
-from openral_data.producers.hal.safety import SafetyFilter
-from openral_data.producers.hal.sensors import ThreadedCamera
-from openral_data.producers.hal.twin import MujocoTwinHal
+from openral_data.producers.hal.cameras.sensors import ThreadedCamera
+from openral_data.producers.hal.robots.safety import SafetyFilter
+from openral_data.producers.hal.robots.twin import MujocoTwinHal
+from openral_data.producers.hal.session.operator import Operator
 from openral_data.record.hal_loop import EpisodeEnd, EpisodeReport, FixedRateLoop, LoopConfig, frame_extras
 from openral_data.runtime import registry
 from openral_data.runtime.bridge import DatasetBridge

@@ -9,8 +9,8 @@ import struct
 import time
 from pathlib import Path
 
-from openral_data.producers.hal import gamepad
-from openral_data.producers.hal.eef_device import DeviceReader
+from openral_data.producers.hal.teleop import gamepad
+from openral_data.producers.hal.teleop.eef_device import DeviceReader
 
 EVENT = struct.Struct("llHHi")
 STICK_MAX = 32767

@@ -10,10 +10,10 @@ import pytest
 
 # ConfigError raises are matched by message on purpose: the file and field it names are the point
 from openral_data.errors import ConfigError, EstopLatched, HalError, StaleState, UsageError
-from openral_data.producers.hal.base import JointCommand, RobotState
-from openral_data.producers.hal.operator import Command, KeyboardOperator, ScriptedOperator, parse_script
-from openral_data.producers.hal.safety import SafetyFilter
-from openral_data.producers.hal.twin import MujocoTwinHal
+from openral_data.producers.hal.robots.base import JointCommand, RobotState
+from openral_data.producers.hal.robots.safety import SafetyFilter
+from openral_data.producers.hal.robots.twin import MujocoTwinHal
+from openral_data.producers.hal.session.operator import Command, KeyboardOperator, ScriptedOperator, parse_script
 from openral_data.runtime import registry
 from openral_data.schemas.hal import SafetyConfig, Workspace
 from tests.support.hal import ur5e_twin

@@ -1,6 +1,6 @@
 """The robot of any manifest with a `sim:` block, on the standard table, in the manifest's own units.
 
-`Twin` is the core the real-time twin HAL (producers/hal/twin.py) and the `mujoco_twin` scene share: the composed
+`Twin` is the core the real-time twin HAL (producers/hal/robots/twin.py) and the `mujoco_twin` scene share: the composed
 world (`compose`, the manifest's wiring, no per-robot code), the arm's position servos, and the conversion
 between the manifest's units (`sim.units`, e.g. the SO arm's degrees and 0..100 gripper) and the MJCF's.
 

@@ -91,7 +91,7 @@ def sliced_wait(seconds: float, slice_s: float, step: Callable[[float], Command 
 class KeyboardOperator:
     """Single keypresses from a terminal file descriptor (default: stdin).
 
-    With a `listener` (a teleoperation device, producers/hal/teleop.py) the keys that are no operator command
+    With a `listener` (a teleoperation device, producers/hal/teleop/keyboard.py) the keys that are no operator command
     go to it: during an episode every key waiting at a tick is read, commands act, the rest drive the robot.
     """
 

@@ -5,7 +5,7 @@ own class, built from the manifest's `hardware.teleop` by `make_teleoperator_fro
 values of the manifest's action names (`<name>.pos` keys), so the leader's positions go through the same
 contract check, safety filter and HAL as an rSkill's actions: to the real follower (`--mode real`) or to the
 robot's MuJoCo twin (`--mode sim`, practice without a follower). The leader is connected before anything is
-recorded, with the same calibration rules as the robot (producers/hal/lerobot_hw.py).
+recorded, with the same calibration rules as the robot (producers/hal/robots/lerobot_hw.py).
 """
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.errors import ConfigError
-from openral_data.producers.hal.base import monotonic
-from openral_data.producers.hal.lerobot_hw import connect_device, feature_keys, lerobot_config, missing_sdk
+from openral_data.producers.hal.robots.base import monotonic
+from openral_data.producers.hal.robots.lerobot_hw import connect_device, feature_keys, lerobot_config, missing_sdk
 from openral_data.schemas.robot import RobotManifest
 from openral_data.types import Observation
 

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from openral_data.errors import ConfigError, HalError, install_hint
-from openral_data.producers.hal.sensors import CameraSample, Image, LerobotCamera
+from openral_data.producers.hal.cameras.sensors import CameraSample, Image, LerobotCamera
 from openral_data.schemas.hal import LerobotDevice
 from openral_data.types import CameraShape
 

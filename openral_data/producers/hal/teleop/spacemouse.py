@@ -27,17 +27,20 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from openral_data.producers.hal.eef_device import (
+from openral_data.producers.hal.session.operator import Command
+from openral_data.producers.hal.teleop.declare import DeviceRequest, TeleopDevice
+from openral_data.producers.hal.teleop.eef_device import (
     GRIPPER,
     TAKEOVER,
     DeviceGains,
     DeviceReader,
+    DeviceTeleop,
     Presses,
+    device_teleop,
     find_node,
     open_node,
     shape,
 )
-from openral_data.producers.hal.operator import Command
 
 AXES3 = struct.Struct("<3h")
 FULL_SCALE = 350.0
@@ -111,3 +114,12 @@ def open_spacemouse(path: Path | None, gains: DeviceGains = GAINS, takeover: boo
     node = path if path is not None else find_spacemouse()
     decoder = HidrawDecoder(gains.deadzone, TAKEOVER_BUTTONS if takeover else None)
     return DeviceReader(node, open_node(node, f"--teleop {WHAT}"), decoder, WHAT)
+
+
+def open_teleop(request: DeviceRequest) -> DeviceTeleop:
+    """`--teleop spacemouse[=NODE]`: the spacemouse driving the rSkill's `delta_eef_gripper` action
+    (in an intervention session its right button takes over instead of marking success)."""
+    return device_teleop(request, WHAT, GAINS, lambda: open_spacemouse(request.node, GAINS, request.takeover))
+
+
+DEVICE = TeleopDevice(WHAT, open_teleop, TAKEOVER_CONTROL, takes_node=True)

@@ -26,6 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.errors import ConfigError
+from openral_data.producers.hal.teleop.declare import DeviceRequest, TeleopDevice
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.types import Observation
 
@@ -34,6 +35,7 @@ AXES = {"i": (0, 1), "k": (0, -1), "j": (1, 1), "l": (1, -1), "u": (2, 1), "m": 
 ARROWS = {"A": "i", "B": "k", "D": "j", "C": "l"}  # ESC [ A/B/C/D: up, down, right, left
 GRIPPER_KEY = "g"
 HALT_KEY = "h"
+TAKEOVER_KEY = "t"  # with a policy driving (interventions): the person takes over and hands back
 KEYS = frozenset([*AXES, GRIPPER_KEY, HALT_KEY])
 HELP = "teleop keys: i/k (up/down arrows) ±x · j/l (left/right arrows) ±y · u/m ±z · [/] ±yaw · g gripper · h halt"
 
@@ -157,3 +159,10 @@ def tty_status(fd: int, talk: bool = True) -> Callable[[str], None] | None:
         os.write(fd, f"\r\x1b[K{line}\r\n".encode())
 
     return show
+
+
+def open_keyboard(request: DeviceRequest) -> KeyboardTeleop:
+    return KeyboardTeleop(request.rskill, request.source, show=request.show)
+
+
+DEVICE = TeleopDevice("keyboard", open_keyboard, TAKEOVER_KEY, terminal=True)

@@ -27,9 +27,9 @@ from typing import Any
 import numpy as np
 
 from openral_data.errors import ConfigError, HalError, install_hint
-from openral_data.producers.hal import realsense
-from openral_data.producers.hal.base import HalBase, JointCommand, RobotState, monotonic
-from openral_data.producers.hal.sensors import CameraSensor, LerobotCamera
+from openral_data.producers.hal.cameras import realsense
+from openral_data.producers.hal.cameras.sensors import CameraSensor, LerobotCamera
+from openral_data.producers.hal.robots.base import HalBase, JointCommand, RobotState, monotonic
 from openral_data.schemas.hal import HardwareConfig, LerobotDevice
 from openral_data.schemas.robot import RobotManifest
 from openral_data.types import CameraShape
@@ -165,7 +165,7 @@ def stream_source(spec: LerobotDevice) -> bool:
 
 def make_cameras(hardware: HardwareConfig, source: str) -> dict[str, CameraSensor]:
     """The manifest's cameras, each behind its own capture thread (connected when the HAL connects); a
-    RealSense with `use_depth` adds its aligned depth as `<name>_depth` (producers/hal/realsense.py).
+    RealSense with `use_depth` adds its aligned depth as `<name>_depth` (producers/hal/cameras/realsense.py).
 
     `width`/`height` are required: the dataset's video size. A file or a URL has its own size and rate, which
     OpenCV cannot set: for those they are not passed to lerobot, and each frame is checked against them."""

@@ -17,8 +17,8 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.errors import EstopLatched, HalError, StaleState
-from openral_data.producers.hal.safety import ForwardKinematics
-from openral_data.producers.hal.sensors import CameraSensor
+from openral_data.producers.hal.cameras.sensors import CameraSensor
+from openral_data.producers.hal.robots.safety import ForwardKinematics
 from openral_data.schemas.robot import RobotManifest
 from openral_data.types import Privileged
 

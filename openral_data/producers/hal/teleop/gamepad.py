@@ -31,17 +31,20 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from openral_data.producers.hal.eef_device import (
+from openral_data.producers.hal.session.operator import Command
+from openral_data.producers.hal.teleop.declare import DeviceRequest, TeleopDevice
+from openral_data.producers.hal.teleop.eef_device import (
     GRIPPER,
     TAKEOVER,
     DeviceGains,
     DeviceReader,
+    DeviceTeleop,
     Presses,
+    device_teleop,
     find_node,
     open_node,
     shape,
 )
-from openral_data.producers.hal.operator import Command
 
 EVENT = struct.Struct("llHHi")  # struct input_event: tv_sec, tv_usec, type, code, value (native, 24 bytes)
 ABSINFO = struct.Struct("6i")  # struct input_absinfo: value, minimum, maximum, fuzz, flat, resolution
@@ -188,3 +191,11 @@ def open_gamepad(path: Path | None, gains: DeviceGains = GAINS) -> DeviceReader:
     fd = open_node(node, f"--teleop {WHAT}")
     decoder = EvdevDecoder(axis_ranges(fd), gains.deadzone, lambda: {c: v for c, (v, _, _) in absinfo(fd).items()})
     return DeviceReader(node, fd, decoder, WHAT)
+
+
+def open_teleop(request: DeviceRequest) -> DeviceTeleop:
+    """`--teleop gamepad[=NODE]`: the gamepad driving the rSkill's `delta_eef_gripper` action."""
+    return device_teleop(request, WHAT, GAINS, lambda: open_gamepad(request.node, GAINS))
+
+
+DEVICE = TeleopDevice(WHAT, open_teleop, TAKEOVER_CONTROL, takes_node=True)

@@ -1,7 +1,7 @@
 """An end-effector input device (gamepad, SpaceMouse) read on its own thread, as the producer of actions.
 
 The device node (`/dev/input/eventN`, `/dev/hidrawN`) is opened before episode 0 and read by a `DeviceReader`
-thread: every `read()` goes to the device's `Decoder` (producers/hal/gamepad.py, spacemouse.py), which keeps
+thread: every `read()` goes to the device's `Decoder` (producers/hal/teleop/gamepad.py, spacemouse.py), which keeps
 the newest axis values and the button presses; the reader counts the complete reports.
 `DeviceTeleop` is a policy (reset / step / close, the `PolicyAdapter` protocol): each tick it turns the axes
 (already shaped by the deadzone, in [-1, 1]) into a `delta_eef_gripper` action [dx, dy, dz, 0, 0, dyaw,
@@ -32,8 +32,9 @@ import numpy.typing as npt
 
 from openral_data.errors import HalError
 from openral_data.paths import read_regular
-from openral_data.producers.hal.operator import PAUSE_ENDS, Command, Operator, no_check, sliced_wait
-from openral_data.producers.hal.teleop import eef_line, held_gripper
+from openral_data.producers.hal.session.operator import PAUSE_ENDS, Command, Operator, no_check, sliced_wait
+from openral_data.producers.hal.teleop.declare import DeviceRequest
+from openral_data.producers.hal.teleop.keyboard import eef_limits, eef_line, held_gripper
 from openral_data.types import Observation
 
 GRIPPER = "gripper"  # the button name that toggles the gripper; the others name a `Command` or:
@@ -238,6 +239,15 @@ class DeviceTeleop:
 
     def close(self) -> None:
         self.reader.close()
+
+
+def device_teleop(
+    request: DeviceRequest, what: str, gains: DeviceGains, open_reader: Callable[[], DeviceReader]
+) -> DeviceTeleop:
+    """The contract is checked first (a wrong rSkill is a config error, whatever is plugged in), then the device
+    is opened (`open_reader`): a missing one is one line (`hal.teleop`) before anything is recorded."""
+    limits = eef_limits(request.rskill, request.source, what)
+    return DeviceTeleop(open_reader(), limits, gains, request.show)
 
 
 class DeviceOperator:

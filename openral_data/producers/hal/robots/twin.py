@@ -20,9 +20,9 @@ import mujoco
 import numpy as np
 
 from openral_data.errors import ConfigError
-from openral_data.producers.hal.base import HalBase, JointCommand, Outcome, RobotState, monotonic
-from openral_data.producers.hal.safety import ForwardKinematics
-from openral_data.producers.hal.sensors import Image, PolledCamera
+from openral_data.producers.hal.cameras.sensors import Image, PolledCamera
+from openral_data.producers.hal.robots.base import HalBase, JointCommand, Outcome, RobotState, monotonic
+from openral_data.producers.hal.robots.safety import ForwardKinematics
 from openral_data.producers.sim.mujoco.kinematics import F64
 from openral_data.producers.sim.mujoco.render import CameraRig
 from openral_data.producers.sim.mujoco.twin import Twin

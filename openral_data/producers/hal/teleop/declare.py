@@ -1,0 +1,48 @@
+"""What a teleop device declares once, in its own module (`DEVICE = TeleopDevice(...)`): its `--teleop` name, how
+it is opened for an rSkill's contract, what takes over from a policy with it, and whether it takes a node
+(`NAME=NODE`) or reads the operator's terminal. The registry (devices.py) lists the declarations."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+from openral_data.schemas.rskill import RSkillManifest
+from openral_data.types import Observation
+
+
+class Teleoperator(Protocol):
+    """A person's device as the loop drives with it (the policy protocol: reset / step / close)."""
+
+    def reset(self, seed: int) -> None: ...
+
+    def step(self, observation: Observation, instruction: str) -> npt.NDArray[np.float32]: ...
+
+    def close(self) -> None: ...
+
+
+@dataclass(frozen=True)
+class DeviceRequest:
+    """What a device is opened with: its node (`NAME=NODE`; None: found, or none needed), the rSkill whose
+    action contract it keeps, where the contract came from, the status-line writer, and whether a policy drives
+    and the person takes over (an intervention session)."""
+
+    node: Path | None
+    rskill: RSkillManifest
+    source: str
+    show: Callable[[str], None] | None = None
+    takeover: bool = False
+
+
+@dataclass(frozen=True)
+class TeleopDevice:
+    name: str  # `--teleop NAME` (and `teleop:NAME`, who drove, in the episode's record)
+    open: Callable[[DeviceRequest], Teleoperator]  # checks the contract first, then opens the device
+    takeover_control: str  # the key or button that takes over from a policy and hands back
+    takes_node: bool = False  # `NAME=NODE` names the device's node (else the first one found)
+    terminal: bool = False  # fed by the operator's terminal: the operator keys come from the same terminal
