@@ -39,7 +39,7 @@ from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.errors import ExecutorError, UsageError
 from openral_data.formats.codec import Codec
 from openral_data.formats.episodic import ArraySource
-from openral_data.formats.lerobot_v3.encoder import VideoSettings, with_codec
+from openral_data.formats.lerobot_v3.encoder import VideoSettings
 from openral_data.formats.staging import check_new_output
 from openral_data.record.parallel.run import workers_dir
 from openral_data.runtime.parallel.channel import STOP_HELD, held
@@ -89,7 +89,7 @@ def convert_parallel(
     video: VideoSettings | None = None,
 ) -> ConvertSummary:
     """Convert the bags of `src` in `workers` processes into one dataset at `dst`, as `convert_bags` would."""
-    settings = with_codec(video, codec)
+    settings = VideoSettings.given(codec, video=video)
     check_executor(executor, address)
     bags = find_bags(src)
     blocks = plan_blocks(bags, workers)
@@ -167,7 +167,7 @@ def convert_arrays_parallel(
     """An array source's files (HDF5 files, RLDS shards; a Zarr store is one block) in `workers` processes
     (contiguous blocks of files, as bags), merged in file order into one dataset at `dst`, as `convert_arrays`
     would write it."""
-    settings = with_codec(video, codec)
+    settings = VideoSettings.given(codec, video=video)
     check_executor(executor, address)
     files = block_files(source)
     totals = sum(ep.length for ep in source.episodes())  # every file opened once, before any work

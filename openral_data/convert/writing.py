@@ -60,7 +60,7 @@ class Converter:
     ) -> None:
         self.mapping = mapping
         self.dst = dst
-        self.video = video  # resolved and checked (`encoder.with_codec`)
+        self.video = video  # resolved and checked (`VideoSettings.given`)
         self.summary = summary
         self.cameras = cameras
         # state, action and (when mapped) environment_state, each its parts' readers

@@ -49,7 +49,6 @@ def _record_one(
             seed=spec.seeds.start,
             max_steps=spec.max_steps,
             out=out,
-            codec=spec.vcodec or spec.codec,
             video=spec.video_settings(),
             formats=tuple(spec.formats),
             image_format=spec.image_format,
