@@ -15,6 +15,7 @@ from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.terminal import INTERRUPTED_RECORDING, print_line, print_rows, progress_bar
 from openral_data.errors import UsageError
 from openral_data.formats.codec import Codec
+from openral_data.runtime.parallel.choice import is_parallel
 from openral_data.viz import DEFAULT_PORT
 
 if TYPE_CHECKING:
@@ -133,7 +134,7 @@ def record(
     if hal is not None and (save_video or save_video_dir is not None):
         raise UsageError("--save-video/--save-video-dir: not available with --hal (a scene recording only)")
     view_given = bool(given & {"view", "view_port", "view_address"})
-    if view_given and (not view or workers != 1 or executor != "local"):
+    if view_given and (not view or is_parallel(workers, executor)):
         raise UsageError("--view, --view-port, --view-address: need --view, and not with --workers")
     if hal is not None:
         from openral_data.cli.hal import run_hal_record
@@ -215,7 +216,7 @@ def record(
         randomize=_on_off(randomize),
         keep=cast(Keep, keep),  # checked by RecordOptions
     )
-    parallel = workers != 1 or executor != "local"
+    parallel = is_parallel(workers, executor)
     if parallel:
         from openral_data.record.parallel.run import record_parallel
 
@@ -253,7 +254,8 @@ def _with_progress(
 
 def _interrupted(out: Path | None, parallel: bool) -> None:
     if parallel:  # the workers' shares are merged only at the end: nothing reaches --out
-        from openral_data.record.parallel.run import find_workers_dir, kept_note, kept_worker_episodes
+        from openral_data.record.parallel.run import kept_note
+        from openral_data.runtime.parallel.workdir import find_workers_dir, kept_worker_episodes
 
         target = find_workers_dir(out)
         kept = kept_worker_episodes(target) if target is not None else 0

@@ -8,6 +8,7 @@ from typing import Any
 
 from openral_data.errors import ConfigError
 from openral_data.pipeline.schema import ExportStep, MergeStep, RecordStep, StatsStep, Step
+from openral_data.runtime.parallel.choice import is_parallel
 
 # (item name, run(item path) -> summary); the runner skips items already marked done
 ItemJob = tuple[str, Callable[[Path], dict[str, Any]]]
@@ -58,7 +59,7 @@ def _record_one(
             device=spec.device,
         )
         summary: RecordSummary
-        if spec.workers > 1 or spec.executor != "local":
+        if is_parallel(spec.workers, spec.executor):
             from openral_data.record.parallel.run import record_parallel
 
             summary = record_parallel(opts, spec.workers, spec.executor)
