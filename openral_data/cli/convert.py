@@ -69,6 +69,7 @@ def convert(
 ) -> None:
     """Convert bags/MCAP, HDF5, Zarr or RLDS to a LeRobot v3 dataset, or a LeRobot v3 dataset to ROS 2 MCAP bags."""
     from openral_data.convert.kinds.base import Parallel
+    from openral_data.runtime.parallel.choice import is_parallel
     from openral_data.runtime.parallel.executors import check_executor
 
     if print_mapping:
@@ -79,7 +80,7 @@ def convert(
     if workers < 1:
         raise UsageError(f"--workers must be >= 1, got {workers}")
     check_executor(executor, address)
-    parallel = Parallel(workers, executor, address) if workers != 1 or executor != "local" else None
+    parallel = Parallel(workers, executor, address) if is_parallel(workers, executor) else None
     video = video_settings(codec, crf, gop, preset, pix_fmt, encoder_threads)  # a bad combination: before anything
     _convert(src, dst, mapping, video, episodes, image_format, mcap_compression, json, parallel, fps)
 

@@ -31,16 +31,6 @@ def video_settings(
     codec: str, crf: float | None, gop: int | None, preset: str | None, pix_fmt: str | None, threads: int | None
 ) -> VideoSettings:
     """The flags as one `VideoSettings`, resolved (`auto` probed) and checked: a bad combination is one line."""
-    from openral_data.formats.lerobot_v3.encoder import VideoSettings, preset_value, with_codec
+    from openral_data.formats.lerobot_v3.encoder import VideoSettings, preset_value
 
-    base = VideoSettings()
-    return with_codec(
-        VideoSettings(
-            crf=base.crf if crf is None else (int(crf) if crf == int(crf) else crf),
-            g=base.g if gop is None else gop,
-            preset=preset_value(preset),
-            pix_fmt=base.pix_fmt if pix_fmt is None else pix_fmt,
-            threads=threads,
-        ),
-        codec,
-    )
+    return VideoSettings.given(codec, crf=crf, g=gop, preset=preset_value(preset), pix_fmt=pix_fmt, threads=threads)

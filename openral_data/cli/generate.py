@@ -13,6 +13,7 @@ from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.takes import takes
 from openral_data.cli.terminal import print_rows, progress_bar
 from openral_data.formats.codec import Codec
+from openral_data.runtime.parallel.choice import is_parallel
 
 if TYPE_CHECKING:
     from openral_data.generate import GenerateOptions, GenerateSummary
@@ -56,7 +57,7 @@ def generate(
         address=address,
         codec=codec,
     )
-    summary = run(options) if workers > 1 or executor != "local" else _with_progress(options)  # parallel: no ticks
+    summary = run(options) if is_parallel(workers, executor) else _with_progress(options)  # parallel: no ticks
     if json:
         print_json("generate", summary.to_json())
         return

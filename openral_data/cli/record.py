@@ -15,6 +15,7 @@ from openral_data.cli.jsonout import print_json
 from openral_data.cli.record_flags import HAL_ONLY, RecordFlags
 from openral_data.cli.terminal import INTERRUPTED_RECORDING, print_line, print_rows, progress_bar
 from openral_data.errors import UsageError
+from openral_data.runtime.parallel.choice import is_parallel
 
 if TYPE_CHECKING:
     from openral_data.formats.lerobot_v3 import VideoSettings
@@ -37,7 +38,7 @@ def record(ctx: typer.Context, flags: RecordFlags) -> None:
     if f.hal is not None and (f.save_video or f.save_video_dir is not None):
         raise UsageError("--save-video/--save-video-dir: not available with --hal (a scene recording only)")
     view_given = bool(given & {"view", "view_port", "view_address"})
-    if view_given and (not f.view or f.workers != 1 or f.executor != "local"):
+    if view_given and (not f.view or is_parallel(f.workers, f.executor)):
         raise UsageError("--view, --view-port, --view-address: need --view, and not with --workers")
     if f.hal is not None:
         _record_hal(f, given, video, driver)
@@ -118,7 +119,7 @@ def _record_hal(f: RecordFlags, given: frozenset[str], video: VideoSettings, dri
 def _record_scene(f: RecordFlags, given: frozenset[str], video: VideoSettings) -> None:
     """A scene recording, in this process or `--workers` processes, under the progress bar; then the summary."""
     opts = _scene_options(f, given, video)
-    parallel = f.workers != 1 or f.executor != "local"
+    parallel = is_parallel(f.workers, f.executor)
     if parallel:
         from openral_data.record.parallel.run import record_parallel
 
@@ -192,7 +193,8 @@ def _with_progress(
 
 def _interrupted(out: Path | None, parallel: bool) -> None:
     if parallel:  # the workers' shares are merged only at the end: nothing reaches --out
-        from openral_data.record.parallel.run import find_workers_dir, kept_note, kept_worker_episodes
+        from openral_data.record.parallel.run import kept_note
+        from openral_data.runtime.parallel.workdir import find_workers_dir, kept_worker_episodes
 
         target = find_workers_dir(out)
         kept = kept_worker_episodes(target) if target is not None else 0

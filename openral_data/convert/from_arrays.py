@@ -27,7 +27,7 @@ from openral_data.convert.summary import ConvertSummary, TopicReport
 from openral_data.convert.writing import REWARD, Converter
 from openral_data.errors import ConfigError, DatasetError
 from openral_data.formats.episodic import ArrayEpisode, ArraySource, ArraySpec
-from openral_data.formats.lerobot_v3.encoder import Codec, VideoSettings, with_codec
+from openral_data.formats.lerobot_v3.encoder import Codec, VideoSettings
 from openral_data.formats.staging import Staging, check_new_output
 from openral_data.schemas.mapping import Mapping
 
@@ -150,7 +150,7 @@ def convert_arrays(
     check_new_output(dst, "DST")
     staged = Staging(dst, "openral-data convert")
     with staged as staging:
-        conv = Converter(mapping, staging, with_codec(video, codec), summary, CameraTopics())
+        conv = Converter(mapping, staging, VideoSettings.given(codec, video=video), summary, CameraTopics())
         t0 = time.perf_counter()
         done = 0
         try:

@@ -34,16 +34,16 @@ from openral_data.convert.worker import (
     init_convert_worker,
     run_convert_job,
 )
-from openral_data.edit.ops import Rewrite, summed_histograms, write_selection
 from openral_data.edit.source import EpisodeData, SourceDataset
-from openral_data.errors import ExecutorError, UsageError
+from openral_data.errors import UsageError
 from openral_data.formats.codec import Codec
 from openral_data.formats.episodic import ArraySource
-from openral_data.formats.lerobot_v3.encoder import VideoSettings, with_codec
+from openral_data.formats.lerobot_v3.encoder import VideoSettings
 from openral_data.formats.staging import check_new_output
-from openral_data.record.parallel.run import workers_dir
 from openral_data.runtime.parallel.channel import STOP_HELD, held
 from openral_data.runtime.parallel.executors import check_executor, run_on
+from openral_data.runtime.parallel.shards import merge_shards
+from openral_data.runtime.parallel.workdir import fresh_workers_dir, worker_dir
 from openral_data.schemas.mapping import Mapping
 from openral_data.types import EpisodeRecord
 
@@ -89,7 +89,7 @@ def convert_parallel(
     video: VideoSettings | None = None,
 ) -> ConvertSummary:
     """Convert the bags of `src` in `workers` processes into one dataset at `dst`, as `convert_bags` would."""
-    settings = with_codec(video, codec)
+    settings = VideoSettings.given(codec, video=video)
     check_executor(executor, address)
     bags = find_bags(src)
     blocks = plan_blocks(bags, workers)
@@ -97,7 +97,7 @@ def convert_parallel(
     totals = check_bags(bags, mapping, ConvertSummary(src=src, dst=dst), cameras)  # every bag, before any work
     workdir = fresh_workdir(dst)
     jobs: list[ConvertJob | ArrayJob] = [
-        ConvertJob(w, src, block, workdir / f"worker-{w:03d}", mapping, settings, cameras, carry)
+        ConvertJob(w, src, block, worker_dir(workdir, w), mapping, settings, cameras, carry)
         for w, (block, carry) in enumerate(zip(blocks, carried_tasks(blocks, mapping), strict=True))
     ]
     return _run_blocks(jobs, workdir, src, dst, totals, executor, address, progress)
@@ -108,9 +108,7 @@ def fresh_workdir(dst: Path) -> Path:
     of what a killed run left."""
     check_new_output(dst, "DST")
     dst.parent.mkdir(parents=True, exist_ok=True)
-    workdir = workers_dir(dst)
-    shutil.rmtree(workdir, ignore_errors=True)
-    return workdir
+    return fresh_workers_dir(dst)
 
 
 def _run_blocks(
@@ -170,13 +168,13 @@ def convert_arrays_parallel(
     `workers` processes (contiguous blocks of files, as bags), merged in file order into one dataset at `dst`, as
     `convert_arrays` would write it; each worker opens its block with `reopen(source.path, block)` (its kind's
     `open_block`)."""
-    settings = with_codec(video, codec)
+    settings = VideoSettings.given(codec, video=video)
     check_executor(executor, address)
     totals = sum(ep.length for ep in source.episodes())  # every file opened once, before any work
     source.close()
     workdir = fresh_workdir(dst)
     jobs: list[ConvertJob | ArrayJob] = [
-        ArrayJob(w, source.path, source.layout, block, workdir / f"worker-{w:03d}", mapping, settings, reopen)
+        ArrayJob(w, source.path, source.layout, block, worker_dir(workdir, w), mapping, settings, reopen)
         for w, block in enumerate(plan_blocks(files, workers))
     ]
     return _run_blocks(jobs, workdir, source.path, dst, totals, executor, address, progress, source.layout)
@@ -247,9 +245,6 @@ def _merge(results: list[ConvertResult], dst: Path) -> None:
             sources.append(src)
             offsets[src.root] = before
         before += r.summary.source_episodes
-    hist = summed_histograms(sources)
-    if hist is None:
-        raise ExecutorError(f"{dst}: a worker left no camera histograms (.openral/image_hist.json)")
 
     def renumber(ep: EpisodeData) -> EpisodeData:
         if ep.seed is None:
@@ -257,5 +252,4 @@ def _merge(results: list[ConvertResult], dst: Path) -> None:
         seed = ep.seed + offsets[ep.source]
         return dataclasses.replace(ep, seed=seed, initial_state={**ep.initial_state, "source_episode": seed})
 
-    selection = [(s, e) for s in sources for e in range(s.total)]
-    write_selection(selection, dst, "convert --workers", rewrite=Rewrite(transform=renumber, image_hist=hist))
+    merge_shards(sources, dst, "convert --workers", where=dst, transform=renumber)

@@ -30,7 +30,7 @@ from openral_data.convert.summary import ConvertSummary
 from openral_data.convert.timed import bool_value, marker_event, reward_value, timed_messages
 from openral_data.convert.writing import REWARD, Converter
 from openral_data.formats.codec import Codec
-from openral_data.formats.lerobot_v3.encoder import VideoSettings, with_codec
+from openral_data.formats.lerobot_v3.encoder import VideoSettings
 from openral_data.formats.staging import Staging, check_new_output
 from openral_data.schemas.mapping import Mapping
 
@@ -57,7 +57,7 @@ def convert_bags(
     first bag's camera intrinsics, as one process does). `carried_task`: the (time, text) a block's first bag
     starts with, as one process carries the previous bag's last task message into the next bag (`last_task`).
     `video`: the encoder settings (`codec` is the shorthand of `video.codec`), checked before anything is read."""
-    settings = with_codec(video, codec)
+    settings = VideoSettings.given(codec, video=video)
     bags = find_bags(src) if bags is None else bags
     summary = ConvertSummary(src=src, dst=dst, bags=len(bags))
     wanted = mapping.topics()

@@ -18,6 +18,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
+from openral_data.columns import INTERVENTION, POLICY_ACTION
 from openral_data.episodes import select_numbered
 from openral_data.errors import DatasetError
 from openral_data.formats.dataset import open_lerobot
@@ -33,7 +34,6 @@ from openral_data.formats.lerobot_v3.success import episode_successes
 from openral_data.formats.lerobot_v3.variants import camera_layout, feature_info, is_depth
 from openral_data.formats.mcap import McapConfig, McapSink
 from openral_data.formats.staging import Staging, check_new_output
-from openral_data.policies.intervention import INTERVENTION, POLICY_ACTION
 from openral_data.types import CameraShape, DatasetSchema, EpisodeRecord, EpisodeStart, FrameColumn
 
 if TYPE_CHECKING:

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from openral_data.columns import POLICY_ACTION
 from openral_data.convert.align import AlignedFrame, Aligner
 from openral_data.convert.camera_topics import check_info_size
 from openral_data.convert.preflight import CameraTopics
@@ -22,7 +23,6 @@ from openral_data.errors import BagError
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
 from openral_data.formats.lerobot_v3.depth import DepthSettings
 from openral_data.formats.lerobot_v3.provenance import Origin
-from openral_data.policies.intervention import POLICY_ACTION
 from openral_data.runtime.bridge import DatasetBridge
 from openral_data.schemas.mapping import Mapping
 from openral_data.types import CameraShape, DatasetSchema, FrameColumn, Observation
@@ -66,7 +66,7 @@ class Converter:
     ) -> None:
         self.mapping = mapping
         self.dst = dst
-        self.video = video  # resolved and checked (`encoder.with_codec`)
+        self.video = video  # resolved and checked (`VideoSettings.given`)
         self.summary = summary
         self.cameras = cameras
         # state, action and (when mapped) environment_state, each its parts' readers

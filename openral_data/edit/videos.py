@@ -29,7 +29,7 @@ from openral_data.edit.recode import CameraEncoders, Pixels, clip_frames, image_
 from openral_data.edit.source import EpisodeData, SourceDataset
 from openral_data.errors import DatasetError, UsageError
 from openral_data.formats.lerobot_v3.config import WriterConfig
-from openral_data.formats.lerobot_v3.encoder import VideoSettings, with_codec
+from openral_data.formats.lerobot_v3.encoder import VideoSettings
 from openral_data.formats.lerobot_v3.features import camera_keys
 from openral_data.formats.lerobot_v3.masks import is_mask
 from openral_data.formats.lerobot_v3.reader import read_info
@@ -50,8 +50,8 @@ def parse_size(text: str) -> CameraShape:
 
 
 def settings_for(codec: str, video: VideoSettings | None = None) -> VideoSettings:
-    """`--vcodec` applied to the other encoder settings, resolved and checked (`encoder.with_codec`)."""
-    return with_codec(video, codec)
+    """`--vcodec` applied to the other encoder settings, resolved and checked (`VideoSettings.given`)."""
+    return VideoSettings.given(codec, video=video)
 
 
 def choose_cameras(

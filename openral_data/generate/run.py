@@ -28,6 +28,7 @@ from openral_data.policies.mimicgen.plan import Demo, Plan, write_plan
 from openral_data.record.options import ProgressFn, RecordOptions, RecordSummary
 from openral_data.replay.rebuild import SceneView, rebuild
 from openral_data.replay.recorded import RecordedDataset
+from openral_data.runtime.parallel.choice import is_parallel
 
 
 @dataclass(frozen=True)
@@ -166,7 +167,7 @@ def generate(opts: GenerateOptions, progress: ProgressFn | None = None) -> Gener
 
 
 def _record(record_opts: RecordOptions, opts: GenerateOptions, progress: ProgressFn | None) -> RecordSummary:
-    if opts.workers == 1 and opts.executor == "local":
+    if not is_parallel(opts.workers, opts.executor):
         from openral_data.record.sim import record
 
         return record(record_opts, progress)

@@ -1,4 +1,5 @@
-"""Interventions (a person took over from the policy: `openral.intervention`, policies/intervention.py) as SQL
+"""Interventions (a person took over from the policy: `openral.intervention`, columns.py; written by
+policies/intervention.py) as SQL
 views; the `stats` report's tables (report.py) read them.
 
 Views (docs/stats.md):
@@ -18,8 +19,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+from openral_data.columns import INTERVENTION
 from openral_data.metrics.sources import DatasetSource
-from openral_data.policies.intervention import INTERVENTION
 
 _EMPTY_RUNS = (
     "SELECT NULL::VARCHAR AS dataset, NULL::BIGINT AS episode_index, NULL::BIGINT AS start_frame, "

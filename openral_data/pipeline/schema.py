@@ -30,7 +30,7 @@ from pydantic import Field, field_validator, model_validator
 
 from openral_data.errors import ConfigError, DatasetError, UsageError
 from openral_data.formats.codec import Codec
-from openral_data.formats.lerobot_v3.encoder import VideoSettings, with_codec
+from openral_data.formats.lerobot_v3.encoder import VideoSettings
 from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.manifests import Kind, find
 from openral_data.paths import contained, safe_name
@@ -96,16 +96,16 @@ class RecordStep(StrictModel):
         return self
 
     def video_settings(self) -> VideoSettings:
-        """The step's encoder settings, resolved (`auto` probed) and checked."""
-        base = VideoSettings()
-        video = VideoSettings(
-            crf=base.crf if self.crf is None else (int(self.crf) if self.crf == int(self.crf) else self.crf),
-            g=base.g if self.gop is None else self.gop,
+        """The step's encoder settings (`codec:` and `vcodec:` are one setting), resolved (`auto` probed) and
+        checked."""
+        return VideoSettings.given(
+            self.vcodec or self.codec,
+            crf=self.crf,
+            g=self.gop,
             preset=self.preset,
-            pix_fmt=self.pix_fmt or base.pix_fmt,
+            pix_fmt=self.pix_fmt or None,
             threads=self.encoder_threads,
         )
-        return with_codec(video, self.vcodec or self.codec)
 
     @field_validator("robots")
     @classmethod

@@ -26,6 +26,7 @@ from openral_data.formats.jsonfile import parse_json
 from openral_data.formats.staging import clean_orphans
 from openral_data.paths import contained, safe_name
 from openral_data.pipeline.schema import ENCODER_FIELDS, Step
+from openral_data.runtime.parallel.workdir import workers_dirs
 
 
 def config_hash(step: Step) -> str:
@@ -101,7 +102,7 @@ class StepState:
             path.unlink()
         elif path.is_dir():
             shutil.rmtree(path)
-        for workers in self.dir.glob(f"..{name}.partial-*.workers-*"):  # a killed `record --workers` item's shares
+        for workers in workers_dirs(self.dir, f".{name}.partial-*"):  # a killed `record --workers` item's shares
             if workers.is_symlink() or not workers.is_dir():
                 workers.unlink()
             else:

@@ -8,6 +8,7 @@ from typing import Any
 
 from openral_data.errors import ConfigError
 from openral_data.pipeline.schema import ConvertStep, ExportStep, MergeStep, RecordStep, StatsStep, Step
+from openral_data.runtime.parallel.choice import is_parallel
 
 # (item name, run(item path) -> summary); the runner skips items already marked done
 ItemJob = tuple[str, Callable[[Path], dict[str, Any]]]
@@ -51,7 +52,6 @@ def _record_one(
             seed=spec.seeds.start,
             max_steps=spec.max_steps,
             out=out,
-            codec=spec.vcodec or spec.codec,
             video=spec.video_settings(),
             formats=tuple(spec.formats),
             image_format=spec.image_format,
@@ -61,7 +61,7 @@ def _record_one(
             device=spec.device,
         )
         summary: RecordSummary
-        if spec.workers > 1 or spec.executor != "local":
+        if is_parallel(spec.workers, spec.executor):
             from openral_data.record.parallel.run import record_parallel
 
             summary = record_parallel(opts, spec.workers, spec.executor)
@@ -132,10 +132,10 @@ def _convert_job(spec: ConvertStep) -> ItemJob:
     def run(out: Path) -> dict[str, Any]:
         from openral_data.convert.entry import convert
         from openral_data.convert.kinds.base import Parallel
-        from openral_data.formats.lerobot_v3.encoder import with_codec
+        from openral_data.formats.lerobot_v3.encoder import VideoSettings
 
-        video = with_codec(None, spec.codec) if spec.codec is not None else None
-        parallel = Parallel(spec.workers) if spec.workers > 1 else None
+        video = VideoSettings.given(spec.codec) if spec.codec is not None else None
+        parallel = Parallel(spec.workers) if is_parallel(spec.workers, "local") else None
         mapping = Path(spec.mapping) if spec.mapping is not None else None
         summary = convert(Path(spec.source), out, mapping, video=video, parallel=parallel, fps=spec.fps)
         return {"source": spec.source, "episodes": len(summary.episodes), "frames": summary.frames}

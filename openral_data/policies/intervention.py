@@ -28,14 +28,12 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 import numpy.typing as npt
 
+from openral_data.columns import INTERVENTION, POLICY_ACTION
 from openral_data.policies.base import PolicyAdapter
 from openral_data.producers.hal.teleop.eef_device import DeviceTeleop
 from openral_data.producers.hal.teleop.keyboard import HELP as TELEOP_HELP
 from openral_data.producers.hal.teleop.keyboard import TAKEOVER_KEY
 from openral_data.types import FrameColumn, Observation
-
-POLICY_ACTION = "openral.policy_action"
-INTERVENTION = "openral.intervention"
 
 
 def takeover_help(control: str) -> str:

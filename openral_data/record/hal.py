@@ -16,7 +16,6 @@ from openral_data import manifests
 from openral_data.errors import CompatibilityError, ConfigError, UsageError
 from openral_data.formats.codec import Codec
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
-from openral_data.formats.lerobot_v3.encoder import with_codec
 from openral_data.formats.lerobot_v3.provenance import HalOrigin, Origin, Recorded, SafetyRecord
 from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.policies.base import PolicyAdapter
@@ -106,7 +105,7 @@ class HalRecordOptions:
         """`mode`, `safety` and the output settings are checked here, once, by whoever builds the options (the
         CLI, the Python API)."""
         check_outputs(self.formats, self.codec, self.image_format, self.mcap_compression)
-        object.__setattr__(self, "video", with_codec(self.video, self.codec))  # resolved and checked, once
+        object.__setattr__(self, "video", VideoSettings.given(self.codec, video=self.video))  # decided once
         object.__setattr__(self, "codec", self.video.codec)
         if self.mode not in get_args(Mode):
             raise UsageError(f"--mode: {self.mode!r}; valid: {', '.join(get_args(Mode))}")

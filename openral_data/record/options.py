@@ -10,7 +10,7 @@ from typing import Literal
 from openral_data import manifests
 from openral_data.errors import UsageError
 from openral_data.formats.codec import Codec
-from openral_data.formats.lerobot_v3.encoder import VideoSettings, with_codec
+from openral_data.formats.lerobot_v3.encoder import VideoSettings
 from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.runtime.outdir import fresh_out
 from openral_data.runtime.sinks import OutputFormat, check_outputs
@@ -57,7 +57,7 @@ class RecordOptions:
 
     def __post_init__(self) -> None:
         check_outputs(self.formats, self.codec, self.image_format, self.mcap_compression)
-        object.__setattr__(self, "video", with_codec(self.video, self.codec))  # resolved and checked, once
+        object.__setattr__(self, "video", VideoSettings.given(self.codec, video=self.video))  # decided once
         object.__setattr__(self, "codec", self.video.codec)
         if self.keep not in ("all", "success"):
             raise UsageError(f"--keep: {self.keep!r} is not all or success")

@@ -77,6 +77,7 @@ from typing import Literal
 
 from pydantic import Field, model_validator
 
+from openral_data.columns import FRAME_COLUMNS
 from openral_data.schemas.base import StrictModel, load_model
 
 _FIELD = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
@@ -220,22 +221,16 @@ _RESERVED = {"observation.state", "observation.environment_state", "action", "ti
 _RESERVED |= {"episode_index", "index", "task_index", "task", "next.reward", "next.done", "next.success"}
 _RESERVED |= {"observation.images"}
 _COLUMN = re.compile(r"^[A-Za-z0-9_]+(\.[A-Za-z0-9_]+)*$")
-# our own `openral.*` names (policies/intervention.py) a column may take, each with the one dtype it has there
-# (`stats` reads the flag as a bool); every other `openral.*` name is ours (the episode columns of meta/episodes)
-OWN_COLUMNS: dict[str, Literal["float32", "bool"]] = {
-    "openral.intervention": "bool",
-    "openral.policy_action": "float32",
-}
 
 
 def column_problem(key: str, dtype: str) -> str | None:
     """Why `key` (with `dtype`) cannot be an extra per-frame column, or None."""
     if not _COLUMN.match(key) or key in _RESERVED or key.startswith("observation.images."):
         return f"{key!r} is not a free feature name (dotted words, none of lerobot's own)"
-    if key.startswith("openral.") and key not in OWN_COLUMNS:
-        return f"{key!r}: openral.* names are openral-data's own (only {', '.join(OWN_COLUMNS)} are columns)"
-    if key in OWN_COLUMNS and dtype != OWN_COLUMNS[key]:
-        return f"{key!r} is a {OWN_COLUMNS[key]} column (dtype: {OWN_COLUMNS[key]})"
+    if key.startswith("openral.") and key not in FRAME_COLUMNS:
+        return f"{key!r}: openral.* names are openral-data's own (only {', '.join(FRAME_COLUMNS)} are columns)"
+    if key in FRAME_COLUMNS and dtype != FRAME_COLUMNS[key]:
+        return f"{key!r} is a {FRAME_COLUMNS[key]} column (dtype: {FRAME_COLUMNS[key]})"
     return None
 
 

@@ -18,13 +18,14 @@ from rosbags.rosbag2 import StoragePlugin
 from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_typestore
 
+from openral_data.columns import FRAME_COLUMNS, INTERVENTION, POLICY_ACTION
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, WriterConfig
 from openral_data.formats.lerobot_v3.features import DEFAULT_FEATURES, EPISODE_EXTRA_COLUMNS, OUTCOME_FEATURES
 from openral_data.formats.mcap import McapSink, finished_bags
 from openral_data.metrics.command import stats_query
-from openral_data.policies.intervention import INTERVENTION, POLICY_ACTION, intervention_columns
+from openral_data.policies.intervention import intervention_columns
 from openral_data.runtime.bridge import DatasetBridge
-from openral_data.schemas.mapping import OWN_COLUMNS, Mapping
+from openral_data.schemas.mapping import Mapping
 from openral_data.types import DatasetSchema, FrameColumn, Observation
 from tests.support.bags import MAPPING, write_ros2
 from tests.support.inproc import run_inproc
@@ -38,7 +39,7 @@ def _mapping(columns: dict[str, Any], **more: Any) -> Mapping:
 
 
 def test_own_columns_are_the_intervention_sessions() -> None:
-    assert {c.key: c.dtype for c in intervention_columns(ACTIONS)} == OWN_COLUMNS
+    assert {c.key: c.dtype for c in intervention_columns(ACTIONS)} == FRAME_COLUMNS
 
 
 @pytest.mark.parametrize(
@@ -52,9 +53,9 @@ def test_reserved_names_are_refused(key: str) -> None:
 
 @pytest.mark.parametrize(("key", "dtype"), [(INTERVENTION, "float32"), (POLICY_ACTION, "bool")])
 def test_own_columns_keep_their_dtype(key: str, dtype: str) -> None:
-    with pytest.raises(ValidationError, match=f"is a {OWN_COLUMNS[key]} column"):
+    with pytest.raises(ValidationError, match=f"is a {FRAME_COLUMNS[key]} column"):
         _mapping({key: {"topic": "/cmd", "dtype": dtype}})
-    _mapping({key: {"topic": "/cmd", "dtype": OWN_COLUMNS[key]}})  # its own dtype is fine
+    _mapping({key: {"topic": "/cmd", "dtype": FRAME_COLUMNS[key]}})  # its own dtype is fine
 
 
 @pytest.mark.parametrize("topic", ["/task", "/openral/episode"])

@@ -20,11 +20,10 @@ import pyarrow.parquet as pq
 import pytest
 from rosbags.highlevel import AnyReader
 
+from openral_data.columns import INTERVENTION, POLICY_ACTION
 from openral_data.formats.mcap import finished_bags
 from openral_data.metrics.command import stats_query
 from openral_data.policies.intervention import (
-    INTERVENTION,
-    POLICY_ACTION,
     Intervention,
     TakeoverSwitch,
     intervention_columns,

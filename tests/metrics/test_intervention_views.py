@@ -12,9 +12,10 @@ from typing import Any
 import numpy as np
 import pytest
 
+from openral_data.columns import INTERVENTION, POLICY_ACTION
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, WriterConfig
 from openral_data.metrics.command import StatsOptions, run_stats, stats_query
-from openral_data.policies.intervention import INTERVENTION, POLICY_ACTION, intervention_columns
+from openral_data.policies.intervention import intervention_columns
 from openral_data.runtime.bridge import DatasetBridge
 from openral_data.types import DatasetSchema, Observation
 from tests.support.lerobot_written import write_lerobot_dataset

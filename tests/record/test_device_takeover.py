@@ -24,11 +24,10 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
+from openral_data.columns import INTERVENTION, POLICY_ACTION
 from openral_data.errors import UsageError
 from openral_data.metrics.command import stats_query
 from openral_data.policies.intervention import (
-    INTERVENTION,
-    POLICY_ACTION,
     Intervention,
     device_switch,
     intervention_columns,

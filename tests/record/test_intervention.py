@@ -23,10 +23,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from openral_data.columns import INTERVENTION, POLICY_ACTION
 from openral_data.metrics.command import stats_query
 from openral_data.policies.intervention import (
-    INTERVENTION,
-    POLICY_ACTION,
     Intervention,
     TakeoverSwitch,
     intervention_columns,

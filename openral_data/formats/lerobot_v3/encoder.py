@@ -48,7 +48,6 @@ __all__ = [  # the codec names are formats/codec.py's (no PyAV there), re-export
     "parse_codec",
     "pixel_formats",
     "preset_value",
-    "with_codec",
 ]
 
 log = logging.getLogger(__name__)
@@ -190,6 +189,35 @@ class VideoSettings:
             "is_depth_map": False,
         }
 
+    @classmethod
+    def given(
+        cls,
+        codec: str | None = None,
+        *,
+        crf: float | None = None,
+        g: int | None = None,
+        preset: int | str | None = None,
+        pix_fmt: str | None = None,
+        threads: int | None = None,
+        video: VideoSettings | None = None,
+    ) -> VideoSettings:
+        """The one place a run's encoder settings are decided: what the user gave (a flag, a pipeline key, an API
+        argument; None: not given) over `video` (default: lerobot's), resolved (`auto` probed) and checked.
+        `codec` is the shorthand of `video.codec` (`--vcodec`, its alias `--codec`, a pipeline's `codec:` or
+        `vcodec:`, `RecordOptions(codec=...)`): it applies while `video.codec` is the default (av1), else
+        `video.codec` wins, so `RecordOptions(codec="h264")` and `RecordOptions(video=...)` both work."""
+        base = video or cls()
+        named = parse_codec(codec) if codec is not None else base.codec
+        return replace(
+            base,
+            codec=named if base.codec == "av1" else base.codec,
+            crf=base.crf if crf is None else (int(crf) if crf == int(crf) else crf),
+            g=base.g if g is None else g,
+            preset=base.preset if preset is None else preset,
+            pix_fmt=base.pix_fmt if pix_fmt is None else pix_fmt,
+            threads=base.threads if threads is None else threads,
+        ).resolve()
+
     def resolve(self) -> VideoSettings:
         """These settings with a concrete encoder (`auto` probed), checked against this FFmpeg: a bad
         combination is one `UsageError` naming the flag, before anything is encoded."""
@@ -227,14 +255,6 @@ class VideoSettings:
                 raise UsageError(f"--preset: {preset!r}: av1 (SVT-AV1) takes -1..13")
         elif enc in ("libx264", "libx265") and preset not in X26X_PRESETS:
             raise UsageError(f"--preset: {preset!r}: {enc} takes one of {', '.join(X26X_PRESETS)}")
-
-
-def with_codec(video: VideoSettings | None, codec: str) -> VideoSettings:
-    """`codec` (the `--codec`/`--vcodec` shorthand) applied to `video`, resolved and checked: `video.codec` wins
-    when it is not the default, so `RecordOptions(codec="h264")` and `RecordOptions(video=...)` both work."""
-    video = video or VideoSettings()
-    codec = parse_codec(codec)
-    return (replace(video, codec=codec) if video.codec == "av1" and codec != "av1" else video).resolve()
 
 
 def encoder_threads(settings: VideoSettings, cameras: int) -> int | None:

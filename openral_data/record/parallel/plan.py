@@ -9,6 +9,7 @@ from pathlib import Path
 from openral_data.errors import UsageError
 from openral_data.record.options import RecordOptions
 from openral_data.runtime import registry
+from openral_data.runtime.parallel.workdir import worker_dir
 from openral_data.schemas.scene import load_recordable_scene
 
 
@@ -42,7 +43,7 @@ def plan(opts: RecordOptions, workers: int, workdir: Path, threads: int | None =
     for w in range(workers):
         count = n // workers + (1 if w < n % workers else 0)
         share = dataclasses.replace(
-            opts, out=workdir / f"worker-{w:03d}", seed=seed + start, n_episodes=count, first_episode=start
+            opts, out=worker_dir(workdir, w), seed=seed + start, n_episodes=count, first_episode=start
         )
         jobs.append(WorkerJob(w, share, threads))
         start += count

@@ -17,12 +17,10 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from openral_data import manifests
-from openral_data.edit.ops import summed_histograms, write_selection
 from openral_data.edit.source import SourceDataset
 from openral_data.errors import ExecutorError, OpenralError, UsageError
 from openral_data.formats import atomic
-from openral_data.formats.jsonfile import load_json, parse_json
+from openral_data.formats.jsonfile import parse_json
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.mcap import MCAP_SUBDIR, finished_bags
 from openral_data.formats.staging import Staging
@@ -32,6 +30,8 @@ from openral_data.record.parallel.plan import plan
 from openral_data.record.parallel.worker import WorkerResult, init_local_worker, run_worker
 from openral_data.runtime import registry
 from openral_data.runtime.parallel.executors import run_on
+from openral_data.runtime.parallel.shards import merge_shards
+from openral_data.runtime.parallel.workdir import fresh_workers_dir, kept_worker_episodes, worker_dir
 from openral_data.schemas.scene import load_recordable_scene
 from openral_data.types import EpisodeRecord
 
@@ -65,8 +65,7 @@ def record_parallel(
     assert out is not None
     out.parent.mkdir(parents=True, exist_ok=True)
     held = claim(out, "openral-data record --workers", resume=False)  # before anything goes into `out`
-    workdir = workers_dir(out)
-    shutil.rmtree(workdir, ignore_errors=True)
+    workdir = fresh_workers_dir(out)
     t0 = time.perf_counter()
     try:
         jobs = plan(opts, workers, workdir, threads)
@@ -95,30 +94,6 @@ def record_parallel(
     )
 
 
-def workers_dir(out: Path) -> Path:
-    """Where this process's workers record their shares (one dataset per worker) before the merge into `out`."""
-    return out.parent / f".{out.name}.workers-{os.getpid()}"
-
-
-def find_workers_dir(out: Path | None) -> Path | None:
-    """This process's workers folder for `out` (None: the default output under datasets/), if it exists."""
-    if out is not None:
-        return workers_dir(out) if workers_dir(out).is_dir() else None
-    found = sorted(manifests.datasets_dir().glob(f".*.workers-{os.getpid()}"))
-    return found[0] if found else None
-
-
-def kept_worker_episodes(workdir: Path) -> int:
-    """Finished episodes the workers' datasets under `workdir` hold (0 when there are none)."""
-    total = 0
-    for info in sorted(workdir.glob(f"worker-*/{layout.INFO_PATH}")):
-        try:
-            total += int(load_json(info)["total_episodes"])
-        except (OSError, ValueError, KeyError, TypeError):
-            continue
-    return total
-
-
 def kept_note(workdir: Path, kept: int) -> str:
     return (
         f"nothing was written to --out; the workers' {kept} finished episode(s) are kept in {workdir}/worker-*/ "
@@ -138,7 +113,7 @@ def _assemble(results: list[WorkerResult], workdir: Path, held: Claim, formats: 
     if not folders:
         dropped = sum(r.discarded for r in results)
         raise ExecutorError(f"{out}: no worker kept an episode ({dropped} discarded)", code="executor.nothing_kept")
-    worker_dirs = [workdir / f"worker-{w:03d}" for w in folders]
+    worker_dirs = [worker_dir(workdir, w) for w in folders]
 
     def add_bags(staging: Path) -> None:
         _keep_settings(worker_dirs[0], staging, len(episodes))
@@ -156,18 +131,13 @@ def _assemble(results: list[WorkerResult], workdir: Path, held: Claim, formats: 
             raise ExecutorError(f"{out}: worker bags {names} are not episodes 0..{len(episodes) - 1}")
 
     if "lerobot" in formats:
-        sources = [SourceDataset(d) for d in worker_dirs]
-        selection = [(s, e) for s in sources for e in range(s.total)]
-        selection.sort(key=lambda se: se[0].seed(se[1]))
-        hist = summed_histograms(sources)
-        if hist is None:
-            raise ExecutorError(f"{workdir}: a worker left no camera histograms (.openral/image_hist.json)")
-        write_selection(
-            selection,
+        merge_shards(
+            [SourceDataset(d) for d in worker_dirs],
             out,
             "record --workers",
+            where=workdir,
+            order=lambda se: se[0].seed(se[1]),
             before_publish=add_bags,
-            image_hist=hist,
             before_rename=held.release,
             out_checked=True,
         )
