@@ -111,6 +111,7 @@ def _source_info(src: Path, json: bool) -> bool:
         (a.key, f"{a.dtype} {list(a.shape)}" + ("" if a.encoding == "raw" else f" ({a.encoding})"))
         for a in arrays.arrays
     ]
+    rows += [(key, f"ignored: {why}") for key, why in arrays.ignored.items()]
     rows.append(("tasks", languages or "-"))
     print_rows(str(src), rows)
     return True

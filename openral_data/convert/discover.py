@@ -95,6 +95,7 @@ class ArrayInfo:
     steps: int
     arrays: list[ArraySpec]
     languages: list[str]
+    ignored: dict[str, str] = field(default_factory=dict)  # datasets that are not per-step arrays (key -> why)
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -108,6 +109,7 @@ class ArrayInfo:
                 {"key": a.key, "dtype": a.dtype, "shape": list(a.shape), "encoding": a.encoding} for a in self.arrays
             ],
             "languages": self.languages,
+            "ignored": self.ignored,
         }
 
 
@@ -125,6 +127,8 @@ def describe_arrays(source: ArraySource) -> ArrayInfo:
             elif specs != info.arrays:
                 raise DatasetError(f"{source.path}: episode {episode.name}: its arrays differ from the first episode's",
                                    code="dataset.invalid")  # fmt: skip
+            for key, why in episode.meta.ignored.items():
+                info.ignored.setdefault(key, why)
             info.episodes += 1
             info.steps += episode.length
             language = episode.meta.language

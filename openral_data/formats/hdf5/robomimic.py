@@ -18,15 +18,15 @@ import h5py
 import numpy.typing as npt
 
 from openral_data.errors import DatasetError
-from openral_data.formats.episodic import ArraySpec, EpisodeMeta
+from openral_data.formats.episodic import ArraySpec, Encoding, EpisodeMeta
 from openral_data.formats.hdf5.files import (
     attr_scalar,
+    episode_specs,
     json_attr,
     member,
     natural_key,
     open_file,
     read_key,
-    step_spec,
     walk_datasets,
 )
 
@@ -53,7 +53,7 @@ class RobomimicEpisode:
     def __init__(self, file: Path, group: h5py.Group, meta: EpisodeMeta) -> None:
         self.file = file
         self.group = group
-        self.meta = meta
+        self._meta = meta
         self.name = str(group.name).rsplit("/", 1)[-1]
         self.length = self._find_length()
         self._specs: dict[str, ArraySpec] | None = None
@@ -73,18 +73,23 @@ class RobomimicEpisode:
             )
         return length
 
+    @property
+    def meta(self) -> EpisodeMeta:
+        self._all()  # fills meta.ignored
+        return self._meta
+
     def _all(self) -> dict[str, ArraySpec]:
         if self._specs is None:
-            self._specs = {
-                k: step_spec(ds, k, self.length, self.file) for k, ds in walk_datasets(self.group, self.file, SKIPPED)
-            }
+            raw: Encoding = "raw"
+            items = ((k, ds, raw) for k, ds in walk_datasets(self.group, self.file, SKIPPED))
+            self._specs, self._meta.ignored = episode_specs(items, self.length, self.file)
         return self._specs
 
     def specs(self) -> list[ArraySpec]:
         return list(self._all().values())
 
     def read(self, key: str, start: int, stop: int) -> npt.NDArray[Any]:
-        return read_key(self.group, self._all(), key, start, stop, self.file)
+        return read_key(self.group, self._all(), key, start, stop, self.file, self._meta.ignored)
 
 
 class RobomimicFile:
