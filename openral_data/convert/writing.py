@@ -193,6 +193,8 @@ class Converter:
     def decode(self, samples: dict[str, Any]) -> dict[str, npt.NDArray[Any]]:
         """A frame's images (runs in a decoder thread)."""
         images: dict[str, npt.NDArray[Any]] = {name: samples[name].decode() for name in self.mapping.cameras}
+        if self.mapping.image_origin == "bottom":  # stored bottom row first (an OpenGL read-back): made upright
+            images = {name: np.ascontiguousarray(img[::-1]) for name, img in images.items()}
         for name, unit in self.cameras.depth_units.items():
             images[name] = samples[name].decode_depth(unit)
         return images
