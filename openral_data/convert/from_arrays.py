@@ -183,6 +183,8 @@ def _episode(conv: Converter, ep: ArrayEpisode, where: str, done: int, total: in
         conv.summary.topics.setdefault(key, TopicReport(key, f"{spec.dtype}{list(spec.shape)} ({spec.encoding})"))
     conv.tasks = [(0, (mapping.task_topic and ep.meta.language) or mapping.task or "")]
     conv.successes = []
+    # a source split (RLDS, robomimic filter keys) goes with the episode: info.json's splits are made from it
+    conv.episode_start = {"split": ep.meta.split, "source_name": ep.name} if ep.meta.split else {}
     step_bytes = sum(max(1, int(np.prod(s.shape))) * np.dtype(s.dtype).itemsize for s in specs.values())
     rows = max(1, min(MAX_CHUNK_ROWS, CHUNK_BYTES // max(1, step_bytes)))
     period = 1e9 / mapping.fps

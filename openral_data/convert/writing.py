@@ -94,6 +94,7 @@ class Converter:
         self.pending: _Pending | None = None
         self.tasks: list[tuple[int, str]] = []
         self.successes: list[tuple[int, bool]] = []  # (time, value) on the success topic, oldest first
+        self.episode_start: dict[str, Any] = {}  # more of the source episode's initial_state (its split)
         self.source_episode = 0
         self.segment_frames = 0
         self.segment_start = 0
@@ -209,7 +210,7 @@ class Converter:
         if not self.open:
             if self.segment_frames:  # this source episode already produced an episode: a hole split it
                 self.summary.splits += 1
-            bridge.begin_episode(self.source_episode, {"source_episode": self.source_episode})
+            bridge.begin_episode(self.source_episode, {"source_episode": self.source_episode, **self.episode_start})
             self.open = True
             self.segment_start = pending.frame.time_ns
         obs = Observation(
