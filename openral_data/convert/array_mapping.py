@@ -6,7 +6,8 @@ kind's in `convert.kinds`): what a known layout holds, each guess said (`Guess`)
 
 For array sources a role's `topic` is an array key and its `field` is not used; `task_topic: episode:language`
 takes the episode's own language instruction (LIBERO's `problem_info`); `reward` takes a numeric per-step array;
-`success` a per-step array whose non-zero values mean success (`dones`, `rewards`, `is_terminal`). Steps are
+`success` a per-step array whose non-zero values mean success (a `success` array, sparse `rewards`; robomimic's
+`dones` is not one: it may mark every demo's end). Steps are
 frames: `align` and `episodes` do not apply (episodes are the source's).
 """
 
@@ -135,12 +136,50 @@ def robomimic_mapping(source: ArraySource, first: ArrayEpisode) -> tuple[dict[st
         out["environment_state"] = _vector(env)
         guesses.append(Guess("environment_state", "the obs/object* arrays (object poses and relations)"))
     out["cameras"] = cams
+    if cams:
+        origin, why = _robomimic_origin(source.layout)
+        out["image_origin"] = origin
+        guesses.append(Guess("image_origin", why))
     if "rewards" in specs and is_vector(specs["rewards"]) and not specs["rewards"].shape:
         out["reward"] = {"topic": "rewards"}
-    if "dones" in specs and is_vector(specs["dones"]) and not specs["dones"].shape:
-        out["success"] = {"topic": "dones"}
-        guesses.append(Guess("success", "dones: robomimic sets it on the step the task succeeded"))
+    success, why = _robomimic_success(specs, kwargs)
+    if success is not None:
+        out["success"] = {"topic": success}
+    guesses.append(Guess("success", why))
     return out, guesses
+
+
+def _robomimic_origin(layout: str) -> tuple[str, str]:
+    """Whether a robomimic-family file stores its pictures bottom row first, and why. robosuite renders with
+    OpenGL's origin (bottom row first) unless its IMAGE_CONVENTION macro says opencv. LIBERO's create_dataset.py
+    stores its env's observations as they come: bottom-up. robomimic's EnvRobosuite (dataset_states_to_obs.py,
+    which MimicGen's generation also goes through) flips them (`di[k][::-1]`) before they are stored: upright."""
+    if layout == "libero":
+        return "bottom", (
+            "LIBERO stores robosuite's renders as OpenGL reads them, bottom row first: flipped upright "
+            "(image_origin: top keeps them as stored)"
+        )
+    return "top", (
+        "robomimic's env wrapper (MimicGen's too) flips robosuite's renders upright before storing them: kept "
+        "as stored (image_origin: bottom flips them)"
+    )
+
+
+def _robomimic_success(specs: dict[str, ArraySpec], kwargs: Any) -> tuple[str | None, str]:
+    """The per-step array whose non-zero values mean success in a robomimic-family file, and why (None: unknown).
+    `dones` never does: robomimic's dataset_states_to_obs sets it at success (done_mode 0), at the end of every demo
+    (1) or both (2), and the file does not say which. `rewards` does when robosuite's reward is sparse
+    (env_kwargs.reward_shaping: false: non-zero only on a step the task is done); shaped or unsaid, it does not."""
+    if "success" in specs and is_vector(specs["success"]) and not specs["success"].shape:
+        return "success", "the file's own per-step success array"
+    shaping = kwargs.get("reward_shaping") if isinstance(kwargs, dict) else None
+    if "rewards" in specs and is_vector(specs["rewards"]) and not specs["rewards"].shape and shaping is False:
+        return "rewards", "rewards: sparse (env_kwargs.reward_shaping: false), non-zero only where the task is done"
+    reason = "shaped" if shaping is True else "not said to be sparse (no env_kwargs.reward_shaping: false)"
+    return None, (
+        f"unknown: no success array; rewards {reason}; dones marks where a demo ends as often as success "
+        "(robomimic's done_mode), so it is not used. Map `success: {topic: KEY}` if a key means success"
+    )
 
 
 def _store_name(source: ArraySource) -> str:
@@ -273,6 +312,7 @@ def mapping_yaml(data: dict[str, Any], guesses: list[Guess], layout: str) -> str
             lines.append(f"# guess: {why[key]}")
         flow = None if isinstance(value, (dict, list)) else False  # leaf lists inline, the top level in blocks
         lines.append(yaml.safe_dump({key: value}, sort_keys=False, width=110, default_flow_style=flow).rstrip())
+    lines += [f"# {g.key}: not mapped: {g.why}" for g in guesses if data.get(g.key) in (None, {})]
     return "\n".join(lines) + "\n"
 
 

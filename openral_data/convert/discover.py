@@ -97,6 +97,7 @@ class ArrayInfo:
     steps: int
     arrays: list[ArraySpec]
     languages: list[str]
+    ignored: dict[str, str] = field(default_factory=dict)  # datasets that are not per-step arrays (key -> why)
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -110,6 +111,7 @@ class ArrayInfo:
                 {"key": a.key, "dtype": a.dtype, "shape": list(a.shape), "encoding": a.encoding} for a in self.arrays
             ],
             "languages": self.languages,
+            "ignored": self.ignored,
         }
 
     def rows(self) -> list[tuple[str, str]]:
@@ -121,6 +123,7 @@ class ArrayInfo:
             (a.key, f"{a.dtype} {list(a.shape)}" + ("" if a.encoding == "raw" else f" ({a.encoding})"))
             for a in self.arrays
         ]
+        rows += [(key, f"ignored: {why}") for key, why in self.ignored.items()]
         rows.append(("tasks", languages or "-"))
         return rows
 
@@ -139,6 +142,8 @@ def describe_arrays(source: ArraySource) -> ArrayInfo:
             elif specs != info.arrays:
                 raise DatasetError(f"{source.path}: episode {episode.name}: its arrays differ from the first episode's",
                                    code="dataset.invalid")  # fmt: skip
+            for key, why in episode.meta.ignored.items():
+                info.ignored.setdefault(key, why)
             info.episodes += 1
             info.steps += episode.length
             language = episode.meta.language

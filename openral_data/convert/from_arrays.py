@@ -67,14 +67,18 @@ def named(mapping: Mapping, first: ArrayEpisode, where: str) -> Mapping:
         parts = data[role]["parts"] if vector.parts is not None else [data[role]]
         for part, source in zip(parts, vector.sources(), strict=True):
             if source.fixed_names() is None:
-                spec = _spec(specs, source.topic, f"{where}: {first.name}", role)
+                spec = _spec(specs, source.topic, f"{where}: {first.name}", role, first.meta.ignored)
                 width = int(np.prod(spec.shape)) if spec.shape else 1
                 part["names"] = [f"{source.topic}[{i}]" for i in range(width)]
     return Mapping.model_validate(data)
 
 
-def _spec(specs: dict[str, ArraySpec], key: str, where: str, role: str) -> ArraySpec:
+def _spec(
+    specs: dict[str, ArraySpec], key: str, where: str, role: str, ignored: dict[str, str] | None = None
+) -> ArraySpec:
     spec = specs.get(key)
+    if spec is None and ignored and key in ignored:
+        raise DatasetError(f"{where}/{key}: {role}: not a per-step array: {ignored[key]}", code="dataset.source.shape")
     if spec is None:
         raise DatasetError(f"{where}/{key}: missing ({role}; per-step arrays: {', '.join(specs) or '-'})",
                            code="dataset.source.key")  # fmt: skip
@@ -84,10 +88,11 @@ def _spec(specs: dict[str, ArraySpec], key: str, where: str, role: str) -> Array
 def check_episode(ep: ArrayEpisode, mapping: Mapping, where: str) -> dict[str, ArraySpec]:
     """Every mapped key of `ep` present and of its role's kind; returns the mapped keys' specs."""
     specs = {s.key: s for s in ep.specs()}
+    ignored = ep.meta.ignored
     at = f"{where}: {ep.name}"
     out: dict[str, ArraySpec] = {}
     for role, source in mapping.vector_sources():
-        spec = out[source.topic] = _spec(specs, source.topic, at, role)
+        spec = out[source.topic] = _spec(specs, source.topic, at, role, ignored)
         width = int(np.prod(spec.shape)) if spec.shape else 1
         names = source.fixed_names()
         if not is_vector(spec) and len(spec.shape) > 1:
@@ -97,13 +102,13 @@ def check_episode(ep: ArrayEpisode, mapping: Mapping, where: str) -> dict[str, A
             raise DatasetError(f"{at}/{source.topic}: {role}: {width} values a step, the mapping names {len(names)}",
                                code="dataset.source.shape")  # fmt: skip
     for name, key in mapping.cameras.items():
-        spec = out[key] = _spec(specs, key, at, f"cameras.{name}")
+        spec = out[key] = _spec(specs, key, at, f"cameras.{name}", ignored)
         if not is_picture(spec):
             raise DatasetError(f"{at}/{key}: cameras.{name}: {spec.dtype} {spec.shape} a step, not an HxWx3 uint8 "
                                "picture", code="dataset.source.dtype")  # fmt: skip
     for what, scalar in (("reward", _topic(mapping.reward)), ("success", mapping.success_topic)):
         if scalar is not None:
-            spec = out[scalar] = _spec(specs, scalar, at, what)
+            spec = out[scalar] = _spec(specs, scalar, at, what, ignored)
             if spec.encoding != "raw" or int(np.prod(spec.shape)) != 1:
                 raise DatasetError(f"{at}/{scalar}: {what}: shape {spec.shape} a step, not one number",
                                    code="dataset.source.shape")  # fmt: skip
@@ -176,7 +181,8 @@ def _episode(conv: Converter, ep: ArrayEpisode, where: str, done: int, total: in
     specs = check_episode(ep, mapping, where)
     for key, spec in specs.items():
         conv.summary.topics.setdefault(key, TopicReport(key, f"{spec.dtype}{list(spec.shape)} ({spec.encoding})"))
-    conv.start_source_episode((mapping.task_topic and ep.meta.language) or mapping.task or "")
+    split = {"split": ep.meta.split, "source_name": ep.name} if ep.meta.split else {}  # info.json's splits
+    conv.start_source_episode((mapping.task_topic and ep.meta.language) or mapping.task or "", split)
     step_bytes = sum(max(1, int(np.prod(s.shape))) * np.dtype(s.dtype).itemsize for s in specs.values())
     rows = max(1, min(MAX_CHUNK_ROWS, CHUNK_BYTES // max(1, step_bytes)))
     period = 1e9 / mapping.fps

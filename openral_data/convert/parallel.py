@@ -223,7 +223,7 @@ def _combine(src: Path, dst: Path, parts: list[ConvertSummary]) -> ConvertSummar
             mine.used += rep.used
             mine.unused += rep.unused
             mine.unfillable_frames += rep.unfillable_frames
-        for name in ("skipped_topics", "header_stamps", "zero_stamps"):
+        for name in ("skipped_topics", "header_stamps", "zero_stamps", "trailing_bytes"):
             counts: dict[str, int] = getattr(total, name)
             for key, n in getattr(part, name).items():
                 counts[key] = counts.get(key, 0) + n

@@ -25,6 +25,7 @@ from openral_data.convert.bag_paths import folder_bags, is_bag
 from openral_data.errors import BagError, NotFound
 from openral_data.formats.mcap.chunks import check_bag
 from openral_data.formats.mcap.messages import DEPTH_ENCODINGS, RGB_ENCODINGS
+from openral_data.formats.rosbag1 import deserialize_ros1
 from openral_data.schemas.mapping import Vector, VectorSource
 
 
@@ -82,9 +83,18 @@ def read_messages(reader: AnyReader, bag: Path, conns: list[Connection]) -> Iter
 
 
 def deserialize(reader: AnyReader, bag: Path, raw: bytes, msgtype: str) -> Any:
-    """One message decoded; bytes that do not decode as `msgtype` raise a `BagError` naming the bag."""
+    """One message decoded; bytes that do not decode as `msgtype` raise a `BagError` naming the bag. A ROS 1
+    message's bytes after its last field are ignored (`deserialize_trailing`)."""
+    return deserialize_trailing(reader, bag, raw, msgtype)[0]
+
+
+def deserialize_trailing(reader: AnyReader, bag: Path, raw: bytes, msgtype: str) -> tuple[Any, int]:
+    """`deserialize`, and the bytes after the message's last field (ROS 1 only, which ignores them as ROS 1's own
+    reader does; 0 for ROS 2, whose CDR messages rosbags reads padding and all)."""
     try:
-        return reader.deserialize(raw, msgtype)
+        if reader.is2:
+            return reader.deserialize(raw, msgtype), 0
+        return deserialize_ros1(reader.typestore, raw, msgtype)
     except (*BAG_READ_ERRORS, struct.error, IndexError, TypeError) as exc:
         raise BagError(f"{bag}: a {msgtype} message does not decode: {exc}", code="bag.invalid") from None
 

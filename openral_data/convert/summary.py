@@ -35,6 +35,8 @@ class ConvertSummary:
     late_messages: int = 0  # align.clock header: stamps further than align.reorder behind the newest one read
     header_stamps: dict[str, int] = field(default_factory=dict)  # align.clock header: topic -> stamped messages
     zero_stamps: dict[str, int] = field(default_factory=dict)  # ... of them with header.stamp 0
+    trailing_bytes: dict[str, int] = field(default_factory=dict)  # ROS 1: topic -> decoded messages with bytes
+    #   after their last field (ignored, as ROS 1's own reader does)
     source_episodes: int = 0  # source episodes seen (boundaries by the mapping's episodes.split)
     source_kind: str | None = None  # an array source's layout (robomimic, aloha, ...); None: bags
 
@@ -70,5 +72,6 @@ class ConvertSummary:
             "success_topic": mapping.success.topic if mapping.success is not None else None,
             "success_markers": mapping.success is not None and mapping.success.marker,
             "skipped_topics": dict(sorted(self.skipped_topics.items())),
+            "trailing_bytes": dict(sorted(self.trailing_bytes.items())),
             "episode_list": [asdict(e) for e in self.episodes],
         }

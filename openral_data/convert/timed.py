@@ -4,6 +4,7 @@ deserialised only when used (`Message`), and the values read from the reward, su
 from __future__ import annotations
 
 import heapq
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -14,7 +15,7 @@ from rosbags.highlevel import AnyReader
 from rosbags.interfaces import Connection
 
 from openral_data.convert.camera_topics import decode_depth
-from openral_data.convert.sources import check_image, deserialize, field_value, read_messages
+from openral_data.convert.sources import check_image, deserialize_trailing, field_value, read_messages
 from openral_data.convert.summary import ConvertSummary
 from openral_data.errors import BagError
 from openral_data.formats.jsonfile import parse_json
@@ -22,19 +23,27 @@ from openral_data.formats.lerobot_v3.depth import DepthUnit
 from openral_data.formats.mcap.messages import decode_image
 from openral_data.schemas.mapping import Mapping
 
+_TRAILING = threading.Lock()  # messages are decoded in the Converter's decoder threads too
+
 
 class Message:
-    """A bag message, deserialised on first use (most multi-rate camera samples never are)."""
+    """A bag message, deserialised on first use (most multi-rate camera samples never are). A ROS 1 message
+    with bytes after its last field is counted in `summary.trailing_bytes` under its topic."""
 
-    __slots__ = ("_msg", "bag", "msgtype", "raw", "reader", "topic")
+    __slots__ = ("_msg", "bag", "msgtype", "raw", "reader", "summary", "topic")
 
-    def __init__(self, reader: AnyReader, bag: Path, raw: bytes, conn: Connection) -> None:
+    def __init__(self, reader: AnyReader, bag: Path, raw: bytes, conn: Connection, summary: ConvertSummary) -> None:
         self.reader, self.bag, self.raw, self.msgtype, self.topic = reader, bag, raw, conn.msgtype, conn.topic
+        self.summary = summary
         self._msg: Any = None
 
     def get(self) -> Any:
         if self._msg is None:
-            self._msg = deserialize(self.reader, self.bag, self.raw, self.msgtype)
+            self._msg, trailing = deserialize_trailing(self.reader, self.bag, self.raw, self.msgtype)
+            if trailing:
+                with _TRAILING:
+                    counts = self.summary.trailing_bytes
+                    counts[self.topic] = counts.get(self.topic, 0) + 1
         return self._msg
 
     def decode(self) -> npt.NDArray[np.uint8]:
@@ -66,7 +75,7 @@ def timed_messages(
     """
     if mapping.align.clock == "log":
         for conn, ns, raw in read_messages(reader, bag, conns):
-            yield conn, ns, Message(reader, bag, raw, conn)
+            yield conn, ns, Message(reader, bag, raw, conn, summary)
         return
     window = round(mapping.align.reorder * 1e9)
     heap: list[tuple[int, int, Connection, Message]] = []
@@ -75,7 +84,7 @@ def timed_messages(
     newest: int | None = None
     seq = 0
     for conn, ns, raw in read_messages(reader, bag, conns):
-        msg = Message(reader, bag, raw, conn)
+        msg = Message(reader, bag, raw, conn, summary)
         for c, stamp, m in clock.place(conn, ns, msg, _header_stamp(msg.get(), conn.topic, summary)):
             if released is not None and stamp < released:
                 summary.late_messages += 1

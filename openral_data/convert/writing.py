@@ -100,6 +100,7 @@ class Converter:
         self.pending: _Pending | None = None
         self.tasks: list[tuple[int, str]] = [carried_task] if carried_task is not None else []
         self.successes: list[tuple[int, bool]] = []  # (time, value) on the success topic, oldest first
+        self.episode_start: dict[str, Any] = {}  # more of the source episode's initial_state (its split)
         self.source_episode = 0
         self.segment_frames = 0
         self.segment_start = 0
@@ -115,10 +116,12 @@ class Converter:
         """The success signal's value from time `t_ns` on."""
         self.successes.append((t_ns, value))
 
-    def start_source_episode(self, task: str) -> None:
-        """An array source's episode begins: its own task text from its first frame, its success unknown yet."""
+    def start_source_episode(self, task: str, start: dict[str, Any] | None = None) -> None:
+        """An array source's episode begins: its own task text from its first frame, its success unknown yet;
+        `start` goes into its initial_state (a source split, RLDS or robomimic filter keys: info.json's splits)."""
         self.tasks = [(0, task)]
         self.successes = []
+        self.episode_start = dict(start or {})
 
     def new_aligner(self) -> Aligner[Any]:
         a = self.mapping.align
@@ -212,6 +215,8 @@ class Converter:
     def decode(self, samples: dict[str, Any]) -> dict[str, npt.NDArray[Any]]:
         """A frame's images (runs in a decoder thread)."""
         images: dict[str, npt.NDArray[Any]] = {name: samples[name].decode() for name in self.mapping.cameras}
+        if self.mapping.image_origin == "bottom":  # stored bottom row first (an OpenGL read-back): made upright
+            images = {name: np.ascontiguousarray(img[::-1]) for name, img in images.items()}
         for name, unit in self.cameras.depth_units.items():
             images[name] = samples[name].decode_depth(unit)
         return images
@@ -226,7 +231,7 @@ class Converter:
         if not self.open:
             if self.segment_frames:  # this source episode already produced an episode: a hole split it
                 self.summary.splits += 1
-            bridge.begin_episode(self.source_episode, {"source_episode": self.source_episode})
+            bridge.begin_episode(self.source_episode, {"source_episode": self.source_episode, **self.episode_start})
             self.open = True
             self.segment_start = pending.frame.time_ns
         obs = Observation(

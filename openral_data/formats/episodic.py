@@ -40,6 +40,12 @@ class EpisodeMeta:
 
     language: str | None = None  # task text / language instruction
     attrs: dict[str, Any] = field(default_factory=dict)  # e.g. env_args, problem_info, initial_state names
+    # datasets of the episode that are not per-step arrays of it (key -> why: ragged, not numbers...): left out
+    # of `specs()`, never read; a mapping that names one is told why
+    ignored: dict[str, str] = field(default_factory=dict)
+    # the source's split the episode belongs to (RLDS `train`/`val`, robomimic's `mask/train`/`mask/valid`);
+    # sources yield episodes grouped by split, so each split is one contiguous range of the output
+    split: str | None = None
 
 
 class ArrayEpisode(Protocol):

@@ -1,4 +1,5 @@
-"""ROS 1 ``.bag`` files checked for bounded reading before rosbags opens them (`convert`): rosbags allocates the
+"""ROS 1 ``.bag`` files checked for bounded reading before rosbags opens them (`convert`), and their messages
+decoded as ROS 1's own reader decodes them (`deserialize_ros1`). rosbags allocates the
 lengths a record declares and decompresses a bz2 or lz4 chunk whole, so a small crafted chunk could expand to
 gigabytes. `check_ros1` walks the file's records (no index trusted): every record header and data part is at most
 `chunk_bounds.MAX_RECORD_BYTES`, and each chunk's data expands to no more than the ``size`` its header declares
@@ -13,7 +14,10 @@ from __future__ import annotations
 import os
 import struct
 from pathlib import Path
-from typing import BinaryIO
+from typing import Any, BinaryIO
+
+from rosbags.serde import SerdeError
+from rosbags.typesys.store import Typestore
 
 from openral_data.formats.chunk_bounds import MAX_RECORD_BYTES, check_chunk, refused
 from openral_data.paths import regular_file
@@ -72,3 +76,18 @@ def _fields(header: bytes) -> dict[str, bytes]:
         fields[name.decode("utf-8", "replace")] = value
         at += 4 + n
     return fields
+
+
+def deserialize_ros1(typestore: Typestore, raw: bytes | memoryview, typename: str) -> tuple[Any, int]:
+    """A ROS 1 message decoded, and the number of bytes after its last field. ROS 1's own reader (genpy's
+    `deserialize`) reads the fields and ignores what follows them; rosbags refuses it ("message size mismatch").
+    Real recorders write such bytes: Intel's RealSense ROS 1 recorder puts 4 after every sensor_msgs/Image's
+    `data`. Bytes missing before the last field are still an error (SerdeError)."""
+    msgdef = typestore.get_msgdef(typename)
+    try:
+        message, pos = msgdef.deserialize_ros1(raw, 0, msgdef.cls, typestore)
+    except (struct.error, UnicodeDecodeError, ValueError, IndexError) as exc:
+        raise SerdeError(f"Could not deserialize {typename!r}: {exc}") from exc
+    if pos > len(raw):
+        raise SerdeError(f"ROS1 message of {typename!r} cut short ({len(raw)} bytes, its fields need {pos})")
+    return message, len(raw) - pos

@@ -30,6 +30,9 @@ environment_state:            # optional -> observation.environment_state (non-r
 # (action: {topic: data/state, offset: 1} = the next step's state). Bags align by time and refuse it.
 cameras:                      # camera name -> sensor_msgs Image or CompressedImage topic
   front: /camera/front/image/compressed
+image_origin: top             # top | bottom: the cameras' pictures are stored bottom row first (robosuite renders
+                              #   read back from OpenGL, as LIBERO stores them): written upright (flipped
+                              #   vertically). Colour cameras only.
 depth_cameras:                # camera name -> sensor_msgs Image topic in 16UC1 (millimetres) or 32FC1 (metres),
                               #   or a CompressedImage in image_transport's compressedDepth png
   front_depth: /camera/depth/image_rect_raw   # -> observation.images.front_depth, a lerobot depth video
@@ -281,6 +284,7 @@ class Mapping(StrictModel):
     action: Vector
     environment_state: Vector | None = None
     cameras: dict[str, str] = Field(default_factory=dict)
+    image_origin: Literal["top", "bottom"] = "top"
     depth_cameras: dict[str, str] = Field(default_factory=dict)
     depth: DepthQuantization = Field(default_factory=DepthQuantization)
     camera_info: dict[str, str] = Field(default_factory=dict)

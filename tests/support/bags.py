@@ -137,7 +137,8 @@ def compressed_depth(d: np.ndarray[Any, Any]) -> tuple[bytes, np.ndarray[Any, An
     return header + buf.getvalue(), decoded
 
 
-Flaw = Literal["none", "zero-stamps", "16UC1", "32FC1", "compressedDepth"]
+# trailing-bytes (ROS 1): 4 bytes after every Image's `data`, as Intel's RealSense ROS 1 recorder writes them
+Flaw = Literal["none", "zero-stamps", "16UC1", "32FC1", "compressedDepth", "trailing-bytes"]
 
 
 def colour(topic: str, k: int) -> tuple[int, int, int]:
@@ -265,7 +266,10 @@ def write_ros1(path: Path, flaw: Flaw = "none", depth: bool = False, **kw: int) 
     with Writer1(path) as writer:
         conns = {topic: writer.add_connection(topic, msgtype, typestore=store) for topic, msgtype in types.items()}
         for topic, ns, f in samples(depth=depth, **kw):
-            writer.write(conns[topic], ns, store.serialize_ros1(build(store, topic, ns, f, True, flaw), types[topic]))
+            raw = bytes(store.serialize_ros1(build(store, topic, ns, f, True, flaw), types[topic]))
+            if flaw == "trailing-bytes" and types[topic] == "sensor_msgs/msg/Image":
+                raw += b"\x00\x00\x80\x3f"
+            writer.write(conns[topic], ns, raw)
     return path
 
 

@@ -46,13 +46,19 @@ def vector(e: int, t: int, width: int, salt: float) -> np.ndarray[Any, np.dtype[
     return np.array([salt + e + 0.01 * t + 0.125 * i for i in range(width)], np.float64)
 
 
-def _env_args(env_name: str) -> str:
-    kwargs = {"robots": ["Panda"], "control_freq": FPS, "has_renderer": False, "camera_names": ["agentview"]}
+def _env_args(env_name: str, sparse: bool | None) -> str:
+    kwargs: dict[str, Any] = {"robots": ["Panda"], "control_freq": FPS, "has_renderer": False,
+                              "camera_names": ["agentview"]}  # fmt: skip
+    if sparse is not None:  # robomimic's and MimicGen's env_args say it; LIBERO's do not
+        kwargs["reward_shaping"] = not sparse
     return json.dumps({"env_name": env_name, "type": 1, "env_kwargs": kwargs}, indent=4)
 
 
-def write_robomimic(path: Path, lengths: tuple[int, ...] = (12, 9, 15), *, layout: str = "robomimic") -> Path:
-    """robomimic (image obs), LIBERO (`layout="libero"`) or MimicGen (`layout="mimicgen"`)."""
+def write_robomimic(
+    path: Path, lengths: tuple[int, ...] = (12, 9, 15), *, layout: str = "robomimic", sparse: bool | None = True
+) -> Path:
+    """robomimic (image obs), LIBERO (`layout="libero"`) or MimicGen (`layout="mimicgen"`); `sparse`: the
+    env_args say the reward is sparse (robomimic / MimicGen only; None: they do not say)."""
     libero = layout == "libero"
     with h5py.File(path, "w") as f:
         data = f.create_group("data")
@@ -84,8 +90,9 @@ def write_robomimic(path: Path, lengths: tuple[int, ...] = (12, 9, 15), *, layou
             ep.create_dataset("states", data=np.stack([vector(e, t, 32, 9.0) for t in ts]))
             rewards = np.zeros(n, np.float64)
             dones = np.zeros(n, np.int64)
-            if e != 1:  # demo 1 never succeeds
-                rewards[-1], dones[-1] = 1.0, 1
+            dones[-1] = 1  # robomimic's done_mode 2: the end of every demo (and every success)
+            if e != 1:  # demo 1 never succeeds (sparse reward: 1 where the task is done)
+                rewards[-1] = 1.0
             ep.create_dataset("rewards", data=rewards)
             ep.create_dataset("dones", data=dones)
             if libero:
@@ -94,7 +101,7 @@ def write_robomimic(path: Path, lengths: tuple[int, ...] = (12, 9, 15), *, layou
                 ep.create_dataset("initial_state/states", data=vector(e, 0, 32, 9.0)[None])
                 ep.create_dataset("datagen_info/eef_pose", data=np.zeros((n, 4, 4)))
         data.attrs["total"] = sum(lengths)
-        data.attrs["env_args"] = _env_args("LIBERO_Kitchen" if libero else "Lift")
+        data.attrs["env_args"] = _env_args("LIBERO_Kitchen" if libero else "Lift", None if libero else sparse)
         if libero:
             info = {"problem_name": "libero_kitchen_tabletop_manipulation", "domain_name": "robosuite",
                     "language_instruction": "open the top drawer of the cabinet"}  # fmt: skip

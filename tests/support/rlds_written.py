@@ -100,27 +100,38 @@ def episode_datum(n: int, rng: np.random.Generator, index: int, smooth: bool = F
 
 
 def write_rlds(
-    folder: Path, lengths: tuple[tuple[int, ...], ...] = ((4, 6), (5,)), seed: int = 0, *, smooth: bool = False
+    folder: Path,
+    lengths: tuple[tuple[int, ...], ...] = ((4, 6), (5,)),
+    seed: int = 0,
+    *,
+    smooth: bool = False,
+    splits: dict[str, tuple[tuple[int, ...], ...]] | None = None,
 ) -> Path:
     """A TFDS build folder `folder` (`toy_rlds/1.0.0`-like): one shard per entry of `lengths`, one episode per
-    length in it (`smooth`: 64x64 gradient pictures, see `episode_datum`)."""
+    length in it (`smooth`: 64x64 gradient pictures, see `episode_datum`). `splits`: several splits as TFDS
+    writes them (split name -> its shards' lengths; `toy_rlds-<split>.tfrecord-NNNNN-of-NNNNN` shards, each
+    split's `shardLengths` in dataset_info.json), instead of `lengths` as the one `train` split; episodes are
+    numbered across splits in the order given (episode i's instruction is "pick up block i")."""
     from tfrecord import TFRecordWriter
 
     folder.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
     index = 0
-    shard_lengths = []
-    for shard, episodes in enumerate(lengths):
-        writer = TFRecordWriter(str(folder / f"toy_rlds-train.tfrecord-{shard:05d}-of-{len(lengths):05d}"))
-        for n in episodes:
-            writer.write(episode_datum(n, rng, index, smooth))
-            index += 1
-        writer.close()
-        shard_lengths.append(str(len(episodes)))
+    split_info = []
+    for split, shards in (splits or {"train": lengths}).items():
+        shard_lengths = []
+        for shard, episodes in enumerate(shards):
+            writer = TFRecordWriter(str(folder / f"toy_rlds-{split}.tfrecord-{shard:05d}-of-{len(shards):05d}"))
+            for n in episodes:
+                writer.write(episode_datum(n, rng, index, smooth))
+                index += 1
+            writer.close()
+            shard_lengths.append(str(len(episodes)))
+        split_info.append({"name": split, "shardLengths": shard_lengths, "numBytes": "0"})
     size = (SIZE, SIZE) if smooth else (H, W)
     (folder / "features.json").write_text(json.dumps(features_doc(size), indent=2))
     info = {"name": "toy_rlds", "version": "1.0.0", "fileFormat": "tfrecord", "moduleName": "toy_rlds",
-            "splits": [{"name": "train", "shardLengths": shard_lengths, "numBytes": "0"}]}  # fmt: skip
+            "splits": split_info}  # fmt: skip
     (folder / "dataset_info.json").write_text(json.dumps(info, indent=2))
     return folder
 

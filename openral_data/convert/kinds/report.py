@@ -59,6 +59,13 @@ def bag_rows(src: Path, dst: Path, mapping: Mapping, result: ConvertSummary, par
     rows.append(("outcomes", _outcomes(mapping)))
     for topic, count in sorted(result.skipped_topics.items()):
         rows.append((f"skipped {topic}", f"{count} msgs (not in the mapping)"))
+    for topic, count in sorted(result.trailing_bytes.items()):
+        rows.append(
+            (
+                f"trailing bytes {topic}",
+                f"{count} msgs with bytes after their last field (ignored, as ROS 1's own reader does)",
+            )
+        )
     return rows
 
 

@@ -17,7 +17,7 @@ import numpy.typing as npt
 
 from openral_data.errors import DatasetError
 from openral_data.formats.episodic import ArraySpec, Encoding, EpisodeMeta
-from openral_data.formats.hdf5.files import attr_scalar, member, open_file, read_key, step_spec, walk_datasets
+from openral_data.formats.hdf5.files import attr_scalar, episode_specs, member, open_file, read_key, walk_datasets
 
 IMAGES = "observations/images"
 
@@ -52,17 +52,16 @@ class AlohaEpisode:
 
     def _all(self) -> dict[str, ArraySpec]:
         if self._specs is None:
-            out: dict[str, ArraySpec] = {}
-            for key, ds in walk_datasets(self.f, self.file, ("compress_len",)):  # (cameras, steps): not per step
-                out[key] = step_spec(ds, key, self.length, self.file, self._encoding(key, ds))
-            self._specs = out
+            walked = walk_datasets(self.f, self.file, ("compress_len",))  # (cameras, steps): not per step
+            items = ((key, ds, self._encoding(key, ds)) for key, ds in walked)
+            self._specs, self.meta.ignored = episode_specs(items, self.length, self.file)
         return self._specs
 
     def specs(self) -> list[ArraySpec]:
         return list(self._all().values())
 
     def read(self, key: str, start: int, stop: int) -> npt.NDArray[Any]:
-        return read_key(self.f, self._all(), key, start, stop, self.file)
+        return read_key(self.f, self._all(), key, start, stop, self.file, self.meta.ignored)
 
 
 class AlohaFolder:

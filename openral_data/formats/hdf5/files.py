@@ -135,6 +135,22 @@ def step_spec(ds: h5py.Dataset, key: str, length: int, file: Path, encoding: Enc
     return ArraySpec(key, ds.dtype.name, shape[1:], "raw")
 
 
+def episode_specs(
+    items: Iterator[tuple[str, h5py.Dataset, Encoding]], length: int, file: Path
+) -> tuple[dict[str, ArraySpec], dict[str, str]]:
+    """The per-step arrays of an episode of `length` steps (key -> spec) and the datasets that are not (key -> why:
+    a row count that is not the episode's, strings, a row too large...): those are left out, not refused, so a
+    log the mapping never asks for (robosuite 1.4's `controller_info/*`) does not block the file."""
+    specs: dict[str, ArraySpec] = {}
+    ignored: dict[str, str] = {}
+    for key, ds, encoding in items:
+        try:
+            specs[key] = step_spec(ds, key, length, file, encoding)
+        except DatasetError as exc:
+            ignored[key] = str(exc).removeprefix(f"{file}: {ds.name.lstrip('/')}: ")
+    return specs, ignored
+
+
 def _sniff(ds: h5py.Dataset, where: str) -> Encoding:
     """jpeg or png, from the first row's magic bytes."""
     try:
@@ -204,10 +220,16 @@ def walk_datasets(
 
 
 def read_key(
-    group: h5py.Group, specs: dict[str, ArraySpec], key: str, start: int, stop: int, file: Path
-) -> npt.NDArray[Any]:
-    """Rows `start:stop` of the per-step array `key` of an episode `group` whose arrays are `specs`."""
+    group: h5py.Group, specs: dict[str, ArraySpec], key: str, start: int, stop: int, file: Path,
+    ignored: dict[str, str] | None = None,
+) -> npt.NDArray[Any]:  # fmt: skip
+    """Rows `start:stop` of the per-step array `key` of an episode `group` whose arrays are `specs` (`ignored`:
+    its datasets that are not per-step arrays, and why)."""
+    ignored = ignored or {}
     spec = specs.get(key)
+    if spec is None and key in ignored:
+        raise DatasetError(f"{file}: {_join(group.name, key)}: not a per-step array: {ignored[key]}",
+                           code="dataset.source.shape")  # fmt: skip
     if spec is None:
         raise DatasetError(
             f"{file}: {_join(group.name, key)}: missing (per-step arrays here: {', '.join(specs) or '-'})",

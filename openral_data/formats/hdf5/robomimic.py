@@ -18,19 +18,21 @@ import h5py
 import numpy.typing as npt
 
 from openral_data.errors import DatasetError
-from openral_data.formats.episodic import ArraySpec, EpisodeMeta
+from openral_data.formats.episodic import ArraySpec, Encoding, EpisodeMeta
 from openral_data.formats.hdf5.files import (
     attr_scalar,
+    episode_specs,
     json_attr,
     member,
     natural_key,
     open_file,
     read_key,
-    step_spec,
     walk_datasets,
 )
 
 SKIPPED = ("next_obs", "initial_state", "datagen_info")  # groups that are not per-step arrays of this step
+SPLITS = ("train", "valid")  # robomimic's train / validation filter keys (mask/<key>), in this order
+MAX_DEMOS = 10_000_000
 
 
 def robomimic_layout(f: h5py.File) -> str | None:
@@ -53,7 +55,7 @@ class RobomimicEpisode:
     def __init__(self, file: Path, group: h5py.Group, meta: EpisodeMeta) -> None:
         self.file = file
         self.group = group
-        self.meta = meta
+        self._meta = meta
         self.name = str(group.name).rsplit("/", 1)[-1]
         self.length = self._find_length()
         self._specs: dict[str, ArraySpec] | None = None
@@ -73,18 +75,23 @@ class RobomimicEpisode:
             )
         return length
 
+    @property
+    def meta(self) -> EpisodeMeta:
+        self._all()  # fills meta.ignored
+        return self._meta
+
     def _all(self) -> dict[str, ArraySpec]:
         if self._specs is None:
-            self._specs = {
-                k: step_spec(ds, k, self.length, self.file) for k, ds in walk_datasets(self.group, self.file, SKIPPED)
-            }
+            raw: Encoding = "raw"
+            items = ((k, ds, raw) for k, ds in walk_datasets(self.group, self.file, SKIPPED))
+            self._specs, self._meta.ignored = episode_specs(items, self.length, self.file)
         return self._specs
 
     def specs(self) -> list[ArraySpec]:
         return list(self._all().values())
 
     def read(self, key: str, start: int, stop: int) -> npt.NDArray[Any]:
-        return read_key(self.group, self._all(), key, start, stop, self.file)
+        return read_key(self.group, self._all(), key, start, stop, self.file, self._meta.ignored)
 
 
 class RobomimicFile:
@@ -119,14 +126,48 @@ class RobomimicFile:
         env = attr_scalar(self.data, "env")  # robosuite's gather_demonstrations_as_hdf5: the env name
         if isinstance(env, (str, bytes)):
             meta_attrs["env"] = env.decode("utf-8", "replace") if isinstance(env, bytes) else env
-        for key in sorted((k for k in self.data if k.startswith("demo")), key=natural_key):
+        demos = sorted((k for k in self.data if k.startswith("demo")), key=natural_key)
+        for key, split in split_order(self.f, demos, self.path):
             group = member(self.data, key, self.path)
             if not isinstance(group, h5py.Group):
                 raise DatasetError(f"{self.path}: data/{key}: not a group", code="dataset.source.invalid")
-            yield RobomimicEpisode(self.path, group, EpisodeMeta(self.language(), dict(meta_attrs)))
+            yield RobomimicEpisode(self.path, group, EpisodeMeta(self.language(), dict(meta_attrs), split=split))
 
     def close(self) -> None:
         self.f.close()
+
+
+def split_order(f: h5py.File, demos: list[str], path: Path) -> list[tuple[str, str | None]]:
+    """The demos with their split, grouped by split: robomimic's filter keys `mask/train` then `mask/valid`
+    (its split_train_val.py writes them: arrays of demo names), then the demos in neither (no split). Without
+    those keys: every demo in order, no split. Other filter keys (`20_percent`, ...) are not splits."""
+    mask = f.get("mask")
+    named: dict[str, list[str]] = {}
+    if isinstance(mask, h5py.Group):
+        for split in SPLITS:
+            if split in mask:
+                named[split] = _demo_names(member(mask, split, path), path)
+    if not named:
+        return [(d, None) for d in demos]
+    known = set(demos)
+    out: list[tuple[str, str | None]] = []
+    for split, names in named.items():
+        out += [(d, split) for d in sorted(set(names) & known - {d for d, _ in out}, key=natural_key)]
+    placed = {d for d, _ in out}
+    return out + [(d, None) for d in demos if d not in placed]
+
+
+def _demo_names(ds: Any, path: Path) -> list[str]:
+    where = f"{path}: {getattr(ds, 'name', '?').lstrip('/')}"
+    if not isinstance(ds, h5py.Dataset) or len(ds.shape) != 1 or ds.dtype.kind not in "SO":
+        raise DatasetError(f"{where}: not a list of demo names", code="dataset.source.invalid")
+    if ds.shape[0] > MAX_DEMOS:
+        raise DatasetError(f"{where}: {ds.shape[0]} names (over {MAX_DEMOS})", code="dataset.source.shape")
+    try:
+        values = ds[()]
+    except (OSError, ValueError, RuntimeError, TypeError) as exc:
+        raise DatasetError(f"{where}: cannot read: {exc}", code="dataset.source.read") from None
+    return [v.decode("utf-8", "replace") if isinstance(v, bytes) else str(v) for v in values]
 
 
 def open_robomimic(path: Path) -> RobomimicFile | None:

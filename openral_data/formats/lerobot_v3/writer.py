@@ -52,6 +52,7 @@ from openral_data.formats.lerobot_v3.masks import MaskColumn
 from openral_data.formats.lerobot_v3.provenance import Origin, Provenance
 from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.restore import check_same_format, restore
+from openral_data.formats.lerobot_v3.splits import splits_of
 from openral_data.formats.lerobot_v3.stats import Stats, dataset_stats, merge_numeric, to_jsonable
 from openral_data.formats.lerobot_v3.tasks_table import tasks_writer
 from openral_data.formats.lerobot_v3.video import EncodedEpisode, EncoderWorker
@@ -576,7 +577,7 @@ class LeRobotV3Writer:
             "data_path": layout.DATA_PATH,
             "video_path": layout.VIDEO_PATH if self._videos else None,
             "robot_type": self.schema.robot_type,
-            "splits": {"train": f"0:{self.total_episodes}"},
+            "splits": splits_of(self.episode_rows),
         }
 
 

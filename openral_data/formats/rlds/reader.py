@@ -36,7 +36,8 @@ def detect(path: Path) -> RldsSource | None:
 
 
 class RldsSource:
-    """The episodes of every shard of a TFDS build folder, shards in name order (each split's in turn)."""
+    """The episodes of every shard of a TFDS build folder, split after split (`<name>-<split>.tfrecord-*`: each
+    split's shards in name order), each episode's `meta.split` its split."""
 
     def __init__(self, path: Path, shards: list[Path] | None = None) -> None:
         """`shards`: only these of the folder's shards (a block of `convert --workers`), else all of them."""
@@ -47,7 +48,8 @@ class RldsSource:
             raise DatasetError(f"{features}: steps: no per-step features (not an RLDS dataset)", code="dataset.invalid")
         top = path.resolve()
         self._shards = sorted(
-            p for p in path.iterdir() if _SHARD.match(p.name) and p.is_file() and p.resolve().is_relative_to(top)
+            (p for p in path.iterdir() if _SHARD.match(p.name) and p.is_file() and p.resolve().is_relative_to(top)),
+            key=_split_then_name,
         )
         if shards is not None:
             self._shards = [p for p in self._shards if p in shards]
@@ -79,7 +81,9 @@ class RldsSource:
             for index, data in enumerate(records(shard)):
                 n = counts.get(split, 0)
                 counts[split] = n + 1
-                yield RldsEpisode(shard, index, f"{split}/{n}", data, self._leaves)
+                episode = RldsEpisode(shard, index, f"{split}/{n}", data, self._leaves)
+                episode.meta.split = split
+                yield episode
 
     def close(self) -> None:
         return None
@@ -169,6 +173,11 @@ class RldsEpisode:
         language = self._values.get(LANGUAGE) if LANGUAGE in self._steps else None
         text = _text(language[0]) if language else None
         return EpisodeMeta(language=text or None, attrs=attrs)
+
+
+def _split_then_name(shard: Path) -> tuple[str, str]:
+    match = _SHARD.match(shard.name)
+    return (match["split"] if match else "", shard.name)
 
 
 def _text(data: bytes) -> str:

@@ -1,6 +1,7 @@
 """HDF5 sources of `convert`: truncated and garbage files, an unknown layout, missing keys, ragged episodes, wrong
 dtypes, NaN in actions, huge declared shapes, a JPEG row that does not decode, no step rate. Each is one line
-naming the file (and the key), exit 2, nothing under the output."""
+naming the file (and the key), exit 2, nothing under the output. A dataset that is not a per-step array refuses
+only when the mapping names it (an unmapped one is ignored, not read)."""
 
 from __future__ import annotations
 
@@ -42,7 +43,9 @@ def _replace(f: h5py.File, key: str, data: np.ndarray) -> None:
 
 
 def _huge(f: h5py.File) -> None:
-    f["data/demo_0"].create_dataset("obs/huge", shape=(4, 100_000, 100_000), dtype="f4", chunks=(1, 1, 1024))
+    """A mapped key (state) whose declared rows are too large to read (an unmapped one is not read at all)."""
+    del f["data/demo_1/obs/robot0_eef_pos"]
+    f["data/demo_1"].create_dataset("obs/robot0_eef_pos", shape=(3, 100_000, 100_000), dtype="f4", chunks=(1, 1, 1024))
 
 
 def _bad_jpeg(w: Workspace) -> Path:
@@ -88,7 +91,7 @@ _hdf5_case(
 _hdf5_case(
     "hdf5-ragged-episode",
     lambda w: _robomimic(w, lambda f: _replace(f, "data/demo_1/obs/object", np.zeros((5, 10)))),
-    r"demo\.hdf5: data/demo_1/obs/object: 5 rows",
+    r"demo\.hdf5: demo_1/obs/object: environment_state: not a per-step array: 5 rows, the episode has 3 steps",
 )
 _hdf5_case(
     "hdf5-num-samples-disagrees",
@@ -97,19 +100,23 @@ _hdf5_case(
 )
 _hdf5_case(
     "hdf5-wrong-dtype",
-    lambda w: _robomimic(w, lambda f: _replace(f, "data/demo_0/rewards", np.array([b"a", b"b", b"c", b"d"]))),
-    r"demo\.hdf5: data/demo_0/rewards",
+    lambda w: _robomimic(w, lambda f: _replace(f, "data/demo_1/rewards", np.array([b"a", b"b", b"c"]))),
+    r"demo\.hdf5: demo_1/rewards: reward: not a per-step array",
 )
 _hdf5_case(
     "hdf5-compound-dtype",
-    lambda w: _robomimic(w, lambda f: _replace(f, "data/demo_0/dones", np.zeros(4, dtype=[("a", "f4"), ("b", "i4")]))),
-    r"demo\.hdf5: data/demo_0/dones: dtype",
+    lambda w: _robomimic(
+        w, lambda f: _replace(f, "data/demo_1/actions", np.zeros(3, dtype=[("a", "f4"), ("b", "i4")]))
+    ),
+    r"demo\.hdf5: demo_1/actions: action: not a per-step array: dtype",
 )
 _hdf5_case(
     "hdf5-nan-in-actions", lambda w: _robomimic(w, _nan), r"demo\.hdf5: demo_1/actions: non-finite value at step 2"
 )
 _hdf5_case(
-    "hdf5-huge-declared-shape", lambda w: _robomimic(w, _huge), r"demo\.hdf5: data/demo_0/obs/huge: declared shape"
+    "hdf5-huge-declared-shape",
+    lambda w: _robomimic(w, _huge),
+    r"demo\.hdf5: demo_1/obs/robot0_eef_pos: state: not a per-step array: declared shape",
 )
 _hdf5_case(
     "hdf5-bad-env-args",
