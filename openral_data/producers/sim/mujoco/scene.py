@@ -4,7 +4,8 @@ with the objects and success criterion the scene YAML declares (schemas/tabletop
 Observation state, by the rSkill state contract's representation:
 * `joint_positions_gripper`: arm joint positions (manifest order) + gripper opening state (0 open .. 1 closed)
 * `joint_positions`: arm joint positions only
-* `eef_pose_gripper`: end-effector site [x, y, z, qw, qx, qy, qz] (world frame, qw >= 0) + gripper state
+* `eef_pose_gripper`: end-effector site [x, y, z, qw, qx, qy, qz] (world frame; the quaternion's sign continuous
+  within an episode, qw >= 0 on its first frame: producers/sim/quat_sign.py) + gripper state
 * `eef_pose_gripper_width`: the same pose + the gripper's width in metres (the gap between the finger pads,
   finger_gap.py)
 Actions: see controllers.py. `Observation.time` is simulation time since reset. With
@@ -67,6 +68,7 @@ from openral_data.producers.sim.mujoco.render import CameraRig
 from openral_data.producers.sim.mujoco.rig_scene import RigScene
 from openral_data.producers.sim.mujoco.success import holds
 from openral_data.producers.sim.params import parse_params
+from openral_data.producers.sim.quat_sign import QuatTrack
 from openral_data.schemas.base import format_validation_error
 from openral_data.schemas.mujoco import MujocoRobotWiring, TabletopParams
 from openral_data.schemas.robot import RobotManifest
@@ -147,6 +149,7 @@ class TabletopScene(RigScene):
             )
         self.task_kind: str = task or self.params.task or scene.scene.id
         self.state_representation = rskill.state_contract.representation
+        self._quat_track = QuatTrack()
         check_representations(
             rskill, rskill_source, "MuJoCo tabletop scenes", STATE_REPRESENTATIONS, ACTION_REPRESENTATIONS
         )
@@ -317,6 +320,7 @@ class TabletopScene(RigScene):
         mujoco.mj_forward(self.model, self.data)
         self.initial = self._snapshot()
         self.controller.reset(self.data)
+        self._quat_track.reset()
         return self._observation()
 
     def object_names(self) -> tuple[str, ...]:
@@ -461,7 +465,7 @@ class TabletopScene(RigScene):
             return np.append(d.qpos[a.qpos], grip).astype(np.float32)
         pos, quat = a.ee_pose(d)
         last = grip if self.finger_gap is None else self.finger_gap.width(d)
-        return np.concatenate([pos, quat, [last]]).astype(np.float32)
+        return np.concatenate([pos, self._quat_track(quat), [last]]).astype(np.float32)
 
     def _observation(self) -> Observation:
         d, p = self.data, self.params
