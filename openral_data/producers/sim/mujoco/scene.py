@@ -52,6 +52,7 @@ from openral_data.producers.sim.mujoco.controllers import (
     JointPositionController,
 )
 from openral_data.producers.sim.mujoco.finger_gap import FingerGap
+from openral_data.producers.sim.mujoco.instruction import check_instruction, episode_instruction
 from openral_data.producers.sim.mujoco.kinematics import F64, Arm, IKSolver
 from openral_data.producers.sim.mujoco.placement import (
     DEFAULT_GAP,
@@ -178,6 +179,7 @@ class TabletopScene(RigScene):
         self.data = mujoco.MjData(self.model)
         self.randomizer = Randomizer(self.model, rz, self.objects, list(scene.scene.cameras), source)
         self.randomization: dict[str, Any] = {}  # the current episode's drawn values (its provenance)
+        self._check_instruction(scene.task.instruction, source)
         self._nominal_extents = True
         self.arm = Arm.build(self.composed, wiring)
         self.ik = IKSolver(self.arm, rest=np.array(wiring.home))
@@ -220,7 +222,6 @@ class TabletopScene(RigScene):
             self.finger_gap = FingerGap(
                 self.model, self.data, self.composed.gripper_joints, self.arm.site, self._robot_source
             )
-        self.task_text = scene.task.instruction
         if scene.scene.observations.environment_state:
             self.environment_objects = self.object_names()
         self.rig = CameraRig(self.model, list(scene.scene.cameras), scene.scene.render)
@@ -359,6 +360,16 @@ class TabletopScene(RigScene):
         objects = [o for o in self.objects if not skip or o.name not in skip]
         return place(objects, self.extents, p.table_height, rng, self._gap, self._params_source, self._keep_clear)
 
+    def _check_instruction(self, instruction: str, source: str) -> None:
+        """Keep the instruction, whose `{NAME.color}` each episode fills in (instruction.py), refusing one that
+        would be false in some episode."""
+        self.instruction = instruction
+        r, rz = self.randomizer, self.params.randomize
+        varies = rz if rz is not None and rz.enabled else None
+        colors, textures = (varies.colors, varies.textures) if varies is not None else ([], [])
+        check_instruction(instruction, r.rgba, r.names, colors, textures, source)
+        self.task_text = episode_instruction(instruction, r.rgba)
+
     def _randomize(self, values: dict[str, Any]) -> None:
         """Write an episode's variation into the model (nominal first); sizes and masses changed mean new
         derived constants and, for sizes, new extents to place by."""
@@ -369,6 +380,7 @@ class TabletopScene(RigScene):
             self.extents = extents(self.model, self.objects)
         self._nominal_extents = not changed
         self.randomization = values
+        self.task_text = episode_instruction(self.instruction, self.randomizer.rgba)
 
     def cube_pos(self) -> F64:
         """The role `object`'s position (the cube of the push and pick-place scenes)."""
