@@ -4,7 +4,8 @@
   for the position servos, plus the normalised gripper command (0 = open, 1 = closed).
 * `delta_eef_gripper` (7): [dx, dy, dz, drx, dry, drz, gripper] — a translation (metres) and a rotation
   vector (radians), both in the world frame. The position target is the previous target + the translation
-  (kept above `min_height` and within `max_lead_translation` of the actual position) and the orientation target
+  (kept above `min_height`, and ahead of the actual position by at most the larger of this step's translation
+  and `max_lead_translation`, so blocked or lagging motion does not wind up) and the orientation target
   accumulates the rotations (within `max_lead_rotation` of the actual orientation): a zero action holds the pose
   instead of following whatever the arm lagged behind by (5 mm/s of drift when the target was re-read). IK
   (MuJoCo Jacobians) turns the target pose into servo targets. Deltas are clipped to `max_translation` /
@@ -61,7 +62,7 @@ class EefDeltaController:
         max_translation: float = 0.05,
         max_rotation: float = 0.3,
         max_lead_rotation: float = 0.3,
-        max_lead_translation: float = 0.05,
+        max_lead_translation: float = 0.01,
     ) -> None:
         self.arm = arm
         self.ik = ik
@@ -86,10 +87,10 @@ class EefDeltaController:
             drot = drot * (self.max_rotation / angle)
         pos, quat = a.ee_pose(data)
         target = self.target_pos + dpos  # from the held target, not the sagging pose: a zero delta holds the pose
-        lead = target - pos  # keep the position target within max_lead_translation
-        lead_len = float(np.linalg.norm(lead))
-        if lead_len > self.max_lead_translation:
-            target = pos + lead * (self.max_lead_translation / lead_len)
+        lead = target - pos  # the target leads the site by at most this step's delta or max_lead_translation
+        lead_len, cap = float(np.linalg.norm(lead)), max(self.max_lead_translation, float(np.linalg.norm(dpos)))
+        if lead_len > cap:
+            target = pos + lead * (cap / lead_len)
         target[2] = max(target[2], self.min_height)
         self.target_pos = target
         rot = np.zeros(4)
