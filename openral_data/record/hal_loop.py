@@ -26,6 +26,7 @@ meta/episodes).
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from collections.abc import Callable
@@ -39,7 +40,7 @@ import numpy.typing as npt
 from openral_data.errors import EstopLatched, HalError, StaleState
 from openral_data.policies.base import PolicyAdapter
 from openral_data.policies.intervention import Intervention
-from openral_data.producers.hal.robots.base import HalBase, JointCommand, monotonic
+from openral_data.producers.hal.robots.base import HalBase, JointCommand, Outcome, monotonic
 from openral_data.producers.hal.robots.safety import SafetyFilter
 from openral_data.producers.hal.session.operator import Command, Operator
 from openral_data.runtime.bridge import DatasetBridge
@@ -52,6 +53,7 @@ TICKS_STALE = "openral.ticks_stale"
 SAFETY = "openral.safety_interventions"
 SAMPLE_AGE = "openral.sample_age."
 TIME_LIMIT = "time_limit"  # the verdict of an episode that ran its `--episode-time-s` without a verdict key
+log = logging.getLogger(__name__)
 MAX_LOGGED_INTERVENTIONS = 1000  # per episode in the JSON record; the per-frame column counts all of them
 
 
@@ -344,5 +346,24 @@ class FixedRateLoop:
             success=bool(success) if success is not None else pending.success, extras=pending.extras,
             columns=pending.columns,
         )  # fmt: skip
-        record = self.bridge.end_episode(success, info={"hal": rep.to_json(), "operator": self.config.driver})[0]
+        judged = judgement(verdict, outcome if self.hal.has_reward else None)
+        info = {"hal": rep.to_json(), "operator": self.config.driver, **judged}
+        record = self.bridge.end_episode(success, info=info)[0]
         return EpisodeEnd.KEPT, rep, record
+
+
+def judgement(verdict: Command | None, outcome: Outcome | None) -> dict[str, Any]:
+    """Who said how the episode went: `operator_verdict` (`success`/`failure`, None: the operator said neither)
+    and `scene_success` (the scene's own criterion at the last frame; None: the HAL has none). The recorded success
+    is the operator's when given; a verdict the scene's criterion contradicts is said at once (a warning)."""
+    said = verdict.value if verdict in (Command.SUCCESS, Command.FAILURE) else None
+    scene = bool(outcome.success) if outcome is not None else None
+    if said is not None and scene is not None and (said == Command.SUCCESS.value) != scene:
+        log.warning(
+            "the operator marked the episode %s; the scene's success criterion says %s (the operator's verdict is "
+            "recorded, with both in openral.episode_info)",
+            said,
+            "successful" if scene else "not successful",
+            extra={"operator_verdict": said, "scene_success": scene},
+        )
+    return {"operator_verdict": said, "scene_success": scene}

@@ -31,7 +31,7 @@ from openral_data.policies.device import resolve_device, with_device
 from openral_data.replay import recorded_policy
 from openral_data.replay.actions import DEFAULT_TOLERANCE, ActionReplayer
 from openral_data.replay.closed_loop import ClosedLoop
-from openral_data.replay.outcome import EpisodeOutcome
+from openral_data.replay.outcome import EpisodeOutcome, overruled_line
 from openral_data.replay.policy_mode import evaluate_episode
 from openral_data.replay.rebuild import Rebuilt, SceneView, rebuild
 from openral_data.replay.recorded import RecordedDataset
@@ -109,6 +109,7 @@ class ReplaySummary:
             rows.append(("divergence max", _num(s["divergence_max"])))
             if s["diverged_episodes"]:
                 rows.append(("diverged", ", ".join(f"ep {k} at frame {v}" for k, v in s["diverged_episodes"].items())))
+            rows += [("why", overruled_line(o)) for o in self.episodes if o.overruled and o.success_agrees is False]
         if s["mode"] == "closed-loop":
             p = s["paired"]
             rows.append(
@@ -159,6 +160,7 @@ class ReplaySummary:
             "reproduced": actions["reproduced"] if actions is not None else None,
             "divergence_max": actions["divergence_max"] if actions is not None else None,
             "diverged_episodes": actions["diverged_episodes"] if actions is not None else None,
+            "operator_verdicts": actions["operator_verdicts"] if actions is not None else None,
             "paired": s["paired"] if s["mode"] == "closed-loop" else None,
             "steps_compared": policy["steps"] if policy is not None else None,
             "action_mse_mean": policy.get("action_mse_mean") if policy is not None else None,

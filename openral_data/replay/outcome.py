@@ -32,6 +32,7 @@ class EpisodeOutcome:
     action_abs: F64 | None = None
     first_divergence_frame: int | None = None
     object_error_initial: float | None = None
+    overruled: bool = False  # the recorded success is an operator's verdict the scene's criterion contradicted
 
     @property
     def divergence(self) -> F64 | None:
@@ -72,6 +73,7 @@ def outcome(
         state_abs=state_abs,
         first_divergence_frame=first_exceeding(state_abs, tolerance),
         object_error_initial=object_error_initial,
+        overruled=episode.overruled,
     )
 
 
@@ -100,3 +102,9 @@ def object_error(recorded: object, privileged: Privileged) -> float | None:
         for n in common
     ]
     return max(errors)
+
+
+def overruled_line(o: EpisodeOutcome) -> str:
+    """Why an episode whose recorded success is an operator's verdict (`overruled`) does not reproduce it."""
+    said, scene = ("success", "not successful") if o.success_recorded else ("failure", "successful")
+    return f"ep {o.index}: the recorded {said} came from the operator's verdict; the scene's criterion said {scene}"

@@ -49,6 +49,7 @@ class RecordedEpisode:
     states: F32  # (length, state_dim)
     actions: F32  # (length, action_dim)
     task: str
+    overruled: bool = False  # the recorded success is an operator's verdict the scene's criterion contradicted
 
     @property
     def length(self) -> int:
@@ -185,6 +186,7 @@ class RecordedDataset:
             states=states,
             actions=actions,
             task=self._tasks[task_index] if task_index < len(self._tasks) else "",
+            overruled=operator_overruled(row.get("openral.episode_info")),
         )
 
     def _data(self, path: Path) -> pa.Table:
@@ -210,3 +212,16 @@ class RecordedDataset:
 def _matrix(column: Any, n: int) -> F32:
     flat = np.asarray(column.combine_chunks().flatten().to_numpy(zero_copy_only=False), dtype=np.float32)
     return flat.reshape(n, -1) if n else flat.reshape(0, 0)
+
+
+def operator_overruled(raw: object) -> bool:
+    """Whether an episode record (`openral.episode_info`, JSON) says its success is the operator's verdict
+    (`operator_verdict`) while the scene's criterion (`scene_success`) said otherwise (record/hal_loop.py)."""
+    try:
+        info = parse_json(raw) if isinstance(raw, str) and raw else None
+    except ValueError:
+        return False  # not ours to judge: the outcome is only explained less
+    if not isinstance(info, dict):
+        return False
+    said, scene = info.get("operator_verdict"), info.get("scene_success")
+    return said in ("success", "failure") and isinstance(scene, bool) and (said == "success") != scene

@@ -67,6 +67,7 @@ class Divergence(TypedDict):
     reproduced: int
     divergence_max: float | None
     diverged_episodes: dict[str, int]
+    operator_verdicts: list[int]  # episodes whose recorded success is an operator's verdict the scene contradicted
     state_names: list[str]
 
 
@@ -179,6 +180,7 @@ def _divergence(run: Run, outcomes: list[EpisodeOutcome]) -> Divergence:
         diverged_episodes={
             str(o.index): o.first_divergence_frame for o in outcomes if o.first_divergence_frame is not None
         },
+        operator_verdicts=[o.index for o in outcomes if o.overruled],
         state_names=dim_names(run.features["observation.state"], "state"),
     )
 

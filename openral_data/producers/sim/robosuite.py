@@ -6,7 +6,8 @@ in [-1, 1] (scaled by the controller to at most 5 cm and 0.5 rad per step; gripp
 exactly as the policy emitted it. The control rate is the scene's `fps` (robosuite's `control_freq`).
 
 Observation state, by the rSkill state contract's representation:
-* `eef_pose_gripper` (8): end-effector [x, y, z] + quaternion [qw, qx, qy, qz] (world frame, qw >= 0) + gripper
+* `eef_pose_gripper` (8): end-effector [x, y, z] + quaternion [qw, qx, qy, qz] (world frame; sign continuous
+  within an episode, qw >= 0 on its first frame: quat_sign.py) + gripper
   closure (0 open .. 1 closed, from the finger joints)
 * `joint_positions_gripper` (n + 1): arm joint positions + gripper closure
 Success is the task's own `_check_success()`; the reward is robosuite's sparse task reward. Object observations
@@ -41,6 +42,7 @@ from openral_data.producers.sim.initial_state import check_recorded_on
 from openral_data.producers.sim.mujoco.rig_scene import RigScene
 from openral_data.producers.sim.named_cameras import named_camera_rig
 from openral_data.producers.sim.params import parse_params
+from openral_data.producers.sim.quat_sign import QuatTrack
 from openral_data.producers.sim.tasks import SuiteTask
 from openral_data.schemas.base import StrictModel
 from openral_data.schemas.robot import RobotManifest
@@ -132,6 +134,7 @@ class RobosuiteScene(RigScene):
         self.env: Any = self._make_env(scene, robot)
         self.env_name = self.params.env
         self._obs: dict[str, Any] = {}
+        self._quat_track = QuatTrack()
         self.model = self.env.sim.model._model
         self.data = self.env.sim.data._data
         self._objects = {o.name: self.model.body(o.root_body).id for o in self.env.model.mujoco_objects}
@@ -226,6 +229,7 @@ class RobosuiteScene(RigScene):
             "object_poses": {k: v.tolist() for k, v in self._object_poses().items()},
             "mujoco": mjstate.snapshot(self.model, self.data),
         }
+        self._quat_track.reset()
         return self._observation()
 
     def reset_to(self, initial_state: dict[str, Any]) -> Observation:
@@ -281,7 +285,7 @@ class RobosuiteScene(RigScene):
             joints = np.asarray(o["robot0_joint_pos"], dtype=np.float64)
             return np.append(joints, self._gripper()).astype(np.float32)
         x, y, z, w = (float(v) for v in o["robot0_eef_quat"])  # robosuite quaternions are xyzw
-        quat = np.array([w, x, y, z]) * (1.0 if w >= 0 else -1.0)
+        quat = self._quat_track(np.array([w, x, y, z]))
         pos = np.asarray(o["robot0_eef_pos"], dtype=np.float64)
         return np.concatenate([pos, quat, [self._gripper()]]).astype(np.float32)
 

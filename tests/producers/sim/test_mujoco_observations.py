@@ -190,7 +190,9 @@ def test_gripper_width_state_is_the_finger_gap_in_metres() -> None:
         for _ in range(20):
             obs = scene.step(close).observation
         assert obs.state[7] < 0.005
-        assert np.allclose(obs.state[:7], np.concatenate(scene.arm.ee_pose(scene.data)), atol=1e-6)
+        pos, quat = scene.arm.ee_pose(scene.data)
+        assert np.allclose(obs.state[:3], pos, atol=1e-6)
+        assert abs(float(np.dot(obs.state[3:7], quat))) == pytest.approx(1.0, abs=1e-6)  # the same rotation (q or -q)
     finally:
         scene.close()
 

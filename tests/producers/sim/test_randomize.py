@@ -36,11 +36,12 @@ DIMENSIONS: dict[str, tuple[dict[str, Any], str]] = {
     "physics": ({"physics": {"objects": ["cube"], "size": [0.7, 1.3]}}, "physics.cube.size"),
     "distractors": ({"distractors": {**FULL["distractors"], "count": [1, 3]}}, "distractors.objects"),
 }
+SAID = "put the {cube.color} cube on the {goal.color} pad"  # the goal's colour varies: named per episode
 
 
 def scene(randomize: dict[str, Any] | None) -> TabletopScene:
     params = {"randomize": randomize} if randomize is not None else None
-    sim = shipped_scene("pick_place", [SMALL], params=params)
+    sim = shipped_scene("pick_place", [SMALL], params=params, instruction=SAID)
     return TabletopScene(sim, registry.ROBOTS["franka_panda"], expert_rskill("pick_place"), "pick_place")
 
 
@@ -126,7 +127,7 @@ def test_off_is_invisible_and_places_as_before() -> None:
 
 
 def randomized_yaml(tmp_path: Path, block: dict[str, Any], max_steps: int = 30) -> Path:
-    sim = shipped_scene("pick_place", [SMALL], params={"randomize": block}, max_steps=max_steps)
+    sim = shipped_scene("pick_place", [SMALL], params={"randomize": block}, max_steps=max_steps, instruction=SAID)
     doc = sim.model_dump(mode="json", exclude_none=True)
     doc["scene"]["id"] = doc["task"]["scene_id"] = "pick_place_rand_test"
     return write_yaml(tmp_path / "scene.yaml", doc)

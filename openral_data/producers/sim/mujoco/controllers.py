@@ -3,9 +3,11 @@
 * `joint_positions_gripper` (n arm joints + 1): arm joint targets (radians, clipped to the joint limits)
   for the position servos, plus the normalised gripper command (0 = open, 1 = closed).
 * `delta_eef_gripper` (7): [dx, dy, dz, drx, dry, drz, gripper] — a translation (metres) and a rotation
-  vector (radians), both in the world frame. The position target is the site's current position + the
-  translation (kept above `min_height`); the orientation target accumulates the rotations (so a zero rotation
-  holds the orientation without drift) and stays within `max_lead_rotation` of the actual orientation. IK
+  vector (radians), both in the world frame. The position target is the previous target + the translation
+  (kept above `min_height`, and ahead of the actual position by at most the larger of this step's translation
+  and `max_lead_translation`, so blocked or lagging motion does not wind up) and the orientation target
+  accumulates the rotations (within `max_lead_rotation` of the actual orientation): a zero action holds the pose
+  instead of following whatever the arm lagged behind by (5 mm/s of drift when the target was re-read). IK
   (MuJoCo Jacobians) turns the target pose into servo targets. Deltas are clipped to `max_translation` /
   `max_rotation`.
 
@@ -60,6 +62,7 @@ class EefDeltaController:
         max_translation: float = 0.05,
         max_rotation: float = 0.3,
         max_lead_rotation: float = 0.3,
+        max_lead_translation: float = 0.01,
     ) -> None:
         self.arm = arm
         self.ik = ik
@@ -67,6 +70,7 @@ class EefDeltaController:
         self.max_translation = max_translation
         self.max_rotation = max_rotation
         self.max_lead_rotation = max_lead_rotation
+        self.max_lead_translation = max_lead_translation
         self.target_pos: F64 = np.zeros(3)
         self.target_quat: F64 = np.array([1.0, 0.0, 0.0, 0.0])
 
@@ -82,7 +86,11 @@ class EefDeltaController:
         if angle > self.max_rotation:
             drot = drot * (self.max_rotation / angle)
         pos, quat = a.ee_pose(data)
-        target = pos + dpos
+        target = self.target_pos + dpos  # from the held target, not the sagging pose: a zero delta holds the pose
+        lead = target - pos  # the target leads the site by at most this step's delta or max_lead_translation
+        lead_len, cap = float(np.linalg.norm(lead)), max(self.max_lead_translation, float(np.linalg.norm(dpos)))
+        if lead_len > cap:
+            target = pos + lead * (cap / lead_len)
         target[2] = max(target[2], self.min_height)
         self.target_pos = target
         rot = np.zeros(4)

@@ -147,7 +147,7 @@ class IKSolver:
             jac = np.vstack([self._jacp[:, a.dof], self._jacr[:, a.dof]])
             jjt = jac @ jac.T + (self.damping**2) * np.eye(6)
             dq = jac.T @ np.linalg.solve(jjt, err)
-            pinv = jac.T @ np.linalg.solve(jjt, np.eye(6))
+            pinv = np.linalg.pinv(jac)  # the exact null space: the pull to `rest` does not move the site
             dq += (eye - pinv @ jac) @ (self.null_gain * (self.rest - q))
             norm = float(np.abs(dq).max())
             if norm > max_step:

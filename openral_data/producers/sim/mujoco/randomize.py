@@ -112,6 +112,15 @@ class Randomizer:
             )
         }
 
+    @property
+    def names(self) -> list[str]:
+        """What `colors` / `textures` may name: the table, the floor and every object."""
+        return sorted(self._geoms)
+
+    def rgba(self, name: str) -> list[float]:
+        """The current (this episode's) rgba of `name`'s first geom."""
+        return [float(v) for v in self.model.geom_rgba[self._geoms[name][0]]]
+
     # -- checks ----------------------------------------------------------------------------------------------
     def _check(self) -> None:
         spec = self.spec

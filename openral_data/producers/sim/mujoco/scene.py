@@ -4,7 +4,8 @@ with the objects and success criterion the scene YAML declares (schemas/tabletop
 Observation state, by the rSkill state contract's representation:
 * `joint_positions_gripper`: arm joint positions (manifest order) + gripper opening state (0 open .. 1 closed)
 * `joint_positions`: arm joint positions only
-* `eef_pose_gripper`: end-effector site [x, y, z, qw, qx, qy, qz] (world frame, qw >= 0) + gripper state
+* `eef_pose_gripper`: end-effector site [x, y, z, qw, qx, qy, qz] (world frame; the quaternion's sign continuous
+  within an episode, qw >= 0 on its first frame: producers/sim/quat_sign.py) + gripper state
 * `eef_pose_gripper_width`: the same pose + the gripper's width in metres (the gap between the finger pads,
   finger_gap.py)
 Actions: see controllers.py. `Observation.time` is simulation time since reset. With
@@ -51,6 +52,7 @@ from openral_data.producers.sim.mujoco.controllers import (
     JointPositionController,
 )
 from openral_data.producers.sim.mujoco.finger_gap import FingerGap
+from openral_data.producers.sim.mujoco.instruction import check_instruction, episode_instruction
 from openral_data.producers.sim.mujoco.kinematics import F64, Arm, IKSolver
 from openral_data.producers.sim.mujoco.placement import (
     DEFAULT_GAP,
@@ -67,6 +69,7 @@ from openral_data.producers.sim.mujoco.render import CameraRig
 from openral_data.producers.sim.mujoco.rig_scene import RigScene
 from openral_data.producers.sim.mujoco.success import holds
 from openral_data.producers.sim.params import parse_params
+from openral_data.producers.sim.quat_sign import QuatTrack
 from openral_data.schemas.base import format_validation_error
 from openral_data.schemas.mujoco import MujocoRobotWiring, TabletopParams
 from openral_data.schemas.robot import RobotManifest
@@ -147,6 +150,7 @@ class TabletopScene(RigScene):
             )
         self.task_kind: str = task or self.params.task or scene.scene.id
         self.state_representation = rskill.state_contract.representation
+        self._quat_track = QuatTrack()
         check_representations(
             rskill, rskill_source, "MuJoCo tabletop scenes", STATE_REPRESENTATIONS, ACTION_REPRESENTATIONS
         )
@@ -175,6 +179,7 @@ class TabletopScene(RigScene):
         self.data = mujoco.MjData(self.model)
         self.randomizer = Randomizer(self.model, rz, self.objects, list(scene.scene.cameras), source)
         self.randomization: dict[str, Any] = {}  # the current episode's drawn values (its provenance)
+        self._check_instruction(scene.task.instruction, source)
         self._nominal_extents = True
         self.arm = Arm.build(self.composed, wiring)
         self.ik = IKSolver(self.arm, rest=np.array(wiring.home))
@@ -217,7 +222,6 @@ class TabletopScene(RigScene):
             self.finger_gap = FingerGap(
                 self.model, self.data, self.composed.gripper_joints, self.arm.site, self._robot_source
             )
-        self.task_text = scene.task.instruction
         if scene.scene.observations.environment_state:
             self.environment_objects = self.object_names()
         self.rig = CameraRig(self.model, list(scene.scene.cameras), scene.scene.render)
@@ -317,6 +321,7 @@ class TabletopScene(RigScene):
         mujoco.mj_forward(self.model, self.data)
         self.initial = self._snapshot()
         self.controller.reset(self.data)
+        self._quat_track.reset()
         return self._observation()
 
     def object_names(self) -> tuple[str, ...]:
@@ -355,6 +360,16 @@ class TabletopScene(RigScene):
         objects = [o for o in self.objects if not skip or o.name not in skip]
         return place(objects, self.extents, p.table_height, rng, self._gap, self._params_source, self._keep_clear)
 
+    def _check_instruction(self, instruction: str, source: str) -> None:
+        """Keep the instruction, whose `{NAME.color}` each episode fills in (instruction.py), refusing one that
+        would be false in some episode."""
+        self.instruction = instruction
+        r, rz = self.randomizer, self.params.randomize
+        varies = rz if rz is not None and rz.enabled else None
+        colors, textures = (varies.colors, varies.textures) if varies is not None else ([], [])
+        check_instruction(instruction, r.rgba, r.names, colors, textures, source)
+        self.task_text = episode_instruction(instruction, r.rgba)
+
     def _randomize(self, values: dict[str, Any]) -> None:
         """Write an episode's variation into the model (nominal first); sizes and masses changed mean new
         derived constants and, for sizes, new extents to place by."""
@@ -365,6 +380,7 @@ class TabletopScene(RigScene):
             self.extents = extents(self.model, self.objects)
         self._nominal_extents = not changed
         self.randomization = values
+        self.task_text = episode_instruction(self.instruction, self.randomizer.rgba)
 
     def cube_pos(self) -> F64:
         """The role `object`'s position (the cube of the push and pick-place scenes)."""
@@ -461,7 +477,7 @@ class TabletopScene(RigScene):
             return np.append(d.qpos[a.qpos], grip).astype(np.float32)
         pos, quat = a.ee_pose(d)
         last = grip if self.finger_gap is None else self.finger_gap.width(d)
-        return np.concatenate([pos, quat, [last]]).astype(np.float32)
+        return np.concatenate([pos, self._quat_track(quat), [last]]).astype(np.float32)
 
     def _observation(self) -> Observation:
         d, p = self.data, self.params
