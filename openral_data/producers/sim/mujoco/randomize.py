@@ -238,7 +238,7 @@ class Randomizer:
         for name in self.parked(values):
             self._park(name)
 
-    def _apply(self, values: dict[str, Any]) -> None:  # long: one short block per kind of variation
+    def _apply(self, values: dict[str, Any]) -> None:  # one short block per kind of variation
         m = self.model
         light = values.get("light")
         if light is not None:
