@@ -151,8 +151,8 @@ def robomimic_mapping(source: ArraySource, first: ArrayEpisode) -> tuple[dict[st
 
 def _robomimic_origin(layout: str) -> tuple[str, str]:
     """Whether a robomimic-family file stores its pictures bottom row first, and why. robosuite renders with
-    OpenGL's origin (bottom row first) unless its IMAGE_CONVENTION macro says opencv. LIBERO's create_dataset.py
-    stores its env's observations as they come: bottom-up. robomimic's EnvRobosuite (dataset_states_to_obs.py,
+    OpenGL's origin (bottom row first) unless its IMAGE_CONVENTION macro says opencv. LIBERO's create_dataset script
+    stores its env's observations as they come: bottom-up. robomimic's EnvRobosuite (its dataset_states_to_obs script,
     which MimicGen's generation also goes through) flips them (`di[k][::-1]`) before they are stored: upright."""
     if layout == "libero":
         return "bottom", (

@@ -139,7 +139,7 @@ class RobomimicFile:
 
 def split_order(f: h5py.File, demos: list[str], path: Path) -> list[tuple[str, str | None]]:
     """The demos with their split, grouped by split: robomimic's filter keys `mask/train` then `mask/valid`
-    (its split_train_val.py writes them: arrays of demo names), then the demos in neither (no split). Without
+    (its split_train_val script writes them: arrays of demo names), then the demos in neither (no split). Without
     those keys: every demo in order, no split. Other filter keys (`20_percent`, ...) are not splits."""
     mask = f.get("mask")
     named: dict[str, list[str]] = {}
