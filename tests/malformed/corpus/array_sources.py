@@ -4,6 +4,8 @@ refused by `info SRC` in one line naming the file and key; and `info` / `convert
 
 from __future__ import annotations
 
+import json
+import os
 import re
 from collections.abc import Callable
 from pathlib import Path
@@ -47,3 +49,27 @@ case(
     lambda w: ["convert", str(w.write("g.bag", b"#ROSBAG V2.0\n" + b"\x00" * 300)), "--print-mapping"],
     r"g\.bag",
 )
+
+
+def _zarr_chunk_case(name: str, chunk: bytes | None, says: str) -> None:
+    """data/action's chunk 0.0 zstd-compressed by its .zarray, replaced by `chunk` (None: a FIFO) (#49)."""
+
+    def build(w: Workspace) -> list[str]:
+        path = replay_buffer.write_replay_buffer(w.root / "b.zarr", replay_buffer.sample_episodes())
+        meta = path / "data/action/.zarray"
+        meta.write_text(json.dumps({**json.loads(meta.read_text()), "compressor": {"id": "zstd", "level": 1}}))
+        target = path / "data/action/0.0"
+        target.unlink()
+        if chunk is None:
+            os.mkfifo(target)
+        else:
+            target.write_bytes(chunk)
+        return ["convert", str(path), str(w.root / "o"), "--fps", "10", "--codec", "h264"]
+
+    case(f"zarr-{name}", build, re.escape("b.zarr: data/action/0.0: ") + says, ("o",))
+
+
+_ZSTD_HEADER = b"\x28\xb5\x2f\xfd\xe0" + (1 << 40).to_bytes(8, "little")  # one frame of 1 TB, single segment
+_ZSTD_1TB = _ZSTD_HEADER + (1 | (64 << 3)).to_bytes(3, "little") + bytes(64)  # then one raw 64-byte block
+_zarr_chunk_case("zstd-chunk-claims-1tb", _ZSTD_1TB, "a zstd chunk claiming")
+_zarr_chunk_case("fifo-chunk", None, "not a regular file")
