@@ -55,7 +55,7 @@ def _json(body: bytes) -> Any:
     "path", ["/api/datasets", "/api/d/0/episodes", "/api/d/0/episode/0/series", "/d/0/video/0/0", "/"]
 )
 def test_a_foreign_host_gets_421_and_no_data(server: Browser, path: str) -> None:
-    port = urlsplit(server.url).port
+    port = int(urlsplit(server.url).port or 0)
     for host in (f"attacker.example:{port}", "attacker.example", f"127.0.0.1.nip.io:{port}", f"127.0.0.1:{port + 1}"):
         status, body = _get(server, path, {"Host": host})
         assert status == 421, (host, status, body[:200])
