@@ -41,11 +41,17 @@ def _external_storage(root: Path) -> Path:
     return path
 
 
-def _external_link(root: Path) -> Path:
-    path = _source(root)
+def _other(root: Path) -> Path:
+    """Another HDF5 file whose `object` holds the canary's bytes."""
     other = root / "other.hdf5"
     with h5py.File(other, "w") as g:
         g["object"] = np.frombuffer((CANARY * 20)[: 4 * 10 * 8], np.float64).reshape(4, 10)
+    return other
+
+
+def _external_link(root: Path) -> Path:
+    path = _source(root)
+    other = _other(root)
     with h5py.File(path, "r+") as f:
         del f[OBJECT]
         f[OBJECT] = h5py.ExternalLink(str(other), "/object")
@@ -54,9 +60,7 @@ def _external_link(root: Path) -> Path:
 
 def _virtual(root: Path) -> Path:
     path = _source(root)
-    other = root / "other.hdf5"
-    with h5py.File(other, "w") as g:
-        g["object"] = np.frombuffer((CANARY * 20)[: 4 * 10 * 8], np.float64).reshape(4, 10)
+    other = _other(root)
     layout = h5py.VirtualLayout(shape=(4, 10), dtype="f8")
     layout[...] = h5py.VirtualSource(str(other), "object", shape=(4, 10))
     with h5py.File(path, "r+") as f:

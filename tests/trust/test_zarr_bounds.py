@@ -5,17 +5,14 @@ timeout (before: a MemoryError traceback, or a hang)."""
 from __future__ import annotations
 
 import gzip
-import json
-import os
 from collections.abc import Callable
 from pathlib import Path
 
-import numcodecs
 import pytest
 from backports import zstd
 
 from tests.support.bounded import run_bounded
-from tests.support.replay_buffer import sample_episodes, write_replay_buffer
+from tests.support.replay_buffer import replace_chunk, sample_episodes, write_replay_buffer
 
 MB = 1 << 20
 BOMB = 3 << 30  # what the bombs expand to
@@ -45,19 +42,7 @@ def _gzip_bomb() -> bytes:
 
 def _store(root: Path, compressor: dict[str, object], chunk: bytes | None) -> Path:
     """A replay buffer whose data/action says `compressor` and whose chunk 0.0 is `chunk` (None: a FIFO)."""
-    store = write_replay_buffer(root / "b.zarr", sample_episodes())
-    meta = store / "data/action/.zarray"
-    meta.write_text(json.dumps({**json.loads(meta.read_text()), "compressor": compressor}))
-    codec = numcodecs.get_codec(dict(compressor))
-    for other in (store / "data/action").glob("*.0"):  # the other chunks: good data in the new compressor
-        other.write_bytes(codec.encode(numcodecs.Blosc().decode(other.read_bytes())))
-    target = store / "data/action/0.0"
-    target.unlink()
-    if chunk is None:
-        os.mkfifo(target)
-    else:
-        target.write_bytes(chunk)
-    return store
+    return replace_chunk(write_replay_buffer(root / "b.zarr", sample_episodes()), compressor, chunk)
 
 
 CASES: dict[str, tuple[dict[str, object], Callable[[], bytes | None], str]] = {

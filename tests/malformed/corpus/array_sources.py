@@ -4,8 +4,6 @@ refused by `info SRC` in one line naming the file and key; and `info` / `convert
 
 from __future__ import annotations
 
-import json
-import os
 import re
 from collections.abc import Callable
 from pathlib import Path
@@ -56,14 +54,7 @@ def _zarr_chunk_case(name: str, chunk: bytes | None, says: str) -> None:
 
     def build(w: Workspace) -> list[str]:
         path = replay_buffer.write_replay_buffer(w.root / "b.zarr", replay_buffer.sample_episodes())
-        meta = path / "data/action/.zarray"
-        meta.write_text(json.dumps({**json.loads(meta.read_text()), "compressor": {"id": "zstd", "level": 1}}))
-        target = path / "data/action/0.0"
-        target.unlink()
-        if chunk is None:
-            os.mkfifo(target)
-        else:
-            target.write_bytes(chunk)
+        replay_buffer.replace_chunk(path, {"id": "zstd", "level": 1}, chunk)
         return ["convert", str(path), str(w.root / "o"), "--fps", "10", "--codec", "h264"]
 
     case(f"zarr-{name}", build, re.escape("b.zarr: data/action/0.0: ") + says, ("o",))
