@@ -32,15 +32,6 @@ def _canary(root: Path) -> Path:
     return path
 
 
-def _external_storage(root: Path) -> Path:
-    path = _source(root)
-    secret = _canary(root)
-    with h5py.File(path, "r+") as f:
-        del f[OBJECT]
-        f.create_dataset(OBJECT, shape=(4, 10), dtype="f8", external=[(str(secret), 0, 4 * 10 * 8)])
-    return path
-
-
 def _other(root: Path) -> Path:
     """Another HDF5 file whose `object` holds the canary's bytes."""
     other = root / "other.hdf5"
@@ -49,34 +40,37 @@ def _other(root: Path) -> Path:
     return other
 
 
-def _external_link(root: Path) -> Path:
+def _replaced(root: Path, put: Callable[[h5py.File], object]) -> Path:
+    """The source with `OBJECT` deleted and `put` in its place."""
     path = _source(root)
-    other = _other(root)
     with h5py.File(path, "r+") as f:
         del f[OBJECT]
-        f[OBJECT] = h5py.ExternalLink(str(other), "/object")
+        put(f)
     return path
+
+
+def _external_storage(root: Path) -> Path:
+    secret = _canary(root)
+    return _replaced(
+        root, lambda f: f.create_dataset(OBJECT, shape=(4, 10), dtype="f8", external=[(str(secret), 0, 320)])
+    )
+
+
+def _external_link(root: Path) -> Path:
+    other = _other(root)
+    return _replaced(root, lambda f: f.__setitem__(OBJECT, h5py.ExternalLink(str(other), "/object")))
 
 
 def _virtual(root: Path) -> Path:
-    path = _source(root)
-    other = _other(root)
     layout = h5py.VirtualLayout(shape=(4, 10), dtype="f8")
-    layout[...] = h5py.VirtualSource(str(other), "object", shape=(4, 10))
-    with h5py.File(path, "r+") as f:
-        del f[OBJECT]
-        f["data/demo_0/obs"].create_virtual_dataset("object", layout)
-    return path
+    layout[...] = h5py.VirtualSource(str(_other(root)), "object", shape=(4, 10))
+    return _replaced(root, lambda f: f["data/demo_0/obs"].create_virtual_dataset("object", layout))
 
 
 def _fifo_link(root: Path) -> Path:
-    path = _source(root)
     fifo = root / "pipe.hdf5"
     os.mkfifo(fifo)
-    with h5py.File(path, "r+") as f:
-        del f[OBJECT]
-        f[OBJECT] = h5py.ExternalLink(str(fifo), "/object")
-    return path
+    return _replaced(root, lambda f: f.__setitem__(OBJECT, h5py.ExternalLink(str(fifo), "/object")))
 
 
 MAKERS: dict[str, tuple[Callable[[Path], Path], str]] = {
