@@ -23,6 +23,7 @@ import numpy as np
 from backports import zstd
 
 from openral_data.errors import DatasetError
+from openral_data.formats.chunk_bounds import expanded_size
 
 MAX_CHUNK_BYTES = 512 * 1024 * 1024  # a chunk, compressed or decompressed (the global cap)
 _PIECE = 1 << 20  # decompressed at a time, and dropped
@@ -96,14 +97,32 @@ def _codec(meta: Any) -> str | None:
     return None
 
 
-def _zlib() -> Any:
-    return zlib.decompressobj(wbits=47)  # gzip or zlib, from the header
+class _Zlib:
+    """zlib's decompressor (gzip or zlib, from the header) with the streaming interface `expanded_size` takes."""
+
+    def __init__(self) -> None:
+        self._d = zlib.decompressobj(wbits=47)
+
+    @property
+    def eof(self) -> bool:
+        return self._d.eof
+
+    @property
+    def needs_input(self) -> bool:
+        return not self._d.unconsumed_tail
+
+    @property
+    def unused_data(self) -> bytes:
+        return self._d.unused_data
+
+    def decompress(self, data: bytes, max_length: int = -1) -> bytes:
+        return self._d.decompress(self._d.unconsumed_tail + data, max(max_length, 0))
 
 
 _STREAMS: dict[str, Callable[[], Any]] = {
     "zstd": zstd.ZstdDecompressor,
-    "gzip": _zlib,
-    "zlib": _zlib,
+    "gzip": _Zlib,
+    "zlib": _Zlib,
     "bz2": bz2.BZ2Decompressor,
     "lzma": lzma.LZMADecompressor,
 }
@@ -127,36 +146,11 @@ def _check_expansion(codec: str, data: bytes, limit: int, where: str) -> None:
     if make is None:
         return
     try:
-        size = _expanded(make, data, limit + 1)
+        size = expanded_size(make, data, limit + 1)
     except (zstd.ZstdError, zlib.error, OSError, EOFError, ValueError, lzma.LZMAError) as exc:
         raise _refused(where, f"a {codec} chunk that does not decompress: {exc}") from None
     if size > limit:
         raise _refused(where, f"a {codec} chunk expanding past the {limit} bytes its array declares")
-
-
-def _expanded(make: Callable[[], Any], data: bytes, limit: int) -> int:
-    """What `data` expands to (every frame or member after the first too), counted in pieces, stopped at `limit`."""
-    size = 0
-    while data and size < limit:
-        decompressor = make()
-        out = decompressor.decompress(data, _PIECE)
-        while True:
-            size += len(out)
-            if size >= limit or decompressor.eof:
-                break
-            if isinstance(decompressor, _ZLIB_TYPE):
-                if not decompressor.unconsumed_tail:
-                    return size  # truncated: its decoder says so
-                out = decompressor.decompress(decompressor.unconsumed_tail, _PIECE)
-            elif decompressor.needs_input:
-                return size
-            else:
-                out = decompressor.decompress(b"", _PIECE)
-        data = decompressor.unused_data
-    return size
-
-
-_ZLIB_TYPE = type(zlib.decompressobj())
 
 
 def _refused(where: str, what: str) -> DatasetError:
