@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import errno
 import os
+import re
 import stat
+import string
 from pathlib import Path
 
 from openral_data.errors import DatasetError, NotRegularFile, UsageError
@@ -40,13 +42,49 @@ def from_template(root: Path, template: object, values: dict[str, object], sourc
     `template` formatted with `values` and `contained` in `root`, else one line naming `source`."""
     if not isinstance(template, str):
         raise DatasetError(f"{source}: {template!r} is not a path template", code="dataset.invalid")
+    check_template(template, values, source)
     try:
         rel = template.format(**values)
     except (KeyError, IndexError, ValueError, AttributeError, TypeError) as exc:
         raise DatasetError(
             f"{source}: {template!r} is not a usable path template ({exc})", code="dataset.invalid"
         ) from None
+    if any(len(os.fsencode(part)) > MAX_NAME_BYTES for part in Path(rel).parts):
+        raise DatasetError(f"{source}: {template[:80]!r} makes a file name over {MAX_NAME_BYTES} bytes",
+                           code="dataset.invalid")  # fmt: skip
     return contained(root, rel, source)
+
+
+MAX_TEMPLATE_CHARS = 512
+MAX_NAME_BYTES = 255  # one path component (the file systems' limit)
+MAX_FIELD_WIDTH = 10  # `{file_index:03d}`-style widths, as lerobot writes them (at most 10 digits)
+_FIELD_SPEC = re.compile(r"0?([1-9]\d?)?d")
+
+
+def check_template(template: str, values: dict[str, object], source: str) -> None:
+    """`template` is in the forms lerobot writes, before it is formatted (nothing is allocated for a width of
+    10**9): bounded length, only the fields of `values`, each plain or an integer with a small zero-padded width
+    (`{chunk_index:03d}`), no conversion, attribute or index; anything else is one line naming `source`."""
+    if len(template) > MAX_TEMPLATE_CHARS:
+        raise DatasetError(f"{source}: a path template of {len(template)} characters", code="dataset.invalid")
+    try:
+        fields = list(string.Formatter().parse(template))
+    except ValueError as exc:
+        raise DatasetError(
+            f"{source}: {template[:80]!r} is not a path template ({exc})", code="dataset.invalid"
+        ) from None
+    for _, name, spec, conversion in fields:
+        if name is None:
+            continue
+        match = _FIELD_SPEC.fullmatch(spec or "")
+        width_ok = not spec or (match is not None and int(match.group(1) or 0) <= MAX_FIELD_WIDTH)
+        if name not in values or conversion is not None or not width_ok or (spec and isinstance(values[name], str)):
+            shown = "{" + name + (f"!{conversion}" if conversion else "") + (f":{spec}" if spec else "") + "}"
+            raise DatasetError(
+                f"{source}: {shown[:60]} is not a field lerobot writes (fields: "
+                f"{', '.join(sorted(values))}; widths up to {MAX_FIELD_WIDTH}, as {{chunk_index:03d}})",
+                code="dataset.invalid",
+            )
 
 
 def _link_on_the_way(root: Path, rel: Path) -> bool:

@@ -1,6 +1,7 @@
 """The Starlette app: HTML pages and static assets (package data, served from memory by name), the JSON API and
-the videos. Read-only: no route writes, runs a command or opens a path named by the URL; a video is found from
-the episode's metadata (`Catalog.video`), so a URL can only reach the mp4 files of the datasets given."""
+the videos, behind `_guard.LocalOnly` (Host and Origin checked). Read-only: no route writes, runs a command or
+opens a path named by the URL; a video is found from the episode's metadata (`Catalog.video`), so a URL can only
+reach the mp4 files of the datasets given."""
 
 from __future__ import annotations
 
@@ -11,12 +12,14 @@ from importlib import resources
 
 from starlette.applications import Starlette
 from starlette.exceptions import HTTPException
+from starlette.middleware import Middleware
 from starlette.requests import Request
 from starlette.responses import FileResponse, JSONResponse, Response
 from starlette.routing import Route
 
 from openral_data.browse._catalog import Catalog
 from openral_data.browse._compare import compare
+from openral_data.browse._guard import LocalOnly
 from openral_data.errors import NotFound, OpenralError
 
 _TYPES = {".html": "text/html; charset=utf-8", ".js": "text/javascript", ".css": "text/css"}
@@ -34,9 +37,12 @@ def _assets() -> dict[str, tuple[bytes, str]]:
     return out
 
 
-def create_app(catalogs: Sequence[Catalog], rerun_url: str | None = None) -> Starlette:
+def create_app(
+    catalogs: Sequence[Catalog], rerun_url: str | None = None, host: str = "127.0.0.1", port: int = 0
+) -> Starlette:
     """The app over `catalogs` (dataset number i = `catalogs[i]`); episode pages link to `rerun_url` (a web
-    viewer `view --serve` keeps) when given."""
+    viewer `view --serve` keeps) when given. It answers only requests naming `host`:`port`, where it listens
+    (port 0: any port), and its API and media only same-origin ones (`_guard.LocalOnly`)."""
     routes = [
         Route("/", _index),
         Route("/static/{name}", _static),
@@ -54,7 +60,11 @@ def create_app(catalogs: Sequence[Catalog], rerun_url: str | None = None) -> Sta
         Route("/api/d/{ds}/episode/{ep:int}/series", _series),
         Route("/api/d/{ds}/commands", _commands),
     ]
-    app = Starlette(routes=routes, exception_handlers={NotFound: _not_found, OpenralError: _refused})
+    app = Starlette(
+        routes=routes,
+        exception_handlers={NotFound: _not_found, OpenralError: _refused},
+        middleware=[Middleware(LocalOnly, host=host, port=port)],
+    )
     app.state.catalogs = list(catalogs)
     app.state.assets = _assets()
     app.state.rerun_url = rerun_url

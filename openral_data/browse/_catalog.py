@@ -7,6 +7,8 @@ from __future__ import annotations
 import math
 import shlex
 import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -27,7 +29,8 @@ from openral_data.metrics.where import WHERE_VIEW, where_connection, where_query
 
 COLUMNS = ("episode_index", "task", "length", "duration_s", "success", "seed")
 QUALITY = "quality_flags"  # the column of the flags `openral-data quality` raised, when its table is cached
-MAX_LIMIT = 500
+MAX_LIMIT = 500  # rows of one page
+QUERY_SECONDS = 10.0  # a table query (its --where) is interrupted after this long
 REWARD = "next.reward"
 
 
@@ -42,6 +45,7 @@ class Catalog:
     lock: threading.Lock = field(default_factory=threading.Lock, init=False)
     rows: EpisodeRows = field(default_factory=EpisodeRows, init=False)
     quality: bool = field(default=False, init=False)  # a current quality table is cached: its flags are a column
+    query_seconds: float = field(default=QUERY_SECONDS, init=False)
 
     def __post_init__(self) -> None:
         self.con = where_connection(self.ds)  # with the `quality` view: the cached table, never computed here
@@ -96,9 +100,10 @@ class Catalog:
         predicate = where if where.strip() else "TRUE"
         order = f"ORDER BY {ident(sort)} {'DESC' if desc else 'ASC'} NULLS LAST, episode_index"
         page = f"{order} LIMIT {max(1, min(limit, MAX_LIMIT))} OFFSET {max(0, offset)}"
-        with self.lock:
+        with self.lock, _deadline(self.con, self.query_seconds):
             ((n, known, wins),) = where_query(self.con, "count(*), count(success), count_if(success)", predicate)
             rows = where_query(self.con, self._select(), predicate, page)
+        wins = wins or 0  # count_if over no row is NULL: a filter that matches nothing is an empty table
         interval = wilson(int(wins), int(known))
         return {
             "total": int(n),
@@ -242,6 +247,27 @@ class Catalog:
         if not rows:
             raise NotFound(f"no episode {index}")
         return dict(zip(have, rows[0], strict=True))
+
+
+@contextmanager
+def _deadline(con: duckdb.DuckDBPyConnection, seconds: float) -> Iterator[None]:
+    """Interrupt `con`'s query after `seconds`; the `QueryError` it then raises says so."""
+    fired = threading.Event()
+
+    def stop() -> None:
+        fired.set()
+        con.interrupt()
+
+    timer = threading.Timer(seconds, stop)
+    timer.start()
+    try:
+        yield
+    except QueryError:
+        if fired.is_set():
+            raise QueryError(f"--where: stopped after {seconds:g} s (browse bounds each query)") from None
+        raise
+    finally:
+        timer.cancel()
 
 
 def _json(value: Any) -> Any:

@@ -59,9 +59,8 @@ class Browser:
             self.sock.close()
             raise UsageError(f"--host/--port: cannot listen on {self.host}:{self.port}: {exc.strerror}") from None
         self.sock.listen(128)
-        config = uvicorn.Config(
-            create_app(self.catalogs, self.rerun_url), log_level="warning", access_log=False, lifespan="off"
-        )
+        app = create_app(self.catalogs, self.rerun_url, self.host, self.sock.getsockname()[1])
+        config = uvicorn.Config(app, log_level="warning", access_log=False, lifespan="off")
         self.server = uvicorn.Server(config)
 
     @property

@@ -12,7 +12,7 @@ from __future__ import annotations
 import bz2
 from collections.abc import Callable
 from pathlib import Path
-from typing import Protocol
+from typing import Any, Protocol
 
 import lz4.frame  # type: ignore[import-untyped]
 from backports import zstd
@@ -50,14 +50,14 @@ def check_chunk(path: Path, compression: str, declared: int, data: bytes) -> Non
     if make is None:
         return  # uncompressed (its size is the record's) or unknown: the reader says so
     try:
-        size = _expanded_size(make, data, declared + 1)
+        size = expanded_size(make, data, declared + 1)
     except (zstd.ZstdError, RuntimeError, ValueError, OSError, EOFError) as exc:  # lz4: RuntimeError, bz2: OSError
         raise refused(path, f"a {compression} chunk that does not decompress: {exc}") from None
     if size > declared:
         raise refused(path, f"a {compression} chunk expanding past its declared {declared} bytes")
 
 
-def _expanded_size(make: Callable[[], _Decompressor], data: bytes, limit: int) -> int:
+def expanded_size(make: Callable[[], Any], data: bytes, limit: int) -> int:
     """How many bytes `data` (one or more frames) decompresses to, counted up to `limit` and no further."""
     total = 0
     while data and total < limit:

@@ -12,12 +12,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import yaml
 from pydantic import Field, model_validator
 
 from openral_data.errors import ConfigError
 from openral_data.formats.jsonfile import read_text_file
-from openral_data.schemas.base import StrictModel, validate
+from openral_data.schemas.base import StrictModel, parse_yaml, validate
 
 MAX_BYTES = 4 << 20
 
@@ -55,7 +54,8 @@ class Annotations(StrictModel):
 def read_annotations(path: Path) -> Annotations:
     raw = read_text_file(path, MAX_BYTES, "an annotations file")
     try:
-        data = yaml.safe_load(raw)
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: not YAML: {str(exc).splitlines()[0]}") from None
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{path}: not UTF-8 text (byte {exc.start})") from None
+    data = parse_yaml(text, str(path))  # bounded numbers, no duplicate keys
     return validate(Annotations, data, str(path))

@@ -32,6 +32,7 @@ from openral_data.formats.lerobot_v3.features import camera_keys
 from openral_data.formats.repo_id import looks_like_repo_id
 from openral_data.paths import contained, regular_file
 from openral_data.policies.base import PolicyAdapter
+from openral_data.policies.checkpoint_limits import check_sizes
 from openral_data.policies.device import with_device
 from openral_data.schemas.rskill import Contract, RSkillManifest
 from openral_data.types import CameraShape, Observation, ProducerSpec
@@ -124,8 +125,9 @@ def _folder_name(folder: Path) -> str:
 
 
 def read_config(folder: Path) -> dict[str, Any]:
-    """`folder/config.json` read bounded (a regular file, at most `MAX_CONFIG_BYTES`), its `type` one we load, and
-    `folder/model.safetensors` a regular file; anything else is one line naming the file and field."""
+    """`folder/config.json` read bounded (a regular file, at most `MAX_CONFIG_BYTES`), its `type` one we load, the
+    values that size memory bounded (`checkpoint_limits.check_sizes`), and `folder/model.safetensors` a regular
+    file; anything else is one line naming the file and field."""
     file = folder / CONFIG
     try:
         doc = read_json(file, MAX_CONFIG_BYTES)
@@ -136,6 +138,7 @@ def read_config(folder: Path) -> dict[str, Any]:
     kind = doc.get("type")
     if kind not in SUPPORTED:
         raise ConfigError(f"{file}: type: {kind!r} policies are not supported ({', '.join(SUPPORTED)})")
+    check_sizes(doc, file)  # before lerobot builds anything of the size it states
     try:
         regular_file(folder / WEIGHTS)
     except FileNotFoundError:

@@ -45,6 +45,7 @@ from openral_data.policies.checkpoint import (
     WEIGHTS,
     read_config,
 )
+from openral_data.policies.checkpoint_limits import check_step
 from openral_data.policies.device import resolve_device
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.types import Observation
@@ -97,7 +98,9 @@ def check_processor_steps(path: Path, root: Path | None = None) -> None:
 
     A checkpoint is code: lerobot's `DataProcessorPipeline.from_pretrained` imports and calls any `module.Name`
     a step's `class` names (`subprocess.Popen` included). Only lerobot's registered steps (`ProcessorStepRegistry`,
-    by `registry_name` or by their own `module.Name`) are let through, before anything of the checkpoint loads.
+    by `registry_name` or by their own `module.Name`) are let through, before anything of the checkpoint loads,
+    and of those only the pure tensor ones (`checkpoint_limits.PURE_STEPS`: not a reward classifier or tokenizer,
+    which load a model or remote code from a path the step names).
     The processor files (read bounded, regular files) and each step's `state_file` (lerobot opens
     `path / state_file`) must stay inside `root` after symlinks.
     """
@@ -106,7 +109,7 @@ def check_processor_steps(path: Path, root: Path | None = None) -> None:
 
     root = path if root is None else root
     names = ProcessorStepRegistry.list()
-    classes = {f"{c.__module__}.{c.__name__}" for c in map(ProcessorStepRegistry.get, names)}
+    classes = {f"{c.__module__}.{c.__name__}": n for n in names for c in [ProcessorStepRegistry.get(n)]}
     for name in PROCESSOR_FILES:
         file = inside(root, path, name, str(path / name))
         try:
@@ -122,6 +125,7 @@ def check_processor_steps(path: Path, root: Path | None = None) -> None:
             if not (named in names if named is not None else isinstance(cls, str) and cls in classes):
                 shown = named if named is not None else cls
                 raise ConfigError(f"{file}: steps[{i}]: {shown!r} is not a registered lerobot processor step")
+            check_step(named if named is not None else classes[str(cls)], f"{file}: steps[{i}]")
             if "state_file" in step:
                 check_state_file(root, path, step["state_file"], f"{file}: steps[{i}].state_file")
 

@@ -35,6 +35,20 @@ class _UniqueKeyLoader(yaml.SafeLoader):
                 raise yaml.constructor.ConstructorError(None, None, f"duplicate key {key!r}", key_node.start_mark)
         return super().construct_mapping(node, deep=deep)
 
+    def bounded_number(self, node: yaml.ScalarNode) -> Any:
+        """An int or float scalar of at most `MAX_NUMBER_CHARS` characters (a 5000-digit integer is over
+        Python's int-from-text limit: a ValueError, not a YAML error, before this)."""
+        if len(str(node.value)) > MAX_NUMBER_CHARS:
+            what = f"a number of {len(str(node.value))} characters (at most {MAX_NUMBER_CHARS})"
+            raise yaml.constructor.ConstructorError(None, None, what, node.start_mark)
+        make = yaml.SafeLoader.construct_yaml_int if node.tag.endswith(":int") else yaml.SafeLoader.construct_yaml_float
+        return make(self, node)
+
+
+MAX_NUMBER_CHARS = 100  # a YAML int or float (manifests hold small numbers)
+_UniqueKeyLoader.add_constructor("tag:yaml.org,2002:int", _UniqueKeyLoader.bounded_number)
+_UniqueKeyLoader.add_constructor("tag:yaml.org,2002:float", _UniqueKeyLoader.bounded_number)
+
 
 _PLAIN_KEY = re.compile(r"[A-Za-z0-9_\-/]+")
 _PYDANTIC_PREFIX = re.compile(r"^(Value error|Assertion failed), ")

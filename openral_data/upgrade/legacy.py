@@ -19,7 +19,7 @@ from typing import Any
 from openral_data.errors import DatasetError
 from openral_data.formats import lerobot_v2
 from openral_data.formats.jsonfile import read_json
-from openral_data.paths import from_template, regular_file, safe_name
+from openral_data.paths import contained, from_template, regular_file, safe_name
 
 INFO = "meta/info.json"
 EPISODES = "meta/episodes.jsonl"
@@ -59,6 +59,8 @@ class Legacy:
 
 def read_legacy(root: Path) -> Legacy:
     """`root` read as a v2.0/v2.1 dataset (see the module docstring); refused in one line otherwise."""
+    for rel in (INFO, EPISODES, TASKS, EPISODES_STATS):  # a `meta/` symlink out of OLD, as every reader refuses
+        contained(root, rel, str(root / rel))
     info = _info(root)
     episodes = _by_index(read_jsonl(root / EPISODES), "episode_index", root / EPISODES)
     tasks = _by_index(read_jsonl(root / TASKS), "task_index", root / TASKS)

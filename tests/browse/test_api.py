@@ -24,7 +24,7 @@ from tests.support.lerobot_written import LENGTHS, SUCCEEDED, VIDEO_CAMERA
 @pytest.fixture(scope="module")
 def client(browse_dataset: Path) -> Iterator[TestClient]:
     catalogs = open_catalogs([str(browse_dataset)])
-    with TestClient(create_app(catalogs)) as c:
+    with TestClient(create_app(catalogs), base_url="http://127.0.0.1") as c:
         yield c
     for cat in catalogs:
         cat.close()
@@ -137,7 +137,7 @@ def test_a_video_symlinked_out_of_the_dataset_is_404(browse_dataset: Path, tmp_p
     os.symlink(outside, mp4)
     catalogs = open_catalogs([str(copy)])
     try:
-        with TestClient(create_app(catalogs)) as c:
+        with TestClient(create_app(catalogs), base_url="http://127.0.0.1") as c:
             assert c.get("/d/0/video/0/0").status_code == 404
             assert c.get("/api/d/0/episodes").status_code == 200  # the rest still answers
     finally:
@@ -174,7 +174,7 @@ def test_cli_without_the_browse_extra_names_it_in_one_line(monkeypatch: pytest.M
 def test_episode_links_to_rerun(browse_dataset: Path) -> None:
     catalogs = open_catalogs([str(browse_dataset)])
     try:
-        with TestClient(create_app(catalogs, "http://127.0.0.1:9090/?url=x")) as c:
+        with TestClient(create_app(catalogs, "http://127.0.0.1:9090/?url=x"), base_url="http://127.0.0.1") as c:
             rerun = c.get("/api/d/0/episode/2").json()["rerun"]
             assert rerun == {
                 "url": "http://127.0.0.1:9090/?url=x",
@@ -203,7 +203,7 @@ def test_quality_flags_are_a_column_once_computed(
     sql = run_inproc("stats", str(root), "--sql", "SELECT episode_index, flags FROM quality", "--format", "json")
     want = {r["episode_index"]: ", ".join(r["flags"]) for r in json.loads(sql.stdout)["sql"]}
     catalogs = open_catalogs([str(root)])
-    with TestClient(create_app(catalogs)) as c:
+    with TestClient(create_app(catalogs), base_url="http://127.0.0.1") as c:
         body = c.get("/api/d/0/episodes", params={"sort": "quality_flags"}).json()
     for cat in catalogs:
         cat.close()

@@ -26,7 +26,7 @@ def pair(browse_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> list
 @pytest.fixture(scope="module")
 def client(pair: list[str]) -> Iterator[TestClient]:
     catalogs = open_catalogs(pair)
-    with TestClient(create_app(catalogs)) as c:
+    with TestClient(create_app(catalogs), base_url="http://127.0.0.1") as c:
         yield c
     for cat in catalogs:
         cat.close()

@@ -27,7 +27,7 @@ def depth_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="module")
 def client(depth_dataset: Path) -> Iterator[TestClient]:
     catalogs = open_catalogs([str(depth_dataset)])
-    with TestClient(create_app(catalogs)) as c:
+    with TestClient(create_app(catalogs), base_url="http://127.0.0.1") as c:
         yield c
     catalogs[0].close()
 

@@ -58,7 +58,7 @@ def mask_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def _client(root: Path) -> Iterator[TestClient]:
     catalogs = open_catalogs([str(root)])
-    with TestClient(create_app(catalogs)) as c:
+    with TestClient(create_app(catalogs), base_url="http://127.0.0.1") as c:
         yield c
     catalogs[0].close()
 

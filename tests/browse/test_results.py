@@ -62,7 +62,7 @@ def results(browse_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> P
 @pytest.fixture(scope="module")
 def client(browse_dataset: Path, results: Path) -> Iterator[TestClient]:
     catalogs = open_catalogs([str(browse_dataset), str(results)])
-    with TestClient(create_app(catalogs)) as c:
+    with TestClient(create_app(catalogs), base_url="http://127.0.0.1") as c:
         yield c
     for cat in catalogs:
         cat.close()
@@ -161,7 +161,7 @@ def test_a_real_replay_of_a_mock_recording(tmp_path: Path) -> None:
         assert run_inproc("replay", str(dataset), "--out", str(tmp_path / "r")).returncode == 0
     catalogs = open_catalogs([str(dataset), str(tmp_path / "r")])
     try:
-        with TestClient(create_app(catalogs)) as c:
+        with TestClient(create_app(catalogs), base_url="http://127.0.0.1") as c:
             rows = c.get("/api/d/0/episodes").json()["rows"]
             assert [r["r0.reproduced"] for r in rows] == [True] * len(rows)
             series = c.get("/api/d/0/episode/0/series").json()

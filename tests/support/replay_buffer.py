@@ -185,3 +185,24 @@ DAMAGES: dict[str, tuple[Callable[[Path], None], str]] = {
     "falling-ends": (_falling_ends, r"meta/episode_ends: entry 1 \(2\) is not above"),
     "unknown-codec": (_codec, r"data: .*codec 'vendor_secret_codec' is not available"),
 }
+
+
+def replace_chunk(store: Path, compressor: dict[str, Any], chunk: bytes | None) -> Path:
+    """`store`'s data/action recompressed with `compressor` (its .zarray and every chunk), then its chunk 0.0
+    replaced by `chunk` (None: a FIFO): a chunk that lies about its size, a bomb, a file zarr would wait on."""
+    import os
+
+    import numcodecs
+
+    meta = store / "data/action/.zarray"
+    meta.write_text(json.dumps({**json.loads(meta.read_text()), "compressor": compressor}))
+    codec = numcodecs.get_codec(dict(compressor))
+    for other in (store / "data/action").glob("*.0"):  # the other chunks: good data in the new compressor
+        other.write_bytes(codec.encode(numcodecs.Blosc().decode(other.read_bytes())))
+    target = store / "data/action/0.0"
+    target.unlink()
+    if chunk is None:
+        os.mkfifo(target)
+    else:
+        target.write_bytes(chunk)
+    return store

@@ -17,6 +17,7 @@ import numpy.typing as npt
 
 from openral_data.errors import DatasetError
 from openral_data.formats.episodic import ArraySpec, Encoding
+from openral_data.formats.hdf5.contained import check_contained
 from openral_data.formats.jsonfile import parse_field
 
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
@@ -39,13 +40,20 @@ def is_hdf5(path: Path) -> bool:
 
 
 def open_file(path: Path) -> h5py.File:
-    """`path` opened read-only; a file h5py cannot open (truncated, not HDF5, unreadable) is one line."""
+    """`path` opened read-only; a file h5py cannot open (truncated, not HDF5, unreadable) or one that reads
+    outside itself (external links, external storage, virtual datasets: `contained`) is one line."""
     if not path.is_file() or (path.is_symlink() and not path.resolve().is_file()):
         raise DatasetError(f"{path}: not a regular file", code="dataset.source.invalid")
     try:
-        return h5py.File(path, "r")
+        f = h5py.File(path, "r")
     except (OSError, ValueError) as exc:
         raise DatasetError(f"{path}: cannot open HDF5: {_reason(exc)}", code="dataset.source.invalid") from None
+    try:
+        check_contained(f, path)  # before anything is read: nothing outside the file
+    except BaseException:
+        f.close()
+        raise
+    return f
 
 
 def _reason(exc: BaseException) -> str:

@@ -9,6 +9,7 @@ check), no chunk or step larger than a bound, and every codec available (UMI's J
 from __future__ import annotations
 
 import os
+import stat
 import zipfile
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -20,10 +21,12 @@ import numpy.typing as npt
 
 from openral_data.errors import DatasetError
 from openral_data.formats.episodic import ArrayEpisode, ArraySpec, EpisodeMeta
+from openral_data.formats.zarr_replay.chunks import MAX_CHUNK_BYTES, ChunkGuard
 
-# a chunk (decompressed) or one step of one array larger than this is refused before anything is read: a reader
-# holds at most one chunk per array it reads, so memory stays bounded by what the file declares
-MAX_CHUNK_BYTES = 512 * 1024 * 1024
+# a chunk (decompressed) or one step of one array larger than `MAX_CHUNK_BYTES` is refused before anything is
+# read: a reader holds at most one chunk per array it reads, so memory stays bounded by what the file declares,
+# and each chunk file is checked (`chunks.ChunkGuard`: regular, expanding to no more than declared) before zarr
+# reads it
 # meta/episode_ends is read whole at open (8 bytes an episode)
 MAX_EPISODES = 10_000_000
 # what zarr and numcodecs raise on a damaged store, chunk or metadata document
@@ -60,6 +63,7 @@ class _Array:
     key: str  # data/<name>
     array: Any  # zarr.Array
     spec: ArraySpec
+    guard: ChunkGuard  # its chunk files checked before a read
 
 
 class ZarrReplaySource:
@@ -71,6 +75,7 @@ class ZarrReplaySource:
         register_image_codecs()
         self._path = path
         self._zip: Any = None
+        self._guard: ChunkGuard | None = None
         try:
             if path.is_file():
                 _check_zip(path)
@@ -79,8 +84,9 @@ class ZarrReplaySource:
             else:
                 _check_links(path)
                 root = zarr.open_group(str(path), mode="r")
-            self._arrays = _open_arrays(path, root)
-            self._ends = _episode_ends(path, root, self._arrays)
+            self._guard = ChunkGuard(path)
+            self._arrays = _open_arrays(path, root, self._guard)
+            self._ends = _episode_ends(path, root, self._arrays, self._guard)
         except BaseException:
             self.close()
             raise
@@ -107,6 +113,9 @@ class ZarrReplaySource:
         if self._zip is not None:
             self._zip.close()
             self._zip = None
+        if self._guard is not None:
+            self._guard.close()
+            self._guard = None
 
 
 class ZarrEpisode:
@@ -140,6 +149,7 @@ class ZarrEpisode:
             raise _bad(self._path, key, f"no such array (arrays: {', '.join(self._arrays) or '-'})")
         if not 0 <= start <= stop <= self.length:
             raise ValueError(f"rows {start}:{stop} outside episode {self._name} of {self.length} steps")
+        entry.guard.check(entry.array, key, self._start + start, self._start + stop)
         try:
             rows: npt.NDArray[Any] = np.asarray(entry.array[self._start + start : self._start + stop])
         except _ZARR_ERRORS as exc:
@@ -164,17 +174,22 @@ def _check_zip(path: Path) -> None:
 
 
 def _check_links(root: Path) -> None:
-    """No entry of a directory store is a symlink that leads outside it (zarr would follow it)."""
+    """No entry of a directory store is a symlink that leads outside it (zarr would follow it), nor a FIFO,
+    socket or device (zarr would open it and wait)."""
     top = root.resolve()
     for folder, dirs, files in os.walk(root):
         for name in [*dirs, *files]:
             entry = Path(folder) / name
-            if entry.is_symlink() and not entry.resolve().is_relative_to(top):
+            mode = entry.lstat().st_mode
+            if stat.S_ISLNK(mode) and not entry.resolve().is_relative_to(top):
                 rel = entry.relative_to(root)
                 raise DatasetError(f"{root}: {rel}: symlink leads outside the store", code="dataset.unsafe")
+            if not (stat.S_ISLNK(mode) or stat.S_ISDIR(mode) or stat.S_ISREG(mode)):
+                rel = entry.relative_to(root)
+                raise DatasetError(f"{root}: {rel}: not a regular file", code="dataset.unsafe")
 
 
-def _open_arrays(path: Path, root: Any) -> dict[str, _Array]:
+def _open_arrays(path: Path, root: Any, guard: ChunkGuard) -> dict[str, _Array]:
     """Every array under ``data/`` (nested groups as slash paths), checked: numeric dtype, bounded chunks."""
     import zarr
 
@@ -195,7 +210,7 @@ def _open_arrays(path: Path, root: Any) -> dict[str, _Array]:
     for name, node in members:
         if isinstance(node, zarr.Array):
             key = f"data/{name}"
-            out[key] = _Array(key, node, _spec(path, key, node))
+            out[key] = _Array(key, node, _spec(path, key, node), guard)
     if not out:
         raise _bad(path, "data", "holds no arrays")
     return out
@@ -215,7 +230,7 @@ def _spec(path: Path, key: str, array: Any) -> ArraySpec:
     return ArraySpec(key=key, dtype=dtype.name, shape=shape[1:], encoding="raw")
 
 
-def _episode_ends(path: Path, root: Any, arrays: dict[str, _Array]) -> list[int]:
+def _episode_ends(path: Path, root: Any, arrays: dict[str, _Array], guard: ChunkGuard) -> list[int]:
     """meta/episode_ends, checked against every data array (each holds at least its last end's rows)."""
     import zarr
 
@@ -228,6 +243,7 @@ def _episode_ends(path: Path, root: Any, arrays: dict[str, _Array]) -> list[int]
         raise _bad(path, key, "not a 1-D integer array")
     if node.shape[0] > MAX_EPISODES:
         raise _bad(path, key, f"declares {node.shape[0]} episodes (limit {MAX_EPISODES})")
+    guard.check(node, key, 0, int(node.shape[0]))
     try:
         ends = [int(e) for e in np.asarray(node[:])]
     except _ZARR_ERRORS as exc:

@@ -10,6 +10,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from openral_data.formats import atomic
+from openral_data.formats.write_errors import write_error
 from openral_data.metrics.quality import cache
 from openral_data.metrics.quality.compute import Progress, Rows, Sink, camera_pass, motion_pass
 from openral_data.metrics.quality.table import FRAME_SCHEMA, SAMPLE_SCHEMA, finish
@@ -60,6 +61,9 @@ def quality_of(
         table = finish(rows, th, stride, has_cameras=cameras[0]).replace_schema_metadata(meta)
         batch.write_with(paths.episodes, atomic.parquet_writer(table))  # last: it makes the others count
         batch.commit()
+    except OSError as exc:  # a full disk, or a cache file that is a folder: one line, the dataset untouched
+        doing = f"writing the quality cache ({exc.filename2 or exc.filename})"
+        raise write_error(paths.episodes.parent, exc, doing) from None
     finally:
         batch.discard()
     return Quality(table, paths, computed=True)

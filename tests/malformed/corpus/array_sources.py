@@ -47,3 +47,20 @@ case(
     lambda w: ["convert", str(w.write("g.bag", b"#ROSBAG V2.0\n" + b"\x00" * 300)), "--print-mapping"],
     r"g\.bag",
 )
+
+
+def _zarr_chunk_case(name: str, chunk: bytes | None, says: str) -> None:
+    """data/action's chunk 0.0 zstd-compressed by its .zarray, replaced by `chunk` (None: a FIFO) (#49)."""
+
+    def build(w: Workspace) -> list[str]:
+        path = replay_buffer.write_replay_buffer(w.root / "b.zarr", replay_buffer.sample_episodes())
+        replay_buffer.replace_chunk(path, {"id": "zstd", "level": 1}, chunk)
+        return ["convert", str(path), str(w.root / "o"), "--fps", "10", "--codec", "h264"]
+
+    case(f"zarr-{name}", build, re.escape("b.zarr: data/action/0.0: ") + says, ("o",))
+
+
+_ZSTD_HEADER = b"\x28\xb5\x2f\xfd\xe0" + (1 << 40).to_bytes(8, "little")  # one frame of 1 TB, single segment
+_ZSTD_1TB = _ZSTD_HEADER + (1 | (64 << 3)).to_bytes(3, "little") + bytes(64)  # then one raw 64-byte block
+_zarr_chunk_case("zstd-chunk-claims-1tb", _ZSTD_1TB, "a zstd chunk claiming")
+_zarr_chunk_case("fifo-chunk", None, "not a regular file")

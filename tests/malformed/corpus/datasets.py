@@ -284,3 +284,19 @@ SILENT: dict[str, tuple[Callable[[Workspace, Path], object], str, tuple[str, ...
 for _damage, (_hurt, _names, _readers) in SILENT.items():
     for _reader in _readers:
         _damage_case(_reader, f"{_reader}-silent-{_damage}", _hurt, _names)
+
+
+# path templates beyond lerobot's forms (#49): refused before they are formatted
+_TEMPLATES = {
+    "data-path-width-300": {"data_path": "data/chunk-{chunk_index:03d}/file-{file_index:0300d}.parquet"},
+    "video-path-width-1e9": {"video_path": "videos/{video_key}/chunk-{chunk_index:0999999999d}/f-{file_index}.mp4"},
+}
+
+
+def _template_damage(change: dict[str, str]) -> Callable[[Workspace, Path], object]:
+    return lambda w, d: _info(w, d, **change)
+
+
+for _reader in ("info", "stats"):
+    for _name, _change in _TEMPLATES.items():
+        _damage_case(_reader, f"{_reader}-info-{_name}", _template_damage(_change), r"info\.json: \w+_path: ")

@@ -126,3 +126,30 @@ _hdf5_case(
 _hdf5_case("hdf5-aloha-bad-jpeg-row", _bad_jpeg, r"episode_0\.hdf5: observations/images/top: step 1", "--fps", "50")
 _hdf5_case("hdf5-aloha-no-fps", lambda w: write_aloha(w.path("aloha/x").parent, lengths=(3,)), r"aloha: fps")
 _hdf5_case("hdf5-aloha-missing-action", _aloha_without_action, r"episode_0\.hdf5: action: missing", "--fps", "50")
+
+
+def _outside(w: Workspace, how: str) -> Path:
+    """The source's `data/demo_0/obs/object` read from another file: external storage, an external link or a
+    virtual dataset (#49: refused before any data is read)."""
+    other = w.path("elsewhere/other.hdf5")
+    with h5py.File(other, "w") as g:
+        g["object"] = np.zeros((4, 10))
+    w.write("elsewhere/raw.bin", b"\x00" * 320)
+    path = write_robomimic(w.path("src/demo.hdf5"), lengths=(4, 3))
+    with h5py.File(path, "r+") as f:
+        del f["data/demo_0/obs/object"]
+        if how == "storage":
+            f.create_dataset("data/demo_0/obs/object", shape=(4, 10), dtype="f8",
+                             external=[(str(w.root / "elsewhere/raw.bin"), 0, 320)])  # fmt: skip
+        elif how == "link":
+            f["data/demo_0/obs/object"] = h5py.ExternalLink(str(other), "/object")
+        else:
+            layout = h5py.VirtualLayout(shape=(4, 10), dtype="f8")
+            layout[...] = h5py.VirtualSource(str(other), "object", shape=(4, 10))
+            f["data/demo_0/obs"].create_virtual_dataset("object", layout)
+    return path
+
+
+_hdf5_case("hdf5-external-storage", lambda w: _outside(w, "storage"), r"demo\.hdf5: data/demo_0/obs/object: external")
+_hdf5_case("hdf5-external-link", lambda w: _outside(w, "link"), r"demo\.hdf5: data/demo_0/obs/object: an external link")
+_hdf5_case("hdf5-virtual-dataset", lambda w: _outside(w, "vds"), r"demo\.hdf5: data/demo_0/obs/object: a virtual")

@@ -129,6 +129,8 @@ RAW: dict[str, Callable[[Any], bytes | str | None]] = {
     "recursive-alias": lambda doc: "a: &x [*x]\n",
     "unhashable-key": lambda doc: "? [a, b]\n: 1\n",
     "directory": lambda doc: None,
+    # a 5000-digit integer is over Python's int-from-text limit (#49: a traceback before)
+    "5000-digit-integer": lambda doc: yaml.safe_dump(doc, sort_keys=False) + f"zz_number: {'9' * 5000}\n",
 }
 
 
