@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import typer
 
@@ -70,11 +70,9 @@ def _teleop_scene(f: RecordFlags, given: frozenset[str], driver: DriverChoice) -
 def _record_hal(f: RecordFlags, given: frozenset[str], video: VideoSettings, driver: DriverChoice) -> None:
     """`record --hal ROBOT` (or `--teleop`): the HAL options, then the run (cli/hal.py)."""
     from openral_data.cli.hal import run_hal_record
-    from openral_data.formats.mcap import parse_compression, parse_image_format
     from openral_data.record.drivers.choice import OWN_CONTRACT, DriverKind
     from openral_data.record.hal import HalRecordOptions, Mode
     from openral_data.record.options import DEFAULT_RSKILL
-    from openral_data.runtime.sinks import parse_formats
     from openral_data.schemas.hal import SafetyMode
 
     assert f.hal is not None
@@ -85,6 +83,7 @@ def _record_hal(f: RecordFlags, given: frozenset[str], video: VideoSettings, dri
             "--task/--instruction/--randomize/--keep: not available with --hal (the rSkill's own are used)"
         )
     hal_opts = HalRecordOptions(
+        **_outputs(f, video),
         robot=f.hal,
         rskill=f.rskill or (None if driver.kind in OWN_CONTRACT else DEFAULT_RSKILL),
         mode=cast(Mode, f.mode),  # checked by HalRecordOptions
@@ -93,12 +92,6 @@ def _record_hal(f: RecordFlags, given: frozenset[str], video: VideoSettings, dri
         n_episodes=f.n_episodes if f.n_episodes is not None else 1,
         max_steps=f.max_steps,
         seed=f.seed if f.seed is not None else 0,
-        out=f.out,
-        codec=f.codec,
-        video=video,
-        formats=parse_formats(f.format),
-        image_format=parse_image_format(f.image_format),
-        mcap_compression=parse_compression(f.mcap_compression),
         operator=f.operator,
         safety=cast(SafetyMode | None, f.safety),  # checked by HalRecordOptions
         staleness=f.staleness,
@@ -138,12 +131,27 @@ def _record_scene(f: RecordFlags, given: frozenset[str], video: VideoSettings) -
         _print_summary(summary, f.resume, f"{f.workers} ({f.executor})" if parallel else None)
 
 
-def _scene_options(f: RecordFlags, given: frozenset[str], video: VideoSettings) -> RecordOptions:
+def _outputs(f: RecordFlags, video: VideoSettings) -> dict[str, Any]:
+    """Where and how a recording is written, the same for a scene's and a HAL's: --out, the codec and encoder
+    settings, --format, --image-format, --mcap-compression (each checked by its parser)."""
     from openral_data.formats.mcap import parse_compression, parse_image_format
-    from openral_data.record.options import Keep, RecordOptions
     from openral_data.runtime.sinks import parse_formats
 
+    return {
+        "out": f.out,
+        "codec": f.codec,
+        "video": video,
+        "formats": parse_formats(f.format),
+        "image_format": parse_image_format(f.image_format),
+        "mcap_compression": parse_compression(f.mcap_compression),
+    }
+
+
+def _scene_options(f: RecordFlags, given: frozenset[str], video: VideoSettings) -> RecordOptions:
+    from openral_data.record.options import Keep, RecordOptions
+
     return RecordOptions(
+        **_outputs(f, video),
         scene=f.scene,
         rskill=f.rskill,
         policy=f.policy,
@@ -151,12 +159,6 @@ def _scene_options(f: RecordFlags, given: frozenset[str], video: VideoSettings) 
         n_episodes=f.n_episodes,
         seed=f.seed,
         max_steps=f.max_steps,
-        out=f.out,
-        codec=f.codec,
-        video=video,
-        formats=parse_formats(f.format),
-        image_format=parse_image_format(f.image_format),
-        mcap_compression=parse_compression(f.mcap_compression),
         resume=f.resume,
         explicit=frozenset({"format": "formats", "suite_task": "task"}.get(name, name) for name in given),
         save_video=f.save_video,
