@@ -85,8 +85,12 @@ def _say_fixes(legacy: Legacy, data: FixedData, say: Say) -> None:
     if legacy.numbers != list(range(len(legacy.numbers))):
         shown = ", ".join(str(n) for n in legacy.numbers[:5]) + (", …" if len(legacy.numbers) > 5 else "")
         say(f"renumbering episodes {shown} as 0..{len(legacy.numbers) - 1}")
+    if data.declared:
+        say(f"declaring lerobot's default feature(s) {', '.join(data.declared)} that info.json lacks")
     if data.rewritten:
         say(f"rewriting {', '.join(data.rewritten)} of {len(data.columns)} episode(s) as lerobot writes them")
+    if data.moved_s:
+        say(f"timestamps put on the video's 1/fps grid (frame t at t / fps): moved by up to {data.moved_s:.4f} s")
 
 
 def _complete_stats(
