@@ -24,6 +24,7 @@ from types import ModuleType
 from typing import Any
 
 from openral_data.errors import CompatibilityError, DatasetError, UsageError, install_hint
+from openral_data.formats.lerobot_v3.loadable import datasets_cache
 from openral_data.formats.parquetfile import num_rows
 from openral_data.formats.staging import Staging, check_new_output
 from openral_data.formats.write_errors import disk_errors
@@ -131,24 +132,11 @@ def _convert(converter: ModuleType, old: Path, scratch: Path, out: Path, say: Sa
         with _quiet(), _temp_files_in(scratch / "tmp"):
             videos = converter.convert_videos(src, out, DEFAULT_VIDEO_FILE_SIZE_IN_MB)
         say("writing episodes metadata and stats")
-        with _datasets_cache(scratch / "datasets-cache"), _quiet():
+        with datasets_cache(scratch / "datasets-cache"), _quiet():
             converter.convert_episodes_metadata(src, out, episodes, videos)
     except (ValueError, KeyError, TypeError, IndexError, RuntimeError, pa.ArrowException, DatasetsError) as exc:
         cause = exc.__cause__ if isinstance(exc, DatasetsError) and exc.__cause__ is not None else exc
         raise DatasetError(f"{old}: lerobot's converter failed: {_first_line(cause)}", code="dataset.invalid") from None
-
-
-@contextmanager
-def _datasets_cache(folder: Path) -> Iterator[None]:
-    """`datasets.Dataset.from_generator` (lerobot's episodes step) caches in `folder`, not the user's cache."""
-    import datasets.config
-
-    before = datasets.config.HF_DATASETS_CACHE
-    datasets.config.HF_DATASETS_CACHE = folder
-    try:
-        yield
-    finally:
-        datasets.config.HF_DATASETS_CACHE = before
 
 
 @contextmanager
