@@ -28,6 +28,7 @@ dataset.unsupported     valid, but not a layout this command handles (not writte
 dataset.interrupted     a commit was interrupted; run ``openral-data doctor --repair``
 dataset.unsafe          a path from a file's contents leads outside its root; a control file is not a regular file
 dataset.readonly        the dataset cannot be written (read-only file system or no permission); reading works
+dataset.unloadable      an output lerobot 0.6.1's loader could not load; refused before it was published
 dataset.busy          another live process holds the dataset's writer lock (`DatasetBusy`)
 episodes              an episode selection is wrong:
 episodes.syntax         not an index or a range a-b

@@ -8,6 +8,7 @@ from pathlib import Path
 from openral_data.doctor import check_data, check_meta, check_missing, check_paths, check_video
 from openral_data.doctor.check_deep import check_deep
 from openral_data.doctor.check_digests import check_digests
+from openral_data.doctor.check_scan import check_scan
 from openral_data.doctor.check_v2 import check_v2, legacy_version
 from openral_data.doctor.findings import Finding, error, warning
 from openral_data.doctor.inspect import DAMAGE, Dataset, load
@@ -67,7 +68,13 @@ def check_dataset(ds: Dataset, *, deep: bool = False) -> list[Finding]:
             out += _run(check_deep, ds)
     out += _run(check_meta.check_stats, ds)
     out += _run(check_digests, ds)
+    out += _run(check_signals, ds)
     return out
+
+
+def check_signals(ds: Dataset) -> list[Finding]:
+    """What the frames mean (`check_scan`), once the layout checks found the data files readable."""
+    return check_scan(ds.root, ds.info, ds.data_files)
 
 
 def leftovers(root: Path, lock_held_by_us: bool = False) -> list[Finding]:

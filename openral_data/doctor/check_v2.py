@@ -22,8 +22,9 @@ import numpy as np
 import pyarrow as pa
 
 from openral_data.doctor.check_deep import TOLERANCE, decoded_means
+from openral_data.doctor.check_scan import check_scan
 from openral_data.doctor.check_video import Placement
-from openral_data.doctor.findings import Finding, error, warning
+from openral_data.doctor.findings import SCAN_VIDEO_LENGTH, Finding, error, warning
 from openral_data.doctor.inspect import DAMAGE
 from openral_data.errors import DatasetError
 from openral_data.formats import lerobot_v2
@@ -32,6 +33,7 @@ from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.reader import video_keys
 from openral_data.formats.lerobot_v3.video import count_packets
 from openral_data.formats.parquetfile import read_table
+from openral_data.metrics.signals import video_disagreement
 
 TIME_TOLERANCE = 1e-4  # s: float32 of t / fps
 
@@ -62,6 +64,7 @@ def check_v2(root: Path, *, deep: bool = False) -> list[Finding]:
     try:
         out += _check_data(ds, rows, len(tasks))
         out += _check_videos(ds, rows, deep)
+        out += check_scan(ds.root, ds.info, ds.data_files())
     except DAMAGE as exc:
         out.append(error("check.failed", "dataset", f"a check cannot read the dataset: {exc!r}"))
     return out + _check_stats(ds, rows)
@@ -125,6 +128,9 @@ def _check_videos(ds: LeRobotDataset, rows: list[dict[str, Any]], deep: bool) ->
             if frames < n:
                 out.append(error("v2.video.frames", _rel(ds, path), f"{frames} frame(s), episode {e} has {n}"))
                 continue
+            longer = video_disagreement(n, frames, None, float(ds.info["fps"]))
+            if longer:  # lerobot loads it (its frames are looked up by timestamp), but the rows end early
+                out.append(warning(SCAN_VIDEO_LENGTH, _rel(ds, path), f"episode {e}: {longer}"))
             want = means.get((e, key))
             if deep and want is not None:
                 got = decoded_means(path, [Placement(e, n, 0.0, n / int(ds.info["fps"]))], int(ds.info["fps"]))

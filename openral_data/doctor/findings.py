@@ -41,3 +41,10 @@ def error(code: str, where: str, message: str, repairable: bool = False) -> Find
 
 def warning(code: str, where: str, message: str, repairable: bool = False) -> Finding:
     return Finding("warning", code, where, message, repairable)
+
+
+# `doctor`'s scan of what a dataset means (`check_scan`, over `metrics.signals`): warnings, stable codes
+SCAN_QUATERNION_FLIP = "scan.quaternion_flip"  # a quaternion's sign flips between two frames
+SCAN_ANGLE_WRAP = "scan.angle_wrap"  # an angle-like column jumps by ~2π between two frames
+SCAN_TIMESTAMP_RATE = "scan.timestamp_rate"  # timestamps off the declared fps
+SCAN_VIDEO_LENGTH = "scan.video_length"  # an episode's video holds more frames (or lasts longer) than its rows

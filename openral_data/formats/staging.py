@@ -26,6 +26,7 @@ from pathlib import Path
 
 from openral_data.errors import DatasetError, OutputExists, WriteError
 from openral_data.formats.atomic import fsync_dir, fsync_tree, open_control
+from openral_data.formats.lerobot_v3.loadable import check_loadable
 from openral_data.paths import check_creatable
 
 MARKER_SUFFIX = ".owner"
@@ -91,7 +92,9 @@ class Staging:
     def publish(self, what: str = "output", before_rename: Callable[[], None] | None = None) -> None:
         """fsync every file, then rename the staging folder to `out` (an empty `out` folder is replaced).
 
-        `before_rename()` runs right before the final check and rename (e.g. to let go of a lock on `out`)."""
+        `before_rename()` runs right before the final check and rename (e.g. to let go of a lock on `out`). A
+        LeRobot v3 dataset lerobot 0.6.1 could not load is refused first (`loadable.check_loadable`)."""
+        check_loadable(self.path, self.out)
         fsync_tree(self.path)
         if before_rename is not None:
             before_rename()
@@ -111,8 +114,9 @@ class Staging:
         """fsync, move the existing `out` to `aside`, rename the staging folder to `out`, then remove `aside`.
 
         Killed between the two renames, the old `out` is whole under `aside` (a name `clean_orphans` never takes);
-        a failed second rename (EIO) puts it back under its name.
+        a failed second rename (EIO) puts it back under its name. Refused first like `publish`.
         """
+        check_loadable(self.path, self.out)
         fsync_tree(self.path)
         os.replace(self.out, aside)
         try:

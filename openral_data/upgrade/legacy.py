@@ -160,7 +160,8 @@ def _find_files(legacy: Legacy) -> None:
     for key in video_keys:
         safe_name(key, f"{root / INFO}: features")
     for e in legacy.numbers:
-        values = {"episode_chunk": e // chunks, "episode_index": e}
+        # `chunk_index`: what some scripts of their own name the chunk in a v2.1 template (lerobot: episode_chunk)
+        values = {"episode_chunk": e // chunks, "chunk_index": e // chunks, "episode_index": e}
         legacy.data.append(_file(root, info, "data_path", DATA_TEMPLATE, values))
         for key in video_keys:
             path = _file(root, info, "video_path", VIDEO_TEMPLATE, {**values, "video_key": key})

@@ -24,6 +24,7 @@ from types import ModuleType
 from typing import Any
 
 from openral_data.errors import CompatibilityError, DatasetError, UsageError, install_hint
+from openral_data.formats.lerobot_v3.loadable import datasets_cache
 from openral_data.formats.parquetfile import num_rows
 from openral_data.formats.staging import Staging, check_new_output
 from openral_data.formats.write_errors import disk_errors
@@ -85,8 +86,12 @@ def _say_fixes(legacy: Legacy, data: FixedData, say: Say) -> None:
     if legacy.numbers != list(range(len(legacy.numbers))):
         shown = ", ".join(str(n) for n in legacy.numbers[:5]) + (", …" if len(legacy.numbers) > 5 else "")
         say(f"renumbering episodes {shown} as 0..{len(legacy.numbers) - 1}")
+    if data.declared:
+        say(f"declaring lerobot's default feature(s) {', '.join(data.declared)} that info.json lacks")
     if data.rewritten:
         say(f"rewriting {', '.join(data.rewritten)} of {len(data.columns)} episode(s) as lerobot writes them")
+    if data.moved_s:
+        say(f"timestamps put on the video's 1/fps grid (frame t at t / fps): moved by up to {data.moved_s:.4f} s")
 
 
 def _complete_stats(
@@ -127,24 +132,11 @@ def _convert(converter: ModuleType, old: Path, scratch: Path, out: Path, say: Sa
         with _quiet(), _temp_files_in(scratch / "tmp"):
             videos = converter.convert_videos(src, out, DEFAULT_VIDEO_FILE_SIZE_IN_MB)
         say("writing episodes metadata and stats")
-        with _datasets_cache(scratch / "datasets-cache"), _quiet():
+        with datasets_cache(scratch / "datasets-cache"), _quiet():
             converter.convert_episodes_metadata(src, out, episodes, videos)
     except (ValueError, KeyError, TypeError, IndexError, RuntimeError, pa.ArrowException, DatasetsError) as exc:
         cause = exc.__cause__ if isinstance(exc, DatasetsError) and exc.__cause__ is not None else exc
         raise DatasetError(f"{old}: lerobot's converter failed: {_first_line(cause)}", code="dataset.invalid") from None
-
-
-@contextmanager
-def _datasets_cache(folder: Path) -> Iterator[None]:
-    """`datasets.Dataset.from_generator` (lerobot's episodes step) caches in `folder`, not the user's cache."""
-    import datasets.config
-
-    before = datasets.config.HF_DATASETS_CACHE
-    datasets.config.HF_DATASETS_CACHE = folder
-    try:
-        yield
-    finally:
-        datasets.config.HF_DATASETS_CACHE = before
 
 
 @contextmanager

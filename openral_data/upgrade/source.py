@@ -69,7 +69,8 @@ def fixed_info(legacy: Legacy, lengths: list[int]) -> dict[str, Any]:
     info["total_tasks"] = len(legacy.tasks)
     info.setdefault("total_chunks", 0)
     info.setdefault("total_videos", 0)
-    if "video_path" not in info or (info["video_path"] is None and legacy.videos):
+    info["data_path"] = DATA_TEMPLATE  # where `write_source` links the files (OLD's own template may differ)
+    if "video_path" not in info or legacy.videos:
         info["video_path"] = VIDEO_TEMPLATE if legacy.videos else None
     for ft in info["features"].values():
         if ft["dtype"] in CAMERAS and ft.get("names") is None:

@@ -120,7 +120,8 @@ def test_doctor_v2_findings(tmp_path: Path, damage: Callable[[Path], object], co
     proc = run_inproc("doctor", str(root), "--json")
     assert proc.returncode == (1 if severity == "error" else 0), proc.stderr
     found = [(f["code"], f["severity"]) for f in json.loads(proc.stdout)["findings"]]
-    assert found == [(code, severity)], found
+    scan = ("scan.timestamp_rate", "warning")  # timestamps off the grid: the scan also names the frames and step
+    assert [f for f in found if f != scan or code != "v2.data.timestamps"] == [(code, severity)], found
 
 
 def test_stats(v2: Path) -> None:

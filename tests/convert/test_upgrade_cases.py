@@ -5,10 +5,12 @@ wrong in lerobot's converter and right in `upgrade`: NEW is the upgrade of the s
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
+import pyarrow.parquet as pq
 import pytest
 
 from tests.support.inproc import run_inproc
@@ -157,3 +159,77 @@ def test_real_v2_datasets(tmp_path: Path, name: str) -> None:
     old = copy_real(name, tmp_path)
     new = _upgraded(old, tmp_path / "new")
     assert assert_loads_like_old(old, new, every=10) == REAL[name].frames
+
+
+def _own_script_v21(tmp_path: Path) -> Path:
+    """lerobot 0.3.3's own v2.1 dataset, then written over as an author's own script writes v2.1
+    (`upgrade_cases.custom_script`: no index/task_index, `{chunk_index}` templates, mp4v, wall-clock times)."""
+    from tests.support.old_lerobot import write_old
+    from tests.support.upgrade_cases import custom_script
+
+    old = write_old("0.3.3", tmp_path / "old")
+    custom_script(old)
+    return old
+
+
+def test_an_own_script_v21_is_made_loadable(tmp_path: Path) -> None:
+    """Issue #45 item 6: lerobot's converter converts such a dataset and its loader then fails on it; upgrade
+    declares and builds index/task_index (each frame's task: its episode's one task), puts the timestamps on
+    the 1/fps grid saying by how much, and lerobot loads every frame of OLD's, pixels equal."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    old = _own_script_v21(tmp_path)
+    ref = reference(old, tmp_path)
+    with pytest.raises(KeyError, match="index"):  # the converted dataset lacks lerobot's `index` column
+        LeRobotDataset("local/ref", root=ref, video_backend="pyav")[0]
+    res = run_inproc("upgrade", str(old), str(tmp_path / "new"))
+    assert res.returncode == 0, res.stderr
+    assert "declaring lerobot's default feature(s) index, task_index" in res.stderr
+    assert "timestamps put on the video's 1/fps grid" in res.stderr and "moved by up to 0.0" in res.stderr
+    new = tmp_path / "new"
+    doctor = run_inproc("doctor", "--deep", str(new))
+    assert doctor.returncode == 0 and "healthy" in doctor.stdout, doctor.stdout
+    got = loaded_episodes(new)  # index == position, timestamp == frame_index / fps
+    for g, w in zip(got, old_frames(old), strict=True):
+        same_frames(g, w)
+    assert [f["task"] for f in got[1]] == ["lift the cube"] * len(got[1])
+
+
+def test_an_own_script_v21_whose_episode_has_two_tasks_is_refused(tmp_path: Path) -> None:
+    """Without a task_index column, an episode listing two tasks cannot say which frame did which: refused,
+    naming the column and the episode; NEW absent."""
+    old = _own_script_v21(tmp_path)
+    rows = [json.loads(line) for line in (old / "meta/episodes.jsonl").read_text().splitlines()]
+    rows[1]["tasks"] = ["push the block", "lift the cube"]
+    (old / "meta/episodes.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
+    res = run_inproc("upgrade", str(old), str(tmp_path / "new"))
+    assert res.returncode == 2
+    assert "column 'task_index' is missing, and episode 1 lists" in res.stderr, res.stderr
+    assert not (tmp_path / "new").exists()
+
+
+def test_the_real_cr5_written_by_its_own_script(tmp_path: Path) -> None:
+    """The real CR5 fixture turned into what its authors' script wrote before it was cleaned (issue #45 item 6):
+    upgraded, lerobot loads its first and last frames with OLD's state and the task, indices rebuilt."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    from tests.support.upgrade_cases import custom_script
+
+    name = "v21_cr5_wallclock_timestamps_av1"
+    if real_root(name) is None:
+        pytest.skip(f"real fixture {name} is not present")
+    old = copy_real(name, tmp_path)
+    states = np.asarray(pq.read_table(next(old.glob("data/*/*.parquet"))).column("observation.state").to_pylist())
+    custom_script(old)
+    res = run_inproc("upgrade", str(old), str(tmp_path / "new"))
+    assert res.returncode == 0, res.stderr
+    moved = re.search(r"moved by up to ([0-9.]+) s", res.stderr)
+    assert moved and 0.9 < float(moved.group(1)) < 1.1, res.stderr  # wall-clock: ~0.95 s off the 10 fps grid
+    ds = LeRobotDataset("local/cr5", root=tmp_path / "new", video_backend="pyav")
+    for i in (0, len(ds) - 1):
+        item = ds[i]
+        assert int(item["index"]) == i and int(item["frame_index"]) == i and int(item["task_index"]) == 0
+        assert abs(float(item["timestamp"]) - i / 10) < 1e-6
+        assert item["task"] == "put the banana on the plate"
+        np.testing.assert_array_equal(item["observation.state"].numpy(), states[i].astype(np.float32))
+        assert tuple(item["observation.images.top"].shape) == (3, 480, 640)

@@ -111,6 +111,46 @@ def wallclock(root: Path) -> None:
         pq.write_table(table, path)
 
 
+def custom_script(root: Path) -> None:
+    """A v2.1 dataset as its authors' own recording script wrote it (issue #45, item 6): wall-clock timestamps
+    (`wallclock`), no `index`/`task_index` (neither columns nor features), `{chunk_index}` in the path templates,
+    and every video re-encoded as MPEG-4 part 2 ("mp4v"). lerobot's converter converts it; its loader then fails."""
+    wallclock(root)
+    for path in sorted(root.glob("data/*/*.parquet")):
+        pq.write_table(pq.read_table(path).drop_columns(["index", "task_index"]).replace_schema_metadata(None), path)
+
+    def info(doc: dict[str, Any]) -> None:
+        for key in ("index", "task_index"):
+            del doc["features"][key]
+        for name in ("data_path", "video_path"):
+            doc[name] = doc[name].replace("{episode_chunk", "{chunk_index")
+        for ft in doc["features"].values():
+            if ft["dtype"] == "video":
+                ft["info"]["video.codec"] = "mp4v"
+
+    _edit_json(root / "meta/info.json", info)
+    for path in sorted(root.glob("videos/*/*/*.mp4")):
+        _as_mp4v(path, int(json.loads((root / "meta/info.json").read_text())["fps"]))
+
+
+def _as_mp4v(path: Path, fps: int) -> None:
+    from fractions import Fraction
+
+    with av.open(str(path)) as src:
+        frames = [f.to_ndarray(format="rgb24") for f in src.decode(video=0)]
+    with av.open(str(path), "w", format="mp4") as out:
+        stream = out.add_stream("mpeg4", rate=fps)
+        stream.height, stream.width = frames[0].shape[:2]
+        stream.pix_fmt = "yuv420p"
+        stream.codec_context.time_base = Fraction(1, fps)
+        stream.options = {"qscale": "1"}
+        for t, pixels in enumerate(frames):
+            frame = av.VideoFrame.from_ndarray(pixels, format="rgb24")
+            frame.pts = t
+            out.mux(stream.encode(frame))
+        out.mux(stream.encode(None))
+
+
 def written(root: Path, variant: str = "", **kw: Any) -> Path:
     """`write_v2(root, **kw)` then the named variant's edit."""
     write_v2(root, **kw)
@@ -124,6 +164,7 @@ def written(root: Path, variant: str = "", **kw: Any) -> Path:
         "apple_double": apple_double,
         "subset": subset,
         "wallclock": wallclock,
+        "custom_script": custom_script,
     }
     edits[variant](root)
     return root
@@ -145,20 +186,25 @@ def old_frames(root: Path) -> list[list[Frame]]:
     (CHW float32 in [0, 1]; the video decoded from OLD's own mp4 with PyAV, as lerobot's pyav backend does)."""
     info = json.loads((root / "meta/info.json").read_text())
     tasks = {r["task_index"]: r["task"] for r in map(json.loads, (root / "meta/tasks.jsonl").read_text().splitlines())}
-    episodes = [json.loads(line)["episode_index"] for line in (root / "meta/episodes.jsonl").read_text().splitlines()]
+    episodes = {
+        (row := json.loads(line))["episode_index"]: row
+        for line in (root / "meta/episodes.jsonl").read_text().splitlines()
+    }
     out: list[list[Frame]] = []
     for e in sorted(episodes):
-        fmt = {"episode_chunk": e // info["chunks_size"], "episode_index": e, "video_key": VIDEO_CAMERA}
+        chunk = e // info["chunks_size"]
+        fmt = {"episode_chunk": chunk, "chunk_index": chunk, "episode_index": e, "video_key": VIDEO_CAMERA}
         table = pq.read_table(root / info["data_path"].format(**fmt)).to_pylist()
         cams: list[Any] = [None] * len(table)
         if VIDEO_CAMERA in info["features"]:
             with av.open(str(root / info["video_path"].format(**fmt))) as video:
                 cams = [_chw(f.to_ndarray(format="rgb24")) for f in video.decode(video=0)]
-        out.append([_frame(row, cams[t], tasks) for t, row in enumerate(table)])
+        task = episodes[e]["tasks"][0]  # the frames' own task_index wins (`custom_script` has none)
+        out.append([_frame(row, cams[t], tasks, task) for t, row in enumerate(table)])
     return out
 
 
-def _frame(row: dict[str, Any], cam: Any, tasks: dict[int, str]) -> Frame:
+def _frame(row: dict[str, Any], cam: Any, tasks: dict[int, str], task: str) -> Frame:
     from io import BytesIO
 
     from PIL import Image
@@ -169,7 +215,7 @@ def _frame(row: dict[str, Any], cam: Any, tasks: dict[int, str]) -> Frame:
         "action": np.asarray(row["action"], np.float32).tolist(),
         "cam": cam,
         "wrist": None if wrist is None else _chw(np.asarray(Image.open(BytesIO(wrist["bytes"])).convert("RGB"))),
-        "task": tasks[row["task_index"]],
+        "task": tasks[row["task_index"]] if "task_index" in row else task,
         "success": None,
         "env": None,
     }
