@@ -15,6 +15,7 @@ from __future__ import annotations
 import io
 import json
 import struct
+import zlib
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -217,6 +218,35 @@ def _declared_smaller(folder: Path) -> None:
     _features(folder, change)
 
 
+def bomb_png(side: int = 12000) -> bytes:
+    """A valid 1-bit grey PNG of `side`x`side` black pixels: a few kB whose pixels decode to side² bytes and
+    more (hand-framed: IHDR, one IDAT compressed row by row, IEND; PIL would hold the whole picture to write it)."""
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    packer = zlib.compressobj(9)
+    row = bytes(1 + (side + 7) // 8)  # filter byte 0, then the row's bits
+    idat = b"".join(packer.compress(row) for _ in range(side)) + packer.flush()
+    ihdr = struct.pack(">IIBBBBB", side, side, 1, 0, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", idat) + chunk(b"IEND", b"")
+
+
+def _variable_huge_pictures(folder: Path) -> None:
+    """features.json declares the wrist camera `[-1, -1, 3]` and its first picture is a 12000x12000 PNG."""
+
+    def change(f: dict) -> None:
+        f["observation"]["featuresDict"]["features"]["wrist_image"]["image"]["shape"]["dimensions"] = ["-1", "-1", "3"]
+
+    _features(folder, change)
+    _rewrite(folder, lambda d: d["steps/observation/wrist_image"][0].__setitem__(0, bomb_png()))
+
+
+def _many_strings(folder: Path) -> None:
+    """Episode-level `file_path` holding 3 M one-byte strings (a 9 MB record)."""
+    _rewrite(folder, lambda d: d.update({"episode_metadata/file_path": ([b"x"] * 3_000_000, "byte")}))
+
+
 # damage -> what the one-line refusal says (after the folder's path)
 DAMAGES: dict[str, tuple[Callable[[Path], None], str]] = {
     "truncated": (_truncate, rf"{SHARD}: record 1: cut short"),
@@ -228,5 +258,7 @@ DAMAGES: dict[str, tuple[Callable[[Path], None], str]] = {
     "wrong-type": (_wrong_type, rf"{SHARD}: record 0: steps/reward: stored as int64_list, features.json says float"),
     "huge-shape": (_huge_shape, r"features.json: steps/action: shape \[100000000000\] out of range"),
     "picture-size": (_declared_smaller, r"steps/observation/image: step 0: a 12x16 picture, features.json says 10x16"),
+    "huge-picture": (_variable_huge_pictures, r"steps/observation/wrist_image: step 0: a 12000x12000 picture, over "),
+    "many-strings": (_many_strings, rf"{SHARD}: record 0: episode_metadata/file_path: 3000000 strings, over the "),
     "zlib-tensor": (_zlib_tensor, r"features.json: steps/action: tensor of dtype float32, encoding zlib is not read"),
 }

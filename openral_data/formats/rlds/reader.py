@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import io
 import re
+import warnings
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -22,6 +23,10 @@ from openral_data.formats.rlds.tfrecord import parse_example, records
 
 _SHARD = re.compile(r"^(?P<name>.+?)-(?P<split>[^-]+)\.tfrecord(-\d{5}-of-\d{5})?$")
 LANGUAGE = "steps/language_instruction"
+# a picture is decoded only when its header says at most this wide and high and this many pixels (a features.json
+# `[-1, -1, 3]` bounds nothing; 8192x4096 RGB is 96 MiB)
+MAX_PICTURE_SIDE = 8192
+MAX_PICTURE_PIXELS = 1 << 25
 
 
 def detect(path: Path) -> RldsSource | None:
@@ -189,20 +194,31 @@ def _known(shape: tuple[int, ...]) -> tuple[int, ...]:
 
 
 def _decode(data: bytes, spec: ArraySpec, where: str) -> npt.NDArray[np.uint8]:
-    """One encoded picture as HxWxC uint8 (C from the declared shape, 3 when it says none), its size checked
-    against the declared shape before the pixels are decoded."""
+    """One encoded picture as HxWxC uint8 (C from the declared shape, 3 when it says none), its size (from the
+    PNG/JPEG header: `Image.open` reads no pixels) checked against the declared shape and the caps before the
+    pixels are decoded."""
     channels = spec.shape[2] if len(spec.shape) == 3 and spec.shape[2] > 0 else 3
     mode = {1: "L", 3: "RGB", 4: "RGBA"}.get(channels)
     if mode is None:
         raise DatasetError(f"{where}: {channels}-channel pictures are not read", code="dataset.unsupported")
     try:
-        with Image.open(io.BytesIO(data)) as img:
+        with warnings.catch_warnings():  # a size over PIL's bomb warning is refused below, not warned about
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            img = Image.open(io.BytesIO(data))
+        with img:
             width, height = img.size
             want = spec.shape[:2]
             if len(want) == 2 and any(w not in (-1, got) for w, got in zip(want, (height, width), strict=True)):
                 raise DatasetError(f"{where}: a {height}x{width} picture, features.json says {want[0]}x{want[1]}",
                                    code="dataset.invalid")  # fmt: skip
+            _check_size(height, width, where)
             pixels = np.asarray(img.convert(mode), dtype=np.uint8)
     except (UnidentifiedImageError, OSError, ValueError, Image.DecompressionBombError) as exc:
         raise DatasetError(f"{where}: cannot decode picture: {exc}", code="dataset.invalid") from None
     return pixels.reshape(height, width, channels)
+
+
+def _check_size(height: int, width: int, where: str) -> None:
+    if max(height, width) > MAX_PICTURE_SIDE or height * width > MAX_PICTURE_PIXELS:
+        raise DatasetError(f"{where}: a {height}x{width} picture, over the {MAX_PICTURE_SIDE}-pixel side or "
+                           f"{MAX_PICTURE_PIXELS}-pixel limit", code="dataset.source.shape")  # fmt: skip

@@ -3,7 +3,8 @@
 A TFRecord file is a sequence of records, each ``uint64 length, uint32 masked_crc32c(length), bytes data[length],
 uint32 masked_crc32c(data)`` (little-endian; tensorflow/core/lib/io/record_writer.cc). Both checksums are
 verified. A record longer than `MAX_RECORD_BYTES` is refused before it is read, so memory is bounded by one record
-(an RLDS episode). The `Example` message is built from a hand-written descriptor of tensorflow's
+(an RLDS episode), and an Example's lists by `MAX_STRINGS` / `MAX_NUMBERS` values a feature before they are
+turned into Python objects. The `Example` message is built from a hand-written descriptor of tensorflow's
 core/example/example.proto and feature.proto (field numbers and types as there), parsed by `protobuf`.
 """
 
@@ -22,6 +23,10 @@ from openral_data.errors import DatasetError
 
 # one record (one RLDS episode, its encoded images included) is read whole: larger ones are refused
 MAX_RECORD_BYTES = 1 << 30
+# values of one feature of one record: a bytes list costs a Python object a value (a million steps an episode is
+# far more than any RLDS dataset has), a number list 8 bytes a value
+MAX_STRINGS = 1 << 20
+MAX_NUMBERS = 1 << 25
 _MASK_DELTA = 0xA282EAD8
 
 
@@ -104,4 +109,12 @@ def parse_example(data: bytes, where: str) -> dict[str, Any]:
         example.ParseFromString(data)
     except DecodeError as exc:
         raise DatasetError(f"{where}: not a tf.train.Example: {exc}", code="dataset.invalid") from None
-    return dict(example.features.feature)
+    features = dict(example.features.feature)
+    for key, feature in features.items():
+        kind = feature.WhichOneof("kind")
+        count = len(getattr(feature, kind).value) if kind else 0
+        limit, what = (MAX_STRINGS, "strings") if kind == "bytes_list" else (MAX_NUMBERS, "values")
+        if count > limit:
+            raise DatasetError(f"{where}: {key}: {count} {what}, over the {limit}-{what[:-1]} limit",
+                               code="dataset.source.shape")  # fmt: skip
+    return features

@@ -14,7 +14,7 @@ from tests.support.malformed import Workspace
 
 # the damages `info` meets (the rest, a corrupt chunk or a picture of the wrong size, only when rows are read)
 _RLDS_INFO = ("truncated", "bad-crc", "huge-record", "not-an-example", "missing-key", "ragged", "wrong-type",
-              "huge-shape", "zlib-tensor")  # fmt: skip
+              "huge-shape", "zlib-tensor", "many-strings")  # fmt: skip
 
 
 def _zarr_case(name: str, damage: Callable[[Path], None], says: str) -> None:
