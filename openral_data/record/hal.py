@@ -41,7 +41,7 @@ from openral_data.record.drivers.kinds import open_driver
 from openral_data.record.flow import Flow, Notify, check_reset_time, episode_ticks
 from openral_data.record.hal_loop import EpisodeEnd, EpisodeReport, FixedRateLoop, LoopConfig, frame_extras
 from openral_data.record.options import check_run_numbers
-from openral_data.record.output import claim
+from openral_data.record.output import check_first_episode, claim
 from openral_data.record.runlog import log_episode, log_totals
 from openral_data.record.session import episode_loop
 from openral_data.runtime import registry
@@ -440,6 +440,8 @@ def _episodes(opts: HalRecordOptions, out: Path, loop: FixedRateLoop, notify: No
             flow.started(index, again=rerecord)
             t_episode = time.perf_counter()
             end, report, rec = loop.run_episode(index, opts.seed + index)
+            if rec is not None and not summary.episodes:  # the first episode committed: `out` (new) is a dataset
+                check_first_episode(out, opts.formats, loop.bridge.close)
             rerecord = end is EpisodeEnd.RERECORD
             flow.say(
                 f"{flow.name(index)}: {end.value} ({report.verdict}, {report.frames} frames, "

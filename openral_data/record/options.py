@@ -43,6 +43,9 @@ class RecordOptions:
     resume: bool = False  # continue the recording in `out` with its own settings (see openral_data.record.output)
     explicit: frozenset[str] = frozenset()  # options the user gave (with resume: they must match the recording)
     first_episode: int = 0  # MCAP bags are numbered from here (a `--workers` share; see openral_data/record/parallel)
+    # a new recording's first episode checked loadable by lerobot (`output.check_first_episode`); False for a
+    # `--workers` share: the merged dataset is checked when it is published
+    check_first: bool = True
     save_video: bool = False  # a debug mp4 per episode in `<out>.debug/` (openral_data/viz/debug_video.py)
     save_video_dir: Path | None = None  # ... in this folder instead (implies save_video)
     view: bool = False  # --view: show the run live in rerun (openral_data/viz/live.py); never changes the dataset

@@ -14,7 +14,9 @@ from __future__ import annotations
 
 import contextlib
 import json
+import logging
 import shutil
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -25,6 +27,7 @@ from openral_data.formats.jsonfile import parse_json
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.encoder import VideoSettings, parse_codec
 from openral_data.formats.lerobot_v3.links import refuse_outside_links
+from openral_data.formats.lerobot_v3.loadable import check_loadable
 from openral_data.formats.lerobot_v3.lock import DatasetLock, holder
 from openral_data.formats.lerobot_v3.reader import read_info
 from openral_data.formats.lerobot_v3.recovery import Quarantine, recover
@@ -54,6 +57,7 @@ KEPT = {
 # the encoder settings a resume keeps (record.json `video`), with the CLI option of each
 ENCODER_FLAGS = {"crf": "--crf", "g": "--gop", "preset": "--preset", "pix_fmt": "--pix-fmt"}
 RANGES = {"max_steps": (1, MAX_STEPS), "seed": (0, MAX_SEED), "n_episodes": (1, 10**9)}
+log = logging.getLogger(__name__)
 DIGEST = "scene_sha256"  # the sha256 of the scene file's bytes: a scene named again must still have it (`recorded`)
 
 
@@ -273,13 +277,40 @@ def close_output(out: Path, output: Output, finished: int) -> None:
     """Release the lock; a fresh recording that finished nothing leaves no folder behind."""
     nothing = output.fresh and finished == 0 and all(p.name == layout.STATE_DIR for p in out.iterdir())
     if nothing:  # what this run put into `.openral/` goes; the lock file goes with the lock
-        for entry in (out / layout.STATE_DIR).iterdir():
-            if entry.name != Path(layout.LOCK_PATH).name:
-                if entry.is_dir() and not entry.is_symlink():
-                    shutil.rmtree(entry)
-                else:
-                    entry.unlink()
+        _clear(out / layout.STATE_DIR, keep=Path(layout.LOCK_PATH).name)
     output.claim.release(0 if nothing else 1)
+
+
+def check_first_episode(out: Path, formats: tuple[str, ...], close: Callable[[], None]) -> None:
+    """Right after a new recording's first episode is committed (the moment `out` becomes a dataset), refuse a
+    LeRobot dataset lerobot 0.6.1 could not load (`loadable.check_loadable`: `DatasetError`,
+    ``dataset.unloadable``), once per run: later episodes come from the same writer with the same schema.
+
+    Only for a recording that made `out` new (never `--resume`): on a refusal `close` closes the recording's sinks
+    (`DatasetBridge.close`) and everything the run wrote into `out` (the episode, MCAP bags under OUT/mcap/,
+    `.openral/` but the lock) goes, so the caller's claim then leaves no folder behind: nothing is published."""
+    if "lerobot" not in formats:
+        return
+    try:
+        check_loadable(out, out)
+    except DatasetError:
+        with contextlib.suppress(Exception):  # the refusal is the error to report
+            close()
+        _clear(out, keep=layout.STATE_DIR)
+        _clear(out / layout.STATE_DIR, keep=Path(layout.LOCK_PATH).name)
+        raise
+    log.info("%s: first episode loadable by lerobot", out)
+
+
+def _clear(folder: Path, keep: str) -> None:
+    """Remove what `folder` holds, except the entry named `keep` (symlinks removed, never followed)."""
+    for entry in folder.iterdir():
+        if entry.name == keep:
+            continue
+        if entry.is_dir() and not entry.is_symlink():
+            shutil.rmtree(entry)
+        else:
+            entry.unlink()
 
 
 def _check_schema(out: Path, schema: DatasetSchema) -> None:

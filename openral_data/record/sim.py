@@ -259,7 +259,8 @@ def _episodes(
     progress: ProgressFn | None,
 ) -> tuple[int, int]:
     """Episodes `first`..n_episodes-1 into `records` (kept when a stop ends the loop); the frames recorded and the
-    episodes discarded (`keep="success"`: a failed episode is not committed and takes no episode number)."""
+    episodes discarded (`keep="success"`: a failed episode is not committed and takes no episode number). A new
+    recording's first committed episode is checked loadable (`output.check_first_episode`)."""
     frames = discarded = 0
     with episode_loop(bridge, policy, run.out, lambda: first + len(records)) as stop:
         if progress is not None:
@@ -280,6 +281,8 @@ def _episodes(
             if rec is None:
                 discarded += 1
                 continue
+            if first == 0 and not records and not run.opts.resume and run.opts.check_first:  # `out` is new
+                output.check_first_episode(run.out, run.opts.formats, bridge.close)
             log_episode(rec, time.perf_counter() - t_episode)
             records.append(rec)
             frames += rec.length

@@ -43,7 +43,12 @@ def plan(opts: RecordOptions, workers: int, workdir: Path, threads: int | None =
     for w in range(workers):
         count = n // workers + (1 if w < n % workers else 0)
         share = dataclasses.replace(
-            opts, out=worker_dir(workdir, w), seed=seed + start, n_episodes=count, first_episode=start
+            opts,
+            out=worker_dir(workdir, w),
+            seed=seed + start,
+            n_episodes=count,
+            first_episode=start,
+            check_first=False,  # the merged dataset is checked when it is published (formats/staging)
         )
         jobs.append(WorkerJob(w, share, threads))
         start += count
