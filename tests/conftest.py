@@ -12,6 +12,12 @@ import pytest
 
 from tests.support.home import isolated_home
 
+# The pre-publish check's lerobot frame load (formats/lerobot_v3/loadable.py) imports lerobot and torch in every
+# command that publishes a dataset: seconds of CPU in each of the suite's hundreds of short CLI runs. The suite
+# keeps the structural check everywhere; the tests of the frame load turn it on (`publish_load`), and many tests
+# load outputs with lerobot themselves.
+os.environ.setdefault("OPENRAL_PUBLISH_LOAD", "0")
+
 
 def pytest_configure(config: pytest.Config) -> None:
     """Tests send Ctrl-C (SIGINT) to the processes they start and expect them to stop as at a terminal. A harness
@@ -51,3 +57,9 @@ def project(tmp_path: Path) -> Iterator[Path]:
     (module-scoped fixtures enter `isolated_home` themselves)."""
     with isolated_home(tmp_path) as home:
         yield home
+
+
+@pytest.fixture
+def publish_load(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The pre-publish check loads frames with lerobot, as it does for users (OPENRAL_PUBLISH_LOAD=1)."""
+    monkeypatch.setenv("OPENRAL_PUBLISH_LOAD", "1")

@@ -23,7 +23,7 @@ def _checked(caplog: pytest.LogCaptureFixture, out: Path) -> list[str]:
     return [r.getMessage() for r in caplog.records if CHECKED in r.getMessage() and str(out) in r.getMessage()]
 
 
-def test_a_new_recording_is_checked_once_and_a_resume_not_at_all(tmp_path: Path) -> None:
+def test_a_new_recording_is_checked_once_and_a_resume_not_at_all(tmp_path: Path, publish_load: None) -> None:
     scene = write_yaml(tmp_path / "s.yaml", mock_scene(max_steps=4, n_episodes=2))
     out = tmp_path / "ds"
     r = run_inproc("-v", "record", "--scene", str(scene), "--out", str(out), "--codec", "h264")

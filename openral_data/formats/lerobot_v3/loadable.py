@@ -8,8 +8,9 @@ nothing is published that lerobot 0.6.1's loader cannot load.
   them); every data file's columns are exactly the declared non-video features (lerobot's `datasets` cast fails
   with `CastError ... column names don't match` otherwise); `meta/tasks.parquet` and the episodes table are
   there; the data files hold `total_frames` rows and the episodes table `total_episodes` rows;
-* with lerobot installed (`LOAD_FRAMES`), the first and last frame of every data file loaded by lerobot's own
-  `LeRobotDataset` (video frames decoded with PyAV): an output lerobot refuses is refused here.
+* with lerobot installed (unless `OPENRAL_PUBLISH_LOAD=0`: `load_frames`), the first and last frame of every
+  data file loaded by lerobot's own `LeRobotDataset` (video frames decoded with PyAV): an output lerobot refuses
+  is refused here.
 
 A failure is one line, `DatasetError` code ``dataset.unloadable``, naming `out`, the file and what is wrong;
 the caller discards the staged folder, so nothing is published. A folder that is not a v3 dataset (a folder of
@@ -33,8 +34,14 @@ from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.parquetfile import num_rows, read_schema
 
 DEFAULT_FEATURES = ("index", "frame_index", "episode_index", "task_index", "timestamp")
-# "0" skips the frames lerobot loads (structure only); e.g. for a machine without lerobot's `dataset` extra
-LOAD_FRAMES = os.environ.get("OPENRAL_PUBLISH_LOAD", "1") != "0"
+# OPENRAL_PUBLISH_LOAD=0 skips the frames lerobot loads (structure only): e.g. a machine without lerobot's
+# `dataset` extra, or a test-suite that starts hundreds of short commands (each would import lerobot and torch)
+LOAD_ENV = "OPENRAL_PUBLISH_LOAD"
+
+
+def load_frames() -> bool:
+    """Whether the check also loads frames with lerobot (read when the check runs: the environment decides)."""
+    return os.environ.get(LOAD_ENV, "1") != "0"
 
 
 def check_loadable(folder: Path, out: Path) -> None:
@@ -46,7 +53,7 @@ def check_loadable(folder: Path, out: Path) -> None:
     if not isinstance(info, dict) or not str(info.get("codebase_version", "")).startswith("v3"):
         return
     files = check_structure(folder, out, info)
-    if LOAD_FRAMES and files:
+    if files and load_frames():
         _load_ends(folder, out, files)
 
 

@@ -24,7 +24,7 @@ def _nothing_published(out: Path) -> None:
 
 
 @pytest.mark.slow  # runs lerobot's converter
-def test_upgrade_refuses_an_output_lerobot_cannot_load(tmp_path: Path) -> None:
+def test_upgrade_refuses_an_output_lerobot_cannot_load(tmp_path: Path, publish_load: None) -> None:
     """A v2.1 dataset whose last frame names task 7 of 2: lerobot's converter converts it and upgrade used to
     publish it (exit 0); lerobot's loader then fails on that frame. Now refused, naming the file and frame."""
     old = write_v2(tmp_path / "old")
