@@ -236,8 +236,10 @@ def test_real_v2_read_only_commands(real_v2: Path, tmp_path: Path) -> None:
     assert (doc["episodes"], doc["frames"], doc["codebase_version"]) == (meta.episodes, meta.frames, meta.version)
     proc = run_inproc("doctor", str(real_v2), "--deep", "--json")
     codes = {f["code"] for f in json.loads(proc.stdout)["findings"]}
-    wallclock = any("wall-clock timestamps" in q for q in meta.quirks)  # off lerobot's frame grid: an error
-    assert codes - {"v2.data.index"} == ({"v2.data.timestamps"} if wallclock else set()), proc.stdout
+    wallclock = any("wall-clock timestamps" in q for q in meta.quirks)  # off lerobot's frame grid: an error,
+    # and the scan's warning naming the frames and the real step (0.0985 s at a declared 10 fps)
+    expected = {"v2.data.timestamps", "scan.timestamp_rate"} if wallclock else set()
+    assert codes - {"v2.data.index"} == expected, proc.stdout
     proc = run_inproc("stats", str(real_v2), "--sql", "SELECT count(*) AS n FROM frames", "--format", "json")
     assert proc.returncode == 0 and json.loads(proc.stdout)["sql"] == [{"n": meta.frames}], proc.stderr
     assert _json("tasks", "list", str(real_v2))["tasks"]
