@@ -1,8 +1,8 @@
 """browse is a local tool: an ASGI middleware in front of the app that answers only requests naming the server
 itself, so a web page elsewhere can neither read the datasets nor keep the server busy.
 
-* Host: `localhost` or an IP literal: the address the server listens on (any IP literal when it listens on all
-  interfaces: an address, unlike a DNS name, cannot be rebound to another site); anything else (a DNS-rebinding
+* Host: `localhost`, the name or IP literal the server listens on (`--host`; any IP literal when it listens on
+  all interfaces: an address, unlike a DNS name, cannot be rebound to another site); anything else (a DNS-rebinding
   page's `attacker.example:8765`) gets 421 Misdirected Request, as does a port other than the server's.
 * Origin: the JSON API and the media (videos, depth frames, pictures: each a query or a decode) answer only
   same-origin requests: `Sec-Fetch-Site`, when sent, is `same-origin` or `none` (typed in the address bar), and
@@ -58,7 +58,7 @@ class LocalOnly:
         name, port = match.group(1).strip("[]").lower(), match.group(2)
         if port is not None and self.port and int(port) != self.port:
             return False
-        if name == "localhost":
+        if name in ("localhost", self.host.lower()):  # ... or the name it was told to listen on (--host NAME)
             return True
         try:
             address = ipaddress.ip_address(name)
@@ -71,7 +71,7 @@ class LocalOnly:
         try:
             return address == ipaddress.ip_address(self.host)
         except ValueError:
-            return False  # listening on another name: only localhost is served (a name is not compared)
+            return False  # listening on a name: that name (above) and localhost only
 
 
 def same_origin(headers: dict[str, str], host: str) -> bool:

@@ -98,3 +98,22 @@ def test_a_where_that_matches_nothing_is_an_empty_table(server: Browser) -> None
     assert status == 200, body
     both = _json(body)
     assert both["a"]["rows"] == both["b"]["rows"] == [] and both["difference"] is None
+
+
+@pytest.mark.parametrize(
+    ("host", "served"),
+    [
+        ("myhost.lan:8765", True),  # the name it was told to listen on (--host myhost.lan)
+        ("localhost:8765", True),
+        ("attacker.example:8765", False),  # a rebinding page's name
+        ("myhost.lan:9999", False),  # another port
+    ],
+)
+def test_a_server_listening_on_a_name_answers_that_name(host: str, served: bool) -> None:
+    from starlette.testclient import TestClient
+
+    from openral_data.browse import create_app
+
+    with TestClient(create_app([], host="myhost.lan", port=8765), base_url=f"http://{host}") as client:
+        status = client.get("/").status_code
+    assert (status != 421) is served, status
