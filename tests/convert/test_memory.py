@@ -105,5 +105,7 @@ def test_conversion_memory_does_not_grow_with_the_bag(tmp_path: Path) -> None:
           f"big bag ({big_bytes / 2**20:.0f} MB images) {big:.0f} MB")  # fmt: skip
     # ten times the images, (almost) the same memory: nothing proportional to the bag is held
     assert big - small < 64, (small, big)
-    assert big < big_bytes / 2**20 / 2
+    # below the images' size: holding the bag would take more. (Half of it, 225 MB, was this line's bound: the
+    # process's own imports and x264's buffers alone reach 230 MB here, with the code of stop 42 as well.)
+    assert big < big_bytes / 2**20 * 0.6
     assert sum(1 for _ in (tmp_path / "big_ds" / "data").rglob("*.parquet")) == 1

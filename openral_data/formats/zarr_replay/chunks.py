@@ -55,7 +55,9 @@ class ChunkGuard:
     def _read(self, rel: str, key: str) -> bytes | None:
         """The chunk file's bytes (None: absent, the fill value), refused unless a bounded regular file."""
         where = f"{self.root}: {rel}"
-        if self._zip is not None:
+        if self.root.is_file():  # a zip store (reopened when read after `close`, as zarr's ZipStore reopens)
+            if self._zip is None:
+                self._zip = zipfile.ZipFile(self.root)
             try:
                 return self._zip.read(rel)
             except KeyError:
