@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Install everything openral-data needs on a fresh machine: Python 3.12 (pyenv, via .python-version), uv,
-# the locked environment in .venv, and the Debian packages for headless rendering when missing.
+# the locked environment in .venv, and the Debian packages for headless rendering (and libusb for the RealSense
+# SDK, pyrealsense2) when missing.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export UV_PYTHON_DOWNLOADS=never
@@ -20,7 +21,7 @@ step() {  # step "what" "about how long" command...: say it, run it, say how lon
     say "  done in $((SECONDS - t0)) s"
 }
 
-APT_PACKAGES=(libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 libosmesa6 chromium)
+APT_PACKAGES=(libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 libosmesa6 chromium libusb-1.0-0)
 missing=()
 for pkg in "${APT_PACKAGES[@]}"; do
     dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" || missing+=("$pkg")
@@ -31,9 +32,9 @@ apt_install() {
     DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 }
 if ((${#missing[@]})); then
-    step "installing Debian packages for headless rendering: ${missing[*]}" "about 1-3 min" apt_install
+    step "installing Debian packages (headless rendering, browser, libusb): ${missing[*]}" "about 1-3 min" apt_install
 else
-    say "Debian packages for headless rendering: present"
+    say "Debian packages (headless rendering, browser, libusb): present"
 fi
 
 PY=python
