@@ -35,12 +35,12 @@ from openral_data.convert.worker import (
     run_convert_job,
 )
 from openral_data.edit.source import EpisodeData, SourceDataset
-from openral_data.errors import UsageError
 from openral_data.formats.codec import Codec
 from openral_data.formats.episodic import ArraySource
 from openral_data.formats.lerobot_v3.encoder import VideoSettings
 from openral_data.formats.staging import check_new_output
 from openral_data.runtime.parallel.channel import STOP_HELD, held
+from openral_data.runtime.parallel.choice import contiguous_blocks
 from openral_data.runtime.parallel.executors import check_executor, run_on
 from openral_data.runtime.parallel.shards import merge_shards
 from openral_data.runtime.parallel.workdir import fresh_workers_dir, worker_dir
@@ -50,16 +50,7 @@ from openral_data.types import EpisodeRecord
 
 def plan_blocks(bags: list[Path], workers: int) -> list[list[Path]]:
     """At most `workers` contiguous, near-equal blocks of `bags` (or an array source's files), in order."""
-    if workers < 1:
-        raise UsageError(f"--workers must be >= 1, got {workers}")
-    n = min(workers, len(bags))
-    blocks: list[list[Path]] = []
-    start = 0
-    for w in range(n):
-        count = len(bags) // n + (1 if w < len(bags) % n else 0)
-        blocks.append(bags[start : start + count])
-        start += count
-    return blocks
+    return [bags[r.start : r.stop] for r in contiguous_blocks(len(bags), workers)]
 
 
 def carried_tasks(blocks: list[list[Path]], mapping: Mapping) -> list[tuple[int, str] | None]:

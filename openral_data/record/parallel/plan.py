@@ -9,6 +9,7 @@ from pathlib import Path
 from openral_data.errors import UsageError
 from openral_data.record.options import RecordOptions
 from openral_data.runtime import registry
+from openral_data.runtime.parallel.choice import check_workers, contiguous_blocks
 from openral_data.runtime.parallel.workdir import worker_dir
 from openral_data.schemas.scene import load_recordable_scene
 
@@ -34,22 +35,17 @@ def resolve_counts(opts: RecordOptions) -> tuple[int, int]:
 
 def plan(opts: RecordOptions, workers: int, workdir: Path, threads: int | None = None) -> list[WorkerJob]:
     """Split episodes 0..n-1 (seeds seed..seed+n-1) into at most `workers` contiguous, near-equal blocks."""
-    if workers < 1:
-        raise UsageError(f"--workers must be >= 1, got {workers}")
+    check_workers(workers)
     n, seed = resolve_counts(opts)
-    workers = min(workers, n)
     jobs: list[WorkerJob] = []
-    start = 0
-    for w in range(workers):
-        count = n // workers + (1 if w < n % workers else 0)
+    for w, block in enumerate(contiguous_blocks(n, workers)):
         share = dataclasses.replace(
             opts,
             out=worker_dir(workdir, w),
-            seed=seed + start,
-            n_episodes=count,
-            first_episode=start,
+            seed=seed + block.start,
+            n_episodes=len(block),
+            first_episode=block.start,
             check_first=False,  # the merged dataset is checked when it is published (formats/staging)
         )
         jobs.append(WorkerJob(w, share, threads))
-        start += count
     return jobs
