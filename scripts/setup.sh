@@ -50,7 +50,7 @@ fi
 UV=("$PY" -m uv)
 # Optional extras the default environment (and CI) installs; each is one [project.optional-dependencies] entry.
 # Extras that conflict with these (e.g. a separate simulator environment) are set up by their own script.
-EXTRAS=(lerobot robosuite metaworld aloha pusht feetech dynamixel so_arm ray browse)
+EXTRAS=(lerobot robosuite metaworld aloha pusht feetech dynamixel so_arm ray browse mcap_profiles minari)
 extra_args=()
 for extra in "${EXTRAS[@]}"; do extra_args+=(--extra "$extra"); done
 step "syncing .venv with uv.lock: the package, the dev tools and the extras ${EXTRAS[*]}" \
