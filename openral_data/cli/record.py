@@ -105,6 +105,7 @@ def _record_hal(f: RecordFlags, given: frozenset[str], video: VideoSettings, dri
         takeover=driver.kind is DriverKind.TAKEOVER,
         policy=f.policy,
         device=f.device,
+        teleop_gain=f.teleop_gain,
     )
     run_hal_record(hal_opts, f.json)
 
