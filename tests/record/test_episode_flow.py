@@ -291,4 +291,5 @@ def test_view_streams_a_hal_session(
     assert sorted(rid.rsplit("-", 1)[1] for rid in received) == ["0", "1"]
     for temporal, _ in received.values():
         assert any(e.startswith("/state/") for e in temporal) and any(e.startswith("/action/") for e in temporal)
+        assert "/events" in temporal  # the start was shown before the episode recorded (the preview's note)
     assert s.frames == sum(r.frames for r in s.reports) and math.isclose(s.frames, 12, abs_tol=2)
