@@ -13,7 +13,7 @@ class ManiSkillKind(HDF5Kind):
     name = "hdf5-maniskill"
     summary = "HDF5: ManiSkill trajectories (.h5 with traj_N groups + its .json), a file or a folder"
     layouts = ("maniskill",)
-    usual_fps = (20, "ManiSkill3's default control frequency (sim_config.control_freq); the file does not say")
+    usual_fps = (20, "ManiSkill3's default control frequency (sim_config.control_freq)")
 
     def layout_mapping(self, source: ArraySource, first: ArrayEpisode) -> LayoutMapping:
         from openral_data.convert.offline_mapping import maniskill_mapping
