@@ -6,7 +6,6 @@ aligned to T actions), values equal to h5py's and minari's own reads, success on
 from __future__ import annotations
 
 import json
-import warnings
 from pathlib import Path
 from typing import Any
 
@@ -91,9 +90,7 @@ def test_d4rl_folder_with_workers(tmp_path: Path) -> None:
 
 @pytest.fixture(scope="module")
 def minari_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # minari asks for an author, a code permalink... of a test dataset
-        return write_minari(tmp_path_factory.mktemp("minari"), (4, 3))
+    return write_minari(tmp_path_factory.mktemp("minari"), (4, 3))
 
 
 def test_minari_values_equal_minaris_own_read(minari_dataset: Path, tmp_path: Path) -> None:

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import json
 import os
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -96,8 +97,10 @@ def write_minari(root: Path, lengths: tuple[int, ...] = (4, 3), *, success: bool
     old = os.environ.get("MINARI_DATASETS_PATH")
     os.environ["MINARI_DATASETS_PATH"] = str(root)
     try:
-        minari.create_dataset_from_buffers("toy/reach-v0", buffers, observation_space=obs_space,
-                                           action_space=act_space, algorithm_name="scripted")  # fmt: skip
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # minari asks for an author, a code permalink... of a test dataset
+            minari.create_dataset_from_buffers("toy/reach-v0", buffers, observation_space=obs_space,
+                                               action_space=act_space, algorithm_name="scripted")  # fmt: skip
     finally:
         if old is None:
             os.environ.pop("MINARI_DATASETS_PATH")
