@@ -233,7 +233,7 @@ def zarr_mapping(source: ArraySource, first: ArrayEpisode) -> tuple[dict[str, An
         state = [part_of(named_state, specs[named_state])]
     else:
         state = [
-            part_of(k, s) for k, s in specs.items() if k != "data/action" and is_vector(s) and s.dtype.startswith("float")
+            part_of(k, s) for k, s in specs.items() if k != "data/action" and is_vector(s) and s.dtype[:5] == "float"
         ]
         if not state:
             raise DatasetError(f"{source.path}: data/state: missing (no float vector to map as state)",

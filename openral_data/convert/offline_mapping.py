@@ -11,12 +11,20 @@ from __future__ import annotations
 
 from typing import Any
 
-from openral_data.convert.array_mapping import Guess, camera_name, is_picture, is_vector, part_of, specs_by_key, vector_of
+from openral_data.convert.array_mapping import (
+    Guess,
+    camera_name,
+    is_picture,
+    is_vector,
+    part_of,
+    specs_by_key,
+    vector_of,
+)
 from openral_data.errors import DatasetError
 from openral_data.formats.episodic import ArrayEpisode, ArraySource, ArraySpec
 
 LayoutMapping = tuple[dict[str, Any], list[Guess]]
-NO_SUCCESS = "unknown: no per-step success signal in the source ({what}); map `success: {{topic: KEY}}` if a key means it"
+NO_SUCCESS = "unknown: no per-step success signal ({what}); map `success: {{topic: KEY}}` if a key means it"
 
 
 def _scalar(specs: dict[str, ArraySpec], key: str) -> bool:
@@ -115,8 +123,11 @@ def maniskill_mapping(source: ArraySource, first: ArrayEpisode) -> LayoutMapping
     if not state and "obs" in specs and _numbers(specs["obs"]):
         state = [part_of("obs", specs["obs"])]
     if not state:
-        raise DatasetError(f"{source.path}: {first.name}/obs: no agent/qpos and no flat state vector (an obs_mode "
-                           "none file holds no observations: replay it with an obs_mode)", code="dataset.source.key")
+        raise DatasetError(
+            f"{source.path}: {first.name}/obs: no agent/qpos and no flat state vector (an obs_mode "
+            "none file holds no observations: replay it with an obs_mode)",
+            code="dataset.source.key",
+        )
     if "actions" not in specs or not _numbers(specs["actions"]):
         raise DatasetError(f"{source.path}: {first.name}/actions: not a vector a step", code="dataset.source.shape")
     mode = str(attrs.get("control_mode") or "action")

@@ -56,8 +56,8 @@ def data_folder(path: Path) -> Path | None:
 
 def _minari() -> Any:
     try:
-        import minari.dataset.minari_storage as storage
-        import minari.serialization as serialization
+        import minari.dataset.minari_storage as storage  # type: ignore[import-untyped]
+        from minari import serialization
     except ImportError:
         raise ConfigError(f"Minari datasets need the 'minari' extra: {install_hint('minari')}") from None
     return serialization, storage
@@ -67,13 +67,14 @@ def _check_space(doc: Any, where: str) -> None:
     """A serialized space's declared shapes bounded (before minari builds its low/high arrays)."""
     if isinstance(doc, dict):
         shape = doc.get("shape")
-        if isinstance(shape, list):
-            if not all(isinstance(n, int) and not isinstance(n, bool) and 0 <= n for n in shape) or (
-                int(np.prod(shape, dtype=np.float64)) * 8 > MAX_STEP_BYTES
-            ):
-                raise DatasetError(f"{where}: shape {shape[:8]}: not a bounded shape", code="dataset.source.shape")
+        dims = shape if isinstance(shape, list) else []
+        counts = all(isinstance(n, int) and not isinstance(n, bool) and n >= 0 for n in dims)
+        if isinstance(shape, list) and (not counts or np.prod(shape, dtype=np.float64) * 8 > MAX_STEP_BYTES):
+            raise DatasetError(f"{where}: shape {shape[:8]}: not a bounded shape", code="dataset.source.shape")
         subspaces = doc.get("subspaces")
-        for sub in subspaces.values() if isinstance(subspaces, dict) else subspaces or []:
+        for sub in (
+            subspaces.values() if isinstance(subspaces, dict) else subspaces if isinstance(subspaces, list) else []
+        ):
             _check_space(sub, where)
 
 

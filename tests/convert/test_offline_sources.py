@@ -97,7 +97,7 @@ def test_minari_values_equal_minaris_own_read(minari_dataset: Path, tmp_path: Pa
     """Through the Python API: state / environment_state are observations rows 0..T-1, the action, reward as
     minari reads them, success is infos/success rows 1..T (the info of step(action t)); pictures as minari
     decodes its JPEGs; the dataset folder, its data folder and its main_data.hdf5 are the same source."""
-    from minari.dataset.minari_dataset import MinariDataset
+    from minari.dataset.minari_dataset import MinariDataset  # type: ignore[import-untyped]
 
     theirs = list(MinariDataset(minari_dataset / "data").iterate_episodes())
     for path in (minari_dataset, minari_dataset / "data", minari_dataset / "data" / "main_data.hdf5"):

@@ -73,9 +73,8 @@ def write_minari(root: Path, lengths: tuple[int, ...] = (4, 3), *, success: bool
     """A Minari dataset `toy/reach-v0` under `root` (its MINARI_DATASETS_PATH) written by minari; returns its
     folder. Episode e's last step succeeds when `success` (infos/success after it)."""
     import gymnasium as gym
-    from minari.data_collector import EpisodeBuffer
-
-    import minari
+    import minari  # type: ignore[import-untyped]
+    from minari.data_collector import EpisodeBuffer  # type: ignore[import-untyped]
 
     obs_space = gym.spaces.Dict({
         "agent": gym.spaces.Box(-10, 10, (3,), np.float32),

@@ -17,8 +17,9 @@ registered here once and tried by everything in this one order:
 Datasets first (their folder may hold anything), then bags (found by their names alone, so no HDF5/Zarr library
 is imported for them), then the array sources (Minari before the HDF5 kinds: its `data` folder holds an HDF5 file
 of no HDF5 kind's layout; an HDF5 file's layout is decided once, `formats.hdf5`, robomimic's and ALOHA's first).
-A kind's `open` returns None when the path is not of its kind and raises one line when it is but is broken (an HDF5 file of no known layout stops the search there). What no
-kind takes is read as bags by `convert` (which then says it is not a bag) and as a dataset by `info`.
+A kind's `open` returns None when the path is not of its kind and raises one line when it is but is broken (an
+HDF5 file of no known layout stops the search there). What no kind takes is read as bags by `convert` (which then
+says it is not a bag) and as a dataset by `info`.
 
 Adding a source kind: one module here with a `SourceKind` subclass (an array source: an `ArrayKind`; an HDF5
 family: an `HDF5Kind`), and one line in `_KINDS` below at its place in the order.

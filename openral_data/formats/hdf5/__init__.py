@@ -91,8 +91,13 @@ class HDF5Source:
                     f"{file}: /: {layout or 'no known layout'}, the first file is {self.layout}",
                     code="dataset.source.layout",
                 )
-            return D4rlFile(file, f) if layout == "d4rl" else ManiSkillFile(file, f) if layout == "maniskill" else \
-                RobomimicFile(file, f, layout)
+            return (
+                D4rlFile(file, f)
+                if layout == "d4rl"
+                else ManiSkillFile(file, f)
+                if layout == "maniskill"
+                else RobomimicFile(file, f, layout)
+            )
         except BaseException:
             f.close()
             raise

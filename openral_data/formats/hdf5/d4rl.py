@@ -23,7 +23,7 @@ import numpy as np
 
 from openral_data.errors import DatasetError
 from openral_data.formats.episodic import EpisodeMeta
-from openral_data.formats.hdf5.files import MAX_STEPS, member, walk_datasets
+from openral_data.formats.hdf5.files import MAX_STEPS, rows_of, walk_datasets
 from openral_data.formats.hdf5.windows import Column, WindowEpisode
 
 FLAGS = ("terminals", "timeouts")
@@ -33,6 +33,7 @@ FLAG_CHUNK = 1 << 20  # rows of the flag arrays read at once
 
 def is_d4rl(f: h5py.File) -> bool:
     """Root datasets `observations` and `actions` and at least one of `terminals` / `timeouts`."""
+
     def dataset(key: str) -> bool:
         return f.get(key, getclass=True) is h5py.Dataset
 
@@ -48,10 +49,7 @@ class D4rlFile:
     def __init__(self, path: Path, f: h5py.File) -> None:
         self.path = path
         self.f = f
-        actions = member(f, "actions", path)
-        if not isinstance(actions, h5py.Dataset) or not actions.shape:
-            raise DatasetError(f"{path}: actions: not an array of rows", code="dataset.source.shape")
-        self.rows = int(actions.shape[0])
+        self.rows = rows_of(f, "actions", path)
         if self.rows > MAX_STEPS:
             raise DatasetError(f"{path}: actions: {self.rows} rows (over {MAX_STEPS})", code="dataset.source.shape")
         self.columns = {key: Column(ds, 0, self.rows) for key, ds in walk_datasets(f, path, SKIPPED)}

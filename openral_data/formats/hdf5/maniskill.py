@@ -71,8 +71,8 @@ class ManiSkillFile:
         if not isinstance(episodes, list):
             raise DatasetError(f"{meta}: episodes: not a list", code="dataset.source.invalid")
         self.episode_info: dict[int, dict[str, Any]] = {}
-        for i, ep in enumerate(episodes):
-            ep = _dict(ep, f"{meta}: episodes[{i}]", "an episode's info")
+        for i, raw in enumerate(episodes):
+            ep = _dict(raw, f"{meta}: episodes[{i}]", "an episode's info")
             eid = ep.get("episode_id")
             if not isinstance(eid, int) or isinstance(eid, bool):
                 raise DatasetError(f"{meta}: episodes[{i}].episode_id: not an integer", code="dataset.source.invalid")
@@ -102,8 +102,8 @@ class ManiSkillFile:
         if not isinstance(mode, str) or not mode:
             raise DatasetError(f"{where}[episode_id={eid}].control_mode: missing", code="dataset.source.key")
         if control and mode != control[0]:
-            raise DatasetError(f"{where}[episode_id={eid}].control_mode: {mode}, the first episode's is "
-                               f"{control[0]} (one file, one action meaning)", code="dataset.source.invalid")  # fmt: skip
+            raise DatasetError(f"{where}[episode_id={eid}].control_mode: {mode}, the first episode's is {control[0]} "
+                               "(one file, one action meaning)", code="dataset.source.invalid")  # fmt: skip
         control.append(mode)
         return info
 

@@ -46,35 +46,26 @@ def window_specs(columns: dict[str, Column], file: Path) -> tuple[dict[str, Arra
 
 
 class WindowEpisode:
-    """An episode of `length` steps whose arrays are `columns` (`ArrayEpisode`)."""
+    """An episode of `length` steps whose arrays are `columns` (`ArrayEpisode`); its specs are decided when it
+    is made (a row count that is not the episode's: `meta.ignored`)."""
 
     def __init__(self, name: str, file: Path, length: int, columns: dict[str, Column], meta: EpisodeMeta) -> None:
         self.name = name
         self.file = file
         self.length = length
         self.columns = columns
-        self._meta = meta
-        self._specs: dict[str, ArraySpec] | None = None
-
-    @property
-    def meta(self) -> EpisodeMeta:
-        self._all()  # fills meta.ignored
-        return self._meta
-
-    def _all(self) -> dict[str, ArraySpec]:
-        if self._specs is None:
-            self._specs, ignored = window_specs(self.columns, self.file)
-            self._meta.ignored.update(ignored)
-        return self._specs
+        self.meta = meta
+        self._specs, ignored = window_specs(columns, file)
+        meta.ignored.update(ignored)
 
     def specs(self) -> list[ArraySpec]:
-        return list(self._all().values())
+        return list(self._specs.values())
 
     def read(self, key: str, start: int, stop: int) -> npt.NDArray[Any]:
-        specs = self._all()
+        specs = self._specs
         spec = specs.get(key)
-        if spec is None and key in self._meta.ignored:
-            raise DatasetError(f"{self.file}: {self.name}/{key}: not a per-step array: {self._meta.ignored[key]}",
+        if spec is None and key in self.meta.ignored:
+            raise DatasetError(f"{self.file}: {self.name}/{key}: not a per-step array: {self.meta.ignored[key]}",
                                code="dataset.source.shape")  # fmt: skip
         if spec is None:
             raise DatasetError(f"{self.file}: {self.name}/{key}: missing (per-step arrays here: "

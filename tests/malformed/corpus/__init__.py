@@ -11,8 +11,17 @@ The cases are grouped by the kind of damage: `yaml_files`, `datasets` (datasets,
 (`cases.case`) when imported.
 """
 
-from tests.malformed.corpus import array_sources, bags, checkpoints, datasets, hdf5, options, outputs, yaml_files
-from tests.malformed.corpus import offline
+from tests.malformed.corpus import (
+    array_sources,
+    bags,
+    checkpoints,
+    datasets,
+    hdf5,
+    offline,
+    options,
+    outputs,
+    yaml_files,
+)
 from tests.malformed.corpus.cases import CASES, Case
 
 PARTS = (yaml_files, datasets, options, outputs, bags, hdf5, array_sources, checkpoints, offline)

@@ -105,8 +105,16 @@ _MINARI = {
     "data-linked-out": (_link_out, r"reach-v0: data: path 'data' leads outside"),
     "bad-jpeg-row": (_bad_jpeg, r"main_data\.hdf5: episode_1/observations/cam: step 1"),
 }  # fmt: skip
+
+
+def _made(
+    make: Callable[[Workspace, Callable[[Path], None]], Path], damage: Callable[[Path], None]
+) -> Callable[[Workspace], Path]:
+    return lambda w: make(w, damage)
+
+
 for _name, (_damage, _says) in _MINARI.items():
-    _convert(f"minari-{_name}", lambda w, d=_damage: _minari(w, d), _says)
+    _convert(f"minari-{_name}", _made(_minari, _damage), _says)
 
 
 def _maniskill(w: Workspace, damage: Callable[[Path], None]) -> Path:
@@ -147,4 +155,4 @@ _MANISKILL = {
                     r"trajectory\.h5: traj_1/obs/agent/qpos: state: not a per-step array: 7 rows"),
 }  # fmt: skip
 for _name, (_damage, _says) in _MANISKILL.items():
-    _convert(f"maniskill-{_name}", lambda w, d=_damage: _maniskill(w, d), _says)
+    _convert(f"maniskill-{_name}", _made(_maniskill, _damage), _says)
