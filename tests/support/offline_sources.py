@@ -94,7 +94,7 @@ def write_minari(root: Path, lengths: tuple[int, ...] = (4, 3), *, success: bool
             infos={"success": [False] * n + [success]},
         ))  # fmt: skip
     old = os.environ.get("MINARI_DATASETS_PATH")
-    os.environ["MINARI_DATASETS_PATH"] = str(root)
+    os.environ["MINARI_DATASETS_PATH"] = str(root.resolve())  # minari joins a relative one twice
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # minari asks for an author, a code permalink... of a test dataset
