@@ -1,15 +1,15 @@
 """Small offline-RL and simulator-trajectory sources in the layouts `convert` reads; every value a function of
 (episode, step) so tests can recompute it:
 
-* D4RL (Farama-Foundation/D4RL: `d4rl/offline_env.py` `get_dataset` reads, `scripts/generation/*` write): one
-  flat file, root `observations` (N, obs) float32, `actions` (N, act) float32, `rewards` (N,) float32,
+* D4RL (`Farama-Foundation/D4RL:d4rl/offline_env.py` `get_dataset` reads,
+  `Farama-Foundation/D4RL:scripts/generation/*` write): one flat file, root `observations` (N, obs) float32, `actions` (N, act) float32, `rewards` (N,) float32,
   `terminals` / `timeouts` (N,) bool, `next_observations`, `infos/*` (N, ...), `metadata/*` (not per step);
   written with h5py here.
 * Minari: written by minari itself (`minari.create_dataset_from_buffers`, its HDF5 storage) from
   `EpisodeBuffer`s, into `MINARI_DATASETS_PATH`. (Its `DataCollector` needs jax, minari's `create` extra, which
   this environment does not install; the buffers are what the collector would hold: T + 1 observations and
   infos, T actions, rewards, terminations, truncations.)
-* ManiSkill (haosulab/ManiSkill@089c82b8: `mani_skill/utils/wrappers/record.py`, `RecordEpisode.flush_trajectory`
+* ManiSkill (`haosulab/ManiSkill:mani_skill/utils/wrappers/record.py` at 089c82b8, `RecordEpisode.flush_trajectory`
   and `clean_trajectories`): `traj_N` groups with `actions` (T, A) float32, `terminated`, `truncated`, `success`,
   `fail` (T,) bool, `rewards` (T,) float32, `obs/agent/{qpos,qvel}`, `obs/extra/tcp_pose`,
   `obs/sensor_data/<cam>/{rgb,depth}`, `env_states/actors/<name>` (T + 1 rows), rgb and depth gzip-compressed as

@@ -1,7 +1,7 @@
-"""D4RL's flat HDF5 (Farama-Foundation/D4RL: `d4rl/offline_env.py`'s `get_dataset`, the files its
-`scripts/generation/*` write): one file, every per-step array a root dataset of N rows (`observations`, `actions`,
-`rewards`, `terminals`, `timeouts`, optionally `next_observations` and `infos/*`; `metadata/*` is not per step),
-no episode groups.
+"""D4RL's flat HDF5 (`Farama-Foundation/D4RL:d4rl/offline_env.py`'s `get_dataset`, the files its
+`Farama-Foundation/D4RL:scripts/generation/*` write): one file, every per-step array a root dataset of N rows
+(`observations`, `actions`, `rewards`, `terminals`, `timeouts`, optionally `next_observations` and `infos/*`;
+`metadata/*` is not per step), no episode groups.
 
 Episodes are cut where the file says one ends: after every row whose `terminals` or `timeouts` is set (an
 environment's terminal state, or its time limit), as D4RL's own `sequence_dataset` cuts them. The rows after the

@@ -1,4 +1,4 @@
-"""ManiSkill trajectories (haosulab/ManiSkill: `mani_skill/utils/wrappers/record.py`'s `RecordEpisode`, which
+"""ManiSkill trajectories (`haosulab/ManiSkill:mani_skill/utils/wrappers/record.py`'s `RecordEpisode`, which
 `replay_trajectory` and the motion-planning demos write through): a `.h5` file with one `traj_N` group a
 trajectory and a `.json` of the same name beside it (`env_info`: `env_id`, `env_kwargs`, `max_episode_steps`;
 `episodes`: `episode_id`, `control_mode`, `elapsed_steps`, `reset_kwargs`, ...).
