@@ -2,9 +2,9 @@
 (episode, step) so tests can recompute it:
 
 * D4RL (`Farama-Foundation/D4RL:d4rl/offline_env.py` `get_dataset` reads,
-  `Farama-Foundation/D4RL:scripts/generation/*` write): one flat file, root `observations` (N, obs) float32, `actions` (N, act) float32, `rewards` (N,) float32,
-  `terminals` / `timeouts` (N,) bool, `next_observations`, `infos/*` (N, ...), `metadata/*` (not per step);
-  written with h5py here.
+  `Farama-Foundation/D4RL:scripts/generation/*` write): one flat file, root `observations` (N, obs) float32,
+  `actions` (N, act) float32, `rewards` (N,) float32, `terminals` / `timeouts` (N,) bool, `next_observations`,
+  `infos/*` (N, ...), `metadata/*` (not per step); written with h5py here.
 * Minari: written by minari itself (`minari.create_dataset_from_buffers`, its HDF5 storage) from
   `EpisodeBuffer`s, into `MINARI_DATASETS_PATH`. (Its `DataCollector` needs jax, minari's `create` extra, which
   this environment does not install; the buffers are what the collector would hold: T + 1 observations and
