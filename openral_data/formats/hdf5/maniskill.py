@@ -25,10 +25,10 @@ from openral_data.formats.episodic import EpisodeMeta
 from openral_data.formats.hdf5.files import member, natural_key, walk_datasets
 from openral_data.formats.hdf5.windows import WindowEpisode, episode_columns
 from openral_data.formats.jsonfile import read_json
+from openral_data.paths import contained
 
 TRAJ = re.compile(r"traj_(\d+)")
 PLUS_ONE = {"obs": 0, "env_states": 0}  # T + 1 rows, the reset's first: steps are rows 0..T-1
-MAX_JSON = 256 << 20  # a trajectory file's JSON lists every episode's reset kwargs
 
 
 def is_maniskill(f: h5py.File) -> bool:
@@ -56,9 +56,9 @@ class ManiSkillFile:
     def __init__(self, path: Path, f: h5py.File) -> None:
         self.path = path
         self.f = f
-        meta = sidecar(path)
+        meta = contained(path.parent, sidecar(path).name, f"{path}: its .json")  # no symlink out of the folder
         try:
-            doc = _dict(read_json(meta, MAX_JSON), str(meta), "ManiSkill's trajectory metadata")
+            doc = _dict(read_json(meta), str(meta), "ManiSkill's trajectory metadata")
         except FileNotFoundError:
             raise DatasetError(f"{meta}: missing (ManiSkill writes the trajectories' metadata beside the .h5)",
                                code="dataset.source.key") from None  # fmt: skip

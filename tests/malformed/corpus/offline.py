@@ -133,6 +133,13 @@ def _json(edit: Callable[[dict[str, object]], None]) -> Callable[[Path], None]:
     return damage
 
 
+def _json_out(path: Path) -> None:
+    meta = path.with_suffix(".json")
+    outside = path.parent.parent / "elsewhere.json"
+    meta.rename(outside)
+    meta.symlink_to(outside)
+
+
 def _episode(key: str, value: object, index: int = 1) -> Callable[[dict[str, object]], None]:
     def edit(doc: dict[str, object]) -> None:
         episodes = doc["episodes"]
@@ -144,6 +151,7 @@ def _episode(key: str, value: object, index: int = 1) -> Callable[[dict[str, obj
 
 _MANISKILL = {
     "no-json": (lambda p: p.with_suffix(".json").unlink(), r"trajectory\.json: missing"),
+    "json-linked-out": (_json_out, r"trajectory\.h5: its \.json: path 'trajectory\.json' leads outside"),
     "json-not-json": (lambda p: p.with_suffix(".json").write_text("{"), r"trajectory\.json: invalid JSON"),
     "no-env-id": (_json(lambda d: d["env_info"].pop("env_id")), r"trajectory\.json: env_info\.env_id"),  # type: ignore[attr-defined]
     "elapsed-steps-lie": (_json(_episode("elapsed_steps", 7)),
