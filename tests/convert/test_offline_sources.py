@@ -6,6 +6,7 @@ aligned to T actions), values equal to h5py's and minari's own reads, success on
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +17,7 @@ import pytest
 
 import openral_data
 from openral_data.convert import kinds
+from openral_data.errors import ConfigError
 from openral_data.formats.episodic import ArraySource
 from openral_data.formats.lerobot_v3.encoder import VideoSettings
 from openral_data.replay.recorded import RecordedDataset
@@ -162,3 +164,22 @@ def test_robomimic_and_aloha_are_still_read_as_before(tmp_path: Path) -> None:
         found = kinds.detect(path)
         assert found is not None and found.kind.name == name
         found.handle.close()
+
+
+def test_minari_without_the_extra_is_one_line_naming_it(
+    minari_dataset: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Without minari installed a Minari dataset is one line naming the extra (nothing written); other sources
+    never import minari."""
+    for name in ("minari", "minari.dataset", "minari.dataset.minari_storage", "minari.serialization"):
+        monkeypatch.setitem(sys.modules, name, None)  # `import minari...` raises ImportError
+    src = write_d4rl(tmp_path / "hopper.hdf5", rows=4, terminals=(3,), timeouts=())
+    found = kinds.detect(src)
+    assert found is not None and found.kind.name == "hdf5-d4rl"
+    found.handle.close()
+    out = tmp_path / "out"
+    with pytest.raises(
+        ConfigError, match=r"Minari datasets need the 'minari' extra: pip install 'openral-data\[minari\]'"
+    ):
+        openral_data.convert(minari_dataset, out, fps=10)
+    assert not out.exists()
