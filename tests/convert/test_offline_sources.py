@@ -183,3 +183,15 @@ def test_minari_without_the_extra_is_one_line_naming_it(
     ):
         openral_data.convert(minari_dataset, out, fps=10)
     assert not out.exists()
+
+
+def test_minari_box_observation_and_discrete_action(tmp_path: Path) -> None:
+    """A Box observation space is one dataset (`observations`): the state; a Discrete action one number a step."""
+    from minari.dataset.minari_dataset import MinariDataset  # type: ignore[import-untyped]
+
+    folder = write_minari(tmp_path / "datasets", (3, 2), box=True)
+    tables = converted_episodes(folder, tmp_path / "out", 2, "--fps", "10")
+    for ep, rows in zip(MinariDataset(folder / "data").iterate_episodes(), tables, strict=True):
+        assert _col(rows, "observation.state").tolist() == ep.observations[:-1].tolist()
+        assert _col(rows, "action").tolist() == [float(a) for a in ep.actions]  # a 1-wide feature: a scalar column
+        assert _col(rows, "next.success").tolist() == ep.infos["success"][1:].tolist()

@@ -69,26 +69,29 @@ def minari_obs(e: int, t: int) -> dict[str, np.ndarray[Any, Any]]:
             "desired_goal": np.array([1.0 + e, 2.0], np.float64)}  # fmt: skip
 
 
-def write_minari(root: Path, lengths: tuple[int, ...] = (4, 3), *, success: bool = True) -> Path:
+def write_minari(root: Path, lengths: tuple[int, ...] = (4, 3), *, success: bool = True, box: bool = False) -> Path:
     """A Minari dataset `toy/reach-v0` under `root` (its MINARI_DATASETS_PATH) written by minari; returns its
-    folder. Episode e's last step succeeds when `success` (infos/success after it)."""
+    folder. Episode e's last step succeeds when `success` (infos/success after it). `box`: a Box observation (the
+    agent vector alone) and a Discrete action (`t % 3`) instead of the Dict observation and Box action."""
     import gymnasium as gym
     import minari  # type: ignore[import-untyped]
     from minari.data_collector import EpisodeBuffer  # type: ignore[import-untyped]
 
-    obs_space = gym.spaces.Dict({
+    obs_space: gym.Space[Any] = gym.spaces.Dict({
         "agent": gym.spaces.Box(-10, 10, (3,), np.float32),
         "cam": gym.spaces.Box(0, 255, (CAM, CAM, 3), np.uint8),
         "desired_goal": gym.spaces.Box(-5, 5, (2,), np.float64),
     })  # fmt: skip
-    act_space = gym.spaces.Box(-1, 1, (2,), np.float32)
+    act_space: gym.Space[Any] = gym.spaces.Discrete(3) if box else gym.spaces.Box(-1, 1, (2,), np.float32)
+    if box:
+        obs_space = obs_space["agent"]
     buffers = []
     for e, n in enumerate(lengths):
         frames = [minari_obs(e, t) for t in range(n + 1)]
-        obs = {k: [fr[k] for fr in frames] for k in frames[0]}
+        obs: Any = [fr["agent"] for fr in frames] if box else {k: [fr[k] for fr in frames] for k in frames[0]}
         buffers.append(EpisodeBuffer(
             id=e, seed=100 + e, observations=obs,
-            actions=[np.array([0.1 * t, -0.1 * e], np.float32) for t in range(n)],
+            actions=[t % 3 if box else np.array([0.1 * t, -0.1 * e], np.float32) for t in range(n)],
             rewards=[float(t + e) for t in range(n)], terminations=[success and t == n - 1 for t in range(n)],
             truncations=[not success and t == n - 1 for t in range(n)],
             infos={"success": [False] * n + [success]},
