@@ -77,14 +77,13 @@ def write_minari(root: Path, lengths: tuple[int, ...] = (4, 3), *, success: bool
     import minari  # type: ignore[import-untyped]
     from minari.data_collector import EpisodeBuffer  # type: ignore[import-untyped]
 
-    obs_space: gym.Space[Any] = gym.spaces.Dict({
-        "agent": gym.spaces.Box(-10, 10, (3,), np.float32),
+    agent = gym.spaces.Box(-10, 10, (3,), np.float32)
+    obs_space: gym.Space[Any] = agent if box else gym.spaces.Dict({
+        "agent": agent,
         "cam": gym.spaces.Box(0, 255, (CAM, CAM, 3), np.uint8),
         "desired_goal": gym.spaces.Box(-5, 5, (2,), np.float64),
     })  # fmt: skip
     act_space: gym.Space[Any] = gym.spaces.Discrete(3) if box else gym.spaces.Box(-1, 1, (2,), np.float32)
-    if box:
-        obs_space = obs_space["agent"]
     buffers = []
     for e, n in enumerate(lengths):
         frames = [minari_obs(e, t) for t in range(n + 1)]
