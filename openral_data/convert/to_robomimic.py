@@ -6,7 +6,8 @@ An episode is ``data/demo_N`` (N from 0, in episode order): ``actions`` (float32
 dataset has it), ``obs/state`` (``observation.state``), ``obs/object`` (``observation.environment_state``, robomimic's
 name for the object state), ``obs/<camera>_image`` (decoded frames, uint8 HxWxC) and ``obs/<camera>_depth`` (a
 depth or mask camera, uint16 HxWx1); its attributes ``num_samples``, ``episode_index`` (the source's number),
-``task`` (its language) and ``seed``/``success`` when known. ``data.attrs["env_args"]`` names the task
+``ep_meta`` (JSON: ``lang``, its language instruction, as RoboCasa and robomimic 0.5 store it) and
+``seed``/``success`` when known. ``data.attrs["env_args"]`` names the task
 (``env_name``: the episodes' one task, else the dataset's name), ``type`` 1 and ``env_kwargs.control_freq`` (the
 frame rate). Each split of the dataset (info.json's `splits`) is a filter key ``mask/<split>`` (``val`` and
 ``validation`` are written ``valid``, robomimic's name). `--workers N` writes N parts in N processes, copied
@@ -15,6 +16,7 @@ into the file in order. The file is written in a hidden staging folder and appea
 
 from __future__ import annotations
 
+import json
 import os
 import time
 from dataclasses import dataclass, field
@@ -188,7 +190,7 @@ def write_demos(job: DemoJob, progress: ProgressFn | None = None) -> DemoDone:
                 if progress is not None:
                     progress(done.frames, 0)
             seed, success = row.get("openral.seed"), successes.get(number)
-            attrs: dict[str, Any] = {"episode_index": number, "task": task}
+            attrs: dict[str, Any] = {"episode_index": number, "ep_meta": json.dumps({"lang": task})}
             attrs |= {"seed": int(seed)} if seed is not None else {}
             attrs |= {"success": bool(success)} if success is not None else {}
             demo.finish(attrs)

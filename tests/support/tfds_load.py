@@ -7,12 +7,13 @@ episode's one value (``episode_metadata/...``), and `splits` -> the split names 
 """
 
 import sys
+from typing import Any
 
 import numpy as np
-import tensorflow_datasets as tfds
+import tensorflow_datasets as tfds  # type: ignore[import-not-found,unused-ignore]  # in .venv-tfds only
 
 
-def _flat(prefix, tree, out):
+def _flat(prefix: str, tree: dict[str, Any], out: dict[str, list[Any]]) -> None:
     for key, value in tree.items():
         if isinstance(value, dict):
             _flat(f"{prefix}/{key}", value, out)
@@ -20,19 +21,19 @@ def _flat(prefix, tree, out):
             out.setdefault(f"{prefix}/{key}", []).append(value)
 
 
-def main(folder, target):
+def main(folder: str, target: str) -> None:
     builder = tfds.builder_from_directory(folder)
     arrays = {"splits": np.array(sorted(builder.info.splits.keys()))}
-    for split in builder.info.splits.keys():
+    for split in builder.info.splits:
         for i, episode in enumerate(tfds.as_numpy(builder.as_dataset(split=split, shuffle_files=False))):
-            steps = {}
+            steps: dict[str, list[Any]] = {}
             for step in episode["steps"]:
                 _flat("steps", step, steps)
             arrays |= {f"{split}|{i}|{k}": np.stack([np.asarray(v) for v in vs]) for k, vs in steps.items()}
-            meta = {}
+            meta: dict[str, list[Any]] = {}
             _flat("episode_metadata", episode["episode_metadata"], meta)
             arrays |= {f"{split}|{i}|{k}": np.asarray(vs[0]) for k, vs in meta.items()}
-    np.savez(target, **arrays)
+    np.savez(target, **arrays)  # type: ignore[arg-type]
 
 
 if __name__ == "__main__":

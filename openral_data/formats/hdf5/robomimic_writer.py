@@ -7,7 +7,7 @@ splits). `DemoWriter` fills one demo's datasets, created at their full length, s
 from __future__ import annotations
 
 import json
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import h5py
@@ -60,7 +60,7 @@ def write_header(f: h5py.File, total: int, env_args: dict[str, Any]) -> None:
     data.attrs["env_args"] = json.dumps(env_args)
 
 
-def write_masks(f: h5py.File, masks: dict[str, Sequence[str]]) -> None:
+def write_masks(f: h5py.File, masks: Mapping[str, Sequence[str]]) -> None:
     """``mask/<key>``: each filter key's demo names (byte strings, as robomimic's split_train_val writes them)."""
     group = f.require_group(MASK)
     for key, names in masks.items():

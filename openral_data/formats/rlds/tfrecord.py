@@ -13,7 +13,7 @@ core/example/example.proto and feature.proto (field numbers and types as there),
 from __future__ import annotations
 
 import struct
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -128,7 +128,7 @@ def framed(data: bytes) -> bytes:
     return head + struct.pack("<I", masked_crc(head)) + data + struct.pack("<I", masked_crc(data))
 
 
-def serialize_example(features: dict[str, tuple[str, Sequence[Any]]]) -> bytes:
+def serialize_example(features: Mapping[str, tuple[str, Sequence[Any]]]) -> bytes:
     """A `tf.train.Example` of `features` (key -> (proto list: bytes_list, float_list or int64_list, values)),
     serialized deterministically (its map in key order)."""
     example = _EXAMPLE()

@@ -61,7 +61,7 @@ class Column:
         if self.kind == "text":
             return [str(value).encode("utf-8")]
         flat = np.asarray(value, dtype=self.dtype).reshape(-1)
-        return (flat.astype(np.int64) if self.proto_list == "int64_list" else flat).tolist()  # type: ignore[no-any-return]
+        return (flat.astype(np.int64) if self.proto_list == "int64_list" else flat).tolist()
 
 
 def encode_picture(pixels: npt.NDArray[np.uint8], fmt: str) -> bytes:
