@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from tests.support.exported import SPLITS, Episode, close_pictures, source_episodes, splits_dataset
+from tests.cli.test_json import parse
 from tests.support.inproc import run_inproc
 
 
@@ -51,7 +52,7 @@ def test_rlds_export_reads_back_and_round_trips(dataset: Path, episodes: list[Ep
     out = tmp_path / "rlds"
     run = run_inproc("export", str(dataset), "--to", "rlds", str(out), "--json")
     assert run.returncode == 0, run.stderr
-    doc = json.loads(run.stdout)
+    doc = parse(run.stdout, "convert lerobot-to-mcap")  # the fields docs/scripting.md documents
     assert doc["direction"] == "lerobot-to-rlds" and doc["episodes"] == 5 and doc["frames"] == 12
     info = json.loads((out / "dataset_info.json").read_text())
     assert [(s["name"], s["shardLengths"]) for s in info["splits"]] == [("train", ["3"]), ("val", ["2"])]

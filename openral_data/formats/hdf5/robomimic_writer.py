@@ -1,8 +1,9 @@
-"""The robomimic layout written (robomimic's docs/datasets/overview.md, "Dataset Structure"): ``data`` with its
-``total`` and ``env_args`` (JSON) attributes, one ``data/demo_N`` group an episode with its ``num_samples``
-attribute, ``actions`` (N, A), ``rewards`` (N,), ``dones`` (N,) and ``obs/<key>`` datasets (pictures uint8
-(N, H, W, C), channel last), and ``mask/<filter key>`` lists of demo names (robomimic's train / validation
-splits). `DemoWriter` fills one demo's datasets, created at their full length, step by step."""
+"""The robomimic layout written (the "Dataset Structure" of robomimic's documentation,
+robomimic.github.io/docs/datasets/overview.html): ``data`` with its ``total`` and ``env_args`` (JSON) attributes,
+one ``data/demo_N`` group an episode with its ``num_samples`` attribute, ``actions`` (N, A), ``rewards`` (N,),
+``dones`` (N,) and ``obs/<key>`` datasets (pictures uint8 (N, H, W, C), channel last), and ``mask/<filter key>``
+lists of demo names (robomimic's train / validation splits). `DemoWriter` fills one demo's datasets, created at
+their full length, step by step."""
 
 from __future__ import annotations
 
