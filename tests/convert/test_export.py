@@ -13,8 +13,8 @@ import h5py
 import numpy as np
 import pytest
 
-from tests.support.exported import SPLITS, Episode, close_pictures, source_episodes, splits_dataset
 from tests.cli.test_json import parse
+from tests.support.exported import SPLITS, Episode, close_pictures, source_episodes, splits_dataset
 from tests.support.inproc import run_inproc
 
 
