@@ -6,7 +6,7 @@ episodes in episode-index order, its tasks, each episode's split (info.json's `s
 from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -23,7 +23,7 @@ from openral_data.formats.lerobot_v3.splits import range_splits
 if TYPE_CHECKING:
     import pyarrow as pa
 
-    from openral_data.types import Frame, FrameColumn
+    from openral_data.types import EpisodeRecord, Frame, FrameColumn
 
 
 @dataclass(frozen=True)
@@ -65,6 +65,18 @@ class ExportSource:
     def frames(self, row: dict[str, Any], columns: Sequence[FrameColumn] = ()) -> Iterator[Frame]:
         """Episode `row` frame by frame, its pictures decoded (cameras in `cams` order)."""
         return episode_frames(self.path, self.info, row, self.tasks, list(self.cams), columns)
+
+
+@dataclass
+class Written[J]:
+    """What one job of an export (an RLDS shard, a robomimic part) wrote: its episodes, frames and bytes, and
+    when it finished (a parallel run's results come back in that order)."""
+
+    job: J
+    episodes: list[EpisodeRecord] = field(default_factory=list)
+    frames: int = 0
+    bytes: int = 0
+    finished_at: float = 0.0
 
 
 def not_carried(source: ExportSource, also: set[str] | frozenset[str] = frozenset()) -> list[str]:

@@ -15,11 +15,11 @@ from __future__ import annotations
 
 import re
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from openral_data.convert.export_source import ExportSource, not_carried, read_export_source
+from openral_data.convert.export_source import ExportSource, Written, not_carried, read_export_source
 from openral_data.convert.to_mcap import ExportSummary, ProgressFn
 from openral_data.errors import DatasetError, UsageError
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE
@@ -61,13 +61,7 @@ class ShardJob:
     image_format: str
 
 
-@dataclass
-class ShardDone:
-    job: ShardJob
-    episodes: list[EpisodeRecord] = field(default_factory=list)
-    frames: int = 0
-    bytes: int = 0
-    finished_at: float = 0.0
+ShardDone = Written[ShardJob]
 
 
 def dataset_name(dst: Path) -> str:

@@ -19,13 +19,13 @@ from __future__ import annotations
 import json
 import os
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import h5py
 
-from openral_data.convert.export_source import ExportSource, not_carried, read_export_source
+from openral_data.convert.export_source import ExportSource, Written, not_carried, read_export_source
 from openral_data.convert.to_mcap import ExportSummary, ProgressFn
 from openral_data.errors import OutputExists
 from openral_data.formats.atomic import fsync_dir, fsync_file
@@ -56,12 +56,7 @@ class DemoJob:
     first: int
 
 
-@dataclass
-class DemoDone:
-    job: DemoJob
-    episodes: list[EpisodeRecord] = field(default_factory=list)
-    frames: int = 0
-    finished_at: float = 0.0
+DemoDone = Written[DemoJob]
 
 
 def demo_keys(source: ExportSource) -> dict[str, tuple[tuple[int, ...], str]]:
