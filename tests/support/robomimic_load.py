@@ -11,10 +11,7 @@ import json
 import sys
 
 import numpy as np
-from robomimic.utils import (
-    file_utils,  # type: ignore[import-not-found,unused-ignore]
-    obs_utils,  # type: ignore[import-not-found,unused-ignore]
-)
+from robomimic.utils import file_utils, obs_utils  # type: ignore[import-not-found,unused-ignore]
 from robomimic.utils.dataset import SequenceDataset  # type: ignore[import-not-found,unused-ignore]
 
 
