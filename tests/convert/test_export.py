@@ -123,6 +123,8 @@ def test_export_refuses_in_one_line(dataset: Path, tmp_path: Path) -> None:
         ((str(dataset), "--to", "robomimic", str(tmp_path / "b.hdf5"), "--image-format", "png"), "--image-format"),
         ((str(dataset), "--to", "rlds", str(tmp_path / "c"), "--episodes", "7"), "--episodes"),
         ((str(broken), "--to", "rlds", str(tmp_path / "d")), "splits: train: '0-3' is not 'start:end'"),
+        ((str(dataset), "--to", "mcap", str(tmp_path / "e"), "--workers", "2"), "--workers: MCAP is exported in one"),
+        ((str(dataset), "--to", "rlds", str(tmp_path / "f"), "--workers", "0"), "--workers must be >= 1"),
     ]
     for args, message in cases:
         run = run_inproc("export", *args)
@@ -144,6 +146,10 @@ def test_episodes_subset(dataset: Path, episodes: list[Episode], tmp_path: Path)
     assert [(e.meta.split, e.meta.attrs["episode_metadata/episode_index"]) for e in read] == [("train", 1), ("val", 4)]
     pictures = read[1].read("steps/observation/wrist", 0, read[1].length)
     assert np.array_equal(pictures, episodes[4].pictures["wrist"])  # PNG: the decoded frames exactly
+    bags = tmp_path / "bags"  # --to mcap: what `convert DATASET DST` writes, one bag an episode
+    run = run_inproc("export", str(dataset), "--to", "mcap", str(bags), "--episodes", "3", "--json")
+    assert run.returncode == 0 and json.loads(run.stdout)["direction"] == "lerobot-to-mcap", run.stderr
+    assert [p.name for p in bags.iterdir()] == ["episode_000003"]
 
 
 @pytest.mark.slow  # worker processes start on a loaded 2-core machine
