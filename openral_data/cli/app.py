@@ -9,7 +9,7 @@ from typing import Annotated, Any, cast
 
 import typer
 
-from openral_data.cli import browse, convert, generate, hub, inspect, quality, record, replay, stats, upgrade
+from openral_data.cli import browse, convert, export, generate, hub, inspect, quality, record, replay, stats, upgrade
 from openral_data.cli.download import dataset_commands
 from openral_data.cli.edit import episodes_app
 from openral_data.cli.features import features_app
@@ -88,6 +88,7 @@ def add_search_dir(kind: Kind, folder: Path) -> None:
 
 app.command()(record.record)
 app.command()(convert.convert)
+app.command()(export.export)
 app.command()(upgrade.upgrade)
 app.command()(inspect.info)
 app.command("list")(inspect.list_cmd)
