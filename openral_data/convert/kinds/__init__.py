@@ -5,11 +5,12 @@ registered here once and tried by everything in this one order:
 1. `lerobot-v2`  LeRobot v2.0 / v2.1 dataset (`meta/info.json` says so), read in place
 2. `lerobot-v3`  any other folder with `meta/info.json` (a LeRobot v3.0 dataset)
 3. `ros1-bag`    a `.bag` file, or a folder whose bags are all `.bag` files
-4. `rosbag2`     a rosbag2 folder, a plain `.mcap`, or a folder holding bags of any kind
-5. `hdf5-robomimic`  an HDF5 file or folder of the robomimic family (robomimic, LIBERO, MimicGen / Isaac Lab)
-6. `hdf5-aloha`  an HDF5 file or folder of ALOHA / ACT episodes
-7. `zarr`        a Zarr replay buffer (`.zarr` folder, `.zarr.zip`)
-8. `rlds`        an RLDS / TFDS build folder
+4. `mcap`        an `.mcap` of another profile than ros2 (Foxglove: protobuf, JSON, ROS 1), or a folder of them
+5. `rosbag2`     a rosbag2 folder, a plain `.mcap`, or a folder holding bags of any kind
+6. `hdf5-robomimic`  an HDF5 file or folder of the robomimic family (robomimic, LIBERO, MimicGen / Isaac Lab)
+7. `hdf5-aloha`  an HDF5 file or folder of ALOHA / ACT episodes
+8. `zarr`        a Zarr replay buffer (`.zarr` folder, `.zarr.zip`)
+9. `rlds`        an RLDS / TFDS build folder
 
 Datasets first (their folder may hold anything), then bags (found by their names alone, so no HDF5/Zarr library
 is imported for them), then the array sources. A kind's `open` returns None when the path is not of its kind
@@ -30,6 +31,7 @@ from openral_data.convert.kinds.base import SourceKind
 from openral_data.convert.kinds.hdf5_aloha import AlohaKind
 from openral_data.convert.kinds.hdf5_robomimic import RobomimicKind
 from openral_data.convert.kinds.lerobot import LeRobotV2Kind, LeRobotV3Kind
+from openral_data.convert.kinds.mcap import McapKind
 from openral_data.convert.kinds.rlds import RldsKind
 from openral_data.convert.kinds.ros1 import Ros1Kind
 from openral_data.convert.kinds.rosbag2 import Rosbag2Kind
@@ -41,6 +43,7 @@ _KINDS: tuple[SourceKind[Any], ...] = (
     LeRobotV2Kind(),
     LeRobotV3Kind(),
     Ros1Kind(),
+    McapKind(),
     Rosbag2Kind(),
     RobomimicKind(),
     AlohaKind(),
