@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from PIL import Image as PILImage
 from rosbags.interfaces import Connection
 
 from openral_data.convert.camera_topics import decode_depth
@@ -49,7 +50,11 @@ class Message:
     def decode(self) -> npt.NDArray[np.uint8]:
         msg = self.get()
         check_image(msg, self.msgtype, f"{self.bag}: {self.topic}")  # the first message was checked, not every one
-        return decode_image(msg, self.msgtype)
+        try:
+            return decode_image(msg, self.msgtype)
+        except (ValueError, OSError, PILImage.DecompressionBombError) as exc:  # UnidentifiedImageError: an OSError
+            raise BagError(f"{self.bag}: {self.topic}: a message does not decode as an image: {exc}",
+                           code="bag.invalid") from None  # fmt: skip
 
     def decode_depth(self, unit: DepthUnit) -> npt.NDArray[Any]:
         return decode_depth(self.get(), self.msgtype, unit, f"{self.bag}: {self.topic}")

@@ -304,8 +304,7 @@ class ForeignMcap:
         """One message of type `msgtype` decoded (by mcap's decoder for its channel) as `Fields`."""
         decoder = self._decoders.get(msgtype)
         if decoder is None:
-            channel, schema = self._types[msgtype]
-            decoder = self._decoders[msgtype] = _decoder_for(self.path, channel, schema)
+            decoder = self._decoders[msgtype] = self._decoder(msgtype)
         try:
             value = wrap(decoder(raw))
         except Exception as exc:  # noqa: BLE001 - the decoders' own errors (protobuf's DecodeError, genpy's)
@@ -314,6 +313,17 @@ class ForeignMcap:
             raise BagError(f"{self.path}: a {msgtype} message is {type(value).__name__}, not a message",
                            code="bag.invalid")  # fmt: skip
         return value
+
+    def _decoder(self, msgtype: str) -> Callable[[bytes], Any]:
+        channel, schema = self._types[msgtype]
+        try:
+            return _decoder_for(self.path, channel, schema)
+        except BagError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - a schema the decoder factory cannot load (protobuf's, genpy's)
+            raise BagError(f"{self.path}: {channel.topic}: the {channel.message_encoding} schema of {msgtype} does "
+                           f"not load: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}",
+                           code="bag.invalid") from None  # fmt: skip
 
     def close(self) -> None:
         self._file.close()

@@ -10,9 +10,19 @@ The cases are grouped by the kind of damage: `yaml_files`, `datasets` (datasets,
 (`cases.case`) when imported.
 """
 
-from tests.malformed.corpus import array_sources, bags, checkpoints, datasets, hdf5, options, outputs, yaml_files
+from tests.malformed.corpus import (
+    array_sources,
+    bags,
+    checkpoints,
+    datasets,
+    foreign_mcap,
+    hdf5,
+    options,
+    outputs,
+    yaml_files,
+)
 from tests.malformed.corpus.cases import CASES, Case
 
-PARTS = (yaml_files, datasets, options, outputs, bags, hdf5, array_sources, checkpoints)
+PARTS = (yaml_files, datasets, options, outputs, bags, foreign_mcap, hdf5, array_sources, checkpoints)
 
 __all__ = ["CASES", "PARTS", "Case"]
