@@ -42,8 +42,9 @@ def _joints(n: int = 6) -> list[tuple[str, bytes]]:
     return [("/joints", json.dumps(msg).encode())] * n
 
 
-_JOINTS = {"/joints": ("json", "jsonschema", JOINTS_SCHEMA)}
-_CAMERA = {**_JOINTS, "/camera": ("json", "jsonschema", IMAGE_SCHEMA)}
+_Channels = dict[str, tuple[str, str, dict[str, Any] | None]]
+_JOINTS: _Channels = {"/joints": ("json", "jsonschema", JOINTS_SCHEMA)}
+_CAMERA: _Channels = {**_JOINTS, "/camera": ("json", "jsonschema", IMAGE_SCHEMA)}
 
 
 def _with_camera(data: str) -> list[tuple[str, bytes]]:
