@@ -27,6 +27,7 @@ from tests.support.foreign_mcap import (
     STEP,
     T0,
     joint_positions,
+    write_cdr_without_profile,
     write_foxglove,
     write_json,
     write_ros1_mcap,
@@ -43,10 +44,11 @@ def _decoded(path: Path) -> dict[str, list[tuple[int, Any]]]:
     json.loads; per topic, (log time, message) in log-time order."""
     from mcap_protobuf.decoder import DecoderFactory as Protobuf
     from mcap_ros1.decoder import DecoderFactory as Ros1
+    from mcap_ros2.decoder import DecoderFactory as Ros2
 
     out: dict[str, list[tuple[int, Any]]] = {}
     with path.open("rb") as f:
-        reader = make_reader(f, decoder_factories=[Protobuf(), Ros1(), _Json()])
+        reader = make_reader(f, decoder_factories=[Protobuf(), Ros1(), Ros2(), _Json()])
         for _, channel, message, decoded in reader.iter_decoded_messages(log_time_order=True):
             out.setdefault(channel.topic, []).append((message.log_time, decoded))
     return out
@@ -176,6 +178,28 @@ def test_ros1_messages_in_mcap_convert_with_no_mapping(tmp_path: Path) -> None:
     info = json.loads((tmp_path / "out/meta/info.json").read_text())
     assert info["features"]["observation.state"]["names"] == ["a", "b"]
     _upright(_video(tmp_path / "out", "cam")[0])
+
+
+def test_ros2_messages_without_the_ros2_profile(tmp_path: Path) -> None:
+    """CDR messages in an MCAP without the ros2 profile (rosbags refuses it): decoded by mcap_ros2's decoder, on
+    their header stamps with align.clock: header."""
+    src = write_cdr_without_profile(tmp_path / "cdr.mcap")
+    doc = _convert(src, tmp_path / "out")
+    rows = _rows(tmp_path / "out")
+    times = _frame_times(tmp_path / "out", rows)
+    got = _decoded(src)
+    assert doc["frames"] == len(times)
+    for k, t in enumerate(times):
+        np.testing.assert_array_equal(rows["observation.state"][k], _f32(_at(got["/joint_states"], t).position))
+    mapping = tmp_path / "m.yaml"
+    mapping.write_text(json.dumps({
+        "fps": 10, "task": "t", "state": {"topic": "/joint_states", "joints": ["b"]},
+        "action": {"topic": "/action", "field": "data"}, "align": {"clock": "header", "max_staleness": 0.01},
+    }))  # fmt: skip
+    doc = _convert(src, tmp_path / "header", "--mapping", str(mapping))
+    rows = _rows(tmp_path / "header")
+    assert doc["frames"] == FRAMES  # the stamps put every message on the grid
+    np.testing.assert_array_equal(_f32(rows["observation.state"]).reshape(-1), _f32([-i for i in range(FRAMES)]))
 
 
 @pytest.mark.skipif(not REAL.is_dir(), reason="the third-party cart-pole MCAP is not in ../shared/fixtures")

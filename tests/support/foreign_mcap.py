@@ -164,3 +164,35 @@ def write_ros1_mcap(path: Path) -> Path:
             w.write_message("/cam/image_raw", pic, log_time=ns)
         w.finish()
     return path
+
+
+def write_cdr_without_profile(path: Path) -> Path:
+    """The `mcap` library's Writer, no profile, ROS 2 messages (ros2msg schemas, CDR by rosbags): /joint_states
+    (JointState, header stamped), /action (Float32MultiArray). rosbags refuses it (profile is not ros2)."""
+    from mcap.writer import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    t = store.types
+    with path.open("wb") as f:
+        w = Writer(f)
+        w.start(profile="", library="openral-data tests")
+        ids = {}
+        for topic, msgtype in (("/joint_states", "sensor_msgs/msg/JointState"),
+                               ("/action", "std_msgs/msg/Float32MultiArray")):  # fmt: skip
+            text, _ = store.generate_msgdef(msgtype, ros_version=2)
+            ids[topic] = (w.register_channel(topic, "cdr", w.register_schema(msgtype, "ros2msg", text.encode())),
+                          msgtype)  # fmt: skip
+        layout = t["std_msgs/msg/MultiArrayLayout"](dim=[], data_offset=0)
+        for i in range(FRAMES):
+            ns = T0 + i * STEP
+            stamp = t["builtin_interfaces/msg/Time"](sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+            header = t["std_msgs/msg/Header"](stamp=stamp, frame_id="")
+            js = t["sensor_msgs/msg/JointState"](header=header, name=["a", "b"], position=np.array([i, -i], float),
+                                                 velocity=np.zeros(0), effort=np.zeros(0))  # fmt: skip
+            act = t["std_msgs/msg/Float32MultiArray"](layout=layout, data=np.array([0.5 * i], np.float32))
+            for topic, msg in (("/joint_states", js), ("/action", act)):
+                cid, msgtype = ids[topic]
+                w.add_message(cid, log_time=ns, data=bytes(store.serialize_cdr(msg, msgtype)), publish_time=ns)
+        w.finish()
+    return path

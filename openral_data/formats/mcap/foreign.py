@@ -1,13 +1,14 @@
 """MCAP files of any profile but ROS 2 (what Foxglove's SDKs and the `mcap` library write): protobuf, JSON (with
 a jsonschema or none) and ROS 1 messages, decoded by mcap's own decoder factories (`mcap_protobuf`,
-`mcap_ros1`: the `mcap_profiles` extra, imported only when a file needs them; JSON by `json.loads`), and read
+`mcap_ros1`: the `mcap_profiles` extra, imported only when a file needs them; JSON by `json.loads`; ROS 2's
+CDR in a file without the ros2 profile by `mcap_ros2`'s), and read
 the way `convert` reads a bag through rosbags (`ForeignMcap`: connections, messages in log-time order, decode).
 
 A decoded message is a `Fields`: its fields by name as rosbags' messages have them (a JSON object's keys, a
 protobuf message's fields, a ROS 1 message's slots), bytes as uint8 arrays (a JSON field whose schema says
 ``contentEncoding: base64`` decoded), nested messages as `Fields`; `numpy.asarray` of one is its numbers (every
 numeric leaf in schema order, its `timestamp` left out: a pose, a vector, a transform as one vector), and
-`stamp_ns` is its own time (Foxglove's `timestamp`, a ROS 1 `header.stamp`). A ROS 1 schema `pkg/Type` is
+`stamp_ns` is its own time (Foxglove's `timestamp`, a ROS `header.stamp`). A ROS 1 schema `pkg/Type` is
 named `pkg/msg/Type`, as rosbags names ROS 1 types. The file is walked by `chunks.check_mcap` (bounded records
 and chunks) before `mcap`'s reader opens it; a JSON message is at most `MAX_JSON_BYTES`.
 """
@@ -141,7 +142,7 @@ def wrap(raw: Any) -> Any:
     if descriptor is not None and hasattr(descriptor, "fields"):  # a protobuf message
         return Fields(raw, [f.name for f in descriptor.fields])
     slots = getattr(raw, "__slots__", None)
-    if isinstance(slots, list | tuple) and hasattr(raw, "_slot_types"):  # a ROS 1 (genpy) message or time
+    if isinstance(slots, list | tuple) and hasattr(raw, "_full_text"):  # a ROS 1 (genpy) or mcap_ros2 message
         return Fields(raw, [str(s) for s in slots])
     if hasattr(raw, "secs") and hasattr(raw, "nsecs"):  # genpy Time / Duration
         return Fields(raw, ["secs", "nsecs"])
@@ -192,9 +193,11 @@ def _decoder_for(path: Path, channel: Channel, schema: Schema | None) -> Callabl
             from mcap_protobuf.decoder import DecoderFactory
         elif encoding == "ros1":
             from mcap_ros1.decoder import DecoderFactory  # type: ignore[assignment]
+        elif encoding == "cdr":  # ROS 2 messages in a file without the ros2 profile (mcap-ros2-support: core)
+            from mcap_ros2.decoder import DecoderFactory  # type: ignore[assignment]
         else:
             raise BagError(f"{path}: {channel.topic}: message encoding {encoding!r} is not read (json, protobuf, "
-                           "ros1; cdr in a ros2 profile file)", code="bag.type")  # fmt: skip
+                           "ros1, cdr)", code="bag.type")  # fmt: skip
     except ImportError:
         raise BagError(f"{path}: {channel.topic}: {encoding} messages need the 'mcap_profiles' extra: "
                        f"{install_hint('mcap_profiles')}", code="bag.type") from None  # fmt: skip
