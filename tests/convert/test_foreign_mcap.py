@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -200,6 +201,16 @@ def test_ros2_messages_without_the_ros2_profile(tmp_path: Path) -> None:
     rows = _rows(tmp_path / "header")
     assert doc["frames"] == FRAMES  # the stamps put every message on the grid
     np.testing.assert_array_equal(_f32(rows["observation.state"]).reshape(-1), _f32([-i for i in range(FRAMES)]))
+
+
+def test_a_missing_decoder_names_its_extra(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Without the mcap_profiles extra (mcap_protobuf not importable), a protobuf file is one line naming it."""
+    src = write_foxglove(tmp_path / "fox.mcap")
+    monkeypatch.setitem(sys.modules, "mcap_protobuf.decoder", None)
+    run = run_inproc("convert", str(src), str(tmp_path / "out"), "--codec", "h264")
+    assert run.returncode == 2 and len(run.stderr.strip().splitlines()) == 1, run.stderr
+    assert "protobuf messages need the 'mcap_profiles' extra: pip install 'openral-data[mcap_profiles]'" in run.stderr
+    assert not (tmp_path / "out").exists()
 
 
 @pytest.mark.skipif(not REAL.is_dir(), reason="the third-party cart-pole MCAP is not in ../shared/fixtures")
