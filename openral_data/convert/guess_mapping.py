@@ -1,14 +1,18 @@
 """`convert BAG --print-mapping`: a starting mapping for a bag nobody has described, its guesses marked.
 
 Read from the bags' indexes (topics, types, rates) and from the first message of each JointState, Image and
-CompressedImage topic of the first bag (joint names, image encodings), the guesses are:
+CompressedImage topic of the first bag (joint names, image encodings), and of each topic of a type that is not
+ROS's (an MCAP of another profile: Foxglove's schemas, JSON), the guesses are:
 
 * state: the JointState topic (``position``, every joint its first message names), one named ``joint_states``
-  first; without one, the first Float32/Float64MultiArray that is not a command;
+  first; without one, the first Float32/Float64MultiArray that is not a command; without one, the parts
+  `guess_foreign` finds in every non-ROS topic that is not a command (Foxglove transforms, poses, fixes, JSON
+  joint states and numbers);
 * action: a command topic (a name with cmd/command/action/target/goal/desired, of a JointState, a MultiArray or a
-  Twist), else the state itself (marked: an action should be what was commanded);
-* cameras: Image topics in an RGB encoding and CompressedImage topics; depth_cameras: 16UC1/32FC1 Image topics and
-  compressedDepth topics; camera_info: each CameraInfo topic paired with the cameras in its namespace;
+  Twist, or a non-ROS topic with parts), else the state itself (marked: an action should be what was commanded);
+* cameras: Image / foxglove.RawImage topics in an RGB encoding and (foxglove.)CompressedImage topics;
+  depth_cameras: 16UC1/32FC1 Image / RawImage topics and compressedDepth topics; camera_info: each CameraInfo
+  topic paired with the cameras in its namespace;
 * task_topic: a String topic named like a task/instruction/language/prompt, else a placeholder task text;
   reward / success: Float32/Float64 ``reward`` and Bool ``success`` topics;
 * fps: the slowest camera's or the action's mean rate, rounded (every frame needs a sample of each);
