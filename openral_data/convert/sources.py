@@ -118,7 +118,8 @@ def check_camera(reader: BagReader, bag: Path, name: str, conn: Connection) -> N
     where = f"{bag}: mapping: cameras.{name} ({conn.topic})"
     if conn.msgtype not in IMAGE_TYPES:
         raise BagError(
-            f"{where}: the topic carries {conn.msgtype}, not images (a camera needs {' or '.join(IMAGE_TYPES)})",
+            f"{where}: the topic carries {conn.msgtype}, not images (a camera needs "
+            f"{', '.join(IMAGE_TYPES[:-1])} or {IMAGE_TYPES[-1]})",
             code="bag.type",
         )
     for c, _, raw in read_messages(reader, bag, [conn]):
