@@ -30,6 +30,7 @@ from tests.support.foreign_mcap import (
     joint_positions,
     write_cdr_without_profile,
     write_foxglove,
+    write_foxglove_lists,
     write_json,
     write_ros1_mcap,
 )
@@ -133,6 +134,25 @@ def test_foxglove_protobuf_converts_with_no_mapping(tmp_path: Path) -> None:
         _upright(wrist[k], flipped=True)  # the RawImage holds the picture upside down, as written
         i = (times[k] - T0) // STEP
         assert abs(float(cam[k][BAND + 2 : -BAND - 2].mean()) - 8 * i) < 6  # the frame's own picture
+
+
+def test_foxglove_transforms_poses_and_depth(tmp_path: Path) -> None:
+    """FrameTransforms and PosesInFrame: every transform / pose of a message, 7 numbers each, named by child frame;
+    a 16UC1 RawImage: a depth camera."""
+    src = write_foxglove_lists(tmp_path / "lists.mcap")
+    _convert(src, tmp_path / "out")
+    rows = _rows(tmp_path / "out")
+    got = _decoded(src)
+    for k, t in enumerate(_frame_times(tmp_path / "out", rows)):
+        tf, poses = _at(got["/tf"], t).transforms, _at(got["/poses"], t).poses
+        want = [v for f in tf for v in (f.translation.x, f.translation.y, f.translation.z, f.rotation.x,
+                                        f.rotation.y, f.rotation.z, f.rotation.w)]  # fmt: skip
+        want += [v for p in poses for v in (p.position.x, p.position.y, p.position.z, p.orientation.x,
+                                            p.orientation.y, p.orientation.z, p.orientation.w)]  # fmt: skip
+        np.testing.assert_array_equal(rows["observation.state"][k], _f32(want))
+    features = json.loads((tmp_path / "out/meta/info.json").read_text())["features"]
+    assert features["observation.state"]["names"][:8] == ["a.x", "a.y", "a.z", "a.qx", "a.qy", "a.qz", "a.qw", "b.x"]
+    assert features["observation.images.depth"]["info"]["depth_unit"] == "mm"
 
 
 def test_json_channels_convert_with_no_mapping_and_by_named_fields(tmp_path: Path) -> None:

@@ -196,3 +196,26 @@ def write_cdr_without_profile(path: Path) -> Path:
                 w.add_message(cid, log_time=ns, data=bytes(store.serialize_cdr(msg, msgtype)), publish_time=ns)
         w.finish()
     return path
+
+
+def write_foxglove_lists(path: Path) -> Path:
+    """Foxglove's SDK, protobuf: /tf (FrameTransforms of frames a and b), /poses (PosesInFrame of two poses),
+    /depth (RawImage 16UC1 millimetres, 16x16)."""
+    import foxglove
+    from foxglove.channels import FrameTransformsChannel, PosesInFrameChannel, RawImageChannel
+    from foxglove.messages import FrameTransform, FrameTransforms, Pose, PosesInFrame, Quaternion, RawImage, Vector3
+
+    ctx = foxglove.Context()
+    with foxglove.open_mcap(path, context=ctx):
+        tf, poses = FrameTransformsChannel("/tf", context=ctx), PosesInFrameChannel("/poses", context=ctx)
+        depth = RawImageChannel("/depth", context=ctx)
+        for i in range(FRAMES):
+            ns = T0 + i * STEP
+            frames = [FrameTransform(child_frame_id=c, translation=Vector3(x=i, y=k, z=-i), rotation=Quaternion(w=1))
+                      for k, c in enumerate("ab")]  # fmt: skip
+            tf.log(FrameTransforms(transforms=frames), log_time=ns)
+            pose = [Pose(position=Vector3(x=k, y=i), orientation=Quaternion(z=1.0)) for k in range(2)]
+            poses.log(PosesInFrame(frame_id="w", poses=pose), log_time=ns)
+            mm = (np.arange(256, dtype="<u2") * 10 + 500 + i).tobytes()
+            depth.log(RawImage(width=16, height=16, encoding="16UC1", step=32, data=mm), log_time=ns)
+    return path
