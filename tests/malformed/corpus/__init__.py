@@ -6,8 +6,8 @@ A case is (id, build, names, new): `build(w)` makes the bad input under `w.root`
 afterwards. Everything else under `w.root` must be byte-identical before and after.
 
 The cases are grouped by the kind of damage: `yaml_files`, `datasets` (datasets, replay results, repair targets),
-`options`, `outputs`, `bags`, `hdf5`, `array_sources` (Zarr, RLDS), `checkpoints`; each adds its cases to `CASES`
-(`cases.case`) when imported.
+`options`, `outputs`, `bags`, `foreign_mcap` (MCAP of other profiles), `hdf5`, `array_sources` (Zarr, RLDS),
+`checkpoints`; each adds its cases to `CASES` (`cases.case`) when imported.
 """
 
 from tests.malformed.corpus import (
