@@ -183,6 +183,12 @@ def _by_schema(value: Any, schema: Any, depth: int) -> Any:
 
 
 # -- the reader ----------------------------------------------------------------------------------------------
+def why(exc: BaseException) -> str:
+    """An exception's first line, or its class name when it says nothing (mcap's reader cut short: EOFError())."""
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
 def _decoder_for(path: Path, channel: Channel, schema: Schema | None) -> Callable[[bytes], Any]:
     """mcap's own decoder for a channel: JSON by json.loads, protobuf and ROS 1 by their decoder factories."""
     encoding = channel.message_encoding
@@ -233,7 +239,7 @@ class ForeignMcap:
             self._open()
         except READ_ERRORS as exc:
             self._file.close()
-            raise BagError(f"{path}: cannot read bag: {exc}", code="bag.invalid") from None
+            raise BagError(f"{path}: cannot read bag: {why(exc)}", code="bag.invalid") from None
         except BagError:
             self._file.close()
             raise
@@ -298,7 +304,7 @@ class ForeignMcap:
             except StopIteration:
                 return
             except READ_ERRORS as exc:
-                raise BagError(f"{self.path}: cannot read bag: {exc}", code="bag.invalid") from None
+                raise BagError(f"{self.path}: cannot read bag: {why(exc)}", code="bag.invalid") from None
             conn = by_id.get(channel.id)
             if conn is not None:
                 yield conn, message.log_time, message.data
@@ -311,7 +317,8 @@ class ForeignMcap:
         try:
             value = wrap(decoder(raw))
         except Exception as exc:  # noqa: BLE001 - the decoders' own errors (protobuf's DecodeError, genpy's)
-            raise BagError(f"{self.path}: a {msgtype} message does not decode: {exc}", code="bag.invalid") from None
+            raise BagError(f"{self.path}: a {msgtype} message does not decode: {why(exc)}",
+                           code="bag.invalid") from None  # fmt: skip
         if not isinstance(value, Fields):
             raise BagError(f"{self.path}: a {msgtype} message is {type(value).__name__}, not a message",
                            code="bag.invalid")  # fmt: skip
@@ -325,7 +332,7 @@ class ForeignMcap:
             raise
         except Exception as exc:  # noqa: BLE001 - a schema the decoder factory cannot load (protobuf's, genpy's)
             raise BagError(f"{self.path}: {channel.topic}: the {channel.message_encoding} schema of {msgtype} does "
-                           f"not load: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}",
+                           f"not load: {why(exc)}",
                            code="bag.invalid") from None  # fmt: skip
 
     def close(self) -> None:

@@ -1,6 +1,7 @@
-"""MCAP of other profiles than ROS 2 (Foxglove's, the `mcap` library's): cut short, bytes flipped, messages that
-do not decode (JSON, base64, protobuf), an encoding nobody reads, images that lie about their size, a mapping
-naming a JSON field the messages lack. Each `convert` with no mapping written (the guessed one) or with one."""
+"""MCAP of other profiles than ROS 2 (Foxglove's, the `mcap` library's): cut short (a flipped chunk is refused by
+the bounded walk every MCAP gets, as in `bags`), messages that do not decode (JSON, base64, protobuf), an encoding
+nobody reads, images that lie about their size, a mapping naming a JSON field the messages lack. Each `convert`
+with no mapping written (the guessed one) or with one."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from tests.malformed.corpus.cases import case
-from tests.support.foreign_mcap import IMAGE_SCHEMA, JOINTS_SCHEMA, write_foxglove, write_json
+from tests.support.foreign_mcap import IMAGE_SCHEMA, JOINTS_SCHEMA, write_foxglove
 from tests.support.malformed import Workspace
 
 _TS = {"sec": 1, "nsec": 0}
@@ -67,16 +68,10 @@ def _cut(w: Workspace, keep: float) -> Path:
     return w.write("cut.mcap", data[: int(len(data) * keep)])
 
 
-def _flip(w: Workspace, at: float) -> Path:
-    data = bytearray(write_json(w.path("src/j.mcap")).read_bytes())
-    for k in range(64):
-        data[int(len(data) * at) + k] ^= 0x5A
-    return w.write("flip.mcap", bytes(data))
-
-
-_foreign_case("foreign-mcap-truncated-50", lambda w: _cut(w, 0.5), r"cut\.mcap")
-_foreign_case("foreign-mcap-truncated-95", lambda w: _cut(w, 0.95), r"cut\.mcap")
-_foreign_case("foreign-mcap-flipped-40", lambda w: _flip(w, 0.4), r"flip\.mcap")
+# mcap's reader (not rosbags, which refused every profile but ros2 wholesale) says what is wrong
+_READ = r"\.mcap: cannot read bag: (?!Profile is not ros2)\w"
+_foreign_case("foreign-mcap-truncated-50", lambda w: _cut(w, 0.5), r"cut" + _READ)
+_foreign_case("foreign-mcap-truncated-95", lambda w: _cut(w, 0.95), r"cut" + _READ)
 _foreign_case(
     "foreign-mcap-json-not-json",
     lambda w: _mcap(w.path("j.mcap"), _JOINTS, [*_joints(), ("/joints", b"{not json")]),
