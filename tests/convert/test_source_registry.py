@@ -40,7 +40,7 @@ def _data(root: Path) -> dict[str, list[object]]:
 def test_every_kind_declares_every_part_once_in_the_documented_order() -> None:
     """Each registered kind is a complete `SourceKind` (no part left abstract), its name unique, and the order the
     registry tries them in is the order its docstring documents."""
-    assert list(kinds.KINDS) == ["lerobot-v2", "lerobot-v3", "ros1-bag", "rosbag2", "minari", "hdf5-robomimic",
+    assert list(kinds.KINDS) == ["lerobot-v2", "lerobot-v3", "ros1-bag", "mcap", "rosbag2", "minari", "hdf5-robomimic",
                                  "hdf5-aloha", "hdf5-d4rl", "hdf5-maniskill", "zarr", "rlds"]  # fmt: skip
     for name, kind in kinds.KINDS.items():
         assert isinstance(kind, SourceKind) and not inspect.isabstract(type(kind)), name

@@ -5,14 +5,15 @@ registered here once and tried by everything in this one order:
 1. `lerobot-v2`  LeRobot v2.0 / v2.1 dataset (`meta/info.json` says so), read in place
 2. `lerobot-v3`  any other folder with `meta/info.json` (a LeRobot v3.0 dataset)
 3. `ros1-bag`    a `.bag` file, or a folder whose bags are all `.bag` files
-4. `rosbag2`     a rosbag2 folder, a plain `.mcap`, or a folder holding bags of any kind
-5. `minari`      a Minari dataset (its folder, its `data` folder or `main_data.hdf5`, with `metadata.json`)
-6. `hdf5-robomimic`  an HDF5 file or folder of the robomimic family (robomimic, LIBERO, MimicGen / Isaac Lab)
-7. `hdf5-aloha`  an HDF5 file or folder of ALOHA / ACT episodes
-8. `hdf5-d4rl`   an HDF5 file or folder of D4RL's flat layout (root observations, actions, terminals/timeouts)
-9. `hdf5-maniskill`  a ManiSkill trajectory `.h5` (its `.json` beside it) or a folder of them
-10. `zarr`        a Zarr replay buffer (`.zarr` folder, `.zarr.zip`)
-11. `rlds`        an RLDS / TFDS build folder
+4. `mcap`        an `.mcap` of another profile than ros2 (Foxglove: protobuf, JSON, ROS 1), or a folder of them
+5. `rosbag2`     a rosbag2 folder, a plain `.mcap`, or a folder holding bags of any kind
+6. `minari`      a Minari dataset (its folder, its `data` folder or `main_data.hdf5`, with `metadata.json`)
+7. `hdf5-robomimic`  an HDF5 file or folder of the robomimic family (robomimic, LIBERO, MimicGen / Isaac Lab)
+8. `hdf5-aloha`  an HDF5 file or folder of ALOHA / ACT episodes
+9. `hdf5-d4rl`   an HDF5 file or folder of D4RL's flat layout (root observations, actions, terminals/timeouts)
+10. `hdf5-maniskill`  a ManiSkill trajectory `.h5` (its `.json` beside it) or a folder of them
+11. `zarr`        a Zarr replay buffer (`.zarr` folder, `.zarr.zip`)
+12. `rlds`        an RLDS / TFDS build folder
 
 Datasets first (their folder may hold anything), then bags (found by their names alone, so no HDF5/Zarr library
 is imported for them), then the array sources (Minari before the HDF5 kinds: its `data` folder holds an HDF5 file
@@ -37,6 +38,7 @@ from openral_data.convert.kinds.hdf5_d4rl import D4rlKind
 from openral_data.convert.kinds.hdf5_maniskill import ManiSkillKind
 from openral_data.convert.kinds.hdf5_robomimic import RobomimicKind
 from openral_data.convert.kinds.lerobot import LeRobotV2Kind, LeRobotV3Kind
+from openral_data.convert.kinds.mcap import McapKind
 from openral_data.convert.kinds.minari import MinariKind
 from openral_data.convert.kinds.rlds import RldsKind
 from openral_data.convert.kinds.ros1 import Ros1Kind
@@ -49,6 +51,7 @@ _KINDS: tuple[SourceKind[Any], ...] = (
     LeRobotV2Kind(),
     LeRobotV3Kind(),
     Ros1Kind(),
+    McapKind(),
     Rosbag2Kind(),
     MinariKind(),
     RobomimicKind(),
