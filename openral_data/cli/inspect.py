@@ -24,6 +24,7 @@ from openral_data.errors import OpenralError, UsageError
 from openral_data.formats.repo_id import resolve_dataset
 
 if TYPE_CHECKING:
+    from openral_data.convert.kinds.base import Description
     from openral_data.runtime.catalog import Item
 
 
@@ -50,10 +51,17 @@ def info(
 ) -> None:
     """Print a dataset's summary: episodes, frames, tasks, cameras, success rate; for a bag its topics, types,
     counts and rates; for a zarr replay buffer or RLDS folder its episodes, steps and arrays."""
-    from openral_data.convert.entry import describe
+    from openral_data.formats.lerobot_v3 import layout
 
     dataset = resolve_dataset(dataset)
-    about = describe(dataset)  # the source registry's kind of it (a LeRobot dataset when none takes it)
+    if (dataset / layout.INFO_PATH).is_file():  # a LeRobot dataset of any version: no convert stack to start
+        from openral_data.metrics.dataset_info import describe_dataset
+
+        about: Description = describe_dataset(dataset)
+    else:
+        from openral_data.convert.entry import describe
+
+        about = describe(dataset)  # the source registry's kind of it (a LeRobot dataset when none takes it)
     if json:
         print_json("info", about.to_json())
         return
