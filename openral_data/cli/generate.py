@@ -11,7 +11,7 @@ from openral_data import paths
 from openral_data.cli.encoder_flags import VCODEC_HELP
 from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.takes import takes
-from openral_data.cli.terminal import print_rows, progress_bar
+from openral_data.cli.terminal import print_summary, progress_bar
 from openral_data.formats.codec import Codec
 from openral_data.runtime.parallel.choice import is_parallel
 
@@ -62,7 +62,7 @@ def generate(
         print_json("generate", summary.to_json())
         return
     doc = summary.to_json()
-    print_rows(f"generated: {summary.out}", [(k.replace("_", " "), str(v)) for k, v in doc.items() if k != "out"])
+    print_summary(f"generated: {summary.out}", [(k.replace("_", " "), str(v)) for k, v in doc.items() if k != "out"])
 
 
 def _with_progress(options: GenerateOptions) -> GenerateSummary:

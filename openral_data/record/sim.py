@@ -31,7 +31,7 @@ from openral_data.record.options import (
     rskill_ref,
 )
 from openral_data.record.runlog import log_episode, log_totals
-from openral_data.record.session import StopRequest, ended_by, episode_loop
+from openral_data.record.session import RecordingInterrupted, StopRequest, ended_by, episode_loop
 from openral_data.record.start import Started, start
 from openral_data.runtime import registry, tasks
 from openral_data.runtime.bridge import DatasetBridge
@@ -102,6 +102,10 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
             frames, discarded = _episodes(run, env, policy, bridge, opened.first_episode, records, progress)
         finally:
             env.close()
+    except KeyboardInterrupt as exc:  # the finished episodes stay in `out`, which a resume continues
+        if opened is None:
+            raise
+        raise RecordingInterrupted(run.out) from exc
     finally:
         if opened is not None:
             output.close_output(run.out, opened, len(records))
