@@ -18,8 +18,7 @@ groups
 ┡━━━━━━━━━╇━━━━━━━━━━╇━━━━━━━━╇━━━━━━━━━━━━╇━━━━━━━━━━━━━━━╇━━━━━━━━━━━━━━━┩
 │ ds      │ 2        │ 6      │ 0/2 = 0.0% │ 0.0% .. 65.8% │ 3             │
 └─────────┴──────────┴────────┴────────────┴───────────────┴───────────────┘
-comparison: (none)
-health: (none)
+health: no problems found
 (dimensions, sources, quality and every column: --all)
 """
 
