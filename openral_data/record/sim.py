@@ -33,7 +33,7 @@ from openral_data.record.options import (
 from openral_data.record.runlog import log_episode, log_totals
 from openral_data.record.session import RecordingInterrupted, StopRequest, ended_by, episode_loop
 from openral_data.record.start import Started, start
-from openral_data.runtime import registry, tasks
+from openral_data.runtime import available, registry, tasks
 from openral_data.runtime.bridge import DatasetBridge
 from openral_data.runtime.compat import check_compatibility
 from openral_data.runtime.observers import check_observers, make_observers
@@ -132,6 +132,7 @@ def _resolve(opts: RecordOptions) -> _Resolved:
     scene_path = registry.resolve_scene_path(opts.scene)
     scene = load_recordable_scene(scene_path)
     scene_src = str(scene_path)
+    available.check_scene_type(scene.scene.type, scene_src)  # a missing simulator extra: said before anything starts
     task_id = None
     if opts.task is not None:
         scene, task_id = tasks.choose_task(scene, opts.task, scene_src)
