@@ -269,8 +269,10 @@ def _episodes(
     frames = discarded = 0
     with episode_loop(bridge, policy, run.out, lambda: first + len(records)) as stop:
         if progress is not None:
-            progress(None, 0, max(0, run.n_episodes - first))
+            progress(None, 0, max(0, run.opts.keep_target or run.n_episodes - first))
         for e in range(first, run.n_episodes):
+            if run.opts.keep_target is not None and len(records) >= run.opts.keep_target:
+                break  # enough kept (`generate --n`): the remaining attempts are not needed
             t_episode = time.perf_counter()
             rec = _record_episode(
                 env,
@@ -292,7 +294,8 @@ def _episodes(
             records.append(rec)
             frames += rec.length
             if progress is not None:
-                progress(rec, frames, max(0, run.n_episodes - first - discarded))
+                wanted = run.opts.keep_target if run.opts.keep_target is not None else run.n_episodes - first
+                progress(rec, frames, max(0, wanted - (0 if run.opts.keep_target is not None else discarded)))
     return frames, discarded
 
 
