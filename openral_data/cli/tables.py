@@ -74,7 +74,9 @@ def compact_comparison(t: Table) -> Table:
 
 
 def _compact(t: Table) -> Table:
-    return {"groups": compact_groups, "comparison": compact_comparison}.get(t.name, lambda t: t)(t)
+    if t.name == "groups":
+        return compact_groups(t)
+    return compact_comparison(t) if t.name == "comparison" else t
 
 
 def _grid(t: Table) -> RichTable:
