@@ -1,6 +1,6 @@
-"""A rich table made to fit the terminal: the widest cells (never the first column's, the ids) cut with `…` until
-the table is at most the width given, each cut column keeping at least `MIN_CELL` characters; `list` prints a
-note under a table so cut (--json and a wider terminal show every cell whole)."""
+"""A rich table made to fit the terminal: the widest cells (never the first column's, the ids, nor a column named
+in `whole`) cut with `…` until the table is at most the width given, each cut column keeping at least `MIN_CELL`
+characters; `list` prints a note under a table so cut (--json and a wider terminal show every cell whole)."""
 
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ def _widths(table: Table) -> list[int]:
     ]
 
 
-def cut_to_fit(console: Console, table: Table, width: int) -> bool | None:
+def cut_to_fit(console: Console, table: Table, width: int, whole: tuple[str, ...] = ()) -> bool | None:
     """Cut `table`'s widest cells so it is at most `width` wide: False when it fits whole (nothing cut), True when
     cells were cut, None when it cannot fit even so (the table is then left as it was)."""
     over = natural_width(console, table) - width
@@ -35,7 +35,7 @@ def cut_to_fit(console: Console, table: Table, width: int) -> bool | None:
     floor = [max(MIN_CELL, Text.from_markup(str(c.header)).cell_len) for c in table.columns]
     cut = list(widths)
     while over > 0:
-        shrinkable = [i for i in range(1, len(cut)) if cut[i] > floor[i]]
+        shrinkable = [i for i in range(1, len(cut)) if cut[i] > floor[i] and table.columns[i].header not in whole]
         if not shrinkable:
             return None
         widest = max(shrinkable, key=lambda i: cut[i])

@@ -103,7 +103,7 @@ def list_cmd(
         shown_items = items if all_ else [it for it in items if it.fields.get("tier") != "benchmark"]
         notes: list[str] = []  # why an entry cannot run here, each reason once
         table = _table(name, shown_items, notes, show_paths=show_paths, every_column=all_)
-        cut = cut_to_fit(out, table, out.width)
+        cut = cut_to_fit(out, table, out.width, whole=("path",))  # a path asked for is never cut
         if cut is None:  # too narrow even with cut cells: one record per entry, so no cell wraps mid-word
             _print_records(out, table)
         else:
