@@ -64,7 +64,9 @@ def _root(
             "--verbose", "-v", count=True, show_default=False, help="log to stderr: -v INFO (timings), -vv DEBUG"
         ),
     ] = 0,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="only warnings and errors; no progress bar")] = False,
+    quiet: Annotated[
+        bool, typer.Option("--quiet", "-q", help="only warnings and errors; no progress bar, no closing summary")
+    ] = False,
     log_format: Annotated[
         LogFormat, typer.Option(help="text (rich on a terminal) or json (one object per line; docs/cli.md)")
     ] = LogFormat.text,

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib.util
 
+from openral_data.errors import ConfigError, install_hint
 from openral_data.runtime.compat import runnable
 from openral_data.schemas.rskill import RSkillManifest
 
@@ -35,6 +36,17 @@ def scene_type_problem(scene_type: str) -> str | None:
     if need is None or _installed(need[0]):
         return None
     return f"needs {need[1]}"
+
+
+def check_scene_type(scene_type: str, source: str) -> None:
+    """Refuse at once a scene whose simulator is not installed, naming what to install: before the scene is built
+    while the policy loads (the build's own import error came only once that load had finished, seconds later)."""
+    problem = scene_type_problem(scene_type)
+    if problem is None:
+        return
+    extra = _NEEDS[scene_type][1].removeprefix("the '").removesuffix("' extra")
+    how = "" if extra == _NEEDS[scene_type][1] else f": {install_hint(extra)}"
+    raise ConfigError(f"{source}: scene.type: {scene_type}: {problem}{how}")
 
 
 def rskill_problem(rskill: RSkillManifest) -> str | None:
