@@ -72,8 +72,13 @@ def _unknown_column(con: duckdb.DuckDBPyConnection, message: str) -> str:
     found = column or table
     if found is None:
         return first
-    names = [str(r[0]) for r in con.execute(f"DESCRIBE {WHERE_VIEW}").fetchall()]
+    names = [_spelled(str(r[0])) for r in con.execute(f"DESCRIBE {WHERE_VIEW}").fetchall()]
     close = re.search(r'Candidate bindings: "([^"]*)"', message)
     hint = f" (did you mean {close.group(1)}?)" if close and column is not None else ""
     what = "column" if column is not None else "table"
     return f'no {what} "{found.group(1)}"{hint}; the columns: {', '.join(names)}, and quality.<column> (docs/stats.md)'
+
+
+def _spelled(name: str) -> str:
+    """A column as a predicate names it: quoted when it is not a plain identifier (`"openral.success"`)."""
+    return name if re.fullmatch(r"[a-z_][a-z0-9_]*", name) else ident(name)
