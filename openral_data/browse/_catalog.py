@@ -236,7 +236,11 @@ class Catalog:
             f"min(episode_index) FILTER (WHERE episode_index > {int(index)})"
         )
         with self.lock, _deadline(self.con, self.query_seconds):
-            ((before, after),) = where_query(self.con, select, where if where.strip() else "TRUE")
+            if where.strip():
+                ((before, after),) = where_query(self.con, select, where)
+            else:  # the episode_index column of the episodes metadata only: no join, no other column read
+                sql = f"SELECT {select} FROM read_parquet({files_sql(self.ds.episode_files)})"
+                before, after = self.con.execute(sql).fetchall()[0]
         return {"previous": before, "next": after}
 
     def findings(self, index: int) -> dict[str, Any]:

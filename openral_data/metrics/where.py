@@ -76,7 +76,7 @@ def _unknown_column(con: duckdb.DuckDBPyConnection, message: str) -> str:
     close = re.search(r'Candidate bindings: "([^"]*)"', message)
     hint = f" (did you mean {close.group(1)}?)" if close and column is not None else ""
     what = "column" if column is not None else "table"
-    return f'no {what} "{found.group(1)}"{hint}; the columns: {', '.join(names)}, and quality.<column> (docs/stats.md)'
+    return f'no {what} "{found.group(1)}"{hint}; the columns: {", ".join(names)}, and quality.<column> (docs/stats.md)'
 
 
 def _spelled(name: str) -> str:

@@ -109,8 +109,11 @@ def test_hiding_a_dimension_or_scaling_each_rescales_the_plot(server: Browser, p
 
     def gap() -> float:
         ys = [
-            float(page.get_attribute(f"svg.plot[data-feature='observation.state'] polyline[data-series='{s}']",
-                                     "points").split()[0].split(",")[1])
+            float(
+                page.get_attribute(f"svg.plot[data-feature='observation.state'] polyline[data-series='{s}']", "points")
+                .split()[0]
+                .split(",")[1]
+            )
             for s in "yz"
         ]
         return abs(ys[0] - ys[1])
@@ -118,8 +121,10 @@ def test_hiding_a_dimension_or_scaling_each_rescales_the_plot(server: Browser, p
     before = gap()
     page.uncheck("section[data-feature='observation.state'] input[data-series='x']")
     assert gap() > 5 * before
-    assert page.get_attribute("svg.plot[data-feature='observation.state'] polyline[data-series='x']",
-                              "visibility") == "hidden"
+    assert (
+        page.get_attribute("svg.plot[data-feature='observation.state'] polyline[data-series='x']", "visibility")
+        == "hidden"
+    )
     shared = height("action", "vx")
     page.select_option("section[data-feature='action'] select.scale", "each")
     assert height("action", "vx") == pytest.approx(2 * shared, rel=0.05)
