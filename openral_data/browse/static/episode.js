@@ -173,7 +173,7 @@ function rerun(r) {
 
 function keys(event) {
   if (event.target instanceof HTMLInputElement && event.target.type !== "range") return;
-  if (event.target instanceof HTMLSelectElement) return;
+  if (event.target instanceof HTMLSelectElement || event.target instanceof HTMLButtonElement) return;
   if (event.key === "ArrowRight" || event.key === "ArrowLeft") {
     event.preventDefault();
     seek(current + (event.key === "ArrowRight" ? 1 : -1));
