@@ -10,7 +10,7 @@ const ep = Number(parts[4]);
 const where = new URLSearchParams(location.search).get("where") || "";
 const plots = [];
 const stills = [];  // depth cameras, pictures, masks: an <img> of the frame at the cursor (drawn on the server)
-const ep_ = { fps: 1, length: 1 };
+const frames = { fps: 1, length: 1 };
 let leader = null;  // {video, cam}: the camera the others follow
 let current = 0;
 
@@ -23,8 +23,8 @@ function el(tag, attrs, ...children) {
   return e;
 }
 
-function clamp(k) { return Math.max(0, Math.min(ep_.length - 1, k)); }
-function frameOf(video, cam) { return clamp(Math.round((video.currentTime - cam.from) * ep_.fps)); }
+function clamp(k) { return Math.max(0, Math.min(frames.length - 1, k)); }
+function frameOf(video, cam) { return clamp(Math.round((video.currentTime - cam.from) * frames.fps)); }
 function query() { return where ? `?${new URLSearchParams({ where })}` : ""; }
 
 // the page at frame k: cursor, slider, counter, stills
@@ -35,8 +35,8 @@ function show(k) {
     if (d.dataset.frame !== String(k)) { d.dataset.frame = String(k); d.src = `${d.dataset.base}/${k}`; }
   }
   document.getElementById("frame").value = String(k);
-  const t = (k / ep_.fps).toFixed(2);
-  document.getElementById("counter").textContent = `frame ${k} / ${ep_.length - 1} · ${t} s`;
+  const t = (k / frames.fps).toFixed(2);
+  document.getElementById("counter").textContent = `frame ${k} / ${frames.length - 1} · ${t} s`;
   const marker = document.getElementById("timeline-cursor");
   if (marker) { marker.setAttribute("x1", String(xOnTimeline(k))); marker.setAttribute("x2", String(xOnTimeline(k))); }
 }
@@ -46,7 +46,7 @@ function seek(k) {
   k = clamp(k);
   if (leader === null) { show(k); return; }
   leader.video.pause();
-  leader.video.currentTime = leader.cam.from + k / ep_.fps;
+  leader.video.currentTime = leader.cam.from + k / frames.fps;
   show(k);
 }
 
@@ -68,9 +68,9 @@ function camera(cam) {
 
 // the leading video: never past the episode's last frame (checked at every frame shown while playing)
 function lead(video, cam) {
-  const last = cam.from + (ep_.length - 1) / ep_.fps;
+  const last = cam.from + (frames.length - 1) / frames.fps;
   const stopAtEnd = () => {
-    if (video.currentTime < last + 0.5 / ep_.fps) return false;
+    if (video.currentTime < last + 0.5 / frames.fps) return false;
     video.pause();
     if (Math.abs(video.currentTime - last) > 1e-4) video.currentTime = last;
     return true;
@@ -80,7 +80,7 @@ function lead(video, cam) {
     if (!video.paused && video.requestVideoFrameCallback) video.requestVideoFrameCallback(watch);
   };
   video.addEventListener("play", () => {
-    if (frameOf(video, cam) >= ep_.length - 1) video.currentTime = cam.from;  // at the end: from the start again
+    if (frameOf(video, cam) >= frames.length - 1) video.currentTime = cam.from;  // at the end: from the start again
     if (video.requestVideoFrameCallback) video.requestVideoFrameCallback(watch);
     document.getElementById("play").textContent = "❚❚ pause";
   });
@@ -97,11 +97,11 @@ function still(base, key, text, kind) {
   document.getElementById("cameras").append(el("figure", { class: "cam" }, img, el("figcaption", {}, text)));
 }
 
-function xOnTimeline(k) { return ep_.length > 1 ? 1000 * k / (ep_.length - 1) : 0; }
+function xOnTimeline(k) { return frames.length > 1 ? 1000 * k / (frames.length - 1) : 0; }
 
 // the slider with its counter, play/pause, and the quality spans on a strip under it
 function transport(spans) {
-  const slider = el("input", { type: "range", id: "frame", min: "0", max: String(ep_.length - 1), value: "0" });
+  const slider = el("input", { type: "range", id: "frame", min: "0", max: String(frames.length - 1), value: "0" });
   slider.setAttribute("aria-label", "frame");
   slider.addEventListener("input", () => seek(Number(slider.value)));
   const play = el("button", { id: "play", type: "button", disabled: leader === null }, "▶ play");
@@ -187,8 +187,8 @@ async function main() {
   const api = `/api/d/${ds}/episode/${ep}`;
   const [info, data, near, q] = await Promise.all([api, `${api}/series`, `${api}/neighbours${query()}`,
     `${api}/quality`].map((u) => fetch(u).then((r) => r.json())));
-  ep_.fps = info.fps;
-  ep_.length = info.length;
+  frames.fps = info.fps;
+  frames.length = info.length;
   header(info, near);
   for (const cam of info.cameras) {
     if (cam.depth) {
@@ -206,7 +206,7 @@ async function main() {
   const features = [...new Set(data.series.map((s) => s.feature))];
   for (const f of features) {
     const mine = q.spans.filter((s) => s.subject === "episode" || s.subject.startsWith(`${f}[`));
-    const p = new Plot(f, data.series.filter((s) => s.feature === f), ep_.length, mine, seek);
+    const p = new Plot(f, data.series.filter((s) => s.feature === f), frames.length, mine, seek);
     document.getElementById("plots").append(p.box);
     plots.push(p);
     p.draw();
