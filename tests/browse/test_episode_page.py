@@ -128,6 +128,12 @@ def test_hiding_a_dimension_or_scaling_each_rescales_the_plot(server: Browser, p
     shared = height("action", "vx")
     page.select_option("section[data-feature='action'] select.scale", "each")
     assert height("action", "vx") == pytest.approx(2 * shared, rel=0.05)
+    # a plot starts on "each" when one dimension would flatten another: a 0..1 gripper beside 2 cm of travel
+    starts = page.evaluate(
+        """() => [[1, 0.02], [1, 0.5]].map(([g, x]) => new Plot('f', [{name: 'gripper', values: [0, g, 0]},
+             {name: 'x', values: [0, x / 2, x]}], 3, [], () => {}).scale)"""
+    )
+    assert starts == ["each", "shared"]
 
 
 def test_the_quality_spans_are_on_the_timeline(server: Browser, page: Any) -> None:
