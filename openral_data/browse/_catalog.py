@@ -248,10 +248,9 @@ class Catalog:
         when its table is not cached (`computed` false: the server never computes it)."""
         if not self.quality:
             return {"computed": False, "flags": [], "spans": []}
-        length = int(self._meta_row(index)["length"])
         with self.lock:
             flags = self.con.execute("SELECT flags FROM quality WHERE episode_index = ?", [index]).fetchall()
-            spans = quality_spans(self.con, index, length)
+            spans = quality_spans(self.con, index)
         return {"computed": True, "flags": list(flags[0][0] or []) if flags else [], "spans": spans}
 
     def serve_command(self, index: int) -> str:

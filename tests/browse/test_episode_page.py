@@ -1,6 +1,6 @@
 """The episode page in a real Chromium (Debian's, through Playwright) against the real server, on the browse
-dataset with its quality table computed (`openral-data quality`: the camera's first frames are black, grey 10 * t
-under the threshold 16): a click on a plot seeks the video to that frame, playback stops on the episode's last
+dataset with its quality findings computed (`openral-data quality`: the camera's first frame is black, grey
+10 * t): a click on a plot seeks the video to that frame, playback stops on the episode's last
 frame (not in the next episode of the shared mp4), previous/next step through the episodes (under the table's
 filter), hovering reads the values, a dimension hidden or scaled on its own changes what the axis spans, the
 quality spans are on the timeline; and the screenshots in docs/ at 1280x800 and 390x844 (no sideways scroll)."""
@@ -139,11 +139,13 @@ def test_hiding_a_dimension_or_scaling_each_rescales_the_plot(server: Browser, p
 def test_the_quality_spans_are_on_the_timeline(server: Browser, page: Any) -> None:
     _open(page, server, "d/0/episode/1")
     black = page.locator("#timeline rect.span[data-check='camera_black']")
-    assert black.count() == 1  # frames 0-4 (the sample at 0 is black, the one at 5 is not)
-    assert float(black.get_attribute("x")) == 0 and float(black.get_attribute("width")) == pytest.approx(1000 * 4.5 / 8)
+    assert black.count() == 1  # frames 0-2: the first frame is black (grey 0), the camera sampled every 5th
+    assert float(black.get_attribute("x")) == 0 and float(black.get_attribute("width")) == pytest.approx(1000 * 2.5 / 8)
     assert "camera_black" in page.text_content("#flags")
-    page.click("button.finding.check-camera_blurred")  # frames 5-8: a click goes to its first frame
-    page.wait_for_function("() => document.getElementById('frame').value === '5'")
+    assert "frames 0–2" in page.text_content("button.finding.check-camera_black")
+    page.eval_on_selector("#frame", "s => { s.value = '6'; s.dispatchEvent(new Event('input')); }")
+    page.click("button.finding.check-camera_black")  # a click goes to the finding's first frame
+    page.wait_for_function("() => document.getElementById('frame').value === '0'")
 
 
 def test_screenshots_at_desktop_and_phone_size(server: Browser, chromium: Any, tmp_path: Path) -> None:

@@ -249,5 +249,6 @@ function spanText(s) {
   const frames = s.start_frame === s.end_frame ? `frame ${s.start_frame}` : `frames ${s.start_frame}–${s.end_frame}`;
   const measured = s.value === null || s.value === undefined ? "" :
     `: ${formatValue(s.value)}${s.threshold === null || s.threshold === undefined ? "" : ` (threshold ${formatValue(s.threshold)})`}`;
-  return `${s.check} · ${s.subject} · ${frames}${measured}`;
+  return `${s.check} · ${s.subject} · ${frames}${measured}${s.detail ? ` · ${s.detail}` : ""}` +
+    (s.flag === false ? " (informational)" : "");
 }
