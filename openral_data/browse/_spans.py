@@ -6,6 +6,7 @@ drawn on that feature's plot) or a camera; the frames are inclusive; `flag` fals
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import duckdb
@@ -27,6 +28,6 @@ def quality_spans(con: duckdb.DuckDBPyConnection, episode: int) -> list[dict[str
         span = dict(zip(_COLUMNS, row, strict=True))
         for key in ("value", "threshold"):
             v = span[key]
-            span[key] = round(float(v), 4) if isinstance(v, float) and v == v and abs(v) != float("inf") else None
+            span[key] = round(v, 4) if isinstance(v, float) and math.isfinite(v) else None
         out.append(span)
     return out
