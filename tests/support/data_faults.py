@@ -139,7 +139,8 @@ def load(root: Path, episode: int, *, max_side: int | None = None, max_frames: i
             if img.ndim != 3 or img.shape[2] != 3:
                 continue  # a depth map or a mask: not a picture
             k = 1 if max_side is None else -(-max(img.shape[:2]) // max_side)
-            images[c].append(np.ascontiguousarray(img[::k, ::k]))
+            small = img[::k, ::k]
+            images[c].append(np.ascontiguousarray(small[: small.shape[0] // 2 * 2, : small.shape[1] // 2 * 2]))
     feats = info["features"]
     return Clean(
         fps=int(info["fps"]),
@@ -419,13 +420,19 @@ def action_fault(ep: Clean, kind: str, rng: np.random.Generator) -> tuple[Clean,
         s, e = span(n, rng, 20)
         a[s:e, d] = np.where(np.arange(e - s) % 2 == 0, lo, hi)
         return ep, Truth(kind, "action", s, e - 1, dims=(d,))
-    dims = arm_dims(ep, a, ep.action_names)  # clipping
+    raise ValueError(kind)
+
+
+def clipping(ep: Clean, rng: np.random.Generator) -> tuple[Clean, Truth]:
+    """A state dimension held flat around its peak (a joint stopped by a limit, a sensor at full scale)."""
+    x = ep.state
+    dims = arm_dims(ep, x, ep.state_names)
     d = dims[int(rng.integers(len(dims)))]
-    s, e, level = clip_run(a, d)
+    s, e, level = clip_run(x, d)
     if e - s < 3:
-        raise NotApplicable(f"action[{d}] peaks for fewer than 3 frames")
-    a[s:e, d] = level
-    return ep, Truth(kind, "action", s, e - 1, dims=(d,), detail=f"held at {float(level):.4g}")
+        raise NotApplicable(f"observation.state[{d}] peaks for fewer than 3 frames")
+    x[s:e, d] = level
+    return ep, Truth("clipping", "observation.state", s, e - 1, dims=(d,), detail=f"held at {float(level):.4g}")
 
 
 def inject(clean: Clean, kind: str, seed: int = 0) -> tuple[Clean, Truth]:
@@ -443,6 +450,8 @@ def inject(clean: Clean, kind: str, seed: int = 0) -> tuple[Clean, Truth]:
         return timing_fault(ep, kind, rng)
     if kind in ("quaternion_flip", "angle_wrap", "degrees_as_radians", "teleport", "nan"):
         return state_fault(ep, kind, rng)
-    if kind in ("swapped_actions", "action_shift", "gripper_chatter", "clipping"):
+    if kind == "clipping":
+        return clipping(ep, rng)
+    if kind in ("swapped_actions", "action_shift", "gripper_chatter"):
         return action_fault(ep, kind, rng)
     raise ValueError(f"unknown fault kind {kind!r}; one of {', '.join(KINDS)}")
