@@ -28,41 +28,16 @@ import json
 import sys
 import time
 from collections import defaultdict
-from collections.abc import Iterable
 from dataclasses import asdict, fields, replace
 from pathlib import Path
 from typing import Any
 
-import pyarrow.parquet as pq
-
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import quality_corpus as qc
 
-from openral_data.metrics.quality import DEFAULT, Thresholds, quality
+from openral_data.metrics.quality import DEFAULT, Thresholds
 from tests.support import data_faults as df
 
-# the check each fault kind should raise (docs/stats.md, "Quality")
-EXPECTED: dict[str, tuple[str, ...]] = {
-    "idle_head": ("idle",),
-    "idle_tail": ("idle",),
-    "frozen_camera": ("camera_frozen",),
-    "black_camera": ("camera_black",),
-    "blur": ("camera_blurred",),
-    "dropped_frames": ("teleport", "dropped"),
-    "duplicated_frames": ("duplicated", "frozen"),
-    "timestamp_gap": ("gap",),
-    "quaternion_flip": ("quaternion_flip", "quaternion"),
-    "angle_wrap": ("angle_wrap", "wrap"),
-    "swapped_actions": ("action_swap", "action_state"),
-    "degrees_as_radians": ("degrees", "limits", "units"),
-    "action_shift": ("lag", "action_lag"),
-    "gripper_chatter": ("chatter",),
-    "clipping": ("clipped",),
-    "nan": ("nonfinite", "nan"),
-    "teleport": ("teleport",),
-    "camera_lag": ("camera_lag", "camera_out_of_step"),
-    "upside_down": ("upside_down", "camera_flipped"),
-}
 # which checks each threshold governs, by the field's name (a field matching none is left alone)
 GOVERNS = {
     "idle": "idle",
@@ -81,39 +56,6 @@ FACTORS = (0.25, 0.5, 1.0, 2.0, 4.0)
 MAX_CLEAN = 0.05
 
 
-def findings(root: Path, th: Thresholds) -> dict[int, list[dict[str, Any]]]:
-    """Each episode's flagging findings (check, subject, start_frame, end_frame) under `th`."""
-    q = quality(root, stride=1, thresholds=th)
-    out: dict[int, list[dict[str, Any]]] = defaultdict(list)
-    path = getattr(q.paths, "findings", None)
-    if path is not None and Path(path).is_file():
-        for r in pq.read_table(path).to_pylist():
-            if r["flag"]:
-                out[int(r["episode_index"])].append(r)
-        return out
-    for row in q.table.to_pylist():  # an engine without findings: flags, frames where the table says them
-        e = int(row["episode_index"])
-        for check in row["flags"]:
-            out[e].append({"check": check, "subject": "episode", "start_frame": None, "end_frame": None})
-    return out
-
-
-def near(f: dict[str, Any], first: int, last: int, tol: int) -> bool:
-    a, b = f["start_frame"], f["end_frame"]
-    if a is None or b is None:
-        return False
-    return a <= first + tol and b >= last - tol and (abs(a - first) <= tol or abs(b - last) <= tol)
-
-
-def found(truth: dict[str, Any], got: Iterable[dict[str, Any]], tol: int) -> tuple[bool, bool]:
-    """(the expected check about the subject at the right frames, the expected check anywhere)."""
-    checks = EXPECTED[truth["kind"]]
-    mine = [f for f in got if f["check"] in checks or any(f["check"].startswith(c) for c in checks if c.endswith("_"))]
-    subjects = set(truth["subjects"])
-    about = [f for f in mine if not subjects or f["subject"] in subjects or f["subject"] in ("episode", "timestamp")]
-    return any(near(f, truth["first"], truth["last"], tol) for f in about), bool(mine)
-
-
 def evaluate(
     work: Path, units: list[qc.Unit], kinds: tuple[str, ...], th: Thresholds, tol: int, half: str | None
 ) -> dict[str, Any]:
@@ -126,7 +68,7 @@ def evaluate(
         if half is None or u.half == half:
             by_source[u.source].append(u)
     for source, mine in sorted(by_source.items()):
-        base = findings(work / source / "clean", th)
+        base = df.findings(work / source / "clean", th)
         for u in mine:
             n_clean += 1
             for check in {f["check"] for f in base.get(u.index, [])}:
@@ -136,9 +78,9 @@ def evaluate(
             truths = [t for t in json.loads((work / source / kind / "truths.json").read_text()) if t["unit"] in wanted]
             if not truths:
                 continue
-            got = findings(work / source / kind, th)
+            got = df.findings(work / source / kind, th)
             for t in truths:
-                at, anywhere = found(t, got.get(t["episode"], []), tol)
+                at, anywhere = df.found(t, got.get(t["episode"], []), tol)
                 before = {f["check"] for f in base.get(t["unit"], [])}
                 new = bool({f["check"] for f in got.get(t["episode"], [])} - before)
                 row = faults[kind]
@@ -157,7 +99,7 @@ def score(result: dict[str, Any], check: str) -> tuple[float, float]:
     """(share of clean episodes flagged by `check`, share of the faults expecting it found at their frames)."""
     n = max(1, result["clean_episodes"])
     flagged = sum(v for c, v in result["clean_flagged"].items() if c.startswith(check) or c == check) / n
-    rows = [r for k, r in result["faults"].items() if any(c.startswith(check) for c in EXPECTED[k]) and r[0]]
+    rows = [r for k, r in result["faults"].items() if any(c.startswith(check) for c in df.EXPECTED[k]) and r[0]]
     hits = sum(r[1] for r in rows) / max(1, sum(r[0] for r in rows))
     return flagged, hits
 
@@ -171,7 +113,7 @@ def sweep(work: Path, units: list[qc.Unit], kinds: tuple[str, ...], tol: int) ->
         default = getattr(DEFAULT, f.name)
         if check is None or not isinstance(default, int | float) or default == 0:
             continue
-        relevant = tuple(k for k in kinds if any(c.startswith(check) for c in EXPECTED[k]))
+        relevant = tuple(k for k in kinds if any(c.startswith(check) for c in df.EXPECTED[k]))
         tried = []
         for factor in FACTORS:
             value = type(default)(default * factor) if isinstance(default, int) else default * factor
@@ -200,9 +142,9 @@ def markdown(result: dict[str, Any], th: Thresholds, units: list[qc.Unit], half:
         "|---|---|",
     ]
     n = max(1, result["clean_episodes"])
-    checks = sorted({c for k in EXPECTED.values() for c in k} | set(result["clean_flagged"]))
+    checks = sorted({c for k in df.EXPECTED.values() for c in k} | set(result["clean_flagged"]))
     for check in checks:
-        if check in result["clean_flagged"] or any(check == e[0] for e in EXPECTED.values()):
+        if check in result["clean_flagged"] or any(check == e[0] for e in df.EXPECTED.values()):
             lines.append(f"| {check} | {result['clean_flagged'].get(check, 0) / n:.0%} |")
     lines += [
         "",
@@ -212,11 +154,11 @@ def markdown(result: dict[str, Any], th: Thresholds, units: list[qc.Unit], half:
     for kind, (total, at, anywhere, new) in result["faults"].items():
         if total:
             lines.append(
-                f"| {kind} | {' / '.join(EXPECTED[kind])} | {total} | {at / total:.0%} | {anywhere / total:.0%} "
+                f"| {kind} | {' / '.join(df.EXPECTED[kind])} | {total} | {at / total:.0%} | {anywhere / total:.0%} "
                 f"| {new / total:.0%} |"
             )
         else:
-            lines.append(f"| {kind} | {' / '.join(EXPECTED[kind])} | 0 (no episode it applies to) | | | |")
+            lines.append(f"| {kind} | {' / '.join(df.EXPECTED[kind])} | 0 (no episode it applies to) | | | |")
     changed = {k: v for k, v in asdict(th).items() if v != getattr(DEFAULT, k)}
     lines += ["", f"Thresholds: {changed or 'the defaults'}."]
     return "\n".join(lines)

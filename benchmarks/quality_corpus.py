@@ -20,7 +20,7 @@ import json
 import os
 import subprocess
 import sys
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
@@ -128,15 +128,6 @@ def source_units(
     return cleans, units
 
 
-def truth_json(t: df.Truth, clean: df.Clean) -> dict[str, object]:
-    """A truth with its subjects named as the quality findings name them (`feature[name]`, a camera's key)."""
-    names = clean.state_names if t.feature == "observation.state" else clean.action_names
-    subjects = [f"{t.feature}[{names[d]}]" for d in t.dims]
-    if t.camera is not None:
-        subjects = [f"observation.images.{t.camera}"]
-    return {**asdict(t), "subjects": subjects}
-
-
 def build(src: Source, work: Path, kinds: tuple[str, ...], cleans: list[df.Clean]) -> None:
     """`work/SRC/clean` and one `work/SRC/KIND` per fault kind (each unit with that fault; units where it does
     not apply are left out, `truths.json` maps written episodes to units)."""
@@ -153,7 +144,7 @@ def build(src: Source, work: Path, kinds: tuple[str, ...], cleans: list[df.Clean
                 ep, truth = df.inject(clean, kind, seed=1000 * u + df.KINDS.index(kind))
             except df.NotApplicable:
                 continue
-            truths.append({"episode": len(faulty), "unit": u, **truth_json(truth, ep)})
+            truths.append({"episode": len(faulty), "unit": u, **df.labelled(truth, ep)})
             faulty.append(ep)
         if faulty:
             df.write(out, faulty)

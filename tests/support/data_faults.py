@@ -16,8 +16,11 @@ from __future__ import annotations
 
 import json
 import re
-from dataclasses import dataclass, field, replace
+from collections import defaultdict
+from collections.abc import Iterable
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -29,6 +32,7 @@ from openral_data.formats.lerobot_v3 import LeRobotV3Writer
 from openral_data.formats.lerobot_v3.features import camera_keys, dim_names
 from openral_data.formats.lerobot_v3.frames import episode_frames
 from openral_data.formats.lerobot_v3.reader import dataset_tasks, read_episodes
+from openral_data.metrics.quality import DEFAULT, Thresholds, quality
 from openral_data.types import CameraShape, DatasetSchema, EpisodeStart, Frame
 
 F32 = npt.NDArray[np.float32]
@@ -55,6 +59,28 @@ KINDS = (
     "camera_lag",
     "upside_down",
 )
+# the check (a name of the quality findings) each fault kind should raise (docs/stats.md, "Quality")
+EXPECTED: dict[str, tuple[str, ...]] = {
+    "idle_head": ("idle",),
+    "idle_tail": ("idle",),
+    "frozen_camera": ("camera_frozen",),
+    "black_camera": ("camera_black",),
+    "blur": ("camera_blurred",),
+    "dropped_frames": ("teleport", "dropped"),
+    "duplicated_frames": ("duplicated", "frozen"),
+    "timestamp_gap": ("gap",),
+    "quaternion_flip": ("quaternion_flip", "quaternion"),
+    "angle_wrap": ("angle_wrap", "wrap"),
+    "swapped_actions": ("action_swap", "action_state"),
+    "degrees_as_radians": ("degrees", "limits", "units"),
+    "action_shift": ("lag", "action_lag"),
+    "gripper_chatter": ("chatter",),
+    "clipping": ("clipped",),
+    "nan": ("nonfinite", "nan"),
+    "teleport": ("teleport",),
+    "camera_lag": ("camera_lag", "camera_out_of_step"),
+    "upside_down": ("upside_down", "camera_flipped"),
+}
 CAMERA_KINDS = ("frozen_camera", "black_camera", "blur", "camera_lag", "upside_down")
 
 
@@ -112,6 +138,15 @@ class Truth:
     dims: tuple[int, ...] = ()
     camera: str | None = None
     detail: str = ""
+
+
+def labelled(t: Truth, clean: Clean) -> dict[str, object]:
+    """A truth with its subjects named as the quality findings name them (`feature[name]`, a camera's key)."""
+    names = clean.state_names if t.feature == "observation.state" else clean.action_names
+    subjects = [f"{t.feature}[{names[d]}]" for d in t.dims]
+    if t.camera is not None:
+        subjects = [f"observation.images.{t.camera}"]
+    return {**asdict(t), "subjects": subjects}
 
 
 def load(root: Path, episode: int, *, max_side: int | None = None, max_frames: int | None = None) -> Clean:
@@ -455,3 +490,36 @@ def inject(clean: Clean, kind: str, seed: int = 0) -> tuple[Clean, Truth]:
     if kind in ("swapped_actions", "action_shift", "gripper_chatter"):
         return action_fault(ep, kind, rng)
     raise ValueError(f"unknown fault kind {kind!r}; one of {', '.join(KINDS)}")
+
+
+def findings(root: Path, th: Thresholds = DEFAULT) -> dict[int, list[dict[str, Any]]]:
+    """Each episode's flagging findings (check, subject, start_frame, end_frame) under `th`."""
+    q = quality(root, stride=1, thresholds=th)
+    out: dict[int, list[dict[str, Any]]] = defaultdict(list)
+    path = getattr(q.paths, "findings", None)
+    if path is not None and Path(path).is_file():
+        for r in pq.read_table(path).to_pylist():
+            if r["flag"]:
+                out[int(r["episode_index"])].append(r)
+        return out
+    for row in q.table.to_pylist():  # an engine without findings: flags, frames where the table says them
+        e = int(row["episode_index"])
+        for check in row["flags"]:
+            out[e].append({"check": check, "subject": "episode", "start_frame": None, "end_frame": None})
+    return out
+
+
+def near(f: dict[str, Any], first: int, last: int, tol: int) -> bool:
+    a, b = f["start_frame"], f["end_frame"]
+    if a is None or b is None:
+        return False
+    return a <= first + tol and b >= last - tol and (abs(a - first) <= tol or abs(b - last) <= tol)
+
+
+def found(truth: dict[str, Any], got: Iterable[dict[str, Any]], tol: int) -> tuple[bool, bool]:
+    """(the expected check about the subject at the right frames, the expected check anywhere)."""
+    checks = EXPECTED[truth["kind"]]
+    mine = [f for f in got if f["check"] in checks or any(f["check"].startswith(c) for c in checks if c.endswith("_"))]
+    subjects = set(truth["subjects"])
+    about = [f for f in mine if not subjects or f["subject"] in subjects or f["subject"] in ("episode", "timestamp")]
+    return any(near(f, truth["first"], truth["last"], tol) for f in about), bool(mine)
