@@ -171,6 +171,7 @@ def corpus(args: argparse.Namespace) -> tuple[list[qc.Unit], Path]:
         *qc.expert_sources(root, tuple(args.scenes), args.episodes),
         *qc.generated_source(root, args.episodes),
         *qc.person_sources(root),
+        *qc.teleop_source(root, args.episodes),
     ]
     units: list[qc.Unit] = []
     counter: dict[str, int] = {}

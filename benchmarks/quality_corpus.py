@@ -6,7 +6,8 @@ Clean sources (`CORPUS/clean/NAME`, made once, reused while present):
 * **expert**: our scripted experts, `openral-data record --scene S` on every scene whose default rSkill is a
   scripted expert (the tabletop scenes' scripted pick/place/push/drawer/stack, Meta-World's expert policies);
 * **generated**: `openral-data generate` (MimicGen-style) from the tabletop_pick_place experts;
-* **person**: the third-party LeRobot recordings of people teleoperating real robots in
+* **person**: gamepad teleop sessions of tabletop_push driven by a scripted person through the real device path
+  (`teleop_sessions.py`), and the third-party LeRobot recordings of people teleoperating real robots in
   `../shared/fixtures/lerobot/` (v2.1 ones upgraded with `openral-data upgrade`).
 
 Each clean episode is a *unit* (foreign episodes cut to their first `--max-frames` frames, pictures subsampled to
@@ -25,6 +26,8 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
+
+from teleop_sessions import record_sessions  # noqa: E402
 
 from openral_data.formats.lerobot_v3.reader import read_episodes  # noqa: E402
 from tests.support import data_faults as df  # noqa: E402
@@ -87,6 +90,15 @@ def generated_source(corpus: Path, attempts: int) -> list[Source]:
         cli("generate", str(seeds), "--scene", "tabletop_pick_place", "--n", str(attempts), "--out", str(root),
             "--codec", "h264")  # fmt: skip
     return [Source("generated_tabletop_pick_place", "generated", root)] if ready(root) else []
+
+
+def teleop_source(corpus: Path, episodes: int, max_steps: int = 150) -> list[Source]:
+    """Gamepad sessions of a scripted person through the real device path (`teleop_sessions.py`)."""
+    root = corpus / "clean" / "person_teleop_gamepad"
+    if not ready(root):
+        print(f"recording {episodes} gamepad teleop sessions", flush=True)
+        record_sessions(root, episodes, max_steps, corpus / "scratch")
+    return [Source("person_teleop_gamepad", "person", root)]
 
 
 def person_sources(corpus: Path) -> list[Source]:
