@@ -21,8 +21,6 @@ N = 60
 # every kind the engine finds on this episode; the others (named in docs/stats.md, "Calibration") are not
 # detected yet, or do not apply to it (a quaternion, a second camera)
 DETECTED = (
-    "idle_head",
-    "idle_tail",
     "frozen_camera",
     "black_camera",
     "blur",

@@ -424,14 +424,16 @@ def state_fault(ep: Clean, kind: str, rng: np.random.Generator) -> tuple[Clean, 
 
 
 def clip_run(a: F32, d: int) -> tuple[int, int, np.float32]:
-    """The frames around dimension `d`'s maximum above a level 30 % of its range below it (first, end), and that
-    level."""
-    top = int(np.argmax(a[:, d]))
+    """The frames around dimension `d`'s highest point inside the episode's middle three fifths above a level 30 %
+    of its range below it (first, end), and that level."""
+    n = len(a)
+    lo, hi = n // 5, n - n // 5
+    top = lo + int(np.argmax(a[lo:hi, d]))
     level = np.float32(a[top, d] - 0.3 * float(np.ptp(a[:, d])))
     s, e = top, top + 1
-    while s > 0 and a[s - 1, d] > level:
+    while s > 1 and a[s - 1, d] > level:
         s -= 1
-    while e < len(a) and a[e, d] > level:
+    while e < n - 1 and a[e, d] > level:
         e += 1
     return s, e, level
 
@@ -493,20 +495,14 @@ def inject(clean: Clean, kind: str, seed: int = 0) -> tuple[Clean, Truth]:
 
 
 def findings(root: Path, th: Thresholds = DEFAULT) -> dict[int, list[dict[str, Any]]]:
-    """Each episode's flagging findings (check, subject, start_frame, end_frame) under `th`."""
+    """Each episode's flagging findings (check, subject, start_frame, end_frame, value, threshold) under `th`,
+    every camera frame measured (stride 1)."""
     q = quality(root, stride=1, thresholds=th)
     out: dict[int, list[dict[str, Any]]] = defaultdict(list)
-    path = getattr(q.paths, "findings", None)
-    if path is not None and Path(path).is_file():
-        for r in pq.read_table(path).to_pylist():
-            if r["flag"]:
-                out[int(r["episode_index"])].append(r)
-        return out
-    for row in q.table.to_pylist():  # an engine without findings: flags, frames where the table says them
-        e = int(row["episode_index"])
-        for check in row["flags"]:
-            out[e].append({"check": check, "subject": "episode", "start_frame": None, "end_frame": None})
-    return out
+    for r in pq.read_table(q.paths.findings).to_pylist():
+        if r["flag"]:
+            out[int(r["episode_index"])].append(r)
+    return dict(out)
 
 
 def near(f: dict[str, Any], first: int, last: int, tol: int) -> bool:
