@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 from dataclasses import dataclass
@@ -145,11 +146,13 @@ def build(src: Source, work: Path, kinds: tuple[str, ...], cleans: list[df.Clean
     not apply are left out, `truths.json` maps written episodes to units)."""
     base = work / src.name
     if not ready(base / "clean"):
+        shutil.rmtree(base / "clean", ignore_errors=True)
         df.write(base / "clean", cleans)
     for kind in kinds:
         out = base / kind
         if (out / "truths.json").is_file():
             continue
+        shutil.rmtree(out, ignore_errors=True)  # a build cut short: made again
         faulty, truths = [], []
         for u, clean in enumerate(cleans):
             try:
