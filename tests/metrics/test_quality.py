@@ -184,7 +184,7 @@ def test_a_moving_clean_episode_raises_no_flag(n: int, fps: int, period_s: float
     ds = _FakeSource(fps)
     row, _ = episode_motion(ds, arrays, np.arange(n) / fps, ranges, DEFAULT)  # type: ignore[arg-type]
     cam = camera_quality(iter(ep.images), 1, DEFAULT)  # stride 1: every frame is a sample
-    found = [f for f in row[FINDINGS] + cam.findings("cam", DEFAULT) if f.flag]
+    found = [f for f in row[FINDINGS] + cam.findings("cam", DEFAULT, 1, n) if f.flag]
     flags = raised(found)
     assert set(flags) == set(FLAGS) and not any(flags.values()) and not found, (row, found)
 

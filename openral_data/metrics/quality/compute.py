@@ -125,7 +125,7 @@ def episode_cameras(
             else decode_episode_video(ds.root, ds.info, row, key, stride)
         )
         q = camera_quality(frames, stride, th)
-        found += q.findings(key, th)
+        found += q.findings(key, th, stride, int(row["length"]))
         for measure in CAMERA_MEASURES:
             worst[measure] = max(worst[measure], q.share(measure))
             if q.share(measure) >= th.camera_flag:

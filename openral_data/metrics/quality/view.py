@@ -91,6 +91,11 @@ def flag_counts(ds: DatasetSource, th: Thresholds = DEFAULT) -> dict[str, int] |
     return {"episodes": table.num_rows, **counts}
 
 
+def raised_text(counts: dict[str, int]) -> str:
+    """`idle 1, camera_black 1`: the flags `counts` (`flag_counts`) raises, with their episode counts."""
+    return ", ".join(f"{k} {v}" for k, v in counts.items() if v and k not in ("episodes", "flagged"))
+
+
 def counts_table(datasets: Sequence[DatasetSource], th: Thresholds = DEFAULT) -> Table:
     """The report's `quality` table: per dataset, how many episodes raise each flag; NULL counts (and
     `computed` false) where no current table is cached (`openral-data quality` computes it)."""
