@@ -35,7 +35,7 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import quality_corpus as qc
 
-from openral_data.metrics.quality import DEFAULT, Thresholds
+from openral_data.metrics.quality import DEFAULT, FLAGS, Thresholds
 from tests.support import data_faults as df
 
 # which checks each threshold governs, by the field's name (a field matching none is left alone)
@@ -61,6 +61,7 @@ def evaluate(
 ) -> dict[str, Any]:
     """Clean flags and faults found over `units` (of `half`, or all) under `th`."""
     clean: dict[str, int] = defaultdict(int)
+    by_data: dict[str, dict[str, int]] = defaultdict(lambda: defaultdict(int))  # data -> check (and "") -> count
     n_clean = 0
     faults: dict[str, list[int]] = {k: [0, 0, 0, 0] for k in kinds}  # injected, found at frames, found, new flag
     by_source: dict[str, list[qc.Unit]] = defaultdict(list)
@@ -71,8 +72,10 @@ def evaluate(
         base = df.findings(work / source / "clean", th)
         for u in mine:
             n_clean += 1
+            by_data[u.data][""] += 1
             for check in {f["check"] for f in base.get(u.index, [])}:
                 clean[check] += 1
+                by_data[u.data][check] += 1
         wanted = {u.index for u in mine}
         for kind in kinds:
             truths = [t for t in json.loads((work / source / kind / "truths.json").read_text()) if t["unit"] in wanted]
@@ -85,7 +88,8 @@ def evaluate(
                 new = bool({f["check"] for f in got.get(t["episode"], [])} - before)
                 row = faults[kind]
                 row[0], row[1], row[2], row[3] = row[0] + 1, row[1] + at, row[2] + anywhere, row[3] + new
-    return {"clean_episodes": n_clean, "clean_flagged": dict(clean), "faults": faults}
+    by = {d: dict(v) for d, v in by_data.items()}
+    return {"clean_episodes": n_clean, "clean_flagged": dict(clean), "clean_by_data": by, "faults": faults}
 
 
 def governed(name: str) -> str | None:
@@ -141,11 +145,17 @@ def markdown(result: dict[str, Any], th: Thresholds, units: list[qc.Unit], half:
         "| check | clean episodes flagged |",
         "|---|---|",
     ]
+    data = sorted(result["clean_by_data"])
+    lines[-2:] = [
+        f"| check | clean episodes flagged | {' | '.join(data)} |",
+        "|---|---|" + "---|" * len(data),
+    ]
     n = max(1, result["clean_episodes"])
-    checks = sorted({c for k in df.EXPECTED.values() for c in k} | set(result["clean_flagged"]))
+    checks = sorted({c for k in df.EXPECTED.values() for c in k if c in FLAGS} | set(result["clean_flagged"]))
     for check in checks:
-        if check in result["clean_flagged"] or any(check == e[0] for e in df.EXPECTED.values()):
-            lines.append(f"| {check} | {result['clean_flagged'].get(check, 0) / n:.0%} |")
+        per = [result["clean_by_data"][d].get(check, 0) / result["clean_by_data"][d][""] for d in data]
+        cells = " | ".join(f"{v:.0%}" for v in per)
+        lines.append(f"| {check} | {result['clean_flagged'].get(check, 0) / n:.0%} | {cells} |")
     lines += [
         "",
         "| fault kind | expected check | injected | found at the frames (±2) | expected check raised | any new flag |",
