@@ -156,10 +156,9 @@ def load(root: Path, episode: int, *, max_side: int | None = None, max_frames: i
     row = next(r for r in read_episodes(root).to_pylist() if int(r["episode_index"]) == episode)
     if max_frames is not None:
         row = {**row, "length": min(int(row["length"]), max_frames)}
+    keys = camera_keys(info["features"])  # a video camera whose files are absent is left out
     cams = [
-        c
-        for c in camera_keys(info["features"])
-        if info["features"][camera_keys(info["features"])[c]]["dtype"] != "image"
+        c for c, key in keys.items() if info["features"][key]["dtype"] != "video" or (root / "videos" / key).is_dir()
     ]
     state, action, task = [], [], "task"
     images: dict[str, list[U8]] = {c: [] for c in cams}
