@@ -154,8 +154,6 @@ def load(root: Path, episode: int, *, max_side: int | None = None, max_frames: i
     side is at most `max_side`, and only the first `max_frames` frames, when given (a small calibration corpus)."""
     info = json.loads((root / "meta" / "info.json").read_text())
     row = next(r for r in read_episodes(root).to_pylist() if int(r["episode_index"]) == episode)
-    if max_frames is not None:
-        row = {**row, "length": min(int(row["length"]), max_frames)}
     keys = camera_keys(info["features"])  # a video camera whose files are absent is left out
     cams = [
         c for c, key in keys.items() if info["features"][key]["dtype"] != "video" or (root / "videos" / key).is_dir()
