@@ -29,6 +29,7 @@ MEASURES = pa.schema(
         ("camera_first_black", pa.int64()),
         ("camera_flags", pa.list_(pa.string())),
         ("camera_stride", pa.int64()),
+        ("data_kind", pa.string()),
     ]
 )
 FRAME_SCHEMA = pa.schema(
@@ -48,6 +49,7 @@ SAMPLE_SCHEMA = pa.schema(
         ("luma", pa.float64()),
         ("change", pa.float64()),
         ("sharpness", pa.float64()),
+        ("contrast", pa.float64()),
         *((m, pa.bool_()) for m in CAMERA_MEASURES),
     ]
 )
@@ -72,12 +74,12 @@ def raised(findings: list[Finding]) -> dict[str, bool]:
     return {f: f in on for f in FLAGS}
 
 
-def finish(rows: dict[int, dict[str, Any]], stride: int, *, has_cameras: bool) -> tuple[pa.Table, pa.Table]:
+def finish(rows: dict[int, dict[str, Any]], stride: int, kind: str, *, has_cameras: bool) -> tuple[pa.Table, pa.Table]:
     """The episodes' table of `rows` (episode -> measures and findings), flags added, in episode order, and the
-    findings' table."""
+    findings' table; `kind`: the kind of data whose thresholds were used (`thresholds.data_kind`)."""
     out, found = [], []
     for e in sorted(rows):
-        row = {"episode_index": e, **rows[e], "camera_stride": stride if has_cameras else None}
+        row = {"episode_index": e, **rows[e], "camera_stride": stride if has_cameras else None, "data_kind": kind}
         findings: list[Finding] = row.pop(FINDINGS)
         if not has_cameras:
             row.update({f"camera_{m}_fraction": None for m in CAMERA_MEASURES} | {"camera_flags": []})
