@@ -502,17 +502,33 @@ def findings(root: Path, th: Thresholds = DEFAULT) -> dict[int, list[dict[str, A
     return dict(out)
 
 
-def near(f: dict[str, Any], first: int, last: int, tol: int) -> bool:
-    a, b = f["start_frame"], f["end_frame"]
-    if a is None or b is None:
-        return False
+def near(span: tuple[int, int], first: int, last: int, tol: int) -> bool:
+    """`span` reaches the truth's frames within `tol` on both sides and starts or ends within `tol` of them."""
+    a, b = span
     return a <= first + tol and b >= last - tol and (abs(a - first) <= tol or abs(b - last) <= tol)
 
 
+def merged(spans: Iterable[tuple[int, int]], tol: int) -> list[tuple[int, int]]:
+    """Spans closer than `tol` frames joined (a fault reported in pieces, e.g. blurred frames between flat ones)."""
+    out: list[tuple[int, int]] = []
+    for a, b in sorted(spans):
+        if out and a <= out[-1][1] + tol + 1:
+            out[-1] = (out[-1][0], max(out[-1][1], b))
+        else:
+            out.append((a, b))
+    return out
+
+
 def found(truth: dict[str, Any], got: Iterable[dict[str, Any]], tol: int) -> tuple[bool, bool]:
-    """(the expected check about the subject at the right frames, the expected check anywhere)."""
+    """(the expected check about the subject at the right frames, the expected check anywhere): `truth` as
+    `labelled` makes it, `got` one episode's flagging findings."""
     checks = EXPECTED[truth["kind"]]
     mine = [f for f in got if f["check"] in checks or any(f["check"].startswith(c) for c in checks if c.endswith("_"))]
     subjects = set(truth["subjects"])
     about = [f for f in mine if not subjects or f["subject"] in subjects or f["subject"] in ("episode", "timestamp")]
-    return any(near(f, truth["first"], truth["last"], tol) for f in about), bool(mine)
+    by_subject: dict[tuple[str, str], list[tuple[int, int]]] = defaultdict(list)
+    for f in about:
+        if f["start_frame"] is not None and f["end_frame"] is not None:
+            by_subject[(f["check"], f["subject"])].append((int(f["start_frame"]), int(f["end_frame"])))
+    at = any(near(s, truth["first"], truth["last"], tol) for v in by_subject.values() for s in merged(v, tol))
+    return at, bool(mine)
