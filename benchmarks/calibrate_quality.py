@@ -5,8 +5,10 @@ A fault counts as **found** when the faulty episode has a flagging finding of th
 (`EXPECTED`) about the injected subject (the dimension, or the camera; findings about the whole episode or the
 timestamps count for any subject) whose frames are within `--tolerance` (2) of the truth: the finding's span
 reaches the truth's span within 2 frames on both sides and starts or ends within 2 frames of it (a clean episode
-already idle for 3 frames before an injected idle head makes a longer, still right, idle span). Quality runs at
-`--stride 1` (every camera frame measured: a stride of 5 puts camera spans up to 4 frames off).
+already idle for 3 frames before an injected idle head makes a longer, still right, idle span); spans of one
+check and subject closer than 2 frames are joined first. Quality runs at its default stride (5: the engine places
+a camera span within stride // 2 of its edges). At stride 1 every sim expert episode is `camera_frozen`: two
+consecutive rendered frames of a slow arm differ by less than `frozen_diff`, a threshold set for samples 5 apart.
 
 The corpus is split in two halves: within each kind of data (expert, generated, person) the units alternate in
 order (sources by name, episodes by index): even ones tune, odd ones are held out. Thresholds are swept on the
@@ -36,7 +38,7 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import quality_corpus as qc
 
-from openral_data.metrics.quality import DEFAULT, FLAGS, Thresholds
+from openral_data.metrics.quality import DEFAULT, DEFAULT_STRIDE, FLAGS, Thresholds
 from openral_data.metrics.quality.thresholds import for_kind
 from tests.support import data_faults as df
 
@@ -58,6 +60,7 @@ GOVERNS = {
 # the engine's kind of data (`thresholds.data_kind`) of each kind of data in the corpus: a rewritten corpus dataset
 # has no provenance, so the calibration passes that kind's thresholds itself
 ENGINE_KIND = {"expert": "scripted", "generated": "scripted", "person": "person"}
+STRIDE = DEFAULT_STRIDE  # what `quality` measures by default (camera spans are placed within stride // 2)
 FACTORS = (0.25, 0.5, 1.0, 2.0, 4.0)
 MAX_CLEAN = 0.05
 
@@ -77,7 +80,7 @@ def evaluate(
             by_source[u.source].append(u)
     for source, mine in sorted(by_source.items()):
         mine_th = th[mine[0].data]
-        base = df.findings(work / source / "clean", mine_th)
+        base = df.findings(work / source / "clean", mine_th, STRIDE)
         for u in mine:
             n_clean += 1
             by_data[u.data][""] += 1
@@ -89,7 +92,7 @@ def evaluate(
             truths = [t for t in json.loads((work / source / kind / "truths.json").read_text()) if t["unit"] in wanted]
             if not truths:
                 continue
-            got = df.findings(work / source / kind, mine_th)
+            got = df.findings(work / source / kind, mine_th, STRIDE)
             for t in truths:
                 at, anywhere = df.found(t, got.get(t["episode"], []), tol)
                 before = {f["check"] for f in base.get(t["unit"], [])}

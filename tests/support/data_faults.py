@@ -491,10 +491,10 @@ def inject(clean: Clean, kind: str, seed: int = 0) -> tuple[Clean, Truth]:
     raise ValueError(f"unknown fault kind {kind!r}; one of {', '.join(KINDS)}")
 
 
-def findings(root: Path, th: Thresholds = DEFAULT) -> dict[int, list[dict[str, Any]]]:
+def findings(root: Path, th: Thresholds = DEFAULT, stride: int = 1) -> dict[int, list[dict[str, Any]]]:
     """Each episode's flagging findings (check, subject, start_frame, end_frame, value, threshold) under `th`,
-    every camera frame measured (stride 1)."""
-    q = quality(root, stride=1, thresholds=th)
+    every `stride`-th camera frame measured."""
+    q = quality(root, stride=stride, thresholds=th)
     out: dict[int, list[dict[str, Any]]] = defaultdict(list)
     for r in pq.read_table(q.paths.findings).to_pylist():
         if r["flag"]:
