@@ -60,7 +60,7 @@ def quality_of(
             paths.camera_frames,
             streamed(SAMPLE_SCHEMA, lambda sink: cameras.append(camera_pass(ds, rows, stride, th, sink, progress))),
         )
-        table, findings = finish(rows, stride, kind, has_cameras=cameras[0])
+        table, findings = finish(rows, stride, kind, th, has_cameras=cameras[0])
         table = table.replace_schema_metadata(meta)
         batch.write_with(paths.findings, atomic.parquet_writer(findings.replace_schema_metadata(meta)))
         batch.write_with(paths.episodes, atomic.parquet_writer(table))  # last: it makes the others count

@@ -22,6 +22,7 @@ from openral_data.formats.lerobot_v3.features import ACTION, STATE
 from openral_data.formats.lerobot_v3.frames import decode_episode_video, depth_settings
 from openral_data.formats.lerobot_v3.reader import read_episodes
 from openral_data.formats.parquetfile import read_table
+from openral_data.metrics.quality import breadth
 from openral_data.metrics.quality.camera import MEASURES as CAMERA_MEASURES
 from openral_data.metrics.quality.camera import camera_quality
 from openral_data.metrics.quality.episode import FINDINGS, Array, Ranges, episode_motion
@@ -153,6 +154,7 @@ def camera_pass(
         e = int(row["episode_index"])
         if e not in rows:
             raise DatasetError(f"{ds.root}: episode {e}: no frames in data/", code="dataset.invalid")
+        rows[e][FINDINGS] += breadth.task_text([t for t in row.get("tasks") or [] if isinstance(t, str)])
         if cameras and int(row["length"]):
             measures, found = episode_cameras(ds, row, stride, th, samples, images)
             rows[e].update(measures)

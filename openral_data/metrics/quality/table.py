@@ -7,9 +7,11 @@ from typing import Any
 
 import pyarrow as pa
 
+from openral_data.metrics.quality import breadth
 from openral_data.metrics.quality.camera import MEASURES as CAMERA_MEASURES
-from openral_data.metrics.quality.episode import FINDINGS
+from openral_data.metrics.quality.episode import DIGEST, FINDINGS, LENGTH
 from openral_data.metrics.quality.findings import FINDING_SCHEMA, Finding, finding_rows, flagged_checks, labels
+from openral_data.metrics.quality.thresholds import Thresholds
 
 MEASURES = pa.schema(
     [
@@ -56,6 +58,8 @@ SAMPLE_SCHEMA = pa.schema(
 FLAGS = (
     *("idle", "frozen", "jerky", "chatter", "clipped", "jitter", "gap"),
     *(f"camera_{m}" for m in CAMERA_MEASURES),
+    *("non_finite", "quat_flip", "quat_norm", "angle_wrap", "teleport", "duplicated"),
+    *("task_text", "duplicate_episode", "length_outlier"),
 )
 SCHEMA = pa.schema(
     [
@@ -74,13 +78,18 @@ def raised(findings: list[Finding]) -> dict[str, bool]:
     return {f: f in on for f in FLAGS}
 
 
-def finish(rows: dict[int, dict[str, Any]], stride: int, kind: str, *, has_cameras: bool) -> tuple[pa.Table, pa.Table]:
+def finish(
+    rows: dict[int, dict[str, Any]], stride: int, kind: str, th: Thresholds, *, has_cameras: bool
+) -> tuple[pa.Table, pa.Table]:
     """The episodes' table of `rows` (episode -> measures and findings), flags added, in episode order, and the
     findings' table; `kind`: the kind of data whose thresholds were used (`thresholds.data_kind`)."""
     out, found = [], []
+    across = breadth.duplicates({e: r.pop(DIGEST) for e, r in rows.items()})
+    for e, more in breadth.length_outliers({e: r.pop(LENGTH) for e, r in rows.items()}, th).items():
+        across[e] = across.get(e, []) + more
     for e in sorted(rows):
         row = {"episode_index": e, **rows[e], "camera_stride": stride if has_cameras else None, "data_kind": kind}
-        findings: list[Finding] = row.pop(FINDINGS)
+        findings: list[Finding] = row.pop(FINDINGS) + across.get(e, [])
         if not has_cameras:
             row.update({f"camera_{m}_fraction": None for m in CAMERA_MEASURES} | {"camera_flags": []})
         flags = raised(findings)

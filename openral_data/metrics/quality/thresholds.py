@@ -37,6 +37,10 @@ class Thresholds:
     blur_var: float = 10.0  # ... blurred when the variance of its Laplacian is below this
     flat_std: float = 4.0  # ... and neither frozen nor blurred when flat: its luma's standard deviation below this
     camera_flag: float = 0.1  # a camera flag is raised when this share of the sampled frames has the fault
+    quat_norm: float = 0.05  # `quat_norm`: a quaternion whose norm is off 1 by more than this
+    teleport_step: float = 0.5  # `teleport`: a state dimension moving more than this share of its range in a frame
+    teleport_factor: float = 10.0  # ... and more than this many times its median step in the episode
+    length_ratio: float = 4.0  # `length_outlier`: an episode this many times longer or shorter than the median
 
     def as_json(self) -> dict[str, Any]:
         return asdict(self)
