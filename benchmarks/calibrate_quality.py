@@ -56,6 +56,7 @@ GOVERNS = {
     "clip": "clipped",
     "gap": "gap",
     "jitter": "jitter",
+    "teleport": "teleport",
 }
 # the engine's kind of data (`thresholds.data_kind`) of each kind of data in the corpus: a rewritten corpus dataset
 # has no provenance, so the calibration passes that kind's thresholds itself

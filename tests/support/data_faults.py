@@ -66,17 +66,17 @@ EXPECTED: dict[str, tuple[str, ...]] = {
     "frozen_camera": ("camera_frozen",),
     "black_camera": ("camera_black",),
     "blur": ("camera_blurred",),
-    "dropped_frames": ("teleport", "dropped"),
-    "duplicated_frames": ("duplicated", "frozen"),
+    "dropped_frames": ("teleport",),
+    "duplicated_frames": ("frozen",),
     "timestamp_gap": ("gap",),
-    "quaternion_flip": ("quaternion_flip", "quaternion"),
-    "angle_wrap": ("angle_wrap", "wrap"),
+    "quaternion_flip": ("quat_flip",),
+    "angle_wrap": ("angle_wrap",),
     "swapped_actions": ("action_swap", "action_state"),
     "degrees_as_radians": ("degrees", "limits", "units"),
     "action_shift": ("lag", "action_lag"),
     "gripper_chatter": ("chatter",),
     "clipping": ("clipped",),
-    "nan": ("nonfinite", "nan"),
+    "nan": ("non_finite",),
     "teleport": ("teleport",),
     "camera_lag": ("camera_lag", "camera_out_of_step"),
     "upside_down": ("upside_down", "camera_flipped"),
@@ -388,6 +388,23 @@ def wrap_dim(ep: Clean, rng: np.random.Generator) -> int:
     return (angles or dims)[int(rng.integers(len(angles or dims)))]
 
 
+def angle_wrap(ep: Clean, rng: np.random.Generator) -> tuple[Clean, Truth]:
+    """An angle written in (-pi, pi]: the dimension offset so that it crosses +-pi between two moving frames
+    near the middle, then wrapped; the truth is the first frame it jumps by about 2 pi."""
+    x, d = ep.state, wrap_dim(ep, rng)
+    step = np.diff(x[:, d].astype(np.float64))
+    middle = np.arange(ep.n // 4, 3 * ep.n // 4)
+    moving = middle[np.abs(step[middle - 1]) > 0]
+    if not len(moving):
+        raise NotApplicable(f"observation.state[{d}] does not move in the middle of the episode")
+    k = int(rng.choice(moving))
+    edge = np.pi if step[k - 1] > 0 else -np.pi
+    y = x[:, d].astype(np.float64) + edge - (x[k - 1, d] + x[k, d]) / 2.0
+    x[:, d] = (np.mod(y + np.pi, 2 * np.pi) - np.pi).astype(np.float32)
+    first = int(np.flatnonzero(np.abs(np.diff(x[:, d])) > np.pi)[0]) + 1
+    return ep, Truth("angle_wrap", "observation.state", first, first, dims=(d,))
+
+
 def state_fault(ep: Clean, kind: str, rng: np.random.Generator) -> tuple[Clean, Truth]:
     n, x = ep.n, ep.state
     k = int(rng.integers(n // 4, 3 * n // 4))
@@ -395,13 +412,10 @@ def state_fault(ep: Clean, kind: str, rng: np.random.Generator) -> tuple[Clean, 
         quat = quaternion_dims(ep.state_names)
         if quat is None:
             raise NotApplicable("no quaternion among the state's names")
-        s, e = span(n, rng, max(5, n // 6))
-        x[s:e, list(quat)] *= -1
-        return ep, Truth(kind, "observation.state", s, e - 1, dims=quat)
+        x[k:, list(quat)] *= -1  # the same rotation from frame k on, its sign flipped
+        return ep, Truth(kind, "observation.state", k, k, dims=quat)
     if kind == "angle_wrap":
-        d = wrap_dim(ep, rng)
-        x[k:, d] -= np.float32(2 * np.pi) * (1 if x[k, d] >= 0 else -1)
-        return ep, Truth(kind, "observation.state", k, k, dims=(d,))
+        return angle_wrap(ep, rng)
     if kind == "degrees_as_radians":
         d = wrap_dim(ep, rng)
         x[:, d] = np.degrees(x[:, d])
