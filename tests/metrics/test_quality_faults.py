@@ -26,6 +26,7 @@ DETECTED = (
     "blur",
     "timestamp_gap",
     "gripper_chatter",
+    "nan",
 )
 
 
