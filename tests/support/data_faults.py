@@ -383,9 +383,11 @@ def timing_fault(ep: Clean, kind: str, rng: np.random.Generator) -> tuple[Clean,
 
 
 def wrap_dim(ep: Clean, rng: np.random.Generator) -> int:
-    dims = arm_dims(ep, ep.state, ep.state_names)
-    angles = [d for d in dims if ANGLE.search(ep.state_names[d])]
-    return (angles or dims)[int(rng.integers(len(angles or dims)))]
+    """A moving state dimension named as an angle (a joint, roll/pitch/yaw; a generic `j0` counts)."""
+    angles = [d for d in arm_dims(ep, ep.state, ep.state_names) if ANGLE.search(ep.state_names[d])]
+    if not angles:
+        raise NotApplicable("no moving state dimension named as an angle")
+    return angles[int(rng.integers(len(angles)))]
 
 
 def angle_wrap(ep: Clean, rng: np.random.Generator) -> tuple[Clean, Truth]:
@@ -533,13 +535,22 @@ def merged(spans: Iterable[tuple[int, int]], tol: int) -> list[tuple[int, int]]:
     return out
 
 
+WHOLE = ("episode", "timestamp")  # findings about no one dimension or camera: they match any subject
+
+
+def first_subject(subject: str) -> str:
+    """A grouped subject's first member (`observation.state[eef_qx..w]`: `observation.state[eef_qx]`)."""
+    head, _, rest = subject.partition("[")
+    return f"{head}[{rest.split('..')[0].rstrip(']')}]" if ".." in rest else subject
+
+
 def found(truth: dict[str, Any], got: Iterable[dict[str, Any]], tol: int) -> tuple[bool, bool]:
     """(the expected check about the subject at the right frames, the expected check anywhere): `truth` as
     `labelled` makes it, `got` one episode's flagging findings."""
     checks = EXPECTED[truth["kind"]]
     mine = [f for f in got if f["check"] in checks or any(f["check"].startswith(c) for c in checks if c.endswith("_"))]
     subjects = set(truth["subjects"])
-    about = [f for f in mine if not subjects or f["subject"] in subjects or f["subject"] in ("episode", "timestamp")]
+    about = [f for f in mine if not subjects or first_subject(f["subject"]) in subjects or f["subject"] in WHOLE]
     by_subject: dict[tuple[str, str], list[tuple[int, int]]] = defaultdict(list)
     for f in about:
         if f["start_frame"] is not None and f["end_frame"] is not None:
