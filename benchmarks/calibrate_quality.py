@@ -123,7 +123,7 @@ def score(result: dict[str, Any], check: str) -> tuple[float, float]:
 
 
 def sweep(
-    work: Path, units: list[qc.Unit], kinds: tuple[str, ...], tol: int, data: str
+    work: Path, units: list[qc.Unit], kinds: tuple[str, ...], tol: int, data: str, only: tuple[str, ...] = ()
 ) -> tuple[Thresholds, list[str]]:
     """On the tuning units of kind of data `data`: each threshold governing a check that misses the target under
     the engine's thresholds for that kind (clean flagged > 5 %, or faults expecting it found < 95 %), tried at
@@ -137,6 +137,8 @@ def sweep(
         check = governed(f.name)
         default = getattr(start, f.name)
         if check is None or not isinstance(default, int | float) or default == 0 or default >= 10**9:
+            continue
+        if only and f.name not in only:
             continue
         relevant = tuple(k for k in kinds if any(c.startswith(check) for c in df.EXPECTED[k]))
         clean, hits = score(base, check)
@@ -238,6 +240,7 @@ def main() -> None:
     p.add_argument("--max-side", type=int, default=96)
     p.add_argument("--tolerance", type=int, default=2)
     p.add_argument("--sweep", action="store_true", help="choose thresholds on the tuning half")
+    p.add_argument("--sweep-only", nargs="*", default=[], help="sweep only these thresholds (names)")
     p.add_argument("--markdown", type=Path, help="write the held-out table here")
     p.add_argument("--results", type=Path, help="write every number as JSON here")
     args = p.parse_args()
@@ -247,7 +250,7 @@ def main() -> None:
     notes: list[str] = []
     if args.sweep:
         for d in th:
-            th[d], why = sweep(work, units, kinds, args.tolerance, d)
+            th[d], why = sweep(work, units, kinds, args.tolerance, d, tuple(args.sweep_only))
             notes += why
     tuning = evaluate(work, units, kinds, th, args.tolerance, "tuning")
     held = evaluate(work, units, kinds, th, args.tolerance, "held-out")
