@@ -20,7 +20,7 @@ the held-out half with the chosen thresholds.
 Run (from the repository root; the corpus is cached under CORPUS and reused)::
 
     PYTHONPATH=$PWD MUJOCO_GL=egl .venv/bin/python benchmarks/calibrate_quality.py /tmp/qcorpus --sweep \\
-        --markdown benchmarks/quality_calibration.md
+        --markdown /tmp/qcorpus/table.md
 """
 
 from __future__ import annotations
