@@ -15,6 +15,7 @@ import pytest
 from openral_data.formats.lerobot_v3.features import ACTION, STATE
 from openral_data.metrics.quality import DEFAULT, quality_of
 from openral_data.metrics.quality.breadth import angle_wraps, quaternions, task_text
+from openral_data.metrics.quality.camera import camera_quality, stalled
 from openral_data.metrics.sources import open_dataset
 from tests.support import quality as q
 from tests.support.metrics import data_file, rewrite_parquet
@@ -97,3 +98,17 @@ def test_task_text() -> None:
         "placeholder",
     ]
     assert task_text(["pick up the red cube", "Put the bowl on the plate."]) == []
+
+
+def test_a_camera_still_while_the_other_moves() -> None:
+    """Camera `b` repeats frame 10's picture over frames 10..17 while `a` keeps changing: `camera_stalled` on
+    `b` only; both still at once (the robot resting in a static scene) is not it."""
+    a, b = q.textured(N, 1), q.textured(N, 2)
+    b[10:18] = b[10]
+    cams = {"a": camera_quality(iter(a), 1, DEFAULT), "b": camera_quality(iter(b), 1, DEFAULT)}
+    got = [(f.check, f.subject, f.start_frame, f.end_frame) for f in stalled(cams, DEFAULT, 1, N)]
+    assert got == [("camera_stalled", "b", 11, 17)]  # frame 10 itself still differs from frame 9
+    both = q.textured(N, 3)
+    both[10:18] = both[10]
+    still = {"a": camera_quality(iter(both), 1, DEFAULT), "b": camera_quality(iter(both.copy()), 1, DEFAULT)}
+    assert stalled(still, DEFAULT, 1, N) == []

@@ -95,3 +95,25 @@ def camera_quality(samples_in: Iterable[npt.NDArray[np.uint8]], stride: int, th:
         samples.append(Sample(t, mean, change, sharpness, contrast, dark, bright, frozen, blurred))
         prev = gray
     return CameraQuality(samples)
+
+
+def stalled(cameras: dict[str, CameraQuality], th: Thresholds, stride: int, length: int) -> list[Finding]:
+    """`camera_stalled`: a camera whose picture holds still over 2 or more consecutive samples while another
+    camera's changes at those samples (one stream stuck while the scene moves), however short the span; placed
+    like `CameraQuality.findings`."""
+    out: list[Finding] = []
+    half = stride // 2
+    for key, q in cameras.items():
+        others = [o for k, o in cameras.items() if k != key and len(o.samples) == len(q.samples)]
+        if not others or not q.samples:
+            continue
+        changes = [[o.samples[i].change for o in others] for i in range(len(q.samples))]
+        moving = np.array([any(c is not None and c >= th.frozen_diff for c in cs) for cs in changes], dtype=bool)
+        mask = np.array([s.frozen for s in q.samples], dtype=bool) & moving
+        spans = [
+            (max(0, q.samples[a].frame_index - half), min(length - 1, q.samples[b].frame_index + half))
+            for a, b in runs(mask, 2)
+        ]
+        share = float(mask.mean())
+        out += span_findings("camera_stalled", key, spans, share, th.frozen_diff, detail="still while others move")
+    return out

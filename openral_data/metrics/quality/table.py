@@ -58,6 +58,7 @@ SAMPLE_SCHEMA = pa.schema(
 FLAGS = (
     *("idle", "frozen", "jerky", "chatter", "clipped", "jitter", "gap"),
     *(f"camera_{m}" for m in CAMERA_MEASURES),
+    "camera_stalled",
     *("non_finite", "quat_flip", "quat_norm", "angle_wrap", "teleport", "duplicated"),
     *("task_text", "duplicate_episode", "length_outlier"),
 )
