@@ -63,7 +63,7 @@ KINDS = (
 EXPECTED: dict[str, tuple[str, ...]] = {
     "idle_head": ("idle",),
     "idle_tail": ("idle",),
-    "frozen_camera": ("camera_frozen",),
+    "frozen_camera": ("camera_frozen", "camera_stalled"),
     "black_camera": ("camera_black",),
     "blur": ("camera_blurred",),
     "dropped_frames": ("teleport",),
