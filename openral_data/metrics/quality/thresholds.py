@@ -54,9 +54,9 @@ DEFAULT_STRIDE = 5  # every 5th frame of each camera is measured (all frames are
 # a scripted expert and a trained policy take the defaults.
 KINDS: dict[str, dict[str, float | int]] = {
     "default": {},
-    "scripted": {},
+    "scripted": {"idle_flag": 0.125, "teleport_step": 0.125},  # calibrated (benchmarks/calibrate_quality.py)
     "policy": {},
-    "person": {"jerk_reversal_share": 0.6, "idle_flag": 0.6},
+    "person": {"jerk_reversal_share": 0.6, "idle_flag": 0.15, "teleport_step": 1.0},  # calibrated
     "random": {"jerk_min_reversals": 10**9, "chatter_min_toggles": 10**9},
 }
 SCRIPTED = ("scripted", "metaworld_expert", "sweep", "zero", "mimicgen")  # rSkill policies that follow a script
