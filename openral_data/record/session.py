@@ -19,15 +19,6 @@ from openral_data.runtime.bridge import DatasetBridge
 EARLY_STOP = threading.Event()
 
 
-class RecordingInterrupted(KeyboardInterrupt):
-    """A Ctrl-C (or SIGTERM) that stopped `record` once its dataset folder held its settings: `out` is where the
-    finished episodes are, and `record --resume --out OUT` continues it."""
-
-    def __init__(self, out: Path) -> None:
-        super().__init__(str(out))
-        self.out = out
-
-
 class StopRequest:
     """Ctrl-C / SIGTERM ask the recording to stop at the next step boundary, never inside a commit.
 

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from openral_data.errors import ConfigError, UsageError
+from openral_data.errors import ConfigError, RecordingInterrupted, UsageError
 from openral_data.formats.lerobot_v3 import WriterConfig, warm_up
 from openral_data.policies.base import AnnotatingPolicy, PolicyAdapter
 from openral_data.policies.checkpoint import (
@@ -31,7 +31,7 @@ from openral_data.record.options import (
     rskill_ref,
 )
 from openral_data.record.runlog import log_episode, log_totals
-from openral_data.record.session import RecordingInterrupted, StopRequest, ended_by, episode_loop
+from openral_data.record.session import StopRequest, ended_by, episode_loop
 from openral_data.record.start import Started, start
 from openral_data.runtime import available, registry, tasks
 from openral_data.runtime.bridge import DatasetBridge
