@@ -108,3 +108,7 @@ def test_recorded_mock_episodes_raise_nothing(tmp_path: Path) -> None:
     assert [(r["flags"], r["data_kind"]) for r in got.table.to_pylist()] == [([], "random")] * 2
     found = pq.read_table(got.paths.findings).to_pylist()
     assert {(f["check"], f["subject"], f["flag"]) for f in found} == {("constant", "observation.state[joint2]", False)}
+    shown = run_inproc("quality", str(out))  # a person is told nothing was flagged, not shown an empty grid
+    assert shown.returncode == 0, shown.stderr
+    assert shown.stdout.rstrip().endswith("episodes: none flagged (--all lists every episode)")
+    assert "(none)" not in shown.stdout
