@@ -132,7 +132,6 @@ def _resolve(opts: RecordOptions) -> _Resolved:
     scene_path = registry.resolve_scene_path(opts.scene)
     scene = load_recordable_scene(scene_path)
     scene_src = str(scene_path)
-    available.check_scene_type(scene.scene.type, scene_src)  # a missing simulator extra: said before anything starts
     task_id = None
     if opts.task is not None:
         scene, task_id = tasks.choose_task(scene, opts.task, scene_src)
@@ -150,6 +149,7 @@ def _resolve(opts: RecordOptions) -> _Resolved:
             f"{scene_src}: scene.fixed_robot: this scene is defined for robot {scene.scene.robot!r} only; "
             f"--robot {opts.robot} is refused (use a free-robot scene such as scenes/sim/ to change the robot)"
         )
+    available.check_scene_type(scene.scene.type, scene_src)  # a missing simulator extra: before anything loads
     robot_id = opts.robot or scene.scene.robot
     if robot_id is None:
         raise ConfigError(f"{scene_src}: scene.robot: not set; pass --robot (valid: {', '.join(registry.robot_ids())})")

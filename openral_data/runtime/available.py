@@ -44,9 +44,14 @@ def check_scene_type(scene_type: str, source: str) -> None:
     problem = scene_type_problem(scene_type)
     if problem is None:
         return
-    extra = _NEEDS[scene_type][1].removeprefix("the '").removesuffix("' extra")
-    how = "" if extra == _NEEDS[scene_type][1] else f": {install_hint(extra)}"
-    raise ConfigError(f"{source}: scene.type: {scene_type}: {problem}{how}")
+    need = _NEEDS[scene_type][1]
+    extra = need.removeprefix("the '").removesuffix("' extra")
+    if extra == need:  # LIBERO: its extra lives in an environment of its own (as its scene's own check says)
+        raise ConfigError(
+            f"{source}: scene.type: {scene_type} needs the '{scene_type}' extra, in an environment of its own "
+            "(bash scripts/setup_libero.sh)"
+        )
+    raise ConfigError(f"{source}: scene.type: {scene_type}: {problem}: {install_hint(extra)}")
 
 
 def rskill_problem(rskill: RSkillManifest) -> str | None:
