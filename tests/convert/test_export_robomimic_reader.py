@@ -12,16 +12,14 @@ from __future__ import annotations
 
 import json
 import os
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from tests.support.exported import source_episodes, splits_dataset
+from tests.support.exported import read_elsewhere, source_episodes, splits_dataset
 from tests.support.inproc import run_inproc
 
-ROOT = Path(__file__).resolve().parents[2]
 PYTHON = os.environ.get("OPENRAL_ROBOMIMIC_PYTHON")
 
 
@@ -33,10 +31,10 @@ def test_robomimic_sequence_dataset_reads_the_export(tmp_path: Path) -> None:
     run = run_inproc("export", str(dataset), "--to", "robomimic", str(out))
     assert run.returncode == 0, run.stderr
     npz = tmp_path / "read.npz"
-    loader = ROOT / "tests" / "support" / "robomimic_load.py"
-    command = [str(PYTHON), str(loader), str(out), str(npz), "state", "--rgb", "image_image", "wrist_image"]
-    done = subprocess.run(command, check=False, capture_output=True, text=True, timeout=600, cwd=tmp_path)
-    assert done.returncode == 0, done.stderr[-3000:]
+    assert PYTHON is not None
+    read_elsewhere(
+        PYTHON, "robomimic_load.py", [str(out), str(npz), "state", "--rgb", "image_image", "wrist_image"], cwd=tmp_path
+    )
     got = np.load(npz)
     assert json.loads(str(got["env_meta"]))["env_kwargs"]["control_freq"] == 5
     episodes = source_episodes(dataset)

@@ -10,13 +10,12 @@ environment the test is skipped, unless OPENRAL_REQUIRE_TFDS=1 says it must run.
 from __future__ import annotations
 
 import os
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from tests.support.exported import close_pictures, source_episodes, splits_dataset
+from tests.support.exported import close_pictures, read_elsewhere, source_episodes, splits_dataset
 from tests.support.inproc import run_inproc
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -34,11 +33,8 @@ def test_tfds_loads_the_rlds_export(tmp_path: Path) -> None:
     run = run_inproc("export", str(dataset), "--to", "rlds", str(out))
     assert run.returncode == 0, run.stderr
     npz = tmp_path / "tfds.npz"
-    loader = ROOT / "tests" / "support" / "tfds_load.py"
     env = {**os.environ, "TF_CPP_MIN_LOG_LEVEL": "2", "CUDA_VISIBLE_DEVICES": ""}
-    command = [str(TFDS_PYTHON), str(loader), str(out), str(npz)]
-    done = subprocess.run(command, check=False, capture_output=True, text=True, env=env, timeout=600)
-    assert done.returncode == 0, done.stderr[-3000:]
+    read_elsewhere(TFDS_PYTHON, "tfds_load.py", [str(out), str(npz)], env)
     got = np.load(npz)
     assert got["splits"].tolist() == ["train", "val"]
     episodes = source_episodes(dataset)

@@ -10,6 +10,7 @@ the pictures decoded from its videos, the task text of each frame, the splits fr
 from __future__ import annotations
 
 import json
+import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -75,3 +76,15 @@ def close_pictures(got: np.ndarray, want: np.ndarray, mean: float = 3.0) -> None
     """Pictures equal within a lossy codec's tolerance (mean absolute difference in levels)."""
     assert got.shape == want.shape and got.dtype == np.uint8
     assert np.abs(got.astype(np.int16) - want.astype(np.int16)).mean() < mean
+
+
+def read_elsewhere(
+    python: Path | str, loader: str, args: list[str], env: dict[str, str] | None = None, cwd: Path | None = None
+) -> None:
+    """Run `tests/support/<loader>` with another environment's interpreter (`.venv-tfds`, a robomimic venv), the
+    other ecosystem's own reader inside, on `args` (it writes what it read to an .npz named there)."""
+    script = Path(__file__).resolve().parent / loader
+    done = subprocess.run(
+        [str(python), str(script), *args], check=False, capture_output=True, text=True, env=env, timeout=600, cwd=cwd
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
