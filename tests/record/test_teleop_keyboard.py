@@ -20,7 +20,7 @@ import pytest
 
 from tests.support.pty_terminal import Terminal as PtyTerminal
 from tests.support.pty_terminal import cli_on_pty
-from tests.support.teleop_push import pushed, replays_exactly
+from tests.support.teleop_push import push_path, pushed, replays_exactly
 
 F64 = npt.NDArray[np.float64]
 SEED = 0
@@ -58,15 +58,6 @@ def keys_from_prompt(prompt: str) -> tuple[dict[int, tuple[str, str]], str]:
     return axes, gripper[1]
 
 
-def _targets(cube: F64, goal: F64) -> list[F64]:
-    """Behind the cube (seen from the goal) at travel height, down to the cube's middle, then on to the goal."""
-    direction = (goal[:2] - cube[:2]) / np.linalg.norm(goal[:2] - cube[:2])
-    behind = cube[:2] - direction * (CUBE_HALF + 0.045)
-    end = goal[:2] - direction * (CUBE_HALF + 0.005)
-    z = cube[2] - 0.003
-    return [np.array([*behind, z + 0.08]), np.array([*behind, z]), np.array([*end, z])]
-
-
 def _drive(term: Terminal, proc_alive: Callable[[], bool], axes: dict[int, tuple[str, str]], step: float) -> None:
     """Closed loop on the status lines: a few presses toward the next target whenever the last ones were made."""
     seen, targets, deadline, carry = 0, None, time.monotonic() + 60, np.zeros(3)
@@ -76,7 +67,9 @@ def _drive(term: Terminal, proc_alive: Callable[[], bool], axes: dict[int, tuple
         if got is None or got[4] == seen or got[3]:
             continue
         eef, cube, goal, _, seen = got
-        targets = targets or _targets(cube, goal)
+        if targets is None:  # planned once, from the first status: pushed at the cube's middle
+            z = cube[2] - 0.003
+            targets = push_path(cube, goal, CUBE_HALF, push_z=z, travel_z=z + 0.08)
         err = targets[0] - eef
         if np.all(np.abs(err) < (0.008 if len(targets) == 3 else 0.012)):
             targets = targets[1:] or targets
