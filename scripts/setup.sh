@@ -57,7 +57,7 @@ fi
 UV=("$PY" -m uv)
 # Optional extras the default environment (and CI) installs; each is one [project.optional-dependencies] entry.
 # Extras that conflict with these (e.g. a separate simulator environment) are set up by their own script.
-EXTRAS=(lerobot robosuite metaworld aloha pusht feetech dynamixel so_arm ray browse mcap_profiles minari)
+EXTRAS=(lerobot robosuite metaworld aloha pusht feetech dynamixel so_arm openarm ray browse mcap_profiles minari)
 extra_args=()
 for extra in "${EXTRAS[@]}"; do extra_args+=(--extra "$extra"); done
 if ((core)); then
