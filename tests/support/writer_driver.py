@@ -11,7 +11,8 @@ what a test that crashes it needs to know, line by line (flushed):
 the repo root): with `die_at`, the process exits abruptly (os._exit(137), no cleanup, as SIGKILL) instead of
 doing its `die_at`-th mutation. `config`: `WriterConfig` fields (`data_files_size_in_mb`, `video_files_size_in_mb`,
 `staged_episodes`, ...), passed only when given; the codec is h264. `shape` (default 64 x 64) and `state_dim`
-(default 4) shape the dataset.
+(default 4) shape the dataset. `mb`: the bytes the writer's file sizes count as one MB (`use_megabyte`), so a
+small dataset rotates its files as a large one does.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
+from openral_data.formats.lerobot_v3 import config as writer_config_module
 from openral_data.formats.lerobot_v3.layout import INFO_PATH
 from openral_data.runtime.bridge import DatasetBridge
 from tests.support.crash import die_at_mutation
@@ -35,8 +37,16 @@ def writer_config(knobs: dict[str, Any]) -> WriterConfig:
     return WriterConfig(video=VideoSettings(codec="h264"), **knobs)
 
 
+def use_megabyte(size: int | None) -> None:
+    """Scale the writer's file-size limits: `size` bytes count as the 1 MB of `data_files_size_in_mb: 1`. The
+    rotation and consolidation logic is the writer's own; only its unit shrinks, so tens of frames of a few floats
+    fill a data file the way megabytes do (None: the real MB)."""
+    writer_config_module.MB = size if size is not None else 1 << 20
+
+
 def main() -> None:
     args = json.loads(sys.argv[1])
+    use_megabyte(args.get("mb"))
     root = Path(args["root"])
     shape = tuple(args.get("shape", SHAPE))
     state_dim = int(args.get("state_dim", 4))

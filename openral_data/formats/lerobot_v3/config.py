@@ -31,6 +31,16 @@ class WriterConfig:
         # a concrete encoder (`auto` probed once per process), checked against this FFmpeg before anything is written
         object.__setattr__(self, "video", self.video.resolve())
 
+    @property
+    def data_limit(self) -> int:
+        """Bytes a data (and meta/episodes) file holds before the next one starts."""
+        return self.data_files_size_in_mb * MB
+
+    @property
+    def video_limit(self) -> int:
+        """Bytes a video file holds before the next one starts."""
+        return self.video_files_size_in_mb * MB
+
     def settings_json(self) -> dict[str, Any]:
         """The settings meta/openral.json records (`config`): codec and file sizes; the encoder that ran and a
         pixel format or preset other than lerobot's default only when they are not the software default."""

@@ -104,13 +104,24 @@ def restore(
         for key in data_schema.names:
             s = {stat: np.asarray(row[f"stats/{key}/{stat}"]) for stat in STAT_KEYS}
             numeric[key] = merge_numeric(numeric.get(key), s)
+    data_run = _file_run(rows, "data", lambda p: layout.data_path(root, p), chunks_size, data_size_limit, True)
+    # a join re-points the rows of the episodes whose data it moves, which it finds in the episodes run: that run
+    # holds every episode staged in the data run, even one whose meta/episodes file alone reaches the limit
+    staged = set(data_run.positions[1:])
+    needed = [layout.row_pos(r, "meta/episodes") for r in rows if layout.row_pos(r, "data") in staged]
     return Restored(
         tasks=tasks,
         rows=rows,
         total_frames=sum(int(r["length"]) for r in rows),
-        data_run=_file_run(rows, "data", lambda p: layout.data_path(root, p), chunks_size, data_size_limit, True),
+        data_run=data_run,
         episodes_run=_file_run(
-            rows, "meta/episodes", lambda p: layout.episodes_path(root, p), chunks_size, data_size_limit, False
+            rows,
+            "meta/episodes",
+            lambda p: layout.episodes_path(root, p),
+            chunks_size,
+            data_size_limit,
+            False,
+            keep_from=min(needed, default=None),
         ),
         videos={name: _video_tail(root, key, rows, chunks_size, size_limit) for name, key in camera_keys.items()},
         numeric_stats=numeric,
@@ -125,9 +136,11 @@ def _file_run(
     chunks_size: int,
     size_limit: int,
     frames: bool,
+    keep_from: FilePos | None = None,
 ) -> FileRun:
     """The trailing consecutive files (data or meta/episodes) whose bytes stay below the size limit: the run
-    the writer goes on joining (episodes still in files of their own, after the one they join into)."""
+    the writer goes on joining (episodes still in files of their own, after the one they join into). The files
+    from `keep_from` on are in it whatever their size."""
     counts: dict[FilePos, int] = {}
     for r in rows:
         pos = layout.row_pos(r, prefix)
@@ -138,7 +151,7 @@ def _file_run(
     for i in range(len(order) - 1, -1, -1):
         pos, size = order[i], path_of(order[i]).stat().st_size
         follows = i == len(order) - 1 or pos.next(chunks_size) == order[i + 1]
-        if not follows or total + size >= size_limit:
+        if not follows or (total + size >= size_limit and (keep_from is None or pos < keep_from)):
             break
         total += size
         run.first = pos

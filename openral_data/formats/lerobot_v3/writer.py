@@ -36,7 +36,7 @@ from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import digests, joins, layout
 from openral_data.formats.lerobot_v3.buffer import EpisodeBuffer, base_row, column_stats, episode_table
 from openral_data.formats.lerobot_v3.commit_log import log_commit
-from openral_data.formats.lerobot_v3.config import MB, WriterConfig
+from openral_data.formats.lerobot_v3.config import WriterConfig
 from openral_data.formats.lerobot_v3.depth import CameraStats, DepthStream, camera_stats, merge_camera_stats
 from openral_data.formats.lerobot_v3.encoder import encoder_threads
 from openral_data.formats.lerobot_v3.features import (
@@ -154,8 +154,8 @@ class LeRobotV3Writer:
             self._episodes_schema,
             c.chunks_size,
             c.durable,
-            c.data_files_size_in_mb * MB,
-            c.video_files_size_in_mb * MB,
+            c.data_limit,
+            c.video_limit,
         )
 
     def _set_empty(self, image_stats: MappingOf[str, CameraStats] | None) -> None:

@@ -34,7 +34,7 @@ from openral_data.runtime.bridge import DatasetBridge
 from tests.support.crash import KILLED
 from tests.support.home import REPO
 from tests.support.patterned import check_loads, dataset_states, unit_schema, write_episodes
-from tests.support.writer_driver import SHAPE, writer_config
+from tests.support.writer_driver import SHAPE, use_megabyte, writer_config
 
 pytestmark = pytest.mark.slow
 
@@ -50,9 +50,10 @@ class Case:
 
     config: dict[str, int]
     state_dim: int = 4
+    mb: int | None = None  # the bytes a writer's "MB" counts (writer_driver.use_megabyte); None: 1 MiB
 
     def driver_args(self) -> dict[str, Any]:
-        return {"config": self.config, "state_dim": self.state_dim}
+        return {"config": self.config, "state_dim": self.state_dim, "mb": self.mb}
 
     def states(self) -> list[np.ndarray]:
         return dataset_states(LENGTHS, self.state_dim)
@@ -60,10 +61,10 @@ class Case:
 
 CASES = {
     "defaults": Case({}),
-    # consolidation every 3 episodes, and at data-file rotation: 6,000 floats a frame (24 KB) fill the 1 MB data
-    # file once in this run (episode 5 starts the second), a meta/episodes file every three episodes (each row
-    # holds their statistics, about 480 KB)
-    "staged3": Case({"staged_episodes": 3, "data_files_size_in_mb": 1}, state_dim=6000),
+    # consolidation every 3 episodes, and at data-file rotation: with "1 MB" counted as 20,000 bytes, the data file
+    # fills once in this run (episode 6 starts the second) and meta/episodes rotates at each consolidation; the
+    # close joins the videos. (It was 6,000 floats a frame against a real MB: the same commits at 3x the CPU.)
+    "staged3": Case({"staged_episodes": 3, "data_files_size_in_mb": 1}, state_dim=16, mb=20_000),
 }
 
 
@@ -213,11 +214,15 @@ def crash_and_complete(root: Path, case: Case, n: int, clean: Run, reference: Pa
         assert errors == [], f"killed before {what}, then recovered: doctor finds {errors}"
     config = writer_config(case.config)
     schema = unit_schema(case.state_dim, SHAPE)
-    writer = LeRobotV3Writer(root, schema, config, resume=True)
-    assert writer.total_episodes == recovered, what
-    bridge = DatasetBridge(schema, [writer])
-    write_episodes(bridge, LENGTHS, first=recovered, state_dim=case.state_dim, shape=SHAPE)
-    bridge.close()
+    use_megabyte(case.mb)  # the resumed writer counts sizes as the killed one did
+    try:
+        writer = LeRobotV3Writer(root, schema, config, resume=True)
+        assert writer.total_episodes == recovered, what
+        bridge = DatasetBridge(schema, [writer])
+        write_episodes(bridge, LENGTHS, first=recovered, state_dim=case.state_dim, shape=SHAPE)
+        bridge.close()
+    finally:
+        use_megabyte(None)
     findings = [f.line() for f in check(root)]
     assert findings == [], f"killed before {what}, recovered and resumed: doctor finds {findings}"
     try:
