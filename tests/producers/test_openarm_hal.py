@@ -1,0 +1,94 @@
+"""The OpenArm pair behind the HAL: lerobot 0.6.1's own OpenArmFollower and OpenArmLeader (Damiao motors,
+`make_robot_from_config`, `make_teleoperator_from_config`) on two SIMULATED CAN buses at once (python-can's
+`virtual` interface, one channel each; tests/support/damiao_bus.py answers the motors' frames), recorded through
+the real CLI; and the robot's MuJoCo twin (the left arm of openarm-mujoco's MJCF).
+
+The leader is moved by hand in the test after lerobot zeroed it. Every action recorded must be a position the
+leader's motors reported (decoded from their feedback frames); the follower's motors must have received it as
+their MIT position target and its state follow; lerobot 0.6.1 must load the dataset frame-exact.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from tests.support.damiao_bus import LeaderHand, SimulatedDamiaoBus, write_openarm_calibration
+from tests.support.hal import episode_infos, frames_table
+from tests.support.inproc import run_inproc
+from tests.support.lerobot_written import loaded_episodes
+
+pytest.importorskip("can", reason="the openarm extra (python-can)")
+
+ROBOT = "openarm_follower"
+STEPS = 15
+
+
+@pytest.fixture
+def buses(project: Path) -> Iterator[tuple[SimulatedDamiaoBus, SimulatedDamiaoBus]]:
+    """The follower's and the leader's CAN bus, the manifest pointing at both (virtual channels) with
+    calibration files for both arms."""
+    folder = project / "robots" / ROBOT
+    with SimulatedDamiaoBus() as follower, SimulatedDamiaoBus() as leader:
+        write_openarm_calibration(folder / "calibration" / "openarm_follower.json")
+        write_openarm_calibration(folder / "calibration" / "openarm_leader.json")
+        manifest = yaml.safe_load((folder / "robot.yaml").read_text())
+        for key, bus in (("robot", follower), ("teleop", leader)):
+            manifest["hardware"][key].update(port=bus.channel, can_interface="virtual", calibration_dir="calibration")
+        (folder / "robot.yaml").write_text(yaml.safe_dump(manifest, sort_keys=False))
+        yield follower, leader
+
+
+def leader_readings(leader: SimulatedDamiaoBus) -> np.ndarray:
+    """Each refresh round the leader answered: one row of the eight motors' positions (degrees)."""
+    n = min(len(v) for v in leader.reported.values())
+    return np.array([[leader.reported[m][i] for m in leader.motors] for i in range(n)])
+
+
+@pytest.mark.slow
+def test_the_openarm_leader_drives_the_follower_over_two_simulated_can_buses(
+    tmp_path: Path, buses: tuple[SimulatedDamiaoBus, SimulatedDamiaoBus]
+) -> None:
+    follower, leader = buses
+    out = tmp_path / "openarm"
+    with LeaderHand(leader):
+        r = run_inproc(
+            "record", "--hal", ROBOT, "--mode", "real", "--teleop", "leader", "--fps", "10", "--max-steps",
+            str(STEPS), "--out", str(out), "--codec", "h264", "--operator", "success",
+        )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    cols = frames_table(out)
+    action, state = np.array(cols["action"]), np.array(cols["observation.state"])
+    assert action.shape == (STEPS, 8)
+
+    # every action the safety filter left alone is a reading of the leader's motors, in time order
+    reads = leader_readings(leader)
+    free = np.array(cols["openral.safety_interventions"]) == 0
+    assert free.mean() >= 0.8, cols["openral.safety_interventions"]
+    at = [int(np.argmin(np.abs(reads - row).max(axis=1))) for row in action[free]]
+    assert np.abs(reads[at] - action[free]).max() < 1e-3 and at == sorted(at)
+    assert np.ptp(action[:, 3]) > 10.0 and np.ptp(action[:, 7]) > 5.0  # the hand moved elbow and gripper
+
+    # the follower's motors received each action as their MIT position target (16-bit over ±12.5 rad)
+    targets = np.array([follower.motors[m].targets[-STEPS:] for m in follower.motors]).T
+    assert np.abs(targets - action).max() < 0.03
+    # ... and followed: each state is close to an action a tick or two before (the driver reads the feedback
+    # frames its previous commands left queued: lerobot collects MIT replies for only 1 ms)
+    lag = min(np.median(np.abs(state[k:] - action[:-k])) for k in (1, 2, 3))
+    assert lag < 1.0 and np.ptp(state[:, 3]) > 10.0
+
+    # real protocol frames both ways: enabled, commanded, refreshed and released; the leader zeroed, never driven
+    assert follower.seen["enable"] >= 8 and follower.seen["mit"] >= 8 * STEPS and follower.seen["unknown"] == 0
+    assert follower.seen["refresh"] >= 8 * STEPS and follower.seen["disable"] >= 8
+    assert not any(m.enabled for m in follower.motors.values())  # torque released at the end
+    assert leader.seen["zero"] == 8 and leader.seen["mit"] == 0 and leader.seen["refresh"] >= 8 * STEPS
+    info = episode_infos(out)[0]
+    assert info["operator"] == "teleop:openarm_leader" and info["hal"]["verdict"] == "success"
+
+    loaded = loaded_episodes(out)  # lerobot 0.6.1's own loader: frame-exact
+    assert np.array_equal(np.array([f["action"] for f in loaded[0]], dtype=np.float32), action.astype(np.float32))
+    assert np.array_equal(np.array([f["state"] for f in loaded[0]], dtype=np.float32), state.astype(np.float32))
