@@ -92,3 +92,36 @@ def test_the_openarm_leader_drives_the_follower_over_two_simulated_can_buses(
     loaded = loaded_episodes(out)  # lerobot 0.6.1's own loader: frame-exact
     assert np.array_equal(np.array([f["action"] for f in loaded[0]], dtype=np.float32), action.astype(np.float32))
     assert np.array_equal(np.array([f["state"] for f in loaded[0]], dtype=np.float32), state.astype(np.float32))
+
+
+def test_the_openarm_twin_hangs_from_its_shoulder_at_zero_and_its_gripper_opens_at_minus_65() -> None:
+    """The twin (the left arm of openarm-mujoco's MJCF) speaks lerobot's units: at 0 the arm hangs straight down
+    (lerobot's calibration pose), the elbow (joint_4) at 90 degrees brings the hand up to the elbow's height, and
+    the gripper motor's -65 (open) .. 0 (closed) opens and closes the fingers."""
+    import mujoco
+
+    from openral_data.producers.sim.mujoco.twin import Twin
+    from openral_data.runtime import registry
+
+    twin = Twin(registry.ROBOTS[ROBOT], [])
+    model = twin.model
+    data = mujoco.MjData(model)
+    ee = model.site("robot/left_ee_control_point").id
+    shoulder, elbow = (model.body(f"robot/openarm_left_link{k}").id for k in (2, 4))
+    fingers = [model.joint(f"robot/openarm_left_finger_joint{k}").qposadr[0] for k in (1, 2)]
+
+    def settle(target: list[float]) -> np.ndarray:
+        twin.command(data, np.array(target))
+        mujoco.mj_step(model, data, nstep=500)  # 1 s
+        return twin.state(data)
+
+    twin.hold_home(data)
+    state = settle([0, 0, 0, 0, 0, 0, 0, -65])
+    assert np.abs(state[:7]).max() < 0.5 and state[7] < -60, state
+    drop = data.xpos[shoulder] - data.site_xpos[ee]
+    assert np.hypot(drop[0], drop[1]) < 0.1 and drop[2] > 0.4, drop  # straight below the shoulder
+    opened = data.qpos[fingers].copy()
+    state = settle([0, 0, 0, 90, 0, 0, 0, 0])
+    assert abs(state[3] - 90) < 2 and state[7] > -5, state
+    assert abs(data.xpos[elbow][2] - data.site_xpos[ee][2]) < 0.05, data.site_xpos[ee]  # forearm level: hand came up
+    assert np.all(opened > 0.7) and np.all(data.qpos[fingers] < 0.05), (opened, data.qpos[fingers])
