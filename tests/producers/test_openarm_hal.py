@@ -125,3 +125,20 @@ def test_the_openarm_twin_hangs_from_its_shoulder_at_zero_and_its_gripper_opens_
     assert abs(state[3] - 90) < 2 and state[7] > -5, state
     assert abs(data.xpos[elbow][2] - data.site_xpos[ee][2]) < 0.05, data.site_xpos[ee]  # forearm level: hand came up
     assert np.all(opened > 0.7) and np.all(data.qpos[fingers] < 0.05), (opened, data.qpos[fingers])
+
+
+def test_a_share_asset_is_found_under_the_environments_share_folder_and_never_outside(tmp_path: Path) -> None:
+    """`share://` (openarm-mujoco's MJCF is a wheel data file, not inside its package) resolves under
+    sysconfig's data path; a reference leading out is refused, a missing one named."""
+    import sysconfig
+
+    from openral_data.errors import ConfigError, DatasetError
+    from openral_data.producers.sim.mujoco.assets import resolve_asset
+
+    share = Path(sysconfig.get_path("data")) / "share"
+    found = resolve_asset("share://openarm_mujoco/v2/openarm_bimanual.xml", tmp_path, "robot.yaml: assets.mjcf")
+    assert found == share / "openarm_mujoco/v2/openarm_bimanual.xml" and found.is_file()
+    with pytest.raises(DatasetError, match=r"robot\.yaml: assets\.mjcf: share://\.\./\.\./etc/passwd: .*leads outside"):
+        resolve_asset("share://../../etc/passwd", tmp_path, "robot.yaml: assets.mjcf")
+    with pytest.raises(ConfigError, match=r"share://openarm_mujoco/v9/none\.xml: no such file"):
+        resolve_asset("share://openarm_mujoco/v9/none.xml", tmp_path, "robot.yaml: assets.mjcf")
