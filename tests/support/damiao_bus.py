@@ -26,7 +26,7 @@ from typing import Any
 
 import can
 
-# lerobot's OpenArm motor map (config_openarm_follower.py): name -> (send id, master id, model)
+# lerobot's OpenArm motor map (its follower config's motor_config): name -> (send id, master id, model)
 OPENARM_MOTORS: dict[str, tuple[int, int, str]] = {
     "joint_1": (0x01, 0x11, "dm8009"),
     "joint_2": (0x02, 0x12, "dm8009"),
