@@ -22,8 +22,6 @@ from tests.support.hal import episode_infos, frames_table
 from tests.support.inproc import run_inproc
 from tests.support.lerobot_written import loaded_episodes
 
-pytest.importorskip("can", reason="the openarm extra (python-can)")
-
 ROBOT = "openarm_follower"
 STEPS = 15
 
