@@ -9,8 +9,10 @@ bit over ±TMAX); to 0x7FF `[id lo, id hi, 0xCC, 0...]` refresh. Every one is an
 id with its feedback frame: `[id | err << 4, q hi, q lo, dq hi, dq lo << 4 | tau hi, tau lo, T_mos, T_rotor]`.
 
 A motor with torque enabled and kp > 0 follows its last MIT position target as a first-order servo (time
-constant `tau`, advanced on every frame); with torque off its shaft is where `shaft` says (a hand moving a
-leader arm). Every frame in is counted by kind, every feedback frame out logged (decoded as lerobot decodes it).
+constant `tau`, advanced on every frame), or, with `physics=TwinPhysics(...)`, as the robot's MuJoCo twin moves
+under those targets (its servos, gravity, inertia); with torque off its shaft is where `shaft` says (a hand
+moving a leader arm). Every frame in is counted by kind, every feedback frame out logged (decoded as lerobot
+decodes it).
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 import can
+import numpy as np
 
 # lerobot's OpenArm motor map (its follower config's motor_config): name -> (send id, master id, model)
 OPENARM_MOTORS: dict[str, tuple[int, int, str]] = {
@@ -91,12 +94,54 @@ class Motor:
         self.targets.append(math.degrees(self.target))
 
 
+class TwinPhysics:
+    """The motors of `robot` (a manifest whose joints are the motors' names, in degrees from the motors' zero)
+    moved by its MuJoCo twin: each enabled motor's MIT target is its joint's servo target, a disabled one holds
+    where it is; the shafts are the twin's joint positions after physics caught up with the wall clock (at most
+    0.5 s at once). The twin starts at the motors' zero: hanging straight down, gripper closed."""
+
+    def __init__(self, robot: str = "openarm_follower") -> None:
+        import mujoco
+
+        from openral_data.producers.sim.mujoco.twin import Twin
+        from openral_data.runtime import registry
+
+        self.mujoco = mujoco
+        self.twin = Twin(registry.ROBOTS[robot], [])
+        self.data = mujoco.MjData(self.twin.model)
+        self.twin.place(self.data, np.zeros(self.twin.state_dim))
+        self.timestep = float(self.twin.model.opt.timestep)
+        self.owed = 0.0  # simulated time still to step
+
+    def advance(self, dt: float, motors: dict[str, Motor]) -> None:
+        state = self.twin.state(self.data)
+        target = [
+            math.degrees(m.target) if m.enabled and m.kp > 0 else float(state[i]) for i, m in enumerate(motors.values())
+        ]
+        self.twin.command(self.data, target)
+        self.owed = min(self.owed + dt, 0.5)
+        n = int(self.owed / self.timestep)
+        if n:
+            self.mujoco.mj_step(self.twin.model, self.data, nstep=n)
+            self.owed -= n * self.timestep
+        after = self.twin.state(self.data)
+        for i, m in enumerate(motors.values()):
+            m.velocity = math.radians(float(after[i] - state[i])) / dt if dt > 0 else 0.0
+            m.shaft = m.zero + math.radians(float(after[i]))
+
+
 class SimulatedDamiaoBus:
     """An arm's Damiao motors on a fresh python-can virtual channel (`channel`, what the manifest's `port` names
     with `can_interface: virtual`), answered by a thread while the context is open."""
 
-    def __init__(self, motors: dict[str, tuple[int, int, str]] | None = None, tau: float = 0.02) -> None:
+    def __init__(
+        self,
+        motors: dict[str, tuple[int, int, str]] | None = None,
+        tau: float = 0.02,
+        physics: TwinPhysics | None = None,
+    ) -> None:
         spec = motors or OPENARM_MOTORS
+        self.physics = physics
         self.channel = f"openral-sim-{uuid.uuid4().hex[:8]}"
         self.motors = {name: Motor(s, r, m) for name, (s, r, m) in spec.items()}
         self._by_id = {m.send_id: m for m in self.motors.values()}
@@ -128,8 +173,11 @@ class SimulatedDamiaoBus:
 
     def _handle(self, msg: can.Message) -> None:
         now = time.monotonic()
-        for m in self.motors.values():
-            m.advance(now - self._last, self.tau)
+        if self.physics is not None:
+            self.physics.advance(now - self._last, self.motors)
+        else:
+            for m in self.motors.values():
+                m.advance(now - self._last, self.tau)
         self._last = now
         data = bytes(msg.data)
         kind, motor = self._decode(msg.arbitration_id, data)
