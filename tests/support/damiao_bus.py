@@ -147,7 +147,7 @@ class SimulatedDamiaoBus:
         self._by_id = {m.send_id: m for m in self.motors.values()}
         self.tau = tau
         self.seen: Counter[str] = Counter()  # frames in, by kind: enable, disable, zero, refresh, mit, unknown
-        self.reported: dict[str, list[float]] = {name: [] for name in self.motors}  # refresh answers, degrees
+        self.reported: dict[str, list[float]] = {name: [] for name in self.motors}  # every feedback, degrees
         self.lock = threading.Lock()  # held while a frame is handled (a hand moving shafts takes it too)
         self._stop = threading.Event()
         self._bus: Any = None
@@ -193,8 +193,7 @@ class SimulatedDamiaoBus:
         elif kind == "mit":
             motor.mit(data)
         reply, degrees = motor.feedback()
-        if kind == "refresh":
-            self.reported[self._name(motor)].append(degrees)
+        self.reported[self._name(motor)].append(degrees)
         self._bus.send(can.Message(arbitration_id=motor.recv_id, data=reply, is_extended_id=False, is_fd=msg.is_fd))
 
     def _decode(self, can_id: int, data: bytes) -> tuple[str, Motor | None]:
