@@ -62,7 +62,8 @@ class ObservationSpec(StrictModel):
 
 
 class Assets(StrictModel):
-    """Where the robot's model comes from. `mjcf` is `pkg://<python package>/<path>` or a repo-relative path."""
+    """Where the robot's model comes from. `mjcf` is `pkg://<python package>/<path>`, `share://<path>` (a wheel's data
+    files under the environment's `share/`) or a repo-relative path."""
 
     mjcf: str | None = None
     gripper_mjcf: str | None = None

@@ -1,5 +1,7 @@
 """Resolve asset references of manifests: `pkg://<python package>/<path>` (a file inside that package: a path
-leading out of it is refused, DatasetError `dataset.unsafe`) or a path relative to the manifest.
+leading out of it is refused, DatasetError `dataset.unsafe`), `share://<path>` (a file a wheel installed as data
+under the environment's `share/` folder, `sysconfig`'s `data` path: openarm-mujoco ships its MJCF and meshes
+there, not inside its package) or a path relative to the manifest.
 
 A package is located with `importlib.util.find_spec` without importing it (robosuite's wheel only lends its
 MJCF and mesh files; importing it would pull in its controllers and print warnings).
@@ -9,6 +11,7 @@ from __future__ import annotations
 
 import importlib.metadata
 import importlib.util
+import sysconfig
 from pathlib import Path
 
 from openral_data.errors import ConfigError
@@ -23,6 +26,8 @@ def resolve_asset(ref: str, base_dir: Path, source: str) -> Path:
         if spec is None or not spec.submodule_search_locations:
             raise ConfigError(f"{source}: python package {package!r} is not installed (needed for {ref})")
         path = contained(Path(next(iter(spec.submodule_search_locations))), rel, f"{source}: {ref}")
+    elif ref.startswith("share://"):
+        path = contained(Path(sysconfig.get_path("data")) / "share", ref.removeprefix("share://"), f"{source}: {ref}")
     else:
         path = (base_dir / ref).resolve()
     if not path.is_file():
