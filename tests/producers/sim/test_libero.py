@@ -28,6 +28,7 @@ from openral_data.errors import ConfigError, DatasetError
 from openral_data.producers.sim.libero.bddl import load_init_states, read_bddl
 from openral_data.producers.sim.libero.config import import_libero
 from openral_data.producers.sim.libero.pro import PRO_SUITES
+from openral_data.producers.sim.libero.pro import SUITES as SUITE_NAMES
 from openral_data.record.options import RecordOptions
 from openral_data.record.sim import record
 from tests.support.home import BUILTIN, REPO
@@ -272,8 +273,8 @@ def test_bddl_and_init_state_files_are_checked(tmp_path: Path) -> None:
     assert (own.id, own.instruction) == ("bowl_on_plate", LANGUAGE)
 
     bddl_root = Path(import_libero("t")[0].get_libero_path("bddl_files"))
-    shipped_files = sorted(bddl_root.glob("*/*.bddl"))
-    assert len(shipped_files) > 100
+    shipped_files = sorted(f for suite in (*SUITE_NAMES, "libero_90") for f in (bddl_root / suite).glob("*.bddl"))
+    assert len(shipped_files) == 130 + 16 * 10  # LIBERO's five suites and the 16 LIBERO-PRO suites
     for path in shipped_files:
         assert read_bddl(path).language
     goal = benchmark.get_benchmark_dict()["libero_goal"]()
