@@ -22,12 +22,18 @@ N = 60
 # every kind the engine finds on this episode; the others (named in docs/stats.md, "Calibration") are not
 # detected yet, or do not apply to it (a quaternion, a second camera)
 DETECTED = (
+    "idle_head",
+    "idle_tail",
     "frozen_camera",
     "black_camera",
     "blur",
+    "dropped_frames",
+    "duplicated_frames",
     "timestamp_gap",
     "gripper_chatter",
+    "clipping",
     "nan",
+    "teleport",
 )
 
 
@@ -65,3 +71,16 @@ def test_shuffled_tasks_move_every_task_to_another_episode(clean: tuple[Path, df
     read = [df.load(root, e).task for e in range(3)]
     assert sorted(read) == sorted(texts) and all(r != t for r, t in zip(read, texts, strict=True))
     assert [t.kind for t in truths] == ["shuffled_tasks"] * 3
+
+
+def test_an_angle_written_in_degrees_is_found(clean: tuple[Path, df.Clean], tmp_path: Path) -> None:
+    """The state's joints named as angles: clean they raise nothing; one of them in degrees is `degrees` over
+    the whole episode (beyond 2π + 0.5: no angle in radians is), and no other dimension is."""
+    _, episode = clean
+    named = replace(episode, state_names=("joint_0", "joint_1", "joint_2"))
+    assert df.findings(df.write(tmp_path / "radians", [named])) == {}
+    faulty, truth = df.inject(named, "degrees_as_radians", seed=3)
+    got = df.findings(df.write(tmp_path / "degrees", [faulty])).get(0, [])
+    degrees = [f["subject"] for f in got if f["check"] == "degrees"]
+    assert degrees == [f"observation.state[joint_{truth.dims[0]}]"]
+    assert df.found(df.labelled(truth, faulty), got, tol=2) == (True, True)

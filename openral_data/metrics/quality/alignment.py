@@ -1,0 +1,129 @@
+"""Whether one episode's action drives its state as it should, each a list of `Finding`s: two action dimensions
+swapped (`action_swap`) and the action shifted in time against the state (`action_lag`) (docs/stats.md,
+"Quality").
+
+An action dimension is paired with the state dimension its name names (`partners`): the same name, or the same
+words once the generic ones are dropped (`delta_x` and `eef_x`, `joint_0_vel` and `joint_0`, `action_3` and
+`observation.state_3`). Its command is the action itself when it is a velocity or a delta (`delta`/`vel` in its
+name), else its change per frame; the state's response is its partner's change per frame. Both are compared by
+correlation, `MAX_LAG` frames either way.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import numpy.typing as npt
+
+from openral_data.metrics.quality.findings import Finding, dim_subject
+from openral_data.metrics.quality.thresholds import Thresholds
+
+Array = npt.NDArray[np.float64]
+GENERIC = {
+    "delta",
+    "vel",
+    "velocity",
+    "pos",
+    "position",
+    "action",
+    "observation",
+    "state",
+    "eef",
+    "ee",
+    "hand",
+    "joint",
+    "cmd",
+    "target",
+}
+VELOCITY = re.compile(r"delta|vel", re.IGNORECASE)
+MAX_LAG = 10  # frames the action is searched ahead of / behind the state
+MIN_FRAMES = 30  # fewer frames: too few to correlate
+WEAK = 0.3  # a pair correlating less than this at its best lag: the action does not drive that state
+STRONG = 0.6  # `action_swap`: ... while the other pairs correlate at least this (median)
+
+
+def words(name: str) -> tuple[str, ...]:
+    return tuple(w for w in re.split(r"[^a-z0-9]+", name.lower()) if w and w not in GENERIC)
+
+
+def partners(action_names: list[str], state_names: list[str]) -> dict[int, int]:
+    """Action dimension -> the state dimension its name names (one state dimension per word set)."""
+    index: dict[tuple[str, ...], list[int]] = {}
+    for j, name in enumerate(state_names):
+        index.setdefault(words(name), []).append(j)
+    out = {}
+    for i, name in enumerate(action_names):
+        found = index.get(words(name), [])
+        if words(name) and len(found) == 1:
+            out[i] = found[0]
+    return out
+
+
+def correlation(a: Array, b: Array) -> float:
+    """Pearson correlation of two series (0.0 when either is constant or not finite)."""
+    if len(a) < 3 or not (np.isfinite(a).all() and np.isfinite(b).all()):
+        return 0.0
+    a, b = a - a.mean(), b - b.mean()
+    den = float(np.sqrt((a * a).sum() * (b * b).sum()))
+    return float((a * b).sum() / den) if den > 0 else 0.0
+
+
+def lagged(a: Array, b: Array, lag: int) -> float:
+    """Correlation of a[t] with b[t + lag]."""
+    if lag >= 0:
+        return correlation(a[: len(a) - lag], b[lag:]) if lag < len(a) else 0.0
+    return correlation(a[-lag:], b[: len(b) + lag])
+
+
+def commands(action: Array, names: list[str]) -> Array:
+    """Per action dimension, what the state's change per frame should follow (row t: the step from t to t+1)."""
+    step = np.diff(action, axis=0)
+    out = action[:-1].copy()
+    for i, name in enumerate(names):
+        if not VELOCITY.search(name):
+            out[:, i] = step[:, i]
+    return out
+
+
+def alignment(action: Array, state: Array, names: tuple[list[str], list[str]], th: Thresholds) -> list[Finding]:
+    """`action_swap` and `action_lag` of one episode (`names`: the action's and the state's dimension names)."""
+    n = len(action)
+    pairs = {i: j for i, j in partners(*names).items() if np.ptp(state[:, j]) > 0 and np.ptp(action[:, i]) > 0}
+    if n < MIN_FRAMES or not pairs:
+        return []
+    cmd, response = commands(action, names[0]), np.diff(state, axis=0)
+    lags = range(-MAX_LAG, MAX_LAG + 1)
+    best: dict[int, tuple[float, int]] = {}  # action dim -> (best correlation with its partner, at that lag)
+    for i, j in pairs.items():
+        scores = [lagged(cmd[:, i], response[:, j], lag) for lag in lags]
+        k = int(np.argmax(scores))
+        best[i] = (scores[k], lags[k])
+    return swaps(best, n, names[0]) + lag_findings(best, n, th)
+
+
+def swaps(best: dict[int, tuple[float, int]], n: int, names: list[str]) -> list[Finding]:
+    """`action_swap`: an action dimension that does not drive its partner (correlation under `WEAK` at any lag)
+    while the episode's other paired dimensions do (their median at least `STRONG`): it carries another
+    dimension's command (two columns swapped, or mislabelled)."""
+    out = []
+    for i, (own, _) in best.items():
+        others = [corr for k, (corr, _) in best.items() if k != i]
+        if len(others) >= 2 and own < WEAK and float(np.median(others)) >= STRONG:
+            detail = f"correlates {own:.2f} with its state while the others {float(np.median(others)):.2f}"
+            out.append(Finding("action_swap", dim_subject("action", names[i]), 0, n - 1, own, WEAK, detail=detail))
+    return out
+
+
+def lag_findings(best: dict[int, tuple[float, int]], n: int, th: Thresholds) -> list[Finding]:
+    """`action_lag`: the state following the action (its pairs correlating at least `WEAK`, their median best
+    lag) more than `action_lag_frames` frames later or earlier than at once (row t: the action at t, or its step
+    to t + 1, against the state's step from t to t + 1)."""
+    strong = [lag for corr, lag in best.values() if corr >= WEAK]
+    if not strong:
+        return []
+    lag = float(np.median(strong))
+    if abs(lag) <= th.action_lag_frames:
+        return []
+    detail = f"the state follows the action {lag:g} frames later"
+    return [Finding("action_lag", "action", 0, n - 1, lag, float(th.action_lag_frames), detail=detail)]
