@@ -13,8 +13,11 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from openral_data.metrics.quality import DEFAULT
+from openral_data.metrics.quality.thresholds import for_kind
 from tests.support import data_faults as df
 from tests.support import quality as q
 
@@ -84,3 +87,38 @@ def test_an_angle_written_in_degrees_is_found(clean: tuple[Path, df.Clean], tmp_
     degrees = [f["subject"] for f in got if f["check"] == "degrees"]
     assert degrees == [f"observation.state[joint_{truth.dims[0]}]"]
     assert df.found(df.labelled(truth, faulty), got, tol=2) == (True, True)
+
+
+def test_swapped_and_shifted_actions_are_found(clean: tuple[Path, df.Clean], tmp_path: Path) -> None:
+    """Action dimensions named as the state's: clean, each drives its own state dimension at once; two swapped
+    are `action_swap`, actions 5 frames early are `action_lag` (a scripted expert's limit: 4 frames)."""
+    _, episode = clean
+    named = replace(
+        episode, state_names=("joint_0", "joint_1", "joint_2"), action_names=("joint_0", "joint_1", "gripper")
+    )
+    th = for_kind(DEFAULT, "scripted")
+    assert df.findings(df.write(tmp_path / "clean", [named]), th) == {}
+    for kind in ("swapped_actions", "action_shift"):
+        faulty, truth = df.inject(named, kind, seed=3)
+        got = df.findings(df.write(tmp_path / kind, [faulty]), th).get(0, [])
+        assert df.found(df.labelled(truth, faulty), got, tol=2) == (True, True), (kind, got)
+        assert {f["check"] for f in got} == {"action_swap" if kind == "swapped_actions" else "action_lag"}, got
+
+
+def test_an_upside_down_camera_is_found_against_the_other_episodes(
+    clean: tuple[Path, df.Clean], tmp_path: Path
+) -> None:
+    """Four episodes filming one scene (bright above, dark below, noise on top): the one whose camera is turned
+    180° is `camera_flipped` over the whole episode, the others raise nothing (no reference picture needed)."""
+    _, episode = clean
+    rng = np.random.default_rng(0)
+    scene = np.repeat(np.linspace(220, 40, episode.images["cam"].shape[1])[:, None], episode.images["cam"].shape[2], 1)
+    episodes = []
+    for e in range(4):  # each its own state (else `duplicate_episode`)
+        noise = rng.integers(-30, 30, episode.images["cam"].shape)
+        images = {"cam": np.clip(scene[None, :, :, None] + noise, 0, 255).astype(np.uint8)}
+        episodes.append(replace(episode, state=episode.state + np.float32(0.01 * e), images=images))
+    episodes[2], truth = df.inject(episodes[2], "upside_down", seed=3)
+    got = df.findings(df.write(tmp_path / "flipped", episodes))
+    assert sorted(got) == [2] and [f["check"] for f in got[2]] == ["camera_flipped"]
+    assert df.found(df.labelled(truth, episodes[2]), got[2], tol=2) == (True, True)

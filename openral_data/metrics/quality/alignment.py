@@ -37,8 +37,9 @@ GENERIC = {
     "target",
 }
 VELOCITY = re.compile(r"delta|vel", re.IGNORECASE)
-MAX_LAG = 10  # frames the action is searched ahead of / behind the state
+MAX_LAG = 15  # frames the action is searched ahead of / behind the state
 MIN_FRAMES = 30  # fewer frames: too few to correlate
+SWAP_MARGIN = 0.3  # `action_swap`: each of two dimensions follows the other's partner this much better
 WEAK = 0.3  # a pair correlating less than this at its best lag: the action does not drive that state
 STRONG = 0.6  # `action_swap`: ... while the other pairs correlate at least this (median)
 
@@ -99,20 +100,32 @@ def alignment(action: Array, state: Array, names: tuple[list[str], list[str]], t
         scores = [lagged(cmd[:, i], response[:, j], lag) for lag in lags]
         k = int(np.argmax(scores))
         best[i] = (scores[k], lags[k])
-    return swaps(best, n, names[0]) + lag_findings(best, n, th)
+    common = round(float(np.median([lag for _, lag in best.values()])))
+    return swaps(cmd, response, pairs, common, names[0]) + lag_findings(best, n, th)
 
 
-def swaps(best: dict[int, tuple[float, int]], n: int, names: list[str]) -> list[Finding]:
-    """`action_swap`: an action dimension that does not drive its partner (correlation under `WEAK` at any lag)
-    while the episode's other paired dimensions do (their median at least `STRONG`): it carries another
-    dimension's command (two columns swapped, or mislabelled)."""
-    out = []
-    for i, (own, _) in best.items():
-        others = [corr for k, (corr, _) in best.items() if k != i]
-        if len(others) >= 2 and own < WEAK and float(np.median(others)) >= STRONG:
-            detail = f"correlates {own:.2f} with its state while the others {float(np.median(others)):.2f}"
-            out.append(Finding("action_swap", dim_subject("action", names[i]), 0, n - 1, own, WEAK, detail=detail))
-    return out
+def swaps(cmd: Array, response: Array, pairs: dict[int, int], lag: int, names: list[str]) -> list[Finding]:
+    """`action_swap`, every pair compared at the episode's lag (`lag`): an action dimension that does not drive
+    its partner (correlation under `WEAK`) while the episode's other paired dimensions do (their median at least
+    `STRONG`), or two dimensions each following the other's partner better than their own by `SWAP_MARGIN`: it
+    carries another dimension's command (two columns swapped, or mislabelled)."""
+    n = len(cmd) + 1
+    own = {i: lagged(cmd[:, i], response[:, j], lag) for i, j in pairs.items()}
+    out: dict[int, Finding] = {}
+    for i in pairs:
+        others = [corr for k, corr in own.items() if k != i]
+        if len(others) >= 2 and own[i] < WEAK and float(np.median(others)) >= STRONG:
+            detail = f"correlates {own[i]:.2f} with its state while the others {float(np.median(others)):.2f}"
+            out[i] = Finding("action_swap", dim_subject("action", names[i]), 0, n - 1, own[i], WEAK, detail=detail)
+        for k in pairs:
+            if k == i or i in out:
+                continue
+            cross_i = lagged(cmd[:, i], response[:, pairs[k]], lag)
+            cross_k = lagged(cmd[:, k], response[:, pairs[i]], lag)
+            if min(cross_i - own[i], cross_k - own[k]) > SWAP_MARGIN:
+                detail = f"follows {names[k]}'s state better than its own ({cross_i:.2f} against {own[i]:.2f})"
+                out[i] = Finding("action_swap", dim_subject("action", names[i]), 0, n - 1, own[i], WEAK, detail=detail)
+    return [out[i] for i in sorted(out)]
 
 
 def lag_findings(best: dict[int, tuple[float, int]], n: int, th: Thresholds) -> list[Finding]:

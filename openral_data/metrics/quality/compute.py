@@ -25,7 +25,7 @@ from openral_data.formats.parquetfile import read_table
 from openral_data.metrics.quality import breadth, views
 from openral_data.metrics.quality.camera import MEASURES as CAMERA_MEASURES
 from openral_data.metrics.quality.camera import CameraQuality, camera_quality, stalled
-from openral_data.metrics.quality.episode import FINDINGS, MOVING, SPEED, Array, Ranges, episode_motion
+from openral_data.metrics.quality.episode import FINDINGS, MOVING, Array, Ranges, episode_motion
 from openral_data.metrics.quality.findings import Finding
 from openral_data.metrics.quality.pictures import ImageColumns, picture_cameras
 from openral_data.metrics.quality.table import FRAME_SCHEMA, SAMPLE_SCHEMA
@@ -115,14 +115,12 @@ def episode_cameras(
     stride: int,
     th: Thresholds,
     sinks: tuple[Sink, ImageColumns],
-    motion: tuple[Any, Any],
+    moving: Any,
 ) -> tuple[dict[str, Any], list[Finding], dict[str, CameraQuality]]:
     """The camera measures of episode `row` (meta/episodes): the worst camera's share of each fault, the first
     black frame, and which cameras raise which flag, the cameras' findings and measures; the measured frames go
-    to `sinks`' first; `motion`: the frames where the robot moves and the state's speed per frame (None:
-    unknown)."""
+    to `sinks`' first; `moving`: the frames where the robot moves (None: unknown)."""
     samples, images = sinks
-    moving, speed = motion
     worst = dict.fromkeys(CAMERA_MEASURES, 0.0)
     raised: list[str] = []
     firsts: list[int] = []
@@ -147,9 +145,6 @@ def episode_cameras(
         records = [{"episode_index": int(row["episode_index"]), "camera": key, **asdict(s)} for s in q.samples]
         samples(pa.Table.from_pylist(records, schema=SAMPLE_SCHEMA))
     found += stalled(seen, th, stride, length)
-    if speed is not None:
-        lags = {k: views.camera_lag([s.change for s in q.samples], speed, stride) for k, q in seen.items()}
-        found += views.lag_findings(lags, length, th.camera_lag_frames)
     measures = {
         **{f"camera_{m}_fraction": v for m, v in worst.items()},
         "camera_first_black": min(firsts, default=None),
@@ -172,9 +167,9 @@ def camera_pass(
         if e not in rows:
             raise DatasetError(f"{ds.root}: episode {e}: no frames in data/", code="dataset.invalid")
         rows[e][FINDINGS] += breadth.task_text([t for t in row.get("tasks") or [] if isinstance(t, str)])
-        motion = (rows[e].pop(MOVING, None), rows[e].pop(SPEED, None))
+        moving = rows[e].pop(MOVING, None)
         if cameras and int(row["length"]):
-            measures, found, seen = episode_cameras(ds, row, stride, th, (samples, images), motion)
+            measures, found, seen = episode_cameras(ds, row, stride, th, (samples, images), moving)
             rows[e].update(measures)
             rows[e][FINDINGS] += found
             lengths[e] = int(row["length"])

@@ -20,7 +20,6 @@ Ranges = dict[str, tuple[Array, Array]]
 FINDINGS = "finding_list"  # the key of a row's findings (not a column: `table.finish` writes them apart)
 DIGEST, LENGTH = "content_digest", "length"  # keys `table.finish` compares across episodes, then drops
 MOVING = "moving_frames"  # the frames where the robot moves (not idle): the camera pass reads it, then drops it
-SPEED = "state_speeds"  # the state's speed per frame: the camera pass reads it, then drops it
 
 
 @dataclass(frozen=True)
@@ -184,6 +183,5 @@ def episode_motion(
         DIGEST: breadth.digest(arrays),
         LENGTH: n,
         MOVING: ~idle,
-        SPEED: speed.get(STATE),
     }
     return row, PerFrame(speed.get(STATE), speed.get(ACTION), idle)
