@@ -61,20 +61,23 @@ def partners(action_names: list[str], state_names: list[str]) -> dict[int, int]:
     return out
 
 
-def correlation(a: Array, b: Array) -> float:
-    """Pearson correlation of two series (0.0 when either is constant or not finite)."""
-    if len(a) < 3 or not (np.isfinite(a).all() and np.isfinite(b).all()):
-        return 0.0
-    a, b = a - a.mean(), b - b.mean()
-    den = float(np.sqrt((a * a).sum() * (b * b).sum()))
-    return float((a * b).sum() / den) if den > 0 else 0.0
+def standard(a: Array) -> Array:
+    """`a` minus its mean over its norm (zeros when constant or not finite)."""
+    if not np.isfinite(a).all():
+        return np.zeros_like(a)
+    a = a - a.mean()
+    norm = float(np.sqrt((a * a).sum()))
+    return a / norm if norm > 0 else a
 
 
-def lagged(a: Array, b: Array, lag: int) -> float:
-    """Correlation of a[t] with b[t + lag]."""
-    if lag >= 0:
-        return correlation(a[: len(a) - lag], b[lag:]) if lag < len(a) else 0.0
-    return correlation(a[-lag:], b[: len(b) + lag])
+def cross(a: Array, b: Array, max_lag: int) -> Array:
+    """The correlation of a[t] with b[t + lag] for lag -max_lag..max_lag (both standardised over the whole
+    episode once; one FFT, so linear-logarithmic in the episode's length)."""
+    n = len(a)
+    size = 1 << (2 * n - 1).bit_length()
+    full = np.fft.irfft(np.conj(np.fft.rfft(standard(a), size)) * np.fft.rfft(standard(b), size), size)
+    lags = np.arange(-max_lag, max_lag + 1)
+    return np.asarray(np.where(np.abs(lags) < n, full[lags % size], 0.0), dtype=np.float64)
 
 
 def commands(action: Array, names: list[str]) -> Array:
@@ -94,12 +97,11 @@ def alignment(action: Array, state: Array, names: tuple[list[str], list[str]], t
     if n < MIN_FRAMES or not pairs:
         return []
     cmd, response = commands(action, names[0]), np.diff(state, axis=0)
-    lags = range(-MAX_LAG, MAX_LAG + 1)
     best: dict[int, tuple[float, int]] = {}  # action dim -> (best correlation with its partner, at that lag)
     for i, j in pairs.items():
-        scores = [lagged(cmd[:, i], response[:, j], lag) for lag in lags]
+        scores = cross(cmd[:, i], response[:, j], MAX_LAG)
         k = int(np.argmax(scores))
-        best[i] = (scores[k], lags[k])
+        best[i] = (float(scores[k]), k - MAX_LAG)
     common = round(float(np.median([lag for _, lag in best.values()])))
     return swaps(cmd, response, pairs, common, names[0]) + lag_findings(best, n, th)
 
@@ -110,7 +112,9 @@ def swaps(cmd: Array, response: Array, pairs: dict[int, int], lag: int, names: l
     `STRONG`), or two dimensions each following the other's partner better than their own by `SWAP_MARGIN`: it
     carries another dimension's command (two columns swapped, or mislabelled)."""
     n = len(cmd) + 1
-    own = {i: lagged(cmd[:, i], response[:, j], lag) for i, j in pairs.items()}
+    shift = {i: np.roll(standard(response[:, j]), -lag) for i, j in pairs.items()}  # partner's, lag frames on
+    unit = {i: standard(cmd[:, i]) for i in pairs}
+    own = {i: float(unit[i] @ shift[i]) for i in pairs}
     out: dict[int, Finding] = {}
     for i in pairs:
         others = [corr for k, corr in own.items() if k != i]
@@ -120,8 +124,7 @@ def swaps(cmd: Array, response: Array, pairs: dict[int, int], lag: int, names: l
         for k in pairs:
             if k == i or i in out:
                 continue
-            cross_i = lagged(cmd[:, i], response[:, pairs[k]], lag)
-            cross_k = lagged(cmd[:, k], response[:, pairs[i]], lag)
+            cross_i, cross_k = float(unit[i] @ shift[k]), float(unit[k] @ shift[i])
             if min(cross_i - own[i], cross_k - own[k]) > SWAP_MARGIN:
                 detail = f"follows {names[k]}'s state better than its own ({cross_i:.2f} against {own[i]:.2f})"
                 out[i] = Finding("action_swap", dim_subject("action", names[i]), 0, n - 1, own[i], WEAK, detail=detail)
