@@ -49,14 +49,15 @@ def words(name: str) -> tuple[str, ...]:
 
 
 def partners(action_names: list[str], state_names: list[str]) -> dict[int, int]:
-    """Action dimension -> the state dimension its name names (one state dimension per word set)."""
+    """Action dimension -> the state dimension its name names (one state dimension per word set); the gripper
+    left out (a command to open or close, not a motion the state follows step by step)."""
     index: dict[tuple[str, ...], list[int]] = {}
     for j, name in enumerate(state_names):
         index.setdefault(words(name), []).append(j)
     out = {}
     for i, name in enumerate(action_names):
         found = index.get(words(name), [])
-        if words(name) and len(found) == 1:
+        if words(name) and len(found) == 1 and "gripper" not in name.lower():
             out[i] = found[0]
     return out
 

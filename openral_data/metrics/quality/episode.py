@@ -19,7 +19,7 @@ Array = npt.NDArray[np.float64]
 Ranges = dict[str, tuple[Array, Array]]
 FINDINGS = "finding_list"  # the key of a row's findings (not a column: `table.finish` writes them apart)
 DIGEST, LENGTH = "content_digest", "length"  # keys `table.finish` compares across episodes, then drops
-MOVING = "moving_frames"  # the frames where the robot moves (not idle): the camera pass reads it, then drops it
+MOVING = "moving_frames"  # the frames where the arm moves (`arm_moving`): the camera pass reads it, then drops it
 
 
 @dataclass(frozen=True)
@@ -126,6 +126,16 @@ def timing_findings(steps: Array, th: Thresholds) -> list[Finding]:
     return out
 
 
+def arm_moving(
+    arm: dict[str, tuple[Array, list[str]]], idle: npt.NDArray[np.bool_], fps: int, th: Thresholds
+) -> npt.NDArray[np.bool_]:
+    """The frames where the arm (the state without the gripper) moves faster than `idle_speed`; without a state,
+    the frames that are not idle. A gripper closing while the arm holds still films a still scene."""
+    if STATE not in arm or not arm[STATE][1]:
+        return ~idle
+    return np.asarray(motion.speeds(arm[STATE][0], fps) >= th.idle_speed, dtype=bool)
+
+
 def row_findings(
     arrays: dict[str, Array], arm: dict[str, tuple[Array, list[str]]], steps: Array, th: Thresholds
 ) -> list[Finding]:
@@ -182,6 +192,6 @@ def episode_motion(
         FINDINGS: found,
         DIGEST: breadth.digest(arrays),
         LENGTH: n,
-        MOVING: ~idle,
+        MOVING: arm_moving(arm, idle, fps, th),
     }
     return row, PerFrame(speed.get(STATE), speed.get(ACTION), idle)

@@ -63,7 +63,8 @@ KINDS: dict[str, dict[str, float | int]] = {
     "default": {},
     "scripted": {"idle_flag": 0.125, "action_lag_frames": 4},  # calibrated (benchmarks/calibrate_quality.py)
     "policy": {},
-    "person": {"jerk_reversal_share": 0.6, "idle_flag": 0.15, "teleport_step": 0.3},  # calibrated
+    # calibrated: a person's fingers snap open and shut within a frame, next to a slow arm
+    "person": {"jerk_reversal_share": 0.6, "idle_flag": 0.15, "teleport_step": 0.3, "teleport_factor": 12.0},
     # the mock scene's random rSkill writes its step counter into a state dimension named as a joint
     "random": {"jerk_min_reversals": 10**9, "chatter_min_toggles": 10**9, "degrees_limit": 1e9},
 }
