@@ -241,6 +241,7 @@ def main() -> None:
     p.add_argument("--tolerance", type=int, default=2)
     p.add_argument("--sweep", action="store_true", help="choose thresholds on the tuning half")
     p.add_argument("--sweep-only", nargs="*", default=[], help="sweep only these thresholds (names)")
+    p.add_argument("--held-out-only", action="store_true", help="measure the held-out half only (no tuning half)")
     p.add_argument("--markdown", type=Path, help="write the held-out table here")
     p.add_argument("--results", type=Path, help="write every number as JSON here")
     args = p.parse_args()
@@ -252,7 +253,7 @@ def main() -> None:
         for d in th:
             th[d], why = sweep(work, units, kinds, args.tolerance, d, tuple(args.sweep_only))
             notes += why
-    tuning = evaluate(work, units, kinds, th, args.tolerance, "tuning")
+    tuning = None if args.held_out_only else evaluate(work, units, kinds, th, args.tolerance, "tuning")
     held = evaluate(work, units, kinds, th, args.tolerance, "held-out")
     table = markdown(held, th, units, "held-out")
     print(table)

@@ -13,8 +13,11 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from openral_data.metrics.quality import DEFAULT
+from openral_data.metrics.quality.thresholds import for_kind
 from tests.support import data_faults as df
 from tests.support import quality as q
 
@@ -22,12 +25,18 @@ N = 60
 # every kind the engine finds on this episode; the others (named in docs/stats.md, "Calibration") are not
 # detected yet, or do not apply to it (a quaternion, a second camera)
 DETECTED = (
+    "idle_head",
+    "idle_tail",
     "frozen_camera",
     "black_camera",
     "blur",
+    "dropped_frames",
+    "duplicated_frames",
     "timestamp_gap",
     "gripper_chatter",
+    "clipping",
     "nan",
+    "teleport",
 )
 
 
@@ -65,3 +74,51 @@ def test_shuffled_tasks_move_every_task_to_another_episode(clean: tuple[Path, df
     read = [df.load(root, e).task for e in range(3)]
     assert sorted(read) == sorted(texts) and all(r != t for r, t in zip(read, texts, strict=True))
     assert [t.kind for t in truths] == ["shuffled_tasks"] * 3
+
+
+def test_an_angle_written_in_degrees_is_found(clean: tuple[Path, df.Clean], tmp_path: Path) -> None:
+    """The state's joints named as angles: clean they raise nothing; one of them in degrees is `degrees` over
+    the whole episode (beyond 2π + 0.5: no angle in radians is), and no other dimension is."""
+    _, episode = clean
+    named = replace(episode, state_names=("joint_0", "joint_1", "joint_2"))
+    assert df.findings(df.write(tmp_path / "radians", [named])) == {}
+    faulty, truth = df.inject(named, "degrees_as_radians", seed=3)
+    got = df.findings(df.write(tmp_path / "degrees", [faulty])).get(0, [])
+    degrees = [f["subject"] for f in got if f["check"] == "degrees"]
+    assert degrees == [f"observation.state[joint_{truth.dims[0]}]"]
+    assert df.found(df.labelled(truth, faulty), got, tol=2) == (True, True)
+
+
+def test_swapped_and_shifted_actions_are_found(clean: tuple[Path, df.Clean], tmp_path: Path) -> None:
+    """Action dimensions named as the state's: clean, each drives its own state dimension at once; two swapped
+    are `action_swap`, actions 5 frames early are `action_lag` (a scripted expert's limit: 4 frames)."""
+    _, episode = clean
+    named = replace(
+        episode, state_names=("joint_0", "joint_1", "joint_2"), action_names=("joint_0", "joint_1", "gripper")
+    )
+    th = for_kind(DEFAULT, "scripted")
+    assert df.findings(df.write(tmp_path / "clean", [named]), th) == {}
+    for kind in ("swapped_actions", "action_shift"):
+        faulty, truth = df.inject(named, kind, seed=3)
+        got = df.findings(df.write(tmp_path / kind, [faulty]), th).get(0, [])
+        assert df.found(df.labelled(truth, faulty), got, tol=2) == (True, True), (kind, got)
+        assert {f["check"] for f in got} == {"action_swap" if kind == "swapped_actions" else "action_lag"}, got
+
+
+def test_an_upside_down_camera_is_found_against_the_other_episodes(
+    clean: tuple[Path, df.Clean], tmp_path: Path
+) -> None:
+    """Four episodes filming one scene (bright above, dark below, noise on top): the one whose camera is turned
+    180° is `camera_flipped` over the whole episode, the others raise nothing (no reference picture needed)."""
+    _, episode = clean
+    rng = np.random.default_rng(0)
+    scene = np.repeat(np.linspace(220, 40, episode.images["cam"].shape[1])[:, None], episode.images["cam"].shape[2], 1)
+    episodes = []
+    for e in range(4):  # each its own state (else `duplicate_episode`)
+        noise = rng.integers(-30, 30, episode.images["cam"].shape)
+        images = {"cam": np.clip(scene[None, :, :, None] + noise, 0, 255).astype(np.uint8)}
+        episodes.append(replace(episode, state=episode.state + np.float32(0.01 * e), images=images))
+    episodes[2], truth = df.inject(episodes[2], "upside_down", seed=3)
+    got = df.findings(df.write(tmp_path / "flipped", episodes))
+    assert sorted(got) == [2] and [f["check"] for f in got[2]] == ["camera_flipped"]
+    assert df.found(df.labelled(truth, episodes[2]), got[2], tol=2) == (True, True)

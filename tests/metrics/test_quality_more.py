@@ -86,7 +86,12 @@ def test_threshold_options_change_the_flags(tmp_path: Path) -> None:
     default = json.loads(_ok("quality", str(root), "--format", "json"))["quality"][0]
     assert default["idle"] == 1  # 30 of 40 frames idle: 0.75 >= 0.5
     looser = json.loads(
-        _ok("quality", str(root), "--threshold", "idle-flag=0.9", "--threshold", "jerk_step=0.5", "--format", "json")
+        _ok(
+            "quality",
+            str(root),
+            *("--threshold", "idle-flag=0.9", "--threshold", "idle-edge=0.9", "--threshold", "jerk_step=0.5"),
+            *("--format", "json"),
+        )
     )["quality"][0]
     assert (looser["idle"], looser["jerky"], looser["flagged"]) == (0, 0, 0)
     for pair, says in [
@@ -105,6 +110,6 @@ def test_python_api(tmp_path: Path) -> None:
     got = openral_data.quality(root)
     assert got.computed and [r["idle"] for r in got.table.to_pylist()] == [False, True, False]
     assert not openral_data.quality(str(root)).computed  # cached
-    loose = openral_data.quality(root, thresholds=Thresholds(idle_flag=0.9))
+    loose = openral_data.quality(root, thresholds=Thresholds(idle_flag=0.9, idle_edge=0.9))  # its head: 3/4
     assert loose.computed and not any(r["idle"] for r in loose.table.to_pylist())
     assert "quality" in openral_data.__all__ and "Thresholds" in openral_data.__all__

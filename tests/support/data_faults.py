@@ -66,20 +66,20 @@ EXPECTED: dict[str, tuple[str, ...]] = {
     "frozen_camera": ("camera_frozen", "camera_stalled"),
     "black_camera": ("camera_black",),
     "blur": ("camera_blurred",),
-    "dropped_frames": ("teleport",),
-    "duplicated_frames": ("frozen",),
+    "dropped_frames": ("frame_drop",),
+    "duplicated_frames": ("repeated_rows",),
     "timestamp_gap": ("gap",),
     "quaternion_flip": ("quat_flip",),
     "angle_wrap": ("angle_wrap",),
-    "swapped_actions": ("action_swap", "action_state"),
-    "degrees_as_radians": ("degrees", "limits", "units"),
-    "action_shift": ("lag", "action_lag"),
+    "swapped_actions": ("action_swap",),
+    "degrees_as_radians": ("degrees",),
+    "action_shift": ("action_lag",),
     "gripper_chatter": ("chatter",),
     "clipping": ("clipped",),
     "nan": ("non_finite",),
     "teleport": ("teleport",),
-    "camera_lag": ("camera_lag", "camera_out_of_step"),
-    "upside_down": ("upside_down", "camera_flipped"),
+    "camera_lag": ("camera_lag",),  # no check yet (docs/stats.md, "Calibration")
+    "upside_down": ("camera_flipped",),
 }
 CAMERA_KINDS = ("frozen_camera", "black_camera", "blur", "camera_lag", "upside_down")
 

@@ -1,13 +1,12 @@
 """The checks beyond motion and cameras, each a list of `Finding`s with frames: non-finite values, quaternion
-sign flips and norms, angle wraps (`metrics.signals`, doctor's functions), state teleports, duplicated
-dimensions, the task text, duplicate episodes and episode-length outliers (docs/stats.md, "Quality")."""
+sign flips and norms, angle wraps (`metrics.signals`, doctor's functions), duplicated dimensions, the task
+text, duplicate episodes and episode-length outliers (docs/stats.md, "Quality")."""
 
 from __future__ import annotations
 
 import hashlib
 import re
 import unicodedata
-import warnings
 
 import numpy as np
 import numpy.typing as npt
@@ -59,26 +58,6 @@ def angle_wraps(x: Array, names: list[str], feature: str) -> list[Finding]:
         for s in signals.angle_wraps(x, feature, names)
         for f in s.frames
     ]
-
-
-def teleports(z: Array, names: list[str], feature: str, th: Thresholds) -> list[Finding]:
-    """`teleport`: a state dimension (`z` in dataset-range units, `names` its columns; quaternion components
-    left to `quaternions`) jumping between two frames more than `teleport_step` of its range and more than
-    `teleport_factor` times its median step in the episode; the frame it lands on (at most 5)."""
-    if len(z) < 3:
-        return []
-    quat = {names[i] for _, dims in signals.quaternion_groups(feature, names) for i in dims}
-    with np.errstate(invalid="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # a dimension that never moves: no median step (NaN)
-        step = np.abs(np.diff(z, axis=0))
-        typical = np.nanmedian(np.where(step > 0, step, np.nan), axis=0)
-    out = []
-    for t, d in zip(*np.nonzero(step > th.teleport_step), strict=True):
-        value = float(step[t, d])
-        if names[d] in quat or not value > th.teleport_factor * np.nan_to_num(typical[d]):
-            continue
-        out.append(Finding("teleport", dim_subject(feature, names[d]), int(t) + 1, int(t) + 1, value, th.teleport_step))
-    return out[:5]
 
 
 def duplicated(x: Array, names: list[str], feature: str) -> list[Finding]:

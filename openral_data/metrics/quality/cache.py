@@ -34,8 +34,8 @@ from openral_data.metrics.quality.table import SCHEMA
 from openral_data.metrics.quality.thresholds import Thresholds, data_kind
 
 # of the measures: a change to how they are computed bumps it, so older tables are recomputed (2: image cameras;
-# 3: findings, and frozen/jerky/clipped measured anew)
-VERSION = 3
+# 3: findings, and frozen/jerky/clipped measured anew; 4: frame drops, repeated rows, degrees, idle edges, camera runs)
+VERSION = 4
 KEY = b"openral.quality.key"
 STRIDE = b"openral.quality.stride"
 

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from openral_data.metrics.quality import views
 from openral_data.metrics.quality.findings import Finding, runs, span_findings
 from openral_data.metrics.quality.thresholds import Thresholds
 
@@ -37,6 +38,7 @@ class Sample:
 @dataclass(frozen=True)
 class CameraQuality:
     samples: list[Sample]
+    thumb: npt.NDArray[np.float32] | None = None  # the samples' mean picture (`views.thumbnail`)
 
     def share(self, fault: str) -> float:
         """The share of the samples with `fault` (black, saturated, frozen, blurred); 0.0 without samples."""
@@ -45,24 +47,55 @@ class CameraQuality:
     def first(self, fault: str) -> int | None:
         return next((s.frame_index for s in self.samples if getattr(s, fault)), None)
 
-    def findings(self, camera: str, th: Thresholds, stride: int, length: int) -> list[Finding]:
-        """`camera_<fault>` findings, one per run of consecutive faulty samples, when the fault's share reaches
-        `camera_flag`: from half a stride before its first sample to half a stride after its last (the fault
-        began and ended somewhere between two samples: off by at most stride // 2), within the episode's
-        `length` frames."""
+    def findings(
+        self, camera: str, th: Thresholds, stride: int, length: int, moving: npt.NDArray[np.bool_] | None = None
+    ) -> list[Finding]:
+        """`camera_<fault>` findings, one per run of consecutive faulty samples (`placed`), when the fault's share
+        reaches `camera_flag` or, frozen and blurred, when the run spans `camera_run_frames` frames. A sample is
+        frozen only while the robot moved since the previous one (`moving`, per frame, when known: a still robot
+        makes a still picture); blurred runs one sample apart are one span (a flat frame between is no sharp one)."""
         out: list[Finding] = []
-        half = stride // 2
         for fault in MEASURES:
-            share = self.share(fault)
-            if share < th.camera_flag:
-                continue
             mask = np.array([getattr(s, fault) for s in self.samples], dtype=bool)
-            spans = [
-                (max(0, self.samples[a].frame_index - half), min(length - 1, self.samples[b].frame_index + half))
-                for a, b in runs(mask)
-            ]
-            out += span_findings(f"camera_{fault}", camera, spans, share, th.camera_flag, detail="share of samples")
+            if fault == "frozen" and moving is not None:
+                mask &= self.moved(moving, stride)
+            share = float(mask.mean()) if len(mask) else 0.0
+            spans = placed(self.samples, runs(mask), stride, length, fault == "frozen")
+            if fault == "blurred":
+                spans = joined(spans, stride)
+            long = fault in ("frozen", "blurred")
+            keep = [(a, b) for a, b in spans if share >= th.camera_flag or (long and b - a + 1 >= th.camera_run_frames)]
+            out += span_findings(f"camera_{fault}", camera, keep, share, th.camera_flag, detail="share of samples")
         return out
+
+    def moved(self, moving: npt.NDArray[np.bool_], stride: int) -> npt.NDArray[np.bool_]:
+        """Per sample: whether the robot moved on any frame since the previous sample."""
+        return np.array(
+            [bool(moving[max(0, s.frame_index - stride + 1) : s.frame_index + 1].any()) for s in self.samples]
+        )
+
+
+def placed(
+    samples: list[Sample], found: list[tuple[int, int]], stride: int, length: int, since_previous: bool
+) -> list[tuple[int, int]]:
+    """Runs of samples (`found`, sample positions) as frame spans within `length`: from about half a stride
+    before the first sample to half a stride after the last (the fault began and ended between two samples: off
+    by at most stride // 2). A fault measured against the previous sample (`since_previous`: frozen) began a
+    stride earlier: the previous sample shows it already."""
+    half = stride // 2
+    lead = stride + (stride - 3) // 2 if since_previous else half
+    return [(max(0, samples[a].frame_index - lead), min(length - 1, samples[b].frame_index + half)) for a, b in found]
+
+
+def joined(spans: list[tuple[int, int]], stride: int) -> list[tuple[int, int]]:
+    """Spans at most one sample apart joined."""
+    out: list[tuple[int, int]] = []
+    for a, b in spans:
+        if out and a - out[-1][1] <= stride + 1:
+            out[-1] = (out[-1][0], b)
+        else:
+            out.append((a, b))
+    return out
 
 
 def luma(rgb: npt.NDArray[np.uint8]) -> npt.NDArray[np.float32]:
@@ -83,9 +116,11 @@ def camera_quality(samples_in: Iterable[npt.NDArray[np.uint8]], stride: int, th:
     luma's standard deviation under `flat_std`: a solid colour, a blank wall), which neither could show."""
     samples: list[Sample] = []
     prev: npt.NDArray[np.float32] | None = None
+    total = np.zeros((views.THUMB, views.THUMB), dtype=np.float32)
     for k, rgb in enumerate(samples_in):
         t = k * stride
         gray = luma(rgb)
+        total += views.thumbnail(gray)
         mean, sharpness, contrast = float(gray.mean()), laplacian_var(gray), float(gray.std())
         change = None if prev is None else float(np.abs(gray - prev).mean())
         dark, bright = mean < th.black_luma, mean > th.saturated_luma
@@ -94,7 +129,7 @@ def camera_quality(samples_in: Iterable[npt.NDArray[np.uint8]], stride: int, th:
         blurred = seen and sharpness < th.blur_var
         samples.append(Sample(t, mean, change, sharpness, contrast, dark, bright, frozen, blurred))
         prev = gray
-    return CameraQuality(samples)
+    return CameraQuality(samples, (total / np.float32(len(samples))).astype(np.float32) if samples else None)
 
 
 def stalled(cameras: dict[str, CameraQuality], th: Thresholds, stride: int, length: int) -> list[Finding]:
@@ -102,7 +137,6 @@ def stalled(cameras: dict[str, CameraQuality], th: Thresholds, stride: int, leng
     camera's changes at those samples (one stream stuck while the scene moves), however short the span; placed
     like `CameraQuality.findings`."""
     out: list[Finding] = []
-    half = stride // 2
     for key, q in cameras.items():
         others = [o for k, o in cameras.items() if k != key and len(o.samples) == len(q.samples)]
         if not others or not q.samples:
@@ -110,10 +144,7 @@ def stalled(cameras: dict[str, CameraQuality], th: Thresholds, stride: int, leng
         changes = [[o.samples[i].change for o in others] for i in range(len(q.samples))]
         moving = np.array([any(c is not None and c >= th.frozen_diff for c in cs) for cs in changes], dtype=bool)
         mask = np.array([s.frozen for s in q.samples], dtype=bool) & moving
-        spans = [
-            (max(0, q.samples[a].frame_index - half), min(length - 1, q.samples[b].frame_index + half))
-            for a, b in runs(mask, 2)
-        ]
+        spans = placed(q.samples, runs(mask, 2), stride, length, True)
         share = float(mask.mean())
         out += span_findings("camera_stalled", key, spans, share, th.frozen_diff, detail="still while others move")
     return out

@@ -22,10 +22,10 @@ from openral_data.formats.lerobot_v3.features import ACTION, STATE
 from openral_data.formats.lerobot_v3.frames import decode_episode_video, depth_settings
 from openral_data.formats.lerobot_v3.reader import read_episodes
 from openral_data.formats.parquetfile import read_table
-from openral_data.metrics.quality import breadth
+from openral_data.metrics.quality import breadth, views
 from openral_data.metrics.quality.camera import MEASURES as CAMERA_MEASURES
 from openral_data.metrics.quality.camera import CameraQuality, camera_quality, stalled
-from openral_data.metrics.quality.episode import FINDINGS, Array, Ranges, episode_motion
+from openral_data.metrics.quality.episode import FINDINGS, MOVING, Array, Ranges, episode_motion
 from openral_data.metrics.quality.findings import Finding
 from openral_data.metrics.quality.pictures import ImageColumns, picture_cameras
 from openral_data.metrics.quality.table import FRAME_SCHEMA, SAMPLE_SCHEMA
@@ -110,16 +110,23 @@ def rgb_cameras(ds: DatasetSource) -> list[str]:
 
 
 def episode_cameras(
-    ds: DatasetSource, row: dict[str, Any], stride: int, th: Thresholds, samples: Sink, images: ImageColumns
-) -> tuple[dict[str, Any], list[Finding]]:
+    ds: DatasetSource,
+    row: dict[str, Any],
+    stride: int,
+    th: Thresholds,
+    sinks: tuple[Sink, ImageColumns],
+    moving: Any,
+) -> tuple[dict[str, Any], list[Finding], dict[str, CameraQuality]]:
     """The camera measures of episode `row` (meta/episodes): the worst camera's share of each fault, the first
-    black frame, and which cameras raise which flag, and the cameras' findings; the measured frames go to
-    `samples`."""
+    black frame, and which cameras raise which flag, the cameras' findings and measures; the measured frames go
+    to `sinks`' first; `moving`: the frames where the robot moves (None: unknown)."""
+    samples, images = sinks
     worst = dict.fromkeys(CAMERA_MEASURES, 0.0)
     raised: list[str] = []
     firsts: list[int] = []
     found: list[Finding] = []
     seen: dict[str, CameraQuality] = {}
+    length = int(row["length"])
     for key in rgb_cameras(ds):
         frames = (
             images.frames(row, key, stride)
@@ -127,7 +134,7 @@ def episode_cameras(
             else decode_episode_video(ds.root, ds.info, row, key, stride)
         )
         q = camera_quality(frames, stride, th)
-        found += q.findings(key, th, stride, int(row["length"]))
+        found += q.findings(key, th, stride, length, moving)
         seen[key] = q
         for measure in CAMERA_MEASURES:
             worst[measure] = max(worst[measure], q.share(measure))
@@ -137,13 +144,13 @@ def episode_cameras(
             firsts.append(first)
         records = [{"episode_index": int(row["episode_index"]), "camera": key, **asdict(s)} for s in q.samples]
         samples(pa.Table.from_pylist(records, schema=SAMPLE_SCHEMA))
-    found += stalled(seen, th, stride, int(row["length"]))
+    found += stalled(seen, th, stride, length)
     measures = {
         **{f"camera_{m}_fraction": v for m, v in worst.items()},
         "camera_first_black": min(firsts, default=None),
         "camera_flags": raised,
     }
-    return measures, found
+    return measures, found, seen
 
 
 def camera_pass(
@@ -153,15 +160,25 @@ def camera_pass(
     dataset has colour cameras."""
     cameras = bool(rgb_cameras(ds))
     images = ImageColumns(ds.root, picture_cameras(ds.info))
+    thumbs: dict[str, dict[int, Any]] = {}  # camera -> episode -> its mean picture (`views.flipped`)
+    lengths: dict[int, int] = {}
     for row in read_episodes(ds.root).to_pylist():
         e = int(row["episode_index"])
         if e not in rows:
             raise DatasetError(f"{ds.root}: episode {e}: no frames in data/", code="dataset.invalid")
         rows[e][FINDINGS] += breadth.task_text([t for t in row.get("tasks") or [] if isinstance(t, str)])
+        moving = rows[e].pop(MOVING, None)
         if cameras and int(row["length"]):
-            measures, found = episode_cameras(ds, row, stride, th, samples, images)
+            measures, found, seen = episode_cameras(ds, row, stride, th, (samples, images), moving)
             rows[e].update(measures)
             rows[e][FINDINGS] += found
+            lengths[e] = int(row["length"])
+            for key, q in seen.items():
+                if q.thumb is not None:
+                    thumbs.setdefault(key, {})[e] = q.thumb
         if progress is not None:
             progress(1)
+    for key, mine in thumbs.items():
+        for e, found in views.flipped(mine, key, lengths, th.flip_margin).items():
+            rows[e][FINDINGS] += found
     return cameras

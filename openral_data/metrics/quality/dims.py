@@ -33,26 +33,41 @@ def moves(x: Array, a: int, b: int) -> Mask:
     return np.asarray(np.nanmax(part, axis=0) > np.nanmin(part, axis=0), dtype=bool)
 
 
+USUAL_HELD = 0.5  # `frozen`: a dimension held on at most this share of its other frames normally changes
+
+
+def flat_extreme(column: Array, a: int, b: int) -> bool:
+    """Whether frames a..b of `column` (one value) are a flat top or bottom: entered and left from the same side."""
+    if a == 0 or b >= len(column) - 1:
+        return False
+    before, after = np.sign(column[a - 1] - column[a]), np.sign(column[b + 1] - column[b])
+    return bool(before == after != 0)
+
+
 def frozen_state(
     x: Array,
     limits: tuple[Array, Array],
     names: list[str],
     varies: Mask,
     commands: dict[int, Array],
-    min_frames: int,
+    lengths: tuple[int, int],
     feature: str,
 ) -> list[Finding]:
     """State dimensions (varying in the dataset, `varies`) that take more than one value in the episode and hold
-    one exact value for `min_frames` frames or more while they should move: the action dimension of the same
-    name moved over that span (`commands`: state dim -> that action column), else, without one, another state
-    dimension did. A sensor read by physics or an encoder never repeats itself bit for bit while the arm moves:
-    a stale reading does. A value held on the dimension's observed min or max is a limit (`clipped` when a flat
-    top), not a stale reading."""
+    one exact value while they should move: the action dimension of the same name moved over that span
+    (`commands`: state dim -> that action column), else, without one, another state dimension did. Held on a
+    flat top or bottom (entered and left from the same side) for `lengths[0]` frames or more, inside the range:
+    `clipped` (a limit the dataset's extremes do not show); else held `lengths[1]` frames or more by a dimension
+    that normally changes every frame (held on at most `USUAL_HELD` of its other frames): `frozen`. A sensor read
+    by physics or an encoder never repeats itself bit for bit while the arm moves: a stale reading does; a hand
+    dimension a person leaves still while the arm moves repeats itself most of the time. A value held on the
+    dimension's observed min or max is a limit (`clipped` when a flat top, `at_extremes`), not a stale reading."""
     out: list[Finding] = []
     hold = held(x)
+    clip_min, min_frames = lengths
     for d in np.flatnonzero(varies):
-        spans = []
-        for a, b in constant_runs(hold[:, d], min_frames):
+        spans: dict[str, list[tuple[int, int]]] = {"frozen": [], "clipped": []}
+        for a, b in constant_runs(hold[:, d], min(lengths)):
             if (a == 0 and b == len(x) - 1) or x[a, d] in (limits[0][d], limits[1][d]):
                 continue  # one value all along: unused in this episode (`constant`); on a limit: not stale
             command = commands.get(int(d))
@@ -60,12 +75,25 @@ def frozen_state(
                 moving = bool(np.nanmax(command[a : b + 1]) > np.nanmin(command[a : b + 1]))
             else:
                 moving = bool(moves(x, a, b)[[o for o in np.flatnonzero(varies) if o != d]].any())
-            if moving:
-                spans.append((a, b))
-        longest = max((b - a + 1 for a, b in spans), default=0)
+            if not moving:
+                continue
+            if flat_extreme(x[:, d], a, b):
+                if b - a + 1 >= clip_min:
+                    spans["clipped"].append((a, b))
+            elif b - a + 1 >= min_frames and usually_changes(hold[:, d], a, b):
+                spans["frozen"].append((a, b))
         subject = dim_subject(feature, names[d])
-        out += span_findings("frozen", subject, spans, float(longest), float(min_frames), detail="held while moving")
+        for check, found in spans.items():
+            longest = float(max((b - a + 1 for a, b in found), default=0))
+            limit, detail = (min_frames, "held while moving") if check == "frozen" else (clip_min, "flat top")
+            out += span_findings(check, subject, found, longest, float(limit), detail=detail)
     return out
+
+
+def usually_changes(column: Mask, a: int, b: int) -> bool:
+    """Whether a `held` column holds on at most `USUAL_HELD` of its frames outside a..b."""
+    others = len(column) - (b - a + 1)
+    return others > 0 and float(column.sum() - column[a : b + 1].sum()) / others <= USUAL_HELD
 
 
 def constant_tails(x: Array, names: list[str], varies: Mask, min_frames: int, feature: str) -> list[Finding]:

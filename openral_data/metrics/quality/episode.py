@@ -10,7 +10,7 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.formats.lerobot_v3.features import ACTION, STATE
-from openral_data.metrics.quality import breadth, dims, motion, timing
+from openral_data.metrics.quality import alignment, breadth, dims, motion, rows, timing
 from openral_data.metrics.quality.findings import Finding, dim_subject, runs, span_findings
 from openral_data.metrics.quality.thresholds import Thresholds
 from openral_data.metrics.sources import DatasetSource
@@ -19,6 +19,7 @@ Array = npt.NDArray[np.float64]
 Ranges = dict[str, tuple[Array, Array]]
 FINDINGS = "finding_list"  # the key of a row's findings (not a column: `table.finish` writes them apart)
 DIGEST, LENGTH = "content_digest", "length"  # keys `table.finish` compares across episodes, then drops
+MOVING = "moving_frames"  # the frames where the arm moves (`arm_moving`): the camera pass reads it, then drops it
 
 
 @dataclass(frozen=True)
@@ -29,10 +30,19 @@ class PerFrame:
 
 
 def idle_findings(idle: npt.NDArray[np.bool_], th: Thresholds) -> list[Finding]:
-    share = float(idle.mean()) if len(idle) else 0.0
-    if share < th.idle_flag:
-        return []
-    return span_findings("idle", "episode", runs(idle, 2), share, th.idle_flag, detail="idle share of frames")
+    """`idle` over every idle run when the idle share reaches `idle_flag`; else over an idle head or tail at
+    least `idle_edge` of the episode long (value: its share of the frames)."""
+    n = len(idle)
+    share = float(idle.mean()) if n else 0.0
+    if share >= th.idle_flag:
+        return span_findings("idle", "episode", runs(idle, 2), share, th.idle_flag, detail="idle share of frames")
+    head, tail = motion.run_lengths(idle)
+    edges = [(0, head - 1, head, "idle head"), (n - tail, n - 1, tail, "idle tail")]
+    return [
+        Finding("idle", "episode", a, b, k / n, th.idle_edge, detail=what)
+        for a, b, k, what in edges
+        if k >= 2 and k >= th.idle_edge * n
+    ]
 
 
 def jerk_findings(z: Array, names: list[str], feature: str, fps: int, th: Thresholds) -> tuple[list[Finding], float]:
@@ -63,7 +73,7 @@ def vector_findings(
         commands = {d: arrays[ACTION][:, action_names.index(nm)] for d, nm in enumerate(names) if nm in action_names}
         tops = dims.at_extremes(x, lo, hi, moving, th.clip_plateau, interior=True)
         share = dims.share_of(tops, n)
-        found += dims.frozen_state(x, (lo, hi), names, varies, commands, th.frozen_min_frames, key)
+        found += dims.frozen_state(x, (lo, hi), names, varies, commands, (th.clip_plateau, th.frozen_min_frames), key)
         for d, spans in tops.items():
             subject = dim_subject(key, names[d])
             found += span_findings("clipped", subject, spans, share, th.clip_flag, share >= th.clip_flag)
@@ -74,7 +84,7 @@ def vector_findings(
             found += span_findings("saturated", dim_subject(key, names[d]), spans, share, None, False)
     trajectory = motion.normalised(x[:, varies], lo[varies], hi[varies])
     if key == STATE:
-        found += breadth.teleports(trajectory, [names[d] for d in moving], key, th)
+        found += rows.degrees(x, names, key, th)
     found += breadth.non_finite(x, names, key) + breadth.quaternions(x, names, key, th)
     found += breadth.angle_wraps(x, names, key) + breadth.duplicated(x, names, key)
     return found, (share if moving and n else None), trajectory, [names[d] for d in moving]
@@ -116,6 +126,29 @@ def timing_findings(steps: Array, th: Thresholds) -> list[Finding]:
     return out
 
 
+def arm_moving(
+    arm: dict[str, tuple[Array, list[str]]], idle: npt.NDArray[np.bool_], fps: int, th: Thresholds
+) -> npt.NDArray[np.bool_]:
+    """The frames where the arm (the state without the gripper) moves faster than `idle_speed`; without a state,
+    the frames that are not idle. A gripper closing while the arm holds still films a still scene."""
+    if STATE not in arm or not arm[STATE][1]:
+        return ~idle
+    return np.asarray(motion.speeds(arm[STATE][0], fps) >= th.idle_speed, dtype=bool)
+
+
+def row_findings(
+    arrays: dict[str, Array], arm: dict[str, tuple[Array, list[str]]], steps: Array, th: Thresholds
+) -> list[Finding]:
+    """`frame_drop`, `repeated_rows` and `teleport` (frame drops aside) of the state trajectory `arm` holds."""
+    if STATE not in arm:
+        return []
+    z, names = arm[STATE]
+    late = (steps > th.gap_frames) | (steps <= 0)
+    drops = rows.frame_drops(z, late, th)
+    found = rows.frame_drop_findings(drops, th) + rows.teleports(z, names, STATE, th, {f for f, _ in drops})
+    return found + rows.repeated_rows(list(arrays.values()), z, th)
+
+
 def episode_motion(
     ds: DatasetSource, arrays: dict[str, Array], timestamps: Array, ranges: Ranges, th: Thresholds
 ) -> tuple[dict[str, Any], PerFrame]:
@@ -140,7 +173,10 @@ def episode_motion(
         found += more
     grip, toggles = gripper_findings(ds, arrays, ranges, n, th)
     steps = timing.timestamp_steps(timestamps, fps)
-    found += grip + timing_findings(steps, th)
+    found += grip + timing_findings(steps, th) + row_findings(arrays, arm, steps, th)
+    if STATE in arrays and ACTION in arrays:
+        pair = (ds.dim_names(ACTION), ds.dim_names(STATE))
+        found += alignment.alignment(arrays[ACTION], arrays[STATE], pair, th)
     row = {
         "idle_fraction": float(idle.mean()) if n else 0.0,
         "idle_head": head,
@@ -156,5 +192,6 @@ def episode_motion(
         FINDINGS: found,
         DIGEST: breadth.digest(arrays),
         LENGTH: n,
+        MOVING: arm_moving(arm, idle, fps, th),
     }
     return row, PerFrame(speed.get(STATE), speed.get(ACTION), idle)

@@ -9,7 +9,7 @@ import pyarrow as pa
 
 from openral_data.metrics.quality import breadth
 from openral_data.metrics.quality.camera import MEASURES as CAMERA_MEASURES
-from openral_data.metrics.quality.episode import DIGEST, FINDINGS, LENGTH
+from openral_data.metrics.quality.episode import DIGEST, FINDINGS, LENGTH, MOVING
 from openral_data.metrics.quality.findings import FINDING_SCHEMA, Finding, finding_rows, flagged_checks, labels
 from openral_data.metrics.quality.thresholds import Thresholds
 
@@ -60,6 +60,7 @@ FLAGS = (
     *(f"camera_{m}" for m in CAMERA_MEASURES),
     "camera_stalled",
     *("non_finite", "quat_flip", "quat_norm", "angle_wrap", "teleport", "duplicated"),
+    *("frame_drop", "repeated_rows", "degrees", "action_swap", "action_lag", "camera_flipped"),
     *("task_text", "duplicate_episode", "length_outlier"),
 )
 SCHEMA = pa.schema(
@@ -89,6 +90,7 @@ def finish(
     for e, more in breadth.length_outliers({e: r.pop(LENGTH) for e, r in rows.items()}, th).items():
         across[e] = across.get(e, []) + more
     for e in sorted(rows):
+        rows[e].pop(MOVING, None)
         row = {"episode_index": e, **rows[e], "camera_stride": stride if has_cameras else None, "data_kind": kind}
         findings: list[Finding] = row.pop(FINDINGS) + across.get(e, [])
         if not has_cameras:

@@ -20,6 +20,7 @@ from openral_data.formats.lerobot_v3.provenance import read_provenance
 class Thresholds:
     idle_speed: float = 0.02  # a frame is idle when state and action move less than this (range / second)
     idle_flag: float = 0.5  # `idle` when at least this share of the episode's frames is idle
+    idle_edge: float = 0.18  # ... or when its idle head or tail alone is at least this share of its frames
     frozen_min_frames: int = 10  # a state dimension held bit for bit this many frames while it should move
     jerk_window_s: float = 2.0  # `jerky`: windows this long (s)...
     jerk_step: float = 0.002  # ... counting steps larger than this (range units) on both sides of a frame...
@@ -37,9 +38,15 @@ class Thresholds:
     blur_var: float = 10.0  # ... blurred when the variance of its Laplacian is below this
     flat_std: float = 4.0  # ... and neither frozen nor blurred when flat: its luma's standard deviation below this
     camera_flag: float = 0.1  # a camera flag is raised when this share of the sampled frames has the fault
+    camera_run_frames: int = 9  # ... or a run of frozen (while the robot moves) or blurred samples spans this many
+    flip_margin: float = 0.15  # `camera_flipped`: correlation with the others' picture turned 180° minus as it is
     quat_norm: float = 0.05  # `quat_norm`: a quaternion whose norm is off 1 by more than this
-    teleport_step: float = 0.5  # `teleport`: a state dimension moving more than this share of its range in a frame
-    teleport_factor: float = 10.0  # ... and more than this many times its median step in the episode
+    teleport_step: float = 0.1  # `teleport`: a state dimension moving more than this share of its range in a frame
+    teleport_factor: float = 5.0  # ... and more than this many times its local speed (median step nearby)
+    drop_factor: float = 4.5  # `frame_drop`: state and action both stepping this many times their neighbours' steps
+    degrees_limit: float = 6.8  # `degrees`: an angle-named state dimension beyond ± this (rad; 2π + 0.5) is not radians
+    action_lag_frames: int = 6  # `action_lag`: the state following the action more than this many frames off
+    repeat_max: int = 4  # `repeated_rows`: state and action repeated bit for bit for 1..this many frames mid-motion
     length_ratio: float = 4.0  # `length_outlier`: an episode this many times longer or shorter than the median
 
     def as_json(self) -> dict[str, Any]:
@@ -54,10 +61,12 @@ DEFAULT_STRIDE = 5  # every 5th frame of each camera is measured (all frames are
 # a scripted expert and a trained policy take the defaults.
 KINDS: dict[str, dict[str, float | int]] = {
     "default": {},
-    "scripted": {"idle_flag": 0.125, "teleport_step": 0.125},  # calibrated (benchmarks/calibrate_quality.py)
+    "scripted": {"idle_flag": 0.125, "action_lag_frames": 4},  # calibrated (benchmarks/calibrate_quality.py)
     "policy": {},
-    "person": {"jerk_reversal_share": 0.6, "idle_flag": 0.15, "teleport_step": 1.0},  # calibrated
-    "random": {"jerk_min_reversals": 10**9, "chatter_min_toggles": 10**9},
+    # calibrated: a person's fingers snap open and shut within a frame, next to a slow arm
+    "person": {"jerk_reversal_share": 0.6, "idle_flag": 0.15, "teleport_step": 0.3, "teleport_factor": 12.0},
+    # the mock scene's random rSkill writes its step counter into a state dimension named as a joint
+    "random": {"jerk_min_reversals": 10**9, "chatter_min_toggles": 10**9, "degrees_limit": 1e9},
 }
 SCRIPTED = ("scripted", "metaworld_expert", "sweep", "zero", "mimicgen")  # rSkill policies that follow a script
 

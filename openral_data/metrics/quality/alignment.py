@@ -1,0 +1,146 @@
+"""Whether one episode's action drives its state as it should, each a list of `Finding`s: two action dimensions
+swapped (`action_swap`) and the action shifted in time against the state (`action_lag`) (docs/stats.md,
+"Quality").
+
+An action dimension is paired with the state dimension its name names (`partners`): the same name, or the same
+words once the generic ones are dropped (`delta_x` and `eef_x`, `joint_0_vel` and `joint_0`, `action_3` and
+`observation.state_3`). Its command is the action itself when it is a velocity or a delta (`delta`/`vel` in its
+name), else its change per frame; the state's response is its partner's change per frame. Both are compared by
+correlation, `MAX_LAG` frames either way.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import numpy.typing as npt
+
+from openral_data.metrics.quality.findings import Finding, dim_subject
+from openral_data.metrics.quality.thresholds import Thresholds
+
+Array = npt.NDArray[np.float64]
+GENERIC = {
+    "delta",
+    "vel",
+    "velocity",
+    "pos",
+    "position",
+    "action",
+    "observation",
+    "state",
+    "eef",
+    "ee",
+    "hand",
+    "joint",
+    "cmd",
+    "target",
+}
+VELOCITY = re.compile(r"delta|vel", re.IGNORECASE)
+MAX_LAG = 15  # frames the action is searched ahead of / behind the state
+MIN_FRAMES = 30  # fewer frames: too few to correlate
+SWAP_MARGIN = 0.3  # `action_swap`: each of two dimensions follows the other's partner this much better
+WEAK = 0.3  # a pair correlating less than this at its best lag: the action does not drive that state
+STRONG = 0.6  # `action_swap`: ... while the other pairs correlate at least this (median)
+
+
+def words(name: str) -> tuple[str, ...]:
+    return tuple(w for w in re.split(r"[^a-z0-9]+", name.lower()) if w and w not in GENERIC)
+
+
+def partners(action_names: list[str], state_names: list[str]) -> dict[int, int]:
+    """Action dimension -> the state dimension its name names (one state dimension per word set); the gripper
+    left out (a command to open or close, not a motion the state follows step by step)."""
+    index: dict[tuple[str, ...], list[int]] = {}
+    for j, name in enumerate(state_names):
+        index.setdefault(words(name), []).append(j)
+    out = {}
+    for i, name in enumerate(action_names):
+        found = index.get(words(name), [])
+        if words(name) and len(found) == 1 and "gripper" not in name.lower():
+            out[i] = found[0]
+    return out
+
+
+def standard(a: Array) -> Array:
+    """`a` minus its mean over its norm (zeros when constant or not finite)."""
+    if not np.isfinite(a).all():
+        return np.zeros_like(a)
+    a = a - a.mean()
+    norm = float(np.sqrt((a * a).sum()))
+    return a / norm if norm > 0 else a
+
+
+def cross(a: Array, b: Array, max_lag: int) -> Array:
+    """The correlation of a[t] with b[t + lag] for lag -max_lag..max_lag (both standardised over the whole
+    episode once; one FFT, so linear-logarithmic in the episode's length)."""
+    n = len(a)
+    size = 1 << (2 * n - 1).bit_length()
+    full = np.fft.irfft(np.conj(np.fft.rfft(standard(a), size)) * np.fft.rfft(standard(b), size), size)
+    lags = np.arange(-max_lag, max_lag + 1)
+    return np.asarray(np.where(np.abs(lags) < n, full[lags % size], 0.0), dtype=np.float64)
+
+
+def commands(action: Array, names: list[str]) -> Array:
+    """Per action dimension, what the state's change per frame should follow (row t: the step from t to t+1)."""
+    step = np.diff(action, axis=0)
+    out = action[:-1].copy()
+    for i, name in enumerate(names):
+        if not VELOCITY.search(name):
+            out[:, i] = step[:, i]
+    return out
+
+
+def alignment(action: Array, state: Array, names: tuple[list[str], list[str]], th: Thresholds) -> list[Finding]:
+    """`action_swap` and `action_lag` of one episode (`names`: the action's and the state's dimension names)."""
+    n = len(action)
+    pairs = {i: j for i, j in partners(*names).items() if np.ptp(state[:, j]) > 0 and np.ptp(action[:, i]) > 0}
+    if n < MIN_FRAMES or not pairs:
+        return []
+    cmd, response = commands(action, names[0]), np.diff(state, axis=0)
+    best: dict[int, tuple[float, int]] = {}  # action dim -> (best correlation with its partner, at that lag)
+    for i, j in pairs.items():
+        scores = cross(cmd[:, i], response[:, j], MAX_LAG)
+        k = int(np.argmax(scores))
+        best[i] = (float(scores[k]), k - MAX_LAG)
+    common = round(float(np.median([lag for _, lag in best.values()])))
+    return swaps(cmd, response, pairs, common, names[0]) + lag_findings(best, n, th)
+
+
+def swaps(cmd: Array, response: Array, pairs: dict[int, int], lag: int, names: list[str]) -> list[Finding]:
+    """`action_swap`, every pair compared at the episode's lag (`lag`): an action dimension that does not drive
+    its partner (correlation under `WEAK`) while the episode's other paired dimensions do (their median at least
+    `STRONG`), or two dimensions each following the other's partner better than their own by `SWAP_MARGIN`: it
+    carries another dimension's command (two columns swapped, or mislabelled)."""
+    n = len(cmd) + 1
+    shift = {i: np.roll(standard(response[:, j]), -lag) for i, j in pairs.items()}  # partner's, lag frames on
+    unit = {i: standard(cmd[:, i]) for i in pairs}
+    own = {i: float(unit[i] @ shift[i]) for i in pairs}
+    out: dict[int, Finding] = {}
+    for i in pairs:
+        others = [corr for k, corr in own.items() if k != i]
+        if len(others) >= 2 and own[i] < WEAK and float(np.median(others)) >= STRONG:
+            detail = f"correlates {own[i]:.2f} with its state while the others {float(np.median(others)):.2f}"
+            out[i] = Finding("action_swap", dim_subject("action", names[i]), 0, n - 1, own[i], WEAK, detail=detail)
+        for k in pairs:
+            if k == i or i in out:
+                continue
+            cross_i, cross_k = float(unit[i] @ shift[k]), float(unit[k] @ shift[i])
+            if min(cross_i - own[i], cross_k - own[k]) > SWAP_MARGIN:
+                detail = f"follows {names[k]}'s state better than its own ({cross_i:.2f} against {own[i]:.2f})"
+                out[i] = Finding("action_swap", dim_subject("action", names[i]), 0, n - 1, own[i], WEAK, detail=detail)
+    return [out[i] for i in sorted(out)]
+
+
+def lag_findings(best: dict[int, tuple[float, int]], n: int, th: Thresholds) -> list[Finding]:
+    """`action_lag`: the state following the action (its pairs correlating at least `WEAK`, their median best
+    lag) more than `action_lag_frames` frames later or earlier than at once (row t: the action at t, or its step
+    to t + 1, against the state's step from t to t + 1)."""
+    strong = [lag for corr, lag in best.values() if corr >= WEAK]
+    if not strong:
+        return []
+    lag = float(np.median(strong))
+    if abs(lag) <= th.action_lag_frames:
+        return []
+    detail = f"the state follows the action {lag:g} frames later"
+    return [Finding("action_lag", "action", 0, n - 1, lag, float(th.action_lag_frames), detail=detail)]

@@ -1,0 +1,126 @@
+"""Checks on whole rows of one episode and on a dimension's units, each a list of `Finding`s with frames: a
+hidden frame drop (`frame_drop`), rows written again (`repeated_rows`), a state dimension far off its local speed
+(`teleport`) and an angle written in degrees (`degrees`) (docs/stats.md, "Quality")."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import numpy.typing as npt
+
+from openral_data.metrics import signals
+from openral_data.metrics.quality.findings import Finding, dim_subject, runs
+from openral_data.metrics.quality.thresholds import Thresholds
+
+Array = npt.NDArray[np.float64]
+REPEATS = 2  # `repeated_rows`: an episode with more places repeating rows repeats them by nature
+NEAR = 5  # frames either side whose steps make a step's local speed
+STEADY = 0.5  # `frame_drop`: the two neighbouring steps within this ratio of each other (steady motion)
+ALIGN = 0.8  # `frame_drop`: the step's direction against its neighbours' (cosine): the same motion, further on
+
+
+def local_speed(step: Array) -> Array:
+    """(steps, dims) absolute steps -> the mean of the `NEAR` steps either side of each, itself left out (fewer
+    at the episode's ends); a running sum, so linear in the episode's length."""
+    n = len(step)
+    total = np.concatenate([np.zeros((1, step.shape[1])), np.cumsum(np.nan_to_num(step), axis=0)])
+    t = np.arange(n)
+    lo, hi = np.maximum(t - NEAR, 0), np.minimum(t + NEAR + 1, n)
+    count = (hi - lo - 1).clip(min=1)[:, None]
+    return np.asarray((total[hi] - total[lo] - np.nan_to_num(step)) / count, dtype=np.float64)
+
+
+def teleports(z: Array, names: list[str], feature: str, th: Thresholds, skip: set[int]) -> list[Finding]:
+    """`teleport`: a state dimension (`z` in dataset-range units, quaternion components left to `quat_flip`)
+    stepping between two frames more than `teleport_step` of its range and more than `teleport_factor` times its
+    local speed (the mean step within `NEAR` frames; still there, its median step when it moves); the frame
+    it lands on (the 5 largest jumps; frames in `skip`, a frame drop, left out)."""
+    if len(z) < 3:
+        return []
+    quat = {names[i] for _, dims in signals.quaternion_groups(feature, names) for i in dims}
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a dimension that never moves: no median step (NaN)
+        step = np.abs(np.diff(z, axis=0))
+        usual = np.nan_to_num(np.nanmedian(np.where(step > 0, step, np.nan), axis=0))
+        typical = np.nan_to_num(local_speed(step))
+        typical = np.where(typical > 0, typical, usual)  # still nearby: its usual step when it moves
+        jump = (step > th.teleport_step) & (step > th.teleport_factor * typical)
+    out = []
+    hits = [(float(step[t, d]), int(t), int(d)) for t, d in zip(*np.nonzero(jump), strict=True)]
+    for _, t, d in sorted(hits, reverse=True):
+        if names[d] in quat or t + 1 in skip:
+            continue
+        value = float(step[t, d] / typical[t, d]) if typical[t, d] > 0 else math.inf
+        subject = dim_subject(feature, names[d])
+        out.append(Finding("teleport", subject, t + 1, t + 1, value, th.teleport_factor, detail="x local speed"))
+    return sorted(out[:5], key=lambda f: f.start_frame or 0)
+
+
+def frame_drops(z: Array, late: npt.NDArray[np.bool_], th: Thresholds) -> list[tuple[int, float]]:
+    """(frame, step over its neighbours') where the state (`z`, range units) steps `drop_factor` times further
+    than on both neighbouring steps, which agree (within `STEADY`: steady motion, not a start), in the direction
+    they move (frames lost, the motion goes on where it would have been), while the timestamps say one period
+    passed (`late`: the steps that are a gap, already found as `gap`); at most 5."""
+    if len(z) < 4 or z.shape[1] == 0:
+        return []
+    with np.errstate(all="ignore"):
+        step = np.nan_to_num(np.diff(z, axis=0), posinf=0.0, neginf=0.0)
+        norm = np.linalg.norm(step, axis=1)
+        low, high = np.minimum(norm[:-2], norm[2:]), np.maximum(norm[:-2], norm[2:])
+        both = step[:-2] + step[2:]
+        cosine = (step[1:-1] * both).sum(axis=1) / (norm[1:-1] * np.linalg.norm(both, axis=1))
+        ratio = norm[1:-1] / high
+        hit = (ratio > th.drop_factor) & (low > 0) & (low >= STEADY * high) & (cosine > ALIGN)
+    hit &= ~late[1:-1]
+    return [(int(t) + 2, float(ratio[t])) for t in np.flatnonzero(hit)][:5]
+
+
+def frame_drop_findings(drops: list[tuple[int, float]], th: Thresholds) -> list[Finding]:
+    detail = "a step beyond its neighbours', timestamps even"
+    return [Finding("frame_drop", "observation.state", f, f, r, th.drop_factor, detail=detail) for f, r in drops]
+
+
+def repeated_rows(arrays: list[Array], z: Array, th: Thresholds) -> list[Finding]:
+    """`repeated_rows`: 1 to `repeat_max` frames whose state and action (`arrays`) repeat the frame before bit for
+    bit, between frames where the state (`z`, range units) moves: a row written again (the copies' frames). At
+    most `REPEATS` such places: a recorder whose sensors update slower than its rate repeats rows all along (its
+    nature, which a policy trained on it sees everywhere), a row written twice by mistake is rare."""
+    n = len(z)
+    if n < 4 or not arrays:
+        return []
+    same = np.ones(n - 1, dtype=bool)
+    for x in arrays:
+        same &= (x[1:] == x[:-1]).all(axis=1)
+    moved = np.zeros(n, dtype=bool)  # moved[t]: the state changed from frame t - 1 to t
+    moved[1:] = np.nan_to_num(np.abs(np.diff(z, axis=0))).max(axis=1, initial=0.0) > 0
+    out = []
+    for a, b in runs(same):
+        first, last = a + 1, b + 1  # frames repeating the one before
+        if last - first + 1 <= th.repeat_max and first >= 2 and last + 1 < n and moved[first - 1] and moved[last + 1]:
+            out.append(Finding("repeated_rows", "episode", first, last, float(last - first + 1), float(th.repeat_max)))
+    return out if len(out) <= REPEATS else []
+
+
+def degrees(x: Array, names: list[str], feature: str, th: Thresholds) -> list[Finding]:
+    """`degrees`: an angle-named dimension (`signals.ANGLE_NAME`) whose values go beyond ±`degrees_limit` (2π +
+    0.5 rad) while the feature's other dimensions look like radians or metres (the median of their largest
+    magnitudes within ±π): no angle in radians goes there; one in degrees does as soon as it turns past 7°. A
+    dataset written in degrees throughout (LeRobot's Feetech arms) is its own convention, not this fault. The
+    whole episode; value: its largest magnitude."""
+    n = len(x)
+    if not n:
+        return []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a column of NaN
+        top = np.nan_to_num(np.nanmax(np.abs(np.where(np.isfinite(x), x, np.nan)), axis=0))
+    out = []
+    for d, name in enumerate(names):
+        others = np.delete(top, d)
+        if signals.ANGLE_NAME.search(name) and top[d] > th.degrees_limit and float(np.median(others)) <= math.pi:
+            detail = "beyond 2π: degrees?"
+            out.append(
+                Finding("degrees", dim_subject(feature, name), 0, n - 1, float(top[d]), th.degrees_limit, detail=detail)
+            )
+    return out
