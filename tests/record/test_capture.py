@@ -3,6 +3,11 @@ loop; every frame the loop handed over is in the dataset, in order, and the spil
 
 from __future__ import annotations
 
+import os
+import signal
+import subprocess
+import sys
+import time
 from itertools import pairwise
 from pathlib import Path
 
@@ -19,6 +24,7 @@ from openral_data.producers.hal.session.operator import ScriptedOperator
 from openral_data.record.hal_loop import EpisodeEnd
 from openral_data.runtime import registry
 from openral_data.types import CameraShape
+from tests.support.cli import run_cli
 from tests.support.hal import SlowCamera, episode_infos, run_loop, ur5e_twin
 from tests.support.timing import TIMED
 
@@ -68,3 +74,37 @@ def test_a_slow_encoder_spills_while_the_loop_stays_on_time(tmp_path: Path, monk
     [row] = capture_rows([open_dataset(out)])
     assert row[1:] == [0, "cam", rep.overruns, spilled, info["hal"]["max_age"]["cam"], row[-1]] and row[-1] > 0
     assert not [p for p in out.rglob("*") if "spill" in p.name]
+
+
+@pytest.mark.slow  # a subprocess recording killed mid-spill, then repaired and loaded by lerobot
+def test_sigkill_during_a_spill_loses_no_committed_episode(tmp_path: Path, project: Path) -> None:
+    """`record --hal` with a throttled encoder is SIGKILLed while frames of the episode in flight are spilled:
+    every committed episode loads in lerobot 0.6.1, every frame decoded; `doctor --repair` takes the spilled
+    frames and the partial video to the quarantine, and the dataset then checks clean."""
+    out = tmp_path / "ds"
+    args = [
+        "record", "--hal", "ur5e", "--rskill", "sweep-ur5e", "--fps", "20", "--max-steps", "20",
+        "--n-episodes", "1000", "--codec", "h264", "--out", str(out), "-q",
+    ]  # fmt: skip
+    env = {**os.environ, "MUJOCO_GL": "egl", ENCODE_DELAY_ENV: "0.1"}
+    proc = subprocess.Popen([sys.executable, "-m", "openral_data.cli", *args], env=env, stderr=subprocess.PIPE)
+    try:
+        deadline = time.monotonic() + 300
+        while not ((out / "meta/info.json").is_file() and any(out.rglob(".*.npy.tmp"))):
+            assert proc.poll() is None and time.monotonic() < deadline, "no spill after a committed episode"
+            time.sleep(0.02)
+        proc.send_signal(signal.SIGKILL)
+    finally:
+        proc.kill()
+        proc.wait(timeout=60)
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    ds = LeRobotDataset("local/killed", root=out, video_backend="pyav")
+    assert ds.num_episodes >= 1 and len(ds) == 20 * ds.num_episodes
+    assert all(ds[i]["observation.images.wrist"].shape[0] == 3 for i in range(len(ds)))  # every frame decodes
+    repaired = run_cli("doctor", str(out), "--repair")
+    assert repaired.returncode in (0, 1), repaired.stderr
+    assert not [p for p in out.rglob("*.tmp") if ".openral" not in p.parts]
+    assert any((out / ".openral/quarantine").rglob(".*.npy.tmp"))  # the spilled frames, kept aside
+    again = run_cli("doctor", str(out))
+    assert again.returncode == 0, again.stdout + again.stderr
