@@ -17,14 +17,16 @@ frames spilled, the sample age at the tick (p50 / p99 / max, ms) and the encoder
 to be encoded, ms); the recorder's CPU seconds per camera-second of recording and its peak RSS (MB); and the
 wall time of the whole session (the episode's commit waits for spilled frames to be encoded).
 
-lerobot's own recorder (`lerobot-record`'s `record_loop` with its `LeRobotDataset` writer) is not driven here
-yet: see benchmarks/README.md.
+`--recorders lerobot,lerobot-streaming` adds, on the same robot, bus and sources, lerobot 0.6.1's own recorder
+(`lerobot-record`'s `record_loop` with its `LeRobotDataset` writer, default and `streaming_encoding=True`;
+capture_lerobot.py) as the anchor: its frames vs the ticks due, its overruns (its own "running slower" warnings),
+frames in each video, CPU, RSS and the time to its saved episode.
 
 Run (from the repository root; the machine should be otherwise idle for the real-time numbers)::
 
     MUJOCO_GL=egl .venv/bin/python benchmarks/bench_capture.py --cameras 1,2,3 --codecs h264 --seconds 20
     MUJOCO_GL=egl .venv/bin/python benchmarks/bench_capture.py --cameras 1,2,3,4,5,6 --codecs h264,av1,auto \\
-        --seconds 600 --json capture.json                                   # the 10-minute sessions
+        --recorders ours,lerobot,lerobot-streaming --seconds 600 --json capture.json   # the 10-minute sessions
 """
 
 from __future__ import annotations
@@ -71,7 +73,12 @@ def feed(pipe: str, seconds: float, seed: int) -> None:
     import av
 
     frames = source_frames(seed)
-    with contextlib.suppress(BrokenPipeError), open(pipe, "wb") as fh, av.open(fh, "w", format="nut") as out:
+    # the reader going away (the session ended) ends the feed: a broken pipe, which PyAV reports as its own error
+    with (
+        contextlib.suppress(OSError, av.error.FFmpegError),
+        open(pipe, "wb") as fh,
+        av.open(fh, "w", format="nut") as out,
+    ):
         stream = out.add_stream("rawvideo", rate=RATE)
         assert isinstance(stream, av.VideoStream)
         stream.width, stream.height, stream.pix_fmt = W, H, "bgr24"
@@ -102,9 +109,9 @@ def with_cameras(manifest: Path, pipes: list[str]) -> None:
     manifest.write_text(yaml.safe_dump(data, sort_keys=False))
 
 
-def session(codec: str, cameras: int, seconds: float, fps: int, work: Path) -> dict[str, Any]:
-    """Record one episode of `seconds` with `cameras` live sources; the measurements."""
-    from openral_data.record.hal import HalRecordOptions, record_hal
+def session(codec: str, cameras: int, seconds: float, fps: int, work: Path, recorder: str) -> dict[str, Any]:
+    """Record one episode of `seconds` with `cameras` live sources (`recorder`: ours, lerobot or
+    lerobot-streaming); the measurements."""
     from tests.support.feetech_bus import SimulatedFeetechBus, write_so_calibration
     from tests.support.home import isolated_home
 
@@ -122,27 +129,56 @@ def session(codec: str, cameras: int, seconds: float, fps: int, work: Path) -> d
         with isolated_home(work) as home, SimulatedFeetechBus(list(range(1, 7))) as bus:
             manifest = home / "robots" / "so101_follower" / "robot.yaml"
             write_so_calibration(manifest.parent / "calibration" / "so101_follower.json")
+            if recorder != "ours":
+                from capture_lerobot import lerobot_session
+
+                got = lerobot_session(pipes, bus.port, manifest.parent / "calibration", seconds, fps, out, codec,
+                                      recorder == "lerobot-streaming")  # fmt: skip
+                return anchor_row(got, recorder, codec, cameras, seconds)
             with_cameras(manifest, pipes)
-            opts = HalRecordOptions(
-                robot="so101_follower", rskill="sweep-so-arm", mode="real", port=bus.port, fps=fps,
-                max_steps=round(seconds * fps), out=out, codec=codec, operator="success",  # type: ignore[arg-type]
-            )  # fmt: skip
-            stamps: dict[str, tuple[os.times_result, float]] = {}
-
-            def stamp(line: str) -> None:  # the episode starts recording ... is committed (its videos encoded)
-                key = "start" if ": recording" in line else "end" if ": kept" in line else None
-                if key is not None:
-                    stamps[key] = (os.times(), time.perf_counter())
-
-            summary = record_hal(opts, notify=stamp)
-            (cpu0, t0), (cpu1, t1) = stamps["start"], stamps["end"]
-            wall = t1 - t0
+            return ours(manifest, bus.port, codec, cameras, seconds, fps, out)
     finally:
         for f in feeders:
             f.kill()
             f.wait()
+
+
+def ours(manifest: Path, port: str, codec: str, cameras: int, seconds: float, fps: int, out: Path) -> dict[str, Any]:
+    """`record --hal so101_follower` (its Python API) for one episode; the CPU and wall time from the episode's
+    start to its commit (its videos complete)."""
+    from openral_data.record.hal import HalRecordOptions, record_hal
+
+    opts = HalRecordOptions(
+        robot="so101_follower", rskill="sweep-so-arm", mode="real", port=port, fps=fps, episode_time_s=seconds,
+        max_steps=10**9, out=out, codec=codec, operator="success",  # type: ignore[arg-type]
+    )  # fmt: skip
+    stamps: dict[str, tuple[os.times_result, float]] = {}
+
+    def stamp(line: str) -> None:  # the episode starts recording ... is committed (its videos encoded)
+        key = "start" if ": recording" in line else "end" if ": kept" in line else None
+        if key is not None:
+            stamps[key] = (os.times(), time.perf_counter())
+
+    summary = record_hal(opts, notify=stamp)
+    (cpu0, t0), (cpu1, t1) = stamps["start"], stamps["end"]
     cpu = (cpu1.user - cpu0.user) + (cpu1.system - cpu0.system)
-    return measure(summary, out, codec, cameras, seconds, fps, cpu, wall)
+    return measure(summary, out, codec, cameras, seconds, fps, cpu, t1 - t0)
+
+
+def anchor_row(got: dict[str, Any], recorder: str, codec: str, cameras: int, seconds: float) -> dict[str, Any]:
+    return {
+        "recorder": recorder,
+        "codec": codec,
+        "cameras": cameras,
+        "seconds": seconds,
+        "ticks": got["ticks_due"],
+        "frames": got["frames"],
+        "overruns": got["overruns"],
+        "in_video": got["in_video"],
+        "wall_s": got["wall_s"],
+        "cpu_s_per_camera_s": round(got["cpu_s"] / cameras / seconds, 3),
+        "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 0),
+    }
 
 
 def measure(
@@ -172,6 +208,7 @@ def measure(
             "encoder_lag_ms": round(info["capture"][name]["encoder_lag_s"] * 1000, 1),
         }
     return {
+        "recorder": "ours",
         "codec": codec,
         "cameras": cameras,
         "seconds": seconds,
@@ -188,25 +225,38 @@ def measure(
     }
 
 
-def run_one(codec: str, cameras: int, seconds: float, fps: int) -> dict[str, Any]:
+def run_one(recorder: str, codec: str, cameras: int, seconds: float, fps: int) -> dict[str, Any]:
     """One session in a fresh process (its CPU and RSS its own); its JSON line."""
     with tempfile.TemporaryDirectory(prefix="bench_capture_") as tmp:
         args = ["--one", codec, "--cameras", str(cameras), "--seconds", str(seconds), "--fps", str(fps)]
+        args += ["--recorder", recorder]
         proc = subprocess.run(
             [sys.executable, __file__, *args, "--work", tmp], capture_output=True, text=True, check=False
         )
     if proc.returncode != 0:
-        return {"codec": codec, "cameras": cameras, "error": proc.stderr.strip().splitlines()[-1:]}
+        return {
+            "recorder": recorder,
+            "codec": codec,
+            "cameras": cameras,
+            "error": proc.stderr.strip().splitlines()[-1:],
+        }
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
 def row(r: dict[str, Any]) -> str:
+    head = f"| {r['recorder']} | {r['codec']} | {r['cameras']} |"
     if "error" in r:
-        return f"| {r['codec']} | {r['cameras']} | error: {r['error']} |"
+        return f"{head} error: {r['error']} |"
+    if r["recorder"] != "ours":
+        return (
+            f"{head} {r['frames']}/{r['ticks']} | {r['overruns']} | – | – | "
+            f"{'/'.join(f'{r["frames"]}={n}' for n in r['in_video'].values())} | – | – | – | – | "
+            f"{r['cpu_s_per_camera_s']} | {r['peak_rss_mb']:.0f} | {r['wall_s']} |"
+        )
     cams = r["per_camera"].values()
     written = "/".join(f"{c['rows']}={c['in_video']}" for c in cams)
     return (
-        f"| {r['codec']} | {r['cameras']} | {r['frames']}/{r['ticks']} | {r['overruns']} | "
+        f"{head} {r['frames']}/{r['ticks']} | {r['overruns']} | "
         f"{r['missed_ticks']} ({r['missed_after_1s']}) | {r['stale_ticks']} | "
         f"{written} | {sum(c['repeats'] for c in cams)} | {sum(c['spilled'] for c in cams)} | "
         f"{max(c['age_p50_ms'] for c in cams)} / {max(c['age_p99_ms'] for c in cams)} | "
@@ -216,9 +266,9 @@ def row(r: dict[str, Any]) -> str:
 
 
 HEADER = (
-    "| codec | N | frames/ticks | overruns | missed (after 1 s) | stale | rows=in video (per camera) | repeats | "
-    "spilled | age p50/p99 ms | enc. lag ms | CPU s per cam-s | peak RSS MB | record+commit s |\n"
-    "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    "| recorder | codec | N | frames/ticks | overruns | missed (after 1 s) | stale | rows=in video (per camera) | "
+    "repeats | spilled | age p50/p99 ms | enc. lag ms | CPU s per cam-s | peak RSS MB | record+commit s |\n"
+    "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 )
 
 
@@ -229,6 +279,10 @@ def main() -> None:
     ap.add_argument("--seconds", type=float, default=20.0)
     ap.add_argument("--fps", type=int, default=RATE)
     ap.add_argument("--json", type=Path, help="also write every session's measurements here")
+    ap.add_argument(
+        "--recorders", default="ours", help="ours, lerobot (its default writer), lerobot-streaming; comma-separated"
+    )
+    ap.add_argument("--recorder", default="ours", help=argparse.SUPPRESS)  # internal: --one's recorder
     ap.add_argument("--feed", help=argparse.SUPPRESS)  # internal: be a feeder process
     ap.add_argument("--seed", type=int, default=0, help=argparse.SUPPRESS)
     ap.add_argument("--one", help=argparse.SUPPRESS)  # internal: run one session in this process
@@ -238,15 +292,16 @@ def main() -> None:
         feed(args.feed, args.seconds, args.seed)
         return
     if args.one:
-        print(json.dumps(session(args.one, int(args.cameras), args.seconds, args.fps, args.work)))
+        print(json.dumps(session(args.one, int(args.cameras), args.seconds, args.fps, args.work, args.recorder)))
         return
     print(f"load average at start: {os.getloadavg()}; cores: {os.cpu_count()}")
     print(HEADER)
     results = []
     for codec in args.codecs.split(","):
         for n in (int(x) for x in args.cameras.split(",")):
-            results.append(run_one(codec, n, args.seconds, args.fps))
-            print(row(results[-1]), flush=True)
+            for recorder in args.recorders.split(","):
+                results.append(run_one(recorder, codec, n, args.seconds, args.fps))
+                print(row(results[-1]), flush=True)
     print(f"load average at end: {os.getloadavg()}")
     if args.json:
         args.json.write_text(json.dumps(results, indent=2))
