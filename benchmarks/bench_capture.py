@@ -150,7 +150,7 @@ def ours(manifest: Path, port: str, codec: str, cameras: int, seconds: float, fp
 
     opts = HalRecordOptions(
         robot="so101_follower", rskill="sweep-so-arm", mode="real", port=port, fps=fps, episode_time_s=seconds,
-        max_steps=10**9, out=out, codec=codec, operator="success",  # type: ignore[arg-type]
+        out=out, codec=codec, operator="success",  # type: ignore[arg-type]
     )  # fmt: skip
     stamps: dict[str, tuple[os.times_result, float]] = {}
 
