@@ -40,7 +40,7 @@ def lerobot_session(pipes: list[str], port: str, calibration: Path, seconds: flo
     config = SOFollowerRobotConfig(port=port, id="so101_follower", calibration_dir=calibration, cameras=cameras)
     robot = SOFollower(config)  # type: ignore[arg-type]
     # a stream has its own size and rate, which OpenCV cannot set: the cameras are opened without asking for them
-    # (as openral's lerobot_hw.py does); the config keeps 640x480@30, the dataset's video size
+    # (as openral_data/producers/hal/robots/lerobot_hw.py does); the config keeps 640x480@30 (the video size)
     for name, cam in cameras.items():
         robot.cameras[name] = OpenCVCamera(OpenCVCameraConfig(index_or_path=cam.index_or_path, warmup_s=0))
     robot.connect(calibrate=False)

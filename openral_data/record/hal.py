@@ -396,7 +396,7 @@ def _open(opts: HalRecordOptions, run: _Resolved, hal: HalBase, driver: Driver, 
             run.out,
             schema,
             opts.formats,
-            WriterConfig(video=opts.video, spill=True),  # the loop never waits on an encoder (video.py)
+            WriterConfig(video=opts.video, spill=True),  # never waits on an encoder: formats/lerobot_v3/video.py
             opts.image_format,
             mcap_compression=opts.mcap_compression,
         )
