@@ -21,6 +21,8 @@ from openral_data.types import Sink
 
 @dataclass
 class CameraCapture:
+    """One camera over the kept episodes: frames recorded, spilled; the worst sample age and encoder lag (s)."""
+
     frames: int = 0
     spilled: int = 0
     worst_frame_age_s: float = 0.0
