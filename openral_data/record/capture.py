@@ -7,7 +7,7 @@ per episode the same numbers are in `openral.episode_info` (the `stats` report's
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -20,35 +20,27 @@ from openral_data.types import Sink
 
 
 @dataclass
-class CameraCapture:
-    """One camera over the kept episodes: frames recorded, spilled; the worst sample age and encoder lag (s)."""
-
-    frames: int = 0
-    spilled: int = 0
-    worst_frame_age_s: float = 0.0
-    encoder_lag_s: float = 0.0
-
-
-@dataclass
 class SessionCapture:
-    """The kept episodes' cameras (`add`); the loop's overruns and missed ticks are every attempt's (`to_json`)."""
+    """The kept episodes' cameras (`add`): per camera `frames`, `spilled`, `worst_frame_age_s`, `encoder_lag_s`;
+    the loop's overruns and missed ticks are every attempt's (`to_json`)."""
 
-    cameras: dict[str, CameraCapture] = field(default_factory=dict)
+    cameras: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     def add(self, report: EpisodeReport, lag: Mapping[str, EncoderLag]) -> None:
         for name, age in report.max_age.items():
-            cam = self.cameras.setdefault(name, CameraCapture())
-            cam.frames += report.frames
-            cam.worst_frame_age_s = max(cam.worst_frame_age_s, round(age, 4))
+            zero = {"frames": 0, "spilled": 0, "worst_frame_age_s": 0.0, "encoder_lag_s": 0.0}
+            cam = self.cameras.setdefault(name, zero)
+            cam["frames"] += report.frames
+            cam["worst_frame_age_s"] = max(cam["worst_frame_age_s"], round(age, 4))
             if name in lag:
-                cam.spilled += lag[name].spilled
-                cam.encoder_lag_s = max(cam.encoder_lag_s, round(lag[name].max_lag, 4))
+                cam["spilled"] += lag[name].spilled
+                cam["encoder_lag_s"] = max(cam["encoder_lag_s"], round(lag[name].max_lag, 4))
 
     def to_json(self, reports: Sequence[EpisodeReport]) -> dict[str, Any]:
         return {
             "overruns": sum(r.overruns for r in reports),
             "missed_ticks": sum(r.missed_ticks for r in reports),
-            "cameras": {name: asdict(cam) for name, cam in self.cameras.items()},
+            "cameras": {name: dict(cam) for name, cam in self.cameras.items()},
         }
 
 
