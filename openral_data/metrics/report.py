@@ -11,7 +11,7 @@ import duckdb
 
 from openral_data.errors import QueryError, UsageError
 from openral_data.formats.results import Results
-from openral_data.metrics import health, intervals, intervention_sql
+from openral_data.metrics import capture, health, intervals, intervention_sql
 from openral_data.metrics.episode_stats import DimensionSource, summarise
 from openral_data.metrics.scan import VectorScan
 from openral_data.metrics.sources import DatasetSource
@@ -237,6 +237,9 @@ def build_report(
         tables += [groups, comparison, dimension_table(scans), sources_table(sources)]
     if any(intervention_sql.records_interventions(ds) for ds in datasets):  # only a session that has them
         tables += intervention_tables(con)
+    captured = capture.capture_rows(datasets)
+    if captured:  # a real-time recording: overruns, spills, frame age and encoder lag per episode and camera
+        tables.append(Table("capture", list(capture.COLUMNS), captured))
     if results:
         tables.append(results_table(con))
     if datasets and check_health:

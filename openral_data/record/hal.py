@@ -35,6 +35,7 @@ from openral_data.producers.hal.session.operator import (
 )
 from openral_data.producers.hal.teleop.eef_device import DeviceOperator
 from openral_data.producers.hal.teleop.keyboard import tty_status
+from openral_data.record.capture import SessionCapture, encoder_lag, keep_capture
 from openral_data.record.drivers.base import DriveContext, Driver
 from openral_data.record.drivers.choice import OWN_CONTRACT, DriverChoice, DriverKind, choose_driver
 from openral_data.record.drivers.kinds import open_driver
@@ -142,6 +143,7 @@ class HalRecordSummary:
     estop: str | None = None
     stopped_by_operator: bool = False
     all_reports: list[EpisodeReport] = field(default_factory=list)  # discarded attempts too
+    capture: SessionCapture = field(default_factory=SessionCapture)  # how the cameras' encoders kept up
 
     @property
     def overruns(self) -> int:
@@ -181,6 +183,7 @@ class HalRecordSummary:
             "estop": self.estop,
             "stopped_by_operator": self.stopped_by_operator,
             "episode_list": [asdict(e) for e in self.episodes],
+            "capture": self.capture.to_json(self.all_reports),
         }
 
 
@@ -393,7 +396,7 @@ def _open(opts: HalRecordOptions, run: _Resolved, hal: HalBase, driver: Driver, 
             run.out,
             schema,
             opts.formats,
-            WriterConfig(video=opts.video),
+            WriterConfig(video=opts.video, spill=True),  # never waits on an encoder: formats/lerobot_v3/video.py
             opts.image_format,
             mcap_compression=opts.mcap_compression,
         )
@@ -456,6 +459,8 @@ def _episodes(opts: HalRecordOptions, out: Path, loop: FixedRateLoop, notify: No
                 f"{flow.name(index)}: {end.value} ({report.verdict}, {report.frames} frames, "
                 f"{report.overruns} overruns, {report.stale_ticks} stale, {report.interventions} interventions)"
             )
+            if rec is not None:
+                summary.capture.add(report, encoder_lag(loop.bridge.sinks))
             if not _account(summary, end, report, rec, time.perf_counter() - t_episode):
                 break
             if len(summary.episodes) < opts.n_episodes:
@@ -463,6 +468,8 @@ def _episodes(opts: HalRecordOptions, out: Path, loop: FixedRateLoop, notify: No
                 if not _reset(summary, flow, loop, stop.check):
                     break
     summary.seconds = time.perf_counter() - t0
+    if summary.episodes and "lerobot" in opts.formats:
+        keep_capture(out, summary.capture.to_json(summary.all_reports))
     log_totals(out, len(summary.episodes), summary.frames, summary.seconds)
     return summary
 

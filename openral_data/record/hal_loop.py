@@ -77,6 +77,7 @@ class EpisodeReport:
     stale_ticks: int = 0
     stale: dict[str, int] = field(default_factory=dict)  # sensor ("state" or a camera) -> ticks skipped
     repeated: dict[str, int] = field(default_factory=dict)  # camera -> frames that reused a recorded sample
+    max_age: dict[str, float] = field(default_factory=dict)  # camera -> oldest sample recorded (s since it arrived)
     interventions: int = 0
     refused: int = 0
     intervention_log: list[dict[str, Any]] = field(default_factory=list)
@@ -180,7 +181,9 @@ class FixedRateLoop:
         """Reset the HAL and the policy and open the episode in the bridge; the report to fill."""
         hal = self.hal
         rep = EpisodeReport(
-            stale={"state": 0, **dict.fromkeys(self.cameras, 0)}, repeated=dict.fromkeys(self.cameras, 0)
+            stale={"state": 0, **dict.fromkeys(self.cameras, 0)},
+            repeated=dict.fromkeys(self.cameras, 0),
+            max_age=dict.fromkeys(self.cameras, 0.0),
         )
         # where the robot starts (manifest units): replay puts the MuJoCo twin there (producers/sim/mujoco/twin.py)
         initial = {**hal.begin_episode(seed), "state": hal.read_state().positions.tolist()}
@@ -290,6 +293,7 @@ class FixedRateLoop:
             if last_seq.get(name) == seq:
                 rep.repeated[name] += 1
             last_seq[name] = seq
+            rep.max_age[name] = max(rep.max_age[name], ages[name])
         obs = Observation(images, state.positions, cfg.task, time=state.stamp - t0, privileged=hal.privileged())
         action = self.policy.step(obs, cfg.task)
         columns = self.policy.columns() if isinstance(self.policy, Intervention) else None

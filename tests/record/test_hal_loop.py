@@ -3,6 +3,7 @@ sensor + a slow policy that must show up as stale ticks, repeats and overruns â€
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -127,6 +128,9 @@ def test_cli_records_through_the_twin(tmp_path: Path, project: Path) -> None:
     assert "overruns" in r.stdout and "safety interventions" in r.stdout
     cols = frames_table(out)
     assert len(cols["index"]) == 4 + 6
+    # the session's capture report (kept episodes' frames per camera) stays with the dataset
+    capture = json.loads((out / "meta/openral.json").read_text())["capture"]
+    assert capture["cameras"]["wrist"]["frames"] == 10 and capture["cameras"]["wrist"]["spilled"] >= 0
     # nothing is overwritten: the same --out again is refused
     again = run_cli("record", "--hal", "ur5e", "--rskill", "sweep-ur5e", "--out", str(out))
     assert again.returncode == 2 and "refusing to overwrite" in again.stderr

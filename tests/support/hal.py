@@ -80,9 +80,10 @@ def run_loop(
     safety: SafetyFilter | None = None,
     columns: tuple[FrameColumn, ...] = (),
     mcap: Path | None = None,
+    writer: WriterConfig | None = None,
 ) -> list[tuple[EpisodeEnd, EpisodeReport]]:
-    """Record `episodes` attempts through the loop into a LeRobot v3 dataset at `out` (h264 for speed), and with
-    `mcap` into MCAP bags there too (as `record --format lerobot,mcap`)."""
+    """Record `episodes` attempts through the loop into a LeRobot v3 dataset at `out` (`writer`, default h264 for
+    speed), and with `mcap` into MCAP bags there too (as `record --format lerobot,mcap`)."""
     rskill, _ = registry.resolve_rskill("sweep-ur5e")
     cams = list(hal.cameras)
     schema = DatasetSchema(
@@ -95,7 +96,7 @@ def run_loop(
         frame_extras=frame_extras(cams),
         frame_columns=columns,
     )
-    sinks: list[Sink] = [LeRobotV3Writer(out, schema, WriterConfig(video=VideoSettings(codec="h264")))]
+    sinks: list[Sink] = [LeRobotV3Writer(out, schema, writer or WriterConfig(video=VideoSettings(codec="h264")))]
     if mcap is not None:
         sinks.append(McapSink(mcap, schema))
     bridge = DatasetBridge(schema, sinks)

@@ -20,7 +20,10 @@ class WriterConfig:
     video_files_size_in_mb: int = 200
     chunks_size: int = layout.DEFAULT_CHUNKS_SIZE
     durable: bool = True
-    queue_size: int = 16
+    queue_size: int = 16  # frames per camera waiting in memory for its encoder
+    # beyond `queue_size`: spill frames to the dataset's staging area instead of making the producer wait (a
+    # real-time recording, `record --hal`; video.py), and note each episode's spills and encoder lag (`capture`)
+    spill: bool = False
     # committed episodes whose data and meta/episodes rows stay in files of their own (a commit then costs
     # O(that episode)) before they are joined into the run's first file; a data rotation and close() join too
     staged_episodes: int = 1000

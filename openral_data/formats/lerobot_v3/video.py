@@ -1,8 +1,17 @@
-"""Streaming video encoding with PyAV: one encoder thread per camera, a bounded queue for backpressure.
+"""Streaming video encoding with PyAV: one encoder thread per camera behind a bounded queue of frames.
 
-Frames go straight from the producer to the encoder (no PNG staging). Each episode is encoded into its own
-complete mp4 (so a finished episode is durable the moment its encoder is flushed); `concat_mp4` later joins
-a group of such files into one without re-encoding.
+Frames go straight from the producer to the encoder (no PNG staging). When the queue is full the producer either
+waits (backpressure: converting, editing, a simulation) or, with `spill` (a real-time recording, whose loop must
+never wait), writes the frame raw (`.npy`) into the staging folder beside the episode's mp4 and queues its path:
+the encoder reads it back in turn and deletes it, so frames are never dropped, stay in order, and memory stays
+bounded at `queue_size` frames per camera. A killed recorder's spilled frames are staged files (`.NAME.tmp`) of an
+unfinished episode: recovery (`record --resume`, `doctor --repair`) moves them to the quarantine.
+
+Test hook: the environment variable `OPENRAL_TEST_ENCODE_DELAY_S` (seconds, read when an episode begins) makes the
+encoder thread sleep that long before each frame, so tests can throttle a real encoder and watch it spill.
+
+Each episode is encoded into its own complete mp4 (so a finished episode is durable the moment its encoder is
+flushed); `concat_mp4` later joins a group of such files into one without re-encoding.
 """
 
 from __future__ import annotations
@@ -38,6 +47,27 @@ class EncodedEpisode:
     stats: CameraStats
 
 
+ENCODE_DELAY_ENV = "OPENRAL_TEST_ENCODE_DELAY_S"  # the test hook (module docstring)
+CAPTURE = "capture"  # openral.episode_info's key of a spilling recording's per-camera `EncoderLag`
+
+
+@dataclass
+class EncoderLag:
+    """One camera's episode, as its encoder kept up: frames spilled to disk, and the longest a frame waited
+    between being handed over and being encoded (seconds)."""
+
+    spilled: int = 0
+    max_lag: float = 0.0
+
+    def to_json(self) -> dict[str, float | int]:
+        return {"spilled": self.spilled, "encoder_lag_s": round(self.max_lag, 4)}
+
+
+@dataclass(frozen=True)
+class _Spilled:
+    path: Path
+
+
 @dataclass
 class _Job:
     path: Path
@@ -46,6 +76,11 @@ class _Job:
     done: threading.Event = field(default_factory=threading.Event)
     result: EncodedEpisode | None = None
     error: BaseException | None = None
+    lag: EncoderLag = field(default_factory=EncoderLag)
+
+    @property
+    def spill_dir(self) -> Path:
+        return self.path.with_name(self.path.name + ".spill")
 
 
 # Control markers on a worker's queue, besides jobs and frames.
@@ -60,9 +95,11 @@ def _ends_job(item: object) -> bool:
 
 
 class EncoderWorker:
-    """A persistent thread encoding one camera. `put` blocks while the queue is full: the producer waits,
-    nothing is dropped. A job (one episode's mp4) ends only through `finish()` or `abort()`. With `depth`, frames
-    are depth maps, quantized and encoded as lerobot's depth videos (`depth.py`) instead of RGB with `settings`."""
+    """A persistent thread encoding one camera. At most `queue_size` frames wait in memory; beyond that `put`
+    waits for the encoder (backpressure), or with `spill` writes the frame to disk and returns at once (module
+    docstring): nothing is dropped either way. A job (one episode's mp4) ends only through `finish()` or
+    `abort()`. With `depth`, frames are depth maps, quantized and encoded as lerobot's depth videos (`depth.py`)
+    instead of RGB with `settings`."""
 
     def __init__(
         self,
@@ -72,17 +109,21 @@ class EncoderWorker:
         queue_size: int = 16,
         depth: DepthStream | None = None,
         threads: int | None = None,
+        spill: bool = False,
     ) -> None:
         self.name = name
         self.settings = settings
         self.threads = threads  # this encoder's thread budget (SVT-AV1 lp, x264 threads); None: settings.threads
         self.depth = depth
         self.fps = fps
-        self._q: queue.Queue[object] = queue.Queue(maxsize=queue_size)
+        self.spill = spill
+        self._q: queue.Queue[object] = queue.Queue()  # frames, spilled frames' paths, jobs and markers
+        self._slots = threading.Semaphore(max(1, queue_size))  # one per frame held in memory
         self._job: _Job | None = None
         self._failed: BaseException | None = None
         self.waited = 0.0  # this episode: seconds `put` waited on a full queue (the encoder was behind) ...
         self.waits = 0  # ... and how many frames had to wait
+        self.lag = EncoderLag()  # the last finished episode's spills and encoder lag
         self._thread = threading.Thread(target=self._run, name=f"encoder-{name}", daemon=True)
         self._thread.start()
 
@@ -96,15 +137,27 @@ class EncoderWorker:
         self._q.put(self._job)
 
     def put(self, frame: npt.NDArray[Any]) -> None:
-        """Queue a frame; while the queue is full, wait (counted in `waited` seconds and `waits` frames)."""
+        """Queue a frame. While `queue_size` frames are waiting: spill it to disk (`spill`), else wait (counted
+        in `waited` seconds and `waits` frames)."""
         self._raise_if_failed()
-        try:
-            self._q.put_nowait(frame)
-        except queue.Full:
-            t0 = time.perf_counter()
-            self._q.put(frame)
-            self.waited += time.perf_counter() - t0
+        job = self._job
+        if job is None:
+            raise EncoderError(f"{self.name}: put() without begin()")
+        now = time.perf_counter()
+        if self._slots.acquire(blocking=False):
+            self._q.put((frame, now))
+        elif self.spill:
+            job.spill_dir.mkdir(parents=True, exist_ok=True)
+            path = job.spill_dir / f".{job.lag.spilled:06d}.npy.tmp"
+            with open(path, "wb") as fh:
+                np.save(fh, frame, allow_pickle=False)
+            job.lag.spilled += 1
+            self._q.put((_Spilled(path), now))
+        else:
+            self._slots.acquire()
+            self.waited += time.perf_counter() - now
             self.waits += 1
+            self._q.put((frame, now))
 
     def finish(self) -> EncodedEpisode:
         job = self._job
@@ -113,6 +166,7 @@ class EncoderWorker:
         self._q.put(_FINISH)
         job.done.wait()
         self._job = None
+        self.lag = job.lag
         if job.error is not None:
             job.path.unlink(missing_ok=True)
             raise EncoderError(f"encoding {job.path} failed: {job.error}") from job.error
@@ -149,6 +203,23 @@ class EncoderWorker:
                 return
             # stray _FINISH/_ABORT markers (from an abort racing a finish) are ignored while idle
 
+    def _next(self, job: _Job) -> npt.NDArray[Any] | object:
+        """The job's next frame (a spilled one read back and deleted; its lag counted), or the marker ending it."""
+        item = self._q.get()
+        if _ends_job(item):
+            return item
+        assert isinstance(item, tuple)
+        frame, handed = item
+        if isinstance(frame, _Spilled):
+            with open(frame.path, "rb") as fh:
+                image: npt.NDArray[Any] = np.load(fh, allow_pickle=False)
+            frame.path.unlink()
+        else:
+            self._slots.release()
+            image = frame
+        job.lag.max_lag = max(job.lag.max_lag, time.perf_counter() - handed)
+        return image
+
     def _encode_job(self, job: _Job) -> object:
         """Encode frames until a marker ends the job; return that marker."""
         depth = self.depth
@@ -158,6 +229,7 @@ class EncoderWorker:
             if depth is None
             else (depth.settings.encoder, depth.settings.options(), depth.settings.pix_fmt)
         )
+        delay = float(os.environ.get(ENCODE_DELAY_ENV, "0") or 0)
         frames = 0
         container = None
         end: object | None = None  # the marker that ended this job, once it has arrived
@@ -171,8 +243,10 @@ class EncoderWorker:
             stream.height = job.height
             stream.pix_fmt = pix_fmt
             stream.codec_context.time_base = Fraction(1, self.fps)
-            while not _ends_job(item := self._q.get()):
+            while not _ends_job(item := self._next(job)):
                 assert isinstance(item, np.ndarray)
+                if delay > 0:
+                    time.sleep(delay)
                 stats.add(item)
                 vf = av.VideoFrame.from_ndarray(item, format="rgb24") if depth is None else depth.frame(item)
                 vf.pts = frames
@@ -192,12 +266,14 @@ class EncoderWorker:
             self._failed = exc
             # consume this job's frames up to its end marker so the producer is never blocked forever
             while end is None:
-                if _ends_job(item := self._q.get()):
+                if _ends_job(item := self._next(job)):
                     end = item
         finally:
             if container is not None:
                 with contextlib.suppress(Exception):
                     container.close()
+            with contextlib.suppress(OSError):
+                job.spill_dir.rmdir()  # empty once every spilled frame was read back
             job.done.set()
         return end
 

@@ -55,7 +55,7 @@ from openral_data.formats.lerobot_v3.restore import check_same_format, restore
 from openral_data.formats.lerobot_v3.splits import splits_of
 from openral_data.formats.lerobot_v3.stats import Stats, dataset_stats, merge_numeric, to_jsonable
 from openral_data.formats.lerobot_v3.tasks_table import tasks_writer
-from openral_data.formats.lerobot_v3.video import EncodedEpisode, EncoderWorker
+from openral_data.formats.lerobot_v3.video import CAPTURE, EncodedEpisode, EncoderLag, EncoderWorker
 from openral_data.formats.write_errors import write_error
 from openral_data.types import DatasetSchema, EpisodeRecord, EpisodeStart, Frame
 
@@ -113,6 +113,7 @@ class LeRobotV3Writer:
                 self.config.queue_size,
                 None if shape.depth_unit is None else DepthStream(self.config.depth, shape.depth_unit),
                 budget,
+                self.config.spill,
             )
             for name, shape in self._videos.items()
         }
@@ -147,16 +148,9 @@ class LeRobotV3Writer:
         self._episodes_schema = episodes_schema(self.features)
         c = self.config
         self._target = joins.Target(
-            self.root,
-            self.schema.fps,
-            self._keys,
-            self._data_schema,
-            self._episodes_schema,
-            c.chunks_size,
-            c.durable,
-            c.data_limit,
-            c.video_limit,
-        )
+            self.root, self.schema.fps, self._keys, self._data_schema, self._episodes_schema, c.chunks_size,
+            c.durable, c.data_limit, c.video_limit,
+        )  # fmt: skip
 
     def _set_empty(self, image_stats: MappingOf[str, CameraStats] | None) -> None:
         """The state of a dataset without episodes (`_restore` then continues an existing one)."""
@@ -215,6 +209,10 @@ class LeRobotV3Writer:
     @property
     def closed(self) -> bool:
         return self._closed
+
+    def encoder_lag(self) -> dict[str, EncoderLag]:
+        """Each camera's spilled frames and encoder lag in the episode committed last (`WriterConfig.spill`)."""
+        return {name: worker.lag for name, worker in self._workers.items()}
 
     # -- for callers that commit whole episodes (`commit_episode`, as `edit` does) -----------------------------
     def task_index(self, task: str) -> int:
@@ -305,6 +303,8 @@ class LeRobotV3Writer:
                 raise DiskError(self.root, problem, f"encoding episode {self.total_episodes}'s videos") from exc
             raise
         self._episode = None
+        if self.config.spill:  # a real-time recording: how the encoders kept up, in openral.episode_info
+            ep.info = {**(ep.info or {}), CAPTURE: {name: w.lag.to_json() for name, w in self._workers.items()}}
         for name, column in ep.masks.items():
             ep.columns[self._mask_keys[name]] = column.array(IMAGE_STRUCT)
             ep.column_stats[self._mask_keys[name]] = column.stats()

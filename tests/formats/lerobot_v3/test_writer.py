@@ -380,3 +380,22 @@ def test_environment_state_is_required_exactly_when_the_schema_names_one(tmp_pat
     writer.close()
     # a schema without one writes no column (every recording path that never sets it)
     assert "observation.environment_state" not in build_features(without, VideoSettings())
+
+
+def test_a_slow_encoder_spills_and_keeps_every_frame_in_order(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A real h264 encoder throttled through the test hook (a sleep before each frame) falls behind a two-frame
+    queue: with `spill`, the frames beyond it go to the staging area and are encoded behind, so the producer never
+    waits; lerobot loads every frame in its place (the stripe encodes episode and step), each episode's
+    `capture` says how many frames spilled and how far the encoder lagged, and no spilled file is left."""
+    from openral_data.formats.lerobot_v3.video import ENCODE_DELAY_ENV
+
+    monkeypatch.setenv(ENCODE_DELAY_ENV, "0.01")
+    config = WriterConfig(queue_size=2, spill=True, video=VideoSettings(codec="h264"))
+    lengths = [24, 9]
+    _, states = write_dataset(tmp_path / "ds", lengths, config=config)
+    check_loads(tmp_path / "ds", lengths, states)
+    infos = [json.loads(i) for i in read_episodes(tmp_path / "ds").to_pydict()["openral.episode_info"]]
+    spilled = [i["capture"]["cam"]["spilled"] for i in infos]
+    assert 0 < spilled[0] <= lengths[0] - 2 and spilled[1] <= lengths[1] - 2, spilled
+    assert infos[0]["capture"]["cam"]["encoder_lag_s"] >= 0.01 * spilled[0] / 2
+    assert not [p for p in (tmp_path / "ds").rglob("*") if "spill" in p.name]

@@ -1,0 +1,127 @@
+"""The anchor of `bench_capture.py`: lerobot 0.6.1's own recorder on the same robot and sources.
+
+`lerobot-record`'s `record_loop` (lerobot/scripts/lerobot_record.py) with its `LeRobotDataset` writer (default:
+PNG frames, then the episode's videos encoded at `save_episode`; `--streaming`: its streaming encoder, which
+drops frames when it falls behind), the SO-101 follower (lerobot's `SO101Follower`) on the same simulated Feetech
+bus and the same `OpenCVCamera` sources. lerobot's loop needs a teleoperator for actions: a minimal one holding
+the arm where it is (`HoldTeleop`, the only stand-in here; lerobot's `Teleoperator` interface). A tick that took
+longer than its period is an overrun (lerobot logs "Record loop is running slower"; counted here the same way).
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+W, H, RATE = 640, 480, 30
+
+
+VCODEC = {"h264": "h264", "av1": "libsvtav1", "auto": "auto"}  # lerobot's `--dataset.rgb_encoder.vcodec`
+
+
+def lerobot_session(pipes: list[str], port: str, calibration: Path, seconds: float, fps: int, out: Path,
+                    codec: str, streaming: bool) -> dict[str, Any]:  # fmt: skip
+    """One episode of `seconds` recorded by lerobot's `record_loop` into a new `LeRobotDataset` at `out`."""
+    from lerobot.cameras.opencv import OpenCVCamera, OpenCVCameraConfig
+    from lerobot.configs.video import RGBEncoderConfig
+    from lerobot.datasets import LeRobotDataset, aggregate_pipeline_dataset_features, create_initial_features
+    from lerobot.processor import make_default_processors
+    from lerobot.robots.so_follower.so_follower import SOFollower, SOFollowerRobotConfig
+    from lerobot.scripts import lerobot_record
+    from lerobot.teleoperators.teleoperator import Teleoperator
+    from lerobot.utils.feature_utils import combine_feature_dicts
+
+    cameras = {
+        f"cam{i}": OpenCVCameraConfig(index_or_path=Path(p), width=W, height=H, fps=RATE, warmup_s=0)
+        for i, p in enumerate(pipes)
+    }
+    config = SOFollowerRobotConfig(port=port, id="so101_follower", calibration_dir=calibration, cameras=cameras)
+    robot = SOFollower(config)  # type: ignore[arg-type]
+    # a stream has its own size and rate, which OpenCV cannot set: the cameras are opened without asking for them
+    # (as openral_data/producers/hal/robots/lerobot_hw.py does); the config keeps 640x480@30 (the video size)
+    for name, cam in cameras.items():
+        robot.cameras[name] = OpenCVCamera(OpenCVCameraConfig(index_or_path=cam.index_or_path, warmup_s=0))
+    robot.connect(calibrate=False)
+    teleop_proc, action_proc, obs_proc = make_default_processors()
+    features = combine_feature_dicts(
+        aggregate_pipeline_dataset_features(teleop_proc, create_initial_features(action=robot.action_features)),
+        aggregate_pipeline_dataset_features(obs_proc, create_initial_features(observation=robot.observation_features)),
+    )
+    dataset = LeRobotDataset.create(
+        "local/anchor", fps, features, root=out, robot_type=robot.name, use_videos=True,
+        image_writer_threads=4 * len(cameras), rgb_encoder=RGBEncoderConfig(vcodec=VCODEC[codec]),
+        streaming_encoding=streaming,
+    )  # fmt: skip
+    Teleoperator.register(HoldTeleop)  # lerobot's loop takes actions from a `Teleoperator` only
+    hold = HoldTeleop(robot)
+    slow = _SlowCounter()
+    try:
+        cpu0, t0 = os.times(), time.perf_counter()
+        lerobot_record.record_loop(
+            robot=robot, events={"exit_early": False}, fps=fps, teleop_action_processor=teleop_proc,
+            robot_action_processor=action_proc, robot_observation_processor=obs_proc, dataset=dataset,
+            teleop=hold, control_time_s=seconds, single_task="hold",  # type: ignore[arg-type]
+        )  # fmt: skip
+        dataset.save_episode()
+        dataset.finalize()
+        frames = dataset.meta.total_frames
+        cpu1, wall = os.times(), time.perf_counter() - t0
+    finally:
+        slow.close()
+        robot.disconnect()
+    return {
+        "frames": int(frames),
+        "ticks_due": round(seconds * fps),
+        "overruns": slow.count,
+        "in_video": {name: _frames(out, name) for name in cameras},
+        "cpu_s": (cpu1.user - cpu0.user) + (cpu1.system - cpu0.system),
+        "wall_s": round(wall, 1),
+    }
+
+
+class HoldTeleop:
+    """Holds the arm where it stood at the start: the action is the first joint reading, every tick."""
+
+    def __init__(self, robot: Any) -> None:
+        obs = robot.get_observation()
+        self.action = {k: float(obs[k]) for k in robot.action_features}
+
+    def get_action(self) -> dict[str, float]:
+        return dict(self.action)
+
+
+class _SlowCounter:
+    """Counts lerobot's 'Record loop is running slower' warnings (one per overrun)."""
+
+    def __init__(self) -> None:
+        import logging
+
+        self.count = 0
+        outer = self
+
+        class Handler(logging.Handler):
+            def emit(self, record: logging.LogRecord) -> None:
+                if "running slower" in record.getMessage():
+                    outer.count += 1
+
+        self.handler = Handler()
+        self.logger = logging.getLogger()
+        self.logger.addHandler(self.handler)
+        self._level = self.logger.level
+        self.logger.setLevel(logging.WARNING if self._level > logging.WARNING or self._level == 0 else self._level)
+
+    def close(self) -> None:
+        self.logger.removeHandler(self.handler)
+        self.logger.setLevel(self._level)
+
+
+def _frames(out: Path, camera: str) -> int:
+    import av
+
+    total = 0
+    for video in sorted((out / "videos" / f"observation.images.{camera}").rglob("*.mp4")):
+        with av.open(str(video)) as c:
+            total += sum(1 for p in c.demux(c.streams.video[0]) if p.size)
+    return total
