@@ -50,7 +50,7 @@ from openral_data.producers.sim.mujoco.rig_scene import RigScene
 from openral_data.producers.sim.named_cameras import named_camera_rig
 from openral_data.producers.sim.params import parse_params
 from openral_data.producers.sim.quat_sign import QuatTrack
-from openral_data.producers.sim.robosuite_body import BodyLayout, check_names, layout, state_vector
+from openral_data.producers.sim.robosuite_body import BodyLayout, check_contract, check_manifest, layout, state_vector
 from openral_data.producers.sim.tasks import SuiteTask
 from openral_data.schemas.base import StrictModel
 from openral_data.schemas.robot import RobotManifest
@@ -160,7 +160,7 @@ class RobosuiteScene(RigScene):
         self.body: BodyLayout | None = None
         if robot.name != "franka_panda":
             self.body = layout(self.env.robots[0], self.env.sim.model)
-            check_names(self.body, robot, f"robot {robot.name!r}", rskill, rskill_source)
+            check_manifest(self.body, robot, f"robot {robot.name!r}")
             state_dim = len(self.body.state_names)
         else:
             n_arm = len(self._obs["robot0_joint_pos"])
@@ -198,6 +198,7 @@ class RobosuiteScene(RigScene):
                 BODY_ACTION_REPRESENTATIONS,
                 accepted_note=": its composite controller's action, named part by part",
             )
+            check_contract(robot, rskill, rskill_source)
         if 500 % scene.scene.fps:
             raise ConfigError(
                 f"{source}: scene.fps: must divide robosuite's 500 Hz physics rate, got {scene.scene.fps}"
@@ -207,8 +208,14 @@ class RobosuiteScene(RigScene):
         """The robosuite environment, made once under a fixed seed."""
         suite = _import_robosuite()
         from robosuite.controllers import load_composite_controller_config
+        from robosuite.robots import REGISTERED_ROBOTS
 
         rs_robot = ROBOTS[robot.name]
+        if rs_robot not in REGISTERED_ROBOTS:  # robosuite registers robosuite-models' robots when it is installed
+            raise ConfigError(
+                f"robot {robot.name!r}: robosuite's {rs_robot} comes from robosuite-models 1.0.0, not installed: "
+                + install_hint("robosuite")
+            )
         config = load_composite_controller_config(controller="BASIC", robot=rs_robot)
         # robosuite also draws at construction (Lift's cube size, for one): a fixed seed makes the model the same
         # in every process, so a recorded state can be reproduced by `replay` elsewhere

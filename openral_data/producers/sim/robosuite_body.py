@@ -81,29 +81,32 @@ def state_vector(obs: dict[str, Any], arms: tuple[str, ...]) -> npt.NDArray[np.f
     return np.concatenate(parts).astype(np.float32)
 
 
-def _first_difference(expected: tuple[str, ...], given: list[str] | None) -> str:
+def _first_difference(expected: tuple[str, ...], given: list[str] | None, whose: str) -> str:
     got = list(given or [])
     if len(got) != len(expected):
-        return f"{len(got)} names, robosuite's robot has {len(expected)}"
+        return f"{len(got)} names, {whose} has {len(expected)}"
     k = next(i for i, (a, b) in enumerate(zip(expected, got, strict=True)) if a != b)
-    return f"entry {k} is {got[k]!r}, robosuite's robot has {expected[k]!r} there"
+    return f"entry {k} is {got[k]!r}, {whose} has {expected[k]!r} there"
 
 
-def check_names(
-    body: BodyLayout, robot: RobotManifest, robot_source: str, rskill: RSkillManifest, rskill_source: str
-) -> None:
-    """The robot manifest and the rSkill contract name the state and action exactly as robosuite's robot has them
-    (a manifest out of step with the MJCF is a ConfigError, an rSkill speaking another layout a CompatibilityError)."""
+def check_contract(robot: RobotManifest, rskill: RSkillManifest, rskill_source: str) -> None:
+    """The rSkill's contract names the state and action as the robot manifest does (CompatibilityError)."""
     sides = (
-        ("observation.state.names", robot.observation.state.names, "state_contract.names", rskill.state_contract),
-        ("action.names", robot.action.names, "action_contract.names", rskill.action_contract),
+        ("state_contract.names", robot.observation.state.names, rskill.state_contract.names),
+        ("action_contract.names", robot.action.names, rskill.action_contract.names),
     )
-    for (manifest_field, manifest_names, contract_field, contract), expected in zip(
-        sides, (body.state_names, body.action_names), strict=True
-    ):
-        if tuple(manifest_names or ()) != expected:
-            raise ConfigError(f"{robot_source}: {manifest_field}: {_first_difference(expected, manifest_names)}")
-        if tuple(contract.names) != expected:
-            raise CompatibilityError(
-                f"{rskill_source}: {contract_field}: {_first_difference(expected, contract.names)}"
-            )
+    for field, expected, given in sides:
+        if list(expected or ()) != list(given):
+            problem = _first_difference(tuple(expected or ()), given, f"robot {robot.name!r}")
+            raise CompatibilityError(f"{rskill_source}: {field}: {problem}")
+
+
+def check_manifest(body: BodyLayout, robot: RobotManifest, robot_source: str) -> None:
+    """The robot manifest names the state and action exactly as robosuite's robot has them (ConfigError)."""
+    sides = (
+        ("observation.state.names", robot.observation.state.names, body.state_names),
+        ("action.names", robot.action.names, body.action_names),
+    )
+    for field, given, expected in sides:
+        if tuple(given or ()) != expected:
+            raise ConfigError(f"{robot_source}: {field}: {_first_difference(expected, given, "robosuite's robot")}")
