@@ -38,8 +38,8 @@ def main() -> None:
     for scene_id in args.scenes.split(","):
         start = time.perf_counter()
         robot, rskill_id, ok, steps = rate(scene_id, args.seeds)
-        per = (time.perf_counter() - start) / args.seeds
-        print(f"| `{scene_id}` | `{robot}` | `{rskill_id}` | {ok}/{args.seeds} | {steps / args.seeds:.0f} | {per:.1f} |")
+        per, mean = (time.perf_counter() - start) / args.seeds, steps / args.seeds
+        print(f"| `{scene_id}` | `{robot}` | `{rskill_id}` | {ok}/{args.seeds} | {mean:.0f} | {per:.1f} |")
 
 
 if __name__ == "__main__":
