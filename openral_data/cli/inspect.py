@@ -181,7 +181,7 @@ _JOINED = {"state_dim": "state_representation", "action_dim": "action_representa
 _MAIN = {
     "scenes": ("robot", "default_rskill"),
     "rskills": ("policy", "embodiment_tags", "state_dim", "action_dim"),
-    "robots": ("embodiment_tags", "joints", "cameras"),
+    "robots": ("embodiment_tags", "joints", "scenes"),
 }
 
 

@@ -32,7 +32,7 @@ FIELDS: dict[str, tuple[str, ...]] = {
         "action_representation",
         "cameras",
     ),
-    "robots": ("embodiment_tags", "joints", "state_dim", "action_dim", "cameras"),
+    "robots": ("embodiment_tags", "joints", "state_dim", "action_dim", "cameras", "scenes", "description"),
     "scene_types": (),
     "policies": (),
 }
@@ -143,6 +143,13 @@ def _rskills() -> list[Item]:
 
 
 def _robots() -> list[Item]:
+    """Each robot with the scenes on the search path that record it (what it runs in here; benchmark copies not
+    repeated)."""
+    scenes: dict[str, list[str]] = {}
+    for scene in _scenes():
+        robot = scene.fields.get("robot")
+        if isinstance(robot, str) and scene.fields.get("tier") != "benchmark":
+            scenes.setdefault(robot, []).append(scene.id)
     out = []
     for entry in manifests.entries("robots").values():
         try:
@@ -156,6 +163,8 @@ def _robots() -> list[Item]:
             "state_dim": rb.observation.state.dim,
             "action_dim": rb.action.dim,
             "cameras": [c.name for c in rb.sensors.cameras],
+            "scenes": scenes.get(rb.name, []),
+            "description": rb.description,
         }
         out.append(_entry_item(entry, fields, None))
     return out

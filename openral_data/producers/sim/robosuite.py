@@ -1,9 +1,16 @@
 """`robosuite` scenes: robosuite 1.5.1 manipulation tasks (Lift, Stack, PickPlaceCan, Door, ...) as a SimRollout.
 
-The robot is fixed by the scene (robosuite's Panda for the `franka_panda` manifest) and driven by robosuite's
-OSC_POSE arm controller: the action is robosuite's own normalised 7-vector [dx, dy, dz, dax, day, daz, gripper]
-in [-1, 1] (scaled by the controller to at most 5 cm and 0.5 rad per step; gripper -1 open .. +1 closed), stored
-exactly as the policy emitted it. The control rate is the scene's `fps` (robosuite's `control_freq`).
+The robot is fixed by the scene: robosuite's Panda for the `franka_panda` manifest, or one of the multi-part
+robots robosuite-models 1.0.0 registers (Unitree G1 and H1, Fourier GR1, ALOHA: `ROBOTS`), all under robosuite's
+BASIC composite controller (GR1's own default, whole-body IK, needs `mink`). A multi-part robot's state and action
+are named part by part (robosuite_body.py): the state `joint_positions_gripper` (every body joint, then every
+finger joint), the action `generic` (per arm OSC_POSE deltas, torso/head/legs joint deltas, per hand the gripper
+action), and its robot manifest and the rSkill contract must name them as robosuite's robot has them.
+
+The Panda is driven by robosuite's OSC_POSE arm controller: the action is robosuite's own normalised 7-vector
+[dx, dy, dz, dax, day, daz, gripper] in [-1, 1] (scaled by the controller to at most 5 cm and 0.5 rad per step;
+gripper -1 open .. +1 closed), stored exactly as the policy emitted it.
+The control rate is the scene's `fps` (robosuite's `control_freq`).
 
 Observation state, by the rSkill state contract's representation:
 * `eef_pose_gripper` (8): end-effector [x, y, z] + quaternion [qw, qx, qy, qz] (world frame; sign continuous
@@ -43,6 +50,7 @@ from openral_data.producers.sim.mujoco.rig_scene import RigScene
 from openral_data.producers.sim.named_cameras import named_camera_rig
 from openral_data.producers.sim.params import parse_params
 from openral_data.producers.sim.quat_sign import QuatTrack
+from openral_data.producers.sim.robosuite_body import BodyLayout, check_contract, check_manifest, layout, state_vector
 from openral_data.producers.sim.tasks import SuiteTask
 from openral_data.schemas.base import StrictModel
 from openral_data.schemas.robot import RobotManifest
@@ -53,7 +61,16 @@ from openral_data.types import Observation, Privileged, StepResult
 STATE_FORMAT = 1
 STATE_REPRESENTATIONS = ("eef_pose_gripper", "joint_positions_gripper")
 ACTION_REPRESENTATIONS = ("delta_eef_gripper",)
-ROBOTS = {"franka_panda": "Panda"}  # our manifest -> robosuite robot name
+# our manifest -> robosuite robot name (the multi-part ones registered by robosuite-models' import in robosuite)
+ROBOTS = {
+    "franka_panda": "Panda",
+    "unitree_g1": "G1",
+    "unitree_h1": "H1",
+    "fourier_gr1": "GR1",
+    "robosuite_aloha": "Aloha",
+}
+BODY_STATE_REPRESENTATIONS = ("joint_positions_gripper",)
+BODY_ACTION_REPRESENTATIONS = ("generic",)
 GRIPPER_OPEN_WIDTH = 0.08  # Panda fingers: 2 x 4 cm
 # robosuite's geom groups: 0 collision, 1 visual, 2 controller target markers (never drawn). With
 # `render.robot_meshes: collision` (the default) the robot's visual meshes (~50 detailed meshes, ~4x slower on a
@@ -140,8 +157,14 @@ class RobosuiteScene(RigScene):
         self._objects = {o.name: self.model.body(o.root_body).id for o in self.env.model.mujoco_objects}
         with _seeded_global_numpy(0):
             self._obs = self.env.reset()
-        n_arm = len(self._obs["robot0_joint_pos"])
-        state_dim = 8 if self.state_representation == "eef_pose_gripper" else n_arm + 1
+        self.body: BodyLayout | None = None
+        if robot.name != "franka_panda":
+            self.body = layout(self.env.robots[0], self.env.sim.model)
+            check_manifest(self.body, robot, f"robot {robot.name!r}")
+            state_dim = len(self.body.state_names)
+        else:
+            n_arm = len(self._obs["robot0_joint_pos"])
+            state_dim = 8 if self.state_representation == "eef_pose_gripper" else n_arm + 1
         self.task_text = scene.task.instruction
         self._seed = 0
         self.initial = {}
@@ -157,14 +180,25 @@ class RobosuiteScene(RigScene):
                 f"{source}: scene.robot: robosuite scenes support {', '.join(ROBOTS)}, got {robot.name!r}"
             )
         self.state_representation = rskill.state_contract.representation
-        check_representations(
-            rskill,
-            rskill_source,
-            "robosuite scenes",
-            STATE_REPRESENTATIONS,
-            ACTION_REPRESENTATIONS,
-            accepted_note=": robosuite's normalised OSC_POSE action",
-        )
+        if robot.name == "franka_panda":
+            check_representations(
+                rskill,
+                rskill_source,
+                "robosuite scenes",
+                STATE_REPRESENTATIONS,
+                ACTION_REPRESENTATIONS,
+                accepted_note=": robosuite's normalised OSC_POSE action",
+            )
+        else:
+            check_representations(
+                rskill,
+                rskill_source,
+                f"robosuite's {ROBOTS[robot.name]}",
+                BODY_STATE_REPRESENTATIONS,
+                BODY_ACTION_REPRESENTATIONS,
+                accepted_note=": its composite controller's action, named part by part",
+            )
+            check_contract(robot, rskill, rskill_source)
         if 500 % scene.scene.fps:
             raise ConfigError(
                 f"{source}: scene.fps: must divide robosuite's 500 Hz physics rate, got {scene.scene.fps}"
@@ -174,8 +208,14 @@ class RobosuiteScene(RigScene):
         """The robosuite environment, made once under a fixed seed."""
         suite = _import_robosuite()
         from robosuite.controllers import load_composite_controller_config
+        from robosuite.robots import REGISTERED_ROBOTS
 
         rs_robot = ROBOTS[robot.name]
+        if rs_robot not in REGISTERED_ROBOTS:  # robosuite registers robosuite-models' robots when it is installed
+            raise ConfigError(
+                f"robot {robot.name!r}: robosuite's {rs_robot} comes from robosuite-models 1.0.0, not installed: "
+                + install_hint("robosuite")
+            )
         config = load_composite_controller_config(controller="BASIC", robot=rs_robot)
         # robosuite also draws at construction (Lift's cube size, for one): a fixed seed makes the model the same
         # in every process, so a recorded state can be reproduced by `replay` elsewhere
@@ -281,6 +321,8 @@ class RobosuiteScene(RigScene):
 
     def _state(self) -> npt.NDArray[np.float32]:
         o = self._obs
+        if self.body is not None:
+            return state_vector(o, self.body.arms)
         if self.state_representation == "joint_positions_gripper":
             joints = np.asarray(o["robot0_joint_pos"], dtype=np.float64)
             return np.append(joints, self._gripper()).astype(np.float32)
@@ -291,15 +333,17 @@ class RobosuiteScene(RigScene):
 
     def _observation(self) -> Observation:
         # the environment's own observation keys (cube_pos, ...) as they are: not all of them declared
+        arms = ("",) if self.body is None else tuple(f"{a}_" for a in self.body.arms)
+        # and the hand's position: the Panda's `eef_pos`; a multi-part robot's `right_eef_pos`, `left_eef_pos`
+        hands = {f"{arm}eef_pos": self._obs[f"robot0_{arm}eef_pos"] for arm in arms}
         privileged = cast(
             Privileged,
             {
                 k: np.array(v, dtype=np.float64)
-                for k, v in self._obs.items()
+                for k, v in (*self._obs.items(), *hands.items())
                 if not k.startswith("robot0_") and not k.endswith("-state")
             },
         )
-        privileged["eef_pos"] = np.array(self._obs["robot0_eef_pos"], dtype=np.float64)
         privileged["object_poses"] = self._object_poses()
         privileged["suite"] = "robosuite"
         privileged["env"] = self.env_name

@@ -72,7 +72,10 @@ def test_scene_speaks_the_rskill_contract_and_refuses_what_it_cannot(lift: tuple
         joints.close()
     with pytest.raises(CompatibilityError, match=r"state_contract\.representation: 'joint_positions' is not produced"):
         registry.SCENES["robosuite"](scene, robot, _joint_rskill("joint_positions"), "lift.yaml")
-    with pytest.raises(ConfigError, match=r"lift\.yaml: scene\.robot: robosuite scenes support franka_panda, got"):
+    with pytest.raises(
+        ConfigError,
+        match=r"lift\.yaml: scene\.robot: robosuite scenes support franka_panda, unitree_g1, .*, got .ur5e.",
+    ):
         registry.SCENES["robosuite"](scene, registry.ROBOTS["ur5e"], _joint_rskill(), "lift.yaml")
 
 
