@@ -59,7 +59,8 @@ KINDS: dict[str, dict[str, float | int]] = {
     "person": {"jerk_reversal_share": 0.6, "idle_flag": 0.15, "teleport_step": 1.0},  # calibrated
     "random": {"jerk_min_reversals": 10**9, "chatter_min_toggles": 10**9},
 }
-SCRIPTED = ("scripted", "metaworld_expert", "maniskill_expert", "sweep", "zero", "mimicgen")  # rSkill policies that follow a script
+# rSkill policies that follow a script
+SCRIPTED = ("scripted", "metaworld_expert", "maniskill_expert", "sweep", "zero", "mimicgen")
 
 
 def data_kind(root: Path) -> str:

@@ -68,7 +68,9 @@ def make_env(env_id: str, source: str, **kwargs: Any) -> Any:
     """ManiSkill's env for `env_id` on the CPU backend, with joint-position control (one environment)."""
     gym = import_maniskill(source)
     if env_id not in BY_ID:
-        raise ConfigError(f"{source}: scene.params.env_id: unknown or not offline: {env_id!r}; valid: {', '.join(BY_ID)}")
+        raise ConfigError(
+            f"{source}: scene.params.env_id: unknown or not offline: {env_id!r}; valid: {', '.join(BY_ID)}"
+        )
     return gym.make(env_id, sim_backend="cpu", control_mode=CONTROL_MODE, num_envs=1, **kwargs)
 
 
@@ -168,7 +170,7 @@ class ManiSkillScene:
         return self._observation()
 
     def step(self, action: npt.NDArray[np.float32]) -> StepResult:
-        self._obs, reward, _, _, info = self.env.step(np.asarray(action, dtype=np.float32))
+        self._obs, _, _, _, info = self.env.step(np.asarray(action, dtype=np.float32))
         success = bool(_numpy(info["success"]))
         return StepResult(self._observation(), reward=float(success), success=success, terminated=success)
 

@@ -27,7 +27,9 @@ TASKS: tuple[ManiSkillTask, ...] = (
     ManiSkillTask("StackCube-v1", "stack the red cube on the green cube", "solveStackCube"),
     ManiSkillTask("PullCube-v1", "pull the cube onto the red and white target", "solvePullCube"),
     ManiSkillTask("LiftPegUpright-v1", "lift the peg lying on the table upright", "solveLiftPegUpright"),
-    ManiSkillTask("PegInsertionSide-v1", "insert the peg into the hole of the box from the side", "solvePegInsertionSide"),
+    ManiSkillTask(
+        "PegInsertionSide-v1", "insert the peg into the hole of the box from the side", "solvePegInsertionSide"
+    ),
     ManiSkillTask("PlaceSphere-v1", "place the sphere into the bin", "solvePlaceSphere"),
     ManiSkillTask("PullCubeTool-v1", "pull the cube closer with the L-shaped tool", "solvePullCubeTool"),
     ManiSkillTask("PlugCharger-v1", "plug the charger into the receptacle", "solvePlugCharger"),
