@@ -8,10 +8,7 @@ success is ManiSkill's own `info["success"]` in the scene. Runs in ManiSkill's e
 
 from __future__ import annotations
 
-import argparse
-import time
-
-from rollouts import roll_out
+from rollouts import expert_rate, rates_main
 
 from openral_data.producers.sim.maniskill.tasks import TASKS, suite_tasks
 from openral_data.producers.sim.tasks import with_task
@@ -26,31 +23,8 @@ def rate(task: str, first: int, seeds: int) -> tuple[int, float]:
     scene = scene.model_copy(update={"scene": scene.scene.model_copy(update={"cameras": []})})
     (chosen,) = [t for t in suite_tasks(scene, task) if t.id == task]
     scene = with_task(scene, chosen)
-    rskill = registry.resolve_rskill("maniskill-expert")[0]
-    env = registry.SCENES["maniskill"](scene, registry.ROBOTS["maniskill_panda"], rskill, task)
-    policy = registry.POLICIES[rskill.policy](rskill)
-    wins, steps = roll_out(env, policy, range(first, first + seeds), 200)
-    return wins, steps / seeds
-
-
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--seeds", type=int, default=10)
-    parser.add_argument("--first", type=int, default=0)
-    parser.add_argument("--tasks", default=EXPERT_TASKS)
-    args = parser.parse_args()
-    last = args.first + args.seeds - 1
-    print(f"| task | success (seeds {args.first}-{last}) | steps per episode, mean | seconds |")
-    print("|---|---|---|---|")
-    for task in args.tasks.split(","):
-        t0 = time.monotonic()
-        wins, mean = rate(task, args.first, args.seeds)
-        seconds = time.monotonic() - t0
-        print(
-            f"| `{task}` | {wins}/{args.seeds} ({100 * wins / args.seeds:.0f} %) | {mean:.0f} | {seconds:.0f} |",
-            flush=True,
-        )
+    return expert_rate(scene, "maniskill_panda", "maniskill-expert", range(first, first + seeds), 200)
 
 
 if __name__ == "__main__":
-    main()
+    rates_main(__doc__ or "", rate, EXPERT_TASKS, first=0, seeds=10)

@@ -32,7 +32,7 @@ def main(root: str, target: str) -> None:
         arrays[f"images|{key}"] = np.stack(
             [(f[key].numpy().transpose(1, 2, 0) * 255).round().astype(np.uint8) for f in frames]
         )
-    np.savez(target, **arrays)
+    np.savez(target, **arrays)  # type: ignore[arg-type]
 
 
 if __name__ == "__main__":
