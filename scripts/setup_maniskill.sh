@@ -37,11 +37,11 @@ if command -v pyenv >/dev/null 2>&1; then PY="$(pyenv which python)"; fi
 UV=("$PY" -m uv)
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-# the core's locked versions as constraints (numpy/scipy/opencv are ManiSkill's to choose, under the overrides)
-"${UV[@]}" export --frozen --quiet --no-dev --no-hashes --no-emit-project --no-header \
-    | grep -v -E '^ *#|^(numpy|scipy|opencv-python)==' >"$tmp/constraints.txt"
 # pyarrow 21 and zarr 3.0: the last releases that run on numpy 1.x (the lock's pyarrow 26 and zarr 3.4 need numpy 2)
 printf 'numpy==1.26.4\nscipy==1.15.3\npyarrow==21.0.0\nzarr==3.0.10\n' >"$tmp/overrides.txt"
+# the core's locked versions as constraints, but those overridden (and opencv-python: ManiSkill's to choose)
+"${UV[@]}" export --frozen --quiet --no-dev --no-hashes --no-emit-project --no-header \
+    | grep -v -E '^ *#|^(numpy|scipy|pyarrow|zarr|opencv-python)==' >"$tmp/constraints.txt"
 torch=$(grep -A1 '^name = "torch"$' uv.lock | sed -n 's/^version = "\(.*\)"$/\1/p')
 if [ ! -x .venv-maniskill/bin/python ]; then "${UV[@]}" venv --quiet --python "$PY" .venv-maniskill; fi
 say "installing mani-skill 3.0.1, sapien 3.0.3, torch $torch and openral-data into .venv-maniskill" \
