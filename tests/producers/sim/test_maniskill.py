@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import os
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pyarrow.parquet as pq
@@ -20,10 +21,10 @@ pytest.importorskip(
 )
 
 from openral_data.errors import CompatibilityError, ConfigError
+from openral_data.producers.sim.maniskill.tasks import suite_tasks
 from openral_data.record.options import RecordOptions
 from openral_data.record.sim import record
 from openral_data.replay import ReplayOptions, replay
-from openral_data.runtime import registry
 from tests.support.exported import read_elsewhere
 from tests.support.home import REPO
 from tests.support.suites import build, shipped
@@ -53,8 +54,7 @@ def _cube_pixel_and_depth(seed: int) -> tuple[tuple[float, float], float]:
 def test_tasks_and_contract_checks() -> None:
     """`list tasks` offers ManiSkill's offline tasks; a wrong instruction or an rSkill of another shape is refused."""
     scene = shipped("maniskill_pick_cube", cameras=[])
-    tasks = registry.SCENES["maniskill"].tasks(scene, "s")  # type: ignore[union-attr,misc]
-    ids = [t.id for t in tasks]
+    ids = [t.id for t in suite_tasks(scene, "s")]
     assert ids[0] == "PickCube-v1" and {"PushCube-v1", "StackCube-v1", "PegInsertionSide-v1"} <= set(ids)
     wrong = scene.model_copy(update={"task": scene.task.model_copy(update={"instruction": "wave"})})
     with pytest.raises(ConfigError, match=r"task\.instruction"):
@@ -106,6 +106,6 @@ def test_expert_records_pickcube_lerobot_loads_it_upright_and_replay_reproduces(
         assert depth[-1].mean() < depth[r + 6].mean()
 
     result = replay(ReplayOptions(out, out=tmp_path / "replay"))
-    s = result.summary
+    s: dict[str, Any] = dict(result.summary)
     assert s["reproduced"] == 1 and s["success_agree"] == 1 and s["success_replayed"] == 1
     assert s["divergence_max"] == 0.0
