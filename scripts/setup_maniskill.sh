@@ -11,7 +11,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 export UV_PYTHON_DOWNLOADS=never
-export UV_COMPILE_BYTECODE=1
+# No bytecode compilation at install (unlike .venv's): its tests run in one process, which compiles only the
+# modules it imports (torch, ManiSkill, this package), where compiling all ~7 GB of site-packages took minutes.
 say() { echo "setup_maniskill: $*" >&2; }
 started=$SECONDS
 
