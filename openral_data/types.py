@@ -85,6 +85,8 @@ class Privileged(TypedDict, total=False):
     # ALOHA
     reward_stage: int
     qvel: npt.NDArray[np.float64]
+    # ManiSkill3 (suite "maniskill", task = its env id): the seed of the episode's reset, which its expert replans
+    maniskill_seed: int
 
 
 @dataclass

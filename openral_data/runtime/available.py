@@ -1,8 +1,8 @@
 """Which scenes and rSkills can run in this environment, and why not (`list` marks the others).
 
-A scene type backed by an external simulator needs its package (an extra, or for LIBERO its own environment);
-found with `importlib.util.find_spec`, nothing is imported. An rSkill whose policy is neural needs its checkpoint
-(`runtime.compat.runnable`).
+A scene type backed by an external simulator needs its package (an extra, or for LIBERO and ManiSkill3 its own
+environment); found with `importlib.util.find_spec`, nothing is imported. An rSkill whose policy is neural needs
+its checkpoint (`runtime.compat.runnable`).
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ _NEEDS: dict[str, tuple[str, str, str | None]] = {
     "robosuite": ("robosuite", "robosuite", None),
     "metaworld": ("metaworld", "metaworld", None),
     "libero": ("libero", "libero", "bash scripts/setup_libero.sh"),
+    "maniskill": ("mani_skill", "maniskill", "bash scripts/setup_maniskill.sh"),
 }
 
 

@@ -14,7 +14,7 @@ if TYPE_CHECKING:  # only an annotation: `list` (runtime.available) starts witho
 
 # the policies that run on some scene types only: their experts read that simulator's ground truth
 _TABLETOP = ("tabletop", "tabletop_push", "tabletop_pick_place")
-_SCENE_TYPES = {"metaworld_expert": ("metaworld",)}
+_SCENE_TYPES = {"metaworld_expert": ("metaworld",), "maniskill_expert": ("maniskill",)}
 
 
 def runs_on(rskill: RSkillManifest, scene_type: str) -> bool:

@@ -82,6 +82,18 @@ def _libero_factory(scene: SimScene, robot: RobotManifest, rskill: RSkillManifes
     return LiberoScene(scene, rskill, source=source, rskill_source=f"rskill {rskill.id}")
 
 
+def _maniskill_factory(scene: SimScene, robot: RobotManifest, rskill: RSkillManifest, source: str) -> SimRollout:
+    from openral_data.producers.sim.maniskill.scene import ManiSkillScene
+
+    return ManiSkillScene(scene, rskill, source=source, rskill_source=f"rskill {rskill.id}")
+
+
+def _maniskill_tasks(scene: SimScene, source: str) -> list[SuiteTask]:
+    from openral_data.producers.sim.maniskill import tasks
+
+    return tasks.suite_tasks(scene, source)
+
+
 def _aloha_tasks(scene: SimScene, source: str) -> list[SuiteTask]:
     from openral_data.producers.sim import aloha
 
@@ -126,6 +138,12 @@ def _metaworld_expert(rskill: RSkillManifest) -> PolicyAdapter:
     from openral_data.policies.metaworld_expert import MetaWorldExpert
 
     return MetaWorldExpert(rskill)
+
+
+def _maniskill_expert(rskill: RSkillManifest) -> PolicyAdapter:
+    from openral_data.policies.maniskill_expert import ManiSkillExpert
+
+    return ManiSkillExpert(rskill)
 
 
 def _scripted(name: str) -> PolicyFactory:
@@ -236,6 +254,7 @@ SCENES: Registry[SceneFactory] = Registry(
         "gym_pusht": _pusht_factory,
         "gym_aloha": SceneType(_aloha_factory, _aloha_tasks),
         "libero": SceneType(_libero_factory, _libero_tasks),
+        "maniskill": SceneType(_maniskill_factory, _maniskill_tasks),
         "robosuite": SceneType(_suite_factory("robosuite"), _robosuite_tasks),
         "metaworld": SceneType(_suite_factory("metaworld"), _metaworld_tasks),
     },
@@ -251,6 +270,7 @@ POLICIES: Registry[PolicyFactory] = Registry(
         "scripted_pick": _scripted("ScriptedPick"),
         "scripted_open_drawer": _scripted("ScriptedOpenDrawer"),
         "metaworld_expert": _metaworld_expert,
+        "maniskill_expert": _maniskill_expert,
         "lerobot": _lerobot,
         "sweep": _sweep,
         "mimicgen": _mimicgen,

@@ -74,7 +74,7 @@ def test_a_scene_without_tasks_refuses_task_and_nothing_is_written(project: Path
     assert done.returncode == 2
     assert done.stderr.strip() == (
         f"error: {scene}: scene.type: 'mock' scenes have no tasks to choose (--task); "
-        "scene types with tasks: gym_aloha, libero, metaworld, robosuite"
+        "scene types with tasks: gym_aloha, libero, maniskill, metaworld, robosuite"
     )
     assert not out.exists()
     empty = run_cli("record", "--scene", str(scene), "--out", str(out), "--instruction", " ")
@@ -100,4 +100,9 @@ def test_suite_tasks_are_declared_without_building_a_scene(project: Path) -> Non
     aloha, found = tasks_of("aloha_insertion")
     assert [t.id for t in found] == ["insertion", "transfer_cube"]
     assert choose_task(aloha, "transfer_cube", "x")[0].scene.params == {"task": "transfer_cube"}
-    assert registry.scene_types_with_tasks() == ["gym_aloha", "libero", "metaworld", "robosuite"]
+    assert registry.scene_types_with_tasks() == ["gym_aloha", "libero", "maniskill", "metaworld", "robosuite"]
+    maniskill, offered = tasks_of("maniskill_pick_cube")  # a static table: ManiSkill is not installed here
+    assert [t.id for t in offered][:3] == ["PickCube-v1", "PushCube-v1", "StackCube-v1"] and len(offered) == 12
+    stack = choose_task(maniskill, "StackCube-v1", "x")[0]
+    assert stack.scene.params == {"env_id": "StackCube-v1"}
+    assert stack.task.instruction == "stack the red cube on the green cube"

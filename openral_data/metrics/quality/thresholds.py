@@ -68,7 +68,8 @@ KINDS: dict[str, dict[str, float | int]] = {
     # the mock scene's random rSkill writes its step counter into a state dimension named as a joint
     "random": {"jerk_min_reversals": 10**9, "chatter_min_toggles": 10**9, "degrees_limit": 1e9},
 }
-SCRIPTED = ("scripted", "metaworld_expert", "sweep", "zero", "mimicgen")  # rSkill policies that follow a script
+# rSkill policies that follow a script
+SCRIPTED = ("scripted", "metaworld_expert", "maniskill_expert", "sweep", "zero", "mimicgen")
 
 
 def data_kind(root: Path) -> str:

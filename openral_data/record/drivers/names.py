@@ -13,7 +13,7 @@ from openral_data.schemas.rskill import RSkillManifest
 # which; tests/record/test_driver_names.py checks the two agree)
 SCRIPTED_POLICIES = frozenset(
     {"scripted_push", "scripted_pick_place", "scripted_pick", "scripted_open_drawer"}
-    | {"metaworld_expert", "sweep", "mimicgen"}
+    | {"metaworld_expert", "maniskill_expert", "sweep", "mimicgen"}
 )
 
 
