@@ -15,6 +15,8 @@ steps:
     export: {dataset: all, episodes: "0-1"}
   - id: demos                  # a source outside the run: bags, HDF5, Zarr, RLDS (or a LeRobot dataset -> MCAP)
     convert: {source: data/demo.hdf5, mapping: demo_mapping.yaml, fps: 20}
+  - id: policy                 # lerobot's trainer on a dataset; outputs policy/<dataset item>/pretrained_model
+    train: {dataset: all, policy: act, steps: 2000, batch_size: 8, seed: 1}
 ```
 A reference is a step id (every output of that step) or `step/item` (one output). A convert step's `source`
 and `mapping` are paths inside the pipeline file's folder.
@@ -186,7 +188,33 @@ class ConvertStep(StrictModel):
     workers: int = Field(default=1, ge=1)
 
 
-KINDS = ("record", "merge", "replay", "stats", "export", "convert")
+class TrainStep(StrictModel):
+    """lerobot's trainer (`pipeline/trainer.py`) on a dataset of the pipeline; the output is the checkpoint
+    (`<item>/pretrained_model`, what `record --policy` and `replay --policy` load) and `provenance.json`. Only
+    numbers and a policy type of `trainer.POLICY_TYPES`: nothing here chooses code or a path."""
+
+    dataset: str
+    policy: Literal["act"] = "act"
+    steps: int = Field(ge=1, le=10_000_000)
+    batch_size: int = Field(default=8, ge=1, le=4096)
+    seed: int = Field(default=1000, ge=0, le=MAX_SEED)
+    save_freq: int | None = Field(default=None, ge=1)  # None: min(steps, 1000)
+    device: Literal["cpu", "cuda", "mps"] = "cpu"
+    chunk_size: int = Field(default=20, ge=1, le=1000)
+    n_action_steps: int | None = Field(default=None, ge=1, le=1000)  # None: chunk_size
+    dim_model: int = Field(default=256, ge=8, le=8192)
+    dim_feedforward: int | None = Field(default=None, ge=8, le=32768)  # None: 4 * dim_model
+    n_encoder_layers: int = Field(default=4, ge=1, le=64)
+    lr: float = Field(default=1e-4, gt=0, le=1)
+
+    @model_validator(mode="after")
+    def _chunk(self) -> TrainStep:
+        if self.n_action_steps is not None and self.n_action_steps > self.chunk_size:
+            raise ValueError(f"n_action_steps {self.n_action_steps} exceeds chunk_size {self.chunk_size}")
+        return self
+
+
+KINDS = ("record", "merge", "replay", "stats", "export", "convert", "train")
 # what a step's outputs are, for checking references
 PRODUCES = {
     "record": "dataset",
@@ -195,6 +223,7 @@ PRODUCES = {
     "stats": "report",
     "export": "bags",
     "convert": "dataset",
+    "train": "checkpoint",
 }
 
 
@@ -206,6 +235,7 @@ class Step(StrictModel):
     stats: StatsStep | None = None
     export: ExportStep | None = None
     convert: ConvertStep | None = None
+    train: TrainStep | None = None
 
     @model_validator(mode="after")
     def _one_kind(self) -> Step:
@@ -230,6 +260,8 @@ class Step(StrictModel):
             return [(f"stats.inputs[{i}]", r, ("dataset", "results")) for i, r in enumerate(self.stats.inputs)]
         if self.export is not None:
             return [("export.dataset", self.export.dataset, ("dataset",))]
+        if self.train is not None:
+            return [("train.dataset", self.train.dataset, ("dataset",))]
         return []
 
 

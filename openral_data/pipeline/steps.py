@@ -30,6 +30,10 @@ def jobs_for(step: Step, resolve: Resolve) -> Iterator[ItemJob]:
         yield from _export_jobs(step.export, resolve)
     elif step.convert is not None:
         yield _convert_job(step.convert)
+    elif step.train is not None:
+        from openral_data.pipeline.train_step import train_jobs
+
+        yield from train_jobs(step.train, resolve)
 
 
 def _record_jobs(spec: RecordStep) -> Iterator[ItemJob]:

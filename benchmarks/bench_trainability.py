@@ -1,0 +1,130 @@
+"""Trainability: does a small policy trained on our recorded expert demos work in closed loop?
+
+Records `--demos` expert episodes of `benchmarks/scenes/tabletop_push_bench.yaml` (tabletop_push, one 64x64
+front camera) with `scripted-push`, optionally injects one data fault into every episode
+(`tests/support/data_faults.py`: `quaternion_flip`, `upside_down`, or `shuffled_instructions` = its
+`shuffle_tasks`), trains ACT with the `train` step's trainer (`openral_data/pipeline/trainer.py`, lerobot's own
+parts, CPU) until `--cpu-minutes` of training CPU time (process time, all threads) or `--steps`, then records
+the checkpoint with `record --policy` on `--eval` seeds from 100000 (never recorded as demos) and prints the
+success rate with its Wilson 95 % interval. One JSON line per row is appended to `--results`.
+
+    nice -n 10 .venv/bin/python benchmarks/bench_trainability.py --work /tmp/trainability [--defect upside_down]
+
+Results and what was (not) measured: benchmarks/README.md "Trainability".
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+SCENE = ROOT / "benchmarks" / "scenes" / "tabletop_push_bench.yaml"
+EVAL_SEED = 100_000
+CLI = [sys.executable, "-m", "openral_data.cli"]
+
+
+def record(out: Path, args: list[str]) -> dict[str, object]:
+    if (out / "meta" / "info.json").is_file():
+        return {"cached": str(out)}
+    cmd = [*CLI, "record", "--scene", str(SCENE), "--codec", "h264", "--out", str(out), "--json", *args]
+    done = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+    if done.returncode != 0:
+        raise SystemExit(f"{' '.join(cmd)}: exit {done.returncode}: {done.stderr[-2000:]}")
+    return dict(json.loads(done.stdout))
+
+
+def faulted(clean: Path, defect: str, out: Path) -> Path:
+    """`clean` with `defect` injected into every episode (the quality helper's injector)."""
+    if (out / "meta" / "info.json").is_file():
+        return out
+    sys.path.insert(0, str(ROOT))
+    from tests.support import data_faults  # merged from the quality calibration branch
+
+    info = json.loads((clean / "meta" / "info.json").read_text())
+    episodes = [data_faults.load(clean, e) for e in range(int(info["total_episodes"]))]
+    if defect == "shuffled_instructions":
+        episodes, _ = data_faults.shuffle_tasks(episodes)
+    else:
+        episodes = [data_faults.inject(ep, defect, seed=i)[0] for i, ep in enumerate(episodes)]
+    return data_faults.write(out, episodes)
+
+
+def train(dataset: Path, run: Path, a: argparse.Namespace) -> tuple[Path, int, float]:
+    """Train in blocks of `--block` steps (resuming) until the CPU budget or `--steps`; (checkpoint, steps, CPU s)."""
+    import resource
+
+    from openral_data.pipeline.trainer import TrainSettings, done_steps, train_policy
+
+    def cpu() -> float:
+        r = resource.getrusage(resource.RUSAGE_SELF)
+        return r.ru_utime + r.ru_stime
+
+    budget, start, steps = a.cpu_minutes * 60, cpu(), done_steps(run)
+    spent = float(json.loads((run / "cpu.json").read_text())["cpu_s"]) if (run / "cpu.json").is_file() else 0.0
+    checkpoint = run / "checkpoints" / "last" / "pretrained_model"
+    while steps < a.steps and spent + cpu() - start < budget:
+        steps = min(a.steps, steps + a.block)
+        settings = TrainSettings(
+            steps=steps, batch_size=a.batch_size, save_freq=a.block, seed=a.seed, chunk_size=20, n_action_steps=20,
+            dim_model=a.dim_model, dim_feedforward=4 * a.dim_model,
+        )
+        checkpoint = train_policy(dataset, run, settings, log=lambda m: print(m, flush=True))
+        (run / "cpu.json").write_text(json.dumps({"cpu_s": spent + cpu() - start, "steps": steps}))
+    return checkpoint, done_steps(run), spent + cpu() - start
+
+
+def evaluate(checkpoint: Path, out: Path, n: int, max_steps: int) -> tuple[int, int]:
+    args = ["--policy", str(checkpoint), "--seed", str(EVAL_SEED), "--n-episodes", str(n), "--max-steps", str(max_steps)]
+    summary = record(out, args)
+    if "cached" in summary:
+        info = json.loads((out / "meta" / "info.json").read_text())
+        raise SystemExit(f"{out} exists ({info['total_episodes']} episodes); remove it to evaluate again")
+    return int(str(summary["successes"])), int(str(summary["episodes"]))
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--work", type=Path, required=True)
+    p.add_argument("--demos", type=int, default=50)
+    p.add_argument("--eval", type=int, default=20)
+    p.add_argument("--defect", choices=["quaternion_flip", "upside_down", "shuffled_instructions"])
+    p.add_argument("--cpu-minutes", type=float, default=30.0)
+    p.add_argument("--steps", type=int, default=20_000)
+    p.add_argument("--block", type=int, default=500)
+    p.add_argument("--batch-size", type=int, default=16)
+    p.add_argument("--dim-model", type=int, default=128)
+    p.add_argument("--seed", type=int, default=1000)
+    p.add_argument("--max-steps", type=int, default=120, help="per evaluation episode (the expert needs ~45)")
+    p.add_argument("--results", type=Path, default=None)
+    a = p.parse_args()
+    from openral_data.metrics.intervals import wilson
+
+    a.work.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    demos = a.work / "demos"
+    rec = record(demos, ["--rskill", "scripted-push", "--seed", "0", "--n-episodes", str(a.demos), "--keep", "success"])
+    print(f"demos: {rec}", flush=True)
+    name = a.defect or "clean"
+    dataset = demos if a.defect is None else faulted(demos, a.defect, a.work / f"demos-{name}")
+    checkpoint, steps, cpu_s = train(dataset, a.work / f"run-{name}", a)
+    k, n = evaluate(checkpoint, a.work / f"eval-{name}-{steps}", a.eval, a.max_steps)
+    ci = wilson(k, n)
+    row = {
+        "task": "tabletop_push (front 64x64, franka_panda)", "policy": "act", "dim_model": a.dim_model,
+        "defect": name, "demos": a.demos, "steps": steps, "batch_size": a.batch_size,
+        "train_cpu_minutes": round(cpu_s / 60, 1), "eval_seeds": f"{EVAL_SEED}..{EVAL_SEED + n - 1}",
+        "eval_max_steps": a.max_steps, "successes": k, "episodes": n, "wilson_low": round(ci.low, 3), "wilson_high": round(ci.high, 3),
+        "wall_minutes": round((time.perf_counter() - t0) / 60, 1),
+    }  # fmt: skip
+    print(json.dumps(row), flush=True)
+    with (a.results or a.work / "results.jsonl").open("a") as f:
+        f.write(json.dumps(row) + "\n")
+
+
+if __name__ == "__main__":
+    main()
