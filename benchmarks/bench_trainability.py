@@ -32,7 +32,7 @@ def record(out: Path, args: list[str]) -> dict[str, object]:
     if (out / "meta" / "info.json").is_file():
         return {"cached": str(out)}
     cmd = [*CLI, "record", "--scene", str(SCENE), "--codec", "h264", "--out", str(out), "--json", *args]
-    done = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+    done = subprocess.run(cmd, check=False, capture_output=True, text=True, cwd=ROOT)
     if done.returncode != 0:
         raise SystemExit(f"{' '.join(cmd)}: exit {done.returncode}: {done.stderr[-2000:]}")
     return dict(json.loads(done.stdout))
@@ -70,8 +70,14 @@ def train(dataset: Path, run: Path, a: argparse.Namespace) -> tuple[Path, int, f
     while steps < a.steps and spent + cpu() - start < budget:
         steps = min(a.steps, steps + a.block)
         settings = TrainSettings(
-            steps=steps, batch_size=a.batch_size, save_freq=a.block, seed=a.seed, chunk_size=20, n_action_steps=20,
-            dim_model=a.dim_model, dim_feedforward=4 * a.dim_model,
+            steps=steps,
+            batch_size=a.batch_size,
+            save_freq=a.block,
+            seed=a.seed,
+            chunk_size=20,
+            n_action_steps=20,
+            dim_model=a.dim_model,
+            dim_feedforward=4 * a.dim_model,
         )
         checkpoint = train_policy(dataset, run, settings, log=lambda m: print(m, flush=True))
         (run / "cpu.json").write_text(json.dumps({"cpu_s": spent + cpu() - start, "steps": steps}))
@@ -79,8 +85,8 @@ def train(dataset: Path, run: Path, a: argparse.Namespace) -> tuple[Path, int, f
 
 
 def evaluate(checkpoint: Path, out: Path, n: int, max_steps: int) -> tuple[int, int]:
-    args = ["--policy", str(checkpoint), "--seed", str(EVAL_SEED), "--n-episodes", str(n), "--max-steps", str(max_steps)]
-    summary = record(out, args)
+    seeds = ["--seed", str(EVAL_SEED), "--n-episodes", str(n)]
+    summary = record(out, ["--policy", str(checkpoint), *seeds, "--max-steps", str(max_steps)])
     if "cached" in summary:
         info = json.loads((out / "meta" / "info.json").read_text())
         raise SystemExit(f"{out} exists ({info['total_episodes']} episodes); remove it to evaluate again")
@@ -118,7 +124,8 @@ def main() -> None:
         "task": "tabletop_push (front 64x64, franka_panda)", "policy": "act", "dim_model": a.dim_model,
         "defect": name, "demos": a.demos, "steps": steps, "batch_size": a.batch_size,
         "train_cpu_minutes": round(cpu_s / 60, 1), "eval_seeds": f"{EVAL_SEED}..{EVAL_SEED + n - 1}",
-        "eval_max_steps": a.max_steps, "successes": k, "episodes": n, "wilson_low": round(ci.low, 3), "wilson_high": round(ci.high, 3),
+        "eval_max_steps": a.max_steps, "successes": k, "episodes": n,
+        "wilson_low": round(ci.low, 3), "wilson_high": round(ci.high, 3),
         "wall_minutes": round((time.perf_counter() - t0) / 60, 1),
     }  # fmt: skip
     print(json.dumps(row), flush=True)
