@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from openral_data.formats.lerobot_v3.features import ACTION, STATE
 from openral_data.metrics.quality import DEFAULT, Quality, quality_of
 from openral_data.metrics.quality.camera import camera_quality
-from openral_data.metrics.quality.episode import episode_motion
+from openral_data.metrics.quality.episode import FINDINGS, episode_motion
 from openral_data.metrics.quality.table import FLAGS, raised
 from openral_data.metrics.sources import open_dataset
 from tests.support import quality as q
@@ -27,10 +27,12 @@ from tests.support.metrics import data_file, rewrite_parquet
 N = 60
 IDLE_HEAD = 7  # frames 0..6 hold still, frame 7 moves
 IDLE_TAIL_FROM = 50  # frames 50..59 hold frame 50's values: 9 idle frames (frame 50 itself moved)
-FROZEN_FROM = 25  # action a1 holds from frame 25
+FROZEN_FROM = 25  # state j1 holds from frame 25 while the others move: a stale reading
+UNUSED_FROM = 40  # action a0 holds from frame 40: a scripted expert done with it, no fault ("constant")
+CLIPPED = (20, 29)  # state j0 sits on 1.2 (its dataset max) for frames 20..29: a flat top
 BLACK = (20, 35)  # camera frames 20..34 black
 GAP_AT = 30  # frames 30.. stamped half a second late: one gap of 6 periods
-EPISODES = ["clean", "clean2", "idle_head", "idle_tail", "frozen", "black", "chatter", "gap", "jerky"]
+EPISODES = ["clean", "clean2", "idle_head", "idle_tail", "frozen", "black", "chatter", "gap", "jerky", "clipped"]
 
 
 def _episodes() -> list[q.Episode]:
@@ -41,7 +43,9 @@ def _episodes() -> list[q.Episode]:
     tail = eps["idle_tail"]
     tail.state[IDLE_TAIL_FROM:] = tail.state[IDLE_TAIL_FROM]
     tail.action[IDLE_TAIL_FROM:] = tail.action[IDLE_TAIL_FROM]
-    eps["frozen"].action[FROZEN_FROM:, 1] = eps["frozen"].action[FROZEN_FROM, 1]
+    eps["frozen"].state[FROZEN_FROM:, 1] = eps["frozen"].state[FROZEN_FROM, 1]
+    eps["frozen"].action[UNUSED_FROM:, 0] = eps["frozen"].action[UNUSED_FROM, 0]
+    eps["clipped"].state[CLIPPED[0] : CLIPPED[1] + 1, 0] = 1.2
     eps["black"].images[BLACK[0] : BLACK[1]] = 0
     eps["chatter"].action[:, 2] = (np.arange(N) // 2) % 2  # open/close every 2 frames: 29 toggles in 6 s
     noise = np.random.default_rng(0).normal(0, 0.3, (N, 2)).astype(np.float32)
@@ -74,7 +78,7 @@ def test_clean_episodes_raise_no_flag(built: tuple[Path, Quality]) -> None:
     for name in ("clean", "clean2"):
         row = _row(built, name)
         assert row["flags"] == [] and not row["flagged"], (name, row)
-        assert row["idle_head"] == row["idle_tail"] == 0 and row["frozen_dims"] == []
+        assert row["idle_head"] == row["idle_tail"] == 0 and row["findings"] == []
         assert row["gripper_toggles"] == 2 and row["timestamp_gaps"] == 0
 
 
@@ -94,10 +98,31 @@ def test_idle_frames_per_frame(built: tuple[Path, Quality]) -> None:
     assert len(frames) == N * len(EPISODES)
 
 
-def test_dimension_frozen_from_frame(built: tuple[Path, Quality]) -> None:
+def _findings(built: tuple[Path, Quality], name: str) -> list[tuple[Any, ...]]:
+    """(check, subject, start_frame, end_frame, flag) of one episode's findings."""
+    rows = pq.read_table(built[1].paths.findings).to_pylist()
+    e = EPISODES.index(name)
+    return [
+        (r["check"], r["subject"], r["start_frame"], r["end_frame"], r["flag"]) for r in rows if r["episode_index"] == e
+    ]
+
+
+def test_frozen_state_and_an_unused_action_told_apart(built: tuple[Path, Quality]) -> None:
+    """A state dimension held bit for bit while the others move is frozen, from its frame to the end; an action
+    dimension held to the end is only `constant` (informational): it raises no flag."""
     row = _row(built, "frozen")
-    assert row["frozen_dims"] == [{"feature": ACTION, "dim": 1, "name": "a1", "from_frame": FROZEN_FROM}]
-    assert row["flags"] == ["frozen"]
+    assert row["flags"] == ["frozen"] and row["findings"] == [f"frozen:{STATE}[j1]"]
+    assert sorted(_findings(built, "frozen")) == [
+        ("constant", f"{ACTION}[a0]", UNUSED_FROM, N - 1, False),
+        ("constant", f"{STATE}[j1]", FROZEN_FROM, N - 1, False),
+        ("frozen", f"{STATE}[j1]", FROZEN_FROM, N - 1, True),
+    ]
+
+
+def test_clipped_flat_top_in_frames(built: tuple[Path, Quality]) -> None:
+    row = _row(built, "clipped")
+    assert row["flags"] == ["clipped"] and row["state_clip_fraction"] == pytest.approx(10 / N)
+    assert _findings(built, "clipped") == [("clipped", f"{STATE}[j0]", *CLIPPED, True)]
 
 
 def test_black_camera_span(built: tuple[Path, Quality]) -> None:
@@ -105,6 +130,7 @@ def test_black_camera_span(built: tuple[Path, Quality]) -> None:
     assert row["camera_black_fraction"] == pytest.approx((BLACK[1] - BLACK[0]) / N)
     assert row["camera_first_black"] == BLACK[0]
     assert row["flags"] == ["camera_black"] and row["camera_flags"] == ["observation.images.cam:black"]
+    assert _findings(built, "black") == [("camera_black", "observation.images.cam", BLACK[0], BLACK[1] - 1, True)]
     samples = pq.read_table(built[1].paths.camera_frames).to_pylist()
     e = EPISODES.index("black")
     black = sorted(s["frame_index"] for s in samples if s["episode_index"] == e and s["black"])
@@ -115,23 +141,29 @@ def test_chattering_gripper(built: tuple[Path, Quality]) -> None:
     row = _row(built, "chatter")
     assert row["gripper_toggles"] == 29 and row["gripper_toggles_per_s"] == pytest.approx(29 / (N / q.FPS))
     assert row["flags"] == ["chatter"]
+    assert _findings(built, "chatter") == [("chatter", f"{ACTION}[gripper]", 2, N - 2, True)]
 
 
 def test_timestamp_gap(built: tuple[Path, Quality]) -> None:
     row = _row(built, "gap")
     assert row["timestamp_gaps"] == 1 and row["flags"] == ["gap"]
     assert row["timestamp_jitter"] < DEFAULT.jitter_flag
+    assert _findings(built, "gap") == [("gap", "timestamp", GAP_AT, GAP_AT, True)]
 
 
 def test_jerky_demonstration(built: tuple[Path, Quality]) -> None:
     row = _row(built, "jerky")
-    assert row["ldlj"] < DEFAULT.jerk_ldlj < _row(built, "clean")["ldlj"]
+    assert row["jerk_reversal_share"] >= DEFAULT.jerk_reversal_share > _row(built, "clean")["jerk_reversal_share"]
     assert row["flags"] == ["jerky"]
+    found = _findings(built, "jerky")
+    assert {f[1] for f in found} <= {f"{ACTION}[a0]", f"{ACTION}[a1]"} and all(f[0] == "jerky" for f in found)
+    assert min(f[2] for f in found) == 0 and max(f[3] for f in found) >= N - 2
 
 
 def test_only_the_planted_fault_is_flagged(built: tuple[Path, Quality]) -> None:
     flagged = {r["episode_index"]: r["flags"] for r in built[1].table.to_pylist() if r["flagged"]}
     planted = {"frozen": "frozen", "black": "camera_black", "chatter": "chatter", "gap": "gap", "jerky": "jerky"}
+    planted["clipped"] = "clipped"
     assert flagged == {EPISODES.index(name): [flag] for name, flag in planted.items()}
 
 
@@ -152,9 +184,9 @@ def test_a_moving_clean_episode_raises_no_flag(n: int, fps: int, period_s: float
     ds = _FakeSource(fps)
     row, _ = episode_motion(ds, arrays, np.arange(n) / fps, ranges, DEFAULT)  # type: ignore[arg-type]
     cam = camera_quality(iter(ep.images), 1, DEFAULT)  # stride 1: every frame is a sample
-    row |= {f"camera_{m}_fraction": cam.share(m) for m in ("black", "saturated", "frozen", "blurred")}
-    flags = raised(row, DEFAULT)
-    assert set(flags) == set(FLAGS) and not any(flags.values()), (row, flags)
+    found = [f for f in row[FINDINGS] + cam.findings("cam", DEFAULT, 1, n) if f.flag]
+    flags = raised(found)
+    assert set(flags) == set(FLAGS) and not any(flags.values()) and not found, (row, found)
 
 
 class _FakeSource:

@@ -43,14 +43,14 @@ def test_quality_command_lists_flagged_episodes(tmp_path: Path) -> None:
     root = _dataset(tmp_path / "ds")
     out = json.loads(_ok("quality", str(root), "--format", "json"))
     assert out["quality"] == [
-        {"dataset": "ds", "computed": True, "episodes": 3, "flagged": 1, "idle": 1, "jerky": 1}
-        | {k: 0 for k in ("frozen", "chatter", "clipped", "jitter", "gap")}
+        {"dataset": "ds", "computed": True, "episodes": 3, "flagged": 1, "idle": 1}
+        | {k: 0 for k in ("frozen", "jerky", "chatter", "clipped", "jitter", "gap")}
         | {f"camera_{m}": 0 for m in ("black", "saturated", "frozen", "blurred")}
     ]
     [row] = out["episodes"]
     assert (row["episode_index"], row["flags"], row["idle_head"]) == (
         1,
-        ["idle", "jerky"],
+        ["idle"],
         30,
     )  # it sets off at full speed
     assert len(json.loads(_ok("quality", str(root), "--all", "--format", "json"))["episodes"]) == 3
@@ -135,7 +135,7 @@ def test_stats_report_and_info_show_flagged_counts(tmp_path: Path) -> None:
     _ok("quality", str(root))
     report = json.loads(_ok("stats", str(root), "--format", "json"))
     assert (report["quality"][0]["flagged"], report["quality"][0]["idle"]) == (1, 1)
-    assert "1 of 3 episodes flagged (idle 1, jerky 1)" in _ok("info", str(root))
+    assert "1 of 3 episodes flagged (idle 1)" in _ok("info", str(root))
 
 
 def test_bad_stride_is_a_usage_error(tmp_path: Path) -> None:

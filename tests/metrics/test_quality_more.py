@@ -77,8 +77,8 @@ def test_info_text_and_json_give_the_same_counts(tmp_path: Path) -> None:
     assert json.loads(_ok("info", str(root), "--json"))["quality"] is None
     _ok("quality", str(root))
     counts = json.loads(_ok("info", str(root), "--json"))["quality"]
-    assert (counts["episodes"], counts["flagged"], counts["idle"], counts["jerky"], counts["gap"]) == (3, 1, 1, 1, 0)
-    assert "quality       1 of 3 episodes flagged (idle 1, jerky 1)" in _ok("info", str(root))
+    assert (counts["episodes"], counts["flagged"], counts["idle"], counts["jerky"], counts["gap"]) == (3, 1, 1, 0, 0)
+    assert "quality       1 of 3 episodes flagged (idle 1)" in _ok("info", str(root))
 
 
 def test_threshold_options_change_the_flags(tmp_path: Path) -> None:
@@ -86,7 +86,7 @@ def test_threshold_options_change_the_flags(tmp_path: Path) -> None:
     default = json.loads(_ok("quality", str(root), "--format", "json"))["quality"][0]
     assert default["idle"] == 1  # 30 of 40 frames idle: 0.75 >= 0.5
     looser = json.loads(
-        _ok("quality", str(root), "--threshold", "idle-flag=0.9", "--threshold", "jerk_ldlj=-100", "--format", "json")
+        _ok("quality", str(root), "--threshold", "idle-flag=0.9", "--threshold", "jerk_step=0.5", "--format", "json")
     )["quality"][0]
     assert (looser["idle"], looser["jerky"], looser["flagged"]) == (0, 0, 0)
     for pair, says in [

@@ -86,7 +86,9 @@ def _quality_cell(counts: dict[str, int] | None) -> str:
     """`2 of 8 episodes flagged (idle 1, camera_black 1)`, else how to get one."""
     if counts is None:
         return "not computed (openral-data quality DATASET)"
-    raised = ", ".join(f"{k} {v}" for k, v in counts.items() if v and k not in ("episodes", "flagged"))
+    from openral_data.metrics.quality import raised_text
+
+    raised = raised_text(counts)
     return f"{counts['flagged']} of {counts['episodes']} episodes flagged" + (f" ({raised})" if raised else "")
 
 

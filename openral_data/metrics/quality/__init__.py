@@ -1,12 +1,19 @@
 """Episode quality: idle time, frozen dimensions, jerk, gripper chatter, clipping, timestamp jitter and gaps, and
-camera faults (black, saturated, frozen, blurred), one row per episode with a flag per fault (docs/stats.md,
+camera faults (black, saturated, frozen, blurred), one row per episode with a flag per fault and the findings
+that raised each (`findings`: check, dimension or camera, frames, value against threshold) (docs/stats.md,
 "Quality"): computed streaming (`compute`), cached beside the dataset or in the user's cache (`cache`), seen by
-DuckDB as the `quality` view (`view`)."""
+DuckDB as the `quality` and `quality_findings` views (`view`)."""
 
 from openral_data.metrics.quality.cached import Quality, cached_quality, quality, quality_of
 from openral_data.metrics.quality.table import FLAGS, SCHEMA
 from openral_data.metrics.quality.thresholds import DEFAULT, DEFAULT_STRIDE, Thresholds, parse_thresholds
-from openral_data.metrics.quality.view import counts_table, flag_counts, mentions_quality, register_quality
+from openral_data.metrics.quality.view import (
+    counts_table,
+    flag_counts,
+    mentions_quality,
+    raised_text,
+    register_quality,
+)
 
 __all__ = [
     "DEFAULT",
@@ -22,5 +29,6 @@ __all__ = [
     "parse_thresholds",
     "quality",
     "quality_of",
+    "raised_text",
     "register_quality",
 ]

@@ -6,12 +6,13 @@ episodes and data parquet files, the mp4s); the camera stride is kept beside it.
 one of those, and the table is computed again; an unchanged dataset is never read twice. Stat rather than
 content hashes: hashing would read every byte of every video to decide whether to read them.
 
-Three files: the episodes' table (`quality.parquet`), the frames' (`quality_frames.parquet`) and the sampled
-camera frames' (`quality_camera_frames.parquet`), all three with the key. Where: in `DATASET/.openral/` when the
-dataset has our `.openral/` folder and it is writable; else (a lerobot-written dataset, a read-only folder, the
-Hub cache) in `$XDG_CACHE_HOME/openral-data/quality/<sha256 of the dataset's resolved path>/` (`~/.cache`
-without XDG_CACHE_HOME): we never add files to a dataset we did not write. The three are staged and renamed into
-place together (`formats.atomic.Batch`), the episodes' table last: it is what says the others are current.
+Four files: the episodes' table (`quality.parquet`), the frames' (`quality_frames.parquet`), the sampled
+camera frames' (`quality_camera_frames.parquet`) and the findings (`quality_findings.parquet`), all with the key.
+Where: in `DATASET/.openral/` when the dataset has our `.openral/` folder and it is writable; else (a
+lerobot-written dataset, a read-only folder, the Hub cache) in `$XDG_CACHE_HOME/openral-data/quality/<sha256 of
+the dataset's resolved path>/` (`~/.cache` without XDG_CACHE_HOME): we never add files to a dataset we did not
+write. The four are staged and renamed into place together (`formats.atomic.Batch`), the episodes' table last:
+it is what says the others are current.
 """
 
 from __future__ import annotations
@@ -31,9 +32,9 @@ from openral_data.formats.parquetfile import read_table
 from openral_data.metrics.quality.table import SCHEMA
 from openral_data.metrics.quality.thresholds import Thresholds
 
-VERSION = (
-    2  # of the measures: a change to how they are computed bumps it, so older tables are recomputed (2: image cameras)
-)
+# of the measures: a change to how they are computed bumps it, so older tables are recomputed (2: image cameras;
+# 3: findings, and frozen/jerky/clipped measured anew)
+VERSION = 3
 KEY = b"openral.quality.key"
 STRIDE = b"openral.quality.stride"
 
@@ -43,10 +44,16 @@ class CachePaths:
     episodes: Path
     frames: Path
     camera_frames: Path
+    findings: Path
 
     @staticmethod
     def inside(folder: Path) -> CachePaths:
-        names = ("quality.parquet", "quality_frames.parquet", "quality_camera_frames.parquet")
+        names = (
+            "quality.parquet",
+            "quality_frames.parquet",
+            "quality_camera_frames.parquet",
+            "quality_findings.parquet",
+        )
         return CachePaths(*(folder / n for n in names))
 
 

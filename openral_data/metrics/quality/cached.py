@@ -58,7 +58,9 @@ def quality_of(
             paths.camera_frames,
             streamed(SAMPLE_SCHEMA, lambda sink: cameras.append(camera_pass(ds, rows, stride, th, sink, progress))),
         )
-        table = finish(rows, th, stride, has_cameras=cameras[0]).replace_schema_metadata(meta)
+        table, findings = finish(rows, stride, has_cameras=cameras[0])
+        table = table.replace_schema_metadata(meta)
+        batch.write_with(paths.findings, atomic.parquet_writer(findings.replace_schema_metadata(meta)))
         batch.write_with(paths.episodes, atomic.parquet_writer(table))  # last: it makes the others count
         batch.commit()
     except OSError as exc:  # a full disk, or a cache file that is a folder: one line, the dataset untouched

@@ -9,7 +9,10 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from openral_data.metrics.quality.findings import Finding, runs, span_findings
 from openral_data.metrics.quality.thresholds import Thresholds
+
+MEASURES = ("black", "saturated", "frozen", "blurred")
 
 _LUMA = np.array([0.299, 0.587, 0.114], dtype=np.float32)
 
@@ -39,6 +42,25 @@ class CameraQuality:
 
     def first(self, fault: str) -> int | None:
         return next((s.frame_index for s in self.samples if getattr(s, fault)), None)
+
+    def findings(self, camera: str, th: Thresholds, stride: int, length: int) -> list[Finding]:
+        """`camera_<fault>` findings, one per run of consecutive faulty samples, when the fault's share reaches
+        `camera_flag`: from half a stride before its first sample to half a stride after its last (the fault
+        began and ended somewhere between two samples: off by at most stride // 2), within the episode's
+        `length` frames."""
+        out: list[Finding] = []
+        half = stride // 2
+        for fault in MEASURES:
+            share = self.share(fault)
+            if share < th.camera_flag:
+                continue
+            mask = np.array([getattr(s, fault) for s in self.samples], dtype=bool)
+            spans = [
+                (max(0, self.samples[a].frame_index - half), min(length - 1, self.samples[b].frame_index + half))
+                for a, b in runs(mask)
+            ]
+            out += span_findings(f"camera_{fault}", camera, spans, share, th.camera_flag, detail="share of samples")
+        return out
 
 
 def luma(rgb: npt.NDArray[np.uint8]) -> npt.NDArray[np.float32]:

@@ -22,10 +22,12 @@ from openral_data.formats.lerobot_v3.features import ACTION, STATE
 from openral_data.formats.lerobot_v3.frames import decode_episode_video, depth_settings
 from openral_data.formats.lerobot_v3.reader import read_episodes
 from openral_data.formats.parquetfile import read_table
+from openral_data.metrics.quality.camera import MEASURES as CAMERA_MEASURES
 from openral_data.metrics.quality.camera import camera_quality
-from openral_data.metrics.quality.episode import Array, Ranges, episode_motion
+from openral_data.metrics.quality.episode import FINDINGS, Array, Ranges, episode_motion
+from openral_data.metrics.quality.findings import Finding
 from openral_data.metrics.quality.pictures import ImageColumns, picture_cameras
-from openral_data.metrics.quality.table import CAMERA_MEASURES, FRAME_SCHEMA, SAMPLE_SCHEMA
+from openral_data.metrics.quality.table import FRAME_SCHEMA, SAMPLE_SCHEMA
 from openral_data.metrics.quality.thresholds import Thresholds
 from openral_data.metrics.sources import DatasetSource
 
@@ -108,12 +110,14 @@ def rgb_cameras(ds: DatasetSource) -> list[str]:
 
 def episode_cameras(
     ds: DatasetSource, row: dict[str, Any], stride: int, th: Thresholds, samples: Sink, images: ImageColumns
-) -> dict[str, Any]:
+) -> tuple[dict[str, Any], list[Finding]]:
     """The camera measures of episode `row` (meta/episodes): the worst camera's share of each fault, the first
-    black frame, and which cameras raise which flag; the measured frames go to `samples`."""
+    black frame, and which cameras raise which flag, and the cameras' findings; the measured frames go to
+    `samples`."""
     worst = dict.fromkeys(CAMERA_MEASURES, 0.0)
     raised: list[str] = []
     firsts: list[int] = []
+    found: list[Finding] = []
     for key in rgb_cameras(ds):
         frames = (
             images.frames(row, key, stride)
@@ -121,6 +125,7 @@ def episode_cameras(
             else decode_episode_video(ds.root, ds.info, row, key, stride)
         )
         q = camera_quality(frames, stride, th)
+        found += q.findings(key, th, stride, int(row["length"]))
         for measure in CAMERA_MEASURES:
             worst[measure] = max(worst[measure], q.share(measure))
             if q.share(measure) >= th.camera_flag:
@@ -129,11 +134,12 @@ def episode_cameras(
             firsts.append(first)
         records = [{"episode_index": int(row["episode_index"]), "camera": key, **asdict(s)} for s in q.samples]
         samples(pa.Table.from_pylist(records, schema=SAMPLE_SCHEMA))
-    return {
+    measures = {
         **{f"camera_{m}_fraction": v for m, v in worst.items()},
         "camera_first_black": min(firsts, default=None),
         "camera_flags": raised,
     }
+    return measures, found
 
 
 def camera_pass(
@@ -148,7 +154,9 @@ def camera_pass(
         if e not in rows:
             raise DatasetError(f"{ds.root}: episode {e}: no frames in data/", code="dataset.invalid")
         if cameras and int(row["length"]):
-            rows[e].update(episode_cameras(ds, row, stride, th, samples, images))
+            measures, found = episode_cameras(ds, row, stride, th, samples, images)
+            rows[e].update(measures)
+            rows[e][FINDINGS] += found
         if progress is not None:
             progress(1)
     return cameras

@@ -1,77 +1,109 @@
-"""Per-dimension faults of one episode: dimensions frozen to the end, clipping plateaus, gripper chatter."""
+"""Per-dimension faults of one episode, each a list of `Finding`s with its frames: a state dimension frozen
+while it should move, dimensions constant to the episode's end (informational), flat tops clipped at the
+state's observed extremes, an action saturated at its extremes (informational), gripper chatter."""
 
 from __future__ import annotations
-
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
+from openral_data.metrics.quality.findings import Finding, dim_subject, runs, span_findings
+
 Array = npt.NDArray[np.float64]
+Mask = npt.NDArray[np.bool_]
 
 
-@dataclass(frozen=True)
-class Frozen:
-    feature: str
-    dim: int
-    name: str
-    from_frame: int
+def held(x: Array) -> Mask:
+    """(frames, dims): True at frame t when each dimension holds frame t-1's exact value (frame 0: False)."""
+    same = x[1:] == x[:-1]  # NaN != NaN: a NaN run holds nothing
+    return np.concatenate([np.zeros((1, x.shape[1]), dtype=bool), same], axis=0)
 
 
-def last_change(x: Array) -> npt.NDArray[np.int64]:
-    """Per dimension of `x` (frames, dims): the first frame of its final constant run (0: constant throughout)."""
-    n, d = x.shape
-    if n < 2:
-        return np.zeros(d, dtype=np.int64)
-    changed = x[1:] != x[:-1]  # NaN != NaN: a NaN run is no frozen value
-    idx = np.where(changed, np.arange(1, n)[:, None], 0)
-    return np.asarray(idx.max(axis=0), dtype=np.int64)
+def constant_runs(column: Mask, min_frames: int) -> list[tuple[int, int]]:
+    """Runs of one exact value at least `min_frames` frames long, (first, last) inclusive, from a `held` column
+    (a run starts at the frame before its first held one)."""
+    return [(a - 1, b) for a, b in runs(column, max(1, min_frames - 1))]
 
 
-def frozen_dims(
-    feature: str, x: Array, names: list[str], varies: npt.NDArray[np.bool_], min_frames: int, min_share: float
-) -> list[Frozen]:
-    """Dimensions that vary in the dataset (`varies`) but hold one value from some frame to the episode's end,
-    for at least `min_frames` frames and `min_share` of it, while another dimension of `feature` still moves
-    after that frame (when every dimension rests, the episode is idle, not a dimension dead)."""
-    n = x.shape[0]
-    if n < 2:
-        return []
-    starts = last_change(x)
-    need = max(min_frames, int(np.ceil(min_share * n)))
-    out = []
+def moves(x: Array, a: int, b: int) -> Mask:
+    """Per dimension: whether it takes more than one value over frames a..b."""
+    part = x[a : b + 1]
+    if not len(part):
+        return np.zeros(x.shape[1], dtype=bool)
+    return np.asarray(np.nanmax(part, axis=0) > np.nanmin(part, axis=0), dtype=bool)
+
+
+def frozen_state(
+    x: Array, names: list[str], varies: Mask, commands: dict[int, Array], min_frames: int, feature: str
+) -> list[Finding]:
+    """State dimensions (varying in the dataset, `varies`) holding one exact value for `min_frames` frames or
+    more while they should move: the action dimension of the same name moved over that span (`commands`: state
+    dim -> that action column), else, without one, another state dimension did. A sensor read by physics or an
+    encoder never repeats itself bit for bit while the arm moves: a stale reading does."""
+    out: list[Finding] = []
+    hold = held(x)
     for d in np.flatnonzero(varies):
-        j = int(starts[d])
-        if n - j < need:
-            continue
-        others = [o for o in np.flatnonzero(varies) if o != d]
-        if any(starts[o] > j for o in others):
-            out.append(Frozen(feature, int(d), names[d], j))
+        spans = []
+        for a, b in constant_runs(hold[:, d], min_frames):
+            command = commands.get(int(d))
+            if command is not None:
+                moving = bool(np.nanmax(command[a : b + 1]) > np.nanmin(command[a : b + 1]))
+            else:
+                moving = bool(moves(x, a, b)[[o for o in np.flatnonzero(varies) if o != d]].any())
+            if moving:
+                spans.append((a, b))
+        longest = max((b - a + 1 for a, b in spans), default=0)
+        subject = dim_subject(feature, names[d])
+        out += span_findings("frozen", subject, spans, float(longest), float(min_frames), detail="held while moving")
     return out
 
 
-def clip_fraction(x: Array, lo: Array, hi: Array, skip: set[int], plateau: int) -> float | None:
-    """Share of frames where some dimension (not in `skip`, varying in the dataset) sits on its observed min or
-    max for at least `plateau` frames in a row; None without such dimensions."""
-    n, d = x.shape
-    dims = [i for i in range(d) if i not in skip and hi[i] > lo[i]]
-    if not dims or n == 0:
-        return None
-    clipped = np.zeros(n, dtype=bool)
-    for i in dims:
-        for limit in (lo[i], hi[i]):
-            clipped |= _runs_at_least(x[:, i] == limit, plateau)
-    return float(clipped.mean())
-
-
-def _runs_at_least(mask: npt.NDArray[np.bool_], k: int) -> npt.NDArray[np.bool_]:
-    """`mask` kept only where it belongs to a run of at least `k` True values."""
-    out = np.zeros_like(mask)
-    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True):
-        if b - a >= k:
-            out[a:b] = True
+def constant_tails(x: Array, names: list[str], varies: Mask, min_frames: int, feature: str) -> list[Finding]:
+    """Informational: dimensions (varying in the dataset) constant from some frame to the episode's end for at
+    least `min_frames` frames (from frame 0: unused in this episode). A task that does not use a dimension, or a
+    scripted expert holding it, is no fault."""
+    n = x.shape[0]
+    out: list[Finding] = []
+    if n < 2:
+        return out
+    hold = held(x)
+    for d in np.flatnonzero(varies):
+        changed = np.flatnonzero(~hold[1:, d])
+        start = int(changed[-1]) + 1 if len(changed) else 0
+        if n - start >= min_frames:
+            out.append(
+                Finding(
+                    "constant", dim_subject(feature, names[d]), start, n - 1, float(n - start), float(min_frames), False
+                )
+            )
     return out
+
+
+def plateaus(column: Array, limit: float, min_frames: int, interior: bool) -> list[tuple[int, int]]:
+    """Runs of `column` exactly at `limit` for `min_frames` frames or more; `interior`: only those entered and
+    left inside the episode (a flat top, not a rest at its start or end)."""
+    found = runs(column == limit, min_frames)
+    n = len(column)
+    return [(a, b) for a, b in found if not interior or (a > 0 and b < n - 1)]
+
+
+def at_extremes(
+    x: Array, lo: Array, hi: Array, dims: list[int], min_frames: int, interior: bool
+) -> dict[int, list[tuple[int, int]]]:
+    """Per dimension in `dims`: its `plateaus` on its lower or upper limit."""
+    found = {
+        d: plateaus(x[:, d], lo[d], min_frames, interior) + plateaus(x[:, d], hi[d], min_frames, interior) for d in dims
+    }
+    return {d: sorted(s) for d, s in found.items() if s}
+
+
+def share_of(spans: dict[int, list[tuple[int, int]]], n: int) -> float:
+    """The share of `n` frames inside any of `spans`."""
+    covered = np.zeros(n, dtype=bool)
+    for found in spans.values():
+        for a, b in found:
+            covered[a : b + 1] = True
+    return float(covered.mean()) if n else 0.0
 
 
 def gripper_dims(names: list[str]) -> list[int]:
@@ -79,16 +111,20 @@ def gripper_dims(names: list[str]) -> list[int]:
     return [i for i, name in enumerate(names) if "gripper" in name.lower()]
 
 
-def toggles(x: Array, lo: float, hi: float) -> int:
-    """How often `x` crosses between the lower and upper third of [lo, hi] (a hysteresis band, so noise around
-    the middle is not counted)."""
+def toggle_frames(x: Array, lo: float, hi: float) -> list[int]:
+    """The frames where `x` crosses between the lower and upper third of [lo, hi] (a hysteresis band, so noise
+    around the middle is not counted)."""
     if not hi > lo:
-        return 0
+        return []
     low, high = lo + (hi - lo) / 3, hi - (hi - lo) / 3
-    count, side = 0, 0  # side: -1 low, +1 high, 0 not yet known
-    for v in x:
+    out, side = [], 0  # side: -1 low, +1 high, 0 not yet known
+    for t, v in enumerate(x):
         new = -1 if v <= low else 1 if v >= high else side
         if side and new != side:
-            count += 1
+            out.append(t)
         side = new
-    return count
+    return out
+
+
+def toggles(x: Array, lo: float, hi: float) -> int:
+    return len(toggle_frames(x, lo, hi))

@@ -1,8 +1,9 @@
-"""The state/action/timestamp measures of one episode, and its per-frame speeds and idle flags."""
+"""The state/action/timestamp measures of one episode, the `Finding`s that raise its flags, and its per-frame
+speeds and idle flags."""
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -10,11 +11,13 @@ import numpy.typing as npt
 
 from openral_data.formats.lerobot_v3.features import ACTION, STATE
 from openral_data.metrics.quality import dims, motion, timing
+from openral_data.metrics.quality.findings import Finding, dim_subject, runs, span_findings
 from openral_data.metrics.quality.thresholds import Thresholds
 from openral_data.metrics.sources import DatasetSource
 
 Array = npt.NDArray[np.float64]
 Ranges = dict[str, tuple[Array, Array]]
+FINDINGS = "finding_list"  # the key of a row's findings (not a column: `table.finish` writes them apart)
 
 
 @dataclass(frozen=True)
@@ -24,45 +27,129 @@ class PerFrame:
     idle: npt.NDArray[np.bool_]
 
 
+def idle_findings(idle: npt.NDArray[np.bool_], th: Thresholds) -> list[Finding]:
+    share = float(idle.mean()) if len(idle) else 0.0
+    if share < th.idle_flag:
+        return []
+    return span_findings("idle", "episode", runs(idle, 2), share, th.idle_flag, detail="idle share of frames")
+
+
+def jerk_findings(z: Array, names: list[str], feature: str, fps: int, th: Thresholds) -> tuple[list[Finding], float]:
+    """`jerky` windows of the trajectory `z` (range units; `names` its dimensions) and the worst share."""
+    windows = motion.jerky_windows(z, fps, th.jerk_window_s, th.jerk_step, th.jerk_min_reversals)
+    out = [
+        Finding("jerky", dim_subject(feature, names[d]), a, b, share, th.jerk_reversal_share, detail="reversals")
+        for d, a, b, share in windows
+        if share >= th.jerk_reversal_share
+    ]
+    return out, max((w[3] for w in windows), default=0.0)
+
+
+def vector_findings(
+    ds: DatasetSource, key: str, x: Array, ranges: Ranges, arrays: dict[str, Array], th: Thresholds
+) -> tuple[list[Finding], float | None, Array, list[str]]:
+    """One vector's per-dimension findings, its clipped/saturated share, its trajectory without the gripper and
+    constant dimensions (in range units) and their names."""
+    lo, hi = ranges[key]
+    names = ds.dim_names(key)
+    grip = dims.gripper_dims(names)
+    varies = (hi > lo) & ~np.isin(np.arange(len(names)), grip)  # a gripper holds still on purpose
+    found = dims.constant_tails(x, names, varies, th.frozen_min_frames, key)
+    moving = [int(d) for d in np.flatnonzero(varies)]
+    n = x.shape[0]
+    if key == STATE:
+        action_names = ds.dim_names(ACTION) if ACTION in arrays else []
+        commands = {d: arrays[ACTION][:, action_names.index(nm)] for d, nm in enumerate(names) if nm in action_names}
+        tops = dims.at_extremes(x, lo, hi, moving, th.clip_plateau, interior=True)
+        share = dims.share_of(tops, n)
+        clipped = {(dim_subject(key, names[d]), a) for d, spans in tops.items() for a, _ in spans}
+        frozen = dims.frozen_state(x, names, varies, commands, th.frozen_min_frames, key)
+        found += [f for f in frozen if (f.subject, f.start_frame) not in clipped]  # held on a limit: clipped
+        for d, spans in tops.items():
+            subject = dim_subject(key, names[d])
+            found += span_findings("clipped", subject, spans, share, th.clip_flag, share >= th.clip_flag)
+    else:
+        tops = dims.at_extremes(x, lo, hi, moving, th.clip_plateau, interior=False)
+        share = dims.share_of(tops, n)
+        for d, spans in tops.items():
+            found += span_findings("saturated", dim_subject(key, names[d]), spans, share, None, False)
+    trajectory = motion.normalised(x[:, varies], lo[varies], hi[varies])
+    return found, (share if moving and n else None), trajectory, [names[d] for d in moving]
+
+
+def gripper_findings(
+    ds: DatasetSource, arrays: dict[str, Array], ranges: Ranges, n: int, th: Thresholds
+) -> tuple[list[Finding], int | None]:
+    """`chatter` of the action's gripper dimensions (else the state's): their toggles, from first to last."""
+    key = ACTION if dims.gripper_dims(ds.dim_names(ACTION)) and ACTION in arrays else STATE
+    if key not in arrays or key not in ranges:
+        return [], None
+    names, (lo, hi) = ds.dim_names(key), ranges[key]
+    out, most = [], None
+    for g in dims.gripper_dims(names):
+        frames = dims.toggle_frames(arrays[key][:, g], float(lo[g]), float(hi[g]))
+        most = max(most or 0, len(frames))
+        rate = len(frames) * ds.fps / n if n else 0.0
+        if len(frames) >= th.chatter_min_toggles and rate >= th.chatter_hz:
+            out.append(Finding("chatter", dim_subject(key, names[g]), frames[0], frames[-1], rate, th.chatter_hz))
+    return out, most
+
+
+def timing_findings(steps: Array, th: Thresholds) -> list[Finding]:
+    """A `gap` at each late (or not forward) frame, `jitter` at each frame off its period beyond the threshold."""
+    late = (steps > th.gap_frames) | (steps <= 0)
+    out = [
+        Finding("gap", "timestamp", int(t) + 1, int(t) + 1, float(steps[t]), th.gap_frames)
+        for t in np.flatnonzero(late)
+    ]
+    off = ~late & (np.abs(steps - 1.0) > th.jitter_flag)
+    out += span_findings(
+        "jitter",
+        "timestamp",
+        [(a + 1, b + 1) for a, b in runs(off)],
+        timing.jitter(steps, th.gap_frames),
+        th.jitter_flag,
+    )
+    return out
+
+
 def episode_motion(
     ds: DatasetSource, arrays: dict[str, Array], timestamps: Array, ranges: Ranges, th: Thresholds
 ) -> tuple[dict[str, Any], PerFrame]:
-    """One episode's measures (`arrays`: its state and action, frames in order) and its per-frame values."""
+    """One episode's measures (`arrays`: its state and action, frames in order), findings and per-frame values."""
     n, fps = len(timestamps), ds.fps
     z = {k: motion.normalised(x, *ranges[k]) for k, x in arrays.items() if k in ranges}
     speed = {k: motion.speeds(v, fps) for k, v in z.items()}
     idle = motion.idle_frames(speed.get(STATE), speed.get(ACTION), n, th.idle_speed)
     head, tail = motion.run_lengths(idle)
-    frozen: list[dims.Frozen] = []
-    clip: dict[str, float | None] = {}
-    grippers: list[tuple[Array, float, float]] = []
-    arm: dict[str, Array] = {}  # the trajectory without gripper dimensions (open/close steps are no jerk)
+    found = idle_findings(idle, th)
+    share: dict[str, float | None] = {}
+    arm: dict[str, tuple[Array, list[str]]] = {}  # trajectories without the gripper (its steps are no jerk)
     for key, x in arrays.items():
-        if key not in ranges:
-            continue
-        lo, hi = ranges[key]
-        names = ds.dim_names(key)
-        grip = dims.gripper_dims(names)
-        varies = (hi > lo) & ~np.isin(np.arange(len(names)), grip)  # a gripper holds still on purpose
-        frozen += dims.frozen_dims(key, x, names, varies, th.frozen_min_frames, th.frozen_min_share)
-        clip[key] = dims.clip_fraction(x, lo, hi, set(grip), th.clip_plateau)
-        arm[key] = motion.normalised(x[:, varies], lo[varies], hi[varies])
-        if key == ACTION or not dims.gripper_dims(ds.dim_names(ACTION)):  # the action's gripper, else the state's
-            grippers += [(x[:, g], float(lo[g]), float(hi[g])) for g in grip]
-    toggles = max((dims.toggles(*g) for g in grippers), default=None)
+        if key in ranges:
+            more, share[key], traj, names = vector_findings(ds, key, x, ranges, arrays, th)
+            found, arm[key] = found + more, (traj, names)
+    jerk_key = ACTION if ACTION in arm else STATE
+    worst = trajectory = None
+    if jerk_key in arm:
+        trajectory, names = arm[jerk_key]
+        more, worst = jerk_findings(trajectory, names, jerk_key, fps, th)
+        found += more
+    grip, toggles = gripper_findings(ds, arrays, ranges, n, th)
     steps = timing.timestamp_steps(timestamps, fps)
-    trajectory = arm.get(ACTION, arm.get(STATE))
+    found += grip + timing_findings(steps, th)
     row = {
         "idle_fraction": float(idle.mean()) if n else 0.0,
         "idle_head": head,
         "idle_tail": tail,
-        "frozen_dims": [asdict(f) for f in frozen],
         "ldlj": motion.windowed_ldlj(trajectory, fps, th.jerk_window_s) if trajectory is not None else None,
+        "jerk_reversal_share": worst,
         "gripper_toggles": toggles,
         "gripper_toggles_per_s": None if toggles is None or not n else toggles * fps / n,
-        "action_clip_fraction": clip.get(ACTION),
-        "state_clip_fraction": clip.get(STATE),
+        "action_saturated_fraction": share.get(ACTION),
+        "state_clip_fraction": share.get(STATE),
         "timestamp_jitter": timing.jitter(steps, th.gap_frames),
         "timestamp_gaps": timing.gaps(steps, th.gap_frames),
+        FINDINGS: found,
     }
     return row, PerFrame(speed.get(STATE), speed.get(ACTION), idle)

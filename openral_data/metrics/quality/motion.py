@@ -73,3 +73,35 @@ def windowed_ldlj(z: Array, fps: int, window_s: float) -> float | None:
     spans = [(a, a + k) for a in range(0, len(z) - k + 1, k)] or [(0, len(z))]
     values = [v for a, b in spans if (v := ldlj(z[a:b], fps)) is not None]
     return float(np.median(values)) if values else None
+
+
+def reversals(z: Array, tol: float) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.bool_]]:
+    """(frames, dims) of `z` in range units: at frame t, whether the step into t and the step out of it both
+    exceed `tol` (`counted`) and point opposite ways (`reversed`). Noise reverses at about every other frame;
+    smooth motion, a scripted straight line or a step to a new set point only where it turns back."""
+    n, d = z.shape
+    counted = np.zeros((n, d), dtype=bool)
+    back = np.zeros((n, d), dtype=bool)
+    if n >= 3:
+        with np.errstate(invalid="ignore"):
+            step = np.diff(z, axis=0)
+            big = np.abs(step) > tol
+            counted[1:-1] = big[:-1] & big[1:]
+            back[1:-1] = counted[1:-1] & (np.sign(step[:-1]) != np.sign(step[1:]))
+    return counted, back
+
+
+def jerky_windows(
+    z: Array, fps: int, window_s: float, tol: float, min_reversals: int
+) -> list[tuple[int, int, int, float]]:
+    """Per dimension of `z`, the windows of `window_s` seconds (at least 4 frames) holding at least
+    `min_reversals` reversals: (dim, first frame, last frame, the share of its counted frames that reverse)."""
+    counted, back = reversals(z, tol)
+    n, k = z.shape[0], max(4, round(window_s * fps))
+    out = []
+    for a in range(0, max(n - k // 2, 1), k):
+        b = min(a + k, n)
+        c, r = counted[a:b].sum(axis=0), back[a:b].sum(axis=0)
+        for dim in np.flatnonzero(r >= min_reversals):
+            out.append((int(dim), a, b - 1, float(r[dim] / c[dim])))
+    return out

@@ -7,23 +7,21 @@ from typing import Any
 
 import pyarrow as pa
 
-from openral_data.metrics.quality.thresholds import Thresholds
+from openral_data.metrics.quality.camera import MEASURES as CAMERA_MEASURES
+from openral_data.metrics.quality.episode import FINDINGS
+from openral_data.metrics.quality.findings import FINDING_SCHEMA, Finding, finding_rows, flagged_checks, labels
 
-CAMERA_MEASURES = ("black", "saturated", "frozen", "blurred")
-FROZEN_DIM = pa.struct(
-    [("feature", pa.string()), ("dim", pa.int64()), ("name", pa.string()), ("from_frame", pa.int64())]
-)
 MEASURES = pa.schema(
     [
         ("episode_index", pa.int64()),
         ("idle_fraction", pa.float64()),
         ("idle_head", pa.int64()),
         ("idle_tail", pa.int64()),
-        ("frozen_dims", pa.list_(FROZEN_DIM)),
         ("ldlj", pa.float64()),
+        ("jerk_reversal_share", pa.float64()),
         ("gripper_toggles", pa.int64()),
         ("gripper_toggles_per_s", pa.float64()),
-        ("action_clip_fraction", pa.float64()),
+        ("action_saturated_fraction", pa.float64()),
         ("state_clip_fraction", pa.float64()),
         ("timestamp_jitter", pa.float64()),
         ("timestamp_gaps", pa.int64()),
@@ -58,36 +56,33 @@ FLAGS = (
     *(f"camera_{m}" for m in CAMERA_MEASURES),
 )
 SCHEMA = pa.schema(
-    [*MEASURES, *((f, pa.bool_()) for f in FLAGS), ("flags", pa.list_(pa.string())), ("flagged", pa.bool_())]
+    [
+        *MEASURES,
+        *((f, pa.bool_()) for f in FLAGS),
+        ("flags", pa.list_(pa.string())),
+        ("flagged", pa.bool_()),
+        ("findings", pa.list_(pa.string())),
+    ]
 )
 
 
-def raised(row: dict[str, Any], th: Thresholds) -> dict[str, bool]:
-    """Every flag of one episode's measures."""
-
-    def over(value: float | None, limit: float) -> bool:
-        return value is not None and value >= limit
-
-    toggles, rate = row.get("gripper_toggles"), row.get("gripper_toggles_per_s")
-    return {
-        "idle": row["idle_fraction"] >= th.idle_flag,
-        "frozen": bool(row["frozen_dims"]),
-        "jerky": row["ldlj"] is not None and row["ldlj"] < th.jerk_ldlj,
-        "chatter": over(toggles, th.chatter_min_toggles) and over(rate, th.chatter_hz),
-        "clipped": over(row["action_clip_fraction"], th.clip_flag) or over(row["state_clip_fraction"], th.clip_flag),
-        "jitter": row["timestamp_jitter"] > th.jitter_flag,
-        "gap": row["timestamp_gaps"] > 0,
-        **{f"camera_{m}": over(row.get(f"camera_{m}_fraction"), th.camera_flag) for m in CAMERA_MEASURES},
-    }
+def raised(findings: list[Finding]) -> dict[str, bool]:
+    """Every flag of one episode: raised exactly when a flagging finding has its check."""
+    on = flagged_checks(findings)
+    return {f: f in on for f in FLAGS}
 
 
-def finish(rows: dict[int, dict[str, Any]], th: Thresholds, stride: int, *, has_cameras: bool) -> pa.Table:
-    """The table of `rows` (episode -> measures), flags added, in episode order."""
-    out = []
+def finish(rows: dict[int, dict[str, Any]], stride: int, *, has_cameras: bool) -> tuple[pa.Table, pa.Table]:
+    """The episodes' table of `rows` (episode -> measures and findings), flags added, in episode order, and the
+    findings' table."""
+    out, found = [], []
     for e in sorted(rows):
         row = {"episode_index": e, **rows[e], "camera_stride": stride if has_cameras else None}
+        findings: list[Finding] = row.pop(FINDINGS)
         if not has_cameras:
             row.update({f"camera_{m}_fraction": None for m in CAMERA_MEASURES} | {"camera_flags": []})
-        flags = raised(row, th)
-        out.append({**row, **flags, "flags": [f for f, on in flags.items() if on], "flagged": any(flags.values())})
-    return pa.Table.from_pylist(out, schema=SCHEMA)
+        flags = raised(findings)
+        flagged = [f for f, on in flags.items() if on]
+        out.append({**row, **flags, "flags": flagged, "flagged": bool(flagged), "findings": labels(findings)})
+        found += finding_rows(e, findings)
+    return pa.Table.from_pylist(out, schema=SCHEMA), pa.Table.from_pylist(found, schema=FINDING_SCHEMA)

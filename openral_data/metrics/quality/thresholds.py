@@ -18,14 +18,15 @@ from openral_data.errors import UsageError
 class Thresholds:
     idle_speed: float = 0.02  # a frame is idle when state and action move less than this (range / second)
     idle_flag: float = 0.5  # `idle` when at least this share of the episode's frames is idle
-    frozen_min_frames: int = 10  # a dimension frozen to its end for at least this many frames...
-    frozen_min_share: float = 0.25  # ... and this share of the episode, while another dimension still moves
-    jerk_ldlj: float = -9.0  # `jerky` when the median log dimensionless jerk of 2 s windows is below this
-    jerk_window_s: float = 2.0
+    frozen_min_frames: int = 10  # a state dimension held bit for bit this many frames while it should move
+    jerk_window_s: float = 2.0  # `jerky`: windows this long (s)...
+    jerk_step: float = 0.002  # ... counting steps larger than this (range units) on both sides of a frame...
+    jerk_min_reversals: int = 6  # ... with at least this many that reverse direction...
+    jerk_reversal_share: float = 0.5  # ... and at least this share of the counted ones (noise: about 2/3)
     chatter_hz: float = 1.0  # `chatter` when the gripper toggles at least this often per second...
     chatter_min_toggles: int = 4  # ... and at least this many times in the episode
-    clip_plateau: int = 3  # a dimension sitting on its observed min/max for this many frames in a row is clipped
-    clip_flag: float = 0.1  # `clipped` when this share of the frames (action or state) is clipped
+    clip_plateau: int = 3  # a state flat top on its observed min/max for this many frames in a row is clipped
+    clip_flag: float = 0.1  # `clipped` when this share of the frames is clipped
     gap_frames: float = 1.5  # a timestamp step longer than this many frame periods (or not forward) is a gap
     jitter_flag: float = 0.25  # `jitter` when a step (gaps aside) is off 1/fps by more than this many periods
     black_luma: float = 16.0  # a sampled camera frame is black below this mean luma (0-255)...
@@ -44,8 +45,8 @@ DEFAULT_STRIDE = 5  # every 5th frame of each camera is measured (all frames are
 
 def parse_thresholds(pairs: Sequence[str], base: Thresholds = DEFAULT) -> Thresholds:
     """`--threshold NAME=VALUE` (repeatable; NAME a field above, spelt with `-` or `_`) -> `base` with those
-    values; one line for an unknown name or a value that is not a finite number >= 0 (`jerk_ldlj` may be
-    negative; an integer for an integer field)."""
+    values; one line for an unknown name or a value that is not a finite number >= 0 (an integer for
+    an integer field)."""
     kinds = {f.name: f.type for f in fields(Thresholds)}
     changes: dict[str, float | int] = {}
     for pair in pairs:
@@ -59,7 +60,7 @@ def parse_thresholds(pairs: Sequence[str], base: Thresholds = DEFAULT) -> Thresh
             raise UsageError(
                 f"--threshold: {name}: {text!r} is not a{'n integer' if kinds[name] in (int, 'int') else ' number'}"
             ) from None
-        if not math.isfinite(value) or (value < 0 and name != "jerk_ldlj"):  # a log jerk is negative
+        if not math.isfinite(value) or value < 0:
             raise UsageError(f"--threshold: {name}: {text!r} must be a finite number >= 0")
         changes[name] = value
     return replace(base, **changes)  # type: ignore[arg-type]  # each value parsed as its field's type above

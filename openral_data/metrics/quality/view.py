@@ -3,7 +3,9 @@
 * `quality`: one row per episode and dataset (table.SCHEMA), joinable with `episodes` on dataset, episode_index;
 * `quality_frames`: one row per frame (speeds, idle), joinable with `frames` on dataset, episode_index,
   frame_index;
-* `quality_camera_frames`: one row per sampled camera frame (luma, change, sharpness and the faults).
+* `quality_camera_frames`: one row per sampled camera frame (luma, change, sharpness and the faults);
+* `quality_findings`: one row per finding (`findings.FINDING_SCHEMA`: episode_index, check, subject, start_frame,
+  end_frame, value, threshold, flag, detail), what raised each flag, to the frame.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from openral_data.errors import DatasetError
 from openral_data.formats.parquetfile import read_schema
 from openral_data.metrics.quality import cache
 from openral_data.metrics.quality.cached import cached_quality, quality_of
+from openral_data.metrics.quality.findings import FINDING_SCHEMA
 from openral_data.metrics.quality.table import FLAGS, FRAME_SCHEMA, SAMPLE_SCHEMA, SCHEMA
 from openral_data.metrics.quality.thresholds import DEFAULT, Thresholds
 from openral_data.metrics.report import Table
@@ -41,6 +44,7 @@ def register_quality(con: duckdb.DuckDBPyConnection, datasets: Sequence[DatasetS
     parts, files = [], []
     frames: list[str] = []
     samples: list[str] = []
+    found: list[str] = []
     for ds in datasets:
         table = quality_of(ds).table if compute else cached_quality(ds)
         if table is None:
@@ -48,7 +52,7 @@ def register_quality(con: duckdb.DuckDBPyConnection, datasets: Sequence[DatasetS
         parts.append(table.add_column(0, "dataset", pa.array([ds.label] * table.num_rows, pa.string())))
         paths = cache.cache_paths(ds.root)
         key, stride = cache.fingerprint(ds.root, DEFAULT), cache.stored_stride(table)
-        for path, out in ((paths.frames, frames), (paths.camera_frames, samples)):
+        for path, out in ((paths.frames, frames), (paths.camera_frames, samples), (paths.findings, found)):
             if _current(path, key, stride):
                 out.append(f"SELECT {lit(ds.label)} AS dataset, * FROM read_parquet({path_sql(path)})")
                 files.append(path)
@@ -58,6 +62,7 @@ def register_quality(con: duckdb.DuckDBPyConnection, datasets: Sequence[DatasetS
     for name, selects, schema in (
         ("quality_frames", frames, FRAME_SCHEMA),
         ("quality_camera_frames", samples, SAMPLE_SCHEMA),
+        ("quality_findings", found, FINDING_SCHEMA),
     ):
         con.register(f"openral_{name}_empty", _empty(schema))
         body = "\nUNION ALL BY NAME\n".join(selects) if selects else f"SELECT * FROM openral_{name}_empty"
@@ -84,6 +89,11 @@ def flag_counts(ds: DatasetSource, th: Thresholds = DEFAULT) -> dict[str, int] |
         return None
     counts = {f: sum(bool(v) for v in table.column(f).to_pylist()) for f in (*FLAGS, "flagged")}
     return {"episodes": table.num_rows, **counts}
+
+
+def raised_text(counts: dict[str, int]) -> str:
+    """`idle 1, camera_black 1`: the flags `counts` (`flag_counts`) raises, with their episode counts."""
+    return ", ".join(f"{k} {v}" for k, v in counts.items() if v and k not in ("episodes", "flagged"))
 
 
 def counts_table(datasets: Sequence[DatasetSource], th: Thresholds = DEFAULT) -> Table:

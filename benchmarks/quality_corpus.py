@@ -1,0 +1,167 @@
+"""The labelled corpus of `calibrate_quality.py`: clean episodes of several kinds of data, and the same episodes
+with one known fault each (`tests/support/data_faults.py`), every dataset cached under one folder.
+
+Clean sources (`CORPUS/clean/NAME`, made once, reused while present):
+
+* **expert**: our scripted experts, `openral-data record --scene S` on every scene whose default rSkill is a
+  scripted expert (the tabletop scenes' scripted pick/place/push/drawer/stack, Meta-World's expert policies);
+* **generated**: `openral-data generate` (MimicGen-style) from the tabletop_pick_place experts;
+* **person**: gamepad teleop sessions of tabletop_push driven by a scripted person through the real device path
+  (`teleop_sessions.py`), and the third-party LeRobot recordings of people teleoperating real robots in
+  `../shared/fixtures/lerobot/` (v2.1 ones upgraded with `openral-data upgrade`).
+
+Each clean episode is a *unit* (foreign episodes cut to their first `--max-frames` frames, pictures subsampled to
+at most `--max-side` pixels). Per source, the units are rewritten through our writer (`work/NAME/clean`), and
+once per fault kind with that fault injected into every unit (`work/NAME/KIND`, the truths in `truths.json`).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO))
+
+from teleop_sessions import record_sessions  # noqa: E402
+
+from openral_data.formats.lerobot_v3.reader import read_episodes  # noqa: E402
+from tests.support import data_faults as df  # noqa: E402
+
+EXPERT_SCENES = (  # every scene whose default rSkill is a scripted expert (`openral-data list scenes`)
+    "tabletop_pick_place",
+    "tabletop_pick_place_randomized",
+    "tabletop_open_drawer",
+    "tabletop_pick_clutter",
+    "tabletop_place_on",
+    "tabletop_push",
+    "tabletop_stack",
+    "metaworld_button_press_topdown",
+    "metaworld_door_open",
+    "metaworld_drawer_open",
+    "metaworld_pick_place",
+    "metaworld_push",
+    "metaworld_window_open",
+)
+FIXTURES = REPO.parent / "shared" / "fixtures" / "lerobot"
+
+
+@dataclass(frozen=True)
+class Source:
+    name: str
+    data: str  # expert, generated or person
+    root: Path
+
+
+def cli(*args: str) -> None:
+    """`openral-data ARGS` in a subprocess (MuJoCo rendering off screen); its output only when it fails."""
+    env = {**os.environ, "MUJOCO_GL": "egl", "PYTHONPATH": str(REPO)}
+    done = subprocess.run(
+        [sys.executable, "-m", "openral_data.cli", *args], check=False, capture_output=True, text=True, env=env
+    )
+    if done.returncode != 0:
+        raise RuntimeError(f"openral-data {' '.join(args)}: {done.stderr[-2000:]}")
+
+
+def ready(root: Path) -> bool:
+    return (root / "meta" / "info.json").is_file()
+
+
+def expert_sources(corpus: Path, scenes: tuple[str, ...], episodes: int) -> list[Source]:
+    out = []
+    for scene in scenes:
+        root = corpus / "clean" / f"expert_{scene}"
+        if not ready(root):
+            print(f"recording {episodes} expert episodes of {scene}", flush=True)
+            cli("record", "--scene", scene, "--n-episodes", str(episodes), "--seed", "100", "--out", str(root),
+                "--codec", "h264")  # fmt: skip
+        out.append(Source(f"expert_{scene}", "expert", root))
+    return out
+
+
+def generated_source(corpus: Path, attempts: int) -> list[Source]:
+    root, seeds = corpus / "clean" / "generated_tabletop_pick_place", corpus / "clean" / "expert_tabletop_pick_place"
+    if not ready(root) and ready(seeds):
+        print(f"generating {attempts} attempts from {seeds.name}", flush=True)
+        cli("generate", str(seeds), "--scene", "tabletop_pick_place", "--n", str(attempts), "--out", str(root),
+            "--codec", "h264")  # fmt: skip
+    return [Source("generated_tabletop_pick_place", "generated", root)] if ready(root) else []
+
+
+def teleop_source(corpus: Path, episodes: int, max_steps: int = 150) -> list[Source]:
+    """Gamepad sessions of a scripted person through the real device path (`teleop_sessions.py`)."""
+    root = corpus / "clean" / "person_teleop_gamepad"
+    if not ready(root):
+        print(f"recording {episodes} gamepad teleop sessions", flush=True)
+        record_sessions(root, episodes, max_steps, corpus / "scratch")
+    return [Source("person_teleop_gamepad", "person", root)]
+
+
+def person_sources(corpus: Path) -> list[Source]:
+    out = []
+    for fixture in sorted(FIXTURES.glob("*")) if FIXTURES.is_dir() else []:
+        info = json.loads((fixture / "meta" / "info.json").read_text())
+        root = fixture
+        if str(info.get("codebase_version", "")).startswith("v2"):
+            root = corpus / "clean" / f"person_{fixture.name}"
+            if not ready(root):
+                print(f"upgrading {fixture.name}", flush=True)
+                cli("upgrade", str(fixture), str(root))
+        out.append(Source(f"person_{fixture.name}", "person", root))
+    return out
+
+
+@dataclass(frozen=True)
+class Unit:
+    source: str
+    data: str
+    episode: int  # in the source
+    index: int  # in work/SOURCE/*: the written episode
+    half: str  # tuning or held-out
+
+
+def source_units(
+    src: Source, max_frames: int, max_side: int, counter: dict[str, int]
+) -> tuple[list[df.Clean], list[Unit]]:
+    """`src`'s episodes as clean units; units alternate between the halves in order, per kind of data."""
+    cleans, units = [], []
+    for e in sorted(int(r["episode_index"]) for r in read_episodes(src.root).to_pylist()):
+        clean = df.load(src.root, e, max_side=max_side, max_frames=max_frames)
+        if clean.n < 20:
+            continue
+        k = counter.get(src.data, 0)
+        counter[src.data] = k + 1
+        units.append(Unit(src.name, src.data, e, len(cleans), "tuning" if k % 2 == 0 else "held-out"))
+        cleans.append(clean)
+    return cleans, units
+
+
+def build(src: Source, work: Path, kinds: tuple[str, ...], cleans: list[df.Clean]) -> None:
+    """`work/SRC/clean` and one `work/SRC/KIND` per fault kind (each unit with that fault; units where it does
+    not apply are left out, `truths.json` maps written episodes to units)."""
+    base = work / src.name
+    if not ready(base / "clean"):
+        shutil.rmtree(base / "clean", ignore_errors=True)
+        df.write(base / "clean", cleans)
+    for kind in kinds:
+        out = base / kind
+        if (out / "truths.json").is_file():
+            continue
+        shutil.rmtree(out, ignore_errors=True)  # a build cut short: made again
+        faulty, truths = [], []
+        for u, clean in enumerate(cleans):
+            try:
+                ep, truth = df.inject(clean, kind, seed=1000 * u + df.KINDS.index(kind))
+            except df.NotApplicable:
+                continue
+            truths.append({"episode": len(faulty), "unit": u, **df.labelled(truth, ep)})
+            faulty.append(ep)
+        if faulty:
+            df.write(out, faulty)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "truths.json").write_text(json.dumps(truths, indent=1))
