@@ -1,6 +1,6 @@
 """Trainability: does a small policy trained on our recorded expert demos work in closed loop?
 
-Records `--demos` expert episodes of `benchmarks/scenes/tabletop_push_bench.yaml` (tabletop_push, one 64x64
+Records `--demos` expert episodes of `pipelines/scenes/tabletop_push_small.yaml` (tabletop_push, one 64x64
 front camera) with `scripted-push`, optionally injects one data fault into every episode
 (`tests/support/data_faults.py`: `quaternion_flip`, `upside_down`, or `shuffled_instructions` = its
 `shuffle_tasks`), trains ACT with the `train` step's trainer (`openral_data/pipeline/trainer.py`, lerobot's own
@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-SCENE = ROOT / "benchmarks" / "scenes" / "tabletop_push_bench.yaml"
+SCENE = ROOT / "pipelines" / "scenes" / "tabletop_push_small.yaml"  # the flywheel campaign's scene
 EVAL_SEED = 100_000
 CLI = [sys.executable, "-m", "openral_data.cli"]
 
@@ -48,7 +48,10 @@ def faulted(clean: Path, defect: str, out: Path) -> Path:
     info = json.loads((clean / "meta" / "info.json").read_text())
     episodes = [data_faults.load(clean, e) for e in range(int(info["total_episodes"]))]
     if defect == "shuffled_instructions":
-        episodes, _ = data_faults.shuffle_tasks(episodes)
+        try:
+            episodes, _ = data_faults.shuffle_tasks(episodes)
+        except data_faults.NotApplicable as exc:  # one task: nothing to shuffle (and ACT reads no instruction)
+            raise SystemExit(f"shuffled_instructions: not applicable: {exc}") from None
     else:
         episodes = [data_faults.inject(ep, defect, seed=i)[0] for i, ep in enumerate(episodes)]
     return data_faults.write(out, episodes)
