@@ -100,12 +100,14 @@ def pipeline_config(dataset: Path, run: Path, s: TrainSettings) -> Any:
 
 def train_policy(dataset: Path, run: Path, s: TrainSettings, log: Callable[[str], None] | None = None) -> Path:
     """Train to `s.steps` in `run` (resuming from its last checkpoint); returns the final `pretrained_model`."""
-    import torch
     from lerobot.common.train_utils import load_training_state
 
     if s.policy not in POLICY_TYPES:
         raise ConfigError(f"train.policy: {s.policy!r}: offline training offers {', '.join(POLICY_TYPES)}")
+    from lerobot.utils.random_utils import set_seed
+
     cfg = pipeline_config(dataset, run, s)
+    set_seed(s.seed)  # the initial weights; a resumed run then takes the RNG state its checkpoint saved
     parts = _build(cfg)
     policy, optimizer, scheduler = parts["policy"], parts["optimizer"], parts["scheduler"]
     step = 0
@@ -115,7 +117,6 @@ def train_policy(dataset: Path, run: Path, s: TrainSettings, log: Callable[[str]
         step, optimizer, scheduler = load_training_state(last, optimizer, scheduler)
         if log:
             log(f"resuming from {last.resolve().name} (step {step})")
-    torch.manual_seed(s.seed + step)
     policy.train()
     while step < s.steps:
         for batch in _loader(cfg, parts["dataset"], step):
