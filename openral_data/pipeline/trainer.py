@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from openral_data.errors import ConfigError
+from openral_data.errors import CompatibilityError, ConfigError
 
 POLICY_TYPES = ("act",)
 PolicyType = Literal["act"]
@@ -108,7 +108,10 @@ def train_policy(dataset: Path, run: Path, s: TrainSettings, log: Callable[[str]
 
     cfg = pipeline_config(dataset, run, s)
     set_seed(s.seed)  # the initial weights; a resumed run then takes the RNG state its checkpoint saved
-    parts = _build(cfg)
+    try:
+        parts = _build(cfg)
+    except ValueError as exc:  # lerobot's feature checks, e.g. ACT without a camera
+        raise CompatibilityError(f"{dataset}: train.policy: {s.policy} cannot train on this dataset: {exc}") from None
     policy, optimizer, scheduler = parts["policy"], parts["optimizer"], parts["scheduler"]
     step = 0
     last = last_checkpoint(run)

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
+import yaml
 from safetensors.numpy import load_file
 
 from openral_data.errors import ConfigError
@@ -118,3 +119,18 @@ def test_train_yaml_takes_numbers_not_code_or_paths(tmp_path: Path, train: dict[
                                                                  {"id": "policy", "train": train}]})  # fmt: skip
     with pytest.raises(ConfigError, match=message):
         load_pipeline(spec)
+
+
+def test_training_a_dataset_lerobot_refuses_is_one_line(project: Path, tmp_path: Path) -> None:
+    # ACT needs a camera (or an environment state): a camera-less recording is refused in one line, exit 2
+    scene = yaml.safe_load((REPO / "openral_data/builtin/scenes/sim/mock_pick.yaml").read_text())
+    scene["scene"].update(id="blind", cameras=[])
+    scene["task"]["scene_id"] = "blind"
+    write_yaml(tmp_path / "blind.yaml", scene)
+    rec = {**REC, "scenes": ["blind.yaml"], "rskills": ["zero-mock"]}
+    spec = write_yaml(tmp_path / "p.yaml", {"name": "t", "steps": [
+        {"id": "rec", "record": rec}, {"id": "policy", "train": TRAIN}]})  # fmt: skip
+    res = run_cli("pipeline", "run", str(spec), "--workdir", str(tmp_path / "run"))
+    assert res.returncode == 2
+    assert res.stderr.startswith("error: pipeline step policy/blind--zero-mock: ") and res.stderr.count("\n") == 1
+    assert "act cannot train on this dataset: You must provide at least one image" in res.stderr
