@@ -1,6 +1,7 @@
 """The `evaluate` step: `record --policy CHECKPOINT` of each checkpoint a `train` step made, on seeds the
-training never saw; the rollouts are a dataset (its episodes' `operator` is `policy:<name>`), so `stats` gives
-the success rate with its Wilson interval and `merge` can take them."""
+training never saw. The rollouts are a dataset `<train step>--<item>` (its episodes' `operator` is
+`policy:<item>`), so `stats` gives the success rate with its Wilson interval, one row per round, and `merge`
+can take them."""
 
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ CHECKPOINT = "pretrained_model"  # inside a train step's item (pipeline/train_st
 
 
 def evaluate_jobs(spec: EvaluateStep, resolve: Callable[[str], list[tuple[str, Path]]]) -> Iterator[ItemJob]:
+    trainer = spec.policy.split("/", 1)[0]
     for name, trained in resolve(spec.policy):
 
         def run(out: Path, trained: Path = trained) -> dict[str, Any]:
@@ -43,4 +45,4 @@ def evaluate_jobs(spec: EvaluateStep, resolve: Callable[[str], list[tuple[str, P
                 "seeds": [e.seed for e in summary.episodes],
             }
 
-        yield name, run
+        yield f"{trainer}--{name}", run  # the round's name in `stats`' dataset column

@@ -82,14 +82,15 @@ def test_train_step_killed_resumes_and_its_checkpoint_drives_replay_and_record(p
     summary = json.loads(rep.stdout)
     assert summary["rskill"] == f"policy:{model}" and len(summary["episode_list"]) == 2
     # ... and the evaluate step's recording (record --policy) on unseen seeds, one stats row with its interval
-    rollouts = workdir / "eval" / "mock_pick--random-mock"
+    rollouts = workdir / "eval" / "policy--mock_pick--random-mock"
     info = json.loads((rollouts / "meta" / "info.json").read_text())
     assert (info["total_episodes"], info["total_frames"]) == (2, 12)
     episodes = pq.read_table(next((rollouts / "meta" / "episodes").rglob("*.parquet"))).to_pylist()
     assert [e["openral.seed"] for e in episodes] == [100, 101]
     assert {json.loads(e["openral.episode_info"])["operator"] for e in episodes} == {"policy:mock_pick--random-mock"}
     (group,) = json.loads((workdir / "metrics" / "report" / "stats.json").read_text())["groups"]
-    assert group["episodes"] == 2 and 0 <= group["ci95_low"] <= group["success_rate"] <= group["ci95_high"]
+    assert group["dataset"] == "policy--mock_pick--random-mock" and group["episodes"] == 2
+    assert 0 <= group["ci95_low"] <= group["success_rate"] <= group["ci95_high"]
 
 
 def test_filter_step_keeps_the_episodes_that_succeeded(project: Path, tmp_path: Path) -> None:
