@@ -18,13 +18,23 @@ Run (from the repository root)::
     .venv/bin/python benchmarks/bench_browse.py --keep /tmp/browse10k       # keep the dataset for reruns
     .venv/bin/python benchmarks/bench_browse.py --dataset /tmp/browse10k    # reuse it
     .venv/bin/python benchmarks/bench_browse.py --episodes 200 --repeat 2   # smoke run
+
+Old against new in one run (same machine, same load, same dataset): ``--baseline DIR`` names a folder holding an
+older ``openral_data`` package (``git archive main openral_data | tar -x -C DIR``); each page is then measured
+``--rounds`` (2) times with each tree, alternating (old, new, old, new: a load that drifts weighs on both), each in
+its own process, and the ratio new / old of the medians is printed per page::
+
+    .venv/bin/python benchmarks/bench_browse.py --dataset /tmp/browse10k --baseline /tmp/old
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
 import shutil
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -79,6 +89,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--repeat", type=int, default=5)
     p.add_argument("--dataset", type=Path, help="an existing dataset to browse (nothing written)")
     p.add_argument("--keep", type=Path, help="write the dataset here and keep it")
+    p.add_argument("--baseline", type=Path, help="a folder with an older openral_data: measure old against new")
+    p.add_argument("--rounds", type=int, default=2, help="with --baseline: old/new measurements of each")
+    p.add_argument("--json", action="store_true", help=argparse.SUPPRESS)  # medians as JSON (--baseline's runs)
     args = p.parse_args(argv)
     tmp = Path(tempfile.mkdtemp(prefix="bench-browse-"))
     root = args.dataset or args.keep or tmp / "ds"
@@ -87,12 +100,33 @@ def main(argv: list[str] | None = None) -> int:
             t0 = time.perf_counter()
             write(root, args.episodes, args.length)
             print(f"wrote {args.episodes} episodes in {time.perf_counter() - t0:.0f} s", flush=True)
-        return measure(root, args.repeat)
+        if args.baseline is not None:
+            return against(root, args.repeat, args.baseline, args.rounds)
+        return measure(root, args.repeat, args.json)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
 
-def measure(root: Path, repeat: int) -> int:
+def against(root: Path, repeat: int, baseline: Path, rounds: int) -> int:
+    """The medians of each page with the `baseline` tree's openral_data and with this one's, alternating, in
+    separate processes; then new / old per page."""
+    here = Path(__file__).resolve().parent.parent
+    runs: dict[str, list[dict[str, float]]] = {"old": [], "new": []}
+    for _ in range(rounds):
+        for name, tree in (("old", baseline.resolve()), ("new", here)):
+            cmd = [sys.executable, __file__, "--dataset", str(root), "--repeat", str(repeat), "--json"]
+            env = {**os.environ, "PYTHONPATH": str(tree)}
+            out = subprocess.run(cmd, env=env, cwd=tree, capture_output=True, text=True, check=True).stdout
+            runs[name].append(json.loads(out.strip().splitlines()[-1]))
+            print(f"{name}: " + ", ".join(f"{k} {v * 1000:.0f} ms" for k, v in runs[name][-1].items()), flush=True)
+    for page in runs["new"][0]:
+        old = statistics.median(r[page] for r in runs["old"])
+        new = statistics.median(r[page] for r in runs["new"])
+        print(f"{page:16s}: old {old * 1000:.0f} ms, new {new * 1000:.0f} ms, new/old {new / old:.2f}", flush=True)
+    return 0
+
+
+def measure(root: Path, repeat: int, as_json: bool = False) -> int:
     from playwright.sync_api import sync_playwright
 
     server = Browser(open_catalogs([str(root)]))
@@ -120,14 +154,19 @@ def measure(root: Path, repeat: int) -> int:
         with sync_playwright() as pw:
             browser = pw.chromium.launch(executable_path=CHROMIUM)
             page = browser.new_page()
+            medians = {}
             for name, action in (("table", table), ("table, filtered", filtered), ("episode", episode)):
                 s = timed(page, repeat, action)
-                print(
-                    f"{name:16s} ({total} episodes): min {min(s) * 1000:.0f} ms, median "
-                    f"{statistics.median(s) * 1000:.0f} ms, max {max(s) * 1000:.0f} ms",
-                    flush=True,
-                )
+                medians[name] = statistics.median(s)
+                if not as_json:
+                    print(
+                        f"{name:16s} ({total} episodes): min {min(s) * 1000:.0f} ms, median "
+                        f"{statistics.median(s) * 1000:.0f} ms, max {max(s) * 1000:.0f} ms",
+                        flush=True,
+                    )
             browser.close()
+            if as_json:
+                print(json.dumps(medians), flush=True)
     finally:
         server.close()
     return 0

@@ -1,4 +1,4 @@
-"""Start-up of everyday commands: `openral-data --version`, `info` and `doctor` on a small dataset, each a fresh
+"""Start-up of everyday commands: `openral-data --version`, `list`, `info` and `doctor` on a small dataset, each a fresh
 process (as a user's shell runs it), so the figure is mostly the interpreter plus the imports a command pays.
 
 Setup (untimed): a small mock recording (2 episodes of 48 steps, 96 frames, one h264 camera) made by the CLI in
@@ -60,7 +60,12 @@ def main() -> None:
         ds = home / "datasets" / "small"
         make = [str(args.exe), "-q", "record", "--n-episodes", "2", "--max-steps", "48", "--codec", "h264"]
         subprocess.run([*make, "--out", str(ds)], env=env, check=True, capture_output=True)
-        commands = {"--version": ["--version"], "info": ["info", str(ds)], "doctor": ["doctor", str(ds)]}
+        commands = {
+            "--version": ["--version"],
+            "list": ["list"],
+            "info": ["info", str(ds)],
+            "doctor": ["doctor", str(ds)],
+        }
         runs: dict[tuple[str, str], list[tuple[float, float]]] = {}
         for _ in range(args.repeats):
             for name, argv in commands.items():

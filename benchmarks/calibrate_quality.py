@@ -5,8 +5,10 @@ A fault counts as **found** when the faulty episode has a flagging finding of th
 (`EXPECTED`) about the injected subject (the dimension, or the camera; findings about the whole episode or the
 timestamps count for any subject) whose frames are within `--tolerance` (2) of the truth: the finding's span
 reaches the truth's span within 2 frames on both sides and starts or ends within 2 frames of it (a clean episode
-already idle for 3 frames before an injected idle head makes a longer, still right, idle span). Quality runs at
-`--stride 1` (every camera frame measured: a stride of 5 puts camera spans up to 4 frames off).
+already idle for 3 frames before an injected idle head makes a longer, still right, idle span); spans of one
+check and subject closer than 2 frames are joined first. Quality runs at its default stride (5: the engine places
+a camera span within stride // 2 of its edges). At stride 1 every sim expert episode is `camera_frozen`: two
+consecutive rendered frames of a slow arm differ by less than `frozen_diff`, a threshold set for samples 5 apart.
 
 The corpus is split in two halves: within each kind of data (expert, generated, person) the units alternate in
 order (sources by name, episodes by index): even ones tune, odd ones are held out. Thresholds are swept on the
@@ -18,7 +20,7 @@ the held-out half with the chosen thresholds.
 Run (from the repository root; the corpus is cached under CORPUS and reused)::
 
     PYTHONPATH=$PWD MUJOCO_GL=egl .venv/bin/python benchmarks/calibrate_quality.py /tmp/qcorpus --sweep \\
-        --markdown benchmarks/quality_calibration.md
+        --markdown /tmp/qcorpus/table.md
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ import json
 import sys
 import time
 from collections import defaultdict
+from collections.abc import Mapping
 from dataclasses import asdict, fields, replace
 from pathlib import Path
 from typing import Any
@@ -35,7 +38,8 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import quality_corpus as qc
 
-from openral_data.metrics.quality import DEFAULT, FLAGS, Thresholds
+from openral_data.metrics.quality import DEFAULT, DEFAULT_STRIDE, FLAGS, Thresholds
+from openral_data.metrics.quality.thresholds import for_kind
 from tests.support import data_faults as df
 
 # which checks each threshold governs: by the field's name, else its prefix (a field matching none is left alone)
@@ -52,15 +56,21 @@ GOVERNS = {
     "clip": "clipped",
     "gap": "gap",
     "jitter": "jitter",
+    "teleport": "teleport",
 }
+# the engine's kind of data (`thresholds.data_kind`) of each kind of data in the corpus: a rewritten corpus dataset
+# has no provenance, so the calibration passes that kind's thresholds itself
+ENGINE_KIND = {"expert": "scripted", "generated": "scripted", "person": "person"}
+STRIDE = DEFAULT_STRIDE  # what `quality` measures by default (camera spans are placed within stride // 2)
 FACTORS = (0.25, 0.5, 1.0, 2.0, 4.0)
 MAX_CLEAN = 0.05
 
 
 def evaluate(
-    work: Path, units: list[qc.Unit], kinds: tuple[str, ...], th: Thresholds, tol: int, half: str | None
+    work: Path, units: list[qc.Unit], kinds: tuple[str, ...], th: Mapping[str, Thresholds], tol: int, half: str | None
 ) -> dict[str, Any]:
-    """Clean flags and faults found over `units` (of `half`, or all) under `th`."""
+    """Clean flags and faults found over `units` (of `half`, or all), each under the thresholds `th` gives its
+    kind of data."""
     clean: dict[str, int] = defaultdict(int)
     by_data: dict[str, dict[str, int]] = defaultdict(lambda: defaultdict(int))  # data -> check (and "") -> count
     n_clean = 0
@@ -70,7 +80,8 @@ def evaluate(
         if half is None or u.half == half:
             by_source[u.source].append(u)
     for source, mine in sorted(by_source.items()):
-        base = df.findings(work / source / "clean", th)
+        mine_th = th[mine[0].data]
+        base = df.findings(work / source / "clean", mine_th, STRIDE)
         for u in mine:
             n_clean += 1
             by_data[u.data][""] += 1
@@ -82,7 +93,7 @@ def evaluate(
             truths = [t for t in json.loads((work / source / kind / "truths.json").read_text()) if t["unit"] in wanted]
             if not truths:
                 continue
-            got = df.findings(work / source / kind, th)
+            got = df.findings(work / source / kind, mine_th, STRIDE)
             for t in truths:
                 at, anywhere = df.found(t, got.get(t["episode"], []), tol)
                 before = {f["check"] for f in base.get(t["unit"], [])}
@@ -111,17 +122,23 @@ def score(result: dict[str, Any], check: str) -> tuple[float, float]:
     return flagged, hits
 
 
-def sweep(work: Path, units: list[qc.Unit], kinds: tuple[str, ...], tol: int) -> tuple[Thresholds, list[str]]:
-    """Each threshold governing a check that misses the target on the tuning half under the defaults (clean
-    flagged > 5 %, or faults expecting it found < 95 %) tried at `FACTORS` of its default, on the tuning half;
-    the chosen values and what each tried value measured."""
-    base = evaluate(work, units, kinds, DEFAULT, tol, "tuning")
+def sweep(
+    work: Path, units: list[qc.Unit], kinds: tuple[str, ...], tol: int, data: str, only: tuple[str, ...] = ()
+) -> tuple[Thresholds, list[str]]:
+    """On the tuning units of kind of data `data`: each threshold governing a check that misses the target under
+    the engine's thresholds for that kind (clean flagged > 5 %, or faults expecting it found < 95 %), tried at
+    `FACTORS` of its value; the thresholds chosen and what each tried value measured."""
+    units = [u for u in units if u.data == data]
+    start = for_kind(DEFAULT, ENGINE_KIND[data])
+    base = evaluate(work, units, kinds, {data: start}, tol, "tuning")
     chosen: dict[str, float | int] = {}
     notes = []
     for f in fields(Thresholds):
         check = governed(f.name)
-        default = getattr(DEFAULT, f.name)
-        if check is None or not isinstance(default, int | float) or default == 0:
+        default = getattr(start, f.name)
+        if check is None or not isinstance(default, int | float) or default == 0 or default >= 10**9:
+            continue
+        if only and f.name not in only:
             continue
         relevant = tuple(k for k in kinds if any(c.startswith(check) for c in df.EXPECTED[k]))
         clean, hits = score(base, check)
@@ -132,18 +149,18 @@ def sweep(work: Path, units: list[qc.Unit], kinds: tuple[str, ...], tol: int) ->
             value = type(default)(default * factor) if isinstance(default, int) else default * factor
             if value == default and factor != 1.0:
                 continue
-            result = evaluate(work, units, relevant, replace(DEFAULT, **{f.name: value}), tol, "tuning")
-            tried.append((value, *score(result, check)))
+            th = {data: replace(start, **{f.name: value})}
+            tried.append((value, *score(evaluate(work, units, relevant, th, tol, "tuning"), check)))
         ok = [t for t in tried if t[1] <= MAX_CLEAN] or [min(tried, key=lambda t: t[1])]
         best = max(ok, key=lambda t: (t[2], t[0] == default, -t[1]))
         if best[0] != default:
             chosen[f.name] = best[0]
-        notes.append(f"{f.name}: " + ", ".join(f"{v:g} -> clean {c:.0%} found {h:.0%}" for v, c, h in tried))
+        notes.append(f"{data}: {f.name}: " + ", ".join(f"{v:g} -> clean {c:.0%} found {h:.0%}" for v, c, h in tried))
         print(notes[-1], flush=True)
-    return replace(DEFAULT, **chosen), notes
+    return replace(start, **chosen), notes
 
 
-def markdown(result: dict[str, Any], th: Thresholds, units: list[qc.Unit], half: str) -> str:
+def markdown(result: dict[str, Any], th: Mapping[str, Thresholds], units: list[qc.Unit], half: str) -> str:
     mine = [u for u in units if u.half == half]
     counts = defaultdict(int)
     for u in mine:
@@ -178,8 +195,10 @@ def markdown(result: dict[str, Any], th: Thresholds, units: list[qc.Unit], half:
             )
         else:
             lines.append(f"| {kind} | {' / '.join(df.EXPECTED[kind])} | 0 (no episode it applies to) | | | |")
-    changed = {k: v for k, v in asdict(th).items() if v != getattr(DEFAULT, k)}
-    lines += ["", f"Thresholds: {changed or 'the defaults'}."]
+    lines.append("")
+    for data, t in sorted(th.items()):
+        changed = {k: v for k, v in asdict(t).items() if v != getattr(DEFAULT, k)}
+        lines.append(f"Thresholds for {data} ({ENGINE_KIND[data]}): {changed or 'the defaults'}.")
     return "\n".join(lines)
 
 
@@ -221,12 +240,18 @@ def main() -> None:
     p.add_argument("--max-side", type=int, default=96)
     p.add_argument("--tolerance", type=int, default=2)
     p.add_argument("--sweep", action="store_true", help="choose thresholds on the tuning half")
+    p.add_argument("--sweep-only", nargs="*", default=[], help="sweep only these thresholds (names)")
     p.add_argument("--markdown", type=Path, help="write the held-out table here")
     p.add_argument("--results", type=Path, help="write every number as JSON here")
     args = p.parse_args()
     units, work = corpus(args)
     kinds = tuple(args.kinds)
-    th, notes = sweep(work, units, kinds, args.tolerance) if args.sweep else (DEFAULT, [])
+    th = {d: for_kind(DEFAULT, ENGINE_KIND[d]) for d in sorted({u.data for u in units})}
+    notes: list[str] = []
+    if args.sweep:
+        for d in th:
+            th[d], why = sweep(work, units, kinds, args.tolerance, d, tuple(args.sweep_only))
+            notes += why
     tuning = evaluate(work, units, kinds, th, args.tolerance, "tuning")
     held = evaluate(work, units, kinds, th, args.tolerance, "held-out")
     table = markdown(held, th, units, "held-out")
@@ -234,7 +259,7 @@ def main() -> None:
     if args.markdown:
         args.markdown.write_text(table + "\n\nSweep (tuning half):\n\n" + "\n".join(f"- {n}" for n in notes) + "\n")
     if args.results:
-        out = {"thresholds": asdict(th), "tuning": tuning, "held_out": held, "sweep": notes}
+        out = {"thresholds": {d: asdict(t) for d, t in th.items()}, "tuning": tuning, "held_out": held, "sweep": notes}
         args.results.write_text(json.dumps({**out, "units": [asdict(u) for u in units]}, indent=1))
 
 

@@ -6,6 +6,8 @@ The Python API (docs/python-api.md); the `openral-data` command line wraps the s
 - replay: `replay(ReplayOptions(...)) -> ReplaySummary`
 - conversion: `convert(source, dst, mapping=None, ...) -> ConvertSummary | ExportSummary` (bags, HDF5, Zarr,
   RLDS -> LeRobot v3; LeRobot -> MCAP), `convert_bags(...) -> ConvertSummary`, `export_mcap(...) -> ExportSummary`,
+  `export(dataset, out, to) -> ExportSummary` (LeRobot -> RLDS, robomimic HDF5 or MCAP; `export_rlds`,
+  `export_robomimic`),
   `upgrade(old, new) -> UpgradeResult` (LeRobot v2.0/v2.1 -> v3.0 with lerobot's converter)
 - checking: `check(root) -> list[Finding]`, `repair(root) -> RepairResult`
 - reading: `summarize(root) -> DatasetSummary`, `stats_query(paths, sql) -> Table` (DuckDB over the stats views),
@@ -41,7 +43,10 @@ _API: dict[str, str] = {
     "Parallel": "openral_data.convert",
     "convert_bags": "openral_data.convert",
     "ConvertSummary": "openral_data.convert",
+    "export": "openral_data.convert",
     "export_mcap": "openral_data.convert",
+    "export_rlds": "openral_data.convert",
+    "export_robomimic": "openral_data.convert",
     "ExportSummary": "openral_data.convert",
     "upgrade": "openral_data.upgrade",
     "UpgradeResult": "openral_data.upgrade",
@@ -115,7 +120,10 @@ __all__ = [
     "check",
     "convert",
     "convert_bags",
+    "export",
     "export_mcap",
+    "export_rlds",
+    "export_robomimic",
     "load_scene",
     "quality",
     "record",
@@ -127,7 +135,17 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:
-    from openral_data.convert import ConvertSummary, ExportSummary, Parallel, convert, convert_bags, export_mcap
+    from openral_data.convert import (
+        ConvertSummary,
+        ExportSummary,
+        Parallel,
+        convert,
+        convert_bags,
+        export,
+        export_mcap,
+        export_rlds,
+        export_robomimic,
+    )
     from openral_data.doctor import Finding, RepairResult, check, repair
     from openral_data.errors import CompatibilityError, ConfigError, ContractViolation, OpenralError
     from openral_data.formats.dataset import summarize

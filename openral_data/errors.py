@@ -286,3 +286,12 @@ class EncoderError(RuntimeError):
 class NotRegularFile(OSError):
     """Not user-facing: a file read by name (a JSON file) is a FIFO, a device or a folder, so reading it could
     block for ever or never end; `formats.jsonfile.read_json` turns it into a `DatasetError`."""
+
+
+class RecordingInterrupted(KeyboardInterrupt):
+    """Not user-facing: a Ctrl-C (or SIGTERM) that stopped `record` once its dataset folder held its settings:
+    `out` is where the finished episodes are, and `record --resume --out OUT` continues it (cli/record.py)."""
+
+    def __init__(self, out: Path) -> None:
+        super().__init__(str(out))
+        self.out = out

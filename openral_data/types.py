@@ -59,6 +59,7 @@ class Privileged(TypedDict, total=False):
     objects: dict[str, dict[str, Any]]
     roles: dict[str, str]
     success: dict[str, Any] | None
+    success_terms: list[tuple[str, bool]]  # the criterion's leaves and whether each holds now (teleop status)
     workspace: dict[str, tuple[float, float]]
     cube_pos: npt.NDArray[np.float64]  # the `object` role's pose and size, the `goal` role's place (push, pick)
     cube_quat: npt.NDArray[np.float64]
@@ -268,3 +269,11 @@ class FrameObserver(Protocol):
     def end_episode(self, record: EpisodeRecord | None) -> None: ...
 
     def close(self) -> None: ...
+
+
+@runtime_checkable
+class Previews(Protocol):
+    """An observer that also shows where an episode starts before it records (the live view: a person waiting to
+    press space sees the scene): the cameras' pictures after the reset."""
+
+    def preview(self, index: int, images: dict[str, npt.NDArray[Any]]) -> None: ...

@@ -2,8 +2,14 @@
 # Install everything openral-data needs on a fresh machine: Python 3.12 (pyenv, via .python-version), uv,
 # the locked environment in .venv, and the Debian packages for headless rendering (and libusb for the RealSense
 # SDK, pyrealsense2) when missing.
+#
+# `bash scripts/setup.sh --core` installs only the core (MuJoCo scenes, the writers, convert, stats, view: no
+# torch, no simulator suite, no dev tools; about 2 GB instead of 8) and the rendering packages, for scripts/demo.sh.
+# It adds to an existing .venv without removing anything (a full environment stays full).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+core=0
+if [ "${1:-}" = "--core" ]; then core=1; fi
 export UV_PYTHON_DOWNLOADS=never
 # Compile site-packages to bytecode at install time: with PYTHONDONTWRITEBYTECODE set (as on CI machines) every
 # test subprocess would otherwise recompile lerobot/robosuite/torch sources on import.
@@ -21,7 +27,8 @@ step() {  # step "what" "about how long" command...: say it, run it, say how lon
     say "  done in $((SECONDS - t0)) s"
 }
 
-APT_PACKAGES=(libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 libosmesa6 chromium libusb-1.0-0)
+APT_PACKAGES=(libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 libosmesa6)
+if ((!core)); then APT_PACKAGES+=(chromium libusb-1.0-0); fi
 missing=()
 for pkg in "${APT_PACKAGES[@]}"; do
     dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" || missing+=("$pkg")
@@ -50,9 +57,16 @@ fi
 UV=("$PY" -m uv)
 # Optional extras the default environment (and CI) installs; each is one [project.optional-dependencies] entry.
 # Extras that conflict with these (e.g. a separate simulator environment) are set up by their own script.
-EXTRAS=(lerobot robosuite metaworld aloha pusht feetech dynamixel so_arm ray browse mcap_profiles minari)
+EXTRAS=(lerobot robosuite metaworld aloha pusht feetech dynamixel so_arm openarm ray browse mcap_profiles minari)
 extra_args=()
 for extra in "${EXTRAS[@]}"; do extra_args+=(--extra "$extra"); done
+if ((core)); then
+    step "syncing .venv with uv.lock: the package's core (MuJoCo, no torch), keeping what is already there" \
+        "about 1-2 min and ~2 GB the first time; seconds when up to date" \
+        "${UV[@]}" sync --frozen --quiet --python "$PY" --no-dev --inexact
+    say "ready in $((SECONDS - started)) s: .venv/bin/openral-data (the core; bash scripts/setup.sh adds the rest)"
+    exit 0
+fi
 step "syncing .venv with uv.lock: the package, the dev tools and the extras ${EXTRAS[*]}" \
     "about 3-6 min and ~8 GB with torch the first time; seconds when up to date" \
     "${UV[@]}" sync --frozen --quiet --python "$PY" "${extra_args[@]}"

@@ -17,6 +17,12 @@ from tests.support.home import isolated_home
 # keeps the structural check everywhere; the tests of the frame load turn it on (`publish_load`), and many tests
 # load outputs with lerobot themselves.
 os.environ.setdefault("OPENRAL_PUBLISH_LOAD", "0")
+# The CLI wraps its summaries and fits its tables to `$COLUMNS` when its output is piped (cli/terminal.py), and
+# pytest-xdist's workers are started with COLUMNS=80 LINES=24 (execnet), which every CLI subprocess would inherit:
+# a test passing alone then failed under `-n 2`. The suite runs the CLI as a pipe with no width, as a log or a
+# script sees it; the tests of widths set `COLUMNS` themselves (monkeypatch).
+for _name in ("COLUMNS", "LINES"):
+    os.environ.pop(_name, None)
 
 
 def pytest_configure(config: pytest.Config) -> None:

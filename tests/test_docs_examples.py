@@ -257,6 +257,18 @@ def _rlds(root: Path, smooth: bool) -> None:
     write_rlds(root, smooth=smooth)
 
 
+def _offline(root: Path, kind: str) -> None:
+    from tests.support import offline_sources
+
+    if kind == "d4rl":
+        offline_sources.write_d4rl(root)
+    elif kind == "maniskill":
+        offline_sources.write_maniskill(root)
+    else:  # minari writes <MINARI_DATASETS_PATH>/<dataset id>: written beside, then moved to `root`
+        shutil.move(offline_sources.write_minari(root.parent / ".minari"), root)
+        shutil.rmtree(root.parent / ".minari")
+
+
 def _mock_pick(root: Path, episodes: str) -> None:
     run = run_inproc("record", "--scene", "mock_pick", "--n-episodes", episodes, "--out", str(root))
     assert run.returncode == 0, run.stderr
@@ -287,6 +299,10 @@ INPUTS: dict[str, Callable[[Path], None]] = {
     "umi-zarr-zip": lambda root: _zarr(root, umi=True),
     "rlds-folder": lambda root: _rlds(root, smooth=False),  # 12x16 JPEG pictures
     "rlds-folder-64px": lambda root: _rlds(root, smooth=True),  # 64x64 ones (av1 needs 32x32 at least)
+    # tests/support/offline_sources.py: a D4RL flat file, a Minari dataset minari wrote, a ManiSkill .h5 + .json
+    "d4rl-hdf5": lambda root: _offline(root, "d4rl"),
+    "minari-dataset": lambda root: _offline(root, "minari"),
+    "maniskill-h5": lambda root: _offline(root, "maniskill"),
     # lerobot/pusht's shape (tests/support/pusht_like.py), downloaded without its videos
     "pusht-without-videos": _pusht_without_videos,
 }

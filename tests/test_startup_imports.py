@@ -31,6 +31,8 @@ STARTUP_FREE = (
     "pydantic",
     "huggingface_hub",
 )
+# what `info DATASET` and `list` do not need: the convert stack and the bag readers it imports
+CONVERT_STACK = ("openral_data.convert", "rosbags", "mcap", "h5py", "zarr")
 # what reading a dataset's metadata, or checking it, does not need
 READING_FREE = ("torch", "lerobot", "pyarrow.dataset", "mujoco", "rerun", "matplotlib", "huggingface_hub")
 
@@ -86,3 +88,9 @@ def test_info_reads_without_pandas_or_learning_libraries(small: Path) -> None:
 
 def test_doctor_checks_without_learning_or_simulator_libraries(small: Path) -> None:
     assert _loaded("doctor", str(small), watch=READING_FREE) == []
+
+
+def test_info_and_list_start_without_the_convert_stack(small: Path) -> None:
+    assert _loaded("info", str(small), watch=CONVERT_STACK) == []
+    # `list` reads manifests: not even the parquet/video libraries (`runs here` checks no checkpoint by decoding)
+    assert _loaded("list", watch=(*CONVERT_STACK, *READING_FREE, "av", "pyarrow", "duckdb")) == []

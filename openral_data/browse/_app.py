@@ -58,6 +58,8 @@ def create_app(
         Route("/api/d/{ds}/episodes", _episodes),
         Route("/api/d/{ds}/episode/{ep:int}", _episode),
         Route("/api/d/{ds}/episode/{ep:int}/series", _series),
+        Route("/api/d/{ds}/episode/{ep:int}/neighbours", _neighbours),
+        Route("/api/d/{ds}/episode/{ep:int}/quality", _findings),
         Route("/api/d/{ds}/commands", _commands),
     ]
     app = Starlette(
@@ -163,6 +165,15 @@ def _episode(request: Request) -> Response:
 
 def _series(request: Request) -> Response:
     return JSONResponse(_catalog(request).series(request.path_params["ep"]))
+
+
+def _neighbours(request: Request) -> Response:
+    where = request.query_params.get("where", "")
+    return JSONResponse(_catalog(request).neighbours(request.path_params["ep"], where))
+
+
+def _findings(request: Request) -> Response:
+    return JSONResponse(_catalog(request).findings(request.path_params["ep"]))
 
 
 def _commands(request: Request) -> Response:

@@ -19,6 +19,7 @@ from openral_data.browse._depth import depth_png, depth_unit
 from openral_data.browse._pictures import picture_keys, picture_png
 from openral_data.browse._results import ResultSet
 from openral_data.browse._rows import EpisodeRows
+from openral_data.browse._spans import quality_spans
 from openral_data.errors import DatasetError, NotFound, QueryError
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.masks import is_mask
@@ -209,16 +210,48 @@ class Catalog:
         except DatasetError as exc:
             raise NotFound(str(exc)) from None
 
-    def commands(self, episodes: list[int], where: str) -> dict[str, str]:
-        """The commands that do what the selection says; the server runs none of them."""
-        ds, picked = shlex.quote(self.arg), ",".join(str(e) for e in sorted(set(episodes)))
+    def commands(self, episodes: list[int], where: str) -> dict[str, Any]:
+        """The commands that do what the selection says (the server runs none of them): the ticked `episodes`
+        the filter `where` keeps (`picked`; those it hides are `hidden`, and left out of the commands)."""
+        ticked = sorted(set(episodes))
+        picked = ticked
+        if ticked and where.strip():
+            listed = ", ".join(str(e) for e in ticked)
+            with self.lock, _deadline(self.con, self.query_seconds):
+                kept = where_query(self.con, "episode_index", where, f"AND episode_index IN ({listed})")
+            picked = sorted(int(r[0]) for r in kept)
+        ds, shown = shlex.quote(self.arg), ",".join(str(e) for e in picked)
         out = {}
         if picked:
-            out["delete"] = f"openral-data episodes delete {ds} --episodes {picked} --out {ds}-deleted"
-            out["keep"] = f"openral-data episodes split {ds} --episodes {picked} --out {ds}-selected"
+            out["delete"] = f"openral-data episodes delete {ds} --episodes {shown} --out {ds}-deleted"
+            out["keep"] = f"openral-data episodes split {ds} --episodes {shown} --out {ds}-selected"
         if where.strip():
             out["filter"] = f"openral-data episodes filter {ds} --where {shlex.quote(where)} --out {ds}-filtered"
-        return out
+        return {"commands": out, "picked": picked, "hidden": sorted(set(ticked) - set(picked))}
+
+    def neighbours(self, index: int, where: str) -> dict[str, int | None]:
+        """The episodes before and after `index` in episode order, among those `where` keeps (all when empty)."""
+        select = (
+            f"max(episode_index) FILTER (WHERE episode_index < {int(index)}), "
+            f"min(episode_index) FILTER (WHERE episode_index > {int(index)})"
+        )
+        with self.lock, _deadline(self.con, self.query_seconds):
+            if where.strip():
+                ((before, after),) = where_query(self.con, select, where)
+            else:  # the episode_index column of the episodes metadata only: no join, no other column read
+                sql = f"SELECT {select} FROM read_parquet({files_sql(self.ds.episode_files)})"
+                before, after = self.con.execute(sql).fetchall()[0]
+        return {"previous": before, "next": after}
+
+    def findings(self, index: int) -> dict[str, Any]:
+        """The flags `openral-data quality` raised on episode `index` and their frame spans (`_spans`); nothing
+        when its table is not cached (`computed` false: the server never computes it)."""
+        if not self.quality:
+            return {"computed": False, "flags": [], "spans": []}
+        with self.lock:
+            flags = self.con.execute("SELECT flags FROM quality WHERE episode_index = ?", [index]).fetchall()
+            spans = quality_spans(self.con, index)
+        return {"computed": True, "flags": list(flags[0][0] or []) if flags else [], "spans": spans}
 
     def serve_command(self, index: int) -> str:
         """The command that keeps episode `index` in rerun's web viewer (its URL is what `browse --rerun-url`

@@ -9,7 +9,7 @@ from typing import Annotated, Any, cast
 
 import typer
 
-from openral_data.cli import browse, convert, generate, hub, inspect, quality, record, replay, stats, upgrade
+from openral_data.cli import browse, convert, export, generate, hub, inspect, quality, record, replay, stats, upgrade
 from openral_data.cli.download import dataset_commands
 from openral_data.cli.edit import episodes_app
 from openral_data.cli.features import features_app
@@ -64,7 +64,9 @@ def _root(
             "--verbose", "-v", count=True, show_default=False, help="log to stderr: -v INFO (timings), -vv DEBUG"
         ),
     ] = 0,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="only warnings and errors; no progress bar")] = False,
+    quiet: Annotated[
+        bool, typer.Option("--quiet", "-q", help="only warnings and errors; no progress bar, no closing summary")
+    ] = False,
     log_format: Annotated[
         LogFormat, typer.Option(help="text (rich on a terminal) or json (one object per line; docs/cli.md)")
     ] = LogFormat.text,
@@ -88,6 +90,7 @@ def add_search_dir(kind: Kind, folder: Path) -> None:
 
 app.command()(record.record)
 app.command()(convert.convert)
+app.command()(export.export)
 app.command()(upgrade.upgrade)
 app.command()(inspect.info)
 app.command("list")(inspect.list_cmd)

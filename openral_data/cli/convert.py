@@ -19,7 +19,7 @@ from openral_data.cli.encoder_flags import (
 )
 from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.takes import takes
-from openral_data.cli.terminal import print_line, print_rows, progress_bar
+from openral_data.cli.terminal import print_line, print_summary, progress_bar
 from openral_data.errors import UsageError
 from openral_data.formats.codec import Codec
 
@@ -124,4 +124,4 @@ def _convert(
     if json:
         print_json("convert", planned.to_json(summary))
         return
-    print_rows(planned.done, planned.rows(summary))
+    print_summary(planned.done, planned.rows(summary))

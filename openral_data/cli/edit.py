@@ -11,7 +11,7 @@ import typer
 from openral_data import paths
 from openral_data.cli.legacy import upgraded
 from openral_data.cli.takes import takes
-from openral_data.cli.terminal import print_line, progress_bar
+from openral_data.cli.terminal import print_done, progress_bar
 from openral_data.errors import UsageError
 from openral_data.formats.repo_id import resolve_dataset
 
@@ -33,7 +33,7 @@ InPlace = Annotated[bool, typer.Option(help="replace DATASET itself (swapped in 
 
 def report(op: str, results: list[EditResult]) -> None:
     for r in results:
-        print_line(f"{op}: {r.out}  episodes {r.episodes}  frames {r.frames}")
+        print_done(f"{op}: {r.out}  episodes {r.episodes}  frames {r.frames}")
 
 
 @episodes_app.command("delete")
@@ -182,10 +182,10 @@ def trim_cmd(
             progress=lambda d, t: bar.update(task, completed=d, total=t),
         )
     report("trimmed", [result])
-    print_line(
-        f"trimmed: {done.episodes_changed} episodes, {done.frames_dropped} frames dropped; camera clips: "
-        f"{done.clips_copied} cut by copying packets, {done.clips_spliced} re-encoding only the groups of "
-        f"pictures at a cut, {done.clips_encoded} re-encoded"
+    print_done(f"trimmed: {done.episodes_changed} episodes, {done.frames_dropped} frames dropped")
+    print_done(  # under 100 columns (docs/editing.md: what each kind of clip is)
+        f"trimmed: camera clips: {done.clips_copied} cut by copying packets, {done.clips_spliced} re-encoded "
+        f"at a cut only, {done.clips_encoded} re-encoded"
     )
 
 
@@ -209,4 +209,4 @@ def resample_cmd(
             resolve_dataset(dataset), fps, out, in_place, progress=lambda d, t: bar.update(task, completed=d, total=t)
         )
     report("resampled", [result])
-    print_line(f"resampled: camera clips: {done.clips_copied} keyframes copied, {done.clips_encoded} re-encoded")
+    print_done(f"resampled: camera clips: {done.clips_copied} keyframes copied, {done.clips_encoded} re-encoded")

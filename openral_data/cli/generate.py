@@ -11,7 +11,7 @@ from openral_data import paths
 from openral_data.cli.encoder_flags import VCODEC_HELP
 from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.takes import takes
-from openral_data.cli.terminal import print_rows, progress_bar
+from openral_data.cli.terminal import print_line, print_summary, progress_bar
 from openral_data.formats.codec import Codec
 from openral_data.runtime.parallel.choice import is_parallel
 
@@ -23,7 +23,7 @@ if TYPE_CHECKING:
 def generate(
     source: Annotated[Path, typer.Argument(help="source dataset: demonstrations in a MuJoCo tabletop scene")],
     scene: Annotated[str, typer.Option(help="scene to generate in (an id or a YAML path)")],
-    n: Annotated[int, typer.Option("--n", help="attempts; the episodes that succeed are kept")],
+    n: Annotated[int, typer.Option("--n", help="episodes to keep (attempts go on until that many succeed)")],
     out: Annotated[Path, typer.Option(help="the dataset to write (must not exist or be empty)")],
     seed: Annotated[int, typer.Option(help="seed of the first attempt; attempt k uses seed+k")] = 1000,
     max_steps: Annotated[int | None, typer.Option(help="step limit per attempt (default: the scene's)")] = None,
@@ -34,10 +34,14 @@ def generate(
     executor: Annotated[str, typer.Option(help="local (processes on this machine) or ray")] = "local",
     address: Annotated[str | None, typer.Option(help="Ray cluster address (--executor ray)")] = None,
     codec: Annotated[Codec, typer.Option("--vcodec", "--codec", help=VCODEC_HELP)] = "av1",
+    max_attempts: Annotated[
+        int | None, typer.Option(help="the attempts' cap (default: 3 x --n); fewer kept is said, not an error")
+    ] = None,
     json: JsonFlag = False,
 ) -> None:
     """Generate demonstrations MimicGen-style: SOURCE's successful episodes, cut into object-centric segments,
-    re-targeted to new object poses in SCENE and executed; the episodes that succeed are kept in OUT."""
+    re-targeted to new object poses in SCENE and executed until --n of them succeed (at most --max-attempts
+    attempts); those are kept in OUT."""
     from openral_data.generate import GenerateOptions
     from openral_data.generate import generate as run
 
@@ -56,13 +60,20 @@ def generate(
         executor=executor,
         address=address,
         codec=codec,
+        max_attempts=max_attempts,
     )
     summary = run(options) if is_parallel(workers, executor) else _with_progress(options)  # parallel: no ticks
+    if summary.kept < summary.asked:
+        print_line(
+            f"warning: kept {summary.kept} of the {summary.asked} episodes asked for: the cap of "
+            f"{summary.attempts} attempts was reached (--max-attempts)",
+            err=True,
+        )
     if json:
         print_json("generate", summary.to_json())
         return
     doc = summary.to_json()
-    print_rows(f"generated: {summary.out}", [(k.replace("_", " "), str(v)) for k, v in doc.items() if k != "out"])
+    print_summary(f"generated: {summary.out}", [(k.replace("_", " "), str(v)) for k, v in doc.items() if k != "out"])
 
 
 def _with_progress(options: GenerateOptions) -> GenerateSummary:

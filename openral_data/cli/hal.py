@@ -7,7 +7,7 @@ import typer
 
 from openral_data.cli import terminal
 from openral_data.cli.jsonout import print_json
-from openral_data.cli.terminal import INTERRUPTED_RECORDING, print_line, print_rows
+from openral_data.cli.terminal import INTERRUPTED_RECORDING, print_line, print_summary
 from openral_data.record.hal import HalRecordOptions, HalRecordSummary, record_hal
 
 
@@ -43,4 +43,4 @@ def _print_summary(s: HalRecordSummary, fps: int) -> None:
     ]
     if s.estop is not None:
         rows.append(("e-stop", s.estop))
-    print_rows("recorded (hal)", rows)
+    print_summary("recorded (hal)", rows)

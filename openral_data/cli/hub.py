@@ -8,7 +8,7 @@ from typing import Annotated
 import typer
 
 from openral_data.cli.takes import takes
-from openral_data.cli.terminal import print_line, progress_bar
+from openral_data.cli.terminal import print_done, print_line, progress_bar
 from openral_data.errors import NotFound
 from openral_data.formats.repo_id import resolve_dataset
 
@@ -52,4 +52,4 @@ def push(
         task = bar.add_task("push", total=len(plan.files) + 1)
         result = upload(plan, lambda files: bar.advance(task, files))
     commits = f" in {result.commits} commits" if result.commits > 1 else ""
-    print_line(f"pushed {len(plan.files)} files + the card to {repo_id}{commits} (tag {result.tag}): {result.url}")
+    print_done(f"pushed {len(plan.files)} files + the card to {repo_id}{commits} (tag {result.tag}): {result.url}")

@@ -12,11 +12,11 @@ import typer
 from rich import box
 from rich.console import Console
 from rich.markup import escape
-from rich.measure import Measurement
 from rich.table import Table
 from rich.text import Text
 
 from openral_data import paths
+from openral_data.cli.fit import cut_to_fit
 from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.takes import takes
 from openral_data.cli.terminal import console, print_line, print_rows
@@ -24,6 +24,7 @@ from openral_data.errors import OpenralError, UsageError
 from openral_data.formats.repo_id import resolve_dataset
 
 if TYPE_CHECKING:
+    from openral_data.convert.kinds.base import Description
     from openral_data.runtime.catalog import Item
 
 
@@ -50,10 +51,17 @@ def info(
 ) -> None:
     """Print a dataset's summary: episodes, frames, tasks, cameras, success rate; for a bag its topics, types,
     counts and rates; for a zarr replay buffer or RLDS folder its episodes, steps and arrays."""
-    from openral_data.convert.entry import describe
+    from openral_data.formats.lerobot_v3 import layout
 
     dataset = resolve_dataset(dataset)
-    about = describe(dataset)  # the source registry's kind of it (a LeRobot dataset when none takes it)
+    if (dataset / layout.INFO_PATH).is_file():  # a LeRobot dataset of any version: no convert stack to start
+        from openral_data.metrics.dataset_info import describe_dataset
+
+        about: Description = describe_dataset(dataset)
+    else:
+        from openral_data.convert.entry import describe
+
+        about = describe(dataset)  # the source registry's kind of it (a LeRobot dataset when none takes it)
     if json:
         print_json("info", about.to_json())
         return
@@ -61,15 +69,20 @@ def info(
 
 
 def list_cmd(
-    what: Annotated[ListWhat, typer.Argument(help="what to list (default: everything)")] = ListWhat.all,
+    what: Annotated[ListWhat, typer.Argument(help="what to list (default: everything)", metavar="[WHAT]")] = (
+        ListWhat.all
+    ),
     scene: Annotated[str | None, typer.Argument(help="list tasks: the scene (id or YAML path)")] = None,
     show_paths: Annotated[bool, typer.Option("--paths", help="also show each manifest's file")] = False,
+    all_: Annotated[bool, typer.Option("--all", help="also the benchmark copies (`*_bench`) and every column")] = False,
     json: JsonFlag = False,
 ) -> None:
     """List the scenes, rSkills, robots, scene types and policies this installation knows, and where each comes
     from (built-in, plug-in, user, project, --*-dir); a broken plug-in is reported on one line, never fatal.
     `list tasks SCENE` lists the tasks of a suite scene (`record --task`). A scene or rSkill that cannot run in
-    this environment says why in its `runs here` column (a simulator extra missing, a checkpoint absent)."""
+    this environment says why in its `runs here` column (a simulator extra missing, a checkpoint absent). The
+    tables fit the terminal: the main columns, without the scenes' benchmark copies (`--all` shows them and every
+    column); a cell too wide is cut with `…` (`--json` has everything)."""
     if what is ListWhat.tasks:
         _list_tasks(scene, json)
         return
@@ -87,11 +100,30 @@ def list_cmd(
     out = console if console.is_terminal else _piped()
     for name, items in cat.sections.items():
         out.print(name.replace("_", " "), style="bold", markup=False, highlight=False)  # unpadded, unlike a title
-        table = _table(name, items, show_paths)
-        if Measurement.get(out, out.options.update_width(10_000), table).maximum <= out.width:
-            out.print(table)
-        else:  # too narrow for the grid: one record per entry, so no cell wraps mid-word
+        shown_items = items if all_ else [it for it in items if it.fields.get("tier") != "benchmark"]
+        notes: list[str] = []  # why an entry cannot run here, each reason once
+        table = _table(name, shown_items, notes, show_paths=show_paths, every_column=all_)
+        cut = cut_to_fit(out, table, out.width, whole=("path",))  # a path asked for is never cut
+        if cut is None:  # too narrow even with cut cells: one record per entry, so no cell wraps mid-word
             _print_records(out, table)
+        else:
+            out.print(table)
+        for line in _notes(name, items, notes, all_, cut=cut is True, width=out.width):
+            out.print(line, markup=False, highlight=False)
+
+
+def _notes(name: str, items: list[Item], notes: list[str], all_: bool, *, cut: bool, width: int) -> list[str]:
+    """The lines under a section: why entries cannot run here, what `--all` would add, that cells were cut."""
+    lines = [f"({i}) {note}" for i, note in enumerate(notes, 1)]
+    hidden = [c for c in _columns(name, every_column=True) if c not in _columns(name, every_column=False)]
+    bench = sum(it.fields.get("tier") == "benchmark" for it in items)
+    if not all_ and (bench or hidden):
+        more = [f"{bench} benchmark copies (*_bench)"] if bench else []
+        more += [f"the column{'s' if len(hidden) > 1 else ''} {', '.join(t for t, _ in hidden)}"] if hidden else []
+        lines.append(f"(--all: also {' and '.join(more)})")
+    if cut:
+        lines.append(f"(… : a cell cut to fit {width} columns; --json shows every cell whole)")
+    return lines
 
 
 def _print_records(out: Console, table: Table) -> None:
@@ -104,8 +136,6 @@ def _print_records(out: Console, table: Table) -> None:
         for h, col in zip(heads[1:], cells[1:], strict=True):
             if col[i]:
                 out.print(f"  {h:<{pad}}  {col[i]}", markup=False, highlight=False)
-    if table.caption:
-        out.print(Text.from_markup(str(table.caption)).plain, markup=False, highlight=False)
 
 
 def _piped() -> Console:
@@ -146,20 +176,31 @@ _TITLES = {
     "state_dim": "state",
     "action_dim": "action",
 }
-_JOINED = {"state_dim": "state_representation", "action_dim": "action_representation"}
+_JOINED = {"state_dim": "state_representation", "action_dim": "action_representation"}  # with --all
+# the columns `list` shows without --all (the others: --all; --json has every field)
+_MAIN = {
+    "scenes": ("robot", "default_rskill"),
+    "rskills": ("policy", "embodiment_tags", "state_dim", "action_dim"),
+    "robots": ("embodiment_tags", "joints", "cameras"),
+}
 
 
-def _table(name: str, items: list[Item], show_paths: bool) -> Table:
-    """One section: ids never cut (the widest id sets the column), `from` only when something is not built in,
-    `runs here` yes/no with the reasons as numbered notes under the table, the path (with `--paths`) last."""
+def _columns(name: str, *, every_column: bool) -> list[tuple[str, str]]:
+    """A section's (title, field) columns after the id."""
     from openral_data.runtime.catalog import FIELDS
 
     joined = set(_JOINED.values())
-    columns = [(_TITLES.get(key, key), key) for key in FIELDS[name] if key not in joined]
+    keys = [k for k in FIELDS[name] if k not in joined and (every_column or k in _MAIN.get(name, FIELDS[name]))]
+    return [(_TITLES.get(key, key), key) for key in keys]
+
+
+def _table(name: str, items: list[Item], notes: list[str], *, show_paths: bool, every_column: bool) -> Table:
+    """One section: ids never cut (the widest id sets the column), `from` only when something is not built in,
+    `runs here` yes/no with the reasons numbered in `notes`, the path (with `--paths`) last."""
+    columns = _columns(name, every_column=every_column)
     with_path = show_paths and name in ("scenes", "rskills", "robots")
     with_from = any(it.origin != "built-in" or it.overrides for it in items)
-    notes: list[str] = []  # why an entry cannot run here, each reason once
-    table = Table(box=box.SIMPLE_HEAD, pad_edge=False, caption_justify="left")
+    table = Table(box=box.SIMPLE_HEAD, show_edge=False, pad_edge=False, padding=(0, 1, 0, 0))
     table.add_column("id", no_wrap=True, min_width=max((len(it.id) for it in items), default=2))
     for col in (*(c for c, _ in columns), *(("from",) if with_from else ())):
         table.add_column(col, overflow="fold")
@@ -172,12 +213,12 @@ def _table(name: str, items: list[Item], show_paths: bool) -> Table:
         if it.error is not None:
             cells = ["[red]invalid: " + escape(it.error), *("" for _ in columns[1:])] if columns else []
         else:
-            cells = [" ".join(_cell(it.fields.get(k)) for k in (key, _JOINED.get(key)) if k) for _, key in columns]
+            joined = _JOINED if every_column else {}
+            cells = [" ".join(_cell(it.fields.get(k)) for k in (key, joined.get(key)) if k) for _, key in columns]
         row = [escape(it.id), *cells, *((escape(origin),) if with_from else ())]
         if name in ("scenes", "rskills"):
             row.append(_runs_here(name, it, notes))
         table.add_row(*row, *((escape(it.path or ""),) if with_path else ()))
-    table.caption = "\n".join(f"({i}) {escape(note)}" for i, note in enumerate(notes, 1)) or None
     return table
 
 

@@ -8,7 +8,7 @@ from typing import Annotated, Any
 import typer
 
 from openral_data import paths
-from openral_data.cli.terminal import print_line
+from openral_data.cli.terminal import print_done, print_line
 
 pipeline_app = typer.Typer(no_args_is_help=True, help="Run declarative, resumable campaigns (pipelines/*.yaml).")
 
@@ -35,8 +35,8 @@ def run_cmd(
     if workdir is not None:
         paths.check_creatable(workdir, "--workdir")
     report = run_pipeline(spec, workdir, log=lambda line: print_line(line, err=True))
-    print_line(f"pipeline {report.name}: {report.workdir}")
+    print_done(f"pipeline {report.name}: {report.workdir}")
     for step in report.steps:
         line = f"  {step['step']:<12} {step['kind']:<7} {step['status']:<8} {step['seconds']:>7.1f} s  "
-        print_line(line + _figures(step["summary"]))
-    print_line(f"  report: {report.workdir / 'report.json'}")
+        print_done(line + _figures(step["summary"]))
+    print_done(f"  report: {report.workdir / 'report.json'}")

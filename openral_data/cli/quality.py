@@ -73,9 +73,13 @@ def quality(
 def _print(tables: list[Any], fmt: StatsFormat) -> None:
     from openral_data.metrics.render import render
 
-    print(
-        render_table(tables) if fmt == StatsFormat.table else printable(render(tables, fmt.value), keep_newlines=True)
-    )
+    if fmt != StatsFormat.table:
+        print(printable(render(tables, fmt.value), keep_newlines=True))
+        return
+    none_flagged = [t for t in tables if t.name == "episodes" and not t.rows]  # a line, not an empty grid
+    print(render_table([t for t in tables if t not in none_flagged]))
+    if none_flagged:
+        print("episodes: none flagged (--all lists every episode)")
 
 
 def _numbering(ds: Any) -> list[int] | None:

@@ -13,7 +13,7 @@ from openral_data.cli.flags import flags_command
 from openral_data.cli.given import given as given_flags
 from openral_data.cli.jsonout import print_json
 from openral_data.cli.record_flags import HAL_ONLY, RecordFlags
-from openral_data.cli.terminal import INTERRUPTED_RECORDING, print_line, print_rows, progress_bar
+from openral_data.cli.terminal import INTERRUPTED_RECORDING, print_line, print_summary, progress_bar
 from openral_data.errors import UsageError
 from openral_data.runtime.parallel.choice import is_parallel
 
@@ -105,6 +105,7 @@ def _record_hal(f: RecordFlags, given: frozenset[str], video: VideoSettings, dri
         takeover=driver.kind is DriverKind.TAKEOVER,
         policy=f.policy,
         device=f.device,
+        teleop_gain=f.teleop_gain,
     )
     run_hal_record(hal_opts, f.json)
 
@@ -187,13 +188,14 @@ def _with_progress(
 
         try:
             return run(progress)
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as exc:
             bar.stop()
-            _interrupted(opts.out, parallel)
+            _interrupted(opts.out, parallel, getattr(exc, "out", None))
             raise typer.Exit(130) from None
 
 
-def _interrupted(out: Path | None, parallel: bool) -> None:
+def _interrupted(out: Path | None, parallel: bool, written: Path | None) -> None:
+    """What a Ctrl-C left; `written`: the dataset folder the run had started (`RecordingInterrupted.out`)."""
     if parallel:  # the workers' shares are merged only at the end: nothing reaches --out
         from openral_data.record.parallel.run import kept_note
         from openral_data.runtime.parallel.workdir import find_workers_dir, kept_worker_episodes
@@ -204,10 +206,12 @@ def _interrupted(out: Path | None, parallel: bool) -> None:
         print_line(f"interrupted: {detail}", err=True)
     else:
         print_line(INTERRUPTED_RECORDING, err=True)
+        if written is not None:
+            print_line(f"continue it: openral-data record --resume --out {written}", err=True)
 
 
 def _print_summary(summary: RecordSummary, resume: bool, workers: str | None) -> None:
-    print_rows(
+    print_summary(
         "recorded",
         [
             ("output", str(summary.out)),

@@ -12,9 +12,10 @@ from openral_data import manifests
 from openral_data.cli.encoder_flags import VCODEC_HELP, CrfFlag, GopFlag, PixFmtFlag, PresetFlag, ThreadsFlag
 from openral_data.cli.jsonout import JsonFlag
 from openral_data.formats.codec import Codec
+from openral_data.producers.hal.teleop.keys import HELP as TELEOP_KEYS
 from openral_data.viz import DEFAULT_PORT
 
-HAL_ONLY = ("mode", "fps", "operator", "safety", "staleness", "port", "episode_time_s", "reset_time_s")
+HAL_ONLY = ("mode", "fps", "operator", "safety", "staleness", "port", "episode_time_s", "reset_time_s", "teleop_gain")
 
 
 @dataclass(frozen=True)
@@ -63,9 +64,17 @@ class RecordFlags:
         typer.Option(
             help="a person drives: keyboard (the terminal), gamepad[=NODE] or spacemouse[=NODE] (a sim scene's "
             "end effector), or leader (hardware.teleop); keyboard, gamepad or spacemouse with --rskill: the policy "
-            "drives and t, the gamepad's RB or the SpaceMouse's right button takes over and back (interventions)"
+            "drives and t, the gamepad's RB or the SpaceMouse's right button takes over and back (interventions). "
+            f"Keyboard {TELEOP_KEYS.replace('[/]', '[ and ]')}; space starts an episode, s success, f failure, "
+            "d discard, r re-record, q quit"
         ),
     ] = None
+    teleop_gain: Annotated[
+        float,
+        typer.Option(
+            help="--teleop keyboard/gamepad/spacemouse: motion scale (1: a key press moves 1 cm, full stick 2 cm/tick)"
+        ),
+    ] = 1.0
     episode_time_s: Annotated[
         float | None, typer.Option(help="--hal/--teleop: seconds each episode records (a verdict key ends it sooner)")
     ] = None
@@ -89,9 +98,9 @@ class RecordFlags:
     view: Annotated[
         bool, typer.Option("--view", help="show the run live in rerun: a viewer, or a served stream when headless")
     ] = False
-    view_port: Annotated[int, typer.Option(help="--view: port of the spawned viewer or the served stream")] = (
-        DEFAULT_PORT
-    )
+    view_port: Annotated[
+        int, typer.Option(help="--view: port of the spawned viewer or served stream (its web page: the next one)")
+    ] = DEFAULT_PORT
     view_address: Annotated[
         str | None, typer.Option(help="--view: send to this running viewer instead (rerun+http://HOST:PORT/proxy)")
     ] = None

@@ -12,7 +12,7 @@ from openral_data.cli.given import given
 from openral_data.cli.jsonout import JsonFlag, print_json
 from openral_data.cli.legacy import upgraded
 from openral_data.cli.takes import takes
-from openral_data.cli.terminal import print_line, print_rows, progress_bar
+from openral_data.cli.terminal import print_line, print_summary, progress_bar
 from openral_data.formats.codec import Codec
 from openral_data.formats.repo_id import resolve_dataset
 from openral_data.viz import DEFAULT_PORT
@@ -119,7 +119,7 @@ def _report(summary: ReplaySummary, mode: str, json: bool) -> None:
     if json:
         print_json("replay", summary.to_json())
         return
-    print_rows("replayed" if mode == "actions" else "evaluated", summary.rows())
+    print_summary("replayed" if mode == "actions" else "evaluated", summary.rows())
 
 
 def _run(opts: ReplayOptions) -> ReplaySummary:

@@ -58,6 +58,10 @@ def stats(
     full_scan: Annotated[
         bool, typer.Option(help="summarise the frames even where verified per-episode stats could stand for them")
     ] = False,
+    reference: Annotated[
+        str | None,
+        typer.Option(help="compare the other groups with this one (default: the first dataset given)", metavar="GROUP"),
+    ] = None,
     all_: Annotated[
         bool, typer.Option("--all", help="every table and column (default: groups, success, interval)")
     ] = False,
@@ -75,7 +79,9 @@ def stats(
         check_file_output(plot, "--plot")
     paths = [str(resolve_dataset(p)) for p in paths]  # a repo id is its cached folder; globs stay globs
     fmt = StatsFormat.json if json else fmt
-    opts = StatsOptions(paths, by, sql, fmt.value, plot, memory_limit, health, trust_episode_stats, full_scan)
+    opts = StatsOptions(
+        paths, by, sql, fmt.value, plot, memory_limit, health, trust_episode_stats, full_scan, reference=reference
+    )
     if fmt is StatsFormat.json:  # one line with `command` and `version`, like every `--json`
         from openral_data.metrics.command import stats_tables
         from openral_data.metrics.render import json_payload

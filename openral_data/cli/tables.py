@@ -3,8 +3,9 @@
 The width is the terminal's (or `$COLUMNS`; 200 when the output is piped and no width is set). A table wider
 than that is printed as vertical records (`name [n]` then one `column: value` line per cell) instead of a grid
 whose cells would wrap mid-word. `compact` is the default `stats` view: per group its episodes, frames, success
-with its 95 % interval and median length; the comparison and health tables only when they have rows; the rest
-(dimensions, sources, quality, every column) behind `--all`.
+with its 95 % interval and median length; the comparison (rates in %, the reference named in its title) when
+there are two groups to compare; health's findings, or one line saying there are none; the rest (dimensions,
+sources, quality, every column) behind `--all`.
 """
 
 from __future__ import annotations
@@ -24,7 +25,8 @@ if TYPE_CHECKING:
     from openral_data.metrics.report import Table
 
 PIPED_WIDTH = 200  # no terminal and no $COLUMNS: a log or a pipe, read by a person later
-SHOWN_WHEN_EMPTY = ("groups",)  # compact view: a table without rows is one `name: (none)` line, except these
+# compact view: a table without rows is left out, except these (groups: a grid; health: a line saying so)
+SHOWN_WHEN_EMPTY = ("groups", "health")
 COMPACT = ("groups", "comparison", "intervention_policies", "health")
 
 
@@ -49,6 +51,32 @@ def compact_groups(t: Table) -> Table:
         interval = f"{_percent(r['ci95_low'])} .. {_percent(r['ci95_high'])}" if known else "-"
         rows.append([*(r[k] for k in keys), r["episodes"], r["frames"], success, interval, r["len_median"]])
     return Table(t.name, columns, rows)
+
+
+def _points(value: Any) -> str:
+    return "-" if value is None else f"{100 * value:+.1f} pts"
+
+
+def compact_comparison(t: Table) -> Table:
+    """The comparison as the default view shows it: rates in % (as the groups table), differences in percentage
+    points, the reference and its rate in the title."""
+    from openral_data.metrics.report import Table
+
+    first = t.records()[0]
+    title = f"comparison with {first['reference']} (success {_percent(first['rate_ref'])}; --reference GROUP: another)"
+    columns = ["group", "success", "difference", "95% interval", "p (Fisher)"]
+    rows: list[list[Any]] = [
+        [r["group"], _percent(r["rate"]), _points(r["diff"]), f"{_points(r['diff_low'])[:-4]} .. "
+         f"{_points(r['diff_high'])}", f"{r['p_fisher']:.3g}"]
+        for r in t.records()
+    ]  # fmt: skip
+    return Table(title, columns, rows)
+
+
+def _compact(t: Table) -> Table:
+    if t.name == "groups":
+        return compact_groups(t)
+    return compact_comparison(t) if t.name == "comparison" else t
 
 
 def _grid(t: Table) -> RichTable:
@@ -85,9 +113,11 @@ def render_tables(tables: Sequence[Table], *, compact: bool = False, columns: in
         if compact and t.name not in COMPACT:
             continue
         if compact and not t.rows and t.name not in SHOWN_WHEN_EMPTY:
-            console.print(shown(f"{t.name}: (none)"))
             continue
-        shownt = compact_groups(t) if compact and t.name == "groups" else t
+        if compact and not t.rows and t.name == "health":
+            console.print(shown("health: no problems found"))
+            continue
+        shownt = _compact(t) if compact else t
         grid = _grid(shownt)
         natural = Measurement.get(console, console.options.update_width(10**5), grid).maximum  # unfolded
         if natural > size:

@@ -7,6 +7,9 @@ a table cell holding dataset text is a `shown(...)` Text, never markup.
 
 from __future__ import annotations
 
+import os
+import textwrap
+
 from rich.console import Console
 from rich.errors import LiveError
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TaskID, TextColumn, TimeElapsedColumn
@@ -70,12 +73,40 @@ class LazyBar:
             self.bar.stop()
 
 
+def _wrap_width() -> int | None:
+    """The width rows wrap at: the terminal's, or `$COLUMNS` when piped; None (never wrapped) when piped without
+    it (a log keeps each row on one greppable line)."""
+    if console.is_terminal:
+        return console.width
+    columns = os.environ.get("COLUMNS", "")
+    return int(columns) if columns.isdigit() else None
+
+
 def print_rows(title: str, rows: list[tuple[str, str]]) -> None:
-    """`key: value` lines: readable in a terminal, greppable in logs, never wrapped or truncated."""
+    """`key  value` lines, never truncated: a value longer than the terminal's width continues on the next lines
+    under itself (wrapped between words; a path longer than the line stays whole); piped, one line per row."""
     width = max(len(k) for k, _ in rows)
+    wrap = _wrap_width()
     console.print(printable(title), markup=False, highlight=False, soft_wrap=True)
     for key, value in rows:
-        console.print(f"  {key:<{width}}  {printable(value)}", markup=False, highlight=False, soft_wrap=True)
+        lead = f"  {key:<{width}}  "
+        room = (wrap or 0) - len(lead)
+        text = printable(value)
+        lines = textwrap.wrap(text, room, break_long_words=False, break_on_hyphens=False) if room >= 20 else []
+        for i, line in enumerate(lines or [text]):
+            console.print((lead if i == 0 else " " * len(lead)) + line, markup=False, highlight=False, soft_wrap=True)
+
+
+def print_summary(title: str, rows: list[tuple[str, str]]) -> None:
+    """A command's closing summary (what it wrote, how fast): `print_rows`, silent under `-q`."""
+    if not quiet:
+        print_rows(title, rows)
+
+
+def print_done(text: str) -> None:
+    """A one-line closing summary (`trimmed: OUT  episodes 3  frames 120`): silent under `-q`."""
+    if not quiet:
+        print_line(text)
 
 
 def print_line(text: str, *, err: bool = False) -> None:

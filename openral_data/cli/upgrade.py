@@ -10,7 +10,7 @@ import typer
 from openral_data import paths
 from openral_data.cli import terminal
 from openral_data.cli.takes import takes
-from openral_data.cli.terminal import print_line, print_rows
+from openral_data.cli.terminal import print_line, print_summary
 from openral_data.formats.repo_id import resolve_dataset
 
 
@@ -29,7 +29,7 @@ def upgrade(
         rows.append(("rewritten", ", ".join(result.rewritten)))
     if result.computed:
         rows.append(("stats computed", ", ".join(result.computed)))
-    print_rows(f"upgraded: {result.out}", rows)
+    print_summary(f"upgraded: {result.out}", rows)
 
 
 def _stage(text: str) -> None:

@@ -47,7 +47,7 @@ def is_vector(spec: ArraySpec) -> bool:
     return spec.encoding == "raw" and spec.dtype != "bytes" and len(spec.shape) <= 1
 
 
-def _camera_name(key: str) -> str:
+def camera_name(key: str) -> str:
     base = key.rsplit("/", 1)[-1]
     base = re.sub(r"_(image|rgb|img)$", "", base)
     return re.sub(r"[^A-Za-z0-9_]", "_", base) or "camera"
@@ -59,11 +59,11 @@ def _names(key: str, spec: ArraySpec) -> list[str]:
     return [base] if not spec.shape else [f"{base}_{i}" for i in range(width)]
 
 
-def _part(key: str, spec: ArraySpec) -> dict[str, Any]:
+def part_of(key: str, spec: ArraySpec) -> dict[str, Any]:
     return {"topic": key, "names": _names(key, spec)}
 
 
-def _vector(parts: list[dict[str, Any]]) -> dict[str, Any]:
+def vector_of(parts: list[dict[str, Any]]) -> dict[str, Any]:
     return parts[0] if len(parts) == 1 else {"parts": parts}
 
 
@@ -75,12 +75,12 @@ def with_fps_guess(data: dict[str, Any], guesses: list[Guess], usual: int, why: 
         guesses.insert(0, Guess("fps", f"{why}; the source does not say: check it"))
 
 
-def _specs(first: ArrayEpisode) -> dict[str, ArraySpec]:
+def specs_by_key(first: ArrayEpisode) -> dict[str, ArraySpec]:
     return {s.key: s for s in first.specs()}
 
 
 def aloha_mapping(source: ArraySource, first: ArrayEpisode) -> tuple[dict[str, Any], list[Guess]]:
-    specs = _specs(first)
+    specs = specs_by_key(first)
     state = specs.get("observations/qpos")
     action = specs.get("action")
     if state is None or action is None:
@@ -89,7 +89,7 @@ def aloha_mapping(source: ArraySource, first: ArrayEpisode) -> tuple[dict[str, A
     guesses = [Guess("task", "the folder's name; ALOHA files hold no task text")]
     if named:
         guesses.append(Guess("state", "ALOHA's 14 joints (left arm then right arm, 6 joints + gripper each)"))
-    cams = {_camera_name(k): k for k, s in specs.items() if k.startswith("observations/images/") and is_picture(s)}
+    cams = {camera_name(k): k for k, s in specs.items() if k.startswith("observations/images/") and is_picture(s)}
     out: dict[str, Any] = {
         "robot_type": "aloha",
         "task": source.path.stem if source.path.is_file() else source.path.name,
@@ -101,23 +101,23 @@ def aloha_mapping(source: ArraySource, first: ArrayEpisode) -> tuple[dict[str, A
 
 
 def robomimic_mapping(source: ArraySource, first: ArrayEpisode) -> tuple[dict[str, Any], list[Guess]]:
-    specs = _specs(first)
+    specs = specs_by_key(first)
     guesses: list[Guess] = []
     obs = {k: s for k, s in specs.items() if k.startswith("obs/")}
     low = {k: s for k, s in obs.items() if is_vector(s) and s.dtype.startswith("float")}
-    env = [_part(k, s) for k, s in low.items() if k.rsplit("/", 1)[-1].startswith("object")]
-    state = [_part(k, s) for k, s in low.items() if not k.rsplit("/", 1)[-1].startswith("object")]
+    env = [part_of(k, s) for k, s in low.items() if k.rsplit("/", 1)[-1].startswith("object")]
+    state = [part_of(k, s) for k, s in low.items() if not k.rsplit("/", 1)[-1].startswith("object")]
     if state:
         guesses.append(Guess("state", "every low-dim obs/* array but object*, concatenated in key order"))
     elif "states" in specs:
-        state = [_part("states", specs["states"])]
+        state = [part_of("states", specs["states"])]
         guesses.append(Guess("state", "no low-dim obs: the simulator state (states)"))
     else:
         raise DatasetError(f"{source.path}: {first.name}: no obs/* vectors and no states to map as state",
                            code="dataset.source.key")  # fmt: skip
     if "actions" not in specs:
         raise DatasetError(f"{source.path}: {first.name}/actions: missing", code="dataset.source.key")
-    cams = {_camera_name(k): k for k, s in obs.items() if is_picture(s)}
+    cams = {camera_name(k): k for k, s in obs.items() if is_picture(s)}
     attrs = first.meta.attrs.get("env_args") or {}
     env_name = attrs.get("env_name") if isinstance(attrs, dict) else None
     env_name = env_name or first.meta.attrs.get("env")  # robosuite's own demo.hdf5 says only `env`
@@ -130,10 +130,10 @@ def robomimic_mapping(source: ArraySource, first: ArrayEpisode) -> tuple[dict[st
     else:
         out["task"] = str(env_name) if isinstance(env_name, str) and env_name else source.layout
         guesses.append(Guess("task", "the env name (env_args.env_name or env; no language instruction in the file)"))
-    out["state"] = _vector(state)
+    out["state"] = vector_of(state)
     out["action"] = {"topic": "actions", "names": _names("actions", specs["actions"])}
     if env:
-        out["environment_state"] = _vector(env)
+        out["environment_state"] = vector_of(env)
         guesses.append(Guess("environment_state", "the obs/object* arrays (object poses and relations)"))
     out["cameras"] = cams
     if cams:
@@ -211,29 +211,29 @@ def _umi_action(specs: dict[str, ArraySpec]) -> list[dict[str, Any]]:
     has no `robot<i>_eef_pos`."""
     robots = sorted(int(m.group(1)) for k in specs if (m := _UMI_ROBOT.fullmatch(k)))
     keys = [f"data/robot{i}_{what}" for i in robots for what in _UMI_ACTION]
-    return [_part(k, specs[k]) for k in keys if k in specs and is_vector(specs[k])]
+    return [part_of(k, specs[k]) for k in keys if k in specs and is_vector(specs[k])]
 
 
 def zarr_mapping(source: ArraySource, first: ArrayEpisode) -> tuple[dict[str, Any], list[Guess]]:
     """diffusion policy / UMI replay buffers: `data/action`, else UMI's derived action (`_umi_action`);
     `data/state` or `data/agent_pos`, else every other float vector (UMI's robot0_*), as state; every HxWx3 uint8
     array a camera."""
-    specs = _specs(first)
+    specs = specs_by_key(first)
     guesses = [Guess("task", "the store's name; replay buffers hold no task text")]
     if "data/action" in specs and is_vector(specs["data/action"]):
-        action = _part("data/action", specs["data/action"])
+        action = part_of("data/action", specs["data/action"])
     elif derived := _umi_action(specs):
-        action = _vector(derived)
+        action = vector_of(derived)
         guesses.append(Guess("action", _UMI_ACTION_WHY))
     else:
         raise DatasetError(f"{source.path}: data/action: missing (a replay buffer's action; nor UMI's "
                            "robot<i>_eef_pos to derive it from)", code="dataset.source.key")  # fmt: skip
     named_state = next((k for k in ("data/state", "data/agent_pos") if k in specs and is_vector(specs[k])), None)
     if named_state is not None:
-        state = [_part(named_state, specs[named_state])]
+        state = [part_of(named_state, specs[named_state])]
     else:
         state = [
-            _part(k, s) for k, s in specs.items() if k != "data/action" and is_vector(s) and s.dtype.startswith("float")
+            part_of(k, s) for k, s in specs.items() if k != "data/action" and is_vector(s) and s.dtype[:5] == "float"
         ]
         if not state:
             raise DatasetError(f"{source.path}: data/state: missing (no float vector to map as state)",
@@ -242,9 +242,9 @@ def zarr_mapping(source: ArraySource, first: ArrayEpisode) -> tuple[dict[str, An
     out: dict[str, Any] = {
         "robot_type": "unknown",
         "task": _store_name(source),
-        "state": _vector(state),
+        "state": vector_of(state),
         "action": action,
-        "cameras": {_camera_name(k): k for k, s in specs.items() if is_picture(s)},
+        "cameras": {camera_name(k): k for k, s in specs.items() if is_picture(s)},
     }
     return out, guesses
 
@@ -252,25 +252,25 @@ def zarr_mapping(source: ArraySource, first: ArrayEpisode) -> tuple[dict[str, An
 def rlds_mapping(source: ArraySource, first: ArrayEpisode) -> tuple[dict[str, Any], list[Guess]]:
     """RLDS / Open X-Embodiment: observation pictures as cameras, `steps/observation/state` (else every float
     observation vector) as state, `steps/action` (or its vector parts), language as task, reward, is_terminal."""
-    specs = _specs(first)
+    specs = specs_by_key(first)
     obs = {k: s for k, s in specs.items() if k.startswith("steps/observation/")}
     floats = {k: s for k, s in obs.items() if is_vector(s) and s.dtype.startswith("float")}
     guesses: list[Guess] = []
     if "steps/observation/state" in floats:
-        state = [_part("steps/observation/state", floats["steps/observation/state"])]
+        state = [part_of("steps/observation/state", floats["steps/observation/state"])]
     elif floats:
-        state = [_part(k, s) for k, s in floats.items()]
+        state = [part_of(k, s) for k, s in floats.items()]
         guesses.append(Guess("state", "every float observation vector, concatenated in key order"))
     else:
         raise DatasetError(f"{source.path}: {first.name}: steps/observation: no float vector to map as state",
                            code="dataset.source.key")  # fmt: skip
     if "steps/action" in specs and is_vector(specs["steps/action"]):
-        action = _part("steps/action", specs["steps/action"])
+        action = part_of("steps/action", specs["steps/action"])
     else:
-        parts = [_part(k, s) for k, s in specs.items() if k.startswith("steps/action/") and is_vector(s)]
+        parts = [part_of(k, s) for k, s in specs.items() if k.startswith("steps/action/") and is_vector(s)]
         if not parts:
             raise DatasetError(f"{source.path}: {first.name}: steps/action: missing", code="dataset.source.key")
-        action = _vector(parts)
+        action = vector_of(parts)
         guesses.append(Guess("action", "the vectors under steps/action/, concatenated in key order"))
     out: dict[str, Any] = {"robot_type": "unknown"}
     if first.meta.language:
@@ -278,8 +278,8 @@ def rlds_mapping(source: ArraySource, first: ArrayEpisode) -> tuple[dict[str, An
     else:
         out["task"] = source.path.parent.name if source.path.name[:1].isdigit() else source.path.name
         guesses.append(Guess("task", "the dataset's name (no language_instruction in the episodes)"))
-    out |= {"state": _vector(state), "action": action}
-    out["cameras"] = {_camera_name(k): k for k, s in obs.items() if is_picture(s)}
+    out |= {"state": vector_of(state), "action": action}
+    out["cameras"] = {camera_name(k): k for k, s in obs.items() if is_picture(s)}
     scalar = {k for k, s in specs.items() if is_vector(s) and not s.shape}
     if "steps/reward" in scalar:
         out["reward"] = {"topic": "steps/reward"}

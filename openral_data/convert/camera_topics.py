@@ -18,10 +18,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 from PIL import Image as PILImage
-from rosbags.highlevel import AnyReader
 from rosbags.interfaces import Connection
 
-from openral_data.convert.sources import deserialize, read_messages
+from openral_data.convert.sources import BagReader, deserialize, read_messages
 from openral_data.errors import BagError
 from openral_data.formats.lerobot_v3.depth import DepthUnit
 
@@ -29,23 +28,26 @@ DEPTH_UNITS: dict[str, DepthUnit] = {"16uc1": "mm", "32fc1": "m"}
 _DTYPES: dict[str, np.dtype[Any]] = {"mm": np.dtype("<u2"), "m": np.dtype("<f4")}
 IMAGE = "sensor_msgs/msg/Image"
 COMPRESSED = "sensor_msgs/msg/CompressedImage"
+RAW_TYPES = (IMAGE, "foxglove.RawImage")  # Foxglove's RawImage: the same fields, little-endian
+COMPRESSED_TYPES = (COMPRESSED, "foxglove.CompressedImage")
 _HEADER = struct.Struct("<iff")  # image_transport's compressedDepth ConfigHeader: format, depthQuantA, depthQuantB
 CAMERA_INFO = "sensor_msgs/msg/CameraInfo"
 
 
-def _first(reader: AnyReader, bag: Path, conn: Connection, where: str) -> Any:
+def _first(reader: BagReader, bag: Path, conn: Connection, where: str) -> Any:
     for c, _, raw in read_messages(reader, bag, [conn]):
         return deserialize(reader, bag, raw, c.msgtype)
     raise BagError(f"{where}: the topic has no messages", code="bag.empty")
 
 
-def check_depth_camera(reader: AnyReader, bag: Path, name: str, conn: Connection) -> DepthUnit:
+def check_depth_camera(reader: BagReader, bag: Path, name: str, conn: Connection) -> DepthUnit:
     """Before anything is written: the depth camera's topic carries 16UC1 or 32FC1 images; their unit."""
     where = f"{bag}: mapping: depth_cameras.{name} ({conn.topic})"
-    if conn.msgtype == COMPRESSED:
+    if conn.msgtype in COMPRESSED_TYPES:
         return _compressed_unit(str(_first(reader, bag, conn, where).format), where)
-    if conn.msgtype != IMAGE:
-        raise BagError(f"{where}: the topic carries {conn.msgtype}, not {IMAGE} or {COMPRESSED}", code="bag.type")
+    if conn.msgtype not in RAW_TYPES:
+        raise BagError(f"{where}: the topic carries {conn.msgtype}, not {' or '.join(RAW_TYPES + COMPRESSED_TYPES)}",
+                       code="bag.type")  # fmt: skip
     encoding = str(_first(reader, bag, conn, where).encoding)
     unit = DEPTH_UNITS.get(encoding.lower())
     if unit is None:
@@ -93,12 +95,12 @@ def _decode_compressed(msg: Any, unit: DepthUnit, where: str) -> npt.NDArray[Any
 def decode_depth(msg: Any, msgtype: str, unit: DepthUnit, where: str) -> npt.NDArray[Any]:
     """(H, W) uint16 millimetres or float32 metres (native byte order) from a 16UC1 / 32FC1 Image or a
     compressedDepth CompressedImage."""
-    if msgtype == COMPRESSED:
+    if msgtype in COMPRESSED_TYPES:
         return _decode_compressed(msg, unit, where)
     encoding = str(msg.encoding)
     if DEPTH_UNITS.get(encoding.lower()) != unit:
         raise BagError(f"{where}: encoding changed to {encoding!r} mid-stream", code="bag.field")
-    dtype = _DTYPES[unit].newbyteorder(">" if msg.is_bigendian else "<")
+    dtype = _DTYPES[unit].newbyteorder(">" if getattr(msg, "is_bigendian", 0) else "<")
     h, w, step = int(msg.height), int(msg.width), int(msg.step)
     raw = np.asarray(msg.data, dtype=np.uint8)
     if step < w * dtype.itemsize or raw.size < h * step:
@@ -108,7 +110,7 @@ def decode_depth(msg: Any, msgtype: str, unit: DepthUnit, where: str) -> npt.NDA
     return out.astype(_DTYPES[unit].newbyteorder("="))
 
 
-def read_camera_info(reader: AnyReader, bag: Path, name: str, conn: Connection) -> dict[str, Any]:
+def read_camera_info(reader: BagReader, bag: Path, name: str, conn: Connection) -> dict[str, Any]:
     """The intrinsics of the topic's first CameraInfo message, as the feature's `info.camera_info` keeps them
     (ROS field names in ROS 2 spelling: k, d, r, p)."""
     where = f"{bag}: mapping: camera_info.{name} ({conn.topic})"

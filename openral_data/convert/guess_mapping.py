@@ -1,14 +1,18 @@
 """`convert BAG --print-mapping`: a starting mapping for a bag nobody has described, its guesses marked.
 
 Read from the bags' indexes (topics, types, rates) and from the first message of each JointState, Image and
-CompressedImage topic of the first bag (joint names, image encodings), the guesses are:
+CompressedImage topic of the first bag (joint names, image encodings), and of each topic of a type that is not
+ROS's (an MCAP of another profile: Foxglove's schemas, JSON), the guesses are:
 
 * state: the JointState topic (``position``, every joint its first message names), one named ``joint_states``
-  first; without one, the first Float32/Float64MultiArray that is not a command;
+  first; without one, the first Float32/Float64MultiArray that is not a command; without one, the parts
+  `guess_foreign` finds in every non-ROS topic that is not a command (Foxglove transforms, poses, fixes, JSON
+  joint states and numbers);
 * action: a command topic (a name with cmd/command/action/target/goal/desired, of a JointState, a MultiArray or a
-  Twist), else the state itself (marked: an action should be what was commanded);
-* cameras: Image topics in an RGB encoding and CompressedImage topics; depth_cameras: 16UC1/32FC1 Image topics and
-  compressedDepth topics; camera_info: each CameraInfo topic paired with the cameras in its namespace;
+  Twist, or a non-ROS topic with parts), else the state itself (marked: an action should be what was commanded);
+* cameras: Image / foxglove.RawImage topics in an RGB encoding and (foxglove.)CompressedImage topics;
+  depth_cameras: 16UC1/32FC1 Image / RawImage topics and compressedDepth topics; camera_info: each CameraInfo
+  topic paired with the cameras in its namespace;
 * task_topic: a String topic named like a task/instruction/language/prompt, else a placeholder task text;
   reward / success: Float32/Float64 ``reward`` and Bool ``success`` topics;
 * fps: the slowest camera's or the action's mean rate, rounded (every frame needs a sample of each);
@@ -26,7 +30,9 @@ from typing import Any
 
 import yaml
 
+from openral_data.convert.camera_topics import COMPRESSED_TYPES, RAW_TYPES
 from openral_data.convert.discover import BagInfo, describe_bags
+from openral_data.convert.guess_foreign import foreign_parts
 from openral_data.convert.sources import deserialize, open_reader, read_messages
 from openral_data.errors import BagError
 from openral_data.formats.mcap.messages import RGB_ENCODINGS
@@ -37,7 +43,6 @@ _TASK = re.compile(r"task|instruction|language|prompt", re.IGNORECASE)
 _JOINTS = "sensor_msgs/msg/JointState"
 _ARRAYS = ("std_msgs/msg/Float64MultiArray", "std_msgs/msg/Float32MultiArray")
 _TWISTS = {"geometry_msgs/msg/Twist": "", "geometry_msgs/msg/TwistStamped": "twist."}
-_IMAGE, _COMPRESSED = "sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage"
 _DEPTH = ("16uc1", "32fc1")
 # the last topic parts a camera name leaves out (/cam/image_raw -> cam)
 _IMAGE_SUFFIXES = {"image_raw", "image", "compressed", "image_rect_raw", "image_rect", "image_color",
@@ -81,13 +86,15 @@ def guess_mapping(src: Path) -> Guess:
 
 
 def _first_messages(bag: Path, info: BagInfo) -> dict[str, Any]:
-    """The first message of every JointState, Image and CompressedImage topic of `bag`."""
-    wanted = {_JOINTS, _IMAGE, _COMPRESSED}
+    """The first message of every JointState, Image and CompressedImage topic of `bag`, and of every topic of a
+    type that is not ROS's (an MCAP of another profile: Foxglove's schemas, JSON)."""
+    wanted = {_JOINTS, *RAW_TYPES, *COMPRESSED_TYPES}
     reader = open_reader(bag)
     out: dict[str, Any] = {}
     try:
         for conn in reader.connections:
-            if conn.msgtype in wanted and conn.topic in info.topics and conn.topic not in out:
+            known = conn.msgtype in wanted or _foreign_type(conn.msgtype)
+            if known and conn.topic in info.topics and conn.topic not in out:
                 for c, _, raw in read_messages(reader, bag, [conn]):
                     out[conn.topic] = deserialize(reader, bag, raw, c.msgtype)
                     break
@@ -100,6 +107,26 @@ def _of(info: BagInfo, *types: str) -> list[str]:
     return [t.topic for t in info.topics.values() if t.msgtype in types]
 
 
+def _foreign_type(msgtype: str) -> bool:
+    """Not a ROS type (those are `pkg/msg/Type`): a Foxglove schema, a JSON or protobuf message."""
+    return "/msg/" not in msgtype
+
+
+def _foreign(info: BagInfo, first: dict[str, Any]) -> dict[str, list[dict[str, Any]]]:
+    """Topic -> the vector parts of a topic of a non-ROS type (`guess_foreign`), for topics with 2+ messages."""
+    out = {}
+    for t in info.topics.values():
+        if _foreign_type(t.msgtype) and t.messages >= 2 and t.topic in first:
+            parts = foreign_parts(t.topic, t.msgtype, first[t.topic])
+            if parts:
+                out[t.topic] = parts
+    return out
+
+
+def _vector(parts: list[dict[str, Any]]) -> dict[str, Any]:
+    return dict(parts[0]) if len(parts) == 1 else {"parts": parts}
+
+
 def _state(info: BagInfo, first: dict[str, Any], guess: Guess) -> str:
     joints = [t for t in _of(info, _JOINTS) if not _COMMAND.search(t) and t in first]
     if joints:
@@ -109,16 +136,28 @@ def _state(info: BagInfo, first: dict[str, Any], guess: Guess) -> str:
         guess.put("state", value, f"{topic}: the position of every joint its first message names")
         return topic
     arrays = [t for t in _of(info, *_ARRAYS) if not _COMMAND.search(t)]
+    foreign = {t: parts for t, parts in _foreign(info, first).items() if not _COMMAND.search(t)}
+    if not arrays and foreign:
+        parts = [p for topic_parts in foreign.values() for p in topic_parts]
+        guess.put("state", _vector(parts), f"{', '.join(foreign)}: the numbers of every pose, transform or "
+                  "numeric message that is not a command")  # fmt: skip
+        return next(iter(foreign))
     if not arrays:
-        raise BagError(f"{info.bags[0]}: no JointState or Float64MultiArray topic to guess a state from; write the "
-                       "mapping by hand (docs/convert.md)", code="bag.topic")  # fmt: skip
+        raise BagError(f"{info.bags[0]}: no JointState, Float64MultiArray, Foxglove pose or transform, or numeric "
+                       "JSON topic to guess a state from; write the mapping by hand (docs/convert.md)",
+                       code="bag.topic")  # fmt: skip
     guess.put("state", {"topic": arrays[0], "field": "data"}, f"{arrays[0]}: no JointState topic; its data")
     return arrays[0]
 
 
 def _action(info: BagInfo, first: dict[str, Any], state: str, guess: Guess) -> str:
+    foreign = {t: parts for t, parts in _foreign(info, first).items() if t != state and _COMMAND.search(t)}
     numeric = [*_of(info, _JOINTS, *_ARRAYS, *_TWISTS)]
     commands = [t for t in numeric if t != state and _COMMAND.search(t)]
+    if not commands and foreign:
+        topic, parts = next(iter(foreign.items()))
+        guess.put("action", _vector(parts), f"{topic}: a command topic (its numbers)")
+        return topic
     if not commands:
         same = dict(guess.mapping["state"])
         guess.put("action", same, "no command topic found: the state itself; an action should be what was commanded")
@@ -157,11 +196,11 @@ def _images(info: BagInfo, first: dict[str, Any], guess: Guess) -> None:
     cameras: dict[str, str] = {}
     depth: dict[str, str] = {}
     used: set[str] = set()
-    for topic in _of(info, _IMAGE, _COMPRESSED):
+    for topic in _of(info, *RAW_TYPES, *COMPRESSED_TYPES):
         msg = first.get(topic)
         if msg is None:
             continue
-        if info.topics[topic].msgtype == _COMPRESSED:
+        if info.topics[topic].msgtype in COMPRESSED_TYPES:
             is_depth, is_rgb = "compresseddepth" in str(msg.format).lower(), True
         else:
             encoding = str(msg.encoding).lower()
@@ -170,8 +209,8 @@ def _images(info: BagInfo, first: dict[str, Any], guess: Guess) -> None:
             name = _camera_name(topic, used)
             used.add(name)
             (depth if is_depth else cameras)[name] = topic
-    guess.put("cameras", cameras, "Image topics in an RGB encoding and CompressedImage topics")
-    guess.put("depth_cameras", depth, "16UC1/32FC1 Image topics and compressedDepth topics")
+    guess.put("cameras", cameras, "Image / RawImage topics in an RGB encoding and CompressedImage topics")
+    guess.put("depth_cameras", depth, "16UC1/32FC1 Image / RawImage topics and compressedDepth topics")
     infos = {}
     for info_topic in _of(info, "sensor_msgs/msg/CameraInfo"):
         namespace = info_topic.rsplit("/", 1)[0]

@@ -9,11 +9,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from rosbags.highlevel import AnyReader
 from rosbags.interfaces import Connection
 
 from openral_data.convert.camera_topics import check_depth_camera, read_camera_info
-from openral_data.convert.sources import check_camera, deserialize, open_reader, read_messages
+from openral_data.convert.sources import BagReader, check_camera, deserialize, open_reader, read_messages
 from openral_data.convert.summary import ConvertSummary, TopicReport
 from openral_data.errors import BagError, ConfigError
 from openral_data.formats.lerobot_v3.depth import DepthUnit
@@ -97,7 +96,7 @@ def check_outcome(summary: ConvertSummary) -> None:
 
 
 def _check_depth_cameras(
-    reader: AnyReader, bag: Path, mapping: Mapping, conn: dict[str, Connection], cameras: CameraTopics
+    reader: BagReader, bag: Path, mapping: Mapping, conn: dict[str, Connection], cameras: CameraTopics
 ) -> None:
     """Each depth camera carries 16UC1 or 32FC1, the same in every bag."""
     for name, topic in mapping.depth_cameras.items():

@@ -2,7 +2,9 @@
 
 A source is a ROS 1 ``.bag`` file, a rosbag2 directory (``metadata.yaml`` + sqlite3 or mcap storage), a plain
 ``.mcap`` file with ros2msg schemas, or a directory holding any number of those (each one a bag, in name
-order; hidden entries such as an unfinished ``.partial/`` episode are ignored).
+order; hidden entries such as an unfinished ``.partial/`` episode are ignored). An ``.mcap`` of another profile
+(Foxglove's, the `mcap` library's: protobuf, JSON, ROS 1 messages) is read by `formats.mcap.foreign`, its
+messages decoded into `Fields` that the rest reads as it reads rosbags' messages.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from rosbags.typesys import Stores, get_typestore
 from openral_data.convert.bag_paths import folder_bags, is_bag
 from openral_data.errors import BagError, NotFound
 from openral_data.formats.mcap.chunks import check_bag
+from openral_data.formats.mcap.foreign import FOXGLOVE_IMAGE_TYPES, Fields, ForeignMcap, is_foreign_mcap
 from openral_data.formats.mcap.messages import DEPTH_ENCODINGS, RGB_ENCODINGS
 from openral_data.formats.rosbag1 import deserialize_ros1
 from openral_data.schemas.mapping import Vector, VectorSource
@@ -56,8 +59,13 @@ BAG_READ_ERRORS = (
 )
 
 
-def open_reader(bag: Path) -> AnyReader:
+BagReader = AnyReader | ForeignMcap  # rosbags' reader, or an MCAP file of another profile
+
+
+def open_reader(bag: Path) -> BagReader:
     """The bag opened for reading; an empty, truncated or garbage bag raises a `BagError` naming it."""
+    if is_foreign_mcap(bag):
+        return ForeignMcap(bag)
     store = get_typestore(Stores.ROS1_NOETIC if bag.suffix == ".bag" else Stores.ROS2_HUMBLE)
     check_bag(bag)  # bounded chunks and records, before rosbags allocates what they declare
     reader = AnyReader([bag], default_typestore=store)
@@ -68,7 +76,7 @@ def open_reader(bag: Path) -> AnyReader:
     return reader
 
 
-def read_messages(reader: AnyReader, bag: Path, conns: list[Connection]) -> Iterator[tuple[Connection, int, bytes]]:
+def read_messages(reader: BagReader, bag: Path, conns: list[Connection]) -> Iterator[tuple[Connection, int, bytes]]:
     """`reader.messages(connections=conns)`; a chunk that cannot be read (bad checksum, cut short) raises a
     `BagError` naming the bag."""
     it = reader.messages(connections=conns)
@@ -82,15 +90,17 @@ def read_messages(reader: AnyReader, bag: Path, conns: list[Connection]) -> Iter
         yield item
 
 
-def deserialize(reader: AnyReader, bag: Path, raw: bytes, msgtype: str) -> Any:
+def deserialize(reader: BagReader, bag: Path, raw: bytes, msgtype: str) -> Any:
     """One message decoded; bytes that do not decode as `msgtype` raise a `BagError` naming the bag. A ROS 1
     message's bytes after its last field are ignored (`deserialize_trailing`)."""
     return deserialize_trailing(reader, bag, raw, msgtype)[0]
 
 
-def deserialize_trailing(reader: AnyReader, bag: Path, raw: bytes, msgtype: str) -> tuple[Any, int]:
+def deserialize_trailing(reader: BagReader, bag: Path, raw: bytes, msgtype: str) -> tuple[Any, int]:
     """`deserialize`, and the bytes after the message's last field (ROS 1 only, which ignores them as ROS 1's own
-    reader does; 0 for ROS 2, whose CDR messages rosbags reads padding and all)."""
+    reader does; 0 for ROS 2, whose CDR messages rosbags reads padding and all, and for other MCAP profiles)."""
+    if isinstance(reader, ForeignMcap):
+        return reader.decode(raw, msgtype), 0
     try:
         if reader.is2:
             return reader.deserialize(raw, msgtype), 0
@@ -99,16 +109,17 @@ def deserialize_trailing(reader: AnyReader, bag: Path, raw: bytes, msgtype: str)
         raise BagError(f"{bag}: a {msgtype} message does not decode: {exc}", code="bag.invalid") from None
 
 
-IMAGE_TYPES = ("sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage")
+IMAGE_TYPES = ("sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage", *FOXGLOVE_IMAGE_TYPES)
 
 
-def check_camera(reader: AnyReader, bag: Path, name: str, conn: Connection) -> None:
+def check_camera(reader: BagReader, bag: Path, name: str, conn: Connection) -> None:
     """Before anything is written: camera `name`'s topic carries RGB images. A non-image topic, or images in a
     depth or otherwise unsupported encoding (read from its first message), raise one `BagError` line."""
     where = f"{bag}: mapping: cameras.{name} ({conn.topic})"
     if conn.msgtype not in IMAGE_TYPES:
         raise BagError(
-            f"{where}: the topic carries {conn.msgtype}, not images (a camera needs {' or '.join(IMAGE_TYPES)})",
+            f"{where}: the topic carries {conn.msgtype}, not images (a camera needs "
+            f"{', '.join(IMAGE_TYPES[:-1])} or {IMAGE_TYPES[-1]})",
             code="bag.type",
         )
     for c, _, raw in read_messages(reader, bag, [conn]):
@@ -119,7 +130,7 @@ def check_camera(reader: AnyReader, bag: Path, name: str, conn: Connection) -> N
 def check_image(msg: Any, msgtype: str, where: str) -> None:
     """An image message `decode_image` can turn into RGB: a raw image's encoding, or a compressed image that is
     not a depth image (``format: "16UC1; compressedDepth png"``); else a one-line `BagError`."""
-    if msgtype.endswith("/CompressedImage"):
+    if msgtype.endswith("CompressedImage"):  # sensor_msgs/msg/CompressedImage, foxglove.CompressedImage
         fmt = str(msg.format)
         if "compresseddepth" in fmt.lower() or fmt.split(";", maxsplit=1)[0].strip().lower() in DEPTH_ENCODINGS:
             _depth(f"a CompressedImage of format {fmt!r}", where)
@@ -146,7 +157,11 @@ def field_value(msg: Any, path: str, where: str) -> Any:
     value = msg
     for part in path.split("."):
         if not hasattr(value, part):
-            fields = [k for k in getattr(type(value), "__dataclass_fields__", {})]
+            fields = (
+                value.field_names()
+                if isinstance(value, Fields)
+                else [k for k in getattr(type(value), "__dataclass_fields__", {})]
+            )
             raise BagError(
                 f"{where}: message has no field {path!r} (fields here: {', '.join(fields) or '-'})", code="bag.field"
             )

@@ -11,15 +11,16 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from rosbags.highlevel import AnyReader
+from PIL import Image as PILImage
 from rosbags.interfaces import Connection
 
 from openral_data.convert.camera_topics import decode_depth
-from openral_data.convert.sources import check_image, deserialize_trailing, field_value, read_messages
+from openral_data.convert.sources import BagReader, check_image, deserialize_trailing, field_value, read_messages
 from openral_data.convert.summary import ConvertSummary
 from openral_data.errors import BagError
 from openral_data.formats.jsonfile import parse_json
 from openral_data.formats.lerobot_v3.depth import DepthUnit
+from openral_data.formats.mcap.foreign import Fields
 from openral_data.formats.mcap.messages import decode_image
 from openral_data.schemas.mapping import Mapping
 
@@ -32,7 +33,7 @@ class Message:
 
     __slots__ = ("_msg", "bag", "msgtype", "raw", "reader", "summary", "topic")
 
-    def __init__(self, reader: AnyReader, bag: Path, raw: bytes, conn: Connection, summary: ConvertSummary) -> None:
+    def __init__(self, reader: BagReader, bag: Path, raw: bytes, conn: Connection, summary: ConvertSummary) -> None:
         self.reader, self.bag, self.raw, self.msgtype, self.topic = reader, bag, raw, conn.msgtype, conn.topic
         self.summary = summary
         self._msg: Any = None
@@ -49,7 +50,11 @@ class Message:
     def decode(self) -> npt.NDArray[np.uint8]:
         msg = self.get()
         check_image(msg, self.msgtype, f"{self.bag}: {self.topic}")  # the first message was checked, not every one
-        return decode_image(msg, self.msgtype)
+        try:
+            return decode_image(msg, self.msgtype)
+        except (ValueError, OSError, PILImage.DecompressionBombError) as exc:  # UnidentifiedImageError: an OSError
+            raise BagError(f"{self.bag}: {self.topic}: a message does not decode as an image: {exc}",
+                           code="bag.invalid") from None  # fmt: skip
 
     def decode_depth(self, unit: DepthUnit) -> npt.NDArray[Any]:
         return decode_depth(self.get(), self.msgtype, unit, f"{self.bag}: {self.topic}")
@@ -61,7 +66,7 @@ SEPARATE_CLOCKS_NS = 60 * 1_000_000_000
 
 
 def timed_messages(
-    reader: AnyReader, bag: Path, conns: list[Connection], mapping: Mapping, summary: ConvertSummary
+    reader: BagReader, bag: Path, conns: list[Connection], mapping: Mapping, summary: ConvertSummary
 ) -> Iterator[tuple[Connection, int, Message]]:
     """The mapped messages in the order of the clock the mapping aligns on.
 
@@ -139,11 +144,18 @@ class HeaderClock:
 
 
 def _header_stamp(msg: Any, topic: str, summary: ConvertSummary) -> int | None:
-    """`header.stamp` in ns (None for a message without a header), counted per topic in `summary`."""
-    stamp = getattr(getattr(msg, "header", None), "stamp", None)
-    if stamp is None:
-        return None
-    ns = int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+    """`header.stamp` in ns (None for a message without a header; a message of another MCAP profile: its own
+    `timestamp` or ROS 1 header, `Fields.stamp_ns`), counted per topic in `summary`."""
+    if isinstance(msg, Fields):
+        own = msg.stamp_ns()
+        if own is None:
+            return None
+        ns = own
+    else:
+        stamp = getattr(getattr(msg, "header", None), "stamp", None)
+        if stamp is None:
+            return None
+        ns = int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
     summary.header_stamps[topic] = summary.header_stamps.get(topic, 0) + 1
     summary.zero_stamps[topic] = summary.zero_stamps.get(topic, 0) + (ns == 0)
     return ns

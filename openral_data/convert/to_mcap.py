@@ -16,28 +16,21 @@ import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal
+from typing import Any, Literal
 
 from openral_data.columns import INTERVENTION, POLICY_ACTION
-from openral_data.episodes import select_numbered
-from openral_data.errors import DatasetError
-from openral_data.formats.dataset import open_lerobot
+from openral_data.convert.export_source import ExportSource, not_carried, read_export_source
 from openral_data.formats.jsonfile import parse_field
 from openral_data.formats.lerobot_v3 import layout
-from openral_data.formats.lerobot_v3.features import IMAGE_PREFIX, camera_keys, dim_names
-from openral_data.formats.lerobot_v3.frames import episode_frames
+from openral_data.formats.lerobot_v3.features import dim_names
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE
 from openral_data.formats.lerobot_v3.masks import MASK_IDS, is_mask
-from openral_data.formats.lerobot_v3.missing import missing_files
 from openral_data.formats.lerobot_v3.provenance import Origin
 from openral_data.formats.lerobot_v3.success import episode_successes
 from openral_data.formats.lerobot_v3.variants import camera_layout, feature_info, is_depth
 from openral_data.formats.mcap import McapConfig, McapSink
 from openral_data.formats.staging import Staging, check_new_output
 from openral_data.types import CameraShape, DatasetSchema, EpisodeRecord, EpisodeStart, FrameColumn
-
-if TYPE_CHECKING:
-    import pyarrow as pa
 
 ProgressFn = Callable[[int, int], None]  # (frames exported, frames in total)
 _QUANTIZER = ("video.depth_min", "video.depth_max", "video.shift", "video.use_log")
@@ -51,15 +44,17 @@ class ExportSummary:
     frames: int = 0
     seconds: float = 0.0
     skipped_features: list[str] = field(default_factory=list)
+    format: str = "mcap"  # what was written: mcap, rlds or robomimic
 
     @property
     def fps(self) -> float:
         return self.frames / self.seconds if self.seconds > 0 else 0.0
 
     def to_json(self) -> dict[str, object]:
-        """The fields of `convert --json` for LeRobot -> MCAP, in docs/scripting.md's order."""
+        """The fields of `convert --json` (`export --json`) for LeRobot -> MCAP (RLDS, robomimic), in
+        docs/scripting.md's order."""
         return {
-            "direction": "lerobot-to-mcap",
+            "direction": f"lerobot-to-{self.format}",
             "source": str(self.src),
             "out": str(self.dst),
             "episodes": len(self.episodes),
@@ -101,15 +96,13 @@ def export_mcap(
 ) -> ExportSummary:
     """Write episodes `episodes` (default: all) of the dataset at `src` as one MCAP bag each into the new folder
     `dst`: read the source, build the bags' schema, write every chosen episode, publish DST."""
-    source = _read_source(src)
-    chosen = select_numbered(episodes, [int(r["episode_index"]) for r in source.rows])  # v2.x: its own numbers
+    source = read_export_source(src)
+    chosen = source.choose(episodes, "convert to MCAP")  # v2.x: its own numbers
     successes = episode_successes(src, source.episodes)  # the sink drops them if the schema has no success
-    tasks = source.tasks
     schema = _schema(source)
-    summary = ExportSummary(src=src, dst=dst, skipped_features=_skipped_features(source))
+    extras = {c.key for c in schema.frame_columns}
+    summary = ExportSummary(src=src, dst=dst, skipped_features=not_carried(source, extras))
     total = sum(int(source.rows[e]["length"]) for e in chosen)
-    videos = [k for k in source.keys.values() if source.features[k].get("dtype") == "video"]
-    missing_files(src, source.info, [source.rows[e] for e in chosen], videos).need(None, videos, "convert to MCAP")
     check_new_output(dst, "DST")
     staged = Staging(dst, "openral-data convert")  # DST appears with every bag or not at all
     with staged as staging:
@@ -128,7 +121,7 @@ def export_mcap(
                     ),
                     index=number,
                 )
-                for frame in episode_frames(src, source.info, row, tasks, list(source.cams), schema.frame_columns):
+                for frame in source.frames(row, schema.frame_columns):
                     sink.add_frame(frame)
                     summary.frames += 1
                     if progress is not None:
@@ -144,47 +137,7 @@ def export_mcap(
     return summary
 
 
-@dataclass(frozen=True)
-class _Source:
-    """What the export reads of the dataset at `path` before writing: info.json, its cameras (name -> feature,
-    `keys` name -> feature key) and its episodes (the table and its rows in episode-index order)."""
-
-    path: Path
-    info: dict[str, Any]
-    cams: dict[str, dict[str, Any]]
-    keys: dict[str, str]
-    episodes: pa.Table
-    rows: list[dict[str, Any]]
-    tasks: list[str]
-
-    @property
-    def features(self) -> dict[str, Any]:
-        features: dict[str, Any] = self.info["features"]
-        return features
-
-
-def _read_source(src: Path) -> _Source:
-    """info.json checked for what an export needs (a state, an action, cameras that are videos or images), then
-    the episodes table."""
-    dataset = open_lerobot(src)  # v3, or v2.x read in place
-    info = dataset.info
-    features: dict[str, Any] = info["features"]
-    for key in ("observation.state", "action"):
-        if key not in features:
-            raise DatasetError(f"{src / layout.INFO_PATH}: features: no {key!r}; cannot export", code="dataset.invalid")
-    keys = camera_keys(features)  # every video or image feature, under its camera name
-    odd = [k for k, f in features.items() if k.startswith(IMAGE_PREFIX) and k not in keys.values()]
-    if odd:
-        raise DatasetError(
-            f"{src}: cameras {odd} are neither videos nor images; cannot export them", code="dataset.unsupported"
-        )
-    cams = {name: features[key] for name, key in keys.items()}
-    ep_table = dataset.episodes()
-    rows = sorted(ep_table.to_pylist(), key=lambda r: int(r["episode_index"]))
-    return _Source(src, info, cams, keys, ep_table, rows, dataset.tasks())
-
-
-def _schema(source: _Source) -> DatasetSchema:
+def _schema(source: ExportSource) -> DatasetSchema:
     """The bags' schema: the dataset's state, action, cameras and outcome columns, its origin in the metadata."""
     info, features = source.info, source.features
     return DatasetSchema(
@@ -212,11 +165,3 @@ def _frame_columns(features: dict[str, Any]) -> tuple[FrameColumn, ...]:
     if INTERVENTION in features and features[INTERVENTION].get("dtype") == "bool":
         out.append(FrameColumn(INTERVENTION, "bool"))
     return tuple(out)
-
-
-def _skipped_features(source: _Source) -> list[str]:
-    """Features of the dataset that no MCAP topic carries."""
-    known = {"observation.state", "action", "timestamp", "frame_index", "episode_index", "index", "task_index"}
-    known |= {"next.reward", "next.done", "next.success", ENVIRONMENT_STATE} | set(source.keys.values())
-    known |= {c.key for c in _frame_columns(source.features)}
-    return sorted(set(source.features) - known)

@@ -35,7 +35,7 @@ from openral_data.runtime.parallel.choice import is_parallel
 class GenerateOptions:
     source: Path
     scene: str
-    n: int  # attempts
+    n: int  # episodes to keep
     out: Path
     seed: int = 1000
     max_steps: int | None = None
@@ -46,13 +46,18 @@ class GenerateOptions:
     executor: str = "local"
     address: str | None = None
     codec: Codec = "av1"
+    max_attempts: int | None = None  # the attempts' cap (default: ATTEMPTS_PER_EPISODE * n)
+
+
+ATTEMPTS_PER_EPISODE = 3  # the default cap on attempts per episode asked for
 
 
 @dataclass(frozen=True)
 class GenerateSummary:
     out: Path
     source_episodes: int  # successful source episodes the plan holds
-    attempts: int
+    asked: int  # --n
+    attempts: int  # made (at most the cap; fewer once `asked` were kept)
     kept: int
     frames: int
     seconds: float
@@ -70,6 +75,7 @@ class GenerateSummary:
         return {
             "out": str(self.out),
             "source_episodes": self.source_episodes,
+            "asked": self.asked,
             "attempts": self.attempts,
             "kept": self.kept,
             "keep_rate": round(self.keep_rate, 4),
@@ -119,6 +125,9 @@ def generate(opts: GenerateOptions, progress: ProgressFn | None = None) -> Gener
     """`progress`: told of each kept episode as `record` tells its bar (a parallel run reports none)."""
     if opts.n < 1:
         raise UsageError(f"--n: must be >= 1, got {opts.n}")
+    cap = opts.max_attempts if opts.max_attempts is not None else ATTEMPTS_PER_EPISODE * opts.n
+    if cap < 1:
+        raise UsageError(f"--max-attempts: must be >= 1, got {cap}")
     if opts.settle < 0:
         raise UsageError(f"--settle: must be >= 0, got {opts.settle}")
     t0 = time.perf_counter()
@@ -138,7 +147,8 @@ def generate(opts: GenerateOptions, progress: ProgressFn | None = None) -> Gener
         record_opts = RecordOptions(
             scene=opts.scene,
             rskill=str(work / "rskill.yaml"),
-            n_episodes=opts.n,
+            n_episodes=cap,
+            keep_target=opts.n,
             seed=opts.seed,
             max_steps=opts.max_steps,
             out=opts.out,
@@ -151,14 +161,15 @@ def generate(opts: GenerateOptions, progress: ProgressFn | None = None) -> Gener
     kept = len(summary.episodes)
     if kept == 0:
         raise GenerateError(
-            f"{opts.out}: none of the {opts.n} generated episodes succeeded; nothing was written "
+            f"{opts.out}: none of the {summary.discarded} generated episodes succeeded; nothing was written "
             "(try more attempts, a larger --interpolation, or other source demonstrations)",
             code="generate.nothing_kept",
         )
     return GenerateSummary(
         out=opts.out,
         source_episodes=len(plan.demos),
-        attempts=opts.n,
+        asked=opts.n,
+        attempts=kept + summary.discarded,
         kept=kept,
         frames=summary.frames,
         seconds=time.perf_counter() - t0,

@@ -28,6 +28,7 @@ class StatsOptions:
     health: bool = True
     trust_episode_stats: bool = False  # use a foreign dataset's unverified per-episode stats (docs/stats.md)
     full_scan: bool = False  # summarise the frames even when verified per-episode stats could stand for them
+    reference: str | None = None  # the group the others are compared with (default: the first dataset given)
 
 
 def run_stats(opts: StatsOptions) -> str:
@@ -70,6 +71,7 @@ def stats_tables(opts: StatsOptions) -> list[rep.Table]:
             check_health=opts.health,
             trust_episode_stats=opts.trust_episode_stats,
             full_scan=opts.full_scan,
+            reference=opts.reference,
         )
         if opts.plot is not None:
             if not datasets:

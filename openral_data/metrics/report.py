@@ -102,19 +102,28 @@ def group_table(con: duckdb.DuckDBPyConnection, by: Sequence[str]) -> Table:
     return out
 
 
-def comparison_table(groups: Table, by: Sequence[str]) -> Table:
-    """Every group with known successes against the first one: difference, Newcombe 95 % CI, Fisher p."""
+def comparison_table(
+    groups: Table, by: Sequence[str], reference: str | None = None, preferred: str | None = None
+) -> Table:
+    """Every group with known successes against the reference group: `reference` (a name as the `reference`
+    column shows it, `a` or `a/task`), else `preferred` when it has known successes, else the first group;
+    difference, Newcombe 95 % CI, Fisher p."""
     out = Table("comparison", ["reference", "group", "rate_ref", "rate", "diff", "diff_low", "diff_high", "p_fisher"])
-    recs = [r for r in groups.records() if r["success_known"]]
-    if len(recs) < 2:
-        return out
-    ref = recs[0]
 
     def name(r: dict[str, Any]) -> str:
         return "/".join(str(r[b]) for b in by)
 
+    every = [name(r) for r in groups.records()]
+    if reference is not None and reference not in every:
+        raise UsageError(f"--reference: {reference!r} is not a group; the groups: {', '.join(every) or '(none)'}")
+    recs = [r for r in groups.records() if r["success_known"]]
+    if len(recs) < 2:
+        return out
+    ref = next((r for r in recs if name(r) == (reference or preferred)), recs[0] if reference is None else None)
+    if ref is None:
+        raise UsageError(f"--reference: {reference!r}: no episode's success is known, nothing to compare against")
     k1, n1 = int(ref["successes"]), int(ref["success_known"])
-    for r in recs[1:]:
+    for r in (r for r in recs if r is not ref):
         k2, n2 = int(r["successes"]), int(r["success_known"])
         ci = intervals.newcombe(k2, n2, k1, n1)
         out.rows.append(
@@ -209,9 +218,12 @@ def build_report(
     *,
     trust_episode_stats: bool = False,
     full_scan: bool = False,
+    reference: str | None = None,
 ) -> Report:
     """The report's tables. Dimension summaries come from verified per-episode statistics when the dataset has
-    them (`episode_stats.summarise`), else from one frame scan; `sources` says which, per dataset."""
+    them (`episode_stats.summarise`), else from one frame scan; `sources` says which, per dataset. The comparison
+    is against `reference` (a group's name), by default the first dataset given when grouped by dataset alone,
+    else the first group."""
     tables: list[Table] = []
     scans: dict[str, VectorScan] = {}
     sources = []
@@ -220,7 +232,9 @@ def build_report(
         sources.append(source)
     if datasets:
         groups = group_table(con, by)
-        tables += [groups, comparison_table(groups, by), dimension_table(scans), sources_table(sources)]
+        first = datasets[0].label if list(by) == ["dataset"] else None  # the first dataset given
+        comparison = comparison_table(groups, by, reference, first)
+        tables += [groups, comparison, dimension_table(scans), sources_table(sources)]
     if any(intervention_sql.records_interventions(ds) for ds in datasets):  # only a session that has them
         tables += intervention_tables(con)
     if results:

@@ -6,6 +6,7 @@ extension)."""
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 import duckdb
@@ -52,5 +53,32 @@ def where_query(con: duckdb.DuckDBPyConnection, select: str, where: str, tail: s
         if mentions_quality(where):
             source += " LEFT JOIN (SELECT * EXCLUDE (dataset) FROM quality) quality USING (episode_index)"
         return con.execute(f"SELECT {select} FROM {source} WHERE ({where}) {tail}").fetchall()
+    except duckdb.BinderException as exc:
+        raise QueryError(f"--where: {_unknown_column(con, str(exc))}") from None
     except duckdb.Error as exc:
         raise QueryError(f"--where: {str(exc).splitlines()[0]}") from None
+
+
+def _unknown_column(con: duckdb.DuckDBPyConnection, message: str) -> str:
+    """DuckDB's Binder Error for a column or table the predicate may not name, said with the columns it may name
+    (and DuckDB's closest one); any other binder error as DuckDB says it."""
+    first = message.splitlines()[0]
+    column = re.search(r'Referenced column "([^"]*)" not found', first)
+    table = re.search(r'Referenced table "([^"]*)" not found', first)
+    in_quality = re.search(r'"quality" does not have a column named "([^"]*)"', first)
+    if in_quality is not None:
+        names = [f"quality.{r[0]}" for r in con.execute("DESCRIBE quality").fetchall() if r[0] != "dataset"]
+        return f'no column "quality.{in_quality.group(1)}"; the quality columns: {", ".join(names)}'
+    found = column or table
+    if found is None:
+        return first
+    names = [_spelled(str(r[0])) for r in con.execute(f"DESCRIBE {WHERE_VIEW}").fetchall()]
+    close = re.search(r'Candidate bindings: "([^"]*)"', message)
+    hint = f" (did you mean {close.group(1)}?)" if close and column is not None else ""
+    what = "column" if column is not None else "table"
+    return f'no {what} "{found.group(1)}"{hint}; the columns: {", ".join(names)}, and quality.<column> (docs/stats.md)'
+
+
+def _spelled(name: str) -> str:
+    """A column as a predicate names it: quoted when it is not a plain identifier (`"openral.success"`)."""
+    return name if re.fullmatch(r"[a-z_][a-z0-9_]*", name) else ident(name)

@@ -28,7 +28,6 @@ import numpy.typing as npt
 
 from openral_data.errors import CompatibilityError, ConfigError, UsageError
 from openral_data.formats.jsonfile import read_json
-from openral_data.formats.lerobot_v3.features import camera_keys
 from openral_data.formats.repo_id import looks_like_repo_id
 from openral_data.paths import contained, regular_file
 from openral_data.policies.base import PolicyAdapter
@@ -226,6 +225,8 @@ def dataset_cameras(features: Mapping[str, Any]) -> dict[str, CameraShape]:
     """A dataset's cameras (info.json `features`) with their sizes, for `check_fits`: a camera feature's shape is
     (H, W, C), or (C, H, W) when its `names` start with `channels` (lerobot writes either); an unreadable one
     is left out (the check then names it as missing)."""
+    from openral_data.formats.lerobot_v3.features import camera_keys  # not at import: `list` checks checkpoints
+
     out: dict[str, CameraShape] = {}
     for name, key in camera_keys(dict(features)).items():
         shape, names = features[key].get("shape"), features[key].get("names")

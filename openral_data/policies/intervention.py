@@ -31,17 +31,13 @@ import numpy.typing as npt
 from openral_data.columns import INTERVENTION, POLICY_ACTION
 from openral_data.policies.base import PolicyAdapter
 from openral_data.producers.hal.teleop.eef_device import DeviceTeleop
-from openral_data.producers.hal.teleop.keyboard import HELP as TELEOP_HELP
-from openral_data.producers.hal.teleop.keyboard import TAKEOVER_KEY
+from openral_data.producers.hal.teleop.keys import TAKEOVER_KEY
 from openral_data.types import FrameColumn, Observation
 
 
 def takeover_help(control: str) -> str:
     """The line said once before episode 0: what takes over and hands back."""
     return f"takeover: {control} hands control to you and back"
-
-
-HELP = f"{takeover_help(TAKEOVER_KEY)} · {TELEOP_HELP}"
 
 
 def intervention_columns(action_names: Sequence[str]) -> tuple[FrameColumn, ...]:

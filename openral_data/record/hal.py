@@ -99,6 +99,7 @@ class HalRecordOptions:
     takeover: bool = False  # the rSkill's policy drives; the person (`teleop`) takes over and back: `t`, a button
     policy: str | None = None  # a lerobot checkpoint (folder or cached repo id) drives instead of an rSkill
     device: str | None = None  # with `policy`: cpu, cuda[:N], mps or auto (default: cpu)
+    teleop_gain: float = 1.0  # a person's device moves this many times its default step (keyboard: 1 cm / press)
     driver: DriverChoice = field(init=False)  # who drives: `rskill`, `policy`, `teleop` and `takeover`, chosen once
 
     def __post_init__(self) -> None:
@@ -123,6 +124,11 @@ class HalRecordOptions:
             raise UsageError("--device: with --hal only for --policy (an rSkill names its own device)")
         if self.rskill is None and driver.kind not in OWN_CONTRACT:
             raise UsageError("--rskill: needed (only --teleop leader records without one: the robot's own contract)")
+        if not 0.1 <= self.teleop_gain <= 10 or (self.teleop_gain != 1.0 and driver.device is None):
+            raise UsageError(
+                f"--teleop-gain: {self.teleop_gain:g}: a number in 0.1..10, "
+                "with --teleop keyboard, gamepad or spacemouse"
+            )
 
 
 @dataclass
@@ -256,7 +262,9 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
     (those only ever go to a terminal on stderr). Whatever is opened is closed, in reverse order, by the stack."""
     run = _resolve(opts)
     show = tty_status(STATUS_FD, talk=notify is not None)  # the person's status lines: when the run talks
-    ctx = DriveContext(run.robot, run.rskill, run.rskill_src, run.make_policy, opts.fps, show, run.checkpoint)
+    ctx = DriveContext(
+        run.robot, run.rskill, run.rskill_src, run.make_policy, opts.fps, show, run.checkpoint, opts.teleop_gain
+    )
     with ExitStack() as stack:
         held = claim(run.out, "openral-data record --hal", resume=False)  # one writer, before any byte goes in
         stack.callback(held.release)  # what was recorded stays; empty folders the claim made go
@@ -433,6 +441,7 @@ def _episodes(opts: HalRecordOptions, out: Path, loop: FixedRateLoop, notify: No
         while len(summary.episodes) < opts.n_episodes:
             index = len(summary.episodes)
             if not rerecord and not (reset and operator.interactive):
+                loop.preview(index, opts.seed + index)
                 flow.ask_start(index, operator.interactive)
                 if operator.wait_start(index, stop.check) is Command.QUIT:
                     summary.stopped_by_operator = True

@@ -44,7 +44,7 @@ from openral_data.producers.hal.robots.base import HalBase, JointCommand, Outcom
 from openral_data.producers.hal.robots.safety import SafetyFilter
 from openral_data.producers.hal.session.operator import Command, Operator
 from openral_data.runtime.bridge import DatasetBridge
-from openral_data.types import EpisodeRecord, Observation
+from openral_data.types import EpisodeRecord, Observation, Previews
 
 REAL_TIMESTAMP = "openral.real_timestamp"
 TICK = "openral.tick"
@@ -159,6 +159,22 @@ class FixedRateLoop:
             self.bridge.discard_episode()
             raise
         return self._finish(verdict, ep.pending, rep)
+
+    def preview(self, episode: int, seed: int) -> None:
+        """Before an operator starts episode `episode`: reset the HAL to where it will start and show the cameras
+        to the observers that preview (the live view), so a person sees the scene before pressing space. Nothing
+        is recorded; `run_episode` resets again (the same seed: the same start)."""
+        watchers = [o for o in self.bridge.observers if isinstance(o, Previews)]
+        if not watchers:
+            return
+        self.hal.begin_episode(seed)
+        images = {}
+        for name in self.cameras:
+            sample = self.hal.cameras[name].latest()
+            if sample is not None:
+                images[name] = sample.image
+        for watcher in watchers:
+            watcher.preview(episode, images)
 
     def _begin(self, seed: int) -> EpisodeReport:
         """Reset the HAL and the policy and open the episode in the bridge; the report to fill."""

@@ -56,6 +56,8 @@ class RecordOptions:
     device: str | None = None  # a neural policy's torch device (`--device`; wins over the rSkill's)
     randomize: bool | None = None  # turn the scene's `randomize:` block on or off (`--randomize`); None: the YAML's
     keep: Keep = "all"  # "success": an episode that does not succeed is discarded (`--keep`, `generate`)
+    # keep="success": stop once this many episodes are kept, n_episodes then caps the attempts (`generate --n`)
+    keep_target: int | None = None
     video: VideoSettings = field(default_factory=VideoSettings)  # --crf, --gop, --preset, --pix-fmt, ...
 
     def __post_init__(self) -> None:

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from openral_data.errors import ConfigError, UsageError
+from openral_data.errors import ConfigError, RecordingInterrupted, UsageError
 from openral_data.formats.lerobot_v3 import WriterConfig, warm_up
 from openral_data.policies.base import AnnotatingPolicy, PolicyAdapter
 from openral_data.policies.checkpoint import (
@@ -33,7 +33,7 @@ from openral_data.record.options import (
 from openral_data.record.runlog import log_episode, log_totals
 from openral_data.record.session import StopRequest, ended_by, episode_loop
 from openral_data.record.start import Started, start
-from openral_data.runtime import registry, tasks
+from openral_data.runtime import available, registry, tasks
 from openral_data.runtime.bridge import DatasetBridge
 from openral_data.runtime.compat import check_compatibility
 from openral_data.runtime.observers import check_observers, make_observers
@@ -102,6 +102,10 @@ def _record(opts: RecordOptions, progress: ProgressFn | None, held: output.Claim
             frames, discarded = _episodes(run, env, policy, bridge, opened.first_episode, records, progress)
         finally:
             env.close()
+    except KeyboardInterrupt as exc:  # the finished episodes stay in `out`, which a resume continues
+        if opened is None:
+            raise
+        raise RecordingInterrupted(run.out) from exc
     finally:
         if opened is not None:
             output.close_output(run.out, opened, len(records))
@@ -145,6 +149,7 @@ def _resolve(opts: RecordOptions) -> _Resolved:
             f"{scene_src}: scene.fixed_robot: this scene is defined for robot {scene.scene.robot!r} only; "
             f"--robot {opts.robot} is refused (use a free-robot scene such as scenes/sim/ to change the robot)"
         )
+    available.check_scene_type(scene.scene.type, scene_src)  # a missing simulator extra: before anything loads
     robot_id = opts.robot or scene.scene.robot
     if robot_id is None:
         raise ConfigError(f"{scene_src}: scene.robot: not set; pass --robot (valid: {', '.join(registry.robot_ids())})")
@@ -264,8 +269,10 @@ def _episodes(
     frames = discarded = 0
     with episode_loop(bridge, policy, run.out, lambda: first + len(records)) as stop:
         if progress is not None:
-            progress(None, 0, max(0, run.n_episodes - first))
+            progress(None, 0, max(0, run.opts.keep_target or run.n_episodes - first))
         for e in range(first, run.n_episodes):
+            if run.opts.keep_target is not None and len(records) >= run.opts.keep_target:
+                break  # enough kept (`generate --n`): the remaining attempts are not needed
             t_episode = time.perf_counter()
             rec = _record_episode(
                 env,
@@ -287,7 +294,8 @@ def _episodes(
             records.append(rec)
             frames += rec.length
             if progress is not None:
-                progress(rec, frames, max(0, run.n_episodes - first - discarded))
+                wanted = run.opts.keep_target if run.opts.keep_target is not None else run.n_episodes - first
+                progress(rec, frames, max(0, wanted - (0 if run.opts.keep_target is not None else discarded)))
     return frames, discarded
 
 

@@ -9,16 +9,17 @@ from __future__ import annotations
 
 import importlib.util
 
+from openral_data.errors import ConfigError, install_hint
 from openral_data.runtime.compat import runnable
 from openral_data.schemas.rskill import RSkillManifest
 
-# scene type -> (module it imports, how to get it)
-_NEEDS = {
-    "gym_aloha": ("gym_aloha", "the 'aloha' extra"),
-    "gym_pusht": ("gym_pusht", "the 'pusht' extra"),
-    "robosuite": ("robosuite", "the 'robosuite' extra"),
-    "metaworld": ("metaworld", "the 'metaworld' extra"),
-    "libero": ("libero", "their own environment (bash scripts/setup_libero.sh)"),
+# scene type -> (module it imports, the extra that provides it, the environment it lives in when not this one)
+_NEEDS: dict[str, tuple[str, str, str | None]] = {
+    "gym_aloha": ("gym_aloha", "aloha", None),
+    "gym_pusht": ("gym_pusht", "pusht", None),
+    "robosuite": ("robosuite", "robosuite", None),
+    "metaworld": ("metaworld", "metaworld", None),
+    "libero": ("libero", "libero", "bash scripts/setup_libero.sh"),
 }
 
 
@@ -34,7 +35,22 @@ def scene_type_problem(scene_type: str) -> str | None:
     need = _NEEDS.get(scene_type)
     if need is None or _installed(need[0]):
         return None
-    return f"needs {need[1]}"
+    _, extra, own = need
+    return f"needs the '{extra}' extra" if own is None else f"needs their own environment ({own})"
+
+
+def check_scene_type(scene_type: str, source: str) -> None:
+    """Refuse at once a scene whose simulator is not installed, naming what to install: before the scene is built
+    while the policy loads (the build's own import error came only once that load had finished, seconds later)."""
+    problem = scene_type_problem(scene_type)
+    if problem is None:
+        return
+    _, extra, own = _NEEDS[scene_type]
+    if own is not None:  # LIBERO: its extra lives in an environment of its own (as its scene's own check says)
+        raise ConfigError(
+            f"{source}: scene.type: {scene_type} needs the '{extra}' extra, in an environment of its own ({own})"
+        )
+    raise ConfigError(f"{source}: scene.type: {scene_type}: {problem}: {install_hint(extra)}")
 
 
 def rskill_problem(rskill: RSkillManifest) -> str | None:

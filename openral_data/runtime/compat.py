@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from openral_data.errors import CompatibilityError, OpenralError
-from openral_data.formats.lerobot_v3.encoder import VideoSettings
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.types import ProducerSpec
+
+if TYPE_CHECKING:  # only an annotation: `list` (runtime.available) starts without the video/parquet stack
+    from openral_data.formats.lerobot_v3.encoder import VideoSettings
 
 # the policies that run on some scene types only: their experts read that simulator's ground truth
 _TABLETOP = ("tabletop", "tabletop_push", "tabletop_pick_place")

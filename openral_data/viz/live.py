@@ -8,7 +8,8 @@ and the dataset never misses a frame (the sinks had it first). Episode starts an
 Each episode is a recording of its own (application `openral-data`, recording id `<run>-episode-<N>`), as
 `view` shows one episode. Where the viewer is: `--view-address URL` connects to a running viewer or server;
 else with a display (DISPLAY / WAYLAND_DISPLAY) a viewer is spawned on `--view-port`; else this process serves
-the stream on `--view-port` (gRPC; `rerun --connect <address>` shows it) and prints its address on stderr.
+the stream on `--view-port` (gRPC; `rerun --connect <address>` shows it) and rerun's own web viewer (bundled in
+the rerun-sdk wheel: no download) on the next port, and prints the page to open in a browser on stderr.
 """
 
 from __future__ import annotations
@@ -20,9 +21,11 @@ import threading
 import uuid
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TextIO
+from typing import Any, TextIO
+from urllib.parse import quote
 
 import numpy as np
+import numpy.typing as npt
 import rerun as rr
 
 from openral_data.errors import UsageError
@@ -49,6 +52,12 @@ MAX_PENDING = 32  # frames waiting for the viewer thread before live frames are 
 @dataclass(frozen=True)
 class _Begin:
     index: int
+
+
+@dataclass(frozen=True)
+class _Preview:
+    index: int
+    images: dict[str, npt.NDArray[Any]]
 
 
 @dataclass(frozen=True)
@@ -90,6 +99,7 @@ def check_view_options(port: int, address: str | None) -> None:
         check_address(address)
     elif not has_display():
         check_port(port)
+        check_port(port + 1)  # rerun's web viewer, beside the stream
 
 
 Connect = Callable[[rr.RecordingStream], None]
@@ -126,6 +136,11 @@ class LiveView:
     def begin_episode(self, index: int, start: EpisodeStart) -> None:
         self._queue.put(_Begin(index))
 
+    def preview(self, index: int, images: dict[str, npt.NDArray[Any]]) -> None:
+        """Where episode `index` starts, shown before it records (a person waiting to press space sees the scene):
+        its cameras at frame 0 of the episode's own recording, which its frames then continue."""
+        self._queue.put(_Preview(index, images))
+
     def add_frame(self, frame: Frame) -> None:
         with self._lock:
             if self._pending >= self._max_pending or self.stats.errors:
@@ -155,7 +170,7 @@ class LiveView:
     # -- the viewer thread ---------------------------------------------------------------------------------------
     def _run_loop(self) -> None:
         rec: rr.RecordingStream | None = None
-        episode, step, task = 0, 0, ""
+        episode, step, task = -1, 0, ""
         while True:
             item = self._queue.get()
             if item is _STOP:
@@ -168,11 +183,13 @@ class LiveView:
             if self.stats.errors:
                 continue
             try:
-                if isinstance(item, _Begin):
-                    if rec is not None:  # (an episode without an end: not expected from the bridge)
+                if isinstance(item, _Preview | _Begin) and (rec is None or episode != item.index):
+                    if rec is not None:  # (an episode without an end, a preview not followed by its episode)
                         rec.disconnect()
                     episode, step, task = item.index, 0, ""
                     rec = self._open_episode(item.index)
+                if isinstance(item, _Preview) and rec is not None:
+                    self._log_preview(rec, item.images)
                 elif isinstance(item, Frame) and rec is not None:
                     if item.task != task:
                         task = item.task
@@ -187,7 +204,7 @@ class LiveView:
                         log_episode_end(rec, episode, item.success)
                     rec.flush()
                     rec.disconnect()
-                    rec = None
+                    rec, episode = None, -1
             except Exception as exc:  # noqa: BLE001 - the view stops; the recording goes on
                 self.stats.errors.append(f"{type(exc).__name__}: {exc}")
 
@@ -201,13 +218,23 @@ class LiveView:
             log_outcome_style(rec, name)
         return rec
 
+    def _log_preview(self, rec: rr.RecordingStream, images: dict[str, npt.NDArray[Any]]) -> None:
+        rec.set_time(FRAME, sequence=0)
+        rec.set_time(TIME, duration=0.0)
+        for cam, image in images.items():
+            self._log_image(rec, cam, image)
+        rec.log("events", rr.TextLog("waiting for the operator to start the episode"))
+
+    def _log_image(self, rec: rr.RecordingStream, cam: str, image: npt.NDArray[Any]) -> None:
+        unit = self.schema.cameras[cam].depth_unit
+        shown = rr.Image(image) if unit is None else rr.DepthImage(image, meter=1.0 if unit == "m" else 1000.0)
+        rec.log(camera_entity(cam), shown)
+
     def _log_frame(self, rec: rr.RecordingStream, step: int, frame: Frame) -> None:
         rec.set_time(FRAME, sequence=step)
         rec.set_time(TIME, duration=frame.timestamp)
         for cam, image in frame.images.items():
-            unit = self.schema.cameras[cam].depth_unit
-            shown = rr.Image(image) if unit is None else rr.DepthImage(image, meter=1.0 if unit == "m" else 1000.0)
-            rec.log(camera_entity(cam), shown)
+            self._log_image(rec, cam, image)
         schema = self.schema
         for base, values, names in (
             ("state", frame.state, schema.state_names),
@@ -238,8 +265,14 @@ def open_live_view(
     run = new_run_id()
     hub = rr.RecordingStream(APP_ID, recording_id=run)  # owns the server for the whole run; the episodes send to it
     url = hub.serve_grpc(grpc_port=port)
-    print(f"view: {url}", file=out, flush=True)
+    rr.serve_web_viewer(web_port=port + 1, open_browser=False)
+    print(f"view: open {page_url(port + 1, url)} (or: rerun --connect {url})", file=out, flush=True)
     return LiveView(schema, lambda rec: rec.connect_grpc(url), run_id=run, hub=hub, err=out)
+
+
+def page_url(web_port: int, stream: str) -> str:
+    """The web viewer's page showing `stream` (rerun's `?url=` parameter)."""
+    return f"http://127.0.0.1:{web_port}/?url={quote(stream, safe='')}"
 
 
 def new_run_id() -> str:

@@ -9,14 +9,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from urllib.parse import quote
 
 import rerun as rr
 
 from openral_data.metrics.sources import open_dataset
 from openral_data.viz import DEFAULT_PORT
 from openral_data.viz.entities import APP_ID
-from openral_data.viz.live import check_port
+from openral_data.viz.live import check_port, page_url
 from openral_data.viz.rerun_view import load_episode, log_episode
 
 WEB_PORT = 9090  # rerun's default for its web viewer
@@ -44,4 +43,4 @@ def serve_episode(
     log_episode(rec, data)
     rec.flush()
     rr.serve_web_viewer(web_port=web_port, open_browser=False, connect_to=grpc)
-    return Served(rec, f"http://127.0.0.1:{web_port}/?url={quote(grpc, safe='')}", data.frames.num_rows)
+    return Served(rec, page_url(web_port, grpc), data.frames.num_rows)

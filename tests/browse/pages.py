@@ -15,3 +15,27 @@ def plots(page: Any, url: str) -> list[list[Any]]:
         "p => [p.dataset.series, p.getAttribute('points').split(' ').length])])",
     )
     return plotted
+
+
+# draws the leading video's frame at frame k (seeking there first unless k is None) and returns its RGBA pixels
+GRAB = """async ([k, fps]) => {
+  const v = document.querySelector('video');
+  if (v.readyState < 2) await new Promise(r => v.addEventListener('loadeddata', r, {once: true}));
+  if (k !== null) {
+    v.currentTime = Number(v.dataset.from) + k / fps;
+    await new Promise(r => v.addEventListener('seeked', r, {once: true}));
+  }
+  const c = document.createElement('canvas');
+  c.width = v.videoWidth; c.height = v.videoHeight;
+  const g = c.getContext('2d');
+  g.drawImage(v, 0, 0);
+  return Array.from(g.getImageData(0, 0, c.width, c.height).data);
+}"""
+
+
+def grey(page: Any, k: int | None, fps: int = 10) -> float:
+    """The mean grey level of the video frame shown (after seeking to frame k when given): the browse dataset's
+    frame t is a flat grey of 10 * t."""
+    pixels = page.evaluate(GRAB, [k, fps])
+    rgb = [p for i, p in enumerate(pixels) if i % 4 != 3]
+    return sum(rgb) / len(rgb)

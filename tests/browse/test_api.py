@@ -76,6 +76,30 @@ def test_a_bad_or_escaping_where_is_one_400_line(client: TestClient, where: str)
     assert r.json()["error"].startswith("--where: ") and "\n" not in r.json()["error"]
 
 
+def test_a_misspelt_column_is_answered_with_the_columns(client: TestClient) -> None:
+    error = client.get("/api/d/0/episodes", params={"where": "sucess AND length > 4"}).json()["error"]
+    assert error.startswith('--where: no column "sucess" (did you mean success?); the columns: ')
+    assert {"episode_index", "length", "success", "task", "seed"} <= set(error.split("the columns: ")[1].split(", "))
+    error = client.get("/api/d/0/episodes", params={"where": "quality.idel > 0"}).json()["error"]
+    assert error.startswith('--where: no column "quality.idel"; the quality columns: ')
+    assert "quality.idle_fraction" in error and "\n" not in error
+
+
+def test_ticked_episodes_a_filter_hides_leave_the_commands(client: TestClient) -> None:
+    body = client.get("/api/d/0/commands", params={"episodes": "0,1,2", "where": "length > 5"}).json()
+    assert (body["picked"], body["hidden"]) == ([0, 1], [2])  # episode 2 has 4 frames: the filter hides it
+    assert "--episodes 0,1 " in body["commands"]["delete"] and "--episodes 0,1 " in body["commands"]["keep"]
+    body = client.get("/api/d/0/commands", params={"episodes": "2", "where": "length > 5"}).json()
+    assert body["picked"] == [] and set(body["commands"]) == {"filter"}  # nothing ticked is shown: no delete
+
+
+def test_previous_and_next_follow_the_filter(client: TestClient) -> None:
+    assert client.get("/api/d/0/episode/1/neighbours").json() == {"previous": 0, "next": 2}
+    assert client.get("/api/d/0/episode/0/neighbours").json() == {"previous": None, "next": 1}
+    near = client.get("/api/d/0/episode/2/neighbours", params={"where": "length <> 9"}).json()
+    assert near == {"previous": 0, "next": None}  # episode 1 (9 frames) is not among the filter's
+
+
 def test_episode_facts_and_series_with_dimension_names(client: TestClient) -> None:
     ep = client.get("/api/d/0/episode/1").json()
     assert (ep["length"], ep["tasks"], ep["success"]) == (9, ["push the block"], False)
@@ -101,11 +125,11 @@ def test_videos_answer_range_requests(client: TestClient, browse_dataset: Path) 
 
 
 def test_selection_commands_are_quoted(client: TestClient, browse_dataset: Path) -> None:
-    body = client.get("/api/d/0/commands", params={"episodes": "2,0", "where": "task = 'a b'"}).json()
+    body = client.get("/api/d/0/commands", params={"episodes": "2,0", "where": "task <> 'a b'"}).json()["commands"]
     assert (
         body["delete"] == f"openral-data episodes delete {browse_dataset} --episodes 0,2 --out {browse_dataset}-deleted"
     )
-    assert body["filter"].startswith(f"openral-data episodes filter {browse_dataset} --where 'task = '\"'\"'a b'")
+    assert body["filter"].startswith(f"openral-data episodes filter {browse_dataset} --where 'task <> '\"'\"'a b'")
     assert client.get("/api/d/0/commands", params={"episodes": "x"}).status_code == 400
 
 

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import http.client
 import json
-import os
 import shlex
 import signal
 import subprocess
@@ -23,7 +22,7 @@ import pytest
 
 from openral_data.browse import Browser, open_catalogs
 from openral_data.metrics.sources import open_dataset
-from tests.browse.pages import plots
+from tests.browse.pages import GRAB, plots
 from tests.support.inproc import run_inproc
 from tests.support.lerobot_written import LENGTHS
 
@@ -63,19 +62,6 @@ def test_table_renders_the_episodes_and_where_narrows_them(server: Browser, page
     page.wait_for_function("() => document.querySelector('#episodes tbody tr').dataset.episode === '0'")
 
 
-_GRAB = """async ([k, fps]) => {
-  const v = document.querySelector('video');
-  if (v.readyState < 2) await new Promise(r => v.addEventListener('loadeddata', r, {once: true}));
-  v.currentTime = Number(v.dataset.from) + k / fps;
-  await new Promise(r => v.addEventListener('seeked', r, {once: true}));
-  const c = document.createElement('canvas');
-  c.width = v.videoWidth; c.height = v.videoHeight;
-  const g = c.getContext('2d');
-  g.drawImage(v, 0, 0);
-  return Array.from(g.getImageData(0, 0, c.width, c.height).data);
-}"""
-
-
 def _decoded(root: Path, at: float) -> np.ndarray:
     """The dataset's frame shown at `at` seconds into its (only) mp4, as PyAV decodes it (RGB)."""
     (mp4,) = (root / "videos").rglob("*.mp4")
@@ -90,8 +76,8 @@ def test_episode_video_plays_and_seeks_to_frame_k(server: Browser, page: Any, br
     page.goto(server.url + "d/0/episode/1")
     page.wait_for_selector("body[data-ready='1']")
     start = float(page.get_attribute("video", "data-from"))
-    for k in (0, 4, 8):
-        pixels = np.array(page.evaluate(_GRAB, [k, 10]), dtype=np.float64).reshape(32, 32, 4)[..., :3]
+    for k in (8, 4, 0):
+        pixels = np.array(page.evaluate(GRAB, [k, 10]), dtype=np.float64).reshape(32, 32, 4)[..., :3]
         want = _decoded(browse_dataset, start + k / 10).astype(np.float64)
         assert np.abs(pixels - want).mean() < 3, k  # frames differ by 10 grey levels: k is told from k +- 1
     played = page.evaluate(
@@ -103,7 +89,7 @@ def test_episode_video_plays_and_seeks_to_frame_k(server: Browser, page: Any, br
           return [t0, v.currentTime, Number(v.dataset.to)];
         }"""
     )
-    assert played[1] > played[0] and played[1] <= played[2] + 0.2  # it played, and stops at the episode's end
+    assert played[0] < played[1] <= played[2]  # it played, within the episode (its end: test_episode_page.py)
 
 
 def test_plot_shows_the_named_series(server: Browser, page: Any) -> None:
@@ -144,30 +130,6 @@ def test_traversal_urls_are_404_over_the_wire(server: Browser, url: str) -> None
         assert conn.getresponse().status == 404
     finally:
         conn.close()
-
-
-def test_screenshots_of_the_table_and_an_episode(server: Browser, chromium: Any, tmp_path: Path) -> None:
-    """The pictures in docs/ (browse-table.png, browse-episode.png) come from here: run once with
-    OPENRAL_SCREENSHOTS=docs to refresh them."""
-    folder = Path(os.environ.get("OPENRAL_SCREENSHOTS", tmp_path))
-    context = chromium.new_context(viewport={"width": 1100, "height": 700})
-    page = context.new_page()
-    try:
-        page.goto(server.url + "d/0/")
-        page.wait_for_function("() => document.querySelectorAll('#episodes tbody tr').length === 3")
-        page.check("#episodes tbody tr[data-episode='1'] input[type=checkbox]")
-        page.wait_for_selector("#command-delete")
-        page.screenshot(path=str(folder / "browse-table.png"), full_page=True)
-        page.goto(server.url + "d/0/episode/1")
-        page.wait_for_selector("body[data-ready='1']")
-        page.evaluate(_GRAB, [4, 10])  # the video and the plots' cursor at frame 4
-        page.wait_for_function("() => !document.querySelector('video').seeking")
-        page.evaluate("() => { document.querySelector('video').controls = false; }")  # the frame, not the player
-        page.screenshot(path=str(folder / "browse-episode.png"), full_page=True)
-    finally:
-        context.close()
-    assert (folder / "browse-table.png").stat().st_size > 1000
-    assert (folder / "browse-episode.png").stat().st_size > 1000
 
 
 def test_the_command_prints_its_url_serves_and_stops_on_ctrl_c(browse_dataset: Path) -> None:

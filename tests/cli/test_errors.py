@@ -183,9 +183,9 @@ def test_given_flags_are_what_the_parser_saw_not_a_value_compared_with_the_defau
 
 
 def test_list_commands(project: Path) -> None:
-    scenes = run_cli("list", "scenes")
+    scenes = run_cli("list", "scenes", "--all")
     assert scenes.returncode == 0 and "mock_pick" in scenes.stdout and "benchmark" in scenes.stdout
-    rskills = run_cli("list", "rskills")
+    rskills = run_cli("list", "rskills", "--all")
     assert rskills.returncode == 0 and "random-mock" in rskills.stdout
     # piped output is never cut to a terminal width: full ids, representations and tags
     assert "scripted-pick-place" in rskills.stdout and "delta_eef_gripper" in rskills.stdout

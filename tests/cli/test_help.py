@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 from typing import Any
 
 import pytest
@@ -43,3 +44,20 @@ def test_flags_are_listed_and_valued_options_keep_their_type() -> None:
     assert "--no-health" in rows["--health"] and "<" not in rows["--health"]
     assert "<" not in rows["--help"]
     assert "<str>" in rows["--by"] and "<path>" in rows["--plot"] and "<table|json|csv|markdown>" in rows["--format"]
+
+
+@pytest.mark.parametrize("columns", [80, 100])
+def test_the_command_list_wraps_only_full_lines(columns: int) -> None:
+    """Each command's summary in `openral-data --help` is its first sentence, wrapped only where the panel is full
+    (the docstrings' own line breaks would break sentences mid-way)."""
+    done = run_cli("--help", env={"COLUMNS": str(columns)})
+    assert done.returncode == 0, done.stderr
+    panel = done.stdout[done.stdout.index("Commands") :].splitlines()[1:-1]
+    rows = [line[1:-1].rstrip() for line in panel if line.startswith("│")]
+    text_at = rows[0].index(rows[0].split()[1])  # where the summaries start
+    room = len(panel[0]) - 2 - text_at - 1  # the summary column's width (the panel's right padding excluded)
+    for line, following in itertools.pairwise(rows):
+        if following[:text_at].strip():  # the next command: nothing to check
+            continue
+        assert len(line[text_at:]) + 1 + len(following.split()[0]) > room, (line, following)
+    assert all(len(line) <= columns for line in done.stdout.splitlines())

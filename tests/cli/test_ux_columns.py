@@ -18,8 +18,7 @@ groups
 ┡━━━━━━━━━╇━━━━━━━━━━╇━━━━━━━━╇━━━━━━━━━━━━╇━━━━━━━━━━━━━━━╇━━━━━━━━━━━━━━━┩
 │ ds      │ 2        │ 6      │ 0/2 = 0.0% │ 0.0% .. 65.8% │ 3             │
 └─────────┴──────────┴────────┴────────────┴───────────────┴───────────────┘
-comparison: (none)
-health: (none)
+health: no problems found
 (dimensions, sources, quality and every column: --all)
 """
 
@@ -52,46 +51,37 @@ def test_stats_all_prints_every_table_within_100_columns(dataset: Path, monkeypa
     assert max(len(line) for line in run.stdout.splitlines()) <= 100
 
 
-def _record(text: str, entry: str) -> dict[str, str]:
-    """One entry of `list` printed as vertical records: its `field  value` lines."""
-    lines = text.splitlines()
-    start = lines.index(entry)
-    out: dict[str, str] = {}
-    for line in lines[start + 1 :]:
-        if not line.startswith("  "):
-            break
-        field, _, value = line.strip().partition("  ")
-        out[field] = value.strip()
-    return out
+def _row(text: str, entry: str) -> list[str]:
+    """One entry of `list`'s grid: its cells (split on runs of two or more spaces)."""
+    line = next(line for line in text.splitlines() if line.split(" ", 1)[0] == entry)
+    return re.split(r"\s{2,}", line.strip())
 
 
 def test_list_never_cuts_an_id_and_says_what_cannot_run(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Too wide for 100 columns: one record per entry (no cell wraps mid-word); a grid where it fits."""
+    """A grid within 100 columns (cells cut with a note where needed, never an id); --paths adds the file."""
     monkeypatch.setenv("COLUMNS", "100")
     run = run_inproc("list", "rskills")
     assert run.returncode == 0, run.stderr
     assert max(len(line) for line in run.stdout.splitlines()) <= 100
     for rskill in ("lerobot-act-push", "robosuite-panda-random", "scripted-open-drawer", "sweep-ur5e"):
-        assert rskill in run.stdout.splitlines()  # whole, on a line of its own
-    note = re.fullmatch(r"no \((\d)\)", _record(run.stdout, "lerobot-act-push")["runs here"])
+        assert _row(run.stdout, rskill)[0] == rskill  # whole, first on its line
+    note = re.fullmatch(r"no \((\d)\)", _row(run.stdout, "lerobot-act-push")[-1])
     assert note is not None
     assert f"({note.group(1)}) neural rSkills need their checkpoint" in run.stdout
     assert "/rskill.yaml" not in run.stdout  # paths only with --paths
-    assert "rskill.yaml" in _record(run_inproc("list", "rskills", "--paths").stdout, "sweep-ur5e")["path"]
     monkeypatch.setenv("COLUMNS", "400")
-    wide = run_inproc("list", "rskills").stdout
-    assert any(line.startswith(" lerobot-act-push ") for line in wide.splitlines())  # the grid
+    assert _row(run_inproc("list", "rskills", "--paths").stdout, "sweep-ur5e")[-1].endswith("rskill.yaml")
 
 
 def test_list_scenes_marks_libero_when_its_environment_is_absent(monkeypatch: pytest.MonkeyPatch) -> None:
     pytest.importorskip("gym_pusht")
     monkeypatch.setenv("COLUMNS", "100")
     run = run_inproc("list", "scenes")
-    lines = run.stdout.splitlines()
-    assert "libero_spatial_bench" in lines and "metaworld_button_press_topdown_bench" in lines  # ids whole
-    assert _record(run.stdout, "pusht")["runs here"] == "yes"
+    assert _row(run.stdout, "metaworld_button_press_topdown")[0] == "metaworld_button_press_topdown"  # whole
+    assert _row(run.stdout, "pusht")[-1] == "yes"
+    assert "libero_spatial_bench" in run_inproc("list", "scenes", "--all").stdout
     try:
         import libero  # noqa: F401
     except ImportError:
-        assert re.fullmatch(r"no \(\d\)", _record(run.stdout, "libero_10")["runs here"])
+        assert re.fullmatch(r"no \(\d\)", _row(run.stdout, "libero_10")[-1])
         assert "libero scenes: needs their own environment (bash scripts/setup_libero.sh)" in run.stdout

@@ -42,7 +42,8 @@ def test_camera_on_a_non_image_topic(tmp_path: Path, kind: str) -> None:
     line = _refused(tmp_path, kind, "none", {"cameras": {"front": "/cam/image_raw", "side": "/joint_states"}})
     assert line.endswith(
         "mapping: cameras.side (/joint_states): the topic carries sensor_msgs/msg/JointState, not images "
-        "(a camera needs sensor_msgs/msg/Image or sensor_msgs/msg/CompressedImage)"
+        "(a camera needs sensor_msgs/msg/Image, sensor_msgs/msg/CompressedImage, foxglove.RawImage or "
+        "foxglove.CompressedImage)"
     ), line
 
 

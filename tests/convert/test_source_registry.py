@@ -26,6 +26,7 @@ from openral_data.schemas.mapping import Mapping
 from tests.support.bags import MAPPING, write_plain_mcap, write_ros1
 from tests.support.hdf5_layouts import write_aloha, write_robomimic
 from tests.support.inproc import run_inproc
+from tests.support.offline_sources import write_d4rl, write_maniskill
 from tests.support.replay_buffer import sample_episodes, write_replay_buffer
 from tests.support.rlds_written import write_rlds
 
@@ -39,8 +40,8 @@ def _data(root: Path) -> dict[str, list[object]]:
 def test_every_kind_declares_every_part_once_in_the_documented_order() -> None:
     """Each registered kind is a complete `SourceKind` (no part left abstract), its name unique, and the order the
     registry tries them in is the order its docstring documents."""
-    assert list(kinds.KINDS) == ["lerobot-v2", "lerobot-v3", "ros1-bag", "rosbag2", "hdf5-robomimic", "hdf5-aloha",
-                                 "zarr", "rlds"]  # fmt: skip
+    assert list(kinds.KINDS) == ["lerobot-v2", "lerobot-v3", "ros1-bag", "mcap", "rosbag2", "minari", "hdf5-robomimic",
+                                 "hdf5-aloha", "hdf5-d4rl", "hdf5-maniskill", "zarr", "rlds"]  # fmt: skip
     for name, kind in kinds.KINDS.items():
         assert isinstance(kind, SourceKind) and not inspect.isabstract(type(kind)), name
         assert kind.name == name and kind.summary
@@ -60,6 +61,8 @@ def sources(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
         "hdf5-aloha": write_aloha(root / "aloha", (5,)),
         "zarr": write_replay_buffer(root / "pusht.zarr", sample_episodes((5, 3))),
         "rlds": write_rlds(root / "toy_rlds" / "1.0.0", ((4,), (3,))),
+        "hdf5-d4rl": write_d4rl(root / "hopper.hdf5"),
+        "hdf5-maniskill": write_maniskill(root / "ms" / "trajectory.h5", (3,)),
         "ros1-bag": write_ros1(root / "run.bag"),
         "rosbag2": write_plain_mcap(root / "plain.mcap"),
         "mixed": root / "mixed",  # bags and an HDF5 file: bags, for info and convert alike

@@ -155,7 +155,7 @@ def test_idle_heads_are_trimmed_frame_exact(ours: Path, tmp_path: Path) -> None:
     said = edited(ours, out, "episodes", "trim", str(ours), "--idle", "--min-frames", "6", "--out", str(out))
     assert "2 episodes, 15 frames dropped" in said
     # head 8 starts on a keyframe (g=2): packets copied; head 7 does not: its frame 7 is encoded again, alone
-    assert "1 cut by copying packets, 1 re-encoding only the groups of pictures at a cut, 0 re-encoded" in said
+    assert "camera clips: 1 cut by copying packets, 1 re-encoded at a cut only, 0 re-encoded\n" in said
     lengths = [r["length"] for r in _episode_rows(out)]
     assert lengths == [N - 7, N, N - 8, N]  # `short` would keep 5 < --min-frames 6: kept whole
     src, got = loaded_episodes(ours), loaded_episodes(out)
@@ -224,7 +224,7 @@ def test_a_lerobot_dataset_is_trimmed_frame_exact(theirs: Path, tmp_path: Path) 
     said = edited(theirs, out, "episodes", "trim", str(theirs), "--frames", "0:0-1,1:3,1:8", "--out", str(out))
     # lerobot's h264 here: frames 0..7 of episode 1 are keyframes, frame 8 is not, so the run 4..7 ends inside
     # a group of pictures: frame 7 is encoded again, frames 4..6 copied
-    assert "1 cut by copying packets, 1 re-encoding only the groups of pictures at a cut, 0 re-encoded" in said
+    assert "camera clips: 1 cut by copying packets, 1 re-encoded at a cut only, 0 re-encoded\n" in said
     keep = {0: list(range(2, LENGTHS[0])), 1: [0, 1, 2, 4, 5, 6, 7], 2: list(range(LENGTHS[2]))}
     src, got = loaded_episodes(theirs), loaded_episodes(out)
     assert [len(g) for g in got] == [len(k) for k in keep.values()]

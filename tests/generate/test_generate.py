@@ -55,8 +55,8 @@ def test_generate_pick_place(source: tuple[Path, Path], tmp_path: Path) -> None:
     )
     assert r.returncode == 0, r.stderr
     doc = parse(r.stdout, "generate")  # the fields docs/scripting.md lists, in its order and types
-    assert doc["attempts"] == 4 and doc["source_episodes"] == 2
-    assert doc["kept"] >= 2 and doc["keep_rate"] == doc["kept"] / 4, doc
+    assert doc["asked"] == 4 and doc["kept"] == 4 and doc["source_episodes"] == 2  # --n: episodes kept
+    assert 4 <= doc["attempts"] <= 12 and doc["keep_rate"] == round(4 / doc["attempts"], 4), doc
     episodes = rows(out)
     assert len(episodes) == doc["kept"]
     for row in episodes:
@@ -81,6 +81,17 @@ def test_generate_pick_place(source: tuple[Path, Path], tmp_path: Path) -> None:
     assert len(ds) == len(table["action"])
     for i in (0, len(ds) - 1):
         assert np.allclose(ds[i]["action"].numpy(), table["action"][i])
+
+
+def test_generate_stops_at_the_attempts_cap_and_says_so(source: tuple[Path, Path], tmp_path: Path) -> None:
+    scene, src = source
+    out = tmp_path / "capped"
+    args = ["--n", "3", "--max-attempts", "2", "--out", str(out), "--codec", "h264", "--json"]
+    r = run_inproc("generate", str(src), "--scene", str(scene), *args)
+    assert r.returncode == 0, r.stderr
+    doc = parse(r.stdout, "generate")
+    assert (doc["asked"], doc["attempts"]) == (3, 2) and 1 <= doc["kept"] <= 2 and len(rows(out)) == doc["kept"]
+    assert f"warning: kept {doc['kept']} of the 3 episodes asked for: the cap of 2 attempts was reached" in r.stderr
 
 
 def test_generate_into_a_randomized_scene(source: tuple[Path, Path], tmp_path: Path) -> None:
@@ -174,6 +185,7 @@ def test_bad_inputs_are_one_line(source: tuple[Path, Path], tmp_path: Path) -> N
     for args, needle in (
         (["--annotations", str(notes)], "episodes.0"),
         (["--n", "0"], "--n"),
+        (["--max-attempts", "0"], "--max-attempts"),
     ):
         out = tmp_path / "x"
         base = ["generate", str(src), "--scene", str(scene), "--n", "2", "--out", str(out)]

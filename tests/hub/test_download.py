@@ -209,7 +209,7 @@ def test_every_command_taking_a_dataset_has_the_options_push_does_not() -> None:
         return {opt for p in command.params for opt in p.opts}
 
     taking = [("info",), ("doctor",), ("view",), ("convert",), ("upgrade",), ("replay",), ("stats", "report")]
-    taking += [("stats", "recompute")]
+    taking += [("stats", "recompute"), ("export",)]
     taking += [("episodes", c) for c in ("delete", "filter", "split", "merge")]
     taking += [("tasks", c) for c in ("list", "rename", "set")] + [("features", "remove")]
     taking += [("videos", c) for c in ("reencode", "encode-images")]

@@ -29,7 +29,7 @@ IDLE_HEAD = 7  # frames 0..6 hold still, frame 7 moves
 IDLE_TAIL_FROM = 50  # frames 50..59 hold frame 50's values: 9 idle frames (frame 50 itself moved)
 FROZEN_FROM = 25  # state j1 holds from frame 25 while the others move: a stale reading
 UNUSED_FROM = 40  # action a0 holds from frame 40: a scripted expert done with it, no fault ("constant")
-CLIPPED = (20, 29)  # state j0 sits on 1.2 (its dataset max) for frames 20..29: a flat top
+CLIP_AT = 1.1  # the clipped episode's state j0 is a sinusoid of amplitude 2 cut at 1.1 (its dataset max): flat tops
 BLACK = (20, 35)  # camera frames 20..34 black
 GAP_AT = 30  # frames 30.. stamped half a second late: one gap of 6 periods
 EPISODES = ["clean", "clean2", "idle_head", "idle_tail", "frozen", "black", "chatter", "gap", "jerky", "clipped"]
@@ -45,7 +45,8 @@ def _episodes() -> list[q.Episode]:
     tail.action[IDLE_TAIL_FROM:] = tail.action[IDLE_TAIL_FROM]
     eps["frozen"].state[FROZEN_FROM:, 1] = eps["frozen"].state[FROZEN_FROM, 1]
     eps["frozen"].action[UNUSED_FROM:, 0] = eps["frozen"].action[UNUSED_FROM, 0]
-    eps["clipped"].state[CLIPPED[0] : CLIPPED[1] + 1, 0] = 1.2
+    clipped = eps["clipped"].state
+    clipped[:, 0] = np.minimum(2 * clipped[:, 0], CLIP_AT)
     eps["black"].images[BLACK[0] : BLACK[1]] = 0
     eps["chatter"].action[:, 2] = (np.arange(N) // 2) % 2  # open/close every 2 frames: 29 toggles in 6 s
     noise = np.random.default_rng(0).normal(0, 0.3, (N, 2)).astype(np.float32)
@@ -120,9 +121,15 @@ def test_frozen_state_and_an_unused_action_told_apart(built: tuple[Path, Quality
 
 
 def test_clipped_flat_top_in_frames(built: tuple[Path, Quality]) -> None:
+    j0 = q.moving(N, EPISODES.index("clipped")).state[:, 0]
+    top = np.flatnonzero(2 * j0 >= CLIP_AT)
+    spans = [(int(s[0]), int(s[-1])) for s in np.split(top, np.flatnonzero(np.diff(top) > 1) + 1)]
+    spans = [(a, b) for a, b in spans if a > 0 and b < N - 1]  # a flat top is entered and left in the episode
     row = _row(built, "clipped")
-    assert row["flags"] == ["clipped"] and row["state_clip_fraction"] == pytest.approx(10 / N)
-    assert _findings(built, "clipped") == [("clipped", f"{STATE}[j0]", *CLIPPED, True)]
+    share = sum(b - a + 1 for a, b in spans) / N
+    assert row["flags"] == ["clipped"] and row["state_clip_fraction"] == pytest.approx(share)
+    clipped = [f for f in _findings(built, "clipped") if f[0] == "clipped"]
+    assert spans and clipped == [("clipped", f"{STATE}[j0]", a, b, True) for a, b in spans]
 
 
 def test_black_camera_span(built: tuple[Path, Quality]) -> None:

@@ -10,6 +10,7 @@ same over the whole labelled corpus).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -26,6 +27,7 @@ DETECTED = (
     "blur",
     "timestamp_gap",
     "gripper_chatter",
+    "nan",
 )
 
 
@@ -51,3 +53,15 @@ def test_an_injected_fault_is_found_at_its_frames(kind: str, clean: tuple[Path, 
     at_frames, raised = df.found(df.labelled(truth, faulty), got, tol=2)
     assert raised, f"{kind}: no {df.EXPECTED[kind]} finding; got {got}"
     assert at_frames, f"{kind}: truth frames {truth.first}..{truth.last} {truth.dims or truth.camera}; got {got}"
+
+
+def test_shuffled_tasks_move_every_task_to_another_episode(clean: tuple[Path, df.Clean], tmp_path: Path) -> None:
+    """The trainability benchmark's defect (#51): each episode written with another episode's task text."""
+    _, episode = clean
+    texts = ["pick the cube", "open the drawer", "push the block"]
+    episodes = [replace(episode, task=t) for t in texts]
+    moved, truths = df.shuffle_tasks(episodes, seed=5)
+    root = df.write(tmp_path / "shuffled", moved)
+    read = [df.load(root, e).task for e in range(3)]
+    assert sorted(read) == sorted(texts) and all(r != t for r, t in zip(read, texts, strict=True))
+    assert [t.kind for t in truths] == ["shuffled_tasks"] * 3

@@ -6,10 +6,14 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pyarrow.parquet as pq
 import pytest
 
 from openral_data.edit.select import matching_episodes
+from openral_data.metrics.quality import quality_of
+from openral_data.metrics.sources import open_dataset
 from tests.support import quality as q
+from tests.support.home import isolated_home
 from tests.support.inproc import run_inproc
 
 N = 60
@@ -90,3 +94,21 @@ def test_findings_view_in_stats_sql(dataset: Path) -> None:
         (1, "frozen", "observation.state[j1]", FROZEN_FROM, N - 1),
         (2, "camera_black", "observation.images.cam", 18, 32),
     ]
+
+
+def test_recorded_mock_episodes_raise_nothing(tmp_path: Path) -> None:
+    """The mock scene's random rSkill (kind `random`: its actions are noise by design) over solid-colour
+    cameras: no flag (the old measures raised frozen, jerky, chatter, camera_black and camera_blurred on every
+    episode); the state's episode number, constant in each episode, is only `constant`."""
+    out = tmp_path / "ds"
+    with isolated_home(tmp_path):
+        run = run_inproc("record", "--n-episodes", "2", "--max-steps", "40", "--codec", "h264", "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    got = quality_of(open_dataset(out))
+    assert [(r["flags"], r["data_kind"]) for r in got.table.to_pylist()] == [([], "random")] * 2
+    found = pq.read_table(got.paths.findings).to_pylist()
+    assert {(f["check"], f["subject"], f["flag"]) for f in found} == {("constant", "observation.state[joint2]", False)}
+    shown = run_inproc("quality", str(out))  # a person is told nothing was flagged, not shown an empty grid
+    assert shown.returncode == 0, shown.stderr
+    assert shown.stdout.rstrip().endswith("episodes: none flagged (--all lists every episode)")
+    assert "(none)" not in shown.stdout

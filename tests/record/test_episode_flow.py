@@ -16,8 +16,10 @@ import sys
 import termios
 import threading
 import time
+import urllib.request
 from collections.abc import Callable
 from pathlib import Path
+from urllib.parse import quote
 
 import numpy as np
 import pytest
@@ -27,7 +29,7 @@ from openral_data.runtime import registry
 from tests.support.feetech_bus import SimulatedFeetechBus, calibrated_so_project
 from tests.support.hal import episode_infos, frames_table
 from tests.support.inproc import run_inproc
-from tests.support.live import connect_client, entities, free_port, settled, stop_rerun
+from tests.support.live import connect_client, entities, free_port_pair, settled, stop_rerun
 from tests.support.pty_terminal import Terminal, cli_on_pty
 
 SO = "so101_follower"
@@ -264,7 +266,7 @@ def test_view_streams_a_hal_session(
 ) -> None:
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
-    port = free_port()
+    port = free_port_pair()
     got = tmp_path / "client.rrd"
     client: list[subprocess.Popen[bytes]] = []
 
@@ -280,9 +282,14 @@ def test_view_streams_a_hal_session(
     assert client
     settled(got)
     stop_rerun(client[0])
-    assert f"view: rerun+http://127.0.0.1:{port}/proxy" in capsys.readouterr().err.splitlines()
+    stream = f"rerun+http://127.0.0.1:{port}/proxy"  # a page a person opens headless, and the stream it shows
+    page = f"http://127.0.0.1:{port + 1}/?url={quote(stream, safe='')}"
+    assert f"view: open {page} (or: rerun --connect {stream})" in capsys.readouterr().err.splitlines()
+    with urllib.request.urlopen(page, timeout=10) as r:  # rerun's web viewer, served by the recording process
+        assert b"re_viewer" in r.read()
     received = {rid: v for rid, v in entities(got).items() if "-episode-" in rid}
     assert sorted(rid.rsplit("-", 1)[1] for rid in received) == ["0", "1"]
     for temporal, _ in received.values():
         assert any(e.startswith("/state/") for e in temporal) and any(e.startswith("/action/") for e in temporal)
+        assert "/events" in temporal  # the start was shown before the episode recorded (the preview's note)
     assert s.frames == sum(r.frames for r in s.reports) and math.isclose(s.frames, 12, abs_tol=2)

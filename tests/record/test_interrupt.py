@@ -45,6 +45,7 @@ def test_stop_signal_keeps_finished_episodes(tmp_path: Path, project: Path, sig:
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 130, err
     assert "interrupted" in err and "Traceback" not in err
+    assert f"continue it: openral-data record --resume --out {out}\n" in err  # the command that continues it
     finished = json.loads(info.read_text())["total_episodes"]
     assert finished >= 1
     seen = verify_mock_dataset(out, "pyav")

@@ -7,6 +7,7 @@ import re
 import subprocess
 from dataclasses import replace
 from pathlib import Path
+from urllib.parse import quote
 
 import pytest
 
@@ -15,7 +16,7 @@ from openral_data.replay import ReplayOptions, replay
 from openral_data.replay.outcome import EpisodeOutcome
 from tests.support.cli import run_cli
 from tests.support.debug_video import check_mock_video, leftovers
-from tests.support.live import connect_client, entities, free_port, settled, stop_rerun
+from tests.support.live import connect_client, entities, free_port_pair, settled, stop_rerun
 from tests.support.replay import record_mock
 
 pytestmark = pytest.mark.filterwarnings("ignore:RRD file has no footer")
@@ -65,7 +66,7 @@ def test_closed_loop_view_serves_a_stream_a_client_receives(
     dataset = record_mock(project, tmp_path / "mock").out
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
-    port = free_port()
+    port = free_port_pair()
     url = f"rerun+http://127.0.0.1:{port}/proxy"
     got = tmp_path / "client.rrd"
     client: list[subprocess.Popen[bytes]] = []
@@ -84,7 +85,7 @@ def test_closed_loop_view_serves_a_stream_a_client_receives(
     settled(got)
     stop_rerun(client[0])
     lines = capsys.readouterr().err.splitlines()
-    assert f"view: {url}" in lines
+    assert f"view: open http://127.0.0.1:{port + 1}/?url={quote(url, safe='')} (or: rerun --connect {url})" in lines
     shown = [m for line in lines if (m := re.fullmatch(r"view: (\d+) frames shown, (\d+) dropped.*", line))]
     steps = sum(o.steps for o in summary.episodes)
     assert len(shown) == 1 and int(shown[0][1]) + int(shown[0][2]) == steps

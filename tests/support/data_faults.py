@@ -63,20 +63,20 @@ KINDS = (
 EXPECTED: dict[str, tuple[str, ...]] = {
     "idle_head": ("idle",),
     "idle_tail": ("idle",),
-    "frozen_camera": ("camera_frozen",),
+    "frozen_camera": ("camera_frozen", "camera_stalled"),
     "black_camera": ("camera_black",),
     "blur": ("camera_blurred",),
-    "dropped_frames": ("teleport", "dropped"),
-    "duplicated_frames": ("duplicated", "frozen"),
+    "dropped_frames": ("teleport",),
+    "duplicated_frames": ("frozen",),
     "timestamp_gap": ("gap",),
-    "quaternion_flip": ("quaternion_flip", "quaternion"),
-    "angle_wrap": ("angle_wrap", "wrap"),
+    "quaternion_flip": ("quat_flip",),
+    "angle_wrap": ("angle_wrap",),
     "swapped_actions": ("action_swap", "action_state"),
     "degrees_as_radians": ("degrees", "limits", "units"),
     "action_shift": ("lag", "action_lag"),
     "gripper_chatter": ("chatter",),
     "clipping": ("clipped",),
-    "nan": ("nonfinite", "nan"),
+    "nan": ("non_finite",),
     "teleport": ("teleport",),
     "camera_lag": ("camera_lag", "camera_out_of_step"),
     "upside_down": ("upside_down", "camera_flipped"),
@@ -383,9 +383,28 @@ def timing_fault(ep: Clean, kind: str, rng: np.random.Generator) -> tuple[Clean,
 
 
 def wrap_dim(ep: Clean, rng: np.random.Generator) -> int:
-    dims = arm_dims(ep, ep.state, ep.state_names)
-    angles = [d for d in dims if ANGLE.search(ep.state_names[d])]
-    return (angles or dims)[int(rng.integers(len(angles or dims)))]
+    """A moving state dimension named as an angle (a joint, roll/pitch/yaw; a generic `j0` counts)."""
+    angles = [d for d in arm_dims(ep, ep.state, ep.state_names) if ANGLE.search(ep.state_names[d])]
+    if not angles:
+        raise NotApplicable("no moving state dimension named as an angle")
+    return angles[int(rng.integers(len(angles)))]
+
+
+def angle_wrap(ep: Clean, rng: np.random.Generator) -> tuple[Clean, Truth]:
+    """An angle written in (-pi, pi]: the dimension offset so that it crosses +-pi between two moving frames
+    near the middle, then wrapped; the truth is the first frame it jumps by about 2 pi."""
+    x, d = ep.state, wrap_dim(ep, rng)
+    step = np.diff(x[:, d].astype(np.float64))
+    middle = np.arange(ep.n // 4, 3 * ep.n // 4)
+    moving = middle[np.abs(step[middle - 1]) > 0]
+    if not len(moving):
+        raise NotApplicable(f"observation.state[{d}] does not move in the middle of the episode")
+    k = int(rng.choice(moving))
+    edge = np.pi if step[k - 1] > 0 else -np.pi
+    y = x[:, d].astype(np.float64) + edge - (x[k - 1, d] + x[k, d]) / 2.0
+    x[:, d] = (np.mod(y + np.pi, 2 * np.pi) - np.pi).astype(np.float32)
+    first = int(np.flatnonzero(np.abs(np.diff(x[:, d])) > np.pi)[0]) + 1
+    return ep, Truth("angle_wrap", "observation.state", first, first, dims=(d,))
 
 
 def state_fault(ep: Clean, kind: str, rng: np.random.Generator) -> tuple[Clean, Truth]:
@@ -395,13 +414,10 @@ def state_fault(ep: Clean, kind: str, rng: np.random.Generator) -> tuple[Clean, 
         quat = quaternion_dims(ep.state_names)
         if quat is None:
             raise NotApplicable("no quaternion among the state's names")
-        s, e = span(n, rng, max(5, n // 6))
-        x[s:e, list(quat)] *= -1
-        return ep, Truth(kind, "observation.state", s, e - 1, dims=quat)
+        x[k:, list(quat)] *= -1  # the same rotation from frame k on, its sign flipped
+        return ep, Truth(kind, "observation.state", k, k, dims=quat)
     if kind == "angle_wrap":
-        d = wrap_dim(ep, rng)
-        x[k:, d] -= np.float32(2 * np.pi) * (1 if x[k, d] >= 0 else -1)
-        return ep, Truth(kind, "observation.state", k, k, dims=(d,))
+        return angle_wrap(ep, rng)
     if kind == "degrees_as_radians":
         d = wrap_dim(ep, rng)
         x[:, d] = np.degrees(x[:, d])
@@ -491,10 +507,10 @@ def inject(clean: Clean, kind: str, seed: int = 0) -> tuple[Clean, Truth]:
     raise ValueError(f"unknown fault kind {kind!r}; one of {', '.join(KINDS)}")
 
 
-def findings(root: Path, th: Thresholds = DEFAULT) -> dict[int, list[dict[str, Any]]]:
+def findings(root: Path, th: Thresholds = DEFAULT, stride: int = 1) -> dict[int, list[dict[str, Any]]]:
     """Each episode's flagging findings (check, subject, start_frame, end_frame, value, threshold) under `th`,
-    every camera frame measured (stride 1)."""
-    q = quality(root, stride=1, thresholds=th)
+    every `stride`-th camera frame measured."""
+    q = quality(root, stride=stride, thresholds=th)
     out: dict[int, list[dict[str, Any]]] = defaultdict(list)
     for r in pq.read_table(q.paths.findings).to_pylist():
         if r["flag"]:
@@ -502,17 +518,42 @@ def findings(root: Path, th: Thresholds = DEFAULT) -> dict[int, list[dict[str, A
     return dict(out)
 
 
-def near(f: dict[str, Any], first: int, last: int, tol: int) -> bool:
-    a, b = f["start_frame"], f["end_frame"]
-    if a is None or b is None:
-        return False
+def near(span: tuple[int, int], first: int, last: int, tol: int) -> bool:
+    """`span` reaches the truth's frames within `tol` on both sides and starts or ends within `tol` of them."""
+    a, b = span
     return a <= first + tol and b >= last - tol and (abs(a - first) <= tol or abs(b - last) <= tol)
 
 
+def merged(spans: Iterable[tuple[int, int]], tol: int) -> list[tuple[int, int]]:
+    """Spans closer than `tol` frames joined (a fault reported in pieces, e.g. blurred frames between flat ones)."""
+    out: list[tuple[int, int]] = []
+    for a, b in sorted(spans):
+        if out and a <= out[-1][1] + tol + 1:
+            out[-1] = (out[-1][0], max(out[-1][1], b))
+        else:
+            out.append((a, b))
+    return out
+
+
+WHOLE = ("episode", "timestamp")  # findings about no one dimension or camera: they match any subject
+
+
+def first_subject(subject: str) -> str:
+    """A grouped subject's first member (`observation.state[eef_qx..w]`: `observation.state[eef_qx]`)."""
+    head, _, rest = subject.partition("[")
+    return f"{head}[{rest.split('..')[0].rstrip(']')}]" if ".." in rest else subject
+
+
 def found(truth: dict[str, Any], got: Iterable[dict[str, Any]], tol: int) -> tuple[bool, bool]:
-    """(the expected check about the subject at the right frames, the expected check anywhere)."""
+    """(the expected check about the subject at the right frames, the expected check anywhere): `truth` as
+    `labelled` makes it, `got` one episode's flagging findings."""
     checks = EXPECTED[truth["kind"]]
     mine = [f for f in got if f["check"] in checks or any(f["check"].startswith(c) for c in checks if c.endswith("_"))]
     subjects = set(truth["subjects"])
-    about = [f for f in mine if not subjects or f["subject"] in subjects or f["subject"] in ("episode", "timestamp")]
-    return any(near(f, truth["first"], truth["last"], tol) for f in about), bool(mine)
+    about = [f for f in mine if not subjects or first_subject(f["subject"]) in subjects or f["subject"] in WHOLE]
+    by_subject: dict[tuple[str, str], list[tuple[int, int]]] = defaultdict(list)
+    for f in about:
+        if f["start_frame"] is not None and f["end_frame"] is not None:
+            by_subject[(f["check"], f["subject"])].append((int(f["start_frame"]), int(f["end_frame"])))
+    at = any(near(s, truth["first"], truth["last"], tol) for v in by_subject.values() for s in merged(v, tol))
+    return at, bool(mine)

@@ -21,6 +21,18 @@ def free_port() -> int:
         return int(s.getsockname()[1])
 
 
+def free_port_pair() -> int:
+    """A port free with the next one (a served stream and its web page: `record --view` headless)."""
+    while True:
+        port = free_port()
+        with socket.socket() as s:
+            try:
+                s.bind(("0.0.0.0", port + 1))
+            except OSError:
+                continue
+        return port
+
+
 def settled(path: Path, quiet: float = 1.5, limit: float = 30) -> None:
     """Wait until `path` stopped growing for `quiet` seconds."""
     size, since, deadline = -1, time.monotonic(), time.monotonic() + limit

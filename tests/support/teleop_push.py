@@ -38,11 +38,16 @@ def push_waypoints(seed: int) -> list[F64]:
         cube, goal, half = t.pos(name), t.pos(t.role("goal")), float(t.info(name)["size"][2]) / 2
     finally:
         env.close()
+    return push_path(cube, goal, half, push_z=t.table + 0.022, travel_z=t.table + 0.1)
+
+
+def push_path(cube: F64, goal: F64, half: float, push_z: float, travel_z: float) -> list[F64]:
+    """Behind the cube (seen from the goal) at `travel_z`, down to `push_z`, then along the line cube -> goal to
+    where the cube's near face reaches it."""
     direction = (goal[:2] - cube[:2]) / np.linalg.norm(goal[:2] - cube[:2])
     behind = cube[:2] - direction * (half + 0.045)  # clear of the cube by more than a step
-    push_z = t.table + 0.022
     end = goal[:2] - direction * (half + 0.005)
-    return [np.array([*behind, t.table + 0.1]), np.array([*behind, push_z]), np.array([*end, push_z])]
+    return [np.array([*behind, travel_z]), np.array([*behind, push_z]), np.array([*end, push_z])]
 
 
 def expert_proposals(actions: npt.NDArray[np.float32], seed: int) -> npt.NDArray[np.float32]:

@@ -12,6 +12,7 @@ import threading
 import time
 from dataclasses import replace
 from pathlib import Path
+from urllib.parse import quote
 
 import numpy as np
 import pyarrow.parquet as pq
@@ -25,7 +26,7 @@ from openral_data.types import CameraShape, DatasetSchema, EpisodeRecord, Episod
 from openral_data.viz.live import LiveView, open_live_view
 from tests.support.cli import run_cli
 from tests.support.lerobot import verify_mock_dataset
-from tests.support.live import connect_client, entities, free_port, settled, stop_rerun
+from tests.support.live import connect_client, entities, free_port, free_port_pair, settled, stop_rerun
 from tests.support.rrd import RERUN
 from tests.support.scenes import mock_scene, write_yaml
 
@@ -88,7 +89,7 @@ def test_record_view_serves_a_stream_a_client_receives(
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     scene = write_yaml(project / "scenes/sim/mock_test.yaml", mock_scene(success_after=LENGTHS, n_episodes=2))
-    port = free_port()
+    port = free_port_pair()  # the stream, and rerun's web viewer on the next port
     url = f"rerun+http://127.0.0.1:{port}/proxy"
     got = tmp_path / "client.rrd"
     client: list[subprocess.Popen[bytes]] = []
@@ -105,7 +106,7 @@ def test_record_view_serves_a_stream_a_client_receives(
     settled(got)  # the served stream lasts as long as this process: the client is stopped once all arrived
     stop_rerun(client[0])
     lines = capsys.readouterr().err.splitlines()
-    assert f"view: {url}" in lines
+    assert f"view: open http://127.0.0.1:{port + 1}/?url={quote(url, safe='')} (or: rerun --connect {url})" in lines
     shown = [m for line in lines if (m := re.fullmatch(r"view: (\d+) frames shown, (\d+) dropped.*", line))]
     assert len(shown) == 1 and int(shown[0][1]) + int(shown[0][2]) == sum(LENGTHS)
 

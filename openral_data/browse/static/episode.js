@@ -1,180 +1,223 @@
 "use strict";
-// One episode: each camera's mp4 (shared by many episodes) played over the episode's span only, the first camera
-// leading the others; one SVG plot per feature with a cursor at the video's time.
+// One episode. Each camera's mp4 is shared by many episodes: the page plays only the episode's span of it (from
+// its from/to timestamps: the player's own controls, which show the whole file, are replaced by ours, and playback
+// pauses on the episode's last frame), the first camera leading the others. A frame slider with a counter, the
+// quality spans on a timeline under it and on the plots (plot.js), previous/next episode (under the table's
+// --where when the page was opened from a filtered table), and keys: ←/→ a frame, space play/pause.
 const parts = location.pathname.split("/");
 const ds = parts[2];
-const ep = parts[4];
-const SVG = "http://www.w3.org/2000/svg";
-const W = 800, H = 160;
-const COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"];
-const cursors = [];
-const depths = [];  // depth cameras, pictures, masks: an <img> of the frame at the cursor (drawn on the server)
-let duration = 1;
-let frames = { fps: 1, length: 1 };
+const ep = Number(parts[4]);
+const where = new URLSearchParams(location.search).get("where") || "";
+const plots = [];
+const stills = [];  // depth cameras, pictures, masks: an <img> of the frame at the cursor (drawn on the server)
+const frames = { fps: 1, length: 1 };
+let leader = null;  // {video, cam}: the camera the others follow
+let current = 0;
 
-function svg(tag, attrs) {
-  const el = document.createElementNS(SVG, tag);
-  for (const [k, v] of Object.entries(attrs)) el.setAttribute(k, String(v));
-  return el;
+function el(tag, attrs, ...children) {
+  const e = document.createElement(tag);
+  for (const [k, v] of Object.entries(attrs || {})) {
+    if (k === "class") e.className = v; else if (k in e) e[k] = v; else e.setAttribute(k, v);
+  }
+  e.append(...children);
+  return e;
 }
 
-function plot(feature, series, times) {
-  const values = series.flatMap((s) => s.values).filter((v) => v !== null);
-  const lo = Math.min(...values), hi = Math.max(...values);
-  const span = hi > lo ? hi - lo : 1;
-  const box = document.createElement("div");
-  const h = document.createElement("h3");
-  h.textContent = feature;
-  const chart = svg("svg", { class: "plot", width: W, height: H, viewBox: `0 0 ${W} ${H}`, "data-feature": feature });
-  series.forEach((s, i) => {
-    const points = s.values.map((v, k) => v === null ? null :
-      `${(W * times[k] / duration).toFixed(1)},${(H - 4 - (H - 8) * (v - lo) / span).toFixed(1)}`).filter((p) => p);
-    const line = svg("polyline", {
-      points: points.join(" "), fill: "none", stroke: COLORS[i % COLORS.length], "stroke-width": 1.2,
-      "data-series": s.name,
-    });
-    const title = svg("title", {});
-    title.textContent = s.name;
-    line.append(title);
-    chart.append(line);
-  });
-  const cursor = svg("line", { x1: 0, x2: 0, y1: 0, y2: H, stroke: "#000", "stroke-width": 1, class: "cursor" });
-  chart.append(cursor);
-  cursors.push(cursor);
-  const legend = document.createElement("div");
-  legend.className = "legend";
-  series.forEach((s, i) => {
-    const span = document.createElement("span");
-    span.style.color = COLORS[i % COLORS.length];
-    span.textContent = s.name;
-    legend.append(span);
-  });
-  box.append(h, chart, legend);
-  document.getElementById("plots").append(box);
-}
+function clamp(k) { return Math.max(0, Math.min(frames.length - 1, k)); }
+function frameOf(video, cam) { return clamp(Math.round((video.currentTime - cam.from) * frames.fps)); }
+function query() { return where ? `?${new URLSearchParams({ where })}` : ""; }
 
-function moveCursor(t) {
-  const x = (W * t / duration).toFixed(1);
-  for (const c of cursors) { c.setAttribute("x1", x); c.setAttribute("x2", x); }
-  const k = Math.max(0, Math.min(frames.length - 1, Math.round(t * frames.fps)));
-  for (const d of depths) {
+// the page at frame k: cursor, slider, counter, stills
+function show(k) {
+  current = k;
+  for (const p of plots) p.move(k);
+  for (const d of stills) {
     if (d.dataset.frame !== String(k)) { d.dataset.frame = String(k); d.src = `${d.dataset.base}/${k}`; }
   }
-  const slider = document.getElementById("frame");
-  if (slider) slider.value = String(k);
+  document.getElementById("frame").value = String(k);
+  const t = (k / frames.fps).toFixed(2);
+  document.getElementById("counter").textContent = `frame ${k} / ${frames.length - 1} · ${t} s`;
+  const marker = document.getElementById("timeline-cursor");
+  if (marker) { marker.setAttribute("x1", String(xOnTimeline(k))); marker.setAttribute("x2", String(xOnTimeline(k))); }
 }
 
-// frame k by hand: seeks the leading video when there is one, else moves the cursor (pictures, masks, depth, plots)
-function frameSlider(leader) {
-  const slider = document.createElement("input");
-  Object.assign(slider, { type: "range", id: "frame", min: "0", max: String(frames.length - 1), value: "0" });
-  slider.addEventListener("input", () => {
-    const t = Number(slider.value) / frames.fps;
-    if (leader !== null) leader.video.currentTime = leader.cam.from + t;
-    else moveCursor(t);
-  });
-  const label = document.createElement("label");
-  label.append("frame ", slider);
-  document.getElementById("cameras").before(label);
+// go to frame k: the leading video seeks there (the others follow it), or, without a video, the page moves
+function seek(k) {
+  k = clamp(k);
+  if (leader === null) { show(k); return; }
+  leader.video.pause();
+  leader.video.currentTime = leader.cam.from + k / frames.fps;
+  show(k);
 }
 
-function depth(cam) {
-  still(cam, `/d/${ds}/depth/${ep}/${cam.url.split("/").pop()}`, `${cam.key} (depth, ${cam.depth}; near bright, far dark)`, "depth");
-}
-
-function picture(cam) {
-  const what = cam.kind === "mask" ? "segmentation mask: one colour per object, background black" : "image frames";
-  still(cam, `/d/${ds}/picture/${ep}/${cam.picture}`, `${cam.key} (${what})`, cam.kind);
-}
-
-// a frame drawn on the server (depth, pictures, masks): an <img> the cursor moves to frame k
-function still(cam, base, text, kind) {
-  const figure = document.createElement("figure");
-  const caption = document.createElement("figcaption");
-  caption.textContent = text;
-  const img = document.createElement("img");
-  img.className = kind;
-  img.dataset.camera = cam.key;
-  img.dataset.base = base;
-  img.dataset.frame = "0";
-  img.src = `${img.dataset.base}/0`;
-  depths.push(img);
-  figure.append(img, caption);
-  document.getElementById("cameras").append(figure);
-}
-
-function camera(cam, leader) {
-  const figure = document.createElement("figure");
-  const caption = document.createElement("figcaption");
-  caption.textContent = cam.key;
-  const video = document.createElement("video");
-  video.controls = leader === null;
-  video.muted = true;
-  video.preload = "auto";
+function camera(cam) {
+  const video = el("video", { muted: true, preload: "auto", playsInline: true });
   video.dataset.camera = cam.key;
   video.dataset.from = cam.from;
   video.dataset.to = cam.to;
   video.src = `/d/${ds}/video/${ep}/${cam.url.split("/").pop()}#t=${cam.from},${cam.to}`;
   video.addEventListener("loadedmetadata", () => { video.currentTime = cam.from; });
-  if (leader === null) {
-    video.addEventListener("timeupdate", () => {
-      if (video.currentTime >= cam.to) video.pause();
-      moveCursor(Math.max(0, video.currentTime - cam.from));
-    });
-  } else {  // follow the leading camera: same offset into the episode
-    const follow = () => {
-      video.currentTime = cam.from + (leader.video.currentTime - leader.cam.from);
-    };
-    leader.video.addEventListener("seeked", follow);
-    leader.video.addEventListener("play", () => { follow(); video.play(); });
-    leader.video.addEventListener("pause", () => { video.pause(); follow(); });
-  }
-  figure.append(video, caption);
+  const figure = el("figure", { class: "cam" }, video, el("figcaption", {}, cam.key));
   document.getElementById("cameras").append(figure);
-  return { video, cam };
+  if (leader === null) { leader = { video, cam }; lead(video, cam); return; }
+  const follow = () => { video.currentTime = cam.from + (leader.video.currentTime - leader.cam.from); };
+  leader.video.addEventListener("seeked", follow);
+  leader.video.addEventListener("play", () => { follow(); video.play(); });
+  leader.video.addEventListener("pause", () => { video.pause(); follow(); });
+}
+
+// the leading video: never past the episode's last frame (checked at every frame shown while playing)
+function lead(video, cam) {
+  const last = cam.from + (frames.length - 1) / frames.fps;
+  const stopAtEnd = () => {
+    if (video.currentTime < last + 0.5 / frames.fps) return false;
+    video.pause();
+    if (Math.abs(video.currentTime - last) > 1e-4) video.currentTime = last;
+    return true;
+  };
+  const watch = () => {
+    if (!stopAtEnd()) show(frameOf(video, cam));
+    if (!video.paused && video.requestVideoFrameCallback) video.requestVideoFrameCallback(watch);
+  };
+  video.addEventListener("play", () => {
+    if (frameOf(video, cam) >= frames.length - 1) video.currentTime = cam.from;  // at the end: from the start again
+    if (video.requestVideoFrameCallback) video.requestVideoFrameCallback(watch);
+    document.getElementById("play").textContent = "❚❚ pause";
+  });
+  video.addEventListener("pause", () => { document.getElementById("play").textContent = "▶ play"; });
+  video.addEventListener("timeupdate", () => { if (!stopAtEnd()) show(frameOf(video, cam)); });
+  video.addEventListener("seeked", () => show(frameOf(video, cam)));
+}
+
+function still(base, key, text, kind) {
+  const img = el("img", { class: kind, alt: text });
+  Object.assign(img.dataset, { camera: key, base, frame: "0" });
+  img.src = `${base}/0`;
+  stills.push(img);
+  document.getElementById("cameras").append(el("figure", { class: "cam" }, img, el("figcaption", {}, text)));
+}
+
+function xOnTimeline(k) { return frames.length > 1 ? 1000 * k / (frames.length - 1) : 0; }
+
+// the slider with its counter, play/pause, and the quality spans on a strip under it
+function transport(spans) {
+  const slider = el("input", { type: "range", id: "frame", min: "0", max: String(frames.length - 1), value: "0" });
+  slider.setAttribute("aria-label", "frame");
+  slider.addEventListener("input", () => seek(Number(slider.value)));
+  const play = el("button", { id: "play", type: "button", disabled: leader === null }, "▶ play");
+  play.addEventListener("click", () => { if (leader.video.paused) leader.video.play(); else leader.video.pause(); });
+  const strip = document.createElementNS(SVG_NS, "svg");
+  for (const [k, v] of Object.entries({ id: "timeline", viewBox: "0 0 1000 12", preserveAspectRatio: "none" })) {
+    strip.setAttribute(k, v);
+  }
+  for (const s of spans) {
+    const a = Math.max(0, xOnTimeline(s.start_frame - 0.5)), b = Math.min(1000, xOnTimeline(s.end_frame + 0.5));
+    const rect = svgEl("rect", { class: `span check-${s.check}`, x: a, y: 0, width: Math.max(4, b - a), height: 12,
+      "data-check": s.check });
+    const title = svgEl("title");
+    title.textContent = spanText(s);
+    rect.append(title);
+    strip.append(rect);
+  }
+  strip.append(svgEl("line", { id: "timeline-cursor", x1: 0, x2: 0, y1: 0, y2: 12 }));
+  document.getElementById("transport").append(
+    el("div", { class: "controls" }, play, el("span", { id: "counter", class: "counter" })), slider, strip);
+}
+
+function findings(q) {
+  const list = document.getElementById("findings");
+  if (!q.computed) {
+    list.append(el("li", { class: "muted" }, "no quality table cached: `openral-data quality DATASET` computes it"));
+    return;
+  }
+  document.getElementById("flags").replaceChildren(...(q.flags.length ? q.flags.map((f) =>
+    el("span", { class: `badge bad check-${f}` }, f)) : [el("span", { class: "badge good" }, "no quality flag")]));
+  for (const s of q.spans) {
+    const go = el("button", { type: "button", class: `finding check-${s.check}` }, spanText(s));
+    go.addEventListener("click", () => seek(s.start_frame));
+    list.append(el("li", {}, go));
+  }
+}
+
+function header(info, near) {
+  document.getElementById("back").href = `/d/${ds}/${query()}`;
+  document.getElementById("back").textContent = `${info.dataset}: episodes${where ? " (filtered)" : ""}`;
+  document.title = `${info.dataset} · episode ${info.episode_index}`;
+  document.getElementById("title").textContent = `episode ${info.episode_index}`;
+  for (const side of ["previous", "next"]) {
+    const link = document.getElementById(side);
+    const to = near[side];
+    if (to === null) { link.removeAttribute("href"); link.classList.add("disabled"); continue; }
+    link.href = `/d/${ds}/episode/${to}${query()}`;
+    link.dataset.episode = String(to);
+    link.textContent = side === "previous" ? `← episode ${to}` : `episode ${to} →`;
+  }
+  document.getElementById("task").textContent = info.tasks.join(" / ");
+  const ok = info.success === null ? ["unknown", ""] : info.success ? ["success", "good"] : ["failure", "bad"];
+  const facts = [el("span", { class: `badge ${ok[1]}` }, ok[0]), el("span", { class: "badge" }, `${info.length} frames`),
+    el("span", { class: "badge" }, `${info.fps} fps`)];
+  if (info.seed !== null) facts.push(el("span", { class: "badge" }, `seed ${info.seed}`));
+  document.getElementById("facts").replaceChildren(...facts);
+  const results = Object.entries(info.results).map(([k, v]) => `${k} ${v === null ? "–" : v}`);
+  document.getElementById("results").textContent = results.join("; ");
+  rerun(info.rerun);
 }
 
 // a deeper look in rerun: the command that serves this episode in its web viewer, and a link to the viewer when
 // `browse --rerun-url` named one (it shows the episode its `view --serve` was started for)
 function rerun(r) {
   const div = document.getElementById("rerun");
-  if (r.url) {
-    const a = document.createElement("a");
-    a.href = r.url;
-    a.target = "_blank";
-    a.rel = "noopener";
-    a.textContent = "open in rerun's web viewer";
-    div.append(a);
+  if (r.url) div.append(el("a", { href: r.url, target: "_blank", rel: "noopener" }, "open in rerun's web viewer"));
+  div.append(el("pre", {}, r.command));
+}
+
+function keys(event) {
+  if (event.target instanceof HTMLInputElement && event.target.type !== "range") return;
+  if (event.target instanceof HTMLSelectElement || event.target instanceof HTMLButtonElement) return;
+  if (event.key === "ArrowRight" || event.key === "ArrowLeft") {
+    event.preventDefault();
+    seek(current + (event.key === "ArrowRight" ? 1 : -1));
+  } else if (event.key === " " && leader !== null) {
+    event.preventDefault();
+    if (leader.video.paused) leader.video.play(); else leader.video.pause();
   }
-  const pre = document.createElement("pre");
-  pre.textContent = r.command;
-  div.append(pre);
 }
 
 async function main() {
-  const info = await (await fetch(`/api/d/${ds}/episode/${ep}`)).json();
-  document.getElementById("back").href = `/d/${ds}/`;
-  document.getElementById("title").textContent = `${info.dataset}: episode ${info.episode_index}`;
-  document.getElementById("task").textContent = info.tasks.join(" / ");
-  const success = info.success === null ? "unknown" : String(info.success);
-  document.getElementById("facts").textContent =
-    `${info.length} frames at ${info.fps} fps; success: ${success}` + (info.seed === null ? "" : `; seed ${info.seed}`);
-  const results = Object.entries(info.results).map(([k, v]) => `${k} ${v === null ? "–" : v}`);
-  document.getElementById("results").textContent = results.join("; ");
-  rerun(info.rerun);
-  duration = Math.max((info.length - 1) / info.fps, 1e-6);  // frame k is at k / fps: the last at the right edge
-  let leader = null;
-  frames = { fps: info.fps, length: info.length };
+  const api = `/api/d/${ds}/episode/${ep}`;
+  const [info, data, near, q] = await Promise.all([api, `${api}/series`, `${api}/neighbours${query()}`,
+    `${api}/quality`].map((u) => fetch(u).then((r) => r.json())));
+  frames.fps = info.fps;
+  frames.length = info.length;
+  header(info, near);
   for (const cam of info.cameras) {
-    if (cam.depth) { depth(cam); continue; }
-    if (cam.picture !== undefined) { picture(cam); continue; }
-    const shown = camera(cam, leader);
-    if (leader === null) leader = shown;
+    if (cam.depth) {
+      const number = cam.url.split("/").pop();
+      still(`/d/${ds}/depth/${ep}/${number}`, cam.key, `${cam.key} (depth, ${cam.depth}; near bright, far dark)`, "depth");
+    } else if (cam.picture !== undefined) {
+      const what = cam.kind === "mask" ? "segmentation mask: one colour per object, background black" : "image frames";
+      still(`/d/${ds}/picture/${ep}/${cam.picture}`, cam.key, `${cam.key} (${what})`, cam.kind);
+    } else {
+      camera(cam);
+    }
   }
-  frameSlider(leader);
-  const data = await (await fetch(`/api/d/${ds}/episode/${ep}/series`)).json();
+  transport(q.spans);
+  findings(q);
   const features = [...new Set(data.series.map((s) => s.feature))];
-  for (const f of features) plot(f, data.series.filter((s) => s.feature === f), data.timestamps);
+  for (const f of features) {
+    const mine = q.spans.filter((s) => s.subject === "episode" || s.subject.startsWith(`${f}[`));
+    const p = new Plot(f, data.series.filter((s) => s.feature === f), frames.length, mine, seek);
+    document.getElementById("plots").append(p.box);
+    plots.push(p);
+    p.draw();
+  }
+  show(0);
+  let resized = null;
+  window.addEventListener("resize", () => {
+    clearTimeout(resized);
+    resized = setTimeout(() => plots.forEach((p) => p.draw()), 150);
+  });
+  document.addEventListener("keydown", keys);
   document.body.dataset.ready = "1";
 }
 main();

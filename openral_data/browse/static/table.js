@@ -5,7 +5,7 @@ const ds = location.pathname.split("/")[2];
 // the dataset's columns by these titles; a results folder's columns (browse DATASET RESULTS) as the server names them
 const TITLES = { episode_index: "episode", duration_s: "duration (s)" };
 let columns = [];
-const state = { where: "", sort: "episode_index", desc: false, offset: 0, limit: 50, total: 0 };
+const state = { where: new URLSearchParams(location.search).get("where") || "", sort: "episode_index", desc: false, offset: 0, limit: 50, total: 0 };
 const selected = new Set();
 
 function text(v) {
@@ -75,7 +75,8 @@ async function load() {
       const cell = document.createElement("td");
       if (key === "episode_index") {
         const a = document.createElement("a");
-        a.href = `/d/${ds}/episode/${row.episode_index}`;
+        // the episode page's previous/next then step through this filter's episodes
+        a.href = `/d/${ds}/episode/${row.episode_index}` + (state.where ? `?${new URLSearchParams({ where: state.where })}` : "");
         a.textContent = text(row[key]);
         cell.append(a);
       } else {
@@ -90,16 +91,19 @@ async function load() {
   commands();
 }
 
+// the commands for the ticked episodes the filter keeps: one ticked and then hidden by a --where is left out
 async function commands() {
-  const picked = [...selected].sort((a, b) => a - b);
-  document.getElementById("selected").textContent =
-    picked.length ? `selected: ${picked.join(", ")}` : "no episode selected";
-  const q = new URLSearchParams({ episodes: picked.join(","), where: state.where });
+  const ticked = [...selected].sort((a, b) => a - b);
+  const q = new URLSearchParams({ episodes: ticked.join(","), where: state.where });
   const r = await fetch(`/api/d/${ds}/commands?${q}`);
   const body = await r.json();
+  if (!r.ok) return;  // a bad --where: the table says why
+  let text = body.picked.length ? `selected: ${body.picked.join(", ")}` : "no episode selected";
+  if (body.hidden.length) text += ` (ticked but hidden by the filter, left out: ${body.hidden.join(", ")})`;
+  document.getElementById("selected").textContent = text;
   const div = document.getElementById("commands");
   div.replaceChildren();
-  for (const [name, command] of Object.entries(body)) {
+  for (const [name, command] of Object.entries(body.commands)) {
     const pre = document.createElement("pre");
     pre.id = `command-${name}`;
     pre.textContent = command;
@@ -119,6 +123,7 @@ document.getElementById("prev").addEventListener("click", () => {
 document.getElementById("next").addEventListener("click", () => {
   if (state.offset + state.limit < state.total) { state.offset += state.limit; load(); }
 });
+document.getElementById("where").value = state.where;
 fetch("/api/datasets").then((r) => r.json()).then((list) => {
   document.getElementById("title").textContent = `${list[ds].label}: episodes`;
 });

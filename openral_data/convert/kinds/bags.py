@@ -41,17 +41,21 @@ class BagKind(SourceKind[Path]):
         return StartingMapping(handle, "bag", guess.mapping, guess.notes, mapping_yaml(handle, guess))
 
     def plan(self, handle: Path, dst: Path, request: Request) -> Plan:
-        from openral_data.convert.own_bags import own_bags_mapping
         from openral_data.schemas.mapping import load_mapping
 
         if request.fps is not None:
             raise UsageError("--fps applies to array sources (HDF5, Zarr, RLDS); a bag's rate is its mapping's fps")
         if request.episodes is not None:
             raise UsageError("--episodes selects episodes of a LeRobot dataset; SRC is a bag")
-        bags = self.blocks(handle)
         given = request.mapping
-        mapping = load_mapping(given) if isinstance(given, Path) else given or own_bags_mapping(bags)
+        mapping = load_mapping(given) if isinstance(given, Path) else given or self.default_mapping(handle)
         return BagPlan(handle, dst, mapping, request)
+
+    def default_mapping(self, handle: Path) -> Mapping:
+        """The mapping without `--mapping`: our own bags' (their start markers)."""
+        from openral_data.convert.own_bags import own_bags_mapping
+
+        return own_bags_mapping(self.blocks(handle))
 
 
 class BagPlan(Plan):

@@ -4,7 +4,6 @@ their episodes as ROS 2 MCAP bags (`export_mcap`); they are not split (`--worker
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -18,10 +17,10 @@ from openral_data.convert.kinds.base import (
     no_starting_mapping,
 )
 from openral_data.errors import OpenralError, UsageError
+from openral_data.metrics.dataset_info import describe_dataset
 
 if TYPE_CHECKING:
     from openral_data.convert.to_mcap import ExportSummary
-    from openral_data.formats.lerobot_v3 import DatasetSummary
     from openral_data.formats.mcap import McapConfig
 
 
@@ -36,69 +35,6 @@ def codebase_version(path: Path) -> str | None:
         return None
     version = info.get("codebase_version") if isinstance(info, dict) else None
     return version if isinstance(version, str) else None
-
-
-@dataclass
-class DatasetInfo:
-    """`info DATASET`: the summary of a LeRobot dataset of any version, and its cached quality flags."""
-
-    path: Path
-    summary: DatasetSummary
-    quality: dict[str, int] | None  # episodes flagged per quality flag (`flag_counts`), None: not computed
-
-    def to_json(self) -> dict[str, Any]:
-        return {**self.summary.to_json(), "quality": self.quality}
-
-    def rows(self) -> list[tuple[str, str]]:
-        from openral_data.formats.lerobot_v3.reader import LEGACY_VERSIONS as legacy
-
-        s = self.summary
-        return [
-            ("episodes", str(s.episodes)),
-            ("frames", str(s.frames)),
-            ("fps", str(s.fps)),
-            ("duration", f"{s.frames / s.fps:.1f} s"),
-            ("cameras", ", ".join(s.cameras) or "-"),
-            ("tasks", "; ".join(s.tasks) or "-"),
-            ("robot", s.robot_type or "-"),
-            ("success rate", _success_cell(s)),
-            *([("format", f"LeRobot {s.codebase_version} (read in place)")] if s.codebase_version in legacy else []),
-            *([("missing", line.removeprefix("missing: "))] if s.missing and (line := s.missing.line()) else []),
-            ("quality", _quality_cell(self.quality)),
-        ]
-
-
-def describe_dataset(path: Path) -> DatasetInfo:
-    """`path` summarised as a LeRobot dataset (one line when it is none)."""
-    from openral_data.formats.dataset import summarize
-    from openral_data.metrics.quality import flag_counts
-    from openral_data.metrics.sources import open_dataset
-
-    summary = summarize(path)
-    try:
-        counts: dict[str, int] | None = flag_counts(open_dataset(path))
-    except OpenralError:
-        counts = None
-    return DatasetInfo(path, summary, counts)
-
-
-def _quality_cell(counts: dict[str, int] | None) -> str:
-    """`2 of 8 episodes flagged (idle 1, camera_black 1)`, else how to get one."""
-    if counts is None:
-        return "not computed (openral-data quality DATASET)"
-    from openral_data.metrics.quality import raised_text
-
-    raised = raised_text(counts)
-    return f"{counts['flagged']} of {counts['episodes']} episodes flagged" + (f" ({raised})" if raised else "")
-
-
-def _success_cell(s: DatasetSummary) -> str:
-    """`50.0% (1/2)` over the episodes whose success is known (and how many are not), `unknown (N episodes)` when
-    none is (never 0 %)."""
-    if s.success_rate is None:
-        return f"unknown ({s.episodes} episode{'' if s.episodes == 1 else 's'})"
-    unknown = s.episodes - s.success_known
-    return f"{s.success_rate:.1%} ({s.successes}/{s.success_known}" + (f", {unknown} unknown)" if unknown else ")")
 
 
 class LeRobotV3Kind(SourceKind[Path]):

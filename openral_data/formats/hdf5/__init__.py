@@ -1,5 +1,6 @@
 """HDF5 episode sources (h5py) in the `formats.episodic` protocol: the robomimic family (robomimic / robosuite,
-LIBERO, MimicGen / Isaac Lab recorder: `robomimic`) and ALOHA / ACT episode files (`aloha`).
+LIBERO, MimicGen / Isaac Lab recorder: `robomimic`), ALOHA / ACT episode files (`aloha`), D4RL's flat files
+(`d4rl`) and ManiSkill trajectories (`maniskill`, with their `.json`).
 
 `detect_hdf5(path)`: an HDF5 file, or a folder of them, as an `ArraySource` of the layout it holds (None when
 `path` holds no HDF5 at all; one line when it is HDF5 of no known layout, or the files of a folder differ).
@@ -12,10 +13,14 @@ from __future__ import annotations
 from collections.abc import Iterator
 from pathlib import Path
 
+import h5py
+
 from openral_data.errors import DatasetError
 from openral_data.formats.episodic import ArrayEpisode
 from openral_data.formats.hdf5.aloha import AlohaFolder, is_aloha
+from openral_data.formats.hdf5.d4rl import D4rlFile, is_d4rl
 from openral_data.formats.hdf5.files import HDF5_SUFFIXES, is_hdf5, natural_key, open_file
+from openral_data.formats.hdf5.maniskill import ManiSkillFile, is_maniskill
 from openral_data.formats.hdf5.robomimic import RobomimicFile, robomimic_layout
 
 __all__ = ["HDF5Source", "detect_hdf5", "hdf5_files"]
@@ -35,15 +40,25 @@ def hdf5_files(path: Path) -> list[Path]:
     return sorted(found, key=lambda p: natural_key(p.name))
 
 
+Opened = RobomimicFile | AlohaFolder | D4rlFile | ManiSkillFile
+
+
+def _file_layout(f: h5py.File) -> str | None:
+    if layout := robomimic_layout(f):
+        return layout
+    return "aloha" if is_aloha(f) else "d4rl" if is_d4rl(f) else "maniskill" if is_maniskill(f) else None
+
+
 def _layout(file: Path) -> str:
     f = open_file(file)
     try:
-        layout = robomimic_layout(f) or ("aloha" if is_aloha(f) else None)
+        layout = _file_layout(f)
         if layout is None:
-            top = ", ".join(sorted(f.keys())) or "-"
+            top = ", ".join(sorted(f.keys())[:20]) or "-"
             raise DatasetError(
                 f"{file}: /: HDF5 of no known layout (top level: {top}; known: robomimic/LIBERO/MimicGen "
-                "data/demo_N, ALOHA observations + action)",
+                "data/demo_N, ALOHA observations + action, D4RL observations + actions + terminals/timeouts, "
+                "ManiSkill traj_N)",
                 code="dataset.source.layout",
             )
         return layout
@@ -59,24 +74,33 @@ class HDF5Source:
         self.files = files
         self.layout = layout
         self.fps: float | None = None
-        self._current: RobomimicFile | AlohaFolder | None = None
+        self._current: Opened | None = None
         if layout != "aloha":
             first = self._open(files[0])
             self.fps = first.fps
             first.close()
 
-    def _open(self, file: Path) -> RobomimicFile | AlohaFolder:
+    def _open(self, file: Path) -> Opened:
         if self.layout == "aloha":
             return AlohaFolder(file, [file])
         f = open_file(file)
-        layout = robomimic_layout(f)
-        if layout != self.layout:
-            f.close()
-            raise DatasetError(
-                f"{file}: /: {layout or 'not robomimic-like'}, the first file is {self.layout}",
-                code="dataset.source.layout",
+        try:
+            layout = _file_layout(f)
+            if layout != self.layout:
+                raise DatasetError(
+                    f"{file}: /: {layout or 'no known layout'}, the first file is {self.layout}",
+                    code="dataset.source.layout",
+                )
+            return (
+                D4rlFile(file, f)
+                if layout == "d4rl"
+                else ManiSkillFile(file, f)
+                if layout == "maniskill"
+                else RobomimicFile(file, f, layout)
             )
-        return RobomimicFile(file, f, layout)
+        except BaseException:
+            f.close()
+            raise
 
     def episodes(self) -> Iterator[ArrayEpisode]:
         for file in self.files:

@@ -17,7 +17,14 @@ import numpy.typing as npt
 
 from openral_data.errors import DatasetError
 from openral_data.formats.episodic import ArraySpec, Encoding, EpisodeMeta
-from openral_data.formats.hdf5.files import attr_scalar, episode_specs, member, open_file, read_key, walk_datasets
+from openral_data.formats.hdf5.files import (
+    attr_scalar,
+    episode_specs,
+    open_file,
+    read_key,
+    rows_of,
+    walk_datasets,
+)
 
 IMAGES = "observations/images"
 
@@ -34,10 +41,7 @@ class AlohaEpisode:
     def __init__(self, path: Path, f: h5py.File) -> None:
         self.file = path
         self.f = f
-        action = member(f, "action", path)
-        if not isinstance(action, h5py.Dataset) or not action.shape:
-            raise DatasetError(f"{path}: action: not an array of rows", code="dataset.source.shape")
-        self.length = int(action.shape[0])
+        self.length = rows_of(f, "action", path)
         self.compressed = bool(attr_scalar(f, "compress"))
         self.meta = EpisodeMeta(None, {"sim": bool(attr_scalar(f, "sim")), "compress": self.compressed})
         self._specs: dict[str, ArraySpec] | None = None

@@ -81,6 +81,15 @@ def member(group: h5py.Group, key: str, file: Path) -> Any:
         ) from None
 
 
+def rows_of(group: h5py.Group, key: str, file: Path) -> int:
+    """The row count of the dataset `group[key]` (what an episode's length is read from); one line when it is
+    missing or not an array of rows."""
+    ds = member(group, key, file)
+    if not isinstance(ds, h5py.Dataset) or not ds.shape:
+        raise DatasetError(f"{file}: {_join(group.name, key)}: not an array of rows", code="dataset.source.shape")
+    return int(ds.shape[0])
+
+
 def _join(parent: str, key: str) -> str:
     return f"{parent.rstrip('/')}/{key}".lstrip("/") or "/"
 

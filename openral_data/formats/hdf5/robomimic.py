@@ -1,6 +1,7 @@
 """The robomimic layout and the ones built on it: robomimic / robosuite (`data/demo_N/{obs/*, actions, states,
 rewards, dones}`, `data.attrs["env_args"]` JSON), LIBERO (the same plus `data.attrs["problem_info"]` JSON with
 `language_instruction`) and MimicGen / Isaac Lab's recorder (`data/demo_N/...` with an `initial_state` group).
+A demo's ``ep_meta`` JSON attribute (RoboCasa, robomimic 0.5) gives its own language instruction (``lang``).
 
 An episode is one `demo_N` group (in natural order: demo_2 before demo_10); its per-step arrays are every dataset
 under it (nested groups as slash paths: `obs/agentview_image`, `states/articulation/robot/joint_position`) but
@@ -131,10 +132,19 @@ class RobomimicFile:
             group = member(self.data, key, self.path)
             if not isinstance(group, h5py.Group):
                 raise DatasetError(f"{self.path}: data/{key}: not a group", code="dataset.source.invalid")
-            yield RobomimicEpisode(self.path, group, EpisodeMeta(self.language(), dict(meta_attrs), split=split))
+            language = _demo_language(group, self.path) or self.language()
+            yield RobomimicEpisode(self.path, group, EpisodeMeta(language, dict(meta_attrs), split=split))
 
     def close(self) -> None:
         self.f.close()
+
+
+def _demo_language(group: h5py.Group, path: Path) -> str | None:
+    """A demo's own language instruction: ``ep_meta`` JSON's ``lang`` (RoboCasa's and robomimic 0.5's per-demo
+    metadata; `export --to robomimic` writes it too), None when it has none."""
+    meta = json_attr(group, "ep_meta", path)
+    text = meta.get("lang") if isinstance(meta, dict) else None
+    return text.strip() if isinstance(text, str) and text.strip() else None
 
 
 def split_order(f: h5py.File, demos: list[str], path: Path) -> list[tuple[str, str | None]]:

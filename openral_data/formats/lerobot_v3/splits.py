@@ -8,6 +8,8 @@ from __future__ import annotations
 import json
 from typing import Any
 
+from openral_data.errors import DatasetError
+
 SPLIT = "split"  # the key of an episode's initial_state naming its source split
 
 
@@ -46,4 +48,20 @@ def splits_of(rows: list[dict[str, Any]]) -> dict[str, str]:
             k += 1
             key = f"{split}_{k}"
         out[key] = f"{start}:{end}"
+    return out
+
+
+def range_splits(splits: object, where: str) -> dict[str, range]:
+    """info.json's `splits` (None: none) as split name -> its range of episode indices; a value that is not
+    ``"start:end"`` (0 <= start <= end) is one line naming `where`."""
+    if splits is None:
+        return {}
+    if not isinstance(splits, dict):
+        raise DatasetError(f"{where}: not a mapping of split names to 'start:end'", code="dataset.invalid")
+    out: dict[str, range] = {}
+    for name, span in splits.items():
+        start, sep, end = str(span).partition(":")
+        if not (sep and start.strip().isdigit() and end.strip().isdigit() and int(start) <= int(end)):
+            raise DatasetError(f"{where}: {name}: {span!r} is not 'start:end'", code="dataset.invalid")
+        out[str(name)] = range(int(start), int(end))
     return out

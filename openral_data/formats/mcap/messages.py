@@ -265,6 +265,8 @@ def decode_image(msg: Any, msgtype: str) -> npt.NDArray[np.uint8]:
     channels = RGB_ENCODINGS.get(enc)
     if channels is None:
         raise ValueError(f"unsupported image encoding {msg.encoding!r} ({', '.join(RGB_ENCODINGS)})")
+    if min(h, w) < 1 or step < w * channels or raw.size != h * step:
+        raise ValueError(f"{w}x{h} {msg.encoding} image with step {step} has {raw.size} bytes")
     rows: npt.NDArray[np.uint8] = raw.reshape(h, step)[:, : w * channels].reshape(h, w, channels)
     if enc == "mono8":
         return np.ascontiguousarray(np.repeat(rows, 3, axis=2))

@@ -17,7 +17,7 @@ from openral_data.errors import DatasetError
 from openral_data.formats.episodic import ArraySpec, Encoding
 
 # the proto list each TFDS dtype is serialized into
-_LISTS = {
+PROTO_LISTS = {
     "bool": "int64_list",
     "int8": "int64_list",
     "int16": "int64_list",
@@ -97,14 +97,14 @@ def _leaf(node: Any, key: str, path: Path, per_step: bool) -> Leaf:
     if not isinstance(tensor, dict):
         raise DatasetError(f"{where}: feature kind {_class(node) or '?'} is not read", code="dataset.unsupported")
     dtype = str(tensor.get("dtype"))
-    if dtype not in _LISTS or str(tensor.get("encoding", "none")) != "none":
+    if dtype not in PROTO_LISTS or str(tensor.get("encoding", "none")) != "none":
         raise DatasetError(f"{where}: tensor of dtype {dtype}, encoding {tensor.get('encoding')} is not read",
                            code="dataset.unsupported")  # fmt: skip
     shape = _shape(tensor, where)
     if -1 in shape:
         raise DatasetError(f"{where}: variable-length tensor {list(shape)} is not read", code="dataset.unsupported")
     spec_dtype = "bytes" if dtype == "string" else dtype
-    return Leaf(ArraySpec(key, spec_dtype, shape), _LISTS[dtype], per_step)
+    return Leaf(ArraySpec(key, spec_dtype, shape), PROTO_LISTS[dtype], per_step)
 
 
 def _shape(node: dict[str, Any], where: str) -> tuple[int, ...]:

@@ -1,5 +1,7 @@
 """TFRecord files read record by record, and the `tf.train.Example` message declared here (no TensorFlow).
 
+Written the same way (`framed`, `serialize_example`) by `writer`, the RLDS export.
+
 A TFRecord file is a sequence of records, each ``uint64 length, uint32 masked_crc32c(length), bytes data[length],
 uint32 masked_crc32c(data)`` (little-endian; tensorflow/core/lib/io/record_writer.cc). Both checksums are
 verified. A record longer than `MAX_RECORD_BYTES` is refused before it is read, so memory is bounded by one record
@@ -11,7 +13,7 @@ core/example/example.proto and feature.proto (field numbers and types as there),
 from __future__ import annotations
 
 import struct
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -118,3 +120,19 @@ def parse_example(data: bytes, where: str) -> dict[str, Any]:
             raise DatasetError(f"{where}: {key}: {count} {what}, over the {limit}-{what[:-1]} limit",
                                code="dataset.source.shape")  # fmt: skip
     return features
+
+
+def framed(data: bytes) -> bytes:
+    """`data` as one TFRecord record: its length, the length's masked CRC, the data, the data's masked CRC."""
+    head = struct.pack("<Q", len(data))
+    return head + struct.pack("<I", masked_crc(head)) + data + struct.pack("<I", masked_crc(data))
+
+
+def serialize_example(features: Mapping[str, tuple[str, Sequence[Any]]]) -> bytes:
+    """A `tf.train.Example` of `features` (key -> (proto list: bytes_list, float_list or int64_list, values)),
+    serialized deterministically (its map in key order)."""
+    example = _EXAMPLE()
+    for key, (kind, values) in features.items():
+        getattr(example.features.feature[key], kind).value.extend(values)
+    data: bytes = example.SerializeToString(deterministic=True)
+    return data

@@ -1,6 +1,7 @@
 """Where a dataset's quality table is kept, and whether it still holds.
 
-The table is cached as parquet with a key in its schema metadata: a sha256 over the thresholds and the (path,
+The table is cached as parquet with a key in its schema metadata: a sha256 over the thresholds, the kind of data
+(`thresholds.data_kind`, which adjusts them) and the (path,
 size, mtime, inode) of every file `formats.lerobot_v3.digests` tracks (info.json, stats.json, tasks, the
 episodes and data parquet files, the mp4s); the camera stride is kept beside it. Any write to the data changes
 one of those, and the table is computed again; an unchanged dataset is never read twice. Stat rather than
@@ -30,7 +31,7 @@ from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import digests
 from openral_data.formats.parquetfile import read_table
 from openral_data.metrics.quality.table import SCHEMA
-from openral_data.metrics.quality.thresholds import Thresholds
+from openral_data.metrics.quality.thresholds import Thresholds, data_kind
 
 # of the measures: a change to how they are computed bumps it, so older tables are recomputed (2: image cameras;
 # 3: findings, and frozen/jerky/clipped measured anew)
@@ -67,7 +68,7 @@ def fingerprint(root: Path, th: Thresholds) -> str:
             stats.append([str(path.relative_to(root)), exc.errno])
             continue
         stats.append([str(path.relative_to(root)), st.st_size, st.st_mtime_ns, st.st_ino])
-    text = json.dumps({"version": VERSION, "thresholds": th.as_json(), "files": stats})
+    text = json.dumps({"version": VERSION, "thresholds": th.as_json(), "kind": data_kind(root), "files": stats})
     return hashlib.sha256(text.encode()).hexdigest()
 
 

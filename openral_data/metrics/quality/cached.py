@@ -14,7 +14,7 @@ from openral_data.formats.write_errors import write_error
 from openral_data.metrics.quality import cache
 from openral_data.metrics.quality.compute import Progress, Rows, Sink, camera_pass, motion_pass
 from openral_data.metrics.quality.table import FRAME_SCHEMA, SAMPLE_SCHEMA, finish
-from openral_data.metrics.quality.thresholds import DEFAULT, DEFAULT_STRIDE, Thresholds
+from openral_data.metrics.quality.thresholds import DEFAULT, DEFAULT_STRIDE, Thresholds, data_kind, for_kind
 from openral_data.metrics.sources import DatasetSource, open_dataset
 
 
@@ -40,6 +40,8 @@ def quality_of(
     if table is not None:
         return Quality(table, paths, computed=False)
     stride = DEFAULT_STRIDE if stride is None else stride
+    kind = data_kind(ds.root)
+    th = for_kind(th, kind)
     meta = cache.metadata(key, stride)
     rows: Rows = {}
     cameras: list[bool] = []
@@ -58,7 +60,7 @@ def quality_of(
             paths.camera_frames,
             streamed(SAMPLE_SCHEMA, lambda sink: cameras.append(camera_pass(ds, rows, stride, th, sink, progress))),
         )
-        table, findings = finish(rows, stride, has_cameras=cameras[0])
+        table, findings = finish(rows, stride, kind, th, has_cameras=cameras[0])
         table = table.replace_schema_metadata(meta)
         batch.write_with(paths.findings, atomic.parquet_writer(findings.replace_schema_metadata(meta)))
         batch.write_with(paths.episodes, atomic.parquet_writer(table))  # last: it makes the others count

@@ -22,8 +22,9 @@ from openral_data.formats.lerobot_v3.features import ACTION, STATE
 from openral_data.formats.lerobot_v3.frames import decode_episode_video, depth_settings
 from openral_data.formats.lerobot_v3.reader import read_episodes
 from openral_data.formats.parquetfile import read_table
+from openral_data.metrics.quality import breadth
 from openral_data.metrics.quality.camera import MEASURES as CAMERA_MEASURES
-from openral_data.metrics.quality.camera import camera_quality
+from openral_data.metrics.quality.camera import CameraQuality, camera_quality, stalled
 from openral_data.metrics.quality.episode import FINDINGS, Array, Ranges, episode_motion
 from openral_data.metrics.quality.findings import Finding
 from openral_data.metrics.quality.pictures import ImageColumns, picture_cameras
@@ -118,6 +119,7 @@ def episode_cameras(
     raised: list[str] = []
     firsts: list[int] = []
     found: list[Finding] = []
+    seen: dict[str, CameraQuality] = {}
     for key in rgb_cameras(ds):
         frames = (
             images.frames(row, key, stride)
@@ -126,6 +128,7 @@ def episode_cameras(
         )
         q = camera_quality(frames, stride, th)
         found += q.findings(key, th, stride, int(row["length"]))
+        seen[key] = q
         for measure in CAMERA_MEASURES:
             worst[measure] = max(worst[measure], q.share(measure))
             if q.share(measure) >= th.camera_flag:
@@ -134,6 +137,7 @@ def episode_cameras(
             firsts.append(first)
         records = [{"episode_index": int(row["episode_index"]), "camera": key, **asdict(s)} for s in q.samples]
         samples(pa.Table.from_pylist(records, schema=SAMPLE_SCHEMA))
+    found += stalled(seen, th, stride, int(row["length"]))
     measures = {
         **{f"camera_{m}_fraction": v for m, v in worst.items()},
         "camera_first_black": min(firsts, default=None),
@@ -153,6 +157,7 @@ def camera_pass(
         e = int(row["episode_index"])
         if e not in rows:
             raise DatasetError(f"{ds.root}: episode {e}: no frames in data/", code="dataset.invalid")
+        rows[e][FINDINGS] += breadth.task_text([t for t in row.get("tasks") or [] if isinstance(t, str)])
         if cameras and int(row["length"]):
             measures, found = episode_cameras(ds, row, stride, th, samples, images)
             rows[e].update(measures)

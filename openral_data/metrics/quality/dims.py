@@ -34,17 +34,27 @@ def moves(x: Array, a: int, b: int) -> Mask:
 
 
 def frozen_state(
-    x: Array, names: list[str], varies: Mask, commands: dict[int, Array], min_frames: int, feature: str
+    x: Array,
+    limits: tuple[Array, Array],
+    names: list[str],
+    varies: Mask,
+    commands: dict[int, Array],
+    min_frames: int,
+    feature: str,
 ) -> list[Finding]:
-    """State dimensions (varying in the dataset, `varies`) holding one exact value for `min_frames` frames or
-    more while they should move: the action dimension of the same name moved over that span (`commands`: state
-    dim -> that action column), else, without one, another state dimension did. A sensor read by physics or an
-    encoder never repeats itself bit for bit while the arm moves: a stale reading does."""
+    """State dimensions (varying in the dataset, `varies`) that take more than one value in the episode and hold
+    one exact value for `min_frames` frames or more while they should move: the action dimension of the same
+    name moved over that span (`commands`: state dim -> that action column), else, without one, another state
+    dimension did. A sensor read by physics or an encoder never repeats itself bit for bit while the arm moves:
+    a stale reading does. A value held on the dimension's observed min or max is a limit (`clipped` when a flat
+    top), not a stale reading."""
     out: list[Finding] = []
     hold = held(x)
     for d in np.flatnonzero(varies):
         spans = []
         for a, b in constant_runs(hold[:, d], min_frames):
+            if (a == 0 and b == len(x) - 1) or x[a, d] in (limits[0][d], limits[1][d]):
+                continue  # one value all along: unused in this episode (`constant`); on a limit: not stale
             command = commands.get(int(d))
             if command is not None:
                 moving = bool(np.nanmax(command[a : b + 1]) > np.nanmin(command[a : b + 1]))

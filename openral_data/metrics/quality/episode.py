@@ -10,7 +10,7 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.formats.lerobot_v3.features import ACTION, STATE
-from openral_data.metrics.quality import dims, motion, timing
+from openral_data.metrics.quality import breadth, dims, motion, timing
 from openral_data.metrics.quality.findings import Finding, dim_subject, runs, span_findings
 from openral_data.metrics.quality.thresholds import Thresholds
 from openral_data.metrics.sources import DatasetSource
@@ -18,6 +18,7 @@ from openral_data.metrics.sources import DatasetSource
 Array = npt.NDArray[np.float64]
 Ranges = dict[str, tuple[Array, Array]]
 FINDINGS = "finding_list"  # the key of a row's findings (not a column: `table.finish` writes them apart)
+DIGEST, LENGTH = "content_digest", "length"  # keys `table.finish` compares across episodes, then drops
 
 
 @dataclass(frozen=True)
@@ -62,9 +63,7 @@ def vector_findings(
         commands = {d: arrays[ACTION][:, action_names.index(nm)] for d, nm in enumerate(names) if nm in action_names}
         tops = dims.at_extremes(x, lo, hi, moving, th.clip_plateau, interior=True)
         share = dims.share_of(tops, n)
-        clipped = {(dim_subject(key, names[d]), a) for d, spans in tops.items() for a, _ in spans}
-        frozen = dims.frozen_state(x, names, varies, commands, th.frozen_min_frames, key)
-        found += [f for f in frozen if (f.subject, f.start_frame) not in clipped]  # held on a limit: clipped
+        found += dims.frozen_state(x, (lo, hi), names, varies, commands, th.frozen_min_frames, key)
         for d, spans in tops.items():
             subject = dim_subject(key, names[d])
             found += span_findings("clipped", subject, spans, share, th.clip_flag, share >= th.clip_flag)
@@ -74,6 +73,10 @@ def vector_findings(
         for d, spans in tops.items():
             found += span_findings("saturated", dim_subject(key, names[d]), spans, share, None, False)
     trajectory = motion.normalised(x[:, varies], lo[varies], hi[varies])
+    if key == STATE:
+        found += breadth.teleports(trajectory, [names[d] for d in moving], key, th)
+    found += breadth.non_finite(x, names, key) + breadth.quaternions(x, names, key, th)
+    found += breadth.angle_wraps(x, names, key) + breadth.duplicated(x, names, key)
     return found, (share if moving and n else None), trajectory, [names[d] for d in moving]
 
 
@@ -151,5 +154,7 @@ def episode_motion(
         "timestamp_jitter": timing.jitter(steps, th.gap_frames),
         "timestamp_gaps": timing.gaps(steps, th.gap_frames),
         FINDINGS: found,
+        DIGEST: breadth.digest(arrays),
+        LENGTH: n,
     }
     return row, PerFrame(speed.get(STATE), speed.get(ACTION), idle)

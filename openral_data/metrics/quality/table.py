@@ -7,9 +7,11 @@ from typing import Any
 
 import pyarrow as pa
 
+from openral_data.metrics.quality import breadth
 from openral_data.metrics.quality.camera import MEASURES as CAMERA_MEASURES
-from openral_data.metrics.quality.episode import FINDINGS
+from openral_data.metrics.quality.episode import DIGEST, FINDINGS, LENGTH
 from openral_data.metrics.quality.findings import FINDING_SCHEMA, Finding, finding_rows, flagged_checks, labels
+from openral_data.metrics.quality.thresholds import Thresholds
 
 MEASURES = pa.schema(
     [
@@ -29,6 +31,7 @@ MEASURES = pa.schema(
         ("camera_first_black", pa.int64()),
         ("camera_flags", pa.list_(pa.string())),
         ("camera_stride", pa.int64()),
+        ("data_kind", pa.string()),
     ]
 )
 FRAME_SCHEMA = pa.schema(
@@ -48,12 +51,16 @@ SAMPLE_SCHEMA = pa.schema(
         ("luma", pa.float64()),
         ("change", pa.float64()),
         ("sharpness", pa.float64()),
+        ("contrast", pa.float64()),
         *((m, pa.bool_()) for m in CAMERA_MEASURES),
     ]
 )
 FLAGS = (
     *("idle", "frozen", "jerky", "chatter", "clipped", "jitter", "gap"),
     *(f"camera_{m}" for m in CAMERA_MEASURES),
+    "camera_stalled",
+    *("non_finite", "quat_flip", "quat_norm", "angle_wrap", "teleport", "duplicated"),
+    *("task_text", "duplicate_episode", "length_outlier"),
 )
 SCHEMA = pa.schema(
     [
@@ -72,13 +79,18 @@ def raised(findings: list[Finding]) -> dict[str, bool]:
     return {f: f in on for f in FLAGS}
 
 
-def finish(rows: dict[int, dict[str, Any]], stride: int, *, has_cameras: bool) -> tuple[pa.Table, pa.Table]:
+def finish(
+    rows: dict[int, dict[str, Any]], stride: int, kind: str, th: Thresholds, *, has_cameras: bool
+) -> tuple[pa.Table, pa.Table]:
     """The episodes' table of `rows` (episode -> measures and findings), flags added, in episode order, and the
-    findings' table."""
+    findings' table; `kind`: the kind of data whose thresholds were used (`thresholds.data_kind`)."""
     out, found = [], []
+    across = breadth.duplicates({e: r.pop(DIGEST) for e, r in rows.items()})
+    for e, more in breadth.length_outliers({e: r.pop(LENGTH) for e, r in rows.items()}, th).items():
+        across[e] = across.get(e, []) + more
     for e in sorted(rows):
-        row = {"episode_index": e, **rows[e], "camera_stride": stride if has_cameras else None}
-        findings: list[Finding] = row.pop(FINDINGS)
+        row = {"episode_index": e, **rows[e], "camera_stride": stride if has_cameras else None, "data_kind": kind}
+        findings: list[Finding] = row.pop(FINDINGS) + across.get(e, [])
         if not has_cameras:
             row.update({f"camera_{m}_fraction": None for m in CAMERA_MEASURES} | {"camera_flags": []})
         flags = raised(findings)

@@ -9,9 +9,11 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, fields, replace
+from pathlib import Path
 from typing import Any
 
-from openral_data.errors import UsageError
+from openral_data.errors import OpenralError, UsageError
+from openral_data.formats.lerobot_v3.provenance import read_provenance
 
 
 @dataclass(frozen=True)
@@ -29,11 +31,16 @@ class Thresholds:
     clip_flag: float = 0.1  # `clipped` when this share of the frames is clipped
     gap_frames: float = 1.5  # a timestamp step longer than this many frame periods (or not forward) is a gap
     jitter_flag: float = 0.25  # `jitter` when a step (gaps aside) is off 1/fps by more than this many periods
-    black_luma: float = 16.0  # a sampled camera frame is black below this mean luma (0-255)...
+    black_luma: float = 10.0  # a sampled camera frame is black below this mean luma (0-255)...
     saturated_luma: float = 240.0  # ... saturated above this one
     frozen_diff: float = 0.5  # ... frozen when its mean absolute luma difference to the previous sample is below
     blur_var: float = 10.0  # ... blurred when the variance of its Laplacian is below this
+    flat_std: float = 4.0  # ... and neither frozen nor blurred when flat: its luma's standard deviation below this
     camera_flag: float = 0.1  # a camera flag is raised when this share of the sampled frames has the fault
+    quat_norm: float = 0.05  # `quat_norm`: a quaternion whose norm is off 1 by more than this
+    teleport_step: float = 0.5  # `teleport`: a state dimension moving more than this share of its range in a frame
+    teleport_factor: float = 10.0  # ... and more than this many times its median step in the episode
+    length_ratio: float = 4.0  # `length_outlier`: an episode this many times longer or shorter than the median
 
     def as_json(self) -> dict[str, Any]:
         return asdict(self)
@@ -41,6 +48,44 @@ class Thresholds:
 
 DEFAULT = Thresholds()
 DEFAULT_STRIDE = 5  # every 5th frame of each camera is measured (all frames are decoded, codecs need them)
+
+# Who made the data (`data_kind`) and the thresholds that differ for it. A person's hand trembles and pauses; a
+# random policy's actions are noise by construction (reversals and gripper toggles are what it is, not a fault);
+# a scripted expert and a trained policy take the defaults.
+KINDS: dict[str, dict[str, float | int]] = {
+    "default": {},
+    "scripted": {"idle_flag": 0.125, "teleport_step": 0.125},  # calibrated (benchmarks/calibrate_quality.py)
+    "policy": {},
+    "person": {"jerk_reversal_share": 0.6, "idle_flag": 0.15, "teleport_step": 1.0},  # calibrated
+    "random": {"jerk_min_reversals": 10**9, "chatter_min_toggles": 10**9},
+}
+SCRIPTED = ("scripted", "metaworld_expert", "sweep", "zero", "mimicgen")  # rSkill policies that follow a script
+
+
+def data_kind(root: Path) -> str:
+    """The kind of data `root` holds, from its provenance (meta/openral.json, the recorded rSkill's `policy`):
+    `scripted`, `person` (teleoperation), `random`, `policy`; `default` without one (a foreign dataset: our
+    provenance is an extra, never a precondition)."""
+    try:
+        provenance = read_provenance(root)
+    except OpenralError:
+        return "default"
+    origin = provenance.origin if provenance is not None else None
+    config = origin.rskill.config if origin is not None and origin.rskill is not None else None
+    policy = config.get("policy") if config is not None else None
+    if not isinstance(policy, str):
+        return "default"
+    if policy == "teleop":
+        return "person"
+    if policy == "random":
+        return "random"
+    return "scripted" if policy.startswith(SCRIPTED) else "policy"
+
+
+def for_kind(th: Thresholds, kind: str) -> Thresholds:
+    """`th` with `kind`'s thresholds where `th` keeps the default (a value the user set wins)."""
+    changes = {k: v for k, v in KINDS.get(kind, {}).items() if getattr(th, k) == getattr(DEFAULT, k)}
+    return replace(th, **changes)  # type: ignore[arg-type]  # KINDS' values have their fields' types
 
 
 def parse_thresholds(pairs: Sequence[str], base: Thresholds = DEFAULT) -> Thresholds:

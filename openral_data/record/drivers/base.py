@@ -28,12 +28,13 @@ class DriveContext:
     fps: int
     show: Callable[[str], None] | None = None  # the person's status lines (None: the run is quiet)
     checkpoint: PolicyCheckpoint | None = None  # `--policy`: checked against the HAL before it loads
+    teleop_gain: float = 1.0  # `--teleop-gain`: a person's device moves this many times its default step
 
 
 class Driver(ABC):
     listener: Callable[[str], None] | None = None  # the keys a keyboard operator passes on (keys, `t`)
     device: DeviceTeleop | None = None  # an end-effector device: its buttons give the operator's verdicts too
-    help: str | None = None  # said once with the operator's keys: how a person takes over
+    help: str | None = None  # said once with the operator's keys: the device's controls, how a person takes over
     takeover: bool = False  # the frames carry the intervention columns (policies/intervention.py)
 
     def __init__(self, ctx: DriveContext) -> None:

@@ -19,7 +19,7 @@ def open_device(driver: Driver, choice: DriverChoice, stack: ExitStack) -> Teleo
     a device read on its own thread also gives verdicts with its buttons (`device`)."""
     assert choice.device is not None  # PERSON, TAKEOVER
     ctx, takeover = driver.ctx, choice.kind is DriverKind.TAKEOVER
-    request = DeviceRequest(choice.node, ctx.rskill, ctx.rskill_src, ctx.show, takeover)
+    request = DeviceRequest(choice.node, ctx.rskill, ctx.rskill_src, ctx.show, takeover, ctx.teleop_gain)
     teleop = choice.device.open(request)
     stack.callback(teleop.close)
     if isinstance(teleop, KeyboardTeleop):
@@ -35,6 +35,7 @@ class PersonDriver(Driver):
         assert choice.device is not None
         self.device_name = choice.device.name
         self.teleop = open_device(self, choice, stack)
+        self.help = choice.device.keys  # the device's controls, said before episode 0
 
     def policy(self, hal: HalBase) -> PolicyAdapter:
         return self.teleop

@@ -6,7 +6,6 @@ from __future__ import annotations
 from contextlib import ExitStack
 
 from openral_data.policies.base import PolicyAdapter
-from openral_data.policies.intervention import HELP as KEYBOARD_TAKEOVER_HELP
 from openral_data.policies.intervention import Intervention, TakeoverSwitch, device_switch, takeover_help
 from openral_data.producers.hal.robots.base import HalBase
 from openral_data.record.drivers.base import DriveContext, Driver, policy_name
@@ -29,7 +28,7 @@ class TakeoverDriver(Driver):
         else:  # the takeover key goes to the switch, the other keys through it to the teleoperator
             self.switch = TakeoverSwitch(self.listener, control)
             self.listener = self.switch.feed
-        self.help = KEYBOARD_TAKEOVER_HELP if choice.terminal else takeover_help(control)
+        self.help = " · ".join(filter(None, (takeover_help(control), choice.device.keys)))
 
     def policy(self, hal: HalBase) -> PolicyAdapter:
         return Intervention(self.ctx.make_policy(self.ctx.rskill), self.teleop, self.switch, show=self.ctx.show)

@@ -34,17 +34,21 @@ def resolve_counts(opts: RecordOptions) -> tuple[int, int]:
 
 
 def plan(opts: RecordOptions, workers: int, workdir: Path, threads: int | None = None) -> list[WorkerJob]:
-    """Split episodes 0..n-1 (seeds seed..seed+n-1) into at most `workers` contiguous, near-equal blocks."""
+    """Split episodes 0..n-1 (seeds seed..seed+n-1) into at most `workers` contiguous, near-equal blocks; with a
+    `keep_target` (n: the attempts' cap) each block keeps its near-equal share of the target."""
     check_workers(workers)
     n, seed = resolve_counts(opts)
     jobs: list[WorkerJob] = []
-    for w, block in enumerate(contiguous_blocks(n, workers)):
+    blocks = contiguous_blocks(n, workers)
+    targets = [len(b) for b in contiguous_blocks(opts.keep_target, len(blocks))] if opts.keep_target else []
+    for w, block in enumerate(blocks):
         share = dataclasses.replace(
             opts,
             out=worker_dir(workdir, w),
             seed=seed + block.start,
             n_episodes=len(block),
             first_episode=block.start,
+            keep_target=(targets[w] if w < len(targets) else 0) if opts.keep_target else None,
             check_first=False,  # the merged dataset is checked when it is published (formats/staging)
         )
         jobs.append(WorkerJob(w, share, threads))

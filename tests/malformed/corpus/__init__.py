@@ -6,13 +6,24 @@ A case is (id, build, names, new): `build(w)` makes the bad input under `w.root`
 afterwards. Everything else under `w.root` must be byte-identical before and after.
 
 The cases are grouped by the kind of damage: `yaml_files`, `datasets` (datasets, replay results, repair targets),
-`options`, `outputs`, `bags`, `hdf5`, `array_sources` (Zarr, RLDS), `checkpoints`; each adds its cases to `CASES`
-(`cases.case`) when imported.
+`options`, `outputs`, `bags`, `foreign_mcap` (MCAP of other profiles), `hdf5`, `array_sources` (Zarr, RLDS),
+`offline` (D4RL, Minari, ManiSkill), `checkpoints`; each adds its cases to `CASES` (`cases.case`) when imported.
 """
 
-from tests.malformed.corpus import array_sources, bags, checkpoints, datasets, hdf5, options, outputs, yaml_files
+from tests.malformed.corpus import (
+    array_sources,
+    bags,
+    checkpoints,
+    datasets,
+    foreign_mcap,
+    hdf5,
+    offline,
+    options,
+    outputs,
+    yaml_files,
+)
 from tests.malformed.corpus.cases import CASES, Case
 
-PARTS = (yaml_files, datasets, options, outputs, bags, hdf5, array_sources, checkpoints)
+PARTS = (yaml_files, datasets, options, outputs, bags, foreign_mcap, hdf5, array_sources, checkpoints, offline)
 
 __all__ = ["CASES", "PARTS", "Case"]

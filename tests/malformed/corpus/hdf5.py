@@ -123,6 +123,11 @@ _hdf5_case(
     lambda w: _robomimic(w, lambda f: f["data"].attrs.__setitem__("env_args", "{not json")),
     r"demo\.hdf5: data/attrs\.env_args",
 )
+_hdf5_case(
+    "hdf5-bad-ep-meta",
+    lambda w: _robomimic(w, lambda f: f["data/demo_1"].attrs.__setitem__("ep_meta", "{not json")),
+    r"demo\.hdf5: data/demo_1/attrs\.ep_meta",
+)
 _hdf5_case("hdf5-aloha-bad-jpeg-row", _bad_jpeg, r"episode_0\.hdf5: observations/images/top: step 1", "--fps", "50")
 _hdf5_case("hdf5-aloha-no-fps", lambda w: write_aloha(w.path("aloha/x").parent, lengths=(3,)), r"aloha: fps")
 _hdf5_case("hdf5-aloha-missing-action", _aloha_without_action, r"episode_0\.hdf5: action: missing", "--fps", "50")

@@ -37,6 +37,7 @@ class DeviceRequest:
     source: str
     show: Callable[[str], None] | None = None
     takeover: bool = False
+    gain: float = 1.0  # `record --teleop-gain`: the device's motion per press / deflection, scaled
 
 
 @dataclass(frozen=True)
@@ -46,3 +47,4 @@ class TeleopDevice:
     takeover_control: str  # the key or button that takes over from a policy and hands back
     takes_node: bool = False  # `NAME=NODE` names the device's node (else the first one found)
     terminal: bool = False  # fed by the operator's terminal: the operator keys come from the same terminal
+    keys: str | None = None  # its controls, said at the prompt before episode 0 (and in docs/hal.md)

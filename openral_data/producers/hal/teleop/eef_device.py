@@ -23,7 +23,7 @@ import os
 import stat
 import threading
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Protocol
 
@@ -34,7 +34,8 @@ from openral_data.errors import HalError
 from openral_data.paths import read_regular
 from openral_data.producers.hal.session.operator import PAUSE_ENDS, Command, Operator, no_check, sliced_wait
 from openral_data.producers.hal.teleop.declare import DeviceRequest
-from openral_data.producers.hal.teleop.keyboard import eef_limits, eef_line, held_gripper
+from openral_data.producers.hal.teleop.keyboard import eef_limits, held_gripper
+from openral_data.producers.hal.teleop.status import eef_line, status_lines
 from openral_data.types import Observation
 
 GRIPPER = "gripper"  # the button name that toggles the gripper; the others name a `Command` or:
@@ -51,6 +52,10 @@ class DeviceGains:
     yaw: float = 0.05  # rad per tick about world z at full deflection
     deadzone: float = 0.1  # fraction of full deflection read as 0; the rest rescaled to 0..1
     status_every: int = 2  # ticks between status lines (0: none)
+
+    def scaled(self, gain: float) -> DeviceGains:
+        """`record --teleop-gain G`: full deflection moves G times as far per tick."""
+        return replace(self, linear=self.linear * gain, yaw=self.yaw * gain)
 
 
 def shape(value: float, deadzone: float) -> float:
@@ -233,7 +238,7 @@ class DeviceTeleop:
         g = self.gains
         action = np.array([m[0] * g.linear, m[1] * g.linear, m[2] * g.linear, 0.0, 0.0, m[3] * g.yaw, self.gripper])
         if self.show is not None and g.status_every and self.ticks % g.status_every == 0:
-            self.show(eef_line(observation, self.gripper))
+            self.show(status_lines(observation, eef_line(observation, self.gripper)))
         self.ticks += 1
         return np.clip(action, self.low, self.high).astype(np.float32)
 
@@ -247,7 +252,7 @@ def device_teleop(
     """The contract is checked first (a wrong rSkill is a config error, whatever is plugged in), then the device
     is opened (`open_reader`): a missing one is one line (`hal.teleop`) before anything is recorded."""
     limits = eef_limits(request.rskill, request.source, what)
-    return DeviceTeleop(open_reader(), limits, gains, request.show)
+    return DeviceTeleop(open_reader(), limits, gains.scaled(request.gain), request.show)
 
 
 class DeviceOperator:

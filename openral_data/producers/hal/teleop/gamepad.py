@@ -198,4 +198,8 @@ def open_teleop(request: DeviceRequest) -> DeviceTeleop:
     return device_teleop(request, WHAT, GAINS, lambda: open_gamepad(request.node, GAINS))
 
 
-DEVICE = TeleopDevice(WHAT, open_teleop, TAKEOVER_CONTROL, takes_node=True)
+KEYS = (
+    "gamepad: left stick +x/-x (forward/back) and +y/-y (left/right) · right stick +z/-z (up/down) · "
+    "RT-LT yaw · A gripper · Y success · B failure · X re-record · LB discard · select quit"
+)
+DEVICE = TeleopDevice(WHAT, open_teleop, TAKEOVER_CONTROL, takes_node=True, keys=KEYS)

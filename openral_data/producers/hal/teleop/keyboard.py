@@ -20,24 +20,20 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import numpy.typing as npt
 
 from openral_data.errors import ConfigError
 from openral_data.producers.hal.teleop.declare import DeviceRequest, TeleopDevice
+from openral_data.producers.hal.teleop.keys import ARROWS, AXES, GRIPPER_KEY, HALT_KEY, HELP, TAKEOVER_KEY
+from openral_data.producers.hal.teleop.status import eef_line, status_lines
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.types import Observation
 
 REPRESENTATION = "delta_eef_gripper"
-AXES = {"i": (0, 1), "k": (0, -1), "j": (1, 1), "l": (1, -1), "u": (2, 1), "m": (2, -1), "[": (3, 1), "]": (3, -1)}
-ARROWS = {"A": "i", "B": "k", "D": "j", "C": "l"}  # ESC [ A/B/C/D: up, down, right, left
-GRIPPER_KEY = "g"
-HALT_KEY = "h"
-TAKEOVER_KEY = "t"  # with a policy driving (interventions): the person takes over and hands back
 KEYS = frozenset([*AXES, GRIPPER_KEY, HALT_KEY])
-HELP = "teleop keys: i/k (up/down arrows) ±x · j/l (left/right arrows) ±y · u/m ±z · [/] ±yaw · g gripper · h halt"
 
 
 @dataclass(frozen=True)
@@ -49,6 +45,10 @@ class KeyboardGains:
     max_step: float = 0.02  # m per axis and tick at most (presses beyond it wait for the next ticks)
     max_queue: int = 10  # presses that can wait per axis (more are dropped)
     status_every: int = 4  # ticks between status lines (0: none)
+
+    def scaled(self, gain: float) -> KeyboardGains:
+        """`record --teleop-gain G`: every press moves G times as far (and is paid out G times as fast)."""
+        return replace(self, step=self.step * gain, yaw_step=self.yaw_step * gain, max_step=self.max_step * gain)
 
 
 class KeyboardTeleop:
@@ -135,18 +135,11 @@ def eef_limits(
     return low, high
 
 
-def eef_line(observation: Observation, gripper: float) -> str:
-    """`eef 0.412 -0.031 0.911 gripper open` (the end effector's world position when the scene reports it, else
-    the first three state values)."""
-    ee = observation.privileged.get("ee_pos")
-    pos = np.asarray(ee if ee is not None else observation.state[:3], dtype=np.float64)
-    return f"eef {pos[0]:.3f} {pos[1]:.3f} {pos[2]:.3f} gripper {'closed' if gripper else 'open'}"
-
-
 def status(observation: Observation, gripper: float, pending: npt.NDArray[np.float64]) -> str:
-    """`eef 0.412 -0.031 0.911 gripper open pending 0 0 0 0`: `eef_line` and the key presses not yet paid out."""
+    """`eef 0.412 -0.031 0.911 gripper open pending 0 0 0 0` (`eef_line` and the key presses not yet paid out),
+    and the scene's line under it (status.py)."""
     moves = " ".join(str(int(p)) for p in pending)
-    return f"{eef_line(observation, gripper)} pending {moves}"
+    return status_lines(observation, f"{eef_line(observation, gripper)} pending {moves}")
 
 
 def tty_status(fd: int, talk: bool = True) -> Callable[[str], None] | None:
@@ -162,7 +155,7 @@ def tty_status(fd: int, talk: bool = True) -> Callable[[str], None] | None:
 
 
 def open_keyboard(request: DeviceRequest) -> KeyboardTeleop:
-    return KeyboardTeleop(request.rskill, request.source, show=request.show)
+    return KeyboardTeleop(request.rskill, request.source, KeyboardGains().scaled(request.gain), show=request.show)
 
 
-DEVICE = TeleopDevice("keyboard", open_keyboard, TAKEOVER_KEY, terminal=True)
+DEVICE = TeleopDevice("keyboard", open_keyboard, TAKEOVER_KEY, terminal=True, keys=HELP)

@@ -122,4 +122,8 @@ def open_teleop(request: DeviceRequest) -> DeviceTeleop:
     return device_teleop(request, WHAT, GAINS, lambda: open_spacemouse(request.node, GAINS, request.takeover))
 
 
-DEVICE = TeleopDevice(WHAT, open_teleop, TAKEOVER_CONTROL, takes_node=True)
+KEYS = (
+    "spacemouse: push the cap away/toward you +x/-x, left/right +y/-y, lift/press +z/-z, twist yaw · "
+    "left button gripper · right button success"
+)
+DEVICE = TeleopDevice(WHAT, open_teleop, TAKEOVER_CONTROL, takes_node=True, keys=KEYS)

@@ -23,6 +23,7 @@ quaternions [qw, qx, qy, qz]:
   along);
 * `roles`: {role: object name}, e.g. `object`, `goal`, `support`, `drawer` (declared or derived from the
   success criterion: schemas/tabletop.py); `success`: the criterion as a dict (None: no criterion);
+  `success_terms`: [(label, holds now)] of its leaves (`cube in goal`: success.py's `terms`);
   `workspace`: {x, y, z} ranges (z in world heights); `table_height`;
 * the end effector: `ee_pos`, `ee_quat`, `gripper` (0 open .. 1 closed); `task`: the task label;
 * the role `object` as `cube_pos`, `cube_quat`, `cube_size` (its height) and the role `goal` as `goal_pos`,
@@ -67,7 +68,7 @@ from openral_data.producers.sim.mujoco.placement import (
 from openral_data.producers.sim.mujoco.randomize import DISTRACTOR_PREFIX, Randomizer, distractor_objects
 from openral_data.producers.sim.mujoco.render import CameraRig
 from openral_data.producers.sim.mujoco.rig_scene import RigScene
-from openral_data.producers.sim.mujoco.success import holds
+from openral_data.producers.sim.mujoco.success import holds, terms
 from openral_data.producers.sim.params import parse_params
 from openral_data.producers.sim.quat_sign import QuatTrack
 from openral_data.schemas.base import format_validation_error
@@ -495,6 +496,7 @@ class TabletopScene(RigScene):
             "objects": self._object_info(),
             "roles": dict(self.roles),
             "success": p.success.model_dump() if p.success is not None else None,
+            "success_terms": terms(p.success, self) if p.success is not None else [],
             "workspace": {"x": ws.x, "y": ws.y, "z": (p.table_height + z[0], p.table_height + z[1])},
         }
         return self.observe(self._state(), privileged)

@@ -82,3 +82,23 @@ def holds(criterion: Criterion, view: WorldView) -> bool:
     top = float(view.pos(support)[2] + view.extent(support).hi[2])
     level = abs(float(centre[2]) - (top + view.extent(criterion.object).bottom)) <= criterion.tolerance
     return level and _inside(view, support, centre)
+
+
+def _label(criterion: Criterion) -> str:
+    if isinstance(criterion, DrawerOpened):
+        return f"{criterion.object} open {criterion.distance:g} m"
+    if isinstance(criterion, Lifted):
+        return f"{criterion.object} lifted {criterion.height:g} m"
+    if isinstance(criterion, InRegion):
+        region = criterion.region if isinstance(criterion.region, str) else "region"
+        return f"{criterion.object} in {region}"
+    assert isinstance(criterion, On)
+    return f"{criterion.object} on {criterion.support}"
+
+
+def terms(criterion: Criterion, view: WorldView) -> list[tuple[str, bool]]:
+    """The criterion's leaves, each with whether it holds now (`cube in goal`, `drawer open 0.1 m`): what a
+    person at the controls is told as they change (producers/hal/teleop/status.py)."""
+    if isinstance(criterion, AllOf | AnyOf):
+        return [term for c in criterion.of for term in terms(c, view)]
+    return [(_label(criterion), holds(criterion, view))]

@@ -1,0 +1,114 @@
+"""The breadth checks, each on a small hand-built episode (through our writer where the writer can carry the
+fault): the right check, subject and frames, and nothing on the clean episode."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+
+from openral_data.formats.lerobot_v3.features import ACTION, STATE
+from openral_data.metrics.quality import DEFAULT, quality_of
+from openral_data.metrics.quality.breadth import angle_wraps, quaternions, task_text
+from openral_data.metrics.quality.camera import camera_quality, stalled
+from openral_data.metrics.sources import open_dataset
+from tests.support import quality as q
+from tests.support.metrics import data_file, rewrite_parquet
+
+N = 40
+NAN = (10, 12)  # episode 1: action a1 NaN over frames 10..12
+JUMP = (20, 25)  # episode 2: state j0 jumps 5.0 up at frame 20 and back at 25
+
+
+def _episodes() -> list[q.Episode]:
+    eps = [q.moving(N, seed) for seed in range(5)] + [q.moving(5 * N, 5)]
+    eps[2].state[JUMP[0] : JUMP[1], 0] += 5.0
+    eps[3].state[:, 2] = eps[3].state[:, 1]
+    eps[4] = q.Episode(eps[0].state.copy(), eps[0].action.copy(), q.textured(N, 99))
+    return eps
+
+
+def _nan_actions(root: Path) -> None:
+    """NaN in episode 1's action a1 over frames `NAN` (our writer refuses them: written into the parquet)."""
+    path = data_file(root)
+    table = pq.read_table(path)
+    action = np.array(table[ACTION].to_pylist(), dtype=np.float32)
+    frame = table["frame_index"].to_numpy()
+    hit = (table["episode_index"].to_numpy() == 1) & (frame >= NAN[0]) & (frame <= NAN[1])
+    action[hit, 1] = np.nan
+    column = pa.array([row.tolist() for row in action], type=table.schema.field(ACTION).type)
+    rewrite_parquet(path, table.set_column(table.schema.get_field_index(ACTION), ACTION, column))
+
+
+@pytest.fixture(scope="module")
+def found(tmp_path_factory: pytest.TempPathFactory) -> dict[int, list[tuple[Any, ...]]]:
+    root = q.write(tmp_path_factory.mktemp("breadth") / "ds", _episodes())
+    _nan_actions(root)
+    got = quality_of(open_dataset(root))
+    out: dict[int, list[tuple[Any, ...]]] = {e: [] for e in range(6)}
+    for f in pq.read_table(got.paths.findings).to_pylist():
+        if f["flag"]:
+            out[f["episode_index"]].append((f["check"], f["subject"], f["start_frame"], f["end_frame"]))
+    flags = {r["episode_index"]: r["flags"] for r in got.table.to_pylist()}
+    assert {e: sorted({c for c, *_ in fs}) for e, fs in out.items()} == {e: sorted(v) for e, v in flags.items()}
+    return out
+
+
+def test_each_fault_found_with_its_subject_and_frames(found: dict[int, list[tuple[Any, ...]]]) -> None:
+    assert found[0] == []  # the clean one
+    assert found[1] == [("non_finite", f"{ACTION}[a1]", *NAN)]
+    assert found[2] == [("teleport", f"{STATE}[j0]", JUMP[0], JUMP[0]), ("teleport", f"{STATE}[j0]", JUMP[1], JUMP[1])]
+    assert found[3] == [("duplicated", f"{STATE}[j2]", 0, N - 1)]
+    assert found[4] == [("duplicate_episode", "episode", None, None)]  # episode 0's state and action again
+    assert found[5] == [("length_outlier", "episode", 0, 5 * N - 1)]  # 5 times the median length
+
+
+def test_quaternion_flip_and_norm_and_angle_wrap_frames() -> None:
+    n = 30
+    angle = np.linspace(0, 0.9, n)
+    quat = np.stack([np.cos(angle / 2), np.zeros(n), np.zeros(n), np.sin(angle / 2)], axis=1)  # w, x, y, z
+    quat[12:] *= -1  # the same orientations, the other sign, from frame 12
+    quat[20:23] *= 1.5  # norms of 1.5 over frames 20..22
+    yaw = np.linspace(3.0, 3.5, n)
+    yaw[15:] -= 2 * math.pi  # wrapped into (-pi, pi] at frame 15
+    x = np.concatenate([quat, yaw[:, None]], axis=1)
+    names = ["eef_qw", "eef_qx", "eef_qy", "eef_qz", "base_yaw"]
+    got = [(f.check, f.subject, f.start_frame, f.end_frame) for f in quaternions(x, names, STATE, DEFAULT)]
+    assert got == [
+        ("quat_flip", f"{STATE}[eef_qx..w]", 12, 12),
+        ("quat_norm", f"{STATE}[eef_qx..w]", 20, 22),
+    ]
+    wraps = [(f.check, f.subject, f.start_frame) for f in angle_wraps(x, names, STATE)]
+    assert wraps == [("angle_wrap", f"{STATE}[base_yaw]", 15)]
+    clean = np.concatenate([np.abs(quat) / np.linalg.norm(quat, axis=1, keepdims=True), angle[:, None]], axis=1)
+    assert quaternions(clean, names, STATE, DEFAULT) == [] and angle_wraps(clean, names, STATE) == []
+
+
+def test_task_text() -> None:
+    assert [f.detail.split(":")[0] for f in task_text(["", " TODO ", "<task>", "pick\x00 the cube", "n/a"])] == [
+        "empty",
+        "placeholder",
+        "placeholder",
+        "control characters",
+        "placeholder",
+    ]
+    assert task_text(["pick up the red cube", "Put the bowl on the plate."]) == []
+
+
+def test_a_camera_still_while_the_other_moves() -> None:
+    """Camera `b` repeats frame 10's picture over frames 10..17 while `a` keeps changing: `camera_stalled` on
+    `b` only; both still at once (the robot resting in a static scene) is not it."""
+    a, b = q.textured(N, 1), q.textured(N, 2)
+    b[10:18] = b[10]
+    cams = {"a": camera_quality(iter(a), 1, DEFAULT), "b": camera_quality(iter(b), 1, DEFAULT)}
+    got = [(f.check, f.subject, f.start_frame, f.end_frame) for f in stalled(cams, DEFAULT, 1, N)]
+    assert got == [("camera_stalled", "b", 11, 17)]  # frame 10 itself still differs from frame 9
+    both = q.textured(N, 3)
+    both[10:18] = both[10]
+    still = {"a": camera_quality(iter(both), 1, DEFAULT), "b": camera_quality(iter(both.copy()), 1, DEFAULT)}
+    assert stalled(still, DEFAULT, 1, N) == []
