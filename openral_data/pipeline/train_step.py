@@ -1,7 +1,7 @@
 """The `train` step: lerobot's trainer (`trainer.py`) on each dataset the reference names.
 
-Per dataset item NAME the training run lives in `<step>/.NAME.training/` (lerobot's `checkpoints/<step>/`,
-`checkpoints/last`), outside the item's staging folder, so a run killed at any point (SIGKILL included)
+Per dataset item NAME the training run lives in `<step>/.NAME.training/run/` (`lerobot-train`'s output folder:
+`checkpoints/<step>/`, `checkpoints/last`; its output in `.NAME.training/lerobot-train.log`), outside the item's staging folder, so a run killed at any point (SIGKILL included)
 resumes from lerobot's last checkpoint when the pipeline is run again; a run made with other settings or on
 another dataset (its `run.json` says which) is started over. When training ends, the output item is
 `pretrained_model/` (the last checkpoint: what `record --policy` and `replay --policy` load) and
@@ -23,10 +23,11 @@ from openral_data.formats.atomic import write_bytes
 from openral_data.formats.lerobot_v3 import digests
 from openral_data.paths import contained
 from openral_data.pipeline.schema import TrainStep
-from openral_data.pipeline.trainer import TrainSettings, train_policy
+from openral_data.pipeline.trainer import MODULE, TrainSettings, train_policy
 
 ItemJob = tuple[str, Callable[[Path], dict[str, Any]]]
 RUN_FILE = "run.json"  # in the training folder: the settings and dataset digest it was started with
+RUN_DIR = "run"  # in the training folder: lerobot-train's --output_dir
 
 
 def settings_of(spec: TrainStep) -> TrainSettings:
@@ -74,8 +75,7 @@ def train_item(spec: TrainStep, name: str, dataset: Path, out: Path) -> dict[str
     if not (work / RUN_FILE).is_file():
         work.mkdir(parents=True, exist_ok=True)
         write_bytes(work / RUN_FILE, json.dumps(started, indent=2).encode())
-    resumed: list[int] = []
-    checkpoint = train_policy(dataset, work, settings, log=lambda m: resumed.append(1) if "resuming" in m else None)
+    checkpoint, resumed = train_policy(dataset, work / RUN_DIR, settings)
     out.mkdir(parents=True, exist_ok=True)
     shutil.copytree(checkpoint, out / "pretrained_model")
     provenance = {
@@ -83,8 +83,9 @@ def train_item(spec: TrainStep, name: str, dataset: Path, out: Path) -> dict[str
         "dataset_digest": digest,
         "settings": asdict(settings),
         "steps": settings.steps,
-        "resumed": bool(resumed),
+        "resumed": resumed,
         "training_folder": str(work),
+        "trainer": f"python -m {MODULE} (lerobot-train)",
         "lerobot_train_config": json.loads((checkpoint / "train_config.json").read_text()),
         "versions": _versions(),
     }
@@ -94,7 +95,7 @@ def train_item(spec: TrainStep, name: str, dataset: Path, out: Path) -> dict[str
         "dataset_digest": digest,
         "policy": settings.policy,
         "steps": settings.steps,
-        "resumed": bool(resumed),
+        "resumed": resumed,
         "checkpoint": str(Path(name) / "pretrained_model"),
     }
 

@@ -5,8 +5,11 @@ resumed from lerobot's last checkpoint; the checkpoint then drives `replay --mod
 from __future__ import annotations
 
 import json
+import os
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +22,6 @@ from openral_data.errors import ConfigError
 from openral_data.pipeline.schema import load_pipeline
 from openral_data.pipeline.train_step import dataset_digest
 from tests.support.cli import run_cli
-from tests.support.crash import KILLED
 from tests.support.home import REPO
 from tests.support.scenes import write_yaml
 from tests.support.timing import TIMED
@@ -27,15 +29,21 @@ from tests.support.timing import TIMED
 pytestmark = TIMED
 
 REC = {"scenes": ["mock_pick"], "rskills": ["random-mock"], "seeds": {"count": 2}, "max_steps": 12, "codec": "h264"}
-TRAIN = {"dataset": "rec", "steps": 4, "batch_size": 2, "save_freq": 2, "chunk_size": 5, "dim_model": 32,
+TRAIN = {"dataset": "rec", "steps": 6, "batch_size": 2, "save_freq": 2, "chunk_size": 5, "dim_model": 32,
          "n_encoder_layers": 1}  # fmt: skip
 EVAL = {"policy": "policy", "scene": "mock_pick", "seeds": {"start": 100, "count": 2}, "max_steps": 6}
-# the pipeline's CLI, killed (os._exit(137), as SIGKILL) when lerobot re-links checkpoints/last to the step-4
-# checkpoint: step 2's is complete and `last`, step 4's written but never linked
-KILL_AT_SECOND_CHECKPOINT = (
-    "import sys; from tests.support.crash import die_at_mutation; from openral_data.cli import main; "
-    "die_at_mutation(1, ops=('unlink',), name='last'); sys.argv = ['openral-data', *sys.argv[1:]]; main()"
-)
+
+def _run_until_first_checkpoint_then_sigkill(spec: Path, workdir: Path, last: Path) -> None:
+    """`pipeline run` until lerobot-train (its subprocess) has linked a checkpoint, then SIGKILL both."""
+    cmd = [sys.executable, "-m", "openral_data.cli", "pipeline", "run", str(spec), "--workdir", str(workdir)]
+    proc = subprocess.Popen(cmd, cwd=REPO, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 600
+    while not (last / "training_state" / "training_step.json").is_file() and proc.poll() is None:
+        assert time.monotonic() < deadline, "no checkpoint within 600 s"
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGKILL)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == -signal.SIGKILL, err.decode()[-2000:]
 
 
 def _step(root: Path) -> int:
@@ -48,13 +56,9 @@ def test_train_step_killed_resumes_and_its_checkpoint_drives_replay_and_record(p
         {"id": "rec", "record": REC}, {"id": "policy", "train": TRAIN}, {"id": "eval", "evaluate": EVAL},
         {"id": "metrics", "stats": {"inputs": ["eval"]}}]})  # fmt: skip
     workdir = tmp_path / "run"
-    killed = subprocess.run(
-        [sys.executable, "-c", KILL_AT_SECOND_CHECKPOINT, "pipeline", "run", str(spec), "--workdir", str(workdir)],
-        capture_output=True, text=True, cwd=REPO, timeout=600, check=False,
-    )  # fmt: skip
-    assert killed.returncode == KILLED, killed.stderr[-2000:]
-    training = workdir / "policy" / ".mock_pick--random-mock.training"
-    assert _step(training / "checkpoints" / "last") == 2  # what the rerun must resume from
+    run = workdir / "policy" / ".mock_pick--random-mock.training" / "run"
+    _run_until_first_checkpoint_then_sigkill(spec, workdir, run / "checkpoints" / "last")
+    assert _step(run / "checkpoints" / "last") in (2, 4)  # what the rerun must resume from, short of 6
     assert not (workdir / "policy" / "mock_pick--random-mock").exists()
 
     res = run_cli("pipeline", "run", str(spec), "--workdir", str(workdir))
@@ -62,10 +66,10 @@ def test_train_step_killed_resumes_and_its_checkpoint_drives_replay_and_record(p
     item = workdir / "policy" / "mock_pick--random-mock"
     prov = json.loads((item / "provenance.json").read_text())
     dataset = workdir / "rec" / "mock_pick--random-mock"
-    assert prov["resumed"] is True and prov["steps"] == 4
+    assert prov["resumed"] is True and prov["steps"] == 6 and "lerobot.scripts.lerobot_train" in prov["trainer"]
     assert prov["dataset_digest"] == dataset_digest(dataset) and prov["versions"]["lerobot"] == "0.6.1"
     assert prov["lerobot_train_config"]["policy"]["pretrained_backbone_weights"] is None  # nothing downloaded
-    assert _step(training / "checkpoints" / "last") == 4
+    assert _step(run / "checkpoints" / "last") == 6
     # the checkpoint was trained on this dataset: its normaliser holds the dataset's own state statistics
     stats = json.loads((dataset / "meta" / "stats.json").read_text())["observation.state"]
     model = item / "pretrained_model"

@@ -37,7 +37,9 @@ class RigScene:
             task=self.task_text,
             time=float(self.data.time) - self.t0,
             privileged=privileged,
-            environment_state=object_pose_vector(privileged["object_poses"], objects) if objects else None,
+            environment_state=object_pose_vector({**privileged.get("fixed_poses", {}), **privileged["object_poses"]}, objects)
+            if objects
+            else None,
             transforms=self.rig.mount_poses(self.data),
         )
 
