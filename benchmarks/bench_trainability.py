@@ -23,19 +23,33 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-SCENE = ROOT / "pipelines" / "scenes" / "tabletop_push_small.yaml"  # the flywheel campaign's scene
+SCENES = {
+    "camera": ROOT / "pipelines" / "scenes" / "tabletop_push_small.yaml",  # the flywheel campaign's scene
+    "state": ROOT / "pipelines" / "scenes" / "tabletop_push_state.yaml",  # cube + goal poses, camera removed
+}
 EVAL_SEED = 100_000
 CLI = [sys.executable, "-m", "openral_data.cli"]
 
 
-def record(out: Path, args: list[str]) -> dict[str, object]:
-    if (out / "meta" / "info.json").is_file():
-        return {"cached": str(out)}
-    cmd = [*CLI, "record", "--scene", str(SCENE), "--codec", "h264", "--out", str(out), "--json", *args]
-    done = subprocess.run(cmd, check=False, capture_output=True, text=True, cwd=ROOT)
+def cli(cmd: list[str]) -> str:
+    done = subprocess.run([*CLI, *cmd], check=False, capture_output=True, text=True, cwd=ROOT)
     if done.returncode != 0:
         raise SystemExit(f"{' '.join(cmd)}: exit {done.returncode}: {done.stderr[-2000:]}")
-    return dict(json.loads(done.stdout))
+    return done.stdout
+
+
+def record(scene: Path, out: Path, args: list[str]) -> dict[str, object]:
+    if (out / "meta" / "info.json").is_file():
+        return {"cached": str(out)}
+    cmd = ["record", "--scene", str(scene), "--codec", "h264", "--out", str(out), "--json", *args]
+    return dict(json.loads(cli(cmd)))
+
+
+def without_camera(dataset: Path, out: Path) -> Path:
+    """`dataset` without its camera (`features remove`): ACT then reads the state and the environment state."""
+    if not (out / "meta" / "info.json").is_file():
+        cli(["features", "remove", str(dataset), "--feature", "observation.images.front", "--out", str(out)])
+    return out
 
 
 def faulted(clean: Path, defect: str, out: Path) -> Path:
@@ -58,18 +72,19 @@ def faulted(clean: Path, defect: str, out: Path) -> Path:
 
 
 def train(dataset: Path, run: Path, a: argparse.Namespace) -> tuple[Path, int, float]:
-    """Train in blocks of `--block` steps (resuming) until the CPU budget or `--steps`; (checkpoint, steps, CPU s)."""
+    """`lerobot-train` in blocks of `--block` steps (each resuming the last) until the CPU budget or `--steps`;
+    (checkpoint, steps, CPU s of the lerobot-train subprocesses: user + system, all threads)."""
     import resource
 
     from openral_data.pipeline.trainer import TrainSettings, done_steps, train_policy
 
     def cpu() -> float:
-        r = resource.getrusage(resource.RUSAGE_SELF)
+        r = resource.getrusage(resource.RUSAGE_CHILDREN)
         return r.ru_utime + r.ru_stime
 
-    budget, start, steps = a.cpu_minutes * 60, cpu(), done_steps(run)
+    budget, start, steps = a.cpu_minutes * 60, cpu(), done_steps(run / "run")
     spent = float(json.loads((run / "cpu.json").read_text())["cpu_s"]) if (run / "cpu.json").is_file() else 0.0
-    checkpoint = run / "checkpoints" / "last" / "pretrained_model"
+    checkpoint = run / "run" / "checkpoints" / "last" / "pretrained_model"
     while steps < a.steps and spent + cpu() - start < budget:
         steps = min(a.steps, steps + a.block)
         settings = TrainSettings(
@@ -81,15 +96,18 @@ def train(dataset: Path, run: Path, a: argparse.Namespace) -> tuple[Path, int, f
             n_action_steps=20,
             dim_model=a.dim_model,
             dim_feedforward=4 * a.dim_model,
+            n_encoder_layers=a.layers,
+            lr=a.lr,
         )
-        checkpoint = train_policy(dataset, run, settings, log=lambda m: print(m, flush=True))
+        checkpoint, _ = train_policy(dataset, run / "run", settings)
+        print(f"step {steps}: {spent + cpu() - start:.0f} CPU-s", flush=True)
         (run / "cpu.json").write_text(json.dumps({"cpu_s": spent + cpu() - start, "steps": steps}))
-    return checkpoint, done_steps(run), spent + cpu() - start
+    return checkpoint, done_steps(run / "run"), spent + cpu() - start
 
 
-def evaluate(checkpoint: Path, out: Path, n: int, max_steps: int) -> tuple[int, int]:
+def evaluate(scene: Path, checkpoint: Path, out: Path, n: int, max_steps: int) -> tuple[int, int]:
     seeds = ["--seed", str(EVAL_SEED), "--n-episodes", str(n)]
-    summary = record(out, ["--policy", str(checkpoint), *seeds, "--max-steps", str(max_steps)])
+    summary = record(scene, out, ["--policy", str(checkpoint), *seeds, "--max-steps", str(max_steps)])
     if "cached" in summary:
         info = json.loads((out / "meta" / "info.json").read_text())
         raise SystemExit(f"{out} exists ({info['total_episodes']} episodes); remove it to evaluate again")
@@ -107,6 +125,9 @@ def main() -> None:
     p.add_argument("--block", type=int, default=500)
     p.add_argument("--batch-size", type=int, default=16)
     p.add_argument("--dim-model", type=int, default=128)
+    p.add_argument("--layers", type=int, default=1, help="ACT encoder layers")
+    p.add_argument("--lr", type=float, default=1e-4)
+    p.add_argument("--state-only", action="store_true", help="ACT on state + cube/goal poses, no camera")
     p.add_argument("--seed", type=int, default=1000)
     p.add_argument("--max-steps", type=int, default=120, help="per evaluation episode (the expert needs ~45)")
     p.add_argument("--results", type=Path, default=None)
@@ -115,16 +136,20 @@ def main() -> None:
 
     a.work.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    demos = a.work / "demos"
-    rec = record(demos, ["--rskill", "scripted-push", "--seed", "0", "--n-episodes", str(a.demos), "--keep", "success"])
-    print(f"demos: {rec}", flush=True)
+    kind = "state" if a.state_only else "camera"
+    scene, demos = SCENES[kind], a.work / ("demos-state-cam" if a.state_only else "demos")
+    expert = ["--rskill", "scripted-push", "--seed", "0", "--n-episodes", str(a.demos), "--keep", "success"]
+    print(f"demos: {record(scene, demos, expert)}", flush=True)
     name = a.defect or "clean"
-    dataset = demos if a.defect is None else faulted(demos, a.defect, a.work / f"demos-{name}")
-    checkpoint, steps, cpu_s = train(dataset, a.work / f"run-{name}", a)
-    k, n = evaluate(checkpoint, a.work / f"eval-{name}-{steps}", a.eval, a.max_steps)
+    dataset = demos if a.defect is None else faulted(demos, a.defect, a.work / f"{demos.name}-{name}")
+    if a.state_only:
+        dataset = without_camera(dataset, a.work / f"{dataset.name}-nocam")
+    checkpoint, steps, cpu_s = train(dataset, a.work / f"run-{kind}-{name}", a)
+    k, n = evaluate(scene, checkpoint, a.work / f"eval-{kind}-{name}-{steps}", a.eval, a.max_steps)
     ci = wilson(k, n)
     row = {
-        "task": "tabletop_push (front 64x64, franka_panda)", "policy": "act", "dim_model": a.dim_model,
+        "task": "tabletop_push (franka_panda)", "inputs": "state + cube/goal poses" if a.state_only else
+        "state + front 64x64", "policy": "act", "dim_model": a.dim_model, "layers": a.layers, "lr": a.lr,
         "defect": name, "demos": a.demos, "steps": steps, "batch_size": a.batch_size,
         "train_cpu_minutes": round(cpu_s / 60, 1), "eval_seeds": f"{EVAL_SEED}..{EVAL_SEED + n - 1}",
         "eval_max_steps": a.max_steps, "successes": k, "episodes": n,

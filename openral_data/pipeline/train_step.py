@@ -1,8 +1,9 @@
 """The `train` step: lerobot's trainer (`trainer.py`) on each dataset the reference names.
 
 Per dataset item NAME the training run lives in `<step>/.NAME.training/run/` (`lerobot-train`'s output folder:
-`checkpoints/<step>/`, `checkpoints/last`; its output in `.NAME.training/lerobot-train.log`), outside the item's staging folder, so a run killed at any point (SIGKILL included)
-resumes from lerobot's last checkpoint when the pipeline is run again; a run made with other settings or on
+`checkpoints/<step>/`, `checkpoints/last`; its output in `.NAME.training/lerobot-train.log`), outside the
+item's staging folder, so a run killed at any point (SIGKILL included) resumes from lerobot's last checkpoint
+(`lerobot-train --resume`) when the pipeline is run again; a run made with other settings or on
 another dataset (its `run.json` says which) is started over. When training ends, the output item is
 `pretrained_model/` (the last checkpoint: what `record --policy` and `replay --policy` load) and
 `provenance.json`: the dataset and its digest, the settings, lerobot's `train_config.json`, and the lerobot,

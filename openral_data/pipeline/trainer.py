@@ -116,6 +116,7 @@ def train_policy(dataset: Path, run: Path, s: TrainSettings) -> tuple[Path, bool
     if not resumed and run.exists():
         shutil.rmtree(run)  # killed before its first checkpoint: nothing to resume, and lerobot refuses the folder
     args = resume_args(run, s.steps) if resumed else fresh_args(dataset, run, s)
+    run.parent.mkdir(parents=True, exist_ok=True)
     log = run.parent / LOG
     with log.open("ab") as out:
         done = subprocess.run(

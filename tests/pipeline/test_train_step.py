@@ -33,6 +33,7 @@ TRAIN = {"dataset": "rec", "steps": 6, "batch_size": 2, "save_freq": 2, "chunk_s
          "n_encoder_layers": 1}  # fmt: skip
 EVAL = {"policy": "policy", "scene": "mock_pick", "seeds": {"start": 100, "count": 2}, "max_steps": 6}
 
+
 def _run_until_first_checkpoint_then_sigkill(spec: Path, workdir: Path, last: Path) -> None:
     """`pipeline run` until lerobot-train (its subprocess) has linked a checkpoint, then SIGKILL both."""
     cmd = [sys.executable, "-m", "openral_data.cli", "pipeline", "run", str(spec), "--workdir", str(workdir)]
