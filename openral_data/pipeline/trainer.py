@@ -120,7 +120,12 @@ def train_policy(dataset: Path, run: Path, s: TrainSettings) -> tuple[Path, bool
     log = run.parent / LOG
     with log.open("ab") as out:
         done = subprocess.run(
-            [sys.executable, "-m", MODULE, *args], stdout=out, stderr=subprocess.STDOUT, env=_offline(), check=False
+            [sys.executable, "-m", MODULE, *args],
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            env=_offline(),
+            check=False,
+            preexec_fn=_die_with_parent if sys.platform == "linux" else None,
         )
     if done.returncode != 0:
         raise CompatibilityError(f"{dataset}: train.policy: {s.policy} cannot train on this dataset: {_reason(log)}")
@@ -128,6 +133,14 @@ def train_policy(dataset: Path, run: Path, s: TrainSettings) -> tuple[Path, bool
     if final is None or done_steps(run) < s.steps:
         raise CompatibilityError(f"{dataset}: train: lerobot-train wrote no checkpoint of step {s.steps} ({log})")
     return final / "pretrained_model", resumed
+
+
+def _die_with_parent() -> None:
+    """In the child: SIGKILLed when the pipeline dies (PR_SET_PDEATHSIG), so no orphan keeps writing the run."""
+    import ctypes
+    import signal
+
+    ctypes.CDLL(None).prctl(1, signal.SIGKILL)
 
 
 def _offline() -> dict[str, str]:
