@@ -50,6 +50,7 @@ class Privileged(TypedDict, total=False):
     environment's own observation keys, undeclared here)."""
 
     object_poses: dict[str, Any]
+    fixed_poses: dict[str, Any]  # the same of fixed objects (a goal drawn from the seed)
     # MuJoCo tabletop scenes (producers/sim/mujoco/scene.py)
     ee_pos: npt.NDArray[np.float64]
     ee_quat: npt.NDArray[np.float64]

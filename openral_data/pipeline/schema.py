@@ -15,6 +15,12 @@ steps:
     export: {dataset: all, episodes: "0-1"}
   - id: demos                  # a source outside the run: bags, HDF5, Zarr, RLDS (or a LeRobot dataset -> MCAP)
     convert: {source: data/demo.hdf5, mapping: demo_mapping.yaml, fps: 20}
+  - id: kept                   # the episodes that succeeded and that the quality scan flags nothing in
+    filter: {dataset: all, success: true, unflagged: true}
+  - id: policy                 # lerobot's trainer on a dataset; outputs policy/<dataset item>/pretrained_model
+    train: {dataset: kept, policy: act, steps: 2000, batch_size: 8, seed: 1}
+  - id: eval                   # record --policy of each checkpoint on seeds the demos never used
+    evaluate: {policy: policy, scene: tabletop_push, seeds: {start: 1000, count: 20}, max_steps: 150}
 ```
 A reference is a step id (every output of that step) or `step/item` (one output). A convert step's `source`
 and `mapping` are paths inside the pipeline file's folder.
@@ -186,7 +192,72 @@ class ConvertStep(StrictModel):
     workers: int = Field(default=1, ge=1)
 
 
-KINDS = ("record", "merge", "replay", "stats", "export", "convert")
+class TrainStep(StrictModel):
+    """lerobot's trainer (`pipeline/trainer.py`) on a dataset of the pipeline; the output is the checkpoint
+    (`<item>/pretrained_model`, what `record --policy` and `replay --policy` load) and `provenance.json`. Only
+    numbers and a policy type of `trainer.POLICY_TYPES`: nothing here chooses code or a path."""
+
+    dataset: str
+    policy: Literal["act"] = "act"
+    steps: int = Field(ge=1, le=10_000_000)
+    batch_size: int = Field(default=8, ge=1, le=4096)
+    seed: int = Field(default=1000, ge=0, le=MAX_SEED)
+    save_freq: int | None = Field(default=None, ge=1)  # None: min(steps, 1000)
+    device: Literal["cpu", "cuda", "mps"] = "cpu"
+    chunk_size: int = Field(default=20, ge=1, le=1000)
+    n_action_steps: int | None = Field(default=None, ge=1, le=1000)  # None: chunk_size
+    dim_model: int = Field(default=256, ge=8, le=8192)
+    dim_feedforward: int | None = Field(default=None, ge=8, le=32768)  # None: 4 * dim_model
+    n_encoder_layers: int = Field(default=4, ge=1, le=64)
+    lr: float = Field(default=1e-4, gt=0, le=1)
+
+    @model_validator(mode="after")
+    def _chunk(self) -> TrainStep:
+        if self.n_action_steps is not None and self.n_action_steps > self.chunk_size:
+            raise ValueError(f"n_action_steps {self.n_action_steps} exceeds chunk_size {self.chunk_size}")
+        return self
+
+
+class FilterStep(StrictModel):
+    """`episodes filter` of a dataset with a predicate made here from typed choices (no SQL from the YAML):
+    `success` keeps the episodes that succeeded, `unflagged` those the quality scan flags nothing in."""
+
+    dataset: str
+    success: bool = True
+    unflagged: bool = True
+
+    @model_validator(mode="after")
+    def _something(self) -> FilterStep:
+        if not (self.success or self.unflagged):
+            raise ValueError("filter: set success or unflagged (or both)")
+        return self
+
+    def predicate(self) -> str:
+        return " AND ".join(p for p, on in (("success", self.success), ("NOT quality.flagged", self.unflagged)) if on)
+
+
+class EvaluateStep(StrictModel):
+    """`record --policy CHECKPOINT` of every checkpoint a train step made, on `scene` from `seeds` (seeds the
+    training never saw: the scene draws its initial state from the seed); the output is the rollouts' dataset,
+    whose success rate `stats` reports with its Wilson interval."""
+
+    policy: str  # a train step (or one of its items)
+    scene: str
+    robot: str | None = None
+    seeds: Seeds
+    max_steps: int | None = Field(default=None, ge=1, le=MAX_STEPS)
+    codec: Codec = "h264"
+    device: Literal["cpu", "cuda", "mps"] = "cpu"
+
+    @field_validator("robot")
+    @classmethod
+    def _robot_id(cls, robot: str | None) -> str | None:
+        if robot is not None:
+            _one_component(robot, "robot")
+        return robot
+
+
+KINDS = ("record", "merge", "replay", "stats", "export", "convert", "train", "filter", "evaluate")
 # what a step's outputs are, for checking references
 PRODUCES = {
     "record": "dataset",
@@ -195,6 +266,9 @@ PRODUCES = {
     "stats": "report",
     "export": "bags",
     "convert": "dataset",
+    "train": "checkpoint",
+    "filter": "dataset",
+    "evaluate": "dataset",
 }
 
 
@@ -206,6 +280,9 @@ class Step(StrictModel):
     stats: StatsStep | None = None
     export: ExportStep | None = None
     convert: ConvertStep | None = None
+    train: TrainStep | None = None
+    filter: FilterStep | None = None
+    evaluate: EvaluateStep | None = None
 
     @model_validator(mode="after")
     def _one_kind(self) -> Step:
@@ -230,6 +307,12 @@ class Step(StrictModel):
             return [(f"stats.inputs[{i}]", r, ("dataset", "results")) for i, r in enumerate(self.stats.inputs)]
         if self.export is not None:
             return [("export.dataset", self.export.dataset, ("dataset",))]
+        if self.train is not None:
+            return [("train.dataset", self.train.dataset, ("dataset",))]
+        if self.filter is not None:
+            return [("filter.dataset", self.filter.dataset, ("dataset",))]
+        if self.evaluate is not None:
+            return [("evaluate.policy", self.evaluate.policy, ("checkpoint",))]
         return []
 
 
@@ -276,6 +359,10 @@ def _anchored(pipeline: Pipeline, path: Path) -> Pipeline:
     for i, step in enumerate(pipeline.steps):
         if step.convert is not None:
             steps.append(_anchored_convert(step, step.convert, folder, f"{path}: steps[{i}].convert"))
+            continue
+        if step.evaluate is not None:
+            scene = _manifest_ref("scenes", step.evaluate.scene, folder, f"{path}: steps[{i}].evaluate.scene")
+            steps.append(step.model_copy(update={"evaluate": step.evaluate.model_copy(update={"scene": scene})}))
             continue
         spec = step.record
         if spec is None:

@@ -7,7 +7,15 @@ from pathlib import Path
 from typing import Any
 
 from openral_data.errors import ConfigError
-from openral_data.pipeline.schema import ConvertStep, ExportStep, MergeStep, RecordStep, StatsStep, Step
+from openral_data.pipeline.schema import (
+    ConvertStep,
+    ExportStep,
+    FilterStep,
+    MergeStep,
+    RecordStep,
+    StatsStep,
+    Step,
+)
 from openral_data.runtime.parallel.choice import is_parallel
 
 # (item name, run(item path) -> summary); the runner skips items already marked done
@@ -30,6 +38,16 @@ def jobs_for(step: Step, resolve: Resolve) -> Iterator[ItemJob]:
         yield from _export_jobs(step.export, resolve)
     elif step.convert is not None:
         yield _convert_job(step.convert)
+    elif step.filter is not None:
+        yield from _filter_jobs(step.filter, resolve)
+    elif step.evaluate is not None:
+        from openral_data.pipeline.evaluate_step import evaluate_jobs
+
+        yield from evaluate_jobs(step.evaluate, resolve)
+    elif step.train is not None:
+        from openral_data.pipeline.train_step import train_jobs
+
+        yield from train_jobs(step.train, resolve)
 
 
 def _record_jobs(spec: RecordStep) -> Iterator[ItemJob]:
@@ -87,6 +105,18 @@ def _merge_job(spec: MergeStep, resolve: Resolve) -> ItemJob:
         return {"episodes": result.episodes, "frames": result.frames, "sources": [str(p) for p in sources]}
 
     return "dataset", run
+
+
+def _filter_jobs(spec: FilterStep, resolve: Resolve) -> Iterator[ItemJob]:
+    for name, src in resolve(spec.dataset):
+
+        def run(out: Path, src: Path = src) -> dict[str, Any]:
+            from openral_data.edit.select import filter_episodes
+
+            result = filter_episodes(src, spec.predicate(), out)
+            return {"source": str(src), "where": spec.predicate(), "episodes": result.episodes, "frames": result.frames}
+
+        yield name, run
 
 
 def _stats_job(spec: StatsStep, resolve: Resolve) -> ItemJob:

@@ -40,6 +40,7 @@ SUPPORTED = ("act", "diffusion")
 CONFIG, WEIGHTS = "config.json", "model.safetensors"
 IMAGE_PREFIX = "observation.images."
 STATE, ACTION = "observation.state", "action"
+ENVIRONMENT = "observation.environment_state"
 # where the checkpoint is below PATH: itself, a step folder's, a training run's newest
 LAYOUTS = ("", "pretrained_model", "checkpoints/last/pretrained_model")
 MAX_CONFIG_BYTES = 4 << 20  # a policy config is a few KB
@@ -48,12 +49,14 @@ ROOT = "checkpoint_root"  # the policy_extras entry naming the folder the files 
 
 @dataclass(frozen=True)
 class CheckpointContract:
-    """What a checkpoint's config says it takes and gives: sizes, cameras `name -> (C, H, W)`, fps if stored."""
+    """What a checkpoint's config says it takes and gives: sizes, cameras `name -> (C, H, W)`, fps if stored, and
+    the size of the `observation.environment_state` it takes (0: none; a state-only policy's object poses)."""
 
     state_dim: int
     action_dim: int
     cameras: dict[str, tuple[int, int, int]]
     fps: int | None = None
+    environment_dim: int = 0
 
 
 @dataclass(frozen=True)
@@ -154,16 +157,17 @@ def read_contract(folder: Path) -> CheckpointContract:
         raise ConfigError(f"{file}: input_features/output_features: missing or not mappings")
     action = _shape(outputs, ACTION, file, "output_features", 1)
     state = _shape(inputs, STATE, file, "input_features", 1)
-    other = sorted(k for k in inputs if k != STATE and not k.startswith(IMAGE_PREFIX))
+    other = sorted(k for k in inputs if k not in (STATE, ENVIRONMENT) and not k.startswith(IMAGE_PREFIX))
     if other:
         raise ConfigError(f"{file}: input_features: {other} are not a state or a camera this tool records")
+    environment = _shape(inputs, ENVIRONMENT, file, "input_features", 1)[0] if ENVIRONMENT in inputs else 0
     cameras: dict[str, tuple[int, int, int]] = {}
     for key in inputs:
         if key.startswith(IMAGE_PREFIX):
             c, h, w = _shape(inputs, key, file, "input_features", 3)
             cameras[key[len(IMAGE_PREFIX) :]] = (c, h, w)
     fps = doc.get("fps")
-    return CheckpointContract(state[0], action[0], cameras, fps if type(fps) is int and fps > 0 else None)
+    return CheckpointContract(state[0], action[0], cameras, fps if type(fps) is int and fps > 0 else None, environment)
 
 
 def _shape(features: dict[str, Any], key: str, file: Path, side: str, rank: int) -> tuple[int, ...]:
@@ -182,10 +186,17 @@ def check_fits(
     action_dim: int | None,
     cameras: Mapping[str, CameraShape],
     fps: int | None = None,
+    environment_dim: int | None = None,
 ) -> None:
     """Refuse, in one line naming both sides, a checkpoint whose contract is not what `where` (a scene, a dataset)
-    produces and accepts: state and action sizes, every camera it takes at its (H, W), its fps if it stored one."""
+    produces and accepts: state and action sizes, every camera it takes at its (H, W), its fps if it stored one,
+    the environment state it takes (`environment_dim`: what `where` has; None: not known here)."""
     c, file = checkpoint.contract, checkpoint.config_file
+    if c.environment_dim and environment_dim is not None and c.environment_dim != environment_dim:
+        raise CompatibilityError(
+            f"{file}: input_features.{ENVIRONMENT}: shape [{c.environment_dim}] but {where} has "
+            + (f"an environment state of {environment_dim}" if environment_dim else "no environment state")
+        )
     if state_dim is not None and c.state_dim != state_dim:
         raise CompatibilityError(
             f"{file}: input_features.observation.state: shape [{c.state_dim}] but {where} has a state of {state_dim}"
@@ -218,6 +229,7 @@ def check_fits_scene(checkpoint: PolicyCheckpoint, spec: ProducerSpec, rskill: R
         action_dim=rskill.action_contract.dim if spec.action_dim is None else spec.action_dim,
         cameras=spec.cameras,
         fps=spec.fps,
+        environment_dim=len(spec.environment_state_names),
     )
 
 

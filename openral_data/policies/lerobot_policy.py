@@ -38,6 +38,7 @@ from openral_data.paths import contained, regular_file
 from openral_data.policies.checkpoint import (
     ACTION,
     CONFIG,
+    ENVIRONMENT,
     IMAGE_PREFIX,
     MAX_CONFIG_BYTES,
     ROOT,
@@ -187,6 +188,7 @@ def check_features(config: Any, rskill: RSkillManifest, path: Path) -> None:
             f"{where}: input_features: cameras {cameras} but rskill {rskill.id} required_cameras are "
             f"{sorted(rskill.required_cameras)}"
         )
+    inputs.pop(ENVIRONMENT, None)  # object poses (a state-only policy): fed when the scene records them
     other = sorted(k for k in inputs if not k.startswith(IMAGE_PREFIX))
     if other:
         raise CompatibilityError(f"{where}: input_features: {other} are not part of rskill {rskill.id}'s contract")
@@ -229,6 +231,8 @@ class LerobotPolicy:
         self.config = config
         self._dim = rskill.action_contract.dim
         self._images = {key: tuple(f.shape) for key, f in config.image_features.items()}
+        env = config.input_features.get(ENVIRONMENT)
+        self._environment = None if env is None else int(env.shape[0])
         self.policy = load_weights(get_policy_class(config.type), path, config)
         self.pre, self.post = make_pre_post_processors(
             config, pretrained_path=str(path), preprocessor_overrides={"device_processor": {"device": device}}
@@ -251,6 +255,12 @@ class LerobotPolicy:
                     f"camera {name}: the checkpoint expects images of {[h, w, c]} (HWC), got {have}"
                 )
             batch[key] = torch.from_numpy(np.ascontiguousarray(img)).permute(2, 0, 1).float().div(255.0).unsqueeze(0)
+        if self._environment is not None:
+            env = obs.environment_state
+            if env is None or env.shape != (self._environment,):
+                have = None if env is None else list(env.shape)
+                raise ContractViolation(f"{ENVIRONMENT}: the checkpoint expects [{self._environment}], got {have}")
+            batch[ENVIRONMENT] = torch.from_numpy(np.asarray(env, dtype=np.float32)).unsqueeze(0)
         batch["task"] = [instruction]
         return self.pre(batch)  # type: ignore[no-any-return]
 

@@ -74,6 +74,17 @@ class ObservationsConfig(StrictModel):
         description="record `observation.environment_state`: every movable object's pose per frame "
         "(`<object>.x, .y, .z, .qw, .qx, .qy, .qz`, world frame; scenes that report object poses)",
     )
+    environment_goal: bool = Field(
+        default=False,
+        description="with `environment_state`, also the pose of the task's fixed goal (the `goal` role, drawn "
+        "from the seed), after the movable objects': what a state-only policy needs to know where to push",
+    )
+
+    @model_validator(mode="after")
+    def _goal_needs_state(self) -> ObservationsConfig:
+        if self.environment_goal and not self.environment_state:
+            raise ValueError("environment_goal needs environment_state: true")
+        return self
 
 
 class RenderConfig(StrictModel):

@@ -10,7 +10,7 @@ import pytest
 
 from openral_data.errors import ConfigError, DatasetError
 from openral_data.pipeline.schema import Step
-from openral_data.pipeline.state import StepState
+from openral_data.pipeline.state import StepState, config_hash
 
 STEP = Step.model_validate({"id": "all", "merge": {"inputs": ["rec"]}})
 
@@ -68,3 +68,11 @@ def test_step_folder_symlinked_outside_is_refused(tmp_path: Path) -> None:
     with pytest.raises(DatasetError):
         StepState(tmp_path / "run", STEP).start_item("dataset")
     assert (elsewhere / "dataset" / "keep").read_text() == "keep"
+
+
+def test_a_step_keeps_its_hash_when_step_kinds_are_added() -> None:
+    # the hashes the code before the train/filter/evaluate kinds gave these steps: a run made then resumes now
+    rec = Step.model_validate({"id": "rec", "record": {"scenes": ["mock_pick"], "rskills": ["zero-mock"],
+                                                       "seeds": {"count": 2}}})  # fmt: skip
+    assert config_hash(rec) == "7e471e9dc323b323"
+    assert config_hash(Step.model_validate({"id": "m", "merge": {"inputs": ["rec"]}})) == "46c3910d26b000ef"

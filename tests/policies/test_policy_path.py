@@ -177,6 +177,15 @@ def _refused(run: Any, needle: str) -> None:
             },
             "config.json: input_features.observation.images.top: camera 'top' but scene ",
         ),
+        (  # a state-only policy on object poses: the mock scene records none
+            {
+                "input_features": {
+                    "observation.state": {"type": "STATE", "shape": [8]},
+                    "observation.environment_state": {"type": "ENV", "shape": [14]},
+                }
+            },
+            "config.json: input_features.observation.environment_state: shape [14] but scene ",
+        ),
         ({"type": "evil"}, "config.json: type: 'evil' policies are not supported (act, diffusion)"),
         ({"fps": 7}, "config.json: fps: 7 but scene "),
     ],

@@ -42,7 +42,7 @@ class Recorded:
     info: dict[str, Any]
     depth: list[dict[str, npt.NDArray[np.float32]]]  # per row: the reference render of each depth camera
     rgb: list[dict[str, npt.NDArray[np.uint8]]]
-    poses: list[dict[str, npt.NDArray[np.float64]]]  # per row: privileged["object_poses"]
+    poses: list[dict[str, npt.NDArray[np.float64]]]  # per row: privileged["object_poses"] and ["fixed_poses"]
 
 
 def _rollout(scene_file: Path, actions: npt.NDArray[np.float32]) -> Recorded:
@@ -53,7 +53,8 @@ def _rollout(scene_file: Path, actions: npt.NDArray[np.float32]) -> Recorded:
         for action in actions:
             depth.append({k: v for k, v in obs.images.items() if v.ndim == 2})
             rgb.append({k: v for k, v in obs.images.items() if v.ndim == 3})
-            poses.append({k: np.asarray(v) for k, v in obs.privileged["object_poses"].items()})
+            both = {**obs.privileged["fixed_poses"], **obs.privileged["object_poses"]}
+            poses.append({k: np.asarray(v) for k, v in both.items()})
             obs = env.step(action).observation
     finally:
         env.close()
@@ -67,7 +68,7 @@ def recorded(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Recorded]:
     base = tmp_path_factory.mktemp("observations")
     with isolated_home(base / "home") as home:
         cameras = [{**FRONT, "depth": True}, {**WRIST, "depth": True}]
-        scene = {"cameras": cameras, "observations": {"environment_state": True}}
+        scene = {"cameras": cameras, "observations": {"environment_state": True, "environment_goal": True}}
         rec = record_push_variant(home, "depth_push", scene, SEED, STEPS, base / "out")
         ref = _rollout(rec.scene_file, rec.actions)
         ref.out, ref.info = rec.out, json.loads((rec.out / "meta/info.json").read_text())
@@ -110,11 +111,13 @@ def test_environment_state_is_the_simulators_object_poses_at_every_row(recorded:
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
     feature = recorded.info["features"]["observation.environment_state"]
-    assert feature["names"] == [f"cube.{k}" for k in POSE] and feature["shape"] == [7]
+    # the cube's pose, then (environment_goal) the goal's, drawn from the seed: what a state-only policy needs
+    assert feature["names"] == [f"{o}.{k}" for o in ("cube", "goal") for k in POSE] and feature["shape"] == [14]
     table = LeRobotDataset("local/depth", root=recorded.out, video_backend="pyav").hf_dataset.with_format("numpy")
     env = np.stack(table["observation.environment_state"])
-    want = np.stack([np.asarray(p["cube"], dtype=np.float32) for p in recorded.poses])
-    assert want.shape == (STEPS, 7) and np.array_equal(env.astype(np.float32), want)
+    want = np.stack([np.concatenate([p["cube"], p["goal"]]).astype(np.float32) for p in recorded.poses])
+    assert want.shape == (STEPS, 14) and np.array_equal(env.astype(np.float32), want)
+    assert (env[:, 7:] == env[0, 7:]).all() and np.linalg.norm(env[0, 7:9] - env[0, :2]) > 0.1  # fixed, apart
 
 
 @pytest.mark.slow
@@ -245,5 +248,5 @@ def test_doctor_stats_and_replay_handle_depth_and_environment_state(recorded: Re
     again = LeRobotDataset("local/again", root=tmp_path / "again", video_backend="pyav")
     assert sorted(again.meta.depth_keys) == ["observation.images.front_depth", "observation.images.wrist_depth"]
     table = again.hf_dataset.with_format("numpy")
-    want = np.stack([np.asarray(p["cube"], dtype=np.float32) for p in recorded.poses])
+    want = np.stack([np.concatenate([p["cube"], p["goal"]]).astype(np.float32) for p in recorded.poses])
     assert np.array_equal(np.stack(table["observation.environment_state"]).astype(np.float32), want)

@@ -31,13 +31,14 @@ class RigScene:
     def observe(self, state: npt.NDArray[np.float32], privileged: Privileged) -> Observation:
         """The current frames, `state`, the task text and the time since the episode began."""
         objects = self.environment_objects
+        poses = {**privileged.get("fixed_poses", {}), **privileged["object_poses"]} if objects else {}
         return Observation(
             images=self.render(),
             state=state,
             task=self.task_text,
             time=float(self.data.time) - self.t0,
             privileged=privileged,
-            environment_state=object_pose_vector(privileged["object_poses"], objects) if objects else None,
+            environment_state=object_pose_vector(poses, objects) if objects else None,
             transforms=self.rig.mount_poses(self.data),
         )
 

@@ -15,7 +15,9 @@ Actions: see controllers.py. `Observation.time` is simulation time since reset. 
 `Observation.privileged` (ground truth for scripted experts and replay; never recorded), world frame, metres,
 quaternions [qw, qx, qy, qz]:
 * `object_poses`: {name: [x, y, z, qw, qx, qy, qz]} of every movable object (free joint; a drawer: its sliding
-  body), the form replay compares with the initial state's `object_poses`;
+  body), the form replay compares with the initial state's `object_poses`; `fixed_poses`: the same of every
+  fixed object (with `scene.observations.environment_goal` the goal's follows the objects' in
+  `observation.environment_state`);
 * `objects`: {name: {...}} for every object: `kind`, `movable`, `visual`, `pos`, `quat` (body origin), `size`
   (bounding-box extents in its own frame, x/y/z), `bottom` (origin height above its lowest point), `top_z`
   (world height of its top), `radius` (footprint radius around the origin); a drawer also `opening` (metres
@@ -224,7 +226,9 @@ class TabletopScene(RigScene):
                 self.model, self.data, self.composed.gripper_joints, self.arm.site, self._robot_source
             )
         if scene.scene.observations.environment_state:
-            self.environment_objects = self.object_names()
+            goal = self.roles.get("goal")
+            fixed_goal = (goal,) if scene.scene.observations.environment_goal and goal in self._mocap else ()
+            self.environment_objects = (*self.object_names(), *fixed_goal)
         self.rig = CameraRig(self.model, list(scene.scene.cameras), scene.scene.render)
         self.spec = scene_spec(
             state_dim,
@@ -390,6 +394,11 @@ class TabletopScene(RigScene):
     def goal_pos(self) -> F64:
         return self.pos(self.roles["goal"])
 
+    def fixed_poses(self) -> dict[str, F64]:
+        """[x, y, z, qw, qx, qy, qz] of every fixed object (a goal region drawn from the seed, a support)."""
+        d = self.data
+        return {n: np.concatenate([d.mocap_pos[i], d.mocap_quat[i]]).astype(np.float64) for n, i in self._mocap.items()}
+
     def object_poses(self) -> dict[str, F64]:
         """[x, y, z, qw, qx, qy, qz] of every movable object (free joint; a drawer's sliding body)."""
         d = self.data
@@ -493,6 +502,7 @@ class TabletopScene(RigScene):
             "table_height": p.table_height,
             "task": self.task_kind,
             "object_poses": self.object_poses(),  # the generic hook replay compares
+            "fixed_poses": self.fixed_poses(),
             "objects": self._object_info(),
             "roles": dict(self.roles),
             "success": p.success.model_dump() if p.success is not None else None,
