@@ -97,3 +97,30 @@ def test_resolver_refuses_libero_next_to_robosuite_or_metaworld() -> None:
             proc.returncode != 0
             and f"Extras `libero` and `{other}` are incompatible with the declared conflicts" in message
         )
+
+
+@pytest.mark.parametrize(
+    "scene_id",
+    [
+        "maniskill_pick_cube",
+        "maniskill_push_cube",
+        "maniskill_stack_cube",
+        "robosuite_g1_lift",
+        "robosuite_h1_lift",
+        "robosuite_gr1_lift",
+        "robosuite_aloha_lift",
+    ],
+)
+def test_new_suites_have_a_benchmark_twin_of_the_same_scene(scene_id: str) -> None:
+    """ManiSkill3's and the humanoids' benchmark scenes: the sim scene's robot, cameras, parameters and instruction,
+    50 fixed seeds from 1000, and a scope that says what the default rSkill is (an expert or a random floor)."""
+    sim = load_recordable_scene(registry.resolve_scene_path(scene_id))
+    bench = load_recordable_scene(registry.resolve_scene_path(f"{scene_id}_bench"))
+    assert isinstance(bench, BenchmarkScene) and not isinstance(sim, BenchmarkScene)
+    assert bench.scene.type == sim.scene.type and bench.scene.type in registry.SCENES
+    assert (bench.scene.robot, bench.scene.default_rskill) == (sim.scene.robot, sim.scene.default_rskill)
+    assert bench.scene.cameras == sim.scene.cameras and bench.scene.params == sim.scene.params
+    assert bench.task.instruction == sim.task.instruction and bench.task.max_steps == sim.task.max_steps
+    assert (bench.seed, bench.n_episodes) == (1000, 50)
+    scope = bench.metadata.honest_scope
+    assert ("random policy" in scope) == (sim.scene.type == "robosuite") and "success is" in scope
