@@ -8,10 +8,12 @@ found with `importlib.util.find_spec`, nothing is imported. An rSkill whose poli
 from __future__ import annotations
 
 import importlib.util
+from typing import TYPE_CHECKING
 
 from openral_data.errors import ConfigError, install_hint
-from openral_data.runtime.compat import runnable
-from openral_data.schemas.rskill import RSkillManifest
+
+if TYPE_CHECKING:
+    from openral_data.schemas.rskill import RSkillManifest
 
 # scene type -> (module it imports, the extra that provides it, the environment it lives in when not this one)
 _NEEDS: dict[str, tuple[str, str, str | None]] = {
@@ -55,4 +57,6 @@ def check_scene_type(scene_type: str, source: str) -> None:
 
 def rskill_problem(rskill: RSkillManifest) -> str | None:
     """Why `rskill` cannot run here (`no checkpoint`), or None."""
+    from openral_data.runtime.compat import runnable  # (pydantic's schemas: not for `list scenes`)
+
     return None if runnable(rskill) else "neural rSkills need their checkpoint (policy_extras.checkpoint)"
