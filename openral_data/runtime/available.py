@@ -2,7 +2,7 @@
 
 A scene type backed by an external simulator needs its package (an extra, or for LIBERO its own environment);
 found with `importlib.util.find_spec`, nothing is imported. An rSkill whose policy is neural needs its checkpoint
-(`runtime.compat.runnable`).
+(`runnable`; `needs_checkpoint` says which policies are, from the policy's name alone).
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from __future__ import annotations
 import importlib.util
 from typing import TYPE_CHECKING
 
-from openral_data.errors import ConfigError, install_hint
+from openral_data.errors import ConfigError, OpenralError, install_hint
 
 if TYPE_CHECKING:
     from openral_data.schemas.rskill import RSkillManifest
@@ -55,8 +55,24 @@ def check_scene_type(scene_type: str, source: str) -> None:
     raise ConfigError(f"{source}: scene.type: {scene_type}: {problem}: {install_hint(extra)}")
 
 
+def needs_checkpoint(policy: str) -> bool:
+    """Whether rSkills of `policy` run a checkpoint (a neural policy); the others always run."""
+    return policy == "lerobot"
+
+
+def runnable(rskill: RSkillManifest) -> bool:
+    """False for a neural rSkill whose checkpoint is not there (a lerobot policy without its checkpoint folder)."""
+    if not needs_checkpoint(rskill.policy):
+        return True
+    from openral_data.policies.lerobot_policy import checkpoint_dir
+
+    try:
+        checkpoint_dir(rskill)
+    except (OpenralError, ImportError):
+        return False
+    return True
+
+
 def rskill_problem(rskill: RSkillManifest) -> str | None:
     """Why `rskill` cannot run here (`no checkpoint`), or None."""
-    from openral_data.runtime.compat import runnable  # (pydantic's schemas: not for `list scenes`)
-
     return None if runnable(rskill) else "neural rSkills need their checkpoint (policy_extras.checkpoint)"

@@ -23,6 +23,7 @@ import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pyarrow as pa
 
@@ -31,7 +32,9 @@ from openral_data.errors import DatasetError
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import digests
 from openral_data.formats.parquetfile import read_table
-from openral_data.metrics.quality.thresholds import Thresholds, data_kind
+
+if TYPE_CHECKING:  # imported where used: `info` looks for a table (`cache_paths`) before anything else
+    from openral_data.metrics.quality.thresholds import Thresholds
 
 # of the measures: a change to how they are computed bumps it, so older tables are recomputed (2: image cameras;
 # 3: findings, and frozen/jerky/clipped measured anew)
@@ -59,6 +62,8 @@ class CachePaths:
 
 
 def fingerprint(root: Path, th: Thresholds) -> str:
+    from openral_data.metrics.quality.thresholds import data_kind
+
     files = sorted({p for pattern in (*digests.PATTERNS, *digests.SINGLE) for p in root.glob(pattern)})
     stats: list[list[object]] = []
     for path in files:
