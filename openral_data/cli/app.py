@@ -1,4 +1,5 @@
-"""`openral-data`: the Typer app, its commands (one module per command group) and the entry point."""
+"""`openral-data`: the Typer app, its commands (one module per command group, imported when the command is looked
+up: `cli/lazy.py`) and the entry point."""
 
 from __future__ import annotations
 
@@ -9,25 +10,53 @@ from typing import Annotated, Any, cast
 
 import typer
 
-from openral_data.cli import browse, convert, export, generate, hub, inspect, quality, record, replay, stats, upgrade
-from openral_data.cli.download import dataset_commands
-from openral_data.cli.edit import episodes_app
-from openral_data.cli.features import features_app
 from openral_data.cli.globalflags import RootGroup
-from openral_data.cli.help import plain_flags
+from openral_data.cli.lazy import LazyCommands
 from openral_data.cli.logs import LogFormat
 from openral_data.cli.logs import configure as configure_logs
 from openral_data.cli.parsererrors import parser_message
-from openral_data.cli.pipeline import pipeline_app
-from openral_data.cli.tasks import tasks_app
 from openral_data.cli.terminal import print_line
-from openral_data.cli.videos import videos_app
 from openral_data.errors import OpenralError, UsageError
 from openral_data.manifests import ENV_DIRS, Kind
 from openral_data.version import __version__
 
+# every command in `--help`'s order: its name -> (module, attribute), a command function or a sub-app
+COMMANDS: dict[str, tuple[str, str]] = {
+    "record": ("openral_data.cli.record", "record"),
+    "convert": ("openral_data.cli.convert", "convert"),
+    "export": ("openral_data.cli.export", "export"),
+    "upgrade": ("openral_data.cli.upgrade", "upgrade"),
+    "info": ("openral_data.cli.inspect", "info"),
+    "list": ("openral_data.cli.inspect", "list_cmd"),
+    "quality": ("openral_data.cli.quality", "quality"),
+    "view": ("openral_data.cli.inspect", "view"),
+    "replay": ("openral_data.cli.replay", "replay"),
+    "generate": ("openral_data.cli.generate", "generate"),
+    "doctor": ("openral_data.cli.inspect", "doctor"),
+    "push": ("openral_data.cli.hub", "push"),
+    "browse": ("openral_data.cli.browse", "browse"),
+    "stats": ("openral_data.cli.stats", "stats_app"),
+    "episodes": ("openral_data.cli.edit", "episodes_app"),
+    "pipeline": ("openral_data.cli.pipeline", "pipeline_app"),
+    "videos": ("openral_data.cli.videos", "videos_app"),
+    "tasks": ("openral_data.cli.tasks", "tasks_app"),
+    "features": ("openral_data.cli.features", "features_app"),
+}
+
+
+class AppGroup(RootGroup):
+    """The root group: its commands are `COMMANDS`, each imported when first looked up."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        self.commands = LazyCommands(COMMANDS)
+
+    def list_commands(self, ctx: Any) -> list[str]:
+        return list(self.commands)  # the names, in order, without importing every command
+
+
 app = typer.Typer(
-    cls=RootGroup,  # global flags after the command name too
+    cls=AppGroup,  # global flags after the command name too
     add_completion=False,
     no_args_is_help=True,
     pretty_exceptions_enable=False,
@@ -86,29 +115,6 @@ def add_search_dir(kind: Kind, folder: Path) -> None:
         raise UsageError(f"--{kind}-dir: {folder} is not a folder")
     env = ENV_DIRS[kind]
     os.environ[env] = os.pathsep.join(p for p in (os.environ.get(env, ""), str(folder.resolve())) if p)
-
-
-app.command()(record.record)
-app.command()(convert.convert)
-app.command()(export.export)
-app.command()(upgrade.upgrade)
-app.command()(inspect.info)
-app.command("list")(inspect.list_cmd)
-app.add_typer(stats.stats_app, name="stats")
-app.command()(quality.quality)
-app.command()(inspect.view)
-app.command()(replay.replay)
-app.command()(generate.generate)
-app.command()(inspect.doctor)
-app.command()(hub.push)
-app.command()(browse.browse)
-app.add_typer(episodes_app, name="episodes")
-app.add_typer(pipeline_app, name="pipeline")
-app.add_typer(videos_app, name="videos")
-app.add_typer(tasks_app, name="tasks")
-app.add_typer(features_app, name="features")
-dataset_commands(app)  # after every command and sub-app: their @takes (--download…, v2.x) applied
-plain_flags(app)  # after every command and sub-app: their --help shows no <bool> for flags
 
 
 def main() -> None:

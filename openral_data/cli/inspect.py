@@ -232,6 +232,8 @@ def _runs_here(section: str, it: Item, notes: list[str]) -> str:
         kind = str(it.fields.get("type"))
         problem = available.scene_type_problem(kind)
         problem = None if problem is None else f"{kind} scenes: {problem}"
+    elif not available.needs_checkpoint(str(it.fields.get("policy"))):
+        problem = None  # (its manifest loaded: the catalog has its fields)
     else:
         try:
             problem = available.rskill_problem(registry.resolve_rskill(it.path or it.id)[0])

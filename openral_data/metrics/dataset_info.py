@@ -47,15 +47,26 @@ class DatasetInfo:
 def describe_dataset(path: Path) -> DatasetInfo:
     """`path` summarised as a LeRobot dataset (one line when it is none)."""
     from openral_data.formats.dataset import summarize
-    from openral_data.metrics.quality import flag_counts
-    from openral_data.metrics.sources import open_dataset
 
     summary = summarize(path)
+    return DatasetInfo(path, summary, _flag_counts(path))
+
+
+def _flag_counts(path: Path) -> dict[str, int] | None:
+    """The cached quality table's flag counts, None when there is none current (or the dataset cannot be opened
+    for DuckDB). No table at all is seen without opening the dataset: `info` then imports neither DuckDB nor
+    the quality measures."""
+    from openral_data.metrics.quality.cache import cache_paths
+
     try:
-        counts: dict[str, int] | None = flag_counts(open_dataset(path))
+        if not cache_paths(path).episodes.is_file():
+            return None
+        from openral_data.metrics.quality import flag_counts
+        from openral_data.metrics.sources import open_dataset
+
+        return flag_counts(open_dataset(path))
     except OpenralError:
-        counts = None
-    return DatasetInfo(path, summary, counts)
+        return None
 
 
 def _quality_cell(counts: dict[str, int] | None) -> str:

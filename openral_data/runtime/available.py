@@ -2,16 +2,18 @@
 
 A scene type backed by an external simulator needs its package (an extra, or for LIBERO and ManiSkill3 its own
 environment); found with `importlib.util.find_spec`, nothing is imported. An rSkill whose policy is neural needs
-its checkpoint (`runtime.compat.runnable`).
+its checkpoint (`runnable`; `needs_checkpoint` says which policies are, from the policy's name alone).
 """
 
 from __future__ import annotations
 
 import importlib.util
+from typing import TYPE_CHECKING
 
-from openral_data.errors import ConfigError, install_hint
-from openral_data.runtime.compat import runnable
-from openral_data.schemas.rskill import RSkillManifest
+from openral_data.errors import ConfigError, OpenralError, install_hint
+
+if TYPE_CHECKING:
+    from openral_data.schemas.rskill import RSkillManifest
 
 # scene type -> (module it imports, the extra that provides it, the environment it lives in when not this one)
 _NEEDS: dict[str, tuple[str, str, str | None]] = {
@@ -52,6 +54,24 @@ def check_scene_type(scene_type: str, source: str) -> None:
             f"{source}: scene.type: {scene_type} needs the '{extra}' extra, in an environment of its own ({own})"
         )
     raise ConfigError(f"{source}: scene.type: {scene_type}: {problem}: {install_hint(extra)}")
+
+
+def needs_checkpoint(policy: str) -> bool:
+    """Whether rSkills of `policy` run a checkpoint (a neural policy); the others always run."""
+    return policy == "lerobot"
+
+
+def runnable(rskill: RSkillManifest) -> bool:
+    """False for a neural rSkill whose checkpoint is not there (a lerobot policy without its checkpoint folder)."""
+    if not needs_checkpoint(rskill.policy):
+        return True
+    from openral_data.policies.lerobot_policy import checkpoint_dir
+
+    try:
+        checkpoint_dir(rskill)
+    except (OpenralError, ImportError):
+        return False
+    return True
 
 
 def rskill_problem(rskill: RSkillManifest) -> str | None:

@@ -7,15 +7,13 @@ from, what it overrides, whether it loads), the registered scene types and polic
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from functools import partial
 
 from openral_data import manifests
 from openral_data.errors import OpenralError
 from openral_data.runtime import registry
-from openral_data.schemas.base import load_model
-from openral_data.schemas.rskill import RSkillManifest
-from openral_data.schemas.scene import load_scene
+from openral_data.runtime.catalog_cache import CatalogCache, Loaded
 
 __all__ = ["FIELDS", "SECTIONS", "Catalog", "Item", "catalog", "plugin_problems"]
 
@@ -81,14 +79,18 @@ class Catalog:
 
 
 def catalog(sections: tuple[str, ...] = SECTIONS) -> Catalog:
+    cache = CatalogCache()  # each manifest's fields as last loaded, while its file is unchanged
     builders: dict[str, Callable[[], list[Item]]] = {
-        "scenes": _scenes,
-        "rskills": _rskills,
-        "robots": _robots,
+        "scenes": partial(_manifests, "scenes", _scene_fields, cache),
+        "rskills": partial(_manifests, "rskills", _rskill_fields, cache),
+        "robots": partial(_manifests, "robots", _robot_fields, cache),
         "scene_types": partial(_factories, registry.SCENES),
         "policies": partial(_factories, registry.POLICIES),
     }
     built = {name: builders[name]() for name in sections}
+    if "robots" in built:
+        built["robots"] = _with_scenes(built["robots"], built.get("scenes") or builders["scenes"]())
+    cache.save()
     return Catalog(built, plugin_problems())
 
 
@@ -98,76 +100,71 @@ def plugin_problems() -> list[manifests.PluginProblem]:
     return manifests.plugin_problems()
 
 
-def _entry_item(entry: manifests.Entry, fields: dict[str, object] | None, error: str | None) -> Item:
-    return Item(entry.id, entry.origin, str(entry.path), entry.overrides, fields or {}, error)
-
-
-def _scenes() -> list[Item]:
+def _manifests(
+    kind: manifests.Kind, fields_of: Callable[[manifests.Entry], dict[str, object]], cache: CatalogCache
+) -> list[Item]:
+    """Every manifest of `kind` with its fields, or the one-line error it fails to load with."""
     out = []
-    for entry in manifests.entries("scenes").values():
-        try:
-            sc = load_scene(entry.path)
-        except OpenralError as exc:
-            out.append(_entry_item(entry, None, str(exc)))
-            continue
-        spec = sc.scene
-        fields: dict[str, object] = {
-            "tier": sc.tier,
-            "type": spec.type,
-            "robot": spec.robot,
-            "default_rskill": spec.default_rskill,
-        }
-        out.append(_entry_item(entry, fields, None))
+    for entry in manifests.entries(kind).values():
+        fields, error = cache.loaded(kind, entry.path, partial(_load, fields_of, entry))
+        out.append(Item(entry.id, entry.origin, str(entry.path), entry.overrides, fields or {}, error))
     return out
 
 
-def _rskills() -> list[Item]:
-    out = []
-    for entry in manifests.entries("rskills").values():
-        try:
-            rs = load_model(RSkillManifest, entry.path)
-        except OpenralError as exc:
-            out.append(_entry_item(entry, None, str(exc)))
-            continue
-        fields: dict[str, object] = {
-            "policy": rs.policy,
-            "embodiment_tags": list(rs.embodiment_tags),
-            "state_dim": rs.state_contract.dim,
-            "state_representation": rs.state_contract.representation,
-            "action_dim": rs.action_contract.dim,
-            "action_representation": rs.action_contract.representation,
-            "cameras": list(rs.required_cameras),
-        }
-        out.append(_entry_item(entry, fields, None))
-    return out
+def _load(fields_of: Callable[[manifests.Entry], dict[str, object]], entry: manifests.Entry) -> Loaded:
+    try:
+        return fields_of(entry), None
+    except OpenralError as exc:
+        return None, str(exc)
 
 
-def _robots() -> list[Item]:
+def _with_scenes(robots: list[Item], scenes: list[Item]) -> list[Item]:
     """Each robot with the scenes on the search path that record it (what it runs in here; benchmark copies not
-    repeated)."""
-    scenes: dict[str, list[str]] = {}
-    for scene in _scenes():
+    repeated). Not cached with the robot: it depends on the scene files."""
+    found: dict[str, list[str]] = {}
+    for scene in scenes:
         robot = scene.fields.get("robot")
         if isinstance(robot, str) and scene.fields.get("tier") != "benchmark":
-            scenes.setdefault(robot, []).append(scene.id)
-    out = []
-    for entry in manifests.entries("robots").values():
-        try:
-            rb = registry.load_robot(entry.id)
-        except OpenralError as exc:
-            out.append(_entry_item(entry, None, str(exc)))
-            continue
-        fields: dict[str, object] = {
-            "embodiment_tags": list(rb.embodiment_tags),
-            "joints": len(rb.joints),
-            "state_dim": rb.observation.state.dim,
-            "action_dim": rb.action.dim,
-            "cameras": [c.name for c in rb.sensors.cameras],
-            "scenes": scenes.get(rb.name, []),
-            "description": rb.description,
-        }
-        out.append(_entry_item(entry, fields, None))
-    return out
+            found.setdefault(robot, []).append(scene.id)
+    return [
+        replace(it, fields={**it.fields, "scenes": found.get(it.id, [])}) if it.error is None else it for it in robots
+    ]
+
+
+def _scene_fields(entry: manifests.Entry) -> dict[str, object]:
+    from openral_data.schemas.scene import load_scene
+
+    sc = load_scene(entry.path)
+    spec = sc.scene
+    return {"tier": sc.tier, "type": spec.type, "robot": spec.robot, "default_rskill": spec.default_rskill}
+
+
+def _rskill_fields(entry: manifests.Entry) -> dict[str, object]:
+    from openral_data.schemas.base import load_model
+    from openral_data.schemas.rskill import RSkillManifest
+
+    rs = load_model(RSkillManifest, entry.path)
+    return {
+        "policy": rs.policy,
+        "embodiment_tags": list(rs.embodiment_tags),
+        "state_dim": rs.state_contract.dim,
+        "state_representation": rs.state_contract.representation,
+        "action_dim": rs.action_contract.dim,
+        "action_representation": rs.action_contract.representation,
+        "cameras": list(rs.required_cameras),
+    }
+
+
+def _robot_fields(entry: manifests.Entry) -> dict[str, object]:
+    rb = registry.load_robot(entry.id)
+    return {
+        "embodiment_tags": list(rb.embodiment_tags),
+        "joints": len(rb.joints),
+        "state_dim": rb.observation.state.dim,
+        "action_dim": rb.action.dim,
+        "cameras": [c.name for c in rb.sensors.cameras],
+        "description": rb.description,
+    }
 
 
 def _factories(reg: registry.Registry[registry.SceneFactory] | registry.Registry[registry.PolicyFactory]) -> list[Item]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from openral_data.errors import CompatibilityError, OpenralError
+from openral_data.runtime.available import runnable
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.types import ProducerSpec
@@ -21,19 +22,6 @@ def runs_on(rskill: RSkillManifest, scene_type: str) -> bool:
     """Whether `rskill`'s policy can drive a scene of `scene_type` (scripted experts need a MuJoCo tabletop)."""
     types = _TABLETOP if rskill.policy.startswith("scripted_") else _SCENE_TYPES.get(rskill.policy)
     return types is None or scene_type in types
-
-
-def runnable(rskill: RSkillManifest) -> bool:
-    """False for a neural rSkill whose checkpoint is not there (a lerobot policy without its checkpoint folder)."""
-    if rskill.policy != "lerobot":
-        return True
-    from openral_data.policies.lerobot_policy import checkpoint_dir
-
-    try:
-        checkpoint_dir(rskill)
-    except (OpenralError, ImportError):
-        return False
-    return True
 
 
 def rskills_for(robot: RobotManifest, spec: ProducerSpec | None = None, scene_type: str | None = None) -> list[str]:

@@ -9,22 +9,22 @@ from collections.abc import Callable, Iterator, Mapping, MutableMapping
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
-from typing import Literal, cast
+from typing import TYPE_CHECKING, Literal, cast
 
 from openral_data import manifests
 from openral_data.errors import ConfigError, OpenralError, UsageError
-from openral_data.policies.base import PolicyAdapter
-from openral_data.policies.basic import RandomPolicy, ZeroPolicy
-from openral_data.producers.sim.tasks import SuiteTask, TaskLister
-from openral_data.schemas.base import load_model
-from openral_data.schemas.robot import RobotManifest
-from openral_data.schemas.rskill import RSkillManifest
-from openral_data.schemas.scene import SimScene
 from openral_data.text import choices_hint
-from openral_data.types import SimRollout
 
-SceneFactory = Callable[[SimScene, RobotManifest, RSkillManifest, str], SimRollout]
-PolicyFactory = Callable[[RSkillManifest], PolicyAdapter]
+if TYPE_CHECKING:  # imported where used: `list` and `doctor` load the registries without numpy or pydantic
+    from openral_data.policies.base import PolicyAdapter
+    from openral_data.producers.sim.tasks import SuiteTask, TaskLister
+    from openral_data.schemas.robot import RobotManifest
+    from openral_data.schemas.rskill import RSkillManifest
+    from openral_data.schemas.scene import SimScene
+    from openral_data.types import SimRollout
+
+SceneFactory = Callable[["SimScene", "RobotManifest", "RSkillManifest", str], "SimRollout"]
+PolicyFactory = Callable[["RSkillManifest"], "PolicyAdapter"]
 
 
 @dataclass(frozen=True)
@@ -132,6 +132,18 @@ def _metaworld_tasks(scene: SimScene, source: str) -> list[SuiteTask]:
     from openral_data.producers.sim import metaworld
 
     return metaworld.suite_tasks(scene, source)
+
+
+def _zero(rskill: RSkillManifest) -> PolicyAdapter:
+    from openral_data.policies.basic import ZeroPolicy
+
+    return ZeroPolicy(rskill)
+
+
+def _random(rskill: RSkillManifest) -> PolicyAdapter:
+    from openral_data.policies.basic import RandomPolicy
+
+    return RandomPolicy(rskill)
 
 
 def _metaworld_expert(rskill: RSkillManifest) -> PolicyAdapter:
@@ -263,8 +275,8 @@ POLICIES: Registry[PolicyFactory] = Registry(
     "policy",
     "openral_data.policies",
     {
-        "zero": ZeroPolicy,
-        "random": RandomPolicy,
+        "zero": _zero,
+        "random": _random,
         "scripted_push": _scripted("ScriptedPush"),
         "scripted_pick_place": _scripted("ScriptedPickPlace"),
         "scripted_pick": _scripted("ScriptedPick"),
@@ -315,7 +327,7 @@ def robot_ids() -> list[str]:
     return manifests.ids("robots")
 
 
-class RobotRegistry(Mapping[str, RobotManifest]):
+class RobotRegistry(Mapping[str, "RobotManifest"]):
     """ROBOTS: every `robots/<id>/robot.yaml` on the search path (`openral_data.manifests`), looked up on each
     access (adding a folder adds a robot). Looking up an unknown id raises an OpenralError listing the valid ones.
     """
@@ -334,6 +346,9 @@ class RobotRegistry(Mapping[str, RobotManifest]):
 
 
 def load_robot(robot_id: str) -> RobotManifest:
+    from openral_data.schemas.base import load_model
+    from openral_data.schemas.robot import RobotManifest
+
     path = manifests.find("robots", robot_id)
     if path is None:
         raise unknown("robot", robot_id, robot_ids())
@@ -355,6 +370,9 @@ def rskill_ids() -> list[str]:
 
 def resolve_rskill(ref: str) -> tuple[RSkillManifest, Path]:
     """An rSkill id (on the search path), a folder holding `rskill.yaml`, or a YAML file."""
+    from openral_data.schemas.base import load_model
+    from openral_data.schemas.rskill import RSkillManifest
+
     candidate = Path(ref).expanduser()
     if candidate.is_dir():
         candidate = candidate / "rskill.yaml"

@@ -16,13 +16,14 @@ from tests.support.home import BUILTIN
 def test_robots_are_discovered_from_folders(project: Path) -> None:
     shipped = list(registry.ROBOTS)
     assert "mock_arm" in shipped and "mock_arm" in registry.ROBOTS and shipped == sorted(shipped)
-    shutil.copytree(project / "robots/mock_arm", project / "robots/mock_arm_b")
-    text = (project / "robots/mock_arm_b/robot.yaml").read_text().replace("name: mock_arm", "name: mock_arm_b")
-    (project / "robots/mock_arm_b/robot.yaml").write_text(text)
-    assert list(registry.ROBOTS) == sorted([*shipped, "mock_arm_b"]) and len(registry.ROBOTS) == len(shipped) + 1
-    assert registry.ROBOTS["mock_arm_b"].name == "mock_arm_b"
-    # the listed valid choices are the point of this message, so the wording is matched besides the code
-    with pytest.raises(UsageError, match=r"unknown robot 'nope'; valid: .*mock_arm, mock_arm_b") as excinfo:
+    shutil.copytree(project / "robots/mock_arm", project / "robots/a_mock_arm")
+    text = (project / "robots/a_mock_arm/robot.yaml").read_text().replace("name: mock_arm", "name: a_mock_arm")
+    (project / "robots/a_mock_arm/robot.yaml").write_text(text)
+    assert list(registry.ROBOTS) == sorted([*shipped, "a_mock_arm"]) and len(registry.ROBOTS) == len(shipped) + 1
+    assert registry.ROBOTS["a_mock_arm"].name == "a_mock_arm"
+    # the listed valid choices (the first 12 in order; the new one sorts first) are the point of this message, so
+    # the wording is matched besides the code
+    with pytest.raises(UsageError, match=r"unknown robot 'nope'; valid: a_mock_arm, aloha, ") as excinfo:
         registry.ROBOTS["nope"]
     assert excinfo.value.code == "usage"
 

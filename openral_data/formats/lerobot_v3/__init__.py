@@ -14,15 +14,42 @@ committed episode. The writer's parts: `buffer` (an episode's columns, table and
 cost ahead of a recording.
 """
 
-from openral_data.formats.lerobot_v3.buffer import EpisodeBuffer
-from openral_data.formats.lerobot_v3.clip import episode_clip
-from openral_data.formats.lerobot_v3.config import WriterConfig
-from openral_data.formats.lerobot_v3.encoder import VideoSettings
-from openral_data.formats.lerobot_v3.frames import episode_frames
-from openral_data.formats.lerobot_v3.lock import DatasetLock, holder
-from openral_data.formats.lerobot_v3.reader import DatasetSummary, read_episodes, read_info, read_tasks, summarize
-from openral_data.formats.lerobot_v3.recovery import recover
-from openral_data.formats.lerobot_v3.writer import LeRobotV3Writer, warm_up
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from openral_data.lazy import lazy_names
+
+# name -> the module that defines it: imported on first use, so reading a dataset's metadata (`info`) does not
+# import the writer, PyAV and the encoders
+_API: dict[str, str] = {
+    "DatasetLock": "openral_data.formats.lerobot_v3.lock",
+    "DatasetSummary": "openral_data.formats.lerobot_v3.reader",
+    "EpisodeBuffer": "openral_data.formats.lerobot_v3.buffer",
+    "LeRobotV3Writer": "openral_data.formats.lerobot_v3.writer",
+    "VideoSettings": "openral_data.formats.lerobot_v3.encoder",
+    "WriterConfig": "openral_data.formats.lerobot_v3.config",
+    "episode_clip": "openral_data.formats.lerobot_v3.clip",
+    "episode_frames": "openral_data.formats.lerobot_v3.frames",
+    "holder": "openral_data.formats.lerobot_v3.lock",
+    "read_episodes": "openral_data.formats.lerobot_v3.reader",
+    "read_info": "openral_data.formats.lerobot_v3.reader",
+    "read_tasks": "openral_data.formats.lerobot_v3.reader",
+    "recover": "openral_data.formats.lerobot_v3.recovery",
+    "summarize": "openral_data.formats.lerobot_v3.reader",
+    "warm_up": "openral_data.formats.lerobot_v3.writer",
+}
+
+if TYPE_CHECKING:
+    from openral_data.formats.lerobot_v3.buffer import EpisodeBuffer
+    from openral_data.formats.lerobot_v3.clip import episode_clip
+    from openral_data.formats.lerobot_v3.config import WriterConfig
+    from openral_data.formats.lerobot_v3.encoder import VideoSettings
+    from openral_data.formats.lerobot_v3.frames import episode_frames
+    from openral_data.formats.lerobot_v3.lock import DatasetLock, holder
+    from openral_data.formats.lerobot_v3.reader import DatasetSummary, read_episodes, read_info, read_tasks, summarize
+    from openral_data.formats.lerobot_v3.recovery import recover
+    from openral_data.formats.lerobot_v3.writer import LeRobotV3Writer, warm_up
 
 __all__ = [
     "DatasetLock",
@@ -41,3 +68,6 @@ __all__ = [
     "summarize",
     "warm_up",
 ]
+
+
+__getattr__ = lazy_names(__name__, _API)

@@ -23,15 +23,18 @@ import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pyarrow as pa
 
+from openral_data import manifests
 from openral_data.errors import DatasetError
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import digests
 from openral_data.formats.parquetfile import read_table
-from openral_data.metrics.quality.table import SCHEMA
-from openral_data.metrics.quality.thresholds import Thresholds, data_kind
+
+if TYPE_CHECKING:  # imported where used: `info` looks for a table (`cache_paths`) before anything else
+    from openral_data.metrics.quality.thresholds import Thresholds
 
 # of the measures: a change to how they are computed bumps it, so older tables are recomputed (2: image cameras;
 # 3: findings, and frozen/jerky/clipped measured anew; 4: frame drops, repeated rows, degrees, idle edges, camera runs)
@@ -59,6 +62,8 @@ class CachePaths:
 
 
 def fingerprint(root: Path, th: Thresholds) -> str:
+    from openral_data.metrics.quality.thresholds import data_kind
+
     files = sorted({p for pattern in (*digests.PATTERNS, *digests.SINGLE) for p in root.glob(pattern)})
     stats: list[list[object]] = []
     for path in files:
@@ -73,7 +78,7 @@ def fingerprint(root: Path, th: Thresholds) -> str:
 
 
 def user_cache_dir() -> Path:
-    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "openral-data" / "quality"
+    return manifests.cache_home() / "quality"
 
 
 def cache_paths(root: Path) -> CachePaths:
@@ -97,6 +102,8 @@ def current(schema: pa.Schema, key: str, stride: int | None) -> bool:
 def load(path: Path, key: str, stride: int | None = None) -> pa.Table | None:
     """The cached table at `path` if it was computed under `key` (and at `stride`, when given); None if absent,
     stale or unreadable."""
+    from openral_data.metrics.quality.table import SCHEMA  # (the measures' modules: not for `cache_paths`)
+
     if not path.is_file():
         return None
     try:
