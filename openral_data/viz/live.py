@@ -3,7 +3,9 @@
 `LiveView` is a frame observer: the bridge hands it each frame after the sinks took it, and it only queues the
 frame for a background thread that logs it. At most `max_pending` frames wait; a frame that arrives when that
 many are waiting is dropped (counted, reported on stderr at the end) — a slow viewer never slows the recording,
-and the dataset never misses a frame (the sinks had it first). Episode starts and ends are never dropped.
+and the dataset never misses a frame (the sinks had it first). Episode starts and ends are never dropped. The
+cameras' pictures are shown at most `IMAGE_HZ` times a second of the episode (the state, action and outcome series
+at every frame): the viewer's rate, not the recording's.
 
 Each episode is a recording of its own (application `openral-data`, recording id `<run>-episode-<N>`), as
 `view` shows one episode. Where the viewer is: `--view-address URL` connects to a running viewer or server;
@@ -47,6 +49,9 @@ from openral_data.viz.entities import (
 from openral_data.viz.rerun_view import has_display
 
 MAX_PENDING = 32  # frames waiting for the viewer thread before live frames are dropped
+# the pictures shown at most this often (the series every frame): what a person watching needs, and a teleop
+# session on 2 cores spends the rest on its control loop (benchmarks/README.md, teleop overruns)
+IMAGE_HZ = 10.0
 
 
 @dataclass(frozen=True)
@@ -117,8 +122,10 @@ class LiveView:
         run_id: str | None = None,
         hub: rr.RecordingStream | None = None,
         err: TextIO | None = None,
+        image_hz: float = IMAGE_HZ,
     ) -> None:
         self.schema = schema
+        self._image_period = 1.0 / image_hz
         self.stats = LiveStats()
         self._connect = connect  # gives an episode's recording stream its sink
         self._run = run_id or new_run_id()
@@ -170,7 +177,7 @@ class LiveView:
     # -- the viewer thread ---------------------------------------------------------------------------------------
     def _run_loop(self) -> None:
         rec: rr.RecordingStream | None = None
-        episode, step, task = -1, 0, ""
+        episode, step, task, next_image = -1, 0, "", 0.0
         while True:
             item = self._queue.get()
             if item is _STOP:
@@ -186,7 +193,7 @@ class LiveView:
                 if isinstance(item, _Preview | _Begin) and (rec is None or episode != item.index):
                     if rec is not None:  # (an episode without an end, a preview not followed by its episode)
                         rec.disconnect()
-                    episode, step, task = item.index, 0, ""
+                    episode, step, task, next_image = item.index, 0, "", 0.0
                     rec = self._open_episode(item.index)
                 if isinstance(item, _Preview) and rec is not None:
                     self._log_preview(rec, item.images)
@@ -194,7 +201,10 @@ class LiveView:
                     if item.task != task:
                         task = item.task
                         rec.log(TASK, rr.TextDocument(task), static=True)
-                    self._log_frame(rec, step, item)
+                    pictures = item.timestamp >= next_image - 1e-9  # (at most `image_hz`: the series every frame)
+                    if pictures:
+                        next_image = item.timestamp + self._image_period
+                    self._log_frame(rec, step, item, pictures)
                     step += 1
                     self.stats.shown += 1
                 elif isinstance(item, _End) and rec is not None:
@@ -230,10 +240,10 @@ class LiveView:
         shown = rr.Image(image) if unit is None else rr.DepthImage(image, meter=1.0 if unit == "m" else 1000.0)
         rec.log(camera_entity(cam), shown)
 
-    def _log_frame(self, rec: rr.RecordingStream, step: int, frame: Frame) -> None:
+    def _log_frame(self, rec: rr.RecordingStream, step: int, frame: Frame, pictures: bool) -> None:
         rec.set_time(FRAME, sequence=step)
         rec.set_time(TIME, duration=frame.timestamp)
-        for cam, image in frame.images.items():
+        for cam, image in frame.images.items() if pictures else ():
             self._log_image(rec, cam, image)
         schema = self.schema
         for base, values, names in (

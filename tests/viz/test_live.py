@@ -77,7 +77,8 @@ def test_a_blocked_viewer_never_holds_the_recording_back(tmp_path: Path) -> None
     view.close()
     assert err.getvalue() == "view: 8 frames shown, 192 dropped (the viewer lagged)\n"
     temporal, static = entities(tmp_path / "live.rrd")["run-episode-0"]
-    assert temporal["/cameras/front"] == temporal["/state/a"] == temporal["/outcome/reward"] == 8
+    assert temporal["/state/a"] == temporal["/outcome/reward"] == 8
+    assert temporal["/cameras/front"] == 4  # pictures at 10 Hz of a 20 fps episode: frames 0, 2, 4, 6
     assert temporal["/events"] == 1
     assert "/task" in static
 
@@ -114,11 +115,13 @@ def test_record_view_serves_a_stream_a_client_receives(
     assert sorted(rid.rsplit("-", 1)[1] for rid in received) == ["0", "1"]
     total = 0
     for rid, (temporal, static) in received.items():
-        n = temporal["/cameras/front"]
+        n = temporal["/outcome/reward"]
         total += n
-        expected = {"/cameras/front", "/cameras/wrist", "/outcome/reward", "/outcome/success", "/outcome/done"}
+        expected = {"/outcome/reward", "/outcome/success", "/outcome/done"}
         expected |= {e for e in temporal if e.startswith(("/state/", "/action/"))}
         assert {e: temporal[e] for e in expected} == dict.fromkeys(expected, n), rid
+        # the pictures at most 10 a second: every other frame of the 20 fps episode, the first included
+        assert temporal["/cameras/front"] == temporal["/cameras/wrist"] == (n + 1) // 2, rid
         assert any(e.startswith("/state/") for e in temporal) and any(e.startswith("/action/") for e in temporal)
         assert temporal["/events"] == 1 and "/task" in static
     assert total == int(shown[0][1])
@@ -193,5 +196,6 @@ def test_view_address_sends_to_a_running_viewer(tmp_path: Path) -> None:
     finally:
         stop_rerun(server)
     received = {rid.rsplit("-", 1)[1]: v for rid, v in entities(got).items()}
-    assert {k: v[0]["/cameras/front"] for k, v in received.items()} == {"3": 5, "4": 1}
+    assert {k: v[0]["/state/a"] for k, v in received.items()} == {"3": 5, "4": 1}
+    assert {k: v[0]["/cameras/front"] for k, v in received.items()} == {"3": 3, "4": 1}  # 10 Hz: frames 0, 2, 4
     assert received["3"][0]["/events"] == received["4"][0]["/events"] == 1
