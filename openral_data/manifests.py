@@ -22,7 +22,6 @@ import, or names no folder) never break the rest; they are collected by `plugin_
 from __future__ import annotations
 
 import functools
-import importlib.resources
 import os
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -113,6 +112,8 @@ def plugin_problems() -> list[PluginProblem]:
 
 def builtin_dir() -> Path:
     """The package's own manifests (package data; an installed wheel is always unpacked on disk)."""
+    import importlib.resources  # here: with tempfile, ~10 ms that `--version` and `info` need not pay
+
     return Path(str(importlib.resources.files("openral_data") / "builtin"))
 
 

@@ -100,11 +100,11 @@ def test_doctor_checks_without_learning_or_simulator_libraries(small: Path) -> N
 
 
 def test_info_and_list_start_without_the_convert_stack(small: Path) -> None:
-    assert _loaded("info", str(small), watch=CONVERT_STACK) == []
     # nor the other commands, the writer, PyAV, DuckDB or the quality measures (no quality table to count)
     others = ("openral_data.cli.record", "openral_data.cli.browse", "openral_data.formats.lerobot_v3.writer")
     measures = ("openral_data.metrics.quality.table", "openral_data.metrics.quality.view")
-    assert _loaded("info", str(small), watch=(*others, *measures, "av", "duckdb", "pyarrow.compute")) == []
+    watch = (*CONVERT_STACK, *others, *measures, "av", "duckdb", "pyarrow.compute")
+    assert _loaded("info", str(small), watch=watch) == []
     # `list` reads manifests: not even the parquet/video libraries (`runs here` checks no checkpoint by decoding)
     assert _loaded("list", watch=(*CONVERT_STACK, *READING_FREE, "av", "pyarrow", "duckdb")) == []
 

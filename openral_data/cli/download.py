@@ -16,7 +16,6 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 from openral_data.cli import terminal
-from openral_data.cli.legacy import read_as_v3
 from openral_data.cli.takes import Takes, declared
 from openral_data.errors import UsageError
 from openral_data.formats.repo_id import looks_like_repo_id
@@ -75,6 +74,8 @@ def _taking(command: Callable[..., Any], takes: Takes) -> Callable[..., Any]:
             _download(kwargs.pop("download"), kwargs.pop("hub_revision"), kwargs.pop("hub_include"), kwargs, takes)
         if takes.v2 != "upgrade":
             return command(*args, **kwargs)
+        from openral_data.cli.legacy import read_as_v3  # (its temporary upgrade: only for these commands)
+
         with read_as_v3(kwargs, takes):
             return command(*args, **kwargs)
 
