@@ -83,10 +83,12 @@ def test_sigkill_during_a_spill_loses_no_committed_episode(tmp_path: Path, proje
     frames and the partial video to the quarantine, and the dataset then checks clean."""
     out = tmp_path / "ds"
     args = [
-        "record", "--hal", "ur5e", "--rskill", "sweep-ur5e", "--fps", "20", "--max-steps", "20",
+        "record", "--hal", "ur5e", "--rskill", "sweep-ur5e", "--fps", "20", "--max-steps", "40",
         "--n-episodes", "1000", "--codec", "h264", "--out", str(out), "-q",
     ]  # fmt: skip
-    env = {**os.environ, "MUJOCO_GL": "egl", ENCODE_DELAY_ENV: "0.1"}
+    # the encoder at 2 frames/s: below the loop's rate even on loaded cores, so the 16-frame queue overflows and
+    # frames spill in every episode (at 10 frames/s a loaded machine's loop was too slow to spill at all)
+    env = {**os.environ, "MUJOCO_GL": "egl", ENCODE_DELAY_ENV: "0.5"}
     proc = subprocess.Popen([sys.executable, "-m", "openral_data.cli", *args], env=env, stderr=subprocess.PIPE)
     try:
         deadline = time.monotonic() + 300
@@ -100,7 +102,7 @@ def test_sigkill_during_a_spill_loses_no_committed_episode(tmp_path: Path, proje
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
     ds = LeRobotDataset("local/killed", root=out, video_backend="pyav")
-    assert ds.num_episodes >= 1 and len(ds) == 20 * ds.num_episodes
+    assert ds.num_episodes >= 1 and len(ds) == 40 * ds.num_episodes
     assert all(ds[i]["observation.images.wrist"].shape[0] == 3 for i in range(len(ds)))  # every frame decodes
     repaired = run_cli("doctor", str(out), "--repair")
     assert repaired.returncode in (0, 1), repaired.stderr
