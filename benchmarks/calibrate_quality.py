@@ -91,10 +91,12 @@ def evaluate(
         wanted = {u.index for u in mine}
         for kind in kinds:
             truths = [t for t in json.loads((work / source / kind / "truths.json").read_text()) if t["unit"] in wanted]
-            if not truths:
-                continue
-            got = df.findings(work / source / kind, mine_th, STRIDE)
-            for t in truths:
+            got_in: dict[str, dict[int, list[dict[str, Any]]]] = {}
+            for t in truths:  # `dataset`: a dataset of its own (`qc.ONE_PER_DATASET`), else the kind's
+                sub = t.get("dataset", "")
+                if sub not in got_in:
+                    got_in[sub] = df.findings(work / source / kind / sub, mine_th, STRIDE)
+                got = got_in[sub]
                 at, anywhere = df.found(t, got.get(t["episode"], []), tol)
                 before = {f["check"] for f in base.get(t["unit"], [])}
                 new = bool({f["check"] for f in got.get(t["episode"], [])} - before)

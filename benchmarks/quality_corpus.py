@@ -12,7 +12,9 @@ Clean sources (`CORPUS/clean/NAME`, made once, reused while present):
 
 Each clean episode is a *unit* (foreign episodes cut to their first `--max-frames` frames, pictures subsampled to
 at most `--max-side` pixels). Per source, the units are rewritten through our writer (`work/NAME/clean`), and
-once per fault kind with that fault injected into every unit (`work/NAME/KIND`, the truths in `truths.json`).
+once per fault kind with that fault injected into every unit (`work/NAME/KIND`, the truths in `truths.json`); a
+fault judged against the other episodes (`ONE_PER_DATASET`) is written once per unit, among the clean others
+(`work/NAME/KIND/uU`).
 """
 
 from __future__ import annotations
@@ -116,6 +118,14 @@ def person_sources(corpus: Path) -> list[Source]:
     return out
 
 
+# Faults judged against the dataset's other episodes (`camera_flipped`: an episode's picture against the others'
+# median): each unit is written with the fault among the source's other units, clean (`work/SRC/KIND/uU`), as a
+# camera turned in one session of a dataset is; a dataset turned in every episode has no right way up to compare
+# with (nor would any reference-free check), nor has a dataset of one or two episodes.
+ONE_PER_DATASET = ("upside_down",)
+MIN_EPISODES = 3  # ... in a source of at least so many episodes (`metrics.quality.views.MIN_EPISODES`)
+
+
 @dataclass(frozen=True)
 class Unit:
     source: str
@@ -158,6 +168,12 @@ def build(src: Source, work: Path, kinds: tuple[str, ...], cleans: list[df.Clean
             try:
                 ep, truth = df.inject(clean, kind, seed=1000 * u + df.KINDS.index(kind))
             except df.NotApplicable:
+                continue
+            if kind in ONE_PER_DATASET:  # the unit faulty among the source's other units, clean
+                if len(cleans) < MIN_EPISODES:
+                    continue
+                df.write(out / f"u{u}", [ep if k == u else c for k, c in enumerate(cleans)])
+                truths.append({"dataset": f"u{u}", "episode": u, "unit": u, **df.labelled(truth, ep)})
                 continue
             truths.append({"episode": len(faulty), "unit": u, **df.labelled(truth, ep)})
             faulty.append(ep)

@@ -122,3 +122,21 @@ def test_an_upside_down_camera_is_found_against_the_other_episodes(
     got = df.findings(df.write(tmp_path / "flipped", episodes))
     assert sorted(got) == [2] and [f["check"] for f in got[2]] == ["camera_flipped"]
     assert df.found(df.labelled(truth, episodes[2]), got[2], tol=2) == (True, True)
+
+
+def test_frozen_and_blurred_camera_spans_are_placed_to_the_frame_at_stride_5(
+    clean: tuple[Path, df.Clean], tmp_path: Path
+) -> None:
+    """At the default stride (every 5th frame measured) a frozen or blurred span's edges fall between samples:
+    the runs that raise a flag are decoded again at the full rate around their edges, so each span is reported
+    to the frame (a frozen span from the first frame repeating the held one), not within half a stride."""
+    _, episode = clean
+    for kind, check, seed in (("frozen_camera", "camera_frozen", 3), ("blur", "camera_blurred", 5)):
+        faulty, truth = df.inject(episode, kind, seed=seed)
+        assert truth.first % 5 not in (0, 4) or truth.last % 5 not in (0, 1), "an edge mid-way between samples"
+        got = df.findings(df.write(tmp_path / kind, [faulty]), stride=5).get(0, [])
+        spans = [(f["start_frame"], f["end_frame"]) for f in got if f["check"] == check]
+        assert len(spans) == 1, (kind, got)
+        (start, end) = spans[0]
+        # the first copy of a held picture may be coded as the live one before it: one frame either way
+        assert abs(start - truth.first) <= (kind == "frozen_camera") and end == truth.last, (kind, truth, spans)

@@ -9,12 +9,13 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from openral_data.metrics.quality import views
+from openral_data.metrics.quality import edges, views
 from openral_data.metrics.quality.findings import Finding, runs, span_findings
 from openral_data.metrics.quality.thresholds import Thresholds
 
 MEASURES = ("black", "saturated", "frozen", "blurred")
 
+Span = tuple[int, int]
 _LUMA = np.array([0.299, 0.587, 0.114], dtype=np.float32)
 
 
@@ -48,25 +49,61 @@ class CameraQuality:
         return next((s.frame_index for s in self.samples if getattr(s, fault)), None)
 
     def findings(
-        self, camera: str, th: Thresholds, stride: int, length: int, moving: npt.NDArray[np.bool_] | None = None
+        self,
+        camera: str,
+        th: Thresholds,
+        stride: int,
+        length: int,
+        moving: npt.NDArray[np.bool_] | None = None,
+        full: edges.Frames | None = None,
     ) -> list[Finding]:
         """`camera_<fault>` findings, one per run of consecutive faulty samples (`placed`), when the fault's share
         reaches `camera_flag` or, frozen and blurred, when the run spans `camera_run_frames` frames. A sample is
         frozen only while the robot moved since the previous one (`moving`, per frame, when known: a still robot
-        makes a still picture); blurred runs one sample apart are one span (a flat frame between is no sharp one)."""
-        out: list[Finding] = []
+        makes a still picture); blurred runs one sample apart are one span (a flat frame between is no sharp one).
+        `full`: the camera's every frame, decoded again to place the edges of the frozen and blurred runs kept
+        to the frame (`edges`); without it they are placed within half a stride."""
+        kept: dict[str, list[Span]] = {}
+        shares: dict[str, float] = {}
         for fault in MEASURES:
             mask = np.array([getattr(s, fault) for s in self.samples], dtype=bool)
             if fault == "frozen" and moving is not None:
                 mask &= self.moved(moving, stride)
-            share = float(mask.mean()) if len(mask) else 0.0
+            shares[fault] = share = float(mask.mean()) if len(mask) else 0.0
+            long = fault in edges.EDGED
             spans = placed(self.samples, runs(mask), stride, length, fault == "frozen")
+            kept[fault] = [
+                (a, b)
+                for (a, b), span in zip(runs(mask), spans, strict=True)
+                if share >= th.camera_flag or (long and span[1] - span[0] + 1 >= th.camera_run_frames)
+            ]
+        refined = self.refined(kept, th, stride, length, full)
+        out: list[Finding] = []
+        for fault in MEASURES:
+            spans = refined.get(fault) or placed(self.samples, kept[fault], stride, length, fault == "frozen")
             if fault == "blurred":
                 spans = joined(spans, stride)
-            long = fault in ("frozen", "blurred")
-            keep = [(a, b) for a, b in spans if share >= th.camera_flag or (long and b - a + 1 >= th.camera_run_frames)]
-            out += span_findings(f"camera_{fault}", camera, keep, share, th.camera_flag, detail="share of samples")
+            detail = "share of samples"
+            out += span_findings(f"camera_{fault}", camera, spans, shares[fault], th.camera_flag, detail=detail)
         return out
+
+    def refined(
+        self, kept: dict[str, list[Span]], th: Thresholds, stride: int, length: int, full: edges.Frames | None
+    ) -> dict[str, list[Span]]:
+        """The frozen and blurred runs of `kept` (sample positions) placed to the frame from the camera's full
+        frame rate (`full`, decoded only when there is such a run); {} without `full`."""
+        at = [s.frame_index for s in self.samples]
+        frames = {f: [(at[a], at[b]) for a, b in kept[f]] for f in edges.EDGED}
+        todo = [(f, first, last) for f, spans in frames.items() for first, last in spans]
+        if full is None or not todo:
+            return {}
+        lumas = edges.window_lumas(full(), edges.wanted(todo, stride, length), luma)
+        return {
+            "frozen": [edges.frozen_edges(lumas, a, b, stride, length, th) for a, b in frames["frozen"]],
+            "blurred": [
+                edges.blurred_edges(lumas, a, b, stride, length, th, laplacian_var) for a, b in frames["blurred"]
+            ],
+        }
 
     def moved(self, moving: npt.NDArray[np.bool_], stride: int) -> npt.NDArray[np.bool_]:
         """Per sample: whether the robot moved on any frame since the previous sample."""

@@ -8,8 +8,9 @@ per-frame rows go to `Sink`s as they are made.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import asdict
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -109,6 +110,13 @@ def rgb_cameras(ds: DatasetSource) -> list[str]:
     return [k for k in ds.cameras if depth_settings(ds.info, k) is None] + picture_cameras(ds.info)
 
 
+def camera_frames(ds: DatasetSource, images: ImageColumns, row: dict[str, Any], key: str, every: int) -> Iterator[Any]:
+    """Frames 0, every, 2*every, ... of camera `key` in episode `row`, as RGB (a video or `dtype: image` one)."""
+    if key in images.keys:
+        return images.frames(row, key, every)
+    return decode_episode_video(ds.root, ds.info, row, key, every)
+
+
 def episode_cameras(
     ds: DatasetSource,
     row: dict[str, Any],
@@ -128,13 +136,8 @@ def episode_cameras(
     seen: dict[str, CameraQuality] = {}
     length = int(row["length"])
     for key in rgb_cameras(ds):
-        frames = (
-            images.frames(row, key, stride)
-            if key in images.keys
-            else decode_episode_video(ds.root, ds.info, row, key, stride)
-        )
-        q = camera_quality(frames, stride, th)
-        found += q.findings(key, th, stride, length, moving)
+        q = camera_quality(camera_frames(ds, images, row, key, stride), stride, th)
+        found += q.findings(key, th, stride, length, moving, partial(camera_frames, ds, images, row, key, 1))
         seen[key] = q
         for measure in CAMERA_MEASURES:
             worst[measure] = max(worst[measure], q.share(measure))
