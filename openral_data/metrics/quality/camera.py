@@ -62,7 +62,8 @@ class CameraQuality:
         frozen only while the robot moved since the previous one (`moving`, per frame, when known: a still robot
         makes a still picture); blurred runs one sample apart are one span (a flat frame between is no sharp one).
         `full`: the camera's every frame, decoded again to place the edges of the frozen and blurred runs kept
-        to the frame (`edges`); without it they are placed within half a stride."""
+        to the frame (`edges`), and then kept by their length to the frame; without it they are placed within half
+        a stride."""
         kept: dict[str, list[Span]] = {}
         shares: dict[str, float] = {}
         for fault in MEASURES:
@@ -80,9 +81,15 @@ class CameraQuality:
         refined = self.refined(kept, th, stride, length, full)
         out: list[Finding] = []
         for fault in MEASURES:
-            spans = refined.get(fault) or placed(self.samples, kept[fault], stride, length, fault == "frozen")
+            spans = (
+                refined[fault]
+                if fault in refined
+                else placed(self.samples, kept[fault], stride, length, fault == "frozen")
+            )
             if fault == "blurred":
                 spans = joined(spans, stride)
+            if fault in refined and shares[fault] < th.camera_flag:  # measured to the frame: long enough still?
+                spans = [(a, b) for a, b in spans if b - a + 1 >= th.camera_run_frames]
             detail = "share of samples"
             out += span_findings(f"camera_{fault}", camera, spans, shares[fault], th.camera_flag, detail=detail)
         return out
@@ -90,20 +97,19 @@ class CameraQuality:
     def refined(
         self, kept: dict[str, list[Span]], th: Thresholds, stride: int, length: int, full: edges.Frames | None
     ) -> dict[str, list[Span]]:
-        """The frozen and blurred runs of `kept` (sample positions) placed to the frame from the camera's full
-        frame rate (`full`, decoded only when there is such a run); {} without `full`."""
+        """The frozen and blurred runs of `kept` (sample positions) measured frame by frame from the camera's
+        full frame rate (`full`, decoded only when there is such a run: `edges`); {} without `full`."""
         at = [s.frame_index for s in self.samples]
-        frames = {f: [(at[a], at[b]) for a, b in kept[f]] for f in edges.EDGED}
-        todo = [(f, first, last) for f, spans in frames.items() for first, last in spans]
+        todo = [
+            (f, at[a], at[b], edges.window(f, at[a], at[b], stride, length)) for f in edges.EDGED for a, b in kept[f]
+        ]
         if full is None or not todo:
             return {}
-        lumas = edges.window_lumas(full(), edges.wanted(todo, stride, length), luma)
-        return {
-            "frozen": [edges.frozen_edges(lumas, a, b, stride, length, th) for a, b in frames["frozen"]],
-            "blurred": [
-                edges.blurred_edges(lumas, a, b, stride, length, th, laplacian_var) for a, b in frames["blurred"]
-            ],
-        }
+        faults = edges.frame_faults(full(), [w for *_, w in todo], th, (luma, laplacian_var))
+        out: dict[str, list[Span]] = {f: [] for f in edges.EDGED}
+        for fault, first, last, near in todo:
+            out[fault] += edges.spans(faults, fault, near, first, last)
+        return {f: sorted(set(v)) for f, v in out.items()}
 
     def moved(self, moving: npt.NDArray[np.bool_], stride: int) -> npt.NDArray[np.bool_]:
         """Per sample: whether the robot moved on any frame since the previous sample."""

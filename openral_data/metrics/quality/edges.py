@@ -1,10 +1,13 @@
-"""The edges of a frozen or blurred camera span to the frame (docs/stats.md, "Quality").
+"""Frozen and blurred camera spans measured to the frame (docs/stats.md, "Quality").
 
 The sampled frames (every `stride`-th) find a run of frozen or blurred samples; its edges lie somewhere between
-the last good sample and the first faulty one. Only for the runs that raise a flag, the camera is decoded again
-at its full frame rate, and only the frames in a window around each edge are converted (`window_lumas`): a frame
-repeats the held picture (`frozen_edges`) or is blurred (`blurred_edges`) one by one, outwards from the run's
-samples. A clean episode raises no such run: it is decoded once.
+the last good sample and the first faulty one. Only for the runs that could raise a flag, the camera is decoded
+again and the frames around the run are measured one by one (`frame_faults`, one frame's luma in memory at a
+time): a frame *repeats* the previous one when their mean absolute luma difference is under `REPEAT` (a held
+picture decodes as exact copies; a slow live scene, even one a renderer updates every other frame, does not
+repeat for two frames in a row), a frame is blurred as a sample is. The span is the run of such frames that
+meets the samples' run (`spans`): its edges are the frames', and a run of samples whose frames do not repeat
+is no frozen span at all. A clean episode has no such run: it is decoded once.
 """
 
 from __future__ import annotations
@@ -14,72 +17,57 @@ from collections.abc import Callable, Iterable, Iterator
 import numpy as np
 import numpy.typing as npt
 
+from openral_data.metrics.quality.findings import runs
 from openral_data.metrics.quality.thresholds import Thresholds
 
 Gray = npt.NDArray[np.float32]
 Frames = Callable[[], Iterator[npt.NDArray[np.uint8]]]  # the episode's frames of one camera, all, as RGB
-Lumas = dict[int, Gray]
 Span = tuple[int, int]
 EDGED = ("frozen", "blurred")
+REPEAT = 0.1  # mean absolute luma difference (0-255) under which a frame repeats the previous one (copies: 0.0)
 
 
 def window(fault: str, first: int, last: int, stride: int, length: int) -> range:
-    """The frames whose pictures place a run of faulty samples at frames `first`..`last` (`fault` in `EDGED`):
-    a frozen sample matched the previous one, so its hold may have begun two strides before it; a blurred
-    sample's blur began after the previous (sharp) sample. Both end before the next sample."""
-    back = 2 * stride if fault == "frozen" else stride
+    """The frames that can belong to the span of a run of faulty samples at frames `first`..`last` (`fault` in
+    `EDGED`): a frozen sample matched the previous sample, so its hold may have begun two strides before it; a
+    blurred sample's blur began after the previous (sharp) sample. Both end before the next sample."""
+    back = 2 * stride - 1 if fault == "frozen" else stride - 1
     return range(max(0, first - back), min(length, last + stride))
 
 
-def wanted(runs: Iterable[tuple[str, int, int]], stride: int, length: int) -> set[int]:
-    """The frames the edges of `runs` (fault, first and last sample frame) need: near each edge only."""
-    out: set[int] = set()
-    for fault, first, last in runs:
-        near = window(fault, first, last, stride, length)
-        out.update(t for t in near if t <= first or t >= last)
-    return out
-
-
-def window_lumas(frames: Iterator[npt.NDArray[np.uint8]], frames_wanted: set[int], luma: Callable[..., Gray]) -> Lumas:
-    """The luma of the `frames_wanted` frames (positions in the episode), the others skipped unconverted
-    beyond the decoder; stops after the last one wanted."""
-    out: Lumas = {}
-    last = max(frames_wanted, default=-1)
+def frame_faults(
+    frames: Iterator[npt.NDArray[np.uint8]],
+    wanted: Iterable[range],
+    th: Thresholds,
+    measure: tuple[Callable[[npt.NDArray[np.uint8]], Gray], Callable[[Gray], float]],
+) -> dict[int, tuple[bool, bool]]:
+    """Per frame of the `wanted` windows: (it repeats the previous frame, it is blurred); `measure`: the luma
+    of an RGB frame and the sharpness of a luma picture (`camera.luma`, `camera.laplacian_var`). Stops after the
+    last frame wanted."""
+    keep = {t for r in wanted for t in r}
+    need = keep | {t - 1 for t in keep}
+    luma, sharpness = measure
+    out: dict[int, tuple[bool, bool]] = {}
+    prev: Gray | None = None
     for t, rgb in enumerate(frames):
-        if t > last:
+        if t > max(need, default=-1):
             break
-        if t in frames_wanted:
-            out[t] = luma(rgb)
+        if t not in need:
+            prev = None
+            continue
+        gray = luma(rgb)
+        if t in keep:
+            repeat = prev is not None and float(np.abs(gray - prev).mean()) < REPEAT
+            out[t] = (repeat, sharpness(gray) < th.blur_var)
+        prev = gray
     return out
 
 
-def _walk(lumas: Lumas, start: int, step: int, bound: int, same: Callable[[Gray], bool]) -> int:
-    """From frame `start`, the furthest frame towards `bound` (`step` ±1) up to which every frame is `same`."""
-    t = start
-    while (t + step - bound) * step <= 0 and t + step in lumas and same(lumas[t + step]):
-        t += step
-    return t
-
-
-def frozen_edges(lumas: Lumas, first: int, last: int, stride: int, length: int, th: Thresholds) -> Span:
-    """The frames that repeat the held picture of a frozen run sampled at `first`..`last`: outwards from each,
-    frames within `frozen_diff` (mean absolute luma) of that sample's picture; the span starts on the frame
-    after the first that shows it (that one was still live: it is the picture held)."""
-    if first not in lumas or last not in lumas:
-        return first, last
-    lo, hi = window("frozen", first, last, stride, length)[0], min(length - 1, last + stride - 1)
-    head, tail = lumas[first], lumas[last]
-    a = _walk(lumas, first, -1, lo, lambda g: float(np.abs(g - head).mean()) < th.frozen_diff)
-    b = _walk(lumas, last, 1, hi, lambda g: float(np.abs(g - tail).mean()) < th.frozen_diff)
-    return min(a + 1, first), b
-
-
-def blurred_edges(
-    lumas: Lumas, first: int, last: int, stride: int, length: int, th: Thresholds, sharpness: Callable[[Gray], float]
-) -> Span:
-    """The frames of a blurred run sampled at `first`..`last`: outwards from each, frames whose `sharpness`
-    (variance of the Laplacian) stays under `blur_var`."""
-    lo, hi = max(0, first - stride + 1), min(length - 1, last + stride - 1)
-    a = _walk(lumas, first, -1, lo, lambda g: sharpness(g) < th.blur_var)
-    b = _walk(lumas, last, 1, hi, lambda g: sharpness(g) < th.blur_var)
-    return a, b
+def spans(faults: dict[int, tuple[bool, bool]], fault: str, near: range, first: int, last: int) -> list[Span]:
+    """The runs of frames with `fault` (`frame_faults`) in window `near` that reach the samples' run
+    `first`..`last`; a frozen run from its first repeating frame, at least two frames long."""
+    which = 0 if fault == "frozen" else 1
+    mask = np.array([faults.get(t, (False, False))[which] for t in near], dtype=bool)
+    found = runs(mask, 2 if fault == "frozen" else 1)
+    lo = near.start
+    return [(lo + a, lo + b) for a, b in found if lo + b >= first - 1 and lo + a <= last + 1]
