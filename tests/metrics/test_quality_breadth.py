@@ -15,6 +15,7 @@ import pytest
 from openral_data.formats.lerobot_v3.features import ACTION, STATE
 from openral_data.metrics.quality import DEFAULT, quality_of
 from openral_data.metrics.quality.breadth import angle_wraps, quaternions, task_text
+from openral_data.metrics.quality import views
 from openral_data.metrics.quality.camera import camera_quality, stalled
 from openral_data.metrics.sources import open_dataset
 from tests.support import quality as q
@@ -112,3 +113,25 @@ def test_a_camera_still_while_the_other_moves() -> None:
     both[10:18] = both[10]
     still = {"a": camera_quality(iter(both), 1, DEFAULT), "b": camera_quality(iter(both.copy()), 1, DEFAULT)}
     assert stalled(still, DEFAULT, 1, N) == []
+
+
+def test_a_turned_camera_whose_scene_varies_between_episodes_is_found() -> None:
+    """A camera whose mean picture changes from episode to episode (objects placed anew each time, as a table
+    filmed from above) matches the other episodes' median only 0.25-0.5 even the right way up: the turned
+    episode is still `camera_flipped` over its frames, the others are not, nor are episodes of noise."""
+    rng = np.random.default_rng(0)
+    ramp = np.repeat(np.linspace(180, 80, 16)[:, None], 16, 1)
+    thumbs = {}
+    for e in range(5):
+        objects = np.kron(rng.normal(0, 50, (4, 4)), np.ones((4, 4)))  # a coarse layout of its own per episode
+        thumbs[e] = (ramp + objects).astype(np.float32)
+    thumbs[3] = thumbs[3][::-1, ::-1].copy()
+    ref = views.standard(np.median(np.stack([thumbs[e] for e in (0, 1, 2, 4)]), axis=0))
+    assert 0.25 <= float(views.standard(thumbs[3][::-1, ::-1]) @ ref) < 0.5  # the regime: a weak match
+    got = views.flipped(thumbs, "observation.images.top", dict.fromkeys(thumbs, 40), DEFAULT.flip_margin)
+    assert list(got) == [3]
+    assert [(f.check, f.subject, f.start_frame, f.end_frame) for f in got[3]] == [
+        ("camera_flipped", "observation.images.top", 0, 39)
+    ]
+    noise = {e: rng.normal(128, 40, (16, 16)).astype(np.float32) for e in range(8)}
+    assert views.flipped(noise, "cam", dict.fromkeys(noise, 40), DEFAULT.flip_margin) == {}
