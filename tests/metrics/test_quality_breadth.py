@@ -13,9 +13,8 @@ import pyarrow.parquet as pq
 import pytest
 
 from openral_data.formats.lerobot_v3.features import ACTION, STATE
-from openral_data.metrics.quality import DEFAULT, quality_of
+from openral_data.metrics.quality import DEFAULT, quality_of, views
 from openral_data.metrics.quality.breadth import angle_wraps, quaternions, task_text
-from openral_data.metrics.quality import views
 from openral_data.metrics.quality.camera import camera_quality, stalled
 from openral_data.metrics.sources import open_dataset
 from tests.support import quality as q
