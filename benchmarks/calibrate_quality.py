@@ -207,6 +207,7 @@ def corpus(args: argparse.Namespace) -> tuple[list[qc.Unit], Path]:
     work = root / "work"
     sources = [
         *qc.expert_sources(root, tuple(args.scenes), args.episodes),
+        *qc.hal_sources(root, args.episodes),
         *qc.generated_source(root, args.episodes),
         *qc.person_sources(root),
         *qc.teleop_source(root, args.episodes),

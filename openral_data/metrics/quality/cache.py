@@ -37,8 +37,9 @@ if TYPE_CHECKING:  # imported where used: `info` looks for a table (`cache_paths
     from openral_data.metrics.quality.thresholds import Thresholds
 
 # of the measures: a change to how they are computed bumps it, so older tables are recomputed (2: image cameras;
-# 3: findings, and frozen/jerky/clipped measured anew; 4: frame drops, repeated rows, degrees, idle edges, camera runs)
-VERSION = 4
+# 3: findings, and frozen/jerky/clipped measured anew; 4: frame drops, repeated rows, degrees, idle edges, camera runs;
+# 5: joint limits and velocities from the robot manifest)
+VERSION = 5
 KEY = b"openral.quality.key"
 STRIDE = b"openral.quality.stride"
 

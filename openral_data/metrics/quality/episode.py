@@ -10,7 +10,7 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.formats.lerobot_v3.features import ACTION, STATE
-from openral_data.metrics.quality import alignment, breadth, dims, motion, rows, timing
+from openral_data.metrics.quality import alignment, breadth, dims, limits, motion, rows, timing
 from openral_data.metrics.quality.findings import Finding, dim_subject, runs, span_findings
 from openral_data.metrics.quality.thresholds import Thresholds
 from openral_data.metrics.sources import DatasetSource
@@ -83,10 +83,11 @@ def vector_findings(
         for d, spans in tops.items():
             found += span_findings("saturated", dim_subject(key, names[d]), spans, share, None, False)
     trajectory = motion.normalised(x[:, varies], lo[varies], hi[varies])
+    angles = limits.robot_joints(ds.robot, names).revolute() if key == STATE else frozenset()
     if key == STATE:
         found += rows.degrees(x, names, key, th)
     found += breadth.non_finite(x, names, key) + breadth.quaternions(x, names, key, th)
-    found += breadth.angle_wraps(x, names, key) + breadth.duplicated(x, names, key)
+    found += breadth.angle_wraps(x, names, key, angles) + breadth.duplicated(x, names, key)
     return found, (share if moving and n else None), trajectory, [names[d] for d in moving]
 
 
@@ -174,6 +175,8 @@ def episode_motion(
     grip, toggles = gripper_findings(ds, arrays, ranges, n, th)
     steps = timing.timestamp_steps(timestamps, fps)
     found += grip + timing_findings(steps, th) + row_findings(arrays, arm, steps, th)
+    if STATE in arrays:
+        found += limits.joint_findings(arrays[STATE], ds.robot, ds.dim_names(STATE), steps, fps, th)
     if STATE in arrays and ACTION in arrays:
         pair = (ds.dim_names(ACTION), ds.dim_names(STATE))
         found += alignment.alignment(arrays[ACTION], arrays[STATE], pair, th)

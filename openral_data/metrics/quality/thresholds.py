@@ -48,6 +48,8 @@ class Thresholds:
     action_lag_frames: int = 6  # `action_lag`: the state following the action more than this many frames off
     repeat_max: int = 4  # `repeated_rows`: state and action repeated bit for bit for 1..this many frames mid-motion
     length_ratio: float = 4.0  # `length_outlier`: an episode this many times longer or shorter than the median
+    limit_margin: float = 0.02  # `joint_limit`: a joint beyond its manifest limits by this share of their range
+    velocity_factor: float = 1.5  # `joint_velocity`: a joint faster than this many times its manifest velocity limit
 
     def as_json(self) -> dict[str, Any]:
         return asdict(self)
