@@ -57,6 +57,8 @@ GOVERNS = {
     "gap": "gap",
     "jitter": "jitter",
     "teleport": "teleport",
+    "limit_margin": "joint_limit",
+    "velocity_factor": "joint_velocity",
 }
 # the engine's kind of data (`thresholds.data_kind`) of each kind of data in the corpus: a rewritten corpus dataset
 # has no provenance, so the calibration passes that kind's thresholds itself

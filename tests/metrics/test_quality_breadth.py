@@ -17,6 +17,7 @@ from openral_data.metrics.quality import DEFAULT, quality_of, rows
 from openral_data.metrics.quality.alignment import alignment
 from openral_data.metrics.quality.breadth import angle_wraps, quaternions, task_text
 from openral_data.metrics.quality.camera import camera_quality, stalled
+from openral_data.metrics.quality.dims import bursts, toggle_frames
 from openral_data.metrics.sources import open_dataset
 from tests.support import quality as q
 from tests.support.metrics import data_file, rewrite_parquet
@@ -154,3 +155,13 @@ def test_two_swapped_actions_of_a_diagonal_motion() -> None:
     swapped = v[:, [1, 0, 2]]
     got = [(f.check, f.subject) for f in alignment(swapped[:-1], state[1:], names, DEFAULT)]
     assert got == [("action_swap", "action[delta_x]"), ("action_swap", "action[delta_y]")]
+
+
+def test_a_chatter_burst_is_placed_at_its_frames() -> None:
+    """A gripper opening and closing every 20 frames, and toggling every frame over 60..79: the burst's span (a
+    toggle within half a second of the one before at 10 fps), not the first to the last toggle."""
+    grip = ((np.arange(150) // 20) % 2).astype(np.float64)
+    grip[60:80] = np.arange(20) % 2
+    frames = toggle_frames(grip, 0.0, 1.0)
+    assert bursts(frames, 5) == [(min(f for f in frames if f >= 60), max(f for f in frames if f < 81))]
+    assert bursts(frames, 5)[0][0] in (60, 61) and bursts(frames, 5)[0][1] in (79, 80)

@@ -94,7 +94,8 @@ def vector_findings(
 def gripper_findings(
     ds: DatasetSource, arrays: dict[str, Array], ranges: Ranges, n: int, th: Thresholds
 ) -> tuple[list[Finding], int | None]:
-    """`chatter` of the action's gripper dimensions (else the state's): their toggles, from first to last."""
+    """`chatter` of the action's gripper dimensions (else the state's): over each burst of toggles (each within
+    half a flagging period of the one before), else from the first toggle to the last."""
     key = ACTION if dims.gripper_dims(ds.dim_names(ACTION)) and ACTION in arrays else STATE
     if key not in arrays or key not in ranges:
         return [], None
@@ -105,7 +106,9 @@ def gripper_findings(
         most = max(most or 0, len(frames))
         rate = len(frames) * ds.fps / n if n else 0.0
         if len(frames) >= th.chatter_min_toggles and rate >= th.chatter_hz:
-            out.append(Finding("chatter", dim_subject(key, names[g]), frames[0], frames[-1], rate, th.chatter_hz))
+            # where: its bursts (toggles at least twice the flagging rate), else first to last toggle
+            spans = dims.bursts(frames, max(2, round(ds.fps / (2 * th.chatter_hz)))) or [(frames[0], frames[-1])]
+            out += span_findings("chatter", dim_subject(key, names[g]), spans, rate, th.chatter_hz)
     return out, most
 
 

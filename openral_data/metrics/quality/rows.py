@@ -17,6 +17,8 @@ from openral_data.metrics.quality.thresholds import Thresholds
 Array = npt.NDArray[np.float64]
 REPEATS = 2  # `repeated_rows`: an episode with more places repeating rows repeats them by nature
 NEAR = 5  # frames either side whose steps make a step's local speed
+JUMPS = 3  # `teleport`: a dimension jumping more often than this in one episode jumps by nature (a hand's fingers
+# snapping open and shut), a teleport is a one-off
 STEADY = 0.5  # `frame_drop`: the two neighbouring steps within this ratio of each other (steady motion)
 ALIGN = 0.8  # `frame_drop`: the step's direction against its neighbours' (cosine): the same motion, further on
 # `frame_drop`: ... every moving dimension further by about the same factor (largest / median ratio; calibration
@@ -40,7 +42,8 @@ def teleports(z: Array, names: list[str], feature: str, th: Thresholds, skip: se
     """`teleport`: a state dimension (`z` in dataset-range units, quaternion components left to `quat_flip`)
     stepping between two frames more than `teleport_step` of its range and more than `teleport_factor` times its
     local speed (the mean step within `NEAR` frames; still there, its median step when it moves); the frame
-    it lands on (the 5 largest jumps; frames in `skip`, a frame drop, left out)."""
+    it lands on (the 5 largest jumps; frames in `skip`, a frame drop, left out; a dimension jumping more than
+    `JUMPS` times in the episode left out: its nature)."""
     if len(z) < 3:
         return []
     quat = {names[i] for _, dims in signals.quaternion_groups(feature, names) for i in dims}
@@ -53,8 +56,9 @@ def teleports(z: Array, names: list[str], feature: str, th: Thresholds, skip: se
         jump = (step > th.teleport_step) & (step > th.teleport_factor * typical)
     out = []
     hits = [(float(step[t, d]), int(t), int(d)) for t, d in zip(*np.nonzero(jump), strict=True)]
+    often = np.bincount([d for _, t, d in hits if t + 1 not in skip], minlength=z.shape[1]) > JUMPS
     for _, t, d in sorted(hits, reverse=True):
-        if names[d] in quat or t + 1 in skip:
+        if names[d] in quat or t + 1 in skip or often[d]:
             continue
         value = float(step[t, d] / typical[t, d]) if typical[t, d] > 0 else math.inf
         subject = dim_subject(feature, names[d])
