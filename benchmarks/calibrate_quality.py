@@ -57,6 +57,8 @@ GOVERNS = {
     "gap": "gap",
     "jitter": "jitter",
     "teleport": "teleport",
+    "limit_margin": "joint_limit",
+    "velocity_factor": "joint_velocity",
 }
 # the engine's kind of data (`thresholds.data_kind`) of each kind of data in the corpus: a rewritten corpus dataset
 # has no provenance, so the calibration passes that kind's thresholds itself
@@ -179,7 +181,7 @@ def markdown(result: dict[str, Any], th: Mapping[str, Thresholds], units: list[q
         "|---|---|" + "---|" * len(data),
     ]
     n = max(1, result["clean_episodes"])
-    checks = sorted({c for k in df.EXPECTED.values() for c in k if c in FLAGS} | set(result["clean_flagged"]))
+    checks = sorted(set(FLAGS) | set(result["clean_flagged"]))  # every flag, raised on clean episodes or not
     for check in checks:
         per = [result["clean_by_data"][d].get(check, 0) / result["clean_by_data"][d][""] for d in data]
         cells = " | ".join(f"{v:.0%}" for v in per)
@@ -209,6 +211,7 @@ def corpus(args: argparse.Namespace) -> tuple[list[qc.Unit], Path]:
     work = root / "work"
     sources = [
         *qc.expert_sources(root, tuple(args.scenes), args.episodes),
+        *qc.hal_sources(root, args.episodes),
         *qc.generated_source(root, args.episodes),
         *qc.person_sources(root),
         *qc.teleop_source(root, args.episodes),

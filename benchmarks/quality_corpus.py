@@ -4,7 +4,8 @@ with one known fault each (`tests/support/data_faults.py`), every dataset cached
 Clean sources (`CORPUS/clean/NAME`, made once, reused while present):
 
 * **expert**: our scripted experts, `openral-data record --scene S` on every scene whose default rSkill is a
-  scripted expert (the tabletop scenes' scripted pick/place/push/drawer/stack, Meta-World's expert policies);
+  scripted expert (the tabletop scenes' scripted pick/place/push/drawer/stack, Meta-World's expert policies),
+  and joint sweeps of the UR5e and Jaco twins (`record --hal R --mode sim`, joint angles in radians);
 * **generated**: `openral-data generate` (MimicGen-style) from the tabletop_pick_place experts;
 * **person**: gamepad teleop sessions of tabletop_push driven by a scripted person through the real device path
   (`teleop_sessions.py`), and the third-party LeRobot recordings of people teleoperating real robots in
@@ -51,6 +52,7 @@ EXPERT_SCENES = (  # every scene whose default rSkill is a scripted expert (`ope
     "metaworld_window_open",
 )
 FIXTURES = REPO.parent / "shared" / "fixtures" / "lerobot"
+TELEOP_MORE = 8  # the second set of gamepad sessions (people's data is the scarcest in the corpus)
 
 
 @dataclass(frozen=True)
@@ -86,6 +88,44 @@ def expert_sources(corpus: Path, scenes: tuple[str, ...], episodes: int) -> list
     return out
 
 
+# joint-space scripted data (`record --hal ROBOT --mode sim`, the `sweep` policy): the UR5e's own rSkill, and one
+# written here for the Jaco (no built-in one); twins whose home posture has several joints at 0 (SO-101, OpenArm,
+# Panda) are left out: `sweep` commands those joints alike, frame for frame (a `duplicated` action, truly)
+HAL_SWEEPS = (("ur5e", "sweep-ur5e"), ("jaco", "sweep-jaco"))
+
+
+def sweep_rskill(folder: Path, robot: str) -> None:
+    """`folder/sweep-ROBOT/rskill.yaml`: the `sweep` policy on `robot`'s state and action (its manifest's names)."""
+    from openral_data.runtime import registry
+
+    names = registry.ROBOTS[robot].observation.state.names or []
+    contract = {"dim": len(names), "names": names, "representation": "joint_positions_gripper"}
+    manifest = {
+        "id": f"sweep-{robot}", "description": f"sweep the {robot} joints around their start posture",
+        "policy": "sweep", "embodiment_tags": [robot], "state_contract": contract, "action_contract": contract,
+        "required_cameras": [], "policy_extras": {"amplitude": 0.3, "period": 4.0},
+    }  # fmt: skip
+    (folder / f"sweep-{robot}").mkdir(parents=True, exist_ok=True)
+    (folder / f"sweep-{robot}" / "rskill.yaml").write_text(json.dumps(manifest))  # JSON is YAML
+
+
+def hal_sources(corpus: Path, episodes: int, max_steps: int = 150) -> list[Source]:
+    """Scripted joint sweeps of robots' MuJoCo twins: states that are joint angles, named as the robot
+    manifest's revolute joints (what the angle checks and the joint limits read). Paced at 10 fps: at 20 the
+    loaded 2-core machine missed ticks, and a missed tick is a hidden frame drop in a "clean" episode."""
+    out = []
+    for robot, rskill in HAL_SWEEPS:
+        root = corpus / "clean" / f"expert_hal_{robot}_sweep"
+        if not ready(root):
+            print(f"recording {episodes} {rskill} episodes of the {robot} twin", flush=True)
+            sweep_rskill(corpus / "rskills", robot)
+            cli("record", "--rskills-dir", str(corpus / "rskills"), "--hal", robot, "--mode", "sim", "--rskill", rskill,
+                "--n-episodes", str(episodes), "--max-steps", str(max_steps), "--seed", "100", "--out", str(root),
+                "--codec", "h264", "--fps", "10")  # fmt: skip
+        out.append(Source(f"expert_hal_{robot}_sweep", "expert", root))
+    return out
+
+
 def generated_source(corpus: Path, attempts: int) -> list[Source]:
     root, seeds = corpus / "clean" / "generated_tabletop_pick_place", corpus / "clean" / "expert_tabletop_pick_place"
     if not ready(root) and ready(seeds):
@@ -96,12 +136,16 @@ def generated_source(corpus: Path, attempts: int) -> list[Source]:
 
 
 def teleop_source(corpus: Path, episodes: int, max_steps: int = 150) -> list[Source]:
-    """Gamepad sessions of a scripted person through the real device path (`teleop_sessions.py`)."""
-    root = corpus / "clean" / "person_teleop_gamepad"
-    if not ready(root):
-        print(f"recording {episodes} gamepad teleop sessions", flush=True)
-        record_sessions(root, episodes, max_steps, corpus / "scratch")
-    return [Source("person_teleop_gamepad", "person", root)]
+    """Gamepad sessions of a scripted person through the real device path (`teleop_sessions.py`): a first set
+    (seeds from 0) and a second one on other cubes (`TELEOP_MORE` sessions from seed 100)."""
+    out = []
+    for name, count, first in (("person_teleop_gamepad", episodes, 0), ("person_teleop_gamepad_b", TELEOP_MORE, 100)):
+        root = corpus / "clean" / name
+        if not ready(root):
+            print(f"recording {count} gamepad teleop sessions from seed {first}", flush=True)
+            record_sessions(root, count, max_steps, corpus / "scratch", first)
+        out.append(Source(name, "person", root))
+    return out
 
 
 def person_sources(corpus: Path) -> list[Source]:

@@ -61,15 +61,16 @@ def drive(pad: Gamepad, term: Terminal, proc: subprocess.Popen[bytes], seed: int
         steer(pad, u)
 
 
-def record_sessions(out: Path, episodes: int, max_steps: int, scratch: Path) -> None:
-    """`episodes` gamepad sessions of tabletop_push (seeds 0, 1, ...) into the dataset `out`."""
+def record_sessions(out: Path, episodes: int, max_steps: int, scratch: Path, first_seed: int = 0) -> None:
+    """`episodes` gamepad sessions of tabletop_push (seeds `first_seed`, `first_seed` + 1, ...) into the dataset
+    `out`."""
     scratch.mkdir(parents=True, exist_ok=True)
     node = scratch / "event0"
     node.unlink(missing_ok=True)
     pad = Gamepad(node)
     master, slave = os.openpty()
     args = ["record", "--scene", "tabletop_push", "--teleop", f"gamepad={node}", "--out", str(out)]
-    args += ["--codec", "h264", "--seed", "0", "--n-episodes", str(episodes), "--max-steps", str(max_steps)]
+    args += ["--codec", "h264", "--seed", str(first_seed), "--n-episodes", str(episodes), "--max-steps", str(max_steps)]
     proc = subprocess.Popen(
         [sys.executable, "-m", "openral_data.cli", *args],
         stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=slave,
@@ -79,7 +80,7 @@ def record_sessions(out: Path, episodes: int, max_steps: int, scratch: Path) -> 
     term = Terminal(master)
     try:
         for e in range(episodes):
-            drive(pad, term, proc, e)
+            drive(pad, term, proc, first_seed + e)
         proc.wait(timeout=120)
     finally:
         ended(proc)

@@ -7,8 +7,8 @@
   unit-normalised quaternions whose dot product is below -`FLIP_DOT` (an actual rotation between two frames
   keeps it near +1); order of the components does not matter.
 * `angle_wraps`: an angle-like column (its name says yaw/pitch/roll/angle/theta/heading/joint/rx/ry/rz...) that
-  jumps by about 2π between two frames (within `WRAP_SLACK` rad): the angle was wrapped into (-π, π] (or
-  [0, 2π)) instead of being kept continuous.
+  jumps by about 2π between two frames (within `WRAP_SLACK` rad; or 360 within as many degrees: an angle in
+  degrees): the angle was wrapped into (-π, π] (or [0, 2π), (-180, 180]) instead of being kept continuous.
 * `rate_mismatch`: timestamps whose step is not the declared fps: the frames where
   `|t_k - (t_0 + k / fps)|` exceeds half a frame period, and the median step.
 
@@ -85,18 +85,21 @@ def quaternion_flips(values: Array, key: str, names: list[str]) -> list[Signal]:
     return out
 
 
-def angle_wraps(values: Array, key: str, names: list[str]) -> list[Signal]:
-    """Jumps of about 2π between consecutive frames in the angle-like columns of `values` (frames x dims of
-    feature `key`, whose dimensions are `names`)."""
+def angle_wraps(values: Array, key: str, names: list[str], also: frozenset[int] = frozenset()) -> list[Signal]:
+    """Jumps of about 2π (or 360: an angle in degrees) between consecutive frames in the angle-like columns of
+    `values` (frames x dims of feature `key`, whose dimensions are `names`), and in the columns `also` names (a
+    robot manifest's revolute joints, whatever their names)."""
     out: list[Signal] = []
     for i, name in enumerate(names):
-        if not ANGLE_NAME.search(name):
+        if not ANGLE_NAME.search(name) and i not in also:
             continue
         step = np.abs(np.diff(np.asarray(values[:, i], dtype=np.float64)))
-        frames = np.flatnonzero(np.abs(step - 2 * math.pi) < WRAP_SLACK) + 1
+        wrap = (np.abs(step - 2 * math.pi) < WRAP_SLACK) | (np.abs(step - 360.0) < math.degrees(WRAP_SLACK))
+        frames = np.flatnonzero(wrap) + 1
         if len(frames):
             where = tuple(int(f) for f in frames[:MAX_FRAMES])
-            out.append(Signal((f"{key}[{name}]",), where, len(frames), f"jump {float(step[frames[0] - 1]):.3f} rad"))
+            unit = "rad" if float(step[frames[0] - 1]) < 2 * math.pi + WRAP_SLACK else "deg"
+            out.append(Signal((f"{key}[{name}]",), where, len(frames), f"jump {float(step[frames[0] - 1]):.3f} {unit}"))
     return out
 
 

@@ -197,10 +197,11 @@ def test_a_moving_clean_episode_raises_no_flag(n: int, fps: int, period_s: float
 
 
 class _FakeSource:
-    """What `episode_motion` asks of a dataset: its fps and dimension names."""
+    """What `episode_motion` asks of a dataset: its fps, dimension names and robot (none: no manifest)."""
 
     def __init__(self, fps: int) -> None:
         self.fps = fps
+        self.robot = None
 
     def dim_names(self, key: str) -> list[str]:
         return list(q.SCHEMA.state_names if key == STATE else q.SCHEMA.action_names)

@@ -13,9 +13,11 @@ import pyarrow.parquet as pq
 import pytest
 
 from openral_data.formats.lerobot_v3.features import ACTION, STATE
-from openral_data.metrics.quality import DEFAULT, quality_of, views
+from openral_data.metrics.quality import DEFAULT, quality_of, rows, views
+from openral_data.metrics.quality.alignment import alignment
 from openral_data.metrics.quality.breadth import angle_wraps, quaternions, task_text
 from openral_data.metrics.quality.camera import camera_quality, stalled
+from openral_data.metrics.quality.dims import bursts, toggle_frames
 from openral_data.metrics.sources import open_dataset
 from tests.support import quality as q
 from tests.support.metrics import data_file, rewrite_parquet
@@ -134,3 +136,54 @@ def test_a_turned_camera_whose_scene_varies_between_episodes_is_found() -> None:
     ]
     noise = {e: rng.normal(128, 40, (16, 16)).astype(np.float32) for e in range(8)}
     assert views.flipped(noise, "cam", dict.fromkeys(noise, 40), DEFAULT.flip_margin) == {}
+
+
+def test_an_angle_wrap_of_a_manifest_joint_and_in_degrees() -> None:
+    """`shoulder_pan` is no angle by its name: wrapped at ±180° it is found only as the manifest's revolute joint
+    (`also`), at the frame it jumps by 360."""
+    pan = np.linspace(150.0, 210.0, 20)
+    pan[pan > 180] -= 360  # written in (-180, 180]: the jump at frame 10
+    x = np.stack([pan, np.linspace(0.0, 1.0, 20)], axis=1)
+    assert angle_wraps(x, ["shoulder_pan", "x"], STATE) == []
+    got = [(f.check, f.subject, f.start_frame) for f in angle_wraps(x, ["shoulder_pan", "x"], STATE, frozenset({0}))]
+    assert got == [("angle_wrap", f"{STATE}[shoulder_pan]", 10)]
+
+
+def test_a_teleport_along_the_motion_is_no_frame_drop() -> None:
+    """Three dimensions moving steadily, the first the fastest: frames lost carry all three further by one
+    factor (`frame_drop`); the first one alone jumping ahead along its motion is a `teleport`, not a drop."""
+    n, at = 40, 20
+    z = np.cumsum(np.tile([0.02, 0.003, 0.003], (n, 1)), axis=0)
+    late = np.zeros(n - 1, dtype=bool)
+    dropped = np.concatenate([z[:at], z[at + 5 :]])  # 5 frames lost before frame `at`
+    assert [f for f, _ in rows.frame_drops(dropped, late[: len(dropped) - 1], DEFAULT)] == [at]
+    jumped = z.copy()
+    jumped[at:, 0] += 0.1
+    assert rows.frame_drops(jumped, late, DEFAULT) == []
+    found = rows.teleports(jumped, ["j0", "j1", "j2"], STATE, DEFAULT, set())
+    got = [(f.check, f.subject, f.start_frame) for f in found]
+    assert got == [("teleport", f"{STATE}[j0]", at)]
+
+
+def test_two_swapped_actions_of_a_diagonal_motion() -> None:
+    """x and y move together (correlated 0.8), z apart: with their velocity commands swapped each still follows
+    its own state 0.8 but the other's better: `action_swap` on both; the clean episode raises nothing."""
+    rng = np.random.default_rng(0)
+    smooth = np.array([np.convolve(rng.normal(size=300), np.ones(15) / 15, "same") for _ in range(3)]).T
+    v = np.stack([smooth[:, 0], 0.8 * smooth[:, 0] + 0.6 * smooth[:, 1], smooth[:, 2]], axis=1)
+    state = np.cumsum(v, axis=0)
+    names = (["delta_x", "delta_y", "delta_z"], ["eef_x", "eef_y", "eef_z"])
+    assert alignment(v[:-1], state[1:], names, DEFAULT) == []
+    swapped = v[:, [1, 0, 2]]
+    got = [(f.check, f.subject) for f in alignment(swapped[:-1], state[1:], names, DEFAULT)]
+    assert got == [("action_swap", "action[delta_x]"), ("action_swap", "action[delta_y]")]
+
+
+def test_a_chatter_burst_is_placed_at_its_frames() -> None:
+    """A gripper opening and closing every 20 frames, and toggling every frame over 60..79: the burst's span (a
+    toggle within half a second of the one before at 10 fps), not the first to the last toggle."""
+    grip = ((np.arange(150) // 20) % 2).astype(np.float64)
+    grip[60:80] = np.arange(20) % 2
+    frames = toggle_frames(grip, 0.0, 1.0)
+    assert bursts(frames, 5) == [(min(f for f in frames if f >= 60), max(f for f in frames if f < 81))]
+    assert bursts(frames, 5)[0][0] in (60, 61) and bursts(frames, 5)[0][1] in (79, 80)

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from openral_data.formats.lerobot_v3.features import STATE
 from openral_data.metrics.quality import DEFAULT
 from openral_data.metrics.quality.thresholds import for_kind
 from tests.support import data_faults as df
@@ -140,3 +141,27 @@ def test_frozen_and_blurred_camera_spans_are_placed_to_the_frame_at_stride_5(
         (start, end) = spans[0]
         # the first copy of a held picture may be coded as the live one before it: one frame either way
         assert abs(start - truth.first) <= (kind == "frozen_camera") and end == truth.last, (kind, truth, spans)
+
+
+def test_joint_limits_and_velocities_from_the_robot_manifest(clean: tuple[Path, df.Clean], tmp_path: Path) -> None:
+    """The state named as the SO-101's joints (robots/so101_follower: degrees, limits ±100..110, 180°/s): clean
+    it raises nothing; elbow_flex written 150° over frames 20..24 is `joint_limit` over those frames (25 % of its
+    range beyond) and `joint_velocity` where it leaves and comes back (1 500°/s at 10 fps); an unknown robot type
+    is not checked."""
+    _, episode = clean
+    named = replace(episode, state_names=("shoulder_pan", "shoulder_lift", "elbow_flex"), robot_type="so101_follower")
+    assert df.findings(df.write(tmp_path / "clean", [named])) == {}
+    faulty = named.copy()
+    faulty.state[20:25, 2] = 150.0
+    got = df.findings(df.write(tmp_path / "beyond", [faulty])).get(0, [])
+    spans = {(f["check"], f["subject"], f["start_frame"], f["end_frame"]) for f in got}
+    elbow = f"{STATE}[elbow_flex]"
+    expected = {("joint_limit", elbow, 20, 24), ("joint_velocity", elbow, 20, 20), ("joint_velocity", elbow, 25, 25)}
+    assert expected <= spans
+    (limit,) = [f for f in got if f["check"] == "joint_limit"]
+    assert limit["value"] == pytest.approx(0.25, abs=0.01) and limit["threshold"] == DEFAULT.limit_margin
+    other = replace(faulty, robot_type="some_other_arm")
+    assert not {f["check"] for f in df.findings(df.write(tmp_path / "other", [other])).get(0, [])} & {
+        "joint_limit",
+        "joint_velocity",
+    }

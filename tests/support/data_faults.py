@@ -32,7 +32,7 @@ from openral_data.formats.lerobot_v3 import LeRobotV3Writer
 from openral_data.formats.lerobot_v3.features import camera_keys, dim_names
 from openral_data.formats.lerobot_v3.frames import episode_frames
 from openral_data.formats.lerobot_v3.reader import dataset_tasks, read_episodes
-from openral_data.metrics.quality import DEFAULT, Thresholds, quality
+from openral_data.metrics.quality import DEFAULT, Thresholds, limits, quality
 from openral_data.types import CameraShape, DatasetSchema, EpisodeStart, Frame
 
 F32 = npt.NDArray[np.float32]
@@ -383,11 +383,18 @@ def timing_fault(ep: Clean, kind: str, rng: np.random.Generator) -> tuple[Clean,
 
 
 def wrap_dim(ep: Clean, rng: np.random.Generator) -> int:
-    """A moving state dimension named as an angle (a joint, roll/pitch/yaw; a generic `j0` counts)."""
-    angles = [d for d in arm_dims(ep, ep.state, ep.state_names) if ANGLE.search(ep.state_names[d])]
+    """A moving state dimension that is an angle: a revolute joint of the robot's manifest (`limits.robot_joints`),
+    else named as one (a joint, roll/pitch/yaw; a generic `j0` counts)."""
+    revolute = limits.robot_joints(ep.robot_type, list(ep.state_names)).revolute()
+    angles = [d for d in arm_dims(ep, ep.state, ep.state_names) if d in revolute or ANGLE.search(ep.state_names[d])]
     if not angles:
-        raise NotApplicable("no moving state dimension named as an angle")
+        raise NotApplicable("no moving state dimension that is an angle")
     return angles[int(rng.integers(len(angles)))]
+
+
+def in_degrees(x: F32) -> bool:
+    """Whether an angle's values go beyond ±(2π + 0.5): written in degrees (LeRobot's Feetech arms)."""
+    return float(np.nanmax(np.abs(x))) > 2 * np.pi + 0.5
 
 
 def angle_wrap(ep: Clean, rng: np.random.Generator) -> tuple[Clean, Truth]:
@@ -400,10 +407,11 @@ def angle_wrap(ep: Clean, rng: np.random.Generator) -> tuple[Clean, Truth]:
     if not len(moving):
         raise NotApplicable(f"observation.state[{d}] does not move in the middle of the episode")
     k = int(rng.choice(moving))
-    edge = np.pi if step[k - 1] > 0 else -np.pi
+    half = 180.0 if in_degrees(x[:, d]) else np.pi  # an angle in degrees wraps at ±180
+    edge = half if step[k - 1] > 0 else -half
     y = x[:, d].astype(np.float64) + edge - (x[k - 1, d] + x[k, d]) / 2.0
-    x[:, d] = (np.mod(y + np.pi, 2 * np.pi) - np.pi).astype(np.float32)
-    first = int(np.flatnonzero(np.abs(np.diff(x[:, d])) > np.pi)[0]) + 1
+    x[:, d] = (np.mod(y + half, 2 * half) - half).astype(np.float32)
+    first = int(np.flatnonzero(np.abs(np.diff(x[:, d])) > half)[0]) + 1
     return ep, Truth("angle_wrap", "observation.state", first, first, dims=(d,))
 
 
@@ -420,6 +428,8 @@ def state_fault(ep: Clean, kind: str, rng: np.random.Generator) -> tuple[Clean, 
         return angle_wrap(ep, rng)
     if kind == "degrees_as_radians":
         d = wrap_dim(ep, rng)
+        if in_degrees(x[:, d]):
+            raise NotApplicable(f"observation.state[{d}] is in degrees already")
         x[:, d] = np.degrees(x[:, d])
         return ep, Truth(kind, "observation.state", 0, n - 1, dims=(d,))
     if kind == "teleport":
@@ -436,19 +446,21 @@ def state_fault(ep: Clean, kind: str, rng: np.random.Generator) -> tuple[Clean, 
     return ep, Truth("nan", feature, k, k, dims=(d,), detail=str(bad))
 
 
-def clip_run(a: F32, d: int) -> tuple[int, int, np.float32]:
-    """The frames around dimension `d`'s highest point inside the episode's middle three fifths above a level 30 %
-    of its range below it (first, end), and that level."""
+def clip_run(a: F32, d: int, sign: float) -> tuple[int, int, np.float32] | None:
+    """The frames around dimension `d`'s highest point (`sign` -1: lowest) inside the episode's middle three fifths
+    beyond a level 30 % of its range inside it (first, end), and that level; None when that excursion is not
+    entered and left inside the episode (a limit clips a top: the motion comes back below it)."""
     n = len(a)
+    y = sign * a[:, d].astype(np.float64)
     lo, hi = n // 5, n - n // 5
-    top = lo + int(np.argmax(a[lo:hi, d]))
-    level = np.float32(a[top, d] - 0.3 * float(np.ptp(a[:, d])))
+    top = lo + int(np.argmax(y[lo:hi]))
+    level = y[top] - 0.3 * float(np.ptp(y))
     s, e = top, top + 1
-    while s > 1 and a[s - 1, d] > level:
+    while s > 0 and y[s - 1] > level:
         s -= 1
-    while e < n - 1 and a[e, d] > level:
+    while e < n and y[e] > level:
         e += 1
-    return s, e, level
+    return (s, e, np.float32(sign * level)) if s > 0 and e < n else None
 
 
 def action_fault(ep: Clean, kind: str, rng: np.random.Generator) -> tuple[Clean, Truth]:
@@ -474,15 +486,19 @@ def action_fault(ep: Clean, kind: str, rng: np.random.Generator) -> tuple[Clean,
 
 
 def clipping(ep: Clean, rng: np.random.Generator) -> tuple[Clean, Truth]:
-    """A state dimension held flat around its peak (a joint stopped by a limit, a sensor at full scale)."""
+    """A state dimension held flat around its peak or its trough (a joint stopped by a limit, a sensor at full
+    scale), entered and left inside the episode: the first dimension (in a random order) that has one."""
     x = ep.state
     dims = arm_dims(ep, x, ep.state_names)
-    d = dims[int(rng.integers(len(dims)))]
-    s, e, level = clip_run(x, d)
-    if e - s < 3:
-        raise NotApplicable(f"observation.state[{d}] peaks for fewer than 3 frames")
-    x[s:e, d] = level
-    return ep, Truth("clipping", "observation.state", s, e - 1, dims=(d,), detail=f"held at {float(level):.4g}")
+    for d in (int(v) for v in rng.permutation(dims)):
+        for sign in (1.0, -1.0) if rng.integers(2) == 0 else (-1.0, 1.0):
+            found = clip_run(x, d, sign)
+            if found is not None and found[1] - found[0] >= 3:
+                s, e, level = found
+                x[s:e, d] = level
+                detail = f"held at {float(level):.4g}"
+                return ep, Truth("clipping", "observation.state", s, e - 1, dims=(d,), detail=detail)
+    raise NotApplicable("no state dimension peaks for 3 frames inside the episode")
 
 
 def inject(clean: Clean, kind: str, seed: int = 0) -> tuple[Clean, Truth]:

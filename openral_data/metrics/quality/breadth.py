@@ -51,11 +51,12 @@ def quaternions(x: Array, names: list[str], feature: str, th: Thresholds) -> lis
     return out
 
 
-def angle_wraps(x: Array, names: list[str], feature: str) -> list[Finding]:
-    """`angle_wrap` at each frame where an angle-like dimension jumps by about 2π (`signals.angle_wraps`)."""
+def angle_wraps(x: Array, names: list[str], feature: str, also: frozenset[int] = frozenset()) -> list[Finding]:
+    """`angle_wrap` at each frame where an angle-like dimension (or one of `also`: the robot manifest's revolute
+    joints) jumps by about 2π, or 360 in degrees (`signals.angle_wraps`)."""
     return [
         Finding("angle_wrap", s.columns[0], f, f, float(s.count), 0.0, detail=s.detail)
-        for s in signals.angle_wraps(x, feature, names)
+        for s in signals.angle_wraps(x, feature, names, also)
         for f in s.frames
     ]
 

@@ -164,5 +164,18 @@ def toggle_frames(x: Array, lo: float, hi: float) -> list[int]:
     return out
 
 
+def bursts(frames: list[int], gap: int, least: int = 3) -> list[tuple[int, int]]:
+    """The runs of `frames` (toggle frames, in order) each within `gap` frames of the one before, with at least
+    `least` of them: (first, last) frame."""
+    out: list[tuple[int, int]] = []
+    start = 0
+    for i in range(1, len(frames) + 1):
+        if i == len(frames) or frames[i] - frames[i - 1] > gap:
+            if i - start >= least:
+                out.append((frames[start], frames[i - 1]))
+            start = i
+    return out
+
+
 def toggles(x: Array, lo: float, hi: float) -> int:
     return len(toggle_frames(x, lo, hi))

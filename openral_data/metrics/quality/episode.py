@@ -10,7 +10,7 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.formats.lerobot_v3.features import ACTION, STATE
-from openral_data.metrics.quality import alignment, breadth, dims, motion, rows, timing
+from openral_data.metrics.quality import alignment, breadth, dims, limits, motion, rows, timing
 from openral_data.metrics.quality.findings import Finding, dim_subject, runs, span_findings
 from openral_data.metrics.quality.thresholds import Thresholds
 from openral_data.metrics.sources import DatasetSource
@@ -83,17 +83,19 @@ def vector_findings(
         for d, spans in tops.items():
             found += span_findings("saturated", dim_subject(key, names[d]), spans, share, None, False)
     trajectory = motion.normalised(x[:, varies], lo[varies], hi[varies])
+    angles = limits.robot_joints(ds.robot, names).revolute() if key == STATE else frozenset()
     if key == STATE:
         found += rows.degrees(x, names, key, th)
     found += breadth.non_finite(x, names, key) + breadth.quaternions(x, names, key, th)
-    found += breadth.angle_wraps(x, names, key) + breadth.duplicated(x, names, key)
+    found += breadth.angle_wraps(x, names, key, angles) + breadth.duplicated(x, names, key)
     return found, (share if moving and n else None), trajectory, [names[d] for d in moving]
 
 
 def gripper_findings(
     ds: DatasetSource, arrays: dict[str, Array], ranges: Ranges, n: int, th: Thresholds
 ) -> tuple[list[Finding], int | None]:
-    """`chatter` of the action's gripper dimensions (else the state's): their toggles, from first to last."""
+    """`chatter` of the action's gripper dimensions (else the state's): over each burst of toggles (each within
+    half a flagging period of the one before), else from the first toggle to the last."""
     key = ACTION if dims.gripper_dims(ds.dim_names(ACTION)) and ACTION in arrays else STATE
     if key not in arrays or key not in ranges:
         return [], None
@@ -104,7 +106,9 @@ def gripper_findings(
         most = max(most or 0, len(frames))
         rate = len(frames) * ds.fps / n if n else 0.0
         if len(frames) >= th.chatter_min_toggles and rate >= th.chatter_hz:
-            out.append(Finding("chatter", dim_subject(key, names[g]), frames[0], frames[-1], rate, th.chatter_hz))
+            # where: its bursts (toggles at least twice the flagging rate), else first to last toggle
+            spans = dims.bursts(frames, max(2, round(ds.fps / (2 * th.chatter_hz)))) or [(frames[0], frames[-1])]
+            out += span_findings("chatter", dim_subject(key, names[g]), spans, rate, th.chatter_hz)
     return out, most
 
 
@@ -174,6 +178,8 @@ def episode_motion(
     grip, toggles = gripper_findings(ds, arrays, ranges, n, th)
     steps = timing.timestamp_steps(timestamps, fps)
     found += grip + timing_findings(steps, th) + row_findings(arrays, arm, steps, th)
+    if STATE in arrays:
+        found += limits.joint_findings(arrays[STATE], ds.robot, ds.dim_names(STATE), steps, fps, th)
     if STATE in arrays and ACTION in arrays:
         pair = (ds.dim_names(ACTION), ds.dim_names(STATE))
         found += alignment.alignment(arrays[ACTION], arrays[STATE], pair, th)

@@ -62,6 +62,7 @@ FLAGS = (
     *("non_finite", "quat_flip", "quat_norm", "angle_wrap", "teleport", "duplicated"),
     *("frame_drop", "repeated_rows", "degrees", "action_swap", "action_lag", "camera_flipped"),
     *("task_text", "duplicate_episode", "length_outlier"),
+    *("joint_limit", "joint_velocity"),
 )
 SCHEMA = pa.schema(
     [

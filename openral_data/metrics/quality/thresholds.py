@@ -48,6 +48,8 @@ class Thresholds:
     action_lag_frames: int = 6  # `action_lag`: the state following the action more than this many frames off
     repeat_max: int = 4  # `repeated_rows`: state and action repeated bit for bit for 1..this many frames mid-motion
     length_ratio: float = 4.0  # `length_outlier`: an episode this many times longer or shorter than the median
+    limit_margin: float = 0.02  # `joint_limit`: a joint beyond its manifest limits by this share of their range
+    velocity_factor: float = 1.5  # `joint_velocity`: a joint faster than this many times its manifest velocity limit
 
     def as_json(self) -> dict[str, Any]:
         return asdict(self)
@@ -63,10 +65,18 @@ KINDS: dict[str, dict[str, float | int]] = {
     "default": {},
     "scripted": {"idle_flag": 0.125, "action_lag_frames": 4},  # calibrated (benchmarks/calibrate_quality.py)
     "policy": {},
-    # calibrated: a person's fingers snap open and shut within a frame, next to a slow arm
-    "person": {"jerk_reversal_share": 0.6, "idle_flag": 0.15, "teleport_step": 0.3, "teleport_factor": 12.0},
-    # the mock scene's random rSkill writes its step counter into a state dimension named as a joint
-    "random": {"jerk_min_reversals": 10**9, "chatter_min_toggles": 10**9, "degrees_limit": 1e9},
+    # calibrated: a hand trembles and pauses; a real arm's encoders hold a reading for up to 11 frames where it
+    # turns back (an injected clip lasts 20 frames or more)
+    "person": {"jerk_reversal_share": 0.6, "idle_flag": 0.15, "clip_plateau": 12},
+    # the mock scene's random rSkill writes its step counter into a state dimension named as a joint (beyond the
+    # mock arm's joint limits and velocity)
+    "random": {
+        "jerk_min_reversals": 10**9,
+        "chatter_min_toggles": 10**9,
+        "degrees_limit": 1e9,
+        "limit_margin": 1e9,
+        "velocity_factor": 1e9,
+    },
 }
 # rSkill policies that follow a script
 SCRIPTED = ("scripted", "metaworld_expert", "maniskill_expert", "sweep", "zero", "mimicgen")
