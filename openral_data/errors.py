@@ -167,6 +167,14 @@ class DatasetBusy(DatasetError):
         self.holder = holder
 
 
+class VideoEnds(DatasetError):
+    """A camera's video holds fewer frames than its episode's rows: it ends after `count` of the `n` frames."""
+
+    def __init__(self, path: Path, count: int, n: int) -> None:
+        super().__init__(f"{path}: video ends after {count} of the episode's {n} frames", code="dataset.invalid")
+        self.path, self.count, self.n = path, count, n
+
+
 class EpisodeSelectionError(OpenralError):
     """An episode selection (``--episodes 0,3-5``) is malformed, out of range, or selects nothing usable."""
 

@@ -10,7 +10,9 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from openral_data.metrics.quality import FLAGS
+from openral_data.formats.lerobot_v3.video import concat_mp4
+from openral_data.metrics.quality import FLAGS, quality_of
+from openral_data.metrics.sources import open_dataset
 from tests.support import quality as q
 from tests.support.inproc import run_inproc
 from tests.support.lerobot_written import digest, loaded_episodes, same_frames, write_lerobot_dataset
@@ -163,6 +165,29 @@ def test_a_damaged_dataset_is_one_error_line_and_nothing_cached(tmp_path: Path) 
     lines = [ln for ln in run.stderr.splitlines() if ln.strip()]
     assert run.returncode == 2 and len(lines) == 1 and lines[0].startswith(f"error: {video}: cannot decode video")
     assert sorted(p.name for p in (root / ".openral").iterdir() if "quality" in p.name) == []
+
+
+def test_a_video_shorter_than_its_episode_is_a_finding(tmp_path: Path) -> None:
+    """The camera's mp4 loses its last 6 frames (packets), all in the last episode: that episode gets a
+    `video_frames` finding on the frames the video lacks (34 held of 40) and its flag; every episode's other
+    checks are still computed (the middle one's idle), the others raise no `video_frames` (was: one error line)."""
+    root = _dataset(tmp_path / "ds")
+    video = sorted(root.glob("videos/*/*/*.mp4"))[0]
+    short = video.with_name("short.mp4")
+    concat_mp4([(video, 3 * N - 6)], short, q.FPS)  # its first 3 * N - 6 packets
+    short.replace(video)
+    run = run_inproc("quality", str(root), "--format", "json")
+    assert run.returncode == 0, run.stderr
+    got = quality_of(open_dataset(root))
+    rows = got.table.to_pylist()
+    assert [(r["idle"], r["video_frames"]) for r in rows] == [(False, False), (True, False), (False, True)]
+    found = [f for f in pq.read_table(got.paths.findings).to_pylist() if f["check"] == "video_frames"]
+    assert [(f["episode_index"], f["subject"], f["start_frame"], f["end_frame"]) for f in found] == [
+        (2, "observation.images.cam", N - 6, N - 1)
+    ]
+    assert (found[0]["value"], found[0]["threshold"]) == (N - 6, N)
+    samples = pq.read_table(got.paths.camera_frames).to_pylist()  # the frames it holds were measured
+    assert max(s["frame_index"] for s in samples if s["episode_index"] == 2) == N - 6 - 4
 
 
 def test_stats_sql_without_quality_computes_nothing(tmp_path: Path) -> None:

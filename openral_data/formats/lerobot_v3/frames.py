@@ -16,7 +16,7 @@ import numpy.typing as npt
 import pyarrow as pa
 import pyarrow.compute as pc
 
-from openral_data.errors import DatasetError
+from openral_data.errors import DatasetError, VideoEnds
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.depth import DepthSettings, decode_codes
 from openral_data.formats.lerobot_v3.features import camera_key, camera_keys
@@ -174,4 +174,4 @@ def _decode(
             count += 1
             if count == n:
                 return
-    raise DatasetError(f"{path}: video ends after {count} of the episode's {n} frames", code="dataset.invalid")
+    raise VideoEnds(path, count, n)

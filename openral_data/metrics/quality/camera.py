@@ -191,3 +191,10 @@ def stalled(cameras: dict[str, CameraQuality], th: Thresholds, stride: int, leng
         share = float(mask.mean())
         out += span_findings("camera_stalled", key, spans, share, th.frozen_diff, detail="still while others move")
     return out
+
+
+def short_video(camera: str, count: int, length: int) -> Finding:
+    """`video_frames`: the camera's video ends after `count` of the episode's `length` frames; the frames it
+    lacks, `count` against `length`."""
+    detail = f"video ends after {count} of the episode's {length} frames"
+    return Finding("video_frames", camera, count, length - 1, float(count), float(length), detail=detail)

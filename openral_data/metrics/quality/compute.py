@@ -18,14 +18,14 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.compute as pc
 
-from openral_data.errors import DatasetError
+from openral_data.errors import DatasetError, VideoEnds
 from openral_data.formats.lerobot_v3.features import ACTION, STATE
 from openral_data.formats.lerobot_v3.frames import decode_episode_video, depth_settings
 from openral_data.formats.lerobot_v3.reader import read_episodes
 from openral_data.formats.parquetfile import read_table
 from openral_data.metrics.quality import breadth, views
 from openral_data.metrics.quality.camera import MEASURES as CAMERA_MEASURES
-from openral_data.metrics.quality.camera import CameraQuality, camera_quality, stalled
+from openral_data.metrics.quality.camera import CameraQuality, camera_quality, short_video, stalled
 from openral_data.metrics.quality.episode import FINDINGS, MOVING, Array, Ranges, episode_motion
 from openral_data.metrics.quality.findings import Finding
 from openral_data.metrics.quality.pictures import ImageColumns, picture_cameras
@@ -117,6 +117,26 @@ def camera_frames(ds: DatasetSource, images: ImageColumns, row: dict[str, Any], 
     return decode_episode_video(ds.root, ds.info, row, key, every)
 
 
+class UntilEnd:
+    """A camera's frames up to where its video ends (`VideoEnds`: fewer frames than the episode's rows, a
+    finding, not an error); `ends` is then how many frames it holds."""
+
+    def __init__(self, frames: Iterator[Any]) -> None:
+        self.frames = frames
+        self.ends: int | None = None
+
+    def __iter__(self) -> Iterator[Any]:
+        try:
+            yield from self.frames
+        except VideoEnds as exc:
+            self.ends = exc.count
+
+
+def all_frames(ds: DatasetSource, images: ImageColumns, row: dict[str, Any], key: str) -> Iterator[Any]:
+    """Every frame of camera `key` in episode `row`, up to where its video ends."""
+    return iter(UntilEnd(camera_frames(ds, images, row, key, 1)))
+
+
 def episode_cameras(
     ds: DatasetSource,
     row: dict[str, Any],
@@ -136,8 +156,12 @@ def episode_cameras(
     seen: dict[str, CameraQuality] = {}
     length = int(row["length"])
     for key in rgb_cameras(ds):
-        q = camera_quality(camera_frames(ds, images, row, key, stride), stride, th)
-        found += q.findings(key, th, stride, length, moving, partial(camera_frames, ds, images, row, key, 1))
+        frames = UntilEnd(camera_frames(ds, images, row, key, stride))
+        q = camera_quality(frames, stride, th)
+        held = length if frames.ends is None else frames.ends
+        found += q.findings(key, th, stride, held, moving, partial(all_frames, ds, images, row, key))
+        if frames.ends is not None:
+            found.append(short_video(key, frames.ends, length))
         seen[key] = q
         for measure in CAMERA_MEASURES:
             worst[measure] = max(worst[measure], q.share(measure))
