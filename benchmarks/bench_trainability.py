@@ -1,17 +1,19 @@
 """Trainability: does a small policy trained on our recorded expert demos work in closed loop?
 
-Records `--demos` expert episodes of tabletop_push with `scripted-push` (`pipelines/scenes/tabletop_push_small.yaml`:
-one 64x64 front camera; with `--state-only` `tabletop_push_state.yaml`: the cube's and the goal's poses as
-`observation.environment_state`, its camera removed before training), optionally injects one data fault into
-every episode (`tests/support/data_faults.py`: `quaternion_flip`, `upside_down`, or `shuffled_instructions` = its
-`shuffle_tasks`), trains ACT with lerobot's own trainer (`lerobot-train`, through the `train` step's
+Records `--demos` expert episodes of tabletop_push with `scripted-push`
+(`pipelines/scenes/tabletop_push_small.yaml`: one 64x64 front camera; with `--state-only`
+`tabletop_push_state.yaml`: the cube's and the goal's poses as `observation.environment_state`, its camera removed
+before training), optionally injects one data fault into every episode (`tests/support/data_faults.py`:
+`quaternion_flip`, `upside_down`, or `shuffled_instructions` = its `shuffle_tasks`; with `--state-only`,
+`quaternion_flip` flips the cube's quaternion in the environment state, which data_faults' episodes do not carry),
+trains ACT with lerobot's own trainer (`lerobot-train`, through the `train` step's
 `openral_data/pipeline/trainer.py`, CPU, no pretrained weights) in blocks of `--block` steps, each resuming the
 last, until `--cpu-minutes` of the trainer processes' CPU time or `--steps`, then records the checkpoint with
 `record --policy` on `--eval` seeds from 100000 (never recorded as demos) and prints the success rate with its
 Wilson 95 % interval. One JSON line per row is appended to `--results`.
 
-    OMP_NUM_THREADS=1 nice -n 10 .venv/bin/python benchmarks/bench_trainability.py --work /tmp/trainability \
-        --state-only [--defect quaternion_flip]
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_trainability.py --work /tmp/trainability --state-only \
+        --demos 100 --eval 50 --steps 6000 --block 2000 --batch-size 32 [--defect quaternion_flip]
 
 Results and what was (not) measured: benchmarks/README.md "Trainability".
 """
