@@ -1,17 +1,19 @@
 """Trainability: does a small policy trained on our recorded expert demos work in closed loop?
 
-Records `--demos` expert episodes of tabletop_push with `scripted-push` (`pipelines/scenes/tabletop_push_small.yaml`:
-one 64x64 front camera; with `--state-only` `tabletop_push_state.yaml`: the cube's and the goal's poses as
-`observation.environment_state`, its camera removed before training), optionally injects one data fault into
-every episode (`tests/support/data_faults.py`: `quaternion_flip`, `upside_down`, or `shuffled_instructions` = its
-`shuffle_tasks`), trains ACT with lerobot's own trainer (`lerobot-train`, through the `train` step's
+Records `--demos` expert episodes of tabletop_push with `scripted-push`
+(`pipelines/scenes/tabletop_push_small.yaml`: one 64x64 front camera; with `--state-only`
+`tabletop_push_state.yaml`: the cube's and the goal's poses as `observation.environment_state`, its camera removed
+before training), optionally injects one data fault into every episode (`tests/support/data_faults.py`:
+`quaternion_flip`, `upside_down`, or `shuffled_instructions` = its `shuffle_tasks`; with `--state-only`,
+`quaternion_flip` flips the cube's quaternion in the environment state, which data_faults' episodes do not carry),
+trains ACT with lerobot's own trainer (`lerobot-train`, through the `train` step's
 `openral_data/pipeline/trainer.py`, CPU, no pretrained weights) in blocks of `--block` steps, each resuming the
 last, until `--cpu-minutes` of the trainer processes' CPU time or `--steps`, then records the checkpoint with
 `record --policy` on `--eval` seeds from 100000 (never recorded as demos) and prints the success rate with its
 Wilson 95 % interval. One JSON line per row is appended to `--results`.
 
-    OMP_NUM_THREADS=1 nice -n 10 .venv/bin/python benchmarks/bench_trainability.py --work /tmp/trainability \
-        --state-only [--defect quaternion_flip]
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_trainability.py --work /tmp/trainability --state-only \
+        --demos 100 --eval 50 --steps 6000 --block 2000 --batch-size 32 [--defect quaternion_flip]
 
 Results and what was (not) measured: benchmarks/README.md "Trainability".
 """
@@ -74,6 +76,46 @@ def faulted(clean: Path, defect: str, out: Path) -> Path:
     return data_faults.write(out, episodes)
 
 
+def flipped_object_quaternion(clean: Path, out: Path) -> Path:
+    """`clean` with the sign of the first quaternion of `observation.environment_state` (the cube's pose) flipped
+    in every episode from a frame drawn in its middle half on (`data_faults.state_fault`'s rule, there applied to
+    `observation.state`, which a state-only policy reads besides), then `stats recompute` (as a converter that
+    flipped it would have written its statistics)."""
+    if (out / "meta" / "info.json").is_file():
+        return out
+    import shutil
+
+    import numpy as np
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    sys.path.insert(0, str(ROOT))
+    from tests.support.data_faults import quaternion_dims
+
+    key = "observation.environment_state"
+    names = tuple(json.loads((clean / "meta" / "info.json").read_text())["features"][key]["names"])
+    quat = list(quaternion_dims(names) or ())
+    if not quat:
+        raise SystemExit(f"quaternion_flip: no quaternion among {key}'s names {names}")
+    raw = out.with_name(out.name + ".raw")
+    shutil.rmtree(raw, ignore_errors=True)
+    shutil.copytree(clean, raw)
+    for file in sorted((raw / "data").rglob("*.parquet")):
+        table = pq.read_table(file)
+        env = np.stack(table[key].to_numpy(zero_copy_only=False)).astype(np.float32)
+        episodes = table["episode_index"].to_numpy()
+        for e in np.unique(episodes):
+            rows = np.flatnonzero(episodes == e)
+            n = len(rows)
+            k = int(np.random.default_rng(int(e)).integers(n // 4, 3 * n // 4))
+            env[np.ix_(rows[k:], quat)] *= -1  # the same rotation from frame k on, its sign flipped
+        column = pa.array(list(env), type=table.schema.field(key).type)
+        pq.write_table(table.set_column(table.schema.get_field_index(key), key, column), file)
+    cli(["stats", "recompute", str(raw), "--out", str(out)])
+    shutil.rmtree(raw)
+    return out
+
+
 def train(dataset: Path, run: Path, a: argparse.Namespace) -> tuple[Path, int, float]:
     """`lerobot-train` in blocks of `--block` steps (each resuming the last) until the CPU budget or `--steps`;
     (checkpoint, steps, CPU s of the lerobot-train subprocesses: user + system, all threads)."""
@@ -88,15 +130,16 @@ def train(dataset: Path, run: Path, a: argparse.Namespace) -> tuple[Path, int, f
     budget, start, steps = a.cpu_minutes * 60, cpu(), done_steps(run / "run")
     spent = float(json.loads((run / "cpu.json").read_text())["cpu_s"]) if (run / "cpu.json").is_file() else 0.0
     checkpoint = run / "run" / "checkpoints" / "last" / "pretrained_model"
-    while steps < a.steps and spent + cpu() - start < budget:
-        steps = min(a.steps, steps + a.block)
+    while steps < a.steps and (add := block_fitting(a.block, steps, spent + cpu() - start, budget)) > 0:
+        steps = min(a.steps, steps + add)
         settings = TrainSettings(
             steps=steps,
             batch_size=a.batch_size,
             save_freq=a.block,
             seed=a.seed,
-            chunk_size=20,
-            n_action_steps=20,
+            chunk_size=a.chunk_size,
+            n_action_steps=a.n_action_steps,
+            temporal_ensemble_coeff=a.temporal_ensemble,
             dim_model=a.dim_model,
             dim_feedforward=4 * a.dim_model,
             n_encoder_layers=a.layers,
@@ -106,6 +149,15 @@ def train(dataset: Path, run: Path, a: argparse.Namespace) -> tuple[Path, int, f
         print(f"step {steps}: {spent + cpu() - start:.0f} CPU-s", flush=True)
         (run / "cpu.json").write_text(json.dumps({"cpu_s": spent + cpu() - start, "steps": steps}))
     return checkpoint, done_steps(run / "run"), spent + cpu() - start
+
+
+def block_fitting(block: int, steps: int, used: float, budget: float) -> int:
+    """The steps of the next block: `block`, fewer when the CPU-seconds a step has cost so far (start-ups
+    included) say a whole block would overrun `budget`; 0 when not even a tenth of a block fits."""
+    if steps == 0 or used <= 0:
+        return block if used < budget else 0
+    fit = int((budget - used) * steps / used)
+    return min(block, fit) if fit >= block // 10 else 0
 
 
 def evaluate(scene: Path, checkpoint: Path, out: Path, n: int, max_steps: int) -> tuple[int, int]:
@@ -130,6 +182,9 @@ def main() -> None:
     p.add_argument("--dim-model", type=int, default=128)
     p.add_argument("--layers", type=int, default=1, help="ACT encoder layers")
     p.add_argument("--lr", type=float, default=1e-4)
+    p.add_argument("--chunk-size", type=int, default=20)
+    p.add_argument("--n-action-steps", type=int, default=1, help="actions executed per query (1: closed loop)")
+    p.add_argument("--temporal-ensemble", type=float, default=None, help="ACT's coefficient (needs n-action-steps 1)")
     p.add_argument("--state-only", action="store_true", help="ACT on state + cube/goal poses, no camera")
     p.add_argument("--seed", type=int, default=1000)
     p.add_argument("--max-steps", type=int, default=120, help="per evaluation episode (the expert needs ~45)")
@@ -139,16 +194,19 @@ def main() -> None:
 
     a.work.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    if a.state_only and a.defect == "upside_down":
-        raise SystemExit("upside_down: not applicable with --state-only (the camera is removed before training)")
+    if a.state_only and a.defect not in (None, "quaternion_flip"):
+        raise SystemExit(f"{a.defect}: not applicable with --state-only (no camera; one instruction, unread)")
     kind = "state" if a.state_only else "camera"
     scene, demos = SCENES[kind], a.work / ("demos-state-cam" if a.state_only else "demos")
     expert = ["--rskill", "scripted-push", "--seed", "0", "--n-episodes", str(a.demos), "--keep", "success"]
     print(f"demos: {record(scene, demos, expert)}", flush=True)
     name = a.defect or "clean"
-    dataset = demos if a.defect is None else faulted(demos, a.defect, a.work / f"{demos.name}-{name}")
-    if a.state_only:
-        dataset = without_camera(dataset, a.work / f"{dataset.name}-nocam")
+    if a.state_only:  # data_faults' episodes carry no environment state: the cube's quaternion is flipped here
+        dataset = without_camera(demos, a.work / f"{demos.name}-nocam")
+        if a.defect is not None:
+            dataset = flipped_object_quaternion(dataset, a.work / f"{dataset.name}-{name}")
+    else:
+        dataset = demos if a.defect is None else faulted(demos, a.defect, a.work / f"{demos.name}-{name}")
     checkpoint, steps, cpu_s = train(dataset, a.work / f"run-{kind}-{name}", a)
     k, n = evaluate(scene, checkpoint, a.work / f"eval-{kind}-{name}-{steps}", a.eval, a.max_steps)
     ci = wilson(k, n)

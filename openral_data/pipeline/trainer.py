@@ -32,6 +32,10 @@ from openral_data.errors import CompatibilityError, ConfigError
 
 POLICY_TYPES = ("act",)
 PolicyType = Literal["act"]
+# lerobot's ACT normalises VISUAL, STATE and ACTION only (its `normalization_mapping` default): the
+# `observation.environment_state` (type ENV: the object poses a state-only policy reads) reached the network raw,
+# a cube's few centimetres of spread a small part of its ~0.5 m offset, next to a normalised robot state
+NORMALIZATION = {"VISUAL": "MEAN_STD", "STATE": "MEAN_STD", "ENV": "MEAN_STD", "ACTION": "MEAN_STD"}
 LAST = "last"  # lerobot's LAST_CHECKPOINT_LINK
 LOG = "lerobot-train.log"  # lerobot's output, in the run folder's parent
 MODULE = "lerobot.scripts.lerobot_train"
@@ -55,6 +59,7 @@ class TrainSettings:
     dim_feedforward: int = 1024
     n_encoder_layers: int = 2
     lr: float = 1e-4
+    temporal_ensemble_coeff: float | None = None  # ACT's temporal ensembling (needs n_action_steps 1)
 
 
 def last_checkpoint(run: Path) -> Path | None:
@@ -88,6 +93,8 @@ def fresh_args(dataset: Path, run: Path, s: TrainSettings) -> list[str]:
         f"--policy.n_encoder_layers={s.n_encoder_layers}",
         f"--policy.optimizer_lr={s.lr}",
         f"--policy.optimizer_lr_backbone={s.lr}",
+        f"--policy.temporal_ensemble_coeff={json.dumps(s.temporal_ensemble_coeff)}",
+        f"--policy.normalization_mapping={json.dumps(NORMALIZATION)}",
         f"--output_dir={run}",
         f"--steps={s.steps}",
         f"--batch_size={s.batch_size}",

@@ -76,6 +76,10 @@ def test_train_step_killed_resumes_and_its_checkpoint_drives_replay_and_record(p
     model = item / "pretrained_model"
     norm = load_file(str(next(model.glob("policy_preprocessor_step_*_normalizer_processor.safetensors"))))
     np.testing.assert_allclose(norm["observation.state.mean"], stats["mean"], rtol=1e-5)
+    # ... and normalises an environment state (object poses) as the state: lerobot's ACT default leaves it raw
+    (normalizer,) = [s for s in json.loads((model / "policy_preprocessor.json").read_text())["steps"]
+                     if s["registry_name"] == "normalizer_processor"]  # fmt: skip
+    assert normalizer["config"]["norm_map"]["ENV"] == normalizer["config"]["norm_map"]["STATE"] == "MEAN_STD"
     config = json.loads((model / "config.json").read_text())
     assert set(config["input_features"]) == {"observation.state", "observation.images.front",
                                              "observation.images.wrist"}  # fmt: skip
