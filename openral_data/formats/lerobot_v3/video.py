@@ -117,7 +117,8 @@ class EncoderWorker:
         self.depth = depth
         self.fps = fps
         self.spill = spill
-        self._q: queue.Queue[object] = queue.Queue()  # frames, spilled frames' paths, jobs and markers
+        # frames, spilled frames' paths, jobs and markers (a SimpleQueue: C put/get, a few µs less per frame)
+        self._q: queue.SimpleQueue[object] = queue.SimpleQueue()
         self._slots = threading.Semaphore(max(1, queue_size))  # one per frame held in memory
         self._job: _Job | None = None
         self._failed: BaseException | None = None
