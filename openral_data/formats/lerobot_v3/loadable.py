@@ -54,6 +54,7 @@ def warm_up() -> None:
         return
     with contextlib.suppress(ImportError):
         import lerobot.datasets.lerobot_dataset  # noqa: F401 - the import is the point
+        import scipy.io  # noqa: F401 - `datasets` imports it on its first parquet load (patching loadmat)
 
 
 def check_loadable(folder: Path, out: Path) -> None:
