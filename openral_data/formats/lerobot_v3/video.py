@@ -271,8 +271,8 @@ class EncoderWorker:
                 assert isinstance(item, np.ndarray)
                 if delay > 0:
                     time.sleep(delay)
+                vf = frame_of(item)  # reads the whole frame: the histogram's sampled rows are then in cache
                 stats.add(item)
-                vf = frame_of(item)
                 vf.pts = frames
                 frames += 1
                 for packet in stream.encode(vf):
