@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from openral_data.errors import ConfigError, RecordingInterrupted, UsageError
-from openral_data.formats.lerobot_v3 import WriterConfig, warm_up
+from openral_data.formats.lerobot_v3 import WriterConfig, loadable, warm_up
 from openral_data.policies.base import AnnotatingPolicy, PolicyAdapter
 from openral_data.policies.checkpoint import (
     PolicyCheckpoint,
@@ -186,6 +186,11 @@ def _resolve(opts: RecordOptions) -> _Resolved:
     )  # fmt: skip
 
 
+def _checks_first(opts: RecordOptions) -> bool:
+    """Whether a new recording's first committed episode is checked loadable (`output.check_first_episode`)."""
+    return not opts.resume and opts.check_first and "lerobot" in opts.formats
+
+
 def _start(run: _Resolved) -> Started[SimRollout, PolicyAdapter]:
     """The scene built (and checked against the rSkill) while the policy loads."""
     scene, scene_src, robot, rskill = run.scene, run.scene_src, run.robot, run.rskill
@@ -193,6 +198,8 @@ def _start(run: _Resolved) -> Started[SimRollout, PolicyAdapter]:
 
     def load_policy() -> PolicyAdapter:
         warm_up()  # pyarrow's first-use cost, paid beside the scene's build instead of in the first commit
+        if _checks_first(run.opts):
+            loadable.warm_up()  # lerobot's import, paid here instead of in the first episode's check
         return load_operated(run.make_policy, rskill, device=run.device, checkpoint=run.checkpoint)
 
     def check(env: SimRollout) -> None:
@@ -288,7 +295,7 @@ def _episodes(
             if rec is None:
                 discarded += 1
                 continue
-            if first == 0 and not records and not run.opts.resume and run.opts.check_first:  # `out` is new
+            if first == 0 and not records and _checks_first(run.opts):  # `out` is new
                 output.check_first_episode(run.out, run.opts.formats, bridge.close)
             log_episode(rec, time.perf_counter() - t_episode)
             records.append(rec)

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from openral_data.errors import DatasetError
+from openral_data.formats.lerobot_v3 import loadable
 from openral_data.record.hal import HalRecordOptions, record_hal
 from openral_data.record.output import check_first_episode
 from tests.support.inproc import run_inproc
@@ -23,16 +24,28 @@ def _checked(caplog: pytest.LogCaptureFixture, out: Path) -> list[str]:
     return [r.getMessage() for r in caplog.records if CHECKED in r.getMessage() and str(out) in r.getMessage()]
 
 
-def test_a_new_recording_is_checked_once_and_a_resume_not_at_all(tmp_path: Path, publish_load: None) -> None:
+def test_a_new_recording_is_checked_once_and_a_resume_not_at_all(
+    tmp_path: Path, publish_load: None, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    warmed: list[bool] = []  # lerobot's import, paid beside the scene's build (not inside the recording)
+    real_warm_up = loadable.warm_up
+
+    def warm_up() -> None:
+        warmed.append(True)
+        real_warm_up()
+
+    monkeypatch.setattr(loadable, "warm_up", warm_up)
     scene = write_yaml(tmp_path / "s.yaml", mock_scene(max_steps=4, n_episodes=2))
     out = tmp_path / "ds"
     r = run_inproc("-v", "record", "--scene", str(scene), "--out", str(out), "--codec", "h264")
     assert r.returncode == 0, r.stderr
     assert r.stderr.count(CHECKED) == 1, r.stderr  # after the first commit only: the second has the same writer
+    assert warmed == [True]
     assert len(list((out / "meta" / "episodes").rglob("*.parquet"))) >= 1
     r = run_inproc("-v", "record", "--scene", str(scene), "--out", str(out), "--resume", "--n-episodes", "3")
     assert r.returncode == 0, r.stderr
     assert CHECKED not in r.stderr  # a resume never checks (nor removes) a dataset it did not start
+    assert warmed == [True]  # ... so it does not import lerobot for a check either
 
 
 @pytest.mark.slow

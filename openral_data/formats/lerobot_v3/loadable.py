@@ -19,6 +19,7 @@ bags, a v2.x copy) is not this check's business.
 
 from __future__ import annotations
 
+import contextlib
 import io
 import logging
 import os
@@ -42,6 +43,18 @@ LOAD_ENV = "OPENRAL_PUBLISH_LOAD"
 def load_frames() -> bool:
     """Whether the check also loads frames with lerobot (read when the check runs: the environment decides)."""
     return os.environ.get(LOAD_ENV, "1") != "0"
+
+
+def warm_up() -> None:
+    """Import lerobot's loader now, as `check_loadable`'s first frame load would (torch and `datasets`: about
+    4 CPU-seconds): a recording whose first episode will be checked calls this beside its scene's build, so the
+    check does not stall the recording between its first two episodes. Nothing without lerobot or with
+    `OPENRAL_PUBLISH_LOAD=0`."""
+    if not load_frames():
+        return
+    with contextlib.suppress(ImportError):
+        import lerobot.datasets.lerobot_dataset  # noqa: F401 - the import is the point
+        import scipy.io  # noqa: F401 - `datasets` imports it on its first parquet load (patching loadmat)
 
 
 def check_loadable(folder: Path, out: Path) -> None:

@@ -8,6 +8,7 @@ dataset statistics — quantiles included — are exact for the sampled pixels, 
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Iterable, Mapping
 from typing import Any, Self
 
@@ -55,21 +56,30 @@ def merge_numeric(a: Stats | None, b: Stats) -> Stats:
     return out
 
 
+@functools.lru_cache(maxsize=32)
+def _sampled(height: int, width: int, channels: int) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:
+    """Where `ImageStatsAccumulator.add` reads an HWC frame of this shape: the flat indices of its sampled pixels'
+    first three channels, channel after channel (every `step`-th row and column, `step` keeping <= IMAGE_SIDE a
+    side), and each one's histogram offset (bin = channel * 256 + level)."""
+    step = max(1, -(-max(height, width) // IMAGE_SIDE))
+    rows, cols = np.arange(0, height, step), np.arange(0, width, step)
+    pixels = (rows[:, None] * (width * channels) + cols[None, :] * channels).ravel()
+    index = np.concatenate([pixels + c for c in range(3)]).astype(np.intp)
+    offsets = np.repeat(np.arange(3, dtype=np.intp) * 256, len(pixels))
+    return index, offsets
+
+
 class ImageStatsAccumulator:
     """Per-channel histograms of uint8 HWC frames."""
 
     def __init__(self) -> None:
         self.hist = np.zeros((3, 256), dtype=np.int64)
         self.frames = 0
-        self._offsets = np.array([0, 256, 512], dtype=np.uint16)
 
     def add(self, frame: npt.NDArray[np.uint8]) -> None:
-        h, w = frame.shape[:2]
-        step = max(1, -(-max(h, w) // IMAGE_SIDE))
-        # one uint16 copy of the subsampled pixels, offset in place per channel (bin = channel * 256 + level)
-        px = frame[::step, ::step, :3].astype(np.uint16)
-        px += self._offsets
-        self.hist += np.bincount(px.ravel(), minlength=768).reshape(3, 256)
+        # one gather of the sampled pixels (half the cost of a strided slice of 3-byte pixels), one bincount
+        index, offsets = _sampled(*frame.shape[:3])
+        self.hist += np.bincount(offsets + np.take(frame, index), minlength=768).reshape(3, 256)
         self.frames += 1
 
     def merge(self, other: ImageStatsAccumulator) -> None:
