@@ -40,10 +40,13 @@ class ExpertTeleop:
         self.span = span  # per action dimension: what a difference is divided by
         self.type_name = WHAT  # `operator` in the episode's record: ...+teleop:expert
         self.on_takeover: Callable[[], None] | None = None  # the intervention's switch (`device_switch`)
-        self.reset(0)
+        self._clear()
 
     def reset(self, seed: int) -> None:
         self.expert.reset(seed)
+        self._clear()
+
+    def _clear(self) -> None:
         self.driving = False  # the expert drives (its last press took over)
         self.pressed = False  # a press waits for the next tick's poll
         self.run = 0  # ticks in a row the policy departed from the expert
