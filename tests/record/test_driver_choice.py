@@ -16,7 +16,16 @@ from openral_data.record.hal import HalRecordOptions
 from tests.support.inproc import run_inproc
 
 K = DriverKind
-TELEOPS = (None, "keyboard", "expert", "leader", "gamepad", "gamepad=/dev/input/event3", "spacemouse", "spacemouse=/dev/hidraw1")
+TELEOPS = (
+    None,
+    "keyboard",
+    "expert",
+    "leader",
+    "gamepad",
+    "gamepad=/dev/input/event3",
+    "spacemouse",
+    "spacemouse=/dev/hidraw1",
+)
 BAD_TELEOPS = ("joystick", "gamepad=", "keyboard=/dev/tty", "leader=/dev/ttyACM0")
 POLICY_AND_TELEOP = "--policy: not with --teleop (interventions take an rSkill: --rskill R --teleop D)"
 LEADER_NEEDS_HAL = "--teleop leader: needs --hal ROBOT_ID (the robot whose manifest names the leader)"
