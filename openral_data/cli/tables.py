@@ -27,7 +27,7 @@ if TYPE_CHECKING:
 PIPED_WIDTH = 200  # no terminal and no $COLUMNS: a log or a pipe, read by a person later
 # compact view: a table without rows is left out, except these (groups: a grid; health: a line saying so)
 SHOWN_WHEN_EMPTY = ("groups", "health")
-COMPACT = ("groups", "comparison", "intervention_policies", "capture", "health")
+COMPACT = ("groups", "comparison", "intervention_policies", "intervention_rounds", "capture", "health")
 
 
 def width() -> int:

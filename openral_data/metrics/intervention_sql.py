@@ -41,6 +41,17 @@ EPISODE_COLUMNS = [
     *("dataset", "episode_index", "policy", "frames", "intervention_frames", "rate", "interventions"),
     *("mean_length", "max_length"),
 ]
+# one row per dataset (a DAgger round): the share of its episodes taken over at least once and of its frames
+ROUND_COLUMNS = [
+    *("dataset", "episodes", "episodes_taken_over", "episode_rate", "frames", "intervention_frames", "rate"),
+    "interventions",
+]
+ROUNDS_SQL = (
+    "SELECT dataset, count(*)::BIGINT, (count(*) FILTER (WHERE interventions > 0))::BIGINT, "
+    "(count(*) FILTER (WHERE interventions > 0)) / count(*)::DOUBLE, sum(frames)::BIGINT, "
+    "sum(intervention_frames)::BIGINT, sum(intervention_frames) / sum(frames)::DOUBLE, sum(interventions)::BIGINT "
+    "FROM intervention_episodes GROUP BY dataset ORDER BY dataset"
+)
 POLICY_COLUMNS = [
     *("policy", "episodes", "frames", "intervention_frames", "rate", "interventions", "mean_length", "max_length"),
 ]

@@ -189,13 +189,15 @@ def results_table(con: duckdb.DuckDBPyConnection) -> Table:
 
 
 def intervention_tables(con: duckdb.DuckDBPyConnection) -> list[Table]:
-    """Per episode and per policy: the share of frames a person drove, the takeovers and their lengths (the
-    `intervention_episodes` view)."""
+    """Per episode, per policy and per dataset (a DAgger round's intervention rate): the share of frames a person
+    drove, the takeovers and their lengths (the `intervention_episodes` view)."""
     _, episodes = query(con, intervention_sql.EPISODES_SQL)
     _, policies = query(con, intervention_sql.POLICIES_SQL)
+    _, rounds = query(con, intervention_sql.ROUNDS_SQL)
     return [
         Table("interventions", list(intervention_sql.EPISODE_COLUMNS), [list(r) for r in episodes]),
         Table("intervention_policies", list(intervention_sql.POLICY_COLUMNS), [list(r) for r in policies]),
+        Table("intervention_rounds", list(intervention_sql.ROUND_COLUMNS), [list(r) for r in rounds]),
     ]
 
 

@@ -21,6 +21,8 @@ steps:
     train: {dataset: kept, policy: act, steps: 2000, batch_size: 8, seed: 1}
   - id: eval                   # record --policy of each checkpoint on seeds the demos never used
     evaluate: {policy: policy, scene: tabletop_push, seeds: {start: 1000, count: 20}, max_steps: 150}
+  - id: corrected              # the checkpoint drives, the scene's scripted expert takes over (interventions)
+    dagger: {policy: policy, scene: tabletop_push, seeds: {start: 40, count: 20}, threshold: 0.25, patience: 3}
 ```
 A reference is a step id (every output of that step) or `step/item` (one output). A convert step's `source`
 and `mapping` are paths inside the pipeline file's folder.
@@ -159,6 +161,7 @@ def _one_component(name: str, what: str) -> None:
 class MergeStep(StrictModel):
     inputs: list[str] = Field(min_length=1)
     order: Literal["input", "seed"] = "input"
+    common: bool = False  # keep only the features every input has (a DAgger round's extra columns go first)
 
 
 class ReplayStep(StrictModel):
@@ -257,7 +260,26 @@ class EvaluateStep(StrictModel):
         return robot
 
 
-KINDS = ("record", "merge", "replay", "stats", "export", "convert", "train", "filter", "evaluate")
+class DaggerStep(StrictModel):
+    """The DAgger round (pipeline/dagger_step.py): each checkpoint a train step made drives `scene` from `seeds`
+    and the scene's scripted expert (`expert`, else the scene's default rSkill) takes over through the teleop
+    path (`--teleop expert`) when the policy departs from it by more than `threshold` (a share of the action's
+    range) for `patience` ticks, and hands back after `hold` ticks; the output is a dataset whose frames the
+    expert drove are marked `openral.intervention`."""
+
+    policy: str  # a train step (or one of its items)
+    scene: str
+    expert: str | None = None
+    seeds: Seeds
+    max_steps: int | None = Field(default=None, ge=1, le=MAX_STEPS)
+    threshold: float = Field(default=0.25, ge=0)
+    patience: int = Field(default=3, ge=1, le=MAX_STEPS)
+    hold: int = Field(default=20, ge=1, le=MAX_STEPS)
+    codec: Codec = "h264"
+    device: Literal["cpu", "cuda", "mps"] = "cpu"
+
+
+KINDS = ("record", "merge", "replay", "stats", "export", "convert", "train", "filter", "evaluate", "dagger")
 # what a step's outputs are, for checking references
 PRODUCES = {
     "record": "dataset",
@@ -269,6 +291,7 @@ PRODUCES = {
     "train": "checkpoint",
     "filter": "dataset",
     "evaluate": "dataset",
+    "dagger": "dataset",
 }
 
 
@@ -283,6 +306,7 @@ class Step(StrictModel):
     train: TrainStep | None = None
     filter: FilterStep | None = None
     evaluate: EvaluateStep | None = None
+    dagger: DaggerStep | None = None
 
     @model_validator(mode="after")
     def _one_kind(self) -> Step:
@@ -313,6 +337,8 @@ class Step(StrictModel):
             return [("filter.dataset", self.filter.dataset, ("dataset",))]
         if self.evaluate is not None:
             return [("evaluate.policy", self.evaluate.policy, ("checkpoint",))]
+        if self.dagger is not None:
+            return [("dagger.policy", self.dagger.policy, ("checkpoint",))]
         return []
 
 
@@ -364,6 +390,9 @@ def _anchored(pipeline: Pipeline, path: Path) -> Pipeline:
             scene = _manifest_ref("scenes", step.evaluate.scene, folder, f"{path}: steps[{i}].evaluate.scene")
             steps.append(step.model_copy(update={"evaluate": step.evaluate.model_copy(update={"scene": scene})}))
             continue
+        if step.dagger is not None:
+            steps.append(_anchored_dagger(step, step.dagger, folder, f"{path}: steps[{i}].dagger"))
+            continue
         spec = step.record
         if spec is None:
             steps.append(step)
@@ -383,6 +412,13 @@ def _anchored_convert(step: Step, spec: ConvertStep, folder: Path, where: str) -
     source = str(contained(folder, spec.source, f"{where}.source"))
     mapping = str(contained(folder, spec.mapping, f"{where}.mapping")) if spec.mapping is not None else None
     return step.model_copy(update={"convert": spec.model_copy(update={"source": source, "mapping": mapping})})
+
+
+def _anchored_dagger(step: Step, spec: DaggerStep, folder: Path, where: str) -> Step:
+    """A DAgger step's scene and expert rSkill as manifest ids or paths inside the pipeline's folder."""
+    scene = _manifest_ref("scenes", spec.scene, folder, f"{where}.scene")
+    expert = _manifest_ref("rskills", spec.expert, folder, f"{where}.expert") if spec.expert is not None else None
+    return step.model_copy(update={"dagger": spec.model_copy(update={"scene": scene, "expert": expert})})
 
 
 def _manifest_ref(kind: Kind, ref: str, folder: Path, source: str) -> str:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from tempfile import TemporaryDirectory
 from typing import Any
 
 from openral_data.errors import ConfigError
@@ -48,6 +49,10 @@ def jobs_for(step: Step, resolve: Resolve) -> Iterator[ItemJob]:
         from openral_data.pipeline.train_step import train_jobs
 
         yield from train_jobs(step.train, resolve)
+    elif step.dagger is not None:
+        from openral_data.pipeline.dagger_step import dagger_jobs
+
+        yield from dagger_jobs(step.dagger, resolve)
 
 
 def _record_jobs(spec: RecordStep) -> Iterator[ItemJob]:
@@ -101,10 +106,35 @@ def _merge_job(spec: MergeStep, resolve: Resolve) -> ItemJob:
     def run(out: Path) -> dict[str, Any]:
         from openral_data.edit.ops import merge
 
-        result = merge(sources, out, spec.order)
-        return {"episodes": result.episodes, "frames": result.frames, "sources": [str(p) for p in sources]}
+        if not spec.common:
+            result = merge(sources, out, spec.order)
+            return {"episodes": result.episodes, "frames": result.frames, "sources": [str(p) for p in sources]}
+        with TemporaryDirectory(prefix="openral-merge-") as tmp:  # the trimmed copies, gone with the merge
+            inputs, dropped = _common_features(sources, Path(tmp))
+            result = merge(inputs, out, spec.order)
+        summary = {"episodes": result.episodes, "frames": result.frames, "sources": [str(p) for p in sources]}
+        return {**summary, "dropped": dropped}
 
     return "dataset", run
+
+
+def _common_features(sources: list[Path], tmp: Path) -> tuple[list[Path], dict[str, list[str]]]:
+    """`sources` with only the features all of them have: an input with more (a DAgger round's
+    `openral.intervention`, `openral.policy_action` and the fixed-rate loop's timing columns) is written without
+    them into `tmp` first (`features remove`); the dropped features per input."""
+    from openral_data.edit.features import remove
+    from openral_data.formats.lerobot_v3.reader import read_info
+
+    features = [set(read_info(src)["features"]) for src in sources]
+    shared = set.intersection(*features)
+    inputs, dropped = [], {}
+    for i, (src, have) in enumerate(zip(sources, features, strict=True)):
+        extra = sorted(have - shared)
+        if extra:
+            remove(src, extra, tmp / str(i))
+            dropped[str(src)] = extra
+        inputs.append(tmp / str(i) if extra else src)
+    return inputs, dropped
 
 
 def _filter_jobs(spec: FilterStep, resolve: Resolve) -> Iterator[ItemJob]:
@@ -133,7 +163,8 @@ def _stats_job(spec: StatsStep, resolve: Resolve) -> ItemJob:
         (out / "stats.md").write_text(run_stats(StatsOptions(paths, spec.by, None, "markdown")))
         tables = json.loads(text)
         groups = tables.get("groups", []) if isinstance(tables, dict) else []
-        return {"inputs": paths, "groups": groups}
+        rounds = tables.get("intervention_rounds", []) if isinstance(tables, dict) else []  # the DAgger rounds'
+        return {"inputs": paths, "groups": groups, "intervention_rounds": rounds}
 
     return "report", run
 

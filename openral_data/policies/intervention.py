@@ -30,7 +30,7 @@ import numpy.typing as npt
 
 from openral_data.columns import INTERVENTION, POLICY_ACTION
 from openral_data.policies.base import PolicyAdapter
-from openral_data.producers.hal.teleop.eef_device import DeviceTeleop
+from openral_data.producers.hal.teleop.declare import Buttons
 from openral_data.producers.hal.teleop.keys import TAKEOVER_KEY
 from openral_data.types import FrameColumn, Observation
 
@@ -50,6 +50,15 @@ class TakesOver(Protocol):
     """A teleoperator that can start from the action in effect (no jump at the takeover)."""
 
     def take_over(self, action: npt.NDArray[np.float32]) -> None: ...
+
+
+@runtime_checkable
+class Watches(Protocol):
+    """A teleoperator that watches the policy drive: every tick, before anyone drives, it sees the observation and
+    the policy's proposal (the expert teleoperator, producers/hal/teleop/expert.py, decides there whether to press
+    its takeover button; a person watches the scene instead)."""
+
+    def watch(self, observation: Observation, instruction: str, proposal: npt.NDArray[np.float32]) -> None: ...
 
 
 class TakeoverSwitch:
@@ -79,7 +88,7 @@ class TakeoverSwitch:
         self.requested = False
 
 
-def device_switch(device: DeviceTeleop, control: str) -> TakeoverSwitch:
+def device_switch(device: Buttons, control: str) -> TakeoverSwitch:
     """The switch a device's takeover button (`control`, e.g. `RB`) toggles (`DeviceTeleop.on_takeover`)."""
     switch = TakeoverSwitch(control=control)
     device.on_takeover = switch.toggle
@@ -119,6 +128,8 @@ class Intervention:
 
     def step(self, observation: Observation, instruction: str) -> npt.NDArray[np.float32]:
         proposal = self.policy.step(observation, instruction)  # the bridge checks it (`columns`), as the action
+        if isinstance(self.teleop, Watches):
+            self.teleop.watch(observation, instruction, proposal)
         if self.switch.requested != self.intervening:
             self.intervening = self.switch.requested
             if self.intervening and self.executed is None:  # taken over before the first frame

@@ -33,11 +33,13 @@ from openral_data.producers.hal.session.operator import (
     ScriptedOperator,
     parse_script,
 )
+from openral_data.producers.hal.teleop.declare import TakeoverRule
 from openral_data.producers.hal.teleop.eef_device import DeviceOperator
 from openral_data.producers.hal.teleop.keyboard import tty_status
 from openral_data.record.capture import SessionCapture, encoder_lag, keep_capture
 from openral_data.record.drivers.base import DriveContext, Driver
 from openral_data.record.drivers.choice import OWN_CONTRACT, DriverChoice, DriverKind, choose_driver
+from openral_data.record.drivers.expert import EXPERT, expert_request, scene_rskill
 from openral_data.record.drivers.kinds import open_driver
 from openral_data.record.flow import Flow, Notify, check_reset_time, episode_ticks
 from openral_data.record.hal_loop import EpisodeEnd, EpisodeReport, FixedRateLoop, LoopConfig, frame_extras
@@ -101,6 +103,8 @@ class HalRecordOptions:
     policy: str | None = None  # a lerobot checkpoint (folder or cached repo id) drives instead of an rSkill
     device: str | None = None  # with `policy`: cpu, cuda[:N], mps or auto (default: cpu)
     teleop_gain: float = 1.0  # a person's device moves this many times its default step (keyboard: 1 cm / press)
+    expert: str | None = None  # `teleop="expert"`: the rSkill it runs (None: the scene's default rSkill)
+    takeover_rule: TakeoverRule = field(default_factory=TakeoverRule)  # when the expert takes over and hands back
     driver: DriverChoice = field(init=False)  # who drives: `rskill`, `policy`, `teleop` and `takeover`, chosen once
 
     def __post_init__(self) -> None:
@@ -121,9 +125,9 @@ class HalRecordOptions:
             )
         if driver.kind is DriverKind.CHECKPOINT and self.scene is not None:
             raise UsageError("--policy: not with --hal --scene (record --scene S --policy PATH records a scene)")
-        if self.device is not None and driver.kind is not DriverKind.CHECKPOINT:
+        if self.device is not None and self.policy is None:
             raise UsageError("--device: with --hal only for --policy (an rSkill names its own device)")
-        if self.rskill is None and driver.kind not in OWN_CONTRACT:
+        if self.rskill is None and self.policy is None and driver.kind not in OWN_CONTRACT:
             raise UsageError("--rskill: needed (only --teleop leader records without one: the robot's own contract)")
         if not 0.1 <= self.teleop_gain <= 10 or (self.teleop_gain != 1.0 and driver.device is None):
             raise UsageError(
@@ -265,9 +269,13 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
     (those only ever go to a terminal on stderr). Whatever is opened is closed, in reverse order, by the stack."""
     run = _resolve(opts)
     show = tty_status(STATUS_FD, talk=notify is not None)  # the person's status lines: when the run talks
+    expert = None
+    if opts.driver.device is not None and opts.driver.device.name == EXPERT:
+        expert = expert_request(opts.expert, opts.scene, opts.takeover_rule, run.rskill, run.rskill_src)
     ctx = DriveContext(
-        run.robot, run.rskill, run.rskill_src, run.make_policy, opts.fps, show, run.checkpoint, opts.teleop_gain
-    )
+        run.robot, run.rskill, run.rskill_src, run.make_policy, opts.fps, show, run.checkpoint, opts.teleop_gain,
+        expert,
+    )  # fmt: skip
     with ExitStack() as stack:
         held = claim(run.out, "openral-data record --hal", resume=False)  # one writer, before any byte goes in
         stack.callback(held.release)  # what was recorded stays; empty folders the claim made go
@@ -314,12 +322,11 @@ def _resolve(opts: HalRecordOptions) -> _Resolved:
         raise UsageError(f"--staleness must be > 0 and finite, got {opts.staleness}")
     robot = registry.ROBOTS[opts.robot]
     checkpoint = None
-    if (
-        opts.driver.kind is DriverKind.CHECKPOINT and opts.policy is not None
-    ):  # a lerobot checkpoint: the robot's own joints, its cameras (`check_fits` on the HAL)
-        device = resolve_device(opts.device) if opts.device is not None else None
+    if opts.policy is not None:  # a lerobot checkpoint: the robot's own joints, or the scene's rSkill's contract
+        device = resolve_device(opts.device) if opts.device is not None else None  # (`check_fits` on the HAL)
         checkpoint = open_checkpoint(opts.policy)
-        rskill, rskill_src = as_rskill(checkpoint, teleop_rskill(robot)), str(checkpoint.config_file)
+        base = registry.resolve_rskill(scene_rskill(opts.scene))[0] if opts.scene is not None else None
+        rskill, rskill_src = as_rskill(checkpoint, base or teleop_rskill(robot)), str(checkpoint.config_file)
         load = registry.policy_factory(rskill, rskill_src)
         make_policy: registry.PolicyFactory = partial(load_operated, load, device=device, checkpoint=checkpoint)
     elif opts.rskill is None:  # a leader arm without --rskill: it speaks the robot's own joints

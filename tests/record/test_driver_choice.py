@@ -16,7 +16,16 @@ from openral_data.record.hal import HalRecordOptions
 from tests.support.inproc import run_inproc
 
 K = DriverKind
-TELEOPS = (None, "keyboard", "leader", "gamepad", "gamepad=/dev/input/event3", "spacemouse", "spacemouse=/dev/hidraw1")
+TELEOPS = (
+    None,
+    "keyboard",
+    "expert",
+    "leader",
+    "gamepad",
+    "gamepad=/dev/input/event3",
+    "spacemouse",
+    "spacemouse=/dev/hidraw1",
+)
 BAD_TELEOPS = ("joystick", "gamepad=", "keyboard=/dev/tty", "leader=/dev/ttyACM0")
 POLICY_AND_TELEOP = "--policy: not with --teleop (interventions take an rSkill: --rskill R --teleop D)"
 LEADER_NEEDS_HAL = "--teleop leader: needs --hal ROBOT_ID (the robot whose manifest names the leader)"
@@ -24,7 +33,7 @@ GIVE_ONE = "--policy, --rskill: give one (a lerobot checkpoint, or an rSkill man
 
 
 def _bad_teleop(teleop: str) -> str:
-    return f"--teleop: {teleop!r}; valid: keyboard, leader, gamepad[=NODE], spacemouse[=NODE]"
+    return f"--teleop: {teleop!r}; valid: keyboard, expert, leader, gamepad[=NODE], spacemouse[=NODE]"
 
 
 def expected(rskill: str | None, policy: str | None, teleop: str | None, hal: bool) -> DriverKind | str:
@@ -71,6 +80,11 @@ def test_the_api_says_whether_a_person_takes_over() -> None:
     assert HalRecordOptions(robot="ur5e", rskill="r", teleop="gamepad", takeover=False).driver.kind is K.PERSON
     assert HalRecordOptions(robot="ur5e", rskill="r", teleop="spacemouse", takeover=True).driver.kind is K.TAKEOVER
     assert HalRecordOptions(robot="so101", rskill=None, teleop="leader").driver.kind is K.LEADER
+    # the DAgger round (pipeline/dagger_step.py): a checkpoint drives, the scripted expert takes over
+    dagger = HalRecordOptions(robot="franka_panda", rskill=None, policy="ckpt", teleop="expert", takeover=True)
+    assert dagger.driver.kind is K.TAKEOVER and dagger.driver.device is not None
+    with pytest.raises(UsageError, match=r"^--policy: not with --teleop"):  # unless the API says it takes over
+        HalRecordOptions(robot="franka_panda", rskill=None, policy="ckpt", teleop="expert")
     with pytest.raises(UsageError, match=r"^interventions: a policy"):
         HalRecordOptions(robot="ur5e", rskill="r", teleop=None, takeover=True)
 

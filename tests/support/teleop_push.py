@@ -50,10 +50,13 @@ def push_path(cube: F64, goal: F64, half: float, push_z: float, travel_z: float)
     return [np.array([*behind, travel_z]), np.array([*behind, push_z]), np.array([*end, push_z])]
 
 
-def expert_proposals(actions: npt.NDArray[np.float32], seed: int) -> npt.NDArray[np.float32]:
-    """What the `scripted-push` expert proposes at every frame of a `tabletop_push` episode that executed `actions`,
-    recomputed: the scene re-run from `seed` with those actions, the same expert stepped on each observation."""
-    path = registry.resolve_scene_path("tabletop_push")
+def expert_proposals(
+    actions: npt.NDArray[np.float32], seed: int, scene: str = "tabletop_push"
+) -> npt.NDArray[np.float32]:
+    """What the `scripted-push` expert proposes at every frame of a `tabletop_push` episode (or of `scene`, a
+    variant) that executed `actions`, recomputed: the scene re-run from `seed` with those actions, the same expert
+    stepped on each observation."""
+    path = registry.resolve_scene_path(scene)
     scene = load_recordable_scene(path)
     robot, (rskill, rskill_path) = registry.ROBOTS["franka_panda"], registry.resolve_rskill("scripted-push")
     env = registry.scene_factory(scene.scene.type, str(path))(scene, robot, rskill, str(path))

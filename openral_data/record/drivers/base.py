@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from openral_data.policies.base import PolicyAdapter
 from openral_data.policies.checkpoint import OperatedPolicy, PolicyCheckpoint
 from openral_data.producers.hal.robots.base import HalBase
-from openral_data.producers.hal.teleop.eef_device import DeviceTeleop
+from openral_data.producers.hal.teleop.declare import Buttons, ExpertRequest
 from openral_data.record.drivers.names import rskill_driver
 from openral_data.runtime.registry import PolicyFactory
 from openral_data.schemas.robot import RobotManifest
@@ -29,11 +29,12 @@ class DriveContext:
     show: Callable[[str], None] | None = None  # the person's status lines (None: the run is quiet)
     checkpoint: PolicyCheckpoint | None = None  # `--policy`: checked against the HAL before it loads
     teleop_gain: float = 1.0  # `--teleop-gain`: a person's device moves this many times its default step
+    expert: ExpertRequest | None = None  # `--teleop expert`: the scripted expert and its takeover rule
 
 
 class Driver(ABC):
     listener: Callable[[str], None] | None = None  # the keys a keyboard operator passes on (keys, `t`)
-    device: DeviceTeleop | None = None  # an end-effector device: its buttons give the operator's verdicts too
+    device: Buttons | None = None  # a device with buttons: they give the operator's verdicts (and the takeover)
     help: str | None = None  # said once with the operator's keys: the device's controls, how a person takes over
     takeover: bool = False  # the frames carry the intervention columns (policies/intervention.py)
 

@@ -13,17 +13,18 @@ from openral_data.record.drivers.choice import DriverChoice
 from openral_data.record.drivers.rskill import RSkillDriver
 
 
+def check_checkpoint(ctx: DriveContext, hal: HalBase) -> None:
+    """The checkpoint's contract against what the (built, not yet connected) HAL gives and takes at `--fps`."""
+    assert ctx.checkpoint is not None  # `--policy` resolved it
+    where = f"robot {manifests.robot_file(ctx.robot.name)}"
+    cameras = {n: c.shape for n, c in hal.cameras.items()}
+    check_fits(ctx.checkpoint, where, state_dim=hal.state_dim, action_dim=hal.action_dim, cameras=cameras, fps=ctx.fps)
+
+
 class CheckpointDriver(RSkillDriver):
     def policy(self, hal: HalBase) -> PolicyAdapter:
-        """The checkpoint's contract against what the (built, not yet connected) HAL gives and takes at `--fps`,
-        then the policy."""
-        ctx = self.ctx
-        assert ctx.checkpoint is not None  # `--policy` resolved it
-        where = f"robot {manifests.robot_file(ctx.robot.name)}"
-        cameras = {n: c.shape for n, c in hal.cameras.items()}
-        check_fits(
-            ctx.checkpoint, where, state_dim=hal.state_dim, action_dim=hal.action_dim, cameras=cameras, fps=ctx.fps
-        )
+        """The checkpoint checked against the HAL (`check_checkpoint`), then the policy."""
+        check_checkpoint(self.ctx, hal)
         return super().policy(hal)
 
 

@@ -49,8 +49,9 @@ def choose_driver(
     rskill: str | None, policy: str | None, teleop: str | None, *, hal: bool, takeover: bool | None = None
 ) -> DriverChoice:
     """The driver of a recording. `hal`: a robot is given (`--hal`; a leader arm needs one). `takeover` None: an
-    rSkill with a device that can take over is an intervention session (the CLI); True/False: as said (the API)."""
-    if policy is not None and teleop is not None:
+    rSkill with a device that can take over is an intervention session (the CLI); True/False: as said (the API,
+    where a checkpoint (`policy`) may drive one too: the DAgger round, pipeline/dagger_step.py)."""
+    if policy is not None and teleop is not None and takeover is not True:
         raise UsageError(POLICY_AND_TELEOP)
     if teleop == LEADER and not hal:
         raise UsageError("--teleop leader: needs --hal ROBOT_ID (the robot whose manifest names the leader)")
@@ -58,7 +59,7 @@ def choose_driver(
     if policy is not None and rskill is not None:
         raise UsageError("--policy, --rskill: give one (a lerobot checkpoint, or an rSkill manifest)")
     takes_over = rskill is not None and device is not None if takeover is None else takeover
-    if takes_over and (rskill is None or device is None):
+    if takes_over and ((rskill is None and policy is None) or device is None):
         raise UsageError(
             "interventions: a policy (--rskill) and --teleop keyboard, gamepad[=NODE] or spacemouse[=NODE] "
             "(its takeover key or button)"

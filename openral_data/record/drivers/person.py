@@ -6,8 +6,7 @@ from contextlib import ExitStack
 
 from openral_data.policies.base import PolicyAdapter
 from openral_data.producers.hal.robots.base import HalBase
-from openral_data.producers.hal.teleop.declare import DeviceRequest, Teleoperator
-from openral_data.producers.hal.teleop.eef_device import DeviceTeleop
+from openral_data.producers.hal.teleop.declare import Buttons, DeviceRequest, Teleoperator
 from openral_data.producers.hal.teleop.keyboard import KeyboardTeleop
 from openral_data.record.drivers.base import DriveContext, Driver
 from openral_data.record.drivers.choice import DriverChoice, DriverKind
@@ -16,15 +15,16 @@ from openral_data.record.drivers.names import teleop_driver
 
 def open_device(driver: Driver, choice: DriverChoice, stack: ExitStack) -> Teleoperator:
     """The person's device, open (and closed with the run): a keyboard is fed the operator's keys (`listener`),
-    a device read on its own thread also gives verdicts with its buttons (`device`)."""
+    a device read on its own thread (or the expert, whose rule presses its takeover button) also gives verdicts
+    with its buttons (`device`)."""
     assert choice.device is not None  # PERSON, TAKEOVER
     ctx, takeover = driver.ctx, choice.kind is DriverKind.TAKEOVER
-    request = DeviceRequest(choice.node, ctx.rskill, ctx.rskill_src, ctx.show, takeover, ctx.teleop_gain)
+    request = DeviceRequest(choice.node, ctx.rskill, ctx.rskill_src, ctx.show, takeover, ctx.teleop_gain, ctx.expert)
     teleop = choice.device.open(request)
     stack.callback(teleop.close)
     if isinstance(teleop, KeyboardTeleop):
         driver.listener = teleop.feed
-    if isinstance(teleop, DeviceTeleop):
+    if isinstance(teleop, Buttons):
         driver.device = teleop
     return teleop
 

@@ -1,5 +1,6 @@
-"""An rSkill's policy drives and a person takes over and hands back (interventions: policies/intervention.py):
-the keyboard's `t`, or the device's takeover button."""
+"""An rSkill's policy (or a checkpoint's: the DAgger round) drives and a person takes over and hands back
+(interventions: policies/intervention.py): the keyboard's `t`, a device's takeover button, or the expert's rule
+(`--teleop expert`)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from openral_data.policies.base import PolicyAdapter
 from openral_data.policies.intervention import Intervention, TakeoverSwitch, device_switch, takeover_help
 from openral_data.producers.hal.robots.base import HalBase
 from openral_data.record.drivers.base import DriveContext, Driver, policy_name
+from openral_data.record.drivers.checkpoint import check_checkpoint
 from openral_data.record.drivers.choice import DriverChoice
 from openral_data.record.drivers.names import teleop_driver
 from openral_data.record.drivers.person import open_device
@@ -31,6 +33,8 @@ class TakeoverDriver(Driver):
         self.help = " · ".join(filter(None, (takeover_help(control), choice.device.keys)))
 
     def policy(self, hal: HalBase) -> PolicyAdapter:
+        if self.ctx.checkpoint is not None:
+            check_checkpoint(self.ctx, hal)
         return Intervention(self.ctx.make_policy(self.ctx.rskill), self.teleop, self.switch, show=self.ctx.show)
 
     def name(self, policy: PolicyAdapter) -> str:

@@ -33,7 +33,7 @@ import numpy.typing as npt
 from openral_data.errors import HalError
 from openral_data.paths import read_regular
 from openral_data.producers.hal.session.operator import PAUSE_ENDS, Command, Operator, no_check, sliced_wait
-from openral_data.producers.hal.teleop.declare import DeviceRequest
+from openral_data.producers.hal.teleop.declare import Buttons, DeviceRequest
 from openral_data.producers.hal.teleop.keyboard import eef_limits, held_gripper
 from openral_data.producers.hal.teleop.status import eef_line, status_lines
 from openral_data.types import Observation
@@ -258,7 +258,7 @@ def device_teleop(
 class DeviceOperator:
     """The run's operator, plus the device's buttons: a button's command ends the episode like a key would."""
 
-    def __init__(self, inner: Operator, teleop: DeviceTeleop) -> None:
+    def __init__(self, inner: Operator, teleop: Buttons) -> None:
         self.inner, self.teleop = inner, teleop
         self.interactive = inner.interactive
 
