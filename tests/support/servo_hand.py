@@ -4,13 +4,13 @@ recording through the real CLI while they do."""
 from __future__ import annotations
 
 import math
-import threading
 import time
 from collections.abc import Mapping, Sequence
 from contextlib import ExitStack
 from pathlib import Path
 from typing import Protocol
 
+from tests.support.background import Background
 from tests.support.inproc import Run, run_inproc
 
 
@@ -23,26 +23,17 @@ class ServoBus(Protocol):
     def servos(self) -> Mapping[int, Shaft]: ...
 
 
-class Hand:
+class Hand(Background):
     """Each joint of `bus` swings ±150 steps around 2048 (the middle of its range), the jaw opens and closes,
     as a thread turning the servos' shafts (torque off, as lerobot's leaders leave them)."""
 
     def __init__(self, bus: ServoBus) -> None:
+        super().__init__()
         self.bus = bus
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, daemon=True)
 
-    def __enter__(self) -> Hand:
-        self._thread.start()
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self._stop.set()
-        self._thread.join()
-
-    def _run(self) -> None:
+    def run(self) -> None:
         t0 = time.monotonic()
-        while not self._stop.is_set():
+        while not self.stopping():
             t = time.monotonic() - t0
             for i, servo in self.bus.servos.items():
                 servo.position = 2048 + 150 * math.sin(2 * math.pi * t / 2.0 + i)
