@@ -10,6 +10,9 @@ from contextlib import ExitStack
 from pathlib import Path
 from typing import Protocol
 
+import numpy as np
+import numpy.typing as npt
+
 from tests.support.background import Background
 from tests.support.inproc import Run, run_inproc
 
@@ -50,3 +53,18 @@ def record_by_hand(leaders: Sequence[ServoBus], robot: str, out: Path, steps: in
             "record", "--hal", robot, "--mode", "real", "--teleop", "leader", "--fps", "10", "--max-steps", str(steps),
             "--out", str(out), "--codec", "h264", "--operator", "success", *extra,
         )  # fmt: skip
+
+
+def actions_are_reads(action: npt.ArrayLike, reads: npt.ArrayLike, atol: float = 1e-3) -> list[int]:
+    """Which of a leader bus's position `reads` (one row per read, in the action's units) each `action` row is:
+    every row must equal a read, in time order, each read used once. Not simply the last len(action) reads: the
+    SDK re-reads after a reply it found late or garbled (lerobot's `num_read_retries`), and those reads reach
+    the bus without reaching an action."""
+    want, got = np.asarray(reads, dtype=np.float64), np.asarray(action, dtype=np.float64)
+    found: list[int] = []
+    for row in got:
+        after = found[-1] + 1 if found else 0
+        hits = [i for i in range(after, len(want)) if np.allclose(row, want[i], atol=atol)]
+        assert hits, f"action row {len(found)} {row} is no read after read {after - 1}"
+        found.append(hits[0])
+    return found
