@@ -47,14 +47,18 @@ def sparse_frames(
             continue
         i = slots.of(packet.pts)
         last = max(last, i)
+        if cut and i > key:  # shown after the last keyframe: the packets before it are needed no more
+            held, cut = held[cut:], 0
         if packet.is_keyframe:
             cut, key = len(held), i
-        elif cut and i > key:  # shown after the last keyframe: the packets before it are needed no more
-            held, cut = held[cut:], 0
         held.append(packet)
         if slots.wanted(i):
-            for frame in (f for p in held for f in decoder.decode(p)):
-                slots.keep(frame)
+            # from the last keyframe on, unless a wanted frame shown before it (a leading one) may still come
+            send = held[cut:] if i >= key and not slots.unsent_before(key) else held
+            for p in send:
+                slots.sent(p.pts)
+                for frame in decoder.decode(p):
+                    slots.keep(frame)
             held, cut = [], 0
             yield from slots.ready()
             if slots.done():
@@ -75,6 +79,7 @@ class _Slots:
         self.tb, self.start, self.fps, self.stride, self.n = tb, start, fps, stride, n
         self.kept: dict[int, av.video.frame.VideoFrame] = {}
         self.next = 0  # the next wanted slot to hand on
+        self.gone: set[int] = set()  # wanted slots from `next` on whose packets the decoder has had
 
     def of(self, pts: int | None) -> int:
         if pts is None:
@@ -87,6 +92,17 @@ class _Slots:
     def wanted(self, i: int) -> bool:
         return self.next <= i < self.n and i % self.stride == 0
 
+    def sent(self, pts: int | None) -> None:
+        i = self.of(pts)
+        if self.wanted(i):
+            self.gone.add(i)
+
+    def unsent_before(self, key: int) -> bool:
+        """Whether a wanted slot before `key` (an open GOP's leading frame, shown before its keyframe) may still
+        arrive: its packet not sent yet."""
+        first = -(-self.next // self.stride) * self.stride
+        return any(w not in self.gone for w in range(first, min(key, self.n), self.stride))
+
     def keep(self, frame: av.video.frame.VideoFrame) -> None:
         i = self.of(frame.pts)
         if (0 <= i < self.next and i % self.stride == 0) or i in self.kept:
@@ -98,6 +114,7 @@ class _Slots:
     def ready(self) -> Iterator[av.video.frame.VideoFrame]:
         while self.next in self.kept:
             yield self.kept.pop(self.next)
+            self.gone.discard(self.next)
             self.next += self.stride
 
     def done(self) -> bool:
