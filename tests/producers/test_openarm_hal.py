@@ -48,7 +48,7 @@ def test_the_openarm_leader_drives_the_follower_over_two_simulated_can_buses(
 ) -> None:
     follower, leader = buses
     out = tmp_path / "openarm"
-    with LeaderHand(leader):
+    with LeaderHand(leader, period=4.0, ramp=2.0):  # ≤ 45°/s: a tick late under load stays inside the 180°/s limit
         r = run_inproc(
             "record", "--hal", ROBOT, "--mode", "real", "--teleop", "leader", "--fps", "10", "--max-steps",
             str(STEPS), "--out", str(out), "--codec", "h264", "--operator", "success",

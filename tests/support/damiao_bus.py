@@ -24,10 +24,12 @@ import uuid
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Self
 
 import can
 import numpy as np
+
+from tests.support.background import Background
 
 # lerobot's OpenArm motor map (its follower config's motor_config): name -> (send id, master id, model)
 OPENARM_MOTORS: dict[str, tuple[int, int, str]] = {
@@ -130,7 +132,7 @@ class TwinPhysics:
             m.shaft = m.zero + math.radians(float(after[i]))
 
 
-class SimulatedDamiaoBus:
+class SimulatedDamiaoBus(Background):
     """An arm's Damiao motors on a fresh python-can virtual channel (`channel`, what the manifest's `port` names
     with `can_interface: virtual`), answered by a thread while the context is open."""
 
@@ -140,6 +142,7 @@ class SimulatedDamiaoBus:
         tau: float = 0.02,
         physics: TwinPhysics | None = None,
     ) -> None:
+        super().__init__()
         spec = motors or OPENARM_MOTORS
         self.physics = physics
         self.channel = f"openral-sim-{uuid.uuid4().hex[:8]}"
@@ -149,23 +152,19 @@ class SimulatedDamiaoBus:
         self.seen: Counter[str] = Counter()  # frames in, by kind: enable, disable, zero, refresh, mit, unknown
         self.reported: dict[str, list[float]] = {name: [] for name in self.motors}  # every feedback, degrees
         self.lock = threading.Lock()  # held while a frame is handled (a hand moving shafts takes it too)
-        self._stop = threading.Event()
         self._bus: Any = None
-        self._thread = threading.Thread(target=self._serve, daemon=True)
         self._last = time.monotonic()
 
-    def __enter__(self) -> SimulatedDamiaoBus:
+    def __enter__(self) -> Self:
         self._bus = can.Bus(interface="virtual", channel=self.channel)
-        self._thread.start()
-        return self
+        return super().__enter__()
 
     def __exit__(self, *exc: object) -> None:
-        self._stop.set()
-        self._thread.join()
+        super().__exit__(*exc)
         self._bus.shutdown()
 
-    def _serve(self) -> None:
-        while not self._stop.is_set():
+    def run(self) -> None:
+        while not self.stopping():
             msg = self._bus.recv(timeout=0.02)
             if msg is not None:
                 with self.lock:
@@ -220,7 +219,7 @@ class SimulatedDamiaoBus:
 POSTURE = {"joint_2": -30.0, "joint_4": 45.0, "gripper": -30.0}
 
 
-class LeaderHand:
+class LeaderHand(Background):
     """A person moving a leader arm whose torque is off: it is held at its zero (hanging, gripper closed) until
     lerobot has zeroed every motor (OpenArmLeader.connect sets the zero where the arm stands), then each joint
     swings ±`amplitude` degrees around `POSTURE`, both faded in over `ramp` seconds so no joint outruns the
@@ -229,26 +228,17 @@ class LeaderHand:
     def __init__(
         self, bus: SimulatedDamiaoBus, amplitude: float = 15.0, period: float = 2.0, ramp: float = 1.0
     ) -> None:
+        super().__init__()
         self.bus = bus
         self.amplitude = amplitude
         self.period = period
         self.ramp = ramp
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, daemon=True)
 
-    def __enter__(self) -> LeaderHand:
-        self._thread.start()
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self._stop.set()
-        self._thread.join()
-
-    def _run(self) -> None:
-        while not self._stop.is_set() and self.bus.seen["zero"] < len(self.bus.motors):
+    def run(self) -> None:
+        while not self.stopping() and self.bus.seen["zero"] < len(self.bus.motors):
             time.sleep(0.005)
         t0 = time.monotonic()
-        while not self._stop.is_set():
+        while not self.stopping():
             t = time.monotonic() - t0
             phase, fade = 2 * math.pi * t / self.period, min(1.0, t / self.ramp)
             with self.bus.lock:

@@ -7,14 +7,17 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import av
 import numpy as np
 import numpy.typing as npt
 import pyarrow as pa
 import pyarrow.compute as pc
+from av.container import InputContainer
+from av.video.stream import VideoStream
 
 from openral_data.errors import DatasetError, VideoEnds
 from openral_data.formats.lerobot_v3 import layout
@@ -22,6 +25,7 @@ from openral_data.formats.lerobot_v3.depth import DepthSettings, decode_codes
 from openral_data.formats.lerobot_v3.features import camera_key, camera_keys
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE, decode_image, image_keys
 from openral_data.formats.lerobot_v3.masks import decode_mask, is_mask
+from openral_data.formats.lerobot_v3.sparse import SparseGap, sparse_frames
 from openral_data.formats.lerobot_v3.variants import feature_info, is_depth
 from openral_data.formats.parquetfile import read_table
 from openral_data.paths import regular_file
@@ -145,15 +149,57 @@ def decode_episode_video(
     src: Path, info: dict[str, Any], row: dict[str, Any], key: str, stride: int = 1
 ) -> Iterator[npt.NDArray[Any]]:
     """The frames of video feature `key` in the episode of meta/episodes `row` (RGB, or depth in mm); with
-    `stride` > 1 only frames 0, stride, 2*stride, … (all are decoded, only those converted)."""
+    `stride` > 1 only frames 0, stride, 2*stride, … (only the packets they need decoded, where the stream allows)."""
     yield from _decode_video(src, info, row, key, int(row["length"]), int(info["fps"]), stride)
+
+
+LEAD_S = 2.0  # how far before a span to seek again when its first frames were shown before the keyframe found
 
 
 def _decode(
     path: Path, start: float, n: int, fps: int, depth: DepthSettings | None = None, stride: int = 1
 ) -> Iterator[npt.NDArray[Any]]:
-    half = 0.5 / fps
-    with av.open(str(regular_file(path))) as container:  # a FIFO would block PyAV for ever
+    def picture(frame: av.VideoFrame) -> npt.NDArray[Any]:
+        if depth is not None:
+            return depth.to_millimetres(decode_codes(frame))
+        return np.asarray(frame.to_ndarray(format="rgb24"), dtype=np.uint8)
+
+    given = 0  # wanted frames handed on
+    for seek in (start, start - LEAD_S) if stride > 1 else ():  # only the packets wanted frames need (sparse.py)
+        try:
+            with _opened(path, max(0.0, seek)) as (container, stream):
+                for frame in sparse_frames(container, stream, start, n, fps, stride):
+                    yield picture(frame)
+                    given += 1
+            return
+        except SparseGap as gap:
+            if given or seek <= 0 or "frame 0" not in str(gap):
+                break  # the whole span, below (which also says how a damaged or short video ends)
+    for seek in (start, start - LEAD_S, 0.0):  # earlier when the span's first frames were lost (below)
+        with _opened(path, max(0.0, seek)) as (container, stream):
+            tb = stream.time_base
+            assert tb is not None
+            count = 0
+            for frame in container.decode(stream):
+                if frame.pts is None or float(frame.pts * tb) < start - 0.5 / fps:
+                    continue
+                if count == 0 and float(frame.pts * tb) > start + 0.5 / fps and seek > 0:
+                    break  # an open GOP's leading frames, shown before the keyframe found: they need the one before
+                if count % stride == 0 and count // stride >= given:
+                    yield picture(frame)
+                count += 1
+                if count == n:
+                    return
+            else:
+                break
+    _ended(path, count, n)
+
+
+@contextmanager
+def _opened(path: Path, start: float) -> Iterator[tuple[InputContainer, VideoStream]]:
+    """The mp4 at `path` (a regular file: a FIFO would block PyAV for ever), its first video stream, sought to the
+    keyframe at or before `start` seconds."""
+    with av.open(str(regular_file(path))) as container:
         if not container.streams.video:
             raise DatasetError(f"{path}: holds no video stream", code="dataset.invalid")
         stream = container.streams.video[0]
@@ -161,17 +207,8 @@ def _decode(
         assert tb is not None
         if start > 0:
             container.seek(int(start / tb), stream=stream, backward=True, any_frame=False)
-        count = 0
-        for frame in container.decode(stream):
-            if frame.pts is None or float(frame.pts * tb) < start - half:
-                continue
-            if count % stride:
-                pass
-            elif depth is not None:
-                yield depth.to_millimetres(decode_codes(frame))
-            else:
-                yield np.asarray(frame.to_ndarray(format="rgb24"), dtype=np.uint8)
-            count += 1
-            if count == n:
-                return
+        yield container, stream
+
+
+def _ended(path: Path, count: int, n: int) -> NoReturn:
     raise VideoEnds(path, count, n)
