@@ -28,15 +28,17 @@ from openral_data.paths import contained, safe_name
 from openral_data.pipeline.schema import ENCODER_FIELDS, Step
 from openral_data.runtime.parallel.workdir import workers_dirs
 
-LATER_KINDS = ("train", "filter", "evaluate")  # step kinds added after the first six
+LATER_KINDS = ("train", "filter", "evaluate", "dagger")  # step kinds added after the first six
 
 
 def config_hash(step: Step) -> str:
-    """A step's settings, hashed; the encoder settings a record step leaves unset and the step kinds added later
-    that it is not are left out, so a step written before they existed keeps its hash (a resumed run does not
-    redo it)."""
+    """A step's settings, hashed; the encoder settings a record step leaves unset, the step kinds added later
+    that it is not and a merge's `common` left off are left out, so a step written before they existed keeps its
+    hash (a resumed run does not redo it)."""
     unset = {k for k in ENCODER_FIELDS if step.record is not None and getattr(step.record, k) is None}
     later: dict[str, Any] = {k: True for k in LATER_KINDS if getattr(step, k) is None}
+    if step.merge is not None and not step.merge.common:  # a setting added later, at its default
+        later["merge"] = {"common"}
     return hashlib.sha256(step.model_dump_json(exclude={"record": unset, **later}).encode()).hexdigest()[:16]
 
 
