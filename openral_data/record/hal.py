@@ -41,8 +41,8 @@ from openral_data.record.drivers.choice import OWN_CONTRACT, DriverChoice, Drive
 from openral_data.record.drivers.kinds import open_driver
 from openral_data.record.flow import Flow, Notify, check_reset_time, episode_ticks
 from openral_data.record.hal_loop import EpisodeEnd, EpisodeReport, FixedRateLoop, LoopConfig, frame_extras
-from openral_data.record.options import check_run_numbers
 from openral_data.record.hal_resume import HAL_KEPT, continue_hal, hal_settings
+from openral_data.record.options import check_run_numbers
 from openral_data.record.output import Claim, Output, check_first_episode, claim, close_output, open_recording
 from openral_data.record.runlog import log_episode, log_totals
 from openral_data.record.session import episode_loop
@@ -436,7 +436,8 @@ def _open(
             run.out,
             schema,
             opts.formats,
-            WriterConfig(video=opts.video, spill=True),  # never waits on an encoder: formats/lerobot_v3/video.py
+            WriterConfig(video=opts.video, spill=True, background=True),  # never waits on an encoder (video.py), nor
+            # on a commit: the next episode records while the last one's videos finish (committer.py)
             opts.image_format,
             resume=opts.resume,
             mcap_compression=opts.mcap_compression,
@@ -505,8 +506,6 @@ def _episodes(
                 f"{flow.name(index)}: {end.value} ({report.verdict}, {report.frames} frames, "
                 f"{report.overruns} overruns, {report.stale_ticks} stale, {report.interventions} interventions)"
             )
-            if rec is not None:
-                summary.capture.add(report, encoder_lag(loop.bridge.sinks))
             if not _account(summary, end, report, rec, time.perf_counter() - t_episode):
                 break
             if first + len(summary.episodes) < opts.n_episodes:
@@ -514,15 +513,15 @@ def _episodes(
                 if not _reset(summary, flow, loop, stop.check, first + len(summary.episodes)):
                     break
     summary.seconds = time.perf_counter() - t0
+    for report, rec in zip(summary.reports, summary.episodes, strict=True):  # all committed now (bridge closed)
+        summary.capture.add(report, encoder_lag(loop.bridge.sinks, rec.index))
     if summary.episodes and "lerobot" in opts.formats:
         keep_capture(out, summary.capture.to_json(summary.all_reports))
     log_totals(out, len(summary.episodes), summary.frames, summary.seconds)
     return summary
 
 
-def _reset(
-    summary: HalRecordSummary, flow: Flow, loop: FixedRateLoop, check: Callable[[], None], index: int
-) -> bool:
+def _reset(summary: HalRecordSummary, flow: Flow, loop: FixedRateLoop, check: Callable[[], None], index: int) -> bool:
     """The reset wait before episode `index`; False when the run stops here (the operator quit, the e-stop)."""
     cmd = flow.reset(loop.operator, index, check)
     if cmd is Command.QUIT:
