@@ -2,8 +2,9 @@
 
 Durability: every finished episode is committed before `end_episode` returns (with `WriterConfig.background`,
 a real-time recording's, after it: in order, on the committer's thread, while the next episode records). Its
-videos are complete mp4s, its frames and its meta/episodes row land in files of their own (temp file, fsync, rename), its digests in a
-delta of their own, and `meta/info.json` — whose totals decide what lerobot's loader exposes — is written last.
+videos are complete mp4s, its frames and its meta/episodes row land in files of their own (temp file, fsync,
+rename), its digests in a delta of their own, and `meta/info.json` (whose totals decide what lerobot's loader
+exposes) is written last.
 Those renames are journaled (``.openral/journal.json``), so a crash in the middle of them is finished by
 `recovery.recover` (which `record --resume` and `doctor --repair` run) and lerobot meanwhile sees the previous
 episode count. A commit therefore costs O(that episode), however large the dataset has grown.
