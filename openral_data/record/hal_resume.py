@@ -66,7 +66,8 @@ def continue_hal(
     for name, flag in HAL_KEPT.items():
         stored = _checked(name, saved.get(HAL_KEY if name == "robot" else name), path)
         given = values[name]
-        if (name in explicit or name == "robot") and given != stored:
+        same = recorded.same("scene", given, stored) if name == "scene" and given and stored else given == stored
+        if (name in explicit or name == "robot") and not same:
             shown = ",".join(given) if name == "formats" else given
             hint = f"--hal {stored}" if name == "robot" else "leave the option out to continue with the recorded one"
             raise ConfigError(

@@ -214,8 +214,7 @@ class LeRobotV3Writer:
         return self._closed
 
     def encoder_lag(self, index: int) -> dict[str, EncoderLag]:
-        """Each camera's spilled frames and encoder lag in episode `index` (`WriterConfig.spill`), once committed
-        by this writer ({} before)."""
+        """Each camera's spilled frames and encoder lag in episode `index`, once this writer committed it."""
         return self._lags.get(index, {})
 
     # -- for callers that commit whole episodes (`commit_episode`, as `edit` does) -----------------------------
@@ -314,8 +313,7 @@ class LeRobotV3Writer:
             return record
         self._next_index += 1
         c.submit(partial(self._finish_episode, ep, success, jobs, index, t0))
-        outcome = success if self.schema.has_success else None
-        return EpisodeRecord(index=index, length=n, success=outcome, seed=ep.start.seed)
+        return EpisodeRecord(index, n, success if self.schema.has_success else None, ep.start.seed)
 
     def _finish_episode(
         self, ep: EpisodeBuffer, success: bool | None, jobs: dict[str, EncodeJob], index: int, t0: float
@@ -498,6 +496,8 @@ class LeRobotV3Writer:
                 for sub in ("meta", "data", "videos"):
                     shutil.rmtree(self.root / sub, ignore_errors=True)
                 (self.root / layout.IMAGE_HIST_PATH).unlink(missing_ok=True)
+        if self._committer is not None:
+            self._committer.raise_failed()  # a commit behind the recording failed: the recording ends with it
 
     def _finish(self) -> None:
         """Join each camera's per-episode files and rewrite the metadata; a disk error stops it (every step of
