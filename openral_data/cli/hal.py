@@ -32,6 +32,7 @@ def run_hal_record(opts: HalRecordOptions, json: bool = False) -> None:
 def _print_summary(s: HalRecordSummary, fps: int) -> None:
     rows = [
         ("output", str(s.out)),
+        *([("resumed at", f"episode {s.resumed_at}")] if s.resumed_at else []),
         ("episodes", f"{len(s.episodes)} kept, {s.discarded} discarded"),
         ("frames", str(s.frames)),
         ("fps", str(fps)),
@@ -40,6 +41,7 @@ def _print_summary(s: HalRecordSummary, fps: int) -> None:
         ("repeated samples", str(s.repeated_samples)),
         ("safety interventions", str(s.interventions)),
         ("verdicts", ", ".join(r.verdict for r in s.reports) or "-"),
+        *[("recovered", line) for line in s.recovered],
     ]
     if s.estop is not None:
         rows.append(("e-stop", s.estop))

@@ -76,8 +76,8 @@ def _record_hal(f: RecordFlags, given: frozenset[str], video: VideoSettings, dri
     from openral_data.schemas.hal import SafetyMode
 
     assert f.hal is not None
-    if f.resume or f.workers != 1:
-        raise UsageError("--resume/--workers: not available with --hal (one robot, one new dataset)")
+    if f.workers != 1:
+        raise UsageError("--workers: not available with --hal (one robot)")
     if (f.suite_task, f.instruction, f.randomize) != (None,) * 3 or f.keep != "all":
         raise UsageError(
             "--task/--instruction/--randomize/--keep: not available with --hal (the rSkill's own are used)"
@@ -106,6 +106,8 @@ def _record_hal(f: RecordFlags, given: frozenset[str], video: VideoSettings, dri
         policy=f.policy,
         device=f.device,
         teleop_gain=f.teleop_gain,
+        resume=f.resume,
+        explicit=frozenset({"format": "formats", "hal": "robot"}.get(name, name) for name in given),
     )
     run_hal_record(hal_opts, f.json)
 

@@ -44,10 +44,10 @@ class SessionCapture:
         }
 
 
-def encoder_lag(sinks: Sequence[Sink]) -> dict[str, EncoderLag]:
-    """The LeRobot writer's per-camera spills and lag of the episode it committed last ({} without one)."""
+def encoder_lag(sinks: Sequence[Sink], index: int) -> dict[str, EncoderLag]:
+    """The LeRobot writer's per-camera spills and lag of episode `index`, once committed ({} without one)."""
     writers = [s for s in sinks if isinstance(s, LeRobotV3Writer)]
-    return writers[0].encoder_lag() if writers else {}
+    return writers[0].encoder_lag(index) if writers else {}
 
 
 def keep_capture(root: Path, capture: dict[str, Any]) -> None:

@@ -7,10 +7,10 @@ import math
 import time
 from collections.abc import Callable
 from contextlib import ExitStack, closing
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from functools import partial
 from pathlib import Path
-from typing import Literal, get_args
+from typing import Any, Literal, get_args
 
 from openral_data import manifests
 from openral_data.errors import CompatibilityError, ConfigError, UsageError
@@ -43,8 +43,9 @@ from openral_data.record.drivers.expert import EXPERT, expert_request, scene_rsk
 from openral_data.record.drivers.kinds import open_driver
 from openral_data.record.flow import Flow, Notify, check_reset_time, episode_ticks
 from openral_data.record.hal_loop import EpisodeEnd, EpisodeReport, FixedRateLoop, LoopConfig, frame_extras
+from openral_data.record.hal_resume import HAL_KEPT, continue_hal, hal_settings
 from openral_data.record.options import check_run_numbers
-from openral_data.record.output import check_first_episode, claim
+from openral_data.record.output import Claim, Output, check_first_episode, claim, close_output, open_recording
 from openral_data.record.runlog import log_episode, log_totals
 from openral_data.record.session import episode_loop
 from openral_data.runtime import registry
@@ -106,6 +107,8 @@ class HalRecordOptions:
     expert: str | None = None  # `teleop="expert"`: the rSkill it runs (None: the scene's default rSkill)
     takeover_rule: TakeoverRule = field(default_factory=TakeoverRule)  # when the expert takes over and hands back
     driver: DriverChoice = field(init=False)  # who drives: `rskill`, `policy`, `teleop` and `takeover`, chosen once
+    resume: bool = False  # continue the HAL recording in `out` with its own settings (record/hal_resume.py)
+    explicit: frozenset[str] = frozenset()  # the options the user gave (with resume: they must match the recording)
 
     def __post_init__(self) -> None:
         """`mode`, `safety` and the output settings are checked here, once, by whoever builds the options (the
@@ -148,6 +151,8 @@ class HalRecordSummary:
     stopped_by_operator: bool = False
     all_reports: list[EpisodeReport] = field(default_factory=list)  # discarded attempts too
     capture: SessionCapture = field(default_factory=SessionCapture)  # how the cameras' encoders kept up
+    resumed_at: int = 0  # episodes the dataset held when this run started (--resume)
+    recovered: tuple[str, ...] = ()  # what --resume's recovery did to what a killed run left
 
     @property
     def overruns(self) -> int:
@@ -188,6 +193,8 @@ class HalRecordSummary:
             "stopped_by_operator": self.stopped_by_operator,
             "episode_list": [asdict(e) for e in self.episodes],
             "capture": self.capture.to_json(self.all_reports),
+            "resumed_at": self.resumed_at,
+            "recovered": list(self.recovered),
         }
 
 
@@ -267,26 +274,54 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
     """Resolve and check everything, claim `out`, open the driver, build the HAL, then open the dataset and run
     the episodes. `notify` None: the run says nothing (-q, --json): no prompts, and no teleop status lines either
     (those only ever go to a terminal on stderr). Whatever is opened is closed, in reverse order, by the stack."""
-    run = _resolve(opts)
-    show = tty_status(STATUS_FD, talk=notify is not None)  # the person's status lines: when the run talks
-    expert = None
-    if opts.driver.device is not None and opts.driver.device.name == EXPERT:
-        expert = expert_request(opts.expert, opts.scene, opts.takeover_rule, run.rskill, run.rskill_src)
-    ctx = DriveContext(
-        run.robot, run.rskill, run.rskill_src, run.make_policy, opts.fps, show, run.checkpoint, opts.teleop_gain,
-        expert,
-    )  # fmt: skip
     with ExitStack() as stack:
-        held = claim(run.out, "openral-data record --hal", resume=False)  # one writer, before any byte goes in
-        stack.callback(held.release)  # what was recorded stays; empty folders the claim made go
+        session = _Session()
+        stack.callback(session.close)  # what was recorded stays; what a run that recorded nothing made goes
+        if opts.resume:  # the recording's own settings, read under its writer lock
+            if opts.out is None:
+                raise UsageError("--resume needs --out: the dataset folder to continue")
+            session.held = claim(opts.out, "openral-data record --hal --resume", resume=True)
+            opts = replace(opts, **continue_hal(opts.out, _kept(opts), opts.explicit, opts.video))
+        run = _resolve(opts)
+        show = tty_status(STATUS_FD, talk=notify is not None)  # the person's status lines: when the run talks
+        expert = None
+        if opts.driver.device is not None and opts.driver.device.name == EXPERT:
+            expert = expert_request(opts.expert, opts.scene, opts.takeover_rule, run.rskill, run.rskill_src)
+        ctx = DriveContext(
+            run.robot, run.rskill, run.rskill_src, run.make_policy, opts.fps, show, run.checkpoint, opts.teleop_gain,
+            expert,
+        )  # fmt: skip
+        if session.held is None:  # one writer, before any byte goes in
+            session.held = claim(run.out, "openral-data record --hal", resume=False)
         driver = open_driver(opts.driver, ctx, stack)
         operator = stack.enter_context(closing(make_operator(opts.operator, driver.listener)))
         if driver.device is not None:
             operator = DeviceOperator(operator, driver.device)
         hal = stack.enter_context(closing(build_hal(opts, run.robot, run.rskill, run.rskill_src)))
-        loop = _open(opts, run, hal, driver, operator)
+        loop = _open(opts, run, hal, driver, operator, session)
         _keys_help(opts, notify, driver)
-        return _episodes(opts, run.out, loop, notify)
+        assert session.output is not None
+        return _episodes(opts, run.out, loop, notify, session.output)
+
+
+@dataclass
+class _Session:
+    """The writer lock on `out` (`claim`) and, once the settings are stored or recovered, the opened output."""
+
+    held: Claim | None = None
+    output: Output | None = None
+
+    def close(self) -> None:
+        """Release the lock; a fresh recording that finished nothing leaves no folder behind (`close_output`)."""
+        if self.output is not None:
+            close_output(self.output.claim.out, self.output, 0)
+        elif self.held is not None:
+            self.held.release()
+
+
+def _kept(opts: HalRecordOptions) -> dict[str, Any]:
+    """The values of the options a resume keeps (`HAL_KEPT`)."""
+    return {name: getattr(opts, name) for name in HAL_KEPT}
 
 
 def _keys_help(opts: HalRecordOptions, notify: Notify | None, driver: Driver) -> None:
@@ -361,9 +396,11 @@ def _no_policy(rskill: RSkillManifest) -> PolicyAdapter:
     raise ConfigError(f"rskill {rskill.id}: a teleoperator drives; there is no policy to load")
 
 
-def _open(opts: HalRecordOptions, run: _Resolved, hal: HalBase, driver: Driver, operator: Operator) -> FixedRateLoop:
-    """The driver's policy, the safety filter, the dataset schema, the connected HAL and the sinks, put together
-    as the loop."""
+def _open(
+    opts: HalRecordOptions, run: _Resolved, hal: HalBase, driver: Driver, operator: Operator, session: _Session
+) -> FixedRateLoop:
+    """The driver's policy, the safety filter, the dataset schema, the output (fresh: its settings stored; resume:
+    checked and recovered, `session.output`), the connected HAL and the sinks, put together as the loop."""
     from openral_data.runtime.sinks import make_sinks
 
     robot, rskill = run.robot, run.rskill
@@ -393,6 +430,9 @@ def _open(opts: HalRecordOptions, run: _Resolved, hal: HalBase, driver: Driver, 
         frame_extras=frame_extras(cameras),
         frame_columns=intervention_columns(rskill.action_contract.names) if driver.takeover else (),
     )
+    assert session.held is not None
+    settings = hal_settings(_kept(opts), opts.n_episodes, opts.video)
+    session.output = opened = open_recording(session.held, opts.resume, opts.formats, schema, settings)
     hal.connect()  # a robot that cannot be reached fails here, before anything is written
     connect = getattr(policy, "connect", None)  # a leader arm: the same, before anything is written
     if callable(connect):
@@ -403,14 +443,16 @@ def _open(opts: HalRecordOptions, run: _Resolved, hal: HalBase, driver: Driver, 
             run.out,
             schema,
             opts.formats,
-            WriterConfig(video=opts.video, spill=True),  # never waits on an encoder: formats/lerobot_v3/video.py
+            WriterConfig(video=opts.video, spill=True, background=True),  # never waits on an encoder (video.py), nor
+            # on a commit: the next episode records while the last one's videos finish (committer.py)
             opts.image_format,
+            resume=opts.resume,
             mcap_compression=opts.mcap_compression,
         )
     except BaseException:
         DatasetBridge(schema, [], observers=observers).close()  # the live view goes with the failed start
         raise
-    bridge = DatasetBridge(schema, sinks, observers=observers)
+    bridge = DatasetBridge(schema, sinks, first_episode=opened.first_episode, observers=observers)
     task = hal.task if hal.task is not None else rskill.description or rskill.id
     staleness = opts.staleness if opts.staleness is not None else 3.0 / opts.fps
     ticks = episode_ticks(opts.episode_time_s, opts.fps)
@@ -436,20 +478,25 @@ def _recorded_scene(scene: str | None) -> Recorded | None:
     return Recorded(str(path), load_recordable_scene(path).model_dump(mode="json"))
 
 
-def _episodes(opts: HalRecordOptions, out: Path, loop: FixedRateLoop, notify: Notify | None) -> HalRecordSummary:
-    """Episodes until `n_episodes` are kept, the operator quits or the e-stop latches. An interactive operator
-    starts each one (space) unless it is a re-record or a reset wait (`--reset-time-s`) just ended; the reset wait
-    follows every episode but the last."""
+def _episodes(
+    opts: HalRecordOptions, out: Path, loop: FixedRateLoop, notify: Notify | None, opened: Output
+) -> HalRecordSummary:
+    """Episodes until the dataset holds `n_episodes`, the operator quits or the e-stop latches; a resumed run
+    continues the numbering at `opened.first_episode`. An interactive operator starts each one (space) unless it
+    is a re-record or a reset wait (`--reset-time-s`) just ended; the reset wait follows every episode but the
+    last."""
     operator = loop.operator
+    first = opened.first_episode
     flow = Flow(opts.n_episodes, loop.config.task, notify, opts.episode_time_s, opts.reset_time_s)
     summary = HalRecordSummary(out=out, episodes=[], reports=[], discarded=0, frames=0, seconds=0.0)
+    summary.resumed_at, summary.recovered = first, tuple(opened.actions)
     t0 = time.perf_counter()
     # Ctrl-C / SIGTERM stop between ticks, never inside a commit
-    with episode_loop(loop.bridge, loop.policy, out, lambda: len(summary.episodes)) as stop:
+    with episode_loop(loop.bridge, loop.policy, out, lambda: first + len(summary.episodes)) as stop:
         loop.config.check_stop = stop.check
         rerecord = reset = False
-        while len(summary.episodes) < opts.n_episodes:
-            index = len(summary.episodes)
+        while first + len(summary.episodes) < opts.n_episodes:
+            index = first + len(summary.episodes)
             if not rerecord and not (reset and operator.interactive):
                 loop.preview(index, opts.seed + index)
                 flow.ask_start(index, operator.interactive)
@@ -459,31 +506,31 @@ def _episodes(opts: HalRecordOptions, out: Path, loop: FixedRateLoop, notify: No
             flow.started(index, again=rerecord)
             t_episode = time.perf_counter()
             end, report, rec = loop.run_episode(index, opts.seed + index)
-            if rec is not None and not summary.episodes:  # the first episode committed: `out` (new) is a dataset
+            if rec is not None and not summary.episodes and opened.fresh:  # the first episode: `out` is a dataset
                 check_first_episode(out, opts.formats, loop.bridge.close)
             rerecord = end is EpisodeEnd.RERECORD
             flow.say(
                 f"{flow.name(index)}: {end.value} ({report.verdict}, {report.frames} frames, "
                 f"{report.overruns} overruns, {report.stale_ticks} stale, {report.interventions} interventions)"
             )
-            if rec is not None:
-                summary.capture.add(report, encoder_lag(loop.bridge.sinks))
             if not _account(summary, end, report, rec, time.perf_counter() - t_episode):
                 break
-            if len(summary.episodes) < opts.n_episodes:
+            if first + len(summary.episodes) < opts.n_episodes:
                 reset = flow.reset_time_s is not None
-                if not _reset(summary, flow, loop, stop.check):
+                if not _reset(summary, flow, loop, stop.check, first + len(summary.episodes)):
                     break
     summary.seconds = time.perf_counter() - t0
+    for report, rec in zip(summary.reports, summary.episodes, strict=True):  # all committed now (bridge closed)
+        summary.capture.add(report, encoder_lag(loop.bridge.sinks, rec.index))
     if summary.episodes and "lerobot" in opts.formats:
         keep_capture(out, summary.capture.to_json(summary.all_reports))
     log_totals(out, len(summary.episodes), summary.frames, summary.seconds)
     return summary
 
 
-def _reset(summary: HalRecordSummary, flow: Flow, loop: FixedRateLoop, check: Callable[[], None]) -> bool:
-    """The reset wait before the next episode; False when the run stops here (the operator quit, the e-stop)."""
-    cmd = flow.reset(loop.operator, len(summary.episodes), check)
+def _reset(summary: HalRecordSummary, flow: Flow, loop: FixedRateLoop, check: Callable[[], None], index: int) -> bool:
+    """The reset wait before episode `index`; False when the run stops here (the operator quit, the e-stop)."""
+    cmd = flow.reset(loop.operator, index, check)
     if cmd is Command.QUIT:
         summary.stopped_by_operator = True
     elif cmd is Command.ESTOP:

@@ -58,6 +58,7 @@ KEPT = {
 ENCODER_FLAGS = {"crf": "--crf", "g": "--gop", "preset": "--preset", "pix_fmt": "--pix-fmt"}
 RANGES = {"max_steps": (1, MAX_STEPS), "seed": (0, MAX_SEED), "n_episodes": (1, 10**9)}
 log = logging.getLogger(__name__)
+HAL_KEY = "hal"  # record.json `options` of a `record --hal ROBOT` recording: the robot (record/hal_resume.py)
 DIGEST = "scene_sha256"  # the sha256 of the scene file's bytes: a scene named again must still have it (`recorded`)
 
 
@@ -132,9 +133,14 @@ def continue_options(opts: RecordOptions, explicit: frozenset[str]) -> RecordOpt
     if opts.out is None:
         raise UsageError("--resume needs --out: the dataset folder to continue")
     path = settings_path(opts.out)
-    saved = _settings(opts.out).get("options")
+    saved = read_settings(opts.out).get("options")
     if not isinstance(saved, dict):
         raise DatasetError(f"{path}: options: missing or not a mapping", code="dataset.invalid")
+    if HAL_KEY in saved:
+        raise ConfigError(
+            f"{path}: {HAL_KEY}: recorded with --hal {saved[HAL_KEY]}; continue it with record --hal "
+            f"{saved[HAL_KEY]} --resume --out {opts.out}"
+        )
     changes: dict[str, Any] = {}
     by_checkpoint = _same_policy(opts.policy, saved.get("policy"), path)
     for name, flag in KEPT.items():
@@ -167,7 +173,7 @@ def continue_options(opts: RecordOptions, explicit: frozenset[str]) -> RecordOpt
             raise DatasetError(
                 f"{path}: {name}: {value!r} is not a whole number in {low}..{high}", code="dataset.invalid"
             )
-    changes["video"] = _recorded_video(opts, saved.get("video"), explicit, path, changes["codec"])
+    changes["video"] = recorded_video(opts.video, saved.get("video"), explicit, path, changes["codec"])
     return replace(opts, **changes)
 
 
@@ -192,22 +198,22 @@ def video_json(video: VideoSettings) -> dict[str, Any]:
     return {name: getattr(video, name) for name in ENCODER_FLAGS}
 
 
-def _recorded_video(
-    opts: RecordOptions, stored: Any, explicit: frozenset[str], path: Path, codec: str
+def recorded_video(
+    given_video: VideoSettings, stored: Any, explicit: frozenset[str], path: Path, codec: str
 ) -> VideoSettings:
-    """The recording's encoder settings (a recording from before they were kept: lerobot's defaults); a flag
-    given again must match."""
+    """The recording's encoder settings (a recording from before they were kept: lerobot's defaults), with this
+    run's thread budget (`given_video.threads`); an encoder flag given again (`explicit`) must match."""
     if stored is None:
-        return replace(VideoSettings(), codec=parse_codec(codec), threads=opts.video.threads)
+        return replace(VideoSettings(), codec=parse_codec(codec), threads=given_video.threads)
     try:
         if not isinstance(stored, dict) or not set(stored) <= set(ENCODER_FLAGS):
             raise TypeError(f"keys other than {', '.join(ENCODER_FLAGS)}")
-        video = VideoSettings(codec=parse_codec(codec), threads=opts.video.threads, **stored).resolve()
+        video = VideoSettings(codec=parse_codec(codec), threads=given_video.threads, **stored).resolve()
     except (TypeError, UsageError) as exc:
         raise DatasetError(f"{path}: video: {stored!r}: {exc}", code="dataset.invalid") from None
     for name, flag in ENCODER_FLAGS.items():
         cli = {"g": "gop"}.get(name, name)
-        given = getattr(opts.video, name)
+        given = getattr(given_video, name)
         if cli in explicit and given != getattr(video, name):
             raise ConfigError(
                 f"{path}: video.{name}: the dataset was recorded with {getattr(video, name)}; {flag} {given} differs "
@@ -216,7 +222,7 @@ def _recorded_video(
     return video
 
 
-def _settings(out: Path) -> dict[str, Any]:
+def read_settings(out: Path) -> dict[str, Any]:
     """``OUT/.openral/record.json``, read as one of our control files (no symlink, no FIFO, bounded)."""
     path = settings_path(out)
     try:
@@ -263,13 +269,21 @@ def schema_json(schema: DatasetSchema) -> dict[str, Any]:
 
 def open_output(claimed: Claim, opts: RecordOptions, schema: DatasetSchema, resolved: dict[str, Any]) -> Output:
     """Under the claim's lock: fresh: store the settings; resume: check the schema, recover, count episodes."""
+    return open_recording(claimed, opts.resume, opts.formats, schema, resolved)
+
+
+def open_recording(
+    claimed: Claim, resume: bool, formats: tuple[str, ...], schema: DatasetSchema, resolved: dict[str, Any]
+) -> Output:
+    """`open_output` for any recording (a scene's, a HAL's): fresh: store `resolved` (the settings a resume takes
+    back) and the schema; resume: check the schema, recover the sinks of `formats`, count the episodes."""
     out = claimed.out
-    if not opts.resume:
+    if not resume:
         doc = {"options": resolved, "schema": schema_json(schema)}
         atomic.write_bytes(settings_path(out), json.dumps(doc, indent=2).encode())
         return Output(claimed, 0, True, [])
     _check_schema(out, schema)
-    actions, done = _recover(out, opts.formats)
+    actions, done = _recover(out, formats)
     return Output(claimed, done, False, actions)
 
 
@@ -315,7 +329,7 @@ def _clear(folder: Path, keep: str) -> None:
 
 def _check_schema(out: Path, schema: DatasetSchema) -> None:
     path = settings_path(out)
-    saved = _settings(out).get("schema")
+    saved = read_settings(out).get("schema")
     if not isinstance(saved, dict):
         raise DatasetError(f"{path}: schema: missing or not a mapping", code="dataset.invalid")
     now = schema_json(schema)

@@ -3,6 +3,7 @@ loop; every frame the loop handed over is in the dataset, in order, and the spil
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -14,6 +15,8 @@ from pathlib import Path
 import av
 import numpy as np
 import numpy.typing as npt
+import pyarrow as pa
+import pyarrow.parquet as pq
 import pytest
 
 from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
@@ -76,11 +79,13 @@ def test_a_slow_encoder_spills_while_the_loop_stays_on_time(tmp_path: Path, monk
     assert not [p for p in out.rglob("*") if "spill" in p.name]
 
 
-@pytest.mark.slow  # a subprocess recording killed mid-spill, then repaired and loaded by lerobot
-def test_sigkill_during_a_spill_loses_no_committed_episode(tmp_path: Path, project: Path) -> None:
-    """`record --hal` with a throttled encoder is SIGKILLed while frames of the episode in flight are spilled:
-    every committed episode loads in lerobot 0.6.1, every frame decoded; `doctor --repair` takes the spilled
-    frames and the partial video to the quarantine, and the dataset then checks clean."""
+@pytest.mark.slow  # a subprocess recording killed mid-spill, then resumed and loaded by lerobot
+def test_sigkill_during_a_spill_loses_no_committed_episode_and_resume_finishes(tmp_path: Path, project: Path) -> None:
+    """`record --hal` with a throttled encoder is SIGKILLed while frames of the episode in flight are spilled.
+    `record --hal --resume` with another robot is refused in one line and changes nothing; with the same one it
+    recovers (the spilled frames and the partial video go to the quarantine), keeps every committed episode's rows
+    as they were, and records the remaining episode with the recorded settings (40 frames, h264, the next seed);
+    lerobot 0.6.1 then loads every frame of every episode and `doctor` finds the dataset clean."""
     out = tmp_path / "ds"
     args = [
         "record", "--hal", "ur5e", "--rskill", "sweep-ur5e", "--fps", "20", "--max-steps", "40",
@@ -99,14 +104,47 @@ def test_sigkill_during_a_spill_loses_no_committed_episode(tmp_path: Path, proje
     finally:
         proc.kill()
         proc.wait(timeout=60)
+    committed = json.loads((out / "meta/info.json").read_text())["total_episodes"]
+    before = _committed_rows(out)
+    assert committed >= 1 and len(before) == 40 * committed
+    other = run_cli("record", "--hal", "so101", "--resume", "--out", str(out), "-q")
+    assert other.returncode == 2 and other.stderr.count("\n") == 1, other.stderr
+    assert "record.json: hal: the dataset was recorded with ur5e; --hal so101" in other.stderr
+    assert any(out.rglob(".*.npy.tmp"))  # refused before any recovery: nothing touched
+    total = str(committed + 1)
+    done = run_cli("record", "--hal", "ur5e", "--rskill", "sweep-ur5e", "--resume", "--out", str(out),
+                   "--n-episodes", total, "--json")  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    doc = json.loads(done.stdout)
+    assert doc["resumed_at"] == committed and doc["episodes"] == 1 and doc["frames"] == 40, doc
+    assert any("staged file(s)" in line for line in doc["recovered"]), doc["recovered"]
+    assert _committed_rows(out)[: len(before)] == before  # the committed episodes, untouched
+    assert [r["openral.seed"] for r in _episode_rows(out)] == list(range(committed + 1))
+    assert any((out / ".openral/quarantine").rglob(".*.npy.tmp"))  # the spilled frames, kept aside
+    assert not [p for p in out.rglob("*.tmp") if ".openral" not in p.parts]
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
-    ds = LeRobotDataset("local/killed", root=out, video_backend="pyav")
-    assert ds.num_episodes >= 1 and len(ds) == 40 * ds.num_episodes
+    ds = LeRobotDataset("local/resumed", root=out, video_backend="pyav")
+    assert ds.num_episodes == committed + 1 and len(ds) == 40 * ds.num_episodes
     assert all(ds[i]["observation.images.wrist"].shape[0] == 3 for i in range(len(ds)))  # every frame decodes
-    repaired = run_cli("doctor", str(out), "--repair")
-    assert repaired.returncode in (0, 1), repaired.stderr
-    assert not [p for p in out.rglob("*.tmp") if ".openral" not in p.parts]
-    assert any((out / ".openral/quarantine").rglob(".*.npy.tmp"))  # the spilled frames, kept aside
+    assert ds.meta.info["features"]["observation.images.wrist"]["info"]["video.codec"] == "h264"
     again = run_cli("doctor", str(out))
     assert again.returncode == 0, again.stdout + again.stderr
+
+
+def _committed_rows(root: Path) -> list[tuple[int, int, list[float]]]:
+    """Every data row's (episode, frame, action), in index order."""
+    table = pa.concat_tables(pq.read_table(p) for p in sorted((root / "data").rglob("*.parquet"))).sort_by("index")
+    return list(
+        zip(
+            table["episode_index"].to_pylist(),
+            table["frame_index"].to_pylist(),
+            table["action"].to_pylist(),
+            strict=True,
+        )
+    )
+
+
+def _episode_rows(root: Path) -> list[dict[str, object]]:
+    files = sorted((root / "meta/episodes").rglob("*.parquet"))
+    return sorted((r for p in files for r in pq.read_table(p).to_pylist()), key=lambda r: int(r["episode_index"]))

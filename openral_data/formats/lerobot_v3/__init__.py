@@ -8,10 +8,10 @@ loads (tasks as an unnamed pandas index, `channel` names, `video_info` blocks) t
 Writing: `LeRobotV3Writer` (a `Sink`, configured by `WriterConfig` and `VideoSettings`) commits one episode at a
 time, crash-safe; `commit_episode` takes an `EpisodeBuffer` whose videos are already made. `DatasetLock` keeps
 one writer per dataset (`holder` names it) and `recover` brings a killed writer's dataset back to its last
-committed episode. The writer's parts: `buffer` (an episode's columns, table and meta/episodes row), `joins`
-(per-episode files joined into lerobot's rotated layout), `tasks_table` (tasks.parquet), `config`,
-`commit_log`. Paths and chunk/file numbering are in `layout`. `warm_up` pays pyarrow's first-use
-cost ahead of a recording.
+committed episode. The writer's parts: `buffer` (an episode's columns, table and meta/episodes row; `warm_up`
+pays pyarrow's first-use cost ahead of a recording), `joins` (per-episode files joined into lerobot's rotated
+layout), `tasks_table` (tasks.parquet), `config`, `commit_log`, `committer` (episodes committed behind a
+real-time recording). Paths and chunk/file numbering are in `layout`.
 """
 
 from __future__ import annotations
@@ -37,11 +37,11 @@ _API: dict[str, str] = {
     "read_tasks": "openral_data.formats.lerobot_v3.reader",
     "recover": "openral_data.formats.lerobot_v3.recovery",
     "summarize": "openral_data.formats.lerobot_v3.reader",
-    "warm_up": "openral_data.formats.lerobot_v3.writer",
+    "warm_up": "openral_data.formats.lerobot_v3.buffer",
 }
 
 if TYPE_CHECKING:
-    from openral_data.formats.lerobot_v3.buffer import EpisodeBuffer
+    from openral_data.formats.lerobot_v3.buffer import EpisodeBuffer, warm_up
     from openral_data.formats.lerobot_v3.clip import episode_clip
     from openral_data.formats.lerobot_v3.config import WriterConfig
     from openral_data.formats.lerobot_v3.encoder import VideoSettings
@@ -49,7 +49,7 @@ if TYPE_CHECKING:
     from openral_data.formats.lerobot_v3.lock import DatasetLock, holder
     from openral_data.formats.lerobot_v3.reader import DatasetSummary, read_episodes, read_info, read_tasks, summarize
     from openral_data.formats.lerobot_v3.recovery import recover
-    from openral_data.formats.lerobot_v3.writer import LeRobotV3Writer, warm_up
+    from openral_data.formats.lerobot_v3.writer import LeRobotV3Writer
 
 __all__ = [
     "DatasetLock",

@@ -119,3 +119,9 @@ def _column_values(table: pa.Table, key: str) -> npt.NDArray[Any]:
     if pa.types.is_fixed_size_list(col.type):
         return np.asarray(col.flatten().to_numpy(zero_copy_only=False)).reshape(len(col), col.type.list_size)
     return np.asarray(col.to_numpy(zero_copy_only=False)).reshape(-1, 1)
+
+
+def warm_up() -> None:
+    """Pay pyarrow's one-time cost now (its first array imports pandas: about half a second): a recording
+    calls this while its scene is being built, so its first episode's commit does not."""
+    pa.array([0.0])

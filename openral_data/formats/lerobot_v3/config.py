@@ -8,6 +8,7 @@ from typing import Any
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.depth import DepthSettings
 from openral_data.formats.lerobot_v3.encoder import VideoSettings
+from openral_data.types import CameraShape
 
 MB = 1 << 20
 
@@ -24,6 +25,9 @@ class WriterConfig:
     # beyond `queue_size`: spill frames to the dataset's staging area instead of making the producer wait (a
     # real-time recording, `record --hal`; video.py), and note each episode's spills and encoder lag (`capture`)
     spill: bool = False
+    # commit each finished episode behind the recording, on a thread of its own, while the next one records (the
+    # first episode is committed before the next starts); committer.py
+    background: bool = False
     # committed episodes whose data and meta/episodes rows stay in files of their own (a commit then costs
     # O(that episode)) before they are joined into the run's first file; a data rotation and close() join too
     staged_episodes: int = 1000
@@ -33,6 +37,12 @@ class WriterConfig:
             raise ValueError("staged_episodes must be at least 1")
         # a concrete encoder (`auto` probed once per process), checked against this FFmpeg before anything is written
         object.__setattr__(self, "video", self.video.resolve())
+
+    def size_problem(self, shape: CameraShape) -> str | None:
+        """Why a video camera of `shape` cannot be encoded (the codec's limits, or the depth quantizer's)."""
+        if shape.depth_unit is None:
+            return self.video.size_problem(shape.height, shape.width)
+        return self.depth.size_problem(shape.height, shape.width)
 
     @property
     def data_limit(self) -> int:

@@ -7,6 +7,10 @@ from pathlib import Path
 from typing import Any
 
 from openral_data.errors import DatasetError
+from openral_data.formats.lerobot_v3 import layout
+from openral_data.formats.lerobot_v3.config import WriterConfig
+from openral_data.formats.lerobot_v3.splits import splits_of
+from openral_data.types import DatasetSchema
 
 MAX_FPS = 1000  # as a scene or mapping may declare
 MAX_FEATURES = 10_000  # ours have tens; a million would make every reader (and lerobot) crawl
@@ -53,3 +57,30 @@ def check_info(info: Any, path: Path) -> dict[str, Any]:
         if value is not None and not isinstance(value, str):
             raise _bad(path, key, "must be text", value)
     return info
+
+
+def dataset_info(
+    schema: DatasetSchema,
+    config: WriterConfig,
+    features: dict[str, dict[str, Any]],
+    totals: tuple[int, int, int],
+    videos: bool,
+    rows: list[dict[str, Any]],
+) -> dict[str, Any]:
+    """The meta/info.json the writer writes: `totals` are its episodes, frames and tasks, `rows` its episode rows
+    (their splits), `videos` whether it has video features."""
+    return {
+        "codebase_version": layout.CODEBASE_VERSION,
+        "fps": schema.fps,
+        "features": features,
+        "total_episodes": totals[0],
+        "total_frames": totals[1],
+        "total_tasks": totals[2],
+        "chunks_size": config.chunks_size,
+        "data_files_size_in_mb": config.data_files_size_in_mb,
+        "video_files_size_in_mb": config.video_files_size_in_mb,
+        "data_path": layout.DATA_PATH,
+        "video_path": layout.VIDEO_PATH if videos else None,
+        "robot_type": schema.robot_type,
+        "splits": splits_of(rows),
+    }

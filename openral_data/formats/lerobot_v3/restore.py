@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
-from openral_data.errors import DatasetError
+from openral_data.errors import DatasetError, OutputExists
 from openral_data.formats import atomic
 from openral_data.formats.jsonfile import parse_json
 from openral_data.formats.lerobot_v3 import layout
@@ -209,3 +209,13 @@ def _image_stats(root: Path, names: list[str], has_rows: bool) -> dict[str, Came
             raise DatasetError(f"{path}: {name}: no histogram for this camera", code="dataset.incomplete")
         accs[name] = camera_stats_from_json(saved[name])
     return accs
+
+
+def claim_root(root: Path, resume: bool) -> bool:
+    """Create `root` for a new dataset (refusing one that holds anything but openral-data's own bookkeeping
+    folder, the lock of the recording taking it), or take it to continue; returns whether it was created."""
+    if not resume and root.exists() and (not root.is_dir() or any(p.name != layout.STATE_DIR for p in root.iterdir())):
+        raise OutputExists(f"{root}: output exists and is not empty; refusing to overwrite it")
+    created = not root.exists()
+    root.mkdir(parents=True, exist_ok=True)
+    return created

@@ -69,7 +69,7 @@ class _Spilled:
 
 
 @dataclass
-class _Job:
+class EncodeJob:
     path: Path
     height: int
     width: int
@@ -142,7 +142,7 @@ class EncoderWorker:
         # frames, spilled frames' paths, jobs and markers (a SimpleQueue: C put/get, a few µs less per frame)
         self._q: queue.SimpleQueue[object] = queue.SimpleQueue()
         self._slots = threading.Semaphore(max(1, queue_size))  # one per frame held in memory
-        self._job: _Job | None = None
+        self._job: EncodeJob | None = None
         self._failed: BaseException | None = None
         self.waited = 0.0  # this episode: seconds `put` waited on a full queue (the encoder was behind) ...
         self.waits = 0  # ... and how many frames had to wait
@@ -155,7 +155,7 @@ class EncoderWorker:
         self._raise_if_failed()
         if self._job is not None:
             raise EncoderError(f"{self.name}: begin() while an episode is being encoded")
-        self._job = _Job(path, height, width)
+        self._job = EncodeJob(path, height, width)
         self.waited, self.waits = 0.0, 0
         self._q.put(self._job)
 
@@ -183,12 +183,21 @@ class EncoderWorker:
             self._q.put((frame, now))
 
     def finish(self) -> EncodedEpisode:
+        return self.wait(self.finish_later())
+
+    def finish_later(self) -> EncodeJob:
+        """End the episode without waiting for its encoder: the next episode may `begin` at once (its frames queue
+        behind this one's); `wait(job)` then returns this episode's mp4."""
         job = self._job
         if job is None:
             raise EncoderError(f"{self.name}: finish() without begin()")
         self._q.put(_FINISH)
-        job.done.wait()
         self._job = None
+        return job
+
+    def wait(self, job: EncodeJob) -> EncodedEpisode:
+        """The episode `finish_later` ended, once its encoder has flushed it (its spilled frames read back)."""
+        job.done.wait()
         self.lag = job.lag
         if job.error is not None:
             job.path.unlink(missing_ok=True)
@@ -222,11 +231,11 @@ class EncoderWorker:
             item = self._q.get()
             if item is _STOP:
                 return
-            if isinstance(item, _Job) and self._encode_job(item) is _STOP:
+            if isinstance(item, EncodeJob) and self._encode_job(item) is _STOP:
                 return
             # stray _FINISH/_ABORT markers (from an abort racing a finish) are ignored while idle
 
-    def _next(self, job: _Job) -> npt.NDArray[Any] | object:
+    def _next(self, job: EncodeJob) -> npt.NDArray[Any] | object:
         """The job's next frame (a spilled one read back and deleted; its lag counted), or the marker ending it."""
         item = self._q.get()
         if _ends_job(item):
@@ -243,7 +252,7 @@ class EncoderWorker:
         job.lag.max_lag = max(job.lag.max_lag, time.perf_counter() - handed)
         return image
 
-    def _encode_job(self, job: _Job) -> object:
+    def _encode_job(self, job: EncodeJob) -> object:
         """Encode frames until a marker ends the job; return that marker."""
         depth = self.depth
         stats = ImageStatsAccumulator() if depth is None else DepthStatsAccumulator(depth.unit)

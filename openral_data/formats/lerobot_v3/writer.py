@@ -1,8 +1,10 @@
 """LeRobotDataset v3 writer built on pyarrow + PyAV (not lerobot's writer).
 
-Durability: every finished episode is committed before `end_episode` returns. Its videos are complete mp4s,
-its frames and its meta/episodes row land in files of their own (temp file, fsync, rename), its digests in a
-delta of their own, and `meta/info.json` — whose totals decide what lerobot's loader exposes — is written last.
+Durability: every finished episode is committed before `end_episode` returns (with `WriterConfig.background`,
+a real-time recording's, after it: in order, on the committer's thread, while the next episode records). Its
+videos are complete mp4s, its frames and its meta/episodes row land in files of their own (temp file, fsync,
+rename), its digests in a delta of their own, and `meta/info.json` (whose totals decide what lerobot's loader
+exposes) is written last.
 Those renames are journaled (``.openral/journal.json``), so a crash in the middle of them is finished by
 `recovery.recover` (which `record --resume` and `doctor --repair` run) and lerobot meanwhile sees the previous
 episode count. A commit therefore costs O(that episode), however large the dataset has grown.
@@ -26,16 +28,18 @@ import time
 from collections.abc import Callable
 from collections.abc import Mapping as MappingOf
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
 import pyarrow as pa
 
-from openral_data.errors import CompatibilityError, ContractViolation, DiskError, OutputExists, WriteError, disk_errno
+from openral_data.errors import CompatibilityError, ContractViolation, WriteError, disk_errno
 from openral_data.formats import atomic
 from openral_data.formats.lerobot_v3 import digests, joins, layout
 from openral_data.formats.lerobot_v3.buffer import EpisodeBuffer, base_row, column_stats, episode_table
 from openral_data.formats.lerobot_v3.commit_log import log_commit
+from openral_data.formats.lerobot_v3.committer import Committer, wait_videos
 from openral_data.formats.lerobot_v3.config import WriterConfig
 from openral_data.formats.lerobot_v3.depth import CameraStats, DepthStream, camera_stats, merge_camera_stats
 from openral_data.formats.lerobot_v3.encoder import encoder_threads
@@ -46,16 +50,16 @@ from openral_data.formats.lerobot_v3.features import (
     episodes_schema,
     writer_camera_keys,
 )
+from openral_data.formats.lerobot_v3.info import dataset_info
 from openral_data.formats.lerobot_v3.joins import Runs, VideoGroup, VideoMember
 from openral_data.formats.lerobot_v3.layout import FilePos, FileRun
 from openral_data.formats.lerobot_v3.masks import MaskColumn
 from openral_data.formats.lerobot_v3.provenance import Origin, Provenance
 from openral_data.formats.lerobot_v3.reader import read_info
-from openral_data.formats.lerobot_v3.restore import check_same_format, restore
-from openral_data.formats.lerobot_v3.splits import splits_of
+from openral_data.formats.lerobot_v3.restore import check_same_format, claim_root, restore
 from openral_data.formats.lerobot_v3.stats import Stats, dataset_stats, merge_numeric, to_jsonable
 from openral_data.formats.lerobot_v3.tasks_table import tasks_writer
-from openral_data.formats.lerobot_v3.video import CAPTURE, EncodedEpisode, EncoderLag, EncoderWorker
+from openral_data.formats.lerobot_v3.video import CAPTURE, EncodedEpisode, EncodeJob, EncoderLag, EncoderWorker
 from openral_data.formats.write_errors import write_error
 from openral_data.types import DatasetSchema, EpisodeRecord, EpisodeStart, Frame
 
@@ -102,7 +106,7 @@ class LeRobotV3Writer:
         self._videos = {n: s for n, s in schema.cameras.items() if not s.segmentation}
         self._masks = [n for n, s in schema.cameras.items() if s.segmentation]
         self._check_cameras()
-        self._created_root = _claim_root(root, resume)
+        self._created_root = claim_root(root, resume)
         self._set_format(features)
         budget = encoder_threads(self.config.video, len(self._videos))
         self._workers = {
@@ -118,6 +122,7 @@ class LeRobotV3Writer:
             for name, shape in self._videos.items()
         }
         self._set_empty(image_stats)
+        self._committer = Committer() if self.config.background else None
         if resume and (root / layout.INFO_PATH).is_file():
             self._restore()
         else:
@@ -126,12 +131,7 @@ class LeRobotV3Writer:
     def _check_cameras(self) -> None:
         """Refuse a video camera whose size the codec (or the depth quantizer) cannot encode."""
         for name, shape in self._videos.items():
-            problem = (
-                self.config.video.size_problem(shape.height, shape.width)
-                if shape.depth_unit is None
-                else self.config.depth.size_problem(shape.height, shape.width)
-            )
-            if problem:
+            if problem := self.config.size_problem(shape):
                 raise CompatibilityError(f"camera {name}: {problem}")
 
     def _set_format(self, features: dict[str, dict[str, Any]] | None) -> None:
@@ -175,6 +175,8 @@ class LeRobotV3Writer:
         self._batch: atomic.Batch | None = None  # set while an episode is being committed
         self._closed = False
         self._failed = False  # a write failed: nothing more is written (see `commit_episode`)
+        self._next_index = 0  # with a committer: the index of the next episode `end_episode` hands over
+        self._lags: dict[int, dict[str, EncoderLag]] = {}  # each committed episode's `encoder_lag`
 
     def _write_openral(self) -> None:
         """meta/openral.json of a new dataset: who wrote it, the schema's metadata and the writer's settings."""
@@ -201,6 +203,7 @@ class LeRobotV3Writer:
             self._runs.videos[name] = VideoGroup(tail.first, members)
         self._numeric_stats = state.numeric_stats
         self.image_stats.update(state.image_stats)
+        self._next_index = self.total_episodes
 
     @property
     def total_episodes(self) -> int:
@@ -210,14 +213,16 @@ class LeRobotV3Writer:
     def closed(self) -> bool:
         return self._closed
 
-    def encoder_lag(self) -> dict[str, EncoderLag]:
-        """Each camera's spilled frames and encoder lag in the episode committed last (`WriterConfig.spill`)."""
-        return {name: worker.lag for name, worker in self._workers.items()}
+    def encoder_lag(self, index: int) -> dict[str, EncoderLag]:
+        """Each camera's spilled frames and encoder lag in episode `index`, once this writer committed it."""
+        return self._lags.get(index, {})
 
     # -- for callers that commit whole episodes (`commit_episode`, as `edit` does) -----------------------------
     def task_index(self, task: str) -> int:
         """The index of task string `task` in tasks.parquet, numbering it next if it is new (an episode's
-        `task_indices` are these)."""
+        `task_indices` are these; a new one waits for the background commits, which read the tasks)."""
+        if self._committer is not None and task not in self.tasks:
+            self._committer.drain()
         return self.tasks.setdefault(task, len(self.tasks))
 
     def use_image_stats(self, image_stats: MappingOf[str, CameraStats]) -> None:
@@ -234,10 +239,14 @@ class LeRobotV3Writer:
     def begin_episode(self, start: EpisodeStart) -> None:
         if self._episode is not None:
             raise RuntimeError("begin_episode() while an episode is open")
+        if self._committer is not None:
+            self._committer.raise_failed()  # a background commit failed: nothing more is recorded
         self._episode = EpisodeBuffer(start, masks={name: MaskColumn() for name in self._masks})
         for name, worker in self._workers.items():
             shape = self.schema.cameras[name]
-            worker.begin(self.pending_video(name), shape.height, shape.width)
+            # behind a committer the episodes before this one may not be placed yet: a staged name of its own
+            path = self.pending_video(name) if self._committer is None else self._staged_video(name, self._next_index)
+            worker.begin(path, shape.height, shape.width)
 
     def add_frame(self, frame: Frame) -> None:
         ep = self._episode
@@ -276,7 +285,12 @@ class LeRobotV3Writer:
         self._episode = None
         for worker in self._workers.values():
             worker.abort()
-        # tasks first seen in the discarded episode must not reach tasks.parquet
+        if self._committer is not None and not self._committer.failed:
+            self._committer.drain()  # the episodes handed over name their tasks too
+        self._drop_unused_tasks()
+
+    def _drop_unused_tasks(self) -> None:
+        """Tasks first seen in a discarded episode must not reach tasks.parquet."""
         used = {t for row in self.episode_rows for t in row["tasks"]}
         self.tasks = {t: i for t, i in self.tasks.items() if t in used}
 
@@ -288,23 +302,34 @@ class LeRobotV3Writer:
         if n == 0:
             self.discard_episode()
             raise ContractViolation("an episode needs at least one frame")
-        encoded: dict[str, EncodedEpisode] = {}
         t0 = time.perf_counter()
-        try:
-            for name, worker in self._workers.items():
-                encoded[name] = worker.finish()
-        except BaseException as exc:
-            for enc in encoded.values():
-                enc.path.unlink(missing_ok=True)
-            self.discard_episode()  # aborts the cameras not finished yet
-            problem = disk_errno(exc)
-            if problem is not None:
-                self._failed = True
-                raise DiskError(self.root, problem, f"encoding episode {self.total_episodes}'s videos") from exc
-            raise
+        jobs = {name: worker.finish_later() for name, worker in self._workers.items()}
         self._episode = None
+        c = self._committer
+        index = self.total_episodes if c is None else self._next_index
+        if c is None or index == 0:  # the first episode makes the dataset: committed before the next one starts
+            record = self._finish_episode(ep, success, jobs, index, t0)
+            self._next_index = self.total_episodes
+            return record
+        self._next_index += 1
+        c.submit(partial(self._finish_episode, ep, success, jobs, index, t0))
+        return EpisodeRecord(index, n, success if self.schema.has_success else None, ep.start.seed)
+
+    def _finish_episode(
+        self, ep: EpisodeBuffer, success: bool | None, jobs: dict[str, EncodeJob], index: int, t0: float
+    ) -> EpisodeRecord:
+        """Wait for the episode's videos, then commit it (in `end_episode`, or on the committer's thread)."""
+        n = len(ep.states)
+        try:
+            encoded = wait_videos(self._workers, jobs, f"encoding episode {index}'s videos", self.root)
+        except BaseException as exc:
+            self._failed = self._failed or self._committer is not None or disk_errno(exc) is not None
+            if self._committer is None:
+                self._drop_unused_tasks()
+            raise
+        self._lags[index] = {name: job.lag for name, job in jobs.items()}
         if self.config.spill:  # a real-time recording: how the encoders kept up, in openral.episode_info
-            ep.info = {**(ep.info or {}), CAPTURE: {name: w.lag.to_json() for name, w in self._workers.items()}}
+            ep.info = {**(ep.info or {}), CAPTURE: {name: job.lag.to_json() for name, job in jobs.items()}}
         for name, column in ep.masks.items():
             ep.columns[self._mask_keys[name]] = column.array(IMAGE_STRUCT)
             ep.column_stats[self._mask_keys[name]] = column.stats()
@@ -454,6 +479,9 @@ class LeRobotV3Writer:
             return
         self._closed = True
         try:
+            if self._committer is not None:  # the episodes handed over are committed first
+                self._committer.close()
+                self._failed = self._failed or self._committer.failed
             if self._episode is not None:
                 self.discard_episode()
             if not self._failed:  # after a failed write the committed dataset stays exactly as it is
@@ -468,6 +496,8 @@ class LeRobotV3Writer:
                 for sub in ("meta", "data", "videos"):
                     shutil.rmtree(self.root / sub, ignore_errors=True)
                 (self.root / layout.IMAGE_HIST_PATH).unlink(missing_ok=True)
+        if self._committer is not None:
+            self._committer.raise_failed()  # a commit behind the recording failed: the recording ends with it
 
     def _finish(self) -> None:
         """Join each camera's per-episode files and rewrite the metadata; a disk error stops it (every step of
@@ -501,6 +531,9 @@ class LeRobotV3Writer:
         """Where camera `name`'s mp4 of the next episode is made; committing the episode moves it into place."""
         group = self._runs.videos[name]
         return atomic.tmp_name(layout.video_path(self.root, self._keys[name], group.next_pos(self.config.chunks_size)))
+
+    def _staged_video(self, name: str, index: int) -> Path:
+        return atomic.tmp_name(self.root / "videos" / self._keys[name] / f"episode-{index:06d}.mp4")
 
     def _place_video(self, name: str, episode: int, tmp: Path, frames: int, row: dict[str, Any]) -> None:
         key = self._keys[name]
@@ -563,35 +596,5 @@ class LeRobotV3Writer:
         digests.refresh(self.root, written, self.config.durable)
 
     def info(self) -> dict[str, Any]:
-        c = self.config
-        return {
-            "codebase_version": layout.CODEBASE_VERSION,
-            "fps": self.schema.fps,
-            "features": self.features,
-            "total_episodes": self.total_episodes,
-            "total_frames": self.total_frames,
-            "total_tasks": len(self.tasks),
-            "chunks_size": c.chunks_size,
-            "data_files_size_in_mb": c.data_files_size_in_mb,
-            "video_files_size_in_mb": c.video_files_size_in_mb,
-            "data_path": layout.DATA_PATH,
-            "video_path": layout.VIDEO_PATH if self._videos else None,
-            "robot_type": self.schema.robot_type,
-            "splits": splits_of(self.episode_rows),
-        }
-
-
-def warm_up() -> None:
-    """Pay pyarrow's one-time cost now (its first array imports pandas: about half a second): a recording
-    calls this while its scene is being built, so its first episode's commit does not."""
-    pa.array([0.0])
-
-
-def _claim_root(root: Path, resume: bool) -> bool:
-    """Create `root` for a new dataset (refusing one that holds anything but openral-data's own bookkeeping
-    folder, the lock of the recording taking it), or take it to continue; returns whether it was created."""
-    if not resume and root.exists() and (not root.is_dir() or any(p.name != layout.STATE_DIR for p in root.iterdir())):
-        raise OutputExists(f"{root}: output exists and is not empty; refusing to overwrite it")
-    created = not root.exists()
-    root.mkdir(parents=True, exist_ok=True)
-    return created
+        totals = (self.total_episodes, self.total_frames, len(self.tasks))
+        return dataset_info(self.schema, self.config, self.features, totals, bool(self._videos), self.episode_rows)
