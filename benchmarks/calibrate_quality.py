@@ -220,7 +220,7 @@ def corpus(args: argparse.Namespace) -> tuple[list[qc.Unit], Path]:
     counter: dict[str, int] = {}
     for src in sorted(sources, key=lambda s: (s.data, s.name)):
         saved = work / src.name / "units.json"
-        if saved.is_file() and all((work / src.name / k / "truths.json").is_file() for k in args.kinds):
+        if saved.is_file() and all(qc.built(work / src.name / k, k) for k in args.kinds):
             mine = [qc.Unit(**u) for u in json.loads(saved.read_text())]
             counter[src.data] = counter.get(src.data, 0) + len(mine)
         else:

@@ -195,6 +195,15 @@ def source_units(
     return cleans, units
 
 
+def built(out: Path, kind: str) -> bool:
+    """Whether `out` (`work/SRC/KIND`) holds a finished build of `kind` in the current layout: a
+    `ONE_PER_DATASET` kind built in the old one (every unit faulty in one dataset, truths without `dataset`)
+    is stale, and made again."""
+    if not (out / "truths.json").is_file():
+        return False
+    return kind not in ONE_PER_DATASET or all("dataset" in t for t in json.loads((out / "truths.json").read_text()))
+
+
 def build(src: Source, work: Path, kinds: tuple[str, ...], cleans: list[df.Clean]) -> None:
     """`work/SRC/clean` and one `work/SRC/KIND` per fault kind (each unit with that fault; units where it does
     not apply are left out, `truths.json` maps written episodes to units)."""
@@ -204,7 +213,7 @@ def build(src: Source, work: Path, kinds: tuple[str, ...], cleans: list[df.Clean
         df.write(base / "clean", cleans)
     for kind in kinds:
         out = base / kind
-        if (out / "truths.json").is_file():
+        if built(out, kind):
             continue
         shutil.rmtree(out, ignore_errors=True)  # a build cut short: made again
         faulty, truths = [], []
