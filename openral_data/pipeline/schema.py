@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
 from pydantic import Field, field_validator, model_validator
 
@@ -223,11 +223,14 @@ class TrainStep(StrictModel):
 
 class FilterStep(StrictModel):
     """`episodes filter` of a dataset with a predicate made here from typed choices (no SQL from the YAML):
-    `success` keeps the episodes that succeeded, `unflagged` those the quality scan flags nothing in."""
+    `success` keeps the episodes that succeeded, `unflagged` those the quality scan flags nothing in; `drop`
+    names features the kept dataset goes without (`features remove`: a state-only policy trains without the
+    camera)."""
 
     dataset: str
     success: bool = True
     unflagged: bool = True
+    drop: list[Annotated[str, Field(pattern=r"^[A-Za-z0-9_.\-]{1,200}$")]] = Field(default_factory=list, max_length=64)
 
     @model_validator(mode="after")
     def _something(self) -> FilterStep:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import shutil
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from tempfile import TemporaryDirectory
@@ -141,10 +142,19 @@ def _filter_jobs(spec: FilterStep, resolve: Resolve) -> Iterator[ItemJob]:
     for name, src in resolve(spec.dataset):
 
         def run(out: Path, src: Path = src) -> dict[str, Any]:
+            from openral_data.edit.features import remove
             from openral_data.edit.select import filter_episodes
 
-            result = filter_episodes(src, spec.predicate(), out)
-            return {"source": str(src), "where": spec.predicate(), "episodes": result.episodes, "frames": result.frames}
+            kept = out.with_name(f".{out.name}.kept") if spec.drop else out  # then without `drop`, into `out`
+            shutil.rmtree(kept, ignore_errors=True)  # what a killed run left
+            result = filter_episodes(src, spec.predicate(), kept)
+            if spec.drop:
+                remove(kept, spec.drop, out)
+                shutil.rmtree(kept)
+            return {
+                "source": str(src), "where": spec.predicate(), "episodes": result.episodes, "frames": result.frames,
+                "dropped": spec.drop,
+            }  # fmt: skip
 
         yield name, run
 

@@ -23,6 +23,7 @@ from openral_data.pipeline.schema import load_pipeline
 from openral_data.pipeline.train_step import dataset_digest
 from tests.support.cli import run_cli
 from tests.support.home import REPO
+from tests.support.lerobot_written import loaded_episodes
 from tests.support.scenes import write_yaml
 from tests.support.timing import TIMED
 
@@ -103,15 +104,24 @@ def test_train_step_killed_resumes_and_its_checkpoint_drives_replay_and_record(p
 
 
 def test_filter_step_keeps_the_episodes_that_succeeded(project: Path, tmp_path: Path) -> None:
-    # mock_pick's seed 0 succeeds at step 40, seed 1 at 55: with 50 steps only episode 0 succeeds
+    # mock_pick's seed 0 succeeds at step 40, seed 1 at 55: with 50 steps only episode 0 succeeds; `drop` leaves
+    # the camera out (a state-only policy's training set), and the kept dataset still loads in lerobot
     rec = {**REC, "max_steps": 50}
+    camera = "observation.images.front"
     spec = write_yaml(tmp_path / "p.yaml", {"name": "t", "steps": [
-        {"id": "rec", "record": rec}, {"id": "kept", "filter": {"dataset": "rec", "unflagged": False}}]})  # fmt: skip
+        {"id": "rec", "record": rec},
+        {"id": "kept", "filter": {"dataset": "rec", "unflagged": False, "drop": [camera]}}]})  # fmt: skip
     res = run_cli("pipeline", "run", str(spec), "--workdir", str(tmp_path / "run"))
     assert res.returncode == 0, res.stderr
     kept = tmp_path / "run" / "kept" / "mock_pick--random-mock"
     episodes = pq.read_table(next((kept / "meta" / "episodes").rglob("*.parquet"))).to_pylist()
     assert [(e["openral.seed"], e["length"]) for e in episodes] == [(0, 40)]
+    recorded = json.loads((tmp_path / "run" / "rec" / "mock_pick--random-mock" / "meta" / "info.json").read_text())
+    assert camera in recorded["features"]
+    assert camera not in json.loads((kept / "meta" / "info.json").read_text())["features"]
+    assert not (kept / "videos" / camera).exists() and not list(kept.parent.glob("*.kept"))
+    (frames,) = loaded_episodes(kept)
+    assert len(frames) == 40
 
 
 @pytest.mark.parametrize(
