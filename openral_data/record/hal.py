@@ -443,8 +443,9 @@ def _open(
             run.out,
             schema,
             opts.formats,
-            WriterConfig(video=opts.video, spill=True, background=True),  # never waits on an encoder (video.py), nor
-            # on a commit: the next episode records while the last one's videos finish (committer.py)
+            # never waits on an encoder (formats/lerobot_v3/video.py), nor on a commit: the next episode records
+            # while the last one's videos finish (formats/lerobot_v3/committer.py)
+            WriterConfig(video=opts.video, spill=True, background=True),
             opts.image_format,
             resume=opts.resume,
             mcap_compression=opts.mcap_compression,
