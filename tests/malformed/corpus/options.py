@@ -160,9 +160,9 @@ OPTIONS: list[tuple[str, Callable[[Workspace], list[str]], str, tuple[str, ...]]
         ("o",),
     ),
     (
-        "hal-with-resume",
+        "hal-resume-nothing-recorded",
         _hal("--resume"),
-        r"--resume",
+        r"nothing to resume \(no \.openral/record\.json\)",
         ("o",),
     ),
     ("replay-tolerance-nan", _replay("--tolerance", "nan"), r"--tolerance", ("res",)),
