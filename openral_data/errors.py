@@ -167,11 +167,18 @@ class DatasetBusy(DatasetError):
         self.holder = holder
 
 
+class SparseGap(Exception):
+    """Internal, never shown: a strided decode cannot place its frames by time stamp (formats/lerobot_v3/sparse.py);
+    the caller decodes the span whole instead."""
+
+
 class VideoEnds(DatasetError):
     """A camera's video holds fewer frames than its episode's rows: it ends after `count` of the `n` frames."""
 
+    default_code = "dataset.short"
+
     def __init__(self, path: Path, count: int, n: int) -> None:
-        super().__init__(f"{path}: video ends after {count} of the episode's {n} frames", code="dataset.invalid")
+        super().__init__(f"{path}: video ends after {count} of the episode's {n} frames")
         self.path, self.count, self.n = path, count, n
 
 

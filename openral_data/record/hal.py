@@ -407,13 +407,9 @@ def _open(
     policy = driver.policy(hal)  # a checkpoint is checked against the HAL first
     check_hal(hal, robot, rskill, run.rskill_src, opts.video)
     safety = SafetyFilter(
-        robot,
-        mode=opts.safety,
-        fk=hal.kinematics(),
-        names=hal.action_names,
-        state_names=hal.state_names,
+        robot, mode=opts.safety, fk=hal.kinematics(), names=hal.action_names, state_names=hal.state_names,
         source=str(manifests.robot_file(robot.name)),
-    )
+    )  # fmt: skip
     cameras = list(hal.cameras)
     schema = dataset_schema(
         robot,
@@ -443,8 +439,7 @@ def _open(
             run.out,
             schema,
             opts.formats,
-            # never waits on an encoder (formats/lerobot_v3/video.py), nor on a commit: the next episode records
-            # while the last one's videos finish (formats/lerobot_v3/committer.py)
+            # waits on no encoder (formats/lerobot_v3/video.py) nor commit (formats/lerobot_v3/committer.py)
             WriterConfig(video=opts.video, spill=True, background=True),
             opts.image_format,
             resume=opts.resume,

@@ -19,13 +19,13 @@ import pyarrow.compute as pc
 from av.container import InputContainer
 from av.video.stream import VideoStream
 
-from openral_data.errors import DatasetError, VideoEnds
+from openral_data.errors import DatasetError, SparseGap, VideoEnds
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.depth import DepthSettings, decode_codes
 from openral_data.formats.lerobot_v3.features import camera_key, camera_keys
 from openral_data.formats.lerobot_v3.images import ENVIRONMENT_STATE, decode_image, image_keys
 from openral_data.formats.lerobot_v3.masks import decode_mask, is_mask
-from openral_data.formats.lerobot_v3.sparse import SparseGap, sparse_frames
+from openral_data.formats.lerobot_v3.sparse import sparse_frames
 from openral_data.formats.lerobot_v3.variants import feature_info, is_depth
 from openral_data.formats.parquetfile import read_table
 from openral_data.paths import regular_file

@@ -4,13 +4,15 @@ wrong type (``fps: 0``, ``features`` as a list, a count as text) is one error na
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from openral_data.errors import DatasetError
 from openral_data.formats.lerobot_v3 import layout
-from openral_data.formats.lerobot_v3.config import WriterConfig
 from openral_data.formats.lerobot_v3.splits import splits_of
 from openral_data.types import DatasetSchema
+
+if TYPE_CHECKING:  # the writer's settings import PyAV, which `info` does not need
+    from openral_data.formats.lerobot_v3.config import WriterConfig
 
 MAX_FPS = 1000  # as a scene or mapping may declare
 MAX_FEATURES = 10_000  # ours have tens; a million would make every reader (and lerobot) crawl

@@ -21,11 +21,9 @@ import av.container
 import av.video.frame
 import av.video.stream
 
+from openral_data.errors import SparseGap
+
 REORDER = 16  # frames a decoder may hold back (H.264 allows 16 reference frames): past the span by more, stop
-
-
-class SparseGap(Exception):
-    """The stream cannot be decoded sparsely (see the module's docstring)."""
 
 
 def sparse_frames(

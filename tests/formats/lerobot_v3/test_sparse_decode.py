@@ -15,7 +15,7 @@ import av
 import numpy as np
 import pytest
 
-from openral_data.errors import DatasetError
+from openral_data.errors import DatasetError, SparseGap
 from openral_data.formats.lerobot_v3 import frames, layout, sparse
 from openral_data.formats.lerobot_v3.frames import decode_episode_video
 
@@ -85,7 +85,7 @@ def gaps(monkeypatch: pytest.MonkeyPatch) -> list[str]:
     def watched(*args: Any) -> Iterator[Any]:
         try:
             yield from sparse.sparse_frames(*args)
-        except sparse.SparseGap as gap:
+        except SparseGap as gap:
             seen.append(str(gap))
             raise
 
