@@ -29,18 +29,22 @@ from openral_data.pipeline.schema import ENCODER_FIELDS, Step
 from openral_data.runtime.parallel.workdir import workers_dirs
 
 LATER_KINDS = ("train", "filter", "evaluate", "dagger")  # step kinds added after the first six
+LATER_FIELDS = {"merge": ("common",), "filter": ("drop",)}  # settings a step kind gained later
 
 
 def config_hash(step: Step) -> str:
     """A step's settings, hashed; the encoder settings a record step leaves unset, the step kinds added later
-    that it is not and a merge's `common` or a filter's `drop` left off are left out, so a step written before
-    they existed keeps its hash (a resumed run does not redo it)."""
+    that it is not and the settings added later (`LATER_FIELDS`) left at their defaults are left out, so a step
+    written before they existed keeps its hash (a resumed run does not redo it)."""
     unset = {k for k in ENCODER_FIELDS if step.record is not None and getattr(step.record, k) is None}
     later: dict[str, Any] = {k: True for k in LATER_KINDS if getattr(step, k) is None}
-    if step.merge is not None and not step.merge.common:  # settings added later, at their defaults
-        later["merge"] = {"common"}
-    if step.filter is not None and not step.filter.drop:
-        later["filter"] = {"drop"}
+    for kind, names in LATER_FIELDS.items():
+        spec = getattr(step, kind)
+        if spec is not None:
+            fields = type(spec).model_fields
+            default = {n for n in names if getattr(spec, n) == fields[n].get_default(call_default_factory=True)}
+            if default:
+                later[kind] = default
     return hashlib.sha256(step.model_dump_json(exclude={"record": unset, **later}).encode()).hexdigest()[:16]
 
 
