@@ -47,6 +47,7 @@ def run_pipeline(spec_path: Path, workdir: Path | None = None, log: Log | None =
     _keep_spec(spec_path, workdir)
     report = PipelineReport(pipeline.name, workdir)
     outputs: dict[str, dict[str, str]] = {}  # step id -> item name -> path
+    folder = spec_path.absolute().parent  # where `load_pipeline` anchored the file references
 
     def resolve(ref: str) -> list[tuple[str, Path]]:
         step_id, _, item = ref.partition("/")
@@ -62,7 +63,7 @@ def run_pipeline(spec_path: Path, workdir: Path | None = None, log: Log | None =
     t0 = time.perf_counter()
     try:
         for step in pipeline.steps:
-            report.steps.append(_run_step(StepState(workdir, step), resolve, outputs, log))
+            report.steps.append(_run_step(StepState(workdir, step, folder), resolve, outputs, log))
     except BaseException as exc:
         failed = next((st for st in pipeline.steps if st.id not in outputs), None)
         if failed is not None:

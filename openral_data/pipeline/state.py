@@ -25,6 +25,7 @@ from openral_data.formats.atomic import fsync_dir, fsync_file, fsync_tree, read_
 from openral_data.formats.jsonfile import parse_json
 from openral_data.formats.staging import clean_orphans
 from openral_data.paths import contained, safe_name
+from openral_data.pipeline.portable import portable
 from openral_data.pipeline.schema import ENCODER_FIELDS, Step
 from openral_data.runtime.parallel.workdir import workers_dirs
 
@@ -32,10 +33,15 @@ LATER_KINDS = ("train", "filter", "evaluate", "dagger")  # step kinds added afte
 LATER_FIELDS = {"merge": ("common",), "filter": ("drop",)}  # settings a step kind gained later
 
 
-def config_hash(step: Step) -> str:
-    """A step's settings, hashed; the encoder settings a record step leaves unset, the step kinds added later
-    that it is not and the settings added later (`LATER_FIELDS`) left at their defaults are left out, so a step
-    written before they existed keeps its hash (a resumed run does not redo it)."""
+def config_hash(step: Step, folder: Path | None = None) -> str:
+    """A step's settings, hashed. With `folder` (the pipeline file's folder, absolute) its file references are
+    hashed relative to it with their content's digest (`portable`: a moved checkout keeps its hashes, an edited
+    scene does not); without it, as the absolute paths the code before that hashed. The encoder settings a
+    record step leaves unset, the step kinds added later that it is not and the settings added later
+    (`LATER_FIELDS`) left at their defaults are left out, so a step written before they existed keeps its hash
+    (a resumed run does not redo it)."""
+    if folder is not None:
+        step = portable(step, folder)
     unset = {k for k in ENCODER_FIELDS if step.record is not None and getattr(step.record, k) is None}
     later: dict[str, Any] = {k: True for k in LATER_KINDS if getattr(step, k) is None}
     for kind, names in LATER_FIELDS.items():
@@ -74,21 +80,35 @@ def read_marker(path: Path) -> dict[str, Any] | None:
 
 
 class StepState:
-    """One step's folder ``<workdir>/<step id>``; every path below it is checked to stay inside `workdir`."""
+    """One step's folder ``<workdir>/<step id>``; every path below it is checked to stay inside `workdir`.
 
-    def __init__(self, workdir: Path, step: Step) -> None:
+    `folder` is the pipeline file's folder: the markers carry the step's hash with its file references relative
+    to it (`config_hash`); a marker written before that (the absolute paths' hash) is still accepted while
+    nothing moved, and rewritten with the new hash."""
+
+    def __init__(self, workdir: Path, step: Step, folder: Path | None = None) -> None:
         self.step = step
         self.workdir = workdir
         self.dir = contained(workdir, step.id, f"{workdir}: step {step.id}")
         self.marker = self.dir / ".done.json"
-        self.hash = config_hash(step)
+        self.hash = config_hash(step, folder)
+        self.legacy = config_hash(step) if folder is not None else self.hash
+
+    def _current(self, path: Path, data: dict[str, Any]) -> bool:
+        """Whether the marker `data` at `path` vouches for this configuration; a legacy one is rewritten."""
+        if data.get("config") == self.hash:
+            return True
+        if data.get("config") != self.legacy:
+            return False
+        write_bytes(path, json.dumps({**data, "config": self.hash}, indent=2).encode())
+        return True
 
     def completed(self) -> dict[str, Any] | None:
         """The step marker if the step finished with this same configuration; an error if it changed."""
         done = read_marker(self.marker)
         if done is None:
             return None
-        if done.get("config") != self.hash:
+        if not self._current(self.marker, done):
             raise ConfigError(
                 f"step {self.step.id}: its configuration changed since it completed in {self.dir}; "
                 f"delete that folder to run it again"
@@ -104,8 +124,9 @@ class StepState:
         return contained(self.workdir, Path(self.step.id) / safe_name(name, source), source)
 
     def item_done(self, name: str) -> dict[str, Any] | None:
-        data = read_marker(self.dir / f".{safe_name(name, str(self.dir))}.done")
-        return data if data is not None and data.get("config") == self.hash else None
+        path = self.dir / f".{safe_name(name, str(self.dir))}.done"
+        data = read_marker(path)
+        return data if data is not None and self._current(path, data) else None
 
     def start_item(self, name: str) -> Path:
         """A clean place for an item that has no marker (a half-written one from a killed run is removed)."""

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -219,3 +220,41 @@ def test_mcap_compression_reaches_recorded_and_exported_bags(project: Path, tmp_
         (bag,) = sorted(p for p in bags.iterdir() if p.is_dir())
         assert chunk_compressions(bag) == {expected}, bag
         assert check_bag(bag)
+
+
+def test_a_moved_checkout_resumes_and_an_edited_scene_is_refused(project: Path, tmp_path: Path) -> None:
+    """Step hashes take a scene file relative to the pipeline's folder with its content digest: a copy of the
+    folder elsewhere skips what finished; a marker of the code before (absolute paths) is accepted while
+    nothing moved and rewritten; an edited scene file makes the record step's configuration a changed one."""
+    from openral_data.pipeline.state import config_hash
+    from tests.support.scenes import mock_scene
+
+    a, b = tmp_path / "a", tmp_path / "b"
+    write_yaml(a / "scenes" / "pick.yaml", mock_scene(success_after=2, n_episodes=1))
+    spec = write_yaml(
+        a / "p.yaml",
+        {"name": "moved", "steps": [
+            {"id": "rec", "record": {"scenes": ["scenes/pick.yaml"], "rskills": ["zero-mock"],
+                                     "seeds": {"count": 1}, "max_steps": 3, "codec": "h264"}},
+            {"id": "all", "merge": {"inputs": ["rec"]}}]},
+    )  # fmt: skip
+    run_pipeline(spec, a / "run")
+    shutil.copytree(a, b, symlinks=True)
+    moved = b / "p.yaml"
+    marker = b / "run" / "rec" / ".done.json"
+    report = run_pipeline(moved, b / "run")  # the copy skips what finished, its outputs are the copy's
+    assert [s["status"] for s in report.steps] == ["skipped", "skipped"]
+    assert report.steps[1]["outputs"] == {"dataset": str(b / "run" / "all" / "dataset")}
+    # a legacy marker (the absolute paths' hash, here b's) is accepted and rewritten with the portable hash
+    body = json.loads(marker.read_text())
+    legacy = config_hash(load_pipeline(moved).steps[0])
+    assert body["config"] != legacy
+    marker.write_text(json.dumps({**body, "config": legacy}))
+    report = run_pipeline(moved, b / "run")
+    assert [s["status"] for s in report.steps] == ["skipped", "skipped"]
+    assert json.loads(marker.read_text())["config"] == body["config"]
+    # the scene's meaning changes: the finished record step is refused, not silently reused
+    scene = b / "scenes" / "pick.yaml"
+    scene.write_text(scene.read_text().replace("success_after: 2", "success_after: 3"))
+    with pytest.raises(ConfigError, match="step rec: its configuration changed"):
+        run_pipeline(moved, b / "run")

@@ -76,3 +76,31 @@ def test_a_step_keeps_its_hash_when_step_kinds_are_added() -> None:
                                                        "seeds": {"count": 2}}})  # fmt: skip
     assert config_hash(rec) == "7e471e9dc323b323"
     assert config_hash(Step.model_validate({"id": "m", "merge": {"inputs": ["rec"]}})) == "46c3910d26b000ef"
+
+
+def test_a_referenced_folder_hashes_by_what_configures_it(tmp_path: Path) -> None:
+    # an rSkill folder: its code counts, what running it writes (__pycache__, hidden files) does not, and a
+    # record step's hash with the pipeline's folder does not name where that folder is
+    from openral_data.pipeline.portable import content_digest
+
+    skill = tmp_path / "skill"
+    (skill / "__pycache__").mkdir(parents=True)
+    (skill / "rskill.yaml").write_text("id: s\n")
+    (skill / "policy.py").write_text("ACTION = 0\n")
+    before = content_digest(skill)
+    (skill / "__pycache__" / "policy.cpython-312.pyc").write_bytes(b"\0")
+    (skill / ".lock").write_text("")
+    assert content_digest(skill) == before
+    (skill / "policy.py").write_text("ACTION = 1\n")
+    assert content_digest(skill) != before
+
+    def rec(folder: Path) -> Step:
+        skill = str(folder / "skill")
+        return Step.model_validate({"id": "r", "record": {"scenes": ["mock_pick"], "rskills": [skill],
+                                                          "seeds": {"count": 1}}})  # fmt: skip
+
+    here = config_hash(rec(tmp_path), tmp_path)
+    (tmp_path / "elsewhere").mkdir()
+    skill.rename(tmp_path / "elsewhere" / "skill")
+    assert config_hash(rec(tmp_path / "elsewhere"), tmp_path / "elsewhere") == here
+    assert config_hash(rec(tmp_path)) != config_hash(rec(tmp_path / "elsewhere"))  # the legacy hash named the place
