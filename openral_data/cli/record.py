@@ -12,7 +12,7 @@ import typer
 from openral_data.cli.flags import flags_command
 from openral_data.cli.given import given as given_flags
 from openral_data.cli.jsonout import print_json
-from openral_data.cli.record_flags import HAL_ONLY, RecordFlags
+from openral_data.cli.record_flags import EXPERT_ONLY, HAL_ONLY, RecordFlags
 from openral_data.cli.terminal import INTERRUPTED_RECORDING, print_line, print_summary, progress_bar
 from openral_data.errors import UsageError
 from openral_data.runtime.parallel.choice import is_parallel
@@ -29,10 +29,14 @@ def record(ctx: typer.Context, flags: RecordFlags) -> None:
     given = given_flags(ctx)
     from openral_data.cli.encoder_flags import video_settings
     from openral_data.record.drivers.choice import choose_driver
+    from openral_data.record.drivers.expert import EXPERT
 
     f = flags
     video = video_settings(f.codec, f.crf, f.gop, f.preset, f.pix_fmt, f.encoder_threads)  # before anything
     driver = choose_driver(f.rskill, f.policy, f.teleop, hal=f.hal is not None)  # who drives: chosen once, here
+    expert_only = [f"--{name.replace('_', '-')}" for name in EXPERT_ONLY if name in given]
+    if expert_only and f.teleop != EXPERT:
+        raise UsageError(f"{', '.join(expert_only)}: only with --teleop expert (the scripted expert's settings)")
     if driver.person and f.hal is None:
         f, given = _teleop_scene(f, given, driver)
     if f.hal is not None and (f.save_video or f.save_video_dir is not None):
@@ -59,7 +63,7 @@ def _teleop_scene(f: RecordFlags, given: frozenset[str], driver: DriverChoice) -
     f = replace(
         f,
         hal=hal,
-        rskill=rskill,
+        rskill=f.rskill if f.policy is not None else rskill,  # a checkpoint drives: no rSkill (the DAgger round's)
         fps=f.fps if "fps" in given else scene_fps,
         max_steps=max_steps,
         operator=f.operator if "operator" in given else ("keyboard" if driver.terminal else "auto"),
@@ -70,6 +74,7 @@ def _teleop_scene(f: RecordFlags, given: frozenset[str], driver: DriverChoice) -
 def _record_hal(f: RecordFlags, given: frozenset[str], video: VideoSettings, driver: DriverChoice) -> None:
     """`record --hal ROBOT` (or `--teleop`): the HAL options, then the run (cli/hal.py)."""
     from openral_data.cli.hal import run_hal_record
+    from openral_data.producers.hal.teleop.declare import TakeoverRule
     from openral_data.record.drivers.choice import OWN_CONTRACT, DriverKind
     from openral_data.record.hal import HalRecordOptions, Mode
     from openral_data.record.options import DEFAULT_RSKILL
@@ -85,7 +90,7 @@ def _record_hal(f: RecordFlags, given: frozenset[str], video: VideoSettings, dri
     hal_opts = HalRecordOptions(
         **_outputs(f, video),
         robot=f.hal,
-        rskill=f.rskill or (None if driver.kind in OWN_CONTRACT else DEFAULT_RSKILL),
+        rskill=f.rskill or (None if driver.kind in OWN_CONTRACT or f.policy is not None else DEFAULT_RSKILL),
         mode=cast(Mode, f.mode),  # checked by HalRecordOptions
         fps=f.fps,
         scene=f.scene if "scene" in given else None,
@@ -106,6 +111,8 @@ def _record_hal(f: RecordFlags, given: frozenset[str], video: VideoSettings, dri
         policy=f.policy,
         device=f.device,
         teleop_gain=f.teleop_gain,
+        expert=f.expert,
+        takeover_rule=TakeoverRule(f.takeover_threshold, f.takeover_patience, f.takeover_hold),
         resume=f.resume,
         explicit=frozenset({"format": "formats", "hal": "robot"}.get(name, name) for name in given),
     )

@@ -12,9 +12,11 @@ from openral_data import manifests
 from openral_data.cli.encoder_flags import VCODEC_HELP, CrfFlag, GopFlag, PixFmtFlag, PresetFlag, ThreadsFlag
 from openral_data.cli.jsonout import JsonFlag
 from openral_data.formats.codec import Codec
+from openral_data.producers.hal.teleop.declare import TakeoverRule
 from openral_data.producers.hal.teleop.keys import HELP as TELEOP_KEYS
 from openral_data.viz import DEFAULT_PORT
 
+EXPERT_ONLY = ("expert", "takeover_threshold", "takeover_patience", "takeover_hold")  # `--teleop expert`'s settings
 HAL_ONLY = ("mode", "fps", "operator", "safety", "staleness", "port", "episode_time_s", "reset_time_s", "teleop_gain")
 
 
@@ -63,12 +65,31 @@ class RecordFlags:
         str | None,
         typer.Option(
             help="a person drives: keyboard (the terminal), gamepad[=NODE] or spacemouse[=NODE] (a sim scene's "
-            "end effector), or leader (hardware.teleop); keyboard, gamepad or spacemouse with --rskill: the policy "
-            "drives and t, the gamepad's RB or the SpaceMouse's right button takes over and back (interventions). "
+            "end effector), or leader (hardware.teleop); keyboard, gamepad or spacemouse with --rskill or --policy: "
+            "the policy drives and t, the gamepad's RB or the SpaceMouse's right button takes over and back "
+            "(interventions); expert with --rskill or --policy: the scene's scripted expert takes over by its rule "
+            "(--takeover-threshold/-patience/-hold, the DAgger round). "
             f"Keyboard {TELEOP_KEYS.replace('[/]', '[ and ]')}; space starts an episode, s success, f failure, "
             "d discard, r re-record, q quit"
         ),
     ] = None
+    expert: Annotated[
+        str | None, typer.Option(help="--teleop expert: the rSkill the expert runs (default: the scene's rSkill)")
+    ] = None
+    takeover_threshold: Annotated[
+        float,
+        typer.Option(
+            min=0,
+            help="--teleop expert: the expert takes over when the policy's action departs from its own by more than "
+            "this share of the action's range ...",
+        ),
+    ] = TakeoverRule.threshold
+    takeover_patience: Annotated[int, typer.Option(min=1, help="... on this many ticks in a row (--teleop expert)")] = (
+        TakeoverRule.patience
+    )
+    takeover_hold: Annotated[
+        int, typer.Option(min=1, help="--teleop expert: ticks the expert drives before it hands back")
+    ] = TakeoverRule.hold
     teleop_gain: Annotated[
         float,
         typer.Option(

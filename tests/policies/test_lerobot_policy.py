@@ -21,6 +21,7 @@ from openral_data.types import Observation
 from tests.support.checkpoint import make_act_checkpoint, make_diffusion_checkpoint
 from tests.support.cli import run_cli
 from tests.support.home import isolated_home
+from tests.support.inproc import run_inproc
 from tests.support.replay import record_push
 from tests.support.scenes import write_yaml
 
@@ -112,6 +113,44 @@ def test_a_checkpoint_outside_the_contract_is_refused(
     with pytest.raises(CompatibilityError, match=needle) as info:
         registry.POLICIES["lerobot"](manifest)
     assert "\n" not in str(info.value)
+
+
+def test_record_policy_with_the_expert_taking_over_on_the_cli(
+    mock: tuple[Path, Path], checkpoint: Path, tmp_path: Path
+) -> None:
+    """`record --policy CKPT --teleop expert` (#51): the DAgger round's path from the command line. The checkpoint
+    drives, zero-mock takes over by the rule the options give (threshold 0: the policy always departs; after 2
+    ticks; hands back after 3), the frames it drove are marked, the HAL was commanded its zeros there and the
+    checkpoint's proposals elsewhere, and `openral.policy_action` holds the proposal of every frame."""
+    from openral_data.columns import INTERVENTION, POLICY_ACTION
+    from tests.support.hal import episode_infos, frames_table
+    from tests.support.scenes import mock_scene
+
+    scene = write_yaml(tmp_path / "long.yaml", mock_scene(scene_id="mock_long", success_after=50, n_episodes=1))
+    rule = ("--takeover-threshold", "0", "--takeover-patience", "2", "--takeover-hold", "3")
+    args = ["record", "--scene", str(scene), "--policy", str(checkpoint), "--teleop", "expert", "--expert", "zero-mock"]
+    out = tmp_path / "round"
+    done = run_cli(*args, *rule, "--max-steps", "8", "--out", str(out), "--codec", "h264")
+    assert done.returncode == 0, done.stderr
+    table = frames_table(out)
+    marks = table[INTERVENTION]
+    assert marks == [False, False, True, True, True, False, False, True]
+    proposals = np.asarray(table[POLICY_ACTION])
+    assert proposals.shape == (8, 7) and np.all(np.abs(proposals).sum(axis=1) > 0)
+    (info,) = episode_infos(out)
+    assert info["operator"] == "policy:act+teleop:expert"
+    names = [f"joint{i}" for i in range(1, 7)]  # the HAL's own log of what it was commanded (clamped ones)
+    logged = [e for e in info["hal"]["intervention_log"] if e["name"] in names]
+    assert {marks[e["frame"]] for e in logged} == {True, False}  # both drivers' commands were clamped at least once
+    for entry in logged:
+        want = 0.0 if marks[entry["frame"]] else proposals[entry["frame"], names.index(entry["name"])]
+        assert entry["commanded"] == pytest.approx(want, abs=1e-6), entry
+    refused = run_inproc(*args[:5], *rule[4:], "--out", str(tmp_path / "no"))
+    assert (refused.returncode, refused.stderr.strip()) == (
+        2,
+        "error: --takeover-hold: only with --teleop expert (the scripted expert's settings)",
+    )
+    assert not (tmp_path / "no").exists()
 
 
 def test_nothing_is_downloaded_even_when_the_config_names_imagenet_weights(

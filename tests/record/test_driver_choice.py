@@ -27,7 +27,8 @@ TELEOPS = (
     "spacemouse=/dev/hidraw1",
 )
 BAD_TELEOPS = ("joystick", "gamepad=", "keyboard=/dev/tty", "leader=/dev/ttyACM0")
-POLICY_AND_TELEOP = "--policy: not with --teleop (interventions take an rSkill: --rskill R --teleop D)"
+POLICY_AND_LEADER = "--policy: not with --teleop leader (takeover devices: keyboard, gamepad, spacemouse, expert)"
+POLICY_AND_TELEOP = "--policy: not with --teleop unless the device takes over (takeover=True: an intervention session)"
 LEADER_NEEDS_HAL = "--teleop leader: needs --hal ROBOT_ID (the robot whose manifest names the leader)"
 GIVE_ONE = "--policy, --rskill: give one (a lerobot checkpoint, or an rSkill manifest)"
 
@@ -37,9 +38,10 @@ def _bad_teleop(teleop: str) -> str:
 
 
 def expected(rskill: str | None, policy: str | None, teleop: str | None, hal: bool) -> DriverKind | str:
-    """What `record` did before the choice had a home (cli/record.py, record/hal.py): a kind, or the error."""
-    if policy is not None and teleop is not None:
-        return POLICY_AND_TELEOP
+    """What `record` did before the choice had a home (cli/record.py, record/hal.py): a kind, or the error; and
+    since #51 a checkpoint with a takeover device is an intervention session, as an rSkill with one is."""
+    if policy is not None and teleop == "leader":
+        return POLICY_AND_LEADER
     if teleop == "leader" and not hal:
         return LEADER_NEEDS_HAL
     if teleop in BAD_TELEOPS:
@@ -49,7 +51,7 @@ def expected(rskill: str | None, policy: str | None, teleop: str | None, hal: bo
     if teleop == "leader":
         return K.LEADER
     if teleop is not None:  # a device: with a policy to take over from, an intervention session
-        return K.TAKEOVER if rskill is not None else K.PERSON
+        return K.TAKEOVER if rskill is not None or policy is not None else K.PERSON
     return K.CHECKPOINT if policy is not None else K.RSKILL
 
 
@@ -83,7 +85,7 @@ def test_the_api_says_whether_a_person_takes_over() -> None:
     # the DAgger round (pipeline/dagger_step.py): a checkpoint drives, the scripted expert takes over
     dagger = HalRecordOptions(robot="franka_panda", rskill=None, policy="ckpt", teleop="expert", takeover=True)
     assert dagger.driver.kind is K.TAKEOVER and dagger.driver.device is not None
-    with pytest.raises(UsageError, match=r"^--policy: not with --teleop"):  # unless the API says it takes over
+    with pytest.raises(UsageError, match=r"^--policy: not with --teleop unless"):  # the API says it takes over
         HalRecordOptions(robot="franka_panda", rskill=None, policy="ckpt", teleop="expert")
     with pytest.raises(UsageError, match=r"^interventions: a policy"):
         HalRecordOptions(robot="ur5e", rskill="r", teleop=None, takeover=True)
@@ -92,7 +94,7 @@ def test_the_api_says_whether_a_person_takes_over() -> None:
 @pytest.mark.parametrize(
     ("args", "line"),
     [
-        (("--policy", "ckpt", "--teleop", "keyboard"), POLICY_AND_TELEOP),
+        (("--policy", "ckpt", "--teleop", "leader"), POLICY_AND_LEADER),
         (("--teleop", "leader"), LEADER_NEEDS_HAL),
         (("--hal", "ur5e", "--teleop", "joystick"), _bad_teleop("joystick")),
         (("--hal", "ur5e", "--teleop", "gamepad="), _bad_teleop("gamepad=")),

@@ -186,7 +186,7 @@ def test_policy_with_an_rskill_a_person_or_a_scene_is_one_line(project: Path, tm
     checkpoint = _fake_checkpoint(tmp_path / "ckpt")
     args = ["record", "--hal", ROBOT, "--policy", str(checkpoint), "--out", str(tmp_path / "out")]
     _refused(run_inproc(*args, "--rskill", "sweep-so-arm"), "--policy, --rskill: give one")
-    _refused(run_inproc(*args, "--teleop", "keyboard"), "--policy: not with --teleop")
+    _refused(run_inproc(*args, "--teleop", "leader"), "--policy: not with --teleop leader")
     _refused(run_inproc(*args, "--scene", "tabletop_push"), "--policy: not with --hal --scene")
     no_policy = ["record", "--hal", ROBOT, "--rskill", "sweep-so-arm", "--device", "cpu", "--out", str(tmp_path / "o")]
     _refused(run_inproc(*no_policy), "--device: with --hal only for --policy")

@@ -14,7 +14,8 @@ from openral_data.errors import UsageError
 from openral_data.producers.hal.teleop.declare import TeleopDevice
 from openral_data.producers.hal.teleop.devices import LEADER, find_device
 
-POLICY_AND_TELEOP = "--policy: not with --teleop (interventions take an rSkill: --rskill R --teleop D)"
+POLICY_AND_LEADER = "--policy: not with --teleop leader (takeover devices: keyboard, gamepad, spacemouse, expert)"
+POLICY_AND_TELEOP = "--policy: not with --teleop unless the device takes over (takeover=True: an intervention session)"
 
 
 class DriverKind(StrEnum):
@@ -49,16 +50,20 @@ def choose_driver(
     rskill: str | None, policy: str | None, teleop: str | None, *, hal: bool, takeover: bool | None = None
 ) -> DriverChoice:
     """The driver of a recording. `hal`: a robot is given (`--hal`; a leader arm needs one). `takeover` None: an
-    rSkill with a device that can take over is an intervention session (the CLI); True/False: as said (the API,
-    where a checkpoint (`policy`) may drive one too: the DAgger round, pipeline/dagger_step.py)."""
-    if policy is not None and teleop is not None and takeover is not True:
-        raise UsageError(POLICY_AND_TELEOP)
+    rSkill or a checkpoint (`policy`) with a device that can take over is an intervention session (the CLI:
+    `record --policy CKPT --teleop expert` is the DAgger round, pipeline/dagger_step.py); True/False: as said
+    (the API)."""
+    if policy is not None and teleop is not None:
+        if teleop == LEADER:
+            raise UsageError(POLICY_AND_LEADER)
+        if takeover is False:
+            raise UsageError(POLICY_AND_TELEOP)
     if teleop == LEADER and not hal:
         raise UsageError("--teleop leader: needs --hal ROBOT_ID (the robot whose manifest names the leader)")
     device, node = find_device(teleop) if teleop is not None and teleop != LEADER else (None, None)
     if policy is not None and rskill is not None:
         raise UsageError("--policy, --rskill: give one (a lerobot checkpoint, or an rSkill manifest)")
-    takes_over = rskill is not None and device is not None if takeover is None else takeover
+    takes_over = (rskill is not None or policy is not None) and device is not None if takeover is None else takeover
     if takes_over and ((rskill is None and policy is None) or device is None):
         raise UsageError(
             "interventions: a policy (--rskill) and --teleop keyboard, gamepad[=NODE] or spacemouse[=NODE] "
