@@ -130,7 +130,7 @@ def test_record_policy_with_the_expert_taking_over_on_the_cli(
     rule = ("--takeover-threshold", "0", "--takeover-patience", "2", "--takeover-hold", "3")
     args = ["record", "--scene", str(scene), "--policy", str(checkpoint), "--teleop", "expert", "--expert", "zero-mock"]
     out = tmp_path / "round"
-    done = run_cli(*args, *rule, "--max-steps", "8", "--out", str(out), "--codec", "h264")
+    done = run_inproc(*args, *rule, "--max-steps", "8", "--out", str(out), "--codec", "h264")
     assert done.returncode == 0, done.stderr
     table = frames_table(out)
     marks = table[INTERVENTION]
