@@ -209,3 +209,24 @@ def test_a_still_scene_is_no_frozen_camera_but_a_held_picture_is(clean: tuple[Pa
     spans = {(f["check"], f["subject"], f["start_frame"], f["end_frame"]) for f in got if f["check"] in cameras}
     assert spans and all(s[1] == "observation.images.scene" for s in spans), spans
     assert all(abs(a - 58) <= 1 and b == 71 for _, _, a, b in spans), spans
+
+
+def test_an_encoder_creeping_under_one_count_is_not_a_frozen_reading(
+    clean: tuple[Path, df.Clean], tmp_path: Path
+) -> None:
+    """A joint read by an encoder in counts of 0.02 that slows to under a count per frame holds its reading 14
+    frames while the other joints move, then steps by one count: a slow joint, not `frozen` (before: frozen). The
+    same reading held 14 frames while the joint keeps its speed, then jumping to where it went: `frozen`, there."""
+    _, episode = clean
+    count = 0.02
+    creep = np.r_[[0.0], [0.05] * 19, [0.03, 0.015, 0.005], [0.0008] * 12, [0.005, 0.015, 0.03], [0.05] * 22]
+    slow = episode.copy()
+    slow.state[:, 0] = np.round((np.cumsum(creep) + 0.013) / count) * count
+    got = df.findings(df.write(tmp_path / "slow", [slow])).get(0, [])
+    assert not [f for f in got if f["check"] == "frozen"], got
+    stale = episode.copy()
+    stale.state[:, 0] = np.round((np.arange(N) * 0.05 + 0.013) / count) * count
+    stale.state[20:34, 0] = stale.state[19, 0]
+    got = df.findings(df.write(tmp_path / "stale", [stale])).get(0, [])
+    spans = [(f["subject"], f["start_frame"], f["end_frame"]) for f in got if f["check"] == "frozen"]
+    assert spans == [(f"{STATE}[{episode.state_names[0]}]", 19, 33)], got
