@@ -165,3 +165,68 @@ def test_joint_limits_and_velocities_from_the_robot_manifest(clean: tuple[Path, 
         "joint_limit",
         "joint_velocity",
     }
+
+
+def test_a_still_scene_is_no_frozen_camera_but_a_held_picture_is(clean: tuple[Path, df.Clean], tmp_path: Path) -> None:
+    """A camera whose picture stands still because nothing in its view moves (a block driven out of the
+    picture, slowing at the edge, and back: a person's arm leaving an overhead camera's view) is neither
+    `camera_frozen` nor `camera_stalled`, while the robot and the other camera move; the same camera's picture
+    held for 14 frames while the block moves in view is, at its frames. Before: the still scene was both."""
+    _, episode = clean
+    n, side, block = 80, 48, 12
+    x = np.r_[
+        np.arange(18, 2, -4),
+        np.arange(2, 30, 4),
+        np.arange(30, 10, -4),  # in view, 4 px a frame
+        np.arange(10, 0, -4),
+        np.arange(0, -8, -2),
+        [-9, -10, -11, -12],  # out of the left edge, slowing
+        np.full(16, -12),
+        [-11, -10, -9, -8],
+        np.arange(-6, 2, 2),  # out of view, then back slowly
+        np.arange(2, 30, 4),
+        np.arange(30, 2, -4),
+        np.arange(2, 30, 4),
+        np.arange(30, 0, -4),
+    ]
+    assert len(x) == n
+    background = np.random.default_rng(7).integers(40, 120, (side, side, 3), dtype=np.uint8)
+    scene = np.repeat(background[None], n, axis=0)
+    for k, left in enumerate(x):
+        scene[k, 18 : 18 + block, max(0, left) : max(0, left + block)] = 250
+    other = np.random.default_rng(8).integers(40, 216, (n, side, side, 3), dtype=np.uint8)
+    t = np.arange(n)[:, None] / episode.fps
+    wave = np.sin(2 * np.pi * t / 4.0 + np.array([0.0, 2.1, 4.2])).astype(np.float32)
+    still = replace(
+        episode, state=wave, action=wave * 0.8, time=t[:, 0].astype(np.float64), images={"scene": scene, "other": other}
+    )
+    cameras = ("camera_frozen", "camera_stalled")
+    got = df.findings(df.write(tmp_path / "still", [still]), stride=5).get(0, [])
+    assert not [f for f in got if f["check"] in cameras], got
+    held = still.copy()
+    held.images["scene"][58:72] = held.images["scene"][57]  # the block mid-way across the view, 14 frames
+    got = df.findings(df.write(tmp_path / "held", [held]), stride=5).get(0, [])
+    spans = {(f["check"], f["subject"], f["start_frame"], f["end_frame"]) for f in got if f["check"] in cameras}
+    assert spans and all(s[1] == "observation.images.scene" for s in spans), spans
+    assert all(abs(a - 58) <= 1 and b == 71 for _, _, a, b in spans), spans
+
+
+def test_an_encoder_creeping_under_one_count_is_not_a_frozen_reading(
+    clean: tuple[Path, df.Clean], tmp_path: Path
+) -> None:
+    """A joint read by an encoder in counts of 0.02 that slows to under a count per frame holds its reading 14
+    frames while the other joints move, then steps by one count: a slow joint, not `frozen` (before: frozen). The
+    same reading held 14 frames while the joint keeps its speed, then jumping to where it went: `frozen`, there."""
+    _, episode = clean
+    count = 0.02
+    creep = np.r_[[0.0], [0.05] * 19, [0.03, 0.015, 0.005], [0.0008] * 12, [0.005, 0.015, 0.03], [0.05] * 22]
+    slow = episode.copy()
+    slow.state[:, 0] = np.round((np.cumsum(creep) + 0.013) / count) * count
+    got = df.findings(df.write(tmp_path / "slow", [slow])).get(0, [])
+    assert not [f for f in got if f["check"] == "frozen"], got
+    stale = episode.copy()
+    stale.state[:, 0] = np.round((np.arange(N) * 0.05 + 0.013) / count) * count
+    stale.state[20:34, 0] = stale.state[19, 0]
+    got = df.findings(df.write(tmp_path / "stale", [stale])).get(0, [])
+    spans = [(f["subject"], f["start_frame"], f["end_frame"]) for f in got if f["check"] == "frozen"]
+    assert spans == [(f"{STATE}[{episode.state_names[0]}]", 19, 33)], got

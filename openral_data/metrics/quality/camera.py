@@ -109,6 +109,9 @@ class CameraQuality:
         out: dict[str, list[Span]] = {f: [] for f in edges.EDGED}
         for fault, first, last, near in todo:
             out[fault] += edges.spans(faults, fault, near, first, last)
+        if out["frozen"]:  # a still scene is no frozen camera (`edges.still_scene`)
+            change = edges.frame_changes(full(), luma)
+            out["frozen"] = [s for s in out["frozen"] if not edges.still_scene(change, s)]
         return {f: sorted(set(v)) for f, v in out.items()}
 
     def moved(self, moving: npt.NDArray[np.bool_], stride: int) -> npt.NDArray[np.bool_]:
@@ -175,10 +178,18 @@ def camera_quality(samples_in: Iterable[npt.NDArray[np.uint8]], stride: int, th:
     return CameraQuality(samples, (total / np.float32(len(samples))).astype(np.float32) if samples else None)
 
 
-def stalled(cameras: dict[str, CameraQuality], th: Thresholds, stride: int, length: int) -> list[Finding]:
+def stalled(
+    cameras: dict[str, CameraQuality],
+    th: Thresholds,
+    stride: int,
+    length: int,
+    full: dict[str, edges.Frames] | None = None,
+) -> list[Finding]:
     """`camera_stalled`: a camera whose picture holds still over 2 or more consecutive samples while another
     camera's changes at those samples (one stream stuck while the scene moves), however short the span; placed
-    like `CameraQuality.findings`."""
+    like `CameraQuality.findings`. `full`: each camera's every frame; with it, a run is measured to the frame
+    (`edges.held`): the frames that repeat, a still scene (`edges.still_scene`) or a slow one whose frames do
+    not repeat left out."""
     out: list[Finding] = []
     for key, q in cameras.items():
         others = [o for k, o in cameras.items() if k != key and len(o.samples) == len(q.samples)]
@@ -188,6 +199,13 @@ def stalled(cameras: dict[str, CameraQuality], th: Thresholds, stride: int, leng
         moving = np.array([any(c is not None and c >= th.frozen_diff for c in cs) for cs in changes], dtype=bool)
         mask = np.array([s.frozen for s in q.samples], dtype=bool) & moving
         spans = placed(q.samples, runs(mask, 2), stride, length, True)
+        if spans and full is not None and key in full:
+            change = edges.frame_changes(full[key](), luma)
+            at = [(q.samples[a].frame_index, q.samples[b].frame_index) for a, b in runs(mask, 2)]
+            near = [edges.window("frozen", first, last, stride, len(change)) for first, last in at]
+            spans = sorted(
+                {s for (first, last), w in zip(at, near, strict=True) for s in edges.held(change, w, first, last)}
+            )
         share = float(mask.mean())
         out += span_findings("camera_stalled", key, spans, share, th.frozen_diff, detail="still while others move")
     return out

@@ -26,6 +26,7 @@ from openral_data.formats.parquetfile import read_table
 from openral_data.metrics.quality import breadth, views
 from openral_data.metrics.quality.camera import MEASURES as CAMERA_MEASURES
 from openral_data.metrics.quality.camera import CameraQuality, camera_quality, short_video, stalled
+from openral_data.metrics.quality.edges import Frames
 from openral_data.metrics.quality.episode import FINDINGS, MOVING, Array, Ranges, episode_motion
 from openral_data.metrics.quality.findings import Finding
 from openral_data.metrics.quality.pictures import ImageColumns, picture_cameras
@@ -154,12 +155,15 @@ def episode_cameras(
     firsts: list[int] = []
     found: list[Finding] = []
     seen: dict[str, CameraQuality] = {}
+    fulls: dict[str, Frames] = {}
     length = int(row["length"])
     for key in rgb_cameras(ds):
         frames = UntilEnd(camera_frames(ds, images, row, key, stride))
         q = camera_quality(frames, stride, th)
         held = length if frames.ends is None else frames.ends
-        found += q.findings(key, th, stride, held, moving, partial(all_frames, ds, images, row, key))
+        found += q.findings(
+            key, th, stride, held, moving, fulls.setdefault(key, partial(all_frames, ds, images, row, key))
+        )
         if frames.ends is not None:
             found.append(short_video(key, frames.ends, length))
         seen[key] = q
@@ -171,7 +175,7 @@ def episode_cameras(
             firsts.append(first)
         records = [{"episode_index": int(row["episode_index"]), "camera": key, **asdict(s)} for s in q.samples]
         samples(pa.Table.from_pylist(records, schema=SAMPLE_SCHEMA))
-    found += stalled(seen, th, stride, length)
+    found += stalled(seen, th, stride, length, fulls)
     measures = {
         **{f"camera_{m}_fraction": v for m, v in worst.items()},
         "camera_first_black": min(firsts, default=None),

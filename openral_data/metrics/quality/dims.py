@@ -58,7 +58,8 @@ def frozen_state(
     (`commands`: state dim -> that action column), else, without one, another state dimension did. Held on a
     flat top or bottom (entered and left from the same side) for `lengths[0]` frames or more, inside the range:
     `clipped` (a limit the dataset's extremes do not show); else held `lengths[1]` frames or more by a dimension
-    that normally changes every frame (held on at most `USUAL_HELD` of its other frames): `frozen`. A sensor read
+    that normally changes every frame (held on at most `USUAL_HELD` of its other frames) and moving on from it by
+    more than a count or two of its resolution (`caught_up`): `frozen`. A sensor read
     by physics or an encoder never repeats itself bit for bit while the arm moves: a stale reading does; a hand
     dimension a person leaves still while the arm moves repeats itself most of the time. A value held on the
     dimension's observed min or max is a limit (`clipped` when a flat top, `at_extremes`), not a stale reading."""
@@ -80,7 +81,7 @@ def frozen_state(
             if flat_extreme(x[:, d], a, b):
                 if b - a + 1 >= clip_min:
                     spans["clipped"].append((a, b))
-            elif b - a + 1 >= min_frames and usually_changes(hold[:, d], a, b):
+            elif b - a + 1 >= min_frames and usually_changes(hold[:, d], a, b) and caught_up(x[:, d], b):
                 spans["frozen"].append((a, b))
         subject = dim_subject(feature, names[d])
         for check, found in spans.items():
@@ -88,6 +89,21 @@ def frozen_state(
             limit, detail = (min_frames, "held while moving") if check == "frozen" else (clip_min, "flat top")
             out += span_findings(check, subject, found, longest, float(limit), detail=detail)
     return out
+
+
+COUNTS = 2.5  # `frozen`: a held reading that moves on by at most this many of the dimension's smallest steps
+
+
+def caught_up(column: Array, b: int) -> bool:
+    """Whether a reading held up to frame `b` moves on by more than `COUNTS` of the dimension's resolution (its
+    smallest nonzero step in the episode): a stale reading, when it updates, jumps to where the joint went; an
+    encoder's reading of a joint moving slower than one count per frame holds, then steps by a count or two. Held
+    to the episode's end: nothing says which, stale."""
+    if b + 1 >= len(column):
+        return True
+    steps = np.abs(np.diff(column))
+    steps = steps[np.isfinite(steps) & (steps > 0)]
+    return not len(steps) or bool(abs(column[b + 1] - column[b]) > COUNTS * float(steps.min()))
 
 
 def usually_changes(column: Mask, a: int, b: int) -> bool:

@@ -71,3 +71,54 @@ def spans(faults: dict[int, tuple[bool, bool]], fault: str, near: range, first: 
     found = runs(mask, 2 if fault == "frozen" else 1)
     lo = near.start
     return [(lo + a, lo + b) for a, b in found if lo + b >= first - 1 and lo + a <= last + 1]
+
+
+STILL_SCENE = 0.5  # `still_scene`: the change around a still span, against the camera's typical frame-to-frame change
+AROUND = (
+    2  # ... over this many frames before and after the span (a held picture's jump lands in the first or, the codec
+)
+# spending one frame on it, the second)
+
+
+def frame_changes(frames: Iterator[npt.NDArray[np.uint8]], luma: Callable[[npt.NDArray[np.uint8]], Gray]) -> Gray:
+    """Every frame's mean absolute luma difference to the previous frame (NaN for the first); `luma`:
+    `camera.luma`. Measured only for a camera with a still span to judge (`still_scene`)."""
+    out: list[float] = []
+    prev: Gray | None = None
+    for rgb in frames:
+        gray = luma(rgb)
+        out.append(float("nan") if prev is None else float(np.abs(gray - prev).mean()))
+        prev = gray
+    return np.array(out, dtype=np.float32)
+
+
+def still_scene(change: Gray, span: Span) -> bool:
+    """Whether the repeating frames `span` are a still scene rather than a held picture: the camera's change
+    (`frame_changes`) fades into the span and grows out of it, under `STILL_SCENE` times its typical change
+    (the median over its frames that do not repeat) in each of the `AROUND` frames before and after. A held
+    picture starts where the live picture was changing as usual, and when it lets go the picture jumps to where
+    the scene went meanwhile; a scene nothing in view moves (an arm driven out of an overhead camera's view
+    and back) goes still and comes back at the edge of its view, changing little. A span at either end of the
+    episode has nothing to judge it by: held. The span is judged whole (as far as its frames repeat)."""
+    a, b = span
+    repeats = np.nan_to_num(change, nan=np.inf) < REPEAT
+    while a > 0 and repeats[a - 1]:
+        a -= 1
+    while b + 1 < len(change) and repeats[b + 1]:
+        b += 1
+    if a - AROUND < 1 or b + AROUND >= len(change):
+        return False
+    live = change[np.isfinite(change) & (change >= REPEAT)]
+    if not len(live):
+        return False
+    around = np.concatenate([change[a - AROUND : a], change[b + 1 : b + 1 + AROUND]])
+    return bool(np.nanmax(around) < STILL_SCENE * float(np.median(live)))
+
+
+def held(change: Gray, near: range, first: int, last: int) -> list[Span]:
+    """The runs of at least two repeating frames (`change` under `REPEAT`) in window `near` that reach the
+    samples' run `first`..`last`, still scenes (`still_scene`) left out."""
+    part = np.nan_to_num(change[near.start : near.stop], nan=np.inf) < REPEAT
+    lo = near.start
+    found = [(lo + a, lo + b) for a, b in runs(part, 2) if lo + b >= first - 1 and lo + a <= last + 1]
+    return [s for s in found if not still_scene(change, s)]
