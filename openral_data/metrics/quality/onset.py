@@ -24,9 +24,9 @@ from openral_data.metrics.quality.edges import REPEAT
 from openral_data.metrics.quality.findings import Finding
 
 Frames = Callable[[], Iterator[npt.NDArray[np.uint8]]]  # the episode's frames of one camera, all, as RGB
-LAG_MIN = 2  # frames: a camera starting this many frames or more after the state is out of step (in step: 0-1)
+LAG_MIN = 2  # frames: a camera starting this many frames or more after the scene is out of step (in step: 0-1)
 LAG_MAX = 8  # ... and at most this many: a longer still start while the arm moves is a frozen camera's
-IN_STEP = 1  # the other cameras must start within this many frames of the state (a codec's copy: 1)
+IN_STEP = 1  # the other cameras must start within this many frames of the scene (a codec's copy: 1)
 START_MAX = 30  # the arm must start moving by this frame (no long decode for an idle head)
 
 
