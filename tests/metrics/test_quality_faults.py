@@ -230,3 +230,27 @@ def test_an_encoder_creeping_under_one_count_is_not_a_frozen_reading(
     got = df.findings(df.write(tmp_path / "stale", [stale])).get(0, [])
     spans = [(f["subject"], f["start_frame"], f["end_frame"]) for f in got if f["check"] == "frozen"]
     assert spans == [(f"{STATE}[{episode.state_names[0]}]", 19, 33)], got
+def test_a_camera_out_of_step_with_the_state_and_the_others_is_found(
+    clean: tuple[Path, df.Clean], tmp_path: Path
+) -> None:
+    """Two cameras filming the arm (a pattern that moves with the state), the arm still for its first 6 frames:
+    written in step, nothing; the wrist camera's frames paired 4 rows late, `camera_lag` on the wrist camera over
+    the whole episode, 4 frames behind, and nothing on the front camera."""
+    _, episode = clean
+    state = episode.state.copy()
+    state[:6] = state[6]
+    yy, xx = np.mgrid[0:32, 0:32].astype(np.float32)
+
+    def film(s: np.ndarray, fx: float) -> np.ndarray:
+        luma = 128 + 60 * np.sin(fx * xx[None] + 3 * s[:, :1, None]) + 40 * np.cos(0.3 * yy[None] + 3 * s[:, 1:2, None])
+        return np.repeat(np.clip(luma, 0, 255).astype(np.uint8)[..., None], 3, axis=3)
+
+    images = {"front": film(state, 0.4), "wrist": film(state, 0.7)}
+    in_step = replace(episode, state=state, images=images)
+    lagged = replace(in_step, images={**images, "wrist": images["wrist"][np.maximum(np.arange(N) - 4, 0)]})
+    got = df.findings(df.write(tmp_path / "lag", [in_step, lagged]), stride=5)
+    lags = {e: [f for f in fs if f["check"] == "camera_lag"] for e, fs in got.items()}
+    assert not lags.get(0), got.get(0)
+    [found] = lags[1]
+    assert found["subject"] == "observation.images.wrist" and found["value"] == 4.0, found
+    assert (found["start_frame"], found["end_frame"]) == (0, N - 1), found

@@ -78,7 +78,7 @@ EXPECTED: dict[str, tuple[str, ...]] = {
     "clipping": ("clipped",),
     "nan": ("non_finite",),
     "teleport": ("teleport",),
-    "camera_lag": ("camera_lag",),  # no check yet (docs/stats.md, "Calibration")
+    "camera_lag": ("camera_lag",),
     "upside_down": ("camera_flipped",),
 }
 CAMERA_KINDS = ("frozen_camera", "black_camera", "blur", "camera_lag", "upside_down")

@@ -23,7 +23,7 @@ from openral_data.formats.lerobot_v3.features import ACTION, STATE
 from openral_data.formats.lerobot_v3.frames import decode_episode_video, depth_settings
 from openral_data.formats.lerobot_v3.reader import read_episodes
 from openral_data.formats.parquetfile import read_table
-from openral_data.metrics.quality import breadth, views
+from openral_data.metrics.quality import breadth, onset, views
 from openral_data.metrics.quality.camera import MEASURES as CAMERA_MEASURES
 from openral_data.metrics.quality.camera import CameraQuality, camera_quality, short_video, stalled
 from openral_data.metrics.quality.edges import Frames
@@ -176,6 +176,7 @@ def episode_cameras(
         records = [{"episode_index": int(row["episode_index"]), "camera": key, **asdict(s)} for s in q.samples]
         samples(pa.Table.from_pylist(records, schema=SAMPLE_SCHEMA))
     found += stalled(seen, th, stride, length, fulls)
+    found += onset.camera_lags({k: partial(all_frames, ds, images, row, k) for k in seen}, moving, length)
     measures = {
         **{f"camera_{m}_fraction": v for m, v in worst.items()},
         "camera_first_black": min(firsts, default=None),

@@ -58,7 +58,7 @@ SAMPLE_SCHEMA = pa.schema(
 FLAGS = (
     *("idle", "frozen", "jerky", "chatter", "clipped", "jitter", "gap"),
     *(f"camera_{m}" for m in CAMERA_MEASURES),
-    *("camera_stalled", "video_frames"),
+    *("camera_stalled", "video_frames", "camera_lag"),
     *("non_finite", "quat_flip", "quat_norm", "angle_wrap", "teleport", "duplicated"),
     *("frame_drop", "repeated_rows", "degrees", "action_swap", "action_lag", "camera_flipped"),
     *("task_text", "duplicate_episode", "length_outlier"),
