@@ -230,6 +230,8 @@ def test_an_encoder_creeping_under_one_count_is_not_a_frozen_reading(
     got = df.findings(df.write(tmp_path / "stale", [stale])).get(0, [])
     spans = [(f["subject"], f["start_frame"], f["end_frame"]) for f in got if f["check"] == "frozen"]
     assert spans == [(f"{STATE}[{episode.state_names[0]}]", 19, 33)], got
+
+
 def test_a_camera_out_of_step_with_the_state_and_the_others_is_found(
     clean: tuple[Path, df.Clean], tmp_path: Path
 ) -> None:
