@@ -12,8 +12,11 @@ last, until `--cpu-minutes` of the trainer processes' CPU time or `--steps`, the
 `record --policy` on `--eval` seeds from 100000 (never recorded as demos) and prints the success rate with its
 Wilson 95 % interval. One JSON line per row is appended to `--results`.
 
-    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_trainability.py --work /tmp/trainability --state-only \
+    .venv/bin/python benchmarks/bench_trainability.py --work /tmp/trainability --state-only \
         --demos 100 --eval 50 --steps 6000 --block 2000 --batch-size 32 [--defect quaternion_flip]
+
+lerobot-train runs with `--threads` (1) torch threads: with torch's default (one per core) its OpenMP threads
+spin-wait for each other on a busy machine, a camera step's update costing 5.1 CPU-s instead of 0.72.
 
 Results and what was (not) measured: benchmarks/README.md "Trainability".
 """
@@ -145,7 +148,7 @@ def train(dataset: Path, run: Path, a: argparse.Namespace) -> tuple[Path, int, f
             n_encoder_layers=a.layers,
             lr=a.lr,
         )
-        checkpoint, _ = train_policy(dataset, run / "run", settings)
+        checkpoint, _ = train_policy(dataset, run / "run", settings, a.threads)
         print(f"step {steps}: {spent + cpu() - start:.0f} CPU-s", flush=True)
         (run / "cpu.json").write_text(json.dumps({"cpu_s": spent + cpu() - start, "steps": steps}))
     return checkpoint, done_steps(run / "run"), spent + cpu() - start
@@ -186,6 +189,7 @@ def main() -> None:
     p.add_argument("--n-action-steps", type=int, default=1, help="actions executed per query (1: closed loop)")
     p.add_argument("--temporal-ensemble", type=float, default=None, help="ACT's coefficient (needs n-action-steps 1)")
     p.add_argument("--state-only", action="store_true", help="ACT on state + cube/goal poses, no camera")
+    p.add_argument("--threads", type=int, default=1, help="torch's CPU threads in lerobot-train (trainer.threads_env)")
     p.add_argument("--seed", type=int, default=1000)
     p.add_argument("--max-steps", type=int, default=120, help="per evaluation episode (the expert needs ~45)")
     p.add_argument("--results", type=Path, default=None)
@@ -213,7 +217,7 @@ def main() -> None:
     row = {
         "task": "tabletop_push (franka_panda)", "inputs": "state + cube/goal poses" if a.state_only else
         "state + front 64x64", "policy": "act", "dim_model": a.dim_model, "layers": a.layers, "lr": a.lr,
-        "defect": name, "demos": a.demos, "steps": steps, "batch_size": a.batch_size,
+        "threads": a.threads, "defect": name, "demos": a.demos, "steps": steps, "batch_size": a.batch_size,
         "train_cpu_minutes": round(cpu_s / 60, 1), "eval_seeds": f"{EVAL_SEED}..{EVAL_SEED + n - 1}",
         "eval_max_steps": a.max_steps, "successes": k, "episodes": n,
         "wilson_low": round(ci.low, 3), "wilson_high": round(ci.high, 3),

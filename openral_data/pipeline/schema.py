@@ -213,6 +213,7 @@ class TrainStep(StrictModel):
     dim_feedforward: int | None = Field(default=None, ge=8, le=32768)  # None: 4 * dim_model
     n_encoder_layers: int = Field(default=4, ge=1, le=64)
     lr: float = Field(default=1e-4, gt=0, le=1)
+    threads: int | None = Field(default=None, ge=1, le=256)  # torch's CPU threads; None: one per core
 
     @model_validator(mode="after")
     def _chunk(self) -> TrainStep:

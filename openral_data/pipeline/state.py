@@ -30,7 +30,7 @@ from openral_data.pipeline.schema import ENCODER_FIELDS, Step
 from openral_data.runtime.parallel.workdir import workers_dirs
 
 LATER_KINDS = ("train", "filter", "evaluate", "dagger")  # step kinds added after the first six
-LATER_FIELDS = {"merge": ("common",), "filter": ("drop",)}  # settings a step kind gained later
+LATER_FIELDS = {"merge": ("common",), "filter": ("drop",), "train": ("threads",)}  # settings a step kind gained later
 
 
 def config_hash(step: Step, folder: Path | None = None) -> str:

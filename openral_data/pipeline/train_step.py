@@ -76,13 +76,14 @@ def train_item(spec: TrainStep, name: str, dataset: Path, out: Path) -> dict[str
     if not (work / RUN_FILE).is_file():
         work.mkdir(parents=True, exist_ok=True)
         write_bytes(work / RUN_FILE, json.dumps(started, indent=2).encode())
-    checkpoint, resumed = train_policy(dataset, work / RUN_DIR, settings)
+    checkpoint, resumed = train_policy(dataset, work / RUN_DIR, settings, spec.threads)
     out.mkdir(parents=True, exist_ok=True)
     shutil.copytree(checkpoint, out / "pretrained_model")
     provenance = {
         "dataset": str(dataset),
         "dataset_digest": digest,
         "settings": asdict(settings),
+        "threads": spec.threads,
         "steps": settings.steps,
         "resumed": resumed,
         "training_folder": str(work),

@@ -14,6 +14,12 @@ Offline, per policy type (`POLICY_TYPES`): ACT's ResNet-18 backbone is built wit
 (`--policy.pretrained_backbone_weights=null`); ACT needs a camera or `observation.environment_state` (a
 state-only ACT on object poses has no backbone at all). Diffusion needs the `diffusers` package (not installed);
 pi0, pi0.5, SmolVLA, GR00T and X-VLA start from pretrained Hub weights; none of them is offered.
+
+Threads (`threads_env`): torch's OpenMP threads busy-wait for each other between operations, and on a busy
+machine a descheduled thread leaves the others spinning: a 64x64-camera ACT step (batch 32) cost 5.1 CPU-s of
+update with torch's default two threads on the loaded 2-core machine against 0.72 with one (benchmarks/README.md
+"Trainability"). `lerobot-train` therefore runs with `OMP_WAIT_POLICY=PASSIVE` (waiting threads sleep: 0.83 CPU-s
+with two) unless the environment sets it, and `threads` sets `OMP_NUM_THREADS` / `MKL_NUM_THREADS`.
 """
 
 from __future__ import annotations
@@ -112,9 +118,11 @@ def resume_args(run: Path, steps: int) -> list[str]:
     return ["--resume=true", f"--config_path={config}", f"--output_dir={run}", f"--steps={steps}"]
 
 
-def train_policy(dataset: Path, run: Path, s: TrainSettings) -> tuple[Path, bool]:
-    """`lerobot-train` to `s.steps` in `run`, resuming from its last checkpoint; (the final `pretrained_model`,
-    whether it resumed). A failure is one line naming the dataset and lerobot's own reason."""
+def train_policy(dataset: Path, run: Path, s: TrainSettings, threads: int | None = None) -> tuple[Path, bool]:
+    """`lerobot-train` to `s.steps` in `run`, resuming from its last checkpoint, with `threads` torch threads
+    (None: torch's default, one per core); (the final `pretrained_model`, whether it resumed). A failure is one
+    line naming the dataset and lerobot's own reason. `threads` is not a setting of the run (a resumed run may
+    use another count: the same training)."""
     if s.policy not in POLICY_TYPES:
         raise ConfigError(f"train.policy: {s.policy!r}: offline training offers {', '.join(POLICY_TYPES)}")
     resumed = last_checkpoint(run) is not None
@@ -130,7 +138,7 @@ def train_policy(dataset: Path, run: Path, s: TrainSettings) -> tuple[Path, bool
             [sys.executable, "-m", MODULE, *args],
             stdout=out,
             stderr=subprocess.STDOUT,
-            env=_offline(),
+            env={**_offline(), **threads_env(threads)},
             check=False,
             preexec_fn=_die_with_parent if sys.platform == "linux" else None,
         )
@@ -148,6 +156,15 @@ def _die_with_parent() -> None:
     import signal
 
     ctypes.CDLL(None).prctl(1, signal.SIGKILL)
+
+
+def threads_env(threads: int | None) -> dict[str, str]:
+    """The environment torch's CPU threads follow: waiting threads sleep (`OMP_WAIT_POLICY=PASSIVE`, unless the
+    environment says otherwise) and, when `threads` is given, that many of them."""
+    env = {"OMP_WAIT_POLICY": os.environ.get("OMP_WAIT_POLICY", "PASSIVE")}
+    if threads is not None:
+        env |= {"OMP_NUM_THREADS": str(threads), "MKL_NUM_THREADS": str(threads)}
+    return env
 
 
 def _offline() -> dict[str, str]:

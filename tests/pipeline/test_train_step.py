@@ -19,8 +19,10 @@ import yaml
 from safetensors.numpy import load_file
 
 from openral_data.errors import ConfigError
-from openral_data.pipeline.schema import load_pipeline
+from openral_data.pipeline.schema import Step, load_pipeline
+from openral_data.pipeline.state import config_hash
 from openral_data.pipeline.train_step import dataset_digest
+from openral_data.pipeline.trainer import threads_env
 from tests.support.cli import run_cli
 from tests.support.home import REPO
 from tests.support.lerobot_written import loaded_episodes
@@ -31,7 +33,7 @@ pytestmark = TIMED
 
 REC = {"scenes": ["mock_pick"], "rskills": ["random-mock"], "seeds": {"count": 2}, "max_steps": 12, "codec": "h264"}
 TRAIN = {"dataset": "rec", "steps": 6, "batch_size": 2, "save_freq": 2, "chunk_size": 5, "dim_model": 32,
-         "n_encoder_layers": 1}  # fmt: skip
+         "n_encoder_layers": 1, "threads": 1}  # fmt: skip
 EVAL = {"policy": "policy", "scene": "mock_pick", "seeds": {"start": 100, "count": 2}, "max_steps": 6}
 
 
@@ -68,7 +70,8 @@ def test_train_step_killed_resumes_and_its_checkpoint_drives_replay_and_record(p
     item = workdir / "policy" / "mock_pick--random-mock"
     prov = json.loads((item / "provenance.json").read_text())
     dataset = workdir / "rec" / "mock_pick--random-mock"
-    assert prov["resumed"] is True and prov["steps"] == 6 and "lerobot.scripts.lerobot_train" in prov["trainer"]
+    assert prov["resumed"] is True and prov["steps"] == 6 and prov["threads"] == 1
+    assert "lerobot.scripts.lerobot_train" in prov["trainer"]
     assert prov["dataset_digest"] == dataset_digest(dataset) and prov["versions"]["lerobot"] == "0.6.1"
     assert prov["lerobot_train_config"]["policy"]["pretrained_backbone_weights"] is None  # nothing downloaded
     assert _step(run / "checkpoints" / "last") == 6
@@ -139,6 +142,24 @@ def test_train_yaml_takes_numbers_not_code_or_paths(tmp_path: Path, train: dict[
                                                                  {"id": "policy", "train": train}]})  # fmt: skip
     with pytest.raises(ConfigError, match=message):
         load_pipeline(spec)
+
+
+def test_train_threads_reach_torch_and_waiting_threads_sleep(monkeypatch: pytest.MonkeyPatch) -> None:
+    # on a busy machine torch's OpenMP threads spin-waiting for a descheduled one cost a 64x64-camera ACT step
+    # 5.1 CPU-s instead of 0.72 (benchmarks/README.md "Trainability"): lerobot-train's torch runs the step's
+    # `threads`, its waiting threads sleeping; a step written before `threads` existed keeps its hash
+    step = Step.model_validate({"id": "p", "train": {"dataset": "rec", "steps": 6, "threads": 1}})
+    assert step.train is not None and step.train.threads == 1
+    assert config_hash(Step.model_validate({"id": "p", "train": {"dataset": "rec", "steps": 6}})) == "05e63e21eb86cd06"
+    monkeypatch.delenv("OMP_WAIT_POLICY", raising=False)
+    monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
+    probe = "import os, torch; print(torch.get_num_threads(), os.environ['OMP_WAIT_POLICY'])"
+    run = subprocess.run([sys.executable, "-c", probe], env={**os.environ, **threads_env(1)}, check=True,
+                         capture_output=True, text=True)  # fmt: skip
+    assert run.stdout.split() == ["1", "PASSIVE"]
+    assert threads_env(None) == {"OMP_WAIT_POLICY": "PASSIVE"}  # torch's own count (one per core)
+    monkeypatch.setenv("OMP_WAIT_POLICY", "ACTIVE")  # the user's choice wins
+    assert threads_env(None) == {"OMP_WAIT_POLICY": "ACTIVE"}
 
 
 def test_training_a_dataset_lerobot_refuses_is_one_line(project: Path, tmp_path: Path) -> None:
