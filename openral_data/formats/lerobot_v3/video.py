@@ -19,6 +19,7 @@ from __future__ import annotations
 import contextlib
 import os
 import queue
+import sys
 import threading
 import time
 from dataclasses import dataclass, field
@@ -48,6 +49,10 @@ class EncodedEpisode:
 
 
 ENCODE_DELAY_ENV = "OPENRAL_TEST_ENCODE_DELAY_S"  # the test hook (module docstring)
+# a real-time recording's encoder threads run this much nicer than the process (`yield_to_the_loop`): the nicest
+# (19) measured 118-160 loop overruns in 600 ticks against 233-237 at the process's own priority (bench_capture.py,
+# 3 cameras h264, interleaved; benchmarks/README.md)
+ENCODER_NICE = 19
 CAPTURE = "capture"  # openral.episode_info's key of a spilling recording's per-camera `EncoderLag`
 
 
@@ -227,6 +232,8 @@ class EncoderWorker:
 
     # -- encoder thread ------------------------------------------------------------------------------
     def _run(self) -> None:
+        if self.spill:
+            yield_to_the_loop()
         while True:
             item = self._q.get()
             if item is _STOP:
@@ -309,6 +316,20 @@ class EncoderWorker:
                 job.spill_dir.rmdir()  # empty once every spilled frame was read back
             job.done.set()
         return end
+
+
+def yield_to_the_loop() -> None:
+    """Make this thread ENCODER_NICE nicer than it is (Linux, where a thread has its own nice value and the threads
+    it starts inherit it: the codec's own, x264's and SVT-AV1's, started when its first frame opens the codec).
+
+    A real-time recording's encoders are the one load that may fall behind (their frames spill to disk and are
+    encoded later, nothing lost); the control loop and the cameras' capture threads may not. When the cores are
+    short, the scheduler then runs those first instead of sharing the cores out evenly among every thread."""
+    if sys.platform != "linux":
+        return
+    tid = threading.get_native_id()
+    with contextlib.suppress(OSError):
+        os.setpriority(os.PRIO_PROCESS, tid, min(19, os.getpriority(os.PRIO_PROCESS, tid) + ENCODER_NICE))
 
 
 def probe_frames(path: Path) -> int:

@@ -6,6 +6,8 @@ import errno
 import json
 import logging
 import os
+import sys
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -409,3 +411,29 @@ def test_a_slow_encoder_spills_and_keeps_every_frame_in_order(tmp_path: Path, mo
     assert 0 < spilled[0] <= lengths[0] - 2, spilled  # (the queue is shared: a later episode may spill every frame)
     assert infos[0]["capture"]["cam"]["encoder_lag_s"] >= delay * spilled[0] / 2
     assert not [p for p in root.rglob("*") if "spill" in p.name or p.name.endswith(".tmp")]
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="a thread's own nice value is Linux's")
+def test_a_real_time_recordings_encoders_give_way_to_the_loop(tmp_path: Path) -> None:
+    """A spilling (real-time) worker's encoder thread runs ENCODER_NICE nicer than the process, so the control loop
+    and the capture threads get the cores first; a waiting (converting) worker keeps the process's priority. Both
+    encode every frame."""
+    from openral_data.formats.lerobot_v3.video import ENCODER_NICE, EncoderWorker, probe_frames
+
+    base = os.getpriority(os.PRIO_PROCESS, 0)
+    workers = {
+        spill: EncoderWorker(f"nice-{spill}", VideoSettings(codec="h264"), fps=10, queue_size=2, spill=spill)
+        for spill in (True, False)
+    }
+    try:
+        for spill, worker in workers.items():
+            worker.begin(tmp_path / f"{spill}.mp4", 32, 32)
+            for _ in range(4):
+                worker.put(np.full((32, 32, 3), 90, np.uint8))
+            assert worker.finish().frames == 4 and probe_frames(tmp_path / f"{spill}.mp4") == 4
+        tids = {t.name: t.native_id for t in threading.enumerate()}
+        nice = {spill: os.getpriority(os.PRIO_PROCESS, tids[f"encoder-nice-{spill}"] or 0) for spill in workers}
+    finally:
+        for worker in workers.values():
+            worker.close()
+    assert nice == {True: min(19, base + ENCODER_NICE), False: base}
