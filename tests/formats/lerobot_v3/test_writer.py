@@ -456,7 +456,7 @@ def test_spilled_frames_are_written_off_the_producers_thread_and_encoded_in_orde
         writers.append(threading.current_thread().name)
         save(fh, frame, allow_pickle=allow_pickle)
 
-    monkeypatch.setattr(video.np, "save", recorded_save)
+    monkeypatch.setattr(np, "save", recorded_save)
     monkeypatch.setenv(video.ENCODE_DELAY_ENV, "0.03")
     worker = video.EncoderWorker("cam", VideoSettings(codec="h264"), fps=10, queue_size=2, spill=True)
     try:
