@@ -3,9 +3,11 @@
 Workload (one session per codec and N, each in a fresh process so its CPU time and peak RSS are its own):
 
 * the SO-101 follower on a SIMULATED Feetech bus (tests/support/feetech_bus.py: a pty speaking the servo
-  protocol), driven by the `sweep-so-arm` rSkill through `record_hal` (`--mode real`), one episode of
-  `--seconds` seconds at `--fps` (the real fixed-rate loop, safety filter, bridge and LeRobot v3 writer, which
-  spills frames to disk when an encoder falls behind);
+  protocol) served by its own process, as a real arm's servos answer from their own hardware (a thread of the
+  recorder's process, the simulation would compete with the loop for the GIL; its CPU is not counted), driven
+  by the `sweep-so-arm` rSkill through `record_hal` (`--mode real`), one episode of `--seconds` seconds at
+  `--fps` (the real fixed-rate loop, safety filter, bridge and LeRobot v3 writer, which spills frames to disk
+  when an encoder falls behind);
 * N cameras, each lerobot 0.6.1's `OpenCVCamera` (opencv-python-headless) reading a named pipe into which a
   separate feeder process writes a live stream: lossless NUT (rawvideo bgr24, what tests/producers/
   test_opencv_camera.py feeds) at 640x480, paced at 30 frames a second (a moving bar over noise, so encoders
@@ -40,6 +42,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -96,6 +99,46 @@ def feed(pipe: str, seconds: float, seed: int) -> None:
                 time.sleep(wait)
 
 
+# -- the simulated servo bus (its own process) --------------------------------------------------------------
+def serve_bus() -> None:
+    """Be the simulated SO-101 bus: print its port, serve it until stdin closes (the session ended)."""
+    from tests.support.feetech_bus import SimulatedFeetechBus
+
+    with SimulatedFeetechBus(list(range(1, 7))) as bus:
+        print(bus.port, flush=True)
+        sys.stdin.read()
+
+
+@contextlib.contextmanager
+def bus_process() -> Iterator[str]:
+    """A `serve_bus` process; its port. The SDK's packet timeout gets the simulated bus's patience in this process
+    (tests/support/pty_device.py: a late simulated reply is not a missing servo)."""
+    from scservo_sdk.port_handler import PortHandler
+
+    from tests.support.pty_device import patient_is_packet_timeout
+
+    proc = subprocess.Popen(
+        [sys.executable, __file__, "--bus"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
+    )
+    original = PortHandler.isPacketTimeout
+    try:
+        assert proc.stdout is not None and proc.stdin is not None
+        port = proc.stdout.readline().strip()
+        if not port:
+            raise RuntimeError("the simulated bus did not start")
+        PortHandler.isPacketTimeout = patient_is_packet_timeout
+        yield port
+    finally:
+        PortHandler.isPacketTimeout = original
+        if proc.stdin is not None:
+            proc.stdin.close()
+        try:
+            proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
 # -- one session (its own process) ------------------------------------------------------------------------
 def with_cameras(manifest: Path, pipes: list[str]) -> None:
     import yaml
@@ -112,7 +155,7 @@ def with_cameras(manifest: Path, pipes: list[str]) -> None:
 def session(codec: str, cameras: int, seconds: float, fps: int, work: Path, recorder: str) -> dict[str, Any]:
     """Record one episode of `seconds` with `cameras` live sources (`recorder`: ours, lerobot or
     lerobot-streaming); the measurements."""
-    from tests.support.feetech_bus import SimulatedFeetechBus, write_so_calibration
+    from tests.support.feetech_bus import write_so_calibration
     from tests.support.home import isolated_home
 
     pipes = []
@@ -126,17 +169,17 @@ def session(codec: str, cameras: int, seconds: float, fps: int, work: Path, reco
     ]
     out = work / "ds"
     try:
-        with isolated_home(work) as home, SimulatedFeetechBus(list(range(1, 7))) as bus:
+        with isolated_home(work) as home, bus_process() as port:
             manifest = home / "robots" / "so101_follower" / "robot.yaml"
             write_so_calibration(manifest.parent / "calibration" / "so101_follower.json")
             if recorder != "ours":
                 from capture_lerobot import lerobot_session
 
-                got = lerobot_session(pipes, bus.port, manifest.parent / "calibration", seconds, fps, out, codec,
+                got = lerobot_session(pipes, port, manifest.parent / "calibration", seconds, fps, out, codec,
                                       recorder == "lerobot-streaming")  # fmt: skip
                 return anchor_row(got, recorder, codec, cameras, seconds)
             with_cameras(manifest, pipes)
-            return ours(manifest, bus.port, codec, cameras, seconds, fps, out)
+            return ours(manifest, port, codec, cameras, seconds, fps, out)
     finally:
         for f in feeders:
             f.kill()
@@ -284,12 +327,16 @@ def main() -> None:
     )
     ap.add_argument("--recorder", default="ours", help=argparse.SUPPRESS)  # internal: --one's recorder
     ap.add_argument("--feed", help=argparse.SUPPRESS)  # internal: be a feeder process
+    ap.add_argument("--bus", action="store_true", help=argparse.SUPPRESS)  # internal: be the simulated bus
     ap.add_argument("--seed", type=int, default=0, help=argparse.SUPPRESS)
     ap.add_argument("--one", help=argparse.SUPPRESS)  # internal: run one session in this process
     ap.add_argument("--work", type=Path, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.feed:
         feed(args.feed, args.seconds, args.seed)
+        return
+    if args.bus:
+        serve_bus()
         return
     if args.one:
         print(json.dumps(session(args.one, int(args.cameras), args.seconds, args.fps, args.work, args.recorder)))

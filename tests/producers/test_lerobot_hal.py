@@ -20,7 +20,7 @@ import yaml
 
 from openral_data.errors import ConfigError, HalError
 from openral_data.record.hal import HalRecordOptions, record_hal
-from tests.support.feetech_bus import SimulatedFeetechBus, write_so_calibration
+from tests.support.feetech_bus import SimulatedFeetechBus, calibrated_so_project, write_so_calibration
 from tests.support.hal import episode_infos, frames_table
 from tests.support.inproc import run_inproc
 from tests.support.lerobot_written import loaded_episodes
@@ -167,3 +167,33 @@ def test_every_shipped_hardware_manifest_builds_lerobots_configs(robot: str) -> 
     # (lerobot registers so100_/so101_ names for one SO config class: compare classes, not `.type`)
     assert type(follower) is lerobot_types("robots").get_choice_class(hardware.robot_config()["type"])
     assert type(leader) is lerobot_types("teleoperators").get_choice_class(hardware.teleop["type"])
+
+
+def test_a_bus_read_waits_for_the_reply_instead_of_polling_for_it(
+    project: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The servo SDK polls a non-blocking port in a Python loop while a reply is on its way (a core spinning on the
+    control thread, the GIL taken back at every poll); connected through the HAL, a read sleeps until the bytes
+    are there. The bus here takes 20 ms to answer, as a USB adapter's latency timer can."""
+    from scservo_sdk.port_handler import PortHandler
+
+    from openral_data.producers.hal.robots.lerobot_hw import make_hardware_hal
+    from openral_data.runtime import registry
+
+    polls = 0
+    read_port = PortHandler.readPort
+
+    def counted(self: PortHandler, length: int) -> bytes:
+        nonlocal polls
+        polls += 1
+        return bytes(read_port(self, length))
+
+    calibrated_so_project(project, ROBOT)
+    source = project / "robots" / ROBOT / "robot.yaml"
+    with SimulatedFeetechBus(IDS) as bus, make_hardware_hal(registry.load_robot(ROBOT), str(source), bus.port) as hal:
+        bus.reply_delay_s = 0.02
+        monkeypatch.setattr(PortHandler, "readPort", counted)
+        states = [hal.read_state().positions for _ in range(3)]
+    # the calibrated middle, the gripper half open: the replies were read whole
+    assert np.allclose(states, [[0, 0, 0, 0, 0, 50]] * 3, atol=0.2)
+    assert polls <= 3 * 6 * 8, polls  # 3 reads of 6 servos' replies, a few polls each (polling: thousands)

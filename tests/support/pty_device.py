@@ -14,6 +14,7 @@ from __future__ import annotations
 import os
 import select
 import threading
+import time
 import tty
 from typing import Any, Self
 
@@ -31,6 +32,7 @@ class PtyDevice:
         self._slave = slave
         self._stop = threading.Event()
         self.buffer = bytearray()
+        self.reply_delay_s = 0.0  # how long the device takes to answer (a USB adapter's latency: milliseconds)
         self._port_handler = port_handler
         self._original_timeout_check = port_handler.isPacketTimeout
         port_handler.isPacketTimeout = patient_is_packet_timeout
@@ -42,6 +44,8 @@ class PtyDevice:
         raise NotImplementedError
 
     def reply(self, data: bytes) -> None:
+        if self.reply_delay_s:
+            time.sleep(self.reply_delay_s)
         os.write(self._master, data)
 
     def close(self) -> None:

@@ -2,9 +2,11 @@
 
 Frames go straight from the producer to the encoder (no PNG staging). When the queue is full the producer either
 waits (backpressure: converting, editing, a simulation) or, with `spill` (a real-time recording, whose loop must
-never wait), writes the frame raw (`.npy`) into the staging folder beside the episode's mp4 and queues its path:
-the encoder reads it back in turn and deletes it, so frames are never dropped, stay in order, and memory stays
-bounded at `queue_size` frames per camera. A killed recorder's spilled frames are staged files (`.NAME.tmp`) of an
+never wait), hands the frame to a spill thread that writes it raw (`.npy`) into the staging folder beside the
+episode's mp4 (the loop does not wait on the disk either) and queues its path: the encoder waits until it is
+written, reads it back in turn and deletes it, so frames are never dropped, stay in order, and memory stays
+bounded at 2 x `queue_size` frames per camera (the encoder's queue and the spill thread's backlog, beyond which the
+producer writes the frame itself). A killed recorder's spilled frames are staged files (`.NAME.tmp`) of an
 unfinished episode: recovery (`record --resume`, `doctor --repair`) moves them to the quarantine.
 
 Test hook: the environment variable `OPENRAL_TEST_ENCODE_DELAY_S` (seconds, read when an episode begins) makes the
@@ -19,6 +21,7 @@ from __future__ import annotations
 import contextlib
 import os
 import queue
+import sys
 import threading
 import time
 from dataclasses import dataclass, field
@@ -48,6 +51,10 @@ class EncodedEpisode:
 
 
 ENCODE_DELAY_ENV = "OPENRAL_TEST_ENCODE_DELAY_S"  # the test hook (module docstring)
+# a real-time recording's encoder threads run this much nicer than the process (`yield_to_the_loop`): the nicest
+# (19) measured 118-160 loop overruns in 600 ticks against 233-237 at the process's own priority (bench_capture.py,
+# 3 cameras h264, interleaved; benchmarks/README.md)
+ENCODER_NICE = 19
 CAPTURE = "capture"  # openral.episode_info's key of a spilling recording's per-camera `EncoderLag`
 
 
@@ -65,7 +72,50 @@ class EncoderLag:
 
 @dataclass(frozen=True)
 class _Spilled:
+    """A frame handed to the disk: `written` is set once it is there (`error`: the write failed)."""
+
     path: Path
+    written: threading.Event = field(default_factory=threading.Event)
+    error: list[BaseException] = field(default_factory=list)
+
+
+def _spill(frame: npt.NDArray[Any], spilled: _Spilled) -> None:
+    try:
+        spilled.path.parent.mkdir(parents=True, exist_ok=True)
+        with open(spilled.path, "wb") as fh:
+            np.save(fh, frame, allow_pickle=False)
+    except BaseException as exc:  # noqa: BLE001 - the encoder thread reports it with the episode
+        spilled.error.append(exc)
+        with contextlib.suppress(OSError):
+            spilled.path.unlink(missing_ok=True)
+    finally:
+        spilled.written.set()
+
+
+class _Spiller:
+    """Writes spilled frames to disk on its own thread, so the producer (a real-time loop) never waits on the disk:
+    at most `backlog` frames wait for it in memory; beyond that the producer writes the frame itself."""
+
+    def __init__(self, name: str, backlog: int) -> None:
+        self._q: queue.SimpleQueue[tuple[npt.NDArray[Any], _Spilled] | None] = queue.SimpleQueue()
+        self._slots = threading.Semaphore(max(1, backlog))
+        self._thread = threading.Thread(target=self._run, name=f"spill-{name}", daemon=True)
+        self._thread.start()
+
+    def write(self, frame: npt.NDArray[Any], spilled: _Spilled) -> None:
+        if self._slots.acquire(blocking=False):
+            self._q.put((frame, spilled))
+        else:
+            _spill(frame, spilled)
+
+    def _run(self) -> None:
+        while (item := self._q.get()) is not None:
+            _spill(*item)
+            self._slots.release()
+
+    def close(self) -> None:
+        self._q.put(None)
+        self._thread.join()
 
 
 @dataclass
@@ -147,6 +197,7 @@ class EncoderWorker:
         self.waited = 0.0  # this episode: seconds `put` waited on a full queue (the encoder was behind) ...
         self.waits = 0  # ... and how many frames had to wait
         self.lag = EncoderLag()  # the last finished episode's spills and encoder lag
+        self._spiller = _Spiller(name, queue_size) if spill else None
         self._thread = threading.Thread(target=self._run, name=f"encoder-{name}", daemon=True)
         self._thread.start()
 
@@ -169,13 +220,11 @@ class EncoderWorker:
         now = time.perf_counter()
         if self._slots.acquire(blocking=False):
             self._q.put((frame, now))
-        elif self.spill:
-            job.spill_dir.mkdir(parents=True, exist_ok=True)
-            path = job.spill_dir / f".{job.lag.spilled:06d}.npy.tmp"
-            with open(path, "wb") as fh:
-                np.save(fh, frame, allow_pickle=False)
+        elif self._spiller is not None:
+            spilled = _Spilled(job.spill_dir / f".{job.lag.spilled:06d}.npy.tmp")
             job.lag.spilled += 1
-            self._q.put((_Spilled(path), now))
+            self._spiller.write(frame, spilled)  # queued in order; the encoder waits until it is on disk
+            self._q.put((spilled, now))
         else:
             self._slots.acquire()
             self.waited += time.perf_counter() - now
@@ -220,6 +269,8 @@ class EncoderWorker:
         self.abort()
         self._q.put(_STOP)
         self._thread.join()
+        if self._spiller is not None:
+            self._spiller.close()
 
     def _raise_if_failed(self) -> None:
         if self._failed is not None:
@@ -227,6 +278,8 @@ class EncoderWorker:
 
     # -- encoder thread ------------------------------------------------------------------------------
     def _run(self) -> None:
+        if self.spill:
+            yield_to_the_loop()
         while True:
             item = self._q.get()
             if item is _STOP:
@@ -243,6 +296,9 @@ class EncoderWorker:
         assert isinstance(item, tuple)
         frame, handed = item
         if isinstance(frame, _Spilled):
+            frame.written.wait()
+            if frame.error:
+                raise frame.error[0]
             with open(frame.path, "rb") as fh:
                 image: npt.NDArray[Any] = np.load(fh, allow_pickle=False)
             frame.path.unlink()
@@ -299,8 +355,9 @@ class EncoderWorker:
             self._failed = exc
             # consume this job's frames up to its end marker so the producer is never blocked forever
             while end is None:
-                if _ends_job(item := self._next(job)):
-                    end = item
+                with contextlib.suppress(Exception):  # a frame that cannot be read back is dropped with its episode
+                    if _ends_job(item := self._next(job)):
+                        end = item
         finally:
             if container is not None:
                 with contextlib.suppress(Exception):
@@ -309,6 +366,20 @@ class EncoderWorker:
                 job.spill_dir.rmdir()  # empty once every spilled frame was read back
             job.done.set()
         return end
+
+
+def yield_to_the_loop() -> None:
+    """Make this thread ENCODER_NICE nicer than it is (Linux, where a thread has its own nice value and the threads
+    it starts inherit it: the codec's own, x264's and SVT-AV1's, started when its first frame opens the codec).
+
+    A real-time recording's encoders are the one load that may fall behind (their frames spill to disk and are
+    encoded later, nothing lost); the control loop and the cameras' capture threads may not. When the cores are
+    short, the scheduler then runs those first instead of sharing the cores out evenly among every thread."""
+    if sys.platform != "linux":
+        return
+    tid = threading.get_native_id()
+    with contextlib.suppress(OSError):
+        os.setpriority(os.PRIO_PROCESS, tid, min(19, os.getpriority(os.PRIO_PROCESS, tid) + ENCODER_NICE))
 
 
 def probe_frames(path: Path) -> int:

@@ -34,6 +34,8 @@ from openral_data.schemas.hal import HardwareConfig, LerobotDevice
 from openral_data.schemas.robot import RobotManifest
 from openral_data.types import CameraShape
 
+# A motor-bus read waits for its reply in `select` at most this long per try (waiting_bus_reads)
+BUS_READ_WAIT_S = 0.005
 KINDS = {"robots": "RobotConfig", "teleoperators": "TeleoperatorConfig", "cameras": "CameraConfig"}
 CONNECT_ERRORS = (OSError, ConnectionError, RuntimeError, TimeoutError)
 
@@ -134,6 +136,22 @@ def connect_device(device: Any, source: str, field: str, type_name: str) -> None
             "(recalibrate with lerobot-calibrate, or point calibration_dir at this arm's file)",
             code="hal.calibration",
         )
+    waiting_bus_reads(arms)
+
+
+def waiting_bus_reads(arms: list[Any]) -> None:
+    """Make each motor bus of `arms` wait for its replies instead of polling for them.
+
+    The servo SDKs (scservo, dynamixel_sdk) open the port non-blocking (pyserial `timeout=0`) and poll `read()` in a
+    Python loop until a reply is complete or their packet timeout passes: on the control thread, a core spinning for
+    the whole bus round trip (milliseconds through a USB adapter) and the GIL taken back thousands of times a read,
+    each time behind whichever camera or encoder thread got it meanwhile. With a read timeout of BUS_READ_WAIT_S
+    each poll sleeps in `select` (the GIL released) until the bytes it asked for are there; the SDK's own timeout
+    check is unchanged (a missing reply is noticed at most BUS_READ_WAIT_S later)."""
+    for arm in arms:
+        serial_port = getattr(getattr(arm.bus, "port_handler", None), "ser", None)
+        if serial_port is not None and serial_port.timeout == 0:
+            serial_port.timeout = BUS_READ_WAIT_S
 
 
 def motor_arms(device: Any) -> list[Any]:
