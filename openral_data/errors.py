@@ -52,7 +52,7 @@ replay                a dataset cannot be replayed (no initial state, no scene t
 executor              a parallel recording's executor is unavailable or a worker failed
 write                 writing an output failed part-way
 write.disk              the disk refused a write: full, failing, read-only or over quota (`DiskError`)
-write.disk.spill          frames spilled behind a slow encoder reached the spill cap (`WriterConfig.spill_limit_mb`)
+write.disk.spill          frames spilled behind a slow encoder reached the spill cap (`SpillFull`)
 hal                   the robot cannot do what was asked:
 hal.disconnected        used before connect()
 hal.connect             cannot connect to the hardware (port, bus)
@@ -252,13 +252,13 @@ def disk_errno(exc: BaseException | None) -> int | None:
     return None
 
 
-def disk_code(exc: BaseException | None) -> str | None:
-    """The finer code of the `DiskError` behind `exc` (``write.disk.spill``), to keep when it is re-raised about
-    another path; None: the class code."""
+def disk_class(exc: BaseException | None) -> type[DiskError]:
+    """The class of the `DiskError` behind `exc` (`SpillFull`), to keep when it is re-raised about another path;
+    `DiskError` when there is none."""
     for link in _chain(exc):
         if isinstance(link, DiskError):
-            return None if link.code == DiskError.default_code else link.code
-    return None
+            return type(link)
+    return DiskError
 
 
 def _chain(exc: BaseException | None) -> Iterator[BaseException]:
@@ -279,12 +279,19 @@ class DiskError(WriteError):
 
     default_code = "write.disk"
 
-    def __init__(self, path: Path, errno: int, doing: str, *, committed: bool = False, code: str | None = None) -> None:
-        super().__init__(f"{path}: {disk_problem(errno)} while {doing}", code=code)
+    def __init__(self, path: Path, errno: int, doing: str, *, committed: bool = False) -> None:
+        super().__init__(f"{path}: {disk_problem(errno)} while {doing}")
         self.path = path
         self.errno = errno
         self.doing = doing
         self.committed = committed
+
+
+class SpillFull(DiskError):
+    """Frames spilled to disk behind a slow encoder reached the spill cap (`WriterConfig.spill_limit_mb`; errno
+    ENOSPC: the cap is the space the recording may take)."""
+
+    default_code = "write.disk.spill"
 
 
 def disk_problem(errno: int) -> str:

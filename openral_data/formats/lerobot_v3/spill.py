@@ -12,7 +12,8 @@ the wait is counted (`waits`, the loop's overruns) and nothing is dropped or hel
 `SpillBudget` caps the spilled bytes on disk at once, shared by a writer's cameras (`WriterConfig.spill_limit_mb`;
 default: half the free space of the dataset's disk when the writer opens). A spill the cap or the disk refuses
 (ENOSPC, EIO, ...) fails the episode being recorded with one `DiskError` (``write.disk``; over the cap
-``write.disk.spill``): the next `put` (or the episode's end) raises it, and committed episodes are untouched.
+`SpillFull`, ``write.disk.spill``): the next `put` raises it (or the next `begin`, when the episode had ended:
+its frames were all still in memory, so it is complete) and committed episodes are untouched.
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from openral_data.errors import DiskError, WriteError
+from openral_data.errors import SpillFull, WriteError
 from openral_data.formats.write_errors import write_error
 
 MB = 1 << 20
@@ -168,11 +169,10 @@ class SpillWriter:
     def _save(self, item: Spilled, frame: npt.NDArray[Any]) -> None:
         if not self.budget.take(item.size):
             cap = f"{self.budget.limit / MB:.2f} MB"
-            raise DiskError(
+            raise SpillFull(
                 item.path.parent,
                 errno.ENOSPC,
                 f"spilling camera {self.name}'s frames: over the spill cap of {cap} (WriterConfig.spill_limit_mb)",
-                code="write.disk.spill",
             )
         item.on_disk = True
         item.path.parent.mkdir(parents=True, exist_ok=True)
