@@ -52,6 +52,7 @@ replay                a dataset cannot be replayed (no initial state, no scene t
 executor              a parallel recording's executor is unavailable or a worker failed
 write                 writing an output failed part-way
 write.disk              the disk refused a write: full, failing, read-only or over quota (`DiskError`)
+write.disk.spill          frames spilled behind a slow encoder reached the spill cap (`SpillFull`)
 hal                   the robot cannot do what was asked:
 hal.disconnected        used before connect()
 hal.connect             cannot connect to the hardware (port, bus)
@@ -72,6 +73,7 @@ from __future__ import annotations
 import copy
 import errno as _errno
 import os
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, ClassVar, Self
 
@@ -242,15 +244,30 @@ DISK_ERRNOS = frozenset({_errno.ENOSPC, _errno.EIO, _errno.EROFS, _errno.EDQUOT}
 
 def disk_errno(exc: BaseException | None) -> int | None:
     """The errno of the disk problem behind `exc` (an OSError in it or its cause/context chain), else None."""
+    for link in _chain(exc):
+        if isinstance(link, DiskError):
+            return link.errno
+        if isinstance(link, OSError) and link.errno in DISK_ERRNOS:
+            return link.errno
+    return None
+
+
+def disk_class(exc: BaseException | None) -> type[DiskError]:
+    """The class of the `DiskError` behind `exc` (`SpillFull`), to keep when it is re-raised about another path;
+    `DiskError` when there is none."""
+    for link in _chain(exc):
+        if isinstance(link, DiskError):
+            return type(link)
+    return DiskError
+
+
+def _chain(exc: BaseException | None) -> Iterator[BaseException]:
+    """`exc`, then its cause (else context), and so on, each once."""
     seen: set[int] = set()
     while exc is not None and id(exc) not in seen:
         seen.add(id(exc))
-        if isinstance(exc, DiskError):
-            return exc.errno
-        if isinstance(exc, OSError) and exc.errno in DISK_ERRNOS:
-            return exc.errno
+        yield exc
         exc = exc.__cause__ or exc.__context__
-    return None
 
 
 class DiskError(WriteError):
@@ -268,6 +285,13 @@ class DiskError(WriteError):
         self.errno = errno
         self.doing = doing
         self.committed = committed
+
+
+class SpillFull(DiskError):
+    """Frames spilled to disk behind a slow encoder reached the spill cap (`WriterConfig.spill_limit_mb`; errno
+    ENOSPC: the cap is the space the recording may take)."""
+
+    default_code = "write.disk.spill"
 
 
 def disk_problem(errno: int) -> str:

@@ -4,6 +4,7 @@ fixed-rate loop (record/hal_loop.py) through the same bridge and sinks as `recor
 from __future__ import annotations
 
 import math
+import threading
 import time
 from collections.abc import Callable
 from contextlib import ExitStack, closing
@@ -15,7 +16,7 @@ from typing import Any, Literal, get_args
 from openral_data import manifests
 from openral_data.errors import CompatibilityError, ConfigError, UsageError
 from openral_data.formats.codec import Codec
-from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig
+from openral_data.formats.lerobot_v3 import VideoSettings, WriterConfig, loadable
 from openral_data.formats.lerobot_v3.provenance import HalOrigin, Origin, Recorded, SafetyRecord
 from openral_data.formats.mcap import ImageFormat, McapCompression
 from openral_data.policies.base import PolicyAdapter
@@ -429,10 +430,7 @@ def _open(
     assert session.held is not None
     settings = hal_settings(_kept(opts), opts.n_episodes, opts.video)
     session.output = opened = open_recording(session.held, opts.resume, opts.formats, schema, settings)
-    hal.connect()  # a robot that cannot be reached fails here, before anything is written
-    connect = getattr(policy, "connect", None)  # a leader arm: the same, before anything is written
-    if callable(connect):
-        connect()
+    warmed = _connect(hal, policy, warm=opened.fresh and "lerobot" in opts.formats)
     observers = _observers(opts, schema)
     try:
         sinks: list[Sink] = make_sinks(
@@ -453,7 +451,25 @@ def _open(
     staleness = opts.staleness if opts.staleness is not None else 3.0 / opts.fps
     ticks = episode_ticks(opts.episode_time_s, opts.fps)
     config = LoopConfig(opts.fps, task, opts.step_limit, staleness, driver=driver.name(policy), max_ticks=ticks)
+    if warmed is not None:  # before the first episode: the import's CPU-seconds never compete with the loop
+        warmed.join()
     return FixedRateLoop(hal, policy, safety, bridge, operator, config)
+
+
+def _connect(hal: HalBase, policy: PolicyAdapter, *, warm: bool) -> threading.Thread | None:
+    """Connect the robot, and a leader arm (the policy's `connect`): one that cannot be reached fails here, before
+    anything is written. With `warm` (a new recording's first episode will be checked loadable,
+    `check_first_episode`), lerobot's import (`loadable.warm_up`) runs meanwhile on a thread of its own, as a
+    scene's recording pays it beside the scene's build, instead of between the first two episodes; the caller
+    joins the returned thread before the first episode."""
+    warming = threading.Thread(target=loadable.warm_up, name="warm-up-lerobot", daemon=True) if warm else None
+    if warming is not None:
+        warming.start()
+    hal.connect()
+    connect = getattr(policy, "connect", None)
+    if callable(connect):
+        connect()
+    return warming
 
 
 def _observers(opts: HalRecordOptions, schema: DatasetSchema) -> list[FrameObserver]:

@@ -10,7 +10,7 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from openral_data.errors import DiskError, OpenralError, disk_errno
+from openral_data.errors import DiskError, OpenralError, disk_class, disk_errno
 from openral_data.policies.base import PolicyAdapter
 from openral_data.runtime.bridge import DatasetBridge
 
@@ -90,7 +90,7 @@ def ended_by(exc: BaseException, out: Path, kept: int) -> OpenralError | None:
     if problem is not None:
         committed = isinstance(exc, DiskError) and exc.committed
         doing = exc.doing if isinstance(exc, DiskError) else f"recording episode {kept}"
-        err = DiskError(out, problem, doing, committed=committed)
+        err = disk_class(exc)(out, problem, doing, committed=committed)  # (over the spill cap: `SpillFull`)
         if committed:  # the journal is durable: recovery finishes this episode's commit
             note = f"{_episodes(kept + 1)} kept (free space, then record --resume finishes episode {kept}'s commit)"
         else:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import logging
+import threading
 from pathlib import Path
 
 import pytest
@@ -49,8 +50,20 @@ def test_a_new_recording_is_checked_once_and_a_resume_not_at_all(
 
 
 @pytest.mark.slow
-def test_a_hal_recording_is_checked(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+def test_a_hal_recording_is_checked(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Checked once, after its first commit; lerobot's import for that check is started beside the robot's
+    connection, on a thread of its own, and done before the first episode (not between the first two)."""
+    warmed: list[tuple[str, int]] = []  # (the thread it ran on, the episodes committed when it was done)
     out = tmp_path / "hal"
+    real_warm_up = loadable.warm_up
+
+    def warm_up() -> None:
+        real_warm_up()
+        warmed.append((threading.current_thread().name, len(list(out.glob("meta/episodes/*/*.parquet")))))
+
+    monkeypatch.setattr(loadable, "warm_up", warm_up)
     with caplog.at_level(logging.INFO, logger="openral_data"):
         s = record_hal(
             HalRecordOptions(
@@ -60,6 +73,7 @@ def test_a_hal_recording_is_checked(tmp_path: Path, caplog: pytest.LogCaptureFix
         )  # fmt: skip
     assert len(s.episodes) == 1
     assert len(_checked(caplog, out)) == 1
+    assert warmed == [("warm-up-lerobot", 0)], warmed
 
 
 def test_an_unloadable_first_episode_is_refused_in_one_line_and_nothing_stays(tmp_path: Path) -> None:

@@ -16,7 +16,7 @@ import threading
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
-from openral_data.errors import DiskError, disk_errno
+from openral_data.errors import disk_class, disk_errno
 from openral_data.formats.lerobot_v3.video import EncodedEpisode, EncodeJob, EncoderWorker
 
 
@@ -83,5 +83,5 @@ def wait_videos(
         enc.path.unlink(missing_ok=True)
     problem = disk_errno(failure)
     if problem is not None:
-        raise DiskError(root, problem, doing) from failure
+        raise disk_class(failure)(root, problem, doing) from failure
     raise failure

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from openral_data.formats.lerobot_v3 import layout
 from openral_data.formats.lerobot_v3.depth import DepthSettings
 from openral_data.formats.lerobot_v3.encoder import VideoSettings
+from openral_data.formats.lerobot_v3.spill import SpillBudget
 from openral_data.types import CameraShape
 
 MB = 1 << 20
@@ -25,6 +27,9 @@ class WriterConfig:
     # beyond `queue_size`: spill frames to the dataset's staging area instead of making the producer wait (a
     # real-time recording, `record --hal`; video.py), and note each episode's spills and encoder lag (`capture`)
     spill: bool = False
+    # the spilled bytes on disk at once, over all cameras (MB; None: half the dataset disk's free space when the
+    # writer opens); a spill beyond it fails the episode in flight with `write.disk.spill` (spill.py)
+    spill_limit_mb: float | None = None
     # commit each finished episode behind the recording, on a thread of its own, while the next one records (the
     # first episode is committed before the next starts); committer.py
     background: bool = False
@@ -35,6 +40,8 @@ class WriterConfig:
     def __post_init__(self) -> None:
         if self.staged_episodes < 1:
             raise ValueError("staged_episodes must be at least 1")
+        if self.spill_limit_mb is not None and self.spill_limit_mb < 0:
+            raise ValueError("spill_limit_mb must not be negative")
         # a concrete encoder (`auto` probed once per process), checked against this FFmpeg before anything is written
         object.__setattr__(self, "video", self.video.resolve())
 
@@ -43,6 +50,10 @@ class WriterConfig:
         if shape.depth_unit is None:
             return self.video.size_problem(shape.height, shape.width)
         return self.depth.size_problem(shape.height, shape.width)
+
+    def spill_budget(self, root: Path) -> SpillBudget | None:
+        """The spilled bytes' cap of a writer at `root` (`spill_limit_mb`), shared by its cameras; None: no spill."""
+        return SpillBudget.for_root(root, self.spill_limit_mb) if self.spill else None
 
     @property
     def data_limit(self) -> int:

@@ -2,12 +2,12 @@
 
 Frames go straight from the producer to the encoder (no PNG staging). When the queue is full the producer either
 waits (backpressure: converting, editing, a simulation) or, with `spill` (a real-time recording, whose loop must
-never wait), hands the frame to a spill thread that writes it raw (`.npy`) into the staging folder beside the
-episode's mp4 (the loop does not wait on the disk either) and queues its path: the encoder waits until it is
-written, reads it back in turn and deletes it, so frames are never dropped, stay in order, and memory stays
-bounded at 2 x `queue_size` frames per camera (the encoder's queue and the spill thread's backlog, beyond which the
-producer writes the frame itself). A killed recorder's spilled frames are staged files (`.NAME.tmp`) of an
-unfinished episode: recovery (`record --resume`, `doctor --repair`) moves them to the quarantine.
+never wait), hands the frame to the camera's spill thread (spill.py), which writes it raw (`.npy`) into the
+staging folder beside the episode's mp4, and queues its place: the encoder takes it from memory or reads it back
+in turn and deletes it, so frames are never dropped, stay in order, no file is written on the producer's thread,
+and memory stays bounded (`queue_size` frames per camera for the encoder, as many for the spill thread). A killed
+recorder's spilled frames are staged files (`.NAME.tmp`) of an unfinished episode: recovery (`record --resume`,
+`doctor --repair`) moves them to the quarantine.
 
 Test hook: the environment variable `OPENRAL_TEST_ENCODE_DELAY_S` (seconds, read when an episode begins) makes the
 encoder thread sleep that long before each frame, so tests can throttle a real encoder and watch it spill.
@@ -39,6 +39,7 @@ import numpy.typing as npt
 from openral_data.errors import EncoderError
 from openral_data.formats.lerobot_v3.depth import CameraStats, DepthStatsAccumulator, DepthStream
 from openral_data.formats.lerobot_v3.encoder import VideoSettings
+from openral_data.formats.lerobot_v3.spill import SpillBudget, Spilled, SpillWriter
 from openral_data.formats.lerobot_v3.stats import ImageStatsAccumulator
 from openral_data.paths import regular_file
 
@@ -68,54 +69,6 @@ class EncoderLag:
 
     def to_json(self) -> dict[str, float | int]:
         return {"spilled": self.spilled, "encoder_lag_s": round(self.max_lag, 4)}
-
-
-@dataclass(frozen=True)
-class _Spilled:
-    """A frame handed to the disk: `written` is set once it is there (`error`: the write failed)."""
-
-    path: Path
-    written: threading.Event = field(default_factory=threading.Event)
-    error: list[BaseException] = field(default_factory=list)
-
-
-def _spill(frame: npt.NDArray[Any], spilled: _Spilled) -> None:
-    try:
-        spilled.path.parent.mkdir(parents=True, exist_ok=True)
-        with open(spilled.path, "wb") as fh:
-            np.save(fh, frame, allow_pickle=False)
-    except BaseException as exc:  # noqa: BLE001 - the encoder thread reports it with the episode
-        spilled.error.append(exc)
-        with contextlib.suppress(OSError):
-            spilled.path.unlink(missing_ok=True)
-    finally:
-        spilled.written.set()
-
-
-class _Spiller:
-    """Writes spilled frames to disk on its own thread, so the producer (a real-time loop) never waits on the disk:
-    at most `backlog` frames wait for it in memory; beyond that the producer writes the frame itself."""
-
-    def __init__(self, name: str, backlog: int) -> None:
-        self._q: queue.SimpleQueue[tuple[npt.NDArray[Any], _Spilled] | None] = queue.SimpleQueue()
-        self._slots = threading.Semaphore(max(1, backlog))
-        self._thread = threading.Thread(target=self._run, name=f"spill-{name}", daemon=True)
-        self._thread.start()
-
-    def write(self, frame: npt.NDArray[Any], spilled: _Spilled) -> None:
-        if self._slots.acquire(blocking=False):
-            self._q.put((frame, spilled))
-        else:
-            _spill(frame, spilled)
-
-    def _run(self) -> None:
-        while (item := self._q.get()) is not None:
-            _spill(*item)
-            self._slots.release()
-
-    def close(self) -> None:
-        self._q.put(None)
-        self._thread.join()
 
 
 @dataclass
@@ -168,10 +121,10 @@ def _ends_job(item: object) -> bool:
 
 class EncoderWorker:
     """A persistent thread encoding one camera. At most `queue_size` frames wait in memory; beyond that `put`
-    waits for the encoder (backpressure), or with `spill` writes the frame to disk and returns at once (module
-    docstring): nothing is dropped either way. A job (one episode's mp4) ends only through `finish()` or
-    `abort()`. With `depth`, frames are depth maps, quantized and encoded as lerobot's depth videos (`depth.py`)
-    instead of RGB with `settings`."""
+    waits for the encoder (backpressure), or with `spill` (the spilled bytes' budget) hands the frame to the spill
+    thread and returns at once (module docstring): nothing is dropped either way. A job (one episode's mp4) ends
+    only through `finish()` or `abort()`. With `depth`, frames are depth maps, quantized and encoded as lerobot's
+    depth videos (`depth.py`) instead of RGB with `settings`."""
 
     def __init__(
         self,
@@ -181,14 +134,14 @@ class EncoderWorker:
         queue_size: int = 16,
         depth: DepthStream | None = None,
         threads: int | None = None,
-        spill: bool = False,
+        spill: SpillBudget | None = None,
     ) -> None:
         self.name = name
         self.settings = settings
         self.threads = threads  # this encoder's thread budget (SVT-AV1 lp, x264 threads); None: settings.threads
         self.depth = depth
         self.fps = fps
-        self.spill = spill
+        self.spill = None if spill is None else SpillWriter(name, spill, queue_size)
         # frames, spilled frames' paths, jobs and markers (a SimpleQueue: C put/get, a few µs less per frame)
         self._q: queue.SimpleQueue[object] = queue.SimpleQueue()
         self._slots = threading.Semaphore(max(1, queue_size))  # one per frame held in memory
@@ -197,7 +150,6 @@ class EncoderWorker:
         self.waited = 0.0  # this episode: seconds `put` waited on a full queue (the encoder was behind) ...
         self.waits = 0  # ... and how many frames had to wait
         self.lag = EncoderLag()  # the last finished episode's spills and encoder lag
-        self._spiller = _Spiller(name, queue_size) if spill else None
         self._thread = threading.Thread(target=self._run, name=f"encoder-{name}", daemon=True)
         self._thread.start()
 
@@ -220,16 +172,29 @@ class EncoderWorker:
         now = time.perf_counter()
         if self._slots.acquire(blocking=False):
             self._q.put((frame, now))
-        elif self._spiller is not None:
-            spilled = _Spilled(job.spill_dir / f".{job.lag.spilled:06d}.npy.tmp")
-            job.lag.spilled += 1
-            self._spiller.write(frame, spilled)  # queued in order; the encoder waits until it is on disk
-            self._q.put((spilled, now))
+        elif self.spill is not None:
+            self._spill(job, self.spill, frame, now)
         else:
             self._slots.acquire()
             self.waited += time.perf_counter() - now
             self.waits += 1
             self._q.put((frame, now))
+
+    def _spill(self, job: EncodeJob, spill: SpillWriter, frame: npt.NDArray[Any], now: float) -> None:
+        """Hand `frame` to the spill thread; with its queue full too, wait (counted) for a place in either queue."""
+        if not spill.reserve():
+            while not spill.reserve(timeout=0.002):
+                self._raise_if_failed()
+                if self._slots.acquire(blocking=False):  # the encoder caught up first
+                    self.waited += time.perf_counter() - now
+                    self.waits += 1
+                    self._q.put((frame, now))
+                    return
+            self.waited += time.perf_counter() - now
+            self.waits += 1
+        item = spill.submit(job.spill_dir / f".{job.lag.spilled:06d}.npy.tmp", frame)
+        job.lag.spilled += 1
+        self._q.put((item, now))
 
     def finish(self) -> EncodedEpisode:
         return self.wait(self.finish_later())
@@ -269,16 +234,18 @@ class EncoderWorker:
         self.abort()
         self._q.put(_STOP)
         self._thread.join()
-        if self._spiller is not None:
-            self._spiller.close()
+        if self.spill is not None:
+            self.spill.close()
 
     def _raise_if_failed(self) -> None:
+        if self.spill is not None and self.spill.error is not None:
+            raise self.spill.error
         if self._failed is not None:
             raise EncoderError(f"encoder {self.name} failed: {self._failed}") from self._failed
 
     # -- encoder thread ------------------------------------------------------------------------------
     def _run(self) -> None:
-        if self.spill:
+        if self.spill is not None:
             yield_to_the_loop()
         while True:
             item = self._q.get()
@@ -295,13 +262,9 @@ class EncoderWorker:
             return item
         assert isinstance(item, tuple)
         frame, handed = item
-        if isinstance(frame, _Spilled):
-            frame.written.wait()
-            if frame.error:
-                raise frame.error[0]
-            with open(frame.path, "rb") as fh:
-                image: npt.NDArray[Any] = np.load(fh, allow_pickle=False)
-            frame.path.unlink()
+        if isinstance(frame, Spilled):
+            assert self.spill is not None
+            image: npt.NDArray[Any] = self.spill.claim(frame)
         else:
             self._slots.release()
             image = frame
@@ -355,9 +318,8 @@ class EncoderWorker:
             self._failed = exc
             # consume this job's frames up to its end marker so the producer is never blocked forever
             while end is None:
-                with contextlib.suppress(Exception):  # a frame that cannot be read back is dropped with its episode
-                    if _ends_job(item := self._next(job)):
-                        end = item
+                if _ends_job(item := self._next(job)):
+                    end = item
         finally:
             if container is not None:
                 with contextlib.suppress(Exception):

@@ -108,7 +108,7 @@ class LeRobotV3Writer:
         self._check_cameras()
         self._created_root = claim_root(root, resume)
         self._set_format(features)
-        budget = encoder_threads(self.config.video, len(self._videos))
+        budget, spill = encoder_threads(self.config.video, len(self._videos)), self.config.spill_budget(root)
         self._workers = {
             name: EncoderWorker(
                 name,
@@ -117,7 +117,7 @@ class LeRobotV3Writer:
                 self.config.queue_size,
                 None if shape.depth_unit is None else DepthStream(self.config.depth, shape.depth_unit),
                 budget,
-                self.config.spill,
+                spill,
             )
             for name, shape in self._videos.items()
         }
