@@ -101,6 +101,7 @@ def _record_hal(f: RecordFlags, given: frozenset[str], video: VideoSettings, dri
         safety=cast(SafetyMode | None, f.safety),  # checked by HalRecordOptions
         staleness=f.staleness,
         port=f.port,
+        realtime=f.realtime,
         teleop=f.teleop,
         episode_time_s=f.episode_time_s,
         reset_time_s=f.reset_time_s,

@@ -17,7 +17,10 @@ from openral_data.producers.hal.teleop.keys import HELP as TELEOP_KEYS
 from openral_data.viz import DEFAULT_PORT
 
 EXPERT_ONLY = ("expert", "takeover_threshold", "takeover_patience", "takeover_hold")  # `--teleop expert`'s settings
-HAL_ONLY = ("mode", "fps", "operator", "safety", "staleness", "port", "episode_time_s", "reset_time_s", "teleop_gain")
+HAL_ONLY = (
+    "mode", "fps", "operator", "safety", "staleness", "port", "episode_time_s", "reset_time_s", "teleop_gain",
+    "realtime",
+)  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -61,6 +64,16 @@ class RecordFlags:
     safety: Annotated[str | None, typer.Option(help="--hal: clamp or refuse (default: the manifest's)")] = None
     staleness: Annotated[float | None, typer.Option(help="--hal: camera sample age limit, s (3 periods)")] = None
     port: Annotated[str | None, typer.Option(help="--hal --mode real: serial port (default: the manifest's)")] = None
+    realtime: Annotated[
+        int | None,
+        typer.Option(
+            min=0,
+            max=99,
+            help="--hal: the control loop's SCHED_FIFO priority during episodes, 1-99 (0: off; default 50 with "
+            "--mode real, off in sim); where the system refuses (no CAP_SYS_NICE or RLIMIT_RTPRIO) it is said once "
+            "and the loop runs at normal priority",
+        ),
+    ] = None
     teleop: Annotated[
         str | None,
         typer.Option(

@@ -47,6 +47,7 @@ from openral_data.record.hal_loop import EpisodeEnd, EpisodeReport, FixedRateLoo
 from openral_data.record.hal_resume import HAL_KEPT, continue_hal, hal_settings
 from openral_data.record.options import check_run_numbers
 from openral_data.record.output import Claim, Output, check_first_episode, claim, close_output, open_recording
+from openral_data.record.realtime import DEFAULT_PRIORITY
 from openral_data.record.runlog import log_episode, log_totals
 from openral_data.record.session import episode_loop
 from openral_data.runtime import registry
@@ -107,6 +108,7 @@ class HalRecordOptions:
     teleop_gain: float = 1.0  # a person's device moves this many times its default step (keyboard: 1 cm / press)
     expert: str | None = None  # `teleop="expert"`: the rSkill it runs (None: the scene's default rSkill)
     takeover_rule: TakeoverRule = field(default_factory=TakeoverRule)  # when the expert takes over and hands back
+    realtime: int | None = None  # loop thread SCHED_FIFO priority (record/realtime.py); None: 50 in real mode; 0: off
     driver: DriverChoice = field(init=False)  # who drives: `rskill`, `policy`, `teleop` and `takeover`, chosen once
     resume: bool = False  # continue the HAL recording in `out` with its own settings (record/hal_resume.py)
     explicit: frozenset[str] = frozenset()  # the options the user gave (with resume: they must match the recording)
@@ -450,7 +452,10 @@ def _open(
     task = hal.task if hal.task is not None else rskill.description or rskill.id
     staleness = opts.staleness if opts.staleness is not None else 3.0 / opts.fps
     ticks = episode_ticks(opts.episode_time_s, opts.fps)
-    config = LoopConfig(opts.fps, task, opts.step_limit, staleness, driver=driver.name(policy), max_ticks=ticks)
+    realtime = opts.realtime if opts.realtime is not None else (DEFAULT_PRIORITY if opts.mode == "real" else 0)
+    config = LoopConfig(
+        opts.fps, task, opts.step_limit, staleness, driver=driver.name(policy), max_ticks=ticks, realtime=realtime
+    )
     if warmed is not None:  # before the first episode: the import's CPU-seconds never compete with the loop
         warmed.join()
     return FixedRateLoop(hal, policy, safety, bridge, operator, config)

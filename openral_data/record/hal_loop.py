@@ -43,6 +43,7 @@ from openral_data.policies.intervention import Intervention
 from openral_data.producers.hal.robots.base import HalBase, JointCommand, Outcome, monotonic
 from openral_data.producers.hal.robots.safety import SafetyFilter
 from openral_data.producers.hal.session.operator import Command, Operator
+from openral_data.record.realtime import RealTime
 from openral_data.runtime.bridge import DatasetBridge
 from openral_data.types import EpisodeRecord, Observation, Previews
 
@@ -124,6 +125,7 @@ class LoopConfig:
     stale_abort: float = 2.0  # seconds of nothing but stale ticks: a sensor is dead, the episode is abandoned
     driver: str = "script"  # who drove (`operator` in the episode's record): policy:<rskill>, teleop:<device>
     max_ticks: int | None = None  # `--episode-time-s`: the episode ends when this many ticks were due (record/flow.py)
+    realtime: int = 0  # SCHED_FIFO priority of the loop's thread during an episode (record/realtime.py); 0: normal
 
 
 class FixedRateLoop:
@@ -144,12 +146,14 @@ class FixedRateLoop:
         self.config = config
         self.dt = 1.0 / config.fps
         self.cameras = list(bridge.schema.cameras)
+        self.realtime = RealTime(config.realtime)
 
     def run_episode(self, episode: int, seed: int) -> tuple[EpisodeEnd, EpisodeReport, EpisodeRecord | None]:
         """Record one episode (the operator has started it). The HAL stays connected afterwards."""
         rep = self._begin(seed)
         ep = _Episode(t0=monotonic())
         verdict: Command | None = None
+        promoted = self.realtime.promote()
         try:
             verdict = self._loop(episode, rep, ep)
         except EstopLatched as exc:  # latched by someone else (another thread, the driver) mid-tick
@@ -159,6 +163,9 @@ class FixedRateLoop:
         except BaseException:
             self.bridge.discard_episode()
             raise
+        finally:
+            if promoted:
+                self.realtime.demote()
         return self._finish(verdict, ep.pending, rep)
 
     def preview(self, episode: int, seed: int) -> None:

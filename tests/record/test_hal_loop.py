@@ -297,3 +297,59 @@ def test_a_dead_camera_abandons_the_episode_with_an_error(tmp_path: Path) -> Non
         hal.disconnect()
         hal.cameras["dead"].stop()
     assert not (tmp_path / "d").exists()  # nothing half-written remains
+
+
+class _SchedulingProbe:
+    """Wraps a policy (called on the loop's thread each tick): the thread's scheduling policy at each step, and that
+    of a thread started from it."""
+
+    def __init__(self, inner: object) -> None:
+        self.inner = inner
+        self.seen: list[int] = []
+        self.child: list[int] = []
+
+    def reset(self, seed: int) -> None:
+        self.inner.reset(seed)  # type: ignore[attr-defined]
+
+    def step(self, observation: Observation, instruction: str) -> object:
+        from openral_data.record.realtime import policy
+
+        self.seen.append(policy())
+        if not self.child:
+            import threading
+
+            t = threading.Thread(target=lambda: self.child.append(policy()))
+            t.start()
+            t.join()
+        return self.inner.step(observation, instruction)  # type: ignore[attr-defined]
+
+    def close(self) -> None:
+        self.inner.close()  # type: ignore[attr-defined]
+
+
+@pytest.mark.skipif(not hasattr(os, "SCHED_FIFO"), reason="SCHED_FIFO is Linux's")
+def test_the_loop_thread_is_real_time_during_an_episode_only(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    """With `realtime` the loop's thread runs SCHED_FIFO while the episode records (a thread it starts does not
+    inherit it), and the normal policy before and after; where the system refuses (an out-of-range priority here;
+    no CAP_SYS_NICE for a user) the episode records at the normal policy and the refusal is said once."""
+    from openral_data.record.realtime import RealTime, policy
+
+    allowed = RealTime(1).promote()
+    if allowed:
+        RealTime(1).demote()
+    probe = _SchedulingProbe(_sweep())
+    hal = ur5e_twin(cameras=[])
+    [(end, rep)] = run_loop(hal, probe, ScriptedOperator(), tmp_path / "a", max_steps=4, realtime=50)  # type: ignore[arg-type]
+    assert end is EpisodeEnd.KEPT and rep.frames == 4
+    assert policy() == os.SCHED_OTHER  # demoted when the episode ended
+    if allowed:  # root (CI) or a user with an RLIMIT_RTPRIO
+        assert set(probe.seen) == {os.SCHED_FIFO} and probe.child == [os.SCHED_OTHER]
+    else:
+        assert set(probe.seen) == {os.SCHED_OTHER}
+    probe = _SchedulingProbe(_sweep())
+    results = run_loop(
+        ur5e_twin(cameras=[]), probe, ScriptedOperator(), tmp_path / "b", max_steps=3, episodes=2, realtime=500
+    )  # type: ignore[arg-type]
+    assert [r.frames for _, r in results] == [3, 3] and set(probe.seen) == {os.SCHED_OTHER}
+    refusals = [r for r in caplog.records if "real-time priority refused" in r.getMessage()]
+    assert len(refusals) == 1, refusals  # said once, not every episode

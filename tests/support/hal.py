@@ -81,6 +81,7 @@ def run_loop(
     columns: tuple[FrameColumn, ...] = (),
     mcap: Path | None = None,
     writer: WriterConfig | None = None,
+    realtime: int = 0,
 ) -> list[tuple[EpisodeEnd, EpisodeReport]]:
     """Record `episodes` attempts through the loop into a LeRobot v3 dataset at `out` (`writer`, default h264 for
     speed), and with `mcap` into MCAP bags there too (as `record --format lerobot,mcap`)."""
@@ -101,7 +102,9 @@ def run_loop(
         sinks.append(McapSink(mcap, schema))
     bridge = DatasetBridge(schema, sinks)
     filt = safety or SafetyFilter(hal.robot, fk=hal.forward_kinematics)
-    loop = FixedRateLoop(hal, policy, filt, bridge, operator, LoopConfig(fps, "sweep", max_steps, staleness))
+    loop = FixedRateLoop(
+        hal, policy, filt, bridge, operator, LoopConfig(fps, "sweep", max_steps, staleness, realtime=realtime)
+    )
     results = []
     hal.connect()
     try:
