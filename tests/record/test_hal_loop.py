@@ -11,12 +11,15 @@ import sys
 import time
 from itertools import pairwise
 from pathlib import Path
+from typing import cast
 
 import av
 import numpy as np
+import numpy.typing as npt
 import pytest
 
 from openral_data.errors import EstopLatched, HalError, OpenralError, UsageError
+from openral_data.policies.base import PolicyAdapter
 from openral_data.producers.hal.robots.base import JointCommand
 from openral_data.producers.hal.robots.safety import SafetyFilter
 from openral_data.producers.hal.session.operator import ScriptedOperator, parse_script
@@ -304,14 +307,14 @@ class _SchedulingProbe:
     of a thread started from it."""
 
     def __init__(self, inner: object) -> None:
-        self.inner = inner
+        self.inner = cast(PolicyAdapter, inner)
         self.seen: list[int] = []
         self.child: list[int] = []
 
     def reset(self, seed: int) -> None:
-        self.inner.reset(seed)  # type: ignore[attr-defined]
+        self.inner.reset(seed)
 
-    def step(self, observation: Observation, instruction: str) -> object:
+    def step(self, observation: Observation, instruction: str) -> npt.NDArray[np.float32]:
         from openral_data.record.realtime import policy
 
         self.seen.append(policy())
@@ -321,10 +324,10 @@ class _SchedulingProbe:
             t = threading.Thread(target=lambda: self.child.append(policy()))
             t.start()
             t.join()
-        return self.inner.step(observation, instruction)  # type: ignore[attr-defined]
+        return self.inner.step(observation, instruction)
 
     def close(self) -> None:
-        self.inner.close()  # type: ignore[attr-defined]
+        self.inner.close()
 
 
 @pytest.mark.skipif(not hasattr(os, "SCHED_FIFO"), reason="SCHED_FIFO is Linux's")
@@ -339,7 +342,7 @@ def test_the_loop_thread_is_real_time_during_an_episode_only(tmp_path: Path, cap
         RealTime(1).demote()
     probe = _SchedulingProbe(_sweep())
     hal = ur5e_twin(cameras=[])
-    [(end, rep)] = run_loop(hal, probe, ScriptedOperator(), tmp_path / "a", max_steps=4, realtime=50)  # type: ignore[arg-type]
+    [(end, rep)] = run_loop(hal, probe, ScriptedOperator(), tmp_path / "a", max_steps=4, realtime=50)
     assert end is EpisodeEnd.KEPT and rep.frames == 4
     assert policy() == os.SCHED_OTHER  # demoted when the episode ended
     if allowed:  # root (CI) or a user with an RLIMIT_RTPRIO
@@ -349,7 +352,7 @@ def test_the_loop_thread_is_real_time_during_an_episode_only(tmp_path: Path, cap
     probe = _SchedulingProbe(_sweep())
     results = run_loop(
         ur5e_twin(cameras=[]), probe, ScriptedOperator(), tmp_path / "b", max_steps=3, episodes=2, realtime=500
-    )  # type: ignore[arg-type]
+    )
     assert [r.frames for _, r in results] == [3, 3] and set(probe.seen) == {os.SCHED_OTHER}
     refusals = [r for r in caplog.records if "real-time priority refused" in r.getMessage()]
     assert len(refusals) == 1, refusals  # said once, not every episode
