@@ -343,13 +343,31 @@ def pad_idle(ep: Clean, m: int, head: bool) -> tuple[Clean, Truth]:
     return out, Truth("idle_head" if head else "idle_tail", "observation.state", first, first + m - 1)
 
 
+HOLD_VISIBLE = 1.0  # mean absolute difference (0-255) a held picture must make to the frames it replaces
+HOLD_TRIES = 8
+
+
+def held_span(v: U8, n: int, rng: np.random.Generator) -> tuple[int, int]:
+    """A span for a frozen camera whose held picture changes the data: over the span, the held frame differs from
+    the clean frames it replaces by `HOLD_VISIBLE` on average. A hold put where the picture already stands still
+    (a person's arm out of an overhead camera's view) leaves the episode as it was: no fault anyone could find.
+    The first draw is kept when it qualifies (the same span as before this rule)."""
+    for _ in range(HOLD_TRIES):
+        s, e = span(n, rng, max(10, n // 5))
+        change = np.abs(v[s + 1 : e].astype(np.int16) - v[s].astype(np.int16)).mean() if e > s + 1 else 0.0
+        if change >= HOLD_VISIBLE:
+            return s, e
+    raise NotApplicable(f"the picture stands still in every span tried ({HOLD_TRIES}): a hold would change nothing")
+
+
 def camera_fault(ep: Clean, kind: str, rng: np.random.Generator) -> tuple[Clean, Truth]:
     cam, n = camera(ep, rng), ep.n
     v = ep.images[cam]
-    s, e = span(n, rng, max(10, n // 5))
     if kind == "frozen_camera":
+        s, e = held_span(v, n, rng)
         v[s:e] = v[s]
         return ep, Truth(kind, cam, s + 1, e - 1, camera=cam)
+    s, e = span(n, rng, max(10, n // 5))
     if kind == "black_camera":
         v[s:e] = 0
         return ep, Truth(kind, cam, s, e - 1, camera=cam)
