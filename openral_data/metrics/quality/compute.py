@@ -161,9 +161,8 @@ def episode_cameras(
         frames = UntilEnd(camera_frames(ds, images, row, key, stride))
         q = camera_quality(frames, stride, th)
         held = length if frames.ends is None else frames.ends
-        found += q.findings(
-            key, th, stride, held, moving, fulls.setdefault(key, partial(all_frames, ds, images, row, key))
-        )
+        fulls[key] = partial(all_frames, ds, images, row, key)
+        found += q.findings(key, th, stride, held, moving, fulls[key])
         if frames.ends is not None:
             found.append(short_video(key, frames.ends, length))
         seen[key] = q
@@ -176,7 +175,7 @@ def episode_cameras(
         records = [{"episode_index": int(row["episode_index"]), "camera": key, **asdict(s)} for s in q.samples]
         samples(pa.Table.from_pylist(records, schema=SAMPLE_SCHEMA))
     found += stalled(seen, th, stride, length, fulls)
-    found += onset.camera_lags({k: partial(all_frames, ds, images, row, k) for k in seen}, moving, length)
+    found += onset.camera_lags(fulls, moving, length)
     measures = {
         **{f"camera_{m}_fraction": v for m, v in worst.items()},
         "camera_first_black": min(firsts, default=None),

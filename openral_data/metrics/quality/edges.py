@@ -74,10 +74,9 @@ def spans(faults: dict[int, tuple[bool, bool]], fault: str, near: range, first: 
 
 
 STILL_SCENE = 0.5  # `still_scene`: the change around a still span, against the camera's typical frame-to-frame change
-AROUND = (
-    2  # ... over this many frames before and after the span (a held picture's jump lands in the first or, the codec
-)
+# ... over this many frames before and after the span (a held picture's jump lands in the first or, the codec
 # spending one frame on it, the second)
+AROUND = 2
 
 
 def frame_changes(frames: Iterator[npt.NDArray[np.uint8]], luma: Callable[[npt.NDArray[np.uint8]], Gray]) -> Gray:

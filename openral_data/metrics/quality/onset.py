@@ -13,17 +13,16 @@ tell.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from itertools import islice
 
 import numpy as np
 import numpy.typing as npt
 
 from openral_data.metrics.quality.camera import luma
-from openral_data.metrics.quality.edges import REPEAT
+from openral_data.metrics.quality.edges import REPEAT, Frames
 from openral_data.metrics.quality.findings import Finding
 
-Frames = Callable[[], Iterator[npt.NDArray[np.uint8]]]  # the episode's frames of one camera, all, as RGB
 LAG_MIN = 2  # frames: a camera starting this many frames or more after the scene is out of step (in step: 0-1)
 LAG_MAX = 8  # ... and at most this many: a longer still start while the arm moves is a frozen camera's
 IN_STEP = 1  # the other cameras must start within this many frames of the scene (a codec's copy: 1)
