@@ -44,7 +44,7 @@ from openral_data.record.drivers.expert import EXPERT, expert_request, scene_rsk
 from openral_data.record.drivers.kinds import open_driver
 from openral_data.record.flow import Flow, Notify, check_reset_time, episode_ticks
 from openral_data.record.hal_loop import EpisodeEnd, EpisodeReport, FixedRateLoop, LoopConfig, frame_extras
-from openral_data.record.hal_resume import HAL_KEPT, continue_hal, hal_settings
+from openral_data.record.hal_resume import HAL_KEPT, continue_expert, continue_hal, expert_settings, hal_settings
 from openral_data.record.options import check_run_numbers
 from openral_data.record.output import Claim, Output, check_first_episode, claim, close_output, open_recording
 from openral_data.record.realtime import DEFAULT_PRIORITY
@@ -283,12 +283,15 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
         if opts.resume:  # the recording's own settings, read under its writer lock
             if opts.out is None:
                 raise UsageError("--resume needs --out: the dataset folder to continue")
-            session.held = claim(opts.out, "openral-data record --hal --resume", resume=True)
-            opts = replace(opts, **continue_hal(opts.out, _kept(opts), opts.explicit, opts.video))
+            out = opts.out
+            session.held = claim(out, "openral-data record --hal --resume", resume=True)
+            opts = replace(opts, **continue_hal(out, _kept(opts), opts.explicit, opts.video))
+            if _expert_drives(opts):
+                opts = replace(opts, **continue_expert(out, opts.expert, opts.takeover_rule, opts.explicit))
         run = _resolve(opts)
         show = tty_status(STATUS_FD, talk=notify is not None)  # the person's status lines: when the run talks
         expert = None
-        if opts.driver.device is not None and opts.driver.device.name == EXPERT:
+        if _expert_drives(opts):
             expert = expert_request(opts.expert, opts.scene, opts.takeover_rule, run.rskill, run.rskill_src)
         ctx = DriveContext(
             run.robot, run.rskill, run.rskill_src, run.make_policy, opts.fps, show, run.checkpoint, opts.teleop_gain,
@@ -320,6 +323,11 @@ class _Session:
             close_output(self.output.claim.out, self.output, 0)
         elif self.held is not None:
             self.held.release()
+
+
+def _expert_drives(opts: HalRecordOptions) -> bool:
+    """`--teleop expert`: the scene's scripted expert is the person who takes over (a DAgger round)."""
+    return opts.driver.device is not None and opts.driver.device.name == EXPERT
 
 
 def _kept(opts: HalRecordOptions) -> dict[str, Any]:
@@ -431,6 +439,8 @@ def _open(
     )
     assert session.held is not None
     settings = hal_settings(_kept(opts), opts.n_episodes, opts.video)
+    if _expert_drives(opts):  # a DAgger round's expert and rule, which a resume takes back
+        settings["expert"] = expert_settings(opts.expert, opts.takeover_rule)
     session.output = opened = open_recording(session.held, opts.resume, opts.formats, schema, settings)
     warmed = _connect(hal, policy, warm=opened.fresh and "lerobot" in opts.formats)
     observers = _observers(opts, schema)

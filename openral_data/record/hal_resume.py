@@ -11,6 +11,11 @@ writer's (`restore.check_same_format`). Under the writer lock `recovery.recover`
 cut short and quarantines what the killed session left of the episode in flight (its partial mp4s and the
 frames it had spilled to disk: that episode's rows were only in the killed process's memory, so it can never be
 committed); the run continues the dataset's episode numbering and seeds (seed + episode index).
+
+A DAgger round (`--teleop expert`) also keeps its expert and takeover rule (`options.expert`: the expert's rSkill,
+`threshold`, `patience`, `hold`): a resume that drives with `--teleop expert` again takes them back unless given,
+and one given again must match, so every episode of the round is corrected by the same rule and its intervention
+rate means one thing.
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ from openral_data.formats.codec import parse_codec
 from openral_data.formats.lerobot_v3.encoder import VideoSettings
 from openral_data.formats.mcap.messages import parse_image_format
 from openral_data.formats.mcap.writer import parse_compression
+from openral_data.producers.hal.teleop.declare import TakeoverRule
 from openral_data.record import recorded
 from openral_data.record.output import HAL_KEY, RANGES, read_settings, recorded_video, settings_path, video_json
 from openral_data.runtime.sinks import parse_formats
@@ -43,6 +49,9 @@ HAL_KEPT = {
     "mcap_compression": "--mcap-compression",
 }
 MAX_FPS = 1000
+# the takeover rule's fields a DAgger round keeps (`options.expert`), with the CLI option that sets each
+EXPERT_KEPT = {"threshold": "--takeover-threshold", "patience": "--takeover-patience", "hold": "--takeover-hold"}
+MAX_TICKS = 10**6  # a patience or hold beyond this many ticks is not a rule
 
 
 def hal_settings(values: Mapping[str, Any], n_episodes: int, video: VideoSettings) -> dict[str, Any]:
@@ -79,6 +88,52 @@ def continue_hal(
         changes["n_episodes"] = _checked("n_episodes", saved.get("n_episodes"), path)
     changes["video"] = recorded_video(video, saved.get("video"), explicit, path, changes["codec"])
     return changes
+
+
+def expert_settings(expert: str | None, rule: TakeoverRule) -> dict[str, Any]:
+    """record.json's `options.expert` of a `--teleop expert` recording: the expert's rSkill and its rule."""
+    return {"rskill": expert, **{name: getattr(rule, name) for name in EXPERT_KEPT}}
+
+
+def continue_expert(out: Path, expert: str | None, rule: TakeoverRule, explicit: frozenset[str]) -> dict[str, Any]:
+    """The expert and takeover rule the `--teleop expert` recording in `out` was made with, as HalRecordOptions
+    changes (`expert`, `takeover_rule`); a value given again (`explicit`: the option's name) must match. Nothing
+    when the recording kept none (another driver, or recorded before they were kept)."""
+    path = settings_path(out)
+    options = read_settings(out).get("options")
+    saved = options.get("expert") if isinstance(options, dict) else None
+    if saved is None:
+        return {}
+    if not isinstance(saved, dict):
+        raise DatasetError(f"{path}: expert: {saved!r}: not a mapping", code="dataset.invalid")
+    values = {name: _rule_value(name, saved.get(name), path) for name in EXPERT_KEPT}
+    for name, flag in EXPERT_KEPT.items():
+        if f"takeover_{name}" in explicit and getattr(rule, name) != values[name]:
+            raise ConfigError(
+                f"{path}: expert.{name}: the round was recorded with {values[name]:g}; {flag} "
+                f"{getattr(rule, name):g} differs (leave the option out to continue with the recorded one)"
+            )
+    stored = saved.get("rskill")
+    if "expert" in explicit:
+        if expert is None or stored is None or not recorded.same("rskill", expert, stored):
+            raise ConfigError(
+                f"{path}: expert.rskill: the round was recorded with {stored or 'the scene rSkill'}; --expert "
+                f"{expert} differs (leave the option out to continue with the recorded one)"
+            )
+    else:
+        expert = None if stored is None else recorded.trusted("rskill", stored, path, flag="--expert")
+    kept = TakeoverRule(float(values["threshold"]), int(values["patience"]), int(values["hold"]))
+    return {"expert": expert, "takeover_rule": kept}
+
+
+def _rule_value(name: str, value: Any, path: Path) -> float | int:
+    """A recorded takeover rule field, checked as the CLI checks its option (record.json is dataset content)."""
+    if name == "threshold" and type(value) in (int, float) and 0 <= value < MAX_TICKS:
+        return float(value)
+    if name != "threshold" and type(value) is int and 1 <= value <= MAX_TICKS:
+        return int(value)
+    what = "not a number >= 0" if name == "threshold" else f"not a whole number in 1..{MAX_TICKS}"
+    raise DatasetError(f"{path}: expert.{name}: {value!r}: {what}", code="dataset.invalid")
 
 
 def _checked(name: str, value: Any, path: Path) -> Any:

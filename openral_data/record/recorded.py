@@ -43,10 +43,11 @@ def on_search_path(name: str, value: str) -> Path | None:
     return None
 
 
-def trusted(name: str, value: object, source: Path) -> str:
+def trusted(name: str, value: object, source: Path, flag: str | None = None) -> str:
     """The reference `record --resume` may use for the recorded `name` (`scene` or `rskill`) `value`: the
-    search-path manifest it names. `source` is record.json (named in the refusal)."""
-    flag = f"--{name}"
+    search-path manifest it names. `source` is record.json (named in the refusal), `flag` the option that names
+    it again (default `--NAME`)."""
+    flag = flag or f"--{name}"
     if not isinstance(value, str) or not value:
         raise ConfigError(f"{source}: {name}: not recorded; name it again with {flag}")
     path = on_search_path(name, value)

@@ -11,6 +11,7 @@ import signal
 import subprocess
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +19,7 @@ import pyarrow.parquet as pq
 import pytest
 
 from openral_data.columns import INTERVENTION, POLICY_ACTION
+from openral_data.errors import ConfigError, DatasetError
 from openral_data.metrics.command import StatsOptions, run_stats
 from openral_data.producers.hal.teleop.declare import TakeoverRule
 from openral_data.record.hal import HalRecordOptions, record_hal
@@ -57,6 +59,44 @@ def test_the_expert_takes_over_by_its_rule_through_the_takeover_button(tmp_path:
     (row,) = _rounds(out)  # one round: 6 of 12 frames taken over, 2 takeovers, its one episode
     assert (row["frames"], row["intervention_frames"], row["interventions"]) == (12, 6, 2)
     assert (row["episodes"], row["episodes_taken_over"], row["rate"]) == (1, 1, 0.5)
+
+
+def test_a_resumed_round_keeps_its_expert_and_takeover_rule(tmp_path: Path) -> None:
+    # the round is continued without naming the expert or the rule again: its second episode is corrected by the
+    # recorded ones (zero-mock; threshold 0, patience 2, hold 3), not by the defaults (the scene's rSkill; 0.25,
+    # 3, 20), so its marks are the first episode's; a rule given again that differs is refused in one line
+    out = tmp_path / "round"
+    first = HalRecordOptions(robot="mock_arm", rskill="random-mock", scene="mock_pick", teleop="expert", takeover=True,
+                             expert="zero-mock", takeover_rule=TakeoverRule(0.0, 2, 3), max_steps=12, out=out,
+                             codec="h264")  # fmt: skip
+    record_hal(first)
+    again = HalRecordOptions(robot="mock_arm", rskill="random-mock", scene="mock_pick", teleop="expert", takeover=True,
+                             out=out, n_episodes=2, resume=True, explicit=frozenset({"n_episodes"}))  # fmt: skip
+    assert record_hal(again).frames == 12
+    table = frames_table(out)
+    marks = np.asarray(table[INTERVENTION]).reshape(2, 12)
+    assert (
+        marks[1].tolist()
+        == marks[0].tolist()
+        == [False, False, True, True, True, False, False] + [True] * 3 + [False] * 2
+    )
+    rows = pq.read_table(sorted((out / "data").rglob("*.parquet"))[0]).num_rows
+    hold = HalRecordOptions(robot="mock_arm", rskill="random-mock", scene="mock_pick", teleop="expert", takeover=True,
+                            takeover_rule=TakeoverRule(0.0, 2, 5), out=out, n_episodes=3, resume=True,
+                            explicit=frozenset({"n_episodes", "takeover_hold"}))  # fmt: skip
+    with pytest.raises(ConfigError) as refused:
+        record_hal(hold)
+    assert str(refused.value).endswith(
+        "expert.hold: the round was recorded with 3; --takeover-hold 5 differs (leave the option out to continue "
+        "with the recorded one)"
+    )
+    assert pq.read_table(sorted((out / "data").rglob("*.parquet"))[0]).num_rows == rows == 24
+    settings = out / ".openral" / "record.json"  # dataset content: a rule written into it is checked as an option
+    doc = json.loads(settings.read_text())
+    doc["options"]["expert"]["patience"] = -1
+    settings.write_text(json.dumps(doc))
+    with pytest.raises(DatasetError, match=r"record\.json: expert\.patience: -1: not a whole number in 1\.\.1000000$"):
+        record_hal(replace(hold, takeover_rule=TakeoverRule(), explicit=frozenset({"n_episodes"})))
 
 
 def _kill_mid_round(spec: Path, workdir: Path) -> None:
