@@ -54,7 +54,7 @@ from openral_data.runtime import registry
 from openral_data.runtime.bridge import DatasetBridge
 from openral_data.runtime.compat import check_compatibility
 from openral_data.runtime.outdir import fresh_out
-from openral_data.runtime.schema import dataset_schema
+from openral_data.runtime.schema import check_environment_state, dataset_schema
 from openral_data.runtime.sinks import OutputFormat, check_outputs
 from openral_data.schemas.hal import SafetyMode
 from openral_data.schemas.robot import RobotManifest
@@ -235,6 +235,7 @@ def build_hal(opts: HalRecordOptions, robot: RobotManifest, rskill: RSkillManife
             check_compatibility(
                 robot, rskill, env.spec, rskill_source=rskill_src, scene_source=str(scene_path), video=opts.video
             )
+            check_environment_state(scene, str(scene_path), env.spec)
         except BaseException:
             env.close()
             raise
@@ -433,6 +434,7 @@ def _open(
             hal=HalOrigin(robot.name, opts.mode, type(hal).__name__, opts.scene),
             safety=SafetyRecord(safety.mode, robot.safety.model_dump(mode="json")),
         ),
+        environment_state_names=hal.environment_state_names,  # a scene's object poses, as `record --scene` names them
         has_reward=hal.has_reward,
         frame_extras=frame_extras(cameras),
         frame_columns=intervention_columns(rskill.action_contract.names) if driver.takeover else (),

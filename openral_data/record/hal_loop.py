@@ -19,9 +19,10 @@ Stored per frame (LeRobot: float32 columns; MCAP: the message stamps): `timestam
 reading since the episode began (also `Observation.time`, the MCAP stamp); `openral.tick`,
 `openral.ticks_missed`, `openral.ticks_stale`, `openral.safety_interventions` and
 `openral.sample_age.<camera>`; in an intervention session (policies/intervention.py) also the policy's proposal
-`openral.policy_action` and the flag `openral.intervention`. The episode's report (overruns, stale and repeat
-counts, every safety intervention, the operator's verdict) goes to the episode record (`openral.episode_info` in
-meta/episodes).
+`openral.policy_action` and the flag `openral.intervention`; with a sim scene that declares one, its
+`observation.environment_state` (object poses, `HalBase.environment_state`), given to the policy as well, as
+`record --scene` gives it. The episode's report (overruns, stale and repeat counts, every safety intervention,
+the operator's verdict) goes to the episode record (`openral.episode_info` in meta/episodes).
 """
 
 from __future__ import annotations
@@ -301,7 +302,10 @@ class FixedRateLoop:
                 rep.repeated[name] += 1
             last_seq[name] = seq
             rep.max_age[name] = max(rep.max_age[name], ages[name])
-        obs = Observation(images, state.positions, cfg.task, time=state.stamp - t0, privileged=hal.privileged())
+        obs = Observation(
+            images, state.positions, cfg.task, time=state.stamp - t0, privileged=hal.privileged(),
+            environment_state=hal.environment_state(),
+        )  # fmt: skip
         action = self.policy.step(obs, cfg.task)
         columns = self.policy.columns() if isinstance(self.policy, Intervention) else None
         self.bridge.check_action(action)

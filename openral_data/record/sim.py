@@ -37,7 +37,7 @@ from openral_data.runtime import available, registry, tasks
 from openral_data.runtime.bridge import DatasetBridge
 from openral_data.runtime.compat import check_compatibility
 from openral_data.runtime.observers import check_observers, make_observers
-from openral_data.runtime.schema import scene_schema
+from openral_data.runtime.schema import check_environment_state, scene_schema
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
 from openral_data.schemas.scene import SimScene, load_recordable_scene
@@ -226,11 +226,7 @@ def _start(run: _Resolved) -> Started[SimRollout, PolicyAdapter]:
 
 
 def _schema(run: _Resolved, env: SimRollout) -> DatasetSchema:
-    if run.scene.scene.observations.environment_state and not env.spec.environment_state_names:
-        raise ConfigError(
-            f"{run.scene_src}: scene.observations.environment_state: scene type {run.scene.scene.type!r} "
-            "reports no object poses"
-        )
+    check_environment_state(run.scene, run.scene_src, env.spec)
     return scene_schema(env.spec, run.scene, run.scene_src, run.robot, run.rskill, run.rskill_src)
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Mapping
 
+from openral_data.errors import ConfigError
 from openral_data.formats.lerobot_v3.provenance import Origin, Recorded, ReplayOrigin
 from openral_data.schemas.robot import RobotManifest
 from openral_data.schemas.rskill import RSkillManifest
@@ -48,6 +49,16 @@ def dataset_schema(
         frame_extras=frame_extras,
         frame_columns=frame_columns,
     )
+
+
+def check_environment_state(scene: SimScene, scene_source: str, spec: ProducerSpec) -> None:
+    """A scene that declares `observations.environment_state` must be of a type that reports its object poses
+    (`spec.environment_state_names`), whether `record --scene` or the HAL (`record --hal --scene`) runs it."""
+    if scene.scene.observations.environment_state and not spec.environment_state_names:
+        raise ConfigError(
+            f"{scene_source}: scene.observations.environment_state: scene type {scene.scene.type!r} "
+            "reports no object poses"
+        )
 
 
 def scene_schema(

@@ -14,11 +14,15 @@ from openral_data.record.drivers.rskill import RSkillDriver
 
 
 def check_checkpoint(ctx: DriveContext, hal: HalBase) -> None:
-    """The checkpoint's contract against what the (built, not yet connected) HAL gives and takes at `--fps`."""
+    """The checkpoint's contract against what the (built, not yet connected) HAL gives and takes at `--fps`: its
+    state, actions, cameras and environment state (a scene's object poses; none on hardware)."""
     assert ctx.checkpoint is not None  # `--policy` resolved it
     where = f"robot {manifests.robot_file(ctx.robot.name)}"
     cameras = {n: c.shape for n, c in hal.cameras.items()}
-    check_fits(ctx.checkpoint, where, state_dim=hal.state_dim, action_dim=hal.action_dim, cameras=cameras, fps=ctx.fps)
+    check_fits(
+        ctx.checkpoint, where, state_dim=hal.state_dim, action_dim=hal.action_dim, cameras=cameras, fps=ctx.fps,
+        environment_dim=len(hal.environment_state_names),
+    )  # fmt: skip
 
 
 class CheckpointDriver(RSkillDriver):

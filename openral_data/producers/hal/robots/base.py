@@ -106,6 +106,16 @@ class HalBase(ABC):
         return None
 
     @property
+    def environment_state_names(self) -> tuple[str, ...]:
+        """The names of `environment_state()`'s dimensions (lerobot's `observation.environment_state`: a sim
+        scene's object poses, `scene.observations.environment_state`); empty: the HAL has none (hardware)."""
+        return ()
+
+    def environment_state(self) -> F32 | None:
+        """The environment state now, one value per `environment_state_names` entry; None when it has none."""
+        return None
+
+    @property
     def has_reward(self) -> bool:
         """Whether `outcome()` reports reward and success (the dataset then stores them)."""
         return False

@@ -8,7 +8,9 @@ every read or command first advances the simulation to "now" (at most `max_catch
 slow loop sees the robot keep moving exactly as hardware would. Cameras render on the caller's thread when sampled.
 
 `SceneHal` puts a `SimRollout` (e.g. `tabletop_push`) behind the protocol: each command advances the scene by
-one control step; reward, success and privileged ground truth are passed on for scripted experts.
+one control step; reward, success and privileged ground truth are passed on for scripted experts, and the
+scene's `observation.environment_state` (its object poses, when the scene declares them) for the policy and the
+dataset, under the names `record --scene` gives them.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ import numpy as np
 
 from openral_data.errors import ConfigError
 from openral_data.producers.hal.cameras.sensors import Image, PolledCamera
-from openral_data.producers.hal.robots.base import HalBase, JointCommand, Outcome, RobotState, monotonic
+from openral_data.producers.hal.robots.base import F32, HalBase, JointCommand, Outcome, RobotState, monotonic
 from openral_data.producers.hal.robots.safety import ForwardKinematics
 from openral_data.producers.sim.mujoco.kinematics import F64
 from openral_data.producers.sim.mujoco.render import CameraRig
@@ -216,6 +218,15 @@ class SceneHal(HalBase):
 
     def privileged(self) -> Privileged:
         return self._current().privileged
+
+    @property
+    def environment_state_names(self) -> tuple[str, ...]:
+        return self.scene.spec.environment_state_names  # the names `record --scene` gives the same scene
+
+    def environment_state(self) -> F32 | None:
+        """The scene's own `observation.environment_state` (its object poses), when it declares one."""
+        env = self._current().environment_state
+        return None if env is None or not self.environment_state_names else np.asarray(env, dtype=np.float32)
 
     def _read_state(self) -> RobotState:
         return RobotState(np.asarray(self._current().state, dtype=np.float32), monotonic())
