@@ -440,10 +440,7 @@ def _open(
         frame_columns=intervention_columns(rskill.action_contract.names) if driver.takeover else (),
     )
     assert session.held is not None
-    settings = hal_settings(_kept(opts), opts.n_episodes, opts.video)
-    if _expert_drives(opts):  # a DAgger round's expert and rule, which a resume takes back
-        settings["expert"] = expert_settings(opts.expert, opts.takeover_rule)
-    session.output = opened = open_recording(session.held, opts.resume, opts.formats, schema, settings)
+    session.output = opened = open_recording(session.held, opts.resume, opts.formats, schema, _settings(opts))
     warmed = _connect(hal, policy, warm=opened.fresh and "lerobot" in opts.formats)
     observers = _observers(opts, schema)
     try:
@@ -462,15 +459,26 @@ def _open(
         raise
     bridge = DatasetBridge(schema, sinks, first_episode=opened.first_episode, observers=observers)
     task = hal.task if hal.task is not None else rskill.description or rskill.id
-    staleness = opts.staleness if opts.staleness is not None else 3.0 / opts.fps
-    ticks = episode_ticks(opts.episode_time_s, opts.fps)
-    realtime = opts.realtime if opts.realtime is not None else (DEFAULT_PRIORITY if opts.mode == "real" else 0)
-    config = LoopConfig(
-        opts.fps, task, opts.step_limit, staleness, driver=driver.name(policy), max_ticks=ticks, realtime=realtime
-    )
+    config = _loop_config(opts, task, driver.name(policy))
     if warmed is not None:  # before the first episode: the import's CPU-seconds never compete with the loop
         warmed.join()
     return FixedRateLoop(hal, policy, safety, bridge, operator, config)
+
+
+def _settings(opts: HalRecordOptions) -> dict[str, Any]:
+    """What a fresh recording stores for `--resume` (record.json's `options`): the kept options and, for a DAgger
+    round, its expert and takeover rule."""
+    settings = hal_settings(_kept(opts), opts.n_episodes, opts.video)
+    if _expert_drives(opts):
+        settings["expert"] = expert_settings(opts.expert, opts.takeover_rule)
+    return settings
+
+
+def _loop_config(opts: HalRecordOptions, task: str, driver: str) -> LoopConfig:
+    staleness = opts.staleness if opts.staleness is not None else 3.0 / opts.fps
+    ticks = episode_ticks(opts.episode_time_s, opts.fps)
+    realtime = opts.realtime if opts.realtime is not None else (DEFAULT_PRIORITY if opts.mode == "real" else 0)
+    return LoopConfig(opts.fps, task, opts.step_limit, staleness, driver=driver, max_ticks=ticks, realtime=realtime)
 
 
 def _connect(hal: HalBase, policy: PolicyAdapter, *, warm: bool) -> threading.Thread | None:

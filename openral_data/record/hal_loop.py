@@ -279,29 +279,10 @@ class FixedRateLoop:
             rep.stale["state"] += 1
             rep.stale_ticks += 1
             return None
-        now = monotonic()
-        images: dict[str, npt.NDArray[np.uint8]] = {}
-        ages: dict[str, float] = {}
-        stale = []
-        seqs: dict[str, int] = {}
-        for name in self.cameras:
-            sample = hal.cameras[name].latest()
-            if sample is None or now - sample.stamp > cfg.staleness:
-                stale.append(name)
-                continue
-            images[name] = sample.image
-            ages[name] = max(0.0, now - sample.stamp)
-            seqs[name] = sample.seq
-        if stale:
-            for name in stale:
-                rep.stale[name] += 1
-            rep.stale_ticks += 1
+        sampled = self._samples(rep, last_seq)
+        if sampled is None:
             return None
-        for name, seq in seqs.items():
-            if last_seq.get(name) == seq:
-                rep.repeated[name] += 1
-            last_seq[name] = seq
-            rep.max_age[name] = max(rep.max_age[name], ages[name])
+        images, ages = sampled
         obs = Observation(
             images, state.positions, cfg.task, time=state.stamp - t0, privileged=hal.privileged(),
             environment_state=hal.environment_state(),
@@ -331,6 +312,36 @@ class FixedRateLoop:
         }
         rep.frames += 1
         return _Row(obs, np.asarray(sent, dtype=np.float32).copy(), reward, success, extras, columns)
+
+    def _samples(
+        self, rep: EpisodeReport, last_seq: dict[str, int]
+    ) -> tuple[dict[str, npt.NDArray[np.uint8]], dict[str, float]] | None:
+        """Each camera's newest sample and its age; None (a stale tick, counted) when one is missing or older than
+        the staleness limit. A sample the previous frame recorded again is counted as a repeat."""
+        now = monotonic()
+        images: dict[str, npt.NDArray[np.uint8]] = {}
+        ages: dict[str, float] = {}
+        stale = []
+        seqs: dict[str, int] = {}
+        for name in self.cameras:
+            sample = self.hal.cameras[name].latest()
+            if sample is None or now - sample.stamp > self.config.staleness:
+                stale.append(name)
+                continue
+            images[name] = sample.image
+            ages[name] = max(0.0, now - sample.stamp)
+            seqs[name] = sample.seq
+        if stale:
+            for name in stale:
+                rep.stale[name] += 1
+            rep.stale_ticks += 1
+            return None
+        for name, seq in seqs.items():
+            if last_seq.get(name) == seq:
+                rep.repeated[name] += 1
+            last_seq[name] = seq
+            rep.max_age[name] = max(rep.max_age[name], ages[name])
+        return images, ages
 
     def _held(self, state: npt.NDArray[np.float32], action: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
         """What the robot keeps doing when a command is refused: its last command (else its current position)."""
