@@ -256,3 +256,26 @@ def test_a_camera_out_of_step_with_the_state_and_the_others_is_found(
     [found] = lags[1]
     assert found["subject"] == "observation.images.wrist" and found["value"] == 4.0, found
     assert (found["start_frame"], found["end_frame"]) == (0, N - 1), found
+
+
+def test_frames_lost_where_the_arm_slows_down_are_found(clean: tuple[Path, df.Clean], tmp_path: Path) -> None:
+    """Three joints moving together, 0.04 a frame, then 0.018 (a script slowing down for a grasp), the frames of
+    the slowing lost (one step of 0.2 between them, timestamps even): `frame_drop` at the frame after the cut,
+    though the steps either side disagree by more than 2x. The same motion slowing down, no frame lost, and a
+    script speeding up (0.01 a frame, then 0.05 from one frame on) raise nothing."""
+    _, episode = clean
+    along = np.array([1.0, 0.5, 0.25])
+
+    def moved(speeds: np.ndarray) -> df.Clean:
+        ep = episode.copy()
+        ep.state[:, :3] = (np.cumsum(speeds)[:, None] * along).astype(np.float32)
+        ep.action[:, :3] = ep.state[:, :3]
+        return ep
+
+    lost = moved(np.r_[[0.04] * 25, [0.2], [0.018] * (N - 26)])
+    slowed = moved(np.r_[[0.04] * 25, np.linspace(0.04, 0.018, 6), [0.018] * (N - 31)])
+    faster = moved(np.r_[[0.01] * 25, [0.05] * (N - 25)])
+    got = df.findings(df.write(tmp_path / "drop", [lost, slowed, faster]))
+    drops = {e: [(f["start_frame"], f["end_frame"]) for f in fs if f["check"] == "frame_drop"] for e, fs in got.items()}
+    assert drops.get(0) == [(25, 25)], got.get(0)
+    assert not drops.get(1) and not drops.get(2), got
