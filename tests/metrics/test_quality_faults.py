@@ -279,3 +279,23 @@ def test_frames_lost_where_the_arm_slows_down_are_found(clean: tuple[Path, df.Cl
     drops = {e: [(f["start_frame"], f["end_frame"]) for f in fs if f["check"] == "frame_drop"] for e, fs in got.items()}
     assert drops.get(0) == [(25, 25)], got.get(0)
     assert not drops.get(1) and not drops.get(2), got
+
+
+def test_two_swapped_joint_targets_moving_alike_are_found(clean: tuple[Path, df.Clean], tmp_path: Path) -> None:
+    """A joint sweep: three joints commanded along one curve at their own angles (0.2, 1.4, -0.9 rad), each
+    state following its target a frame later. Swapping two targets changes no correlation, but each then lies
+    near the other joint's angle: `action_swap` on both over the whole episode; the clean sweep raises none."""
+    _, episode = clean
+    wave = 0.3 * np.sin(np.arange(N) / 6.0)[:, None]
+    target = (wave + np.array([0.2, 1.4, -0.9])).astype(np.float32)
+    names = ("joint_0", "joint_1", "joint_2")
+    sweep = replace(episode, state_names=names, action_names=names, action=target, state=np.r_[target[:1], target[:-1]])
+    swapped = sweep.copy()
+    swapped.action[:, [0, 1]] = swapped.action[:, [1, 0]]
+    got = df.findings(df.write(tmp_path / "sweep", [sweep, swapped]), for_kind(DEFAULT, "scripted"))
+    swaps = {
+        e: [(f["subject"], f["start_frame"], f["end_frame"]) for f in fs if f["check"] == "action_swap"]
+        for e, fs in got.items()
+    }
+    assert not swaps.get(0), got.get(0)
+    assert swaps[1] == [("action[joint_0]", 0, N - 1), ("action[joint_1]", 0, N - 1)], got[1]
