@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from openral_data.formats.lerobot_v3.features import STATE
-from openral_data.metrics.quality import DEFAULT
+from openral_data.metrics.quality import DEFAULT, rows
 from openral_data.metrics.quality.thresholds import for_kind
 from tests.support import data_faults as df
 from tests.support import quality as q
@@ -299,3 +299,21 @@ def test_two_swapped_joint_targets_moving_alike_are_found(clean: tuple[Path, df.
     }
     assert not swaps.get(0), got.get(0)
     assert swaps[1] == [("action[joint_0]", 0, N - 1), ("action[joint_1]", 0, N - 1)], got[1]
+
+
+def test_a_small_teleport_and_one_among_a_jumpy_hands_jumps_are_found() -> None:
+    """A joint creeping 0.002 of its range a frame jumps 0.07 of its range at frame 30 (a gamepad session's eef
+    teleported by half its episode's range; 35x its local speed): `teleport` there. With three finger dimensions
+    each snapping open and shut by 0.5 (about 16x their trembling speed: larger steps, less beyond), the joint's
+    jump, the one most beyond its local speed, is still among the 5 kept."""
+    n = 60
+    z = np.zeros((n, 4))
+    z[:, 0] = np.arange(n) * 0.002
+    z[30:, 0] += 0.07
+    got = rows.teleports(z[:, :1], ["j0"], STATE, DEFAULT, set())
+    assert [(f.subject, f.start_frame) for f in got] == [(f"{STATE}[j0]", 30)], got
+    tremble = np.where(np.arange(n) % 2 == 0, 0.06, -0.06)
+    for d, at in ((1, 10), (2, 15), (3, 20)):
+        z[:, d] = np.cumsum(tremble) * 0.5 + 0.5 * ((np.arange(n) >= at).astype(float) - (np.arange(n) >= at + 25))
+    got = rows.teleports(z, ["j0", "finger_1", "finger_2", "finger_3"], STATE, DEFAULT, set())
+    assert (f"{STATE}[j0]", 30) in [(f.subject, f.start_frame) for f in got], got

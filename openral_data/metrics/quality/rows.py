@@ -42,8 +42,8 @@ def teleports(z: Array, names: list[str], feature: str, th: Thresholds, skip: se
     """`teleport`: a state dimension (`z` in dataset-range units, quaternion components left to `quat_flip`)
     stepping between two frames more than `teleport_step` of its range and more than `teleport_factor` times its
     local speed (the mean step within `NEAR` frames; still there, its median step when it moves); the frame
-    it lands on (the 5 largest jumps; frames in `skip`, a frame drop, left out; a dimension jumping more than
-    `JUMPS` times in the episode left out: its nature)."""
+    it lands on (the 5 jumps most beyond their local speed; frames in `skip`, a frame drop, left out; a dimension
+    jumping more than `JUMPS` times in the episode left out: its nature)."""
     if len(z) < 3:
         return []
     quat = {names[i] for _, dims in signals.quaternion_groups(feature, names) for i in dims}
@@ -55,7 +55,9 @@ def teleports(z: Array, names: list[str], feature: str, th: Thresholds, skip: se
         typical = np.where(typical > 0, typical, usual)  # still nearby: its usual step when it moves
         jump = (step > th.teleport_step) & (step > th.teleport_factor * typical)
     out = []
-    hits = [(float(step[t, d]), int(t), int(d)) for t, d in zip(*np.nonzero(jump), strict=True)]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        beyond = step / typical  # how far beyond its local speed: the 5 kept are the 5 most beyond it
+    hits = [(float(beyond[t, d]), int(t), int(d)) for t, d in zip(*np.nonzero(jump), strict=True)]
     often = np.bincount([d for _, t, d in hits if t + 1 not in skip], minlength=z.shape[1]) > JUMPS
     for _, t, d in sorted(hits, reverse=True):
         if names[d] in quat or t + 1 in skip or often[d]:

@@ -41,7 +41,7 @@ class Thresholds:
     camera_run_frames: int = 9  # ... or a run of frozen (while the robot moves) or blurred samples spans this many
     flip_margin: float = 0.15  # `camera_flipped`: correlation with the others' picture turned 180° minus as it is
     quat_norm: float = 0.05  # `quat_norm`: a quaternion whose norm is off 1 by more than this
-    teleport_step: float = 0.1  # `teleport`: a state dimension moving more than this share of its range in a frame
+    teleport_step: float = 0.05  # `teleport`: a state dimension moving more than this share of its range in a frame
     teleport_factor: float = 5.0  # ... and more than this many times its local speed (median step nearby)
     drop_factor: float = 4.5  # `frame_drop`: state and action both stepping this many times their neighbours' steps
     degrees_limit: float = 6.8  # `degrees`: an angle-named state dimension beyond ± this (rad; 2π + 0.5) is not radians
