@@ -317,3 +317,29 @@ def test_a_small_teleport_and_one_among_a_jumpy_hands_jumps_are_found() -> None:
         z[:, d] = np.cumsum(tremble) * 0.5 + 0.5 * ((np.arange(n) >= at).astype(float) - (np.arange(n) >= at + 25))
     got = rows.teleports(z, ["j0", "finger_1", "finger_2", "finger_3"], STATE, DEFAULT, set())
     assert (f"{STATE}[j0]", 30) in [(f.subject, f.start_frame) for f in got], got
+
+
+def test_a_persons_velocity_commands_shifted_5_frames_are_late_but_a_followers_position_targets_are_not(
+    clean: tuple[Path, df.Clean], tmp_path: Path
+) -> None:
+    """People's data: a gamepad's velocity commands drive the state at once (the controller integrates them), so
+    the same commands 5 frames early are `action_lag` (limit 4: `velocity_lag_frames`); position targets a real
+    follower trails by up to 6 frames (`action_lag_frames`) are not, shifted the same."""
+    _, episode = clean
+    raw = np.random.default_rng(0).normal(size=(N + 2, 3))
+    speed = (0.02 * (raw[:-2] + raw[1:-1] + raw[2:]) / 3).astype(np.float32)  # a hand's stick, smoothed
+    state = np.cumsum(speed, axis=0) - speed  # the state steps by the command of the frame before
+    joints = ("joint_0", "joint_1", "joint_2")
+    vel = replace(episode, state_names=joints, action_names=("joint_0_vel", "joint_1_vel", "joint_2_vel"))
+    vel = replace(vel, state=state, action=speed)
+    pos = replace(vel, action_names=joints, action=np.r_[state[1:], state[-1:]])
+    early = np.minimum(np.arange(N) + 5, N - 1)
+    th = for_kind(DEFAULT, "person")
+    lags = {}
+    for name, ep in (("vel", vel), ("pos", pos)):
+        got = df.findings(df.write(tmp_path / name, [ep, replace(ep, action=ep.action[early])]), th)
+        lags[name] = {
+            e: [(f["value"], f["threshold"]) for f in fs if f["check"] == "action_lag"] for e, fs in got.items()
+        }
+    assert {e: v for e, v in lags["vel"].items() if v} == {1: [(5.0, 4.0)]}, lags
+    assert not any(lags["pos"].values()), lags

@@ -113,7 +113,7 @@ def alignment(action: Array, state: Array, names: tuple[list[str], list[str]], t
     found = swaps(cmd, response, pairs, common, names[0])
     said = {f.subject for f in found}
     found += [f for f in level_swaps(action, state, pairs, names[0]) if f.subject not in said]
-    return found + lag_findings(best, n, th)
+    return found + lag_findings(best, n, th, names[0])
 
 
 def level_swaps(action: Array, state: Array, pairs: dict[int, int], names: list[str]) -> list[Finding]:
@@ -171,15 +171,19 @@ def swaps(cmd: Array, response: Array, pairs: dict[int, int], lag: int, names: l
     return [out[i] for i in sorted(out)]
 
 
-def lag_findings(best: dict[int, tuple[float, int]], n: int, th: Thresholds) -> list[Finding]:
+def lag_findings(best: dict[int, tuple[float, int]], n: int, th: Thresholds, names: list[str]) -> list[Finding]:
     """`action_lag`: the state following the action (its pairs correlating at least `WEAK`, their median best
     lag) more than `action_lag_frames` frames later or earlier than at once (row t: the action at t, or its step
-    to t + 1, against the state's step from t to t + 1)."""
-    strong = [lag for corr, lag in best.values() if corr >= WEAK]
+    to t + 1, against the state's step from t to t + 1); `velocity_lag_frames` when every such pair is a
+    velocity/delta command (`names`: the action's), which the state follows at once (its controller integrates
+    it), not through a follower's servo that trails a position target."""
+    strong = {i: lag for i, (corr, lag) in best.items() if corr >= WEAK}
     if not strong:
         return []
-    lag = float(np.median(strong))
-    if abs(lag) <= th.action_lag_frames:
+    lag = float(np.median(list(strong.values())))
+    velocity = all(VELOCITY.search(names[i]) for i in strong)
+    limit = th.velocity_lag_frames if velocity else th.action_lag_frames
+    if abs(lag) <= limit:
         return []
     detail = f"the state follows the action {lag:g} frames later"
-    return [Finding("action_lag", "action", 0, n - 1, lag, float(th.action_lag_frames), detail=detail)]
+    return [Finding("action_lag", "action", 0, n - 1, lag, float(limit), detail=detail)]
