@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from openral_data.formats.lerobot_v3.features import STATE
-from openral_data.metrics.quality import DEFAULT
+from openral_data.metrics.quality import DEFAULT, rows
 from openral_data.metrics.quality.thresholds import for_kind
 from tests.support import data_faults as df
 from tests.support import quality as q
@@ -256,3 +256,90 @@ def test_a_camera_out_of_step_with_the_state_and_the_others_is_found(
     [found] = lags[1]
     assert found["subject"] == "observation.images.wrist" and found["value"] == 4.0, found
     assert (found["start_frame"], found["end_frame"]) == (0, N - 1), found
+
+
+def test_frames_lost_where_the_arm_slows_down_are_found(clean: tuple[Path, df.Clean], tmp_path: Path) -> None:
+    """Three joints moving together, 0.04 a frame, then 0.018 (a script slowing down for a grasp), the frames of
+    the slowing lost (one step of 0.2 between them, timestamps even): `frame_drop` at the frame after the cut,
+    though the steps either side disagree by more than 2x. The same motion slowing down, no frame lost, and a
+    script speeding up (0.01 a frame, then 0.05 from one frame on) raise nothing."""
+    _, episode = clean
+    along = np.array([1.0, 0.5, 0.25])
+
+    def moved(speeds: np.ndarray) -> df.Clean:
+        ep = episode.copy()
+        ep.state[:, :3] = (np.cumsum(speeds)[:, None] * along).astype(np.float32)
+        ep.action[:, :3] = ep.state[:, :3]
+        return ep
+
+    lost = moved(np.r_[[0.04] * 25, [0.2], [0.018] * (N - 26)])
+    slowed = moved(np.r_[[0.04] * 25, np.linspace(0.04, 0.018, 6), [0.018] * (N - 31)])
+    faster = moved(np.r_[[0.01] * 25, [0.05] * (N - 25)])
+    got = df.findings(df.write(tmp_path / "drop", [lost, slowed, faster]))
+    drops = {e: [(f["start_frame"], f["end_frame"]) for f in fs if f["check"] == "frame_drop"] for e, fs in got.items()}
+    assert drops.get(0) == [(25, 25)], got.get(0)
+    assert not drops.get(1) and not drops.get(2), got
+
+
+def test_two_swapped_joint_targets_moving_alike_are_found(clean: tuple[Path, df.Clean], tmp_path: Path) -> None:
+    """A joint sweep: three joints commanded along one curve at their own angles (0.2, 1.4, -0.9 rad), each
+    state following its target a frame later. Swapping two targets changes no correlation, but each then lies
+    near the other joint's angle: `action_swap` on both over the whole episode; the clean sweep raises none."""
+    _, episode = clean
+    wave = 0.3 * np.sin(np.arange(N) / 6.0)[:, None]
+    target = (wave + np.array([0.2, 1.4, -0.9])).astype(np.float32)
+    names = ("joint_0", "joint_1", "joint_2")
+    sweep = replace(episode, state_names=names, action_names=names, action=target, state=np.r_[target[:1], target[:-1]])
+    swapped = sweep.copy()
+    swapped.action[:, [0, 1]] = swapped.action[:, [1, 0]]
+    got = df.findings(df.write(tmp_path / "sweep", [sweep, swapped]), for_kind(DEFAULT, "scripted"))
+    swaps = {
+        e: [(f["subject"], f["start_frame"], f["end_frame"]) for f in fs if f["check"] == "action_swap"]
+        for e, fs in got.items()
+    }
+    assert not swaps.get(0), got.get(0)
+    assert swaps[1] == [("action[joint_0]", 0, N - 1), ("action[joint_1]", 0, N - 1)], got[1]
+
+
+def test_a_small_teleport_and_one_among_a_jumpy_hands_jumps_are_found() -> None:
+    """A joint creeping 0.002 of its range a frame jumps 0.07 of its range at frame 30 (a gamepad session's eef
+    teleported by half its episode's range; 35x its local speed): `teleport` there. With three finger dimensions
+    each snapping open and shut by 0.5 (about 16x their trembling speed: larger steps, less beyond), the joint's
+    jump, the one most beyond its local speed, is still among the 5 kept."""
+    n = 60
+    z = np.zeros((n, 4))
+    z[:, 0] = np.arange(n) * 0.002
+    z[30:, 0] += 0.07
+    got = rows.teleports(z[:, :1], ["j0"], STATE, DEFAULT, set())
+    assert [(f.subject, f.start_frame) for f in got] == [(f"{STATE}[j0]", 30)], got
+    tremble = np.where(np.arange(n) % 2 == 0, 0.06, -0.06)
+    for d, at in ((1, 10), (2, 15), (3, 20)):
+        z[:, d] = np.cumsum(tremble) * 0.5 + 0.5 * ((np.arange(n) >= at).astype(float) - (np.arange(n) >= at + 25))
+    got = rows.teleports(z, ["j0", "finger_1", "finger_2", "finger_3"], STATE, DEFAULT, set())
+    assert (f"{STATE}[j0]", 30) in [(f.subject, f.start_frame) for f in got], got
+
+
+def test_a_persons_velocity_commands_shifted_5_frames_are_late_but_a_followers_position_targets_are_not(
+    clean: tuple[Path, df.Clean], tmp_path: Path
+) -> None:
+    """People's data: a gamepad's velocity commands drive the state at once (the controller integrates them), so
+    the same commands 5 frames early are `action_lag` (limit 4: `velocity_lag_frames`); position targets a real
+    follower trails by up to 6 frames (`action_lag_frames`) are not, shifted the same."""
+    _, episode = clean
+    raw = np.random.default_rng(0).normal(size=(N + 2, 3))
+    speed = (0.02 * (raw[:-2] + raw[1:-1] + raw[2:]) / 3).astype(np.float32)  # a hand's stick, smoothed
+    state = np.cumsum(speed, axis=0) - speed  # the state steps by the command of the frame before
+    joints = ("joint_0", "joint_1", "joint_2")
+    vel = replace(episode, state_names=joints, action_names=("joint_0_vel", "joint_1_vel", "joint_2_vel"))
+    vel = replace(vel, state=state, action=speed)
+    pos = replace(vel, action_names=joints, action=np.r_[state[1:], state[-1:]])
+    early = np.minimum(np.arange(N) + 5, N - 1)
+    th = for_kind(DEFAULT, "person")
+    lags = {}
+    for name, ep in (("vel", vel), ("pos", pos)):
+        got = df.findings(df.write(tmp_path / name, [ep, replace(ep, action=ep.action[early])]), th)
+        lags[name] = {
+            e: [(f["value"], f["threshold"]) for f in fs if f["check"] == "action_lag"] for e, fs in got.items()
+        }
+    assert {e: v for e, v in lags["vel"].items() if v} == {1: [(5.0, 4.0)]}, lags
+    assert not any(lags["pos"].values()), lags

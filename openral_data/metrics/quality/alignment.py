@@ -43,6 +43,9 @@ MIN_FRAMES = 30  # fewer frames: too few to correlate
 # episodes no pair does (the largest margin, calibration corpus: 0.00, a joint sweep moving two joints alike);
 # swapped, Meta-World's diagonal motions follow each other's partner by 0.06-0.2 (benchmarks/README.md)
 SWAP_MARGIN = 0.05
+# `action_swap` of position targets: each this many times nearer the other's state than its own (calibration
+# corpus, tuning half: clean at most 1.0, a joint sweep's joints near one angle; swapped 5.8 and more)
+LEVEL = 3.0
 WEAK = 0.3  # a pair correlating less than this at its best lag: the action does not drive that state
 STRONG = 0.6  # `action_swap`: ... while the other pairs correlate at least this (median)
 
@@ -107,7 +110,40 @@ def alignment(action: Array, state: Array, names: tuple[list[str], list[str]], t
         k = int(np.argmax(scores))
         best[i] = (float(scores[k]), k - MAX_LAG)
     common = round(float(np.median([lag for _, lag in best.values()])))
-    return swaps(cmd, response, pairs, common, names[0]) + lag_findings(best, n, th)
+    found = swaps(cmd, response, pairs, common, names[0])
+    said = {f.subject for f in found}
+    found += [f for f in level_swaps(action, state, pairs, names[0]) if f.subject not in said]
+    return found + lag_findings(best, n, th, names[0])
+
+
+def level_swaps(action: Array, state: Array, pairs: dict[int, int], names: list[str]) -> list[Finding]:
+    """`action_swap` of two position commands (no `delta`/`vel` in their names: a target in the state's units),
+    each lying `LEVEL` times nearer the other's partner than its own (median absolute difference over the
+    episode). Joints commanded alike (a sweep moving them along one curve) swap no change a correlation could
+    see, but their targets sit at the other joint's angle."""
+    level = [i for i in pairs if not VELOCITY.search(names[i])]
+    out: dict[int, Finding] = {}
+    for i in level:
+        own = float(np.median(np.abs(action[:, i] - state[:, pairs[i]])))
+        for k in level:
+            if k == i:
+                continue
+            near_i = float(np.median(np.abs(action[:, i] - state[:, pairs[k]])))
+            near_k = float(np.median(np.abs(action[:, k] - state[:, pairs[i]])))
+            mine_k = float(np.median(np.abs(action[:, k] - state[:, pairs[k]])))
+            if own > LEVEL * near_i and mine_k > LEVEL * near_k:
+                detail = f"lies nearer {names[k]}'s state than its own ({near_i:.3g} against {own:.3g})"
+                out[i] = Finding(
+                    "action_swap",
+                    dim_subject("action", names[i]),
+                    0,
+                    len(action) - 1,
+                    own / near_i if near_i > 0 else float("inf"),
+                    LEVEL,
+                    detail=detail,
+                )
+                break
+    return [out[i] for i in sorted(out)]
 
 
 def swaps(cmd: Array, response: Array, pairs: dict[int, int], lag: int, names: list[str]) -> list[Finding]:
@@ -135,15 +171,19 @@ def swaps(cmd: Array, response: Array, pairs: dict[int, int], lag: int, names: l
     return [out[i] for i in sorted(out)]
 
 
-def lag_findings(best: dict[int, tuple[float, int]], n: int, th: Thresholds) -> list[Finding]:
+def lag_findings(best: dict[int, tuple[float, int]], n: int, th: Thresholds, names: list[str]) -> list[Finding]:
     """`action_lag`: the state following the action (its pairs correlating at least `WEAK`, their median best
     lag) more than `action_lag_frames` frames later or earlier than at once (row t: the action at t, or its step
-    to t + 1, against the state's step from t to t + 1)."""
-    strong = [lag for corr, lag in best.values() if corr >= WEAK]
+    to t + 1, against the state's step from t to t + 1); `velocity_lag_frames` when every such pair is a
+    velocity/delta command (`names`: the action's), which the state follows at once (its controller integrates
+    it), not through a follower's servo that trails a position target."""
+    strong = {i: lag for i, (corr, lag) in best.items() if corr >= WEAK}
     if not strong:
         return []
-    lag = float(np.median(strong))
-    if abs(lag) <= th.action_lag_frames:
+    lag = float(np.median(list(strong.values())))
+    velocity = all(VELOCITY.search(names[i]) for i in strong)
+    limit = th.velocity_lag_frames if velocity else th.action_lag_frames
+    if abs(lag) <= limit:
         return []
     detail = f"the state follows the action {lag:g} frames later"
-    return [Finding("action_lag", "action", 0, n - 1, lag, float(th.action_lag_frames), detail=detail)]
+    return [Finding("action_lag", "action", 0, n - 1, lag, float(limit), detail=detail)]

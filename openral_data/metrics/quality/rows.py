@@ -19,7 +19,7 @@ REPEATS = 2  # `repeated_rows`: an episode with more places repeating rows repea
 NEAR = 5  # frames either side whose steps make a step's local speed
 JUMPS = 3  # `teleport`: a dimension jumping more often than this in one episode jumps by nature (a hand's fingers
 # snapping open and shut), a teleport is a one-off
-STEADY = 0.5  # `frame_drop`: the two neighbouring steps within this ratio of each other (steady motion)
+AROUND = 2  # `frame_drop`: the steps either side a drop's step is compared with
 ALIGN = 0.8  # `frame_drop`: the step's direction against its neighbours' (cosine): the same motion, further on
 # `frame_drop`: ... every moving dimension further by about the same factor (largest / median ratio; calibration
 # corpus: dropped frames 1.0-3.8, a teleport in a moving episode 8.3 and more)
@@ -42,8 +42,8 @@ def teleports(z: Array, names: list[str], feature: str, th: Thresholds, skip: se
     """`teleport`: a state dimension (`z` in dataset-range units, quaternion components left to `quat_flip`)
     stepping between two frames more than `teleport_step` of its range and more than `teleport_factor` times its
     local speed (the mean step within `NEAR` frames; still there, its median step when it moves); the frame
-    it lands on (the 5 largest jumps; frames in `skip`, a frame drop, left out; a dimension jumping more than
-    `JUMPS` times in the episode left out: its nature)."""
+    it lands on (the 5 jumps most beyond their local speed; frames in `skip`, a frame drop, left out; a dimension
+    jumping more than `JUMPS` times in the episode left out: its nature)."""
     if len(z) < 3:
         return []
     quat = {names[i] for _, dims in signals.quaternion_groups(feature, names) for i in dims}
@@ -55,7 +55,9 @@ def teleports(z: Array, names: list[str], feature: str, th: Thresholds, skip: se
         typical = np.where(typical > 0, typical, usual)  # still nearby: its usual step when it moves
         jump = (step > th.teleport_step) & (step > th.teleport_factor * typical)
     out = []
-    hits = [(float(step[t, d]), int(t), int(d)) for t, d in zip(*np.nonzero(jump), strict=True)]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        beyond = step / typical  # how far beyond its local speed: the 5 kept are the 5 most beyond it
+    hits = [(float(beyond[t, d]), int(t), int(d)) for t, d in zip(*np.nonzero(jump), strict=True)]
     often = np.bincount([d for _, t, d in hits if t + 1 not in skip], minlength=z.shape[1]) > JUMPS
     for _, t, d in sorted(hits, reverse=True):
         if names[d] in quat or t + 1 in skip or often[d]:
@@ -68,21 +70,25 @@ def teleports(z: Array, names: list[str], feature: str, th: Thresholds, skip: se
 
 def frame_drops(z: Array, late: npt.NDArray[np.bool_], th: Thresholds) -> list[tuple[int, float]]:
     """(frame, step over its neighbours') where the state (`z`, range units) steps `drop_factor` times further
-    than on both neighbouring steps, which agree (within `STEADY`: steady motion, not a start), in the direction
-    they move (frames lost, the motion goes on where it would have been), while the timestamps say one period
-    passed (`late`: the steps that are a gap, already found as `gap`); at most 5."""
-    if len(z) < 4 or z.shape[1] == 0:
+    than on each of the `AROUND` steps either side, all of them moving (not a start from rest), in the direction
+    its two neighbouring steps move (frames lost, the motion goes on where it would have been), while the
+    timestamps say one period passed (`late`: the steps that are a gap, already found as `gap`); at most 5.
+    Two steps either side, not one: a script speeding up between waypoints steps further from one frame on, so
+    its step after is as long (no spike); a drop is one long step between ordinary ones."""
+    if len(z) < 2 * AROUND + 2 or z.shape[1] == 0:
         return []
     with np.errstate(all="ignore"):
         step = np.nan_to_num(np.diff(z, axis=0), posinf=0.0, neginf=0.0)
         norm = np.linalg.norm(step, axis=1)
-        low, high = np.minimum(norm[:-2], norm[2:]), np.maximum(norm[:-2], norm[2:])
-        both = step[:-2] + step[2:]
-        cosine = (step[1:-1] * both).sum(axis=1) / (norm[1:-1] * np.linalg.norm(both, axis=1))
-        ratio = norm[1:-1] / high
-        hit = (ratio > th.drop_factor) & (low > 0) & (low >= STEADY * high) & (cosine > ALIGN)
-    hit &= ~late[1:-1] & (spread(step) < SPREAD)
-    return [(int(t) + 2, float(ratio[t])) for t in np.flatnonzero(hit)][:5]
+        n = len(norm)
+        near = np.stack([norm[AROUND + d : n - AROUND + d] for d in range(-AROUND, AROUND + 1) if d])
+        both = step[AROUND - 1 : n - AROUND - 1] + step[AROUND + 1 : n - AROUND + 1]
+        mine = step[AROUND : n - AROUND]
+        cosine = (mine * both).sum(axis=1) / (norm[AROUND : n - AROUND] * np.linalg.norm(both, axis=1))
+        ratio = norm[AROUND : n - AROUND] / near.max(axis=0)
+        hit = (ratio > th.drop_factor) & (near.min(axis=0) > 0) & (cosine > ALIGN)
+    hit &= ~late[AROUND : n - AROUND] & (spread(step)[AROUND - 1 : n - AROUND - 1] < SPREAD)
+    return [(int(t) + AROUND + 1, float(ratio[t])) for t in np.flatnonzero(hit)][:5]
 
 
 def spread(step: Array) -> Array:

@@ -41,11 +41,12 @@ class Thresholds:
     camera_run_frames: int = 9  # ... or a run of frozen (while the robot moves) or blurred samples spans this many
     flip_margin: float = 0.15  # `camera_flipped`: correlation with the others' picture turned 180° minus as it is
     quat_norm: float = 0.05  # `quat_norm`: a quaternion whose norm is off 1 by more than this
-    teleport_step: float = 0.1  # `teleport`: a state dimension moving more than this share of its range in a frame
+    teleport_step: float = 0.05  # `teleport`: a state dimension moving more than this share of its range in a frame
     teleport_factor: float = 5.0  # ... and more than this many times its local speed (median step nearby)
     drop_factor: float = 4.5  # `frame_drop`: state and action both stepping this many times their neighbours' steps
     degrees_limit: float = 6.8  # `degrees`: an angle-named state dimension beyond ± this (rad; 2π + 0.5) is not radians
     action_lag_frames: int = 6  # `action_lag`: the state following the action more than this many frames off
+    velocity_lag_frames: int = 4  # ... of a velocity/delta command, which the state follows at once (no servo)
     repeat_max: int = 4  # `repeated_rows`: state and action repeated bit for bit for 1..this many frames mid-motion
     length_ratio: float = 4.0  # `length_outlier`: an episode this many times longer or shorter than the median
     limit_margin: float = 0.02  # `joint_limit`: a joint beyond its manifest limits by this share of their range
