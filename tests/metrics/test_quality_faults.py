@@ -256,3 +256,18 @@ def test_a_camera_out_of_step_with_the_state_and_the_others_is_found(
     [found] = lags[1]
     assert found["subject"] == "observation.images.wrist" and found["value"] == 4.0, found
     assert (found["start_frame"], found["end_frame"]) == (0, N - 1), found
+
+
+def test_a_dimension_moving_by_rounding_residue_is_no_jerk(clean: tuple[Path, df.Clean], tmp_path: Path) -> None:
+    """An action dimension commanded as 0 but written as ±2e-31 (a generated episode's rotation delta: rounding
+    of its quaternion arithmetic) holds still: nothing (before: `jerky` on it, its range of 4e-31 stretched to 1).
+    The same dimension flickering by ±0.02 is `jerky` there."""
+    _, episode = clean
+    flicker = (-1.0) ** np.arange(N)
+    residue = episode.copy()
+    residue.action[:, 1] = flicker * 2e-31
+    assert df.findings(df.write(tmp_path / "residue", [residue])) == {}
+    shaky = episode.copy()
+    shaky.action[:, 1] = flicker * 0.02
+    got = df.findings(df.write(tmp_path / "shaky", [shaky])).get(0, [])
+    assert {f["subject"] for f in got if f["check"] == "jerky"} == {f"action[{episode.action_names[1]}]"}, got
