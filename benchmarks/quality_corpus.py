@@ -109,25 +109,27 @@ def expert_sources(corpus: Path, scenes: tuple[str, ...], episodes: int) -> list
     return out
 
 
-# joint-space scripted data (`record --hal ROBOT --mode sim`, the `sweep` policy): the UR5e's own rSkill, and one
-# written here for the Jaco (no built-in one); twins whose home posture has several joints at 0 (SO-101, OpenArm,
+# joint-space scripted data (`record --hal ROBOT --mode sim`, the `sweep` policy, an rSkill written here per episode); twins whose home posture has several joints at 0 (SO-101, OpenArm,
 # Panda) are left out: `sweep` commands those joints alike, frame for frame (a `duplicated` action, truly)
-HAL_SWEEPS = (("ur5e", "sweep-ur5e"), ("jaco", "sweep-jaco"))
+HAL_SWEEPS = ("ur5e", "jaco")
 
 
-def sweep_rskill(folder: Path, robot: str) -> None:
-    """`folder/sweep-ROBOT/rskill.yaml`: the `sweep` policy on `robot`'s state and action (its manifest's names)."""
+def sweep_rskill(folder: Path, robot: str, k: int = 0) -> str:
+    """`folder/sweep-ROBOT-K/rskill.yaml`: the `sweep` policy on `robot`'s state and action (its manifest's names),
+    its period 4 s + 0.25 s a K (episodes that start at home on a clock of their own would else be the same
+    episode, frame for frame); its id."""
     from openral_data.runtime import registry
 
     names = registry.ROBOTS[robot].observation.state.names or []
     contract = {"dim": len(names), "names": names, "representation": "joint_positions_gripper"}
     manifest = {
-        "id": f"sweep-{robot}", "description": f"sweep the {robot} joints around their start posture",
+        "id": f"sweep-{robot}-{k}", "description": f"sweep the {robot} joints around their start posture",
         "policy": "sweep", "embodiment_tags": [robot], "state_contract": contract, "action_contract": contract,
-        "required_cameras": [], "policy_extras": {"amplitude": 0.3, "period": 4.0},
+        "required_cameras": [], "policy_extras": {"amplitude": 0.3, "period": 4.0 + 0.25 * k},
     }  # fmt: skip
-    (folder / f"sweep-{robot}").mkdir(parents=True, exist_ok=True)
-    (folder / f"sweep-{robot}" / "rskill.yaml").write_text(json.dumps(manifest))  # JSON is YAML
+    (folder / f"sweep-{robot}-{k}").mkdir(parents=True, exist_ok=True)
+    (folder / f"sweep-{robot}-{k}" / "rskill.yaml").write_text(json.dumps(manifest))  # JSON is YAML
+    return str(manifest["id"])
 
 
 def refuse_missed_ticks(root: Path) -> None:
@@ -147,19 +149,22 @@ def refuse_missed_ticks(root: Path) -> None:
 
 def hal_sources(corpus: Path, episodes: int, max_steps: int = 150) -> list[Source]:
     """Scripted joint sweeps of robots' MuJoCo twins: states that are joint angles, named as the robot
-    manifest's revolute joints (what the angle checks and the joint limits read). Recorded on `VIRTUAL_CLOCK`'s
+    manifest's revolute joints (what the angle checks and the joint limits read). Each episode recorded by a process
+    of its own, so that it starts with the twin at home (the twin keeps the posture an episode ended in, and the
+    sweep's first command, home, snapped the arm there in one tick: a jump at frame 1). Recorded on `VIRTUAL_CLOCK`'s
     clock (every tick on time, each episode's report checked: `refuse_missed_ticks`): on the real clock the loaded
     2-core machine missed ticks (4-271 an episode at 10 fps), and a missed tick is a hidden frame drop in a
     "clean" episode."""
     out = []
-    for robot, rskill in HAL_SWEEPS:
+    for robot in HAL_SWEEPS:
         root = corpus / "clean" / f"expert_hal_{robot}_sweep"
         if not ready(root):
-            print(f"recording {episodes} {rskill} episodes of the {robot} twin", flush=True)
-            sweep_rskill(corpus / "rskills", robot)
-            cli("record", "--rskills-dir", str(corpus / "rskills"), "--hal", robot, "--mode", "sim", "--rskill", rskill,
-                "--n-episodes", str(episodes), "--max-steps", str(max_steps), "--seed", "100", "--out", str(root),
-                "--codec", "h264", "--fps", "10", virtual_clock=True)  # fmt: skip
+            print(f"recording {episodes} sweep episodes of the {robot} twin", flush=True)
+            for k in range(1, episodes + 1):  # one process an episode: each starts with the twin at home (`--resume`)
+                rskill = sweep_rskill(corpus / "rskills", robot, k - 1)
+                cli("record", "--rskills-dir", str(corpus / "rskills"), "--hal", robot, "--mode", "sim", "--rskill",
+                    rskill, "--n-episodes", str(k), "--max-steps", str(max_steps), "--seed", "100", "--out", str(root),
+                    "--codec", "h264", "--fps", "10", *(["--resume"] if k > 1 else []), virtual_clock=True)  # fmt: skip
             refuse_missed_ticks(root)
         out.append(Source(f"expert_hal_{robot}_sweep", "expert", root))
     return out
