@@ -109,8 +109,9 @@ def expert_sources(corpus: Path, scenes: tuple[str, ...], episodes: int) -> list
     return out
 
 
-# joint-space scripted data (`record --hal ROBOT --mode sim`, the `sweep` policy, an rSkill written here per episode); twins whose home posture has several joints at 0 (SO-101, OpenArm,
-# Panda) are left out: `sweep` commands those joints alike, frame for frame (a `duplicated` action, truly)
+# joint-space scripted data (`record --hal ROBOT --mode sim`, the `sweep` policy, an rSkill written here per
+# episode); twins whose home posture has several joints at 0 (SO-101, OpenArm, Panda) are left out: `sweep`
+# commands those joints alike, frame for frame (a `duplicated` action, truly)
 HAL_SWEEPS = ("ur5e", "jaco")
 
 
