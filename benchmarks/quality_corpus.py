@@ -62,12 +62,33 @@ class Source:
     root: Path
 
 
-def cli(*args: str) -> None:
-    """`openral-data ARGS` in a subprocess (MuJoCo rendering off screen); its output only when it fails."""
+# `python -c VIRTUAL_CLOCK ARGS`: `openral-data ARGS` on a clock of its own. The main thread's `time.sleep(d)`
+# moves `time.monotonic()` on by d and takes no time; work takes none either. A twin recorded so (`record --hal R
+# --mode sim`: its physics steps up to the monotonic clock, its cameras are polled) meets every tick's deadline
+# however loaded the machine is: no overrun, no missed tick (a missed tick is a hidden frame drop, the physics having
+# run on). Other threads sleep for real (the encoders' waits).
+VIRTUAL_CLOCK = """
+import threading, time
+real_sleep, now = time.sleep, [time.monotonic()]
+def sleep(d):
+    if threading.current_thread() is threading.main_thread():
+        now[0] += max(0.0, d)
+    else:
+        real_sleep(d)
+time.monotonic, time.sleep = (lambda: now[0]), sleep
+import sys
+sys.argv[0] = "openral-data"
+from openral_data.cli import main
+main()
+"""
+
+
+def cli(*args: str, virtual_clock: bool = False) -> None:
+    """`openral-data ARGS` in a subprocess (MuJoCo rendering off screen; `VIRTUAL_CLOCK`'s clock when asked); its
+    output only when it fails."""
     env = {**os.environ, "MUJOCO_GL": "egl", "PYTHONPATH": str(REPO)}
-    done = subprocess.run(
-        [sys.executable, "-m", "openral_data.cli", *args], check=False, capture_output=True, text=True, env=env
-    )
+    run = ["-c", VIRTUAL_CLOCK] if virtual_clock else ["-m", "openral_data.cli"]
+    done = subprocess.run([sys.executable, *run, *args], check=False, capture_output=True, text=True, env=env)
     if done.returncode != 0:
         raise RuntimeError(f"openral-data {' '.join(args)}: {done.stderr[-2000:]}")
 
@@ -88,40 +109,64 @@ def expert_sources(corpus: Path, scenes: tuple[str, ...], episodes: int) -> list
     return out
 
 
-# joint-space scripted data (`record --hal ROBOT --mode sim`, the `sweep` policy): the UR5e's own rSkill, and one
-# written here for the Jaco (no built-in one); twins whose home posture has several joints at 0 (SO-101, OpenArm,
-# Panda) are left out: `sweep` commands those joints alike, frame for frame (a `duplicated` action, truly)
-HAL_SWEEPS = (("ur5e", "sweep-ur5e"), ("jaco", "sweep-jaco"))
+# joint-space scripted data (`record --hal ROBOT --mode sim`, the `sweep` policy, an rSkill written here per
+# episode); twins whose home posture has several joints at 0 (SO-101, OpenArm, Panda) are left out: `sweep`
+# commands those joints alike, frame for frame (a `duplicated` action, truly)
+HAL_SWEEPS = ("ur5e", "jaco")
 
 
-def sweep_rskill(folder: Path, robot: str) -> None:
-    """`folder/sweep-ROBOT/rskill.yaml`: the `sweep` policy on `robot`'s state and action (its manifest's names)."""
+def sweep_rskill(folder: Path, robot: str, k: int = 0) -> str:
+    """`folder/sweep-ROBOT-K/rskill.yaml`: the `sweep` policy on `robot`'s state and action (its manifest's names),
+    its period 4 s + 0.25 s a K (episodes that start at home on a clock of their own would else be the same
+    episode, frame for frame); its id."""
     from openral_data.runtime import registry
 
     names = registry.ROBOTS[robot].observation.state.names or []
     contract = {"dim": len(names), "names": names, "representation": "joint_positions_gripper"}
     manifest = {
-        "id": f"sweep-{robot}", "description": f"sweep the {robot} joints around their start posture",
+        "id": f"sweep-{robot}-{k}", "description": f"sweep the {robot} joints around their start posture",
         "policy": "sweep", "embodiment_tags": [robot], "state_contract": contract, "action_contract": contract,
-        "required_cameras": [], "policy_extras": {"amplitude": 0.3, "period": 4.0},
+        "required_cameras": [], "policy_extras": {"amplitude": 0.3, "period": 4.0 + 0.25 * k},
     }  # fmt: skip
-    (folder / f"sweep-{robot}").mkdir(parents=True, exist_ok=True)
-    (folder / f"sweep-{robot}" / "rskill.yaml").write_text(json.dumps(manifest))  # JSON is YAML
+    (folder / f"sweep-{robot}-{k}").mkdir(parents=True, exist_ok=True)
+    (folder / f"sweep-{robot}-{k}" / "rskill.yaml").write_text(json.dumps(manifest))  # JSON is YAML
+    return str(manifest["id"])
+
+
+def refuse_missed_ticks(root: Path) -> None:
+    """Raise (the recording moved aside) when an episode of the HAL recording `root` missed or overran a tick (its
+    loop's report in meta/episodes): rows that jump over lost ticks, timestamps even, are no clean episode."""
+    late = {}
+    for row in read_episodes(root).to_pylist():
+        info = row.get("openral.episode_info")
+        hal = (json.loads(info) if isinstance(info, str) else info or {}).get("hal", {})
+        if hal.get("missed_ticks", 0) or hal.get("overruns", 0):
+            late[row["episode_index"]] = (hal.get("missed_ticks"), hal.get("overruns"))
+    if late:
+        shutil.rmtree(root.with_name(root.name + ".refused"), ignore_errors=True)
+        root.rename(root.with_name(root.name + ".refused"))
+        raise RuntimeError(f"{root}: episodes missed ticks (missed, overruns): {late}")
 
 
 def hal_sources(corpus: Path, episodes: int, max_steps: int = 150) -> list[Source]:
     """Scripted joint sweeps of robots' MuJoCo twins: states that are joint angles, named as the robot
-    manifest's revolute joints (what the angle checks and the joint limits read). Paced at 10 fps: at 20 the
-    loaded 2-core machine missed ticks, and a missed tick is a hidden frame drop in a "clean" episode."""
+    manifest's revolute joints (what the angle checks and the joint limits read). Each episode recorded by a process
+    of its own, so that it starts with the twin at home (the twin keeps the posture an episode ended in, and the
+    sweep's first command, home, snapped the arm there in one tick: a jump at frame 1). Recorded on `VIRTUAL_CLOCK`'s
+    clock (every tick on time, each episode's report checked: `refuse_missed_ticks`): on the real clock the loaded
+    2-core machine missed ticks (4-271 an episode at 10 fps), and a missed tick is a hidden frame drop in a
+    "clean" episode."""
     out = []
-    for robot, rskill in HAL_SWEEPS:
+    for robot in HAL_SWEEPS:
         root = corpus / "clean" / f"expert_hal_{robot}_sweep"
         if not ready(root):
-            print(f"recording {episodes} {rskill} episodes of the {robot} twin", flush=True)
-            sweep_rskill(corpus / "rskills", robot)
-            cli("record", "--rskills-dir", str(corpus / "rskills"), "--hal", robot, "--mode", "sim", "--rskill", rskill,
-                "--n-episodes", str(episodes), "--max-steps", str(max_steps), "--seed", "100", "--out", str(root),
-                "--codec", "h264", "--fps", "10")  # fmt: skip
+            print(f"recording {episodes} sweep episodes of the {robot} twin", flush=True)
+            for k in range(1, episodes + 1):  # one process an episode: each starts with the twin at home (`--resume`)
+                rskill = sweep_rskill(corpus / "rskills", robot, k - 1)
+                cli("record", "--rskills-dir", str(corpus / "rskills"), "--hal", robot, "--mode", "sim", "--rskill",
+                    rskill, "--n-episodes", str(k), "--max-steps", str(max_steps), "--seed", "100", "--out", str(root),
+                    "--codec", "h264", "--fps", "10", *(["--resume"] if k > 1 else []), virtual_clock=True)  # fmt: skip
+            refuse_missed_ticks(root)
         out.append(Source(f"expert_hal_{robot}_sweep", "expert", root))
     return out
 

@@ -343,3 +343,39 @@ def test_a_persons_velocity_commands_shifted_5_frames_are_late_but_a_followers_p
         }
     assert {e: v for e, v in lags["vel"].items() if v} == {1: [(5.0, 4.0)]}, lags
     assert not any(lags["pos"].values()), lags
+
+def test_a_dimension_moving_by_rounding_residue_is_no_jerk(clean: tuple[Path, df.Clean], tmp_path: Path) -> None:
+    """An action dimension commanded as 0 but written as ±2e-31 (a generated episode's rotation delta: rounding
+    of its quaternion arithmetic) holds still: nothing (before: `jerky` on it, its range of 4e-31 stretched to 1).
+    The same dimension flickering by ±0.02 is `jerky` there."""
+    _, episode = clean
+    flicker = (-1.0) ** np.arange(N)
+    residue = episode.copy()
+    residue.action[:, 1] = flicker * 2e-31
+    assert df.findings(df.write(tmp_path / "residue", [residue])) == {}
+    shaky = episode.copy()
+    shaky.action[:, 1] = flicker * 0.02
+    got = df.findings(df.write(tmp_path / "shaky", [shaky])).get(0, [])
+    assert {f["subject"] for f in got if f["check"] == "jerky"} == {f"action[{episode.action_names[1]}]"}, got
+
+
+def test_a_gripper_closing_in_three_frames_or_a_one_count_flicker_is_no_teleport(
+    clean: tuple[Path, df.Clean], tmp_path: Path
+) -> None:
+    """A state dimension closing in 3 frames (0.18, 0.26, 0.17 a frame, the Apple/Reachy fixture's gripper) or
+    one of a single count's range flickering by that count: no `teleport` (before: both). One step alone of the
+    same size (a reading jumping and staying) is a teleport, at its frame."""
+    _, episode = clean
+    closing = episode.copy()
+    closing.state[:, 2] = np.r_[[0.0] * 30, np.cumsum([0.18, 0.26, 0.17]), [0.61] * (N - 33)]
+    flicker = episode.copy()
+    flicker.state[:, 2] = np.where(np.isin(np.arange(N), [20, 21, 44]), 0.0015, 0.0)
+    for name, ep in (("closing", closing), ("flicker", flicker)):
+        got = df.findings(df.write(tmp_path / name, [ep])).get(0, [])
+        assert not [f for f in got if f["check"] == "teleport"], (name, got)
+    jump = episode.copy()
+    jump.state[:, 2] = np.r_[[0.0] * 31, [0.26] * (N - 31)] + np.arange(N) * 0.002
+    got = df.findings(df.write(tmp_path / "jump", [jump])).get(0, [])
+    assert [(f["subject"], f["start_frame"]) for f in got if f["check"] == "teleport"] == [
+        (f"{STATE}[{episode.state_names[2]}]", 31)
+    ], got

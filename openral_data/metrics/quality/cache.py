@@ -39,8 +39,11 @@ if TYPE_CHECKING:  # imported where used: `info` looks for a table (`cache_paths
 # of the measures: a change to how they are computed bumps it, so older tables are recomputed (2: image cameras;
 # 3: findings, and frozen/jerky/clipped measured anew; 4: frame drops, repeated rows, degrees, idle edges, camera runs;
 # 5: camera spans placed to the frame, camera_flipped's match; 6: joint limits and velocities from the robot manifest;
-# 7: video_frames; 8: a still scene is no frozen or stalled camera, a slow encoder no frozen reading; 9: camera_lag)
-VERSION = 13
+# 7: video_frames; 8: a still scene is no frozen or stalled camera, a slow encoder no frozen reading; 9: camera_lag;
+# 10: a dimension moving by rounding residue holds still; 11: a teleport is one step alone, beyond a few counts;
+# 12-13: frame_drop against 2 steps either side, position targets swapped, teleport's floor 0.05 and its order,
+# velocity commands' lag limit; 14: 10-13 together)
+VERSION = 14
 KEY = b"openral.quality.key"
 STRIDE = b"openral.quality.stride"
 

@@ -64,7 +64,7 @@ def vector_findings(
     lo, hi = ranges[key]
     names = ds.dim_names(key)
     grip = dims.gripper_dims(names)
-    varies = (hi > lo) & ~np.isin(np.arange(len(names)), grip)  # a gripper holds still on purpose
+    varies = motion.varies(lo, hi) & ~np.isin(np.arange(len(names)), grip)  # a gripper holds still on purpose
     found = dims.constant_tails(x, names, varies, th.frozen_min_frames, key)
     moving = [int(d) for d in np.flatnonzero(varies)]
     n = x.shape[0]

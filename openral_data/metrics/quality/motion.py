@@ -10,9 +10,19 @@ import numpy.typing as npt
 Array = npt.NDArray[np.float64]
 
 
+# a dimension whose dataset range is under this share of its magnitude (at least 1) holds still: what it moves is
+# rounding residue (a generated episode's rotation deltas about x and y: ±2e-31 rad where its source commands 0)
+RESIDUE = 1e-9
+
+
+def varies(lo: Array, hi: Array) -> npt.NDArray[np.bool_]:
+    """Per dimension, whether its range `lo`..`hi` is more than rounding residue (`RESIDUE`)."""
+    return np.asarray((hi - lo) > RESIDUE * np.fmax(1.0, np.fmax(np.abs(lo), np.abs(hi))), dtype=bool)
+
+
 def normalised(x: Array, lo: Array, hi: Array) -> Array:
-    """`x` (frames, dims) in units of each dimension's dataset range; constant dimensions are dropped."""
-    moving = (hi - lo) > 0
+    """`x` (frames, dims) in units of each dimension's dataset range; constant dimensions (`varies`) are dropped."""
+    moving = varies(lo, hi)
     return (x[:, moving] - lo[moving]) / (hi - lo)[moving]
 
 

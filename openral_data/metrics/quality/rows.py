@@ -25,6 +25,13 @@ ALIGN = 0.8  # `frame_drop`: the step's direction against its neighbours' (cosin
 # corpus: dropped frames 1.0-3.8, a teleport in a moving episode 8.3 and more)
 SPREAD = 5.0
 MOVED = 0.002  # range units: a dimension moving less than this on its neighbouring steps is not compared
+# `teleport` on quantised readings (a real robot's encoders): a step of at most `COUNTS_FLOOR` counts of the
+# dimension's resolution (its smallest nonzero step in the episode) is no teleport (a dimension whose range is one
+# count flickers by 100 % of it); nor is a step under `ALONE` times the larger of its two neighbouring steps (a
+# gripper closing in 3 frames): a teleport is one step alone (calibration corpus, tuning half: injected teleports
+# 4.0x their neighbours and more, people's clean jumps 2.2x at most)
+COUNTS_FLOOR = 3.0
+ALONE = 3.0
 
 
 def local_speed(step: Array) -> Array:
@@ -53,7 +60,7 @@ def teleports(z: Array, names: list[str], feature: str, th: Thresholds, skip: se
         usual = np.nan_to_num(np.nanmedian(np.where(step > 0, step, np.nan), axis=0))
         typical = np.nan_to_num(local_speed(step))
         typical = np.where(typical > 0, typical, usual)  # still nearby: its usual step when it moves
-        jump = (step > th.teleport_step) & (step > th.teleport_factor * typical)
+        jump = (step > th.teleport_step) & (step > th.teleport_factor * typical) & lone_jumps(step)
     out = []
     with np.errstate(divide="ignore", invalid="ignore"):
         beyond = step / typical  # how far beyond its local speed: the 5 kept are the 5 most beyond it
@@ -66,6 +73,17 @@ def teleports(z: Array, names: list[str], feature: str, th: Thresholds, skip: se
         subject = dim_subject(feature, names[d])
         out.append(Finding("teleport", subject, t + 1, t + 1, value, th.teleport_factor, detail="x local speed"))
     return sorted(out[:5], key=lambda f: f.start_frame or 0)
+
+
+def lone_jumps(step: Array) -> npt.NDArray[np.bool_]:
+    """(steps, dims) absolute steps -> whether each is more than `COUNTS_FLOOR` counts of its dimension's
+    resolution and `ALONE` times both neighbouring steps (an episode's first or last step: its one neighbour)."""
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a dimension that never moves: no resolution (NaN)
+        count = np.nan_to_num(np.nanmin(np.where(step > 0, step, np.nan), axis=0))
+        pad = np.zeros((1, step.shape[1]))
+        near = np.fmax(np.concatenate([pad, step[:-1]]), np.concatenate([step[1:], pad]))
+        return np.asarray((step > COUNTS_FLOOR * count) & (step >= ALONE * np.nan_to_num(near)), dtype=bool)
 
 
 def frame_drops(z: Array, late: npt.NDArray[np.bool_], th: Thresholds) -> list[tuple[int, float]]:
