@@ -138,9 +138,9 @@ class CliRun:
     result: RunResult | None = None
 
 
-def child_env() -> dict[str, str]:
+def child_env(repo: Path = REPO) -> dict[str, str]:
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}  # bytecode cached, as for a user
-    env["PYTHONPATH"] = str(REPO)
+    env["PYTHONPATH"] = str(repo)
     return env
 
 
@@ -155,7 +155,9 @@ def _proc_cpu(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / TICK
 
 
-def run_cli(scene: Path, out: Path, episodes: int, codec: Codec, threads: int | None = None) -> CliRun:
+def run_cli(
+    scene: Path, out: Path, episodes: int, codec: Codec, threads: int | None = None, repo: Path = REPO
+) -> CliRun:
     """One `record` subprocess; its stderr is read as it comes, so the process's CPU is read at the `started` and
     `saved` records too (the recording window's CPU, robust to the machine's load)."""
     args = ["-v", "--log-format", "json", "record", "--scene", str(scene), "--rskill", RSKILL]
@@ -169,7 +171,7 @@ def run_cli(scene: Path, out: Path, episodes: int, codec: Codec, threads: int | 
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         text=True,
-        env=child_env(),
+        env=child_env(repo),
     )
     assert proc.stderr is not None
     lines: list[str] = []
@@ -206,6 +208,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--repeats", type=int, default=3, help="interleaved repetitions of pure, cli (median reported)")
     p.add_argument("--codec", choices=CODECS, nargs="+", default=list(CODECS))
     p.add_argument("--encoder-threads", type=int, default=None, help="record's --encoder-threads (default: not given)")
+    p.add_argument(
+        "--against",
+        type=Path,
+        default=None,
+        help="another checkout (e.g. main's) whose `record` runs too, right after this tree's in each repetition",
+    )
     p.add_argument("--quick", action="store_true", help="smoke run: 2 episodes x 20 frames, 1 repeat")
     p.add_argument("--json", type=Path, default=REPO / "benchmarks" / "results" / "cli_writer.json")
     p.add_argument("--tmp", type=Path, default=None, help="parent of the scratch directory (default: system temp)")
@@ -283,6 +291,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"machine: {machine['nproc']} cpus ({machine['cpu_model']}), load {machine['loadavg_at_start']}")
     pure: dict[Codec, list[RunResult]] = {c: [] for c in codecs}
     cli: dict[Codec, list[CliRun]] = {c: [] for c in codecs}
+    against: dict[Codec, list[CliRun]] = {c: [] for c in codecs}
+    trees = [("cli", REPO, cli)] + ([("against", args.against.resolve(), against)] if args.against else [])
     try:
         scene = write_scene(scratch / "mock_w.yaml", wl)
         t0 = time.perf_counter()
@@ -298,7 +308,8 @@ def main(argv: list[str] | None = None) -> int:
             small = [EpisodeData({c: a[:4] for c, a in data[0].images.items()}, data[0].states, data[0].actions)]
             run_pure(small, scratch / f"warmup-pure-{codec}", warm, codec)
             warm_scene = write_scene(scratch / "warm.yaml", warm)
-            run_cli(warm_scene, scratch / f"warmup-cli-{codec}", 1, codec, args.encoder_threads)
+            for name, repo, _ in trees:
+                run_cli(warm_scene, scratch / f"warmup-{name}-{codec}", 1, codec, args.encoder_threads, repo)
         for rep in range(args.repeats):
             for codec in codecs:
                 root = scratch / f"rep{rep}" / codec
@@ -306,18 +317,20 @@ def main(argv: list[str] | None = None) -> int:
                 p = RunResult(wall_s=wall, cpu_s=cpu, video_bytes=video_bytes(root / "pure"))
                 check("pure", root / "pure", wl, p)
                 pure[codec].append(p)
-                run = run_cli(scene, root / "cli", wl.episodes, codec, args.encoder_threads)
-                size = video_bytes(root / "cli")
-                run.result = RunResult(wall_s=run.window_s, cpu_s=run.process_cpu_s, video_bytes=size)
-                check("cli", root / "cli", wl, run.result)
-                cli[codec].append(run)
-                print(
-                    f"[{rep + 1}/{args.repeats}] {codec:<4} pure {wall:7.2f} s   cli window {run.window_s:7.2f} s "
-                    f"(loop {run.loop_s:.2f}, process {run.process_s:.2f})   ratio {wall / run.window_s:.3f}   "
-                    f"CPU s pure {cpu:.2f} window {run.window_cpu_s:.2f}   "
-                    f"dropped {p.dropped}/{run.result.dropped} rows {run.result.parquet_rows}",
-                    flush=True,
-                )
+                for name, repo, runs in trees:
+                    run = run_cli(scene, root / name, wl.episodes, codec, args.encoder_threads, repo)
+                    size = video_bytes(root / name)
+                    run.result = RunResult(wall_s=run.window_s, cpu_s=run.process_cpu_s, video_bytes=size)
+                    check("cli", root / name, wl, run.result)
+                    runs[codec].append(run)
+                    print(
+                        f"[{rep + 1}/{args.repeats}] {codec:<4} pure {wall:7.2f} s   "
+                        f"{name:<7} window {run.window_s:6.2f} s "
+                        f"(loop {run.loop_s:.2f}, process {run.process_s:.2f})   ratio {wall / run.window_s:.3f}   "
+                        f"CPU s pure {cpu:.2f} window {run.window_cpu_s:.2f}   "
+                        f"dropped {p.dropped}/{run.result.dropped} rows {run.result.parquet_rows}",
+                        flush=True,
+                    )
                 if not args.keep:
                     shutil.rmtree(root, ignore_errors=True)
     finally:
@@ -327,6 +340,10 @@ def main(argv: list[str] | None = None) -> int:
     summaries = {c: summarize(wl, pure[c], cli[c]) for c in codecs}
     for c in codecs:
         print_summary(wl, c, summaries[c], args.repeats, pure[c])
+    others = {c: summarize(wl, pure[c], against[c]) for c in codecs} if args.against else {}
+    for c, s in others.items():
+        print(f"\n--against {args.against}:")
+        print_summary(wl, c, s, args.repeats, pure[c])
     report = {
         "created": datetime.now(UTC).isoformat(timespec="seconds"),
         "workload": asdict(wl) | {"total_frames": wl.total_frames, "scene": "mock", "rskill": RSKILL},
@@ -340,6 +357,11 @@ def main(argv: list[str] | None = None) -> int:
                 "pure_runs": [asdict(r) for r in pure[c]],
                 "cli_runs": [asdict(r) for r in cli[c]],
                 **summaries[c],
+                **(
+                    {"against": {"tree": str(args.against), "cli_runs": [asdict(r) for r in against[c]], **others[c]}}
+                    if args.against
+                    else {}
+                ),
             }
             for c in codecs
         },
@@ -348,8 +370,10 @@ def main(argv: list[str] | None = None) -> int:
     args.json.parent.mkdir(parents=True, exist_ok=True)
     args.json.write_text(json.dumps(report, indent=2) + "\n")
     print(f"\nresults: {args.json}")
-    ok = all(s["dropped_frames"] == 0 for s in summaries.values()) and all(
-        r.result is not None and r.result.parquet_rows == wl.total_frames for c in codecs for r in cli[c]
+    ok = all(s["dropped_frames"] == 0 for s in [*summaries.values(), *others.values()]) and all(
+        r.result is not None and r.result.parquet_rows == wl.total_frames
+        for c in codecs
+        for r in [*cli[c], *against[c]]
     )
     ok = ok and all((r.dropped or 0) == 0 for c in codecs for r in pure[c])
     if not ok:
