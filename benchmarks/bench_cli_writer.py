@@ -26,8 +26,13 @@ Two contestants, interleaved (for each repetition, for each codec: pure, then cl
    millisecond resolution. The ``saved`` record's own ``seconds`` (the episode loop and the close, without
    opening the output) and the process wall time are reported beside it.
 
-Printed per codec: the medians, frames/s and **pure ÷ cli** (target >= 0.9, issue #20). After each cli run
-(untimed) every mp4 is demuxed and its frame count compared with the parquet rows (dropped frames), as
+The child's CPU (all threads, ``/proc/<pid>/stat``) is read as its ``started`` and ``saved`` records arrive:
+the window's CPU, far steadier than its wall time on a loaded machine. ``--against DIR`` runs another checkout's
+``record`` (e.g. main's) right after this tree's in each repetition, against the same bare encode, so two trees
+compare under the same load; ``--encoder-threads N`` passes that flag to ``record``.
+
+Printed per codec: the medians, frames/s, CPU seconds and **pure ÷ cli** (target >= 0.9, issue #20). After each
+cli run (untimed) every mp4 is demuxed and its frame count compared with the parquet rows (dropped frames), as
 bench_writer.py does. Results JSON: ``--json`` (default ``benchmarks/results/cli_writer.json``).
 
 The machine this was written for has two shared, noisy cores: compare the ratios from one run.
@@ -37,6 +42,7 @@ Run from the repository root::
     .venv/bin/python benchmarks/bench_cli_writer.py --repeats 3              # av1 and h264, median of 3
     .venv/bin/python benchmarks/bench_cli_writer.py --repeats 3 --codec av1
     .venv/bin/python benchmarks/bench_cli_writer.py --quick                  # smoke run: 2 x 20 frames, once
+    .venv/bin/python benchmarks/bench_cli_writer.py --codec av1 --against /work/main   # this tree vs main's
 """
 
 from __future__ import annotations
