@@ -28,8 +28,8 @@ Two contestants, interleaved (for each repetition, for each codec: pure, then cl
 
 The child's CPU (all threads, ``/proc/<pid>/stat``) is read as its ``started`` and ``saved`` records arrive:
 the window's CPU, far steadier than its wall time on a loaded machine. ``--against DIR`` runs another checkout's
-``record`` (e.g. main's) right after this tree's in each repetition, against the same bare encode, so two trees
-compare under the same load; ``--encoder-threads N`` passes that flag to ``record``.
+``record`` (e.g. main's) beside this tree's in each repetition (each first in turn, right after the bare encode),
+so two trees compare under the same load; ``--encoder-threads N`` passes that flag to ``record``.
 
 Printed per codec: the medians, frames/s, CPU seconds and **pure ÷ cli** (target >= 0.9, issue #20). After each
 cli run (untimed) every mp4 is demuxed and its frame count compared with the parquet rows (dropped frames), as
@@ -323,7 +323,7 @@ def main(argv: list[str] | None = None) -> int:
                 p = RunResult(wall_s=wall, cpu_s=cpu, video_bytes=video_bytes(root / "pure"))
                 check("pure", root / "pure", wl, p)
                 pure[codec].append(p)
-                for name, repo, runs in trees:
+                for name, repo, runs in trees if rep % 2 == 0 else trees[::-1]:  # each goes first in turn
                     run = run_cli(scene, root / name, wl.episodes, codec, args.encoder_threads, repo)
                     size = video_bytes(root / name)
                     run.result = RunResult(wall_s=run.window_s, cpu_s=run.process_cpu_s, video_bytes=size)
