@@ -26,8 +26,13 @@ Two contestants, interleaved (for each repetition, for each codec: pure, then cl
    millisecond resolution. The ``saved`` record's own ``seconds`` (the episode loop and the close, without
    opening the output) and the process wall time are reported beside it.
 
-Printed per codec: the medians, frames/s and **pure ÷ cli** (target >= 0.9, issue #20). After each cli run
-(untimed) every mp4 is demuxed and its frame count compared with the parquet rows (dropped frames), as
+The child's CPU (all threads, ``/proc/<pid>/stat``) is read as its ``started`` and ``saved`` records arrive:
+the window's CPU, far steadier than its wall time on a loaded machine. ``--against DIR`` runs another checkout's
+``record`` (e.g. main's) beside this tree's in each repetition (each first in turn, right after the bare encode),
+so two trees compare under the same load; ``--encoder-threads N`` passes that flag to ``record``.
+
+Printed per codec: the medians, frames/s, CPU seconds and **pure ÷ cli** (target >= 0.9, issue #20). After each
+cli run (untimed) every mp4 is demuxed and its frame count compared with the parquet rows (dropped frames), as
 bench_writer.py does. Results JSON: ``--json`` (default ``benchmarks/results/cli_writer.json``).
 
 The machine this was written for has two shared, noisy cores: compare the ratios from one run.
@@ -37,11 +42,13 @@ Run from the repository root::
     .venv/bin/python benchmarks/bench_cli_writer.py --repeats 3              # av1 and h264, median of 3
     .venv/bin/python benchmarks/bench_cli_writer.py --repeats 3 --codec av1
     .venv/bin/python benchmarks/bench_cli_writer.py --quick                  # smoke run: 2 x 20 frames, once
+    .venv/bin/python benchmarks/bench_cli_writer.py --codec av1 --against /work/main   # this tree vs main's
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import resource
@@ -79,6 +86,7 @@ from tests.support.scenes import mock_scene, write_yaml  # noqa: E402
 RSKILL = "zero-mock"  # the mock arm's all-zero policy: action f32[7], nothing computed
 CODECS: tuple[Codec, ...] = ("av1", "h264")
 TARGET = 0.9
+TICK = os.sysconf("SC_CLK_TCK")
 
 
 # -- the scene and its frames -----------------------------------------------------------------------------
@@ -130,14 +138,15 @@ class CliRun:
     loop_s: float  # the `saved` record's own `seconds`: episode loop + close
     process_s: float  # the whole subprocess, start-up and exit included
     process_cpu_s: float  # its user + system CPU, start-up included
+    window_cpu_s: float  # its CPU (all threads) from the `started` record to the `saved` record
     startup_s: float  # process start -> `started` record (imports, parsing, scene + policy)
     commit_ms: list[float] = field(default_factory=list)  # the writer's per-episode commit_ms, in order
     result: RunResult | None = None
 
 
-def child_env() -> dict[str, str]:
+def child_env(repo: Path = REPO) -> dict[str, str]:
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}  # bytecode cached, as for a user
-    env["PYTHONPATH"] = str(REPO)
+    env["PYTHONPATH"] = str(repo)
     return env
 
 
@@ -145,20 +154,45 @@ def _stamp(record: dict[str, Any]) -> float:
     return datetime.fromisoformat(str(record["time"])).timestamp()
 
 
-def run_cli(scene: Path, out: Path, episodes: int, codec: Codec) -> CliRun:
+def _proc_cpu(pid: int) -> float:
+    """A live process's user + system CPU seconds, all its threads (`/proc/<pid>/stat`, clock-tick resolution)."""
+    stat = Path(f"/proc/{pid}/stat").read_text()
+    fields = stat[stat.rindex(")") + 2 :].split()
+    return (int(fields[11]) + int(fields[12])) / TICK
+
+
+def run_cli(
+    scene: Path, out: Path, episodes: int, codec: Codec, threads: int | None = None, repo: Path = REPO
+) -> CliRun:
+    """One `record` subprocess; its stderr is read as it comes, so the process's CPU is read at the `started` and
+    `saved` records too (the recording window's CPU, robust to the machine's load)."""
     args = ["-v", "--log-format", "json", "record", "--scene", str(scene), "--rskill", RSKILL]
     args += ["--n-episodes", str(episodes), "--codec", codec, "--out", str(out)]
+    args += [] if threads is None else ["--encoder-threads", str(threads)]
     cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t_start = time.time()
     t0 = time.perf_counter()
-    proc = subprocess.run(
-        [sys.executable, "-m", "openral_data.cli", *args], capture_output=True, text=True, env=child_env(), check=False
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "openral_data.cli", *args],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=child_env(repo),
     )
+    assert proc.stderr is not None
+    lines: list[str] = []
+    marks: dict[str, float] = {}  # the process's CPU when the `started` / `saved` record arrived
+    for line in proc.stderr:
+        lines.append(line)
+        if line.startswith("{") and ('"total_ms"' in line or '"saved"' in line):
+            with contextlib.suppress(OSError, ValueError):
+                marks["started" if '"total_ms"' in line else "saved"] = _proc_cpu(proc.pid)
+    returncode = proc.wait()
     wall = time.perf_counter() - t0
     cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if proc.returncode != 0:
-        raise SystemExit(f"record failed (exit {proc.returncode}): {proc.stderr[-3000:]}")
-    records = [json.loads(line) for line in proc.stderr.splitlines() if line.startswith("{")]
+    if returncode != 0:
+        raise SystemExit(f"record failed (exit {returncode}): {''.join(lines)[-3000:]}")
+    records = [json.loads(line) for line in lines if line.startswith("{")]
     [started] = [r for r in records if "total_ms" in r]
     [saved] = [r for r in records if "saved" in r]
     return CliRun(
@@ -166,6 +200,7 @@ def run_cli(scene: Path, out: Path, episodes: int, codec: Codec) -> CliRun:
         loop_s=float(saved["seconds"]),
         process_s=wall,
         process_cpu_s=(cpu1.ru_utime - cpu0.ru_utime) + (cpu1.ru_stime - cpu0.ru_stime),
+        window_cpu_s=marks.get("saved", float("nan")) - marks.get("started", float("nan")),
         startup_s=_stamp(started) - t_start,
         commit_ms=[float(r["commit_ms"]) for r in records if "commit_ms" in r],
     )
@@ -178,6 +213,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--frames", type=int, default=200, help="frames (time steps) per episode")
     p.add_argument("--repeats", type=int, default=3, help="interleaved repetitions of pure, cli (median reported)")
     p.add_argument("--codec", choices=CODECS, nargs="+", default=list(CODECS))
+    p.add_argument("--encoder-threads", type=int, default=None, help="record's --encoder-threads (default: not given)")
+    p.add_argument(
+        "--against",
+        type=Path,
+        default=None,
+        help="another checkout (e.g. main's) whose `record` runs too, right after this tree's in each repetition",
+    )
     p.add_argument("--quick", action="store_true", help="smoke run: 2 episodes x 20 frames, 1 repeat")
     p.add_argument("--json", type=Path, default=REPO / "benchmarks" / "results" / "cli_writer.json")
     p.add_argument("--tmp", type=Path, default=None, help="parent of the scratch directory (default: system temp)")
@@ -206,6 +248,7 @@ def summarize(wl: Workload, pure: list[RunResult], cli: list[CliRun]) -> dict[st
         "median_cpu_s": {
             "pure": statistics.median(r.cpu_s for r in pure),
             "cli_process": statistics.median(r.process_cpu_s for r in cli),
+            "cli_window": statistics.median(r.window_cpu_s for r in cli),
         },
         "frames_per_s": {"pure": wl.total_frames / pure_s, "cli": wl.total_frames / window_s},
         "commit_ms": {
@@ -232,6 +275,8 @@ def print_summary(wl: Workload, codec: Codec, s: dict[str, Any], repeats: int, p
     print(f"  cli episode loop+close {m['cli_loop']:8.2f} s   (the `saved` record's seconds)")
     print(f"  cli start-up, excluded {m['cli_startup']:8.2f} s   (process start -> `started`)")
     print(f"  cli whole process      {m['cli_process']:8.2f} s   {s['median_cpu_s']['cli_process']:.2f} CPU s")
+    cpu = s["median_cpu_s"]
+    print(f"  CPU s                  pure {cpu['pure']:.2f}, cli window {cpu['cli_window']:.2f} (all threads)")
     if c["first_episode"] is not None:
         later = f"{c['later_episodes']:.0f}" if c["later_episodes"] is not None else "-"
         print(f"  commit_ms              first episode {c['first_episode']:.0f}, later episodes (median) {later}")
@@ -252,6 +297,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"machine: {machine['nproc']} cpus ({machine['cpu_model']}), load {machine['loadavg_at_start']}")
     pure: dict[Codec, list[RunResult]] = {c: [] for c in codecs}
     cli: dict[Codec, list[CliRun]] = {c: [] for c in codecs}
+    against: dict[Codec, list[CliRun]] = {c: [] for c in codecs}
+    trees = [("cli", REPO, cli)] + ([("against", args.against.resolve(), against)] if args.against else [])
     try:
         scene = write_scene(scratch / "mock_w.yaml", wl)
         t0 = time.perf_counter()
@@ -266,7 +313,9 @@ def main(argv: list[str] | None = None) -> int:
         for codec in codecs:
             small = [EpisodeData({c: a[:4] for c, a in data[0].images.items()}, data[0].states, data[0].actions)]
             run_pure(small, scratch / f"warmup-pure-{codec}", warm, codec)
-            run_cli(write_scene(scratch / "warm.yaml", warm), scratch / f"warmup-cli-{codec}", 1, codec)
+            warm_scene = write_scene(scratch / "warm.yaml", warm)
+            for name, repo, _ in trees:
+                run_cli(warm_scene, scratch / f"warmup-{name}-{codec}", 1, codec, args.encoder_threads, repo)
         for rep in range(args.repeats):
             for codec in codecs:
                 root = scratch / f"rep{rep}" / codec
@@ -274,17 +323,20 @@ def main(argv: list[str] | None = None) -> int:
                 p = RunResult(wall_s=wall, cpu_s=cpu, video_bytes=video_bytes(root / "pure"))
                 check("pure", root / "pure", wl, p)
                 pure[codec].append(p)
-                run = run_cli(scene, root / "cli", wl.episodes, codec)
-                size = video_bytes(root / "cli")
-                run.result = RunResult(wall_s=run.window_s, cpu_s=run.process_cpu_s, video_bytes=size)
-                check("cli", root / "cli", wl, run.result)
-                cli[codec].append(run)
-                print(
-                    f"[{rep + 1}/{args.repeats}] {codec:<4} pure {wall:7.2f} s   cli window {run.window_s:7.2f} s "
-                    f"(loop {run.loop_s:.2f}, process {run.process_s:.2f})   ratio {wall / run.window_s:.3f}   "
-                    f"dropped {p.dropped}/{run.result.dropped} rows {run.result.parquet_rows}",
-                    flush=True,
-                )
+                for name, repo, runs in trees if rep % 2 == 0 else trees[::-1]:  # each goes first in turn
+                    run = run_cli(scene, root / name, wl.episodes, codec, args.encoder_threads, repo)
+                    size = video_bytes(root / name)
+                    run.result = RunResult(wall_s=run.window_s, cpu_s=run.process_cpu_s, video_bytes=size)
+                    check("cli", root / name, wl, run.result)
+                    runs[codec].append(run)
+                    print(
+                        f"[{rep + 1}/{args.repeats}] {codec:<4} pure {wall:7.2f} s   "
+                        f"{name:<7} window {run.window_s:6.2f} s "
+                        f"(loop {run.loop_s:.2f}, process {run.process_s:.2f})   ratio {wall / run.window_s:.3f}   "
+                        f"CPU s pure {cpu:.2f} window {run.window_cpu_s:.2f}   "
+                        f"dropped {p.dropped}/{run.result.dropped} rows {run.result.parquet_rows}",
+                        flush=True,
+                    )
                 if not args.keep:
                     shutil.rmtree(root, ignore_errors=True)
     finally:
@@ -294,10 +346,15 @@ def main(argv: list[str] | None = None) -> int:
     summaries = {c: summarize(wl, pure[c], cli[c]) for c in codecs}
     for c in codecs:
         print_summary(wl, c, summaries[c], args.repeats, pure[c])
+    others = {c: summarize(wl, pure[c], against[c]) for c in codecs} if args.against else {}
+    for c, s in others.items():
+        print(f"\n--against {args.against}:")
+        print_summary(wl, c, s, args.repeats, pure[c])
     report = {
         "created": datetime.now(UTC).isoformat(timespec="seconds"),
         "workload": asdict(wl) | {"total_frames": wl.total_frames, "scene": "mock", "rskill": RSKILL},
         "repeats": args.repeats,
+        "encoder_threads": args.encoder_threads,
         "target_pure_over_cli": TARGET,
         "machine": machine,
         "codecs": {
@@ -306,6 +363,11 @@ def main(argv: list[str] | None = None) -> int:
                 "pure_runs": [asdict(r) for r in pure[c]],
                 "cli_runs": [asdict(r) for r in cli[c]],
                 **summaries[c],
+                **(
+                    {"against": {"tree": str(args.against), "cli_runs": [asdict(r) for r in against[c]], **others[c]}}
+                    if args.against
+                    else {}
+                ),
             }
             for c in codecs
         },
@@ -314,8 +376,10 @@ def main(argv: list[str] | None = None) -> int:
     args.json.parent.mkdir(parents=True, exist_ok=True)
     args.json.write_text(json.dumps(report, indent=2) + "\n")
     print(f"\nresults: {args.json}")
-    ok = all(s["dropped_frames"] == 0 for s in summaries.values()) and all(
-        r.result is not None and r.result.parquet_rows == wl.total_frames for c in codecs for r in cli[c]
+    ok = all(s["dropped_frames"] == 0 for s in [*summaries.values(), *others.values()]) and all(
+        r.result is not None and r.result.parquet_rows == wl.total_frames
+        for c in codecs
+        for r in [*cli[c], *against[c]]
     )
     ok = ok and all((r.dropped or 0) == 0 for c in codecs for r in pure[c])
     if not ok:

@@ -3,6 +3,9 @@
 A `Batch` with a journal makes a group of replacements all-or-nothing across a crash: every file is staged
 and fsynced first, then the journal (the list of renames) is made durable, then the renames run and the
 journal is removed. A process killed during the renames leaves the journal; `replay_journal` finishes them.
+A batch's staged files are fsynced together when it commits, and so are the folders its renames changed
+(`fsync_all`): the file system groups concurrent flushes into one journal commit of its own, where one flush
+after the other waits for a commit each (an episode's commit holds a dozen files and half as many folders).
 """
 
 from __future__ import annotations
@@ -11,7 +14,8 @@ import errno
 import json
 import os
 import stat
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pyarrow as pa
@@ -91,6 +95,23 @@ def tmp_name(path: Path) -> Path:
 def fsync_file(path: Path) -> None:
     with open(path, "rb+") as fh:
         os.fsync(fh.fileno())
+
+
+FSYNC_THREADS = 8  # at most this many flushes at once (`fsync_all`)
+
+
+def fsync_all(paths: Sequence[Path], fsync: Callable[[Path], None]) -> None:
+    """`fsync(path)` for every one of `paths`, at once (a thread each, at most FSYNC_THREADS); when they have all
+    ended, the first failure (in `paths` order) is raised."""
+    if len(paths) <= 1:
+        for path in paths:
+            fsync(path)
+        return
+    with ThreadPoolExecutor(max_workers=min(FSYNC_THREADS, len(paths)), thread_name_prefix="fsync") as pool:
+        futures = [pool.submit(fsync, path) for path in paths]
+    failed = next((exc for exc in (f.exception() for f in futures) if exc is not None), None)
+    if failed is not None:
+        raise failed
 
 
 def fsync_tree(root: Path) -> None:
@@ -175,6 +196,7 @@ class Batch:
         self.durable = durable
         self.journal = journal
         self._staged: list[tuple[Path, Path]] = []
+        self._flushed = 0  # the staged files before this one are fsynced
 
     def write_with(self, path: Path, writer: Callable[[Path], None]) -> None:
         if any(final == path for _, final in self._staged):
@@ -184,18 +206,23 @@ class Batch:
         _clear_stale(tmp)
         try:
             writer(tmp)
-            if self.durable:
-                fsync_file(tmp)
         except BaseException:
             tmp.unlink(missing_ok=True)
             raise
         self._staged.append((tmp, path))
+
+    def flush(self) -> None:
+        """fsync the files staged since the last flush, all at once (`fsync_all`); `commit` does this first."""
+        if self.durable:
+            fsync_all([tmp for tmp, _ in self._staged[self._flushed :]], fsync_file)
+        self._flushed = len(self._staged)
 
     def staged(self) -> list[tuple[Path, Path]]:
         """(staged file, destination) of every file written into this batch so far, in write order."""
         return list(self._staged)
 
     def commit(self) -> None:
+        self.flush()
         journaled = self.write_journal()
         _rename_all(self._staged, self.durable)
         if journaled and self.journal is not None:
@@ -203,11 +230,13 @@ class Batch:
             if self.durable:
                 fsync_dir(self.journal.parent)
         self._staged.clear()
+        self._flushed = 0
 
     def write_journal(self) -> bool:
         """Make the list of pending renames durable (the commit point); False when there is no journal."""
         if self.journal is None or not self._staged:
             return False
+        self.flush()  # every staged file durable before the journal names it
         here = self.journal.parent  # paths relative to the journal: a moved dataset still replays
         renames = [(os.path.relpath(tmp, here), os.path.relpath(path, here)) for tmp, path in self._staged]
         check_renames(self.journal, renames)  # what a replay would refuse is never written
@@ -218,6 +247,7 @@ class Batch:
         for tmp, _ in self._staged:
             tmp.unlink(missing_ok=True)
         self._staged.clear()
+        self._flushed = 0
 
 
 def _clear_stale(tmp: Path) -> None:
@@ -235,8 +265,7 @@ def _rename_all(renames: list[tuple[Path, Path]], durable: bool) -> None:
     for tmp, path in renames:
         os.replace(tmp, path)
     if durable:
-        for parent in dict.fromkeys(path.parent for _, path in renames):
-            fsync_dir(parent)
+        fsync_all(list(dict.fromkeys(path.parent for _, path in renames)), fsync_dir)
 
 
 JOURNAL_AREAS = ("meta", "data", "videos", ".openral")  # where a journaled rename may land, below the root

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import errno
 import json
 import os
+import threading
 from collections.abc import Callable
 from pathlib import Path
 
@@ -164,3 +166,46 @@ def test_batch_refuses_to_journal_a_file_outside_the_dataset(tmp_path: Path) -> 
         batch.commit()
     assert err.value.code == "dataset.unsafe" and not (tmp_path / "elsewhere.txt").exists()
     batch.discard()
+
+
+def test_a_batch_flushes_its_files_together_before_the_journal_names_them(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A journaled batch's staged files are fsynced at once (two flushes in flight together, so the file system
+    can group them into one journal commit), each before the journal is written; a flush that fails lands
+    nothing: no rename, no journal, the files before stay."""
+    meta = tmp_path / "meta"
+    meta.mkdir()
+    (meta / "f0.json").write_text("old")
+    journal = atomic.state_dir(tmp_path) / "journal.json"
+    flushed: list[str] = []
+    pair = threading.Barrier(2, timeout=20)  # a flush passes only while another one is in flight
+    real = atomic.fsync_file
+    failing: set[str] = set()
+
+    def fsync(path: Path) -> None:
+        if path.name.startswith(".f"):  # the batch's staged files (not the journal's own)
+            pair.wait()
+            if path.name in failing:
+                raise OSError(errno.EIO, os.strerror(errno.EIO), str(path))
+        flushed.append(path.name)
+        real(path)
+
+    monkeypatch.setattr(atomic, "fsync_file", fsync)
+    batch = atomic.Batch(journal=journal)
+    for i in range(4):
+        batch.write_with(meta / f"f{i}.json", _writes(f"new {i}"))
+    batch.commit()
+    assert sorted(flushed[:4]) == [f".f{i}.json.tmp" for i in range(4)] and flushed[4] == ".journal.json.tmp"
+    assert [(meta / f"f{i}.json").read_text() for i in range(4)] == [f"new {i}" for i in range(4)]
+    assert not journal.exists()
+
+    failing.add(".f3.json.tmp")
+    batch = atomic.Batch(journal=journal)
+    for i in range(4):
+        batch.write_with(meta / f"f{i}.json", _writes(f"newer {i}"))
+    with pytest.raises(OSError, match=r"f3\.json"):
+        batch.commit()
+    batch.discard()
+    assert [(meta / f"f{i}.json").read_text() for i in range(4)] == [f"new {i}" for i in range(4)]
+    assert not journal.exists() and sorted(p.name for p in meta.iterdir()) == [f"f{i}.json" for i in range(4)]
