@@ -55,7 +55,7 @@ class CameraQuality:
         stride: int,
         length: int,
         moving: npt.NDArray[np.bool_] | None = None,
-        full: edges.Frames | None = None,
+        full: edges.Full | None = None,
     ) -> list[Finding]:
         """`camera_<fault>` findings, one per run of consecutive faulty samples (`placed`), when the fault's share
         reaches `camera_flag` or, frozen and blurred, when the run spans `camera_run_frames` frames. A sample is
@@ -95,7 +95,7 @@ class CameraQuality:
         return out
 
     def refined(
-        self, kept: dict[str, list[Span]], th: Thresholds, stride: int, length: int, full: edges.Frames | None
+        self, kept: dict[str, list[Span]], th: Thresholds, stride: int, length: int, full: edges.Full | None
     ) -> dict[str, list[Span]]:
         """The frozen and blurred runs of `kept` (sample positions) measured frame by frame from the camera's
         full frame rate (`full`, decoded only when there is such a run: `edges`); {} without `full`."""
@@ -110,7 +110,7 @@ class CameraQuality:
         for fault, first, last, near in todo:
             out[fault] += edges.spans(faults, fault, near, first, last)
         if out["frozen"]:  # a still scene is no frozen camera (`edges.still_scene`)
-            change = edges.frame_changes(full(), luma)
+            change = full.change()
             out["frozen"] = [s for s in out["frozen"] if not edges.still_scene(change, s)]
         return {f: sorted(set(v)) for f, v in out.items()}
 
@@ -183,7 +183,7 @@ def stalled(
     th: Thresholds,
     stride: int,
     length: int,
-    full: dict[str, edges.Frames] | None = None,
+    full: dict[str, edges.Full] | None = None,
 ) -> list[Finding]:
     """`camera_stalled`: a camera whose picture holds still over 2 or more consecutive samples while another
     camera's changes at those samples (one stream stuck while the scene moves), however short the span; placed
@@ -200,7 +200,7 @@ def stalled(
         mask = np.array([s.frozen for s in q.samples], dtype=bool) & moving
         spans = placed(q.samples, runs(mask, 2), stride, length, True)
         if spans and full is not None and key in full:
-            change = edges.frame_changes(full[key](), luma)
+            change = full[key].change()
             at = [(q.samples[a].frame_index, q.samples[b].frame_index) for a, b in runs(mask, 2)]
             near = [edges.window("frozen", first, last, stride, len(change)) for first, last in at]
             spans = sorted(
