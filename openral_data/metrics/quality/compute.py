@@ -9,7 +9,7 @@ per-frame rows go to `Sink`s as they are made.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -180,7 +180,7 @@ def episode_cameras(
                 raised.append(f"{key}:{measure}")
         if (first := q.first("black")) is not None:
             firsts.append(first)
-        records = [{"episode_index": int(row["episode_index"]), "camera": key, **asdict(s)} for s in q.samples]
+        records = [{"episode_index": int(row["episode_index"]), "camera": key, **vars(s)} for s in q.samples]
         samples(pa.Table.from_pylist(records, schema=SAMPLE_SCHEMA))
     found += stalled(seen, th, stride, length, fulls)
     found += onset.camera_lags(fulls, moving, length)
