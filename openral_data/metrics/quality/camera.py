@@ -1,5 +1,5 @@
 """Camera faults of one episode: every `stride`-th decoded frame measured for black, saturated, frozen (as the
-previous sample) and blurred (variance of the Laplacian), one frame in memory at a time."""
+previous sample) and blurred (variance of the Laplacian), a few frames in memory at a time (`chunks`)."""
 
 from __future__ import annotations
 

@@ -2,8 +2,8 @@
 observed range, then the measures episode by episode), each camera decoded episode by episode with PyAV.
 
 Memory is bounded by one data file's episode_index/frame_index/timestamp/state/action columns (and image
-columns, for `dtype: image` cameras, `pictures`) and one decoded frame per camera, whatever the dataset's size:
-per-frame rows go to `Sink`s as they are made.
+columns, for `dtype: image` cameras, `pictures`) and a few decoded frames per camera (`camera.chunks`), whatever
+the dataset's size: per-frame rows go to `Sink`s as they are made.
 """
 
 from __future__ import annotations
