@@ -22,6 +22,7 @@ Run (from the repository root)::
     .venv/bin/python benchmarks/bench_quality.py --frames 1000000                  # the 1 M row (~15 min to generate)
     .venv/bin/python benchmarks/bench_quality.py --frames 100000                   # the row measured here
     .venv/bin/python benchmarks/bench_quality.py --frames 20000                    # smoke run
+    .venv/bin/python benchmarks/bench_quality.py --root DS --checkouts /tmp/old . --rounds 2   # engines compared
 
 Generated data lives under a temporary folder (`--tmp`) and is removed at the end (`--keep` keeps it).
 """
@@ -30,6 +31,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import resource
 import shutil
 import subprocess
@@ -205,6 +207,34 @@ def run_one(name: str, root: Path, stride: int) -> dict[str, Any]:
     return dict(json.loads(done.stdout.splitlines()[-1]))
 
 
+def compare(root: Path, stride: int, checkouts: list[Path], rounds: int) -> None:
+    """The stream contestant of each checkout (its own `benchmarks/bench_quality.py`, its package on PYTHONPATH)
+    on the dataset at `root`, the checkouts one after the other in each of `rounds` rounds; its CPU seconds
+    against the first checkout's in the same round."""
+    for r in range(rounds):
+        cpu: list[float] = []
+        for checkout in checkouts:
+            script = str(checkout / "benchmarks/bench_quality.py")
+            done = subprocess.run(
+                [sys.executable, script, "--contestant", "stream", "--root", str(root), "--stride", str(stride)],
+                capture_output=True,
+                text=True,
+                check=False,
+                cwd=checkout,
+                env={**os.environ, "PYTHONPATH": str(checkout)},
+            )
+            if done.returncode != 0:
+                raise SystemExit(f"{checkout} failed:\n{done.stderr}")
+            out = json.loads(done.stdout.splitlines()[-1])
+            cpu.append(out["cpu_seconds"])
+            print(
+                f"round {r + 1} {checkout!s:24s} wall {out['seconds']:7.1f} s  cpu {out['cpu_seconds']:7.1f} s  "
+                f"peak RSS {out['peak_rss_mb']:5.0f} MB  {cpu[0] / cpu[-1]:4.2f}x the first's CPU  "
+                f"load {os.getloadavg()[0]:.1f}",
+                flush=True,
+            )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--frames", type=int, default=1_000_000)
@@ -215,9 +245,14 @@ def main() -> None:
     ap.add_argument("--tmp", type=Path, default=None)
     ap.add_argument("--keep", action="store_true")
     ap.add_argument("--results", type=Path, default=None)
+    ap.add_argument("--checkouts", type=Path, nargs="+", help="compare the stream contestant of these checkouts")
+    ap.add_argument("--rounds", type=int, default=1, help="with --checkouts: rounds, the checkouts interleaved")
     ap.add_argument("--contestant", choices=sorted(CONTESTANTS), help=argparse.SUPPRESS)
-    ap.add_argument("--root", type=Path, help=argparse.SUPPRESS)
+    ap.add_argument("--root", type=Path, help="an existing dataset (with --checkouts)")
     args = ap.parse_args()
+    if args.checkouts:
+        compare(args.root, args.stride, args.checkouts, args.rounds)
+        return
     if args.contestant:
         out = CONTESTANTS[args.contestant](args.root, args.stride)
         print(json.dumps({**out, "peak_rss_mb": _peak_mb()}))

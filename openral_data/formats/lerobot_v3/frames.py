@@ -132,33 +132,37 @@ def depth_settings(info: dict[str, Any], key: str) -> DepthSettings | None:
 
 
 def _decode_video(
-    src: Path, info: dict[str, Any], row: dict[str, Any], key: str, n: int, fps: int, stride: int = 1
-) -> Iterator[npt.NDArray[Any]]:
-    """The episode's `n` frames of `key` (every `stride`-th), decoded from its mp4 starting at `from_timestamp`."""
+    src: Path, info: dict[str, Any], row: dict[str, Any], key: str, n: int, fps: int, stride: int = 1,
+    videos: OpenVideos | None = None,
+) -> Iterator[npt.NDArray[Any]]:  # fmt: skip
+    """The episode's `n` frames of `key` (every `stride`-th), decoded from its mp4 starting at `from_timestamp`
+    (`videos`: the mp4s kept open, else opened for this episode)."""
     pos = layout.FilePos(row[f"videos/{key}/chunk_index"], row[f"videos/{key}/file_index"])
     path = layout.template_path(src, info, "video_path", pos, video_key=key)
     start, _ = video_span(path, row, key, n, fps)
     try:
-        yield from _decode(path, start, n, fps, depth_settings(info, key), stride)
+        yield from _decode(path, start, n, fps, depth_settings(info, key), stride, videos)
     except (av.error.FFmpegError, OSError) as exc:  # missing, empty, truncated or not a video
         reason = getattr(exc, "strerror", None) or type(exc).__name__
         raise DatasetError(f"{path}: cannot decode video: {reason}", code="dataset.invalid") from None
 
 
 def decode_episode_video(
-    src: Path, info: dict[str, Any], row: dict[str, Any], key: str, stride: int = 1
+    src: Path, info: dict[str, Any], row: dict[str, Any], key: str, stride: int = 1, videos: OpenVideos | None = None
 ) -> Iterator[npt.NDArray[Any]]:
     """The frames of video feature `key` in the episode of meta/episodes `row` (RGB, or depth in mm); with
-    `stride` > 1 only frames 0, stride, 2*stride, … (only the packets they need decoded, where the stream allows)."""
-    yield from _decode_video(src, info, row, key, int(row["length"]), int(info["fps"]), stride)
+    `stride` > 1 only frames 0, stride, 2*stride, … (only the packets they need decoded, where the stream allows).
+    `videos`: a pass over many episodes keeps their mp4s open there (`OpenVideos`)."""
+    yield from _decode_video(src, info, row, key, int(row["length"]), int(info["fps"]), stride, videos)
 
 
 LEAD_S = 2.0  # how far before a span to seek again when its first frames were shown before the keyframe found
 
 
 def _decode(
-    path: Path, start: float, n: int, fps: int, depth: DepthSettings | None = None, stride: int = 1
-) -> Iterator[npt.NDArray[Any]]:
+    path: Path, start: float, n: int, fps: int, depth: DepthSettings | None = None, stride: int = 1,
+    videos: OpenVideos | None = None,
+) -> Iterator[npt.NDArray[Any]]:  # fmt: skip
     def picture(frame: av.VideoFrame) -> npt.NDArray[Any]:
         if depth is not None:
             return depth.to_millimetres(decode_codes(frame))
@@ -167,7 +171,7 @@ def _decode(
     given = 0  # wanted frames handed on
     for seek in (start, start - LEAD_S) if stride > 1 else ():  # only the packets wanted frames need (sparse.py)
         try:
-            with _opened(path, max(0.0, seek)) as (container, stream):
+            with _opened(path, max(0.0, seek), videos) as (container, stream):
                 for frame in sparse_frames(container, stream, start, n, fps, stride):
                     yield picture(frame)
                     given += 1
@@ -176,7 +180,7 @@ def _decode(
             if given or seek <= 0 or "frame 0" not in str(gap):
                 break  # the whole span, below (which also says how a damaged or short video ends)
     for seek in (start, start - LEAD_S, 0.0):  # earlier when the span's first frames were lost (below)
-        with _opened(path, max(0.0, seek)) as (container, stream):
+        with _opened(path, max(0.0, seek), videos) as (container, stream):
             tb = stream.time_base
             assert tb is not None
             count = 0
@@ -196,18 +200,66 @@ def _decode(
 
 
 @contextmanager
-def _opened(path: Path, start: float) -> Iterator[tuple[InputContainer, VideoStream]]:
+def _opened(path: Path, start: float, videos: OpenVideos | None = None) -> Iterator[tuple[InputContainer, VideoStream]]:
     """The mp4 at `path` (a regular file: a FIFO would block PyAV for ever), its first video stream, sought to the
-    keyframe at or before `start` seconds."""
+    keyframe at or before `start` seconds; from `videos` when given (kept open there), else opened here."""
+    if videos is not None:
+        with videos.opened(path, start) as opened:
+            yield opened
+        return
     with av.open(str(regular_file(path))) as container:
-        if not container.streams.video:
-            raise DatasetError(f"{path}: holds no video stream", code="dataset.invalid")
-        stream = container.streams.video[0]
-        tb = stream.time_base
-        assert tb is not None
-        if start > 0:
-            container.seek(int(start / tb), stream=stream, backward=True, any_frame=False)
-        yield container, stream
+        yield container, _sought(path, container, start)
+
+
+def _sought(path: Path, container: InputContainer, start: float) -> VideoStream:
+    """`container`'s first video stream, sought to the keyframe at or before `start` seconds (0: not sought)."""
+    if not container.streams.video:
+        raise DatasetError(f"{path}: holds no video stream", code="dataset.invalid")
+    stream = container.streams.video[0]
+    tb = stream.time_base
+    assert tb is not None
+    if start > 0:
+        container.seek(int(start / tb), stream=stream, backward=True, any_frame=False)
+    return stream
+
+
+MAX_OPEN = 16  # mp4s `OpenVideos` keeps open at once (the most recently used)
+
+
+class OpenVideos:
+    """The mp4s of a pass over many episodes, kept open and sought to each episode instead of opened again:
+    opening one parses its whole index (about 30 ms for a 200 MB file of 64x64 frames, more than decoding the
+    sampled frames of an episode). A seek resets the decoder, so what is decoded is what a fresh open decodes; a
+    span from a file's start (nothing to seek) and a decode that failed get a fresh open. Use it as a context
+    manager: it closes them."""
+
+    def __init__(self) -> None:
+        self.held: dict[Path, InputContainer] = {}  # the most recently used last
+
+    @contextmanager
+    def opened(self, path: Path, start: float) -> Iterator[tuple[InputContainer, VideoStream]]:
+        container = self.held.pop(path, None)
+        if container is None or start <= 0:
+            if container is not None:
+                container.close()
+            container = av.open(str(regular_file(path)))
+        self.held[path] = container
+        while len(self.held) > MAX_OPEN:
+            self.held.pop(next(iter(self.held))).close()
+        try:
+            yield container, _sought(path, container, start)
+        except Exception:
+            self.held.pop(path, None)
+            container.close()
+            raise
+
+    def __enter__(self) -> OpenVideos:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        for container in self.held.values():
+            container.close()
+        self.held.clear()
 
 
 def _ended(path: Path, count: int, n: int) -> NoReturn:

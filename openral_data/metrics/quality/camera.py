@@ -1,9 +1,9 @@
 """Camera faults of one episode: every `stride`-th decoded frame measured for black, saturated, frozen (as the
-previous sample) and blurred (variance of the Laplacian), one frame in memory at a time."""
+previous sample) and blurred (variance of the Laplacian), a few frames in memory at a time (`chunks`)."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -55,7 +55,7 @@ class CameraQuality:
         stride: int,
         length: int,
         moving: npt.NDArray[np.bool_] | None = None,
-        full: edges.Frames | None = None,
+        full: edges.Full | None = None,
     ) -> list[Finding]:
         """`camera_<fault>` findings, one per run of consecutive faulty samples (`placed`), when the fault's share
         reaches `camera_flag` or, frozen and blurred, when the run spans `camera_run_frames` frames. A sample is
@@ -95,7 +95,7 @@ class CameraQuality:
         return out
 
     def refined(
-        self, kept: dict[str, list[Span]], th: Thresholds, stride: int, length: int, full: edges.Frames | None
+        self, kept: dict[str, list[Span]], th: Thresholds, stride: int, length: int, full: edges.Full | None
     ) -> dict[str, list[Span]]:
         """The frozen and blurred runs of `kept` (sample positions) measured frame by frame from the camera's
         full frame rate (`full`, decoded only when there is such a run: `edges`); {} without `full`."""
@@ -110,7 +110,7 @@ class CameraQuality:
         for fault, first, last, near in todo:
             out[fault] += edges.spans(faults, fault, near, first, last)
         if out["frozen"]:  # a still scene is no frozen camera (`edges.still_scene`)
-            change = edges.frame_changes(full(), luma)
+            change = full.change()
             out["frozen"] = [s for s in out["frozen"] if not edges.still_scene(change, s)]
         return {f: sorted(set(v)) for f, v in out.items()}
 
@@ -145,36 +145,65 @@ def joined(spans: list[tuple[int, int]], stride: int) -> list[tuple[int, int]]:
 
 
 def luma(rgb: npt.NDArray[np.uint8]) -> npt.NDArray[np.float32]:
+    """The luma picture of an RGB(A) frame (H, W, C), or of frames stacked (..., H, W, C)."""
     return np.asarray(rgb[..., :3].astype(np.float32) @ _LUMA, dtype=np.float32)
 
 
 def laplacian_var(gray: npt.NDArray[np.float32]) -> float:
     """Variance of the 4-neighbour Laplacian over the interior (0.0 for a frame under 3x3)."""
-    if gray.shape[0] < 3 or gray.shape[1] < 3:
-        return 0.0
-    lap = gray[:-2, 1:-1] + gray[2:, 1:-1] + gray[1:-1, :-2] + gray[1:-1, 2:] - 4 * gray[1:-1, 1:-1]
-    return float(lap.var())
+    return float(laplacian_vars(gray[None])[0])
+
+
+def laplacian_vars(grays: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
+    """`laplacian_var` of each picture of `grays` (K, H, W)."""
+    if grays.shape[1] < 3 or grays.shape[2] < 3:
+        return np.zeros(len(grays), dtype=np.float32)
+    g = grays
+    lap = g[:, :-2, 1:-1] + g[:, 2:, 1:-1] + g[:, 1:-1, :-2] + g[:, 1:-1, 2:] - 4 * g[:, 1:-1, 1:-1]
+    return np.asarray(lap.var(axis=(1, 2)), dtype=np.float32)
+
+
+CHUNK_PIXELS = 1 << 20  # sampled frames measured together, up to this many pixels (numpy's cost per call spread)
+
+
+def chunks(frames: Iterable[npt.NDArray[np.uint8]]) -> Iterator[npt.NDArray[np.uint8]]:
+    """`frames` stacked in order, as many of one size as `CHUNK_PIXELS` holds (at least one)."""
+    held: list[npt.NDArray[np.uint8]] = []
+    for rgb in frames:
+        if held and (rgb.shape != held[0].shape or (len(held) + 1) * rgb.shape[0] * rgb.shape[1] > CHUNK_PIXELS):
+            yield np.stack(held)
+            held = []
+        held.append(rgb)
+    if held:
+        yield np.stack(held)
 
 
 def camera_quality(samples_in: Iterable[npt.NDArray[np.uint8]], stride: int, th: Thresholds) -> CameraQuality:
     """The measures of an episode's sampled RGB frames, frames 0, stride, 2*stride, ... (`samples_in` holds only
         those). A black or saturated frame says so already: it is neither frozen nor blurred; nor is a flat one (its
-    luma's standard deviation under `flat_std`: a solid colour, a blank wall), which neither could show."""
+    luma's standard deviation under `flat_std`: a solid colour, a blank wall), which neither could show. Measured
+    a few frames at a time (`chunks`), each frame's numbers as measured alone."""
     samples: list[Sample] = []
     prev: npt.NDArray[np.float32] | None = None
     total = np.zeros((views.THUMB, views.THUMB), dtype=np.float32)
-    for k, rgb in enumerate(samples_in):
-        t = k * stride
-        gray = luma(rgb)
-        total += views.thumbnail(gray)
-        mean, sharpness, contrast = float(gray.mean()), laplacian_var(gray), float(gray.std())
-        change = None if prev is None else float(np.abs(gray - prev).mean())
-        dark, bright = mean < th.black_luma, mean > th.saturated_luma
-        seen = not (dark or bright) and contrast >= th.flat_std  # a picture with something in it to judge
-        frozen = seen and change is not None and change < th.frozen_diff
-        blurred = seen and sharpness < th.blur_var
-        samples.append(Sample(t, mean, change, sharpness, contrast, dark, bright, frozen, blurred))
-        prev = gray
+    for rgbs in chunks(samples_in):
+        grays = luma(rgbs)
+        for thumb in views.thumbnail(grays):
+            total += thumb
+        means, contrasts, sharps = grays.mean(axis=(1, 2)), grays.std(axis=(1, 2)), laplacian_vars(grays)
+        if prev is None:  # the episode's first sample has no change
+            changes: list[float | None] = [None, *map(float, np.abs(grays[1:] - grays[:-1]).mean(axis=(1, 2)))]
+        else:
+            changes = [*map(float, np.abs(grays - np.concatenate([prev[None], grays[:-1]])).mean(axis=(1, 2)))]
+        for i in range(len(grays)):
+            mean, sharpness, contrast, change = float(means[i]), float(sharps[i]), float(contrasts[i]), changes[i]
+            dark, bright = mean < th.black_luma, mean > th.saturated_luma
+            seen = not (dark or bright) and contrast >= th.flat_std  # a picture with something in it to judge
+            frozen = seen and change is not None and change < th.frozen_diff
+            blurred = seen and sharpness < th.blur_var
+            t = len(samples) * stride
+            samples.append(Sample(t, mean, change, sharpness, contrast, dark, bright, frozen, blurred))
+        prev = grays[-1]
     return CameraQuality(samples, (total / np.float32(len(samples))).astype(np.float32) if samples else None)
 
 
@@ -183,7 +212,7 @@ def stalled(
     th: Thresholds,
     stride: int,
     length: int,
-    full: dict[str, edges.Frames] | None = None,
+    full: dict[str, edges.Full] | None = None,
 ) -> list[Finding]:
     """`camera_stalled`: a camera whose picture holds still over 2 or more consecutive samples while another
     camera's changes at those samples (one stream stuck while the scene moves), however short the span; placed
@@ -200,7 +229,7 @@ def stalled(
         mask = np.array([s.frozen for s in q.samples], dtype=bool) & moving
         spans = placed(q.samples, runs(mask, 2), stride, length, True)
         if spans and full is not None and key in full:
-            change = edges.frame_changes(full[key](), luma)
+            change = full[key].change()
             at = [(q.samples[a].frame_index, q.samples[b].frame_index) for a, b in runs(mask, 2)]
             near = [edges.window("frozen", first, last, stride, len(change)) for first, last in at]
             spans = sorted(

@@ -2,14 +2,14 @@
 observed range, then the measures episode by episode), each camera decoded episode by episode with PyAV.
 
 Memory is bounded by one data file's episode_index/frame_index/timestamp/state/action columns (and image
-columns, for `dtype: image` cameras, `pictures`) and one decoded frame per camera, whatever the dataset's size:
-per-frame rows go to `Sink`s as they are made.
+columns, for `dtype: image` cameras, `pictures`) and a few decoded frames per camera (`camera.chunks`), whatever
+the dataset's size: per-frame rows go to `Sink`s as they are made.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
-from dataclasses import asdict
+from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -20,13 +20,13 @@ import pyarrow.compute as pc
 
 from openral_data.errors import DatasetError, VideoEnds
 from openral_data.formats.lerobot_v3.features import ACTION, STATE
-from openral_data.formats.lerobot_v3.frames import decode_episode_video, depth_settings
+from openral_data.formats.lerobot_v3.frames import OpenVideos, decode_episode_video, depth_settings
 from openral_data.formats.lerobot_v3.reader import read_episodes
 from openral_data.formats.parquetfile import read_table
 from openral_data.metrics.quality import breadth, onset, views
 from openral_data.metrics.quality.camera import MEASURES as CAMERA_MEASURES
-from openral_data.metrics.quality.camera import CameraQuality, camera_quality, short_video, stalled
-from openral_data.metrics.quality.edges import Frames
+from openral_data.metrics.quality.camera import CameraQuality, camera_quality, luma, short_video, stalled
+from openral_data.metrics.quality.edges import Full
 from openral_data.metrics.quality.episode import FINDINGS, MOVING, Array, Ranges, episode_motion
 from openral_data.metrics.quality.findings import Finding
 from openral_data.metrics.quality.pictures import ImageColumns, picture_cameras
@@ -111,11 +111,24 @@ def rgb_cameras(ds: DatasetSource) -> list[str]:
     return [k for k in ds.cameras if depth_settings(ds.info, k) is None] + picture_cameras(ds.info)
 
 
-def camera_frames(ds: DatasetSource, images: ImageColumns, row: dict[str, Any], key: str, every: int) -> Iterator[Any]:
-    """Frames 0, every, 2*every, ... of camera `key` in episode `row`, as RGB (a video or `dtype: image` one)."""
-    if key in images.keys:
-        return images.frames(row, key, every)
-    return decode_episode_video(ds.root, ds.info, row, key, every)
+@dataclass(frozen=True)
+class Pictures:
+    """Where a pass reads the cameras' frames: `dtype: image` columns (`images`) or videos, their mp4s kept open
+    from one episode to the next (`videos`)."""
+
+    ds: DatasetSource
+    images: ImageColumns
+    videos: OpenVideos
+
+    def frames(self, row: dict[str, Any], key: str, every: int) -> Iterator[Any]:
+        """Frames 0, every, 2*every, ... of camera `key` in episode `row`, as RGB."""
+        if key in self.images.keys:
+            return self.images.frames(row, key, every)
+        return decode_episode_video(self.ds.root, self.ds.info, row, key, every, self.videos)
+
+    def all(self, row: dict[str, Any], key: str) -> Iterator[Any]:
+        """Every frame of camera `key` in episode `row`, up to where its video ends."""
+        return iter(UntilEnd(self.frames(row, key, 1)))
 
 
 class UntilEnd:
@@ -133,35 +146,30 @@ class UntilEnd:
             self.ends = exc.count
 
 
-def all_frames(ds: DatasetSource, images: ImageColumns, row: dict[str, Any], key: str) -> Iterator[Any]:
-    """Every frame of camera `key` in episode `row`, up to where its video ends."""
-    return iter(UntilEnd(camera_frames(ds, images, row, key, 1)))
-
-
 def episode_cameras(
     ds: DatasetSource,
     row: dict[str, Any],
     stride: int,
     th: Thresholds,
-    sinks: tuple[Sink, ImageColumns],
+    sinks: tuple[Sink, Pictures],
     moving: Any,
 ) -> tuple[dict[str, Any], list[Finding], dict[str, CameraQuality]]:
     """The camera measures of episode `row` (meta/episodes): the worst camera's share of each fault, the first
     black frame, and which cameras raise which flag, the cameras' findings and measures; the measured frames go
     to `sinks`' first; `moving`: the frames where the robot moves (None: unknown)."""
-    samples, images = sinks
+    samples, pictures = sinks
     worst = dict.fromkeys(CAMERA_MEASURES, 0.0)
     raised: list[str] = []
     firsts: list[int] = []
     found: list[Finding] = []
     seen: dict[str, CameraQuality] = {}
-    fulls: dict[str, Frames] = {}
+    fulls: dict[str, Full] = {}
     length = int(row["length"])
     for key in rgb_cameras(ds):
-        frames = UntilEnd(camera_frames(ds, images, row, key, stride))
+        frames = UntilEnd(pictures.frames(row, key, stride))
         q = camera_quality(frames, stride, th)
         held = length if frames.ends is None else frames.ends
-        fulls[key] = partial(all_frames, ds, images, row, key)
+        fulls[key] = Full(partial(pictures.all, row, key), luma)
         found += q.findings(key, th, stride, held, moving, fulls[key])
         if frames.ends is not None:
             found.append(short_video(key, frames.ends, length))
@@ -172,7 +180,7 @@ def episode_cameras(
                 raised.append(f"{key}:{measure}")
         if (first := q.first("black")) is not None:
             firsts.append(first)
-        records = [{"episode_index": int(row["episode_index"]), "camera": key, **asdict(s)} for s in q.samples]
+        records = [{"episode_index": int(row["episode_index"]), "camera": key, **vars(s)} for s in q.samples]
         samples(pa.Table.from_pylist(records, schema=SAMPLE_SCHEMA))
     found += stalled(seen, th, stride, length, fulls)
     found += onset.camera_lags(fulls, moving, length)
@@ -190,25 +198,26 @@ def camera_pass(
     """Add the camera measures to `rows` (every episode meta/episodes lists must have frames); whether the
     dataset has colour cameras."""
     cameras = bool(rgb_cameras(ds))
-    images = ImageColumns(ds.root, picture_cameras(ds.info))
     thumbs: dict[str, dict[int, Any]] = {}  # camera -> episode -> its mean picture (`views.flipped`)
     lengths: dict[int, int] = {}
-    for row in read_episodes(ds.root).to_pylist():
-        e = int(row["episode_index"])
-        if e not in rows:
-            raise DatasetError(f"{ds.root}: episode {e}: no frames in data/", code="dataset.invalid")
-        rows[e][FINDINGS] += breadth.task_text([t for t in row.get("tasks") or [] if isinstance(t, str)])
-        moving = rows[e].pop(MOVING, None)
-        if cameras and int(row["length"]):
-            measures, found, seen = episode_cameras(ds, row, stride, th, (samples, images), moving)
-            rows[e].update(measures)
-            rows[e][FINDINGS] += found
-            lengths[e] = int(row["length"])
-            for key, q in seen.items():
-                if q.thumb is not None:
-                    thumbs.setdefault(key, {})[e] = q.thumb
-        if progress is not None:
-            progress(1)
+    with OpenVideos() as videos:
+        pictures = Pictures(ds, ImageColumns(ds.root, picture_cameras(ds.info)), videos)
+        for row in read_episodes(ds.root).to_pylist():
+            e = int(row["episode_index"])
+            if e not in rows:
+                raise DatasetError(f"{ds.root}: episode {e}: no frames in data/", code="dataset.invalid")
+            rows[e][FINDINGS] += breadth.task_text([t for t in row.get("tasks") or [] if isinstance(t, str)])
+            moving = rows[e].pop(MOVING, None)
+            if cameras and int(row["length"]):
+                measures, found, seen = episode_cameras(ds, row, stride, th, (samples, pictures), moving)
+                rows[e].update(measures)
+                rows[e][FINDINGS] += found
+                lengths[e] = int(row["length"])
+                for key, q in seen.items():
+                    if q.thumb is not None:
+                        thumbs.setdefault(key, {})[e] = q.thumb
+            if progress is not None:
+                progress(1)
     for key, mine in thumbs.items():
         for e, found in views.flipped(mine, key, lengths, th.flip_margin).items():
             rows[e][FINDINGS] += found

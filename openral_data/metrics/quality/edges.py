@@ -13,6 +13,7 @@ is no frozen span at all. A clean episode has no such run: it is decoded once.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Iterator
+from itertools import islice
 
 import numpy as np
 import numpy.typing as npt
@@ -22,6 +23,7 @@ from openral_data.metrics.quality.thresholds import Thresholds
 
 Gray = npt.NDArray[np.float32]
 Frames = Callable[[], Iterator[npt.NDArray[np.uint8]]]  # the episode's frames of one camera, all, as RGB
+Luma = Callable[[npt.NDArray[np.uint8]], Gray]  # an RGB frame's luma picture (`camera.luma`)
 Span = tuple[int, int]
 EDGED = ("frozen", "blurred")
 REPEAT = 0.1  # mean absolute luma difference (0-255) under which a frame repeats the previous one (copies: 0.0)
@@ -79,21 +81,45 @@ STILL_SCENE = 0.5  # `still_scene`: the change around a still span, against the 
 AROUND = 2
 
 
-def frame_changes(frames: Iterator[npt.NDArray[np.uint8]], luma: Callable[[npt.NDArray[np.uint8]], Gray]) -> Gray:
-    """Every frame's mean absolute luma difference to the previous frame (NaN for the first); `luma`:
-    `camera.luma`. Measured only for a camera with a still span to judge (`still_scene`)."""
-    out: list[float] = []
+def changes(frames: Iterator[npt.NDArray[np.uint8]], luma: Luma) -> Iterator[float]:
+    """Each frame's mean absolute luma difference to the previous frame (NaN for the first), frame by frame (one
+    luma picture held); `luma`: `camera.luma`."""
     prev: Gray | None = None
     for rgb in frames:
         gray = luma(rgb)
-        out.append(float("nan") if prev is None else float(np.abs(gray - prev).mean()))
+        yield float("nan") if prev is None else float(np.abs(gray - prev).mean())
         prev = gray
-    return np.array(out, dtype=np.float32)
+
+
+class Full:
+    """A camera's every frame in one episode, decoded again on each call (`frames`), and their change
+    (`changes`), measured once per episode and camera for every check that judges it (`still_scene`, `held`,
+    `onset.camera_lags`)."""
+
+    def __init__(self, frames: Frames, luma: Luma) -> None:
+        self.frames, self.luma = frames, luma
+        self.measured: Gray | None = None
+
+    def __call__(self) -> Iterator[npt.NDArray[np.uint8]]:
+        return self.frames()
+
+    def change(self) -> Gray:
+        """Every frame's change (`changes`; NaN for the first), decoded once."""
+        if self.measured is None:
+            self.measured = np.array(list(changes(self.frames(), self.luma)), dtype=np.float32)
+        return self.measured
+
+    def first_change(self, count: int) -> int | None:
+        """The first frame from 1 whose picture differs from the previous one (a change of at least `REPEAT`),
+        among the first `count`; None when each of them repeats the previous. Decoded only up to that frame,
+        unless `change` has measured them already."""
+        seen = iter(self.measured) if self.measured is not None else changes(self.frames(), self.luma)
+        return next((t for t, c in enumerate(islice(seen, count)) if t and c >= REPEAT), None)
 
 
 def still_scene(change: Gray, span: Span) -> bool:
     """Whether the repeating frames `span` are a still scene rather than a held picture: the camera's change
-    (`frame_changes`) fades into the span and grows out of it, under `STILL_SCENE` times its typical change
+    (`Full.change`) fades into the span and grows out of it, under `STILL_SCENE` times its typical change
     (the median over its frames that do not repeat) in each of the `AROUND` frames before and after. A held
     picture starts where the live picture was changing as usual, and when it lets go the picture jumps to where
     the scene went meanwhile; a scene nothing in view moves (an arm driven out of an overhead camera's view

@@ -13,14 +13,10 @@ tell.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from itertools import islice
-
 import numpy as np
 import numpy.typing as npt
 
-from openral_data.metrics.quality.camera import luma
-from openral_data.metrics.quality.edges import REPEAT, Frames
+from openral_data.metrics.quality.edges import Full
 from openral_data.metrics.quality.findings import Finding
 
 LAG_MIN = 2  # frames: a camera starting this many frames or more after the scene is out of step (in step: 0-1)
@@ -36,19 +32,7 @@ def motion_start(moving: npt.NDArray[np.bool_]) -> int | None:
     return int(at[0]) + 1 if len(at) else None
 
 
-def picture_start(frames: Iterator[npt.NDArray[np.uint8]], count: int) -> int | None:
-    """The first frame from 1 whose picture differs from the previous one (mean absolute luma difference at least
-    `REPEAT`), among the first `count`; None when each of them repeats the previous."""
-    prev: npt.NDArray[np.float32] | None = None
-    for t, rgb in enumerate(islice(frames, count)):
-        gray = luma(rgb)
-        if prev is not None and float(np.abs(gray - prev).mean()) >= REPEAT:
-            return t
-        prev = gray
-    return None
-
-
-def camera_lags(cameras: dict[str, Frames], moving: npt.NDArray[np.bool_] | None, length: int) -> list[Finding]:
+def camera_lags(cameras: dict[str, Full], moving: npt.NDArray[np.bool_] | None, length: int) -> list[Finding]:
     """`camera_lag`: a camera whose picture starts changing `LAG_MIN`..`LAG_MAX` frames after the scene starts
     moving (the earlier of the arm's first motion, `motion_start`, and the other cameras' first change), the arm
     moving by then, when every other camera's picture starts within `IN_STEP` frames of it; the finding spans the
@@ -56,7 +40,7 @@ def camera_lags(cameras: dict[str, Frames], moving: npt.NDArray[np.bool_] | None
     if moving is None or (start := motion_start(moving)) is None:
         return []
     count = start + LAG_MAX + 1
-    starts = {key: picture_start(frames(), count) for key, frames in cameras.items()}
+    starts = {key: full.first_change(count) for key, full in cameras.items()}
     out: list[Finding] = []
     for key, first in starts.items():
         others = [v for k, v in starts.items() if k != key]

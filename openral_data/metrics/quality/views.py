@@ -25,13 +25,15 @@ LOO_MAX = 64  # up to this many episodes each is compared with the median of the
 
 
 def thumbnail(gray: Gray) -> Gray:
-    """`gray` averaged down to `THUMB` x `THUMB` (point-sampled when smaller)."""
-    h, w = gray.shape
+    """`gray` (H, W), or pictures of that size stacked (..., H, W), averaged down to `THUMB` x `THUMB`
+    (point-sampled when smaller)."""
+    *lead, h, w = gray.shape
     if h < THUMB or w < THUMB:
         ys, xs = (np.arange(THUMB) * h) // THUMB, (np.arange(THUMB) * w) // THUMB
-        return np.asarray(gray[np.ix_(ys, xs)], dtype=np.float32)
+        return np.asarray(gray[..., ys[:, None], xs], dtype=np.float32)
     hh, ww = h // THUMB * THUMB, w // THUMB * THUMB
-    return np.asarray(gray[:hh, :ww].reshape(THUMB, hh // THUMB, THUMB, ww // THUMB).mean(axis=(1, 3)), np.float32)
+    blocks = gray[..., :hh, :ww].reshape(*lead, THUMB, hh // THUMB, THUMB, ww // THUMB)
+    return np.asarray(blocks.mean(axis=(-3, -1)), np.float32)
 
 
 def standard(x: Gray) -> Array:

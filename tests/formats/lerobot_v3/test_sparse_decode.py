@@ -61,12 +61,12 @@ def _episode(e: int) -> tuple[dict[str, Any], dict[str, Any]]:
     return info, row
 
 
-def _steps(root: Path, e: int, stride: int) -> list[int]:
+def _steps(root: Path, e: int, stride: int, videos: frames.OpenVideos | None = None) -> list[int]:
     """The step each decoded picture of episode `e` was filmed at, read back from its grey."""
     info, row = _episode(e)
     return [
         round((float(p[SIDE // 2 :, SIDE // 2 :].mean()) - 24) / 6)
-        for p in decode_episode_video(root, info, row, KEY, stride)
+        for p in decode_episode_video(root, info, row, KEY, stride, videos)
     ]
 
 
@@ -105,6 +105,31 @@ def test_every_strided_frame_is_the_one_filmed_at_that_step(tmp_path: Path, layo
     # every strided span was decoded sparsely; an open GOP's leading frames at a span's start are found by seeking
     # further back (mpeg4's B-frames shown before the keyframe found), never by decoding the span whole
     assert set(gaps) <= ({"frame 0 never decoded"} if b_frames else set()), gaps
+
+
+def test_a_kept_open_video_gives_each_episode_its_own_frames(
+    tmp_path: Path, gaps: list[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`OpenVideos`: the episodes of one mp4 decoded through one kept-open container, in any order, a decode
+    abandoned half way between, give the frames a fresh open gives; the file is opened again only for a span
+    from its start (nothing to seek) — here twice, not once per decode."""
+    _write(tmp_path, "libx264", {"g": "2", "crf": "18"}, 0)
+    opened: list[str] = []
+    real_open = av.open
+
+    def counted(*args: Any, **kwargs: Any) -> Any:
+        opened.append(str(args[0]))
+        return real_open(*args, **kwargs)
+
+    monkeypatch.setattr(av, "open", counted)
+    with frames.OpenVideos() as videos:
+        for e, stride in ((2, 5), (1, 1), (2, 1), (1, 7), (0, 5), (2, 2), (1, 5)):
+            assert _steps(tmp_path, e, stride, videos) == list(range(0, EPISODES[e], stride)), (e, stride)
+            info, row = _episode(1)
+            next(decode_episode_video(tmp_path, info, row, KEY, 1, videos))  # left half way
+        assert len(videos.held) == 1
+    assert len(opened) == 2 and not gaps  # the first decode and episode 0's span
+    assert not videos.held  # closed on leaving
 
 
 def test_stamps_off_the_grid_are_counted_as_without_a_stride(tmp_path: Path, gaps: list[str]) -> None:
