@@ -344,6 +344,7 @@ def test_a_persons_velocity_commands_shifted_5_frames_are_late_but_a_followers_p
     assert {e: v for e, v in lags["vel"].items() if v} == {1: [(5.0, 4.0)]}, lags
     assert not any(lags["pos"].values()), lags
 
+
 def test_a_dimension_moving_by_rounding_residue_is_no_jerk(clean: tuple[Path, df.Clean], tmp_path: Path) -> None:
     """An action dimension commanded as 0 but written as ±2e-31 (a generated episode's rotation delta: rounding
     of its quaternion arithmetic) holds still: nothing (before: `jerky` on it, its range of 4e-31 stretched to 1).
