@@ -44,7 +44,7 @@ from openral_data.record.drivers.expert import EXPERT, expert_request, scene_rsk
 from openral_data.record.drivers.kinds import open_driver
 from openral_data.record.flow import Flow, Notify, check_reset_time, episode_ticks
 from openral_data.record.hal_loop import EpisodeEnd, EpisodeReport, FixedRateLoop, LoopConfig, frame_extras
-from openral_data.record.hal_resume import HAL_KEPT, continue_expert, continue_hal, expert_settings, hal_settings
+from openral_data.record.hal_resume import HAL_KEPT, continue_hal, expert_settings, hal_settings
 from openral_data.record.options import check_run_numbers
 from openral_data.record.output import Claim, Output, check_first_episode, claim, close_output, open_recording
 from openral_data.record.realtime import DEFAULT_PRIORITY
@@ -284,11 +284,9 @@ def record_hal(opts: HalRecordOptions, notify: Notify | None = None) -> HalRecor
         if opts.resume:  # the recording's own settings, read under its writer lock
             if opts.out is None:
                 raise UsageError("--resume needs --out: the dataset folder to continue")
-            out = opts.out
-            session.held = claim(out, "openral-data record --hal --resume", resume=True)
-            opts = replace(opts, **continue_hal(out, _kept(opts), opts.explicit, opts.video))
-            if _expert_drives(opts):
-                opts = replace(opts, **continue_expert(out, opts.expert, opts.takeover_rule, opts.explicit))
+            session.held = claim(opts.out, "openral-data record --hal --resume", resume=True)
+            takeover = (opts.expert, opts.takeover_rule) if _expert_drives(opts) else None
+            opts = replace(opts, **continue_hal(opts.out, _kept(opts), opts.explicit, opts.video, takeover))
         run = _resolve(opts)
         show = tty_status(STATUS_FD, talk=notify is not None)  # the person's status lines: when the run talks
         expert = None

@@ -61,10 +61,16 @@ def hal_settings(values: Mapping[str, Any], n_episodes: int, video: VideoSetting
 
 
 def continue_hal(
-    out: Path, values: Mapping[str, Any], explicit: frozenset[str], video: VideoSettings
+    out: Path,
+    values: Mapping[str, Any],
+    explicit: frozenset[str],
+    video: VideoSettings,
+    takeover: tuple[str | None, TakeoverRule] | None = None,
 ) -> dict[str, Any]:
     """The recorded settings of the HAL recording in `out`, as HalRecordOptions changes: each `HAL_KEPT` field
-    (its `values` given again must match), `n_episodes` unless given, and `video`. Read under the writer lock."""
+    (its `values` given again must match), `n_episodes` unless given, and `video`; with `takeover` (the expert
+    and rule given to a resume with `--teleop expert`) also the round's own (`continue_expert`). Read under the
+    writer lock."""
     path = settings_path(out)
     saved = read_settings(out).get("options")
     if not isinstance(saved, dict):
@@ -87,6 +93,8 @@ def continue_hal(
     if "n_episodes" not in explicit:
         changes["n_episodes"] = _checked("n_episodes", saved.get("n_episodes"), path)
     changes["video"] = recorded_video(video, saved.get("video"), explicit, path, changes["codec"])
+    if takeover is not None:
+        changes.update(continue_expert(saved.get("expert"), path, *takeover, explicit))
     return changes
 
 
@@ -95,13 +103,13 @@ def expert_settings(expert: str | None, rule: TakeoverRule) -> dict[str, Any]:
     return {"rskill": expert, **{name: getattr(rule, name) for name in EXPERT_KEPT}}
 
 
-def continue_expert(out: Path, expert: str | None, rule: TakeoverRule, explicit: frozenset[str]) -> dict[str, Any]:
-    """The expert and takeover rule the `--teleop expert` recording in `out` was made with, as HalRecordOptions
-    changes (`expert`, `takeover_rule`); a value given again (`explicit`: the option's name) must match. Nothing
-    when the recording kept none (another driver, or recorded before they were kept)."""
-    path = settings_path(out)
-    options = read_settings(out).get("options")
-    saved = options.get("expert") if isinstance(options, dict) else None
+def continue_expert(
+    saved: Any, path: Path, expert: str | None, rule: TakeoverRule, explicit: frozenset[str]
+) -> dict[str, Any]:
+    """The expert and takeover rule a `--teleop expert` recording was made with (`saved`: its record.json's
+    `options.expert`, at `path`), as HalRecordOptions changes (`expert`, `takeover_rule`); a value given again
+    (`explicit`: the option's name) must match. Nothing when the recording kept none (another driver, or recorded
+    before they were kept)."""
     if saved is None:
         return {}
     if not isinstance(saved, dict):
