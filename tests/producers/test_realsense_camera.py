@@ -34,6 +34,7 @@ rs = pytest.importorskip("pyrealsense2")
 
 SERIAL = "123456789"
 RATE, N = 15, 68  # frames of W x H (the OpenCV test's source frames), at 15 fps
+PRIMING = 3  # framesets the syncer sees before the reference's first
 STALL_AT, STALL_S = 20, 0.8  # the recording pauses after frame STALL_AT
 FX, FY, CX, CY = 50.0, 51.0, 31.5, 23.5
 
@@ -58,10 +59,12 @@ def _stream(kind: Any, fmt: Any, bpp: int, uid: int) -> Any:
     return s
 
 
-def record_sdk(path: Path, n: int, stall_at: int | None = None, depth_units: float = 0.001) -> Path:
-    """An SDK recording of a software RealSense (serial SERIAL): frames 0..n-1 pushed at RATE per second
-    (the recorder stamps them as they arrive), pausing STALL_S after frame `stall_at`; depth in `depth_units`
-    metres (a D405 has 0.0001)."""
+Streams = tuple[tuple[Any, Any, Any], ...]
+
+
+def software_camera(depth_units: float = 0.001) -> tuple[Any, Streams]:
+    """A software RealSense (serial SERIAL): a depth and a colour sensor of W x H at RATE, same intrinsics, identity
+    extrinsics; each stream as (sensor, profile, frame maker)."""
     dev = rs.software_device()
     dev.register_info(rs.camera_info.serial_number, SERIAL)
     dev.register_info(rs.camera_info.name, "Intel RealSense D435 (software)")
@@ -72,20 +75,31 @@ def record_sdk(path: Path, n: int, stall_at: int | None = None, depth_units: flo
     same = rs.extrinsics()
     same.rotation, same.translation = [1.0, 0, 0, 0, 1.0, 0, 0, 0, 1.0], [0.0, 0.0, 0.0]
     depth_profile.register_extrinsics_to(colour_profile, same)
+    return dev, ((depth_sensor, depth_profile, depth_frame), (colour_sensor, colour_profile, source_frame))
+
+
+def push(streams: Streams, k: int, number: int) -> None:
+    """Source frame k of both streams, stamped as frame `number` at number / RATE seconds."""
+    for sensor, profile, make in streams:
+        pixels: npt.NDArray[Any] = make(k)
+        f = rs.software_video_frame()
+        f.pixels, f.bpp = pixels, pixels.itemsize * (3 if pixels.ndim == 3 else 1)
+        f.stride, f.timestamp, f.frame_number = W * f.bpp, number * 1000.0 / RATE, number
+        f.domain, f.profile = rs.timestamp_domain.hardware_clock, profile.as_video_stream_profile()
+        sensor.on_video_frame(f)
+
+
+def record_sdk(path: Path, n: int, stall_at: int | None = None, depth_units: float = 0.001) -> Path:
+    """An SDK recording of the software RealSense: frames 0..n-1 pushed at RATE per second (the recorder stamps
+    them as they arrive), pausing STALL_S after frame `stall_at`; depth in `depth_units` metres (a D405 has 0.0001)."""
+    dev, streams = software_camera(depth_units)
     recorder = rs.recorder(str(path), dev)
     sensors = recorder.query_sensors()
     for s in sensors:
         s.open(s.get_stream_profiles()[0])
         s.start(lambda frame: None)
-    streams = ((depth_sensor, depth_profile, depth_frame), (colour_sensor, colour_profile, source_frame))
     for k in range(n):
-        for sensor, profile, make in streams:
-            pixels: npt.NDArray[Any] = make(k)
-            f = rs.software_video_frame()
-            f.pixels, f.bpp = pixels, pixels.itemsize * (3 if pixels.ndim == 3 else 1)
-            f.stride, f.timestamp, f.frame_number = W * f.bpp, k * 1000.0 / RATE, k
-            f.domain, f.profile = rs.timestamp_domain.hardware_clock, profile.as_video_stream_profile()
-            sensor.on_video_frame(f)
+        push(streams, k, k)
         time.sleep(1 / RATE + (STALL_S if k == stall_at else 0.0))
     for s in sensors:
         s.stop()
@@ -102,39 +116,42 @@ def with_realsense(path: Path, playback: Path, serial: str = SERIAL, **extra: An
     path.write_text(yaml.safe_dump(manifest, sort_keys=False))
 
 
-def aligned_reference(path: Path, n: int) -> dict[int, npt.NDArray[np.uint16]]:
-    """Source depth frame number -> that frame aligned to colour by the SDK's `rs.align`, from the recording
-    played as fast as it decodes: what an aligned depth camera should deliver (the SDK's alignment leaves some
-    pixels without depth, 0, and moves some by a pixel even between identical geometries). A loaded machine can
-    make the pipeline's syncer skip a frameset (seen once in CI: frame 0), so the recording is played again until
-    every frame was seen (at most 5 times)."""
+def aligned_reference(n: int) -> dict[int, npt.NDArray[np.uint16]]:
+    """Source depth frame k -> that frame aligned to colour by the SDK's `rs.align`: what an aligned depth camera
+    should deliver (the SDK's alignment leaves some pixels without depth, 0, and moves some by a pixel even between
+    identical geometries). The source frames go through the SDK's syncer one frameset at a time, after PRIMING
+    framesets (the syncer pairs nothing until it has seen both streams: it passes the first colour alone and
+    drops its depth), so no frame depends on timing (a pipeline playing the recording, used before, skipped
+    frame 0 on a loaded CI machine)."""
+    _, streams = software_camera()
+    sync, align = rs.syncer(), rs.align(rs.stream.color)
+    for sensor, profile, _ in streams:
+        sensor.open(profile)
+        sensor.start(sync)
     out: dict[int, npt.NDArray[np.uint16]] = {}
-    for _ in range(5):
-        _aligned_pass(path, n, out)
-        if len(out) >= n:
-            break
+    try:
+        for number in range(PRIMING + n):
+            push(streams, max(number - PRIMING, 0), number)
+            frames = paired(sync, number, timeout_ms=100 if number < PRIMING else 5000)
+            assert frames is not None or number < PRIMING, f"no frameset for source frame {number - PRIMING}"
+            if frames is not None and number >= PRIMING:
+                out[number - PRIMING] = np.asanyarray(align.process(frames).get_depth_frame().get_data()).copy()
+    finally:
+        for sensor, _, _ in streams:
+            sensor.stop()
+            sensor.close()
     return out
 
 
-def _aligned_pass(path: Path, n: int, out: dict[int, npt.NDArray[np.uint16]]) -> None:
-    ctx = rs.context()
-    held = ctx.load_device(str(path))  # the context keeps the playback device only while it is referenced
-    pipe, config = rs.pipeline(ctx), rs.config()
-    config.enable_device(SERIAL)
-    pipe.start(config).get_device().as_playback().set_real_time(False)  # the pipeline's own playback: at full speed
-    align = rs.align(rs.stream.color)
-    seen: set[int] = set()
-    try:
-        while len(seen) < n:
-            ok, frames = pipe.try_wait_for_frames(1000)
-            if not ok:
-                break
-            k = frames.get_depth_frame().get_frame_number()
-            seen.add(k)
-            out.setdefault(k, np.asanyarray(align.process(frames).get_depth_frame().get_data()).copy())
-    finally:
-        pipe.stop()
-        del held
+def paired(sync: Any, number: int, timeout_ms: int) -> Any:
+    """The syncer's frameset holding depth and colour of frame `number`, or None when none comes in time."""
+    while True:
+        ok, frames = sync.try_wait_for_frames(timeout_ms)
+        if not ok:
+            return None
+        depth, colour = frames.get_depth_frame(), frames.get_color_frame()
+        if depth and colour and depth.get_frame_number() == number:
+            return frames
 
 
 def one_step_mm(mm: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
@@ -187,7 +204,7 @@ def test_a_realsense_recording_through_the_hal_loop(so101: tuple[SimulatedFeetec
         assert (info["camera_info"]["width"], info["camera_info"]["height"]) == (W, H)
         assert info["intrinsics"]["fx"] == FX
     assert ds.meta.depth_keys == ["observation.images.wrist_depth"]
-    reference = aligned_reference(recording, N)
+    reference = aligned_reference(N)
     index, exact = [], 0
     for i in range(len(ds)):
         item = ds[i]
