@@ -281,6 +281,37 @@ def test_frames_lost_where_the_arm_slows_down_are_found(clean: tuple[Path, df.Cl
     assert not drops.get(1) and not drops.get(2), got
 
 
+def test_frames_lost_that_the_camera_shows_are_found(clean: tuple[Path, df.Clean], tmp_path: Path) -> None:
+    """Three joints moving steadily (0.02 a frame) and a camera filming a grating that slides with them (0.5 px a
+    frame). 3 frames lost before frame 30 (timestamps even): the state steps 4x its neighbours (under
+    `drop_factor`), the picture jumps 4x its neighbours' change: `frame_drop` at frame 30 about the camera. The
+    same motion without the cut, a script speeding up 4x from frame 30 on (state and picture step up and stay)
+    and a pause of 5 frames raise nothing."""
+    _, episode = clean
+    along = np.array([1.0, 0.5, 0.25])
+
+    def filmed(speeds: np.ndarray, keep: np.ndarray | None = None) -> df.Clean:
+        at = np.cumsum(speeds)
+        x = np.arange(q.SIDE)
+        grating = 128 + 100 * np.sin(2 * np.pi * (x[None, :] + 25 * at[:, None]) / 16)
+        pictures = np.repeat(np.repeat(grating[:, None, :, None], q.SIDE, axis=1), 3, axis=3).astype(np.uint8)
+        keep = np.arange(N) if keep is None else keep
+        ep = replace(episode.copy(), images={"cam": pictures[keep]})
+        ep.state[:, :3] = (at[keep, None] * along).astype(np.float32)
+        ep.action[:, :3] = ep.state[:, :3]
+        return ep
+
+    lost = filmed(np.full(N + 3, 0.02), np.r_[np.arange(30), np.arange(33, N + 3)])
+    steady = filmed(np.full(N, 0.02))
+    faster = filmed(np.r_[[0.01] * 30, [0.04] * (N - 30)])
+    paused = filmed(np.r_[[0.02] * 30, [0.0] * 5, [0.02] * (N - 35)])
+    got = df.findings(df.write(tmp_path / "filmed", [lost, steady, faster, paused]), stride=5)
+    drops = {e: [(f["subject"], f["start_frame"]) for f in fs if f["check"] == "frame_drop"] for e, fs in got.items()}
+    assert drops.get(0) == [("observation.images.cam", 30)], got.get(0)
+    assert not any(drops.get(e) for e in (1, 2, 3)), got
+    assert not [f for f in got.get(0, []) if f["check"] == "teleport"], got[0]
+
+
 def test_two_swapped_joint_targets_moving_alike_are_found(clean: tuple[Path, df.Clean], tmp_path: Path) -> None:
     """A joint sweep: three joints commanded along one curve at their own angles (0.2, 1.4, -0.9 rad), each
     state following its target a frame later. Swapping two targets changes no correlation, but each then lies

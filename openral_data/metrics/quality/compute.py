@@ -23,11 +23,11 @@ from openral_data.formats.lerobot_v3.features import ACTION, STATE
 from openral_data.formats.lerobot_v3.frames import OpenVideos, decode_episode_video, depth_settings
 from openral_data.formats.lerobot_v3.reader import read_episodes
 from openral_data.formats.parquetfile import read_table
-from openral_data.metrics.quality import breadth, onset, views
+from openral_data.metrics.quality import breadth, cuts, onset, views
 from openral_data.metrics.quality.camera import MEASURES as CAMERA_MEASURES
 from openral_data.metrics.quality.camera import CameraQuality, camera_quality, luma, short_video, stalled
 from openral_data.metrics.quality.edges import Full
-from openral_data.metrics.quality.episode import FINDINGS, MOVING, Array, Ranges, episode_motion
+from openral_data.metrics.quality.episode import FINDINGS, MOVING, STEPS, Array, Ranges, episode_motion
 from openral_data.metrics.quality.findings import Finding
 from openral_data.metrics.quality.pictures import ImageColumns, picture_cameras
 from openral_data.metrics.quality.table import FRAME_SCHEMA, SAMPLE_SCHEMA
@@ -152,11 +152,13 @@ def episode_cameras(
     stride: int,
     th: Thresholds,
     sinks: tuple[Sink, Pictures],
-    moving: Any,
+    motion: tuple[Any, Any],
 ) -> tuple[dict[str, Any], list[Finding], dict[str, CameraQuality]]:
     """The camera measures of episode `row` (meta/episodes): the worst camera's share of each fault, the first
     black frame, and which cameras raise which flag, the cameras' findings and measures; the measured frames go
-    to `sinks`' first; `moving`: the frames where the robot moves (None: unknown)."""
+    to `sinks`' first; `motion`: the frames where the robot moves and the state's step ratios
+    (`rows.step_ratios`), each None when unknown."""
+    moving, steps = motion
     samples, pictures = sinks
     worst = dict.fromkeys(CAMERA_MEASURES, 0.0)
     raised: list[str] = []
@@ -184,6 +186,8 @@ def episode_cameras(
         samples(pa.Table.from_pylist(records, schema=SAMPLE_SCHEMA))
     found += stalled(seen, th, stride, length, fulls)
     found += onset.camera_lags(fulls, moving, length)
+    if steps is not None and float(steps.max(initial=0.0)) >= cuts.STEP:  # else no frame the pictures could confirm
+        found += cuts.picture_drops({key: full.change() for key, full in fulls.items()}, steps)
     measures = {
         **{f"camera_{m}_fraction": v for m, v in worst.items()},
         "camera_first_black": min(firsts, default=None),
@@ -207,11 +211,11 @@ def camera_pass(
             if e not in rows:
                 raise DatasetError(f"{ds.root}: episode {e}: no frames in data/", code="dataset.invalid")
             rows[e][FINDINGS] += breadth.task_text([t for t in row.get("tasks") or [] if isinstance(t, str)])
-            moving = rows[e].pop(MOVING, None)
+            motion = rows[e].pop(MOVING, None), rows[e].pop(STEPS, None)
             if cameras and int(row["length"]):
-                measures, found, seen = episode_cameras(ds, row, stride, th, (samples, pictures), moving)
+                measures, found, seen = episode_cameras(ds, row, stride, th, (samples, pictures), motion)
                 rows[e].update(measures)
-                rows[e][FINDINGS] += found
+                rows[e][FINDINGS] = cuts.explained(rows[e][FINDINGS], found) + found
                 lengths[e] = int(row["length"])
                 for key, q in seen.items():
                     if q.thumb is not None:

@@ -20,6 +20,7 @@ Ranges = dict[str, tuple[Array, Array]]
 FINDINGS = "finding_list"  # the key of a row's findings (not a column: `table.finish` writes them apart)
 DIGEST, LENGTH = "content_digest", "length"  # keys `table.finish` compares across episodes, then drops
 MOVING = "moving_frames"  # the frames where the arm moves (`arm_moving`): the camera pass reads it, then drops it
+STEPS = "state_step_ratios"  # the state's step onto each frame over its neighbours' (`rows.step_ratios`): likewise
 
 
 @dataclass(frozen=True)
@@ -142,15 +143,17 @@ def arm_moving(
 
 def row_findings(
     arrays: dict[str, Array], arm: dict[str, tuple[Array, list[str]]], steps: Array, th: Thresholds
-) -> list[Finding]:
-    """`frame_drop`, `repeated_rows` and `teleport` (frame drops aside) of the state trajectory `arm` holds."""
+) -> tuple[list[Finding], Array | None]:
+    """`frame_drop`, `repeated_rows` and `teleport` (frame drops aside) of the state trajectory `arm` holds, and
+    its per-frame step ratios for the pictures' frame drops (`rows.step_ratios`; None without a state)."""
     if STATE not in arm:
-        return []
+        return [], None
     z, names = arm[STATE]
     late = (steps > th.gap_frames) | (steps <= 0)
     drops = rows.frame_drops(z, late, th)
     found = rows.frame_drop_findings(drops, th) + rows.teleports(z, names, STATE, th, {f for f, _ in drops})
-    return found + rows.repeated_rows(list(arrays.values()), z, th)
+    ratios = rows.step_ratios(z, late, [f for f, _ in drops])
+    return found + rows.repeated_rows(list(arrays.values()), z, th), ratios
 
 
 def episode_motion(
@@ -177,7 +180,8 @@ def episode_motion(
         found += more
     grip, toggles = gripper_findings(ds, arrays, ranges, n, th)
     steps = timing.timestamp_steps(timestamps, fps)
-    found += grip + timing_findings(steps, th) + row_findings(arrays, arm, steps, th)
+    in_rows, ratios = row_findings(arrays, arm, steps, th)
+    found += grip + timing_findings(steps, th) + in_rows
     if STATE in arrays:
         found += limits.joint_findings(arrays[STATE], ds.robot, ds.dim_names(STATE), steps, fps, th)
     if STATE in arrays and ACTION in arrays:
@@ -199,5 +203,6 @@ def episode_motion(
         DIGEST: breadth.digest(arrays),
         LENGTH: n,
         MOVING: arm_moving(arm, idle, fps, th),
+        STEPS: ratios,
     }
     return row, PerFrame(speed.get(STATE), speed.get(ACTION), idle)

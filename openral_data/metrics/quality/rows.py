@@ -123,6 +123,27 @@ def spread(step: Array) -> Array:
     return np.where(moved.sum(axis=1) >= 2, np.nan_to_num(out, nan=1.0, posinf=np.inf), 1.0)
 
 
+def step_ratios(z: Array, late: npt.NDArray[np.bool_], drops: list[int]) -> Array:
+    """Per frame: the state's step onto it (`z`, range units; the norm over its dimensions) over the median of the
+    `AROUND` steps either side; 0 where that median is 0 (nothing moving), at the episode's first and last
+    `AROUND` frames, on a late timestamp (`late`: a `gap`) and within `AROUND` frames of a drop the rows found
+    (`drops`). `cuts.picture_drops` reads it: frames lost step further than their neighbours, if less than
+    `drop_factor` where the arm starts, stops or turns."""
+    out = np.zeros(len(z))
+    n = len(z) - 1  # steps
+    if n < 2 * AROUND + 1 or z.shape[1] == 0:
+        return out
+    with np.errstate(all="ignore"):
+        norm = np.linalg.norm(np.nan_to_num(np.diff(z, axis=0), posinf=0.0, neginf=0.0), axis=1)
+        near = np.stack([norm[AROUND + d : n - AROUND + d] for d in range(-AROUND, AROUND + 1) if d])
+        median = np.median(near, axis=0)
+        ratio = np.where(median > 0, norm[AROUND : n - AROUND] / np.where(median > 0, median, 1.0), 0.0)
+    out[AROUND + 1 : n - AROUND + 1] = np.where(late[AROUND : n - AROUND], 0.0, ratio)
+    for f in drops:
+        out[max(0, f - AROUND) : f + AROUND + 1] = 0.0
+    return out
+
+
 def frame_drop_findings(drops: list[tuple[int, float]], th: Thresholds) -> list[Finding]:
     detail = "a step beyond its neighbours', timestamps even"
     return [Finding("frame_drop", "observation.state", f, f, r, th.drop_factor, detail=detail) for f, r in drops]

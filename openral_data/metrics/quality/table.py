@@ -9,7 +9,7 @@ import pyarrow as pa
 
 from openral_data.metrics.quality import breadth
 from openral_data.metrics.quality.camera import MEASURES as CAMERA_MEASURES
-from openral_data.metrics.quality.episode import DIGEST, FINDINGS, LENGTH, MOVING
+from openral_data.metrics.quality.episode import DIGEST, FINDINGS, LENGTH, MOVING, STEPS
 from openral_data.metrics.quality.findings import FINDING_SCHEMA, Finding, finding_rows, flagged_checks, labels
 from openral_data.metrics.quality.thresholds import Thresholds
 
@@ -92,6 +92,7 @@ def finish(
         across[e] = across.get(e, []) + more
     for e in sorted(rows):
         rows[e].pop(MOVING, None)
+        rows[e].pop(STEPS, None)
         row = {"episode_index": e, **rows[e], "camera_stride": stride if has_cameras else None, "data_kind": kind}
         findings: list[Finding] = row.pop(FINDINGS) + across.get(e, [])
         if not has_cameras:
