@@ -71,7 +71,7 @@ def vector_findings(
     if key == STATE:
         action_names = ds.dim_names(ACTION) if ACTION in arrays else []
         commands = {d: arrays[ACTION][:, action_names.index(nm)] for d, nm in enumerate(names) if nm in action_names}
-        tops = dims.at_extremes(x, lo, hi, moving, th.clip_plateau, interior=True)
+        tops = dims.changing(dims.at_extremes(x, lo, hi, moving, th.clip_plateau, interior=True), dims.held(x))
         share = dims.share_of(tops, n)
         found += dims.frozen_state(x, (lo, hi), names, varies, commands, (th.clip_plateau, th.frozen_min_frames), key)
         for d, spans in tops.items():
