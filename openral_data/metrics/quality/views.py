@@ -55,35 +55,46 @@ def centred(size: int) -> npt.NDArray[np.intp]:
 
 
 def edges(grays: Gray) -> Gray:
-    """Pictures (..., H, W) -> their edges: |luma difference| between each interior pixel's neighbours above and
-    below plus left and right (..., H-2, W-2); turned 180° with the picture."""
-    if grays.shape[-1] < 3 or grays.shape[-2] < 3:
-        return np.zeros_like(grays)
+    """Pictures (..., H, W) -> their edges over the interior (..., H-2, W-2): at each pixel |luma difference|
+    between its neighbours above and below plus left and right; turned 180° with the picture."""
     vertical = np.abs(grays[..., 2:, 1:-1] - grays[..., :-2, 1:-1])
     return np.asarray(vertical + np.abs(grays[..., 1:-1, 2:] - grays[..., 1:-1, :-2]), dtype=np.float32)
 
 
 class MeanViews:
-    """An episode's sampled frames summed as the three `VIEWS`, a chunk at a time (`add`)."""
+    """An episode's sampled frames summed as the three `VIEWS`, a chunk at a time (`add`), at full size (a
+    thumbnail of the sum is the sum of the thumbnails: one thumbnail per size, not per frame)."""
 
     def __init__(self) -> None:
-        self.total = np.zeros((len(VIEWS), THUMB, THUMB), dtype=np.float64)
-        self.counts = [0, 0, 0]
+        self.thumbs = np.zeros((len(VIEWS), THUMB, THUMB), dtype=np.float64)
+        self.sums: Array | None = None  # (VIEWS, H, W): the frames of the current size, summed
+        self.counts = np.zeros(len(VIEWS), dtype=np.int64)
 
     def add(self, grays: Gray, changes: Gray) -> None:
         """`grays` (n, H, W) sampled frames and `changes` (m, H, W) their |luma change| since the previous sample
-        (one fewer for the episode's first chunk)."""
-        for k, stack in enumerate((grays, edges(grays), changes)):
-            if len(stack):
-                self.total[k] += thumbnail(stack).sum(axis=0, dtype=np.float64)
-                self.counts[k] += len(stack)
+        (one fewer for the episode's first chunk); edges 0 on the border."""
+        if self.sums is not None and self.sums.shape[1:] != grays.shape[1:]:
+            self.flush()
+        if self.sums is None:
+            self.sums = np.zeros((len(VIEWS), *grays.shape[1:]), dtype=np.float64)
+        self.sums[0] += grays.sum(axis=0, dtype=np.float64)
+        if grays.shape[1] >= 3 and grays.shape[2] >= 3:
+            self.sums[1, 1:-1, 1:-1] += edges(grays).sum(axis=0, dtype=np.float64)
+        self.sums[2] += changes.sum(axis=0, dtype=np.float64)
+        self.counts += (len(grays), len(grays), len(changes))
+
+    def flush(self) -> None:
+        if self.sums is not None:
+            self.thumbs += thumbnail(self.sums.astype(np.float32))
+            self.sums = None
 
     def mean(self) -> Gray | None:
         """(`VIEWS`, THUMB, THUMB): each view's mean picture (zeros for motion with one sample); None without
         samples."""
+        self.flush()
         if not self.counts[0]:
             return None
-        return np.asarray(self.total / np.maximum(self.counts, 1)[:, None, None], dtype=np.float32)
+        return np.asarray(self.thumbs / np.maximum(self.counts, 1)[:, None, None], dtype=np.float32)
 
 
 def standard(x: Gray) -> Array:
