@@ -14,7 +14,7 @@ import pytest
 
 from openral_data.formats.lerobot_v3.features import ACTION, STATE
 from openral_data.metrics.quality import DEFAULT, quality_of, rows, views
-from openral_data.metrics.quality.alignment import alignment
+from openral_data.metrics.quality.alignment import alignment, target_steps
 from openral_data.metrics.quality.breadth import angle_wraps, quaternions, task_text
 from openral_data.metrics.quality.camera import camera_quality, stalled
 from openral_data.metrics.quality.dims import bursts, frozen_state, toggle_frames
@@ -197,6 +197,24 @@ def test_a_flat_top_of_a_reading_that_holds_most_of_the_time_is_not_clipped() ->
     got = frozen_state(x, limits, ["joint", "finger"], varies, commands, (12, 10), STATE)
     clipped = [(f.subject, f.start_frame, f.end_frame) for f in got if f.check == "clipped"]
     assert clipped == [(f"{STATE}[joint]", 8, 22)], got
+
+
+def test_a_follower_catching_up_with_its_position_target_is_no_teleport() -> None:
+    """A joint that barely moves (a range of 0.0035 rad) creeping by 0.00002 a frame steps 0.0004 at frame 30, 0.11
+    of its range and 20 times its neighbours, while its position target (`action_2` pairs with
+    `observation.state_2`) moves 0.0015 a frame around it, as the G1 fixture's arm does: the follower catching up,
+    no teleport (before: a teleport). The same step while the target holds still is a teleport, at frame 30."""
+    t = np.arange(60)
+    still = -0.5600 + 0.00002 * t + 0.0001 * np.maximum(t - 40, 0)  # the rest of its range reached slowly
+    joint = still + 0.0004 * (t >= 30)
+    moving = still + 0.0015 * np.r_[[0] * 24, [0, 1, 2, 3, 4, 5, 4, 3, 2, 1], [0] * 26]  # 0.0015 a frame about it
+    names = (["action_2"], ["observation.state_2"])
+    lo, hi = joint.min(), joint.max()
+    z = ((joint - lo) / (hi - lo))[:, None]
+    for action, found in ((moving, []), (still, [30])):
+        steps = target_steps(action[:, None], names, [0], np.array([hi - lo]))
+        got = rows.teleports(z, names[1], STATE, DEFAULT, set(), steps)
+        assert [f.start_frame for f in got] == found, got
 
 
 def test_an_angle_wrap_of_a_manifest_joint_and_in_degrees() -> None:

@@ -43,7 +43,8 @@ if TYPE_CHECKING:  # imported where used: `info` looks for a table (`cache_paths
 # 10: a dimension moving by rounding residue holds still; 11: a teleport is one step alone, beyond a few counts;
 # 12-13: frame_drop against 2 steps either side, position targets swapped, teleport's floor 0.05 and its order,
 # velocity commands' lag limit; 14: 10-13 together; 15: camera_flipped on the mean picture, edges and motion;
-# a flat top of a reading that holds most of the time is no clip)
+# a flat top of a reading that holds most of the time is no clip; a state step within its position target's is
+# no teleport)
 VERSION = 15
 KEY = b"openral.quality.key"
 STRIDE = b"openral.quality.stride"

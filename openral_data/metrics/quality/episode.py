@@ -141,16 +141,34 @@ def arm_moving(
 
 
 def row_findings(
-    arrays: dict[str, Array], arm: dict[str, tuple[Array, list[str]]], steps: Array, th: Thresholds
+    arrays: dict[str, Array],
+    arm: dict[str, tuple[Array, list[str]]],
+    steps: Array,
+    th: Thresholds,
+    targets: Array | None = None,
 ) -> list[Finding]:
-    """`frame_drop`, `repeated_rows` and `teleport` (frame drops aside) of the state trajectory `arm` holds."""
+    """`frame_drop`, `repeated_rows` and `teleport` (frame drops aside; `targets`: the state dimensions' position
+    targets' steps, `alignment.target_steps`) of the state trajectory `arm` holds."""
     if STATE not in arm:
         return []
     z, names = arm[STATE]
     late = (steps > th.gap_frames) | (steps <= 0)
     drops = rows.frame_drops(z, late, th)
-    found = rows.frame_drop_findings(drops, th) + rows.teleports(z, names, STATE, th, {f for f, _ in drops})
+    found = rows.frame_drop_findings(drops, th) + rows.teleports(z, names, STATE, th, {f for f, _ in drops}, targets)
     return found + rows.repeated_rows(list(arrays.values()), z, th)
+
+
+def targets(
+    ds: DatasetSource, arrays: dict[str, Array], arm: dict[str, tuple[Array, list[str]]], ranges: Ranges
+) -> Array | None:
+    """The steps of the position targets of the arm's state dimensions, in their range units
+    (`alignment.target_steps`); None without a state and an action."""
+    if STATE not in arm or ACTION not in arrays:
+        return None
+    names = ds.dim_names(STATE)
+    lo, hi = ranges[STATE]
+    dims = [names.index(name) for name in arm[STATE][1]]
+    return alignment.target_steps(arrays[ACTION], (ds.dim_names(ACTION), names), dims, hi - lo)
 
 
 def episode_motion(
@@ -177,7 +195,7 @@ def episode_motion(
         found += more
     grip, toggles = gripper_findings(ds, arrays, ranges, n, th)
     steps = timing.timestamp_steps(timestamps, fps)
-    found += grip + timing_findings(steps, th) + row_findings(arrays, arm, steps, th)
+    found += grip + timing_findings(steps, th) + row_findings(arrays, arm, steps, th, targets(ds, arrays, arm, ranges))
     if STATE in arrays:
         found += limits.joint_findings(arrays[STATE], ds.robot, ds.dim_names(STATE), steps, fps, th)
     if STATE in arrays and ACTION in arrays:
