@@ -14,10 +14,10 @@ import pytest
 
 from openral_data.formats.lerobot_v3.features import ACTION, STATE
 from openral_data.metrics.quality import DEFAULT, quality_of, rows, views
-from openral_data.metrics.quality.alignment import alignment
+from openral_data.metrics.quality.alignment import alignment, target_steps
 from openral_data.metrics.quality.breadth import angle_wraps, quaternions, task_text
 from openral_data.metrics.quality.camera import camera_quality, stalled
-from openral_data.metrics.quality.dims import bursts, toggle_frames
+from openral_data.metrics.quality.dims import bursts, frozen_state, toggle_frames
 from openral_data.metrics.sources import open_dataset
 from tests.support import quality as q
 from tests.support.metrics import data_file, rewrite_parquet
@@ -136,6 +136,85 @@ def test_a_turned_camera_whose_scene_varies_between_episodes_is_found() -> None:
     ]
     noise = {e: rng.normal(128, 40, (16, 16)).astype(np.float32) for e in range(8)}
     assert views.flipped(noise, "cam", dict.fromkeys(noise, 40), DEFAULT.flip_margin) == {}
+
+
+def _pictures(frames: np.ndarray) -> np.ndarray:
+    """An episode's `views` pictures from its frames (n, H, W) of luma, measured as `quality` measures them."""
+    rgb = np.repeat(np.clip(frames, 0, 255).astype(np.uint8)[..., None], 3, axis=3)
+    thumb = camera_quality(iter(rgb), 1, DEFAULT).thumb
+    assert thumb is not None
+    return thumb
+
+
+def test_a_turned_camera_is_found_by_its_edges_or_where_it_moves() -> None:
+    """Pictures 86 px square (not a multiple of the 16 px thumbnail: turned 180°, the thumbnail is the thumbnail
+    turned). Two scenes whose mean luma differs from episode to episode and tells nothing: a smooth lighting of its
+    own per episode with a thin frame drawn top left (only its edges tell up from down), and a table textured anew
+    per episode, still, with the arm moving across its top (only where the picture moves tells). Episode 3 turned
+    180° is `camera_flipped` (before: nothing, only the mean luma was compared), no other episode."""
+    rng = np.random.default_rng(1)
+    side = 86
+    yy, xx = np.mgrid[0:side, 0:side].astype(np.float32)
+    picture = rng.normal(128, 40, (side, side)).astype(np.float32)
+    turned = views.thumbnail(picture[::-1, ::-1])
+    assert np.allclose(turned, views.thumbnail(picture)[::-1, ::-1])
+    lit, moved = {}, {}
+    for e in range(5):
+        light = 128 + 60 * np.sin(rng.uniform(0.02, 0.06) * xx + rng.uniform(0.02, 0.06) * yy + rng.uniform(0, 6))
+        light[[8, 30], 8:50] = light[8:31, [8, 50]] = 250  # the frame, 1 px wide
+        lit[e] = np.repeat(light[None], 6, axis=0)
+        table = np.repeat(np.kron(rng.integers(40, 216, (11, 11)), np.ones((8, 8)))[None, :side, :side], 12, axis=0)
+        for t in range(12):  # the arm: a dark block crossing the top
+            table[t, 4:20, 6 * t + 2 : 6 * t + 14] = 20
+        moved[e] = table
+    for scene, view in ((lit, "edges"), (moved, "motion")):
+        scene[3] = scene[3][:, ::-1, ::-1]
+        thumbs = {e: _pictures(frames) for e, frames in scene.items()}
+        got = views.flipped(thumbs, "cam", dict.fromkeys(thumbs, 12), DEFAULT.flip_margin)
+        assert list(got) == [3], (view, got)
+        assert got[3][0].detail.startswith(f"its {view}") and (got[3][0].start_frame, got[3][0].end_frame) == (0, 11)
+        means = {e: t[0] for e, t in thumbs.items()}  # the mean luma alone does not tell
+        assert views.flipped(means, "cam", dict.fromkeys(means, 12), DEFAULT.flip_margin) == {}, view
+
+
+def test_a_flat_top_of_a_reading_that_holds_most_of_the_time_is_not_clipped() -> None:
+    """Two state dimensions rising to a first peak, turning back, then to a higher second one, each commanded by
+    an action moving all along, each held 15 frames at the first peak (entered and left from below, under the
+    dataset's max). The arm joint's reading changes every other frame: its flat top is `clipped` there. The
+    finger's reading updates every 5 frames by a count (a slow sensor: a staircase, held on 80 % of its
+    frames, as the G1's fingers are): its flat top is one more step of it, no clip (before: clipped)."""
+    n = 90
+    t = np.arange(n, dtype=np.float64)
+    wave = np.sin(2 * np.pi * t / 60) + (t > 45) * np.sin(np.pi * (t - 45) / 45) * 0.6  # peaks ~1 at 15, 1.5 at 67
+    first = t < 45
+    joint = np.where(first, np.minimum(wave, 0.7), wave)  # held over frames 8..22
+    finger = np.round(wave[(t // 5 * 5).astype(int)] / 0.05) * 0.05  # held 5 frames, counts of 0.05
+    finger = np.where(first, np.minimum(finger, 0.7), finger)  # held over frames 10..24
+    x = np.stack([joint, finger], axis=1)
+    commands = {0: wave * 0.9, 1: wave * 0.9}
+    limits = (x.min(axis=0), x.max(axis=0))
+    varies = np.ones(2, dtype=bool)
+    got = frozen_state(x, limits, ["joint", "finger"], varies, commands, (12, 10), STATE)
+    clipped = [(f.subject, f.start_frame, f.end_frame) for f in got if f.check == "clipped"]
+    assert clipped == [(f"{STATE}[joint]", 8, 22)], got
+
+
+def test_a_follower_catching_up_with_its_position_target_is_no_teleport() -> None:
+    """A joint that barely moves (a range of 0.0035 rad) creeping by 0.00002 a frame steps 0.0004 at frame 30, 0.11
+    of its range and 20 times its neighbours, while its position target (`action_2` pairs with
+    `observation.state_2`) moves 0.0015 a frame around it, as the G1 fixture's arm does: the follower catching up,
+    no teleport (before: a teleport). The same step while the target holds still is a teleport, at frame 30."""
+    t = np.arange(60)
+    still = -0.5600 + 0.00002 * t + 0.0001 * np.maximum(t - 40, 0)  # the rest of its range reached slowly
+    joint = still + 0.0004 * (t >= 30)
+    moving = still + 0.0015 * np.r_[[0] * 24, [0, 1, 2, 3, 4, 5, 4, 3, 2, 1], [0] * 26]  # 0.0015 a frame about it
+    names = (["action_2"], ["observation.state_2"])
+    lo, hi = joint.min(), joint.max()
+    z = ((joint - lo) / (hi - lo))[:, None]
+    for action, found in ((moving, []), (still, [30])):
+        steps = target_steps(action[:, None], names, [0], np.array([hi - lo]))
+        got = rows.teleports(z, names[1], STATE, DEFAULT, set(), steps)
+        assert [f.start_frame for f in got] == found, got
 
 
 def test_an_angle_wrap_of_a_manifest_joint_and_in_degrees() -> None:

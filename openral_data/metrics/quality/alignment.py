@@ -97,6 +97,19 @@ def commands(action: Array, names: list[str]) -> Array:
     return out
 
 
+def target_steps(action: Array, names: tuple[list[str], list[str]], dims: list[int], scale: Array) -> Array:
+    """(frames - 1, len(dims)): per state dimension in `dims`, the |step| of its position target (the action
+    dimension `partners` pairs with it, no `delta`/`vel` in its name: in the state's units) over `scale` (the
+    state dimension's range); 0 without one."""
+    out = np.zeros((max(len(action) - 1, 0), len(dims)))
+    targets = {j: i for i, j in partners(*names).items() if not VELOCITY.search(names[0][i])}
+    for k, j in enumerate(dims):
+        if j in targets and scale[j] > 0:
+            with np.errstate(invalid="ignore", over="ignore"):  # a NaN/Inf command (the `non_finite` fault)
+                out[:, k] = np.nan_to_num(np.abs(np.diff(action[:, targets[j]])) / scale[j], nan=0.0)
+    return out
+
+
 def alignment(action: Array, state: Array, names: tuple[list[str], list[str]], th: Thresholds) -> list[Finding]:
     """`action_swap` and `action_lag` of one episode (`names`: the action's and the state's dimension names)."""
     n = len(action)

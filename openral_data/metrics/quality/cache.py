@@ -42,8 +42,10 @@ if TYPE_CHECKING:  # imported where used: `info` looks for a table (`cache_paths
 # 7: video_frames; 8: a still scene is no frozen or stalled camera, a slow encoder no frozen reading; 9: camera_lag;
 # 10: a dimension moving by rounding residue holds still; 11: a teleport is one step alone, beyond a few counts;
 # 12-13: frame_drop against 2 steps either side, position targets swapped, teleport's floor 0.05 and its order,
-# velocity commands' lag limit; 14: 10-13 together; 15: frame drops the pictures show, `cuts`)
-VERSION = 15
+# velocity commands' lag limit; 14: 10-13 together; 15: camera_flipped on the mean picture, edges and motion;
+# a flat top of a reading that holds most of the time is no clip; a state step within its position target's is
+# no teleport; or (another branch's 15) frame drops the pictures show, `cuts`; 16: both 15s together)
+VERSION = 16
 KEY = b"openral.quality.key"
 STRIDE = b"openral.quality.stride"
 

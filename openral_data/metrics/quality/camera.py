@@ -39,7 +39,7 @@ class Sample:
 @dataclass(frozen=True)
 class CameraQuality:
     samples: list[Sample]
-    thumb: npt.NDArray[np.float32] | None = None  # the samples' mean picture (`views.thumbnail`)
+    thumb: npt.NDArray[np.float32] | None = None  # the samples' mean pictures (`views.MeanViews`)
 
     def share(self, fault: str) -> float:
         """The share of the samples with `fault` (black, saturated, frozen, blurred); 0.0 without samples."""
@@ -185,16 +185,13 @@ def camera_quality(samples_in: Iterable[npt.NDArray[np.uint8]], stride: int, th:
     a few frames at a time (`chunks`), each frame's numbers as measured alone."""
     samples: list[Sample] = []
     prev: npt.NDArray[np.float32] | None = None
-    total = np.zeros((views.THUMB, views.THUMB), dtype=np.float32)
+    pictures = views.MeanViews()
     for rgbs in chunks(samples_in):
         grays = luma(rgbs)
-        for thumb in views.thumbnail(grays):
-            total += thumb
         means, contrasts, sharps = grays.mean(axis=(1, 2)), grays.std(axis=(1, 2)), laplacian_vars(grays)
-        if prev is None:  # the episode's first sample has no change
-            changes: list[float | None] = [None, *map(float, np.abs(grays[1:] - grays[:-1]).mean(axis=(1, 2)))]
-        else:
-            changes = [*map(float, np.abs(grays - np.concatenate([prev[None], grays[:-1]])).mean(axis=(1, 2)))]
+        diffs = np.abs(grays[1:] - grays[:-1] if prev is None else grays - np.concatenate([prev[None], grays[:-1]]))
+        pictures.add(grays, diffs)
+        changes: list[float | None] = [*([None] if prev is None else []), *map(float, diffs.mean(axis=(1, 2)))]
         for i in range(len(grays)):
             mean, sharpness, contrast, change = float(means[i]), float(sharps[i]), float(contrasts[i]), changes[i]
             dark, bright = mean < th.black_luma, mean > th.saturated_luma
@@ -204,7 +201,7 @@ def camera_quality(samples_in: Iterable[npt.NDArray[np.uint8]], stride: int, th:
             t = len(samples) * stride
             samples.append(Sample(t, mean, change, sharpness, contrast, dark, bright, frozen, blurred))
         prev = grays[-1]
-    return CameraQuality(samples, (total / np.float32(len(samples))).astype(np.float32) if samples else None)
+    return CameraQuality(samples, pictures.mean())
 
 
 def stalled(

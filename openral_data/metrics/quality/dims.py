@@ -56,10 +56,11 @@ def frozen_state(
     """State dimensions (varying in the dataset, `varies`) that take more than one value in the episode and hold
     one exact value while they should move: the action dimension of the same name moved over that span
     (`commands`: state dim -> that action column), else, without one, another state dimension did. Held on a
-    flat top or bottom (entered and left from the same side) for `lengths[0]` frames or more, inside the range:
-    `clipped` (a limit the dataset's extremes do not show); else held `lengths[1]` frames or more by a dimension
-    that normally changes every frame (held on at most `USUAL_HELD` of its other frames) and moving on from it by
-    more than a count or two of its resolution (`caught_up`): `frozen`. A sensor read
+    flat top or bottom (entered and left from the same side) for `lengths[0]` frames or more, inside the range, by
+    a dimension that normally changes every frame (held on at most `USUAL_HELD` of its other frames): `clipped` (a
+    limit the dataset's extremes do not show); else held `lengths[1]` frames or more by such a dimension and
+    moving on from it by more than a count or two of its resolution (`caught_up`): `frozen`. A hand's or
+    gripper's reading that holds most of the time (a slow sensor: a staircase) makes flat tops by nature. A sensor read
     by physics or an encoder never repeats itself bit for bit while the arm moves: a stale reading does; a hand
     dimension a person leaves still while the arm moves repeats itself most of the time. A value held on the
     dimension's observed min or max is a limit (`clipped` when a flat top, `at_extremes`), not a stale reading."""
@@ -79,7 +80,7 @@ def frozen_state(
             if not moving:
                 continue
             if flat_extreme(x[:, d], a, b):
-                if b - a + 1 >= clip_min:
+                if b - a + 1 >= clip_min and usually_changes(hold[:, d], a, b):
                     spans["clipped"].append((a, b))
             elif b - a + 1 >= min_frames and usually_changes(hold[:, d], a, b) and caught_up(x[:, d], b):
                 spans["frozen"].append((a, b))
@@ -149,6 +150,13 @@ def at_extremes(
         d: plateaus(x[:, d], lo[d], min_frames, interior) + plateaus(x[:, d], hi[d], min_frames, interior) for d in dims
     }
     return {d: sorted(s) for d, s in found.items() if s}
+
+
+def changing(spans: dict[int, list[tuple[int, int]]], hold: Mask) -> dict[int, list[tuple[int, int]]]:
+    """`spans` (per dimension) of the dimensions that normally change (`usually_changes` outside each span, `hold`
+    from `held`): a reading that holds most of the time sits on its extremes by nature."""
+    kept = {d: [(a, b) for a, b in found if usually_changes(hold[:, d], a, b)] for d, found in spans.items()}
+    return {d: found for d, found in kept.items() if found}
 
 
 def share_of(spans: dict[int, list[tuple[int, int]]], n: int) -> float:

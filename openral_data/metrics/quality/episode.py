@@ -72,7 +72,7 @@ def vector_findings(
     if key == STATE:
         action_names = ds.dim_names(ACTION) if ACTION in arrays else []
         commands = {d: arrays[ACTION][:, action_names.index(nm)] for d, nm in enumerate(names) if nm in action_names}
-        tops = dims.at_extremes(x, lo, hi, moving, th.clip_plateau, interior=True)
+        tops = dims.changing(dims.at_extremes(x, lo, hi, moving, th.clip_plateau, interior=True), dims.held(x))
         share = dims.share_of(tops, n)
         found += dims.frozen_state(x, (lo, hi), names, varies, commands, (th.clip_plateau, th.frozen_min_frames), key)
         for d, spans in tops.items():
@@ -142,18 +142,36 @@ def arm_moving(
 
 
 def row_findings(
-    arrays: dict[str, Array], arm: dict[str, tuple[Array, list[str]]], steps: Array, th: Thresholds
+    arrays: dict[str, Array],
+    arm: dict[str, tuple[Array, list[str]]],
+    steps: Array,
+    th: Thresholds,
+    targets: Array | None = None,
 ) -> tuple[list[Finding], Array | None]:
-    """`frame_drop`, `repeated_rows` and `teleport` (frame drops aside) of the state trajectory `arm` holds, and
-    its per-frame step ratios for the pictures' frame drops (`rows.step_ratios`; None without a state)."""
+    """`frame_drop`, `repeated_rows` and `teleport` (frame drops aside; `targets`: the state dimensions' position
+    targets' steps, `alignment.target_steps`) of the state trajectory `arm` holds, and its per-frame step ratios
+    for the pictures' frame drops (`rows.step_ratios`; None without a state)."""
     if STATE not in arm:
         return [], None
     z, names = arm[STATE]
     late = (steps > th.gap_frames) | (steps <= 0)
     drops = rows.frame_drops(z, late, th)
-    found = rows.frame_drop_findings(drops, th) + rows.teleports(z, names, STATE, th, {f for f, _ in drops})
+    found = rows.frame_drop_findings(drops, th) + rows.teleports(z, names, STATE, th, {f for f, _ in drops}, targets)
     ratios = rows.step_ratios(z, late, [f for f, _ in drops])
     return found + rows.repeated_rows(list(arrays.values()), z, th), ratios
+
+
+def targets(
+    ds: DatasetSource, arrays: dict[str, Array], arm: dict[str, tuple[Array, list[str]]], ranges: Ranges
+) -> Array | None:
+    """The steps of the position targets of the arm's state dimensions, in their range units
+    (`alignment.target_steps`); None without a state and an action."""
+    if STATE not in arm or ACTION not in arrays:
+        return None
+    names = ds.dim_names(STATE)
+    lo, hi = ranges[STATE]
+    dims = [names.index(name) for name in arm[STATE][1]]
+    return alignment.target_steps(arrays[ACTION], (ds.dim_names(ACTION), names), dims, hi - lo)
 
 
 def episode_motion(
@@ -180,7 +198,7 @@ def episode_motion(
         found += more
     grip, toggles = gripper_findings(ds, arrays, ranges, n, th)
     steps = timing.timestamp_steps(timestamps, fps)
-    in_rows, ratios = row_findings(arrays, arm, steps, th)
+    in_rows, ratios = row_findings(arrays, arm, steps, th, targets(ds, arrays, arm, ranges))
     found += grip + timing_findings(steps, th) + in_rows
     if STATE in arrays:
         found += limits.joint_findings(arrays[STATE], ds.robot, ds.dim_names(STATE), steps, fps, th)

@@ -45,12 +45,16 @@ def local_speed(step: Array) -> Array:
     return np.asarray((total[hi] - total[lo] - np.nan_to_num(step)) / count, dtype=np.float64)
 
 
-def teleports(z: Array, names: list[str], feature: str, th: Thresholds, skip: set[int]) -> list[Finding]:
+def teleports(
+    z: Array, names: list[str], feature: str, th: Thresholds, skip: set[int], targets: Array | None = None
+) -> list[Finding]:
     """`teleport`: a state dimension (`z` in dataset-range units, quaternion components left to `quat_flip`)
     stepping between two frames more than `teleport_step` of its range and more than `teleport_factor` times its
-    local speed (the mean step within `NEAR` frames; still there, its median step when it moves); the frame
-    it lands on (the 5 jumps most beyond their local speed; frames in `skip`, a frame drop, left out; a dimension
-    jumping more than `JUMPS` times in the episode left out: its nature)."""
+    local speed (the mean step within `NEAR` frames; still there, its median step when it moves), and further than
+    its position target moved in one frame within `NEAR` frames (`targets`: `alignment.target_steps`, in the same
+    units; a follower catching up with its command is no teleport); the frame it lands on (the 5 jumps most
+    beyond their local speed; frames in `skip`, a frame drop, left out; a dimension jumping more than `JUMPS`
+    times in the episode left out: its nature)."""
     if len(z) < 3:
         return []
     quat = {names[i] for _, dims in signals.quaternion_groups(feature, names) for i in dims}
@@ -61,6 +65,8 @@ def teleports(z: Array, names: list[str], feature: str, th: Thresholds, skip: se
         typical = np.nan_to_num(local_speed(step))
         typical = np.where(typical > 0, typical, usual)  # still nearby: its usual step when it moves
         jump = (step > th.teleport_step) & (step > th.teleport_factor * typical) & lone_jumps(step)
+        if targets is not None and len(targets):
+            jump &= step > commanded(targets)
     out = []
     with np.errstate(divide="ignore", invalid="ignore"):
         beyond = step / typical  # how far beyond its local speed: the 5 kept are the 5 most beyond it
@@ -73,6 +79,12 @@ def teleports(z: Array, names: list[str], feature: str, th: Thresholds, skip: se
         subject = dim_subject(feature, names[d])
         out.append(Finding("teleport", subject, t + 1, t + 1, value, th.teleport_factor, detail="x local speed"))
     return sorted(out[:5], key=lambda f: f.start_frame or 0)
+
+
+def commanded(targets: Array) -> Array:
+    """(steps, dims) |steps| of each dimension's position target -> the largest within `NEAR` steps either side."""
+    padded = np.pad(targets, ((NEAR, NEAR), (0, 0)))
+    return np.asarray(np.lib.stride_tricks.sliding_window_view(padded, 2 * NEAR + 1, axis=0).max(axis=-1))
 
 
 def lone_jumps(step: Array) -> npt.NDArray[np.bool_]:
