@@ -186,8 +186,8 @@ def episode_cameras(
         samples(pa.Table.from_pylist(records, schema=SAMPLE_SCHEMA))
     found += stalled(seen, th, stride, length, fulls)
     found += onset.camera_lags(fulls, moving, length)
-    if steps is not None and float(steps.max(initial=0.0)) >= cuts.STEP:  # else no frame the pictures could confirm
-        found += cuts.picture_drops({key: full.change() for key, full in fulls.items()}, steps)
+    if steps is not None:
+        found += cuts.picture_drops({key: full.change for key, full in fulls.items()}, steps)
     measures = {
         **{f"camera_{m}_fraction": v for m, v in worst.items()},
         "camera_first_black": min(firsts, default=None),

@@ -14,6 +14,8 @@ neighbour, and its jump shows one frame later (the drop is placed by the state's
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
+
 import numpy as np
 import numpy.typing as npt
 from numpy.lib.stride_tricks import sliding_window_view
@@ -41,17 +43,19 @@ def jumps(change: Gray) -> Array:
         return np.where(ok, c / np.fmax(left, right), 0.0)
 
 
-def picture_drops(changes: dict[str, Gray], steps: Array) -> list[Finding]:
+def picture_drops(changes: Mapping[str, Callable[[], Gray]], steps: Array) -> list[Finding]:
     """`frame_drop` at each frame where the state's step ratio (`steps`, `rows.step_ratios`) reaches `STEP` and
     some camera's picture jumps `PICTURE` times its neighbours' change (`jumps`) there or on the next frame (a
-    copy at the cut); about that camera, the value its jump. At most `MOST`, the largest jumps."""
+    copy at the cut); about that camera, the value its jump. At most `MOST`, the largest jumps. `changes`: per
+    camera, its per-frame change (`edges.Full.change`, which decodes every frame), asked for only when some
+    frame's step reaches `STEP`."""
     n = len(steps)
     if not changes or not n or float(steps.max(initial=0.0)) < STEP:
         return []
     keys = sorted(changes)
     per = np.zeros((len(keys), n))
     for i, key in enumerate(keys):
-        j = jumps(changes[key])[:n]
+        j = jumps(changes[key]())[:n]
         per[i, : len(j)] = j
     at = np.maximum(per, np.concatenate([per[:, 1:], np.zeros((len(keys), 1))], axis=1))  # this frame or the next
     best = at.max(axis=0)
