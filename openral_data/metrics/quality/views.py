@@ -119,8 +119,9 @@ def flipped(thumbs: dict[int, Gray], camera: str, lengths: dict[int, int], margi
         refs = np.median(np.delete(stack, k, axis=0), axis=0) if len(order) <= LOO_MAX else whole
         best: tuple[float, str] | None = None
         for v, (mine, ref) in enumerate(zip(stack[k], refs, strict=True)):
-            turned = float(standard(mine[::-1, ::-1]) @ standard(ref))
-            gain = turned - float(standard(mine) @ standard(ref))
+            unit = standard(ref)
+            turned = float(standard(mine[::-1, ::-1]) @ unit)
+            gain = turned - float(standard(mine) @ unit)
             if gain > margin and turned >= (MOTION_MATCH if VIEWS[v] == "motion" else MATCH):
                 best = max(best or (gain, VIEWS[v]), (gain, VIEWS[v]))
         if best is not None:
