@@ -155,9 +155,10 @@ def row_findings(
         return [], None
     z, names = arm[STATE]
     late = (steps > th.gap_frames) | (steps <= 0)
-    drops = rows.frame_drops(z, late, th)
+    where = rows.positions(z, names, STATE)
+    drops = rows.frame_drops(where, late, th)
     found = rows.frame_drop_findings(drops, th) + rows.teleports(z, names, STATE, th, {f for f, _ in drops}, targets)
-    ratios = rows.step_ratios(z, late, [f for f, _ in drops])
+    ratios = rows.step_ratios(where, late, [f for f, _ in drops])
     return found + rows.repeated_rows(list(arrays.values()), z, th), ratios
 
 

@@ -98,6 +98,15 @@ def lone_jumps(step: Array) -> npt.NDArray[np.bool_]:
         return np.asarray((step > COUNTS_FLOOR * count) & (step >= ALONE * np.nan_to_num(near)), dtype=bool)
 
 
+def positions(z: Array, names: list[str], feature: str) -> Array:
+    """`z` (range units) without its quaternion components (`signals.quaternion_groups`), for the frame drops:
+    an end effector's orientation spans a few thousandths of each component's [-1, 1], so in range units its
+    noise and its wobble where a motion starts step as far as the position's motion and swamp the step's norm
+    (left to `quat_flip`, as `teleports` leaves them)."""
+    quat = {i for _, dims in signals.quaternion_groups(feature, names) for i in dims}
+    return z[:, [i for i in range(z.shape[1]) if i not in quat]] if quat else z
+
+
 def frame_drops(z: Array, late: npt.NDArray[np.bool_], th: Thresholds) -> list[tuple[int, float]]:
     """(frame, step over its neighbours') where the state (`z`, range units) steps `drop_factor` times further
     than on each of the `AROUND` steps either side, all of them moving (not a start from rest), in the direction
