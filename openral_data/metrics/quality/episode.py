@@ -156,9 +156,10 @@ def row_findings(
     z, names = arm[STATE]
     late = (steps > th.gap_frames) | (steps <= 0)
     where = rows.positions(z, names, STATE)
-    drops = rows.frame_drops(where, late, th)
-    found = rows.frame_drop_findings(drops, th) + rows.teleports(z, names, STATE, th, {f for f, _ in drops}, targets)
-    ratios = rows.step_ratios(where, late, [f for f, _ in drops])
+    drops = rows.frame_drops(where, late, th, z)
+    jumps, more = rows.together(z, names, rows.teleports(z, names, STATE, th, {f for f, _ in drops}, targets), late, th)
+    found = rows.frame_drop_findings(drops, th) + more + jumps
+    ratios = rows.step_ratios(where, late, [f for f, _ in drops] + [f.start_frame or 0 for f in more])
     return found + rows.repeated_rows(list(arrays.values()), z, th), ratios
 
 
