@@ -150,7 +150,8 @@ def row_findings(
 ) -> tuple[list[Finding], Array | None]:
     """`frame_drop`, `repeated_rows` and `teleport` (frame drops aside; `targets`: the state dimensions' position
     targets' steps, `alignment.target_steps`) of the state trajectory `arm` holds, and its per-frame step ratios
-    for the pictures' frame drops (`rows.step_ratios`; None without a state)."""
+    for the pictures' frame drops (`rows.step_ratios`; None without a state). The drops are measured on the
+    position (`rows.positions`), and 2+ dimensions teleporting onto one frame are one (`rows.together`)."""
     if STATE not in arm:
         return [], None
     z, names = arm[STATE]
