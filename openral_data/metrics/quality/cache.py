@@ -45,7 +45,7 @@ if TYPE_CHECKING:  # imported where used: `info` looks for a table (`cache_paths
 # velocity commands' lag limit; 14: 10-13 together; 15: camera_flipped on the mean picture, edges and motion;
 # a flat top of a reading that holds most of the time is no clip; a state step within its position target's is
 # no teleport; or (another branch's 15) frame drops the pictures show, `cuts`; 16: both 15s together)
-VERSION = 16
+VERSION = 19
 KEY = b"openral.quality.key"
 STRIDE = b"openral.quality.stride"
 

@@ -4,12 +4,13 @@ Frames lost while the timestamps stay even leave one long step between ordinary 
 stops or turns between a script's waypoints the state's step alone cannot tell it from the script (the rows'
 rule, `rows.frame_drops`, needs `drop_factor` times every neighbouring step), but the cameras film the lost
 motion as one picture jump: a frame is a drop when a camera's picture changes `PICTURE` times as much as on any
-of its `NEAR` frames either side (`jumps`) and the state steps onto it at least `STEP` times the median of its
-neighbouring steps (`rows.step_ratios`). Each witness alone is not enough: a clean script's waypoint makes the
-state step 4x its neighbours while the picture changes as before, and a picture alone jumps where a door or an
-object moves on its own. The change is each camera's per-frame mean absolute luma change (`edges.Full.change`,
-every frame decoded once per episode); a frame a codec repeats (a copy, change under `edges.REPEAT`) is no
-neighbour, and its jump shows one frame later (the drop is placed by the state's frame).
+of its `NEAR` frames either side (`jumps`) and the state's position steps onto it at least `STEP` times the
+median of its neighbouring steps (`rows.step_ratios`, the quaternion aside: `rows.positions`). Each witness
+alone is not enough: a clean script's waypoint makes the state step 4x its neighbours while the picture changes
+as before, and a picture alone jumps where a door or an object moves on its own. The change is each camera's
+per-frame mean absolute luma change (`edges.Full.change`, every frame decoded once per episode); a frame a codec
+repeats (a copy, change under `edges.REPEAT`) is no neighbour, and its jump shows one frame later (the drop is
+placed by the state's frame).
 """
 
 from __future__ import annotations

@@ -150,14 +150,17 @@ def row_findings(
 ) -> tuple[list[Finding], Array | None]:
     """`frame_drop`, `repeated_rows` and `teleport` (frame drops aside; `targets`: the state dimensions' position
     targets' steps, `alignment.target_steps`) of the state trajectory `arm` holds, and its per-frame step ratios
-    for the pictures' frame drops (`rows.step_ratios`; None without a state)."""
+    for the pictures' frame drops (`rows.step_ratios`; None without a state). The drops are measured on the
+    position (`rows.positions`), and 2+ dimensions teleporting onto one frame are one (`rows.together`)."""
     if STATE not in arm:
         return [], None
     z, names = arm[STATE]
     late = (steps > th.gap_frames) | (steps <= 0)
-    drops = rows.frame_drops(z, late, th)
-    found = rows.frame_drop_findings(drops, th) + rows.teleports(z, names, STATE, th, {f for f, _ in drops}, targets)
-    ratios = rows.step_ratios(z, late, [f for f, _ in drops])
+    where = rows.positions(z, names, STATE)
+    drops = rows.frame_drops(where, late, th, z)
+    jumps, more = rows.together(z, names, rows.teleports(z, names, STATE, th, {f for f, _ in drops}, targets), late, th)
+    found = rows.frame_drop_findings(drops, th) + more + jumps
+    ratios = rows.step_ratios(where, late, [f for f, _ in drops] + [f.start_frame or 0 for f in more])
     return found + rows.repeated_rows(list(arrays.values()), z, th), ratios
 
 

@@ -6,10 +6,12 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections import Counter
 
 import numpy as np
 import numpy.typing as npt
 
+from openral_data.formats.lerobot_v3.features import STATE
 from openral_data.metrics import signals
 from openral_data.metrics.quality.findings import Finding, dim_subject, runs
 from openral_data.metrics.quality.thresholds import Thresholds
@@ -32,6 +34,9 @@ MOVED = 0.002  # range units: a dimension moving less than this on its neighbour
 # 4.0x their neighbours and more, people's clean jumps 2.2x at most)
 COUNTS_FLOOR = 3.0
 ALONE = 3.0
+# `frame_drop`: this many dimensions jumping onto one frame (`teleports`) are frames lost, not a teleport (the
+# fault moves one dimension; frames lost carry every moving dimension on at once)
+TOGETHER = 2
 
 
 def local_speed(step: Array) -> Array:
@@ -81,6 +86,42 @@ def teleports(
     return sorted(out[:5], key=lambda f: f.start_frame or 0)
 
 
+def together(
+    z: Array, names: list[str], jumps: list[Finding], late: npt.NDArray[np.bool_], th: Thresholds
+) -> tuple[list[Finding], list[Finding]]:
+    """`jumps` (`teleports`' findings on `z`, dimensions `names`) split: those that stay teleports, and a
+    `frame_drop` (about the state, its value the smallest of the jumps, in local speeds) on each frame where at
+    least `TOGETHER` dimensions jump, each the way it steps on the steps just before and after (a motion carried
+    on), while the timestamps say one period passed (`late`: a `gap`). Frames lost carry the moving dimensions
+    on at once: where the cut is long or the arm turns within it, further than `frame_drops` asks of one motion
+    going on (its direction, its even spread), yet each dimension steps far beyond its own local speed."""
+    step = np.diff(z, axis=0)
+    index = {dim_subject(STATE, name): d for d, name in enumerate(names)}
+
+    def carried(f: Finding) -> bool:
+        t, d = (f.start_frame or 0) - 1, index.get(f.subject)
+        if d is None or t < 1 or t + 1 >= len(step) or late[t]:
+            return False
+        return bool(np.sign(step[t - 1, d]) == np.sign(step[t, d]) == np.sign(step[t + 1, d]) != 0)
+
+    count = Counter(f.start_frame for f in jumps if carried(f))
+    cut = sorted(f for f, c in count.items() if f is not None and c >= TOGETHER)
+    detail = f"{TOGETHER}+ dimensions jumping on beyond their local speed at once, timestamps even"
+    drops = [
+        Finding(
+            "frame_drop",
+            STATE,
+            f,
+            f,
+            min(j.value or 0.0 for j in jumps if j.start_frame == f),
+            th.teleport_factor,
+            detail=detail,
+        )
+        for f in cut
+    ]
+    return [j for j in jumps if j.start_frame not in cut], drops
+
+
 def commanded(targets: Array) -> Array:
     """(steps, dims) |steps| of each dimension's position target -> the largest within `NEAR` steps either side."""
     padded = np.pad(targets, ((NEAR, NEAR), (0, 0)))
@@ -98,13 +139,26 @@ def lone_jumps(step: Array) -> npt.NDArray[np.bool_]:
         return np.asarray((step > COUNTS_FLOOR * count) & (step >= ALONE * np.nan_to_num(near)), dtype=bool)
 
 
-def frame_drops(z: Array, late: npt.NDArray[np.bool_], th: Thresholds) -> list[tuple[int, float]]:
-    """(frame, step over its neighbours') where the state (`z`, range units) steps `drop_factor` times further
-    than on each of the `AROUND` steps either side, all of them moving (not a start from rest), in the direction
-    its two neighbouring steps move (frames lost, the motion goes on where it would have been), while the
-    timestamps say one period passed (`late`: the steps that are a gap, already found as `gap`); at most 5.
-    Two steps either side, not one: a script speeding up between waypoints steps further from one frame on, so
-    its step after is as long (no spike); a drop is one long step between ordinary ones."""
+def positions(z: Array, names: list[str], feature: str) -> Array:
+    """`z` (range units) without its quaternion components (`signals.quaternion_groups`), for the frame drops:
+    an end effector's orientation spans a few thousandths of each component's [-1, 1], so in range units its
+    noise and its wobble where a motion starts step as far as the position's motion and swamp the step's norm
+    (left to `quat_flip`, as `teleports` leaves them)."""
+    quat = {i for _, dims in signals.quaternion_groups(feature, names) for i in dims}
+    return z[:, [i for i in range(z.shape[1]) if i not in quat]] if quat else z
+
+
+def frame_drops(
+    z: Array, late: npt.NDArray[np.bool_], th: Thresholds, every: Array | None = None
+) -> list[tuple[int, float]]:
+    """(frame, step over its neighbours') where the state (`z`, range units; `positions`) steps `drop_factor`
+    times further than on each of the `AROUND` steps either side, all of them moving (not a start from rest), in
+    the direction its two neighbouring steps move (frames lost, the motion goes on where it would have been), its
+    dimensions `every` (the whole state, quaternions included; else `z`) stepping evenly further (`spread`),
+    while the timestamps say one period passed (`late`: the steps that are a gap, already found as `gap`); at
+    most 5. Two steps either side, not one: a script speeding up between waypoints steps further from one frame
+    on, so its step after is as long (no spike); a drop is one long step between ordinary ones. The orientation
+    stays in the spread: with it, one position jumping alone while the hand turns on is a teleport."""
     if len(z) < 2 * AROUND + 2 or z.shape[1] == 0:
         return []
     with np.errstate(all="ignore"):
@@ -117,7 +171,8 @@ def frame_drops(z: Array, late: npt.NDArray[np.bool_], th: Thresholds) -> list[t
         cosine = (mine * both).sum(axis=1) / (norm[AROUND : n - AROUND] * np.linalg.norm(both, axis=1))
         ratio = norm[AROUND : n - AROUND] / near.max(axis=0)
         hit = (ratio > th.drop_factor) & (near.min(axis=0) > 0) & (cosine > ALIGN)
-    hit &= ~late[AROUND : n - AROUND] & (spread(step)[AROUND - 1 : n - AROUND - 1] < SPREAD)
+    whole = step if every is None else np.nan_to_num(np.diff(every, axis=0), posinf=0.0, neginf=0.0)
+    hit &= ~late[AROUND : n - AROUND] & (spread(whole)[AROUND - 1 : n - AROUND - 1] < SPREAD)
     return [(int(t) + AROUND + 1, float(ratio[t])) for t in np.flatnonzero(hit)][:5]
 
 
