@@ -63,7 +63,8 @@ def test_the_drop_is_found_from_the_frames_around_the_candidates_alone(
         "episode_index": 0, "length": LENGTH, f"videos/{KEY}/chunk_index": 0, f"videos/{KEY}/file_index": 0,
         f"videos/{KEY}/from_timestamp": 0.0, f"videos/{KEY}/to_timestamp": LENGTH / FPS,
     }  # fmt: skip
-    whole, picked = [], []  # frames the decoder handed out: every frame, the frames asked for
+    whole: list[int] = []  # frames the decoder handed out: every frame
+    picked: list[int] = []  # ... the frames asked for
 
     def every() -> Iterator[npt.NDArray[np.uint8]]:
         return _counted(decode_episode_video(tmp_path, info, row, KEY), whole)
