@@ -132,16 +132,16 @@ def depth_settings(info: dict[str, Any], key: str) -> DepthSettings | None:
 
 
 def _decode_video(
-    src: Path, info: dict[str, Any], row: dict[str, Any], key: str, n: int, fps: int, stride: int = 1,
+    src: Path, info: dict[str, Any], row: dict[str, Any], key: str, n: int, fps: int, wanted: int | Sequence[int] = 1,
     videos: OpenVideos | None = None,
 ) -> Iterator[npt.NDArray[Any]]:  # fmt: skip
-    """The episode's `n` frames of `key` (every `stride`-th), decoded from its mp4 starting at `from_timestamp`
-    (`videos`: the mp4s kept open, else opened for this episode)."""
+    """The episode's `n` frames of `key` (`wanted`: every `wanted`-th, or those indices), decoded from its mp4
+    starting at `from_timestamp` (`videos`: the mp4s kept open, else opened for this episode)."""
     pos = layout.FilePos(row[f"videos/{key}/chunk_index"], row[f"videos/{key}/file_index"])
     path = layout.template_path(src, info, "video_path", pos, video_key=key)
     start, _ = video_span(path, row, key, n, fps)
     try:
-        yield from _decode(path, start, n, fps, depth_settings(info, key), stride, videos)
+        yield from _decode(path, start, n, fps, depth_settings(info, key), wanted, videos)
     except (av.error.FFmpegError, OSError) as exc:  # missing, empty, truncated or not a video
         reason = getattr(exc, "strerror", None) or type(exc).__name__
         raise DatasetError(f"{path}: cannot decode video: {reason}", code="dataset.invalid") from None
@@ -156,28 +156,47 @@ def decode_episode_video(
     yield from _decode_video(src, info, row, key, int(row["length"]), int(info["fps"]), stride, videos)
 
 
+def decode_episode_frames(
+    src: Path, info: dict[str, Any], row: dict[str, Any], key: str, wanted: Sequence[int],
+    videos: OpenVideos | None = None,
+) -> Iterator[npt.NDArray[Any]]:  # fmt: skip
+    """Frames `wanted` (indices in the episode, ascending, each once; those past its length left out) of video
+    feature `key` in the episode of meta/episodes `row`, in order, as `decode_episode_video` gives them: only the
+    packets they need decoded where the stream allows, nothing after the last. A video that ends before the last
+    raises `VideoEnds` after the frames it holds."""
+    n = int(row["length"])
+    yield from _decode_video(src, info, row, key, n, int(info["fps"]), [t for t in wanted if t < n], videos)
+
+
 LEAD_S = 2.0  # how far before a span to seek again when its first frames were shown before the keyframe found
 
 
 def _decode(
-    path: Path, start: float, n: int, fps: int, depth: DepthSettings | None = None, stride: int = 1,
+    path: Path, start: float, n: int, fps: int, depth: DepthSettings | None = None, wanted: int | Sequence[int] = 1,
     videos: OpenVideos | None = None,
 ) -> Iterator[npt.NDArray[Any]]:  # fmt: skip
+    """Frames `wanted` (a stride, or indices) of the `n` at `fps` from `start` seconds in the mp4 at `path`."""
+
     def picture(frame: av.VideoFrame) -> npt.NDArray[Any]:
         if depth is not None:
             return depth.to_millimetres(decode_codes(frame))
         return np.asarray(frame.to_ndarray(format="rgb24"), dtype=np.uint8)
 
+    want = range(0, n, wanted) if isinstance(wanted, int) else wanted
+    until = n if isinstance(wanted, int) else (want[-1] + 1 if len(want) else 0)  # a stride: to the span's end
+    if not until and not isinstance(wanted, int):
+        return  # no frame wanted
+    sparse = wanted > 1 if isinstance(wanted, int) else len(want) < n
     given = 0  # wanted frames handed on
-    for seek in (start, start - LEAD_S) if stride > 1 else ():  # only the packets wanted frames need (sparse.py)
+    for seek in (start, start - LEAD_S) if sparse else ():  # only the packets wanted frames need (sparse.py)
         try:
             with _opened(path, max(0.0, seek), videos) as (container, stream):
-                for frame in sparse_frames(container, stream, start, n, fps, stride):
+                for frame in sparse_frames(container, stream, start, n, fps, wanted):
                     yield picture(frame)
                     given += 1
             return
         except SparseGap as gap:
-            if given or seek <= 0 or "frame 0" not in str(gap):
+            if given or seek <= 0 or f"frame {want[0] if len(want) else 0} " not in f"{gap} ":
                 break  # the whole span, below (which also says how a damaged or short video ends)
     for seek in (start, start - LEAD_S, 0.0):  # earlier when the span's first frames were lost (below)
         with _opened(path, max(0.0, seek), videos) as (container, stream):
@@ -189,10 +208,11 @@ def _decode(
                     continue
                 if count == 0 and float(frame.pts * tb) > start + 0.5 / fps and seek > 0:
                     break  # an open GOP's leading frames, shown before the keyframe found: they need the one before
-                if count % stride == 0 and count // stride >= given:
+                if given < len(want) and count == want[given]:
                     yield picture(frame)
+                    given += 1
                 count += 1
-                if count == n:
+                if count == until:
                     return
             else:
                 break

@@ -1,11 +1,13 @@
-"""Every `stride`-th frame of a video span decoded without decoding the rest where the stream allows it.
+"""Every `stride`-th frame of a video span, or any set of its frames, decoded without decoding the rest where the
+stream allows it.
 
 An mp4's keyframe (a sync sample) is a random access point: decoding may start there, and every frame shown from
 it on needs nothing before it. Only the frames that follow it in decode order but are shown before it (an open
 GOP's leading B-frames) may refer back. So the packets not sent to the decoder yet are held, and those before
 the last keyframe dropped once a packet shown after that keyframe arrives; when a wanted frame's packet arrives,
 the held packets are sent, in decode order. A group of pictures holding no wanted frame is never decoded, nor a
-group's packets after its last wanted frame: with lerobot's GOP of 2 and a stride of 5, 3 frames in 10.
+group's packets after its last wanted frame: with lerobot's GOP of 2 and a stride of 5, 3 frames in 10. Nothing
+after the last wanted frame is decoded.
 
 The frames come back in display order, each placed by its time stamp. Where that placement is not sound — a
 packet or frame without a time stamp or off the frame grid, two on one frame slot, a wanted frame the decoder
@@ -14,7 +16,8 @@ never returns — `SparseGap` is raised and the caller decodes the span whole in
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from bisect import bisect_left
+from collections.abc import Iterator, Sequence
 
 import av
 import av.container
@@ -28,14 +31,14 @@ REORDER = 16  # frames a decoder may hold back (H.264 allows 16 reference frames
 
 def sparse_frames(
     container: av.container.InputContainer, stream: av.video.stream.VideoStream, start: float, n: int, fps: int,
-    stride: int,
+    wanted: int | Sequence[int],
 ) -> Iterator[av.video.frame.VideoFrame]:  # fmt: skip
-    """Frames 0, stride, 2*stride, … of the `n` frames at `fps` from `start` seconds, in order; raises `SparseGap`
-    where placing them by time stamp is not sound or the stream ends (or breaks off) before the span does: the
-    whole decode then says which."""
+    """Frames `wanted` (a stride: frames 0, stride, 2*stride, …; or the indices, ascending, each once) of the `n`
+    frames at `fps` from `start` seconds, in order; raises `SparseGap` where placing them by time stamp is not
+    sound or the stream ends (or breaks off) before the last of them: the whole decode then says which."""
     tb = stream.time_base
     assert tb is not None
-    slots = _Slots(float(tb), start, fps, stride, n)
+    slots = _Slots(float(tb), start, fps, range(0, n, wanted) if isinstance(wanted, int) else wanted)
     decoder = stream.codec_context
     held: list[av.Packet] = []  # packets not sent yet, from the keyframe before the last one (see above)
     cut, key = 0, 0  # held[cut] is the last keyframe; its slot
@@ -61,23 +64,30 @@ def sparse_frames(
             yield from slots.ready()
             if slots.done():
                 return
-        elif i >= slots.n + REORDER:  # past the span by more than a decoder holds frames back
+        elif i >= slots.end + REORDER:  # past the last wanted frame by more than a decoder holds back
             break
     for frame in decoder.decode(None):  # what the decoder still holds back
         slots.keep(frame)
     yield from slots.ready()
     if not slots.done():
-        raise SparseGap(f"frame {slots.next} never decoded" if last >= n - 1 else "the stream ends before the span")
+        ends = "the stream ends before the span"
+        raise SparseGap(f"frame {slots.next} never decoded" if last >= slots.end - 1 else ends)
 
 
 class _Slots:
     """Frame slots from time stamps, and the wanted frames decoded so far, handed on strictly in order."""
 
-    def __init__(self, tb: float, start: float, fps: int, stride: int, n: int) -> None:
-        self.tb, self.start, self.fps, self.stride, self.n = tb, start, fps, stride, n
+    def __init__(self, tb: float, start: float, fps: int, wanted: Sequence[int]) -> None:
+        self.tb, self.start, self.fps, self.want = tb, start, fps, wanted
+        self.set = wanted if isinstance(wanted, range) else frozenset(wanted)
+        self.end = wanted[-1] + 1 if len(wanted) else 0  # past the last wanted slot
         self.kept: dict[int, av.video.frame.VideoFrame] = {}
-        self.next = 0  # the next wanted slot to hand on
+        self.k = 0  # the next wanted slot to hand on is want[k]
         self.gone: set[int] = set()  # wanted slots from `next` on whose packets the decoder has had
+
+    @property
+    def next(self) -> int:
+        return self.want[self.k] if self.k < len(self.want) else self.end
 
     def of(self, pts: int | None) -> int:
         if pts is None:
@@ -88,7 +98,7 @@ class _Slots:
         return round(exact)
 
     def wanted(self, i: int) -> bool:
-        return self.next <= i < self.n and i % self.stride == 0
+        return i >= self.next and i in self.set
 
     def sent(self, pts: int | None) -> None:
         i = self.of(pts)
@@ -98,12 +108,12 @@ class _Slots:
     def unsent_before(self, key: int) -> bool:
         """Whether a wanted slot before `key` (an open GOP's leading frame, shown before its keyframe) may still
         arrive: its packet not sent yet."""
-        first = -(-self.next // self.stride) * self.stride
-        return any(w not in self.gone for w in range(first, min(key, self.n), self.stride))
+        stop = bisect_left(self.want, key, lo=self.k)
+        return any(self.want[j] not in self.gone for j in range(self.k, stop))
 
     def keep(self, frame: av.video.frame.VideoFrame) -> None:
         i = self.of(frame.pts)
-        if (0 <= i < self.next and i % self.stride == 0) or i in self.kept:
+        if (0 <= i < self.next and i in self.set) or i in self.kept:
             raise SparseGap(f"two frames on slot {i}")  # each packet is decoded once: a slot is decoded once
         if not self.wanted(i):
             return
@@ -113,7 +123,7 @@ class _Slots:
         while self.next in self.kept:
             yield self.kept.pop(self.next)
             self.gone.discard(self.next)
-            self.next += self.stride
+            self.k += 1
 
     def done(self) -> bool:
-        return self.next >= self.n
+        return self.k >= len(self.want)

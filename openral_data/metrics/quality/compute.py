@@ -8,7 +8,7 @@ the dataset's size: per-frame rows go to `Sink`s as they are made.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
@@ -20,7 +20,12 @@ import pyarrow.compute as pc
 
 from openral_data.errors import DatasetError, VideoEnds
 from openral_data.formats.lerobot_v3.features import ACTION, STATE
-from openral_data.formats.lerobot_v3.frames import OpenVideos, decode_episode_video, depth_settings
+from openral_data.formats.lerobot_v3.frames import (
+    OpenVideos,
+    decode_episode_frames,
+    decode_episode_video,
+    depth_settings,
+)
 from openral_data.formats.lerobot_v3.reader import read_episodes
 from openral_data.formats.parquetfile import read_table
 from openral_data.metrics.quality import breadth, cuts, onset, views
@@ -130,6 +135,13 @@ class Pictures:
         """Every frame of camera `key` in episode `row`, up to where its video ends."""
         return iter(UntilEnd(self.frames(row, key, 1)))
 
+    def picked(self, row: dict[str, Any], key: str, wanted: Sequence[int]) -> Iterator[Any]:
+        """Frames `wanted` (ascending) of camera `key` in episode `row`, as RGB, up to where its video ends; only
+        those decoded (`frames.decode_episode_frames`)."""
+        if key in self.images.keys:
+            return self.images.picked(row, key, wanted)
+        return iter(UntilEnd(decode_episode_frames(self.ds.root, self.ds.info, row, key, wanted, self.videos)))
+
 
 class UntilEnd:
     """A camera's frames up to where its video ends (`VideoEnds`: fewer frames than the episode's rows, a
@@ -171,7 +183,7 @@ def episode_cameras(
         frames = UntilEnd(pictures.frames(row, key, stride))
         q = camera_quality(frames, stride, th)
         held = length if frames.ends is None else frames.ends
-        fulls[key] = Full(partial(pictures.all, row, key), luma)
+        fulls[key] = Full(partial(pictures.all, row, key), luma, partial(pictures.picked, row, key))
         found += q.findings(key, th, stride, held, moving, fulls[key])
         if frames.ends is not None:
             found.append(short_video(key, frames.ends, length))
@@ -187,7 +199,7 @@ def episode_cameras(
     found += stalled(seen, th, stride, length, fulls)
     found += onset.camera_lags(fulls, moving, length)
     if steps is not None:
-        found += cuts.picture_drops({key: full.change for key, full in fulls.items()}, steps)
+        found += cuts.picture_drops({key: full.change_at for key, full in fulls.items()}, steps)
     measures = {
         **{f"camera_{m}_fraction": v for m, v in worst.items()},
         "camera_first_black": min(firsts, default=None),

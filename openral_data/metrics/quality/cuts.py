@@ -8,14 +8,14 @@ of its `NEAR` frames either side (`jumps`) and the state's position steps onto i
 median of its neighbouring steps (`rows.step_ratios`, the quaternion aside: `rows.positions`). Each witness
 alone is not enough: a clean script's waypoint makes the state step 4x its neighbours while the picture changes
 as before, and a picture alone jumps where a door or an object moves on its own. The change is each camera's
-per-frame mean absolute luma change (`edges.Full.change`, every frame decoded once per episode); a frame a codec
-repeats (a copy, change under `edges.REPEAT`) is no neighbour, and its jump shows one frame later (the drop is
-placed by the state's frame).
+per-frame mean absolute luma change (`edges.Full.change_at`, measured only at the frames `jumps` reads for a
+candidate, `reach`); a frame a codec repeats (a copy, change under `edges.REPEAT`) is no neighbour, and its jump
+shows one frame later (the drop is placed by the state's frame).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -33,7 +33,8 @@ MOST = 5  # drops kept per episode (as `rows.frame_drops`)
 
 def jumps(change: Gray) -> Array:
     """Per frame: its picture change (`edges.Full.change`) over the largest change of the `NEAR` frames either
-    side that are no copies; 0 for a copy, and where a side has no such frame."""
+    side that are no copies; 0 for a copy, and where a side has no such frame (NaN or past either end: none).
+    Frame t's value reads the change at frames t-NEAR .. t+NEAR alone."""
     c = np.asarray(change, dtype=np.float64)
     c = np.where(np.isfinite(c) & (c >= REPEAT), c, -np.inf)
     pad = np.full(NEAR, -np.inf)
@@ -44,19 +45,29 @@ def jumps(change: Gray) -> Array:
         return np.where(ok, c / np.fmax(left, right), 0.0)
 
 
-def picture_drops(changes: Mapping[str, Callable[[], Gray]], steps: Array) -> list[Finding]:
+def reach(candidates: npt.NDArray[np.intp], n: int) -> list[int]:
+    """The frames whose change `picture_drops` reads for frames `candidates` of `n`: `jumps` at t and t+1 reads
+    t-NEAR .. t+1+NEAR."""
+    return sorted({f for t in candidates.tolist() for f in range(max(0, t - NEAR), min(n, t + 2 + NEAR))})
+
+
+def picture_drops(changes: Mapping[str, Callable[[Sequence[int]], Gray]], steps: Array) -> list[Finding]:
     """`frame_drop` at each frame where the state's step ratio (`steps`, `rows.step_ratios`) reaches `STEP` and
     some camera's picture jumps `PICTURE` times its neighbours' change (`jumps`) there or on the next frame (a
     copy at the cut); about that camera, the value its jump. At most `MOST`, the largest jumps. `changes`: per
-    camera, its per-frame change (`edges.Full.change`, which decodes every frame), asked for only when some
-    frame's step reaches `STEP`."""
+    camera, its change at the frames given (`edges.Full.change_at`), asked for only at the frames these
+    candidates' jumps read (`reach`) and only when some frame's step reaches `STEP`: the values elsewhere are
+    never read."""
     n = len(steps)
     if not changes or not n or float(steps.max(initial=0.0)) < STEP:
+        return []
+    need = reach(np.flatnonzero(steps >= STEP), n)
+    if not need:
         return []
     keys = sorted(changes)
     per = np.zeros((len(keys), n))
     for i, key in enumerate(keys):
-        j = jumps(changes[key]())[:n]
+        j = jumps(changes[key](need))[:n]
         per[i, : len(j)] = j
     at = np.maximum(per, np.concatenate([per[:, 1:], np.zeros((len(keys), 1))], axis=1))  # this frame or the next
     best = at.max(axis=0)

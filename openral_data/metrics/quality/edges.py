@@ -12,7 +12,8 @@ is no frozen span at all. A clean episode has no such run: it is decoded once.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from functools import partial
 from itertools import islice
 
 import numpy as np
@@ -24,6 +25,8 @@ from openral_data.metrics.quality.thresholds import Thresholds
 Gray = npt.NDArray[np.float32]
 Frames = Callable[[], Iterator[npt.NDArray[np.uint8]]]  # the episode's frames of one camera, all, as RGB
 Luma = Callable[[npt.NDArray[np.uint8]], Gray]  # an RGB frame's luma picture (`camera.luma`)
+# the episode's frames of one camera at the given indices (ascending), as RGB; fewer where the video ends first
+Picked = Callable[[Sequence[int]], Iterator[npt.NDArray[np.uint8]]]
 Span = tuple[int, int]
 EDGED = ("frozen", "blurred")
 REPEAT = 0.1  # mean absolute luma difference (0-255) under which a frame repeats the previous one (copies: 0.0)
@@ -94,10 +97,12 @@ def changes(frames: Iterator[npt.NDArray[np.uint8]], luma: Luma) -> Iterator[flo
 class Full:
     """A camera's every frame in one episode, decoded again on each call (`frames`), and their change
     (`changes`), measured once per episode and camera for every check that judges it (`still_scene`, `held`,
-    `onset.camera_lags`)."""
+    `onset.camera_lags`), or only at some frames (`change_at`, `picked`: those frames decoded alone; by default
+    `frames` filtered)."""
 
-    def __init__(self, frames: Frames, luma: Luma) -> None:
+    def __init__(self, frames: Frames, luma: Luma, picked: Picked | None = None) -> None:
         self.frames, self.luma = frames, luma
+        self.picked: Picked = picked or partial(pick, frames)
         self.measured: Gray | None = None
 
     def __call__(self) -> Iterator[npt.NDArray[np.uint8]]:
@@ -109,12 +114,37 @@ class Full:
             self.measured = np.array(list(changes(self.frames(), self.luma)), dtype=np.float32)
         return self.measured
 
+    def change_at(self, at: Sequence[int]) -> Gray:
+        """The change (`change`'s value) at frames `at` (ascending): `change` when it has measured every frame,
+        else measured from the lumas of frames `at` and of the frame before each, those alone decoded
+        (`picked`). Frames not in `at`, and those past the video's end, are NaN (as the first frame is)."""
+        if self.measured is not None:
+            return self.measured
+        need = sorted({t for f in at for t in (f - 1, f) if t >= 0})
+        out = np.full(need[-1] + 1 if need else 0, np.nan, dtype=np.float32)
+        wanted = set(at)
+        last, prev = -2, None
+        for t, rgb in zip(need, self.picked(need), strict=False):
+            gray = self.luma(rgb)
+            if t in wanted and last == t - 1 and prev is not None:
+                out[t] = float(np.abs(gray - prev).mean())
+            last, prev = t, gray
+        return out
+
     def first_change(self, count: int) -> int | None:
         """The first frame from 1 whose picture differs from the previous one (a change of at least `REPEAT`),
         among the first `count`; None when each of them repeats the previous. Decoded only up to that frame,
         unless `change` has measured them already."""
         seen = iter(self.measured) if self.measured is not None else changes(self.frames(), self.luma)
         return next((t for t, c in enumerate(islice(seen, count)) if t and c >= REPEAT), None)
+
+
+def pick(frames: Frames, wanted: Sequence[int]) -> Iterator[npt.NDArray[np.uint8]]:
+    """Frames `wanted` (ascending) of all `frames`, decoded only up to the last of them."""
+    keep = set(wanted)
+    for t, rgb in enumerate(islice(frames(), wanted[-1] + 1 if wanted else 0)):
+        if t in keep:
+            yield rgb
 
 
 def still_scene(change: Gray, span: Span) -> bool:

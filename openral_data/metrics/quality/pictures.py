@@ -5,7 +5,7 @@ motion pass."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -38,6 +38,11 @@ class ImageColumns:
 
     def frames(self, row: dict[str, Any], key: str, stride: int) -> Iterator[npt.NDArray[np.uint8]]:
         """Frames 0, stride, 2*stride, … of camera `key` in the episode of meta/episodes `row`, as RGB."""
+        return self.picked(row, key, stride)
+
+    def picked(self, row: dict[str, Any], key: str, wanted: int | Sequence[int]) -> Iterator[npt.NDArray[np.uint8]]:
+        """Frames `wanted` (a stride: 0, stride, 2*stride, …; or indices, ascending, those past the episode left
+        out) of camera `key` in the episode of meta/episodes `row`, as RGB; only those decoded."""
         path = layout.data_path(self.root, layout.FilePos(int(row["data/chunk_index"]), int(row["data/file_index"])))
         if self._file is None or self._file[0] != path:
             self._file = (path, read_table(path, columns=["episode_index", "frame_index", *self.keys]))
@@ -45,5 +50,5 @@ class ImageColumns:
         episode = table.filter(pc.equal(table.column("episode_index"), int(row["episode_index"])))
         cells = episode.sort_by("frame_index").column(key)
         source = f"{path}: {key}: episode {row['episode_index']}"
-        for t in range(0, len(cells), stride):
+        for t in range(0, len(cells), wanted) if isinstance(wanted, int) else (t for t in wanted if t < len(cells)):
             yield decode_image(cells[t].as_py(), f"{source}: frame {t}")
