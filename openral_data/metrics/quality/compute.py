@@ -1,9 +1,11 @@
-"""Quality of every episode of one dataset, streamed: data files one at a time (two passes: each dimension's
-observed range, then the measures episode by episode), each camera decoded episode by episode with PyAV.
+"""Quality of every episode of one dataset, streamed: data files one at a time, each a row group at a time (two
+passes: each dimension's observed range, then the measures episode by episode, `stream.episodes`), each camera
+decoded episode by episode with PyAV.
 
-Memory is bounded by one data file's episode_index/frame_index/timestamp/state/action columns (and image
-columns, for `dtype: image` cameras, `pictures`) and a few decoded frames per camera (`camera.chunks`), whatever
-the dataset's size: per-frame rows go to `Sink`s as they are made.
+Memory is bounded by one row group and one episode of the episode_index/frame_index/timestamp/state/action
+columns (a data file out of (episode_index, frame_index) order, a foreign one, is read whole and sorted: then by
+that file), the image columns of `dtype: image` cameras (`pictures`) and a few decoded frames per camera
+(`camera.chunks`), whatever the dataset's size: per-frame rows go to `Sink`s as they are made (`FrameRows`).
 """
 
 from __future__ import annotations
