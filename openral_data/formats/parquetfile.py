@@ -3,7 +3,7 @@ missing, empty, truncated or garbage file is an `OpenralError` naming it, never 
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -60,13 +60,31 @@ def read_raw(path: Path, columns: Sequence[str] | None = None, *, verify_pages: 
     with pq.ParquetFile(path, page_checksum_verification=verify_pages) as file:
         table = file.read(columns=None if columns is None else list(columns))
         names = file.schema_arrow.names
-    if columns is None:
-        return table
+    return table if columns is None else _exact(table, columns, names)
+
+
+def _exact(table: pa.Table, columns: Sequence[str], names: Sequence[str]) -> pa.Table:
     # ParquetFile also takes a name as a dotted prefix of nested columns: keep the exact names, in the order asked
     for name in columns:
         if name not in table.column_names:
             raise pa.ArrowInvalid(f"No match for FieldRef.Name({name}) in {', '.join(names)}")
     return table.select(list(columns))
+
+
+def read_row_groups(path: Path, columns: Sequence[str]) -> Iterator[pa.Table]:
+    """`read_table(path, columns)` one row group at a time (memory bounded by the largest row group, not the
+    file), each validated as `read_table` validates the whole; an unreadable file raises a `DatasetError` naming
+    it, a missing column before any row group is read."""
+    try:
+        with pq.ParquetFile(checked(path)) as file:
+            names = file.schema_arrow.names
+            _exact(file.schema_arrow.empty_table(), columns, names)
+            for group in range(file.num_row_groups):
+                table = _exact(file.read_row_group(group, columns=list(columns)), columns, names)
+                table.validate(full=True)
+                yield table
+    except (pa.ArrowException, OSError, UnicodeDecodeError) as exc:
+        raise _refused(path, exc) from None
 
 
 def read_schema(path: Path) -> pa.Schema:

@@ -9,7 +9,7 @@ import pyarrow.parquet as pq
 import pytest
 
 from openral_data.errors import DatasetError
-from openral_data.formats.parquetfile import read_schema, read_table
+from openral_data.formats.parquetfile import read_row_groups, read_schema, read_table
 
 
 def _good(path: Path) -> bytes:
@@ -44,7 +44,11 @@ def test_unreadable_parquet_names_the_file(tmp_path: Path, damage: str, code: st
         path.mkdir()
     else:  # same length, so the file still parses: only full validation sees the broken UTF-8
         path.write_bytes(raw.replace(b"place", b"pl\xffce"))
-    for read in (read_table, read_schema) if damage != "bad-utf8-value" else (read_table,):
+
+    def by_groups(p: Path) -> list[pa.Table]:
+        return list(read_row_groups(p, ["task_index", "task"]))
+
+    for read in (read_table, read_schema, by_groups) if damage != "bad-utf8-value" else (read_table, by_groups):
         with pytest.raises(DatasetError) as err:
             read(path)
         assert err.value.code == code and str(path) in str(err.value) and "\n" not in str(err.value)
@@ -55,3 +59,11 @@ def test_a_good_file_reads(tmp_path: Path) -> None:
     _good(path)
     assert read_table(path).column("task").to_pylist() == ["pick", "place"]
     assert read_schema(path).names == ["task_index", "task"]
+    pq.write_table(pa.table({"task_index": [0, 1, 2], "task": ["a", "b", "c"]}), path, row_group_size=2)
+    groups = read_row_groups(path, ["task", "task_index"])
+    assert [t.to_pydict() for t in groups] == [
+        {"task": ["a", "b"], "task_index": [0, 1]},
+        {"task": ["c"], "task_index": [2]},
+    ]
+    with pytest.raises(DatasetError, match=r"No match for FieldRef\.Name\(index\) in task_index, task"):
+        next(read_row_groups(path, ["task", "index"]))  # before any row group is read

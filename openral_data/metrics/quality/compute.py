@@ -1,9 +1,11 @@
-"""Quality of every episode of one dataset, streamed: data files one at a time (two passes: each dimension's
-observed range, then the measures episode by episode), each camera decoded episode by episode with PyAV.
+"""Quality of every episode of one dataset, streamed: data files one at a time, each a row group at a time (two
+passes: each dimension's observed range, then the measures episode by episode, `stream.episodes`), each camera
+decoded episode by episode with PyAV.
 
-Memory is bounded by one data file's episode_index/frame_index/timestamp/state/action columns (and image
-columns, for `dtype: image` cameras, `pictures`) and a few decoded frames per camera (`camera.chunks`), whatever
-the dataset's size: per-frame rows go to `Sink`s as they are made.
+Memory is bounded by one row group and one episode of the episode_index/frame_index/timestamp/state/action
+columns (a data file out of (episode_index, frame_index) order, a foreign one, is read whole and sorted: then by
+that file), the image columns of `dtype: image` cameras (`pictures`) and a few decoded frames per camera
+(`camera.chunks`), whatever the dataset's size: per-frame rows go to `Sink`s as they are made (`FrameRows`).
 """
 
 from __future__ import annotations
@@ -16,7 +18,6 @@ from typing import Any
 
 import numpy as np
 import pyarrow as pa
-import pyarrow.compute as pc
 
 from openral_data.errors import DatasetError, VideoEnds
 from openral_data.formats.lerobot_v3.features import ACTION, STATE
@@ -27,14 +28,15 @@ from openral_data.formats.lerobot_v3.frames import (
     depth_settings,
 )
 from openral_data.formats.lerobot_v3.reader import read_episodes
-from openral_data.formats.parquetfile import read_table
-from openral_data.metrics.quality import breadth, cuts, onset, views
+from openral_data.formats.parquetfile import read_row_groups
+from openral_data.metrics.quality import breadth, cuts, onset, stream, views
 from openral_data.metrics.quality.camera import MEASURES as CAMERA_MEASURES
 from openral_data.metrics.quality.camera import CameraQuality, camera_quality, luma, short_video, stalled
 from openral_data.metrics.quality.edges import Full
-from openral_data.metrics.quality.episode import FINDINGS, MOVING, STEPS, Array, Ranges, episode_motion
+from openral_data.metrics.quality.episode import FINDINGS, MOVING, STEPS, PerFrame, Ranges, episode_motion
 from openral_data.metrics.quality.findings import Finding
 from openral_data.metrics.quality.pictures import ImageColumns, picture_cameras
+from openral_data.metrics.quality.stream import vectors
 from openral_data.metrics.quality.table import FRAME_SCHEMA, SAMPLE_SCHEMA
 from openral_data.metrics.quality.thresholds import Thresholds
 from openral_data.metrics.sources import DatasetSource
@@ -44,61 +46,62 @@ Sink = Callable[[pa.Table], None]
 Rows = dict[int, dict[str, Any]]
 
 
-def vectors(table: pa.Table, key: str, path: Path) -> Array:
-    """A list column as a float64 (rows, dims) array; NaN/Inf kept (the measures skip them)."""
-    col = table.column(key).combine_chunks()
-    n = len(col)
-    flat = pc.list_flatten(col).to_numpy(zero_copy_only=False).astype(np.float64)
-    if n and len(flat) % n:
-        raise DatasetError(f"{path}: {key}: rows of different lengths", code="dataset.invalid")
-    return np.asarray(flat.reshape(n, len(flat) // n if n else 0), dtype=np.float64)
-
-
 def observed_ranges(ds: DatasetSource) -> Ranges:
-    """Each vector's per-dimension finite min and max over the whole dataset (one data file read at a time)."""
+    """Each vector's per-dimension finite min and max over the whole dataset (one row group read at a time)."""
     keys = [k for k in (STATE, ACTION) if k in ds.data_columns]
     out: Ranges = {}
     for path in ds.data_files:
-        table = read_table(path, columns=keys)
-        for key in keys:
-            x = vectors(table, key, path)
-            if not len(x):
-                continue
-            finite = np.where(np.isfinite(x), x, np.nan)
-            lo, hi = np.nanmin(finite, axis=0), np.nanmax(finite, axis=0)
-            if key in out:
-                lo, hi = np.fmin(out[key][0], lo), np.fmax(out[key][1], hi)
-            out[key] = (lo, hi)
+        for table in read_row_groups(path, keys):
+            for key in keys:
+                x = vectors(table, key, path)
+                if not len(x):
+                    continue
+                finite = np.where(np.isfinite(x), x, np.nan)
+                lo, hi = np.nanmin(finite, axis=0), np.nanmax(finite, axis=0)
+                if key in out:
+                    lo, hi = np.fmin(out[key][0], lo), np.fmax(out[key][1], hi)
+                out[key] = (lo, hi)
     return {k: (np.nan_to_num(lo), np.nan_to_num(hi)) for k, (lo, hi) in out.items()}
 
 
+class FrameRows:
+    """Per-frame rows (FRAME_SCHEMA) on their way to a `Sink`, written `FLUSH` rows or more at a time (one
+    `write_table` per episode would make a row group per episode)."""
+
+    FLUSH = 1 << 16
+
+    def __init__(self, sink: Sink) -> None:
+        self.sink = sink
+        self.parts: list[list[Any]] = []
+        self.count = 0
+
+    def add(self, episode: int, frame_index: Any, per_frame: PerFrame) -> None:
+        n = len(frame_index)
+        speeds = [np.full(n, np.nan) if s is None else s for s in (per_frame.state_speed, per_frame.action_speed)]
+        self.parts.append([np.full(n, episode, dtype=np.int64), frame_index, *speeds, per_frame.idle])
+        self.count += n
+        if self.count >= self.FLUSH:
+            self.flush()
+
+    def flush(self) -> None:
+        """Write the rows held (none: an empty table, as a data file without rows gave); a NaN speed is null."""
+        columns = [np.concatenate(c) if c else [] for c in zip(*self.parts, strict=True)] or [[]] * 5
+        arrays = [pa.array(c, type=f.type, from_pandas=True) for c, f in zip(columns, FRAME_SCHEMA, strict=True)]
+        self.sink(pa.Table.from_arrays(arrays, schema=FRAME_SCHEMA))
+        self.parts, self.count = [], 0
+
+
 def file_episodes(ds: DatasetSource, path: Path, ranges: Ranges, th: Thresholds, frames: Sink) -> Rows:
-    """The motion measures of every episode in data file `path`; its per-frame rows go to `frames`."""
+    """The motion measures of every episode in data file `path`, read an episode at a time (`stream`); its
+    per-frame rows go to `frames`."""
     keys = [k for k in (STATE, ACTION) if k in ds.data_columns]
-    table = read_table(path, columns=["episode_index", "frame_index", "timestamp", *keys])
-    try:
-        table = table.sort_by([("episode_index", "ascending"), ("frame_index", "ascending")])
-    except (KeyError, pa.ArrowException) as exc:
-        raise DatasetError(f"{path}: episode_index/frame_index: {exc}", code="dataset.invalid") from None
-    episodes = table.column("episode_index").to_numpy(zero_copy_only=False).astype(np.int64)
-    stamps = table.column("timestamp").to_numpy(zero_copy_only=False).astype(np.float64)
-    arrays = {k: vectors(table, k, path) for k in keys}
     out: Rows = {}
-    n = len(episodes)
-    speeds = {STATE: np.full(n, np.nan), ACTION: np.full(n, np.nan)}
-    idle = np.zeros(n, dtype=bool)
-    bounds = np.flatnonzero(np.diff(episodes)) + 1
-    for a, b in zip(np.concatenate([[0], bounds]), np.concatenate([bounds, [n]]), strict=True):
-        if b > a:
-            part = {k: x[a:b] for k, x in arrays.items()}
-            out[int(episodes[a])], per_frame = episode_motion(ds, part, stamps[a:b], ranges, th)
-            for key, s in ((STATE, per_frame.state_speed), (ACTION, per_frame.action_speed)):
-                if s is not None:
-                    speeds[key][a:b] = s
-            idle[a:b] = per_frame.idle
-    frame_index = table.column("frame_index").to_numpy(zero_copy_only=False).astype(np.int64)
-    columns = [episodes, frame_index, *(pa.array(speeds[k], from_pandas=True) for k in (STATE, ACTION)), idle]
-    frames(pa.Table.from_arrays(columns, schema=FRAME_SCHEMA))
+    rows = FrameRows(frames)
+    for episode in stream.episodes(path, keys):
+        out[episode.index], per_frame = episode_motion(ds, episode.arrays, episode.stamps, ranges, th)
+        rows.add(episode.index, episode.frame_index, per_frame)
+    if rows.count or not out:
+        rows.flush()
     return out
 
 
