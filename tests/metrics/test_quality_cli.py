@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import json
+import threading
 from pathlib import Path
 
 import pyarrow as pa
@@ -11,7 +12,7 @@ import pyarrow.parquet as pq
 import pytest
 
 from openral_data.formats.lerobot_v3.video import concat_mp4
-from openral_data.metrics.quality import FLAGS, quality_of
+from openral_data.metrics.quality import FLAGS, Quality, cache, quality_of
 from openral_data.metrics.sources import open_dataset
 from tests.support import quality as q
 from tests.support.inproc import run_inproc
@@ -164,7 +165,8 @@ def test_a_damaged_dataset_is_one_error_line_and_nothing_cached(tmp_path: Path) 
     run = run_inproc("quality", str(root))
     lines = [ln for ln in run.stderr.splitlines() if ln.strip()]
     assert run.returncode == 2 and len(lines) == 1 and lines[0].startswith(f"error: {video}: cannot decode video")
-    assert sorted(p.name for p in (root / ".openral").iterdir() if "quality" in p.name) == []
+    left = sorted(p.name for p in (root / ".openral").iterdir() if "quality" in p.name)
+    assert left == [cache.LOCK]  # no table, nothing staged: only the lock a computation takes (`cache.computing`)
 
 
 def test_a_video_shorter_than_its_episode_is_a_finding(tmp_path: Path) -> None:
@@ -196,3 +198,32 @@ def test_stats_sql_without_quality_computes_nothing(tmp_path: Path) -> None:
     assert not (root / ".openral" / "quality.parquet").exists()
     rows = json.loads(_ok("stats", str(root), "--sql", "SELECT count(*) AS n FROM quality", "--format", "json"))
     assert rows["sql"] == [{"n": 3}]  # naming it computes it
+
+
+def test_a_second_quality_of_the_same_dataset_waits_for_the_first(tmp_path: Path) -> None:
+    """Two `quality` computations of one dataset at once: the second, started while the first is measuring its
+    cameras, waits for it (the staged tables have fixed names: without the wait it cleared the first one's
+    staged files, whose commit then failed) and both come back with the same table, cached whole."""
+    root = _dataset(tmp_path / "ds")
+    got: dict[str, Quality] = {}
+    threads: list[threading.Thread] = []
+
+    def start_second(_: int) -> None:
+        if threads:
+            return
+        threads.append(
+            threading.Thread(target=lambda: got.update(second=quality_of(open_dataset(root), recompute=True)))
+        )
+        threads[0].start()
+        threads[0].join(timeout=1.5)  # it had ended by now, had it not waited
+        got["early"] = got.get("second", first_done)
+
+    first_done = Quality(pa.table({}), cache.cache_paths(root), computed=False)  # a marker: not yet
+    first = quality_of(open_dataset(root), recompute=True, progress=start_second)
+    assert got["early"] is first_done  # the second was still waiting when the first went on
+    threads[0].join()
+    assert got["second"].computed and first.computed
+    assert got["second"].table.equals(first.table)
+    again = quality_of(open_dataset(root))
+    assert not again.computed and again.table.equals(first.table)
+    assert not [p.name for p in (root / ".openral").iterdir() if p.name.endswith(".tmp")]  # nothing staged left

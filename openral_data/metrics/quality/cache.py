@@ -13,14 +13,18 @@ Where: in `DATASET/.openral/` when the dataset has our `.openral/` folder and it
 lerobot-written dataset, a read-only folder, the Hub cache) in `$XDG_CACHE_HOME/openral-data/quality/<sha256 of
 the dataset's resolved path>/` (`~/.cache` without XDG_CACHE_HOME): we never add files to a dataset we did not
 write. The four are staged and renamed into place together (`formats.atomic.Batch`), the episodes' table last:
-it is what says the others are current.
+it is what says the others are current. One process computes them at a time (`computing`: a second `quality` of
+the same dataset waits, then finds them current), as the staged files have fixed names.
 """
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import json
 import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -47,6 +51,7 @@ if TYPE_CHECKING:  # imported where used: `info` looks for a table (`cache_paths
 # no teleport; or (another branch's 15) frame drops the pictures show, `cuts`; 16: both 15s together)
 VERSION = 19
 KEY = b"openral.quality.key"
+LOCK = ".quality.lock"  # beside the tables: held while one process computes them (`computing`)
 STRIDE = b"openral.quality.stride"
 
 
@@ -94,6 +99,21 @@ def cache_paths(root: Path) -> CachePaths:
     if ours.is_dir() and not ours.is_symlink() and os.access(ours, os.W_OK):
         return CachePaths.inside(atomic.state_dir(root))
     return CachePaths.inside(user_cache_dir() / hashlib.sha256(str(root.resolve()).encode()).hexdigest()[:32])
+
+
+@contextmanager
+def computing(paths: CachePaths) -> Iterator[None]:
+    """Exclusive while this process computes the tables at `paths`: a `quality` of the same dataset running
+    meanwhile waits here (it would stage the same files). flock: the kernel drops it when its holder dies,
+    SIGKILL included. The lock file is opened as a control file (no symlink, FIFO or device)."""
+    folder = paths.episodes.parent
+    folder.mkdir(parents=True, exist_ok=True)
+    fd = atomic.open_control(folder / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)
 
 
 def metadata(key: str, stride: int) -> dict[bytes, bytes]:

@@ -33,13 +33,31 @@ def quality_of(
     progress: Progress | None = None,
 ) -> Quality:
     """`ds`'s quality table: the cached one when current (and at `stride`, when given), else computed (at
-    `stride`, by default `DEFAULT_STRIDE`) and cached with its per-frame tables."""
+    `stride`, by default `DEFAULT_STRIDE`) and cached with its per-frame tables. A `quality` of the same dataset
+    computing meanwhile is waited for (`cache.computing`); then its tables are the cached ones."""
     paths = cache.cache_paths(ds.root)
     key = cache.fingerprint(ds.root, th)
     table = None if recompute else cache.load(paths.episodes, key, stride)
     if table is not None:
         return Quality(table, paths, computed=False)
-    stride = DEFAULT_STRIDE if stride is None else stride
+    try:
+        with cache.computing(paths):
+            table = None if recompute else cache.load(paths.episodes, key, stride)
+            if table is not None:  # computed by the one waited for
+                return Quality(table, paths, computed=False)
+            stride = DEFAULT_STRIDE if stride is None else stride
+            return Quality(computed(ds, paths, (key, stride), th, progress), paths, computed=True)
+    except OSError as exc:  # a full disk, or a cache file that is a folder: one line, the dataset untouched
+        doing = f"writing the quality cache ({exc.filename2 or exc.filename})"
+        raise write_error(paths.episodes.parent, exc, doing) from None
+
+
+def computed(
+    ds: DatasetSource, paths: cache.CachePaths, keyed: tuple[str, int], th: Thresholds, progress: Progress | None
+) -> pa.Table:
+    """The episodes' table of `ds`, computed at stride `keyed[1]` and cached at `paths` under key `keyed[0]`,
+    with the per-frame tables and the findings."""
+    key, stride = keyed
     kind = data_kind(ds.root)
     th = for_kind(th, kind)
     meta = cache.metadata(key, stride)
@@ -65,12 +83,9 @@ def quality_of(
         batch.write_with(paths.findings, atomic.parquet_writer(findings.replace_schema_metadata(meta)))
         batch.write_with(paths.episodes, atomic.parquet_writer(table))  # last: it makes the others count
         batch.commit()
-    except OSError as exc:  # a full disk, or a cache file that is a folder: one line, the dataset untouched
-        doing = f"writing the quality cache ({exc.filename2 or exc.filename})"
-        raise write_error(paths.episodes.parent, exc, doing) from None
     finally:
         batch.discard()
-    return Quality(table, paths, computed=True)
+    return table
 
 
 def cached_quality(ds: DatasetSource, th: Thresholds = DEFAULT) -> pa.Table | None:
