@@ -48,8 +48,10 @@ if TYPE_CHECKING:  # imported where used: `info` looks for a table (`cache_paths
 # 12-13: frame_drop against 2 steps either side, position targets swapped, teleport's floor 0.05 and its order,
 # velocity commands' lag limit; 14: 10-13 together; 15: camera_flipped on the mean picture, edges and motion;
 # a flat top of a reading that holds most of the time is no clip; a state step within its position target's is
-# no teleport; or (another branch's 15) frame drops the pictures show, `cuts`; 16: both 15s together)
-VERSION = 19
+# no teleport; or (another branch's 15) frame drops the pictures show, `cuts`; 16: both 15s together; 17-19: frame
+# drops on the position, 2+ dimensions jumping at once, the pictures read by window; 20: frame drops where a
+# scripted motion starts, `leads`)
+VERSION = 20
 KEY = b"openral.quality.key"
 LOCK = ".quality.lock"  # beside the tables: held while one process computes them (`computing`)
 STRIDE = b"openral.quality.stride"

@@ -10,7 +10,7 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.formats.lerobot_v3.features import ACTION, STATE
-from openral_data.metrics.quality import alignment, breadth, dims, limits, motion, rows, timing
+from openral_data.metrics.quality import alignment, breadth, dims, leads, limits, motion, rows, timing
 from openral_data.metrics.quality.findings import Finding, dim_subject, runs, span_findings
 from openral_data.metrics.quality.thresholds import Thresholds
 from openral_data.metrics.sources import DatasetSource
@@ -147,9 +147,11 @@ def row_findings(
     steps: Array,
     th: Thresholds,
     targets: Array | None = None,
+    pair: tuple[list[str], list[str]] | None = None,
 ) -> tuple[list[Finding], Array | None]:
     """`frame_drop`, `repeated_rows` and `teleport` (frame drops aside; `targets`: the state dimensions' position
-    targets' steps, `alignment.target_steps`) of the state trajectory `arm` holds, and its per-frame step ratios
+    targets' steps, `alignment.target_steps`; `pair`: the action's and the state's dimension names, for the drops
+    where a motion starts, `leads`) of the state trajectory `arm` holds, and its per-frame step ratios
     for the pictures' frame drops (`rows.step_ratios`; None without a state). The drops are measured on the
     position (`rows.positions`), and 2+ dimensions teleporting onto one frame are one (`rows.together`)."""
     if STATE not in arm:
@@ -158,9 +160,15 @@ def row_findings(
     late = (steps > th.gap_frames) | (steps <= 0)
     where = rows.positions(z, names, STATE)
     drops = rows.frame_drops(where, late, th, z)
-    jumps, more = rows.together(z, names, rows.teleports(z, names, STATE, th, {f for f, _ in drops}, targets), late, th)
-    found = rows.frame_drop_findings(drops, th) + more + jumps
-    ratios = rows.step_ratios(where, late, [f for f, _ in drops] + [f.start_frame or 0 for f in more])
+    found = rows.frame_drop_findings(drops, th)
+    if pair is not None and ACTION in arrays:
+        near = {f + d for f, _ in drops for d in range(-rows.AROUND, rows.AROUND + 1)}
+        early = leads.frame_drops(arrays[ACTION], arrays[STATE], pair, late, th.lead_factor)
+        found += [f for f in early if f.start_frame not in near]
+    cut = {f.start_frame or 0 for f in found}
+    jumps, more = rows.together(z, names, rows.teleports(z, names, STATE, th, cut, targets), late, th)
+    found += more + jumps
+    ratios = rows.step_ratios(where, late, sorted(cut) + [f.start_frame or 0 for f in more])
     return found + rows.repeated_rows(list(arrays.values()), z, th), ratios
 
 
@@ -201,12 +209,12 @@ def episode_motion(
         found += more
     grip, toggles = gripper_findings(ds, arrays, ranges, n, th)
     steps = timing.timestamp_steps(timestamps, fps)
-    in_rows, ratios = row_findings(arrays, arm, steps, th, targets(ds, arrays, arm, ranges))
+    pair = (ds.dim_names(ACTION), ds.dim_names(STATE)) if STATE in arrays and ACTION in arrays else None
+    in_rows, ratios = row_findings(arrays, arm, steps, th, targets(ds, arrays, arm, ranges), pair)
     found += grip + timing_findings(steps, th) + in_rows
     if STATE in arrays:
         found += limits.joint_findings(arrays[STATE], ds.robot, ds.dim_names(STATE), steps, fps, th)
-    if STATE in arrays and ACTION in arrays:
-        pair = (ds.dim_names(ACTION), ds.dim_names(STATE))
+    if pair is not None:
         found += alignment.alignment(arrays[ACTION], arrays[STATE], pair, th)
     row = {
         "idle_fraction": float(idle.mean()) if n else 0.0,

@@ -44,6 +44,9 @@ class Thresholds:
     teleport_step: float = 0.05  # `teleport`: a state dimension moving more than this share of its range in a frame
     teleport_factor: float = 5.0  # ... and more than this many times its local speed (median step nearby)
     drop_factor: float = 4.5  # `frame_drop`: state and action both stepping this many times their neighbours' steps
+    # `frame_drop` where a motion starts: the state's step onto its command's first frame this many times its steps
+    # after (`leads`); 1e9: not checked (a person's or a policy's command has no rest to start from)
+    lead_factor: float = 1e9
     degrees_limit: float = 6.8  # `degrees`: an angle-named state dimension beyond ± this (rad; 2π + 0.5) is not radians
     action_lag_frames: int = 6  # `action_lag`: the state following the action more than this many frames off
     velocity_lag_frames: int = 4  # ... of a velocity/delta command, which the state follows at once (no servo)
@@ -64,7 +67,8 @@ DEFAULT_STRIDE = 5  # every 5th frame of each camera is measured (all frames are
 # a scripted expert and a trained policy take the defaults.
 KINDS: dict[str, dict[str, float | int]] = {
     "default": {},
-    "scripted": {"idle_flag": 0.125, "action_lag_frames": 4},  # calibrated (benchmarks/calibrate_quality.py)
+    # calibrated (benchmarks/calibrate_quality.py)
+    "scripted": {"idle_flag": 0.125, "action_lag_frames": 4, "lead_factor": 1.0},
     "policy": {},
     # calibrated: a hand trembles and pauses; a real arm's encoders hold a reading for up to 11 frames where it
     # turns back (an injected clip lasts 20 frames or more)
