@@ -22,8 +22,10 @@ from openral_data.metrics.quality import alignment
 from openral_data.metrics.quality.findings import Finding, dim_subject
 
 Array = npt.NDArray[np.float64]
-QUIET = 0.05  # a command at rest: under this share of its dimension's typical magnitude (the 75th percentile of
-ONSET = 0.3  # its nonzero |command|); a command starting: at least this share, after `REST` frames at rest
+# a command at rest: under `QUIET` times its dimension's typical magnitude (the 75th percentile of its nonzero
+# |command|) for `REST` frames; then starting: at least `ONSET` times it
+QUIET = 0.05
+ONSET = 0.3
 REST = 2
 CRUISE = 4  # the state's steps after the onset that make the motion's speed once commanded
 # the state's step onto the onset at least this many times its larger step on the 2 frames before it (the arm
@@ -39,8 +41,8 @@ def frame_drops(
 ) -> list[Finding]:
     """`frame_drop` at each frame where an action dimension's command starts from rest (`alignment.commands`,
     paired by `alignment.partners`) and its state partner's step onto that frame, in the command's direction, is
-    already `factor` times the median of its steps from there on (`CRUISE`) and `SETTLE` times its steps on the
-    `REST` frames before; not on a late timestamp (`late`, per step: a `gap`). About the state dimension; the
+    already `factor` times the median of its `CRUISE` steps after and `SETTLE` times its steps on the `REST`
+    frames before; not on a late timestamp (`late`, per step: a `gap`). About the state dimension; the
     value: the step over that median. At most `MOST`, the largest."""
     n = len(state)
     if factor >= OFF or n < REST + CRUISE + 2 or len(action) != n:
@@ -55,9 +57,8 @@ def frame_drops(
         if not (size > 0).any():
             continue
         typical = float(np.percentile(size[size > 0], 75))
-        rest = np.asarray(
-            sliding_window_view(size <= QUIET * typical, REST).all(axis=1), dtype=bool
-        )  # rest[t]: rows t .. t + REST - 1
+        # rest[t]: command rows t .. t + REST - 1 at rest
+        rest = np.asarray(sliding_window_view(size <= QUIET * typical, REST).all(axis=1), dtype=bool)
         # command row t starts (the state's step onto frame t is response row t - 1), CRUISE rows follow
         onset = np.zeros(len(c), dtype=bool)
         onset[REST + 1 : n - CRUISE] = (size >= ONSET * typical)[REST + 1 : n - CRUISE] & rest[1 : n - CRUISE - REST]
