@@ -12,7 +12,8 @@ the repo root): with `die_at`, the process exits abruptly (os._exit(137), no cle
 doing its `die_at`-th mutation. `config`: `WriterConfig` fields (`data_files_size_in_mb`, `video_files_size_in_mb`,
 `staged_episodes`, ...), passed only when given; the codec is h264. `shape` (default 64 x 64) and `state_dim`
 (default 4) shape the dataset. `mb`: the bytes the writer's file sizes count as one MB (`use_megabyte`), so a
-small dataset rotates its files as a large one does.
+small dataset rotates its files as a large one does. `tests.support.forked` runs it many times from one
+process (`warm_up` first).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from typing import Any
 
 from openral_data.formats.lerobot_v3 import LeRobotV3Writer, VideoSettings, WriterConfig
 from openral_data.formats.lerobot_v3 import config as writer_config_module
+from openral_data.formats.lerobot_v3 import warm_up as warm_up_pyarrow
 from openral_data.formats.lerobot_v3.layout import INFO_PATH
 from openral_data.runtime.bridge import DatasetBridge
 from tests.support.crash import die_at_mutation
@@ -42,6 +44,12 @@ def use_megabyte(size: int | None) -> None:
     rotation and consolidation logic is the writer's own; only its unit shrinks, so tens of frames of a few floats
     fill a data file the way megabytes do (None: the real MB)."""
     writer_config_module.MB = size if size is not None else 1 << 20
+
+
+def warm_up() -> None:
+    """What a run would otherwise pay in its first commit (pyarrow's first array imports pandas), paid once in
+    the `tests.support.forked` server before it forks the runs."""
+    warm_up_pyarrow()
 
 
 def main() -> None:

@@ -7,16 +7,16 @@ mutations (renames, unlinks; tests/support/crash.py); killed at mutation N it ex
 doing it. A clean run gives the sequence: which mutations there are, which episodes were reported finished
 before each, and which count `meta/info.json` (the commit record: it lands last) held after each. Kill points:
 every mutation of the first two commits, of close(), and of any commit shaped unlike the common one (a
-consolidation or rotation), plus a stride through the rest.
+consolidation or rotation), plus a stride through the rest. Each run is a child forked from one driver server
+(tests/support/forked.py) that imported the writer once: a fresh process from the driver's `main()` on.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import json
-import subprocess
-import sys
 from collections import Counter
+from collections.abc import Iterator
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
@@ -32,13 +32,12 @@ from openral_data.formats.lerobot_v3 import LeRobotV3Writer, WriterConfig, layou
 from openral_data.formats.lerobot_v3.recovery import recover
 from openral_data.runtime.bridge import DatasetBridge
 from tests.support.crash import KILLED
-from tests.support.home import REPO
+from tests.support.forked import Forked
 from tests.support.patterned import check_loads, dataset_states, unit_schema, write_episodes
 from tests.support.writer_driver import SHAPE, use_megabyte, writer_config
 
 pytestmark = pytest.mark.slow
 
-DRIVER = [sys.executable, "-m", "tests.support.writer_driver"]  # run from REPO
 LENGTHS = [3, 5, 8, 4, 6, 7, 3, 8, 5]
 STRIDE = 7  # through the commits not killed at every step; coprime with a commit's usual step count
 SLOTS = 4  # each configuration's kill points are dealt over this many tests (pytest-xdist spreads them)
@@ -112,14 +111,19 @@ class Run:
         return steps
 
 
-def drive(root: Path, case: Case, die_at: int | None = None) -> tuple[int, Run, str]:
+@pytest.fixture(scope="session")  # session: a worker may run other modules' tests between these
+def driver() -> Iterator[Forked]:
+    """The writer driver's server: each run a process of its own, forked after the imports."""
+    with Forked("tests.support.writer_driver") as server:
+        yield server
+
+
+def drive(driver: Forked, root: Path, case: Case, die_at: int | None = None) -> tuple[int, Run, str]:
     args: dict[str, Any] = {"root": str(root), "lengths": LENGTHS, **case.driver_args()}
     if die_at is not None:
         args["die_at"] = die_at
-    proc = subprocess.run(
-        [*DRIVER, json.dumps(args)], cwd=REPO, capture_output=True, text=True, timeout=300, check=False
-    )
-    return proc.returncode, Run(tuple(proc.stdout.splitlines())), proc.stderr
+    code, out, err = driver.run(json.dumps(args), timeout=300)
+    return code, Run(tuple(out.splitlines())), err
 
 
 def kill_points(run: Run) -> list[int]:
@@ -134,14 +138,16 @@ def kill_points(run: Run) -> list[int]:
 
 
 @cache
-def clean_run(name: str, base: Path) -> tuple[Run, Path]:
-    """The uninterrupted run of configuration `name` (its output and dataset), once per test process."""
+def clean_run(name: str, base: Path, driver: Forked) -> tuple[Run, Path]:
+    """The uninterrupted run of configuration `name` (its output and dataset, which lerobot loads), once per
+    test process."""
     root = base / f"clean-{name}"
-    code, run, err = drive(root, CASES[name])
+    code, run, err = drive(driver, root, CASES[name])
     assert code == 0, err
     total = run.mutations()
     assert total == list(range(1, len(total) + 1)) and run.lines[-1] == f"mutations {len(total)}", run.lines[-3:]
     assert Run.reported(run.lines) == len(LENGTHS) == Run.committed(run.lines)
+    check_loads(root, LENGTHS, CASES[name].states(), shape=SHAPE)
     return run, root
 
 
@@ -190,9 +196,9 @@ def assert_same_dataset(root: Path, reference: Path) -> None:
             np.testing.assert_allclose(stats[key][stat], stats_ref[key][stat], rtol=1e-9, err_msg=f"{key}/{stat}")
 
 
-def crash_and_complete(root: Path, case: Case, n: int, clean: Run, reference: Path) -> str:
+def crash_and_complete(driver: Forked, root: Path, case: Case, n: int, clean: Run, reference: Path) -> str:
     """Kill the driver at mutation `n`; check what lerobot loads, recover, resume, compare. Returns a log line."""
-    code, run, err = drive(root, case, die_at=n)
+    code, run, err = drive(driver, root, case, die_at=n)
     expect = clean.before(n)
     assert code == KILLED, (n, code, err)
     assert run.lines == expect, f"kill at {n}: the run printed {run.lines[-3:]}, the clean run {expect[-3:]}"
@@ -237,16 +243,15 @@ def crash_and_complete(root: Path, case: Case, n: int, clean: Run, reference: Pa
 @pytest.mark.parametrize("slot", range(SLOTS))
 @pytest.mark.parametrize("name", list(CASES))
 def test_crash_at_every_commit_step(
-    tmp_path: Path, tmp_path_factory: pytest.TempPathFactory, name: str, slot: int
+    tmp_path: Path, tmp_path_factory: pytest.TempPathFactory, driver: Forked, name: str, slot: int
 ) -> None:
     case = CASES[name]
     needs_field(case.config)
-    clean, reference = clean_run(name, tmp_path_factory.getbasetemp())
-    check_loads(reference, LENGTHS, case.states(), shape=SHAPE)
+    clean, reference = clean_run(name, tmp_path_factory.getbasetemp(), driver)
     log, failures = [], []
     for n in kill_points(clean)[slot::SLOTS]:
         try:
-            log.append(crash_and_complete(tmp_path / f"kill-{n}", case, n, clean, reference))
+            log.append(crash_and_complete(driver, tmp_path / f"kill-{n}", case, n, clean, reference))
         except Exception as exc:  # noqa: BLE001 - every kill point is tried: the report lists each one that fails
             failures.append(f"kill {n}: {str(exc).splitlines()[0] if isinstance(exc, AssertionError) else repr(exc)}")
     print("\n".join(log))
