@@ -6,9 +6,6 @@ follows it, and a person's data (no `lead_factor`) raise none."""
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +15,7 @@ from openral_data.formats.lerobot_v3.features import STATE
 from openral_data.metrics.quality import DEFAULT, leads
 from openral_data.metrics.quality.thresholds import for_kind
 from tests.support import data_faults as df
-from tests.support.home import REPO
+from tests.support.cli import run_cli
 
 SCRIPTED = for_kind(DEFAULT, "scripted")
 LOST = 5  # frames removed, as the calibration's dropped_frames on an episode this short
@@ -32,9 +29,9 @@ def test_frames_lost_where_a_scripted_lift_starts_are_found(tmp_path: Path) -> N
     recording as it is raises no `frame_drop`; under a person's thresholds the command is left aside (the
     pictures see this cut)."""
     root = tmp_path / "stack"
-    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"), "PYTHONPATH": str(REPO)}
-    args = ["record", "--scene", "tabletop_stack", "--n-episodes", "1", "--seed", "100", "--codec", "h264"]
-    subprocess.run([sys.executable, "-m", "openral_data.cli", *args, "--out", str(root)], check=True, env=env)
+    args = ["--scene", "tabletop_stack", "--n-episodes", "1", "--seed", "100", "--codec", "h264", "--out", str(root)]
+    done = run_cli("record", *args)
+    assert done.returncode == 0, done.stderr
     clean = df.load(root, 0, max_side=64)
     z = clean.action_names.index("delta_z")
     rest = np.abs(clean.action[:, :6]).max(axis=1) == 0  # the arm's command at rest: the grasp
