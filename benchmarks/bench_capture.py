@@ -274,6 +274,7 @@ def anchor_row(
         "wall_s": got["wall_s"],
         "cpu_s_per_camera_s": round(got["cpu_s"] / (cameras + realsense) / seconds, 3),
         "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 0),
+        "depth_videos": got["depth_videos"],
     }
 
 

@@ -86,8 +86,12 @@ def lerobot_session(pipes: list[str], recordings: list[tuple[str, Path]], port: 
         "ticks_due": round(seconds * fps),
         "overruns": slow.count,
         "in_video": {name: _frames(out, name) for name in robot.observation_features if name in videos(out)},
-        "cpu_s": (cpu1.user - cpu0.user) + (cpu1.system - cpu0.system),
+        # with more than one video lerobot's writer encodes each in a worker process: their CPU is counted too
+        "cpu_s": sum(
+            getattr(cpu1, f) - getattr(cpu0, f) for f in ("user", "system", "children_user", "children_system")
+        ),
         "wall_s": round(wall, 1),
+        "depth_videos": depth_videos(out, [f"rs{i}_depth" for i in range(len(recordings))]),
     }
 
 
@@ -110,6 +114,26 @@ def playback_camera() -> Any:
 def videos(out: Path) -> set[str]:
     """The cameras with videos in the dataset at `out` (a RealSense's colour `rs0`, depth `rs0_depth`)."""
     return {p.name.removeprefix("observation.images.") for p in (out / "videos").iterdir()}
+
+
+def depth_videos(out: Path, names: list[str]) -> dict[str, str]:
+    """Each depth camera's video codec and pixel format, checked by loading the episode's last frame with lerobot
+    (a (1, H, W) depth map in mm, as it loads depth)."""
+    import av
+    from lerobot.datasets import LeRobotDataset
+
+    if not names:
+        return {}
+    ds = LeRobotDataset("local/anchor", root=out, video_backend="pyav")
+    last = ds[len(ds) - 1]
+    got = {}
+    for name in names:
+        video = next((out / "videos" / f"observation.images.{name}").rglob("*.mp4"))
+        with av.open(str(video)) as c:
+            s = c.streams.video[0].codec_context
+            depth = last[f"observation.images.{name}"]
+            got[name] = f"{s.name} {s.pix_fmt}, loads as {tuple(depth.shape)} {depth.min():.0f}..{depth.max():.0f}"
+    return got
 
 
 class HoldTeleop:

@@ -211,17 +211,7 @@ def test_a_depth_stream_named_like_another_camera_is_one_line(
 
 def test_stamps_increase_and_colour_is_exact_straight_from_the_camera(short_recording: Path) -> None:
     """The capture thread alone (no loop, no codec): every sample is a source frame, pixel for pixel."""
-    cams = start_wrist(short_recording)
-    samples: list[tuple[CameraSample, CameraSample]] = []
-    try:
-        end = time.monotonic() + 0.5
-        while time.monotonic() < end:
-            s, d = cams["wrist"].latest(), cams["wrist_depth"].latest()
-            if s is not None and d is not None and (not samples or s.seq != samples[-1][0].seq):
-                samples.append((s, d))
-            time.sleep(0.002)
-    finally:
-        cams["wrist"].stop()
+    cams, samples = collect(short_recording, 0.5)
     assert len(samples) >= 3
     for s, d in samples:
         k = nearest(s.image)[0]
@@ -229,6 +219,25 @@ def test_stamps_increase_and_colour_is_exact_straight_from_the_camera(short_reco
         assert d.image.dtype == np.uint16 and d.image.shape == (H, W)
     assert all(b[0].stamp > a[0].stamp for a, b in itertools.pairwise(samples))
     assert cams["wrist"].shape.info["camera_info"]["k"] == pytest.approx([FX, 0, CX, 0, FY, CY, 0, 0, 1])
+
+
+def collect(
+    recording: Path, seconds: float, **extra: Any
+) -> tuple[dict[str, Any], list[tuple[CameraSample, CameraSample]]]:
+    """The cameras of `wrist` playing `recording` (stopped) and every new (colour, depth) pair it handed out in
+    `seconds`."""
+    cams = start_wrist(recording, **extra)
+    samples: list[tuple[CameraSample, CameraSample]] = []
+    try:
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            s, d = cams["wrist"].latest(), cams["wrist_depth"].latest()
+            if s is not None and d is not None and (not samples or s.seq != samples[-1][0].seq):
+                samples.append((s, d))
+            time.sleep(0.002)
+    finally:
+        cams["wrist"].stop()
+    return cams, samples
 
 
 def start_wrist(recording: Path, **extra: Any) -> dict[str, Any]:
@@ -267,22 +276,6 @@ def nearest_depth(depth: npt.NDArray[Any]) -> int:
     return int(np.rint(np.median(depth.astype(np.float64) - depth_frame(0)) / 25))
 
 
-def collect(recording: Path, seconds: float, **extra: Any) -> list[tuple[CameraSample, CameraSample]]:
-    """Every new (colour, depth) pair the camera `wrist` playing `recording` hands out for `seconds`."""
-    cams = start_wrist(recording, **extra)
-    samples: list[tuple[CameraSample, CameraSample]] = []
-    try:
-        end = time.monotonic() + seconds
-        while time.monotonic() < end:
-            s, d = cams["wrist"].latest(), cams["wrist_depth"].latest()
-            if s is not None and d is not None and (not samples or s.seq != samples[-1][0].seq):
-                samples.append((s, d))
-            time.sleep(0.004)
-    finally:
-        cams["wrist"].stop()
-    return samples
-
-
 def test_a_repeated_playback_delivers_the_recording_again_in_order(tmp_path: Path) -> None:
     """`playback_repeat: true`: after its last frame the recording plays from its first again, colour frames the
     source frames in cycle order, each with the aligned depth of its own frameset (the SDK may complete a pass's
@@ -290,7 +283,7 @@ def test_a_repeated_playback_delivers_the_recording_again_in_order(tmp_path: Pat
     go back."""
     recording = record(tmp_path / "loop.db3", LOOP)
     reference = aligned_reference(LOOP)
-    samples = collect(recording, 3.0, playback_repeat=True)
+    _, samples = collect(recording, 3.0, playback_repeat=True)
     colour = [nearest(s.image)[0] for s, _ in samples]
     for (s, d), k in zip(samples, colour, strict=True):
         assert np.array_equal(s.image, source_frame(k)) and d.seq == s.seq and d.stamp == s.stamp
@@ -310,7 +303,7 @@ def test_a_repeated_playback_delivers_the_recording_again_in_order(tmp_path: Pat
 def test_without_repeat_a_playback_ends_after_one_pass(tmp_path: Path) -> None:
     """The same recording without `playback_repeat`: its frames once, in order, then nothing (slow: stopping a
     camera whose playback ended waits out lerobot's read timeout, 10 s)."""
-    once = [nearest(s.image)[0] for s, _ in collect(record(tmp_path / "once.db3", LOOP), 2.0)]
+    once = [nearest(s.image)[0] for s, _ in collect(record(tmp_path / "once.db3", LOOP), 2.0)[1]]
     assert once == sorted(once) and once[-1] == LOOP - 1 and len(once) >= LOOP - 2, once
 
 
