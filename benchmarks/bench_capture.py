@@ -60,6 +60,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
@@ -70,7 +71,7 @@ RS_SERIAL = 100000000  # RealSense camera i has serial number RS_SERIAL + i
 
 
 # -- the live sources (feeder processes) ------------------------------------------------------------------
-def source_frames(seed: int) -> list[np.ndarray]:
+def source_frames(seed: int) -> list[npt.NDArray[np.uint8]]:
     """`DISTINCT` 640x480 BGR images like a camera's: smooth gradients with a little sensor noise (+-6), under a
     bar that moves one step a frame."""
     rng = np.random.default_rng(seed)
@@ -349,7 +350,8 @@ def run_one(
             "realsense": realsense,
             "error": proc.stderr.strip().splitlines()[-1:],
         }
-    return json.loads(proc.stdout.strip().splitlines()[-1])
+    got: dict[str, Any] = json.loads(proc.stdout.strip().splitlines()[-1])
+    return got
 
 
 def row(r: dict[str, Any]) -> str:

@@ -72,7 +72,7 @@ def lerobot_session(pipes: list[str], recordings: list[tuple[str, Path]], port: 
         lerobot_record.record_loop(
             robot=robot, events={"exit_early": False}, fps=fps, teleop_action_processor=teleop_proc,
             robot_action_processor=action_proc, robot_observation_processor=obs_proc, dataset=dataset,
-            teleop=hold, control_time_s=seconds, single_task="hold",  # type: ignore[arg-type]
+            teleop=hold, control_time_s=seconds, single_task="hold",
         )  # fmt: skip
         dataset.save_episode()
         dataset.finalize()
