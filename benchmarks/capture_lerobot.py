@@ -1,11 +1,14 @@
 """The anchor of `bench_capture.py`: lerobot 0.6.1's own recorder on the same robot and sources.
 
-`lerobot-record`'s `record_loop` (lerobot/scripts/lerobot_record.py) with its `LeRobotDataset` writer (default:
-PNG frames, then the episode's videos encoded at `save_episode`; `--streaming`: its streaming encoder, which
-drops frames when it falls behind), the SO-101 follower (lerobot's `SO101Follower`) on the same simulated Feetech
-bus and the same `OpenCVCamera` sources. lerobot's loop needs a teleoperator for actions: a minimal one holding
-the arm where it is (`HoldTeleop`, the only stand-in here; lerobot's `Teleoperator` interface). A tick that took
-longer than its period is an overrun (lerobot logs "Record loop is running slower"; counted here the same way).
+`lerobot-record`'s `record_loop` (lerobot/scripts/lerobot_record.py) with its `LeRobotDataset` writer (default: PNG
+frames, then the episode's videos encoded at `save_episode`; `--streaming`: its streaming encoder, which drops
+frames when it falls behind), the SO-101 follower (lerobot's `SO101Follower`) on the same simulated Feetech bus and
+the same `OpenCVCamera` sources, and the same RealSense recordings through lerobot's own `RealSenseCamera`
+(`use_depth=True`: its colour and its depth, unaligned, as lerobot records them; `PlaybackRealSenseCamera` only sets
+the recording, looped, where lerobot names the device). lerobot's loop needs a teleoperator for actions: a minimal
+one holding the arm where it is (`HoldTeleop`, the only stand-in here; lerobot's `Teleoperator` interface). A tick
+that took longer than its period is an overrun (lerobot logs "Record loop is running slower"; counted here the same
+way).
 """
 
 from __future__ import annotations
@@ -21,10 +24,12 @@ W, H, RATE = 640, 480, 30
 VCODEC = {"h264": "h264", "av1": "libsvtav1", "auto": "auto"}  # lerobot's `--dataset.rgb_encoder.vcodec`
 
 
-def lerobot_session(pipes: list[str], port: str, calibration: Path, seconds: float, fps: int, out: Path,
-                    codec: str, streaming: bool) -> dict[str, Any]:  # fmt: skip
-    """One episode of `seconds` recorded by lerobot's `record_loop` into a new `LeRobotDataset` at `out`."""
+def lerobot_session(pipes: list[str], recordings: list[tuple[str, Path]], port: str, calibration: Path,
+                    seconds: float, fps: int, out: Path, codec: str, streaming: bool) -> dict[str, Any]:  # fmt: skip
+    """One episode of `seconds` recorded by lerobot's `record_loop` into a new `LeRobotDataset` at `out`
+    (`recordings`: each RealSense's serial number and SDK recording)."""
     from lerobot.cameras.opencv import OpenCVCamera, OpenCVCameraConfig
+    from lerobot.cameras.realsense import RealSenseCameraConfig
     from lerobot.configs.video import RGBEncoderConfig
     from lerobot.datasets import LeRobotDataset, aggregate_pipeline_dataset_features, create_initial_features
     from lerobot.processor import make_default_processors
@@ -33,16 +38,21 @@ def lerobot_session(pipes: list[str], port: str, calibration: Path, seconds: flo
     from lerobot.teleoperators.teleoperator import Teleoperator
     from lerobot.utils.feature_utils import combine_feature_dicts
 
-    cameras = {
+    cameras: dict[str, Any] = {
         f"cam{i}": OpenCVCameraConfig(index_or_path=Path(p), width=W, height=H, fps=RATE, warmup_s=0)
         for i, p in enumerate(pipes)
     }
+    for i, (serial, _) in enumerate(recordings):
+        cameras[f"rs{i}"] = RealSenseCameraConfig(serial, fps=RATE, width=W, height=H, use_depth=True, warmup_s=0)
     config = SOFollowerRobotConfig(port=port, id="so101_follower", calibration_dir=calibration, cameras=cameras)
-    robot = SOFollower(config)  # type: ignore[arg-type]
+    robot = SOFollower(config)
     # a stream has its own size and rate, which OpenCV cannot set: the cameras are opened without asking for them
     # (as openral_data/producers/hal/robots/lerobot_hw.py does); the config keeps 640x480@30 (the video size)
     for name, cam in cameras.items():
-        robot.cameras[name] = OpenCVCamera(OpenCVCameraConfig(index_or_path=cam.index_or_path, warmup_s=0))
+        if isinstance(cam, OpenCVCameraConfig):
+            robot.cameras[name] = OpenCVCamera(OpenCVCameraConfig(index_or_path=cam.index_or_path, warmup_s=0))
+    for i, (_, path) in enumerate(recordings):
+        robot.cameras[f"rs{i}"] = playback_camera()(cameras[f"rs{i}"], path)
     robot.connect(calibrate=False)
     teleop_proc, action_proc, obs_proc = make_default_processors()
     features = combine_feature_dicts(
@@ -62,7 +72,7 @@ def lerobot_session(pipes: list[str], port: str, calibration: Path, seconds: flo
         lerobot_record.record_loop(
             robot=robot, events={"exit_early": False}, fps=fps, teleop_action_processor=teleop_proc,
             robot_action_processor=action_proc, robot_observation_processor=obs_proc, dataset=dataset,
-            teleop=hold, control_time_s=seconds, single_task="hold",  # type: ignore[arg-type]
+            teleop=hold, control_time_s=seconds, single_task="hold",
         )  # fmt: skip
         dataset.save_episode()
         dataset.finalize()
@@ -75,10 +85,55 @@ def lerobot_session(pipes: list[str], port: str, calibration: Path, seconds: flo
         "frames": int(frames),
         "ticks_due": round(seconds * fps),
         "overruns": slow.count,
-        "in_video": {name: _frames(out, name) for name in cameras},
-        "cpu_s": (cpu1.user - cpu0.user) + (cpu1.system - cpu0.system),
+        "in_video": {name: _frames(out, name) for name in robot.observation_features if name in videos(out)},
+        # with more than one video lerobot's writer encodes each in a worker process: their CPU is counted too
+        "cpu_s": sum(
+            getattr(cpu1, f) - getattr(cpu0, f) for f in ("user", "system", "children_user", "children_system")
+        ),
         "wall_s": round(wall, 1),
+        "depth_videos": depth_videos(out, [f"rs{i}_depth" for i in range(len(recordings))]),
     }
+
+
+def playback_camera() -> Any:
+    """lerobot's `RealSenseCamera` playing an SDK recording in a loop (lerobot's pipeline otherwise)."""
+    from lerobot.cameras.realsense import RealSenseCamera
+
+    class PlaybackRealSenseCamera(RealSenseCamera):  # type: ignore[misc]
+        def __init__(self, config: Any, recording: Path) -> None:
+            super().__init__(config)
+            self.recording = recording
+
+        def _configure_rs_pipeline_config(self, rs_config: Any) -> None:
+            super()._configure_rs_pipeline_config(rs_config)
+            rs_config.enable_device_from_file(str(self.recording), True)  # repeat_playback
+
+    return PlaybackRealSenseCamera
+
+
+def videos(out: Path) -> set[str]:
+    """The cameras with videos in the dataset at `out` (a RealSense's colour `rs0`, depth `rs0_depth`)."""
+    return {p.name.removeprefix("observation.images.") for p in (out / "videos").iterdir()}
+
+
+def depth_videos(out: Path, names: list[str]) -> dict[str, str]:
+    """Each depth camera's video codec and pixel format, checked by loading the episode's last frame with lerobot
+    (a (1, H, W) depth map in mm, as it loads depth)."""
+    import av
+    from lerobot.datasets import LeRobotDataset
+
+    if not names:
+        return {}
+    ds = LeRobotDataset("local/anchor", root=out, video_backend="pyav")
+    last = ds[len(ds) - 1]
+    got = {}
+    for name in names:
+        video = next((out / "videos" / f"observation.images.{name}").rglob("*.mp4"))
+        with av.open(str(video)) as c:
+            s = c.streams.video[0].codec_context
+            depth = last[f"observation.images.{name}"]
+            got[name] = f"{s.name} {s.pix_fmt}, loads as {tuple(depth.shape)} {depth.min():.0f}..{depth.max():.0f}"
+    return got
 
 
 class HoldTeleop:

@@ -29,6 +29,7 @@ from tests.producers.test_opencv_camera import H, W, nearest, source_frame
 from tests.support.feetech_bus import SimulatedFeetechBus
 from tests.support.hal import episode_infos, frames_table
 from tests.support.inproc import run_inproc
+from tests.support.realsense import SoftwareRealSense, push, record_sdk, slope_mm, software_camera
 
 rs = pytest.importorskip("pyrealsense2")
 
@@ -41,71 +42,17 @@ FX, FY, CX, CY = 50.0, 51.0, 31.5, 23.5
 
 def depth_frame(k: int) -> npt.NDArray[np.uint16]:
     """Depth frame k (millimetres): a slope over the image, 25 mm further per frame."""
-    y, x = np.mgrid[0:H, 0:W]
-    return (300 + 25 * k + 4 * x + 3 * y).astype(np.uint16)
+    return slope_mm(W, H, k)
 
 
-def _intrinsics() -> Any:
-    i = rs.intrinsics()
-    i.width, i.height, i.fx, i.fy, i.ppx, i.ppy = W, H, FX, FY, CX, CY
-    i.model, i.coeffs = rs.distortion.brown_conrady, [0.0] * 5
-    return i
+def camera(depth_units: float = 0.001) -> SoftwareRealSense:
+    """The software RealSense of these tests: the OpenCV test's source frames and `depth_frame`, W x H at RATE."""
+    return SoftwareRealSense(source_frame, depth_frame, W, H, RATE, SERIAL, depth_units, FX, FY, CX, CY)
 
 
-def _stream(kind: Any, fmt: Any, bpp: int, uid: int) -> Any:
-    s = rs.video_stream()
-    s.type, s.index, s.uid, s.width, s.height, s.fps, s.bpp, s.fmt = kind, 0, uid, W, H, RATE, bpp, fmt
-    s.intrinsics = _intrinsics()
-    return s
-
-
-Streams = tuple[tuple[Any, Any, Any], ...]
-
-
-def software_camera(depth_units: float = 0.001) -> tuple[Any, Streams]:
-    """A software RealSense (serial SERIAL): a depth and a colour sensor of W x H at RATE, same intrinsics, identity
-    extrinsics; each stream as (sensor, profile, frame maker)."""
-    dev = rs.software_device()
-    dev.register_info(rs.camera_info.serial_number, SERIAL)
-    dev.register_info(rs.camera_info.name, "Intel RealSense D435 (software)")
-    depth_sensor, colour_sensor = dev.add_sensor("Stereo Module"), dev.add_sensor("RGB Camera")
-    depth_profile = depth_sensor.add_video_stream(_stream(rs.stream.depth, rs.format.z16, 2, 0))
-    colour_profile = colour_sensor.add_video_stream(_stream(rs.stream.color, rs.format.rgb8, 3, 1))
-    depth_sensor.add_read_only_option(rs.option.depth_units, depth_units)
-    same = rs.extrinsics()
-    same.rotation, same.translation = [1.0, 0, 0, 0, 1.0, 0, 0, 0, 1.0], [0.0, 0.0, 0.0]
-    depth_profile.register_extrinsics_to(colour_profile, same)
-    return dev, ((depth_sensor, depth_profile, depth_frame), (colour_sensor, colour_profile, source_frame))
-
-
-def push(streams: Streams, k: int, number: int) -> None:
-    """Source frame k of both streams, stamped as frame `number` at number / RATE seconds."""
-    for sensor, profile, make in streams:
-        pixels: npt.NDArray[Any] = make(k)
-        f = rs.software_video_frame()
-        f.pixels, f.bpp = pixels, pixels.itemsize * (3 if pixels.ndim == 3 else 1)
-        f.stride, f.timestamp, f.frame_number = W * f.bpp, number * 1000.0 / RATE, number
-        f.domain, f.profile = rs.timestamp_domain.hardware_clock, profile.as_video_stream_profile()
-        sensor.on_video_frame(f)
-
-
-def record_sdk(path: Path, n: int, stall_at: int | None = None, depth_units: float = 0.001) -> Path:
-    """An SDK recording of the software RealSense: frames 0..n-1 pushed at RATE per second (the recorder stamps
-    them as they arrive), pausing STALL_S after frame `stall_at`; depth in `depth_units` metres (a D405 has 0.0001)."""
-    dev, streams = software_camera(depth_units)
-    recorder = rs.recorder(str(path), dev)
-    sensors = recorder.query_sensors()
-    for s in sensors:
-        s.open(s.get_stream_profiles()[0])
-        s.start(lambda frame: None)
-    for k in range(n):
-        push(streams, k, k)
-        time.sleep(1 / RATE + (STALL_S if k == stall_at else 0.0))
-    for s in sensors:
-        s.stop()
-        s.close()
-    del recorder, sensors  # the recorder closes its file when it is released
-    return path
+def record(path: Path, n: int, stall_at: int | None = None, depth_units: float = 0.001) -> Path:
+    """An SDK recording of `camera()`: frames 0..n-1 at RATE, pausing STALL_S after frame `stall_at`."""
+    return record_sdk(camera(depth_units), path, n, stall_at, STALL_S)
 
 
 def with_realsense(path: Path, playback: Path, serial: str = SERIAL, **extra: Any) -> None:
@@ -123,7 +70,7 @@ def aligned_reference(n: int) -> dict[int, npt.NDArray[np.uint16]]:
     framesets (the syncer pairs nothing until it has seen both streams: it passes the first colour alone and
     drops its depth), so no frame depends on timing (a pipeline playing the recording, used before, skipped
     frame 0 on a loaded CI machine)."""
-    _, streams = software_camera()
+    _, streams = software_camera(camera())
     sync, align = rs.syncer(), rs.align(rs.stream.color)
     for sensor, profile, _ in streams:
         sensor.open(profile)
@@ -131,7 +78,7 @@ def aligned_reference(n: int) -> dict[int, npt.NDArray[np.uint16]]:
     out: dict[int, npt.NDArray[np.uint16]] = {}
     try:
         for number in range(PRIMING + n):
-            push(streams, max(number - PRIMING, 0), number)
+            push(streams, max(number - PRIMING, 0), number, RATE)
             frames = paired(sync, number, timeout_ms=100 if number < PRIMING else 5000)
             assert frames is not None or number < PRIMING, f"no frameset for source frame {number - PRIMING}"
             if frames is not None and number >= PRIMING:
@@ -170,7 +117,7 @@ def test_a_realsense_recording_through_the_hal_loop(so101: tuple[SimulatedFeetec
     source depth (pixels the SDK's alignment left without depth load as depth_min), the pause is counted as stale
     ticks, stamps increase, and both features carry the stream's intrinsics."""
     bus, manifest = so101
-    recording = record_sdk(tmp_path / "rs.db3", N, stall_at=STALL_AT)
+    recording = record(tmp_path / "rs.db3", N, stall_at=STALL_AT)
     with_realsense(manifest, recording)
     out = tmp_path / "ds"
     s = record_hal(
@@ -226,7 +173,7 @@ def test_a_realsense_recording_through_the_hal_loop(so101: tuple[SimulatedFeetec
 
 @pytest.fixture(scope="module")
 def short_recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return record_sdk(tmp_path_factory.mktemp("rs") / "short.db3", 20)
+    return record(tmp_path_factory.mktemp("rs") / "short.db3", 20)
 
 
 def test_a_serial_the_recording_does_not_have_is_one_line_before_episode_0(
@@ -238,7 +185,7 @@ def test_a_serial_the_recording_does_not_have_is_one_line_before_episode_0(
     r = run_inproc(*args, "--out", str(tmp_path / "a"))
     assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
     assert "hardware.cameras.wrist: cannot open the camera" in r.stderr and "different serial number" in r.stderr
-    empty = record_sdk(tmp_path / "empty.db3", 0)  # sensors started, no frame ever pushed
+    empty = record(tmp_path / "empty.db3", 0)  # sensors started, no frame ever pushed
     with_realsense(manifest, empty)
     r = run_inproc(*args, "--out", str(tmp_path / "b"))
     assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
@@ -264,17 +211,7 @@ def test_a_depth_stream_named_like_another_camera_is_one_line(
 
 def test_stamps_increase_and_colour_is_exact_straight_from_the_camera(short_recording: Path) -> None:
     """The capture thread alone (no loop, no codec): every sample is a source frame, pixel for pixel."""
-    cams = start_wrist(short_recording)
-    samples: list[tuple[CameraSample, CameraSample]] = []
-    try:
-        end = time.monotonic() + 0.5
-        while time.monotonic() < end:
-            s, d = cams["wrist"].latest(), cams["wrist_depth"].latest()
-            if s is not None and d is not None and (not samples or s.seq != samples[-1][0].seq):
-                samples.append((s, d))
-            time.sleep(0.002)
-    finally:
-        cams["wrist"].stop()
+    cams, samples = collect(short_recording, 0.5)
     assert len(samples) >= 3
     for s, d in samples:
         k = nearest(s.image)[0]
@@ -284,13 +221,32 @@ def test_stamps_increase_and_colour_is_exact_straight_from_the_camera(short_reco
     assert cams["wrist"].shape.info["camera_info"]["k"] == pytest.approx([FX, 0, CX, 0, FY, CY, 0, 0, 1])
 
 
-def start_wrist(recording: Path) -> dict[str, Any]:
+def collect(
+    recording: Path, seconds: float, **extra: Any
+) -> tuple[dict[str, Any], list[tuple[CameraSample, CameraSample]]]:
+    """The cameras of `wrist` playing `recording` (stopped) and every new (colour, depth) pair it handed out in
+    `seconds`."""
+    cams = start_wrist(recording, **extra)
+    samples: list[tuple[CameraSample, CameraSample]] = []
+    try:
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            s, d = cams["wrist"].latest(), cams["wrist_depth"].latest()
+            if s is not None and d is not None and (not samples or s.seq != samples[-1][0].seq):
+                samples.append((s, d))
+            time.sleep(0.002)
+    finally:
+        cams["wrist"].stop()
+    return cams, samples
+
+
+def start_wrist(recording: Path, **extra: Any) -> dict[str, Any]:
     """The manifest camera `wrist` playing `recording`, started (the caller stops it)."""
     from openral_data.producers.hal.robots.lerobot_hw import make_cameras
     from openral_data.schemas.hal import HardwareConfig
 
     spec = {"type": "intelrealsense", "serial_number_or_name": SERIAL, "width": W, "height": H, "fps": RATE,
-            "use_depth": True, "playback": str(recording)}  # fmt: skip
+            "use_depth": True, "playback": str(recording), **extra}  # fmt: skip
     cams = make_cameras(HardwareConfig(driver="lerobot", robot={"type": "x"}, cameras={"wrist": spec}), "robot.yaml")
     assert list(cams) == ["wrist", "wrist_depth"]
     cams["wrist"].start()
@@ -299,7 +255,7 @@ def start_wrist(recording: Path) -> dict[str, Any]:
 
 def test_depth_in_other_units_is_recorded_in_millimetres(tmp_path: Path) -> None:
     """A camera whose depth unit is 0.1 mm (the D405's): the device's depth scale is applied."""
-    cams = start_wrist(record_sdk(tmp_path / "d405.db3", 8, depth_units=0.0001))
+    cams = start_wrist(record(tmp_path / "d405.db3", 8, depth_units=0.0001))
     try:
         time.sleep(0.2)
         depth = cams["wrist_depth"].latest()
@@ -310,3 +266,58 @@ def test_depth_in_other_units_is_recorded_in_millimetres(tmp_path: Path) -> None
     valid = depth.image > 0
     want = np.rint(depth_frame(kd) / 10.0)
     assert valid.mean() > 0.8 and (np.abs(depth.image[valid] - want[valid]) <= 1).all()
+
+
+LOOP = 12  # frames of the looped recording (0.8 s at RATE)
+
+
+def nearest_depth(depth: npt.NDArray[Any]) -> int:
+    """The source depth frame an aligned depth frame is (its median offset from frame 0)."""
+    return int(np.rint(np.median(depth.astype(np.float64) - depth_frame(0)) / 25))
+
+
+def test_a_repeated_playback_delivers_the_recording_again_in_order(tmp_path: Path) -> None:
+    """`playback_repeat: true`: after its last frame the recording plays from its first again, colour frames the
+    source frames in cycle order, each with the aligned depth of its own frameset (the SDK may complete a pass's
+    first frameset with the last pass's colour: one frame apart), and our stamps keep increasing though the SDK's
+    go back."""
+    recording = record(tmp_path / "loop.db3", LOOP)
+    reference = aligned_reference(LOOP)
+    _, samples = collect(recording, 3.0, playback_repeat=True)
+    colour = [nearest(s.image)[0] for s, _ in samples]
+    for (s, d), k in zip(samples, colour, strict=True):
+        assert np.array_equal(s.image, source_frame(k)) and d.seq == s.seq and d.stamp == s.stamp
+        kd = nearest_depth(d.image)
+        assert kd == k or (k == LOOP - 1 and kd < LOOP // 2), (k, kd)  # else a new pass's first beside a stale colour
+        assert np.array_equal(d.image, reference[kd]), kd
+    steps = [(b - a) % LOOP for a, b in itertools.pairwise(colour)]
+    # in cycle order: forward, by less than half the recording (a pass may skip its first colour, a loaded machine
+    # a sample between two polls; the same colour twice is the last one beside the next pass's first depth)
+    assert all(step <= LOOP // 2 for step in steps) and sum(step > 2 for step in steps) <= len(steps) // 4, colour
+    passes = 1 + sum(b < a for a, b in itertools.pairwise(colour))
+    assert passes >= 3, colour  # 3 s of a 0.8 s recording
+    stale = sum(nearest_depth(d.image) != k for (_, d), k in zip(samples, colour, strict=True))
+    assert stale <= 3 * (passes - 1), stale  # a restart's first framesets at most
+    assert all(b[0].stamp > a[0].stamp for a, b in itertools.pairwise(samples))
+
+
+@pytest.mark.slow
+def test_without_repeat_a_playback_ends_after_one_pass(tmp_path: Path) -> None:
+    """The same recording without `playback_repeat`: its frames once, in order, then nothing (slow: stopping a
+    camera whose playback ended waits out lerobot's read timeout, 10 s)."""
+    once = [nearest(s.image)[0] for s, _ in collect(record(tmp_path / "once.db3", LOOP), 2.0)[1]]
+    assert once == sorted(set(once)) and once[-1] == LOOP - 1 and len(once) >= LOOP // 2, once  # each at most once
+
+
+@pytest.mark.parametrize(("extra", "says"), [
+    ({"playback_repeat": "yes"}, "wrist.playback_repeat: true or false, got 'yes'"),
+    ({"playback": None, "playback_repeat": True}, "wrist.playback_repeat: repeats a `playback:` recording"),
+])  # fmt: skip
+def test_a_playback_repeat_that_is_not_a_bool_or_has_no_recording_is_one_line(
+    short_recording: Path, extra: dict[str, Any], says: str
+) -> None:
+    from openral_data.errors import ConfigError
+
+    with pytest.raises(ConfigError) as err:
+        start_wrist(short_recording, **extra)
+    assert str(err.value).startswith("robot.yaml: hardware.cameras.") and says in str(err.value), err.value

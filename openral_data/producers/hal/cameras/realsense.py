@@ -11,7 +11,11 @@ has the colour camera's geometry), read from the stream the pipeline started.
 
 `playback: PATH` (ours; not passed to lerobot) plays an SDK recording (the `.db3` pyrealsense2 2.59's
 `rs.recorder` writes) through lerobot's own pipeline instead of a device (`rs.config.enable_device_from_file`,
-in real time, once): the serial number must be the recording's.
+in real time, once): the serial number must be the recording's. `playback_repeat: true` (ours) plays it in a
+loop (the SDK's `repeat_playback`): a short recording stands in for a long session. At each restart the SDK
+numbers and stamps the frames from the start again (its frame numbers and timestamps go back; ours are taken
+when lerobot's read returns and keep increasing), and the pipeline may complete the first framesets of a pass
+with the previous pass's last colour frame (its syncer matches by timestamp; lerobot's own camera sees the same).
 
 The seams into lerobot's class are two overrides of its pipeline steps, in a subclass: the pipeline config
 (the recording) and the frameset its read thread receives (the alignment). lerobot's connect retries and
@@ -35,6 +39,8 @@ from openral_data.types import CameraShape
 
 TYPE = "intelrealsense"  # lerobot's registered name of RealSenseCameraConfig
 PLAYBACK = "playback"
+REPEAT = "playback_repeat"
+OURS = (PLAYBACK, REPEAT)  # manifest fields of ours, not lerobot's (not passed to its config)
 MM_PER_METRE = 1000.0
 WAIT_MS = 100  # a capture waiting for a frameset checks this often whether it is being stopped
 
@@ -51,15 +57,16 @@ def camera_class() -> Any:
     from lerobot.cameras.realsense import RealSenseCamera
 
     class AlignedRealSenseCamera(RealSenseCamera):  # type: ignore[misc]
-        def __init__(self, config: Any, playback: str | None) -> None:
+        def __init__(self, config: Any, playback: str | None, repeat: bool = False) -> None:
             super().__init__(config)
             self.playback = playback
+            self.repeat = repeat
             self.align = rs.align(rs.stream.color) if self.use_rgb and self.use_depth else None
 
         def _configure_rs_pipeline_config(self, rs_config: Any) -> None:
             super()._configure_rs_pipeline_config(rs_config)
             if self.playback is not None:
-                rs_config.enable_device_from_file(self.playback, False)  # play once, in real time
+                rs_config.enable_device_from_file(self.playback, self.repeat)  # in real time, once or looping
 
         def _read_from_hardware(self) -> Any:
             frames = super()._read_from_hardware()
@@ -149,13 +156,15 @@ class RealSenseCapture(LerobotCamera):
         if colour is None or (self.depth is not None and depth is None):
             raise HalError(f"{self.source}: {self.field}: the camera stopped", code="hal.camera")
         self._pending = None if depth is None else self.millimetres(np.asarray(depth))
-        return self.checked(np.asarray(colour))
+        return self.checked(np.array(colour, copy=True))  # see `millimetres`
 
     def millimetres(self, depth: Any) -> Any:
-        """lerobot's (H, W, 1) depth in device units -> (H, W) uint16 millimetres."""
+        """lerobot's (H, W, 1) depth in device units -> (H, W) uint16 millimetres, a copy: lerobot's arrays are
+        views of the SDK's frames, which come from small pools (the aligner's, the device's): a sample the writer
+        still holds must not hold one (with a dozen held, `rs.align` fails with "Out of frame resources")."""
         raw = depth.reshape(depth.shape[0], depth.shape[1])
         if abs(self.depth_scale - 0.001) < 1e-9:
-            return np.ascontiguousarray(raw, dtype=np.uint16)
+            return np.array(raw, dtype=np.uint16, copy=True)
         mm = np.rint(raw.astype(np.float64) * (self.depth_scale * MM_PER_METRE))
         return mm.clip(0, np.iinfo(np.uint16).max).astype(np.uint16)
 
@@ -181,7 +190,7 @@ class RealSenseCapture(LerobotCamera):
 def make_realsense(
     name: str, spec: LerobotDevice, shape: CameraShape, source: str, field: str, config: Any
 ) -> RealSenseCapture:
-    """The capture of manifest camera `name` (`config`: lerobot's config of `spec` without `playback`)."""
+    """The capture of manifest camera `name` (`config`: lerobot's config of `spec` without our fields, `OURS`)."""
     if not config.use_rgb:
         raise ConfigError(f"{source}: {field}.use_rgb: must be true (depth is aligned to the colour stream)")
     if int(config.rotation) != 0:
@@ -195,8 +204,13 @@ def make_realsense(
         if not path.is_file():
             raise ConfigError(f"{source}: {field}.{PLAYBACK}: no recording {path}")
         playback = str(path)
+    repeat = spec.get(REPEAT, False)
+    if not isinstance(repeat, bool):
+        raise ConfigError(f"{source}: {field}.{REPEAT}: true or false, got {repeat!r}")
+    if repeat and playback is None:
+        raise ConfigError(f"{source}: {field}.{REPEAT}: repeats a `{PLAYBACK}:` recording, and there is none")
     try:
-        device = camera_class()(config, playback)
+        device = camera_class()(config, playback, repeat)
     except ImportError:
         raise ConfigError(
             f"{source}: {field}.type: {TYPE} needs the 'realsense' extra: {install_hint('realsense')}"

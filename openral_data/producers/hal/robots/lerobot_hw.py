@@ -198,7 +198,7 @@ def make_cameras(hardware: HardwareConfig, source: str) -> dict[str, CameraSenso
         given = {k: v for k, v in spec.items() if not stream_source(spec) or k not in ("width", "height", "fps")}
         if spec["type"] == realsense.TYPE:
             config = lerobot_config(
-                "cameras", {k: v for k, v in given.items() if k != realsense.PLAYBACK}, source, field
+                "cameras", {k: v for k, v in given.items() if k not in realsense.OURS}, source, field
             )
             capture = realsense.make_realsense(name, spec, CameraShape(height, width), source, field, config)
             out[name] = capture
