@@ -348,7 +348,7 @@ def run_one(
             "codec": codec,
             "cameras": cameras,
             "realsense": realsense,
-            "error": proc.stderr.strip().splitlines()[-1:],
+            "error": proc.stderr.strip().splitlines()[-12:],
         }
     got: dict[str, Any] = json.loads(proc.stdout.strip().splitlines()[-1])
     return got

@@ -124,13 +124,19 @@ def depth_videos(out: Path, names: list[str]) -> dict[str, str]:
 
     if not names:
         return {}
-    ds = LeRobotDataset("local/anchor", root=out, video_backend="pyav")
-    last = ds[len(ds) - 1]
+    try:
+        ds = LeRobotDataset("local/anchor", root=out, video_backend="pyav")
+        last: dict[str, Any] | str = ds[len(ds) - 1]
+    except Exception as exc:  # noqa: BLE001 - e.g. its streaming encoder dropped frames: the video ends early
+        last = f"lerobot cannot load its last frame: {type(exc).__name__}: {str(exc).splitlines()[0][:160]}"
     got = {}
     for name in names:
         video = next((out / "videos" / f"observation.images.{name}").rglob("*.mp4"))
         with av.open(str(video)) as c:
             s = c.streams.video[0].codec_context
+            if isinstance(last, str):
+                got[name] = f"{s.name} {s.pix_fmt}, {last}"
+                continue
             depth = last[f"observation.images.{name}"]
             got[name] = f"{s.name} {s.pix_fmt}, loads as {tuple(depth.shape)} {depth.min():.0f}..{depth.max():.0f}"
     return got
