@@ -40,9 +40,17 @@ STALL_AT, STALL_S = 20, 0.8  # the recording pauses after frame STALL_AT
 FX, FY, CX, CY = 50.0, 51.0, 31.5, 23.5
 
 
+DEPTH_STEP = 25  # mm: each source depth frame is this much further than the one before
+
+
 def depth_frame(k: int) -> npt.NDArray[np.uint16]:
-    """Depth frame k (millimetres): a slope over the image, 25 mm further per frame."""
-    return slope_mm(W, H, k)
+    """Depth frame k (millimetres): a slope over the image, DEPTH_STEP further per frame."""
+    return slope_mm(W, H, k, DEPTH_STEP)
+
+
+def nearest_depth(depth: npt.NDArray[Any]) -> int:
+    """The source depth frame a depth map in mm is (its median offset from frame 0)."""
+    return int(np.rint(np.median(depth.astype(np.float64) - depth_frame(0)) / DEPTH_STEP))
 
 
 def camera(depth_units: float = 0.001) -> SoftwareRealSense:
@@ -160,7 +168,7 @@ def test_a_realsense_recording_through_the_hal_loop(so101: tuple[SimulatedFeetec
         assert err < 4.0, (i, k, err)
         index.append(k)
         got = item["observation.images.wrist_depth"].numpy()[0].astype(np.float64)  # lerobot: (1, H, W) mm
-        kd = int(np.rint(np.median(got - depth_frame(0)) / 25))  # which source depth frame this is
+        kd = nearest_depth(got)  # which source depth frame this is
         assert abs(kd - k) <= 1, (i, k, kd)  # the SDK's frameset pairs colour and depth of the same moment
         want = reference[kd].astype(np.float64)
         hole = want == 0  # no depth after alignment: loads as lerobot's depth_min
@@ -262,18 +270,13 @@ def test_depth_in_other_units_is_recorded_in_millimetres(tmp_path: Path) -> None
     finally:
         cams["wrist"].stop()
     assert depth is not None and depth.image.dtype == np.uint16
-    kd = int(np.rint(np.median(depth.image * 10.0 - depth_frame(0)) / 25))
+    kd = nearest_depth(depth.image * 10.0)  # 0.1 mm units
     valid = depth.image > 0
     want = np.rint(depth_frame(kd) / 10.0)
     assert valid.mean() > 0.8 and (np.abs(depth.image[valid] - want[valid]) <= 1).all()
 
 
 LOOP = 12  # frames of the looped recording (0.8 s at RATE)
-
-
-def nearest_depth(depth: npt.NDArray[Any]) -> int:
-    """The source depth frame an aligned depth frame is (its median offset from frame 0)."""
-    return int(np.rint(np.median(depth.astype(np.float64) - depth_frame(0)) / 25))
 
 
 def test_a_repeated_playback_delivers_the_recording_again_in_order(tmp_path: Path) -> None:
