@@ -118,8 +118,9 @@ class RootGroup(PlainFlagsGroup):
     def invoke(self, ctx: Any) -> Any:
         try:
             return self._invoke_with_bar(ctx)
-        finally:
-            terminal.json_output = False  # an in-process caller's next run starts as a fresh process would
+        finally:  # an in-process caller's next run starts as a fresh process would (no bar off from this one's)
+            terminal.json_output = False
+            terminal.quiet = False  # `-q`, set by the root callback (logs.py)
 
     def _invoke_with_bar(self, ctx: Any) -> Any:
         labels = ctx.meta.get("openral.bar")

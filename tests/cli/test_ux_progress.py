@@ -82,3 +82,12 @@ def test_the_bar_draws_on_a_terminal_and_not_with_q(monkeypatch: pytest.MonkeyPa
     hidden(1, 2)
     assert hidden.bar is not None and hidden.bar.disable
     hidden.close()
+
+
+def test_a_quiet_or_json_run_in_process_leaves_the_next_runs_bar_on(dataset: Path) -> None:
+    """`-q` and `--json` hold for their own run only: an in-process caller's (or a test worker's) next run starts
+    with the bar on, as a fresh process would."""
+    for args in (["-q", "info", str(dataset)], ["info", str(dataset), "--json"]):
+        r = run_inproc(*args)
+        assert r.returncode == 0, r.stderr
+        assert not terminal.quiet and not terminal.json_output, args
