@@ -3,6 +3,8 @@ openral_data/record/hal.py)."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import typer
 
 from openral_data.cli import terminal
@@ -39,6 +41,7 @@ def _print_summary(s: HalRecordSummary, fps: int) -> None:
         ("overruns", f"{s.overruns} ({s.missed_ticks} ticks missed)"),
         ("stale ticks", str(s.stale_ticks)),
         ("repeated samples", str(s.repeated_samples)),
+        *[(f"camera {name}", _camera(cam)) for name, cam in s.capture.cameras.items()],
         ("safety interventions", str(s.interventions)),
         ("verdicts", ", ".join(r.verdict for r in s.reports) or "-"),
         *[("recovered", line) for line in s.recovered],
@@ -46,3 +49,11 @@ def _print_summary(s: HalRecordSummary, fps: int) -> None:
     if s.estop is not None:
         rows.append(("e-stop", s.estop))
     print_summary("recorded (hal)", rows)
+
+
+def _camera(cam: dict[str, Any]) -> str:
+    """A camera's line of the summary: how its kept episodes' frames were captured and encoded."""
+    return (
+        f"{cam['frames']} frames, {cam['spilled']} spilled to disk, oldest sample "
+        f"{cam['worst_frame_age_s'] * 1000:.0f} ms, longest encoder wait {cam['encoder_lag_s']:.2f} s"
+    )

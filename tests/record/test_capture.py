@@ -4,6 +4,7 @@ loop; every frame the loop handed over is in the dataset, in order, and the spil
 from __future__ import annotations
 
 import json
+import logging
 import os
 import signal
 import subprocess
@@ -51,11 +52,15 @@ def _sample_numbers(video: Path) -> list[int]:
     return [round(p[0] / 10) + 26 * round(p[1] / 10) for p in pixels]
 
 
-def test_a_slow_encoder_spills_while_the_loop_stays_on_time(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_slow_encoder_spills_while_the_loop_stays_on_time(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
     """The encoder is throttled (0.1 s a frame, half the 20 fps loop's rate) behind a two-frame queue: without
     spilling the loop would wait on it every tick; with it, the loop keeps its deadlines, the frames beyond the
     queue spill and are encoded behind, and the video holds every handed-over sample in order (the repeats the
-    report counts, no sample lost or reordered); the episode's record and `stats`' `capture` table say so."""
+    report counts, no sample lost or reordered); the episode's record and `stats`' `capture` table say so, and
+    the operator was warned once, as the first frame spilled."""
+    caplog.set_level(logging.WARNING, logger="openral_data")
     monkeypatch.setenv(ENCODE_DELAY_ENV, "0.1")
     hal = ur5e_twin(cameras=[])
     hal.cameras["cam"] = NumberedCamera("cam", period=0.03, shape=CameraShape(32, 32))
@@ -77,6 +82,8 @@ def test_a_slow_encoder_spills_while_the_loop_stays_on_time(tmp_path: Path, monk
     [row] = capture_rows([open_dataset(out)])
     assert row[1:] == [0, "cam", rep.overruns, spilled, info["hal"]["max_age"]["cam"], row[-1]] and row[-1] > 0
     assert not [p for p in out.rglob("*") if "spill" in p.name]
+    said = [r.getMessage() for r in caplog.records if "spill" in r.getMessage()]
+    assert len(said) == 1 and said[0].startswith("camera cam: its encoder cannot keep up"), said
 
 
 @pytest.mark.slow  # a subprocess recording killed mid-spill, then resumed and loaded by lerobot

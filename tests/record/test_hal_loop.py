@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -134,6 +135,9 @@ def test_cli_records_through_the_twin(tmp_path: Path, project: Path) -> None:
     # the session's capture report (kept episodes' frames per camera) stays with the dataset
     capture = json.loads((out / "meta/openral.json").read_text())["capture"]
     assert capture["cameras"]["wrist"]["frames"] == 10 and capture["cameras"]["wrist"]["spilled"] >= 0
+    spilled = capture["cameras"]["wrist"]["spilled"]  # and the printed summary says it, a line per camera
+    line = rf"camera wrist +10 frames, {spilled} spilled to disk, oldest sample \d+ ms, longest encoder wait [\d.]+ s"
+    assert re.search(line, r.stdout), r.stdout
     # nothing is overwritten: the same --out again is refused
     again = run_cli("record", "--hal", "ur5e", "--rskill", "sweep-ur5e", "--out", str(out))
     assert again.returncode == 2 and "refusing to overwrite" in again.stderr

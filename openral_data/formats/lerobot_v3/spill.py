@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import logging
 import queue
 import shutil
 import threading
@@ -36,6 +37,8 @@ from openral_data.formats.write_errors import write_error
 MB = 1 << 20
 FREE_SHARE = 0.5  # the default cap: this share of the dataset disk's free space
 HEADER = 128  # bytes a `.npy` header takes (numpy pads it to 64-byte multiples; 128 for a small shape)
+
+log = logging.getLogger(__name__)
 
 
 class SpillBudget:
@@ -90,6 +93,7 @@ class SpillWriter:
         self._q: queue.SimpleQueue[object] = queue.SimpleQueue()
         self._slots = threading.Semaphore(max(1, capacity))  # one per frame waiting in memory to be written
         self._lock = threading.Lock()
+        self._said = False  # the first frame this camera spilled was said (once a writer: `_say_once`)
         self._thread = threading.Thread(target=self._run, name=f"spill-{name}", daemon=True)
         self._thread.start()
 
@@ -155,11 +159,23 @@ class SpillWriter:
             elif failure is None:
                 item.frame = None  # its file is complete: the memory goes
                 self._slots.release()
+                self._say_once()
             else:  # the frame stays in memory for the encoder; the episode fails (`error`)
                 self._drop(item)
                 item.on_disk = False
                 self.error = self._refused(item, failure)
         item.done.set()
+
+    def _say_once(self) -> None:
+        """Warn, on this thread (never the loop's), the first time this camera's frames go to disk: the operator
+        learns while recording that its encoder is behind, not from the session's summary."""
+        if not self._said:
+            self._said = True
+            log.warning(
+                "camera %s: its encoder cannot keep up; frames spill to disk and are encoded behind (nothing is "
+                "lost: each episode commits once its video is complete; `stats` counts the spills per episode)",
+                self.name,
+            )
 
     def _refused(self, item: Spilled, failure: OSError | WriteError) -> WriteError:
         if isinstance(failure, WriteError):
