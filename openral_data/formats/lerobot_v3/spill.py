@@ -151,6 +151,7 @@ class SpillWriter:
             self._save(item, frame)
         except (OSError, WriteError) as exc:
             failure = exc
+        kept = False
         with self._lock:
             if item.taken:  # the encoder took it meanwhile: the file is not needed (nor a failure to write it)
                 self._drop(item)
@@ -159,12 +160,14 @@ class SpillWriter:
             elif failure is None:
                 item.frame = None  # its file is complete: the memory goes
                 self._slots.release()
-                self._say_once()
+                kept = True
             else:  # the frame stays in memory for the encoder; the episode fails (`error`)
                 self._drop(item)
                 item.on_disk = False
                 self.error = self._refused(item, failure)
         item.done.set()
+        if kept:
+            self._say_once()  # outside the lock: the encoder's `claim` never waits on a log handler
 
     def _say_once(self) -> None:
         """Warn, on this thread (never the loop's), the first time this camera's frames go to disk: the operator
