@@ -22,8 +22,13 @@ GRAB = """async ([k, fps]) => {
   const v = document.querySelector('video');
   if (v.readyState < 2) await new Promise(r => v.addEventListener('loadeddata', r, {once: true}));
   if (k !== null) {
+    // 'seeked' may come before the new frame is presented (seen on a loaded machine: the canvas got the frame
+    // before it), so wait for the frame callback too (bounded, should a browser never call it for a paused video)
+    const shown = new Promise(r => v.requestVideoFrameCallback(() => r()));
+    const seeked = new Promise(r => v.addEventListener('seeked', r, {once: true}));
     v.currentTime = Number(v.dataset.from) + k / fps;
-    await new Promise(r => v.addEventListener('seeked', r, {once: true}));
+    await seeked;
+    await Promise.race([shown, new Promise(r => setTimeout(r, 5000))]);
   }
   const c = document.createElement('canvas');
   c.width = v.videoWidth; c.height = v.videoHeight;

@@ -85,7 +85,11 @@ def test_episode_video_plays_and_seeks_to_frame_k(server: Browser, page: Any, br
           const v = document.querySelector('video');
           const t0 = v.currentTime;
           await v.play();
-          await new Promise(r => setTimeout(r, 400));
+          // until the clock moves (a loaded machine may take longer than any fixed wait to start it)
+          const deadline = performance.now() + 20000;
+          while (v.currentTime <= t0 && performance.now() < deadline) {
+            await new Promise(r => setTimeout(r, 50));
+          }
           return [t0, v.currentTime, Number(v.dataset.to)];
         }"""
     )
