@@ -39,7 +39,7 @@ import numpy.typing as npt
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from openral_data.formats.lerobot_v3.depth import DepthSettings  # noqa: E402
+from openral_data.formats.lerobot_v3.depth import DepthSettings, decode_codes  # noqa: E402
 from tests.support.realsense import slope_mm  # noqa: E402
 
 W, H, RATE = 640, 480, 30
@@ -80,7 +80,7 @@ def encode(codes: list[Codes], preset: str | None) -> tuple[float, int]:
     size = buf.getbuffer().nbytes
     buf.seek(0)
     with av.open(buf, "r") as got:
-        decoded = [f.to_ndarray(format=settings.pix_fmt) for f in got.decode(video=0)]
+        decoded = [decode_codes(f) for f in got.decode(video=0)]
     if len(decoded) != len(codes) or not all(np.array_equal(a, b) for a, b in zip(decoded, codes, strict=True)):
         sys.exit(f"preset {preset}: the video does not hold the codes it was fed")
     return cpu, size
