@@ -235,7 +235,8 @@ class EpisodeStart:
 
 @dataclass(frozen=True)
 class EpisodeRecord:
-    """What a sink reports for a finished, durable episode."""
+    """What a sink reports for a finished episode: durable when `end_episode` returns, or for a sink that commits
+    behind the recording (`CommitsBehind`) once its `close()` returned."""
 
     index: int
     length: int
@@ -257,6 +258,17 @@ class Sink(Protocol):
     def discard_episode(self) -> None: ...
 
     def close(self) -> None: ...
+
+
+@runtime_checkable
+class CommitsBehind(Protocol):
+    """A sink whose `end_episode` may return before the episode is committed (its commits run behind the recording,
+    in order); a commit that fails is raised by a later `end_episode`, `begin_episode` or `close`."""
+
+    @property
+    def uncommitted(self) -> int:
+        """The episodes whose `end_episode` returned and whose commit has not completed (yet, or it failed)."""
+        ...
 
 
 class FrameObserver(Protocol):

@@ -527,7 +527,7 @@ def _episodes(
     summary.resumed_at, summary.recovered = first, tuple(opened.actions)
     t0 = time.perf_counter()
     # Ctrl-C / SIGTERM stop between ticks, never inside a commit
-    with episode_loop(loop.bridge, loop.policy, out, lambda: first + len(summary.episodes)) as stop:
+    with episode_loop(loop.bridge, loop.policy, out, lambda: first + loop.bridge.kept(len(summary.episodes))) as stop:
         loop.config.check_stop = stop.check
         rerecord = reset = False
         while first + len(summary.episodes) < opts.n_episodes:

@@ -15,7 +15,8 @@ def outcome(success: bool | None) -> str:
 
 
 def log_episode(rec: EpisodeRecord, seconds: float) -> None:
-    """One finished (committed) episode: its index, seed, length, outcome and wall time."""
+    """One finished episode (`record`: committed; `record --hal`: handed to the committer): its index, seed,
+    length, outcome and wall time."""
     log.info(
         "episode %d (seed %d): %d frames, %s, %.2f s",
         rec.index,

@@ -14,7 +14,16 @@ import numpy as np
 import numpy.typing as npt
 
 from openral_data.errors import ContractViolation
-from openral_data.types import DatasetSchema, EpisodeRecord, EpisodeStart, Frame, FrameObserver, Observation, Sink
+from openral_data.types import (
+    CommitsBehind,
+    DatasetSchema,
+    EpisodeRecord,
+    EpisodeStart,
+    Frame,
+    FrameObserver,
+    Observation,
+    Sink,
+)
 
 
 def _describe(x: object) -> str:
@@ -234,6 +243,12 @@ class DatasetBridge:
         for observer in self.observers:
             observer.end_episode(shown)
         return records
+
+    def kept(self, ended: int) -> int:
+        """How many of the `ended` episodes whose `end_episode` returned (the first ones) every sink holds committed:
+        fewer when a sink commits behind the recording (`CommitsBehind`) and has not committed them all (yet, or
+        because a commit failed); after `close()`, what the run kept."""
+        return ended - max([0, *(s.uncommitted for s in self.sinks if isinstance(s, CommitsBehind))])
 
     def discard_episode(self) -> None:
         if not self._open:

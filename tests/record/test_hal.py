@@ -12,13 +12,14 @@ import numpy as np
 import pytest
 
 # ConfigError raises are matched by message on purpose: the file and field it names are the point
-from openral_data.errors import ConfigError, HalError
+from openral_data.errors import ConfigError, DiskError, HalError
 from openral_data.record.hal import HalRecordOptions, record_hal
 from openral_data.replay.actions import ActionReplayer
 from openral_data.replay.rebuild import SceneView, rebuild
 from openral_data.replay.recorded import RecordedDataset
 from openral_data.types import Observation, StepResult
 from tests.support.cli import run_cli
+from tests.support.faults import Faults, inject
 from tests.support.feetech_bus import SimulatedFeetechBus, calibrated_so_project
 from tests.support.hal import episode_infos, frames_table
 from tests.support.mcap import check_bag
@@ -72,6 +73,48 @@ def test_twin_recording_loads_in_lerobot_and_mcap_keeps_real_stamps(
         )
         assert np.allclose(rel, mine - mine[0], atol=1e-5)
         assert not np.allclose(rel, np.arange(len(rel)) / 20, atol=1e-4), "MCAP stamps must be the real ones"
+
+
+def test_a_commit_failing_behind_the_recording_names_only_the_episodes_kept(tmp_path: Path) -> None:
+    """`record --hal` commits each episode behind the recording, after its end was reported: when episode 1's commit
+    fails there (the disk full from its first write on), the run ends with one line that names episode 0 as the only
+    one kept (not every episode whose end was reached), and that is what lerobot loads."""
+    out = tmp_path / "ds"
+    faults = Faults(fail_at=1)
+
+    class ArmAfterEpisode0(logging.Handler):
+        def emit(self, record: logging.LogRecord) -> None:  # episode 0 is committed (and checked) when it is logged
+            if record.__dict__.get("episode") == 0 and hasattr(record, "outcome"):
+                faults.armed = True
+
+    logger = logging.getLogger("openral_data")
+    handler, level = ArmAfterEpisode0(), logger.level
+    logger.addHandler(handler)
+    logger.setLevel(logging.INFO)
+    try:
+        with inject(faults), pytest.raises(DiskError) as excinfo:
+            record_hal(
+                HalRecordOptions(
+                    robot="ur5e", rskill="sweep-ur5e", fps=20, n_episodes=3, max_steps=8, out=out, codec="h264",
+                    operator="success",
+                )
+            )  # fmt: skip
+    finally:
+        logger.removeHandler(handler)
+        logger.setLevel(level)
+    assert str(excinfo.value) == (
+        f"{out}: no space left on device while committing episode 1; "
+        "episode 0 is kept (free space, then record --resume)"
+    )
+    assert verify_lengths(out) == [8]
+
+
+def verify_lengths(out: Path) -> list[int]:
+    """Each episode's length as lerobot 0.6.1 loads the dataset (no repair first)."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    ds = LeRobotDataset("local/hal", root=out, video_backend="pyav")
+    return [int(n) for n in ds.meta.episodes["length"]]
 
 
 def test_sim_scene_behind_the_hal(tmp_path: Path) -> None:

@@ -26,6 +26,7 @@ class Committer:
     def __init__(self) -> None:
         self._q: queue.Queue[Callable[[], object] | None] = queue.Queue()
         self._error: BaseException | None = None
+        self._submitted = self._completed = 0  # commits handed over; of them, those that completed (each one thread's)
         self._thread = threading.Thread(target=self._run, name="episode-committer", daemon=True)
         self._thread.start()
 
@@ -33,8 +34,14 @@ class Committer:
     def failed(self) -> bool:
         return self._error is not None
 
+    @property
+    def unfinished(self) -> int:
+        """The commits handed over that have not completed: waiting, running, or failed (or not run after a failure)."""
+        return self._submitted - self._completed
+
     def submit(self, commit: Callable[[], object]) -> None:
         self.raise_failed()
+        self._submitted += 1
         self._q.put(commit)
 
     def drain(self) -> None:
@@ -58,6 +65,7 @@ class Committer:
                 if commit is None:
                     return
                 commit()
+                self._completed += 1
             except BaseException as exc:  # noqa: BLE001 - raised on the recording's thread (`raise_failed`)
                 if self._error is None:
                     self._error = exc

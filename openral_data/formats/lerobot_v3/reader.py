@@ -59,6 +59,15 @@ class DatasetSummary:
         }
 
 
+def counted_episodes(root: Path) -> int:
+    """info.json's episode count as it is on disk now (a writer renames it last: counted means fully renamed); -1 when
+    it is unreadable or missing (nothing beyond what the caller knows is counted)."""
+    try:
+        return int(read_info(root).get("total_episodes", 0))
+    except Exception:  # noqa: BLE001 - unreadable or missing: nothing counted
+        return -1
+
+
 def read_info(root: Path) -> dict[str, Any]:
     """`meta/info.json`, checked for what would make a path out of it leave the dataset (`check_paths`)."""
     path = layout.inside(root, layout.INFO_PATH)

@@ -55,7 +55,7 @@ from openral_data.formats.lerobot_v3.joins import Runs, VideoGroup, VideoMember
 from openral_data.formats.lerobot_v3.layout import FilePos, FileRun
 from openral_data.formats.lerobot_v3.masks import MaskColumn
 from openral_data.formats.lerobot_v3.provenance import Origin, Provenance
-from openral_data.formats.lerobot_v3.reader import read_info
+from openral_data.formats.lerobot_v3.reader import counted_episodes, read_info
 from openral_data.formats.lerobot_v3.restore import check_same_format, claim_root, restore
 from openral_data.formats.lerobot_v3.stats import Stats, dataset_stats, merge_numeric, to_jsonable
 from openral_data.formats.lerobot_v3.tasks_table import tasks_writer
@@ -208,6 +208,10 @@ class LeRobotV3Writer:
     @property
     def total_episodes(self) -> int:
         return len(self.episode_rows)
+
+    @property
+    def uncommitted(self) -> int:  # `CommitsBehind`: handed to the committer, not committed (yet, or it failed)
+        return 0 if self._committer is None else self._committer.unfinished
 
     @property
     def closed(self) -> bool:
@@ -401,7 +405,7 @@ class LeRobotV3Writer:
         finish the commit. Returns whether the episode is committed (now or by that recovery).
         """
         self._failed = True
-        if (journal is not None and journal.is_file()) or self._on_disk_episodes() > index:
+        if (journal is not None and journal.is_file()) or counted_episodes(self.root) > index:
             return True
         batch.discard()
         for name, enc in encoded.items():
@@ -414,13 +418,6 @@ class LeRobotV3Writer:
         if saved is not None:
             self._set_state(saved)
         return False
-
-    def _on_disk_episodes(self) -> int:
-        """info.json's episode count as it is on disk now (it lands last: counted means fully renamed)."""
-        try:
-            return int(read_info(self.root).get("total_episodes", 0))
-        except Exception:  # noqa: BLE001 - unreadable or missing: nothing beyond what we know is counted
-            return -1
 
     def _state(self) -> _State:
         return _State(

@@ -22,7 +22,7 @@ from openral_data.formats.lerobot_v3.reader import read_episodes
 from openral_data.runtime.bridge import DatasetBridge
 from openral_data.types import CameraShape, DatasetSchema, EpisodeStart, Frame, Observation
 from tests.support.faults import Faults, inject
-from tests.support.patterned import H, W, check_loads, patterned, write_dataset
+from tests.support.patterned import H, W, check_loads, dataset_states, patterned, write_dataset
 
 
 def test_tasks_in_order_with_pandas_index(tmp_path: Path) -> None:
@@ -411,6 +411,44 @@ def test_a_slow_encoder_spills_and_keeps_every_frame_in_order(tmp_path: Path, mo
     assert 0 < spilled[0] <= lengths[0] - 2, spilled  # (the queue is shared: a later episode may spill every frame)
     assert infos[0]["capture"]["cam"]["encoder_lag_s"] >= delay * spilled[0] / 2
     assert not [p for p in root.rglob("*") if "spill" in p.name or p.name.endswith(".tmp")]
+
+
+def test_a_commit_that_fails_behind_the_recording_is_not_counted_kept(tmp_path: Path) -> None:
+    """With `background` (a real-time recording's writer), `end_episode` returns before the episode is committed, so
+    the episodes whose end returned are not all kept: when episode 2's commit fails behind the recording (the disk full
+    from its first write on), the failure ends the run (raised by a later `begin_episode`, `end_episode` or `close`),
+    and the bridge counts episodes 0-1 kept however many ends returned (`record --hal`'s one line names those), which
+    is exactly what lerobot loads, frame-exact."""
+    from tests.support.patterned import unit_schema, write_episodes
+
+    config = WriterConfig(video=VideoSettings(codec="h264"), background=True)
+    lengths = [5, 4, 6, 3]
+    root = tmp_path / "ds"
+    schema = unit_schema()
+    writer = LeRobotV3Writer(root, schema, config)
+    bridge = DatasetBridge(schema, [writer])
+    ended: list[tuple[int, int]] = []  # (episode, the bridge's kept) right after each end_episode returned
+    faults = Faults(fail_at=1)
+
+    def after(e: int) -> None:
+        ended.append((e, bridge.kept(e + 1)))
+        if e == 1:  # once episode 1's commit finished, every later write fails (episode 2's commit, behind)
+            for _ in range(3000):
+                if writer.uncommitted == 0:
+                    break
+                threading.Event().wait(0.01)
+            assert bridge.kept(2) == 2
+            faults.armed = True
+
+    with inject(faults), pytest.raises(DiskError, match="while committing episode 2") as excinfo:
+        try:
+            write_episodes(bridge, lengths, after_each=after)
+        finally:
+            bridge.close()  # discards an open episode; raises the failure if nothing did yet
+    assert ended[0] == (0, 1)  # the first episode is committed before its end returns
+    assert [e for e, _ in ended] in ([0, 1, 2], [0, 1, 2, 3]) and not excinfo.value.committed
+    assert bridge.kept(len(ended)) == 2
+    check_loads(root, lengths[:2], dataset_states(lengths[:2]))
 
 
 @pytest.mark.skipif(sys.platform != "linux", reason="a thread's own nice value is Linux's")
