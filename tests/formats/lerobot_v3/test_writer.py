@@ -22,7 +22,16 @@ from openral_data.formats.lerobot_v3.reader import read_episodes
 from openral_data.runtime.bridge import DatasetBridge
 from openral_data.types import CameraShape, DatasetSchema, EpisodeStart, Frame, Observation
 from tests.support.faults import Faults, inject
-from tests.support.patterned import H, W, check_loads, dataset_states, patterned, write_dataset
+from tests.support.patterned import (
+    H,
+    W,
+    check_loads,
+    dataset_states,
+    patterned,
+    unit_schema,
+    write_dataset,
+    write_episodes,
+)
 
 
 def test_tasks_in_order_with_pandas_index(tmp_path: Path) -> None:
@@ -419,8 +428,6 @@ def test_a_commit_that_fails_behind_the_recording_is_not_counted_kept(tmp_path: 
     from its first write on), the failure ends the run (raised by a later `begin_episode`, `end_episode` or `close`),
     and the bridge counts episodes 0-1 kept however many ends returned (`record --hal`'s one line names those), which
     is exactly what lerobot loads, frame-exact."""
-    from tests.support.patterned import unit_schema, write_episodes
-
     config = WriterConfig(video=VideoSettings(codec="h264"), background=True)
     lengths = [5, 4, 6, 3]
     root = tmp_path / "ds"
