@@ -29,7 +29,9 @@ Two contestants, interleaved (for each repetition, for each codec: pure, then cl
 The child's CPU (all threads, ``/proc/<pid>/stat``) is read as its ``started`` and ``saved`` records arrive:
 the window's CPU, far steadier than its wall time on a loaded machine. ``--against DIR`` runs another checkout's
 ``record`` (e.g. main's) beside this tree's in each repetition (each first in turn, right after the bare encode),
-so two trees compare under the same load; ``--encoder-threads N`` passes that flag to ``record``.
+so two trees compare under the same load. Each child runs as ``python -P -m openral_data.cli`` with its checkout
+on ``PYTHONPATH`` (checked before timing: a plain ``-m`` puts the cwd first on ``sys.path``, so before 2026-11-30
+both contestants ran the tree the script was started from); ``--encoder-threads N`` passes that flag to ``record``.
 
 Printed per codec: the medians, frames/s, CPU seconds and **pure ÷ cli** (target >= 0.9, issue #20). After each
 cli run (untimed) every mp4 is demuxed and its frame count compared with the parquet rows (dropped frames), as
@@ -150,6 +152,17 @@ def child_env(repo: Path = REPO) -> dict[str, str]:
     return env
 
 
+def check_tree(repo: Path) -> None:
+    """Exit unless a child started as `run_cli` starts one imports openral_data from `repo` (without ``-P``
+    ``python -m`` put the cwd first on sys.path, so an ``--against`` run measured the cwd's tree twice)."""
+    code = "import openral_data; print(openral_data.__file__)"
+    found = subprocess.run(
+        [sys.executable, "-P", "-c", code], env=child_env(repo), capture_output=True, text=True, check=True
+    ).stdout.strip()
+    if not Path(found).resolve().is_relative_to(repo.resolve()):
+        raise SystemExit(f"{repo}: its record would run openral_data from {found}")
+
+
 def _stamp(record: dict[str, Any]) -> float:
     return datetime.fromisoformat(str(record["time"])).timestamp()
 
@@ -173,7 +186,7 @@ def run_cli(
     t_start = time.time()
     t0 = time.perf_counter()
     proc = subprocess.Popen(
-        [sys.executable, "-m", "openral_data.cli", *args],
+        [sys.executable, "-P", "-m", "openral_data.cli", *args],  # -P: `repo` on PYTHONPATH, not the cwd
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         text=True,
@@ -299,6 +312,8 @@ def main(argv: list[str] | None = None) -> int:
     cli: dict[Codec, list[CliRun]] = {c: [] for c in codecs}
     against: dict[Codec, list[CliRun]] = {c: [] for c in codecs}
     trees = [("cli", REPO, cli)] + ([("against", args.against.resolve(), against)] if args.against else [])
+    for _, repo, _ in trees:
+        check_tree(repo)
     try:
         scene = write_scene(scratch / "mock_w.yaml", wl)
         t0 = time.perf_counter()
