@@ -13,7 +13,7 @@ Two contestants, interleaved (for each repetition, for each codec: pure, then cl
    fast-decode=0, or ``libx264`` g=2 crf=30; one mp4 per camera per episode, one thread), fed the frames the
    mock producer gives for the same episodes. The producer is stepped in this process before anything is timed
    and its frames collected; the timed region is the encode only.
-2. **cli**: a real ``python -m openral_data.cli -v --log-format json record --scene <yaml> --rskill zero-mock
+2. **cli**: a real ``python -P -m openral_data.cli -v --log-format json record --scene <yaml> --rskill zero-mock
    --n-episodes 10 --codec <codec> --out <dir>`` subprocess (what tests/support/cli.py runs). Its time is the
    **recording window** read from its JSON log records: from the ``started`` record (scene built, policy
    loaded, logged by openral_data.record.start) to the ``saved ... episode(s)`` record (logged by

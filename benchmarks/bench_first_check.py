@@ -34,6 +34,10 @@ sys.path.insert(0, str(REPO))
 from bench_cli_writer import RSKILL, child_env, write_scene  # noqa: E402
 from workload import Workload  # noqa: E402
 
+from openral_data.formats.lerobot_v3.layout import episodes_files  # noqa: E402
+from openral_data.formats.lerobot_v3.loadable import check_loadable, warm_up  # noqa: E402
+from openral_data.formats.parquetfile import read_schema  # noqa: E402
+
 
 def record_one(folder: Path) -> Path:
     """One W-shaped episode recorded by `record` (check off: this script times it)."""
@@ -47,8 +51,6 @@ def record_one(folder: Path) -> Path:
 
 
 def median_cpu(out: Path, repeats: int) -> float:
-    from openral_data.formats.lerobot_v3.loadable import check_loadable
-
     spent = []
     for _ in range(repeats):
         t = time.process_time()
@@ -73,14 +75,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--repeats", type=int, default=7)
     args = p.parse_args(argv)
     os.environ.pop("OPENRAL_PUBLISH_LOAD", None)  # this process runs the check with lerobot's load
-    import pyarrow.parquet as pq
-
     import datasets
-    from openral_data.formats.lerobot_v3.loadable import check_loadable, warm_up
 
     with tempfile.TemporaryDirectory(prefix="openral-bench-check-") as tmp:
         out = record_one(Path(tmp))
-        columns = len(pq.read_schema(next((out / "meta" / "episodes").glob("*/*.parquet"))).names)
+        columns = len(read_schema(episodes_files(out)[0]).names)
         warm_up()
         check_loadable(out, out)  # untimed: first-use costs
         old = median_cpu(out, args.repeats)
